@@ -1,0 +1,583 @@
+"""The instantaneous leg extension (ILE) model of Virtual Slope Walking.
+
+Every fact that is specific to this model lives in this module: the parameter table,
+the coordinate, the two swing phases, the two resets and their guards. The derivation
+below uses only the general machinery in :mod:`derive.mechanics` and
+:mod:`derive.elliptic`; nothing is typed in from the paper's results.
+
+Conventions (the paper's): ``theta`` is the stance-leg angle from the vertical, positive
+when the hip is ahead of the stance foot, so a step runs from ``theta_I < 0`` forward to
+``theta_IV > 0``. ``r_s = beta r_e`` is the short stance leg before extension, ``r_e`` the
+extended one. Time is dimensionless, ``tau = sqrt(g / r_e) t``, and ``omega = dtheta/dtau``.
+Energies are in units of ``m g r_e`` unless ``m, g, r_e`` appear explicitly.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import sympy as sm
+
+from derive import mechanics
+from derive.elliptic import pendulum_travel_time
+from derive.quantities import Condition, Derivation, Parameter, Quantity
+
+PARAMETERS: tuple[Parameter, ...] = (
+    Parameter(
+        name="beta",
+        latex=r"\beta",
+        lower=0.0,
+        upper=1.0,
+        reason="beta = r_s / r_e is a length-shortening ratio: 0 < beta < 1",
+        description="length shorten ratio r_s / r_e",
+        assumptions={"positive": True},
+    ),
+    Parameter(
+        name="theta_II",
+        latex=r"\theta_{II}",
+        lower=-sm.pi.evalf(17) / 2,
+        upper=sm.pi.evalf(17) / 2,
+        reason="the stance leg must point below the horizontal: |theta_II| < pi/2",
+        description="stance leg angle at which the leg extends (instant II)",
+        cli_degrees=True,
+    ),
+    Parameter(
+        name="phi0",
+        latex=r"\varphi_0",
+        lower=0.0,
+        upper=sm.pi.evalf(17) / 2,
+        reason="inter-leg angle at heelstrike: 0 < phi0 < pi/2, eq. (16)",
+        description="inter-leg angle at heelstrike",
+        assumptions={"positive": True},
+        cli_degrees=True,
+    ),
+)
+
+beta, theta_II, phi0 = (p.symbol for p in PARAMETERS)
+q = sm.Symbol("q", real=True)
+q_next = sm.Symbol("q_next", real=True)
+theta, omega = sm.symbols("theta omega", real=True)
+leg_ratio = sm.Symbol("leg_ratio", positive=True)
+omega_II, omega_IV = sm.symbols("omega_II omega_IV", real=True)
+m, g, r_e = sm.symbols("m g r_e", positive=True)
+theta_I, theta_IV = sm.symbols("theta_I theta_IV", real=True)
+"""Kept as symbols in the paper-shaped forms; eliminated by :func:`eliminate_contact_angles`."""
+
+# Model facts: the phases (leg length as a multiple of r_e), in order.
+PHASES = (("I-II", beta), ("III-IV", sm.Integer(1)))
+EXTENSION_ANGLE = theta_II
+HEELSTRIKE_INTERLEG_ANGLE = phi0
+
+
+def _square_symbol(name: str) -> sm.Symbol:
+    return sm.Symbol(name, real=True)
+
+
+@functools.cache
+def swing_phase_dimensionless() -> dict[str, sm.Expr]:
+    """Swing phase of leg length ``leg_ratio * r_e`` in dimensionless form, eq. (1), (2), (4).
+
+    Returns a dict with ``accel_dimensional`` (eq. (1) for ``leg_ratio = beta``),
+    ``accel`` (``d2theta/dtau2``), ``energy`` (in units of ``m g r_e``),
+    ``leg_force`` (in units of ``m g``) and ``normal_force`` (vertical ground force on the
+    stance foot, in units of ``m g``), all in terms of ``theta`` and ``omega``.
+    """
+    phase = mechanics.pendulum_phase(m, g, leg_ratio * r_e)
+    th = phase.theta
+    thd = th.diff(mechanics.t)
+    # tau = sqrt(g/r_e) t, so dtheta/dt = omega sqrt(g/r_e) and d2theta/dt2 = (g/r_e) d2theta/dtau2.
+    to_state = {thd: omega * sm.sqrt(g / r_e), th: theta}
+    accel_dimensional = phase.acceleration.subs(th, theta)
+    accel = sm.simplify(accel_dimensional * r_e / g)
+    energy = sm.expand(phase.energy.subs(to_state) / (m * g * r_e))
+    leg_force = sm.expand(phase.leg_force.subs(to_state) / (m * g))
+    # The massless leg pushes along itself; the ground takes its vertical component.
+    normal_force = sm.expand(leg_force * sm.cos(theta))
+    return {
+        "accel_dimensional": accel_dimensional,
+        "accel": accel,
+        "energy": energy,
+        "energy_dimensional": phase.energy,
+        "leg_force": leg_force,
+        "normal_force": normal_force,
+        "theta_function": th,
+    }
+
+
+def phase_energy(theta_value: sm.Expr, omega_squared: sm.Expr, ratio: sm.Expr) -> sm.Expr:
+    """Energy (units ``m g r_e``) of a phase with leg ratio ``ratio`` at a state."""
+    energy = swing_phase_dimensionless()["energy"]
+    w2 = _square_symbol("w2")
+    return energy.subs(omega**2, w2).subs({w2: omega_squared, theta: theta_value, leg_ratio: ratio})
+
+
+def omega_squared_along(
+    ratio: sm.Expr, theta_from: sm.Expr, omega_squared_from: sm.Expr, theta_to: sm.Expr
+) -> sm.Expr:
+    """``omega**2`` at ``theta_to`` from the energy integral of a phase, eq. (7) steps."""
+    w2 = _square_symbol("w2")
+    balance = phase_energy(theta_to, w2, ratio) - phase_energy(theta_from, omega_squared_from, ratio)
+    return sm.expand(sm.solve(balance, w2)[0])
+
+
+@functools.cache
+def extension_reset() -> sm.Expr:
+    """``omega_III / omega_II`` from angular momentum about the stance foot, eq. (3)."""
+    th = sm.Function("theta", real=True)(mechanics.t)
+    w_before, w_after = sm.symbols("w_before w_after", real=True)
+    origin = sm.Matrix([0, 0])
+
+    def momentum(length: sm.Expr, rate: sm.Expr) -> sm.Expr:
+        hip = length * mechanics.leg_direction(th)
+        velocity = hip.diff(mechanics.t).subs(th.diff(mechanics.t), rate)
+        return mechanics.angular_momentum(m, hip, velocity, origin)
+
+    balance = momentum(beta * r_e, w_before) - momentum(r_e, w_after)
+    ratio = sm.solve(sm.trigsimp(balance), w_after)[0] / w_before
+    return sm.simplify(ratio)
+
+
+@functools.cache
+def heelstrike() -> dict[str, sm.Expr]:
+    """Collision geometry and reset at heelstrike, eq. (5), (6), (11).
+
+    The stance foot is at the origin with the (extended) stance leg at ``theta_IV``;
+    the swing leg, shortened to ``r_s``, is at inter-leg angle ``phi0`` ahead. Its foot
+    touches level ground when its height is zero (the guard). The legs then exchange
+    roles: the new stance angle is the swing leg's angle.
+    """
+    origin = sm.Matrix([0, 0])
+    r_s = beta * r_e
+    swing_angle = theta_IV - HEELSTRIKE_INTERLEG_ANGLE
+    hip = r_e * mechanics.leg_direction(theta_IV)
+    swing_foot = hip - r_s * mechanics.leg_direction(swing_angle)
+    guard = sm.expand(swing_foot[1] / r_e)  # swing-foot height in r_e; heelstrike when zero
+    new_stance_angle = swing_angle  # hip - swing_foot = r_s * leg_direction(swing_angle)
+
+    # Solve the guard for theta_I: write theta_IV = theta_I + phi0 and collect cos/sin theta_I.
+    c, s = sm.symbols("c s", real=True)
+    in_theta_I = sm.expand(sm.expand_trig(guard.subs(theta_IV, theta_I + phi0)))
+    in_theta_I = in_theta_I.subs({sm.cos(theta_I): c, sm.sin(theta_I): s})
+    cos_coeff, sin_coeff = in_theta_I.coeff(c), in_theta_I.coeff(s)
+    tan_theta_I = sm.simplify(-cos_coeff / sin_coeff)
+    theta_I_closed = sm.atan(tan_theta_I)  # |theta_I| < pi/2: the hip is above both feet
+    norm_squared = sm.trigsimp(sm.expand(cos_coeff**2 + sin_coeff**2))
+    # On the domain the sin coefficient is sin(phi0) > 0, and cos theta_I > 0 (hip above the
+    # foot), so (cos, sin) theta_I = (sin_coeff, -cos_coeff) / norm.
+    if sin_coeff == -sm.sin(phi0):
+        cos_coeff, sin_coeff = -cos_coeff, -sin_coeff
+    if sin_coeff != sm.sin(phi0):
+        raise AssertionError(f"unexpected guard form: {in_theta_I}")
+    cos_theta_I_closed = sin_coeff / sm.sqrt(norm_squared)
+    sin_theta_I_closed = -cos_coeff / sm.sqrt(norm_squared)
+    cos_theta_IV_closed = sm.simplify(
+        sm.expand_trig(sm.cos(theta_I + phi0)).subs(
+            {sm.cos(theta_I): cos_theta_I_closed, sm.sin(theta_I): sin_theta_I_closed}
+        )
+    )
+    sin_theta_IV_closed = sm.simplify(
+        sm.expand_trig(sm.sin(theta_I + phi0)).subs(
+            {sm.cos(theta_I): cos_theta_I_closed, sm.sin(theta_I): sin_theta_I_closed}
+        )
+    )
+
+    # Reset: angular momentum about the swing-foot contact point is conserved.
+    w_before, w_after = sm.symbols("w_before w_after", real=True)
+    velocity_before = r_e * w_before * sm.Matrix([sm.cos(theta_IV), -sm.sin(theta_IV)])
+    velocity_after = r_s * w_after * sm.Matrix([sm.cos(theta_I), -sm.sin(theta_I)])
+    momentum_before = mechanics.angular_momentum(m, hip, velocity_before, swing_foot)
+    hip_from_new_foot = swing_foot + r_s * mechanics.leg_direction(theta_I)
+    momentum_after = mechanics.angular_momentum(m, hip_from_new_foot, velocity_after, swing_foot)
+    balance = (momentum_before - momentum_after).subs(theta_IV, theta_I + phi0)
+    reset_ratio = sm.solve(sm.trigsimp(sm.expand(balance)), w_after)[0] / w_before
+    reset_ratio = sm.simplify(sm.trigsimp(reset_ratio))
+
+    step_vector = (swing_foot - origin) / r_e
+    step_length_sq = sm.expand_trig(sm.expand((step_vector.T * step_vector)[0]))
+    step_length_sq = sm.trigsimp(step_length_sq.subs(theta_IV, theta_I + phi0))
+
+    return {
+        "guard": guard,
+        "new_stance_angle": new_stance_angle,
+        "hip_height_condition": sm.Eq(beta * sm.cos(theta_I), sm.cos(theta_IV)),
+        "tan_theta_I": tan_theta_I,
+        "theta_I": theta_I_closed,
+        "cos_theta_I": cos_theta_I_closed,
+        "sin_theta_I": sin_theta_I_closed,
+        "cos_theta_IV": cos_theta_IV_closed,
+        "sin_theta_IV": sin_theta_IV_closed,
+        "reset_ratio": reset_ratio,
+        "step_length_squared": sm.trigsimp(sm.expand(step_length_sq)),
+    }
+
+
+def eliminate_contact_angles(expr: sm.Expr) -> sm.Expr:
+    """Replace ``cos/sin theta_I`` and ``cos/sin theta_IV`` by their algebraic forms (eq. 11)."""
+    hs = heelstrike()
+    return expr.subs(
+        {
+            sm.cos(theta_I): hs["cos_theta_I"],
+            sm.sin(theta_I): hs["sin_theta_I"],
+            sm.cos(theta_IV): hs["cos_theta_IV"],
+            sm.sin(theta_IV): hs["sin_theta_IV"],
+        }
+    )
+
+
+@functools.cache
+def stride() -> dict[str, sm.Expr]:
+    """Chain the two energy integrals and the two resets into the stride map, eq. (7)-(10), (19).
+
+    All results are in terms of ``q = omega_I**2`` (eq. 8), the parameters, and the
+    symbol ``theta_I`` (eq. 11), as the paper writes them.
+    """
+    hs = heelstrike()
+    ext = extension_reset()
+    omega_II_sq = omega_squared_along(beta, theta_I, q, theta_II)
+    omega_III_sq = sm.expand(ext**2 * omega_II_sq)
+    omega_IV_sq = omega_squared_along(1, theta_II, omega_III_sq, theta_IV)
+    # Guard: the hip height is the same on both legs, cos theta_IV = beta cos theta_I (eq. 5).
+    cos_IV_from_guard = sm.solve(hs["hip_height_condition"], sm.cos(theta_IV))[0]
+    omega_IV_sq = sm.expand(omega_IV_sq.subs(sm.cos(theta_IV), cos_IV_from_guard))
+    stride_map = sm.expand(hs["reset_ratio"] ** 2 * omega_IV_sq)
+    q_fixed = sm.factor(sm.solve(sm.Eq(stride_map, q), q)[0])
+    eigenvalue = sm.factor(sm.diff(stride_map, q))
+    return {
+        "omega_II_squared": omega_II_sq,
+        "omega_III_squared": omega_III_sq,
+        "omega_IV_squared": omega_IV_sq,
+        "stride_map": stride_map,
+        "q_fixed": q_fixed,
+        "eigenvalue": eigenvalue,
+    }
+
+
+@functools.cache
+def energies() -> dict[str, sm.Expr]:
+    """Mechanical energy (dimensional, ``m g r_e``) at instants I-IV; eq. (18), (20)-(23)."""
+    st = stride()
+    scale = m * g * r_e
+    w2 = _square_symbol("w2")
+    e_I = scale * phase_energy(theta_I, q, beta)
+    e_II = scale * phase_energy(theta_II, st["omega_II_squared"], beta)
+    e_III = scale * phase_energy(theta_II, st["omega_III_squared"], 1)
+    e_IV = scale * phase_energy(theta_IV, st["omega_IV_squared"], 1)
+    e_I_next = scale * phase_energy(theta_I, st["stride_map"], beta)
+    guard = {sm.cos(theta_IV): beta * sm.cos(theta_I)}
+    complement = sm.expand((e_III - e_II).subs(guard))
+    dissipated = sm.expand((e_IV - e_I_next).subs(guard))
+    # Eq. (18) writes the heelstrike loss through the state after the impact.
+    dissipated_post = sm.expand(
+        scale
+        * (phase_energy(theta_IV, w2, 1) - phase_energy(theta_I, heelstrike()["reset_ratio"] ** 2 * w2, beta)).subs(guard)
+    )
+    omega_IV_sq_from_next = sm.solve(sm.Eq(heelstrike()["reset_ratio"] ** 2 * w2, q_next), w2)[0]
+    dissipated_post = sm.simplify(dissipated_post.subs(w2, omega_IV_sq_from_next))
+    change = sm.expand(complement - dissipated)
+    constant = change.subs(q, 0)
+    return {
+        "E_I": e_I,
+        "E_II": e_II,
+        "E_III": e_III,
+        "E_IV": e_IV,
+        "E_I_next": e_I_next,
+        "complement": complement,
+        "dissipated": dissipated,
+        "dissipated_post": dissipated_post,
+        "change": change,
+        "constant": sm.factor(constant),
+    }
+
+
+def _closest_to_apex_cos(theta_lo_sin, cos_lo, theta_hi_sin, cos_hi) -> sm.Expr:
+    """cos of the angle in [lo, hi] closest to the apex theta = 0 (where cos is largest)."""
+    return sm.Piecewise((cos_lo, theta_lo_sin >= 0), (cos_hi, theta_hi_sin <= 0), (1, True))
+
+
+@functools.cache
+def apex_and_contact() -> dict[str, sm.Expr]:
+    """Getting over the apex, eq. (14), and keeping the stance foot on the ground.
+
+    ``omega**2`` along a phase falls as ``cos theta`` rises, so its minimum is at the
+    angle of the phase closest to the apex. The stance foot stays down while the normal
+    force ``N = (3 cos theta - 2 E) cos theta`` (from the radial balance and the energy
+    integral) is non-negative; ``N`` is convex in ``cos theta``.
+    """
+    st = stride()
+    # Paper-shaped (14): the apex is crossed in phase I-II when theta_II >= 0 ...
+    apex_in_first = sm.solve(omega_squared_along(beta, theta_I, q, 0), q)[0]
+    # ... and in phase III-IV when theta_II < 0.
+    omega_after_apex = omega_squared_along(1, theta_II, st["omega_III_squared"], 0)
+    apex_in_second = sm.expand(sm.solve(omega_after_apex, q)[0])
+
+    # Exact form, valid for either sign of theta_I and theta_II.
+    hs = heelstrike()
+    sin_I, cos_I = hs["sin_theta_I"], hs["cos_theta_I"]
+    sin_IV, cos_IV = hs["sin_theta_IV"], hs["cos_theta_IV"]
+    c_star_1 = _closest_to_apex_cos(sin_I, cos_I, sm.sin(theta_II), sm.cos(theta_II))
+    c_star_2 = _closest_to_apex_cos(sm.sin(theta_II), sm.cos(theta_II), sin_IV, cos_IV)
+    cstar = sm.Symbol("cstar", real=True)
+    w2_first = omega_squared_along(beta, theta_I, q, theta).subs(sm.cos(theta), cstar)
+    w2_second = omega_squared_along(1, theta_II, st["omega_III_squared"], theta).subs(
+        sm.cos(theta), cstar
+    )
+    q_first = sm.solve(w2_first, q)[0]
+    q_second = sm.solve(w2_second, q)[0]
+    q_apex_exact = sm.Max(
+        eliminate_contact_angles(q_first).subs(cstar, c_star_1),
+        eliminate_contact_angles(q_second).subs(cstar, c_star_2),
+    )
+
+    # Normal force along each phase as a function of c = cos theta.
+    phase = swing_phase_dimensionless()
+    normal = phase["normal_force"]
+    c = sm.Symbol("c", positive=True)
+    e_level = sm.Symbol("E", real=True)
+    # Express omega**2 through the phase's energy level E = energy / leg_ratio.
+    w2 = _square_symbol("w2")
+    omega_sq_of_c = sm.solve(
+        phase["energy"].subs(omega**2, w2).subs(sm.cos(theta), c) - e_level * leg_ratio, w2
+    )[0]
+    normal_of_c = sm.expand(
+        normal.subs(omega**2, w2).subs(w2, omega_sq_of_c).subs(sm.cos(theta), c)
+    )
+    vertex = sm.solve(sm.diff(normal_of_c, c), c)[0]
+
+    def level(ratio, theta_at, omega_sq_at):
+        return sm.expand(phase_energy(theta_at, omega_sq_at, ratio) / ratio)
+
+    level_1 = level(beta, theta_I, q)
+    level_2 = level(1, theta_II, st["omega_III_squared"])
+    phases = (
+        (level_1, sm.Min(cos_I, sm.cos(theta_II)), c_star_1),
+        (level_2, sm.Min(sm.cos(theta_II), cos_IV), c_star_2),
+    )
+    margins, q_limits = [], []
+    for lvl, c_min, c_max in phases:
+        lvl = eliminate_contact_angles(lvl)
+        at_vertex = sm.Min(sm.Max(vertex.subs(e_level, lvl), c_min), c_max)
+        margins.append(normal_of_c.subs(e_level, lvl).subs(c, at_vertex))
+        # With c > 0, N >= 0 over [c_min, c_max] exactly when N(c_min) >= 0.
+        q_limits.append(sm.solve(sm.Eq(normal_of_c.subs(c, c_min) / c_min, 0).subs(e_level, lvl), q)[0])
+    return {
+        "apex_in_first_phase": apex_in_first,
+        "apex_in_second_phase": apex_in_second,
+        "q_apex_exact": q_apex_exact,
+        "normal_force_of_cos": normal_of_c,
+        "contact_margin": sm.Min(*margins),
+        "q_liftoff": sm.Min(*q_limits),
+    }
+
+
+@functools.cache
+def step_timing() -> dict[str, sm.Expr]:
+    """Step length, phase durations and period (item 7 of the derivation; beyond the paper).
+
+    The period is the time integral of ``dtheta / omega`` over both phases, with
+    ``omega`` from each phase's energy integral, in Carlson form (:mod:`derive.elliptic`).
+    """
+    hs = heelstrike()
+    st = stride()
+    step_length = sm.sqrt(hs["step_length_squared"])
+
+    def level(ratio, theta_at, omega_sq_at):
+        return eliminate_contact_angles(sm.expand(phase_energy(theta_at, omega_sq_at, ratio) / ratio))
+
+    half_sin_II = sm.sin(theta_II / 2)
+    end_I = (hs["sin_theta_I"], hs["cos_theta_I"], 1 - hs["cos_theta_I"])
+    end_II = (sm.sin(theta_II), sm.cos(theta_II), 2 * half_sin_II**2)
+    end_IV = (hs["sin_theta_IV"], hs["cos_theta_IV"], 1 - hs["cos_theta_IV"])
+    duration_1 = pendulum_travel_time(end_I, end_II, level(beta, theta_I, q), beta)
+    duration_2 = pendulum_travel_time(
+        end_II, end_IV, level(1, theta_II, st["omega_III_squared"]), sm.Integer(1)
+    )
+    return {
+        "step_length": step_length,
+        "duration_I_II": duration_1,
+        "duration_III_IV": duration_2,
+    }
+
+
+def _paper_form(expr: sm.Expr) -> sm.Expr:
+    return eliminate_contact_angles(expr)
+
+
+def derive() -> Derivation:
+    """Derive every quantity of the ILE model; the single entry point for code generation."""
+    phase = swing_phase_dimensionless()
+    hs = heelstrike()
+    st = stride()
+    en = energies()
+    ac = apex_and_contact()
+    tm = step_timing()
+    d = Derivation(
+        model="ile",
+        title="Instantaneous leg extension model of Virtual Slope Walking",
+        source="derive/models/ile.py",
+        parameters=PARAMETERS,
+    )
+    P = (beta, theta_II, phi0)
+    d.add(Quantity(
+        "swing_acceleration", (theta, leg_ratio), phase["accel"],
+        "Angular acceleration d2theta/dtau2 of a swing phase of leg length leg_ratio * r_e.",
+        "(2), (4)", "d2theta/dtau2; leg_ratio = beta gives (2), leg_ratio = 1 gives (4)",
+    ))
+    d.add(Quantity(
+        "phase_energy", (theta, omega, leg_ratio), phase["energy"],
+        "Mechanical energy of a swing phase, in units of m g r_e (its first integral).",
+        None, "(kinetic + potential) / (m g r_e)",
+    ))
+    d.add(Quantity(
+        "normal_force", (theta, omega, leg_ratio), phase["normal_force"],
+        "Vertical ground force on the stance foot, in units of m g; the foot lifts off below 0.",
+        None, "N / (m g)",
+    ))
+    d.add(Quantity(
+        "extension_reset", (beta, omega_II), extension_reset() * omega_II,
+        "Angular velocity just after the instantaneous leg extension.", "(3)", "omega_III",
+    ))
+    d.add(Quantity(
+        "heelstrike_reset", (beta, phi0, omega_IV), hs["reset_ratio"] * omega_IV,
+        "Angular velocity of the new stance leg just after heelstrike.", "(6)", "omega_I(n+1)",
+    ))
+    d.add(Quantity(
+        "swing_foot_height", (beta, phi0, theta),
+        hs["guard"].subs(theta_IV, theta),
+        "Height of the shortened swing foot, in r_e, with the extended stance leg at theta.",
+        "(5)", "heelstrike guard; zero at theta = theta_IV",
+    ))
+    d.add(Quantity(
+        "theta_I", (beta, phi0), hs["theta_I"],
+        "Stance leg angle just after heelstrike.", "(11)", "theta_I in radians",
+    ))
+    d.add(Quantity(
+        "theta_IV", (beta, phi0), sm.atan2(hs["sin_theta_IV"], hs["cos_theta_IV"]),
+        "Stance leg angle at heelstrike.", "(5)", "theta_IV = theta_I + phi0 in radians",
+    ))
+    d.add(Quantity(
+        "stride_map", (*P, q), _paper_form(st["stride_map"]),
+        "Stride map f(q): q = omega_I**2 just after one heelstrike to just after the next.",
+        "(7), (9)", "q(n+1)",
+    ))
+    d.add(Quantity(
+        "q_fixed", P, _paper_form(st["q_fixed"]),
+        "Fixed point q^f of the stride map.", "(10)", "q^f",
+    ))
+    d.add(Quantity(
+        "eigenvalue", (beta, phi0), st["eigenvalue"],
+        "Eigenvalue df/dq of the stride map (constant: the map is linear in q).", "(19)", "lambda",
+    ))
+    d.add(Quantity(
+        "omega_II_squared", (*P, q), _paper_form(st["omega_II_squared"]),
+        "omega**2 just before the extension, from the energy integral of phase I-II.",
+        "(7)", "omega_II**2",
+    ))
+    d.add(Quantity(
+        "omega_IV_squared", (*P, q), _paper_form(st["omega_IV_squared"]),
+        "omega**2 just before heelstrike, from the energy integral of phase III-IV.",
+        "(7)", "omega_IV**2",
+    ))
+    d.add(Quantity(
+        "q_apex_min", P, ac["q_apex_exact"],
+        "Smallest q at instant I that carries the walker over the apex in both phases.",
+        "(14)", "exact form of (14); holds for either sign of theta_I and theta_II",
+    ))
+    d.add(Quantity(
+        "q_liftoff_max", P, ac["q_liftoff"],
+        "Largest q at instant I for which the stance foot stays on the ground all step.",
+        None, "q bound from N >= 0 (Fig. 9 right boundary)",
+    ))
+    d.add(Quantity(
+        "contact_margin", (*P, q), ac["contact_margin"],
+        "Minimum over the step of the ground normal force on the stance foot, in units of m g.",
+        None, "min N / (m g) over both phases",
+    ))
+    E = (*P, q, m, g, r_e)
+    d.add(Quantity(
+        "energy_complement", E, _paper_form(en["complement"]),
+        "Energy added by the leg extension (the actuator's work per step), E_c.", "(20)", "E_c",
+    ))
+    d.add(Quantity(
+        "energy_dissipated", E, _paper_form(en["dissipated"]),
+        "Energy lost at heelstrike, E_r, in terms of q of the same step.", "(21)", "E_r",
+    ))
+    d.add(Quantity(
+        "energy_dissipated_post", (beta, phi0, q_next, m, g, r_e), en["dissipated_post"],
+        "Energy lost at heelstrike in terms of q just after the impact.", "(18)", "E_r",
+    ))
+    d.add(Quantity(
+        "energy_change", E, _paper_form(en["change"]),
+        "Net change of mechanical energy over one step, E_c - E_r.", "(22), (23)", "E_Delta",
+    ))
+    d.add(Quantity(
+        "energy_constant", (*P, m, g, r_e), _paper_form(en["constant"]),
+        "The constant C of eq. (23): E_Delta at q = 0.", "(23)", "C",
+    ))
+    d.add(Quantity(
+        "step_length", (beta, phi0), tm["step_length"],
+        "Distance between successive footholds (and hip travel per step), in r_e.",
+        None, "step length / r_e",
+    ))
+    d.add(Quantity(
+        "phase_durations", (*P, q), (tm["duration_I_II"], tm["duration_III_IV"]),
+        "Durations of the swing phases I-II and III-IV in dimensionless time tau.",
+        None, "(tau_I_II, tau_III_IV)",
+    ))
+
+    qf = d.quantities["q_fixed"].expr
+    hsI = hs
+    conditions = (
+        Condition("q_positive", "(12)", qf, True, "implied", True,
+                  "q = omega_I**2 must be positive at the fixed point"),
+        Condition("cos_ratio", "(13)",
+                  _paper_form(cos_ratio_margin()), True, "exact", False,
+                  "(12) rewritten with (10): the same condition"),
+        Condition("apex", "(14)", qf - ac["q_apex_exact"], True, "exact", True,
+                  "omega stays positive over the apex in both phases (no fall backward)"),
+        Condition("theta_I_negative", "(15)", beta - sm.cos(phi0), True, "framing", False,
+                  "theta_I < 0: the new stance foot lands ahead of the hip"),
+        Condition("phi0_below_right_angle", "(16)", sm.pi / 2 - phi0, True, "exact", True,
+                  "cos phi0 > 0, so omega_I > 0 after heelstrike"),
+        Condition("extension_before_symmetric_contact", "(17)", phi0 / 2 - theta_II, True,
+                  "conservative", False,
+                  "theta_II < phi0/2, where equal legs would touch down"),
+        Condition("extension_before_heelstrike", "(17) exact",
+                  sm.atan2(hsI["sin_theta_IV"], hsI["cos_theta_IV"]) - theta_II, True,
+                  "exact", True, "theta_II < theta_IV: the leg extends before heelstrike"),
+        Condition("extension_reached", None,
+                  theta_II - hsI["theta_I"], True, "missing", True,
+                  "theta_II > theta_I: the stance leg reaches the extension angle"),
+        Condition("stance_contact", None,
+                  ac["contact_margin"].subs(q, qf), False, "missing", True,
+                  "the ground normal force stays non-negative over the whole step"),
+    )
+    d.conditions = conditions
+    d.add(Quantity(
+        "condition_margins", P, tuple(c.margin for c in conditions),
+        "Margins of the existence conditions at the fixed point, in the order of CONDITIONS.",
+        "(12)-(17)", "tuple of margins; each condition holds when its margin is > 0 (>= 0 if not strict)",
+    ))
+    d.facts.update({f"phase.{k}": v for k, v in phase.items()})
+    d.facts.update({f"heelstrike.{k}": v for k, v in hs.items() if isinstance(v, sm.Basic)})
+    d.facts.update({f"stride.{k}": v for k, v in st.items()})
+    d.facts.update({f"energy.{k}": v for k, v in en.items()})
+    d.facts.update({f"apex.{k}": v for k, v in ac.items()})
+    d.facts["extension.ratio"] = extension_reset()
+    d.facts["cos_ratio.margin"] = cos_ratio_margin()
+    d.facts["cos_ratio.threshold"] = cos_ratio_threshold()
+    return d
+
+
+def cos_ratio_threshold() -> sm.Expr:
+    """Right-hand side of (13): q^f > 0 solved for ``cos theta_II / cos theta_I``."""
+    numerator, denominator = sm.fraction(sm.together(stride()["q_fixed"]))
+    ratio = sm.Symbol("ratio", positive=True)
+    # The denominator is positive on the domain (beta cos phi0 < 1), so the sign of q^f is
+    # the sign of its numerator, linear in cos theta_II = ratio * cos theta_I.
+    in_ratio = sm.expand(numerator.subs(sm.cos(theta_II), ratio * sm.cos(theta_I)))
+    return sm.factor(sm.solve(in_ratio, ratio)[0])
+
+
+def cos_ratio_margin() -> sm.Expr:
+    """Margin of (13): ``cos theta_II / cos theta_I - threshold``."""
+    return sm.cos(theta_II) / sm.cos(theta_I) - cos_ratio_threshold()

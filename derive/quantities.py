@@ -1,0 +1,147 @@
+"""Containers shared by every model: parameters, derived quantities, conditions.
+
+A model module (``derive/models/<name>.py``) builds a :class:`Derivation`; the code
+generator turns it into ``generated/<name>.py`` and C. Nothing here is model specific.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import sympy as sm
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One row of a model's parameter table.
+
+    The same row creates the sympy symbol for the derivation and, through the code
+    generator, the runtime's validation table in ``generated/``.
+
+    Attributes
+    ----------
+    name : str
+        Python identifier, also the sympy symbol name (``beta``, ``theta_II``).
+    latex : str
+        Symbol as printed in the paper.
+    lower, upper : float
+        Open interval of valid values (radians for angles).
+    reason : str
+        Why the bounds hold, with the paper's equation number where it has one.
+    description : str
+        Meaning.
+    assumptions : dict
+        sympy assumptions for the symbol.
+    cli_degrees : bool
+        True for angles, which the command line takes in degrees.
+    """
+
+    name: str
+    latex: str
+    lower: float
+    upper: float
+    reason: str
+    description: str
+    assumptions: dict = field(default_factory=lambda: {"real": True})
+    cli_degrees: bool = False
+
+    @property
+    def symbol(self) -> sm.Symbol:
+        return sm.Symbol(self.name, **self.assumptions)
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """A derived quantity, generated as one function ``name(*args)``.
+
+    Attributes
+    ----------
+    name : str
+        Function name in the generated code.
+    args : tuple of sympy.Symbol
+        Arguments, in order.
+    expr : sympy.Expr or tuple of sympy.Expr
+        The derived expression(s) in terms of ``args``.
+    summary : str
+        One line for the docstring.
+    equation : str or None
+        The paper's equation number, e.g. ``"(10)"``; None for quantities beyond the paper.
+    returns : str
+        Description of the returned value(s).
+    """
+
+    name: str
+    args: tuple[sm.Symbol, ...]
+    expr: sm.Expr | tuple[sm.Expr, ...]
+    summary: str
+    equation: str | None = None
+    returns: str = ""
+
+
+@dataclass(frozen=True)
+class Condition:
+    """An existence condition written as ``margin > 0`` (or ``>= 0``).
+
+    Attributes
+    ----------
+    name : str
+        Identifier, e.g. ``apex``.
+    equation : str or None
+        The paper's equation number, None for conditions the paper does not state.
+    margin : sympy.Expr
+        Positive exactly when the condition holds.
+    strict : bool
+        ``margin > 0`` when True, ``margin >= 0`` when False.
+    status : str
+        What the derivation shows about the paper's condition: ``exact``,
+        ``conservative`` (stricter than the exact one), ``implied`` (follows from the
+        others), ``framing`` (a choice of the paper's set-up, not needed to walk) or
+        ``missing`` (needed, but not stated by the paper).
+    physical : bool
+        True when the condition is part of the exact physical set that decides "walks".
+    meaning : str
+        What it means physically.
+    """
+
+    name: str
+    equation: str | None
+    margin: sm.Expr
+    strict: bool
+    status: str
+    physical: bool
+    meaning: str
+
+
+@dataclass
+class Derivation:
+    """Everything one model derives, ready for code generation and for the audit.
+
+    Attributes
+    ----------
+    model : str
+        Model name, also the generated module name.
+    title : str
+        Human-readable title.
+    source : str
+        The derivation module that produced it (goes into generated headers).
+    parameters : tuple of Parameter
+    quantities : dict of str to Quantity
+    conditions : tuple of Condition
+    facts : dict of str to sympy.Expr
+        Intermediate results kept for tests and the audit (keyed by descriptive name).
+    """
+
+    model: str
+    title: str
+    source: str
+    parameters: tuple[Parameter, ...]
+    quantities: dict[str, Quantity] = field(default_factory=dict)
+    conditions: tuple[Condition, ...] = ()
+    facts: dict[str, sm.Expr] = field(default_factory=dict)
+
+    def add(self, quantity: Quantity) -> Quantity:
+        if quantity.name in self.quantities:
+            raise ValueError(f"quantity {quantity.name!r} derived twice")
+        self.quantities[quantity.name] = quantity
+        return quantity
+
