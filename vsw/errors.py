@@ -1,0 +1,17 @@
+"""Errors the runtime raises; the CLI prints their message as one line and exits 2 (or 3)."""
+
+
+class VswInputError(ValueError):
+    """Bad input: the message names the parameter and the violated condition (with its equation)."""
+
+
+class ModelConditionError(VswInputError):
+    """A model condition of the paper fails (e.g. no fixed point); the message cites the equation."""
+
+
+class ConvergenceError(RuntimeError):
+    """A numerical solver stopped without converging or returned a non-finite result."""
+
+
+class InfeasibleError(RuntimeError):
+    """A design request whose constraints cannot hold together."""
