@@ -40,6 +40,36 @@ def angular_momentum(
     return sm.expand(cross_z(position - about, mass * velocity))
 
 
+def solve_linear(equation: sm.Expr | sm.Equality, unknown: sm.Expr) -> sm.Expr:
+    """Solve an equation that is linear in ``unknown`` (a symbol or a function term).
+
+    Cheaper and more predictable than ``sm.solve``, which simplifies its result.
+
+    Raises
+    ------
+    ValueError
+        If the equation is not linear in ``unknown``.
+    """
+    if isinstance(equation, sm.Equality):
+        equation = equation.lhs - equation.rhs
+    x = sm.Dummy("x")
+    expr = sm.expand(equation.subs(unknown, x))
+    slope = sm.expand(sm.diff(expr, x))
+    if slope == 0 or slope.has(x):
+        raise ValueError(f"not linear in {unknown}: {equation}")
+    return sm.expand(-expr.subs(x, 0)) / slope
+
+
+def pythagorean_reduce(expr: sm.Expr) -> sm.Expr:
+    """Expand trigonometric sums and replace ``sin(a)**2`` by ``1 - cos(a)**2``.
+
+    A canonical form for polynomials in sines and cosines, much cheaper than ``trigsimp``.
+    """
+    expr = sm.expand(sm.expand_trig(expr))
+    angles = sorted({s.args[0] for s in expr.atoms(sm.sin)}, key=sm.default_sort_key)
+    return sm.expand(expr.subs({sm.sin(a) ** 2: 1 - sm.cos(a) ** 2 for a in angles}))
+
+
 def euler_lagrange(lagrangian: sm.Expr, coordinate: sm.Function) -> sm.Expr:
     """Left-hand side of ``d/dt dL/dq' - dL/dq = 0`` for one generalised coordinate."""
     velocity = coordinate.diff(t)
@@ -97,13 +127,13 @@ def pendulum_phase(mass: sm.Expr, gravity: sm.Expr, leg_length: sm.Expr) -> Pend
     velocity = hip.diff(t)
     kinetic = sm.Rational(1, 2) * mass * (velocity.T * velocity)[0]
     potential = mass * gravity * hip[1]
-    lagrangian = sm.trigsimp(kinetic - potential)
+    lagrangian = pythagorean_reduce(kinetic - potential)
     equation = euler_lagrange(lagrangian, theta)
-    acceleration = sm.solve(equation, theta.diff(t, 2))[0]
-    energy = sm.trigsimp(energy_function(lagrangian, theta))
+    acceleration = sm.cancel(solve_linear(equation, theta.diff(t, 2)))
+    energy = pythagorean_reduce(energy_function(lagrangian, theta))
     # Radial balance of the hip mass; the leg is massless, so its force acts along it.
     radial = leg_direction(theta)
     hip_acceleration = hip.diff(t, 2).subs(theta.diff(t, 2), acceleration)
     gravity_force = sm.Matrix([0, -mass * gravity])
-    leg_force = sm.trigsimp(((mass * hip_acceleration - gravity_force).T * radial)[0])
+    leg_force = pythagorean_reduce(((mass * hip_acceleration - gravity_force).T * radial)[0])
     return PendulumPhase(theta, hip, lagrangian, acceleration, energy, leg_force)

@@ -174,7 +174,7 @@ def theta_I(beta, phi0):
         theta_I in radians
     """
     be = backend_for(beta, phi0)
-    return be.atan((-beta + be.cos(phi0))/be.sin(phi0))
+    return -be.atan((beta - be.cos(phi0))/be.sin(phi0))
 
 
 def theta_IV(beta, phi0):
@@ -331,10 +331,12 @@ def q_apex_min(beta, theta_II, phi0):
     x1 = x0*beta
     x2 = (1/be.sqrt(1 + beta**2 - 2*x1))
     x3 = x2*be.sin(phi0)
-    x4 = -x3
+    x4 = 2/beta
     x5 = be.cos(theta_II)
     x6 = be.sin(theta_II)
-    return be.fmax(2*(x4 + be.where((x2*(x0 - beta) >= 0), x3, be.where((x6 <= 0), x5, 1)))/beta, 2*(-x5 + beta**3*(x4 + x5) + be.where((x6 >= 0), x5, be.where((x2*(1 - x1) <= 0), x3*beta, 1)))/beta**4)
+    x7 = 2*x5
+    x8 = beta**3
+    return be.fmax(x4*be.where((x2*(x0 - beta) >= 0), x3, be.where((x6 <= 0), x5, 1)) - x3*x4, (-x7 + 2*be.where((x6 >= 0), x5, be.where((x2*(1 - x1) <= 0), x3*beta, 1)) + x7*x8 - 2*x3*x8)/beta**4)
 
 
 def q_liftoff_max(beta, theta_II, phi0):
@@ -353,12 +355,12 @@ def q_liftoff_max(beta, theta_II, phi0):
         q bound from N >= 0 (Fig. 9 right boundary)
     """
     be = backend_for(beta, theta_II, phi0)
-    x0 = be.sin(phi0)/be.sqrt(1 + beta**2 - 2*beta*be.cos(phi0))
-    x1 = 2*x0
+    x0 = be.sin(phi0)
+    x1 = (1/be.sqrt(1 + beta**2 - 2*beta*be.cos(phi0)))
     x2 = be.cos(theta_II)
-    x3 = 2*x2
+    x3 = x0*x1
     x4 = beta**3
-    return be.fmin((-x1 + 3*be.fmin(x0, x2))/beta, (-x3 + 3*be.fmin(x2, x0*beta) + x3*x4 - x1*x4)/beta**4)
+    return be.fmin(-(-3*be.fmin(x2, x3) + 2*x0*x1)/beta, -(-3*be.fmin(x2, x3*beta) + 2*x2 - 2*x2*x4 + 2*x0*x1*x4)/beta**4)
 
 
 def contact_margin(beta, theta_II, phi0, q):
@@ -476,7 +478,8 @@ def energy_dissipated_post(beta, phi0, q_next, m, g, r_e):
         E_r
     """
     be = backend_for(beta, phi0, q_next, m, g, r_e)
-    return q_next*g*m*r_e*beta**2*be.tan(phi0)**2/2
+    x0 = be.cos(phi0)
+    return -q_next*g*m*r_e*beta**2*(1 + x0)*(-1 + x0)/(2*x0**2)
 
 
 def energy_change(beta, theta_II, phi0, q, m, g, r_e):
@@ -657,20 +660,19 @@ def condition_margins(beta, theta_II, phi0):
     x9 = 2*x8/x0
     x10 = 1 + beta
     x11 = (1/x5)
-    x12 = (1/beta)
-    x13 = x5*x7
-    x14 = -x13
+    x12 = x5*x7
+    x13 = (1/beta)
+    x14 = 2*x13
     x15 = beta - x1
-    x16 = -x15
-    x17 = be.sin(theta_II)
-    x18 = be.where((x16*x7 >= 0), x13, be.where((x17 <= 0), x4, 1))
-    x19 = -x4
-    x20 = beta**3
-    x21 = x13*beta
-    x22 = -x3*x7
-    x23 = be.where((x17 >= 0), x4, be.where((x22 <= 0), x21, 1))
-    x24 = x12*x8
-    x25 = be.fmin(x18, be.fmax(be.fmin(x13, x4), -x24/3 + x13/3))
-    x26 = x0*x8
-    x27 = be.fmin(x23, be.fmax(be.fmin(x21, x4), -x26/3 + x4/3 - x20*x4/3 + x20*x5*x7/3))
-    return (-x9, x11*x4*x6 - x10*beta/(x0 + x10), -x9 - be.fmax(2*x12*(x14 + x18), 2*(x19 + x23 + x20*(x14 + x4))/beta**4), x15, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan2(x22, x21), theta_II - be.atan(x11*x16), be.fmin(3*x25**2 - 2*x25*(x13 - x24), 3*x27**2 - 2*x27*(-x19 - x26 - x20*x4 + x20*x5*x7)),)
+    x16 = be.sin(theta_II)
+    x17 = be.where((x15*x7 <= 0), x12, be.where((x16 <= 0), x4, 1))
+    x18 = 2*x4
+    x19 = beta**3
+    x20 = x12*beta
+    x21 = -x3*x7
+    x22 = be.where((x16 >= 0), x4, be.where((x21 <= 0), x20, 1))
+    x23 = x13*x8
+    x24 = be.fmin(x17, be.fmax(be.fmin(x12, x4), -x23/3 + x12/3))
+    x25 = x0*x8
+    x26 = be.fmin(x22, be.fmax(be.fmin(x20, x4), -x25/3 + x4/3 - x19*x4/3 + x19*x5*x7/3))
+    return (-x9, x11*x4*x6 - x10*beta/(x0 + x10), -x9 - be.fmax(x14*x17 - x12*x14, (-x18 + 2*x22 + x18*x19 - 2*x12*x19)/beta**4), x15, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan2(x21, x20), theta_II + be.atan(x11*x15), be.fmin(3*x24**2 - 2*x24*(x12 - x23), 3*x26**2 - 2*x26*(x4 - x25 - x19*x4 + x19*x5*x7)),)

@@ -88,7 +88,7 @@ def swing_phase_dimensionless() -> dict[str, sm.Expr]:
     # tau = sqrt(g/r_e) t, so dtheta/dt = omega sqrt(g/r_e) and d2theta/dt2 = (g/r_e) d2theta/dtau2.
     to_state = {thd: omega * sm.sqrt(g / r_e), th: theta}
     accel_dimensional = phase.acceleration.subs(th, theta)
-    accel = sm.simplify(accel_dimensional * r_e / g)
+    accel = sm.cancel(accel_dimensional * r_e / g)
     energy = sm.expand(phase.energy.subs(to_state) / (m * g * r_e))
     leg_force = sm.expand(phase.leg_force.subs(to_state) / (m * g))
     # The massless leg pushes along itself; the ground takes its vertical component.
@@ -117,7 +117,7 @@ def omega_squared_along(
     """``omega**2`` at ``theta_to`` from the energy integral of a phase, eq. (7) steps."""
     w2 = _square_symbol("w2")
     balance = phase_energy(theta_to, w2, ratio) - phase_energy(theta_from, omega_squared_from, ratio)
-    return sm.expand(sm.solve(balance, w2)[0])
+    return sm.expand(mechanics.solve_linear(balance, w2))
 
 
 @functools.cache
@@ -133,8 +133,8 @@ def extension_reset() -> sm.Expr:
         return mechanics.angular_momentum(m, hip, velocity, origin)
 
     balance = momentum(beta * r_e, w_before) - momentum(r_e, w_after)
-    ratio = sm.solve(sm.trigsimp(balance), w_after)[0] / w_before
-    return sm.simplify(ratio)
+    ratio = mechanics.solve_linear(mechanics.pythagorean_reduce(balance), w_after) / w_before
+    return sm.cancel(ratio)
 
 
 @functools.cache
@@ -159,9 +159,9 @@ def heelstrike() -> dict[str, sm.Expr]:
     in_theta_I = sm.expand(sm.expand_trig(guard.subs(theta_IV, theta_I + phi0)))
     in_theta_I = in_theta_I.subs({sm.cos(theta_I): c, sm.sin(theta_I): s})
     cos_coeff, sin_coeff = in_theta_I.coeff(c), in_theta_I.coeff(s)
-    tan_theta_I = sm.simplify(-cos_coeff / sin_coeff)
+    tan_theta_I = -cos_coeff / sin_coeff
     theta_I_closed = sm.atan(tan_theta_I)  # |theta_I| < pi/2: the hip is above both feet
-    norm_squared = sm.trigsimp(sm.expand(cos_coeff**2 + sin_coeff**2))
+    norm_squared = mechanics.pythagorean_reduce(cos_coeff**2 + sin_coeff**2)
     # On the domain the sin coefficient is sin(phi0) > 0, and cos theta_I > 0 (hip above the
     # foot), so (cos, sin) theta_I = (sin_coeff, -cos_coeff) / norm.
     if sin_coeff == -sm.sin(phi0):
@@ -170,16 +170,15 @@ def heelstrike() -> dict[str, sm.Expr]:
         raise AssertionError(f"unexpected guard form: {in_theta_I}")
     cos_theta_I_closed = sin_coeff / sm.sqrt(norm_squared)
     sin_theta_I_closed = -cos_coeff / sm.sqrt(norm_squared)
-    cos_theta_IV_closed = sm.simplify(
-        sm.expand_trig(sm.cos(theta_I + phi0)).subs(
-            {sm.cos(theta_I): cos_theta_I_closed, sm.sin(theta_I): sin_theta_I_closed}
-        )
-    )
-    sin_theta_IV_closed = sm.simplify(
-        sm.expand_trig(sm.sin(theta_I + phi0)).subs(
-            {sm.cos(theta_I): cos_theta_I_closed, sm.sin(theta_I): sin_theta_I_closed}
-        )
-    )
+    # theta_IV = theta_I + phi0; both closed forms share the normalisation sqrt(norm_squared).
+    norm = sm.sqrt(norm_squared)
+    on_theta_I = {sm.cos(theta_I): sin_coeff, sm.sin(theta_I): -cos_coeff}
+    cos_theta_IV_closed = mechanics.pythagorean_reduce(
+        sm.expand_trig(sm.cos(theta_I + phi0)).subs(on_theta_I)
+    ) / norm
+    sin_theta_IV_closed = mechanics.pythagorean_reduce(
+        sm.expand_trig(sm.sin(theta_I + phi0)).subs(on_theta_I)
+    ) / norm
 
     # Reset: angular momentum about the swing-foot contact point is conserved.
     w_before, w_after = sm.symbols("w_before w_after", real=True)
@@ -189,12 +188,12 @@ def heelstrike() -> dict[str, sm.Expr]:
     hip_from_new_foot = swing_foot + r_s * mechanics.leg_direction(theta_I)
     momentum_after = mechanics.angular_momentum(m, hip_from_new_foot, velocity_after, swing_foot)
     balance = (momentum_before - momentum_after).subs(theta_IV, theta_I + phi0)
-    reset_ratio = sm.solve(sm.trigsimp(sm.expand(balance)), w_after)[0] / w_before
-    reset_ratio = sm.simplify(sm.trigsimp(reset_ratio))
+    reset_ratio = mechanics.solve_linear(mechanics.pythagorean_reduce(balance), w_after)
+    reset_ratio = sm.cancel(reset_ratio / w_before)
 
     step_vector = (swing_foot - origin) / r_e
     step_length_sq = sm.expand_trig(sm.expand((step_vector.T * step_vector)[0]))
-    step_length_sq = sm.trigsimp(step_length_sq.subs(theta_IV, theta_I + phi0))
+    step_length_sq = mechanics.pythagorean_reduce(step_length_sq.subs(theta_IV, theta_I + phi0))
 
     return {
         "guard": guard,
@@ -207,7 +206,7 @@ def heelstrike() -> dict[str, sm.Expr]:
         "cos_theta_IV": cos_theta_IV_closed,
         "sin_theta_IV": sin_theta_IV_closed,
         "reset_ratio": reset_ratio,
-        "step_length_squared": sm.trigsimp(sm.expand(step_length_sq)),
+        "step_length_squared": step_length_sq,
     }
 
 
@@ -237,10 +236,10 @@ def stride() -> dict[str, sm.Expr]:
     omega_III_sq = sm.expand(ext**2 * omega_II_sq)
     omega_IV_sq = omega_squared_along(1, theta_II, omega_III_sq, theta_IV)
     # Guard: the hip height is the same on both legs, cos theta_IV = beta cos theta_I (eq. 5).
-    cos_IV_from_guard = sm.solve(hs["hip_height_condition"], sm.cos(theta_IV))[0]
+    cos_IV_from_guard = mechanics.solve_linear(hs["hip_height_condition"], sm.cos(theta_IV))
     omega_IV_sq = sm.expand(omega_IV_sq.subs(sm.cos(theta_IV), cos_IV_from_guard))
     stride_map = sm.expand(hs["reset_ratio"] ** 2 * omega_IV_sq)
-    q_fixed = sm.factor(sm.solve(sm.Eq(stride_map, q), q)[0])
+    q_fixed = sm.factor(mechanics.solve_linear(sm.Eq(stride_map, q), q))
     eigenvalue = sm.factor(sm.diff(stride_map, q))
     return {
         "omega_II_squared": omega_II_sq,
@@ -271,8 +270,10 @@ def energies() -> dict[str, sm.Expr]:
         scale
         * (phase_energy(theta_IV, w2, 1) - phase_energy(theta_I, heelstrike()["reset_ratio"] ** 2 * w2, beta)).subs(guard)
     )
-    omega_IV_sq_from_next = sm.solve(sm.Eq(heelstrike()["reset_ratio"] ** 2 * w2, q_next), w2)[0]
-    dissipated_post = sm.simplify(dissipated_post.subs(w2, omega_IV_sq_from_next))
+    omega_IV_sq_from_next = mechanics.solve_linear(
+        sm.Eq(heelstrike()["reset_ratio"] ** 2 * w2, q_next), w2
+    )
+    dissipated_post = sm.factor(sm.cancel(dissipated_post.subs(w2, omega_IV_sq_from_next)))
     change = sm.expand(complement - dissipated)
     constant = change.subs(q, 0)
     return {
@@ -305,10 +306,10 @@ def apex_and_contact() -> dict[str, sm.Expr]:
     """
     st = stride()
     # Paper-shaped (14): the apex is crossed in phase I-II when theta_II >= 0 ...
-    apex_in_first = sm.solve(omega_squared_along(beta, theta_I, q, 0), q)[0]
+    apex_in_first = mechanics.solve_linear(omega_squared_along(beta, theta_I, q, 0), q)
     # ... and in phase III-IV when theta_II < 0.
     omega_after_apex = omega_squared_along(1, theta_II, st["omega_III_squared"], 0)
-    apex_in_second = sm.expand(sm.solve(omega_after_apex, q)[0])
+    apex_in_second = sm.expand(mechanics.solve_linear(omega_after_apex, q))
 
     # Exact form, valid for either sign of theta_I and theta_II.
     hs = heelstrike()
@@ -321,8 +322,8 @@ def apex_and_contact() -> dict[str, sm.Expr]:
     w2_second = omega_squared_along(1, theta_II, st["omega_III_squared"], theta).subs(
         sm.cos(theta), cstar
     )
-    q_first = sm.solve(w2_first, q)[0]
-    q_second = sm.solve(w2_second, q)[0]
+    q_first = mechanics.solve_linear(w2_first, q)
+    q_second = mechanics.solve_linear(w2_second, q)
     q_apex_exact = sm.Max(
         eliminate_contact_angles(q_first).subs(cstar, c_star_1),
         eliminate_contact_angles(q_second).subs(cstar, c_star_2),
@@ -335,13 +336,13 @@ def apex_and_contact() -> dict[str, sm.Expr]:
     e_level = sm.Symbol("E", real=True)
     # Express omega**2 through the phase's energy level E = energy / leg_ratio.
     w2 = _square_symbol("w2")
-    omega_sq_of_c = sm.solve(
+    omega_sq_of_c = mechanics.solve_linear(
         phase["energy"].subs(omega**2, w2).subs(sm.cos(theta), c) - e_level * leg_ratio, w2
-    )[0]
+    )
     normal_of_c = sm.expand(
         normal.subs(omega**2, w2).subs(w2, omega_sq_of_c).subs(sm.cos(theta), c)
     )
-    vertex = sm.solve(sm.diff(normal_of_c, c), c)[0]
+    vertex = mechanics.solve_linear(sm.diff(normal_of_c, c), c)
 
     def level(ratio, theta_at, omega_sq_at):
         return sm.expand(phase_energy(theta_at, omega_sq_at, ratio) / ratio)
@@ -358,7 +359,8 @@ def apex_and_contact() -> dict[str, sm.Expr]:
         at_vertex = sm.Min(sm.Max(vertex.subs(e_level, lvl), c_min), c_max)
         margins.append(normal_of_c.subs(e_level, lvl).subs(c, at_vertex))
         # With c > 0, N >= 0 over [c_min, c_max] exactly when N(c_min) >= 0.
-        q_limits.append(sm.solve(sm.Eq(normal_of_c.subs(c, c_min) / c_min, 0).subs(e_level, lvl), q)[0])
+        boundary = sm.expand(normal_of_c.subs(c, c_min) / c_min).subs(e_level, lvl)
+        q_limits.append(mechanics.solve_linear(boundary, q))
     return {
         "apex_in_first_phase": apex_in_first,
         "apex_in_second_phase": apex_in_second,
@@ -575,7 +577,7 @@ def cos_ratio_threshold() -> sm.Expr:
     # The denominator is positive on the domain (beta cos phi0 < 1), so the sign of q^f is
     # the sign of its numerator, linear in cos theta_II = ratio * cos theta_I.
     in_ratio = sm.expand(numerator.subs(sm.cos(theta_II), ratio * sm.cos(theta_I)))
-    return sm.factor(sm.solve(in_ratio, ratio)[0])
+    return sm.factor(mechanics.solve_linear(in_ratio, ratio))
 
 
 def cos_ratio_margin() -> sm.Expr:
