@@ -220,8 +220,16 @@ from types import SimpleNamespace
 
 import numpy as np
 
+
+
+def _sqrt(x):
+    # where() evaluates both branches; the branch not taken may be outside its domain.
+    with np.errstate(invalid="ignore"):
+        return np.sqrt(x)
+
+
 NUMPY = SimpleNamespace(
-    sin=np.sin, cos=np.cos, tan=np.tan, sqrt=np.sqrt, atan=np.arctan, atan2=np.arctan2,
+    sin=np.sin, cos=np.cos, tan=np.tan, sqrt=_sqrt, atan=np.arctan, atan2=np.arctan2,
     fmin=np.minimum, fmax=np.maximum, where=np.where, logical_and=np.logical_and,
     sign=np.sign, Abs=np.abs, pi=math.pi,
 )
@@ -279,6 +287,7 @@ def c_sources(derivation: Derivation, module: types.ModuleType) -> dict[str, str
     """Self-contained C99 source and header from CasADi's code generator."""
     import casadi as ca
 
+    prefix = f"vsw_{derivation.model}_"
     functions = []
     for name, arg_names, doc in C_FUNCTIONS:
         args = [ca.SX.sym(a) for a in arg_names]
@@ -292,8 +301,8 @@ def c_sources(derivation: Derivation, module: types.ModuleType) -> dict[str, str
         else:
             result = getattr(module, name)(*args)
             out = ca.vertcat(*result) if isinstance(result, tuple) else result
-        functions.append(ca.Function(name, args, [out], list(arg_names), [name]))
-    prefix = f"vsw_{derivation.model}_"
+        # Exported C symbols carry the prefix so they cannot clash inside a robot controller.
+        functions.append(ca.Function(prefix + name, args, [out], list(arg_names), [name]))
     with tempfile.TemporaryDirectory() as tmp:
         cwd = os.getcwd()
         os.chdir(tmp)

@@ -8,8 +8,16 @@ from types import SimpleNamespace
 
 import numpy as np
 
+
+
+def _sqrt(x):
+    # where() evaluates both branches; the branch not taken may be outside its domain.
+    with np.errstate(invalid="ignore"):
+        return np.sqrt(x)
+
+
 NUMPY = SimpleNamespace(
-    sin=np.sin, cos=np.cos, tan=np.tan, sqrt=np.sqrt, atan=np.arctan, atan2=np.arctan2,
+    sin=np.sin, cos=np.cos, tan=np.tan, sqrt=_sqrt, atan=np.arctan, atan2=np.arctan2,
     fmin=np.minimum, fmax=np.maximum, where=np.where, logical_and=np.logical_and,
     sign=np.sign, Abs=np.abs, pi=math.pi,
 )

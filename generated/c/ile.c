@@ -111,7 +111,7 @@ static const casadi_int casadi_s0[3] = {1, 1, 1};
 static const casadi_int casadi_s1[3] = {4, 1, 1};
 static const casadi_int casadi_s2[3] = {9, 1, 1};
 
-/* stride_map:(beta,theta_II,phi0,q)->(stride_map) */
+/* vsw_ile_stride_map:(beta,theta_II,phi0,q)->(stride_map) */
 static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2, a3, a4, a5, a6;
   a0=arg[0]? arg[0][0] : 0;
@@ -148,34 +148,34 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   return 0;
 }
 
-CASADI_SYMBOL_EXPORT int stride_map(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+CASADI_SYMBOL_EXPORT int vsw_ile_stride_map(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
   return casadi_f0(arg, res, iw, w, mem);
 }
 
-CASADI_SYMBOL_EXPORT int stride_map_checkout(void) {
+CASADI_SYMBOL_EXPORT int vsw_ile_stride_map_checkout(void) {
   return 0;
 }
 
-CASADI_SYMBOL_EXPORT void stride_map_release(int mem) {
+CASADI_SYMBOL_EXPORT void vsw_ile_stride_map_release(int mem) {
 }
 
-CASADI_SYMBOL_EXPORT void stride_map_incref(void) {
+CASADI_SYMBOL_EXPORT void vsw_ile_stride_map_incref(void) {
 }
 
-CASADI_SYMBOL_EXPORT void stride_map_decref(void) {
+CASADI_SYMBOL_EXPORT void vsw_ile_stride_map_decref(void) {
 }
 
-CASADI_SYMBOL_EXPORT casadi_int stride_map_n_in(void) { return 4;}
+CASADI_SYMBOL_EXPORT casadi_int vsw_ile_stride_map_n_in(void) { return 4;}
 
-CASADI_SYMBOL_EXPORT casadi_int stride_map_n_out(void) { return 1;}
+CASADI_SYMBOL_EXPORT casadi_int vsw_ile_stride_map_n_out(void) { return 1;}
 
-CASADI_SYMBOL_EXPORT casadi_real stride_map_default_in(casadi_int i) {
+CASADI_SYMBOL_EXPORT casadi_real vsw_ile_stride_map_default_in(casadi_int i) {
   switch (i) {
     default: return 0;
   }
 }
 
-CASADI_SYMBOL_EXPORT const char* stride_map_name_in(casadi_int i) {
+CASADI_SYMBOL_EXPORT const char* vsw_ile_stride_map_name_in(casadi_int i) {
   switch (i) {
     case 0: return "beta";
     case 1: return "theta_II";
@@ -185,14 +185,14 @@ CASADI_SYMBOL_EXPORT const char* stride_map_name_in(casadi_int i) {
   }
 }
 
-CASADI_SYMBOL_EXPORT const char* stride_map_name_out(casadi_int i) {
+CASADI_SYMBOL_EXPORT const char* vsw_ile_stride_map_name_out(casadi_int i) {
   switch (i) {
     case 0: return "stride_map";
     default: return 0;
   }
 }
 
-CASADI_SYMBOL_EXPORT const casadi_int* stride_map_sparsity_in(casadi_int i) {
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_stride_map_sparsity_in(casadi_int i) {
   switch (i) {
     case 0: return casadi_s0;
     case 1: return casadi_s0;
@@ -202,14 +202,14 @@ CASADI_SYMBOL_EXPORT const casadi_int* stride_map_sparsity_in(casadi_int i) {
   }
 }
 
-CASADI_SYMBOL_EXPORT const casadi_int* stride_map_sparsity_out(casadi_int i) {
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_stride_map_sparsity_out(casadi_int i) {
   switch (i) {
     case 0: return casadi_s0;
     default: return 0;
   }
 }
 
-CASADI_SYMBOL_EXPORT int stride_map_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+CASADI_SYMBOL_EXPORT int vsw_ile_stride_map_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
   if (sz_arg) *sz_arg = 4;
   if (sz_res) *sz_res = 1;
   if (sz_iw) *sz_iw = 0;
@@ -217,7 +217,7 @@ CASADI_SYMBOL_EXPORT int stride_map_work(casadi_int *sz_arg, casadi_int* sz_res,
   return 0;
 }
 
-CASADI_SYMBOL_EXPORT int stride_map_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+CASADI_SYMBOL_EXPORT int vsw_ile_stride_map_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
   if (sz_arg) *sz_arg = 4*sizeof(const casadi_real*);
   if (sz_res) *sz_res = 1*sizeof(casadi_real*);
   if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
@@ -225,7 +225,7 @@ CASADI_SYMBOL_EXPORT int stride_map_work_bytes(casadi_int *sz_arg, casadi_int* s
   return 0;
 }
 
-/* q_fixed:(beta,theta_II,phi0)->(q_fixed) */
+/* vsw_ile_q_fixed:(beta,theta_II,phi0)->(q_fixed) */
 static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10;
   a00=-2.;
@@ -267,34 +267,34 @@ static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   return 0;
 }
 
-CASADI_SYMBOL_EXPORT int q_fixed(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+CASADI_SYMBOL_EXPORT int vsw_ile_q_fixed(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
   return casadi_f1(arg, res, iw, w, mem);
 }
 
-CASADI_SYMBOL_EXPORT int q_fixed_checkout(void) {
+CASADI_SYMBOL_EXPORT int vsw_ile_q_fixed_checkout(void) {
   return 0;
 }
 
-CASADI_SYMBOL_EXPORT void q_fixed_release(int mem) {
+CASADI_SYMBOL_EXPORT void vsw_ile_q_fixed_release(int mem) {
 }
 
-CASADI_SYMBOL_EXPORT void q_fixed_incref(void) {
+CASADI_SYMBOL_EXPORT void vsw_ile_q_fixed_incref(void) {
 }
 
-CASADI_SYMBOL_EXPORT void q_fixed_decref(void) {
+CASADI_SYMBOL_EXPORT void vsw_ile_q_fixed_decref(void) {
 }
 
-CASADI_SYMBOL_EXPORT casadi_int q_fixed_n_in(void) { return 3;}
+CASADI_SYMBOL_EXPORT casadi_int vsw_ile_q_fixed_n_in(void) { return 3;}
 
-CASADI_SYMBOL_EXPORT casadi_int q_fixed_n_out(void) { return 1;}
+CASADI_SYMBOL_EXPORT casadi_int vsw_ile_q_fixed_n_out(void) { return 1;}
 
-CASADI_SYMBOL_EXPORT casadi_real q_fixed_default_in(casadi_int i) {
+CASADI_SYMBOL_EXPORT casadi_real vsw_ile_q_fixed_default_in(casadi_int i) {
   switch (i) {
     default: return 0;
   }
 }
 
-CASADI_SYMBOL_EXPORT const char* q_fixed_name_in(casadi_int i) {
+CASADI_SYMBOL_EXPORT const char* vsw_ile_q_fixed_name_in(casadi_int i) {
   switch (i) {
     case 0: return "beta";
     case 1: return "theta_II";
@@ -303,14 +303,14 @@ CASADI_SYMBOL_EXPORT const char* q_fixed_name_in(casadi_int i) {
   }
 }
 
-CASADI_SYMBOL_EXPORT const char* q_fixed_name_out(casadi_int i) {
+CASADI_SYMBOL_EXPORT const char* vsw_ile_q_fixed_name_out(casadi_int i) {
   switch (i) {
     case 0: return "q_fixed";
     default: return 0;
   }
 }
 
-CASADI_SYMBOL_EXPORT const casadi_int* q_fixed_sparsity_in(casadi_int i) {
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_q_fixed_sparsity_in(casadi_int i) {
   switch (i) {
     case 0: return casadi_s0;
     case 1: return casadi_s0;
@@ -319,14 +319,14 @@ CASADI_SYMBOL_EXPORT const casadi_int* q_fixed_sparsity_in(casadi_int i) {
   }
 }
 
-CASADI_SYMBOL_EXPORT const casadi_int* q_fixed_sparsity_out(casadi_int i) {
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_q_fixed_sparsity_out(casadi_int i) {
   switch (i) {
     case 0: return casadi_s0;
     default: return 0;
   }
 }
 
-CASADI_SYMBOL_EXPORT int q_fixed_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+CASADI_SYMBOL_EXPORT int vsw_ile_q_fixed_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
   if (sz_arg) *sz_arg = 3;
   if (sz_res) *sz_res = 1;
   if (sz_iw) *sz_iw = 0;
@@ -334,7 +334,7 @@ CASADI_SYMBOL_EXPORT int q_fixed_work(casadi_int *sz_arg, casadi_int* sz_res, ca
   return 0;
 }
 
-CASADI_SYMBOL_EXPORT int q_fixed_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+CASADI_SYMBOL_EXPORT int vsw_ile_q_fixed_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
   if (sz_arg) *sz_arg = 3*sizeof(const casadi_real*);
   if (sz_res) *sz_res = 1*sizeof(casadi_real*);
   if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
@@ -342,7 +342,7 @@ CASADI_SYMBOL_EXPORT int q_fixed_work_bytes(casadi_int *sz_arg, casadi_int* sz_r
   return 0;
 }
 
-/* eigenvalue:(beta,phi0)->(eigenvalue) */
+/* vsw_ile_eigenvalue:(beta,phi0)->(eigenvalue) */
 static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1;
   a0=arg[0]? arg[0][0] : 0;
@@ -355,34 +355,34 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   return 0;
 }
 
-CASADI_SYMBOL_EXPORT int eigenvalue(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+CASADI_SYMBOL_EXPORT int vsw_ile_eigenvalue(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
   return casadi_f2(arg, res, iw, w, mem);
 }
 
-CASADI_SYMBOL_EXPORT int eigenvalue_checkout(void) {
+CASADI_SYMBOL_EXPORT int vsw_ile_eigenvalue_checkout(void) {
   return 0;
 }
 
-CASADI_SYMBOL_EXPORT void eigenvalue_release(int mem) {
+CASADI_SYMBOL_EXPORT void vsw_ile_eigenvalue_release(int mem) {
 }
 
-CASADI_SYMBOL_EXPORT void eigenvalue_incref(void) {
+CASADI_SYMBOL_EXPORT void vsw_ile_eigenvalue_incref(void) {
 }
 
-CASADI_SYMBOL_EXPORT void eigenvalue_decref(void) {
+CASADI_SYMBOL_EXPORT void vsw_ile_eigenvalue_decref(void) {
 }
 
-CASADI_SYMBOL_EXPORT casadi_int eigenvalue_n_in(void) { return 2;}
+CASADI_SYMBOL_EXPORT casadi_int vsw_ile_eigenvalue_n_in(void) { return 2;}
 
-CASADI_SYMBOL_EXPORT casadi_int eigenvalue_n_out(void) { return 1;}
+CASADI_SYMBOL_EXPORT casadi_int vsw_ile_eigenvalue_n_out(void) { return 1;}
 
-CASADI_SYMBOL_EXPORT casadi_real eigenvalue_default_in(casadi_int i) {
+CASADI_SYMBOL_EXPORT casadi_real vsw_ile_eigenvalue_default_in(casadi_int i) {
   switch (i) {
     default: return 0;
   }
 }
 
-CASADI_SYMBOL_EXPORT const char* eigenvalue_name_in(casadi_int i) {
+CASADI_SYMBOL_EXPORT const char* vsw_ile_eigenvalue_name_in(casadi_int i) {
   switch (i) {
     case 0: return "beta";
     case 1: return "phi0";
@@ -390,14 +390,14 @@ CASADI_SYMBOL_EXPORT const char* eigenvalue_name_in(casadi_int i) {
   }
 }
 
-CASADI_SYMBOL_EXPORT const char* eigenvalue_name_out(casadi_int i) {
+CASADI_SYMBOL_EXPORT const char* vsw_ile_eigenvalue_name_out(casadi_int i) {
   switch (i) {
     case 0: return "eigenvalue";
     default: return 0;
   }
 }
 
-CASADI_SYMBOL_EXPORT const casadi_int* eigenvalue_sparsity_in(casadi_int i) {
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_eigenvalue_sparsity_in(casadi_int i) {
   switch (i) {
     case 0: return casadi_s0;
     case 1: return casadi_s0;
@@ -405,14 +405,14 @@ CASADI_SYMBOL_EXPORT const casadi_int* eigenvalue_sparsity_in(casadi_int i) {
   }
 }
 
-CASADI_SYMBOL_EXPORT const casadi_int* eigenvalue_sparsity_out(casadi_int i) {
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_eigenvalue_sparsity_out(casadi_int i) {
   switch (i) {
     case 0: return casadi_s0;
     default: return 0;
   }
 }
 
-CASADI_SYMBOL_EXPORT int eigenvalue_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+CASADI_SYMBOL_EXPORT int vsw_ile_eigenvalue_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
   if (sz_arg) *sz_arg = 2;
   if (sz_res) *sz_res = 1;
   if (sz_iw) *sz_iw = 0;
@@ -420,7 +420,7 @@ CASADI_SYMBOL_EXPORT int eigenvalue_work(casadi_int *sz_arg, casadi_int* sz_res,
   return 0;
 }
 
-CASADI_SYMBOL_EXPORT int eigenvalue_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+CASADI_SYMBOL_EXPORT int vsw_ile_eigenvalue_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
   if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
   if (sz_res) *sz_res = 1*sizeof(casadi_real*);
   if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
@@ -428,7 +428,7 @@ CASADI_SYMBOL_EXPORT int eigenvalue_work_bytes(casadi_int *sz_arg, casadi_int* s
   return 0;
 }
 
-/* step_metrics:(beta,theta_II,phi0)->(step_metrics[4]) */
+/* vsw_ile_step_metrics:(beta,theta_II,phi0)->(step_metrics[4]) */
 static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
@@ -2056,34 +2056,34 @@ static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   return 0;
 }
 
-CASADI_SYMBOL_EXPORT int step_metrics(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+CASADI_SYMBOL_EXPORT int vsw_ile_step_metrics(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
   return casadi_f3(arg, res, iw, w, mem);
 }
 
-CASADI_SYMBOL_EXPORT int step_metrics_checkout(void) {
+CASADI_SYMBOL_EXPORT int vsw_ile_step_metrics_checkout(void) {
   return 0;
 }
 
-CASADI_SYMBOL_EXPORT void step_metrics_release(int mem) {
+CASADI_SYMBOL_EXPORT void vsw_ile_step_metrics_release(int mem) {
 }
 
-CASADI_SYMBOL_EXPORT void step_metrics_incref(void) {
+CASADI_SYMBOL_EXPORT void vsw_ile_step_metrics_incref(void) {
 }
 
-CASADI_SYMBOL_EXPORT void step_metrics_decref(void) {
+CASADI_SYMBOL_EXPORT void vsw_ile_step_metrics_decref(void) {
 }
 
-CASADI_SYMBOL_EXPORT casadi_int step_metrics_n_in(void) { return 3;}
+CASADI_SYMBOL_EXPORT casadi_int vsw_ile_step_metrics_n_in(void) { return 3;}
 
-CASADI_SYMBOL_EXPORT casadi_int step_metrics_n_out(void) { return 1;}
+CASADI_SYMBOL_EXPORT casadi_int vsw_ile_step_metrics_n_out(void) { return 1;}
 
-CASADI_SYMBOL_EXPORT casadi_real step_metrics_default_in(casadi_int i) {
+CASADI_SYMBOL_EXPORT casadi_real vsw_ile_step_metrics_default_in(casadi_int i) {
   switch (i) {
     default: return 0;
   }
 }
 
-CASADI_SYMBOL_EXPORT const char* step_metrics_name_in(casadi_int i) {
+CASADI_SYMBOL_EXPORT const char* vsw_ile_step_metrics_name_in(casadi_int i) {
   switch (i) {
     case 0: return "beta";
     case 1: return "theta_II";
@@ -2092,14 +2092,14 @@ CASADI_SYMBOL_EXPORT const char* step_metrics_name_in(casadi_int i) {
   }
 }
 
-CASADI_SYMBOL_EXPORT const char* step_metrics_name_out(casadi_int i) {
+CASADI_SYMBOL_EXPORT const char* vsw_ile_step_metrics_name_out(casadi_int i) {
   switch (i) {
     case 0: return "step_metrics";
     default: return 0;
   }
 }
 
-CASADI_SYMBOL_EXPORT const casadi_int* step_metrics_sparsity_in(casadi_int i) {
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_step_metrics_sparsity_in(casadi_int i) {
   switch (i) {
     case 0: return casadi_s0;
     case 1: return casadi_s0;
@@ -2108,14 +2108,14 @@ CASADI_SYMBOL_EXPORT const casadi_int* step_metrics_sparsity_in(casadi_int i) {
   }
 }
 
-CASADI_SYMBOL_EXPORT const casadi_int* step_metrics_sparsity_out(casadi_int i) {
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_step_metrics_sparsity_out(casadi_int i) {
   switch (i) {
     case 0: return casadi_s1;
     default: return 0;
   }
 }
 
-CASADI_SYMBOL_EXPORT int step_metrics_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+CASADI_SYMBOL_EXPORT int vsw_ile_step_metrics_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
   if (sz_arg) *sz_arg = 3;
   if (sz_res) *sz_res = 1;
   if (sz_iw) *sz_iw = 0;
@@ -2123,7 +2123,7 @@ CASADI_SYMBOL_EXPORT int step_metrics_work(casadi_int *sz_arg, casadi_int* sz_re
   return 0;
 }
 
-CASADI_SYMBOL_EXPORT int step_metrics_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+CASADI_SYMBOL_EXPORT int vsw_ile_step_metrics_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
   if (sz_arg) *sz_arg = 3*sizeof(const casadi_real*);
   if (sz_res) *sz_res = 1*sizeof(casadi_real*);
   if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
@@ -2131,7 +2131,7 @@ CASADI_SYMBOL_EXPORT int step_metrics_work_bytes(casadi_int *sz_arg, casadi_int*
   return 0;
 }
 
-/* condition_margins:(beta,theta_II,phi0)->(condition_margins[9]) */
+/* vsw_ile_condition_margins:(beta,theta_II,phi0)->(condition_margins[9]) */
 static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20;
@@ -2287,34 +2287,34 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   return 0;
 }
 
-CASADI_SYMBOL_EXPORT int condition_margins(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+CASADI_SYMBOL_EXPORT int vsw_ile_condition_margins(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
   return casadi_f4(arg, res, iw, w, mem);
 }
 
-CASADI_SYMBOL_EXPORT int condition_margins_checkout(void) {
+CASADI_SYMBOL_EXPORT int vsw_ile_condition_margins_checkout(void) {
   return 0;
 }
 
-CASADI_SYMBOL_EXPORT void condition_margins_release(int mem) {
+CASADI_SYMBOL_EXPORT void vsw_ile_condition_margins_release(int mem) {
 }
 
-CASADI_SYMBOL_EXPORT void condition_margins_incref(void) {
+CASADI_SYMBOL_EXPORT void vsw_ile_condition_margins_incref(void) {
 }
 
-CASADI_SYMBOL_EXPORT void condition_margins_decref(void) {
+CASADI_SYMBOL_EXPORT void vsw_ile_condition_margins_decref(void) {
 }
 
-CASADI_SYMBOL_EXPORT casadi_int condition_margins_n_in(void) { return 3;}
+CASADI_SYMBOL_EXPORT casadi_int vsw_ile_condition_margins_n_in(void) { return 3;}
 
-CASADI_SYMBOL_EXPORT casadi_int condition_margins_n_out(void) { return 1;}
+CASADI_SYMBOL_EXPORT casadi_int vsw_ile_condition_margins_n_out(void) { return 1;}
 
-CASADI_SYMBOL_EXPORT casadi_real condition_margins_default_in(casadi_int i) {
+CASADI_SYMBOL_EXPORT casadi_real vsw_ile_condition_margins_default_in(casadi_int i) {
   switch (i) {
     default: return 0;
   }
 }
 
-CASADI_SYMBOL_EXPORT const char* condition_margins_name_in(casadi_int i) {
+CASADI_SYMBOL_EXPORT const char* vsw_ile_condition_margins_name_in(casadi_int i) {
   switch (i) {
     case 0: return "beta";
     case 1: return "theta_II";
@@ -2323,14 +2323,14 @@ CASADI_SYMBOL_EXPORT const char* condition_margins_name_in(casadi_int i) {
   }
 }
 
-CASADI_SYMBOL_EXPORT const char* condition_margins_name_out(casadi_int i) {
+CASADI_SYMBOL_EXPORT const char* vsw_ile_condition_margins_name_out(casadi_int i) {
   switch (i) {
     case 0: return "condition_margins";
     default: return 0;
   }
 }
 
-CASADI_SYMBOL_EXPORT const casadi_int* condition_margins_sparsity_in(casadi_int i) {
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_condition_margins_sparsity_in(casadi_int i) {
   switch (i) {
     case 0: return casadi_s0;
     case 1: return casadi_s0;
@@ -2339,14 +2339,14 @@ CASADI_SYMBOL_EXPORT const casadi_int* condition_margins_sparsity_in(casadi_int 
   }
 }
 
-CASADI_SYMBOL_EXPORT const casadi_int* condition_margins_sparsity_out(casadi_int i) {
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_condition_margins_sparsity_out(casadi_int i) {
   switch (i) {
     case 0: return casadi_s2;
     default: return 0;
   }
 }
 
-CASADI_SYMBOL_EXPORT int condition_margins_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+CASADI_SYMBOL_EXPORT int vsw_ile_condition_margins_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
   if (sz_arg) *sz_arg = 3;
   if (sz_res) *sz_res = 1;
   if (sz_iw) *sz_iw = 0;
@@ -2354,7 +2354,7 @@ CASADI_SYMBOL_EXPORT int condition_margins_work(casadi_int *sz_arg, casadi_int* 
   return 0;
 }
 
-CASADI_SYMBOL_EXPORT int condition_margins_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+CASADI_SYMBOL_EXPORT int vsw_ile_condition_margins_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
   if (sz_arg) *sz_arg = 3*sizeof(const casadi_real*);
   if (sz_res) *sz_res = 1*sizeof(casadi_real*);
   if (sz_iw) *sz_iw = 0*sizeof(casadi_int);

@@ -29,96 +29,96 @@ extern "C" {
 #define casadi_int long long int
 #endif
 
-int stride_map(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
-int stride_map_checkout(void);
-void stride_map_release(int mem);
-void stride_map_incref(void);
-void stride_map_decref(void);
-casadi_int stride_map_n_in(void);
-casadi_int stride_map_n_out(void);
-casadi_real stride_map_default_in(casadi_int i);
-const char* stride_map_name_in(casadi_int i);
-const char* stride_map_name_out(casadi_int i);
-const casadi_int* stride_map_sparsity_in(casadi_int i);
-const casadi_int* stride_map_sparsity_out(casadi_int i);
-int stride_map_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-int stride_map_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-#define stride_map_SZ_ARG 4
-#define stride_map_SZ_RES 1
-#define stride_map_SZ_IW 0
-#define stride_map_SZ_W 0
-int q_fixed(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
-int q_fixed_checkout(void);
-void q_fixed_release(int mem);
-void q_fixed_incref(void);
-void q_fixed_decref(void);
-casadi_int q_fixed_n_in(void);
-casadi_int q_fixed_n_out(void);
-casadi_real q_fixed_default_in(casadi_int i);
-const char* q_fixed_name_in(casadi_int i);
-const char* q_fixed_name_out(casadi_int i);
-const casadi_int* q_fixed_sparsity_in(casadi_int i);
-const casadi_int* q_fixed_sparsity_out(casadi_int i);
-int q_fixed_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-int q_fixed_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-#define q_fixed_SZ_ARG 3
-#define q_fixed_SZ_RES 1
-#define q_fixed_SZ_IW 0
-#define q_fixed_SZ_W 0
-int eigenvalue(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
-int eigenvalue_checkout(void);
-void eigenvalue_release(int mem);
-void eigenvalue_incref(void);
-void eigenvalue_decref(void);
-casadi_int eigenvalue_n_in(void);
-casadi_int eigenvalue_n_out(void);
-casadi_real eigenvalue_default_in(casadi_int i);
-const char* eigenvalue_name_in(casadi_int i);
-const char* eigenvalue_name_out(casadi_int i);
-const casadi_int* eigenvalue_sparsity_in(casadi_int i);
-const casadi_int* eigenvalue_sparsity_out(casadi_int i);
-int eigenvalue_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-int eigenvalue_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-#define eigenvalue_SZ_ARG 2
-#define eigenvalue_SZ_RES 1
-#define eigenvalue_SZ_IW 0
-#define eigenvalue_SZ_W 0
-int step_metrics(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
-int step_metrics_checkout(void);
-void step_metrics_release(int mem);
-void step_metrics_incref(void);
-void step_metrics_decref(void);
-casadi_int step_metrics_n_in(void);
-casadi_int step_metrics_n_out(void);
-casadi_real step_metrics_default_in(casadi_int i);
-const char* step_metrics_name_in(casadi_int i);
-const char* step_metrics_name_out(casadi_int i);
-const casadi_int* step_metrics_sparsity_in(casadi_int i);
-const casadi_int* step_metrics_sparsity_out(casadi_int i);
-int step_metrics_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-int step_metrics_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-#define step_metrics_SZ_ARG 3
-#define step_metrics_SZ_RES 1
-#define step_metrics_SZ_IW 0
-#define step_metrics_SZ_W 0
-int condition_margins(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
-int condition_margins_checkout(void);
-void condition_margins_release(int mem);
-void condition_margins_incref(void);
-void condition_margins_decref(void);
-casadi_int condition_margins_n_in(void);
-casadi_int condition_margins_n_out(void);
-casadi_real condition_margins_default_in(casadi_int i);
-const char* condition_margins_name_in(casadi_int i);
-const char* condition_margins_name_out(casadi_int i);
-const casadi_int* condition_margins_sparsity_in(casadi_int i);
-const casadi_int* condition_margins_sparsity_out(casadi_int i);
-int condition_margins_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-int condition_margins_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-#define condition_margins_SZ_ARG 3
-#define condition_margins_SZ_RES 1
-#define condition_margins_SZ_IW 0
-#define condition_margins_SZ_W 0
+int vsw_ile_stride_map(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int vsw_ile_stride_map_checkout(void);
+void vsw_ile_stride_map_release(int mem);
+void vsw_ile_stride_map_incref(void);
+void vsw_ile_stride_map_decref(void);
+casadi_int vsw_ile_stride_map_n_in(void);
+casadi_int vsw_ile_stride_map_n_out(void);
+casadi_real vsw_ile_stride_map_default_in(casadi_int i);
+const char* vsw_ile_stride_map_name_in(casadi_int i);
+const char* vsw_ile_stride_map_name_out(casadi_int i);
+const casadi_int* vsw_ile_stride_map_sparsity_in(casadi_int i);
+const casadi_int* vsw_ile_stride_map_sparsity_out(casadi_int i);
+int vsw_ile_stride_map_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int vsw_ile_stride_map_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define vsw_ile_stride_map_SZ_ARG 4
+#define vsw_ile_stride_map_SZ_RES 1
+#define vsw_ile_stride_map_SZ_IW 0
+#define vsw_ile_stride_map_SZ_W 0
+int vsw_ile_q_fixed(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int vsw_ile_q_fixed_checkout(void);
+void vsw_ile_q_fixed_release(int mem);
+void vsw_ile_q_fixed_incref(void);
+void vsw_ile_q_fixed_decref(void);
+casadi_int vsw_ile_q_fixed_n_in(void);
+casadi_int vsw_ile_q_fixed_n_out(void);
+casadi_real vsw_ile_q_fixed_default_in(casadi_int i);
+const char* vsw_ile_q_fixed_name_in(casadi_int i);
+const char* vsw_ile_q_fixed_name_out(casadi_int i);
+const casadi_int* vsw_ile_q_fixed_sparsity_in(casadi_int i);
+const casadi_int* vsw_ile_q_fixed_sparsity_out(casadi_int i);
+int vsw_ile_q_fixed_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int vsw_ile_q_fixed_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define vsw_ile_q_fixed_SZ_ARG 3
+#define vsw_ile_q_fixed_SZ_RES 1
+#define vsw_ile_q_fixed_SZ_IW 0
+#define vsw_ile_q_fixed_SZ_W 0
+int vsw_ile_eigenvalue(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int vsw_ile_eigenvalue_checkout(void);
+void vsw_ile_eigenvalue_release(int mem);
+void vsw_ile_eigenvalue_incref(void);
+void vsw_ile_eigenvalue_decref(void);
+casadi_int vsw_ile_eigenvalue_n_in(void);
+casadi_int vsw_ile_eigenvalue_n_out(void);
+casadi_real vsw_ile_eigenvalue_default_in(casadi_int i);
+const char* vsw_ile_eigenvalue_name_in(casadi_int i);
+const char* vsw_ile_eigenvalue_name_out(casadi_int i);
+const casadi_int* vsw_ile_eigenvalue_sparsity_in(casadi_int i);
+const casadi_int* vsw_ile_eigenvalue_sparsity_out(casadi_int i);
+int vsw_ile_eigenvalue_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int vsw_ile_eigenvalue_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define vsw_ile_eigenvalue_SZ_ARG 2
+#define vsw_ile_eigenvalue_SZ_RES 1
+#define vsw_ile_eigenvalue_SZ_IW 0
+#define vsw_ile_eigenvalue_SZ_W 0
+int vsw_ile_step_metrics(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int vsw_ile_step_metrics_checkout(void);
+void vsw_ile_step_metrics_release(int mem);
+void vsw_ile_step_metrics_incref(void);
+void vsw_ile_step_metrics_decref(void);
+casadi_int vsw_ile_step_metrics_n_in(void);
+casadi_int vsw_ile_step_metrics_n_out(void);
+casadi_real vsw_ile_step_metrics_default_in(casadi_int i);
+const char* vsw_ile_step_metrics_name_in(casadi_int i);
+const char* vsw_ile_step_metrics_name_out(casadi_int i);
+const casadi_int* vsw_ile_step_metrics_sparsity_in(casadi_int i);
+const casadi_int* vsw_ile_step_metrics_sparsity_out(casadi_int i);
+int vsw_ile_step_metrics_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int vsw_ile_step_metrics_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define vsw_ile_step_metrics_SZ_ARG 3
+#define vsw_ile_step_metrics_SZ_RES 1
+#define vsw_ile_step_metrics_SZ_IW 0
+#define vsw_ile_step_metrics_SZ_W 0
+int vsw_ile_condition_margins(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int vsw_ile_condition_margins_checkout(void);
+void vsw_ile_condition_margins_release(int mem);
+void vsw_ile_condition_margins_incref(void);
+void vsw_ile_condition_margins_decref(void);
+casadi_int vsw_ile_condition_margins_n_in(void);
+casadi_int vsw_ile_condition_margins_n_out(void);
+casadi_real vsw_ile_condition_margins_default_in(casadi_int i);
+const char* vsw_ile_condition_margins_name_in(casadi_int i);
+const char* vsw_ile_condition_margins_name_out(casadi_int i);
+const casadi_int* vsw_ile_condition_margins_sparsity_in(casadi_int i);
+const casadi_int* vsw_ile_condition_margins_sparsity_out(casadi_int i);
+int vsw_ile_condition_margins_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int vsw_ile_condition_margins_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define vsw_ile_condition_margins_SZ_ARG 3
+#define vsw_ile_condition_margins_SZ_RES 1
+#define vsw_ile_condition_margins_SZ_IW 0
+#define vsw_ile_condition_margins_SZ_W 0
 void vsw_ile__casadi_version(int* major, int* minor, int* patch);
 int vsw_ile__casadi_int_size(void);
 int vsw_ile__casadi_real_size(void);

@@ -1,0 +1,121 @@
+"""Generated numpy, CasADi and compiled C agree; the runtime imports no sympy."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+import pytest
+
+import generated.ile as ile
+from tests.conftest import random_valid_parameters, random_walking_parameters
+
+ROOT = Path(__file__).resolve().parent.parent
+REL_TOL = 1e-12
+
+
+def rel_err(a, b):
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return np.max(np.abs(a - b) / np.maximum(np.abs(b), 1e-300))
+
+
+def casadi_eval(fn, *args):
+    """Evaluate a generated function on SX symbols, then numerically through ca.Function."""
+    symbols = [ca.SX.sym(f"a{i}") for i in range(len(args))]
+    out = fn(*symbols)
+    outs = list(out) if isinstance(out, tuple) else [out]
+    f = ca.Function("f", symbols, [ca.vertcat(*outs)])
+    return np.array(f(*[float(a) for a in args])).ravel()
+
+
+SCALAR_CASES = [
+    ("q_fixed", lambda p: (p["beta"], p["theta_II"], p["phi0"])),
+    ("eigenvalue", lambda p: (p["beta"], p["phi0"])),
+    ("stride_map", lambda p: (p["beta"], p["theta_II"], p["phi0"], 0.37)),
+    ("q_apex_min", lambda p: (p["beta"], p["theta_II"], p["phi0"])),
+    ("q_liftoff_max", lambda p: (p["beta"], p["theta_II"], p["phi0"])),
+    ("contact_margin", lambda p: (p["beta"], p["theta_II"], p["phi0"], 0.4)),
+    ("phase_durations", lambda p: (p["beta"], p["theta_II"], p["phi0"], ile.q_fixed(p["beta"], p["theta_II"], p["phi0"]))),
+    ("condition_margins", lambda p: (p["beta"], p["theta_II"], p["phi0"])),
+    ("energy_complement", lambda p: (p["beta"], p["theta_II"], p["phi0"], 0.4, 0.78, 9.81, 0.25)),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("name,make_args", SCALAR_CASES, ids=[c[0] for c in SCALAR_CASES])
+def test_numpy_and_casadi_agree(name, make_args):
+    draws = random_walking_parameters(25, seed=7)
+    fn = getattr(ile, name)
+    for i in range(25):
+        p = {k: float(v[i]) for k, v in draws.items()}
+        args = make_args(p)
+        numpy_out = np.atleast_1d(np.array(fn(*args), dtype=float)).ravel()
+        assert rel_err(casadi_eval(fn, *args), numpy_out) <= REL_TOL
+
+
+def test_numpy_broadcasts_over_parameter_arrays():
+    draws = random_valid_parameters(1000, seed=3)
+    beta, theta_II, phi0 = draws["beta"], draws["theta_II"], draws["phi0"]
+    vector = ile.q_fixed(beta, theta_II, phi0)
+    assert vector.shape == (1000,)
+    loop = np.array([ile.q_fixed(b, t, p) for b, t, p in zip(beta[:50], theta_II[:50], phi0[:50])])
+    np.testing.assert_allclose(vector[:50], loop, rtol=1e-14)
+    grid = ile.q_fixed(beta[:7, None], theta_II[None, :5], 0.8)
+    assert grid.shape == (7, 5)
+
+
+@pytest.fixture(scope="module")
+def c_library(tmp_path_factory):
+    if shutil.which("cc") is None and shutil.which("gcc") is None:
+        pytest.skip("no C compiler")
+    from vsw.ccode import CLibrary
+
+    return CLibrary.build(tmp_path_factory.mktemp("c"))
+
+
+def test_compiled_c_agrees_with_numpy(c_library):
+    draws = random_walking_parameters(200, seed=11)
+    b, t, p = draws["beta"], draws["theta_II"], draws["phi0"]
+    qf = ile.q_fixed(b, t, p)
+    durations = ile.phase_durations(b, t, p, qf)
+    length = ile.step_length(b, p)
+    period = durations[0] + durations[1]
+    margins = np.array(np.broadcast_arrays(*ile.condition_margins(b, t, p)))
+    for i in range(len(b)):
+        args = (b[i], t[i], p[i])
+        assert rel_err(c_library.call("q_fixed", *args), qf[i]) <= REL_TOL
+        assert rel_err(c_library.call("eigenvalue", b[i], p[i]), ile.eigenvalue(b[i], p[i])) <= REL_TOL
+        assert rel_err(c_library.call("stride_map", *args, 0.3), ile.stride_map(*args, 0.3)) <= REL_TOL
+        metrics = c_library.call("step_metrics", *args)
+        expected = [length[i], period[i], length[i] / period[i], ile.contact_margin(*args, qf[i])]
+        assert rel_err(metrics, expected) <= REL_TOL
+        assert rel_err(c_library.call("condition_margins", *args), margins[:, i]) <= REL_TOL
+
+
+def test_c_source_is_self_contained_c99(tmp_path):
+    if shutil.which("cc") is None:
+        pytest.skip("no C compiler")
+    obj = tmp_path / "ile.o"
+    done = subprocess.run(
+        ["cc", "-std=c99", "-pedantic", "-Wall", "-Werror", "-Wno-unused-parameter", "-c",
+         str(ROOT / "generated" / "c" / "ile.c"), "-o", str(obj)],
+        capture_output=True, text=True,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+
+
+def test_runtime_never_imports_sympy():
+    code = (
+        "import sys, importlib, pkgutil\n"
+        "sys.modules['sympy'] = None  # any import of sympy now raises ImportError\n"
+        "import vsw, generated.ile as ile\n"
+        "for m in pkgutil.walk_packages(vsw.__path__, 'vsw.'):\n"
+        "    importlib.import_module(m.name)\n"
+        "print(ile.q_fixed(0.8, 0.0, 0.7853981633974483))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert abs(float(done.stdout) - 0.465196423021) < 1e-9

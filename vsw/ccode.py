@@ -1,0 +1,103 @@
+"""Compile and call the generated C99 code (``generated/c/ile.c``) through ctypes.
+
+Used by the tests (C against numpy against CasADi) and the benchmarks. A robot controller
+would instead compile ``ile.c`` into its own firmware; the functions follow CasADi's C
+calling convention (see ``ile.h``).
+
+Examples
+--------
+>>> lib = CLibrary.build()                                  # doctest: +SKIP
+>>> lib.call("q_fixed", 0.8, 0.0, 0.7853981633974483)      # doctest: +SKIP
+array([0.46519642])
+"""
+
+from __future__ import annotations
+
+import ctypes
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from vsw.errors import VswInputError
+
+SOURCE_DIR = Path(__file__).resolve().parent.parent / "generated" / "c"
+PREFIX = "vsw_ile_"
+
+_int = ctypes.c_longlong
+_real = ctypes.c_double
+
+
+class CLibrary:
+    """A compiled copy of the generated C code, loaded with ctypes."""
+
+    def __init__(self, path: Path):
+        self.path = Path(path)
+        self._lib = ctypes.CDLL(str(self.path))
+        self._functions: dict[str, tuple] = {}
+
+    @classmethod
+    def build(cls, build_dir: Path | None = None, compiler: str | None = None) -> CLibrary:
+        """Compile ``generated/c/ile.c`` with the system C compiler (C99, -O2, warnings as errors).
+
+        Raises
+        ------
+        VswInputError
+            If no C compiler is found or the compilation fails.
+        """
+        cc = compiler or shutil.which("cc") or shutil.which("gcc")
+        if cc is None:
+            raise VswInputError("no C compiler found (cc or gcc) to build generated/c/ile.c")
+        out_dir = Path(build_dir or tempfile.mkdtemp(prefix="vsw_c_"))
+        out_dir.mkdir(parents=True, exist_ok=True)
+        library = out_dir / "libvsw_ile.so"
+        command = [
+            cc, "-std=c99", "-O2", "-fPIC", "-shared", "-Wall", "-Wextra", "-Werror",
+            "-Wno-unused-parameter", "-o", str(library), str(SOURCE_DIR / "ile.c"), "-lm",
+        ]  # fmt: skip
+        done = subprocess.run(command, capture_output=True, text=True)
+        if done.returncode != 0:
+            first = (done.stderr.strip().splitlines() or ["unknown error"])[0]
+            raise VswInputError(f"compiling generated/c/ile.c failed: {first}")
+        return cls(library)
+
+    def _function(self, name: str):
+        if name not in self._functions:
+            full = PREFIX + name
+            fn = getattr(self._lib, full)
+            fn.restype = ctypes.c_int
+            work = getattr(self._lib, full + "_work")
+            sizes = [_int() for _ in range(4)]
+            work(*[ctypes.byref(s) for s in sizes])
+            n_in = getattr(self._lib, full + "_n_in")
+            n_in.restype = _int
+            sparsity_out = getattr(self._lib, full + "_sparsity_out")
+            sparsity_out.restype = ctypes.POINTER(_int)
+            n_out = sparsity_out(0)[0]  # dense column vector: (rows, cols, ...)
+            self._functions[name] = (fn, [s.value for s in sizes], int(n_in()), int(n_out))
+        return self._functions[name]
+
+    def call(self, name: str, *args: float) -> np.ndarray:
+        """Evaluate generated C function ``vsw_ile_<name>`` at scalar arguments.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n_out,)
+        """
+        fn, (sz_arg, sz_res, sz_iw, sz_w), n_in, n_out = self._function(name)
+        if len(args) != n_in:
+            raise VswInputError(f"{PREFIX}{name} takes {n_in} arguments, got {len(args)}")
+        inputs = [_real(float(a)) for a in args]
+        output = (_real * n_out)()
+        arg = (ctypes.POINTER(_real) * max(sz_arg, n_in))(
+            *[ctypes.pointer(x) for x in inputs]
+        )
+        res = (ctypes.POINTER(_real) * max(sz_res, 1))(ctypes.cast(output, ctypes.POINTER(_real)))
+        iw = (_int * max(sz_iw, 1))()
+        w = (_real * max(sz_w, 1))()
+        status = fn(arg, res, iw, w, 0)
+        if status != 0:
+            raise RuntimeError(f"{PREFIX}{name} returned status {status}")
+        return np.array(output[:], dtype=float)
