@@ -14,6 +14,7 @@ from __future__ import annotations
 import os
 import tempfile
 import types
+import typing
 from pathlib import Path
 
 import sympy as sm
@@ -39,7 +40,7 @@ def header(derivation_source: str, comment: str) -> str:
 class BackendPrinter(StrPrinter):
     """Prints sympy expressions as Python calling ``be.<op>`` for every non-arithmetic op."""
 
-    _default_settings = {**StrPrinter._default_settings, "order": "none"}
+    _default_settings: typing.ClassVar[dict] = {**StrPrinter._default_settings, "order": "none"}
 
     def _print_Function(self, expr):
         name = {carlson_rf: "_carlson_rf"}.get(type(expr))
@@ -109,15 +110,14 @@ class BackendPrinter(StrPrinter):
 
 def _docstring(qty: Quantity) -> str:
     eq = f" Eq. {qty.equation} of the paper." if qty.equation else " Beyond the paper."
-    params = "\n".join(
-        f"    {a.name} : array_like or casadi.SX/MX/DM" for a in qty.args
-    )
+    params = "\n".join(f"    {a.name} : array_like or casadi.SX/MX/DM" for a in qty.args)
     returns = qty.returns or qty.name
     shape = "tuple of arrays" if isinstance(qty.expr, tuple) else "array"
     return (
         f'    """{qty.summary}{eq}\n\n'
         f"    Parameters\n    ----------\n{params}\n"
-        f"        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).\n\n"
+        "        Arguments broadcast against each other (numpy) or are scalar CasADi\n"
+        "        expressions.\n\n"
         f"    Returns\n    -------\n    {shape}\n        {returns}\n"
         f'    """\n'
     )
@@ -289,10 +289,10 @@ def c_sources(derivation: Derivation, module: types.ModuleType) -> dict[str, str
 
     prefix = f"vsw_{derivation.model}_"
     functions = []
-    for name, arg_names, doc in C_FUNCTIONS:
+    for name, arg_names, _doc in C_FUNCTIONS:
         args = [ca.SX.sym(a) for a in arg_names]
         if name == "step_metrics":
-            beta_, theta_II_, phi0_ = args
+            beta_, _, phi0_ = args
             qf = module.q_fixed(*args)
             length = module.step_length(beta_, phi0_)
             t1, t2 = module.phase_durations(*args, qf)

@@ -144,4 +144,3 @@ class Derivation:
             raise ValueError(f"quantity {quantity.name!r} derived twice")
         self.quantities[quantity.name] = quantity
         return quantity
-

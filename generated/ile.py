@@ -53,7 +53,8 @@ def swing_acceleration(theta, leg_ratio):
     ----------
     theta : array_like or casadi.SX/MX/DM
     leg_ratio : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------
@@ -72,7 +73,8 @@ def phase_energy(theta, omega, leg_ratio):
     theta : array_like or casadi.SX/MX/DM
     omega : array_like or casadi.SX/MX/DM
     leg_ratio : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------
@@ -84,14 +86,15 @@ def phase_energy(theta, omega, leg_ratio):
 
 
 def normal_force(theta, omega, leg_ratio):
-    """Vertical ground force on the stance foot, in units of m g; the foot lifts off below 0. Beyond the paper.
+    """Vertical ground force on the stance foot, in units of m g; the foot lifts off below 0 Beyond the paper.
 
     Parameters
     ----------
     theta : array_like or casadi.SX/MX/DM
     omega : array_like or casadi.SX/MX/DM
     leg_ratio : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------
@@ -110,7 +113,8 @@ def extension_reset(beta, omega_II):
     ----------
     beta : array_like or casadi.SX/MX/DM
     omega_II : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------
@@ -129,7 +133,8 @@ def heelstrike_reset(beta, phi0, omega_IV):
     beta : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     omega_IV : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------
@@ -148,7 +153,8 @@ def swing_foot_height(beta, phi0, theta):
     beta : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------
@@ -166,7 +172,8 @@ def theta_I(beta, phi0):
     ----------
     beta : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------
@@ -184,7 +191,8 @@ def theta_IV(beta, phi0):
     ----------
     beta : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------
@@ -206,7 +214,8 @@ def stride_map(beta, theta_II, phi0, q):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     q : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------
@@ -231,7 +240,8 @@ def q_fixed(beta, theta_II, phi0):
     beta : array_like or casadi.SX/MX/DM
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------
@@ -255,7 +265,8 @@ def eigenvalue(beta, phi0):
     ----------
     beta : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------
@@ -275,7 +286,8 @@ def omega_II_squared(beta, theta_II, phi0, q):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     q : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------
@@ -296,7 +308,8 @@ def omega_IV_squared(beta, theta_II, phi0, q):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     q : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------
@@ -319,7 +332,8 @@ def q_apex_min(beta, theta_II, phi0):
     beta : array_like or casadi.SX/MX/DM
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------
@@ -347,7 +361,8 @@ def q_liftoff_max(beta, theta_II, phi0):
     beta : array_like or casadi.SX/MX/DM
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------
@@ -372,7 +387,8 @@ def contact_margin(beta, theta_II, phi0, q):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     q : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------
@@ -409,7 +425,8 @@ def energy_complement(beta, theta_II, phi0, q, m, g, r_e):
     m : array_like or casadi.SX/MX/DM
     g : array_like or casadi.SX/MX/DM
     r_e : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------
@@ -438,7 +455,8 @@ def energy_dissipated(beta, theta_II, phi0, q, m, g, r_e):
     m : array_like or casadi.SX/MX/DM
     g : array_like or casadi.SX/MX/DM
     r_e : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------
@@ -470,7 +488,8 @@ def energy_dissipated_post(beta, phi0, q_next, m, g, r_e):
     m : array_like or casadi.SX/MX/DM
     g : array_like or casadi.SX/MX/DM
     r_e : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------
@@ -494,7 +513,8 @@ def energy_change(beta, theta_II, phi0, q, m, g, r_e):
     m : array_like or casadi.SX/MX/DM
     g : array_like or casadi.SX/MX/DM
     r_e : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------
@@ -524,7 +544,8 @@ def energy_constant(beta, theta_II, phi0, m, g, r_e):
     m : array_like or casadi.SX/MX/DM
     g : array_like or casadi.SX/MX/DM
     r_e : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------
@@ -547,7 +568,8 @@ def step_length(beta, phi0):
     ----------
     beta : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------
@@ -567,7 +589,8 @@ def phase_durations(beta, theta_II, phi0, q):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     q : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------
@@ -640,7 +663,8 @@ def condition_margins(beta, theta_II, phi0):
     beta : array_like or casadi.SX/MX/DM
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar expressions (CasADi).
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
 
     Returns
     -------

@@ -1,4 +1,4 @@
-"""``python -m derive --check``: passes on a clean tree, fails on any drift; output deterministic."""
+"""``python -m derive --check`` passes on a clean tree, fails on drift; output is deterministic."""
 
 from __future__ import annotations
 
@@ -39,8 +39,9 @@ def test_check_fails_on_drift_and_prints_the_fix(tmp_path, rendered, capsys, dam
     assert main(["--check", "--out", str(out)]) == 1
     err = capsys.readouterr().err
     assert "python -m derive" in err
-    assert {"edit": "beta**3", "missing": "missing: generated/c/ile.h",
-            "extra": "hand_written.py"}[damage] in err
+    assert {"edit": "beta**3", "missing": "missing: generated/c/ile.h", "extra": "hand_written.py"}[
+        damage
+    ] in err
 
 
 def test_write_replaces_the_directory_exactly(tmp_path, rendered):

@@ -32,6 +32,10 @@ def casadi_eval(fn, *args):
     return np.array(f(*[float(a) for a in args])).ravel()
 
 
+def _params(p):
+    return p["beta"], p["theta_II"], p["phi0"]
+
+
 SCALAR_CASES = [
     ("q_fixed", lambda p: (p["beta"], p["theta_II"], p["phi0"])),
     ("eigenvalue", lambda p: (p["beta"], p["phi0"])),
@@ -39,7 +43,7 @@ SCALAR_CASES = [
     ("q_apex_min", lambda p: (p["beta"], p["theta_II"], p["phi0"])),
     ("q_liftoff_max", lambda p: (p["beta"], p["theta_II"], p["phi0"])),
     ("contact_margin", lambda p: (p["beta"], p["theta_II"], p["phi0"], 0.4)),
-    ("phase_durations", lambda p: (p["beta"], p["theta_II"], p["phi0"], ile.q_fixed(p["beta"], p["theta_II"], p["phi0"]))),
+    ("phase_durations", lambda p: (*_params(p), ile.q_fixed(*_params(p)))),
     ("condition_margins", lambda p: (p["beta"], p["theta_II"], p["phi0"])),
     ("energy_complement", lambda p: (p["beta"], p["theta_II"], p["phi0"], 0.4, 0.78, 9.81, 0.25)),
 ]  # fmt: skip
@@ -87,8 +91,12 @@ def test_compiled_c_agrees_with_numpy(c_library):
     for i in range(len(b)):
         args = (b[i], t[i], p[i])
         assert rel_err(c_library.call("q_fixed", *args), qf[i]) <= REL_TOL
-        assert rel_err(c_library.call("eigenvalue", b[i], p[i]), ile.eigenvalue(b[i], p[i])) <= REL_TOL
-        assert rel_err(c_library.call("stride_map", *args, 0.3), ile.stride_map(*args, 0.3)) <= REL_TOL
+        assert (
+            rel_err(c_library.call("eigenvalue", b[i], p[i]), ile.eigenvalue(b[i], p[i])) <= REL_TOL
+        )
+        assert (
+            rel_err(c_library.call("stride_map", *args, 0.3), ile.stride_map(*args, 0.3)) <= REL_TOL
+        )
         metrics = c_library.call("step_metrics", *args)
         expected = [length[i], period[i], length[i] / period[i], ile.contact_margin(*args, qf[i])]
         assert rel_err(metrics, expected) <= REL_TOL

@@ -91,9 +91,7 @@ class CLibrary:
             raise VswInputError(f"{PREFIX}{name} takes {n_in} arguments, got {len(args)}")
         inputs = [_real(float(a)) for a in args]
         output = (_real * n_out)()
-        arg = (ctypes.POINTER(_real) * max(sz_arg, n_in))(
-            *[ctypes.pointer(x) for x in inputs]
-        )
+        arg = (ctypes.POINTER(_real) * max(sz_arg, n_in))(*[ctypes.pointer(x) for x in inputs])
         res = (ctypes.POINTER(_real) * max(sz_res, 1))(ctypes.cast(output, ctypes.POINTER(_real)))
         iw = (_int * max(sz_iw, 1))()
         w = (_real * max(sz_w, 1))()

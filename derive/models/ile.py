@@ -116,7 +116,9 @@ def omega_squared_along(
 ) -> sm.Expr:
     """``omega**2`` at ``theta_to`` from the energy integral of a phase, eq. (7) steps."""
     w2 = _square_symbol("w2")
-    balance = phase_energy(theta_to, w2, ratio) - phase_energy(theta_from, omega_squared_from, ratio)
+    balance = phase_energy(theta_to, w2, ratio) - phase_energy(
+        theta_from, omega_squared_from, ratio
+    )
     return sm.expand(mechanics.solve_linear(balance, w2))
 
 
@@ -173,12 +175,12 @@ def heelstrike() -> dict[str, sm.Expr]:
     # theta_IV = theta_I + phi0; both closed forms share the normalisation sqrt(norm_squared).
     norm = sm.sqrt(norm_squared)
     on_theta_I = {sm.cos(theta_I): sin_coeff, sm.sin(theta_I): -cos_coeff}
-    cos_theta_IV_closed = mechanics.pythagorean_reduce(
-        sm.expand_trig(sm.cos(theta_I + phi0)).subs(on_theta_I)
-    ) / norm
-    sin_theta_IV_closed = mechanics.pythagorean_reduce(
-        sm.expand_trig(sm.sin(theta_I + phi0)).subs(on_theta_I)
-    ) / norm
+    cos_theta_IV_closed = (
+        mechanics.pythagorean_reduce(sm.expand_trig(sm.cos(theta_I + phi0)).subs(on_theta_I)) / norm
+    )
+    sin_theta_IV_closed = (
+        mechanics.pythagorean_reduce(sm.expand_trig(sm.sin(theta_I + phi0)).subs(on_theta_I)) / norm
+    )
 
     # Reset: angular momentum about the swing-foot contact point is conserved.
     w_before, w_after = sm.symbols("w_before w_after", real=True)
@@ -268,7 +270,10 @@ def energies() -> dict[str, sm.Expr]:
     # Eq. (18) writes the heelstrike loss through the state after the impact.
     dissipated_post = sm.expand(
         scale
-        * (phase_energy(theta_IV, w2, 1) - phase_energy(theta_I, heelstrike()["reset_ratio"] ** 2 * w2, beta)).subs(guard)
+        * (
+            phase_energy(theta_IV, w2, 1)
+            - phase_energy(theta_I, heelstrike()["reset_ratio"] ** 2 * w2, beta)
+        ).subs(guard)
     )
     omega_IV_sq_from_next = mechanics.solve_linear(
         sm.Eq(heelstrike()["reset_ratio"] ** 2 * w2, q_next), w2
@@ -383,7 +388,9 @@ def step_timing() -> dict[str, sm.Expr]:
     step_length = sm.sqrt(hs["step_length_squared"])
 
     def level(ratio, theta_at, omega_sq_at):
-        return eliminate_contact_angles(sm.expand(phase_energy(theta_at, omega_sq_at, ratio) / ratio))
+        return eliminate_contact_angles(
+            sm.expand(phase_energy(theta_at, omega_sq_at, ratio) / ratio)
+        )
 
     half_sin_II = sm.sin(theta_II / 2)
     end_I = (hs["sin_theta_I"], hs["cos_theta_I"], 1 - hs["cos_theta_I"])
@@ -419,146 +426,334 @@ def derive() -> Derivation:
         parameters=PARAMETERS,
     )
     P = (beta, theta_II, phi0)
-    d.add(Quantity(
-        "swing_acceleration", (theta, leg_ratio), phase["accel"],
-        "Angular acceleration d2theta/dtau2 of a swing phase of leg length leg_ratio * r_e.",
-        "(2), (4)", "d2theta/dtau2; leg_ratio = beta gives (2), leg_ratio = 1 gives (4)",
-    ))
-    d.add(Quantity(
-        "phase_energy", (theta, omega, leg_ratio), phase["energy"],
-        "Mechanical energy of a swing phase, in units of m g r_e (its first integral).",
-        None, "(kinetic + potential) / (m g r_e)",
-    ))
-    d.add(Quantity(
-        "normal_force", (theta, omega, leg_ratio), phase["normal_force"],
-        "Vertical ground force on the stance foot, in units of m g; the foot lifts off below 0.",
-        None, "N / (m g)",
-    ))
-    d.add(Quantity(
-        "extension_reset", (beta, omega_II), extension_reset() * omega_II,
-        "Angular velocity just after the instantaneous leg extension.", "(3)", "omega_III",
-    ))
-    d.add(Quantity(
-        "heelstrike_reset", (beta, phi0, omega_IV), hs["reset_ratio"] * omega_IV,
-        "Angular velocity of the new stance leg just after heelstrike.", "(6)", "omega_I(n+1)",
-    ))
-    d.add(Quantity(
-        "swing_foot_height", (beta, phi0, theta),
-        hs["guard"].subs(theta_IV, theta),
-        "Height of the shortened swing foot, in r_e, with the extended stance leg at theta.",
-        "(5)", "heelstrike guard; zero at theta = theta_IV",
-    ))
-    d.add(Quantity(
-        "theta_I", (beta, phi0), hs["theta_I"],
-        "Stance leg angle just after heelstrike.", "(11)", "theta_I in radians",
-    ))
-    d.add(Quantity(
-        "theta_IV", (beta, phi0), sm.atan2(hs["sin_theta_IV"], hs["cos_theta_IV"]),
-        "Stance leg angle at heelstrike.", "(5)", "theta_IV = theta_I + phi0 in radians",
-    ))
-    d.add(Quantity(
-        "stride_map", (*P, q), _paper_form(st["stride_map"]),
-        "Stride map f(q): q = omega_I**2 just after one heelstrike to just after the next.",
-        "(7), (9)", "q(n+1)",
-    ))
-    d.add(Quantity(
-        "q_fixed", P, _paper_form(st["q_fixed"]),
-        "Fixed point q^f of the stride map.", "(10)", "q^f",
-    ))
-    d.add(Quantity(
-        "eigenvalue", (beta, phi0), st["eigenvalue"],
-        "Eigenvalue df/dq of the stride map (constant: the map is linear in q).", "(19)", "lambda",
-    ))
-    d.add(Quantity(
-        "omega_II_squared", (*P, q), _paper_form(st["omega_II_squared"]),
-        "omega**2 just before the extension, from the energy integral of phase I-II.",
-        "(7)", "omega_II**2",
-    ))
-    d.add(Quantity(
-        "omega_IV_squared", (*P, q), _paper_form(st["omega_IV_squared"]),
-        "omega**2 just before heelstrike, from the energy integral of phase III-IV.",
-        "(7)", "omega_IV**2",
-    ))
-    d.add(Quantity(
-        "q_apex_min", P, ac["q_apex_exact"],
-        "Smallest q at instant I that carries the walker over the apex in both phases.",
-        "(14)", "exact form of (14); holds for either sign of theta_I and theta_II",
-    ))
-    d.add(Quantity(
-        "q_liftoff_max", P, ac["q_liftoff"],
-        "Largest q at instant I for which the stance foot stays on the ground all step.",
-        None, "q bound from N >= 0 (Fig. 9 right boundary)",
-    ))
-    d.add(Quantity(
-        "contact_margin", (*P, q), ac["contact_margin"],
-        "Minimum over the step of the ground normal force on the stance foot, in units of m g.",
-        None, "min N / (m g) over both phases",
-    ))
+    d.add(
+        Quantity(
+            "swing_acceleration",
+            (theta, leg_ratio),
+            phase["accel"],
+            "Angular acceleration d2theta/dtau2 of a swing phase of leg length leg_ratio * r_e.",
+            "(2), (4)",
+            "d2theta/dtau2; leg_ratio = beta gives (2), leg_ratio = 1 gives (4)",
+        )
+    )
+    d.add(
+        Quantity(
+            "phase_energy",
+            (theta, omega, leg_ratio),
+            phase["energy"],
+            "Mechanical energy of a swing phase, in units of m g r_e (its first integral).",
+            None,
+            "(kinetic + potential) / (m g r_e)",
+        )
+    )
+    d.add(
+        Quantity(
+            "normal_force",
+            (theta, omega, leg_ratio),
+            phase["normal_force"],
+            "Vertical ground force on the stance foot, in units of m g; the foot lifts off below 0",
+            None,
+            "N / (m g)",
+        )
+    )
+    d.add(
+        Quantity(
+            "extension_reset",
+            (beta, omega_II),
+            extension_reset() * omega_II,
+            "Angular velocity just after the instantaneous leg extension.",
+            "(3)",
+            "omega_III",
+        )
+    )
+    d.add(
+        Quantity(
+            "heelstrike_reset",
+            (beta, phi0, omega_IV),
+            hs["reset_ratio"] * omega_IV,
+            "Angular velocity of the new stance leg just after heelstrike.",
+            "(6)",
+            "omega_I(n+1)",
+        )
+    )
+    d.add(
+        Quantity(
+            "swing_foot_height",
+            (beta, phi0, theta),
+            hs["guard"].subs(theta_IV, theta),
+            "Height of the shortened swing foot, in r_e, with the extended stance leg at theta.",
+            "(5)",
+            "heelstrike guard; zero at theta = theta_IV",
+        )
+    )
+    d.add(
+        Quantity(
+            "theta_I",
+            (beta, phi0),
+            hs["theta_I"],
+            "Stance leg angle just after heelstrike.",
+            "(11)",
+            "theta_I in radians",
+        )
+    )
+    d.add(
+        Quantity(
+            "theta_IV",
+            (beta, phi0),
+            sm.atan2(hs["sin_theta_IV"], hs["cos_theta_IV"]),
+            "Stance leg angle at heelstrike.",
+            "(5)",
+            "theta_IV = theta_I + phi0 in radians",
+        )
+    )
+    d.add(
+        Quantity(
+            "stride_map",
+            (*P, q),
+            _paper_form(st["stride_map"]),
+            "Stride map f(q): q = omega_I**2 just after one heelstrike to just after the next.",
+            "(7), (9)",
+            "q(n+1)",
+        )
+    )
+    d.add(
+        Quantity(
+            "q_fixed",
+            P,
+            _paper_form(st["q_fixed"]),
+            "Fixed point q^f of the stride map.",
+            "(10)",
+            "q^f",
+        )
+    )
+    d.add(
+        Quantity(
+            "eigenvalue",
+            (beta, phi0),
+            st["eigenvalue"],
+            "Eigenvalue df/dq of the stride map (constant: the map is linear in q).",
+            "(19)",
+            "lambda",
+        )
+    )
+    d.add(
+        Quantity(
+            "omega_II_squared",
+            (*P, q),
+            _paper_form(st["omega_II_squared"]),
+            "omega**2 just before the extension, from the energy integral of phase I-II.",
+            "(7)",
+            "omega_II**2",
+        )
+    )
+    d.add(
+        Quantity(
+            "omega_IV_squared",
+            (*P, q),
+            _paper_form(st["omega_IV_squared"]),
+            "omega**2 just before heelstrike, from the energy integral of phase III-IV.",
+            "(7)",
+            "omega_IV**2",
+        )
+    )
+    d.add(
+        Quantity(
+            "q_apex_min",
+            P,
+            ac["q_apex_exact"],
+            "Smallest q at instant I that carries the walker over the apex in both phases.",
+            "(14)",
+            "exact form of (14); holds for either sign of theta_I and theta_II",
+        )
+    )
+    d.add(
+        Quantity(
+            "q_liftoff_max",
+            P,
+            ac["q_liftoff"],
+            "Largest q at instant I for which the stance foot stays on the ground all step.",
+            None,
+            "q bound from N >= 0 (Fig. 9 right boundary)",
+        )
+    )
+    d.add(
+        Quantity(
+            "contact_margin",
+            (*P, q),
+            ac["contact_margin"],
+            "Minimum over the step of the ground normal force on the stance foot, in units of m g.",
+            None,
+            "min N / (m g) over both phases",
+        )
+    )
     E = (*P, q, m, g, r_e)
-    d.add(Quantity(
-        "energy_complement", E, _paper_form(en["complement"]),
-        "Energy added by the leg extension (the actuator's work per step), E_c.", "(20)", "E_c",
-    ))
-    d.add(Quantity(
-        "energy_dissipated", E, _paper_form(en["dissipated"]),
-        "Energy lost at heelstrike, E_r, in terms of q of the same step.", "(21)", "E_r",
-    ))
-    d.add(Quantity(
-        "energy_dissipated_post", (beta, phi0, q_next, m, g, r_e), en["dissipated_post"],
-        "Energy lost at heelstrike in terms of q just after the impact.", "(18)", "E_r",
-    ))
-    d.add(Quantity(
-        "energy_change", E, _paper_form(en["change"]),
-        "Net change of mechanical energy over one step, E_c - E_r.", "(22), (23)", "E_Delta",
-    ))
-    d.add(Quantity(
-        "energy_constant", (*P, m, g, r_e), _paper_form(en["constant"]),
-        "The constant C of eq. (23): E_Delta at q = 0.", "(23)", "C",
-    ))
-    d.add(Quantity(
-        "step_length", (beta, phi0), tm["step_length"],
-        "Distance between successive footholds (and hip travel per step), in r_e.",
-        None, "step length / r_e",
-    ))
-    d.add(Quantity(
-        "phase_durations", (*P, q), (tm["duration_I_II"], tm["duration_III_IV"]),
-        "Durations of the swing phases I-II and III-IV in dimensionless time tau.",
-        None, "(tau_I_II, tau_III_IV)",
-    ))
+    d.add(
+        Quantity(
+            "energy_complement",
+            E,
+            _paper_form(en["complement"]),
+            "Energy added by the leg extension (the actuator's work per step), E_c.",
+            "(20)",
+            "E_c",
+        )
+    )
+    d.add(
+        Quantity(
+            "energy_dissipated",
+            E,
+            _paper_form(en["dissipated"]),
+            "Energy lost at heelstrike, E_r, in terms of q of the same step.",
+            "(21)",
+            "E_r",
+        )
+    )
+    d.add(
+        Quantity(
+            "energy_dissipated_post",
+            (beta, phi0, q_next, m, g, r_e),
+            en["dissipated_post"],
+            "Energy lost at heelstrike in terms of q just after the impact.",
+            "(18)",
+            "E_r",
+        )
+    )
+    d.add(
+        Quantity(
+            "energy_change",
+            E,
+            _paper_form(en["change"]),
+            "Net change of mechanical energy over one step, E_c - E_r.",
+            "(22), (23)",
+            "E_Delta",
+        )
+    )
+    d.add(
+        Quantity(
+            "energy_constant",
+            (*P, m, g, r_e),
+            _paper_form(en["constant"]),
+            "The constant C of eq. (23): E_Delta at q = 0.",
+            "(23)",
+            "C",
+        )
+    )
+    d.add(
+        Quantity(
+            "step_length",
+            (beta, phi0),
+            tm["step_length"],
+            "Distance between successive footholds (and hip travel per step), in r_e.",
+            None,
+            "step length / r_e",
+        )
+    )
+    d.add(
+        Quantity(
+            "phase_durations",
+            (*P, q),
+            (tm["duration_I_II"], tm["duration_III_IV"]),
+            "Durations of the swing phases I-II and III-IV in dimensionless time tau.",
+            None,
+            "(tau_I_II, tau_III_IV)",
+        )
+    )
 
     qf = d.quantities["q_fixed"].expr
     hsI = hs
     conditions = (
-        Condition("q_positive", "(12)", qf, True, "implied", True,
-                  "q = omega_I**2 must be positive at the fixed point"),
-        Condition("cos_ratio", "(13)",
-                  _paper_form(cos_ratio_margin()), True, "exact", False,
-                  "(12) rewritten with (10): the same condition"),
-        Condition("apex", "(14)", qf - ac["q_apex_exact"], True, "exact", True,
-                  "omega stays positive over the apex in both phases (no fall backward)"),
-        Condition("theta_I_negative", "(15)", beta - sm.cos(phi0), True, "framing", False,
-                  "theta_I < 0: the new stance foot lands ahead of the hip"),
-        Condition("phi0_below_right_angle", "(16)", sm.pi / 2 - phi0, True, "exact", True,
-                  "cos phi0 > 0, so omega_I > 0 after heelstrike"),
-        Condition("extension_before_symmetric_contact", "(17)", phi0 / 2 - theta_II, True,
-                  "conservative", False,
-                  "theta_II < phi0/2, where equal legs would touch down"),
-        Condition("extension_before_heelstrike", "(17) exact",
-                  sm.atan2(hsI["sin_theta_IV"], hsI["cos_theta_IV"]) - theta_II, True,
-                  "exact", True, "theta_II < theta_IV: the leg extends before heelstrike"),
-        Condition("extension_reached", None,
-                  theta_II - hsI["theta_I"], True, "missing", True,
-                  "theta_II > theta_I: the stance leg reaches the extension angle"),
-        Condition("stance_contact", None,
-                  ac["contact_margin"].subs(q, qf), False, "missing", True,
-                  "the ground normal force stays non-negative over the whole step"),
+        Condition(
+            "q_positive",
+            "(12)",
+            qf,
+            True,
+            "implied",
+            True,
+            "q = omega_I**2 must be positive at the fixed point",
+        ),
+        Condition(
+            "cos_ratio",
+            "(13)",
+            _paper_form(cos_ratio_margin()),
+            True,
+            "exact",
+            False,
+            "(12) rewritten with (10): the same condition",
+        ),
+        Condition(
+            "apex",
+            "(14)",
+            qf - ac["q_apex_exact"],
+            True,
+            "exact",
+            True,
+            "omega stays positive over the apex in both phases (no fall backward)",
+        ),
+        Condition(
+            "theta_I_negative",
+            "(15)",
+            beta - sm.cos(phi0),
+            True,
+            "framing",
+            False,
+            "theta_I < 0: the new stance foot lands ahead of the hip",
+        ),
+        Condition(
+            "phi0_below_right_angle",
+            "(16)",
+            sm.pi / 2 - phi0,
+            True,
+            "exact",
+            True,
+            "cos phi0 > 0, so omega_I > 0 after heelstrike",
+        ),
+        Condition(
+            "extension_before_symmetric_contact",
+            "(17)",
+            phi0 / 2 - theta_II,
+            True,
+            "conservative",
+            False,
+            "theta_II < phi0/2, where equal legs would touch down",
+        ),
+        Condition(
+            "extension_before_heelstrike",
+            "(17) exact",
+            sm.atan2(hsI["sin_theta_IV"], hsI["cos_theta_IV"]) - theta_II,
+            True,
+            "exact",
+            True,
+            "theta_II < theta_IV: the leg extends before heelstrike",
+        ),
+        Condition(
+            "extension_reached",
+            None,
+            theta_II - hsI["theta_I"],
+            True,
+            "missing",
+            True,
+            "theta_II > theta_I: the stance leg reaches the extension angle",
+        ),
+        Condition(
+            "stance_contact",
+            None,
+            ac["contact_margin"].subs(q, qf),
+            False,
+            "missing",
+            True,
+            "the ground normal force stays non-negative over the whole step",
+        ),
     )
     d.conditions = conditions
-    d.add(Quantity(
-        "condition_margins", P, tuple(c.margin for c in conditions),
-        "Margins of the existence conditions at the fixed point, in the order of CONDITIONS.",
-        "(12)-(17)", "tuple of margins; each condition holds when its margin is > 0 (>= 0 if not strict)",
-    ))
+    d.add(
+        Quantity(
+            "condition_margins",
+            P,
+            tuple(c.margin for c in conditions),
+            "Margins of the existence conditions at the fixed point, in the order of CONDITIONS.",
+            "(12)-(17)",
+            "tuple of margins; each condition holds when its margin is > 0 (>= 0 if not strict)",
+        )
+    )
     d.facts.update({f"phase.{k}": v for k, v in phase.items()})
     d.facts.update({f"heelstrike.{k}": v for k, v in hs.items() if isinstance(v, sm.Basic)})
     d.facts.update({f"stride.{k}": v for k, v in st.items()})
@@ -572,7 +767,7 @@ def derive() -> Derivation:
 
 def cos_ratio_threshold() -> sm.Expr:
     """Right-hand side of (13): q^f > 0 solved for ``cos theta_II / cos theta_I``."""
-    numerator, denominator = sm.fraction(sm.together(stride()["q_fixed"]))
+    numerator, _ = sm.fraction(sm.together(stride()["q_fixed"]))
     ratio = sm.Symbol("ratio", positive=True)
     # The denominator is positive on the domain (beta cos phi0 < 1), so the sign of q^f is
     # the sign of its numerator, linear in cos theta_II = ratio * cos theta_I.

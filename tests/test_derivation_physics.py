@@ -1,0 +1,111 @@
+"""Physics checks the derivation did not use (in the spirit of Drake's compass-gait tests).
+
+Each test derives the same fact another way: Newton instead of Lagrange, an impulse
+instead of a momentum balance, the law of cosines instead of foot positions, a numerical
+quadrature instead of Carlson's form.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import sympy as sm
+from scipy.integrate import quad
+
+import generated.ile as gen
+from derive import mechanics
+from derive.models import ile
+from tests.conftest import random_walking_parameters
+
+
+def test_energy_is_constant_along_a_swing_phase():
+    m, g, r = sm.symbols("m g r", positive=True)
+    phase = mechanics.pendulum_phase(m, g, r)
+    theta = phase.theta
+    rate = sm.diff(phase.energy, mechanics.t).subs(theta.diff(mechanics.t, 2), phase.acceleration)
+    assert sm.simplify(rate) == 0
+
+
+def test_equation_of_motion_matches_newton_tangential_balance():
+    # Tangential component of gravity on the hip, m g sin(theta), over m r.
+    m, g = sm.symbols("m g", positive=True)
+    phase = mechanics.pendulum_phase(m, g, ile.beta * ile.r_e)
+    newton = g * sm.sin(phase.theta) / (ile.beta * ile.r_e)
+    assert sm.simplify(phase.acceleration - newton) == 0
+    dimensionless = ile.swing_phase_dimensionless()["accel"].subs(ile.leg_ratio, ile.beta)
+    assert sm.simplify(dimensionless - sm.sin(ile.theta) / ile.beta) == 0
+
+
+def test_radial_extension_force_exerts_no_moment_about_the_foot():
+    # Why eq. (3) may conserve angular momentum: the leg force is along the leg.
+    r, f = sm.symbols("r f", positive=True)
+    along_leg = mechanics.leg_direction(ile.theta)
+    assert sm.simplify(mechanics.cross_z(r * along_leg, f * along_leg)) == 0
+
+
+def test_heelstrike_reset_from_an_impulse_along_the_new_leg():
+    # Inelastic impact: an impulse J along the new stance leg (massless leg) removes the
+    # hip velocity component along that leg. Not a momentum balance, a velocity projection.
+    b, p = ile.beta, ile.phi0
+    th_I = ile.theta_I
+    th_IV = th_I + p
+    w = sm.Symbol("w", positive=True)
+    v_before = w * sm.Matrix([sm.cos(th_IV), -sm.sin(th_IV)])  # r_e = 1
+    n = mechanics.leg_direction(th_I)  # from new foot to hip
+    J = sm.Symbol("J")
+    v_after = v_before + J * n
+    J_value = mechanics.solve_linear(mechanics.pythagorean_reduce((v_after.T * n)[0]), J)
+    v_after = v_after.subs(J, J_value)
+    tangent = sm.Matrix([sm.cos(th_I), -sm.sin(th_I)])
+    omega_after = sm.simplify((v_after.T * tangent)[0] / b)  # leg length r_s = beta r_e
+    derived = ile.heelstrike()["reset_ratio"] * w
+    assert sm.simplify(sm.expand_trig(omega_after - derived)) == 0
+    # The impulse pushes (J > 0): the ground can only push.
+    assert sm.simplify(J_value - w * sm.sin(p)) == 0
+
+
+def test_step_length_is_the_law_of_cosines():
+    # Triangle: stance leg r_e, swing leg r_s = beta r_e, included angle phi0.
+    law = 1 + ile.beta**2 - 2 * ile.beta * sm.cos(ile.phi0)
+    assert sm.simplify(ile.heelstrike()["step_length_squared"] - law) == 0
+
+
+def test_contact_angles_satisfy_the_guard():
+    hs = ile.heelstrike()
+    theta_IV_closed = sm.atan2(hs["sin_theta_IV"], hs["cos_theta_IV"])
+    guard = hs["guard"].subs(ile.theta_IV, theta_IV_closed)
+    rng = np.random.default_rng(0)
+    for b, p in rng.uniform([0.05, 0.05], [0.99, 1.5], (50, 2)):
+        assert abs(float(guard.subs({ile.beta: b, ile.phi0: p}).evalf())) < 1e-14
+
+
+def test_stride_map_is_linear_in_q():
+    f = ile.stride()["stride_map"]
+    assert sm.diff(f, ile.q, 2) == 0
+
+
+def _omega(theta, level, rho):
+    # phase_energy = rho^2 omega^2 / 2 + rho cos theta, solved for omega.
+    return np.sqrt(2 * (level - rho * np.cos(theta)) / rho**2)
+
+
+def _time(level, rho, start, end):
+    integrand = lambda x: 1 / _omega(x, level, rho)  # noqa: E731
+    return quad(integrand, start, end, epsabs=0, epsrel=1e-13, limit=200)[0]
+
+
+def test_phase_times_match_numerical_quadrature():
+    """Carlson closed form vs adaptive quadrature of dtheta / omega with omega from the energy."""
+    draws = random_walking_parameters(40, seed=5)
+    for b, t, p in zip(draws["beta"], draws["theta_II"], draws["phi0"]):
+        qf = gen.q_fixed(b, t, p)
+        th_I, th_IV = gen.theta_I(b, p), gen.theta_IV(b, p)
+        level_1 = gen.phase_energy(th_I, np.sqrt(qf), b)
+        omega_III = gen.extension_reset(b, np.sqrt(gen.omega_II_squared(b, t, p, qf)))
+        level_2 = gen.phase_energy(t, omega_III, 1.0)
+
+        t1 = _time(level_1, b, th_I, t)
+        t2 = _time(level_2, 1.0, t, th_IV)
+        d1, d2 = gen.phase_durations(b, t, p, qf)
+        assert d1 == pytest.approx(t1, rel=1e-10)
+        assert d2 == pytest.approx(t2, rel=1e-10)
