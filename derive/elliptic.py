@@ -72,19 +72,6 @@ def cos_interval_integral(
     return 2 * (one_minus_c_lo - one_minus_c_hi) * carlson_rf(n12**2, n13**2, n14**2)
 
 
-def apex_integral(c: sm.Expr, one_minus_c: sm.Expr, energy_level: sm.Expr) -> sm.Expr:
-    """``int_c^1 dc / sqrt((1 - c)(1 + c)(E - c))``: from angle ``arccos c`` to the apex.
-
-    The same formula as :func:`cos_interval_integral` with ``c_hi = 1``, reduced by
-    homogeneity so that it is exactly zero at ``c = 1``.
-    """
-    return (
-        2
-        * sm.sqrt(one_minus_c)
-        * carlson_rf((1 + c) * (energy_level - 1), 2 * (energy_level - c), 2 * (energy_level - 1))
-    )
-
-
 def pendulum_travel_time(
     start: tuple[sm.Expr, sm.Expr, sm.Expr],
     end: tuple[sm.Expr, sm.Expr, sm.Expr],
@@ -106,19 +93,24 @@ def pendulum_travel_time(
     Returns
     -------
     sympy.Expr
-        A Piecewise: split at the apex when the phase passes it, one piece otherwise.
+        At most two R_F evaluations: a phase that passes the apex is split there into
+        two pieces that each end at ``c = 1``; otherwise the second piece is empty. The
+        pieces' end points are selected first so that vectorised backends, which evaluate
+        every branch, evaluate R_F only twice.
     """
     sin_a, cos_a, omc_a = start
     sin_b, cos_b, omc_b = end
-    scale = sm.sqrt(leg_ratio / 2)
-    through_apex = apex_integral(cos_a, omc_a, energy_level) + apex_integral(
-        cos_b, omc_b, energy_level
-    )
-    # Same side of the apex: |theta| is monotone, so the end nearer the apex has the larger cosine.
-    before_apex = cos_interval_integral(cos_a, omc_a, cos_b, omc_b, energy_level)
-    after_apex = cos_interval_integral(cos_b, omc_b, cos_a, omc_a, energy_level)
-    return scale * sm.Piecewise(
-        (through_apex, sm.And(sin_a < 0, sin_b > 0)),
-        (before_apex, sin_b <= 0),
-        (after_apex, True),
-    )
+    through_apex = sm.And(sin_a < 0, sin_b > 0)
+    before_apex = sin_b <= 0  # both ends at theta <= 0: the end nearer the apex is b
+
+    def pick(if_through, if_before, otherwise):
+        return sm.Piecewise((if_through, through_apex), (if_before, before_apex), (otherwise, True))
+
+    apex = (sm.Integer(1), sm.Integer(0))
+    first_lo = [pick(a, a, b) for a, b in zip((cos_a, omc_a), (cos_b, omc_b))]
+    first_hi = [pick(x, b, a) for x, a, b in zip(apex, (cos_a, omc_a), (cos_b, omc_b))]
+    first = cos_interval_integral(first_lo[0], first_lo[1], first_hi[0], first_hi[1], energy_level)
+    # Second piece: from b to the apex when the phase passes it, else empty (b to b).
+    second_hi = [sm.Piecewise((x, through_apex), (b, True)) for x, b in zip(apex, (cos_b, omc_b))]
+    second = cos_interval_integral(cos_b, omc_b, second_hi[0], second_hi[1], energy_level)
+    return sm.sqrt(leg_ratio / 2) * (first + sm.Piecewise((second, through_apex), (0, True)))

@@ -28,22 +28,8 @@ conditions with physical=True together decide whether a gait walks."""
 
 
 def _carlson_rf(x, y, z, be):
-    """Carlson's R_F(x, y, z) by 14 duplication steps and a fifth-order series.
-
-    Works on numpy arrays and CasADi expressions alike (DLMF 19.36.1). The fixed number
-    of steps keeps the expression graph static for CasADi; 14 steps reach double
-    precision for argument ratios up to about 1e12.
-    """
-    for _ in range(14):
-        sx, sy, sz = be.sqrt(x), be.sqrt(y), be.sqrt(z)
-        lam = sx * sy + sy * sz + sz * sx
-        x, y, z = (x + lam) / 4, (y + lam) / 4, (z + lam) / 4
-    a = (x + y + z) / 3
-    dx, dy = 1 - x / a, 1 - y / a
-    dz = -(dx + dy)
-    e2 = dx * dy - dz * dz
-    e3 = dx * dy * dz
-    return (1 - e2 / 10 + e3 / 14 + e2 * e2 / 24 - 3 * e2 * e3 / 44) / be.sqrt(a)
+    """Carlson's R_F(x, y, z); the backend supplies the algorithm (see generated/_backend.py)."""
+    return be.carlson_rf(x, y, z)
 
 
 def swing_acceleration(theta, leg_ratio):
@@ -598,61 +584,74 @@ def phase_durations(beta, theta_II, phi0, q):
         (tau_I_II, tau_III_IV)
     """
     be = backend_for(beta, theta_II, phi0, q)
-    x0 = be.cos(theta_II)
-    x1 = 1 + x0
-    x2 = be.cos(phi0)
-    x3 = x2*beta
-    x4 = (1/be.sqrt(1 + beta**2 - 2*x3))
-    x5 = x4*be.sin(phi0)
-    x6 = q*beta
-    x7 = x5 + x6/2
-    x8 = -1 + x7
-    x9 = 2*x0
-    x10 = 2*x5
-    x11 = x10 + x6
-    x12 = -2 + x11
-    x13 = be.sqrt(2)
-    x14 = be.sin(theta_II/2)
-    x15 = be.Abs(x14)
-    x16 = x13*x15
-    x17 = 2*x16
-    x18 = be.sqrt(1 - x5)
-    x19 = 1 + x5
-    x20 = be.sin(theta_II)
-    x21 = -2 + 4*x14**2
-    x22 = x10 + x21
-    x23 = be.sqrt(x1)
-    x24 = be.sqrt(q)
-    x25 = be.sqrt(beta)
-    x26 = x15*x24*x25
-    x27 = be.sqrt(x19)
-    x28 = be.sqrt(x7 - x0)
-    x29 = x18*x28
-    x30 = x13/2
-    x31 = x25*x30
-    x32 = _carlson_rf((x23*x26 + x27*x29)**2, (x16*x27*x28 + x18*x23*x24*x31)**2, (x23*x29 + x26*x27)**2, be)
-    x33 = q*beta**4
-    x34 = beta**3
-    x35 = x33/2 + x34*x5 - x0*x34
-    x36 = x0 + x35
-    x37 = -1 + x36
-    x38 = x33 + x10*x34 - x34*x9
-    x39 = x38 + x9
-    x40 = -2 + x39
-    x41 = x5*beta
-    x42 = be.sqrt(1 - x41)
-    x43 = 1 + x41
-    x44 = x10*beta
-    x45 = x4*(1 - x3)
-    x46 = x21 + x44
-    x47 = be.sqrt(x36 - x41)
-    x48 = x23*x47
-    x49 = be.sqrt(x43)
-    x50 = be.sqrt(x35)
-    x51 = x42*x50
-    x52 = x16*x49
-    x53 = _carlson_rf((x16*x48 + x49*x51)**2, (x42*x48 + x50*x52)**2, (x23*x51 + x47*x52)**2, be)
-    return (x31*be.where(be.logical_and((x20 > 0), (x4*(x2 - beta) < 0)), x17*_carlson_rf(x1*x8, x11 - x9, x12, be) + 2*x18*_carlson_rf(x19*x8, x6, x12, be), be.where((x20 <= 0), -x22*x32, x22*x32)), x30*be.where(be.logical_and((x45 > 0), (x20 < 0)), x17*_carlson_rf(x1*x37, x38, x40, be) + 2*x42*_carlson_rf(x37*x43, x39 - x44, x40, be), be.where((x45 <= 0), x46*x53, -x46*x53)),)
+    x0 = be.sin(theta_II/2)
+    x1 = x0**2
+    x2 = be.sin(theta_II)
+    x3 = be.cos(phi0)
+    x4 = x3*beta
+    x5 = (1/be.sqrt(1 + beta**2 - 2*x4))
+    x6 = (x5*(x3 - beta) < 0)
+    x7 = be.logical_and(x6, (x2 > 0))
+    x8 = 2*x1
+    x9 = be.sqrt(2)
+    x10 = x9*be.Abs(x0)
+    x11 = be.cos(theta_II)
+    x12 = be.sqrt(1 + x11)
+    x13 = be.where(x7, 1, x11)
+    x14 = x5*be.sin(phi0)
+    x15 = q/2
+    x16 = x14 + x15*beta
+    x17 = be.sqrt(x16 - x13)
+    x18 = x12*x17
+    x19 = be.sqrt(1 + x13)
+    x20 = be.sqrt(x16 - x11)
+    x21 = be.where(x7, 0, x10)
+    x22 = x20*x21
+    x23 = x10*x19
+    x24 = 1 - x14
+    x25 = (x2 <= 0)
+    x26 = be.logical_or(x25, x6)
+    x27 = be.sqrt(x24)
+    x28 = be.where(x26, x27, x10)
+    x29 = be.where(x26, x14, x11)
+    x30 = be.sqrt(1 + x29)
+    x31 = be.where(x7, 1, be.where(x25, x11, x14))
+    x32 = be.sqrt(x16 - x31)
+    x33 = x30*x32
+    x34 = be.where(x7, 0, be.where(x25, x10, x27))
+    x35 = be.sqrt(1 + x31)
+    x36 = be.sqrt(x16 - x29)
+    x37 = x35*x36
+    x38 = x9/2
+    x39 = x14*beta
+    x40 = (x2 < 0)
+    x41 = x5*(1 - x4)
+    x42 = be.logical_and(x40, (x41 > 0))
+    x43 = 1 - x39
+    x44 = be.sqrt(x43)
+    x45 = be.sqrt(1 + x39)
+    x46 = be.where(x42, 1, x39)
+    x47 = beta**3
+    x48 = x11 + x14*x47 + x15*beta**4 - x11*x47
+    x49 = be.sqrt(x48 - x46)
+    x50 = x45*x49
+    x51 = be.where(x42, 0, x44)
+    x52 = be.sqrt(1 + x46)
+    x53 = be.sqrt(x48 - x39)
+    x54 = x52*x53
+    x55 = (x41 <= 0)
+    x56 = be.logical_or(x40, x55)
+    x57 = be.where(x56, x10, x44)
+    x58 = be.where(x56, x11, x39)
+    x59 = be.sqrt(1 + x58)
+    x60 = be.where(x42, 1, be.where(x55, x39, x11))
+    x61 = be.sqrt(x48 - x60)
+    x62 = x59*x61
+    x63 = be.where(x42, 0, be.where(x55, x44, x10))
+    x64 = be.sqrt(1 + x60)
+    x65 = be.sqrt(x48 - x58)
+    x66 = x64*x65
+    return (x38*be.sqrt(beta)*((-2*be.where(x7, 0, be.where(x25, x8, x24)) + 2*be.where(x26, x24, x8))*_carlson_rf((x28*x33 + x34*x37)**2, (x28*x37 + x33*x34)**2, (x28*x32*x35 + x30*x34*x36)**2, be) + be.where(x7, (-2*be.where(x7, 0, x8) + 4*x1)*_carlson_rf((x10*x18 + x19*x22)**2, (x18*x21 + x20*x23)**2, (x12*x22 + x17*x23)**2, be), 0)), x38*((-2*be.where(x42, 0, be.where(x55, x43, x8)) + 2*be.where(x56, x8, x43))*_carlson_rf((x57*x62 + x63*x66)**2, (x57*x66 + x62*x63)**2, (x57*x61*x64 + x59*x63*x65)**2, be) + be.where(x42, (2 - 2*x39 - 2*be.where(x42, 0, x43))*_carlson_rf((x44*x50 + x51*x54)**2, (x44*x54 + x50*x51)**2, (x44*x49*x52 + x45*x51*x53)**2, be), 0)),)
 
 
 def condition_margins(beta, theta_II, phi0):

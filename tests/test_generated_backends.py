@@ -127,3 +127,21 @@ def test_runtime_never_imports_sympy():
     done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     assert abs(float(done.stdout) - 0.465196423021) < 1e-9
+
+
+@pytest.mark.parametrize("ratio", [1.0, 1e-3, 1e-6, 1e-9, 1e-12, 1e-15])
+def test_carlson_rf_matches_scipy_on_both_backends(ratio):
+    from scipy.special import elliprf
+
+    from generated._backend import NUMPY, _casadi_ops
+
+    rng = np.random.default_rng(int(-np.log10(ratio)))
+    n = 2000
+    x = rng.uniform(0, 1, n) * ratio
+    y = rng.uniform(0, 1, n) * np.where(rng.uniform(size=n) < 0.5, ratio, 1.0)
+    z = rng.uniform(0.1, 1, n)
+    reference = elliprf(x, y, z)
+    assert rel_err(NUMPY.carlson_rf(x, y, z), reference) <= 4e-15
+    sx, sy, sz = ca.SX.sym("x"), ca.SX.sym("y"), ca.SX.sym("z")
+    rf = ca.Function("rf", [sx, sy, sz], [_casadi_ops().carlson_rf(sx, sy, sz)]).map(n)
+    assert rel_err(np.array(rf(x, y, z)).ravel(), reference) <= 4e-15
