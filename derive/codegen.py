@@ -152,7 +152,7 @@ def function_source(qty: Quantity, printer: BackendPrinter) -> str:
 
 RF_SOURCE = """
 def _carlson_rf(x, y, z, be):
-    \"\"\"Carlson's R_F(x, y, z); the backend supplies the algorithm (see generated/_backend.py).\"\"\"
+    \"\"\"Carlson's R_F(x, y, z); the algorithm is the backend's (generated/_backend.py).\"\"\"
     return be.carlson_rf(x, y, z)
 """
 

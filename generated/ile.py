@@ -28,7 +28,7 @@ conditions with physical=True together decide whether a gait walks."""
 
 
 def _carlson_rf(x, y, z, be):
-    """Carlson's R_F(x, y, z); the backend supplies the algorithm (see generated/_backend.py)."""
+    """Carlson's R_F(x, y, z); the algorithm is the backend's (generated/_backend.py)."""
     return be.carlson_rf(x, y, z)
 
 
