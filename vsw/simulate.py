@@ -1,0 +1,492 @@
+"""Time-domain simulation of the hybrid instantaneous-leg-extension (ILE) walker.
+
+This module is the *independent* check of the closed-form analysis: it integrates the
+swing-phase equations of motion (eq. 2 and 4 of the paper) in time with SciPy's DOP853,
+locates the transition instants with event functions, and applies the algebraic resets
+(eq. 3 and 6). It never uses the closed-form stride map, fixed point, energy integrals or
+the q_apex/q_liftoff bounds; it only uses the model *primitives* from ``generated.ile``
+(equations of motion, resets, heelstrike guard, normal force, heelstrike geometry).
+
+Time is dimensionless, tau = t sqrt(g / r_e); lengths are in r_e; angles in radians.
+
+Edge cases (documented decisions)
+---------------------------------
+- ``theta_II <= theta_I``: a step starts at theta_I moving forward, so the extension angle
+  is never reached (condition ``extension_reached``, not in the paper). The model defines
+  no motion for this case, so :func:`simulate` raises :class:`vsw.errors.VswInputError`.
+- ``theta_II >= theta_IV``: the stance leg would have to extend after the heelstrike
+  (condition ``extension_before_heelstrike``, exact form of eq. 17). Also undefined, also
+  a :class:`~vsw.errors.VswInputError`.
+- A fall back in either phase (omega reaches 0 before theta_II or before the heelstrike)
+  ends the run with ``ended='fell-backward'``; so does a phase that stalls at the apex
+  (no event within ``_PHASE_TIME_LIMIT``, possible only at the exact separatrix).
+- The stance foot lifting off (normal force < 0), at the start of a phase or during it,
+  ends the run with ``ended='lift-off'``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+
+from generated import ile
+from generated.ile_params import PARAMETERS
+from vsw.errors import ConvergenceError, VswInputError
+
+__all__ = [
+    "SimulationResult",
+    "StepOutcome",
+    "fixed_point_by_simulation",
+    "poincare_map",
+    "poincare_step",
+    "simulate",
+]
+
+#: Longest a single swing phase may take (dimensionless time). Away from the exact apex
+#: separatrix a phase lasts a few units; deviations from the unstable apex equilibrium
+#: grow like exp(tau / sqrt(beta)), so even a 1e-16 perturbation resolves within ~40.
+_PHASE_TIME_LIMIT = 1.0e3
+
+#: Relative accuracy the event refinement aims at (event times and states).
+_EVENT_TOL = 1e-14
+
+ENDED_VALUES = ("completed", "fell-backward", "lift-off")
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """Outcome of :func:`simulate`.
+
+    Attributes
+    ----------
+    t, theta, omega : numpy.ndarray
+        Trajectory samples (solver steps plus every event point); ``t`` is dimensionless
+        time tau, continuous over the whole run. At a reset the pre- and post-reset states
+        are both present, with the same ``t``.
+    phase : numpy.ndarray of int
+        1 for the short-leg phase I-II, 2 for the extended-leg phase III-IV.
+    step : numpy.ndarray of int
+        Step index (0-based) of each sample.
+    q : numpy.ndarray
+        q = omega_I**2 just after each heelstrike, starting with ``q0``; its length is the
+        number of completed steps plus one.
+    ended : str
+        ``'completed'``, ``'fell-backward'`` or ``'lift-off'``.
+    events : list of tuple
+        ``(kind, t, theta, omega)`` with kind in ``'I'`` (start of a step, incl. t = 0),
+        ``'II'`` (before extension), ``'III'`` (after extension), ``'IV'`` (before
+        heelstrike).
+    step_periods, step_lengths : numpy.ndarray
+        Duration (tau) and foothold-to-foothold distance (r_e) of each completed step.
+    """
+
+    t: np.ndarray
+    theta: np.ndarray
+    omega: np.ndarray
+    phase: np.ndarray
+    step: np.ndarray
+    q: np.ndarray
+    ended: str
+    events: list = field(default_factory=list)
+    step_periods: np.ndarray = field(default_factory=lambda: np.empty(0))
+    step_lengths: np.ndarray = field(default_factory=lambda: np.empty(0))
+
+
+class StepOutcome(NamedTuple):
+    """One step of the Poincaré map: ``q_next`` is NaN unless ``ended == 'completed'``."""
+
+    q_next: float
+    ended: str
+
+
+class _PhaseEnd(NamedTuple):
+    kind: str  # 'guard' (extension / heelstrike), 'fell-backward' or 'lift-off'
+    t: float
+    theta: float
+    omega: float
+    ts: np.ndarray
+    ys: np.ndarray
+
+
+def _check_parameters(beta: float, theta_II: float, phi0: float) -> tuple[float, float, float]:
+    """Validate the parameters against the generated table; one-line errors."""
+    values = {"beta": beta, "theta_II": theta_II, "phi0": phi0}
+    out = []
+    for p in PARAMETERS:
+        v = values[p.name]
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+            raise VswInputError(f"{p.name} must be a real number, got {v!r}")
+        v = float(v)
+        if not math.isfinite(v) or not (p.lower < v < p.upper):
+            raise VswInputError(f"{p.name} = {v!r} is out of range: {p.reason}")
+        out.append(v)
+    beta, theta_II, phi0 = out
+    th_I = float(ile.theta_I(beta, phi0))
+    th_IV = float(ile.theta_IV(beta, phi0))
+    if not theta_II > th_I:
+        raise VswInputError(
+            f"theta_II = {theta_II!r} must exceed theta_I = {th_I!r} (condition "
+            "extension_reached): the stance leg never reaches the extension angle"
+        )
+    if not theta_II < th_IV:
+        raise VswInputError(
+            f"theta_II = {theta_II!r} must be below theta_IV = {th_IV!r} (condition "
+            "extension_before_heelstrike, eq. (17) exact): the leg must extend before heelstrike"
+        )
+    return beta, theta_II, phi0
+
+
+def _check_q0(q0: float) -> float:
+    if isinstance(q0, bool) or not isinstance(q0, (int, float, np.integer, np.floating)):
+        raise VswInputError(f"q0 must be a real number, got {q0!r}")
+    q0 = float(q0)
+    if not (math.isfinite(q0) and q0 > 0):
+        raise VswInputError(f"q0 = {q0!r} must be positive and finite: q = omega_I**2 > 0, eq. (8)")
+    return q0
+
+
+def _check_steps(steps: int) -> int:
+    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
+        raise VswInputError(f"steps = {steps!r} must be an integer >= 1")
+    return int(steps)
+
+
+def _refine_event(rhs, guard, guard_dot, t0: float, y0: np.ndarray, t_guess: float, rtol, atol):
+    """Locate a guard root to ~machine precision by Newton on freshly integrated states.
+
+    solve_ivp locates events on its dense-output interpolant, whose error is of the order
+    of the local error. Here we re-integrate from the last accepted solver point ``t0``
+    (an exact trajectory point, not an interpolated one) to the candidate time and apply
+    Newton steps ``dt = -g / (dg/dt)``; every correction is a fresh short integration, so
+    the final state satisfies the ODE to the integrator's tolerance and the guard to
+    ~1e-15.
+    """
+    from scipy.integrate import solve_ivp
+
+    def advance(t_from, y_from, t_to):
+        if t_to == t_from:
+            return np.array(y_from, dtype=float)
+        sol = solve_ivp(rhs, (t_from, t_to), y_from, method="DOP853", rtol=rtol, atol=atol)
+        return sol.y[:, -1]
+
+    t, y = t_guess, advance(t0, y0, t_guess)
+    for _ in range(8):
+        g = guard(t, y)
+        gd = guard_dot(y)
+        if gd == 0 or not math.isfinite(gd):
+            break
+        dt = -g / gd
+        if abs(dt) <= _EVENT_TOL * max(1.0, abs(t)):
+            break
+        y = advance(t, y, t + dt)
+        t = t + dt
+    return t, y
+
+
+def _integrate_phase(
+    leg_ratio: float,
+    t_start: float,
+    y_start: np.ndarray,
+    guard,
+    guard_dot,
+    rtol: float,
+    atol: float,
+) -> _PhaseEnd:
+    """Integrate one swing phase from ``y_start`` until its guard, a fall or a lift-off."""
+    from scipy.integrate import solve_ivp
+
+    def rhs(_t, y):
+        return (y[1], float(ile.swing_acceleration(y[0], leg_ratio)))
+
+    def fall(_t, y):
+        return y[1]
+
+    fall.terminal, fall.direction = True, -1
+
+    def liftoff(_t, y):
+        return float(ile.normal_force(y[0], y[1], leg_ratio))
+
+    liftoff.terminal, liftoff.direction = True, -1
+
+    def fall_dot(y):
+        return float(ile.swing_acceleration(y[0], leg_ratio))
+
+    def liftoff_dot(y):
+        # d/dt of N = cos^2 th - rho cos th w^2, by the chain rule (w' from the ODE).
+        th, w = y
+        wd = math.sin(th) / leg_ratio
+        return -2 * math.cos(th) * math.sin(th) * w + leg_ratio * (
+            math.sin(th) * w**3 - 2 * math.cos(th) * w * wd
+        )
+
+    # A phase that starts with the foot already pulled off the ground ends at once.
+    if liftoff(t_start, y_start) < 0:
+        return _PhaseEnd("lift-off", t_start, *y_start, np.array([t_start]), y_start[:, None])
+
+    events = [guard, fall, liftoff]
+    derivs = [guard_dot, fall_dot, liftoff_dot]
+    kinds = ["guard", "fell-backward", "lift-off"]
+    sol = solve_ivp(
+        rhs,
+        (t_start, t_start + _PHASE_TIME_LIMIT),
+        y_start,
+        method="DOP853",
+        rtol=rtol,
+        atol=atol,
+        events=events,
+    )
+    hits = [(te[0], i) for i, te in enumerate(sol.t_events) if len(te)]
+    if not hits:
+        # Stalled on the apex separatrix: the walker does not get over the apex.
+        return _PhaseEnd("fell-backward", sol.t[-1], *sol.y[:, -1], sol.t, sol.y)
+    t_hit, i_hit = min(hits)
+    # Last accepted step before the event: an exact trajectory point for the refinement.
+    k = int(np.searchsorted(sol.t, t_hit, side="right")) - 1
+    k = max(0, min(k, len(sol.t) - 1))
+    if sol.t[k] >= t_hit and k > 0:
+        k -= 1
+    t_ev, y_ev = _refine_event(
+        rhs, events[i_hit], derivs[i_hit], sol.t[k], sol.y[:, k], t_hit, rtol, atol
+    )
+    ts = np.append(sol.t[: k + 1], t_ev)
+    ys = np.concatenate([sol.y[:, : k + 1], y_ev[:, None]], axis=1)
+    return _PhaseEnd(kinds[i_hit], t_ev, float(y_ev[0]), float(y_ev[1]), ts, ys)
+
+
+def simulate(
+    beta: float,
+    theta_II: float,
+    phi0: float,
+    q0: float,
+    steps: int,
+    *,
+    rtol: float = 1e-12,
+    atol: float = 1e-12,
+    record: bool = True,
+    progress: Callable[[int, int], None] | None = None,
+) -> SimulationResult:
+    """Simulate the hybrid ILE walker in time for up to ``steps`` steps.
+
+    Each step starts at instant I, theta = theta_I (eq. 11) with omega = sqrt(q). Phase
+    I-II integrates eq. (2) until theta = theta_II; the extension reset (eq. 3) gives
+    omega_III; phase III-IV integrates eq. (4) until the swing foot touches the ground
+    (guard of eq. 5); the heelstrike reset (eq. 6) and the leg swap start the next step
+    at theta_IV - phi0. Every phase also watches for a fall back (omega = 0) and for the
+    stance foot lifting off (normal force < 0).
+
+    Parameters
+    ----------
+    beta, theta_II, phi0 : float
+        Model parameters (radians); see ``generated.ile_params.PARAMETERS``. Additionally
+        theta_I < theta_II < theta_IV is required (see the module notes).
+    q0 : float
+        q = omega_I**2 at the start, > 0.
+    steps : int
+        Number of steps to simulate, >= 1.
+    rtol, atol : float
+        DOP853 tolerances.
+    record : bool
+        Keep the trajectory samples (otherwise ``t``, ``theta``, ... hold only events).
+    progress : callable, optional
+        Called as ``progress(step_index, steps)`` after each completed step.
+
+    Returns
+    -------
+    SimulationResult
+
+    Raises
+    ------
+    vsw.errors.VswInputError
+        Out-of-domain parameters, q0 or steps (one-line message).
+    """
+    beta, theta_II, phi0 = _check_parameters(beta, theta_II, phi0)
+    q0 = _check_q0(q0)
+    steps = _check_steps(steps)
+    # The new stance angle after heelstrike (eq. 11); the heelstrike itself is found by
+    # the guard, and the post-impact angle is recomputed from it as theta_IV - phi0.
+    th_I0 = float(ile.theta_I(beta, phi0))
+
+    def ext_guard(_t, y):
+        return y[0] - theta_II
+
+    ext_guard.terminal, ext_guard.direction = True, 1
+
+    def ext_dot(y):
+        return y[1]
+
+    def hs_guard(_t, y):
+        return float(ile.swing_foot_height(beta, phi0, y[0]))
+
+    hs_guard.terminal, hs_guard.direction = True, -1
+
+    def hs_dot(y):
+        # d/dt of cos th - beta cos(phi0 - th).
+        return (-math.sin(y[0]) - beta * math.sin(phi0 - y[0])) * y[1]
+
+    ts: list[np.ndarray] = []
+    ths: list[np.ndarray] = []
+    ws: list[np.ndarray] = []
+    phases: list[np.ndarray] = []
+    step_ids: list[np.ndarray] = []
+    events: list[tuple[str, float, float, float]] = []
+    qs = [q0]
+    periods: list[float] = []
+    lengths: list[float] = []
+
+    def keep(end: _PhaseEnd, phase: int, n: int) -> None:
+        if record:
+            ts.append(end.ts)
+            ths.append(end.ys[0])
+            ws.append(end.ys[1])
+            phases.append(np.full(end.ts.size, phase, dtype=int))
+            step_ids.append(np.full(end.ts.size, n, dtype=int))
+
+    t, theta, omega = 0.0, th_I0, math.sqrt(q0)
+    ended = "completed"
+    for n in range(steps):
+        t_I = t
+        events.append(("I", t, theta, omega))
+        end1 = _integrate_phase(beta, t, np.array([theta, omega]), ext_guard, ext_dot, rtol, atol)
+        keep(end1, 1, n)
+        if end1.kind != "guard":
+            ended = end1.kind
+            break
+        # Instant II -> III: the event angle is theta_II by construction; snap to it so
+        # the reset happens exactly there (the refinement leaves ~1e-16 of difference).
+        events.append(("II", end1.t, theta_II, end1.omega))
+        omega_III = float(ile.extension_reset(beta, end1.omega))
+        events.append(("III", end1.t, theta_II, omega_III))
+        end2 = _integrate_phase(
+            1.0, end1.t, np.array([theta_II, omega_III]), hs_guard, hs_dot, rtol, atol
+        )
+        keep(end2, 2, n)
+        if end2.kind != "guard":
+            ended = end2.kind
+            break
+        theta_IV, omega_IV = end2.theta, end2.omega
+        events.append(("IV", end2.t, theta_IV, omega_IV))
+        periods.append(end2.t - t_I)
+        # Footholds: stance foot at the origin, swing foot at hip + beta (sin(phi0 - th),
+        # -cos(phi0 - th)); the hip is at (sin th, cos th).
+        lengths.append(math.sin(theta_IV) + beta * math.sin(phi0 - theta_IV))
+        omega = float(ile.heelstrike_reset(beta, phi0, omega_IV))
+        theta = theta_IV - phi0
+        t = end2.t
+        qs.append(omega * omega)
+        if progress is not None:
+            progress(n, steps)
+
+    if ended == "completed":
+        events.append(("I", t, theta, omega))
+    if record and ts:
+        # The post-heelstrike state starts the next step; add it once at the very end so
+        # the trajectory shows the final jump IV -> I.
+        if ended == "completed":
+            ts.append(np.array([t]))
+            ths.append(np.array([theta]))
+            ws.append(np.array([omega]))
+            phases.append(np.array([1]))
+            step_ids.append(np.array([steps]))
+        t_arr, th_arr, w_arr = np.concatenate(ts), np.concatenate(ths), np.concatenate(ws)
+        ph_arr, st_arr = np.concatenate(phases), np.concatenate(step_ids)
+    else:
+        t_arr = np.array([e[1] for e in events])
+        th_arr = np.array([e[2] for e in events])
+        w_arr = np.array([e[3] for e in events])
+        ph_arr = np.array([1 if e[0] in ("I", "II") else 2 for e in events], dtype=int)
+        st_arr = np.cumsum([e[0] == "I" for e in events]).astype(int) - 1
+    return SimulationResult(
+        t=t_arr,
+        theta=th_arr,
+        omega=w_arr,
+        phase=ph_arr,
+        step=st_arr,
+        q=np.array(qs),
+        ended=ended,
+        events=events,
+        step_periods=np.array(periods),
+        step_lengths=np.array(lengths),
+    )
+
+
+def poincare_step(beta: float, theta_II: float, phi0: float, q: float) -> StepOutcome:
+    """One step of the simulated Poincaré map, with the way it ended.
+
+    Returns
+    -------
+    StepOutcome
+        ``q_next`` (NaN unless the step completed) and ``ended``.
+    """
+    res = simulate(beta, theta_II, phi0, q, 1, record=False)
+    q_next = float(res.q[1]) if res.ended == "completed" else math.nan
+    return StepOutcome(q_next, res.ended)
+
+
+def poincare_map(beta: float, theta_II: float, phi0: float, q: float) -> float:
+    """q just after the next heelstrike, by simulation; NaN if the step fails.
+
+    Bad *inputs* (out-of-domain parameters, q <= 0) still raise ``VswInputError``; a
+    physical failure (fall back, lift-off) returns NaN instead of raising.
+    """
+    return poincare_step(beta, theta_II, phi0, q).q_next
+
+
+def fixed_point_by_simulation(
+    beta: float,
+    theta_II: float,
+    phi0: float,
+    *,
+    q_grid: np.ndarray | None = None,
+    xtol: float = 1e-15,
+) -> float:
+    """Fixed point of the simulated Poincaré map by bracketing and Brent's method.
+
+    The baseline a researcher would write without the closed form: evaluate
+    ``poincare_map(q) - q`` on a logarithmic grid of q (each point a one-step simulation),
+    take the first sign change between two completed steps, and refine it with
+    :func:`scipy.optimize.brentq`.
+
+    Parameters
+    ----------
+    beta, theta_II, phi0 : float
+        Model parameters (radians).
+    q_grid : array_like, optional
+        Trial q values for the bracket; default 10**linspace(-3, 3, 61).
+    xtol : float
+        Absolute tolerance for brentq (its relative tolerance is 4 machine epsilons).
+
+    Returns
+    -------
+    float
+        The fixed point q^f.
+
+    Raises
+    ------
+    vsw.errors.ConvergenceError
+        No sign change between completed steps on the grid (no walking fixed point found).
+    """
+    from scipy.optimize import brentq
+
+    _check_parameters(beta, theta_II, phi0)
+    grid = np.logspace(-3, 3, 61) if q_grid is None else np.asarray(q_grid, dtype=float)
+
+    def residual(q: float) -> float:
+        return poincare_map(beta, theta_II, phi0, q) - q
+
+    prev_q, prev_r = math.nan, math.nan
+    for q in grid:
+        r = residual(float(q))
+        if math.isfinite(r) and math.isfinite(prev_r) and (r == 0 or (prev_r > 0) != (r > 0)):
+            if r == 0:
+                return float(q)
+            root = brentq(residual, prev_q, float(q), xtol=xtol, rtol=4 * np.finfo(float).eps)
+            return float(root)
+        prev_q, prev_r = float(q), r
+    raise ConvergenceError(
+        f"no fixed point of the simulated map for beta={beta!r}, theta_II={theta_II!r}, "
+        f"phi0={phi0!r}: no sign change of f(q) - q between completed steps on the q grid"
+    )
