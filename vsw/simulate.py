@@ -51,6 +51,9 @@ __all__ = [
 #: grow like exp(tau / sqrt(beta)), so even a 1e-16 perturbation resolves within ~40.
 _PHASE_TIME_LIMIT = 1.0e3
 
+#: Dense-output samples added to each recorded phase (for smooth plots).
+_DENSE_SAMPLES = 40
+
 #: Relative accuracy the event refinement aims at (event times and states).
 _EVENT_TOL = 1e-14
 
@@ -195,8 +198,14 @@ def _integrate_phase(
     guard_dot,
     rtol: float,
     atol: float,
+    dense: bool = False,
 ) -> _PhaseEnd:
-    """Integrate one swing phase from ``y_start`` until its guard, a fall or a lift-off."""
+    """Integrate one swing phase from ``y_start`` until its guard, a fall or a lift-off.
+
+    With ``dense``, ``_DENSE_SAMPLES`` evenly spaced samples from DOP853's 7th-order dense
+    output are added to the solver's own (few, long) steps so plots of the trajectory
+    are smooth.
+    """
     from scipy.integrate import solve_ivp
 
     def rhs(_t, y):
@@ -225,7 +234,8 @@ def _integrate_phase(
 
     # A phase that starts with the foot already pulled off the ground ends at once.
     if liftoff(t_start, y_start) < 0:
-        return _PhaseEnd("lift-off", t_start, *y_start, np.array([t_start]), y_start[:, None])
+        th0, w0 = float(y_start[0]), float(y_start[1])
+        return _PhaseEnd("lift-off", t_start, th0, w0, np.array([t_start]), y_start[:, None])
 
     events = [guard, fall, liftoff]
     derivs = [guard_dot, fall_dot, liftoff_dot]
@@ -238,11 +248,13 @@ def _integrate_phase(
         rtol=rtol,
         atol=atol,
         events=events,
+        dense_output=dense,
     )
     hits = [(te[0], i) for i, te in enumerate(sol.t_events) if len(te)]
     if not hits:
         # Stalled on the apex separatrix: the walker does not get over the apex.
-        return _PhaseEnd("fell-backward", sol.t[-1], *sol.y[:, -1], sol.t, sol.y)
+        t_end, (th_end, w_end) = float(sol.t[-1]), sol.y[:, -1]
+        return _PhaseEnd("fell-backward", t_end, float(th_end), float(w_end), sol.t, sol.y)
     t_hit, i_hit = min(hits)
     # Last accepted step before the event: an exact trajectory point for the refinement.
     k = int(np.searchsorted(sol.t, t_hit, side="right")) - 1
@@ -254,7 +266,13 @@ def _integrate_phase(
     )
     ts = np.append(sol.t[: k + 1], t_ev)
     ys = np.concatenate([sol.y[:, : k + 1], y_ev[:, None]], axis=1)
-    return _PhaseEnd(kinds[i_hit], t_ev, float(y_ev[0]), float(y_ev[1]), ts, ys)
+    if dense and sol.sol is not None:
+        extra = np.linspace(t_start, float(t_ev), _DENSE_SAMPLES + 2)[1:-1]
+        ts = np.concatenate([ts, extra])
+        ys = np.concatenate([ys, sol.sol(extra)], axis=1)
+        order = np.argsort(ts, kind="stable")
+        ts, ys = ts[order], ys[:, order]
+    return _PhaseEnd(kinds[i_hit], float(t_ev), float(y_ev[0]), float(y_ev[1]), ts, ys)
 
 
 def simulate(
@@ -350,7 +368,9 @@ def simulate(
     for n in range(steps):
         t_I = t
         events.append(("I", t, theta, omega))
-        end1 = _integrate_phase(beta, t, np.array([theta, omega]), ext_guard, ext_dot, rtol, atol)
+        end1 = _integrate_phase(
+            beta, t, np.array([theta, omega]), ext_guard, ext_dot, rtol, atol, record
+        )
         keep(end1, 1, n)
         if end1.kind != "guard":
             ended = end1.kind
@@ -361,7 +381,7 @@ def simulate(
         omega_III = float(ile.extension_reset(beta, end1.omega))
         events.append(("III", end1.t, theta_II, omega_III))
         end2 = _integrate_phase(
-            1.0, end1.t, np.array([theta_II, omega_III]), hs_guard, hs_dot, rtol, atol
+            1.0, end1.t, np.array([theta_II, omega_III]), hs_guard, hs_dot, rtol, atol, record
         )
         keep(end2, 2, n)
         if end2.kind != "guard":
