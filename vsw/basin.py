@@ -1,0 +1,327 @@
+"""Basin of attraction of the ILE gait over a grid of theta_II (the paper's Fig. 9).
+
+The basin is computed by iterating the generated stride map from a grid of initial q with
+the failure checks of every step (fall backward: q <= q_apex_min; lift-off: the contact
+margin of the step is negative), then refining each edge by bisection on the same test.
+The closed-form interval (q_apex_min, q_liftoff_max] is *not* used to compute it; the
+tests compare the two, and :func:`check_edges_by_simulation` checks edges with the
+time-domain simulation.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from generated import ile
+from vsw.analysis import _jsonable, analyze
+from vsw.errors import VswInputError
+from vsw.params import check_parameter
+
+__all__ = ["Basin", "EdgeCheck", "basin", "check_edges_by_simulation", "converges"]
+
+Progress = Callable[[int, int], None]
+
+# Conditions checked step by step on q; the other physical conditions depend only on the
+# parameters and decide whether a gait can exist at all.
+_STEPWISE_CONDITIONS = frozenset({"q_positive", "apex", "stance_contact"})
+
+DEFAULT_THETA_II_DEG = np.linspace(-30.0, 40.0, 141)
+
+
+@dataclass(frozen=True)
+class Basin:
+    """Basin of attraction per theta_II for fixed beta and phi0.
+
+    Attributes
+    ----------
+    beta, phi0 : float
+    theta_II : numpy.ndarray, shape (n,)
+        Grid (rad).
+    q_min, q_max : numpy.ndarray, shape (n,)
+        The basin is q_min < q0 <= q_max (q = omega_I^2); NaN where no gait exists.
+    q_fixed : numpy.ndarray, shape (n,)
+        Fixed point (NaN where no gait exists).
+    n_steps : int
+        Map iterations used per test.
+    """
+
+    beta: float
+    phi0: float
+    theta_II: np.ndarray
+    q_min: np.ndarray
+    q_max: np.ndarray
+    q_fixed: np.ndarray
+    n_steps: int
+
+    @property
+    def omega_min(self) -> np.ndarray:
+        """Lower edge as omega_I = sqrt(q_min), shape (n,)."""
+        return np.sqrt(self.q_min)
+
+    @property
+    def omega_max(self) -> np.ndarray:
+        """Upper edge as omega_I = sqrt(q_max), shape (n,)."""
+        return np.sqrt(self.q_max)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON contract of ``vsw basin --json`` (equal-length lists, None for NaN)."""
+        return {
+            "beta": self.beta,
+            "phi0": self.phi0,
+            "theta_II": _jsonable(self.theta_II),
+            "q_min": _jsonable(self.q_min),
+            "q_max": _jsonable(self.q_max),
+            "q_fixed": _jsonable(self.q_fixed),
+            "omega_min": _jsonable(self.omega_min),
+            "omega_max": _jsonable(self.omega_max),
+            "n_steps": self.n_steps,
+        }
+
+
+def _steps_to_converge(eigenvalue: float, spread: float, tol: float, cap: int) -> int:
+    """Iterations after which lambda^n * spread < tol for the linear map (at least 2)."""
+    if not 0 < eigenvalue < 1:
+        return cap
+    n = math.ceil(math.log(tol / max(spread, tol)) / math.log(eigenvalue)) + 1
+    return int(min(max(n, 2), cap))
+
+
+def converges(
+    beta: float,
+    theta_II: np.ndarray,
+    phi0: float,
+    q0: np.ndarray,
+    n_steps: int,
+    q_fixed: np.ndarray,
+    gait_exists: np.ndarray,
+    tol: float = 1e-8,
+) -> np.ndarray:
+    """Whether walking from q0 survives ``n_steps`` steps and ends at the fixed point.
+
+    Parameters
+    ----------
+    beta, phi0 : float
+    theta_II, q_fixed, gait_exists : numpy.ndarray
+        Broadcastable against ``q0`` (e.g. shape (n, 1) against (n, m)).
+    q0 : numpy.ndarray
+        Initial q = omega_I^2.
+    n_steps : int
+    tol : float
+        Relative distance to q_fixed accepted at the end.
+
+    Returns
+    -------
+    numpy.ndarray of bool
+        Broadcast shape of the inputs.
+    """
+    q = np.asarray(q0, dtype=float)
+    alive = np.broadcast_to(gait_exists, np.broadcast_shapes(q.shape, np.shape(gait_exists)))
+    alive = alive.copy()
+    q_apex = ile.q_apex_min(beta, theta_II, phi0)
+    with np.errstate(all="ignore"):
+        for _ in range(n_steps):
+            # Every step: over the apex (eq. 14 exact) and foot on the ground all step.
+            alive &= q > q_apex
+            alive &= ile.contact_margin(beta, theta_II, phi0, q) >= 0
+            q = np.where(alive, ile.stride_map(beta, theta_II, phi0, q), np.nan)
+        alive &= np.abs(q - q_fixed) <= tol * (1 + np.abs(q_fixed))
+    return alive
+
+
+def basin(
+    beta: float,
+    phi0: float,
+    theta_II_grid: Any = None,
+    *,
+    n_q: int = 2001,
+    refine: bool = True,
+    max_steps: int = 5000,
+) -> Basin:
+    """Basin of attraction of the fixed point for each theta_II of a grid.
+
+    Parameters
+    ----------
+    beta, phi0 : float
+        Model parameters (phi0 in rad).
+    theta_II_grid : array_like, shape (n,), optional
+        theta_II values (rad); default -30 deg to 40 deg in 0.5 deg steps.
+    n_q : int
+        Number of initial q on the grid 0 < q <= 1.5 / beta. The stance foot lifts off at
+        instant I itself once q > cos(theta_I) / beta <= 1 / beta, so the grid reaches past
+        every upper edge.
+    refine : bool
+        Bisect each edge between its grid neighbours to full precision.
+    max_steps : int
+        Cap on map iterations per test.
+
+    Returns
+    -------
+    Basin
+        NaN edges where no gait exists (some physical condition independent of q fails, or
+        no grid q converges).
+    """
+    beta = float(check_parameter("beta", beta))
+    phi0 = float(check_parameter("phi0", phi0))
+    theta_II = np.radians(DEFAULT_THETA_II_DEG) if theta_II_grid is None else theta_II_grid
+    theta_II = check_parameter("theta_II", np.atleast_1d(theta_II)).astype(float)
+    if theta_II.ndim != 1:
+        raise VswInputError(f"theta_II_grid must be one-dimensional, got shape {theta_II.shape}")
+    if n_q < 3:
+        raise VswInputError(f"n_q = {n_q} must be at least 3 grid points")
+
+    analysis = analyze(beta, theta_II, phi0, timing=False)
+    gait_exists = np.ones(theta_II.shape, dtype=bool)
+    for c in analysis.conditions:
+        if c.physical and c.name not in _STEPWISE_CONDITIONS:
+            gait_exists &= np.asarray(c.holds)
+    q_fixed = np.where(gait_exists, analysis.q_fixed, np.nan)
+
+    q_top = 1.5 / beta
+    q_grid = np.linspace(0.0, q_top, n_q)[1:]
+    n_steps = _steps_to_converge(float(ile.eigenvalue(beta, phi0)), q_top, 1e-12, max_steps)
+
+    def test(q0: np.ndarray, rows: Any = slice(None)) -> np.ndarray:
+        th = theta_II[rows]
+        qf = q_fixed[rows]
+        ok = gait_exists[rows]
+        if q0.ndim == 2:
+            th, qf, ok = th[:, None], qf[:, None], ok[:, None]
+        return converges(beta, th, phi0, q0, n_steps, qf, ok)
+
+    q0 = np.broadcast_to(q_grid, (theta_II.size, q_grid.size))
+    inside = test(q0)
+    any_inside = inside.any(axis=1)
+    first = np.argmax(inside, axis=1)
+    last = q_grid.size - 1 - np.argmax(inside[:, ::-1], axis=1)
+    q_min = np.where(any_inside, q_grid[first], np.nan)
+    q_max = np.where(any_inside, q_grid[last], np.nan)
+    if refine and any_inside.any():
+        rows = np.flatnonzero(any_inside)
+        # Lower edge: bracket (fail, converge); q = 0 (standing still) never converges.
+        low_fail = np.where(first[rows] > 0, q_grid[np.maximum(first[rows] - 1, 0)], 0.0)
+        low_ok = q_grid[first[rows]]
+        # Upper edge: bracket (converge, fail); past the grid end counts as failing.
+        high_ok = q_grid[last[rows]]
+        high_fail = np.where(
+            last[rows] < q_grid.size - 1, q_grid[np.minimum(last[rows] + 1, q_grid.size - 1)], q_top
+        )
+        for _ in range(60):
+            mid = 0.5 * (low_fail + low_ok)
+            good = test(mid, rows)
+            low_ok = np.where(good, mid, low_ok)
+            low_fail = np.where(good, low_fail, mid)
+            mid = 0.5 * (high_ok + high_fail)
+            good = test(mid, rows)
+            high_ok = np.where(good, mid, high_ok)
+            high_fail = np.where(good, high_fail, mid)
+        q_min[rows] = low_ok
+        q_max[rows] = high_ok
+    return Basin(
+        beta=beta,
+        phi0=phi0,
+        theta_II=theta_II,
+        q_min=q_min,
+        q_max=q_max,
+        q_fixed=np.where(any_inside, q_fixed, np.nan),
+        n_steps=n_steps,
+    )
+
+
+@dataclass(frozen=True)
+class EdgeCheck:
+    """One simulation run next to a basin edge.
+
+    Attributes
+    ----------
+    theta_II : float
+    edge : {'q_min', 'q_max'}
+    side : {'inside', 'outside'}
+    q0 : float
+    expected, ended : str
+        Expected and actual end of the simulation ('completed' means it also reached the
+        fixed point).
+    q_last : float
+        q after the last simulated heelstrike (NaN if it never got there).
+    ok : bool
+    """
+
+    theta_II: float
+    edge: str
+    side: str
+    q0: float
+    expected: str
+    ended: str
+    q_last: float
+    ok: bool
+
+
+def check_edges_by_simulation(
+    result: Basin,
+    n_samples: int = 5,
+    rel: float = 1e-3,
+    steps: int | None = None,
+    progress: Progress | None = None,
+) -> list[EdgeCheck]:
+    """Check sampled basin edges with the time-domain simulation (``vsw.simulate``).
+
+    Just inside each edge the simulation must complete and reach q_fixed; just outside the
+    lower edge it must fall backward and outside the upper edge the foot must lift off.
+
+    Parameters
+    ----------
+    result : Basin
+    n_samples : int
+        Number of theta_II values, evenly spread over those with a gait.
+    rel : float
+        Offset from the edge as a fraction of the basin width.
+    steps : int, optional
+        Simulated steps for the inside runs; default enough for lambda^steps < 1e-9.
+    progress : callable, optional
+        ``progress(done, total)`` after each simulation.
+
+    Returns
+    -------
+    list of EdgeCheck
+    """
+    from vsw.simulate import simulate
+
+    rows = np.flatnonzero(np.isfinite(result.q_min) & np.isfinite(result.q_max))
+    if rows.size == 0:
+        return []
+    picks = rows[np.unique(np.linspace(0, rows.size - 1, max(n_samples, 1)).round().astype(int))]
+    eigenvalue = float(ile.eigenvalue(result.beta, result.phi0))
+    if steps is None:
+        steps = _steps_to_converge(eigenvalue, 1.0, 1e-9, 200)
+    plan: list[tuple[int, str, str, float, str]] = []
+    for i in picks:
+        width = result.q_max[i] - result.q_min[i]
+        delta = rel * width
+        plan.append((i, "q_min", "inside", result.q_min[i] + delta, "completed"))
+        if result.q_min[i] - delta > 0:
+            plan.append((i, "q_min", "outside", result.q_min[i] - delta, "fell-backward"))
+        plan.append((i, "q_max", "inside", result.q_max[i] - delta, "completed"))
+        plan.append((i, "q_max", "outside", result.q_max[i] + delta, "lift-off"))
+    checks: list[EdgeCheck] = []
+    for done, (i, edge, side, q0, expected) in enumerate(plan, start=1):
+        run_steps = steps if side == "inside" else 2
+        sim = simulate(
+            result.beta, float(result.theta_II[i]), result.phi0, float(q0), run_steps, record=False
+        )
+        q_last = float(sim.q[-1]) if len(sim.q) else math.nan
+        ok = sim.ended == expected
+        if ok and expected == "completed":
+            q_fixed = float(result.q_fixed[i])
+            ok = abs(q_last - q_fixed) <= 1e-6 * (1 + abs(q_fixed))
+        checks.append(
+            EdgeCheck(
+                float(result.theta_II[i]), edge, side, float(q0), expected, sim.ended, q_last, ok
+            )
+        )
+        if progress is not None:
+            progress(done, len(plan))
+    return checks

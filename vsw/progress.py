@@ -1,0 +1,78 @@
+"""A tiny progress bar on stderr, shown only when stderr is a terminal."""
+
+from __future__ import annotations
+
+import sys
+import time
+from typing import TextIO
+
+__all__ = ["ProgressBar"]
+
+
+class ProgressBar:
+    """Callable progress reporter ``bar(done, total)``; silent unless the stream is a TTY.
+
+    Parameters
+    ----------
+    label : str
+        Text in front of the bar.
+    stream : file-like, optional
+        Defaults to ``sys.stderr``.
+    enabled : bool, optional
+        Force on or off; by default on exactly when ``stream.isatty()``.
+    width : int
+        Bar width in characters.
+    min_interval : float
+        Seconds between redraws (the last update is always drawn).
+    """
+
+    def __init__(
+        self,
+        label: str,
+        stream: TextIO | None = None,
+        enabled: bool | None = None,
+        width: int = 30,
+        min_interval: float = 0.1,
+    ) -> None:
+        self.label = label
+        self.stream = stream if stream is not None else sys.stderr
+        if enabled is None:
+            isatty = getattr(self.stream, "isatty", None)
+            enabled = bool(isatty and isatty())
+        self.enabled = enabled
+        self.width = width
+        self.min_interval = min_interval
+        self._last_draw = -float("inf")
+        self._drawn = False
+
+    def __call__(self, done: int, total: int) -> None:
+        """Report ``done`` of ``total`` units of work."""
+        if not self.enabled or total <= 0:
+            return
+        now = time.monotonic()
+        finished = done >= total
+        if not finished and now - self._last_draw < self.min_interval:
+            return
+        self._last_draw = now
+        fraction = min(max(done / total, 0.0), 1.0)
+        filled = round(fraction * self.width)
+        bar = "#" * filled + "-" * (self.width - filled)
+        self.stream.write(f"\r{self.label} [{bar}] {done}/{total}")
+        self._drawn = True
+        if finished:
+            self.close()
+        else:
+            self.stream.flush()
+
+    def close(self) -> None:
+        """End the bar's line (idempotent)."""
+        if self.enabled and self._drawn:
+            self.stream.write("\n")
+            self.stream.flush()
+            self._drawn = False
+
+    def __enter__(self) -> ProgressBar:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
