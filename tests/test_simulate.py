@@ -214,7 +214,7 @@ def test_walking_gaits_converge_to_the_fixed_point(params, start):
     # Keep a relative margin from the feasibility edges, where a step grazes the apex or
     # the normal force touches zero and the outcome is decided by round-off.
     assume(q_f > q_lo * (1 + 1e-6) and q_f < q_hi * (1 - 1e-6))
-    q0 = q_f + start * ((q_hi if start > 0 else q_lo) - q_f)
+    q0 = q_f + abs(start) * ((q_hi if start > 0 else q_lo) - q_f)
     steps = 12
     res = simulate(*params, q0, steps, record=False)
     assert res.ended == "completed"
