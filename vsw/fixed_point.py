@@ -121,6 +121,9 @@ def _check_method(method: str) -> str:
     return method
 
 
+#: Round-off slack (radians) when checking that the phases run forward.
+_ANGLE_SLACK = 1e-12
+
 #: Fixed steps per swing phase of the 8th-order Runge-Kutta integration.
 RK_STEPS = 32
 
@@ -186,11 +189,12 @@ def _integrated_map_function(n_steps: int = RK_STEPS) -> Any:
     omega_III = ile.extension_reset(beta, ca.sqrt(u_II))
     u_IV, tau_2, min_2 = _rk8_phase(theta_II, th_IV, 1, omega_III**2, n_steps)
     omega_I_next = ile.heelstrike_reset(beta, phi0, ca.sqrt(u_IV))
-    # Valid only if omega > 0 throughout and the phases run forward (theta_I < theta_II
-    # < theta_IV); otherwise NaN, so the rootfinder's result fails the residual check.
+    # Valid only if omega > 0 throughout and the phases run forward (theta_I <= theta_II
+    # <= theta_IV, up to _ANGLE_SLACK so that a theta_II on an edge, equal to theta_I in
+    # round-off, still counts); otherwise NaN, so the solve fails the residual check.
     valid = ca.logic_and(
         ca.logic_and(ca.fmin(min_1, min_2) > 0, q > 0),
-        ca.logic_and(theta_II > th_I, theta_II < th_IV),
+        ca.logic_and(theta_II >= th_I - _ANGLE_SLACK, theta_II <= th_IV + _ANGLE_SLACK),
     )
     nan = ca.SX(math.nan)
     outs = [ca.if_else(valid, v, nan) for v in (omega_I_next**2, tau_1, tau_2)]

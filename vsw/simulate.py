@@ -237,6 +237,13 @@ def _integrate_phase(
         th0, w0 = float(y_start[0]), float(y_start[1])
         return _PhaseEnd("lift-off", t_start, th0, w0, np.array([t_start]), y_start[:, None])
 
+    # A guard already met at the start (theta_II within round-off of theta_IV, so the
+    # swing foot height is already <= 0) would never be crossed: the phase has length 0.
+    g0 = guard(t_start, y_start)
+    if (guard.direction > 0 and g0 >= 0) or (guard.direction < 0 and g0 <= 0):
+        th0, w0 = float(y_start[0]), float(y_start[1])
+        return _PhaseEnd("guard", t_start, th0, w0, np.array([t_start]), y_start[:, None])
+
     events = [guard, fall, liftoff]
     derivs = [guard_dot, fall_dot, liftoff_dot]
     kinds = ["guard", "fell-backward", "lift-off"]
