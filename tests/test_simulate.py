@@ -10,7 +10,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from generated import ile
-from vsw.errors import VswInputError
+from vsw.errors import ConvergenceError, VswInputError
 from vsw.simulate import (
     SimulationResult,
     fixed_point_by_simulation,
@@ -265,3 +265,20 @@ def test_apex_failure_at_the_fixed_point_ends_in_a_fall(params):
     assert res.ended == "fell-backward"
     # Every step that completed started above the bound; the one that fell started below.
     assert np.all(res.q[:-1] >= q_lo * (1 - 1e-9)) and res.q[-1] < q_lo * (1 + 1e-9)
+
+
+@settings(max_examples=10, deadline=None, suppress_health_check=list(HealthCheck))
+@given(params=model_parameters())
+def test_simulated_fixed_point_by_brentq_matches_closed_form(params):
+    assume(walks(*params))
+    q_f = float(ile.q_fixed(*params))
+    q_lo, q_hi = float(ile.q_apex_min(*params)), float(ile.q_liftoff_max(*params))
+    assume(q_lo * (1 + 1e-6) < q_f < q_hi * (1 - 1e-6))
+    assert rel_err(fixed_point_by_simulation(*params), q_f) <= REL
+
+
+def test_simulated_fixed_point_reports_a_falling_gait():
+    falling = (0.9, -0.4, 1.2)  # q_fixed < q_apex_min: every gait decays into a fall
+    assert float(ile.q_fixed(*falling)) < float(ile.q_apex_min(*falling))
+    with pytest.raises(ConvergenceError):
+        fixed_point_by_simulation(*falling)

@@ -26,6 +26,7 @@ Edge cases (documented decisions)
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -472,10 +473,17 @@ def fixed_point_by_simulation(
 ) -> float:
     """Fixed point of the simulated Poincaré map by bracketing and Brent's method.
 
-    The baseline a researcher would write without the closed form: evaluate
-    ``poincare_map(q) - q`` on a logarithmic grid of q (each point a one-step simulation),
-    take the first sign change between two completed steps, and refine it with
-    :func:`scipy.optimize.brentq`.
+    The baseline a researcher would write without the closed form; every evaluation of
+    ``r(q) = poincare_map(q) - q`` is a one-step simulation:
+
+    1. scan a logarithmic grid of q; if no step completes, scan linearly between the
+       largest q that falls back and the smallest that lifts off (the feasible interval
+       can be narrow);
+    2. if r changes sign between two completed grid points, bracket there;
+    3. otherwise, from the completed point with the smallest |r|, take secant steps
+       q <- q + r / (1 - slope) with a finite-difference slope of the simulated map, and
+       bracket around the estimate (widening by 10x) until r changes sign;
+    4. refine the bracket with :func:`scipy.optimize.brentq`.
 
     Parameters
     ----------
@@ -494,26 +502,71 @@ def fixed_point_by_simulation(
     Raises
     ------
     vsw.errors.ConvergenceError
-        No sign change between completed steps on the grid (no walking fixed point found).
+        No fixed point among q values whose step completes (falls back or lifts off on
+        the way, or no step completes at all).
     """
     from scipy.optimize import brentq
 
     _check_parameters(beta, theta_II, phi0)
     grid = np.logspace(-3, 3, 61) if q_grid is None else np.asarray(q_grid, dtype=float)
+    where = f"beta={beta!r}, theta_II={theta_II!r}, phi0={phi0!r}"
 
     def residual(q: float) -> float:
         return poincare_map(beta, theta_II, phi0, q) - q
 
-    prev_q, prev_r = math.nan, math.nan
-    for q in grid:
-        r = residual(float(q))
-        if math.isfinite(r) and math.isfinite(prev_r) and (r == 0 or (prev_r > 0) != (r > 0)):
-            if r == 0:
-                return float(q)
-            root = brentq(residual, prev_q, float(q), xtol=xtol, rtol=4 * np.finfo(float).eps)
-            return float(root)
-        prev_q, prev_r = float(q), r
+    def scan(qs) -> list[tuple[float, float, str]]:
+        out = []
+        for q in qs:
+            step = poincare_step(beta, theta_II, phi0, float(q))
+            out.append((float(q), step.q_next - float(q), step.ended))
+        return out
+
+    def solve(a: float, b: float) -> float:
+        return float(brentq(residual, a, b, xtol=xtol, rtol=4 * np.finfo(float).eps))
+
+    points = scan(grid)
+    if not any(e == "completed" for _, _, e in points):
+        falls = [q for q, _, e in points if e == "fell-backward"]
+        lifts = [q for q, _, e in points if e == "lift-off"]
+        if falls and lifts and max(falls) < min(lifts):
+            points = scan(np.linspace(max(falls), min(lifts), 42)[1:-1])
+    done = [(q, r) for q, r, e in points if e == "completed"]
+    if not done:
+        raise ConvergenceError(f"no step of the simulated map completes for {where}")
+    for (qa, ra), (qb, rb) in itertools.pairwise(done):
+        if ra == 0:
+            return qa
+        if (ra > 0) != (rb > 0):
+            return solve(qa, qb)
+    if done[-1][1] == 0:
+        return done[-1][0]
+
+    q_a, r_a = min(done, key=lambda qr: abs(qr[1]))
+    for _ in range(20):
+        delta = 1e-6 * q_a
+        r_d = residual(q_a + delta)
+        if not math.isfinite(r_d):
+            delta, r_d = -delta, residual(q_a - delta)
+        slope = 1 + (r_d - r_a) / delta  # slope of the map itself
+        if not (math.isfinite(slope) and slope != 1):
+            break
+        q_b = q_a + r_a / (1 - slope)
+        if not (q_b > 0 and math.isfinite(q_b)):
+            break
+        r_b = residual(q_b)
+        if not math.isfinite(r_b):
+            break  # the estimate falls back or lifts off: no walking fixed point
+        if r_b == 0:
+            return q_b
+        width = 1e-9 * q_b
+        while width < q_b:
+            lo, hi = q_b - width, q_b + width
+            r_lo, r_hi = residual(lo), residual(hi)
+            if math.isfinite(r_lo) and math.isfinite(r_hi) and (r_lo > 0) != (r_hi > 0):
+                return solve(lo, hi)
+            width *= 10
+        q_a, r_a = q_b, r_b
     raise ConvergenceError(
-        f"no fixed point of the simulated map for beta={beta!r}, theta_II={theta_II!r}, "
-        f"phi0={phi0!r}: no sign change of f(q) - q between completed steps on the q grid"
+        f"no fixed point of the simulated map for {where}: no sign change of f(q) - q "
+        "between steps that complete"
     )
