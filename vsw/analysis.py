@@ -233,11 +233,15 @@ def _compute_chunk(
         out["energy_lost"] = ile.energy_dissipated(beta, theta_II, phi0, q_fixed, 1.0, 1.0, 1.0)
         out["energy_added"] = out["energy_added"] * energy_scale
         out["energy_lost"] = out["energy_lost"] * energy_scale
-        if timing:
-            tau_I_II, tau_III_IV = ile.phase_durations(beta, theta_II, phi0, q_fixed)
-            step_period = np.where(walks, tau_I_II + tau_III_IV, np.nan)
-        else:
-            step_period = np.full(beta.shape, np.nan)
+        step_period = np.full(beta.shape, np.nan)
+        if timing and walks.any():
+            # The elliptic integrals are the most expensive part; evaluate them only where
+            # the gait walks (elsewhere the period is NaN anyway).
+            sel = np.flatnonzero(walks)
+            tau_I_II, tau_III_IV = ile.phase_durations(
+                beta[sel], theta_II[sel], phi0[sel], q_fixed[sel]
+            )
+            step_period[sel] = tau_I_II + tau_III_IV
         out["step_period"] = step_period
         out["speed"] = out["step_length"] / step_period
     return out
