@@ -258,6 +258,8 @@ def _integrate_phase(
         events=events,
         dense_output=dense,
     )
+    if sol.status < 0:
+        raise ConvergenceError(f"DOP853 failed at tau = {sol.t[-1]!r}: {sol.message}")
     hits = [(te[0], i) for i, te in enumerate(sol.t_events) if len(te)]
     if not hits:
         # Stalled on the apex separatrix: the walker does not get over the apex.
@@ -328,6 +330,8 @@ def simulate(
     ------
     vsw.errors.VswInputError
         Out-of-domain parameters, q0 or steps (one-line message).
+    vsw.errors.ConvergenceError
+        The integrator itself failed (not expected for valid input).
     """
     beta, theta_II, phi0 = _check_parameters(beta, theta_II, phi0)
     q0 = _check_q0(q0)
