@@ -149,3 +149,8 @@ def test_bad_input(kwargs, match):
     args = dict(zip(("beta", "theta_II", "phi0"), FIG8)) | kwargs
     with pytest.raises(VswInputError, match=match):
         fp.solve_fixed_point(**args)
+
+
+def test_empty_batch():
+    res = fp.solve_fixed_point_batch([], [], [])
+    assert res.q_fixed.shape == (0,) and res.converged.shape == (0,)

@@ -381,6 +381,9 @@ def solve_fixed_point_batch(
     method = _check_method(method)
     b, t2, p0 = _validate_arrays(beta, theta_II, phi0)
     n = b.size
+    if n == 0:
+        empty = np.empty(0)
+        return BatchFixedPointResult(empty, empty.copy(), np.empty(0, dtype=bool), method)
     if q0 is None:
         q_start = _default_q0(method, b)
     else:
