@@ -935,6 +935,9 @@ def run_audit() -> Audit:
     comparisons = compare.compare_all()
     claims, walking_violations, data = audit_claims()
     equations = audit_equations(comparisons, walking_violations)
+    from paper_check.figures import gait_gaps
+
+    data["gaps"] = gait_gaps()
     settings = {
         "seed": SEED,
         "numeric samples per equation": compare.DEFAULT_SAMPLES,

@@ -7,6 +7,7 @@ Files are written deterministically (PNG and SVG, no dates, fixed SVG hash salt)
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 from typing import Any
@@ -15,7 +16,7 @@ import numpy as np
 
 from generated import ile
 
-__all__ = ["FIGURES", "write_figures"]
+__all__ = ["FIGURES", "curves", "gait_gaps", "write_figures"]
 
 FIGURES = ("fig5", "fig6", "fig7", "fig8", "fig9")
 _NO_GAIT = "dotted: no valid gait"
@@ -47,36 +48,98 @@ def _finish(ax: Any, title: str, xlabel: str, ylabel: str) -> None:
     ax.legend(handles, labels, fontsize=7, loc="best")
 
 
+def curves(name: str) -> list[tuple[str, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+    """The paper's plotted curves of Fig. 5-7: ``(label, x, beta, theta_II, phi0)``.
+
+    ``x`` is the plotted abscissa (beta, or an angle in degrees); the parameter arrays are
+    broadcast to its shape (angles in radians).
+    """
+    out = []
+    if name == "fig5":
+        beta = np.linspace(0.4, 0.999, 600)
+        for phi_deg in (45, 50, 55, 60):
+            p = np.full_like(beta, math.radians(phi_deg))
+            out.append((rf"$\varphi_0={phi_deg}^\circ$", beta, beta, 0 * beta, p))
+    elif name == "fig6":
+        theta = np.linspace(-40.0, 40.0, 801)
+        for b in (0.8, 0.9):
+            for phi_deg in (45, 60):
+                label = rf"$\beta={b}$, $\varphi_0={phi_deg}^\circ$"
+                p = np.full_like(theta, math.radians(phi_deg))
+                out.append((label, theta, np.full_like(theta, b), np.radians(theta), p))
+    elif name == "fig7":
+        phi = np.linspace(5.0, 89.0, 841)
+        for b in (0.6, 0.7, 0.8, 0.9):
+            out.append((rf"$\beta={b}$", phi, np.full_like(phi, b), 0 * phi, np.radians(phi)))
+    return out
+
+
+def gait_gaps() -> list[dict[str, Any]]:
+    """Parts of the plotted curves of Fig. 5-7 where no valid gait exists.
+
+    Each gap is a contiguous run of non-walking points, with the failing physical
+    conditions at its ends and middle, and the time-domain simulation at its middle
+    (started at q^f, three steps).
+
+    Returns
+    -------
+    list of dict
+        Keys ``figure, curve, from, to, fails, simulated``.
+    """
+    from paper_check.audit import _failing_reason
+    from paper_check.simulation import converged, run
+
+    gaps = []
+    for name in ("fig5", "fig6", "fig7"):
+        for label, x, b, t, p in curves(name):
+            ok = _walks(b, t, p)
+            edges = np.flatnonzero(np.diff(np.r_[0, (~ok).astype(int), 0]))
+            for start, stop in zip(edges[::2], edges[1::2]):
+                idx = (start, (start + stop - 1) // 2, stop - 1)
+                fails = sorted(
+                    {r for i in idx for r in _failing_reason(b[i], t[i], p[i]).split(", ")}
+                )
+                i = idx[1]
+                qf = float(ile.q_fixed(b[i], t[i], p[i]))
+                if qf > 0:
+                    res = run(b[i], t[i], p[i], qf, 3)
+                    simulated = "walks" if converged(res, qf) else res.ended
+                else:
+                    simulated = "q^f <= 0"
+                gaps.append(
+                    {
+                        "figure": name,
+                        "curve": label.replace("$", "")
+                        .replace("\\", "")
+                        .replace("varphi_0", "phi0")
+                        .replace("^circ", " deg"),
+                        "from": float(x[start]),
+                        "to": float(x[stop - 1]),
+                        "fails": ", ".join(fails),
+                        "simulated at the middle": simulated,
+                    }
+                )
+    return gaps
+
+
+def _plot_curves(ax: Any, name: str) -> None:
+    for k, (label, x, b, t, p) in enumerate(curves(name)):
+        _split_curve(ax, x, ile.q_fixed(b, t, p), _walks(b, t, p), f"C{k}", label)
+
+
 def _fig5(ax: Any) -> None:
-    beta = np.linspace(0.4, 0.999, 600)
-    for k, phi_deg in enumerate((45, 50, 55, 60)):
-        p = math.radians(phi_deg)
-        q = ile.q_fixed(beta, 0.0, p)
-        _split_curve(ax, beta, q, _walks(beta, 0.0, p), f"C{k}", rf"$\varphi_0={phi_deg}^\circ$")
+    _plot_curves(ax, "fig5")
     ax.set_ylim(0, 3)
     _finish(ax, r"Fig. 5: $q^f(\beta)$, $\theta_{II}=0^\circ$", r"$\beta$", r"$q^f$")
 
 
 def _fig6(ax: Any) -> None:
-    theta = np.linspace(-40.0, 40.0, 801)
-    k = 0
-    for b in (0.8, 0.9):
-        for phi_deg in (45, 60):
-            p = math.radians(phi_deg)
-            t = np.radians(theta)
-            q = ile.q_fixed(b, t, p)
-            label = rf"$\beta={b}$, $\varphi_0={phi_deg}^\circ$"
-            _split_curve(ax, theta, q, _walks(b, t, p), f"C{k}", label)
-            k += 1
+    _plot_curves(ax, "fig6")
     _finish(ax, r"Fig. 6: $q^f(\theta_{II})$", r"$\theta_{II}$ (deg)", r"$q^f$")
 
 
 def _fig7(ax: Any) -> None:
-    phi = np.linspace(5.0, 89.0, 841)
-    p = np.radians(phi)
-    for k, b in enumerate((0.6, 0.7, 0.8, 0.9)):
-        q = ile.q_fixed(b, 0.0, p)
-        _split_curve(ax, phi, q, _walks(b, 0.0, p), f"C{k}", rf"$\beta={b}$")
+    _plot_curves(ax, "fig7")
     ax.set_ylim(0, 3)
     _finish(ax, r"Fig. 7: $q^f(\varphi_0)$, $\theta_{II}=0^\circ$", r"$\varphi_0$ (deg)", r"$q^f$")
 
@@ -98,7 +161,7 @@ def _fig8(ax: Any, data: dict[str, Any]) -> None:
                 ax.plot(deg[sel], res.omega[sel], **style)
         # Jumps: extension II -> III and heelstrike IV -> I.
         ev = res.events
-        for a, c in zip(ev[:-1], ev[1:]):
+        for a, c in itertools.pairwise(ev):
             if (a[0], c[0]) in (("II", "III"), ("IV", "I")):
                 ax.plot(np.degrees([a[2], c[2]]), [a[3], c[3]], ls="--", **style)
     ax.plot([], [], color="C0", lw=2, label="simulated cycle from $q^f$")
@@ -157,7 +220,7 @@ def _fig9(ax: Any, data: dict[str, Any]) -> None:
     ax.set_title(r"Fig. 9: basin of attraction, $\beta=0.8$, $\varphi_0=45^\circ$", fontsize=10)
     ax.set_xlabel(r"$\omega_I = \sqrt{q}$ at instant I")
     ax.set_ylabel(r"$\theta_{II}$ (deg)")
-    ax.legend(fontsize=6, loc="upper right")
+    ax.legend(fontsize=6, loc="lower right", framealpha=0.9)
 
 
 def write_figures(out: Path, figure_data: dict[str, Any]) -> list[Path]:

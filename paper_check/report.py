@@ -6,7 +6,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from paper_check.audit import VERDICTS, Audit, Entry
+from paper_check.audit import VERDICTS, Audit, Entry, _jsonable
 from paper_check.figures import FIGURES
 
 __all__ = ["audit_json", "audit_markdown", "summary_table"]
@@ -147,7 +147,23 @@ def audit_markdown(audit: Audit) -> str:
             f"{captions[name]} Dotted parts reach no valid gait. ([SVG]({name}.svg))",
             "",
         ]
-    lines += ["## Equations", ""]
+    lines += [
+        "### Plotted ranges without a gait",
+        "",
+        "Where the paper's curves (Fig. 5-7, same parameter values) reach no valid gait: the "
+        "failing physical conditions of the derivation (`apex`: falls backward, exact (14); "
+        "`stance_contact`: the stance foot lifts off; `extension_reached`: theta_II <= "
+        "theta_I; `extension_before_heelstrike`: theta_II >= theta_IV) and the simulation at "
+        "the middle of the gap, started at q^f (`undefined`: the model's motion is not "
+        "defined there, the leg never extends or would extend after heelstrike).",
+        "",
+    ]
+    gaps = [
+        {**g, "from": f"{g['from']:.4g}", "to": f"{g['to']:.4g}"}
+        for g in audit.figure_data.get("gaps", [])
+    ]
+    lines += _rows(gaps)
+    lines += ["", "## Equations", ""]
     for e in audit.equations:
         lines += _entry_md(e, f"Equation {e.id} — {e.verdict}", f"eq-{_anchor(e.id)}")
     lines += ["## Claims", ""]
@@ -167,6 +183,7 @@ def audit_json(audit: Audit) -> str:
         "settings": audit.settings,
         "equations": [e.as_json() for e in audit.equations],
         "claims": [c.as_json() for c in audit.claims],
+        "figure_gaps": _jsonable(audit.figure_data.get("gaps", [])),
     }
     return json.dumps(doc, indent=2, sort_keys=False, ensure_ascii=False) + "\n"
 
