@@ -241,6 +241,42 @@ def _equation_notes() -> dict[str, str]:
     }
 
 
+SHORT_NOTES: dict[str, str] = {
+    "(1)": "Euler-Lagrange, leg r_s",
+    "(2)": "tau = sqrt(g/r_e) t",
+    "(3)": "angular momentum about the stance foot",
+    "(5)": "guard from the feet's positions",
+    "(6)": "angular momentum about the new contact",
+    "(7)": "energy integrals + resets",
+    "(10)": "root of f(q) = q",
+    "(11)": "from (5)",
+    "(12)": "q_positive margin",
+    "(13)": "= (12) divided by a positive factor (beta < 1, cos theta_1 > 0)",
+    "(14)": "exact only for theta_1 < 0 and theta_II > theta_1; misses theta_II > theta_1 "
+    "and the lift-off bound",
+    "(15)": "= theta_1 < 0, but not needed: sets with theta_1 > 0 walk",
+    "(16)": "omega_I > 0",
+    "(17)": "exact: theta_II < theta_IV = theta_1 + phi0 (> phi0/2)",
+    "(18)": "exact with q = q(n+1); with q(n) only at q^f",
+    "(19)": "slope of the affine map",
+    "(23)": "E_Delta = -(1/2) m g r_e beta^2 (1 - lambda)(q - q^f)",
+    "existence-sufficient": "lift-off and theta_II <= theta_1 counterexamples",
+    "existence-necessary": "(15) and (17) violated, still walks",
+    "qf-decreases-with-beta": "no counterexample where the motion is defined",
+    "qf-decreases-with-phi0": "no counterexample where the motion is defined",
+    "qf-largest-at-theta-II-zero": "true of (10); theta_II = 0 is often not a gait",
+    "stability-rate": "lambda = beta^2 cos^2 phi0, global on the feasible interval",
+    "energy-change-rate": "E_Delta proportional to q - q^f",
+    "energy-proportional-to-q": "affine, not proportional",
+    "typical-gait-fig8": "simulation through the closed-form instants",
+    "basin-whole-state-space": "(q_apex, q_liftoff], edges simulated",
+    "theta-II-upper-limit": "exact limit theta_IV = 37.5 deg, not 22.5 deg",
+    "notation-r-c": "r_c = r_e",
+    "notation-theta-1": "theta_1 = theta_I",
+}
+"""One-phrase notes for the summary table."""
+
+
 def _simulated_map_evidence(n: int = 30, seed: int = SEED + 1) -> dict[str, float]:
     """One simulated step from random feasible states: the map, the angles and energies."""
     rng = np.random.default_rng(seed)

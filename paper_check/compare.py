@@ -54,7 +54,7 @@ PAPER_TO_DERIVED: dict[sm.Basic, sm.Basic] = {
 """Paper symbol -> derivation symbol. ``r_s = beta r_e`` is the paper's definition of beta;
 ``theta_1`` (eq. 5-13) and ``theta_I`` (eq. 20-23) are the same angle."""
 
-DEFAULT_SAMPLES = 2000
+DEFAULT_SAMPLES = 5000
 DEFAULT_SEED = 20240601
 
 
@@ -495,7 +495,11 @@ def _compare_conditions(s: dict[str, np.ndarray]) -> list[Comparison]:
     bound = paper_apex_bound(s["beta"], s["theta_II"], s["phi0"])
     exact = ile.q_apex_min(s["beta"], s["theta_II"], s["phi0"])
     framed = s["theta_I"] < 0
-    err = max_relative_error(bound[framed], exact[framed])
+    # Near theta_1 = 0 both forms are 1 - cos(theta_1) in floating point (cancellation):
+    # compare tiny bounds in absolute terms, the rest relatively.
+    tiny = framed & (np.abs(exact) < 1e-4)
+    err = max_relative_error(bound[framed & ~tiny], exact[framed & ~tiny])
+    tiny_abs = float(np.max(np.abs(bound[tiny] - exact[tiny]), initial=0.0))
     lifts = ~(margins["stance_contact"] >= 0)
     printed = np.logical_and.reduce(
         list(paper_conditions(s["beta"], s["theta_II"], s["phi0"]).values())
@@ -510,8 +514,10 @@ def _compare_conditions(s: dict[str, np.ndarray]) -> list[Comparison]:
             f"theta_II >= 0 branch: {r1}; theta_II < 0 branch: {r2}",
             z1 and z2,
             err,
-            int(framed.sum()),
+            int((framed & ~tiny).sum()),
             {
+                "samples with theta_1 < 0 and bound < 1e-4 (compared absolutely)": int(tiny.sum()),
+                "max abs. error on those": tiny_abs,
                 "samples with theta_1 > 0 (outside (15))": int((~framed).sum()),
                 "max rel. error with theta_1 > 0": max_relative_error(
                     bound[~framed], exact[~framed]

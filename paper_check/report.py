@@ -6,7 +6,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from paper_check.audit import VERDICTS, Audit, Entry, _jsonable
+from paper_check.audit import SHORT_NOTES, VERDICTS, Audit, Entry, _jsonable
 from paper_check.figures import FIGURES
 
 __all__ = ["audit_json", "audit_markdown", "summary_table"]
@@ -26,14 +26,18 @@ def _math(latex: str) -> str:
 def summary_table(audit: Audit) -> str:
     """The summary table (equations, then claims): id, printed form, verdict, short note."""
     lines = [
-        "| Equation | As printed | Verdict |",
-        "|---|---|---|",
+        "| Equation | As printed | Verdict | Note |",
+        "|---|---|---|---|",
     ]
     for e in audit.equations:
-        lines.append(f"| [{e.id}](#eq-{_anchor(e.id)}) | {_math(e.paper)} | **{e.verdict}** |")
-    lines += ["", "| Claim | Verdict |", "|---|---|"]
+        note = _cell(SHORT_NOTES.get(e.id, ""))
+        lines.append(
+            f"| [{e.id}](#eq-{_anchor(e.id)}) | {_math(e.paper)} | **{e.verdict}** | {note} |"
+        )
+    lines += ["", "| Claim | Verdict | Note |", "|---|---|---|"]
     for c in audit.claims:
-        lines.append(f"| [{_cell(c.title)}](#{c.id}) | **{c.verdict}** |")
+        note = _cell(SHORT_NOTES.get(c.id, ""))
+        lines.append(f"| [{_cell(c.title)}](#{c.id}) | **{c.verdict}** | {note} |")
     return "\n".join(lines)
 
 
