@@ -1,0 +1,117 @@
+"""``python -m paper_check``: JSON contract, determinism, verdict table, exit status."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from paper_check.audit import EXPECTED_PATH, VERDICTS, expected_verdicts, verdict_changes
+from paper_check.figures import FIGURES
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _run(out: Path, *extra: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "paper_check", "--out", str(out), *extra],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+
+
+@pytest.fixture(scope="module")
+def two_runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    a, b = tmp_path_factory.mktemp("audit_a"), tmp_path_factory.mktemp("audit_b")
+    for out in (a, b):
+        proc = _run(out)
+        assert proc.returncode == 0, proc.stderr
+    return a, b
+
+
+def test_writes_report_json_and_figures(two_runs: tuple[Path, Path]) -> None:
+    out, _ = two_runs
+    names = {p.name for p in out.iterdir()}
+    assert {"audit.md", "audit.json"} <= names
+    for fig in FIGURES:
+        assert {f"{fig}.png", f"{fig}.svg"} <= names
+
+
+def test_json_contract(two_runs: tuple[Path, Path]) -> None:
+    doc = json.loads((two_runs[0] / "audit.json").read_text())
+    assert set(doc["verdict_vocabulary"]) == set(VERDICTS)
+    assert [e["id"] for e in doc["equations"]] == [f"({i})" for i in range(1, 24)]
+    for entry in doc["equations"] + doc["claims"]:
+        assert {"id", "verdict", "evidence", "note"} <= set(entry)
+        assert entry["verdict"] in VERDICTS
+        assert entry["note"]
+        assert entry["evidence"]
+    for entry in doc["equations"]:
+        ev = entry["evidence"]
+        assert "zero" in ev["symbolic"] and "residual" in ev["symbolic"]
+        assert ev["numeric"]["samples"] >= 1000
+
+
+def test_json_verdicts_match_recorded_table(two_runs: tuple[Path, Path]) -> None:
+    doc = json.loads((two_runs[0] / "audit.json").read_text())
+    found = {
+        "equations": {e["id"]: e["verdict"] for e in doc["equations"]},
+        "claims": {c["id"]: c["verdict"] for c in doc["claims"]},
+    }
+    assert verdict_changes(found, expected_verdicts()) == []
+
+
+def test_counterexamples_reported_for_refuted_claims(two_runs: tuple[Path, Path]) -> None:
+    doc = json.loads((two_runs[0] / "audit.json").read_text())
+    claims = {c["id"]: c for c in doc["claims"]}
+    for cid in ("existence-sufficient", "existence-necessary", "qf-largest-at-theta-II-zero"):
+        rows = claims[cid]["counterexamples"]
+        assert rows and {"beta", "theta_II_deg", "phi0_deg"} <= set(rows[0])
+    sims = claims["existence-sufficient"]["evidence"]["simulation"]
+    assert sims["simulated sets whose outcome disagrees with the derived conditions"] == 0
+    assert sims["per category"]["printed, lift-off"].get("lift-off", 0) > 0
+
+
+def test_report_is_deterministic(two_runs: tuple[Path, Path]) -> None:
+    a, b = two_runs
+    for path in sorted(a.iterdir()):
+        assert path.read_bytes() == (b / path.name).read_bytes(), path.name
+
+
+def test_markdown_summary_first_and_figures_linked(two_runs: tuple[Path, Path]) -> None:
+    md = (two_runs[0] / "audit.md").read_text()
+    headings = [line for line in md.splitlines() if line.startswith("## ")]
+    assert headings[0] == "## Summary"
+    for fig in FIGURES:
+        assert f"]({fig}.png)" in md and f"({fig}.svg)" in md
+    for verdict in VERDICTS:
+        assert f"`{verdict}`" in md
+
+
+def test_expected_table_is_complete_and_uses_the_vocabulary() -> None:
+    table = json.loads(EXPECTED_PATH.read_text())
+    assert set(table["equations"]) == {f"({i})" for i in range(1, 24)}
+    for verdict in list(table["equations"].values()) + list(table["claims"].values()):
+        assert verdict in VERDICTS
+
+
+def test_exit_status_nonzero_on_verdict_change(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A changed verdict makes the CLI fail (simulated by a tampered expected table)."""
+    import paper_check.__main__ as cli
+    import paper_check.audit as audit
+
+    table = expected_verdicts()
+    table["equations"]["(18)"] = "identical"
+    tampered = tmp_path / "expected.json"
+    tampered.write_text(json.dumps(table))
+    monkeypatch.setattr(
+        audit, "expected_verdicts", lambda path=tampered: json.loads(tampered.read_text())
+    )
+    assert cli.main(["--out", str(tmp_path / "out"), "--no-figures"]) == 1
