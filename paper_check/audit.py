@@ -496,7 +496,9 @@ def existence_claims() -> tuple[Entry, Entry, dict[str, int], dict[str, Any]]:
         "(normal force < 0, i.e. q^f > q_liftoff_max), or theta_II <= theta_1 so the stance "
         "leg never reaches the extension angle. Corrected set (all needed, together "
         "sufficient): q^f > q_apex_min (exact (14)), phi0 < pi/2, theta_1 < theta_II < "
-        "theta_IV, and min normal force >= 0 over the step at q^f.",
+        "theta_IV, and min normal force >= 0 over the step at q^f. 'undefined' in the "
+        "simulation means the stance leg never reaches theta_II during the step (it starts "
+        "beyond it), so the leg never extends and no energy is added: no gait of the model.",
         paper="Three sufficient conditions have to be satisfied for the existence of fixed point",
         derived=r"q_{apex} < q^f \le q_{liftoff},\ \theta_I < \theta_{II} < \theta_{IV},\ "
         r"\varphi_0 < \pi/2",
@@ -509,8 +511,12 @@ def existence_claims() -> tuple[Entry, Entry, dict[str, int], dict[str, Any]]:
         "conservative" if sum(walking_violations.values()) > 0 else "equivalent",
         common,
         "Gaits violating (15) (theta_1 > 0: the walker starts ahead of the apex) or (17) "
-        "(phi0/2 <= theta_II < theta_IV) walk in the simulation and converge to q^f. (12), "
-        "(13), (14) and (16) are necessary (no simulated violation walks).",
+        "(phi0/2 <= theta_II < theta_IV) walk in the simulation and stay at q^f; every "
+        "walking set of the dense sample that violates a printed condition violates only "
+        "(15) and/or (17). The others are necessary: without (12) / (13) there is no "
+        "positive fixed point (f(q) - q = (lambda - 1)(q - q^f) < 0 for q > 0, so q falls "
+        "each step); all simulated violations of (14) fail; (16) holds on the whole "
+        "parameter domain.",
         paper="Three sufficient conditions have to be satisfied",
         derived=r"\text{(15) and (17) are not necessary}",
         counterexamples=counterexamples["violates (15) only, walks"]
@@ -628,8 +634,10 @@ def _theta_II_claim(rng: np.random.Generator) -> Entry:
                 "theta_II grid points": n_grid,
                 "pairs with a walking theta_II": int(has.sum()),
                 "of which theta_II = 0 does not walk": int(bad.size),
-                "  because theta_1 > 0": int((theta_I[bad] > 0).sum()),
-                "  because the stance foot lifts off at theta_II = 0": int(
+                "of those, theta_1 > 0 (theta_II = 0 is never reached)": int(
+                    (theta_I[bad] > 0).sum()
+                ),
+                "of those, the stance foot lifts off at theta_II = 0": int(
                     (theta_I[bad] <= 0).sum()
                 ),
             },
@@ -702,7 +710,8 @@ def _stability_claims() -> tuple[Entry, Entry, dict[str, Any]]:
         "0 < phi0 < pi/2: every feasible perturbation decays geometrically and monotonically "
         "(no overshoot, lambda > 0). Stability is global on the feasible interval, not only "
         "local.",
-        paper=r"\lambda = \beta^2\cos^2\varphi_0",
+        paper="the eigenvalue of the jacobian J is within the unit circle. The fixed point is "
+        "asymptotically stable",
         derived=sm.latex(lam),
         counterexamples=[],
     )
@@ -721,7 +730,7 @@ def _stability_claims() -> tuple[Entry, Entry, dict[str, Any]]:
         },
         "E_Delta = -(1/2) m g r_e beta^2 (1 - lambda)(q - q^f): proportional to the distance "
         "from the fixed point, so it shrinks by lambda per step (assumption: q^f from (10)).",
-        paper=r"E_\Delta \to 0 \text{ at rate } \beta^2\cos^2\varphi_0",
+        paper="E_Delta will approach zero with the same rate",
         derived=r"E_\Delta = -\tfrac12 m g r_e \beta^2 (1-\lambda)(q - q^f)",
         counterexamples=rows[:3],
     )
@@ -747,7 +756,7 @@ def _energy_proportional_claim(s: dict[str, np.ndarray]) -> Entry:
         "E_c, E_r and E_Delta are affine in q (a q + b with b != 0), as the text itself says "
         "just before (20) ('linear functions'); 'proportional' is wrong. Corrected: 'affine "
         "in q'.",
-        paper=r"E_c \text{ is proportional to the state variable } q",
+        paper="E_c is proportional to the state variable q",
         derived=r"E_c = a q + b,\ b = m g r_e[(1-\beta^3)\cos\theta_{II} - (\beta-\beta^3)"
         r"\cos\theta_I] \ne 0",
         counterexamples=[
@@ -921,7 +930,7 @@ def _notation_claims() -> list[Entry]:
             {"text": {"theta_1 / omega_1 in": printed_1, "theta_I in": printed_I}},
             "Both name the stance angle (and rate) at instant I; the derivation and this audit "
             "use theta_I for both (paper_check.compare.PAPER_TO_DERIVED).",
-            paper=r"\theta_1,\ \omega_1",
+            paper="theta_1, omega_1 (eq. 5-14) and theta_I (text, eq. 20-23)",
             derived=r"\theta_I,\ \omega_I",
         ),
     ]
