@@ -29,6 +29,8 @@ infeasible and each user constraint is relaxed in turn to name the conflicting o
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import math
 import sys
 from collections.abc import Mapping
@@ -519,6 +521,7 @@ class _Solve:
     success: bool  # IPOPT success and verified
     violation: float
     iterations: int
+    feasible: bool  # the final point satisfies every constraint (converged or not)
 
 
 def _row_scales(problem: _Problem) -> np.ndarray:
@@ -537,7 +540,10 @@ def _solve_from(problem: _Problem, x0: np.ndarray) -> _Solve:
     p = np.concatenate([[problem.weights[t] for t in terms], scales])
     lbg = np.array([r.lower for r in problem.rows]) * scales
     ubg = np.array([r.upper for r in problem.rows]) * scales
-    sol = solver(x0=x0, p=p, lbx=problem.lbx, ubx=problem.ubx, lbg=lbg, ubg=ubg)
+    # CasADi writes some diagnostics (over-constrained NLP, multipliers not computed) to
+    # Python's stderr; the result object carries what matters, so they are swallowed.
+    with contextlib.redirect_stderr(io.StringIO()), contextlib.redirect_stdout(io.StringIO()):
+        sol = solver(x0=x0, p=p, lbx=problem.lbx, ubx=problem.ubx, lbg=lbg, ubg=ubg)
     stats = solver.stats()
     status = str(stats.get("return_status", "unknown"))
     x = np.clip(np.array(sol["x"]).reshape(-1), problem.lbx, problem.ubx)
@@ -550,21 +556,56 @@ def _solve_from(problem: _Problem, x0: np.ndarray) -> _Solve:
         float(qs[name][0]) > 0 or (not _STRICT[name] and float(qs[name][0]) >= 0)
         for name in _CONDITION_ROWS
     ) and bool(problem.ubx[2] < math.pi / 2)
-    ok = (
-        status in _SUCCESS
-        and violation <= _FEAS_TOL
+    feasible = (
+        violation <= _FEAS_TOL
         and walks
         and math.isfinite(objective)
         and math.isfinite(float(qs["speed"][0]))
     )
-    return _Solve(x, objective, status, ok, violation, int(stats.get("iter_count", -1)))
+    ok = status in _SUCCESS and feasible
+    return _Solve(x, objective, status, ok, violation, int(stats.get("iter_count", -1)), feasible)
 
 
 def _multistart(problem: _Problem, n_starts: int) -> tuple[_Solve | None, list[_Solve]]:
+    """Best verified converged solve (or None) and all solves."""
     solves = [_solve_from(problem, x0) for x0 in _starts(problem, n_starts)]
     good = [s for s in solves if s.success]
     best = min(good, key=lambda s: s.objective) if good else None
     return best, solves
+
+
+def _describe(
+    problem: _Problem, solve: _Solve, scale: RobotScale | None, verify: bool
+) -> dict[str, Any]:
+    """Analysis, active constraints, open boundaries and simulation check of a point."""
+    from vsw.analysis import analyze
+
+    x = solve.x
+    analysis = analyze(x[0], x[1], x[2], scale)
+    qs = _numpy_quantities(x[None, :])
+    active, open_boundary = _active(problem, x)
+    return {
+        "beta": float(x[0]),
+        "theta_II": float(x[1]),
+        "phi0": float(x[2]),
+        "analysis": analysis,
+        "objective": solve.objective,
+        "cost_of_transport": float(qs["cost_of_transport"][0]),
+        "step_frequency": float(qs["step_frequency"][0]),
+        "active_constraints": tuple(active),
+        "open_boundary": tuple(open_boundary),
+        "simulation_rel_error": _simulation_error(x, analysis) if verify else None,
+    }
+
+
+def _open_boundary_note(open_boundary: tuple[str, ...]) -> str:
+    if not open_boundary:
+        return ""
+    return (
+        "; the optimum (a supremum or infimum, not attained) lies on an open boundary the "
+        "model never reaches (" + ", ".join(open_boundary) + "): the returned design keeps "
+        f"a margin of {STRICT_MARGIN:g} (parameter limits: {_TABLE_EPS:g}) inside it"
+    )
 
 
 # --- result --------------------------------------------------------------------------------
@@ -814,6 +855,24 @@ def design(
             f"not converged: IPOPT did not converge to a verified design from {len(solves)} "
             f"starts ({', '.join(statuses)})"
         )
+        feasible = [s for s in solves if s.feasible]
+        if feasible:
+            # Not certified optimal, but a design that satisfies every constraint is still
+            # useful: return it, clearly labelled.
+            point = min(feasible, key=lambda s: s.objective)
+            info = _describe(problem, point, scale, verify)
+            message += (
+                "; returned the best final iterate that satisfies every constraint (not a "
+                "certified optimum)" + _open_boundary_note(info["open_boundary"])
+            )
+            return DesignResult(
+                status="not-converged",
+                conflicting_constraints=(),
+                message=message,
+                ipopt_status=point.ipopt_status,
+                starts=len(solves),
+                **info,
+            )
         edges = _near_open_limits(problem, least.x)
         if edges:
             message += (
@@ -823,38 +882,19 @@ def design(
         return DesignResult("not-converged", None, None, None, None, None, None, None, (), (),
                             None, (), message, least.ipopt_status, len(solves))  # fmt: skip
 
-    from vsw.analysis import analyze
-
-    x = best.x
-    analysis = analyze(x[0], x[1], x[2], scale)
-    qs = _numpy_quantities(x[None, :])
-    active, open_boundary = _active(problem, x)
-    sim_error = _simulation_error(x, analysis) if verify else None
+    info = _describe(problem, best, scale, verify)
     message = f"optimal (local, best of {len(solves)} starts; IPOPT {best.ipopt_status})"
-    if open_boundary:
-        message += (
-            "; the supremum lies on an open boundary the model never reaches ("
-            + ", ".join(open_boundary)
-            + f"): the returned design keeps a margin of {STRICT_MARGIN:g} inside it"
-        )
+    message += _open_boundary_note(info["open_boundary"])
+    sim_error = info["simulation_rel_error"]
     if sim_error is not None and not sim_error <= 1e-6:
         message += f"; WARNING: simulation disagrees (relative error {sim_error:.3g})"
     return DesignResult(
         status="optimal",
-        beta=float(x[0]),
-        theta_II=float(x[1]),
-        phi0=float(x[2]),
-        analysis=analysis,
-        objective=best.objective,
-        cost_of_transport=float(qs["cost_of_transport"][0]),
-        step_frequency=float(qs["step_frequency"][0]),
-        active_constraints=tuple(active),
-        open_boundary=tuple(open_boundary),
-        simulation_rel_error=sim_error,
         conflicting_constraints=(),
         message=message,
         ipopt_status=best.ipopt_status,
         starts=len(solves),
+        **info,
     )
 
 
