@@ -167,6 +167,19 @@ def test_open_boundary_is_reported_not_violated():
     assert bool(result.analysis.walks)
 
 
+def test_stalled_solve_is_labelled_not_converged_or_open_boundary():
+    # With theta_II fixed at 0 the fastest gait presses against extension_reached
+    # (theta_II > theta_I), where the period has a kink; IPOPT may stall there. Either way
+    # the result must say so and the returned point must walk.
+    result = design("speed", bounds=BOUNDS, fixed={"theta_II": 0.0})
+    assert result.status in ("optimal", "not-converged")
+    assert "extension_reached" in result.open_boundary
+    assert bool(result.analysis.walks)
+    assert result.simulation_rel_error < 1e-8
+    if result.status == "not-converged":
+        assert "not a certified optimum" in result.message
+
+
 def test_impossible_eigenvalue_bound_is_infeasible_and_named():
     # eigenvalue = beta^2 cos^2 phi0 >= 0.81 cos^2 40 deg = 0.475 > 0.2.
     result = design(

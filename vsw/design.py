@@ -627,7 +627,8 @@ class DesignResult:
     objective : float or None
         The minimised weighted sum (speed enters with a minus sign).
     cost_of_transport, step_frequency : float or None
-        E_c / (m g L) and 1 / step period (dimensionless) at the design.
+        E_c / (m g L) and 1 / step period (dimensionless) at the design; ``to_dict`` adds
+        ``step_frequency_hz`` when a scale is given.
     active_constraints : tuple of str
         Constraints at their bound (targets always).
     open_boundary : tuple of str
@@ -676,6 +677,8 @@ class DesignResult:
             out.update({name: None for name in FIELDS})
             out["conditions"] = []
         out["status"] = self.status
+        if self.analysis is not None and self.analysis.scale is not None:
+            out["step_frequency_hz"] = 1.0 / float(self.analysis.step_period_s)
         out.update(
             {
                 "objective": self.objective,
