@@ -48,7 +48,8 @@ def swing_acceleration(theta, leg_ratio):
         d2theta/dtau2; leg_ratio = beta gives (2), leg_ratio = 1 gives (4)
     """
     be = backend_for(theta, leg_ratio)
-    return be.sin(theta)/leg_ratio
+    cos_theta, sin_theta = be.cos_sin(theta)
+    return sin_theta/leg_ratio
 
 
 def phase_energy(theta, omega, leg_ratio):
@@ -68,7 +69,8 @@ def phase_energy(theta, omega, leg_ratio):
         (kinetic + potential) / (m g r_e)
     """
     be = backend_for(theta, omega, leg_ratio)
-    return leg_ratio*be.cos(theta) + omega**2*leg_ratio**2/2
+    cos_theta, sin_theta = be.cos_sin(theta)
+    return cos_theta*leg_ratio + (omega*omega)*(leg_ratio*leg_ratio)/2
 
 
 def normal_force(theta, omega, leg_ratio):
@@ -88,8 +90,8 @@ def normal_force(theta, omega, leg_ratio):
         N / (m g)
     """
     be = backend_for(theta, omega, leg_ratio)
-    x0 = be.cos(theta)
-    return x0**2 - x0*leg_ratio*omega**2
+    cos_theta, sin_theta = be.cos_sin(theta)
+    return (cos_theta*cos_theta) - cos_theta*leg_ratio*(omega*omega)
 
 
 def extension_reset(beta, omega_II):
@@ -108,7 +110,7 @@ def extension_reset(beta, omega_II):
         omega_III
     """
     be = backend_for(beta, omega_II)
-    return omega_II*beta**2
+    return omega_II*(beta*beta)
 
 
 def heelstrike_reset(beta, phi0, omega_IV):
@@ -128,7 +130,8 @@ def heelstrike_reset(beta, phi0, omega_IV):
         omega_I(n+1)
     """
     be = backend_for(beta, phi0, omega_IV)
-    return omega_IV*be.cos(phi0)/beta
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    return cos_phi0*omega_IV/beta
 
 
 def swing_foot_height(beta, phi0, theta):
@@ -148,7 +151,9 @@ def swing_foot_height(beta, phi0, theta):
         heelstrike guard; zero at theta = theta_IV
     """
     be = backend_for(beta, phi0, theta)
-    return -beta*be.cos(phi0 - theta) + be.cos(theta)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    cos_t1, sin_t1 = be.cos_sin(phi0 - theta)
+    return cos_theta - cos_t1*beta
 
 
 def theta_I(beta, phi0):
@@ -167,7 +172,8 @@ def theta_I(beta, phi0):
         theta_I in radians
     """
     be = backend_for(beta, phi0)
-    return -be.atan((beta - be.cos(phi0))/be.sin(phi0))
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    return -be.atan((beta - cos_phi0)/sin_phi0)
 
 
 def theta_IV(beta, phi0):
@@ -186,9 +192,10 @@ def theta_IV(beta, phi0):
         theta_IV = theta_I + phi0 in radians
     """
     be = backend_for(beta, phi0)
-    x0 = beta*be.cos(phi0)
-    x1 = (1/be.sqrt(1 + beta**2 - 2*x0))
-    return be.atan2(x1*(1 - x0), x1*beta*be.sin(phi0))
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    x0 = cos_phi0*beta
+    x1 = (1/be.sqrt(1 + (beta*beta) - 2*x0))
+    return be.atan2(x1*(1 - x0), x1*sin_phi0*beta)
 
 
 def stride_map(beta, theta_II, phi0, q):
@@ -209,13 +216,14 @@ def stride_map(beta, theta_II, phi0, q):
         q(n+1)
     """
     be = backend_for(beta, theta_II, phi0, q)
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
     x0 = 2*beta
-    x1 = be.cos(phi0)
-    x2 = x1**2
-    x3 = x2*be.cos(theta_II)
-    x4 = beta**2
-    x5 = x2*be.sin(phi0)/be.sqrt(1 + x4 - x0*x1)
-    return x0*x5 - x0*x3 - 2*x5/beta + 2*x3/x4 + x2*x4*q
+    x1 = (cos_phi0*cos_phi0)
+    x2 = x1*cos_theta_II
+    x3 = (beta*beta)
+    x4 = x1*sin_phi0/be.sqrt(1 + x3 - x0*cos_phi0)
+    return x0*x4 - x0*x2 - 2*x4/beta + 2*x2/x3 + x1*x3*q
 
 
 def q_fixed(beta, theta_II, phi0):
@@ -235,13 +243,12 @@ def q_fixed(beta, theta_II, phi0):
         q^f
     """
     be = backend_for(beta, theta_II, phi0)
-    x0 = beta**2
-    x1 = be.cos(phi0)
-    x2 = x1*beta
-    x3 = be.cos(theta_II)
-    x4 = be.sin(phi0)
-    x5 = (1/be.sqrt(1 + x0 - 2*x2))
-    return -2*x1**2*(-1 + beta)*(-x3 - x0*x3 - x3*beta + x0*x4*x5 + x4*x5*beta)/(x0*(1 + x2)*(-1 + x2))
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
+    x0 = (beta*beta)
+    x1 = cos_phi0*beta
+    x2 = (1/be.sqrt(1 + x0 - 2*x1))
+    return -2*(cos_phi0*cos_phi0)*(-1 + beta)*(-cos_theta_II - x0*cos_theta_II - cos_theta_II*beta + x0*x2*sin_phi0 + x2*sin_phi0*beta)/(x0*(1 + x1)*(-1 + x1))
 
 
 def eigenvalue(beta, phi0):
@@ -260,7 +267,8 @@ def eigenvalue(beta, phi0):
         lambda
     """
     be = backend_for(beta, phi0)
-    return beta**2*be.cos(phi0)**2
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    return (cos_phi0*cos_phi0)*(beta*beta)
 
 
 def omega_II_squared(beta, theta_II, phi0, q):
@@ -281,8 +289,10 @@ def omega_II_squared(beta, theta_II, phi0, q):
         omega_II**2
     """
     be = backend_for(beta, theta_II, phi0, q)
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
     x0 = 2/beta
-    return q - x0*be.cos(theta_II) + x0*be.sin(phi0)/be.sqrt(1 + beta**2 - 2*beta*be.cos(phi0))
+    return q - x0*cos_theta_II + x0*sin_phi0/be.sqrt(1 + (beta*beta) - 2*cos_phi0*beta)
 
 
 def omega_IV_squared(beta, theta_II, phi0, q):
@@ -303,11 +313,13 @@ def omega_IV_squared(beta, theta_II, phi0, q):
         omega_IV**2
     """
     be = backend_for(beta, theta_II, phi0, q)
-    x0 = 2*be.cos(theta_II)
-    x1 = beta**3
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
+    x0 = 2*cos_theta_II
+    x1 = (beta*beta*beta)
     x2 = 2*beta
-    x3 = be.sin(phi0)/be.sqrt(1 + beta**2 - x2*be.cos(phi0))
-    return x0 + q*beta**4 - x0*x1 - x2*x3 + 2*x1*x3
+    x3 = sin_phi0/be.sqrt(1 + (beta*beta) - x2*cos_phi0)
+    return x0 + q*(beta*beta*beta*beta) - x0*x1 - x2*x3 + 2*x1*x3
 
 
 def q_apex_min(beta, theta_II, phi0):
@@ -327,16 +339,15 @@ def q_apex_min(beta, theta_II, phi0):
         exact form of (14); holds for either sign of theta_I and theta_II
     """
     be = backend_for(beta, theta_II, phi0)
-    x0 = be.cos(phi0)
-    x1 = x0*beta
-    x2 = (1/be.sqrt(1 + beta**2 - 2*x1))
-    x3 = x2*be.sin(phi0)
-    x4 = 2/beta
-    x5 = be.cos(theta_II)
-    x6 = be.sin(theta_II)
-    x7 = 2*x5
-    x8 = beta**3
-    return be.fmax(x4*be.where((x2*(x0 - beta) >= 0), x3, be.where((x6 <= 0), x5, 1)) - x3*x4, (-x7 + 2*be.where((x6 >= 0), x5, be.where((x2*(1 - x1) <= 0), x3*beta, 1)) + x7*x8 - 2*x3*x8)/beta**4)
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
+    x0 = cos_phi0*beta
+    x1 = (1/be.sqrt(1 + (beta*beta) - 2*x0))
+    x2 = x1*sin_phi0
+    x3 = (1/beta)
+    x4 = 2*cos_theta_II
+    x5 = (beta*beta*beta)
+    return be.fmax(-2*x2*x3 + 2*x3*be.where((x1*(cos_phi0 - beta) >= 0), x2, be.where((sin_theta_II <= 0), cos_theta_II, 1)), (-x4 + 2*be.where((sin_theta_II >= 0), cos_theta_II, be.where((x1*(1 - x0) <= 0), x2*beta, 1)) + x4*x5 - 2*x2*x5)/(beta*beta*beta*beta))
 
 
 def q_liftoff_max(beta, theta_II, phi0):
@@ -356,12 +367,12 @@ def q_liftoff_max(beta, theta_II, phi0):
         q bound from N >= 0 (Fig. 9 right boundary)
     """
     be = backend_for(beta, theta_II, phi0)
-    x0 = be.sin(phi0)
-    x1 = (1/be.sqrt(1 + beta**2 - 2*beta*be.cos(phi0)))
-    x2 = be.cos(theta_II)
-    x3 = x0*x1
-    x4 = beta**3
-    return be.fmin(-(-3*be.fmin(x2, x3) + 2*x0*x1)/beta, -(-3*be.fmin(x2, x3*beta) + 2*x2 - 2*x2*x4 + 2*x0*x1*x4)/beta**4)
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
+    x0 = (1/be.sqrt(1 + (beta*beta) - 2*cos_phi0*beta))
+    x1 = x0*sin_phi0
+    x2 = (beta*beta*beta)
+    return be.fmin(-(-3*be.fmin(cos_theta_II, x1) + 2*x1)/beta, -(-3*be.fmin(cos_theta_II, x1*beta) + 2*cos_theta_II - 2*x2*cos_theta_II + 2*x0*x2*sin_phi0)/(beta*beta*beta*beta))
 
 
 def contact_margin(beta, theta_II, phi0, q):
@@ -382,21 +393,20 @@ def contact_margin(beta, theta_II, phi0, q):
         min N / (m g) over both phases
     """
     be = backend_for(beta, theta_II, phi0, q)
-    x0 = be.cos(theta_II)
-    x1 = be.cos(phi0)
-    x2 = x1*beta
-    x3 = (1/be.sqrt(1 + beta**2 - 2*x2))
-    x4 = x3*be.sin(phi0)
-    x5 = q*beta
-    x6 = x4/3
-    x7 = be.sin(theta_II)
-    x8 = be.fmin(be.fmax(be.fmin(x0, x4), x6 + x5/6), be.where((x3*(x1 - beta) >= 0), x4, be.where((x7 <= 0), x0, 1)))
-    x9 = x4*beta
-    x10 = x0/3
-    x11 = q*beta**4
-    x12 = beta**3
-    x13 = be.fmin(be.fmax(be.fmin(x0, x9), x10 + x11/6 + x12*x6 - x10*x12), be.where((x7 >= 0), x0, be.where((x3*(1 - x2) <= 0), x9, 1)))
-    return be.fmin(3*x8**2 - 2*x8*(x4 + x5/2), 3*x13**2 - 2*x13*(x0 + x11/2 + x12*x4 - x0*x12))
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
+    x0 = cos_phi0*beta
+    x1 = (1/be.sqrt(1 + (beta*beta) - 2*x0))
+    x2 = x1*sin_phi0
+    x3 = q*beta
+    x4 = x2/3
+    x5 = be.fmin(be.fmax(be.fmin(cos_theta_II, x2), x4 + x3/6), be.where((x1*(cos_phi0 - beta) >= 0), x2, be.where((sin_theta_II <= 0), cos_theta_II, 1)))
+    x6 = x2*beta
+    x7 = cos_theta_II/3
+    x8 = (beta*beta*beta)
+    x9 = q*(beta*beta*beta*beta)
+    x10 = be.fmin(be.fmax(be.fmin(cos_theta_II, x6), x7 + x9/6 + x4*x8 - x7*x8), be.where((sin_theta_II >= 0), cos_theta_II, be.where((x1*(1 - x0) <= 0), x6, 1)))
+    return be.fmin(3*(x5*x5) - 2*x5*(x2 + x3/2), 3*(x10*x10) - 2*x10*(cos_theta_II + x9/2 + x2*x8 - x8*cos_theta_II))
 
 
 def energy_complement(beta, theta_II, phi0, q, m, g, r_e):
@@ -420,13 +430,15 @@ def energy_complement(beta, theta_II, phi0, q, m, g, r_e):
         E_c
     """
     be = backend_for(beta, theta_II, phi0, q, m, g, r_e)
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
     x0 = g*m*r_e
-    x1 = x0*be.cos(theta_II)
-    x2 = beta**2
+    x1 = x0*cos_theta_II
+    x2 = (beta*beta)
     x3 = x0*q/2
-    x4 = beta**3
-    x5 = x0*be.sin(phi0)/be.sqrt(1 + x2 - 2*beta*be.cos(phi0))
-    return x1 + x3*beta**4 + x4*x5 - x1*x4 - x2*x3 - x5*beta
+    x4 = (beta*beta*beta)
+    x5 = x0*sin_phi0/be.sqrt(1 + x2 - 2*cos_phi0*beta)
+    return x1 + x3*(beta*beta*beta*beta) + x4*x5 - x1*x4 - x2*x3 - x5*beta
 
 
 def energy_dissipated(beta, theta_II, phi0, q, m, g, r_e):
@@ -450,17 +462,16 @@ def energy_dissipated(beta, theta_II, phi0, q, m, g, r_e):
         E_r
     """
     be = backend_for(beta, theta_II, phi0, q, m, g, r_e)
-    x0 = be.cos(theta_II)
-    x1 = beta**3
-    x2 = g*m*r_e
-    x3 = x0*x2
-    x4 = beta**4
-    x5 = be.cos(phi0)
-    x6 = x5**2
-    x7 = (1/be.sqrt(1 + beta**2 - 2*x5*beta))
-    x8 = be.sin(phi0)
-    x9 = x2*x7*x8
-    return -x1*x3 - x3*x6 - x9*beta - x1*x6*x9 + x0*g*m*r_e - x2*x4*x6*q/2 + x4*q*g*m*r_e/2 + x0*x1*x6*g*m*r_e + x1*x7*x8*g*m*r_e + x6*x7*x8*beta*g*m*r_e
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
+    x0 = (beta*beta*beta)
+    x1 = g*m*r_e
+    x2 = x1*cos_theta_II
+    x3 = (cos_phi0*cos_phi0)
+    x4 = (beta*beta*beta*beta)
+    x5 = (1/be.sqrt(1 + (beta*beta) - 2*cos_phi0*beta))
+    x6 = x1*x5*sin_phi0
+    return -x0*x2 - x2*x3 - x6*beta - x0*x3*x6 + cos_theta_II*g*m*r_e - x1*x3*x4*q/2 + x4*q*g*m*r_e/2 + x0*x3*cos_theta_II*g*m*r_e + x0*x5*sin_phi0*g*m*r_e + x3*x5*sin_phi0*beta*g*m*r_e
 
 
 def energy_dissipated_post(beta, phi0, q_next, m, g, r_e):
@@ -483,8 +494,8 @@ def energy_dissipated_post(beta, phi0, q_next, m, g, r_e):
         E_r
     """
     be = backend_for(beta, phi0, q_next, m, g, r_e)
-    x0 = be.cos(phi0)
-    return -q_next*g*m*r_e*beta**2*(1 + x0)*(-1 + x0)/(2*x0**2)
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    return -q_next*g*m*r_e*(beta*beta)*(1 + cos_phi0)*(-1 + cos_phi0)/(2*(cos_phi0*cos_phi0))
 
 
 def energy_change(beta, theta_II, phi0, q, m, g, r_e):
@@ -508,15 +519,16 @@ def energy_change(beta, theta_II, phi0, q, m, g, r_e):
         E_Delta
     """
     be = backend_for(beta, theta_II, phi0, q, m, g, r_e)
-    x0 = beta**2
-    x1 = g*m*r_e
-    x2 = q/2
-    x3 = be.cos(phi0)
-    x4 = x1*x3**2
-    x5 = x4*be.cos(theta_II)
-    x6 = beta**3
-    x7 = x4*be.sin(phi0)/be.sqrt(1 + x0 - 2*x3*beta)
-    return x5 + x6*x7 - x5*x6 - x7*beta + x2*x4*beta**4 - x0*x1*x2
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
+    x0 = g*m*r_e
+    x1 = x0*(cos_phi0*cos_phi0)
+    x2 = x1*cos_theta_II
+    x3 = (beta*beta)
+    x4 = q/2
+    x5 = (beta*beta*beta)
+    x6 = x1*sin_phi0/be.sqrt(1 + x3 - 2*cos_phi0*beta)
+    return x2 + x5*x6 - x2*x5 - x6*beta + x1*x4*(beta*beta*beta*beta) - x0*x3*x4
 
 
 def energy_constant(beta, theta_II, phi0, m, g, r_e):
@@ -539,12 +551,11 @@ def energy_constant(beta, theta_II, phi0, m, g, r_e):
         C
     """
     be = backend_for(beta, theta_II, phi0, m, g, r_e)
-    x0 = be.cos(phi0)
-    x1 = be.cos(theta_II)
-    x2 = beta**2
-    x3 = be.sin(phi0)
-    x4 = (1/be.sqrt(1 + x2 - 2*x0*beta))
-    return g*m*r_e*x0**2*(-1 + beta)*(-x1 - x1*x2 - x1*beta + x2*x3*x4 + x3*x4*beta)
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
+    x0 = (beta*beta)
+    x1 = (1/be.sqrt(1 + x0 - 2*cos_phi0*beta))
+    return g*m*r_e*(cos_phi0*cos_phi0)*(-1 + beta)*(-cos_theta_II - x0*cos_theta_II - cos_theta_II*beta + x0*x1*sin_phi0 + x1*sin_phi0*beta)
 
 
 def step_length(beta, phi0):
@@ -563,7 +574,8 @@ def step_length(beta, phi0):
         step length / r_e
     """
     be = backend_for(beta, phi0)
-    return be.sqrt(1 + beta**2 - 2*beta*be.cos(phi0))
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    return be.sqrt(1 + (beta*beta) - 2*cos_phi0*beta)
 
 
 def phase_durations(beta, theta_II, phi0, q):
@@ -584,74 +596,73 @@ def phase_durations(beta, theta_II, phi0, q):
         (tau_I_II, tau_III_IV)
     """
     be = backend_for(beta, theta_II, phi0, q)
-    x0 = be.sin(theta_II/2)
-    x1 = x0**2
-    x2 = be.sin(theta_II)
-    x3 = be.cos(phi0)
-    x4 = x3*beta
-    x5 = (1/be.sqrt(1 + beta**2 - 2*x4))
-    x6 = (x5*(x3 - beta) < 0)
-    x7 = be.logical_and(x6, (x2 > 0))
-    x8 = 2*x1
-    x9 = be.sqrt(2)
-    x10 = x9*be.Abs(x0)
-    x11 = be.cos(theta_II)
-    x12 = be.sqrt(1 + x11)
-    x13 = be.where(x7, 1, x11)
-    x14 = x5*be.sin(phi0)
-    x15 = q/2
-    x16 = x14 + x15*beta
-    x17 = be.sqrt(x16 - x13)
-    x18 = x12*x17
-    x19 = be.sqrt(1 + x13)
-    x20 = be.sqrt(x16 - x11)
-    x21 = be.where(x7, 0, x10)
-    x22 = x20*x21
-    x23 = x10*x19
-    x24 = 1 - x14
-    x25 = (x2 <= 0)
-    x26 = be.logical_or(x25, x6)
-    x27 = be.sqrt(x24)
-    x28 = be.where(x26, x27, x10)
-    x29 = be.where(x26, x14, x11)
-    x30 = be.sqrt(1 + x29)
-    x31 = be.where(x7, 1, be.where(x25, x11, x14))
-    x32 = be.sqrt(x16 - x31)
-    x33 = x30*x32
-    x34 = be.where(x7, 0, be.where(x25, x10, x27))
-    x35 = be.sqrt(1 + x31)
-    x36 = be.sqrt(x16 - x29)
-    x37 = x35*x36
-    x38 = x9/2
-    x39 = x14*beta
-    x40 = (x2 < 0)
-    x41 = x5*(1 - x4)
-    x42 = be.logical_and(x40, (x41 > 0))
-    x43 = 1 - x39
-    x44 = be.sqrt(x43)
-    x45 = be.sqrt(1 + x39)
-    x46 = be.where(x42, 1, x39)
-    x47 = beta**3
-    x48 = x11 + x14*x47 + x15*beta**4 - x11*x47
-    x49 = be.sqrt(x48 - x46)
-    x50 = x45*x49
-    x51 = be.where(x42, 0, x44)
-    x52 = be.sqrt(1 + x46)
-    x53 = be.sqrt(x48 - x39)
-    x54 = x52*x53
-    x55 = (x41 <= 0)
-    x56 = be.logical_or(x40, x55)
-    x57 = be.where(x56, x10, x44)
-    x58 = be.where(x56, x11, x39)
-    x59 = be.sqrt(1 + x58)
-    x60 = be.where(x42, 1, be.where(x55, x39, x11))
-    x61 = be.sqrt(x48 - x60)
-    x62 = x59*x61
-    x63 = be.where(x42, 0, be.where(x55, x44, x10))
-    x64 = be.sqrt(1 + x60)
-    x65 = be.sqrt(x48 - x58)
-    x66 = x64*x65
-    return (x38*be.sqrt(beta)*((-2*be.where(x7, 0, be.where(x25, x8, x24)) + 2*be.where(x26, x24, x8))*_carlson_rf((x28*x33 + x34*x37)**2, (x28*x37 + x33*x34)**2, (x28*x32*x35 + x30*x34*x36)**2, be) + be.where(x7, (-2*be.where(x7, 0, x8) + 4*x1)*_carlson_rf((x10*x18 + x19*x22)**2, (x18*x21 + x20*x23)**2, (x12*x22 + x17*x23)**2, be), 0)), x38*((-2*be.where(x42, 0, be.where(x55, x43, x8)) + 2*be.where(x56, x8, x43))*_carlson_rf((x57*x62 + x63*x66)**2, (x57*x66 + x62*x63)**2, (x57*x61*x64 + x59*x63*x65)**2, be) + be.where(x42, (2 - 2*x39 - 2*be.where(x42, 0, x43))*_carlson_rf((x44*x50 + x51*x54)**2, (x44*x54 + x50*x51)**2, (x44*x49*x52 + x45*x51*x53)**2, be), 0)),)
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    cos_t1, sin_t1 = be.cos_sin(theta_II/2)
+    cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
+    x0 = (sin_t1*sin_t1)
+    x1 = cos_phi0*beta
+    x2 = (1/be.sqrt(1 + (beta*beta) - 2*x1))
+    x3 = (x2*(cos_phi0 - beta) < 0)
+    x4 = be.logical_and(x3, (sin_theta_II > 0))
+    x5 = 2*x0
+    x6 = be.sqrt(2)
+    x7 = x6*be.Abs(sin_t1)
+    x8 = be.sqrt(1 + cos_theta_II)
+    x9 = be.where(x4, 1, cos_theta_II)
+    x10 = x2*sin_phi0
+    x11 = q/2
+    x12 = x10 + x11*beta
+    x13 = be.sqrt(x12 - x9)
+    x14 = x13*x8
+    x15 = be.sqrt(1 + x9)
+    x16 = be.sqrt(x12 - cos_theta_II)
+    x17 = be.where(x4, 0, x7)
+    x18 = x16*x17
+    x19 = x15*x7
+    x20 = 1 - x10
+    x21 = (sin_theta_II <= 0)
+    x22 = be.logical_or(x21, x3)
+    x23 = be.sqrt(x20)
+    x24 = be.where(x22, x23, x7)
+    x25 = be.where(x22, x10, cos_theta_II)
+    x26 = be.sqrt(1 + x25)
+    x27 = be.where(x4, 1, be.where(x21, cos_theta_II, x10))
+    x28 = be.sqrt(x12 - x27)
+    x29 = x26*x28
+    x30 = be.where(x4, 0, be.where(x21, x7, x23))
+    x31 = be.sqrt(1 + x27)
+    x32 = be.sqrt(x12 - x25)
+    x33 = x31*x32
+    x34 = x6/2
+    x35 = x10*beta
+    x36 = (sin_theta_II < 0)
+    x37 = x2*(1 - x1)
+    x38 = be.logical_and(x36, (x37 > 0))
+    x39 = 1 - x35
+    x40 = be.sqrt(x39)
+    x41 = be.sqrt(1 + x35)
+    x42 = be.where(x38, 1, x35)
+    x43 = (beta*beta*beta)
+    x44 = cos_theta_II + x10*x43 + x11*(beta*beta*beta*beta) - x43*cos_theta_II
+    x45 = be.sqrt(x44 - x42)
+    x46 = x41*x45
+    x47 = be.where(x38, 0, x40)
+    x48 = be.sqrt(1 + x42)
+    x49 = be.sqrt(x44 - x35)
+    x50 = x48*x49
+    x51 = (x37 <= 0)
+    x52 = be.logical_or(x36, x51)
+    x53 = be.where(x52, x7, x40)
+    x54 = be.where(x52, cos_theta_II, x35)
+    x55 = be.sqrt(1 + x54)
+    x56 = be.where(x38, 1, be.where(x51, x35, cos_theta_II))
+    x57 = be.sqrt(x44 - x56)
+    x58 = x55*x57
+    x59 = be.where(x38, 0, be.where(x51, x40, x7))
+    x60 = be.sqrt(1 + x56)
+    x61 = be.sqrt(x44 - x54)
+    x62 = x60*x61
+    return (x34*be.sqrt(beta)*((-2*be.where(x4, 0, be.where(x21, x5, x20)) + 2*be.where(x22, x20, x5))*_carlson_rf(((x24*x29 + x30*x33)*(x24*x29 + x30*x33)), ((x24*x33 + x29*x30)*(x24*x33 + x29*x30)), ((x24*x28*x31 + x26*x30*x32)*(x24*x28*x31 + x26*x30*x32)), be) + be.where(x4, (-2*be.where(x4, 0, x5) + 4*x0)*_carlson_rf(((x14*x7 + x15*x18)*(x14*x7 + x15*x18)), ((x14*x17 + x16*x19)*(x14*x17 + x16*x19)), ((x13*x19 + x18*x8)*(x13*x19 + x18*x8)), be), 0)), x34*((-2*be.where(x38, 0, be.where(x51, x39, x5)) + 2*be.where(x52, x5, x39))*_carlson_rf(((x53*x58 + x59*x62)*(x53*x58 + x59*x62)), ((x53*x62 + x58*x59)*(x53*x62 + x58*x59)), ((x53*x57*x60 + x55*x59*x61)*(x53*x57*x60 + x55*x59*x61)), be) + be.where(x38, (2 - 2*x35 - 2*be.where(x38, 0, x39))*_carlson_rf(((x40*x46 + x47*x50)*(x40*x46 + x47*x50)), ((x40*x50 + x46*x47)*(x40*x50 + x46*x47)), ((x40*x45*x48 + x41*x47*x49)*(x40*x45*x48 + x41*x47*x49)), be), 0)),)
 
 
 def condition_margins(beta, theta_II, phi0):
@@ -671,31 +682,28 @@ def condition_margins(beta, theta_II, phi0):
         tuple of margins; each condition holds when its margin is > 0 (>= 0 if not strict)
     """
     be = backend_for(beta, theta_II, phi0)
-    x0 = beta**2
-    x1 = be.cos(phi0)
-    x2 = x1*beta
-    x3 = -1 + x2
-    x4 = be.cos(theta_II)
-    x5 = be.sin(phi0)
-    x6 = be.sqrt(1 + x0 - 2*x2)
-    x7 = (1/x6)
-    x8 = x1**2*(-1 + beta)*(-x4 - x0*x4 - x4*beta + x0*x5*x7 + x5*x7*beta)/(x3*(1 + x2))
-    x9 = 2*x8/x0
-    x10 = 1 + beta
-    x11 = (1/x5)
-    x12 = x5*x7
-    x13 = (1/beta)
-    x14 = 2*x13
-    x15 = beta - x1
-    x16 = be.sin(theta_II)
-    x17 = be.where((x15*x7 <= 0), x12, be.where((x16 <= 0), x4, 1))
-    x18 = 2*x4
-    x19 = beta**3
-    x20 = x12*beta
-    x21 = -x3*x7
-    x22 = be.where((x16 >= 0), x4, be.where((x21 <= 0), x20, 1))
-    x23 = x13*x8
-    x24 = be.fmin(x17, be.fmax(be.fmin(x12, x4), -x23/3 + x12/3))
-    x25 = x0*x8
-    x26 = be.fmin(x22, be.fmax(be.fmin(x20, x4), -x25/3 + x4/3 - x19*x4/3 + x19*x5*x7/3))
-    return (-x9, x11*x4*x6 - x10*beta/(x0 + x10), -x9 - be.fmax(x14*x17 - x12*x14, (-x18 + 2*x22 + x18*x19 - 2*x12*x19)/beta**4), x15, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan2(x21, x20), theta_II + be.atan(x11*x15), be.fmin(3*x24**2 - 2*x24*(x12 - x23), 3*x26**2 - 2*x26*(x4 - x25 - x19*x4 + x19*x5*x7)),)
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
+    x0 = (beta*beta)
+    x1 = cos_phi0*beta
+    x2 = -1 + x1
+    x3 = be.sqrt(1 + x0 - 2*x1)
+    x4 = (1/x3)
+    x5 = (cos_phi0*cos_phi0)*(-1 + beta)*(-cos_theta_II - x0*cos_theta_II - cos_theta_II*beta + x0*x4*sin_phi0 + x4*sin_phi0*beta)/(x2*(1 + x1))
+    x6 = 2*x5/x0
+    x7 = 1 + beta
+    x8 = (1/sin_phi0)
+    x9 = x4*sin_phi0
+    x10 = (1/beta)
+    x11 = beta - cos_phi0
+    x12 = be.where((x11*x4 <= 0), x9, be.where((sin_theta_II <= 0), cos_theta_II, 1))
+    x13 = 2*cos_theta_II
+    x14 = (beta*beta*beta)
+    x15 = x9*beta
+    x16 = -x2*x4
+    x17 = be.where((sin_theta_II >= 0), cos_theta_II, be.where((x16 <= 0), x15, 1))
+    x18 = x10*x5
+    x19 = be.fmin(x12, be.fmax(be.fmin(cos_theta_II, x9), -x18/3 + x9/3))
+    x20 = x0*x5
+    x21 = be.fmin(x17, be.fmax(be.fmin(cos_theta_II, x15), -x20/3 + cos_theta_II/3 - x14*cos_theta_II/3 + x14*x4*sin_phi0/3))
+    return (-x6, x3*x8*cos_theta_II - x7*beta/(x0 + x7), -x6 - be.fmax(-2*x10*x9 + 2*x10*x12, (-x13 + 2*x17 + x13*x14 - 2*x14*x9)/(beta*beta*beta*beta)), x11, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan2(x16, x15), theta_II + be.atan(x11*x8), be.fmin(3*(x19*x19) - 2*x19*(x9 - x18), 3*(x21*x21) - 2*x21*(cos_theta_II - x20 - x14*cos_theta_II + x14*x4*sin_phi0)),)

@@ -30,7 +30,7 @@ def test_check_fails_on_drift_and_prints_the_fix(tmp_path, rendered, capsys, dam
     assert main(["--check", "--out", str(out)]) == 0
     target = out / "ile.py"
     if damage == "edit":
-        target.write_text(target.read_text().replace("beta**2", "beta**3", 1))
+        target.write_text(target.read_text().replace("    return ", "    return 0 * ", 1))
     elif damage == "missing":
         (out / "c" / "ile.h").unlink()
     else:
@@ -39,9 +39,12 @@ def test_check_fails_on_drift_and_prints_the_fix(tmp_path, rendered, capsys, dam
     assert main(["--check", "--out", str(out)]) == 1
     err = capsys.readouterr().err
     assert "python -m derive" in err
-    assert {"edit": "beta**3", "missing": "missing: generated/c/ile.h", "extra": "hand_written.py"}[
-        damage
-    ] in err
+    expected = {
+        "edit": "return 0 * ",
+        "missing": "missing: generated/c/ile.h",
+        "extra": "hand_written.py",
+    }
+    assert expected[damage] in err
 
 
 def test_write_replaces_the_directory_exactly(tmp_path, rendered):

@@ -6,7 +6,7 @@ class VswInputError(ValueError):
 
 
 class ModelConditionError(VswInputError):
-    """A model condition of the paper fails (e.g. no fixed point); the message cites the equation."""
+    """A model condition fails (e.g. no fixed point); the message cites the equation."""
 
 
 class ConvergenceError(RuntimeError):
