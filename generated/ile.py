@@ -707,3 +707,51 @@ def condition_margins(beta, theta_II, phi0):
     x20 = x0*x5
     x21 = be.fmin(x17, be.fmax(be.fmin(cos_theta_II, x15), -x20/3 + cos_theta_II/3 - x14*cos_theta_II/3 + x14*x4*sin_phi0/3))
     return (-x6, x3*x8*cos_theta_II - x7*beta/(x0 + x7), -x6 - be.fmax(-2*x10*x9 + 2*x10*x12, (-x13 + 2*x17 + x13*x14 - 2*x14*x9)/(beta*beta*beta*beta)), x11, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan2(x16, x15), theta_II + be.atan(x11*x8), be.fmin(3*(x19*x19) - 2*x19*(x9 - x18), 3*(x21*x21) - 2*x21*(cos_theta_II - x20 - x14*cos_theta_II + x14*x4*sin_phi0)),)
+
+
+def fixed_point_conditions(beta, theta_II, phi0):
+    """q^f, eigenvalue and existence-condition margins in one pass (shared terms once). Eq. (10), (19), (12)-(17) of the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        (q^f, lambda, *margins in the order of CONDITIONS)
+    """
+    be = backend_for(beta, theta_II, phi0)
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
+    x0 = (beta*beta)
+    x1 = (cos_phi0*cos_phi0)
+    x2 = cos_phi0*beta
+    x3 = -1 + x2
+    x4 = be.sqrt(1 + x0 - 2*x2)
+    x5 = (1/x4)
+    x6 = (-1 + beta)*(-cos_theta_II - x0*cos_theta_II - cos_theta_II*beta + x0*x5*sin_phi0 + x5*sin_phi0*beta)/(x3*(1 + x2))
+    x7 = x1*x6
+    x8 = 2*x7/x0
+    x9 = -x8
+    x10 = x0*x1
+    x11 = 1 + beta
+    x12 = (1/sin_phi0)
+    x13 = x5*sin_phi0
+    x14 = (1/beta)
+    x15 = beta - cos_phi0
+    x16 = be.where((x15*x5 <= 0), x13, be.where((sin_theta_II <= 0), cos_theta_II, 1))
+    x17 = 2*cos_theta_II
+    x18 = (beta*beta*beta)
+    x19 = x13*beta
+    x20 = -x3*x5
+    x21 = be.where((sin_theta_II >= 0), cos_theta_II, be.where((x20 <= 0), x19, 1))
+    x22 = x14*x7
+    x23 = be.fmin(x16, be.fmax(be.fmin(cos_theta_II, x13), -x22/3 + x13/3))
+    x24 = x10*x6
+    x25 = be.fmin(x21, be.fmax(be.fmin(cos_theta_II, x19), -x24/3 + cos_theta_II/3 - x18*cos_theta_II/3 + x18*x5*sin_phi0/3))
+    return (x9, x10, x9, x12*x4*cos_theta_II - x11*beta/(x0 + x11), -x8 - be.fmax(-2*x13*x14 + 2*x14*x16, (-x17 + 2*x21 + x17*x18 - 2*x13*x18)/(beta*beta*beta*beta)), x15, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan2(x20, x19), theta_II + be.atan(x12*x15), be.fmin(3*(x23*x23) - 2*x23*(x13 - x22), 3*(x25*x25) - 2*x25*(cos_theta_II - x24 - x18*cos_theta_II + x18*x5*sin_phi0)),)

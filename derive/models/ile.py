@@ -754,6 +754,16 @@ def derive() -> Derivation:
             "tuple of margins; each condition holds when its margin is > 0 (>= 0 if not strict)",
         )
     )
+    d.add(
+        Quantity(
+            "fixed_point_conditions",
+            P,
+            (qf, d.quantities["eigenvalue"].expr, *(c.margin for c in conditions)),
+            "q^f, eigenvalue and existence-condition margins in one pass (shared terms once).",
+            "(10), (19), (12)-(17)",
+            "(q^f, lambda, *margins in the order of CONDITIONS)",
+        )
+    )
     d.facts.update({f"phase.{k}": v for k, v in phase.items()})
     d.facts.update({f"heelstrike.{k}": v for k, v in hs.items() if isinstance(v, sm.Basic)})
     d.facts.update({f"stride.{k}": v for k, v in st.items()})
