@@ -92,6 +92,8 @@ class BackendPrinter(StrPrinter):
         return out
 
     def _print_Piecewise(self, expr):
+        if len(expr.args) == 2 and expr.args[0].expr == 1 and expr.args[1] == (0, sm.true):
+            return f"be.indicator({self._print(expr.args[0].cond)})"
         *pieces, (last, last_cond) = expr.args
         if last_cond != sm.true:
             raise ValueError("Piecewise without an otherwise branch cannot be generated")
@@ -154,18 +156,39 @@ def trig_pairs(exprs: list[sm.Expr]) -> tuple[list[sm.Expr], list[tuple[str, str
     return [e.xreplace(substitution) for e in exprs], pairs
 
 
+def _dependency_order(
+    definitions: list[tuple[sm.Symbol, sm.Expr]],
+) -> list[tuple[sm.Symbol, sm.Expr]]:
+    """Definitions reordered so each comes after the names it uses; otherwise stable."""
+    defined = {symbol for symbol, _ in definitions}
+    done: set[sm.Symbol] = set()
+    ordered, pending = [], list(definitions)
+    while pending:
+        for k, (symbol, value) in enumerate(pending):
+            if (value.free_symbols & defined) <= done:
+                ordered.append(pending.pop(k))
+                done.add(symbol)
+                break
+        else:
+            raise ValueError(f"circular intermediates: {[str(s) for s, _ in pending]}")
+    return ordered
+
+
 def function_source(qty: Quantity, printer: BackendPrinter) -> str:
     """Source of one generated function, with common subexpressions eliminated."""
-    exprs = list(qty.expr) if isinstance(qty.expr, tuple) else [qty.expr]
-    exprs, pairs = trig_pairs(exprs)
+    outputs = list(qty.expr) if isinstance(qty.expr, tuple) else [qty.expr]
+    named = [symbol for symbol, _ in qty.intermediates]
+    exprs, pairs = trig_pairs([value for _, value in qty.intermediates] + outputs)
     names = sm.numbered_symbols("x")
     replacements, reduced = sm.cse(exprs, symbols=names, order="canonical")
+    definitions = _dependency_order(list(replacements) + list(zip(named, reduced[: len(named)])))
+    reduced = reduced[len(named) :]
     arg_names = ", ".join(a.name for a in qty.args)
     lines = [f"def {qty.name}({arg_names}):\n", _docstring(qty)]
     lines.append(f"    be = backend_for({arg_names})\n")
     for cos_name, sin_name, a in pairs:
         lines.append(f"    {cos_name}, {sin_name} = be.cos_sin({printer.doprint(a)})\n")
-    for sym, sub in replacements:
+    for sym, sub in definitions:
         lines.append(f"    {sym} = {printer.doprint(sub)}\n")
     body = [printer.doprint(e) for e in reduced]
     if isinstance(qty.expr, tuple):
@@ -285,9 +308,8 @@ def _carlson_rf_numpy(x, y, z):
 
 def _cos_sin_generic(x, tan):
     t = tan(x / 2)
-    t2 = t * t
-    d = 1 / (1 + t2)
-    return (1 - t2) * d, 2 * t * d
+    d = 2 / (1 + t * t)
+    return d - 1, t * d
 
 
 def _cos_sin_numpy(x):
@@ -296,17 +318,21 @@ def _cos_sin_numpy(x):
     # 8 ns an element; benchmarks/run.py, case 1), and one call serves both. The identity
     # holds for every finite x (tan(x/2) never overflows a double) and is backward stable:
     # an absolute error of a few ulp, as for a perturbation of x by about one ulp.
-    t = np.tan(np.multiply(x, 0.5))
+    t = np.multiply(x, 0.5)
     if t.ndim == 0:
         return _cos_sin_generic(x, np.tan)
-    t2 = t * t
-    d = 1 + t2
-    np.divide(1, d, out=d)
-    cos = 1 - t2
-    cos *= d
-    t *= 2
+    np.tan(t, out=t)
+    d = t * t
+    d += 1
+    np.divide(2, d, out=d)  # 2 / (1 + t**2) = 1 + cos x
     t *= d
-    return cos, t
+    d -= 1
+    return d, t
+
+
+def _indicator(condition):
+    """1.0 where the condition holds, else 0.0 (CasADi comparisons are already 0/1)."""
+    return np.asarray(condition, dtype=float)
 
 
 def _sqrt(x):
@@ -318,7 +344,7 @@ def _sqrt(x):
 NUMPY = SimpleNamespace(
     sin=np.sin, cos=np.cos, tan=np.tan, sqrt=_sqrt, atan=np.arctan, atan2=np.arctan2,
     fmin=np.minimum, fmax=np.maximum, where=np.where, logical_and=np.logical_and,
-    logical_or=np.logical_or, logical_not=np.logical_not,
+    logical_or=np.logical_or, logical_not=np.logical_not, indicator=_indicator,
     sign=np.sign, Abs=np.abs, pi=math.pi, carlson_rf=_carlson_rf_numpy, cos_sin=_cos_sin_numpy,
 )
 
@@ -333,7 +359,7 @@ def _casadi_ops():
         _casadi = SimpleNamespace(
             sin=ca.sin, cos=ca.cos, tan=ca.tan, sqrt=ca.sqrt, atan=ca.atan, atan2=ca.atan2,
             fmin=ca.fmin, fmax=ca.fmax, where=ca.if_else, logical_and=ca.logic_and,
-            logical_or=ca.logic_or, logical_not=ca.logic_not,
+            logical_or=ca.logic_or, logical_not=ca.logic_not, indicator=lambda c: c,
             sign=ca.sign, Abs=ca.fabs, pi=math.pi,
             carlson_rf=lambda x, y, z: _carlson_rf_generic(x, y, z, ca.sqrt),
             cos_sin=lambda x: _cos_sin_generic(x, ca.tan),

@@ -68,6 +68,11 @@ class Quantity:
         The paper's equation number, e.g. ``"(10)"``; None for quantities beyond the paper.
     returns : str
         Description of the returned value(s).
+    intermediates : tuple of (sympy.Symbol, sympy.Expr)
+        Named intermediate values, in order: each expression may use ``args`` and the
+        earlier names, and ``expr`` may use all of them. The generator emits one line per
+        name, so a model can hand it structure (``cos_theta_I``, ``q_f``) that common
+        subexpression elimination would not find in the substituted expressions.
     """
 
     name: str
@@ -76,6 +81,14 @@ class Quantity:
     summary: str
     equation: str | None = None
     returns: str = ""
+    intermediates: tuple[tuple[sm.Symbol, sm.Expr], ...] = ()
+
+    def explicit(self) -> sm.Expr | tuple[sm.Expr, ...]:
+        """``expr`` with every intermediate substituted: in terms of ``args`` only."""
+        exprs = list(self.expr) if isinstance(self.expr, tuple) else [self.expr]
+        for symbol, value in reversed(self.intermediates):
+            exprs = [e.xreplace({symbol: value}) for e in exprs]
+        return tuple(exprs) if isinstance(self.expr, tuple) else exprs[0]
 
 
 @dataclass(frozen=True)

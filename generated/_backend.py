@@ -53,9 +53,8 @@ def _carlson_rf_numpy(x, y, z):
 
 def _cos_sin_generic(x, tan):
     t = tan(x / 2)
-    t2 = t * t
-    d = 1 / (1 + t2)
-    return (1 - t2) * d, 2 * t * d
+    d = 2 / (1 + t * t)
+    return d - 1, t * d
 
 
 def _cos_sin_numpy(x):
@@ -64,17 +63,21 @@ def _cos_sin_numpy(x):
     # 8 ns an element; benchmarks/run.py, case 1), and one call serves both. The identity
     # holds for every finite x (tan(x/2) never overflows a double) and is backward stable:
     # an absolute error of a few ulp, as for a perturbation of x by about one ulp.
-    t = np.tan(np.multiply(x, 0.5))
+    t = np.multiply(x, 0.5)
     if t.ndim == 0:
         return _cos_sin_generic(x, np.tan)
-    t2 = t * t
-    d = 1 + t2
-    np.divide(1, d, out=d)
-    cos = 1 - t2
-    cos *= d
-    t *= 2
+    np.tan(t, out=t)
+    d = t * t
+    d += 1
+    np.divide(2, d, out=d)  # 2 / (1 + t**2) = 1 + cos x
     t *= d
-    return cos, t
+    d -= 1
+    return d, t
+
+
+def _indicator(condition):
+    """1.0 where the condition holds, else 0.0 (CasADi comparisons are already 0/1)."""
+    return np.asarray(condition, dtype=float)
 
 
 def _sqrt(x):
@@ -86,7 +89,7 @@ def _sqrt(x):
 NUMPY = SimpleNamespace(
     sin=np.sin, cos=np.cos, tan=np.tan, sqrt=_sqrt, atan=np.arctan, atan2=np.arctan2,
     fmin=np.minimum, fmax=np.maximum, where=np.where, logical_and=np.logical_and,
-    logical_or=np.logical_or, logical_not=np.logical_not,
+    logical_or=np.logical_or, logical_not=np.logical_not, indicator=_indicator,
     sign=np.sign, Abs=np.abs, pi=math.pi, carlson_rf=_carlson_rf_numpy, cos_sin=_cos_sin_numpy,
 )
 
@@ -101,7 +104,7 @@ def _casadi_ops():
         _casadi = SimpleNamespace(
             sin=ca.sin, cos=ca.cos, tan=ca.tan, sqrt=ca.sqrt, atan=ca.atan, atan2=ca.atan2,
             fmin=ca.fmin, fmax=ca.fmax, where=ca.if_else, logical_and=ca.logic_and,
-            logical_or=ca.logic_or, logical_not=ca.logic_not,
+            logical_or=ca.logic_or, logical_not=ca.logic_not, indicator=lambda c: c,
             sign=ca.sign, Abs=ca.fabs, pi=math.pi,
             carlson_rf=lambda x, y, z: _carlson_rf_generic(x, y, z, ca.sqrt),
             cos_sin=lambda x: _cos_sin_generic(x, ca.tan),

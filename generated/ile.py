@@ -345,9 +345,10 @@ def q_apex_min(beta, theta_II, phi0):
     x1 = (1/be.sqrt(1 + (beta*beta) - 2*x0))
     x2 = x1*sin_phi0
     x3 = (1/beta)
-    x4 = 2*cos_theta_II
-    x5 = (beta*beta*beta)
-    return be.fmax(-2*x2*x3 + 2*x3*be.where((x1*(cos_phi0 - beta) >= 0), x2, be.where((sin_theta_II <= 0), cos_theta_II, 1)), (-x4 + 2*be.where((sin_theta_II >= 0), cos_theta_II, be.where((x1*(1 - x0) <= 0), x2*beta, 1)) + x4*x5 - 2*x2*x5)/(beta*beta*beta*beta))
+    x4 = x1*sin_theta_II
+    x5 = 2*cos_theta_II
+    x6 = (beta*beta*beta)
+    return be.fmax(-2*x2*x3 + 2*x3*be.fmax(be.fmax(cos_theta_II, x2), be.indicator((x4*(cos_phi0 - beta) <= 0))), (-x5 + 2*be.fmax(be.fmax(cos_theta_II, x2*beta), be.indicator((x4*(1 - x0) <= 0))) + x5*x6 - 2*x2*x6)/(beta*beta*beta*beta))
 
 
 def q_liftoff_max(beta, theta_II, phi0):
@@ -400,13 +401,14 @@ def contact_margin(beta, theta_II, phi0, q):
     x2 = x1*sin_phi0
     x3 = q*beta
     x4 = x2/3
-    x5 = be.fmin(be.fmax(be.fmin(cos_theta_II, x2), x4 + x3/6), be.where((x1*(cos_phi0 - beta) >= 0), x2, be.where((sin_theta_II <= 0), cos_theta_II, 1)))
-    x6 = x2*beta
-    x7 = cos_theta_II/3
-    x8 = (beta*beta*beta)
-    x9 = q*(beta*beta*beta*beta)
-    x10 = be.fmin(be.fmax(be.fmin(cos_theta_II, x6), x7 + x9/6 + x4*x8 - x7*x8), be.where((sin_theta_II >= 0), cos_theta_II, be.where((x1*(1 - x0) <= 0), x6, 1)))
-    return be.fmin(3*(x5*x5) - 2*x5*(x2 + x3/2), 3*(x10*x10) - 2*x10*(cos_theta_II + x9/2 + x2*x8 - x8*cos_theta_II))
+    x5 = x1*sin_theta_II
+    x6 = be.fmin(be.fmax(be.fmin(cos_theta_II, x2), x4 + x3/6), be.fmax(be.fmax(cos_theta_II, x2), be.indicator((x5*(cos_phi0 - beta) <= 0))))
+    x7 = x2*beta
+    x8 = cos_theta_II/3
+    x9 = (beta*beta*beta)
+    x10 = q*(beta*beta*beta*beta)
+    x11 = be.fmin(be.fmax(be.fmin(cos_theta_II, x7), x8 + x10/6 + x4*x9 - x8*x9), be.fmax(be.fmax(cos_theta_II, x7), be.indicator((x5*(1 - x0) <= 0))))
+    return be.fmin(3*(x6*x6) - 2*x6*(x2 + x3/2), 3*(x11*x11) - 2*x11*(cos_theta_II + x10/2 + x2*x9 - x9*cos_theta_II))
 
 
 def energy_complement(beta, theta_II, phi0, q, m, g, r_e):
@@ -696,12 +698,12 @@ def condition_margins(beta, theta_II, phi0):
     x9 = x4*sin_phi0
     x10 = (1/beta)
     x11 = beta - cos_phi0
-    x12 = be.where((x11*x4 <= 0), x9, be.where((sin_theta_II <= 0), cos_theta_II, 1))
+    x12 = be.fmax(be.fmax(cos_theta_II, x9), be.indicator((x11*x4*sin_theta_II >= 0)))
     x13 = 2*cos_theta_II
     x14 = (beta*beta*beta)
     x15 = x9*beta
     x16 = -x2*x4
-    x17 = be.where((sin_theta_II >= 0), cos_theta_II, be.where((x16 <= 0), x15, 1))
+    x17 = be.fmax(be.fmax(cos_theta_II, x15), be.indicator((x16*sin_theta_II <= 0)))
     x18 = x10*x5
     x19 = be.fmin(x12, be.fmax(be.fmin(cos_theta_II, x9), -x18/3 + x9/3))
     x20 = x0*x5
@@ -729,29 +731,31 @@ def fixed_point_conditions(beta, theta_II, phi0):
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
     x0 = (beta*beta)
-    x1 = (cos_phi0*cos_phi0)
-    x2 = cos_phi0*beta
-    x3 = -1 + x2
-    x4 = be.sqrt(1 + x0 - 2*x2)
-    x5 = (1/x4)
-    x6 = (-1 + beta)*(-cos_theta_II - x0*cos_theta_II - cos_theta_II*beta + x0*x5*sin_phi0 + x5*sin_phi0*beta)/(x3*(1 + x2))
-    x7 = x1*x6
-    x8 = 2*x7/x0
-    x9 = -x8
-    x10 = x0*x1
-    x11 = 1 + beta
-    x12 = (1/sin_phi0)
-    x13 = x5*sin_phi0
-    x14 = (1/beta)
-    x15 = beta - cos_phi0
-    x16 = be.where((x15*x5 <= 0), x13, be.where((sin_theta_II <= 0), cos_theta_II, 1))
-    x17 = 2*cos_theta_II
-    x18 = (beta*beta*beta)
-    x19 = x13*beta
-    x20 = -x3*x5
-    x21 = be.where((sin_theta_II >= 0), cos_theta_II, be.where((x20 <= 0), x19, 1))
-    x22 = x14*x7
-    x23 = be.fmin(x16, be.fmax(be.fmin(cos_theta_II, x13), -x22/3 + x13/3))
-    x24 = x10*x6
-    x25 = be.fmin(x21, be.fmax(be.fmin(cos_theta_II, x19), -x24/3 + cos_theta_II/3 - x18*cos_theta_II/3 + x18*x5*sin_phi0/3))
-    return (x9, x10, x9, x12*x4*cos_theta_II - x11*beta/(x0 + x11), -x8 - be.fmax(-2*x13*x14 + 2*x14*x16, (-x17 + 2*x21 + x17*x18 - 2*x13*x18)/(beta*beta*beta*beta)), x15, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan2(x20, x19), theta_II + be.atan(x12*x15), be.fmin(3*(x23*x23) - 2*x23*(x13 - x22), 3*(x25*x25) - 2*x25*(cos_theta_II - x24 - x18*cos_theta_II + x18*x5*sin_phi0)),)
+    x1 = cos_phi0*beta
+    x2 = (1/be.sqrt(1 + x0 - 2*x1))
+    x3 = x2*sin_phi0
+    x4 = beta - cos_phi0
+    x5 = (cos_phi0*cos_phi0)
+    x6 = 1 + beta
+    x7 = (1/beta)
+    x10 = x5*(-1 + beta)
+    x11 = x0 + x6
+    x12 = 2*cos_theta_II
+    x13 = (beta*beta*beta*beta)
+    x14 = (beta*beta*beta)
+    cos_theta_I = x3
+    x8 = 2*cos_theta_I
+    x9 = x7*x8
+    sin_theta_I = -x2*x4
+    x17 = be.fmax(be.fmax(cos_theta_I, cos_theta_II), be.indicator((sin_theta_I*sin_theta_II <= 0)))
+    cos_theta_IV = x3*beta
+    sin_theta_IV = x2*(1 - x1)
+    x15 = be.fmax(be.fmax(cos_theta_II, cos_theta_IV), be.indicator((sin_theta_II*sin_theta_IV <= 0)))
+    eigenvalue = x0*x5
+    q_f = (x10*x6*x9 - x10*x11*x12/x0)/(1 - eigenvalue)
+    x19 = q_f*beta
+    x20 = be.fmin(x17, be.fmax(be.fmin(cos_theta_I, cos_theta_II), cos_theta_I/3 + x19/6))
+    omega_III_sq = x13*q_f + x14*x8 - x12*x14
+    x16 = x12 + omega_III_sq
+    x18 = be.fmin(x15, be.fmax(be.fmin(cos_theta_II, cos_theta_IV), cos_theta_II/3 + omega_III_sq/6))
+    return (q_f, eigenvalue, q_f, cos_theta_II/cos_theta_I - x6*beta/x11, be.fmin(x9 + q_f - 2*x17*x7, (x16 - 2*x15)/x13), x4, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan(sin_theta_IV/cos_theta_IV), theta_II + be.atan(x4/sin_phi0), be.fmin(x18*(-x16 + 3*x18), x20*(-x19 - x8 + 3*x20)),)

@@ -45,6 +45,7 @@ SCALAR_CASES = [
     ("contact_margin", lambda p: (p["beta"], p["theta_II"], p["phi0"], 0.4)),
     ("phase_durations", lambda p: (*_params(p), ile.q_fixed(*_params(p)))),
     ("condition_margins", lambda p: (p["beta"], p["theta_II"], p["phi0"])),
+    ("fixed_point_conditions", lambda p: (p["beta"], p["theta_II"], p["phi0"])),
     ("energy_complement", lambda p: (p["beta"], p["theta_II"], p["phi0"], 0.4, 0.78, 9.81, 0.25)),
 ]  # fmt: skip
 
@@ -176,3 +177,26 @@ def test_cos_sin_from_half_angle_tangent_matches_libm(scale):
     # The AD chain passes through d tan(x/2)/dx, large near x = +-pi: a little looser there.
     assert np.max(np.abs(dc + np.sin(x))) <= 64 * tol
     assert np.max(np.abs(ds - np.cos(x))) <= 64 * tol
+
+
+@pytest.mark.parametrize("draw", [random_walking_parameters, random_valid_parameters])
+def test_fused_existence_matches_the_explicit_forms(draw):
+    """fixed_point_conditions (staged: q^f = f(0)/(1 - lambda), apex margin as min omega**2 / k,
+    indicator form of the apex-closest cosine) against q_fixed, eigenvalue and
+    condition_margins, generated from the fully substituted expressions."""
+    p = draw(20000, seed=11)
+    args = _params(p)
+    with np.errstate(all="ignore"):
+        fused = ile.fixed_point_conditions(*args)
+        explicit = (ile.q_fixed(*args), ile.eigenvalue(args[0], args[2]))
+        explicit += ile.condition_margins(*args)
+    assert len(fused) == len(explicit) == 2 + len(ile.CONDITIONS)
+    for k, (a, b) in enumerate(zip(fused, explicit)):
+        assert np.array_equal(np.isnan(a), np.isnan(b)), k
+        ok = ~np.isnan(b)
+        # Relative to max(|value|, 1): margins cross zero, where relative error means nothing.
+        scale = np.maximum(np.abs(b[ok]), 1.0)
+        assert np.max(np.abs(a[ok] - b[ok]) / scale) <= 1e-9, k
+        assert np.array_equal(a[ok] > 0, b[ok] > 0) or np.all(
+            np.abs(b[ok][(a[ok] > 0) != (b[ok] > 0)]) < 1e-12
+        ), k

@@ -15,6 +15,7 @@ import numpy as np
 
 from generated import ile
 from vsw.params import RobotScale, validate
+from vsw.vectorize import default_threads, executor
 
 __all__ = [
     "FIELDS",
@@ -207,14 +208,13 @@ def _compute_chunk(
     # Invalid square roots and divisions happen by design where a gait does not exist; the
     # results are NaN there and are reported as such, never as a warning.
     with np.errstate(all="ignore"):
-        q_fixed = ile.q_fixed(beta, theta_II, phi0)
+        q_fixed, eigenvalue, *margins = ile.fixed_point_conditions(beta, theta_II, phi0)
         out["q_fixed"] = q_fixed
         out["omega_I"] = np.where(q_fixed > 0, np.sqrt(np.where(q_fixed > 0, q_fixed, 0.0)), np.nan)
-        out["eigenvalue"] = ile.eigenvalue(beta, phi0)
+        out["eigenvalue"] = eigenvalue
         out["theta_I"] = ile.theta_I(beta, phi0)
         out["theta_IV"] = ile.theta_IV(beta, phi0)
         out["step_length"] = ile.step_length(beta, phi0)
-        margins = ile.condition_margins(beta, theta_II, phi0)
         walks = np.ones(beta.shape, dtype=bool)
         for (name, _eq, strict, _status, physical, _meaning), margin in zip(
             ile.CONDITIONS, margins
@@ -282,15 +282,28 @@ def analyze(
     flat = [np.ascontiguousarray(a).reshape(-1) for a in (beta_a, theta_a, phi0_a)]
     n = flat[0].size
     energy_scale = 1.0 if scale is None else scale.mass * scale.gravity * scale.leg_length
+
     # Outputs are preallocated and filled chunk by chunk: concatenating ~30 arrays of 10^6
     # elements afterwards costs as much as a third of the whole evaluation.
-    merged: dict[str, np.ndarray] = {}
-    for start in range(0, max(n, 1), _CHUNK):
-        part = _compute_chunk(*(a[start : start + _CHUNK] for a in flat), energy_scale, timing)
+    def block(start: int) -> dict[str, np.ndarray]:
+        return _compute_chunk(*(a[start : start + _CHUNK] for a in flat), energy_scale, timing)
+
+    first = block(0)
+    merged = {key: np.empty(n, dtype=values.dtype) for key, values in first.items()}
+
+    def store(start: int, part: dict[str, np.ndarray]) -> None:
         for key, values in part.items():
-            if key not in merged:
-                merged[key] = np.empty(n, dtype=values.dtype)
             merged[key][start : start + _CHUNK] = values
+
+    store(0, first)
+    starts = range(_CHUNK, n, _CHUNK)
+    threads = default_threads()
+    if threads > 1 and len(starts) > 1:
+        # numpy releases the GIL inside operations: blocks run in parallel (vsw.vectorize).
+        list(executor(threads).map(lambda start: store(start, block(start)), starts))
+    else:
+        for start in starts:
+            store(start, block(start))
     merged = {key: values.reshape(shape) for key, values in merged.items()}
 
     def shaped(a: np.ndarray) -> Any:

@@ -39,7 +39,8 @@ def default_threads() -> int:
     return max(1, min(os.cpu_count() or 1, 16))
 
 
-def _executor(threads: int) -> ThreadPoolExecutor:
+def executor(threads: int) -> ThreadPoolExecutor:
+    """The shared worker pool, resized to ``threads`` workers."""
     global _pool
     with _pool_lock:
         if _pool is None or _pool._max_workers != threads:
@@ -104,7 +105,7 @@ def chunked(fn: Callable, *args, chunk: int = CHUNK, threads: int | None = None)
             block(start)
     else:
         # list() re-raises the first exception of any block in the caller.
-        list(_executor(threads).map(block, starts))
+        list(executor(threads).map(block, starts))
     shaped = tuple(out.reshape(shape) for out in outputs)
     return shaped if is_tuple else shaped[0]
 

@@ -296,8 +296,15 @@ def energies() -> dict[str, sm.Expr]:
 
 
 def _closest_to_apex_cos(theta_lo_sin, cos_lo, theta_hi_sin, cos_hi) -> sm.Expr:
-    """cos of the angle in [lo, hi] closest to the apex theta = 0 (where cos is largest)."""
-    return sm.Piecewise((cos_lo, theta_lo_sin >= 0), (cos_hi, theta_hi_sin <= 0), (1, True))
+    """cos of the angle in [lo, hi] closest to the apex theta = 0 (where cos is largest).
+
+    With both ends on one side of the apex it is the larger end cosine; otherwise the
+    interval contains the apex and it is 1. Written as a maximum with the indicator of
+    "contains the apex" (cosines lie in (0, 1] on the domain), which evaluates without a
+    select.
+    """
+    contains_apex = sm.Piecewise((1, theta_lo_sin * theta_hi_sin <= 0), (0, True))
+    return sm.Max(cos_lo, cos_hi, contains_apex)
 
 
 @functools.cache
@@ -374,6 +381,95 @@ def apex_and_contact() -> dict[str, sm.Expr]:
         "contact_margin": sm.Min(*margins),
         "q_liftoff": sm.Min(*q_limits),
     }
+
+
+CONTACT_ANGLE_NAMES = {
+    sm.cos(theta_I): sm.Symbol("cos_theta_I", positive=True),
+    sm.sin(theta_I): sm.Symbol("sin_theta_I", real=True),
+    sm.cos(theta_IV): sm.Symbol("cos_theta_IV", positive=True),
+    sm.sin(theta_IV): sm.Symbol("sin_theta_IV", real=True),
+}
+"""Names of the heelstrike angles' cosines and sines in staged (intermediate) forms."""
+
+
+@functools.cache
+def existence_staged() -> tuple[
+    tuple[tuple[sm.Symbol, sm.Expr], ...], tuple[sm.Expr, ...], tuple[str, ...]
+]:
+    """q^f, eigenvalue and every condition margin over named intermediate values.
+
+    The same quantities as :func:`derive`'s ``q_fixed``, ``eigenvalue`` and condition
+    margins, built from the same phase integrals, but kept in terms of ``cos/sin theta_I``,
+    ``cos/sin theta_IV`` (eq. 11), ``q_f`` and ``omega_III**2`` so the generated code
+    computes each once. The apex margin uses that ``omega**2`` along a phase is linear in
+    ``q`` with a positive slope ``k``: ``q_f - q_root = omega**2(q_f) / k``, so
+    ``q_f - max(q_roots) = min(omega**2_min / k)`` without solving for the roots.
+    tests/test_generated_backends.py checks the result against the explicit forms.
+
+    Returns
+    -------
+    intermediates : tuple of (sympy.Symbol, sympy.Expr)
+    outputs : tuple of sympy.Expr
+        ``(q_f, eigenvalue, *margins)``.
+    margin_names : tuple of str
+        Condition names of the margins, in order.
+    """
+    hs, st = heelstrike(), stride()
+    names = CONTACT_ANGLE_NAMES
+    cos_I, sin_I = names[sm.cos(theta_I)], names[sm.sin(theta_I)]
+    cos_IV, sin_IV = names[sm.cos(theta_IV)], names[sm.sin(theta_IV)]
+    q_f = sm.Symbol("q_f", real=True)
+    omega_III_sq = sm.Symbol("omega_III_sq", real=True)
+    eigenvalue = sm.Symbol("eigenvalue", real=True)
+    # The stride map is affine, f(q) = lambda q + f(0), so q^f = f(0) / (1 - lambda).
+    stride_map = st["stride_map"].xreplace(names)
+    if sm.expand(stride_map - (st["eigenvalue"] * q + stride_map.subs(q, 0))) != 0:
+        raise AssertionError("the stride map is not affine in q")
+    offset = sm.collect(sm.expand(stride_map.subs(q, 0)), [cos_I, sm.cos(theta_II)], sm.factor)
+    intermediates = (
+        (cos_I, hs["cos_theta_I"]),
+        (sin_I, hs["sin_theta_I"]),
+        (cos_IV, hs["cos_theta_IV"]),
+        (sin_IV, hs["sin_theta_IV"]),
+        (eigenvalue, st["eigenvalue"]),
+        (q_f, offset / (1 - eigenvalue)),
+        (omega_III_sq, st["omega_III_squared"].xreplace(names).subs(q, q_f)),
+    )
+    # Phase I-II starts at theta_I with q; phase III-IV starts at theta_II with omega_III**2.
+    c_star = (
+        _closest_to_apex_cos(sin_I, cos_I, sm.sin(theta_II), sm.cos(theta_II)),
+        _closest_to_apex_cos(sm.sin(theta_II), sm.cos(theta_II), sin_IV, cos_IV),
+    )
+    c_lowest = (sm.Min(cos_I, sm.cos(theta_II)), sm.Min(sm.cos(theta_II), cos_IV))
+    slopes = (sm.Integer(1), sm.diff(st["omega_III_squared"], q))
+    starts = ((beta, theta_I, q_f), (sm.Integer(1), theta_II, omega_III_sq))
+    apex_margins, contact_margins = [], []
+    normal = sm.factor(apex_and_contact()["normal_force_of_cos"])
+    c, e_level = sm.Symbol("c", positive=True), sm.Symbol("E", real=True)
+    vertex = mechanics.solve_linear(sm.diff(normal, c), c)
+    for (ratio, theta_from, w2_from), c_top, c_bottom, slope in zip(
+        starts, c_star, c_lowest, slopes
+    ):
+        if not slope.is_positive:
+            raise AssertionError(f"omega**2 must rise with q along every phase: {slope}")
+        w2_at = omega_squared_along(ratio, theta_from, w2_from, theta)
+        w2_min = w2_at.subs(sm.cos(theta), c_top)
+        apex_margins.append(w2_min.xreplace(names) / slope)
+        level = sm.expand(phase_energy(theta_from, w2_from, ratio) / ratio).xreplace(names)
+        at_vertex = sm.Min(sm.Max(vertex.subs(e_level, level), c_bottom), c_top)
+        contact_margins.append(normal.subs(e_level, level).subs(c, at_vertex))
+    margins = {
+        "q_positive": q_f,
+        "cos_ratio": cos_ratio_margin().xreplace(names),
+        "apex": sm.Min(*apex_margins),
+        "theta_I_negative": beta - sm.cos(phi0),
+        "phi0_below_right_angle": sm.pi / 2 - phi0,
+        "extension_before_symmetric_contact": phi0 / 2 - theta_II,
+        "extension_before_heelstrike": sm.atan2(sin_IV, cos_IV) - theta_II,
+        "extension_reached": theta_II - hs["theta_I"],
+        "stance_contact": sm.Min(*contact_margins),
+    }
+    return intermediates, (q_f, eigenvalue, *margins.values()), tuple(margins)
 
 
 @functools.cache
@@ -754,14 +850,18 @@ def derive() -> Derivation:
             "tuple of margins; each condition holds when its margin is > 0 (>= 0 if not strict)",
         )
     )
+    staged_intermediates, staged_outputs, staged_names = existence_staged()
+    if staged_names != tuple(c.name for c in conditions):
+        raise AssertionError("existence_staged() and the condition list disagree")
     d.add(
         Quantity(
             "fixed_point_conditions",
             P,
-            (qf, d.quantities["eigenvalue"].expr, *(c.margin for c in conditions)),
+            staged_outputs,
             "q^f, eigenvalue and existence-condition margins in one pass (shared terms once).",
             "(10), (19), (12)-(17)",
             "(q^f, lambda, *margins in the order of CONDITIONS)",
+            intermediates=staged_intermediates,
         )
     )
     d.facts.update({f"phase.{k}": v for k, v in phase.items()})
