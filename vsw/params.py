@@ -218,3 +218,58 @@ class RobotScale:
 
 STEPPER_2D = RobotScale(leg_length=0.25, mass=0.78, gravity=9.81)
 """The Stepper-2D prototype of the paper: two 12.5 cm leg segments, 780 g."""
+
+
+def random_parameters(
+    n: int, seed: int = 0, *, walking: bool = False, margin: float = 1e-3
+) -> dict[str, np.ndarray]:
+    """Seeded random parameter sets: uniform in the parameter table's domain, or walking.
+
+    Parameters
+    ----------
+    n : int
+        Number of sets.
+    seed : int
+        Seed of ``numpy.random.default_rng``; the same seed gives the same sets.
+    walking : bool
+        Keep only sets at which every physical existence condition holds (with a margin
+        of 1e-6), drawing more until there are ``n``.
+    margin : float
+        Keep this fraction of each parameter's range away from its open bounds.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        ``beta``, ``theta_II``, ``phi0`` (radians), each of shape ``(n,)``.
+
+    Examples
+    --------
+    >>> sets = random_parameters(3, seed=1, walking=True)
+    >>> sorted(sets), sets["beta"].shape
+    (['beta', 'phi0', 'theta_II'], (3,))
+    """
+    if not walking:
+        rng = np.random.default_rng(seed)
+        out = {}
+        for p in PARAMETERS:
+            width = p.upper - p.lower
+            out[p.name] = rng.uniform(p.lower + margin * width, p.upper - margin * width, n)
+        return out
+    from generated import ile
+
+    physical = [i for i, c in enumerate(ile.CONDITIONS) if c[4]]
+    picked: dict[str, list[np.ndarray]] = {p.name: [] for p in PARAMETERS}
+    count, batch_seed = 0, seed
+    while count < n:
+        draw = random_parameters(4 * n, batch_seed, margin=margin)
+        batch_seed += 1000
+        with np.errstate(all="ignore"):
+            margins = ile.condition_margins(draw["beta"], draw["theta_II"], draw["phi0"])
+        ok = np.ones(4 * n, dtype=bool)
+        for i in physical:
+            m = np.broadcast_to(margins[i], ok.shape)
+            ok &= (m > 1e-6) if ile.CONDITIONS[i][2] else (m >= 1e-6)
+        for name in picked:
+            picked[name].append(draw[name][ok])
+        count += int(ok.sum())
+    return {name: np.concatenate(v)[:n] for name, v in picked.items()}
