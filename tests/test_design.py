@@ -62,16 +62,23 @@ def test_casadi_period_matches_scipy_and_simulation(beta, theta_II, phi0):
     assert float(period) == pytest.approx(float(sim.step_periods[0]), rel=1e-9)
 
 
-def test_raw_generated_period_derivative_at_theta_II_zero():
-    # Documents why vsw.design shifts theta_II off exactly 0: the generated period holds
-    # |sin(theta_II/2)| and CasADi differentiates fabs at 0 as 0.
+@pytest.mark.parametrize("theta_II", [0.0, R(-12), R(12)])
+def test_raw_generated_period_derivative_is_right_on_and_off_the_apex(theta_II):
+    # The generated period takes sqrt(1 - cos) at each end as +-sin/sqrt(1 + cos) per
+    # branch (derive/elliptic.py), never |sin(theta/2)|, whose CasADi derivative at 0 is 0.
     x = ca.SX.sym("x", 3)
     tau = ile.phase_durations(x[0], x[1], x[2], ile.q_fixed(x[0], x[1], x[2]))
+    period = ca.Function("p", [x], [tau[0] + tau[1]])
     jac = ca.Function("j", [x], [ca.jacobian(tau[0] + tau[1], x)])
-    at_zero = np.array(jac([0.8, 0.0, R(45)])).ravel()
-    beside = np.array(jac([0.8, 1e-9, R(45)])).ravel()
-    assert np.all(np.isfinite(at_zero))
-    assert at_zero[1] == 0.0 and abs(beside[1]) > 0.1
+    x0 = np.array([0.8, theta_II, R(45)])
+    exact = np.array(jac(x0)).ravel()
+    h = 1e-6
+    for i in range(3):
+        dx = np.zeros(3)
+        dx[i] = h
+        fd = (float(period(x0 + dx)) - float(period(x0 - dx))) / (2 * h)
+        assert exact[i] == pytest.approx(fd, rel=1e-6, abs=1e-8)
+    assert abs(exact[1]) > 0.1
 
 
 def test_period_gradient_finite_and_continuous_across_theta_II_zero():

@@ -115,21 +115,6 @@ _SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 # --- closed-form quantities (numpy or CasADi) ---------------------------------------------
 
 
-def _nonzero_theta(theta_II: Any) -> Any:
-    """theta_II moved off exactly 0 by 1e-30 rad for CasADi (values unchanged in doubles).
-
-    The generated period contains ``|sin(theta_II / 2)|``; at exactly 0 CasADi
-    differentiates ``fabs`` as ``sign(0) = 0`` and the period's theta_II-derivative comes
-    out 0 instead of its true (continuous) value. Grid starts and user bounds put theta_II
-    at exactly 0 often enough to matter.
-    """
-    if type(theta_II).__module__.startswith("casadi"):
-        import casadi as ca
-
-        return theta_II + ca.if_else(theta_II == 0, 1e-30, 0)
-    return theta_II
-
-
 def _quantities(beta: Any, theta_II: Any, phi0: Any, timing: bool = True) -> dict[str, Any]:
     """Every quantity the NLP uses, from the generated code (numpy arrays or CasADi SX)."""
     q_fixed = ile.q_fixed(beta, theta_II, phi0)
@@ -146,7 +131,7 @@ def _quantities(beta: Any, theta_II: Any, phi0: Any, timing: bool = True) -> dic
     for name in _CONDITION_ROWS:
         out[name] = margins[_MARGIN_INDEX[name]]
     if timing:
-        tau_I_II, tau_III_IV = ile.phase_durations(beta, _nonzero_theta(theta_II), phi0, q_fixed)
+        tau_I_II, tau_III_IV = ile.phase_durations(beta, theta_II, phi0, q_fixed)
         period = tau_I_II + tau_III_IV
         out["step_period"] = period
         out["step_frequency"] = 1.0 / period

@@ -50,7 +50,13 @@ def executor(threads: int) -> ThreadPoolExecutor:
         return _pool
 
 
-def chunked(fn: Callable, *args, chunk: int = CHUNK, threads: int | None = None):
+def chunked(
+    fn: Callable,
+    *args,
+    chunk: int = CHUNK,
+    threads: int | None = None,
+    out: tuple[np.ndarray, ...] | np.ndarray | None = None,
+):
     """Evaluate ``fn(*args)`` blockwise over the broadcast shape of ``args``.
 
     Parameters
@@ -65,6 +71,10 @@ def chunked(fn: Callable, *args, chunk: int = CHUNK, threads: int | None = None)
     threads : int, optional
         Blocks evaluated in parallel; default :func:`default_threads`. 1 runs in the
         calling thread.
+    out : numpy.ndarray or tuple of numpy.ndarray, optional
+        Float arrays of the broadcast shape to write the results into (one per result),
+        e.g. reused across calls: fresh result arrays cost page faults, about 20 ms for
+        eleven arrays of 10^6 doubles (benchmarks/run.py, case 1).
 
     Returns
     -------
@@ -82,21 +92,29 @@ def chunked(fn: Callable, *args, chunk: int = CHUNK, threads: int | None = None)
     arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in args))
     shape = arrays[0].shape
     size = arrays[0].size
-    if size <= chunk:
+    if size <= chunk and out is None:
         return _broadcast_result(fn(*arrays), shape)
     flat = [np.ascontiguousarray(a).reshape(-1) for a in arrays]
     first = fn(*(a[:chunk] for a in flat))
     is_tuple = isinstance(first, tuple)
     parts = list(first) if is_tuple else [first]
-    outputs = [np.empty(size) for _ in parts]
-    for out, part in zip(outputs, parts):
-        out[:chunk] = part
+    if out is None:
+        outputs = [np.empty(size) for _ in parts]
+    else:
+        given = out if isinstance(out, tuple) else (out,)
+        if len(given) != len(parts) or any(
+            o.shape != shape or o.dtype != float or not o.flags.c_contiguous for o in given
+        ):
+            raise ValueError(f"out must be {len(parts)} C-contiguous float arrays of shape {shape}")
+        outputs = [o.reshape(-1) for o in given]
+    for target, part in zip(outputs, parts):
+        target[:chunk] = part
 
     def block(start: int) -> None:
         stop = min(start + chunk, size)
         result = fn(*(a[start:stop] for a in flat))
-        for out, part in zip(outputs, result if is_tuple else (result,)):
-            out[start:stop] = part
+        for target, part in zip(outputs, result if is_tuple else (result,)):
+            target[start:stop] = part
 
     starts = range(chunk, size, chunk)
     threads = default_threads() if threads is None else threads
@@ -106,7 +124,9 @@ def chunked(fn: Callable, *args, chunk: int = CHUNK, threads: int | None = None)
     else:
         # list() re-raises the first exception of any block in the caller.
         list(executor(threads).map(block, starts))
-    shaped = tuple(out.reshape(shape) for out in outputs)
+    if out is not None:
+        return out
+    shaped = tuple(target.reshape(shape) for target in outputs)
     return shaped if is_tuple else shaped[0]
 
 

@@ -488,10 +488,9 @@ def step_timing() -> dict[str, sm.Expr]:
             sm.expand(phase_energy(theta_at, omega_sq_at, ratio) / ratio)
         )
 
-    half_sin_II = sm.sin(theta_II / 2)
-    end_I = (hs["sin_theta_I"], hs["cos_theta_I"], 1 - hs["cos_theta_I"])
-    end_II = (sm.sin(theta_II), sm.cos(theta_II), 2 * half_sin_II**2)
-    end_IV = (hs["sin_theta_IV"], hs["cos_theta_IV"], 1 - hs["cos_theta_IV"])
+    end_I = (hs["sin_theta_I"], hs["cos_theta_I"])
+    end_II = (sm.sin(theta_II), sm.cos(theta_II))
+    end_IV = (hs["sin_theta_IV"], hs["cos_theta_IV"])
     duration_1 = pendulum_travel_time(end_I, end_II, level(beta, theta_I, q), beta)
     duration_2 = pendulum_travel_time(
         end_II, end_IV, level(1, theta_II, st["omega_III_squared"]), sm.Integer(1)
