@@ -747,20 +747,21 @@ def fixed_point_conditions(beta, theta_II, phi0):
     x11 = x0 + x6
     x12 = 2*cos_theta_II
     x13 = (beta*beta*beta*beta)
-    x14 = (beta*beta*beta)
     cos_theta_I = x3
     x8 = 2*cos_theta_I
     x9 = x7*x8
     sin_theta_I = -x2*x4
-    x17 = be.fmax(be.fmax(cos_theta_I, cos_theta_II), be.indicator((sin_theta_I*sin_theta_II <= 0)))
     cos_theta_IV = x3*beta
     sin_theta_IV = x2*(1 - x1)
-    x15 = be.fmax(be.fmax(cos_theta_II, cos_theta_IV), be.indicator((sin_theta_II*sin_theta_IV <= 0)))
     eigenvalue = x0*x5
     q_f = (x10*x6*x9 - x10*x11*x12/x0)/(1 - eigenvalue)
-    x19 = q_f*beta
-    x20 = be.fmin(x17, be.fmax(be.fmin(cos_theta_I, cos_theta_II), cos_theta_I/3 + x19/6))
-    omega_III_sq = x13*q_f + x14*x8 - x12*x14
-    x16 = x12 + omega_III_sq
-    x18 = be.fmin(x15, be.fmax(be.fmin(cos_theta_II, cos_theta_IV), cos_theta_II/3 + omega_III_sq/6))
-    return (q_f, eigenvalue, q_f, cos_theta_II/cos_theta_I - x6*beta/x11, be.fmin(x9 + q_f - 2*x17*x7, (x16 - 2*x15)/x13), x4, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan(sin_theta_IV/cos_theta_IV), theta_II + be.atan(x4/sin_phi0), be.fmin(x18*(-x16 + 3*x18), x20*(-x19 - x8 + 3*x20)),)
+    x15 = q_f*beta
+    omega_II_sq = x9 + q_f - x12*x7
+    omega_III_sq = x13*omega_II_sq
+    cos_apex_1 = be.fmax(be.fmax(cos_theta_I, cos_theta_II), be.indicator((sin_theta_I*sin_theta_II <= 0)))
+    x16 = be.fmin(cos_apex_1, be.fmax(be.fmin(cos_theta_I, cos_theta_II), cos_theta_I/3 + x15/6))
+    rise_1 = cos_apex_1 - cos_theta_I
+    cos_apex_2 = be.fmax(be.fmax(cos_theta_II, cos_theta_IV), be.indicator((sin_theta_II*sin_theta_IV <= 0)))
+    x14 = be.fmin(cos_apex_2, be.fmax(be.fmin(cos_theta_II, cos_theta_IV), cos_theta_II/3 + omega_III_sq/6))
+    rise_2 = cos_apex_2 - cos_theta_II
+    return (q_f, eigenvalue, q_f, cos_theta_II/cos_theta_I - x6*beta/x11, be.fmin(q_f - 2*x7*rise_1, (omega_III_sq - 2*rise_2)/x13), x4, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan(sin_theta_IV/cos_theta_IV), theta_II + be.atan(x4/sin_phi0), be.fmin(x14*(-x12 - omega_III_sq + 3*x14), x16*(-x15 - x8 + 3*x16)),)

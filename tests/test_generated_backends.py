@@ -200,3 +200,32 @@ def test_fused_existence_matches_the_explicit_forms(draw):
         assert np.array_equal(a[ok] > 0, b[ok] > 0) or np.all(
             np.abs(b[ok][(a[ok] > 0) != (b[ok] > 0)]) < 1e-12
         ), k
+
+
+def test_fused_existence_against_40_digit_evaluation_of_the_derivation():
+    """fixed_point_conditions in doubles against the derived expressions evaluated with 40
+    digits (mpmath), at random sets and at ill-conditioned corners of the domain."""
+    import sympy as sm
+
+    from derive.models import ile as model
+
+    d = model.derive()
+    exprs = [d.quantities["q_fixed"].expr, d.quantities["eigenvalue"].expr]
+    exprs += [c.margin for c in d.conditions]
+    p = random_valid_parameters(12, seed=5)
+    points = list(zip(p["beta"], p["theta_II"], p["phi0"]))
+    # Short steps (phi0 -> 0, beta -> 1) and short stance legs (beta -> 0).
+    points += [(0.9985089293722981, 0.6421, 0.0016637), (0.0024758922927859, 0.0027946, 1.54907)]
+    worst = 0.0
+    for b, t, f in points:
+        b, t, f = float(b), float(t), float(f)
+        with np.errstate(all="ignore"):
+            fused = ile.fixed_point_conditions(np.array([b]), np.array([t]), np.array([f]))
+        subs = {model.beta: sm.Float(b, 60), model.theta_II: sm.Float(t, 60)}
+        subs[model.phi0] = sm.Float(f, 60)
+        for value, expr in zip(fused, exprs):
+            exact = float(expr.evalf(40, subs=subs))
+            worst = max(worst, abs(float(value[0]) - exact) / max(abs(exact), 1.0))
+    # Conditioning, not the code: at the short-step corner 1 + beta**2 - 2 beta cos(phi0)
+    # cancels to 2e-6, so one ulp of cos(phi0) moves q^f by about 1e-10.
+    assert worst <= 1e-8

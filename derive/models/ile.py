@@ -419,6 +419,7 @@ def existence_staged() -> tuple[
     cos_I, sin_I = names[sm.cos(theta_I)], names[sm.sin(theta_I)]
     cos_IV, sin_IV = names[sm.cos(theta_IV)], names[sm.sin(theta_IV)]
     q_f = sm.Symbol("q_f", real=True)
+    omega_II_sq = sm.Symbol("omega_II_sq", real=True)
     omega_III_sq = sm.Symbol("omega_III_sq", real=True)
     eigenvalue = sm.Symbol("eigenvalue", real=True)
     # The stride map is affine, f(q) = lambda q + f(0), so q^f = f(0) / (1 - lambda).
@@ -433,7 +434,10 @@ def existence_staged() -> tuple[
         (sin_IV, hs["sin_theta_IV"]),
         (eigenvalue, st["eigenvalue"]),
         (q_f, offset / (1 - eigenvalue)),
-        (omega_III_sq, st["omega_III_squared"].xreplace(names).subs(q, q_f)),
+        # omega_III**2 = (extension ratio)**2 omega_II**2 as a product, not expanded: for
+        # short stance legs (beta -> 0) the expanded terms cancel.
+        (omega_II_sq, st["omega_II_squared"].xreplace(names).subs(q, q_f)),
+        (omega_III_sq, extension_reset() ** 2 * omega_II_sq),
     )
     # Phase I-II starts at theta_I with q; phase III-IV starts at theta_II with omega_III**2.
     c_star = (
@@ -443,21 +447,31 @@ def existence_staged() -> tuple[
     c_lowest = (sm.Min(cos_I, sm.cos(theta_II)), sm.Min(sm.cos(theta_II), cos_IV))
     slopes = (sm.Integer(1), sm.diff(st["omega_III_squared"], q))
     starts = ((beta, theta_I, q_f), (sm.Integer(1), theta_II, omega_III_sq))
+    staged = list(intermediates)
     apex_margins, contact_margins = [], []
     normal = sm.factor(apex_and_contact()["normal_force_of_cos"])
     c, e_level = sm.Symbol("c", positive=True), sm.Symbol("E", real=True)
     vertex = mechanics.solve_linear(sm.diff(normal, c), c)
-    for (ratio, theta_from, w2_from), c_top, c_bottom, slope in zip(
-        starts, c_star, c_lowest, slopes
+    for k, ((ratio, theta_from, w2_from), c_top, c_bottom, slope) in enumerate(
+        zip(starts, c_star, c_lowest, slopes), start=1
     ):
         if not slope.is_positive:
             raise AssertionError(f"omega**2 must rise with q along every phase: {slope}")
-        w2_at = omega_squared_along(ratio, theta_from, w2_from, theta)
-        w2_min = w2_at.subs(sm.cos(theta), c_top)
-        apex_margins.append(w2_min.xreplace(names) / slope)
+        # The rise of cos theta from the phase's start to its point nearest the apex, named
+        # so that omega**2 there is w2_from - (2 / ratio) rise with no cancellation of the
+        # large terms 2 cos / ratio (short stance legs, beta -> 0).
+        top, rise = sm.Symbol(f"cos_apex_{k}", positive=True), sm.Symbol(f"rise_{k}", real=True)
+        cos_from = sm.cos(theta_from).xreplace(names)
+        staged += [(top, c_top), (rise, top - cos_from)]
+        w2_at = omega_squared_along(ratio, theta_from, w2_from, theta).xreplace(names)
+        w2_min = sm.expand(w2_at.subs(sm.cos(theta), cos_from + rise))
+        if w2_min.has(cos_from):
+            raise AssertionError(f"the rise did not cancel the start cosine: {w2_min}")
+        apex_margins.append(w2_min / slope)
         level = sm.expand(phase_energy(theta_from, w2_from, ratio) / ratio).xreplace(names)
-        at_vertex = sm.Min(sm.Max(vertex.subs(e_level, level), c_bottom), c_top)
+        at_vertex = sm.Min(sm.Max(vertex.subs(e_level, level), c_bottom), top)
         contact_margins.append(normal.subs(e_level, level).subs(c, at_vertex))
+    intermediates = tuple(staged)
     margins = {
         "q_positive": q_f,
         "cos_ratio": cos_ratio_margin().xreplace(names),
