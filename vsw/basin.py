@@ -21,6 +21,7 @@ from generated import ile
 from vsw.analysis import _jsonable, analyze
 from vsw.errors import VswInputError
 from vsw.params import check_parameter
+from vsw.vectorize import default_threads, executor
 
 __all__ = ["Basin", "EdgeCheck", "basin", "check_edges_by_simulation", "converges"]
 
@@ -120,6 +121,38 @@ def converges(
         Broadcast shape of the inputs.
     """
     q = np.asarray(q0, dtype=float)
+    shape = np.broadcast_shapes(
+        q.shape, np.shape(theta_II), np.shape(q_fixed), np.shape(gait_exists)
+    )
+    if len(shape) != 2 or shape[0] < 2 or q.size <= _ROWS_CHUNK:
+        return _converges_block(beta, theta_II, phi0, q, n_steps, q_fixed, gait_exists, tol)
+    # Rows (theta_II values) in blocks of about CHUNK elements, every step of a block while
+    # it is in cache, blocks on the shared thread pool: numpy releases the GIL (case 5 of
+    # benchmarks/run.py).
+    full = [np.broadcast_to(a, shape) for a in (theta_II, q, q_fixed, gait_exists)]
+    rows = max(1, _ROWS_CHUNK // shape[1])
+    out = np.empty(shape, dtype=bool)
+
+    def block(start: int) -> None:
+        part = [a[start : start + rows] for a in full]
+        out[start : start + rows] = _converges_block(
+            beta, part[0], phi0, part[1], n_steps, part[2], part[3], tol
+        )
+
+    starts = range(0, shape[0], rows)
+    threads = default_threads()
+    if threads > 1 and len(starts) > 1:
+        list(executor(threads).map(block, starts))
+    else:
+        for start in starts:
+            block(start)
+    return out
+
+
+_ROWS_CHUNK = 16384
+
+
+def _converges_block(beta, theta_II, phi0, q, n_steps, q_fixed, gait_exists, tol) -> np.ndarray:
     alive = np.broadcast_to(gait_exists, np.broadcast_shapes(q.shape, np.shape(gait_exists)))
     alive = alive.copy()
     q_apex = ile.q_apex_min(beta, theta_II, phi0)
