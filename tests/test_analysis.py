@@ -318,3 +318,23 @@ def test_simulation_follows_the_analysis(beta, theta_II_deg, phi0_deg, offset):
         assert below.ended == "fell-backward"
     above = simulate(beta, theta_II, phi0, q0=high + 1e-3 * (high - low), steps=2, record=False)
     assert above.ended == "lift-off"
+
+
+def test_thread_count_does_not_change_analyze(monkeypatch):
+    rng = np.random.default_rng(8)
+    args = (
+        rng.uniform(0.05, 0.999, 50000),
+        rng.uniform(-1.5, 1.5, 50000),
+        rng.uniform(0.01, 1.56, 50000),
+    )
+    monkeypatch.setenv("VSW_THREADS", "1")
+    one = analyze(*args)
+    monkeypatch.setenv("VSW_THREADS", "2")
+    two = analyze(*args)
+    for name in ("q_fixed", "eigenvalue", "step_period", "contact_margin", "walks"):
+        np.testing.assert_array_equal(getattr(one, name), getattr(two, name))
+    for c1, c2 in zip(one.conditions, two.conditions):
+        np.testing.assert_array_equal(c1.value, c2.value)
+    monkeypatch.setenv("VSW_THREADS", "zero")
+    with pytest.raises(VswInputError, match="VSW_THREADS must be a positive integer"):
+        analyze(*args)

@@ -95,3 +95,16 @@ def test_edges_checked_by_simulation():
     failed = [c for c in checks if not c.ok]
     assert not failed, failed
     assert {c.ended for c in checks} == {"completed", "fell-backward", "lift-off"}
+
+
+def test_thread_count_does_not_change_the_basin(monkeypatch):
+    # 60 x 800 initial states: several row blocks, so the threaded path runs even where
+    # the machine has one core.
+    theta_II = np.radians(np.linspace(-25, 35, 60))
+    results = {}
+    for threads in ("1", "2"):
+        monkeypatch.setenv("VSW_THREADS", threads)
+        b = basin(0.8, PHI0, theta_II, n_q=801, refine=False)
+        results[threads] = (b.q_min, b.q_max)
+    for one, two in zip(results["1"], results["2"]):
+        np.testing.assert_array_equal(one, two)

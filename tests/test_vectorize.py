@@ -1,5 +1,7 @@
 """Blockwise evaluation returns exactly what one whole-array call returns."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -63,3 +65,70 @@ def test_vsw_threads_setting_is_checked(monkeypatch):
     monkeypatch.setenv("VSW_THREADS", "zero")
     with pytest.raises(ValueError, match="VSW_THREADS must be a positive integer"):
         default_threads()
+
+
+def test_nested_blockwise_evaluation_runs_and_does_not_deadlock():
+    x = np.linspace(0.0, 1.0, 40000)
+
+    def outer(block):
+        return chunked(np.sin, block, chunk=1000, threads=2) + 1.0
+
+    got = chunked(outer, x, chunk=8000, threads=2)
+    np.testing.assert_array_equal(got, np.sin(x) + 1.0)
+
+
+def test_errstate_of_the_caller_applies_in_worker_threads():
+    x = np.full(50000, -1.0)
+    for threads in (1, 2):
+        with np.errstate(invalid="raise"), pytest.raises(FloatingPointError):
+            chunked(np.sqrt, x, chunk=1000, threads=threads)
+        with np.errstate(invalid="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("error")
+            assert np.isnan(chunked(np.sqrt, x, chunk=1000, threads=threads)).all()
+
+
+def test_first_block_error_reaches_the_caller_after_all_blocks_stopped():
+    import time
+
+    x = np.arange(20000.0)
+    out = np.zeros(20000)
+
+    def fn(block):
+        if block[0] == 5000:
+            raise RuntimeError("block failed")
+        time.sleep(0.002)
+        return block
+
+    with pytest.raises(RuntimeError, match="block failed"):
+        chunked(fn, x, chunk=1000, threads=2, out=out)
+    snapshot = out.copy()
+    time.sleep(0.1)
+    np.testing.assert_array_equal(out, snapshot)  # no block writes after the raise
+
+
+def test_callers_on_several_threads_with_different_thread_counts():
+    from concurrent.futures import ThreadPoolExecutor
+
+    x = np.linspace(0.0, 1.0, 30000)
+    with ThreadPoolExecutor(4) as callers:
+        results = list(
+            callers.map(lambda k: chunked(np.cos, x, chunk=1000, threads=2 + k % 3), range(12))
+        )
+    for r in results:
+        np.testing.assert_array_equal(r, np.cos(x))
+
+
+def test_blockwise_evaluation_works_in_a_forked_child():
+    import multiprocessing
+
+    if "fork" not in multiprocessing.get_all_start_methods():
+        pytest.skip("no fork on this platform")
+    x = np.linspace(0.0, 1.0, 30000)
+    chunked(np.cos, x, chunk=1000, threads=2)  # the parent has live pool threads
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        result = pool.apply_async(_child_sum, (x,))
+        assert result.get(timeout=60) == pytest.approx(float(np.cos(x).sum()))
+
+
+def _child_sum(x):
+    return float(chunked(np.cos, x, chunk=1000, threads=2).sum())

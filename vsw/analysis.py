@@ -15,7 +15,7 @@ import numpy as np
 
 from generated import ile
 from vsw.params import RobotScale, validate
-from vsw.vectorize import default_threads, executor
+from vsw.vectorize import default_threads, run_blocks
 
 __all__ = [
     "FIELDS",
@@ -297,13 +297,9 @@ def analyze(
 
     store(0, first)
     starts = range(_CHUNK, n, _CHUNK)
-    threads = default_threads()
-    if threads > 1 and len(starts) > 1:
+    if len(starts) > 0:
         # numpy releases the GIL inside operations: blocks run in parallel (vsw.vectorize).
-        list(executor(threads).map(lambda start: store(start, block(start)), starts))
-    else:
-        for start in starts:
-            store(start, block(start))
+        run_blocks(lambda start: store(start, block(start)), starts, default_threads())
     merged = {key: values.reshape(shape) for key, values in merged.items()}
 
     def shaped(a: np.ndarray) -> Any:

@@ -21,7 +21,7 @@ from generated import ile
 from vsw.analysis import _jsonable, analyze
 from vsw.errors import VswInputError
 from vsw.params import check_parameter
-from vsw.vectorize import default_threads, executor
+from vsw.vectorize import default_threads, run_blocks
 
 __all__ = ["Basin", "EdgeCheck", "basin", "check_edges_by_simulation", "converges"]
 
@@ -129,7 +129,13 @@ def converges(
     # Rows (theta_II values) in blocks of about CHUNK elements, every step of a block while
     # it is in cache, blocks on the shared thread pool: numpy releases the GIL (case 5 of
     # benchmarks/run.py).
-    full = [np.broadcast_to(a, shape) for a in (theta_II, q, q_fixed, gait_exists)]
+    # Broadcast along rows only: a (n, 1) column stays one column, so per-theta_II terms
+    # are computed once per row, not once per q.
+    full = []
+    for a in (theta_II, q, q_fixed, gait_exists):
+        a = np.asarray(a)
+        a = a.reshape((1,) * (2 - a.ndim) + a.shape)
+        full.append(np.broadcast_to(a, (shape[0], a.shape[1])))
     rows = max(1, _ROWS_CHUNK // shape[1])
     out = np.empty(shape, dtype=bool)
 
@@ -139,13 +145,7 @@ def converges(
             beta, part[0], phi0, part[1], n_steps, part[2], part[3], tol
         )
 
-    starts = range(0, shape[0], rows)
-    threads = default_threads()
-    if threads > 1 and len(starts) > 1:
-        list(executor(threads).map(block, starts))
-    else:
-        for start in starts:
-            block(start)
+    run_blocks(block, range(0, shape[0], rows), default_threads())
     return out
 
 

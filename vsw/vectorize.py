@@ -12,12 +12,15 @@ the last bit.
 
 from __future__ import annotations
 
+import contextvars
 import os
 import threading
-from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor, wait
 
 import numpy as np
+
+from vsw.errors import VswInputError
 
 CHUNK = 16384
 
@@ -35,33 +38,85 @@ def _raise_glibc_malloc_thresholds() -> None:
 
 _raise_glibc_malloc_thresholds()
 
-_pool: ThreadPoolExecutor | None = None
-_pool_lock = threading.Lock()
+_pools: dict[int, ThreadPoolExecutor] = {}
+_pools_lock = threading.Lock()
+_worker = threading.local()
+
+
+def _forget_pools_in_child() -> None:
+    # A forked child inherits the pools' bookkeeping but not their threads.
+    global _pools_lock
+    _pools.clear()
+    _pools_lock = threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_pools_in_child)
 
 
 def default_threads() -> int:
-    """Worker threads for :func:`chunked`: ``VSW_THREADS`` if set, else the core count."""
+    """Worker threads for block evaluation: ``VSW_THREADS`` if set, else the usable cores.
+
+    Raises
+    ------
+    VswInputError
+        ``VSW_THREADS`` is set but not a positive integer.
+    """
     setting = os.environ.get("VSW_THREADS", "")
     if setting.strip():
         try:
             threads = int(setting)
         except ValueError:
-            raise ValueError(f"VSW_THREADS must be a positive integer, got {setting!r}") from None
+            threads = 0
         if threads < 1:
-            raise ValueError(f"VSW_THREADS must be a positive integer, got {setting!r}")
+            raise VswInputError(f"VSW_THREADS must be a positive integer, got {setting!r}")
         return threads
-    return max(1, min(os.cpu_count() or 1, 16))
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        cores = os.cpu_count() or 1
+    return max(1, min(cores, 16))
 
 
-def executor(threads: int) -> ThreadPoolExecutor:
-    """The shared worker pool, resized to ``threads`` workers."""
-    global _pool
-    with _pool_lock:
-        if _pool is None or _pool._max_workers != threads:
-            if _pool is not None:
-                _pool.shutdown(wait=False)
-            _pool = ThreadPoolExecutor(threads, thread_name_prefix="vsw-chunk")
-        return _pool
+def _executor(threads: int) -> ThreadPoolExecutor:
+    # One pool per size, never shut down: callers on several threads may share them.
+    with _pools_lock:
+        pool = _pools.get(threads)
+        if pool is None:
+            pool = _pools[threads] = ThreadPoolExecutor(threads, thread_name_prefix="vsw-block")
+        return pool
+
+
+def run_blocks(block: Callable[[int], None], starts: Sequence[int], threads: int) -> None:
+    """Call ``block(start)`` for every start, on ``threads`` worker threads when > 1.
+
+    Each call runs in a copy of the caller's context, so ``np.errstate`` and other context
+    variables apply inside the workers as in the caller. A call made from inside a worker
+    (a block function that itself evaluates blockwise) runs serially, so nested use cannot
+    exhaust the pool and deadlock. The first exception is raised in the caller once no
+    block is running any more: none writes into the caller's arrays after this returns.
+    """
+    if threads <= 1 or len(starts) < 2 or getattr(_worker, "active", False):
+        for start in starts:
+            block(start)
+        return
+
+    def task(start: int) -> None:
+        _worker.active = True
+        try:
+            block(start)
+        finally:
+            _worker.active = False
+
+    pool = _executor(threads)
+    futures = [pool.submit(contextvars.copy_context().run, task, s) for s in starts]
+    try:
+        for future in futures:
+            future.result()
+    finally:
+        for future in futures:
+            future.cancel()
+        wait(futures)
 
 
 def chunked(
@@ -130,14 +185,7 @@ def chunked(
         for target, part in zip(outputs, result if is_tuple else (result,)):
             target[start:stop] = part
 
-    starts = range(chunk, size, chunk)
-    threads = default_threads() if threads is None else threads
-    if threads <= 1 or len(starts) < 2:
-        for start in starts:
-            block(start)
-    else:
-        # list() re-raises the first exception of any block in the caller.
-        list(executor(threads).map(block, starts))
+    run_blocks(block, range(chunk, size, chunk), default_threads() if threads is None else threads)
     if out is not None:
         return out
     shaped = tuple(target.reshape(shape) for target in outputs)
