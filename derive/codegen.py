@@ -58,8 +58,9 @@ class BackendPrinter(StrPrinter):
             return f"(1/be.sqrt({self._print(base)}))"
         if exp.is_Integer and exp < 0:
             return f"(1/{self._print(base**-exp)})" if exp != -1 else f"(1/{b})"
-        if exp.is_Integer and 2 <= exp <= 4:
-            # numpy has fast paths for ** 2 only; higher small powers fall back to pow().
+        if exp.is_Integer and 3 <= exp <= 4 and base.is_Atom:
+            # numpy fast-paths ** 2 only; x**3 and x**4 fall back to pow(). Only for atoms:
+            # a compound base would be evaluated once per factor.
             return "(" + "*".join([b] * int(exp)) + ")"
         if exp.is_Integer:
             return f"{b}**{int(exp)}"

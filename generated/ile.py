@@ -70,7 +70,7 @@ def phase_energy(theta, omega, leg_ratio):
     """
     be = backend_for(theta, omega, leg_ratio)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_theta*leg_ratio + (omega*omega)*(leg_ratio*leg_ratio)/2
+    return cos_theta*leg_ratio + omega**2*leg_ratio**2/2
 
 
 def normal_force(theta, omega, leg_ratio):
@@ -91,7 +91,7 @@ def normal_force(theta, omega, leg_ratio):
     """
     be = backend_for(theta, omega, leg_ratio)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return (cos_theta*cos_theta) - cos_theta*leg_ratio*(omega*omega)
+    return cos_theta**2 - cos_theta*leg_ratio*omega**2
 
 
 def extension_reset(beta, omega_II):
@@ -110,7 +110,7 @@ def extension_reset(beta, omega_II):
         omega_III
     """
     be = backend_for(beta, omega_II)
-    return omega_II*(beta*beta)
+    return omega_II*beta**2
 
 
 def heelstrike_reset(beta, phi0, omega_IV):
@@ -194,7 +194,7 @@ def theta_IV(beta, phi0):
     be = backend_for(beta, phi0)
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     x0 = cos_phi0*beta
-    x1 = (1/be.sqrt(1 + (beta*beta) - 2*x0))
+    x1 = (1/be.sqrt(1 + beta**2 - 2*x0))
     return be.atan2(x1*(1 - x0), x1*sin_phi0*beta)
 
 
@@ -219,9 +219,9 @@ def stride_map(beta, theta_II, phi0, q):
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
     x0 = 2*beta
-    x1 = (cos_phi0*cos_phi0)
+    x1 = cos_phi0**2
     x2 = x1*cos_theta_II
-    x3 = (beta*beta)
+    x3 = beta**2
     x4 = x1*sin_phi0/be.sqrt(1 + x3 - x0*cos_phi0)
     return x0*x4 - x0*x2 - 2*x4/beta + 2*x2/x3 + x1*x3*q
 
@@ -245,10 +245,10 @@ def q_fixed(beta, theta_II, phi0):
     be = backend_for(beta, theta_II, phi0)
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
-    x0 = (beta*beta)
+    x0 = beta**2
     x1 = cos_phi0*beta
     x2 = (1/be.sqrt(1 + x0 - 2*x1))
-    return -2*(cos_phi0*cos_phi0)*(-1 + beta)*(-cos_theta_II - x0*cos_theta_II - cos_theta_II*beta + x0*x2*sin_phi0 + x2*sin_phi0*beta)/(x0*(1 + x1)*(-1 + x1))
+    return -2*cos_phi0**2*(-1 + beta)*(-cos_theta_II - x0*cos_theta_II - cos_theta_II*beta + x0*x2*sin_phi0 + x2*sin_phi0*beta)/(x0*(1 + x1)*(-1 + x1))
 
 
 def eigenvalue(beta, phi0):
@@ -268,7 +268,7 @@ def eigenvalue(beta, phi0):
     """
     be = backend_for(beta, phi0)
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
-    return (cos_phi0*cos_phi0)*(beta*beta)
+    return cos_phi0**2*beta**2
 
 
 def omega_II_squared(beta, theta_II, phi0, q):
@@ -292,7 +292,7 @@ def omega_II_squared(beta, theta_II, phi0, q):
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
     x0 = 2/beta
-    return q - x0*cos_theta_II + x0*sin_phi0/be.sqrt(1 + (beta*beta) - 2*cos_phi0*beta)
+    return q - x0*cos_theta_II + x0*sin_phi0/be.sqrt(1 + beta**2 - 2*cos_phi0*beta)
 
 
 def omega_IV_squared(beta, theta_II, phi0, q):
@@ -318,7 +318,7 @@ def omega_IV_squared(beta, theta_II, phi0, q):
     x0 = 2*cos_theta_II
     x1 = (beta*beta*beta)
     x2 = 2*beta
-    x3 = sin_phi0/be.sqrt(1 + (beta*beta) - x2*cos_phi0)
+    x3 = sin_phi0/be.sqrt(1 + beta**2 - x2*cos_phi0)
     return x0 + q*(beta*beta*beta*beta) - x0*x1 - x2*x3 + 2*x1*x3
 
 
@@ -342,7 +342,7 @@ def q_apex_min(beta, theta_II, phi0):
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
     x0 = cos_phi0*beta
-    x1 = (1/be.sqrt(1 + (beta*beta) - 2*x0))
+    x1 = (1/be.sqrt(1 + beta**2 - 2*x0))
     x2 = x1*sin_phi0
     x3 = (1/beta)
     x4 = x1*sin_theta_II
@@ -370,7 +370,7 @@ def q_liftoff_max(beta, theta_II, phi0):
     be = backend_for(beta, theta_II, phi0)
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
-    x0 = (1/be.sqrt(1 + (beta*beta) - 2*cos_phi0*beta))
+    x0 = (1/be.sqrt(1 + beta**2 - 2*cos_phi0*beta))
     x1 = x0*sin_phi0
     x2 = (beta*beta*beta)
     return be.fmin(-(-3*be.fmin(cos_theta_II, x1) + 2*x1)/beta, -(-3*be.fmin(cos_theta_II, x1*beta) + 2*cos_theta_II - 2*x2*cos_theta_II + 2*x0*x2*sin_phi0)/(beta*beta*beta*beta))
@@ -397,7 +397,7 @@ def contact_margin(beta, theta_II, phi0, q):
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
     x0 = cos_phi0*beta
-    x1 = (1/be.sqrt(1 + (beta*beta) - 2*x0))
+    x1 = (1/be.sqrt(1 + beta**2 - 2*x0))
     x2 = x1*sin_phi0
     x3 = q*beta
     x4 = x2/3
@@ -408,7 +408,7 @@ def contact_margin(beta, theta_II, phi0, q):
     x9 = (beta*beta*beta)
     x10 = q*(beta*beta*beta*beta)
     x11 = be.fmin(be.fmax(be.fmin(cos_theta_II, x7), x8 + x10/6 + x4*x9 - x8*x9), be.fmax(be.fmax(cos_theta_II, x7), be.indicator((x5*(1 - x0) <= 0))))
-    return be.fmin(3*(x6*x6) - 2*x6*(x2 + x3/2), 3*(x11*x11) - 2*x11*(cos_theta_II + x10/2 + x2*x9 - x9*cos_theta_II))
+    return be.fmin(3*x6**2 - 2*x6*(x2 + x3/2), 3*x11**2 - 2*x11*(cos_theta_II + x10/2 + x2*x9 - x9*cos_theta_II))
 
 
 def energy_complement(beta, theta_II, phi0, q, m, g, r_e):
@@ -436,7 +436,7 @@ def energy_complement(beta, theta_II, phi0, q, m, g, r_e):
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
     x0 = g*m*r_e
     x1 = x0*cos_theta_II
-    x2 = (beta*beta)
+    x2 = beta**2
     x3 = x0*q/2
     x4 = (beta*beta*beta)
     x5 = x0*sin_phi0/be.sqrt(1 + x2 - 2*cos_phi0*beta)
@@ -469,9 +469,9 @@ def energy_dissipated(beta, theta_II, phi0, q, m, g, r_e):
     x0 = (beta*beta*beta)
     x1 = g*m*r_e
     x2 = x1*cos_theta_II
-    x3 = (cos_phi0*cos_phi0)
+    x3 = cos_phi0**2
     x4 = (beta*beta*beta*beta)
-    x5 = (1/be.sqrt(1 + (beta*beta) - 2*cos_phi0*beta))
+    x5 = (1/be.sqrt(1 + beta**2 - 2*cos_phi0*beta))
     x6 = x1*x5*sin_phi0
     return -x0*x2 - x2*x3 - x6*beta - x0*x3*x6 + cos_theta_II*g*m*r_e - x1*x3*x4*q/2 + x4*q*g*m*r_e/2 + x0*x3*cos_theta_II*g*m*r_e + x0*x5*sin_phi0*g*m*r_e + x3*x5*sin_phi0*beta*g*m*r_e
 
@@ -497,7 +497,7 @@ def energy_dissipated_post(beta, phi0, q_next, m, g, r_e):
     """
     be = backend_for(beta, phi0, q_next, m, g, r_e)
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
-    return -q_next*g*m*r_e*(beta*beta)*(1 + cos_phi0)*(-1 + cos_phi0)/(2*(cos_phi0*cos_phi0))
+    return -q_next*g*m*r_e*beta**2*(1 + cos_phi0)*(-1 + cos_phi0)/(2*cos_phi0**2)
 
 
 def energy_change(beta, theta_II, phi0, q, m, g, r_e):
@@ -524,9 +524,9 @@ def energy_change(beta, theta_II, phi0, q, m, g, r_e):
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
     x0 = g*m*r_e
-    x1 = x0*(cos_phi0*cos_phi0)
+    x1 = x0*cos_phi0**2
     x2 = x1*cos_theta_II
-    x3 = (beta*beta)
+    x3 = beta**2
     x4 = q/2
     x5 = (beta*beta*beta)
     x6 = x1*sin_phi0/be.sqrt(1 + x3 - 2*cos_phi0*beta)
@@ -555,9 +555,9 @@ def energy_constant(beta, theta_II, phi0, m, g, r_e):
     be = backend_for(beta, theta_II, phi0, m, g, r_e)
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
-    x0 = (beta*beta)
+    x0 = beta**2
     x1 = (1/be.sqrt(1 + x0 - 2*cos_phi0*beta))
-    return g*m*r_e*(cos_phi0*cos_phi0)*(-1 + beta)*(-cos_theta_II - x0*cos_theta_II - cos_theta_II*beta + x0*x1*sin_phi0 + x1*sin_phi0*beta)
+    return g*m*r_e*cos_phi0**2*(-1 + beta)*(-cos_theta_II - x0*cos_theta_II - cos_theta_II*beta + x0*x1*sin_phi0 + x1*sin_phi0*beta)
 
 
 def step_length(beta, phi0):
@@ -577,7 +577,7 @@ def step_length(beta, phi0):
     """
     be = backend_for(beta, phi0)
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
-    return be.sqrt(1 + (beta*beta) - 2*cos_phi0*beta)
+    return be.sqrt(1 + beta**2 - 2*cos_phi0*beta)
 
 
 def phase_durations(beta, theta_II, phi0, q):
@@ -601,10 +601,10 @@ def phase_durations(beta, theta_II, phi0, q):
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
     x0 = 1 + cos_theta_II
-    x1 = (sin_theta_II*sin_theta_II)/x0
+    x1 = sin_theta_II**2/x0
     x2 = cos_phi0 - beta
     x3 = cos_phi0*beta
-    x4 = 1 + (beta*beta) - 2*x3
+    x4 = 1 + beta**2 - 2*x3
     x5 = (1/be.sqrt(x4))
     x6 = x2*x5
     x7 = (x6 < 0)
@@ -623,7 +623,7 @@ def phase_durations(beta, theta_II, phi0, q):
     x20 = x14*x17
     x21 = (1/x4)
     x22 = 1 + x10
-    x23 = x21*(x2*x2)/x22
+    x23 = x21*x2**2/x22
     x24 = (sin_theta_II <= 0)
     x25 = be.logical_or(x24, x7)
     x26 = x6/be.sqrt(x22)
@@ -642,7 +642,7 @@ def phase_durations(beta, theta_II, phi0, q):
     x39 = 1 - x3
     x40 = x10*beta
     x41 = 1 + x40
-    x42 = x21*(x39*x39)/x41
+    x42 = x21*x39**2/x41
     x43 = (sin_theta_II < 0)
     x44 = x39*x5
     x45 = be.logical_and(x43, (x44 > 0))
@@ -669,7 +669,7 @@ def phase_durations(beta, theta_II, phi0, q):
     x66 = be.sqrt(1 + x62)
     x67 = be.sqrt(x48 - x60)
     x68 = x66*x67
-    return (x38*be.sqrt(beta)*((-2*be.where(x8, 0, be.where(x24, x1, x23)) + 2*be.where(x25, x23, x1))*_carlson_rf(((x27*x32 + x34*x37)*(x27*x32 + x34*x37)), ((x27*x37 + x32*x34)*(x27*x37 + x32*x34)), ((x27*x31*x35 + x29*x34*x36)*(x27*x31*x35 + x29*x34*x36)), be) + be.where(x8, (-2*be.where(x8, 0, x1) + 2*x1)*_carlson_rf(((x13*sin_theta_II + x14*x19)*(x13*sin_theta_II + x14*x19)), ((x15*x20 + x13*x16*x18)*(x15*x20 + x13*x16*x18)), ((x13*x20 + x16*x19)*(x13*x20 + x16*x19)), be), 0)), x38*((-2*be.where(x45, 0, be.where(x57, x42, x1)) + 2*be.where(x58, x1, x42))*_carlson_rf(((x59*x64 + x65*x68)*(x59*x64 + x65*x68)), ((x59*x68 + x64*x65)*(x59*x68 + x64*x65)), ((x59*x63*x66 + x61*x65*x67)*(x59*x63*x66 + x61*x65*x67)), be) + be.where(x45, (-2*be.where(x45, 0, x42) + 2*x42)*_carlson_rf(((x44*x49 + x50*x55)*(x44*x49 + x50*x55)), ((x51*x56 + x49*x52*x54)*(x51*x56 + x49*x52*x54)), ((x49*x56 + x52*x55)*(x49*x56 + x52*x55)), be), 0)),)
+    return (x38*be.sqrt(beta)*((-2*be.where(x8, 0, be.where(x24, x1, x23)) + 2*be.where(x25, x23, x1))*_carlson_rf((x27*x32 + x34*x37)**2, (x27*x37 + x32*x34)**2, (x27*x31*x35 + x29*x34*x36)**2, be) + be.where(x8, (-2*be.where(x8, 0, x1) + 2*x1)*_carlson_rf((x13*sin_theta_II + x14*x19)**2, (x15*x20 + x13*x16*x18)**2, (x13*x20 + x16*x19)**2, be), 0)), x38*((-2*be.where(x45, 0, be.where(x57, x42, x1)) + 2*be.where(x58, x1, x42))*_carlson_rf((x59*x64 + x65*x68)**2, (x59*x68 + x64*x65)**2, (x59*x63*x66 + x61*x65*x67)**2, be) + be.where(x45, (-2*be.where(x45, 0, x42) + 2*x42)*_carlson_rf((x44*x49 + x50*x55)**2, (x51*x56 + x49*x52*x54)**2, (x49*x56 + x52*x55)**2, be), 0)),)
 
 
 def condition_margins(beta, theta_II, phi0):
@@ -691,12 +691,12 @@ def condition_margins(beta, theta_II, phi0):
     be = backend_for(beta, theta_II, phi0)
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
-    x0 = (beta*beta)
+    x0 = beta**2
     x1 = cos_phi0*beta
     x2 = -1 + x1
     x3 = be.sqrt(1 + x0 - 2*x1)
     x4 = (1/x3)
-    x5 = (cos_phi0*cos_phi0)*(-1 + beta)*(-cos_theta_II - x0*cos_theta_II - cos_theta_II*beta + x0*x4*sin_phi0 + x4*sin_phi0*beta)/(x2*(1 + x1))
+    x5 = cos_phi0**2*(-1 + beta)*(-cos_theta_II - x0*cos_theta_II - cos_theta_II*beta + x0*x4*sin_phi0 + x4*sin_phi0*beta)/(x2*(1 + x1))
     x6 = 2*x5/x0
     x7 = 1 + beta
     x8 = (1/sin_phi0)
@@ -713,7 +713,7 @@ def condition_margins(beta, theta_II, phi0):
     x19 = be.fmin(x12, be.fmax(be.fmin(cos_theta_II, x9), -x18/3 + x9/3))
     x20 = x0*x5
     x21 = be.fmin(x17, be.fmax(be.fmin(cos_theta_II, x15), -x20/3 + cos_theta_II/3 - x14*cos_theta_II/3 + x14*x4*sin_phi0/3))
-    return (-x6, x3*x8*cos_theta_II - x7*beta/(x0 + x7), -x6 - be.fmax(-2*x10*x9 + 2*x10*x12, (-x13 + 2*x17 + x13*x14 - 2*x14*x9)/(beta*beta*beta*beta)), x11, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan2(x16, x15), theta_II + be.atan(x11*x8), be.fmin(3*(x19*x19) - 2*x19*(x9 - x18), 3*(x21*x21) - 2*x21*(cos_theta_II - x20 - x14*cos_theta_II + x14*x4*sin_phi0)),)
+    return (-x6, x3*x8*cos_theta_II - x7*beta/(x0 + x7), -x6 - be.fmax(-2*x10*x9 + 2*x10*x12, (-x13 + 2*x17 + x13*x14 - 2*x14*x9)/(beta*beta*beta*beta)), x11, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan2(x16, x15), theta_II + be.atan(x11*x8), be.fmin(3*x19**2 - 2*x19*(x9 - x18), 3*x21**2 - 2*x21*(cos_theta_II - x20 - x14*cos_theta_II + x14*x4*sin_phi0)),)
 
 
 def fixed_point_conditions(beta, theta_II, phi0):
@@ -735,12 +735,12 @@ def fixed_point_conditions(beta, theta_II, phi0):
     be = backend_for(beta, theta_II, phi0)
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
-    x0 = (beta*beta)
+    x0 = beta**2
     x1 = cos_phi0*beta
     x2 = (1/be.sqrt(1 + x0 - 2*x1))
     x3 = x2*sin_phi0
     x4 = beta - cos_phi0
-    x5 = (cos_phi0*cos_phi0)
+    x5 = cos_phi0**2
     x6 = 1 + beta
     x7 = (1/beta)
     x10 = x5*(-1 + beta)

@@ -338,3 +338,30 @@ def test_thread_count_does_not_change_analyze(monkeypatch):
     monkeypatch.setenv("VSW_THREADS", "zero")
     with pytest.raises(VswInputError, match="VSW_THREADS must be a positive integer"):
         analyze(*args)
+
+
+def test_apex_and_contact_margins_against_brute_force_over_the_step():
+    """The apex margin (min omega**2 per phase over its slope in q) and the contact margin
+    (min N) of the fused and explicit generated code against dense sampling of the step."""
+    from tests.conftest import random_walking_parameters
+
+    p = random_walking_parameters(30, seed=21)
+    names = [c[0] for c in ile.CONDITIONS]
+    for beta, theta_II, phi0 in zip(p["beta"], p["theta_II"], p["phi0"]):
+        a = analyze(beta, theta_II, phi0)
+        q = float(a.q_fixed)
+        th1 = np.linspace(float(a.theta_I), theta_II, 40001)
+        w1 = q + (2 / beta) * (np.cos(a.theta_I) - np.cos(th1))
+        omega_III_sq = beta**4 * w1[-1]
+        th2 = np.linspace(theta_II, float(a.theta_IV), 40001)
+        w2 = omega_III_sq + 2 * (np.cos(theta_II) - np.cos(th2))
+        apex = min(w1.min(), w2.min() / beta**4)
+        normal = min(
+            ((np.cos(th1) - beta * w1) * np.cos(th1)).min(),
+            ((np.cos(th2) - w2) * np.cos(th2)).min(),
+        )
+        fused = dict(zip(names, ile.fixed_point_conditions(beta, theta_II, phi0)[2:]))
+        explicit = dict(zip(names, ile.condition_margins(beta, theta_II, phi0)))
+        for margins in (fused, explicit):
+            assert float(margins["apex"]) == pytest.approx(apex, rel=1e-6, abs=1e-6)
+            assert float(margins["stance_contact"]) == pytest.approx(normal, abs=1e-7)

@@ -109,3 +109,33 @@ def test_phase_times_match_numerical_quadrature():
         d1, d2 = gen.phase_durations(b, t, p, qf)
         assert d1 == pytest.approx(t1, rel=1e-10)
         assert d2 == pytest.approx(t2, rel=1e-10)
+
+
+def test_closest_to_apex_cosine_is_the_largest_cosine_on_the_interval():
+    """_closest_to_apex_cos (a maximum with an indicator) against sampling cos over [lo, hi]."""
+    s_lo, c_lo, s_hi, c_hi = sm.symbols("s_lo c_lo s_hi c_hi", real=True)
+    form = sm.lambdify((s_lo, c_lo, s_hi, c_hi), ile._closest_to_apex_cos(s_lo, c_lo, s_hi, c_hi))
+    rng = np.random.default_rng(13)
+    ends = np.sort(rng.uniform(-1.5, 1.5, (500, 2)), axis=1)
+    ends[:5] = [[-0.3, 0.0], [0.0, 0.4], [0.2, 0.9], [-1.2, -0.1], [-0.5, 0.5]]
+    for lo, hi in ends:
+        sampled = np.cos(np.linspace(lo, hi, 20001)).max()
+        value = form(np.sin(lo), np.cos(lo), np.sin(hi), np.cos(hi))
+        assert value == pytest.approx(max(sampled, 1.0 if lo <= 0 <= hi else sampled), abs=1e-8)
+
+
+def test_staged_quantity_explicit_form_equals_the_explicit_derivation():
+    """Quantity.explicit() of the staged fixed_point_conditions against q_fixed, eigenvalue
+    and the condition margins of the same derivation, at random walking sets."""
+    d = ile.derive()
+    staged = d.quantities["fixed_point_conditions"]
+    assert staged.intermediates
+    explicit = staged.explicit()
+    assert not any(e.has(*(s for s, _ in staged.intermediates)) for e in explicit)
+    args = (ile.beta, ile.theta_II, ile.phi0)
+    reference = (d.quantities["q_fixed"].expr, d.quantities["eigenvalue"].expr)
+    reference += tuple(c.margin for c in d.conditions)
+    f_staged, f_ref = sm.lambdify(args, explicit), sm.lambdify(args, reference)
+    p = random_walking_parameters(20, seed=17)
+    for b, t, f in zip(p["beta"], p["theta_II"], p["phi0"]):
+        np.testing.assert_allclose(f_staged(b, t, f), f_ref(b, t, f), rtol=1e-9, atol=1e-12)
