@@ -18,6 +18,7 @@ import typing
 from pathlib import Path
 
 import sympy as sm
+from sympy.printing.c import C99CodePrinter
 from sympy.printing.str import StrPrinter
 
 from derive.elliptic import carlson_rf
@@ -446,6 +447,128 @@ def c_sources(derivation: Derivation, module: types.ModuleType) -> dict[str, str
     return {f"c/{derivation.model}.c": top + c_text, f"c/{derivation.model}.h": top + h_text}
 
 
+BATCH_FUNCTIONS = ("fixed_point_conditions",)
+"""Quantities that also get a vectorisable C loop (generated/c/<model>_batch.c)."""
+
+
+class BatchCPrinter(C99CodePrinter):
+    """C99 for one element of a batch loop: NaN-aware max/min as selects, powers as products.
+
+    Selects rather than fmax/fmin/branches, so that GCC vectorises the loop; the selects
+    follow numpy's fmax/fmin: a NaN argument yields the other one.
+    """
+
+    def _print_Max(self, expr):
+        out = self._print(expr.args[0])
+        for a in expr.args[1:]:
+            out = f"vsw_fmax({out}, {self._print(a)})"
+        return out
+
+    def _print_Min(self, expr):
+        out = self._print(expr.args[0])
+        for a in expr.args[1:]:
+            out = f"vsw_fmin({out}, {self._print(a)})"
+        return out
+
+    def _print_Piecewise(self, expr):
+        *pieces, (last, last_cond) = expr.args
+        if last_cond != sm.true:
+            raise ValueError("Piecewise without an otherwise branch cannot be generated")
+        out = self._print(sm.Float(last) if last.is_Number else last)
+        for value, cond in reversed(pieces):
+            value = sm.Float(value) if value.is_Number else value
+            out = f"(({self._print(cond)}) ? {self._print(value)} : {out})"
+        return out
+
+    def _print_Pow(self, expr, rational=False):
+        base, exp = expr.args
+        b = self.parenthesize(base, sm.printing.precedence.PRECEDENCE["Pow"])
+        if exp == sm.Rational(1, 2):
+            return f"sqrt({self._print(base)})"
+        if exp == -sm.Rational(1, 2):
+            return f"(1.0/sqrt({self._print(base)}))"
+        if exp.is_Integer and exp < 0:
+            return f"(1.0/{self._print(base ** -exp)})"
+        if exp.is_Integer and 1 < exp <= 4:
+            return "(" + "*".join([b] * int(exp)) + ")"
+        return super()._print_Pow(expr)
+
+    def _print_Integer(self, expr):
+        return f"{int(expr.p)}.0"
+
+    def _print_Rational(self, expr):
+        return f"({expr.p}.0/{expr.q}.0)"
+
+    def _print_Pi(self, expr):
+        return repr(float(sm.pi))
+
+
+BATCH_PRELUDE = """#include <math.h>
+
+/* Vector variants of libm (glibc's libmvec) when built with -fopenmp-simd; without it
+   these pragmas are ignored and the loop calls the scalar functions. */
+#pragma omp declare simd notinbranch
+double tan(double);
+#pragma omp declare simd notinbranch
+double atan(double);
+#pragma omp declare simd notinbranch
+double atan2(double, double);
+
+/* numpy's fmax/fmin as selects: a NaN argument yields the other one. */
+static inline double vsw_fmax(double a, double b) { return (a > b || b != b) ? a : b; }
+static inline double vsw_fmin(double a, double b) { return (a < b || b != b) ? a : b; }
+"""
+
+
+def batch_c_source(derivation: Derivation) -> str:
+    """C99 loops over arrays for :data:`BATCH_FUNCTIONS` (structure of arrays in and out).
+
+    ``void vsw_<model>_<name>_batch(long long n, const double *restrict <arg>..., double
+    *restrict out)`` writes output ``k`` of element ``i`` to ``out[k * n + i]``. cos/sin
+    pairs come from one tangent of the half angle, as in the Python backends.
+    """
+    printer = BatchCPrinter()
+    prefix = f"vsw_{derivation.model}_"
+    parts = ["/*\n", header(derivation.source, " *"), " */\n", BATCH_PRELUDE]
+    for name in BATCH_FUNCTIONS:
+        qty = derivation.quantities[name]
+        outputs = list(qty.expr) if isinstance(qty.expr, tuple) else [qty.expr]
+        named = [symbol for symbol, _ in qty.intermediates]
+        exprs, pairs = trig_pairs([value for _, value in qty.intermediates] + outputs)
+        replacements, reduced = sm.cse(exprs, symbols=sm.numbered_symbols("x"), order="canonical")
+        definitions = _dependency_order(
+            list(replacements) + list(zip(named, reduced[: len(named)]))
+        )
+        reduced = reduced[len(named) :]
+        args = ", ".join(f"const double *restrict {a.name}" for a in qty.args)
+        eq = f"eq. {qty.equation}" if qty.equation else "beyond the paper"
+        parts.append(
+            f"\n/* {qty.summary} ({eq}).\n   Outputs: {qty.returns}; output k of element i"
+            f" at out[k * n + i]. */\n"
+            f"void {prefix}{name}_batch(long long n, {args}, double *restrict out)\n{{\n"
+            "#pragma omp simd\n"
+            "    for (long long i = 0; i < n; ++i) {\n"
+        )
+        for a in qty.args:
+            parts.append(f"        const double {a.name}_i = {a.name}[i];\n")
+        local = {a: sm.Symbol(f"{a.name}_i", real=True) for a in qty.args}
+        local[sm.pi] = sm.Float(sm.pi.evalf(20), 20)  # C99 has no M_PI
+        for k, (cos_name, sin_name, a) in enumerate(pairs):
+            angle = printer.doprint(a.xreplace(local))
+            parts.append(
+                f"        const double tan_half_{k} = tan(0.5*({angle}));\n"
+                f"        const double one_plus_cos_{k} = 2.0/(1.0 + tan_half_{k}*tan_half_{k});\n"
+                f"        const double {cos_name} = one_plus_cos_{k} - 1.0;\n"
+                f"        const double {sin_name} = tan_half_{k}*one_plus_cos_{k};\n"
+            )
+        for sym, sub in definitions:
+            parts.append(f"        const double {sym} = {printer.doprint(sub.xreplace(local))};\n")
+        for k, e in enumerate(reduced):
+            parts.append(f"        out[{k}*n + i] = {printer.doprint(e.xreplace(local))};\n")
+        parts.append("    }\n}\n")
+    return "".join(parts)
+
+
 def render(derivation: Derivation) -> dict[str, str]:
     """All generated files for one model, as ``{relative path: text}``."""
     py = python_module(derivation)
@@ -470,4 +593,5 @@ def render(derivation: Derivation) -> dict[str, str]:
         else:
             sys.modules["generated._backend"] = saved
     files.update(c_sources(derivation, module))
+    files[f"c/{derivation.model}_batch.c"] = batch_c_source(derivation)
     return files

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from generated import ile
+from vsw import kernels
 from vsw.params import RobotScale, validate
 from vsw.vectorize import default_threads, run_blocks
 
@@ -47,6 +48,7 @@ FIELDS = (
 SI_FIELDS = ("speed_m_s", "speed_leg_s", "step_period_s", "step_length_m")
 """Extra outputs when a :class:`~vsw.params.RobotScale` is given."""
 
+_COMPILED_MIN_SIZE = 100_000
 _CHUNK = 16384  # elements per chunk; measured fastest on a 2-core machine (see module doc)
 
 
@@ -202,13 +204,19 @@ def _compute_chunk(
     phi0: np.ndarray,
     energy_scale: float,
     timing: bool,
+    compiled: bool = False,
 ) -> dict[str, np.ndarray]:
-    """All outputs for 1-D parameter arrays of equal length."""
+    """All outputs for 1-D parameter arrays of equal length (compiled: use vsw.kernels)."""
     out: dict[str, np.ndarray] = {}
     # Invalid square roots and divisions happen by design where a gait does not exist; the
     # results are NaN there and are reported as such, never as a warning.
     with np.errstate(all="ignore"):
-        q_fixed, eigenvalue, *margins = ile.fixed_point_conditions(beta, theta_II, phi0)
+        if compiled:
+            q_fixed, eigenvalue, *margins = kernels.fixed_point_conditions(
+                beta, theta_II, phi0, threads=1
+            )
+        else:
+            q_fixed, eigenvalue, *margins = ile.fixed_point_conditions(beta, theta_II, phi0)
         out["q_fixed"] = q_fixed
         out["omega_I"] = np.where(q_fixed > 0, np.sqrt(np.where(q_fixed > 0, q_fixed, 0.0)), np.nan)
         out["eigenvalue"] = eigenvalue
@@ -285,8 +293,13 @@ def analyze(
 
     # Outputs are preallocated and filled chunk by chunk: concatenating ~30 arrays of 10^6
     # elements afterwards costs as much as a third of the whole evaluation.
+    # The compiled kernels only for large batches: a first build takes a compiler run, and
+    # small analyses (the CLI) stay byte-for-byte those of the generated numpy code.
+    compiled = n >= _COMPILED_MIN_SIZE and kernels.library() is not None
+
     def block(start: int) -> dict[str, np.ndarray]:
-        return _compute_chunk(*(a[start : start + _CHUNK] for a in flat), energy_scale, timing)
+        part = (a[start : start + _CHUNK] for a in flat)
+        return _compute_chunk(*part, energy_scale, timing, compiled)
 
     first = block(0)
     merged = {key: np.empty(n, dtype=values.dtype) for key, values in first.items()}

@@ -1,0 +1,115 @@
+"""Compiled batch kernels (generated/c/ile_batch.c) against the generated numpy code."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import generated.ile as ile
+from tests.conftest import random_valid_parameters, random_walking_parameters
+from vsw import kernels
+
+
+def _compare(got, expected, tol):
+    assert len(got) == len(expected) == kernels.N_OUTPUTS
+    for k, (a, b) in enumerate(zip(got, expected)):
+        b = np.broadcast_to(b, a.shape)  # numpy returns each output at its own shape
+        assert np.array_equal(np.isnan(a), np.isnan(b)), k
+        ok = np.isfinite(b)
+        assert np.max(np.abs(a[ok] - b[ok]) / np.maximum(np.abs(b[ok]), 1.0)) <= tol, k
+
+
+@pytest.fixture(scope="module")
+def compiled():
+    if kernels.library() is None:
+        pytest.skip(kernels.build_error or "kernels disabled")
+    return kernels.library()
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_kernel_matches_numpy_on_walking_sets(compiled, threads):
+    p = random_walking_parameters(50000, seed=31)
+    args = (p["beta"], p["theta_II"], p["phi0"])
+    _compare(
+        kernels.fixed_point_conditions(*args, threads=threads),
+        ile.fixed_point_conditions(*args),
+        1e-12,
+    )
+
+
+def test_kernel_matches_numpy_over_the_whole_domain(compiled):
+    # Includes the ill-conditioned corners (phi0 -> 0 with beta -> 1, beta -> 0), where the
+    # two tan implementations' last bits are amplified.
+    p = random_valid_parameters(200000, seed=32)
+    args = (p["beta"], p["theta_II"], p["phi0"])
+    with np.errstate(all="ignore"):
+        expected = ile.fixed_point_conditions(*args)
+    _compare(kernels.fixed_point_conditions(*args), expected, 1e-10)
+
+
+def test_kernel_broadcasts_and_handles_scalars_and_empty(compiled):
+    beta = np.linspace(0.75, 0.95, 6)[:, None]
+    out = kernels.fixed_point_conditions(beta, 0.05, np.full(4, 0.8))
+    assert out[0].shape == (6, 4)
+    _compare(out, ile.fixed_point_conditions(beta, 0.05, np.full(4, 0.8)), 1e-12)
+    scalar = kernels.fixed_point_conditions(0.8, 0.0, np.pi / 4)
+    assert scalar[0].shape == () and float(scalar[0]) == pytest.approx(0.465196423021, rel=1e-11)
+    assert kernels.fixed_point_conditions(np.empty(0), 0.0, 0.5)[0].shape == (0,)
+
+
+def test_without_kernels_the_numpy_code_answers(monkeypatch):
+    monkeypatch.setenv("VSW_KERNELS", "0")
+    p = random_walking_parameters(20000, seed=33)
+    args = (p["beta"], p["theta_II"], p["phi0"])
+    got = kernels.fixed_point_conditions(*args)
+    for a, b in zip(got, ile.fixed_point_conditions(*args)):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_kernel_source_is_plain_c99_without_warnings(tmp_path):
+    import shutil
+    import subprocess
+
+    cc = shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        pytest.skip("no C compiler")
+    command = [cc, "-std=c99", "-Wall", "-Wextra", "-Werror", "-Wno-unknown-pragmas", "-c"]
+    done = subprocess.run(
+        [*command, str(kernels.SOURCE), "-o", str(tmp_path / "k.o")], capture_output=True, text=True
+    )
+    assert done.returncode == 0, done.stderr
+
+
+def test_missing_compiler_falls_back_to_numpy_and_says_why(tmp_path):
+    import subprocess
+    import sys
+
+    code = (
+        "import numpy as np; from vsw import kernels;"
+        "q = kernels.fixed_point_conditions(np.full(3, 0.8), 0.0, 0.7)[0];"
+        "print(kernels.build_error); print(float(q[0]))"
+    )
+    env = {"CC": str(tmp_path / "no-such-cc"), "VSW_CACHE_DIR": str(tmp_path), "PATH": ""}
+    import os
+
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env={**os.environ, **env}
+    )
+    assert done.returncode == 0, done.stderr
+    reason, value = done.stdout.strip().splitlines()
+    assert reason.startswith("compiled kernels unavailable, using numpy:")
+    assert float(value) == pytest.approx(float(ile.q_fixed(0.8, 0.0, 0.7)), rel=1e-15)
+
+
+def test_large_analyses_use_the_kernel_and_agree_with_numpy(compiled, monkeypatch):
+    from vsw.analysis import _COMPILED_MIN_SIZE, analyze
+
+    p = random_walking_parameters(_COMPILED_MIN_SIZE + 5000, seed=34)
+    args = (p["beta"], p["theta_II"], p["phi0"])
+    with_kernel = analyze(*args, timing=False)
+    monkeypatch.setenv("VSW_KERNELS", "0")
+    without = analyze(*args, timing=False)
+    np.testing.assert_allclose(with_kernel.q_fixed, without.q_fixed, rtol=1e-12)
+    np.testing.assert_array_equal(with_kernel.walks, without.walks)
+    for a, b in zip(with_kernel.conditions, without.conditions):
+        np.testing.assert_allclose(a.value, b.value, rtol=1e-11, atol=1e-12)
