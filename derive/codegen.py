@@ -488,7 +488,7 @@ class BatchCPrinter(C99CodePrinter):
         if exp == -sm.Rational(1, 2):
             return f"(1.0/sqrt({self._print(base)}))"
         if exp.is_Integer and exp < 0:
-            return f"(1.0/{self._print(base ** -exp)})"
+            return f"(1.0/{self._print(base**-exp)})"
         if exp.is_Integer and 1 < exp <= 4:
             return "(" + "*".join([b] * int(exp)) + ")"
         return super()._print_Pow(expr)
