@@ -193,9 +193,8 @@ def theta_IV(beta, phi0):
     """
     be = backend_for(beta, phi0)
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
-    x0 = cos_phi0*beta
-    x1 = (1/be.sqrt(1 + beta**2 - 2*x0))
-    return be.atan2(x1*(1 - x0), x1*sin_phi0*beta)
+    x0 = (1/be.sqrt((1 - beta)**2 + 2*beta*sin_phi0**2/(1 + cos_phi0)))
+    return be.atan2(x0*(1 - cos_phi0*beta), x0*sin_phi0*beta)
 
 
 def stride_map(beta, theta_II, phi0, q):
@@ -222,7 +221,7 @@ def stride_map(beta, theta_II, phi0, q):
     x1 = cos_phi0**2
     x2 = x1*cos_theta_II
     x3 = beta**2
-    x4 = x1*sin_phi0/be.sqrt(1 + x3 - x0*cos_phi0)
+    x4 = x1*sin_phi0/be.sqrt((1 - beta)**2 + x0*sin_phi0**2/(1 + cos_phi0))
     return x0*x4 - x0*x2 - 2*x4/beta + 2*x2/x3 + x1*x3*q
 
 
@@ -246,9 +245,10 @@ def q_fixed(beta, theta_II, phi0):
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
     x0 = beta**2
-    x1 = cos_phi0*beta
-    x2 = (1/be.sqrt(1 + x0 - 2*x1))
-    return -2*cos_phi0**2*(-1 + beta)*(-cos_theta_II - x0*cos_theta_II - cos_theta_II*beta + x0*x2*sin_phi0 + x2*sin_phi0*beta)/(x0*(1 + x1)*(-1 + x1))
+    x1 = -1 + beta
+    x2 = cos_phi0*beta
+    x3 = (1/be.sqrt(x1**2 + 2*beta*sin_phi0**2/(1 + cos_phi0)))
+    return -2*x1*cos_phi0**2*(-cos_theta_II - x0*cos_theta_II - cos_theta_II*beta + x0*x3*sin_phi0 + x3*sin_phi0*beta)/(x0*(1 + x2)*(-1 + x2))
 
 
 def eigenvalue(beta, phi0):
@@ -292,7 +292,7 @@ def omega_II_squared(beta, theta_II, phi0, q):
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
     x0 = 2/beta
-    return q - x0*cos_theta_II + x0*sin_phi0/be.sqrt(1 + beta**2 - 2*cos_phi0*beta)
+    return q - x0*cos_theta_II + x0*sin_phi0/be.sqrt((1 - beta)**2 + 2*beta*sin_phi0**2/(1 + cos_phi0))
 
 
 def omega_IV_squared(beta, theta_II, phi0, q):
@@ -318,7 +318,7 @@ def omega_IV_squared(beta, theta_II, phi0, q):
     x0 = 2*cos_theta_II
     x1 = (beta*beta*beta)
     x2 = 2*beta
-    x3 = sin_phi0/be.sqrt(1 + beta**2 - x2*cos_phi0)
+    x3 = sin_phi0/be.sqrt((1 - beta)**2 + x2*sin_phi0**2/(1 + cos_phi0))
     return x0 + q*(beta*beta*beta*beta) - x0*x1 - x2*x3 + 2*x1*x3
 
 
@@ -341,14 +341,13 @@ def q_apex_min(beta, theta_II, phi0):
     be = backend_for(beta, theta_II, phi0)
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
-    x0 = cos_phi0*beta
-    x1 = (1/be.sqrt(1 + beta**2 - 2*x0))
-    x2 = x1*sin_phi0
-    x3 = (1/beta)
-    x4 = x1*sin_theta_II
-    x5 = 2*cos_theta_II
-    x6 = (beta*beta*beta)
-    return be.fmax(-2*x2*x3 + 2*x3*be.fmax(be.fmax(cos_theta_II, x2), be.indicator((x4*(cos_phi0 - beta) <= 0))), (-x5 + 2*be.fmax(be.fmax(cos_theta_II, x2*beta), be.indicator((x4*(1 - x0) <= 0))) + x5*x6 - 2*x2*x6)/(beta*beta*beta*beta))
+    x0 = (1/be.sqrt((1 - beta)**2 + 2*beta*sin_phi0**2/(1 + cos_phi0)))
+    x1 = x0*sin_phi0
+    x2 = (1/beta)
+    x3 = x0*sin_theta_II
+    x4 = 2*cos_theta_II
+    x5 = (beta*beta*beta)
+    return be.fmax(-2*x1*x2 + 2*x2*be.fmax(be.fmax(cos_theta_II, x1), be.indicator((x3*(cos_phi0 - beta) <= 0))), (-x4 + 2*be.fmax(be.fmax(cos_theta_II, x1*beta), be.indicator((x3*(1 - cos_phi0*beta) <= 0))) + x4*x5 - 2*x1*x5)/(beta*beta*beta*beta))
 
 
 def q_liftoff_max(beta, theta_II, phi0):
@@ -370,10 +369,11 @@ def q_liftoff_max(beta, theta_II, phi0):
     be = backend_for(beta, theta_II, phi0)
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
-    x0 = (1/be.sqrt(1 + beta**2 - 2*cos_phi0*beta))
-    x1 = x0*sin_phi0
-    x2 = (beta*beta*beta)
-    return be.fmin(-(-3*be.fmin(cos_theta_II, x1) + 2*x1)/beta, -(-3*be.fmin(cos_theta_II, x1*beta) + 2*cos_theta_II - 2*x2*cos_theta_II + 2*x0*x2*sin_phi0)/(beta*beta*beta*beta))
+    x0 = 2*beta
+    x1 = (1/be.sqrt(1 + beta**2 - x0 + x0*sin_phi0**2/(1 + cos_phi0)))
+    x2 = x1*sin_phi0
+    x3 = (beta*beta*beta)
+    return be.fmin(-(-3*be.fmin(cos_theta_II, x2) + 2*x2)/beta, -(-3*be.fmin(cos_theta_II, x2*beta) + 2*cos_theta_II - 2*x3*cos_theta_II + 2*x1*x3*sin_phi0)/(beta*beta*beta*beta))
 
 
 def contact_margin(beta, theta_II, phi0, q):
@@ -396,19 +396,18 @@ def contact_margin(beta, theta_II, phi0, q):
     be = backend_for(beta, theta_II, phi0, q)
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
-    x0 = cos_phi0*beta
-    x1 = (1/be.sqrt(1 + beta**2 - 2*x0))
-    x2 = x1*sin_phi0
-    x3 = q*beta
-    x4 = x2/3
-    x5 = x1*sin_theta_II
-    x6 = be.fmin(be.fmax(be.fmin(cos_theta_II, x2), x4 + x3/6), be.fmax(be.fmax(cos_theta_II, x2), be.indicator((x5*(cos_phi0 - beta) <= 0))))
-    x7 = x2*beta
-    x8 = cos_theta_II/3
-    x9 = (beta*beta*beta)
-    x10 = q*(beta*beta*beta*beta)
-    x11 = be.fmin(be.fmax(be.fmin(cos_theta_II, x7), x8 + x10/6 + x4*x9 - x8*x9), be.fmax(be.fmax(cos_theta_II, x7), be.indicator((x5*(1 - x0) <= 0))))
-    return be.fmin(3*x6**2 - 2*x6*(x2 + x3/2), 3*x11**2 - 2*x11*(cos_theta_II + x10/2 + x2*x9 - x9*cos_theta_II))
+    x0 = (1/be.sqrt((1 - beta)**2 + 2*beta*sin_phi0**2/(1 + cos_phi0)))
+    x1 = x0*sin_phi0
+    x2 = q*beta
+    x3 = x1/3
+    x4 = x0*sin_theta_II
+    x5 = be.fmin(be.fmax(be.fmin(cos_theta_II, x1), x3 + x2/6), be.fmax(be.fmax(cos_theta_II, x1), be.indicator((x4*(cos_phi0 - beta) <= 0))))
+    x6 = x1*beta
+    x7 = cos_theta_II/3
+    x8 = (beta*beta*beta)
+    x9 = q*(beta*beta*beta*beta)
+    x10 = be.fmin(be.fmax(be.fmin(cos_theta_II, x6), x7 + x9/6 + x3*x8 - x7*x8), be.fmax(be.fmax(cos_theta_II, x6), be.indicator((x4*(1 - cos_phi0*beta) <= 0))))
+    return be.fmin(3*x5**2 - 2*x5*(x1 + x2/2), 3*x10**2 - 2*x10*(cos_theta_II + x9/2 + x1*x8 - x8*cos_theta_II))
 
 
 def energy_complement(beta, theta_II, phi0, q, m, g, r_e):
@@ -436,11 +435,10 @@ def energy_complement(beta, theta_II, phi0, q, m, g, r_e):
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
     x0 = g*m*r_e
     x1 = x0*cos_theta_II
-    x2 = beta**2
-    x3 = x0*q/2
-    x4 = (beta*beta*beta)
-    x5 = x0*sin_phi0/be.sqrt(1 + x2 - 2*cos_phi0*beta)
-    return x1 + x3*(beta*beta*beta*beta) + x4*x5 - x1*x4 - x2*x3 - x5*beta
+    x2 = x0*q/2
+    x3 = (beta*beta*beta)
+    x4 = x0*sin_phi0/be.sqrt((1 - beta)**2 + 2*beta*sin_phi0**2/(1 + cos_phi0))
+    return x1 + x2*(beta*beta*beta*beta) + x3*x4 - x1*x3 - x2*beta**2 - x4*beta
 
 
 def energy_dissipated(beta, theta_II, phi0, q, m, g, r_e):
@@ -471,7 +469,7 @@ def energy_dissipated(beta, theta_II, phi0, q, m, g, r_e):
     x2 = x1*cos_theta_II
     x3 = cos_phi0**2
     x4 = (beta*beta*beta*beta)
-    x5 = (1/be.sqrt(1 + beta**2 - 2*cos_phi0*beta))
+    x5 = (1/be.sqrt((1 - beta)**2 + 2*beta*sin_phi0**2/(1 + cos_phi0)))
     x6 = x1*x5*sin_phi0
     return -x0*x2 - x2*x3 - x6*beta - x0*x3*x6 + cos_theta_II*g*m*r_e - x1*x3*x4*q/2 + x4*q*g*m*r_e/2 + x0*x3*cos_theta_II*g*m*r_e + x0*x5*sin_phi0*g*m*r_e + x3*x5*sin_phi0*beta*g*m*r_e
 
@@ -526,11 +524,10 @@ def energy_change(beta, theta_II, phi0, q, m, g, r_e):
     x0 = g*m*r_e
     x1 = x0*cos_phi0**2
     x2 = x1*cos_theta_II
-    x3 = beta**2
-    x4 = q/2
-    x5 = (beta*beta*beta)
-    x6 = x1*sin_phi0/be.sqrt(1 + x3 - 2*cos_phi0*beta)
-    return x2 + x5*x6 - x2*x5 - x6*beta + x1*x4*(beta*beta*beta*beta) - x0*x3*x4
+    x3 = q/2
+    x4 = (beta*beta*beta)
+    x5 = x1*sin_phi0/be.sqrt((1 - beta)**2 + 2*beta*sin_phi0**2/(1 + cos_phi0))
+    return x2 + x4*x5 - x2*x4 - x5*beta + x1*x3*(beta*beta*beta*beta) - x0*x3*beta**2
 
 
 def energy_constant(beta, theta_II, phi0, m, g, r_e):
@@ -555,9 +552,10 @@ def energy_constant(beta, theta_II, phi0, m, g, r_e):
     be = backend_for(beta, theta_II, phi0, m, g, r_e)
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
-    x0 = beta**2
-    x1 = (1/be.sqrt(1 + x0 - 2*cos_phi0*beta))
-    return g*m*r_e*cos_phi0**2*(-1 + beta)*(-cos_theta_II - x0*cos_theta_II - cos_theta_II*beta + x0*x1*sin_phi0 + x1*sin_phi0*beta)
+    x0 = -1 + beta
+    x1 = beta**2
+    x2 = (1/be.sqrt(x0**2 + 2*beta*sin_phi0**2/(1 + cos_phi0)))
+    return x0*g*m*r_e*cos_phi0**2*(-cos_theta_II - x1*cos_theta_II - cos_theta_II*beta + x1*x2*sin_phi0 + x2*sin_phi0*beta)
 
 
 def step_length(beta, phi0):
@@ -603,73 +601,72 @@ def phase_durations(beta, theta_II, phi0, q):
     x0 = 1 + cos_theta_II
     x1 = sin_theta_II**2/x0
     x2 = cos_phi0 - beta
-    x3 = cos_phi0*beta
-    x4 = 1 + beta**2 - 2*x3
-    x5 = (1/be.sqrt(x4))
-    x6 = x2*x5
-    x7 = (x6 < 0)
-    x8 = be.logical_and(x7, (sin_theta_II > 0))
-    x9 = be.where(x8, 1, cos_theta_II)
-    x10 = x5*sin_phi0
-    x11 = q/2
-    x12 = x10 + x11*beta
-    x13 = be.sqrt(x12 - x9)
-    x14 = be.sqrt(1 + x9)
-    x15 = be.sqrt(x12 - cos_theta_II)
-    x16 = be.sqrt(x0)
-    x17 = sin_theta_II/x16
-    x18 = be.where(x8, 0, x17)
-    x19 = x15*x18
-    x20 = x14*x17
-    x21 = (1/x4)
-    x22 = 1 + x10
-    x23 = x21*x2**2/x22
-    x24 = (sin_theta_II <= 0)
-    x25 = be.logical_or(x24, x7)
-    x26 = x6/be.sqrt(x22)
-    x27 = be.where(x25, -x26, x17)
-    x28 = be.where(x25, x10, cos_theta_II)
-    x29 = be.sqrt(1 + x28)
-    x30 = be.where(x8, 1, be.where(x24, cos_theta_II, x10))
-    x31 = be.sqrt(x12 - x30)
-    x32 = x29*x31
-    x33 = -x17
-    x34 = be.where(x8, 0, be.where(x24, x33, x26))
-    x35 = be.sqrt(1 + x30)
-    x36 = be.sqrt(x12 - x28)
-    x37 = x35*x36
-    x38 = be.sqrt(2)/2
-    x39 = 1 - x3
-    x40 = x10*beta
-    x41 = 1 + x40
-    x42 = x21*x39**2/x41
-    x43 = (sin_theta_II < 0)
-    x44 = x39*x5
-    x45 = be.logical_and(x43, (x44 > 0))
-    x46 = be.where(x45, 1, x40)
-    x47 = (beta*beta*beta)
-    x48 = cos_theta_II + x10*x47 + x11*(beta*beta*beta*beta) - x47*cos_theta_II
-    x49 = be.sqrt(x48 - x46)
-    x50 = be.sqrt(1 + x46)
-    x51 = be.sqrt(x48 - x40)
-    x52 = be.sqrt(x41)
-    x53 = x44/x52
-    x54 = be.where(x45, 0, x53)
-    x55 = x51*x54
-    x56 = x50*x53
-    x57 = (x44 <= 0)
-    x58 = be.logical_or(x43, x57)
-    x59 = be.where(x58, x33, x53)
-    x60 = be.where(x58, cos_theta_II, x40)
-    x61 = be.sqrt(1 + x60)
-    x62 = be.where(x45, 1, be.where(x57, x40, cos_theta_II))
-    x63 = be.sqrt(x48 - x62)
-    x64 = x61*x63
-    x65 = be.where(x45, 0, be.where(x57, -x53, x17))
-    x66 = be.sqrt(1 + x62)
-    x67 = be.sqrt(x48 - x60)
-    x68 = x66*x67
-    return (x38*be.sqrt(beta)*((-2*be.where(x8, 0, be.where(x24, x1, x23)) + 2*be.where(x25, x23, x1))*_carlson_rf((x27*x32 + x34*x37)**2, (x27*x37 + x32*x34)**2, (x27*x31*x35 + x29*x34*x36)**2, be) + be.where(x8, (-2*be.where(x8, 0, x1) + 2*x1)*_carlson_rf((x13*sin_theta_II + x14*x19)**2, (x15*x20 + x13*x16*x18)**2, (x13*x20 + x16*x19)**2, be), 0)), x38*((-2*be.where(x45, 0, be.where(x57, x42, x1)) + 2*be.where(x58, x1, x42))*_carlson_rf((x59*x64 + x65*x68)**2, (x59*x68 + x64*x65)**2, (x59*x63*x66 + x61*x65*x67)**2, be) + be.where(x45, (-2*be.where(x45, 0, x42) + 2*x42)*_carlson_rf((x44*x49 + x50*x55)**2, (x51*x56 + x49*x52*x54)**2, (x49*x56 + x52*x55)**2, be), 0)),)
+    x3 = (1 - beta)**2 + 2*beta*sin_phi0**2/(1 + cos_phi0)
+    x4 = (1/be.sqrt(x3))
+    x5 = x2*x4
+    x6 = (x5 < 0)
+    x7 = be.logical_and(x6, (sin_theta_II > 0))
+    x8 = be.where(x7, 1, cos_theta_II)
+    x9 = x4*sin_phi0
+    x10 = q/2
+    x11 = x9 + x10*beta
+    x12 = be.sqrt(x11 - x8)
+    x13 = be.sqrt(1 + x8)
+    x14 = be.sqrt(x11 - cos_theta_II)
+    x15 = be.sqrt(x0)
+    x16 = sin_theta_II/x15
+    x17 = be.where(x7, 0, x16)
+    x18 = x14*x17
+    x19 = x13*x16
+    x20 = (1/x3)
+    x21 = 1 + x9
+    x22 = x20*x2**2/x21
+    x23 = (sin_theta_II <= 0)
+    x24 = be.logical_or(x23, x6)
+    x25 = x5/be.sqrt(x21)
+    x26 = be.where(x24, -x25, x16)
+    x27 = be.where(x24, x9, cos_theta_II)
+    x28 = be.sqrt(1 + x27)
+    x29 = be.where(x7, 1, be.where(x23, cos_theta_II, x9))
+    x30 = be.sqrt(x11 - x29)
+    x31 = x28*x30
+    x32 = -x16
+    x33 = be.where(x7, 0, be.where(x23, x32, x25))
+    x34 = be.sqrt(1 + x29)
+    x35 = be.sqrt(x11 - x27)
+    x36 = x34*x35
+    x37 = be.sqrt(2)/2
+    x38 = 1 - cos_phi0*beta
+    x39 = x9*beta
+    x40 = 1 + x39
+    x41 = x20*x38**2/x40
+    x42 = (sin_theta_II < 0)
+    x43 = x38*x4
+    x44 = be.logical_and(x42, (x43 > 0))
+    x45 = be.where(x44, 1, x39)
+    x46 = (beta*beta*beta)
+    x47 = cos_theta_II + x10*(beta*beta*beta*beta) + x46*x9 - x46*cos_theta_II
+    x48 = be.sqrt(x47 - x45)
+    x49 = be.sqrt(1 + x45)
+    x50 = be.sqrt(x47 - x39)
+    x51 = be.sqrt(x40)
+    x52 = x43/x51
+    x53 = be.where(x44, 0, x52)
+    x54 = x50*x53
+    x55 = x49*x52
+    x56 = (x43 <= 0)
+    x57 = be.logical_or(x42, x56)
+    x58 = be.where(x57, x32, x52)
+    x59 = be.where(x57, cos_theta_II, x39)
+    x60 = be.sqrt(1 + x59)
+    x61 = be.where(x44, 1, be.where(x56, x39, cos_theta_II))
+    x62 = be.sqrt(x47 - x61)
+    x63 = x60*x62
+    x64 = be.where(x44, 0, be.where(x56, -x52, x16))
+    x65 = be.sqrt(1 + x61)
+    x66 = be.sqrt(x47 - x59)
+    x67 = x65*x66
+    return (x37*be.sqrt(beta)*((-2*be.where(x7, 0, be.where(x23, x1, x22)) + 2*be.where(x24, x22, x1))*_carlson_rf((x26*x31 + x33*x36)**2, (x26*x36 + x31*x33)**2, (x26*x30*x34 + x28*x33*x35)**2, be) + be.where(x7, (-2*be.where(x7, 0, x1) + 2*x1)*_carlson_rf((x12*sin_theta_II + x13*x18)**2, (x14*x19 + x12*x15*x17)**2, (x12*x19 + x15*x18)**2, be), 0)), x37*((-2*be.where(x44, 0, be.where(x56, x41, x1)) + 2*be.where(x57, x1, x41))*_carlson_rf((x58*x63 + x64*x67)**2, (x58*x67 + x63*x64)**2, (x58*x62*x65 + x60*x64*x66)**2, be) + be.where(x44, (-2*be.where(x44, 0, x41) + 2*x41)*_carlson_rf((x43*x48 + x49*x54)**2, (x50*x55 + x48*x51*x53)**2, (x48*x55 + x51*x54)**2, be), 0)),)
 
 
 def condition_margins(beta, theta_II, phi0):
@@ -694,26 +691,27 @@ def condition_margins(beta, theta_II, phi0):
     x0 = beta**2
     x1 = cos_phi0*beta
     x2 = -1 + x1
-    x3 = be.sqrt(1 + x0 - 2*x1)
-    x4 = (1/x3)
-    x5 = cos_phi0**2*(-1 + beta)*(-cos_theta_II - x0*cos_theta_II - cos_theta_II*beta + x0*x4*sin_phi0 + x4*sin_phi0*beta)/(x2*(1 + x1))
-    x6 = 2*x5/x0
-    x7 = 1 + beta
-    x8 = (1/sin_phi0)
-    x9 = x4*sin_phi0
-    x10 = (1/beta)
-    x11 = beta - cos_phi0
-    x12 = be.fmax(be.fmax(cos_theta_II, x9), be.indicator((x11*x4*sin_theta_II >= 0)))
-    x13 = 2*cos_theta_II
-    x14 = (beta*beta*beta)
-    x15 = x9*beta
-    x16 = -x2*x4
-    x17 = be.fmax(be.fmax(cos_theta_II, x15), be.indicator((x16*sin_theta_II <= 0)))
-    x18 = x10*x5
-    x19 = be.fmin(x12, be.fmax(be.fmin(cos_theta_II, x9), -x18/3 + x9/3))
-    x20 = x0*x5
-    x21 = be.fmin(x17, be.fmax(be.fmin(cos_theta_II, x15), -x20/3 + cos_theta_II/3 - x14*cos_theta_II/3 + x14*x4*sin_phi0/3))
-    return (-x6, x3*x8*cos_theta_II - x7*beta/(x0 + x7), -x6 - be.fmax(-2*x10*x9 + 2*x10*x12, (-x13 + 2*x17 + x13*x14 - 2*x14*x9)/(beta*beta*beta*beta)), x11, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan2(x16, x15), theta_II + be.atan(x11*x8), be.fmin(3*x19**2 - 2*x19*(x9 - x18), 3*x21**2 - 2*x21*(cos_theta_II - x20 - x14*cos_theta_II + x14*x4*sin_phi0)),)
+    x3 = -1 + beta
+    x4 = be.sqrt(x3**2 + 2*beta*sin_phi0**2/(1 + cos_phi0))
+    x5 = (1/x4)
+    x6 = x3*cos_phi0**2*(-cos_theta_II - x0*cos_theta_II - cos_theta_II*beta + x0*x5*sin_phi0 + x5*sin_phi0*beta)/(x2*(1 + x1))
+    x7 = 2*x6/x0
+    x8 = 1 + beta
+    x9 = (1/sin_phi0)
+    x10 = x5*sin_phi0
+    x11 = (1/beta)
+    x12 = beta - cos_phi0
+    x13 = be.fmax(be.fmax(cos_theta_II, x10), be.indicator((x12*x5*sin_theta_II >= 0)))
+    x14 = 2*cos_theta_II
+    x15 = (beta*beta*beta)
+    x16 = x10*beta
+    x17 = -x2*x5
+    x18 = be.fmax(be.fmax(cos_theta_II, x16), be.indicator((x17*sin_theta_II <= 0)))
+    x19 = x11*x6
+    x20 = be.fmin(x13, be.fmax(be.fmin(cos_theta_II, x10), -x19/3 + x10/3))
+    x21 = x0*x6
+    x22 = be.fmin(x18, be.fmax(be.fmin(cos_theta_II, x16), -x21/3 + cos_theta_II/3 - x15*cos_theta_II/3 + x15*x5*sin_phi0/3))
+    return (-x7, x4*x9*cos_theta_II - x8*beta/(x0 + x8), -x7 - be.fmax(-2*x10*x11 + 2*x11*x13, (-x14 + 2*x18 + x14*x15 - 2*x10*x15)/(beta*beta*beta*beta)), x12, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan2(x17, x16), theta_II + be.atan(x12*x9), be.fmin(3*x20**2 - 2*x20*(x10 - x19), 3*x22**2 - 2*x22*(cos_theta_II - x21 - x15*cos_theta_II + x15*x5*sin_phi0)),)
 
 
 def fixed_point_conditions(beta, theta_II, phi0):
@@ -735,26 +733,26 @@ def fixed_point_conditions(beta, theta_II, phi0):
     be = backend_for(beta, theta_II, phi0)
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
-    x0 = beta**2
-    x1 = cos_phi0*beta
-    x2 = (1/be.sqrt(1 + x0 - 2*x1))
-    x3 = x2*sin_phi0
-    x4 = beta - cos_phi0
+    x0 = -1 + beta
+    x1 = (1/be.sqrt(x0**2 + 2*beta*sin_phi0**2/(1 + cos_phi0)))
+    x2 = x1*sin_phi0
+    x3 = beta - cos_phi0
+    x4 = beta**2
     x5 = cos_phi0**2
     x6 = 1 + beta
     x7 = (1/beta)
-    x10 = x5*(-1 + beta)
-    x11 = x0 + x6
+    x10 = x0*x5
+    x11 = x4 + x6
     x12 = 2*cos_theta_II
     x13 = (beta*beta*beta*beta)
-    cos_theta_I = x3
+    cos_theta_I = x2
     x8 = 2*cos_theta_I
     x9 = x7*x8
-    sin_theta_I = -x2*x4
-    cos_theta_IV = x3*beta
-    sin_theta_IV = x2*(1 - x1)
-    eigenvalue = x0*x5
-    q_f = (x10*x6*x9 - x10*x11*x12/x0)/(1 - eigenvalue)
+    sin_theta_I = -x1*x3
+    cos_theta_IV = x2*beta
+    sin_theta_IV = x1*(1 - cos_phi0*beta)
+    eigenvalue = x4*x5
+    q_f = (x10*x6*x9 - x10*x11*x12/x4)/(1 - eigenvalue)
     x15 = q_f*beta
     omega_II_sq = x9 + q_f - x12*x7
     omega_III_sq = x13*omega_II_sq
@@ -764,4 +762,4 @@ def fixed_point_conditions(beta, theta_II, phi0):
     cos_apex_2 = be.fmax(be.fmax(cos_theta_II, cos_theta_IV), be.indicator((sin_theta_II*sin_theta_IV <= 0)))
     x14 = be.fmin(cos_apex_2, be.fmax(be.fmin(cos_theta_II, cos_theta_IV), cos_theta_II/3 + omega_III_sq/6))
     rise_2 = cos_apex_2 - cos_theta_II
-    return (q_f, eigenvalue, q_f, cos_theta_II/cos_theta_I - x6*beta/x11, be.fmin(q_f - 2*x7*rise_1, (omega_III_sq - 2*rise_2)/x13), x4, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan(sin_theta_IV/cos_theta_IV), theta_II + be.atan(x4/sin_phi0), be.fmin(x14*(-x12 - omega_III_sq + 3*x14), x16*(-x15 - x8 + 3*x16)),)
+    return (q_f, eigenvalue, q_f, cos_theta_II/cos_theta_I - x6*beta/x11, be.fmin(q_f - 2*x7*rise_1, (omega_III_sq - 2*rise_2)/x13), x3, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan(sin_theta_IV/cos_theta_IV), theta_II + be.atan(x3/sin_phi0), be.fmin(x14*(-x12 - omega_III_sq + 3*x14), x16*(-x15 - x8 + 3*x16)),)

@@ -38,13 +38,13 @@ def test_kernel_matches_numpy_on_walking_sets(compiled, threads):
 
 
 def test_kernel_matches_numpy_over_the_whole_domain(compiled):
-    # Includes the ill-conditioned corners (phi0 -> 0 with beta -> 1, beta -> 0), where the
-    # two tan implementations' last bits are amplified.
+    # Includes the corners (phi0 -> 0 with beta -> 1, beta -> 0), where the two tan
+    # implementations' last bits are amplified most.
     p = random_valid_parameters(200000, seed=32)
     args = (p["beta"], p["theta_II"], p["phi0"])
     with np.errstate(all="ignore"):
         expected = ile.fixed_point_conditions(*args)
-    _compare(kernels.fixed_point_conditions(*args), expected, 1e-10)
+    _compare(kernels.fixed_point_conditions(*args), expected, 1e-11)
 
 
 def test_kernel_broadcasts_and_handles_scalars_and_empty(compiled):

@@ -164,6 +164,13 @@ def heelstrike() -> dict[str, sm.Expr]:
     tan_theta_I = -cos_coeff / sin_coeff
     theta_I_closed = sm.atan(tan_theta_I)  # |theta_I| < pi/2: the hip is above both feet
     norm_squared = mechanics.pythagorean_reduce(cos_coeff**2 + sin_coeff**2)
+    # The same squared distance between the feet without the cancellation of
+    # 1 + beta**2 - 2 beta cos(phi0) for short steps (phi0 -> 0, beta -> 1):
+    # 1 - cos = sin**2 / (1 + cos).
+    short_step_form = (1 - beta) ** 2 + 2 * beta * sm.sin(phi0) ** 2 / (1 + sm.cos(phi0))
+    if sm.simplify(short_step_form - norm_squared) != 0:
+        raise AssertionError(f"unexpected distance between the feet: {norm_squared}")
+    norm_squared = short_step_form
     # On the domain the sin coefficient is sin(phi0) > 0, and cos theta_I > 0 (hip above the
     # foot), so (cos, sin) theta_I = (sin_coeff, -cos_coeff) / norm.
     if sin_coeff == -sm.sin(phi0):
