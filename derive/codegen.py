@@ -155,7 +155,27 @@ def trig_pairs(exprs: list[sm.Expr]) -> tuple[list[sm.Expr], list[tuple[str, str
         substitution[sm.cos(a)] = sm.Symbol(cos_name, real=True)
         substitution[sm.sin(a)] = sm.Symbol(sin_name, real=True)
         pairs.append((cos_name, sin_name, a))
-    return [e.xreplace(substitution) for e in exprs], pairs
+    return [_replace(e, substitution, {}) for e in exprs], pairs
+
+
+def _replace(expr: sm.Expr, substitution: dict, memo: dict) -> sm.Expr:
+    """``expr.xreplace(substitution)`` that rebuilds Min/Max unevaluated: re-evaluating them
+    compares their arguments symbolically, which took most of ``python -m derive``."""
+    if expr in substitution:
+        return substitution[expr]
+    if not expr.args:
+        return expr
+    if expr in memo:
+        return memo[expr]
+    args = [_replace(a, substitution, memo) for a in expr.args]
+    if all(new is old for new, old in zip(args, expr.args)):
+        result = expr
+    elif isinstance(expr, (sm.Min, sm.Max)):
+        result = expr.func(*args, evaluate=False)
+    else:
+        result = expr.func(*args)
+    memo[expr] = result
+    return result
 
 
 def _dependency_order(
