@@ -38,6 +38,14 @@ def header(derivation_source: str, comment: str) -> str:
     return "".join(f"{comment} {line}\n" for line in lines)
 
 
+def _fold(printer, function: str, args) -> str:
+    """``function(function(a, b), c)...``: a binary function over several arguments."""
+    out = printer._print(args[0])
+    for a in args[1:]:
+        out = f"{function}({out}, {printer._print(a)})"
+    return out
+
+
 class BackendPrinter(StrPrinter):
     """Prints sympy expressions as Python calling ``be.<op>`` for every non-arithmetic op."""
 
@@ -80,18 +88,10 @@ class BackendPrinter(StrPrinter):
         return "be.pi"
 
     def _print_Max(self, expr):
-        args = [self._print(a) for a in expr.args]
-        out = args[0]
-        for a in args[1:]:
-            out = f"be.fmax({out}, {a})"
-        return out
+        return _fold(self, "be.fmax", expr.args)
 
     def _print_Min(self, expr):
-        args = [self._print(a) for a in expr.args]
-        out = args[0]
-        for a in args[1:]:
-            out = f"be.fmin({out}, {a})"
-        return out
+        return _fold(self, "be.fmin", expr.args)
 
     def _print_Piecewise(self, expr):
         if len(expr.args) == 2 and expr.args[0].expr == 1 and expr.args[1] == (0, sm.true):
@@ -196,15 +196,26 @@ def _dependency_order(
     return ordered
 
 
-def function_source(qty: Quantity, printer: BackendPrinter) -> str:
-    """Source of one generated function, with common subexpressions eliminated."""
+def staged_cse(
+    qty: Quantity,
+) -> tuple[list[tuple[str, str, sm.Expr]], list[tuple[sm.Symbol, sm.Expr]], list[sm.Expr]]:
+    """What every printed form of a quantity evaluates, in order.
+
+    Returns the cos/sin pairs (see :func:`trig_pairs`), the definitions (common
+    subexpressions and the quantity's named intermediates, each after what it uses) and
+    the reduced outputs.
+    """
     outputs = list(qty.expr) if isinstance(qty.expr, tuple) else [qty.expr]
     named = [symbol for symbol, _ in qty.intermediates]
     exprs, pairs = trig_pairs([value for _, value in qty.intermediates] + outputs)
-    names = sm.numbered_symbols("x")
-    replacements, reduced = sm.cse(exprs, symbols=names, order="canonical")
+    replacements, reduced = sm.cse(exprs, symbols=sm.numbered_symbols("x"), order="canonical")
     definitions = _dependency_order(list(replacements) + list(zip(named, reduced[: len(named)])))
-    reduced = reduced[len(named) :]
+    return pairs, definitions, reduced[len(named) :]
+
+
+def function_source(qty: Quantity, printer: BackendPrinter) -> str:
+    """Source of one generated function, with common subexpressions eliminated."""
+    pairs, definitions, reduced = staged_cse(qty)
     arg_names = ", ".join(a.name for a in qty.args)
     lines = [f"def {qty.name}({arg_names}):\n", _docstring(qty)]
     lines.append(f"    be = backend_for({arg_names})\n")
@@ -479,24 +490,17 @@ class BatchCPrinter(C99CodePrinter):
     """
 
     def _print_Max(self, expr):
-        out = self._print(expr.args[0])
-        for a in expr.args[1:]:
-            out = f"vsw_fmax({out}, {self._print(a)})"
-        return out
+        return _fold(self, "vsw_fmax", expr.args)
 
     def _print_Min(self, expr):
-        out = self._print(expr.args[0])
-        for a in expr.args[1:]:
-            out = f"vsw_fmin({out}, {self._print(a)})"
-        return out
+        return _fold(self, "vsw_fmin", expr.args)
 
     def _print_Piecewise(self, expr):
         *pieces, (last, last_cond) = expr.args
         if last_cond != sm.true:
             raise ValueError("Piecewise without an otherwise branch cannot be generated")
-        out = self._print(sm.Float(last) if last.is_Number else last)
+        out = self._print(last)  # numbers print as doubles (_print_Integer, _print_Rational)
         for value, cond in reversed(pieces):
-            value = sm.Float(value) if value.is_Number else value
             out = f"(({self._print(cond)}) ? {self._print(value)} : {out})"
         return out
 
@@ -518,9 +522,6 @@ class BatchCPrinter(C99CodePrinter):
 
     def _print_Rational(self, expr):
         return f"({expr.p}.0/{expr.q}.0)"
-
-    def _print_Pi(self, expr):
-        return repr(float(sm.pi))
 
 
 BATCH_PRELUDE = """#include <math.h>
@@ -552,14 +553,7 @@ def batch_c_source(derivation: Derivation) -> str:
     parts = ["/*\n", header(derivation.source, " *"), " */\n", BATCH_PRELUDE]
     for name in BATCH_FUNCTIONS:
         qty = derivation.quantities[name]
-        outputs = list(qty.expr) if isinstance(qty.expr, tuple) else [qty.expr]
-        named = [symbol for symbol, _ in qty.intermediates]
-        exprs, pairs = trig_pairs([value for _, value in qty.intermediates] + outputs)
-        replacements, reduced = sm.cse(exprs, symbols=sm.numbered_symbols("x"), order="canonical")
-        definitions = _dependency_order(
-            list(replacements) + list(zip(named, reduced[: len(named)]))
-        )
-        reduced = reduced[len(named) :]
+        pairs, definitions, reduced = staged_cse(qty)
         args = ", ".join(f"const double *restrict {a.name}" for a in qty.args)
         eq = f"eq. {qty.equation}" if qty.equation else "beyond the paper"
         parts.append(

@@ -16,7 +16,7 @@ import numpy as np
 from generated import ile
 from vsw import kernels
 from vsw.params import RobotScale, validate
-from vsw.vectorize import default_threads, run_blocks
+from vsw.vectorize import CHUNK, default_threads, run_blocks
 
 __all__ = [
     "FIELDS",
@@ -49,7 +49,6 @@ SI_FIELDS = ("speed_m_s", "speed_leg_s", "step_period_s", "step_length_m")
 """Extra outputs when a :class:`~vsw.params.RobotScale` is given."""
 
 _COMPILED_MIN_SIZE = 100_000
-_CHUNK = 16384  # elements per chunk; measured fastest on a 2-core machine (see module doc)
 
 
 @dataclass(frozen=True)
@@ -298,7 +297,7 @@ def analyze(
     compiled = n >= _COMPILED_MIN_SIZE and kernels.library() is not None
 
     def block(start: int) -> dict[str, np.ndarray]:
-        part = (a[start : start + _CHUNK] for a in flat)
+        part = (a[start : start + CHUNK] for a in flat)
         return _compute_chunk(*part, energy_scale, timing, compiled)
 
     first = block(0)
@@ -306,10 +305,10 @@ def analyze(
 
     def store(start: int, part: dict[str, np.ndarray]) -> None:
         for key, values in part.items():
-            merged[key][start : start + _CHUNK] = values
+            merged[key][start : start + CHUNK] = values
 
     store(0, first)
-    starts = range(_CHUNK, n, _CHUNK)
+    starts = range(CHUNK, n, CHUNK)
     if len(starts) > 0:
         # numpy releases the GIL inside operations: blocks run in parallel (vsw.vectorize).
         run_blocks(lambda start: store(start, block(start)), starts, default_threads())

@@ -21,7 +21,7 @@ from generated import ile
 from vsw.analysis import _jsonable, analyze
 from vsw.errors import VswInputError
 from vsw.params import check_parameter
-from vsw.vectorize import default_threads, run_blocks
+from vsw.vectorize import CHUNK, default_threads, run_blocks
 
 __all__ = ["Basin", "EdgeCheck", "basin", "check_edges_by_simulation", "converges"]
 
@@ -124,7 +124,7 @@ def converges(
     shape = np.broadcast_shapes(
         q.shape, np.shape(theta_II), np.shape(q_fixed), np.shape(gait_exists)
     )
-    if len(shape) != 2 or shape[0] < 2 or q.size <= _ROWS_CHUNK:
+    if len(shape) != 2 or shape[0] < 2 or q.size <= CHUNK:
         return _converges_block(beta, theta_II, phi0, q, n_steps, q_fixed, gait_exists, tol)
     # Rows (theta_II values) in blocks of about CHUNK elements, every step of a block while
     # it is in cache, blocks on the shared thread pool: numpy releases the GIL (case 5 of
@@ -136,7 +136,7 @@ def converges(
         a = np.asarray(a)
         a = a.reshape((1,) * (2 - a.ndim) + a.shape)
         full.append(np.broadcast_to(a, (shape[0], a.shape[1])))
-    rows = max(1, _ROWS_CHUNK // shape[1])
+    rows = max(1, CHUNK // shape[1])
     out = np.empty(shape, dtype=bool)
 
     def block(start: int) -> None:
@@ -147,9 +147,6 @@ def converges(
 
     run_blocks(block, range(0, shape[0], rows), default_threads())
     return out
-
-
-_ROWS_CHUNK = 16384
 
 
 def _converges_block(beta, theta_II, phi0, q, n_steps, q_fixed, gait_exists, tol) -> np.ndarray:

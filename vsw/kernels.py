@@ -6,8 +6,8 @@ compiler for this machine (``-O3 -march=native -fopenmp-simd``, glibc's vector l
 present) into a cache directory (``VSW_CACHE_DIR``, default ``~/.cache/vsw``), keyed by a
 hash of the source, the flags, the compiler and the CPU. Without a compiler, or with
 ``VSW_KERNELS=0``, every function here falls back to the generated numpy code, so results
-never depend on a compiler being present, only their last bits do (tests bound the
-difference to 1e-12 relative).
+never depend on a compiler being present, only their last bits do (tests/test_kernels.py
+bounds the difference to 1e-12 relative on walking sets, 1e-11 over the domain).
 
 Each block of the loop is one ctypes call, which releases the GIL: blocks run in parallel
 on :func:`vsw.vectorize.run_blocks`. benchmarks/run.py, case 1, measures it.
@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from generated import ile
-from vsw.vectorize import CHUNK, default_threads, run_blocks
+from vsw.vectorize import CHUNK, chunked, default_threads, run_blocks
 
 SOURCE = Path(__file__).resolve().parent.parent / "generated" / "c" / "ile_batch.c"
 N_OUTPUTS = 2 + len(ile.CONDITIONS)
@@ -140,8 +140,6 @@ def fixed_point_conditions(
     shape = arrays[0].shape
     lib = library()
     if lib is None:
-        from vsw.vectorize import chunked
-
         with np.errstate(all="ignore"):
             return chunked(ile.fixed_point_conditions, *arrays, threads=threads)
     flat = [np.ascontiguousarray(a).reshape(-1) for a in arrays]

@@ -30,7 +30,8 @@ def _raise_glibc_malloc_thresholds() -> None:
     # requests from 128 KiB up with fresh mmap()s, until the process first frees a large
     # mmap()ed block: then it raises both thresholds to that block's size (mallopt(3),
     # "dynamic mmap threshold"). Until that happens, every temporary of a block is
-    # page-faulted in anew: a cold `vsw basin` took 2.0 s against 0.63 s warm. Allocating
+    # page-faulted in anew: a cold 1000 x 1000 basin took 2.0 s against 0.63 s warm (timed
+    # by hand once, 2026-11-23; benchmarks/run.py case 5 times the first call). Allocating
     # and freeing one untouched 4 MiB array performs that first free up front; elsewhere
     # it is a no-op.
     np.empty(4 * 1024 * 1024 // 8)
@@ -142,8 +143,8 @@ def chunked(
         calling thread.
     out : numpy.ndarray or tuple of numpy.ndarray, optional
         Float arrays of the broadcast shape to write the results into (one per result),
-        e.g. reused across calls: fresh result arrays cost page faults, about 20 ms for
-        eleven arrays of 10^6 doubles (benchmarks/run.py, case 1).
+        e.g. reused across calls: fresh result arrays cost page faults, 12-17 ms for
+        eleven arrays of 10^6 doubles (benchmarks/run.py, case 1, fresh against reused).
 
     Returns
     -------
