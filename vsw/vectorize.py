@@ -143,7 +143,7 @@ def chunked(
         calling thread.
     out : numpy.ndarray or tuple of numpy.ndarray, optional
         Float arrays of the broadcast shape to write the results into (one per result),
-        e.g. reused across calls: fresh result arrays cost page faults, 12-17 ms for
+        e.g. reused across calls: fresh result arrays cost page faults, 10-20 ms for
         eleven arrays of 10^6 doubles (benchmarks/run.py, case 1, fresh against reused).
 
     Returns
