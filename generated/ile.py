@@ -763,3 +763,43 @@ def fixed_point_conditions(beta, theta_II, phi0):
     x14 = be.fmin(cos_apex_2, be.fmax(be.fmin(cos_theta_II, cos_theta_IV), cos_theta_II/3 + omega_III_sq/6))
     rise_2 = cos_apex_2 - cos_theta_II
     return (q_f, eigenvalue, q_f, cos_theta_II/cos_theta_I - x6*beta/x11, be.fmin(q_f - 2*x7*rise_1, (omega_III_sq - 2*rise_2)/x13), x3, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan(sin_theta_IV/cos_theta_IV), theta_II + be.atan(x3/sin_phi0), be.fmin(x14*(-x12 - omega_III_sq + 3*x14), x16*(-x15 - x8 + 3*x16)),)
+
+
+def condition_pieces(beta, theta_II, phi0):
+    """Smooth pieces of the apex (14) and stance-contact margins at the fixed point. Eq. (14) of the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        (apex_phase_I_II, apex_phase_III_IV, omega_II_squared, normal_force_I, normal_force_II, normal_force_IV); see derive.models.ile.condition_pieces
+    """
+    be = backend_for(beta, theta_II, phi0)
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
+    x0 = -1 + beta
+    x1 = sin_phi0/be.sqrt(x0**2 + 2*beta*sin_phi0**2/(1 + cos_phi0))
+    x2 = beta**2
+    x3 = cos_phi0**2
+    x4 = 1 + beta
+    x5 = 2/beta
+    x7 = x0*x3
+    x8 = 2*cos_theta_II
+    x10 = (beta*beta*beta*beta)
+    cos_theta_I = x1
+    x6 = x5*cos_theta_I
+    cos_theta_IV = x1*beta
+    eigenvalue = x2*x3
+    q_f = (x4*x6*x7 - x7*x8*(x2 + x4)/x2)/(1 - eigenvalue)
+    x9 = x6 + q_f
+    omega_II_sq = x9 - x5*cos_theta_II
+    omega_III_sq = x10*omega_II_sq
+    x11 = x8 + omega_III_sq
+    return (x9 - x5, (-2 + x11)/x10, omega_II_sq, cos_theta_I**2 - q_f*beta*cos_theta_I, cos_theta_II**2 - cos_theta_II*omega_II_sq*beta, cos_theta_IV**2 - cos_theta_IV*(x11 - 2*cos_theta_IV),)

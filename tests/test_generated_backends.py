@@ -46,6 +46,7 @@ SCALAR_CASES = [
     ("phase_durations", lambda p: (*_params(p), ile.q_fixed(*_params(p)))),
     ("condition_margins", lambda p: (p["beta"], p["theta_II"], p["phi0"])),
     ("fixed_point_conditions", lambda p: (p["beta"], p["theta_II"], p["phi0"])),
+    ("condition_pieces", lambda p: (p["beta"], p["theta_II"], p["phi0"])),
     ("energy_complement", lambda p: (p["beta"], p["theta_II"], p["phi0"], 0.4, 0.78, 9.81, 0.25)),
 ]  # fmt: skip
 
@@ -231,3 +232,35 @@ def test_fused_existence_against_40_digit_evaluation_of_the_derivation():
     # 1 + beta**2 - 2 beta cos(phi0), which cancels to 2e-6 at the short-step corner and
     # cost 1e-10 there.
     assert worst <= 1e-12
+
+
+def test_condition_pieces_equal_the_exact_margins_region_by_region():
+    """The smooth pieces the design NLP imposes (derive.models.ile.condition_pieces) give
+    the exact apex margin (14) in each region of the signs of theta_I and theta_II, and the
+    stance-contact margin as their minimum wherever the foot stays down; checked against
+    condition_margins, itself tested against brute force over the step."""
+    p = random_walking_parameters(20000, seed=3)
+    b, t, f = _params(p)
+    apex_I_II, apex_III_IV, w2_II, n_I, n_II, n_IV = ile.condition_pieces(b, t, f)
+    margins = dict(zip([c[0] for c in ile.CONDITIONS], ile.condition_margins(b, t, f)))
+    theta_I = ile.theta_I(b, f)
+    regions = {
+        "theta_II <= 0": (t <= 0, apex_III_IV),
+        "theta_I <= 0 <= theta_II": ((t >= 0) & (theta_I <= 0), apex_I_II),
+        "theta_I >= 0": (theta_I >= 0, ile.q_fixed(b, t, f)),
+    }
+    for name, (inside, piece) in regions.items():
+        assert inside.sum() > 1000, name
+        scale = np.maximum(np.abs(margins["apex"][inside]), 1.0)
+        assert np.max(np.abs(margins["apex"][inside] - piece[inside]) / scale) <= 1e-12, name
+    contact = np.minimum(np.minimum(n_I, n_II), n_IV)
+    assert np.max(np.abs(margins["stance_contact"] - contact)) <= 1e-12
+    # The normal forces are N = cos(theta) (cos(theta) - rho omega**2) at instants I, II, IV.
+    q_f = ile.q_fixed(b, t, f)
+    w2_IV = ile.omega_IV_squared(b, t, f, q_f)
+    np.testing.assert_allclose(w2_II, ile.omega_II_squared(b, t, f, q_f), rtol=1e-12)
+    np.testing.assert_allclose(n_I, ile.normal_force(theta_I, np.sqrt(q_f), b), atol=1e-12)
+    np.testing.assert_allclose(n_II, ile.normal_force(t, np.sqrt(w2_II), b), atol=1e-12)
+    np.testing.assert_allclose(
+        n_IV, ile.normal_force(ile.theta_IV(b, f), np.sqrt(w2_IV), 1.0), atol=1e-12
+    )

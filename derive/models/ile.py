@@ -496,6 +496,79 @@ def existence_staged() -> tuple[
     return intermediates, (q_f, eigenvalue, *margins.values()), tuple(margins)
 
 
+CONDITION_PIECE_NAMES = (
+    "apex_phase_I_II",
+    "apex_phase_III_IV",
+    "omega_II_squared",
+    "normal_force_I",
+    "normal_force_II",
+    "normal_force_IV",
+)
+"""Outputs of :func:`condition_pieces`, in order."""
+
+
+@functools.cache
+def condition_pieces() -> tuple[
+    tuple[tuple[sm.Symbol, sm.Expr], ...], tuple[sm.Expr, ...], tuple[str, ...]
+]:
+    """Smooth pieces of the apex condition (14) and of the stance contact, at the fixed point.
+
+    The exact margins (:func:`existence_staged`) are minima over the phases with the
+    phase's point nearest the apex chosen by the signs of theta_I and theta_II, so they
+    have kinks; a gradient-based optimiser needs the pieces one by one:
+
+    * ``apex_phase_I_II``: ``omega**2`` at theta = 0 along phase I-II (slope 1 in q), the
+      apex margin when theta_I <= 0 <= theta_II;
+    * ``apex_phase_III_IV``: ``omega**2`` at theta = 0 along phase III-IV divided by its
+      slope in q, the apex margin when theta_II <= 0;
+    * ``omega_II_squared``: ``omega_II**2`` (the apex margin of phase III-IV when
+      theta_II >= 0 is ``omega_III**2 / beta**4``, the same number);
+    * ``normal_force_I``, ``normal_force_II``, ``normal_force_IV``: N / (m g) at instant I,
+      just before the extension (II) and at instant IV. N = (3 c - 2 E) c is convex in
+      c = cos theta with its vertex at E / 3, and N(c) >= 0 needs c >= 2 E / 3, so when
+      these are >= 0 N rises from each phase's lowest cosine to its apex and the minimum
+      over the step is the smallest of them (N just after the extension is larger than
+      just before: the extension scales omega**2 by beta**4 < beta).
+
+    Returns
+    -------
+    intermediates, outputs, names
+        As :func:`existence_staged`, the outputs named by ``CONDITION_PIECE_NAMES``.
+    """
+    staged, _, _ = existence_staged()
+    names = CONTACT_ANGLE_NAMES
+    by_name = {symbol.name: symbol for symbol, _ in staged}
+    q_f, w2_II, w2_III = by_name["q_f"], by_name["omega_II_sq"], by_name["omega_III_sq"]
+    theta_I_at = {sm.cos(theta_I): names[sm.cos(theta_I)]}
+    apex_1 = omega_squared_along(beta, theta_I, q_f, 0).xreplace(theta_I_at)
+    # omega**2 along phase III-IV rises with q at the slope of omega_III**2.
+    slope = sm.diff(stride()["omega_III_squared"], q)
+    apex_2 = omega_squared_along(1, theta_II, w2_III, 0) / slope
+    w2_IV = omega_squared_along(1, theta_II, w2_III, theta_IV).xreplace(names)
+    w2 = _square_symbol("w2")
+    normal = swing_phase_dimensionless()["normal_force"].subs(omega**2, w2)
+
+    def normal_at(angle: sm.Expr, omega_squared: sm.Expr, ratio: sm.Expr) -> sm.Expr:
+        at = normal.subs({w2: omega_squared, theta: angle, leg_ratio: ratio})
+        return at.xreplace(names)
+
+    outputs = (
+        apex_1,
+        apex_2,
+        w2_II,
+        normal_at(theta_I, q_f, beta),
+        normal_at(theta_II, w2_II, beta),
+        normal_at(theta_IV, w2_IV, 1),
+    )
+    # Keep only the intermediates the pieces use (the generator emits every one).
+    used: set[sm.Symbol] = set().union(*(sm.sympify(e).free_symbols for e in outputs))
+    for symbol, expr in reversed(staged):
+        if symbol in used:
+            used |= expr.free_symbols
+    intermediates = tuple((s, v) for s, v in staged if s in used)
+    return intermediates, outputs, CONDITION_PIECE_NAMES
+
+
 @functools.cache
 def step_timing() -> dict[str, sm.Expr]:
     """Step length, phase durations and period (item 7 of the derivation; beyond the paper).
@@ -885,6 +958,18 @@ def derive() -> Derivation:
             "(10), (19), (12)-(17)",
             "(q^f, lambda, *margins in the order of CONDITIONS)",
             intermediates=staged_intermediates,
+        )
+    )
+    piece_intermediates, piece_outputs, _ = condition_pieces()
+    d.add(
+        Quantity(
+            "condition_pieces",
+            P,
+            piece_outputs,
+            "Smooth pieces of the apex (14) and stance-contact margins at the fixed point.",
+            "(14)",
+            "(" + ", ".join(CONDITION_PIECE_NAMES) + "); see derive.models.ile.condition_pieces",
+            intermediates=piece_intermediates,
         )
     )
     d.facts.update({f"phase.{k}": v for k, v in phase.items()})
