@@ -7,23 +7,49 @@ user wants within what the robot can do. The NLP is built from the generated clo
 * objective: a weighted sum of ``-speed``, ``eigenvalue`` (eq. 19) and the cost of
   transport ``E_c(q^f) / (m g L)`` (eq. 20 per unit step length);
 * equality targets: speed, q^f, step length, step frequency;
-* inequalities: every *physical* existence condition of ``ile.CONDITIONS`` in its exact
-  form (strict ones as ``margin >= STRICT_MARGIN``), the stance contact margin
-  ``>= max(0, min_contact_margin)``, an eigenvalue upper bound, step length and step
-  frequency bounds, and bounds / fixed values of the decision variables.
+* inequalities: every *physical* existence condition in its exact form, the stance contact
+  margin ``>= max(0, min_contact_margin)``, an eigenvalue upper bound, step length and step
+  frequency bounds, bounds / fixed values of the decision variables; with
+  ``conditions="paper"`` also (15) and (17) as the paper prints them.
 
-The step period inside the NLP is the generated closed form (Carlson R_F by duplication),
-which CasADi differentiates exactly; ``tests/test_design.py`` checks it against the SciPy
-Legendre form and the time-domain simulation.
+Why the problem is split into regions
+-------------------------------------
+The exact apex margin (14) and the stance-contact margin are minima over the two swing
+phases, each at the point of the phase nearest the apex, chosen by the signs of theta_I and
+theta_II: they have kinks, and IPOPT, which needs twice-differentiable functions, stalls at
+them (the failures of the first version of this module: 0 of 30 random feasible requests
+converged). The derivation hands out the smooth pieces (``ile.condition_pieces``):
 
-Each request is solved from several deterministic starts (the best points of a coarse grid
-over the bounds) and the best verified solution is kept. A solution counts only when IPOPT
-reports success *and* a numpy re-evaluation of the closed forms confirms every constraint;
-the design is then re-checked by the independent time-domain simulation
-(:mod:`vsw.simulate`). When no start reaches a feasible point the request is reported
-infeasible and each user constraint is relaxed in turn to name the conflicting ones.
+* the stance contact is exactly "N >= margin at instants I, II and IV" (N is convex in
+  cos theta and rises towards the apex wherever N >= 0), three smooth rows everywhere;
+* the apex margin is one smooth piece in each of three regions of the parameter space:
+  theta_II <= 0 (the apex is crossed in phase III-IV), theta_I <= 0 <= theta_II (in phase
+  I-II) and theta_I >= 0 (never crossed: q^f > 0 suffices).
 
-``import vsw.design`` is cheap: casadi and scipy are imported inside functions.
+Each region is a smooth NLP; a request is solved in every region that a scan finds
+promising and the best verified solution wins.
+
+Starts and verification
+-----------------------
+A deterministic low-discrepancy scan of the box (Halton points, the generated numpy code)
+gives each region its best feasible points for the objective and its least-violating one;
+IPOPT starts there. A solution counts only when IPOPT reports success *and* a numpy
+re-evaluation of the closed forms confirms every constraint, with every physical condition
+in its exact strict form; the design is then re-checked by the independent time-domain
+simulation (:mod:`vsw.simulate`).
+
+Statuses
+--------
+``optimal``: a verified local optimum, the best over the regions and starts, that keeps
+away from every open limit. ``not-attained``: the best design presses against an open
+boundary (a strict condition, an open parameter limit such as beta < 1): the supremum or
+infimum is a limit the model never reaches; the design is re-solved ever closer to it
+(distances scaled by :data:`CONTINUATION`) to estimate the limiting value.
+``infeasible``: neither the scan nor any solve found a point satisfying the constraints
+(the constraints in conflict are named). ``not-converged``: the scan found feasible
+points but no solve converged to a verified design.
+
+``import vsw.design`` is cheap: casadi is imported inside functions.
 """
 
 from __future__ import annotations
@@ -31,9 +57,10 @@ from __future__ import annotations
 import argparse
 import contextlib
 import io
+import itertools
 import math
 import sys
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -45,25 +72,42 @@ from vsw.errors import VswInputError
 from vsw.params import RobotScale
 
 __all__ = [
+    "CONDITION_SETS",
+    "CONTINUATION",
     "OBJECTIVES",
+    "STATUSES",
     "STRICT_MARGIN",
+    "TABLE_DISTANCE",
     "DesignResult",
     "design",
     "register_cli",
+    "simulation_check",
 ]
 
 STRICT_MARGIN = 1e-6
-"""A strict condition ``margin > 0`` is imposed as ``margin >= STRICT_MARGIN``; a solution
-that sits on this margin is an open-boundary supremum and is reported as such."""
+"""A strict condition ``margin > 0`` is imposed as ``margin >= STRICT_MARGIN``."""
+
+TABLE_DISTANCE = 1e-3
+"""Distance kept from the open limits of the parameter table (0 < beta < 1, ...)."""
 
 CLOSED_MARGIN = 1e-9
-"""A non-strict condition ``margin >= 0`` (stance contact) is imposed as
-``margin >= CLOSED_MARGIN``: exactly at 0 the verifying simulation would see a lift-off
-from round-off alone."""
+"""The stance contact ``N >= 0`` is imposed as ``N >= CLOSED_MARGIN``: exactly at 0 the
+verifying simulation would see a lift-off from round-off alone."""
+
+CONTINUATION = (1.0, 10**-0.5, 1e-1, 10**-1.5, 1e-2)
+"""Scales of the distances to the open limits, applied in turn when the optimum is not
+attained: the objective at each gives the limiting value by extrapolation."""
 
 OBJECTIVES = ("speed", "eigenvalue", "cost_of_transport")
 """Objective terms. The weighted sum minimised is
 ``-w_speed speed + w_eigenvalue eigenvalue + w_cot cost_of_transport``."""
+
+CONDITION_SETS = ("exact", "paper")
+"""``exact``: every physical existence condition in its exact form. ``paper``: in addition
+(15) and (17) as printed (with (12)-(14), (16), which the exact set already holds)."""
+
+STATUSES = ("optimal", "not-attained", "infeasible", "not-converged")
+"""Outcomes of :func:`design`; the CLI exits 0 for the first two and 3 for the others."""
 
 _OBJECTIVE_ALIASES = {
     "speed": {"speed": 1.0},
@@ -75,25 +119,31 @@ _OBJECTIVE_ALIASES = {
     "minimize_cost_of_transport": {"cost_of_transport": 1.0},
     "cot": {"cost_of_transport": 1.0},
 }
+_SIGN = {"speed": -1.0, "eigenvalue": 1.0, "cost_of_transport": 1.0}
 
 VARIABLES = ("beta", "theta_II", "phi0")
-
-# Physical conditions imposed as NLP rows. phi0_below_right_angle (pi/2 - phi0 > 0) is a
-# pure variable bound and is imposed through the bounds on phi0 instead: a duplicate
-# linear row would make the active set degenerate.
-_PHYSICAL = tuple(c for c in ile.CONDITIONS if c[4])
-_CONDITION_ROWS = tuple(c[0] for c in _PHYSICAL if c[0] != "phi0_below_right_angle")
-_STRICT = {c[0]: c[2] for c in ile.CONDITIONS}
-_MARGIN_INDEX = {c[0]: i for i, c in enumerate(ile.CONDITIONS)}
-_METRIC_ROWS = ("eigenvalue", "step_length", "step_frequency", "speed", "q_fixed")
-
-# Distance kept from the open intervals of the parameter table (beta in (0, 1), ...).
-_TABLE_EPS = 1e-3
 _TABLE = {p.name: (p.lower, p.upper) for p in PARAMETERS}
+_CONDITION = {c[0]: c for c in ile.CONDITIONS}  # name -> (name, eq, strict, status, ...)
+_MARGIN_NAMES = tuple(c[0] for c in ile.CONDITIONS)
+_PIECE_NAMES = (
+    "apex_phase_I_II",
+    "apex_phase_III_IV",
+    "omega_II_squared",
+    "normal_force_I",
+    "normal_force_II",
+    "normal_force_IV",
+)  # the order of ile.condition_pieces (derive.models.ile.CONDITION_PIECE_NAMES)
+_TIMING = ("step_period", "step_frequency", "speed")
+_SI_NAMES = ("speed_m_s", "step_length_m", "step_frequency_hz")
+_TARGETS = ("speed", "q_fixed", "step_length", "step_frequency")
+_METRIC_BOUNDS = ("step_length", "step_frequency")
 
 # Tolerances of the verification of a returned design (closed forms re-evaluated in numpy).
 _FEAS_TOL = 1e-8  # constraint rows, relative to max(1, |bound|)
 _ACTIVE_TOL = 1e-6  # a row within this (relative) of a bound is reported active
+_MULTIPLIER_TOL = 1e-7  # a multiplier above this (relative) pulls towards the bound
+_SCAN_POINTS = 8192
+_TARGET_BAND = 0.05  # scan points within 5 % of every target count as seeds for it
 
 _IPOPT_OPTIONS = {
     "ipopt.print_level": 0,
@@ -103,13 +153,14 @@ _IPOPT_OPTIONS = {
     "ipopt.constr_viol_tol": 1e-11,
     "ipopt.acceptable_tol": 1e-7,
     "ipopt.acceptable_constr_viol_tol": 1e-10,
-    "ipopt.max_iter": 150,
+    "ipopt.max_iter": 100,
     "ipopt.mu_strategy": "adaptive",
     # Trial points outside the walking region evaluate to NaN by design; IPOPT cuts the
     # step back, and CasADi must not print a warning for each of them.
     "show_eval_warnings": False,
 }
 _SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+_INFEASIBLE = ("Infeasible_Problem_Detected", "Restoration_Failed")
 
 
 # --- closed-form quantities (numpy or CasADi) ---------------------------------------------
@@ -117,19 +168,18 @@ _SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 
 def _quantities(beta: Any, theta_II: Any, phi0: Any, timing: bool = True) -> dict[str, Any]:
     """Every quantity the NLP uses, from the generated code (numpy arrays or CasADi SX)."""
-    q_fixed = ile.q_fixed(beta, theta_II, phi0)
+    q_fixed, eigenvalue, *margins = ile.fixed_point_conditions(beta, theta_II, phi0)
     step_length = ile.step_length(beta, phi0)
-    margins = ile.condition_margins(beta, theta_II, phi0)
     out: dict[str, Any] = {
         "q_fixed": q_fixed,
-        "eigenvalue": ile.eigenvalue(beta, phi0),
+        "eigenvalue": eigenvalue,
         "step_length": step_length,
         # E_c at the fixed point per unit distance, in units of m g: E_c / (m g L).
         "cost_of_transport": ile.energy_complement(beta, theta_II, phi0, q_fixed, 1.0, 1.0, 1.0)
         / step_length,
     }
-    for name in _CONDITION_ROWS:
-        out[name] = margins[_MARGIN_INDEX[name]]
+    out.update(zip(_MARGIN_NAMES, margins))
+    out.update(zip(_PIECE_NAMES, ile.condition_pieces(beta, theta_II, phi0)))
     if timing:
         tau_I_II, tau_III_IV = ile.phase_durations(beta, theta_II, phi0, q_fixed)
         period = tau_I_II + tau_III_IV
@@ -149,69 +199,162 @@ def _numpy_quantities(x: np.ndarray, timing: bool = True) -> dict[str, np.ndarra
         }
 
 
+# --- regions -------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _Region:
+    """A part of the parameter space where the apex margin (14) is one smooth piece.
+
+    Attributes
+    ----------
+    name : str
+    apex_piece : str or None
+        The quantity that equals the exact apex margin here (None: q^f > 0 suffices).
+    theta_II : (lower, upper)
+        Extra bounds on theta_II.
+    theta_I_sign : int
+        +1: theta_I <= 0 is imposed (beta - cos phi0 >= 0); -1: theta_I >= 0; 0: implied.
+    """
+
+    name: str
+    apex_piece: str | None
+    theta_II: tuple[float, float]
+    theta_I_sign: int
+
+
+_REGIONS = (
+    _Region("theta_II <= 0 (apex crossed in phase III-IV)", "apex_phase_III_IV",
+            (-math.inf, 0.0), 0),
+    _Region("theta_I <= 0 <= theta_II (apex crossed in phase I-II)", "apex_phase_I_II",
+            (0.0, math.inf), +1),
+    _Region("theta_I >= 0 (apex never crossed)", None, (-math.inf, math.inf), -1),
+)  # fmt: skip
+
+
+def _region_of(x: np.ndarray, qs: Mapping[str, np.ndarray]) -> np.ndarray:
+    """Index into _REGIONS of each design (theta_II <= 0 first, then the sign of theta_I)."""
+    theta_I_negative = qs["theta_I_negative"]  # beta - cos phi0: > 0 when theta_I < 0
+    return np.where(x[:, 1] <= 0, 0, np.where(theta_I_negative >= 0, 1, 2))
+
+
 # --- the problem ---------------------------------------------------------------------------
 
 
 @dataclass(frozen=True)
-class _Row:
-    """One inequality/equality constraint row: ``lower <= quantity <= upper``."""
+class _Constraint:
+    """``lower <= quantity <= upper``; an ``open`` lower bound is excluded from the set.
 
-    name: str  # name reported to the user (active / conflicting constraints)
+    Open constraints (strict conditions) are imposed as ``quantity >= lower + distance``
+    with the distance of their kind scaled by the continuation; they are what makes an
+    optimum "not attained".
+    """
+
+    name: str  # reported to the user (active / conflicting constraints)
     quantity: str  # key of _quantities
     lower: float
     upper: float
-    user: bool  # a user constraint (relaxed in the conflict analysis); else physical
-    relax_key: str  # user constraints with the same key are relaxed together
+    user: bool  # a user constraint (relaxed in the conflict analysis)
+    relax_key: str = ""  # user constraints with the same key are relaxed together
+    open: bool = False
 
 
 @dataclass
 class _Problem:
     weights: dict[str, float]
-    lbx: np.ndarray
+    lbx: np.ndarray  # closed bounds (user) or the table limits (open, see table_open)
     ubx: np.ndarray
-    rows: list[_Row]
-    bound_names: dict[tuple[int, int], str]  # (variable, 0 lower / 1 upper) -> name
-    table_clipped: set[tuple[int, int]]  # bounds that are the open table limits
+    table_open: set[tuple[int, int]]  # (variable, side) that are open table limits
+    bound_names: dict[tuple[int, int], str]  # (variable, 0 lower / 1 upper) -> user name
+    constraints: list[_Constraint]
     fixed: dict[str, float]
+    conditions: str
+    regions: tuple[int, ...]
+
+    @property
+    def timing(self) -> bool:
+        return bool(self.weights.get("speed")) or any(
+            c.quantity in _TIMING for c in self.constraints
+        )
+
+    def rows(self) -> tuple[str, ...]:
+        """The NLP's constraint rows: one per constrained quantity, in a stable order."""
+        names: list[str] = []
+        for region in self.regions:
+            for c in self.region_constraints(region):
+                if c.quantity not in names:
+                    names.append(c.quantity)
+        return tuple(names)
 
     def structure(self) -> tuple:
-        """Cache key of the compiled solver: the objective terms and the row quantities."""
-        return (
-            tuple(sorted(k for k, w in self.weights.items() if w != 0)),
-            tuple(r.quantity for r in self.rows),
-        )
+        """Cache key of the compiled solver: objective terms, rows and timing."""
+        terms = tuple(sorted(k for k, w in self.weights.items() if w != 0))
+        return terms, self.rows(), self.timing
+
+    def region_constraints(self, region: int) -> list[_Constraint]:
+        """Every constraint that holds in a region, the apex as the region's piece."""
+        spec = _REGIONS[region]
+        out = list(self.constraints)
+        if spec.apex_piece is not None:
+            out.append(_Constraint("apex", spec.apex_piece, 0.0, math.inf, False, open=True))
+        if spec.theta_I_sign > 0 and self.conditions != "paper":
+            out.append(_Constraint("region", "theta_I_negative", 0.0, math.inf, False))
+        elif spec.theta_I_sign < 0:
+            out.append(_Constraint("region", "theta_I_negative", -math.inf, 0.0, False))
+        return out
+
+    def bounds(self, region: int, distance: float) -> tuple[np.ndarray, np.ndarray]:
+        """Variable bounds in a region, open table limits kept ``distance`` away."""
+        lbx, ubx = self.lbx.copy(), self.ubx.copy()
+        for i, side in self.table_open:
+            if side == 0:
+                lbx[i] += TABLE_DISTANCE * distance
+            else:
+                ubx[i] -= TABLE_DISTANCE * distance
+        lo, hi = _REGIONS[region].theta_II
+        lbx[1], ubx[1] = max(lbx[1], lo), min(ubx[1], hi)
+        return lbx, ubx
 
     def without(self, relax_key: str) -> _Problem:
         """The same problem with one user constraint (group) removed."""
         lbx, ubx = self.lbx.copy(), self.ubx.copy()
+        table_open = set(self.table_open)
         fixed = dict(self.fixed)
+        bound_names = dict(self.bound_names)
         for (i, side), name in self.bound_names.items():
-            if name == relax_key or (relax_key == f"fix_{VARIABLES[i]}" and VARIABLES[i] in fixed):
-                lo, hi = _TABLE[VARIABLES[i]]
-                if side == 0:
-                    lbx[i] = lo + _TABLE_EPS
-                else:
-                    ubx[i] = hi - _TABLE_EPS
+            if name == relax_key:
+                lbx[i], ubx[i] = (_TABLE[VARIABLES[i]][0], ubx[i]) if side == 0 else (
+                    lbx[i], _TABLE[VARIABLES[i]][1])  # fmt: skip
+                table_open.add((i, side))
+                del bound_names[(i, side)]
         if relax_key.startswith("fix_"):
             fixed.pop(relax_key[4:], None)
-        rows = [r for r in self.rows if not (r.user and r.relax_key == relax_key)]
-        # Relaxing the user contact margin keeps the physical one (N >= 0).
-        if relax_key == "min_contact_margin":
-            rows.append(
-                _Row("stance_contact", "stance_contact", CLOSED_MARGIN, math.inf, False, "")
-            )
-        return _Problem(self.weights, lbx, ubx, rows, self.bound_names, self.table_clipped, fixed)
+        constraints = [c for c in self.constraints if not (c.user and c.relax_key == relax_key)]
+        if relax_key == "min_contact_margin":  # the physical N >= 0 stays
+            constraints += _contact_constraints(0.0)
+        return _Problem(self.weights, lbx, ubx, table_open, bound_names, constraints, fixed,
+                        self.conditions, self.regions)  # fmt: skip
 
     def user_constraints(self) -> list[str]:
         """Relax keys of every user constraint, in a stable order."""
         keys: list[str] = []
         for name in self.bound_names.values():
-            if name not in keys and not name.startswith("_table"):
+            if name not in keys:
                 keys.append(name)
-        for r in self.rows:
-            if r.user and r.relax_key not in keys:
-                keys.append(r.relax_key)
+        for c in self.constraints:
+            if c.user and c.relax_key not in keys:
+                keys.append(c.relax_key)
         return keys
+
+
+def _contact_constraints(margin: float) -> list[_Constraint]:
+    """N >= margin at instants I, II, IV: exactly the stance contact over the step."""
+    user = margin > CLOSED_MARGIN
+    name = "min_contact_margin" if user else "stance_contact"
+    return [
+        _Constraint(name, piece, max(margin, CLOSED_MARGIN), math.inf, user, name if user else "")
+        for piece in ("normal_force_I", "normal_force_II", "normal_force_IV")
+    ]
 
 
 def _normalise_objective(objective: Any, has_targets: bool) -> dict[str, float]:
@@ -236,9 +379,9 @@ def _normalise_objective(objective: Any, has_targets: bool) -> dict[str, float]:
                 key = "cost_of_transport"
             if key not in OBJECTIVES:
                 raise VswInputError(f"objective weight {name!r} is not one of {OBJECTIVES}")
-            w = float(weight)
-            if not math.isfinite(w) or w < 0:
-                raise VswInputError(f"objective weight {name} = {weight!r} must be finite, >= 0")
+            w = _finite(f"objective weight {name}", weight)
+            if w < 0:
+                raise VswInputError(f"objective weight {name} = {weight!r} must be >= 0")
             weights[key] = w
         if not any(weights.values()):
             raise VswInputError("objective weights are all zero")
@@ -249,7 +392,7 @@ def _normalise_objective(objective: Any, has_targets: bool) -> dict[str, float]:
 def _finite(name: str, value: Any) -> float:
     try:
         v = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise VswInputError(f"{name} = {value!r} is not a real number") from None
     if not math.isfinite(v):
         raise VswInputError(f"{name} = {value!r} must be finite")
@@ -267,18 +410,85 @@ def _si_factors(scale: RobotScale | None) -> dict[str, tuple[str, float]]:
     }
 
 
-_SI_NAMES = ("speed_m_s", "step_length_m", "step_frequency_hz")
-_TARGETS = ("speed", "q_fixed", "step_length", "step_frequency")
-_METRIC_BOUNDS = ("step_length", "step_frequency")
-
-
 def _to_dimensionless(name: str, value: float, scale: RobotScale | None) -> tuple[str, float]:
-    if name in _SI_NAMES:
-        if scale is None:
-            raise VswInputError(f"{name} is in SI units and needs a robot scale (leg length)")
-        quantity, factor = _si_factors(scale)[name]
-        return quantity, value / factor
-    return name, value
+    if name not in _SI_NAMES:
+        return name, value
+    if scale is None:
+        raise VswInputError(f"{name} is in SI units and needs a robot scale (leg length)")
+    quantity, factor = _si_factors(scale)[name]
+    with np.errstate(all="ignore"):
+        v = float(np.float64(value) / np.float64(factor))
+    if not math.isfinite(v) or (value != 0 and v == 0):
+        raise VswInputError(
+            f"{name} = {value:g} is {'0' if v == 0 else 'infinite'} in the model's units "
+            f"({quantity} = {name} / {factor:g}): check the value and the robot scale"
+        )
+    return quantity, v
+
+
+def _variable_bounds(
+    bounds: Mapping[str, tuple[float | None, float | None]],
+    fixed: Mapping[str, float],
+) -> tuple[np.ndarray, np.ndarray, set[tuple[int, int]], dict[tuple[int, int], str], dict]:
+    from vsw.params import check_parameter
+
+    lbx, ubx = np.empty(3), np.empty(3)
+    table_open: set[tuple[int, int]] = set()
+    bound_names: dict[tuple[int, int], str] = {}
+    fixed_v: dict[str, float] = {}
+    for i, name in enumerate(VARIABLES):
+        lo_t, hi_t = _TABLE[name]
+        lo, hi = lo_t, hi_t
+        pair = bounds.get(name, (None, None))
+        if not isinstance(pair, Sequence) or isinstance(pair, str) or len(pair) != 2:
+            raise VswInputError(f"bound on {name} = {pair!r}: expected (lower, upper)")
+        user_lo, user_hi = pair
+        if user_lo is not None:
+            user_lo = _finite(f"{name} lower bound", user_lo)
+            if user_lo >= hi_t:
+                raise VswInputError(f"{name} lower bound {user_lo:.6g} >= {hi_t:.6g}, the "
+                                    f"table limit of {name}")  # fmt: skip
+            if user_lo > lo_t:
+                lo = user_lo
+                bound_names[(i, 0)] = f"{name}_min"
+        if user_hi is not None:
+            user_hi = _finite(f"{name} upper bound", user_hi)
+            if user_hi <= lo_t:
+                raise VswInputError(f"{name} upper bound {user_hi:.6g} <= {lo_t:.6g}, the "
+                                    f"table limit of {name}")  # fmt: skip
+            if user_hi < hi_t:
+                hi = user_hi
+                bound_names[(i, 1)] = f"{name}_max"
+        if lo > hi:
+            raise VswInputError(f"{name} bounds are empty: lower {lo:.6g} > upper {hi:.6g}")
+        if name in fixed:
+            value = float(check_parameter(name, _finite(name, fixed[name])))
+            if not lo - 1e-12 <= value <= hi + 1e-12:
+                raise VswInputError(f"fixed {name} = {value:.6g} is outside its bounds "
+                                    f"[{lo:.6g}, {hi:.6g}]")  # fmt: skip
+            lo = hi = value
+            fixed_v[name] = value
+            bound_names[(i, 0)] = bound_names[(i, 1)] = f"fix_{name}"
+        else:
+            table_open |= {(i, side) for side in (0, 1) if (i, side) not in bound_names}
+            # A user bound closer to an open table limit than the distance kept from it
+            # is that limit.
+            for side, limit in ((0, lo_t), (1, hi_t)):
+                value = lo if side == 0 else hi
+                if (i, side) in bound_names and abs(value - limit) < TABLE_DISTANCE:
+                    del bound_names[(i, side)]
+                    table_open.add((i, side))
+            if (i, 0) in table_open:
+                lo = lo_t
+            if (i, 1) in table_open:
+                hi = hi_t
+            if hi - lo < 2 * TABLE_DISTANCE * (((i, 0) in table_open) + ((i, 1) in table_open)):
+                raise VswInputError(
+                    f"{name} bounds [{lo:.6g}, {hi:.6g}] leave no room inside the open limits "
+                    f"of the parameter table (kept {TABLE_DISTANCE:g} away)"
+                )
+        lbx[i], ubx[i] = lo, hi
+    return lbx, ubx, table_open, bound_names, fixed_v
 
 
 def _build_problem(
@@ -289,78 +499,45 @@ def _build_problem(
     min_contact_margin: float,
     max_eigenvalue: float | None,
     scale: RobotScale | None,
+    conditions: str = "exact",
 ) -> _Problem:
-    lbx = np.empty(3)
-    ubx = np.empty(3)
-    bound_names: dict[tuple[int, int], str] = {}
-    table_clipped: set[tuple[int, int]] = set()
-    fixed_v: dict[str, float] = {}
+    if conditions not in CONDITION_SETS:
+        raise VswInputError(f"conditions = {conditions!r} is not one of {CONDITION_SETS}")
     bounds = dict(bounds or {})
+    fixed = dict(fixed or {})
     for name in bounds:
         if name not in VARIABLES and name not in _METRIC_BOUNDS and name not in _SI_NAMES:
             raise VswInputError(
                 f"bound on {name!r}: bounds exist for {VARIABLES + _METRIC_BOUNDS + _SI_NAMES}"
             )
-    for name in fixed or {}:
+    for name in fixed:
         if name not in VARIABLES:
             raise VswInputError(f"fix {name!r}: only {', '.join(VARIABLES)} can be fixed")
-    for i, name in enumerate(VARIABLES):
-        lo_t, hi_t = _TABLE[name]
-        lo, hi = lo_t + _TABLE_EPS, hi_t - _TABLE_EPS
-        user_lo, user_hi = bounds.get(name, (None, None))
-        if user_lo is not None:
-            user_lo = _finite(f"{name} lower bound", user_lo)
-            if user_lo >= hi_t:
-                raise VswInputError(f"{name} lower bound {user_lo:.6g} >= {hi_t:.6g}, the "
-                                    f"table limit of {name}")  # fmt: skip
-            if user_lo > lo:
-                lo = user_lo
-                bound_names[(i, 0)] = f"{name}_min"
-        if user_hi is not None:
-            user_hi = _finite(f"{name} upper bound", user_hi)
-            if user_hi <= lo_t:
-                raise VswInputError(f"{name} upper bound {user_hi:.6g} <= {lo_t:.6g}, the "
-                                    f"table limit of {name}")  # fmt: skip
-            if user_hi < hi:
-                hi = user_hi
-                bound_names[(i, 1)] = f"{name}_max"
-        if (i, 0) not in bound_names:
-            table_clipped.add((i, 0))
-        if (i, 1) not in bound_names:
-            table_clipped.add((i, 1))
-        if lo > hi:
-            raise VswInputError(f"{name} bounds are empty: lower {lo:.6g} > upper {hi:.6g}")
-        if fixed and name in fixed:
-            from vsw.params import check_parameter
+    lbx, ubx, table_open, bound_names, fixed_v = _variable_bounds(bounds, fixed)
 
-            value = float(check_parameter(name, _finite(name, fixed[name])))
-            if not lo - 1e-12 <= value <= hi + 1e-12:
-                raise VswInputError(f"fixed {name} = {value:.6g} is outside its bounds "
-                                    f"[{lo:.6g}, {hi:.6g}]")  # fmt: skip
-            lo = hi = value
-            fixed_v[name] = value
-            bound_names[(i, 0)] = bound_names[(i, 1)] = f"fix_{name}"
-            table_clipped.discard((i, 0))
-            table_clipped.discard((i, 1))
-        lbx[i], ubx[i] = lo, hi
-
-    rows: list[_Row] = []
+    constraints: list[_Constraint] = [
+        _Constraint("q_positive", "q_fixed", 0.0, math.inf, False, open=True),
+        _Constraint("extension_before_heelstrike", "extension_before_heelstrike", 0.0,
+                    math.inf, False, open=True),
+        _Constraint("extension_reached", "extension_reached", 0.0, math.inf, False, open=True),
+    ]  # fmt: skip
+    if conditions == "paper":
+        for name in ("theta_I_negative", "extension_before_symmetric_contact"):
+            constraints.append(_Constraint(name, name, 0.0, math.inf, False, open=True))
     margin = _finite("min_contact_margin", min_contact_margin)
-    for name in _CONDITION_ROWS:
-        lower = STRICT_MARGIN if _STRICT[name] else CLOSED_MARGIN
-        if name == "stance_contact" and margin > CLOSED_MARGIN:
-            rows.append(_Row("min_contact_margin", name, margin, math.inf, True,
-                             "min_contact_margin"))  # fmt: skip
-            continue
-        rows.append(_Row(name, name, lower, math.inf, False, ""))
+    constraints += _contact_constraints(margin)
     if max_eigenvalue is not None:
         v = _finite("max_eigenvalue", max_eigenvalue)
-        rows.append(_Row("max_eigenvalue", "eigenvalue", -math.inf, v, True, "max_eigenvalue"))
+        constraints.append(
+            _Constraint("max_eigenvalue", "eigenvalue", -math.inf, v, True, "max_eigenvalue")
+        )
     metric: dict[str, list[float]] = {}
-    for name, (lo, hi) in bounds.items():
+    for name, pair in bounds.items():
         if name in VARIABLES:
             continue
-        for side, value in enumerate((lo, hi)):
+        if not isinstance(pair, Sequence) or isinstance(pair, str) or len(pair) != 2:
+            raise VswInputError(f"bound on {name} = {pair!r}: expected (lower, upper)")
+        for side, value in enumerate(pair):
             if value is None:
                 continue
             quantity, v = _to_dimensionless(name, _finite(f"{name} bound", value), scale)
@@ -373,9 +550,11 @@ def _build_problem(
         if lo > hi:
             raise VswInputError(f"{quantity} bounds are empty: lower {lo:.6g} > upper {hi:.6g}")
         if lo > -math.inf:
-            rows.append(_Row(f"min_{quantity}", quantity, lo, math.inf, True, f"min_{quantity}"))
+            key = f"min_{quantity}"
+            constraints.append(_Constraint(key, quantity, lo, math.inf, True, key))
         if hi < math.inf:
-            rows.append(_Row(f"max_{quantity}", quantity, -math.inf, hi, True, f"max_{quantity}"))
+            key = f"max_{quantity}"
+            constraints.append(_Constraint(key, quantity, -math.inf, hi, True, key))
     seen: dict[str, float] = {}
     for name, value in (targets or {}).items():
         if name not in _TARGETS and name not in _SI_NAMES:
@@ -386,113 +565,185 @@ def _build_problem(
         if quantity in seen and not math.isclose(seen[quantity], v, rel_tol=1e-12):
             raise VswInputError(f"two different targets for {quantity}")
         seen[quantity] = v
-        rows.append(_Row(f"target_{quantity}", quantity, v, v, True, f"target_{quantity}"))
-    return _Problem(weights, lbx, ubx, rows, bound_names, table_clipped, fixed_v)
+        key = f"target_{quantity}"
+        constraints.append(_Constraint(key, quantity, v, v, True, key))
+    # The paper's (15) is theta_I < 0, which rules out the region where theta_I >= 0.
+    regions = (0, 1) if conditions == "paper" else (0, 1, 2)
+    return _Problem(weights, lbx, ubx, table_open, bound_names, constraints, fixed_v,
+                    conditions, regions)  # fmt: skip
 
 
 # --- compiled solvers, cached per problem structure ---------------------------------------
 
 _SOLVERS: dict[tuple, Any] = {}
 
+_WARM_OPTIONS = {
+    # Continuation towards an open limit restarts from the previous solution, which lies
+    # on the (moved) bounds: keep it there instead of pushing it 1 % into the interior.
+    "ipopt.warm_start_init_point": "yes",
+    "ipopt.bound_push": 1e-12,
+    "ipopt.bound_frac": 1e-12,
+    "ipopt.warm_start_bound_push": 1e-12,
+    "ipopt.warm_start_bound_frac": 1e-12,
+    "ipopt.warm_start_mult_bound_push": 1e-12,
+    "ipopt.mu_init": 1e-9,
+    "ipopt.max_iter": 80,
+}
 
-def _solver(problem: _Problem) -> tuple[Any, Any]:
-    """``(nlpsol, evaluator)`` for the problem's structure, built once and cached.
+
+def _solver(problem: _Problem, warm: bool = False) -> Any:
+    """The ``nlpsol`` for the problem's structure, built once and cached.
 
     Parameters of the NLP (p): the objective weights and one scale per row, so bounds,
-    targets and weights change without rebuilding.
+    targets, weights and the region (rows switched off with infinite bounds) change
+    without rebuilding. ``warm``: the variant for warm starts (continuation).
     """
-    key = problem.structure()
+    key = (problem.structure(), warm)
     if key in _SOLVERS:
         return _SOLVERS[key]
     import casadi as ca
 
-    terms, quantities = key
+    terms, rows, timing = key[0]
     x = ca.SX.sym("x", 3)
-    timing = "speed" in terms or any(
-        q in ("speed", "step_frequency", "step_period") for q in quantities
-    )
     qs = _quantities(x[0], x[1], x[2], timing)
     w = ca.SX.sym("w", len(terms))
-    row_scale = ca.SX.sym("s", len(quantities))
-    sign = {"speed": -1.0, "eigenvalue": 1.0, "cost_of_transport": 1.0}
-    f = sum((sign[t] * w[i] * qs[t] for i, t in enumerate(terms)), ca.SX(0))
-    g = ca.vertcat(*[qs[q] * row_scale[i] for i, q in enumerate(quantities)]) if quantities \
-        else ca.SX(0, 1)  # fmt: skip
+    row_scale = ca.SX.sym("s", len(rows))
+    f = sum((_SIGN[t] * w[i] * qs[t] for i, t in enumerate(terms)), ca.SX(0))
+    g = ca.vertcat(*[qs[r] * row_scale[i] for i, r in enumerate(rows)])
     p = ca.vertcat(w, row_scale)
-    solver = ca.nlpsol("vsw_design", "ipopt", {"x": x, "f": f, "g": g, "p": p}, _IPOPT_OPTIONS)
-    evaluator = ca.Function("vsw_design_eval", [x, p], [f, g])
-    _SOLVERS[key] = (solver, evaluator)
-    return solver, evaluator
+    options = {**_IPOPT_OPTIONS, **(_WARM_OPTIONS if warm else {})}
+    solver = ca.nlpsol("vsw_design", "ipopt", {"x": x, "f": f, "g": g, "p": p}, options)
+    _SOLVERS[key] = solver
+    return solver
+
+
+# --- constraint values, violations, objective (numpy) --------------------------------------
+
+
+def _shifted(c: _Constraint, distance: float) -> tuple[float, float]:
+    """Bounds of a constraint as imposed: open lower bounds kept ``distance`` inside."""
+    lower = c.lower + STRICT_MARGIN * distance if c.open else c.lower
+    return lower, c.upper
+
+
+def _size(c: _Constraint) -> float:
+    finite = [abs(b) for b in (c.lower, c.upper) if math.isfinite(b)]
+    return max([1.0, *finite])
+
+
+def _objective_values(problem: _Problem, qs: Mapping[str, np.ndarray]) -> np.ndarray:
+    total = np.zeros_like(qs["q_fixed"])
+    for term, w in problem.weights.items():
+        if w:
+            total = total + _SIGN[term] * w * qs[term]
+    return total
+
+
+def _user_violation(problem: _Problem, qs: Mapping[str, np.ndarray]) -> np.ndarray:
+    """Sum of relative violations of the user constraints (inf where a value is NaN)."""
+    total = np.zeros_like(qs["q_fixed"])
+    with np.errstate(invalid="ignore"):
+        for c in problem.constraints:
+            if not c.user:
+                continue
+            v = qs[c.quantity]
+            excess = np.maximum(c.lower - v, 0.0) + np.maximum(v - c.upper, 0.0)
+            total = total + np.where(np.isfinite(v), excess / _size(c), np.inf)
+    return total
+
+
+def _physical_violation(problem: _Problem, qs: Mapping[str, np.ndarray]) -> np.ndarray:
+    """Violation of the exact conditions: 0 where every physical (and with
+    ``conditions='paper'``, every paper) condition holds in its exact strict form."""
+    total = np.zeros_like(qs["q_fixed"])
+    names = [c[0] for c in ile.CONDITIONS if c[4] and c[0] != "phi0_below_right_angle"]
+    if problem.conditions == "paper":
+        names += ["theta_I_negative", "extension_before_symmetric_contact"]
+    with np.errstate(invalid="ignore"):
+        for name in names:
+            v = qs[name]
+            holds = v > 0 if _CONDITION[name][2] else v >= 0
+            total = total + np.where(holds, 0.0, np.where(np.isfinite(v), np.abs(v) + 1e-12,
+                                                          np.inf))  # fmt: skip
+    return total
 
 
 # --- starts --------------------------------------------------------------------------------
 
 
-def _grid(problem: _Problem, n: int) -> np.ndarray:
-    axes = []
-    for i in range(3):
-        lo, hi = problem.lbx[i], problem.ubx[i]
-        if lo == hi:
-            axes.append(np.array([lo]))
-        else:
-            # Interior points only: the ends are open table limits or user bounds.
-            axes.append(lo + (hi - lo) * (np.arange(n) + 0.5) / n)
-    mesh = np.meshgrid(*axes, indexing="ij")
-    return np.stack([m.reshape(-1) for m in mesh], axis=1)
+def _halton(n: int, dims: int = 3) -> np.ndarray:
+    """The first ``n`` points of the Halton sequence (bases 2, 3, 5), skipping 0."""
+    out = np.empty((n, dims))
+    index = np.arange(1, n + 1)
+    for d, base in enumerate((2, 3, 5)[:dims]):
+        value = np.zeros(n)
+        f = 1.0 / base
+        i = index.copy()
+        while np.any(i):
+            value += f * (i % base)
+            i //= base
+            f /= base
+        out[:, d] = value
+    return out
 
 
-def _objective_values(problem: _Problem, qs: dict[str, np.ndarray]) -> np.ndarray:
-    sign = {"speed": -1.0, "eigenvalue": 1.0, "cost_of_transport": 1.0}
-    total = np.zeros_like(qs["q_fixed"])
-    for term, w in problem.weights.items():
-        if w:
-            total = total + sign[term] * w * qs[term]
-    return total
+@dataclass
+class _Scan:
+    x: np.ndarray
+    qs: dict[str, np.ndarray]
+    region: np.ndarray
+    physical: np.ndarray  # violation of the exact conditions
+    user: np.ndarray  # violation of the user constraints
+    objective: np.ndarray
+
+    def feasible(self, tol: float = _FEAS_TOL) -> np.ndarray:
+        return (self.physical == 0) & (self.user <= tol) & np.isfinite(self.objective)
 
 
-def _violations(problem: _Problem, qs: dict[str, np.ndarray]) -> np.ndarray:
-    """Sum of relative constraint violations per design (inf where a quantity is NaN)."""
-    total = np.zeros_like(qs["q_fixed"])
-    with np.errstate(invalid="ignore"):
-        for r in problem.rows:
-            v = qs[r.quantity]
-            size = max(1.0, abs(r.lower) if math.isfinite(r.lower) else abs(r.upper))
-            excess = np.maximum(r.lower - v, 0.0) + np.maximum(v - r.upper, 0.0)
-            total = total + np.where(np.isfinite(v), excess / size, np.inf)
-    return total
-
-
-def _starts(problem: _Problem, n_starts: int, n_grid: int = 9) -> np.ndarray:
-    """Deterministic starts: grid points that walk, best merit first, spread apart."""
-    grid = _grid(problem, n_grid)
-    timing = any(r.quantity in ("speed", "step_frequency") for r in problem.rows) or bool(
-        problem.weights.get("speed")
-    )
-    qs = _numpy_quantities(grid, timing=True if timing else False)
-    walks = np.ones(len(grid), dtype=bool)
-    with np.errstate(invalid="ignore"):
-        for name in _CONDITION_ROWS:
-            walks &= qs[name] >= (STRICT_MARGIN if _STRICT[name] else 0.0)
-    if timing:
-        walks &= np.isfinite(qs["speed"])
+def _scan(problem: _Problem, n: int = _SCAN_POINTS) -> _Scan:
+    """The closed forms at ``n`` Halton points of the box (open limits kept away)."""
+    lbx, ubx = problem.bounds(2, 1.0)  # region 2 has no theta_II restriction
+    x = lbx + (ubx - lbx) * _halton(n)
+    qs = _numpy_quantities(x, timing=problem.timing)
     objective = _objective_values(problem, qs)
-    violation = _violations(problem, qs)
-    # Merit: walking points first, then the least constraint violation, then the objective.
-    merit = (
-        np.where(walks, 0.0, 1e6)
-        + 1e3 * np.minimum(violation, 1e3)
-        + np.nan_to_num(objective, nan=1e3)
-    )
-    order = np.argsort(merit, kind="stable")
+    return _Scan(x, qs, _region_of(x, qs), _physical_violation(problem, qs),
+                 _user_violation(problem, qs), objective)  # fmt: skip
+
+
+def _seeds(problem: _Problem, scan: _Scan, per_region: int) -> list[tuple[int, np.ndarray]]:
+    """(region, start) pairs, most promising first.
+
+    In each region: the points that satisfy every condition and come within
+    :data:`_TARGET_BAND` of the user constraints, best objective first, spread apart; or,
+    when there is none, the least-violating point. Regions ordered by their best seed.
+    """
     span = np.maximum(problem.ubx - problem.lbx, 1e-12)
-    chosen: list[np.ndarray] = []
-    for idx in order:
-        point = grid[idx]
-        if all(np.max(np.abs(point - c) / span) > 0.25 for c in chosen):
-            chosen.append(point)
-        if len(chosen) == n_starts:
-            break
-    return np.array(chosen)
+    span = np.where(np.isfinite(span), span, 1.0)
+    ranked: list[tuple[tuple[float, float], int, np.ndarray]] = []
+    objective = np.nan_to_num(scan.objective, nan=np.inf)
+    for region in problem.regions:
+        inside = scan.region == region
+        if not inside.any():
+            continue
+        near = inside & (scan.physical == 0) & (scan.user <= _TARGET_BAND)
+        chosen: list[np.ndarray] = []
+        keys: list[tuple[float, float]] = []
+        for idx in np.flatnonzero(near)[np.argsort(objective[near], kind="stable")]:
+            point = scan.x[idx]
+            if all(np.max(np.abs(point - c) / span) > 0.15 for c in chosen):
+                chosen.append(point)
+                keys.append((0.0, float(objective[idx])))
+            if len(chosen) == per_region:
+                break
+        merit = scan.physical + scan.user
+        merit = np.where(inside & np.isfinite(merit), merit, np.inf)
+        best = int(np.argmin(merit))
+        if not chosen and np.isfinite(merit[best]):
+            chosen.append(scan.x[best])
+            keys.append((1.0 + float(merit[best]), float(objective[best])))
+        ranked += [(k, region, point) for k, point in zip(keys, chosen)]
+    ranked.sort(key=lambda item: item[0])
+    return [(region, point) for _, region, point in ranked]
 
 
 # --- solve ---------------------------------------------------------------------------------
@@ -500,97 +751,292 @@ def _starts(problem: _Problem, n_starts: int, n_grid: int = 9) -> np.ndarray:
 
 @dataclass
 class _Solve:
+    """One IPOPT solve in one region; ``check`` fills the verification fields."""
+
     x: np.ndarray
-    objective: float
+    region: int
+    distance: float
+    objective: float  # IPOPT's; replaced by the numpy value when checked
     ipopt_status: str
-    success: bool  # IPOPT success and verified
-    violation: float
     iterations: int
-    feasible: bool  # the final point satisfies every constraint (converged or not)
+    lam_x: np.ndarray
+    lam_g: np.ndarray
+    checked: bool = False
+    verified: bool = False  # every constraint confirmed by the closed forms in numpy
+    violation: float = math.inf  # user constraints (relative) + exact conditions
+    open_active: tuple[str, ...] = ()  # open limits the optimum presses against
+
+    @property
+    def converged(self) -> bool:
+        return self.ipopt_status in _SUCCESS
+
+    @property
+    def success(self) -> bool:
+        return self.converged and self.verified
 
 
-def _row_scales(problem: _Problem) -> np.ndarray:
-    """Rows divided by the size of their bound: targets and bounds become O(1)."""
-    scales = []
-    for r in problem.rows:
-        b = r.lower if math.isfinite(r.lower) else r.upper
-        scales.append(1.0 / max(abs(b), 1.0) if r.user else 1.0)
-    return np.array(scales)
+def _row_bounds(
+    problem: _Problem, region: int, distance: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(lbg, ubg, scales) of the NLP rows in a region: every constraint on a quantity
+    intersected into its row, rows a region does not use left free."""
+    _, rows, _ = problem.structure()
+    lower = dict.fromkeys(rows, -math.inf)
+    upper = dict.fromkeys(rows, math.inf)
+    size = dict.fromkeys(rows, 1.0)
+    for c in problem.region_constraints(region):
+        lo, hi = _shifted(c, distance)
+        lower[c.quantity] = max(lower[c.quantity], lo)
+        upper[c.quantity] = min(upper[c.quantity], hi)
+        size[c.quantity] = max(size[c.quantity], _size(c))
+    scales = np.array([1.0 / size[r] for r in rows])
+    lbg = np.array([lower[r] for r in rows]) * scales
+    ubg = np.array([upper[r] for r in rows]) * scales
+    return lbg, ubg, scales
 
 
-def _solve_from(problem: _Problem, x0: np.ndarray) -> _Solve:
-    solver, _ = _solver(problem)
-    terms, _ = problem.structure()
-    scales = _row_scales(problem)
+def _solve_from(
+    problem: _Problem,
+    region: int,
+    x0: np.ndarray,
+    distance: float = 1.0,
+    warm: _Solve | None = None,
+) -> _Solve:
+    terms, _rows, _ = problem.structure()
+    lbx, ubx = problem.bounds(region, distance)
+    if np.any(lbx > ubx):
+        empty = np.zeros(0)
+        return _Solve(np.clip(x0, problem.lbx, problem.ubx), region, distance, math.inf,
+                      "Empty_Region", 0, empty, empty, checked=True)  # fmt: skip
+    solver = _solver(problem, warm is not None)
+    lbg, ubg, scales = _row_bounds(problem, region, distance)
     p = np.concatenate([[problem.weights[t] for t in terms], scales])
-    lbg = np.array([r.lower for r in problem.rows]) * scales
-    ubg = np.array([r.upper for r in problem.rows]) * scales
+    start: dict[str, Any] = {"x0": np.clip(x0, lbx, ubx)}
+    if warm is not None and len(warm.lam_x):
+        start.update(lam_x0=warm.lam_x, lam_g0=warm.lam_g)
     # CasADi writes some diagnostics (over-constrained NLP, multipliers not computed) to
     # Python's stderr; the result object carries what matters, so they are swallowed.
     with contextlib.redirect_stderr(io.StringIO()), contextlib.redirect_stdout(io.StringIO()):
-        sol = solver(x0=x0, p=p, lbx=problem.lbx, ubx=problem.ubx, lbg=lbg, ubg=ubg)
+        sol = solver(p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, **start)
     stats = solver.stats()
-    status = str(stats.get("return_status", "unknown"))
-    x = np.clip(np.array(sol["x"]).reshape(-1), problem.lbx, problem.ubx)
-    qs = _numpy_quantities(x[None, :])
-    violation = float(_violations(problem, qs)[0])
-    objective = float(_objective_values(problem, qs)[0])
-    # IPOPT's word is not enough: the closed forms must confirm every constraint and every
-    # physical condition must hold in its exact (strict) form.
-    walks = all(
-        float(qs[name][0]) > 0 or (not _STRICT[name] and float(qs[name][0]) >= 0)
-        for name in _CONDITION_ROWS
-    ) and bool(problem.ubx[2] < math.pi / 2)
-    feasible = (
-        violation <= _FEAS_TOL
-        and walks
-        and math.isfinite(objective)
+    x = np.clip(np.array(sol["x"], dtype=float).reshape(-1), lbx, ubx)
+    return _Solve(
+        x, region, distance, float(sol["f"]), str(stats.get("return_status", "unknown")),
+        int(stats.get("iter_count", -1)), np.array(sol["lam_x"], dtype=float).reshape(-1),
+        np.array(sol["lam_g"], dtype=float).reshape(-1),
+    )  # fmt: skip
+
+
+def _check(problem: _Problem, s: _Solve) -> _Solve:
+    """Verify a solve with the closed forms in numpy (IPOPT's word is not enough): every
+    user constraint to _FEAS_TOL, every physical condition in its exact strict form."""
+    if s.checked:
+        return s
+    qs = _numpy_quantities(s.x[None, :], timing=True)
+    s.objective = float(_objective_values(problem, qs)[0])
+    user = float(_user_violation(problem, qs)[0])
+    physical = float(_physical_violation(problem, qs)[0])
+    s.violation = user + physical
+    s.verified = (
+        user <= _FEAS_TOL
+        and physical == 0
+        and math.isfinite(s.objective)
         and math.isfinite(float(qs["speed"][0]))
     )
-    ok = status in _SUCCESS and feasible
-    return _Solve(x, objective, status, ok, violation, int(stats.get("iter_count", -1)), feasible)
+    if s.verified:
+        _, rows, _ = problem.structure()
+        _, _, scales = _row_bounds(problem, s.region, s.distance)
+        lam_g = dict(zip(rows, s.lam_g * scales))  # multipliers of the unscaled rows
+        s.open_active = _open_active(problem, s, qs, lam_g)
+    s.checked = True
+    return s
 
 
-def _multistart(problem: _Problem, n_starts: int) -> tuple[_Solve | None, list[_Solve]]:
-    """Best verified converged solve (or None) and all solves."""
-    solves = [_solve_from(problem, x0) for x0 in _starts(problem, n_starts)]
-    good = [s for s in solves if s.success]
-    best = min(good, key=lambda s: s.objective) if good else None
-    return best, solves
+def _open_active(
+    problem: _Problem, s: _Solve, qs: Mapping[str, np.ndarray], lam_g: Mapping[str, float]
+) -> tuple[str, ...]:
+    """Open limits at their kept distance whose multiplier pulls the optimum onto them."""
+    pull = _MULTIPLIER_TOL * max(1.0, abs(s.objective))
+    names: list[str] = []
+    lbx, ubx = problem.bounds(s.region, s.distance)
+    for i, side in sorted(problem.table_open):
+        bound = lbx[i] if side == 0 else ubx[i]
+        near = abs(s.x[i] - bound) <= _ACTIVE_TOL * max(1.0, abs(bound))
+        if near and abs(s.lam_x[i]) > pull:
+            names.append(_limit_name(i, side))
+    for c in problem.region_constraints(s.region):
+        if not c.open:
+            continue
+        lower, _ = _shifted(c, s.distance)
+        value = float(qs[c.quantity][0])
+        near = abs(value - lower) <= _ACTIVE_TOL * max(1.0, abs(lower)) + 1e-12
+        if near and abs(lam_g.get(c.quantity, 0.0)) > pull and c.name not in names:
+            names.append(c.name)
+    return tuple(names)
 
 
-def _describe(
-    problem: _Problem, solve: _Solve, scale: RobotScale | None, verify: bool
-) -> dict[str, Any]:
-    """Analysis, active constraints, open boundaries and simulation check of a point."""
-    from vsw.analysis import analyze
-
-    x = solve.x
-    analysis = analyze(x[0], x[1], x[2], scale)
-    qs = _numpy_quantities(x[None, :])
-    active, open_boundary = _active(problem, x)
-    return {
-        "beta": float(x[0]),
-        "theta_II": float(x[1]),
-        "phi0": float(x[2]),
-        "analysis": analysis,
-        "objective": solve.objective,
-        "cost_of_transport": float(qs["cost_of_transport"][0]),
-        "step_frequency": float(qs["step_frequency"][0]),
-        "active_constraints": tuple(active),
-        "open_boundary": tuple(open_boundary),
-        "simulation_rel_error": _simulation_error(x, analysis) if verify else None,
-    }
+def _limit_name(i: int, side: int) -> str:
+    name = VARIABLES[i]
+    limit = _TABLE[name][side]
+    if name == "phi0" and side == 1:
+        return "phi0_below_right_angle"
+    text = "pi/2" if abs(abs(limit) - math.pi / 2) < 1e-12 else f"{limit:g}"
+    return f"{name} {'>' if side == 0 else '<'} {'-' if limit < 0 else ''}{text.lstrip('-')}"
 
 
-def _open_boundary_note(open_boundary: tuple[str, ...]) -> str:
-    if not open_boundary:
-        return ""
-    return (
-        "; the optimum (a supremum or infimum, not attained) lies on an open boundary the "
-        "model never reaches (" + ", ".join(open_boundary) + "): the returned design keeps "
-        f"a margin of {STRICT_MARGIN:g} (parameter limits: {_TABLE_EPS:g}) inside it"
-    )
+def _better(a: _Solve, b: _Solve | None) -> bool:
+    return b is None or a.objective < b.objective - 1e-12 * max(1.0, abs(b.objective))
+
+
+def _multistart(problem: _Problem, per_region: int) -> tuple[_Solve | None, list[_Solve], _Scan]:
+    """Best verified converged solve (or None), every solve, and the scan.
+
+    Only a converged solve that beats the best so far is verified (a numpy evaluation
+    costs about as much as a short solve).
+    """
+    scan = _scan(problem)
+    solves: list[_Solve] = []
+    best: _Solve | None = None
+
+    def consider(s: _Solve) -> None:
+        nonlocal best
+        solves.append(s)
+        if s.converged and _better(s, best) and _check(problem, s).verified and _better(s, best):
+            best = s
+
+    for region, x0 in _seeds(problem, scan, per_region):
+        consider(_solve_from(problem, region, x0))
+    # An optimum on the boundary between two regions may continue into the neighbour.
+    if best is not None:
+        tried = {s.region for s in solves}
+        for other in _neighbours(problem, best):
+            if other not in tried:
+                consider(_solve_from(problem, other, best.x))
+    return best, solves, scan
+
+
+def _neighbours(problem: _Problem, s: _Solve) -> list[int]:
+    """Regions that share the boundary the solution lies on."""
+    out = []
+    if abs(s.x[1]) <= 1e-9 and s.region in (0, 1):
+        out.append(1 - s.region)
+    qs = _numpy_quantities(s.x[None, :], timing=False)
+    if abs(float(qs["theta_I_negative"][0])) <= 1e-9 and s.region in (1, 2):
+        out.append(3 - s.region)
+    return [r for r in out if r in problem.regions]
+
+
+# --- the limit of a not-attained optimum ---------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Limit:
+    """The supremum or infimum of a request whose optimum is not attained.
+
+    Attributes
+    ----------
+    objective : float or None
+        Extrapolated limiting value of the objective (None when the path does not settle;
+        ``inf``/``-inf`` when it runs away).
+    uncertainty : float or None
+        Size of the extrapolation step: the limit is within about this of ``objective``.
+    approached_as : tuple of str
+        The open limits pressed against: strict conditions by name, parameter limits as
+        ``beta < 1``.
+    path : tuple of dict
+        The design at each distance scale of :data:`CONTINUATION`: ``distance_scale``,
+        ``objective``, ``beta``, ``theta_II``, ``phi0``, ``step_length``.
+    """
+
+    objective: float | None
+    uncertainty: float | None
+    approached_as: tuple[str, ...]
+    path: tuple[dict[str, float], ...]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "objective": _json_float(self.objective),
+            "uncertainty": _json_float(self.uncertainty),
+            "approached_as": list(self.approached_as),
+            "path": [dict(p) for p in self.path],
+        }
+
+
+def _json_float(v: float | None) -> Any:
+    if v is None:
+        return None
+    if math.isinf(v):
+        return "inf" if v > 0 else "-inf"
+    return v
+
+
+def _continue_to_limit(problem: _Problem, best: _Solve) -> Limit:
+    """Re-solve ever closer to the open limits; extrapolate the objective's limit."""
+    path = [best]
+    for scale in CONTINUATION[1:]:
+        s = _check(problem, _solve_from(problem, best.region, path[-1].x, scale, path[-1]))
+        # Close to a degenerate limit IPOPT may stop on its iteration limit: a verified
+        # point that improves on the previous one still traces the path (marked).
+        if not (s.verified and s.objective <= path[-1].objective + 1e-12):
+            break
+        path.append(s)
+    values = [s.objective for s in path]
+    limit, uncertainty = _extrapolate(values)
+    approached = list(best.open_active)
+    for s in path[1:]:
+        approached += [n for n in s.open_active if n not in approached]
+    records = []
+    for s in path:
+        qs = _numpy_quantities(s.x[None, :], timing=False)
+        records.append(
+            {
+                "distance_scale": s.distance,
+                "objective": s.objective,
+                "converged": s.success,
+                "beta": float(s.x[0]),
+                "theta_II": float(s.x[1]),
+                "phi0": float(s.x[2]),
+                "step_length": float(qs["step_length"][0]),
+            }
+        )
+    approached += [n for n in _running_to_limits(records) if n not in approached]
+    return Limit(limit, uncertainty, tuple(approached), tuple(records))
+
+
+def _running_to_limits(records: Sequence[Mapping[str, float]]) -> list[str]:
+    """Variables (and the step length) that close in on a limit along the path."""
+    if len(records) < 3:
+        return []
+    out = []
+    candidates = [(name, limit) for name in VARIABLES for limit in _TABLE[name]]
+    candidates.append(("step_length", 0.0))
+    for name, limit in candidates:
+        gaps = [abs(r[name] - limit) for r in records]
+        shrinking = all(b < 0.5 * a for a, b in itertools.pairwise(gaps))
+        if shrinking and gaps[-1] < 0.05:
+            text = "pi/2" if abs(abs(limit) - math.pi / 2) < 1e-12 else f"{limit:g}"
+            out.append(f"{name} -> {'-' if limit < 0 else ''}{text.lstrip('-')}")
+    return out
+
+
+def _extrapolate(values: list[float]) -> tuple[float | None, float | None]:
+    """Limit of a sequence at distances shrinking tenfold: a geometric tail."""
+    if len(values) < 2:
+        return None, None
+    last = values[-1]
+    steps = np.diff(values)
+    tiny = 1e-12 * max(1.0, abs(last))
+    if abs(steps[-1]) <= tiny:
+        return last, float(abs(steps[-1]))
+    if len(steps) < 2 or steps[-2] == 0:
+        return None, None
+    ratio = steps[-1] / steps[-2]
+    if 0 < ratio < 0.9:
+        tail = steps[-1] * ratio / (1 - ratio)
+        return float(last + tail), float(abs(tail) + abs(steps[-1]) * 1e-3)
+    if ratio >= 1.5 and len(steps) >= 2:
+        return (-math.inf if steps[-1] < 0 else math.inf), None
+    return None, None
 
 
 # --- result --------------------------------------------------------------------------------
@@ -602,9 +1048,10 @@ class DesignResult:
 
     Attributes
     ----------
-    status : {'optimal', 'infeasible', 'not-converged'}
-        'optimal': IPOPT converged from at least one start and the closed forms confirm
-        every constraint; a local optimum (the best of several starts).
+    status : {'optimal', 'not-attained', 'infeasible', 'not-converged'}
+        'optimal': IPOPT converged and the closed forms confirm every constraint; a local
+        optimum, the best over the regions and starts, inside every open limit.
+        'not-attained': the best design presses against an open limit (see ``limit``).
     beta, theta_II, phi0 : float or None
         The design (radians); None unless a design was found.
     analysis : vsw.analysis.Analysis or None
@@ -612,40 +1059,50 @@ class DesignResult:
     objective : float or None
         The minimised weighted sum (speed enters with a minus sign).
     cost_of_transport, step_frequency : float or None
-        E_c / (m g L) and 1 / step period (dimensionless) at the design; ``to_dict`` adds
-        ``step_frequency_hz`` when a scale is given.
+        E_c / (m g L) (L the step length) and 1 / step period at the design.
     active_constraints : tuple of str
         Constraints at their bound (targets always).
     open_boundary : tuple of str
-        Strict conditions or open parameter limits the optimum presses against: the
-        supremum is not attained, the returned design keeps a margin of STRICT_MARGIN.
+        Open limits the optimum presses against (strict conditions, open parameter
+        limits); the design keeps STRICT_MARGIN (conditions) and TABLE_DISTANCE (parameter
+        limits) away from them.
+    limit : Limit or None
+        For 'not-attained': the limiting objective value and the path towards it.
     simulation_rel_error : float or None
         Largest relative difference of q^f, step period, step length and speed between the
         closed form and the time-domain simulation started at q^f.
     conflicting_constraints : tuple of str
         When infeasible: user constraints whose removal alone restores feasibility.
     message : str
+        One line saying what happened.
     ipopt_status : str
-        Return status of the IPOPT solve behind the result (the best start).
+        Return status of the IPOPT solve behind the result.
     starts : int
-        Number of IPOPT starts.
+        Number of IPOPT solves.
+    conditions : {'exact', 'paper'}
+        The set of existence conditions imposed.
+    region : str or None
+        The region of the design (where the apex is crossed).
     """
 
     status: str
-    beta: float | None
-    theta_II: float | None
-    phi0: float | None
-    analysis: Any
-    objective: float | None
-    cost_of_transport: float | None
-    step_frequency: float | None
-    active_constraints: tuple[str, ...]
-    open_boundary: tuple[str, ...]
-    simulation_rel_error: float | None
-    conflicting_constraints: tuple[str, ...]
-    message: str
-    ipopt_status: str
-    starts: int
+    beta: float | None = None
+    theta_II: float | None = None
+    phi0: float | None = None
+    analysis: Any = None
+    objective: float | None = None
+    cost_of_transport: float | None = None
+    step_frequency: float | None = None
+    active_constraints: tuple[str, ...] = ()
+    open_boundary: tuple[str, ...] = ()
+    limit: Limit | None = None
+    simulation_rel_error: float | None = None
+    conflicting_constraints: tuple[str, ...] = ()
+    message: str = ""
+    ipopt_status: str = ""
+    starts: int = 0
+    conditions: str = "exact"
+    region: str | None = None
     energy_unit: str | None = field(default=None, repr=False)
 
     def to_dict(self) -> dict[str, Any]:
@@ -666,11 +1123,14 @@ class DesignResult:
             out["step_frequency_hz"] = 1.0 / float(self.analysis.step_period_s)
         out.update(
             {
+                "condition_set": self.conditions,
                 "objective": self.objective,
                 "cost_of_transport": self.cost_of_transport,
                 "step_frequency": self.step_frequency,
                 "active_constraints": list(self.active_constraints),
                 "open_boundary": list(self.open_boundary),
+                "limit": None if self.limit is None else self.limit.to_dict(),
+                "region": self.region,
                 "simulation_rel_error": self.simulation_rel_error,
                 "conflicting_constraints": list(self.conflicting_constraints),
                 "message": self.message,
@@ -681,53 +1141,39 @@ class DesignResult:
         return out
 
 
-def _active(problem: _Problem, x: np.ndarray) -> tuple[list[str], list[str]]:
-    """(active constraint names, open-boundary names) at a design."""
-    qs = _numpy_quantities(x[None, :])
+def _active(problem: _Problem, s: _Solve) -> list[str]:
+    """Names of the constraints at their bound at a solution."""
+    qs = _numpy_quantities(s.x[None, :])
+    lbx, ubx = problem.bounds(s.region, s.distance)
     active: list[str] = []
-    open_boundary: list[str] = []
     for (i, side), name in sorted(problem.bound_names.items()):
-        bound = problem.lbx[i] if side == 0 else problem.ubx[i]
+        bound = lbx[i] if side == 0 else ubx[i]
         if name.startswith("fix_"):
             if side == 0:
                 active.append(name)
-        elif abs(x[i] - bound) <= _ACTIVE_TOL * max(1.0, abs(bound)):
+        elif abs(s.x[i] - bound) <= _ACTIVE_TOL * max(1.0, abs(bound)):
             active.append(name)
-    for i, side in sorted(problem.table_clipped):
-        bound = problem.lbx[i] if side == 0 else problem.ubx[i]
-        if abs(x[i] - bound) <= 10 * _TABLE_EPS:
-            limit = _TABLE[VARIABLES[i]][side]
-            name = VARIABLES[i]
-            if name == "phi0" and side == 1:
-                open_boundary.append("phi0_below_right_angle")
-            else:
-                open_boundary.append(f"{name} {'>' if side == 0 else '<'} {limit:.6g}")
-    for r in problem.rows:
-        v = float(qs[r.quantity][0])
-        for bound in (r.lower, r.upper):
-            if math.isfinite(bound) and abs(v - bound) <= _ACTIVE_TOL * max(1.0, abs(bound)):
-                if r.name not in active:
-                    active.append(r.name)
-                if not r.user and _STRICT[r.quantity]:
-                    open_boundary.append(r.name)
-    return active, open_boundary
+    for c in problem.region_constraints(s.region):
+        if c.name == "region":
+            continue
+        v = float(qs[c.quantity][0])
+        for bound in _shifted(c, s.distance):
+            near = abs(v - bound) <= _ACTIVE_TOL * max(1.0, abs(bound)) + 1e-12
+            if math.isfinite(bound) and near and c.name not in active:
+                active.append(c.name)
+    return active
 
 
-def _near_open_limits(problem: _Problem, x: np.ndarray) -> list[str]:
-    """Open parameter-table limits (not user bounds) that ``x`` is close to."""
-    names = []
-    for i, side in sorted(problem.table_clipped):
-        limit = _TABLE[VARIABLES[i]][side]
-        if abs(x[i] - limit) <= 10 * _TABLE_EPS:
-            names.append(f"{VARIABLES[i]} {'>' if side == 0 else '<'} {limit:.6g}")
-    return names
+def simulation_check(analysis: Any) -> float:
+    """Relative error of the closed forms against the time-domain simulation at q^f.
 
-
-def _simulation_error(x: np.ndarray, analysis: Any) -> float:
-    """Relative error of the closed form against the time-domain simulation at q^f."""
+    The largest relative difference of q^f (after each of two simulated steps), the step
+    period, the step length and the speed; ``inf`` when the simulation does not complete
+    the two steps.
+    """
     from vsw.simulate import simulate
 
-    beta, theta_II, phi0 = (float(v) for v in x)
+    beta, theta_II, phi0 = (float(v) for v in (analysis.beta, analysis.theta_II, analysis.phi0))
     q_fixed = float(analysis.q_fixed)
     sim = simulate(beta, theta_II, phi0, q_fixed, 2, record=False)
     if sim.ended != "completed":
@@ -742,15 +1188,44 @@ def _simulation_error(x: np.ndarray, analysis: Any) -> float:
     return float(max(errors))
 
 
-def _conflicts(problem: _Problem, n_starts: int) -> list[str]:
+def _conflicts(problem: _Problem, per_region: int) -> list[str]:
     """User constraints whose removal alone makes the request feasible."""
     conflicting = []
     for key in problem.user_constraints():
         relaxed = problem.without(key)
-        best, _ = _multistart(relaxed, n_starts)
-        if best is not None:
+        best, _, scan = _multistart(relaxed, per_region)
+        if best is not None or scan.feasible().any():
             conflicting.append(key)
     return conflicting
+
+
+def _describe_objective(problem: _Problem) -> tuple[str, str]:
+    """('supremum' or 'infimum', what) of the request's objective."""
+    terms = [t for t, w in problem.weights.items() if w]
+    if terms == ["speed"]:
+        return "supremum", "speed"
+    if len(terms) == 1:
+        return "infimum", terms[0].replace("_", " ")
+    return "infimum", "weighted objective"
+
+
+def _limit_text(problem: _Problem, limit: Limit, s: _Solve) -> str:
+    kind, what = _describe_objective(problem)
+    sign = -1.0 if kind == "supremum" else 1.0
+    if limit.objective is None:
+        value = "not estimated (the path does not settle)"
+    elif math.isinf(limit.objective):
+        value = "unbounded"
+    else:
+        value = f"{sign * limit.objective:.8g} (+- {limit.uncertainty:.2g}, extrapolated)"
+    last = limit.path[-1]
+    return (
+        f"not attained: the {kind} of the {what}, {value}, lies on the open boundary "
+        f"{', '.join(limit.approached_as)}; the design keeps {TABLE_DISTANCE:g} from open "
+        f"parameter limits and {STRICT_MARGIN:g} from strict conditions ({what} "
+        f"{sign * s.objective:.8g}; {sign * last['objective']:.8g} at "
+        f"{last['distance_scale']:g} of those distances)"
+    )
 
 
 def design(
@@ -762,7 +1237,8 @@ def design(
     max_eigenvalue: float | None = None,
     scale: RobotScale | None = None,
     *,
-    n_starts: int = 4,
+    conditions: str = "exact",
+    n_starts: int = 1,
     verify: bool = True,
     explain_infeasible: bool = True,
 ) -> DesignResult:
@@ -781,7 +1257,9 @@ def design(
         ``step_frequency_hz``. SI names need ``scale``.
     bounds : mapping, optional
         ``name: (lower, upper)``, either may be None: ``beta``, ``theta_II``, ``phi0``
-        (radians), ``step_length``, ``step_frequency`` and their SI names.
+        (radians), ``step_length``, ``step_frequency`` and their SI names. Closed bounds;
+        the parameter table's limits (0 < beta < 1, |theta_II| < pi/2, 0 < phi0 < pi/2) are
+        open and kept :data:`TABLE_DISTANCE` away.
     fixed : mapping, optional
         Fixed values of ``beta``, ``theta_II``, ``phi0`` (radians).
     min_contact_margin : float
@@ -791,8 +1269,12 @@ def design(
         Upper bound on the eigenvalue of the stride map (eq. 19).
     scale : RobotScale, optional
         Robot scale for SI targets/bounds and SI outputs.
+    conditions : {'exact', 'paper'}
+        The existence conditions imposed: every physical condition in its exact form, or in
+        addition the paper's (15) (theta_I < 0: the new foot lands ahead of the hip) and
+        (17) (theta_II < phi0 / 2) as printed.
     n_starts : int
-        Number of deterministic IPOPT starts.
+        IPOPT starts per region of the parameter space (see the module docstring).
     verify : bool
         Re-check the design by time-domain simulation (``simulation_rel_error``).
     explain_infeasible : bool
@@ -805,26 +1287,20 @@ def design(
     Raises
     ------
     VswInputError
-        Malformed request (unknown names, empty bounds, SI values without a scale, ...).
+        Malformed request (unknown names, empty bounds, SI values without a scale, values
+        that overflow in the model's units, ...).
     """
     weights = _normalise_objective(objective, bool(targets))
-    if not isinstance(n_starts, int) or n_starts < 1:
-        raise VswInputError(f"n_starts = {n_starts!r} must be an integer >= 1")
+    if not isinstance(n_starts, int) or isinstance(n_starts, bool) or not 1 <= n_starts <= 50:
+        raise VswInputError(f"n_starts = {n_starts!r} must be an integer from 1 to 50")
     problem = _build_problem(
-        weights, targets, bounds, fixed, min_contact_margin, max_eigenvalue, scale
+        weights, targets, bounds, fixed, min_contact_margin, max_eigenvalue, scale, conditions
     )
-    best, solves = _multistart(problem, n_starts)
+    best, solves, scan = _multistart(problem, n_starts)
+    common = {"starts": len(solves), "conditions": conditions}
     if best is None:
-        statuses = sorted({s.ipopt_status for s in solves})
-        least = min(solves, key=lambda s: s.violation)
-        # Infeasible only when every start ends at a point of local infeasibility; running
-        # out of iterations is "not converged", whatever the last violation.
-        infeasible_like = all(
-            s.ipopt_status in ("Infeasible_Problem_Detected", "Restoration_Failed")
-            or (s.ipopt_status in _SUCCESS and s.violation > _FEAS_TOL)
-            for s in solves
-        )
-        if infeasible_like:
+        statuses = ", ".join(sorted({s.ipopt_status for s in solves})) or "no start"
+        if not scan.feasible().any() and not any(_check(problem, s).verified for s in solves):
             conflicting = _conflicts(problem, n_starts) if explain_infeasible else []
             if conflicting:
                 detail = "removing any one of these restores feasibility: " + ", ".join(conflicting)
@@ -832,72 +1308,83 @@ def design(
                 detail = "no single user constraint's removal restores feasibility"
             else:
                 detail = "conflict analysis skipped"
+            least = min((s.violation for s in solves), default=math.inf)
             message = (
-                f"infeasible: no feasible design from {len(solves)} starts (IPOPT: "
-                f"{', '.join(statuses)}; least violation {least.violation:.3g}); {detail}"
+                f"infeasible: no design satisfies the constraints ({len(scan.x)} scanned "
+                f"points, {len(solves)} IPOPT solves ({statuses}), least violation "
+                f"{least:.3g}); {detail}"
             )
-            return DesignResult("infeasible", None, None, None, None, None, None, None, (),
-                                (), None, tuple(conflicting), message, least.ipopt_status,
-                                len(solves))  # fmt: skip
+            return DesignResult("infeasible", conflicting_constraints=tuple(conflicting),
+                                message=message, ipopt_status=statuses, **common)  # fmt: skip
         message = (
-            f"not converged: IPOPT did not converge to a verified design from {len(solves)} "
-            f"starts ({', '.join(statuses)})"
+            f"not converged: IPOPT reached no verified optimum from {len(solves)} starts "
+            f"({statuses}), though the scan found feasible designs"
         )
-        feasible = [s for s in solves if s.feasible]
-        if feasible:
-            # Not certified optimal, but a design that satisfies every constraint is still
-            # useful: return it, clearly labelled.
-            point = min(feasible, key=lambda s: s.objective)
-            info = _describe(problem, point, scale, verify)
-            message += (
-                "; returned the best final iterate that satisfies every constraint (not a "
-                "certified optimum)" + _open_boundary_note(info["open_boundary"])
-            )
-            return DesignResult(
-                status="not-converged",
-                conflicting_constraints=(),
-                message=message,
-                ipopt_status=point.ipopt_status,
-                starts=len(solves),
-                **info,
-            )
-        edges = _near_open_limits(problem, least.x)
-        if edges:
-            message += (
-                "; the iterates run to the open limits " + ", ".join(edges) + " of the model's "
-                "parameters, so the optimum is not attained there: add bounds"
-            )
-        return DesignResult("not-converged", None, None, None, None, None, None, None, (), (),
-                            None, (), message, least.ipopt_status, len(solves))  # fmt: skip
+        return DesignResult("not-converged", message=message, ipopt_status=statuses, **common)
 
-    info = _describe(problem, best, scale, verify)
-    message = f"optimal (local, best of {len(solves)} starts; IPOPT {best.ipopt_status})"
-    message += _open_boundary_note(info["open_boundary"])
-    sim_error = info["simulation_rel_error"]
+    from vsw.analysis import analyze
+
+    limit = _continue_to_limit(problem, best) if best.open_active else None
+    if limit is not None and len(limit.path) > 1:
+        # Pressing on an open limit without gaining from it (the objective is flat that
+        # way): the optimum is attained inside.
+        gain = limit.path[0]["objective"] - limit.path[-1]["objective"]
+        if gain <= 1e-9 * max(1.0, abs(best.objective)):
+            limit = None
+    x = best.x
+    analysis = analyze(x[0], x[1], x[2], scale)
+    qs = _numpy_quantities(x[None, :])
+    sim_error = simulation_check(analysis) if verify else None
+    if limit is None:
+        status = "optimal"
+        message = (
+            f"optimal (local, the best of {len(solves)} IPOPT solves over "
+            f"{len(set(s.region for s in solves))} regions; IPOPT {best.ipopt_status})"
+        )
+    else:
+        status = "not-attained"
+        message = _limit_text(problem, limit, best)
     if sim_error is not None and not sim_error <= 1e-6:
         message += f"; WARNING: simulation disagrees (relative error {sim_error:.3g})"
     return DesignResult(
-        status="optimal",
-        conflicting_constraints=(),
+        status=status,
+        beta=float(x[0]),
+        theta_II=float(x[1]),
+        phi0=float(x[2]),
+        analysis=analysis,
+        objective=best.objective,
+        cost_of_transport=float(qs["cost_of_transport"][0]),
+        step_frequency=float(qs["step_frequency"][0]),
+        active_constraints=tuple(_active(problem, best)),
+        open_boundary=best.open_active,
+        limit=limit,
+        simulation_rel_error=sim_error,
         message=message,
         ipopt_status=best.ipopt_status,
-        starts=len(solves),
-        **info,
+        region=_REGIONS[best.region].name,
+        **common,
     )
 
 
 # --- command line --------------------------------------------------------------------------
 
 
-def _parse_fix(text: str) -> tuple[str, float]:
-    """``NAME=VALUE`` of ``--fix``; angles in degrees."""
-    name, sep, value = text.partition("=")
+def _parse_fix(texts: Sequence[str]) -> dict[str, float]:
+    """``NAME=VALUE`` pairs of ``--fix``; angles in degrees; a name given twice is an error."""
     aliases = {"beta": "beta", "theta_ii": "theta_II", "theta-ii": "theta_II", "phi0": "phi0"}
-    key = aliases.get(name.strip().lower())
-    if not sep or key is None:
-        raise VswInputError(f"--fix {text!r}: expected NAME=VALUE with NAME beta, theta_II or phi0")
-    v = _finite(f"--fix {key}", value)
-    return key, v if key == "beta" else math.radians(v)
+    fixed: dict[str, float] = {}
+    for text in texts:
+        name, sep, value = text.partition("=")
+        key = aliases.get(name.strip().lower())
+        if not sep or key is None:
+            raise VswInputError(
+                f"--fix {text!r}: expected NAME=VALUE with NAME beta, theta_II or phi0"
+            )
+        if key in fixed:
+            raise VswInputError(f"--fix {key} is given twice; fix each parameter once")
+        v = _finite(f"--fix {key}", value)
+        fixed[key] = v if key == "beta" else math.radians(v)
+    return fixed
 
 
 def _design_from_args(args: argparse.Namespace) -> tuple[DesignResult, RobotScale | None, bool]:
@@ -940,14 +1427,15 @@ def _design_from_args(args: argparse.Namespace) -> tuple[DesignResult, RobotScal
     if args.max_step_frequency is not None and not si:
         raise VswInputError("--max-step-frequency is in Hz and needs --leg-length")
 
-    def deg(v: float | None) -> float | None:
-        return None if v is None else math.radians(v)
+    def deg(name: str, v: float | None) -> float | None:
+        return None if v is None else math.radians(_finite(name, v))
 
     bounds: dict[str, tuple[float | None, float | None]] = {
         "beta": (args.beta_min, args.beta_max),
-        "theta_II": (deg(args.theta_ii_min), deg(args.theta_ii_max)),
-        "phi0": (deg(args.phi0_min), deg(args.phi0_max)),
-    }
+        "theta_II": (deg("--theta-ii-min", args.theta_ii_min),
+                     deg("--theta-ii-max", args.theta_ii_max)),
+        "phi0": (deg("--phi0-min", args.phi0_min), deg("--phi0-max", args.phi0_max)),
+    }  # fmt: skip
     if args.min_step_length is not None or args.max_step_length is not None:
         bounds["step_length_m" if si else "step_length"] = (
             args.min_step_length,
@@ -955,15 +1443,15 @@ def _design_from_args(args: argparse.Namespace) -> tuple[DesignResult, RobotScal
         )
     if args.max_step_frequency is not None:
         bounds["step_frequency_hz"] = (None, args.max_step_frequency)
-    fixed = dict(_parse_fix(text) for text in args.fix or [])
     result = design(
         objective=objective or None,
         targets=targets,
         bounds=bounds,
-        fixed=fixed,
+        fixed=_parse_fix(args.fix or []),
         min_contact_margin=args.min_contact_margin,
         max_eigenvalue=args.max_eigenvalue,
         scale=scale,
+        conditions=args.conditions,
         n_starts=args.starts,
     )
     return result, scale, mass_given
@@ -976,16 +1464,19 @@ def _cmd_design(args: argparse.Namespace) -> int:
     data = result.to_dict()
     if scale is not None and not mass_given and result.analysis is not None:
         data["energy_unit"] = "J/kg"  # no --mass: energies of a 1 kg walker
-    exit_code = 0 if result.status == "optimal" else 3
+    found = result.status in ("optimal", "not-attained")
+    exit_code = 0 if found else 3
     out = sys.stdout
     if args.json:
         out.write(json.dumps(data, allow_nan=False, indent=2) + "\n")
+        if not found:
+            sys.stderr.write(f"vsw design: {' '.join(result.message.split())}\n")
         return exit_code
     out.write(f"status           {result.status}\n")
-    if result.status != "optimal":
+    if not found:
         if result.conflicting_constraints:
             out.write(f"conflicting      {', '.join(result.conflicting_constraints)}\n")
-        sys.stderr.write(f"vsw design: {result.message}\n")
+        sys.stderr.write(f"vsw design: {' '.join(result.message.split())}\n")
         return exit_code
 
     def fmt(value: Any) -> str:
@@ -1005,7 +1496,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
         ("step_length", data["step_length"], "r_e"),
         ("step_period", data["step_period"], "sqrt(r_e/g)"),
         ("speed", data["speed"], "sqrt(g r_e)"),
-        ("cost_of_transport", data["cost_of_transport"], "E_c/(m g L)"),
+        ("cost_of_transport", data["cost_of_transport"], "E_c/(m g L), L = step length"),
         ("energy_added", data["energy_added"], energy_unit),
         ("contact_margin", data["contact_margin"], "m g"),
     ]
@@ -1018,6 +1509,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
         ]
     for name, value, unit in rows:
         out.write(f"{name:<18} {fmt(value):>16}  {unit}\n")
+    out.write(f"conditions       {result.conditions}\n")
     out.write(f"active           {', '.join(result.active_constraints) or '-'}\n")
     out.write(f"simulation check relative error {fmt(result.simulation_rel_error)}\n")
     out.write(f"{result.message}\n")
@@ -1036,8 +1528,9 @@ def register_cli(subparsers: Any) -> None:
         "design",
         help="constrained gait design with CasADi/IPOPT",
         description="Find (beta, theta_II, phi0) for an objective and targets under the "
-        "existence conditions and your robot's limits. Angles in degrees. Exit 3 when the "
-        "request is infeasible or the solver does not converge.",
+        "existence conditions and your robot's limits. Angles in degrees. Exit 0 for an "
+        "optimal design or a not-attained optimum (the best design near the limit, with the "
+        "limiting value), 3 when the request is infeasible or the solver does not converge.",
     )
     goal = p.add_argument_group("objective and targets")
     goal.add_argument("--maximize", choices=["speed"], help="maximise the walking speed")
@@ -1072,6 +1565,13 @@ def register_cli(subparsers: Any) -> None:
     lim.add_argument("--min-step-length", type=float, help="m with --leg-length, else r_e")
     lim.add_argument("--max-step-length", type=float, help="m with --leg-length, else r_e")
     lim.add_argument("--max-step-frequency", type=float, help="[Hz] (needs --leg-length)")
+    lim.add_argument(
+        "--conditions",
+        choices=CONDITION_SETS,
+        default="exact",
+        help="existence conditions: every physical one in its exact form, or also the "
+        "paper's (15) and (17) as printed",
+    )
     sc = p.add_argument_group("robot scale")
     sc.add_argument("--leg-length", type=float, help="extended leg length r_e [m]")
     sc.add_argument("--mass", type=float, help="mass [kg]")
@@ -1079,6 +1579,6 @@ def register_cli(subparsers: Any) -> None:
     sc.add_argument(
         "--stepper-2d", action="store_true", help="Stepper-2D preset: r_e 0.25 m, m 0.78 kg"
     )
-    p.add_argument("--starts", type=int, default=4, help="number of IPOPT starts")
+    p.add_argument("--starts", type=int, default=1, help="IPOPT starts per region (1-50)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=_cmd_design)
