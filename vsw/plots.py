@@ -57,17 +57,6 @@ def _axes(ax: Axes | None, width: float = plotstyle.COLUMN_WIDTH, height: float 
     return plotstyle.new_figure(width, height)
 
 
-def _params_title(beta: float, theta_II: float | None, phi0: float, **extra: float) -> str:
-    """``beta = .., theta_II = ..°, phi0 = ..°`` (angles in rad in, degrees out)."""
-    parts = [rf"$\beta$ = {beta:.4g}"]
-    if theta_II is not None:
-        parts.append(r"$\theta_{\mathrm{II}}$ = " + plotstyle.fmt_angle(theta_II))
-    parts.append(r"$\varphi_0$ = " + plotstyle.fmt_angle(phi0))
-    for name, value in extra.items():
-        parts.append(f"${name}$ = {value:.4g}")
-    return ", ".join(parts)
-
-
 def _break_at_resets(t: np.ndarray, *ys: np.ndarray) -> tuple[np.ndarray, ...]:
     """Insert NaN between samples at the same time (a reset) so lines do not jump."""
     t = np.asarray(t, float)
@@ -79,8 +68,8 @@ _INSTANT_OFFSETS = {
     # (dx, dy) points, horizontal and vertical alignment: labels clear of the curves
     # and inside the frame (IV sits at the top right of the cycle).
     "I": ((-5, 3), "right", "bottom"),
-    "II": ((5, -3), "left", "top"),
-    "III": ((5, -3), "left", "top"),
+    "II": ((6, -2), "left", "top"),
+    "III": ((-5, -3), "right", "top"),
     "IV": ((-5, 3), "right", "bottom"),
 }
 
@@ -163,7 +152,7 @@ def phase_portrait(
     )
     ax.set_xlabel(LABELS["theta_deg"])
     ax.set_ylabel(LABELS["omega"])
-    ax.set_title(_params_title(beta, theta_II, phi0))
+    ax.set_title(plotstyle.params_title(beta, theta_II, phi0))
     plotstyle.legend_outside(ax)
     return fig
 
@@ -355,7 +344,7 @@ def convergence_plot(
     ax.set_xlabel(LABELS["step"])
     ax.set_ylabel(LABELS["q"])
     if own:
-        ax.set_title(_params_title(beta, theta_II, phi0, q_0=q0))
+        ax.set_title(plotstyle.params_title(beta, theta_II, phi0, q_0=q0))
     if legend:
         plotstyle.legend_outside(ax, where="below" if own else "right")
     return fig
@@ -395,7 +384,7 @@ def simulation_plot(
     done = len(result.q) - 1
     outcome = ENDED.get(result.ended, result.ended)
     fig.suptitle(
-        _params_title(beta, theta_II, phi0, q_0=q0)
+        plotstyle.params_title(beta, theta_II, phi0, q_0=q0)
         + f" \N{EM DASH} {done} of {steps} steps, {outcome}"
     )
     return fig
@@ -520,7 +509,9 @@ def basin_plot(
             near &= np.isfinite(low) & np.isfinite(high)
             left_free = float(np.min(low[near])) if near.any() else x_max
             right_free = x_max - float(np.max(high[near])) if near.any() else x_max
-            right = right_free > left_free
+            # Right of the basin when there is room: overlays (e.g. the printed bound)
+            # tend to continue the left edge into the band.
+            right = right_free >= 0.1 * x_max or right_free > left_free
             ax.text(
                 0.98 * x_max if right else 0.02 * x_max,
                 0.5 * (low_deg + high_deg),
@@ -535,7 +526,7 @@ def basin_plot(
         _draw_edge_checks(ax, checks, transform)
     ax.set_xlabel(LABELS["omega_I"] if variable == "omega" else LABELS["q"])
     ax.set_ylabel(LABELS["theta_II_deg"])
-    ax.set_title(_params_title(result.beta, None, result.phi0))
+    ax.set_title(plotstyle.params_title(result.beta, None, result.phi0))
     if legend:
         plotstyle.legend_outside(ax)
     return fig

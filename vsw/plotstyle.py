@@ -43,6 +43,7 @@ __all__ = [
     "legend_outside",
     "mark_off_scale",
     "new_figure",
+    "params_title",
     "styled",
 ]
 
@@ -319,5 +320,19 @@ def mark_off_scale(
 
 
 def fmt_angle(rad: float) -> str:
-    """An angle in radians as degrees with the degree sign, shortest exact form."""
+    """An angle in radians as degrees with the degree sign (4 significant digits)."""
     return f"{math.degrees(rad):.4g}{DEG}"
+
+
+def params_title(beta: float, theta_II: float | None, phi0: float, **extra: float) -> str:
+    """Parameters as a title: ``beta = 0.8, theta_II = 0°, phi0 = 45°`` (angles in rad).
+
+    ``extra`` adds ``name = value`` pairs (name in mathtext, e.g. ``q_0=0.3``).
+    """
+    parts = [rf"$\beta$ = {beta:.4g}"]
+    if theta_II is not None:
+        parts.append(r"$\theta_{\mathrm{II}}$ = " + fmt_angle(theta_II))
+    parts.append(r"$\varphi_0$ = " + fmt_angle(phi0))
+    for name, value in extra.items():
+        parts.append(f"${name}$ = {value:.4g}")
+    return ", ".join(parts)
