@@ -19,7 +19,16 @@ import numpy as np
 from generated import ile
 from vsw.plotstyle import COLORS, DEG, LABELS
 
-__all__ = ["FIGURES", "FORMATS", "Q_TOP", "curves", "gait_gaps", "off_scale", "write_figures"]
+__all__ = [
+    "FIGURES",
+    "FORMATS",
+    "Q_TOP",
+    "curves",
+    "draw_figure",
+    "gait_gaps",
+    "off_scale",
+    "write_figures",
+]
 
 FIGURES = ("fig5", "fig6", "fig7", "fig8", "fig9")
 FORMATS = ("png", "svg", "pdf")
@@ -315,6 +324,39 @@ def _fig9(ax: Any, data: dict[str, Any]) -> Legend:
     return ax.get_legend_handles_labels()
 
 
+_HEIGHTS = {"fig5": 3.4, "fig6": 3.4, "fig7": 3.4, "fig8": 3.2, "fig9": 4.6}
+"""Figure heights in inches (all one column wide), legend below included."""
+
+
+def draw_figure(name: str, figure_data: dict[str, Any]) -> Any:
+    """One of the audit's figures as a matplotlib Figure (not saved).
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`FIGURES`.
+    figure_data : dict
+        ``Audit.figure_data``: ``fig8`` (closed-form instants) for Fig. 8, ``basin``
+        (basin and edge checks) for Fig. 9; Fig. 5-7 need nothing from it.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from vsw import plotstyle
+
+    with plotstyle.context():
+        fig, ax = plotstyle.new_figure(plotstyle.COLUMN_WIDTH, _HEIGHTS[name])
+        if name == "fig8":
+            handles, labels = _fig8(ax, figure_data["fig8"])
+        elif name == "fig9":
+            handles, labels = _fig9(ax, figure_data["basin"])
+        else:
+            handles, labels = {"fig5": _fig5, "fig6": _fig6, "fig7": _fig7}[name](ax)
+        plotstyle.figure_legend(fig, handles, labels, ncols=2)
+    return fig
+
+
 def write_figures(out: Path, figure_data: dict[str, Any]) -> list[Path]:
     """Draw Fig. 5-9 into ``out`` as PNG, SVG and PDF.
 
@@ -330,21 +372,11 @@ def write_figures(out: Path, figure_data: dict[str, Any]) -> list[Path]:
     list of Path
         The written files, in order.
     """
-    from vsw import plotstyle
     from vsw.plots import save_figure
 
-    heights = {"fig5": 3.4, "fig6": 3.4, "fig7": 3.4, "fig8": 3.2, "fig9": 4.6}
     written = []
     for name in FIGURES:
-        with plotstyle.context():
-            fig, ax = plotstyle.new_figure(plotstyle.COLUMN_WIDTH, heights[name])
-            if name == "fig8":
-                handles, labels = _fig8(ax, figure_data["fig8"])
-            elif name == "fig9":
-                handles, labels = _fig9(ax, figure_data["basin"])
-            else:
-                handles, labels = {"fig5": _fig5, "fig6": _fig6, "fig7": _fig7}[name](ax)
-            plotstyle.figure_legend(fig, handles, labels, ncols=2)
+        fig = draw_figure(name, figure_data)
         for ext in FORMATS:
             written.append(save_figure(fig, out / f"{name}.{ext}"))
     return written

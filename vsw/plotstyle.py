@@ -44,6 +44,7 @@ __all__ = [
     "mark_off_scale",
     "new_figure",
     "params_title",
+    "settle_layout",
     "styled",
 ]
 
@@ -198,6 +199,28 @@ def new_figure(
         fig.get_layout_engine().set(w_pad=0.03, h_pad=0.03, hspace=0.02, wspace=0.02)
         axes = fig.subplots(nrows, ncols, squeeze=True, **subplot_kw)
     return fig, axes
+
+
+def settle_layout(fig: Figure, max_rounds: int = 4, tol: float = 1e-9) -> None:
+    """Run constrained layout to its fixed point, then freeze it (before saving).
+
+    Each draw lays a figure out again starting from the previous positions, so a figure
+    saved twice (or after a save in another format) would not give the same bytes. Here
+    the layout is repeated until no axes moves by more than ``tol`` (usually two rounds)
+    and then switched off: every later save of the figure draws the same positions.
+    """
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+    if not isinstance(fig.get_layout_engine(), ConstrainedLayoutEngine):
+        return
+    previous = None
+    for _ in range(max_rounds):
+        fig.draw_without_rendering()
+        current = np.array([ax.get_position().bounds for ax in fig.axes])
+        if previous is not None and np.max(np.abs(current - previous), initial=0.0) <= tol:
+            break
+        previous = current
+    fig.set_layout_engine("none")
 
 
 def curve_style(k: int) -> dict[str, Any]:
