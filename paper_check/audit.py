@@ -252,8 +252,8 @@ SHORT_NOTES: dict[str, str] = {
     "(11)": "from (5)",
     "(12)": "q_positive margin",
     "(13)": "= (12) divided by a positive factor (beta < 1, cos theta_1 > 0)",
-    "(14)": "exact only for theta_1 < 0 and theta_II > theta_1; misses theta_II > theta_1 "
-    "and the lift-off bound",
+    "(14)": "each branch exact when theta_1 < 0; omits theta_II > theta_1 (else the leg never "
+    "extends) and the lift-off bound",
     "(15)": "= theta_1 < 0, but not needed: sets with theta_1 > 0 walk",
     "(16)": "omega_I > 0",
     "(17)": "exact: theta_II < theta_IV = theta_1 + phi0 (> phi0/2)",

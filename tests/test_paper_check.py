@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -39,7 +40,7 @@ def test_writes_report_json_and_figures(two_runs: tuple[Path, Path]) -> None:
     names = {p.name for p in out.iterdir()}
     assert {"audit.md", "audit.json"} <= names
     for fig in FIGURES:
-        assert {f"{fig}.png", f"{fig}.svg"} <= names
+        assert {f"{fig}.png", f"{fig}.svg", f"{fig}.pdf"} <= names
 
 
 def test_json_contract(two_runs: tuple[Path, Path]) -> None:
@@ -88,7 +89,7 @@ def test_markdown_summary_first_and_figures_linked(two_runs: tuple[Path, Path]) 
     headings = [line for line in md.splitlines() if line.startswith("## ")]
     assert headings[0] == "## Summary"
     for fig in FIGURES:
-        assert f"]({fig}.png)" in md and f"({fig}.svg)" in md
+        assert f"]({fig}.png)" in md and f"({fig}.svg)" in md and f"({fig}.pdf)" in md
     for verdict in VERDICTS:
         assert f"`{verdict}`" in md
 
@@ -115,3 +116,59 @@ def test_exit_status_nonzero_on_verdict_change(
         audit, "expected_verdicts", lambda path=tampered: json.loads(tampered.read_text())
     )
     assert cli.main(["--out", str(tmp_path / "out"), "--no-figures"]) == 1
+
+
+def _caption(md: str, fig: str) -> str:
+    (line,) = [ln for ln in md.splitlines() if ln.startswith(f"Fig. {fig[3:]} (reproduced)")]
+    return line
+
+
+def test_figure_captions_say_what_is_drawn(two_runs: tuple[Path, Path]) -> None:
+    md = (two_runs[0] / "audit.md").read_text()
+    assert "Dotted parts" not in md
+    for fig in ("fig5", "fig6", "fig7"):
+        assert "dotted where there is no valid gait" in _caption(md, fig)
+    for fig in ("fig8", "fig9"):
+        assert "dotted where" not in _caption(md, fig)
+    # The curves cut at q^f = 3 are named with how high they go.
+    assert "The axis stops at $q^f$ = 3" in _caption(md, "fig5")
+    assert "The axis stops at" not in _caption(md, "fig6")
+    # Fig. 9 names its edges by what happens beyond them.
+    assert "falls backward" in _caption(md, "fig9") and "lifts off" in _caption(md, "fig9")
+
+
+def test_paper_named_by_title_not_by_a_relative_link(two_runs: tuple[Path, Path]) -> None:
+    from paper_check.report import PAPER_TITLE
+
+    md = (two_runs[0] / "audit.md").read_text()
+    assert PAPER_TITLE in md.split("## Summary")[0]
+    assert "](../" not in md
+    readme = (ROOT / "README.md").read_text()
+    assert PAPER_TITLE in readme and "../shared" not in readme
+    assert json.loads((two_runs[0] / "audit.json").read_text())["paper"] == PAPER_TITLE
+
+
+def test_note_on_14_does_not_contradict_itself() -> None:
+    from paper_check.audit import SHORT_NOTES
+
+    note = SHORT_NOTES["(14)"]
+    # A condition is either required for exactness or missing, not both.
+    assert note.count("theta_II > theta_1") == 1
+    assert "lift-off" in note
+
+
+def test_readme_links_into_the_report_resolve(two_runs: tuple[Path, Path]) -> None:
+
+    md = (two_runs[0] / "audit.md").read_text()
+    anchors = set(re.findall(r'<a id="([^"]+)"></a>', md))
+    readme = (ROOT / "README.md").read_text()
+    links = re.findall(r"\]\(reports/audit\.md#([^)]+)\)", readme)
+    assert len(links) == len(set(links)) >= 23 + 10
+    assert set(links) <= anchors, set(links) - anchors
+    # No bare '#anchor' links: they would point into the README itself.
+    assert not re.findall(r"\]\(#", readme)
+    # The README's summary table is the report's, with the links prefixed.
+    start = md.index("| Equation | As printed |")
+    table = md[start : md.index("\n\n## Verdicts", start)]
+    for row in table.replace("](#", "](reports/audit.md#").splitlines():
+        assert row in readme, row

@@ -205,15 +205,9 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         "q_fixed_closed_form": _jsonable(q_fixed),
     }
     if args.plot is not None:
-        from matplotlib.figure import Figure
+        from vsw.plots import save_figure, simulation_plot
 
-        from vsw.plots import convergence_plot, save_figure, time_series
-
-        fig = Figure(figsize=(8.0, 7.0), layout="constrained")
-        top, bottom = fig.subplots(2, 1)
-        time_series(result, ax=top)
-        convergence_plot(*params.astuple(), q0, args.steps, result=result, ax=bottom)
-        save_figure(fig, args.plot)
+        save_figure(simulation_plot(*params.astuple(), q0, args.steps, result), args.plot)
         data["plot"] = args.plot
     if args.json:
         _dump_json(data, sys.stdout)
@@ -275,7 +269,7 @@ def _cmd_basin(args: argparse.Namespace) -> int:
     if args.plot is not None:
         from vsw.plots import basin_plot, save_figure
 
-        save_figure(basin_plot(result), args.plot)
+        save_figure(basin_plot(result, checks=checks if args.check_edges else None), args.plot)
         data["plot"] = args.plot
     if args.json:
         _dump_json(data, sys.stdout)
