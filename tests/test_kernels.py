@@ -239,3 +239,28 @@ def test_unparsable_cc_falls_back_to_numpy_and_says_why(tmp_path):
     done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     assert done.stdout.startswith("True compiled kernels unavailable, using numpy: CC=")
+
+
+def test_concurrent_first_builds_agree(compiled, tmp_path):
+    """Processes building into one empty cache at once: each loads a complete library, and
+    the cache ends with one library whose sidecar describes it."""
+    import hashlib
+    import json
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "VSW_CACHE_DIR": str(tmp_path), "VSW_KERNELS": "1"}
+    runs = [
+        subprocess.Popen(
+            [sys.executable, "-c", CHILD], cwd=ROOT, env=env, stdout=subprocess.PIPE, text=True
+        )
+        for _ in range(3)
+    ]
+    outputs = [run.communicate(timeout=300)[0].split() for run in runs]
+    assert [run.returncode for run in runs] == [0, 0, 0]
+    assert len({tuple(out) for out in outputs}) == 1 and outputs[0][0] == "None"
+    (library,) = tmp_path.glob("*.so")
+    record = json.loads(library.with_name(library.name + ".json").read_text())
+    assert record["sha256"] == hashlib.sha256(library.read_bytes()).hexdigest()
+    assert not list(tmp_path.glob(".build-*"))
