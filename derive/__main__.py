@@ -1,17 +1,30 @@
 """``python -m derive [--check]``: write ``generated/`` from the derivations, or check it.
 
-Write mode renders every file in memory, writes them into a temporary directory beside
-``generated/`` and swaps the directories, so an interrupted run never leaves a
-half-written ``generated/``. Check mode renders in memory and compares byte for byte.
+Write mode renders every file in memory, writes them into a staging directory beside
+``generated/`` (``.generated.<pid>.<random>``) and swaps the two directories, so an
+interrupted run never leaves a half-written ``generated/``. On Linux the swap is one
+``renameat2(RENAME_EXCHANGE)``: ``generated/`` is never missing. Where the kernel or the
+filesystem cannot exchange, it is two renames, and ``generated/`` is missing between them
+(a kill there leaves ``.generated.old``, which the next run moves back first). Runs hold
+a lock on the parent directory, and each removes the staging leftovers of killed runs
+before it writes. The new files and directories keep the modes of the ones they replace
+(new ones get the umask's defaults). Check mode renders in memory and compares byte for
+byte.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import ctypes
 import difflib
+import errno
+import os
+import secrets
 import shutil
+import stat
 import sys
-import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 from derive import codegen
@@ -64,27 +77,150 @@ def stale_report(expected: dict[str, str], directory: Path, max_lines: int = 40)
     return lines[:max_lines]
 
 
+@contextlib.contextmanager
+def _locked(directory: Path) -> Iterator[bool]:
+    """Hold an exclusive lock on ``directory`` (the output's parent) while writing.
+
+    Concurrent runs then write one after the other, and a run holding the lock knows
+    that every staging directory it finds was left by a run that is gone. Yields False
+    where no lock could be taken (no ``fcntl``, or a filesystem that refuses it).
+    """
+    try:
+        import fcntl
+
+        fd = os.open(directory, os.O_RDONLY)
+    except (ImportError, OSError):
+        yield False
+        return
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX)
+            locked = True
+        except OSError:
+            locked = False
+        yield locked
+    finally:
+        os.close(fd)  # releases the lock
+
+
+_RENAME_EXCHANGE = 2  # linux/fs.h
+_AT_FDCWD = -100
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Swap two existing paths in one step (Linux ``renameat2(RENAME_EXCHANGE)``).
+
+    Returns False where that is not available (other systems, old kernels or C libraries,
+    filesystems without support); raises OSError for other failures.
+    """
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        renameat2 = ctypes.CDLL(None, use_errno=True).renameat2
+    except (OSError, AttributeError):  # glibc < 2.28, or another C library without it
+        return False
+    renameat2.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p]
+    renameat2.argtypes += [ctypes.c_uint]
+    renameat2.restype = ctypes.c_int
+    done = renameat2(_AT_FDCWD, os.fsencode(a), _AT_FDCWD, os.fsencode(b), _RENAME_EXCHANGE)
+    if done == 0:
+        return True
+    code = ctypes.get_errno()
+    if code in (errno.ENOSYS, errno.EINVAL, errno.EOPNOTSUPP, errno.ENOTSUP):
+        return False
+    raise OSError(code, os.strerror(code), str(a))
+
+
+def _owner_alive(name: str) -> bool:
+    """Whether the process named in ``.<dir>.<pid>.<random>`` still runs."""
+    parts = name.split(".")
+    if len(parts) != 4 or not parts[2].isdigit():
+        return False
+    try:
+        os.kill(int(parts[2]), 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # exists, owned by someone else
+        return True
+    return True
+
+
+def _leftovers(directory: Path, locked: bool) -> list[Path]:
+    """Staging and backup directories that killed runs left beside ``directory``.
+
+    Holding the lock, every one is stale; without it, those whose run is alive are kept.
+    """
+    prefix = f".{directory.name}."
+    return sorted(
+        p
+        for p in directory.parent.iterdir()
+        if p.name.startswith(prefix) and p.is_dir() and (locked or not _owner_alive(p.name))
+    )
+
+
+_OLD_STAGING_MODE = 0o700
+"""What earlier versions left on generated/ (``tempfile.mkdtemp``'s mode); not copied."""
+
+
+def _copy_modes(old: Path, new: Path) -> None:
+    """Give each directory and file of ``new`` the permission bits of its counterpart in
+    ``old`` where there is one (``mkdir`` and ``open`` gave the others the umask's)."""
+    for path in [new, *sorted(new.rglob("*"))]:
+        counterpart = old / path.relative_to(new)
+        with contextlib.suppress(OSError):
+            mode = stat.S_IMODE(counterpart.stat().st_mode)
+            if path == new and mode == _OLD_STAGING_MODE:
+                continue  # repair it to what a checkout has (the umask's, as mkdir gave)
+            if counterpart.is_dir() == path.is_dir():
+                os.chmod(path, mode)
+
+
+def _fsync(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
 def write_atomically(files: dict[str, str], directory: Path) -> None:
-    """Replace ``directory`` by exactly ``files`` in one directory swap."""
+    """Replace ``directory`` by exactly ``files`` (relative path: text) in one swap.
+
+    Files and directories that replace existing ones keep their permission bits.
+    """
+    directory = Path(directory).absolute()
     directory.parent.mkdir(parents=True, exist_ok=True)
     backup = directory.with_name(f".{directory.name}.old")
-    if backup.exists() and not directory.exists():
-        backup.rename(directory)  # an earlier run was interrupted between the two renames
-    shutil.rmtree(backup, ignore_errors=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{directory.name}.", dir=directory.parent))
-    try:
-        for path, text in files.items():
-            target = staging / path
-            target.parent.mkdir(parents=True, exist_ok=True)
-            with open(target, "w", newline="\n") as fh:
-                fh.write(text)
-        if directory.exists():
-            directory.rename(backup)
-        staging.rename(directory)
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
-    shutil.rmtree(backup, ignore_errors=True)
+    with _locked(directory.parent) as locked:
+        if backup.is_dir() and not directory.exists():
+            backup.rename(directory)  # an earlier run was killed between the two renames
+        for leftover in _leftovers(directory, locked):
+            shutil.rmtree(leftover, ignore_errors=True)
+        staging = directory.with_name(f".{directory.name}.{os.getpid()}.{secrets.token_hex(4)}")
+        staging.mkdir()
+        try:
+            for path, text in files.items():
+                target = staging / path
+                target.parent.mkdir(parents=True, exist_ok=True)
+                with open(target, "w", newline="\n") as fh:
+                    fh.write(text)
+                    fh.flush()
+                    os.fsync(fh.fileno())  # on disk before it is swapped in
+            _copy_modes(directory, staging)
+            if not directory.exists():
+                staging.rename(directory)
+            elif not _exchange(staging, directory):
+                # No exchange here: generated/ is missing between these two renames.
+                directory.rename(backup)
+                try:
+                    staging.rename(directory)
+                except BaseException:
+                    backup.rename(directory)
+                    raise
+                staging = backup
+            _fsync(directory.parent)
+        finally:
+            shutil.rmtree(staging, ignore_errors=True)  # the old tree, or a failed new one
 
 
 def main(argv: list[str] | None = None) -> int:

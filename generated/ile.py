@@ -245,10 +245,12 @@ def q_fixed(beta, theta_II, phi0):
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
     x0 = beta**2
-    x1 = -1 + beta
-    x2 = cos_phi0*beta
-    x3 = (1/be.sqrt(x1**2 + 2*beta*sin_phi0**2/(1 + cos_phi0)))
-    return -2*x1*cos_phi0**2*(-cos_theta_II - x0*cos_theta_II - cos_theta_II*beta + x0*x3*sin_phi0 + x3*sin_phi0*beta)/(x0*(1 + x2)*(-1 + x2))
+    x1 = sin_phi0**2
+    x2 = 1 + beta
+    x3 = -1 + beta
+    x4 = -x3
+    x5 = 2*x3*cos_phi0**2
+    return (-x5*cos_theta_II*(x0 + x2)/x0 + x2*x5*sin_phi0/(beta*be.sqrt(x4**2 + 2*x1*beta/(1 + cos_phi0))))/(x0*x1 + x2*x4)
 
 
 def eigenvalue(beta, phi0):
@@ -464,14 +466,12 @@ def energy_dissipated(beta, theta_II, phi0, q, m, g, r_e):
     be = backend_for(beta, theta_II, phi0, q, m, g, r_e)
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
-    x0 = (beta*beta*beta)
+    x0 = sin_phi0**2
     x1 = g*m*r_e
-    x2 = x1*cos_theta_II
-    x3 = cos_phi0**2
-    x4 = (beta*beta*beta*beta)
-    x5 = (1/be.sqrt((1 - beta)**2 + 2*beta*sin_phi0**2/(1 + cos_phi0)))
-    x6 = x1*x5*sin_phi0
-    return -x0*x2 - x2*x3 - x6*beta - x0*x3*x6 + cos_theta_II*g*m*r_e - x1*x3*x4*q/2 + x4*q*g*m*r_e/2 + x0*x3*cos_theta_II*g*m*r_e + x0*x5*sin_phi0*g*m*r_e + x3*x5*sin_phi0*beta*g*m*r_e
+    x2 = 1 + beta
+    x3 = -1 + beta
+    x4 = x1*x3
+    return x0*(x1*q*(beta*beta*beta*beta)/2 - x4*cos_theta_II*(x2 + beta**2) + x2*x4*sin_phi0*beta/be.sqrt(x3**2 + 2*x0*beta/(1 + cos_phi0)))
 
 
 def energy_dissipated_post(beta, phi0, q_next, m, g, r_e):
@@ -495,7 +495,7 @@ def energy_dissipated_post(beta, phi0, q_next, m, g, r_e):
     """
     be = backend_for(beta, phi0, q_next, m, g, r_e)
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
-    return -q_next*g*m*r_e*beta**2*(1 + cos_phi0)*(-1 + cos_phi0)/(2*cos_phi0**2)
+    return q_next*g*m*r_e*sin_phi0**2*beta**2/(2*cos_phi0**2)
 
 
 def energy_change(beta, theta_II, phi0, q, m, g, r_e):
@@ -521,13 +521,14 @@ def energy_change(beta, theta_II, phi0, q, m, g, r_e):
     be = backend_for(beta, theta_II, phi0, q, m, g, r_e)
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
-    x0 = g*m*r_e
-    x1 = x0*cos_phi0**2
-    x2 = x1*cos_theta_II
-    x3 = q/2
-    x4 = (beta*beta*beta)
-    x5 = x1*sin_phi0/be.sqrt((1 - beta)**2 + 2*beta*sin_phi0**2/(1 + cos_phi0))
-    return x2 + x4*x5 - x2*x4 - x5*beta + x1*x3*(beta*beta*beta*beta) - x0*x3*beta**2
+    x0 = beta**2
+    x1 = 1 + beta
+    x2 = cos_phi0**2
+    x3 = -1 + beta
+    x4 = g*m*r_e
+    x5 = sin_phi0**2
+    x6 = -x3
+    return -x0*x4*q*(x0*x5 + x1*x6)/2 - x2*x3*x4*cos_theta_II*(x0 + x1) + x1*x2*x3*sin_phi0*beta*g*m*r_e/be.sqrt(x6**2 + 2*x5*beta/(1 + cos_phi0))
 
 
 def energy_constant(beta, theta_II, phi0, m, g, r_e):
@@ -575,7 +576,7 @@ def step_length(beta, phi0):
     """
     be = backend_for(beta, phi0)
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
-    return be.sqrt(1 + beta**2 - 2*cos_phi0*beta)
+    return be.sqrt((1 - beta)**2 + 2*beta*sin_phi0**2/(1 + cos_phi0))
 
 
 def phase_durations(beta, theta_II, phi0, q):
@@ -689,29 +690,37 @@ def condition_margins(beta, theta_II, phi0):
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
     x0 = beta**2
-    x1 = cos_phi0*beta
-    x2 = -1 + x1
+    x1 = sin_phi0**2
+    x2 = 1 + beta
     x3 = -1 + beta
-    x4 = be.sqrt(x3**2 + 2*beta*sin_phi0**2/(1 + cos_phi0))
-    x5 = (1/x4)
-    x6 = x3*cos_phi0**2*(-cos_theta_II - x0*cos_theta_II - cos_theta_II*beta + x0*x5*sin_phi0 + x5*sin_phi0*beta)/(x2*(1 + x1))
-    x7 = 2*x6/x0
-    x8 = 1 + beta
-    x9 = (1/sin_phi0)
-    x10 = x5*sin_phi0
-    x11 = (1/beta)
-    x12 = beta - cos_phi0
-    x13 = be.fmax(be.fmax(cos_theta_II, x10), be.indicator((x12*x5*sin_theta_II >= 0)))
-    x14 = 2*cos_theta_II
-    x15 = (beta*beta*beta)
-    x16 = x10*beta
-    x17 = -x2*x5
-    x18 = be.fmax(be.fmax(cos_theta_II, x16), be.indicator((x17*sin_theta_II <= 0)))
-    x19 = x11*x6
-    x20 = be.fmin(x13, be.fmax(be.fmin(cos_theta_II, x10), -x19/3 + x10/3))
-    x21 = x0*x6
-    x22 = be.fmin(x18, be.fmax(be.fmin(cos_theta_II, x16), -x21/3 + cos_theta_II/3 - x15*cos_theta_II/3 + x15*x5*sin_phi0/3))
-    return (-x7, x4*x9*cos_theta_II - x8*beta/(x0 + x8), -x7 - be.fmax(-2*x10*x11 + 2*x11*x13, (-x14 + 2*x18 + x14*x15 - 2*x10*x15)/(beta*beta*beta*beta)), x12, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan2(x17, x16), theta_II + be.atan(x12*x9), be.fmin(3*x20**2 - 2*x20*(x10 - x19), 3*x22**2 - 2*x22*(cos_theta_II - x21 - x15*cos_theta_II + x15*x5*sin_phi0)),)
+    x4 = -x3
+    x5 = (1/(x0*x1 + x2*x4))
+    x6 = x0 + x2
+    x7 = 2*cos_theta_II
+    x8 = x3*cos_phi0**2
+    x9 = be.sqrt(x4**2 + 2*x1*beta/(1 + cos_phi0))
+    x10 = (1/x9)
+    x11 = x10*sin_phi0
+    x12 = (1/beta)
+    x13 = 2*x11*x12
+    x14 = x13*x2*x8 - x6*x7*x8/x0
+    x15 = x14*x5
+    x16 = (1/sin_phi0)
+    x17 = beta - cos_phi0
+    x18 = be.fmax(be.fmax(cos_theta_II, x11), be.indicator((x10*x17*sin_theta_II >= 0)))
+    x19 = (beta*beta*beta*beta)
+    x20 = (beta*beta*beta)
+    x21 = x11*x20
+    x22 = x11*beta
+    x23 = x10*(1 - cos_phi0*beta)
+    x24 = be.fmax(be.fmax(cos_theta_II, x22), be.indicator((x23*sin_theta_II <= 0)))
+    x25 = x11/3
+    x26 = x15*beta
+    x27 = be.fmin(x18, be.fmax(be.fmin(cos_theta_II, x11), x25 + x26/6))
+    x28 = cos_theta_II/3
+    x29 = x15*x19
+    x30 = be.fmin(x24, be.fmax(be.fmin(cos_theta_II, x22), x28 + x29/6 + x20*x25 - x20*x28))
+    return (x15, x16*x9*cos_theta_II - x2*beta/x6, -be.fmax(-x13 + 2*x12*x18, (-x7 - 2*x21 + 2*x24 + x20*x7)/x19) + x14*x5, x17, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan2(x23, x22), theta_II + be.atan(x16*x17), be.fmin(3*x27**2 - 2*x27*(x11 + x26/2), 3*x30**2 - 2*x30*(x21 + cos_theta_II + x29/2 - x20*cos_theta_II)),)
 
 
 def fixed_point_conditions(beta, theta_II, phi0):
@@ -734,35 +743,37 @@ def fixed_point_conditions(beta, theta_II, phi0):
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
     x0 = -1 + beta
-    x1 = (1/be.sqrt(x0**2 + 2*beta*sin_phi0**2/(1 + cos_phi0)))
-    x2 = x1*sin_phi0
-    x3 = beta - cos_phi0
-    x4 = beta**2
-    x5 = cos_phi0**2
-    x6 = 1 + beta
-    x7 = (1/beta)
-    x10 = x0*x5
-    x11 = x4 + x6
-    x12 = 2*cos_theta_II
-    x13 = (beta*beta*beta*beta)
-    cos_theta_I = x2
-    x8 = 2*cos_theta_I
-    x9 = x7*x8
-    sin_theta_I = -x1*x3
-    cos_theta_IV = x2*beta
-    sin_theta_IV = x1*(1 - cos_phi0*beta)
-    eigenvalue = x4*x5
-    q_f = (x10*x6*x9 - x10*x11*x12/x4)/(1 - eigenvalue)
-    x15 = q_f*beta
-    omega_II_sq = x9 + q_f - x12*x7
-    omega_III_sq = x13*omega_II_sq
+    x1 = -x0
+    x2 = sin_phi0**2
+    x3 = (1/be.sqrt(x1**2 + 2*x2*beta/(1 + cos_phi0)))
+    x4 = x3*sin_phi0
+    x5 = beta - cos_phi0
+    x6 = beta**2
+    x7 = cos_phi0**2
+    x8 = 1 + beta
+    x9 = (1/beta)
+    x12 = x0*x7
+    x13 = x6 + x8
+    x14 = 2*cos_theta_II
+    x15 = (beta*beta*beta*beta)
+    cos_theta_I = x4
+    x10 = 2*cos_theta_I
+    x11 = x10*x9
+    sin_theta_I = -x3*x5
+    cos_theta_IV = x4*beta
+    sin_theta_IV = x3*(1 - cos_phi0*beta)
+    eigenvalue = x6*x7
+    q_f = (x11*x12*x8 - x12*x13*x14/x6)/(x1*x8 + x2*x6)
+    x17 = q_f*beta
+    omega_II_sq = x11 + q_f - x14*x9
+    omega_III_sq = x15*omega_II_sq
     cos_apex_1 = be.fmax(be.fmax(cos_theta_I, cos_theta_II), be.indicator((sin_theta_I*sin_theta_II <= 0)))
-    x16 = be.fmin(cos_apex_1, be.fmax(be.fmin(cos_theta_I, cos_theta_II), cos_theta_I/3 + x15/6))
+    x18 = be.fmin(cos_apex_1, be.fmax(be.fmin(cos_theta_I, cos_theta_II), cos_theta_I/3 + x17/6))
     rise_1 = cos_apex_1 - cos_theta_I
     cos_apex_2 = be.fmax(be.fmax(cos_theta_II, cos_theta_IV), be.indicator((sin_theta_II*sin_theta_IV <= 0)))
-    x14 = be.fmin(cos_apex_2, be.fmax(be.fmin(cos_theta_II, cos_theta_IV), cos_theta_II/3 + omega_III_sq/6))
+    x16 = be.fmin(cos_apex_2, be.fmax(be.fmin(cos_theta_II, cos_theta_IV), cos_theta_II/3 + omega_III_sq/6))
     rise_2 = cos_apex_2 - cos_theta_II
-    return (q_f, eigenvalue, q_f, cos_theta_II/cos_theta_I - x6*beta/x11, be.fmin(q_f - 2*x7*rise_1, (omega_III_sq - 2*rise_2)/x13), x3, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan(sin_theta_IV/cos_theta_IV), theta_II + be.atan(x3/sin_phi0), be.fmin(x14*(-x12 - omega_III_sq + 3*x14), x16*(-x15 - x8 + 3*x16)),)
+    return (q_f, eigenvalue, q_f, cos_theta_II/cos_theta_I - x8*beta/x13, be.fmin(q_f - 2*x9*rise_1, (omega_III_sq - 2*rise_2)/x15), x5, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan(sin_theta_IV/cos_theta_IV), theta_II + be.atan(x5/sin_phi0), be.fmin(x16*(-x14 - omega_III_sq + 3*x16), x18*(-x10 - x17 + 3*x18)),)
 
 
 def condition_pieces(beta, theta_II, phi0):
@@ -785,21 +796,21 @@ def condition_pieces(beta, theta_II, phi0):
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta_II, sin_theta_II = be.cos_sin(theta_II)
     x0 = -1 + beta
-    x1 = sin_phi0/be.sqrt(x0**2 + 2*beta*sin_phi0**2/(1 + cos_phi0))
-    x2 = beta**2
-    x3 = cos_phi0**2
-    x4 = 1 + beta
-    x5 = 2/beta
-    x7 = x0*x3
-    x8 = 2*cos_theta_II
-    x10 = (beta*beta*beta*beta)
-    cos_theta_I = x1
-    x6 = x5*cos_theta_I
-    cos_theta_IV = x1*beta
-    eigenvalue = x2*x3
-    q_f = (x4*x6*x7 - x7*x8*(x2 + x4)/x2)/(1 - eigenvalue)
-    x9 = x6 + q_f
-    omega_II_sq = x9 - x5*cos_theta_II
-    omega_III_sq = x10*omega_II_sq
-    x11 = x8 + omega_III_sq
-    return (x9 - x5, (-2 + x11)/x10, omega_II_sq, cos_theta_I**2 - q_f*beta*cos_theta_I, cos_theta_II**2 - cos_theta_II*omega_II_sq*beta, cos_theta_IV**2 - cos_theta_IV*(x11 - 2*cos_theta_IV),)
+    x1 = -x0
+    x2 = sin_phi0**2
+    x3 = sin_phi0/be.sqrt(x1**2 + 2*x2*beta/(1 + cos_phi0))
+    x4 = beta**2
+    x5 = 1 + beta
+    x6 = 2/beta
+    x8 = x0*cos_phi0**2
+    x9 = 2*cos_theta_II
+    x11 = (beta*beta*beta*beta)
+    cos_theta_I = x3
+    x7 = x6*cos_theta_I
+    cos_theta_IV = x3*beta
+    q_f = (x5*x7*x8 - x8*x9*(x4 + x5)/x4)/(x1*x5 + x2*x4)
+    x10 = x7 + q_f
+    omega_II_sq = x10 - x6*cos_theta_II
+    omega_III_sq = x11*omega_II_sq
+    x12 = x9 + omega_III_sq
+    return (x10 - x6, (-2 + x12)/x11, omega_II_sq, cos_theta_I**2 - q_f*beta*cos_theta_I, cos_theta_II**2 - cos_theta_II*omega_II_sq*beta, cos_theta_IV**2 - cos_theta_IV*(x12 - 2*cos_theta_IV),)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 
@@ -24,3 +26,17 @@ def random_walking_parameters(n: int, seed: int = 0) -> dict[str, np.ndarray]:
 @pytest.fixture(scope="session")
 def walking_parameters() -> dict[str, np.ndarray]:
     return random_walking_parameters(200, seed=1)
+
+
+@pytest.fixture(scope="session", autouse=True)
+def private_kernel_cache(tmp_path_factory):
+    """Compiled kernels go to a temporary cache, not the user's ~/.cache/vsw (also for the
+    subprocesses tests start, which inherit the environment)."""
+    if os.environ.get("VSW_CACHE_DIR"):
+        yield
+        return
+    os.environ["VSW_CACHE_DIR"] = str(tmp_path_factory.mktemp("vsw_cache"))
+    try:
+        yield
+    finally:
+        os.environ.pop("VSW_CACHE_DIR", None)

@@ -92,6 +92,34 @@ def test_validate_arrays_names_the_offending_element():
         validate(np.array([0.5, 0.9]), np.zeros(3), 0.7)
 
 
+@pytest.mark.parametrize("which", ["beta", "theta_II", "phi0"])
+def test_masked_arrays_with_masked_values_are_rejected(which):
+    """np.asarray drops a mask: the masked (hidden) values would be analysed as if valid.
+    Here they are even outside the domain, and nothing would have said so."""
+    args = {"beta": np.full(3, 0.8), "theta_II": np.zeros(3), "phi0": np.full(3, 0.7)}
+    hidden = {"beta": 5.0, "theta_II": 9.0, "phi0": -1.0}[which]
+    args[which] = np.ma.array([args[which][0], args[which][1], hidden], mask=[0, 0, 1])
+    with pytest.raises(VswInputError) as info:
+        analyze(args["beta"], args["theta_II"], args["phi0"], timing=False)
+    message = str(info.value)
+    assert "\n" not in message and message.startswith(f"{which} is a masked array with 1 masked")
+    assert f"{which}.compressed()" in message
+
+
+def test_masked_arrays_without_masked_values_are_plain_arrays():
+    plain = analyze(np.array([0.8, 0.75]), 0.0, 0.7, timing=False)
+    masked = analyze(np.ma.array([0.8, 0.75], mask=False), 0.0, 0.7, timing=False)
+    np.testing.assert_array_equal(masked.q_fixed, plain.q_fixed)
+    assert not isinstance(masked.q_fixed, np.ma.MaskedArray)
+
+
+def test_masked_values_are_rejected_by_the_other_validators_too():
+    from vsw.params import check_positive
+
+    with pytest.raises(VswInputError, match="q0 is a masked array with 1 masked"):
+        check_positive("q0", np.ma.masked_invalid([0.3, np.nan]), "reason")
+
+
 def test_gait_parameters_frozen_and_from_degrees():
     p = GaitParameters.from_degrees(0.8, 0, 45)
     assert p.astuple() == pytest.approx(FIG8)

@@ -41,6 +41,14 @@ def _format_value(value: object, cli_degrees: bool) -> str:
 def _as_float_array(name: str, value: object, reason: str) -> np.ndarray:
     """``value`` as a float array; anything that is not a real number raises VswInputError."""
     # bool is an int subclass and strings convert with dtype=float: both are rejected on purpose.
+    if isinstance(value, np.ma.MaskedArray) and np.ma.getmaskarray(value).any():
+        # np.asarray would silently drop the mask and compute with the hidden values.
+        count = int(np.ma.getmaskarray(value).sum())
+        raise VswInputError(
+            f"{name} is a masked array with {count} masked value(s), which would be computed "
+            f"as if unmasked; pass the values to use, e.g. {name}.compressed() or "
+            f"{name}.filled(...)"
+        )
     raw = np.asarray(value)
     if raw.dtype.kind not in "iuf":
         raise VswInputError(f"{name} = {value!r} is not a real number; {reason}")

@@ -73,6 +73,30 @@ def _square_symbol(name: str) -> sm.Symbol:
     return sm.Symbol(name, real=True)
 
 
+def _same_value(form: sm.Expr, derived: sm.Expr, what: str) -> sm.Expr:
+    """``form``, after checking that it equals ``derived`` (with sin**2 phi0 = 1 - cos**2 phi0).
+
+    For groupings chosen to evaluate without cancellation: the check keeps the evaluated
+    form tied to the derivation, and is much cheaper than ``simplify``.
+    """
+    difference = sm.expand((form - derived).subs(sm.sin(phi0) ** 2, 1 - sm.cos(phi0) ** 2))
+    if difference != 0 and sm.cancel(difference) != 0:  # expand settles polynomials
+        raise AssertionError(f"{what}: {form} is not {derived}")
+    return form
+
+
+@functools.cache
+def one_minus_eigenvalue() -> sm.Expr:
+    """``1 - lambda = 1 - beta**2 cos**2 phi0`` as ``(1 - beta)(1 + beta) + beta**2 sin**2 phi0``.
+
+    For short steps (phi0 -> 0, beta -> 1) the first form rounds cos phi0 to 1 and loses
+    the ``beta**2 sin**2 phi0`` part (all of it at phi0 = 1e-8); the second is a sum of two
+    non-negative terms, each computed to a few ulp (1 - beta is exact for beta >= 1/2).
+    """
+    form = (1 - beta) * (1 + beta) + beta**2 * sm.sin(phi0) ** 2
+    return _same_value(form, 1 - stride()["eigenvalue"], "1 - lambda")
+
+
 @functools.cache
 def swing_phase_dimensionless() -> dict[str, sm.Expr]:
     """Swing phase of leg length ``leg_ratio * r_e`` in dimensionless form, eq. (1), (2), (4).
@@ -168,10 +192,7 @@ def heelstrike() -> dict[str, sm.Expr]:
     # 1 + beta**2 - 2 beta cos(phi0) for short steps (phi0 -> 0, beta -> 1):
     # 1 - cos = sin**2 / (1 + cos).
     short_step_form = (1 - beta) ** 2 + 2 * beta * sm.sin(phi0) ** 2 / (1 + sm.cos(phi0))
-    difference = (short_step_form - norm_squared).subs(sm.sin(phi0) ** 2, 1 - sm.cos(phi0) ** 2)
-    if sm.cancel(difference) != 0:
-        raise AssertionError(f"unexpected distance between the feet: {norm_squared}")
-    norm_squared = short_step_form
+    norm_squared = _same_value(short_step_form, norm_squared, "distance between the feet")
     # On the domain the sin coefficient is sin(phi0) > 0, and cos theta_I > 0 (hip above the
     # foot), so (cos, sin) theta_I = (sin_coeff, -cos_coeff) / norm.
     if sin_coeff == -sm.sin(phi0):
@@ -217,6 +238,9 @@ def heelstrike() -> dict[str, sm.Expr]:
         "sin_theta_IV": sin_theta_IV_closed,
         "reset_ratio": reset_ratio,
         "step_length_squared": step_length_sq,
+        "step_length_squared_short": _same_value(
+            short_step_form, step_length_sq, "squared step length"
+        ),
     }
 
 
@@ -258,6 +282,57 @@ def stride() -> dict[str, sm.Expr]:
         "stride_map": stride_map,
         "q_fixed": q_fixed,
         "eigenvalue": eigenvalue,
+    }
+
+
+def _fixed_point_offset() -> sm.Expr:
+    """``f(0)``, the stride map at ``q = 0``, grouped by ``cos theta_I`` and ``cos theta_II``."""
+    offset = sm.expand(stride()["stride_map"].subs(q, 0))
+    return sm.collect(offset, [sm.cos(theta_I), sm.cos(theta_II)], sm.factor)
+
+
+def _times_sin_squared(expr: sm.Expr, what: str) -> sm.Expr:
+    """``expr``, which vanishes with sin phi0, as ``sin**2 phi0`` times the rest.
+
+    The expanded form is a difference of terms in ``cos**2 phi0`` that cancel for short
+    steps (all of it once cos phi0 rounds to 1, below phi0 = 1.05e-8).
+    """
+    numerator, denominator = sm.fraction(expr)
+    rest, remainder = sm.div(sm.expand(numerator), 1 - sm.cos(phi0) ** 2, sm.cos(phi0))
+    if remainder != 0:  # numerator = (1 - cos**2 phi0) rest exactly: the identity check
+        raise AssertionError(f"{what} does not vanish with sin phi0: {expr}")
+    rest = sm.collect(sm.expand(rest), [q, q_next, sm.cos(theta_I), sm.cos(theta_II)], sm.factor)
+    return sm.sin(phi0) ** 2 * rest / denominator
+
+
+@functools.cache
+def evaluation_forms() -> dict[str, sm.Expr]:
+    """Forms of derived quantities chosen for evaluation in floating point.
+
+    Each is checked to equal the derived expression it replaces in the generated code
+    (:func:`_same_value`); the derived expressions stay the facts the audit compares with
+    the paper. They avoid rounding cos phi0 to 1 where a difference with 1 is needed
+    (short steps, phi0 -> 0 with beta -> 1): ``1 - lambda`` as
+    :func:`one_minus_eigenvalue`, and ``1 - cos**2 phi0`` as ``sin**2 phi0``.
+    """
+    st, en = stride(), energies()
+    q_f = _same_value(_fixed_point_offset() / one_minus_eigenvalue(), st["q_fixed"], "q^f")
+    # E_Delta = C + q dE_Delta/dq with dE_Delta/dq = -(m g r_e beta**2 / 2)(1 - lambda).
+    slope = sm.diff(en["change"], q)
+    per_unit = sm.factor(slope / (1 - st["eigenvalue"]))
+    if per_unit.has(phi0, q):
+        raise AssertionError(f"dE_Delta/dq is not proportional to 1 - lambda: {slope}")
+    constant = sm.collect(sm.expand(en["constant"]), [sm.cos(theta_I), sm.cos(theta_II)], sm.factor)
+    change = _same_value(
+        constant + per_unit * one_minus_eigenvalue() * q, en["change"], "energy change"
+    )
+    return {
+        "q_fixed": q_f,
+        "energy_dissipated": _times_sin_squared(en["dissipated"], "energy dissipated"),
+        "energy_dissipated_post": _times_sin_squared(
+            en["dissipated_post"], "energy dissipated (post)"
+        ),
+        "energy_change": change,
     }
 
 
@@ -432,18 +507,19 @@ def existence_staged() -> tuple[
     omega_II_sq = sm.Symbol("omega_II_sq", real=True)
     omega_III_sq = sm.Symbol("omega_III_sq", real=True)
     eigenvalue = sm.Symbol("eigenvalue", real=True)
-    # The stride map is affine, f(q) = lambda q + f(0), so q^f = f(0) / (1 - lambda).
+    # The stride map is affine, f(q) = lambda q + f(0), so q^f = f(0) / (1 - lambda), with
+    # 1 - lambda in a form without cancellation for short steps.
     stride_map = st["stride_map"].xreplace(names)
     if sm.expand(stride_map - (st["eigenvalue"] * q + stride_map.subs(q, 0))) != 0:
         raise AssertionError("the stride map is not affine in q")
-    offset = sm.collect(sm.expand(stride_map.subs(q, 0)), [cos_I, sm.cos(theta_II)], sm.factor)
+    offset = _fixed_point_offset().xreplace(names)
     intermediates = (
         (cos_I, hs["cos_theta_I"]),
         (sin_I, hs["sin_theta_I"]),
         (cos_IV, hs["cos_theta_IV"]),
         (sin_IV, hs["sin_theta_IV"]),
         (eigenvalue, st["eigenvalue"]),
-        (q_f, offset / (1 - eigenvalue)),
+        (q_f, offset / one_minus_eigenvalue()),
         # omega_III**2 = (extension ratio)**2 omega_II**2 as a product, not expanded: for
         # short stance legs (beta -> 0) the expanded terms cancel.
         (omega_II_sq, st["omega_II_squared"].xreplace(names).subs(q, q_f)),
@@ -578,7 +654,8 @@ def step_timing() -> dict[str, sm.Expr]:
     """
     hs = heelstrike()
     st = stride()
-    step_length = sm.sqrt(hs["step_length_squared"])
+    # The foot distance without the cancellation of 1 + beta**2 - 2 beta cos phi0.
+    step_length = sm.sqrt(hs["step_length_squared_short"])
 
     def level(ratio, theta_at, omega_sq_at):
         return eliminate_contact_angles(
@@ -611,6 +688,7 @@ def derive() -> Derivation:
     en = energies()
     ac = apex_and_contact()
     tm = step_timing()
+    ev = evaluation_forms()
     d = Derivation(
         model="ile",
         title="Instantaneous leg extension model of Virtual Slope Walking",
@@ -712,7 +790,7 @@ def derive() -> Derivation:
         Quantity(
             "q_fixed",
             P,
-            _paper_form(st["q_fixed"]),
+            _paper_form(ev["q_fixed"]),
             "Fixed point q^f of the stride map.",
             "(10)",
             "q^f",
@@ -793,7 +871,7 @@ def derive() -> Derivation:
         Quantity(
             "energy_dissipated",
             E,
-            _paper_form(en["dissipated"]),
+            _paper_form(ev["energy_dissipated"]),
             "Energy lost at heelstrike, E_r, in terms of q of the same step.",
             "(21)",
             "E_r",
@@ -803,7 +881,7 @@ def derive() -> Derivation:
         Quantity(
             "energy_dissipated_post",
             (beta, phi0, q_next, m, g, r_e),
-            en["dissipated_post"],
+            ev["energy_dissipated_post"],
             "Energy lost at heelstrike in terms of q just after the impact.",
             "(18)",
             "E_r",
@@ -813,7 +891,7 @@ def derive() -> Derivation:
         Quantity(
             "energy_change",
             E,
-            _paper_form(en["change"]),
+            _paper_form(ev["energy_change"]),
             "Net change of mechanical energy over one step, E_c - E_r.",
             "(22), (23)",
             "E_Delta",
