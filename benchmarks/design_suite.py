@@ -419,8 +419,23 @@ def summarise(records: list[dict[str, Any]], side: str) -> dict[str, Any]:
     }
 
 
-def run(n: int, seed: int, before: str | None, grid: int = 48) -> dict[str, Any]:
+def _reference_job(args: tuple[Problem, int]) -> dict[str, Any]:
+    return reference(*args)
+
+
+def run(
+    n: int, seed: int, before: str | None, grid: int = 48, processes: int = 1
+) -> dict[str, Any]:
+    """The suite: references first (on ``processes`` workers), then each side, timed alone."""
     problems = make_suite(n, seed)
+    jobs = [(p, grid) for p in problems]
+    if processes > 1:
+        import multiprocessing
+
+        with multiprocessing.get_context("spawn").Pool(processes) as pool:
+            references = pool.map(_reference_job, jobs)
+    else:
+        references = [_reference_job(job) for job in jobs]
     sides = {"after": design_module}
     if before:
         sides["before"] = load_before(before)
@@ -429,8 +444,7 @@ def run(n: int, seed: int, before: str | None, grid: int = 48) -> dict[str, Any]
             for p in problems[:12]:
                 module.design(**p.kwargs(), verify=False)
     records = []
-    for p in problems:
-        ref = reference(p, grid)
+    for p, ref in zip(problems, references):
         record: dict[str, Any] = {"label": p.label, "feasible": p.feasible, "reference": ref}
         for side, module in sides.items():
             got = solve(p, module)
@@ -449,8 +463,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--before", help="git commit of the design code to compare with")
     parser.add_argument("--grid", type=int, default=48, help="reference grid points per axis")
     parser.add_argument("--json", help="write every record to this file")
+    parser.add_argument("--processes", type=int, default=1, help="workers for the references")
     args = parser.parse_args(argv)
-    out = run(args.problems, args.seed, args.before, args.grid)
+    out = run(args.problems, args.seed, args.before, args.grid, args.processes)
     if args.json:
         Path(args.json).write_text(json.dumps(out, indent=1, default=float))
     print(json.dumps(out["summary"], indent=2))

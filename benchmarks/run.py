@@ -41,7 +41,10 @@ import generated.ile as ile  # noqa: E402
 from vsw.params import random_parameters  # noqa: E402
 from vsw.vectorize import chunked, default_threads  # noqa: E402
 
-CASES = (1, 2, 3, 4, 5, 6, 7)
+CASES = (1, 2, 3, 4, 5, 6, 7, 8)
+
+DESIGN_BEFORE = "39d527c"
+"""The commit whose vsw/design.py case 8 compares with (before issue 10)."""
 
 
 @dataclass
@@ -403,8 +406,8 @@ def case_design(quick: bool) -> list[Row]:
     full = Timing(*result["full_design_seconds"])
     row = Row(
         "6",
-        "design, CasADi/IPOPT (one start, after set-up)",
-        "SciPy SLSQP on the simulated map, same start",
+        "design() whole (scan + one IPOPT start per region), after set-up",
+        "SciPy SLSQP on the simulated map from the first IPOPT start",
         ipopt,
         slsqp,
         "<= 100 ms and >= 100x faster, objective >=",
@@ -415,11 +418,64 @@ def case_design(quick: bool) -> list[Row]:
     setup = Timing(result["setup_seconds"], result["setup_seconds"], result["setup_seconds"])
     return [
         row,
-        Row("6", "design as `vsw design` runs it: 4 starts + simulation check", "-", full,
+        Row("6", "design as `vsw design` runs it, with the simulation check", "-", full,
             None, "-", None),
         Row("6", "first design in a process (builds the CasADi solver)", "-", setup, None, "-",
             None, note="single run"),
     ]  # fmt: skip
+
+
+def case_design_suite(quick: bool) -> list[Row]:
+    """Case 8: the design suite (benchmarks/design_suite.py) against a grid + SLSQP
+    reference, the code before issue 10 side by side."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import design_suite
+
+    before = None if quick else DESIGN_BEFORE
+    out = design_suite.run(6 if quick else 220, 2026, before, grid=12 if quick else 40,
+                           processes=1 if quick else 2)  # fmt: skip
+    records = out["records"]
+    after = out["summary"]["after"]
+    old = out["summary"].get("before")
+
+    def times(side: str) -> Timing:
+        return Timing.of([r[side]["seconds"] for r in records])
+
+    def rate(s: dict) -> str:
+        return f"{s['success']}/{s['problems']} = {100 * s['success_rate']:.1f} %"
+
+    def statuses(s: dict) -> str:
+        return ", ".join(f"{k} {v}" for k, v in s["statuses"].items())
+
+    failures = [r["label"] for r in records if not r["after_verdict"]["success"]]
+    extra = {"failures": failures, "after": after, "before": old}
+    n = after["problems"]
+    rows = [
+        Row("8", f"design suite, {n} problems: success (optimal or not-attained, objective "
+            "<= reference + 1e-6 rel., constraints and simulation re-checked)",
+            f"code before issue 10 ({DESIGN_BEFORE})" if old else "-", None, None, ">= 99 %",
+            after["success_rate"] >= 0.99,
+            note=f"{rate(after)}" + (f"; before: {rate(old)}" if old else "")
+            + (f"; failed: {', '.join(failures)}" if failures else ""), extra=extra),
+        Row("8", "feasible problems reported infeasible or not-converged", "-", None, None,
+            "0", after["feasible_reported_infeasible_or_not_converged"] == 0,
+            note=f"{after['feasible_reported_infeasible_or_not_converged']}" + (
+                f"; before: {old['feasible_reported_infeasible_or_not_converged']}"
+                if old else "")),
+        Row("8", "infeasible problems reported feasible", "-", None, None, "0",
+            after["infeasible_reported_feasible"] == 0,
+            note=f"{after['infeasible_reported_feasible']}" + (
+                f"; before: {old['infeasible_reported_feasible']}" if old else "")),
+        Row("8", "time of design() per problem, no simulation check: median [min, max]",
+            "the code before issue 10, same problems" if old else "-", times("after"),
+            times("before") if old else None, "median <= 100 ms", after["median_s"] <= 0.1,
+            note=f"statuses {statuses(after)}" + (f"; before: {statuses(old)}" if old else "")),
+        Row("8", "time of design() per problem: 95th percentile", "-", None, None,
+            "<= 500 ms", after["p95_s"] <= 0.5,
+            note=f"{1e3 * after['p95_s']:.0f} ms" + (
+                f"; before: {1e3 * old['p95_s']:.0f} ms" if old else "")),
+    ]  # fmt: skip
+    return rows
 
 
 def _process_time(command: list[str], reps: int, env: dict | None = None) -> Timing:
@@ -480,6 +536,8 @@ def run_case(case: int, quick: bool) -> list[Row]:
         return case_design(quick)
     if case == 7:
         return case_startup(1 if quick else 5, include_audit=not quick)
+    if case == 8:
+        return case_design_suite(quick)
     raise ValueError(f"no benchmark case {case}; cases are {CASES}")
 
 

@@ -591,14 +591,24 @@ _WARM_OPTIONS = {
 }
 
 
-def _solver(problem: _Problem, warm: bool = False) -> Any:
+_PROBE_OPTIONS = {
+    # Conflict analysis asks of each relaxed request only whether it is feasible; most stay
+    # infeasible, which IPOPT detects sooner when told to expect it.
+    "ipopt.expect_infeasible_problem": "yes",
+    "ipopt.max_iter": 60,
+}
+_VARIANTS = {"cold": {}, "warm": _WARM_OPTIONS, "probe": _PROBE_OPTIONS}
+
+
+def _solver(problem: _Problem, variant: str = "cold") -> Any:
     """The ``nlpsol`` for the problem's structure, built once and cached.
 
     Parameters of the NLP (p): the objective weights and one scale per row, so bounds,
     targets, weights and the region (rows switched off with infinite bounds) change
-    without rebuilding. ``warm``: the variant for warm starts (continuation).
+    without rebuilding. ``variant``: 'cold' starts, 'warm' starts (continuation) or
+    'probe' (feasibility questions of the conflict analysis).
     """
-    key = (problem.structure(), warm)
+    key = (problem.structure(), variant)
     if key in _SOLVERS:
         return _SOLVERS[key]
     import casadi as ca
@@ -611,7 +621,7 @@ def _solver(problem: _Problem, warm: bool = False) -> Any:
     f = sum((_SIGN[t] * w[i] * qs[t] for i, t in enumerate(terms)), ca.SX(0))
     g = ca.vertcat(*[qs[r] * row_scale[i] for i, r in enumerate(rows)])
     p = ca.vertcat(w, row_scale)
-    options = {**_IPOPT_OPTIONS, **(_WARM_OPTIONS if warm else {})}
+    options = {**_IPOPT_OPTIONS, **_VARIANTS[variant]}
     solver = ca.nlpsol("vsw_design", "ipopt", {"x": x, "f": f, "g": g, "p": p}, options)
     _SOLVERS[key] = solver
     return solver
@@ -801,6 +811,7 @@ def _solve_from(
     x0: np.ndarray,
     distance: float = 1.0,
     warm: _Solve | None = None,
+    probe: bool = False,
 ) -> _Solve:
     terms, _rows, _ = problem.structure()
     lbx, ubx = problem.bounds(region, distance)
@@ -808,7 +819,7 @@ def _solve_from(
         empty = np.zeros(0)
         return _Solve(np.clip(x0, problem.lbx, problem.ubx), region, distance, math.inf,
                       "Empty_Region", 0, empty, empty, checked=True)  # fmt: skip
-    solver = _solver(problem, warm is not None)
+    solver = _solver(problem, "warm" if warm is not None else "probe" if probe else "cold")
     lbg, ubg, scales = _row_bounds(problem, region, distance)
     p = np.concatenate([[problem.weights[t] for t in terms], scales])
     start: dict[str, Any] = {"x0": np.clip(x0, lbx, ubx)}
@@ -888,13 +899,15 @@ def _better(a: _Solve, b: _Solve | None) -> bool:
     return b is None or a.objective < b.objective - 1e-12 * max(1.0, abs(b.objective))
 
 
-def _multistart(problem: _Problem, per_region: int) -> tuple[_Solve | None, list[_Solve], _Scan]:
+def _multistart(
+    problem: _Problem, per_region: int, scan: _Scan | None = None, probe: bool = False
+) -> tuple[_Solve | None, list[_Solve], _Scan]:
     """Best verified converged solve (or None), every solve, and the scan.
 
     Only a converged solve that beats the best so far is verified (a numpy evaluation
     costs about as much as a short solve).
     """
-    scan = _scan(problem)
+    scan = _scan(problem) if scan is None else scan
     solves: list[_Solve] = []
     best: _Solve | None = None
 
@@ -905,7 +918,9 @@ def _multistart(problem: _Problem, per_region: int) -> tuple[_Solve | None, list
             best = s
 
     for region, x0 in _seeds(problem, scan, per_region):
-        consider(_solve_from(problem, region, x0))
+        consider(_solve_from(problem, region, x0, probe=probe))
+        if probe and best is not None:
+            break
     # An optimum on the boundary between two regions may continue into the neighbour.
     if best is not None:
         tried = {s.region for s in solves}
@@ -1193,8 +1208,9 @@ def _conflicts(problem: _Problem, per_region: int) -> list[str]:
     conflicting = []
     for key in problem.user_constraints():
         relaxed = problem.without(key)
-        best, _, scan = _multistart(relaxed, per_region)
-        if best is not None or scan.feasible().any():
+        # A scanned point that satisfies everything settles it without a solve.
+        scan = _scan(relaxed)
+        if scan.feasible().any() or _multistart(relaxed, 1, scan, probe=True)[0] is not None:
             conflicting.append(key)
     return conflicting
 
