@@ -36,6 +36,7 @@ import numpy as np
 
 from generated import ile
 from generated.ile_params import PARAMETERS
+from vsw import limits
 from vsw.errors import ConvergenceError, VswInputError
 
 __all__ = [
@@ -45,6 +46,7 @@ __all__ = [
     "poincare_map",
     "poincare_step",
     "simulate",
+    "simulate_cost",
 ]
 
 #: Longest a single swing phase may take (dimensionless time). Away from the exact apex
@@ -285,6 +287,16 @@ def _integrate_phase(
     return _PhaseEnd(kinds[i_hit], float(t_ev), float(y_ev[0]), float(y_ev[1]), ts, ys)
 
 
+def simulate_cost(steps: int, record: bool = True) -> limits.Cost:
+    """Estimated run time and peak memory of :func:`simulate` (see :mod:`vsw.limits`).
+
+    Both grow linearly with the steps: every step keeps its q, period, length and four
+    events, and with ``record`` its trajectory samples.
+    """
+    per_step = limits.SIMULATE_BYTES_PER_RECORDED_STEP if record else limits.SIMULATE_BYTES_PER_STEP
+    return limits.Cost(steps * limits.SIMULATE_SECONDS_PER_STEP, steps * per_step)
+
+
 def simulate(
     beta: float,
     theta_II: float,
@@ -329,13 +341,15 @@ def simulate(
     Raises
     ------
     vsw.errors.VswInputError
-        Out-of-domain parameters, q0 or steps (one-line message).
+        Out-of-domain parameters, q0 or steps (one-line message), or more steps than
+        fit the time and memory limits of :mod:`vsw.limits` (see :func:`simulate_cost`).
     vsw.errors.ConvergenceError
         The integrator itself failed (not expected for valid input).
     """
     beta, theta_II, phi0 = _check_parameters(beta, theta_II, phi0)
     q0 = _check_q0(q0)
     steps = _check_steps(steps)
+    limits.check(f"simulating {steps} steps", simulate_cost(steps, record), "simulate fewer steps")
     # The new stance angle after heelstrike (eq. 11); the heelstrike itself is found by
     # the guard, and the post-impact angle is recomputed from it as theta_IV - phi0.
     th_I0 = float(ile.theta_I(beta, phi0))
