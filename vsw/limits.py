@@ -57,6 +57,8 @@ BASIN_SECONDS_PER_BLOCK_STEP = 150e-6
 SIMULATE_BYTES_PER_STEP = 1_500
 #: with the trajectory (record=True, what a plot needs): 9.4 kB measured
 SIMULATE_BYTES_PER_RECORDED_STEP = 12_000
+#: a run of any length (the integrator's working arrays): 0.1-0.15 MB measured
+SIMULATE_BYTES_BASE = 256 * 1024
 
 _SUFFIXES = {"": 1, "K": 1024, "M": 1024**2, "G": 1024**3, "T": 1024**4}
 
