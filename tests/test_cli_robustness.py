@@ -395,6 +395,17 @@ def test_long_q_rows_are_split_into_blocks(monkeypatch):
     assert sorted(calls) == [1, 2, 3, 4]  # 4 blocks, each reported once
 
 
+def test_basin_progress_reaches_the_end_in_order():
+    from vsw.basin import basin
+
+    calls = []
+    theta = np.radians([0.0, 5.0, 10.0])
+    basin(0.8, math.pi / 4, theta, n_q=40_001, progress=lambda d, t: calls.append((d, t)))
+    done = [d for d, _ in calls]
+    assert done == sorted(done) and len(set(t for _, t in calls)) == 1
+    assert calls[-1][0] == calls[-1][1] == 9 + 60  # 3 rows x 3 blocks, then 60 bisections
+
+
 # --- words and units ---------------------------------------------------------------------------
 
 

@@ -509,6 +509,8 @@ def _epilog() -> str:
 
 def build_parser() -> ArgumentParser:
     """The ``vsw`` parser with built-in and registered subcommands."""
+    from vsw.limits import SIMULATE_SECONDS_PER_STEP
+
     parser = ArgumentParser(
         prog="vsw",
         description="Virtual Slope Walking (instantaneous leg extension model):\n"
@@ -539,7 +541,8 @@ def build_parser() -> ArgumentParser:
         "--steps",
         type=int,
         required=True,
-        help="number of steps (about 8 ms each; limited by VSW_MAX_SECONDS)",
+        help=f"number of steps (about {SIMULATE_SECONDS_PER_STEP * 1e3:g} ms each; "
+        "limited by VSW_MAX_SECONDS and VSW_MAX_MEMORY)",
     )
     p.add_argument("--plot", metavar="FILE", help="save theta, omega and q plots (.png/.svg/.pdf)")
     p.set_defaults(func=_cmd_simulate)
