@@ -119,6 +119,14 @@ class ArgumentParser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:
         raise UsageError(self.prog, f"{message} (see '{self.prog} --help')")
 
+    def _get_values(self, action: argparse.Action, arg_strings: list[str]) -> Any:
+        # Python 3.11's argparse drops a "--" value, so "--beta=--" gives beta = [] (not
+        # a float, past the type check): refuse it as the missing value it has become.
+        value = super()._get_values(action, arg_strings)
+        if action.nargs is None and action.option_strings and value == []:
+            self.error(f"argument {'/'.join(action.option_strings)}: expected one argument")
+        return value
+
 
 def _version() -> str:
     """The installed distribution's version, else the package's own ``__version__``."""
