@@ -11,9 +11,12 @@ missing and repeated options and contradictory flags. Whatever the arguments:
   RuntimeWarnings included; pytest would otherwise swallow them).
 
 The commands run in process through ``vsw.cli.main`` with stdout and stderr captured. The
-work stays small and bounded: a fixed number of examples per subcommand, derandomized
-for CI, and small ``VSW_MAX_SECONDS`` / ``VSW_MAX_MEMORY`` so that huge grids and step
-counts are refused by the limits instead of run (which is itself a behaviour under test).
+work stays small and bounded: a fixed number of examples per subcommand and small
+``VSW_MAX_SECONDS`` / ``VSW_MAX_MEMORY``, so that huge grids and step counts are refused by
+the limits instead of run (which is itself a behaviour under test). ``derandomize=True``
+makes the examples the same from run to run of the same command (CI runs the whole
+suite); Hypothesis also draws constants from the project modules already imported, so a
+different selection of tests can see different examples.
 """
 
 from __future__ import annotations

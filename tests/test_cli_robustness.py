@@ -70,8 +70,8 @@ def test_closed_pipe_is_quiet_and_exits_141(argv):
 
 
 def test_closed_pipe_in_the_middle_of_a_long_output_is_quiet():
-    # 40000 lines of output, a reader that takes one line: as `vsw basin ... | head -1`.
-    argv = [*BASIN, "--theta-min", "-1", "--theta-max", "1", "--theta-step", "0.00005"]
+    # 10000 lines (0.5 MB) of output, a reader that takes one line: `vsw basin ... | head -1`.
+    argv = [*BASIN, "--theta-min", "-1", "--theta-max", "1", "--theta-step", "0.0002"]
     proc = spawn([*argv, "--n-q", "3"], stdout=subprocess.PIPE)
     first = proc.stdout.readline()
     proc.stdout.close()
