@@ -1,15 +1,74 @@
 """``python -m paper_check [--out DIR]``: write the audit report, JSON and figures.
 
 Exit status: 0 when every verdict matches ``paper_check/expected_verdicts.json``, 1 when
-any verdict changed (the differences are printed on stderr), 2 on a bad output path.
+any verdict changed (the differences are printed on stderr), 2 on a bad output path (one
+line on stderr, found before the audit runs: an empty name, a directory that cannot be
+created or written, an output file that is a directory or cannot be written).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+import tempfile
 import time
 from pathlib import Path
+
+REPORT_FILES = ("audit.md", "audit.json")
+"""What ``paper_check.report.write_report`` writes; the figures are ``FIGURES`` x formats."""
+
+
+def check_output_directory(out: str, figures: bool = True) -> str | None:
+    """Why the audit cannot be written into ``out``, or None when it can.
+
+    Creates the directory (with parents), writes and removes a temporary file in it, and
+    checks every file the audit will write: not a directory, and, where it exists,
+    openable for writing (it is opened without truncation and closed). Run before the
+    audit so that a bad ``--out`` fails in a moment, not after the whole audit.
+
+    Parameters
+    ----------
+    out : str
+        The ``--out`` argument.
+    figures : bool
+        Whether the figures will be written too.
+
+    Returns
+    -------
+    str or None
+        A one-line reason.
+    """
+    if not out.strip():
+        return "--out is empty: give a directory (default: reports)"
+    path = Path(out)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        return f"cannot create output directory {out!r}: {exc.strerror or exc}"
+    try:
+        with tempfile.TemporaryFile(dir=path):
+            pass
+    except OSError as exc:
+        return f"cannot write into output directory {out!r}: {exc.strerror or exc}"
+    names = list(REPORT_FILES)
+    if figures:
+        from paper_check.figures import FIGURES
+        from vsw.plots import SAVE_FORMATS
+
+        # Every format save_figure knows, not only those written today: a directory in
+        # the way of any of them is worth a message.
+        names += [f"{name}.{ext}" for name in FIGURES for ext in SAVE_FORMATS]
+    for name in names:
+        target = path / name
+        if target.is_dir():
+            return f"cannot write {str(target)!r}: it is a directory"
+        if target.exists():
+            try:
+                os.close(os.open(target, os.O_WRONLY | os.O_APPEND | os.O_NONBLOCK))
+            except OSError as exc:
+                return f"cannot write {str(target)!r}: {exc.strerror or exc}"
+    return None
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -34,23 +93,27 @@ def main(argv: list[str] | None = None) -> int:
         "--no-figures", action="store_true", help="skip the figures (faster; for tests)"
     )
     args = parser.parse_args(argv)
-    out = Path(args.out)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        print(f"paper_check: cannot create output directory {str(out)!r}: {exc}", file=sys.stderr)
+    problem = check_output_directory(args.out, figures=not args.no_figures)
+    if problem is not None:
+        print(f"paper_check: error: {problem}", file=sys.stderr)
         return 2
+    out = Path(args.out)
 
     from paper_check.audit import expected_verdicts, run_audit, verdict_changes
     from paper_check.report import write_report
 
     start = time.perf_counter()
     audit = run_audit()
-    written = write_report(audit, out)
-    if not args.no_figures:
-        from paper_check.figures import write_figures
+    try:
+        written = write_report(audit, out)
+        if not args.no_figures:
+            from paper_check.figures import write_figures
 
-        written += write_figures(out, audit.figure_data)
+            written += write_figures(out, audit.figure_data)
+    except OSError as exc:  # e.g. the disk filled up during the audit
+        where = f" {exc.filename!r}" if exc.filename else ""
+        print(f"paper_check: error: cannot write{where}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
     elapsed = time.perf_counter() - start
     for path in written:
         print(path)

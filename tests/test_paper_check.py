@@ -172,3 +172,45 @@ def test_readme_links_into_the_report_resolve(two_runs: tuple[Path, Path]) -> No
     table = md[start : md.index("\n\n## Verdicts", start)]
     for row in table.replace("](#", "](reports/audit.md#").splitlines():
         assert row in readme, row
+
+
+def _bad_out_cases(tmp_path: Path) -> list[tuple[list[str], str]]:
+    (tmp_path / "md" / "audit.md").mkdir(parents=True)
+    (tmp_path / "fig" / "fig9.png").mkdir(parents=True)
+    (tmp_path / "file").write_text("not a directory")
+    return [
+        (["--out", ""], "--out is empty"),
+        (["--out", "/proc/vsw-audit"], "cannot create output directory"),
+        # /sys/kernel is read-only even for root (CI runs as root: chmod would not do).
+        (["--out", "/sys/kernel"], "cannot write into output directory"),
+        (["--out", str(tmp_path / "file")], "cannot create output directory"),
+        (["--out", str(tmp_path / "md"), "--no-figures"], "audit.md': it is a directory"),
+        (["--out", str(tmp_path / "fig")], "fig9.png': it is a directory"),
+    ]
+
+
+def test_bad_output_directory_fails_before_the_audit(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture
+) -> None:
+    """Exit 2 and one line, found before the audit runs (run_audit must not be called)."""
+    import paper_check.__main__ as cli
+    import paper_check.audit as audit
+
+    def no_audit():
+        raise AssertionError("the audit ran before the output directory was checked")
+
+    monkeypatch.setattr(audit, "run_audit", no_audit)
+    for argv, words in _bad_out_cases(tmp_path):
+        assert cli.main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and words in err, (argv, err)
+
+
+def test_output_directory_check_accepts_a_fresh_or_existing_directory(tmp_path: Path) -> None:
+    from paper_check.__main__ import check_output_directory
+
+    assert check_output_directory(str(tmp_path / "new" / "deeper")) is None
+    assert (tmp_path / "new" / "deeper").is_dir()
+    (tmp_path / "new" / "deeper" / "audit.md").write_text("old report")
+    assert check_output_directory(str(tmp_path / "new" / "deeper")) is None
+    assert (tmp_path / "new" / "deeper" / "audit.md").read_text() == "old report"

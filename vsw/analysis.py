@@ -20,6 +20,8 @@ from vsw.vectorize import CHUNK, default_threads, run_blocks
 
 __all__ = [
     "FIELDS",
+    "MARGIN_UNITS",
+    "SI_FIELDS",
     "Analysis",
     "ConditionResult",
     "analyze",
@@ -45,8 +47,32 @@ FIELDS = (
 )
 """Array outputs of :func:`analyze` (each has the broadcast shape of the parameters)."""
 
-SI_FIELDS = ("speed_m_s", "speed_leg_s", "step_period_s", "step_length_m")
-"""Extra outputs when a :class:`~vsw.params.RobotScale` is given."""
+SI_FIELDS = (
+    "speed_m_s",
+    "speed_leg_s",
+    "step_period_s",
+    "step_length_m",
+    "energy_added_J",
+    "energy_lost_J",
+)
+"""Extra outputs when a :class:`~vsw.params.RobotScale` is given: the SI values, each under
+its own key with the unit in its name. The keys of :data:`FIELDS` never change unit."""
+
+MARGIN_UNITS = {
+    "q_positive": "g/r_e",
+    "cos_ratio": "",
+    "apex": "g/r_e",
+    "theta_I_negative": "",
+    "phi0_below_right_angle": "rad",
+    "extension_before_symmetric_contact": "rad",
+    "extension_before_heelstrike": "rad",
+    "extension_reached": "rad",
+    "stance_contact": "m g",
+}
+"""Unit of each condition margin of ``ile.CONDITIONS`` ("" for dimensionless ratios), from
+the margins' definitions in ``derive/models/ile.py``: q - bound in g/r_e, angle differences
+in rad, beta - cos(phi0) and the cosine ratio of (13) without unit, the normal force in m g.
+Every condition needs an entry (the test suite checks them against independent values)."""
 
 _COMPILED_MIN_SIZE = 100_000
 
@@ -64,6 +90,8 @@ class ConditionResult:
     value : float or numpy.ndarray
         The margin, shape of the parameters; positive when the condition holds.
     holds : bool or numpy.ndarray
+    unit : str
+        Unit of ``value`` (:data:`MARGIN_UNITS`; angles in rad).
     """
 
     name: str
@@ -74,13 +102,15 @@ class ConditionResult:
     meaning: str
     value: Any
     holds: Any
+    unit: str = ""
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready record ``{name, equation, value, holds, status, physical, meaning}``."""
+        """JSON-ready record ``{name, equation, value, unit, holds, status, physical, meaning}``."""
         return {
             "name": self.name,
             "equation": self.equation,
             "value": _jsonable(self.value),
+            "unit": self.unit,
             "holds": _jsonable(self.holds),
             "status": self.status,
             "physical": self.physical,
@@ -93,7 +123,8 @@ class Analysis:
     """Results of :func:`analyze`; every numeric field has the broadcast parameter shape.
 
     Dimensionless unless noted: lengths in r_e, time in sqrt(r_e/g), q in g/r_e, energies in
-    m g r_e (in J when ``scale`` is given). Scalar inputs give numpy scalars.
+    m g r_e, with or without ``scale``; the SI values are separate fields with the unit in
+    their name. Scalar inputs give numpy scalars.
 
     Attributes
     ----------
@@ -112,7 +143,8 @@ class Analysis:
     conditions : tuple of ConditionResult in the order of ``ile.CONDITIONS``.
     walks : every physical condition holds.
     scale : RobotScale or None
-    speed_m_s, speed_leg_s, step_period_s, step_length_m : SI values (None without scale).
+    speed_m_s, speed_leg_s, step_period_s, step_length_m, energy_added_J, energy_lost_J :
+        SI values (None without scale).
     """
 
     beta: Any
@@ -138,6 +170,8 @@ class Analysis:
     speed_leg_s: Any = None
     step_period_s: Any = None
     step_length_m: Any = None
+    energy_added_J: Any = None
+    energy_lost_J: Any = None
 
     def condition(self, name: str) -> ConditionResult:
         """The condition record called ``name`` (KeyError if there is none)."""
@@ -153,7 +187,9 @@ class Analysis:
         -------
         dict
             Keys of :data:`FIELDS` plus ``beta``, ``theta_II``, ``phi0``, ``conditions`` (list
-            of records), ``energy_unit``, and with a scale :data:`SI_FIELDS` and ``scale``.
+            of records), ``energy_unit`` (the unit of ``energy_added`` and ``energy_lost``:
+            always ``"m g r_e"``), and with a scale :data:`SI_FIELDS` and ``scale``. A key
+            never changes unit with the scale: SI values have keys of their own.
             Array fields become (nested) lists.
         """
         out: dict[str, Any] = {
@@ -164,7 +200,7 @@ class Analysis:
         for name in FIELDS:
             out[name] = _jsonable(getattr(self, name))
         out["conditions"] = [c.to_dict() for c in self.conditions]
-        out["energy_unit"] = "J" if self.scale is not None else "m g r_e"
+        out["energy_unit"] = "m g r_e"
         if self.scale is not None:
             for name in SI_FIELDS:
                 out[name] = _jsonable(getattr(self, name))
@@ -201,7 +237,6 @@ def _compute_chunk(
     beta: np.ndarray,
     theta_II: np.ndarray,
     phi0: np.ndarray,
-    energy_scale: float,
     timing: bool,
     compiled: bool = False,
 ) -> dict[str, np.ndarray]:
@@ -238,8 +273,6 @@ def _compute_chunk(
         out["q_liftoff_max"] = ile.q_liftoff_max(beta, theta_II, phi0)
         out["energy_added"] = ile.energy_complement(beta, theta_II, phi0, q_fixed, 1.0, 1.0, 1.0)
         out["energy_lost"] = ile.energy_dissipated(beta, theta_II, phi0, q_fixed, 1.0, 1.0, 1.0)
-        out["energy_added"] = out["energy_added"] * energy_scale
-        out["energy_lost"] = out["energy_lost"] * energy_scale
         step_period = np.full(beta.shape, np.nan)
         if timing and walks.any():
             # The elliptic integrals are the most expensive part; evaluate them only where
@@ -269,7 +302,7 @@ def analyze(
     beta, theta_II, phi0 : float or array_like
         Model parameters (angles in radians), broadcastable to a common shape ``S``.
     scale : RobotScale, optional
-        Physical scale; adds the SI fields and gives energies in J.
+        Physical scale; adds the SI fields (:data:`SI_FIELDS`).
     timing : bool
         Compute step period and speed (the elliptic integrals are about half the cost);
         with False they are NaN.
@@ -285,10 +318,10 @@ def analyze(
         Invalid parameters (see :func:`vsw.params.validate`).
     """
     beta_a, theta_a, phi0_a = validate(beta, theta_II, phi0)
+    threads = default_threads()  # checks VSW_THREADS for every size of input
     shape = beta_a.shape
     flat = [np.ascontiguousarray(a).reshape(-1) for a in (beta_a, theta_a, phi0_a)]
     n = flat[0].size
-    energy_scale = 1.0 if scale is None else scale.mass * scale.gravity * scale.leg_length
 
     # Outputs are preallocated and filled chunk by chunk: concatenating ~30 arrays of 10^6
     # elements afterwards costs as much as a third of the whole evaluation.
@@ -298,7 +331,7 @@ def analyze(
 
     def block(start: int) -> dict[str, np.ndarray]:
         part = (a[start : start + CHUNK] for a in flat)
-        return _compute_chunk(*part, energy_scale, timing, compiled)
+        return _compute_chunk(*part, timing, compiled)
 
     first = block(0)
     merged = {key: np.empty(n, dtype=values.dtype) for key, values in first.items()}
@@ -311,7 +344,7 @@ def analyze(
     starts = range(CHUNK, n, CHUNK)
     if len(starts) > 0:
         # numpy releases the GIL inside operations: blocks run in parallel (vsw.vectorize).
-        run_blocks(lambda start: store(start, block(start)), starts, default_threads())
+        run_blocks(lambda start: store(start, block(start)), starts, threads)
     merged = {key: values.reshape(shape) for key, values in merged.items()}
 
     def shaped(a: np.ndarray) -> Any:
@@ -327,12 +360,14 @@ def analyze(
             meaning=meaning,
             value=shaped(merged["margin:" + name]),
             holds=shaped(merged["holds:" + name]),
+            unit=MARGIN_UNITS[name],
         )
         for name, equation, strict, status, physical, meaning in ile.CONDITIONS
     )
     si: dict[str, Any] = {}
     if scale is not None:
         time_unit = scale.time_unit_s
+        energy_unit_J = scale.mass * scale.gravity * scale.leg_length  # m g r_e in J
         with np.errstate(all="ignore"):
             step_period_s = merged["step_period"] * time_unit
             step_length_m = merged["step_length"] * scale.leg_length
@@ -342,6 +377,8 @@ def analyze(
                 "step_length_m": shaped(step_length_m),
                 "speed_m_s": shaped(speed_m_s),
                 "speed_leg_s": shaped(speed_m_s / scale.leg_length),
+                "energy_added_J": shaped(merged["energy_added"] * energy_unit_J),
+                "energy_lost_J": shaped(merged["energy_lost"] * energy_unit_J),
             }
     return Analysis(
         beta=shaped(beta_a.astype(float)),

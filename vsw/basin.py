@@ -11,6 +11,7 @@ time-domain simulation.
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -18,12 +19,21 @@ from typing import Any
 import numpy as np
 
 from generated import ile
+from vsw import limits
 from vsw.analysis import _jsonable, analyze
 from vsw.errors import VswInputError
 from vsw.params import check_parameter
 from vsw.vectorize import CHUNK, default_threads, run_blocks
 
-__all__ = ["Basin", "EdgeCheck", "basin", "check_edges_by_simulation", "converges"]
+__all__ = [
+    "Basin",
+    "EdgeCheck",
+    "basin",
+    "basin_cost",
+    "check_edges_by_simulation",
+    "converges",
+    "edge_check_cost",
+]
 
 Progress = Callable[[int, int], None]
 
@@ -32,6 +42,22 @@ Progress = Callable[[int, int], None]
 _STEPWISE_CONDITIONS = frozenset({"q_positive", "apex", "stance_contact"})
 
 DEFAULT_THETA_II_DEG = np.linspace(-30.0, 40.0, 141)
+
+_BISECTIONS = 60  # bisection steps per basin edge: 2^-60 of a grid spacing, below round-off
+
+
+_FIELD_NOTES = {
+    "beta": "length shorten ratio r_s/r_e",
+    "phi0": "rad: inter-leg angle at heelstrike",
+    "theta_II": "rad: leg extension angle of each row",
+    "q_min": "g/r_e: lower basin edge; the basin is q_min < q0 <= q_max, q = omega_I^2",
+    "q_max": "g/r_e: upper basin edge (the stance foot lifts off above it)",
+    "q_fixed": "g/r_e: fixed point of the stride map, eq. (10)",
+    "omega_min": "sqrt(g/r_e): sqrt(q_min)",
+    "omega_max": "sqrt(g/r_e): sqrt(q_max)",
+    "n_steps": "stride-map steps each initial q is walked before it counts as converged: "
+    "until eigenvalue^n_steps * (1.5/beta) < 1e-12",
+}
 
 
 @dataclass(frozen=True)
@@ -48,7 +74,8 @@ class Basin:
     q_fixed : numpy.ndarray, shape (n,)
         Fixed point (NaN where no gait exists).
     n_steps : int
-        Map iterations used per test.
+        Stride-map iterations each initial q is walked before it counts as converged:
+        enough for eigenvalue^n_steps x (1.5 / beta) < 1e-12 (at most ``max_steps``).
     """
 
     beta: float
@@ -70,7 +97,10 @@ class Basin:
         return np.sqrt(self.q_max)
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON contract of ``vsw basin --json`` (equal-length lists, None for NaN)."""
+        """JSON contract of ``vsw basin --json`` (equal-length lists, None for NaN).
+
+        ``fields`` maps every other key to its unit and meaning (``n_steps`` included).
+        """
         return {
             "beta": self.beta,
             "phi0": self.phi0,
@@ -81,15 +111,31 @@ class Basin:
             "omega_min": _jsonable(self.omega_min),
             "omega_max": _jsonable(self.omega_max),
             "n_steps": self.n_steps,
+            "fields": dict(_FIELD_NOTES),
         }
 
 
 def _steps_to_converge(eigenvalue: float, spread: float, tol: float, cap: int) -> int:
     """Iterations after which lambda^n * spread < tol for the linear map (at least 2)."""
-    if not 0 < eigenvalue < 1:
+    if not (0 < eigenvalue < 1 and math.isfinite(spread)):
         return cap
     n = math.ceil(math.log(tol / max(spread, tol)) / math.log(eigenvalue)) + 1
     return int(min(max(n, 2), cap))
+
+
+def _tiling(shape: tuple[int, int]) -> tuple[int, int]:
+    """Rows and columns of the blocks of a (theta_II, q) grid: at most CHUNK elements each.
+
+    Whole rows while a row fits in a block; longer rows are split into columns as well, so
+    the temporaries of a block stay in cache and bounded, however long the q grid is.
+    """
+    cols = max(1, min(shape[1], CHUNK))
+    return max(1, CHUNK // cols), cols
+
+
+def _tile_count(shape: tuple[int, int]) -> int:
+    rows, cols = _tiling(shape)
+    return -(-shape[0] // rows) * -(-shape[1] // cols)
 
 
 def converges(
@@ -101,6 +147,7 @@ def converges(
     q_fixed: np.ndarray,
     gait_exists: np.ndarray,
     tol: float = 1e-8,
+    progress: Progress | None = None,
 ) -> np.ndarray:
     """Whether walking from q0 survives ``n_steps`` steps and ends at the fixed point.
 
@@ -114,6 +161,8 @@ def converges(
     n_steps : int
     tol : float
         Relative distance to q_fixed accepted at the end.
+    progress : callable, optional
+        ``progress(done, total)`` in blocks after each block (from one thread at a time).
 
     Returns
     -------
@@ -124,11 +173,13 @@ def converges(
     shape = np.broadcast_shapes(
         q.shape, np.shape(theta_II), np.shape(q_fixed), np.shape(gait_exists)
     )
-    if len(shape) != 2 or shape[0] < 2 or q.size <= CHUNK:
-        return _converges_block(beta, theta_II, phi0, q, n_steps, q_fixed, gait_exists, tol)
-    # Rows (theta_II values) in blocks of about CHUNK elements, every step of a block while
-    # it is in cache, blocks on the shared thread pool: numpy releases the GIL (case 5 of
-    # benchmarks/run.py).
+    if len(shape) != 2 or math.prod(shape) <= CHUNK:
+        out = _converges_block(beta, theta_II, phi0, q, n_steps, q_fixed, gait_exists, tol)
+        if progress is not None:
+            progress(1, 1)
+        return out
+    # Blocks of about CHUNK elements, every step of a block while it is in cache, blocks
+    # on the shared thread pool: numpy releases the GIL (case 5 of benchmarks/run.py).
     # Broadcast along rows only: a (n, 1) column stays one column, so per-theta_II terms
     # are computed once per row, not once per q.
     full = []
@@ -136,24 +187,34 @@ def converges(
         a = np.asarray(a)
         a = a.reshape((1,) * (2 - a.ndim) + a.shape)
         full.append(np.broadcast_to(a, (shape[0], a.shape[1])))
-    rows = max(1, CHUNK // shape[1])
+    rows, cols = _tiling(shape)
+    tiles = [(r, c) for r in range(0, shape[0], rows) for c in range(0, shape[1], cols)]
     out = np.empty(shape, dtype=bool)
+    lock = threading.Lock()
+    done = 0
 
-    def block(start: int) -> None:
-        part = [a[start : start + rows] for a in full]
-        out[start : start + rows] = _converges_block(
+    def block(i: int) -> None:
+        nonlocal done
+        r, c = tiles[i]
+        part = [a[r : r + rows, c : c + cols] if a.shape[1] > 1 else a[r : r + rows] for a in full]
+        out[r : r + rows, c : c + cols] = _converges_block(
             beta, part[0], phi0, part[1], n_steps, part[2], part[3], tol
         )
+        if progress is not None:
+            with lock:
+                done += 1
+                progress(done, len(tiles))
 
-    run_blocks(block, range(0, shape[0], rows), default_threads())
+    run_blocks(block, range(len(tiles)), default_threads())
     return out
 
 
 def _converges_block(beta, theta_II, phi0, q, n_steps, q_fixed, gait_exists, tol) -> np.ndarray:
     alive = np.broadcast_to(gait_exists, np.broadcast_shapes(q.shape, np.shape(gait_exists)))
     alive = alive.copy()
-    q_apex = ile.q_apex_min(beta, theta_II, phi0)
+    # NaN and overflow are expected where no gait exists (they fail the tests below).
     with np.errstate(all="ignore"):
+        q_apex = ile.q_apex_min(beta, theta_II, phi0)
         for _ in range(n_steps):
             # Every step: over the apex (eq. 14 exact) and foot on the ground all step.
             alive &= q > q_apex
@@ -161,6 +222,62 @@ def _converges_block(beta, theta_II, phi0, q, n_steps, q_fixed, gait_exists, tol
             q = np.where(alive, ile.stride_map(beta, theta_II, phi0, q), np.nan)
         alive &= np.abs(q - q_fixed) <= tol * (1 + np.abs(q_fixed))
     return alive
+
+
+def _map_steps(beta: float, phi0: float, max_steps: int) -> int:
+    """Map iterations per test of :func:`basin`: until lambda^n (1.5/beta) < 1e-12."""
+    return _steps_to_converge(float(ile.eigenvalue(beta, phi0)), 1.5 / beta, 1e-12, max_steps)
+
+
+def basin_cost(
+    beta: float,
+    phi0: float,
+    n_theta: int,
+    n_q: int,
+    *,
+    max_steps: int = 5000,
+    refine: bool = True,
+    threads: int | None = None,
+) -> limits.Cost:
+    """Estimated run time and peak memory of :func:`basin` (see :mod:`vsw.limits`).
+
+    From the arrays it allocates: the boolean grid result and the copy that finding each
+    row's last basin point makes (2 bytes a grid point), the q grid (8 bytes a q), the
+    temporaries of the blocks running at once (about 90 bytes an element, measured with
+    tracemalloc on 10^6-element blocks), and per theta_II the analysis, the bisection
+    brackets and the output (below 1 kB). The time: ``n_steps`` map steps over every grid
+    point and over every row of each of the 2 x 60 bisection tests.
+
+    Parameters
+    ----------
+    beta, phi0 : float
+        Validated parameters (rad).
+    n_theta, n_q : int
+        Grid size.
+    max_steps, refine : as for :func:`basin`
+    threads : int, optional
+        Default :func:`vsw.vectorize.default_threads`.
+
+    Returns
+    -------
+    vsw.limits.Cost
+    """
+    threads = default_threads() if threads is None else threads
+    n_steps = _map_steps(beta, phi0, max_steps)
+    shape = (n_theta, max(n_q - 1, 0))
+    cells = shape[0] * shape[1]
+    if cells <= CHUNK:
+        blocks, block_size = 1, cells
+    else:
+        blocks, block_size = _tile_count(shape), math.prod(_tiling(shape))
+    parallel = max(1, min(threads, blocks))
+    per_block = limits.BASIN_SECONDS_PER_BLOCK_STEP
+    per_element = limits.BASIN_SECONDS_PER_ELEMENT_STEP
+    seconds = n_steps * (blocks * per_block + cells * per_element) / parallel
+    if refine:  # 2 tests per bisection step, each one block over the rows
+        seconds += 2 * _BISECTIONS * n_steps * (per_block + n_theta * per_element)
+    nbytes = 2 * cells + 8 * n_q + parallel * block_size * 90 + 1000 * n_theta
+    return limits.Cost(seconds, nbytes)
 
 
 def basin(
@@ -171,6 +288,7 @@ def basin(
     n_q: int = 2001,
     refine: bool = True,
     max_steps: int = 5000,
+    progress: Progress | None = None,
 ) -> Basin:
     """Basin of attraction of the fixed point for each theta_II of a grid.
 
@@ -188,12 +306,20 @@ def basin(
         Bisect each edge between its grid neighbours to full precision.
     max_steps : int
         Cap on map iterations per test.
+    progress : callable, optional
+        ``progress(done, total)`` after each block of the grid and each bisection step.
 
     Returns
     -------
     Basin
         NaN edges where no gait exists (some physical condition independent of q fails, or
         no grid q converges).
+
+    Raises
+    ------
+    VswInputError
+        Invalid parameters or grid, or a grid whose estimated time or memory exceeds the
+        limits of :mod:`vsw.limits` (see :func:`basin_cost`).
     """
     beta = float(check_parameter("beta", beta))
     phi0 = float(check_parameter("phi0", phi0))
@@ -201,8 +327,13 @@ def basin(
     theta_II = check_parameter("theta_II", np.atleast_1d(theta_II)).astype(float)
     if theta_II.ndim != 1:
         raise VswInputError(f"theta_II_grid must be one-dimensional, got shape {theta_II.shape}")
-    if n_q < 3:
-        raise VswInputError(f"n_q = {n_q} must be at least 3 grid points")
+    if isinstance(n_q, bool) or not isinstance(n_q, (int, np.integer)) or n_q < 3:
+        raise VswInputError(f"n_q = {n_q!r} must be an integer of at least 3 grid points")
+    limits.check(
+        f"a basin of {theta_II.size} theta_II x {n_q} q values",
+        basin_cost(beta, phi0, theta_II.size, n_q, max_steps=max_steps, refine=refine),
+        "use fewer theta_II or q values",
+    )
 
     analysis = analyze(beta, theta_II, phi0, timing=False)
     gait_exists = np.ones(theta_II.shape, dtype=bool)
@@ -212,22 +343,31 @@ def basin(
     q_fixed = np.where(gait_exists, analysis.q_fixed, np.nan)
 
     q_top = 1.5 / beta
-    q_grid = np.linspace(0.0, q_top, n_q)[1:]
-    n_steps = _steps_to_converge(float(ile.eigenvalue(beta, phi0)), q_top, 1e-12, max_steps)
+    with np.errstate(all="ignore"):  # beta below 1e-308: q_top = inf, a grid of NaN
+        q_grid = np.linspace(0.0, q_top, n_q)[1:]
+    n_steps = _map_steps(beta, phi0, max_steps)
+    grid_blocks = _tile_count((theta_II.size, q_grid.size))
+    total = grid_blocks + (_BISECTIONS if refine else 0)
 
-    def test(q0: np.ndarray, rows: Any = slice(None)) -> np.ndarray:
+    def grid_progress(done: int, _blocks: int) -> None:
+        if progress is not None:
+            progress(done * grid_blocks // _blocks, total)
+
+    def test(q0: np.ndarray, rows: Any = slice(None), report: Progress | None = None):
         th = theta_II[rows]
         qf = q_fixed[rows]
         ok = gait_exists[rows]
         if q0.ndim == 2:
             th, qf, ok = th[:, None], qf[:, None], ok[:, None]
-        return converges(beta, th, phi0, q0, n_steps, qf, ok)
+        return converges(beta, th, phi0, q0, n_steps, qf, ok, progress=report)
 
     q0 = np.broadcast_to(q_grid, (theta_II.size, q_grid.size))
-    inside = test(q0)
+    inside = test(q0, report=grid_progress)
     any_inside = inside.any(axis=1)
     first = np.argmax(inside, axis=1)
     last = q_grid.size - 1 - np.argmax(inside[:, ::-1], axis=1)
+    if progress is not None and not (refine and any_inside.any()):
+        progress(total, total)
     q_min = np.where(any_inside, q_grid[first], np.nan)
     q_max = np.where(any_inside, q_grid[last], np.nan)
     if refine and any_inside.any():
@@ -240,7 +380,7 @@ def basin(
         high_fail = np.where(
             last[rows] < q_grid.size - 1, q_grid[np.minimum(last[rows] + 1, q_grid.size - 1)], q_top
         )
-        for _ in range(60):
+        for i in range(_BISECTIONS):
             mid = 0.5 * (low_fail + low_ok)
             good = test(mid, rows)
             low_ok = np.where(good, mid, low_ok)
@@ -249,6 +389,8 @@ def basin(
             good = test(mid, rows)
             high_ok = np.where(good, mid, high_ok)
             high_fail = np.where(good, high_fail, mid)
+            if progress is not None:
+                progress(grid_blocks + i + 1, total)
         q_min[rows] = low_ok
         q_max[rows] = high_ok
     return Basin(
@@ -290,6 +432,25 @@ class EdgeCheck:
     ok: bool
 
 
+def _edge_check_steps(beta: float, phi0: float) -> int:
+    """Simulated steps of an inside edge check: until lambda^n < 1e-9 (at most 200)."""
+    return _steps_to_converge(float(ile.eigenvalue(beta, phi0)), 1.0, 1e-9, 200)
+
+
+def edge_check_cost(
+    beta: float, phi0: float, n_samples: int, steps: int | None = None
+) -> limits.Cost:
+    """Estimated time and memory of :func:`check_edges_by_simulation` on ``n_samples`` rows.
+
+    Each row simulates both edges from inside for ``steps`` steps (default as there) and
+    from outside for 2 steps (see :mod:`vsw.limits` for the cost of a step).
+    """
+    from vsw.simulate import simulate_cost
+
+    steps = _edge_check_steps(beta, phi0) if steps is None else steps
+    return simulate_cost(n_samples * (2 * steps + 4), record=False)
+
+
 def check_edges_by_simulation(
     result: Basin,
     n_samples: int = 5,
@@ -323,10 +484,16 @@ def check_edges_by_simulation(
     rows = np.flatnonzero(np.isfinite(result.q_min) & np.isfinite(result.q_max))
     if rows.size == 0:
         return []
-    picks = rows[np.unique(np.linspace(0, rows.size - 1, max(n_samples, 1)).round().astype(int))]
-    eigenvalue = float(ile.eigenvalue(result.beta, result.phi0))
     if steps is None:
-        steps = _steps_to_converge(eigenvalue, 1.0, 1e-9, 200)
+        steps = _edge_check_steps(result.beta, result.phi0)
+    # More samples than rows with a basin pick every row once: the plan is the same.
+    n_picks = min(max(n_samples, 1), rows.size)
+    limits.check(
+        f"{n_picks} edge checks by simulation",
+        edge_check_cost(result.beta, result.phi0, n_picks, steps),
+        "check fewer edges",
+    )
+    picks = rows[np.unique(np.linspace(0, rows.size - 1, n_picks).round().astype(int))]
     plan: list[tuple[int, str, str, float, str]] = []
     for i in picks:
         width = result.q_max[i] - result.q_min[i]

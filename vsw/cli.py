@@ -1,17 +1,36 @@
 """The ``vsw`` command line (also ``python -m vsw``).
 
 Subcommands: ``analyze``, ``simulate``, ``basin``, plus any module that registers itself
-(see :func:`build_parser`). Angles on the command line are in degrees; JSON output uses
-radians and the dimensionless units of the analysis.
+(``design``; see :func:`build_parser`). Angles on the command line are in degrees; JSON
+output uses radians and the dimensionless units of the analysis, with SI values (given a
+robot scale) under keys of their own (``speed_m_s``, ``energy_added_J``, ...).
 
-Exit status: 0 success, 2 bad input of any kind (one line on stderr, never a traceback),
-3 a solver did not converge or a design request is infeasible.
+Exit status (:data:`EXIT_STATUS`, also in ``vsw --help``):
+
+* 0 success;
+* 2 bad input of any kind, one line on stderr and never a traceback: invalid arguments
+  or ``VSW_*`` settings, work beyond the limits of :mod:`vsw.limits`, a plot file or
+  standard output that cannot be written;
+* 3 a solver did not converge or a design request is infeasible;
+* 141 (128 + SIGPIPE) standard output was closed by its reader, as in
+  ``vsw basin ... | head``: nothing more is printed, no error message, the status a
+  shell reports for a program ended by SIGPIPE (what ``set -o pipefail`` sees from
+  ``yes | head`` too);
+* 130 interrupted (Ctrl-C).
+
+Standard output failures are handled once, in :func:`main`, for every subcommand: while
+a command runs, ``sys.stdout`` is a thin wrapper that remembers the first write error,
+and :func:`main` flushes it before returning, so a closed pipe or a full disk is seen
+here and not in the interpreter's final flush; afterwards the file descriptor is pointed
+at ``os.devnull`` so that flush at exit stays quiet (the recipe of Python's ``signal``
+documentation, "Note on SIGPIPE").
 
 Registering a subcommand from another module: define ``register_cli(subparsers)`` that
 calls ``subparsers.add_parser(name, help=...)`` (the parser class turns argparse errors
-into one-line exit-2 errors), adds its arguments and calls
-``parser.set_defaults(func=handler)`` where ``handler(args) -> int`` returns the exit
-status and raises :class:`vsw.errors.VswInputError` for bad input.
+into one-line exit-2 errors and shows defaults in ``--help``), adds its arguments and
+calls ``parser.set_defaults(func=handler)`` where ``handler(args) -> int`` returns the
+exit status, writes its output to ``sys.stdout`` and raises
+:class:`vsw.errors.VswInputError` for bad input.
 """
 
 from __future__ import annotations
@@ -19,17 +38,43 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 from collections.abc import Sequence
 from typing import Any, NoReturn, TextIO
 
 from vsw.errors import ConvergenceError, InfeasibleError, VswInputError
 
-__all__ = ["ArgumentParser", "UsageError", "build_parser", "main"]
+__all__ = ["EXIT_STATUS", "ArgumentParser", "UsageError", "build_parser", "main"]
 
 EXIT_OK = 0
 EXIT_INPUT = 2
 EXIT_SOLVER = 3
+EXIT_INTERRUPTED = 130
+EXIT_CLOSED_PIPE = 141  # 128 + SIGPIPE (13): what a shell reports for a broken pipe
+
+EXIT_STATUS = {
+    EXIT_OK: "success",
+    EXIT_INPUT: "bad input (one line on stderr): arguments, VSW_* settings, work beyond "
+    "the time or memory limit, a plot file or standard output that cannot be written",
+    EXIT_SOLVER: "a solver did not converge, or a design request is infeasible",
+    EXIT_INTERRUPTED: "interrupted (Ctrl-C)",
+    EXIT_CLOSED_PIPE: "standard output closed by its reader (e.g. '| head'): quiet, "
+    "as a program ended by SIGPIPE",
+}
+"""Every exit status of ``vsw`` and its meaning."""
+
+_ENVIRONMENT = (
+    ("VSW_THREADS", "worker threads for large evaluations, 1-256 (default: the usable cores)"),
+    ("VSW_MAX_SECONDS", "refuse work estimated to take longer, in s (default 3600; inf: none)"),
+    (
+        "VSW_MAX_MEMORY",
+        "refuse work estimated to need more memory, e.g. 8G (default: 80% of the "
+        "available memory; inf: none)",
+    ),
+    ("VSW_KERNELS", "0: use the generated numpy code instead of the compiled C kernels"),
+    ("VSW_CACHE_DIR", "where compiled kernels are cached (default ~/.cache/vsw)"),
+)
 
 _OPTIONAL_COMMAND_MODULES = ("design",)  # modules of vsw that may define register_cli
 
@@ -42,11 +87,103 @@ class UsageError(VswInputError):
         self.prog = prog
 
 
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Shows ``(default: X)`` after an option's help where there is a default to show.
+
+    Options without a default (None) and flags (False) are left as they are, so help
+    never reads ``(default: None)``.
+    """
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        if action.default is None or isinstance(action.default, bool) or action.required:
+            return action.help
+        return super()._get_help_string(action)
+
+
+class _TopHelpFormatter(argparse.RawDescriptionHelpFormatter, HelpFormatter):
+    """The ``vsw`` parser's formatter: its epilog (exit statuses, environment) is a table."""
+
+
 class ArgumentParser(argparse.ArgumentParser):
-    """argparse that reports usage errors as one-line :class:`UsageError` (exit 2)."""
+    """argparse that reports usage errors as one-line :class:`UsageError` (exit 2).
+
+    Every parser made from it, including subcommand parsers that other modules create
+    through ``subparsers.add_parser`` (argparse makes them of the parent's class), shows
+    defaults in its help (:class:`HelpFormatter`) unless given another formatter.
+    """
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("formatter_class", HelpFormatter)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> NoReturn:
         raise UsageError(self.prog, f"{message} (see '{self.prog} --help')")
+
+    def _get_values(self, action: argparse.Action, arg_strings: list[str]) -> Any:
+        # Python 3.11's argparse drops a "--" value, so "--beta=--" gives beta = [] (not
+        # a float, past the type check): refuse it as the missing value it has become.
+        value = super()._get_values(action, arg_strings)
+        if action.nargs is None and action.option_strings and value == []:
+            self.error(f"argument {'/'.join(action.option_strings)}: expected one argument")
+        return value
+
+
+def _version() -> str:
+    """The installed distribution's version, else the package's own ``__version__``."""
+    try:
+        from importlib.metadata import PackageNotFoundError, version
+
+        return version("vsw")
+    except (ImportError, PackageNotFoundError):
+        from vsw import __version__
+
+        return __version__
+
+
+class _VersionAction(argparse.Action):
+    """``--version``: looks the version up only when asked (importlib.metadata is slow)."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS, **kw):
+        kw.setdefault("help", "show the version and exit")
+        super().__init__(option_strings, dest=dest, default=argparse.SUPPRESS, nargs=0, **kw)
+
+    def __call__(self, parser, namespace, values, option_string=None) -> NoReturn:
+        sys.stdout.write(f"vsw {_version()}\n")
+        parser.exit()
+
+
+class _GuardedStdout:
+    """``sys.stdout`` while a command runs: remembers the first OSError of a write.
+
+    Some writers swallow errors (argparse's help does); remembering the first one lets
+    :func:`main` tell a failing standard output from any other OSError (a plot file) and
+    handle it in one place for every subcommand.
+    """
+
+    def __init__(self, stream: TextIO) -> None:
+        self.stream = stream
+        self.error: OSError | None = None
+
+    def _call(self, method: str, *args: Any) -> Any:
+        try:
+            return getattr(self.stream, method)(*args)
+        except OSError as exc:
+            if self.error is None:
+                self.error = exc
+            raise
+
+    def write(self, text: str) -> int:
+        return self._call("write", text)
+
+    def writelines(self, lines: Any) -> None:
+        for line in lines:
+            self.write(line)
+
+    def flush(self) -> None:
+        self._call("flush")
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.stream, name)
 
 
 def _one_line(text: str) -> str:
@@ -66,6 +203,10 @@ def _fmt(value: Any) -> str:
     if isinstance(value, float):
         return "nan" if math.isnan(value) else f"{value:.6g}"
     return str(value)
+
+
+def _degrees(radians: float | None) -> float | None:
+    return None if radians is None else math.degrees(radians)
 
 
 def _progress(label: str):
@@ -130,7 +271,6 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
     if args.json:
         _dump_json(data, sys.stdout)
         return EXIT_OK
-    energy_unit = "J" if scale is not None else "m g r_e"
     rows = [
         ("beta", data["beta"], ""),
         ("theta_II", math.degrees(data["theta_II"]), "deg"),
@@ -139,13 +279,13 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
         ("q_fixed", data["q_fixed"], "g/r_e"),
         ("omega_I", data["omega_I"], "sqrt(g/r_e)"),
         ("eigenvalue", data["eigenvalue"], ""),
-        ("theta_I", math.degrees(data["theta_I"]), "deg"),
-        ("theta_IV", math.degrees(data["theta_IV"]), "deg"),
+        ("theta_I", _degrees(data["theta_I"]), "deg"),
+        ("theta_IV", _degrees(data["theta_IV"]), "deg"),
         ("step_length", data["step_length"], "r_e"),
         ("step_period", data["step_period"], "sqrt(r_e/g)"),
         ("speed", data["speed"], "sqrt(g r_e)"),
-        ("energy_added", data["energy_added"], energy_unit),
-        ("energy_lost", data["energy_lost"], energy_unit),
+        ("energy_added", data["energy_added"], data["energy_unit"]),
+        ("energy_lost", data["energy_lost"], data["energy_unit"]),
         ("contact_margin", data["contact_margin"], "m g"),
         ("q_apex_min", data["q_apex_min"], "g/r_e"),
         ("q_liftoff_max", data["q_liftoff_max"], "g/r_e"),
@@ -156,16 +296,25 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
             ("step_period_s", data["step_period_s"], "s"),
             ("speed_m_s", data["speed_m_s"], "m/s"),
             ("speed_leg_s", data["speed_leg_s"], "leg/s"),
+            ("energy_added_J", data["energy_added_J"], "J"),
+            ("energy_lost_J", data["energy_lost_J"], "J"),
         ]
     out = sys.stdout
     for name, value, unit in rows:
         out.write(f"{name:<16} {_fmt(value):>14}  {unit}\n")
-    out.write("\nconditions (margin > 0 holds; physical ones decide 'walks')\n")
-    out.write(f"{'name':<36} {'eq.':<12} {'margin':>12} {'holds':>6}  {'status':<12} physical\n")
+    out.write("\nconditions (margin > 0 holds; physical ones decide 'walks'; angles in deg)\n")
+    out.write(
+        f"{'name':<36} {'eq.':<12} {'margin':>12} {'unit':<6} {'holds':>5}  "
+        f"{'status':<12} physical\n"
+    )
     for c in data["conditions"]:
+        # The command line speaks degrees: angle margins (rad in JSON) are shown in deg.
+        value, unit = c["value"], c["unit"]
+        if unit == "rad":
+            value, unit = _degrees(value), "deg"
         out.write(
-            f"{c['name']:<36} {c['equation'] or '-':<12} {_fmt(c['value']):>12} "
-            f"{_fmt(c['holds']):>6}  {c['status']:<12} {_fmt(c['physical'])}\n"
+            f"{c['name']:<36} {c['equation'] or '-':<12} {_fmt(value):>12} {unit or '-':<6} "
+            f"{_fmt(c['holds']):>5}  {c['status']:<12} {_fmt(c['physical'])}\n"
         )
     return EXIT_OK
 
@@ -181,12 +330,18 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     if args.steps < 1:
         raise VswInputError(f"steps = {args.steps} must be >= 1")
     _check_plot_path(args.plot)
+    from vsw import limits
+    from vsw.simulate import simulate, simulate_cost
+
+    record = args.plot is not None
+    limits.check(
+        f"simulating {args.steps} steps", simulate_cost(args.steps, record), "use fewer --steps"
+    )
     from generated import ile
-    from vsw.simulate import simulate
 
     with _progress("simulate") as bar:
         result = simulate(
-            *params.astuple(), q0, args.steps, record=args.plot is not None, progress=bar
+            *params.astuple(), q0, args.steps, record=record, progress=lambda i, n: bar(i + 1, n)
         )
     from vsw.analysis import _jsonable
 
@@ -223,32 +378,76 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
 # --- basin -------------------------------------------------------------------------------
 
+MAX_THETA_VALUES = 100_000
+"""Most theta_II values ``vsw basin`` accepts (each is a row of the grid)."""
+
+
+def _theta_grid(args: argparse.Namespace):
+    """The theta_II grid (rad) of ``vsw basin`` from --theta-min/--theta-max/--theta-step."""
+    import numpy as np
+
+    from vsw.params import PARAMETER_BY_NAME
+
+    for flag in ("theta_min", "theta_max", "theta_step"):
+        value = getattr(args, flag)
+        if not math.isfinite(value):
+            raise VswInputError(f"--{flag.replace('_', '-')} = {value} must be finite")
+    if not args.theta_step > 0:
+        raise VswInputError(f"--theta-step = {args.theta_step:g} must be > 0 deg")
+    if not args.theta_min <= args.theta_max:
+        raise VswInputError(
+            f"--theta-min = {args.theta_min:g} must not exceed --theta-max = {args.theta_max:g}"
+        )
+    p = PARAMETER_BY_NAME["theta_II"]
+    low, high = math.degrees(p.lower), math.degrees(p.upper)
+    if not (low < args.theta_min and args.theta_max < high):
+        raise VswInputError(
+            f"--theta-min/--theta-max = {args.theta_min:g}/{args.theta_max:g} deg must lie "
+            f"within ({low:g}, {high:g}) deg: {p.reason}"
+        )
+    # A float count first: a tiny step would overflow an int conversion.
+    count = (args.theta_max - args.theta_min) / args.theta_step
+    if not count < MAX_THETA_VALUES:
+        raise VswInputError(
+            f"--theta-step {args.theta_step:g} gives more than {MAX_THETA_VALUES} theta_II "
+            "values: use a larger --theta-step or a narrower range"
+        )
+    n_theta = math.floor(count + 1e-9) + 1
+    return np.radians(args.theta_min + args.theta_step * np.arange(n_theta))
+
 
 def _cmd_basin(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from vsw.basin import basin, check_edges_by_simulation
+    from vsw import limits
+    from vsw.basin import basin, basin_cost, check_edges_by_simulation, edge_check_cost
     from vsw.params import check_parameter
 
-    check_parameter("beta", args.beta)
-    phi0 = math.radians(args.phi0)
-    check_parameter("phi0", phi0)
-    if not args.theta_step > 0:
-        raise VswInputError(f"theta-step = {args.theta_step} must be > 0 deg")
-    if not args.theta_min <= args.theta_max:
-        raise VswInputError("theta-min must not exceed theta-max")
+    beta = float(check_parameter("beta", args.beta))
+    phi0 = float(check_parameter("phi0", math.radians(args.phi0)))
+    theta_II = _theta_grid(args)
     if args.n_q < 3:
-        raise VswInputError(f"n-q = {args.n_q} must be >= 3")
+        raise VswInputError(f"--n-q = {args.n_q} must be >= 3")
     if args.check_edges < 0:
-        raise VswInputError(f"check-edges = {args.check_edges} must be >= 0")
+        raise VswInputError(f"--check-edges = {args.check_edges} must be >= 0")
     _check_plot_path(args.plot)
-    n_theta = math.floor((args.theta_max - args.theta_min) / args.theta_step + 1e-9) + 1
-    if n_theta > 100_000:
-        raise VswInputError(f"{n_theta} theta_II values: use a larger --theta-step (<= 100000)")
-    theta_II = np.radians(args.theta_min + args.theta_step * np.arange(n_theta))
-    result = basin(args.beta, phi0, theta_II, n_q=args.n_q)
+    # The whole run is estimated before any of it starts: the grid, then the edge checks.
+    cost = basin_cost(beta, phi0, theta_II.size, args.n_q)
+    if args.check_edges:
+        samples = min(args.check_edges, theta_II.size)
+        cost = cost + edge_check_cost(beta, phi0, samples)
+    limits.check(
+        f"a basin of {theta_II.size} theta_II x {args.n_q} q values"
+        + (f" with {args.check_edges} edge checks" if args.check_edges else ""),
+        cost,
+        "use a larger --theta-step, a smaller --n-q"
+        + (" or fewer --check-edges" if args.check_edges else ""),
+    )
+    with _progress("basin") as bar:
+        result = basin(beta, phi0, theta_II, n_q=args.n_q, progress=bar)
     data = result.to_dict()
     data["theta_II_deg"] = [float(v) for v in np.degrees(result.theta_II)]
+    data["fields"]["theta_II_deg"] = "deg: theta_II in degrees"
     failed = 0
     if args.check_edges:
         with _progress("edge checks") as bar:
@@ -265,6 +464,9 @@ def _cmd_basin(args: argparse.Namespace) -> int:
             }
             for c in checks
         ]
+        data["fields"]["edge_checks"] = (
+            "simulations just inside and outside sampled edges: expected and actual end"
+        )
         failed = sum(not c.ok for c in checks)
     if args.plot is not None:
         from vsw.plots import basin_plot, save_figure
@@ -276,6 +478,10 @@ def _cmd_basin(args: argparse.Namespace) -> int:
     else:
         out = sys.stdout
         out.write(f"basin of attraction, beta={args.beta:g}, phi0={args.phi0:g} deg\n")
+        out.write(
+            f"q_min < q0 <= q_max (q = omega_I^2 in g/r_e); each q0 walked {result.n_steps} "
+            "stride-map steps, until eigenvalue^n (1.5/beta) < 1e-12\n"
+        )
         out.write(f"{'theta_II[deg]':>13} {'q_min':>12} {'q_max':>12} {'q_fixed':>12}\n")
         for th, lo, hi, qf in zip(
             data["theta_II_deg"], data["q_min"], data["q_max"], data["q_fixed"]
@@ -289,18 +495,38 @@ def _cmd_basin(args: argparse.Namespace) -> int:
 # --- parser and entry point --------------------------------------------------------------
 
 
+def _epilog() -> str:
+    import textwrap
+
+    def table(rows) -> list[str]:
+        width = max(len(str(key)) for key, _ in rows)
+        wrap = textwrap.TextWrapper(79, subsequent_indent=" " * (width + 4))
+        return [wrap.fill(f"  {key!s:<{width}}  {text}") for key, text in rows]
+
+    lines = ["exit status:", *table(EXIT_STATUS.items()), "", "environment:"]
+    lines += [*table(_ENVIRONMENT), ""]
+    lines.append("Angles in degrees on the command line; JSON in radians (see README.md).")
+    return "\n".join(lines)
+
+
 def build_parser() -> ArgumentParser:
     """The ``vsw`` parser with built-in and registered subcommands."""
+    from vsw.limits import SIMULATE_SECONDS_PER_STEP
+
     parser = ArgumentParser(
         prog="vsw",
-        description="Virtual Slope Walking (instantaneous leg extension model): analysis, "
-        "simulation and basin of attraction. Angles in degrees on the command line.",
+        description="Virtual Slope Walking (instantaneous leg extension model):\n"
+        "analysis, simulation, basin of attraction and gait design.",
+        epilog=_epilog(),
+        formatter_class=_TopHelpFormatter,
     )
+    parser.add_argument("--version", action=_VersionAction)
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
-    p = subparsers.add_parser("analyze", help="fixed point, conditions and gait metrics")
+    help_ = "fixed point, conditions and gait metrics"
+    p = subparsers.add_parser("analyze", help=help_, description=help_ + ".")
     _add_gait_arguments(p)
-    scale = p.add_argument_group("SI results")
+    scale = p.add_argument_group("SI results (added under keys of their own: speed_m_s, ...)")
     scale.add_argument("--leg-length", type=float, help="extended leg length r_e [m]")
     scale.add_argument("--mass", type=float, help="mass [kg]")
     scale.add_argument("--gravity", type=float, help="g [m/s^2] (default 9.81)")
@@ -309,19 +535,33 @@ def build_parser() -> ArgumentParser:
     )
     p.set_defaults(func=_cmd_analyze)
 
-    p = subparsers.add_parser("simulate", help="time-domain simulation of the hybrid system")
+    help_ = "time-domain simulation of the hybrid system"
+    p = subparsers.add_parser("simulate", help=help_, description=help_ + ".")
     _add_gait_arguments(p)
     p.add_argument("--q0", type=float, required=True, help="q = omega_I^2 at the first step")
-    p.add_argument("--steps", type=int, required=True, help="number of steps")
+    p.add_argument(
+        "--steps",
+        type=int,
+        required=True,
+        help=f"number of steps (about {SIMULATE_SECONDS_PER_STEP * 1e3:g} ms each; "
+        "limited by VSW_MAX_SECONDS and VSW_MAX_MEMORY)",
+    )
     p.add_argument("--plot", metavar="FILE", help="save theta, omega and q plots (.png/.svg/.pdf)")
     p.set_defaults(func=_cmd_simulate)
 
-    p = subparsers.add_parser("basin", help="basin of attraction over theta_II (Fig. 9)")
+    help_ = "basin of attraction over theta_II (Fig. 9)"
+    p = subparsers.add_parser("basin", help=help_, description=help_ + ".")
     _add_gait_arguments(p, theta_ii=False)
     p.add_argument("--theta-min", type=float, default=-30.0, help="first theta_II [deg]")
     p.add_argument("--theta-max", type=float, default=40.0, help="last theta_II [deg]")
     p.add_argument("--theta-step", type=float, default=0.5, help="theta_II step [deg]")
-    p.add_argument("--n-q", type=int, default=2001, help="initial q grid points")
+    p.add_argument(
+        "--n-q",
+        type=int,
+        default=2001,
+        help="initial q grid points in (0, 1.5/beta] (grid size limited by VSW_MAX_MEMORY "
+        "and VSW_MAX_SECONDS)",
+    )
     p.add_argument(
         "--check-edges",
         type=int,
@@ -350,6 +590,74 @@ def _register_optional_commands(subparsers: Any) -> None:
             register(subparsers)
 
 
+def _check_environment() -> None:
+    """Every ``VSW_*`` setting read as the commands will, before any of them starts.
+
+    One rule for every subcommand and input size: an invalid setting is bad input even
+    where the command would not have needed it.
+    """
+    from vsw.limits import max_memory, max_seconds
+    from vsw.vectorize import default_threads
+
+    default_threads()
+    max_seconds()
+    max_memory()
+
+
+def _say(line: str) -> None:
+    """One line on stderr; silent when stderr itself is closed or broken."""
+    try:
+        sys.stderr.write(line + "\n")
+        sys.stderr.flush()
+    except (AttributeError, OSError):
+        pass
+
+
+def _silence(stream: TextIO) -> None:
+    """Point the file descriptor of a failed ``stream`` at os.devnull.
+
+    What is still buffered then goes nowhere at the interpreter's final flush instead of
+    failing again there with "Exception ignored ...". Streams without a descriptor (a
+    test's capture) are not flushed at exit, so there is nothing to do.
+    """
+    try:
+        fd = stream.fileno()
+    except (AttributeError, OSError, ValueError):
+        return
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, fd)
+    finally:
+        os.close(devnull)
+
+
+def _run(argv: Sequence[str] | None) -> int:
+    """Parse and run one command; every error but a failing standard output is mapped here."""
+    try:
+        parser = build_parser()
+        args = parser.parse_args(None if argv is None else list(argv))
+        _check_environment()
+        return int(args.func(args))
+    except VswInputError as exc:
+        prog = exc.prog if isinstance(exc, UsageError) else "vsw"
+        _say(f"{prog}: error: {_one_line(exc)}")
+        return EXIT_INPUT
+    except (ConvergenceError, InfeasibleError) as exc:
+        _say(f"vsw: {type(exc).__name__}: {_one_line(exc)}")
+        return EXIT_SOLVER
+    except SystemExit as exc:  # --help and --version exit through argparse
+        return exc.code if isinstance(exc.code, int) else EXIT_OK
+    except MemoryError:
+        _say(
+            "vsw: error: out of memory; use a smaller problem, or lower VSW_MAX_MEMORY so "
+            "that such work is refused before it starts"
+        )
+        return EXIT_INPUT
+    except KeyboardInterrupt:
+        _say("vsw: interrupted")
+        return EXIT_INTERRUPTED
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit status (the console script exits with it).
 
@@ -361,21 +669,31 @@ def main(argv: Sequence[str] | None = None) -> int:
     Returns
     -------
     int
-        0 success, 2 bad input, 3 solver failure or infeasible request.
+        One of :data:`EXIT_STATUS`: 0 success, 2 bad input (one line on stderr), 3 solver
+        failure or infeasible request, 141 standard output closed by its reader (quiet),
+        130 interrupted.
     """
-    try:
-        parser = build_parser()
-        args = parser.parse_args(None if argv is None else list(argv))
-        return int(args.func(args))
-    except VswInputError as exc:
-        prog = exc.prog if isinstance(exc, UsageError) else "vsw"
-        sys.stderr.write(f"{prog}: error: {_one_line(exc)}\n")
+    stdout = sys.stdout
+    if stdout is None:  # started with standard output closed (">&-")
+        _say("vsw: error: standard output is closed; redirect it (e.g. >/dev/null) instead")
         return EXIT_INPUT
-    except (ConvergenceError, InfeasibleError) as exc:
-        sys.stderr.write(f"vsw: {type(exc).__name__}: {_one_line(exc)}\n")
-        return EXIT_SOLVER
-    except SystemExit as exc:  # --help and --version exit through argparse
-        return exc.code if isinstance(exc.code, int) else EXIT_OK
-    except KeyboardInterrupt:
-        sys.stderr.write("vsw: interrupted\n")
-        return 130
+    guard = _GuardedStdout(stdout)
+    sys.stdout = guard
+    try:
+        code = _run(argv)
+        # Flushed here, not at exit, so that a closed pipe or a full disk is seen here.
+        guard.flush()
+    except OSError as exc:
+        if guard.error is None:  # a file the command writes (a plot), not standard output
+            where = f" {exc.filename!r}" if exc.filename else ""
+            _say(f"vsw: error: cannot write{where}: {exc.strerror or _one_line(exc)}")
+            code = EXIT_INPUT
+    finally:
+        sys.stdout = stdout
+    if guard.error is not None:
+        _silence(stdout)
+        if isinstance(guard.error, BrokenPipeError):
+            return EXIT_CLOSED_PIPE  # the reader has all it wanted: no message
+        _say(f"vsw: error: cannot write standard output: {guard.error.strerror or guard.error}")
+        return EXIT_INPUT
+    return code

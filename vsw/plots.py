@@ -558,21 +558,47 @@ def _draw_edge_checks(ax: Axes, checks: Sequence[EdgeCheck], transform: Any) -> 
 
 
 def check_save_path(path: str | Path) -> Path:
-    """Validate an output path before any work: known suffix, existing directory.
+    """Validate an output path before any work: it can be written as a figure file.
+
+    Checks a known suffix, an existing parent directory, that the path is not a
+    directory, and that the file can be opened for writing (it is opened without
+    truncation and closed; a file that did not exist is removed again), so that a
+    read-only or virtual file system (``/proc``, ``/sys``) fails here and not after
+    the computation.
 
     Raises
     ------
     VswInputError
+        One line naming the path and what is wrong.
     """
+    import os  # here, not at the top: this function is the only user
+
+    text = str(path)
+    if not text.strip():
+        raise VswInputError(
+            f"plot file name is empty: give a path ending in "
+            f"{', '.join('.' + s for s in SAVE_FORMATS)}"
+        )
     path = Path(path)
     suffix = path.suffix.lower().lstrip(".")
     if suffix not in SAVE_FORMATS:
         raise VswInputError(
-            f"plot file {str(path)!r} must end in one of {', '.join('.' + s for s in SAVE_FORMATS)}"
+            f"plot file {text!r} must end in one of {', '.join('.' + s for s in SAVE_FORMATS)}"
         )
-    parent = path.parent if str(path.parent) else Path(".")
+    parent = path.parent
     if not parent.is_dir():
-        raise VswInputError(f"plot file {str(path)!r}: directory {str(parent)!r} does not exist")
+        raise VswInputError(f"plot file {text!r}: directory {str(parent)!r} does not exist")
+    if path.is_dir():
+        raise VswInputError(f"plot file {text!r} is a directory")
+    existed = os.path.lexists(path)
+    try:
+        # O_NONBLOCK: a FIFO without a reader fails at once instead of blocking.
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_APPEND | os.O_NONBLOCK, 0o666)
+    except OSError as exc:
+        raise VswInputError(f"plot file {text!r} cannot be written: {exc.strerror}") from None
+    os.close(fd)
+    if not existed:
+        path.unlink(missing_ok=True)
     return path
 
 

@@ -36,6 +36,7 @@ import numpy as np
 
 from generated import ile
 from generated.ile_params import PARAMETERS
+from vsw import limits
 from vsw.errors import ConvergenceError, VswInputError
 
 __all__ = [
@@ -45,6 +46,7 @@ __all__ = [
     "poincare_map",
     "poincare_step",
     "simulate",
+    "simulate_cost",
 ]
 
 #: Longest a single swing phase may take (dimensionless time). Away from the exact apex
@@ -129,19 +131,27 @@ def _check_parameters(beta: float, theta_II: float, phi0: float) -> tuple[float,
             raise VswInputError(f"{p.name} = {v!r} is out of range: {p.reason}")
         out.append(v)
     beta, theta_II, phi0 = out
-    th_I = float(ile.theta_I(beta, phi0))
-    th_IV = float(ile.theta_IV(beta, phi0))
+    # phi0 below ~1e-308 overflows (beta - cos phi0) / sin phi0 to inf: theta_I = pi/2 is
+    # still the right limit, and the checks below report it; no warning on the way.
+    with np.errstate(over="ignore", divide="ignore"):
+        th_I = float(ile.theta_I(beta, phi0))
+        th_IV = float(ile.theta_IV(beta, phi0))
     if not theta_II > th_I:
         raise VswInputError(
-            f"theta_II = {theta_II!r} must exceed theta_I = {th_I!r} (condition "
+            f"theta_II = {_angle(theta_II)} must exceed theta_I = {_angle(th_I)} (condition "
             "extension_reached): the stance leg never reaches the extension angle"
         )
     if not theta_II < th_IV:
         raise VswInputError(
-            f"theta_II = {theta_II!r} must be below theta_IV = {th_IV!r} (condition "
+            f"theta_II = {_angle(theta_II)} must be below theta_IV = {_angle(th_IV)} (condition "
             "extension_before_heelstrike, eq. (17) exact): the leg must extend before heelstrike"
         )
     return beta, theta_II, phi0
+
+
+def _angle(radians: float) -> str:
+    # Messages reach the command line, which speaks degrees.
+    return f"{radians:.6g} rad ({math.degrees(radians):.6g} deg)"
 
 
 def _check_q0(q0: float) -> float:
@@ -285,6 +295,18 @@ def _integrate_phase(
     return _PhaseEnd(kinds[i_hit], float(t_ev), float(y_ev[0]), float(y_ev[1]), ts, ys)
 
 
+def simulate_cost(steps: int, record: bool = True) -> limits.Cost:
+    """Estimated run time and peak memory of :func:`simulate` (see :mod:`vsw.limits`).
+
+    Both grow linearly with the steps: every step keeps its q, period, length and four
+    events, and with ``record`` its trajectory samples.
+    """
+    per_step = limits.SIMULATE_BYTES_PER_RECORDED_STEP if record else limits.SIMULATE_BYTES_PER_STEP
+    return limits.Cost(
+        steps * limits.SIMULATE_SECONDS_PER_STEP, limits.SIMULATE_BYTES_BASE + steps * per_step
+    )
+
+
 def simulate(
     beta: float,
     theta_II: float,
@@ -329,13 +351,15 @@ def simulate(
     Raises
     ------
     vsw.errors.VswInputError
-        Out-of-domain parameters, q0 or steps (one-line message).
+        Out-of-domain parameters, q0 or steps (one-line message), or more steps than
+        fit the time and memory limits of :mod:`vsw.limits` (see :func:`simulate_cost`).
     vsw.errors.ConvergenceError
         The integrator itself failed (not expected for valid input).
     """
     beta, theta_II, phi0 = _check_parameters(beta, theta_II, phi0)
     q0 = _check_q0(q0)
     steps = _check_steps(steps)
+    limits.check(f"simulating {steps} steps", simulate_cost(steps, record), "simulate fewer steps")
     # The new stance angle after heelstrike (eq. 11); the heelstrike itself is found by
     # the guard, and the post-impact angle is recomputed from it as theta_IV - phi0.
     th_I0 = float(ile.theta_I(beta, phi0))

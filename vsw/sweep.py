@@ -103,7 +103,7 @@ def sweep(
         n: np.empty(total, dtype=bool if n == "walks" or n.startswith("holds:") else float)
         for n in names
     }
-    timing = any(n in ("step_period", "speed", *SI_FIELDS) for n in names)
+    timing = any(n.startswith(("step_period", "speed")) for n in names)
     for start in range(0, total, _BLOCK):
         index = np.arange(start, min(start + _BLOCK, total))
         i_beta, i_theta, i_phi0 = np.unravel_index(index, shape)

@@ -24,6 +24,9 @@ from vsw.errors import VswInputError
 
 CHUNK = 16384
 
+MAX_THREADS = 256
+"""Largest accepted ``VSW_THREADS`` (more threads than blocks or cores only cost memory)."""
+
 
 def _raise_glibc_malloc_thresholds() -> None:
     # glibc returns freed memory above 128 KiB at the top of the heap to the OS, and serves
@@ -58,10 +61,15 @@ if hasattr(os, "register_at_fork"):
 def default_threads() -> int:
     """Worker threads for block evaluation: ``VSW_THREADS`` if set, else the usable cores.
 
+    The one reading of ``VSW_THREADS``: every entry point that evaluates blockwise
+    (:func:`chunked`, ``vsw.analysis.analyze``, ``vsw.basin.basin``, the CLI) calls it
+    before any work, whatever the size of its input, so an invalid setting is rejected
+    the same way everywhere, not only by calls large enough to use threads.
+
     Raises
     ------
     VswInputError
-        ``VSW_THREADS`` is set but not a positive integer.
+        ``VSW_THREADS`` is set but not an integer from 1 to :data:`MAX_THREADS`.
     """
     setting = os.environ.get("VSW_THREADS", "")
     if setting.strip():
@@ -69,8 +77,10 @@ def default_threads() -> int:
             threads = int(setting)
         except ValueError:
             threads = 0
-        if threads < 1:
-            raise VswInputError(f"VSW_THREADS must be a positive integer, got {setting!r}")
+        if not 1 <= threads <= MAX_THREADS:
+            raise VswInputError(
+                f"VSW_THREADS must be a positive integer (at most {MAX_THREADS}), got {setting!r}"
+            )
         return threads
     try:
         cores = len(os.sched_getaffinity(0))
@@ -159,6 +169,7 @@ def chunked(
     >>> q.shape, bool(np.all(q == ile.q_fixed(0.8, 0.0, np.pi / 4)))
     ((40000,), True)
     """
+    threads = default_threads() if threads is None else threads
     arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in args))
     shape = arrays[0].shape
     size = arrays[0].size
@@ -186,7 +197,7 @@ def chunked(
         for target, part in zip(outputs, result if is_tuple else (result,)):
             target[start:stop] = part
 
-    run_blocks(block, range(chunk, size, chunk), default_threads() if threads is None else threads)
+    run_blocks(block, range(chunk, size, chunk), threads)
     if out is not None:
         return out
     shaped = tuple(target.reshape(shape) for target in outputs)

@@ -1,0 +1,280 @@
+"""Property-based test of the ``vsw`` command line: every subcommand, generated arguments.
+
+Arguments mix plausible values with non-numbers, NaN, infinities, huge and tiny values,
+missing and repeated options and contradictory flags. Whatever the arguments:
+
+* the exit status is 0, 2 or 3;
+* a non-zero exit prints exactly one line on stderr and never a traceback;
+* exit 0 prints nothing on stderr (no warning, no log line) and, with ``--json``, one
+  strict JSON document (no NaN) on stdout;
+* no warning is raised that Python's default filters would print on stderr (numpy
+  RuntimeWarnings included; pytest would otherwise swallow them).
+
+The commands run in process through ``vsw.cli.main`` with stdout and stderr captured. The
+work stays small and bounded: a fixed number of examples per subcommand and small
+``VSW_MAX_SECONDS`` / ``VSW_MAX_MEMORY``, so that huge grids and step counts are refused by
+the limits instead of run (which is itself a behaviour under test). ``derandomize=True``
+makes the examples the same from run to run of the same command (CI runs the whole
+suite); Hypothesis also draws constants from the project modules already imported, so a
+different selection of tests can see different examples.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import os
+import warnings
+from unittest import mock
+
+import pytest
+
+hypothesis = pytest.importorskip("hypothesis")
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+from vsw.cli import main  # noqa: E402
+
+# Default warning filters hide these from users; every other category would print.
+_HIDDEN_BY_DEFAULT = (DeprecationWarning, PendingDeprecationWarning, ImportWarning, ResourceWarning)
+
+GARBAGE = st.sampled_from(
+    [
+        "nan", "NaN", "-nan", "inf", "-inf", "+inf", "infinity", "1e999", "-1e999", "abc", "",
+        " ", "1,5", "0x10", "1e-320", "5e-324", "-5e-324", "1e308", "-1e308", "-0", "0", "1_0",
+        "--", "None", "1/2", "\u0663", "1e", ".", "-",
+    ]
+)  # fmt: skip
+
+
+def _weighted(plausible: st.SearchStrategy, wild: st.SearchStrategy) -> st.SearchStrategy:
+    """Mostly plausible values (so the commands get past parsing), sometimes anything."""
+    return st.integers(0, 9).flatmap(lambda k: plausible if k < 9 else wild)
+
+
+def number(lo: float, hi: float) -> st.SearchStrategy[str]:
+    plausible = st.floats(lo, hi).map(repr)
+    wild = st.one_of(
+        st.floats(allow_nan=True, allow_infinity=True).map(repr),
+        st.floats(-1e-300, 1e-300).map(repr),
+        st.integers(-(10**30), 10**30).map(str),
+        GARBAGE,
+    )
+    return _weighted(plausible, wild)
+
+
+def integer(lo: int, hi: int) -> st.SearchStrategy[str]:
+    plausible = st.integers(lo, hi).map(str)
+    wild = st.one_of(
+        st.integers(-(10**20), 10**20).map(str),
+        st.sampled_from(["2.5", "1e3", "10**9", "1000000000000", "-1", "0", "99999999"]),
+        GARBAGE,
+    )
+    return _weighted(plausible, wild)
+
+
+def plot_path(tmp: str) -> st.SearchStrategy[str]:
+    return st.sampled_from(
+        [
+            "",
+            "/proc/fig9.png",
+            "/sys/sim.png",
+            tmp,  # an existing directory
+            os.path.join(tmp, "dir.png"),  # made a directory below
+            os.path.join(tmp, "missing", "x.png"),
+            os.path.join(tmp, "x.txt"),
+            os.path.join(tmp, "ok.svg"),
+        ]
+    )
+
+
+@st.composite
+def command_line(draw, command: str, options: dict, flags: tuple[str, ...], required=()):
+    """``[command, ...]`` with a random subset of options in random order and form."""
+    parts: list[list[str]] = []
+    for name, values in options.items():
+        # Required options are mostly there once, sometimes missing or repeated.
+        counts = [1] * 20 + [0, 2] if name in required else [0, 0, 0, 0, 1, 2]
+        for _ in range(draw(st.sampled_from(counts))):
+            value = draw(values)
+            if draw(st.booleans()):
+                parts.append([f"{name}={value}"])
+            else:
+                parts.append([name, value])
+    for flag in flags:
+        if draw(st.booleans()):
+            parts.append([flag])
+    parts = draw(st.permutations(parts))
+    return [command, *(token for part in parts for token in part)]
+
+
+# Plausible ranges around walking gaits, so that many runs get through to the end.
+GAIT = {
+    "--beta": number(0.75, 0.95),
+    "--theta-ii": number(2.0, 15.0),
+    "--phi0": number(40.0, 55.0),
+}
+SCALE = {
+    "--leg-length": number(0.05, 2.0),
+    "--mass": number(0.1, 100.0),
+    "--gravity": number(1.0, 30.0),
+}
+
+
+def _run(argv: list[str], env: dict[str, str]) -> tuple[int, str, str, list]:
+    out, err = io.StringIO(), io.StringIO()
+    with (
+        mock.patch.dict(os.environ, env),
+        warnings.catch_warnings(record=True) as caught,
+        contextlib.redirect_stdout(out),
+        contextlib.redirect_stderr(err),
+    ):
+        warnings.simplefilter("always")
+        code = main(argv)
+    shown = [w for w in caught if not issubclass(w.category, _HIDDEN_BY_DEFAULT)]
+    return code, out.getvalue(), err.getvalue(), shown
+
+
+def _check(argv: list[str], env: dict[str, str]) -> None:
+    code, out, err, shown = _run(argv, env)
+    where = f"vsw {' '.join(argv)!r}"
+    assert code in (0, 2, 3), f"{where}: exit {code}, stderr {err!r}"
+    assert "Traceback" not in err, f"{where}: {err}"
+    assert not shown, f"{where}: warnings {[str(w.message) for w in shown]}"
+    if code != 0:
+        assert err.count("\n") == 1 and err.endswith("\n") and err.strip(), f"{where}: {err!r}"
+        return
+    assert err == "", f"{where}: exit 0 but stderr {err!r}"
+    asked_help = any(t in ("-h", "--help", "--version") for t in argv)
+    if "--json" in argv and not asked_help:
+
+        def no_constant(name: str) -> None:
+            raise AssertionError(f"{where}: {name} in JSON")
+
+        json.loads(out, parse_constant=no_constant)
+
+
+COMMON = settings(
+    deadline=None,
+    derandomize=True,
+    database=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+)
+
+
+def budget(examples: int) -> settings:
+    """The common settings with a number of examples."""
+    return settings(COMMON, max_examples=examples)
+
+
+# Small limits: what would exceed them is refused (exit 2) in microseconds instead of run.
+FAST = {"VSW_MAX_SECONDS": "0.5", "VSW_MAX_MEMORY": "256M"}
+
+
+@pytest.fixture(scope="module")
+def plot_dir(tmp_path_factory) -> str:
+    tmp = tmp_path_factory.mktemp("plots")
+    (tmp / "dir.png").mkdir()
+    return str(tmp)
+
+
+def test_analyze_any_arguments(plot_dir):
+    options = {**GAIT, **SCALE}
+
+    @budget(150)
+    @given(command_line("analyze", options, ("--json", "--stepper-2d"), required=tuple(GAIT)))
+    def run(argv):
+        _check(argv, FAST)
+
+    run()
+
+
+def test_simulate_any_arguments(plot_dir):
+    options = {
+        **GAIT,
+        "--q0": number(0.1, 0.9),
+        "--steps": integer(1, 4),
+        "--plot": plot_path(plot_dir),
+    }
+
+    @budget(40)
+    @given(command_line("simulate", options, ("--json",), required=(*GAIT, "--q0", "--steps")))
+    def run(argv):
+        # 0.05 s: about 6 simulated steps; more steps are refused by the limit.
+        _check(argv, {**FAST, "VSW_MAX_SECONDS": "0.05"})
+
+    run()
+
+
+def test_basin_any_arguments(plot_dir):
+    options = {
+        "--beta": GAIT["--beta"],
+        "--phi0": GAIT["--phi0"],
+        "--theta-min": number(-60.0, 30.0),
+        "--theta-max": number(-30.0, 60.0),
+        "--theta-step": number(4.0, 80.0),
+        "--n-q": integer(3, 200),
+        "--check-edges": integer(0, 1),
+        "--plot": plot_path(plot_dir),
+    }
+
+    @budget(60)
+    @given(
+        command_line(
+            "basin", options, ("--json",), required=("--beta", "--phi0", "--theta-step", "--n-q")
+        )
+    )
+    def run(argv):
+        _check(argv, FAST)
+
+    run()
+
+
+def test_design_any_arguments():
+    pytest.importorskip("casadi")
+    options = {
+        "--target-speed": number(0.1, 1.0),
+        "--beta-min": number(0.3, 0.8),
+        "--beta-max": number(0.6, 0.99),
+        "--theta-ii-min": number(-20.0, 0.0),
+        "--theta-ii-max": number(0.0, 20.0),
+        "--phi0-min": number(10.0, 40.0),
+        "--phi0-max": number(30.0, 80.0),
+        "--fix": st.sampled_from(["beta=0.8", "phi0=45", "theta_II=0", "beta=abc", "x=1", "beta"]),
+        "--min-contact-margin": number(0.0, 0.2),
+        "--max-eigenvalue": number(0.1, 1.0),
+        "--starts": st.just("1"),
+        **SCALE,
+    }
+
+    # Each design solve takes 50 ms to 1 s: few examples, one start each (--starts is only
+    # ever 1 here: a huge start count is the design command's own limit to set).
+    @budget(8)
+    @given(
+        command_line(
+            "design", options, ("--json", "--stepper-2d"), required=("--starts", "--target-speed")
+        ).filter(lambda argv: "--starts" in " ".join(argv))
+    )
+    def run(argv):
+        _check(argv, FAST)
+
+    run()
+
+
+TOKENS = st.sampled_from(
+    [
+        "analyze", "simulate", "basin", "design", "fly", "--help", "-h", "--version", "--json",
+        "--beta", "0.8", "--theta-ii", "0", "--phi0", "45", "--q0", "0.3", "--steps", "2",
+        "--n-q", "5", "--theta-step", "20", "nan", "-inf", "1e999", "abc", "", "--", "-x",
+    ]
+)  # fmt: skip
+
+
+def test_any_tokens():
+    @budget(60)
+    @given(st.lists(TOKENS, max_size=9))
+    def run(argv):
+        _check(argv, FAST)
+
+    run()
