@@ -61,7 +61,7 @@ import itertools
 import math
 import sys
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -1118,7 +1118,6 @@ class DesignResult:
     starts: int = 0
     conditions: str = "exact"
     region: str | None = None
-    energy_unit: str | None = field(default=None, repr=False)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON contract of ``vsw design --json``: the analysis keys plus the design's."""
@@ -1127,12 +1126,11 @@ class DesignResult:
         out: dict[str, Any] = {"status": self.status}
         if self.analysis is not None:
             out.update(self.analysis.to_dict())
-            if self.energy_unit is not None:
-                out["energy_unit"] = self.energy_unit
         else:
             out.update({"beta": None, "theta_II": None, "phi0": None})
             out.update({name: None for name in FIELDS})
             out["conditions"] = []
+            out["energy_unit"] = "m g r_e"
         out["status"] = self.status
         if self.analysis is not None and self.analysis.scale is not None:
             out["step_frequency_hz"] = 1.0 / float(self.analysis.step_period_s)
@@ -1479,7 +1477,9 @@ def _cmd_design(args: argparse.Namespace) -> int:
     result, scale, mass_given = _design_from_args(args)
     data = result.to_dict()
     if scale is not None and not mass_given and result.analysis is not None:
-        data["energy_unit"] = "J/kg"  # no --mass: energies of a 1 kg walker
+        # Without --mass the energies are those of a 1 kg walker: say so in the key.
+        for key in ("energy_added_J", "energy_lost_J"):
+            data[f"{key}_per_kg"] = data.pop(key)
     found = result.status in ("optimal", "not-attained")
     exit_code = 0 if found else 3
     out = sys.stdout
@@ -1502,7 +1502,6 @@ def _cmd_design(args: argparse.Namespace) -> int:
             return "yes" if value else "no"
         return f"{value:.8g}" if isinstance(value, float) else str(value)
 
-    energy_unit = data["energy_unit"]
     rows = [
         ("beta", data["beta"], ""),
         ("theta_II", math.degrees(data["theta_II"]), "deg"),
@@ -1513,7 +1512,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
         ("step_period", data["step_period"], "sqrt(r_e/g)"),
         ("speed", data["speed"], "sqrt(g r_e)"),
         ("cost_of_transport", data["cost_of_transport"], "E_c/(m g L), L = step length"),
-        ("energy_added", data["energy_added"], energy_unit),
+        ("energy_added", data["energy_added"], "m g r_e"),
         ("contact_margin", data["contact_margin"], "m g"),
     ]
     if scale is not None:
@@ -1523,6 +1522,10 @@ def _cmd_design(args: argparse.Namespace) -> int:
             ("step_frequency", 1.0 / data["step_period_s"], "Hz"),
             ("speed_m_s", data["speed_m_s"], "m/s"),
         ]
+        if mass_given:
+            rows.append(("energy_added_J", data["energy_added_J"], "J"))
+        else:
+            rows.append(("energy_added_J_per_kg", data["energy_added_J_per_kg"], "J/kg"))
     for name, value, unit in rows:
         out.write(f"{name:<18} {fmt(value):>16}  {unit}\n")
     out.write(f"conditions       {result.conditions}\n")
