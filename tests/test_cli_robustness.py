@@ -253,6 +253,10 @@ def test_invalid_vsw_threads_is_rejected_by_the_library_at_any_size(monkeypatch,
         analyze(beta, 0.0, math.pi / 4)
     with pytest.raises(VswInputError, match="VSW_THREADS"):
         chunked(ile.q_fixed, beta, 0.0, math.pi / 4)
+    from vsw import kernels
+
+    with pytest.raises(VswInputError, match="VSW_THREADS"):
+        kernels.fixed_point_conditions(beta, 0.0, math.pi / 4)
 
 
 def test_valid_vsw_threads_still_work(monkeypatch, capsys):
@@ -422,7 +426,7 @@ def test_help_lists_every_command_exit_status_and_limit(capsys):
     "command, shown",
     [
         ("basin", ["(default: 0.5)", "(default: 2001)", "(default: -30.0)"]),
-        ("design", ["(default: 4)"]),  # registered by vsw.design: inherits the formatter
+        ("design", ["(default: 1)", "(default: exact)"]),  # registered by vsw.design: inherits it
     ],
 )
 def test_help_shows_defaults(capsys, command, shown):

@@ -252,6 +252,8 @@ def fixed_point_conditions(
         ``(q_f, eigenvalue, *margins)`` in the order of ``ile.CONDITIONS``, each of shape
         ``S``.
     """
+    # VSW_THREADS is checked whatever the size, as by every blockwise entry point.
+    threads = default_threads() if threads is None else threads
     arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (beta, theta_II, phi0)))
     shape = arrays[0].shape
     lib = library()
@@ -273,5 +275,5 @@ def fixed_point_conditions(
         if n <= CHUNK:
             fn(n, *flat, out)
         else:
-            run_blocks(block, range(0, n, CHUNK), default_threads() if threads is None else threads)
+            run_blocks(block, range(0, n, CHUNK), threads)
     return tuple(row.reshape(shape) for row in out)

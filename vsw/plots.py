@@ -483,7 +483,10 @@ def basin_plot(
     ax.plot(fixed, theta_deg, color=COLORS["black"], ls="--", lw=1.0, label="fixed point $q^f$")
     x_max = 1.08 * float(np.nanmax(high)) if np.isfinite(high).any() else 1.0
     ax.set_xlim(0.0, x_max)
-    ax.set_ylim(float(theta_deg.min()), float(theta_deg.max()))
+    y_low, y_high = float(theta_deg.min()), float(theta_deg.max())
+    if y_high == y_low:  # one theta_II row: a band of one degree around it
+        y_low, y_high = y_low - 0.5, y_high + 0.5
+    ax.set_ylim(y_low, y_high)
     runs = _no_gait_runs(result)
     y_span = float(np.ptp(theta_deg)) or 1.0
     grid_step = float(np.median(np.abs(np.diff(theta_deg)))) if theta_deg.size > 1 else 1.0
