@@ -228,6 +228,10 @@ def function_source(qty: Quantity, printer: BackendPrinter) -> str:
         lines.append(f"    return ({', '.join(body)},)\n")
     else:
         lines.append(f"    return {body[0]}\n")
+    if qty.output_names:
+        if not isinstance(qty.expr, tuple) or len(qty.output_names) != len(qty.expr):
+            raise ValueError(f"{qty.name}: output_names do not match the outputs")
+        lines.append(f"\n\n{qty.name}.outputs = {tuple(qty.output_names)!r}\n")
     return "".join(lines)
 
 

@@ -73,6 +73,9 @@ class Quantity:
         earlier names, and ``expr`` may use all of them. The generator emits one line per
         name, so a model can hand it structure (``cos_theta_I``, ``q_f``) that common
         subexpression elimination would not find in the substituted expressions.
+    output_names : tuple of str
+        Names of the outputs of a tuple-valued quantity, in order; the generated function
+        carries them as its ``outputs`` attribute.
     """
 
     name: str
@@ -82,6 +85,7 @@ class Quantity:
     equation: str | None = None
     returns: str = ""
     intermediates: tuple[tuple[sm.Symbol, sm.Expr], ...] = ()
+    output_names: tuple[str, ...] = ()
 
     def explicit(self) -> sm.Expr | tuple[sm.Expr, ...]:
         """``expr`` with every intermediate substituted: in terms of ``args`` only."""

@@ -125,14 +125,7 @@ VARIABLES = ("beta", "theta_II", "phi0")
 _TABLE = {p.name: (p.lower, p.upper) for p in PARAMETERS}
 _CONDITION = {c[0]: c for c in ile.CONDITIONS}  # name -> (name, eq, strict, status, ...)
 _MARGIN_NAMES = tuple(c[0] for c in ile.CONDITIONS)
-_PIECE_NAMES = (
-    "apex_phase_I_II",
-    "apex_phase_III_IV",
-    "omega_II_squared",
-    "normal_force_I",
-    "normal_force_II",
-    "normal_force_IV",
-)  # the order of ile.condition_pieces (derive.models.ile.CONDITION_PIECE_NAMES)
+_PIECE_NAMES = ile.condition_pieces.outputs
 _TIMING = ("step_period", "step_frequency", "speed")
 _SI_NAMES = ("speed_m_s", "step_length_m", "step_frequency_hz")
 _TARGETS = ("speed", "q_fixed", "step_length", "step_frequency")

@@ -1048,6 +1048,7 @@ def derive() -> Derivation:
             "(14)",
             "(" + ", ".join(CONDITION_PIECE_NAMES) + "); see derive.models.ile.condition_pieces",
             intermediates=piece_intermediates,
+            output_names=CONDITION_PIECE_NAMES,
         )
     )
     d.facts.update({f"phase.{k}": v for k, v in phase.items()})
