@@ -83,6 +83,9 @@ class Problem:
     min_contact_margin: float = 0.0
     max_eigenvalue: float | None = None
     feasible: bool = True  # False: infeasible by a bound that needs no optimiser
+    witness: list[float] | None = None  # a feasible design, known from the construction
+    conflict: str | None = None  # infeasible: the user constraint whose removal restores it
+    beyond: float | None = None  # infeasible: how far beyond the bound (1.001: 0.1 %)
 
     def kwargs(self) -> dict[str, Any]:
         return {
@@ -126,15 +129,19 @@ def box(problem: Problem, distance: float = 1.0) -> tuple[np.ndarray, np.ndarray
     for i, name in enumerate(VARIABLES):
         t_lo, t_hi = TABLE[name]
         u_lo, u_hi = problem.bounds.get(name, (None, None))
-        lo[i] = t_lo + keep if u_lo is None or u_lo - t_lo < keep else u_lo
-        hi[i] = t_hi - keep if u_hi is None or t_hi - u_hi < keep else u_hi
+        # A user bound is closed (vsw.design refuses one within TABLE_DISTANCE of an open
+        # limit); without one the open table limit is kept at the distance.
+        lo[i] = t_lo + keep if u_lo is None else u_lo
+        hi[i] = t_hi - keep if u_hi is None else u_hi
     return lo, hi
 
 
-def constraint_rows(problem: Problem, qs: dict[str, np.ndarray]) -> list[tuple[np.ndarray, float]]:
+def constraint_rows(
+    problem: Problem, qs: dict[str, np.ndarray], distance: float = 1.0
+) -> list[tuple[np.ndarray, float]]:
     """``(value, size)`` per constraint written as ``value >= 0`` (equalities: two rows)."""
     rows = []
-    strict = design_module.STRICT_MARGIN
+    strict = design_module.STRICT_MARGIN * distance
     for name in PHYSICAL:
         if name == "stance_contact":
             floor = max(problem.min_contact_margin, design_module.CLOSED_MARGIN)
@@ -150,15 +157,15 @@ def constraint_rows(problem: Problem, qs: dict[str, np.ndarray]) -> list[tuple[n
     return rows
 
 
-def violation(problem: Problem, x: np.ndarray) -> np.ndarray:
+def violation(problem: Problem, x: np.ndarray, distance: float = 1.0) -> np.ndarray:
     """Largest relative violation per point (inf where undefined)."""
     qs = quantities(np.atleast_2d(x))
     total = np.zeros(len(np.atleast_2d(x)))
-    for value, size in constraint_rows(problem, qs):
+    for value, size in constraint_rows(problem, qs, distance):
         total = np.maximum(
             total, np.where(np.isfinite(value), np.maximum(-value, 0) / size, np.inf)
         )
-    lo, hi = box(problem)
+    lo, hi = box(problem, distance)
     x = np.atleast_2d(x)
     outside = np.max(np.maximum(lo - x, 0) + np.maximum(x - hi, 0), axis=1)
     return np.maximum(total, outside)
@@ -205,7 +212,9 @@ def make_suite(n: int = 220, seed: int = 2026) -> list[Problem]:
     while len(problems) < n:
         k += 1
         if k % 10 == 0:
-            problems.append(infeasible_problem(rng, len(problems)))
+            problem = infeasible_problem(rng, len(problems))
+            if problem is not None:
+                problems.append(problem)
             continue
         obj = objectives[k % 3]
         target = targets[(k // 3) % 5]
@@ -215,65 +224,113 @@ def make_suite(n: int = 220, seed: int = 2026) -> list[Problem]:
                     f"box={'random' if bounds else 'default'} margin={margin:.3g}",
                     obj, {}, bounds, margin)  # fmt: skip
         # Feasible by construction: a gait of the box walks with a margin to spare (and,
-        # with a target, the target is its value).
+        # with a target, the target is its value). It is the witness the reference uses.
         gait = walking_gait(p, rng, margin + 0.01)
         if gait is None:
             continue
+        p.witness = [float(v) for v in gait]
         if target is not None:
             p.targets[target] = float(quantities(gait[None, :])[target][0])
         problems.append(p)
     return problems
 
 
-def infeasible_problem(rng: np.random.Generator, index: int) -> Problem:
+def subset(problems: list[Problem]) -> list[Problem]:
+    """A stratified subset: one feasible problem for each objective and target (random and
+    default boxes alternating, margins as they come) and every kind of infeasible problem
+    at both distances beyond its bound."""
+    chosen: dict[tuple, Problem] = {}
+    for p in problems:
+        if not p.feasible:
+            chosen.setdefault((p.conflict, p.beyond), p)
+    groups: dict[tuple, list[Problem]] = {}
+    for p in problems:
+        if p.feasible:
+            target = next(iter(p.targets), None)
+            groups.setdefault((p.objective, target), []).append(p)
+    for k, (key, members) in enumerate(sorted(groups.items(), key=lambda g: str(g[0]))):
+        want_random = k % 2 == 1
+        pick = next((p for p in members if bool(p.bounds) == want_random), members[0])
+        chosen[key] = pick
+    return sorted(chosen.values(), key=lambda p: p.label)
+
+
+def infeasible_problem(rng: np.random.Generator, index: int) -> Problem | None:
+    """A problem infeasible by a bound, in a box with walking gaits (so that removing the
+    offending constraint, named in ``conflict``, restores feasibility); half of them lie
+    just beyond the bound (0.1 %)."""
     kind = index % 3
     bounds = random_box(rng)
+    beyond = 1.001 if (index // 3) % 2 else 1.5
+    probe = Problem("", "speed", {}, bounds)
+    if walking_gait(probe, rng, 0.01) is None:
+        return None
     if kind == 0:
         (b_lo, _), (_, p_hi) = bounds["beta"], bounds["phi0"]
         least = b_lo**2 * math.cos(p_hi) ** 2  # eq. (19) over the box
-        return Problem(f"{index:03d} infeasible: max_eigenvalue below the box's least",
-                       "speed", {}, bounds, 0.0, 0.5 * least, feasible=False)  # fmt: skip
+        return Problem(f"{index:03d} infeasible: max_eigenvalue below the box's least "
+                       f"(/{beyond:g})",
+                       "speed", {}, bounds, 0.0, least / beyond, feasible=False,
+                       conflict="max_eigenvalue", beyond=beyond)  # fmt: skip
     if kind == 1:
         (b_lo, b_hi), (_, p_hi) = bounds["beta"], bounds["phi0"]
         longest = max(math.sqrt((1 - b) ** 2 + 2 * b * (1 - math.cos(p_hi))) for b in (b_lo, b_hi))
-        return Problem(f"{index:03d} infeasible: step length beyond the box's longest",
-                       "eigenvalue", {"step_length": 1.2 * longest}, bounds,
-                       feasible=False)  # fmt: skip
-    return Problem(f"{index:03d} infeasible: contact margin above 1 m g", "eigenvalue", {},
-                   bounds, 1.05, feasible=False)  # fmt: skip
+        return Problem(f"{index:03d} infeasible: step length beyond the box's longest "
+                       f"(x{beyond:g})",
+                       "eigenvalue", {"step_length": beyond * longest}, bounds,
+                       feasible=False, conflict="target_step_length", beyond=beyond)  # fmt: skip
+    return Problem(f"{index:03d} infeasible: contact margin {beyond:g} m g", "eigenvalue", {},
+                   bounds, 1.0 * beyond, feasible=False, conflict="min_contact_margin",
+                   beyond=beyond)  # fmt: skip
 
 
 # --- the reference (no IPOPT) ---------------------------------------------------------------
 
 
-def reference(problem: Problem, grid: int = 48, polish: int = 4) -> dict[str, Any]:
-    """Dense grid + SLSQP polish; ``objective`` None when no feasible point is found."""
+def reference(
+    problem: Problem,
+    grid: int = 48,
+    polish: int = 4,
+    distance: float = 1.0,
+    starts_from: list[np.ndarray] | None = None,
+) -> dict[str, Any]:
+    """Dense grid + SLSQP polish; ``objective`` None when no feasible point is found.
+
+    ``distance`` scales the distances kept from the open limits (as the design's
+    continuation does); ``starts_from`` adds SLSQP starts (the witness always is one).
+    """
     from scipy.optimize import minimize
 
-    lo, hi = box(problem)
+    lo, hi = box(problem, distance)
     axes = [np.linspace(lo[i], hi[i], grid) for i in range(3)]
     x = np.stack([a.ravel() for a in np.meshgrid(*axes, indexing="ij")], axis=1)
     qs = quantities(x)
     f = SIGN[problem.objective] * qs[problem.objective]
-    rows = constraint_rows(problem, qs)
+    rows = constraint_rows(problem, qs, distance)
     inequality = np.ones(len(x), dtype=bool)
     band = np.ones(len(x), dtype=bool)
     for value, _ in rows:
         inequality &= np.isfinite(value)
-    for name in PHYSICAL:
-        inequality &= qs[name] > 0 if STRICT[name] else qs[name] >= problem.min_contact_margin
-    if problem.max_eigenvalue is not None:
-        inequality &= qs["eigenvalue"] <= problem.max_eigenvalue
+    for value, _ in rows[: len(PHYSICAL) + (problem.max_eigenvalue is not None)]:
+        inequality &= value >= 0
     for name, value in problem.targets.items():
         band &= np.abs(qs[name] - value) <= 0.03 * abs(value)
     candidates = np.flatnonzero(inequality & band & np.isfinite(f))
     best_x, best_f = None, math.inf
     if not problem.targets and len(candidates):
         i = candidates[np.argmin(f[candidates])]
-        if violation(problem, x[i])[0] <= FEAS_TOL:
+        if violation(problem, x[i], distance)[0] <= FEAS_TOL:
             best_x, best_f = x[i], float(f[i])
     order = candidates[np.argsort(f[candidates])]
     starts: list[np.ndarray] = []
+    extra = list(starts_from or [])
+    if problem.witness is not None:
+        extra.append(np.clip(np.array(problem.witness), lo, hi))
+    for z in extra:
+        if violation(problem, z, distance)[0] <= FEAS_TOL:
+            value = float(objective(problem, z)[0])
+            if value < best_f:
+                best_x, best_f = np.array(z, dtype=float), value
     span = hi - lo + 1e-12
     for i in order:
         if all(np.max(np.abs(x[i] - s) / span) > 0.1 for s in starts):
@@ -295,7 +352,7 @@ def reference(problem: Problem, grid: int = 48, polish: int = 4) -> dict[str, An
         qs = quantities(z[None, :])
         no_targets = Problem(problem.label, problem.objective, {}, problem.bounds,
                              problem.min_contact_margin, problem.max_eigenvalue)  # fmt: skip
-        values = [float(v[0]) / s for v, s in constraint_rows(no_targets, qs)]
+        values = [float(v[0]) / s for v, s in constraint_rows(no_targets, qs, distance)]
         return np.nan_to_num(np.array(values), nan=-1e3, posinf=-1e3, neginf=-1e3)
 
     def equalities(z):
@@ -324,23 +381,42 @@ def reference(problem: Problem, grid: int = 48, polish: int = 4) -> dict[str, An
     constraints = [{"type": "ineq", "fun": inequalities, "jac": central(inequalities)}]
     if problem.targets:
         constraints.append({"type": "eq", "fun": equalities, "jac": central(equalities)})
-    for start in starts:
+    for start in starts + extra:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             res = minimize(fun, start, jac=gradient, method="SLSQP", bounds=list(zip(lo, hi)),
                            constraints=constraints,
                            options={"maxiter": 200, "ftol": 1e-12})  # fmt: skip
         z = np.clip(res.x, lo, hi)
-        if violation(problem, z)[0] <= FEAS_TOL:
+        if violation(problem, z, distance)[0] <= FEAS_TOL:
             value = float(objective(problem, z)[0])
             if value < best_f:
                 best_x, best_f = z, value
     return {
         "objective": None if best_x is None else best_f,
         "x": None if best_x is None else [float(v) for v in best_x],
+        "at_open_limit": None if best_x is None else at_open_limit(problem, best_x, distance),
         "grid_points": len(x),
         "candidates": len(candidates),
     }
+
+
+def at_open_limit(problem: Problem, x: np.ndarray, distance: float = 1.0) -> bool:
+    """Whether a point presses on a kept distance: a strict condition at STRICT_MARGIN or
+    a variable at the distance kept from an open table limit (to 1e-7)."""
+    qs = quantities(np.atleast_2d(x))
+    strict = design_module.STRICT_MARGIN * distance
+    for name in PHYSICAL:
+        if STRICT[name] and abs(float(qs[name][0]) - strict) <= 1e-7:
+            return True
+    lo, hi = box(problem, distance)
+    for i, name in enumerate(VARIABLES):
+        u_lo, u_hi = problem.bounds.get(name, (None, None))
+        if u_lo is None and abs(x[i] - lo[i]) <= 1e-7:
+            return True
+        if u_hi is None and abs(x[i] - hi[i]) <= 1e-7:
+            return True
+    return False
 
 
 # --- running a design function --------------------------------------------------------------
@@ -366,53 +442,92 @@ def solve(problem: Problem, module: Any) -> dict[str, Any]:
     with contextlib.redirect_stderr(io.StringIO()):
         result = module.design(**kwargs, verify=False)
     seconds = time.perf_counter() - start
-    out: dict[str, Any] = {"status": result.status, "seconds": seconds, "objective": None}
+    out: dict[str, Any] = {"status": result.status, "seconds": seconds, "objective": None,
+                           "conflicting": list(result.conflicting_constraints)}  # fmt: skip
     if result.beta is not None:
         x = np.array([result.beta, result.theta_II, result.phi0])
         out["x"] = [float(v) for v in x]
         out["objective"] = float(objective(problem, x)[0])
         out["violation"] = float(violation(problem, x)[0])
+        # The simulation re-checks q^f, step period, length and speed (the constraints
+        # were re-checked just above from the closed forms).
         out["simulation_rel_error"] = design_module.simulation_check(result.analysis)
+    limit = getattr(result, "limit", None)
+    if limit is not None:
+        out["limit"] = limit.to_dict()
     return out
 
 
-def judge(problem: Problem, got: dict[str, Any], ref: dict[str, Any]) -> dict[str, bool]:
+def check_path(problem: Problem, got: dict[str, Any], grid: int) -> bool | None:
+    """A not-attained design's last converged path point against the reference solved at
+    the same distance: the path must be optimal there too (None: nothing to check)."""
+    path = [p for p in got.get("limit", {}).get("path", []) if p["converged"]]
+    if len(path) < 2:
+        return None
+    last = path[-1]
+    x = np.array([last["beta"], last["theta_II"], last["phi0"]])
+    if violation(problem, x, last["distance_scale"])[0] > FEAS_TOL:
+        return False
+    ref = reference(problem, grid, 2, last["distance_scale"], starts_from=[x])
+    value = float(objective(problem, x)[0])
+    return ref["objective"] is not None and value <= ref["objective"] + MATCH_TOL * max(
+        1.0, abs(ref["objective"])
+    )
+
+
+def judge(problem: Problem, got: dict[str, Any], ref: dict[str, Any]) -> dict[str, Any]:
     """The verdicts the summary counts."""
     found = got["status"] in ("optimal", "not-attained")
     if not problem.feasible:
-        return {"success": got["status"] == "infeasible", "false_infeasible": False,
-                "false_feasible": found}  # fmt: skip
+        named = problem.conflict in got.get("conflicting", [])
+        return {"success": got["status"] == "infeasible" and named, "false_infeasible": False,
+                "false_feasible": found, "reference_missing": False,
+                "status_agrees": None}  # fmt: skip
     ok_point = found and got.get("violation", math.inf) <= FEAS_TOL
     ok_sim = found and got.get("simulation_rel_error", math.inf) <= 1e-6
     ref_f = ref["objective"]
-    matches = ok_point and (
-        ref_f is None or got["objective"] <= ref_f + MATCH_TOL * max(1.0, abs(ref_f))
+    matches = (
+        ok_point
+        and ref_f is not None
+        and got["objective"] <= ref_f + MATCH_TOL * max(1.0, abs(ref_f))
     )
+    agrees = None
+    if found and ref_f is not None:
+        agrees = (got["status"] == "not-attained") == bool(ref["at_open_limit"])
     return {
         "success": bool(matches and ok_sim),
         "false_infeasible": got["status"] in ("infeasible", "not-converged"),
         "false_feasible": False,
+        # A feasible problem always has its witness: a missing reference is a suite error.
+        "reference_missing": ref_f is None,
+        "status_agrees": agrees,
     }
 
 
 def summarise(records: list[dict[str, Any]], side: str) -> dict[str, Any]:
     feasible = [r for r in records if r["feasible"]]
     infeasible = [r for r in records if not r["feasible"]]
+    verdicts = [r[f"{side}_verdict"] for r in records]
     times = sorted(r[side]["seconds"] for r in records)
     p95 = times[min(len(times) - 1, math.ceil(0.95 * len(times)) - 1)]
     statuses: dict[str, int] = {}
     for r in records:
         statuses[r[side]["status"]] = statuses.get(r[side]["status"], 0) + 1
+    agreement = [v["status_agrees"] for v in verdicts if v["status_agrees"] is not None]
+    paths = [r.get(f"{side}_path_ok") for r in records if r.get(f"{side}_path_ok") is not None]
     return {
         "problems": len(records),
-        "success": sum(r[f"{side}_verdict"]["success"] for r in records),
-        "success_rate": sum(r[f"{side}_verdict"]["success"] for r in records) / len(records),
+        "success": sum(v["success"] for v in verdicts),
+        "success_rate": sum(v["success"] for v in verdicts) / len(records),
         "feasible_reported_infeasible_or_not_converged": sum(
             r[f"{side}_verdict"]["false_infeasible"] for r in feasible
         ),
         "infeasible_reported_feasible": sum(
             r[f"{side}_verdict"]["false_feasible"] for r in infeasible
         ),
+        "reference_missing": sum(v["reference_missing"] for v in verdicts),
+        "status_agrees_with_reference": f"{sum(agreement)}/{len(agreement)}",
+        "not_attained_paths_optimal": f"{sum(paths)}/{len(paths)}",
         "median_s": statistics.median(times),
         "p95_s": p95,
         "statuses": dict(sorted(statuses.items())),
@@ -450,6 +565,8 @@ def run(
             got = solve(p, module)
             record[side] = got
             record[f"{side}_verdict"] = judge(p, got, ref)
+            if side == "after" and got["status"] == "not-attained":
+                record["after_path_ok"] = check_path(p, got, grid)
         records.append(record)
     summary = {side: summarise(records, side) for side in sides}
     return {"seed": seed, "before": before, "summary": summary, "records": records,

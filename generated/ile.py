@@ -790,7 +790,7 @@ def condition_pieces(beta, theta_II, phi0):
     Returns
     -------
     tuple of arrays
-        (apex_phase_I_II, apex_phase_III_IV, omega_II_squared, normal_force_I, normal_force_II, normal_force_IV); see derive.models.ile.condition_pieces
+        (apex_phase_I_II, apex_phase_III_IV, normal_force_I, normal_force_II, normal_force_IV); see derive.models.ile.condition_pieces
     """
     be = backend_for(beta, theta_II, phi0)
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
@@ -813,7 +813,7 @@ def condition_pieces(beta, theta_II, phi0):
     omega_II_sq = x10 - x6*cos_theta_II
     omega_III_sq = x11*omega_II_sq
     x12 = x9 + omega_III_sq
-    return (x10 - x6, (-2 + x12)/x11, omega_II_sq, cos_theta_I**2 - q_f*beta*cos_theta_I, cos_theta_II**2 - cos_theta_II*omega_II_sq*beta, cos_theta_IV**2 - cos_theta_IV*(x12 - 2*cos_theta_IV),)
+    return (x10 - x6, (-2 + x12)/x11, cos_theta_I**2 - q_f*beta*cos_theta_I, cos_theta_II**2 - cos_theta_II*omega_II_sq*beta, cos_theta_IV**2 - cos_theta_IV*(x12 - 2*cos_theta_IV),)
 
 
-condition_pieces.outputs = ('apex_phase_I_II', 'apex_phase_III_IV', 'omega_II_squared', 'normal_force_I', 'normal_force_II', 'normal_force_IV')
+condition_pieces.outputs = ('apex_phase_I_II', 'apex_phase_III_IV', 'normal_force_I', 'normal_force_II', 'normal_force_IV')

@@ -172,19 +172,23 @@ def test_target_speed_is_hit():
 
 def test_other_targets_are_hit():
     result = design(targets={"q_fixed": 0.5, "step_length": 0.7}, bounds=BOUNDS)
-    assert result.status in ("optimal", "not-attained"), result.message
+    assert result.status == "optimal", result.message
     assert float(result.analysis.q_fixed) == pytest.approx(0.5, rel=1e-9)
     assert float(result.analysis.step_length) == pytest.approx(0.7, rel=1e-9)
     result = design("cost_of_transport", targets={"step_frequency_hz": 3.0}, bounds=BOUNDS,
                     scale=STEPPER_2D)  # fmt: skip
-    assert result.status in ("optimal", "not-attained"), result.message
+    assert result.status == "optimal", result.message
     assert 1 / float(result.analysis.step_period_s) == pytest.approx(3.0, rel=1e-9)
 
 
-@pytest.mark.parametrize("objective", ["speed", "eigenvalue", "cost_of_transport"])
-def test_no_grid_point_beats_the_optimiser(objective):
+@pytest.mark.parametrize(
+    "objective, status",
+    [("speed", "optimal"), ("eigenvalue", "optimal"), ("cost_of_transport", "not-attained")],
+)
+def test_no_grid_point_beats_the_optimiser(objective, status):
     result = design(objective, bounds=BOUNDS, min_contact_margin=0.05)
-    assert result.status in ("optimal", "not-attained"), result.message
+    assert result.status == status, result.message
+    assert bool(result.open_boundary) == (status == "not-attained")
     _, qs, walks = _grid_quantities(BOUNDS, 40)
     walks &= qs["stance_contact"] >= 0.05
     sign = -1.0 if objective == "speed" else 1.0
@@ -224,16 +228,24 @@ def test_degenerate_supremum_says_which_variables_run_to_which_limit():
     assert bool(result.analysis.walks)
 
 
-def test_flat_objective_on_an_open_limit_is_optimal():
-    # With theta_II fixed at 0 the fastest gait presses against extension_reached
-    # (theta_II > theta_I) only if the objective gains there; whatever the answer, the
-    # returned point walks and the status says whether the optimum is attained.
+def test_fixed_theta_II_on_the_region_boundary():
+    # theta_II = 0 is the boundary between two regions of the apex crossing. The fastest
+    # gait there presses against extension_reached (theta_I < theta_II = 0): the speed
+    # grows as theta_I rises towards 0.
     result = design("speed", bounds=BOUNDS, fixed={"theta_II": 0.0})
-    assert result.status in ("optimal", "not-attained"), result.message
-    assert bool(result.analysis.walks)
+    assert result.status == "not-attained", result.message
+    assert result.open_boundary == ("extension_reached",)
+    assert result.theta_II == 0.0 and bool(result.analysis.walks)
     assert result.simulation_rel_error < 1e-8
-    if result.status == "not-attained":
-        assert result.limit.path[-1]["objective"] < result.limit.path[0]["objective"]
+    # Not the open limit of theta_II: a region bound is no table limit.
+    assert not any(name.startswith("theta_II") for name in result.limit.approached_as)
+    path = [p["objective"] for p in result.limit.path]
+    assert all(b < a for a, b in itertools.pairwise(path))
+    # The brute-force check of the limit: theta_I -> 0 means beta -> cos phi0 from above;
+    # the grid's fastest walking gait at theta_II = 0 is no faster than the limit.
+    grid = {"beta": (0.6, 0.95), "theta_II": (0.0, 0.0), "phi0": (R(20), R(60))}
+    _, qs, walks = _grid_quantities(grid, 200)
+    assert qs["speed"][walks].max() <= -result.limit.objective + 1e-9
 
 
 def test_paper_conditions_keep_the_design_inside_the_papers_region():
@@ -255,6 +267,48 @@ def test_paper_conditions_keep_the_design_inside_the_papers_region():
     # A smaller feasible set cannot give a better optimum.
     assert paper.objective >= exact.objective - 1e-12
     assert paper.to_dict()["condition_set"] == "paper"
+
+
+def test_paper_conditions_never_use_the_region_where_theta_I_is_positive():
+    from vsw.design import _REGIONS, _build_problem
+
+    problem = _build_problem({"speed": 1.0}, None, None, None, 0.0, None, None, "paper")
+    assert all(_REGIONS[r].theta_I_sign >= 0 for r in problem.regions)
+    result = design("speed", conditions="paper")
+    assert result.analysis.condition("theta_I_negative").value > 0
+
+
+def test_target_on_the_objectives_own_quantity():
+    # Maximising the speed at a fixed speed: every feasible design is optimal.
+    result = design("speed", targets={"speed": 0.5})
+    assert result.status == "optimal", result.message
+    assert float(result.analysis.speed) == pytest.approx(0.5, rel=1e-9)
+    assert result.objective == pytest.approx(-0.5, rel=1e-9)
+
+
+def test_weighted_objective_is_no_worse_than_its_terms_at_their_own_optima():
+    weights = {"speed": 1.0, "eigenvalue": 2.0}
+    mixed = design(weights, bounds=BOUNDS, min_contact_margin=0.05)
+    assert mixed.status in ("optimal", "not-attained"), mixed.message
+    value = -float(mixed.analysis.speed) + 2 * float(mixed.analysis.eigenvalue)
+    assert mixed.objective == pytest.approx(value, rel=1e-12)
+    for single in ("speed", "eigenvalue"):
+        other = design(single, bounds=BOUNDS, min_contact_margin=0.05)
+        at_other = -float(other.analysis.speed) + 2 * float(other.analysis.eigenvalue)
+        assert mixed.objective <= at_other + 1e-9
+
+
+def test_extrapolation_of_known_sequences():
+    from vsw.design import _STEP, _extrapolate
+
+    d = np.array([1.0, _STEP, _STEP**2, _STEP**3])
+    limit, uncertainty = _extrapolate(list(2.0 + 3.0 * d))  # linear in the distance
+    assert limit == pytest.approx(2.0, abs=1e-12) and uncertainty < 1e-9
+    limit, uncertainty = _extrapolate(list(1.0 - np.sqrt(d)))  # like sqrt(distance)
+    assert abs(limit - 1.0) <= uncertainty + 1e-12
+    assert _extrapolate([1.0, 2.0]) == (None, None)  # two values decide nothing
+    assert _extrapolate([0.0, -1.0, -3.0, -7.0]) == (-math.inf, None)  # growing steps
+    assert _extrapolate([0.0, -1.0, -3.0])[0] is None  # two growing steps are not enough
 
 
 def test_impossible_eigenvalue_bound_is_infeasible_and_named():
@@ -303,6 +357,12 @@ def test_bad_requests_raise():
         {"objective": "speed", "fixed": {"beta": 1.5}},
         {"objective": "speed", "conditions": "strict"},
         {"objective": "speed", "n_starts": 0},
+        {"objective": "speed", "min_contact_margin": -0.1},
+        # A closed bound inside the distance kept from an open limit cannot be honoured.
+        {"objective": "speed", "bounds": {"beta": (None, 0.9995)}},
+        # A target outside its own bounds, and one on q^f below the kept margin of (12).
+        {"targets": {"step_length": 0.5}, "bounds": {"step_length": (None, 0.4)}},
+        {"targets": {"q_fixed": 1e-7}},
         # Values that overflow once made dimensionless.
         {"objective": "speed", "bounds": {"step_length_m": (1e308, None)},
          "scale": RobotScale(1e-3, 1.0)},
@@ -360,6 +420,12 @@ def test_readme_example_without_a_box(capsys):
     out = capsys.readouterr()
     assert code == 0, out.err
     assert out.out.startswith("status           optimal")
+    # The numbers the README quotes.
+    rows = dict(line.split(None, 1) for line in out.out.splitlines() if line.strip())
+    assert rows["beta"].split()[0] == "0.56887876"
+    assert rows["theta_II"].split()[0] == "42.301613"
+    assert rows["phi0"].split()[0] == "63.283386"
+    assert rows["eigenvalue"].startswith("0.0654108")
 
 
 def test_cli_bad_input_exit_2(capsys):
@@ -374,6 +440,8 @@ def test_cli_bad_input_exit_2(capsys):
         ["--leg-length", "1e-300", "--target-speed", "1e300"],
         ["--maximize", "speed", "--theta-ii-max", "1e999"],
         ["--maximize", "speed", "--conditions", "strict"],
+        ["--target-step-length", "0.5", "--max-step-length", "0.4"],
+        ["--maximize", "speed", "--beta-max", "0.9995"],
     ):
         assert main(["design", *argv]) == 2, argv
         err = capsys.readouterr().err

@@ -241,7 +241,7 @@ def test_condition_pieces_equal_the_exact_margins_region_by_region():
     condition_margins, itself tested against brute force over the step."""
     p = random_walking_parameters(20000, seed=3)
     b, t, f = _params(p)
-    apex_I_II, apex_III_IV, w2_II, n_I, n_II, n_IV = ile.condition_pieces(b, t, f)
+    apex_I_II, apex_III_IV, n_I, n_II, n_IV = ile.condition_pieces(b, t, f)
     margins = dict(zip([c[0] for c in ile.CONDITIONS], ile.condition_margins(b, t, f)))
     theta_I = ile.theta_I(b, f)
     regions = {
@@ -257,8 +257,12 @@ def test_condition_pieces_equal_the_exact_margins_region_by_region():
     assert np.max(np.abs(margins["stance_contact"] - contact)) <= 1e-12
     # The normal forces are N = cos(theta) (cos(theta) - rho omega**2) at instants I, II, IV.
     q_f = ile.q_fixed(b, t, f)
+    w2_II = ile.omega_II_squared(b, t, f, q_f)
     w2_IV = ile.omega_IV_squared(b, t, f, q_f)
-    np.testing.assert_allclose(w2_II, ile.omega_II_squared(b, t, f, q_f), rtol=1e-12)
+    # In the region theta_I <= 0 <= theta_II, phase III-IV's own apex margin, omega_III**2 /
+    # beta**4 = omega_II**2, is never the smaller one: the piece of phase I-II decides.
+    inside = (t >= 0) & (theta_I <= 0)
+    assert np.all(apex_I_II[inside] <= w2_II[inside] + 1e-12)
     np.testing.assert_allclose(n_I, ile.normal_force(theta_I, np.sqrt(q_f), b), atol=1e-12)
     np.testing.assert_allclose(n_II, ile.normal_force(t, np.sqrt(w2_II), b), atol=1e-12)
     np.testing.assert_allclose(

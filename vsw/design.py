@@ -128,6 +128,8 @@ _MARGIN_NAMES = tuple(c[0] for c in ile.CONDITIONS)
 _PIECE_NAMES = ile.condition_pieces.outputs
 _TIMING = ("step_period", "step_frequency", "speed")
 _SI_NAMES = ("speed_m_s", "step_length_m", "step_frequency_hz")
+_SI_QUANTITY = {"speed_m_s": "speed", "step_length_m": "step_length",
+                 "step_frequency_hz": "step_frequency"}  # fmt: skip
 _TARGETS = ("speed", "q_fixed", "step_length", "step_frequency")
 _METRIC_BOUNDS = ("step_length", "step_frequency")
 
@@ -153,7 +155,7 @@ _IPOPT_OPTIONS = {
     "show_eval_warnings": False,
 }
 _SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
-_INFEASIBLE = ("Infeasible_Problem_Detected", "Restoration_Failed")
+_INFEASIBLE = ("Infeasible_Problem_Detected", "Restoration_Failed", "Empty_Region")
 
 
 # --- closed-form quantities (numpy or CasADi) ---------------------------------------------
@@ -263,6 +265,7 @@ class _Problem:
     fixed: dict[str, float]
     conditions: str
     regions: tuple[int, ...]
+    request: dict[str, Any]  # the arguments it was built from (see without())
 
     @property
     def timing(self) -> bool:
@@ -309,24 +312,30 @@ class _Problem:
         return lbx, ubx
 
     def without(self, relax_key: str) -> _Problem:
-        """The same problem with one user constraint (group) removed."""
-        lbx, ubx = self.lbx.copy(), self.ubx.copy()
-        table_open = set(self.table_open)
-        fixed = dict(self.fixed)
-        bound_names = dict(self.bound_names)
-        for (i, side), name in self.bound_names.items():
-            if name == relax_key:
-                lbx[i], ubx[i] = (_TABLE[VARIABLES[i]][0], ubx[i]) if side == 0 else (
-                    lbx[i], _TABLE[VARIABLES[i]][1])  # fmt: skip
-                table_open.add((i, side))
-                del bound_names[(i, side)]
+        """The same request with one user constraint (group) removed, built anew."""
+        request = dict(self.request)
+        request["bounds"] = dict(request["bounds"])
+        request["fixed"] = dict(request["fixed"])
+        request["targets"] = dict(request["targets"])
         if relax_key.startswith("fix_"):
-            fixed.pop(relax_key[4:], None)
-        constraints = [c for c in self.constraints if not (c.user and c.relax_key == relax_key)]
-        if relax_key == "min_contact_margin":  # the physical N >= 0 stays
-            constraints += _contact_constraints(0.0)
-        return _Problem(self.weights, lbx, ubx, table_open, bound_names, constraints, fixed,
-                        self.conditions, self.regions)  # fmt: skip
+            request["fixed"].pop(relax_key[4:], None)
+        elif relax_key == "max_eigenvalue":
+            request["max_eigenvalue"] = None
+        elif relax_key == "min_contact_margin":
+            request["min_contact_margin"] = 0.0  # the physical N >= 0 stays
+        elif relax_key.startswith("target_"):
+            quantity = relax_key[len("target_") :]
+            for name in list(request["targets"]):
+                if _SI_QUANTITY.get(name, name) == quantity:
+                    del request["targets"][name]
+        else:
+            side = 0 if relax_key.endswith("_min") or relax_key.startswith("min_") else 1
+            quantity = relax_key[:-4] if relax_key[-4:] in ("_min", "_max") else relax_key[4:]
+            for name, pair in list(request["bounds"].items()):
+                if _SI_QUANTITY.get(name, name) == quantity:
+                    lo, hi = _pair(name, pair)
+                    request["bounds"][name] = (None, hi) if side == 0 else (lo, None)
+        return _build_problem(**request)
 
     def user_constraints(self) -> list[str]:
         """Relax keys of every user constraint, in a stable order."""
@@ -419,10 +428,22 @@ def _to_dimensionless(name: str, value: float, scale: RobotScale | None) -> tupl
     return quantity, v
 
 
+def _pair(name: str, pair: Any) -> tuple[Any, Any]:
+    if not isinstance(pair, Sequence) or isinstance(pair, str) or len(pair) != 2:
+        raise VswInputError(f"bound on {name} = {pair!r}: expected (lower, upper)")
+    return pair[0], pair[1]
+
+
 def _variable_bounds(
     bounds: Mapping[str, tuple[float | None, float | None]],
     fixed: Mapping[str, float],
 ) -> tuple[np.ndarray, np.ndarray, set[tuple[int, int]], dict[tuple[int, int], str], dict]:
+    """Bounds of the decision variables: closed user bounds, or the open table limits.
+
+    A user bound at (or beyond) a table limit is that open limit. A user bound closer to
+    it than :data:`TABLE_DISTANCE` is refused: the design never comes that close to an
+    open limit, so such a bound could not be honoured as the closed bound it is.
+    """
     from vsw.params import check_parameter
 
     lbx, ubx = np.empty(3), np.empty(3)
@@ -432,26 +453,31 @@ def _variable_bounds(
     for i, name in enumerate(VARIABLES):
         lo_t, hi_t = _TABLE[name]
         lo, hi = lo_t, hi_t
-        pair = bounds.get(name, (None, None))
-        if not isinstance(pair, Sequence) or isinstance(pair, str) or len(pair) != 2:
-            raise VswInputError(f"bound on {name} = {pair!r}: expected (lower, upper)")
-        user_lo, user_hi = pair
-        if user_lo is not None:
-            user_lo = _finite(f"{name} lower bound", user_lo)
-            if user_lo >= hi_t:
-                raise VswInputError(f"{name} lower bound {user_lo:.6g} >= {hi_t:.6g}, the "
-                                    f"table limit of {name}")  # fmt: skip
-            if user_lo > lo_t:
-                lo = user_lo
-                bound_names[(i, 0)] = f"{name}_min"
-        if user_hi is not None:
-            user_hi = _finite(f"{name} upper bound", user_hi)
-            if user_hi <= lo_t:
-                raise VswInputError(f"{name} upper bound {user_hi:.6g} <= {lo_t:.6g}, the "
-                                    f"table limit of {name}")  # fmt: skip
-            if user_hi < hi_t:
-                hi = user_hi
-                bound_names[(i, 1)] = f"{name}_max"
+        user_lo, user_hi = _pair(name, bounds.get(name, (None, None)))
+        for side, value, limit in ((0, user_lo, lo_t), (1, user_hi, hi_t)):
+            if value is None:
+                continue
+            value = _finite(f"{name} {('lower', 'upper')[side]} bound", value)
+            beyond = value <= limit if side == 0 else value >= limit
+            if beyond:
+                continue
+            if (value >= hi_t) if side == 0 else (value <= lo_t):
+                raise VswInputError(
+                    f"{name} {('lower', 'upper')[side]} bound {value:.6g} lies beyond the "
+                    f"other table limit of {name} ({(hi_t, lo_t)[side]:.6g})"
+                )
+            if abs(value - limit) < TABLE_DISTANCE and name not in fixed:
+                raise VswInputError(
+                    f"{name} {('lower', 'upper')[side]} bound {value:.6g} is closer than "
+                    f"{TABLE_DISTANCE:g} to the open limit {limit:.6g} of {name}: use "
+                    f"{limit + (TABLE_DISTANCE if side == 0 else -TABLE_DISTANCE):.6g} or "
+                    "leave it out (the open limit is the default)"
+                )
+            if side == 0:
+                lo = value
+            else:
+                hi = value
+            bound_names[(i, side)] = f"{name}_{('min', 'max')[side]}"
         if lo > hi:
             raise VswInputError(f"{name} bounds are empty: lower {lo:.6g} > upper {hi:.6g}")
         if name in fixed:
@@ -464,18 +490,8 @@ def _variable_bounds(
             bound_names[(i, 0)] = bound_names[(i, 1)] = f"fix_{name}"
         else:
             table_open |= {(i, side) for side in (0, 1) if (i, side) not in bound_names}
-            # A user bound closer to an open table limit than the distance kept from it
-            # is that limit.
-            for side, limit in ((0, lo_t), (1, hi_t)):
-                value = lo if side == 0 else hi
-                if (i, side) in bound_names and abs(value - limit) < TABLE_DISTANCE:
-                    del bound_names[(i, side)]
-                    table_open.add((i, side))
-            if (i, 0) in table_open:
-                lo = lo_t
-            if (i, 1) in table_open:
-                hi = hi_t
-            if hi - lo < 2 * TABLE_DISTANCE * (((i, 0) in table_open) + ((i, 1) in table_open)):
+            room = hi - lo - TABLE_DISTANCE * sum((i, side) in table_open for side in (0, 1))
+            if room < 0:
                 raise VswInputError(
                     f"{name} bounds [{lo:.6g}, {hi:.6g}] leave no room inside the open limits "
                     f"of the parameter table (kept {TABLE_DISTANCE:g} away)"
@@ -518,6 +534,11 @@ def _build_problem(
         for name in ("theta_I_negative", "extension_before_symmetric_contact"):
             constraints.append(_Constraint(name, name, 0.0, math.inf, False, open=True))
     margin = _finite("min_contact_margin", min_contact_margin)
+    if margin < 0:
+        raise VswInputError(
+            f"min_contact_margin = {min_contact_margin!r} must be >= 0 (m g): the stance foot "
+            "must stay on the ground, N >= 0, always"
+        )
     constraints += _contact_constraints(margin)
     if max_eigenvalue is not None:
         v = _finite("max_eigenvalue", max_eigenvalue)
@@ -528,9 +549,7 @@ def _build_problem(
     for name, pair in bounds.items():
         if name in VARIABLES:
             continue
-        if not isinstance(pair, Sequence) or isinstance(pair, str) or len(pair) != 2:
-            raise VswInputError(f"bound on {name} = {pair!r}: expected (lower, upper)")
-        for side, value in enumerate(pair):
+        for side, value in enumerate(_pair(name, pair)):
             if value is None:
                 continue
             quantity, v = _to_dimensionless(name, _finite(f"{name} bound", value), scale)
@@ -558,12 +577,27 @@ def _build_problem(
         if quantity in seen and not math.isclose(seen[quantity], v, rel_tol=1e-12):
             raise VswInputError(f"two different targets for {quantity}")
         seen[quantity] = v
+        lo, hi = metric.get(quantity, (-math.inf, math.inf))
+        if not lo <= v <= hi:
+            raise VswInputError(
+                f"target {name} = {value!r} lies outside its own bounds [{lo:.6g}, {hi:.6g}]"
+            )
+        if quantity == "q_fixed" and v <= STRICT_MARGIN:
+            raise VswInputError(
+                f"target q_fixed = {value!r} must exceed {STRICT_MARGIN:g}: q^f > 0 (eq. 12) "
+                "is kept that far from its open limit"
+            )
         key = f"target_{quantity}"
         constraints.append(_Constraint(key, quantity, v, v, True, key))
     # The paper's (15) is theta_I < 0, which rules out the region where theta_I >= 0.
     regions = (0, 1) if conditions == "paper" else (0, 1, 2)
+    request = {
+        "weights": weights, "targets": dict(targets or {}), "bounds": bounds, "fixed": fixed,
+        "min_contact_margin": margin, "max_eigenvalue": max_eigenvalue, "scale": scale,
+        "conditions": conditions,
+    }  # fmt: skip
     return _Problem(weights, lbx, ubx, table_open, bound_names, constraints, fixed_v,
-                    conditions, regions)  # fmt: skip
+                    conditions, regions, request)  # fmt: skip
 
 
 # --- compiled solvers, cached per problem structure ---------------------------------------
@@ -629,9 +663,10 @@ def _shifted(c: _Constraint, distance: float) -> tuple[float, float]:
     return lower, c.upper
 
 
-def _size(c: _Constraint) -> float:
+def _size(c: _Constraint, floor: float = 1.0) -> float:
+    """The scale of a constraint's bounds: violations and rows are relative to it."""
     finite = [abs(b) for b in (c.lower, c.upper) if math.isfinite(b)]
-    return max([1.0, *finite])
+    return max([floor, *finite])
 
 
 def _objective_values(problem: _Problem, qs: Mapping[str, np.ndarray]) -> np.ndarray:
@@ -642,8 +677,11 @@ def _objective_values(problem: _Problem, qs: Mapping[str, np.ndarray]) -> np.nda
     return total
 
 
-def _user_violation(problem: _Problem, qs: Mapping[str, np.ndarray]) -> np.ndarray:
-    """Sum of relative violations of the user constraints (inf where a value is NaN)."""
+def _user_violation(
+    problem: _Problem, qs: Mapping[str, np.ndarray], floor: float = 1.0
+) -> np.ndarray:
+    """Sum of the user constraints' violations, each relative to ``max(floor, |bound|)``
+    (inf where a value is NaN)."""
     total = np.zeros_like(qs["q_fixed"])
     with np.errstate(invalid="ignore"):
         for c in problem.constraints:
@@ -651,7 +689,7 @@ def _user_violation(problem: _Problem, qs: Mapping[str, np.ndarray]) -> np.ndarr
                 continue
             v = qs[c.quantity]
             excess = np.maximum(c.lower - v, 0.0) + np.maximum(v - c.upper, 0.0)
-            total = total + np.where(np.isfinite(v), excess / _size(c), np.inf)
+            total = total + np.where(np.isfinite(v), excess / _size(c, floor), np.inf)
     return total
 
 
@@ -696,11 +734,13 @@ class _Scan:
     qs: dict[str, np.ndarray]
     region: np.ndarray
     physical: np.ndarray  # violation of the exact conditions
-    user: np.ndarray  # violation of the user constraints
+    user: np.ndarray  # violation of the user constraints (relative to max(1, |bound|))
+    band: np.ndarray  # the same relative to |bound|: the distance from a target in %
     objective: np.ndarray
+    defined: np.ndarray  # the objective and every NLP row are numbers: IPOPT can start here
 
     def feasible(self, tol: float = _FEAS_TOL) -> np.ndarray:
-        return (self.physical == 0) & (self.user <= tol) & np.isfinite(self.objective)
+        return (self.physical == 0) & (self.user <= tol) & self.defined
 
 
 def _scan(problem: _Problem, n: int = _SCAN_POINTS) -> _Scan:
@@ -709,8 +749,12 @@ def _scan(problem: _Problem, n: int = _SCAN_POINTS) -> _Scan:
     x = lbx + (ubx - lbx) * _halton(n)
     qs = _numpy_quantities(x, timing=problem.timing)
     objective = _objective_values(problem, qs)
+    defined = np.isfinite(objective)
+    for row in problem.rows():
+        defined &= np.isfinite(qs[row])
     return _Scan(x, qs, _region_of(x, qs), _physical_violation(problem, qs),
-                 _user_violation(problem, qs), objective)  # fmt: skip
+                 _user_violation(problem, qs), _user_violation(problem, qs, 1e-300),
+                 objective, defined)  # fmt: skip
 
 
 def _seeds(problem: _Problem, scan: _Scan, per_region: int) -> list[tuple[int, np.ndarray]]:
@@ -728,7 +772,8 @@ def _seeds(problem: _Problem, scan: _Scan, per_region: int) -> list[tuple[int, n
         inside = scan.region == region
         if not inside.any():
             continue
-        near = inside & (scan.physical == 0) & (scan.user <= _TARGET_BAND)
+        inside &= scan.defined
+        near = inside & (scan.physical == 0) & (scan.band <= _TARGET_BAND)
         chosen: list[np.ndarray] = []
         keys: list[tuple[float, float]] = []
         for idx in np.flatnonzero(near)[np.argsort(objective[near], kind="stable")]:
@@ -808,12 +853,12 @@ def _solve_from(
 ) -> _Solve:
     terms, _rows, _ = problem.structure()
     lbx, ubx = problem.bounds(region, distance)
-    if np.any(lbx > ubx):
+    lbg, ubg, scales = _row_bounds(problem, region, distance)
+    if np.any(lbx > ubx) or np.any(lbg > ubg):
         empty = np.zeros(0)
         return _Solve(np.clip(x0, problem.lbx, problem.ubx), region, distance, math.inf,
                       "Empty_Region", 0, empty, empty, checked=True)  # fmt: skip
     solver = _solver(problem, "warm" if warm is not None else "probe" if probe else "cold")
-    lbg, ubg, scales = _row_bounds(problem, region, distance)
     p = np.concatenate([[problem.weights[t] for t in terms], scales])
     start: dict[str, Any] = {"x0": np.clip(x0, lbx, ubx)}
     if warm is not None and len(warm.lam_x):
@@ -862,9 +907,9 @@ def _open_active(
     """Open limits at their kept distance whose multiplier pulls the optimum onto them."""
     pull = _MULTIPLIER_TOL * max(1.0, abs(s.objective))
     names: list[str] = []
-    lbx, ubx = problem.bounds(s.region, s.distance)
     for i, side in sorted(problem.table_open):
-        bound = lbx[i] if side == 0 else ubx[i]
+        # The kept bound itself, not the region's (theta_II = 0 bounds two regions).
+        bound = _kept_table_bound(i, side, s.distance)
         near = abs(s.x[i] - bound) <= _ACTIVE_TOL * max(1.0, abs(bound))
         if near and abs(s.lam_x[i]) > pull:
             names.append(_limit_name(i, side))
@@ -879,13 +924,23 @@ def _open_active(
     return tuple(names)
 
 
+def _kept_table_bound(i: int, side: int, distance: float) -> float:
+    limit = _TABLE[VARIABLES[i]][side]
+    return limit + (1 if side == 0 else -1) * TABLE_DISTANCE * distance
+
+
+def _limit_text(limit: float) -> str:
+    """A table limit as people write it: 1, 0, pi/2, -pi/2."""
+    if abs(abs(limit) - math.pi / 2) < 1e-12:
+        return "-pi/2" if limit < 0 else "pi/2"
+    return f"{limit:g}"
+
+
 def _limit_name(i: int, side: int) -> str:
     name = VARIABLES[i]
-    limit = _TABLE[name][side]
     if name == "phi0" and side == 1:
         return "phi0_below_right_angle"
-    text = "pi/2" if abs(abs(limit) - math.pi / 2) < 1e-12 else f"{limit:g}"
-    return f"{name} {'>' if side == 0 else '<'} {'-' if limit < 0 else ''}{text.lstrip('-')}"
+    return f"{name} {'>' if side == 0 else '<'} {_limit_text(_TABLE[name][side])}"
 
 
 def _better(a: _Solve, b: _Solve | None) -> bool:
@@ -907,8 +962,10 @@ def _multistart(
     def consider(s: _Solve) -> None:
         nonlocal best
         solves.append(s)
-        if s.converged and _better(s, best) and _check(problem, s).verified and _better(s, best):
-            best = s
+        # IPOPT's objective first (cheap); the checked, numpy one decides.
+        if s.converged and _better(s, best) and _check(problem, s).verified:
+            if _better(s, best):
+                best = s
 
     for region, x0 in _seeds(problem, scan, per_region):
         consider(_solve_from(problem, region, x0, probe=probe))
@@ -988,8 +1045,10 @@ def _continue_to_limit(problem: _Problem, best: _Solve) -> Limit:
         if not (s.verified and s.objective <= path[-1].objective + 1e-12):
             break
         path.append(s)
-    values = [s.objective for s in path]
-    limit, uncertainty = _extrapolate(values)
+    # Only converged points estimate the limit (a verified point IPOPT did not finish is
+    # a bound on the optimum at its distance, not the optimum).
+    converged = list(itertools.takewhile(lambda s: s.converged, path))
+    limit, uncertainty = _extrapolate([s.objective for s in converged])
     approached = list(best.open_active)
     for s in path[1:]:
         approached += [n for n in s.open_active if n not in approached]
@@ -1011,8 +1070,12 @@ def _continue_to_limit(problem: _Problem, best: _Solve) -> Limit:
     return Limit(limit, uncertainty, tuple(approached), tuple(records))
 
 
+_STEP = CONTINUATION[1] / CONTINUATION[0]  # distance ratio of successive path points
+
+
 def _running_to_limits(records: Sequence[Mapping[str, float]]) -> list[str]:
-    """Variables (and the step length) that close in on a limit along the path."""
+    """Variables (and the step length) that close in on a limit along the path: their gap
+    to it shrinks at every step at least like distance**(1/4) and ends below 0.05."""
     if len(records) < 3:
         return []
     out = []
@@ -1020,29 +1083,41 @@ def _running_to_limits(records: Sequence[Mapping[str, float]]) -> list[str]:
     candidates.append(("step_length", 0.0))
     for name, limit in candidates:
         gaps = [abs(r[name] - limit) for r in records]
-        shrinking = all(b < 0.5 * a for a, b in itertools.pairwise(gaps))
+        shrinking = all(b < _STEP**0.25 * a for a, b in itertools.pairwise(gaps))
         if shrinking and gaps[-1] < 0.05:
-            text = "pi/2" if abs(abs(limit) - math.pi / 2) < 1e-12 else f"{limit:g}"
-            out.append(f"{name} -> {'-' if limit < 0 else ''}{text.lstrip('-')}")
+            out.append(f"{name} -> {_limit_text(limit)}")
     return out
 
 
-def _extrapolate(values: list[float]) -> tuple[float | None, float | None]:
-    """Limit of a sequence at distances shrinking tenfold: a geometric tail."""
-    if len(values) < 2:
+def _extrapolate(values: Sequence[float]) -> tuple[float | None, float | None]:
+    """Limit of the objective along the path (distances shrinking by :data:`_STEP`).
+
+    With the objective behaving like ``f* + c d**p`` the steps shrink by a constant ratio
+    ``_STEP**p``, and the tail after the last point is ``step * r / (1 - r)``. Needs three
+    values; ``inf`` when three steps grow; None when the steps do not settle.
+    """
+    if len(values) < 3:
         return None, None
     last = values[-1]
     steps = np.diff(values)
-    tiny = 1e-12 * max(1.0, abs(last))
-    if abs(steps[-1]) <= tiny:
-        return last, float(abs(steps[-1]))
-    if len(steps) < 2 or steps[-2] == 0:
+    if abs(steps[-1]) <= 1e-12 * max(1.0, abs(last)):
+        return float(last), float(abs(steps[-1]))
+    if steps[-2] == 0:
         return None, None
     ratio = steps[-1] / steps[-2]
     if 0 < ratio < 0.9:
         tail = steps[-1] * ratio / (1 - ratio)
-        return float(last + tail), float(abs(tail) + abs(steps[-1]) * 1e-3)
-    if ratio >= 1.5 and len(steps) >= 2:
+        # How sure the tail is: the same tail with the previous ratio (a settled sequence
+        # keeps its ratio); with only three values, the whole tail.
+        uncertainty = abs(tail)
+        if len(steps) >= 3 and steps[-3] != 0 and 0 < steps[-2] / steps[-3] < 0.9:
+            before = steps[-2] / steps[-3]
+            uncertainty = abs(tail - steps[-1] * before / (1 - before))
+        return float(last + tail), float(uncertainty + 4e-16 * max(1.0, abs(last)))
+    growing = len(steps) >= 3 and all(
+        abs(b) >= 1.5 * abs(a) and a * b > 0 for a, b in itertools.pairwise(steps)
+    )
+    if growing:
         return (-math.inf if steps[-1] < 0 else math.inf), None
     return None, None
 
@@ -1150,10 +1225,9 @@ class DesignResult:
 def _active(problem: _Problem, s: _Solve) -> list[str]:
     """Names of the constraints at their bound at a solution."""
     qs = _numpy_quantities(s.x[None, :])
-    lbx, ubx = problem.bounds(s.region, s.distance)
     active: list[str] = []
     for (i, side), name in sorted(problem.bound_names.items()):
-        bound = lbx[i] if side == 0 else ubx[i]
+        bound = problem.lbx[i] if side == 0 else problem.ubx[i]  # the user's own
         if name.startswith("fix_"):
             if side == 0:
                 active.append(name)
@@ -1216,11 +1290,11 @@ def _describe_objective(problem: _Problem) -> tuple[str, str]:
     return "infimum", "weighted objective"
 
 
-def _limit_text(problem: _Problem, limit: Limit, s: _Solve) -> str:
+def _not_attained_message(problem: _Problem, limit: Limit, s: _Solve) -> str:
     kind, what = _describe_objective(problem)
     sign = -1.0 if kind == "supremum" else 1.0
     if limit.objective is None:
-        value = "not estimated (the path does not settle)"
+        value = "not estimated (fewer than three re-solves closer to it converged)"
     elif math.isinf(limit.objective):
         value = "unbounded"
     else:
@@ -1307,7 +1381,12 @@ def design(
     common = {"starts": len(solves), "conditions": conditions}
     if best is None:
         statuses = ", ".join(sorted({s.ipopt_status for s in solves})) or "no start"
-        if not scan.feasible().any() and not any(_check(problem, s).verified for s in solves):
+        feasible_seen = scan.feasible().any() or any(_check(problem, s).verified for s in solves)
+        # Infeasible is said on evidence: no scanned point satisfies the constraints and
+        # every start ended at a (local) minimum of the constraint violation. A start that
+        # ran out of iterations proves nothing.
+        locally_infeasible = all(s.ipopt_status in _INFEASIBLE for s in solves)
+        if not feasible_seen and locally_infeasible:
             conflicting = _conflicts(problem, n_starts) if explain_infeasible else []
             if conflicting:
                 detail = "removing any one of these restores feasibility: " + ", ".join(conflicting)
@@ -1316,16 +1395,22 @@ def design(
             else:
                 detail = "conflict analysis skipped"
             least = min((s.violation for s in solves), default=math.inf)
+            starts = (
+                f"each of {len(solves)} IPOPT starts ended at a minimum of the constraint "
+                f"violation or in an empty region, least {least:.3g}"
+                if solves
+                else "none of them is a gait IPOPT could start from"
+            )
             message = (
-                f"infeasible: no design satisfies the constraints ({len(scan.x)} scanned "
-                f"points, {len(solves)} IPOPT solves ({statuses}), least violation "
-                f"{least:.3g}); {detail}"
+                f"infeasible: no design satisfies the constraints (none of {len(scan.x)} "
+                f"scanned designs; {starts}); {detail}"
             )
             return DesignResult("infeasible", conflicting_constraints=tuple(conflicting),
                                 message=message, ipopt_status=statuses, **common)  # fmt: skip
+        found = "the scan found feasible designs" if feasible_seen else "no feasible design found"
         message = (
             f"not converged: IPOPT reached no verified optimum from {len(solves)} starts "
-            f"({statuses}), though the scan found feasible designs"
+            f"({statuses}); {found}"
         )
         return DesignResult("not-converged", message=message, ipopt_status=statuses, **common)
 
@@ -1333,11 +1418,12 @@ def design(
 
     limit = _continue_to_limit(problem, best) if best.open_active else None
     if limit is not None and len(limit.path) > 1:
-        # Pressing on an open limit without gaining from it (the objective is flat that
-        # way): the optimum is attained inside.
+        # The multipliers say the open limits pull; the continuation must agree: no gain
+        # beyond rounding when moving closer means the optimum is attained inside.
         gain = limit.path[0]["objective"] - limit.path[-1]["objective"]
-        if gain <= 1e-9 * max(1.0, abs(best.objective)):
+        if gain <= 1e-13 * max(1.0, abs(best.objective)):
             limit = None
+    open_boundary = best.open_active if limit is not None else ()
     x = best.x
     analysis = analyze(x[0], x[1], x[2], scale)
     qs = _numpy_quantities(x[None, :])
@@ -1350,7 +1436,7 @@ def design(
         )
     else:
         status = "not-attained"
-        message = _limit_text(problem, limit, best)
+        message = _not_attained_message(problem, limit, best)
     if sim_error is not None and not sim_error <= 1e-6:
         message += f"; WARNING: simulation disagrees (relative error {sim_error:.3g})"
     return DesignResult(
@@ -1363,7 +1449,7 @@ def design(
         cost_of_transport=float(qs["cost_of_transport"][0]),
         step_frequency=float(qs["step_frequency"][0]),
         active_constraints=tuple(_active(problem, best)),
-        open_boundary=best.open_active,
+        open_boundary=open_boundary,
         limit=limit,
         simulation_rel_error=sim_error,
         message=message,

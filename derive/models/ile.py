@@ -575,7 +575,6 @@ def existence_staged() -> tuple[
 CONDITION_PIECE_NAMES = (
     "apex_phase_I_II",
     "apex_phase_III_IV",
-    "omega_II_squared",
     "normal_force_I",
     "normal_force_II",
     "normal_force_IV",
@@ -594,11 +593,10 @@ def condition_pieces() -> tuple[
     have kinks; a gradient-based optimiser needs the pieces one by one:
 
     * ``apex_phase_I_II``: ``omega**2`` at theta = 0 along phase I-II (slope 1 in q), the
-      apex margin when theta_I <= 0 <= theta_II;
+      apex margin when theta_I <= 0 <= theta_II (phase III-IV then starts at theta_II >= 0,
+      where omega**2 / beta**4 = omega_II**2 is larger);
     * ``apex_phase_III_IV``: ``omega**2`` at theta = 0 along phase III-IV divided by its
       slope in q, the apex margin when theta_II <= 0;
-    * ``omega_II_squared``: ``omega_II**2`` (the apex margin of phase III-IV when
-      theta_II >= 0 is ``omega_III**2 / beta**4``, the same number);
     * ``normal_force_I``, ``normal_force_II``, ``normal_force_IV``: N / (m g) at instant I,
       just before the extension (II) and at instant IV. N = (3 c - 2 E) c is convex in
       c = cos theta with its vertex at E / 3, and N(c) >= 0 needs c >= 2 E / 3, so when
@@ -631,7 +629,6 @@ def condition_pieces() -> tuple[
     outputs = (
         apex_1,
         apex_2,
-        w2_II,
         normal_at(theta_I, q_f, beta),
         normal_at(theta_II, w2_II, beta),
         normal_at(theta_IV, w2_IV, 1),
