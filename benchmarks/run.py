@@ -209,7 +209,7 @@ def case_fixed_point_vectorised(n: int, reps: int) -> list[Row]:
     else:
         for k in sorted({threads, 1}, reverse=True):
             t_k, t_f = interleaved(compiled(k), floor, reps)
-            row = Row("1", f"compiled batch kernel (generated/c/ile_batch.c), {k} thread"
+            row = Row("1", f"compiled batch kernel (generated/ile/c/ile_batch.c), {k} thread"
                       f"{'s' if k > 1 else ''}: {n} sets, same outputs", floor_label, t_k, t_f,
                       "<= 1.5x floor", None, subject_peak_mb=peak_alloc_mb(compiled(k)),
                       baseline_peak_mb=peak_alloc_mb(floor),

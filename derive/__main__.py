@@ -25,6 +25,7 @@ import shutil
 import stat
 import sys
 from collections.abc import Iterator
+from types import SimpleNamespace
 from pathlib import Path
 
 from derive import codegen
@@ -34,14 +35,21 @@ ROOT = Path(__file__).resolve().parent.parent
 FIX_COMMAND = "python -m derive"
 
 
-def render_all() -> dict[str, str]:
-    """Every file of ``generated/`` as ``{relative path: text}``."""
-    files: dict[str, str] = {}
-    for build in MODELS:
-        for path, text in codegen.render(build()).items():
-            if path in files and files[path] != text:
-                raise RuntimeError(f"two models generate different {path}")
-            files[path] = text
+def render_all(only: str | None = None, existing: dict[str, str] | None = None) -> dict[str, str]:
+    """Every file of ``generated/`` as ``{relative path: text}``.
+
+    With ``only``, that model is derived and every other model's files are taken from
+    ``existing`` (what is on disk) unchanged.
+    """
+    derivations = [build() for name, build in MODELS.items() if only in (None, name)]
+    files = codegen.render_shared(
+        [SimpleNamespace(model=name) for name in MODELS] if only else derivations
+    )
+    if only:
+        keep = {p: t for p, t in (existing or {}).items() if "/" in p and not p.startswith(f"{only}/")}
+        files.update(keep)
+    for derivation in derivations:
+        files.update(codegen.render(derivation))
     return dict(sorted(files.items()))
 
 
@@ -229,8 +237,11 @@ def main(argv: list[str] | None = None) -> int:
         "--check", action="store_true", help="fail if generated/ differs from the derivation"
     )
     parser.add_argument("--out", type=Path, default=ROOT / "generated", help=argparse.SUPPRESS)
+    parser.add_argument(
+        "--model", choices=sorted(MODELS), help="derive only this model (the others as on disk)"
+    )
     args = parser.parse_args(argv)
-    files = render_all()
+    files = render_all(args.model, existing_files(args.out) if args.model else None)
     if args.check:
         report = stale_report(files, args.out)
         if report:

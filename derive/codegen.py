@@ -425,37 +425,20 @@ def load_module(name: str, source: str) -> types.ModuleType:
     return module
 
 
-C_FUNCTIONS = (
-    ("stride_map", ("beta", "theta_II", "phi0", "q"), "q(n+1) from q(n), eq. (9)"),
-    ("q_fixed", ("beta", "theta_II", "phi0"), "fixed point q^f, eq. (10)"),
-    ("eigenvalue", ("beta", "phi0"), "eigenvalue of the stride map, eq. (19)"),
-    (
-        "step_metrics",
-        ("beta", "theta_II", "phi0"),
-        "[step_length, step_period, speed, contact_margin] at the fixed point",
-    ),
-    ("condition_margins", ("beta", "theta_II", "phi0"), "existence condition margins"),
-)
-
-
 def c_sources(derivation: Derivation, module: types.ModuleType) -> dict[str, str]:
     """Self-contained C99 source and header from CasADi's code generator."""
     import casadi as ca
 
     prefix = f"vsw_{derivation.model}_"
     functions = []
-    for name, arg_names, _doc in C_FUNCTIONS:
+    for export in derivation.c_exports:
+        name, arg_names = export.name, export.args
         args = [ca.SX.sym(a) for a in arg_names]
-        if name == "step_metrics":
-            beta_, _, phi0_ = args
-            qf = module.q_fixed(*args)
-            length = module.step_length(beta_, phi0_)
-            t1, t2 = module.phase_durations(*args, qf)
-            period = t1 + t2
-            out = ca.vertcat(length, period, length / period, module.contact_margin(*args, qf))
+        if export.build is not None:
+            result = export.build(module, *args)
         else:
             result = getattr(module, name)(*args)
-            out = ca.vertcat(*result) if isinstance(result, tuple) else result
+        out = ca.vertcat(*result) if isinstance(result, (tuple, list)) else result
         # Exported C symbols carry the prefix so they cannot clash inside a robot controller.
         functions.append(ca.Function(prefix + name, args, [out], list(arg_names), [name]))
     with tempfile.TemporaryDirectory() as tmp:
@@ -470,7 +453,9 @@ def c_sources(derivation: Derivation, module: types.ModuleType) -> dict[str, str
             h_text = Path(f"{derivation.model}.h").read_text()
         finally:
             os.chdir(cwd)
-    doc = "".join(f" *   {prefix}{n}({', '.join(a)}): {d}\n" for n, a, d in C_FUNCTIONS)
+    doc = "".join(
+        f" *   {prefix}{e.name}({', '.join(e.args)}): {e.doc}\n" for e in derivation.c_exports
+    )
     top = (
         "/*\n"
         + header(derivation.source, " *")
@@ -480,10 +465,6 @@ def c_sources(derivation: Derivation, module: types.ModuleType) -> dict[str, str
         + " */\n"
     )
     return {f"c/{derivation.model}.c": top + c_text, f"c/{derivation.model}.h": top + h_text}
-
-
-BATCH_FUNCTIONS = ("fixed_point_conditions",)
-"""Quantities that also get a vectorisable C loop (generated/c/<model>_batch.c)."""
 
 
 class BatchCPrinter(C99CodePrinter):
@@ -546,7 +527,7 @@ static inline double vsw_fmin(double a, double b) { return (a < b || b != b) ? a
 
 
 def batch_c_source(derivation: Derivation) -> str:
-    """C99 loops over arrays for :data:`BATCH_FUNCTIONS` (structure of arrays in and out).
+    """C99 loops over arrays for the model's ``batch`` quantities (structure of arrays).
 
     ``void vsw_<model>_<name>_batch(long long n, const double *restrict <arg>..., double
     *restrict out)`` writes output ``k`` of element ``i`` to ``out[k * n + i]``. cos/sin
@@ -555,7 +536,7 @@ def batch_c_source(derivation: Derivation) -> str:
     printer = BatchCPrinter()
     prefix = f"vsw_{derivation.model}_"
     parts = ["/*\n", header(derivation.source, " *"), " */\n", BATCH_PRELUDE]
-    for name in BATCH_FUNCTIONS:
+    for name in derivation.batch:
         qty = derivation.quantities[name]
         pairs, definitions, reduced = staged_cse(qty)
         args = ", ".join(f"const double *restrict {a.name}" for a in qty.args)
@@ -588,28 +569,43 @@ def batch_c_source(derivation: Derivation) -> str:
 
 
 def render(derivation: Derivation) -> dict[str, str]:
-    """All generated files for one model, as ``{relative path: text}``."""
-    py = python_module(derivation)
-    files = {
-        "__init__.py": header(derivation.source, "#")
-        + '"""Generated numeric code (numpy, CasADi, C). Do not edit: run `python -m derive`."""\n',
-        "_backend.py": backend_module("derive/codegen.py"),
-        f"{derivation.model}.py": py,
-        f"{derivation.model}_params.py": params_module(derivation),
-    }
-    # The C path is built from the very source that is written, not from the sympy objects.
-    backend = load_module("generated._backend", files["_backend.py"])
-    import sys
+    """One model's package, ``{path relative to generated/: text}`` under ``<model>/``.
 
-    saved = sys.modules.get("generated._backend")
-    sys.modules["generated._backend"] = backend
-    try:
-        module = load_module(f"generated.{derivation.model}", py)
-    finally:
-        if saved is None:
-            del sys.modules["generated._backend"]
-        else:
-            sys.modules["generated._backend"] = saved
-    files.update(c_sources(derivation, module))
-    files[f"c/{derivation.model}_batch.c"] = batch_c_source(derivation)
+    ``__init__.py`` holds the functions (numpy and CasADi from one source),
+    ``params.py`` the parameter table, ``c/`` the C library and batch loops the model
+    declares (``c_exports``, ``batch``).
+    """
+    name = derivation.model
+    py = python_module(derivation)
+    files = {f"{name}/__init__.py": py, f"{name}/params.py": params_module(derivation)}
+    if derivation.c_exports:
+        # The C path is built from the very source that is written, not from sympy objects.
+        backend = load_module("generated._backend", backend_module("derive/codegen.py"))
+        import sys
+
+        saved = sys.modules.get("generated._backend")
+        sys.modules["generated._backend"] = backend
+        try:
+            module = load_module(f"generated.{name}", py)
+        finally:
+            if saved is None:
+                del sys.modules["generated._backend"]
+            else:
+                sys.modules["generated._backend"] = saved
+        files.update({f"{name}/{path}": text for path, text in c_sources(derivation, module).items()})
+    if derivation.batch:
+        files[f"{name}/c/{name}_batch.c"] = batch_c_source(derivation)
     return files
+
+
+def render_shared(derivations: list[Derivation]) -> dict[str, str]:
+    """The files every model shares: the package's ``__init__.py`` and the backend."""
+    names = tuple(d.model for d in derivations)
+    init = (
+        header("derive/models/ (every model)", "#")
+        + '"""Generated numeric code (numpy, CasADi, C), one package per model. Do not edit: '
+        'run `python -m derive`."""\n\n'
+        + f"MODELS = {names!r}\n"
+        + '"""The generated model packages, ``generated.<name>``."""\n'
+    )
+    return {"__init__.py": init, "_backend.py": backend_module("derive/codegen.py")}

@@ -6,7 +6,9 @@ generator turns it into ``generated/<name>.py`` and C. Nothing here is model spe
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import sympy as sm
 
@@ -129,6 +131,30 @@ class Condition:
     meaning: str
 
 
+@dataclass(frozen=True)
+class CExport:
+    """One function of a model's C library (CasADi's code generator, ``vsw_<model>_<name>``).
+
+    Attributes
+    ----------
+    name : str
+        C name without the prefix; a generated Python function of the same name unless
+        ``build`` is given.
+    args : tuple of str
+        Argument names.
+    doc : str
+        One line for the C file's header.
+    build : callable, optional
+        ``build(module, *args)`` -> CasADi expression(s), for exports composed of several
+        generated functions (``module`` is the generated Python module).
+    """
+
+    name: str
+    args: tuple[str, ...]
+    doc: str
+    build: Callable[..., Any] | None = None
+
+
 @dataclass
 class Derivation:
     """Everything one model derives, ready for code generation and for the audit.
@@ -146,6 +172,12 @@ class Derivation:
     conditions : tuple of Condition
     facts : dict of str to sympy.Expr
         Intermediate results kept for tests and the audit (keyed by descriptive name).
+    c_exports : tuple of CExport
+        The functions of the model's C library (``generated/<model>/c/<model>.{c,h}``);
+        none: no C library.
+    batch : tuple of str
+        Quantities that also get a vectorisable C loop
+        (``generated/<model>/c/<model>_batch.c``).
     """
 
     model: str
@@ -155,6 +187,8 @@ class Derivation:
     quantities: dict[str, Quantity] = field(default_factory=dict)
     conditions: tuple[Condition, ...] = ()
     facts: dict[str, sm.Expr] = field(default_factory=dict)
+    c_exports: tuple[CExport, ...] = ()
+    batch: tuple[str, ...] = ()
 
     def add(self, quantity: Quantity) -> Quantity:
         if quantity.name in self.quantities:

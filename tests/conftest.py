@@ -7,7 +7,7 @@ import os
 import numpy as np
 import pytest
 
-from generated.ile_params import PARAMETERS
+from generated.ile.params import PARAMETERS
 from vsw.params import random_parameters
 
 PARAMS = {p.name: p for p in PARAMETERS}

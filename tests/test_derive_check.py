@@ -28,11 +28,11 @@ def test_check_fails_on_drift_and_prints_the_fix(tmp_path, rendered, capsys, dam
     out = tmp_path / "generated"
     write_atomically(rendered, out)
     assert main(["--check", "--out", str(out)]) == 0
-    target = out / "ile.py"
+    target = out / "ile" / "__init__.py"
     if damage == "edit":
         target.write_text(target.read_text().replace("    return ", "    return 0 * ", 1))
     elif damage == "missing":
-        (out / "c" / "ile.h").unlink()
+        (out / "ile" / "c" / "ile.h").unlink()
     else:
         (out / "hand_written.py").write_text("x = 1\n")
     capsys.readouterr()
@@ -41,7 +41,7 @@ def test_check_fails_on_drift_and_prints_the_fix(tmp_path, rendered, capsys, dam
     assert "python -m derive" in err
     expected = {
         "edit": "return 0 * ",
-        "missing": "missing: generated/c/ile.h",
+        "missing": "missing: generated/ile/c/ile.h",
         "extra": "hand_written.py",
     }
     assert expected[damage] in err
@@ -62,7 +62,7 @@ def test_interrupted_swap_is_recovered(tmp_path, rendered):
     write_atomically(rendered, out)
     out.rename(tmp_path / ".generated.old")  # as if killed between the two renames
     write_atomically(rendered, out)
-    assert (out / "ile.py").read_text() == rendered["ile.py"]
+    assert (out / "ile" / "__init__.py").read_text() == rendered["ile/__init__.py"]
 
 
 def test_every_generated_file_has_the_header(rendered):
@@ -90,7 +90,7 @@ def test_output_independent_of_hash_seed(rendered):
     assert json.loads(out.stdout) == ours
 
 
-SMALL = {"__init__.py": "", "ile.py": "x = 1\n", "c/ile.c": "int x;\n"}
+SMALL = {"__init__.py": "", "ile/__init__.py": "x = 1\n", "ile/c/ile.c": "int x;\n"}
 """A small tree: the write machinery does not depend on what is written."""
 
 
@@ -125,8 +125,8 @@ def test_stale_staging_and_backup_directories_are_removed(tmp_path):
         (tmp_path / name / "c").mkdir(parents=True)
         (tmp_path / name / "ile.py").write_text("import os\nbroken = (\n")
     (tmp_path / ".generated_notes").write_text("not ours\n")  # other names are left alone
-    write_atomically({**SMALL, "ile.py": "x = 2\n"}, out)
-    assert _listing(out) == {**SMALL, "ile.py": "x = 2\n"}
+    write_atomically({**SMALL, "ile/__init__.py": "x = 2\n"}, out)
+    assert _listing(out) == {**SMALL, "ile/__init__.py": "x = 2\n"}
     assert sorted(p.name for p in tmp_path.iterdir()) == [".generated_notes", "generated"]
 
 
@@ -136,8 +136,8 @@ def test_kill_while_writing_leaves_generated_intact_and_next_run_cleans(tmp_path
     _killed_run(tmp_path, out, "dm._copy_modes = lambda old, new: os._exit(9)")
     assert _listing(out) == SMALL
     assert len(list(tmp_path.glob(".generated.*"))) == 1  # the staging directory
-    write_atomically({**SMALL, "ile.py": "x = 3\n"}, out)
-    assert _listing(out)["ile.py"] == "x = 3\n"
+    write_atomically({**SMALL, "ile/__init__.py": "x = 3\n"}, out)
+    assert _listing(out)["ile/__init__.py"] == "x = 3\n"
     assert not list(tmp_path.glob(".generated.*"))
 
 
@@ -150,12 +150,12 @@ def test_kill_after_the_exchange_leaves_the_new_tree(tmp_path):
         pytest.skip("renameat2(RENAME_EXCHANGE) not available here")
     assert (b / "in_a").exists() and not (a / "in_a").exists()
     out = tmp_path / "generated"
-    write_atomically({**SMALL, "ile.py": "x = 0\n"}, out)
+    write_atomically({**SMALL, "ile/__init__.py": "x = 0\n"}, out)
     # Killed when it starts removing the old tree, which now has the staging name.
     _killed_run(tmp_path, out, "dm.shutil.rmtree = lambda *a, **k: os._exit(9)")
     assert _listing(out) == SMALL
     (staging,) = tmp_path.glob(".generated.*")
-    assert _listing(staging)["ile.py"] == "x = 0\n"
+    assert _listing(staging)["ile/__init__.py"] == "x = 0\n"
     write_atomically(SMALL, out)
     assert not list(tmp_path.glob(".generated.*"))
 
@@ -175,9 +175,9 @@ def test_kill_between_the_two_renames_is_recovered(tmp_path):
         "os.rename = rename"
     )
     _killed_run(tmp_path, out, patch)
-    assert not out.exists() and (tmp_path / ".generated.old" / "ile.py").exists()
-    write_atomically({**SMALL, "ile.py": "x = 4\n"}, out)
-    assert _listing(out)["ile.py"] == "x = 4\n"
+    assert not out.exists() and (tmp_path / ".generated.old" / "ile" / "__init__.py").exists()
+    write_atomically({**SMALL, "ile/__init__.py": "x = 4\n"}, out)
+    assert _listing(out)["ile/__init__.py"] == "x = 4\n"
     assert not list(tmp_path.glob(".generated.*"))
 
 
@@ -187,20 +187,21 @@ def test_without_the_exchange_the_two_renames_replace_the_tree(tmp_path, monkeyp
     monkeypatch.setattr(dm, "_exchange", lambda a, b: False)
     out = tmp_path / "generated"
     write_atomically(SMALL, out)
-    write_atomically({"ile.py": "x = 5\n"}, out)
-    assert _listing(out) == {"ile.py": "x = 5\n"}
+    write_atomically({"ile/__init__.py": "x = 5\n"}, out)
+    assert _listing(out) == {"ile/__init__.py": "x = 5\n"}
     assert not list(tmp_path.glob(".generated.*"))
 
 
 def test_modes_of_the_existing_tree_are_kept(tmp_path):
     out = tmp_path / "generated"
     write_atomically(SMALL, out)
-    (out / "c").chmod(0o750)
-    (out / "ile.py").chmod(0o640)
+    (out / "ile" / "c").chmod(0o750)
+    (out / "ile" / "__init__.py").chmod(0o640)
     out.chmod(0o751)
     write_atomically({**SMALL, "new.py": "y = 1\n"}, out)
     mode = lambda p: p.stat().st_mode & 0o7777  # noqa: E731
-    assert (mode(out), mode(out / "c"), mode(out / "ile.py")) == (0o751, 0o750, 0o640)
+    modes = (mode(out), mode(out / "ile" / "c"), mode(out / "ile" / "__init__.py"))
+    assert modes == (0o751, 0o750, 0o640)
     assert mode(out / "new.py") == mode(out / "__init__.py") == 0o666 & ~_umask()
 
 
@@ -224,8 +225,9 @@ def test_new_tree_and_a_mkdtemp_mode_get_the_umask_defaults(tmp_path, existing):
     finally:
         os.umask(old)
     mode = lambda p: p.stat().st_mode & 0o7777  # noqa: E731
-    assert (mode(out), mode(out / "c")) == (0o750, 0o750 if existing is None else 0o755)
-    assert mode(out / "ile.py") == (0o640 if existing is None else 0o644)
+    sub = out / "ile" / "c"
+    assert (mode(out), mode(sub)) == (0o750, 0o750 if existing is None else 0o755)
+    assert mode(out / "ile" / "__init__.py") == (0o640 if existing is None else 0o644)
 
 
 def test_concurrent_runs_do_not_clash(tmp_path):
@@ -266,3 +268,20 @@ def test_staging_directories_are_ignored_by_git_and_ruff(tmp_path):
     (tmp_path / "tree" / "pyproject.toml").write_text(config.replace('".generated.*"', '"x"'))
     done = subprocess.run([*base, "check", "."], cwd=tmp_path / "tree", capture_output=True)
     assert done.returncode != 0
+
+
+def test_one_model_is_rederived_and_the_others_kept(tmp_path, capsys):
+    """``--model NAME`` derives one model; every other model's files stay as on disk."""
+    out = tmp_path / "generated"
+    assert main(["--out", str(out)]) == 0
+    other = out / "other_model" / "__init__.py"
+    other.parent.mkdir()
+    other.write_text("kept = True\n")
+    (out / "ile" / "__init__.py").write_text("damaged\n")
+    assert main(["--model", "ile", "--out", str(out)]) == 0
+    assert other.read_text() == "kept = True\n"
+    assert main(["--model", "ile", "--check", "--out", str(out)]) == 0
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as exit_:
+        main(["--model", "nonexistent", "--out", str(out)])
+    assert exit_.value.code == 2 and "invalid choice" in capsys.readouterr().err

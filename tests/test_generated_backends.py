@@ -112,7 +112,7 @@ def test_c_source_is_self_contained_c99(tmp_path):
     obj = tmp_path / "ile.o"
     done = subprocess.run(
         ["cc", "-std=c99", "-pedantic", "-Wall", "-Werror", "-Wno-unused-parameter", "-c",
-         str(ROOT / "generated" / "c" / "ile.c"), "-o", str(obj)],
+         str(ROOT / "generated" / "ile" / "c" / "ile.c"), "-o", str(obj)],
         capture_output=True, text=True,
     )  # fmt: skip
     assert done.returncode == 0, done.stderr

@@ -1,4 +1,4 @@
-"""Compiled batch kernels (generated/c/ile_batch.c) against the generated numpy code."""
+"""Compiled batch kernels (generated/ile/c/ile_batch.c) against the generated numpy code."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Compile and call the generated C99 code (``generated/c/ile.c``) through ctypes.
+"""Compile and call the generated C99 code (``generated/ile/c/ile.c``) through ctypes.
 
 Used by the tests (C against numpy against CasADi) and the benchmarks. A robot controller
 would instead compile ``ile.c`` into its own firmware; the functions follow CasADi's C
@@ -23,7 +23,7 @@ import numpy as np
 
 from vsw.errors import VswInputError
 
-SOURCE_DIR = Path(__file__).resolve().parent.parent / "generated" / "c"
+SOURCE_DIR = Path(__file__).resolve().parent.parent / "generated" / "ile" / "c"
 PREFIX = "vsw_ile_"
 
 _int = ctypes.c_longlong
@@ -40,7 +40,7 @@ class CLibrary:
 
     @classmethod
     def build(cls, build_dir: Path | None = None, compiler: str | None = None) -> CLibrary:
-        """Compile ``generated/c/ile.c`` with the system C compiler (C99, -O2, warnings as errors).
+        """Compile ``generated/ile/c/ile.c`` with the system C compiler (C99, -O2, warnings as errors).
 
         Raises
         ------
@@ -49,7 +49,7 @@ class CLibrary:
         """
         cc = compiler or shutil.which("cc") or shutil.which("gcc")
         if cc is None:
-            raise VswInputError("no C compiler found (cc or gcc) to build generated/c/ile.c")
+            raise VswInputError("no C compiler found (cc or gcc) to build generated/ile/c/ile.c")
         out_dir = Path(build_dir or tempfile.mkdtemp(prefix="vsw_c_"))
         out_dir.mkdir(parents=True, exist_ok=True)
         library = out_dir / "libvsw_ile.so"
@@ -60,7 +60,7 @@ class CLibrary:
         done = subprocess.run(command, capture_output=True, text=True)
         if done.returncode != 0:
             first = (done.stderr.strip().splitlines() or ["unknown error"])[0]
-            raise VswInputError(f"compiling generated/c/ile.c failed: {first}")
+            raise VswInputError(f"compiling generated/ile/c/ile.c failed: {first}")
         return cls(library)
 
     def _function(self, name: str):

@@ -67,7 +67,7 @@ from typing import Any
 import numpy as np
 
 from generated import ile
-from generated.ile_params import PARAMETERS
+from generated.ile.params import PARAMETERS
 from vsw.errors import VswInputError
 from vsw.params import RobotScale
 

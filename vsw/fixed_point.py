@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from generated import ile
-from generated.ile_params import PARAMETERS
+from generated.ile.params import PARAMETERS
 from vsw.errors import ConvergenceError, VswInputError
 
 __all__ = [

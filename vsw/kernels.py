@@ -1,4 +1,4 @@
-"""Compiled batch kernels: the generated C loops of ``generated/c/ile_batch.c`` via ctypes.
+"""Compiled batch kernels: the generated C loops of ``generated/ile/c/ile_batch.c`` via ctypes.
 
 ``python -m derive`` writes vectorisable C loops for a few quantities from the same
 derivation as the numpy and CasADi code. At first use they are compiled with the system C
@@ -51,7 +51,7 @@ import numpy as np
 from generated import ile
 from vsw.vectorize import CHUNK, chunked, default_threads, run_blocks
 
-SOURCE = Path(__file__).resolve().parent.parent / "generated" / "c" / "ile_batch.c"
+SOURCE = Path(__file__).resolve().parent.parent / "generated" / "ile" / "c" / "ile_batch.c"
 N_OUTPUTS = 2 + len(ile.CONDITIONS)
 
 # Tried in order: vectorised with glibc's libmvec, then plain optimised C.

@@ -1,6 +1,6 @@
 """Validated gait parameters and robot scales.
 
-The bounds and their reasons come from ``generated/ile_params.py::PARAMETERS``, the single
+The bounds and their reasons come from ``generated/ile/params.py::PARAMETERS``, the single
 parameter table that also creates the symbols of the derivation; nothing is retyped here.
 """
 
@@ -12,7 +12,7 @@ from numbers import Real
 
 import numpy as np
 
-from generated.ile_params import PARAMETERS
+from generated.ile.params import PARAMETERS
 from vsw.errors import VswInputError
 
 __all__ = [

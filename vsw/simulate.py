@@ -35,7 +35,7 @@ from typing import NamedTuple
 import numpy as np
 
 from generated import ile
-from generated.ile_params import PARAMETERS
+from generated.ile.params import PARAMETERS
 from vsw import limits
 from vsw.errors import ConvergenceError, VswInputError
 
@@ -331,7 +331,7 @@ def simulate(
     Parameters
     ----------
     beta, theta_II, phi0 : float
-        Model parameters (radians); see ``generated.ile_params.PARAMETERS``. Additionally
+        Model parameters (radians); see ``generated.ile.params.PARAMETERS``. Additionally
         theta_I < theta_II < theta_IV is required (see the module notes).
     q0 : float
         q = omega_I**2 at the start, > 0.

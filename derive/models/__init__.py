@@ -2,5 +2,6 @@
 
 from derive.models import ile
 
-MODELS = (ile.derive,)
-"""Callables returning a :class:`derive.quantities.Derivation`, one per model."""
+MODELS = {"ile": ile.derive}
+"""Model name (its ``generated/<name>/`` package) -> callable returning its
+:class:`derive.quantities.Derivation`."""

@@ -20,7 +20,7 @@ import sympy as sm
 
 from derive import mechanics
 from derive.elliptic import pendulum_travel_time
-from derive.quantities import Condition, Derivation, Parameter, Quantity
+from derive.quantities import CExport, Condition, Derivation, Parameter, Quantity
 
 PARAMETERS: tuple[Parameter, ...] = (
     Parameter(
@@ -1048,6 +1048,19 @@ def derive() -> Derivation:
             output_names=CONDITION_PIECE_NAMES,
         )
     )
+    d.c_exports = (
+        CExport("stride_map", ("beta", "theta_II", "phi0", "q"), "q(n+1) from q(n), eq. (9)"),
+        CExport("q_fixed", ("beta", "theta_II", "phi0"), "fixed point q^f, eq. (10)"),
+        CExport("eigenvalue", ("beta", "phi0"), "eigenvalue of the stride map, eq. (19)"),
+        CExport(
+            "step_metrics",
+            ("beta", "theta_II", "phi0"),
+            "[step_length, step_period, speed, contact_margin] at the fixed point",
+            build=_step_metrics,
+        ),
+        CExport("condition_margins", ("beta", "theta_II", "phi0"), "existence condition margins"),
+    )
+    d.batch = ("fixed_point_conditions",)
     d.facts.update({f"phase.{k}": v for k, v in phase.items()})
     d.facts.update({f"heelstrike.{k}": v for k, v in hs.items() if isinstance(v, sm.Basic)})
     d.facts.update({f"stride.{k}": v for k, v in st.items()})
@@ -1057,6 +1070,16 @@ def derive() -> Derivation:
     d.facts["cos_ratio.margin"] = cos_ratio_margin()
     d.facts["cos_ratio.threshold"] = cos_ratio_threshold()
     return d
+
+
+def _step_metrics(module, beta, theta_II, phi0):
+    """The C export ``step_metrics``: step length, period, speed and contact margin at q^f,
+    composed from the generated functions."""
+    q_f = module.q_fixed(beta, theta_II, phi0)
+    length = module.step_length(beta, phi0)
+    tau_I_II, tau_III_IV = module.phase_durations(beta, theta_II, phi0, q_f)
+    period = tau_I_II + tau_III_IV
+    return [length, period, length / period, module.contact_margin(beta, theta_II, phi0, q_f)]
 
 
 def cos_ratio_threshold() -> sm.Expr:
