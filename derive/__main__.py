@@ -25,8 +25,8 @@ import shutil
 import stat
 import sys
 from collections.abc import Iterator
-from types import SimpleNamespace
 from pathlib import Path
+from types import SimpleNamespace
 
 from derive import codegen
 from derive.models import MODELS
@@ -46,8 +46,8 @@ def render_all(only: str | None = None, existing: dict[str, str] | None = None) 
         [SimpleNamespace(model=name) for name in MODELS] if only else derivations
     )
     if only:
-        keep = {p: t for p, t in (existing or {}).items() if "/" in p and not p.startswith(f"{only}/")}
-        files.update(keep)
+        others = {p: t for p, t in (existing or {}).items() if "/" in p}
+        files.update({p: t for p, t in others.items() if not p.startswith(f"{only}/")})
     for derivation in derivations:
         files.update(codegen.render(derivation))
     return dict(sorted(files.items()))

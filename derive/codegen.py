@@ -592,7 +592,8 @@ def render(derivation: Derivation) -> dict[str, str]:
                 del sys.modules["generated._backend"]
             else:
                 sys.modules["generated._backend"] = saved
-        files.update({f"{name}/{path}": text for path, text in c_sources(derivation, module).items()})
+        c_files = c_sources(derivation, module)
+        files.update({f"{name}/{path}": text for path, text in c_files.items()})
     if derivation.batch:
         files[f"{name}/c/{name}_batch.c"] = batch_c_source(derivation)
     return files

@@ -40,7 +40,7 @@ class CLibrary:
 
     @classmethod
     def build(cls, build_dir: Path | None = None, compiler: str | None = None) -> CLibrary:
-        """Compile ``generated/ile/c/ile.c`` with the system C compiler (C99, -O2, warnings as errors).
+        """Compile ``generated/ile/c/ile.c`` with the system C compiler (C99, -O2, -Werror).
 
         Raises
         ------
