@@ -124,8 +124,8 @@ class BackendPrinter(StrPrinter):
         return out
 
 
-def _docstring(qty: Quantity) -> str:
-    eq = f" Eq. {qty.equation} of the paper." if qty.equation else " Beyond the paper."
+def _docstring(qty: Quantity, unreferenced: str = " Beyond the paper.") -> str:
+    eq = f" Eq. {qty.equation} of the paper." if qty.equation else unreferenced
     params = "\n".join(f"    {a.name} : array_like or casadi.SX/MX/DM" for a in qty.args)
     returns = qty.returns or qty.name
     shape = "tuple of arrays" if isinstance(qty.expr, tuple) else "array"
@@ -213,11 +213,13 @@ def staged_cse(
     return pairs, definitions, reduced[len(named) :]
 
 
-def function_source(qty: Quantity, printer: BackendPrinter) -> str:
+def function_source(
+    qty: Quantity, printer: BackendPrinter, unreferenced: str = " Beyond the paper."
+) -> str:
     """Source of one generated function, with common subexpressions eliminated."""
     pairs, definitions, reduced = staged_cse(qty)
     arg_names = ", ".join(a.name for a in qty.args)
-    lines = [f"def {qty.name}({arg_names}):\n", _docstring(qty)]
+    lines = [f"def {qty.name}({arg_names}):\n", _docstring(qty, unreferenced)]
     lines.append(f"    be = backend_for({arg_names})\n")
     for cos_name, sin_name, a in pairs:
         lines.append(f"    {cos_name}, {sin_name} = be.cos_sin({printer.doprint(a)})\n")
@@ -249,7 +251,7 @@ def python_module(derivation: Derivation) -> str:
         header(derivation.source, "#"),
         f'"""{derivation.title}: derived quantities for numpy and CasADi.\n\n'
         "Every function accepts numpy arrays (broadcast, vectorised) or CasADi SX/MX/DM\n"
-        "expressions. Angles in radians, time in units of sqrt(r_e / g), lengths in r_e.\n"
+        f"expressions. {derivation.units}\n"
         '"""\n\n',
         "from generated._backend import backend_for\n\n",
         "CONDITIONS = (\n",
@@ -266,9 +268,12 @@ def python_module(derivation: Derivation) -> str:
         "implied, framing (not needed to walk) or missing (needed, not in the paper). The\n"
         'conditions with physical=True together decide whether a gait walks."""\n\n'
     )
+    for name, (value, doc) in derivation.constants.items():
+        parts.append(f'{name} = {value!r}\n"""{doc}"""\n\n')
     parts.append(RF_SOURCE)
+    unreferenced = " Beyond the paper." if derivation.paper else ""
     for qty in derivation.quantities.values():
-        parts.append("\n\n" + function_source(qty, printer))
+        parts.append("\n\n" + function_source(qty, printer, unreferenced))
     return "".join(parts)
 
 
@@ -276,7 +281,8 @@ def params_module(derivation: Derivation) -> str:
     """The runtime copy of the model's parameter table."""
     rows = "".join(
         f"    Parameter({p.name!r}, {p.latex!r}, {float(p.lower)!r}, {float(p.upper)!r}, "
-        f"{p.reason!r}, {p.description!r}, {p.cli_degrees!r}),\n"
+        f"{p.reason!r}, {p.description!r}, {p.cli_degrees!r}, "
+        f"{None if p.default is None else float(p.default)!r}, {p.unit!r}),\n"
         for p in derivation.parameters
     )
     return (
@@ -288,7 +294,8 @@ def params_module(derivation: Derivation) -> str:
         "class Parameter(NamedTuple):\n"
         '    """One parameter: valid values are the open interval (lower, upper)."""\n\n'
         "    name: str\n    latex: str\n    lower: float\n    upper: float\n"
-        "    reason: str\n    description: str\n    cli_degrees: bool\n\n\n"
+        "    reason: str\n    description: str\n    cli_degrees: bool\n"
+        "    default: float | None = None\n    unit: str = ''\n\n\n"
         f"PARAMETERS = (\n{rows})\n"
     )
 

@@ -36,6 +36,10 @@ class Parameter:
         sympy assumptions for the symbol.
     cli_degrees : bool
         True for angles, which the command line takes in degrees.
+    default : float, optional
+        The value used when a user gives none (``vsw models``, ``--model``).
+    unit : str
+        Unit of the value (``rad``, ``m``, ``1`` for a ratio).
     """
 
     name: str
@@ -46,6 +50,8 @@ class Parameter:
     description: str
     assumptions: dict = field(default_factory=lambda: {"real": True})
     cli_degrees: bool = False
+    default: float | None = None
+    unit: str = ""
 
     @property
     def symbol(self) -> sm.Symbol:
@@ -178,6 +184,14 @@ class Derivation:
     batch : tuple of str
         Quantities that also get a vectorisable C loop
         (``generated/<model>/c/<model>_batch.c``).
+    units : str
+        One sentence on the units of the generated functions (their module docstring).
+    paper : bool
+        The quantities cite one paper's equations (docstrings then say "Beyond the paper."
+        for those it does not have).
+    constants : dict of str to (value, docstring)
+        Module constants of the generated package (plain Python values: their ``repr``
+        is the source).
     """
 
     model: str
@@ -189,6 +203,9 @@ class Derivation:
     facts: dict[str, sm.Expr] = field(default_factory=dict)
     c_exports: tuple[CExport, ...] = ()
     batch: tuple[str, ...] = ()
+    units: str = "Angles in radians."
+    paper: bool = False
+    constants: dict[str, tuple[Any, str]] = field(default_factory=dict)
 
     def add(self, quantity: Quantity) -> Quantity:
         if quantity.name in self.quantities:

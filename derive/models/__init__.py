@@ -1,7 +1,7 @@
 """The models the engine derives; each module holds one model's facts and derivation."""
 
-from derive.models import ile
+from derive.models import ile, rimless_wheel
 
-MODELS = {"ile": ile.derive}
+MODELS = {"ile": ile.derive, "rimless_wheel": rimless_wheel.derive}
 """Model name (its ``generated/<name>/`` package) -> callable returning its
 :class:`derive.quantities.Derivation`."""

@@ -31,6 +31,8 @@ PARAMETERS: tuple[Parameter, ...] = (
         reason="beta = r_s / r_e is a length-shortening ratio: 0 < beta < 1",
         description="length shorten ratio r_s / r_e",
         assumptions={"positive": True},
+        default=0.8,
+        unit="1",
     ),
     Parameter(
         name="theta_II",
@@ -40,6 +42,8 @@ PARAMETERS: tuple[Parameter, ...] = (
         reason="the stance leg must point below the horizontal: |theta_II| < pi/2",
         description="stance leg angle at which the leg extends (instant II)",
         cli_degrees=True,
+        default=0.0,
+        unit="rad",
     ),
     Parameter(
         name="phi0",
@@ -50,6 +54,8 @@ PARAMETERS: tuple[Parameter, ...] = (
         description="inter-leg angle at heelstrike",
         assumptions={"positive": True},
         cli_degrees=True,
+        default=float(sm.pi.evalf(17) / 4),
+        unit="rad",
     ),
 )
 
@@ -691,6 +697,8 @@ def derive() -> Derivation:
         title="Instantaneous leg extension model of Virtual Slope Walking",
         source="derive/models/ile.py",
         parameters=PARAMETERS,
+        units="Angles in radians, time in units of sqrt(r_e / g), lengths in r_e.",
+        paper=True,
     )
     P = (beta, theta_II, phi0)
     d.add(

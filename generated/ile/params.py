@@ -19,10 +19,12 @@ class Parameter(NamedTuple):
     reason: str
     description: str
     cli_degrees: bool
+    default: float | None = None
+    unit: str = ''
 
 
 PARAMETERS = (
-    Parameter('beta', '\\beta', 0.0, 1.0, 'beta = r_s / r_e is a length-shortening ratio: 0 < beta < 1', 'length shorten ratio r_s / r_e', False),
-    Parameter('theta_II', '\\theta_{II}', -1.5707963267948966, 1.5707963267948966, 'the stance leg must point below the horizontal: |theta_II| < pi/2', 'stance leg angle at which the leg extends (instant II)', True),
-    Parameter('phi0', '\\varphi_0', 0.0, 1.5707963267948966, 'inter-leg angle at heelstrike: 0 < phi0 < pi/2, eq. (16)', 'inter-leg angle at heelstrike', True),
+    Parameter('beta', '\\beta', 0.0, 1.0, 'beta = r_s / r_e is a length-shortening ratio: 0 < beta < 1', 'length shorten ratio r_s / r_e', False, 0.8, '1'),
+    Parameter('theta_II', '\\theta_{II}', -1.5707963267948966, 1.5707963267948966, 'the stance leg must point below the horizontal: |theta_II| < pi/2', 'stance leg angle at which the leg extends (instant II)', True, 0.0, 'rad'),
+    Parameter('phi0', '\\varphi_0', 0.0, 1.5707963267948966, 'inter-leg angle at heelstrike: 0 < phi0 < pi/2, eq. (16)', 'inter-leg angle at heelstrike', True, 0.7853981633974483, 'rad'),
 )

@@ -1,0 +1,421 @@
+"""Everything a :class:`~derive.engine.model.Model` implies, derived with sympy.
+
+* :func:`phase_dynamics`: the equations of motion of a phase from its Lagrangian
+  (:class:`sympy.physics.mechanics.LagrangesMethod` on the chart of all its coordinates;
+  the held coordinates' rows carry the actuator forces, the free ones' give the motion),
+  its energy, generalised momenta and the ground reaction on the stance foot.
+* :func:`impact_reset`: an inelastic impact from Lagrange's impulse equations: for every
+  coordinate of the phase after, the impulses do no work on its motion,
+  ``J+^T M (v+ - v-) = 0`` over the bodies (``v = J u``), since the only impulse acts at the
+  new contact, which the phase after pins.
+* :func:`jump_reset`: an instantaneous actuation: the free coordinates' generalised momenta
+  are continuous while the held coordinates jump (``M(q+) u+ = M(q-) u-`` in their rows).
+* :func:`stride_closed_form`: for one free coordinate and events at fixed angles, the
+  stride map in ``q = (rate)**2`` in closed form: along a phase ``u = rate**2`` obeys the
+  linear equation ``du/dtheta = 2 A + 2 B u`` (``theta'' = A + B theta'^2``), solved with
+  its integrating factor; the resets scale ``u`` by a constant.
+* :func:`hybrid_quantities`: the functions the generic runtime needs (accelerations,
+  guards, resets, energies, ground reactions, failure guards), as
+  :class:`~derive.quantities.Quantity` records for the code generator, and the
+  ``HYBRID`` descriptor of the model.
+"""
+
+from __future__ import annotations
+
+import functools
+import random
+from dataclasses import dataclass
+
+import sympy as sm
+import sympy.physics.mechanics as me
+
+from derive.engine.model import NORMAL_FORCE, Impact, Jump, Model, Phase, PointMass
+from derive.quantities import Quantity
+
+__all__ = [
+    "PhaseDynamics",
+    "hybrid_quantities",
+    "impact_reset",
+    "jump_reset",
+    "phase_dynamics",
+    "stride_closed_form",
+]
+
+
+@dataclass(frozen=True)
+class PhaseDynamics:
+    """What a phase's Lagrangian implies, in plain symbols (coordinates, rates, parameters).
+
+    Attributes
+    ----------
+    accelerations : tuple of sympy.Expr
+        Second derivatives of the free coordinates.
+    kinetic, potential : sympy.Expr
+        T and V with the held coordinates at their values.
+    momenta : dict of sympy.Symbol to sympy.Expr
+        ``dL/d(rate)`` of every chart coordinate (free and held), in terms of all chart
+        coordinates and rates (held ones as symbols ``<name>`` and ``<name>_rate``).
+    actuator_forces : dict of sympy.Symbol to sympy.Expr
+        The generalised force each held coordinate's actuator exerts.
+    normal_force, tangential_force : sympy.Expr
+        Ground reaction on the stance foot along the chart's y and x axes.
+    """
+
+    phase: Phase
+    accelerations: tuple[sm.Expr, ...]
+    kinetic: sm.Expr
+    potential: sm.Expr
+    momenta: dict[sm.Symbol, sm.Expr]
+    actuator_forces: dict[sm.Symbol, sm.Expr]
+    normal_force: sm.Expr
+    tangential_force: sm.Expr
+
+    @property
+    def energy(self) -> sm.Expr:
+        return self.kinetic + self.potential
+
+
+def _rate_symbol(symbol: sm.Symbol) -> sm.Symbol:
+    return sm.Symbol(f"{symbol.name}_rate", real=True)
+
+
+def _simplify(expr: sm.Expr) -> sm.Expr:
+    """A cheap canonical form: expand, cancel, and the Pythagorean identity."""
+    expr = sm.cancel(sm.expand(expr))
+    return sm.trigsimp(expr) if expr.has(sm.sin, sm.cos) and expr.count_ops() < 400 else expr
+
+
+@functools.cache
+def phase_dynamics(phase: Phase) -> PhaseDynamics:
+    """The equations of motion, energy, momenta and ground reaction of a phase."""
+    free = [c.q for c in phase.coordinates]
+    held = list(phase.held)
+    chart = free + held
+    t = me.dynamicsymbols._t
+    functions = [me.dynamicsymbols(s.name) for s in chart]
+    to_time = dict(zip(chart, functions))
+    frame = me.ReferenceFrame("N")
+    origin = me.Point("O")
+    origin.set_vel(frame, 0)
+    gx, gy = phase.gravity
+    bodies = []
+    for body in phase.bodies:
+        x, y = (sm.sympify(c).xreplace(to_time) for c in body.position)
+        point = origin.locatenew(body.name, x * frame.x + y * frame.y)
+        point.set_vel(frame, point.pos_from(origin).dt(frame))
+        if isinstance(body, PointMass):
+            item = me.Particle(body.name, point, body.mass)
+        else:
+            own = frame.orientnew(
+                f"{body.name}_frame", "Axis", (sm.sympify(body.angle).xreplace(to_time), frame.z)
+            )
+            inertia = me.inertia(own, 0, 0, body.inertia)
+            item = me.RigidBody(body.name, point, own, body.mass, (inertia, point))
+        item.potential_energy = -body.mass * (gx * x + gy * y)
+        bodies.append(item)
+    lagrangian = me.Lagrangian(frame, *bodies)
+    method = me.LagrangesMethod(lagrangian, functions)
+    method.form_lagranges_equations()
+    mass_matrix, forcing = method.mass_matrix, method.forcing  # M q'' = forcing
+
+    rates = [f.diff(t) for f in functions]
+    accels = [f.diff(t, 2) for f in functions]
+    a_symbols = [sm.Symbol(f"{s.name}_acc", real=True) for s in chart]
+    plain = {}
+    for s, f, r, a, a_sym in zip(chart, functions, rates, accels, a_symbols):
+        plain[a] = a_sym
+        plain[r] = phase_rate(phase, s)
+        plain[f] = s
+    # Held coordinates at their values; their rates and accelerations by the chain rule.
+    u_free = [c.u for c in phase.coordinates]
+    a_free = a_symbols[: len(free)]
+    held_values = {}
+    for h, value in phase.held.items():
+        value = sm.sympify(value)
+        rate = sum((value.diff(q) * u for q, u in zip(free, u_free)), sm.Integer(0))
+        acc = sum((rate.diff(q) * u for q, u in zip(free, u_free)), sm.Integer(0))
+        acc += sum((value.diff(q) * a for q, a in zip(free, a_free)), sm.Integer(0))
+        held_values[h] = value
+        held_values[_rate_symbol(h)] = rate
+        held_values[a_symbols[chart.index(h)]] = acc
+
+    def at_values(expr: sm.Expr) -> sm.Expr:
+        return sm.sympify(expr).xreplace(plain).xreplace(held_values).xreplace(held_values)
+
+    residual = (mass_matrix * sm.Matrix(accels) - forcing).applyfunc(at_values)
+    free_rows = residual[: len(free), :]
+    system, rhs = sm.linear_eq_to_matrix(list(free_rows), a_free)
+    solution = system.LUsolve(rhs)
+    accelerations = tuple(_simplify(e) for e in solution)
+    solved = dict(zip(a_free, accelerations))
+    actuator = {h: _simplify(residual[chart.index(h)].xreplace(solved)) for h in held}
+
+    kinetic = sum((b.kinetic_energy(frame) for b in bodies), sm.Integer(0))
+    potential = sum((b.potential_energy for b in bodies), sm.Integer(0))
+    momenta = {s: _simplify(lagrangian.diff(r).xreplace(plain)) for s, r in zip(chart, rates)}
+    # Ground reaction on the stance foot: the bodies' total rate of momentum minus gravity.
+    force = [sm.Integer(0), sm.Integer(0)]
+    for body in phase.bodies:
+        for k, g_k in enumerate((gx, gy)):
+            position = sm.sympify(body.position[k]).xreplace(to_time)
+            accel = at_values(position.diff(t, 2)).xreplace(solved)
+            force[k] += body.mass * (accel - g_k)
+    return PhaseDynamics(
+        phase,
+        accelerations,
+        _simplify(at_values(kinetic)),
+        _simplify(at_values(potential)),
+        momenta,
+        actuator,
+        _simplify(force[1]),
+        _simplify(force[0]),
+    )
+
+
+def phase_rate(phase: Phase, symbol: sm.Symbol) -> sm.Symbol:
+    """The rate symbol of a chart coordinate (a free coordinate's own name for it)."""
+    for c in phase.coordinates:
+        if c.q == symbol:
+            return c.u
+    return _rate_symbol(symbol)
+
+
+def _positions(phase: Phase, held: bool = True) -> list[tuple[sm.Expr, sm.Expr]]:
+    """Body positions (x, y), held coordinates at their values unless ``held`` is False."""
+    values = dict(phase.held) if held else {}
+    return [tuple(sm.sympify(c).xreplace(values) for c in b.position) for b in phase.bodies]
+
+
+def _numeric_check(exprs: list[sm.Expr], symbols: list[sm.Symbol], what: str) -> None:
+    """Each expression vanishes at random points (a fact of geometry the model states)."""
+    rng = random.Random(20261201)
+    for _ in range(4):
+        point = {s: sm.Float(rng.uniform(0.1, 0.6), 30) for s in symbols}
+        for e in exprs:
+            value = abs(complex(sm.sympify(e).xreplace(point).evalf(30)))
+            if value > 1e-20:
+                raise AssertionError(f"{what}: {e} = {value:.3g} at {point}")
+
+
+@functools.cache
+def impact_reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tuple[sm.Expr, ...]]:
+    """Coordinates and rates just after an inelastic impact, from the momentum balance."""
+    event = next(e for e in model.events if e.name == event_name)
+    if not isinstance(event.reset, Impact):
+        raise TypeError(f"{event.name} is not an impact")
+    before, after = model.phase(event.source), model.phase(event.target)
+    q_before = [c.q for c in before.coordinates]
+    u_before = [c.u for c in before.coordinates]
+    q_after = [c.q for c in after.coordinates]
+    mapping = {q: sm.sympify(event.reset.coordinates[q]) for q in q_after}
+    contact = [sm.sympify(c) for c in before.points[event.reset.new_contact]]
+    pos_before = _positions(before)
+    pos_after = [tuple(c.xreplace(mapping) for c in p) for p in _positions(after)]
+    # The configuration is unchanged: every body where it was, seen from the new contact.
+    gaps = [pb[k] - contact[k] - pa[k] for pb, pa in zip(pos_before, pos_after) for k in range(2)]
+    _numeric_check(gaps, sorted(set().union(*(g.free_symbols for g in gaps)), key=str),
+                   f"{event.name}: bodies after the impact")  # fmt: skip
+
+    def jacobian(positions, coords, phase):
+        rows = []
+        for body, p in zip(phase.bodies, positions):
+            weight = sm.sqrt(body.mass)
+            rows += [[weight * sm.diff(p[k], q) for q in coords] for k in range(2)]
+            if not isinstance(body, PointMass):
+                angle = sm.sympify(body.angle).xreplace(dict(phase.held))
+                rows.append([sm.sqrt(body.inertia) * sm.diff(angle, q) for q in coords])
+        return sm.Matrix(rows)
+
+    j_before = jacobian(pos_before, q_before, before)
+    j_after = jacobian(_positions(after), q_after, after).xreplace(mapping)
+    a = (j_after.T * j_after).applyfunc(_simplify)
+    b = (j_after.T * j_before).applyfunc(_simplify)
+    u_after = a.LUsolve(b * sm.Matrix(u_before))
+    return tuple(mapping[q] for q in q_after), tuple(_simplify(e) for e in u_after)
+
+
+@functools.cache
+def jump_reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tuple[sm.Expr, ...]]:
+    """Coordinates and rates just after an instantaneous actuation (held coordinates jump)."""
+    event = next(e for e in model.events if e.name == event_name)
+    if not isinstance(event.reset, Jump):
+        raise TypeError(f"{event.name} is not a jump")
+    before, after = model.phase(event.source), model.phase(event.target)
+    if [c.q for c in before.coordinates] != [c.q for c in after.coordinates]:
+        raise ValueError(f"{event.name}: a jump keeps the free coordinates")
+    dyn = phase_dynamics(before)
+    free = [c.q for c in before.coordinates]
+    u_before = [c.u for c in before.coordinates]
+    u_new = [sm.Symbol(f"{c.rate}_after", real=True) for c in before.coordinates]
+
+    def state(phase: Phase, rates: list[sm.Symbol]) -> dict:
+        values = {h: sm.sympify(v) for h, v in phase.held.items()}
+        # Held coordinates are at rest just before and just after the jump.
+        values.update({_rate_symbol(h): 0 for h in phase.held})
+        values.update(dict(zip(u_before, rates)))
+        return values
+
+    balance = [
+        dyn.momenta[q].xreplace(state(after, u_new))
+        - dyn.momenta[q].xreplace(state(before, u_before))
+        for q in free
+    ]
+    solution = sm.solve(balance, u_new, dict=True)
+    if len(solution) != 1:
+        raise ValueError(f"{event.name}: the momentum balance has no unique solution")
+    return tuple(free), tuple(_simplify(solution[0][u]) for u in u_new)
+
+
+def reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tuple[sm.Expr, ...]]:
+    event = next(e for e in model.events if e.name == event_name)
+    if isinstance(event.reset, Impact):
+        return impact_reset(model, event_name)
+    return jump_reset(model, event_name)
+
+
+@dataclass(frozen=True)
+class StrideForm:
+    """The closed-form stride map ``q' = slope q + offset`` in ``q = rate**2``."""
+
+    slope: sm.Expr
+    offset: sm.Expr
+    section_angle: sm.Expr  # the coordinate just after the step event
+
+    @property
+    def fixed_point(self) -> sm.Expr:
+        return self.offset / (1 - self.slope)
+
+
+@functools.cache
+def stride_closed_form(model: Model) -> StrideForm | None:
+    """The stride map in closed form, when the model has one free coordinate, every event
+    sits at a fixed angle (``Event.at``) and every reset scales the rate by a factor."""
+    if len(model.coordinates) != 1 or any(e.at is None for e in model.events):
+        return None
+    theta, omega = model.coordinates[0].q, model.coordinates[0].u
+    w = sm.Symbol("w", positive=True)  # omega**2 along a phase
+    by_source = {e.source: e for e in model.events}
+    step_event = next(e for e in model.events if e.ends_step)
+    q = sm.Symbol("q", nonnegative=True)
+    angle = reset(model, step_event.name)[0][0].xreplace({theta: step_event.at})
+    u = q
+    phase = model.phase(step_event.target)
+    for _ in range(len(model.phases) + 1):
+        dyn = phase_dynamics(phase)
+        acc = sm.expand(dyn.accelerations[0].xreplace({omega: sm.sqrt(w)}))
+        slope_b = sm.expand(acc.diff(w))
+        if slope_b.has(w) or slope_b.has(omega):
+            return None
+        a_part = sm.expand(acc - slope_b * w)
+        event = by_source[phase.name]
+        end = sm.sympify(event.at)
+        # d(u)/d(theta) = 2 A + 2 B u: integrating factor mu = exp(-int 2 B).
+        s = sm.Dummy("s", real=True)
+        mu = sm.exp(-sm.integrate(2 * slope_b.xreplace({theta: s}), (s, angle, theta)))
+        mu = sm.simplify(mu)
+        integral = sm.integrate((2 * a_part * mu).xreplace({theta: s}), (s, angle, end))
+        u = sm.simplify((u + integral) / mu.xreplace({theta: end}))
+        # The reset scales the rate: u -> factor**2 u.
+        coords_after, rates_after = reset(model, event.name)
+        factor = sm.simplify(rates_after[0].xreplace({theta: end}) / omega)
+        if factor.has(omega):
+            return None
+        u = sm.expand(factor**2 * u)
+        angle = coords_after[0].xreplace({theta: end})
+        if event.ends_step:
+            break
+        phase = model.phase(event.target)
+    slope = sm.simplify(u.diff(q))
+    offset = sm.simplify(u.xreplace({q: 0}))
+    if sm.simplify(u - slope * q - offset) != 0:
+        return None
+    return StrideForm(slope, offset, sm.simplify(angle))
+
+
+def _state_args(model: Model) -> tuple[sm.Symbol, ...]:
+    return (
+        *model.parameter_symbols,
+        *(c.q for c in model.coordinates),
+        *(c.u for c in model.coordinates),
+    )
+
+
+def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
+    """The generic runtime's functions and the ``HYBRID`` descriptor of a model.
+
+    Every function takes ``(*parameters, *coordinates, *rates)``:
+    ``<phase>_accelerations``, ``<phase>_energy``, ``<phase>_normal_force``,
+    ``<phase>_<failure>`` (failure guards), ``<event>_guard``, ``<event>_when``,
+    ``<event>_reset`` (coordinates then rates after), and ``step_length`` when the model
+    defines it.
+    """
+    args = _state_args(model)
+    quantities: list[Quantity] = []
+    phases = []
+    for phase in model.phases:
+        dyn = phase_dynamics(phase)
+        quantities.append(Quantity(
+            f"{phase.name}_accelerations", args, tuple(dyn.accelerations),
+            f"Second derivatives of the free coordinates in phase {phase.name}.", None,
+            "tuple: d2(coordinate)/dt2 for each coordinate",
+        ))  # fmt: skip
+        quantities.append(Quantity(
+            f"{phase.name}_energy", args, dyn.energy,
+            f"Mechanical energy T + V in phase {phase.name}.", None, "energy",
+        ))  # fmt: skip
+        quantities.append(Quantity(
+            f"{phase.name}_normal_force", args, dyn.normal_force,
+            f"Ground reaction on the stance foot along the ground normal in phase {phase.name}.",
+            None, "normal force (the foot lifts off below 0)",
+        ))  # fmt: skip
+        failures = []
+        for failure in model.failures:
+            guard = sm.sympify(failure.guard).xreplace({NORMAL_FORCE: dyn.normal_force})
+            name = f"{phase.name}_{failure.name.replace('-', '_')}"
+            quantities.append(Quantity(
+                name, args, guard, f"Guard of {failure.name} in phase {phase.name}.", None,
+                f"crosses zero (direction {failure.direction:+d}) when the walk ends",
+            ))  # fmt: skip
+            failures.append((failure.name, name, failure.direction))
+        phases.append({"name": phase.name, "failures": tuple(failures)})
+    events = []
+    for event in model.events:
+        coords_after, rates_after = reset(model, event.name)
+        quantities.append(Quantity(
+            f"{event.name}_guard", args, sm.sympify(event.guard),
+            f"Guard of the event {event.name}: crosses zero when it happens.", None, "guard",
+        ))  # fmt: skip
+        quantities.append(Quantity(
+            f"{event.name}_reset", args, (*coords_after, *rates_after),
+            f"State just after the event {event.name} (from the state just before).",
+            event.equation, "tuple: coordinates, then rates",
+        ))  # fmt: skip
+        when = None
+        if event.when is not None:
+            when = f"{event.name}_when"
+            quantities.append(Quantity(
+                when, args, sm.sympify(event.when),
+                f"The event {event.name} counts only where this is positive.", None, "sign",
+            ))  # fmt: skip
+        events.append({
+            "name": event.name, "source": event.source, "target": event.target,
+            "direction": event.direction, "ends_step": event.ends_step, "when": when,
+        })  # fmt: skip
+    if model.step_length is not None:
+        quantities.append(Quantity(
+            "step_length", args, sm.sympify(model.step_length),
+            "Distance between successive stance feet (state just before the step event).",
+            None, "step length",
+        ))  # fmt: skip
+    descriptor = {
+        "name": model.name,
+        "title": model.title,
+        "parameters": tuple(p.name for p in model.parameters),
+        "coordinates": tuple(c.name for c in model.coordinates),
+        "rates": tuple(c.rate for c in model.coordinates),
+        "phases": tuple(phases),
+        "events": tuple(events),
+        "units": dict(model.units),
+        "step_length": model.step_length is not None,
+    }
+    return quantities, descriptor

@@ -1,0 +1,251 @@
+"""The declarative description of a hybrid walking model: facts only, no machinery.
+
+A model file builds one :class:`Model`: its parameter table, its generalised coordinates,
+its phases (each a planar mechanical system of point masses and rigid segments pivoting
+about the stance foot, with the coordinates its actuators hold), its events (a guard that
+crosses zero and a reset: an inelastic impact or an instantaneous actuation) and the
+failures that end a walk. :mod:`derive.engine.hybrid` derives everything else: equations
+of motion (with :mod:`sympy.physics.mechanics`), energies, ground reactions, the resets from
+momentum balances, and, where the model allows, its stride map in closed form.
+
+Conventions: planar, x along the ground (downhill on a slope) and y along its normal; each
+phase's chart puts the stance foot at the origin; a leg at angle ``theta`` from the ground
+normal (positive when the hip is ahead of the foot) points along ``(sin theta, cos theta)``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import sympy as sm
+
+from derive.quantities import Parameter
+
+__all__ = [
+    "Coordinate",
+    "Event",
+    "Failure",
+    "Impact",
+    "Jump",
+    "Model",
+    "Parameter",
+    "Phase",
+    "PointMass",
+    "RigidSegment",
+    "leg",
+]
+
+
+def leg(angle: sm.Expr, length: sm.Expr = 1) -> tuple[sm.Expr, sm.Expr]:
+    """Foot-to-hip vector of a straight leg at ``angle`` from the ground normal."""
+    return (length * sm.sin(angle), length * sm.cos(angle))
+
+
+@dataclass(frozen=True, eq=False)
+class Coordinate:
+    """A generalised coordinate and the name of its rate.
+
+    Attributes
+    ----------
+    name : str
+        Python identifier (``theta``).
+    rate : str
+        Name of its time derivative (``omega``).
+    description : str
+    unit : str
+        Unit of the coordinate (``rad``); the rate's is this per the model's time unit.
+    """
+
+    name: str
+    rate: str
+    description: str = ""
+    unit: str = "rad"
+
+    @property
+    def q(self) -> sm.Symbol:
+        return sm.Symbol(self.name, real=True)
+
+    @property
+    def u(self) -> sm.Symbol:
+        return sm.Symbol(self.rate, real=True)
+
+
+@dataclass(frozen=True, eq=False)
+class PointMass:
+    """A point mass at ``position`` (x, y) in the phase's chart."""
+
+    name: str
+    mass: sm.Expr
+    position: tuple[sm.Expr, sm.Expr]
+
+
+@dataclass(frozen=True, eq=False)
+class RigidSegment:
+    """A rigid body in the plane: centre of mass, orientation angle and central inertia."""
+
+    name: str
+    mass: sm.Expr
+    position: tuple[sm.Expr, sm.Expr]
+    angle: sm.Expr
+    inertia: sm.Expr
+
+
+Body = PointMass | RigidSegment
+
+
+@dataclass(frozen=True, eq=False)
+class Phase:
+    """One continuous phase: the stance foot pinned at the origin of its chart.
+
+    Attributes
+    ----------
+    name : str
+    coordinates : tuple of Coordinate
+        The free coordinates: no actuator acts on them.
+    bodies : tuple of PointMass or RigidSegment
+    gravity : (gx, gy)
+        Gravity in the chart's axes (``(g sin gamma, -g cos gamma)`` on a slope gamma).
+    held : mapping of sympy.Symbol to sympy.Expr
+        Coordinates an actuator holds at a value (a constant, or a function of the free
+        coordinates); the actuator's force acts on them alone, so the equations of motion
+        are the free coordinates' rows of Lagrange's equations in the chart of all of them.
+    points : mapping of str to (x, y)
+        Named points of the chart that guards and impacts refer to (a swing foot).
+    """
+
+    name: str
+    coordinates: tuple[Coordinate, ...]
+    bodies: tuple[Body, ...]
+    gravity: tuple[sm.Expr, sm.Expr]
+    held: Mapping[sm.Symbol, sm.Expr] = field(default_factory=dict)
+    points: Mapping[str, tuple[sm.Expr, sm.Expr]] = field(default_factory=dict)
+
+
+@dataclass(frozen=True, eq=False)
+class Impact:
+    """An inelastic impact: the point ``new_contact`` sticks, the stance foot leaves.
+
+    The configuration does not change: ``coordinates`` gives each coordinate of the phase
+    after in terms of the phase before (a fact of geometry, which the engine checks by the
+    bodies' positions). The velocities after follow from the momentum balance: the
+    impulse at the new contact does no work on any motion the phase after allows.
+    """
+
+    new_contact: str
+    coordinates: Mapping[sm.Symbol, sm.Expr]
+
+
+@dataclass(frozen=True, eq=False)
+class Jump:
+    """An instantaneous actuation: the held coordinates jump to the phase after's values.
+
+    The actuator's impulse acts on the held coordinates alone, so the generalised momentum
+    of every free coordinate is conserved across the jump (M(q+) q'+ = M(q-) q'- in those
+    rows); the free coordinates themselves do not move.
+    """
+
+
+@dataclass(frozen=True, eq=False)
+class Event:
+    """A transition: when ``guard`` crosses zero in ``direction`` (+1 rising, -1 falling),
+    the state is reset and the phase ``target`` begins.
+
+    Attributes
+    ----------
+    name, source, target : str
+    guard : sympy.Expr
+        In the source phase's coordinates, rates and the parameters.
+    direction : int
+    reset : Impact or Jump
+    at : sympy.Expr, optional
+        The coordinate value at which the guard vanishes, when it depends on the
+        configuration only (a fact the engine checks); needed for a closed-form stride map.
+    ends_step : bool
+        The Poincaré section: a step ends with this event.
+    when : sympy.Expr, optional
+        The guard counts only where this is positive (for example past mid-stance, where
+        a swing foot scuffs the ground and the model ignores it).
+    equation : str, optional
+        The paper's equation number of the reset.
+    """
+
+    name: str
+    source: str
+    target: str
+    guard: sm.Expr
+    direction: int
+    reset: Impact | Jump
+    at: sm.Expr | None = None
+    ends_step: bool = False
+    when: sm.Expr | None = None
+    equation: str | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class Failure:
+    """A walk ends when ``guard`` crosses zero in ``direction`` during any phase.
+
+    ``guard`` may use the phase's ground reaction ``N`` (:data:`NORMAL_FORCE`) and the
+    state; ``name`` is what the simulation reports (``fell-backward``, ``lift-off``).
+    """
+
+    name: str
+    guard: sm.Expr
+    direction: int
+    meaning: str = ""
+
+
+NORMAL_FORCE = sm.Symbol("N_ground", real=True)
+"""Stands for the normal ground reaction on the stance foot in a Failure guard."""
+
+
+@dataclass(frozen=True, eq=False)
+class Model:
+    """A hybrid walking model.
+
+    Attributes
+    ----------
+    name : str
+        Python identifier; ``generated/<name>/`` and the CLI's ``--model`` (with ``-``
+        for ``_``).
+    title, description : str
+    source : str
+        The model file (goes into generated headers).
+    parameters : tuple of Parameter
+    phases : tuple of Phase
+        In the order a step visits them; the first starts after the step's event.
+    events : tuple of Event
+    failures : tuple of Failure
+    units : mapping of str to str
+        ``time``, ``length``, ``mass``, ``energy``: the units the model's quantities are in.
+    step_length : sympy.Expr, optional
+        Distance from one stance foot to the next (in the state just before the step
+        event), when the model defines it.
+    """
+
+    name: str
+    title: str
+    description: str
+    source: str
+    parameters: tuple[Parameter, ...]
+    phases: tuple[Phase, ...]
+    events: tuple[Event, ...]
+    failures: tuple[Failure, ...] = ()
+    units: Mapping[str, str] = field(default_factory=dict)
+    step_length: sm.Expr | None = None
+
+    def phase(self, name: str) -> Phase:
+        for p in self.phases:
+            if p.name == name:
+                return p
+        raise KeyError(name)
+
+    @property
+    def coordinates(self) -> tuple[Coordinate, ...]:
+        """The free coordinates (every phase has the same ones)."""
+        return self.phases[0].coordinates
+
+    @property
+    def parameter_symbols(self) -> tuple[sm.Symbol, ...]:
+        return tuple(p.symbol for p in self.parameters)

@@ -1,0 +1,87 @@
+"""The rimless wheel (McGeer 1990, "Passive dynamic walking"; Drake, examples/rimless_wheel).
+
+A point mass at the hub of a wheel without rim: spokes of length ``l`` spaced ``2 alpha``
+apart, rolling down a slope of angle ``gamma`` under gravity ``g``. Between collisions the
+wheel pivots about the stance spoke's foot; the next spoke touches the slope when the stance
+spoke has turned ``alpha`` past the slope normal; the collision is inelastic (the new foot
+sticks, the old one leaves the ground). Energies are per unit mass (the mass cancels).
+
+Coordinates on the slope: x downhill, y along its normal; ``theta`` is the stance spoke's
+angle from the slope normal, positive downhill, ``omega`` its rate.
+"""
+
+from __future__ import annotations
+
+import sympy as sm
+
+from derive.engine import model_derivation
+from derive.engine.model import (
+    NORMAL_FORCE,
+    Coordinate,
+    Event,
+    Failure,
+    Impact,
+    Model,
+    Parameter,
+    Phase,
+    PointMass,
+    leg,
+)
+from derive.quantities import Derivation
+
+PI = float(sm.pi.evalf(17))
+
+PARAMETERS = (
+    Parameter("alpha", r"\alpha", 0.0, PI / 2, "half the angle between spokes: 0 < alpha < pi/2",
+              "half inter-spoke angle", {"positive": True}, default=PI / 8, unit="rad"),
+    Parameter("gamma", r"\gamma", -PI / 2, PI / 2, "slope angle, downhill positive: |gamma| < "
+              "pi/2", "slope angle", default=0.08, unit="rad"),
+    Parameter("l", "l", 0.0, float("inf"), "spoke length l > 0", "spoke length",
+              {"positive": True}, default=1.0, unit="m"),
+    Parameter("g", "g", 0.0, float("inf"), "gravity g > 0", "gravitational acceleration",
+              {"positive": True}, default=9.81, unit="m/s^2"),
+)  # fmt: skip
+alpha, gamma, l, g = (p.symbol for p in PARAMETERS)
+
+THETA = Coordinate("theta", "omega", "stance spoke angle from the slope normal", "rad")
+theta = THETA.q
+
+STANCE = Phase(
+    "stance",
+    coordinates=(THETA,),
+    bodies=(PointMass("hub", 1, leg(theta, l)),),
+    gravity=(g * sm.sin(gamma), -g * sm.cos(gamma)),
+    # The next spoke, 2 alpha behind the stance spoke, and its foot.
+    points={"next_foot": tuple(h - f for h, f in zip(leg(theta, l), leg(theta - 2 * alpha, l)))},
+)
+
+MODEL = Model(
+    name="rimless_wheel",
+    title="Rimless wheel",
+    description="McGeer's rimless wheel: a hub mass on massless spokes rolling down a slope",
+    source="derive/models/rimless_wheel.py",
+    parameters=PARAMETERS,
+    phases=(STANCE,),
+    events=(
+        Event(
+            "collision",
+            "stance",
+            "stance",
+            guard=STANCE.points["next_foot"][1],  # the next foot's height above the slope
+            direction=-1,
+            reset=Impact("next_foot", {theta: theta - 2 * alpha}),
+            at=alpha,
+            ends_step=True,
+        ),
+    ),  # fmt: skip
+    failures=(
+        Failure("fell-backward", THETA.u, -1, "the wheel stops and rolls back"),
+        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the slope"),
+    ),
+    units={"time": "s", "length": "m", "mass": "kg (energies per unit mass)", "energy": "J/kg"},
+    step_length=2 * l * sm.sin(alpha),
+)
+
+
+def derive() -> Derivation:
+    return model_derivation(MODEL, "Angles in radians, lengths in m, time in s, energies in J/kg.")
