@@ -73,7 +73,7 @@ MODEL = Model(
             at=alpha,
             ends_step=True,
         ),
-    ),  # fmt: skip
+    ),
     failures=(
         Failure("fell-backward", THETA.u, -1, "the wheel stops and rolls back"),
         Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the slope"),
