@@ -11,6 +11,7 @@ ordering, and names chosen by position.
 
 from __future__ import annotations
 
+import math
 import os
 import tempfile
 import types
@@ -277,10 +278,19 @@ def python_module(derivation: Derivation) -> str:
     return "".join(parts)
 
 
+def _float_source(value: float) -> str:
+    """A float as Python source (infinities as float('inf'))."""
+    value = float(value)
+    if math.isinf(value):
+        return "float('inf')" if value > 0 else "float('-inf')"
+    return repr(value)
+
+
 def params_module(derivation: Derivation) -> str:
     """The runtime copy of the model's parameter table."""
     rows = "".join(
-        f"    Parameter({p.name!r}, {p.latex!r}, {float(p.lower)!r}, {float(p.upper)!r}, "
+        f"    Parameter({p.name!r}, {p.latex!r}, {_float_source(p.lower)}, "
+        f"{_float_source(p.upper)}, "
         f"{p.reason!r}, {p.description!r}, {p.cli_degrees!r}, "
         f"{None if p.default is None else float(p.default)!r}, {p.unit!r}),\n"
         for p in derivation.parameters

@@ -55,15 +55,17 @@ def _as_float_array(name: str, value: object, reason: str) -> np.ndarray:
     return raw.astype(float, copy=False)
 
 
-def check_parameter(name: str, value: object) -> np.ndarray:
+def check_parameter(name: str, value: object, table: tuple | None = None) -> np.ndarray:
     """Validate one model parameter against the open interval of the generated table.
 
     Parameters
     ----------
-    name : {'beta', 'theta_II', 'phi0'}
-        Parameter name as in ``PARAMETERS``.
+    name : str
+        Parameter name as in the table (the ILE's: ``beta``, ``theta_II``, ``phi0``).
     value : float or array_like
         Value(s) in radians for angles.
+    table : tuple of generated Parameter records, optional
+        Another model's table (``generated.<model>.params.PARAMETERS``); default the ILE's.
 
     Returns
     -------
@@ -76,7 +78,7 @@ def check_parameter(name: str, value: object) -> np.ndarray:
         One line naming the parameter, the first offending value and the violated condition
         with the table's reason (which cites the paper's equation where there is one).
     """
-    p = PARAMETER_BY_NAME[name]
+    p = PARAMETER_BY_NAME[name] if table is None else next(r for r in table if r.name == name)
     arr = _as_float_array(name, value, p.reason)
     with np.errstate(invalid="ignore"):
         bad = ~(np.isfinite(arr) & (arr > p.lower) & (arr < p.upper))

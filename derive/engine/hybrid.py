@@ -417,5 +417,7 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
         "events": tuple(events),
         "units": dict(model.units),
         "step_length": model.step_length is not None,
+        "start": {c.name: float(model.start.get(c.name, 0.0)) for c in model.coordinates},
+        "rate_range": tuple(float(v) for v in model.rate_range),
     }
     return quantities, descriptor

@@ -222,6 +222,11 @@ class Model:
     step_length : sympy.Expr, optional
         Distance from one stance foot to the next (in the state just before the step
         event), when the model defines it.
+    start : mapping of str to float
+        A configuration to start the search for gaits from (coordinates by name; others 0),
+        at the start of the first phase.
+    rate_range : (low, high)
+        Rates the search for gaits pushes that configuration with (model units).
     """
 
     name: str
@@ -234,6 +239,8 @@ class Model:
     failures: tuple[Failure, ...] = ()
     units: Mapping[str, str] = field(default_factory=dict)
     step_length: sm.Expr | None = None
+    start: Mapping[str, float] = field(default_factory=dict)
+    rate_range: tuple[float, float] = (0.1, 5.0)
 
     def phase(self, name: str) -> Phase:
         for p in self.phases:

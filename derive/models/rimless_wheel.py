@@ -80,6 +80,8 @@ MODEL = Model(
     ),
     units={"time": "s", "length": "m", "mass": "kg (energies per unit mass)", "energy": "J/kg"},
     step_length=2 * l * sm.sin(alpha),
+    start={"theta": 0.0},
+    rate_range=(0.2, 6.0),
 )
 
 

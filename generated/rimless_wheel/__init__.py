@@ -17,7 +17,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'rimless_wheel', 'title': 'Rimless wheel', 'parameters': ('alpha', 'gamma', 'l', 'g'), 'coordinates': ('theta',), 'rates': ('omega',), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('lift-off', 'stance_lift_off', -1))},), 'events': ({'name': 'collision', 'source': 'stance', 'target': 'stance', 'direction': -1, 'ends_step': True, 'when': None},), 'units': {'time': 's', 'length': 'm', 'mass': 'kg (energies per unit mass)', 'energy': 'J/kg'}, 'step_length': True, 'closed_form': True}
+HYBRID = {'name': 'rimless_wheel', 'title': 'Rimless wheel', 'parameters': ('alpha', 'gamma', 'l', 'g'), 'coordinates': ('theta',), 'rates': ('omega',), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('lift-off', 'stance_lift_off', -1))},), 'events': ({'name': 'collision', 'source': 'stance', 'target': 'stance', 'direction': -1, 'ends_step': True, 'when': None},), 'units': {'time': 's', 'length': 'm', 'mass': 'kg (energies per unit mass)', 'energy': 'J/kg'}, 'step_length': True, 'start': {'theta': 0.0}, 'rate_range': (0.2, 6.0), 'closed_form': True}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards, events with their guards and resets, units."""
 
 

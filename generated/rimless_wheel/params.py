@@ -26,6 +26,6 @@ class Parameter(NamedTuple):
 PARAMETERS = (
     Parameter('alpha', '\\alpha', 0.0, 1.5707963267948966, 'half the angle between spokes: 0 < alpha < pi/2', 'half inter-spoke angle', False, 0.39269908169872414, 'rad'),
     Parameter('gamma', '\\gamma', -1.5707963267948966, 1.5707963267948966, 'slope angle, downhill positive: |gamma| < pi/2', 'slope angle', False, 0.08, 'rad'),
-    Parameter('l', 'l', 0.0, inf, 'spoke length l > 0', 'spoke length', False, 1.0, 'm'),
-    Parameter('g', 'g', 0.0, inf, 'gravity g > 0', 'gravitational acceleration', False, 9.81, 'm/s^2'),
+    Parameter('l', 'l', 0.0, float('inf'), 'spoke length l > 0', 'spoke length', False, 1.0, 'm'),
+    Parameter('g', 'g', 0.0, float('inf'), 'gravity g > 0', 'gravitational acceleration', False, 9.81, 'm/s^2'),
 )

@@ -1,0 +1,489 @@
+"""One runtime for every hybrid walking model of the engine (``generated/<model>/``).
+
+A generated model package carries ``HYBRID`` (its phases, events, failures, parameters,
+coordinates, units) and the functions the engine derived: per phase the accelerations,
+energy, ground reaction and failure guards; per event the guard, the reset and optionally
+the sign that must be positive for the event to count. :class:`HybridModel` drives them:
+
+* :meth:`HybridModel.simulate`: time-domain simulation (SciPy DOP853) whose events are the
+  model's guards and resets: one implementation for every model;
+* :meth:`HybridModel.step`: the Poincaré map (state just after one step event to the next);
+* :meth:`HybridModel.periodic_orbit`: a period-one gait as a boundary-value problem with the
+  phase durations as unknowns (residuals: each phase's guard at its end, the resets, and
+  the state after the step equal to the state before), solved by a CasADi rootfinder on
+  CasADi integrators of the generated dynamics, so it needs no event detection and gets
+  exact derivatives; residuals are checked outside CasADi;
+* :meth:`HybridModel.eigenvalues`: of the Jacobian of the Poincaré map, by CasADi
+  derivatives through the integration (each phase's end time from its guard by the implicit
+  function theorem);
+* :meth:`HybridModel.fixed_points`: the distinct period-one gaits found from a scan of
+  starting guesses (the model's start configuration pushed with a range of rates).
+
+``import vsw.hybrid`` is cheap: casadi and scipy are imported inside functions.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from vsw.errors import ConvergenceError, VswInputError
+
+__all__ = [
+    "HybridModel",
+    "Orbit",
+    "StepResult",
+    "Trajectory",
+    "available_models",
+    "load",
+]
+
+_RTOL = 1e-12
+_ATOL = 1e-12
+_PHASE_TIME_LIMIT = 100.0  # model time units; a phase that lasts longer has stalled
+
+
+def available_models() -> tuple[str, ...]:
+    """Names of the generated model packages."""
+    import generated
+
+    return tuple(generated.MODELS)
+
+
+@functools.cache
+def load(name: str) -> HybridModel:
+    """The generated model ``name`` (``-`` and ``_`` alike)."""
+    key = name.replace("-", "_")
+    if key not in available_models():
+        raise VswInputError(
+            f"model {name!r} is not one of {', '.join(m.replace('_', '-') for m in available_models())}"
+        )
+    return HybridModel(importlib.import_module(f"generated.{key}"))
+
+
+@dataclass(frozen=True)
+class StepResult:
+    """One step of the Poincaré map: ``ended`` is 'completed' or a failure's name."""
+
+    state: np.ndarray
+    ended: str
+    durations: tuple[float, ...]
+    step_length: float | None = None
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """A simulated walk: samples, the phase of each, and the section states."""
+
+    t: np.ndarray
+    states: np.ndarray  # (n_samples, 2 n)
+    phase: np.ndarray  # phase index of each sample
+    section: np.ndarray  # states just after each step event (the first is the start)
+    ended: str
+    steps_completed: int
+
+
+@dataclass(frozen=True)
+class Orbit:
+    """A period-one gait."""
+
+    state: dict[str, float]  # coordinates and rates just after the step event
+    durations: tuple[float, ...]
+    period: float
+    eigenvalues: tuple[complex, ...]
+    step_length: float | None
+    residual: float
+    phase_states: tuple[np.ndarray, ...] = field(repr=False, default=())
+
+    @property
+    def max_abs_eigenvalue(self) -> float:
+        return max(abs(e) for e in self.eigenvalues)
+
+    @property
+    def stable(self) -> bool:
+        return self.max_abs_eigenvalue < 1.0
+
+    @property
+    def speed(self) -> float | None:
+        return None if self.step_length is None else self.step_length / self.period
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "state": dict(self.state),
+            "period": self.period,
+            "phase_durations": list(self.durations),
+            "eigenvalues": [[float(e.real), float(e.imag)] for e in self.eigenvalues],
+            "max_abs_eigenvalue": self.max_abs_eigenvalue,
+            "stable": self.stable,
+            "step_length": self.step_length,
+            "speed": self.speed,
+            "residual": self.residual,
+        }
+
+
+class HybridModel:
+    """A generated model package through one interface."""
+
+    def __init__(self, module: Any) -> None:
+        self.module = module
+        spec = module.HYBRID
+        self.spec = spec
+        self.name: str = spec["name"]
+        self.title: str = spec["title"]
+        params = importlib.import_module(f"{module.__name__}.params")
+        self.parameter_table = params.PARAMETERS
+        self.coordinates: tuple[str, ...] = spec["coordinates"]
+        self.rates: tuple[str, ...] = spec["rates"]
+        self.n = len(self.coordinates)
+        self.phases = spec["phases"]
+        self.events = spec["events"]
+        self.phase_index = {p["name"]: k for k, p in enumerate(self.phases)}
+        self.by_source = {}
+        for event in self.events:
+            self.by_source.setdefault(event["source"], []).append(event)
+        self.step_event = next(e for e in self.events if e["ends_step"])
+        self.units = spec["units"]
+
+    # --- parameters -------------------------------------------------------------------
+
+    def parameters(self, values: Mapping[str, float] | None = None) -> tuple[float, ...]:
+        """The parameter vector: defaults, overridden by ``values`` (validated)."""
+        from vsw.params import check_parameter
+
+        values = dict(values or {})
+        names = [p.name for p in self.parameter_table]
+        for name in values:
+            if name not in names:
+                raise VswInputError(
+                    f"parameter {name!r} is not one of the {self.name} model's: {', '.join(names)}"
+                )
+        out = []
+        for p in self.parameter_table:
+            value = values.get(p.name, p.default)
+            if value is None:
+                raise VswInputError(f"parameter {p.name} of {self.name} has no default: give it")
+            out.append(float(check_parameter(p.name, value, self.parameter_table)))
+        return tuple(out)
+
+    # --- generated functions -----------------------------------------------------------
+
+    def _fn(self, name: str):
+        return getattr(self.module, name)
+
+    def accelerations(self, phase: str, params: Sequence[float], state: np.ndarray) -> np.ndarray:
+        return np.array(self._fn(f"{phase}_accelerations")(*params, *state), dtype=float)
+
+    def energy(self, phase: str, params: Sequence[float], state: np.ndarray) -> float:
+        return float(self._fn(f"{phase}_energy")(*params, *state))
+
+    def normal_force(self, phase: str, params: Sequence[float], state: np.ndarray) -> float:
+        return float(self._fn(f"{phase}_normal_force")(*params, *state))
+
+    def reset(self, event: str, params: Sequence[float], state: np.ndarray) -> np.ndarray:
+        return np.array(self._fn(f"{event}_reset")(*params, *state), dtype=float)
+
+    def step_length(self, params: Sequence[float], state: np.ndarray) -> float | None:
+        if not self.spec["step_length"]:
+            return None
+        return float(self._fn("step_length")(*params, *state))
+
+    def start_state(self, rate: float) -> np.ndarray:
+        """The model's start configuration, every rate ``rate``."""
+        q = [self.spec["start"][c] for c in self.coordinates]
+        return np.array(q + [rate] * self.n, dtype=float)
+
+    # --- simulation --------------------------------------------------------------------
+
+    def _phase_run(self, phase: str, params, state: np.ndarray, t0: float, dense: bool):
+        """Integrate one phase to its first event or failure."""
+        from scipy.integrate import solve_ivp
+
+        n = self.n
+        rhs_fn = self._fn(f"{phase}_accelerations")
+
+        def rhs(_t, x):
+            return np.concatenate([x[n:], np.asarray(rhs_fn(*params, *x), dtype=float)])
+
+        watchers = []  # (kind, name, function)
+        for event in self.by_source.get(phase, []):
+            guard = self._fn(f"{event['name']}_guard")
+            watchers.append(("event", event, guard, event["direction"]))
+        for failure, fname, direction in self.phases[self.phase_index[phase]]["failures"]:
+            watchers.append(("failure", failure, self._fn(fname), direction))
+        functions = []
+        for _, _, fn, direction in watchers:
+            f = functools.partial(lambda _t, x, fn: float(fn(*params, *x)), fn=fn)
+            f.terminal = True
+            f.direction = direction
+            functions.append(f)
+        t_start, x = t0, np.array(state, dtype=float)
+        samples_t, samples_x = [t0], [x.copy()]
+        for _ in range(20):  # restarts past events that do not count ('when' <= 0)
+            sol = solve_ivp(rhs, (t_start, t0 + _PHASE_TIME_LIMIT), x, method="DOP853",
+                            rtol=_RTOL, atol=_ATOL, events=functions, dense_output=False)  # fmt: skip
+            if dense:
+                samples_t.extend(sol.t[1:])
+                samples_x.extend(sol.y.T[1:])
+            if sol.status != 1:
+                return "stalled", None, t_start, x, samples_t, samples_x
+            k = next(i for i, te in enumerate(sol.t_events) if len(te))
+            kind, what, _, _ = watchers[k]
+            t_hit, x_hit = float(sol.t_events[k][0]), np.array(sol.y_events[k][0])
+            samples_t.append(t_hit)
+            samples_x.append(x_hit.copy())
+            if kind == "event" and what["when"] is not None:
+                if float(self._fn(what["when"])(*params, *x_hit)) <= 0:
+                    # Not this one (a scuff the model ignores): continue just past it.
+                    t_start, x = t_hit, x_hit
+                    t_start += 1e-9
+                    x = x_hit + 1e-9 * rhs(t_hit, x_hit)
+                    continue
+            return kind, what, t_hit, x_hit, samples_t, samples_x
+        return "stalled", None, t_start, x, samples_t, samples_x
+
+    def step(self, params: Sequence[float], state: np.ndarray) -> StepResult:
+        """One step from a state just after the step event (the Poincaré section)."""
+        phase = self.step_event["target"]
+        t = 0.0
+        x = np.array(state, dtype=float)
+        durations = []
+        for _ in range(len(self.phases) + 1):
+            kind, what, t_end, x_end, *_ = self._phase_run(phase, params, x, t, dense=False)
+            durations.append(t_end - t)
+            if kind == "failure":
+                return StepResult(x_end, what, tuple(durations))
+            if kind == "stalled":
+                return StepResult(x_end, "stalled", tuple(durations))
+            length = self.step_length(params, x_end) if what["ends_step"] else None
+            x = self.reset(what["name"], params, x_end)
+            t = t_end
+            if what["ends_step"]:
+                return StepResult(x, "completed", tuple(durations), length)
+            phase = what["target"]
+        raise ConvergenceError(f"{self.name}: a step visited more phases than the model has")
+
+    def simulate(
+        self, params: Sequence[float], state: np.ndarray, steps: int, phase: str | None = None
+    ) -> Trajectory:
+        """Simulate ``steps`` steps from ``state`` at the start of ``phase`` (default: the
+        phase after the step event)."""
+        phase = phase or self.step_event["target"]
+        t = 0.0
+        x = np.array(state, dtype=float)
+        ts, xs, ps, section = [], [], [], [x.copy()]
+        done = 0
+        ended = "completed"
+        while done < steps:
+            kind, what, t_end, x_end, st, sx = self._phase_run(phase, params, x, t, dense=True)
+            ts.extend(st)
+            xs.extend(sx)
+            ps.extend([self.phase_index[phase]] * len(st))
+            if kind != "event":
+                ended = what if kind == "failure" else "stalled"
+                break
+            x = self.reset(what["name"], params, x_end)
+            t = t_end
+            if what["ends_step"]:
+                done += 1
+                section.append(x.copy())
+            phase = what["target"]
+        return Trajectory(np.array(ts), np.array(xs), np.array(ps), np.array(section), ended,
+                          done)  # fmt: skip
+
+    # --- periodic orbits (CasADi) ------------------------------------------------------
+
+    def _phase_sequence(self) -> list[tuple[str, dict]]:
+        """(phase, event that ends it) over one step, from the section."""
+        out = []
+        phase = self.step_event["target"]
+        for _ in range(len(self.phases) + 1):
+            events = self.by_source[phase]
+            if len(events) != 1:
+                raise VswInputError(
+                    f"{self.name}: phase {phase} has {len(events)} events; the orbit solver "
+                    "needs one event per phase"
+                )
+            out.append((phase, events[0]))
+            if events[0]["ends_step"]:
+                return out
+            phase = events[0]["target"]
+        raise VswInputError(f"{self.name}: no step event reached")
+
+    @functools.cache  # noqa: B019 - one model object per generated package (load() caches)
+    def _flows(self):
+        """CasADi: per phase a flow x(T) = x0 + int_0^1 T f(x) ds (CVODES, sensitivities)."""
+        import casadi as ca
+
+        n = 2 * self.n
+        p = ca.SX.sym("p", len(self.parameter_table))
+        x = ca.SX.sym("x", n)
+        duration = ca.SX.sym("T")
+        flows = {}
+        for phase, event in self._phase_sequence():
+            acc = self._fn(f"{phase}_accelerations")(*ca.vertsplit(p), *ca.vertsplit(x))
+            acc = ca.vertcat(*acc) if isinstance(acc, tuple) else acc
+            ode = duration * ca.vertcat(x[self.n :], acc)
+            integrator = ca.integrator(
+                f"flow_{phase}", "cvodes",
+                {"x": x, "p": ca.vertcat(p, duration), "ode": ode}, 0.0, 1.0,
+                {"abstol": 1e-13, "reltol": 1e-13, "max_num_steps": 100000},
+            )  # fmt: skip
+            guard = self._fn(f"{event['name']}_guard")(*ca.vertsplit(p), *ca.vertsplit(x))
+            reset = self._fn(f"{event['name']}_reset")(*ca.vertsplit(p), *ca.vertsplit(x))
+            flows[phase] = (
+                integrator,
+                ca.Function(f"guard_{phase}", [p, x], [guard]),
+                ca.Function(f"reset_{phase}", [p, x], [ca.vertcat(*reset)]),
+            )
+        return flows
+
+    @functools.cache  # noqa: B019
+    def _orbit_residual(self):
+        """Residual of a period-one orbit: unknowns (x0, T_1..T_K), parameters p."""
+        import casadi as ca
+
+        sequence = self._phase_sequence()
+        flows = self._flows()
+        n = 2 * self.n
+        p = ca.MX.sym("p", len(self.parameter_table))
+        x0 = ca.MX.sym("x0", n)
+        durations = ca.MX.sym("T", len(sequence))
+        x = x0
+        residuals = []
+        for k, (phase, _event) in enumerate(sequence):
+            integrator, guard, reset = flows[phase]
+            end = integrator(x0=x, p=ca.vertcat(p, durations[k]))["xf"]
+            residuals.append(guard(p, end))
+            x = reset(p, end)
+        residuals.append(x - x0)
+        unknowns = ca.vertcat(x0, durations)
+        return ca.Function("orbit", [unknowns, p], [ca.vertcat(*residuals)])
+
+    def periodic_orbit(
+        self, params: Sequence[float], state: np.ndarray, durations: Sequence[float]
+    ) -> Orbit:
+        """Solve the period-one orbit from a guess (state on the section, phase durations)."""
+        import casadi as ca
+
+        residual = self._orbit_residual()
+        n = 2 * self.n
+        guess = np.concatenate([np.asarray(state, float), np.asarray(durations, float)])
+        p = np.asarray(params, float)
+        solver = ca.rootfinder("orbit_solver", "newton", residual,
+                               {"abstol": 1e-13, "max_iter": 60, "error_on_fail": False})  # fmt: skip
+        solution = np.array(solver(guess, p), dtype=float).reshape(-1)
+        # CasADi's newton can report success on NaN: the residual is checked here.
+        r = np.array(residual(solution, p), dtype=float).reshape(-1)
+        size = float(np.max(np.abs(r))) if np.all(np.isfinite(r)) else math.inf
+        scale = max(1.0, float(np.max(np.abs(solution[:n]))))
+        if not size <= 1e-9 * scale or np.any(solution[n:] <= 0):
+            raise ConvergenceError(
+                f"{self.name}: the periodic-orbit solver did not converge (residual {size:.3g})"
+            )
+        x_star, t_star = solution[:n], solution[n:]
+        return Orbit(
+            state=dict(zip(self.coordinates + self.rates, (float(v) for v in x_star))),
+            durations=tuple(float(v) for v in t_star),
+            period=float(np.sum(t_star)),
+            eigenvalues=tuple(self.eigenvalues(params, x_star)),
+            step_length=self._orbit_step_length(p, x_star, t_star),
+            residual=size,
+        )
+
+    def _orbit_step_length(self, p, x0, durations) -> float | None:
+        if not self.spec["step_length"]:
+            return None
+        flows = self._flows()
+        x = x0
+        for k, (phase, event) in enumerate(self._phase_sequence()):
+            integrator, _, reset = flows[phase]
+            end = np.array(integrator(x0=x, p=np.append(p, durations[k]))["xf"], float).ravel()
+            if event["ends_step"]:
+                return self.step_length(p, end)
+            x = np.array(reset(p, end), float).ravel()
+        return None
+
+    @functools.cache  # noqa: B019
+    def _poincare_function(self):
+        """The Poincaré map as a CasADi function of the section state (each phase's end
+        time from its guard by a rootfinder: derivatives by the implicit function theorem)."""
+        import casadi as ca
+
+        flows = self._flows()
+        n = 2 * self.n
+        p = ca.MX.sym("p", len(self.parameter_table))
+        x0 = ca.MX.sym("x0", n)
+        guesses = ca.MX.sym("T0", len(self._phase_sequence()))
+        x = x0
+        for k, (phase, _event) in enumerate(self._phase_sequence()):
+            integrator, guard, reset = flows[phase]
+            tau = ca.MX.sym("tau")
+            xs = ca.MX.sym("xs", n)
+            pp = ca.MX.sym("pp", p.shape[0])
+            g_of_tau = guard(pp, integrator(x0=xs, p=ca.vertcat(pp, tau))["xf"])
+            root = ca.rootfinder(f"end_{phase}", "newton",
+                                 ca.Function(f"g_{phase}", [tau, ca.vertcat(xs, pp)], [g_of_tau]),
+                                 {"abstol": 1e-14, "max_iter": 50})  # fmt: skip
+            t_end = root(guesses[k], ca.vertcat(x, p))
+            x = reset(p, integrator(x0=x, p=ca.vertcat(p, t_end))["xf"])
+        return ca.Function("poincare", [x0, p, guesses], [x, ca.jacobian(x, x0)])
+
+    def eigenvalues(self, params: Sequence[float], state: np.ndarray) -> list[complex]:
+        """Eigenvalues of the Poincaré map's Jacobian at a section state."""
+        durations = self.step(params, state).durations
+        _, jac = self._poincare_function()(np.asarray(state, float), np.asarray(params, float),
+                                          np.asarray(durations, float))  # fmt: skip
+        values = np.linalg.eigvals(np.array(jac, dtype=float))
+        return sorted((complex(v) for v in values), key=lambda v: (-abs(v), v.real, v.imag))
+
+    def fixed_points(self, params: Sequence[float], guesses: int = 12) -> list[Orbit]:
+        """Distinct period-one gaits from a scan of starts: the start configuration pushed
+        with ``guesses`` rates, a few steps walked, then the orbit solver."""
+        low, high = self.spec["rate_range"]
+        found: list[Orbit] = []
+        for rate in np.geomspace(low, high, guesses):
+            first = self.step(params, self._first_section(params, rate))
+            if first.ended != "completed":
+                continue
+            x = first.state
+            result = first
+            for _ in range(3):
+                result = self.step(params, x)
+                if result.ended != "completed":
+                    break
+                x = result.state
+            if result.ended != "completed":
+                continue
+            previous = self.step(params, x)
+            if previous.ended != "completed":
+                continue
+            try:
+                orbit = self.periodic_orbit(params, x, previous.durations)
+            except ConvergenceError:
+                continue
+            vector = np.array(list(orbit.state.values()))
+            if all(np.max(np.abs(vector - np.array(list(o.state.values())))) > 1e-6 for o in found):
+                found.append(orbit)
+        return sorted(found, key=lambda o: o.period)
+
+    def _first_section(self, params, rate: float) -> np.ndarray:
+        """From the start configuration pushed at ``rate``, the state after the first step
+        event (or the start itself if no step event is reached)."""
+        phase = self.step_event["target"]
+        x = self.start_state(rate)
+        t = 0.0
+        for _ in range(len(self.phases) + 1):
+            kind, what, t_end, x_end, *_ = self._phase_run(phase, params, x, t, dense=False)
+            if kind != "event":
+                return x
+            x = self.reset(what["name"], params, x_end)
+            if what["ends_step"]:
+                return x
+            phase, t = what["target"], t_end
+        return x
