@@ -61,9 +61,8 @@ def load(name: str) -> HybridModel:
     """The generated model ``name`` (``-`` and ``_`` alike)."""
     key = name.replace("-", "_")
     if key not in available_models():
-        raise VswInputError(
-            f"model {name!r} is not one of {', '.join(m.replace('_', '-') for m in available_models())}"
-        )
+        names = ", ".join(m.replace("_", "-") for m in available_models())
+        raise VswInputError(f"model {name!r} is not one of {names}")
     return HybridModel(importlib.import_module(f"generated.{key}"))
 
 
@@ -225,8 +224,10 @@ class HybridModel:
         t_start, x = t0, np.array(state, dtype=float)
         samples_t, samples_x = [t0], [x.copy()]
         for _ in range(20):  # restarts past events that do not count ('when' <= 0)
-            sol = solve_ivp(rhs, (t_start, t0 + _PHASE_TIME_LIMIT), x, method="DOP853",
-                            rtol=_RTOL, atol=_ATOL, events=functions, dense_output=False)  # fmt: skip
+            sol = solve_ivp(
+                rhs, (t_start, t0 + _PHASE_TIME_LIMIT), x, method="DOP853",
+                rtol=_RTOL, atol=_ATOL, events=functions,
+            )  # fmt: skip
             if dense:
                 samples_t.extend(sol.t[1:])
                 samples_x.extend(sol.y.T[1:])
@@ -375,8 +376,8 @@ class HybridModel:
         n = 2 * self.n
         guess = np.concatenate([np.asarray(state, float), np.asarray(durations, float)])
         p = np.asarray(params, float)
-        solver = ca.rootfinder("orbit_solver", "newton", residual,
-                               {"abstol": 1e-13, "max_iter": 60, "error_on_fail": False})  # fmt: skip
+        options = {"abstol": 1e-13, "max_iter": 60, "error_on_fail": False}
+        solver = ca.rootfinder("orbit_solver", "newton", residual, options)
         solution = np.array(solver(guess, p), dtype=float).reshape(-1)
         # CasADi's newton can report success on NaN: the residual is checked here.
         r = np.array(residual(solution, p), dtype=float).reshape(-1)
