@@ -185,12 +185,12 @@ class HybridModel:
         return float(self._fn(f"{phase}_normal_force")(*params, *state))
 
     def reset(self, event: str, params: Sequence[float], state: np.ndarray) -> np.ndarray:
-        return np.array(self._fn(f"{event}_reset")(*params, *state), dtype=float)
+        return np.array(self._fn(f"event_{event}_reset")(*params, *state), dtype=float)
 
     def step_length(self, params: Sequence[float], state: np.ndarray) -> float | None:
         if not self.spec["step_length"]:
             return None
-        return float(self._fn("step_length")(*params, *state))
+        return float(self._fn("step_length_of_state")(*params, *state))
 
     def start_state(self, rate: float) -> np.ndarray:
         """The model's start configuration, every rate ``rate``."""
@@ -211,7 +211,7 @@ class HybridModel:
 
         watchers = []  # (kind, name, function)
         for event in self.by_source.get(phase, []):
-            guard = self._fn(f"{event['name']}_guard")
+            guard = self._fn(f"event_{event['name']}_guard")
             watchers.append(("event", event, guard, event["direction"]))
         for failure, fname, direction in self.phases[self.phase_index[phase]]["failures"]:
             watchers.append(("failure", failure, self._fn(fname), direction))
@@ -335,8 +335,8 @@ class HybridModel:
                 {"x": x, "p": ca.vertcat(p, duration), "ode": ode}, 0.0, 1.0,
                 {"abstol": 1e-13, "reltol": 1e-13, "max_num_steps": 100000},
             )  # fmt: skip
-            guard = self._fn(f"{event['name']}_guard")(*ca.vertsplit(p), *ca.vertsplit(x))
-            reset = self._fn(f"{event['name']}_reset")(*ca.vertsplit(p), *ca.vertsplit(x))
+            guard = self._fn(f"event_{event['name']}_guard")(*ca.vertsplit(p), *ca.vertsplit(x))
+            reset = self._fn(f"event_{event['name']}_reset")(*ca.vertsplit(p), *ca.vertsplit(x))
             flows[phase] = (
                 integrator,
                 ca.Function(f"guard_{phase}", [p, x], [guard]),

@@ -208,7 +208,8 @@ def impact_reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tu
     u_before = [c.u for c in before.coordinates]
     q_after = [c.q for c in after.coordinates]
     mapping = {q: sm.sympify(event.reset.coordinates[q]) for q in q_after}
-    contact = [sm.sympify(c) for c in before.points[event.reset.new_contact]]
+    held = {h: sm.sympify(v) for h, v in before.held.items()}
+    contact = [sm.sympify(c).xreplace(held) for c in before.points[event.reset.new_contact]]
     pos_before = _positions(before)
     pos_after = [tuple(c.xreplace(mapping) for c in p) for p in _positions(after)]
     # The configuration is unchanged: every body where it was, seen from the new contact.
@@ -286,6 +287,37 @@ class StrideForm:
         return self.offset / (1 - self.slope)
 
 
+def phase_rate_map(
+    phase: Phase, angle_from: sm.Expr, rate_squared_from: sm.Expr, angle_to: sm.Expr
+) -> sm.Expr | None:
+    """``rate**2`` at ``angle_to`` along a one-coordinate phase started at ``angle_from``.
+
+    With ``theta'' = A(theta) + B(theta) theta'**2`` (Lagrange's equations are quadratic in
+    the rates), ``u = theta'**2`` obeys ``du/dtheta = 2 A + 2 B u``; with the integrating
+    factor ``mu = exp(-int 2 B)``: ``u(to) = (mu(from) u(from) + int 2 A mu) / mu(to)``.
+    None when the phase has more coordinates or the integrals are not elementary.
+    """
+    if len(phase.coordinates) != 1:
+        return None
+    theta, omega = phase.coordinates[0].q, phase.coordinates[0].u
+    w = sm.Symbol("w", positive=True)
+    acc = sm.expand(phase_dynamics(phase).accelerations[0].xreplace({omega: sm.sqrt(w)}))
+    slope_b = sm.expand(acc.diff(w))
+    if slope_b.has(w) or slope_b.has(omega):
+        return None
+    a_part = sm.expand(acc - slope_b * w)
+    s = sm.Dummy("s", real=True)
+    if slope_b == 0:
+        integral = sm.integrate((2 * a_part).xreplace({theta: s}), (s, angle_from, angle_to))
+        return sm.expand(rate_squared_from + integral)
+    mu = sm.exp(-sm.integrate(2 * slope_b.xreplace({theta: s}), (s, angle_from, theta)))
+    mu = sm.simplify(mu)
+    integral = sm.integrate((2 * a_part * mu).xreplace({theta: s}), (s, angle_from, angle_to))
+    if integral.has(sm.Integral):
+        return None
+    return sm.simplify((rate_squared_from + integral) / mu.xreplace({theta: angle_to}))
+
+
 @functools.cache
 def stride_closed_form(model: Model) -> StrideForm | None:
     """The stride map in closed form, when the model has one free coordinate, every event
@@ -293,7 +325,6 @@ def stride_closed_form(model: Model) -> StrideForm | None:
     if len(model.coordinates) != 1 or any(e.at is None for e in model.events):
         return None
     theta, omega = model.coordinates[0].q, model.coordinates[0].u
-    w = sm.Symbol("w", positive=True)  # omega**2 along a phase
     by_source = {e.source: e for e in model.events}
     step_event = next(e for e in model.events if e.ends_step)
     q = sm.Symbol("q", nonnegative=True)
@@ -301,23 +332,14 @@ def stride_closed_form(model: Model) -> StrideForm | None:
     u = q
     phase = model.phase(step_event.target)
     for _ in range(len(model.phases) + 1):
-        dyn = phase_dynamics(phase)
-        acc = sm.expand(dyn.accelerations[0].xreplace({omega: sm.sqrt(w)}))
-        slope_b = sm.expand(acc.diff(w))
-        if slope_b.has(w) or slope_b.has(omega):
-            return None
-        a_part = sm.expand(acc - slope_b * w)
         event = by_source[phase.name]
         end = sm.sympify(event.at)
-        # d(u)/d(theta) = 2 A + 2 B u: integrating factor mu = exp(-int 2 B).
-        s = sm.Dummy("s", real=True)
-        mu = sm.exp(-sm.integrate(2 * slope_b.xreplace({theta: s}), (s, angle, theta)))
-        mu = sm.simplify(mu)
-        integral = sm.integrate((2 * a_part * mu).xreplace({theta: s}), (s, angle, end))
-        u = sm.simplify((u + integral) / mu.xreplace({theta: end}))
+        u = phase_rate_map(phase, angle, u, end)
+        if u is None:
+            return None
         # The reset scales the rate: u -> factor**2 u.
         coords_after, rates_after = reset(model, event.name)
-        factor = sm.simplify(rates_after[0].xreplace({theta: end}) / omega)
+        factor = sm.cancel(rates_after[0].xreplace({theta: end}) / omega)
         if factor.has(omega):
             return None
         u = sm.expand(factor**2 * u)
@@ -325,11 +347,10 @@ def stride_closed_form(model: Model) -> StrideForm | None:
         if event.ends_step:
             break
         phase = model.phase(event.target)
-    slope = sm.simplify(u.diff(q))
-    offset = sm.simplify(u.xreplace({q: 0}))
-    if sm.simplify(u - slope * q - offset) != 0:
+    u = sm.expand(u)
+    if u.diff(q, 2) != 0:
         return None
-    return StrideForm(slope, offset, sm.simplify(angle))
+    return StrideForm(sm.factor(u.diff(q)), u.xreplace({q: 0}), angle)
 
 
 def _state_args(model: Model) -> tuple[sm.Symbol, ...]:
@@ -345,9 +366,9 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
 
     Every function takes ``(*parameters, *coordinates, *rates)``:
     ``<phase>_accelerations``, ``<phase>_energy``, ``<phase>_normal_force``,
-    ``<phase>_<failure>`` (failure guards), ``<event>_guard``, ``<event>_when``,
-    ``<event>_reset`` (coordinates then rates after), and ``step_length`` when the model
-    defines it.
+    ``<phase>_<failure>`` (failure guards), ``event_<event>_guard``, ``event_<event>_when``,
+    ``event_<event>_reset`` (coordinates then rates after), and ``step_length_of_state`` when the
+    model defines it.
     """
     args = _state_args(model)
     quantities: list[Quantity] = []
@@ -369,8 +390,10 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
             None, "normal force (the foot lifts off below 0)",
         ))  # fmt: skip
         failures = []
+        held = {h: sm.sympify(v) for h, v in phase.held.items()}
         for failure in model.failures:
             guard = sm.sympify(failure.guard).xreplace({NORMAL_FORCE: dyn.normal_force})
+            guard = guard.xreplace(held)
             name = f"{phase.name}_{failure.name.replace('-', '_')}"
             quantities.append(Quantity(
                 name, args, guard, f"Guard of {failure.name} in phase {phase.name}.", None,
@@ -380,21 +403,23 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
         phases.append({"name": phase.name, "failures": tuple(failures)})
     events = []
     for event in model.events:
+        # Guards are stated in the source phase's chart: its held coordinates at their values.
+        held = {h: sm.sympify(v) for h, v in model.phase(event.source).held.items()}
         coords_after, rates_after = reset(model, event.name)
         quantities.append(Quantity(
-            f"{event.name}_guard", args, sm.sympify(event.guard),
+            f"event_{event.name}_guard", args, sm.sympify(event.guard).xreplace(held),
             f"Guard of the event {event.name}: crosses zero when it happens.", None, "guard",
         ))  # fmt: skip
         quantities.append(Quantity(
-            f"{event.name}_reset", args, (*coords_after, *rates_after),
+            f"event_{event.name}_reset", args, (*coords_after, *rates_after),
             f"State just after the event {event.name} (from the state just before).",
             event.equation, "tuple: coordinates, then rates",
         ))  # fmt: skip
         when = None
         if event.when is not None:
-            when = f"{event.name}_when"
+            when = f"event_{event.name}_when"
             quantities.append(Quantity(
-                when, args, sm.sympify(event.when),
+                when, args, sm.sympify(event.when).xreplace(held),
                 f"The event {event.name} counts only where this is positive.", None, "sign",
             ))  # fmt: skip
         events.append({
@@ -402,8 +427,10 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
             "direction": event.direction, "ends_step": event.ends_step, "when": when,
         })  # fmt: skip
     if model.step_length is not None:
+        step_event = next(e for e in model.events if e.ends_step)
+        held = {h: sm.sympify(v) for h, v in model.phase(step_event.source).held.items()}
         quantities.append(Quantity(
-            "step_length", args, sm.sympify(model.step_length),
+            "step_length_of_state", args, sm.sympify(model.step_length).xreplace(held),
             "Distance between successive stance feet (state just before the step event).",
             None, "step length",
         ))  # fmt: skip

@@ -20,6 +20,26 @@ import sympy as sm
 
 from derive import mechanics
 from derive.elliptic import pendulum_travel_time
+from derive.engine.hybrid import (
+    hybrid_quantities,
+    impact_reset,
+    jump_reset,
+    phase_dynamics,
+    phase_rate_map,
+    stride_closed_form,
+)
+from derive.engine.model import (
+    NORMAL_FORCE,
+    Coordinate,
+    Event,
+    Failure,
+    Impact,
+    Jump,
+    Model,
+    Phase,
+    PointMass,
+    leg,
+)
 from derive.quantities import CExport, Condition, Derivation, Parameter, Quantity
 
 PARAMETERS: tuple[Parameter, ...] = (
@@ -69,10 +89,79 @@ m, g, r_e = sm.symbols("m g r_e", positive=True)
 theta_I, theta_IV = sm.symbols("theta_I theta_IV", real=True)
 """Kept as symbols in the paper-shaped forms; eliminated by :func:`eliminate_contact_angles`."""
 
-# Model facts: the phases (leg length as a multiple of r_e), in order.
-PHASES = (("I-II", beta), ("III-IV", sm.Integer(1)))
-EXTENSION_ANGLE = theta_II
-HEELSTRIKE_INTERLEG_ANGLE = phi0
+# --- The model (Section III of the paper), for the engine ------------------------------
+# A point mass at the hip on two massless telescoping legs, in the paper's dimensionless
+# units (lengths in r_e, time in sqrt(r_e / g), mass in m). theta: the stance leg's angle
+# from the vertical, positive when the hip is ahead of the foot; the actuator holds the
+# stance leg's length r.
+THETA = Coordinate("theta", "omega", "stance leg angle from the vertical", "rad")
+r = sm.Symbol("r", positive=True)
+"""The stance leg's length, held by its actuator."""
+
+
+def stance_phase(name: str, length: sm.Expr, mass=1, gravity=1, unit_length=1) -> Phase:
+    """A stance phase: the hip mass on a leg of ``length`` (times ``unit_length``), the
+    shortened swing leg (beta r_e) at the inter-leg angle phi0 behind it."""
+    hip = leg(theta, r)
+    swing_foot = tuple(h - f for h, f in zip(hip, leg(theta - phi0, beta * unit_length)))
+    return Phase(
+        name,
+        coordinates=(THETA,),
+        bodies=(PointMass("hip", mass, hip),),
+        gravity=(0, -gravity),
+        held={r: length * unit_length},
+        points={"swing_foot": swing_foot},
+    )
+
+
+PHASE_I_II = stance_phase("phase_I_II", beta)  # r_s = beta r_e, from instant I to II
+PHASE_III_IV = stance_phase("phase_III_IV", 1)  # r_e, from instant III to IV
+_SWING_FOOT = PHASE_III_IV.points["swing_foot"]
+_THETA_I = -sm.atan((beta - sm.cos(phi0)) / sm.sin(phi0))  # eq. (11)
+
+MODEL = Model(
+    name="ile",
+    title="Instantaneous leg extension model of Virtual Slope Walking",
+    description="point-mass hip on massless telescoping legs: the stance leg extends "
+    "instantaneously at theta_II, heelstrike at the inter-leg angle phi0 (level ground)",
+    source="derive/models/ile.py",
+    parameters=PARAMETERS,
+    phases=(PHASE_I_II, PHASE_III_IV),
+    events=(
+        # II -> III: the actuator extends the stance leg to r_e instantly; angular momentum
+        # about the stance foot is conserved.
+        Event(
+            "extension",
+            "phase_I_II",
+            "phase_III_IV",
+            guard=theta - theta_II,
+            direction=+1,
+            reset=Jump(),
+            at=theta_II,
+            equation="(3)",
+        ),
+        # IV -> I: the swing foot touches level ground, sticks, and becomes the stance foot.
+        Event(
+            "heelstrike",
+            "phase_III_IV",
+            "phase_I_II",
+            guard=_SWING_FOOT[1],
+            direction=-1,
+            reset=Impact("swing_foot", {theta: theta - phi0}),
+            at=_THETA_I + phi0,
+            ends_step=True,
+            equation="(5), (6)",
+        ),
+    ),
+    failures=(
+        Failure("fell-backward", THETA.u, -1, "the walker stops before the apex and falls back"),
+        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
+    ),
+    units={"time": "sqrt(r_e/g)", "length": "r_e", "mass": "m", "energy": "m g r_e"},
+    step_length=_SWING_FOOT[0],
+    start={"theta": 0.0},
+    rate_range=(0.2, 1.5),
+)
 
 
 def _square_symbol(name: str) -> sm.Symbol:
@@ -107,30 +196,32 @@ def one_minus_eigenvalue() -> sm.Expr:
 def swing_phase_dimensionless() -> dict[str, sm.Expr]:
     """Swing phase of leg length ``leg_ratio * r_e`` in dimensionless form, eq. (1), (2), (4).
 
-    Returns a dict with ``accel_dimensional`` (eq. (1) for ``leg_ratio = beta``),
-    ``accel`` (``d2theta/dtau2``), ``energy`` (in units of ``m g r_e``),
-    ``leg_force`` (in units of ``m g``) and ``normal_force`` (vertical ground force on the
-    stance foot, in units of ``m g``), all in terms of ``theta`` and ``omega``.
+    From the engine (:func:`derive.engine.hybrid.phase_dynamics`: Lagrange's equations of
+    the stance phase in SI, the leg length held by the actuator). Returns a dict with
+    ``accel_dimensional`` (eq. (1) for ``leg_ratio = beta``), ``accel``
+    (``d2theta/dtau2``), ``energy`` (in units of ``m g r_e``), ``leg_force`` (the
+    actuator's push along the leg, in units of ``m g``) and ``normal_force`` (vertical
+    ground force on the stance foot, in units of ``m g``), in terms of ``theta``, ``omega``.
     """
-    phase = mechanics.pendulum_phase(m, g, leg_ratio * r_e)
-    th = phase.theta
-    thd = th.diff(mechanics.t)
+    dyn = phase_dynamics(stance_phase("dimensional", leg_ratio, m, g, r_e))
+    rate = THETA.u
     # tau = sqrt(g/r_e) t, so dtheta/dt = omega sqrt(g/r_e) and d2theta/dt2 = (g/r_e) d2theta/dtau2.
-    to_state = {thd: omega * sm.sqrt(g / r_e), th: theta}
-    accel_dimensional = phase.acceleration.subs(th, theta)
+    to_state = {rate: omega * sm.sqrt(g / r_e)}
+    accel_dimensional = dyn.accelerations[0]
     accel = sm.cancel(accel_dimensional * r_e / g)
-    energy = sm.expand(phase.energy.subs(to_state) / (m * g * r_e))
-    leg_force = sm.expand(phase.leg_force.subs(to_state) / (m * g))
+    energy = sm.expand(dyn.energy.xreplace(to_state) / (m * g * r_e))
+    leg_force = sm.expand(dyn.actuator_forces[r].xreplace(to_state) / (m * g))
     # The massless leg pushes along itself; the ground takes its vertical component.
     normal_force = sm.expand(leg_force * sm.cos(theta))
+    if sm.expand(dyn.normal_force.xreplace(to_state) / (m * g) - normal_force) != 0:
+        raise AssertionError("the ground reaction is not the leg force's vertical component")
     return {
         "accel_dimensional": accel_dimensional,
         "accel": accel,
         "energy": energy,
-        "energy_dimensional": phase.energy,
+        "energy_dimensional": dyn.energy,
         "leg_force": leg_force,
         "normal_force": normal_force,
-        "theta_function": th,
     }
 
 
@@ -141,32 +232,29 @@ def phase_energy(theta_value: sm.Expr, omega_squared: sm.Expr, ratio: sm.Expr) -
     return energy.subs(omega**2, w2).subs({w2: omega_squared, theta: theta_value, leg_ratio: ratio})
 
 
+@functools.cache
+def _phase_of_ratio(ratio: sm.Expr) -> Phase:
+    return {beta: PHASE_I_II, sm.Integer(1): PHASE_III_IV}.get(
+        sm.sympify(ratio), None
+    ) or stance_phase(f"ratio_{ratio}", ratio)
+
+
 def omega_squared_along(
     ratio: sm.Expr, theta_from: sm.Expr, omega_squared_from: sm.Expr, theta_to: sm.Expr
 ) -> sm.Expr:
-    """``omega**2`` at ``theta_to`` from the energy integral of a phase, eq. (7) steps."""
-    w2 = _square_symbol("w2")
-    balance = phase_energy(theta_to, w2, ratio) - phase_energy(
-        theta_from, omega_squared_from, ratio
+    """``omega**2`` at ``theta_to`` along a phase of leg length ``ratio``, eq. (7) steps (the
+    engine's first integral of the phase, :func:`derive.engine.hybrid.phase_rate_map`)."""
+    return sm.expand(
+        phase_rate_map(_phase_of_ratio(ratio), theta_from, omega_squared_from, theta_to)
     )
-    return sm.expand(mechanics.solve_linear(balance, w2))
 
 
 @functools.cache
 def extension_reset() -> sm.Expr:
-    """``omega_III / omega_II`` from angular momentum about the stance foot, eq. (3)."""
-    th = sm.Function("theta", real=True)(mechanics.t)
-    w_before, w_after = sm.symbols("w_before w_after", real=True)
-    origin = sm.Matrix([0, 0])
-
-    def momentum(length: sm.Expr, rate: sm.Expr) -> sm.Expr:
-        hip = length * mechanics.leg_direction(th)
-        velocity = hip.diff(mechanics.t).subs(th.diff(mechanics.t), rate)
-        return mechanics.angular_momentum(m, hip, velocity, origin)
-
-    balance = momentum(beta * r_e, w_before) - momentum(r_e, w_after)
-    ratio = mechanics.solve_linear(mechanics.pythagorean_reduce(balance), w_after) / w_before
-    return sm.cancel(ratio)
+    """``omega_III / omega_II``, eq. (3): the engine's reset of the extension (the stance
+    leg's generalised momentum m r**2 omega is conserved: the actuator pushes along r)."""
+    _, (omega_after,) = jump_reset(MODEL, "extension")
+    return sm.cancel(omega_after / THETA.u)
 
 
 @functools.cache
@@ -180,7 +268,7 @@ def heelstrike() -> dict[str, sm.Expr]:
     """
     origin = sm.Matrix([0, 0])
     r_s = beta * r_e
-    swing_angle = theta_IV - HEELSTRIKE_INTERLEG_ANGLE
+    swing_angle = theta_IV - phi0
     hip = r_e * mechanics.leg_direction(theta_IV)
     swing_foot = hip - r_s * mechanics.leg_direction(swing_angle)
     guard = sm.expand(swing_foot[1] / r_e)  # swing-foot height in r_e; heelstrike when zero
@@ -217,16 +305,10 @@ def heelstrike() -> dict[str, sm.Expr]:
         mechanics.pythagorean_reduce(sm.expand_trig(sm.sin(theta_I + phi0)).subs(on_theta_I)) / norm
     )
 
-    # Reset: angular momentum about the swing-foot contact point is conserved.
-    w_before, w_after = sm.symbols("w_before w_after", real=True)
-    velocity_before = r_e * w_before * sm.Matrix([sm.cos(theta_IV), -sm.sin(theta_IV)])
-    velocity_after = r_s * w_after * sm.Matrix([sm.cos(theta_I), -sm.sin(theta_I)])
-    momentum_before = mechanics.angular_momentum(m, hip, velocity_before, swing_foot)
-    hip_from_new_foot = swing_foot + r_s * mechanics.leg_direction(theta_I)
-    momentum_after = mechanics.angular_momentum(m, hip_from_new_foot, velocity_after, swing_foot)
-    balance = (momentum_before - momentum_after).subs(theta_IV, theta_I + phi0)
-    reset_ratio = mechanics.solve_linear(mechanics.pythagorean_reduce(balance), w_after)
-    reset_ratio = sm.cancel(reset_ratio / w_before)
+    # Reset: the engine's impact map (the impulse at the new contact does no work on the
+    # motion after it; for the hip mass: angular momentum about the new contact conserved).
+    _, (omega_after,) = impact_reset(MODEL, "heelstrike")
+    reset_ratio = sm.simplify(omega_after / THETA.u)
 
     step_vector = (swing_foot - origin) / r_e
     step_length_sq = sm.expand_trig(sm.expand((step_vector.T * step_vector)[0]))
@@ -1056,6 +1138,17 @@ def derive() -> Derivation:
             output_names=CONDITION_PIECE_NAMES,
         )
     )
+    # The engine's functions for the generic runtime (vsw.hybrid), and its stride map in
+    # closed form, which must be the one chained above from the same phases and resets.
+    engine_quantities, descriptor = hybrid_quantities(MODEL)
+    for qty in engine_quantities:
+        d.add(qty)
+    d.constants["HYBRID"] = (
+        dict(descriptor, closed_form=True),
+        "The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases "
+        "with their failure guards, events with their guards and resets, units.",
+    )
+    _check_engine_stride()
     d.c_exports = (
         CExport("stride_map", ("beta", "theta_II", "phi0", "q"), "q(n+1) from q(n), eq. (9)"),
         CExport("q_fixed", ("beta", "theta_II", "phi0"), "fixed point q^f, eq. (10)"),
@@ -1078,6 +1171,28 @@ def derive() -> Derivation:
     d.facts["cos_ratio.margin"] = cos_ratio_margin()
     d.facts["cos_ratio.threshold"] = cos_ratio_threshold()
     return d
+
+
+def _check_engine_stride() -> None:
+    """The engine's stride map (:func:`derive.engine.hybrid.stride_closed_form`) equals the
+    paper-shaped one of :func:`stride` (numerically, at random walking parameter sets)."""
+    engine = stride_closed_form(MODEL)
+    if engine is None:
+        raise AssertionError("the engine finds no closed-form stride map for the ILE")
+    st = stride()
+    ours = eliminate_contact_angles(st["stride_map"]).subs(theta_I, heelstrike()["theta_I"])
+    rng = __import__("random").Random(7)
+    for _ in range(6):
+        point = {
+            beta: sm.Float(rng.uniform(0.55, 0.95), 30),
+            phi0: sm.Float(rng.uniform(0.5, 1.0), 30),
+            theta_II: sm.Float(rng.uniform(-0.05, 0.2), 30),
+            q: sm.Float(rng.uniform(0.2, 1.0), 30),
+        }
+        mine = (engine.slope * q + engine.offset).xreplace(point).evalf(30)
+        paper = ours.xreplace(point).evalf(30)
+        if abs(mine - paper) > 1e-20:
+            raise AssertionError(f"engine stride map {mine} != paper-shaped {paper} at {point}")
 
 
 def _step_metrics(module, beta, theta_II, phi0):

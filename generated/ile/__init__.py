@@ -26,6 +26,9 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
+HYBRID = {'name': 'ile', 'title': 'Instantaneous leg extension model of Virtual Slope Walking', 'parameters': ('beta', 'theta_II', 'phi0'), 'coordinates': ('theta',), 'rates': ('omega',), 'phases': ({'name': 'phase_I_II', 'failures': (('fell-backward', 'phase_I_II_fell_backward', -1), ('lift-off', 'phase_I_II_lift_off', -1))}, {'name': 'phase_III_IV', 'failures': (('fell-backward', 'phase_III_IV_fell_backward', -1), ('lift-off', 'phase_III_IV_lift_off', -1))}), 'events': ({'name': 'extension', 'source': 'phase_I_II', 'target': 'phase_III_IV', 'direction': 1, 'ends_step': False, 'when': None}, {'name': 'heelstrike', 'source': 'phase_III_IV', 'target': 'phase_I_II', 'direction': -1, 'ends_step': True, 'when': None}), 'units': {'time': 'sqrt(r_e/g)', 'length': 'r_e', 'mass': 'm', 'energy': 'm g r_e'}, 'step_length': True, 'start': {'theta': 0.0}, 'rate_range': (0.2, 1.5), 'closed_form': True}
+"""The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards, events with their guards and resets, units."""
+
 
 def _carlson_rf(x, y, z, be):
     """Carlson's R_F(x, y, z); the algorithm is the backend's (generated/_backend.py)."""
@@ -817,3 +820,346 @@ def condition_pieces(beta, theta_II, phi0):
 
 
 condition_pieces.outputs = ('apex_phase_I_II', 'apex_phase_III_IV', 'normal_force_I', 'normal_force_II', 'normal_force_IV')
+
+
+def phase_I_II_accelerations(beta, theta_II, phi0, theta, omega):
+    """Second derivatives of the free coordinates in phase phase_I_II. Beyond the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    omega : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: d2(coordinate)/dt2 for each coordinate
+    """
+    be = backend_for(beta, theta_II, phi0, theta, omega)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    return (sin_theta/beta,)
+
+
+def phase_I_II_energy(beta, theta_II, phi0, theta, omega):
+    """Mechanical energy T + V in phase phase_I_II. Beyond the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    omega : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        energy
+    """
+    be = backend_for(beta, theta_II, phi0, theta, omega)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    return cos_theta*beta + omega**2*beta**2/2
+
+
+def phase_I_II_normal_force(beta, theta_II, phi0, theta, omega):
+    """Ground reaction on the stance foot along the ground normal in phase phase_I_II. Beyond the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    omega : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        normal force (the foot lifts off below 0)
+    """
+    be = backend_for(beta, theta_II, phi0, theta, omega)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    return cos_theta*(cos_theta - beta*omega**2)
+
+
+def phase_I_II_fell_backward(beta, theta_II, phi0, theta, omega):
+    """Guard of fell-backward in phase phase_I_II. Beyond the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    omega : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        crosses zero (direction -1) when the walk ends
+    """
+    be = backend_for(beta, theta_II, phi0, theta, omega)
+    return omega
+
+
+def phase_I_II_lift_off(beta, theta_II, phi0, theta, omega):
+    """Guard of lift-off in phase phase_I_II. Beyond the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    omega : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        crosses zero (direction -1) when the walk ends
+    """
+    be = backend_for(beta, theta_II, phi0, theta, omega)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    return cos_theta*(cos_theta - beta*omega**2)
+
+
+def phase_III_IV_accelerations(beta, theta_II, phi0, theta, omega):
+    """Second derivatives of the free coordinates in phase phase_III_IV. Beyond the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    omega : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: d2(coordinate)/dt2 for each coordinate
+    """
+    be = backend_for(beta, theta_II, phi0, theta, omega)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    return (sin_theta,)
+
+
+def phase_III_IV_energy(beta, theta_II, phi0, theta, omega):
+    """Mechanical energy T + V in phase phase_III_IV. Beyond the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    omega : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        energy
+    """
+    be = backend_for(beta, theta_II, phi0, theta, omega)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    return cos_theta + omega**2/2
+
+
+def phase_III_IV_normal_force(beta, theta_II, phi0, theta, omega):
+    """Ground reaction on the stance foot along the ground normal in phase phase_III_IV. Beyond the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    omega : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        normal force (the foot lifts off below 0)
+    """
+    be = backend_for(beta, theta_II, phi0, theta, omega)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    return cos_theta*(cos_theta - omega**2)
+
+
+def phase_III_IV_fell_backward(beta, theta_II, phi0, theta, omega):
+    """Guard of fell-backward in phase phase_III_IV. Beyond the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    omega : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        crosses zero (direction -1) when the walk ends
+    """
+    be = backend_for(beta, theta_II, phi0, theta, omega)
+    return omega
+
+
+def phase_III_IV_lift_off(beta, theta_II, phi0, theta, omega):
+    """Guard of lift-off in phase phase_III_IV. Beyond the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    omega : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        crosses zero (direction -1) when the walk ends
+    """
+    be = backend_for(beta, theta_II, phi0, theta, omega)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    return cos_theta*(cos_theta - omega**2)
+
+
+def event_extension_guard(beta, theta_II, phi0, theta, omega):
+    """Guard of the event extension: crosses zero when it happens. Beyond the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    omega : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        guard
+    """
+    be = backend_for(beta, theta_II, phi0, theta, omega)
+    return theta - theta_II
+
+
+def event_extension_reset(beta, theta_II, phi0, theta, omega):
+    """State just after the event extension (from the state just before). Eq. (3) of the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    omega : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: coordinates, then rates
+    """
+    be = backend_for(beta, theta_II, phi0, theta, omega)
+    return (theta, omega*beta**2,)
+
+
+def event_heelstrike_guard(beta, theta_II, phi0, theta, omega):
+    """Guard of the event heelstrike: crosses zero when it happens. Beyond the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    omega : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        guard
+    """
+    be = backend_for(beta, theta_II, phi0, theta, omega)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    cos_t1, sin_t1 = be.cos_sin(phi0 - theta)
+    return cos_theta - cos_t1*beta
+
+
+def event_heelstrike_reset(beta, theta_II, phi0, theta, omega):
+    """State just after the event heelstrike (from the state just before). Eq. (5), (6) of the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    omega : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: coordinates, then rates
+    """
+    be = backend_for(beta, theta_II, phi0, theta, omega)
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    return (theta - phi0, cos_phi0*omega/beta,)
+
+
+def step_length_of_state(beta, theta_II, phi0, theta, omega):
+    """Distance between successive stance feet (state just before the step event). Beyond the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    omega : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        step length
+    """
+    be = backend_for(beta, theta_II, phi0, theta, omega)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    cos_t1, sin_t1 = be.cos_sin(phi0 - theta)
+    return sin_theta + sin_t1*beta

@@ -149,7 +149,7 @@ def stance_lift_off(alpha, gamma, l, g, theta, omega):
     return cos_gamma*g - cos_theta*l*omega**2 - sin_t2*sin_theta*g
 
 
-def collision_guard(alpha, gamma, l, g, theta, omega):
+def event_collision_guard(alpha, gamma, l, g, theta, omega):
     """Guard of the event collision: crosses zero when it happens.
 
     Parameters
@@ -174,7 +174,7 @@ def collision_guard(alpha, gamma, l, g, theta, omega):
     return cos_theta*l - cos_t1*l
 
 
-def collision_reset(alpha, gamma, l, g, theta, omega):
+def event_collision_reset(alpha, gamma, l, g, theta, omega):
     """State just after the event collision (from the state just before).
 
     Parameters
@@ -198,7 +198,7 @@ def collision_reset(alpha, gamma, l, g, theta, omega):
     return (theta - 2*alpha, cos_t0*omega,)
 
 
-def step_length(alpha, gamma, l, g, theta, omega):
+def step_length_of_state(alpha, gamma, l, g, theta, omega):
     """Distance between successive stance feet (state just before the step event).
 
     Parameters
@@ -241,11 +241,12 @@ def stride_map(alpha, gamma, l, g, q):
         q of the next step
     """
     be = backend_for(alpha, gamma, l, g, q)
-    cos_alpha, sin_alpha = be.cos_sin(alpha)
-    cos_t1, sin_t1 = be.cos_sin(2*alpha)
-    cos_gamma, sin_gamma = be.cos_sin(gamma)
-    x0 = cos_t1**2
-    return x0*q + 4*x0*sin_alpha*sin_gamma*g/l
+    cos_t0, sin_t0 = be.cos_sin(2*alpha)
+    cos_t1, sin_t1 = be.cos_sin(alpha - gamma)
+    cos_t2, sin_t2 = be.cos_sin(gamma + alpha)
+    x0 = cos_t0**2
+    x1 = 2*x0*g/l
+    return x0*q + x1*cos_t1 - x1*cos_t2
 
 
 def q_fixed(alpha, gamma, l, g):
@@ -266,11 +267,12 @@ def q_fixed(alpha, gamma, l, g):
         q^f
     """
     be = backend_for(alpha, gamma, l, g)
-    cos_alpha, sin_alpha = be.cos_sin(alpha)
-    cos_t1, sin_t1 = be.cos_sin(2*alpha)
-    cos_gamma, sin_gamma = be.cos_sin(gamma)
-    x0 = cos_t1**2
-    return 4*x0*sin_alpha*sin_gamma*g/(l*(1 - x0))
+    cos_t0, sin_t0 = be.cos_sin(2*alpha)
+    cos_t1, sin_t1 = be.cos_sin(alpha - gamma)
+    cos_t2, sin_t2 = be.cos_sin(gamma + alpha)
+    x0 = cos_t0**2
+    x1 = 2*x0*g/l
+    return (x1*cos_t1 - x1*cos_t2)/(1 - x0)
 
 
 def eigenvalue(alpha, gamma, l, g):
