@@ -14,26 +14,33 @@ from scipy.integrate import quad
 
 import generated.ile as gen
 from derive import mechanics
+from derive.engine.hybrid import phase_dynamics
 from derive.models import ile
 from tests.conftest import random_walking_parameters
 
 
 def test_energy_is_constant_along_a_swing_phase():
+    # The engine's equation of motion and energy of a stance phase (Lagrange's equations from
+    # sympy.physics.mechanics): dE/dt = (dE/dtheta) omega + (dE/domega) theta'' = 0.
     m, g, r = sm.symbols("m g r", positive=True)
-    phase = mechanics.pendulum_phase(m, g, r)
-    theta = phase.theta
-    rate = sm.diff(phase.energy, mechanics.t).subs(theta.diff(mechanics.t, 2), phase.acceleration)
+    dyn = phase_dynamics(ile.stance_phase("test", r, m, g))
+    theta, omega = ile.THETA.q, ile.THETA.u
+    rate = dyn.energy.diff(theta) * omega + dyn.energy.diff(omega) * dyn.accelerations[0]
     assert sm.simplify(rate) == 0
 
 
 def test_equation_of_motion_matches_newton_tangential_balance():
     # Tangential component of gravity on the hip, m g sin(theta), over m r.
     m, g = sm.symbols("m g", positive=True)
-    phase = mechanics.pendulum_phase(m, g, ile.beta * ile.r_e)
-    newton = g * sm.sin(phase.theta) / (ile.beta * ile.r_e)
-    assert sm.simplify(phase.acceleration - newton) == 0
+    dyn = phase_dynamics(ile.stance_phase("test", ile.beta, m, g, ile.r_e))
+    newton = g * sm.sin(ile.theta) / (ile.beta * ile.r_e)
+    assert sm.simplify(dyn.accelerations[0] - newton) == 0
     dimensionless = ile.swing_phase_dimensionless()["accel"].subs(ile.leg_ratio, ile.beta)
     assert sm.simplify(dimensionless - sm.sin(ile.theta) / ile.beta) == 0
+    # The leg force from the radial balance of the hip mass: m (g cos(theta) - r omega**2),
+    # what the actuator holding the leg length must push.
+    leg_force = m * (g * sm.cos(ile.theta) - ile.beta * ile.r_e * ile.THETA.u**2)
+    assert sm.simplify(dyn.actuator_forces[ile.r] - leg_force) == 0
 
 
 def test_radial_extension_force_exerts_no_moment_about_the_foot():
