@@ -80,9 +80,13 @@ def _rate_symbol(symbol: sm.Symbol) -> sm.Symbol:
 
 
 def _simplify(expr: sm.Expr) -> sm.Expr:
-    """A cheap canonical form: expand, cancel, and the Pythagorean identity."""
-    expr = sm.cancel(sm.expand(expr))
-    return sm.trigsimp(expr) if expr.has(sm.sin, sm.cos) and expr.count_ops() < 400 else expr
+    """A cheap canonical form: ``sin(a)**2 -> 1 - cos(a)**2`` (no sums of angles expanded),
+    expanded and cancelled. ``trigsimp`` would do more at many times the cost."""
+    expr = sm.expand(expr)
+    squares = {sm.sin(a) ** 2: 1 - sm.cos(a) ** 2 for a in {s.args[0] for s in expr.atoms(sm.sin)}}
+    if squares:
+        expr = sm.expand(expr.subs(squares))
+    return sm.cancel(expr)
 
 
 @functools.cache

@@ -888,7 +888,7 @@ def phase_I_II_normal_force(beta, theta_II, phi0, theta, omega):
     """
     be = backend_for(beta, theta_II, phi0, theta, omega)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_theta*(cos_theta - beta*omega**2)
+    return cos_theta**2 - cos_theta*beta*omega**2
 
 
 def phase_I_II_fell_backward(beta, theta_II, phi0, theta, omega):
@@ -933,7 +933,7 @@ def phase_I_II_lift_off(beta, theta_II, phi0, theta, omega):
     """
     be = backend_for(beta, theta_II, phi0, theta, omega)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_theta*(cos_theta - beta*omega**2)
+    return cos_theta**2 - cos_theta*beta*omega**2
 
 
 def phase_III_IV_accelerations(beta, theta_II, phi0, theta, omega):
@@ -1002,7 +1002,7 @@ def phase_III_IV_normal_force(beta, theta_II, phi0, theta, omega):
     """
     be = backend_for(beta, theta_II, phi0, theta, omega)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_theta*(cos_theta - omega**2)
+    return cos_theta**2 - cos_theta*omega**2
 
 
 def phase_III_IV_fell_backward(beta, theta_II, phi0, theta, omega):
@@ -1047,7 +1047,7 @@ def phase_III_IV_lift_off(beta, theta_II, phi0, theta, omega):
     """
     be = backend_for(beta, theta_II, phi0, theta, omega)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_theta*(cos_theta - omega**2)
+    return cos_theta**2 - cos_theta*omega**2
 
 
 def event_extension_guard(beta, theta_II, phi0, theta, omega):
@@ -1137,8 +1137,9 @@ def event_heelstrike_reset(beta, theta_II, phi0, theta, omega):
         tuple: coordinates, then rates
     """
     be = backend_for(beta, theta_II, phi0, theta, omega)
-    cos_phi0, sin_phi0 = be.cos_sin(phi0)
-    return (theta - phi0, cos_phi0*omega/beta,)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    cos_t1, sin_t1 = be.cos_sin(phi0 - theta)
+    return (theta - phi0, (cos_t1*cos_theta*omega - omega*sin_t1*sin_theta)/beta,)
 
 
 def step_length_of_state(beta, theta_II, phi0, theta, omega):

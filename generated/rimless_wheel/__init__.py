@@ -46,8 +46,9 @@ def stance_accelerations(alpha, gamma, l, g, theta, omega):
         tuple: d2(coordinate)/dt2 for each coordinate
     """
     be = backend_for(alpha, gamma, l, g, theta, omega)
-    cos_t0, sin_t0 = be.cos_sin(gamma + theta)
-    return (sin_t0*g/l,)
+    cos_gamma, sin_gamma = be.cos_sin(gamma)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    return ((cos_gamma*sin_theta*g + cos_theta*sin_gamma*g)/l,)
 
 
 def stance_energy(alpha, gamma, l, g, theta, omega):
@@ -70,8 +71,10 @@ def stance_energy(alpha, gamma, l, g, theta, omega):
         energy
     """
     be = backend_for(alpha, gamma, l, g, theta, omega)
-    cos_t0, sin_t0 = be.cos_sin(gamma + theta)
-    return omega**2*l**2/2 + cos_t0*g*l
+    cos_gamma, sin_gamma = be.cos_sin(gamma)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    x0 = g*l
+    return omega**2*l**2/2 + x0*cos_gamma*cos_theta - x0*sin_gamma*sin_theta
 
 
 def stance_normal_force(alpha, gamma, l, g, theta, omega):
@@ -96,8 +99,7 @@ def stance_normal_force(alpha, gamma, l, g, theta, omega):
     be = backend_for(alpha, gamma, l, g, theta, omega)
     cos_gamma, sin_gamma = be.cos_sin(gamma)
     cos_theta, sin_theta = be.cos_sin(theta)
-    cos_t2, sin_t2 = be.cos_sin(gamma + theta)
-    return cos_gamma*g - cos_theta*l*omega**2 - sin_t2*sin_theta*g
+    return cos_gamma*g*cos_theta**2 - cos_theta*l*omega**2 - cos_theta*sin_gamma*sin_theta*g
 
 
 def stance_fell_backward(alpha, gamma, l, g, theta, omega):
@@ -145,8 +147,7 @@ def stance_lift_off(alpha, gamma, l, g, theta, omega):
     be = backend_for(alpha, gamma, l, g, theta, omega)
     cos_gamma, sin_gamma = be.cos_sin(gamma)
     cos_theta, sin_theta = be.cos_sin(theta)
-    cos_t2, sin_t2 = be.cos_sin(gamma + theta)
-    return cos_gamma*g - cos_theta*l*omega**2 - sin_t2*sin_theta*g
+    return cos_gamma*g*cos_theta**2 - cos_theta*l*omega**2 - cos_theta*sin_gamma*sin_theta*g
 
 
 def event_collision_guard(alpha, gamma, l, g, theta, omega):
@@ -194,8 +195,9 @@ def event_collision_reset(alpha, gamma, l, g, theta, omega):
         tuple: coordinates, then rates
     """
     be = backend_for(alpha, gamma, l, g, theta, omega)
-    cos_t0, sin_t0 = be.cos_sin(2*alpha)
-    return (theta - 2*alpha, cos_t0*omega,)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    cos_t1, sin_t1 = be.cos_sin(-theta + 2*alpha)
+    return (theta - 2*alpha, cos_t1*cos_theta*omega - omega*sin_t1*sin_theta,)
 
 
 def step_length_of_state(alpha, gamma, l, g, theta, omega):
@@ -241,12 +243,11 @@ def stride_map(alpha, gamma, l, g, q):
         q of the next step
     """
     be = backend_for(alpha, gamma, l, g, q)
-    cos_t0, sin_t0 = be.cos_sin(2*alpha)
-    cos_t1, sin_t1 = be.cos_sin(alpha - gamma)
-    cos_t2, sin_t2 = be.cos_sin(gamma + alpha)
-    x0 = cos_t0**2
-    x1 = 2*x0*g/l
-    return x0*q + x1*cos_t1 - x1*cos_t2
+    cos_alpha, sin_alpha = be.cos_sin(alpha)
+    cos_gamma, sin_gamma = be.cos_sin(gamma)
+    x0 = sin_gamma*g/l
+    x1 = 4*x0
+    return x1*sin_alpha**5 + x1*sin_alpha*(cos_alpha*cos_alpha*cos_alpha*cos_alpha) + q*(cos_alpha + sin_alpha)**2*(cos_alpha - sin_alpha)**2 - 8*x0*cos_alpha**2*(sin_alpha*sin_alpha*sin_alpha)
 
 
 def q_fixed(alpha, gamma, l, g):
@@ -267,12 +268,11 @@ def q_fixed(alpha, gamma, l, g):
         q^f
     """
     be = backend_for(alpha, gamma, l, g)
-    cos_t0, sin_t0 = be.cos_sin(2*alpha)
-    cos_t1, sin_t1 = be.cos_sin(alpha - gamma)
-    cos_t2, sin_t2 = be.cos_sin(gamma + alpha)
-    x0 = cos_t0**2
-    x1 = 2*x0*g/l
-    return (x1*cos_t1 - x1*cos_t2)/(1 - x0)
+    cos_alpha, sin_alpha = be.cos_sin(alpha)
+    cos_gamma, sin_gamma = be.cos_sin(gamma)
+    x0 = sin_gamma*g/l
+    x1 = 4*x0
+    return (x1*sin_alpha**5 + x1*sin_alpha*(cos_alpha*cos_alpha*cos_alpha*cos_alpha) - 8*x0*cos_alpha**2*(sin_alpha*sin_alpha*sin_alpha))/(1 - (cos_alpha + sin_alpha)**2*(cos_alpha - sin_alpha)**2)
 
 
 def eigenvalue(alpha, gamma, l, g):
@@ -293,8 +293,8 @@ def eigenvalue(alpha, gamma, l, g):
         lambda
     """
     be = backend_for(alpha, gamma, l, g)
-    cos_t0, sin_t0 = be.cos_sin(2*alpha)
-    return cos_t0**2
+    cos_alpha, sin_alpha = be.cos_sin(alpha)
+    return (cos_alpha + sin_alpha)**2*(cos_alpha - sin_alpha)**2
 
 
 def section_angle(alpha, gamma, l, g):
