@@ -5,7 +5,7 @@ instantaneous leg extension model of Virtual Slope Walking*). Each entry keeps t
 exactly as printed (for the report) and a sympy source string in the paper's symbols,
 parsed with :func:`sympy.parsing.sympy_parser.parse_expr` against the explicit symbol
 table :data:`PAPER_SYMBOLS`. Nothing here is derived: the derivation lives in
-``derive/models/ile.py``, and :mod:`paper_check.compare` puts the two side by side.
+``derive/models/ile/``, and :mod:`paper_check.compare` puts the two side by side.
 
 Notation kept from the paper
 ----------------------------

@@ -1,15 +1,12 @@
-"""The instantaneous leg extension (ILE) model of Virtual Slope Walking.
+"""The ILE model's closed forms: the paper's equations (1)-(23) and beyond, derived.
 
-Every fact that is specific to this model lives in this module: the parameter table,
-the coordinate, the two swing phases, the two resets and their guards. The derivation
-below uses only the general machinery in :mod:`derive.mechanics` and
-:mod:`derive.elliptic`; nothing is typed in from the paper's results.
-
-Conventions (the paper's): ``theta`` is the stance-leg angle from the vertical, positive
-when the hip is ahead of the stance foot, so a step runs from ``theta_I < 0`` forward to
-``theta_IV > 0``. ``r_s = beta r_e`` is the short stance leg before extension, ``r_e`` the
-extended one. Time is dimensionless, ``tau = sqrt(g / r_e) t``, and ``omega = dtheta/dtau``.
-Energies are in units of ``m g r_e`` unless ``m, g, r_e`` appear explicitly.
+The model's facts are in :mod:`derive.models.ile.model`; the engine derives its equations of
+motion, energies, leg force and resets (:mod:`derive.engine.hybrid`). This module chains them
+into the paper's closed forms (the stride map and its fixed point, eq. 7-11, 19), the
+existence conditions (12)-(17) and the ones the paper omits, the energy balance (18),
+(20)-(23), the apex and contact bounds, the step timing in Carlson form, and the staged
+forms the generated code evaluates without cancellation; :func:`derive` hands them to the
+code generator as ``generated/ile/``. Nothing is typed in from the paper's results.
 """
 
 from __future__ import annotations
@@ -28,140 +25,32 @@ from derive.engine.hybrid import (
     phase_rate_map,
     stride_closed_form,
 )
-from derive.engine.model import (
-    NORMAL_FORCE,
-    Coordinate,
-    Event,
-    Failure,
-    Impact,
-    Jump,
-    Model,
-    Phase,
-    PointMass,
-    leg,
+from derive.engine.model import Phase
+from derive.models.ile.model import (
+    MODEL,
+    PARAMETERS,
+    PHASE_I_II,
+    PHASE_III_IV,
+    THETA,
+    beta,
+    g,
+    leg_ratio,
+    m,
+    omega,
+    omega_II,
+    omega_IV,
+    phi0,
+    q,
+    q_next,
+    r,
+    r_e,
+    stance_phase,
+    theta,
+    theta_I,
+    theta_II,
+    theta_IV,
 )
-from derive.quantities import CExport, Condition, Derivation, Parameter, Quantity
-
-PARAMETERS: tuple[Parameter, ...] = (
-    Parameter(
-        name="beta",
-        latex=r"\beta",
-        lower=0.0,
-        upper=1.0,
-        reason="beta = r_s / r_e is a length-shortening ratio: 0 < beta < 1",
-        description="length shorten ratio r_s / r_e",
-        assumptions={"positive": True},
-        default=0.8,
-        unit="1",
-    ),
-    Parameter(
-        name="theta_II",
-        latex=r"\theta_{II}",
-        lower=-sm.pi.evalf(17) / 2,
-        upper=sm.pi.evalf(17) / 2,
-        reason="the stance leg must point below the horizontal: |theta_II| < pi/2",
-        description="stance leg angle at which the leg extends (instant II)",
-        cli_degrees=True,
-        default=0.0,
-        unit="rad",
-    ),
-    Parameter(
-        name="phi0",
-        latex=r"\varphi_0",
-        lower=0.0,
-        upper=sm.pi.evalf(17) / 2,
-        reason="inter-leg angle at heelstrike: 0 < phi0 < pi/2, eq. (16)",
-        description="inter-leg angle at heelstrike",
-        assumptions={"positive": True},
-        cli_degrees=True,
-        default=float(sm.pi.evalf(17) / 4),
-        unit="rad",
-    ),
-)
-
-beta, theta_II, phi0 = (p.symbol for p in PARAMETERS)
-q = sm.Symbol("q", real=True)
-q_next = sm.Symbol("q_next", real=True)
-theta, omega = sm.symbols("theta omega", real=True)
-leg_ratio = sm.Symbol("leg_ratio", positive=True)
-omega_II, omega_IV = sm.symbols("omega_II omega_IV", real=True)
-m, g, r_e = sm.symbols("m g r_e", positive=True)
-theta_I, theta_IV = sm.symbols("theta_I theta_IV", real=True)
-"""Kept as symbols in the paper-shaped forms; eliminated by :func:`eliminate_contact_angles`."""
-
-# --- The model (Section III of the paper), for the engine ------------------------------
-# A point mass at the hip on two massless telescoping legs, in the paper's dimensionless
-# units (lengths in r_e, time in sqrt(r_e / g), mass in m). theta: the stance leg's angle
-# from the vertical, positive when the hip is ahead of the foot; the actuator holds the
-# stance leg's length r.
-THETA = Coordinate("theta", "omega", "stance leg angle from the vertical", "rad")
-r = sm.Symbol("r", positive=True)
-"""The stance leg's length, held by its actuator."""
-
-
-def stance_phase(name: str, length: sm.Expr, mass=1, gravity=1, unit_length=1) -> Phase:
-    """A stance phase: the hip mass on a leg of ``length`` (times ``unit_length``), the
-    shortened swing leg (beta r_e) at the inter-leg angle phi0 behind it."""
-    hip = leg(theta, r)
-    swing_foot = tuple(h - f for h, f in zip(hip, leg(theta - phi0, beta * unit_length)))
-    return Phase(
-        name,
-        coordinates=(THETA,),
-        bodies=(PointMass("hip", mass, hip),),
-        gravity=(0, -gravity),
-        held={r: length * unit_length},
-        points={"swing_foot": swing_foot},
-    )
-
-
-PHASE_I_II = stance_phase("phase_I_II", beta)  # r_s = beta r_e, from instant I to II
-PHASE_III_IV = stance_phase("phase_III_IV", 1)  # r_e, from instant III to IV
-_SWING_FOOT = PHASE_III_IV.points["swing_foot"]
-_THETA_I = -sm.atan((beta - sm.cos(phi0)) / sm.sin(phi0))  # eq. (11)
-
-MODEL = Model(
-    name="ile",
-    title="Instantaneous leg extension model of Virtual Slope Walking",
-    description="point-mass hip on massless telescoping legs: the stance leg extends "
-    "instantaneously at theta_II, heelstrike at the inter-leg angle phi0 (level ground)",
-    source="derive/models/ile.py",
-    parameters=PARAMETERS,
-    phases=(PHASE_I_II, PHASE_III_IV),
-    events=(
-        # II -> III: the actuator extends the stance leg to r_e instantly; angular momentum
-        # about the stance foot is conserved.
-        Event(
-            "extension",
-            "phase_I_II",
-            "phase_III_IV",
-            guard=theta - theta_II,
-            direction=+1,
-            reset=Jump(),
-            at=theta_II,
-            equation="(3)",
-        ),
-        # IV -> I: the swing foot touches level ground, sticks, and becomes the stance foot.
-        Event(
-            "heelstrike",
-            "phase_III_IV",
-            "phase_I_II",
-            guard=_SWING_FOOT[1],
-            direction=-1,
-            reset=Impact("swing_foot", {theta: theta - phi0}),
-            at=_THETA_I + phi0,
-            ends_step=True,
-            equation="(5), (6)",
-        ),
-    ),
-    failures=(
-        Failure("fell-backward", THETA.u, -1, "the walker stops before the apex and falls back"),
-        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
-    ),
-    units={"time": "sqrt(r_e/g)", "length": "r_e", "mass": "m", "energy": "m g r_e"},
-    step_length=_SWING_FOOT[0],
-    start={"theta": 0.0},
-    rate_range=(0.2, 1.5),
-)
+from derive.quantities import CExport, Condition, Derivation, Quantity
 
 
 def _square_symbol(name: str) -> sm.Symbol:
@@ -777,7 +666,7 @@ def derive() -> Derivation:
     d = Derivation(
         model="ile",
         title="Instantaneous leg extension model of Virtual Slope Walking",
-        source="derive/models/ile.py",
+        source="derive/models/ile/closed_form.py",
         parameters=PARAMETERS,
         units="Angles in radians, time in units of sqrt(r_e / g), lengths in r_e.",
         paper=True,
