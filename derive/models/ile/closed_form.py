@@ -674,233 +674,241 @@ def derive() -> Derivation:
     P = (beta, theta_II, phi0)
     d.add(
         Quantity(
-            "swing_acceleration",
-            (theta, leg_ratio),
-            phase["accel"],
-            "Angular acceleration d2theta/dtau2 of a swing phase of leg length leg_ratio * r_e.",
-            "(2), (4)",
-            "d2theta/dtau2; leg_ratio = beta gives (2), leg_ratio = 1 gives (4)",
+            name="swing_acceleration",
+            args=(theta, leg_ratio),
+            expr=phase["accel"],
+            summary=(
+                "Angular acceleration d2theta/dtau2 of a swing phase of leg length leg_ratio * r_e."
+            ),
+            equation="(2), (4)",
+            returns="d2theta/dtau2; leg_ratio = beta gives (2), leg_ratio = 1 gives (4)",
         )
     )
     d.add(
         Quantity(
-            "phase_energy",
-            (theta, omega, leg_ratio),
-            phase["energy"],
-            "Mechanical energy of a swing phase, in units of m g r_e (its first integral).",
-            None,
-            "(kinetic + potential) / (m g r_e)",
+            name="phase_energy",
+            args=(theta, omega, leg_ratio),
+            expr=phase["energy"],
+            summary="Mechanical energy of a swing phase, in units of m g r_e (its first integral).",
+            returns="(kinetic + potential) / (m g r_e)",
         )
     )
     d.add(
         Quantity(
-            "normal_force",
-            (theta, omega, leg_ratio),
-            phase["normal_force"],
-            "Vertical ground force on the stance foot, in units of m g; the foot lifts off below 0",
-            None,
-            "N / (m g)",
+            name="normal_force",
+            args=(theta, omega, leg_ratio),
+            expr=phase["normal_force"],
+            summary=(
+                "Vertical ground force on the stance foot, in units of m g; the foot lifts off "
+                "below 0"
+            ),
+            returns="N / (m g)",
         )
     )
     d.add(
         Quantity(
-            "extension_reset",
-            (beta, omega_II),
-            extension_reset() * omega_II,
-            "Angular velocity just after the instantaneous leg extension.",
-            "(3)",
-            "omega_III",
+            name="extension_reset",
+            args=(beta, omega_II),
+            expr=extension_reset() * omega_II,
+            summary="Angular velocity just after the instantaneous leg extension.",
+            equation="(3)",
+            returns="omega_III",
         )
     )
     d.add(
         Quantity(
-            "heelstrike_reset",
-            (beta, phi0, omega_IV),
-            hs["reset_ratio"] * omega_IV,
-            "Angular velocity of the new stance leg just after heelstrike.",
-            "(6)",
-            "omega_I(n+1)",
+            name="heelstrike_reset",
+            args=(beta, phi0, omega_IV),
+            expr=hs["reset_ratio"] * omega_IV,
+            summary="Angular velocity of the new stance leg just after heelstrike.",
+            equation="(6)",
+            returns="omega_I(n+1)",
         )
     )
     d.add(
         Quantity(
-            "swing_foot_height",
-            (beta, phi0, theta),
-            hs["guard"].subs(theta_IV, theta),
-            "Height of the shortened swing foot, in r_e, with the extended stance leg at theta.",
-            "(5)",
-            "heelstrike guard; zero at theta = theta_IV",
+            name="swing_foot_height",
+            args=(beta, phi0, theta),
+            expr=hs["guard"].subs(theta_IV, theta),
+            summary=(
+                "Height of the shortened swing foot, in r_e, with the extended stance leg at theta."
+            ),
+            equation="(5)",
+            returns="heelstrike guard; zero at theta = theta_IV",
         )
     )
     d.add(
         Quantity(
-            "theta_I",
-            (beta, phi0),
-            hs["theta_I"],
-            "Stance leg angle just after heelstrike.",
-            "(11)",
-            "theta_I in radians",
+            name="theta_I",
+            args=(beta, phi0),
+            expr=hs["theta_I"],
+            summary="Stance leg angle just after heelstrike.",
+            equation="(11)",
+            returns="theta_I in radians",
         )
     )
     d.add(
         Quantity(
-            "theta_IV",
-            (beta, phi0),
-            sm.atan2(hs["sin_theta_IV"], hs["cos_theta_IV"]),
-            "Stance leg angle at heelstrike.",
-            "(5)",
-            "theta_IV = theta_I + phi0 in radians",
+            name="theta_IV",
+            args=(beta, phi0),
+            expr=sm.atan2(hs["sin_theta_IV"], hs["cos_theta_IV"]),
+            summary="Stance leg angle at heelstrike.",
+            equation="(5)",
+            returns="theta_IV = theta_I + phi0 in radians",
         )
     )
     d.add(
         Quantity(
-            "stride_map",
-            (*P, q),
-            _paper_form(st["stride_map"]),
-            "Stride map f(q): q = omega_I**2 just after one heelstrike to just after the next.",
-            "(7), (9)",
-            "q(n+1)",
+            name="stride_map",
+            args=(*P, q),
+            expr=_paper_form(st["stride_map"]),
+            summary=(
+                "Stride map f(q): q = omega_I**2 just after one heelstrike to just after the next."
+            ),
+            equation="(7), (9)",
+            returns="q(n+1)",
         )
     )
     d.add(
         Quantity(
-            "q_fixed",
-            P,
-            _paper_form(ev["q_fixed"]),
-            "Fixed point q^f of the stride map.",
-            "(10)",
-            "q^f",
+            name="q_fixed",
+            args=P,
+            expr=_paper_form(ev["q_fixed"]),
+            summary="Fixed point q^f of the stride map.",
+            equation="(10)",
+            returns="q^f",
         )
     )
     d.add(
         Quantity(
-            "eigenvalue",
-            (beta, phi0),
-            st["eigenvalue"],
-            "Eigenvalue df/dq of the stride map (constant: the map is linear in q).",
-            "(19)",
-            "lambda",
+            name="eigenvalue",
+            args=(beta, phi0),
+            expr=st["eigenvalue"],
+            summary="Eigenvalue df/dq of the stride map (constant: the map is linear in q).",
+            equation="(19)",
+            returns="lambda",
         )
     )
     d.add(
         Quantity(
-            "omega_II_squared",
-            (*P, q),
-            _paper_form(st["omega_II_squared"]),
-            "omega**2 just before the extension, from the energy integral of phase I-II.",
-            "(7)",
-            "omega_II**2",
+            name="omega_II_squared",
+            args=(*P, q),
+            expr=_paper_form(st["omega_II_squared"]),
+            summary="omega**2 just before the extension, from the energy integral of phase I-II.",
+            equation="(7)",
+            returns="omega_II**2",
         )
     )
     d.add(
         Quantity(
-            "omega_IV_squared",
-            (*P, q),
-            _paper_form(st["omega_IV_squared"]),
-            "omega**2 just before heelstrike, from the energy integral of phase III-IV.",
-            "(7)",
-            "omega_IV**2",
+            name="omega_IV_squared",
+            args=(*P, q),
+            expr=_paper_form(st["omega_IV_squared"]),
+            summary="omega**2 just before heelstrike, from the energy integral of phase III-IV.",
+            equation="(7)",
+            returns="omega_IV**2",
         )
     )
     d.add(
         Quantity(
-            "q_apex_min",
-            P,
-            ac["q_apex_exact"],
-            "Smallest q at instant I that carries the walker over the apex in both phases.",
-            "(14)",
-            "exact form of (14); holds for either sign of theta_I and theta_II",
+            name="q_apex_min",
+            args=P,
+            expr=ac["q_apex_exact"],
+            summary="Smallest q at instant I that carries the walker over the apex in both phases.",
+            equation="(14)",
+            returns="exact form of (14); holds for either sign of theta_I and theta_II",
         )
     )
     d.add(
         Quantity(
-            "q_liftoff_max",
-            P,
-            ac["q_liftoff"],
-            "Largest q at instant I for which the stance foot stays on the ground all step.",
-            None,
-            "q bound from N >= 0 (Fig. 9 right boundary)",
+            name="q_liftoff_max",
+            args=P,
+            expr=ac["q_liftoff"],
+            summary=(
+                "Largest q at instant I for which the stance foot stays on the ground all step."
+            ),
+            returns="q bound from N >= 0 (Fig. 9 right boundary)",
         )
     )
     d.add(
         Quantity(
-            "contact_margin",
-            (*P, q),
-            ac["contact_margin"],
-            "Minimum over the step of the ground normal force on the stance foot, in units of m g.",
-            None,
-            "min N / (m g) over both phases",
+            name="contact_margin",
+            args=(*P, q),
+            expr=ac["contact_margin"],
+            summary=(
+                "Minimum over the step of the ground normal force on the stance foot, in units of "
+                "m g."
+            ),
+            returns="min N / (m g) over both phases",
         )
     )
     E = (*P, q, m, g, r_e)
     d.add(
         Quantity(
-            "energy_complement",
-            E,
-            _paper_form(en["complement"]),
-            "Energy added by the leg extension (the actuator's work per step), E_c.",
-            "(20)",
-            "E_c",
+            name="energy_complement",
+            args=E,
+            expr=_paper_form(en["complement"]),
+            summary="Energy added by the leg extension (the actuator's work per step), E_c.",
+            equation="(20)",
+            returns="E_c",
         )
     )
     d.add(
         Quantity(
-            "energy_dissipated",
-            E,
-            _paper_form(ev["energy_dissipated"]),
-            "Energy lost at heelstrike, E_r, in terms of q of the same step.",
-            "(21)",
-            "E_r",
+            name="energy_dissipated",
+            args=E,
+            expr=_paper_form(ev["energy_dissipated"]),
+            summary="Energy lost at heelstrike, E_r, in terms of q of the same step.",
+            equation="(21)",
+            returns="E_r",
         )
     )
     d.add(
         Quantity(
-            "energy_dissipated_post",
-            (beta, phi0, q_next, m, g, r_e),
-            ev["energy_dissipated_post"],
-            "Energy lost at heelstrike in terms of q just after the impact.",
-            "(18)",
-            "E_r",
+            name="energy_dissipated_post",
+            args=(beta, phi0, q_next, m, g, r_e),
+            expr=ev["energy_dissipated_post"],
+            summary="Energy lost at heelstrike in terms of q just after the impact.",
+            equation="(18)",
+            returns="E_r",
         )
     )
     d.add(
         Quantity(
-            "energy_change",
-            E,
-            _paper_form(ev["energy_change"]),
-            "Net change of mechanical energy over one step, E_c - E_r.",
-            "(22), (23)",
-            "E_Delta",
+            name="energy_change",
+            args=E,
+            expr=_paper_form(ev["energy_change"]),
+            summary="Net change of mechanical energy over one step, E_c - E_r.",
+            equation="(22), (23)",
+            returns="E_Delta",
         )
     )
     d.add(
         Quantity(
-            "energy_constant",
-            (*P, m, g, r_e),
-            _paper_form(en["constant"]),
-            "The constant C of eq. (23): E_Delta at q = 0.",
-            "(23)",
-            "C",
+            name="energy_constant",
+            args=(*P, m, g, r_e),
+            expr=_paper_form(en["constant"]),
+            summary="The constant C of eq. (23): E_Delta at q = 0.",
+            equation="(23)",
+            returns="C",
         )
     )
     d.add(
         Quantity(
-            "step_length",
-            (beta, phi0),
-            tm["step_length"],
-            "Distance between successive footholds (and hip travel per step), in r_e.",
-            None,
-            "step length / r_e",
+            name="step_length",
+            args=(beta, phi0),
+            expr=tm["step_length"],
+            summary="Distance between successive footholds (and hip travel per step), in r_e.",
+            returns="step length / r_e",
         )
     )
     d.add(
         Quantity(
-            "phase_durations",
-            (*P, q),
-            (tm["duration_I_II"], tm["duration_III_IV"]),
-            "Durations of the swing phases I-II and III-IV in dimensionless time tau.",
-            None,
-            "(tau_I_II, tau_III_IV)",
+            name="phase_durations",
+            args=(*P, q),
+            expr=(tm["duration_I_II"], tm["duration_III_IV"]),
+            summary="Durations of the swing phases I-II and III-IV in dimensionless time tau.",
+            returns="(tau_I_II, tau_III_IV)",
         )
     )
 
@@ -908,96 +916,101 @@ def derive() -> Derivation:
     hsI = hs
     conditions = (
         Condition(
-            "q_positive",
-            "(12)",
-            qf,
-            True,
-            "implied",
-            True,
-            "q = omega_I**2 must be positive at the fixed point",
+            name="q_positive",
+            equation="(12)",
+            margin=qf,
+            strict=True,
+            status="implied",
+            physical=True,
+            meaning="q = omega_I**2 must be positive at the fixed point",
         ),
         Condition(
-            "cos_ratio",
-            "(13)",
-            _paper_form(cos_ratio_margin()),
-            True,
-            "exact",
-            False,
-            "(12) rewritten with (10): the same condition",
+            name="cos_ratio",
+            equation="(13)",
+            margin=_paper_form(cos_ratio_margin()),
+            strict=True,
+            status="exact",
+            physical=False,
+            meaning="(12) rewritten with (10): the same condition",
         ),
         Condition(
-            "apex",
-            "(14)",
-            qf - ac["q_apex_exact"],
-            True,
-            "exact",
-            True,
-            "omega stays positive over the apex in both phases (no fall backward)",
+            name="apex",
+            equation="(14)",
+            margin=qf - ac["q_apex_exact"],
+            strict=True,
+            status="exact",
+            physical=True,
+            meaning="omega stays positive over the apex in both phases (no fall backward)",
         ),
         Condition(
-            "theta_I_negative",
-            "(15)",
-            beta - sm.cos(phi0),
-            True,
-            "framing",
-            False,
-            "theta_I < 0: the new stance foot lands ahead of the hip",
+            name="theta_I_negative",
+            equation="(15)",
+            margin=beta - sm.cos(phi0),
+            strict=True,
+            status="framing",
+            physical=False,
+            meaning="theta_I < 0: the new stance foot lands ahead of the hip",
         ),
         Condition(
-            "phi0_below_right_angle",
-            "(16)",
-            sm.pi / 2 - phi0,
-            True,
-            "exact",
-            True,
-            "cos phi0 > 0, so omega_I > 0 after heelstrike",
+            name="phi0_below_right_angle",
+            equation="(16)",
+            margin=sm.pi / 2 - phi0,
+            strict=True,
+            status="exact",
+            physical=True,
+            meaning="cos phi0 > 0, so omega_I > 0 after heelstrike",
         ),
         Condition(
-            "extension_before_symmetric_contact",
-            "(17)",
-            phi0 / 2 - theta_II,
-            True,
-            "conservative",
-            False,
-            "theta_II < phi0/2, where equal legs would touch down",
+            name="extension_before_symmetric_contact",
+            equation="(17)",
+            margin=phi0 / 2 - theta_II,
+            strict=True,
+            status="conservative",
+            physical=False,
+            meaning="theta_II < phi0/2, where equal legs would touch down",
         ),
         Condition(
-            "extension_before_heelstrike",
-            "(17) exact",
-            sm.atan2(hsI["sin_theta_IV"], hsI["cos_theta_IV"]) - theta_II,
-            True,
-            "exact",
-            True,
-            "theta_II < theta_IV: the leg extends before heelstrike",
+            name="extension_before_heelstrike",
+            equation="(17) exact",
+            margin=sm.atan2(hsI["sin_theta_IV"], hsI["cos_theta_IV"]) - theta_II,
+            strict=True,
+            status="exact",
+            physical=True,
+            meaning="theta_II < theta_IV: the leg extends before heelstrike",
         ),
         Condition(
-            "extension_reached",
-            None,
-            theta_II - hsI["theta_I"],
-            True,
-            "missing",
-            True,
-            "theta_II > theta_I: the stance leg reaches the extension angle",
+            name="extension_reached",
+            equation=None,
+            margin=theta_II - hsI["theta_I"],
+            strict=True,
+            status="missing",
+            physical=True,
+            meaning="theta_II > theta_I: the stance leg reaches the extension angle",
         ),
         Condition(
-            "stance_contact",
-            None,
-            ac["contact_margin"].subs(q, qf),
-            False,
-            "missing",
-            True,
-            "the ground normal force stays non-negative over the whole step",
+            name="stance_contact",
+            equation=None,
+            margin=ac["contact_margin"].subs(q, qf),
+            strict=False,
+            status="missing",
+            physical=True,
+            meaning="the ground normal force stays non-negative over the whole step",
         ),
     )
     d.conditions = conditions
     d.add(
         Quantity(
-            "condition_margins",
-            P,
-            tuple(c.margin for c in conditions),
-            "Margins of the existence conditions at the fixed point, in the order of CONDITIONS.",
-            "(12)-(17)",
-            "tuple of margins; each condition holds when its margin is > 0 (>= 0 if not strict)",
+            name="condition_margins",
+            args=P,
+            expr=tuple(c.margin for c in conditions),
+            summary=(
+                "Margins of the existence conditions at the fixed point, in the order of "
+                "CONDITIONS."
+            ),
+            equation="(12)-(17)",
+            returns=(
+                "tuple of margins; each condition holds when its margin is > 0 (>= 0 if not strict)"
+            ),
         )
     )
     staged_intermediates, staged_outputs, staged_names = existence_staged()
@@ -1005,24 +1018,28 @@ def derive() -> Derivation:
         raise AssertionError("existence_staged() and the condition list disagree")
     d.add(
         Quantity(
-            "fixed_point_conditions",
-            P,
-            staged_outputs,
-            "q^f, eigenvalue and existence-condition margins in one pass (shared terms once).",
-            "(10), (19), (12)-(17)",
-            "(q^f, lambda, *margins in the order of CONDITIONS)",
+            name="fixed_point_conditions",
+            args=P,
+            expr=staged_outputs,
+            summary=(
+                "q^f, eigenvalue and existence-condition margins in one pass (shared terms once)."
+            ),
+            equation="(10), (19), (12)-(17)",
+            returns="(q^f, lambda, *margins in the order of CONDITIONS)",
             intermediates=staged_intermediates,
         )
     )
     piece_intermediates, piece_outputs, _ = condition_pieces()
     d.add(
         Quantity(
-            "condition_pieces",
-            P,
-            piece_outputs,
-            "Smooth pieces of the apex (14) and stance-contact margins at the fixed point.",
-            "(14)",
-            "(" + ", ".join(CONDITION_PIECE_NAMES) + "); see derive.models.ile.condition_pieces",
+            name="condition_pieces",
+            args=P,
+            expr=piece_outputs,
+            summary="Smooth pieces of the apex (14) and stance-contact margins at the fixed point.",
+            equation="(14)",
+            returns="("
+            + ", ".join(CONDITION_PIECE_NAMES)
+            + "); see derive.models.ile.condition_pieces",
             intermediates=piece_intermediates,
             output_names=CONDITION_PIECE_NAMES,
         )
