@@ -18,6 +18,7 @@ array([0.50539806])
 from __future__ import annotations
 
 import ctypes
+import re
 import shutil
 import subprocess
 import tempfile
@@ -77,6 +78,20 @@ class CLibrary:
             first = (done.stderr.strip().splitlines() or ["unknown error"])[0]
             raise VswInputError(f"compiling {shown} failed: {first}")
         return cls(library, model)
+
+    def functions(self) -> tuple[str, ...]:
+        """Names (without the prefix) of the functions the model's C header declares."""
+        header = (GENERATED / self.model / "c" / f"{self.model}.h").read_text()
+        pattern = rf"^int {re.escape(self.prefix)}(\w+)\(const casadi_real\*\* arg"
+        return tuple(re.findall(pattern, header, flags=re.MULTILINE))
+
+    def arguments(self, name: str) -> tuple[str, ...]:
+        """Argument names of ``vsw_<model>_<name>``, as the library reports them."""
+        n_in = self._function(name)[2]
+        name_in = getattr(self._lib, f"{self.prefix}{name}_name_in")
+        name_in.restype = ctypes.c_char_p
+        name_in.argtypes = [_int]
+        return tuple(name_in(i).decode() for i in range(n_in))
 
     def _function(self, name: str):
         if name not in self._functions:
