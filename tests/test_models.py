@@ -25,6 +25,7 @@ from __future__ import annotations
 import functools
 import importlib
 import inspect
+import itertools
 import shutil
 
 import casadi as ca
@@ -161,7 +162,7 @@ def _segments(trajectory) -> list[tuple[int, np.ndarray]]:
     t, x, phase = t[keep], x[keep], phase[keep]
     cuts = np.flatnonzero((np.diff(t) == 0) | (np.diff(phase) != 0)) + 1
     bounds = [0, *cuts.tolist(), len(t)]
-    return [(int(phase[a]), x[a:b]) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
+    return [(int(phase[a]), x[a:b]) for a, b in itertools.pairwise(bounds) if b > a]
 
 
 @pytest.mark.parametrize("name", MODELS)
@@ -246,7 +247,7 @@ def _reset_states(m: HybridModel) -> list[tuple[tuple[float, ...], dict, np.ndar
     for p, state in walking_states(m):
         trajectory = m.simulate(p, state, steps=2)
         segments = _segments(trajectory)
-        for (k, before), (k_next, after) in zip(segments[:-1], segments[1:]):
+        for (k, before), (k_next, after) in itertools.pairwise(segments):
             x_minus, x_plus = before[-1], after[0]
             source, target = m.phases[k]["name"], m.phases[k_next]["name"]
             candidates = [
