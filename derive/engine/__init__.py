@@ -12,7 +12,7 @@ from derive.engine.hybrid import hybrid_quantities, stride_closed_form
 from derive.engine.model import Model
 from derive.quantities import CExport, Derivation, Quantity
 
-__all__ = ["model_derivation"]
+__all__ = ["c_exports", "model_derivation"]
 
 
 def model_derivation(model: Model, units: str) -> Derivation:
@@ -55,7 +55,7 @@ def model_derivation(model: Model, units: str) -> Derivation:
         ))  # fmt: skip
         derivation.facts["stride.slope"] = stride.slope
         derivation.facts["stride.offset"] = stride.offset
-    derivation.c_exports = _c_exports(model, stride is not None)
+    derivation.c_exports = c_exports(model, quantities, closed_form=stride is not None)
     derivation.constants["HYBRID"] = (
         descriptor,
         "The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases "
@@ -65,12 +65,14 @@ def model_derivation(model: Model, units: str) -> Derivation:
     return derivation
 
 
-def _c_exports(model: Model, closed_form: bool) -> tuple[CExport, ...]:
-    """The C library: the closed-form stride map, the flow and the resets (what a
-    controller or an external simulator needs to step the model)."""
+def c_exports(
+    model: Model, quantities: list[Quantity], closed_form: bool = False
+) -> tuple[CExport, ...]:
+    """A model's C library: with ``closed_form`` the stride map, its fixed point and
+    eigenvalue, and always each phase's accelerations and each event's reset among the
+    engine's ``quantities`` (:func:`hybrid_quantities`): what a controller or an external
+    simulator needs to step the model."""
     params = tuple(p.name for p in model.parameters)
-    state = params + tuple(c.name for c in model.coordinates)
-    state += tuple(c.rate for c in model.coordinates)
     exports = []
     if closed_form:
         exports += [
@@ -78,16 +80,9 @@ def _c_exports(model: Model, closed_form: bool) -> tuple[CExport, ...]:
             CExport("q_fixed", params, "fixed point of the stride map in q"),
             CExport("eigenvalue", params, "eigenvalue (slope) of the stride map"),
         ]
-    for phase in model.phases:
-        exports.append(CExport(
-            f"{phase.name}_accelerations", state,
-            f"second derivatives of the coordinates in phase {phase.name}",
-        ))  # fmt: skip
-    for event in model.events:
-        exports.append(CExport(
-            f"{event.name}_reset", state,
-            f"coordinates then rates just after the event {event.name}",
-        ))  # fmt: skip
+    for qty in quantities:
+        if qty.name.endswith(("_accelerations", "_reset")):
+            exports.append(CExport(qty.name, tuple(a.name for a in qty.args), qty.summary))
     return tuple(exports)
 
 

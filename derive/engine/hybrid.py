@@ -363,7 +363,8 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
     body, held coordinates at their values; angle 0 for a point mass),
     ``<phase>_inertias`` (mass and central inertia of each body), ``<event>_guard``,
     ``<event>_when``, ``<event>_reset`` (coordinates then rates after),
-    ``<event>_contact`` (an impact's new contact point in the source phase's chart), and
+    ``event_<event>_contact`` (an impact's new contact point in the source phase's chart),
+    and
     ``step_length`` when the model defines it. The descriptor says per phase whether it
     is ``conservative`` (no held coordinate moves, so no actuator does work and T + V is
     constant) and per event whether its ``reset`` is an ``impact`` or a ``jump``.
@@ -429,7 +430,7 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
             source = model.phase(event.source)
             contact = source.points[event.reset.new_contact]
             quantities.append(Quantity(
-                f"{event.name}_contact", args,
+                f"event_{event.name}_contact", args,
                 tuple(sm.sympify(c).xreplace(dict(source.held)) for c in contact),
                 f"The new contact point of the impact {event.name} (x, y in phase "
                 f"{event.source}'s chart).", None, "tuple: x, y",

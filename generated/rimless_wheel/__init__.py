@@ -245,7 +245,7 @@ def collision_reset(alpha, gamma, l, g, theta, omega):
     return (theta - 2*alpha, cos_t0*omega,)
 
 
-def collision_contact(alpha, gamma, l, g, theta, omega):
+def event_collision_contact(alpha, gamma, l, g, theta, omega):
     """The new contact point of the impact collision (x, y in phase stance's chart).
 
     Parameters
