@@ -129,6 +129,9 @@ def test_drakes_step_test(case):
 
 def test_stance_collision_and_energy_are_drakes():
     """The derived stance dynamics, collision and energy are rimless_wheel.cc's."""
+    m = load("rimless-wheel")
+    # The engine names event functions event_<event>_*; before that <event>_*.
+    guard = getattr(rw, "event_collision_guard", None) or rw.collision_guard
     rng = np.random.default_rng(5)
     for _ in range(50):
         spokes = int(rng.integers(4, 20))
@@ -142,10 +145,10 @@ def test_stance_collision_and_energy_are_drakes():
             drake_energy(theta + slope, omega, length, gravity), rel=1e-13
         )
         # StepForwardGuard: theta_drake = slope + alpha; StepForwardReset.
-        assert rw.collision_guard(*p, alpha, omega) == pytest.approx(0.0, abs=1e-15)
-        theta_after, omega_after = rw.collision_reset(*p, alpha, omega)
+        assert guard(*p, alpha, omega) == pytest.approx(0.0, abs=1e-15)
+        assert guard(*p, alpha - 1e-6, omega) > 0  # the next foot is above the slope before
+        theta_after, omega_after = m.reset("collision", p, np.array([alpha, omega]))
         assert theta_after + slope == pytest.approx(slope - alpha, abs=1e-15)
         assert omega_after == pytest.approx(omega * math.cos(2 * alpha), rel=1e-14)
-        assert rw.step_length(*p, alpha, omega) == pytest.approx(
-            2 * length * math.sin(alpha), rel=1e-15
-        )
+        length_of_step = m.step_length(p, np.array([alpha, omega]))
+        assert length_of_step == pytest.approx(2 * length * math.sin(alpha), rel=1e-15)
