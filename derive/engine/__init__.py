@@ -10,16 +10,17 @@ from __future__ import annotations
 
 from derive.engine.hybrid import hybrid_quantities, stride_closed_form
 from derive.engine.model import Model
-from derive.quantities import Derivation, Quantity
+from derive.quantities import CExport, Derivation, Quantity
 
-__all__ = ["model_derivation"]
+__all__ = ["c_exports", "model_derivation"]
 
 
 def model_derivation(model: Model, units: str) -> Derivation:
     """The generated package of a model: the generic runtime's functions, the ``HYBRID``
     descriptor and, where the model allows, the stride map in closed form
     (``stride_map``, ``q_fixed``, ``eigenvalue`` in ``q = rate**2`` just after the step
-    event)."""
+    event). Its C library (``generated/<model>/c/``) holds the closed form, each phase's
+    accelerations and each event's reset."""
     derivation = Derivation(
         model=model.name,
         title=model.title,
@@ -54,12 +55,35 @@ def model_derivation(model: Model, units: str) -> Derivation:
         ))  # fmt: skip
         derivation.facts["stride.slope"] = stride.slope
         derivation.facts["stride.offset"] = stride.offset
+    derivation.c_exports = c_exports(model, quantities, closed_form=stride is not None)
     derivation.constants["HYBRID"] = (
         descriptor,
         "The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases "
-        "with their failure guards, events with their guards and resets, units.",
+        "with their failure guards (conservative: T + V constant), events with their guards "
+        "and resets (impact or jump), units.",
     )
     return derivation
+
+
+def c_exports(
+    model: Model, quantities: list[Quantity], closed_form: bool = False
+) -> tuple[CExport, ...]:
+    """A model's C library: with ``closed_form`` the stride map, its fixed point and
+    eigenvalue, and always each phase's accelerations and each event's reset among the
+    engine's ``quantities`` (:func:`hybrid_quantities`): what a controller or an external
+    simulator needs to step the model."""
+    params = tuple(p.name for p in model.parameters)
+    exports = []
+    if closed_form:
+        exports += [
+            CExport("stride_map", (*params, "q"), "q = rate**2 after the next step event"),
+            CExport("q_fixed", params, "fixed point of the stride map in q"),
+            CExport("eigenvalue", params, "eigenvalue (slope) of the stride map"),
+        ]
+    for qty in quantities:
+        if qty.name.endswith(("_accelerations", "_reset")):
+            exports.append(CExport(qty.name, tuple(a.name for a in qty.args), qty.summary))
+    return tuple(exports)
 
 
 def _section_variable():

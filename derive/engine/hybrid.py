@@ -15,7 +15,8 @@
   linear equation ``du/dtheta = 2 A + 2 B u`` (``theta'' = A + B theta'^2``), solved with
   its integrating factor; the resets scale ``u`` by a constant.
 * :func:`hybrid_quantities`: the functions the generic runtime needs (accelerations,
-  guards, resets, energies, ground reactions, failure guards), as
+  guards, resets, energies, ground reactions, failure guards) and those the tests check
+  the physics with (bodies' positions and inertias, impacts' contact points), as
   :class:`~derive.quantities.Quantity` records for the code generator, and the
   ``HYBRID`` descriptor of the model.
 """
@@ -365,14 +366,32 @@ def _state_args(model: Model) -> tuple[sm.Symbol, ...]:
     )
 
 
+def _body_table(phase: Phase) -> tuple[tuple[sm.Expr, ...], tuple[sm.Expr, ...]]:
+    """(x, y, angle) and (mass, inertia) of each body, held coordinates at their values."""
+    held = dict(phase.held)
+    positions: list[sm.Expr] = []
+    inertias: list[sm.Expr] = []
+    for body, (x, y) in zip(phase.bodies, _positions(phase)):
+        point = isinstance(body, PointMass)
+        angle = sm.Integer(0) if point else sm.sympify(body.angle).xreplace(held)
+        positions += [x, y, angle]
+        inertias += [sm.sympify(body.mass), sm.Integer(0) if point else sm.sympify(body.inertia)]
+    return tuple(positions), tuple(inertias)
+
+
 def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
     """The generic runtime's functions and the ``HYBRID`` descriptor of a model.
 
     Every function takes ``(*parameters, *coordinates, *rates)``:
     ``<phase>_accelerations``, ``<phase>_energy``, ``<phase>_normal_force``,
-    ``<phase>_<failure>`` (failure guards), ``event_<event>_guard``, ``event_<event>_when``,
-    ``event_<event>_reset`` (coordinates then rates after), and ``step_length_of_state`` when the
-    model defines it.
+    ``<phase>_<failure>`` (failure guards), ``<phase>_positions`` (x, y and angle of each
+    body, held coordinates at their values; angle 0 for a point mass),
+    ``<phase>_inertias`` (mass and central inertia of each body), ``event_<event>_guard``,
+    ``event_<event>_when``, ``event_<event>_reset`` (coordinates then rates after),
+    ``event_<event>_contact`` (an impact's new contact point in the source phase's chart),
+    and ``step_length_of_state`` when the model defines it. The descriptor says per phase
+    whether it is ``conservative`` (no held coordinate moves, so no actuator does work and
+    T + V is constant) and per event whether its ``reset`` is an ``impact`` or a ``jump``.
     """
     args = _state_args(model)
     quantities: list[Quantity] = []
@@ -404,7 +423,23 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
                 f"crosses zero (direction {failure.direction:+d}) when the walk ends",
             ))  # fmt: skip
             failures.append((failure.name, name, failure.direction))
-        phases.append({"name": phase.name, "failures": tuple(failures)})
+        positions, inertias = _body_table(phase)
+        quantities.append(Quantity(
+            f"{phase.name}_positions", args, positions,
+            f"Position (x, y) and angle of each body in phase {phase.name}'s chart.", None,
+            "tuple: x, y, angle of each body in order (angle 0 for a point mass)",
+        ))  # fmt: skip
+        quantities.append(Quantity(
+            f"{phase.name}_inertias", args, inertias,
+            f"Mass and central moment of inertia of each body in phase {phase.name}.", None,
+            "tuple: mass, inertia of each body in order (inertia 0 for a point mass)",
+        ))  # fmt: skip
+        free = {c.q for c in phase.coordinates}
+        # A held coordinate that follows the free ones moves, and its actuator does work.
+        conservative = not any(sm.sympify(v).free_symbols & free for v in phase.held.values())
+        phases.append({
+            "name": phase.name, "failures": tuple(failures), "conservative": conservative,
+        })  # fmt: skip
     events = []
     for event in model.events:
         # Guards are stated in the source phase's chart: its held coordinates at their values.
@@ -419,6 +454,15 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
             f"State just after the event {event.name} (from the state just before).",
             event.equation, "tuple: coordinates, then rates",
         ))  # fmt: skip
+        if isinstance(event.reset, Impact):
+            source = model.phase(event.source)
+            contact = source.points[event.reset.new_contact]
+            quantities.append(Quantity(
+                f"event_{event.name}_contact", args,
+                tuple(sm.sympify(c).xreplace(dict(source.held)) for c in contact),
+                f"The new contact point of the impact {event.name} (x, y in phase "
+                f"{event.source}'s chart).", None, "tuple: x, y",
+            ))  # fmt: skip
         when = None
         if event.when is not None:
             when = f"event_{event.name}_when"
@@ -429,6 +473,7 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
         events.append({
             "name": event.name, "source": event.source, "target": event.target,
             "direction": event.direction, "ends_step": event.ends_step, "when": when,
+            "reset": "impact" if isinstance(event.reset, Impact) else "jump",
         })  # fmt: skip
     if model.step_length is not None:
         step_event = next(e for e in model.events if e.ends_step)

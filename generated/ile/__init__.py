@@ -26,7 +26,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'ile', 'title': 'Instantaneous leg extension model of Virtual Slope Walking', 'parameters': ('beta', 'theta_II', 'phi0'), 'coordinates': ('theta',), 'rates': ('omega',), 'phases': ({'name': 'phase_I_II', 'failures': (('fell-backward', 'phase_I_II_fell_backward', -1), ('lift-off', 'phase_I_II_lift_off', -1))}, {'name': 'phase_III_IV', 'failures': (('fell-backward', 'phase_III_IV_fell_backward', -1), ('lift-off', 'phase_III_IV_lift_off', -1))}), 'events': ({'name': 'extension', 'source': 'phase_I_II', 'target': 'phase_III_IV', 'direction': 1, 'ends_step': False, 'when': None}, {'name': 'heelstrike', 'source': 'phase_III_IV', 'target': 'phase_I_II', 'direction': -1, 'ends_step': True, 'when': None}), 'units': {'time': 'sqrt(r_e/g)', 'length': 'r_e', 'mass': 'm', 'energy': 'm g r_e'}, 'step_length': True, 'start': {'theta': 0.0}, 'rate_range': (0.2, 1.5), 'closed_form': True}
+HYBRID = {'name': 'ile', 'title': 'Instantaneous leg extension model of Virtual Slope Walking', 'parameters': ('beta', 'theta_II', 'phi0'), 'coordinates': ('theta',), 'rates': ('omega',), 'phases': ({'name': 'phase_I_II', 'failures': (('fell-backward', 'phase_I_II_fell_backward', -1), ('lift-off', 'phase_I_II_lift_off', -1)), 'conservative': True}, {'name': 'phase_III_IV', 'failures': (('fell-backward', 'phase_III_IV_fell_backward', -1), ('lift-off', 'phase_III_IV_lift_off', -1)), 'conservative': True}), 'events': ({'name': 'extension', 'source': 'phase_I_II', 'target': 'phase_III_IV', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'jump'}, {'name': 'heelstrike', 'source': 'phase_III_IV', 'target': 'phase_I_II', 'direction': -1, 'ends_step': True, 'when': None, 'reset': 'impact'}), 'units': {'time': 'sqrt(r_e/g)', 'length': 'r_e', 'mass': 'm', 'energy': 'm g r_e'}, 'step_length': True, 'start': {'theta': 0.0}, 'rate_range': (0.2, 1.5), 'closed_form': True}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards, events with their guards and resets, units."""
 
 
@@ -936,6 +936,51 @@ def phase_I_II_lift_off(beta, theta_II, phi0, theta, omega):
     return cos_theta**2 - cos_theta*beta*omega**2
 
 
+def phase_I_II_positions(beta, theta_II, phi0, theta, omega):
+    """Position (x, y) and angle of each body in phase phase_I_II's chart. Beyond the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    omega : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y, angle of each body in order (angle 0 for a point mass)
+    """
+    be = backend_for(beta, theta_II, phi0, theta, omega)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    return (sin_theta*beta, cos_theta*beta, 0,)
+
+
+def phase_I_II_inertias(beta, theta_II, phi0, theta, omega):
+    """Mass and central moment of inertia of each body in phase phase_I_II. Beyond the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    omega : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: mass, inertia of each body in order (inertia 0 for a point mass)
+    """
+    be = backend_for(beta, theta_II, phi0, theta, omega)
+    return (1, 0,)
+
+
 def phase_III_IV_accelerations(beta, theta_II, phi0, theta, omega):
     """Second derivatives of the free coordinates in phase phase_III_IV. Beyond the paper.
 
@@ -1050,6 +1095,51 @@ def phase_III_IV_lift_off(beta, theta_II, phi0, theta, omega):
     return cos_theta**2 - cos_theta*omega**2
 
 
+def phase_III_IV_positions(beta, theta_II, phi0, theta, omega):
+    """Position (x, y) and angle of each body in phase phase_III_IV's chart. Beyond the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    omega : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y, angle of each body in order (angle 0 for a point mass)
+    """
+    be = backend_for(beta, theta_II, phi0, theta, omega)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    return (sin_theta, cos_theta, 0,)
+
+
+def phase_III_IV_inertias(beta, theta_II, phi0, theta, omega):
+    """Mass and central moment of inertia of each body in phase phase_III_IV. Beyond the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    omega : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: mass, inertia of each body in order (inertia 0 for a point mass)
+    """
+    be = backend_for(beta, theta_II, phi0, theta, omega)
+    return (1, 0,)
+
+
 def event_extension_guard(beta, theta_II, phi0, theta, omega):
     """Guard of the event extension: crosses zero when it happens. Beyond the paper.
 
@@ -1140,6 +1230,30 @@ def event_heelstrike_reset(beta, theta_II, phi0, theta, omega):
     cos_theta, sin_theta = be.cos_sin(theta)
     cos_t1, sin_t1 = be.cos_sin(phi0 - theta)
     return (theta - phi0, (cos_t1*cos_theta*omega - omega*sin_t1*sin_theta)/beta,)
+
+
+def event_heelstrike_contact(beta, theta_II, phi0, theta, omega):
+    """The new contact point of the impact heelstrike (x, y in phase phase_III_IV's chart). Beyond the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    omega : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y
+    """
+    be = backend_for(beta, theta_II, phi0, theta, omega)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    cos_t1, sin_t1 = be.cos_sin(phi0 - theta)
+    return (sin_theta + sin_t1*beta, cos_theta - cos_t1*beta,)
 
 
 def step_length_of_state(beta, theta_II, phi0, theta, omega):

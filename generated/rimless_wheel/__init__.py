@@ -17,8 +17,8 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'rimless_wheel', 'title': 'Rimless wheel', 'parameters': ('alpha', 'gamma', 'l', 'g'), 'coordinates': ('theta',), 'rates': ('omega',), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('lift-off', 'stance_lift_off', -1))},), 'events': ({'name': 'collision', 'source': 'stance', 'target': 'stance', 'direction': -1, 'ends_step': True, 'when': None},), 'units': {'time': 's', 'length': 'm', 'mass': 'kg (energies per unit mass)', 'energy': 'J/kg'}, 'step_length': True, 'start': {'theta': 0.0}, 'rate_range': (0.2, 6.0), 'closed_form': True}
-"""The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards, events with their guards and resets, units."""
+HYBRID = {'name': 'rimless_wheel', 'title': 'Rimless wheel', 'parameters': ('alpha', 'gamma', 'l', 'g'), 'coordinates': ('theta',), 'rates': ('omega',), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': True},), 'events': ({'name': 'collision', 'source': 'stance', 'target': 'stance', 'direction': -1, 'ends_step': True, 'when': None, 'reset': 'impact'},), 'units': {'time': 's', 'length': 'm', 'mass': 'kg (energies per unit mass)', 'energy': 'J/kg'}, 'step_length': True, 'start': {'theta': 0.0}, 'rate_range': (0.2, 6.0), 'closed_form': True}
+"""The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact or jump), units."""
 
 
 def _carlson_rf(x, y, z, be):
@@ -150,6 +150,53 @@ def stance_lift_off(alpha, gamma, l, g, theta, omega):
     return cos_gamma*g*cos_theta**2 - cos_theta*l*omega**2 - cos_theta*sin_gamma*sin_theta*g
 
 
+def stance_positions(alpha, gamma, l, g, theta, omega):
+    """Position (x, y) and angle of each body in phase stance's chart.
+
+    Parameters
+    ----------
+    alpha : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    l : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    omega : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y, angle of each body in order (angle 0 for a point mass)
+    """
+    be = backend_for(alpha, gamma, l, g, theta, omega)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    return (sin_theta*l, cos_theta*l, 0,)
+
+
+def stance_inertias(alpha, gamma, l, g, theta, omega):
+    """Mass and central moment of inertia of each body in phase stance.
+
+    Parameters
+    ----------
+    alpha : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    l : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    omega : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: mass, inertia of each body in order (inertia 0 for a point mass)
+    """
+    be = backend_for(alpha, gamma, l, g, theta, omega)
+    return (1, 0,)
+
+
 def event_collision_guard(alpha, gamma, l, g, theta, omega):
     """Guard of the event collision: crosses zero when it happens.
 
@@ -198,6 +245,31 @@ def event_collision_reset(alpha, gamma, l, g, theta, omega):
     cos_theta, sin_theta = be.cos_sin(theta)
     cos_t1, sin_t1 = be.cos_sin(-theta + 2*alpha)
     return (theta - 2*alpha, cos_t1*cos_theta*omega - omega*sin_t1*sin_theta,)
+
+
+def event_collision_contact(alpha, gamma, l, g, theta, omega):
+    """The new contact point of the impact collision (x, y in phase stance's chart).
+
+    Parameters
+    ----------
+    alpha : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    l : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    omega : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y
+    """
+    be = backend_for(alpha, gamma, l, g, theta, omega)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    cos_t1, sin_t1 = be.cos_sin(-theta + 2*alpha)
+    return (sin_t1*l + sin_theta*l, cos_theta*l - cos_t1*l,)
 
 
 def step_length_of_state(alpha, gamma, l, g, theta, omega):

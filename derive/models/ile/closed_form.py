@@ -17,6 +17,7 @@ import sympy as sm
 
 from derive import mechanics
 from derive.elliptic import pendulum_travel_time
+from derive.engine import c_exports
 from derive.engine.hybrid import (
     hybrid_quantities,
     impact_reset,
@@ -1067,6 +1068,9 @@ def derive() -> Derivation:
         ),
         CExport("condition_margins", ("beta", "theta_II", "phi0"), "existence condition margins"),
     )
+    # And what a controller or another simulator needs to step the model: the engine's
+    # phase accelerations and resets.
+    d.c_exports += c_exports(MODEL, engine_quantities)
     d.batch = ("fixed_point_conditions",)
     d.facts.update({f"phase.{k}": v for k, v in phase.items()})
     d.facts.update({f"heelstrike.{k}": v for k, v in hs.items() if isinstance(v, sm.Basic)})
