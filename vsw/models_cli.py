@@ -844,12 +844,11 @@ def _sweep_ile(args: argparse.Namespace) -> int:
     name, values = parse_over(ILE, args.over)
     names = [p.name for p in parameter_table(ILE)]
     fixed = ile_values(args, [n for n in names if n != name])
-    _check_cost(
-        f"a sweep of {len(values)} points",
+    cost = limits.Cost(
         len(values) * limits.ILE_SWEEP_SECONDS_PER_POINT,
         limits.SIMULATE_BYTES_BASE + len(values) * limits.ILE_SWEEP_BYTES_PER_POINT,
-        "use fewer points (N of --over)",
     )
+    limits.check(f"a sweep of {len(values)} points", cost, "use fewer points (N of --over)")
     axes = {**fixed, name: values}
     with _progress("sweep") as bar:
         result = sweep(list(FIELDS), *(axes[n] for n in names), progress=bar)
