@@ -1,10 +1,10 @@
 """Limits on the run time and memory of one call, checked before any work starts.
 
-Long computations (``simulate``, ``basin``, the edge checks of a basin, ``sweep``; the
-engine's models' too, see :mod:`vsw.models_cli`) estimate their
-run time and peak memory from the work they will do and the arrays they will allocate,
-and refuse with :class:`vsw.errors.VswInputError` (the CLI: exit 2 and one line) what
-exceeds either limit. The limits, and how to raise them:
+Long computations (``simulate``, ``basin``, the edge checks of a basin, ``sweep``; for the
+engine's models too, see :mod:`vsw.models_cli`) estimate their run time and peak memory
+from the work they will do and the arrays they will allocate, and refuse with
+:class:`vsw.errors.VswInputError` (the CLI: exit 2 and one line) what exceeds either
+limit. The limits, and how to raise them:
 
 ``VSW_MAX_SECONDS``
     Estimated run time in seconds; default 3600. The estimates come from the per-unit
