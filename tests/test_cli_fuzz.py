@@ -278,3 +278,92 @@ def test_any_tokens():
         _check(argv, FAST)
 
     run()
+
+
+# --- models: vsw models, --model, --param, --state, sweep ---------------------------------------
+
+
+def assignment(names: list[str], value: st.SearchStrategy[str]) -> st.SearchStrategy[str]:
+    """``NAME=VALUE`` items: mostly a known name with a drawn value, sometimes anything."""
+    plausible = st.tuples(st.sampled_from(names), value).map("=".join)
+    wild = st.one_of(
+        st.tuples(st.sampled_from(["x", "", "beta", "theta_II", "Alpha", " "]), value).map(
+            "=".join
+        ),
+        GARBAGE,
+    )
+    return _weighted(plausible, wild)
+
+
+# Plausible values where the rimless wheel rolls (a gait scan without a gait takes longer).
+RIMLESS_PARAM = st.one_of(
+    assignment(["alpha"], number(0.3, 0.4)),
+    assignment(["gamma"], number(0.08, 0.2)),
+    assignment(["l"], number(0.5, 2.0)),
+    assignment(["g"], number(5.0, 15.0)),
+)
+MODEL = st.sampled_from(["rimless-wheel"] * 8 + ["rimless_wheel", "ile", "walker", ""])
+
+
+def test_models_any_arguments():
+    @budget(10)
+    @given(st.lists(st.sampled_from(["models", "--json", "--help", "-x", "ile", "--model"])))
+    def run(argv):
+        _check(["models", *argv], FAST)
+
+    run()
+
+
+_COMMON = {"--model": MODEL, "--param": RIMLESS_PARAM}
+MODEL_COMMANDS = {
+    "analyze": ({**_COMMON, "--beta": GAIT["--beta"]}, ("--json", "--stepper-2d"), ()),
+    "simulate": (
+        {
+            **_COMMON,
+            "--steps": integer(1, 4),
+            "--state": assignment(["theta", "omega"], number(-0.5, 2.0)),
+            "--q0": number(0.1, 0.9),
+        },
+        ("--json",),
+        ("--steps",),
+    ),
+    "basin": (
+        {
+            **_COMMON,
+            "--rate-min": number(-0.5, 1.0),
+            "--rate-max": number(1.5, 4.0),
+            "--n-rates": integer(2, 5),
+            "--max-steps": integer(1, 30),
+            "--tol": number(1e-9, 1e-3),
+            "--n-q": integer(3, 10),
+        },
+        ("--json",),
+        ("--n-rates", "--max-steps"),
+    ),
+    "sweep": (
+        {
+            **_COMMON,
+            "--over": st.one_of(
+                st.tuples(number(0.08, 0.12), number(0.1, 0.2), integer(1, 3)).map(
+                    lambda t: "gamma=" + ":".join(t)
+                ),
+                assignment(["alpha", "theta_II"], st.sampled_from(["0.3:0.4:2", "1:2", ""])),
+            ),
+        },
+        ("--json",),
+        ("--over",),
+    ),
+}
+
+
+@pytest.mark.parametrize("command", sorted(MODEL_COMMANDS))
+def test_model_commands_any_arguments(command):
+    options, flags, required = MODEL_COMMANDS[command]
+
+    # Each gait scan takes 1-3 s: few examples, and a limit that lets small work run.
+    @budget(5)
+    @given(command_line(command, options, flags, required=("--model", *required)))
+    def run(argv):
+        _check(argv, {**FAST, "VSW_MAX_SECONDS": "20"})
+
+    run()

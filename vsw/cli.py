@@ -1,9 +1,12 @@
 """The ``vsw`` command line (also ``python -m vsw``).
 
-Subcommands: ``analyze``, ``simulate``, ``basin``, plus any module that registers itself
-(``design``; see :func:`build_parser`). Angles on the command line are in degrees; JSON
-output uses radians and the dimensionless units of the analysis, with SI values (given a
-robot scale) under keys of their own (``speed_m_s``, ``energy_added_J``, ...).
+Subcommands: ``models``, ``analyze``, ``simulate``, ``basin``, ``sweep``, plus any module
+that registers itself (``design``; see :func:`build_parser`). The ILE's named options take
+angles in degrees; JSON output uses radians and the dimensionless units of the analysis,
+with SI values (given a robot scale) under keys of their own (``speed_m_s``,
+``energy_added_J``, ...). ``--model NAME`` selects another model and ``--param NAME=VALUE``
+sets its parameters in the units of ``vsw models`` (angles in radians); see
+:mod:`vsw.models_cli`.
 
 Exit status (:data:`EXIT_STATUS`, also in ``vsw --help``):
 
@@ -119,6 +122,16 @@ class ArgumentParser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:
         raise UsageError(self.prog, f"{message} (see '{self.prog} --help')")
 
+    def parse_known_args(self, args: Any = None, namespace: Any = None) -> Any:
+        # A subcommand may set ``after_parse(parser, namespace)``: checks that need several
+        # options (the model and its parameters), made where argparse makes its own, so
+        # that their errors come in the same order (before an unrecognized argument).
+        namespace, extras = super().parse_known_args(args, namespace)
+        check = getattr(self, "after_parse", None)
+        if check is not None:
+            check(self, namespace)
+        return namespace, extras
+
     def _get_values(self, action: argparse.Action, arg_strings: list[str]) -> Any:
         # Python 3.11's argparse drops a "--" value, so "--beta=--" gives beta = [] (not
         # a float, past the type check): refuse it as the missing value it has become.
@@ -226,16 +239,26 @@ def _check_plot_path(path: str | None) -> None:
 def _gait_parameters(args: argparse.Namespace):
     from vsw.params import GaitParameters
 
-    return GaitParameters.from_degrees(args.beta, args.theta_ii, args.phi0)
+    if not args.params:
+        return GaitParameters.from_degrees(args.beta, args.theta_ii, args.phi0)
+    from vsw.models_cli import ile_values
+
+    values = ile_values(args, ("beta", "theta_II", "phi0"))
+    return GaitParameters(values["beta"], values["theta_II"], values["phi0"])
 
 
-def _add_gait_arguments(parser: argparse.ArgumentParser, theta_ii: bool = True) -> None:
-    parser.add_argument("--beta", type=float, required=True, help="length shorten ratio, 0..1")
+def _add_gait_arguments(
+    parser: argparse.ArgumentParser, command: str, theta_ii: bool = True
+) -> None:
+    """The ILE's named parameters (each required for the ILE unless given by --param, a
+    check of :func:`vsw.models_cli.after_parse`), ``--model``, ``--param`` and ``--json``."""
+    from vsw.models_cli import add_model_options
+
+    parser.add_argument("--beta", type=float, help="length shorten ratio, 0..1")
     if theta_ii:
-        parser.add_argument(
-            "--theta-ii", type=float, required=True, help="leg extension angle theta_II [deg]"
-        )
-    parser.add_argument("--phi0", type=float, required=True, help="inter-leg angle [deg]")
+        parser.add_argument("--theta-ii", type=float, help="leg extension angle theta_II [deg]")
+    parser.add_argument("--phi0", type=float, help="inter-leg angle [deg]")
+    add_model_options(parser, command)
     parser.add_argument("--json", action="store_true", help="print one JSON object")
 
 
@@ -263,7 +286,10 @@ def _scale_from_args(args: argparse.Namespace):
 
 def _cmd_analyze(args: argparse.Namespace) -> int:
     from vsw.analysis import analyze
+    from vsw.models_cli import ILE, cmd_analyze
 
+    if args.model != ILE:
+        return cmd_analyze(args)
     params = _gait_parameters(args)
     scale = _scale_from_args(args)
     result = analyze(*params.astuple(), scale)
@@ -323,8 +349,11 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
+    from vsw.models_cli import ILE, cmd_simulate
     from vsw.params import check_positive
 
+    if args.model != ILE:
+        return cmd_simulate(args)
     params = _gait_parameters(args)
     q0 = float(check_positive("q0", args.q0, "q = omega_I**2 just after heelstrike, eq. (8)"))
     if args.steps < 1:
@@ -421,10 +450,14 @@ def _cmd_basin(args: argparse.Namespace) -> int:
 
     from vsw import limits
     from vsw.basin import basin, basin_cost, check_edges_by_simulation, edge_check_cost
+    from vsw.models_cli import ILE, cmd_basin, ile_values
     from vsw.params import check_parameter
 
-    beta = float(check_parameter("beta", args.beta))
-    phi0 = float(check_parameter("phi0", math.radians(args.phi0)))
+    if args.model != ILE:
+        return cmd_basin(args)
+    values = ile_values(args, ("beta", "phi0"))
+    beta = float(check_parameter("beta", values["beta"]))
+    phi0 = float(check_parameter("phi0", values["phi0"]))
     theta_II = _theta_grid(args)
     if args.n_q < 3:
         raise VswInputError(f"--n-q = {args.n_q} must be >= 3")
@@ -477,7 +510,8 @@ def _cmd_basin(args: argparse.Namespace) -> int:
         _dump_json(data, sys.stdout)
     else:
         out = sys.stdout
-        out.write(f"basin of attraction, beta={args.beta:g}, phi0={args.phi0:g} deg\n")
+        phi0_deg = math.degrees(phi0) if args.phi0 is None else args.phi0
+        out.write(f"basin of attraction, beta={beta:g}, phi0={phi0_deg:g} deg\n")
         out.write(
             f"q_min < q0 <= q_max (q = omega_I^2 in g/r_e); each q0 walked {result.n_steps} "
             "stride-map steps, until eigenvalue^n (1.5/beta) < 1e-12\n"
@@ -511,22 +545,32 @@ def _epilog() -> str:
 
 def build_parser() -> ArgumentParser:
     """The ``vsw`` parser with built-in and registered subcommands."""
+    from vsw import models_cli
     from vsw.limits import SIMULATE_SECONDS_PER_STEP
+    from vsw.models_cli import StoreGiven
 
     parser = ArgumentParser(
         prog="vsw",
         description="Virtual Slope Walking (instantaneous leg extension model):\n"
-        "analysis, simulation, basin of attraction and gait design.",
+        "analysis, simulation, basin of attraction and gait design;\n"
+        "other walking models with --model NAME (see 'vsw models').",
         epilog=_epilog(),
         formatter_class=_TopHelpFormatter,
     )
     parser.add_argument("--version", action=_VersionAction)
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
-    help_ = "fixed point, conditions and gait metrics"
+    help_ = "the models, their units and parameters"
+    p = subparsers.add_parser("models", help=help_, description=help_ + ".")
+    p.add_argument("--json", action="store_true", help="print one JSON list")
+    p.set_defaults(func=models_cli.cmd_models)
+
+    help_ = "fixed point, conditions and gait metrics (other models: period-one gaits)"
     p = subparsers.add_parser("analyze", help=help_, description=help_ + ".")
-    _add_gait_arguments(p)
-    scale = p.add_argument_group("SI results (added under keys of their own: speed_m_s, ...)")
+    _add_gait_arguments(p, "analyze")
+    scale = p.add_argument_group(
+        "SI results of the ile model (added under keys of their own: speed_m_s, ...)"
+    )
     scale.add_argument("--leg-length", type=float, help="extended leg length r_e [m]")
     scale.add_argument("--mass", type=float, help="mass [kg]")
     scale.add_argument("--gravity", type=float, help="g [m/s^2] (default 9.81)")
@@ -537,40 +581,93 @@ def build_parser() -> ArgumentParser:
 
     help_ = "time-domain simulation of the hybrid system"
     p = subparsers.add_parser("simulate", help=help_, description=help_ + ".")
-    _add_gait_arguments(p)
-    p.add_argument("--q0", type=float, required=True, help="q = omega_I^2 at the first step")
+    _add_gait_arguments(p, "simulate")
+    p.add_argument("--q0", type=float, help="ile: q = omega_I^2 at the first step")
     p.add_argument(
         "--steps",
         type=int,
-        required=True,
-        help=f"number of steps (about {SIMULATE_SECONDS_PER_STEP * 1e3:g} ms each; "
+        help=f"number of steps (ile: about {SIMULATE_SECONDS_PER_STEP * 1e3:g} ms each; "
         "limited by VSW_MAX_SECONDS and VSW_MAX_MEMORY)",
     )
-    p.add_argument("--plot", metavar="FILE", help="save theta, omega and q plots (.png/.svg/.pdf)")
+    p.add_argument(
+        "--plot", metavar="FILE", help="ile: save theta, omega and q plots (.png/.svg/.pdf)"
+    )
+    p.add_argument(
+        "--state",
+        action="append",
+        metavar="NAME=VALUE",
+        help="other models: the start just after the step event, every coordinate and rate "
+        "(default: the first period-one gait); repeatable",
+    )
     p.set_defaults(func=_cmd_simulate)
 
-    help_ = "basin of attraction over theta_II (Fig. 9)"
+    help_ = "basin of attraction over theta_II (Fig. 9); other models: over the section rate"
     p = subparsers.add_parser("basin", help=help_, description=help_ + ".")
-    _add_gait_arguments(p, theta_ii=False)
-    p.add_argument("--theta-min", type=float, default=-30.0, help="first theta_II [deg]")
-    p.add_argument("--theta-max", type=float, default=40.0, help="last theta_II [deg]")
-    p.add_argument("--theta-step", type=float, default=0.5, help="theta_II step [deg]")
-    p.add_argument(
+    _add_gait_arguments(p, "basin", theta_ii=False)
+    ile = p.add_argument_group("the ile model")
+    ile.add_argument(
+        "--theta-min", type=float, default=-30.0, action=StoreGiven, help="first theta_II [deg]"
+    )
+    ile.add_argument(
+        "--theta-max", type=float, default=40.0, action=StoreGiven, help="last theta_II [deg]"
+    )
+    ile.add_argument(
+        "--theta-step", type=float, default=0.5, action=StoreGiven, help="theta_II step [deg]"
+    )
+    ile.add_argument(
         "--n-q",
         type=int,
         default=2001,
+        action=StoreGiven,
         help="initial q grid points in (0, 1.5/beta] (grid size limited by VSW_MAX_MEMORY "
         "and VSW_MAX_SECONDS)",
     )
-    p.add_argument(
+    ile.add_argument(
         "--check-edges",
         type=int,
         default=0,
+        action=StoreGiven,
         metavar="N",
         help="check N sampled theta_II edges by simulation",
     )
-    p.add_argument("--plot", metavar="FILE", help="save the basin figure (.png/.svg/.pdf)")
+    ile.add_argument("--plot", metavar="FILE", help="save the basin figure (.png/.svg/.pdf)")
+    other = p.add_argument_group("other models (one coordinate)")
+    other.add_argument(
+        "--rate-min", type=float, help="first section rate (default: the model's rate range)"
+    )
+    other.add_argument(
+        "--rate-max", type=float, help="last section rate (default: the model's rate range)"
+    )
+    other.add_argument(
+        "--n-rates", type=int, default=30, action=StoreGiven, help="section rates in the grid"
+    )
+    other.add_argument(
+        "--max-steps",
+        type=int,
+        default=100,
+        action=StoreGiven,
+        help="steps walked from each rate before it counts as 'other'",
+    )
+    other.add_argument(
+        "--tol",
+        type=float,
+        default=1e-6,
+        action=StoreGiven,
+        help="converged: every state component within tol * max(1, |gait state|)",
+    )
     p.set_defaults(func=_cmd_basin)
+
+    help_ = "outputs along one parameter (other models: the gait by continuation)"
+    p = subparsers.add_parser("sweep", help=help_, description=help_ + ".")
+    p.add_argument(
+        "--over",
+        required=True,
+        metavar="NAME=START:STOP:N",
+        help="the parameter swept: N values from START to STOP in the units of 'vsw models' "
+        "(angles in rad)",
+    )
+    _add_gait_arguments(p, "sweep")
+    p.set_defaults(func=models_cli.cmd_sweep)
 
     _register_optional_commands(subparsers)
     return parser

@@ -1,9 +1,10 @@
 """Limits on the run time and memory of one call, checked before any work starts.
 
-Long computations (``simulate``, ``basin``, the edge checks of a basin) estimate their
-run time and peak memory from the work they will do and the arrays they will allocate,
-and refuse with :class:`vsw.errors.VswInputError` (the CLI: exit 2 and one line) what
-exceeds either limit. The limits, and how to raise them:
+Long computations (``simulate``, ``basin``, the edge checks of a basin, ``sweep``; for the
+engine's models too, see :mod:`vsw.models_cli`) estimate their run time and peak memory
+from the work they will do and the arrays they will allocate, and refuse with
+:class:`vsw.errors.VswInputError` (the CLI: exit 2 and one line) what exceeds either
+limit. The limits, and how to raise them:
 
 ``VSW_MAX_SECONDS``
     Estimated run time in seconds; default 3600. The estimates come from the per-unit
@@ -65,6 +66,26 @@ SIMULATE_BYTES_PER_STEP = 1_500
 SIMULATE_BYTES_PER_RECORDED_STEP = 12_000
 #: a run of any length (the integrator's working arrays): 0.1-0.15 MB measured
 SIMULATE_BYTES_BASE = 256 * 1024
+
+# The engine's models through vsw.hybrid (vsw.models_cli), measured by hand on the rimless
+# wheel (one coordinate, one phase a step; 2026-11, same machine, load 2-4) and scaled by
+# phases x coordinates for other models:
+#: one phase of a step of the Poincare map (DOP853 at rtol 1e-12, event location): 4-10 ms
+HYBRID_SECONDS_PER_PHASE = 8e-3
+#: the scan for period-one gaits (12 starts, a few steps each, orbit solves), the CasADi
+#: set-up of a model's first solve included: 1.0-3.4 s; 13.6 s where there is no gait
+#: (each start that does not fall is handed to the orbit solver, which fails slowly)
+HYBRID_SECONDS_SCAN = 4.0
+#: one periodic-orbit solve from a nearby orbit, its eigenvalues included: 0.05-0.1 s
+HYBRID_SECONDS_PER_ORBIT = 0.1
+#: one step (a basin rate, a sweep point) in the command's lists and JSON, tracemalloc
+#: peak over 100 and 400 simulated steps: 1.6-2.6 kB
+HYBRID_BYTES_PER_STEP = 2_500
+# vsw sweep of the ILE (vsw.sweep over one parameter, every analysis field, JSON text):
+#: per point, 1000 and 10^5 points: 76-91 us
+ILE_SWEEP_SECONDS_PER_POINT = 1e-4
+#: per point, tracemalloc peak at 1000 and 10^5 points: 4.0-4.1 kB
+ILE_SWEEP_BYTES_PER_POINT = 5_000
 
 _SUFFIXES = {"": 1, "K": 1024, "M": 1024**2, "G": 1024**3, "T": 1024**4}
 
