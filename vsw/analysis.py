@@ -70,9 +70,10 @@ MARGIN_UNITS = {
     "stance_contact": "m g",
 }
 """Unit of each condition margin of ``ile.CONDITIONS`` ("" for dimensionless ratios), from
-the margins' definitions in ``derive/models/ile/closed_form.py``: q - bound in g/r_e, angle differences
-in rad, beta - cos(phi0) and the cosine ratio of (13) without unit, the normal force in m g.
-Every condition needs an entry (the test suite checks them against independent values)."""
+the margins' definitions in ``derive/models/ile/closed_form.py``: q - bound in g/r_e, angle
+differences in rad, beta - cos(phi0) and the cosine ratio of (13) without unit, the normal
+force in m g. Every condition needs an entry (the test suite checks them against independent
+values)."""
 
 _COMPILED_MIN_SIZE = 100_000
 

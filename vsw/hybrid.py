@@ -24,8 +24,10 @@ the sign that must be positive for the event to count. :class:`HybridModel` driv
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import importlib
+import io
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -56,13 +58,17 @@ def available_models() -> tuple[str, ...]:
     return tuple(generated.MODELS)
 
 
-@functools.cache
 def load(name: str) -> HybridModel:
-    """The generated model ``name`` (``-`` and ``_`` alike)."""
+    """The generated model ``name`` (``-`` and ``_`` alike), one object per model."""
     key = name.replace("-", "_")
     if key not in available_models():
         names = ", ".join(m.replace("_", "-") for m in available_models())
         raise VswInputError(f"model {name!r} is not one of {names}")
+    return _load(key)
+
+
+@functools.cache
+def _load(key: str) -> HybridModel:
     return HybridModel(importlib.import_module(f"generated.{key}"))
 
 
@@ -199,10 +205,23 @@ class HybridModel:
 
     # --- simulation --------------------------------------------------------------------
 
+    def failure_at(self, phase: str, params: Sequence[float], state: np.ndarray) -> str | None:
+        """The failure a phase starting at ``state`` is already past, if any (a failure
+        with direction -1 (+1) has happened where its guard is negative (positive)): a
+        guard that starts beyond zero never crosses it."""
+        for name, function, direction in self.phases[self.phase_index[phase]]["failures"]:
+            if float(self._fn(function)(*params, *np.asarray(state, float))) * direction > 0:
+                return name
+        return None
+
     def _phase_run(self, phase: str, params, state: np.ndarray, t0: float, dense: bool):
         """Integrate one phase to its first event or failure."""
         from scipy.integrate import solve_ivp
 
+        failed = self.failure_at(phase, params, state)
+        if failed is not None:
+            x = np.array(state, dtype=float)
+            return "failure", failed, t0, x, [t0], [x.copy()]
         n = self.n
         rhs_fn = self._fn(f"{phase}_accelerations")
 
@@ -376,9 +395,19 @@ class HybridModel:
         n = 2 * self.n
         guess = np.concatenate([np.asarray(state, float), np.asarray(durations, float)])
         p = np.asarray(params, float)
-        options = {"abstol": 1e-13, "max_iter": 60, "error_on_fail": False}
+        if not np.all(np.isfinite(guess)):
+            raise ConvergenceError(f"{self.name}: the periodic-orbit guess is not finite")
+        options = {"abstol": 1e-13, "max_iter": 40, "error_on_fail": False}
         solver = ca.rootfinder("orbit_solver", "newton", residual, options)
-        solution = np.array(solver(guess, p), dtype=float).reshape(-1)
+        try:
+            # CasADi reports integrator trouble on Python's stderr; the residual check
+            # below says what matters.
+            with contextlib.redirect_stderr(io.StringIO()):
+                solution = np.array(solver(guess, p), dtype=float).reshape(-1)
+        except RuntimeError as exc:  # CVODES gave up (a guess far from any orbit)
+            raise ConvergenceError(
+                f"{self.name}: the periodic-orbit solver failed ({' '.join(str(exc).split())[:80]})"
+            ) from None
         # CasADi's newton can report success on NaN: the residual is checked here.
         r = np.array(residual(solution, p), dtype=float).reshape(-1)
         size = float(np.max(np.abs(r))) if np.all(np.isfinite(r)) else math.inf
@@ -438,8 +467,10 @@ class HybridModel:
     def eigenvalues(self, params: Sequence[float], state: np.ndarray) -> list[complex]:
         """Eigenvalues of the Poincaré map's Jacobian at a section state."""
         durations = self.step(params, state).durations
-        _, jac = self._poincare_function()(np.asarray(state, float), np.asarray(params, float),
-                                          np.asarray(durations, float))  # fmt: skip
+        with contextlib.redirect_stderr(io.StringIO()):
+            _, jac = self._poincare_function()(
+                np.asarray(state, float), np.asarray(params, float), np.asarray(durations, float)
+            )
         values = np.linalg.eigvals(np.array(jac, dtype=float))
         return sorted((complex(v) for v in values), key=lambda v: (-abs(v), v.real, v.imag))
 

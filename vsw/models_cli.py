@@ -459,19 +459,9 @@ def _units(model) -> dict[str, str]:
 
 
 def failure_at_start(model, params: Sequence[float], state: Sequence[float]) -> str | None:
-    """The failure a step starting at ``state`` is already past, if any.
-
-    :meth:`vsw.hybrid.HybridModel.step` sees a failure only when its guard crosses zero
-    during the step, so a start already beyond one (a negative rate for 'fell-backward',
-    a pulling ground for 'lift-off') would walk on. A failure with direction -1 (+1) has
-    happened where its guard is negative (positive).
-    """
-    phase = model.phases[model.phase_index[model.step_event["target"]]]
-    for name, function, direction in phase["failures"]:
-        value = float(getattr(model.module, function)(*params, *state))
-        if value * direction > 0:
-            return name
-    return None
+    """The failure a step starting at ``state`` is already past, if any
+    (:meth:`vsw.hybrid.HybridModel.failure_at` in the phase that starts a step)."""
+    return model.failure_at(model.step_event["target"], params, [float(v) for v in state])
 
 
 def _pick(orbits: Sequence[Any]) -> Any | None:

@@ -486,6 +486,8 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
     descriptor = {
         "name": model.name,
         "title": model.title,
+        "description": model.description,
+        "coordinate_units": {c.name: c.unit for c in model.coordinates},
         "parameters": tuple(p.name for p in model.parameters),
         "coordinates": tuple(c.name for c in model.coordinates),
         "rates": tuple(c.rate for c in model.coordinates),
