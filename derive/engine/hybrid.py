@@ -30,13 +30,16 @@ from dataclasses import dataclass
 import sympy as sm
 import sympy.physics.mechanics as me
 
-from derive.engine.model import NORMAL_FORCE, Impact, Jump, Model, Phase, PointMass
+from derive.engine.model import NORMAL_FORCE, Continuous, Impact, Jump, Model, Phase, PointMass
 from derive.quantities import Quantity
 
 __all__ = [
     "PhaseDynamics",
+    "check_event_angle",
+    "continuous_reset",
     "hybrid_quantities",
     "impact_reset",
+    "integrate_polynomial_trig",
     "jump_reset",
     "phase_dynamics",
     "stride_closed_form",
@@ -135,14 +138,45 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
     u_free = [c.u for c in phase.coordinates]
     a_free = a_symbols[: len(free)]
     held_values = {}
+    # A held value that varies with the free coordinates (a prescribed profile) stays a
+    # symbol, with symbols for its partial derivatives, until the results are simplified:
+    # expanding a polynomial profile inside the equations of motion takes minutes; the
+    # profile goes in at the end (``placed``), unexpanded.
+    placed: dict[sm.Symbol, sm.Expr] = {}
     for h, value in phase.held.items():
         value = sm.sympify(value)
+        if value.free_symbols & set(free):
+            placed[h] = value
+            first = {}
+            for q in free:
+                first[q] = sm.Symbol(f"{h.name}__d_{q.name}", real=True)
+                placed[first[q]] = value.diff(q)
+            second = {}
+            for i, q1 in enumerate(free):
+                for q2 in free[i:]:
+                    name = f"{h.name}__d_{q1.name}_{q2.name}"
+                    second[q1, q2] = second[q2, q1] = sm.Symbol(name, real=True)
+                    placed[second[q1, q2]] = value.diff(q1, q2)
+            rate = sum((first[q] * u for q, u in zip(free, u_free)), sm.Integer(0))
+            acc = sum(
+                (second[q1, q2] * u1 * u2 for q1, u1 in zip(free, u_free)
+                 for q2, u2 in zip(free, u_free)),
+                sm.Integer(0),
+            )  # fmt: skip
+            acc += sum((first[q] * a for q, a in zip(free, a_free)), sm.Integer(0))
+            held_values[_rate_symbol(h)] = rate
+            held_values[a_symbols[chart.index(h)]] = acc
+            continue
         rate = sum((value.diff(q) * u for q, u in zip(free, u_free)), sm.Integer(0))
         acc = sum((rate.diff(q) * u for q, u in zip(free, u_free)), sm.Integer(0))
         acc += sum((value.diff(q) * a for q, a in zip(free, a_free)), sm.Integer(0))
         held_values[h] = value
         held_values[_rate_symbol(h)] = rate
         held_values[a_symbols[chart.index(h)]] = acc
+
+    def finish(expr: sm.Expr) -> sm.Expr:
+        """Simplified, then with the profiles in place of their symbols."""
+        return _simplify(expr).xreplace(placed)
 
     def at_values(expr: sm.Expr) -> sm.Expr:
         return sm.sympify(expr).xreplace(plain).xreplace(held_values).xreplace(held_values)
@@ -151,9 +185,10 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
     free_rows = residual[: len(free), :]
     system, rhs = sm.linear_eq_to_matrix(list(free_rows), a_free)
     solution = system.LUsolve(rhs)
-    accelerations = tuple(_simplify(e) for e in solution)
-    solved = dict(zip(a_free, accelerations))
-    actuator = {h: _simplify(residual[chart.index(h)].xreplace(solved)) for h in held}
+    in_symbols = tuple(_simplify(e) for e in solution)
+    accelerations = tuple(e.xreplace(placed) for e in in_symbols)
+    solved = dict(zip(a_free, in_symbols))
+    actuator = {h: finish(residual[chart.index(h)].xreplace(solved)) for h in held}
 
     kinetic = sum((b.kinetic_energy(frame) for b in bodies), sm.Integer(0))
     potential = sum((b.potential_energy for b in bodies), sm.Integer(0))
@@ -168,12 +203,12 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
     return PhaseDynamics(
         phase,
         accelerations,
-        _simplify(at_values(kinetic)),
-        _simplify(at_values(potential)),
+        finish(at_values(kinetic)),
+        finish(at_values(potential)),
         momenta,
         actuator,
-        _simplify(force[1]),
-        _simplify(force[0]),
+        finish(force[1]),
+        finish(force[0]),
     )
 
 
@@ -237,7 +272,9 @@ def impact_reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tu
     a = (j_after.T * j_after).applyfunc(_simplify)
     b = (j_after.T * j_before).applyfunc(_simplify)
     u_after = a.LUsolve(b * sm.Matrix(u_before))
-    return tuple(mapping[q] for q in q_after), tuple(_simplify(e) for e in u_after)
+    # Small impact maps simplify to the textbook forms (cos(2 alpha) omega, cos(phi0)/beta
+    # omega): the angle differences collapse only under trigsimp.
+    return tuple(mapping[q] for q in q_after), tuple(_tidy(_simplify(e)) for e in u_after)
 
 
 @functools.cache
@@ -272,11 +309,58 @@ def jump_reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tupl
     return tuple(free), tuple(_simplify(solution[0][u]) for u in u_new)
 
 
+@functools.cache
+def continuous_reset(
+    model: Model, event_name: str
+) -> tuple[tuple[sm.Expr, ...], tuple[sm.Expr, ...]]:
+    """The state just after a :class:`Continuous` event: the state just before, once the
+    held coordinates of both phases are shown to agree in value and rate at ``at``."""
+    event = next(e for e in model.events if e.name == event_name)
+    if not isinstance(event.reset, Continuous):
+        raise TypeError(f"{event.name} is not continuous")
+    before, after = model.phase(event.source), model.phase(event.target)
+    free = [c.q for c in before.coordinates]
+    if free != [c.q for c in after.coordinates]:
+        raise ValueError(f"{event.name}: a continuous transition keeps the free coordinates")
+    if set(before.held) != set(after.held):
+        raise ValueError(f"{event.name}: both phases must hold the same coordinates")
+    if event.at is None or len(free) != 1:
+        raise ValueError(f"{event.name}: a continuous transition needs `at` (one coordinate)")
+    at = {free[0]: sm.sympify(event.at)}
+    gaps = []
+    for h in before.held:
+        v_before, v_after = sm.sympify(before.held[h]), sm.sympify(after.held[h])
+        gaps.append((v_before - v_after).xreplace(at))
+        gaps.append((v_before.diff(free[0]) - v_after.diff(free[0])).xreplace(at))
+    gaps = [g for g in gaps if g != 0]
+    if gaps:
+        symbols = sorted(set().union(*(g.free_symbols for g in gaps)), key=str)
+        _numeric_check(gaps, symbols, f"{event.name}: held values and rates at {event.at}")
+    return tuple(free), tuple(c.u for c in before.coordinates)
+
+
 def reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tuple[sm.Expr, ...]]:
     event = next(e for e in model.events if e.name == event_name)
     if isinstance(event.reset, Impact):
         return impact_reset(model, event_name)
+    if isinstance(event.reset, Continuous):
+        return continuous_reset(model, event_name)
     return jump_reset(model, event_name)
+
+
+def check_event_angle(model: Model, event_name: str) -> None:
+    """The guard of an event with ``at`` vanishes there (``Event.at`` is a stated fact)."""
+    event = next(e for e in model.events if e.name == event_name)
+    if event.at is None or len(model.coordinates) != 1:
+        return
+    held = {h: sm.sympify(v) for h, v in model.phase(event.source).held.items()}
+    guard = sm.sympify(event.guard).xreplace(held)
+    value = guard.xreplace({model.coordinates[0].q: sm.sympify(event.at)})
+    if value.free_symbols & {c.u for c in model.coordinates}:
+        raise ValueError(f"{event.name}: `at` needs a guard of the configuration only")
+    if value != 0:
+        symbols = sorted(value.free_symbols, key=str)
+        _numeric_check([value], symbols, f"{event.name}: the guard at {event.at}")
 
 
 @dataclass(frozen=True)
@@ -290,6 +374,56 @@ class StrideForm:
     @property
     def fixed_point(self) -> sm.Expr:
         return self.offset / (1 - self.slope)
+
+
+_SMALL = 200
+"""Expressions up to this many operations get :func:`sympy.simplify`; larger ones (a
+prescribed polynomial profile integrated against gravity) would take minutes in it."""
+
+
+def _tidy(expr: sm.Expr) -> sm.Expr:
+    return sm.simplify(expr) if sm.count_ops(expr) <= _SMALL else expr
+
+
+def integrate_polynomial_trig(expr: sm.Expr, s: sm.Symbol, low: sm.Expr, high: sm.Expr):
+    """``int_low^high expr ds`` for ``expr = sum_k p_k(s) f_k(a_k s + b_k)`` with polynomials
+    ``p_k``, ``f_k`` in {sin, cos, 1} and ``a_k`` free of ``s``, by repeated integration by
+    parts (``int p sin u = -cos u sum_j (-1)**j p^(2j) / a**(2j+1) + sin u sum_j (-1)**j
+    p^(2j+1) / a**(2j+2)``); None for any other integrand. Seconds faster than
+    :func:`sympy.integrate` on a degree-9 polynomial with symbolic coefficients.
+    """
+    groups: dict[sm.Expr, sm.Expr] = {}
+    for term in sm.Add.make_args(sm.expand(expr)):
+        trig = [f for f in sm.Mul.make_args(term) if isinstance(f, (sm.sin, sm.cos)) and f.has(s)]
+        if len(trig) > 1:
+            return None
+        key = trig[0] if trig else sm.Integer(1)
+        rest = term / key
+        if not rest.is_polynomial(s):
+            return None
+        groups[key] = groups.get(key, sm.Integer(0)) + rest
+    antiderivative = sm.Integer(0)
+    for key, coefficient in sorted(groups.items(), key=lambda kv: sm.default_sort_key(kv[0])):
+        poly = sm.Poly(coefficient, s)
+        if key == 1:
+            antiderivative += poly.integrate().as_expr()
+            continue
+        argument = key.args[0]
+        slope = argument.diff(s)
+        if slope.has(s) or slope == 0:
+            return None
+        derivatives = [poly]
+        while not derivatives[-1].is_zero:
+            derivatives.append(derivatives[-1].diff(s))
+        even = sum((sm.Integer(-1) ** (k // 2) * d.as_expr() / slope ** (k + 1)
+                    for k, d in enumerate(derivatives) if k % 2 == 0), sm.Integer(0))  # fmt: skip
+        odd = sum((sm.Integer(-1) ** (k // 2) * d.as_expr() / slope ** (k + 1)
+                   for k, d in enumerate(derivatives) if k % 2 == 1), sm.Integer(0))  # fmt: skip
+        if isinstance(key, sm.sin):
+            antiderivative += -sm.cos(argument) * even + sm.sin(argument) * odd
+        else:
+            antiderivative += sm.sin(argument) * even + sm.cos(argument) * odd
+    return antiderivative.xreplace({s: high}) - antiderivative.xreplace({s: low})
 
 
 def phase_rate_map(
@@ -306,32 +440,57 @@ def phase_rate_map(
         return None
     theta, omega = phase.coordinates[0].q, phase.coordinates[0].u
     w = sm.Symbol("w", positive=True)
-    acc = sm.expand(phase_dynamics(phase).accelerations[0].xreplace({omega: sm.sqrt(w)}))
-    slope_b = sm.expand(acc.diff(w))
+    acc = phase_dynamics(phase).accelerations[0].xreplace({omega: sm.sqrt(w)})
+    small = sm.count_ops(acc) <= _SMALL
+    slope_b = sm.expand(acc.diff(w)) if small else acc.diff(w)
     if slope_b.has(w) or slope_b.has(omega):
         return None
-    a_part = sm.expand(acc - slope_b * w)
+    a_part = sm.expand(acc - slope_b * w) if small else acc.xreplace({w: 0})
     s = sm.Dummy("s", real=True)
-    if slope_b == 0:
+    if slope_b == 0:  # a leg of constant length: the energy integral
         integral = sm.integrate((2 * a_part).xreplace({theta: s}), (s, angle_from, angle_to))
         return sm.expand(rate_squared_from + integral)
-    mu = sm.exp(-sm.integrate(2 * slope_b.xreplace({theta: s}), (s, angle_from, theta)))
-    mu = sm.simplify(mu)
-    integral = sm.integrate((2 * a_part * mu).xreplace({theta: s}), (s, angle_from, angle_to))
+    # A logarithmic derivative c D'/D (a held profile D) integrates to c log D; sympy's
+    # integrate finds it too, in seconds rather than milliseconds.
+    numerator, denominator = sm.fraction(sm.cancel(2 * slope_b))
+    ratio = sm.cancel(numerator / denominator.diff(theta))
+    if ratio.has(theta):
+        antiderivative = sm.integrate(2 * slope_b, theta)
+    else:
+        antiderivative = ratio * sm.log(denominator)
+    if antiderivative.has(sm.Integral):
+        return None
+    # exp(k log P) evaluates to P**k: mu is a power of the profile.
+    start = antiderivative.xreplace({theta: angle_from})
+    mu = sm.factor(sm.exp(-antiderivative) * sm.exp(start))
+    integrand = sm.factor(2 * a_part * mu).xreplace({theta: s})
+    integral = integrate_polynomial_trig(integrand, s, angle_from, angle_to)
+    if integral is None:
+        integral = sm.integrate(integrand, (s, angle_from, angle_to))
     if integral.has(sm.Integral):
         return None
-    return sm.simplify((rate_squared_from + integral) / mu.xreplace({theta: angle_to}))
+    return _tidy((rate_squared_from + integral) / sm.factor(mu.xreplace({theta: angle_to})))
 
 
 @functools.cache
 def stride_closed_form(model: Model) -> StrideForm | None:
     """The stride map in closed form, when the model has one free coordinate, every event
-    sits at a fixed angle (``Event.at``) and every reset scales the rate by a factor."""
+    sits at a fixed angle (``Event.at``) and every reset scales the rate by a factor.
+
+    Along a phase ``theta'' = A + B theta'**2``, so ``w = theta'**2`` obeys
+    ``dw/dtheta = 2 A + 2 B w``: with the integrating factor ``mu = exp(-int 2 B)``,
+    ``w mu`` changes by ``int 2 A mu`` from the phase's first angle to its last. Where the
+    phase holds a coordinate on a profile (``B != 0``) the antiderivative of ``2 B`` is a
+    logarithm, so ``mu`` is a power of the profile; the integrand is factored first so the
+    profile cancels before sympy integrates it.
+    """
     if len(model.coordinates) != 1 or any(e.at is None for e in model.events):
         return None
     theta, omega = model.coordinates[0].q, model.coordinates[0].u
     by_source = {e.source: e for e in model.events}
     step_event = next(e for e in model.events if e.ends_step)
+    for event in model.events:
+        check_event_angle(model, event.name)
     q = sm.Symbol("q", nonnegative=True)
     angle = reset(model, step_event.name)[0][0].xreplace({theta: step_event.at})
     u = q
@@ -347,15 +506,20 @@ def stride_closed_form(model: Model) -> StrideForm | None:
         factor = sm.cancel(rates_after[0].xreplace({theta: end}) / omega)
         if factor.has(omega):
             return None
-        u = sm.expand(factor**2 * u)
+        u = sm.expand(factor**2 * u) if sm.count_ops(u) <= _SMALL else factor**2 * u
         angle = coords_after[0].xreplace({theta: end})
         if event.ends_step:
             break
         phase = model.phase(event.target)
-    u = sm.expand(u)
-    if u.diff(q, 2) != 0:
+    if sm.count_ops(u) <= _SMALL:
+        u = sm.expand(u)
+        if u.diff(q, 2) != 0:
+            return None
+        return StrideForm(sm.factor(u.diff(q)), u.xreplace({q: 0}), angle)
+    slope = u.diff(q)
+    if slope.has(q):  # each phase and reset maps u affinely: only the slope can fail
         return None
-    return StrideForm(sm.factor(u.diff(q)), u.xreplace({q: 0}), angle)
+    return StrideForm(_tidy(slope), _tidy(u.xreplace({q: 0})), angle)
 
 
 def _state_args(model: Model) -> tuple[sm.Symbol, ...]:

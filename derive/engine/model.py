@@ -3,7 +3,8 @@
 A model file builds one :class:`Model`: its parameter table, its generalised coordinates,
 its phases (each a planar mechanical system of point masses and rigid segments pivoting
 about the stance foot, with the coordinates its actuators hold), its events (a guard that
-crosses zero and a reset: an inelastic impact or an instantaneous actuation) and the
+crosses zero and a reset: an inelastic impact, an instantaneous actuation, or none where
+the actuators' program changes without a jump) and the
 failures that end a walk. :mod:`derive.engine.hybrid` derives everything else: equations
 of motion (with :mod:`sympy.physics.mechanics`), energies, ground reactions, the resets from
 momentum balances, and, where the model allows, its stride map in closed form.
@@ -23,6 +24,7 @@ import sympy as sm
 from derive.quantities import Parameter
 
 __all__ = [
+    "Continuous",
     "Coordinate",
     "Event",
     "Failure",
@@ -147,6 +149,17 @@ class Jump:
 
 
 @dataclass(frozen=True, eq=False)
+class Continuous:
+    """A change of phase that leaves the state as it is: only the actuators' program changes.
+
+    Between two phases whose held coordinates agree, in value and rate, where the event
+    happens (a prescribed leg-length profile that starts or ends there), nothing jumps.
+    The engine checks that agreement at the event's ``at``, which it therefore requires;
+    a :class:`Jump` there would conserve the momenta and so reset nothing either.
+    """
+
+
+@dataclass(frozen=True, eq=False)
 class Event:
     """A transition: when ``guard`` crosses zero in ``direction`` (+1 rising, -1 falling),
     the state is reset and the phase ``target`` begins.
@@ -157,7 +170,7 @@ class Event:
     guard : sympy.Expr
         In the source phase's coordinates, rates and the parameters.
     direction : int
-    reset : Impact or Jump
+    reset : Impact, Jump or Continuous
     at : sympy.Expr, optional
         The coordinate value at which the guard vanishes, when it depends on the
         configuration only (a fact the engine checks); needed for a closed-form stride map.
@@ -175,7 +188,7 @@ class Event:
     target: str
     guard: sm.Expr
     direction: int
-    reset: Impact | Jump
+    reset: Impact | Jump | Continuous
     at: sm.Expr | None = None
     ends_step: bool = False
     when: sm.Expr | None = None

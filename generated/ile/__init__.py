@@ -1227,9 +1227,8 @@ def event_heelstrike_reset(beta, theta_II, phi0, theta, omega):
         tuple: coordinates, then rates
     """
     be = backend_for(beta, theta_II, phi0, theta, omega)
-    cos_theta, sin_theta = be.cos_sin(theta)
-    cos_t1, sin_t1 = be.cos_sin(phi0 - theta)
-    return (theta - phi0, (cos_t1*cos_theta*omega - omega*sin_t1*sin_theta)/beta,)
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    return (theta - phi0, cos_phi0*omega/beta,)
 
 
 def event_heelstrike_contact(beta, theta_II, phi0, theta, omega):

@@ -242,9 +242,8 @@ def event_collision_reset(alpha, gamma, l, g, theta, omega):
         tuple: coordinates, then rates
     """
     be = backend_for(alpha, gamma, l, g, theta, omega)
-    cos_theta, sin_theta = be.cos_sin(theta)
-    cos_t1, sin_t1 = be.cos_sin(-theta + 2*alpha)
-    return (theta - 2*alpha, cos_t1*cos_theta*omega - omega*sin_t1*sin_theta,)
+    cos_t0, sin_t0 = be.cos_sin(2*alpha)
+    return (theta - 2*alpha, cos_t0*omega,)
 
 
 def event_collision_contact(alpha, gamma, l, g, theta, omega):
@@ -316,10 +315,10 @@ def stride_map(alpha, gamma, l, g, q):
     """
     be = backend_for(alpha, gamma, l, g, q)
     cos_alpha, sin_alpha = be.cos_sin(alpha)
+    cos_t1, sin_t1 = be.cos_sin(2*alpha)
     cos_gamma, sin_gamma = be.cos_sin(gamma)
-    x0 = sin_gamma*g/l
-    x1 = 4*x0
-    return x1*sin_alpha**5 + x1*sin_alpha*(cos_alpha*cos_alpha*cos_alpha*cos_alpha) + q*(cos_alpha + sin_alpha)**2*(cos_alpha - sin_alpha)**2 - 8*x0*cos_alpha**2*(sin_alpha*sin_alpha*sin_alpha)
+    x0 = cos_t1**2
+    return x0*q + 4*x0*sin_alpha*sin_gamma*g/l
 
 
 def q_fixed(alpha, gamma, l, g):
@@ -341,10 +340,10 @@ def q_fixed(alpha, gamma, l, g):
     """
     be = backend_for(alpha, gamma, l, g)
     cos_alpha, sin_alpha = be.cos_sin(alpha)
+    cos_t1, sin_t1 = be.cos_sin(2*alpha)
     cos_gamma, sin_gamma = be.cos_sin(gamma)
-    x0 = sin_gamma*g/l
-    x1 = 4*x0
-    return (x1*sin_alpha**5 + x1*sin_alpha*(cos_alpha*cos_alpha*cos_alpha*cos_alpha) - 8*x0*cos_alpha**2*(sin_alpha*sin_alpha*sin_alpha))/(1 - (cos_alpha + sin_alpha)**2*(cos_alpha - sin_alpha)**2)
+    x0 = cos_t1**2
+    return 4*x0*sin_alpha*sin_gamma*g/(l*(1 - x0))
 
 
 def eigenvalue(alpha, gamma, l, g):
@@ -365,8 +364,8 @@ def eigenvalue(alpha, gamma, l, g):
         lambda
     """
     be = backend_for(alpha, gamma, l, g)
-    cos_alpha, sin_alpha = be.cos_sin(alpha)
-    return (cos_alpha + sin_alpha)**2*(cos_alpha - sin_alpha)**2
+    cos_t0, sin_t0 = be.cos_sin(2*alpha)
+    return cos_t0**2
 
 
 def section_angle(alpha, gamma, l, g):

@@ -2042,37 +2042,24 @@ CASADI_SYMBOL_EXPORT int vsw_ile_event_extension_reset_work_bytes(casadi_int *sz
 
 /* vsw_ile_event_heelstrike_reset:(beta,theta_II,phi0,theta,omega)->(event_heelstrike_reset[2]) */
 static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
-  casadi_real a0, a1, a2, a3, a4, a5, a6;
+  casadi_real a0, a1, a2;
   a0=arg[3]? arg[3][0] : 0;
   a1=arg[2]? arg[2][0] : 0;
-  a2=(a0-a1);
-  if (res[0]!=0) res[0][0]=a2;
-  a2=2.;
-  a3=1.;
-  a1=(a1-a0);
-  a1=(a1/a2);
+  a0=(a0-a1);
+  if (res[0]!=0) res[0][0]=a0;
+  a0=2.;
+  a2=1.;
+  a1=(a1/a0);
   a1=tan(a1);
-  a4=casadi_sq(a1);
-  a4=(a3+a4);
-  a4=(a2/a4);
-  a5=(a4-a3);
-  a0=(a0/a2);
-  a0=tan(a0);
-  a6=casadi_sq(a0);
-  a6=(a3+a6);
-  a2=(a2/a6);
-  a3=(a2-a3);
-  a5=(a5*a3);
-  a3=arg[4]? arg[4][0] : 0;
-  a5=(a5*a3);
-  a1=(a1*a4);
-  a3=(a3*a1);
+  a1=casadi_sq(a1);
+  a1=(a2+a1);
+  a0=(a0/a1);
+  a0=(a0-a2);
+  a2=arg[4]? arg[4][0] : 0;
   a0=(a0*a2);
-  a3=(a3*a0);
-  a5=(a5-a3);
-  a3=arg[0]? arg[0][0] : 0;
-  a5=(a5/a3);
-  if (res[0]!=0) res[0][1]=a5;
+  a2=arg[0]? arg[0][0] : 0;
+  a0=(a0/a2);
+  if (res[0]!=0) res[0][1]=a0;
   return 0;
 }
 
