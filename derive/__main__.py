@@ -35,21 +35,36 @@ ROOT = Path(__file__).resolve().parent.parent
 FIX_COMMAND = "python -m derive"
 
 
+def _render_model(name: str) -> dict[str, str]:
+    """One model's files (run in a worker process: models derive independently)."""
+    return codegen.render(MODELS[name]())
+
+
 def render_all(only: str | None = None, existing: dict[str, str] | None = None) -> dict[str, str]:
     """Every file of ``generated/`` as ``{relative path: text}``.
 
-    With ``only``, that model is derived and every other model's files are taken from
-    ``existing`` (what is on disk) unchanged.
+    The models are derived in parallel worker processes (each is deterministic, so the
+    output does not depend on the scheduling). With ``only``, that model is derived and
+    every other model's files are taken from ``existing`` (what is on disk) unchanged.
     """
-    derivations = [build() for name, build in MODELS.items() if only in (None, name)]
-    files = codegen.render_shared(
-        [SimpleNamespace(model=name) for name in MODELS] if only else derivations
-    )
+    names = [name for name in MODELS if only in (None, name)]
+    files = codegen.render_shared([SimpleNamespace(model=name) for name in MODELS])
     if only:
         others = {p: t for p, t in (existing or {}).items() if "/" in p}
         files.update({p: t for p, t in others.items() if not p.startswith(f"{only}/")})
-    for derivation in derivations:
-        files.update(codegen.render(derivation))
+    workers = min(len(names), len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
+                  else os.cpu_count() or 1)  # fmt: skip
+    if workers > 1:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        context = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
+        with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+            rendered = list(pool.map(_render_model, names))
+    else:
+        rendered = [_render_model(name) for name in names]
+    for model_files in rendered:
+        files.update(model_files)
     return dict(sorted(files.items()))
 
 

@@ -193,7 +193,8 @@ def test_energy_is_constant_in_conservative_phases(name):
         pytest.skip(f"{name}: every phase moves a held coordinate (actuator work)")
     checked = 0
     for p, state in walking_states(m):
-        trajectory = m.simulate(p, state, steps=3)
+        # Samples at most 0.01 apart: short phases (the TLE's) get enough of them.
+        trajectory = m.simulate(p, state, steps=3, max_step=0.01)
         for k, samples in _segments(trajectory):
             phase = m.phases[k]
             if not phase["conservative"] or len(samples) < 5:
@@ -289,7 +290,9 @@ def test_angular_momentum_is_conserved_across_every_reset(name):
     args = random_arguments(m, [*m.spec["parameters"], *m.coordinates, *m.rates], 10, seed=9)
     for row in np.array(args).T:
         p, x = tuple(row[: len(m.parameter_table)]), row[len(m.parameter_table) :]
-        states += [(p, event, x) for event in m.events]
+        # A continuous transition's balance holds only on its guard (the held coordinates
+        # of both phases agree there, and nowhere else): the walks above check it.
+        states += [(p, event, x) for event in m.events if event["reset"] != "continuous"]
     assert {e["name"] for _, e, _ in states} == {e["name"] for e in m.events}
     for p, event, x_minus in states:
         before = _kinematics(m, event["source"])(p, x_minus)

@@ -214,7 +214,10 @@ class HybridModel:
                 return name
         return None
 
-    def _phase_run(self, phase: str, params, state: np.ndarray, t0: float, dense: bool):
+    def _phase_run(
+        self, phase: str, params, state: np.ndarray, t0: float, dense: bool,
+        max_step: float = np.inf,
+    ):  # fmt: skip
         """Integrate one phase to its first event or failure."""
         from scipy.integrate import solve_ivp
 
@@ -245,7 +248,7 @@ class HybridModel:
         for _ in range(20):  # restarts past events that do not count ('when' <= 0)
             sol = solve_ivp(
                 rhs, (t_start, t0 + _PHASE_TIME_LIMIT), x, method="DOP853",
-                rtol=_RTOL, atol=_ATOL, events=functions,
+                rtol=_RTOL, atol=_ATOL, events=functions, max_step=max_step,
             )  # fmt: skip
             if dense:
                 samples_t.extend(sol.t[1:])
@@ -289,10 +292,12 @@ class HybridModel:
         raise ConvergenceError(f"{self.name}: a step visited more phases than the model has")
 
     def simulate(
-        self, params: Sequence[float], state: np.ndarray, steps: int, phase: str | None = None
+        self, params: Sequence[float], state: np.ndarray, steps: int, phase: str | None = None,
+        max_step: float = np.inf,
     ) -> Trajectory:
         """Simulate ``steps`` steps from ``state`` at the start of ``phase`` (default: the
-        phase after the step event)."""
+        phase after the step event). ``max_step`` bounds the integrator's step, for denser
+        samples (plots, animations); the default lets it choose."""
         phase = phase or self.step_event["target"]
         t = 0.0
         x = np.array(state, dtype=float)
@@ -300,7 +305,9 @@ class HybridModel:
         done = 0
         ended = "completed"
         while done < steps:
-            kind, what, t_end, x_end, st, sx = self._phase_run(phase, params, x, t, dense=True)
+            kind, what, t_end, x_end, st, sx = self._phase_run(
+                phase, params, x, t, dense=True, max_step=max_step
+            )
             ts.extend(st)
             xs.extend(sx)
             ps.extend([self.phase_index[phase]] * len(st))

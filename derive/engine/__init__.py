@@ -60,7 +60,7 @@ def model_derivation(model: Model, units: str) -> Derivation:
         descriptor,
         "The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases "
         "with their failure guards (conservative: T + V constant), events with their guards "
-        "and resets (impact or jump), units.",
+        "and resets (impact, jump or continuous), units.",
     )
     return derivation
 

@@ -543,6 +543,9 @@ def _body_table(phase: Phase) -> tuple[tuple[sm.Expr, ...], tuple[sm.Expr, ...]]
     return tuple(positions), tuple(inertias)
 
 
+_RESET_KINDS = {Impact: "impact", Jump: "jump", Continuous: "continuous"}
+
+
 def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
     """The generic runtime's functions and the ``HYBRID`` descriptor of a model.
 
@@ -555,7 +558,8 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
     ``event_<event>_contact`` (an impact's new contact point in the source phase's chart),
     and ``step_length_of_state`` when the model defines it. The descriptor says per phase
     whether it is ``conservative`` (no held coordinate moves, so no actuator does work and
-    T + V is constant) and per event whether its ``reset`` is an ``impact`` or a ``jump``.
+    T + V is constant) and per event whether its ``reset`` is an ``impact``, a ``jump`` or
+    ``continuous``.
     """
     args = _state_args(model)
     quantities: list[Quantity] = []
@@ -637,7 +641,7 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
         events.append({
             "name": event.name, "source": event.source, "target": event.target,
             "direction": event.direction, "ends_step": event.ends_step, "when": when,
-            "reset": "impact" if isinstance(event.reset, Impact) else "jump",
+            "reset": _RESET_KINDS[type(event.reset)],
         })  # fmt: skip
     if model.step_length is not None:
         step_event = next(e for e in model.events if e.ends_step)

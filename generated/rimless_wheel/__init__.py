@@ -18,7 +18,7 @@ implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
 HYBRID = {'name': 'rimless_wheel', 'title': 'Rimless wheel', 'description': "McGeer's rimless wheel: a hub mass on massless spokes rolling down a slope", 'coordinate_units': {'theta': 'rad'}, 'parameters': ('alpha', 'gamma', 'l', 'g'), 'coordinates': ('theta',), 'rates': ('omega',), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': True},), 'events': ({'name': 'collision', 'source': 'stance', 'target': 'stance', 'direction': -1, 'ends_step': True, 'when': None, 'reset': 'impact'},), 'units': {'time': 's', 'length': 'm', 'mass': 'kg (energies per unit mass)', 'energy': 'J/kg'}, 'step_length': True, 'start': {'theta': 0.0}, 'rate_range': (0.2, 6.0), 'closed_form': True}
-"""The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact or jump), units."""
+"""The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
 def _carlson_rf(x, y, z, be):
