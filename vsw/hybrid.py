@@ -292,7 +292,11 @@ class HybridModel:
         raise ConvergenceError(f"{self.name}: a step visited more phases than the model has")
 
     def simulate(
-        self, params: Sequence[float], state: np.ndarray, steps: int, phase: str | None = None,
+        self,
+        params: Sequence[float],
+        state: np.ndarray,
+        steps: int,
+        phase: str | None = None,
         max_step: float = np.inf,
     ) -> Trajectory:
         """Simulate ``steps`` steps from ``state`` at the start of ``phase`` (default: the
