@@ -505,7 +505,10 @@ def case_startup(reps: int, include_audit: bool) -> list[Row]:
     with tempfile.TemporaryDirectory() as out:
         env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
         cases = [
-            ("python -m derive (to a temp dir, no bytecode cache)",
+            ("python -m derive --model ile (the ILE alone, as before the engine; temp dir, "
+             "no bytecode cache)", [py, "-m", "derive", "--model", "ile", "--out", out + "/i"],
+             5.0),
+            ("python -m derive (every model: ile, rimless_wheel, tle, in parallel processes)",
              [py, "-m", "derive", "--out", out + "/g"], 5.0),
             ("import vsw", [py, "-c", "import vsw"], 0.3),
             (f"import vsw.{{{modules}}} (no scipy, matplotlib, sympy)",
