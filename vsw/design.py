@@ -1319,7 +1319,7 @@ def design(
     scale: RobotScale | None = None,
     *,
     conditions: str = "exact",
-    n_starts: int = 1,
+    n_starts: int = 2,
     verify: bool = True,
     explain_infeasible: bool = True,
 ) -> DesignResult:
@@ -1677,6 +1677,6 @@ def register_cli(subparsers: Any) -> None:
     sc.add_argument(
         "--stepper-2d", action="store_true", help="Stepper-2D preset: r_e 0.25 m, m 0.78 kg"
     )
-    p.add_argument("--starts", type=int, default=1, help="IPOPT starts per region (1-50)")
+    p.add_argument("--starts", type=int, default=2, help="IPOPT starts per region (1-50)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=_cmd_design)
