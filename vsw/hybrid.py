@@ -83,6 +83,24 @@ class StepResult:
 
 
 @dataclass(frozen=True)
+class EventRecord:
+    """One event of a step: the states on either side and the mechanical energy (T + V of
+    the phase before, of the phase after) at each: what an actuator adds or an impact
+    dissipates is ``energy_after - energy_before``."""
+
+    name: str
+    time: float
+    state_before: np.ndarray
+    state_after: np.ndarray
+    energy_before: float
+    energy_after: float
+
+    @property
+    def energy_change(self) -> float:
+        return self.energy_after - self.energy_before
+
+
+@dataclass(frozen=True)
 class Trajectory:
     """A simulated walk: samples, the phase of each, and the section states."""
 
@@ -199,9 +217,11 @@ class HybridModel:
         return float(self._fn("step_length_of_state")(*params, *state))
 
     def start_state(self, rate: float) -> np.ndarray:
-        """The model's start configuration, every rate ``rate``."""
+        """The model's start configuration pushed at scale ``rate`` (its rates along the
+        model's start direction)."""
         q = [self.spec["start"][c] for c in self.coordinates]
-        return np.array(q + [rate] * self.n, dtype=float)
+        direction = [self.spec["start_rates"][u] for u in self.rates]
+        return np.array(q + [rate * d for d in direction], dtype=float)
 
     # --- simulation --------------------------------------------------------------------
 
@@ -290,6 +310,29 @@ class HybridModel:
                 return StepResult(x, "completed", tuple(durations), length)
             phase = what["target"]
         raise ConvergenceError(f"{self.name}: a step visited more phases than the model has")
+
+    def step_events(self, params: Sequence[float], state: np.ndarray) -> list[EventRecord]:
+        """The events of one step from a section state, with the energy on either side
+        (empty events past a failure: the list ends where the walk does)."""
+        phase = self.step_event["target"]
+        t = 0.0
+        x = np.array(state, dtype=float)
+        records = []
+        for _ in range(len(self.phases) + 1):
+            kind, what, t_end, x_end, *_ = self._phase_run(phase, params, x, t, dense=False)
+            if kind != "event":
+                break
+            x = self.reset(what["name"], params, x_end)
+            records.append(EventRecord(
+                what["name"], t_end, x_end, x.copy(),
+                float(self._fn(f"{phase}_energy")(*params, *x_end)),
+                float(self._fn(f"{what['target']}_energy")(*params, *x)),
+            ))  # fmt: skip
+            t = t_end
+            if what["ends_step"]:
+                break
+            phase = what["target"]
+        return records
 
     def simulate(
         self,
@@ -486,33 +529,35 @@ class HybridModel:
         return sorted((complex(v) for v in values), key=lambda v: (-abs(v), v.real, v.imag))
 
     def fixed_points(self, params: Sequence[float], guesses: int = 12) -> list[Orbit]:
-        """Distinct period-one gaits from a scan of starts: the start configuration pushed
-        with ``guesses`` rates, a few steps walked, then the orbit solver."""
+        """Distinct period-one gaits from a scan of starts: the start state pushed at
+        ``guesses`` scales; from each, the orbit solver starts at that state, at the state
+        after the first step (an unstable gait is found only near where a walk starts) and
+        after a few more steps walked (a stable gait attracts them)."""
         low, high = self.spec["rate_range"]
         found: list[Orbit] = []
         for rate in np.geomspace(low, high, guesses):
-            first = self.step(params, self._first_section(params, rate))
-            if first.ended != "completed":
-                continue
-            x = first.state
-            result = first
-            for _ in range(3):
+            x = self._first_section(params, rate)
+            starts = []
+            start = self.start_state(rate)
+            first = self.step(params, start)
+            if first.ended == "completed":
+                starts.append((start, first.durations))
+            for walked in range(5):
                 result = self.step(params, x)
                 if result.ended != "completed":
                     break
+                if walked in (0, 4):
+                    starts.append((x, result.durations))
                 x = result.state
-            if result.ended != "completed":
-                continue
-            previous = self.step(params, x)
-            if previous.ended != "completed":
-                continue
-            try:
-                orbit = self.periodic_orbit(params, x, previous.durations)
-            except ConvergenceError:
-                continue
-            vector = np.array(list(orbit.state.values()))
-            if all(np.max(np.abs(vector - np.array(list(o.state.values())))) > 1e-6 for o in found):
-                found.append(orbit)
+            for x0, durations in starts:
+                try:
+                    orbit = self.periodic_orbit(params, x0, durations)
+                except ConvergenceError:
+                    continue
+                vector = np.array(list(orbit.state.values()))
+                if all(np.max(np.abs(vector - np.array(list(o.state.values())))) > 1e-6
+                       for o in found):  # fmt: skip
+                    found.append(orbit)
         return sorted(found, key=lambda o: o.period)
 
     def _first_section(self, params, rate: float) -> np.ndarray:

@@ -23,12 +23,14 @@
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import random
 from dataclasses import dataclass
 
 import sympy as sm
 import sympy.physics.mechanics as me
+from sympy.simplify.fu import TR10i
 
 from derive.engine.model import NORMAL_FORCE, Continuous, Impact, Jump, Model, Phase, PointMass
 from derive.quantities import Quantity
@@ -91,6 +93,13 @@ def _simplify(expr: sm.Expr) -> sm.Expr:
     if squares:
         expr = sm.expand(expr.subs(squares))
     return sm.cancel(expr)
+
+
+def _angle_sums(expr: sm.Expr) -> sm.Expr:
+    """:func:`_simplify`, then products of sines and cosines of different angles as sines
+    and cosines of their sums (``sin a sin b + cos a cos b -> cos(a - b)``, fu's TR10i):
+    the equations of several rigid links stay small in the links' relative angles."""
+    return _simplify(TR10i(_simplify(expr)))
 
 
 @functools.cache
@@ -184,11 +193,29 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
     residual = (mass_matrix * sm.Matrix(accels) - forcing).applyfunc(at_values)
     free_rows = residual[: len(free), :]
     system, rhs = sm.linear_eq_to_matrix(list(free_rows), a_free)
-    solution = system.LUsolve(rhs)
-    in_symbols = tuple(_simplify(e) for e in solution)
+    if len(free) == 1:
+        solution = system.LUsolve(rhs)
+        in_symbols = tuple(_simplify(e) for e in solution)
+        solved = dict(zip(a_free, in_symbols))
+
+        def linear_in_accelerations(expr: sm.Expr) -> sm.Expr:
+            return finish(expr.xreplace(solved))
+    else:
+        # Cramer's rule with the determinant kept as one factor: cancelling whole rational
+        # functions of several angles' sines and cosines takes sympy minutes.
+        system = system.applyfunc(_angle_sums)
+        rhs = rhs.applyfunc(_angle_sums)
+        determinant = _simplify(system.det(method="berkowitz"))
+        numerators = [_simplify(e) for e in system.adjugate(method="berkowitz") * rhs]
+        in_symbols = tuple(n / determinant for n in numerators)
+        solved = {a: n / determinant for a, n in zip(a_free, numerators)}
+
+        def linear_in_accelerations(expr: sm.Expr) -> sm.Expr:
+            over = sm.expand(expr.xreplace(solved) * determinant)
+            return (_angle_sums(over) / determinant).xreplace(placed)
+
     accelerations = tuple(e.xreplace(placed) for e in in_symbols)
-    solved = dict(zip(a_free, in_symbols))
-    actuator = {h: finish(residual[chart.index(h)].xreplace(solved)) for h in held}
+    actuator = {h: linear_in_accelerations(residual[chart.index(h)]) for h in held}
 
     kinetic = sum((b.kinetic_energy(frame) for b in bodies), sm.Integer(0))
     potential = sum((b.potential_energy for b in bodies), sm.Integer(0))
@@ -198,7 +225,7 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
     for body in phase.bodies:
         for k, g_k in enumerate((gx, gy)):
             position = sm.sympify(body.position[k]).xreplace(to_time)
-            accel = at_values(position.diff(t, 2)).xreplace(solved)
+            accel = at_values(position.diff(t, 2))
             force[k] += body.mass * (accel - g_k)
     return PhaseDynamics(
         phase,
@@ -207,8 +234,8 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
         finish(at_values(potential)),
         momenta,
         actuator,
-        finish(force[1]),
-        finish(force[0]),
+        linear_in_accelerations(force[1]),
+        linear_in_accelerations(force[0]),
     )
 
 
@@ -250,16 +277,17 @@ def impact_reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tu
     mapping = {q: sm.sympify(event.reset.coordinates[q]) for q in q_after}
     held = {h: sm.sympify(v) for h, v in before.held.items()}
     contact = [sm.sympify(c).xreplace(held) for c in before.points[event.reset.new_contact]]
-    pos_before = _positions(before)
+    order = impact_body_order(model, event_name)
+    pos_before = [_positions(before)[k] for k in order]
     pos_after = [tuple(c.xreplace(mapping) for c in p) for p in _positions(after)]
     # The configuration is unchanged: every body where it was, seen from the new contact.
     gaps = [pb[k] - contact[k] - pa[k] for pb, pa in zip(pos_before, pos_after) for k in range(2)]
     _numeric_check(gaps, sorted(set().union(*(g.free_symbols for g in gaps)), key=str),
                    f"{event.name}: bodies after the impact")  # fmt: skip
 
-    def jacobian(positions, coords, phase):
+    def jacobian(positions, coords, phase, order):
         rows = []
-        for body, p in zip(phase.bodies, positions):
+        for body, p in zip((phase.bodies[k] for k in order), positions):
             weight = sm.sqrt(body.mass)
             rows += [[weight * sm.diff(p[k], q) for q in coords] for k in range(2)]
             if not isinstance(body, PointMass):
@@ -267,14 +295,42 @@ def impact_reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tu
                 rows.append([sm.sqrt(body.inertia) * sm.diff(angle, q) for q in coords])
         return sm.Matrix(rows)
 
-    j_before = jacobian(pos_before, q_before, before)
-    j_after = jacobian(_positions(after), q_after, after).xreplace(mapping)
-    a = (j_after.T * j_after).applyfunc(_simplify)
-    b = (j_after.T * j_before).applyfunc(_simplify)
-    u_after = a.LUsolve(b * sm.Matrix(u_before))
-    # Small impact maps simplify to the textbook forms (cos(2 alpha) omega, cos(phi0)/beta
-    # omega): the angle differences collapse only under trigsimp.
-    return tuple(mapping[q] for q in q_after), tuple(_tidy(_simplify(e)) for e in u_after)
+    j_before = jacobian(pos_before, q_before, before, order)
+    j_after = jacobian(_positions(after), q_after, after, range(len(after.bodies)))
+    j_after = j_after.xreplace(mapping)
+    if len(q_after) == 1:
+        a = (j_after.T * j_after).applyfunc(_simplify)
+        b = (j_after.T * j_before).applyfunc(_simplify)
+        u_after = a.LUsolve(b * sm.Matrix(u_before))
+        # Small impact maps simplify to the textbook forms (cos(2 alpha) omega, cos(phi0)/beta
+        # omega): the angle differences collapse only under trigsimp.
+        return tuple(mapping[q] for q in q_after), tuple(_tidy(_simplify(e)) for e in u_after)
+    # Several coordinates: Cramer's rule with the determinant kept as one factor (see
+    # phase_dynamics), in the links' relative angles.
+    a = (j_after.T * j_after).applyfunc(_angle_sums)
+    b = (j_after.T * j_before).applyfunc(_angle_sums)
+    determinant = _angle_sums(a.det(method="berkowitz"))
+    numerators = a.adjugate(method="berkowitz") * b * sm.Matrix(u_before)
+    rates = tuple(_angle_sums(n) / determinant for n in numerators)
+    return tuple(mapping[q] for q in q_after), rates
+
+
+def impact_body_order(model: Model, event_name: str) -> tuple[int, ...]:
+    """For each body of an impact's phase after, the index of the same body in the phase
+    before (the legs swap roles; :attr:`Impact.bodies`)."""
+    event = next(e for e in model.events if e.name == event_name)
+    before, after = model.phase(event.source), model.phase(event.target)
+    index = {b.name: k for k, b in enumerate(before.bodies)}
+    order = []
+    for body in after.bodies:
+        name = event.reset.bodies.get(body.name, body.name)
+        if name not in index:
+            raise ValueError(f"{event.name}: body {body.name} of {after.name} is no body of "
+                             f"{before.name} (name it in Impact.bodies)")  # fmt: skip
+        order.append(index[name])
+    if sorted(order) != list(range(len(before.bodies))):
+        raise ValueError(f"{event.name}: Impact.bodies must pair the bodies one to one")
+    return tuple(order)
 
 
 @functools.cache
@@ -642,6 +698,9 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
             "name": event.name, "source": event.source, "target": event.target,
             "direction": event.direction, "ends_step": event.ends_step, "when": when,
             "reset": _RESET_KINDS[type(event.reset)],
+            # Impacts: for each body after, the index of the same body before.
+            "bodies": impact_body_order(model, event.name)
+            if isinstance(event.reset, Impact) else None,
         })  # fmt: skip
     if model.step_length is not None:
         step_event = next(e for e in model.events if e.ends_step)
@@ -664,6 +723,30 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
         "units": dict(model.units),
         "step_length": model.step_length is not None,
         "start": {c.name: float(model.start.get(c.name, 0.0)) for c in model.coordinates},
+        "start_rates": {c.rate: float(model.start.get(c.rate, 1.0)) for c in model.coordinates},
         "rate_range": tuple(float(v) for v in model.rate_range),
     }
+    if model.limits:
+        quantities = [_in_the_limit(model, qty) for qty in quantities]
     return quantities, descriptor
+
+
+def _in_the_limit(model: Model, quantity: Quantity) -> Quantity:
+    """A quantity with the model's :attr:`~Model.limits` taken: substituted where that is
+    finite, by :func:`sympy.limit` where the substitution is 0/0."""
+
+    def limit(expr: sm.Expr) -> sm.Expr:
+        expr = sm.sympify(expr)
+        for symbol, value in model.limits.items():
+            if not expr.has(symbol):
+                continue
+            expr = sm.cancel(expr)
+            direct = expr.xreplace({symbol: sm.sympify(value)})
+            if direct.has(sm.nan, sm.zoo, sm.oo, -sm.oo):
+                direct = sm.limit(expr, symbol, value)
+            expr = _tidy(direct)
+        return expr
+
+    expr = quantity.expr
+    expr = tuple(limit(e) for e in expr) if isinstance(expr, tuple) else limit(expr)
+    return dataclasses.replace(quantity, expr=expr)

@@ -136,6 +136,9 @@ class Impact:
 
     new_contact: str
     coordinates: Mapping[sm.Symbol, sm.Expr]
+    bodies: Mapping[str, str] = field(default_factory=dict)
+    """Bodies whose role changes (the legs swap): the phase after's body name -> the phase
+    before's body it is. A body not named here keeps its name."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -236,10 +239,16 @@ class Model:
         Distance from one stance foot to the next (in the state just before the step
         event), when the model defines it.
     start : mapping of str to float
-        A configuration to start the search for gaits from (coordinates by name; others 0),
-        at the start of the first phase.
+        A state to start the search for gaits from, at the start of the first phase:
+        coordinates by name (others 0) and, optionally, rates by name giving the direction
+        the configuration is pushed in (every rate 1 where none is given).
     rate_range : (low, high)
-        Rates the search for gaits pushes that configuration with (model units).
+        Scales of that push the search for gaits tries (model units).
+    limits : mapping of sympy.Symbol to sympy.Expr
+        Symbols of the mechanics (not parameters) that every derived quantity is taken to
+        the limit of: a walker with massless feet states each foot with a mass ``epsilon``
+        and ``{epsilon: 0}``, because the equations with the mass exactly zero are singular
+        (the swing leg's row vanishes) while their limit is not.
     """
 
     name: str
@@ -254,6 +263,7 @@ class Model:
     step_length: sm.Expr | None = None
     start: Mapping[str, float] = field(default_factory=dict)
     rate_range: tuple[float, float] = (0.1, 5.0)
+    limits: Mapping[sm.Symbol, sm.Expr] = field(default_factory=dict)
 
     def phase(self, name: str) -> Phase:
         for p in self.phases:

@@ -1,0 +1,118 @@
+"""The compass gait (Goswami, Thuilot, Espiau 1996, "Compass-like biped robot part I:
+stability and bifurcation of passive gaits", INRIA RR-2996; Drake, examples/compass_gait).
+
+Two rigid legs of length ``a + b`` hinged at the hip, a point mass ``m_h`` at the hip and a
+point mass ``m`` on each leg at distance ``a`` from its foot (``b`` from the hip), on a
+slope ``gamma`` under gravity ``g``. The stance foot is a hinge; the swing leg swings
+freely (its foot passes through the slope near mid-stance: scuffing is ignored, as in the
+sources); heelstrike is an inelastic impact of the swing foot, after which the legs swap
+roles. Drake's defaults are the parameters' defaults.
+
+Coordinates on the slope (x downhill, y along its normal): ``theta`` is the stance leg's
+angle from the slope normal, positive with the hip downhill of the stance foot; ``psi`` is
+the swing leg's angle from the slope normal, measured the same way (a swing foot ahead of
+the hip has ``psi < 0``).
+"""
+
+from __future__ import annotations
+
+import sympy as sm
+
+from derive.engine import model_derivation
+from derive.engine.model import (
+    NORMAL_FORCE,
+    Coordinate,
+    Event,
+    Failure,
+    Impact,
+    Model,
+    Parameter,
+    Phase,
+    PointMass,
+    leg,
+)
+from derive.quantities import Derivation
+
+PI = float(sm.pi.evalf(17))
+INF = float("inf")
+
+# Drake's CompassGaitParams: mass_hip 10 kg, mass_leg 5 kg, length_leg 1 m,
+# center_of_mass_leg 0.5 m (from the hip), slope 0.0525 rad, gravity 9.81 m/s^2.
+PARAMETERS = (
+    Parameter("m_h", "m_H", 0.0, INF, "hip mass m_h > 0", "hip mass", {"positive": True},
+              default=10.0, unit="kg"),
+    Parameter("m", "m", 0.0, INF, "leg mass m > 0", "mass of each leg", {"positive": True},
+              default=5.0, unit="kg"),
+    Parameter("a", "a", 0.0, INF, "a > 0", "distance from a foot to its leg's mass",
+              {"positive": True}, default=0.5, unit="m"),
+    Parameter("b", "b", 0.0, INF, "b > 0", "distance from the hip to a leg's mass",
+              {"positive": True}, default=0.5, unit="m"),
+    Parameter("gamma", r"\gamma", 0.0, PI / 2, "a passive walker walks down a slope: "
+              "0 < gamma < pi/2", "slope angle", default=0.0525, unit="rad"),
+    Parameter("g", "g", 0.0, INF, "gravity g > 0", "gravitational acceleration",
+              {"positive": True}, default=9.81, unit="m/s^2"),
+)  # fmt: skip
+m_h, m, a, b, gamma, g = (p.symbol for p in PARAMETERS)
+length = a + b
+
+THETA = Coordinate("theta", "theta_dot", "stance leg angle from the slope normal", "rad")
+PSI = Coordinate("psi", "psi_dot", "swing leg angle from the slope normal", "rad")
+theta, psi = THETA.q, PSI.q
+
+hip = leg(theta, length)
+swing_foot = tuple(h - f for h, f in zip(hip, leg(psi, length)))
+
+STANCE = Phase(
+    "stance",
+    coordinates=(THETA, PSI),
+    bodies=(
+        PointMass("hip", m_h, hip),
+        PointMass("stance_leg", m, leg(theta, a)),
+        PointMass("swing_leg", m, tuple(h - f for h, f in zip(hip, leg(psi, b)))),
+    ),
+    gravity=(g * sm.sin(gamma), -g * sm.cos(gamma)),
+    points={"swing_foot": swing_foot},
+)
+
+MODEL = Model(
+    name="compass_gait",
+    title="Compass gait",
+    description="Goswami et al. 1996: a hip mass and two legs with point masses, walking "
+    "down a slope",
+    source="derive/models/compass_gait.py",
+    parameters=PARAMETERS,
+    phases=(STANCE,),
+    events=(
+        Event(
+            "heelstrike",
+            "stance",
+            "stance",
+            # The swing foot's height is -2 (a + b) sin((theta + psi)/2) sin((theta - psi)/2):
+            # zero where the legs are together (the scuffing the model ignores) and at
+            # heelstrike, where the first factor rises through zero.
+            guard=sm.sin((theta + psi) / 2),
+            direction=1,
+            reset=Impact(
+                "swing_foot",
+                {theta: psi, psi: theta},
+                bodies={"stance_leg": "swing_leg", "swing_leg": "stance_leg"},
+            ),
+            ends_step=True,
+            when=theta,  # past mid-stance: the new foot lands ahead of the hip
+        ),
+    ),
+    failures=(
+        Failure("fell-backward", THETA.u, -1, "the stance leg stops and swings back"),
+        Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the slope"),
+        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the slope"),
+    ),
+    units={"time": "s", "length": "m", "mass": "kg", "energy": "J"},
+    step_length=swing_foot[0],
+    # Near Drake's gait: legs 0.5 rad apart, the stance leg faster than the swing leg.
+    start={"theta": -0.25, "psi": 0.25, "theta_dot": 1.0, "psi_dot": 0.3},
+    rate_range=(0.6, 2.5),
+)
+
+
+def derive() -> Derivation:
+    return model_derivation(MODEL, "Angles in radians, lengths in m, time in s, energies in J.")

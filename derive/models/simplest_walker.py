@@ -1,0 +1,112 @@
+"""The simplest walking model (Garcia, Chatterjee, Ruina, Coleman 1998, "The simplest
+walking model: stability, complexity, and scaling", J. Biomech. Eng. 120(2):281-288).
+
+Two rigid massless legs of length ``l`` hinged at the hip, a point mass ``M`` at the hip and
+point masses ``m`` at the feet, in the limit ``m/M -> 0``, on a slope ``gamma``. The stance
+foot is a hinge; the swing leg swings freely (its foot passes through the slope near
+mid-stance: the paper ignores that scuffing, and so does this model); heelstrike is an
+inelastic impact of the swing foot, after which the legs swap roles. The only parameter
+after scaling (lengths in ``l``, time in ``sqrt(l/g)``, mass in ``M``) is ``gamma``.
+
+Coordinates on the slope (x downhill, y along its normal): ``theta`` is the stance leg's
+angle from the slope normal, positive with the hip downhill of the stance foot; ``phi`` is
+the angle between the legs (stance minus swing), so the swing leg is at ``theta - phi``.
+Garcia et al. measure both angles the other way round: their state is minus this one.
+
+The foot masses enter as ``epsilon`` and the model is the limit ``epsilon -> 0``
+(:attr:`Model.limits`): with ``epsilon = 0`` exactly the swing leg's equation is 0 = 0.
+"""
+
+from __future__ import annotations
+
+import sympy as sm
+
+from derive.engine import model_derivation
+from derive.engine.model import (
+    NORMAL_FORCE,
+    Coordinate,
+    Event,
+    Failure,
+    Impact,
+    Model,
+    Parameter,
+    Phase,
+    PointMass,
+    leg,
+)
+from derive.quantities import Derivation
+
+PI = float(sm.pi.evalf(17))
+
+PARAMETERS = (
+    Parameter("gamma", r"\gamma", 0.0, PI / 2, "a passive walker walks down a slope: "
+              "0 < gamma < pi/2", "slope angle", default=0.009, unit="rad"),
+)  # fmt: skip
+(gamma,) = (p.symbol for p in PARAMETERS)
+epsilon = sm.Symbol("epsilon", positive=True)  # foot mass / hip mass, taken to 0
+
+THETA = Coordinate("theta", "theta_dot", "stance leg angle from the slope normal", "rad")
+PHI = Coordinate("phi", "phi_dot", "angle between the legs (stance minus swing)", "rad")
+theta, phi = THETA.q, PHI.q
+
+hip = leg(theta)
+swing_foot = tuple(h - f for h, f in zip(hip, leg(theta - phi)))
+
+STANCE = Phase(
+    "stance",
+    coordinates=(THETA, PHI),
+    bodies=(
+        PointMass("hip", 1, hip),
+        PointMass("stance_foot", epsilon, (0, 0)),
+        PointMass("swing_foot", epsilon, swing_foot),
+    ),
+    gravity=(sm.sin(gamma), -sm.cos(gamma)),
+    points={"swing_foot": swing_foot},
+)
+
+MODEL = Model(
+    name="simplest_walker",
+    title="Simplest walking model",
+    description="Garcia et al. 1998: a hip mass on two massless legs with infinitesimal "
+    "feet, walking down a slope",
+    source="derive/models/simplest_walker.py",
+    parameters=PARAMETERS,
+    phases=(STANCE,),
+    events=(
+        Event(
+            "heelstrike",
+            "stance",
+            "stance",
+            # The swing foot's height is -2 sin(theta - phi/2) sin(phi/2): zero where the
+            # legs are together (the scuffing the model ignores) and at heelstrike, where
+            # the first factor rises through zero.
+            guard=sm.sin(theta - phi / 2),
+            direction=1,
+            reset=Impact(
+                "swing_foot",
+                {theta: theta - phi, phi: -phi},
+                bodies={"stance_foot": "swing_foot", "swing_foot": "stance_foot"},
+            ),
+            ends_step=True,
+            when=theta,  # past mid-stance: the new foot lands ahead of the hip
+        ),
+    ),
+    failures=(
+        Failure("fell-backward", THETA.u, -1, "the stance leg stops and swings back"),
+        Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the slope"),
+        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the slope"),
+    ),
+    units={"time": "sqrt(l/g)", "length": "l", "mass": "M", "energy": "M g l"},
+    step_length=swing_foot[0],
+    # Between the two gaits at gamma = 0.009 (Garcia et al.: theta 0.2003 and 0.1939), the
+    # swing leg's rate what heelstrike gives it (1 - cos(phi) times the stance leg's).
+    start={"theta": -0.194, "phi": -0.388, "theta_dot": 1.0, "phi_dot": 0.0743},
+    rate_range=(0.15, 0.26),
+    limits={epsilon: 0},
+)
+
+
+def derive() -> Derivation:
+    return model_derivation(
+        MODEL, "Angles in radians; lengths in l, time in sqrt(l/g), energies in M g l."
+    )

@@ -1,0 +1,145 @@
+"""The compass-like biped of Virtual Slope Walking: the ILE model with massive legs.
+
+The future work that "The Instantaneous Leg Extension Model of Virtual Slope Walking" ends
+with: "a compass-like biped model to investigate the effect of swing leg on mechanical
+energy restoration". On level ground, a point mass ``m_H`` at the hip and two legs whose
+mass ``m`` sits at distance ``b`` from the hip on the upper, non-telescoping segment of the
+leg (so telescoping moves only the massless foot and changes no inertia about the hip).
+
+One step, as in the ILE model (Section III of the paper):
+
+* short stance: the stance leg, ``beta l`` long, swings as a pendulum carrying the hip;
+  the swing leg, shortened to ``beta l``, swings freely about the hip (its foot passes
+  through the ground where the legs are together: scuffing is ignored, as in the passive
+  walkers);
+* extension: at the stance angle ``theta_II`` the stance leg extends instantaneously to
+  ``l`` (an impulse along the stance leg: the generalised momenta of both leg angles are
+  conserved, the ILE's eq. (3) with massive legs);
+* long stance: the same motion with the stance leg ``l`` long;
+* heelstrike: the swing foot (``beta l`` below the hip) reaches the ground ahead of the
+  stance foot; the impact is inelastic (angular momentum about the new contact and that
+  of the trailing leg about the hip are conserved) and the legs swap roles.
+
+The inter-leg angle at heelstrike is not a parameter, as the ILE's ``phi0`` is: it emerges
+from the swing leg's motion. Scaled units: lengths in ``l``, time in ``sqrt(l/g)``, masses
+in ``m_H``, so ``mu = m / m_H`` and energies are in ``m_H g l``.
+
+Coordinates: ``theta`` is the stance leg's angle from the vertical, positive with the hip
+ahead of the stance foot (the ILE's); ``psi`` is the swing leg's angle from the vertical,
+measured the same way (a swing foot ahead of the hip has ``psi < 0``), so the inter-leg
+angle is ``theta - psi``.
+"""
+
+from __future__ import annotations
+
+import sympy as sm
+
+from derive.engine import model_derivation
+from derive.engine.model import (
+    NORMAL_FORCE,
+    Coordinate,
+    Event,
+    Failure,
+    Impact,
+    Jump,
+    Model,
+    Parameter,
+    Phase,
+    PointMass,
+    leg,
+)
+from derive.models.ile.model import PARAMETERS as ILE_PARAMETERS
+from derive.quantities import Derivation
+
+BETA, THETA_II = (p for p in ILE_PARAMETERS if p.name in ("beta", "theta_II"))
+PARAMETERS = (
+    BETA,
+    THETA_II,
+    Parameter("mu", r"\mu", 0.0, float("inf"), "mu = m / m_H > 0: the legs have mass",
+              "mass of each leg over the hip mass", {"positive": True}, default=0.1, unit="1"),
+    Parameter("b_over_l", "b / l", 0.0, 1.0, "the leg's mass lies between the hip and the "
+              "foot: 0 < b / l < 1", "distance from the hip to a leg's mass, over l",
+              {"positive": True}, default=0.3, unit="1"),
+)  # fmt: skip
+beta, theta_II, mu, b = (p.symbol for p in PARAMETERS)
+
+THETA = Coordinate("theta", "omega", "stance leg angle from the vertical", "rad")
+PSI = Coordinate("psi", "psi_dot", "swing leg angle from the vertical", "rad")
+theta, psi = THETA.q, PSI.q
+r = sm.Symbol("r", positive=True)
+"""The stance leg's length, held by its actuator."""
+
+
+def stance_phase(name: str, length: sm.Expr) -> Phase:
+    """The stance leg ``length`` long, the swing leg shortened to ``beta``."""
+    hip = leg(theta, r)
+    return Phase(
+        name,
+        coordinates=(THETA, PSI),
+        bodies=(
+            PointMass("hip", 1, hip),
+            PointMass("stance_leg", mu, tuple(h - f for h, f in zip(hip, leg(theta, b)))),
+            PointMass("swing_leg", mu, tuple(h - f for h, f in zip(hip, leg(psi, b)))),
+        ),
+        gravity=(0, -1),
+        held={r: length},
+        points={"swing_foot": tuple(h - f for h, f in zip(hip, leg(psi, beta)))},
+    )
+
+
+SHORT = stance_phase("short", beta)
+LONG = stance_phase("long", 1)
+
+MODEL = Model(
+    name="vsw_biped",
+    title="Compass-like biped of Virtual Slope Walking",
+    description="the ILE model with massive legs (the paper's future work): hip mass, leg "
+    "masses on the legs' upper segments, instantaneous extension at theta_II, heelstrike "
+    "where the swinging leg reaches the level ground",
+    source="derive/models/vsw_biped.py",
+    parameters=PARAMETERS,
+    phases=(SHORT, LONG),
+    events=(
+        Event(
+            "extension",
+            "short",
+            "long",
+            guard=theta - theta_II,
+            direction=+1,
+            reset=Jump(),
+            at=theta_II,
+            equation="(3) with massive legs",
+        ),
+        Event(
+            "heelstrike",
+            "long",
+            "short",
+            guard=LONG.points["swing_foot"][1],  # the swing foot's height
+            direction=-1,
+            reset=Impact(
+                "swing_foot",
+                {theta: psi, psi: theta},
+                bodies={"stance_leg": "swing_leg", "swing_leg": "stance_leg"},
+            ),
+            ends_step=True,
+            when=theta - psi,  # the new foot lands ahead of the stance foot
+            equation="(5), (6) with massive legs",
+        ),
+    ),
+    failures=(
+        Failure("fell-backward", THETA.u, -1, "the walker stops before the apex and falls back"),
+        Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the ground"),
+        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
+    ),
+    units={"time": "sqrt(l/g)", "length": "l", "mass": "m_H", "energy": "m_H g l"},
+    step_length=LONG.points["swing_foot"][0],
+    # Near an ILE gait (phi0 about 0.6 rad): the legs apart, the swing leg swinging forward.
+    start={"theta": -0.3, "psi": 0.3, "omega": 1.0, "psi_dot": -0.5},
+    rate_range=(0.2, 1.5),
+)
+
+
+def derive() -> Derivation:
+    return model_derivation(
+        MODEL, "Angles in radians; lengths in l, time in sqrt(l/g), energies in m_H g l."
+    )

@@ -1,0 +1,84 @@
+"""The compass-like VSW biped: its massless-leg limit is the ILE model, and its energy
+restoration balances on a periodic gait.
+
+As ``mu = m / m_H -> 0`` the legs' masses stop acting on the hip: the stance dynamics, the
+extension and the heelstrike become the ILE's (the paper's eq. (3)-(6)), while the swing
+leg still swings as a pendulum hung from the hip and sets the inter-leg angle ``phi`` at
+heelstrike. So the biped's rate**2 just after heelstrike must tend to the ILE's closed-form
+fixed point (10) evaluated at ``phi0 = phi``, and the energy its extension adds to the
+ILE's (20), both at O(mu).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import generated.ile as ile
+from vsw.hybrid import load
+
+GAITS = ((0.8, 0.1), (0.85, 0.05))
+"""(beta, theta_II) with a period-one gait for small mu (b / l = 0.3, below beta)."""
+MUS = (1e-2, 3e-3, 1e-3, 3e-4, 1e-4)
+
+
+@pytest.fixture(scope="module")
+def biped():
+    return load("vsw_biped")
+
+
+def _continued(m, beta: float, theta_II: float, mus) -> list:
+    """The gait at each mu, continued from the first (found by the scan) downwards."""
+    params = m.parameters({"beta": beta, "theta_II": theta_II, "mu": mus[0]})
+    orbits = m.fixed_points(params)
+    assert orbits, (beta, theta_II)
+    orbit = orbits[0]
+    out = [orbit]
+    for mu in mus[1:]:
+        params = m.parameters({"beta": beta, "theta_II": theta_II, "mu": mu})
+        orbit = m.periodic_orbit(params, np.array(list(orbit.state.values())), orbit.durations)
+        out.append(orbit)
+    return out
+
+
+@pytest.mark.parametrize(("beta", "theta_II"), GAITS)
+def test_massless_legs_give_the_ile_fixed_point_at_the_emergent_angle(biped, beta, theta_II):
+    errors = []
+    for mu, orbit in zip(MUS, _continued(biped, beta, theta_II, MUS)):
+        s = orbit.state
+        phi = s["psi"] - s["theta"]  # the legs swapped at heelstrike
+        q_ile = float(ile.q_fixed(beta, theta_II, phi))
+        errors.append(abs(s["omega"] ** 2 - q_ile) / q_ile)
+        # The section angle is the ILE's theta_I (11) at that angle too.
+        assert s["theta"] == pytest.approx(float(ile.theta_I(beta, phi)), abs=1e-12)
+    errors = np.array(errors)
+    rates = np.diff(np.log(errors)) / np.diff(np.log(MUS))
+    assert errors[-1] < 1e-3
+    np.testing.assert_allclose(rates, 1.0, atol=0.05)  # O(mu)
+
+
+@pytest.mark.parametrize(("beta", "theta_II"), GAITS)
+def test_energy_the_extension_adds_is_what_heelstrike_dissipates(biped, beta, theta_II):
+    """On level ground a periodic gait restores per step exactly what heelstrike loses
+    (both phases conserve T + V); as mu -> 0 the extension's input is the ILE's (20)."""
+    inputs = []
+    for mu, orbit in zip(MUS, _continued(biped, beta, theta_II, MUS)):
+        params = biped.parameters({"beta": beta, "theta_II": theta_II, "mu": mu})
+        x = np.array(list(orbit.state.values()))
+        events = {e.name: e for e in biped.step_events(params, x)}
+        added = events["extension"].energy_change
+        dissipated = -events["heelstrike"].energy_change
+        assert added > 0 and dissipated > 0
+        assert added == pytest.approx(dissipated, rel=1e-9)
+        phi = orbit.state["psi"] - orbit.state["theta"]
+        q = orbit.state["omega"] ** 2
+        # The ILE's energy added at its own fixed point, per m g r_e (m = m_H here).
+        ile_input = float(ile.energy_complement(beta, theta_II, phi,
+                                                float(ile.q_fixed(beta, theta_II, phi)),
+                                                1.0, 1.0, 1.0))  # fmt: skip
+        inputs.append(abs(added - ile_input) / ile_input)
+        assert q > 0
+    inputs = np.array(inputs)
+    assert inputs[-1] < 1e-3
+    rates = np.diff(np.log(inputs)) / np.diff(np.log(MUS))
+    np.testing.assert_allclose(rates, 1.0, atol=0.05)
