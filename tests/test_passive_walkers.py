@@ -116,6 +116,7 @@ def test_eigenvalues_are_the_simulated_maps_and_garcias_are_off_by_1e_3(walker, 
 def test_the_long_gait_loses_stability_at_0015(walker):
     """[G98]: stable for 0 < gamma < 0.015 (two digits). Continued from 0.009 and bisected
     on max |eigenvalue| = 1."""
+
     def largest(gamma: float, guess) -> tuple[float, object]:
         params = walker.parameters({"gamma": gamma})
         orbit = walker.periodic_orbit(params, np.array(list(guess.state.values())),

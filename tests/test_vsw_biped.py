@@ -44,7 +44,7 @@ def _continued(m, beta: float, theta_II: float, mus) -> list:
 @pytest.mark.parametrize(("beta", "theta_II"), GAITS)
 def test_massless_legs_give_the_ile_fixed_point_at_the_emergent_angle(biped, beta, theta_II):
     errors = []
-    for mu, orbit in zip(MUS, _continued(biped, beta, theta_II, MUS)):
+    for orbit in _continued(biped, beta, theta_II, MUS):
         s = orbit.state
         phi = s["psi"] - s["theta"]  # the legs swapped at heelstrike
         q_ile = float(ile.q_fixed(beta, theta_II, phi))
