@@ -54,7 +54,10 @@ def test_massless_legs_give_the_ile_fixed_point_at_the_emergent_angle(biped, bet
     errors = np.array(errors)
     rates = np.diff(np.log(errors)) / np.diff(np.log(MUS))
     assert errors[-1] < 1e-3
-    np.testing.assert_allclose(rates, 1.0, atol=0.05)  # O(mu)
+    # O(mu): the local log-log slopes tend to 1 (0.87, 0.96, 0.988, 0.996 measured at
+    # (0.8, 0.1) from mu = 1e-2 down, the higher orders fading).
+    assert abs(rates[-1] - 1.0) < 0.01, rates
+    assert np.all(np.diff(np.abs(rates - 1.0)) < 0), rates
 
 
 @pytest.mark.parametrize(("beta", "theta_II"), GAITS)
@@ -81,4 +84,4 @@ def test_energy_the_extension_adds_is_what_heelstrike_dissipates(biped, beta, th
     inputs = np.array(inputs)
     assert inputs[-1] < 1e-3
     rates = np.diff(np.log(inputs)) / np.diff(np.log(MUS))
-    np.testing.assert_allclose(rates, 1.0, atol=0.05)
+    assert abs(rates[-1] - 1.0) < 0.01, rates  # O(mu)
