@@ -426,7 +426,7 @@ def test_help_lists_every_command_exit_status_and_limit(capsys):
     "command, shown",
     [
         ("basin", ["(default: 0.5)", "(default: 2001)", "(default: -30.0)"]),
-        ("design", ["(default: 1)", "(default: exact)"]),  # registered by vsw.design: inherits it
+        ("design", ["(default: 2)", "(default: exact)"]),  # registered by vsw.design: inherits it
     ],
 )
 def test_help_shows_defaults(capsys, command, shown):

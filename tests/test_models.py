@@ -346,8 +346,12 @@ def test_simulated_fixed_point_equals_the_orbit_and_the_closed_form(name):
             x_star = np.array(list(orbit.state.values()))
             scale = max(1.0, float(np.max(np.abs(x_star))))
             # The orbit is a fixed point of the simulated map (event detection, DOP853) ...
+            # An unstable orbit amplifies the integrator's own error within the step by up
+            # to its largest eigenvalue (the VSW biped has gaits with |lambda| ~ 1e3); a
+            # stable one is checked at ORBIT_TOL itself.
+            growth = max(1.0, orbit.max_abs_eigenvalue)
             np.testing.assert_allclose(m.step(p, x_star).state, x_star, rtol=0,
-                                       atol=ORBIT_TOL * scale)  # fmt: skip
+                                       atol=ORBIT_TOL * scale * growth)  # fmt: skip
             slope = orbit.max_abs_eigenvalue
             if slope < 0.95:  # ... and where it attracts, the map's iterates converge to it
                 start = np.concatenate([x_star[: m.n], 1.02 * x_star[m.n :]])

@@ -521,6 +521,8 @@ class HybridModel:
     def eigenvalues(self, params: Sequence[float], state: np.ndarray) -> list[complex]:
         """Eigenvalues of the Poincaré map's Jacobian at a section state."""
         durations = self.step(params, state).durations
+        if len(durations) != len(self._phase_sequence()):
+            raise ConvergenceError(f"{self.name}: the step from this state skips a phase")
         with contextlib.redirect_stderr(io.StringIO()):
             _, jac = self._poincare_function()(
                 np.asarray(state, float), np.asarray(params, float), np.asarray(durations, float)
@@ -534,13 +536,16 @@ class HybridModel:
         after the first step (an unstable gait is found only near where a walk starts) and
         after a few more steps walked (a stable gait attracts them)."""
         low, high = self.spec["rate_range"]
+        sequence = self._phase_sequence()
         found: list[Orbit] = []
         for rate in np.geomspace(low, high, guesses):
             x = self._first_section(params, rate)
             starts = []
             start = self.start_state(rate)
             first = self.step(params, start)
-            if first.ended == "completed":
+            # A start past an event (the ILE's extension angle) skips that phase: its
+            # durations do not fit the orbit's phase sequence.
+            if first.ended == "completed" and len(first.durations) == len(sequence):
                 starts.append((start, first.durations))
             for walked in range(5):
                 result = self.step(params, x)
