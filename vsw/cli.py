@@ -667,6 +667,33 @@ def build_parser() -> ArgumentParser:
         "(angles in rad)",
     )
     _add_gait_arguments(p, "sweep")
+    p.add_argument(
+        "--plot",
+        metavar="FILE",
+        help="save the figure (.png/.svg/.pdf): other models, the bifurcation diagram of "
+        "--y with the largest |eigenvalue|; ile, q^f, eigenvalue and speed",
+    )
+    p.add_argument(
+        "--y",
+        metavar="NAME",
+        help="other models: the quantity the bifurcation diagram shows: step_length "
+        "(default where the model has one), step_period or a state component",
+    )
+    p.add_argument(
+        "--keep",
+        type=int,
+        metavar="N",
+        help="other models: where the period-one gait is unstable or not found, iterate the "
+        "map and keep its last N steps (default 32 with --plot, else 0)",
+    )
+    p.add_argument(
+        "--transient",
+        type=int,
+        default=100,
+        action=StoreGiven,
+        metavar="K",
+        help="other models: steps walked before the N kept (default: 100)",
+    )
     p.set_defaults(func=models_cli.cmd_sweep)
 
     _register_optional_commands(subparsers)

@@ -38,6 +38,7 @@ import numpy as np
 from vsw.errors import ConvergenceError, VswInputError
 
 __all__ = [
+    "Attractor",
     "HybridModel",
     "Orbit",
     "StepResult",
@@ -148,6 +149,46 @@ class Orbit:
             "speed": self.speed,
             "residual": self.residual,
         }
+
+
+@dataclass(frozen=True)
+class Attractor:
+    """Where the Poincaré map goes from a start: the section states of the last ``keep``
+    steps after a transient, and the smallest period ``k`` with which they repeat.
+
+    ``ended`` is 'completed' or the failure that ended the walk (then ``states`` holds
+    the steps walked before it, at most ``keep``); ``period`` is None when the kept steps
+    do not repeat within the tolerance (an orbit of longer period, chaos, or a transient
+    that is not over) or the walk failed.
+    """
+
+    states: np.ndarray  # (kept steps, 2 n): states just after each step event
+    step_lengths: tuple[float | None, ...]
+    step_periods: tuple[float, ...]
+    ended: str
+    steps_walked: int
+    period: int | None
+
+    def to_dict(self, names: Sequence[str]) -> dict[str, Any]:
+        return {
+            "ended": self.ended,
+            "steps_walked": self.steps_walked,
+            "period": self.period,
+            "states": [dict(zip(names, (float(v) for v in row))) for row in self.states],
+            "step_lengths": list(self.step_lengths),
+            "step_periods": list(self.step_periods),
+        }
+
+
+def repeat_period(states: np.ndarray, tol: float) -> int | None:
+    """Smallest ``k <= len(states) / 2`` with every state within ``tol * max(1, |state|)``
+    of the state ``k`` steps later, or None."""
+    count = len(states)
+    for k in range(1, count // 2 + 1):
+        gap = np.abs(states[k:] - states[:-k])
+        if np.all(gap <= tol * np.maximum(1.0, np.abs(states[:-k]))):
+            return k
+    return None
 
 
 class HybridModel:
@@ -334,6 +375,37 @@ class HybridModel:
             phase = what["target"]
         return records
 
+    def attractor(
+        self,
+        params: Sequence[float],
+        state: np.ndarray,
+        transient: int,
+        keep: int,
+        tol: float = 1e-7,
+    ) -> Attractor:
+        """Iterate the Poincaré map ``transient + keep`` steps from the section state
+        ``state`` and keep the last ``keep``: the brute-force way to the period-k orbits
+        and chaos that follow a period-one gait past its loss of stability (a bifurcation
+        diagram). ``tol`` is relative, as in :func:`repeat_period`."""
+        x = np.array(state, dtype=float)
+        kept: list[np.ndarray] = []
+        lengths: list[float | None] = []
+        periods: list[float] = []
+        ended, walked = "completed", 0
+        for walked in range(1, transient + keep + 1):
+            result = self.step(params, x)
+            if result.ended != "completed":
+                ended, walked = result.ended, walked - 1
+                break
+            x = result.state
+            if walked > transient:
+                kept.append(x)
+                lengths.append(result.step_length)
+                periods.append(float(sum(result.durations)))
+        states = np.array(kept, dtype=float).reshape(-1, 2 * self.n)
+        period = repeat_period(states, tol) if ended == "completed" and len(states) > 1 else None
+        return Attractor(states, tuple(lengths), tuple(periods), ended, walked, period)
+
     def simulate(
         self,
         params: Sequence[float],
@@ -513,19 +585,38 @@ class HybridModel:
             g_of_tau = guard(pp, integrator(x0=xs, p=ca.vertcat(pp, tau))["xf"])
             root = ca.rootfinder(f"end_{phase}", "newton",
                                  ca.Function(f"g_{phase}", [tau, ca.vertcat(xs, pp)], [g_of_tau]),
-                                 {"abstol": 1e-14, "max_iter": 50})  # fmt: skip
+                                 {"abstol": 1e-12, "max_iter": 50, "error_on_fail": False})  # fmt: skip
             t_end = root(guesses[k], ca.vertcat(x, p))
             x = reset(p, integrator(x0=x, p=ca.vertcat(p, t_end))["xf"])
         return ca.Function("poincare", [x0, p, guesses], [x, ca.jacobian(x, x0)])
 
     def eigenvalues(self, params: Sequence[float], state: np.ndarray) -> list[complex]:
         """Eigenvalues of the Poincaré map's Jacobian at a section state."""
-        durations = self.step(params, state).durations
+        result = self.step(params, state)
+        durations = result.durations
         if len(durations) != len(self._phase_sequence()):
             raise ConvergenceError(f"{self.name}: the step from this state skips a phase")
-        with contextlib.redirect_stderr(io.StringIO()):
-            _, jac = self._poincare_function()(
-                np.asarray(state, float), np.asarray(params, float), np.asarray(durations, float)
+        try:
+            with contextlib.redirect_stderr(io.StringIO()):
+                x_end, jac = self._poincare_function()(
+                    np.asarray(state, float), np.asarray(params, float),
+                    np.asarray(durations, float),
+                )  # fmt: skip
+        except RuntimeError as exc:  # an end time's rootfinder failed
+            raise ConvergenceError(
+                f"{self.name}: the Poincaré map's derivative failed "
+                f"({' '.join(str(exc).split())[-60:]})"
+            ) from None
+        # The guards' rootfinders stop at 1e-12 (CVODES' own error is near that) without
+        # failing: whether they found the step is checked here, on the simulated one.
+        x_end = np.array(x_end, dtype=float).reshape(-1)
+        gap = (
+            float(np.max(np.abs(x_end - result.state))) if np.all(np.isfinite(x_end)) else math.inf
+        )
+        if not gap <= 1e-8 * max(1.0, float(np.max(np.abs(result.state)))):
+            raise ConvergenceError(
+                f"{self.name}: the Poincaré map's derivative did not find the simulated step "
+                f"(gap {gap:.3g})"
             )
         values = np.linalg.eigvals(np.array(jac, dtype=float))
         return sorted((complex(v) for v in values), key=lambda v: (-abs(v), v.real, v.imag))

@@ -299,7 +299,7 @@ _HYBRID_ONLY = {
     "analyze": (),
     "simulate": ("state",),
     "basin": ("rate_min", "rate_max", "n_rates", "max_steps", "tol"),
-    "sweep": (),
+    "sweep": ("y", "keep", "transient"),
 }
 # The ILE's required options after the gait parameters, in the order argparse named them.
 _ILE_REQUIRED = {"analyze": (), "simulate": ("--q0", "--steps"), "basin": (), "sweep": ()}
@@ -757,28 +757,49 @@ def cmd_basin(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _diagram_quantity(model, y: str | None) -> str:
+    """``--y``: what the bifurcation diagram shows (step length where the model has one)."""
+    choices = ["step_period", *model.coordinates, *model.rates]
+    if model.spec["step_length"]:
+        choices.insert(0, "step_length")
+    if y is None:
+        return choices[0]
+    if y not in choices:
+        raise VswInputError(f"--y {y!r} is not one of the {cli_name(model.name)} model's: "
+                            f"{', '.join(choices)}")  # fmt: skip
+    return y
+
+
 def cmd_sweep(args: argparse.Namespace) -> int:
     """``vsw sweep``: outputs along one parameter (the ILE's closed forms, or the engine's
-    gait continued from point to point)."""
+    gait continued from point to point, and past its loss of stability the map iterated
+    for the bifurcation diagram)."""
     if args.model == ILE:
         return _sweep_ile(args)
     import numpy as np
 
-    from vsw.cli import EXIT_OK, _dump_json, _fmt, _progress
+    from vsw.cli import EXIT_OK, _check_plot_path, _dump_json, _fmt, _progress
 
     model = _hybrid(args.model, "sweep")
     name, values = parse_over(args.model, args.over)
+    y = _diagram_quantity(model, args.y)
+    keep = args.keep if args.keep is not None else (32 if args.plot is not None else 0)
+    if keep < 0 or args.transient < 0:
+        raise VswInputError(f"--keep {keep} and --transient {args.transient} must be >= 0")
+    _check_plot_path(args.plot)
     count = len(values)
     _check_cost(
         model,
-        f"a sweep of {count} points",
-        {"scan": 1, "orbit": count},
-        count,
-        "use fewer points (N of --over)",
-    )
+        f"a sweep of {count} points" + (f" iterating {args.transient + keep} steps each"
+                                        if keep else ""),
+        {"scan": 1, "orbit": count, "step": count * (args.transient + keep if keep else 0)},
+        count * max(keep, 1),
+        "use fewer points (N of --over)" + (", --keep or --transient" if keep else ""),
+    )  # fmt: skip
     empty = {k: None for k in ("state", "period", "eigenvalues", "max_abs_eigenvalue")}
     empty.update(stable=None, step_length=None, speed=None)
-    points, previous = [], None
+    names = list(model.coordinates + model.rates)
+    points, previous, walked_to = [], None, None
     with _progress("sweep") as bar, _engine(model):
         for i, value in enumerate(values):
             params = model.parameters({**args.params, name: float(value)})
@@ -794,16 +815,50 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                 orbit, source = _pick(model.fixed_points(params)), "scan"
             point = {name: float(value), "found": orbit is not None}
             point.update({"from": source, **orbit.to_dict()} if orbit else {"from": None, **empty})
+            if keep and (orbit is None or not orbit.stable):
+                # The attractor followed along the sweep: from where the last iteration
+                # ended, else from the previous point's gait (off this point's unstable
+                # gait by the parameter step), else from this gait moved by 1e-4: a walk
+                # started on an unstable gait stays there for as long as its rounding
+                # takes to grow.
+                if walked_to is not None:
+                    start = walked_to
+                elif previous is not None:
+                    start = np.array(list(previous.state.values()))
+                elif orbit is not None:
+                    start = np.array(list(orbit.state.values())) * (1 + 1e-4)
+                else:
+                    start = None
+                if start is None:
+                    point["attractor"] = None
+                else:
+                    attractor = model.attractor(params, start, args.transient, keep)
+                    point["attractor"] = attractor.to_dict(names)
+                    walked_to = attractor.states[-1] if attractor.ended == "completed" else None
+            else:
+                walked_to = None
+                if keep:
+                    point["attractor"] = None
             points.append(point)
-            previous = orbit
+            previous = orbit or previous
             bar(i + 1, count)
     fixed = model.parameters(args.params)
+    over_unit = next(p.unit for p in model.parameter_table if p.name == name)
     data = {
         "model": cli_name(model.name),
         "over": name,
+        "over_unit": over_unit,
         "parameters": {k: v for k, v in zip(model.spec["parameters"], fixed) if k != name},
         "points": points,
     }
+    if keep:
+        data.update(transient=args.transient, keep=keep)
+    if args.plot is not None:
+        from vsw.model_plots import bifurcation_plot
+        from vsw.plots import save_figure
+
+        save_figure(bifurcation_plot(_clean(data), y, _units(model)), args.plot)
+        data["plot"] = args.plot
     if args.json:
         _dump_json(_clean(data), sys.stdout)
         return EXIT_OK
@@ -816,11 +871,19 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     )  # fmt: skip
     for p in points:
         state = p["state"] or {}
+        attractor = p.get("attractor")
+        note = ""
+        if attractor:
+            kind = (f"period-{attractor['period']}" if attractor["period"]
+                    else "no repeat within --keep steps")  # fmt: skip
+            note = f"; map: {attractor['ended'] if attractor['ended'] != 'completed' else kind}"
         out.write(
             f"{_fmt(p[name]):>12} " + " ".join(f"{_fmt(state.get(n)):>12}" for n in state_names)
             + f" {_fmt(p['period']):>12} {_fmt(p['max_abs_eigenvalue']):>12} "
-            f"{_fmt(p['stable']):>6}  {p['from'] or 'no gait found'}\n"
+            f"{_fmt(p['stable']):>6}  {p['from'] or 'no gait found'}{note}\n"
         )  # fmt: skip
+    if args.plot is not None:
+        out.write(f"plot: {args.plot}\n")
     return EXIT_OK
 
 
@@ -828,10 +891,11 @@ def _sweep_ile(args: argparse.Namespace) -> int:
     """The ILE's sweep: :func:`vsw.sweep.sweep` over one parameter (closed forms)."""
     from vsw import limits
     from vsw.analysis import FIELDS, _jsonable
-    from vsw.cli import EXIT_OK, _dump_json, _fmt, _progress
+    from vsw.cli import EXIT_OK, _check_plot_path, _dump_json, _fmt, _progress
     from vsw.sweep import sweep
 
     name, values = parse_over(ILE, args.over)
+    _check_plot_path(args.plot)
     names = [p.name for p in parameter_table(ILE)]
     fixed = ile_values(args, [n for n in names if n != name])
     cost = limits.Cost(
@@ -848,6 +912,13 @@ def _sweep_ile(args: argparse.Namespace) -> int:
         for i, v in enumerate(values)
     ]
     data = {"model": ILE, "over": name, "parameters": fixed, "points": points}
+    if args.plot is not None:
+        from vsw.model_plots import ile_sweep_plot
+        from vsw.plots import save_figure
+
+        unit = next(p.unit for p in parameter_table(ILE) if p.name == name)
+        save_figure(ile_sweep_plot(data, f"{name} [{unit}]" if unit else name), args.plot)
+        data["plot"] = args.plot
     if args.json:
         _dump_json(data, sys.stdout)
         return EXIT_OK
@@ -858,4 +929,6 @@ def _sweep_ile(args: argparse.Namespace) -> int:
     out.write(f"{name:>12} " + " ".join(f"{f:>12}" for f in shown) + "\n")
     for p in points:
         out.write(f"{_fmt(p[name]):>12} " + " ".join(f"{_fmt(p[f]):>12}" for f in shown) + "\n")
+    if args.plot is not None:
+        out.write(f"plot: {args.plot}\n")
     return EXIT_OK

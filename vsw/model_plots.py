@@ -1,0 +1,163 @@
+"""Figures of ``vsw sweep --plot``: a bifurcation diagram for the engine's models and the
+closed-form outputs along a parameter for the ILE.
+
+Both draw from the sweep's own JSON record (the dictionary ``vsw sweep --json`` prints),
+so a figure shows exactly the numbers the command reports. The style is
+:mod:`vsw.plotstyle`'s; matplotlib is imported by it, inside the functions.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from vsw import plotstyle
+from vsw.plotstyle import COLORS
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+__all__ = ["bifurcation_plot", "diagram_value", "ile_sweep_plot"]
+
+
+def diagram_value(y: str, state: Mapping[str, float] | None, step_length, step_period):
+    """The diagram's quantity ``y`` of one step: a state component or the step's length or
+    period (None where the sweep has no value)."""
+    if y == "step_length":
+        return step_length
+    if y == "step_period":
+        return step_period
+    return None if state is None else state.get(y)
+
+
+def _axis_label(y: str, units: Mapping[str, str]) -> str:
+    if y == "step_length":
+        return f"step length [{units.get('length', '')}]"
+    if y == "step_period":
+        return f"step period [{units.get('time', '')}]"
+    return f"{y} (after the step event)"
+
+
+@plotstyle.styled
+def bifurcation_plot(data: Mapping[str, Any], y: str, units: Mapping[str, str]) -> Figure:
+    """The period-one gait along the swept parameter (solid where stable, dashed where
+    not) and, where it is unstable or was not found, the last steps of the iterated map
+    (dots: a period-k orbit shows k dots, chaos a smear); below, the largest |eigenvalue|
+    of the period-one gait against 1.
+
+    Parameters
+    ----------
+    data : mapping
+        The record of ``vsw sweep --json`` (``over``, ``points``; each point's
+        ``attractor`` where the map was iterated).
+    y : str
+        What the diagram shows (:func:`diagram_value`).
+    units : mapping
+        The model's units (``length``, ``time``), for the axis label.
+    """
+    over = data["over"]
+    points = data["points"]
+    fig, (ax, ax_eig) = plotstyle.new_figure(
+        width=plotstyle.COLUMN_WIDTH, height=1.25 * plotstyle.COLUMN_WIDTH, nrows=2,
+        sharex=True, height_ratios=(2.2, 1.0),
+    )  # fmt: skip
+    xs = np.array([p[over] for p in points], dtype=float)
+    ys = np.array(
+        [
+            np.nan if (v := diagram_value(y, p["state"], p["step_length"], p["period"])) is None
+            else v
+            for p in points
+        ],
+        dtype=float,
+    )  # fmt: skip
+    stable = [p["stable"] for p in points]
+    # Segments between neighbouring gaits: solid where both are stable, dashed otherwise,
+    # so the curve is unbroken through the loss of stability.
+    seen = set()
+    for i in range(len(points) - 1):
+        if np.isnan(ys[i]) or np.isnan(ys[i + 1]):
+            continue
+        both = bool(stable[i]) and bool(stable[i + 1])
+        label = "period-one gait, " + ("stable" if both else "unstable")
+        ax.plot(xs[i : i + 2], ys[i : i + 2], "-" if both else "--", color=COLORS["blue"],
+                marker="none", label=None if label in seen else label)  # fmt: skip
+        seen.add(label)
+    for i in range(len(points)):  # a gait with no neighbour to join
+        lone = all(np.isnan(ys[j]) for j in (i - 1, i + 1) if 0 <= j < len(points))
+        if lone and not np.isnan(ys[i]):
+            fill = "full" if stable[i] else "none"
+            ax.plot(xs[i], ys[i], marker="o", fillstyle=fill, color=COLORS["blue"],
+                    linestyle="none")  # fmt: skip
+    dots_x, dots_y, fell_x = [], [], []
+    for p in points:
+        attractor = p.get("attractor")
+        if not attractor:
+            continue
+        if attractor["ended"] != "completed":
+            fell_x.append(p[over])
+        for state, length, period in zip(
+            attractor["states"], attractor["step_lengths"], attractor["step_periods"]
+        ):
+            value = diagram_value(y, state, length, period)
+            if value is not None:
+                dots_x.append(p[over])
+                dots_y.append(value)
+    if dots_x:
+        ax.plot(dots_x, dots_y, linestyle="none", marker=".", markersize=1.8,
+                color=COLORS["vermillion"], label="iterated map (last steps)")  # fmt: skip
+    if fell_x:
+        bottom = np.nanmin(np.r_[ys, dots_y]) if np.any(~np.isnan(np.r_[ys, dots_y])) else 0.0
+        ax.plot(fell_x, [bottom] * len(fell_x), linestyle="none", marker="x",
+                color=COLORS["black"], label="walk fell")  # fmt: skip
+    ax.set_ylabel(_axis_label(y, units))
+    fixed = ", ".join(f"{k} = {v:.6g}" for k, v in data["parameters"].items())
+    ax.set_title(f"{data['model']}" + (f": {fixed}" if fixed else ""))
+    plotstyle.figure_legend(fig, *ax.get_legend_handles_labels(), ncols=2)
+
+    eig = np.array([np.nan if p["max_abs_eigenvalue"] is None else p["max_abs_eigenvalue"]
+                    for p in points], dtype=float)  # fmt: skip
+    ax_eig.axhline(1.0, color=COLORS["grey"], linewidth=0.8)
+    ax_eig.plot(xs, eig, "-", color=COLORS["blue"], marker="none")
+    ax_eig.set_ylabel(r"max $|\lambda|$")
+    ax_eig.set_xlabel(f"{over} [{data.get('over_unit', '')}]".replace(" []", ""))
+    if np.any(eig > 0):
+        finite = eig[np.isfinite(eig)]
+        if finite.size and finite.max() / max(finite.min(), 1e-300) > 50:
+            ax_eig.set_yscale("log")
+    return fig
+
+
+_ILE_PANELS = (
+    ("q_fixed", r"$q^f$ [$g/r_e$]"),
+    ("eigenvalue", r"eigenvalue $\lambda$"),
+    ("speed", r"speed [$\sqrt{g r_e}$]"),
+)
+
+
+@plotstyle.styled
+def ile_sweep_plot(data: Mapping[str, Any], xlabel: str) -> Figure:
+    """The ILE's fixed point q^f (10), eigenvalue (20) and speed along the swept
+    parameter; points where no gait exists are left empty."""
+    over = data["over"]
+    points: Sequence[Mapping[str, Any]] = data["points"]
+    fig, axes = plotstyle.new_figure(
+        width=plotstyle.COLUMN_WIDTH, height=1.5 * plotstyle.COLUMN_WIDTH, nrows=3,
+        sharex=True,
+    )  # fmt: skip
+    xs = np.array([p[over] for p in points], dtype=float)
+    for ax, (field, label) in zip(axes, _ILE_PANELS):
+        values = np.array(
+            [np.nan if not p.get("walks") or p.get(field) is None else p[field] for p in points],
+            dtype=float,
+        )
+        values[~np.isfinite(values)] = np.nan
+        ax.plot(xs, values, "-", color=COLORS["blue"], marker="none")
+        ax.set_ylabel(label)
+    axes[1].axhline(1.0, color=COLORS["grey"], linewidth=0.8)
+    axes[1].axhline(-1.0, color=COLORS["grey"], linewidth=0.8)
+    fixed = ", ".join(f"{k} = {v:.6g}" for k, v in data["parameters"].items())
+    axes[0].set_title("ile" + (f": {fixed}" if fixed else ""))
+    axes[-1].set_xlabel(xlabel)
+    return fig
