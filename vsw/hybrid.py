@@ -583,9 +583,10 @@ class HybridModel:
             xs = ca.MX.sym("xs", n)
             pp = ca.MX.sym("pp", p.shape[0])
             g_of_tau = guard(pp, integrator(x0=xs, p=ca.vertcat(pp, tau))["xf"])
+            options = {"abstol": 1e-12, "max_iter": 50, "error_on_fail": False}
             root = ca.rootfinder(f"end_{phase}", "newton",
                                  ca.Function(f"g_{phase}", [tau, ca.vertcat(xs, pp)], [g_of_tau]),
-                                 {"abstol": 1e-12, "max_iter": 50, "error_on_fail": False})  # fmt: skip
+                                 options)  # fmt: skip
             t_end = root(guesses[k], ca.vertcat(x, p))
             x = reset(p, integrator(x0=x, p=ca.vertcat(p, t_end))["xf"])
         return ca.Function("poincare", [x0, p, guesses], [x, ca.jacobian(x, x0)])
