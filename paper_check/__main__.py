@@ -1,5 +1,9 @@
 """``python -m paper_check [--out DIR]``: write the audit report, JSON and figures.
 
+``python -m paper_check --model NAME [--out DIR]`` writes instead the report of one of the
+walkers with massive legs (``simplest-walker``, ``compass-gait``, ``vsw-biped``) beside its
+published numbers: :mod:`paper_check.walkers` (default directory ``reports/walkers``).
+
 Exit status: 0 when every verdict matches ``paper_check/expected_verdicts.json``, 1 when
 any verdict changed (the differences are printed on stderr), 2 on a bad output path (one
 line on stderr, found before the audit runs: an empty name, a directory that cannot be
@@ -88,11 +92,30 @@ def main(argv: list[str] | None = None) -> int:
         prog="python -m paper_check",
         description="Equation and claim audit of the ILE paper, with its figures reproduced.",
     )
-    parser.add_argument("--out", default="reports", help="output directory (default: reports/)")
+    parser.add_argument(
+        "--out", help="output directory (default: reports/; with --model, reports/walkers/)"
+    )
     parser.add_argument(
         "--no-figures", action="store_true", help="skip the figures (faster; for tests)"
     )
+    from paper_check.walkers import MODELS
+
+    parser.add_argument(
+        "--model",
+        action="append",
+        choices=MODELS,
+        metavar="NAME",
+        help=f"instead of the audit, the report of a walker: {', '.join(MODELS)} "
+        "(python -m paper_check.walkers; repeatable)",
+    )
     args = parser.parse_args(argv)
+    if args.model:
+        from paper_check import walkers
+
+        out = "reports/walkers" if args.out is None else args.out
+        return walkers.main([*(a for m in args.model for a in ("--model", m)), "--out", out])
+    if args.out is None:
+        args.out = "reports"
     problem = check_output_directory(args.out, figures=not args.no_figures)
     if problem is not None:
         print(f"paper_check: error: {problem}", file=sys.stderr)

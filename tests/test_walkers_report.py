@@ -1,0 +1,77 @@
+"""``python -m paper_check --model NAME`` (paper_check.walkers): the walkers' reports.
+
+The numbers themselves are checked in tests/test_passive_walkers.py and
+tests/test_vsw_biped.py; here: the command writes its report and figures, the rows that
+must agree do, the rows that differ say why, and the output is the same run after run.
+"""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from paper_check.__main__ import main as paper_check_main
+from paper_check.walkers import main
+
+
+def _rows(text: str) -> list[list[str]]:
+    return [
+        [cell.strip() for cell in line.strip("|").split("|")]
+        for line in text.splitlines()
+        if line.startswith("| ")
+        and "---" not in line
+        and not line.startswith(("| quantity", "| beta", "| gamma", "| gait"))
+    ]
+
+
+@pytest.fixture(scope="module")
+def simplest_walker_report(tmp_path_factory):
+    out = tmp_path_factory.mktemp("walkers")
+    assert paper_check_main(["--model", "simplest-walker", "--out", str(out)]) == 0
+    return out
+
+
+def test_simplest_walker_report_verdicts(simplest_walker_report):
+    text = (simplest_walker_report / "simplest-walker.md").read_text()
+    verdicts = {}
+    for row in _rows(text):
+        if len(row) == 8:
+            verdicts[(row[0], row[1])] = (row[6], row[7])
+    # Every gait coordinate and step period agrees with both codes; the loss of stability
+    # with the paper; Table 1 but the long gait's Theta1; Garcia's eigenvalues do not.
+    agree = [k for k, (v, _) in verdicts.items() if v == "agrees"]
+    differ = sorted(k for k, (v, _) in verdicts.items() if v == "differs")
+    assert len(agree) == 23, agree
+    assert differ == sorted([
+        ("long gait Theta1", "G98T1"),
+        ("long gait eigenvalue, imaginary part", "G98code"),
+        ("long gait eigenvalue, real part", "G98code"),
+        ("short gait eigenvalue 1", "G98code"),
+        ("short gait eigenvalue 2", "G98code"),
+    ])  # fmt: skip
+    for key in differ:
+        assert verdicts[key][1], key  # a row that differs says why
+    # The diagram: stable, then period-2 past the loss of stability.
+    assert re.search(r"\| 0.0155 \| unstable \| [0-9.]+ \| period-2 \|", text)
+    for name in ("simplest-walker_bifurcation.png", "simplest-walker_bifurcation.svg"):
+        assert (simplest_walker_report / name).stat().st_size > 10_000
+
+
+def test_vsw_biped_report_is_deterministic(tmp_path):
+    runs = []
+    for k in range(2):
+        out = tmp_path / str(k)
+        assert main(["--model", "vsw-biped", "--quick", "--out", str(out)]) == 0
+        runs.append({p.name: p.read_bytes() for p in sorted(out.iterdir())})
+    assert runs[0] == runs[1]
+    assert set(runs[0]) == {"vsw-biped.md", "vsw-biped_mu.png", "vsw-biped_mu.svg"}
+    rows = _rows(runs[0]["vsw-biped.md"].decode())
+    # beta = 0.8, theta_II = 0.1: the gait continued to mu = 0.3, lost at mu = 1.
+    assert [r[2] for r in rows] == ["0.0001", "0.001", "0.01", "0.03", "0.1", "0.3", "1"]
+    assert "no gait by continuation" in rows[-1][3]
+
+
+def test_bad_output_directory_is_one_line(capsys):
+    assert main(["--model", "vsw-biped", "--out", ""]) == 2
+    assert capsys.readouterr().err.count("\n") == 1
