@@ -373,6 +373,22 @@ def test_simulated_fixed_point_equals_the_orbit_and_the_closed_form(name):
 
 
 @pytest.mark.parametrize("name", MODELS)
+def test_orbit_eigenvalues_equal_the_poincare_maps(name):
+    """The orbit's eigenvalues (implicit function theorem on the boundary-value residual's
+    Jacobian) equal those of the Poincaré map's own derivative (each phase's end time by a
+    rootfinder on its guard, CasADi derivatives through it): two routes to one matrix."""
+    m = engine(name)
+    for p, orbits in gaits(name):
+        for orbit in orbits:
+            x_star = np.array(list(orbit.state.values()))
+            direct = np.array(m.eigenvalues(p, x_star))
+            ours = np.array(orbit.eigenvalues)
+            scale = max(1.0, float(np.max(np.abs(direct))))
+            np.testing.assert_allclose(np.sort_complex(ours), np.sort_complex(direct), rtol=0,
+                                       atol=1e-7 * scale)  # fmt: skip
+
+
+@pytest.mark.parametrize("name", MODELS)
 def test_closed_form_stride_map_equals_one_simulated_step(name):
     m = engine(name)
     if not m.spec["closed_form"]:

@@ -478,7 +478,10 @@ class HybridModel:
             integrator = ca.integrator(
                 f"flow_{phase}", "cvodes",
                 {"x": x, "p": ca.vertcat(p, duration), "ode": ode}, 0.0, 1.0,
-                {"abstol": 1e-13, "reltol": 1e-13, "max_num_steps": 100000},
+                # Adams (non-stiff walkers): at these tolerances 3x faster than BDF
+                # on the flow and 7x on its sensitivities.
+                {"abstol": 1e-13, "reltol": 1e-13, "max_num_steps": 100000,
+                 "linear_multistep_method": "adams", "nonlinear_solver_iteration": "functional"},
             )  # fmt: skip
             guard = self._fn(f"event_{event['name']}_guard")(*ca.vertsplit(p), *ca.vertsplit(x))
             reset = self._fn(f"event_{event['name']}_reset")(*ca.vertsplit(p), *ca.vertsplit(x))
@@ -511,20 +514,52 @@ class HybridModel:
         unknowns = ca.vertcat(x0, durations)
         return ca.Function("orbit", [unknowns, p], [ca.vertcat(*residuals)])
 
-    def periodic_orbit(
-        self, params: Sequence[float], state: np.ndarray, durations: Sequence[float]
-    ) -> Orbit:
-        """Solve the period-one orbit from a guess (state on the section, phase durations)."""
+    @functools.cache  # noqa: B019
+    def _orbit_solver(self):
+        """The orbit's Newton solver and the residual's Jacobian (for the eigenvalues)."""
         import casadi as ca
 
         residual = self._orbit_residual()
+        options = {"abstol": 1e-13, "max_iter": 40, "error_on_fail": False}
+        solver = ca.rootfinder("orbit_solver", "newton", residual, options)
+        u = ca.MX.sym("u", residual.size1_in(0))
+        p = ca.MX.sym("p", residual.size1_in(1))
+        jacobian = ca.Function("orbit_jacobian", [u, p], [ca.jacobian(residual(u, p), u)])
+        return solver, jacobian
+
+    def _orbit_eigenvalues(self, jacobian: np.ndarray) -> list[complex]:
+        """Eigenvalues of the Poincaré map from the orbit residual's Jacobian at the orbit.
+
+        The residual is (guards G at each phase's end, F - x0) in the unknowns (x0, T); the
+        map is P(x0) = F(x0, T(x0)) with G(x0, T(x0)) = 0, so by the implicit function
+        theorem dP/dx0 = F_x - F_T G_T^-1 G_x (F_x = the block of F - x0, plus I).
+        """
+        k = len(self._phase_sequence())
+        n = 2 * self.n
+        g_x, g_t = jacobian[:k, :n], jacobian[:k, n:]
+        f_x, f_t = jacobian[k:, :n] + np.eye(n), jacobian[k:, n:]
+        monodromy = f_x - f_t @ np.linalg.solve(g_t, g_x)
+        values = np.linalg.eigvals(monodromy)
+        return sorted((complex(v) for v in values), key=lambda v: (-abs(v), v.real, v.imag))
+
+    def periodic_orbit(
+        self, params: Sequence[float], state: np.ndarray, durations: Sequence[float]
+    ) -> Orbit:
+        """Solve the period-one orbit from a guess (state on the section, phase durations).
+
+        The orbit is confirmed by the time-domain simulation: one simulated step from it
+        (SciPy, events) must pass every phase and return to it within 1e-8 (relative to
+        max(1, |state|), times the largest |eigenvalue| on an unstable gait); otherwise the
+        rootfinder's solution is no gait (a guard crossed earlier, a failure on the way) and
+        :class:`ConvergenceError` says so.
+        """
+        residual = self._orbit_residual()
+        solver, jacobian = self._orbit_solver()
         n = 2 * self.n
         guess = np.concatenate([np.asarray(state, float), np.asarray(durations, float)])
         p = np.asarray(params, float)
         if not np.all(np.isfinite(guess)):
             raise ConvergenceError(f"{self.name}: the periodic-orbit guess is not finite")
-        options = {"abstol": 1e-13, "max_iter": 40, "error_on_fail": False}
-        solver = ca.rootfinder("orbit_solver", "newton", residual, options)
         try:
             # CasADi reports integrator trouble on Python's stderr; the residual check
             # below says what matters.
@@ -543,11 +578,27 @@ class HybridModel:
                 f"{self.name}: the periodic-orbit solver did not converge (residual {size:.3g})"
             )
         x_star, t_star = solution[:n], solution[n:]
+        with contextlib.redirect_stderr(io.StringIO()):
+            jac = np.array(jacobian(solution, p), dtype=float)
+        eigenvalues = self._orbit_eigenvalues(jac)
+        simulated = self.step(params, x_star)
+        if simulated.ended != "completed" or len(simulated.durations) != len(t_star):
+            raise ConvergenceError(
+                f"{self.name}: the rootfinder's orbit is no gait: the simulated step from it "
+                + ("skips a phase" if simulated.ended == "completed" else simulated.ended)
+            )
+        gap = float(np.max(np.abs(simulated.state - x_star)))
+        # The step's own integration error, amplified up to |lambda| on an unstable gait.
+        if not gap <= 1e-8 * scale * max(1.0, abs(eigenvalues[0])):
+            raise ConvergenceError(
+                f"{self.name}: the rootfinder's orbit is no gait: the simulated step from it "
+                f"ends {gap:.3g} away"
+            )
         return Orbit(
             state=dict(zip(self.coordinates + self.rates, (float(v) for v in x_star))),
             durations=tuple(float(v) for v in t_star),
             period=float(np.sum(t_star)),
-            eigenvalues=tuple(self.eigenvalues(params, x_star)),
+            eigenvalues=tuple(eigenvalues),
             step_length=self._orbit_step_length(p, x_star, t_star),
             residual=size,
         )
