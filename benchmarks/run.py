@@ -6,6 +6,7 @@ versions). Each comparison is a ratio measured within one run: the two sides int
 a warm-up call of each first, then at least five repetitions (two with ``--quick``);
 medians are reported with min and max. Absolute times are reported; only ratios are
 claimed, except where the issue sets an absolute target (cases 4-7).
+Case 9 times one passive-walker gait solve per model (issue 13).
 
 Every case runs in a fresh Python process, so its peak resident memory (RSS) is its own;
 the peak memory of one call of each side is measured with ``tracemalloc`` (numpy reports
@@ -41,7 +42,7 @@ import generated.ile as ile  # noqa: E402
 from vsw.params import random_parameters  # noqa: E402
 from vsw.vectorize import chunked, default_threads  # noqa: E402
 
-CASES = (1, 2, 3, 4, 5, 6, 7, 8)
+CASES = (1, 2, 3, 4, 5, 6, 7, 8, 9)
 
 DESIGN_BEFORE = "39d527c"
 """The commit whose vsw/design.py case 8 compares with (before issue 10)."""
@@ -485,6 +486,68 @@ def case_design_suite(quick: bool) -> list[Row]:
     return rows
 
 
+# Case 9's gaits and the published numbers each is held against (sources as in
+# tests/test_passive_walkers.py): the simplest walker's long gait at gamma = 0.009 (Garcia's
+# code: theta, theta_dot in its signs, "to 1e-10"); the compass gait at 3 degrees (Goswami
+# et al. 1996 as quoted: half inter-leg angle 0.271 rad, 3 digits); the VSW biped (no
+# published number: the ILE's closed form (10) at the emergent angle, mu = 0.01, is its
+# O(mu) check, not a published value).
+GAITS = (
+    ("simplest_walker", {"gamma": 0.009}, lambda s: max(abs(-s["theta"] - 0.20031090049483),
+                                                        abs(-s["theta_dot"] + 0.19983247291764))),
+    ("compass_gait", {"gamma": float(np.radians(3.0))}, lambda s: abs(-s["theta"] - 0.271)),
+    ("vsw_biped", {"beta": 0.8, "theta_II": 0.1, "mu": 0.01}, None),
+)  # fmt: skip
+
+
+def case_gait_rootfinder(reps: int) -> list[Row]:
+    """Case 9: one period-one gait per model by the engine's boundary-value rootfinder
+    (CasADi Newton on CVODES flows, eigenvalues included, confirmed by one simulated step)
+    against SciPy root (hybr, xtol 1e-12) on the simulated map (solve_ivp DOP853 with
+    events, rtol = atol = 1e-12: vsw.hybrid's own step), both from the same guess: the gait
+    with every component moved by 1e-3 (relative), as a continuation step leaves it."""
+    from scipy.optimize import root
+
+    from vsw.hybrid import load
+
+    rows = []
+    for key, values, published in GAITS:
+        m = load(key)
+        params = m.parameters(values)
+        orbit = min(m.fixed_points(params), key=lambda o: o.max_abs_eigenvalue)
+        x_star = np.array(list(orbit.state.values()))
+        guess = x_star * (1 + 1e-3)
+        durations = m.step(params, guess).durations
+        found = {}
+
+        def ours(m=m, params=params, guess=guess, durations=durations, found=found):
+            found["ours"] = m.periodic_orbit(params, guess, durations)
+
+        def theirs(m=m, params=params, guess=guess, found=found):
+            solution = root(lambda x: m.step(params, x).state - x, guess, method="hybr",
+                            options={"xtol": 1e-12})  # fmt: skip
+            found["theirs"] = solution
+
+        t_ours, t_theirs = interleaved(ours, theirs, reps)
+        x_ours = np.array(list(found["ours"].state.values()))
+        x_theirs = found["theirs"].x
+        names = m.coordinates + m.rates
+        note = (f"SciPy root success {found['theirs'].success}, {found['theirs'].nfev} steps; "
+                f"the two gaits differ by {np.max(np.abs(x_ours - x_theirs)):.1g}")  # fmt: skip
+        if published is not None:
+            gap_ours = published(found["ours"].state)
+            gap_theirs = published(dict(zip(names, x_theirs)))
+            note += (f"; from the published values: ours {gap_ours:.2g}, SciPy's "
+                     f"{gap_theirs:.2g}")  # fmt: skip
+        ratio = t_ours.median / t_theirs.median
+        rows.append(Row(
+            "9", f"{key}: period-one gait by vsw.hybrid periodic_orbit",
+            "SciPy root on solve_ivp (DOP853, events) steps", t_ours, t_theirs,
+            ">= 20x faster", ratio <= 1 / 20, note=note,
+        ))  # fmt: skip
+    return rows
+
+
 def _process_time(command: list[str], reps: int, env: dict | None = None) -> Timing:
     def run():
         subprocess.run(command, cwd=ROOT, check=True, capture_output=True, env=env)
@@ -548,6 +611,8 @@ def run_case(case: int, quick: bool) -> list[Row]:
         return case_startup(1 if quick else 5, include_audit=not quick)
     if case == 8:
         return case_design_suite(quick)
+    if case == 9:
+        return case_gait_rootfinder(reps)
     raise ValueError(f"no benchmark case {case}; cases are {CASES}")
 
 
