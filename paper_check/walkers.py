@@ -166,8 +166,10 @@ def _diagram(
 def _diagram_table(data: dict) -> str:
     over = data["over"]
     unit = f" ({data['over_unit']})" if data.get("over_unit") else ""
-    lines = [f"| {over}{unit} | period-one gait | max abs eigenvalue | iterated map |",
-             "| --- | --- | --- | --- |"]  # fmt: skip
+    degrees = data.get("over_unit") == "rad"
+    lines = [f"| {over}{unit} |" + (" (deg) |" if degrees else "")
+             + " period-one gait | max abs eigenvalue | iterated map |",
+             "| --- | --- | --- | --- |" + (" --- |" if degrees else "")]  # fmt: skip
     for p in data["points"]:
         a = p.get("attractor")
         if a is None:
@@ -179,7 +181,8 @@ def _diagram_table(data: dict) -> str:
                 f"no repeat in the last {len(a['states'])} steps")  # fmt: skip
         eig = "" if p["max_abs_eigenvalue"] is None else f"{p['max_abs_eigenvalue']:.4f}"
         gait = "none found" if not p["found"] else ("stable" if p["stable"] else "unstable")
-        lines.append(f"| {p[over]:.6g} | {gait} | {eig} | {walk} |")
+        shown = f"| {p[over]:.6g} |" + (f" {math.degrees(p[over]):.4g} |" if degrees else "")
+        lines.append(f"{shown} {gait} | {eig} | {walk} |")
     return "\n".join(lines) + "\n"
 
 
@@ -295,7 +298,8 @@ def simplest_walker(out: Path, quick: bool = False) -> list[Path]:
         f"{transient} steps from the previous point's state and the last {keep} are kept. ",
         'G98 (abstract): "with increasing gamma, stable cycles of higher periods appear, and ',
         "the walking-like motions apparently become chaotic through a sequence of period ",
-        'doublings".\n\n',
+        'doublings"; as quoted in J. NeuroEng. Rehabil. 4:30 (2007), Fig. 1 caption: ',
+        "chaotic between 0.01839 and 0.0189 rad, no stable gaits above 0.019 rad.\n\n",
         _diagram_table(data),
     ]
     path = out / "simplest-walker.md"
