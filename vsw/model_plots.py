@@ -32,6 +32,14 @@ def diagram_value(y: str, state: Mapping[str, float] | None, step_length, step_p
     return None if state is None else state.get(y)
 
 
+def _title(model: str, parameters: Mapping[str, float], width: int = 48) -> str:
+    """The model and its fixed parameters, wrapped to the column's width."""
+    import textwrap
+
+    fixed = ", ".join(f"{k} = {v:.6g}" for k, v in parameters.items())
+    return "\n".join(textwrap.wrap(f"{model}: {fixed}" if fixed else model, width))
+
+
 def _axis_label(y: str, units: Mapping[str, str]) -> str:
     if y == "step_length":
         return f"step length [{units.get('length', '')}]"
@@ -72,24 +80,22 @@ def bifurcation_plot(data: Mapping[str, Any], y: str, units: Mapping[str, str]) 
         ],
         dtype=float,
     )  # fmt: skip
-    stable = [p["stable"] for p in points]
-    # Segments between neighbouring gaits: solid where both are stable, dashed otherwise,
-    # so the curve is unbroken through the loss of stability.
-    seen = set()
-    for i in range(len(points) - 1):
-        if np.isnan(ys[i]) or np.isnan(ys[i + 1]):
-            continue
-        both = bool(stable[i]) and bool(stable[i + 1])
-        label = "period-one gait, " + ("stable" if both else "unstable")
-        ax.plot(xs[i : i + 2], ys[i : i + 2], "-" if both else "--", color=COLORS["blue"],
-                marker="none", label=None if label in seen else label)  # fmt: skip
-        seen.add(label)
-    for i in range(len(points)):  # a gait with no neighbour to join
-        lone = all(np.isnan(ys[j]) for j in (i - 1, i + 1) if 0 <= j < len(points))
-        if lone and not np.isnan(ys[i]):
-            fill = "full" if stable[i] else "none"
-            ax.plot(xs[i], ys[i], marker="o", fillstyle=fill, color=COLORS["blue"],
-                    linestyle="none")  # fmt: skip
+    stable = np.array([bool(p["stable"]) for p in points])
+    # One line per kind, so a dashed line keeps its pattern over many short segments: the
+    # stable gaits solid, the unstable dashed and joined to their stable neighbours.
+    unstable = ~stable & ~np.isnan(ys)
+    joined = unstable | np.r_[unstable[1:], False] | np.r_[False, unstable[:-1]]
+    for mask, style, label in (
+        (stable, "-", "period-one gait, stable"),
+        (joined, "--", "period-one gait, unstable"),
+    ):
+        line = np.where(mask, ys, np.nan)
+        if np.count_nonzero(~np.isnan(line)) >= 2:
+            ax.plot(xs, line, style, color=COLORS["blue"], marker="none", label=label)
+        elif np.any(~np.isnan(line)):  # one gait alone: a marker
+            fill = "full" if style == "-" else "none"
+            ax.plot(xs, line, marker="o", fillstyle=fill, color=COLORS["blue"],
+                    linestyle="none", label=label)  # fmt: skip
     dots_x, dots_y, fell_x = [], [], []
     for p in points:
         attractor = p.get("attractor")
@@ -112,8 +118,7 @@ def bifurcation_plot(data: Mapping[str, Any], y: str, units: Mapping[str, str]) 
         ax.plot(fell_x, [bottom] * len(fell_x), linestyle="none", marker="x",
                 color=COLORS["black"], label="walk fell")  # fmt: skip
     ax.set_ylabel(_axis_label(y, units))
-    fixed = ", ".join(f"{k} = {v:.6g}" for k, v in data["parameters"].items())
-    ax.set_title(f"{data['model']}" + (f": {fixed}" if fixed else ""))
+    ax.set_title(_title(data["model"], data["parameters"]))
     plotstyle.figure_legend(fig, *ax.get_legend_handles_labels(), ncols=2)
 
     eig = np.array([np.nan if p["max_abs_eigenvalue"] is None else p["max_abs_eigenvalue"]
@@ -157,7 +162,6 @@ def ile_sweep_plot(data: Mapping[str, Any], xlabel: str) -> Figure:
         ax.set_ylabel(label)
     axes[1].axhline(1.0, color=COLORS["grey"], linewidth=0.8)
     axes[1].axhline(-1.0, color=COLORS["grey"], linewidth=0.8)
-    fixed = ", ".join(f"{k} = {v:.6g}" for k, v in data["parameters"].items())
-    axes[0].set_title("ile" + (f": {fixed}" if fixed else ""))
+    axes[0].set_title(_title("ile", data["parameters"]))
     axes[-1].set_xlabel(xlabel)
     return fig
