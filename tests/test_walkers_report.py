@@ -53,7 +53,7 @@ def test_simplest_walker_report_verdicts(simplest_walker_report):
     for key in differ:
         assert verdicts[key][1], key  # a row that differs says why
     # The diagram: stable, then period-2 past the loss of stability.
-    assert re.search(r"\| 0.0155 \| unstable \| [0-9.]+ \| period-2 \|", text)
+    assert re.search(r"\| 0.0155 \| [0-9.]+ \| unstable \| [0-9.]+ \| period-2 \|", text)
     for name in ("simplest-walker_bifurcation.png", "simplest-walker_bifurcation.svg"):
         assert (simplest_walker_report / name).stat().st_size > 10_000
 

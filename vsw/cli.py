@@ -677,7 +677,8 @@ def build_parser() -> ArgumentParser:
         "--y",
         metavar="NAME",
         help="other models: the quantity the bifurcation diagram shows: step_length "
-        "(default where the model has one), step_period or a state component",
+        "(default where the model has one), step_period or a state component; --y=-NAME "
+        "shows minus it",
     )
     p.add_argument(
         "--keep",

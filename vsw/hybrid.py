@@ -548,7 +548,7 @@ class HybridModel:
         """Solve the period-one orbit from a guess (state on the section, phase durations).
 
         The orbit is confirmed by the time-domain simulation: one simulated step from it
-        (SciPy, events) must pass every phase and return to it within 1e-8 (relative to
+        (SciPy, events) must pass every phase and return to it within 1e-9 (relative to
         max(1, |state|), times the largest |eigenvalue| on an unstable gait); otherwise the
         rootfinder's solution is no gait (a guard crossed earlier, a failure on the way) and
         :class:`ConvergenceError` says so.
@@ -589,7 +589,7 @@ class HybridModel:
             )
         gap = float(np.max(np.abs(simulated.state - x_star)))
         # The step's own integration error, amplified up to |lambda| on an unstable gait.
-        if not gap <= 1e-8 * scale * max(1.0, abs(eigenvalues[0])):
+        if not gap <= 1e-9 * scale * max(1.0, abs(eigenvalues[0])):
             raise ConvergenceError(
                 f"{self.name}: the rootfinder's orbit is no gait: the simulated step from it "
                 f"ends {gap:.3g} away"

@@ -23,8 +23,12 @@ __all__ = ["bifurcation_plot", "diagram_value", "ile_sweep_plot"]
 
 
 def diagram_value(y: str, state: Mapping[str, float] | None, step_length, step_period):
-    """The diagram's quantity ``y`` of one step: a state component or the step's length or
-    period (None where the sweep has no value)."""
+    """The diagram's quantity ``y`` of one step: a state component (``-name``: minus it,
+    for an angle whose sign convention runs the other way) or the step's length or period
+    (None where the sweep has no value)."""
+    if y.startswith("-"):
+        value = diagram_value(y[1:], state, step_length, step_period)
+        return None if value is None else -value
     if y == "step_length":
         return step_length
     if y == "step_period":
@@ -41,6 +45,8 @@ def _title(model: str, parameters: Mapping[str, float], width: int = 48) -> str:
 
 
 def _axis_label(y: str, units: Mapping[str, str]) -> str:
+    if y.startswith("-"):
+        return "\N{MINUS SIGN}" + _axis_label(y[1:], units)
     if y == "step_length":
         return f"step length [{units.get('length', '')}]"
     if y == "step_period":

@@ -764,9 +764,9 @@ def _diagram_quantity(model, y: str | None) -> str:
         choices.insert(0, "step_length")
     if y is None:
         return choices[0]
-    if y not in choices:
+    if y.removeprefix("-") not in choices:
         raise VswInputError(f"--y {y!r} is not one of the {cli_name(model.name)} model's: "
-                            f"{', '.join(choices)}")  # fmt: skip
+                            f"{', '.join(choices)} (or minus one: --y=-NAME)")  # fmt: skip
     return y
 
 
