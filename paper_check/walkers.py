@@ -186,6 +186,11 @@ def _diagram_table(data: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _write_report(path: Path, parts: Sequence[str], figures: Sequence[Path]) -> list[Path]:
+    path.write_text("".join(parts))
+    return [path, *figures]
+
+
 def _sources(keys: Sequence[str]) -> str:
     return "Sources:\n\n" + "".join(f"* [{k}] {SOURCES[k]}\n" for k in keys) + "\n"
 
@@ -304,9 +309,7 @@ def simplest_walker(out: Path, quick: bool = False) -> list[Path]:
         "chaotic between 0.01839 and 0.0189 rad, no stable gaits above 0.019 rad.\n\n",
         _diagram_table(data),
     ]
-    path = out / "simplest-walker.md"
-    path.write_text("".join(text))
-    return [path, *written]
+    return _write_report(out / "simplest-walker.md", text, written)
 
 
 # --- the compass gait ----------------------------------------------------------------------
@@ -370,9 +373,7 @@ def compass_gait(out: Path, quick: bool = False) -> list[Path]:
         "may not check):\n\n",
         _diagram_table(data),
     ]
-    path = out / "compass-gait.md"
-    path.write_text("".join(text))
-    return [path, *written]
+    return _write_report(out / "compass-gait.md", text, written)
 
 
 # --- the compass-like VSW biped ------------------------------------------------------------
@@ -451,9 +452,7 @@ def vsw_biped(out: Path, quick: bool = False) -> list[Path]:
         "\n".join(lines) + "\n\n",
         f"![leg-mass study]({written[0].name})\n",
     ]
-    path = out / "vsw-biped.md"
-    path.write_text("".join(text))
-    return [path, *written]
+    return _write_report(out / "vsw-biped.md", text, written)
 
 
 REPORTS: dict[str, Callable[[Path, bool], list[Path]]] = {
