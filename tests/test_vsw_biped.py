@@ -85,3 +85,24 @@ def test_energy_the_extension_adds_is_what_heelstrike_dissipates(biped, beta, th
     assert inputs[-1] < 1e-3
     rates = np.diff(np.log(inputs)) / np.diff(np.log(MUS))
     assert abs(rates[-1] - 1.0) < 0.01, rates  # O(mu)
+
+
+def test_a_stable_gait_near_beta_1_attracts_a_simulated_walk(biped):
+    """The search of paper_check.walkers finds stable gaits as beta nears 1: at beta = 0.97,
+    theta_II = -0.2, mu = 0.3, b / l = 0.3 the least unstable gait has max |lambda| 0.387
+    (< 1), and a walk simulated from it with every rate 1 % off comes back to 1e-9 within
+    60 steps (the eigenvalues' verdict checked by the time-domain simulation alone); at
+    mu = 1e-4 the same branch is more stable still (0.150)."""
+    values = {"beta": 0.97, "theta_II": -0.2, "mu": 0.3, "b_over_l": 0.3}
+    params = biped.parameters(values)
+    orbit = min(biped.fixed_points(params), key=lambda o: o.max_abs_eigenvalue)
+    assert orbit.max_abs_eigenvalue == pytest.approx(0.387, abs=1e-3)
+    x = np.array(list(orbit.state.values()))
+    walk = biped.simulate(params, np.concatenate([x[:2], 1.01 * x[2:]]), 60)
+    assert walk.ended == "completed"
+    assert np.max(np.abs(walk.section[-1] - x)) < 1e-9
+    for mu in (0.1, 0.01, 1e-3, 1e-4):
+        params = biped.parameters({**values, "mu": mu})
+        orbit = biped.periodic_orbit(params, np.array(list(orbit.state.values())),
+                                     orbit.durations)  # fmt: skip
+    assert orbit.max_abs_eigenvalue == pytest.approx(0.150, abs=1e-3)

@@ -573,9 +573,14 @@ class HybridModel:
         r = np.array(residual(solution, p), dtype=float).reshape(-1)
         size = float(np.max(np.abs(r))) if np.all(np.isfinite(r)) else math.inf
         scale = max(1.0, float(np.max(np.abs(solution[:n]))))
-        if not size <= 1e-9 * scale or np.any(solution[n:] <= 0):
+        if not size <= 1e-9 * scale:
             raise ConvergenceError(
                 f"{self.name}: the periodic-orbit solver did not converge (residual {size:.3g})"
+            )
+        if np.any(solution[n:] <= 0):
+            raise ConvergenceError(
+                f"{self.name}: the periodic-orbit solver converged to no gait: a phase "
+                f"duration is not positive ({', '.join(f'{v:.3g}' for v in solution[n:])})"
             )
         x_star, t_star = solution[:n], solution[n:]
         with contextlib.redirect_stderr(io.StringIO()):
