@@ -107,12 +107,22 @@ def _continue(m: HybridModel, values: dict, name: str, targets, orbit: Orbit) ->
     return out
 
 
-def _bisect(m: HybridModel, name: str, low: float, high: float, orbit: Orbit, unstable,
-            tol: float) -> float:  # fmt: skip
-    """The parameter where ``unstable(orbit)`` turns true, the gait continued from ``low``."""
+def _reached(walked: list) -> Orbit:
+    """The last orbit of a continuation that must have reached its end."""
+    value, orbit, _ = walked[-1]
+    if orbit is None:
+        raise ConvergenceError(f"the gait was lost at {value:g} on the way")
+    return orbit
+
+
+def _bisect(m: HybridModel, values: dict, name: str, low: float, high: float, orbit: Orbit,
+            unstable, tol: float) -> float:  # fmt: skip
+    """The parameter where ``unstable(orbit)`` turns true, the gait continued from ``low``
+    (the other parameters ``values``)."""
     while high - low > tol:
         mid = 0.5 * (low + high)
-        candidate = m.periodic_orbit(m.parameters({name: mid}), _vector(orbit), orbit.durations)
+        params = m.parameters({**values, name: mid})
+        candidate = m.periodic_orbit(params, _vector(orbit), orbit.durations)
         if unstable(candidate):
             high = mid
         else:
@@ -216,7 +226,9 @@ def _expansion_fits(m: HybridModel, orbit: Orbit) -> tuple[np.ndarray, np.ndarra
     gamma^(2/3) to the gait continued from 0.009 to 5e-6 (fit on gamma <= 1e-4); their
     difference is the fit's uncertainty."""
     gammas = np.geomspace(0.009, 5e-6, 45)
-    orbits = [o for _, o, _ in _continue(m, {}, "gamma", gammas, orbit)]
+    walked = _continue(m, {}, "gamma", gammas, orbit)
+    _reached(walked)
+    orbits = [o for _, o, _ in walked]
     ratio = np.array([-o.state["theta"] for o in orbits]) / gammas ** (1 / 3)
     period = np.array([o.period for o in orbits])
     small = gammas <= 1e-4
@@ -266,8 +278,8 @@ def simplest_walker(out: Path, quick: bool = False) -> list[Path]:
                         why.format(gap=abs(ours - check))))  # fmt: skip
     # Loss of stability: the long gait continued up from 0.009 and bisected on |lambda| = 1.
     walked = _continue(m, {}, "gamma", np.linspace(0.009, 0.0145, 12)[1:], long)
-    limit = _bisect(m, "gamma", 0.0145, 0.016, walked[-1][1], lambda o: o.max_abs_eigenvalue > 1,
-                    1e-6)  # fmt: skip
+    limit = _bisect(m, {}, "gamma", 0.0145, 0.016, _reached(walked),
+                    lambda o: o.max_abs_eigenvalue > 1, 1e-6)  # fmt: skip
     rows.append(Row("long gait stable up to gamma", "G98", 0.015, limit, 5e-4, "2 digits"))
     rows.append(Row("long gait stable up to gamma", "G98sec", 0.0151, limit, 5e-5, "3 digits"))
     for name, orbit in (("long", long), ("short", short)):
@@ -333,7 +345,7 @@ def compass_gait(out: Path, quick: bool = False) -> list[Path]:
             "the smallest; the source's method is not known to us"),
     ]  # fmt: skip
     walked = _continue(m, {}, "gamma", np.radians(np.linspace(3.0, 4.35, 10)[1:]), orbit)
-    flip = _bisect(m, "gamma", math.radians(4.35), math.radians(4.45), walked[-1][1],
+    flip = _bisect(m, {}, "gamma", math.radians(4.35), math.radians(4.45), _reached(walked),
                    lambda o: o.eigenvalues[0].real < -1, math.radians(1e-4))  # fmt: skip
     rows.append(Row("first period doubling (deg)", "GTE96", 4.37, math.degrees(flip), 5e-3,
                     "ours: the real eigenvalue through -1, bisected to 1e-4 deg; the "
@@ -391,7 +403,7 @@ def _mu_rows(m: HybridModel, beta: float, theta_II: float) -> list[tuple]:
     orbits = m.fixed_points(m.parameters({**values, "mu": 1e-2}))
     first = min(orbits, key=lambda o: o.max_abs_eigenvalue)
     down = _continue(m, values, "mu", [1e-2, 1e-3, 1e-4], first)
-    up = _continue(m, values, "mu", [0.03, 0.1, 0.3, 1.0], first)
+    up = _continue(m, values, "mu", [0.03, 0.1, 0.3, 0.5, 1.0], first)
     return sorted(down + up, key=lambda r: r[0])
 
 

@@ -378,14 +378,17 @@ def test_orbit_eigenvalues_equal_the_poincare_maps(name):
     Jacobian) equal those of the Poincaré map's own derivative (each phase's end time by a
     rootfinder on its guard, CasADi derivatives through it): two routes to one matrix."""
     m = engine(name)
+    checked = 0
     for p, orbits in gaits(name):
         for orbit in orbits:
+            checked += 1
             x_star = np.array(list(orbit.state.values()))
             direct = np.array(m.eigenvalues(p, x_star))
             ours = np.array(orbit.eigenvalues)
             scale = max(1.0, float(np.max(np.abs(direct))))
             np.testing.assert_allclose(np.sort_complex(ours), np.sort_complex(direct), rtol=0,
                                        atol=1e-7 * scale)  # fmt: skip
+    assert checked >= 1
 
 
 @pytest.mark.parametrize("name", MODELS)

@@ -209,8 +209,8 @@ def test_small_slope_expansions_are_garcias_table_1(walker, gaits_0009):
     """[G98T1]'s expansions fitted to our gaits continued from gamma = 0.009 down to 5e-6
     (least squares in powers of gamma^(2/3), three terms, gamma <= 1e-4; below about 1e-6
     the gaits' conditioning (an eigenvalue tending to 1) costs digits, so the fit stops
-    there). Measured: long gait Theta0 0.9709562, tau0 3.8120918, tau1 1.57914; short gait
-    Theta0 0.9439761, Theta1 -0.26461, tau0 3.1415927, tau1 -0.90753: each within 5e-5 of
+    there). Measured: long gait Theta0 0.9709561, tau0 3.8120918, tau1 1.57914; short gait
+    Theta0 0.9439761, Theta1 -0.264562, tau0 3.1415927, tau1 -0.90753: each within 5e-5 of
     the table. The long gait's Theta1 is not: ours -0.1866 against the quoted -0.270837,
     and [G98code]'s own long gait decides between them: at gamma = 0.009 the two-term
     expansion with ours is 2.1e-5 from its theta = 0.2003109, with the quoted value 7.8e-4."""

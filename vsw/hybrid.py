@@ -180,6 +180,11 @@ class Attractor:
         }
 
 
+def _by_modulus(values: np.ndarray) -> list[complex]:
+    """Eigenvalues largest modulus first (ties by real, then imaginary part)."""
+    return sorted((complex(v) for v in values), key=lambda v: (-abs(v), v.real, v.imag))
+
+
 def repeat_period(states: np.ndarray, tol: float) -> int | None:
     """Smallest ``k <= len(states) / 2`` with every state within ``tol * max(1, |state|)``
     of the state ``k`` steps later, or None."""
@@ -538,9 +543,14 @@ class HybridModel:
         n = 2 * self.n
         g_x, g_t = jacobian[:k, :n], jacobian[:k, n:]
         f_x, f_t = jacobian[k:, :n] + np.eye(n), jacobian[k:, n:]
-        monodromy = f_x - f_t @ np.linalg.solve(g_t, g_x)
-        values = np.linalg.eigvals(monodromy)
-        return sorted((complex(v) for v in values), key=lambda v: (-abs(v), v.real, v.imag))
+        try:
+            monodromy = f_x - f_t @ np.linalg.solve(g_t, g_x)
+            return _by_modulus(np.linalg.eigvals(monodromy))
+        except np.linalg.LinAlgError:  # a guard grazing at its phase's end, or NaN
+            raise ConvergenceError(
+                f"{self.name}: the orbit's eigenvalues are undefined (a guard that does not "
+                "cross at its phase's end)"
+            ) from None
 
     def periodic_orbit(
         self, params: Sequence[float], state: np.ndarray, durations: Sequence[float]
@@ -675,8 +685,7 @@ class HybridModel:
                 f"{self.name}: the Poincaré map's derivative did not find the simulated step "
                 f"(gap {gap:.3g})"
             )
-        values = np.linalg.eigvals(np.array(jac, dtype=float))
-        return sorted((complex(v) for v in values), key=lambda v: (-abs(v), v.real, v.imag))
+        return _by_modulus(np.linalg.eigvals(np.array(jac, dtype=float)))
 
     def fixed_points(self, params: Sequence[float], guesses: int = 12) -> list[Orbit]:
         """Distinct period-one gaits from a scan of starts: the start state pushed at

@@ -757,6 +757,11 @@ def cmd_basin(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _given_option(args: argparse.Namespace, dest: str) -> bool:
+    """Whether a StoreGiven option was on the command line."""
+    return dest in getattr(args, "given", ())
+
+
 def _diagram_quantity(model, y: str | None) -> str:
     """``--y``: what the bifurcation diagram shows (step length where the model has one)."""
     choices = ["step_period", *model.coordinates, *model.rates]
@@ -784,8 +789,14 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     name, values = parse_over(args.model, args.over)
     y = _diagram_quantity(model, args.y)
     keep = args.keep if args.keep is not None else (32 if args.plot is not None else 0)
-    if keep < 0 or args.transient < 0:
-        raise VswInputError(f"--keep {keep} and --transient {args.transient} must be >= 0")
+    if keep == 1 or keep < 0:
+        raise VswInputError(f"--keep {keep}: give 0 (no iteration) or at least 2 steps to keep")
+    if args.transient < 0:
+        raise VswInputError(f"--transient {args.transient} must be >= 0")
+    if not keep and _given_option(args, "transient"):
+        raise VswInputError("--transient applies to the iterated map: give --keep N or --plot")
+    if args.y is not None and args.plot is None:
+        raise VswInputError("--y chooses what --plot draws: give --plot FILE")
     _check_plot_path(args.plot)
     count = len(values)
     _check_cost(
