@@ -92,16 +92,20 @@ def _vector(orbit: Orbit) -> np.ndarray:
     return np.array(list(orbit.state.values()))
 
 
-def _continue(m: HybridModel, values: dict, name: str, targets, orbit: Orbit) -> list:
+def _continue(m: HybridModel, values: dict, name: str, targets, orbit: Orbit,
+              failures: dict | None = None) -> list:  # fmt: skip
     """(value, orbit or None, params) along ``targets`` of parameter ``name``, each orbit
-    from the previous one; stops at the first that does not converge."""
+    from the previous one; stops at the first that does not converge (its reason into
+    ``failures`` under its value)."""
     out = []
     for value in targets:
         params = m.parameters({**values, name: float(value)})
         try:
             orbit = m.periodic_orbit(params, _vector(orbit), orbit.durations)
-        except ConvergenceError:
+        except ConvergenceError as exc:
             out.append((value, None, params))
+            if failures is not None:
+                failures[value] = str(exc).split(": ", 1)[-1]
             break
         out.append((value, orbit, params))
     return out
@@ -397,13 +401,13 @@ SEARCH = {"beta": (0.8, 0.9, 0.95, 0.97, 0.99), "theta_II": (-0.2, -0.1, 0.0, 0.
 """The grid of the stable-gait search (b / l = 0.3)."""
 
 
-def _mu_rows(m: HybridModel, beta: float, theta_II: float) -> list[tuple]:
+def _mu_rows(m: HybridModel, beta: float, theta_II: float, failures: dict) -> list[tuple]:
     """The least unstable gait found at mu = 0.01, continued down to 1e-4 and up to 1."""
     values = {"beta": beta, "theta_II": theta_II}
     orbits = m.fixed_points(m.parameters({**values, "mu": 1e-2}))
     first = min(orbits, key=lambda o: o.max_abs_eigenvalue)
-    down = _continue(m, values, "mu", [1e-2, 1e-3, 1e-4], first)
-    up = _continue(m, values, "mu", [0.03, 0.1, 0.3, 0.5, 1.0], first)
+    down = _continue(m, values, "mu", [1e-2, 1e-3, 1e-4], first, failures)
+    up = _continue(m, values, "mu", [0.03, 0.1, 0.3, 0.5, 1.0], first, failures)
     return sorted(down + up, key=lambda r: r[0])
 
 
@@ -466,10 +470,11 @@ def vsw_biped(out: Path, quick: bool = False) -> list[Path]:
     results = {}
     for beta, theta_II in STUDY[:1] if quick else STUDY:
         results[(beta, theta_II)] = []
-        for mu, orbit, params in _mu_rows(m, beta, theta_II):
+        failures: dict = {}
+        for mu, orbit, params in _mu_rows(m, beta, theta_II, failures):
             if orbit is None:
                 lines.append(f"| {beta} | {theta_II} | {mu:g} | no gait by continuation "
-                             "| | | | | |")  # fmt: skip
+                             f"({failures[mu]}) | | | | | |")  # fmt: skip
                 continue
             s = orbit.state
             phi = s["psi"] - s["theta"]
