@@ -319,6 +319,17 @@ BAD = [
     (["sweep", "--over", "phi0=0.1:0.2:3", *ILE_ANALYZE[1:], "--phi0", "4"], ["--phi0"]),
     (["sweep", "--over", "phi0=0.1:0.2:3", "--beta", "0.8"], ["required: --theta-ii"]),
     (["sweep", "--beta", "0.8", "--theta-ii", "0"], ["--over"]),
+    (["sweep", *RIMLESS, "--over", "gamma=0.1:0.2:2", "--keep", "1"], ["--keep 1"]),
+    (["sweep", *RIMLESS, "--over", "gamma=0.1:0.2:2", "--keep", "-3"], ["--keep -3"]),
+    (["sweep", *RIMLESS, "--over", "gamma=0.1:0.2:2", "--transient", "5"], ["--keep N"]),
+    (["sweep", *RIMLESS, "--over", "gamma=0.1:0.2:2", "--keep", "4", "--transient", "-1"],
+     ["--transient -1"]),
+    (["sweep", *RIMLESS, "--over", "gamma=0.1:0.2:2", "--y", "theta"], ["--plot FILE"]),
+    (["sweep", *RIMLESS, "--over", "gamma=0.1:0.2:2", "--y=nope", "--plot", "x.png"],
+     ["'nope'", "step_length"]),
+    (["sweep", *RIMLESS, "--over", "gamma=0.1:0.2:2", "--plot", "x.txt"], [".png"]),
+    (["sweep", "--beta", "0.8", "--phi0", "45", "--over", "theta_II=0:0.1:2", "--keep", "4"],
+     ["--keep"]),
 ]  # fmt: skip
 
 
