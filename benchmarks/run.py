@@ -38,6 +38,7 @@ ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+import generated  # noqa: E402
 import generated.ile as ile  # noqa: E402
 from vsw.params import random_parameters  # noqa: E402
 from vsw.vectorize import chunked, default_threads  # noqa: E402
@@ -578,7 +579,8 @@ def case_startup(reps: int, include_audit: bool) -> list[Row]:
             ("python -m derive --model ile (the ILE alone, as before the engine; temp dir, "
              "no bytecode cache)", [py, "-m", "derive", "--model", "ile", "--out", out + "/i"],
              5.0),
-            ("python -m derive (every model: ile, rimless_wheel, tle, in parallel processes)",
+            (f"python -m derive (every model: {', '.join(generated.MODELS)}, in parallel "
+             "processes)",
              [py, "-m", "derive", "--out", out + "/g"], 5.0),
             ("import vsw", [py, "-c", "import vsw"], 0.3),
             (f"import vsw.{{{modules}}} (no scipy, matplotlib, sympy)",
