@@ -71,9 +71,11 @@ def test_vsw_biped_report_is_deterministic(tmp_path):
     assert runs[0] == runs[1]
     assert set(runs[0]) == {"vsw-biped.md", "vsw-biped_mu.png", "vsw-biped_mu.svg"}
     rows = _rows(runs[0]["vsw-biped.md"].decode())
-    # beta = 0.8, theta_II = 0.1: the gait continued to mu = 0.3, lost at mu = 1.
-    assert [r[2] for r in rows] == ["0.0001", "0.001", "0.01", "0.03", "0.1", "0.3", "1"]
+    # beta = 0.8, theta_II = 0.1: the gait continued to mu = 0.3, lost at mu = 0.5, and
+    # the row says why (the heelstrike angle past theta_II: a negative phase duration).
+    assert [r[2] for r in rows] == ["0.0001", "0.001", "0.01", "0.03", "0.1", "0.3", "0.5"]
     assert "no gait by continuation" in rows[-1][3]
+    assert "phase duration is not positive" in rows[-1][3]
 
 
 def test_bad_output_directory_is_one_line(capsys):
