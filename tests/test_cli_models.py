@@ -363,3 +363,13 @@ def test_solver_failure_at_extreme_parameters_is_one_line(capsys):
     assert code in (0, 3) and err.count("\n") == (code == 3)
     if code == 0:
         json.loads(out)
+
+
+def test_ile_sweep_plot_writes_the_figure(capsys, tmp_path):
+    """``vsw sweep --plot`` on the ILE: q^f, eigenvalue and speed along the parameter."""
+    plot = tmp_path / "ile_sweep.svg"
+    data = run_json(capsys, ["sweep", "--beta", "0.8", "--phi0", "45", "--over",
+                             "theta_II=0:0.2:5", "--plot", str(plot)])  # fmt: skip
+    assert data["plot"] == str(plot)
+    text = plot.read_text()
+    assert text.startswith("<?xml") and "</svg>" in text
