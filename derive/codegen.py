@@ -590,12 +590,14 @@ def render(derivation: Derivation) -> dict[str, str]:
 
     ``__init__.py`` holds the functions (numpy and CasADi from one source),
     ``params.py`` the parameter table, ``c/`` the C library and batch loops the model
-    declares (``c_exports``, ``batch``).
+    declares (``c_exports``, ``batch``) and, for a model with a ``HYBRID`` descriptor, the
+    batch simulator's model table (``c/<model>_sim.c``, :mod:`derive.sim_codegen`).
     """
     name = derivation.model
     py = python_module(derivation)
     files = {f"{name}/__init__.py": py, f"{name}/params.py": params_module(derivation)}
-    if derivation.c_exports:
+    hybrid = derivation.constants.get("HYBRID")
+    if derivation.c_exports or hybrid:
         # The C path is built from the very source that is written, not from sympy objects.
         backend = load_module("generated._backend", backend_module("derive/codegen.py"))
         import sys
@@ -609,8 +611,15 @@ def render(derivation: Derivation) -> dict[str, str]:
                 del sys.modules["generated._backend"]
             else:
                 sys.modules["generated._backend"] = saved
-        c_files = c_sources(derivation, module)
-        files.update({f"{name}/{path}": text for path, text in c_files.items()})
+        if derivation.c_exports:
+            c_files = c_sources(derivation, module)
+            files.update({f"{name}/{path}": text for path, text in c_files.items()})
+        if hybrid:
+            from derive.sim_codegen import simulator_c_source
+
+            files[f"{name}/c/{name}_sim.c"] = simulator_c_source(
+                name, derivation.source, hybrid[0], module
+            )
     if derivation.batch:
         files[f"{name}/c/{name}_batch.c"] = batch_c_source(derivation)
     return files

@@ -169,11 +169,20 @@ def _remove_stale_builds(directory: Path) -> None:
                     old.unlink()
 
 
-def _compile(cc: list[str], flags: list[str], library: Path, key: str) -> str | None:
-    """Build ``library`` and its sidecar; the compiler's first error line when it fails."""
+def _compile(
+    cc: list[str], flags: list[str], library: Path, key: str, source: bytes, includes: tuple = ()
+) -> str | None:
+    """Build ``library`` from the C text ``source`` (``#include`` searched in ``includes``)
+    and its sidecar; the compiler's first error line when it fails."""
     with tempfile.TemporaryDirectory(dir=library.parent, prefix=".build-") as tmp:
         built = Path(tmp) / library.name
-        command = [*cc, "-std=c99", "-shared", "-fPIC", "-o", str(built), str(SOURCE), *flags]
+        source_file = Path(tmp) / (library.stem + ".c")
+        source_file.write_bytes(source)
+        include_flags = [f"-I{d}" for d in includes]
+        command = [
+            *cc, "-std=c99", "-shared", "-fPIC", *include_flags, "-o", str(built),
+            str(source_file), *flags,
+        ]  # fmt: skip
         try:
             done = subprocess.run(command, capture_output=True, text=True)
         except OSError as exc:  # the compiler named in $CC does not run
@@ -188,20 +197,38 @@ def _compile(cc: list[str], flags: list[str], library: Path, key: str) -> str | 
 
 
 def _build() -> tuple[ctypes.CDLL, Path]:
+    return build_library(SOURCE.read_bytes(), "ile_batch", _FLAG_SETS)
+
+
+def build_library(
+    source: bytes, stem: str, flag_sets: tuple[list[str], ...], includes: tuple = ()
+) -> tuple[ctypes.CDLL, Path]:
+    """Compile the C text ``source`` into the cache as ``libvsw_<stem>_<key>.so`` (the first
+    of ``flag_sets`` that builds and loads) and load it; a verified cached copy is loaded
+    without compiling. ``includes``: directories searched by ``#include``, whose files'
+    contents enter the key.
+
+    Raises
+    ------
+    OSError
+        No compiler, or every flag set failed (their first error lines).
+    """
     cc = _compiler()
-    source = SOURCE.read_bytes()
     directory = _cache_dir()
     directory.mkdir(parents=True, exist_ok=True)
     _remove_stale_builds(directory)
+    included = [
+        path.read_bytes() for d in includes for path in sorted(Path(d).iterdir()) if path.is_file()
+    ]
     errors = []
-    for flags in _FLAG_SETS:
-        parts = [source, " ".join(flags).encode(), shlex.join(cc).encode()]
+    for flags in flag_sets:
+        parts = [source, *included, " ".join(flags).encode(), shlex.join(cc).encode()]
         key = hashlib.sha256(b"\0".join([*parts, _cpu_signature().encode()])).hexdigest()[:20]
-        library = directory / f"libvsw_ile_batch_{key}.so"
+        library = directory / f"libvsw_{stem}_{key}.so"
         with _build_lock(library):
             # Never map unverified bytes: a truncated library gives SIGBUS, not an error.
             if not _verified(library, key):
-                error = _compile(cc, flags, library, key)
+                error = _compile(cc, flags, library, key, source, includes)
                 if error is not None:
                     errors.append(error)
                     continue

@@ -1,0 +1,391 @@
+"""The batch simulator: many walks of one engine model in one compiled call.
+
+``python -m derive`` writes each engine model's hybrid dynamics as a C table
+(``generated/<model>/c/<model>_sim.c``: phase flows, watched guards, resets, ``when``
+conditions, step length); :mod:`vsw.batch` compiles it with the generic integrator
+``vsw/csrc/hybrid_batch.c`` (DOP853 with SciPy's step control, event location by the
+Illinois method on the guard to 1e-13 in time, the SciPy route's event rules) into the
+kernel cache (:func:`vsw.kernels.build_library`) and runs blocks of walks on threads
+(:func:`vsw.vectorize.run_blocks`; each ctypes call releases the GIL), or as tasks on a
+Dask cluster (:mod:`vsw.cluster`). Each walk ends with its outcome: converged to a given
+gait, a period-k orbit, fell (which failure), stalled, or walked every step.
+
+Without a C compiler (or with ``VSW_KERNELS=0``) the same walks run through the SciPy
+route, :meth:`vsw.hybrid.HybridModel.step`, one at a time: the same classes, much slower.
+:func:`reference_walks` is that route, and the tests compare the two.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import functools
+import os
+import threading
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from vsw.errors import VswInputError
+from vsw.hybrid import _ATOL, _PHASE_TIME_LIMIT, _RTOL, HybridModel, load
+
+__all__ = ["BatchResult", "BatchSimulator", "reference_walks", "simulator"]
+
+CSRC = Path(__file__).resolve().parent / "csrc"
+GENERATED = Path(__file__).resolve().parent.parent / "generated"
+
+WALKED, CONVERGED, FELL, STALLED, PERIODIC = range(5)
+"""Outcome codes of vsw/csrc/hybrid_batch.c."""
+
+CHUNK = 256
+"""Walks per block: small enough to balance threads over cells that fall at once and cells
+that walk every step, large enough that a ctypes call costs nothing beside it."""
+
+_FLAG_SETS = (
+    # No FMA contraction: the same sums in the same order as the plain -O2 build.
+    ["-O3", "-march=native", "-ffp-contract=off", "-fno-math-errno", "-lm"],
+    ["-O2", "-ffp-contract=off", "-lm"],
+)
+
+DEFAULT_CONVERGE_TOL = 1e-6
+DEFAULT_PERIOD_TOL = 1e-6
+DEFAULT_MAX_PERIOD = 8
+
+
+@dataclass
+class BatchResult:
+    """The walks of one batch, one row per walk.
+
+    ``outcome``: the codes WALKED, CONVERGED, FELL, STALLED, PERIODIC; ``aux``: the
+    failure's index into ``failures`` (FELL) or the period (PERIODIC); ``steps``: steps
+    walked; ``final``: the last section state; ``kept_*``: the last ``keep`` steps'
+    section states, step lengths and durations (oldest first; NaN rows where fewer steps
+    were walked).
+    """
+
+    outcome: np.ndarray
+    aux: np.ndarray
+    steps: np.ndarray
+    final: np.ndarray
+    kept_states: np.ndarray
+    kept_lengths: np.ndarray
+    kept_durations: np.ndarray
+    failures: tuple[str, ...]
+
+    def labels(self) -> list[str]:
+        """``converged``, ``period-K``, ``fell`` or ``other`` (walked every step without
+        settling, or stalled), per walk."""
+        out = []
+        for code, aux in zip(self.outcome.tolist(), self.aux.tolist()):
+            if code == CONVERGED:
+                out.append("converged")
+            elif code == PERIODIC:
+                out.append(f"period-{aux}")
+            elif code == FELL:
+                out.append("fell")
+            else:
+                out.append("other")
+        return out
+
+    def ended(self) -> list[str]:
+        """What ended each walk: ``converged``, ``period-K``, the failure's name,
+        ``stalled`` or ``walked``."""
+        out = []
+        for label, code, aux in zip(self.labels(), self.outcome.tolist(), self.aux.tolist()):
+            if code == FELL:
+                out.append(self.failures[aux])
+            elif code == STALLED:
+                out.append("stalled")
+            elif code == WALKED:
+                out.append("walked")
+            else:
+                out.append(label)
+        return out
+
+    @staticmethod
+    def concatenate(parts: Sequence[BatchResult]) -> BatchResult:
+        fields = ("outcome", "aux", "steps", "final", "kept_states", "kept_lengths",
+                  "kept_durations")  # fmt: skip
+        joined = {f: np.concatenate([getattr(p, f) for p in parts]) for f in fields}
+        return BatchResult(**joined, failures=parts[0].failures)
+
+
+def failure_names(model: HybridModel) -> tuple[str, ...]:
+    """The model's failures in the order of first appearance: the C table's indices
+    (derive/sim_codegen.py, ``failure_names``)."""
+    names: list[str] = []
+    for phase in model.phases:
+        for name, _function, _direction in phase["failures"]:
+            if name not in names:
+                names.append(name)
+    return tuple(names)
+
+
+class BatchSimulator:
+    """The compiled batch simulator of one engine model (see the module docstring)."""
+
+    def __init__(self, model: HybridModel) -> None:
+        self.model = model
+        self.failures = failure_names(model)
+        self.nx = 2 * model.n
+        self.np = len(model.spec["parameters"])
+        self._lib: ctypes.CDLL | None = None
+        self.build_error: str | None = None
+        self._lock = threading.Lock()
+        self._tried = False
+
+    @property
+    def source(self) -> Path:
+        return GENERATED / self.model.name / "c" / f"{self.model.name}_sim.c"
+
+    def library(self) -> ctypes.CDLL | None:
+        """The compiled simulator, built on first call; None when unavailable (then
+        :attr:`build_error` says why and the walks take the SciPy route)."""
+        if os.environ.get("VSW_KERNELS", "1").strip() == "0":
+            self.build_error = "VSW_KERNELS=0"
+            return None
+        with self._lock:
+            if not self._tried:
+                self._tried = True
+                from vsw.kernels import build_library
+
+                try:
+                    table = self.source.read_bytes()
+                    integrator = (CSRC / "hybrid_batch.c").read_bytes()
+                    lib, _path = build_library(
+                        table + b"\n" + integrator, f"{self.model.name}_sim", _FLAG_SETS,
+                        includes=(CSRC,),
+                    )  # fmt: skip
+                    self._bind(lib)
+                    self._lib = lib
+                except (OSError, AttributeError) as exc:
+                    self.build_error = f"batch simulator unavailable, using SciPy: {exc}"
+        return self._lib
+
+    def _bind(self, lib: ctypes.CDLL) -> None:
+        sizes = (ctypes.c_longlong * 4)()
+        lib.vsw_batch_sizes(sizes)
+        expected = (self.np, self.nx, len(self.model.phases), len(self.model.events))
+        if tuple(sizes) != expected:  # a table from another derivation than the descriptor
+            raise OSError(f"{self.source.name} has sizes {tuple(sizes)}, the model {expected}")
+        dbl = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
+        i32 = np.ctypeslib.ndpointer(dtype=np.int32, flags="C_CONTIGUOUS")
+        i64 = np.ctypeslib.ndpointer(dtype=np.int64, flags="C_CONTIGUOUS")
+        fn = lib.vsw_batch_simulate
+        fn.restype = None
+        ll = ctypes.c_longlong
+        fn.argtypes = [ll, dbl, ll, dbl, dbl, ctypes.c_void_p, ll, ll, ll, i32, i32, i64, dbl,
+                       dbl, dbl, dbl]  # fmt: skip
+
+    # --- walks -------------------------------------------------------------------------
+
+    def walk(
+        self,
+        params: Sequence[float] | np.ndarray,
+        states: np.ndarray,
+        steps: int,
+        *,
+        target: Sequence[float] | None = None,
+        converge_tol: float = DEFAULT_CONVERGE_TOL,
+        period_tol: float = DEFAULT_PERIOD_TOL,
+        max_period: int = DEFAULT_MAX_PERIOD,
+        keep: int = 0,
+        threads: int | None = None,
+        scheduler: str | None = None,
+    ) -> BatchResult:
+        """Walk every row of ``states`` (section states, shape (N, 2n)) up to ``steps``
+        steps, stopping early when it converges to ``target`` (every component within
+        ``converge_tol * max(1, |target|)``), repeats itself with a period 2..``max_period``
+        (1 too without a target) to ``period_tol * max(1, |state|)``, falls or stalls.
+        ``params``: one parameter vector for all, or one row per walk. ``converge_tol`` or
+        ``period_tol`` 0 turns that check off. ``keep``: record the last ``keep`` steps.
+        ``scheduler``: a Dask scheduler address (:mod:`vsw.cluster`); the blocks then run
+        there, with results identical to the local ones.
+        """
+        states = np.ascontiguousarray(np.asarray(states, dtype=float).reshape(-1, self.nx))
+        params = np.asarray(params, dtype=float)
+        if params.ndim == 1:
+            if params.size != self.np:
+                raise VswInputError(
+                    f"{self.model.name} takes {self.np} parameters, got {params.size}"
+                )
+            params = np.broadcast_to(params, (len(states), self.np))
+        params = np.ascontiguousarray(params.reshape(-1, self.np))
+        if len(params) != len(states):
+            raise VswInputError(f"{len(params)} parameter rows for {len(states)} states")
+        if steps < 0 or keep < 0 or max_period < 0:
+            raise VswInputError("steps, keep and max_period must be >= 0")
+        max_period = min(int(max_period), 64)
+        options = Options(steps, None if target is None else tuple(float(v) for v in target),
+                          converge_tol, period_tol, max_period, keep)  # fmt: skip
+        if scheduler:
+            from vsw.cluster import walk_on_cluster
+
+            return walk_on_cluster(scheduler, self.model.name, params, states, options)
+        return self._walk_local(params, states, options, threads)
+
+    def _walk_local(self, params, states, options: Options, threads: int | None) -> BatchResult:
+        from vsw.vectorize import default_threads, run_blocks
+
+        threads = default_threads() if threads is None else threads
+        lib = self.library()
+        if lib is None:
+            return reference_walks(self.model, params, states, options)
+        n = len(states)
+        keep = options.keep
+        out = _empty_result(n, self.nx, keep, self.failures)
+        opts = np.array([_RTOL, _ATOL, _PHASE_TIME_LIMIT, options.converge_tol,
+                         options.period_tol], dtype=float)  # fmt: skip
+        target = None
+        if options.target is not None:
+            target = np.ascontiguousarray(options.target, dtype=float)
+            if target.shape != (self.nx,):
+                raise VswInputError(f"target must have {self.nx} components")
+        target_ptr = None if target is None else target.ctypes.data_as(ctypes.c_void_p)
+        fn = lib.vsw_batch_simulate
+
+        def block(start: int) -> None:
+            stop = min(start + CHUNK, n)
+            part = _empty_result(stop - start, self.nx, keep, self.failures)
+            fn(stop - start, params[start:stop], self.np, states[start:stop], opts, target_ptr,
+               options.steps, options.max_period, keep, part.outcome, part.aux, part.steps,
+               part.final, part.kept_states, part.kept_lengths, part.kept_durations)  # fmt: skip
+            for name in ("outcome", "aux", "steps", "final", "kept_states", "kept_lengths",
+                         "kept_durations"):  # fmt: skip
+                getattr(out, name)[start:stop] = getattr(part, name)
+
+        run_blocks(block, range(0, n, CHUNK), threads)
+        return out
+
+    def step(self, params, states, threads: int | None = None) -> BatchResult:
+        """One step of the Poincaré map from each row of ``states``: ``final`` holds the
+        state after it, ``kept_lengths``/``kept_durations`` its length and duration."""
+        return self.walk(params, states, 1, converge_tol=0.0, period_tol=0.0, keep=1,
+                         threads=threads)  # fmt: skip
+
+    def fixed_point(
+        self, params: Sequence[float], guess: Sequence[float], tol: float = 1e-12,
+        max_iterations: int = 30,
+    ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+        """The period-one gait near ``guess`` as a fixed point of the batch-simulated
+        Poincaré map P: Newton on P(x) - x with P's Jacobian by central differences (the
+        2 (2n) + 1 walks of an iteration are one batch). On the section the map has an
+        eigenvalue 0 across it, so P - I stays invertible on the full state.
+
+        Returns
+        -------
+        (state, jacobian): the fixed point and P's Jacobian there.
+
+        Raises
+        ------
+        ConvergenceError
+            A walk falls, or the iteration does not reach ``tol * max(1, |x|)``.
+        """
+        from vsw.errors import ConvergenceError
+
+        x = np.array(guess, dtype=float)
+        eye = np.eye(self.nx)
+        for _ in range(max_iterations):
+            h = 1e-6 * np.maximum(1.0, np.abs(x))
+            starts = np.vstack([x, x + eye * h, x - eye * h])
+            result = self.step(params, starts, threads=1)
+            if np.any(result.outcome != WALKED):
+                raise ConvergenceError(
+                    f"{self.model.name}: a step near {x.tolist()} did not complete "
+                    f"({sorted(set(result.ended()))})"
+                )
+            image = result.final
+            jacobian = ((image[1 : 1 + self.nx] - image[1 + self.nx :]) / (2 * h)).T
+            residual = image[0] - x
+            delta = np.linalg.solve(jacobian - eye, -residual)
+            x = x + delta
+            if np.max(np.abs(residual)) <= tol * max(1.0, float(np.max(np.abs(x)))):
+                return x - delta, jacobian
+        raise ConvergenceError(
+            f"{self.model.name}: the batch fixed point did not converge in {max_iterations} "
+            f"Newton steps (last residual {float(np.max(np.abs(residual))):.3g})"
+        )
+
+
+@dataclass(frozen=True)
+class Options:
+    """What a walk checks (see :meth:`BatchSimulator.walk`)."""
+
+    steps: int
+    target: tuple[float, ...] | None
+    converge_tol: float
+    period_tol: float
+    max_period: int
+    keep: int
+
+
+def _empty_result(n: int, nx: int, keep: int, failures) -> BatchResult:
+    return BatchResult(
+        outcome=np.zeros(n, dtype=np.int32),
+        aux=np.zeros(n, dtype=np.int32),
+        steps=np.zeros(n, dtype=np.int64),
+        final=np.zeros((n, nx)),
+        kept_states=np.full((n, keep, nx), np.nan),
+        kept_lengths=np.full((n, keep), np.nan),
+        kept_durations=np.full((n, keep), np.nan),
+        failures=failures,
+    )
+
+
+def reference_walks(model: HybridModel, params, states, options: Options) -> BatchResult:
+    """The same walks through the SciPy route (:meth:`HybridModel.step`), one at a time,
+    with the same rules: the fallback without a compiler, and the reference of the tests."""
+    states = np.asarray(states, dtype=float).reshape(-1, 2 * model.n)
+    params = np.broadcast_to(
+        np.asarray(params, dtype=float), (len(states), len(model.spec["parameters"]))
+    )
+    failures = failure_names(model)
+    out = _empty_result(len(states), 2 * model.n, options.keep, failures)
+    target = None if options.target is None else np.array(options.target)
+    for i, (p, x) in enumerate(zip(params, states)):
+        x = x.copy()
+        code, aux, walked = WALKED, 0, 0
+        history: list[np.ndarray] = []
+        kept: list[tuple[np.ndarray, float, float]] = []
+        if not np.all(np.isfinite(x)):
+            code = STALLED
+        while code == WALKED and walked < options.steps:
+            history.append(x.copy())
+            result = model.step(tuple(p), x)
+            if result.ended == "stalled":
+                code = STALLED
+                break
+            if result.ended != "completed":
+                code, aux = FELL, failures.index(result.ended)
+                break
+            x = result.state
+            if not np.all(np.isfinite(x)):
+                code = STALLED
+                break
+            walked += 1
+            length = np.nan if result.step_length is None else result.step_length
+            kept.append((x.copy(), length, float(sum(result.durations))))
+            if target is not None and options.converge_tol > 0:
+                scale = max(1.0, float(np.max(np.abs(target))))
+                if np.max(np.abs(x - target)) <= options.converge_tol * scale:
+                    code = CONVERGED
+                    break
+            if options.period_tol > 0 and options.max_period > 0:
+                bound = options.period_tol * max(1.0, float(np.max(np.abs(x))))
+                for k in range(2 if target is not None else 1, options.max_period + 1):
+                    if k <= walked and np.max(np.abs(x - history[-k])) <= bound:
+                        code, aux = PERIODIC, k
+                        break
+        out.outcome[i], out.aux[i], out.steps[i], out.final[i] = code, aux, walked, x
+        for r, (s, length, duration) in enumerate(kept[-options.keep :] if options.keep else []):
+            out.kept_states[i, r] = s
+            out.kept_lengths[i, r] = length
+            out.kept_durations[i, r] = duration
+    return out
+
+
+@functools.cache
+def simulator(name: str) -> BatchSimulator:
+    """The batch simulator of engine model ``name`` (one per process)."""
+    return BatchSimulator(load(name))

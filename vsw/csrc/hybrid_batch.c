@@ -1,0 +1,411 @@
+/* The batch simulator of a hybrid walking model: many initial states, one call.
+ *
+ * Built by vsw/batch.py as one translation unit after a model's generated table
+ * (generated/<model>/c/<model>_sim.c, written by `python -m derive`), which defines the
+ * model's sizes (VSW_NP, VSW_NX, ...), its phases' flows and watched guards (its events'
+ * guards, then its failures'), its events' resets, targets and `when` conditions, and the
+ * step length. Nothing here knows a model.
+ *
+ * Each phase is integrated with the explicit DOP853 pair (adaptive step, SciPy's error
+ * norm and step-size control) until one of its watched guards crosses zero in its
+ * direction; the crossing is located by the Illinois method on the guard along one
+ * Runge-Kutta step of the accepted step's order from the step's start, to a bracket of
+ * VSW_EVENT_TIME_TOL in time. The rules are those of the project's SciPy route
+ * (vsw.hybrid.HybridModel.step): a crossing counts when the guard goes from <= 0 to >= 0
+ * (direction +1) or from >= 0 to <= 0 (direction -1); an event whose `when` is <= 0 does
+ * not count and the phase goes on 1e-9 past it (at most 20 times); a failure whose guard
+ * is already past zero at the phase start ends the walk there; a phase that lasts longer
+ * than the phase time limit, or whose step size underflows, has stalled.
+ */
+#include <float.h>
+#include <math.h>
+#include <string.h>
+
+#include "dop853_tableau.h"
+
+#define VSW_WALKED 0    /* every requested step, no class decided */
+#define VSW_CONVERGED 1 /* within the tolerance of the given gait */
+#define VSW_FELL 2      /* aux: the failure's index */
+#define VSW_STALLED 3   /* a phase stalled, or the state left the finite numbers */
+#define VSW_PERIODIC 4  /* aux: the period in steps */
+
+#define VSW_EVENT_TIME_TOL 1e-13
+#define VSW_RESTARTS 20
+#define VSW_MAX_RK_STEPS 1000000L
+
+typedef struct {
+    double rtol, atol, phase_time_limit;
+} vsw_tolerances;
+
+static void vsw_call(vsw_fn fn, const double *p, const double *x, double *out)
+{
+    const double *arg[VSW_SZ_ARG > 2 ? VSW_SZ_ARG : 2];
+    double *res[VSW_SZ_RES > 1 ? VSW_SZ_RES : 1];
+    long long iw[VSW_SZ_IW > 0 ? VSW_SZ_IW : 1];
+    double w[VSW_SZ_W > 0 ? VSW_SZ_W : 1];
+    arg[0] = p;
+    arg[1] = x;
+    res[0] = out;
+    fn(arg, res, iw, w, 0);
+}
+
+static int vsw_finite(const double *x)
+{
+    for (int i = 0; i < VSW_NX; ++i)
+        if (!isfinite(x[i])) return 0;
+    return 1;
+}
+
+/* RMS norm of x / scale (SciPy's norm(x) / sqrt(n)). */
+static double vsw_rms(const double *x, const double *scale)
+{
+    double s = 0.0;
+    for (int i = 0; i < VSW_NX; ++i) {
+        double v = x[i] / scale[i];
+        s += v * v;
+    }
+    return sqrt(s / VSW_NX);
+}
+
+/* One DOP853 step of size h from y (f0 = f(y)); K[0..12] the stages and f(y_new). */
+static void vsw_rk_step(int phase, const double *p, const double *y, const double *f0, double h,
+                        double K[VSW_RK_STAGES + 1][VSW_NX], double *y_new)
+{
+    double dy[VSW_NX];
+    memcpy(K[0], f0, sizeof(double) * VSW_NX);
+    for (int s = 1; s < VSW_RK_STAGES; ++s) {
+        for (int i = 0; i < VSW_NX; ++i) {
+            double acc = 0.0;
+            for (int j = 0; j < s; ++j) acc += K[j][i] * vsw_rk_a[s][j];
+            dy[i] = y[i] + acc * h;
+        }
+        vsw_call(vsw_flow[phase], p, dy, K[s]);
+    }
+    for (int i = 0; i < VSW_NX; ++i) {
+        double acc = 0.0;
+        for (int j = 0; j < VSW_RK_STAGES; ++j) acc += K[j][i] * vsw_rk_b[j];
+        y_new[i] = y[i] + h * acc;
+    }
+    vsw_call(vsw_flow[phase], p, y_new, K[VSW_RK_STAGES]);
+}
+
+/* SciPy's error norm of DOP853 (scipy.integrate._ivp.rk.DOP853._estimate_error_norm). */
+static double vsw_error_norm(double K[VSW_RK_STAGES + 1][VSW_NX], double h, const double *scale)
+{
+    double e5 = 0.0, e3 = 0.0;
+    for (int i = 0; i < VSW_NX; ++i) {
+        double a5 = 0.0, a3 = 0.0;
+        for (int j = 0; j <= VSW_RK_STAGES; ++j) {
+            a5 += K[j][i] * vsw_rk_e5[j];
+            a3 += K[j][i] * vsw_rk_e3[j];
+        }
+        a5 /= scale[i];
+        a3 /= scale[i];
+        e5 += a5 * a5;
+        e3 += a3 * a3;
+    }
+    if (e5 == 0.0 && e3 == 0.0) return 0.0;
+    double denom = e5 + 0.01 * e3;
+    return fabs(h) * e5 / sqrt(denom * VSW_NX);
+}
+
+/* SciPy's select_initial_step for an 8th-order method (error estimator order 7). */
+static double vsw_initial_step(int phase, const double *p, const double *y, const double *f0,
+                               const vsw_tolerances *tol)
+{
+    double scale[VSW_NX], y1[VSW_NX], f1[VSW_NX], df[VSW_NX];
+    for (int i = 0; i < VSW_NX; ++i) scale[i] = tol->atol + fabs(y[i]) * tol->rtol;
+    double d0 = vsw_rms(y, scale), d1 = vsw_rms(f0, scale);
+    double h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
+    if (h0 > tol->phase_time_limit) h0 = tol->phase_time_limit;
+    for (int i = 0; i < VSW_NX; ++i) y1[i] = y[i] + h0 * f0[i];
+    vsw_call(vsw_flow[phase], p, y1, f1);
+    for (int i = 0; i < VSW_NX; ++i) df[i] = f1[i] - f0[i];
+    double d2 = vsw_rms(df, scale) / h0;
+    double h1;
+    if (d1 <= 1e-15 && d2 <= 1e-15)
+        h1 = fmax(1e-6, h0 * 1e-3);
+    else
+        h1 = pow(0.01 / fmax(d1, d2), 1.0 / 8.0);
+    double h = fmin(100.0 * h0, h1);
+    return fmin(h, tol->phase_time_limit);
+}
+
+static int vsw_crossed(double g0, double g1, int direction)
+{
+    int up = g0 <= 0.0 && g1 >= 0.0, down = g0 >= 0.0 && g1 <= 0.0;
+    return direction > 0 ? up : direction < 0 ? down : (up || down);
+}
+
+/* The first zero of watched guard k along one RK step from y: s in [0, h], the state there
+   (at the bracket's end past the crossing). */
+static double vsw_locate(int phase, const double *p, const double *y, const double *f0, double h,
+                         int k, double ga, double gb, double *y_hit)
+{
+    double K[VSW_RK_STAGES + 1][VSW_NX], g[VSW_MAX_WATCH], ys[VSW_NX];
+    double a = 0.0, b = h;
+    int side = 0;
+    if (ga == 0.0) { /* SciPy's brentq returns the bracket's start when it is a zero */
+        memcpy(y_hit, y, sizeof(double) * VSW_NX);
+        return 0.0;
+    }
+    vsw_rk_step(phase, p, y, f0, h, K, y_hit);
+    if (gb == 0.0) return h;
+    for (int it = 0; it < 200 && b - a > VSW_EVENT_TIME_TOL; ++it) {
+        double s = b - gb * (b - a) / (gb - ga);
+        if (!(s > a && s < b)) s = 0.5 * (a + b);
+        vsw_rk_step(phase, p, y, f0, s, K, ys);
+        vsw_call(vsw_watch[phase], p, ys, g);
+        double gs = g[k];
+        if (gs == 0.0 || (gs > 0.0) == (gb > 0.0)) { /* past the crossing: the new end */
+            b = s;
+            gb = gs;
+            memcpy(y_hit, ys, sizeof(double) * VSW_NX);
+            if (gs == 0.0) break;
+            if (side == 1) ga *= 0.5;
+            side = 1;
+        } else {
+            a = s;
+            ga = gs;
+            if (side == -1) gb *= 0.5;
+            side = -1;
+        }
+    }
+    return b;
+}
+
+/* Integrate phase `phase` from y (time 0) to its first counting event or failure.
+   Returns the watched index hit (>= 0) or -1 when the phase stalled; *t the phase time. */
+static int vsw_run_phase(int phase, const double *p, double *y, double *t,
+                         const vsw_tolerances *tol)
+{
+    double g0[VSW_MAX_WATCH], g1[VSW_MAX_WATCH], f0[VSW_NX], y_new[VSW_NX], scale[VSW_NX];
+    double K[VSW_RK_STAGES + 1][VSW_NX];
+    const int n_watch = vsw_n_watch[phase];
+    vsw_call(vsw_watch[phase], p, y, g0);
+    for (int k = 0; k < n_watch; ++k) /* a failure already past at the start */
+        if (vsw_watch_what[phase][k] < 0 && g0[k] * vsw_watch_direction[phase][k] > 0.0) {
+            *t = 0.0;
+            return k;
+        }
+    double time = 0.0;
+    for (int restart = 0; restart < VSW_RESTARTS; ++restart) {
+        vsw_call(vsw_flow[phase], p, y, f0);
+        double h = vsw_initial_step(phase, p, y, f0, tol);
+        int rejected = 0;
+        long steps = 0;
+        int skipped = 0;
+        while (!skipped) {
+            if (time >= tol->phase_time_limit || ++steps > VSW_MAX_RK_STEPS) return -1;
+            double min_step = 10.0 * (nextafter(time, INFINITY) - time);
+            if (h > tol->phase_time_limit - time) h = tol->phase_time_limit - time;
+            if (h < min_step) return -1;
+            vsw_rk_step(phase, p, y, f0, h, K, y_new);
+            for (int i = 0; i < VSW_NX; ++i)
+                scale[i] = tol->atol + fmax(fabs(y[i]), fabs(y_new[i])) * tol->rtol;
+            double err = vsw_error_norm(K, h, scale);
+            if (!isfinite(err)) return -1;
+            if (err >= 1.0) {
+                h *= fmax(0.2, 0.9 * pow(err, -1.0 / 8.0));
+                rejected = 1;
+                continue;
+            }
+            double factor = err == 0.0 ? 10.0 : fmin(10.0, 0.9 * pow(err, -1.0 / 8.0));
+            if (rejected) factor = fmin(1.0, factor);
+            rejected = 0;
+            vsw_call(vsw_watch[phase], p, y_new, g1);
+            double first = INFINITY, y_first[VSW_NX], y_k[VSW_NX];
+            int hit = -1;
+            for (int k = 0; k < n_watch; ++k) {
+                if (!vsw_crossed(g0[k], g1[k], vsw_watch_direction[phase][k])) continue;
+                double s = vsw_locate(phase, p, y, f0, h, k, g0[k], g1[k], y_k);
+                if (s < first) {
+                    first = s;
+                    hit = k;
+                    memcpy(y_first, y_k, sizeof(double) * VSW_NX);
+                }
+            }
+            if (hit >= 0) {
+                int what = vsw_watch_what[phase][hit];
+                time += first;
+                memcpy(y, y_first, sizeof(double) * VSW_NX);
+                if (what >= 0 && vsw_when[what] != 0) {
+                    double when;
+                    vsw_call(vsw_when[what], p, y, &when);
+                    if (!(when > 0.0)) { /* not this one: go on just past it */
+                        double f[VSW_NX];
+                        vsw_call(vsw_flow[phase], p, y, f);
+                        for (int i = 0; i < VSW_NX; ++i) y[i] += 1e-9 * f[i];
+                        time += 1e-9;
+                        vsw_call(vsw_watch[phase], p, y, g0);
+                        skipped = 1;
+                        continue;
+                    }
+                }
+                *t = time;
+                return hit;
+            }
+            time += h;
+            memcpy(y, y_new, sizeof(double) * VSW_NX);
+            memcpy(f0, K[VSW_RK_STAGES], sizeof(double) * VSW_NX);
+            memcpy(g0, g1, sizeof(double) * VSW_MAX_WATCH);
+            h *= factor;
+        }
+    }
+    return -1;
+}
+
+/* One step of the Poincare map from x (in place). Returns VSW_WALKED (completed),
+   VSW_FELL (*failure set) or VSW_STALLED; *duration and *length of the step. */
+static int vsw_step(const double *p, double *x, double *duration, double *length, int *failure,
+                    const vsw_tolerances *tol)
+{
+    int phase = VSW_START_PHASE;
+    *duration = 0.0;
+    *length = NAN;
+    for (int visit = 0; visit <= VSW_NPHASES; ++visit) {
+        double t;
+        int hit = vsw_run_phase(phase, p, x, &t, tol);
+        *duration += t;
+        if (hit < 0) return VSW_STALLED;
+        int what = vsw_watch_what[phase][hit];
+        if (what < 0) {
+            *failure = -1 - what;
+            return VSW_FELL;
+        }
+        if (vsw_event_ends_step[what] && vsw_step_length != 0)
+            vsw_call(vsw_step_length, p, x, length);
+        double x_new[VSW_NX];
+        vsw_call(vsw_reset[what], p, x, x_new);
+        memcpy(x, x_new, sizeof(double) * VSW_NX);
+        if (!vsw_finite(x)) return VSW_STALLED;
+        if (vsw_event_ends_step[what]) return VSW_WALKED;
+        phase = vsw_event_target[what];
+    }
+    return VSW_STALLED;
+}
+
+static double vsw_distance(const double *a, const double *b)
+{
+    double d = 0.0;
+    for (int i = 0; i < VSW_NX; ++i) d = fmax(d, fabs(a[i] - b[i]));
+    return d;
+}
+
+static double vsw_scale(const double *a)
+{
+    double s = 1.0;
+    for (int i = 0; i < VSW_NX; ++i) s = fmax(s, fabs(a[i]));
+    return s;
+}
+
+#define VSW_MAX_PERIOD 64
+
+/* The batch: trajectory i starts at states[i * VSW_NX ...] with parameters
+   params[i * params_stride ...] and walks up to max_steps steps.
+   options: rtol, atol, phase time limit, convergence tolerance (<= 0: none), period
+   tolerance (<= 0: none); both relative to max(1, |state|_inf).
+   target: the gait's section state (NULL: none). Converged: max |x - target| <= conv_tol *
+   max(1, |target|). Period k (2 <= k <= max_period, or 1 without a target): the state
+   repeats the one k steps before to the period tolerance.
+   Outputs per trajectory: outcome (VSW_*), aux (failure index or period), steps walked,
+   the final section state, and the last `keep` section states with their step lengths and
+   durations (rows of a trajectory that walked fewer steps are NaN). */
+void vsw_batch_simulate(long long n, const double *params, long long params_stride,
+                        const double *states, const double *options, const double *target,
+                        long long max_steps, long long max_period, long long keep, int *outcome,
+                        int *aux, long long *steps, double *final, double *kept_states,
+                        double *kept_lengths, double *kept_durations)
+{
+    vsw_tolerances tol = {options[0], options[1], options[2]};
+    const double conv_tol = options[3], period_tol = options[4];
+    if (max_period > VSW_MAX_PERIOD) max_period = VSW_MAX_PERIOD;
+    for (long long i = 0; i < n; ++i) {
+        const double *p = params + i * params_stride;
+        double x[VSW_NX], history[VSW_MAX_PERIOD][VSW_NX];
+        memcpy(x, states + i * VSW_NX, sizeof(double) * VSW_NX);
+        int result = VSW_WALKED, extra = 0;
+        long long walked = 0;
+        if (keep > 0) {
+            for (long long r = 0; r < keep; ++r) {
+                for (int j = 0; j < VSW_NX; ++j) kept_states[(i * keep + r) * VSW_NX + j] = NAN;
+                kept_lengths[i * keep + r] = NAN;
+                kept_durations[i * keep + r] = NAN;
+            }
+        }
+        if (!vsw_finite(x)) result = VSW_STALLED;
+        const double target_scale = target ? vsw_scale(target) : 1.0;
+        while (result == VSW_WALKED && walked < max_steps) {
+            if (max_period > 0) memcpy(history[walked % max_period], x, sizeof(double) * VSW_NX);
+            double duration, length;
+            int failure = 0;
+            int ended = vsw_step(p, x, &duration, &length, &failure, &tol);
+            if (ended == VSW_FELL) {
+                result = VSW_FELL;
+                extra = failure;
+                break;
+            }
+            if (ended == VSW_STALLED) {
+                result = VSW_STALLED;
+                break;
+            }
+            ++walked;
+            if (keep > 0) {
+                /* a ring of the last `keep` steps, unrolled below */
+                long long r = (walked - 1) % keep;
+                memcpy(kept_states + (i * keep + r) * VSW_NX, x, sizeof(double) * VSW_NX);
+                kept_lengths[i * keep + r] = length;
+                kept_durations[i * keep + r] = duration;
+            }
+            if (target && conv_tol > 0.0 && vsw_distance(x, target) <= conv_tol * target_scale) {
+                result = VSW_CONVERGED;
+                break;
+            }
+            if (period_tol > 0.0 && max_period > 0) {
+                double bound = period_tol * vsw_scale(x);
+                for (long long k = target ? 2 : 1; k <= max_period && k <= walked; ++k) {
+                    if (vsw_distance(x, history[(walked - k) % max_period]) <= bound) {
+                        result = VSW_PERIODIC;
+                        extra = (int)k;
+                        break;
+                    }
+                }
+            }
+        }
+        if (keep > 0 && walked > 0) { /* unroll the ring: oldest first, NaN rows last */
+            long long filled = walked < keep ? walked : keep, start = walked % keep;
+            if (walked < keep) start = 0;
+            double tmp_states[VSW_NX];
+            /* rotate left by `start` with the three-reversal method */
+            long long lo[3] = {0, start, 0}, hi[3] = {start, filled, filled};
+            for (int pass = 0; pass < 3; ++pass) {
+                for (long long a = lo[pass], b = hi[pass] - 1; a < b; ++a, --b) {
+                    double *sa = kept_states + (i * keep + a) * VSW_NX;
+                    double *sb = kept_states + (i * keep + b) * VSW_NX;
+                    memcpy(tmp_states, sa, sizeof(double) * VSW_NX);
+                    memcpy(sa, sb, sizeof(double) * VSW_NX);
+                    memcpy(sb, tmp_states, sizeof(double) * VSW_NX);
+                    double t1 = kept_lengths[i * keep + a];
+                    kept_lengths[i * keep + a] = kept_lengths[i * keep + b];
+                    kept_lengths[i * keep + b] = t1;
+                    t1 = kept_durations[i * keep + a];
+                    kept_durations[i * keep + a] = kept_durations[i * keep + b];
+                    kept_durations[i * keep + b] = t1;
+                }
+            }
+        }
+        outcome[i] = result;
+        aux[i] = extra;
+        steps[i] = walked;
+        memcpy(final + i * VSW_NX, x, sizeof(double) * VSW_NX);
+    }
+}
+
+/* The model's sizes, for the caller's check against its descriptor. */
+void vsw_batch_sizes(long long *out)
+{
+    out[0] = VSW_NP;
+    out[1] = VSW_NX;
+    out[2] = VSW_NPHASES;
+    out[3] = VSW_NEVENTS;
+}
