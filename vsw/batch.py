@@ -51,6 +51,10 @@ _FLAG_SETS = (
 DEFAULT_CONVERGE_TOL = 1e-6
 DEFAULT_PERIOD_TOL = 1e-6
 DEFAULT_MAX_PERIOD = 8
+APART = 100.0
+"""A period-k cycle's points are more than this times the period tolerance apart (as
+VSW_APART in hybrid_batch.c): a walk spiralling into a fixed point also comes back near
+itself after a few steps."""
 
 
 @dataclass
@@ -197,7 +201,8 @@ class BatchSimulator:
         """Walk every row of ``states`` (section states, shape (N, 2n)) up to ``steps``
         steps, stopping early when it converges to ``target`` (every component within
         ``converge_tol * max(1, |target|)``), repeats itself with a period 2..``max_period``
-        (1 too without a target) to ``period_tol * max(1, |state|)``, falls or stalls.
+        (1 too without a target) to ``period_tol * max(1, |state|)`` with the cycle's points
+        apart (:data:`APART`), falls or stalls.
         ``params``: one parameter vector for all, or one row per walk. ``converge_tol`` or
         ``period_tol`` 0 turns that check off. ``keep``: record the last ``keep`` steps.
         ``scheduler``: a Dask scheduler address (:mod:`vsw.cluster`); the blocks then run
@@ -373,10 +378,13 @@ def reference_walks(model: HybridModel, params, states, options: Options) -> Bat
                     break
             if options.period_tol > 0 and options.max_period > 0:
                 bound = options.period_tol * max(1.0, float(np.max(np.abs(x))))
-                for k in range(2 if target is not None else 1, options.max_period + 1):
-                    if k <= walked and np.max(np.abs(x - history[-k])) <= bound:
+                for k in range(2 if target is not None else 1, min(options.max_period, walked) + 1):
+                    if np.max(np.abs(x - history[-k])) > bound:
+                        continue
+                    lags = [np.max(np.abs(x - history[-j])) for j in range(1, k)]
+                    if all(lag > APART * bound for lag in lags):
                         code, aux = PERIODIC, k
-                        break
+                    break
         out.outcome[i], out.aux[i], out.steps[i], out.final[i] = code, aux, walked, x
         for r, (s, length, duration) in enumerate(kept[-options.keep :] if options.keep else []):
             out.kept_states[i, r] = s

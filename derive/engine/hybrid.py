@@ -710,6 +710,21 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
             "Distance between successive stance feet (state just before the step event).",
             None, "step length",
         ))  # fmt: skip
+    if model.section:
+        state_symbols = {c.name: c.q for c in model.coordinates}
+        state_symbols.update({c.rate: c.u for c in model.coordinates})
+        unknown = set(model.section) - set(state_symbols)
+        if unknown:
+            raise ValueError(f"{model.name}: section names {sorted(unknown)} are not its state")
+        completed = tuple(
+            sm.sympify(model.section.get(name, symbol)) for name, symbol in state_symbols.items()
+        )
+        quantities.append(Quantity(
+            "section_completion", args, completed,
+            "The section state with the components the section determines recomputed from "
+            "the others (the step event's geometry and reset).", None,
+            "tuple: coordinates, then rates",
+        ))  # fmt: skip
     descriptor = {
         "name": model.name,
         "title": model.title,
@@ -726,6 +741,9 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
         "start_rates": {c.rate: float(model.start.get(c.rate, 1.0)) for c in model.coordinates},
         "rate_range": tuple(float(v) for v in model.rate_range),
     }
+    if model.section:  # only then: descriptors of models without one stay as they were
+        descriptor["section"] = tuple(n for n in descriptor["coordinates"] + descriptor["rates"]
+                                      if n in model.section)  # fmt: skip
     if model.limits:
         quantities = [_in_the_limit(model, qty) for qty in quantities]
     return quantities, descriptor

@@ -244,6 +244,12 @@ class Model:
         the configuration is pushed in (every rate 1 where none is given).
     rate_range : (low, high)
         Scales of that push the search for gaits tries (model units).
+    section : mapping of str to sympy.Expr
+        The section (states just after the step event) as the model defines it: each
+        coordinate or rate named here follows from the others there (the event's geometry
+        and its reset), e.g. ``{"phi": 2 * theta}``. Basins over a 2-D slice of the section
+        take these from the grid's values (``section_completion``); tests check them on
+        simulated steps.
     limits : mapping of sympy.Symbol to sympy.Expr
         Symbols of the mechanics (not parameters) that every derived quantity is taken to
         the limit of: a walker with massless feet states each foot with a mass ``epsilon``
@@ -264,6 +270,7 @@ class Model:
     start: Mapping[str, float] = field(default_factory=dict)
     rate_range: tuple[float, float] = (0.1, 5.0)
     limits: Mapping[sm.Symbol, sm.Expr] = field(default_factory=dict)
+    section: Mapping[str, sm.Expr] = field(default_factory=dict)
 
     def phase(self, name: str) -> Phase:
         for p in self.phases:

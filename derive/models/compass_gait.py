@@ -111,6 +111,8 @@ MODEL = Model(
     # Near Drake's gait: legs 0.5 rad apart, the stance leg faster than the swing leg.
     start={"theta": -0.25, "psi": 0.25, "theta_dot": 1.0, "psi_dot": 0.3},
     rate_range=(0.6, 2.5),
+    # Just after heelstrike the legs are at the guard's zero, swapped: psi = -theta.
+    section={"psi": -theta},
 )
 
 

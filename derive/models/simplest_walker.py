@@ -103,6 +103,9 @@ MODEL = Model(
     start={"theta": -0.194, "phi": -0.388, "theta_dot": 1.0, "phi_dot": 0.0743},
     rate_range=(0.15, 0.26),
     limits={epsilon: 0},
+    # Just after heelstrike the legs are at the guard's zero (phi = 2 theta) and the impact
+    # gives the swing leg 1 - cos(phi) of the stance leg's rate (Garcia et al., eq. 5).
+    section={"phi": 2 * theta, "phi_dot": (1 - sm.cos(2 * theta)) * THETA.u},
 )
 
 

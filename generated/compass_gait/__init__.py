@@ -17,7 +17,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'compass_gait', 'title': 'Compass gait', 'description': 'Goswami et al. 1996: a hip mass and two legs with point masses, walking down a slope', 'coordinate_units': {'theta': 'rad', 'psi': 'rad'}, 'parameters': ('m_h', 'm', 'a', 'b', 'gamma', 'g'), 'coordinates': ('theta', 'psi'), 'rates': ('theta_dot', 'psi_dot'), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('fell-forward', 'stance_fell_forward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': True},), 'events': ({'name': 'heelstrike', 'source': 'stance', 'target': 'stance', 'direction': 1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1)},), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J'}, 'step_length': True, 'start': {'theta': -0.25, 'psi': 0.25}, 'start_rates': {'theta_dot': 1.0, 'psi_dot': 0.3}, 'rate_range': (0.6, 2.5), 'closed_form': False}
+HYBRID = {'name': 'compass_gait', 'title': 'Compass gait', 'description': 'Goswami et al. 1996: a hip mass and two legs with point masses, walking down a slope', 'coordinate_units': {'theta': 'rad', 'psi': 'rad'}, 'parameters': ('m_h', 'm', 'a', 'b', 'gamma', 'g'), 'coordinates': ('theta', 'psi'), 'rates': ('theta_dot', 'psi_dot'), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('fell-forward', 'stance_fell_forward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': True},), 'events': ({'name': 'heelstrike', 'source': 'stance', 'target': 'stance', 'direction': 1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1)},), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J'}, 'step_length': True, 'start': {'theta': -0.25, 'psi': 0.25}, 'start_rates': {'theta_dot': 1.0, 'psi_dot': 0.3}, 'rate_range': (0.6, 2.5), 'section': ('psi',), 'closed_form': False}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -652,3 +652,30 @@ def step_length_of_state(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     x0 = a + b
     return x0*sin_theta - x0*sin_psi
+
+
+def section_completion(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot):
+    """The section state with the components the section determines recomputed from the others (the step event's geometry and reset).
+
+    Parameters
+    ----------
+    m_h : array_like or casadi.SX/MX/DM
+    m : array_like or casadi.SX/MX/DM
+    a : array_like or casadi.SX/MX/DM
+    b : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: coordinates, then rates
+    """
+    be = backend_for(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot)
+    return (theta, -theta, theta_dot, psi_dot,)

@@ -17,7 +17,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'simplest_walker', 'title': 'Simplest walking model', 'description': 'Garcia et al. 1998: a hip mass on two massless legs with infinitesimal feet, walking down a slope', 'coordinate_units': {'theta': 'rad', 'phi': 'rad'}, 'parameters': ('gamma',), 'coordinates': ('theta', 'phi'), 'rates': ('theta_dot', 'phi_dot'), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('fell-forward', 'stance_fell_forward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': True},), 'events': ({'name': 'heelstrike', 'source': 'stance', 'target': 'stance', 'direction': 1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1)},), 'units': {'time': 'sqrt(l/g)', 'length': 'l', 'mass': 'M', 'energy': 'M g l'}, 'step_length': True, 'start': {'theta': -0.194, 'phi': -0.388}, 'start_rates': {'theta_dot': 1.0, 'phi_dot': 0.0743}, 'rate_range': (0.15, 0.26), 'closed_form': False}
+HYBRID = {'name': 'simplest_walker', 'title': 'Simplest walking model', 'description': 'Garcia et al. 1998: a hip mass on two massless legs with infinitesimal feet, walking down a slope', 'coordinate_units': {'theta': 'rad', 'phi': 'rad'}, 'parameters': ('gamma',), 'coordinates': ('theta', 'phi'), 'rates': ('theta_dot', 'phi_dot'), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('fell-forward', 'stance_fell_forward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': True},), 'events': ({'name': 'heelstrike', 'source': 'stance', 'target': 'stance', 'direction': 1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1)},), 'units': {'time': 'sqrt(l/g)', 'length': 'l', 'mass': 'M', 'energy': 'M g l'}, 'step_length': True, 'start': {'theta': -0.194, 'phi': -0.388}, 'start_rates': {'theta_dot': 1.0, 'phi_dot': 0.0743}, 'rate_range': (0.15, 0.26), 'section': ('phi', 'phi_dot'), 'closed_form': False}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -329,3 +329,26 @@ def step_length_of_state(gamma, theta, phi, theta_dot, phi_dot):
     cos_theta, sin_theta = be.cos_sin(theta)
     cos_t1, sin_t1 = be.cos_sin(phi - theta)
     return sin_t1 + sin_theta
+
+
+def section_completion(gamma, theta, phi, theta_dot, phi_dot):
+    """The section state with the components the section determines recomputed from the others (the step event's geometry and reset).
+
+    Parameters
+    ----------
+    gamma : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    phi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    phi_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: coordinates, then rates
+    """
+    be = backend_for(gamma, theta, phi, theta_dot, phi_dot)
+    cos_t0, sin_t0 = be.cos_sin(2*theta)
+    return (theta, 2*theta, theta_dot, theta_dot*(1 - cos_t0),)

@@ -300,6 +300,7 @@ static double vsw_scale(const double *a)
 }
 
 #define VSW_MAX_PERIOD 64
+#define VSW_APART 100.0 /* a period-k cycle's points: more than this x the tolerance apart */
 
 /* The batch: trajectory i starts at states[i * VSW_NX ...] with parameters
    params[i * params_stride ...] and walks up to max_steps steps.
@@ -307,7 +308,9 @@ static double vsw_scale(const double *a)
    tolerance (<= 0: none); both relative to max(1, |state|_inf).
    target: the gait's section state (NULL: none). Converged: max |x - target| <= conv_tol *
    max(1, |target|). Period k (2 <= k <= max_period, or 1 without a target): the state
-   repeats the one k steps before to the period tolerance.
+   repeats the one k steps before to the period tolerance while the states 1 .. k-1 steps
+   before are more than VSW_APART times that away (a walk spiralling into a fixed point
+   comes back near itself after a few steps too).
    Outputs per trajectory: outcome (VSW_*), aux (failure index or period), steps walked,
    the final section state, and the last `keep` section states with their step lengths and
    durations (rows of a trajectory that walked fewer steps are NaN). */
@@ -364,11 +367,17 @@ void vsw_batch_simulate(long long n, const double *params, long long params_stri
             if (period_tol > 0.0 && max_period > 0) {
                 double bound = period_tol * vsw_scale(x);
                 for (long long k = target ? 2 : 1; k <= max_period && k <= walked; ++k) {
-                    if (vsw_distance(x, history[(walked - k) % max_period]) <= bound) {
+                    if (vsw_distance(x, history[(walked - k) % max_period]) > bound) continue;
+                    /* a cycle's points are apart: near a fixed point every lag is small */
+                    int apart = 1;
+                    for (long long j = 1; j < k; ++j)
+                        if (vsw_distance(x, history[(walked - j) % max_period]) <= VSW_APART * bound)
+                            apart = 0;
+                    if (apart) {
                         result = VSW_PERIODIC;
                         extra = (int)k;
-                        break;
                     }
+                    break;
                 }
             }
         }

@@ -1,0 +1,300 @@
+"""Basins of attraction of any engine model over a 2-D slice of its section, by the batch
+simulator (:mod:`vsw.batch`), and brute-force bifurcation diagrams.
+
+A basin cell is a section state (just after the step event): the period-one gait's, with
+the two gridded components replaced and, where the model declares its section
+(``HYBRID["section"]``: e.g. the simplest walker's phi = 2 theta and the swing rate the
+impact gives), the components the section determines recomputed from them. Each cell is
+walked until it converges to the gait (every component within ``tol * max(1, |gait|)``),
+repeats with a period 2..8 (to the same tolerance), falls, stalls, or has walked
+``steps`` steps (``other``). Schwab & Wisse (2001, "Basin of attraction of the simplest
+walking model", Proc. ASME DETC) drew the simplest walker's this way, by cell mapping.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from vsw.errors import ModelConditionError, VswInputError
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from vsw.hybrid import HybridModel, Orbit
+
+__all__ = ["LABEL_ORDER", "brute_force_diagram", "grid_basin", "grid_states", "basin_plot"]
+
+LABEL_ORDER = ("converged", "fell", "other")
+"""Classes of a basin cell; ``period-K`` between converged and fell."""
+
+
+def grid_states(
+    model: HybridModel,
+    params: Sequence[float],
+    base: Sequence[float],
+    x_name: str,
+    x: np.ndarray,
+    y_name: str,
+    y: np.ndarray,
+) -> np.ndarray:
+    """The section states of a grid: ``base`` with ``x_name``/``y_name`` set (rows: y,
+    columns: x) and the components the section determines recomputed. Shape
+    (len(y) * len(x), 2 n), row-major over (y, x)."""
+    names = (*model.coordinates, *model.rates)
+    for name in (x_name, y_name):
+        if name not in names:
+            raise VswInputError(
+                f"--grid {name}: not a coordinate or rate of {model.name}: choose from "
+                f"{', '.join(names)}"
+            )
+    if x_name == y_name:
+        raise VswInputError(f"--grid {x_name} given twice: grid over two different components")
+    determined = model.spec.get("section", ())
+    for name in (x_name, y_name):
+        if name in determined:
+            free = [n for n in names if n not in determined]
+            raise VswInputError(
+                f"--grid {name}: on the section of {model.name} {name} follows from "
+                f"{', '.join(free)} (the step event's geometry and reset): grid over those"
+            )
+    yy, xx = np.meshgrid(np.asarray(y, float), np.asarray(x, float), indexing="ij")
+    states = np.tile(np.asarray(base, dtype=float), (xx.size, 1))
+    states[:, names.index(x_name)] = xx.ravel()
+    states[:, names.index(y_name)] = yy.ravel()
+    if determined:
+        completed = model.module.section_completion(*params, *states.T)
+        states = np.column_stack([np.broadcast_to(c, len(states)) for c in completed])
+    return np.ascontiguousarray(states, dtype=float)
+
+
+@dataclass
+class GridBasin:
+    """A basin over a 2-D slice of the section (see :func:`grid_basin`)."""
+
+    model: str
+    parameters: dict[str, float]
+    x_name: str
+    y_name: str
+    x: np.ndarray
+    y: np.ndarray
+    outcome: list[list[str]]  # rows over y, columns over x
+    ended: list[list[str]]
+    steps: np.ndarray  # (len(y), len(x))
+    gait: Orbit
+    fixed_point: dict[str, float]
+    tol: float
+    max_steps: int
+    batch_fixed_point: dict[str, float] | None = None
+
+    def counts(self) -> dict[str, int]:
+        flat = [c for row in self.outcome for c in row]
+        return {label: flat.count(label) for label in sorted(set(flat), key=_label_key)}
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "model": self.model,
+            "parameters": self.parameters,
+            "x_name": self.x_name,
+            "y_name": self.y_name,
+            "x": [float(v) for v in self.x],
+            "y": [float(v) for v in self.y],
+            "outcome": self.outcome,
+            "steps": self.steps.tolist(),
+            "fixed_point": self.fixed_point,
+            "ended": self.ended,
+            "counts": self.counts(),
+            "gait": self.gait.to_dict(),
+            "tol": self.tol,
+            "max_steps": self.max_steps,
+            "fields": {
+                "x, y": "the grid values of x_name and y_name just after the step event; the "
+                "other components are the gait's, those the section determines recomputed",
+                "outcome": "rows over y, columns over x: converged (to the period-one gait), "
+                "period-K (repeats every K steps, 2 <= K <= 8), fell, or other (walked "
+                "max_steps without settling, or the integration stalled)",
+                "ended": "as outcome, with the failure's name for fell, 'stalled' or 'walked'",
+                "steps": "steps walked until the outcome was decided",
+                "fixed_point": "the period-one gait's section state (the rootfinder's)",
+                "tol": "converged / period-K: within tol * max(1, |state|) in every component",
+            },
+        }
+
+
+def _label_key(label: str) -> tuple[int, int]:
+    if label.startswith("period-"):
+        return (1, int(label.split("-")[1]))
+    return ({"converged": 0, "fell": 2}.get(label, 3), 0)
+
+
+def stable_gait(model: HybridModel, params: Sequence[float]) -> Orbit:
+    gaits = model.fixed_points(params)
+    stable = [o for o in gaits if o.stable]
+    if not stable:
+        raise ModelConditionError(
+            f"{model.name}: no stable period-one gait at these parameters (found "
+            f"{len(gaits)} unstable): no basin to draw"
+        )
+    return stable[0]
+
+
+def grid_basin(
+    model: HybridModel,
+    params: Sequence[float],
+    x_name: str,
+    x: np.ndarray,
+    y_name: str,
+    y: np.ndarray,
+    steps: int = 50,
+    *,
+    tol: float = 1e-6,
+    gait: Orbit | None = None,
+    threads: int | None = None,
+    scheduler: str | None = None,
+) -> GridBasin:
+    """The basin of the stable period-one gait over the grid ``x`` x ``y`` of two section
+    components (see the module docstring)."""
+    from vsw.batch import simulator
+
+    gait = gait or stable_gait(model, params)
+    target = np.array([gait.state[n] for n in (*model.coordinates, *model.rates)])
+    states = grid_states(model, params, target, x_name, x, y_name, y)
+    sim = simulator(model.name)
+    result = sim.walk(params, states, steps, target=target, converge_tol=tol, period_tol=tol,
+                      threads=threads, scheduler=scheduler)  # fmt: skip
+    shape = (len(y), len(x))
+    labels, ended = result.labels(), result.ended()
+    return GridBasin(
+        model=model.name,
+        parameters=dict(zip(model.spec["parameters"], (float(p) for p in params))),
+        x_name=x_name,
+        y_name=y_name,
+        x=np.asarray(x, float),
+        y=np.asarray(y, float),
+        outcome=[labels[i * shape[1] : (i + 1) * shape[1]] for i in range(shape[0])],
+        ended=[ended[i * shape[1] : (i + 1) * shape[1]] for i in range(shape[0])],
+        steps=result.steps.reshape(shape),
+        gait=gait,
+        fixed_point=dict(gait.state),
+        tol=tol,
+        max_steps=steps,
+    )
+
+
+def brute_force_diagram(
+    model: HybridModel,
+    params: Sequence[float],
+    over: str,
+    values: np.ndarray,
+    start: Sequence[float],
+    transient: int,
+    keep: int,
+    threads: int | None = None,
+    scheduler: str | None = None,
+):
+    """The classic bifurcation diagram: from one section state ``start``, the map iterated
+    ``transient + keep`` steps at each value of parameter ``over`` (one batch), keeping the
+    last ``keep`` steps (section states, step lengths, durations; NaN past a fall)."""
+    from vsw.batch import simulator
+
+    names = list(model.spec["parameters"])
+    if over not in names:
+        raise VswInputError(f"{over!r} is not a parameter of {model.name}: {', '.join(names)}")
+    table = np.tile(np.asarray(params, float), (len(values), 1))
+    table[:, names.index(over)] = values
+    states = np.tile(np.asarray(start, float), (len(values), 1))
+    sim = simulator(model.name)
+    return sim.walk(table, states, transient + keep, converge_tol=0.0, period_tol=0.0,
+                    keep=keep, threads=threads, scheduler=scheduler)  # fmt: skip
+
+
+_CLASS_COLORS = {
+    "converged": "green",
+    "fell": "light_grey",
+    "other": "blue",
+}
+_PERIOD_COLORS = ("orange", "purple", "vermillion", "sky_blue", "yellow")
+
+
+def _colors_for(labels: Sequence[str]) -> dict[str, str]:
+    from vsw.plotstyle import COLORS
+
+    out, k = {}, 0
+    for label in labels:
+        if label in _CLASS_COLORS:
+            out[label] = COLORS[_CLASS_COLORS[label]]
+        else:
+            out[label] = COLORS[_PERIOD_COLORS[k % len(_PERIOD_COLORS)]]
+            k += 1
+    return out
+
+
+def basin_plot(data: Mapping[str, Any], units: Mapping[str, str] | None = None) -> Figure:
+    """Two panels from a basin's JSON record: the classes (colour-blind-safe colours, the
+    gait's fixed point marked) and the steps walked until each cell's class was decided."""
+    from vsw import plotstyle
+
+    with plotstyle.context():
+        return _basin_plot(data, units or {})
+
+
+def _basin_plot(data: Mapping[str, Any], units: Mapping[str, str]) -> Figure:
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+    from matplotlib.patches import Patch
+
+    from vsw import plotstyle
+
+    x, y = np.asarray(data["x"]), np.asarray(data["y"])
+    labels = sorted({c for row in data["outcome"] for c in row}, key=_label_key)
+    colors = _colors_for(labels)
+    index = {label: k for k, label in enumerate(labels)}
+    classes = np.array([[index[c] for c in row] for row in data["outcome"]], dtype=float)
+    steps = np.asarray(data["steps"], dtype=float)
+    fig, axes = plotstyle.new_figure(plotstyle.PAGE_WIDTH, 3.0, ncols=2)
+    extent = _extent(x, y)
+    cmap = ListedColormap([colors[label] for label in labels])
+    norm = BoundaryNorm(np.arange(len(labels) + 1) - 0.5, len(labels))
+    axes[0].imshow(classes, origin="lower", extent=extent, aspect="auto", cmap=cmap, norm=norm,
+                   interpolation="nearest")  # fmt: skip
+    converged = np.array([[c == "converged" for c in row] for row in data["outcome"]])
+    shown = np.where(converged, steps, np.nan)
+    image = axes[1].imshow(shown, origin="lower", extent=extent, aspect="auto",
+                           cmap="cividis", interpolation="nearest")  # fmt: skip
+    fig.colorbar(image, ax=axes[1], label="steps to converge")
+    fp = data["fixed_point"]
+    for ax in axes:
+        ax.plot([fp[data["x_name"]]], [fp[data["y_name"]]], marker="*", markersize=9,
+                markerfacecolor="white", markeredgecolor="black", linestyle="none")  # fmt: skip
+        ax.set_xlabel(_label(data["x_name"], units))
+        ax.set_ylabel(_label(data["y_name"], units))
+    counts = data.get("counts", {})
+    handles = [Patch(facecolor=colors[label], edgecolor="black", linewidth=0.4,
+                     label=f"{label} ({counts.get(label, '')})") for label in labels]  # fmt: skip
+    handles.append(_star_handle())
+    axes[0].legend(handles=handles, loc="upper left", fontsize=6, framealpha=0.9)
+    params = ", ".join(f"{k} = {v:.6g}" for k, v in data["parameters"].items())
+    axes[0].set_title(f"{data['model']}: {params}", fontsize=7)
+    axes[1].set_title(f"converged cells, at most {data['max_steps']} steps", fontsize=7)
+    plotstyle.settle_layout(fig)
+    return fig
+
+
+def _star_handle():
+    from matplotlib.lines import Line2D
+
+    return Line2D([], [], marker="*", markersize=8, markerfacecolor="white",
+                  markeredgecolor="black", linestyle="none", label="period-one gait")  # fmt: skip
+
+
+def _extent(x: np.ndarray, y: np.ndarray) -> list[float]:
+    dx = (x[-1] - x[0]) / max(1, len(x) - 1) if len(x) > 1 else 1.0
+    dy = (y[-1] - y[0]) / max(1, len(y) - 1) if len(y) > 1 else 1.0
+    return [x[0] - dx / 2, x[-1] + dx / 2, y[0] - dy / 2, y[-1] + dy / 2]
+
+
+def _label(name: str, units: Mapping[str, str]) -> str:
+    unit = units.get(name)
+    return f"{name} [{unit}]" if unit else name
