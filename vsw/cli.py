@@ -630,7 +630,35 @@ def build_parser() -> ArgumentParser:
         metavar="N",
         help="check N sampled theta_II edges by simulation",
     )
-    ile.add_argument("--plot", metavar="FILE", help="save the basin figure (.png/.svg/.pdf)")
+    p.add_argument(
+        "--plot",
+        metavar="FILE",
+        help="save the basin figure (.png/.svg/.pdf); other models: with --grid",
+    )
+    grid = p.add_argument_group(
+        "other models: a 2-D slice of the section, by the compiled batch simulator"
+    )
+    grid.add_argument(
+        "--grid",
+        action="append",
+        metavar="NAME=START:STOP:N",
+        help="a coordinate or rate just after the step event and its N grid values; give "
+        "two (the other components: the gait's, or what the model's section makes them)",
+    )
+    grid.add_argument(
+        "--steps",
+        type=int,
+        default=50,
+        action=StoreGiven,
+        help="most steps walked from a cell; it stops early once converged, periodic or "
+        "fallen (default: 50)",
+    )
+    grid.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run the cells on this Dask scheduler (default: VSW_DASK_SCHEDULER if set, "
+        "else threads here); needs the extra vsw[dask]",
+    )
     other = p.add_argument_group("other models (one coordinate)")
     other.add_argument(
         "--rate-min", type=float, help="first section rate (default: the model's rate range)"

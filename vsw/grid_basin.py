@@ -26,7 +26,7 @@ if TYPE_CHECKING:
 
     from vsw.hybrid import HybridModel, Orbit
 
-__all__ = ["LABEL_ORDER", "brute_force_diagram", "grid_basin", "grid_states", "basin_plot"]
+__all__ = ["LABEL_ORDER", "basin_plot", "brute_force_diagram", "grid_basin", "grid_states"]
 
 LABEL_ORDER = ("converged", "fell", "other")
 """Classes of a basin cell; ``period-K`` between converged and fell."""

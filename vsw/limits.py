@@ -81,6 +81,11 @@ HYBRID_SECONDS_PER_ORBIT = 0.1
 #: one step (a basin rate, a sweep point) in the command's lists and JSON, tracemalloc
 #: peak over 100 and 400 simulated steps: 1.6-2.6 kB
 HYBRID_BYTES_PER_STEP = 2_500
+# The compiled batch simulator (vsw.batch), per phase x coordinate of a step, one thread:
+#: 26 us a step of the simplest walker (1 phase x 2 coordinates), benchmarks/run.py case 10
+BATCH_SECONDS_PER_PHASE = 2e-5
+#: a basin cell: the state, outcome, label and steps, and their JSON text (~100 bytes)
+BATCH_BYTES_PER_CELL = 400
 # vsw sweep of the ILE (vsw.sweep over one parameter, every analysis field, JSON text):
 #: per point, 1000 and 10^5 points: 76-91 us
 ILE_SWEEP_SECONDS_PER_POINT = 1e-4

@@ -292,13 +292,13 @@ def _given(parser: argparse.ArgumentParser, args: argparse.Namespace, dest: str)
 _ILE_ONLY = {
     "analyze": ("leg_length", "mass", "gravity", "stepper_2d"),
     "simulate": ("q0", "plot"),
-    "basin": ("theta_min", "theta_max", "theta_step", "n_q", "check_edges", "plot"),
+    "basin": ("theta_min", "theta_max", "theta_step", "n_q", "check_edges"),
     "sweep": (),
 }
 _HYBRID_ONLY = {
     "analyze": (),
     "simulate": ("state",),
-    "basin": ("rate_min", "rate_max", "n_rates", "max_steps", "tol"),
+    "basin": ("rate_min", "rate_max", "n_rates", "max_steps", "tol", "grid", "steps", "scheduler"),
     "sweep": ("y", "keep", "transient"),
 }
 # The ILE's required options after the gait parameters, in the order argparse named them.
@@ -655,10 +655,17 @@ def cmd_basin(args: argparse.Namespace) -> int:
     from vsw.cli import EXIT_OK, _dump_json, _fmt, _progress
 
     model = _hybrid(args.model, "basin")
+    if args.grid:
+        return cmd_grid_basin(args, model)
+    for dest, option in (("plot", "--plot"), ("scheduler", "--scheduler"), ("steps", "--steps")):
+        if getattr(args, dest) is not None and (dest != "steps" or _given_option(args, dest)):
+            raise VswInputError(f"{option} belongs to the basin over a grid: give --grid twice")
     if model.n != 1:
+        name = cli_name(model.name)
+        x, y = model.coordinates[0], model.rates[0]
         raise VswInputError(
-            f"vsw basin --model {cli_name(model.name)}: not available for this model yet (the "
-            f"basin over section rates needs one coordinate; it has {model.n})"
+            f"vsw basin --model {name}: give the 2-D slice of the section with --grid twice, "
+            f"e.g. --grid {x}=START:STOP:N --grid {y}=START:STOP:N"
         )
     params = model.parameters(args.params)
     low, high = model.spec["rate_range"]
@@ -754,6 +761,117 @@ def cmd_basin(args: argparse.Namespace) -> int:
     out.write(f"{rate_name:>14} {'class':<10} {'steps':>5}  ended\n")
     for rate, kind, n, ended in zip(rates, classes, steps, ends):
         out.write(f"{_fmt(float(rate)):>14} {kind:<10} {n:>5}  {ended}\n")
+    return EXIT_OK
+
+
+MAX_GRID_SIDE = 4000
+"""Most values along one --grid axis."""
+
+
+def _parse_grid(item: str) -> tuple[str, Any]:
+    """``NAME=START:STOP:N`` -> (name, N evenly spaced values from START to STOP)."""
+    import numpy as np
+
+    name, text = _split("--grid", item)
+    parts = text.split(":")
+    if len(parts) != 3:
+        raise VswInputError(f"--grid {item!r}: expected NAME=START:STOP:N")
+    start, stop = _number(parts[0]), _number(parts[1])
+    try:
+        count = int(parts[2])
+    except ValueError:
+        raise VswInputError(f"--grid {item!r}: N = {parts[2]!r} must be an integer") from None
+    if not (math.isfinite(start) and math.isfinite(stop)):
+        raise VswInputError(f"--grid {item!r}: START and STOP must be finite numbers")
+    if not start < stop:
+        raise VswInputError(f"--grid {item!r}: START = {start:g} must be below STOP = {stop:g}")
+    if not 2 <= count <= MAX_GRID_SIDE:
+        raise VswInputError(f"--grid {item!r}: N = {count} must be from 2 to {MAX_GRID_SIDE}")
+    return name.strip(), np.linspace(start, stop, count)
+
+
+def cmd_grid_basin(args: argparse.Namespace, model) -> int:
+    """``vsw basin --model NAME --grid X=... --grid Y=...``: the basin of the stable gait
+    over a 2-D slice of the section, by the batch simulator (vsw.grid_basin)."""
+    import os
+
+    from vsw import limits
+    from vsw.cli import EXIT_OK, _check_plot_path, _dump_json, _fmt
+    from vsw.grid_basin import basin_plot, grid_basin
+    from vsw.vectorize import default_threads
+
+    for dest, option in (("rate_min", "--rate-min"), ("rate_max", "--rate-max")):
+        if getattr(args, dest) is not None:
+            raise VswInputError(f"{option} belongs to the basin over section rates: drop --grid")
+    for dest in ("n_rates", "max_steps"):
+        if _given_option(args, dest):
+            option = "--" + dest.replace("_", "-")
+            raise VswInputError(f"{option} belongs to the basin over section rates: drop --grid")
+    if len(args.grid) != 2:
+        raise VswInputError(f"--grid given {len(args.grid)} time(s): give it twice (x, then y)")
+    (x_name, x), (y_name, y) = (_parse_grid(item) for item in args.grid)
+    if not 1 <= args.steps <= 100_000:
+        raise VswInputError(f"--steps = {args.steps} must be from 1 to 100000")
+    if not math.isfinite(args.tol) or not 0 < args.tol < 1:
+        raise VswInputError(f"--tol = {args.tol:g} must lie in (0, 1)")
+    scheduler = args.scheduler or os.environ.get("VSW_DASK_SCHEDULER", "").strip() or None
+    _check_plot_path(args.plot)
+    params = model.parameters(args.params)
+    cells = len(x) * len(y)
+    threads = default_threads()
+    # Upper bound: every cell walks every step (most fall or converge much earlier).
+    seconds = (
+        limits.HYBRID_SECONDS_SCAN
+        + cells
+        * args.steps
+        * limits.BATCH_SECONDS_PER_PHASE
+        * len(model.phases)
+        * model.n
+        / (1 if scheduler else threads)
+    )
+    nbytes = limits.SIMULATE_BYTES_BASE + cells * limits.BATCH_BYTES_PER_CELL
+    limits.check(
+        f"a basin of {len(x)} x {len(y)} cells x up to {args.steps} steps",
+        limits.Cost(seconds, nbytes),
+        "use a coarser --grid or fewer --steps",
+    )
+    from vsw.batch import simulator
+
+    sim = simulator(model.name)
+    with _engine(model):
+        sim.library()
+        result = grid_basin(model, params, x_name, x, y_name, y, args.steps, tol=args.tol,
+                            scheduler=scheduler)  # fmt: skip
+    data = result.to_dict()
+    data["name"] = cli_name(model.name)
+    data["model"] = cli_name(model.name)
+    data["simulator"] = "compiled" if sim.build_error is None else sim.build_error
+    if scheduler:
+        data["scheduler"] = scheduler
+    if args.plot is not None:
+        from vsw.plots import save_figure
+
+        save_figure(basin_plot(_clean(data), model.spec["coordinate_units"]), args.plot)
+        data["plot"] = args.plot
+    del data["name"]
+    if args.json:
+        _dump_json(_clean(data), sys.stdout)
+        return EXIT_OK
+    out = sys.stdout
+    _write_params(out, model, params)
+    gait = ", ".join(f"{k} = {_fmt(v)}" for k, v in result.fixed_point.items())
+    out.write(f"period-one gait (max |eigenvalue| {_fmt(result.gait.max_abs_eigenvalue)}): "
+              f"{gait}\n")  # fmt: skip
+    out.write(
+        f"grid: {x_name} {_fmt(float(x[0]))} .. {_fmt(float(x[-1]))} ({len(x)}), {y_name} "
+        f"{_fmt(float(y[0]))} .. {_fmt(float(y[-1]))} ({len(y)}); up to {args.steps} steps\n"
+    )
+    for label, count in result.counts().items():
+        out.write(f"{label:>12}: {count} cells ({100 * count / cells:.2f} %)\n")
+    if sim.build_error is not None:
+        out.write(f"note: {sim.build_error}\n")
+    if args.plot is not None:
+        out.write(f"plot: {args.plot}\n")
     return EXIT_OK
 
 
