@@ -37,10 +37,17 @@ def _client(address: str):
             "--scheduler needs Dask's distributed scheduler: pip install 'vsw[dask]'"
         ) from None
     try:
-        return Client(address, timeout=10, set_as_default=False)
+        return Client(address, timeout=5, set_as_default=False)
     except (OSError, TimeoutError, ValueError) as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise VswInputError(f"no Dask scheduler at {address!r}: {first}") from None
+
+
+def check_scheduler(address: str) -> None:
+    """Raise VswInputError (one line) unless a scheduler answers at ``address``: called
+    before the work starts."""
+    with _client(address):
+        pass
 
 
 def run_block(model: str, params: np.ndarray, states: np.ndarray, options: Options) -> tuple:

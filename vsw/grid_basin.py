@@ -26,7 +26,14 @@ if TYPE_CHECKING:
 
     from vsw.hybrid import HybridModel, Orbit
 
-__all__ = ["LABEL_ORDER", "basin_plot", "brute_force_diagram", "grid_basin", "grid_states"]
+__all__ = [
+    "LABEL_ORDER",
+    "basin_plot",
+    "brute_force_diagram",
+    "check_grid_names",
+    "grid_basin",
+    "grid_states",
+]
 
 LABEL_ORDER = ("converged", "fell", "other")
 """Classes of a basin cell; ``period-K`` between converged and fell."""
@@ -44,11 +51,28 @@ def grid_states(
     """The section states of a grid: ``base`` with ``x_name``/``y_name`` set (rows: y,
     columns: x) and the components the section determines recomputed. Shape
     (len(y) * len(x), 2 n), row-major over (y, x)."""
+    check_grid_names(model, x_name, y_name)
     names = (*model.coordinates, *model.rates)
+    determined = model.spec.get("section", ())
+    yy, xx = np.meshgrid(np.asarray(y, float), np.asarray(x, float), indexing="ij")
+    states = np.tile(np.asarray(base, dtype=float), (xx.size, 1))
+    states[:, names.index(x_name)] = xx.ravel()
+    states[:, names.index(y_name)] = yy.ravel()
+    if determined:
+        completed = model.module.section_completion(*params, *states.T)
+        states = np.column_stack([np.broadcast_to(c, len(states)) for c in completed])
+    return np.ascontiguousarray(states, dtype=float)
+
+
+def check_grid_names(model: HybridModel, x_name: str, y_name: str) -> None:
+    """One line for a grid over components that are not the model's or that its section
+    determines."""
+    names = (*model.coordinates, *model.rates)
+    shown = model.name.replace("_", "-")  # as the command line names it
     for name in (x_name, y_name):
         if name not in names:
             raise VswInputError(
-                f"--grid {name}: not a coordinate or rate of {model.name}: choose from "
+                f"--grid {name}: not a coordinate or rate of {shown}: choose from "
                 f"{', '.join(names)}"
             )
     if x_name == y_name:
@@ -58,17 +82,9 @@ def grid_states(
         if name in determined:
             free = [n for n in names if n not in determined]
             raise VswInputError(
-                f"--grid {name}: on the section of {model.name} {name} follows from "
+                f"--grid {name}: on the section of {shown} {name} follows from "
                 f"{', '.join(free)} (the step event's geometry and reset): grid over those"
             )
-    yy, xx = np.meshgrid(np.asarray(y, float), np.asarray(x, float), indexing="ij")
-    states = np.tile(np.asarray(base, dtype=float), (xx.size, 1))
-    states[:, names.index(x_name)] = xx.ravel()
-    states[:, names.index(y_name)] = yy.ravel()
-    if determined:
-        completed = model.module.section_completion(*params, *states.T)
-        states = np.column_stack([np.broadcast_to(c, len(states)) for c in completed])
-    return np.ascontiguousarray(states, dtype=float)
 
 
 @dataclass
@@ -159,6 +175,7 @@ def grid_basin(
     components (see the module docstring)."""
     from vsw.batch import simulator
 
+    check_grid_names(model, x_name, y_name)
     gait = gait or stable_gait(model, params)
     target = np.array([gait.state[n] for n in (*model.coordinates, *model.rates)])
     states = grid_states(model, params, target, x_name, x, y_name, y)

@@ -797,7 +797,7 @@ def cmd_grid_basin(args: argparse.Namespace, model) -> int:
 
     from vsw import limits
     from vsw.cli import EXIT_OK, _check_plot_path, _dump_json, _fmt
-    from vsw.grid_basin import basin_plot, grid_basin
+    from vsw.grid_basin import basin_plot, check_grid_names, grid_basin
     from vsw.vectorize import default_threads
 
     for dest, option in (("rate_min", "--rate-min"), ("rate_max", "--rate-max")):
@@ -810,6 +810,7 @@ def cmd_grid_basin(args: argparse.Namespace, model) -> int:
     if len(args.grid) != 2:
         raise VswInputError(f"--grid given {len(args.grid)} time(s): give it twice (x, then y)")
     (x_name, x), (y_name, y) = (_parse_grid(item) for item in args.grid)
+    check_grid_names(model, x_name, y_name)
     if not 1 <= args.steps <= 100_000:
         raise VswInputError(f"--steps = {args.steps} must be from 1 to 100000")
     if not math.isfinite(args.tol) or not 0 < args.tol < 1:
@@ -817,6 +818,10 @@ def cmd_grid_basin(args: argparse.Namespace, model) -> int:
     scheduler = args.scheduler or os.environ.get("VSW_DASK_SCHEDULER", "").strip() or None
     _check_plot_path(args.plot)
     params = model.parameters(args.params)
+    if scheduler:
+        from vsw.cluster import check_scheduler
+
+        check_scheduler(scheduler)
     cells = len(x) * len(y)
     threads = default_threads()
     # Upper bound: every cell walks every step (most fall or converge much earlier).

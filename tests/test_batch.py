@@ -1,0 +1,248 @@
+"""The compiled batch simulator (vsw.batch) against the models' own SciPy simulation.
+
+The reference is :meth:`vsw.hybrid.HybridModel.step`: SciPy's DOP853 with event functions
+(dense output and brentq), an implementation independent of vsw/csrc/hybrid_batch.c
+(which integrates with its own DOP853 loop and locates events by re-stepping). Also
+checked: the DOP853 table against SciPy's, the fixed point against the CasADi rootfinder,
+the section declarations against simulated steps, and determinism over blocks and threads.
+"""
+
+from __future__ import annotations
+
+import re
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vsw.batch import CONVERGED, FELL, WALKED, Options, reference_walks, simulator
+from vsw.hybrid import load
+
+pytest.importorskip("casadi")
+
+MODELS = ("simplest_walker", "compass_gait", "vsw_biped", "rimless_wheel", "ile", "tle")
+STATE_TOL = 1e-9  # the issue's bound on the post-step state, relative
+
+
+@pytest.fixture(scope="module")
+def gaits():
+    out = {}
+    for name in MODELS:
+        model = load(name)
+        params = model.parameters()
+        orbits = model.fixed_points(params)
+        out[name] = (model, params, orbits)
+    return out
+
+
+def test_dop853_table_is_scipys():
+    from scipy.integrate._ivp import dop853_coefficients as ref
+
+    text = (Path(__file__).resolve().parent.parent / "vsw/csrc/dop853_tableau.h").read_text()
+
+    def array(name):
+        body = re.search(rf"{name}\[[^=]*= \{{(.*?)\}};", text, flags=re.S).group(1)
+        return np.array([float(v) for v in re.findall(r"-?\d[\d.e+-]*", body)])
+
+    stages = 12
+    assert np.array_equal(array("vsw_rk_c"), ref.C[:stages])
+    assert np.array_equal(array("vsw_rk_b"), ref.B)
+    assert np.array_equal(array("vsw_rk_e5"), ref.E5)
+    assert np.array_equal(array("vsw_rk_e3"), ref.E3)
+    assert np.array_equal(array("vsw_rk_a").reshape(stages, stages), ref.A[:stages, :stages])
+
+
+def _boundary_starts(model, params, state, component, sim, rng):
+    """Starts within 1e-7 of where one step's outcome changes along ``component`` (near
+    falling, near lift-off, near a grazing event): found by bisection on the batch
+    simulator, then sampled on both sides."""
+    x = np.tile(state, (400, 1))
+    x[:, component] *= np.linspace(0.3, 2.5, 400)
+    ended = sim.step(params, x).ended()
+    starts = []
+    for i in range(len(x) - 1):
+        if ended[i] == ended[i + 1]:
+            continue
+        lo, hi = x[i].copy(), x[i + 1].copy()
+        for _ in range(40):
+            mid = 0.5 * (lo + hi)
+            if sim.step(params, mid[None]).ended()[0] == ended[i]:
+                lo = mid
+            else:
+                hi = mid
+        for offset in (-1e-7, -1e-9, 1e-9, 1e-7):
+            starts.append(
+                0.5 * (lo + hi) + offset * (x[i + 1] - x[i]) / np.abs(x[i + 1] - x[i]).max()
+            )
+    return starts
+
+
+@pytest.mark.parametrize("name", MODELS)
+def test_batch_step_equals_scipy_step(gaits, name):
+    """<= 1e-9 relative on the post-step state (and equal outcomes), on random starts
+    around every gait and on starts within 1e-7 of where the outcome changes."""
+    model, params, orbits = gaits[name]
+    sim = simulator(name)
+    assert sim.library() is not None, sim.build_error
+    rng = np.random.default_rng(14)
+    starts, near = [], []
+    for orbit in orbits[:2]:
+        state = np.array([orbit.state[k] for k in (*model.coordinates, *model.rates)])
+        starts += list(state * (1 + 0.05 * rng.standard_normal((25, len(state)))))
+        rate = model.n  # the first rate: how fast the stance leg swings
+        edge = _boundary_starts(model, params, state, rate, sim, rng)
+        near += range(len(starts), len(starts) + len(edge))
+        starts += edge
+    starts = np.array(starts)
+    batch = sim.step(params, starts)
+    ref = reference_walks(model, params, starts, Options(1, None, 0.0, 0.0, 0, 1))
+    # Within 1e-7 of an outcome boundary either route may be on either side (a guard that
+    # dips through zero inside one integrator step is seen by neither, and their steps
+    # differ); everywhere else the outcomes are equal.
+    differ = [i for i, (a, b) in enumerate(zip(batch.ended(), ref.ended())) if a != b]
+    assert set(differ) <= set(near), differ
+    assert len(differ) <= len(near) // 2
+    done = (batch.outcome == WALKED) & (ref.outcome == WALKED)
+    assert done.sum() >= 10
+    scale = np.maximum(1.0, np.abs(ref.final[done]))
+    assert np.max(np.abs(batch.final[done] - ref.final[done]) / scale) <= STATE_TOL
+    if model.spec["step_length"]:
+        gap = np.abs(batch.kept_lengths[done, 0] - ref.kept_lengths[done, 0])
+        assert np.max(gap) <= STATE_TOL
+    # The step's duration too, away from the boundaries: near the apex bound the time a
+    # slow walker takes to pass it is ill-conditioned (1.8e-8 apart on the rimless wheel).
+    far = done.copy()
+    far[near] = False
+    gap = np.abs(batch.kept_durations[far, 0] - ref.kept_durations[far, 0])
+    assert np.max(gap) <= STATE_TOL * np.max(ref.kept_durations[far, 0])
+    assert len(near) >= 4, "no outcome boundary found along the rate"
+
+
+@pytest.mark.parametrize("name", ["simplest_walker", "compass_gait", "vsw_biped", "rimless_wheel"])
+def test_batch_fixed_point_equals_the_rootfinders(gaits, name):
+    model, params, orbits = gaits[name]
+    sim = simulator(name)
+    for orbit in orbits:
+        state = np.array([orbit.state[k] for k in (*model.coordinates, *model.rates)])
+        found, jacobian = sim.fixed_point(params, state * (1 + 1e-4))
+        assert np.max(np.abs(found - state)) <= 1e-10 * max(1.0, np.max(np.abs(state)))
+        # the map's derivative by differences of batch steps has the rootfinder's spectrum
+        moduli = sorted(abs(np.linalg.eigvals(jacobian)))[-1]
+        assert moduli == pytest.approx(orbit.max_abs_eigenvalue, rel=1e-5)
+
+
+def _cells(model, params, target, count, rng):
+    """Random section states of the simplest walker around its thin basin (Schwab and
+    Wisse 2001: a narrow band through the gait, theta_dot falling as theta grows)."""
+    theta = rng.uniform(-0.36, -0.14, count)
+    theta_dot = target[2] - 0.95 * (theta - target[0]) + rng.uniform(-0.01, 0.01, count)
+    base = np.tile(target, (count, 1))
+    base[:, 0], base[:, 2] = theta, theta_dot
+    return np.column_stack(model.module.section_completion(*params, *base.T))
+
+
+def test_classification_of_1000_cells_equals_the_scipy_route(gaits):
+    """Every class equal, except cells whose class changes within 1e-6 of them (a class
+    boundary: then the two routes may differ; none did when this was written)."""
+    model, params, orbits = gaits["simplest_walker"]
+    stable = next(o for o in orbits if o.stable)
+    target = np.array([stable.state[k] for k in (*model.coordinates, *model.rates)])
+    cells = _cells(model, params, target, 1000, np.random.default_rng(2001))
+    sim = simulator("simplest_walker")
+    options = dict(target=target, converge_tol=1e-6, period_tol=1e-6, max_period=8)
+    batch = sim.walk(params, cells, 50, **options)
+    ref = reference_walks(model, params, cells, Options(50, tuple(target), 1e-6, 1e-6, 8, 0))
+    counts = Counter(batch.labels())
+    assert counts["converged"] >= 100 and counts["fell"] >= 100, counts
+    differ = [i for i, (a, b) in enumerate(zip(batch.labels(), ref.labels())) if a != b]
+    for i in differ:
+        nudged = cells[i] + 1e-6 * np.array(
+            [[1, 2, 0, 0], [-1, -2, 0, 0], [0, 0, 1, 0], [0, 0, -1, 0]]
+        )
+        labels = set(sim.walk(params, nudged, 50, **options).labels())
+        assert len(labels) > 1, f"cell {i}: {batch.labels()[i]} vs {ref.labels()[i]} off a boundary"
+    assert len(differ) <= 5
+    same = [i for i in range(len(cells)) if i not in differ]
+    assert np.array_equal(batch.steps[same], ref.steps[same])
+
+
+@pytest.mark.parametrize("name", ["simplest_walker", "compass_gait"])
+def test_declared_section_holds_after_simulated_steps(gaits, name):
+    """The section a model declares (phi = 2 theta and the swing rate the impact gives;
+    psi = -theta) is what the SciPy-simulated heelstrike produces."""
+    model, params, orbits = gaits[name]
+    state = np.array([orbits[0].state[k] for k in (*model.coordinates, *model.rates)])
+    rng = np.random.default_rng(3)
+    checked = 0
+    for start in state * (1 + 0.02 * rng.standard_normal((12, len(state)))):
+        result = model.step(params, start)
+        if result.ended != "completed":
+            continue
+        completed = np.array(model.module.section_completion(*params, *result.state), float)
+        assert np.max(np.abs(completed - result.state)) <= 1e-12
+        checked += 1
+    assert checked >= 5
+
+
+def test_results_do_not_depend_on_blocks_or_threads(gaits, monkeypatch):
+    import vsw.batch as batch_module
+
+    model, params, orbits = gaits["compass_gait"]
+    state = np.array([orbits[0].state[k] for k in (*model.coordinates, *model.rates)])
+    starts = state * (1 + 0.03 * np.random.default_rng(5).standard_normal((300, 4)))
+    sim = simulator("compass_gait")
+    one = sim.walk(params, starts, 12, keep=3, threads=1)
+    monkeypatch.setattr(batch_module, "CHUNK", 7)
+    two = sim.walk(params, starts, 12, keep=3, threads=2)
+    for field in ("outcome", "aux", "steps", "final", "kept_states", "kept_lengths"):
+        a, b = getattr(one, field), getattr(two, field)
+        assert a.tobytes() == b.tobytes(), field
+
+
+def test_kept_steps_are_the_last_ones_in_order(gaits):
+    model, params, orbits = gaits["simplest_walker"]
+    stable = next(o for o in orbits if o.stable)
+    state = np.array([stable.state[k] for k in (*model.coordinates, *model.rates)])
+    start = state * (1 + 1e-3)
+    sim = simulator("simplest_walker")
+    long = sim.walk(params, start[None], 7, converge_tol=0, period_tol=0, keep=7)
+    short = sim.walk(params, start[None], 7, converge_tol=0, period_tol=0, keep=3)
+    assert np.array_equal(long.kept_states[0, 4:], short.kept_states[0])
+    assert np.array_equal(short.kept_states[0, -1], short.final[0])
+    few = sim.walk(params, start[None], 2, converge_tol=0, period_tol=0, keep=4)
+    assert np.array_equal(few.kept_states[0, :2], long.kept_states[0, :2])
+    assert np.all(np.isnan(few.kept_states[0, 2:]))
+
+
+def test_period_two_walks_are_classified(gaits):
+    """Past the flip at gamma = 0.015089 the simplest walker settles on a period-two gait
+    (Garcia et al. 1998, Fig. 4): a walk from near the unstable period-one gait is
+    classified period-2, its two states apart."""
+    model = load("simplest_walker")
+    params = model.parameters({"gamma": 0.016})
+    orbits = model.fixed_points(params)
+    long_gait = max(orbits, key=lambda o: abs(o.state["theta"]))
+    state = np.array([long_gait.state[k] for k in (*model.coordinates, *model.rates)])
+    sim = simulator("simplest_walker")
+    walk = sim.walk(params, (state * (1 + 1e-4))[None], 400, target=state, keep=2)
+    assert walk.labels() == ["period-2"]
+    a, b = walk.kept_states[0]
+    assert np.max(np.abs(a - b)) > 1e-3
+
+
+def test_scipy_fallback_without_a_compiler(gaits, monkeypatch):
+    model, params, orbits = gaits["rimless_wheel"]
+    state = np.array([orbits[0].state[k] for k in (*model.coordinates, *model.rates)])
+    starts = np.tile(state, (6, 1))
+    starts[:, 1] *= np.linspace(0.05, 2.0, 6)  # from rolling back to walking
+    compiled = simulator("rimless_wheel").walk(params, starts, 20, target=state)
+    monkeypatch.setenv("VSW_KERNELS", "0")
+    from vsw.batch import BatchSimulator
+
+    fallback = BatchSimulator(model)
+    slow = fallback.walk(params, starts, 20, target=state)
+    assert fallback.build_error == "VSW_KERNELS=0"
+    assert slow.labels() == compiled.labels()
+    assert np.array_equal(slow.steps, compiled.steps)
+    assert np.any(compiled.outcome == CONVERGED) and np.any(compiled.outcome == FELL)
