@@ -6,7 +6,8 @@ versions). Each comparison is a ratio measured within one run: the two sides int
 a warm-up call of each first, then at least five repetitions (two with ``--quick``);
 medians are reported with min and max. Absolute times are reported; only ratios are
 claimed, except where the issue sets an absolute target (cases 4-7).
-Case 9 times one passive-walker gait solve per model (issue 13).
+Case 9 times one passive-walker gait solve per model (issue 13); cases 10 and 11 the
+compiled batch simulator, per step and as a 500 x 500 basin, locally and on Dask (issue 14).
 
 Every case runs in a fresh Python process, so its peak resident memory (RSS) is its own;
 the peak memory of one call of each side is measured with ``tracemalloc`` (numpy reports
@@ -43,7 +44,7 @@ import generated.ile as ile  # noqa: E402
 from vsw.params import random_parameters  # noqa: E402
 from vsw.vectorize import chunked, default_threads  # noqa: E402
 
-CASES = (1, 2, 3, 4, 5, 6, 7, 8, 9)
+CASES = (1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11)
 
 DESIGN_BEFORE = "39d527c"
 """The commit whose vsw/design.py case 8 compares with (before issue 10)."""
@@ -553,6 +554,147 @@ def case_gait_rootfinder(reps: int) -> list[Row]:
             "SciPy root on solve_ivp (DOP853, events) steps", t_ours, t_theirs,
             ">= 20x faster", ratio <= 1 / 20, note=note,
         ))  # fmt: skip
+        # The same gait as a fixed point of the compiled batch simulator's map (Newton with
+        # central differences; issue 14), against the same baseline, side by side.
+        from vsw.batch import simulator
+
+        sim = simulator(key)
+        sim.library()
+
+        def batch(sim=sim, params=params, guess=guess, found=found):
+            found["batch"] = sim.fixed_point(params, guess)[0]
+
+        t_batch, t_theirs = interleaved(batch, theirs, reps)
+        gap = np.max(np.abs(found["batch"] - x_ours))
+        note = (
+            f"the batch fixed point and the rootfinder's differ by {gap:.1g}; no "
+            "eigenvalues or confirmation step in this time (periodic_orbit has both)"
+        )
+        ratio = t_batch.median / t_theirs.median
+        rows.append(Row(
+            "9", f"{key}: period-one gait by the batch simulator's Newton (vsw.batch)",
+            "SciPy root on solve_ivp (DOP853, events) steps", t_batch, t_theirs,
+            ">= 20x faster", ratio <= 1 / 20, note=note,
+        ))  # fmt: skip
+    return rows
+
+
+def _near_gait_starts(key: str, count: int):
+    """The model's default parameters, its most stable gait and ``count`` section states
+    around it (1 % relative noise, fixed seed) that all complete a step."""
+    from vsw.batch import WALKED, simulator
+    from vsw.hybrid import load
+
+    m = load(key)
+    params = m.parameters()
+    orbit = min(m.fixed_points(params), key=lambda o: o.max_abs_eigenvalue)
+    x = np.array(list(orbit.state.values()))
+    starts = x * (1 + 0.01 * np.random.default_rng(14).standard_normal((4 * count, x.size)))
+    if m.spec.get("section"):
+        starts = np.column_stack(m.module.section_completion(*params, *starts.T))
+    ok = simulator(key).step(params, starts).outcome == WALKED
+    return m, params, starts[ok][:count]
+
+
+def case_batch_step(count: int, reps: int) -> list[Row]:
+    """Case 10: one step of the Poincare map from each of ``count`` section states near the
+    gait: the compiled batch simulator (one thread, one call) against SciPy's solve_ivp
+    (DOP853, events; vsw.hybrid's step) at rtol = atol = 1e-10 (the issue's baseline) and
+    at 1e-12 (the batch simulator's own tolerance)."""
+    import vsw.hybrid as hybrid
+    from vsw.batch import simulator
+
+    rows = []
+    for key in ("simplest_walker", "compass_gait", "vsw_biped"):
+        m, params, starts = _near_gait_starts(key, count)
+        sim = simulator(key)
+        sim.library()
+        found = {}
+
+        def ours(sim=sim, params=params, starts=starts, found=found):
+            found["ours"] = sim.step(params, starts, threads=1).final
+
+        for tol in (1e-10, 1e-12):
+
+            def theirs(m=m, params=params, starts=starts, found=found, tol=tol):
+                saved = hybrid._RTOL, hybrid._ATOL
+                hybrid._RTOL = hybrid._ATOL = tol
+                try:
+                    found["theirs"] = np.array([m.step(params, x).state for x in starts])
+                finally:
+                    hybrid._RTOL, hybrid._ATOL = saved
+
+            t_ours, t_theirs = interleaved(ours, theirs, reps)
+            gap = np.max(np.abs(found["ours"] - found["theirs"])
+                         / np.maximum(1, np.abs(found["theirs"])))  # fmt: skip
+            ratio = t_ours.median / t_theirs.median
+            rows.append(Row(
+                "10", f"{key}: one step per start, batch simulator (1 thread)",
+                f"solve_ivp DOP853 + events, rtol = atol = {tol:g}",
+                t_ours.per(len(starts)), t_theirs.per(len(starts)),
+                ">= 300x faster" if tol == 1e-10 else "(same tolerance as ours)",
+                ratio <= 1 / 300 if tol == 1e-10 else None,
+                note=f"per step over {len(starts)} starts; post-step states differ by at most "
+                f"{gap:.1g} (relative)",
+            ))  # fmt: skip
+    return rows
+
+
+def _basin_grid(side: int):
+    """The simplest walker's basin at gamma = 0.009 over theta x theta_dot just after
+    heelstrike (phi and phi_dot from the section), the region around its thin band."""
+    return np.linspace(-0.36, -0.1, side), np.linspace(0.1, 0.4, side)
+
+
+def case_basin_grid(side: int, reps: int) -> list[Row]:
+    """Case 11: a side x side basin of the simplest walker at gamma = 0.009, up to 50 steps
+    a cell (stopping on convergence or a fall), by ``grid_basin`` as ``vsw basin --grid``
+    runs it (the gait search included): in-process threads (every core), and on a Dask
+    LocalCluster of two worker processes with one thread each (started before timing;
+    each side warmed up once)."""
+    from distributed import LocalCluster
+
+    from vsw.batch import simulator
+    from vsw.grid_basin import grid_basin
+    from vsw.hybrid import load
+    from vsw.vectorize import default_threads
+
+    m = load("simplest_walker")
+    params = m.parameters({"gamma": 0.009})
+    x, y = _basin_grid(side)
+    simulator("simplest_walker").library()
+    found = {}
+
+    def local():
+        found["local"] = grid_basin(m, params, "theta", x, "theta_dot", y, 50)
+
+    peak = peak_alloc_mb(local)
+    t_local = timed(local, reps)
+    counts = found["local"].counts()
+    steps = int(found["local"].steps.sum())
+    rows = [Row(
+        "11", f"basin {side} x {side}, simplest walker (vsw.grid_basin, "
+        f"{default_threads()} threads)", "-", t_local, None, "<= 60 s",
+        t_local.median <= 60,
+        note=f"{steps} steps walked ({t_local.median / steps * 1e6:.1f} us a step with the "
+        f"gait search); classes {counts}", subject_peak_mb=peak,
+    )]  # fmt: skip
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address=None) as cluster:  # fmt: skip
+        address = cluster.scheduler_address
+
+        def remote():
+            found["remote"] = grid_basin(m, params, "theta", x, "theta_dot", y, 50,
+                                         scheduler=address)  # fmt: skip
+
+        t_remote, t_local = interleaved(remote, local, reps)
+    same = found["remote"].to_dict() == found["local"].to_dict()
+    ratio = t_remote.median / t_local.median
+    rows.append(Row(
+        "11", f"the same basin on a Dask LocalCluster (2 workers x 1 thread)",
+        f"in-process threads ({default_threads()})", t_remote, t_local, "<= 1.3x the local time",
+        ratio <= 1.3, note=f"results identical: {same}; cluster start-up not timed",
+    ))  # fmt: skip
     return rows
 
 
@@ -622,6 +764,10 @@ def run_case(case: int, quick: bool) -> list[Row]:
         return case_design_suite(quick)
     if case == 9:
         return case_gait_rootfinder(reps)
+    if case == 10:
+        return case_batch_step(8 if quick else 200, reps)
+    if case == 11:
+        return case_basin_grid(20 if quick else 500, 1 if quick else 2)
     raise ValueError(f"no benchmark case {case}; cases are {CASES}")
 
 

@@ -51,6 +51,10 @@ def test_dop853_table_is_scipys():
     assert np.array_equal(array("vsw_rk_e5"), ref.E5)
     assert np.array_equal(array("vsw_rk_e3"), ref.E3)
     assert np.array_equal(array("vsw_rk_a").reshape(stages, stages), ref.A[:stages, :stages])
+    # the dense output's extra stages and interpolant
+    assert np.array_equal(array("vsw_rk_c_extra"), ref.C[stages + 1 :])
+    assert np.array_equal(array("vsw_rk_a_extra").reshape(3, 16), ref.A[stages + 1 :])
+    assert np.array_equal(array("vsw_rk_d").reshape(4, 16), ref.D)
 
 
 def _boundary_starts(model, params, state, component, sim, rng):

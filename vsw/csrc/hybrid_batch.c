@@ -8,9 +8,9 @@
  *
  * Each phase is integrated with the explicit DOP853 pair (adaptive step, SciPy's error
  * norm and step-size control) until one of its watched guards crosses zero in its
- * direction; the crossing is located by the Illinois method on the guard along one
- * Runge-Kutta step of the accepted step's order from the step's start, to a bracket of
- * VSW_EVENT_TIME_TOL in time. The rules are those of the project's SciPy route
+ * direction; the crossing is located by the Illinois method on the guard along the
+ * accepted step's dense output (DOP853's 7th-order interpolant, as SciPy's), to a bracket
+ * of VSW_EVENT_TIME_TOL in time. The rules are those of the project's SciPy route
  * (vsw.hybrid.HybridModel.step): a crossing counts when the guard goes from <= 0 to >= 0
  * (direction +1) or from >= 0 to <= 0 (direction -1); an event whose `when` is <= 0 does
  * not count and the phase goes on 1e-9 past it (at most 20 times); a failure whose guard
@@ -69,7 +69,7 @@ static double vsw_rms(const double *x, const double *scale)
 
 /* One DOP853 step of size h from y (f0 = f(y)); K[0..12] the stages and f(y_new). */
 static void vsw_rk_step(int phase, const double *p, const double *y, const double *f0, double h,
-                        double K[VSW_RK_STAGES + 1][VSW_NX], double *y_new)
+                        double K[VSW_RK_ALL][VSW_NX], double *y_new)
 {
     double dy[VSW_NX];
     memcpy(K[0], f0, sizeof(double) * VSW_NX);
@@ -90,7 +90,7 @@ static void vsw_rk_step(int phase, const double *p, const double *y, const doubl
 }
 
 /* SciPy's error norm of DOP853 (scipy.integrate._ivp.rk.DOP853._estimate_error_norm). */
-static double vsw_error_norm(double K[VSW_RK_STAGES + 1][VSW_NX], double h, const double *scale)
+static double vsw_error_norm(double K[VSW_RK_ALL][VSW_NX], double h, const double *scale)
 {
     double e5 = 0.0, e3 = 0.0;
     for (int i = 0; i < VSW_NX; ++i) {
@@ -137,24 +137,68 @@ static int vsw_crossed(double g0, double g1, int direction)
     return direction > 0 ? up : direction < 0 ? down : (up || down);
 }
 
-/* The first zero of watched guard k along one RK step from y: s in [0, h], the state there
-   (at the bracket's end past the crossing). */
-static double vsw_locate(int phase, const double *p, const double *y, const double *f0, double h,
-                         int k, double ga, double gb, double *y_hit)
+/* DOP853's dense output over the accepted step from y_old (time 0) to y_new (time h): its
+   three extra stages into K[13..15] and the interpolant's coefficients F (SciPy's
+   Dop853DenseOutput). */
+static void vsw_dense(int phase, const double *p, const double *y_old, const double *y_new,
+                      double h, double K[VSW_RK_ALL][VSW_NX], double F[7][VSW_NX])
 {
-    double K[VSW_RK_STAGES + 1][VSW_NX], g[VSW_MAX_WATCH], ys[VSW_NX];
+    double dy[VSW_NX];
+    for (int s = 0; s < VSW_RK_EXTRA; ++s) {
+        const int stage = VSW_RK_STAGES + 1 + s;
+        for (int i = 0; i < VSW_NX; ++i) {
+            double acc = 0.0;
+            for (int j = 0; j < stage; ++j) acc += K[j][i] * vsw_rk_a_extra[s][j];
+            dy[i] = y_old[i] + acc * h;
+        }
+        vsw_call(vsw_flow[phase], p, dy, K[stage]);
+    }
+    for (int i = 0; i < VSW_NX; ++i) {
+        const double delta = y_new[i] - y_old[i];
+        F[0][i] = delta;
+        F[1][i] = h * K[0][i] - delta;
+        F[2][i] = 2.0 * delta - h * (K[VSW_RK_STAGES][i] + K[0][i]);
+        for (int r = 0; r < 4; ++r) {
+            double acc = 0.0;
+            for (int j = 0; j < VSW_RK_ALL; ++j) acc += vsw_rk_d[r][j] * K[j][i];
+            F[3 + r][i] = h * acc;
+        }
+    }
+}
+
+/* The interpolant at the fraction x of the step. */
+static void vsw_interpolate(const double F[7][VSW_NX], const double *y_old, double x,
+                            double *out)
+{
+    for (int i = 0; i < VSW_NX; ++i) {
+        double y = 0.0;
+        for (int k = 6; k >= 0; --k) {
+            y += F[k][i];
+            y *= ((6 - k) % 2 == 0) ? x : 1.0 - x;
+        }
+        out[i] = y + y_old[i];
+    }
+}
+
+/* The first zero of watched guard k on the dense output of the step [0, h]: s, and the
+   state there (at the bracket's end past the crossing). */
+static double vsw_locate(int phase, const double *p, const double F[7][VSW_NX],
+                         const double *y_old, const double *y_new, double h, int k, double ga,
+                         double gb, double *y_hit)
+{
+    double g[VSW_MAX_WATCH], ys[VSW_NX];
     double a = 0.0, b = h;
     int side = 0;
     if (ga == 0.0) { /* SciPy's brentq returns the bracket's start when it is a zero */
-        memcpy(y_hit, y, sizeof(double) * VSW_NX);
+        memcpy(y_hit, y_old, sizeof(double) * VSW_NX);
         return 0.0;
     }
-    vsw_rk_step(phase, p, y, f0, h, K, y_hit);
+    memcpy(y_hit, y_new, sizeof(double) * VSW_NX);
     if (gb == 0.0) return h;
     for (int it = 0; it < 200 && b - a > VSW_EVENT_TIME_TOL; ++it) {
         double s = b - gb * (b - a) / (gb - ga);
         if (!(s > a && s < b)) s = 0.5 * (a + b);
-        vsw_rk_step(phase, p, y, f0, s, K, ys);
+        vsw_interpolate(F, y_old, s / h, ys);
         vsw_call(vsw_watch[phase], p, ys, g);
         double gs = g[k];
         if (gs == 0.0 || (gs > 0.0) == (gb > 0.0)) { /* past the crossing: the new end */
@@ -180,7 +224,7 @@ static int vsw_run_phase(int phase, const double *p, double *y, double *t,
                          const vsw_tolerances *tol)
 {
     double g0[VSW_MAX_WATCH], g1[VSW_MAX_WATCH], f0[VSW_NX], y_new[VSW_NX], scale[VSW_NX];
-    double K[VSW_RK_STAGES + 1][VSW_NX];
+    double K[VSW_RK_ALL][VSW_NX], F[7][VSW_NX];
     const int n_watch = vsw_n_watch[phase];
     vsw_call(vsw_watch[phase], p, y, g0);
     for (int k = 0; k < n_watch; ++k) /* a failure already past at the start */
@@ -215,10 +259,14 @@ static int vsw_run_phase(int phase, const double *p, double *y, double *t,
             rejected = 0;
             vsw_call(vsw_watch[phase], p, y_new, g1);
             double first = INFINITY, y_first[VSW_NX], y_k[VSW_NX];
-            int hit = -1;
+            int hit = -1, dense = 0;
             for (int k = 0; k < n_watch; ++k) {
                 if (!vsw_crossed(g0[k], g1[k], vsw_watch_direction[phase][k])) continue;
-                double s = vsw_locate(phase, p, y, f0, h, k, g0[k], g1[k], y_k);
+                if (!dense) {
+                    vsw_dense(phase, p, y, y_new, h, K, F);
+                    dense = 1;
+                }
+                double s = vsw_locate(phase, p, F, y, y_new, h, k, g0[k], g1[k], y_k);
                 if (s < first) {
                     first = s;
                     hit = k;
