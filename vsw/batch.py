@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from vsw.errors import VswInputError
-from vsw.hybrid import _ATOL, _PHASE_TIME_LIMIT, _RTOL, HybridModel, load
+from vsw.hybrid import _PHASE_TIME_LIMIT, _RTOL, HybridModel, load
 
 __all__ = ["BatchResult", "BatchSimulator", "reference_walks", "simulator"]
 
@@ -197,6 +197,7 @@ class BatchSimulator:
         keep: int = 0,
         threads: int | None = None,
         scheduler: str | None = None,
+        tolerance: float = _RTOL,
     ) -> BatchResult:
         """Walk every row of ``states`` (section states, shape (N, 2n)) up to ``steps``
         steps, stopping early when it converges to ``target`` (every component within
@@ -206,7 +207,8 @@ class BatchSimulator:
         ``params``: one parameter vector for all, or one row per walk. ``converge_tol`` or
         ``period_tol`` 0 turns that check off. ``keep``: record the last ``keep`` steps.
         ``scheduler``: a Dask scheduler address (:mod:`vsw.cluster`); the blocks then run
-        there, with results identical to the local ones.
+        there, with results identical to the local ones. ``tolerance``: the integrator's
+        rtol = atol (default 1e-12, the SciPy route's).
         """
         states = np.ascontiguousarray(np.asarray(states, dtype=float).reshape(-1, self.nx))
         params = np.asarray(params, dtype=float)
@@ -222,8 +224,10 @@ class BatchSimulator:
         if steps < 0 or keep < 0 or max_period < 0:
             raise VswInputError("steps, keep and max_period must be >= 0")
         max_period = min(int(max_period), 64)
+        if not 1e-15 <= tolerance <= 1e-3:
+            raise VswInputError(f"tolerance = {tolerance:g} must lie in [1e-15, 1e-3]")
         options = Options(steps, None if target is None else tuple(float(v) for v in target),
-                          converge_tol, period_tol, max_period, keep)  # fmt: skip
+                          converge_tol, period_tol, max_period, keep, tolerance)  # fmt: skip
         if scheduler:
             from vsw.cluster import walk_on_cluster
 
@@ -240,8 +244,8 @@ class BatchSimulator:
         n = len(states)
         keep = options.keep
         out = _empty_result(n, self.nx, keep, self.failures)
-        opts = np.array([_RTOL, _ATOL, _PHASE_TIME_LIMIT, options.converge_tol,
-                         options.period_tol], dtype=float)  # fmt: skip
+        opts = np.array([options.tolerance, options.tolerance, _PHASE_TIME_LIMIT,
+                         options.converge_tol, options.period_tol], dtype=float)  # fmt: skip
         target = None
         if options.target is not None:
             target = np.ascontiguousarray(options.target, dtype=float)
@@ -263,11 +267,13 @@ class BatchSimulator:
         run_blocks(block, range(0, n, CHUNK), threads)
         return out
 
-    def step(self, params, states, threads: int | None = None) -> BatchResult:
+    def step(
+        self, params, states, threads: int | None = None, tolerance: float = _RTOL
+    ) -> BatchResult:
         """One step of the Poincaré map from each row of ``states``: ``final`` holds the
         state after it, ``kept_lengths``/``kept_durations`` its length and duration."""
         return self.walk(params, states, 1, converge_tol=0.0, period_tol=0.0, keep=1,
-                         threads=threads)  # fmt: skip
+                         threads=threads, tolerance=tolerance)  # fmt: skip
 
     def fixed_point(
         self, params: Sequence[float], guess: Sequence[float], tol: float = 1e-12,
@@ -323,6 +329,7 @@ class Options:
     period_tol: float
     max_period: int
     keep: int
+    tolerance: float = _RTOL
 
 
 def _empty_result(n: int, nx: int, keep: int, failures) -> BatchResult:

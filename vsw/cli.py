@@ -723,6 +723,20 @@ def build_parser() -> ArgumentParser:
         metavar="K",
         help="other models: steps walked before the N kept (default: 100)",
     )
+    p.add_argument(
+        "--brute-force",
+        action="store_true",
+        help="other models: the classic diagram from the compiled batch simulator: at every "
+        "value the gait by Newton on the simulated map and the map iterated from it (--keep "
+        "default 32)",
+    )
+    p.add_argument(
+        "--state",
+        action="append",
+        metavar="NAME=VALUE",
+        help="other models, with --brute-force: where the first value's Newton starts "
+        "(default: its first stable gait); repeatable",
+    )
     p.set_defaults(func=models_cli.cmd_sweep)
 
     _register_optional_commands(subparsers)

@@ -29,7 +29,7 @@ if TYPE_CHECKING:
 __all__ = [
     "LABEL_ORDER",
     "basin_plot",
-    "brute_force_diagram",
+    "brute_force_sweep",
     "check_grid_names",
     "grid_basin",
     "grid_states",
@@ -201,31 +201,100 @@ def grid_basin(
     )
 
 
-def brute_force_diagram(
+def brute_force_sweep(
     model: HybridModel,
-    params: Sequence[float],
+    values: Mapping[str, float],
     over: str,
-    values: np.ndarray,
-    start: Sequence[float],
+    grid: np.ndarray,
     transient: int,
     keep: int,
+    start: Sequence[float] | None = None,
     threads: int | None = None,
     scheduler: str | None = None,
-):
-    """The classic bifurcation diagram: from one section state ``start``, the map iterated
-    ``transient + keep`` steps at each value of parameter ``over`` (one batch), keeping the
-    last ``keep`` steps (section states, step lengths, durations; NaN past a fall)."""
+) -> list[dict[str, Any]]:
+    """The classic bifurcation diagram by brute force, all from the batch simulator: at
+    each value of the parameter ``over`` the period-one gait by Newton on the batch map
+    (continued from the previous value; its eigenvalues from the map's Jacobian by central
+    differences), then one batch walk over every value, ``transient + keep`` steps each,
+    from that value's gait moved by 1e-6 (relative) where it was found, else from
+    ``start`` (default: the first stable gait of the first value's scan), keeping the last
+    ``keep`` steps. Returns the points of ``vsw sweep --json``: each with its gait and
+    ``attractor`` (states, step lengths and periods, ``ended``, ``period``)."""
     from vsw.batch import simulator
+    from vsw.errors import ConvergenceError
+    from vsw.hybrid import _by_modulus, repeat_period
 
-    names = list(model.spec["parameters"])
-    if over not in names:
-        raise VswInputError(f"{over!r} is not a parameter of {model.name}: {', '.join(names)}")
-    table = np.tile(np.asarray(params, float), (len(values), 1))
-    table[:, names.index(over)] = values
-    states = np.tile(np.asarray(start, float), (len(values), 1))
+    names_p = list(model.spec["parameters"])
+    if over not in names_p:
+        raise VswInputError(f"{over!r} is not a parameter of {model.name}: {', '.join(names_p)}")
+    state_names = [*model.coordinates, *model.rates]
     sim = simulator(model.name)
-    return sim.walk(table, states, transient + keep, converge_tol=0.0, period_tol=0.0,
-                    keep=keep, threads=threads, scheduler=scheduler)  # fmt: skip
+    tables = [model.parameters({**values, over: float(v)}) for v in grid]
+    if start is None:
+        first = model.fixed_points(tables[0])
+        if not first:
+            raise ModelConditionError(
+                f"{model.name}: no period-one gait at {over} = {grid[0]:g} to start from: "
+                "give the start with --state"
+            )
+        pick = next((o for o in first if o.stable), first[0])
+        start = [pick.state[n] for n in state_names]
+    start = np.asarray(start, dtype=float)
+    points: list[dict[str, Any]] = []
+    starts = np.empty((len(grid), len(state_names)))
+    previous = start
+    for i, (value, params) in enumerate(zip(grid, tables)):
+        point: dict[str, Any] = {over: float(value), "from": "batch Newton"}
+        try:
+            x, jacobian = sim.fixed_point(params, previous)
+        except ConvergenceError:
+            x = None
+        if x is None or not np.all(np.isfinite(x)):
+            point["found"] = False
+            for key in ("state", "period", "eigenvalues", "max_abs_eigenvalue", "stable",
+                        "step_length", "speed"):  # fmt: skip
+                point[key] = None
+            starts[i] = previous
+        else:
+            step = sim.step(params, x[None], threads=1)
+            eigenvalues = _by_modulus(np.linalg.eigvals(jacobian))
+            largest = max(abs(e) for e in eigenvalues)
+            length = float(step.kept_lengths[0, 0])
+            period = float(step.kept_durations[0, 0])
+            length = None if np.isnan(length) else length
+            point.update(
+                found=True, state=dict(zip(state_names, (float(v) for v in x))), period=period,
+                eigenvalues=[[e.real, e.imag] for e in eigenvalues],
+                max_abs_eigenvalue=largest, stable=largest < 1.0, step_length=length,
+                speed=None if length is None else length / period,
+            )  # fmt: skip
+            starts[i] = x * (1 + 1e-6)
+            previous = x
+        points.append(point)
+    walks = sim.walk(np.array(tables), starts, transient + keep, converge_tol=0.0,
+                     period_tol=0.0, keep=keep, threads=threads, scheduler=scheduler)  # fmt: skip
+    ended = walks.ended()
+    for i, point in enumerate(points):
+        walked = int(walks.steps[i])
+        # The ring holds the last min(walked, keep) steps, oldest first; of them only those
+        # past the transient count (as HybridModel.attractor keeps them).
+        held = min(walked, keep)
+        after = max(0, min(keep, walked - transient))
+        kept = slice(held - after, held)
+        kept_rows = walks.kept_states[i][kept]
+        lengths = walks.kept_lengths[i][kept]
+        durations = walks.kept_durations[i][kept]
+        completed = ended[i] == "walked"
+        period = repeat_period(kept_rows, 1e-7) if completed and len(kept_rows) > 1 else None
+        point["attractor"] = {
+            "ended": "completed" if completed else ended[i],
+            "steps_walked": walked,
+            "period": period,
+            "states": [dict(zip(state_names, (float(v) for v in r))) for r in kept_rows],
+            "step_lengths": [None if np.isnan(v) else float(v) for v in lengths],
+            "step_periods": [float(v) for v in durations],
+        }
+    return points
 
 
 _CLASS_COLORS = {

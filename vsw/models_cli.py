@@ -299,7 +299,7 @@ _HYBRID_ONLY = {
     "analyze": (),
     "simulate": ("state",),
     "basin": ("rate_min", "rate_max", "n_rates", "max_steps", "tol", "grid", "steps", "scheduler"),
-    "sweep": ("y", "keep", "transient"),
+    "sweep": ("y", "keep", "transient", "brute_force", "state"),
 }
 # The ILE's required options after the gait parameters, in the order argparse named them.
 _ILE_REQUIRED = {"analyze": (), "simulate": ("--q0", "--steps"), "basin": (), "sweep": ()}
@@ -911,7 +911,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     model = _hybrid(args.model, "sweep")
     name, values = parse_over(args.model, args.over)
     y = _diagram_quantity(model, args.y)
-    keep = args.keep if args.keep is not None else (32 if args.plot is not None else 0)
+    brute = args.brute_force
+    if args.state and not brute:
+        raise VswInputError("--state of vsw sweep is the start of --brute-force: give both")
+    default_keep = 32 if (args.plot is not None or brute) else 0
+    keep = args.keep if args.keep is not None else default_keep
     if keep == 1 or keep < 0:
         raise VswInputError(f"--keep {keep}: give 0 (no iteration) or at least 2 steps to keep")
     if args.transient < 0:
@@ -922,6 +926,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         raise VswInputError("--y chooses what --plot draws: give --plot FILE")
     _check_plot_path(args.plot)
     count = len(values)
+    if brute:
+        if not keep:
+            raise VswInputError("--brute-force iterates the map: --keep must be at least 2")
+        return _sweep_brute_force(args, model, name, values, y, keep)
     _check_cost(
         model,
         f"a sweep of {count} points" + (f" iterating {args.transient + keep} steps each"
@@ -1016,6 +1024,71 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             + f" {_fmt(p['period']):>12} {_fmt(p['max_abs_eigenvalue']):>12} "
             f"{_fmt(p['stable']):>6}  {p['from'] or 'no gait found'}{note}\n"
         )  # fmt: skip
+    if args.plot is not None:
+        out.write(f"plot: {args.plot}\n")
+    return EXIT_OK
+
+
+def _sweep_brute_force(args, model, name: str, values, y: str, keep: int) -> int:
+    """``vsw sweep --brute-force``: vsw.grid_basin.brute_force_sweep, in the sweep's JSON
+    and figure."""
+    from vsw import limits
+    from vsw.cli import EXIT_OK, _dump_json, _fmt
+    from vsw.grid_basin import brute_force_sweep
+    from vsw.vectorize import default_threads
+
+    count = len(values)
+    steps = count * (args.transient + keep)
+    seconds = limits.HYBRID_SECONDS_SCAN + (
+        (steps + 40 * count)
+        * limits.BATCH_SECONDS_PER_PHASE
+        * len(model.phases)
+        * model.n
+        / default_threads()
+    )
+    limits.check(
+        f"a brute-force sweep of {count} points iterating {args.transient + keep} steps each",
+        limits.Cost(seconds, limits.SIMULATE_BYTES_BASE + count * keep * 200),
+        "use fewer points (N of --over), --keep or --transient",
+    )
+    start = _parse_state(model, args.state) if args.state else None
+    with _engine(model):
+        points = brute_force_sweep(model, args.params, name, values, args.transient, keep,
+                                   start=start)  # fmt: skip
+    fixed = model.parameters(args.params)
+    data = {
+        "model": cli_name(model.name),
+        "over": name,
+        "over_unit": next(p.unit for p in model.parameter_table if p.name == name),
+        "parameters": {k: v for k, v in zip(model.spec["parameters"], fixed) if k != name},
+        "method": "brute-force",
+        "points": points,
+        "transient": args.transient,
+        "keep": keep,
+    }
+    if args.plot is not None:
+        from vsw.model_plots import bifurcation_plot
+        from vsw.plots import save_figure
+
+        save_figure(bifurcation_plot(_clean(data), y, _units(model)), args.plot)
+        data["plot"] = args.plot
+    if args.json:
+        _dump_json(_clean(data), sys.stdout)
+        return EXIT_OK
+    out = sys.stdout
+    out.write(f"{'model':<12} {cli_name(model.name)} ({model.title}); over {name}, brute "
+              f"force: {args.transient} steps then {keep} kept\n")  # fmt: skip
+    out.write(f"{name:>12} {'max|eig|':>12} {'stable':>6}  map\n")
+    for p in points:
+        attractor = p["attractor"]
+        if attractor["ended"] != "completed":
+            kind = attractor["ended"]
+        elif attractor["period"]:
+            kind = f"period-{attractor['period']}"
+        else:
+            kind = "no repeat within --keep steps"
+        out.write(f"{_fmt(p[name]):>12} {_fmt(p['max_abs_eigenvalue']):>12} "
+                  f"{_fmt(p['stable']):>6}  {kind}\n")  # fmt: skip
     if args.plot is not None:
         out.write(f"plot: {args.plot}\n")
     return EXIT_OK
