@@ -167,3 +167,76 @@ def test_scheduler_from_the_environment(capsys, cluster, monkeypatch):
     small = ["--grid", "theta=-0.3:-0.1:4", "--grid", "theta_dot=0.1:0.3:4", "--json"]
     code, out, _ = run(capsys, [*WALKER, *small])
     assert code == 0 and json.loads(out)["scheduler"] == cluster
+
+
+# --- brute-force bifurcation diagrams -------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def brute_force():
+    import contextlib
+    import io
+
+    buffer = io.StringIO()
+    argv = ["sweep", "--model", "simplest-walker", "--over", "gamma=0.0145:0.0165:5",
+            "--brute-force", "--transient", "300", "--keep", "8", "--json"]  # fmt: skip
+    with contextlib.redirect_stdout(buffer):
+        assert main(argv) == 0
+    return json.loads(buffer.getvalue())
+
+
+def test_brute_force_gaits_are_the_rootfinders(brute_force):
+    """Each value's period-one gait (batch Newton) is the CasADi rootfinder's to 1e-10, and
+    its max |eigenvalue| (differences of batch steps) the rootfinder's to 1e-5."""
+    from vsw.hybrid import load
+
+    model = load("simplest_walker")
+    assert brute_force["method"] == "brute-force"
+    for point in brute_force["points"]:
+        params = model.parameters({"gamma": point["gamma"]})
+        guess = np.array(list(point["state"].values()))
+        orbit = model.periodic_orbit(params, guess, model.step(params, guess).durations)
+        ours = np.array(list(point["state"].values()))
+        theirs = np.array(list(orbit.state.values()))
+        assert np.max(np.abs(ours - theirs)) <= 1e-10
+        assert point["max_abs_eigenvalue"] == pytest.approx(orbit.max_abs_eigenvalue, rel=1e-5)
+
+
+def test_brute_force_attractor_is_the_scipy_routes(brute_force):
+    """Past the flip (gamma = 0.015089) the iterated map settles on the period-two gait:
+    the batch walk's kept steps equal HybridModel.attractor's (SciPy) from the same start."""
+    from vsw.hybrid import load
+
+    model = load("simplest_walker")
+    periods = {p["gamma"]: p["attractor"]["period"] for p in brute_force["points"]}
+    assert periods[0.0145] == 1 and periods[0.0165] == 2, periods
+    point = brute_force["points"][-1]
+    params = model.parameters({"gamma": point["gamma"]})
+    start = np.array(list(point["state"].values())) * (1 + 1e-6)
+    scipy_route = model.attractor(params, start, 300, 8)
+    assert scipy_route.period == 2
+    ours = np.array([list(s.values()) for s in point["attractor"]["states"]])
+    assert np.max(np.abs(ours - scipy_route.states)) <= 1e-8
+    assert point["attractor"]["step_lengths"] == pytest.approx(
+        list(scipy_route.step_lengths), abs=1e-8
+    )
+
+
+@pytest.mark.parametrize(
+    "argv, words",
+    [
+        (["sweep", "--model", "simplest-walker", "--over", "gamma=0.01:0.02:3", "--state",
+          "theta=0"], ["--state", "--brute-force"]),
+        (["sweep", "--beta", "0.8", "--phi0", "45", "--over", "theta_II=0:0.1:3",
+          "--brute-force"], ["--brute-force", "ile"]),
+        (["sweep", "--model", "simplest-walker", "--over", "gamma=0.01:0.02:3",
+          "--brute-force", "--keep", "0"], ["--keep"]),
+        (["sweep", "--model", "simplest-walker", "--over", "gamma=0.01:0.02:3",
+          "--brute-force", "--state", "theta=0"], ["--state", "phi"]),
+    ],
+)  # fmt: skip
+def test_bad_brute_force_input_is_one_line(capsys, argv, words):
+    code, out, err = run(capsys, argv)
+    assert code == 2 and out == "" and err.count("\n") == 1
+    for word in words:
+        assert word in err, err
