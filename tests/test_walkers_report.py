@@ -58,8 +58,13 @@ def test_simplest_walker_report_verdicts(simplest_walker_report):
             "G98code's theta" in why), (key, why)  # fmt: skip
     # The diagram: stable, then period-2 past the loss of stability.
     assert re.search(r"\| 0.0155 \| [0-9.]+ \| unstable \| [0-9.]+ \| period-2 \|", text)
-    for name in ("simplest-walker_bifurcation.png", "simplest-walker_bifurcation.svg"):
+    for name in ("simplest-walker_bifurcation.png", "simplest-walker_bifurcation.svg",
+                 "simplest-walker_basin.png", "simplest-walker_brute-force.png"):  # fmt: skip
         assert (simplest_walker_report / name).stat().st_size > 10_000
+    # The basin (batch simulator): converged and fell cells, a thin band (about 1 %).
+    share = re.search(r"converged: \d+ cells \(([0-9.]+) %\)", text)
+    assert share and 0.3 < float(share.group(1)) < 5, share
+    assert "brute-force" in text and "period-2 from" in text
 
 
 def test_vsw_biped_report_is_deterministic(tmp_path):
