@@ -2,7 +2,7 @@
 
 The reference is :meth:`vsw.hybrid.HybridModel.step`: SciPy's DOP853 with event functions
 (dense output and brentq), an implementation independent of vsw/csrc/hybrid_batch.c
-(which integrates with its own DOP853 loop and locates events by re-stepping). Also
+(its own DOP853 loop, events located by the Illinois method on the dense output). Also
 checked: the DOP853 table against SciPy's, the fixed point against the CasADi rootfinder,
 the section declarations against simulated steps, and determinism over blocks and threads.
 """
@@ -107,6 +107,10 @@ def test_batch_step_equals_scipy_step(gaits, name):
     differ = [i for i, (a, b) in enumerate(zip(batch.ended(), ref.ended())) if a != b]
     assert set(differ) <= set(near), differ
     assert len(differ) <= len(near) // 2
+    # Where the walk falls, both keep the section state the failing step started from.
+    same = np.array(batch.ended()) == np.array(ref.ended())
+    assert np.array_equal(batch.final[same & (batch.outcome != WALKED)],
+                          ref.final[same & (ref.outcome != WALKED)])  # fmt: skip
     done = (batch.outcome == WALKED) & (ref.outcome == WALKED)
     assert done.sum() >= 10
     scale = np.maximum(1.0, np.abs(ref.final[done]))
@@ -199,7 +203,9 @@ def test_results_do_not_depend_on_blocks_or_threads(gaits, monkeypatch):
     one = sim.walk(params, starts, 12, keep=3, threads=1)
     monkeypatch.setattr(batch_module, "CHUNK", 7)
     two = sim.walk(params, starts, 12, keep=3, threads=2)
-    for field in ("outcome", "aux", "steps", "final", "kept_states", "kept_lengths"):
+    fields = ("outcome", "aux", "steps", "final", "kept_states", "kept_lengths",
+              "kept_durations")  # fmt: skip
+    for field in fields:
         a, b = getattr(one, field), getattr(two, field)
         assert a.tobytes() == b.tobytes(), field
 
@@ -246,7 +252,21 @@ def test_scipy_fallback_without_a_compiler(gaits, monkeypatch):
 
     fallback = BatchSimulator(model)
     slow = fallback.walk(params, starts, 20, target=state)
-    assert fallback.build_error == "VSW_KERNELS=0"
+    assert fallback.build_error == "VSW_KERNELS=0" and slow.route == "SciPy (VSW_KERNELS=0)"
+    assert compiled.route == "compiled"
     assert slow.labels() == compiled.labels()
     assert np.array_equal(slow.steps, compiled.steps)
     assert np.any(compiled.outcome == CONVERGED) and np.any(compiled.outcome == FELL)
+
+
+def test_bad_shapes_are_one_line_errors(gaits):
+    from vsw.errors import VswInputError
+
+    _, params, _ = gaits["compass_gait"]
+    sim = simulator("compass_gait")
+    with pytest.raises(VswInputError, match=r"shape \(N, 4\)"):
+        sim.walk(params, np.zeros((4, 3)), 2)
+    with pytest.raises(VswInputError, match="6 values"):
+        sim.walk(np.zeros((3, 4)), np.zeros((3, 4)), 2)
+    with pytest.raises(VswInputError, match="4 components"):
+        sim.walk(params, np.zeros((3, 4)), 2, target=[0.0, 1.0])

@@ -207,13 +207,13 @@ def test_rimless_wheel_basin_matches_the_apex_and_lift_off_bounds(capsys):
     assert low < run_[0] < low + 0.25 and high - 0.25 < run_[1] < high
 
 
-def test_basin_needs_one_coordinate(capsys, monkeypatch):
+def test_basin_over_rates_needs_one_coordinate_else_a_grid(capsys, monkeypatch):
     from vsw.hybrid import load
 
     monkeypatch.setattr(load("rimless_wheel"), "n", 2)  # the instance the CLI gets
     code, out, err = run(capsys, ["basin", *RIMLESS])
     assert code == 2 and out == "" and err.count("\n") == 1
-    assert "not available for this model yet" in err
+    assert "give the 2-D slice of the section with --grid twice" in err
 
 
 # --- sweep -----------------------------------------------------------------------------------

@@ -63,6 +63,31 @@ def test_the_cell_at_the_gait_converges_at_once(capsys):
     assert data["outcome"][0][0] == "converged" and data["steps"][0][0] == 1
 
 
+def test_outcome_rows_run_over_y_and_columns_over_x(capsys):
+    """A 3 x 5 grid (x has 5 values, y 3): cell [i][j] is the walk from (x[j], y[i])."""
+    from vsw.batch import simulator
+    from vsw.hybrid import load
+
+    grid = ["--grid", "theta=-0.3:-0.1:5", "--grid", "theta_dot=0.15:0.25:3"]
+    code, out, _ = run(capsys, [*WALKER, *grid, "--json"])
+    assert code == 0
+    data = json.loads(out)
+    assert len(data["outcome"]) == 3 and len(data["outcome"][0]) == 5
+    model = load("simplest_walker")
+    params = model.parameters()
+    target = np.array(list(data["fixed_point"].values()))
+    sim = simulator("simplest_walker")
+    for i, y in enumerate(data["y"]):
+        for j, x in enumerate(data["x"]):
+            state = target.copy()
+            state[0], state[2] = x, y
+            state = np.array(model.module.section_completion(*params, *state), float)
+            walk = sim.walk(params, state[None], 50, target=target)
+            assert walk.labels()[0] == data["outcome"][i][j]
+            assert int(walk.steps[0]) == data["steps"][i][j]
+    assert len({c for row in data["outcome"] for c in row}) >= 1
+
+
 def test_basin_plot_is_written_and_deterministic(capsys, tmp_path):
     first, second = tmp_path / "a.png", tmp_path / "b.png"
     small = ["--grid", "theta=-0.3:-0.1:8", "--grid", "theta_dot=0.1:0.3:8"]
@@ -106,6 +131,8 @@ BAD = [
     (["basin", "--model", "rimless-wheel", "--steps", "5"], ["--steps", "--grid"]),
     (["basin", "--beta", "0.8", "--phi0", "45", "--grid", "theta=0:1:3"], ["--grid", "ile"]),
     ([*WALKER, *GRID, "--scheduler", "tcp://127.0.0.1:1"], ["no Dask scheduler"]),
+    ([*WALKER, *GRID, "--scheduler", "notanaddress"], ["not a Dask address"]),
+    ([*WALKER, *GRID, "--scheduler", "tcp://"], ["not a Dask address"]),
 ]  # fmt: skip
 
 
@@ -158,8 +185,11 @@ def test_dask_blocks_do_not_change_the_walks(cluster, monkeypatch):
     local = sim.walk(params, starts, 10, keep=2)
     monkeypatch.setattr(vsw.cluster, "BLOCK", 7)
     remote = sim.walk(params, starts, 10, keep=2, scheduler=cluster)
-    for field in ("outcome", "aux", "steps", "final", "kept_states", "kept_lengths"):
+    fields = ("outcome", "aux", "steps", "final", "kept_states", "kept_lengths",
+              "kept_durations")  # fmt: skip
+    for field in fields:
         assert getattr(local, field).tobytes() == getattr(remote, field).tobytes(), field
+    assert remote.route == "compiled"
 
 
 def test_scheduler_from_the_environment(capsys, cluster, monkeypatch):
@@ -194,8 +224,8 @@ def test_brute_force_gaits_are_the_rootfinders(brute_force):
     assert brute_force["method"] == "brute-force"
     for point in brute_force["points"]:
         params = model.parameters({"gamma": point["gamma"]})
-        guess = np.array(list(point["state"].values()))
-        orbit = model.periodic_orbit(params, guess, model.step(params, guess).durations)
+        # the rootfinder from its own scan, not from the batch result
+        orbit = max(model.fixed_points(params), key=lambda o: abs(o.state["theta"]))
         ours = np.array(list(point["state"].values()))
         theirs = np.array(list(orbit.state.values()))
         assert np.max(np.abs(ours - theirs)) <= 1e-10

@@ -76,6 +76,8 @@ class BatchResult:
     kept_lengths: np.ndarray
     kept_durations: np.ndarray
     failures: tuple[str, ...]
+    route: str = "compiled"
+    """How the walks ran: ``compiled``, or why (some of) them took the SciPy route."""
 
     def labels(self) -> list[str]:
         """``converged``, ``period-K``, ``fell`` or ``other`` (walked every step without
@@ -112,7 +114,9 @@ class BatchResult:
         fields = ("outcome", "aux", "steps", "final", "kept_states", "kept_lengths",
                   "kept_durations")  # fmt: skip
         joined = {f: np.concatenate([getattr(p, f) for p in parts]) for f in fields}
-        return BatchResult(**joined, failures=parts[0].failures)
+        routes = sorted({p.route for p in parts if p.route != "compiled"})
+        return BatchResult(**joined, failures=parts[0].failures,
+                           route="; ".join(routes) or "compiled")  # fmt: skip
 
 
 def failure_names(model: HybridModel) -> tuple[str, ...]:
@@ -210,8 +214,17 @@ class BatchSimulator:
         there, with results identical to the local ones. ``tolerance``: the integrator's
         rtol = atol (default 1e-12, the SciPy route's).
         """
-        states = np.ascontiguousarray(np.asarray(states, dtype=float).reshape(-1, self.nx))
+        states = np.asarray(states, dtype=float)
+        if states.ndim != 2 or states.shape[1] != self.nx:
+            raise VswInputError(
+                f"states must have shape (N, {self.nx}) for {self.model.name}, got {states.shape}"
+            )
+        states = np.ascontiguousarray(states)
         params = np.asarray(params, dtype=float)
+        if params.ndim == 2 and params.shape[1] != self.np:
+            raise VswInputError(f"parameter rows must have {self.np} values, got {params.shape}")
+        if target is not None and np.shape(target) != (self.nx,):
+            raise VswInputError(f"target must have {self.nx} components, got {np.shape(target)}")
         if params.ndim == 1:
             if params.size != self.np:
                 raise VswInputError(
@@ -240,7 +253,9 @@ class BatchSimulator:
         threads = default_threads() if threads is None else threads
         lib = self.library()
         if lib is None:
-            return reference_walks(self.model, params, states, options)
+            result = reference_walks(self.model, params, states, options)
+            result.route = f"SciPy ({self.build_error})"
+            return result
         n = len(states)
         keep = options.keep
         out = _empty_result(n, self.nx, keep, self.failures)
@@ -249,8 +264,6 @@ class BatchSimulator:
         target = None
         if options.target is not None:
             target = np.ascontiguousarray(options.target, dtype=float)
-            if target.shape != (self.nx,):
-                raise VswInputError(f"target must have {self.nx} components")
         target_ptr = None if target is None else target.ctypes.data_as(ctypes.c_void_p)
         fn = lib.vsw_batch_simulate
 
@@ -309,7 +322,13 @@ class BatchSimulator:
             image = result.final
             jacobian = ((image[1 : 1 + self.nx] - image[1 + self.nx :]) / (2 * h)).T
             residual = image[0] - x
-            delta = np.linalg.solve(jacobian - eye, -residual)
+            try:
+                delta = np.linalg.solve(jacobian - eye, -residual)
+            except np.linalg.LinAlgError:
+                raise ConvergenceError(
+                    f"{self.model.name}: the batch map's Jacobian minus I is singular near "
+                    f"{x.tolist()} (an eigenvalue 1)"
+                ) from None
             x = x + delta
             if np.max(np.abs(residual)) <= tol * max(1.0, float(np.max(np.abs(x)))):
                 return x - delta, jacobian
@@ -347,7 +366,16 @@ def _empty_result(n: int, nx: int, keep: int, failures) -> BatchResult:
 
 def reference_walks(model: HybridModel, params, states, options: Options) -> BatchResult:
     """The same walks through the SciPy route (:meth:`HybridModel.step`), one at a time,
-    with the same rules: the fallback without a compiler, and the reference of the tests."""
+    with the same rules: the fallback without a compiler, and the reference of the tests.
+    Its tolerance is the SciPy route's (1e-12); a ConvergenceError of a step (more phases
+    than the model has) counts as a stall, as in the C code."""
+    from vsw.errors import ConvergenceError
+
+    if options.tolerance != _RTOL:
+        raise VswInputError(
+            f"tolerance {options.tolerance:g} needs the compiled batch simulator; the SciPy "
+            f"route integrates at {_RTOL:g}"
+        )
     states = np.asarray(states, dtype=float).reshape(-1, 2 * model.n)
     params = np.broadcast_to(
         np.asarray(params, dtype=float), (len(states), len(model.spec["parameters"]))
@@ -364,7 +392,11 @@ def reference_walks(model: HybridModel, params, states, options: Options) -> Bat
             code = STALLED
         while code == WALKED and walked < options.steps:
             history.append(x.copy())
-            result = model.step(tuple(p), x)
+            try:
+                result = model.step(tuple(p), x)
+            except ConvergenceError:
+                code = STALLED
+                break
             if result.ended == "stalled":
                 code = STALLED
                 break

@@ -5,8 +5,10 @@ A study is cut into blocks of walks (:data:`BLOCK` walks each, whatever the clus
 block is one task that runs the same compiled simulator in the worker's process (built
 into the worker's kernel cache on its first task) and returns its arrays. Each walk is
 independent of the others and of its block, so the result is the local one, byte for
-byte, and does not depend on the block size or on which worker ran what. Inside a worker
-the block runs on one thread: the cluster's workers and threads are the parallelism.
+byte, and does not depend on the block size or on which worker ran what, as long as every
+worker has a C compiler: a worker without one takes the SciPy route (same classes, last
+bits and speed differ), and the result's ``route`` says so. Inside a worker the block runs
+on one thread: the cluster's workers and threads are the parallelism.
 
 Start a cluster on one machine (loopback) with::
 
@@ -32,10 +34,25 @@ BLOCK = 8192
 def _client(address: str):
     try:
         from distributed import Client
+        from distributed.comm.addressing import parse_address, parse_host_port
     except ImportError:
         raise VswInputError(
             "--scheduler needs Dask's distributed scheduler: pip install 'vsw[dask]'"
         ) from None
+    # A malformed address fails inside Client's constructor, whose half-built object then
+    # times out noisily when collected: check it first.
+    try:
+        scheme, location = parse_address(address, strict=True)
+        host, port = parse_host_port(location)
+    except (ValueError, TypeError) as exc:
+        raise VswInputError(
+            f"--scheduler {address!r} is not a Dask address (like tcp://127.0.0.1:8786): {exc}"
+        ) from None
+    if scheme not in ("tcp", "tls", "ws", "wss") or not host or not port:
+        raise VswInputError(
+            f"--scheduler {address!r} is not a Dask address with a host and port (like "
+            "tcp://127.0.0.1:8786)"
+        )
     try:
         return Client(address, timeout=5, set_as_default=False)
     except (OSError, TimeoutError, ValueError) as exc:
@@ -43,11 +60,11 @@ def _client(address: str):
         raise VswInputError(f"no Dask scheduler at {address!r}: {first}") from None
 
 
-def check_scheduler(address: str) -> None:
-    """Raise VswInputError (one line) unless a scheduler answers at ``address``: called
-    before the work starts."""
-    with _client(address):
-        pass
+def check_scheduler(address: str) -> int:
+    """The worker threads of the scheduler at ``address`` (at least 1); VswInputError (one
+    line) unless it answers. Called before the work starts."""
+    with _client(address) as client:
+        return max(1, sum(client.nthreads().values()))
 
 
 def run_block(model: str, params: np.ndarray, states: np.ndarray, options: Options) -> tuple:
@@ -85,7 +102,8 @@ def walk_on_cluster(
         ]
         parts = []
         for future in futures:
-            outcome, aux, steps, final, states_k, lengths_k, durations_k, _ = future.result()
+            outcome, aux, steps, final, states_k, lengths_k, durations_k, error = future.result()
+            route = "compiled" if error is None else f"SciPy on a worker ({error})"
             parts.append(BatchResult(outcome, aux, steps, final, states_k, lengths_k,
-                                     durations_k, failures))  # fmt: skip
+                                     durations_k, failures, route))  # fmt: skip
     return BatchResult.concatenate(parts)

@@ -104,7 +104,7 @@ class GridBasin:
     fixed_point: dict[str, float]
     tol: float
     max_steps: int
-    batch_fixed_point: dict[str, float] | None = None
+    route: str = "compiled"
 
     def counts(self) -> dict[str, int]:
         flat = [c for row in self.outcome for c in row]
@@ -198,6 +198,7 @@ def grid_basin(
         fixed_point=dict(gait.state),
         tol=tol,
         max_steps=steps,
+        route=result.route,
     )
 
 
@@ -216,10 +217,11 @@ def brute_force_sweep(
     each value of the parameter ``over`` the period-one gait by Newton on the batch map
     (continued from the previous value; its eigenvalues from the map's Jacobian by central
     differences), then one batch walk over every value, ``transient + keep`` steps each,
-    from that value's gait moved by 1e-6 (relative) where it was found, else from
-    ``start`` (default: the first stable gait of the first value's scan), keeping the last
-    ``keep`` steps. Returns the points of ``vsw sweep --json``: each with its gait and
-    ``attractor`` (states, step lengths and periods, ``ended``, ``period``)."""
+    from that value's gait moved by 1e-6 (relative) where it was found, else from the last
+    gait found before it (or ``start``; default: the first stable gait of the first value's
+    scan), keeping the last ``keep`` steps. Returns the points of ``vsw sweep --json``:
+    each with its gait and ``attractor`` (states, step lengths and periods, ``ended``,
+    ``period``)."""
     from vsw.batch import simulator
     from vsw.errors import ConvergenceError
     from vsw.hybrid import _by_modulus, repeat_period

@@ -818,12 +818,12 @@ def cmd_grid_basin(args: argparse.Namespace, model) -> int:
     scheduler = args.scheduler or os.environ.get("VSW_DASK_SCHEDULER", "").strip() or None
     _check_plot_path(args.plot)
     params = model.parameters(args.params)
+    threads = default_threads()
     if scheduler:
         from vsw.cluster import check_scheduler
 
-        check_scheduler(scheduler)
+        threads = check_scheduler(scheduler)  # the cluster's worker threads
     cells = len(x) * len(y)
-    threads = default_threads()
     # Upper bound: every cell walks every step (most fall or converge much earlier).
     seconds = (
         limits.HYBRID_SECONDS_SCAN
@@ -832,7 +832,7 @@ def cmd_grid_basin(args: argparse.Namespace, model) -> int:
         * limits.BATCH_SECONDS_PER_PHASE
         * len(model.phases)
         * model.n
-        / (1 if scheduler else threads)
+        / threads
     )
     nbytes = limits.SIMULATE_BYTES_BASE + cells * limits.BATCH_BYTES_PER_CELL
     limits.check(
@@ -850,7 +850,7 @@ def cmd_grid_basin(args: argparse.Namespace, model) -> int:
     data = result.to_dict()
     data["name"] = cli_name(model.name)
     data["model"] = cli_name(model.name)
-    data["simulator"] = "compiled" if sim.build_error is None else sim.build_error
+    data["simulator"] = result.route
     if scheduler:
         data["scheduler"] = scheduler
     if args.plot is not None:
@@ -873,8 +873,8 @@ def cmd_grid_basin(args: argparse.Namespace, model) -> int:
     )
     for label, count in result.counts().items():
         out.write(f"{label:>12}: {count} cells ({100 * count / cells:.2f} %)\n")
-    if sim.build_error is not None:
-        out.write(f"note: {sim.build_error}\n")
+    if result.route != "compiled":
+        out.write(f"note: the walks took the {result.route} route\n")
     if args.plot is not None:
         out.write(f"plot: {args.plot}\n")
     return EXIT_OK

@@ -15,7 +15,7 @@
  * (direction +1) or from >= 0 to <= 0 (direction -1); an event whose `when` is <= 0 does
  * not count and the phase goes on 1e-9 past it (at most 20 times); a failure whose guard
  * is already past zero at the phase start ends the walk there; a phase that lasts longer
- * than the phase time limit, or whose step size underflows, has stalled.
+ * than the phase time limit, or whose step shrinks below 10 ulps of the time, has stalled.
  */
 #include <float.h>
 #include <math.h>
@@ -240,23 +240,35 @@ static int vsw_run_phase(int phase, const double *p, double *y, double *t,
         long steps = 0;
         int skipped = 0;
         while (!skipped) {
-            if (time >= tol->phase_time_limit || ++steps > VSW_MAX_RK_STEPS) return -1;
-            double min_step = 10.0 * (nextafter(time, INFINITY) - time);
-            if (h > tol->phase_time_limit - time) h = tol->phase_time_limit - time;
-            if (h < min_step) return -1;
-            vsw_rk_step(phase, p, y, f0, h, K, y_new);
-            for (int i = 0; i < VSW_NX; ++i)
-                scale[i] = tol->atol + fmax(fabs(y[i]), fabs(y_new[i])) * tol->rtol;
-            double err = vsw_error_norm(K, h, scale);
-            if (!isfinite(err)) return -1;
-            if (err >= 1.0) {
+            /* SciPy's RungeKutta._step_impl: at least 10 ulps of the time, then shrink on
+               every rejection until accepted or below that. */
+            if (time >= tol->phase_time_limit || ++steps > VSW_MAX_RK_STEPS) {
+                *t = time;
+                return -1;
+            }
+            const double min_step = 10.0 * (nextafter(time, INFINITY) - time);
+            if (h < min_step) h = min_step;
+            double factor;
+            for (;;) {
+                if (h < min_step) {
+                    *t = time;
+                    return -1;
+                }
+                if (h > tol->phase_time_limit - time) h = tol->phase_time_limit - time;
+                vsw_rk_step(phase, p, y, f0, h, K, y_new);
+                for (int i = 0; i < VSW_NX; ++i)
+                    scale[i] = tol->atol + fmax(fabs(y[i]), fabs(y_new[i])) * tol->rtol;
+                const double err = vsw_error_norm(K, h, scale);
+                if (err < 1.0) {
+                    factor = err == 0.0 ? 10.0 : fmin(10.0, 0.9 * pow(err, -1.0 / 8.0));
+                    if (rejected) factor = fmin(1.0, factor);
+                    rejected = 0;
+                    break;
+                }
+                /* NaN or inf as SciPy's max(0.2, ...): fmax ignores a NaN, pow(inf) is 0 */
                 h *= fmax(0.2, 0.9 * pow(err, -1.0 / 8.0));
                 rejected = 1;
-                continue;
             }
-            double factor = err == 0.0 ? 10.0 : fmin(10.0, 0.9 * pow(err, -1.0 / 8.0));
-            if (rejected) factor = fmin(1.0, factor);
-            rejected = 0;
             vsw_call(vsw_watch[phase], p, y_new, g1);
             double first = INFINITY, y_first[VSW_NX], y_k[VSW_NX];
             int hit = -1, dense = 0;
@@ -280,7 +292,7 @@ static int vsw_run_phase(int phase, const double *p, double *y, double *t,
                 if (what >= 0 && vsw_when[what] != 0) {
                     double when;
                     vsw_call(vsw_when[what], p, y, &when);
-                    if (!(when > 0.0)) { /* not this one: go on just past it */
+                    if (when <= 0.0) { /* not this one: go on just past it (NaN counts) */
                         double f[VSW_NX];
                         vsw_call(vsw_flow[phase], p, y, f);
                         for (int i = 0; i < VSW_NX; ++i) y[i] += 1e-9 * f[i];
@@ -300,20 +312,24 @@ static int vsw_run_phase(int phase, const double *p, double *y, double *t,
             h *= factor;
         }
     }
+    *t = time;
     return -1;
 }
 
-/* One step of the Poincare map from x (in place). Returns VSW_WALKED (completed),
-   VSW_FELL (*failure set) or VSW_STALLED; *duration and *length of the step. */
+/* One step of the Poincare map from the section state x, replaced by the next one when the
+   step completes (VSW_WALKED) and kept as it was when the walk falls (VSW_FELL, *failure
+   set) or stalls (VSW_STALLED); *duration and *length of the step. */
 static int vsw_step(const double *p, double *x, double *duration, double *length, int *failure,
                     const vsw_tolerances *tol)
 {
     int phase = VSW_START_PHASE;
+    double y[VSW_NX];
+    memcpy(y, x, sizeof(double) * VSW_NX);
     *duration = 0.0;
     *length = NAN;
     for (int visit = 0; visit <= VSW_NPHASES; ++visit) {
-        double t;
-        int hit = vsw_run_phase(phase, p, x, &t, tol);
+        double t = 0.0;
+        int hit = vsw_run_phase(phase, p, y, &t, tol);
         *duration += t;
         if (hit < 0) return VSW_STALLED;
         int what = vsw_watch_what[phase][hit];
@@ -322,12 +338,15 @@ static int vsw_step(const double *p, double *x, double *duration, double *length
             return VSW_FELL;
         }
         if (vsw_event_ends_step[what] && vsw_step_length != 0)
-            vsw_call(vsw_step_length, p, x, length);
-        double x_new[VSW_NX];
-        vsw_call(vsw_reset[what], p, x, x_new);
-        memcpy(x, x_new, sizeof(double) * VSW_NX);
-        if (!vsw_finite(x)) return VSW_STALLED;
-        if (vsw_event_ends_step[what]) return VSW_WALKED;
+            vsw_call(vsw_step_length, p, y, length);
+        double y_new[VSW_NX];
+        vsw_call(vsw_reset[what], p, y, y_new);
+        memcpy(y, y_new, sizeof(double) * VSW_NX);
+        if (!vsw_finite(y)) return VSW_STALLED;
+        if (vsw_event_ends_step[what]) {
+            memcpy(x, y, sizeof(double) * VSW_NX);
+            return VSW_WALKED;
+        }
         phase = vsw_event_target[what];
     }
     return VSW_STALLED;
