@@ -601,6 +601,36 @@ def build_parser() -> ArgumentParser:
     )
     p.set_defaults(func=_cmd_simulate)
 
+    help_ = "the walk as a moving stick figure (GIF, SVG or MP4)"
+    p = subparsers.add_parser("animate", help=help_, description=help_ + ".")
+    _add_gait_arguments(p, "animate")
+    p.add_argument("--q0", type=float, help="ile: q = omega_I^2 at the first step")
+    p.add_argument(
+        "--state",
+        action="append",
+        metavar="NAME=VALUE",
+        help="other models: the start just after the step event, every coordinate and rate "
+        "(default: the first period-one gait); repeatable",
+    )
+    p.add_argument("--steps", type=int, default=3, help="steps to walk (default: 3)")
+    p.add_argument(
+        "--out", required=True, metavar="FILE", help="gait.gif (Pillow), gait.svg or gait.mp4"
+    )
+    p.add_argument("--fps", type=float, default=30.0, help="frames per second (default: 30)")
+    p.add_argument(
+        "--speed",
+        type=float,
+        default=1.0,
+        help="model time units per second of playback (default: 1)",
+    )
+    p.add_argument(
+        "--leg-length",
+        type=float,
+        metavar="L",
+        help="real time for a robot with legs of L m (models in units of sqrt(l/g))",
+    )
+    p.set_defaults(func=models_cli.cmd_animate)
+
     help_ = "basin of attraction over theta_II (Fig. 9); other models: over the section rate"
     p = subparsers.add_parser("basin", help=help_, description=help_ + ".")
     _add_gait_arguments(p, "basin", theta_ii=False)

@@ -294,20 +294,29 @@ _ILE_ONLY = {
     "simulate": ("q0", "plot"),
     "basin": ("theta_min", "theta_max", "theta_step", "n_q", "check_edges"),
     "sweep": (),
+    "animate": ("q0",),
 }
 _HYBRID_ONLY = {
     "analyze": (),
     "simulate": ("state",),
     "basin": ("rate_min", "rate_max", "n_rates", "max_steps", "tol", "grid", "steps", "scheduler"),
     "sweep": ("y", "keep", "transient", "brute_force", "state"),
+    "animate": ("state",),
 }
 # The ILE's required options after the gait parameters, in the order argparse named them.
-_ILE_REQUIRED = {"analyze": (), "simulate": ("--q0", "--steps"), "basin": (), "sweep": ()}
+_ILE_REQUIRED = {
+    "analyze": (),
+    "simulate": ("--q0", "--steps"),
+    "basin": (),
+    "sweep": (),
+    "animate": ("--q0",),
+}
 _ILE_GAIT = {  # the ILE parameters a command takes (basin: theta_II is its axis)
     "analyze": ("beta", "theta_II", "phi0"),
     "simulate": ("beta", "theta_II", "phi0"),
     "basin": ("beta", "phi0"),
     "sweep": ("beta", "theta_II", "phi0"),
+    "animate": ("beta", "theta_II", "phi0"),
 }
 
 
@@ -877,6 +886,87 @@ def cmd_grid_basin(args: argparse.Namespace, model) -> int:
         out.write(f"note: the walks took the {result.route} route\n")
     if args.plot is not None:
         out.write(f"plot: {args.plot}\n")
+    return EXIT_OK
+
+
+def cmd_animate(args: argparse.Namespace) -> int:
+    """``vsw animate``: the stick figure of a simulated walk as GIF, SVG or MP4."""
+
+    from vsw.animate import animation_frames, check_output, write_animation
+    from vsw.cli import EXIT_OK, _dump_json, _fmt
+    from vsw.hybrid import load
+
+    out = check_output(args.out)
+    model = load(args.model)
+    if args.model == ILE:
+        import generated.ile as ile_module
+
+        values = ile_values(args, _ILE_GAIT["animate"])
+        params = model.parameters(values)
+        q0 = float(args.q0)
+        if not (math.isfinite(q0) and q0 > 0):
+            raise VswInputError(f"--q0 = {args.q0} must be a positive number (q = omega**2)")
+        start = [float(ile_module.theta_I(params[0], params[2])), math.sqrt(q0)]
+        start_from = "--q0"
+    else:
+        params = model.parameters(args.params)
+        start = _parse_state(model, args.state) if args.state else None
+        start_from = "--state"
+        if start is None:
+            with _engine(model):
+                orbit = _pick(model.fixed_points(params))
+            if orbit is None:
+                raise ModelConditionError(
+                    f"{cli_name(model.name)}: no period-one gait found from a scan of starts "
+                    "at these parameters; give the start with --state NAME=VALUE"
+                )
+            start, start_from = list(orbit.state.values()), "fixed point"
+    if args.leg_length is not None:
+        leg = float(args.leg_length)
+        if not (math.isfinite(leg) and leg > 0):
+            raise VswInputError(f"--leg-length = {args.leg_length} must be a positive number")
+        if model.units.get("time", "") == "s":
+            raise VswInputError(f"{cli_name(model.name)} is in seconds already: drop "
+                                "--leg-length (--speed 1 is real time)")  # fmt: skip
+        speed = math.sqrt(9.81 / leg)  # model time units per second of the robot's time
+    else:
+        speed = float(args.speed)
+    fixed = ", ".join(f"{k} = {_fmt(v)}" for k, v in zip(model.spec["parameters"], params))
+    title = f"{cli_name(model.name)}: {fixed}"
+    with _engine(model):
+        frames = animation_frames(model, params, start, args.steps, fps=args.fps,
+                                  speed=speed, title=title)  # fmt: skip
+    write_animation(frames, str(out))
+    events = [(float(t), e) for t, e in zip(frames.t, frames.event) if e]
+    data = {
+        "model": cli_name(model.name),
+        "parameters": dict(zip(model.spec["parameters"], params)),
+        "start": dict(zip((*model.coordinates, *model.rates), (float(v) for v in start))),
+        "start_from": start_from,
+        "out": str(out),
+        "frames": len(frames.t),
+        "fps": frames.fps,
+        "model_time_per_second": speed,
+        "duration": float(frames.t[-1]),
+        "steps_completed": int(frames.step[-1]),
+        "ended": frames.ended,
+        "events": [{"t": t, "event": e} for t, e in events],
+        "frame_of_events": [k for k, e in enumerate(frames.event) if e],
+        "pixels": {"scale": frames.scale, "origin": list(frames.origin)},
+        "fields": {
+            "events": "each event's model time; the animation has a frame at each",
+            "pixels": "pixel = (origin x + scale * x, origin y - scale * y) for a point (x, y) "
+            "in the model's chart, the first stance foot at (0, 0)",
+        },
+    }
+    if args.json:
+        _dump_json(_clean(data), sys.stdout)
+        return EXIT_OK
+    sys.stdout.write(
+        f"{out}: {len(frames.t)} frames at {frames.fps:g} per second, {data['duration']:.4g} "
+        f"{model.units.get('time', '')} of model time, {data['steps_completed']} steps "
+        f"({frames.ended})\n"
+    )
     return EXIT_OK
 
 
