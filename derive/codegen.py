@@ -622,6 +622,10 @@ def render(derivation: Derivation) -> dict[str, str]:
             )
     if derivation.batch:
         files[f"{name}/c/{name}_batch.c"] = batch_c_source(derivation)
+    if derivation.js_exports:
+        from derive.js_codegen import js_source
+
+        files[f"{name}/js/{name}.js"] = js_source(derivation)
     return files
 
 

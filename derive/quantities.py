@@ -184,6 +184,9 @@ class Derivation:
     batch : tuple of str
         Quantities that also get a vectorisable C loop
         (``generated/<model>/c/<model>_batch.c``).
+    js_exports : tuple of str
+        Quantities also printed as JavaScript (``generated/<model>/js/<model>.js``,
+        :mod:`derive.js_codegen`).
     units : str
         One sentence on the units of the generated functions (their module docstring).
     paper : bool
@@ -203,6 +206,7 @@ class Derivation:
     facts: dict[str, sm.Expr] = field(default_factory=dict)
     c_exports: tuple[CExport, ...] = ()
     batch: tuple[str, ...] = ()
+    js_exports: tuple[str, ...] = ()
     units: str = "Angles in radians."
     paper: bool = False
     constants: dict[str, tuple[Any, str]] = field(default_factory=dict)

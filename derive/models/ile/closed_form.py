@@ -1072,6 +1072,20 @@ def derive() -> Derivation:
     # phase accelerations and resets.
     d.c_exports += c_exports(MODEL, engine_quantities)
     d.batch = ("fixed_point_conditions",)
+    # What the explorer page (vsw explore) computes in the browser.
+    d.js_exports = (
+        "fixed_point_conditions",
+        "q_fixed",
+        "eigenvalue",
+        "stride_map",
+        "theta_I",
+        "theta_IV",
+        "step_length",
+        "phase_durations",
+        "q_apex_min",
+        "q_liftoff_max",
+        "condition_margins",
+    )
     d.facts.update({f"phase.{k}": v for k, v in phase.items()})
     d.facts.update({f"heelstrike.{k}": v for k, v in hs.items() if isinstance(v, sm.Basic)})
     d.facts.update({f"stride.{k}": v for k, v in st.items()})
