@@ -58,6 +58,9 @@ def test_javascript_equals_numpy(walking):
         "q_apex_min": (beta, theta_II, phi0),
         "q_liftoff_max": (beta, theta_II, phi0),
         "condition_margins": (beta, theta_II, phi0),
+        "swing_acceleration": (theta_II, beta),
+        "extension_reset": (beta, q),
+        "heelstrike_reset": (beta, phi0, q),
     }
     exported = set(
         name for name in calls if f"function {name}(" in JS.read_text()

@@ -445,6 +445,15 @@ def _theta_grid(args: argparse.Namespace):
     return np.radians(args.theta_min + args.theta_step * np.arange(n_theta))
 
 
+def _cmd_explore(args: argparse.Namespace) -> int:
+    from vsw.explore import write_page
+
+    out = write_page(args.out, beta=args.beta, theta_II_deg=args.theta_ii, phi0_deg=args.phi0,
+                     leg=args.leg_length)  # fmt: skip
+    sys.stdout.write(f"{out}: open it in a browser (no server needed)\n")
+    return EXIT_OK
+
+
 def _cmd_basin(args: argparse.Namespace) -> int:
     import numpy as np
 
@@ -630,6 +639,15 @@ def build_parser() -> ArgumentParser:
         help="real time for a robot with legs of L m (models in units of sqrt(l/g))",
     )
     p.set_defaults(func=models_cli.cmd_animate)
+
+    help_ = "write the ILE explorer: one self-contained HTML page (sliders, conditions, map)"
+    p = subparsers.add_parser("explore", help=help_, description=help_ + ".")
+    p.add_argument("--out", required=True, metavar="FILE", help="the page, e.g. explore.html")
+    p.add_argument("--beta", type=float, default=0.8, help="start value of beta (default 0.8)")
+    p.add_argument("--theta-ii", type=float, default=0.0, help="start theta_II [deg] (default 0)")
+    p.add_argument("--phi0", type=float, default=45.0, help="start phi0 [deg] (default 45)")
+    p.add_argument("--leg-length", type=float, default=0.25, help="start r_e [m] (default 0.25)")
+    p.set_defaults(func=_cmd_explore)
 
     help_ = "basin of attraction over theta_II (Fig. 9); other models: over the section rate"
     p = subparsers.add_parser("basin", help=help_, description=help_ + ".")

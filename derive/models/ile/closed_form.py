@@ -1085,6 +1085,9 @@ def derive() -> Derivation:
         "q_apex_min",
         "q_liftoff_max",
         "condition_margins",
+        "swing_acceleration",
+        "extension_reset",
+        "heelstrike_reset",
     )
     d.facts.update({f"phase.{k}": v for k, v in phase.items()})
     d.facts.update({f"heelstrike.{k}": v for k, v in hs.items() if isinstance(v, sm.Basic)})

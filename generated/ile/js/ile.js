@@ -283,7 +283,24 @@ function condition_margins(beta, theta_II, phi0) {
   return [x15, x16*x9*cos_theta_II - x2*beta/x6, -be.fmax(-x13 + 2*x12*x18, (-x7 - 2*x21 + 2*x24 + x20*x7)/x19) + x14*x5, x17, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan2(x23, x22), theta_II + be.atan(x16*x17), be.fmin(3*(x27*x27) - 2*x27*(x11 + x26/2), 3*(x30*x30) - 2*x30*(x21 + cos_theta_II + x29/2 - x20*cos_theta_II))];
 }
 
-const exported = { PARAMETERS, CONDITIONS, fixed_point_conditions, q_fixed, eigenvalue, stride_map, theta_I, theta_IV, step_length, phase_durations, q_apex_min, q_liftoff_max, condition_margins };
+/* Angular acceleration d2theta/dtau2 of a swing phase of leg length leg_ratio * r_e. Eq. (2), (4). Returns d2theta/dtau2; leg_ratio = beta gives (2), leg_ratio = 1 gives (4). */
+function swing_acceleration(theta, leg_ratio) {
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  return sin_theta/leg_ratio;
+}
+
+/* Angular velocity just after the instantaneous leg extension. Eq. (3). Returns omega_III. */
+function extension_reset(beta, omega_II) {
+  return omega_II*(beta*beta);
+}
+
+/* Angular velocity of the new stance leg just after heelstrike. Eq. (6). Returns omega_I(n+1). */
+function heelstrike_reset(beta, phi0, omega_IV) {
+  const [cos_phi0, sin_phi0] = be.cos_sin(phi0);
+  return cos_phi0*omega_IV/beta;
+}
+
+const exported = { PARAMETERS, CONDITIONS, fixed_point_conditions, q_fixed, eigenvalue, stride_map, theta_I, theta_IV, step_length, phase_durations, q_apex_min, q_liftoff_max, condition_margins, swing_acceleration, extension_reset, heelstrike_reset };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {

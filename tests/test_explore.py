@@ -1,0 +1,127 @@
+"""``vsw explore``: the page in a real browser (headless Chromium through Playwright).
+
+Each slider is moved by keyboard; the page's q^f, eigenvalue and condition margins are
+compared with ``vsw analyze`` at the sliders' values; the console must stay free of
+errors; a screenshot is saved to reports/explore.png for a person to look at. Chromium is
+Debian's (``.ci/run`` installs it with apt-get where it can); without a browser the test
+is skipped with the reason.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+from pathlib import Path
+
+import pytest
+
+from vsw.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _chromium() -> str | None:
+    for name in ("chromium", "chromium-browser", "google-chrome"):
+        found = shutil.which(name)
+        if found:
+            return found
+    return None
+
+
+def _analyze(capsys, beta, theta_II_deg, phi0_deg) -> dict:
+    argv = ["analyze", "--beta", repr(beta), "--theta-ii", repr(theta_II_deg), "--phi0",
+            repr(phi0_deg), "--json"]  # fmt: skip
+    assert main(argv) == 0
+    out, _ = capsys.readouterr()
+    return json.loads(out)
+
+
+def test_page_is_self_contained(tmp_path, capsys):
+    out = tmp_path / "explore.html"
+    assert main(["explore", "--out", str(out)]) == 0
+    text = out.read_text()
+    assert "function fixed_point_conditions(" in text  # the generated JavaScript, inlined
+    for remote in ("http://", "https://", "src=", "<link"):
+        assert remote not in text, remote
+    assert text == (tmp_path / "explore.html").read_text()
+    second = tmp_path / "again.html"
+    assert main(["explore", "--out", str(second)]) == 0
+    assert second.read_bytes() == out.read_bytes()
+
+
+@pytest.mark.parametrize(
+    "argv, words",
+    [
+        (["explore", "--out", "x.txt"], [".html"]),
+        (["explore", "--out", "/nonexistent/x.html"], ["does not exist"]),
+        (["explore", "--out", "x.html", "--beta", "1.5"], ["--beta", "range"]),
+        (["explore", "--out", "x.html", "--phi0", "nan"], ["--phi0"]),
+    ],
+)
+def test_bad_explore_input_is_one_line(capsys, tmp_path, monkeypatch, argv, words):
+    monkeypatch.chdir(tmp_path)
+    code = main(argv)
+    out, err = capsys.readouterr()
+    assert code == 2 and out == "" and err.count("\n") == 1
+    for word in words:
+        assert word in err, err
+
+
+def test_page_in_headless_chromium(tmp_path, capsys):
+    sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
+    browser_path = _chromium()
+    if browser_path is None:
+        pytest.skip("no Chromium found (apt-get install chromium; .ci/run tries it)")
+    page_file = tmp_path / "explore.html"
+    assert main(["explore", "--out", str(page_file)]) == 0
+    capsys.readouterr()
+    errors: list[str] = []
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=browser_path, headless=True,
+                                    args=["--no-sandbox", "--disable-gpu"])  # fmt: skip
+        try:
+            page = browser.new_page(viewport={"width": 1100, "height": 900})
+            page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+            page.on("pageerror", lambda e: errors.append(str(e)))
+            page.goto(page_file.as_uri())
+            page.wait_for_function("window.vswLastUpdate !== undefined")
+            checked, timings = 0, []
+            for slider, key in (("beta", "ArrowLeft"), ("theta_II", "ArrowRight"),
+                                ("phi0", "ArrowLeft"), ("leg", "ArrowRight")):  # fmt: skip
+                before = page.evaluate("JSON.stringify(window.vswLastUpdate.state)")
+                page.focus(f"#{slider}")
+                for _ in range(5):
+                    page.keyboard.press(key)
+                page.wait_for_function(
+                    f"JSON.stringify(window.vswLastUpdate.state) !== {json.dumps(before)}"
+                )
+                shown = page.evaluate("window.vswLastUpdate")
+                values = {k: float(page.input_value(f"#{k}")) for k in ("beta", "theta_II",
+                                                                         "phi0")}  # fmt: skip
+                assert shown["state"]["beta"] == values["beta"]
+                label = page.text_content(f"#{slider}-value")
+                assert page.input_value(f"#{slider}") in label  # the value, with its unit
+                ref = _analyze(capsys, values["beta"], values["theta_II"], values["phi0"])
+                assert shown["q_f"] == pytest.approx(ref["q_fixed"], rel=1e-12)
+                assert shown["eigenvalue"] == pytest.approx(ref["eigenvalue"], rel=1e-12)
+                assert shown["walks"] == ref["walks"]
+                for c in ref["conditions"]:
+                    assert shown["conditions"][c["name"]] == pytest.approx(
+                        c["value"], rel=1e-12, abs=1e-15), c["name"]  # fmt: skip
+                # What the page displays is the same number, to its six digits.
+                displayed = float(page.text_content("#q_f"))
+                assert math.isclose(displayed, ref["q_fixed"], rel_tol=5e-6)
+                timings.append(shown["ms"])
+                checked += 1
+            assert checked == 4
+            rows = page.eval_on_selector_all("#conditions tr", "rows => rows.length")
+            assert rows == len(ref["conditions"])
+            reports = ROOT / "reports"
+            reports.mkdir(exist_ok=True)
+            page.screenshot(path=str(reports / "explore.png"), full_page=True)
+        finally:
+            browser.close()
+    assert errors == [], errors
+    # One update's time in this headless browser (the first includes the map at a new beta).
+    print(f"explorer updates: {', '.join(f'{t:.1f} ms' for t in timings)}")
