@@ -68,6 +68,13 @@ def test_bad_explore_input_is_one_line(capsys, tmp_path, monkeypatch, argv, word
         assert word in err, err
 
 
+SHOWS_THE_SLIDERS = """() => {
+  const u = window.vswLastUpdate.state, v = (id) => Number(document.getElementById(id).value);
+  return u.beta === v("beta") && u.theta_II === v("theta_II") * (Math.PI / 180)
+    && u.phi0 === v("phi0") * (Math.PI / 180) && u.leg === v("leg");
+}"""
+
+
 def test_page_in_headless_chromium(tmp_path, capsys):
     sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
     browser_path = _chromium()
@@ -96,6 +103,8 @@ def test_page_in_headless_chromium(tmp_path, capsys):
                 page.wait_for_function(
                     f"JSON.stringify(window.vswLastUpdate.state) !== {json.dumps(before)}"
                 )
+                # ... and until the last key press is shown (updates wait for a frame).
+                page.wait_for_function(SHOWS_THE_SLIDERS)
                 shown = page.evaluate("window.vswLastUpdate")
                 values = {k: float(page.input_value(f"#{k}")) for k in ("beta", "theta_II",
                                                                          "phi0")}  # fmt: skip

@@ -649,7 +649,7 @@ def build_parser() -> ArgumentParser:
     p.add_argument("--leg-length", type=float, default=0.25, help="start r_e [m] (default 0.25)")
     p.set_defaults(func=_cmd_explore)
 
-    help_ = "basin of attraction over theta_II (Fig. 9); other models: over the section rate"
+    help_ = "basin of attraction over theta_II (Fig. 9); other models: over a 2-D --grid slice"
     p = subparsers.add_parser("basin", help=help_, description=help_ + ".")
     _add_gait_arguments(p, "basin", theta_ii=False)
     ile = p.add_argument_group("the ile model")
