@@ -72,6 +72,11 @@ class BackendPrinter(StrPrinter):
             # numpy fast-paths ** 2 only; x**3 and x**4 fall back to pow(). Only for atoms:
             # a compound base would be evaluated once per factor.
             return "(" + "*".join([b] * int(exp)) + ")"
+        return self._print_power(base, exp)
+
+    def _print_power(self, base, exp) -> str:
+        """A power the cases above do not print."""
+        b = self.parenthesize(base, sm.printing.precedence.PRECEDENCE["Pow"])
         if exp.is_Integer:
             return f"{b}**{int(exp)}"
         return f"{b}**({self._print(exp)})"
@@ -458,18 +463,7 @@ def c_sources(derivation: Derivation, module: types.ModuleType) -> dict[str, str
         out = ca.vertcat(*result) if isinstance(result, (tuple, list)) else result
         # Exported C symbols carry the prefix so they cannot clash inside a robot controller.
         functions.append(ca.Function(prefix + name, args, [out], list(arg_names), [name]))
-    with tempfile.TemporaryDirectory() as tmp:
-        cwd = os.getcwd()
-        os.chdir(tmp)
-        try:
-            gen = ca.CodeGenerator(f"{derivation.model}.c", {"with_header": True, "prefix": prefix})
-            for f in functions:
-                gen.add(f)
-            gen.generate()
-            c_text = Path(f"{derivation.model}.c").read_text()
-            h_text = Path(f"{derivation.model}.h").read_text()
-        finally:
-            os.chdir(cwd)
+    c_text, h_text = casadi_c(derivation.model, functions, prefix, with_header=True)
     doc = "".join(
         f" *   {prefix}{e.name}({', '.join(e.args)}): {e.doc}\n" for e in derivation.c_exports
     )
@@ -482,6 +476,26 @@ def c_sources(derivation: Derivation, module: types.ModuleType) -> dict[str, str
         + " */\n"
     )
     return {f"c/{derivation.model}.c": top + c_text, f"c/{derivation.model}.h": top + h_text}
+
+
+def casadi_c(name: str, functions: list, prefix: str, with_header: bool) -> tuple[str, str]:
+    """CasADi's C for ``functions`` (``<name>.c`` and, with ``with_header``, ``<name>.h``;
+    else ""), generated in a temporary directory."""
+    import casadi as ca
+
+    with tempfile.TemporaryDirectory() as tmp:
+        cwd = os.getcwd()
+        os.chdir(tmp)
+        try:
+            gen = ca.CodeGenerator(f"{name}.c", {"with_header": with_header, "prefix": prefix})
+            for f in functions:
+                gen.add(f)
+            gen.generate()
+            c_text = Path(f"{name}.c").read_text()
+            h_text = Path(f"{name}.h").read_text() if with_header else ""
+        finally:
+            os.chdir(cwd)
+    return c_text, h_text
 
 
 class BatchCPrinter(C99CodePrinter):

@@ -15,8 +15,6 @@ import json
 import string
 from pathlib import Path
 
-import sympy as sm
-
 from derive.codegen import RF_STEPS, BackendPrinter, header, staged_cse
 from derive.quantities import Derivation, Quantity
 
@@ -24,23 +22,11 @@ TEMPLATE = Path(__file__).resolve().parent / "templates" / "model.js.in"
 
 
 class JsPrinter(BackendPrinter):
-    """The Python backend printer with JavaScript's powers."""
+    """The Python backend printer with JavaScript's powers: ``Math.pow`` where Python
+    prints ``**`` (JavaScript rejects ``-x ** 2``)."""
 
-    def _print_Pow(self, expr, rational=False):
-        base, exp = expr.args
-        b = self.parenthesize(base, sm.printing.precedence.PRECEDENCE["Pow"])
-        if exp == sm.Rational(1, 2):
-            return f"be.sqrt({self._print(base)})"
-        if exp == -sm.Rational(1, 2):
-            return f"(1/be.sqrt({self._print(base)}))"
-        if exp.is_Integer and exp < 0:
-            return f"(1/{self._print(base**-exp)})" if exp != -1 else f"(1/{b})"
-        if exp.is_Integer and 2 <= exp <= 4 and base.is_Atom:
-            return "(" + "*".join([b] * int(exp)) + ")"
+    def _print_power(self, base, exp) -> str:
         return f"Math.pow({self._print(base)}, {self._print(exp)})"
-
-    def _print_Pi(self, expr):
-        return "be.pi"
 
 
 def function_js(qty: Quantity, printer: JsPrinter) -> str:

@@ -12,13 +12,11 @@ as the model's C library is.
 
 from __future__ import annotations
 
-import os
 import string
-import tempfile
 import types
 from pathlib import Path
 
-from derive.codegen import header
+from derive.codegen import casadi_c, header
 
 TEMPLATE = Path(__file__).resolve().parent / "templates" / "hybrid_sim.c.in"
 
@@ -95,17 +93,7 @@ def simulator_c_source(model: str, source: str, descriptor: dict, module: types.
         step_length = function("step_length", module.step_length_of_state(*args))
     step_event = next(e for e in descriptor["events"] if e["ends_step"])
 
-    with tempfile.TemporaryDirectory() as tmp:
-        cwd = os.getcwd()
-        os.chdir(tmp)
-        try:
-            gen = ca.CodeGenerator(f"{model}_sim.c", {"with_header": False, "prefix": prefix})
-            for f in functions:
-                gen.add(f)
-            gen.generate()
-            casadi_code = Path(f"{model}_sim.c").read_text()
-        finally:
-            os.chdir(cwd)
+    casadi_code, _ = casadi_c(f"{model}_sim", functions, prefix, with_header=False)
 
     def padded(rows: list[list[int]]) -> str:
         return ", ".join("{" + _c_list(r + [0] * (max_watch - len(r))) + "}" for r in rows)

@@ -247,6 +247,16 @@ def _gait_parameters(args: argparse.Namespace):
     return GaitParameters(values["beta"], values["theta_II"], values["phi0"])
 
 
+def _add_state_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--state",
+        action="append",
+        metavar="NAME=VALUE",
+        help="other models: the start just after the step event, every coordinate and rate "
+        "(default: the first period-one gait); repeatable",
+    )
+
+
 def _add_gait_arguments(
     parser: argparse.ArgumentParser, command: str, theta_ii: bool = True
 ) -> None:
@@ -601,26 +611,14 @@ def build_parser() -> ArgumentParser:
     p.add_argument(
         "--plot", metavar="FILE", help="ile: save theta, omega and q plots (.png/.svg/.pdf)"
     )
-    p.add_argument(
-        "--state",
-        action="append",
-        metavar="NAME=VALUE",
-        help="other models: the start just after the step event, every coordinate and rate "
-        "(default: the first period-one gait); repeatable",
-    )
+    _add_state_argument(p)
     p.set_defaults(func=_cmd_simulate)
 
     help_ = "the walk as a moving stick figure (GIF, SVG or MP4)"
     p = subparsers.add_parser("animate", help=help_, description=help_ + ".")
     _add_gait_arguments(p, "animate")
     p.add_argument("--q0", type=float, help="ile: q = omega_I^2 at the first step")
-    p.add_argument(
-        "--state",
-        action="append",
-        metavar="NAME=VALUE",
-        help="other models: the start just after the step event, every coordinate and rate "
-        "(default: the first period-one gait); repeatable",
-    )
+    _add_state_argument(p)
     p.add_argument("--steps", type=int, default=3, help="steps to walk (default: 3)")
     p.add_argument(
         "--out", required=True, metavar="FILE", help="gait.gif (Pillow), gait.svg or gait.mp4"

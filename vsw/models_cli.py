@@ -698,15 +698,10 @@ def cmd_basin(args: argparse.Namespace) -> int:
         args.n_rates,
         "use a smaller --n-rates or --max-steps",
     )
+    from vsw.grid_basin import stable_gait
+
     with _engine(model):
-        gaits = model.fixed_points(params)
-    stable = [o for o in gaits if o.stable]
-    if not stable:
-        raise ModelConditionError(
-            f"{cli_name(model.name)}: no stable period-one gait at these parameters (found "
-            f"{len(gaits)} unstable): no basin to draw"
-        )
-    gait = stable[0]
+        gait = stable_gait(model, params)
     target = np.array(list(gait.state.values()))
     scale = max(1.0, float(np.max(np.abs(target))))
     coordinate = model.coordinates[0]
@@ -996,7 +991,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         return _sweep_ile(args)
     import numpy as np
 
-    from vsw.cli import EXIT_OK, _check_plot_path, _dump_json, _fmt, _progress
+    from vsw.cli import EXIT_OK, _check_plot_path, _fmt, _progress
 
     model = _hybrid(args.model, "sweep")
     name, values = parse_over(args.model, args.over)
@@ -1085,14 +1080,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     }
     if keep:
         data.update(transient=args.transient, keep=keep)
-    if args.plot is not None:
-        from vsw.model_plots import bifurcation_plot
-        from vsw.plots import save_figure
-
-        save_figure(bifurcation_plot(_clean(data), y, _units(model)), args.plot)
-        data["plot"] = args.plot
-    if args.json:
-        _dump_json(_clean(data), sys.stdout)
+    if _diagram_out(args, model, data, y):
         return EXIT_OK
     out = sys.stdout
     state_names = model.coordinates + model.rates
@@ -1119,11 +1107,27 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _diagram_out(args, model, data: dict, y: str) -> bool:
+    """A sweep's figure (``--plot``) and JSON (``--json``); True when the JSON was printed."""
+    from vsw.cli import _dump_json
+
+    if args.plot is not None:
+        from vsw.model_plots import bifurcation_plot
+        from vsw.plots import save_figure
+
+        save_figure(bifurcation_plot(_clean(data), y, _units(model)), args.plot)
+        data["plot"] = args.plot
+    if args.json:
+        _dump_json(_clean(data), sys.stdout)
+        return True
+    return False
+
+
 def _sweep_brute_force(args, model, name: str, values, y: str, keep: int) -> int:
     """``vsw sweep --brute-force``: vsw.grid_basin.brute_force_sweep, in the sweep's JSON
     and figure."""
     from vsw import limits
-    from vsw.cli import EXIT_OK, _dump_json, _fmt
+    from vsw.cli import EXIT_OK, _fmt
     from vsw.grid_basin import brute_force_sweep
     from vsw.vectorize import default_threads
 
@@ -1156,14 +1160,7 @@ def _sweep_brute_force(args, model, name: str, values, y: str, keep: int) -> int
         "transient": args.transient,
         "keep": keep,
     }
-    if args.plot is not None:
-        from vsw.model_plots import bifurcation_plot
-        from vsw.plots import save_figure
-
-        save_figure(bifurcation_plot(_clean(data), y, _units(model)), args.plot)
-        data["plot"] = args.plot
-    if args.json:
-        _dump_json(_clean(data), sys.stdout)
+    if _diagram_out(args, model, data, y):
         return EXIT_OK
     out = sys.stdout
     out.write(f"{'model':<12} {cli_name(model.name)} ({model.title}); over {name}, brute "

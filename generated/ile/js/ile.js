@@ -64,12 +64,12 @@ function fixed_point_conditions(beta, theta_II, phi0) {
   const [cos_theta_II, sin_theta_II] = be.cos_sin(theta_II);
   const x0 = -1 + beta;
   const x1 = -x0;
-  const x2 = (sin_phi0*sin_phi0);
-  const x3 = (1/be.sqrt((x1*x1) + 2*x2*beta/(1 + cos_phi0)));
+  const x2 = Math.pow(sin_phi0, 2);
+  const x3 = (1/be.sqrt(Math.pow(x1, 2) + 2*x2*beta/(1 + cos_phi0)));
   const x4 = x3*sin_phi0;
   const x5 = beta - cos_phi0;
-  const x6 = (beta*beta);
-  const x7 = (cos_phi0*cos_phi0);
+  const x6 = Math.pow(beta, 2);
+  const x7 = Math.pow(cos_phi0, 2);
   const x8 = 1 + beta;
   const x9 = (1/beta);
   const x12 = x0*x7;
@@ -100,19 +100,19 @@ function fixed_point_conditions(beta, theta_II, phi0) {
 function q_fixed(beta, theta_II, phi0) {
   const [cos_phi0, sin_phi0] = be.cos_sin(phi0);
   const [cos_theta_II, sin_theta_II] = be.cos_sin(theta_II);
-  const x0 = (beta*beta);
-  const x1 = (sin_phi0*sin_phi0);
+  const x0 = Math.pow(beta, 2);
+  const x1 = Math.pow(sin_phi0, 2);
   const x2 = 1 + beta;
   const x3 = -1 + beta;
   const x4 = -x3;
-  const x5 = 2*x3*(cos_phi0*cos_phi0);
-  return (-x5*cos_theta_II*(x0 + x2)/x0 + x2*x5*sin_phi0/(beta*be.sqrt((x4*x4) + 2*x1*beta/(1 + cos_phi0))))/(x0*x1 + x2*x4);
+  const x5 = 2*x3*Math.pow(cos_phi0, 2);
+  return (-x5*cos_theta_II*(x0 + x2)/x0 + x2*x5*sin_phi0/(beta*be.sqrt(Math.pow(x4, 2) + 2*x1*beta/(1 + cos_phi0))))/(x0*x1 + x2*x4);
 }
 
 /* Eigenvalue df/dq of the stride map (constant: the map is linear in q). Eq. (19). Returns lambda. */
 function eigenvalue(beta, phi0) {
   const [cos_phi0, sin_phi0] = be.cos_sin(phi0);
-  return (cos_phi0*cos_phi0)*(beta*beta);
+  return Math.pow(cos_phi0, 2)*Math.pow(beta, 2);
 }
 
 /* Stride map f(q): q = omega_I**2 just after one heelstrike to just after the next. Eq. (7), (9). Returns q(n+1). */
@@ -120,10 +120,10 @@ function stride_map(beta, theta_II, phi0, q) {
   const [cos_phi0, sin_phi0] = be.cos_sin(phi0);
   const [cos_theta_II, sin_theta_II] = be.cos_sin(theta_II);
   const x0 = 2*beta;
-  const x1 = (cos_phi0*cos_phi0);
+  const x1 = Math.pow(cos_phi0, 2);
   const x2 = x1*cos_theta_II;
-  const x3 = (beta*beta);
-  const x4 = x1*sin_phi0/be.sqrt(Math.pow(1 - beta, 2) + x0*(sin_phi0*sin_phi0)/(1 + cos_phi0));
+  const x3 = Math.pow(beta, 2);
+  const x4 = x1*sin_phi0/be.sqrt(Math.pow(1 - beta, 2) + x0*Math.pow(sin_phi0, 2)/(1 + cos_phi0));
   return x0*x4 - x0*x2 - 2*x4/beta + 2*x2/x3 + x1*x3*q;
 }
 
@@ -136,14 +136,14 @@ function theta_I(beta, phi0) {
 /* Stance leg angle at heelstrike. Eq. (5). Returns theta_IV = theta_I + phi0 in radians. */
 function theta_IV(beta, phi0) {
   const [cos_phi0, sin_phi0] = be.cos_sin(phi0);
-  const x0 = (1/be.sqrt(Math.pow(1 - beta, 2) + 2*beta*(sin_phi0*sin_phi0)/(1 + cos_phi0)));
+  const x0 = (1/be.sqrt(Math.pow(1 - beta, 2) + 2*beta*Math.pow(sin_phi0, 2)/(1 + cos_phi0)));
   return be.atan2(x0*(1 - cos_phi0*beta), x0*sin_phi0*beta);
 }
 
 /* Distance between successive footholds (and hip travel per step), in r_e. Returns step length / r_e. */
 function step_length(beta, phi0) {
   const [cos_phi0, sin_phi0] = be.cos_sin(phi0);
-  return be.sqrt(Math.pow(1 - beta, 2) + 2*beta*(sin_phi0*sin_phi0)/(1 + cos_phi0));
+  return be.sqrt(Math.pow(1 - beta, 2) + 2*beta*Math.pow(sin_phi0, 2)/(1 + cos_phi0));
 }
 
 /* Durations of the swing phases I-II and III-IV in dimensionless time tau. Returns (tau_I_II, tau_III_IV). */
@@ -151,9 +151,9 @@ function phase_durations(beta, theta_II, phi0, q) {
   const [cos_phi0, sin_phi0] = be.cos_sin(phi0);
   const [cos_theta_II, sin_theta_II] = be.cos_sin(theta_II);
   const x0 = 1 + cos_theta_II;
-  const x1 = (sin_theta_II*sin_theta_II)/x0;
+  const x1 = Math.pow(sin_theta_II, 2)/x0;
   const x2 = cos_phi0 - beta;
-  const x3 = Math.pow(1 - beta, 2) + 2*beta*(sin_phi0*sin_phi0)/(1 + cos_phi0);
+  const x3 = Math.pow(1 - beta, 2) + 2*beta*Math.pow(sin_phi0, 2)/(1 + cos_phi0);
   const x4 = (1/be.sqrt(x3));
   const x5 = x2*x4;
   const x6 = (x5 < 0);
@@ -172,7 +172,7 @@ function phase_durations(beta, theta_II, phi0, q) {
   const x19 = x13*x16;
   const x20 = (1/x3);
   const x21 = 1 + x9;
-  const x22 = x20*(x2*x2)/x21;
+  const x22 = x20*Math.pow(x2, 2)/x21;
   const x23 = (sin_theta_II <= 0);
   const x24 = be.logical_or(x23, x6);
   const x25 = x5/be.sqrt(x21);
@@ -191,7 +191,7 @@ function phase_durations(beta, theta_II, phi0, q) {
   const x38 = 1 - cos_phi0*beta;
   const x39 = x9*beta;
   const x40 = 1 + x39;
-  const x41 = x20*(x38*x38)/x40;
+  const x41 = x20*Math.pow(x38, 2)/x40;
   const x42 = (sin_theta_II < 0);
   const x43 = x38*x4;
   const x44 = be.logical_and(x42, (x43 > 0));
@@ -225,7 +225,7 @@ function phase_durations(beta, theta_II, phi0, q) {
 function q_apex_min(beta, theta_II, phi0) {
   const [cos_phi0, sin_phi0] = be.cos_sin(phi0);
   const [cos_theta_II, sin_theta_II] = be.cos_sin(theta_II);
-  const x0 = (1/be.sqrt(Math.pow(1 - beta, 2) + 2*beta*(sin_phi0*sin_phi0)/(1 + cos_phi0)));
+  const x0 = (1/be.sqrt(Math.pow(1 - beta, 2) + 2*beta*Math.pow(sin_phi0, 2)/(1 + cos_phi0)));
   const x1 = x0*sin_phi0;
   const x2 = (1/beta);
   const x3 = x0*sin_theta_II;
@@ -239,7 +239,7 @@ function q_liftoff_max(beta, theta_II, phi0) {
   const [cos_phi0, sin_phi0] = be.cos_sin(phi0);
   const [cos_theta_II, sin_theta_II] = be.cos_sin(theta_II);
   const x0 = 2*beta;
-  const x1 = (1/be.sqrt(1 + (beta*beta) - x0 + x0*(sin_phi0*sin_phi0)/(1 + cos_phi0)));
+  const x1 = (1/be.sqrt(1 + Math.pow(beta, 2) - x0 + x0*Math.pow(sin_phi0, 2)/(1 + cos_phi0)));
   const x2 = x1*sin_phi0;
   const x3 = (beta*beta*beta);
   return be.fmin(-(-3*be.fmin(cos_theta_II, x2) + 2*x2)/beta, -(-3*be.fmin(cos_theta_II, x2*beta) + 2*cos_theta_II - 2*x3*cos_theta_II + 2*x1*x3*sin_phi0)/(beta*beta*beta*beta));
@@ -249,16 +249,16 @@ function q_liftoff_max(beta, theta_II, phi0) {
 function condition_margins(beta, theta_II, phi0) {
   const [cos_phi0, sin_phi0] = be.cos_sin(phi0);
   const [cos_theta_II, sin_theta_II] = be.cos_sin(theta_II);
-  const x0 = (beta*beta);
-  const x1 = (sin_phi0*sin_phi0);
+  const x0 = Math.pow(beta, 2);
+  const x1 = Math.pow(sin_phi0, 2);
   const x2 = 1 + beta;
   const x3 = -1 + beta;
   const x4 = -x3;
   const x5 = (1/(x0*x1 + x2*x4));
   const x6 = x0 + x2;
   const x7 = 2*cos_theta_II;
-  const x8 = x3*(cos_phi0*cos_phi0);
-  const x9 = be.sqrt((x4*x4) + 2*x1*beta/(1 + cos_phi0));
+  const x8 = x3*Math.pow(cos_phi0, 2);
+  const x9 = be.sqrt(Math.pow(x4, 2) + 2*x1*beta/(1 + cos_phi0));
   const x10 = (1/x9);
   const x11 = x10*sin_phi0;
   const x12 = (1/beta);
@@ -280,7 +280,7 @@ function condition_margins(beta, theta_II, phi0) {
   const x28 = cos_theta_II/3;
   const x29 = x15*x19;
   const x30 = be.fmin(x24, be.fmax(be.fmin(cos_theta_II, x22), x28 + x29/6 + x20*x25 - x20*x28));
-  return [x15, x16*x9*cos_theta_II - x2*beta/x6, -be.fmax(-x13 + 2*x12*x18, (-x7 - 2*x21 + 2*x24 + x20*x7)/x19) + x14*x5, x17, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan2(x23, x22), theta_II + be.atan(x16*x17), be.fmin(3*(x27*x27) - 2*x27*(x11 + x26/2), 3*(x30*x30) - 2*x30*(x21 + cos_theta_II + x29/2 - x20*cos_theta_II))];
+  return [x15, x16*x9*cos_theta_II - x2*beta/x6, -be.fmax(-x13 + 2*x12*x18, (-x7 - 2*x21 + 2*x24 + x20*x7)/x19) + x14*x5, x17, be.pi/2 - phi0, phi0/2 - theta_II, -theta_II + be.atan2(x23, x22), theta_II + be.atan(x16*x17), be.fmin(3*Math.pow(x27, 2) - 2*x27*(x11 + x26/2), 3*Math.pow(x30, 2) - 2*x30*(x21 + cos_theta_II + x29/2 - x20*cos_theta_II))];
 }
 
 /* Angular acceleration d2theta/dtau2 of a swing phase of leg length leg_ratio * r_e. Eq. (2), (4). Returns d2theta/dtau2; leg_ratio = beta gives (2), leg_ratio = 1 gives (4). */
@@ -291,7 +291,7 @@ function swing_acceleration(theta, leg_ratio) {
 
 /* Angular velocity just after the instantaneous leg extension. Eq. (3). Returns omega_III. */
 function extension_reset(beta, omega_II) {
-  return omega_II*(beta*beta);
+  return omega_II*Math.pow(beta, 2);
 }
 
 /* Angular velocity of the new stance leg just after heelstrike. Eq. (6). Returns omega_I(n+1). */
