@@ -28,7 +28,7 @@ from vsw.errors import VswInputError
 __all__ = ["BLOCK", "walk_on_cluster"]
 
 BLOCK = 8192
-"""Walks per task: a 500 x 500 basin is 31 tasks (its cells walk about 13 ms each)."""
+"""Walks per task: a 500 x 500 basin is 31 tasks."""
 
 
 def _client(address: str):

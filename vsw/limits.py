@@ -82,7 +82,8 @@ HYBRID_SECONDS_PER_ORBIT = 0.1
 #: peak over 100 and 400 simulated steps: 1.6-2.6 kB
 HYBRID_BYTES_PER_STEP = 2_500
 # The compiled batch simulator (vsw.batch), per phase x coordinate of a step, one thread:
-#: 26 us a step of the simplest walker (1 phase x 2 coordinates), benchmarks/run.py case 10
+#: 21.6 us a step of the simplest walker (1 phase x 2 coordinates), 74 us of the compass
+#: gait: benchmarks/run.py case 10 (the full run of stop 18)
 BATCH_SECONDS_PER_PHASE = 2e-5
 #: a basin cell: the state, outcome, label and steps, and their JSON text (~100 bytes)
 BATCH_BYTES_PER_CELL = 400
