@@ -84,7 +84,7 @@ HYBRID_BYTES_PER_STEP = 2_500
 # The compiled batch simulator (vsw.batch), per phase x coordinate of a step, one thread:
 #: 21.6 us a step of the simplest walker (1 phase x 2 coordinates), 74 us of the compass
 #: gait: benchmarks/run.py case 10 (the full run of stop 18)
-BATCH_SECONDS_PER_PHASE = 2e-5
+BATCH_SECONDS_PER_PHASE = 4e-5  # per phase x coordinate: covers the compass gait (37 us)
 #: a basin cell: the state, outcome, label and steps, and their JSON text (~100 bytes)
 BATCH_BYTES_PER_CELL = 400
 # vsw sweep of the ILE (vsw.sweep over one parameter, every analysis field, JSON text):
