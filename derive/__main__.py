@@ -59,8 +59,21 @@ def render_all(only: str | None = None, existing: dict[str, str] | None = None) 
         from concurrent.futures import ProcessPoolExecutor
 
         context = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
+        # Large models first, so the workers finish closer together: the size of a model's
+        # generated module on disk is a rough stand-in for its derivation time (measured
+        # serially: biped 27 s, compass gait 25 s, TLE 19 s, ILE 9 s, simplest walker 7 s,
+        # rimless wheel 3 s); `--check` of every model went from 47 s to 40 s on 2 cores.
+        # The order only schedules; each model's files are its own.
+        generated = Path(codegen.__file__).resolve().parent.parent / "generated"
+
+        def cost(name: str) -> int:
+            module = generated / name / "__init__.py"
+            return module.stat().st_size if module.is_file() else 0
+
+        order = sorted(names, key=cost, reverse=True)
         with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-            rendered = list(pool.map(_render_model, names))
+            by_name = dict(zip(order, pool.map(_render_model, order)))
+        rendered = [by_name[name] for name in names]
     else:
         rendered = [_render_model(name) for name in names]
     for model_files in rendered:
