@@ -4,12 +4,13 @@ The problem (both sides): the most stable Stepper-2D gait (least eigenvalue) at 
 with 0.6 <= beta <= 0.95, -20 <= theta_II <= 20 deg, 20 <= phi0 <= 60 deg and the stance
 foot on the ground over the whole step.
 
-* IPOPT side: :func:`vsw.design.design` as a whole (its scan, one IPOPT start in each region
-  the scan finds promising) without the simulation check, timed after
+* IPOPT side: :func:`vsw.models.ile.design.design` as a whole (its scan, one IPOPT start
+  in each region the scan finds promising) without the simulation check, timed after
   a warm-up call that builds (and caches) the CasADi solver.
 * SLSQP side: what a researcher would write without the closed forms. Every evaluation
-  finds the fixed point with :func:`vsw.simulate.fixed_point_by_simulation`, the eigenvalue
-  as a central difference of :func:`vsw.simulate.poincare_map`, and speed and the minimum
+  finds the fixed point with
+  :func:`vsw.models.ile.simulate.fixed_point_by_simulation`, the eigenvalue as a central
+  difference of :func:`vsw.models.ile.simulate.poincare_map`, and speed and the minimum
   normal force from one simulated step; SLSQP differentiates all of it by finite
   differences. Same start point as the IPOPT side.
 
@@ -32,7 +33,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from generated import ile  # noqa: E402
-from vsw.params import STEPPER_2D  # noqa: E402
+from vsw.models.ile.params import STEPPER_2D  # noqa: E402
 
 TARGET_SPEED_M_S = 0.8
 BOUNDS = {
@@ -44,7 +45,7 @@ BOUNDS = {
 
 def _ipopt_design(n_starts: int | None = 1, verify: bool = False) -> Any:
     """The design; ``n_starts=None``: as ``vsw design`` runs it (its default starts)."""
-    from vsw.design import design
+    from vsw.models.ile.design import design
 
     starts = {} if n_starts is None else {"n_starts": n_starts}
     return design(
@@ -58,7 +59,7 @@ def _ipopt_design(n_starts: int | None = 1, verify: bool = False) -> Any:
 
 def _start_point() -> np.ndarray:
     """The SLSQP side's start: the design's first IPOPT start (its scan's best seed)."""
-    from vsw.design import _build_problem, _scan, _seeds
+    from vsw.models.ile.design import _build_problem, _scan, _seeds
 
     problem = _build_problem(
         {"eigenvalue": 1.0}, {"speed_m_s": TARGET_SPEED_M_S}, BOUNDS, None, 0.0, None,
@@ -76,7 +77,7 @@ class _SimulatedGait:
 
     def __call__(self, x: np.ndarray) -> dict[str, float]:
         from vsw.errors import ConvergenceError, VswInputError
-        from vsw.simulate import fixed_point_by_simulation, poincare_map, simulate
+        from vsw.models.ile.simulate import fixed_point_by_simulation, poincare_map, simulate
 
         key = tuple(float(v) for v in x)
         if key in self.cache:
@@ -136,7 +137,7 @@ def slsqp_design(x0: np.ndarray, maxiter: int = 50) -> dict[str, Any]:
         # central-difference eigenvalue with step 1e-4 q: noise about 1e-8).
         options={"maxiter": maxiter, "ftol": 1e-10, "eps": 1e-5},
     )
-    from vsw.analysis import analyze
+    from vsw.models.ile.analysis import analyze
 
     a = analyze(*res.x, STEPPER_2D)
     return {
@@ -172,7 +173,7 @@ def compare(quick: bool = False) -> dict[str, Any]:
         no worse than that of an SLSQP point that meets the target to 1e-6) and a
         ``note``.
     """
-    from vsw.design import _SOLVERS
+    from vsw.models.ile.design import _SOLVERS
 
     _SOLVERS.clear()
     t0 = time.perf_counter()

@@ -1,7 +1,7 @@
 """A suite of seeded gait-design problems with a reference that does not use IPOPT.
 
 ``python benchmarks/design_suite.py [--problems N] [--seed S] [--before COMMIT] [--json F]``
-builds the suite, solves every problem with :func:`vsw.design.design` (and, with
+builds the suite, solves every problem with :func:`vsw.models.ile.design.design` (and, with
 ``--before``, with the ``vsw/design.py`` of an earlier commit, loaded from git), solves it
 again with the reference, and prints the summary that ``benchmarks/run.py`` (case 8) puts
 into ``benchmarks/results.md``.
@@ -59,7 +59,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from generated import ile  # noqa: E402
-from vsw import design as design_module  # noqa: E402
+from vsw.models.ile import design as design_module  # noqa: E402
 
 R = math.radians
 TABLE = {"beta": (0.0, 1.0), "theta_II": (-math.pi / 2, math.pi / 2), "phi0": (0.0, math.pi / 2)}
@@ -129,7 +129,7 @@ def box(problem: Problem, distance: float = 1.0) -> tuple[np.ndarray, np.ndarray
     for i, name in enumerate(VARIABLES):
         t_lo, t_hi = TABLE[name]
         u_lo, u_hi = problem.bounds.get(name, (None, None))
-        # A user bound is closed (vsw.design refuses one within TABLE_DISTANCE of an open
+        # A user bound is closed (vsw.models.ile.design refuses one within TABLE_DISTANCE of an open
         # limit); without one the open table limit is kept at the distance.
         lo[i] = t_lo + keep if u_lo is None else u_lo
         hi[i] = t_hi - keep if u_hi is None else u_hi

@@ -41,7 +41,7 @@ if str(ROOT) not in sys.path:
 
 import generated  # noqa: E402
 import generated.ile as ile  # noqa: E402
-from vsw.params import random_parameters  # noqa: E402
+from vsw.models.ile.params import random_parameters  # noqa: E402
 from vsw.vectorize import chunked, default_threads  # noqa: E402
 
 CASES = (1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11)
@@ -186,7 +186,7 @@ def case_fixed_point_vectorised(n: int, reps: int) -> list[Row]:
         np.cos(phi0, out=floor_outputs[1])
         np.sin(phi0, out=floor_outputs[2])
 
-    from vsw import kernels
+    from vsw.models.ile import kernels
 
     # The first build, into an empty cache directory (one compiler run).
     with tempfile.TemporaryDirectory() as cache:
@@ -283,7 +283,7 @@ def case_fixed_point_vectorised(n: int, reps: int) -> list[Row]:
 
 def case_fixed_point_vs_simulation(samples: int, batch: int, reps: int) -> list[Row]:
     """Case 2: closed-form q^f per set vs a solve_ivp Poincare map with brentq per set."""
-    from vsw.simulate import fixed_point_by_simulation
+    from vsw.models.ile.simulate import fixed_point_by_simulation
 
     beta, theta_II, phi0 = parameter_arrays(samples, seed=2, walking=True)
     many = parameter_arrays(batch, seed=3, walking=True)
@@ -323,7 +323,7 @@ def case_fixed_point_vs_simulation(samples: int, batch: int, reps: int) -> list[
 def case_rootfinders_and_c(reps: int) -> list[Row]:
     """Case 3: CasADi rootfinder per solve (closed form, integrated map); compiled C per call."""
     from vsw.ccode import CLibrary
-    from vsw.fixed_point import solve_fixed_point
+    from vsw.models.ile.fixed_point import solve_fixed_point
 
     b, t, p = 0.8, 0.0, np.pi / 4
     calls = 1000
@@ -379,7 +379,7 @@ def case_step_metrics(n: int, reps: int) -> list[Row]:
 
 def case_basin(n: int, reps: int) -> list[Row]:
     """Case 5: basin of attraction on an n x n grid (theta_II x initial q), classified."""
-    from vsw import basin as basin_module
+    from vsw.models.ile import basin as basin_module
 
     grid = np.radians(np.linspace(-30, 40, n))
 
@@ -514,7 +514,7 @@ def case_gait_rootfinder(reps: int) -> list[Row]:
     with every component moved by 1e-3 (relative), as a continuation step leaves it."""
     from scipy.optimize import root
 
-    from vsw.hybrid import load
+    from vsw.models import load
 
     rows = []
     for key, values, published in _gaits():
@@ -583,7 +583,7 @@ def _near_gait_starts(key: str, count: int):
     """The model's default parameters, its most stable gait and ``count`` section states
     around it (1 % relative noise, fixed seed) that all complete a step."""
     from vsw.batch import WALKED, simulator
-    from vsw.hybrid import load
+    from vsw.models import load
 
     m = load(key)
     params = m.parameters()
@@ -655,7 +655,7 @@ def case_basin_grid(side: int, reps: int) -> list[Row]:
 
     from vsw.batch import simulator
     from vsw.grid_basin import grid_basin
-    from vsw.hybrid import load
+    from vsw.models import load
     from vsw.vectorize import default_threads
 
     m = load("simplest_walker")
@@ -899,7 +899,8 @@ def main(argv: list[str] | None = None) -> int:
             "margins) and the closed problem's distances (STRICT_MARGIN, TABLE_DISTANCE): a "
             "defect of the generated code itself would not show here (the derivation's own "
             "tests cover it). The 'before' side runs vsw/design.py of commit "
-            f"{DESIGN_BEFORE} on today's generated code, vsw.analysis and vsw.simulate."
+            f"{DESIGN_BEFORE} on today's generated code, vsw.models.ile.analysis and "
+            "vsw.models.ile.simulate."
         )
     print(text)
     mode = "quick (sizes reduced; numbers not meaningful)" if args.quick else "full"

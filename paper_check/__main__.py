@@ -58,7 +58,7 @@ def check_output_directory(out: str, figures: bool = True) -> str | None:
     names = list(REPORT_FILES)
     if figures:
         from paper_check.figures import FIGURES
-        from vsw.plots import SAVE_FORMATS
+        from vsw.figures import SAVE_FORMATS
 
         # Every format save_figure knows, not only those written today: a directory in
         # the way of any of them is worth a message.

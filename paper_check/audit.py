@@ -810,7 +810,7 @@ def _fig8_claim() -> tuple[Entry, dict[str, Any]]:
 
 
 def _basin_claims() -> tuple[Entry, Entry, dict[str, Any]]:
-    from vsw.basin import basin, check_edges_by_simulation
+    from vsw.models.ile.basin import basin, check_edges_by_simulation
 
     b, p = FIG_BETA, FIG_PHI0
     grid = np.radians(np.arange(-30.0, 40.01, 0.5))
@@ -989,7 +989,7 @@ def run_audit() -> Audit:
         "numeric tolerance": NUMERIC_TOL,
         "dense sample for the existence claims": DENSE_SAMPLES,
         "simulations per existence category": SIMS_PER_CATEGORY,
-        "simulator": "vsw.simulate (DOP853, rtol 1e-10, atol 1e-12, event refinement)",
+        "simulator": "vsw.models.ile.simulate (DOP853, rtol 1e-10, atol 1e-12, event refinement)",
     }
     return Audit(equations, claims, data, settings)
 

@@ -236,9 +236,9 @@ def _fig8(ax: Any, data: dict[str, Any]) -> Legend:
 
     from paper_check.audit import FIG_BETA, FIG_PHI0, FIG_THETA_II
     from vsw import plotstyle
-    from vsw.plots import label_instants
+    from vsw.models.ile.plots import label_instants
+    from vsw.models.ile.simulate import simulate
     from vsw.plotstyle import direction_arrow
-    from vsw.simulate import simulate
 
     b, t2, p = FIG_BETA, FIG_THETA_II, FIG_PHI0
     qf = float(ile.q_fixed(b, t2, p))
@@ -287,8 +287,8 @@ def _fig8(ax: Any, data: dict[str, Any]) -> Legend:
 
 def _fig9(ax: Any, data: dict[str, Any]) -> Legend:
     from paper_check.audit import FIG_BETA, FIG_PHI0
-    from vsw.basin import Basin
-    from vsw.plots import basin_plot
+    from vsw.models.ile.basin import Basin
+    from vsw.models.ile.plots import basin_plot
 
     # The audit's basin as a vsw Basin, so the CLI's drawing is reused (n_steps is not
     # drawn).
@@ -372,7 +372,7 @@ def write_figures(out: Path, figure_data: dict[str, Any]) -> list[Path]:
     list of Path
         The written files, in order.
     """
-    from vsw.plots import save_figure
+    from vsw.figures import save_figure
 
     written = []
     for name in FIGURES:

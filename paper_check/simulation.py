@@ -1,4 +1,5 @@
-"""Time-domain simulation evidence for the audit (thin wrappers over :mod:`vsw.simulate`).
+"""Time-domain simulation evidence for the audit (thin wrappers over
+:mod:`vsw.models.ile.simulate`).
 
 Every run is deterministic (no randomness inside the integrator); sample selection is
 seeded by the caller. A run that the model cannot define (the stance leg never reaches
@@ -44,11 +45,11 @@ def run(beta: float, theta_II: float, phi0: float, q0: float, steps: int) -> Run
     Returns
     -------
     Run
-        ``ended='undefined'`` when :func:`vsw.simulate.simulate` refuses the parameters
+        ``ended='undefined'`` when :func:`vsw.models.ile.simulate.simulate` refuses the parameters
         (``theta_II`` outside ``(theta_I, theta_IV)``).
     """
     from vsw.errors import VswInputError
-    from vsw.simulate import simulate
+    from vsw.models.ile.simulate import simulate
 
     try:
         res = simulate(

@@ -34,7 +34,8 @@ import numpy as np
 
 import generated.ile as ile
 from vsw.errors import ConvergenceError
-from vsw.hybrid import HybridModel, Orbit, load
+from vsw.hybrid import HybridModel, Orbit
+from vsw.models import load
 
 MODELS = ("simplest-walker", "compass-gait", "vsw-biped")
 
@@ -156,10 +157,10 @@ def _diagram(
     import json
 
     from vsw.cli import main
-    from vsw.hybrid import load
-    from vsw.model_plots import bifurcation_plot
+    from vsw.diagrams import bifurcation_plot
+    from vsw.figures import save_figure
+    from vsw.models import load
     from vsw.models_cli import _diagram_quantity, _units
-    from vsw.plots import save_figure
 
     png, svg = out / f"{stem}.png", out / f"{stem}.svg"
     start, stop, count = grid
@@ -510,7 +511,7 @@ def _stable_search(m: HybridModel) -> str:
 
 def _mu_figure(results: dict, out: Path) -> list[Path]:
     from vsw import plotstyle
-    from vsw.plots import save_figure
+    from vsw.figures import save_figure
 
     panels = (("phi_deg", "$\\varphi$ at heelstrike [" + plotstyle.DEG + "]"),
               ("eig", "max $|\\lambda|$"),

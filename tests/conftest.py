@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from generated.ile.params import PARAMETERS
-from vsw.params import random_parameters
+from vsw.models.ile.params import random_parameters
 
 PARAMS = {p.name: p for p in PARAMETERS}
 

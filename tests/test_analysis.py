@@ -1,4 +1,4 @@
-"""Tests of vsw.params and vsw.analysis against independent computations.
+"""Tests of vsw.models.ile.params and vsw.models.ile.analysis against independent computations.
 
 Expected values come from the paper's equations written out here, SciPy quadrature,
 brute-force minima and the time-domain simulation, never from the code under test.
@@ -16,9 +16,9 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from generated import ile
-from vsw.analysis import analyze, phase_durations_scipy, step_period_scipy
 from vsw.errors import VswInputError
-from vsw.params import STEPPER_2D, GaitParameters, RobotScale, validate
+from vsw.models.ile.analysis import analyze, phase_durations_scipy, step_period_scipy
+from vsw.models.ile.params import STEPPER_2D, GaitParameters, RobotScale, validate
 
 FIG8 = (0.8, 0.0, math.radians(45.0))
 
@@ -114,7 +114,7 @@ def test_masked_arrays_without_masked_values_are_plain_arrays():
 
 
 def test_masked_values_are_rejected_by_the_other_validators_too():
-    from vsw.params import check_positive
+    from vsw.models.ile.params import check_positive
 
     with pytest.raises(VswInputError, match="q0 is a masked array with 1 masked"):
         check_positive("q0", np.ma.masked_invalid([0.3, np.nan]), "reason")
@@ -313,7 +313,7 @@ def test_si_units_by_dimensional_analysis():
 
 
 def test_fig8_matches_simulation_to_1e_9():
-    simulate = pytest.importorskip("vsw.simulate").simulate
+    simulate = pytest.importorskip("vsw.models.ile.simulate").simulate
     a = analyze(*FIG8)
     result = simulate(*FIG8, q0=float(a.q_fixed), steps=3)
     assert result.ended == "completed"
@@ -330,7 +330,7 @@ def test_fig8_matches_simulation_to_1e_9():
     offset=st.floats(-0.9, 0.9),
 )
 def test_simulation_follows_the_analysis(beta, theta_II_deg, phi0_deg, offset):
-    simulate = pytest.importorskip("vsw.simulate").simulate
+    simulate = pytest.importorskip("vsw.models.ile.simulate").simulate
     theta_II, phi0 = math.radians(theta_II_deg), math.radians(phi0_deg)
     a = analyze(beta, theta_II, phi0)
     assume(a.walks and a.contact_margin > 1e-3 and a.q_fixed - a.q_apex_min > 1e-3)

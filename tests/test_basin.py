@@ -10,9 +10,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from vsw.analysis import analyze
-from vsw.basin import basin, check_edges_by_simulation
 from vsw.errors import VswInputError
+from vsw.models.ile.analysis import analyze
+from vsw.models.ile.basin import basin, check_edges_by_simulation
 
 PHI0 = math.radians(45.0)
 
@@ -85,7 +85,7 @@ def test_basin_rejects_bad_input():
 
 
 def test_edges_checked_by_simulation():
-    pytest.importorskip("vsw.simulate")
+    pytest.importorskip("vsw.models.ile.simulate")
     theta_II = np.radians([-5.0, 0.0, 20.0])
     b = basin(0.8, PHI0, theta_II, n_q=201)
     calls = []

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from vsw.batch import CONVERGED, FELL, WALKED, Options, reference_walks, simulator
-from vsw.hybrid import load
+from vsw.models import load
 
 pytest.importorskip("casadi")
 

@@ -166,7 +166,7 @@ def test_subprocess_exit_codes_and_stderr():
 
 
 def test_simulate_json_contract(capsys, tmp_path):
-    pytest.importorskip("vsw.simulate")
+    pytest.importorskip("vsw.models.ile.simulate")
     plot = tmp_path / "sim.png"
     argv = ["simulate", "--beta", "0.8", "--theta-ii", "0", "--phi0", "45", "--q0", "0.3"]
     code, out, err = run_main(capsys, [*argv, "--steps", "6", "--json", "--plot", str(plot)])
@@ -203,7 +203,7 @@ def test_basin_json_contract(capsys, tmp_path):
 
 
 def test_basin_edge_checks(capsys):
-    pytest.importorskip("vsw.simulate")
+    pytest.importorskip("vsw.models.ile.simulate")
     argv = ["basin", "--beta", "0.8", "--phi0", "45", "--theta-step", "10", "--n-q", "101"]
     code, out, _ = run_main(capsys, [*argv, "--check-edges", "2", "--json"])
     assert code == 0

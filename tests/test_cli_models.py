@@ -208,7 +208,7 @@ def test_rimless_wheel_basin_matches_the_apex_and_lift_off_bounds(capsys):
 
 
 def test_basin_over_rates_needs_one_coordinate_else_a_grid(capsys, monkeypatch):
-    from vsw.hybrid import load
+    from vsw.models import load
 
     monkeypatch.setattr(load("rimless_wheel"), "n", 2)  # the instance the CLI gets
     code, out, err = run(capsys, ["basin", *RIMLESS])

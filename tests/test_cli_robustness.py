@@ -174,7 +174,7 @@ def test_unwritable_plot_is_one_line_exit_2_before_any_work(capsys, tmp_path, co
 
 
 def test_plot_check_leaves_no_file_behind_and_keeps_existing_ones(tmp_path):
-    from vsw.plots import check_save_path
+    from vsw.figures import check_save_path
 
     fresh = tmp_path / "new.png"
     check_save_path(fresh)
@@ -186,12 +186,12 @@ def test_plot_check_leaves_no_file_behind_and_keeps_existing_ones(tmp_path):
 
 
 def test_plot_write_failure_after_the_check_is_one_line(monkeypatch, capsys, tmp_path):
-    import vsw.plots
+    import vsw.models.ile.plots
 
     def full(*args, **kwargs):
         raise OSError(28, "No space left on device", str(tmp_path / "b.png"))
 
-    monkeypatch.setattr(vsw.plots, "save_figure", full)
+    monkeypatch.setattr(vsw.models.ile.plots, "save_figure", full)
     code, _, err = run_main(capsys, [*SMALL_BASIN, "--plot", str(tmp_path / "b.png")])
     assert code == 2 and err.count("\n") == 1 and "No space left on device" in err
 
@@ -243,8 +243,8 @@ def test_invalid_vsw_threads_is_rejected_by_every_command(monkeypatch, capsys, s
 @pytest.mark.parametrize("size", [1, 10, 40_000])
 def test_invalid_vsw_threads_is_rejected_by_the_library_at_any_size(monkeypatch, size):
     from generated import ile
-    from vsw.analysis import analyze
     from vsw.errors import VswInputError
+    from vsw.models.ile.analysis import analyze
     from vsw.vectorize import chunked
 
     monkeypatch.setenv("VSW_THREADS", "0")
@@ -253,7 +253,7 @@ def test_invalid_vsw_threads_is_rejected_by_the_library_at_any_size(monkeypatch,
         analyze(beta, 0.0, math.pi / 4)
     with pytest.raises(VswInputError, match="VSW_THREADS"):
         chunked(ile.q_fixed, beta, 0.0, math.pi / 4)
-    from vsw import kernels
+    from vsw.models.ile import kernels
 
     with pytest.raises(VswInputError, match="VSW_THREADS"):
         kernels.fixed_point_conditions(beta, 0.0, math.pi / 4)
@@ -348,7 +348,7 @@ def test_default_memory_limit_follows_proc_meminfo(monkeypatch):
 def test_basin_memory_estimate_covers_what_is_allocated():
     # tracemalloc sees every numpy allocation; the estimate must not be below the peak
     # (else the limit lets through what does not fit) nor far above it.
-    from vsw.basin import basin, basin_cost
+    from vsw.models.ile.basin import basin, basin_cost
 
     theta = np.radians([-2.0, 0.0, 5.0])
     for n_q in (40_001, 3_000):
@@ -366,7 +366,7 @@ def test_basin_memory_estimate_covers_what_is_allocated():
 
 
 def test_simulate_memory_estimate_covers_what_is_allocated():
-    from vsw.simulate import simulate, simulate_cost
+    from vsw.models.ile.simulate import simulate, simulate_cost
 
     simulate(0.8, 0.0, math.pi / 4, 0.3, 1)  # imports SciPy outside the measurement
     for record in (False, True):
@@ -382,7 +382,7 @@ def test_simulate_memory_estimate_covers_what_is_allocated():
 
 def test_long_q_rows_are_split_into_blocks(monkeypatch):
     # One row of 3 CHUNKs of q: evaluated blockwise equals one whole-array evaluation.
-    from vsw import basin as basin_module
+    from vsw.models.ile import basin as basin_module
     from vsw.vectorize import CHUNK
 
     beta, phi0, theta = 0.8, math.pi / 4, np.array([[0.0]])
@@ -400,7 +400,7 @@ def test_long_q_rows_are_split_into_blocks(monkeypatch):
 
 
 def test_basin_progress_reaches_the_end_in_order():
-    from vsw.basin import basin
+    from vsw.models.ile.basin import basin
 
     calls = []
     theta = np.radians([0.0, 5.0, 10.0])
@@ -426,7 +426,8 @@ def test_help_lists_every_command_exit_status_and_limit(capsys):
     "command, shown",
     [
         ("basin", ["(default: 0.5)", "(default: 2001)", "(default: -30.0)"]),
-        ("design", ["(default: 2)", "(default: exact)"]),  # registered by vsw.design: inherits it
+        # registered by its own module: inherits it
+        ("design", ["(default: 2)", "(default: exact)"]),
     ],
 )
 def test_help_shows_defaults(capsys, command, shown):
@@ -483,7 +484,7 @@ def test_text_table_shows_angle_margins_in_degrees(capsys):
 
 def test_margin_units_match_independent_values():
     from generated import ile
-    from vsw.analysis import MARGIN_UNITS, analyze
+    from vsw.models.ile.analysis import MARGIN_UNITS, analyze
 
     assert list(MARGIN_UNITS) == [c[0] for c in ile.CONDITIONS]
     beta, theta_II, phi0 = 0.85, math.radians(4.0), math.radians(50.0)

@@ -1,4 +1,4 @@
-"""Tests of vsw.design: constrained gait design with CasADi/IPOPT on the closed forms."""
+"""Tests of vsw.models.ile.design: constrained gait design with CasADi/IPOPT on the closed forms."""
 
 from __future__ import annotations
 
@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 from generated import ile
-from vsw.analysis import analyze, step_period_scipy
 from vsw.cli import main
-from vsw.design import _quantities, design
-from vsw.params import STEPPER_2D, RobotScale
-from vsw.simulate import simulate
+from vsw.models.ile.analysis import analyze, step_period_scipy
+from vsw.models.ile.design import _quantities, design
+from vsw.models.ile.params import STEPPER_2D, RobotScale
+from vsw.models.ile.simulate import simulate
 
 R = math.radians
 BOUNDS = {"beta": (0.6, 0.95), "theta_II": (R(-20), R(20)), "phi0": (R(20), R(60))}
@@ -27,7 +27,7 @@ BOUND_ARGS = [
 
 def _grid_quantities(bounds: dict, n: int) -> tuple[np.ndarray, dict, np.ndarray]:
     """Closed-form quantities on an n^3 grid over the bounds (ends included)."""
-    from vsw.design import _numpy_quantities
+    from vsw.models.ile.design import _numpy_quantities
 
     axes = [np.linspace(*bounds[name], n) for name in ("beta", "theta_II", "phi0")]
     x = np.stack([a.ravel() for a in np.meshgrid(*axes, indexing="ij")], axis=1)
@@ -270,7 +270,7 @@ def test_paper_conditions_keep_the_design_inside_the_papers_region():
 
 
 def test_paper_conditions_never_use_the_region_where_theta_I_is_positive():
-    from vsw.design import _REGIONS, _build_problem
+    from vsw.models.ile.design import _REGIONS, _build_problem
 
     problem = _build_problem({"speed": 1.0}, None, None, None, 0.0, None, None, "paper")
     assert all(_REGIONS[r].theta_I_sign >= 0 for r in problem.regions)
@@ -299,7 +299,7 @@ def test_weighted_objective_is_no_worse_than_its_terms_at_their_own_optima():
 
 
 def test_extrapolation_of_known_sequences():
-    from vsw.design import _STEP, _extrapolate
+    from vsw.models.ile.design import _STEP, _extrapolate
 
     d = np.array([1.0, _STEP, _STEP**2, _STEP**3])
     limit, uncertainty = _extrapolate(list(2.0 + 3.0 * d))  # linear in the distance

@@ -1,6 +1,6 @@
 """A stratified subset of the design suite (benchmarks/design_suite.py), for correctness.
 
-Each problem is solved by vsw.design and by the suite's reference, which does not use
+Each problem is solved by vsw.models.ile.design and by the suite's reference, which does not use
 IPOPT (a dense grid of the exact closed forms, then SciPy SLSQP from the best grid points
 and from the gait the problem was built from). Times are not checked here;
 benchmarks/run.py (case 8) reports them.
@@ -18,7 +18,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import design_suite  # noqa: E402
 
-from vsw import design as design_module  # noqa: E402
+from vsw.models.ile import design as design_module  # noqa: E402
 
 PROBLEMS = design_suite.subset(design_suite.make_suite(220, 2026))
 

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from generated import ile
-from vsw.hybrid import load
-from vsw.params import random_parameters
+from vsw.models import load
+from vsw.models.ile.params import random_parameters
 
 SETS = [(0.8, 0.0, math.pi / 4)] + [
     tuple(float(v[i]) for v in random_parameters(4, seed=31, walking=True).values())

@@ -13,9 +13,10 @@ import numpy as np
 import pytest
 
 from generated import ile
-from vsw import plots, plotstyle
-from vsw.basin import basin, check_edges_by_simulation
-from vsw.simulate import simulate
+from vsw import plotstyle
+from vsw.models.ile import plots
+from vsw.models.ile.basin import basin, check_edges_by_simulation
+from vsw.models.ile.simulate import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 R45 = math.radians(45.0)
@@ -73,7 +74,7 @@ def test_cli_figures_identical_bytes_in_every_format(tmp_path, small_basin):
     # The two richest figures (the others are drawn by the same helpers; the audit's
     # figures are compared byte for byte in tests/test_paper_check.py).
     figures = _cli_figures(small_basin)
-    for name, formats in (("simulate", plots.SAVE_FORMATS), ("basin", ("pdf",))):
+    for name, formats in (("simulate", figures.SAVE_FORMATS), ("basin", ("pdf",))):
         make = figures[name]
         for ext in formats:
             first = plots.save_figure(make(), tmp_path / f"{name}-1.{ext}").read_bytes()
@@ -266,7 +267,7 @@ def test_edge_checks_drawn_so_none_hides_another(small_basin):
 
 def test_import_vsw_and_plots_does_not_load_matplotlib():
     code = (
-        "import sys, vsw, vsw.plots, vsw.plotstyle\n"
+        "import sys, vsw, vsw.models.ile.plots, vsw.plotstyle\n"
         "assert 'matplotlib' not in sys.modules, 'matplotlib imported'\n"
     )
     proc = subprocess.run(

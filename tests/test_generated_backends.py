@@ -351,7 +351,7 @@ def test_short_step_corner_numpy_and_casadi_within_the_condition_number(corner_r
 
 
 def test_short_step_corner_fused_and_batch_kernel_q_fixed(corner_reference):
-    from vsw import kernels
+    from vsw.models.ile import kernels
 
     rows, exact, kappa = corner_reference["q_fixed"]
     assert _corner_excess(ile.fixed_point_conditions(*rows.T)[0], exact, kappa) <= CORNER_TOL

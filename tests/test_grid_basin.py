@@ -66,7 +66,7 @@ def test_the_cell_at_the_gait_converges_at_once(capsys):
 def test_outcome_rows_run_over_y_and_columns_over_x(capsys):
     """A 3 x 5 grid (x has 5 values, y 3): cell [i][j] is the walk from (x[j], y[i])."""
     from vsw.batch import simulator
-    from vsw.hybrid import load
+    from vsw.models import load
 
     grid = ["--grid", "theta=-0.3:-0.1:5", "--grid", "theta_dot=0.15:0.25:3"]
     code, out, _ = run(capsys, [*WALKER, *grid, "--json"])
@@ -218,7 +218,7 @@ def brute_force():
 def test_brute_force_gaits_are_the_rootfinders(brute_force):
     """Each value's period-one gait (batch Newton) is the CasADi rootfinder's to 1e-10, and
     its max |eigenvalue| (differences of batch steps) the rootfinder's to 1e-5."""
-    from vsw.hybrid import load
+    from vsw.models import load
 
     model = load("simplest_walker")
     assert brute_force["method"] == "brute-force"
@@ -235,7 +235,7 @@ def test_brute_force_gaits_are_the_rootfinders(brute_force):
 def test_brute_force_attractor_is_the_scipy_routes(brute_force):
     """Past the flip (gamma = 0.015089) the iterated map settles on the period-two gait:
     the batch walk's kept steps equal HybridModel.attractor's (SciPy) from the same start."""
-    from vsw.hybrid import load
+    from vsw.models import load
 
     model = load("simplest_walker")
     periods = {p["gamma"]: p["attractor"]["period"] for p in brute_force["points"]}

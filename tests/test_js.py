@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import generated.ile as ile
-from vsw.params import random_parameters
+from vsw.models.ile.params import random_parameters
 
 ROOT = Path(__file__).resolve().parent.parent
 JS = ROOT / "generated" / "ile" / "js" / "ile.js"

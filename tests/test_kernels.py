@@ -9,7 +9,7 @@ import pytest
 
 import generated.ile as ile
 from tests.conftest import random_valid_parameters, random_walking_parameters
-from vsw import kernels
+from vsw.models.ile import kernels
 
 
 def _compare(got, expected, tol):
@@ -87,7 +87,7 @@ def test_missing_compiler_falls_back_to_numpy_and_says_why(tmp_path):
     import sys
 
     code = (
-        "import numpy as np; from vsw import kernels;"
+        "import numpy as np; from vsw.models.ile import kernels;"
         "q = kernels.fixed_point_conditions(np.full(3, 0.8), 0.0, 0.7)[0];"
         "print(kernels.build_error); print(float(q[0]))"
     )
@@ -104,7 +104,7 @@ def test_missing_compiler_falls_back_to_numpy_and_says_why(tmp_path):
 
 
 def test_large_analyses_use_the_kernel_and_agree_with_numpy(compiled, monkeypatch):
-    from vsw.analysis import _COMPILED_MIN_SIZE, analyze
+    from vsw.models.ile.analysis import _COMPILED_MIN_SIZE, analyze
 
     p = random_walking_parameters(_COMPILED_MIN_SIZE + 5000, seed=34)
     args = (p["beta"], p["theta_II"], p["phi0"])
@@ -122,7 +122,7 @@ import hashlib, sys
 from pathlib import Path
 
 import numpy as np
-from vsw import kernels
+from vsw.models.ile import kernels
 from tests.conftest import random_valid_parameters
 p = random_valid_parameters(2 * kernels.CHUNK + 17, seed=35)  # several blocks, threaded
 out = np.array(kernels.fixed_point_conditions(p["beta"], p["theta_II"], p["phi0"]))
@@ -234,7 +234,9 @@ def test_unparsable_cc_falls_back_to_numpy_and_says_why(tmp_path):
     import subprocess
     import sys
 
-    code = "from vsw import kernels; print(kernels.library() is None, kernels.build_error)"
+    code = (
+        "from vsw.models.ile import kernels; print(kernels.library() is None, kernels.build_error)"
+    )
     env = {**os.environ, "VSW_CACHE_DIR": str(tmp_path), "CC": "gcc 'unbalanced"}
     done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr

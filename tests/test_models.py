@@ -35,7 +35,8 @@ import pytest
 import generated
 from derive.__main__ import main as derive_main
 from derive.__main__ import render_all, stale_report, write_atomically
-from vsw.hybrid import HybridModel, load
+from vsw.hybrid import HybridModel
+from vsw.models import load
 
 MODELS = generated.MODELS
 REL_TOL = 1e-12

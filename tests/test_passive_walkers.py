@@ -45,7 +45,7 @@ import math
 import numpy as np
 import pytest
 
-from vsw.hybrid import load
+from vsw.models import load
 
 # [G98code], gam = 0.009, "to 1e-10"; in [G98]'s signs (theta1, theta1dot).
 GARCIA_LONG = (0.20031090049483, -0.19983247291764)

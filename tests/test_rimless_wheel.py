@@ -29,7 +29,7 @@ import numpy as np
 import pytest
 
 import generated.rimless_wheel as rw
-from vsw.hybrid import load
+from vsw.models import load
 
 DRAKE_DEFAULTS = (8, 0.08, 1.0, 9.81)
 """(number_of_spokes, slope, length, gravity) of rimless_wheel_params_named_vector.yaml."""

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from generated import ile
 from vsw.errors import ConvergenceError, VswInputError
-from vsw.simulate import (
+from vsw.models.ile.simulate import (
     SimulationResult,
     fixed_point_by_simulation,
     poincare_map,

@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from vsw.analysis import analyze
 from vsw.errors import VswInputError
-from vsw.params import STEPPER_2D
-from vsw.sweep import sweep
+from vsw.models.ile.analysis import analyze
+from vsw.models.ile.params import STEPPER_2D
+from vsw.models.ile.sweep import sweep
 
 
 def test_sweep_equals_pointwise_analysis_on_meshgrid():
@@ -42,31 +42,31 @@ def test_sweep_progress_and_errors():
 
 
 def test_figures_are_deterministic_and_paths_checked(tmp_path):
-    from vsw import plots
-    from vsw.basin import basin
+    from vsw.figures import save_figure
+    from vsw.models.ile import plots
+    from vsw.models.ile.basin import basin
 
     fig = plots.phase_portrait(0.8, 0.0, math.radians(45))
-    first = plots.save_figure(fig, tmp_path / "a.svg").read_bytes()
-    second = plots.save_figure(plots.phase_portrait(0.8, 0.0, math.radians(45)), tmp_path / "b.svg")
+    first = save_figure(fig, tmp_path / "a.svg").read_bytes()
+    second = save_figure(plots.phase_portrait(0.8, 0.0, math.radians(45)), tmp_path / "b.svg")
     assert first == second.read_bytes()
-    png = plots.save_figure(fig, tmp_path / "a.png").read_bytes()
-    assert png == plots.save_figure(fig, tmp_path / "c.png").read_bytes()
+    png = save_figure(fig, tmp_path / "a.png").read_bytes()
+    assert png == save_figure(fig, tmp_path / "c.png").read_bytes()
     b = basin(0.8, math.radians(45), np.radians(np.linspace(-10, 30, 9)), n_q=101)
-    plots.save_figure(plots.basin_plot(b), tmp_path / "basin.png")
-    plots.save_figure(
-        plots.convergence_plot(0.8, 0.0, math.radians(45), 0.2, 8), tmp_path / "q.png"
-    )
+    save_figure(plots.basin_plot(b), tmp_path / "basin.png")
+    save_figure(plots.convergence_plot(0.8, 0.0, math.radians(45), 0.2, 8), tmp_path / "q.png")
     with pytest.raises(VswInputError, match="does not exist"):
-        plots.save_figure(fig, tmp_path / "missing" / "x.png")
+        save_figure(fig, tmp_path / "missing" / "x.png")
     with pytest.raises(VswInputError, match="must end in"):
-        plots.save_figure(fig, tmp_path / "x.gif")
+        save_figure(fig, tmp_path / "x.gif")
 
 
 def test_time_series_from_simulation(tmp_path):
-    simulate = pytest.importorskip("vsw.simulate").simulate
-    from vsw import plots
+    simulate = pytest.importorskip("vsw.models.ile.simulate").simulate
+    from vsw.figures import save_figure
+    from vsw.models.ile import plots
 
     result = simulate(0.8, 0.0, math.radians(45), 0.3, 4)
     fig = plots.time_series(result)
     assert len(fig.axes) == 2
-    plots.save_figure(fig, tmp_path / "t.png")
+    save_figure(fig, tmp_path / "t.png")

@@ -17,7 +17,7 @@ from scipy.optimize import brentq
 
 import generated.ile as ile
 import generated.tle as tle
-from vsw.hybrid import load
+from vsw.models import load
 
 DEFAULT = (0.93, -0.1, 0.7, 0.4)
 GAITS = [DEFAULT, (0.95, 0.0, 0.6, 0.3), (0.9, -0.15, 0.8, 0.5)]

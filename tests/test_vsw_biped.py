@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import generated.ile as ile
-from vsw.hybrid import load
+from vsw.models import load
 
 GAITS = ((0.8, 0.1), (0.85, 0.05))
 """(beta, theta_II) with a period-one gait for small mu (b / l = 0.3, below beta)."""

@@ -5,7 +5,7 @@
 conditions, step length); :mod:`vsw.batch` compiles it with the generic integrator
 ``vsw/csrc/hybrid_batch.c`` (DOP853 with SciPy's step control, event location by the
 Illinois method on the guard to 1e-13 in time, the SciPy route's event rules) into the
-kernel cache (:func:`vsw.kernels.build_library`) and runs blocks of walks on threads
+kernel cache (:func:`vsw.models.ile.kernels.build_library`) and runs blocks of walks on threads
 (:func:`vsw.vectorize.run_blocks`; each ctypes call releases the GIL), or as tasks on a
 Dask cluster (:mod:`vsw.cluster`). Each walk ends with its outcome: converged to a given
 gait, a period-k orbit, fell (which failure), stalled, or walked every step.
@@ -28,7 +28,8 @@ from pathlib import Path
 import numpy as np
 
 from vsw.errors import VswInputError
-from vsw.hybrid import _PHASE_TIME_LIMIT, _RTOL, HybridModel, load
+from vsw.hybrid import _PHASE_TIME_LIMIT, _RTOL, HybridModel
+from vsw.models import load
 
 __all__ = ["BatchResult", "BatchSimulator", "reference_walks", "simulator"]
 
@@ -156,7 +157,7 @@ class BatchSimulator:
         with self._lock:
             if not self._tried:
                 self._tried = True
-                from vsw.kernels import build_library
+                from vsw.compiled import build_library
 
                 try:
                     table = self.source.read_bytes()

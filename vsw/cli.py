@@ -231,13 +231,13 @@ def _progress(label: str):
 def _check_plot_path(path: str | None) -> None:
     # Checked before any computation so a bad path fails fast with exit 2.
     if path is not None:
-        from vsw.plots import check_save_path
+        from vsw.figures import check_save_path
 
         check_save_path(path)
 
 
 def _gait_parameters(args: argparse.Namespace):
-    from vsw.params import GaitParameters
+    from vsw.models.ile.params import GaitParameters
 
     if not args.params:
         return GaitParameters.from_degrees(args.beta, args.theta_ii, args.phi0)
@@ -276,7 +276,7 @@ def _add_gait_arguments(
 
 
 def _scale_from_args(args: argparse.Namespace):
-    from vsw.params import STEPPER_2D, RobotScale
+    from vsw.models.ile.params import STEPPER_2D, RobotScale
 
     if args.stepper_2d:
         if args.leg_length is not None or args.mass is not None:
@@ -295,7 +295,7 @@ def _scale_from_args(args: argparse.Namespace):
 
 
 def _cmd_analyze(args: argparse.Namespace) -> int:
-    from vsw.analysis import analyze
+    from vsw.models.ile.analysis import analyze
     from vsw.models_cli import ILE, cmd_analyze
 
     if args.model != ILE:
@@ -359,8 +359,8 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
+    from vsw.models.ile.params import check_positive
     from vsw.models_cli import ILE, cmd_simulate
-    from vsw.params import check_positive
 
     if args.model != ILE:
         return cmd_simulate(args)
@@ -370,7 +370,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         raise VswInputError(f"steps = {args.steps} must be >= 1")
     _check_plot_path(args.plot)
     from vsw import limits
-    from vsw.simulate import simulate, simulate_cost
+    from vsw.models.ile.simulate import simulate, simulate_cost
 
     record = args.plot is not None
     limits.check(
@@ -382,7 +382,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         result = simulate(
             *params.astuple(), q0, args.steps, record=record, progress=lambda i, n: bar(i + 1, n)
         )
-    from vsw.analysis import _jsonable
+    from vsw.models.ile.analysis import _jsonable
 
     q_fixed = float(ile.q_fixed(*params.astuple()))
     data = {
@@ -399,7 +399,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         "q_fixed_closed_form": _jsonable(q_fixed),
     }
     if args.plot is not None:
-        from vsw.plots import save_figure, simulation_plot
+        from vsw.figures import save_figure
+        from vsw.models.ile.plots import simulation_plot
 
         save_figure(simulation_plot(*params.astuple(), q0, args.steps, result), args.plot)
         data["plot"] = args.plot
@@ -425,7 +426,7 @@ def _theta_grid(args: argparse.Namespace):
     """The theta_II grid (rad) of ``vsw basin`` from --theta-min/--theta-max/--theta-step."""
     import numpy as np
 
-    from vsw.params import PARAMETER_BY_NAME
+    from vsw.models.ile.params import PARAMETER_BY_NAME
 
     for flag in ("theta_min", "theta_max", "theta_step"):
         value = getattr(args, flag)
@@ -456,7 +457,7 @@ def _theta_grid(args: argparse.Namespace):
 
 
 def _cmd_explore(args: argparse.Namespace) -> int:
-    from vsw.explore import write_page
+    from vsw.models.ile.explore import write_page
 
     out = write_page(args.out, beta=args.beta, theta_II_deg=args.theta_ii, phi0_deg=args.phi0,
                      leg=args.leg_length)  # fmt: skip
@@ -468,9 +469,9 @@ def _cmd_basin(args: argparse.Namespace) -> int:
     import numpy as np
 
     from vsw import limits
-    from vsw.basin import basin, basin_cost, check_edges_by_simulation, edge_check_cost
+    from vsw.models.ile.basin import basin, basin_cost, check_edges_by_simulation, edge_check_cost
+    from vsw.models.ile.params import check_parameter
     from vsw.models_cli import ILE, cmd_basin, ile_values
-    from vsw.params import check_parameter
 
     if args.model != ILE:
         return cmd_basin(args)
@@ -521,7 +522,8 @@ def _cmd_basin(args: argparse.Namespace) -> int:
         )
         failed = sum(not c.ok for c in checks)
     if args.plot is not None:
-        from vsw.plots import basin_plot, save_figure
+        from vsw.figures import save_figure
+        from vsw.models.ile.plots import basin_plot
 
         save_figure(basin_plot(result, checks=checks if args.check_edges else None), args.plot)
         data["plot"] = args.plot
@@ -790,7 +792,7 @@ def build_parser() -> ArgumentParser:
 
 
 def _register_optional_commands(subparsers: Any) -> None:
-    """Let optional modules (vsw.design) add their subcommands via ``register_cli``."""
+    """Let optional modules (vsw.models.ile.design) add their subcommands via ``register_cli``."""
     import importlib
 
     for name in _OPTIONAL_COMMAND_MODULES:

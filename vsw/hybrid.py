@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from vsw.errors import ConvergenceError, VswInputError
+from vsw.parameters import check_parameter
 
 __all__ = [
     "Attractor",
@@ -43,34 +44,11 @@ __all__ = [
     "Orbit",
     "StepResult",
     "Trajectory",
-    "available_models",
-    "load",
 ]
 
 _RTOL = 1e-12
 _ATOL = 1e-12
 _PHASE_TIME_LIMIT = 100.0  # model time units; a phase that lasts longer has stalled
-
-
-def available_models() -> tuple[str, ...]:
-    """Names of the generated model packages."""
-    import generated
-
-    return tuple(generated.MODELS)
-
-
-def load(name: str) -> HybridModel:
-    """The generated model ``name`` (``-`` and ``_`` alike), one object per model."""
-    key = name.replace("-", "_")
-    if key not in available_models():
-        names = ", ".join(m.replace("_", "-") for m in available_models())
-        raise VswInputError(f"model {name!r} is not one of {names}")
-    return _load(key)
-
-
-@functools.cache
-def _load(key: str) -> HybridModel:
-    return HybridModel(importlib.import_module(f"generated.{key}"))
 
 
 @dataclass(frozen=True)
@@ -223,8 +201,6 @@ class HybridModel:
 
     def parameters(self, values: Mapping[str, float] | None = None) -> tuple[float, ...]:
         """The parameter vector: defaults, overridden by ``values`` (validated)."""
-        from vsw.params import check_parameter
-
         values = dict(values or {})
         names = [p.name for p in self.parameter_table]
         for name in values:

@@ -87,7 +87,7 @@ HYBRID_BYTES_PER_STEP = 2_500
 BATCH_SECONDS_PER_PHASE = 4e-5  # per phase x coordinate: covers the compass gait (37 us)
 #: a basin cell: the state, outcome, label and steps, and their JSON text (~100 bytes)
 BATCH_BYTES_PER_CELL = 400
-# vsw sweep of the ILE (vsw.sweep over one parameter, every analysis field, JSON text):
+# vsw sweep of the ILE (vsw.models.ile.sweep over one parameter, every analysis field, JSON text):
 #: per point, 1000 and 10^5 points: 76-91 us
 ILE_SWEEP_SECONDS_PER_POINT = 1e-4
 #: per point, tracemalloc peak at 1000 and 10^5 points: 4.0-4.1 kB

@@ -407,7 +407,7 @@ def after_parse(parser: argparse.ArgumentParser, args: argparse.Namespace, comma
 
 def _hybrid(key: str, command: str):
     """The engine model ``key`` for ``command``, or a one-line refusal."""
-    from vsw.hybrid import load
+    from vsw.models import load
 
     if not hasattr(_module(key), "HYBRID"):
         raise VswInputError(
@@ -448,7 +448,7 @@ def _engine(model: Any) -> Iterator[None]:
 
 def _clean(value: Any) -> Any:
     """Nested dicts/lists of numbers for strict JSON (NaN and infinities become None)."""
-    from vsw.analysis import _jsonable
+    from vsw.models.ile.analysis import _jsonable
 
     if isinstance(value, dict):
         return {k: _clean(v) for k, v in value.items()}
@@ -858,7 +858,7 @@ def cmd_grid_basin(args: argparse.Namespace, model) -> int:
     if scheduler:
         data["scheduler"] = scheduler
     if args.plot is not None:
-        from vsw.plots import save_figure
+        from vsw.figures import save_figure
 
         save_figure(basin_plot(_clean(data), model.spec["coordinate_units"]), args.plot)
         data["plot"] = args.plot
@@ -889,7 +889,7 @@ def cmd_animate(args: argparse.Namespace) -> int:
 
     from vsw.animate import animation_frames, check_output, write_animation
     from vsw.cli import EXIT_OK, _dump_json, _fmt
-    from vsw.hybrid import load
+    from vsw.models import load
 
     out = check_output(args.out)
     model = load(args.model)
@@ -1112,8 +1112,8 @@ def _diagram_out(args, model, data: dict, y: str) -> bool:
     from vsw.cli import _dump_json
 
     if args.plot is not None:
-        from vsw.model_plots import bifurcation_plot
-        from vsw.plots import save_figure
+        from vsw.diagrams import bifurcation_plot
+        from vsw.figures import save_figure
 
         save_figure(bifurcation_plot(_clean(data), y, _units(model)), args.plot)
         data["plot"] = args.plot
@@ -1182,11 +1182,11 @@ def _sweep_brute_force(args, model, name: str, values, y: str, keep: int) -> int
 
 
 def _sweep_ile(args: argparse.Namespace) -> int:
-    """The ILE's sweep: :func:`vsw.sweep.sweep` over one parameter (closed forms)."""
+    """The ILE's sweep: :func:`vsw.models.ile.sweep.sweep` over one parameter (closed forms)."""
     from vsw import limits
-    from vsw.analysis import FIELDS, _jsonable
     from vsw.cli import EXIT_OK, _check_plot_path, _dump_json, _fmt, _progress
-    from vsw.sweep import sweep
+    from vsw.models.ile.analysis import FIELDS, _jsonable
+    from vsw.models.ile.sweep import sweep
 
     name, values = parse_over(ILE, args.over)
     _check_plot_path(args.plot)
@@ -1207,8 +1207,8 @@ def _sweep_ile(args: argparse.Namespace) -> int:
     ]
     data = {"model": ILE, "over": name, "parameters": fixed, "points": points}
     if args.plot is not None:
-        from vsw.model_plots import ile_sweep_plot
-        from vsw.plots import save_figure
+        from vsw.figures import save_figure
+        from vsw.models.ile.plots import ile_sweep_plot
 
         unit = next(p.unit for p in parameter_table(ILE) if p.name == name)
         save_figure(ile_sweep_plot(data, f"{name} [{unit}]" if unit else name), args.plot)

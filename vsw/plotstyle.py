@@ -1,4 +1,4 @@
-"""One figure style for the CLI plots (:mod:`vsw.plots`) and the audit's figures.
+"""One figure style for the CLI plots (:mod:`vsw.models.ile.plots`) and the audit's figures.
 
 Everything a figure looks like is decided here: sizes for a journal column, font sizes
 that stay readable at that width, a colour-blind-safe palette (Okabe & Ito) with marker

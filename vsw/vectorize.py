@@ -62,9 +62,9 @@ def default_threads() -> int:
     """Worker threads for block evaluation: ``VSW_THREADS`` if set, else the usable cores.
 
     The one reading of ``VSW_THREADS``: every entry point that evaluates blockwise
-    (:func:`chunked`, ``vsw.analysis.analyze``, ``vsw.basin.basin``, the CLI) calls it
-    before any work, whatever the size of its input, so an invalid setting is rejected
-    the same way everywhere, not only by calls large enough to use threads.
+    (:func:`chunked`, ``vsw.models.ile.analysis.analyze``, ``vsw.models.ile.basin.basin``,
+    the CLI) calls it before any work, whatever the size of its input, so an invalid setting
+    is rejected the same way everywhere, not only by calls large enough to use threads.
 
     Raises
     ------

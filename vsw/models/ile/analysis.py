@@ -14,8 +14,8 @@ from typing import Any
 import numpy as np
 
 from generated import ile
-from vsw import kernels
-from vsw.params import RobotScale, validate
+from vsw.models.ile import kernels
+from vsw.models.ile.params import RobotScale, validate
 from vsw.vectorize import CHUNK, default_threads, run_blocks
 
 __all__ = [
@@ -55,8 +55,8 @@ SI_FIELDS = (
     "energy_added_J",
     "energy_lost_J",
 )
-"""Extra outputs when a :class:`~vsw.params.RobotScale` is given: the SI values, each under
-its own key with the unit in its name. The keys of :data:`FIELDS` never change unit."""
+"""Extra outputs when a :class:`~vsw.models.ile.params.RobotScale` is given: the SI values,
+each under its own key with the unit in its name. The keys of :data:`FIELDS` never change unit."""
 
 MARGIN_UNITS = {
     "q_positive": "g/r_e",
@@ -241,7 +241,8 @@ def _compute_chunk(
     timing: bool,
     compiled: bool = False,
 ) -> dict[str, np.ndarray]:
-    """All outputs for 1-D parameter arrays of equal length (compiled: use vsw.kernels)."""
+    """All outputs for 1-D parameter arrays of equal length (compiled: use
+    vsw.models.ile.kernels)."""
     out: dict[str, np.ndarray] = {}
     # Invalid square roots and divisions happen by design where a gait does not exist; the
     # results are NaN there and are reported as such, never as a warning.
@@ -316,7 +317,7 @@ def analyze(
     Raises
     ------
     VswInputError
-        Invalid parameters (see :func:`vsw.params.validate`).
+        Invalid parameters (see :func:`vsw.models.ile.params.validate`).
     """
     beta_a, theta_a, phi0_a = validate(beta, theta_II, phi0)
     threads = default_threads()  # checks VSW_THREADS for every size of input

@@ -20,9 +20,9 @@ import numpy as np
 
 from generated import ile
 from vsw import limits
-from vsw.analysis import _jsonable, analyze
 from vsw.errors import VswInputError
-from vsw.params import check_parameter
+from vsw.models.ile.analysis import _jsonable, analyze
+from vsw.models.ile.params import check_parameter
 from vsw.vectorize import CHUNK, default_threads, run_blocks
 
 __all__ = [
@@ -445,7 +445,7 @@ def edge_check_cost(
     Each row simulates both edges from inside for ``steps`` steps (default as there) and
     from outside for 2 steps (see :mod:`vsw.limits` for the cost of a step).
     """
-    from vsw.simulate import simulate_cost
+    from vsw.models.ile.simulate import simulate_cost
 
     steps = _edge_check_steps(beta, phi0) if steps is None else steps
     return simulate_cost(n_samples * (2 * steps + 4), record=False)
@@ -458,7 +458,7 @@ def check_edges_by_simulation(
     steps: int | None = None,
     progress: Progress | None = None,
 ) -> list[EdgeCheck]:
-    """Check sampled basin edges with the time-domain simulation (``vsw.simulate``).
+    """Check sampled basin edges with the time-domain simulation (``vsw.models.ile.simulate``).
 
     Just inside each edge the simulation must complete and reach q_fixed; just outside the
     lower edge it must fall backward and outside the upper edge the foot must lift off.
@@ -479,7 +479,7 @@ def check_edges_by_simulation(
     -------
     list of EdgeCheck
     """
-    from vsw.simulate import simulate
+    from vsw.models.ile.simulate import simulate
 
     rows = np.flatnonzero(np.isfinite(result.q_min) & np.isfinite(result.q_max))
     if rows.size == 0:

@@ -1,46 +1,42 @@
-"""matplotlib figures: phase portrait (Fig. 8), simulation, convergence of q, basin (Fig. 9).
+"""The ILE's figures: phase portrait (Fig. 8), simulation, convergence of q, basin (Fig. 9),
+and the closed-form outputs along a parameter (``vsw sweep --plot``).
 
 matplotlib is imported lazily. Figures are built with ``matplotlib.figure.Figure`` (no
 pyplot state, no GUI backend) in the style of :mod:`vsw.plotstyle` (the same as the
 audit's figures): sized for a journal column, mathtext labels with units, colour-blind-safe
-colours with distinct markers, legends outside the data. :func:`save_figure` writes PNG
-(at :data:`vsw.plotstyle.PNG_DPI`), SVG or PDF without dates or version strings and with
-a fixed SVG hash salt, so the same figure gives the same bytes.
+colours with distinct markers, legends outside the data; :func:`vsw.figures.save_figure`
+writes them.
 """
 
 from __future__ import annotations
 
 import math
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from generated import ile
 from vsw import plotstyle
-from vsw.analysis import analyze
+from vsw.diagrams import parameter_title
 from vsw.errors import VswInputError
+from vsw.models.ile.analysis import analyze
 from vsw.plotstyle import COLORS, DEG, LABELS
 
 if TYPE_CHECKING:
-    from collections.abc import Sequence
+    from collections.abc import Mapping, Sequence
 
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-    from vsw.basin import Basin, EdgeCheck
+    from vsw.models.ile.basin import Basin, EdgeCheck
 
 __all__ = [
-    "SAVE_FORMATS",
     "basin_plot",
     "convergence_plot",
     "phase_portrait",
-    "save_figure",
     "simulation_plot",
     "time_series",
 ]
-
-SAVE_FORMATS = ("png", "svg", "pdf")
 
 ENDED = {
     "completed": "completed",
@@ -173,7 +169,7 @@ def time_series(result: Any, ax: Axes | None = None, ax_omega: Axes | None = Non
 
     Parameters
     ----------
-    result : vsw.simulate.SimulationResult
+    result : vsw.models.ile.simulate.SimulationResult
         Needs ``t``, ``theta``, ``omega`` (shape (n,)), ``events`` and ``ended``.
     ax, ax_omega : matplotlib Axes, optional
         Axes for theta and for omega. Without either, a new figure with both stacked
@@ -273,7 +269,7 @@ def convergence_plot(
         Initial q.
     steps : int
         Steps asked for (the horizontal axis spans them).
-    result : vsw.simulate.SimulationResult, optional
+    result : vsw.models.ile.simulate.SimulationResult, optional
         Its ``q`` (shape (k,)) is overlaid as markers; its ``ended`` marks the failure.
     ax : matplotlib Axes, optional
     legend : bool
@@ -364,7 +360,7 @@ def simulation_plot(
         Initial q.
     steps : int
         Steps asked for.
-    result : vsw.simulate.SimulationResult
+    result : vsw.models.ile.simulate.SimulationResult
         Recorded run (``simulate(..., record=True)``).
 
     Returns
@@ -445,12 +441,12 @@ def basin_plot(
 
     Parameters
     ----------
-    result : vsw.basin.Basin
+    result : vsw.models.ile.basin.Basin
     ax : matplotlib Axes, optional
     variable : {'omega', 'q'}
         Horizontal axis: omega_I (as in the paper) or q = omega_I^2.
-    checks : sequence of vsw.basin.EdgeCheck, optional
-        Simulations next to the edges (:func:`vsw.basin.check_edges_by_simulation`):
+    checks : sequence of vsw.models.ile.basin.EdgeCheck, optional
+        Simulations next to the edges (:func:`vsw.models.ile.basin.check_edges_by_simulation`):
         open circles just inside (converge), crosses just outside (fail), drawn so that
         neither hides the other; a check that failed is a filled diamond.
     legend : bool
@@ -560,69 +556,34 @@ def _draw_edge_checks(ax: Axes, checks: Sequence[EdgeCheck], transform: Any) -> 
         ax.plot(x, y, ls="none", zorder=z, label=labels[key], clip_on=False, **styles[key])
 
 
-def check_save_path(path: str | Path) -> Path:
-    """Validate an output path before any work: it can be written as a figure file.
+_ILE_PANELS = (
+    ("q_fixed", r"$q^f$ [$g/r_e$]"),
+    ("eigenvalue", r"eigenvalue $\lambda$"),
+    ("speed", r"speed [$\sqrt{g r_e}$]"),
+)
 
-    Checks a known suffix, an existing parent directory, that the path is not a
-    directory, and that the file can be opened for writing (it is opened without
-    truncation and closed; a file that did not exist is removed again), so that a
-    read-only or virtual file system (``/proc``, ``/sys``) fails here and not after
-    the computation.
 
-    Raises
-    ------
-    VswInputError
-        One line naming the path and what is wrong.
-    """
-    import os  # here, not at the top: this function is the only user
-
-    text = str(path)
-    if not text.strip():
-        raise VswInputError(
-            f"plot file name is empty: give a path ending in "
-            f"{', '.join('.' + s for s in SAVE_FORMATS)}"
+@plotstyle.styled
+def ile_sweep_plot(data: Mapping[str, Any], xlabel: str) -> Figure:
+    """The ILE's fixed point q^f (10), eigenvalue (20) and speed along the swept
+    parameter; points where no gait exists are left empty."""
+    over = data["over"]
+    points: Sequence[Mapping[str, Any]] = data["points"]
+    fig, axes = plotstyle.new_figure(
+        width=plotstyle.COLUMN_WIDTH, height=1.5 * plotstyle.COLUMN_WIDTH, nrows=3,
+        sharex=True,
+    )  # fmt: skip
+    xs = np.array([p[over] for p in points], dtype=float)
+    for ax, (field, label) in zip(axes, _ILE_PANELS):
+        values = np.array(
+            [np.nan if not p.get("walks") or p.get(field) is None else p[field] for p in points],
+            dtype=float,
         )
-    path = Path(path)
-    suffix = path.suffix.lower().lstrip(".")
-    if suffix not in SAVE_FORMATS:
-        raise VswInputError(
-            f"plot file {text!r} must end in one of {', '.join('.' + s for s in SAVE_FORMATS)}"
-        )
-    parent = path.parent
-    if not parent.is_dir():
-        raise VswInputError(f"plot file {text!r}: directory {str(parent)!r} does not exist")
-    if path.is_dir():
-        raise VswInputError(f"plot file {text!r} is a directory")
-    existed = os.path.lexists(path)
-    try:
-        # O_NONBLOCK: a FIFO without a reader fails at once instead of blocking.
-        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_APPEND | os.O_NONBLOCK, 0o666)
-    except OSError as exc:
-        raise VswInputError(f"plot file {text!r} cannot be written: {exc.strerror}") from None
-    os.close(fd)
-    if not existed:
-        path.unlink(missing_ok=True)
-    return path
-
-
-def save_figure(fig: Figure, path: str | Path, dpi: int = plotstyle.PNG_DPI) -> Path:
-    """Save deterministically (no dates, no software version, fixed SVG ids).
-
-    Parameters
-    ----------
-    fig : matplotlib.figure.Figure
-    path : str or Path
-        Ending in .png, .svg or .pdf in an existing directory; the format follows.
-    dpi : int
-        PNG resolution (default :data:`vsw.plotstyle.PNG_DPI`); SVG and PDF are vector.
-
-    Returns
-    -------
-    Path
-    """
-    path = check_save_path(path)
-    fmt = path.suffix.lower().lstrip(".")
-    with plotstyle.context():
-        plotstyle.settle_layout(fig)
-        fig.savefig(path, format=fmt, dpi=dpi, metadata=plotstyle.SAVE_METADATA[fmt])
-    return path
+        values[~np.isfinite(values)] = np.nan
+        ax.plot(xs, values, "-", color=COLORS["blue"], marker="none")
+        ax.set_ylabel(label)
+    axes[1].axhline(1.0, color=COLORS["grey"], linewidth=0.8)
+    axes[1].axhline(-1.0, color=COLORS["grey"], linewidth=0.8)
+    axes[0].set_title(parameter_title("ile", data["parameters"]))
+    axes[-1].set_xlabel(xlabel)
+    return fig

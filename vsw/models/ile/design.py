@@ -1,6 +1,6 @@
 """Constrained design of ILE gait parameters with CasADi and IPOPT.
 
-The inverse question of :mod:`vsw.analysis`: which (beta, theta_II, phi0) give the gait a
+The inverse question of :mod:`vsw.models.ile.analysis`: which (beta, theta_II, phi0) give the gait a
 user wants within what the robot can do. The NLP is built from the generated closed forms
 (``generated.ile`` accepts CasADi SX), so every function and derivative is exact:
 
@@ -36,7 +36,7 @@ gives each region its best feasible points for the objective and its least-viola
 IPOPT starts there. A solution counts only when IPOPT reports success *and* a numpy
 re-evaluation of the closed forms confirms every constraint, with every physical condition
 in its exact strict form; the design is then re-checked by the independent time-domain
-simulation (:mod:`vsw.simulate`).
+simulation (:mod:`vsw.models.ile.simulate`).
 
 Statuses
 --------
@@ -49,7 +49,7 @@ infimum is a limit the model never reaches; the design is re-solved ever closer 
 (the constraints in conflict are named). ``not-converged``: the scan found feasible
 points but no solve converged to a verified design.
 
-``import vsw.design`` is cheap: casadi is imported inside functions.
+``import vsw.models.ile.design`` is cheap: casadi is imported inside functions.
 """
 
 from __future__ import annotations
@@ -69,7 +69,7 @@ import numpy as np
 from generated import ile
 from generated.ile.params import PARAMETERS
 from vsw.errors import VswInputError
-from vsw.params import RobotScale
+from vsw.models.ile.params import RobotScale
 
 __all__ = [
     "CONDITION_SETS",
@@ -444,7 +444,7 @@ def _variable_bounds(
     it than :data:`TABLE_DISTANCE` is refused: the design never comes that close to an
     open limit, so such a bound could not be honoured as the closed bound it is.
     """
-    from vsw.params import check_parameter
+    from vsw.models.ile.params import check_parameter
 
     lbx, ubx = np.empty(3), np.empty(3)
     table_open: set[tuple[int, int]] = set()
@@ -1137,7 +1137,7 @@ class DesignResult:
         'not-attained': the best design presses against an open limit (see ``limit``).
     beta, theta_II, phi0 : float or None
         The design (radians); None unless a design was found.
-    analysis : vsw.analysis.Analysis or None
+    analysis : vsw.models.ile.analysis.Analysis or None
         All outputs of ``vsw analyze`` at the design.
     objective : float or None
         The minimised weighted sum (speed enters with a minus sign).
@@ -1189,7 +1189,7 @@ class DesignResult:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON contract of ``vsw design --json``: the analysis keys plus the design's."""
-        from vsw.analysis import FIELDS
+        from vsw.models.ile.analysis import FIELDS
 
         out: dict[str, Any] = {"status": self.status}
         if self.analysis is not None:
@@ -1251,7 +1251,7 @@ def simulation_check(analysis: Any) -> float:
     period, the step length and the speed; ``inf`` when the simulation does not complete
     the two steps.
     """
-    from vsw.simulate import simulate
+    from vsw.models.ile.simulate import simulate
 
     beta, theta_II, phi0 = (float(v) for v in (analysis.beta, analysis.theta_II, analysis.phi0))
     q_fixed = float(analysis.q_fixed)
@@ -1414,7 +1414,7 @@ def design(
         )
         return DesignResult("not-converged", message=message, ipopt_status=statuses, **common)
 
-    from vsw.analysis import analyze
+    from vsw.models.ile.analysis import analyze
 
     limit = _continue_to_limit(problem, best) if best.open_active else None
     if limit is not None and len(limit.path) > 1:
@@ -1481,7 +1481,7 @@ def _parse_fix(texts: Sequence[str]) -> dict[str, float]:
 
 
 def _design_from_args(args: argparse.Namespace) -> tuple[DesignResult, RobotScale | None, bool]:
-    from vsw.params import STEPPER_2D
+    from vsw.models.ile.params import STEPPER_2D
 
     mass_given = args.mass is not None or args.stepper_2d
     if args.stepper_2d:

@@ -13,7 +13,9 @@ from numbers import Real
 import numpy as np
 
 from generated.ile.params import PARAMETERS
+from vsw import parameters
 from vsw.errors import VswInputError
+from vsw.parameters import check_positive
 
 __all__ = [
     "PARAMETER_BY_NAME",
@@ -29,96 +31,9 @@ PARAMETER_BY_NAME = {p.name: p for p in PARAMETERS}
 """The generated parameter table keyed by name (``beta``, ``theta_II``, ``phi0``)."""
 
 
-def _format_value(value: object, cli_degrees: bool) -> str:
-    """A short human form of a scalar value; angles also in degrees (the CLI's unit)."""
-    if isinstance(value, (float, np.floating)) and cli_degrees and math.isfinite(value):
-        return f"{value:.6g} rad ({math.degrees(value):.6g} deg)"
-    if isinstance(value, (float, np.floating)):
-        return f"{value:.6g}"
-    return repr(value)
-
-
-def _as_float_array(name: str, value: object, reason: str) -> np.ndarray:
-    """``value`` as a float array; anything that is not a real number raises VswInputError."""
-    # bool is an int subclass and strings convert with dtype=float: both are rejected on purpose.
-    if isinstance(value, np.ma.MaskedArray) and np.ma.getmaskarray(value).any():
-        # np.asarray would silently drop the mask and compute with the hidden values.
-        count = int(np.ma.getmaskarray(value).sum())
-        raise VswInputError(
-            f"{name} is a masked array with {count} masked value(s), which would be computed "
-            f"as if unmasked; pass the values to use, e.g. {name}.compressed() or "
-            f"{name}.filled(...)"
-        )
-    raw = np.asarray(value)
-    if raw.dtype.kind not in "iuf":
-        raise VswInputError(f"{name} = {value!r} is not a real number; {reason}")
-    return raw.astype(float, copy=False)
-
-
-def check_parameter(name: str, value: object, table: tuple | None = None) -> np.ndarray:
-    """Validate one model parameter against the open interval of the generated table.
-
-    Parameters
-    ----------
-    name : str
-        Parameter name as in the table (the ILE's: ``beta``, ``theta_II``, ``phi0``).
-    value : float or array_like
-        Value(s) in radians for angles.
-    table : tuple of generated Parameter records, optional
-        Another model's table (``generated.<model>.params.PARAMETERS``); default the ILE's.
-
-    Returns
-    -------
-    numpy.ndarray
-        ``value`` as a float array of the same shape.
-
-    Raises
-    ------
-    VswInputError
-        One line naming the parameter, the first offending value and the violated condition
-        with the table's reason (which cites the paper's equation where there is one).
-    """
-    p = PARAMETER_BY_NAME[name] if table is None else next(r for r in table if r.name == name)
-    arr = _as_float_array(name, value, p.reason)
-    with np.errstate(invalid="ignore"):
-        bad = ~(np.isfinite(arr) & (arr > p.lower) & (arr < p.upper))
-    if np.any(bad):
-        index = tuple(int(i) for i in np.argwhere(bad)[0]) if arr.ndim else ()
-        where = f"{name}[{', '.join(map(str, index))}]" if index else name
-        bad_value = float(arr[index])
-        shown = _format_value(bad_value, p.cli_degrees)
-        if not math.isfinite(bad_value):
-            condition = "must be finite"
-        else:
-            condition = f"violates {p.lower:.6g} < {name} < {p.upper:.6g}"
-        raise VswInputError(f"{where} = {shown} {condition}: {p.reason}")
-    return arr
-
-
-def check_positive(name: str, value: object, reason: str) -> np.ndarray:
-    """Validate a positive finite quantity (a scale, q0, ...); same error style as parameters.
-
-    Parameters
-    ----------
-    name : str
-        Name used in the message.
-    value : float or array_like
-    reason : str
-        Why it must be positive (appended to the message).
-
-    Returns
-    -------
-    numpy.ndarray
-    """
-    arr = _as_float_array(name, value, reason)
-    with np.errstate(invalid="ignore"):
-        bad = ~(np.isfinite(arr) & (arr > 0))
-    if np.any(bad):
-        index = tuple(int(i) for i in np.argwhere(bad)[0]) if arr.ndim else ()
-        bad_value = float(arr[index])
-        condition = "must be finite" if not math.isfinite(bad_value) else "must be > 0"
-        raise VswInputError(f"{name} = {bad_value:.6g} {condition}: {reason}")
-    return arr
+def check_parameter(name: str, value: object, table: tuple = PARAMETERS) -> np.ndarray:
+    """:func:`vsw.parameters.check_parameter` with the ILE's table by default."""
+    return parameters.check_parameter(name, value, table)
 
 
 def validate(beta: object, theta_II: object, phi0: object) -> tuple[np.ndarray, ...]:

@@ -1,6 +1,6 @@
 """``vsw explore``: one self-contained HTML page to explore the ILE in a browser.
 
-The page (``vsw/templates/explore.html``) inlines ``generated/ile/js/ile.js``, the
+The page (``vsw/models/ile/templates/explore.html``) inlines ``generated/ile/js/ile.js``, the
 JavaScript ``python -m derive`` prints from the derivation (:mod:`derive.js_codegen`):
 q^f, the eigenvalue, every existence condition's margin, the step length and period
 (Carlson form), the basin interval, the gait's dynamics and resets. No number on the page
@@ -12,10 +12,11 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import generated
 from vsw.errors import VswInputError
 
 TEMPLATE = Path(__file__).resolve().parent / "templates" / "explore.html"
-MODEL_JS = Path(__file__).resolve().parent.parent / "generated" / "ile" / "js" / "ile.js"
+MODEL_JS = Path(generated.__file__).resolve().parent / "ile" / "js" / "ile.js"
 
 # The sliders' ranges (the template's min/max): beta, theta_II [deg], phi0 [deg], r_e [m].
 RANGES = {"beta": (0.30, 0.99), "theta_II": (-40.0, 40.0), "phi0": (5.0, 89.0), "leg": (0.1, 2.0)}

@@ -9,9 +9,9 @@ from typing import Any
 import numpy as np
 
 from generated import ile
-from vsw.analysis import FIELDS, SI_FIELDS, Analysis, analyze
 from vsw.errors import VswInputError
-from vsw.params import RobotScale, check_parameter
+from vsw.models.ile.analysis import FIELDS, SI_FIELDS, Analysis, analyze
+from vsw.models.ile.params import RobotScale, check_parameter
 
 __all__ = ["OUTPUTS", "Sweep", "sweep"]
 

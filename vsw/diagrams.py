@@ -1,14 +1,13 @@
-"""Figures of ``vsw sweep --plot``: a bifurcation diagram for the engine's models and the
-closed-form outputs along a parameter for the ILE.
+"""The bifurcation diagram of ``vsw sweep --plot`` for every model of the engine.
 
-Both draw from the sweep's own JSON record (the dictionary ``vsw sweep --json`` prints),
+It draws from the sweep's own JSON record (the dictionary ``vsw sweep --json`` prints),
 so a figure shows exactly the numbers the command reports. The style is
 :mod:`vsw.plotstyle`'s; matplotlib is imported by it, inside the functions.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -19,7 +18,7 @@ from vsw.plotstyle import COLORS
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["bifurcation_plot", "diagram_value", "ile_sweep_plot"]
+__all__ = ["bifurcation_plot", "diagram_value", "parameter_title"]
 
 
 def diagram_value(y: str, state: Mapping[str, float] | None, step_length, step_period):
@@ -36,7 +35,7 @@ def diagram_value(y: str, state: Mapping[str, float] | None, step_length, step_p
     return None if state is None else state.get(y)
 
 
-def _title(model: str, parameters: Mapping[str, float], width: int = 48) -> str:
+def parameter_title(model: str, parameters: Mapping[str, float], width: int = 48) -> str:
     """The model and its fixed parameters, wrapped to the column's width."""
     import textwrap
 
@@ -124,7 +123,7 @@ def bifurcation_plot(data: Mapping[str, Any], y: str, units: Mapping[str, str]) 
         ax.plot(fell_x, [bottom] * len(fell_x), linestyle="none", marker="x",
                 color=COLORS["black"], label="walk fell")  # fmt: skip
     ax.set_ylabel(_axis_label(y, units))
-    ax.set_title(_title(data["model"], data["parameters"]))
+    ax.set_title(parameter_title(data["model"], data["parameters"]))
     plotstyle.figure_legend(fig, *ax.get_legend_handles_labels(), ncols=2)
 
     eig = np.array([np.nan if p["max_abs_eigenvalue"] is None else p["max_abs_eigenvalue"]
@@ -137,37 +136,4 @@ def bifurcation_plot(data: Mapping[str, Any], y: str, units: Mapping[str, str]) 
         finite = eig[np.isfinite(eig)]
         if finite.size and finite.max() / max(finite.min(), 1e-300) > 50:
             ax_eig.set_yscale("log")
-    return fig
-
-
-_ILE_PANELS = (
-    ("q_fixed", r"$q^f$ [$g/r_e$]"),
-    ("eigenvalue", r"eigenvalue $\lambda$"),
-    ("speed", r"speed [$\sqrt{g r_e}$]"),
-)
-
-
-@plotstyle.styled
-def ile_sweep_plot(data: Mapping[str, Any], xlabel: str) -> Figure:
-    """The ILE's fixed point q^f (10), eigenvalue (20) and speed along the swept
-    parameter; points where no gait exists are left empty."""
-    over = data["over"]
-    points: Sequence[Mapping[str, Any]] = data["points"]
-    fig, axes = plotstyle.new_figure(
-        width=plotstyle.COLUMN_WIDTH, height=1.5 * plotstyle.COLUMN_WIDTH, nrows=3,
-        sharex=True,
-    )  # fmt: skip
-    xs = np.array([p[over] for p in points], dtype=float)
-    for ax, (field, label) in zip(axes, _ILE_PANELS):
-        values = np.array(
-            [np.nan if not p.get("walks") or p.get(field) is None else p[field] for p in points],
-            dtype=float,
-        )
-        values[~np.isfinite(values)] = np.nan
-        ax.plot(xs, values, "-", color=COLORS["blue"], marker="none")
-        ax.set_ylabel(label)
-    axes[1].axhline(1.0, color=COLORS["grey"], linewidth=0.8)
-    axes[1].axhline(-1.0, color=COLORS["grey"], linewidth=0.8)
-    axes[0].set_title(_title("ile", data["parameters"]))
-    axes[-1].set_xlabel(xlabel)
     return fig

@@ -1,0 +1,54 @@
+"""The models of the runtime: one object per generated package, every command through it.
+
+``generated.MODELS`` lists the packages ``python -m derive`` writes; :func:`load` gives each
+as a :class:`vsw.hybrid.HybridModel` (the generic runtime, driven by the package's
+``HYBRID`` descriptor) or, where a model has closed forms of its own, as that model's
+extension of it (the ILE: :class:`vsw.models.ile.model.IleModel`), which answers the same
+calls through its closed forms. Names are the packages' keys with ``-`` or ``_``
+(``rimless-wheel`` and ``rimless_wheel`` alike).
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib
+
+import generated
+from vsw.errors import VswInputError
+from vsw.hybrid import HybridModel
+from vsw.models.ile.model import IleModel
+
+__all__ = ["cli_name", "key", "keys", "load"]
+
+EXTENSIONS: dict[str, type[HybridModel]] = {"ile": IleModel}
+"""Models whose closed forms extend the generic runtime, by package key."""
+
+
+def keys() -> tuple[str, ...]:
+    """The generated model packages (``generated.<key>``), in the order derive lists them."""
+    return tuple(generated.MODELS)
+
+
+def cli_name(model_key: str) -> str:
+    """A model's name on the command line: ``rimless_wheel`` -> ``rimless-wheel``."""
+    return model_key.replace("_", "-")
+
+
+def key(name: str) -> str:
+    """The package key of a model name (``-`` and ``_`` alike), or a one-line refusal."""
+    model_key = name.strip().replace("-", "_")
+    if model_key not in keys():
+        names = ", ".join(cli_name(k) for k in keys())
+        raise VswInputError(f"model {name!r} is not one of {names}")
+    return model_key
+
+
+def load(name: str) -> HybridModel:
+    """The model ``name``: one object per model and process."""
+    return _load(key(name))
+
+
+@functools.cache
+def _load(model_key: str) -> HybridModel:
+    cls = EXTENSIONS.get(model_key, HybridModel)
+    return cls(importlib.import_module(f"generated.{model_key}"))
