@@ -558,7 +558,7 @@ def case_gait_rootfinder(reps: int) -> list[Row]:
         # central differences; issue 14), against the same baseline, side by side.
         from vsw.batch import simulator
 
-        sim = simulator(key)
+        sim = simulator(load(key))
         sim.library()
 
         def batch(sim=sim, params=params, guess=guess, found=found):
@@ -592,7 +592,7 @@ def _near_gait_starts(key: str, count: int):
     starts = x * (1 + 0.01 * np.random.default_rng(14).standard_normal((4 * count, x.size)))
     if m.spec.get("section"):
         starts = np.column_stack(m.module.section_completion(*params, *starts.T))
-    ok = simulator(key).step(params, starts).outcome == WALKED
+    ok = simulator(load(key)).step(params, starts).outcome == WALKED
     return m, params, starts[ok][:count]
 
 
@@ -607,7 +607,7 @@ def case_batch_step(count: int, reps: int) -> list[Row]:
     rows = []
     for key in ("simplest_walker", "compass_gait", "vsw_biped"):
         m, params, starts = _near_gait_starts(key, count)
-        sim = simulator(key)
+        sim = simulator(load(key))
         sim.library()
         found = {}
 
@@ -661,7 +661,7 @@ def case_basin_grid(side: int, reps: int) -> list[Row]:
     m = load("simplest_walker")
     params = m.parameters({"gamma": 0.009})
     x, y = _basin_grid(side)
-    simulator("simplest_walker").library()
+    simulator(load("simplest_walker")).library()
     found = {}
 
     def local():

@@ -87,9 +87,15 @@ def _sqrt(x):
         return np.sqrt(x)
 
 
+def _acos(x):
+    # NaN outside [-1, 1], as sqrt's outside its domain: no warning.
+    with np.errstate(invalid="ignore"):
+        return np.arccos(x)
+
+
 NUMPY = SimpleNamespace(
     sin=np.sin, cos=np.cos, tan=np.tan, sqrt=_sqrt, atan=np.arctan, atan2=np.arctan2,
-    fmin=np.minimum, fmax=np.maximum, where=np.where, logical_and=np.logical_and,
+    acos=_acos, fmin=np.minimum, fmax=np.maximum, where=np.where, logical_and=np.logical_and,
     logical_or=np.logical_or, logical_not=np.logical_not, indicator=_indicator,
     sign=np.sign, Abs=np.abs, pi=math.pi, carlson_rf=_carlson_rf_numpy, cos_sin=_cos_sin_numpy,
 )
@@ -104,7 +110,7 @@ def _casadi_ops():
 
         _casadi = SimpleNamespace(
             sin=ca.sin, cos=ca.cos, tan=ca.tan, sqrt=ca.sqrt, atan=ca.atan, atan2=ca.atan2,
-            fmin=ca.fmin, fmax=ca.fmax, where=ca.if_else, logical_and=ca.logic_and,
+            acos=ca.acos, fmin=ca.fmin, fmax=ca.fmax, where=ca.if_else, logical_and=ca.logic_and,
             logical_or=ca.logic_or, logical_not=ca.logic_not, indicator=lambda c: c,
             sign=ca.sign, Abs=ca.fabs, pi=math.pi,
             carlson_rf=lambda x, y, z: _carlson_rf_generic(x, y, z, ca.sqrt),

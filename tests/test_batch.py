@@ -87,7 +87,7 @@ def test_batch_step_equals_scipy_step(gaits, name):
     """<= 1e-9 relative on the post-step state (and equal outcomes), on random starts
     around every gait and on starts within 1e-7 of where the outcome changes."""
     model, params, orbits = gaits[name]
-    sim = simulator(name)
+    sim = simulator(load(name))
     assert sim.library() is not None, sim.build_error
     rng = np.random.default_rng(14)
     starts, near = [], []
@@ -130,7 +130,7 @@ def test_batch_step_equals_scipy_step(gaits, name):
 @pytest.mark.parametrize("name", ["simplest_walker", "compass_gait", "vsw_biped", "rimless_wheel"])
 def test_batch_fixed_point_equals_the_rootfinders(gaits, name):
     model, params, orbits = gaits[name]
-    sim = simulator(name)
+    sim = simulator(load(name))
     for orbit in orbits:
         state = np.array([orbit.state[k] for k in (*model.coordinates, *model.rates)])
         found, jacobian = sim.fixed_point(params, state * (1 + 1e-4))
@@ -157,7 +157,7 @@ def test_classification_of_1000_cells_equals_the_scipy_route(gaits):
     stable = next(o for o in orbits if o.stable)
     target = np.array([stable.state[k] for k in (*model.coordinates, *model.rates)])
     cells = _cells(model, params, target, 1000, np.random.default_rng(2001))
-    sim = simulator("simplest_walker")
+    sim = simulator(load("simplest_walker"))
     options = dict(target=target, converge_tol=1e-6, period_tol=1e-6, max_period=8)
     batch = sim.walk(params, cells, 50, **options)
     ref = reference_walks(model, params, cells, Options(50, tuple(target), 1e-6, 1e-6, 8, 0))
@@ -199,7 +199,7 @@ def test_results_do_not_depend_on_blocks_or_threads(gaits, monkeypatch):
     model, params, orbits = gaits["compass_gait"]
     state = np.array([orbits[0].state[k] for k in (*model.coordinates, *model.rates)])
     starts = state * (1 + 0.03 * np.random.default_rng(5).standard_normal((300, 4)))
-    sim = simulator("compass_gait")
+    sim = simulator(load("compass_gait"))
     one = sim.walk(params, starts, 12, keep=3, threads=1)
     monkeypatch.setattr(batch_module, "CHUNK", 7)
     two = sim.walk(params, starts, 12, keep=3, threads=2)
@@ -215,7 +215,7 @@ def test_kept_steps_are_the_last_ones_in_order(gaits):
     stable = next(o for o in orbits if o.stable)
     state = np.array([stable.state[k] for k in (*model.coordinates, *model.rates)])
     start = state * (1 + 1e-3)
-    sim = simulator("simplest_walker")
+    sim = simulator(load("simplest_walker"))
     long = sim.walk(params, start[None], 7, converge_tol=0, period_tol=0, keep=7)
     short = sim.walk(params, start[None], 7, converge_tol=0, period_tol=0, keep=3)
     assert np.array_equal(long.kept_states[0, 4:], short.kept_states[0])
@@ -234,7 +234,7 @@ def test_period_two_walks_are_classified(gaits):
     orbits = model.fixed_points(params)
     long_gait = max(orbits, key=lambda o: abs(o.state["theta"]))
     state = np.array([long_gait.state[k] for k in (*model.coordinates, *model.rates)])
-    sim = simulator("simplest_walker")
+    sim = simulator(load("simplest_walker"))
     walk = sim.walk(params, (state * (1 + 1e-4))[None], 400, target=state, keep=2)
     assert walk.labels() == ["period-2"]
     a, b = walk.kept_states[0]
@@ -246,7 +246,7 @@ def test_scipy_fallback_without_a_compiler(gaits, monkeypatch):
     state = np.array([orbits[0].state[k] for k in (*model.coordinates, *model.rates)])
     starts = np.tile(state, (6, 1))
     starts[:, 1] *= np.linspace(0.05, 2.0, 6)  # from rolling back to walking
-    compiled = simulator("rimless_wheel").walk(params, starts, 20, target=state)
+    compiled = simulator(load("rimless_wheel")).walk(params, starts, 20, target=state)
     monkeypatch.setenv("VSW_KERNELS", "0")
     from vsw.batch import BatchSimulator
 
@@ -263,7 +263,7 @@ def test_bad_shapes_are_one_line_errors(gaits):
     from vsw.errors import VswInputError
 
     _, params, _ = gaits["compass_gait"]
-    sim = simulator("compass_gait")
+    sim = simulator(load("compass_gait"))
     with pytest.raises(VswInputError, match=r"shape \(N, 4\)"):
         sim.walk(params, np.zeros((4, 3)), 2)
     with pytest.raises(VswInputError, match="6 values"):

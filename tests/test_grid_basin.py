@@ -76,7 +76,7 @@ def test_outcome_rows_run_over_y_and_columns_over_x(capsys):
     model = load("simplest_walker")
     params = model.parameters()
     target = np.array(list(data["fixed_point"].values()))
-    sim = simulator("simplest_walker")
+    sim = simulator(load("simplest_walker"))
     for i, y in enumerate(data["y"]):
         for j, x in enumerate(data["x"]):
             state = target.copy()
@@ -178,7 +178,7 @@ def test_dask_blocks_do_not_change_the_walks(cluster, monkeypatch):
     import vsw.cluster
     from vsw.batch import simulator
 
-    sim = simulator("compass_gait")
+    sim = simulator(load("compass_gait"))
     params = sim.model.parameters()
     state = np.array([-0.2, 0.2, 1.2, 0.5])
     starts = state * (1 + 0.05 * np.random.default_rng(9).standard_normal((50, 4)))

@@ -18,18 +18,18 @@ route, :meth:`vsw.hybrid.HybridModel.step`, one at a time: the same classes, muc
 from __future__ import annotations
 
 import ctypes
-import functools
 import os
 import threading
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from vsw.errors import VswInputError
+from vsw.compiled import build_library
+from vsw.errors import ConvergenceError, VswInputError
 from vsw.hybrid import _PHASE_TIME_LIMIT, _RTOL, HybridModel
-from vsw.models import load
+from vsw.vectorize import default_threads, run_blocks
 
 __all__ = ["BatchResult", "BatchSimulator", "reference_walks", "simulator"]
 
@@ -157,8 +157,6 @@ class BatchSimulator:
         with self._lock:
             if not self._tried:
                 self._tried = True
-                from vsw.compiled import build_library
-
                 try:
                     table = self.source.read_bytes()
                     integrator = (CSRC / "hybrid_batch.c").read_bytes()
@@ -201,7 +199,7 @@ class BatchSimulator:
         max_period: int = DEFAULT_MAX_PERIOD,
         keep: int = 0,
         threads: int | None = None,
-        scheduler: str | None = None,
+        runner: Runner | None = None,
         tolerance: float = _RTOL,
     ) -> BatchResult:
         """Walk every row of ``states`` (section states, shape (N, 2n)) up to ``steps``
@@ -211,8 +209,9 @@ class BatchSimulator:
         apart (:data:`APART`), falls or stalls.
         ``params``: one parameter vector for all, or one row per walk. ``converge_tol`` or
         ``period_tol`` 0 turns that check off. ``keep``: record the last ``keep`` steps.
-        ``scheduler``: a Dask scheduler address (:mod:`vsw.cluster`); the blocks then run
-        there, with results identical to the local ones. ``tolerance``: the integrator's
+        ``runner``: where the walks run instead of this process's threads, e.g.
+        :func:`vsw.cluster.runner` (a Dask scheduler), with results identical to the local
+        ones. ``tolerance``: the integrator's
         rtol = atol (default 1e-12, the SciPy route's).
         """
         states = np.asarray(states, dtype=float)
@@ -242,15 +241,12 @@ class BatchSimulator:
             raise VswInputError(f"tolerance = {tolerance:g} must lie in [1e-15, 1e-3]")
         options = Options(steps, None if target is None else tuple(float(v) for v in target),
                           converge_tol, period_tol, max_period, keep, tolerance)  # fmt: skip
-        if scheduler:
-            from vsw.cluster import walk_on_cluster
+        if runner is not None:
+            return runner(params, states, options)
+        return self.walk_here(params, states, options, threads)
 
-            return walk_on_cluster(scheduler, self.model.name, params, states, options)
-        return self._walk_local(params, states, options, threads)
-
-    def _walk_local(self, params, states, options: Options, threads: int | None) -> BatchResult:
-        from vsw.vectorize import default_threads, run_blocks
-
+    def walk_here(self, params, states, options: Options, threads: int | None) -> BatchResult:
+        """The walks of :meth:`walk` on this process's threads."""
         threads = default_threads() if threads is None else threads
         lib = self.library()
         if lib is None:
@@ -307,8 +303,6 @@ class BatchSimulator:
         ConvergenceError
             A walk falls, or the iteration does not reach ``tol * max(1, |x|)``.
         """
-        from vsw.errors import ConvergenceError
-
         x = np.array(guess, dtype=float)
         eye = np.eye(self.nx)
         for _ in range(max_iterations):
@@ -352,6 +346,10 @@ class Options:
     tolerance: float = _RTOL
 
 
+Runner = Callable[[np.ndarray, np.ndarray, Options], "BatchResult"]
+"""Runs walks elsewhere: (parameter rows, states, options) -> their BatchResult."""
+
+
 def _empty_result(n: int, nx: int, keep: int, failures) -> BatchResult:
     return BatchResult(
         outcome=np.zeros(n, dtype=np.int32),
@@ -370,8 +368,6 @@ def reference_walks(model: HybridModel, params, states, options: Options) -> Bat
     with the same rules: the fallback without a compiler, and the reference of the tests.
     Its tolerance is the SciPy route's (1e-12); a ConvergenceError of a step (more phases
     than the model has) counts as a stall, as in the C code."""
-    from vsw.errors import ConvergenceError
-
     if options.tolerance != _RTOL:
         raise VswInputError(
             f"tolerance {options.tolerance:g} needs the compiled batch simulator; the SciPy "
@@ -433,7 +429,13 @@ def reference_walks(model: HybridModel, params, states, options: Options) -> Bat
     return out
 
 
-@functools.cache
-def simulator(name: str) -> BatchSimulator:
-    """The batch simulator of engine model ``name`` (one per process)."""
-    return BatchSimulator(load(name))
+_SIMULATORS: dict[str, BatchSimulator] = {}
+_SIMULATORS_LOCK = threading.Lock()
+
+
+def simulator(model: HybridModel) -> BatchSimulator:
+    """The batch simulator of ``model`` (one per model and process)."""
+    with _SIMULATORS_LOCK:
+        if model.name not in _SIMULATORS:
+            _SIMULATORS[model.name] = BatchSimulator(model)
+        return _SIMULATORS[model.name]

@@ -22,10 +22,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from vsw.batch import BatchResult, Options
+from vsw.batch import BatchResult, Options, Runner, failure_names, simulator
 from vsw.errors import VswInputError
+from vsw.models import load
 
-__all__ = ["BLOCK", "walk_on_cluster"]
+__all__ = ["BLOCK", "check_scheduler", "runner", "walk_on_cluster"]
 
 BLOCK = 8192
 """Walks per task: a 500 x 500 basin is 31 tasks."""
@@ -69,10 +70,8 @@ def check_scheduler(address: str) -> int:
 
 def run_block(model: str, params: np.ndarray, states: np.ndarray, options: Options) -> tuple:
     """One task: the walks of a block in this (worker) process, on one thread."""
-    from vsw.batch import simulator
-
-    sim = simulator(model)
-    result = sim._walk_local(params, states, options, threads=1)
+    sim = simulator(load(model))
+    result = sim.walk_here(params, states, options, threads=1)
     return (result.outcome, result.aux, result.steps, result.final, result.kept_states,
             result.kept_lengths, result.kept_durations, sim.build_error)  # fmt: skip
 
@@ -82,9 +81,7 @@ def walk_on_cluster(
 ) -> BatchResult:
     """The walks of :meth:`vsw.batch.BatchSimulator.walk` as tasks on the scheduler at
     ``address``; raises VswInputError (one line) when it cannot be reached."""
-    from vsw.batch import failure_names, simulator
-
-    failures = failure_names(simulator(model).model)
+    failures = failure_names(load(model))
     n = len(states)
     if n == 0:
         raise VswInputError("no walks to run on the cluster")
@@ -107,3 +104,12 @@ def walk_on_cluster(
             parts.append(BatchResult(outcome, aux, steps, final, states_k, lengths_k,
                                      durations_k, failures, route))  # fmt: skip
     return BatchResult.concatenate(parts)
+
+
+def runner(address: str, model: str) -> Runner:
+    """A :data:`vsw.batch.Runner` that walks on the Dask scheduler at ``address``."""
+
+    def run(params: np.ndarray, states: np.ndarray, options: Options) -> BatchResult:
+        return walk_on_cluster(address, model, params, states, options)
+
+    return run

@@ -19,12 +19,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vsw.errors import ModelConditionError, VswInputError
+from vsw.batch import Runner, simulator
+from vsw.errors import ConvergenceError, ModelConditionError, VswInputError
+from vsw.gaits import search, stable_gait
+from vsw.hybrid import HybridModel, Orbit, by_modulus, repeat_period
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
-
-    from vsw.hybrid import HybridModel, Orbit
 
 __all__ = [
     "LABEL_ORDER",
@@ -146,17 +147,6 @@ def _label_key(label: str) -> tuple[int, int]:
     return ({"converged": 0, "fell": 2}.get(label, 3), 0)
 
 
-def stable_gait(model: HybridModel, params: Sequence[float]) -> Orbit:
-    gaits = model.fixed_points(params)
-    stable = [o for o in gaits if o.stable]
-    if not stable:
-        raise ModelConditionError(
-            f"{model.name}: no stable period-one gait at these parameters (found "
-            f"{len(gaits)} unstable): no basin to draw"
-        )
-    return stable[0]
-
-
 def grid_basin(
     model: HybridModel,
     params: Sequence[float],
@@ -169,19 +159,17 @@ def grid_basin(
     tol: float = 1e-6,
     gait: Orbit | None = None,
     threads: int | None = None,
-    scheduler: str | None = None,
+    runner: Runner | None = None,
 ) -> GridBasin:
     """The basin of the stable period-one gait over the grid ``x`` x ``y`` of two section
     components (see the module docstring)."""
-    from vsw.batch import simulator
-
     check_grid_names(model, x_name, y_name)
-    gait = gait or stable_gait(model, params)
+    gait = gait or stable_gait(model, params, "no basin to draw")
     target = np.array([gait.state[n] for n in (*model.coordinates, *model.rates)])
     states = grid_states(model, params, target, x_name, x, y_name, y)
-    sim = simulator(model.name)
+    sim = simulator(model)
     result = sim.walk(params, states, steps, target=target, converge_tol=tol, period_tol=tol,
-                      threads=threads, scheduler=scheduler)  # fmt: skip
+                      threads=threads, runner=runner)  # fmt: skip
     shape = (len(y), len(x))
     labels, ended = result.labels(), result.ended()
     return GridBasin(
@@ -211,7 +199,7 @@ def brute_force_sweep(
     keep: int,
     start: Sequence[float] | None = None,
     threads: int | None = None,
-    scheduler: str | None = None,
+    runner: Runner | None = None,
 ) -> list[dict[str, Any]]:
     """The classic bifurcation diagram by brute force, all from the batch simulator: at
     each value of the parameter ``over`` the period-one gait by Newton on the batch map
@@ -222,18 +210,14 @@ def brute_force_sweep(
     scan), keeping the last ``keep`` steps. Returns the points of ``vsw sweep --json``:
     each with its gait and ``attractor`` (states, step lengths and periods, ``ended``,
     ``period``)."""
-    from vsw.batch import simulator
-    from vsw.errors import ConvergenceError
-    from vsw.hybrid import _by_modulus, repeat_period
-
     names_p = list(model.spec["parameters"])
     if over not in names_p:
         raise VswInputError(f"{over!r} is not a parameter of {model.name}: {', '.join(names_p)}")
     state_names = [*model.coordinates, *model.rates]
-    sim = simulator(model.name)
+    sim = simulator(model)
     tables = [model.parameters({**values, over: float(v)}) for v in grid]
     if start is None:
-        first = model.fixed_points(tables[0])
+        first = search(model, tables[0]).gaits
         if not first:
             raise ModelConditionError(
                 f"{model.name}: no period-one gait at {over} = {grid[0]:g} to start from: "
@@ -259,7 +243,7 @@ def brute_force_sweep(
             starts[i] = previous
         else:
             step = sim.step(params, x[None], threads=1)
-            eigenvalues = _by_modulus(np.linalg.eigvals(jacobian))
+            eigenvalues = by_modulus(np.linalg.eigvals(jacobian))
             largest = max(abs(e) for e in eigenvalues)
             length = float(step.kept_lengths[0, 0])
             period = float(step.kept_durations[0, 0])
@@ -274,7 +258,7 @@ def brute_force_sweep(
             previous = x
         points.append(point)
     walks = sim.walk(np.array(tables), starts, transient + keep, converge_tol=0.0,
-                     period_tol=0.0, keep=keep, threads=threads, scheduler=scheduler)  # fmt: skip
+                     period_tol=0.0, keep=keep, threads=threads, runner=runner)  # fmt: skip
     ended = walks.ended()
     for i, point in enumerate(points):
         walked = int(walks.steps[i])

@@ -16,8 +16,6 @@ the sign that must be positive for the event to count. :class:`HybridModel` driv
 * :meth:`HybridModel.eigenvalues`: of the Jacobian of the Poincaré map, by CasADi
   derivatives through the integration (each phase's end time from its guard by the implicit
   function theorem);
-* :meth:`HybridModel.fixed_points`: the distinct period-one gaits found from a scan of
-  starting guesses (the model's start configuration pushed with a range of rates).
 
 ``import vsw.hybrid`` is cheap: casadi and scipy are imported inside functions.
 """
@@ -158,7 +156,7 @@ class Attractor:
         }
 
 
-def _by_modulus(values: np.ndarray) -> list[complex]:
+def by_modulus(values: np.ndarray) -> list[complex]:
     """Eigenvalues largest modulus first (ties by real, then imaginary part)."""
     return sorted((complex(v) for v in values), key=lambda v: (-abs(v), v.real, v.imag))
 
@@ -237,13 +235,6 @@ class HybridModel:
         if not self.spec["step_length"]:
             return None
         return float(self._fn("step_length_of_state")(*params, *state))
-
-    def start_state(self, rate: float) -> np.ndarray:
-        """The model's start configuration pushed at scale ``rate`` (its rates along the
-        model's start direction)."""
-        q = [self.spec["start"][c] for c in self.coordinates]
-        direction = [self.spec["start_rates"][u] for u in self.rates]
-        return np.array(q + [rate * d for d in direction], dtype=float)
 
     # --- simulation --------------------------------------------------------------------
 
@@ -521,7 +512,7 @@ class HybridModel:
         f_x, f_t = jacobian[k:, :n] + np.eye(n), jacobian[k:, n:]
         try:
             monodromy = f_x - f_t @ np.linalg.solve(g_t, g_x)
-            return _by_modulus(np.linalg.eigvals(monodromy))
+            return by_modulus(np.linalg.eigvals(monodromy))
         except np.linalg.LinAlgError:  # a guard grazing at its phase's end, or NaN
             raise ConvergenceError(
                 f"{self.name}: the orbit's eigenvalues are undefined (a guard that does not "
@@ -649,55 +640,4 @@ class HybridModel:
                 f"{self.name}: the Poincaré map's derivative did not find the simulated step "
                 f"(gap {gap:.3g})"
             )
-        return _by_modulus(np.linalg.eigvals(np.array(jac, dtype=float)))
-
-    def fixed_points(self, params: Sequence[float], guesses: int = 12) -> list[Orbit]:
-        """Distinct period-one gaits from a scan of starts: the start state pushed at
-        ``guesses`` scales; from each, the orbit solver starts at that state, at the state
-        after the first step (an unstable gait is found only near where a walk starts) and
-        after a few more steps walked (a stable gait attracts them)."""
-        low, high = self.spec["rate_range"]
-        sequence = self._phase_sequence()
-        found: list[Orbit] = []
-        for rate in np.geomspace(low, high, guesses):
-            x = self._first_section(params, rate)
-            starts = []
-            start = self.start_state(rate)
-            first = self.step(params, start)
-            # A start past an event (the ILE's extension angle) skips that phase: its
-            # durations do not fit the orbit's phase sequence.
-            if first.ended == "completed" and len(first.durations) == len(sequence):
-                starts.append((start, first.durations))
-            for walked in range(5):
-                result = self.step(params, x)
-                if result.ended != "completed":
-                    break
-                if walked in (0, 4):
-                    starts.append((x, result.durations))
-                x = result.state
-            for x0, durations in starts:
-                try:
-                    orbit = self.periodic_orbit(params, x0, durations)
-                except ConvergenceError:
-                    continue
-                vector = np.array(list(orbit.state.values()))
-                if all(np.max(np.abs(vector - np.array(list(o.state.values())))) > 1e-6
-                       for o in found):  # fmt: skip
-                    found.append(orbit)
-        return sorted(found, key=lambda o: o.period)
-
-    def _first_section(self, params, rate: float) -> np.ndarray:
-        """From the start configuration pushed at ``rate``, the state after the first step
-        event (or the start itself if no step event is reached)."""
-        phase = self.step_event["target"]
-        x = self.start_state(rate)
-        t = 0.0
-        for _ in range(len(self.phases) + 1):
-            kind, what, t_end, x_end, *_ = self._phase_run(phase, params, x, t, dense=False)
-            if kind != "event":
-                return x
-            x = self.reset(what["name"], params, x_end)
-            if what["ends_step"]:
-                return x
-            phase, t = what["target"], t_end
-        return x
+        return by_modulus(np.linalg.eigvals(np.array(jac, dtype=float)))

@@ -32,7 +32,16 @@ import sympy as sm
 import sympy.physics.mechanics as me
 from sympy.simplify.fu import TR10i
 
-from derive.engine.model import NORMAL_FORCE, Continuous, Impact, Jump, Model, Phase, PointMass
+from derive.engine.model import (
+    NORMAL_FORCE,
+    Continuous,
+    Failure,
+    Impact,
+    Jump,
+    Model,
+    Phase,
+    PointMass,
+)
 from derive.quantities import Quantity
 
 __all__ = [
@@ -725,6 +734,24 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
             "the others (the step event's geometry and reset).", None,
             "tuple: coordinates, then rates",
         ))  # fmt: skip
+    time = model.units.get("time", "")
+    state = []
+    for c in model.coordinates:
+        state.append({"name": c.name, "kind": "coordinate", "unit": c.unit,
+                      "meaning": c.description, "reference": c.reference,
+                      "positive": c.positive, "rate": c.rate})  # fmt: skip
+    for c in model.coordinates:
+        state.append({"name": c.rate, "kind": "rate", "unit": f"{c.unit}/{time}",
+                      "meaning": f"rate of {c.name} ({c.description})", "reference": "",
+                      "positive": f"{c.name} increasing", "rate": None})  # fmt: skip
+    names = [s["name"] for s in state]
+    unknown = (set(model.search) | set(model.section)) - set(names)
+    if unknown:
+        raise ValueError(f"{model.name}: search/section names {sorted(unknown)} are not its state")
+    free = [n for n in names if n not in model.section]
+    if sorted(model.search) != sorted(free):
+        raise ValueError(f"{model.name}: the search box must give exactly the section's free "
+                         f"components {free}, not {sorted(model.search)}")  # fmt: skip
     descriptor = {
         "name": model.name,
         "title": model.title,
@@ -733,20 +760,35 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
         "parameters": tuple(p.name for p in model.parameters),
         "coordinates": tuple(c.name for c in model.coordinates),
         "rates": tuple(c.rate for c in model.coordinates),
+        "state": tuple(state),
         "phases": tuple(phases),
         "events": tuple(events),
+        "failures": tuple(_failure_record(model, f) for f in model.failures),
         "units": dict(model.units),
         "step_length": model.step_length is not None,
-        "start": {c.name: float(model.start.get(c.name, 0.0)) for c in model.coordinates},
-        "start_rates": {c.rate: float(model.start.get(c.rate, 1.0)) for c in model.coordinates},
-        "rate_range": tuple(float(v) for v in model.rate_range),
+        "section": tuple(n for n in names if n in model.section),
+        "search": {n: tuple(float(v) for v in model.search[n]) for n in free},
     }
-    if model.section:  # only then: descriptors of models without one stay as they were
-        descriptor["section"] = tuple(n for n in descriptor["coordinates"] + descriptor["rates"]
-                                      if n in model.section)  # fmt: skip
     if model.limits:
         quantities = [_in_the_limit(model, qty) for qty in quantities]
     return quantities, descriptor
+
+
+def _failure_record(model: Model, failure: Failure) -> dict:
+    """A failure for the runtime: its name, direction, meaning and the unit of its guard
+    (the ground reaction's force unit, a rate's coordinate unit per time, else stated)."""
+    unit = failure.unit
+    if unit is None:
+        guard = sm.sympify(failure.guard)
+        rates = {c.u: c for c in model.coordinates}
+        if guard == NORMAL_FORCE:
+            unit = model.units.get("force", "")
+        elif guard in rates:
+            unit = f"{rates[guard].unit}/{model.units.get('time', '')}"
+        else:
+            unit = "1"
+    return {"name": failure.name, "direction": failure.direction, "meaning": failure.meaning,
+            "unit": unit}  # fmt: skip
 
 
 def _in_the_limit(model: Model, quantity: Quantity) -> Quantity:

@@ -46,23 +46,32 @@ def leg(angle: sm.Expr, length: sm.Expr = 1) -> tuple[sm.Expr, sm.Expr]:
 
 @dataclass(frozen=True, eq=False)
 class Coordinate:
-    """A generalised coordinate and the name of its rate.
+    """A generalised coordinate; its rate is named ``<name>_dot`` in every model.
 
     Attributes
     ----------
     name : str
         Python identifier (``theta``).
-    rate : str
-        Name of its time derivative (``omega``).
     description : str
+        What the coordinate is (``stance leg angle``).
     unit : str
         Unit of the coordinate (``rad``); the rate's is this per the model's time unit.
+    reference : str
+        What it is measured from: where it is zero (``the slope normal``).
+    positive : str
+        What a positive value means (``the hip downhill of the stance foot``).
     """
 
     name: str
-    rate: str
     description: str = ""
     unit: str = "rad"
+    reference: str = ""
+    positive: str = ""
+
+    @property
+    def rate(self) -> str:
+        """The rate's name: ``<name>_dot``, the one convention of every model."""
+        return f"{self.name}_dot"
 
     @property
     def q(self) -> sm.Symbol:
@@ -210,6 +219,10 @@ class Failure:
     guard: sm.Expr
     direction: int
     meaning: str = ""
+    unit: str | None = None
+    """Unit of the guard, where the engine cannot tell it: a guard that is the ground
+    reaction is in the model's force unit, a rate in its coordinate's unit per time, and
+    anything else is taken as dimensionless unless stated here."""
 
 
 NORMAL_FORCE = sm.Symbol("N_ground", real=True)
@@ -234,22 +247,21 @@ class Model:
     events : tuple of Event
     failures : tuple of Failure
     units : mapping of str to str
-        ``time``, ``length``, ``mass``, ``energy``: the units the model's quantities are in.
+        ``time``, ``length``, ``mass``, ``energy``, ``force``: the units the model's
+        quantities are in (``force``: the ground reaction's).
     step_length : sympy.Expr, optional
         Distance from one stance foot to the next (in the state just before the step
         event), when the model defines it.
-    start : mapping of str to float
-        A state to start the search for gaits from, at the start of the first phase:
-        coordinates by name (others 0) and, optionally, rates by name giving the direction
-        the configuration is pushed in (every rate 1 where none is given).
-    rate_range : (low, high)
-        Scales of that push the search for gaits tries (model units).
+    search : mapping of str to (low, high)
+        Where the search for gaits looks: an interval for each component of the section
+        state (just after the step event) that the section does not determine. Gaits
+        outside this box are not looked for; ``vsw analyze`` states it.
     section : mapping of str to sympy.Expr
         The section (states just after the step event) as the model defines it: each
         coordinate or rate named here follows from the others there (the event's geometry
-        and its reset), e.g. ``{"phi": 2 * theta}``. Basins over a 2-D slice of the section
-        take these from the grid's values (``section_completion``); tests check them on
-        simulated steps.
+        and its reset), e.g. ``{"phi": 2 * theta}``. The search for gaits and basins over
+        a slice of the section take these from the free components
+        (``section_completion``); tests check them on simulated steps.
     limits : mapping of sympy.Symbol to sympy.Expr
         Symbols of the mechanics (not parameters) that every derived quantity is taken to
         the limit of: a walker with massless feet states each foot with a mass ``epsilon``
@@ -267,8 +279,7 @@ class Model:
     failures: tuple[Failure, ...] = ()
     units: Mapping[str, str] = field(default_factory=dict)
     step_length: sm.Expr | None = None
-    start: Mapping[str, float] = field(default_factory=dict)
-    rate_range: tuple[float, float] = (0.1, 5.0)
+    search: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     limits: Mapping[sm.Symbol, sm.Expr] = field(default_factory=dict)
     section: Mapping[str, sm.Expr] = field(default_factory=dict)
 

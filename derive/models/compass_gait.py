@@ -55,8 +55,10 @@ PARAMETERS = (
 m_h, m, a, b, gamma, g = (p.symbol for p in PARAMETERS)
 length = a + b
 
-THETA = Coordinate("theta", "theta_dot", "stance leg angle from the slope normal", "rad")
-PSI = Coordinate("psi", "psi_dot", "swing leg angle from the slope normal", "rad")
+THETA = Coordinate("theta", "stance leg angle", "rad", reference="the slope normal",
+                   positive="the hip downhill of the stance foot")
+PSI = Coordinate("psi", "swing leg angle", "rad", reference="the slope normal",
+                 positive="the hip downhill of the swing foot")
 theta, psi = THETA.q, PSI.q
 
 hip = leg(theta, length)
@@ -106,11 +108,11 @@ MODEL = Model(
         Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the slope"),
         Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the slope"),
     ),
-    units={"time": "s", "length": "m", "mass": "kg", "energy": "J"},
+    units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},
     step_length=swing_foot[0],
-    # Near Drake's gait: legs 0.5 rad apart, the stance leg faster than the swing leg.
-    start={"theta": -0.25, "psi": 0.25, "theta_dot": 1.0, "psi_dot": 0.3},
-    rate_range=(0.6, 2.5),
+    # Just after heelstrike the new stance foot is downhill of the hip (theta < 0); Drake's
+    # gait at its defaults: theta = -0.271, theta_dot = 1.09 rad/s, psi_dot = 0.38 rad/s.
+    search={"theta": (-0.8, 0.0), "theta_dot": (0.0, 5.0), "psi_dot": (-5.0, 5.0)},
     # Just after heelstrike the legs are at the guard's zero, swapped: psi = -theta.
     section={"psi": -theta},
 )

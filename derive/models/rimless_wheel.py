@@ -7,7 +7,7 @@ spoke has turned ``alpha`` past the slope normal; the collision is inelastic (th
 sticks, the old one leaves the ground). Energies are per unit mass (the mass cancels).
 
 Coordinates on the slope: x downhill, y along its normal; ``theta`` is the stance spoke's
-angle from the slope normal, positive downhill, ``omega`` its rate.
+angle from the slope normal, positive downhill, ``theta_dot`` its rate.
 """
 
 from __future__ import annotations
@@ -43,7 +43,8 @@ PARAMETERS = (
 )  # fmt: skip
 alpha, gamma, l, g = (p.symbol for p in PARAMETERS)
 
-THETA = Coordinate("theta", "omega", "stance spoke angle from the slope normal", "rad")
+THETA = Coordinate("theta", "stance spoke angle", "rad", reference="the slope normal",
+                   positive="the hub downhill of the stance foot")
 theta = THETA.q
 
 STANCE = Phase(
@@ -78,10 +79,12 @@ MODEL = Model(
         Failure("fell-backward", THETA.u, -1, "the wheel stops and rolls back"),
         Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the slope"),
     ),
-    units={"time": "s", "length": "m", "mass": "kg (energies per unit mass)", "energy": "J/kg"},
+    units={"time": "s", "length": "m", "mass": "kg (energies per unit mass)", "energy": "J/kg",
+           "force": "N/kg"},
     step_length=2 * l * sm.sin(alpha),
-    start={"theta": 0.0},
-    rate_range=(0.2, 6.0),
+    # Just after a collision the new spoke is alpha behind the normal; its rate is the state.
+    section={"theta": -alpha},
+    search={"theta_dot": (0.0, 12.0)},
 )
 
 

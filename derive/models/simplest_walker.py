@@ -45,8 +45,10 @@ PARAMETERS = (
 (gamma,) = (p.symbol for p in PARAMETERS)
 epsilon = sm.Symbol("epsilon", positive=True)  # foot mass / hip mass, taken to 0
 
-THETA = Coordinate("theta", "theta_dot", "stance leg angle from the slope normal", "rad")
-PHI = Coordinate("phi", "phi_dot", "angle between the legs (stance minus swing)", "rad")
+THETA = Coordinate("theta", "stance leg angle", "rad", reference="the slope normal",
+                   positive="the hip downhill of the stance foot")
+PHI = Coordinate("phi", "angle between the legs (stance minus swing)", "rad",
+                 reference="the stance leg", positive="the swing leg turned downhill of it")
 theta, phi = THETA.q, PHI.q
 
 hip = leg(theta)
@@ -96,12 +98,12 @@ MODEL = Model(
         Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the slope"),
         Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the slope"),
     ),
-    units={"time": "sqrt(l/g)", "length": "l", "mass": "M", "energy": "M g l"},
+    units={"time": "sqrt(l/g)", "length": "l", "mass": "M", "energy": "M g l",
+           "force": "M g"},
     step_length=swing_foot[0],
-    # Between the two gaits at gamma = 0.009 (Garcia et al.: theta 0.2003 and 0.1939), the
-    # swing leg's rate what heelstrike gives it (1 - cos(phi) times the stance leg's).
-    start={"theta": -0.194, "phi": -0.388, "theta_dot": 1.0, "phi_dot": 0.0743},
-    rate_range=(0.15, 0.26),
+    # Just after heelstrike the new stance foot is downhill of the hip (theta < 0); Garcia
+    # et al.'s gaits at gamma = 0.009 have theta = -0.2003 and -0.1939, theta_dot 0.2.
+    search={"theta": (-0.8, 0.0), "theta_dot": (0.0, 1.5)},
     limits={epsilon: 0},
     # Just after heelstrike the legs are at the guard's zero (phi = 2 theta) and the impact
     # gives the swing leg 1 - cos(phi) of the stance leg's rate (Garcia et al., eq. 5).

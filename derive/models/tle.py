@@ -87,9 +87,8 @@ PARAMETERS = (
 )  # fmt: skip
 beta, theta_II, phi0, delta = (p.symbol for p in PARAMETERS)
 
-THETA = Coordinate(
-    "theta", "omega", "stance leg angle from the vertical, positive with the hip ahead", "rad"
-)
+THETA = Coordinate("theta", "stance leg angle", "rad", reference="the vertical",
+                   positive="the hip ahead of the stance foot")
 theta, omega = THETA.q, THETA.u
 r = sm.Symbol("r", positive=True)  # stance leg length in r_e: held by the leg actuator
 
@@ -144,10 +143,11 @@ MODEL = Model(
         Failure("fell-backward", omega, -1, "the stance leg stops and falls back"),
         Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
     ),
-    units={"time": "sqrt(r_e/g)", "length": "r_e", "mass": "m", "energy": "m g r_e"},
+    units={"time": "sqrt(r_e/g)", "length": "r_e", "mass": "m", "energy": "m g r_e",
+           "force": "m g"},
     step_length=SWING_FOOT[0],
-    start={"theta": -0.35},
-    rate_range=(0.3, 1.5),
+    section={"theta": THETA_I},  # just after heelstrike, as the ILE (eq. 11)
+    search={"theta_dot": (0.0, 3.0)},
 )  # fmt: skip
 
 # --- symbols of the extension quantities ---------------------------------------------------

@@ -63,8 +63,10 @@ PARAMETERS = (
 )  # fmt: skip
 beta, theta_II, mu, b = (p.symbol for p in PARAMETERS)
 
-THETA = Coordinate("theta", "omega", "stance leg angle from the vertical", "rad")
-PSI = Coordinate("psi", "psi_dot", "swing leg angle from the vertical", "rad")
+THETA = Coordinate("theta", "stance leg angle", "rad", reference="the vertical",
+                   positive="the hip ahead of the stance foot")
+PSI = Coordinate("psi", "swing leg angle", "rad", reference="the vertical",
+                 positive="the hip ahead of the swing foot")
 theta, psi = THETA.q, PSI.q
 r = sm.Symbol("r", positive=True)
 """The stance leg's length, held by its actuator."""
@@ -131,11 +133,16 @@ MODEL = Model(
         Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the ground"),
         Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
     ),
-    units={"time": "sqrt(l/g)", "length": "l", "mass": "m_H", "energy": "m_H g l"},
+    units={"time": "sqrt(l/g)", "length": "l", "mass": "m_H", "energy": "m_H g l",
+           "force": "m_H g"},
     step_length=LONG.points["swing_foot"][0],
-    # Near an ILE gait (phi0 about 0.6 rad): the legs apart, the swing leg swinging forward.
-    start={"theta": -0.3, "psi": 0.3, "omega": 1.0, "psi_dot": -0.5},
-    rate_range=(0.2, 1.5),
+    # Just after heelstrike the new swing leg (the old stance leg, l long before the swap)
+    # has its foot on the ground and the new stance leg (beta l) too: cos psi = beta cos
+    # theta, with psi > 0 (the trailing foot behind the hip).
+    section={"psi": sm.acos(beta * sm.cos(theta))},
+    # theta may be positive just after heelstrike (a foot landing behind the hip): the gait
+    # with max |eigenvalue| 2.31 at (0.8, 0.1, 0.3, 0.3) has theta = 0.095.
+    search={"theta": (-0.8, 0.8), "theta_dot": (0.0, 2.5), "psi_dot": (-4.0, 4.0)},
 )
 
 

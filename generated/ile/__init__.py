@@ -26,7 +26,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'ile', 'title': 'Instantaneous leg extension model of Virtual Slope Walking', 'description': 'point-mass hip on massless telescoping legs: the stance leg extends instantaneously at theta_II, heelstrike at the inter-leg angle phi0 (level ground)', 'coordinate_units': {'theta': 'rad'}, 'parameters': ('beta', 'theta_II', 'phi0'), 'coordinates': ('theta',), 'rates': ('omega',), 'phases': ({'name': 'phase_I_II', 'failures': (('fell-backward', 'phase_I_II_fell_backward', -1), ('lift-off', 'phase_I_II_lift_off', -1)), 'conservative': True}, {'name': 'phase_III_IV', 'failures': (('fell-backward', 'phase_III_IV_fell_backward', -1), ('lift-off', 'phase_III_IV_lift_off', -1)), 'conservative': True}), 'events': ({'name': 'extension', 'source': 'phase_I_II', 'target': 'phase_III_IV', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'jump', 'bodies': None}, {'name': 'heelstrike', 'source': 'phase_III_IV', 'target': 'phase_I_II', 'direction': -1, 'ends_step': True, 'when': None, 'reset': 'impact', 'bodies': (0,)}), 'units': {'time': 'sqrt(r_e/g)', 'length': 'r_e', 'mass': 'm', 'energy': 'm g r_e'}, 'step_length': True, 'start': {'theta': 0.0}, 'start_rates': {'omega': 1.0}, 'rate_range': (0.2, 1.5), 'closed_form': True}
+HYBRID = {'name': 'ile', 'title': 'Instantaneous leg extension model of Virtual Slope Walking', 'description': 'point-mass hip on massless telescoping legs: the stance leg extends instantaneously at theta_II, heelstrike at the inter-leg angle phi0 (level ground)', 'coordinate_units': {'theta': 'rad'}, 'parameters': ('beta', 'theta_II', 'phi0'), 'coordinates': ('theta',), 'rates': ('theta_dot',), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the stance foot', 'rate': 'theta_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/sqrt(r_e/g)', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}), 'phases': ({'name': 'phase_I_II', 'failures': (('fell-backward', 'phase_I_II_fell_backward', -1), ('lift-off', 'phase_I_II_lift_off', -1)), 'conservative': True}, {'name': 'phase_III_IV', 'failures': (('fell-backward', 'phase_III_IV_fell_backward', -1), ('lift-off', 'phase_III_IV_lift_off', -1)), 'conservative': True}), 'events': ({'name': 'extension', 'source': 'phase_I_II', 'target': 'phase_III_IV', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'jump', 'bodies': None}, {'name': 'heelstrike', 'source': 'phase_III_IV', 'target': 'phase_I_II', 'direction': -1, 'ends_step': True, 'when': None, 'reset': 'impact', 'bodies': (0,)}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the walker stops before the apex and falls back', 'unit': 'rad/sqrt(r_e/g)'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'm g'}), 'units': {'time': 'sqrt(r_e/g)', 'length': 'r_e', 'mass': 'm', 'energy': 'm g r_e', 'force': 'm g'}, 'step_length': True, 'section': ('theta',), 'search': {'theta_dot': (0.0, 3.0)}, 'closed_form': True}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards, events with their guards and resets, units."""
 
 
@@ -822,7 +822,7 @@ def condition_pieces(beta, theta_II, phi0):
 condition_pieces.outputs = ('apex_phase_I_II', 'apex_phase_III_IV', 'normal_force_I', 'normal_force_II', 'normal_force_IV')
 
 
-def phase_I_II_accelerations(beta, theta_II, phi0, theta, omega):
+def phase_I_II_accelerations(beta, theta_II, phi0, theta, theta_dot):
     """Second derivatives of the free coordinates in phase phase_I_II. Beyond the paper.
 
     Parameters
@@ -831,7 +831,7 @@ def phase_I_II_accelerations(beta, theta_II, phi0, theta, omega):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -840,12 +840,12 @@ def phase_I_II_accelerations(beta, theta_II, phi0, theta, omega):
     tuple of arrays
         tuple: d2(coordinate)/dt2 for each coordinate
     """
-    be = backend_for(beta, theta_II, phi0, theta, omega)
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     return (sin_theta/beta,)
 
 
-def phase_I_II_energy(beta, theta_II, phi0, theta, omega):
+def phase_I_II_energy(beta, theta_II, phi0, theta, theta_dot):
     """Mechanical energy T + V in phase phase_I_II. Beyond the paper.
 
     Parameters
@@ -854,7 +854,7 @@ def phase_I_II_energy(beta, theta_II, phi0, theta, omega):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -863,12 +863,12 @@ def phase_I_II_energy(beta, theta_II, phi0, theta, omega):
     array
         energy
     """
-    be = backend_for(beta, theta_II, phi0, theta, omega)
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_theta*beta + omega**2*beta**2/2
+    return cos_theta*beta + theta_dot**2*beta**2/2
 
 
-def phase_I_II_normal_force(beta, theta_II, phi0, theta, omega):
+def phase_I_II_normal_force(beta, theta_II, phi0, theta, theta_dot):
     """Ground reaction on the stance foot along the ground normal in phase phase_I_II. Beyond the paper.
 
     Parameters
@@ -877,7 +877,7 @@ def phase_I_II_normal_force(beta, theta_II, phi0, theta, omega):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -886,12 +886,12 @@ def phase_I_II_normal_force(beta, theta_II, phi0, theta, omega):
     array
         normal force (the foot lifts off below 0)
     """
-    be = backend_for(beta, theta_II, phi0, theta, omega)
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_theta**2 - cos_theta*beta*omega**2
+    return cos_theta**2 - cos_theta*beta*theta_dot**2
 
 
-def phase_I_II_fell_backward(beta, theta_II, phi0, theta, omega):
+def phase_I_II_fell_backward(beta, theta_II, phi0, theta, theta_dot):
     """Guard of fell-backward in phase phase_I_II. Beyond the paper.
 
     Parameters
@@ -900,7 +900,7 @@ def phase_I_II_fell_backward(beta, theta_II, phi0, theta, omega):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -909,11 +909,11 @@ def phase_I_II_fell_backward(beta, theta_II, phi0, theta, omega):
     array
         crosses zero (direction -1) when the walk ends
     """
-    be = backend_for(beta, theta_II, phi0, theta, omega)
-    return omega
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
+    return theta_dot
 
 
-def phase_I_II_lift_off(beta, theta_II, phi0, theta, omega):
+def phase_I_II_lift_off(beta, theta_II, phi0, theta, theta_dot):
     """Guard of lift-off in phase phase_I_II. Beyond the paper.
 
     Parameters
@@ -922,7 +922,7 @@ def phase_I_II_lift_off(beta, theta_II, phi0, theta, omega):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -931,12 +931,12 @@ def phase_I_II_lift_off(beta, theta_II, phi0, theta, omega):
     array
         crosses zero (direction -1) when the walk ends
     """
-    be = backend_for(beta, theta_II, phi0, theta, omega)
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_theta**2 - cos_theta*beta*omega**2
+    return cos_theta**2 - cos_theta*beta*theta_dot**2
 
 
-def phase_I_II_positions(beta, theta_II, phi0, theta, omega):
+def phase_I_II_positions(beta, theta_II, phi0, theta, theta_dot):
     """Position (x, y) and angle of each body in phase phase_I_II's chart. Beyond the paper.
 
     Parameters
@@ -945,7 +945,7 @@ def phase_I_II_positions(beta, theta_II, phi0, theta, omega):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -954,12 +954,12 @@ def phase_I_II_positions(beta, theta_II, phi0, theta, omega):
     tuple of arrays
         tuple: x, y, angle of each body in order (angle 0 for a point mass)
     """
-    be = backend_for(beta, theta_II, phi0, theta, omega)
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     return (sin_theta*beta, cos_theta*beta, 0,)
 
 
-def phase_I_II_inertias(beta, theta_II, phi0, theta, omega):
+def phase_I_II_inertias(beta, theta_II, phi0, theta, theta_dot):
     """Mass and central moment of inertia of each body in phase phase_I_II. Beyond the paper.
 
     Parameters
@@ -968,7 +968,7 @@ def phase_I_II_inertias(beta, theta_II, phi0, theta, omega):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -977,11 +977,11 @@ def phase_I_II_inertias(beta, theta_II, phi0, theta, omega):
     tuple of arrays
         tuple: mass, inertia of each body in order (inertia 0 for a point mass)
     """
-    be = backend_for(beta, theta_II, phi0, theta, omega)
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
     return (1, 0,)
 
 
-def phase_III_IV_accelerations(beta, theta_II, phi0, theta, omega):
+def phase_III_IV_accelerations(beta, theta_II, phi0, theta, theta_dot):
     """Second derivatives of the free coordinates in phase phase_III_IV. Beyond the paper.
 
     Parameters
@@ -990,7 +990,7 @@ def phase_III_IV_accelerations(beta, theta_II, phi0, theta, omega):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -999,12 +999,12 @@ def phase_III_IV_accelerations(beta, theta_II, phi0, theta, omega):
     tuple of arrays
         tuple: d2(coordinate)/dt2 for each coordinate
     """
-    be = backend_for(beta, theta_II, phi0, theta, omega)
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     return (sin_theta,)
 
 
-def phase_III_IV_energy(beta, theta_II, phi0, theta, omega):
+def phase_III_IV_energy(beta, theta_II, phi0, theta, theta_dot):
     """Mechanical energy T + V in phase phase_III_IV. Beyond the paper.
 
     Parameters
@@ -1013,7 +1013,7 @@ def phase_III_IV_energy(beta, theta_II, phi0, theta, omega):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -1022,12 +1022,12 @@ def phase_III_IV_energy(beta, theta_II, phi0, theta, omega):
     array
         energy
     """
-    be = backend_for(beta, theta_II, phi0, theta, omega)
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_theta + omega**2/2
+    return cos_theta + theta_dot**2/2
 
 
-def phase_III_IV_normal_force(beta, theta_II, phi0, theta, omega):
+def phase_III_IV_normal_force(beta, theta_II, phi0, theta, theta_dot):
     """Ground reaction on the stance foot along the ground normal in phase phase_III_IV. Beyond the paper.
 
     Parameters
@@ -1036,7 +1036,7 @@ def phase_III_IV_normal_force(beta, theta_II, phi0, theta, omega):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -1045,12 +1045,12 @@ def phase_III_IV_normal_force(beta, theta_II, phi0, theta, omega):
     array
         normal force (the foot lifts off below 0)
     """
-    be = backend_for(beta, theta_II, phi0, theta, omega)
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_theta**2 - cos_theta*omega**2
+    return cos_theta**2 - cos_theta*theta_dot**2
 
 
-def phase_III_IV_fell_backward(beta, theta_II, phi0, theta, omega):
+def phase_III_IV_fell_backward(beta, theta_II, phi0, theta, theta_dot):
     """Guard of fell-backward in phase phase_III_IV. Beyond the paper.
 
     Parameters
@@ -1059,7 +1059,7 @@ def phase_III_IV_fell_backward(beta, theta_II, phi0, theta, omega):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -1068,11 +1068,11 @@ def phase_III_IV_fell_backward(beta, theta_II, phi0, theta, omega):
     array
         crosses zero (direction -1) when the walk ends
     """
-    be = backend_for(beta, theta_II, phi0, theta, omega)
-    return omega
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
+    return theta_dot
 
 
-def phase_III_IV_lift_off(beta, theta_II, phi0, theta, omega):
+def phase_III_IV_lift_off(beta, theta_II, phi0, theta, theta_dot):
     """Guard of lift-off in phase phase_III_IV. Beyond the paper.
 
     Parameters
@@ -1081,7 +1081,7 @@ def phase_III_IV_lift_off(beta, theta_II, phi0, theta, omega):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -1090,12 +1090,12 @@ def phase_III_IV_lift_off(beta, theta_II, phi0, theta, omega):
     array
         crosses zero (direction -1) when the walk ends
     """
-    be = backend_for(beta, theta_II, phi0, theta, omega)
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_theta**2 - cos_theta*omega**2
+    return cos_theta**2 - cos_theta*theta_dot**2
 
 
-def phase_III_IV_positions(beta, theta_II, phi0, theta, omega):
+def phase_III_IV_positions(beta, theta_II, phi0, theta, theta_dot):
     """Position (x, y) and angle of each body in phase phase_III_IV's chart. Beyond the paper.
 
     Parameters
@@ -1104,7 +1104,7 @@ def phase_III_IV_positions(beta, theta_II, phi0, theta, omega):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -1113,12 +1113,12 @@ def phase_III_IV_positions(beta, theta_II, phi0, theta, omega):
     tuple of arrays
         tuple: x, y, angle of each body in order (angle 0 for a point mass)
     """
-    be = backend_for(beta, theta_II, phi0, theta, omega)
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     return (sin_theta, cos_theta, 0,)
 
 
-def phase_III_IV_inertias(beta, theta_II, phi0, theta, omega):
+def phase_III_IV_inertias(beta, theta_II, phi0, theta, theta_dot):
     """Mass and central moment of inertia of each body in phase phase_III_IV. Beyond the paper.
 
     Parameters
@@ -1127,7 +1127,7 @@ def phase_III_IV_inertias(beta, theta_II, phi0, theta, omega):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -1136,11 +1136,11 @@ def phase_III_IV_inertias(beta, theta_II, phi0, theta, omega):
     tuple of arrays
         tuple: mass, inertia of each body in order (inertia 0 for a point mass)
     """
-    be = backend_for(beta, theta_II, phi0, theta, omega)
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
     return (1, 0,)
 
 
-def event_extension_guard(beta, theta_II, phi0, theta, omega):
+def event_extension_guard(beta, theta_II, phi0, theta, theta_dot):
     """Guard of the event extension: crosses zero when it happens. Beyond the paper.
 
     Parameters
@@ -1149,7 +1149,7 @@ def event_extension_guard(beta, theta_II, phi0, theta, omega):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -1158,11 +1158,11 @@ def event_extension_guard(beta, theta_II, phi0, theta, omega):
     array
         guard
     """
-    be = backend_for(beta, theta_II, phi0, theta, omega)
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
     return theta - theta_II
 
 
-def event_extension_reset(beta, theta_II, phi0, theta, omega):
+def event_extension_reset(beta, theta_II, phi0, theta, theta_dot):
     """State just after the event extension (from the state just before). Eq. (3) of the paper.
 
     Parameters
@@ -1171,7 +1171,7 @@ def event_extension_reset(beta, theta_II, phi0, theta, omega):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -1180,11 +1180,11 @@ def event_extension_reset(beta, theta_II, phi0, theta, omega):
     tuple of arrays
         tuple: coordinates, then rates
     """
-    be = backend_for(beta, theta_II, phi0, theta, omega)
-    return (theta, omega*beta**2,)
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
+    return (theta, theta_dot*beta**2,)
 
 
-def event_heelstrike_guard(beta, theta_II, phi0, theta, omega):
+def event_heelstrike_guard(beta, theta_II, phi0, theta, theta_dot):
     """Guard of the event heelstrike: crosses zero when it happens. Beyond the paper.
 
     Parameters
@@ -1193,7 +1193,7 @@ def event_heelstrike_guard(beta, theta_II, phi0, theta, omega):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -1202,13 +1202,13 @@ def event_heelstrike_guard(beta, theta_II, phi0, theta, omega):
     array
         guard
     """
-    be = backend_for(beta, theta_II, phi0, theta, omega)
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     cos_t1, sin_t1 = be.cos_sin(phi0 - theta)
     return cos_theta - cos_t1*beta
 
 
-def event_heelstrike_reset(beta, theta_II, phi0, theta, omega):
+def event_heelstrike_reset(beta, theta_II, phi0, theta, theta_dot):
     """State just after the event heelstrike (from the state just before). Eq. (5), (6) of the paper.
 
     Parameters
@@ -1217,7 +1217,7 @@ def event_heelstrike_reset(beta, theta_II, phi0, theta, omega):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -1226,12 +1226,12 @@ def event_heelstrike_reset(beta, theta_II, phi0, theta, omega):
     tuple of arrays
         tuple: coordinates, then rates
     """
-    be = backend_for(beta, theta_II, phi0, theta, omega)
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
-    return (theta - phi0, cos_phi0*omega/beta,)
+    return (theta - phi0, cos_phi0*theta_dot/beta,)
 
 
-def event_heelstrike_contact(beta, theta_II, phi0, theta, omega):
+def event_heelstrike_contact(beta, theta_II, phi0, theta, theta_dot):
     """The new contact point of the impact heelstrike (x, y in phase phase_III_IV's chart). Beyond the paper.
 
     Parameters
@@ -1240,7 +1240,7 @@ def event_heelstrike_contact(beta, theta_II, phi0, theta, omega):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -1249,13 +1249,13 @@ def event_heelstrike_contact(beta, theta_II, phi0, theta, omega):
     tuple of arrays
         tuple: x, y
     """
-    be = backend_for(beta, theta_II, phi0, theta, omega)
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     cos_t1, sin_t1 = be.cos_sin(phi0 - theta)
     return (sin_theta + sin_t1*beta, cos_theta - cos_t1*beta,)
 
 
-def step_length_of_state(beta, theta_II, phi0, theta, omega):
+def step_length_of_state(beta, theta_II, phi0, theta, theta_dot):
     """Distance between successive stance feet (state just before the step event). Beyond the paper.
 
     Parameters
@@ -1264,7 +1264,7 @@ def step_length_of_state(beta, theta_II, phi0, theta, omega):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -1273,7 +1273,30 @@ def step_length_of_state(beta, theta_II, phi0, theta, omega):
     array
         step length
     """
-    be = backend_for(beta, theta_II, phi0, theta, omega)
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     cos_t1, sin_t1 = be.cos_sin(phi0 - theta)
     return sin_theta + sin_t1*beta
+
+
+def section_completion(beta, theta_II, phi0, theta, theta_dot):
+    """The section state with the components the section determines recomputed from the others (the step event's geometry and reset). Beyond the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: coordinates, then rates
+    """
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    return (-be.atan((beta - cos_phi0)/sin_phi0), theta_dot,)

@@ -17,7 +17,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'rimless_wheel', 'title': 'Rimless wheel', 'description': "McGeer's rimless wheel: a hub mass on massless spokes rolling down a slope", 'coordinate_units': {'theta': 'rad'}, 'parameters': ('alpha', 'gamma', 'l', 'g'), 'coordinates': ('theta',), 'rates': ('omega',), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': True},), 'events': ({'name': 'collision', 'source': 'stance', 'target': 'stance', 'direction': -1, 'ends_step': True, 'when': None, 'reset': 'impact', 'bodies': (0,)},), 'units': {'time': 's', 'length': 'm', 'mass': 'kg (energies per unit mass)', 'energy': 'J/kg'}, 'step_length': True, 'start': {'theta': 0.0}, 'start_rates': {'omega': 1.0}, 'rate_range': (0.2, 6.0), 'closed_form': True}
+HYBRID = {'name': 'rimless_wheel', 'title': 'Rimless wheel', 'description': "McGeer's rimless wheel: a hub mass on massless spokes rolling down a slope", 'coordinate_units': {'theta': 'rad'}, 'parameters': ('alpha', 'gamma', 'l', 'g'), 'coordinates': ('theta',), 'rates': ('theta_dot',), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance spoke angle', 'reference': 'the slope normal', 'positive': 'the hub downhill of the stance foot', 'rate': 'theta_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of theta (stance spoke angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': True},), 'events': ({'name': 'collision', 'source': 'stance', 'target': 'stance', 'direction': -1, 'ends_step': True, 'when': None, 'reset': 'impact', 'bodies': (0,)},), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the wheel stops and rolls back', 'unit': 'rad/s'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the slope', 'unit': 'N/kg'}), 'units': {'time': 's', 'length': 'm', 'mass': 'kg (energies per unit mass)', 'energy': 'J/kg', 'force': 'N/kg'}, 'step_length': True, 'section': ('theta',), 'search': {'theta_dot': (0.0, 12.0)}, 'closed_form': True}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -26,7 +26,7 @@ def _carlson_rf(x, y, z, be):
     return be.carlson_rf(x, y, z)
 
 
-def stance_accelerations(alpha, gamma, l, g, theta, omega):
+def stance_accelerations(alpha, gamma, l, g, theta, theta_dot):
     """Second derivatives of the free coordinates in phase stance.
 
     Parameters
@@ -36,7 +36,7 @@ def stance_accelerations(alpha, gamma, l, g, theta, omega):
     l : array_like or casadi.SX/MX/DM
     g : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -45,13 +45,13 @@ def stance_accelerations(alpha, gamma, l, g, theta, omega):
     tuple of arrays
         tuple: d2(coordinate)/dt2 for each coordinate
     """
-    be = backend_for(alpha, gamma, l, g, theta, omega)
+    be = backend_for(alpha, gamma, l, g, theta, theta_dot)
     cos_gamma, sin_gamma = be.cos_sin(gamma)
     cos_theta, sin_theta = be.cos_sin(theta)
     return ((cos_gamma*sin_theta*g + cos_theta*sin_gamma*g)/l,)
 
 
-def stance_energy(alpha, gamma, l, g, theta, omega):
+def stance_energy(alpha, gamma, l, g, theta, theta_dot):
     """Mechanical energy T + V in phase stance.
 
     Parameters
@@ -61,7 +61,7 @@ def stance_energy(alpha, gamma, l, g, theta, omega):
     l : array_like or casadi.SX/MX/DM
     g : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -70,14 +70,14 @@ def stance_energy(alpha, gamma, l, g, theta, omega):
     array
         energy
     """
-    be = backend_for(alpha, gamma, l, g, theta, omega)
+    be = backend_for(alpha, gamma, l, g, theta, theta_dot)
     cos_gamma, sin_gamma = be.cos_sin(gamma)
     cos_theta, sin_theta = be.cos_sin(theta)
     x0 = g*l
-    return omega**2*l**2/2 + x0*cos_gamma*cos_theta - x0*sin_gamma*sin_theta
+    return theta_dot**2*l**2/2 + x0*cos_gamma*cos_theta - x0*sin_gamma*sin_theta
 
 
-def stance_normal_force(alpha, gamma, l, g, theta, omega):
+def stance_normal_force(alpha, gamma, l, g, theta, theta_dot):
     """Ground reaction on the stance foot along the ground normal in phase stance.
 
     Parameters
@@ -87,7 +87,7 @@ def stance_normal_force(alpha, gamma, l, g, theta, omega):
     l : array_like or casadi.SX/MX/DM
     g : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -96,13 +96,13 @@ def stance_normal_force(alpha, gamma, l, g, theta, omega):
     array
         normal force (the foot lifts off below 0)
     """
-    be = backend_for(alpha, gamma, l, g, theta, omega)
+    be = backend_for(alpha, gamma, l, g, theta, theta_dot)
     cos_gamma, sin_gamma = be.cos_sin(gamma)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_gamma*g*cos_theta**2 - cos_theta*l*omega**2 - cos_theta*sin_gamma*sin_theta*g
+    return cos_gamma*g*cos_theta**2 - cos_theta*l*theta_dot**2 - cos_theta*sin_gamma*sin_theta*g
 
 
-def stance_fell_backward(alpha, gamma, l, g, theta, omega):
+def stance_fell_backward(alpha, gamma, l, g, theta, theta_dot):
     """Guard of fell-backward in phase stance.
 
     Parameters
@@ -112,7 +112,7 @@ def stance_fell_backward(alpha, gamma, l, g, theta, omega):
     l : array_like or casadi.SX/MX/DM
     g : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -121,11 +121,11 @@ def stance_fell_backward(alpha, gamma, l, g, theta, omega):
     array
         crosses zero (direction -1) when the walk ends
     """
-    be = backend_for(alpha, gamma, l, g, theta, omega)
-    return omega
+    be = backend_for(alpha, gamma, l, g, theta, theta_dot)
+    return theta_dot
 
 
-def stance_lift_off(alpha, gamma, l, g, theta, omega):
+def stance_lift_off(alpha, gamma, l, g, theta, theta_dot):
     """Guard of lift-off in phase stance.
 
     Parameters
@@ -135,7 +135,7 @@ def stance_lift_off(alpha, gamma, l, g, theta, omega):
     l : array_like or casadi.SX/MX/DM
     g : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -144,13 +144,13 @@ def stance_lift_off(alpha, gamma, l, g, theta, omega):
     array
         crosses zero (direction -1) when the walk ends
     """
-    be = backend_for(alpha, gamma, l, g, theta, omega)
+    be = backend_for(alpha, gamma, l, g, theta, theta_dot)
     cos_gamma, sin_gamma = be.cos_sin(gamma)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_gamma*g*cos_theta**2 - cos_theta*l*omega**2 - cos_theta*sin_gamma*sin_theta*g
+    return cos_gamma*g*cos_theta**2 - cos_theta*l*theta_dot**2 - cos_theta*sin_gamma*sin_theta*g
 
 
-def stance_positions(alpha, gamma, l, g, theta, omega):
+def stance_positions(alpha, gamma, l, g, theta, theta_dot):
     """Position (x, y) and angle of each body in phase stance's chart.
 
     Parameters
@@ -160,7 +160,7 @@ def stance_positions(alpha, gamma, l, g, theta, omega):
     l : array_like or casadi.SX/MX/DM
     g : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -169,12 +169,12 @@ def stance_positions(alpha, gamma, l, g, theta, omega):
     tuple of arrays
         tuple: x, y, angle of each body in order (angle 0 for a point mass)
     """
-    be = backend_for(alpha, gamma, l, g, theta, omega)
+    be = backend_for(alpha, gamma, l, g, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     return (sin_theta*l, cos_theta*l, 0,)
 
 
-def stance_inertias(alpha, gamma, l, g, theta, omega):
+def stance_inertias(alpha, gamma, l, g, theta, theta_dot):
     """Mass and central moment of inertia of each body in phase stance.
 
     Parameters
@@ -184,7 +184,7 @@ def stance_inertias(alpha, gamma, l, g, theta, omega):
     l : array_like or casadi.SX/MX/DM
     g : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -193,11 +193,11 @@ def stance_inertias(alpha, gamma, l, g, theta, omega):
     tuple of arrays
         tuple: mass, inertia of each body in order (inertia 0 for a point mass)
     """
-    be = backend_for(alpha, gamma, l, g, theta, omega)
+    be = backend_for(alpha, gamma, l, g, theta, theta_dot)
     return (1, 0,)
 
 
-def event_collision_guard(alpha, gamma, l, g, theta, omega):
+def event_collision_guard(alpha, gamma, l, g, theta, theta_dot):
     """Guard of the event collision: crosses zero when it happens.
 
     Parameters
@@ -207,7 +207,7 @@ def event_collision_guard(alpha, gamma, l, g, theta, omega):
     l : array_like or casadi.SX/MX/DM
     g : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -216,13 +216,13 @@ def event_collision_guard(alpha, gamma, l, g, theta, omega):
     array
         guard
     """
-    be = backend_for(alpha, gamma, l, g, theta, omega)
+    be = backend_for(alpha, gamma, l, g, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     cos_t1, sin_t1 = be.cos_sin(-theta + 2*alpha)
     return cos_theta*l - cos_t1*l
 
 
-def event_collision_reset(alpha, gamma, l, g, theta, omega):
+def event_collision_reset(alpha, gamma, l, g, theta, theta_dot):
     """State just after the event collision (from the state just before).
 
     Parameters
@@ -232,7 +232,7 @@ def event_collision_reset(alpha, gamma, l, g, theta, omega):
     l : array_like or casadi.SX/MX/DM
     g : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -241,12 +241,12 @@ def event_collision_reset(alpha, gamma, l, g, theta, omega):
     tuple of arrays
         tuple: coordinates, then rates
     """
-    be = backend_for(alpha, gamma, l, g, theta, omega)
+    be = backend_for(alpha, gamma, l, g, theta, theta_dot)
     cos_t0, sin_t0 = be.cos_sin(2*alpha)
-    return (theta - 2*alpha, cos_t0*omega,)
+    return (theta - 2*alpha, cos_t0*theta_dot,)
 
 
-def event_collision_contact(alpha, gamma, l, g, theta, omega):
+def event_collision_contact(alpha, gamma, l, g, theta, theta_dot):
     """The new contact point of the impact collision (x, y in phase stance's chart).
 
     Parameters
@@ -256,7 +256,7 @@ def event_collision_contact(alpha, gamma, l, g, theta, omega):
     l : array_like or casadi.SX/MX/DM
     g : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -265,13 +265,13 @@ def event_collision_contact(alpha, gamma, l, g, theta, omega):
     tuple of arrays
         tuple: x, y
     """
-    be = backend_for(alpha, gamma, l, g, theta, omega)
+    be = backend_for(alpha, gamma, l, g, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     cos_t1, sin_t1 = be.cos_sin(-theta + 2*alpha)
     return (sin_t1*l + sin_theta*l, cos_theta*l - cos_t1*l,)
 
 
-def step_length_of_state(alpha, gamma, l, g, theta, omega):
+def step_length_of_state(alpha, gamma, l, g, theta, theta_dot):
     """Distance between successive stance feet (state just before the step event).
 
     Parameters
@@ -281,7 +281,7 @@ def step_length_of_state(alpha, gamma, l, g, theta, omega):
     l : array_like or casadi.SX/MX/DM
     g : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -290,9 +290,32 @@ def step_length_of_state(alpha, gamma, l, g, theta, omega):
     array
         step length
     """
-    be = backend_for(alpha, gamma, l, g, theta, omega)
+    be = backend_for(alpha, gamma, l, g, theta, theta_dot)
     cos_alpha, sin_alpha = be.cos_sin(alpha)
     return 2*sin_alpha*l
+
+
+def section_completion(alpha, gamma, l, g, theta, theta_dot):
+    """The section state with the components the section determines recomputed from the others (the step event's geometry and reset).
+
+    Parameters
+    ----------
+    alpha : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    l : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: coordinates, then rates
+    """
+    be = backend_for(alpha, gamma, l, g, theta, theta_dot)
+    return (-alpha, theta_dot,)
 
 
 def stride_map(alpha, gamma, l, g, q):

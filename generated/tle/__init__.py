@@ -23,7 +23,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'tle', 'title': 'Finite-time leg extension model of Virtual Slope Walking', 'description': 'ILE walker whose stance leg extends from beta r_e to r_e along a cubic smoothstep over the stance angles [theta_II, theta_II + delta]', 'coordinate_units': {'theta': 'rad'}, 'parameters': ('beta', 'theta_II', 'phi0', 'delta'), 'coordinates': ('theta',), 'rates': ('omega',), 'phases': ({'name': 'short', 'failures': (('fell-backward', 'short_fell_backward', -1), ('lift-off', 'short_lift_off', -1)), 'conservative': True}, {'name': 'extension', 'failures': (('fell-backward', 'extension_fell_backward', -1), ('lift-off', 'extension_lift_off', -1)), 'conservative': False}, {'name': 'long', 'failures': (('fell-backward', 'long_fell_backward', -1), ('lift-off', 'long_lift_off', -1)), 'conservative': True}), 'events': ({'name': 'extension_start', 'source': 'short', 'target': 'extension', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'continuous', 'bodies': None}, {'name': 'extension_end', 'source': 'extension', 'target': 'long', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'continuous', 'bodies': None}, {'name': 'heelstrike', 'source': 'long', 'target': 'short', 'direction': -1, 'ends_step': True, 'when': None, 'reset': 'impact', 'bodies': (0,)}), 'units': {'time': 'sqrt(r_e/g)', 'length': 'r_e', 'mass': 'm', 'energy': 'm g r_e'}, 'step_length': True, 'start': {'theta': -0.35}, 'start_rates': {'omega': 1.0}, 'rate_range': (0.3, 1.5), 'closed_form': True}
+HYBRID = {'name': 'tle', 'title': 'Finite-time leg extension model of Virtual Slope Walking', 'description': 'ILE walker whose stance leg extends from beta r_e to r_e along a cubic smoothstep over the stance angles [theta_II, theta_II + delta]', 'coordinate_units': {'theta': 'rad'}, 'parameters': ('beta', 'theta_II', 'phi0', 'delta'), 'coordinates': ('theta',), 'rates': ('theta_dot',), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the stance foot', 'rate': 'theta_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/sqrt(r_e/g)', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}), 'phases': ({'name': 'short', 'failures': (('fell-backward', 'short_fell_backward', -1), ('lift-off', 'short_lift_off', -1)), 'conservative': True}, {'name': 'extension', 'failures': (('fell-backward', 'extension_fell_backward', -1), ('lift-off', 'extension_lift_off', -1)), 'conservative': False}, {'name': 'long', 'failures': (('fell-backward', 'long_fell_backward', -1), ('lift-off', 'long_lift_off', -1)), 'conservative': True}), 'events': ({'name': 'extension_start', 'source': 'short', 'target': 'extension', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'continuous', 'bodies': None}, {'name': 'extension_end', 'source': 'extension', 'target': 'long', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'continuous', 'bodies': None}, {'name': 'heelstrike', 'source': 'long', 'target': 'short', 'direction': -1, 'ends_step': True, 'when': None, 'reset': 'impact', 'bodies': (0,)}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the stance leg stops and falls back', 'unit': 'rad/sqrt(r_e/g)'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'm g'}), 'units': {'time': 'sqrt(r_e/g)', 'length': 'r_e', 'mass': 'm', 'energy': 'm g r_e', 'force': 'm g'}, 'step_length': True, 'section': ('theta',), 'search': {'theta_dot': (0.0, 3.0)}, 'closed_form': True}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -32,7 +32,7 @@ def _carlson_rf(x, y, z, be):
     return be.carlson_rf(x, y, z)
 
 
-def short_accelerations(beta, theta_II, phi0, delta, theta, omega):
+def short_accelerations(beta, theta_II, phi0, delta, theta, theta_dot):
     """Second derivatives of the free coordinates in phase short.
 
     Parameters
@@ -42,7 +42,7 @@ def short_accelerations(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -51,12 +51,12 @@ def short_accelerations(beta, theta_II, phi0, delta, theta, omega):
     tuple of arrays
         tuple: d2(coordinate)/dt2 for each coordinate
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     return (sin_theta/beta,)
 
 
-def short_energy(beta, theta_II, phi0, delta, theta, omega):
+def short_energy(beta, theta_II, phi0, delta, theta, theta_dot):
     """Mechanical energy T + V in phase short.
 
     Parameters
@@ -66,7 +66,7 @@ def short_energy(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -75,12 +75,12 @@ def short_energy(beta, theta_II, phi0, delta, theta, omega):
     array
         energy
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_theta*beta + omega**2*beta**2/2
+    return cos_theta*beta + theta_dot**2*beta**2/2
 
 
-def short_normal_force(beta, theta_II, phi0, delta, theta, omega):
+def short_normal_force(beta, theta_II, phi0, delta, theta, theta_dot):
     """Ground reaction on the stance foot along the ground normal in phase short.
 
     Parameters
@@ -90,7 +90,7 @@ def short_normal_force(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -99,12 +99,12 @@ def short_normal_force(beta, theta_II, phi0, delta, theta, omega):
     array
         normal force (the foot lifts off below 0)
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_theta**2 - cos_theta*beta*omega**2
+    return cos_theta**2 - cos_theta*beta*theta_dot**2
 
 
-def short_fell_backward(beta, theta_II, phi0, delta, theta, omega):
+def short_fell_backward(beta, theta_II, phi0, delta, theta, theta_dot):
     """Guard of fell-backward in phase short.
 
     Parameters
@@ -114,7 +114,7 @@ def short_fell_backward(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -123,11 +123,11 @@ def short_fell_backward(beta, theta_II, phi0, delta, theta, omega):
     array
         crosses zero (direction -1) when the walk ends
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
-    return omega
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
+    return theta_dot
 
 
-def short_lift_off(beta, theta_II, phi0, delta, theta, omega):
+def short_lift_off(beta, theta_II, phi0, delta, theta, theta_dot):
     """Guard of lift-off in phase short.
 
     Parameters
@@ -137,7 +137,7 @@ def short_lift_off(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -146,12 +146,12 @@ def short_lift_off(beta, theta_II, phi0, delta, theta, omega):
     array
         crosses zero (direction -1) when the walk ends
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_theta**2 - cos_theta*beta*omega**2
+    return cos_theta**2 - cos_theta*beta*theta_dot**2
 
 
-def short_positions(beta, theta_II, phi0, delta, theta, omega):
+def short_positions(beta, theta_II, phi0, delta, theta, theta_dot):
     """Position (x, y) and angle of each body in phase short's chart.
 
     Parameters
@@ -161,7 +161,7 @@ def short_positions(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -170,12 +170,12 @@ def short_positions(beta, theta_II, phi0, delta, theta, omega):
     tuple of arrays
         tuple: x, y, angle of each body in order (angle 0 for a point mass)
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     return (sin_theta*beta, cos_theta*beta, 0,)
 
 
-def short_inertias(beta, theta_II, phi0, delta, theta, omega):
+def short_inertias(beta, theta_II, phi0, delta, theta, theta_dot):
     """Mass and central moment of inertia of each body in phase short.
 
     Parameters
@@ -185,7 +185,7 @@ def short_inertias(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -194,11 +194,11 @@ def short_inertias(beta, theta_II, phi0, delta, theta, omega):
     tuple of arrays
         tuple: mass, inertia of each body in order (inertia 0 for a point mass)
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     return (1, 0,)
 
 
-def extension_accelerations(beta, theta_II, phi0, delta, theta, omega):
+def extension_accelerations(beta, theta_II, phi0, delta, theta, theta_dot):
     """Second derivatives of the free coordinates in phase extension.
 
     Parameters
@@ -208,7 +208,7 @@ def extension_accelerations(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -217,17 +217,17 @@ def extension_accelerations(beta, theta_II, phi0, delta, theta, omega):
     tuple of arrays
         tuple: d2(coordinate)/dt2 for each coordinate
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     x0 = 1 - beta
     x1 = (1/(delta*delta*delta))
     x2 = theta - theta_II
     x3 = x2**2
     x4 = 3/delta**2
-    return ((sin_theta - 2*x0*omega**2*(x4*(-2*theta_II + 2*theta) - 6*x1*x3))/(beta + x0*(x3*x4 - 2*x1*(x2*x2*x2))),)
+    return ((sin_theta - 2*x0*theta_dot**2*(x4*(-2*theta_II + 2*theta) - 6*x1*x3))/(beta + x0*(x3*x4 - 2*x1*(x2*x2*x2))),)
 
 
-def extension_energy(beta, theta_II, phi0, delta, theta, omega):
+def extension_energy(beta, theta_II, phi0, delta, theta, theta_dot):
     """Mechanical energy T + V in phase extension.
 
     Parameters
@@ -237,7 +237,7 @@ def extension_energy(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -246,7 +246,7 @@ def extension_energy(beta, theta_II, phi0, delta, theta, omega):
     array
         energy
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     x0 = 1 - beta
     x1 = (1/(delta*delta*delta))
@@ -254,11 +254,11 @@ def extension_energy(beta, theta_II, phi0, delta, theta, omega):
     x3 = x2**2
     x4 = 3/delta**2
     x5 = beta + x0*(x3*x4 - 2*x1*(x2*x2*x2))
-    x6 = omega**2/2
+    x6 = theta_dot**2/2
     return x5*cos_theta + x6*x5**2 + x6*x0**2*(x4*(-2*theta_II + 2*theta) - 6*x1*x3)**2
 
 
-def extension_normal_force(beta, theta_II, phi0, delta, theta, omega):
+def extension_normal_force(beta, theta_II, phi0, delta, theta, theta_dot):
     """Ground reaction on the stance foot along the ground normal in phase extension.
 
     Parameters
@@ -268,7 +268,7 @@ def extension_normal_force(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -277,7 +277,7 @@ def extension_normal_force(beta, theta_II, phi0, delta, theta, omega):
     array
         normal force (the foot lifts off below 0)
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     x0 = -1 + beta
     x1 = -x0
@@ -288,11 +288,11 @@ def extension_normal_force(beta, theta_II, phi0, delta, theta, omega):
     x6 = 3*x5
     x7 = beta + x1*(x4*x6 - 2*x2*(x3*x3*x3))
     x8 = x6*(-2*theta_II + 2*theta) - 6*x2*x4
-    x9 = cos_theta*omega**2
+    x9 = cos_theta*theta_dot**2
     return (x7*cos_theta**2 - x9*x7**2 - 2*x9*x1**2*x8**2 + x1*x8*cos_theta*sin_theta - 6*x0*x5*x7*x9*(1 - 2*x3/delta))/x7
 
 
-def extension_fell_backward(beta, theta_II, phi0, delta, theta, omega):
+def extension_fell_backward(beta, theta_II, phi0, delta, theta, theta_dot):
     """Guard of fell-backward in phase extension.
 
     Parameters
@@ -302,7 +302,7 @@ def extension_fell_backward(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -311,11 +311,11 @@ def extension_fell_backward(beta, theta_II, phi0, delta, theta, omega):
     array
         crosses zero (direction -1) when the walk ends
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
-    return omega
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
+    return theta_dot
 
 
-def extension_lift_off(beta, theta_II, phi0, delta, theta, omega):
+def extension_lift_off(beta, theta_II, phi0, delta, theta, theta_dot):
     """Guard of lift-off in phase extension.
 
     Parameters
@@ -325,7 +325,7 @@ def extension_lift_off(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -334,7 +334,7 @@ def extension_lift_off(beta, theta_II, phi0, delta, theta, omega):
     array
         crosses zero (direction -1) when the walk ends
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     x0 = -1 + beta
     x1 = -x0
@@ -345,11 +345,11 @@ def extension_lift_off(beta, theta_II, phi0, delta, theta, omega):
     x6 = 3*x5
     x7 = beta + x1*(x4*x6 - 2*x2*(x3*x3*x3))
     x8 = x6*(-2*theta_II + 2*theta) - 6*x2*x4
-    x9 = cos_theta*omega**2
+    x9 = cos_theta*theta_dot**2
     return (x7*cos_theta**2 - x9*x7**2 - 2*x9*x1**2*x8**2 + x1*x8*cos_theta*sin_theta - 6*x0*x5*x7*x9*(1 - 2*x3/delta))/x7
 
 
-def extension_positions(beta, theta_II, phi0, delta, theta, omega):
+def extension_positions(beta, theta_II, phi0, delta, theta, theta_dot):
     """Position (x, y) and angle of each body in phase extension's chart.
 
     Parameters
@@ -359,7 +359,7 @@ def extension_positions(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -368,14 +368,14 @@ def extension_positions(beta, theta_II, phi0, delta, theta, omega):
     tuple of arrays
         tuple: x, y, angle of each body in order (angle 0 for a point mass)
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     x0 = theta - theta_II
     x1 = beta + (1 - beta)*(-2*(x0*x0*x0)/(delta*delta*delta) + 3*x0**2/delta**2)
     return (x1*sin_theta, x1*cos_theta, 0,)
 
 
-def extension_inertias(beta, theta_II, phi0, delta, theta, omega):
+def extension_inertias(beta, theta_II, phi0, delta, theta, theta_dot):
     """Mass and central moment of inertia of each body in phase extension.
 
     Parameters
@@ -385,7 +385,7 @@ def extension_inertias(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -394,11 +394,11 @@ def extension_inertias(beta, theta_II, phi0, delta, theta, omega):
     tuple of arrays
         tuple: mass, inertia of each body in order (inertia 0 for a point mass)
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     return (1, 0,)
 
 
-def long_accelerations(beta, theta_II, phi0, delta, theta, omega):
+def long_accelerations(beta, theta_II, phi0, delta, theta, theta_dot):
     """Second derivatives of the free coordinates in phase long.
 
     Parameters
@@ -408,7 +408,7 @@ def long_accelerations(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -417,12 +417,12 @@ def long_accelerations(beta, theta_II, phi0, delta, theta, omega):
     tuple of arrays
         tuple: d2(coordinate)/dt2 for each coordinate
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     return (sin_theta,)
 
 
-def long_energy(beta, theta_II, phi0, delta, theta, omega):
+def long_energy(beta, theta_II, phi0, delta, theta, theta_dot):
     """Mechanical energy T + V in phase long.
 
     Parameters
@@ -432,7 +432,7 @@ def long_energy(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -441,12 +441,12 @@ def long_energy(beta, theta_II, phi0, delta, theta, omega):
     array
         energy
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_theta + omega**2/2
+    return cos_theta + theta_dot**2/2
 
 
-def long_normal_force(beta, theta_II, phi0, delta, theta, omega):
+def long_normal_force(beta, theta_II, phi0, delta, theta, theta_dot):
     """Ground reaction on the stance foot along the ground normal in phase long.
 
     Parameters
@@ -456,7 +456,7 @@ def long_normal_force(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -465,12 +465,12 @@ def long_normal_force(beta, theta_II, phi0, delta, theta, omega):
     array
         normal force (the foot lifts off below 0)
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_theta**2 - cos_theta*omega**2
+    return cos_theta**2 - cos_theta*theta_dot**2
 
 
-def long_fell_backward(beta, theta_II, phi0, delta, theta, omega):
+def long_fell_backward(beta, theta_II, phi0, delta, theta, theta_dot):
     """Guard of fell-backward in phase long.
 
     Parameters
@@ -480,7 +480,7 @@ def long_fell_backward(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -489,11 +489,11 @@ def long_fell_backward(beta, theta_II, phi0, delta, theta, omega):
     array
         crosses zero (direction -1) when the walk ends
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
-    return omega
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
+    return theta_dot
 
 
-def long_lift_off(beta, theta_II, phi0, delta, theta, omega):
+def long_lift_off(beta, theta_II, phi0, delta, theta, theta_dot):
     """Guard of lift-off in phase long.
 
     Parameters
@@ -503,7 +503,7 @@ def long_lift_off(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -512,12 +512,12 @@ def long_lift_off(beta, theta_II, phi0, delta, theta, omega):
     array
         crosses zero (direction -1) when the walk ends
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_theta**2 - cos_theta*omega**2
+    return cos_theta**2 - cos_theta*theta_dot**2
 
 
-def long_positions(beta, theta_II, phi0, delta, theta, omega):
+def long_positions(beta, theta_II, phi0, delta, theta, theta_dot):
     """Position (x, y) and angle of each body in phase long's chart.
 
     Parameters
@@ -527,7 +527,7 @@ def long_positions(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -536,12 +536,12 @@ def long_positions(beta, theta_II, phi0, delta, theta, omega):
     tuple of arrays
         tuple: x, y, angle of each body in order (angle 0 for a point mass)
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     return (sin_theta, cos_theta, 0,)
 
 
-def long_inertias(beta, theta_II, phi0, delta, theta, omega):
+def long_inertias(beta, theta_II, phi0, delta, theta, theta_dot):
     """Mass and central moment of inertia of each body in phase long.
 
     Parameters
@@ -551,7 +551,7 @@ def long_inertias(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -560,11 +560,11 @@ def long_inertias(beta, theta_II, phi0, delta, theta, omega):
     tuple of arrays
         tuple: mass, inertia of each body in order (inertia 0 for a point mass)
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     return (1, 0,)
 
 
-def event_extension_start_guard(beta, theta_II, phi0, delta, theta, omega):
+def event_extension_start_guard(beta, theta_II, phi0, delta, theta, theta_dot):
     """Guard of the event extension_start: crosses zero when it happens.
 
     Parameters
@@ -574,7 +574,7 @@ def event_extension_start_guard(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -583,11 +583,11 @@ def event_extension_start_guard(beta, theta_II, phi0, delta, theta, omega):
     array
         guard
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     return theta - theta_II
 
 
-def event_extension_start_reset(beta, theta_II, phi0, delta, theta, omega):
+def event_extension_start_reset(beta, theta_II, phi0, delta, theta, theta_dot):
     """State just after the event extension_start (from the state just before).
 
     Parameters
@@ -597,7 +597,7 @@ def event_extension_start_reset(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -606,11 +606,11 @@ def event_extension_start_reset(beta, theta_II, phi0, delta, theta, omega):
     tuple of arrays
         tuple: coordinates, then rates
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
-    return (theta, omega,)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
+    return (theta, theta_dot,)
 
 
-def event_extension_end_guard(beta, theta_II, phi0, delta, theta, omega):
+def event_extension_end_guard(beta, theta_II, phi0, delta, theta, theta_dot):
     """Guard of the event extension_end: crosses zero when it happens.
 
     Parameters
@@ -620,7 +620,7 @@ def event_extension_end_guard(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -629,11 +629,11 @@ def event_extension_end_guard(beta, theta_II, phi0, delta, theta, omega):
     array
         guard
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     return theta - theta_II - delta
 
 
-def event_extension_end_reset(beta, theta_II, phi0, delta, theta, omega):
+def event_extension_end_reset(beta, theta_II, phi0, delta, theta, theta_dot):
     """State just after the event extension_end (from the state just before).
 
     Parameters
@@ -643,7 +643,7 @@ def event_extension_end_reset(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -652,11 +652,11 @@ def event_extension_end_reset(beta, theta_II, phi0, delta, theta, omega):
     tuple of arrays
         tuple: coordinates, then rates
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
-    return (theta, omega,)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
+    return (theta, theta_dot,)
 
 
-def event_heelstrike_guard(beta, theta_II, phi0, delta, theta, omega):
+def event_heelstrike_guard(beta, theta_II, phi0, delta, theta, theta_dot):
     """Guard of the event heelstrike: crosses zero when it happens.
 
     Parameters
@@ -666,7 +666,7 @@ def event_heelstrike_guard(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -675,13 +675,13 @@ def event_heelstrike_guard(beta, theta_II, phi0, delta, theta, omega):
     array
         guard
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     cos_t1, sin_t1 = be.cos_sin(phi0 - theta)
     return cos_theta - cos_t1*beta
 
 
-def event_heelstrike_reset(beta, theta_II, phi0, delta, theta, omega):
+def event_heelstrike_reset(beta, theta_II, phi0, delta, theta, theta_dot):
     """State just after the event heelstrike (from the state just before). Eq. (5), (6) of the paper.
 
     Parameters
@@ -691,7 +691,7 @@ def event_heelstrike_reset(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -700,12 +700,12 @@ def event_heelstrike_reset(beta, theta_II, phi0, delta, theta, omega):
     tuple of arrays
         tuple: coordinates, then rates
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     cos_phi0, sin_phi0 = be.cos_sin(phi0)
-    return (theta - phi0, cos_phi0*omega/beta,)
+    return (theta - phi0, cos_phi0*theta_dot/beta,)
 
 
-def event_heelstrike_contact(beta, theta_II, phi0, delta, theta, omega):
+def event_heelstrike_contact(beta, theta_II, phi0, delta, theta, theta_dot):
     """The new contact point of the impact heelstrike (x, y in phase long's chart).
 
     Parameters
@@ -715,7 +715,7 @@ def event_heelstrike_contact(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -724,13 +724,13 @@ def event_heelstrike_contact(beta, theta_II, phi0, delta, theta, omega):
     tuple of arrays
         tuple: x, y
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     cos_t1, sin_t1 = be.cos_sin(phi0 - theta)
     return (sin_theta + sin_t1*beta, cos_theta - cos_t1*beta,)
 
 
-def step_length_of_state(beta, theta_II, phi0, delta, theta, omega):
+def step_length_of_state(beta, theta_II, phi0, delta, theta, theta_dot):
     """Distance between successive stance feet (state just before the step event).
 
     Parameters
@@ -740,7 +740,7 @@ def step_length_of_state(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -749,10 +749,34 @@ def step_length_of_state(beta, theta_II, phi0, delta, theta, omega):
     array
         step length
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     cos_t1, sin_t1 = be.cos_sin(phi0 - theta)
     return sin_theta + sin_t1*beta
+
+
+def section_completion(beta, theta_II, phi0, delta, theta, theta_dot):
+    """The section state with the components the section determines recomputed from the others (the step event's geometry and reset).
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    delta : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: coordinates, then rates
+    """
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
+    return (-be.atan((beta - cos_phi0)/sin_phi0), theta_dot,)
 
 
 def stride_map(beta, theta_II, phi0, delta, q):
@@ -973,7 +997,7 @@ def extension_profile(beta, theta_II, delta, theta):
 extension_profile.outputs = ('r', 'dr_dtheta', 'd2r_dtheta2')
 
 
-def short_leg_force(beta, theta_II, phi0, delta, theta, omega):
+def short_leg_force(beta, theta_II, phi0, delta, theta, theta_dot):
     """Force of the stance leg's actuator in phase short (the held length's generalised force), in m g.
 
     Parameters
@@ -983,7 +1007,7 @@ def short_leg_force(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -992,12 +1016,12 @@ def short_leg_force(beta, theta_II, phi0, delta, theta, omega):
     array
         leg force; > 0 pushes (compressive)
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_theta - beta*omega**2
+    return cos_theta - beta*theta_dot**2
 
 
-def extension_leg_force(beta, theta_II, phi0, delta, theta, omega):
+def extension_leg_force(beta, theta_II, phi0, delta, theta, theta_dot):
     """Force of the stance leg's actuator in phase extension (the held length's generalised force), in m g.
 
     Parameters
@@ -1007,7 +1031,7 @@ def extension_leg_force(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -1016,7 +1040,7 @@ def extension_leg_force(beta, theta_II, phi0, delta, theta, omega):
     array
         leg force; > 0 pushes (compressive)
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     x0 = -1 + beta
     x1 = -x0
@@ -1028,11 +1052,11 @@ def extension_leg_force(beta, theta_II, phi0, delta, theta, omega):
     x7 = beta + x1*(x4*x6 - 2*x2*(x3*x3*x3))
     x8 = x6*(-2*theta_II + 2*theta) - 6*x2*x4
     x9 = x1*x8
-    x10 = omega**2
+    x10 = theta_dot**2
     return (x7*cos_theta + x9*(sin_theta*sin_theta*sin_theta) - x10*x7**2 + x9*sin_theta*cos_theta**2 - 2*x10*x1**2*x8**2 - 6*x0*x10*x5*x7*(1 - 2*x3/delta))/x7
 
 
-def long_leg_force(beta, theta_II, phi0, delta, theta, omega):
+def long_leg_force(beta, theta_II, phi0, delta, theta, theta_dot):
     """Force of the stance leg's actuator in phase long (the held length's generalised force), in m g.
 
     Parameters
@@ -1042,7 +1066,7 @@ def long_leg_force(beta, theta_II, phi0, delta, theta, omega):
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -1051,9 +1075,9 @@ def long_leg_force(beta, theta_II, phi0, delta, theta, omega):
     array
         leg force; > 0 pushes (compressive)
     """
-    be = backend_for(beta, theta_II, phi0, delta, theta, omega)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_theta - omega**2
+    return cos_theta - theta_dot**2
 
 
 def theta_I(beta, phi0):

@@ -17,7 +17,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'vsw_biped', 'title': 'Compass-like biped of Virtual Slope Walking', 'description': "the ILE model with massive legs (the paper's future work): hip mass, leg masses on the legs' upper segments, instantaneous extension at theta_II, heelstrike where the swinging leg reaches the level ground", 'coordinate_units': {'theta': 'rad', 'psi': 'rad'}, 'parameters': ('beta', 'theta_II', 'mu', 'b_over_l'), 'coordinates': ('theta', 'psi'), 'rates': ('omega', 'psi_dot'), 'phases': ({'name': 'short', 'failures': (('fell-backward', 'short_fell_backward', -1), ('fell-forward', 'short_fell_forward', -1), ('lift-off', 'short_lift_off', -1)), 'conservative': True}, {'name': 'long', 'failures': (('fell-backward', 'long_fell_backward', -1), ('fell-forward', 'long_fell_forward', -1), ('lift-off', 'long_lift_off', -1)), 'conservative': True}), 'events': ({'name': 'extension', 'source': 'short', 'target': 'long', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'jump', 'bodies': None}, {'name': 'heelstrike', 'source': 'long', 'target': 'short', 'direction': -1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1)}), 'units': {'time': 'sqrt(l/g)', 'length': 'l', 'mass': 'm_H', 'energy': 'm_H g l'}, 'step_length': True, 'start': {'theta': -0.3, 'psi': 0.3}, 'start_rates': {'omega': 1.0, 'psi_dot': -0.5}, 'rate_range': (0.2, 1.5), 'closed_form': False}
+HYBRID = {'name': 'vsw_biped', 'title': 'Compass-like biped of Virtual Slope Walking', 'description': "the ILE model with massive legs (the paper's future work): hip mass, leg masses on the legs' upper segments, instantaneous extension at theta_II, heelstrike where the swinging leg reaches the level ground", 'coordinate_units': {'theta': 'rad', 'psi': 'rad'}, 'parameters': ('beta', 'theta_II', 'mu', 'b_over_l'), 'coordinates': ('theta', 'psi'), 'rates': ('theta_dot', 'psi_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the swing foot', 'rate': 'psi_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of psi (swing leg angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}), 'phases': ({'name': 'short', 'failures': (('fell-backward', 'short_fell_backward', -1), ('fell-forward', 'short_fell_forward', -1), ('lift-off', 'short_lift_off', -1)), 'conservative': True}, {'name': 'long', 'failures': (('fell-backward', 'long_fell_backward', -1), ('fell-forward', 'long_fell_forward', -1), ('lift-off', 'long_lift_off', -1)), 'conservative': True}), 'events': ({'name': 'extension', 'source': 'short', 'target': 'long', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'jump', 'bodies': None}, {'name': 'heelstrike', 'source': 'long', 'target': 'short', 'direction': -1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1)}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the walker stops before the apex and falls back', 'unit': 'rad/sqrt(l/g)'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the ground', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'm_H g'}), 'units': {'time': 'sqrt(l/g)', 'length': 'l', 'mass': 'm_H', 'energy': 'm_H g l', 'force': 'm_H g'}, 'step_length': True, 'section': ('psi',), 'search': {'theta': (-0.8, 0.8), 'theta_dot': (0.0, 2.5), 'psi_dot': (-4.0, 4.0)}, 'closed_form': False}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -26,7 +26,7 @@ def _carlson_rf(x, y, z, be):
     return be.carlson_rf(x, y, z)
 
 
-def short_accelerations(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
+def short_accelerations(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """Second derivatives of the free coordinates in phase short.
 
     Parameters
@@ -37,7 +37,7 @@ def short_accelerations(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot
     b_over_l : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
     psi : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
     psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
@@ -47,7 +47,7 @@ def short_accelerations(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot
     tuple of arrays
         tuple: d2(coordinate)/dt2 for each coordinate
     """
-    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     cos_psi, sin_psi = be.cos_sin(psi)
     cos_theta, sin_theta = be.cos_sin(theta)
     cos_t2, sin_t2 = be.cos_sin(psi - theta)
@@ -64,7 +64,7 @@ def short_accelerations(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot
     x10 = x0*cos_t2
     x11 = sin_t2*psi_dot**2
     x12 = x4*beta
-    x13 = omega**2
+    x13 = theta_dot**2
     x14 = b_over_l*mu
     x15 = x2*sin_psi
     x16 = x2*sin_theta
@@ -75,7 +75,7 @@ def short_accelerations(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot
     return (x8*(-x11*x12 - x4*sin_theta - x10*x9*beta + x1*sin_theta*beta*mu + 2*x0*x1*sin_theta*beta + x0*x1*x13*x2*cos_t2*sin_t2), x8*(x12*x19 + x14*x20 + x18*x20 - x14*x15 - x15*x18 - x19*x7 - x4*sin_psi + x0*x5*x9 + x10*x16*x17 + x14*x16*cos_t2 - x11*x6*cos_t2 - x1*x10*sin_theta*beta),)
 
 
-def short_energy(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
+def short_energy(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """Mechanical energy T + V in phase short.
 
     Parameters
@@ -86,7 +86,7 @@ def short_energy(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     b_over_l : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
     psi : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
     psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
@@ -96,21 +96,21 @@ def short_energy(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     array
         energy
     """
-    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     cos_psi, sin_psi = be.cos_sin(psi)
     cos_theta, sin_theta = be.cos_sin(theta)
     x0 = cos_theta*beta
     x1 = b_over_l*mu
     x2 = x1*cos_psi
-    x3 = omega**2
+    x3 = theta_dot**2
     x4 = x3*beta**2
     x5 = x1*beta
     x6 = mu*b_over_l**2/2
-    x7 = omega*psi_dot
+    x7 = psi_dot*theta_dot
     return x0 + x4/2 - x2 + x3*x6 + x4*mu + x6*psi_dot**2 - x1*cos_theta - x3*x5 + 2*x0*mu - x0*x2*x7 - x5*x7*sin_psi*sin_theta
 
 
-def short_normal_force(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
+def short_normal_force(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """Ground reaction on the stance foot along the ground normal in phase short.
 
     Parameters
@@ -121,7 +121,7 @@ def short_normal_force(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
     b_over_l : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
     psi : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
     psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
@@ -131,7 +131,7 @@ def short_normal_force(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
     array
         normal force (the foot lifts off below 0)
     """
-    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     cos_psi, sin_psi = be.cos_sin(psi)
     cos_theta, sin_theta = be.cos_sin(theta)
     cos_t2, sin_t2 = be.cos_sin(psi - theta)
@@ -160,7 +160,7 @@ def short_normal_force(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
     x22 = x16*b_over_l**5
     x23 = psi_dot**2
     x24 = x23*cos_psi
-    x25 = omega**2
+    x25 = theta_dot**2
     x26 = x25*cos_theta
     x27 = 4*x18
     x28 = x1*x5
@@ -180,7 +180,7 @@ def short_normal_force(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
     return (x14 + x21 - x20 - x9 + x10*x41 + x15*x17 + x15*x20 + x15*x9 + x17*x18 + x18*x3 + x19*x27 + x22*x24 + x22*x26 + x27*x9 + x29*x34 + x29*x4 + x32*x35 + x34*x39 + x36*x37 + x39*x4 - x12*x30 - x13*x20 - x15*x21 - x18*x8 - x21*x41 - x31*x32 - x31*x34 - x31*mu - 4*x17*x30 - 2*x24*x33 + 4*x19*x41 + 6*x16*x35 - x16*x27*x6 - x23*x36*sin_theta - x38*x40*cos_theta - x25*x28*x40*cos_psi - x28*x34*x37*sin_t2)/(x10 + x14 + x3 - x8)
 
 
-def short_fell_backward(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
+def short_fell_backward(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """Guard of fell-backward in phase short.
 
     Parameters
@@ -191,7 +191,7 @@ def short_fell_backward(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot
     b_over_l : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
     psi : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
     psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
@@ -201,11 +201,11 @@ def short_fell_backward(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot
     array
         crosses zero (direction -1) when the walk ends
     """
-    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
-    return omega
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
+    return theta_dot
 
 
-def short_fell_forward(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
+def short_fell_forward(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """Guard of fell-forward in phase short.
 
     Parameters
@@ -216,7 +216,7 @@ def short_fell_forward(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
     b_over_l : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
     psi : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
     psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
@@ -226,12 +226,12 @@ def short_fell_forward(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
     array
         crosses zero (direction -1) when the walk ends
     """
-    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     return cos_theta
 
 
-def short_lift_off(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
+def short_lift_off(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """Guard of lift-off in phase short.
 
     Parameters
@@ -242,7 +242,7 @@ def short_lift_off(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     b_over_l : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
     psi : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
     psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
@@ -252,7 +252,7 @@ def short_lift_off(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     array
         crosses zero (direction -1) when the walk ends
     """
-    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     cos_psi, sin_psi = be.cos_sin(psi)
     cos_theta, sin_theta = be.cos_sin(theta)
     cos_t2, sin_t2 = be.cos_sin(psi - theta)
@@ -281,7 +281,7 @@ def short_lift_off(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     x22 = x16*b_over_l**5
     x23 = psi_dot**2
     x24 = x23*cos_psi
-    x25 = omega**2
+    x25 = theta_dot**2
     x26 = x25*cos_theta
     x27 = 4*x18
     x28 = x1*x5
@@ -301,7 +301,7 @@ def short_lift_off(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     return (x14 + x21 - x20 - x9 + x10*x41 + x15*x17 + x15*x20 + x15*x9 + x17*x18 + x18*x3 + x19*x27 + x22*x24 + x22*x26 + x27*x9 + x29*x34 + x29*x4 + x32*x35 + x34*x39 + x36*x37 + x39*x4 - x12*x30 - x13*x20 - x15*x21 - x18*x8 - x21*x41 - x31*x32 - x31*x34 - x31*mu - 4*x17*x30 - 2*x24*x33 + 4*x19*x41 + 6*x16*x35 - x16*x27*x6 - x23*x36*sin_theta - x38*x40*cos_theta - x25*x28*x40*cos_psi - x28*x34*x37*sin_t2)/(x10 + x14 + x3 - x8)
 
 
-def short_positions(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
+def short_positions(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """Position (x, y) and angle of each body in phase short's chart.
 
     Parameters
@@ -312,7 +312,7 @@ def short_positions(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     b_over_l : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
     psi : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
     psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
@@ -322,7 +322,7 @@ def short_positions(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     tuple of arrays
         tuple: x, y, angle of each body in order (angle 0 for a point mass)
     """
-    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     cos_psi, sin_psi = be.cos_sin(psi)
     cos_theta, sin_theta = be.cos_sin(theta)
     x0 = -sin_theta*beta
@@ -330,7 +330,7 @@ def short_positions(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     return (sin_theta*beta, cos_theta*beta, 0, -x0 - sin_theta*b_over_l, -x1 - cos_theta*b_over_l, 0, -x0 - sin_psi*b_over_l, -x1 - cos_psi*b_over_l, 0,)
 
 
-def short_inertias(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
+def short_inertias(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """Mass and central moment of inertia of each body in phase short.
 
     Parameters
@@ -341,7 +341,7 @@ def short_inertias(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     b_over_l : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
     psi : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
     psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
@@ -351,11 +351,11 @@ def short_inertias(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     tuple of arrays
         tuple: mass, inertia of each body in order (inertia 0 for a point mass)
     """
-    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     return (1, 0, mu, 0, mu, 0,)
 
 
-def long_accelerations(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
+def long_accelerations(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """Second derivatives of the free coordinates in phase long.
 
     Parameters
@@ -366,7 +366,7 @@ def long_accelerations(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
     b_over_l : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
     psi : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
     psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
@@ -376,7 +376,7 @@ def long_accelerations(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
     tuple of arrays
         tuple: d2(coordinate)/dt2 for each coordinate
     """
-    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     cos_psi, sin_psi = be.cos_sin(psi)
     cos_theta, sin_theta = be.cos_sin(theta)
     cos_t2, sin_t2 = be.cos_sin(psi - theta)
@@ -390,17 +390,12 @@ def long_accelerations(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
     x7 = x1*x4
     x8 = x5*cos_t2
     x9 = psi_dot**2
-    x10 = x7*sin_t2
-    x11 = omega**2
-    x12 = sin_psi*b_over_l
-    x13 = b_over_l*mu
-    x14 = cos_t2*sin_theta
-    x15 = x11*sin_t2
-    x16 = x2*b_over_l
-    return (x6*(-x10*x9 - x7*sin_theta - x8*sin_psi + x0*sin_theta*mu + 2*x0*x1*sin_theta + x0*x1*x11*cos_t2*sin_t2), x6*(x10*x11 + x13*x14 + x13*x15 + x14*x16 + x15*x16 + x3*sin_psi - x12*x2 - x12*mu - x15*x3 - x7*sin_psi - x8*sin_theta - x8*x9*sin_t2),)
+    x10 = theta_dot**2
+    x11 = sin_psi*b_over_l
+    return (x6*(-x7*sin_theta - x8*sin_psi + x0*sin_theta*mu - x7*x9*sin_t2 + 2*x0*x1*sin_theta + x0*x1*x10*cos_t2*sin_t2), x6*(-x11*x2 - x11*mu - x7*sin_psi - x8*sin_theta - x10*x3*sin_t2 - x8*x9*sin_t2 + 2*x0*x1*sin_psi + x1*x10*x4*sin_t2 + x10*sin_t2*b_over_l*mu + cos_t2*sin_theta*b_over_l*mu + 2*x1*x10*sin_t2*b_over_l + 2*x1*cos_t2*sin_theta*b_over_l),)
 
 
-def long_energy(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
+def long_energy(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """Mechanical energy T + V in phase long.
 
     Parameters
@@ -411,7 +406,7 @@ def long_energy(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     b_over_l : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
     psi : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
     psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
@@ -421,20 +416,20 @@ def long_energy(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     array
         energy
     """
-    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     cos_psi, sin_psi = be.cos_sin(psi)
     cos_theta, sin_theta = be.cos_sin(theta)
     x0 = cos_theta*mu
-    x1 = omega**2
+    x1 = theta_dot**2
     x2 = x1/2
     x3 = x1*mu
     x4 = cos_psi*b_over_l
-    x5 = omega*psi_dot
+    x5 = psi_dot*theta_dot
     x6 = mu*b_over_l**2
     return x2 + x3 + cos_theta + 2*x0 + x2*x6 + x6*psi_dot**2/2 - x0*b_over_l - x3*b_over_l - x4*mu - x0*x4*x5 - x5*sin_psi*sin_theta*b_over_l*mu
 
 
-def long_normal_force(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
+def long_normal_force(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """Ground reaction on the stance foot along the ground normal in phase long.
 
     Parameters
@@ -445,7 +440,7 @@ def long_normal_force(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     b_over_l : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
     psi : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
     psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
@@ -455,7 +450,7 @@ def long_normal_force(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     array
         normal force (the foot lifts off below 0)
     """
-    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     cos_psi, sin_psi = be.cos_sin(psi)
     cos_theta, sin_theta = be.cos_sin(theta)
     cos_t2, sin_t2 = be.cos_sin(psi - theta)
@@ -484,7 +479,7 @@ def long_normal_force(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     x22 = x21*cos_psi
     x23 = x2*x3
     x24 = x12*b_over_l**5
-    x25 = omega**2
+    x25 = theta_dot**2
     x26 = x25*cos_theta
     x27 = 3*x26
     x28 = x18*sin_t2
@@ -496,7 +491,7 @@ def long_normal_force(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     return (x11 + x15 - x14 - x6 + x1*x16 + x13*x19 + x14*x17 + x15*x22 + x15*x31 + x16*x18 + x17*x18 + x17*x6 + x19*x6 + x22*x23 + x22*x24 + x23*x27 + x23*x31 + x24*x26 + x28*x29 + x33*x7 - x1*x26 - x10*x14 - x14*x26 - x15*x17 - x15*x33 - x16*x5 - x19*x20 - x26*x9 - x27*x6 - x28*x30 - 4*x18*x26 - 2*x18*x22 + 4*x13*x33 + 6*x20*x26 - x15*x29*sin_t2 - x21*x32*cos_theta - x25*x32*cos_psi)/(x1 + x11 + x7 - x5)
 
 
-def long_fell_backward(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
+def long_fell_backward(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """Guard of fell-backward in phase long.
 
     Parameters
@@ -507,7 +502,7 @@ def long_fell_backward(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
     b_over_l : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
     psi : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
     psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
@@ -517,11 +512,11 @@ def long_fell_backward(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
     array
         crosses zero (direction -1) when the walk ends
     """
-    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
-    return omega
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
+    return theta_dot
 
 
-def long_fell_forward(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
+def long_fell_forward(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """Guard of fell-forward in phase long.
 
     Parameters
@@ -532,7 +527,7 @@ def long_fell_forward(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     b_over_l : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
     psi : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
     psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
@@ -542,12 +537,12 @@ def long_fell_forward(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     array
         crosses zero (direction -1) when the walk ends
     """
-    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     return cos_theta
 
 
-def long_lift_off(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
+def long_lift_off(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """Guard of lift-off in phase long.
 
     Parameters
@@ -558,7 +553,7 @@ def long_lift_off(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     b_over_l : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
     psi : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
     psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
@@ -568,7 +563,7 @@ def long_lift_off(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     array
         crosses zero (direction -1) when the walk ends
     """
-    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     cos_psi, sin_psi = be.cos_sin(psi)
     cos_theta, sin_theta = be.cos_sin(theta)
     cos_t2, sin_t2 = be.cos_sin(psi - theta)
@@ -597,7 +592,7 @@ def long_lift_off(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     x22 = x21*cos_psi
     x23 = x2*x3
     x24 = x12*b_over_l**5
-    x25 = omega**2
+    x25 = theta_dot**2
     x26 = x25*cos_theta
     x27 = 3*x26
     x28 = x18*sin_t2
@@ -609,7 +604,7 @@ def long_lift_off(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     return (x11 + x15 - x14 - x6 + x1*x16 + x13*x19 + x14*x17 + x15*x22 + x15*x31 + x16*x18 + x17*x18 + x17*x6 + x19*x6 + x22*x23 + x22*x24 + x23*x27 + x23*x31 + x24*x26 + x28*x29 + x33*x7 - x1*x26 - x10*x14 - x14*x26 - x15*x17 - x15*x33 - x16*x5 - x19*x20 - x26*x9 - x27*x6 - x28*x30 - 4*x18*x26 - 2*x18*x22 + 4*x13*x33 + 6*x20*x26 - x15*x29*sin_t2 - x21*x32*cos_theta - x25*x32*cos_psi)/(x1 + x11 + x7 - x5)
 
 
-def long_positions(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
+def long_positions(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """Position (x, y) and angle of each body in phase long's chart.
 
     Parameters
@@ -620,7 +615,7 @@ def long_positions(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     b_over_l : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
     psi : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
     psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
@@ -630,7 +625,7 @@ def long_positions(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     tuple of arrays
         tuple: x, y, angle of each body in order (angle 0 for a point mass)
     """
-    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     cos_psi, sin_psi = be.cos_sin(psi)
     cos_theta, sin_theta = be.cos_sin(theta)
     x0 = -sin_theta
@@ -638,7 +633,7 @@ def long_positions(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     return (sin_theta, cos_theta, 0, -x0 - sin_theta*b_over_l, -x1 - cos_theta*b_over_l, 0, -x0 - sin_psi*b_over_l, -x1 - cos_psi*b_over_l, 0,)
 
 
-def long_inertias(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
+def long_inertias(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """Mass and central moment of inertia of each body in phase long.
 
     Parameters
@@ -649,7 +644,7 @@ def long_inertias(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     b_over_l : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
     psi : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
     psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
@@ -659,11 +654,11 @@ def long_inertias(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
     tuple of arrays
         tuple: mass, inertia of each body in order (inertia 0 for a point mass)
     """
-    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     return (1, 0, mu, 0, mu, 0,)
 
 
-def event_extension_guard(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
+def event_extension_guard(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """Guard of the event extension: crosses zero when it happens.
 
     Parameters
@@ -674,7 +669,7 @@ def event_extension_guard(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_d
     b_over_l : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
     psi : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
     psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
@@ -684,11 +679,11 @@ def event_extension_guard(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_d
     array
         guard
     """
-    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     return theta - theta_II
 
 
-def event_extension_reset(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
+def event_extension_reset(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """State just after the event extension (from the state just before). Eq. (3) with massive legs of the paper.
 
     Parameters
@@ -699,7 +694,7 @@ def event_extension_reset(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_d
     b_over_l : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
     psi : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
     psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
@@ -709,7 +704,7 @@ def event_extension_reset(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_d
     tuple of arrays
         tuple: coordinates, then rates
     """
-    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     cos_psi, sin_psi = be.cos_sin(psi)
     cos_theta, sin_theta = be.cos_sin(theta)
     x0 = b_over_l*mu
@@ -724,10 +719,10 @@ def event_extension_reset(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_d
     x9 = x7*x8
     x10 = 2*x4
     x11 = x10*x3
-    x12 = omega*beta**2
-    x13 = omega*beta
+    x12 = theta_dot*beta**2
+    x13 = theta_dot*beta
     x14 = x13*mu
-    x15 = x2*omega
+    x15 = x2*theta_dot
     x16 = x0*psi_dot
     x17 = x12*x6
     x18 = x16*beta
@@ -743,7 +738,7 @@ def event_extension_reset(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_d
     return (theta, psi, (x12 + x15 + x17 - x14 + x13*x3 + x13*x5 + x16*x7 + x16*x8 - x1*x13 - x11*x13 - x18*x7 - x18*x8 - x19*x9)/(1 + x2 + x3 + x5 + mu - x1 - x11 - x6*x9), (x23 + x24 + x26 + x27 - x18 + x12*x7 + x12*x8 + x17*x7 + x17*x8 + x20*psi_dot + x25*x3 + x25*x5 - x11*x25 - x13*x7 - x13*x8 - x19*x7 - x19*x8 - x21*psi_dot - x26*beta - x27*beta - x24*x9*beta)/(x0 + x20 + x22 + b_over_l - x21 + x5*b_over_l - x1*x9 - x10*x22),)
 
 
-def event_heelstrike_guard(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
+def event_heelstrike_guard(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """Guard of the event heelstrike: crosses zero when it happens.
 
     Parameters
@@ -754,7 +749,7 @@ def event_heelstrike_guard(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_
     b_over_l : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
     psi : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
     psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
@@ -764,13 +759,13 @@ def event_heelstrike_guard(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_
     array
         guard
     """
-    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     cos_psi, sin_psi = be.cos_sin(psi)
     cos_theta, sin_theta = be.cos_sin(theta)
     return cos_theta - cos_psi*beta
 
 
-def event_heelstrike_reset(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
+def event_heelstrike_reset(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """State just after the event heelstrike (from the state just before). Eq. (5), (6) with massive legs of the paper.
 
     Parameters
@@ -781,7 +776,7 @@ def event_heelstrike_reset(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_
     b_over_l : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
     psi : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
     psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
@@ -791,19 +786,19 @@ def event_heelstrike_reset(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_
     tuple of arrays
         tuple: coordinates, then rates
     """
-    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     cos_t0, sin_t0 = be.cos_sin(psi - theta)
     x0 = mu**2
     x1 = x0*(b_over_l*b_over_l*b_over_l*b_over_l)
-    x2 = omega*mu
+    x2 = theta_dot*mu
     x3 = b_over_l**2
     x4 = x3*beta
     x5 = x4*cos_t0
     x6 = x0*(b_over_l*b_over_l*b_over_l)
     x7 = x6*beta
     x8 = x7*psi_dot
-    x9 = x6*omega
-    x10 = x0*omega
+    x9 = x6*theta_dot
+    x10 = x0*theta_dot
     x11 = beta**2
     x12 = x11*x3
     x13 = x12*mu
@@ -816,10 +811,10 @@ def event_heelstrike_reset(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_
     x20 = x19*x2
     x21 = 2*x10
     x22 = x19*x21
-    return (psi, theta, x18*(-x8 + x1*psi_dot + x10*x5 + x2*x5 - x9*cos_t0), x18*(-x20 - x22 - x9 + x1*omega + x13*omega + x15*omega + x16*x20 + x16*x22 + x21*x4 + x8*cos_t0 - x17*omega - 2*x9*beta - x10*x16*x4 - x14*cos_t0*psi_dot),)
+    return (psi, theta, x18*(-x8 + x1*psi_dot + x10*x5 + x2*x5 - x9*cos_t0), x18*(-x20 - x22 - x9 + x1*theta_dot + x13*theta_dot + x15*theta_dot + x16*x20 + x16*x22 + x21*x4 + x8*cos_t0 - x17*theta_dot - 2*x9*beta - x10*x16*x4 - x14*cos_t0*psi_dot),)
 
 
-def event_heelstrike_contact(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
+def event_heelstrike_contact(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """The new contact point of the impact heelstrike (x, y in phase long's chart).
 
     Parameters
@@ -830,7 +825,7 @@ def event_heelstrike_contact(beta, theta_II, mu, b_over_l, theta, psi, omega, ps
     b_over_l : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
     psi : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
     psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
@@ -840,13 +835,13 @@ def event_heelstrike_contact(beta, theta_II, mu, b_over_l, theta, psi, omega, ps
     tuple of arrays
         tuple: x, y
     """
-    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     cos_psi, sin_psi = be.cos_sin(psi)
     cos_theta, sin_theta = be.cos_sin(theta)
     return (sin_theta - sin_psi*beta, cos_theta - cos_psi*beta,)
 
 
-def event_heelstrike_when(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
+def event_heelstrike_when(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """The event heelstrike counts only where this is positive.
 
     Parameters
@@ -857,7 +852,7 @@ def event_heelstrike_when(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_d
     b_over_l : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
     psi : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
     psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
@@ -867,11 +862,11 @@ def event_heelstrike_when(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_d
     array
         sign
     """
-    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     return theta - psi
 
 
-def step_length_of_state(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot):
+def step_length_of_state(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """Distance between successive stance feet (state just before the step event).
 
     Parameters
@@ -882,7 +877,7 @@ def step_length_of_state(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_do
     b_over_l : array_like or casadi.SX/MX/DM
     theta : array_like or casadi.SX/MX/DM
     psi : array_like or casadi.SX/MX/DM
-    omega : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
     psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
@@ -892,7 +887,33 @@ def step_length_of_state(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_do
     array
         step length
     """
-    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, omega, psi_dot)
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     cos_psi, sin_psi = be.cos_sin(psi)
     cos_theta, sin_theta = be.cos_sin(theta)
     return sin_theta - sin_psi*beta
+
+
+def section_completion(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
+    """The section state with the components the section determines recomputed from the others (the step event's geometry and reset).
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    mu : array_like or casadi.SX/MX/DM
+    b_over_l : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: coordinates, then rates
+    """
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    return (theta, be.acos(cos_theta*beta), theta_dot, psi_dot,)

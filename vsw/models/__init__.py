@@ -1,11 +1,11 @@
 """The models of the runtime: one object per generated package, every command through it.
 
-``generated.MODELS`` lists the packages ``python -m derive`` writes; :func:`load` gives each
-as a :class:`vsw.hybrid.HybridModel` (the generic runtime, driven by the package's
-``HYBRID`` descriptor) or, where a model has closed forms of its own, as that model's
-extension of it (the ILE: :class:`vsw.models.ile.model.IleModel`), which answers the same
-calls through its closed forms. Names are the packages' keys with ``-`` or ``_``
-(``rimless-wheel`` and ``rimless_wheel`` alike).
+``generated.MODELS`` lists the packages ``python -m derive`` writes; :func:`load` gives
+each as a :class:`vsw.models.base.Model` (the generic runtime, driven by the package's
+``HYBRID`` descriptor, with the commands' interface) or, where a model has closed forms of
+its own, as that model's extension of it (the ILE: :class:`vsw.models.ile.model.IleModel`),
+which answers the same calls through its closed forms. Names are the packages' keys with
+``-`` or ``_`` (``rimless-wheel`` and ``rimless_wheel`` alike).
 """
 
 from __future__ import annotations
@@ -15,12 +15,12 @@ import importlib
 
 import generated
 from vsw.errors import VswInputError
-from vsw.hybrid import HybridModel
+from vsw.models.base import Model
 from vsw.models.ile.model import IleModel
 
 __all__ = ["cli_name", "key", "keys", "load"]
 
-EXTENSIONS: dict[str, type[HybridModel]] = {"ile": IleModel}
+EXTENSIONS: dict[str, type[Model]] = {"ile": IleModel}
 """Models whose closed forms extend the generic runtime, by package key."""
 
 
@@ -43,12 +43,12 @@ def key(name: str) -> str:
     return model_key
 
 
-def load(name: str) -> HybridModel:
+def load(name: str) -> Model:
     """The model ``name``: one object per model and process."""
     return _load(key(name))
 
 
 @functools.cache
-def _load(model_key: str) -> HybridModel:
-    cls = EXTENSIONS.get(model_key, HybridModel)
+def _load(model_key: str) -> Model:
+    cls = EXTENSIONS.get(model_key, Model)
     return cls(importlib.import_module(f"generated.{model_key}"))

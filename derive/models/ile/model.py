@@ -12,7 +12,7 @@ conserved (eq. 6), and the legs exchange roles.
 Conventions (the paper's): ``theta`` is the stance-leg angle from the vertical, positive
 when the hip is ahead of the stance foot, so a step runs from ``theta_I < 0`` forward to
 ``theta_IV > 0``. Time is dimensionless, ``tau = sqrt(g / r_e) t``, and
-``omega = dtheta/dtau``; lengths in ``r_e``; energies in ``m g r_e`` unless ``m, g, r_e``
+``omega = dtheta/dtau`` (the engine's state names it ``theta_dot``, as every model does); lengths in ``r_e``; energies in ``m g r_e`` unless ``m, g, r_e``
 appear explicitly. The engine (:mod:`derive.engine`) derives the equations of motion and
 the resets from this description; :mod:`derive.models.ile.closed_form` derives the paper's
 closed forms from those.
@@ -88,7 +88,8 @@ theta_I, theta_IV = sm.symbols("theta_I theta_IV", real=True)
 # units (lengths in r_e, time in sqrt(r_e / g), mass in m). theta: the stance leg's angle
 # from the vertical, positive when the hip is ahead of the foot; the actuator holds the
 # stance leg's length r.
-THETA = Coordinate("theta", "omega", "stance leg angle from the vertical", "rad")
+THETA = Coordinate("theta", "stance leg angle", "rad", reference="the vertical",
+                   positive="the hip ahead of the stance foot")
 r = sm.Symbol("r", positive=True)
 """The stance leg's length, held by its actuator."""
 
@@ -151,8 +152,11 @@ MODEL = Model(
         Failure("fell-backward", THETA.u, -1, "the walker stops before the apex and falls back"),
         Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
     ),
-    units={"time": "sqrt(r_e/g)", "length": "r_e", "mass": "m", "energy": "m g r_e"},
+    units={"time": "sqrt(r_e/g)", "length": "r_e", "mass": "m", "energy": "m g r_e",
+           "force": "m g"},
     step_length=_SWING_FOOT[0],
-    start={"theta": 0.0},
-    rate_range=(0.2, 1.5),
+    # Just after heelstrike the stance leg is at theta_I (eq. 11); its rate is the state.
+    section={"theta": _THETA_I},
+    # omega_I**2 = q stays below the lift-off bound, about 1/beta: rates up to 3 cover it.
+    search={"theta_dot": (0.0, 3.0)},
 )

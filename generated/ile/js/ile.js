@@ -13,7 +13,7 @@ const RF_STEPS = 8;
 /* The operations the generated expressions call: numpy's semantics for plain numbers
    (maximum/minimum propagate NaN; where evaluates both branches). */
 const be = {
-  sin: Math.sin, cos: Math.cos, tan: Math.tan, sqrt: Math.sqrt, atan: Math.atan,
+  sin: Math.sin, cos: Math.cos, tan: Math.tan, sqrt: Math.sqrt, atan: Math.atan, acos: Math.acos,
   atan2: Math.atan2, sign: Math.sign, Abs: Math.abs, pi: Math.PI,
   fmax: (a, b) => (Number.isNaN(a) || Number.isNaN(b) ? NaN : Math.max(a, b)),
   fmin: (a, b) => (Number.isNaN(a) || Number.isNaN(b) ? NaN : Math.min(a, b)),

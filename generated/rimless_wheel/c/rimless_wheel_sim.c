@@ -5,7 +5,7 @@
  * casadi 3.8.2
  * The hybrid dynamics of the model for the batch simulator (vsw/csrc/hybrid_batch.c, built
  * by vsw/batch.py): every function takes (p, x), the parameters (alpha, gamma, l, g) and the
- * state (theta, omega), in CasADi's calling convention.
+ * state (theta, theta_dot), in CasADi's calling convention.
  * Phases: stance.
  * Events: collision (stance -> stance, ends the step).
  * Failures: fell-backward, lift-off.

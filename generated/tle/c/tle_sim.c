@@ -5,7 +5,7 @@
  * casadi 3.8.2
  * The hybrid dynamics of the model for the batch simulator (vsw/csrc/hybrid_batch.c, built
  * by vsw/batch.py): every function takes (p, x), the parameters (beta, theta_II, phi0, delta) and the
- * state (theta, omega), in CasADi's calling convention.
+ * state (theta, theta_dot), in CasADi's calling convention.
  * Phases: short, extension, long.
  * Events: extension_start (short -> extension), extension_end (extension -> long), heelstrike (long -> short, ends the step).
  * Failures: fell-backward, lift-off.

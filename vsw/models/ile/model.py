@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from vsw.hybrid import HybridModel
+from vsw.models.base import Model
 
 __all__ = ["IleModel"]
 
 
-class IleModel(HybridModel):
+class IleModel(Model):
     """The instantaneous leg extension model: the generic runtime plus its closed forms."""

@@ -1,0 +1,347 @@
+"""The period-one gaits of a model: a dense scan of its section, then Newton from every dip.
+
+A gait is a fixed point of the Poincaré map ``P`` (section state just after the step event
+to the next). The search is complete within a stated box and resolution:
+
+1. **The box.** Each model declares where gaits are looked for: an interval for every
+   component of the section state that the section does not determine (``HYBRID["search"]``,
+   ``Model.search`` in its model file); the other components follow from those
+   (``section_completion``: the step event's geometry and reset). ``box=`` overrides it.
+2. **The scan.** A grid over the box (:data:`SCAN_POINTS` along each free component, ends
+   included, a rate's zero left out) is stepped once
+   by the compiled batch simulator (:mod:`vsw.batch`); where the step completes, the
+   residual ``P(x) - x`` on the free components.
+3. **Newton from every cell that completes its step**, all at once, on ``P(x) - x`` in
+   the free components, the Jacobian by forward differences of batch steps; a start whose
+   step fails is dropped, starts whose iterates meet go on as one. Solutions closer than
+   :data:`DISTINCT` are one gait. (Newton only from the cells where ``|P(x) - x|`` dips
+   misses gaits: at the biped's (0.8, 0.1, 1e-4, 0.3) the cells that lead to its gait
+   with max |eigenvalue| 1394 are none of them dips.)
+4. **Each gait confirmed** by the boundary-value solver
+   (:meth:`vsw.hybrid.HybridModel.periodic_orbit`: the orbit with its phase durations as
+   unknowns, eigenvalues by CasADi derivatives, one simulated step back onto it).
+
+What this misses, by construction: a gait whose set of states that complete one step is
+too thin to hold a grid cell near it (a gait with its apex barely passed), and gaits
+outside the box. tests/test_gaits.py checks at the parameter sets where an independent
+search found gaits an earlier search missed that a scan twice as fine finds nothing more.
+Without a C compiler the scan takes the SciPy route (:func:`vsw.batch.reference_walks`)
+on a coarse grid (:data:`FALLBACK_CELLS`), and the result says it is not complete.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from vsw.batch import WALKED, BatchSimulator, simulator
+from vsw.errors import ConvergenceError, ModelConditionError, VswInputError
+from vsw.hybrid import HybridModel, Orbit
+
+__all__ = [
+    "DISTINCT",
+    "FALLBACK_CELLS",
+    "SCAN_POINTS",
+    "GaitSearch",
+    "pick",
+    "search",
+    "stable_gait",
+]
+
+SCAN_POINTS = {1: 4001, 2: 480, 3: 61}
+"""Grid points along each free component of the default scan, by their number (more
+components: 230,000 cells in all). At the biped's gaits with |eigenvalue| in the hundreds
+the states that complete one step are bands about 0.01 wide in the rates."""
+
+FALLBACK_CELLS = 1_000
+"""Cells of the scan on the SciPy route (no compiler): about 300 times slower a step."""
+
+DISTINCT = 1e-7
+"""Two Newton solutions are one gait when every component agrees to this times
+max(1, |component|)."""
+
+_NEWTON_TOL = 1e-10
+_NEWTON_ITERATIONS = 40
+
+
+@dataclass
+class GaitSearch:
+    """What :func:`search` found and how.
+
+    ``gaits`` are sorted by period; ``box`` the intervals searched, ``points`` the grid
+    points along each; ``outcomes`` counts how the scan's single steps ended (``walked``
+    or a failure's name); ``candidates`` the dips Newton started from, ``converged`` how
+    many of those converged; ``unconfirmed`` the Newton solutions the boundary-value
+    solver did not confirm, with its reason; ``route`` the batch simulator's
+    ('compiled', else the SciPy fallback and why); ``complete`` whether the default
+    resolution was used on the compiled route.
+    """
+
+    gaits: list[Orbit]
+    box: dict[str, tuple[float, float]]
+    points: dict[str, int]
+    outcomes: dict[str, int]
+    candidates: int
+    converged: int
+    unconfirmed: list[dict[str, Any]] = field(default_factory=list)
+    route: str = "compiled"
+    complete: bool = True
+
+    @property
+    def cells(self) -> int:
+        return math.prod(self.points.values())
+
+    def method(self) -> dict[str, Any]:
+        """The search as JSON: box, grid, outcome counts, candidates and route."""
+        return {
+            "method": "dense scan of the section, Newton from every state that completes a "
+            "step, each gait confirmed by the boundary-value solver",
+            "box": {k: list(v) for k, v in self.box.items()},
+            "points": dict(self.points),
+            "cells": self.cells,
+            "scan_outcomes": dict(self.outcomes),
+            "candidates": self.candidates,
+            "newton_converged": self.converged,
+            "unconfirmed": list(self.unconfirmed),
+            "simulator": self.route,
+            "complete": self.complete,
+        }
+
+    def why_none(self) -> str:
+        """One sentence on why no gait was found (the scan's outcomes)."""
+        walked = self.outcomes.get("walked", 0)
+        ends = ", ".join(f"{n} {k}" for k, n in self.outcomes.items() if k != "walked")
+        text = (f"no period-one gait in the search box ({_box_text(self.box)}): of "
+                f"{self.cells} scanned section states {walked} complete a step"
+                + (f", {ends}" if ends else ""))  # fmt: skip
+        if walked and not self.converged:
+            text += f"; Newton from those {self.candidates} found no gait"
+        if self.unconfirmed:
+            text += f"; {len(self.unconfirmed)} Newton solution(s) were no gait when simulated"
+        return text
+
+
+def _box_text(box: Mapping[str, tuple[float, float]]) -> str:
+    return ", ".join(f"{k} in [{lo:g}, {hi:g}]" for k, (lo, hi) in box.items())
+
+
+def free_components(model: HybridModel) -> list[str]:
+    """The section components the search varies (those the section does not determine)."""
+    return list(model.spec["search"])
+
+
+def check_box(model: HybridModel, box: Mapping[str, tuple[float, float]] | None) -> dict:
+    """The search box: the model's, with the intervals ``box`` gives replaced (validated)."""
+    out = {k: tuple(float(v) for v in pair) for k, pair in model.spec["search"].items()}
+    for name, pair in (box or {}).items():
+        if name not in out:
+            raise VswInputError(
+                f"--search {name}: not a free component of the {model.name} model's section: "
+                f"choose from {', '.join(out)}"
+            )
+        low, high = (float(v) for v in pair)
+        if not (math.isfinite(low) and math.isfinite(high) and low < high):
+            raise VswInputError(f"--search {name}={low:g}:{high:g}: need finite START < STOP")
+        out[name] = (low, high)
+    return out
+
+
+def section_states(model: HybridModel, params: Sequence[float], free: np.ndarray) -> np.ndarray:
+    """Full section states from rows of free components (the section's completion)."""
+    names = [*model.coordinates, *model.rates]
+    columns = free_components(model)
+    rows = np.zeros((len(free), len(names)))
+    for j, name in enumerate(columns):
+        rows[:, names.index(name)] = free[:, j]
+    complete = getattr(model.module, "section_completion", None)
+    if complete is None or not model.spec["section"]:
+        return rows
+    with np.errstate(all="ignore"):
+        values = complete(*params, *rows.T)
+    return np.column_stack([np.broadcast_to(np.asarray(v, float), len(free)) for v in values])
+
+
+def _axis(low: float, high: float, count: int, is_rate: bool) -> np.ndarray:
+    """``count`` points over [low, high]; a rate's zero is left out (no motion there)."""
+    if is_rate and low == 0.0:
+        return np.linspace(low, high, count + 1)[1:]
+    return np.linspace(low, high, count)
+
+
+def _scan_points(dims: int, cells: int | None) -> int:
+    if cells is None:
+        return SCAN_POINTS.get(dims, max(3, math.floor(230_000 ** (1.0 / dims))))
+    return max(3, math.floor(cells ** (1.0 / dims) + 1e-9))
+
+
+def _newton(
+    sim: BatchSimulator, model: HybridModel, params: Sequence[float], starts: np.ndarray,
+    free_index: list[int],
+) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """Newton on P(x) - x in the free components from every row of ``starts`` at once.
+
+    The Jacobian by forward differences of batch steps (one batch of ``1 + d`` steps per
+    start and iteration); a start whose step fails is dropped, and starts whose iterates
+    have met (to 1e-9) go on as one. Returns the iterates and a mask of the rows that
+    converged (residual within ``_NEWTON_TOL * max(1, |x|)``)."""
+    y = np.array(starts, dtype=float)
+    count, dims = y.shape
+    done = np.zeros(count, dtype=bool)
+    alive = np.ones(count, dtype=bool)
+    eye = np.eye(dims)
+    for _ in range(_NEWTON_ITERATIONS):
+        open_rows = np.flatnonzero(alive & ~done)
+        if open_rows.size == 0:
+            break
+        rows, group = _groups(y, open_rows)
+        base = y[rows]
+        h = 1e-7 * np.maximum(1.0, np.abs(base))
+        trial = np.concatenate(
+            [base[:, None, :], base[:, None, :] + eye * h[:, None, :]], axis=1
+        ).reshape(-1, dims)
+        result = sim.step(params, section_states(model, params, trial))
+        walked = (result.outcome == WALKED).reshape(len(rows), 1 + dims).all(axis=1)
+        image = result.final[:, free_index].reshape(len(rows), 1 + dims, dims)
+        residual = image[:, 0] - base
+        # jacobian[k, i, j] = dP_i / dy_j
+        jacobian = np.transpose((image[:, 1:] - image[:, :1]) / h[:, :, None], (0, 2, 1))
+        size = np.max(np.abs(residual), axis=1)
+        scale = np.maximum(1.0, np.max(np.abs(base), axis=1))
+        converged = walked & (size <= _NEWTON_TOL * scale)
+        step = np.full_like(base, np.nan)
+        for k in np.flatnonzero(walked & ~converged):
+            try:
+                step[k] = np.linalg.solve(jacobian[k] - eye, -residual[k])
+            except np.linalg.LinAlgError:
+                pass
+        moved = np.all(np.isfinite(step), axis=1)
+        # Every member of a group goes where its first member goes.
+        done[open_rows] = converged[group]
+        alive[open_rows] = (converged | moved)[group]
+        y[open_rows] = np.where(moved[group, None], base[group] + step[group], base[group])
+    return y, done & alive
+
+
+def _groups(y: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The first of each set of ``rows`` whose iterates agree to 1e-9 (relative to the
+    largest component), and for each row the index of its set's first: from there on
+    Newton takes them the same way."""
+    resolution = 1e-9 * np.maximum(1.0, np.max(np.abs(y[rows]), axis=0))
+    keys = np.round(y[rows] / resolution).astype(np.int64, copy=False)
+    _, first, group = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    return rows[first], group.reshape(-1)
+
+
+def _distinct(solutions: np.ndarray) -> list[np.ndarray]:
+    out: list[np.ndarray] = []
+    for x in solutions:
+        scale = DISTINCT * np.maximum(1.0, np.abs(x))
+        if all(np.any(np.abs(x - other) > scale) for other in out):
+            out.append(x)
+    return out
+
+
+def search(
+    model: HybridModel,
+    params: Sequence[float],
+    *,
+    box: Mapping[str, tuple[float, float]] | None = None,
+    cells: int | None = None,
+) -> GaitSearch:
+    """The period-one gaits at ``params`` within the search box (module docstring).
+
+    Parameters
+    ----------
+    model : HybridModel
+    params : sequence of float
+        The parameter vector (``model.parameters(...)``).
+    box : mapping of str to (low, high), optional
+        Intervals replacing the model's for some free components.
+    cells : int, optional
+        Grid cells of the scan (default :data:`SCAN_POINTS` per axis, or
+        :data:`FALLBACK_CELLS` on the SciPy route).
+    """
+    params = tuple(float(v) for v in params)
+    box = check_box(model, box)
+    names = [*model.coordinates, *model.rates]
+    free = list(box)
+    free_index = [names.index(n) for n in free]
+    sim = simulator(model)
+    compiled = sim.library() is not None
+    per_axis = _scan_points(len(free), cells if cells or compiled else FALLBACK_CELLS)
+    axes = [_axis(*box[n], per_axis, n in model.rates) for n in free]
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(free))
+    states = section_states(model, params, grid)
+    result = sim.step(params, states)
+    walked = result.outcome == WALKED
+    ended = result.ended()
+    labels, counts = np.unique(np.asarray(ended, dtype=object).astype(str), return_counts=True)
+    outcomes = {str(k): int(v) for k, v in zip(labels, counts)}
+    with np.errstate(invalid="ignore"):
+        gap = np.max(np.abs(result.final[:, free_index] - grid), axis=1)
+    residual = np.where(walked & np.isfinite(gap), gap, np.inf)
+    starts = np.flatnonzero(np.isfinite(residual))
+    solutions, ok = _newton(sim, model, params, grid[starts], free_index)
+    found = _distinct(solutions[ok])
+    gaits, unconfirmed = [], []
+    for y in found:
+        state = section_states(model, params, y[None, :])[0]
+        period = float(sim.step(params, state[None, :]).kept_durations[0, 0])
+        if not period > 1e-9:
+            continue  # a step of no duration (legs together at the event): no gait
+        try:
+            gaits.append(model.periodic_orbit(params, state, _phase_durations(model, params,
+                                                                                state)))
+        except ConvergenceError as exc:
+            unconfirmed.append({"state": dict(zip(names, (float(v) for v in state))),
+                                "period": period, "reason": str(exc).split(": ", 1)[-1]})
+    distinct: list[Orbit] = []
+    for orbit in sorted(gaits, key=lambda o: o.period):
+        x = np.array(list(orbit.state.values()))
+        if all(np.any(np.abs(x - np.array(list(o.state.values())))
+                      > DISTINCT * np.maximum(1.0, np.abs(x))) for o in distinct):  # fmt: skip
+            distinct.append(orbit)
+    return GaitSearch(
+        gaits=distinct,
+        box=box,
+        points={n: len(a) for n, a in zip(free, axes)},
+        outcomes=outcomes,
+        candidates=int(starts.size),
+        converged=int(np.count_nonzero(ok)),
+        unconfirmed=unconfirmed,
+        route=result.route,
+        complete=compiled and cells is None,
+    )
+
+
+def _phase_durations(model: HybridModel, params: Sequence[float], state: np.ndarray) -> tuple:
+    """Each phase's duration of one step from ``state`` (the SciPy route's events)."""
+    step = model.step(params, state)
+    if step.ended != "completed":
+        raise ConvergenceError(f"{model.name}: the step from the Newton solution {step.ended}")
+    return step.durations
+
+
+def pick(gaits: Sequence[Orbit]) -> Orbit | None:
+    """The gait the commands follow: the first stable one (by period), else the first."""
+    stable = [o for o in gaits if o.stable]
+    return (stable or list(gaits) or [None])[0]
+
+
+def stable_gait(model: HybridModel, params: Sequence[float], purpose: str) -> Orbit:
+    """The first stable gait at ``params``, or ModelConditionError saying what was found."""
+    found = search(model, params)
+    stable = [o for o in found.gaits if o.stable]
+    if stable:
+        return stable[0]
+    if found.gaits:
+        least = min(o.max_abs_eigenvalue for o in found.gaits)
+        raise ModelConditionError(
+            f"{model.name}: no stable period-one gait at these parameters ({len(found.gaits)} "
+            f"unstable, the least with max |eigenvalue| {least:.4g}): {purpose}"
+        )
+    raise ModelConditionError(f"{model.name}: {found.why_none()}: {purpose}")
