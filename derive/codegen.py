@@ -274,6 +274,10 @@ def python_module(derivation: Derivation) -> str:
         "implied, framing (not needed to walk) or missing (needed, not in the paper). The\n"
         'conditions with physical=True together decide whether a gait walks."""\n\n'
     )
+    if derivation.conditions:
+        units = {c.name: c.unit for c in derivation.conditions}
+        parts.append(f'CONDITION_UNITS = {units!r}\n"""The unit of each condition\'s margin '
+                     '(\'\' where it is dimensionless)."""\n\n')  # fmt: skip
     for name, (value, doc) in derivation.constants.items():
         parts.append(f'{name} = {value!r}\n"""{doc}"""\n\n')
     parts.append(RF_SOURCE)

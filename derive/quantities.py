@@ -126,6 +126,8 @@ class Condition:
         True when the condition is part of the exact physical set that decides "walks".
     meaning : str
         What it means physically.
+    unit : str
+        Unit of the margin ("" for a dimensionless one).
     """
 
     name: str
@@ -135,6 +137,7 @@ class Condition:
     status: str
     physical: bool
     meaning: str
+    unit: str = ""
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,5 @@
-"""Basins of attraction of any engine model over a 2-D slice of its section, by the batch
-simulator (:mod:`vsw.batch`), and brute-force bifurcation diagrams.
+"""Basins of attraction of any engine model over a slice of its section (one or two of its
+free components), by the batch simulator (:mod:`vsw.batch`).
 
 A basin cell is a section state (just after the step event): the period-one gait's, with
 the two gridded components replaced and, where the model declares its section
@@ -20,9 +20,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from vsw.batch import Runner, simulator
-from vsw.errors import ConvergenceError, ModelConditionError, VswInputError
-from vsw.gaits import search, stable_gait
-from vsw.hybrid import HybridModel, Orbit, by_modulus, repeat_period
+from vsw.errors import VswInputError
+from vsw.gaits import stable_gait
+from vsw.hybrid import HybridModel, Orbit
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -30,7 +30,6 @@ if TYPE_CHECKING:
 __all__ = [
     "LABEL_ORDER",
     "basin_plot",
-    "brute_force_sweep",
     "check_grid_names",
     "grid_basin",
     "grid_states",
@@ -46,31 +45,40 @@ def grid_states(
     base: Sequence[float],
     x_name: str,
     x: np.ndarray,
-    y_name: str,
-    y: np.ndarray,
+    y_name: str | None = None,
+    y: np.ndarray | None = None,
 ) -> np.ndarray:
-    """The section states of a grid: ``base`` with ``x_name``/``y_name`` set (rows: y,
-    columns: x) and the components the section determines recomputed. Shape
-    (len(y) * len(x), 2 n), row-major over (y, x)."""
+    """The section states of a grid: ``base`` with ``x_name`` (and ``y_name``) set (rows:
+    y, columns: x) and the components the section determines recomputed. Shape
+    (len(y) * len(x), 2 n), row-major over (y, x); one row without ``y_name``."""
     check_grid_names(model, x_name, y_name)
     names = (*model.coordinates, *model.rates)
     determined = model.spec.get("section", ())
-    yy, xx = np.meshgrid(np.asarray(y, float), np.asarray(x, float), indexing="ij")
+    y_values = np.zeros(1) if y_name is None else np.asarray(y, float)
+    yy, xx = np.meshgrid(y_values, np.asarray(x, float), indexing="ij")
     states = np.tile(np.asarray(base, dtype=float), (xx.size, 1))
     states[:, names.index(x_name)] = xx.ravel()
-    states[:, names.index(y_name)] = yy.ravel()
+    if y_name is not None:
+        states[:, names.index(y_name)] = yy.ravel()
     if determined:
         completed = model.module.section_completion(*params, *states.T)
         states = np.column_stack([np.broadcast_to(c, len(states)) for c in completed])
     return np.ascontiguousarray(states, dtype=float)
 
 
-def check_grid_names(model: HybridModel, x_name: str, y_name: str) -> None:
+def check_grid_names(model: HybridModel, x_name: str, y_name: str | None = None) -> None:
     """One line for a grid over components that are not the model's or that its section
-    determines."""
+    determines, or over one component of a section that has more."""
     names = (*model.coordinates, *model.rates)
     shown = model.name.replace("_", "-")  # as the command line names it
-    for name in (x_name, y_name):
+    free = [n for n in names if n not in model.spec.get("section", ())]
+    if y_name is None and len(free) > 1:
+        raise VswInputError(
+            f"--grid given once: the section of {shown} has {len(free)} free components "
+            f"({', '.join(free)}): give --grid twice (x, then y)"
+        )
+    gridded = (x_name,) if y_name is None else (x_name, y_name)
+    for name in gridded:
         if name not in names:
             raise VswInputError(
                 f"--grid {name}: not a coordinate or rate of {shown}: choose from "
@@ -79,9 +87,8 @@ def check_grid_names(model: HybridModel, x_name: str, y_name: str) -> None:
     if x_name == y_name:
         raise VswInputError(f"--grid {x_name} given twice: grid over two different components")
     determined = model.spec.get("section", ())
-    for name in (x_name, y_name):
+    for name in gridded:
         if name in determined:
-            free = [n for n in names if n not in determined]
             raise VswInputError(
                 f"--grid {name}: on the section of {shown} {name} follows from "
                 f"{', '.join(free)} (the step event's geometry and reset): grid over those"
@@ -90,12 +97,13 @@ def check_grid_names(model: HybridModel, x_name: str, y_name: str) -> None:
 
 @dataclass
 class GridBasin:
-    """A basin over a 2-D slice of the section (see :func:`grid_basin`)."""
+    """A basin over a 1-D or 2-D slice of the section (see :func:`grid_basin`); a 1-D one
+    has ``y_name`` None, no ``y`` and one row."""
 
     model: str
     parameters: dict[str, float]
     x_name: str
-    y_name: str
+    y_name: str | None
     x: np.ndarray
     y: np.ndarray
     outcome: list[list[str]]  # rows over y, columns over x
@@ -118,7 +126,7 @@ class GridBasin:
             "x_name": self.x_name,
             "y_name": self.y_name,
             "x": [float(v) for v in self.x],
-            "y": [float(v) for v in self.y],
+            "y": None if self.y_name is None else [float(v) for v in self.y],
             "outcome": self.outcome,
             "steps": self.steps.tolist(),
             "fixed_point": self.fixed_point,
@@ -152,8 +160,8 @@ def grid_basin(
     params: Sequence[float],
     x_name: str,
     x: np.ndarray,
-    y_name: str,
-    y: np.ndarray,
+    y_name: str | None = None,
+    y: np.ndarray | None = None,
     steps: int = 50,
     *,
     tol: float = 1e-6,
@@ -162,7 +170,8 @@ def grid_basin(
     runner: Runner | None = None,
 ) -> GridBasin:
     """The basin of the stable period-one gait over the grid ``x`` x ``y`` of two section
-    components (see the module docstring)."""
+    components, or over ``x`` alone where the section has one free component (see the
+    module docstring)."""
     check_grid_names(model, x_name, y_name)
     gait = gait or stable_gait(model, params, "no basin to draw")
     target = np.array([gait.state[n] for n in (*model.coordinates, *model.rates)])
@@ -170,7 +179,8 @@ def grid_basin(
     sim = simulator(model)
     result = sim.walk(params, states, steps, target=target, converge_tol=tol, period_tol=tol,
                       threads=threads, runner=runner)  # fmt: skip
-    shape = (len(y), len(x))
+    y = np.zeros(0) if y_name is None else np.asarray(y, float)
+    shape = (max(1, len(y)), len(x))
     labels, ended = result.labels(), result.ended()
     return GridBasin(
         model=model.name,
@@ -188,99 +198,6 @@ def grid_basin(
         max_steps=steps,
         route=result.route,
     )
-
-
-def brute_force_sweep(
-    model: HybridModel,
-    values: Mapping[str, float],
-    over: str,
-    grid: np.ndarray,
-    transient: int,
-    keep: int,
-    start: Sequence[float] | None = None,
-    threads: int | None = None,
-    runner: Runner | None = None,
-) -> list[dict[str, Any]]:
-    """The classic bifurcation diagram by brute force, all from the batch simulator: at
-    each value of the parameter ``over`` the period-one gait by Newton on the batch map
-    (continued from the previous value; its eigenvalues from the map's Jacobian by central
-    differences), then one batch walk over every value, ``transient + keep`` steps each,
-    from that value's gait moved by 1e-6 (relative) where it was found, else from the last
-    gait found before it (or ``start``; default: the first stable gait of the first value's
-    scan), keeping the last ``keep`` steps. Returns the points of ``vsw sweep --json``:
-    each with its gait and ``attractor`` (states, step lengths and periods, ``ended``,
-    ``period``)."""
-    names_p = list(model.spec["parameters"])
-    if over not in names_p:
-        raise VswInputError(f"{over!r} is not a parameter of {model.name}: {', '.join(names_p)}")
-    state_names = [*model.coordinates, *model.rates]
-    sim = simulator(model)
-    tables = [model.parameters({**values, over: float(v)}) for v in grid]
-    if start is None:
-        first = search(model, tables[0]).gaits
-        if not first:
-            raise ModelConditionError(
-                f"{model.name}: no period-one gait at {over} = {grid[0]:g} to start from: "
-                "give the start with --state"
-            )
-        pick = next((o for o in first if o.stable), first[0])
-        start = [pick.state[n] for n in state_names]
-    start = np.asarray(start, dtype=float)
-    points: list[dict[str, Any]] = []
-    starts = np.empty((len(grid), len(state_names)))
-    previous = start
-    for i, (value, params) in enumerate(zip(grid, tables)):
-        point: dict[str, Any] = {over: float(value), "from": "batch Newton"}
-        try:
-            x, jacobian = sim.fixed_point(params, previous)
-        except ConvergenceError:
-            x = None
-        if x is None or not np.all(np.isfinite(x)):
-            point["found"] = False
-            for key in ("state", "period", "eigenvalues", "max_abs_eigenvalue", "stable",
-                        "step_length", "speed"):  # fmt: skip
-                point[key] = None
-            starts[i] = previous
-        else:
-            step = sim.step(params, x[None], threads=1)
-            eigenvalues = by_modulus(np.linalg.eigvals(jacobian))
-            largest = max(abs(e) for e in eigenvalues)
-            length = float(step.kept_lengths[0, 0])
-            period = float(step.kept_durations[0, 0])
-            length = None if np.isnan(length) else length
-            point.update(
-                found=True, state=dict(zip(state_names, (float(v) for v in x))), period=period,
-                eigenvalues=[[e.real, e.imag] for e in eigenvalues],
-                max_abs_eigenvalue=largest, stable=largest < 1.0, step_length=length,
-                speed=None if length is None else length / period,
-            )  # fmt: skip
-            starts[i] = x * (1 + 1e-6)
-            previous = x
-        points.append(point)
-    walks = sim.walk(np.array(tables), starts, transient + keep, converge_tol=0.0,
-                     period_tol=0.0, keep=keep, threads=threads, runner=runner)  # fmt: skip
-    ended = walks.ended()
-    for i, point in enumerate(points):
-        walked = int(walks.steps[i])
-        # The ring holds the last min(walked, keep) steps, oldest first; of them only those
-        # past the transient count (as HybridModel.attractor keeps them).
-        held = min(walked, keep)
-        after = max(0, min(keep, walked - transient))
-        kept = slice(held - after, held)
-        kept_rows = walks.kept_states[i][kept]
-        lengths = walks.kept_lengths[i][kept]
-        durations = walks.kept_durations[i][kept]
-        completed = ended[i] == "walked"
-        period = repeat_period(kept_rows, 1e-7) if completed and len(kept_rows) > 1 else None
-        point["attractor"] = {
-            "ended": "completed" if completed else ended[i],
-            "steps_walked": walked,
-            "period": period,
-            "states": [dict(zip(state_names, (float(v) for v in r))) for r in kept_rows],
-            "step_lengths": [None if np.isnan(v) else float(v) for v in lengths],
-            "step_periods": [float(v) for v in durations],
-        }
-    return points
 
 
 _CLASS_COLORS = {
@@ -320,6 +237,9 @@ def _basin_plot(data: Mapping[str, Any], units: Mapping[str, str]) -> Figure:
     from vsw import plotstyle
 
     x, y = np.asarray(data["x"]), np.asarray(data["y"])
+    one_d = data.get("y_name") is None
+    if one_d:  # one row: a strip along x
+        y = np.zeros(1)
     labels = sorted({c for row in data["outcome"] for c in row}, key=_label_key)
     colors = _colors_for(labels)
     index = {label: k for k, label in enumerate(labels)}
@@ -338,10 +258,14 @@ def _basin_plot(data: Mapping[str, Any], units: Mapping[str, str]) -> Figure:
     fig.colorbar(image, ax=axes[1], label="steps to converge")
     fp = data["fixed_point"]
     for ax in axes:
-        ax.plot([fp[data["x_name"]]], [fp[data["y_name"]]], marker="*", markersize=9,
+        star_y = 0.0 if one_d else fp[data["y_name"]]
+        ax.plot([fp[data["x_name"]]], [star_y], marker="*", markersize=9,
                 markerfacecolor="white", markeredgecolor="black", linestyle="none")  # fmt: skip
         ax.set_xlabel(_label(data["x_name"], units))
-        ax.set_ylabel(_label(data["y_name"], units))
+        if one_d:
+            ax.set_yticks([])
+        else:
+            ax.set_ylabel(_label(data["y_name"], units))
     counts = data.get("counts", {})
     handles = [Patch(facecolor=colors[label], edgecolor="black", linewidth=0.4,
                      label=f"{label} ({counts.get(label, '')})") for label in labels]  # fmt: skip

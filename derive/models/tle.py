@@ -647,21 +647,22 @@ def _condition_list(margins: dict[str, object], q_f: sm.Expr) -> tuple[Condition
     at_fixed = {q: q_f}
     return (
         Condition("q_positive", None, q_f, True, "exact", True,
-                  "q = omega_I**2 > 0 at the fixed point"),
+                  "q = omega_I**2 > 0 at the fixed point", "g/r_e"),
         Condition("apex", None, margins["apex"].xreplace(at_fixed), True, "exact", True,
                   "h**2 = (r**2 omega)**2 > 0 over the whole step: the walker passes the apex "
-                  "(no fall backward)"),
+                  "(no fall backward)", "g r_e^3"),
         Condition("extension_reached", None, theta_II - margins["theta_I"], True, "exact", True,
-                  "theta_II > theta_I: the stance leg reaches the start of the extension"),
+                  "theta_II > theta_I: the stance leg reaches the start of the extension",
+                  "rad"),
         Condition("extension_completed", None, margins["theta_IV"] - theta_II - delta, True,
                   "exact", True, "theta_II + delta < theta_IV: the extension ends before "
-                  "heelstrike"),
+                  "heelstrike", "rad"),
         Condition("leg_compressive", None, margins["leg_compressive"].xreplace(at_fixed), False,
                   "sampled", True, "the leg pushes (force >= 0) over the extension, so the "
-                  "foot stays on the ground there; least of 17 samples s = k/16"),
+                  "foot stays on the ground there; least of 17 samples s = k/16", "m g"),
         Condition("stance_contact", None, margins["stance_contact"].xreplace(at_fixed), False,
                   "exact", True, "the ground normal force stays >= 0 over the short and the "
-                  "long phase (the leg pushes there too)"),
+                  "long phase (the leg pushes there too)", "m g"),
     )  # fmt: skip
 
 

@@ -2,25 +2,146 @@
 
 :class:`Model` is :class:`vsw.hybrid.HybridModel` (simulation, the Poincaré map, periodic
 orbits, eigenvalues: driven by the generated package alone) with the answers the commands
-need in one place: the gaits at a parameter set (:mod:`vsw.gaits`, a scan of the section
-and Newton), the model's description (:meth:`Model.describe`: parameters, state, section,
-units). A model with closed forms of its own (the ILE) subclasses it and answers the same
-calls from them.
+need in one place: the model's description (:meth:`Model.describe`: parameters, state with
+each coordinate's meaning, reference and sign, section, units), its gaits at a parameter
+set with every condition's margin or the reason there is none (:meth:`Model.analyze`,
+:mod:`vsw.gaits`, :mod:`vsw.conditions`) and where a walk starts (:meth:`Model.start`).
+A model with closed forms of its own (the ILE) subclasses it and answers the same calls
+from them; :attr:`Model.features` says which optional commands and options a model has.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
-from vsw import gaits
+import numpy as np
+
+from vsw import conditions, gaits
+from vsw.errors import ModelConditionError, VswInputError
 from vsw.hybrid import HybridModel, Orbit
 
-__all__ = ["Model"]
+__all__ = ["FEATURES", "GaitReport", "Model", "Start"]
+
+FEATURES = {
+    "q0": "--q0: the section state from q = rate**2 (a model whose section has one free "
+    "component, its rate)",
+    "scale": "--leg-length/--mass/--stepper-2d: SI results",
+    "parameter-basin": "vsw basin over theta_II and q0 in closed form (Fig. 9)",
+    "closed-form-sweep": "vsw sweep in closed form",
+    "simulation-plot": "vsw simulate --plot",
+    "design": "vsw design",
+    "explorer": "vsw explore",
+}
+"""Optional features of a model (:attr:`Model.features`) and what each is."""
+
+
+@dataclass
+class GaitReport:
+    """What ``vsw analyze`` says of a model at a parameter set.
+
+    ``gaits``: each with its conditions' margins (``conditions``, in the same order);
+    ``closed_form``: the closed-form fixed point and conditions where the model has them;
+    ``search``: how the gaits were searched (None where the closed form answers alone);
+    ``reason``: one sentence when there is no gait; ``extra``: a model's own keys (the
+    ILE's closed-form analysis); ``rows``: its own text table, (name, value, unit).
+    """
+
+    gaits: list[Orbit]
+    conditions: list[list[dict[str, Any]]]
+    search: gaits.GaitSearch | None = None
+    closed_form: dict[str, Any] | None = None
+    reason: str | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+    rows: list[tuple[str, Any, str]] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = dict(self.extra)
+        out["fixed_points"] = [
+            {**orbit.to_dict(), "conditions": margins}
+            for orbit, margins in zip(self.gaits, self.conditions)
+        ]
+        if self.closed_form is not None:
+            out["closed_form"] = self.closed_form
+        if self.search is not None:
+            out["search"] = self.search.method()
+        out["reason"] = self.reason
+        return out
+
+
+@dataclass(frozen=True)
+class Start:
+    """Where a walk starts: the section state, what gave it (``--state``, ``--q0`` or
+    ``gait``) and the gait when it is one (its stability is worth saying)."""
+
+    state: np.ndarray
+    source: str
+    gait: Orbit | None = None
+
+    def note(self) -> str | None:
+        """A warning when the walk starts on an unstable gait."""
+        if self.gait is None or self.gait.stable:
+            return None
+        return (f"the walk starts on an unstable gait (max |eigenvalue| "
+                f"{self.gait.max_abs_eigenvalue:.4g}): rounding grows along it")  # fmt: skip
 
 
 class Model(HybridModel):
     """A generated model through the one interface of the commands."""
+
+    features: frozenset[str] = frozenset()
+
+    def __init__(self, module: Any) -> None:
+        super().__init__(module)
+        free = list(self.spec["search"])
+        if len(free) == 1 and free[0] in self.rates:
+            self.features = self.features | {"q0"}
+
+    # --- description --------------------------------------------------------------------
+
+    @property
+    def cli_name(self) -> str:
+        return self.name.replace("_", "-")
+
+    def describe(self) -> dict[str, Any]:
+        """The model as ``vsw models --json`` lists it: parameters, state, section, units."""
+        units = dict(self.units)
+        time = units.get("time", "")
+        units["rate"] = f"rad/{time}" if time else "rad"
+        return {
+            "name": self.cli_name,
+            "title": self.title,
+            "description": self.spec.get("description", self.title),
+            "units": units,
+            "parameters": [
+                {
+                    "name": p.name,
+                    "default": p.default,
+                    "unit": p.unit,
+                    "lower": _bound(p.lower),
+                    "upper": _bound(p.upper),
+                    "meaning": p.description,
+                    "reason": p.reason,
+                    "degrees_accepted": p.unit == "rad",
+                }
+                for p in self.parameter_table
+            ],
+            "state": [dict(s) for s in self.spec["state"]],
+            "section": {
+                "event": self.step_event["name"],
+                "when": f"just after the {self.step_event['name']} (the state a step starts "
+                "from)",
+                "determined": list(self.spec["section"]),
+                "free": list(self.spec["search"]),
+                "search_box": {k: list(v) for k, v in self.spec["search"].items()},
+            },
+            "failures": [dict(f) for f in self.spec["failures"]],
+            "features": sorted(self.features),
+        }
+
+    # --- gaits ----------------------------------------------------------------------------
 
     def search_gaits(
         self, params: Sequence[float], box: Mapping[str, tuple[float, float]] | None = None
@@ -32,6 +153,92 @@ class Model(HybridModel):
         """The period-one gaits at ``params`` (sorted by period)."""
         return self.search_gaits(params).gaits
 
-    def describe(self) -> dict[str, Any]:
-        """The model as ``vsw models --json`` lists it (filled in by the CLI's layer)."""
-        return {"name": self.name.replace("_", "-"), "title": self.title}
+    def analyze(
+        self, params: Sequence[float], box: Mapping[str, tuple[float, float]] | None = None
+    ) -> GaitReport:
+        """Every gait in the search box with its conditions' margins, the closed form where
+        the model has one, and the reason when there is no gait."""
+        found = self.search_gaits(params, box)
+        closed = conditions.closed_form_conditions(self, params)
+        report = GaitReport(
+            gaits=found.gaits,
+            conditions=[conditions.gait_conditions(self, params, g) for g in found.gaits],
+            search=found,
+            closed_form=closed,
+        )
+        if not found.gaits:
+            report.reason = _closed_form_reason(closed) or found.why_none()
+        return report
+
+    # --- walks ----------------------------------------------------------------------------
+
+    def section_state_from_q(self, params: Sequence[float], q0: float) -> np.ndarray:
+        """The section state with rate**2 = ``q0`` at the model's section angle."""
+        if "q0" not in self.features:
+            raise VswInputError(f"--q0 needs a model with a closed-form section ({self.cli_name} "
+                                "has none): give --state NAME=VALUE")  # fmt: skip
+        if not (math.isfinite(q0) and q0 > 0):
+            raise VswInputError(f"--q0 = {q0:g} must be a positive number (q = rate**2 just "
+                                "after the step event)")  # fmt: skip
+        return gaits.section_states(self, params, np.array([[math.sqrt(q0)]]))[0]
+
+    def start(
+        self,
+        params: Sequence[float],
+        state: Sequence[float] | None = None,
+        q0: float | None = None,
+    ) -> Start:
+        """Where a walk starts: ``state``, else the state of ``q0``, else the first stable
+        gait (else the first gait); ModelConditionError with the reason when none is found."""
+        if state is not None:
+            return Start(np.asarray(state, dtype=float), "--state")
+        if q0 is not None:
+            return Start(self.section_state_from_q(params, q0), "--q0")
+        report = self.analyze(params)
+        orbit = gaits.pick(report.gaits)
+        if orbit is None:
+            raise ModelConditionError(
+                f"{self.cli_name}: {report.reason}; give the start with --state NAME=VALUE"
+            )
+        return Start(np.array(list(orbit.state.values())), "gait", orbit)
+
+
+    def walk_keys(self, params: Sequence[float], walk: Any) -> dict[str, Any]:
+        """A walk's keys beyond the section states: with a one-rate section, ``q`` (the
+        rate squared after each step, the start's first) and the closed-form fixed point
+        where the model has one."""
+        out: dict[str, Any] = {}
+        if "q0" in self.features:
+            rate = self.rates[0]
+            index = [*self.coordinates, *self.rates].index(rate)
+            out["q"] = [float(x[index]) ** 2 for x in walk.states]
+            if hasattr(self.module, "q_fixed"):
+                with np.errstate(all="ignore"):
+                    out["q_fixed_closed_form"] = float(self.module.q_fixed(*params))
+        return out
+
+    def save_simulation_plot(
+        self, params: Sequence[float], start: np.ndarray, steps: int, path: str
+    ) -> None:
+        """The simulation's figure (a model with the feature ``simulation-plot``)."""
+        raise VswInputError(f"vsw simulate --plot: not available for {self.cli_name} yet")
+
+
+def _bound(value: float) -> float | None:
+    """A table bound for JSON: None where it is infinite (no bound)."""
+    return float(value) if math.isfinite(value) else None
+
+
+def _closed_form_reason(closed: dict[str, Any] | None) -> str | None:
+    """Why the closed-form fixed point is no gait, or None (no closed form, or it walks)."""
+    if closed is None:
+        return None
+    q_f = closed["q_fixed"]
+    bad = conditions.failing(closed)
+    if not bad:
+        return None
+    worst = bad[0]
+    unit = f" {worst['unit']}" if worst["unit"] else ""
+    others = "" if len(bad) == 1 else f" (and {', '.join(c['name'] for c in bad[1:])})"
+    return (f"the closed-form fixed point q^f = {q_f:.6g} is no gait: condition {worst['name']} "
+            f"fails, margin {worst['margin']:.6g}{unit} ({worst['meaning']}){others}")  # fmt: skip

@@ -924,6 +924,7 @@ def derive() -> Derivation:
             status="implied",
             physical=True,
             meaning="q = omega_I**2 must be positive at the fixed point",
+            unit="g/r_e",
         ),
         Condition(
             name="cos_ratio",
@@ -933,6 +934,7 @@ def derive() -> Derivation:
             status="exact",
             physical=False,
             meaning="(12) rewritten with (10): the same condition",
+            unit="",
         ),
         Condition(
             name="apex",
@@ -942,6 +944,7 @@ def derive() -> Derivation:
             status="exact",
             physical=True,
             meaning="omega stays positive over the apex in both phases (no fall backward)",
+            unit="g/r_e",
         ),
         Condition(
             name="theta_I_negative",
@@ -951,6 +954,7 @@ def derive() -> Derivation:
             status="framing",
             physical=False,
             meaning="theta_I < 0: the new stance foot lands ahead of the hip",
+            unit="",
         ),
         Condition(
             name="phi0_below_right_angle",
@@ -960,6 +964,7 @@ def derive() -> Derivation:
             status="exact",
             physical=True,
             meaning="cos phi0 > 0, so omega_I > 0 after heelstrike",
+            unit="rad",
         ),
         Condition(
             name="extension_before_symmetric_contact",
@@ -969,6 +974,7 @@ def derive() -> Derivation:
             status="conservative",
             physical=False,
             meaning="theta_II < phi0/2, where equal legs would touch down",
+            unit="rad",
         ),
         Condition(
             name="extension_before_heelstrike",
@@ -978,6 +984,7 @@ def derive() -> Derivation:
             status="exact",
             physical=True,
             meaning="theta_II < theta_IV: the leg extends before heelstrike",
+            unit="rad",
         ),
         Condition(
             name="extension_reached",
@@ -987,6 +994,7 @@ def derive() -> Derivation:
             status="missing",
             physical=True,
             meaning="theta_II > theta_I: the stance leg reaches the extension angle",
+            unit="rad",
         ),
         Condition(
             name="stance_contact",
@@ -996,6 +1004,7 @@ def derive() -> Derivation:
             status="missing",
             physical=True,
             meaning="the ground normal force stays non-negative over the whole step",
+            unit="m g",
         ),
     )
     d.conditions = conditions

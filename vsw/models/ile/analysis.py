@@ -58,22 +58,11 @@ SI_FIELDS = (
 """Extra outputs when a :class:`~vsw.models.ile.params.RobotScale` is given: the SI values,
 each under its own key with the unit in its name. The keys of :data:`FIELDS` never change unit."""
 
-MARGIN_UNITS = {
-    "q_positive": "g/r_e",
-    "cos_ratio": "",
-    "apex": "g/r_e",
-    "theta_I_negative": "",
-    "phi0_below_right_angle": "rad",
-    "extension_before_symmetric_contact": "rad",
-    "extension_before_heelstrike": "rad",
-    "extension_reached": "rad",
-    "stance_contact": "m g",
-}
-"""Unit of each condition margin of ``ile.CONDITIONS`` ("" for dimensionless ratios), from
-the margins' definitions in ``derive/models/ile/closed_form.py``: q - bound in g/r_e, angle
+MARGIN_UNITS = dict(ile.CONDITION_UNITS)
+"""Unit of each condition margin of ``ile.CONDITIONS`` ("" for dimensionless ratios), as
+the derivation states it (``derive/models/ile/closed_form.py``): q - bound in g/r_e, angle
 differences in rad, beta - cos(phi0) and the cosine ratio of (13) without unit, the normal
-force in m g. Every condition needs an entry (the test suite checks them against independent
-values)."""
+force in m g. The test suite checks them against independent values."""
 
 _COMPILED_MIN_SIZE = 100_000
 

@@ -1,0 +1,152 @@
+"""``vsw analyze``: every period-one gait of a model with its conditions, or why there is none."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from typing import Any, TextIO
+
+from vsw.cli import options
+from vsw.cli.output import (
+    INTEGRATOR,
+    ORBIT_SOLVER,
+    dump_json,
+    envelope,
+    fmt,
+    unit_text,
+    write_orbit,
+    write_parameters,
+)
+from vsw.cli.parser import EXIT_OK
+from vsw.errors import VswInputError
+from vsw.gaits import DISTINCT, SCAN_POINTS
+from vsw.models.base import GaitReport, Model
+from vsw.models.ile.params import STEPPER_2D, RobotScale
+
+__all__ = ["register", "run"]
+
+SCALE_OPTIONS = {"leg_length": "scale", "mass": "scale", "gravity": "scale", "stepper_2d": "scale"}
+
+
+def register(subparsers: Any) -> None:
+    help_ = "every period-one gait with its conditions' margins, or why there is none"
+    p = subparsers.add_parser("analyze", help=help_, description=help_ + ".")
+    options.add_model_options(p, "analyze", features=SCALE_OPTIONS)
+    p.add_argument(
+        "--search",
+        action="append",
+        metavar="NAME=START:STOP",
+        help="replace the model's search box for a free section component (see 'vsw "
+        "models'); repeatable",
+    )
+    scale = p.add_argument_group("SI results (the ile: added under keys of their own)")
+    scale.add_argument("--leg-length", type=float, help="extended leg length r_e [m]")
+    scale.add_argument("--mass", type=float, help="mass [kg]")
+    scale.add_argument("--gravity", type=float, help="g [m/s^2] (default 9.81)")
+    scale.add_argument(
+        "--stepper-2d", action="store_true", help="Stepper-2D preset: r_e 0.25 m, m 0.78 kg"
+    )
+    p.set_defaults(func=run)
+
+
+def scale_from(args: argparse.Namespace) -> RobotScale | None:
+    """The robot scale of ``--stepper-2d`` or ``--leg-length``/``--mass``/``--gravity``."""
+    if args.stepper_2d:
+        if args.leg_length is not None or args.mass is not None:
+            raise VswInputError(
+                "--stepper-2d sets the leg length and mass; drop --leg-length/--mass"
+            )
+        return STEPPER_2D if args.gravity is None else RobotScale(0.25, 0.78, args.gravity)
+    if args.leg_length is None and args.mass is None:
+        if args.gravity is not None:
+            raise VswInputError("--gravity needs --leg-length and --mass (or --stepper-2d)")
+        return None
+    if args.leg_length is None or args.mass is None:
+        raise VswInputError("--leg-length and --mass go together (SI results need both)")
+    gravity = 9.81 if args.gravity is None else args.gravity
+    return RobotScale(args.leg_length, args.mass, gravity)
+
+
+def tolerances(model: Model) -> dict[str, Any]:
+    if "scale" in model.features:  # closed forms: nothing iterates
+        return {"closed_form": "generated numpy code (no solver)"}
+    return {
+        **INTEGRATOR,
+        **ORBIT_SOLVER,
+        "newton": "batch simulator (DOP853, rtol = atol = 1e-12), forward differences "
+        "1e-7, residual <= 1e-10 x max(1, |state|)",
+        "distinct": f"gaits closer than {DISTINCT:g} x max(1, |component|) are one",
+        "scan_points": f"{SCAN_POINTS} per free component, by their number",
+    }
+
+
+def run(args: argparse.Namespace) -> int:
+    model, params = options.model_and_parameters(args)
+    box = options.parse_search(model, args.search)
+    with options.solver_errors(model):
+        if "scale" in model.features:
+            report = model.analyze(params, box, scale=scale_from(args))
+        else:
+            report = model.analyze(params, box)
+    data = {**envelope(model, params, args.argv, tolerances(model)), **report.to_dict()}
+    if args.json:
+        dump_json(data)
+        return EXIT_OK
+    out = sys.stdout
+    write_parameters(out, model, params)
+    if report.rows:
+        _write_rows(out, report)
+    else:
+        _write_gaits(out, model, report)
+    return EXIT_OK
+
+
+def _write_rows(out: TextIO, report: GaitReport) -> None:
+    """A closed-form report: its table of values, then every condition (angles in deg)."""
+    for name, value, unit in report.rows:
+        out.write(f"{name:<16} {fmt(value):>14}  {unit}\n")
+    out.write("\nconditions (margin > 0 holds; physical ones decide 'walks'; angles in deg)\n")
+    out.write(f"{'name':<36} {'eq.':<12} {'margin':>12} {'unit':<6} {'holds':>5}  "
+              f"{'status':<12} physical\n")  # fmt: skip
+    for c in report.extra.get("conditions", []):
+        value, unit = c["value"], c["unit"]
+        if unit == "rad" and value is not None:
+            value, unit = math.degrees(value), "deg"
+        out.write(f"{c['name']:<36} {c['equation'] or '-':<12} {fmt(value):>12} "
+                  f"{unit or '-':<6} {fmt(c['holds']):>5}  {c['status']:<12} "
+                  f"{fmt(c['physical'])}\n")  # fmt: skip
+    if report.reason:
+        out.write(f"\nno gait: {report.reason}\n")
+
+
+def _write_gaits(out: TextIO, model: Model, report: GaitReport) -> None:
+    units = ", ".join(f"{k} {v}" for k, v in model.units.items())
+    out.write(f"{'units':<18} {units}\n")
+    if report.search is not None:
+        s = report.search
+        box = ", ".join(f"{k} in [{lo:g}, {hi:g}]" for k, (lo, hi) in s.box.items())
+        grid = " x ".join(str(n) for n in s.points.values())
+        note = "" if s.complete else " (not the default resolution: the search may miss gaits)"
+        out.write(f"{'search':<18} {box}: {grid} cells, Newton from the {s.candidates} that "
+                  f"complete a step ({s.route}){note}\n")  # fmt: skip
+    out.write(f"\nperiod-one gaits: {len(report.gaits)} (state just after the "
+              f"{model.step_event['name']} that starts a step)\n")  # fmt: skip
+    for n, (orbit, margins) in enumerate(zip(report.gaits, report.conditions), 1):
+        out.write(f"gait {n}\n")
+        write_orbit(out, model, orbit)
+        for c in margins:
+            out.write(f"  {c['name'] + ' margin':<16} {fmt(c['margin']):>14} "
+                      f"{unit_text(c['unit']).strip():<10} {c['meaning']}\n")  # fmt: skip
+    if report.closed_form is not None:
+        closed = report.closed_form
+        out.write(f"\nclosed form: q^f = {fmt(closed['q_fixed'])}, eigenvalue "
+                  f"{fmt(closed['eigenvalue'])}, walks: {fmt(closed['walks'])}\n")  # fmt: skip
+        for c in closed["conditions"]:
+            out.write(f"  {c['name']:<24} {fmt(c['margin']):>12}{unit_text(c['unit']):<8} "
+                      f"{'holds' if c['holds'] else 'FAILS'}  {c['meaning']}\n")  # fmt: skip
+    if report.reason:
+        out.write(f"\nno gait: {report.reason}\n")
+    if report.search is not None and report.search.unconfirmed:
+        for u in report.search.unconfirmed:
+            out.write(f"note: a Newton solution was no gait when simulated: {u['reason']}\n")

@@ -1,0 +1,97 @@
+"""``vsw animate``: the stick figure of a simulated walk as GIF, SVG or MP4."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from typing import Any
+
+from vsw.animate import animation_frames, check_output, write_animation
+from vsw.cli import options
+from vsw.cli.output import INTEGRATOR, dump_json, envelope
+from vsw.cli.parser import EXIT_OK
+from vsw.errors import VswInputError
+
+__all__ = ["register", "run"]
+
+
+def register(subparsers: Any) -> None:
+    help_ = "the walk as a moving stick figure (GIF, SVG or MP4)"
+    p = subparsers.add_parser("animate", help=help_, description=help_ + ".")
+    options.add_model_options(p, "animate", features={"q0": "q0"})
+    p.add_argument("--out", required=True, metavar="FILE",
+                   help="gait.gif (Pillow), gait.svg or gait.mp4")  # fmt: skip
+    p.add_argument("--steps", type=int, default=3, help="steps to walk")
+    start = p.add_argument_group("where the walk starts (default: the first stable gait)")
+    start.add_argument("--state", action="append", metavar="NAME=VALUE",
+                       help="the state just after the step event, every coordinate and rate; "
+                       "repeatable")  # fmt: skip
+    start.add_argument("--q0", type=float,
+                       help="q = rate**2 just after the step event (ile, tle, rimless-wheel)")
+    p.add_argument("--fps", type=float, default=30.0, help="frames per second")
+    p.add_argument("--speed", type=float, default=1.0,
+                   help="model time units per second of playback")  # fmt: skip
+    p.add_argument("--leg-length", type=float, metavar="L",
+                   help="real time for a robot with legs of L m (models in units of "
+                   "sqrt(l/g))")  # fmt: skip
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    model, params = options.model_and_parameters(args)
+    out = check_output(args.out)
+    if args.state and args.q0 is not None:
+        raise VswInputError("--state and --q0 both give the start: give one")
+    state = options.parse_state(model, args.state) if args.state else None
+    if args.leg_length is not None:
+        leg = float(args.leg_length)
+        if not (math.isfinite(leg) and leg > 0):
+            raise VswInputError(f"--leg-length = {args.leg_length} must be a positive number")
+        if model.units.get("time", "") == "s":
+            raise VswInputError(f"{model.cli_name} is in seconds already: drop --leg-length "
+                                "(--speed 1 is real time)")  # fmt: skip
+        speed = math.sqrt(9.81 / leg)  # model time units per second of the robot's time
+    else:
+        speed = float(args.speed)
+    with options.solver_errors(model):
+        start = model.start(params, state, args.q0)
+    fixed = ", ".join(f"{k} = {v:.6g}" for k, v in zip(model.spec["parameters"], params))
+    title = f"{model.cli_name}: {fixed}"
+    with options.solver_errors(model):
+        frames = animation_frames(model, params, start.state, args.steps, fps=args.fps,
+                                  speed=speed, title=title)  # fmt: skip
+    write_animation(frames, str(out))
+    events = [(float(t), e) for t, e in zip(frames.t, frames.event) if e]
+    data = {
+        **envelope(model, params, args.argv, INTEGRATOR),
+        "start": dict(zip((*model.coordinates, *model.rates), (float(v) for v in start.state))),
+        "start_from": start.source,
+        "note": start.note(),
+        "out": str(out),
+        "frames": len(frames.t),
+        "fps": frames.fps,
+        "model_time_per_second": speed,
+        "duration": float(frames.t[-1]),
+        "steps_completed": int(frames.step[-1]),
+        "ended": frames.ended,
+        "events": [{"t": t, "event": e} for t, e in events],
+        "frame_of_events": [k for k, e in enumerate(frames.event) if e],
+        "pixels": {"scale": frames.scale, "origin": list(frames.origin)},
+        "fields": {
+            "events": "each event's model time; the animation has a frame at each",
+            "pixels": "pixel = (origin x + scale * x, origin y - scale * y) for a point (x, y) "
+            "in the model's chart, the first stance foot at (0, 0)",
+        },
+    }
+    if args.json:
+        dump_json(data)
+        return EXIT_OK
+    if start.note():
+        sys.stdout.write(f"note: {start.note()}\n")
+    sys.stdout.write(
+        f"{out}: {len(frames.t)} frames at {frames.fps:g} per second, {data['duration']:.4g} "
+        f"{model.units.get('time', '')} of model time, {data['steps_completed']} steps "
+        f"({frames.ended})\n"
+    )
+    return EXIT_OK

@@ -1,0 +1,215 @@
+"""The ``vsw`` program: its parser (one module per command) and the entry point.
+
+Standard output failures are handled once, in :func:`main`, for every command: while a
+command runs, ``sys.stdout`` is a thin wrapper that remembers the first write error, and
+:func:`main` flushes it before returning, so a closed pipe or a full disk is seen here and
+not in the interpreter's final flush; afterwards the file descriptor is pointed at
+``os.devnull`` so that flush at exit stays quiet (the recipe of Python's ``signal``
+documentation, "Note on SIGPIPE").
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from collections.abc import Sequence
+from typing import Any, NoReturn, TextIO
+
+from vsw.cli import analyze, animate, basin, design, explore, models, simulate, sweep
+from vsw.cli.output import version
+from vsw.cli.parser import (
+    EXIT_CLOSED_PIPE,
+    EXIT_INPUT,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    EXIT_SOLVER,
+    ArgumentParser,
+    TopHelpFormatter,
+    UsageError,
+    epilog,
+)
+from vsw.errors import ConvergenceError, InfeasibleError, VswInputError
+from vsw.limits import max_memory, max_seconds
+from vsw.vectorize import default_threads
+
+__all__ = ["COMMANDS", "build_parser", "main"]
+
+COMMANDS = (models, analyze, simulate, animate, explore, basin, sweep, design)
+"""The command modules, in the order ``vsw --help`` lists them: each has ``register``
+(adds its parser) and ``run``."""
+
+
+class _VersionAction(argparse.Action):
+    """``--version``: looks the version up only when asked (importlib.metadata is slow)."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS, **kw):
+        kw.setdefault("help", "show the version and exit")
+        super().__init__(option_strings, dest=dest, default=argparse.SUPPRESS, nargs=0, **kw)
+
+    def __call__(self, parser, namespace, values, option_string=None) -> NoReturn:
+        sys.stdout.write(f"vsw {version()}\n")
+        parser.exit()
+
+
+def build_parser() -> ArgumentParser:
+    """The ``vsw`` parser with every command."""
+    parser = ArgumentParser(
+        prog="vsw",
+        description="Walking models derived and verified: the instantaneous leg extension "
+        "model of Virtual Slope Walking (the default model) and the others of 'vsw models'.\n"
+        "Every command takes --model NAME and the model's parameters (defaults apply).",
+        epilog=epilog(),
+        formatter_class=TopHelpFormatter,
+    )
+    parser.add_argument("--version", action=_VersionAction)
+    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for command in COMMANDS:
+        command.register(subparsers)
+    return parser
+
+
+class _GuardedStdout:
+    """``sys.stdout`` while a command runs: remembers the first OSError of a write.
+
+    Some writers swallow errors (argparse's help does); remembering the first one lets
+    :func:`main` tell a failing standard output from any other OSError (a plot file) and
+    handle it in one place for every subcommand.
+    """
+
+    def __init__(self, stream: TextIO) -> None:
+        self.stream = stream
+        self.error: OSError | None = None
+
+    def _call(self, method: str, *args: Any) -> Any:
+        try:
+            return getattr(self.stream, method)(*args)
+        except OSError as exc:
+            if self.error is None:
+                self.error = exc
+            raise
+
+    def write(self, text: str) -> int:
+        return self._call("write", text)
+
+    def writelines(self, lines: Any) -> None:
+        for line in lines:
+            self.write(line)
+
+    def flush(self) -> None:
+        self._call("flush")
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.stream, name)
+
+
+def _one_line(text: Any) -> str:
+    return " ".join(str(text).split())
+
+
+def _check_environment() -> None:
+    """Every ``VSW_*`` setting read as the commands will, before any of them starts.
+
+    One rule for every subcommand and input size: an invalid setting is bad input even
+    where the command would not have needed it.
+    """
+    default_threads()
+    max_seconds()
+    max_memory()
+
+
+def _say(line: str) -> None:
+    """One line on stderr; silent when stderr itself is closed or broken."""
+    try:
+        sys.stderr.write(line + "\n")
+        sys.stderr.flush()
+    except (AttributeError, OSError):
+        pass
+
+
+def _silence(stream: TextIO) -> None:
+    """Point the file descriptor of a failed ``stream`` at os.devnull.
+
+    What is still buffered then goes nowhere at the interpreter's final flush instead of
+    failing again there with "Exception ignored ...". Streams without a descriptor (a
+    test's capture) are not flushed at exit, so there is nothing to do.
+    """
+    try:
+        fd = stream.fileno()
+    except (AttributeError, OSError, ValueError):
+        return
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, fd)
+    finally:
+        os.close(devnull)
+
+
+def _run(argv: Sequence[str] | None) -> int:
+    """Parse and run one command; every error but a failing standard output is mapped here."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        args.argv = argv
+        _check_environment()
+        return int(args.func(args))
+    except VswInputError as exc:
+        prog = exc.prog if isinstance(exc, UsageError) else "vsw"
+        _say(f"{prog}: error: {_one_line(exc)}")
+        return EXIT_INPUT
+    except (ConvergenceError, InfeasibleError) as exc:
+        _say(f"vsw: {type(exc).__name__}: {_one_line(exc)}")
+        return EXIT_SOLVER
+    except SystemExit as exc:  # --help and --version exit through argparse
+        return exc.code if isinstance(exc.code, int) else EXIT_OK
+    except MemoryError:
+        _say(
+            "vsw: error: out of memory; use a smaller problem, or lower VSW_MAX_MEMORY so "
+            "that such work is refused before it starts"
+        )
+        return EXIT_INPUT
+    except KeyboardInterrupt:
+        _say("vsw: interrupted")
+        return EXIT_INTERRUPTED
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the CLI; returns the exit status (the console script exits with it).
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        Arguments without the program name; default ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        One of :data:`EXIT_STATUS`: 0 success, 2 bad input (one line on stderr), 3 solver
+        failure or infeasible request, 141 standard output closed by its reader (quiet),
+        130 interrupted.
+    """
+    stdout = sys.stdout
+    if stdout is None:  # started with standard output closed (">&-")
+        _say("vsw: error: standard output is closed; redirect it (e.g. >/dev/null) instead")
+        return EXIT_INPUT
+    guard = _GuardedStdout(stdout)
+    sys.stdout = guard
+    try:
+        code = _run(argv)
+        # Flushed here, not at exit, so that a closed pipe or a full disk is seen here.
+        guard.flush()
+    except OSError as exc:
+        if guard.error is None:  # a file the command writes (a plot), not standard output
+            where = f" {exc.filename!r}" if exc.filename else ""
+            _say(f"vsw: error: cannot write{where}: {exc.strerror or _one_line(exc)}")
+            code = EXIT_INPUT
+    finally:
+        sys.stdout = stdout
+    if guard.error is not None:
+        _silence(stdout)
+        if isinstance(guard.error, BrokenPipeError):
+            return EXIT_CLOSED_PIPE  # the reader has all it wanted: no message
+        _say(f"vsw: error: cannot write standard output: {guard.error.strerror or guard.error}")
+        return EXIT_INPUT
+    return code

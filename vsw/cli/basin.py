@@ -1,0 +1,270 @@
+"""``vsw basin``: the states that walk into the stable gait.
+
+Every model: a slice of the section (``--grid`` once where the section has one free
+component, twice otherwise), each cell walked by the batch simulator until it converges to
+the stable gait, repeats with a period, falls, or walks ``--steps`` steps; without
+``--grid``, a model whose section has one free component gets 41 values over its search
+box. A model with the ``parameter-basin`` feature (the ile) answers without ``--grid`` in
+closed form over theta_II and q0 (Fig. 9).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+from typing import Any
+
+import numpy as np
+
+from vsw import limits
+from vsw.batch import simulator
+from vsw.cli import options
+from vsw.cli.output import INTEGRATOR, dump_json, envelope, fmt, progress, write_parameters
+from vsw.cli.parser import EXIT_OK, StoreGiven, given, option_name
+from vsw.cluster import check_scheduler, runner
+from vsw.errors import VswInputError
+from vsw.figures import check_save_path, save_figure
+from vsw.grid_basin import basin_plot, check_grid_names, grid_basin
+from vsw.models.base import Model
+from vsw.models.ile.basin import basin, basin_cost, check_edges_by_simulation, edge_check_cost
+from vsw.models.ile.params import PARAMETER_BY_NAME
+from vsw.models.ile.plots import basin_plot as ile_basin_plot
+from vsw.vectorize import default_threads
+
+__all__ = ["register", "run"]
+
+FEATURES = {dest: "parameter-basin" for dest in
+            ("theta_min", "theta_max", "theta_step", "n_q", "check_edges")}  # fmt: skip
+DEFAULT_POINTS = 41
+"""Grid values over the search box of a one-component section when no --grid is given."""
+
+MAX_THETA_VALUES = 100_000
+"""Most theta_II values of the closed-form basin (each is a row of its grid)."""
+
+
+def register(subparsers: Any) -> None:
+    help_ = "basin of attraction of the stable gait over a slice of the section (--grid)"
+    p = subparsers.add_parser("basin", help=help_, description=help_ + "; the ile without "
+                              "--grid: over theta_II and q0 in closed form (Fig. 9).")  # fmt: skip
+    options.add_model_options(p, "basin", features=FEATURES)
+    p.add_argument("--plot", metavar="FILE", help="save the basin figure (.png/.svg/.pdf)")
+    grid = p.add_argument_group("a slice of the section, by the compiled batch simulator")
+    grid.add_argument(
+        "--grid",
+        action="append",
+        metavar="NAME=START:STOP:N",
+        help="a free component of the state just after the step event and its N values; "
+        "twice for a section with several (see 'vsw models'); default: 41 values over the "
+        "search box of a one-component section",
+    )
+    grid.add_argument("--steps", type=int, default=50, action=StoreGiven,
+                      help="most steps walked from a cell; it stops early once converged, "
+                      "periodic or fallen")  # fmt: skip
+    grid.add_argument("--tol", type=float, default=1e-6, action=StoreGiven,
+                      help="converged: every state component within tol * max(1, |gait "
+                      "state|)")  # fmt: skip
+    grid.add_argument("--scheduler", metavar="ADDRESS",
+                      help="run the cells on this Dask scheduler (default: VSW_DASK_SCHEDULER "
+                      "if set, else threads here); needs the extra vsw[dask]")  # fmt: skip
+    ile = p.add_argument_group("the closed-form basin over theta_II (the ile, without --grid)")
+    ile.add_argument("--theta-min", type=float, default=-30.0, action=StoreGiven,
+                     help="first theta_II [deg]")  # fmt: skip
+    ile.add_argument("--theta-max", type=float, default=40.0, action=StoreGiven,
+                     help="last theta_II [deg]")  # fmt: skip
+    ile.add_argument("--theta-step", type=float, default=0.5, action=StoreGiven,
+                     help="theta_II step [deg]")  # fmt: skip
+    ile.add_argument("--n-q", type=int, default=2001, action=StoreGiven,
+                     help="initial q grid points in (0, 1.5/beta] (limited by VSW_MAX_MEMORY "
+                     "and VSW_MAX_SECONDS)")  # fmt: skip
+    ile.add_argument("--check-edges", type=int, default=0, action=StoreGiven, metavar="N",
+                     help="check N sampled theta_II edges by simulation")  # fmt: skip
+    p.set_defaults(func=run, parser=p)
+
+
+def run(args: argparse.Namespace) -> int:
+    model = args.model_object
+    if not args.grid and "parameter-basin" in model.features:
+        return _parameter_basin(args, model)
+    for dest in FEATURES:
+        if given(args.parser, args, dest):
+            raise VswInputError(f"{option_name(args.parser, dest)} belongs to the closed-form "
+                                "basin over theta_II: drop --grid")  # fmt: skip
+    return _grid_basin(args, model)
+
+
+# --- a slice of the section --------------------------------------------------------------------
+
+
+def _grid(args: argparse.Namespace, model: Model) -> list[tuple[str, np.ndarray]]:
+    if args.grid:
+        if len(args.grid) > 2:
+            raise VswInputError(f"--grid given {len(args.grid)} times: give it once or twice")
+        axes = [options.parse_grid(model, item) for item in args.grid]
+        check_grid_names(model, *(name for name, _ in axes))
+        return axes
+    free = list(model.spec["search"])
+    if len(free) != 1:
+        raise VswInputError(
+            f"vsw basin --model {model.cli_name}: give the slice of the section with --grid "
+            f"twice, e.g. --grid {free[0]}=START:STOP:N --grid {free[1]}=START:STOP:N "
+            f"(free components: {', '.join(free)})"
+        )
+    low, high = model.spec["search"][free[0]]
+    values = np.linspace(low, high, DEFAULT_POINTS + 1)[1:] if low == 0 else np.linspace(
+        low, high, DEFAULT_POINTS)  # fmt: skip
+    return [(free[0], values)]
+
+
+def _grid_basin(args: argparse.Namespace, model: Model) -> int:
+    axes = _grid(args, model)
+    if not 1 <= args.steps <= 100_000:
+        raise VswInputError(f"--steps = {args.steps} must be from 1 to 100000")
+    if not math.isfinite(args.tol) or not 0 < args.tol < 1:
+        raise VswInputError(f"--tol = {args.tol:g} must lie in (0, 1)")
+    scheduler = args.scheduler or os.environ.get("VSW_DASK_SCHEDULER", "").strip() or None
+    if args.plot is not None:
+        check_save_path(args.plot)
+    params = model.parameters(args.values)
+    threads = check_scheduler(scheduler) if scheduler else default_threads()
+    cells = math.prod(len(v) for _, v in axes)
+    # Upper bound: every cell walks every step (most fall or converge much earlier).
+    seconds = limits.HYBRID_SECONDS_SCAN + (cells * args.steps * limits.BATCH_SECONDS_PER_PHASE
+                                            * len(model.phases) * model.n / threads)  # fmt: skip
+    nbytes = limits.SIMULATE_BYTES_BASE + cells * limits.BATCH_BYTES_PER_CELL
+    shape = " x ".join(str(len(v)) for _, v in axes)
+    limits.check(f"a basin of {shape} cells x up to {args.steps} steps",
+                 limits.Cost(seconds, nbytes), "use a coarser --grid or fewer --steps")  # fmt: skip
+    flat = [item for axis in axes for item in axis]
+    remote = runner(scheduler, model.name) if scheduler else None
+    with options.solver_errors(model):
+        simulator(model).library()
+        result = grid_basin(model, params, *flat, steps=args.steps, tol=args.tol, runner=remote)
+    data = {**envelope(model, params, args.argv, {**INTEGRATOR, "converged": args.tol}),
+            **result.to_dict(), "model": model.cli_name, "simulator": result.route}  # fmt: skip
+    if scheduler:
+        data["scheduler"] = scheduler
+    if args.plot is not None:
+        save_figure(basin_plot(data, model.spec["coordinate_units"]), args.plot)
+        data["plot"] = args.plot
+    if args.json:
+        dump_json(data)
+        return EXIT_OK
+    out = sys.stdout
+    write_parameters(out, model, params)
+    gait = ", ".join(f"{k} = {fmt(v)}" for k, v in result.fixed_point.items())
+    out.write(f"stable gait (max |eigenvalue| {fmt(result.gait.max_abs_eigenvalue)}): "
+              f"{gait}\n")  # fmt: skip
+    text = ", ".join(f"{name} {fmt(float(v[0]))} .. {fmt(float(v[-1]))} ({len(v)})"
+                     for name, v in axes)  # fmt: skip
+    out.write(f"grid: {text}; up to {args.steps} steps\n")
+    for label, count in result.counts().items():
+        out.write(f"{label:>12}: {count} cells ({100 * count / cells:.2f} %)\n")
+    if result.route != "compiled":
+        out.write(f"note: the walks took the {result.route} route\n")
+    if args.plot is not None:
+        out.write(f"plot: {args.plot}\n")
+    return EXIT_OK
+
+
+# --- the ile's closed-form basin over theta_II -----------------------------------------------
+
+
+def _theta_grid(args: argparse.Namespace) -> np.ndarray:
+    """The theta_II grid (rad) from --theta-min/--theta-max/--theta-step (deg)."""
+    for flag in ("theta_min", "theta_max", "theta_step"):
+        value = getattr(args, flag)
+        if not math.isfinite(value):
+            raise VswInputError(f"--{flag.replace('_', '-')} = {value} must be finite")
+    if not args.theta_step > 0:
+        raise VswInputError(f"--theta-step = {args.theta_step:g} must be > 0 deg")
+    if not args.theta_min <= args.theta_max:
+        raise VswInputError(
+            f"--theta-min = {args.theta_min:g} must not exceed --theta-max = {args.theta_max:g}"
+        )
+    p = PARAMETER_BY_NAME["theta_II"]
+    low, high = math.degrees(p.lower), math.degrees(p.upper)
+    if not (low < args.theta_min and args.theta_max < high):
+        raise VswInputError(
+            f"--theta-min/--theta-max = {args.theta_min:g}/{args.theta_max:g} deg must lie "
+            f"within ({low:g}, {high:g}) deg: {p.reason}"
+        )
+    # A float count first: a tiny step would overflow an int conversion.
+    count = (args.theta_max - args.theta_min) / args.theta_step
+    if not count < MAX_THETA_VALUES:
+        raise VswInputError(
+            f"--theta-step {args.theta_step:g} gives more than {MAX_THETA_VALUES} theta_II "
+            "values: use a larger --theta-step or a narrower range"
+        )
+    n_theta = math.floor(count + 1e-9) + 1
+    return np.radians(args.theta_min + args.theta_step * np.arange(n_theta))
+
+
+def _parameter_basin(args: argparse.Namespace, model: Model) -> int:
+    for dest in ("steps", "tol", "scheduler"):
+        if given(args.parser, args, dest):
+            raise VswInputError(f"{option_name(args.parser, dest)} belongs to the basin over a "
+                                "slice of the section: give --grid")  # fmt: skip
+    if "theta_II" in args.values:
+        raise VswInputError("theta_II is the basin's axis: give --theta-min/--theta-max/"
+                            "--theta-step (deg) instead")  # fmt: skip
+    params = model.parameters(args.values)
+    beta, phi0 = params[0], params[2]
+    theta_II = _theta_grid(args)
+    if args.n_q < 3:
+        raise VswInputError(f"--n-q = {args.n_q} must be >= 3")
+    if args.check_edges < 0:
+        raise VswInputError(f"--check-edges = {args.check_edges} must be >= 0")
+    if args.plot is not None:
+        check_save_path(args.plot)
+    # The whole run is estimated before any of it starts: the grid, then the edge checks.
+    cost = basin_cost(beta, phi0, theta_II.size, args.n_q)
+    if args.check_edges:
+        cost = cost + edge_check_cost(beta, phi0, min(args.check_edges, theta_II.size))
+    limits.check(
+        f"a basin of {theta_II.size} theta_II x {args.n_q} q values"
+        + (f" with {args.check_edges} edge checks" if args.check_edges else ""),
+        cost,
+        "use a larger --theta-step, a smaller --n-q"
+        + (" or fewer --check-edges" if args.check_edges else ""),
+    )
+    with progress("basin") as bar:
+        result = basin(beta, phi0, theta_II, n_q=args.n_q, progress=bar)
+    parameters = {"beta": beta, "phi0": phi0}
+    data = {**envelope(model, None, args.argv, {"closed_form": "stride map (9) iterated"}),
+            "parameters": parameters, **result.to_dict()}  # fmt: skip
+    data["theta_II_deg"] = [float(v) for v in np.degrees(result.theta_II)]
+    data["fields"]["theta_II_deg"] = "deg: theta_II in degrees"
+    checks, failed = None, 0
+    if args.check_edges:
+        with progress("edge checks") as bar:
+            checks = check_edges_by_simulation(result, n_samples=args.check_edges, progress=bar)
+        data["edge_checks"] = [
+            {"theta_II": c.theta_II, "edge": c.edge, "side": c.side, "q0": c.q0,
+             "expected": c.expected, "ended": c.ended, "ok": c.ok}
+            for c in checks
+        ]  # fmt: skip
+        data["fields"]["edge_checks"] = (
+            "simulations just inside and outside sampled edges: expected and actual end"
+        )
+        failed = sum(not c.ok for c in checks)
+    if args.plot is not None:
+        save_figure(ile_basin_plot(result, checks=checks), args.plot)
+        data["plot"] = args.plot
+    if args.json:
+        dump_json(data)
+        return EXIT_OK
+    out = sys.stdout
+    out.write(f"basin of attraction, beta={beta:g}, phi0={math.degrees(phi0):g} deg\n")
+    out.write(
+        f"q_min < q0 <= q_max (q = omega_I^2 in g/r_e); each q0 walked {result.n_steps} "
+        "stride-map steps, until eigenvalue^n (1.5/beta) < 1e-12\n"
+    )
+    out.write(f"{'theta_II[deg]':>13} {'q_min':>12} {'q_max':>12} {'q_fixed':>12}\n")
+    for th, lo, hi, qf in zip(data["theta_II_deg"], data["q_min"], data["q_max"],
+                              data["q_fixed"]):  # fmt: skip
+        out.write(f"{th:>13.4g} {fmt(lo):>12} {fmt(hi):>12} {fmt(qf):>12}\n")
+    if args.check_edges:
+        out.write(f"edge checks by simulation: {len(checks) - failed} of {len(checks)} ok\n")
+    return EXIT_OK

@@ -1,0 +1,41 @@
+"""``vsw explore``: one self-contained HTML page to explore a model (the ile) in a browser."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from typing import Any
+
+from vsw import models
+from vsw.cli import options
+from vsw.cli.parser import EXIT_OK
+from vsw.errors import VswInputError
+from vsw.models.ile.explore import write_page
+
+__all__ = ["register", "run"]
+
+
+def register(subparsers: Any) -> None:
+    help_ = "write the explorer: one self-contained HTML page (sliders, conditions, map)"
+    p = subparsers.add_parser("explore", help=help_, description=help_ + "; the sliders start "
+                              "at the model's parameters (its defaults unless given).")  # fmt: skip
+    p.add_argument("--out", required=True, metavar="FILE", help="the page, e.g. explore.html")
+    options.add_model_options(p, "explore")
+    p.add_argument("--leg-length", type=float, default=0.25, help="start r_e [m]")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    model, params = options.model_and_parameters(args)
+    if "explorer" not in model.features:
+        having = [models.cli_name(k) for k in models.keys()
+                  if "explorer" in models.load(k).features]  # fmt: skip
+        raise VswInputError(f"vsw explore --model {model.cli_name}: the explorer is not "
+                            f"available for this model yet (models with it: "
+                            f"{', '.join(having)})")  # fmt: skip
+    beta, theta_II, phi0 = params
+    out = write_page(args.out, beta=beta, theta_II_deg=math.degrees(theta_II),
+                     phi0_deg=math.degrees(phi0), leg=args.leg_length)  # fmt: skip
+    sys.stdout.write(f"{out}: open it in a browser (no server needed)\n")
+    return EXIT_OK

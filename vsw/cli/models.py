@@ -1,0 +1,66 @@
+"""``vsw models``: every model, its parameters, state, section, failures and units."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from vsw import models
+from vsw.cli.output import dump_json, fmt, version
+from vsw.cli.parser import EXIT_OK
+
+__all__ = ["register", "run"]
+
+
+def register(subparsers: Any) -> None:
+    help_ = "the models: parameters, state (meaning, reference, sign), section, units"
+    p = subparsers.add_parser("models", help=help_, description=help_ + ".")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=run)
+
+
+def _bounds(p: dict[str, Any]) -> str:
+    low = "-inf" if p["lower"] is None else f"{p['lower']:.6g}"
+    high = "inf" if p["upper"] is None else f"{p['upper']:.6g}"
+    return f"({low}, {high})"
+
+
+def run(args: argparse.Namespace) -> int:
+    described = [models.load(k).describe() for k in models.keys()]
+    if args.json:
+        dump_json({"vsw": version(), "models": described})
+        return EXIT_OK
+    out = sys.stdout
+    for n, m in enumerate(described):
+        if n:
+            out.write("\n")
+        units = m["units"]
+        out.write(f"{m['name']}: {m['title']}\n  {m['description']}\n")
+        out.write("  units: " + ", ".join(f"{k} {v}" for k, v in units.items()) + "\n")
+        out.write("  parameters (--param NAME=VALUE, angles in rad or NAME=45deg; defaults "
+                  "apply to any not given):\n")  # fmt: skip
+        out.write(f"    {'name':<10} {'default':>10} {'unit':<7} {'open interval':<22} meaning\n")
+        for p in m["parameters"]:
+            out.write(f"    {p['name']:<10} {fmt(p['default']):>10} {p['unit'] or '-':<7} "
+                      f"{_bounds(p):<22} {p['meaning']}\n")  # fmt: skip
+        section = m["section"]
+        out.write(f"  state (--state NAME=VALUE), {section['when']}:\n")
+        for s in m["state"]:
+            if s["kind"] == "coordinate":
+                out.write(f"    {s['name']:<10} [{s['unit']}] {s['meaning']}, from "
+                          f"{s['reference']}, positive with {s['positive']}; rate "
+                          f"{s['rate']}\n")  # fmt: skip
+            else:
+                out.write(f"    {s['name']:<10} [{s['unit']}] {s['meaning']}\n")
+        determined = ", ".join(section["determined"]) or "none"
+        box = ", ".join(f"{k} in [{lo:g}, {hi:g}]" for k, (lo, hi) in
+                        section["search_box"].items())  # fmt: skip
+        out.write(f"  section: {determined} determined by the others there; gaits searched in "
+                  f"{box}\n")  # fmt: skip
+        out.write("  failures: " + "; ".join(
+            f"{f['name']} ({f['meaning']}; margin in {f['unit']})" for f in m["failures"]
+        ) + "\n")  # fmt: skip
+        if m["features"]:
+            out.write(f"  also: {', '.join(m['features'])}\n")
+    return EXIT_OK

@@ -1,0 +1,184 @@
+"""What every command prints: the JSON envelope, strict JSON, and the text tables' pieces.
+
+Every ``--json`` output of every command and model is one object that starts with the same
+four keys (:func:`envelope`): ``model``, ``parameters`` (every parameter's value in the
+model's units), ``units`` (the model's) and ``provenance`` (the vsw version, the git commit
+where the package runs from a checkout, the command line, the tolerances used), then the
+command's own keys. NaN and infinities become null (:func:`clean`); the JSON is strict.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import math
+import shlex
+import sys
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+
+import vsw
+from vsw.hybrid import Orbit
+from vsw.models.base import Model
+
+__all__ = [
+    "clean",
+    "dump_json",
+    "envelope",
+    "fmt",
+    "progress",
+    "version",
+    "write_orbit",
+    "write_parameters",
+]
+
+INTEGRATOR = {"integrator": "SciPy DOP853, rtol = atol = 1e-12 (events to the integrator's "
+              "accuracy)"}  # fmt: skip
+"""The time-domain simulation's tolerances (every command that simulates)."""
+
+ORBIT_SOLVER = {"orbit_solver": "CasADi Newton on the boundary-value residual, 1e-13 "
+                "(CVODES Adams, 1e-13); accepted when a simulated step returns within 1e-9 "
+                "x max(1, |state|) x max(1, |eigenvalue|)"}  # fmt: skip
+"""The periodic-orbit solver's tolerances (:meth:`vsw.hybrid.HybridModel.periodic_orbit`)."""
+
+
+def clean(value: Any) -> Any:
+    """Nested dicts/lists of numbers for strict JSON: numpy scalars and arrays to Python
+    values, NaN and infinities to None."""
+    if isinstance(value, Mapping):
+        return {str(k): clean(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [clean(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return clean(value.tolist())
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(value) else None
+    if isinstance(value, complex):
+        return [clean(value.real), clean(value.imag)]
+    return value
+
+
+def dump_json(data: Any, out: TextIO | None = None) -> None:
+    """One strict JSON object on standard output (or ``out``)."""
+    out = sys.stdout if out is None else out
+    out.write(json.dumps(clean(data), allow_nan=False, indent=2) + "\n")
+
+
+def fmt(value: Any) -> str:
+    """A number for the text tables: 6 significant digits, '-' for none."""
+    if value is None:
+        return "-"
+    if isinstance(value, (bool, np.bool_)):
+        return "yes" if value else "no"
+    if isinstance(value, (float, np.floating)):
+        return "nan" if math.isnan(value) else f"{value:.6g}"
+    return str(value)
+
+
+@functools.cache
+def version() -> str:
+    """The installed distribution's version, else the package's own ``__version__``."""
+    try:
+        from importlib.metadata import PackageNotFoundError
+        from importlib.metadata import version as distribution_version
+
+        return distribution_version("vsw")
+    except (ImportError, PackageNotFoundError):
+        return vsw.__version__
+
+
+@functools.cache
+def git_commit() -> str | None:
+    """The commit of the checkout the package runs from, read from ``.git`` (no process
+    started); None for an installed copy or anything unreadable."""
+    git = Path(vsw.__file__).resolve().parent.parent / ".git"
+    try:
+        if git.is_file():  # a worktree: "gitdir: <path>"
+            git = Path(git.read_text().split(":", 1)[1].strip())
+        head = (git / "HEAD").read_text().strip()
+        if not head.startswith("ref:"):
+            return head or None
+        ref = head.split(":", 1)[1].strip()
+        common = git / "commondir"
+        base = (git / common.read_text().strip()).resolve() if common.is_file() else git
+        for root in (git, base):
+            if (root / ref).is_file():
+                return (root / ref).read_text().strip()
+        packed = base / "packed-refs"
+        if packed.is_file():
+            for line in packed.read_text().splitlines():
+                if line.endswith(" " + ref):
+                    return line.split()[0]
+    except (OSError, IndexError, ValueError):
+        return None
+    return None
+
+
+def envelope(
+    model: Model,
+    params: Sequence[float] | None,
+    argv: Sequence[str],
+    tolerances: Mapping[str, Any] | None = None,
+) -> dict[str, Any]:
+    """The four keys every JSON output starts with."""
+    parameters = None if params is None else dict(zip(model.spec["parameters"], params))
+    return {
+        "model": model.cli_name,
+        "parameters": parameters,
+        "units": {
+            **dict(model.units),
+            "angle": "rad",
+            "parameters": {p.name: p.unit for p in model.parameter_table},
+        },
+        "provenance": {
+            "vsw": version(),
+            "commit": git_commit(),
+            "command": shlex.join(["vsw", *argv]),
+            "tolerances": dict(tolerances or {}),
+        },
+    }
+
+
+def unit_text(unit: str | None) -> str:
+    """A unit after a number: nothing for dimensionless ('1' or '')."""
+    return "" if unit in (None, "", "1") else f" {unit}"
+
+
+def write_parameters(out: TextIO, model: Model, params: Sequence[float]) -> None:
+    """The text header of a command: the model and its parameter values with units."""
+    units = {p.name: p.unit for p in model.parameter_table}
+    text = ", ".join(f"{n} = {v:.6g}{unit_text(units[n])}" for n, v in zip(units, params))
+    out.write(f"{'model':<18} {model.cli_name} ({model.title})\n")
+    out.write(f"{'parameters':<18} {text}\n")
+
+
+def write_orbit(out: TextIO, model: Model, orbit: Orbit) -> None:
+    """A gait's lines in a text table: state, period, step, eigenvalues."""
+    units = dict(model.units)
+    state_units = {s["name"]: s["unit"] for s in model.spec["state"]}
+    for name, value in orbit.state.items():
+        out.write(f"  {name:<16} {fmt(value):>14}  {state_units.get(name, '')}\n")
+    out.write(f"  {'period':<16} {fmt(orbit.period):>14}  {units.get('time', '')}\n")
+    out.write(f"  {'step_length':<16} {fmt(orbit.step_length):>14}  {units.get('length', '')}\n")
+    speed_unit = f"{units.get('length', '')}/{units.get('time', '')}"
+    out.write(f"  {'speed':<16} {fmt(orbit.speed):>14}  {speed_unit}\n")
+    out.write(f"  {'max |eigenvalue|':<16} {fmt(orbit.max_abs_eigenvalue):>14}\n")
+    out.write(f"  {'stable':<16} {fmt(orbit.stable):>14}\n")
+    values = ", ".join(
+        fmt(e.real) if e.imag == 0 else f"{e.real:.6g}{e.imag:+.6g}j" for e in orbit.eigenvalues
+    )
+    out.write(f"  {'eigenvalues':<16} {values}\n")
+
+
+def progress(label: str):
+    """A progress bar on stderr (drawn only on a terminal)."""
+    from vsw.progress import ProgressBar
+
+    return ProgressBar(label)

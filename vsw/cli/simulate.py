@@ -1,0 +1,120 @@
+"""``vsw simulate``: the Poincaré map walked step by step from a gait or a given state."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from vsw import limits
+from vsw.cli import options
+from vsw.cli.output import (
+    INTEGRATOR,
+    dump_json,
+    envelope,
+    fmt,
+    progress,
+    unit_text,
+    write_parameters,
+)
+from vsw.cli.parser import EXIT_OK
+from vsw.errors import VswInputError
+from vsw.figures import check_save_path
+from vsw.walks import walk
+
+__all__ = ["register", "run"]
+
+FEATURES = {"q0": "q0", "plot": "simulation-plot"}
+
+
+def register(subparsers: Any) -> None:
+    help_ = "the Poincaré map walked step by step (time-domain simulation of each step)"
+    p = subparsers.add_parser("simulate", help=help_, description=help_ + ".")
+    options.add_model_options(p, "simulate", features=FEATURES)
+    p.add_argument(
+        "--steps",
+        type=int,
+        default=10,
+        help="steps to walk (limited by VSW_MAX_SECONDS and VSW_MAX_MEMORY)",
+    )
+    start = p.add_argument_group("where the walk starts (default: the first stable gait)")
+    start.add_argument(
+        "--state",
+        action="append",
+        metavar="NAME=VALUE",
+        help="the state just after the step event, every coordinate and rate; repeatable",
+    )
+    start.add_argument(
+        "--q0", type=float, help="q = rate**2 just after the step event (ile, tle, rimless-wheel)"
+    )
+    p.add_argument(
+        "--plot", metavar="FILE", help="save theta, omega and q plots (.png/.svg/.pdf; the ile)"
+    )
+    p.set_defaults(func=run)
+
+
+def check_cost(model, steps: int, search: bool, records: int, what: str, remedy: str) -> None:
+    """Refuse a walk beyond the limits (vsw.limits) before it starts: per-step costs
+    measured on the rimless wheel, scaled by the model's phases x coordinates."""
+    size = len(model.phases) * model.n
+    seconds = size * (limits.HYBRID_SECONDS_PER_PHASE * steps + (limits.HYBRID_SECONDS_SCAN
+                                                                 if search else 0.0))  # fmt: skip
+    nbytes = limits.SIMULATE_BYTES_BASE + records * limits.HYBRID_BYTES_PER_STEP
+    limits.check(what, limits.Cost(seconds, nbytes), remedy)
+
+
+def run(args: argparse.Namespace) -> int:
+    model, params = options.model_and_parameters(args)
+    if args.steps < 1:
+        raise VswInputError(f"--steps = {args.steps} must be >= 1")
+    if args.state and args.q0 is not None:
+        raise VswInputError("--state and --q0 both give the start: give one")
+    state = options.parse_state(model, args.state) if args.state else None
+    if args.plot is not None:
+        check_save_path(args.plot)
+    search = state is None and args.q0 is None
+    check_cost(model, args.steps, search, args.steps, f"simulating {args.steps} steps",
+               "use fewer --steps")  # fmt: skip
+    with options.solver_errors(model):
+        start = model.start(params, state, args.q0)
+    with progress("simulate") as bar, options.solver_errors(model):
+        result = walk(model, params, start.state, args.steps, progress=bar)
+    data = {
+        **envelope(model, params, args.argv, INTEGRATOR),
+        **model.walk_keys(params, result),
+        "start_from": start.source,
+        "start_gait": None if start.gait is None else {
+            "max_abs_eigenvalue": start.gait.max_abs_eigenvalue, "stable": start.gait.stable},
+        "steps": args.steps,
+        **result.to_dict(),
+        "note": start.note(),
+    }  # fmt: skip
+    if args.plot is not None:
+        model.save_simulation_plot(params, start.state, args.steps, args.plot)
+        data["plot"] = args.plot
+    if args.json:
+        dump_json(data)
+        if start.note():
+            sys.stderr.write(f"vsw simulate: note: {start.note()}\n")
+        return EXIT_OK
+    out = sys.stdout
+    write_parameters(out, model, params)
+    if start.note():
+        out.write(f"note: {start.note()}\n")
+    out.write(f"start: {start.source}; ended: {result.ended} after {result.steps_completed} of "
+              f"{args.steps} steps\n")  # fmt: skip
+    closed = data.get("q_fixed_closed_form")
+    if closed is not None:
+        out.write(f"q_fixed (closed form): {fmt(closed)}\n")
+    names = [*model.coordinates, *model.rates]
+    units = {s["name"]: s["unit"] for s in model.spec["state"]}
+    out.write(f"{'step':>5} " + " ".join(f"{n:>14}" for n in names) + f" {'step_length':>14}\n")
+    out.write(f"{'':>5} " + " ".join(f"{'[' + units[n] + ']':>14}" for n in names)
+              + f" {'[' + model.units.get('length', '') + ']':>14}\n")  # fmt: skip
+    for n, x in enumerate(result.states):
+        length = result.step_lengths[n - 1] if n else None
+        out.write(f"{n:>5} " + " ".join(f"{fmt(float(v)):>14}" for v in x)
+                  + f" {fmt(length):>14}\n")  # fmt: skip
+    if args.plot is not None:
+        out.write(f"plot: {args.plot}{unit_text(None)}\n")
+    return EXIT_OK

@@ -1,0 +1,261 @@
+"""``vsw sweep``: a model along one parameter.
+
+Every model: the period-one gait continued from value to value (:func:`vsw.sweeps.
+continuation`) and, with ``--keep`` or ``--plot``, the map iterated where the gait is
+unstable or lost: the bifurcation diagram; ``--brute-force`` draws it from the batch
+simulator (:func:`vsw.sweeps.brute_force`). A model with the ``closed-form-sweep`` feature
+(the ile) answers in closed form at every value.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from vsw import limits, sweeps
+from vsw.cli import options
+from vsw.cli.output import (
+    INTEGRATOR,
+    ORBIT_SOLVER,
+    clean,
+    dump_json,
+    envelope,
+    fmt,
+    progress,
+    unit_text,
+)
+from vsw.cli.parser import EXIT_OK, StoreGiven, given
+from vsw.diagrams import bifurcation_plot
+from vsw.errors import VswInputError
+from vsw.figures import check_save_path, save_figure
+from vsw.models.base import Model
+from vsw.models.ile.analysis import FIELDS
+from vsw.models.ile.plots import ile_sweep_plot
+from vsw.models.ile.sweep import sweep as closed_form_sweep
+from vsw.vectorize import default_threads
+
+__all__ = ["register", "run"]
+
+ITERATION_OPTIONS = ("y", "keep", "transient", "brute_force", "state")
+
+
+def register(subparsers: Any) -> None:
+    help_ = "the gait along one parameter (continuation; the bifurcation diagram with --plot)"
+    p = subparsers.add_parser("sweep", help=help_, description=help_ + ".")
+    p.add_argument(
+        "--over",
+        required=True,
+        metavar="NAME=START:STOP:N",
+        help="the parameter swept: N values from START to STOP in the units of 'vsw models' "
+        "(angles in rad, or with a deg suffix: theta_II=-10deg:20deg:31)",
+    )
+    options.add_model_options(p, "sweep")
+    p.add_argument(
+        "--plot",
+        metavar="FILE",
+        help="save the figure (.png/.svg/.pdf): the bifurcation diagram of --y with the "
+        "largest |eigenvalue|; the ile: q^f, eigenvalue and speed",
+    )
+    p.add_argument(
+        "--y",
+        metavar="NAME",
+        help="what the bifurcation diagram shows: step_length (default where the model has "
+        "one), step_period or a state component; --y=-NAME shows minus it",
+    )
+    p.add_argument(
+        "--keep",
+        type=int,
+        metavar="N",
+        help="where the period-one gait is unstable or not found, iterate the map and keep "
+        "its last N steps (default 32 with --plot or --brute-force, else 0)",
+    )
+    p.add_argument("--transient", type=int, default=100, action=StoreGiven, metavar="K",
+                   help="steps walked before the N kept")  # fmt: skip
+    p.add_argument(
+        "--brute-force",
+        action="store_true",
+        help="the classic diagram from the compiled batch simulator: at every value the gait "
+        "by Newton on the simulated map and the map iterated from it",
+    )
+    p.add_argument(
+        "--state",
+        action="append",
+        metavar="NAME=VALUE",
+        help="with --brute-force: where the first value's Newton starts (default: its first "
+        "stable gait); repeatable",
+    )
+    p.set_defaults(func=run, parser=p)
+
+
+def _diagram_quantity(model: Model, y: str | None) -> str:
+    """``--y``: what the bifurcation diagram shows (step length where the model has one)."""
+    choices = ["step_period", *model.coordinates, *model.rates]
+    if model.spec["step_length"]:
+        choices.insert(0, "step_length")
+    if y is None:
+        return choices[0]
+    if y.removeprefix("-") not in choices:
+        raise VswInputError(f"--y {y!r} is not one of the {model.cli_name} model's: "
+                            f"{', '.join(choices)} (or minus one: --y=-NAME)")  # fmt: skip
+    return y
+
+
+def diagram_units(model: Model) -> dict[str, str]:
+    time, length = model.units.get("time", ""), model.units.get("length", "")
+    return {"time": time, "length": length, "speed": f"{length}/{time}" if time else ""}
+
+
+def run(args: argparse.Namespace) -> int:
+    model = args.model_object
+    name, values = options.parse_over(model, args.over)
+    if args.plot is not None:
+        check_save_path(args.plot)
+    if "closed-form-sweep" in model.features:
+        for dest in ITERATION_OPTIONS:
+            if given(args.parser, args, dest):
+                option = "--" + dest.replace("_", "-")
+                raise VswInputError(f"{option}: the {model.cli_name}'s sweep is in closed form "
+                                    "(its map is affine and its fixed point exact): nothing to "
+                                    "iterate")  # fmt: skip
+        return _closed_form(args, model, name, values)
+    y = _diagram_quantity(model, args.y)
+    if args.state and not args.brute_force:
+        raise VswInputError("--state of vsw sweep is the start of --brute-force: give both")
+    keep = args.keep if args.keep is not None else (
+        32 if (args.plot is not None or args.brute_force) else 0)  # fmt: skip
+    if keep == 1 or keep < 0:
+        raise VswInputError(f"--keep {keep}: give 0 (no iteration) or at least 2 steps to keep")
+    if args.transient < 0:
+        raise VswInputError(f"--transient {args.transient} must be >= 0")
+    if not keep and given(args.parser, args, "transient"):
+        raise VswInputError("--transient applies to the iterated map: give --keep N or --plot")
+    if args.y is not None and args.plot is None:
+        raise VswInputError("--y chooses what --plot draws: give --plot FILE")
+    fixed = {k: v for k, v in args.values.items() if k != name}
+    if args.brute_force:
+        if not keep:
+            raise VswInputError("--brute-force iterates the map: --keep must be at least 2")
+        points, method = _brute_force(args, model, fixed, name, values, keep), "brute-force"
+    else:
+        points, method = _continuation(model, fixed, name, values, keep, args.transient), None
+    params = model.parameters(fixed | {name: float(values[0])})
+    data = {
+        **envelope(model, params, args.argv, {**INTEGRATOR, **ORBIT_SOLVER}),
+        "over": name,
+        "over_unit": next(p.unit for p in model.parameter_table if p.name == name),
+    }
+    data["parameters"] = {k: v for k, v in data["parameters"].items() if k != name}
+    if method:
+        data["method"] = method
+    data["points"] = points
+    if keep:
+        data.update(transient=args.transient, keep=keep)
+    if args.plot is not None:
+        save_figure(bifurcation_plot(clean(data), y, diagram_units(model)), args.plot)
+        data["plot"] = args.plot
+    if args.json:
+        dump_json(data)
+        return EXIT_OK
+    _write_points(model, data, name, keep)
+    return EXIT_OK
+
+
+def _continuation(model, fixed, name, values, keep: int, transient: int) -> list[dict]:
+    count = len(values)
+    size = len(model.phases) * model.n
+    steps = count * (transient + keep if keep else 0)
+    seconds = size * (limits.HYBRID_SECONDS_SCAN + limits.HYBRID_SECONDS_PER_ORBIT * count
+                      + limits.HYBRID_SECONDS_PER_PHASE * steps)  # fmt: skip
+    nbytes = limits.SIMULATE_BYTES_BASE + count * max(keep, 1) * limits.HYBRID_BYTES_PER_STEP
+    limits.check(
+        f"a sweep of {count} points" + (f" iterating {transient + keep} steps each" if keep
+                                        else ""),
+        limits.Cost(seconds, nbytes),
+        "use fewer points (N of --over)" + (", --keep or --transient" if keep else ""),
+    )  # fmt: skip
+    with progress("sweep") as bar, options.solver_errors(model):
+        return sweeps.continuation(model, fixed, name, values, keep, transient, progress=bar)
+
+
+def _brute_force(args, model, fixed, name, values, keep: int) -> list[dict]:
+    count = len(values)
+    steps = count * (args.transient + keep)
+    seconds = limits.HYBRID_SECONDS_SCAN + (
+        (steps + 40 * count) * limits.BATCH_SECONDS_PER_PHASE * len(model.phases) * model.n
+        / default_threads()
+    )  # fmt: skip
+    limits.check(
+        f"a brute-force sweep of {count} points iterating {args.transient + keep} steps each",
+        limits.Cost(seconds, limits.SIMULATE_BYTES_BASE + count * keep * 200),
+        "use fewer points (N of --over), --keep or --transient",
+    )
+    start = options.parse_state(model, args.state) if args.state else None
+    with options.solver_errors(model):
+        return sweeps.brute_force(model, fixed, name, values, args.transient, keep, start=start)
+
+
+def _write_points(model: Model, data: dict, name: str, keep: int) -> None:
+    out = sys.stdout
+    unit = unit_text(data["over_unit"])
+    brute = data.get("method") == "brute-force"
+    how = f"; brute force: {data['transient']} steps then {keep} kept" if brute else ""
+    out.write(f"{'model':<12} {model.cli_name} ({model.title}); over {name}{unit}{how}\n")
+    state_names = [] if brute else [*model.coordinates, *model.rates]
+    out.write(f"{name:>12} " + " ".join(f"{n:>12}" for n in state_names)
+              + (f" {'period':>12}" if not brute else "")
+              + f" {'max|eig|':>12} {'stable':>6}  {'map' if brute else 'from'}\n")  # fmt: skip
+    for p in data["points"]:
+        state = p.get("state") or {}
+        attractor = p.get("attractor")
+        note = ""
+        if attractor:
+            kind = (attractor["ended"] if attractor["ended"] != "completed" else
+                    f"period-{attractor['period']}" if attractor["period"] else
+                    "no repeat within --keep steps")  # fmt: skip
+            note = kind if brute else f"; map: {kind}"
+        where = "" if brute else (p["from"] or "no gait found")
+        out.write(f"{fmt(p[name]):>12} " + " ".join(f"{fmt(state.get(n)):>12}"
+                                                    for n in state_names)
+                  + ("" if brute else f" {fmt(p['period']):>12}")
+                  + f" {fmt(p['max_abs_eigenvalue']):>12} {fmt(p['stable']):>6}  "
+                  f"{where}{note}\n")  # fmt: skip
+    if data.get("plot"):
+        out.write(f"plot: {data['plot']}\n")
+
+
+def _closed_form(args: argparse.Namespace, model: Model, name: str, values) -> int:
+    """The sweep in closed form (:func:`vsw.models.ile.sweep.sweep`)."""
+    names = [p.name for p in model.parameter_table]
+    fixed = {k: v for k, v in zip(names, model.parameters(args.values)) if k != name}
+    cost = limits.Cost(
+        len(values) * limits.ILE_SWEEP_SECONDS_PER_POINT,
+        limits.SIMULATE_BYTES_BASE + len(values) * limits.ILE_SWEEP_BYTES_PER_POINT,
+    )
+    limits.check(f"a sweep of {len(values)} points", cost, "use fewer points (N of --over)")
+    axes = {**fixed, name: values}
+    with progress("sweep") as bar:
+        result = closed_form_sweep(list(FIELDS), *(axes[n] for n in names), progress=bar)
+    columns = {field: result[field].reshape(-1) for field in FIELDS}
+    points = [{name: float(v), **{f: columns[f][i] for f in FIELDS}}
+              for i, v in enumerate(values)]  # fmt: skip
+    data = {**envelope(model, None, args.argv, {"closed_form": "generated numpy code"}),
+            "parameters": fixed, "over": name, "points": points}  # fmt: skip
+    if args.plot is not None:
+        unit = next(p.unit for p in model.parameter_table if p.name == name)
+        save_figure(ile_sweep_plot(clean(data), f"{name} [{unit}]" if unit else name), args.plot)
+        data["plot"] = args.plot
+    if args.json:
+        dump_json(data)
+        return EXIT_OK
+    out = sys.stdout
+    shown = ("walks", "q_fixed", "eigenvalue", "step_length", "step_period", "speed")
+    text = ", ".join(f"{k} = {v:.6g}" for k, v in fixed.items())
+    out.write(f"{model.cli_name} over {name} (rad; the model's units, see 'vsw models'); "
+              f"{text}\n")  # fmt: skip
+    out.write(f"{name:>12} " + " ".join(f"{f:>12}" for f in shown) + "\n")
+    for p in points:
+        out.write(f"{fmt(p[name]):>12} " + " ".join(f"{fmt(p[f]):>12}" for f in shown) + "\n")
+    if args.plot is not None:
+        out.write(f"plot: {args.plot}\n")
+    return EXIT_OK

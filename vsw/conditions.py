@@ -1,0 +1,96 @@
+"""The conditions a gait must meet, with their margins: every model's, from its failures,
+and the closed-form ones of the models whose derivation states them.
+
+* :func:`gait_conditions`: along a periodic gait (one simulated step, sampled), each of the
+  model's failures (``HYBRID["failures"]``: falling back, falling forward, the stance foot
+  lifting off, ...) as a margin that is positive while the walk goes on: the least of
+  ``-direction * guard`` over the step, in the guard's unit. A gait the simulation confirmed
+  has every margin positive; how close to zero says how near the gait is to failing.
+* :func:`closed_form_conditions`: for a model whose derivation gives its fixed point and
+  existence conditions in closed form (``CONDITIONS`` and ``fixed_point_conditions`` in its
+  generated package: the ILE's (12)-(17), the TLE's), the closed-form fixed point and each
+  condition's margin there, with its unit (``CONDITION_UNITS``), equation and status.
+  This is what says why a model has no gait where the closed form exists but a condition
+  fails (the TLE's leg that would have to pull).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from vsw.hybrid import HybridModel, Orbit
+
+__all__ = ["SAMPLES", "closed_form_conditions", "gait_conditions"]
+
+SAMPLES = 400
+"""Samples of one step per gait (the integrator's steps bounded by period / SAMPLES, and
+every event instant)."""
+
+
+def gait_conditions(model: HybridModel, params: Sequence[float], orbit: Orbit) -> list[dict]:
+    """Each failure's margin along ``orbit``: name, meaning, margin, unit, holds."""
+    state = np.array(list(orbit.state.values()))
+    trajectory = model.simulate(params, state, 1, max_step=orbit.period / SAMPLES)
+    least: dict[str, float] = {}
+    for k, phase in enumerate(model.phases):
+        samples = trajectory.states[trajectory.phase == k]
+        if not len(samples):
+            continue
+        for name, function, direction in phase["failures"]:
+            with np.errstate(all="ignore"):
+                guard = np.asarray(model.module.__dict__[function](*params, *samples.T), float)
+            value = float(np.min(-direction * np.broadcast_to(guard, len(samples))))
+            least[name] = min(least.get(name, math.inf), value)
+    out = []
+    for failure in model.spec["failures"]:
+        margin = least.get(failure["name"])
+        out.append({
+            "name": failure["name"],
+            "meaning": failure["meaning"],
+            "margin": margin,
+            "unit": failure["unit"],
+            "holds": None if margin is None else bool(margin > 0),
+            "how": f"least over the step ({len(trajectory.t)} samples)",
+        })  # fmt: skip
+    return out
+
+
+def has_closed_form(model: HybridModel) -> bool:
+    """Whether the model's package gives its fixed point and conditions in closed form."""
+    module = model.module
+    return hasattr(module, "CONDITIONS") and hasattr(module, "fixed_point_conditions")
+
+
+def closed_form_conditions(model: HybridModel, params: Sequence[float]) -> dict[str, Any] | None:
+    """The closed-form fixed point (q = rate**2 just after the step event), its eigenvalue
+    and every condition's margin there; None for a model without them."""
+    if not has_closed_form(model):
+        return None
+    module = model.module
+    with np.errstate(all="ignore"):
+        q_f, eigenvalue, *margins = (float(v) for v in module.fixed_point_conditions(*params))
+    units = getattr(module, "CONDITION_UNITS", {})
+    conditions = []
+    walks = math.isfinite(q_f)
+    for (name, equation, strict, status, physical, meaning), margin in zip(
+        module.CONDITIONS, margins
+    ):
+        holds = bool(margin > 0 if strict else margin >= 0) if math.isfinite(margin) else False
+        if physical:
+            walks = walks and holds
+        conditions.append({
+            "name": name, "equation": equation, "margin": margin, "unit": units.get(name, ""),
+            "holds": holds, "strict": strict, "physical": physical, "status": status,
+            "meaning": meaning,
+        })  # fmt: skip
+    return {"q_fixed": q_f, "eigenvalue": eigenvalue, "walks": walks, "conditions": conditions}
+
+
+def failing(record: dict[str, Any]) -> list[dict[str, Any]]:
+    """The physical closed-form conditions that fail, worst (most negative) first."""
+    bad = [c for c in record["conditions"] if c["physical"] and not c["holds"]]
+    return sorted(bad, key=lambda c: c["margin"] if math.isfinite(c["margin"]) else -math.inf)
