@@ -603,6 +603,7 @@ def case_batch_step(count: int, reps: int) -> list[Row]:
     issue's baseline) and at 1e-12 (the same tolerance), and both at 1e-10."""
     import vsw.hybrid as hybrid
     from vsw.batch import simulator
+    from vsw.models import load
 
     rows = []
     for key in ("simplest_walker", "compass_gait", "vsw_biped"):

@@ -177,6 +177,7 @@ def test_basin_on_a_dask_cluster_is_the_local_one_byte_for_byte(capsys, cluster,
 def test_dask_blocks_do_not_change_the_walks(cluster, monkeypatch):
     import vsw.cluster
     from vsw.batch import simulator
+    from vsw.models import load
 
     sim = simulator(load("compass_gait"))
     params = sim.model.parameters()
@@ -184,7 +185,7 @@ def test_dask_blocks_do_not_change_the_walks(cluster, monkeypatch):
     starts = state * (1 + 0.05 * np.random.default_rng(9).standard_normal((50, 4)))
     local = sim.walk(params, starts, 10, keep=2)
     monkeypatch.setattr(vsw.cluster, "BLOCK", 7)
-    remote = sim.walk(params, starts, 10, keep=2, scheduler=cluster)
+    remote = sim.walk(params, starts, 10, keep=2, runner=vsw.cluster.runner(cluster, sim.model.name))
     fields = ("outcome", "aux", "steps", "final", "kept_states", "kept_lengths",
               "kept_durations")  # fmt: skip
     for field in fields:

@@ -294,11 +294,17 @@ def search(
         if not period > 1e-9:
             continue  # a step of no duration (legs together at the event): no gait
         try:
-            gaits.append(model.periodic_orbit(params, state, _phase_durations(model, params,
-                                                                                state)))
+            gaits.append(
+                model.periodic_orbit(params, state, _phase_durations(model, params, state))
+            )
         except ConvergenceError as exc:
-            unconfirmed.append({"state": dict(zip(names, (float(v) for v in state))),
-                                "period": period, "reason": str(exc).split(": ", 1)[-1]})
+            unconfirmed.append(
+                {
+                    "state": dict(zip(names, (float(v) for v in state))),
+                    "period": period,
+                    "reason": str(exc).split(": ", 1)[-1],
+                }
+            )
     distinct: list[Orbit] = []
     for orbit in sorted(gaits, key=lambda o: o.period):
         x = np.array(list(orbit.state.values()))

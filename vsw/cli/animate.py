@@ -27,8 +27,9 @@ def register(subparsers: Any) -> None:
     start.add_argument("--state", action="append", metavar="NAME=VALUE",
                        help="the state just after the step event, every coordinate and rate; "
                        "repeatable")  # fmt: skip
-    start.add_argument("--q0", type=float,
-                       help="q = rate**2 just after the step event (ile, tle, rimless-wheel)")
+    start.add_argument(
+        "--q0", type=float, help="q = rate**2 just after the step event (ile, tle, rimless-wheel)"
+    )
     p.add_argument("--fps", type=float, default=30.0, help="frames per second")
     p.add_argument("--speed", type=float, default=1.0,
                    help="model time units per second of playback")  # fmt: skip

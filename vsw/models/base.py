@@ -131,8 +131,7 @@ class Model(HybridModel):
             "state": [dict(s) for s in self.spec["state"]],
             "section": {
                 "event": self.step_event["name"],
-                "when": f"just after the {self.step_event['name']} (the state a step starts "
-                "from)",
+                "when": f"just after the {self.step_event['name']} (the state a step starts from)",
                 "determined": list(self.spec["section"]),
                 "free": list(self.spec["search"]),
                 "search_box": {k: list(v) for k, v in self.spec["search"].items()},
@@ -201,7 +200,6 @@ class Model(HybridModel):
                 f"{self.cli_name}: {report.reason}; give the start with --state NAME=VALUE"
             )
         return Start(np.array(list(orbit.state.values())), "gait", orbit)
-
 
     def walk_keys(self, params: Sequence[float], walk: Any) -> dict[str, Any]:
         """A walk's keys beyond the section states: with a one-rate section, ``q`` (the

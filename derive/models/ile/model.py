@@ -12,8 +12,8 @@ conserved (eq. 6), and the legs exchange roles.
 Conventions (the paper's): ``theta`` is the stance-leg angle from the vertical, positive
 when the hip is ahead of the stance foot, so a step runs from ``theta_I < 0`` forward to
 ``theta_IV > 0``. Time is dimensionless, ``tau = sqrt(g / r_e) t``, and
-``omega = dtheta/dtau`` (the engine's state names it ``theta_dot``, as every model does); lengths in ``r_e``; energies in ``m g r_e`` unless ``m, g, r_e``
-appear explicitly. The engine (:mod:`derive.engine`) derives the equations of motion and
+``omega = dtheta/dtau`` (the engine's state names it ``theta_dot``, as every model does);
+lengths in ``r_e``; energies in ``m g r_e`` unless ``m, g, r_e`` appear explicitly. The engine (:mod:`derive.engine`) derives the equations of motion and
 the resets from this description; :mod:`derive.models.ile.closed_form` derives the paper's
 closed forms from those.
 """

@@ -64,7 +64,6 @@ class IleModel(Model):
         data = result.to_dict()
         return GaitReport(gaits, gait_margins, reason=reason, extra=data, rows=_rows(data))
 
-
     def walk_keys(self, params: Sequence[float], walk: Any) -> dict[str, Any]:
         """The generic keys and the ILE's own: its parameters, q0 and q after each step."""
         out = super().walk_keys(params, walk)
