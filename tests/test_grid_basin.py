@@ -185,7 +185,9 @@ def test_dask_blocks_do_not_change_the_walks(cluster, monkeypatch):
     starts = state * (1 + 0.05 * np.random.default_rng(9).standard_normal((50, 4)))
     local = sim.walk(params, starts, 10, keep=2)
     monkeypatch.setattr(vsw.cluster, "BLOCK", 7)
-    remote = sim.walk(params, starts, 10, keep=2, runner=vsw.cluster.runner(cluster, sim.model.name))
+    remote = sim.walk(
+        params, starts, 10, keep=2, runner=vsw.cluster.runner(cluster, sim.model.name)
+    )
     fields = ("outcome", "aux", "steps", "final", "kept_states", "kept_lengths",
               "kept_durations")  # fmt: skip
     for field in fields:

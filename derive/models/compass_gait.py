@@ -55,10 +55,20 @@ PARAMETERS = (
 m_h, m, a, b, gamma, g = (p.symbol for p in PARAMETERS)
 length = a + b
 
-THETA = Coordinate("theta", "stance leg angle", "rad", reference="the slope normal",
-                   positive="the hip downhill of the stance foot")
-PSI = Coordinate("psi", "swing leg angle", "rad", reference="the slope normal",
-                 positive="the hip downhill of the swing foot")
+THETA = Coordinate(
+    "theta",
+    "stance leg angle",
+    "rad",
+    reference="the slope normal",
+    positive="the hip downhill of the stance foot",
+)
+PSI = Coordinate(
+    "psi",
+    "swing leg angle",
+    "rad",
+    reference="the slope normal",
+    positive="the hip downhill of the swing foot",
+)
 theta, psi = THETA.q, PSI.q
 
 hip = leg(theta, length)

@@ -43,8 +43,13 @@ PARAMETERS = (
 )  # fmt: skip
 alpha, gamma, l, g = (p.symbol for p in PARAMETERS)
 
-THETA = Coordinate("theta", "stance spoke angle", "rad", reference="the slope normal",
-                   positive="the hub downhill of the stance foot")
+THETA = Coordinate(
+    "theta",
+    "stance spoke angle",
+    "rad",
+    reference="the slope normal",
+    positive="the hub downhill of the stance foot",
+)
 theta = THETA.q
 
 STANCE = Phase(
@@ -79,8 +84,13 @@ MODEL = Model(
         Failure("fell-backward", THETA.u, -1, "the wheel stops and rolls back"),
         Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the slope"),
     ),
-    units={"time": "s", "length": "m", "mass": "kg (energies per unit mass)", "energy": "J/kg",
-           "force": "N/kg"},
+    units={
+        "time": "s",
+        "length": "m",
+        "mass": "kg (energies per unit mass)",
+        "energy": "J/kg",
+        "force": "N/kg",
+    },
     step_length=2 * l * sm.sin(alpha),
     # Just after a collision the new spoke is alpha behind the normal; its rate is the state.
     section={"theta": -alpha},

@@ -45,10 +45,20 @@ PARAMETERS = (
 (gamma,) = (p.symbol for p in PARAMETERS)
 epsilon = sm.Symbol("epsilon", positive=True)  # foot mass / hip mass, taken to 0
 
-THETA = Coordinate("theta", "stance leg angle", "rad", reference="the slope normal",
-                   positive="the hip downhill of the stance foot")
-PHI = Coordinate("phi", "angle between the legs (stance minus swing)", "rad",
-                 reference="the stance leg", positive="the swing leg turned downhill of it")
+THETA = Coordinate(
+    "theta",
+    "stance leg angle",
+    "rad",
+    reference="the slope normal",
+    positive="the hip downhill of the stance foot",
+)
+PHI = Coordinate(
+    "phi",
+    "angle between the legs (stance minus swing)",
+    "rad",
+    reference="the stance leg",
+    positive="the swing leg turned downhill of it",
+)
 theta, phi = THETA.q, PHI.q
 
 hip = leg(theta)
@@ -98,8 +108,7 @@ MODEL = Model(
         Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the slope"),
         Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the slope"),
     ),
-    units={"time": "sqrt(l/g)", "length": "l", "mass": "M", "energy": "M g l",
-           "force": "M g"},
+    units={"time": "sqrt(l/g)", "length": "l", "mass": "M", "energy": "M g l", "force": "M g"},
     step_length=swing_foot[0],
     # Just after heelstrike the new stance foot is downhill of the hip (theta < 0); Garcia
     # et al.'s gaits at gamma = 0.009 have theta = -0.2003 and -0.1939, theta_dot 0.2.

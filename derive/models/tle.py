@@ -87,8 +87,13 @@ PARAMETERS = (
 )  # fmt: skip
 beta, theta_II, phi0, delta = (p.symbol for p in PARAMETERS)
 
-THETA = Coordinate("theta", "stance leg angle", "rad", reference="the vertical",
-                   positive="the hip ahead of the stance foot")
+THETA = Coordinate(
+    "theta",
+    "stance leg angle",
+    "rad",
+    reference="the vertical",
+    positive="the hip ahead of the stance foot",
+)
 theta, omega = THETA.q, THETA.u
 r = sm.Symbol("r", positive=True)  # stance leg length in r_e: held by the leg actuator
 

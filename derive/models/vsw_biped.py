@@ -63,10 +63,20 @@ PARAMETERS = (
 )  # fmt: skip
 beta, theta_II, mu, b = (p.symbol for p in PARAMETERS)
 
-THETA = Coordinate("theta", "stance leg angle", "rad", reference="the vertical",
-                   positive="the hip ahead of the stance foot")
-PSI = Coordinate("psi", "swing leg angle", "rad", reference="the vertical",
-                 positive="the hip ahead of the swing foot")
+THETA = Coordinate(
+    "theta",
+    "stance leg angle",
+    "rad",
+    reference="the vertical",
+    positive="the hip ahead of the stance foot",
+)
+PSI = Coordinate(
+    "psi",
+    "swing leg angle",
+    "rad",
+    reference="the vertical",
+    positive="the hip ahead of the swing foot",
+)
 theta, psi = THETA.q, PSI.q
 r = sm.Symbol("r", positive=True)
 """The stance leg's length, held by its actuator."""
@@ -133,8 +143,13 @@ MODEL = Model(
         Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the ground"),
         Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
     ),
-    units={"time": "sqrt(l/g)", "length": "l", "mass": "m_H", "energy": "m_H g l",
-           "force": "m_H g"},
+    units={
+        "time": "sqrt(l/g)",
+        "length": "l",
+        "mass": "m_H",
+        "energy": "m_H g l",
+        "force": "m_H g",
+    },
     step_length=LONG.points["swing_foot"][0],
     # Just after heelstrike the new swing leg (the old stance leg, l long before the swap)
     # has its foot on the ground and the new stance leg (beta l) too: cos psi = beta cos

@@ -13,9 +13,10 @@ Conventions (the paper's): ``theta`` is the stance-leg angle from the vertical, 
 when the hip is ahead of the stance foot, so a step runs from ``theta_I < 0`` forward to
 ``theta_IV > 0``. Time is dimensionless, ``tau = sqrt(g / r_e) t``, and
 ``omega = dtheta/dtau`` (the engine's state names it ``theta_dot``, as every model does);
-lengths in ``r_e``; energies in ``m g r_e`` unless ``m, g, r_e`` appear explicitly. The engine (:mod:`derive.engine`) derives the equations of motion and
-the resets from this description; :mod:`derive.models.ile.closed_form` derives the paper's
-closed forms from those.
+lengths in ``r_e``; energies in ``m g r_e`` unless ``m, g, r_e`` appear explicitly. The
+engine (:mod:`derive.engine`) derives the equations of motion and the resets from this
+description; :mod:`derive.models.ile.closed_form` derives the paper's closed forms from
+those.
 """
 
 from __future__ import annotations
@@ -88,8 +89,13 @@ theta_I, theta_IV = sm.symbols("theta_I theta_IV", real=True)
 # units (lengths in r_e, time in sqrt(r_e / g), mass in m). theta: the stance leg's angle
 # from the vertical, positive when the hip is ahead of the foot; the actuator holds the
 # stance leg's length r.
-THETA = Coordinate("theta", "stance leg angle", "rad", reference="the vertical",
-                   positive="the hip ahead of the stance foot")
+THETA = Coordinate(
+    "theta",
+    "stance leg angle",
+    "rad",
+    reference="the vertical",
+    positive="the hip ahead of the stance foot",
+)
 r = sm.Symbol("r", positive=True)
 """The stance leg's length, held by its actuator."""
 
@@ -152,8 +158,13 @@ MODEL = Model(
         Failure("fell-backward", THETA.u, -1, "the walker stops before the apex and falls back"),
         Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
     ),
-    units={"time": "sqrt(r_e/g)", "length": "r_e", "mass": "m", "energy": "m g r_e",
-           "force": "m g"},
+    units={
+        "time": "sqrt(r_e/g)",
+        "length": "r_e",
+        "mass": "m",
+        "energy": "m g r_e",
+        "force": "m g",
+    },
     step_length=_SWING_FOOT[0],
     # Just after heelstrike the stance leg is at theta_I (eq. 11); its rate is the state.
     section={"theta": _THETA_I},
