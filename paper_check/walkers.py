@@ -33,9 +33,14 @@ from pathlib import Path
 import numpy as np
 
 import generated.ile as ile
+from vsw.diagrams import bifurcation_plot, diagram_quantity, diagram_units
 from vsw.errors import ConvergenceError
+from vsw.figures import save_figure
+from vsw.grid_basin import basin_plot, grid_basin
 from vsw.hybrid import HybridModel, Orbit
+from vsw.jsonable import clean
 from vsw.models import load
+from vsw.sweeps import brute_force, continuation, record
 
 MODELS = ("simplest-walker", "compass-gait", "vsw-biped")
 
@@ -150,48 +155,18 @@ def _diagram(
     model: str, over: str, grid: tuple[float, float, int], keep: int, transient: int,
     out: Path, stem: str, y: str,
 ) -> tuple[dict, list]:  # fmt: skip
-    """The bifurcation diagram through ``vsw sweep --plot`` itself (its JSON and PNG), and
-    the same figure as SVG from that JSON."""
-    import contextlib
-    import io
-    import json
-
-    from vsw.cli import main
-    from vsw.diagrams import bifurcation_plot
-    from vsw.figures import save_figure
-    from vsw.models import load
-    from vsw.models_cli import _diagram_quantity, _units
-
-    png, svg = out / f"{stem}.png", out / f"{stem}.svg"
+    """The bifurcation diagram as ``vsw sweep --plot`` draws it (:func:`vsw.sweeps.
+    continuation`), as PNG and SVG, and its record."""
+    m = load(model)
     start, stop, count = grid
-    argv = ["sweep", "--model", model, "--over", f"{over}={start!r}:{stop!r}:{count}",
-            "--keep", str(keep), "--transient", str(transient), "--plot", str(png),
-            f"--y={y}", "--json"]  # fmt: skip
-    buffer = io.StringIO()
-    with contextlib.redirect_stdout(buffer):
-        status = main(argv)
-    if status != 0:
-        raise RuntimeError(f"vsw {' '.join(argv)} exited {status}")
-    data = json.loads(buffer.getvalue())
-    m = load(model.replace("-", "_"))
-    save_figure(bifurcation_plot(data, _diagram_quantity(m, y), _units(m)), svg)
-    return data, [png, svg]
-
-
-def _cli_json(argv: list[str]) -> dict:
-    """``vsw ARGV --json`` run in this process; its JSON."""
-    import contextlib
-    import io
-    import json
-
-    from vsw.cli import main
-
-    buffer = io.StringIO()
-    with contextlib.redirect_stdout(buffer):
-        status = main([*argv, "--json"])
-    if status != 0:
-        raise RuntimeError(f"vsw {' '.join(argv)} exited {status}")
-    return json.loads(buffer.getvalue())
+    points = continuation(m, {}, over, np.linspace(start, stop, count), keep, transient)
+    data = clean(record(m, {}, over, points, keep, transient))
+    written = []
+    for suffix in ("png", "svg"):
+        path = out / f"{stem}.{suffix}"
+        save_figure(bifurcation_plot(data, diagram_quantity(m, y), diagram_units(m.units)), path)
+        written.append(path)
+    return data, written
 
 
 def _basin_section(out: Path, quick: bool) -> tuple[list[str], list[Path]]:
@@ -199,19 +174,21 @@ def _basin_section(out: Path, quick: bool) -> tuple[list[str], list[Path]]:
     brute-force bifurcation diagram, both through the command line (batch simulator)."""
     side = 60 if quick else 500
     png = out / "simplest-walker_basin.png"
-    basin = _cli_json(["basin", "--model", "simplest-walker", "--grid",
-                       f"theta=-0.36:-0.1:{side}", "--grid", f"theta_dot=0.1:0.4:{side}",
-                       "--plot", str(png)])  # fmt: skip
+    m = load("simplest_walker")
+    params = m.parameters({})
+    found = grid_basin(m, params, "theta", np.linspace(-0.36, -0.1, side), "theta_dot",
+                       np.linspace(0.1, 0.4, side), 50)  # fmt: skip
+    basin = clean({**found.to_dict(), "model": m.cli_name})
+    save_figure(basin_plot(basin, m.spec["coordinate_units"]), png)
     counts = basin["counts"]
     cells = side * side
     steps = np.array(basin["steps"])
     converged = np.array([[c == "converged" for c in row] for row in basin["outcome"]])
     count, transient, keep = (6, 100, 16) if quick else (85, 300, 64)
     diagram_png = out / "simplest-walker_brute-force.png"
-    diagram = _cli_json(["sweep", "--model", "simplest-walker", "--over",
-                         f"gamma=0.009:0.0195:{count}", "--brute-force", "--y=-theta",
-                         "--transient", str(transient), "--keep", str(keep),
-                         "--plot", str(diagram_png)])  # fmt: skip
+    points = brute_force(m, {}, "gamma", np.linspace(0.009, 0.0195, count), transient, keep)
+    diagram = clean(record(m, {}, "gamma", points, keep, transient, "brute-force"))
+    save_figure(bifurcation_plot(diagram, "-theta", diagram_units(m.units)), diagram_png)
     periods = []
     for p in diagram["points"]:
         a = p["attractor"]

@@ -60,6 +60,7 @@ def test_analyze_si_and_preset_agree(capsys):
         capsys, [*ANALYZE, "--json", "--leg-length", "0.25", "--mass", "0.78", "--gravity", "9.81"]
     )
     explicit = json.loads(out)
+    assert preset.pop("provenance")["command"] != explicit.pop("provenance")["command"]
     assert preset == explicit
     t_unit = math.sqrt(0.25 / 9.81)
     assert preset["step_period_s"] == pytest.approx(preset["step_period"] * t_unit, rel=1e-14)
@@ -92,7 +93,7 @@ BAD_INPUTS = [
     ["analyze", "--beta", "nan", "--theta-ii", "0", "--phi0", "45"],
     ["analyze", "--beta", "0.8", "--theta-ii", "inf", "--phi0", "45"],
     ["analyze", "--beta", "abc", "--theta-ii", "0", "--phi0", "45"],
-    ["analyze", "--beta", "0.8", "--phi0", "45"],
+    ["analyze", "--beta", "0.8", "--param", "theta_II=100deg"],
     [*ANALYZE, "--bogus"],
     [*ANALYZE, "--leg-length", "-1", "--mass", "1"],
     [*ANALYZE, "--leg-length", "0.25"],
@@ -233,22 +234,63 @@ def test_progress_bar_only_on_a_terminal():
     assert "[" in loud.getvalue() and loud.getvalue().endswith("2/2\n")
 
 
-def test_optional_commands_register(monkeypatch, capsys):
+def test_a_command_module_registers_and_gets_the_parser_rules(monkeypatch, capsys):
+    """A command is a module with ``register`` and ``run``: its parser is the CLI's
+    (one-line usage errors)."""
     import types
 
-    import vsw.cli as cli
+    import vsw.cli.app as app
 
-    fake = types.ModuleType("vsw.fake_cmd")
+    fake = types.ModuleType("vsw.cli.fake_cmd")
 
-    def register_cli(subparsers):
+    def register(subparsers):
         p = subparsers.add_parser("hello")
         p.add_argument("--n", type=int, required=True)
-        p.set_defaults(func=lambda args: print("hi", args.n) or 0)
+        p.set_defaults(func=fake.run)
 
-    fake.register_cli = register_cli
-    monkeypatch.setitem(sys.modules, "vsw.fake_cmd", fake)
-    monkeypatch.setattr(cli, "_OPTIONAL_COMMAND_MODULES", ("fake_cmd",))
+    fake.register = register
+    fake.run = lambda args: print("hi", args.n) or 0
+    monkeypatch.setattr(app, "COMMANDS", (*app.COMMANDS, fake))
     assert main(["hello", "--n", "3"]) == 0
     assert capsys.readouterr().out == "hi 3\n"
     assert main(["hello", "--n", "x"]) == 2
     assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_every_json_output_starts_with_the_envelope(capsys, tmp_path):
+    """model, parameters, units, provenance first, for every command and model."""
+    commands = [
+        ANALYZE,
+        ["analyze", "--model", "rimless-wheel"],
+        ["simulate", "--steps", "1"],
+        ["simulate", "--model", "rimless-wheel", "--steps", "1"],
+        ["basin", "--theta-step", "10", "--n-q", "51"],
+        ["basin", "--model", "rimless-wheel", "--grid", "theta_dot=0.5:3:5", "--steps", "5"],
+        ["sweep", "--over", "theta_II=0:0.1:2"],
+        ["sweep", "--model", "rimless-wheel", "--over", "gamma=0.1:0.12:2"],
+        ["animate", "--model", "rimless-wheel", "--steps", "1", "--out", str(tmp_path / "a.svg")],
+        ["design", "--stepper-2d", "--target-speed", "0.8"],
+    ]
+    for argv in commands:
+        code, out, err = run_main(capsys, [*argv, "--json"])
+        assert code == 0, (argv, err)
+        data = json.loads(out)
+        assert list(data)[:4] == ["model", "parameters", "units", "provenance"], argv
+        provenance = data["provenance"]
+        assert provenance["command"] == "vsw " + " ".join([*argv, "--json"])
+        assert provenance["vsw"] and "tolerances" in provenance
+        assert data["units"]["angle"] == "rad"
+
+
+def test_help_shows_each_default_once_and_marks_the_required(capsys):
+    for command in ("analyze", "simulate", "basin", "sweep", "animate", "design", "explore"):
+        assert main([command, "--help"]) == 0
+        text = " ".join(capsys.readouterr().out.split())
+        assert text.count("(default: 10) (default: 10)") == 0
+        assert "(default: None)" not in text
+        for default in set(__import__("re").findall(r"\(default: [^)]*\)", text)):
+            assert text.count(default + " " + default) == 0, (command, default)
+    main(["sweep", "--help"])
+    assert "(required)" in capsys.readouterr().out
+    main(["simulate", "--help"])
+    assert "(default: 10)" in capsys.readouterr().out

@@ -37,6 +37,11 @@ def run_json(capsys, argv):
     return json.loads(out)
 
 
+def payload(data):
+    """A command's JSON without its provenance (which names the command line)."""
+    return {k: v for k, v in data.items() if k != "provenance"}
+
+
 def omega_fixed(alpha=ALPHA, gamma=GAMMA, leg=LEG, g=G) -> float:
     """Drake's closed form of the rate just after the collision on the period-one gait."""
     return 1 / math.tan(2 * alpha) * math.sqrt(4 * g / leg * math.sin(alpha) * math.sin(gamma))
@@ -66,34 +71,60 @@ def test_models_json_lists_every_generated_table(capsys):
 
     import generated
 
-    models = run_json(capsys, ["models"])
+    listing = run_json(capsys, ["models"])
+    assert listing["provenance"]["command"] == "vsw models --json"
+    models = listing["models"]
     assert [m["name"] for m in models] == [k.replace("_", "-") for k in generated.MODELS]
     for model, key in zip(models, generated.MODELS):
-        assert {"name", "description", "parameters", "units"} <= model.keys()
+        assert {"name", "description", "parameters", "units", "state", "section"} <= model.keys()
         assert model["description"] and model["units"]
         table = importlib.import_module(f"generated.{key}.params").PARAMETERS
         assert [p["name"] for p in model["parameters"]] == [p.name for p in table]
         for row, p in zip(model["parameters"], table):
-            assert set(row) >= {"name", "default", "unit", "lower", "upper", "description"}
+            assert set(row) >= {"name", "default", "unit", "lower", "upper", "meaning"}
             assert row["default"] == p.default and row["unit"] == p.unit
-            assert row["description"] == p.description
+            assert row["meaning"] == p.description
             for bound, value in (("lower", p.lower), ("upper", p.upper)):
                 assert (math.inf if row[bound] is None and value > 0 else row[bound]) == value
     by_name = {m["name"]: m for m in models}
     rimless = {p["name"]: p for p in by_name["rimless-wheel"]["parameters"]}
     assert rimless["l"]["upper"] is None and rimless["l"]["unit"] == "m"  # no upper bound
     assert rimless["alpha"]["default"] == pytest.approx(math.pi / 8, rel=1e-15)
-    assert by_name["rimless-wheel"]["state"] == ["theta", "omega"]
+    state = by_name["rimless-wheel"]["state"]
+    assert [s["name"] for s in state] == ["theta", "theta_dot"]
+    assert state[0]["reference"] == "the slope normal" and state[0]["rate"] == "theta_dot"
+    assert "downhill" in state[0]["positive"] and state[1]["unit"] == "rad/s"
+
+
+def test_every_model_states_its_convention(capsys):
+    """Rates are <coordinate>_dot everywhere; every coordinate says what it is, where it is
+    zero and what its sign means; the section names its free components and search box."""
+    for m in run_json(capsys, ["models"])["models"]:
+        coordinates = [s for s in m["state"] if s["kind"] == "coordinate"]
+        rates = [s for s in m["state"] if s["kind"] == "rate"]
+        assert [s["name"] for s in rates] == [c["name"] + "_dot" for c in coordinates]
+        for c in coordinates:
+            assert c["meaning"] and c["reference"] and c["positive"] and c["unit"] == "rad"
+        section = m["section"]
+        names = [s["name"] for s in m["state"]]
+        assert sorted(section["free"] + section["determined"]) == sorted(names), m["name"]
+        assert list(section["search_box"]) == section["free"]
+        assert {"time", "length", "force"} <= set(m["units"]), m["name"]
+        for f in m["failures"]:
+            assert f["unit"] and f["meaning"], (m["name"], f)
 
 
 def test_models_title_and_units_are_the_derivations(capsys):
+    import importlib
+
     from derive.models import MODELS
 
-    models = {m["name"]: m for m in run_json(capsys, ["models"])}
-    for key, derive in MODELS.items():
-        derivation = derive()
-        assert models[key.replace("_", "-")]["title"] == derivation.title
-        assert models[key.replace("_", "-")]["units"] == derivation.units
+    models = {m["name"]: m for m in run_json(capsys, ["models"])["models"]}
+    for key in MODELS:
+        spec = importlib.import_module(f"generated.{key}").HYBRID
+        assert models[key.replace("_", "-")]["title"] == spec["title"]
+        units = models[key.replace("_", "-")]["units"]
+        assert {k: v for k, v in units.items() if k != "rate"} == spec["units"]
 
 
 def test_models_text(capsys):
@@ -109,10 +140,11 @@ def test_rimless_wheel_gait_is_drakes_closed_form(capsys):
     from scipy.integrate import quad
 
     data = run_json(capsys, ["analyze", *RIMLESS, *PARAMS])
+    assert list(data)[:4] == ["model", "parameters", "units", "provenance"]
     assert data["model"] == "rimless-wheel"
     assert data["parameters"] == {"alpha": ALPHA, "gamma": GAMMA, "l": LEG, "g": G}
     (gait,) = data["fixed_points"]
-    assert gait["state"]["omega"] == pytest.approx(omega_fixed(), rel=1e-9)
+    assert gait["state"]["theta_dot"] == pytest.approx(omega_fixed(), rel=1e-9)
     assert gait["state"]["theta"] == pytest.approx(-ALPHA, rel=1e-12)
     assert gait["max_abs_eigenvalue"] == pytest.approx(math.cos(2 * ALPHA) ** 2, rel=1e-8)
     assert gait["eigenvalues"][0] == [pytest.approx(0.5, rel=1e-8), 0.0]
@@ -131,7 +163,8 @@ def test_rimless_wheel_gait_is_drakes_closed_form(capsys):
 def test_rimless_wheel_defaults_and_underscore_name(capsys):
     by_default = run_json(capsys, ["analyze", *RIMLESS])
     by_underscore = run_json(capsys, ["analyze", "--model", "rimless_wheel", *PARAMS])
-    assert by_default == by_underscore  # the table's defaults are Drake's test parameters
+    # the table's defaults are Drake's test parameters
+    assert payload(by_default) == payload(by_underscore)
 
 
 def test_rimless_wheel_analyze_text(capsys):
@@ -154,19 +187,23 @@ def test_rimless_wheel_json_on_a_clean_stdout():
 
 def test_rimless_wheel_simulate_follows_the_stride_map(capsys):
     argv = ["simulate", *RIMLESS, "--steps", "6", "--state", f"theta={-ALPHA!r}"]
-    data = run_json(capsys, [*argv, "--state", "omega=2"])
+    data = run_json(capsys, [*argv, "--state", "theta_dot=2"])
     assert data["ended"] == "completed" and data["steps_completed"] == 6
     assert data["start_from"] == "--state"
-    omegas = [s["omega"] for s in data["section_states"]]
+    omegas = [s["theta_dot"] for s in data["section_states"]]
     expected = [2.0]
     for _ in range(6):  # the collision keeps cos(2 alpha) of the rate (angular momentum)
         expected.append(math.cos(2 * ALPHA) * math.sqrt(omega_before_collision_sq(expected[-1])))
     np.testing.assert_allclose(omegas, expected, rtol=1e-9)
     assert data["step_lengths"] == [pytest.approx(2 * math.sin(ALPHA), rel=1e-12)] * 6
     from_gait = run_json(capsys, ["simulate", *RIMLESS, "--steps", "2"])
-    assert from_gait["start_from"] == "fixed point"
+    assert from_gait["start_from"] == "gait" and from_gait["note"] is None
     for state in from_gait["section_states"]:
-        assert state["omega"] == pytest.approx(omega_fixed(), rel=1e-9)
+        assert state["theta_dot"] == pytest.approx(omega_fixed(), rel=1e-9)
+    # --q0: the rate squared just after the collision, the spoke at -alpha (the section).
+    by_q = run_json(capsys, ["simulate", *RIMLESS, "--steps", "2", "--q0", "4"])
+    assert by_q["section_states"][0] == data["section_states"][0]
+    assert by_q["q"][0] == pytest.approx(4.0, rel=1e-15)
 
 
 @pytest.mark.parametrize(
@@ -182,38 +219,42 @@ def test_rimless_wheel_simulate_failures(capsys, omega, ended):
     assert (omega**2 < apex_bound_sq()) is (ended == "fell-backward")
     assert (omega**2 > lift_off_bound_sq()) is (ended == "lift-off")
     argv = ["simulate", *RIMLESS, "--steps", "3", "--state", f"theta={-ALPHA!r}"]
-    data = run_json(capsys, [*argv, "--state", f"omega={omega}"])
+    data = run_json(capsys, [*argv, "--state", f"theta_dot={omega}"])
     assert data["ended"] == ended and data["steps_completed"] == 0
 
 
 def test_rimless_wheel_basin_matches_the_apex_and_lift_off_bounds(capsys):
-    argv = ["basin", *RIMLESS, "--rate-min", "-0.5", "--rate-max", "4", "--n-rates", "19"]
+    """The one-component section's basin: the cells between the apex and lift-off bounds
+    (derived here by hand) converge, those outside fall, each the right way."""
+    argv = ["basin", *RIMLESS, "--grid", "theta_dot=-0.5:4:19"]
     data = run_json(capsys, argv)
     low, high = math.sqrt(apex_bound_sq()), math.sqrt(lift_off_bound_sq())
-    assert data["gait"]["state"]["omega"] == pytest.approx(omega_fixed(), rel=1e-9)
-    assert len(data["omega"]) == len(data["class"]) == 19
+    assert data["gait"]["state"]["theta_dot"] == pytest.approx(omega_fixed(), rel=1e-9)
+    assert data["y_name"] is None and data["y"] is None
+    (outcome,), (ended,) = data["outcome"], data["ended"]
+    assert len(data["x"]) == len(outcome) == 19
     checked = 0
-    for omega, kind, ended in zip(data["omega"], data["class"], data["ended"]):
+    for omega, kind, end in zip(data["x"], outcome, ended):
         if min(abs(omega - low), abs(omega - high)) < 1e-3:
             continue
         checked += 1
         if low < omega < high:
-            assert kind == "converges" and ended == "converged", omega
+            assert kind == "converged" and end == "converged", omega
         else:
-            assert kind == "falls", omega
-            assert ended == ("fell-backward" if omega < low else "lift-off"), omega
+            assert kind == "fell", omega
+            assert end == ("fell-backward" if omega < low else "lift-off"), omega
     assert checked >= 17
-    (run_,) = data["converging"]
-    assert low < run_[0] < low + 0.25 and high - 0.25 < run_[1] < high
+    # Without --grid: the search box of its one free component.
+    default = run_json(capsys, ["basin", *RIMLESS])
+    assert default["x_name"] == "theta_dot" and len(default["x"]) == 41
 
 
-def test_basin_over_rates_needs_one_coordinate_else_a_grid(capsys, monkeypatch):
-    from vsw.models import load
-
-    monkeypatch.setattr(load("rimless_wheel"), "n", 2)  # the instance the CLI gets
-    code, out, err = run(capsys, ["basin", *RIMLESS])
+def test_basin_of_a_wider_section_needs_a_grid(capsys):
+    code, out, err = run(capsys, ["basin", "--model", "compass-gait"])
     assert code == 2 and out == "" and err.count("\n") == 1
-    assert "give the 2-D slice of the section with --grid twice" in err
+    assert "--grid twice" in err and "theta, theta_dot, psi_dot" in err
+    code, out, err = run(capsys, ["basin", "--model", "compass-gait", "--grid", "theta=0:1:3"])
+    assert code == 2 and "give --grid twice" in err
 
 
 # --- sweep -----------------------------------------------------------------------------------
@@ -231,10 +272,10 @@ def test_rimless_wheel_sweep_over_gamma(capsys):
         assert p["found"] is exists, p["gamma"]
     assert len(found) == 5 and found[0]["from"] == "scan"
     assert all(p["from"] == "continuation" for p in found[1:])
-    omegas = [p["state"]["omega"] for p in found]
+    omegas = [p["state"]["theta_dot"] for p in found]
     assert all(b > a for a, b in itertools.pairwise(omegas))  # faster down steeper slopes
     for p in found:
-        assert p["state"]["omega"] == pytest.approx(omega_fixed(gamma=p["gamma"]), rel=1e-9)
+        assert p["state"]["theta_dot"] == pytest.approx(omega_fixed(gamma=p["gamma"]), rel=1e-9)
         assert p["max_abs_eigenvalue"] == pytest.approx(math.cos(2 * ALPHA) ** 2, rel=1e-8)
         assert p["stable"] is True
 
@@ -274,13 +315,42 @@ def test_ile_param_equals_named_options(capsys):
     named = run_json(capsys, ["analyze", "--beta", "0.8", "--theta-ii", "5", "--phi0", "45"])
     params = ["--param", "beta=0.8", "--param", f"theta_II={math.radians(5)!r}"]
     params += ["--param", f"phi0={math.pi / 4!r}"]
-    assert run_json(capsys, ["analyze", *params]) == named
+    assert payload(run_json(capsys, ["analyze", *params])) == payload(named)
     mixed = ["analyze", "--beta", "0.8", "--theta-ii", "5", "--param", f"phi0={math.pi / 4!r}"]
-    assert run_json(capsys, mixed) == named
+    assert payload(run_json(capsys, mixed)) == payload(named)
+    in_degrees = ["analyze", "--param", "beta=0.8", "--param", "theta_II=5deg", "--phi0", "45"]
+    assert payload(run_json(capsys, in_degrees)) == payload(named)
     argv = ["simulate", "--beta", "0.8", "--theta-ii", "5", "--q0", "0.3", "--steps", "2"]
-    assert run_json(capsys, [*argv, "--phi0", "45"]) == run_json(
-        capsys, [*argv, "--param", f"phi0={math.pi / 4!r}"]
+    assert payload(run_json(capsys, [*argv, "--phi0", "45"])) == payload(
+        run_json(capsys, [*argv, "--param", f"phi0={math.pi / 4!r}"])
     )
+
+
+def test_defaults_apply_to_every_model_the_ile_included(capsys):
+    import generated.ile.params as table
+
+    data = run_json(capsys, ["analyze"])
+    defaults = {p.name: p.default for p in table.PARAMETERS}
+    assert data["parameters"] == defaults and data["model"] == "ile"
+    assert data["beta"] == defaults["beta"] and data["walks"] is True
+    one = run_json(capsys, ["analyze", "--param", "beta=0.7"])
+    assert one["parameters"] == {**defaults, "beta": 0.7}
+
+
+def test_named_parameters_serve_every_model_that_has_them(capsys):
+    biped = ["simulate", "--model", "vsw-biped", "--steps", "1", "--state", "theta=-0.2",
+             "--state", "psi=0.5", "--state", "theta_dot=0.5", "--state", "psi_dot=-1"]  # fmt: skip
+    data = run_json(capsys, [*biped, "--beta", "0.9", "--theta-ii", "-5"])
+    assert data["parameters"]["beta"] == 0.9
+    assert data["parameters"]["theta_II"] == pytest.approx(math.radians(-5), rel=1e-15)
+    code, out, err = run(capsys, [*biped, "--phi0", "45"])
+    assert code == 2 and out == "" and "--phi0: vsw-biped has no parameter phi0" in err
+
+
+def test_sweep_over_an_angle_in_degrees(capsys):
+    rad = run_json(capsys, ["sweep", "--over", f"theta_II={math.radians(-10)!r}:0:3"])
+    deg = run_json(capsys, ["sweep", "--over", "theta_II=-10deg:0deg:3"])
+    assert payload(rad) == payload(deg)
 
 
 ILE_ANALYZE = ["analyze", "--beta", "0.8", "--theta-ii", "0"]
@@ -294,30 +364,35 @@ BAD = [
     (["analyze", *RIMLESS, "--param", "beta=0.5"], ["'beta'", "alpha, gamma, l, g"]),
     (["analyze", *RIMLESS, "--param", "alpha=0.3", "--param", "alpha=0.4"], ["twice"]),
     (["analyze", *RIMLESS, "--param", "alpha"], ["NAME=VALUE"]),
-    (["analyze", *RIMLESS, "--beta", "0.8"], ["--beta", "--param"]),
+    (["analyze", *RIMLESS, "--beta", "0.8"], ["--beta", "no parameter beta"]),
     (["analyze", *RIMLESS, "--stepper-2d"], ["--stepper-2d"]),
     (["analyze", "--model", "walker"], ["walker", "rimless-wheel"]),
     ([*ILE_ANALYZE, "--param", "phi0=2"], ["phi0", "(0, 1.5708) rad", "eq. (16)"]),
     ([*ILE_ANALYZE, "--phi0", "45", "--param", "beta=0.7"], ["twice"]),
-    (["analyze", "--param", "beta=0.8", "--theta-ii", "0"], ["required: --phi0"]),
     (["basin", "--beta", "0.8", "--phi0", "45", "--param", "theta_II=0"], ["axis"]),
     (["basin", "--beta", "0.8", "--phi0", "45", "--n-rates", "5"], ["--n-rates"]),
     (["basin", *RIMLESS, "--theta-step", "5"], ["--theta-step"]),
-    (["basin", *RIMLESS, "--n-rates", "1"], ["--n-rates"]),
-    (["basin", *RIMLESS, "--rate-min", "2", "--rate-max", "1"], ["--rate-min"]),
+    (["basin", *RIMLESS, "--grid", "theta_dot=2:1:5"], ["START = 2"]),
+    (["basin", *RIMLESS, "--grid", "theta=0:1:5"], ["theta follows from theta_dot"]),
+    (["basin", *RIMLESS, "--grid", "theta_dot=0:1:1"], ["from 2 to"]),
     (["basin", *RIMLESS, "--tol", "nan"], ["--tol"]),
-    (["simulate", *RIMLESS], ["required: --steps"]),
-    (["simulate", *RIMLESS, "--steps", "2", "--q0", "1"], ["--q0"]),
-    (["simulate", *RIMLESS, "--steps", "2", "--state", "theta=0"], ["omega"]),
+    (["simulate", "--model", "compass-gait", "--steps", "2", "--q0", "1"], ["--q0", "rimless"]),
+    (["simulate", *RIMLESS, "--q0", "-1"], ["--q0 = -1"]),
+    (["simulate", *RIMLESS, "--steps", "2", "--state", "theta=0"], ["theta_dot"]),
+    (["simulate", *RIMLESS, "--plot", "x.png"], ["--plot", "ile"]),
+    (["design", "--model", "tle"], ["design is not available", "ile"]),
+    (["explore", "--model", "compass-gait", "--out", "x.html"], ["explorer", "ile"]),
+    (["analyze", *RIMLESS, "--search", "theta=0:1"], ["--search theta", "theta_dot"]),
+    (["analyze", *RIMLESS, "--search", "theta_dot=1:0"], ["START = 1"]),
     (["simulate", *RIMLESS, "--steps", "2", "--state", "x=0"], ["'x'"]),
     (["simulate", *RIMLESS, "--steps", "0"], ["steps"]),
-    ([*ILE_SIMULATE, "--q0", "0.3", "--steps", "1", "--state", "omega=1"], ["--state"]),
+    ([*ILE_SIMULATE, "--q0", "0.3", "--steps", "1", "--state", "theta_dot=1"], ["--state"]),
     (["sweep", *RIMLESS, "--over", "gamma=0.1:0.2"], ["START:STOP:N"]),
     (["sweep", *RIMLESS, "--over", "gamma=0.1:2:3"], ["gamma", "(-1.5708, 1.5708)"]),
     (["sweep", *RIMLESS, "--over", "gamma=0.1:0.2:0"], ["N"]),
     (["sweep", *RIMLESS, "--over", "gamma=0.1:0.2:3", "--param", "gamma=0.1"], ["--over"]),
-    (["sweep", "--over", "phi0=0.1:0.2:3", *ILE_ANALYZE[1:], "--phi0", "4"], ["--phi0"]),
-    (["sweep", "--over", "phi0=0.1:0.2:3", "--beta", "0.8"], ["required: --theta-ii"]),
+    (["sweep", "--over", "phi0=0.1:0.2:3", *ILE_ANALYZE[1:], "--phi0", "4"], ["--over"]),
+    (["sweep", "--over", "phi0=1deg:100deg:3"], ["phi0=100deg = 100 deg", "(0, 1.5708) rad"]),
     (["sweep", "--beta", "0.8", "--theta-ii", "0"], ["--over"]),
     (["sweep", *RIMLESS, "--over", "gamma=0.1:0.2:2", "--keep", "1"], ["--keep 1"]),
     (["sweep", *RIMLESS, "--over", "gamma=0.1:0.2:2", "--keep", "-3"], ["--keep -3"]),
@@ -346,7 +421,7 @@ def test_bad_model_input_is_one_line_exit_2(capsys, argv, words):
     "argv",
     [
         ["simulate", *RIMLESS, "--steps", "1000000000"],
-        ["basin", *RIMLESS, "--n-rates", "100000", "--max-steps", "100000"],
+        ["basin", *RIMLESS, "--grid", "theta_dot=0:4:4000", "--steps", "100000"],
         ["sweep", *RIMLESS, "--over", "gamma=0.05:0.2:100000"],
         ["sweep", "--beta", "0.8", "--phi0", "45", "--over", "theta_II=-0.2:0.2:100000"],
     ],

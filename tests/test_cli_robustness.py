@@ -81,6 +81,19 @@ def test_closed_pipe_in_the_middle_of_a_long_output_is_quiet():
     assert err == b""
 
 
+def test_closed_pipe_in_the_middle_of_a_long_json_output_is_quiet():
+    # About 0.8 MB of JSON and a reader that takes 100 bytes (`vsw basin ... --json | head
+    # -c 100`): exit 141 as the text output, not 0 with the output cut.
+    argv = [*BASIN, "--theta-min", "-1", "--theta-max", "1", "--theta-step", "0.0005"]
+    proc = spawn([*argv, "--n-q", "3", "--json"], stdout=subprocess.PIPE)
+    first = proc.stdout.read(100)
+    proc.stdout.close()
+    err = proc.stderr.read()
+    assert first.startswith(b"{")
+    assert proc.wait(timeout=120) == EXIT_CLOSED_PIPE
+    assert err == b""
+
+
 def test_closed_stdout_is_one_line_exit_2():
     proc = subprocess.run(
         ["bash", "-c", f'exec "{sys.executable}" -m vsw "$@" >&-', "vsw", *ANALYZE, "--json"],
@@ -123,19 +136,20 @@ def test_stdout_errors_are_handled_in_main_for_every_command(monkeypatch, capsys
     assert err.count("\n") == 1 and "cannot write standard output" in err
 
 
-def test_stdout_handling_covers_registered_commands(monkeypatch, capsys):
-    # A command from another module (as design registers itself) gets the same handling.
+def test_stdout_handling_covers_every_command_module(monkeypatch, capsys):
+    # A command module added to the CLI gets the same handling.
     import types
 
-    fake = types.ModuleType("vsw.fake_out")
+    import vsw.cli.app as app
 
-    def register_cli(subparsers):
+    fake = types.ModuleType("vsw.cli.fake_out")
+
+    def register(subparsers):
         p = subparsers.add_parser("shout")
         p.set_defaults(func=lambda args: print("x" * 100) or 0)
 
-    fake.register_cli = register_cli
-    monkeypatch.setitem(sys.modules, "vsw.fake_out", fake)
-    monkeypatch.setattr(cli, "_OPTIONAL_COMMAND_MODULES", ("fake_out",))
+    fake.register = register
+    monkeypatch.setattr(app, "COMMANDS", (*app.COMMANDS, fake))
     stream = _FailingStdout(BrokenPipeError(32, "Broken pipe"))
     monkeypatch.setattr(sys, "stdout", stream)
     assert main(["shout"]) == EXIT_CLOSED_PIPE

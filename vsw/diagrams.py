@@ -13,12 +13,38 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from vsw import plotstyle
+from vsw.errors import VswInputError
 from vsw.plotstyle import COLORS
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["bifurcation_plot", "diagram_value", "parameter_title"]
+__all__ = [
+    "bifurcation_plot",
+    "diagram_quantity",
+    "diagram_units",
+    "diagram_value",
+    "parameter_title",
+]
+
+
+def diagram_quantity(model: Any, y: str | None) -> str:
+    """``--y``: what the bifurcation diagram shows (step length where the model has one)."""
+    choices = ["step_period", *model.coordinates, *model.rates]
+    if model.spec["step_length"]:
+        choices.insert(0, "step_length")
+    if y is None:
+        return choices[0]
+    if y.removeprefix("-") not in choices:
+        raise VswInputError(f"--y {y!r} is not one of the {model.cli_name} model's: "
+                            f"{', '.join(choices)} (or minus one: --y=-NAME)")  # fmt: skip
+    return y
+
+
+def diagram_units(units: Mapping[str, str]) -> dict[str, str]:
+    """The axis units of a diagram from a model's units."""
+    time, length = units.get("time", ""), units.get("length", "")
+    return {"time": time, "length": length, "speed": f"{length}/{time}" if time else ""}
 
 
 def diagram_value(y: str, state: Mapping[str, float] | None, step_length, step_period):

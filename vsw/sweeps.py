@@ -22,16 +22,44 @@ from vsw.batch import Runner, simulator
 from vsw.errors import ConvergenceError, ModelConditionError, VswInputError
 from vsw.gaits import pick, search
 from vsw.hybrid import HybridModel, by_modulus, repeat_period
+from vsw.models.base import Model
 
-__all__ = ["NO_GAIT", "brute_force", "continuation"]
+__all__ = ["NO_GAIT", "brute_force", "continuation", "record"]
 
 NO_GAIT = dict.fromkeys(("state", "period", "phase_durations", "eigenvalues",
                          "max_abs_eigenvalue", "stable", "step_length", "speed"))  # fmt: skip
 """The gait's keys of a point where none was found."""
 
 
-def continuation(
+def record(
     model: HybridModel,
+    fixed: Mapping[str, float],
+    over: str,
+    points: list[dict[str, Any]],
+    keep: int = 0,
+    transient: int = 0,
+    method: str | None = None,
+) -> dict[str, Any]:
+    """A sweep as ``vsw sweep --json`` prints it (after the envelope) and
+    :func:`vsw.diagrams.bifurcation_plot` draws it: the swept parameter and its unit, the
+    other parameters' values, the points, and the iteration's transient and kept steps."""
+    params = model.parameters({**fixed, over: float(points[0][over])})
+    data: dict[str, Any] = {
+        "model": model.name.replace("_", "-"),
+        "parameters": {k: v for k, v in zip(model.spec["parameters"], params) if k != over},
+        "over": over,
+        "over_unit": next(p.unit for p in model.parameter_table if p.name == over),
+    }
+    if method:
+        data["method"] = method
+    data["points"] = points
+    if keep:
+        data.update(transient=transient, keep=keep)
+    return data
+
+
+def continuation(
+    model: Model,
     values: Mapping[str, float],
     over: str,
     grid: Sequence[float],
@@ -40,7 +68,8 @@ def continuation(
     progress: Callable[[int, int], None] | None = None,
 ) -> list[dict[str, Any]]:
     """The period-one gait along ``over`` (the other parameters ``values``), each point
-    from the previous one (``"from": "continuation"``) or a new search (``"scan"``); with
+    from the previous one (``"from": "continuation"``) or a new search (``"scan"``; where
+    it finds none, ``reason`` says why: :meth:`vsw.models.base.Model.analyze`); with
     ``keep`` the map iterated ``transient + keep`` steps where the gait is unstable or
     lost, its last ``keep`` steps kept (``attractor``)."""
     names = list(model.coordinates + model.rates)
@@ -55,10 +84,14 @@ def continuation(
                 source = "continuation"
             except ConvergenceError:
                 orbit = None
+        reason = None
         if orbit is None:
-            orbit, source = pick(search(model, params).gaits), "scan"
+            report = model.analyze(params)
+            orbit, source, reason = pick(report.gaits), "scan", report.reason
         point = {over: float(value), "found": orbit is not None}
         point.update({"from": source, **orbit.to_dict()} if orbit else {"from": None, **NO_GAIT})
+        if orbit is None:
+            point["reason"] = reason
         if keep and (orbit is None or not orbit.stable):
             # The attractor followed along the sweep: from where the last iteration ended,
             # else from the previous point's gait (off this point's unstable gait by the

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 from typing import Any
 
 from vsw import models
-from vsw.cli.output import dump_json, fmt, version
+from vsw.cli.output import dump_json, fmt, git_commit, version
 from vsw.cli.parser import EXIT_OK
 
 __all__ = ["register", "run"]
@@ -29,7 +30,9 @@ def _bounds(p: dict[str, Any]) -> str:
 def run(args: argparse.Namespace) -> int:
     described = [models.load(k).describe() for k in models.keys()]
     if args.json:
-        dump_json({"vsw": version(), "models": described})
+        provenance = {"vsw": version(), "commit": git_commit(),
+                      "command": shlex.join(["vsw", *args.argv])}  # fmt: skip
+        dump_json({"provenance": provenance, "models": described})
         return EXIT_OK
     out = sys.stdout
     for n, m in enumerate(described):

@@ -22,6 +22,7 @@ import numpy as np
 
 import vsw
 from vsw.hybrid import Orbit
+from vsw.jsonable import clean
 from vsw.models.base import Model
 
 __all__ = [
@@ -45,30 +46,18 @@ ORBIT_SOLVER = {"orbit_solver": "CasADi Newton on the boundary-value residual, 1
 """The periodic-orbit solver's tolerances (:meth:`vsw.hybrid.HybridModel.periodic_orbit`)."""
 
 
-def clean(value: Any) -> Any:
-    """Nested dicts/lists of numbers for strict JSON: numpy scalars and arrays to Python
-    values, NaN and infinities to None."""
-    if isinstance(value, Mapping):
-        return {str(k): clean(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [clean(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return clean(value.tolist())
-    if isinstance(value, (bool, np.bool_)):
-        return bool(value)
-    if isinstance(value, (int, np.integer)):
-        return int(value)
-    if isinstance(value, (float, np.floating)):
-        return float(value) if math.isfinite(value) else None
-    if isinstance(value, complex):
-        return [clean(value.real), clean(value.imag)]
-    return value
+_CHUNK = 1 << 16
 
 
 def dump_json(data: Any, out: TextIO | None = None) -> None:
-    """One strict JSON object on standard output (or ``out``)."""
+    """One strict JSON object on standard output (or ``out``), written in pieces of 64 KiB:
+    one write of a large string to a pipe its reader has closed ended the process with
+    status 0 and no error here (CPython 3.11 on Linux), where writes of a pipe's size
+    raise BrokenPipeError as the text output's do (exit 141)."""
     out = sys.stdout if out is None else out
-    out.write(json.dumps(clean(data), allow_nan=False, indent=2) + "\n")
+    text = json.dumps(clean(data), allow_nan=False, indent=2) + "\n"
+    for start in range(0, len(text), _CHUNK):
+        out.write(text[start : start + _CHUNK])
 
 
 def fmt(value: Any) -> str:

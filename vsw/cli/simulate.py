@@ -81,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
         result = walk(model, params, start.state, args.steps, progress=bar)
     data = {
         **envelope(model, params, args.argv, INTEGRATOR),
-        **model.walk_keys(params, result),
+        **model.walk_keys(params, result, start),
         "start_from": start.source,
         "start_gait": None if start.gait is None else {
             "max_abs_eigenvalue": start.gait.max_abs_eigenvalue, "stable": start.gait.stable},

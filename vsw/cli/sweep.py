@@ -26,7 +26,7 @@ from vsw.cli.output import (
     unit_text,
 )
 from vsw.cli.parser import EXIT_OK, StoreGiven, given
-from vsw.diagrams import bifurcation_plot
+from vsw.diagrams import bifurcation_plot, diagram_quantity, diagram_units
 from vsw.errors import VswInputError
 from vsw.figures import check_save_path, save_figure
 from vsw.models.base import Model
@@ -88,24 +88,6 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=run, parser=p)
 
 
-def _diagram_quantity(model: Model, y: str | None) -> str:
-    """``--y``: what the bifurcation diagram shows (step length where the model has one)."""
-    choices = ["step_period", *model.coordinates, *model.rates]
-    if model.spec["step_length"]:
-        choices.insert(0, "step_length")
-    if y is None:
-        return choices[0]
-    if y.removeprefix("-") not in choices:
-        raise VswInputError(f"--y {y!r} is not one of the {model.cli_name} model's: "
-                            f"{', '.join(choices)} (or minus one: --y=-NAME)")  # fmt: skip
-    return y
-
-
-def diagram_units(model: Model) -> dict[str, str]:
-    time, length = model.units.get("time", ""), model.units.get("length", "")
-    return {"time": time, "length": length, "speed": f"{length}/{time}" if time else ""}
-
-
 def run(args: argparse.Namespace) -> int:
     model = args.model_object
     name, values = options.parse_over(model, args.over)
@@ -119,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
                                     "(its map is affine and its fixed point exact): nothing to "
                                     "iterate")  # fmt: skip
         return _closed_form(args, model, name, values)
-    y = _diagram_quantity(model, args.y)
+    y = diagram_quantity(model, args.y)
     if args.state and not args.brute_force:
         raise VswInputError("--state of vsw sweep is the start of --brute-force: give both")
     keep = args.keep if args.keep is not None else (
@@ -140,19 +122,10 @@ def run(args: argparse.Namespace) -> int:
     else:
         points, method = _continuation(model, fixed, name, values, keep, args.transient), None
     params = model.parameters(fixed | {name: float(values[0])})
-    data = {
-        **envelope(model, params, args.argv, {**INTEGRATOR, **ORBIT_SOLVER}),
-        "over": name,
-        "over_unit": next(p.unit for p in model.parameter_table if p.name == name),
-    }
-    data["parameters"] = {k: v for k, v in data["parameters"].items() if k != name}
-    if method:
-        data["method"] = method
-    data["points"] = points
-    if keep:
-        data.update(transient=args.transient, keep=keep)
+    swept = sweeps.record(model, fixed, name, points, keep, args.transient, method)
+    data = {**envelope(model, params, args.argv, {**INTEGRATOR, **ORBIT_SOLVER}), **swept}
     if args.plot is not None:
-        save_figure(bifurcation_plot(clean(data), y, diagram_units(model)), args.plot)
+        save_figure(bifurcation_plot(clean(data), y, diagram_units(model.units)), args.plot)
         data["plot"] = args.plot
     if args.json:
         dump_json(data)
@@ -214,7 +187,7 @@ def _write_points(model: Model, data: dict, name: str, keep: int) -> None:
                     f"period-{attractor['period']}" if attractor["period"] else
                     "no repeat within --keep steps")  # fmt: skip
             note = kind if brute else f"; map: {kind}"
-        where = "" if brute else (p["from"] or "no gait found")
+        where = "" if brute else (p["from"] or f"no gait: {p.get('reason')}")
         out.write(f"{fmt(p[name]):>12} " + " ".join(f"{fmt(state.get(n)):>12}"
                                                     for n in state_names)
                   + ("" if brute else f" {fmt(p['period']):>12}")

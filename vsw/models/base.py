@@ -79,6 +79,7 @@ class Start:
     state: np.ndarray
     source: str
     gait: Orbit | None = None
+    q0: float | None = None
 
     def note(self) -> str | None:
         """A warning when the walk starts on an unstable gait."""
@@ -166,8 +167,27 @@ class Model(HybridModel):
             closed_form=closed,
         )
         if not found.gaits:
-            report.reason = _closed_form_reason(closed) or found.why_none()
+            report.reason = (
+                _closed_form_reason(closed) or self._stride_map_reason(params) or found.why_none()
+            )
         return report
+
+    def _stride_map_reason(self, params: Sequence[float]) -> str | None:
+        """Why the closed-form fixed point of the stride map (q = rate**2 just after the
+        step event) is no gait, for a model that has one but no closed-form conditions: a
+        step from it fails, or it has no real rate."""
+        if not hasattr(self.module, "q_fixed") or "q0" not in self.features:
+            return None
+        with np.errstate(all="ignore"):
+            q_f = float(self.module.q_fixed(*params))
+        if not (q_f > 0 and math.isfinite(q_f)):
+            return (f"the closed-form fixed point q^f = {q_f:.6g} of the stride map is not a "
+                    "positive finite rate squared")  # fmt: skip
+        step = self.step(params, self.section_state_from_q(params, q_f))
+        if step.ended == "completed":
+            return None
+        return (f"the closed-form fixed point q^f = {q_f:.6g} of the stride map is no gait: a "
+                f"step from it ends with {step.ended}")  # fmt: skip
 
     # --- walks ----------------------------------------------------------------------------
 
@@ -192,7 +212,7 @@ class Model(HybridModel):
         if state is not None:
             return Start(np.asarray(state, dtype=float), "--state")
         if q0 is not None:
-            return Start(self.section_state_from_q(params, q0), "--q0")
+            return Start(self.section_state_from_q(params, q0), "--q0", q0=q0)
         report = self.analyze(params)
         orbit = gaits.pick(report.gaits)
         if orbit is None:
@@ -201,15 +221,17 @@ class Model(HybridModel):
             )
         return Start(np.array(list(orbit.state.values())), "gait", orbit)
 
-    def walk_keys(self, params: Sequence[float], walk: Any) -> dict[str, Any]:
+    def walk_keys(self, params: Sequence[float], walk: Any, start: Start) -> dict[str, Any]:
         """A walk's keys beyond the section states: with a one-rate section, ``q`` (the
-        rate squared after each step, the start's first) and the closed-form fixed point
-        where the model has one."""
+        rate squared after each step, the start's first: ``--q0`` as given) and the
+        closed-form fixed point where the model has one."""
         out: dict[str, Any] = {}
         if "q0" in self.features:
             rate = self.rates[0]
             index = [*self.coordinates, *self.rates].index(rate)
             out["q"] = [float(x[index]) ** 2 for x in walk.states]
+            if start.q0 is not None:
+                out["q"][0] = float(start.q0)
             if hasattr(self.module, "q_fixed"):
                 with np.errstate(all="ignore"):
                     out["q_fixed_closed_form"] = float(self.module.q_fixed(*params))

@@ -21,7 +21,7 @@ from generated import ile
 from vsw.errors import VswInputError
 from vsw.figures import save_figure
 from vsw.hybrid import Orbit
-from vsw.models.base import GaitReport, Model
+from vsw.models.base import GaitReport, Model, Start
 from vsw.models.ile import plots
 from vsw.models.ile.analysis import Analysis, analyze
 from vsw.models.ile.params import RobotScale
@@ -64,9 +64,9 @@ class IleModel(Model):
         data = result.to_dict()
         return GaitReport(gaits, gait_margins, reason=reason, extra=data, rows=_rows(data))
 
-    def walk_keys(self, params: Sequence[float], walk: Any) -> dict[str, Any]:
+    def walk_keys(self, params: Sequence[float], walk: Any, start: Start) -> dict[str, Any]:
         """The generic keys and the ILE's own: its parameters, q0 and q after each step."""
-        out = super().walk_keys(params, walk)
+        out = super().walk_keys(params, walk, start)
         return {**dict(zip(("beta", "theta_II", "phi0"), params)), "q0": out["q"][0], **out}
 
     def save_simulation_plot(
