@@ -200,12 +200,12 @@ def test_plot_check_leaves_no_file_behind_and_keeps_existing_ones(tmp_path):
 
 
 def test_plot_write_failure_after_the_check_is_one_line(monkeypatch, capsys, tmp_path):
-    import vsw.models.ile.plots
+    import vsw.cli.basin
 
     def full(*args, **kwargs):
         raise OSError(28, "No space left on device", str(tmp_path / "b.png"))
 
-    monkeypatch.setattr(vsw.models.ile.plots, "save_figure", full)
+    monkeypatch.setattr(vsw.cli.basin, "save_figure", full)
     code, _, err = run_main(capsys, [*SMALL_BASIN, "--plot", str(tmp_path / "b.png")])
     assert code == 2 and err.count("\n") == 1 and "No space left on device" in err
 
@@ -475,7 +475,7 @@ def test_si_values_have_keys_of_their_own(capsys):
     si = json.loads(out)
     mgr = 0.78 * 9.81 * 0.25  # the Stepper-2D of the paper: m g r_e in J
     for key in plain:
-        if key != "conditions":  # every dimensionless key keeps its value and unit
+        if key not in ("conditions", "provenance"):  # every dimensionless key keeps its value
             assert si[key] == plain[key], key
     assert si["energy_unit"] == plain["energy_unit"] == "m g r_e"
     assert si["energy_added_J"] == pytest.approx(plain["energy_added"] * mgr, rel=1e-14)
@@ -522,7 +522,8 @@ def test_margin_units_match_independent_values():
 def test_basin_json_explains_n_steps(capsys):
     code, out, _ = run_main(capsys, [*SMALL_BASIN, "--json"])
     data = json.loads(out)
-    assert code == 0 and set(data) - {"fields"} <= set(data["fields"])
+    envelope = {"model", "parameters", "units", "provenance"}
+    assert code == 0 and set(data) - {"fields"} - envelope <= set(data["fields"])
     assert "stride-map steps" in data["fields"]["n_steps"]
     lam = 0.8**2 * math.cos(math.pi / 4) ** 2  # eq. (19)
     # The smallest n with lam^n * (1.5 / beta) < 1e-12, and one step more for safety.

@@ -124,12 +124,15 @@ BAD = [
     ([*WALKER, "--grid", "theta=0:1:3", "--grid", "theta=0:1:3"], ["twice"]),
     ([*WALKER, *GRID, "--steps", "0"], ["--steps"]),
     ([*WALKER, *GRID, "--tol", "2"], ["--tol"]),
-    ([*WALKER, *GRID, "--n-rates", "4"], ["--n-rates", "--grid"]),
+    ([*WALKER, *GRID, "--n-rates", "4"], ["unrecognized arguments: --n-rates"]),
     ([*WALKER, *GRID, "--plot", "x.txt"], [".png"]),
-    ([*WALKER, "--plot", "x.png"], ["--plot", "--grid"]),
+    ([*WALKER, "--plot", "x.png"], ["--grid", "theta=START:STOP:N"]),
     ([*WALKER], ["--grid", "theta=START:STOP:N"]),
-    (["basin", "--model", "rimless-wheel", "--steps", "5"], ["--steps", "--grid"]),
-    (["basin", "--beta", "0.8", "--phi0", "45", "--grid", "theta=0:1:3"], ["--grid", "ile"]),
+    ([*WALKER, *GRID, "--theta-step", "5"], ["--theta-step", "ile"]),
+    (["basin", "--beta", "0.8", "--phi0", "45", "--steps", "5"], ["--steps", "give --grid"]),
+    (["basin", "--beta", "0.8", "--phi0", "45", "--grid", "theta=0:1:3"],
+     ["theta follows from theta_dot"]),
+    (["basin", "--grid", "theta_dot=0.1:1:3", "--theta-step", "5"], ["--theta-step", "drop"]),
     ([*WALKER, *GRID, "--scheduler", "tcp://127.0.0.1:1"], ["no Dask scheduler"]),
     ([*WALKER, *GRID, "--scheduler", "notanaddress"], ["not a Dask address"]),
     ([*WALKER, *GRID, "--scheduler", "tcp://"], ["not a Dask address"]),
@@ -171,7 +174,9 @@ def test_basin_on_a_dask_cluster_is_the_local_one_byte_for_byte(capsys, cluster,
     assert code == 0, err
     data = json.loads(out)
     assert data.pop("scheduler") == cluster
-    assert json.dumps(data, sort_keys=True) == json.dumps(local_basin, sort_keys=True)
+    assert data.pop("provenance")["command"].endswith(f"--scheduler {cluster}")
+    local = {k: v for k, v in local_basin.items() if k != "provenance"}
+    assert json.dumps(data, sort_keys=True) == json.dumps(local, sort_keys=True)
 
 
 def test_dask_blocks_do_not_change_the_walks(cluster, monkeypatch):
