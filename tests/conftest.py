@@ -1,8 +1,13 @@
-"""Shared fixtures: seeded random valid parameter sets of the ILE model."""
+"""Shared fixtures: seeded random valid parameter sets of the ILE model, and the
+derivation of every model done once per test run."""
 
 from __future__ import annotations
 
+import json
 import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -40,3 +45,36 @@ def private_kernel_cache(tmp_path_factory):
         yield
     finally:
         os.environ.pop("VSW_CACHE_DIR", None)
+
+
+ROOT = Path(__file__).resolve().parent.parent
+DERIVATION_HASH_SEED = "4242"
+"""The one full derivation of a test run runs with this hash seed, not the developer's
+random one that wrote generated/: equal files are also the seed independence test."""
+
+
+@pytest.fixture(scope="session")
+def rendered_tree(tmp_path_factory) -> dict[str, str]:
+    """Every file ``python -m derive`` writes, derived once per test run (in a subprocess
+    with PYTHONHASHSEED=4242); the tests that need the derivation's output use this."""
+    out = tmp_path_factory.mktemp("derived") / "tree.json"
+    code = (
+        "import json, sys; from derive.__main__ import render_all; "
+        "open(sys.argv[1], 'w').write(json.dumps(render_all()))"
+    )
+    env = {**os.environ, "PYTHONHASHSEED": DERIVATION_HASH_SEED}
+    subprocess.run([sys.executable, "-c", code, str(out)], cwd=ROOT, env=env, check=True)
+    return json.loads(out.read_text())
+
+
+@pytest.fixture
+def cached_derivation(rendered_tree, monkeypatch):
+    """``derive.__main__`` with each model's rendering taken from :func:`rendered_tree`:
+    the command's own machinery (comparison, writing, --model) without deriving again."""
+    import derive.__main__ as derive_main
+
+    def render_model(name: str) -> dict[str, str]:
+        return {p: t for p, t in rendered_tree.items() if p.startswith(f"{name}/")}
+
+    monkeypatch.setattr(derive_main, "_render_model", render_model)
+    return rendered_tree

@@ -120,7 +120,7 @@ BAD = [
     ([*ILE, "--q0", "0.4", "--out", "x.mp4"], ["ffmpeg"]) if __import__("shutil").which(
         "ffmpeg") is None else ([*ILE, "--q0", "0.4", "--out", "x.bmp"], [".gif"]),
     ([*ILE, "--q0", "-1", "--out", "x.gif"], ["--q0"]),
-    ([*ILE, "--out", "x.gif"], ["--q0"]),
+    ([*ILE, "--q0", "0.4", "--state", "theta=0", "--out", "x.gif"], ["--state and --q0"]),
     ([*ILE, "--q0", "0.4", "--steps", "0", "--out", "x.gif"], ["--steps"]),
     ([*ILE, "--q0", "0.4", "--fps", "0", "--out", "x.gif"], ["--fps"]),
     ([*ILE, "--q0", "0.4", "--out", "/nonexistent/dir/x.gif"], ["does not exist"]),

@@ -321,7 +321,7 @@ MODEL_COMMANDS = {
         {
             **_COMMON,
             "--steps": integer(1, 4),
-            "--state": assignment(["theta", "omega"], number(-0.5, 2.0)),
+            "--state": assignment(["theta", "theta_dot"], number(-0.5, 2.0)),
             "--q0": number(0.1, 0.9),
         },
         ("--json",),
@@ -330,15 +330,15 @@ MODEL_COMMANDS = {
     "basin": (
         {
             **_COMMON,
-            "--rate-min": number(-0.5, 1.0),
-            "--rate-max": number(1.5, 4.0),
-            "--n-rates": integer(2, 5),
-            "--max-steps": integer(1, 30),
+            "--grid": st.tuples(number(-0.5, 1.0), number(1.5, 4.0), integer(2, 5)).map(
+                lambda t: "theta_dot=" + ":".join(t)
+            ),
+            "--steps": integer(1, 30),
             "--tol": number(1e-9, 1e-3),
             "--n-q": integer(3, 10),
         },
         ("--json",),
-        ("--n-rates", "--max-steps"),
+        ("--grid", "--steps"),
     ),
     "sweep": (
         {

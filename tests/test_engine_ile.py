@@ -37,7 +37,7 @@ def test_generic_orbit_is_the_closed_form_fixed_point(model, values):
     start = np.array([theta_I, math.sqrt(q_f) * 1.02])  # a perturbed start on the section
     orbit = model.periodic_orbit(params, start, model.step(params, start).durations)
     assert orbit.state["theta"] == pytest.approx(theta_I, abs=1e-12)
-    assert orbit.state["omega"] == pytest.approx(math.sqrt(q_f), rel=1e-9)
+    assert orbit.state["theta_dot"] == pytest.approx(math.sqrt(q_f), rel=1e-9)
     eigen = sorted(abs(e) for e in orbit.eigenvalues)
     assert eigen[-1] == pytest.approx(float(ile.eigenvalue(beta, phi0)), rel=1e-8)
     assert eigen[0] < 1e-9  # the section pins theta: one eigenvalue is zero

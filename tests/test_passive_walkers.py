@@ -310,10 +310,14 @@ def test_compass_gait_at_3_degrees_is_goswamis():
 
 
 def test_compass_gait_at_drakes_defaults_walks_stably():
-    """Drake's CompassGaitParams (the defaults): one stable and one unstable gait."""
+    """Drake's CompassGaitParams (the defaults): one stable gait (Drake's) and the unstable
+    ones: the short-step gait beside it, and one with period 1.88 s (|eigenvalue| 273) that
+    the search of its section finds near falling back."""
     m = load("compass_gait")
     orbits = m.fixed_points(m.parameters({}))
-    assert sorted(o.stable for o in orbits) == [False, True]
+    assert sorted(o.stable for o in orbits) == [False, False, True]
+    stable = next(o for o in orbits if o.stable)
+    assert stable.state["theta"] == pytest.approx(-0.27127, abs=1e-5)  # Drake's gait
 
 
 def test_compass_gait_flips_at_goswamis_slope():

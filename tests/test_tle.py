@@ -59,7 +59,7 @@ def test_closed_form_fixed_point_is_the_bvp_orbit(model, params):
     guess = section_state(params, 1.03 * q_f) + np.array([0.01, 0.0])
     orbit = model.periodic_orbit(params, guess, np.array(durations) * 1.02)
     assert orbit.state["theta"] == pytest.approx(tle.theta_I(params[0], params[2]), rel=1e-9)
-    assert orbit.state["omega"] ** 2 == pytest.approx(q_f, rel=1e-9)
+    assert orbit.state["theta_dot"] ** 2 == pytest.approx(q_f, rel=1e-9)
     # The section angle is fixed, so the map's Jacobian has eigenvalues lambda and 0.
     lam = float(tle.eigenvalue(*params))
     assert abs(orbit.eigenvalues[0]) == pytest.approx(lam, rel=1e-8)
@@ -70,7 +70,7 @@ def test_closed_form_fixed_point_is_the_bvp_orbit(model, params):
 def test_runtime_scan_finds_the_closed_form_gait(model):
     orbits = model.fixed_points(model.parameters({}))
     assert len(orbits) == 1
-    assert orbits[0].state["omega"] ** 2 == pytest.approx(float(tle.q_fixed(*DEFAULT)), rel=1e-9)
+    assert orbits[0].state["theta_dot"] ** 2 == pytest.approx(float(tle.q_fixed(*DEFAULT)), rel=1e-9)
     assert orbits[0].step_length == pytest.approx(
         math.sin(tle.theta_IV(DEFAULT[0], DEFAULT[2])) - DEFAULT[0] * math.sin(
             tle.theta_I(DEFAULT[0], DEFAULT[2])), rel=1e-9)  # fmt: skip
@@ -341,7 +341,7 @@ def test_stride_map_accurate_for_every_delta(delta):
 # --- backends ---------------------------------------------------------------------------------
 
 ARGUMENTS = {"beta": 0.93, "theta_II": -0.1, "phi0": 0.7, "delta": 0.4, "theta": 0.12,
-             "omega": 0.45, "q": 0.21, "fraction": 0.37}  # fmt: skip
+             "theta_dot": 0.45, "q": 0.21, "fraction": 0.37}  # fmt: skip
 
 
 def _generated_functions():

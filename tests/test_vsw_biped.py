@@ -48,7 +48,7 @@ def test_massless_legs_give_the_ile_fixed_point_at_the_emergent_angle(biped, bet
         s = orbit.state
         phi = s["psi"] - s["theta"]  # the legs swapped at heelstrike
         q_ile = float(ile.q_fixed(beta, theta_II, phi))
-        errors.append(abs(s["omega"] ** 2 - q_ile) / q_ile)
+        errors.append(abs(s["theta_dot"] ** 2 - q_ile) / q_ile)
         # The section angle is the ILE's theta_I (11) at that angle too.
         assert s["theta"] == pytest.approx(float(ile.theta_I(beta, phi)), abs=1e-12)
     errors = np.array(errors)
@@ -74,7 +74,7 @@ def test_energy_the_extension_adds_is_what_heelstrike_dissipates(biped, beta, th
         assert added > 0 and dissipated > 0
         assert added == pytest.approx(dissipated, rel=1e-9)
         phi = orbit.state["psi"] - orbit.state["theta"]
-        q = orbit.state["omega"] ** 2
+        q = orbit.state["theta_dot"] ** 2
         # The ILE's energy added at its own fixed point, per m g r_e (m = m_H here).
         ile_input = float(ile.energy_complement(beta, theta_II, phi,
                                                 float(ile.q_fixed(beta, theta_II, phi)),

@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from vsw.batch import WALKED, BatchSimulator, simulator
+from vsw.batch import FELL, WALKED, BatchSimulator, simulator
 from vsw.errors import ConvergenceError, ModelConditionError, VswInputError
 from vsw.hybrid import HybridModel, Orbit
 
@@ -52,10 +52,14 @@ __all__ = [
     "stable_gait",
 ]
 
-SCAN_POINTS = {1: 4001, 2: 480, 3: 61}
+SCAN_POINTS = {1: 4001, 2: 960, 3: 61}
 """Grid points along each free component of the default scan, by their number (more
-components: 230,000 cells in all). At the biped's gaits with |eigenvalue| in the hundreds
-the states that complete one step are bands about 0.01 wide in the rates."""
+components: 230,000 cells in all). Chosen so that a scan twice as fine finds no more gaits
+at the sets tests/test_gaits.py checks: with 480 in two components the simplest walker's
+gaits with |eigenvalue| 930 and 948 (periods 9.4 and 10.2, the swing leg swinging back and
+forth) are missed; with 48 in three the biped's with 777 and 1322 at (0.8, 0.1, 0.3, 0.3),
+and the compass gait's with 273 (period 1.88 s) with 48 too. At those gaits the states
+that complete one step are bands about 0.01 wide in the rates."""
 
 FALLBACK_CELLS = 1_000
 """Cells of the scan on the SciPy route (no compiler): about 300 times slower a step."""
@@ -165,6 +169,21 @@ def section_states(model: HybridModel, params: Sequence[float], free: np.ndarray
     return np.column_stack([np.broadcast_to(np.asarray(v, float), len(free)) for v in values])
 
 
+def _outcome_counts(result: Any) -> dict[str, int]:
+    """How the scan's steps ended, counted by code (``walked``, each failure, ``stalled``)."""
+    codes, counts = np.unique(np.stack([result.outcome, result.aux]), axis=1, return_counts=True)
+    out: dict[str, int] = {}
+    for (outcome, aux), count in zip(codes.T, counts):
+        if outcome == WALKED:
+            name = "walked"
+        elif outcome == FELL:
+            name = result.failures[aux]
+        else:
+            name = "stalled"
+        out[name] = out.get(name, 0) + int(count)
+    return dict(sorted(out.items()))
+
+
 def _axis(low: float, high: float, count: int, is_rate: bool) -> np.ndarray:
     """``count`` points over [low, high]; a rate's zero is left out (no motion there)."""
     if is_rate and low == 0.0:
@@ -212,18 +231,31 @@ def _newton(
         size = np.max(np.abs(residual), axis=1)
         scale = np.maximum(1.0, np.max(np.abs(base), axis=1))
         converged = walked & (size <= _NEWTON_TOL * scale)
-        step = np.full_like(base, np.nan)
-        for k in np.flatnonzero(walked & ~converged):
-            try:
-                step[k] = np.linalg.solve(jacobian[k] - eye, -residual[k])
-            except np.linalg.LinAlgError:
-                pass
+        step = _solve(jacobian - eye, -residual, walked & ~converged)
         moved = np.all(np.isfinite(step), axis=1)
         # Every member of a group goes where its first member goes.
         done[open_rows] = converged[group]
         alive[open_rows] = (converged | moved)[group]
         y[open_rows] = np.where(moved[group, None], base[group] + step[group], base[group])
     return y, done & alive
+
+
+def _solve(matrices: np.ndarray, vectors: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """``matrices[k] x = vectors[k]`` where ``rows[k]``, in one batched call; NaN where not
+    asked or singular."""
+    out = np.full_like(vectors, np.nan)
+    chosen = np.flatnonzero(rows)
+    if chosen.size == 0:
+        return out
+    try:
+        out[chosen] = np.linalg.solve(matrices[chosen], vectors[chosen][..., None])[..., 0]
+    except np.linalg.LinAlgError:  # one singular matrix fails the batch: one at a time
+        for k in chosen:
+            try:
+                out[k] = np.linalg.solve(matrices[k], vectors[k])
+            except np.linalg.LinAlgError:
+                pass
+    return out
 
 
 def _groups(y: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -278,9 +310,7 @@ def search(
     states = section_states(model, params, grid)
     result = sim.step(params, states)
     walked = result.outcome == WALKED
-    ended = result.ended()
-    labels, counts = np.unique(np.asarray(ended, dtype=object).astype(str), return_counts=True)
-    outcomes = {str(k): int(v) for k, v in zip(labels, counts)}
+    outcomes = _outcome_counts(result)
     with np.errstate(invalid="ignore"):
         gap = np.max(np.abs(result.final[:, free_index] - grid), axis=1)
     residual = np.where(walked & np.isfinite(gap), gap, np.inf)

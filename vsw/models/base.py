@@ -13,6 +13,7 @@ from them; :attr:`Model.features` says which optional commands and options a mod
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -23,7 +24,10 @@ from vsw import conditions, gaits
 from vsw.errors import ModelConditionError, VswInputError
 from vsw.hybrid import HybridModel, Orbit
 
-__all__ = ["FEATURES", "GaitReport", "Model", "Start"]
+__all__ = ["FEATURES", "SEARCHES_KEPT", "GaitReport", "Model", "Start"]
+
+SEARCHES_KEPT = 32
+"""Gait searches kept per model and process (:meth:`Model.search_gaits`)."""
 
 FEATURES = {
     "q0": "--q0: the section state from q = rate**2 (a model whose section has one free "
@@ -96,6 +100,8 @@ class Model(HybridModel):
 
     def __init__(self, module: Any) -> None:
         super().__init__(module)
+        self._searches: dict[tuple, gaits.GaitSearch] = {}
+        self._searches_lock = threading.Lock()
         free = list(self.spec["search"])
         if len(free) == 1 and free[0] in self.rates:
             self.features = self.features | {"q0"}
@@ -146,8 +152,23 @@ class Model(HybridModel):
     def search_gaits(
         self, params: Sequence[float], box: Mapping[str, tuple[float, float]] | None = None
     ) -> gaits.GaitSearch:
-        """The period-one gaits at ``params`` and how they were searched (:mod:`vsw.gaits`)."""
-        return gaits.search(self, params, box=box)
+        """The period-one gaits at ``params`` and how they were searched (:mod:`vsw.gaits`).
+
+        The last :data:`SEARCHES_KEPT` searches are kept per model and process: a search
+        takes seconds on a model with three free section components, and commands and
+        scripts ask for the same parameters again (a sweep's scans, a basin after
+        ``analyze``)."""
+        key = (tuple(float(v) for v in params), tuple(sorted((box or {}).items())))
+        with self._searches_lock:
+            if key in self._searches:
+                self._searches[key] = self._searches.pop(key)  # most recent last
+                return self._searches[key]
+        found = gaits.search(self, params, box=box)
+        with self._searches_lock:
+            self._searches[key] = found
+            while len(self._searches) > SEARCHES_KEPT:
+                self._searches.pop(next(iter(self._searches)))
+        return found
 
     def fixed_points(self, params: Sequence[float]) -> list[Orbit]:
         """The period-one gaits at ``params`` (sorted by period)."""
