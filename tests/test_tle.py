@@ -70,7 +70,8 @@ def test_closed_form_fixed_point_is_the_bvp_orbit(model, params):
 def test_runtime_scan_finds_the_closed_form_gait(model):
     orbits = model.fixed_points(model.parameters({}))
     assert len(orbits) == 1
-    assert orbits[0].state["theta_dot"] ** 2 == pytest.approx(float(tle.q_fixed(*DEFAULT)), rel=1e-9)
+    q_f = float(tle.q_fixed(*DEFAULT))
+    assert orbits[0].state["theta_dot"] ** 2 == pytest.approx(q_f, rel=1e-9)
     assert orbits[0].step_length == pytest.approx(
         math.sin(tle.theta_IV(DEFAULT[0], DEFAULT[2])) - DEFAULT[0] * math.sin(
             tle.theta_I(DEFAULT[0], DEFAULT[2])), rel=1e-9)  # fmt: skip
