@@ -367,8 +367,11 @@ def simplest_walker(out: Path, quick: bool = False) -> list[Path]:
         "\nBeside the sources' two, the search of the section (`vsw analyze --model "
         f"simplest-walker --param gamma=0.009`) finds {len(others)} more period-one "
         "gait(s), none of them in the sources: "
-        + "; ".join(f"period {o.period:.4f}, stance angle {-o.state['theta']:.6f} rad, max "
-                    f"abs eigenvalue {o.max_abs_eigenvalue:.4g}" for o in others)
+        + "; ".join(
+            f"period {o.period:.4f}, stance angle {-o.state['theta']:.6f} rad, max "
+            f"abs eigenvalue {o.max_abs_eigenvalue:.4g}"
+            for o in others
+        )
         + " (the swing leg swings back and forth before heelstrike; all unstable).\n",
         "\n## Bifurcation diagram\n\n",
         f"![bifurcation diagram]({written[0].name})\n\n",
