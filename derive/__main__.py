@@ -28,7 +28,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from types import SimpleNamespace
 
-from derive import codegen
+from derive import codegen, render
 from derive.models import MODELS
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -37,7 +37,7 @@ FIX_COMMAND = "python -m derive"
 
 def _render_model(name: str) -> dict[str, str]:
     """One model's files (run in a worker process: models derive independently)."""
-    return codegen.render(MODELS[name]())
+    return render.render(MODELS[name]())
 
 
 def render_all(only: str | None = None, existing: dict[str, str] | None = None) -> dict[str, str]:
@@ -48,7 +48,7 @@ def render_all(only: str | None = None, existing: dict[str, str] | None = None) 
     every other model's files are taken from ``existing`` (what is on disk) unchanged.
     """
     names = [name for name in MODELS if only in (None, name)]
-    files = codegen.render_shared([SimpleNamespace(model=name) for name in MODELS])
+    files = render.render_shared([SimpleNamespace(model=name) for name in MODELS])
     if only:
         others = {p: t for p, t in (existing or {}).items() if "/" in p}
         files.update({p: t for p, t in others.items() if not p.startswith(f"{only}/")})

@@ -22,7 +22,9 @@ from derive.models import ile as model
 from generated import ile
 from paper_check import compare
 from paper_check.equations import EQUATION_BY_ID, EQUATIONS
+from paper_check.figures import curves, plain, walks
 from paper_check.simulation import converged, energy_at, run, step_events
+from paper_check.walking import FIG_BETA, FIG_PHI0, FIG_THETA_II, failing_reason, walk_mask
 
 __all__ = [
     "EXPECTED_PATH",
@@ -52,7 +54,6 @@ SEED = 20240601
 DENSE_SAMPLES = 100_000
 SIMS_PER_CATEGORY = 40
 SIM_STEPS = 3
-FIG_BETA, FIG_THETA_II, FIG_PHI0 = 0.8, 0.0, math.radians(45.0)
 
 
 @dataclass
@@ -378,25 +379,6 @@ def audit_equations(
 # --------------------------------------------------------------------------- claims
 
 
-def _walk_mask(beta: np.ndarray, theta_II: np.ndarray, phi0: np.ndarray) -> np.ndarray:
-    """Every physical existence condition of the derivation holds (the gait walks)."""
-    ok = np.ones(np.broadcast(beta, theta_II, phi0).shape, bool)
-    for cond, margin in zip(ile.CONDITIONS, ile.condition_margins(beta, theta_II, phi0)):
-        if cond[4]:
-            m = np.asarray(margin, float)
-            ok &= (m > 0) if cond[2] else (m >= 0)
-    return ok
-
-
-def _failing_reason(beta: float, theta_II: float, phi0: float) -> str:
-    names = []
-    for cond, margin in zip(ile.CONDITIONS, ile.condition_margins(beta, theta_II, phi0)):
-        m = float(margin)
-        if cond[4] and not ((m > 0) if cond[2] else (m >= 0)):
-            names.append(cond[0])
-    return ", ".join(names) or "none"
-
-
 def _params_row(beta: float, theta_II: float, phi0: float, **extra: Any) -> dict[str, Any]:
     row = {
         "beta": _round(beta),
@@ -419,7 +401,7 @@ def existence_claims() -> tuple[Entry, Entry, dict[str, int], dict[str, Any]]:
     theta_II = rng.uniform(-np.pi / 2 + 0.01, np.pi / 2 - 0.01, n)
     printed = compare.paper_conditions(beta, theta_II, phi0)
     all_printed = np.logical_and.reduce(list(printed.values()))
-    walks = _walk_mask(beta, theta_II, phi0)
+    walks = walk_mask(beta, theta_II, phi0)
     theta_I = ile.theta_I(beta, phi0)
     qf = ile.q_fixed(beta, theta_II, phi0)
     margins = dict(zip([c[0] for c in ile.CONDITIONS], ile.condition_margins(beta, theta_II, phi0)))
@@ -454,7 +436,7 @@ def existence_claims() -> tuple[Entry, Entry, dict[str, int], dict[str, Any]]:
             if ok != bool(walks[i]):
                 mismatch += 1
             if len(rows) < 3:
-                rows.append(_params_row(b, t2, p, simulated=label, fails=_failing_reason(b, t2, p)))
+                rows.append(_params_row(b, t2, p, simulated=label, fails=failing_reason(b, t2, p)))
         sims[name] = {"analytic count": int(mask.sum()), "simulated": len(pick), **outcomes}
         counterexamples[name] = rows
     checked = {k: v["simulated"] for k, v in sims.items()}
@@ -601,9 +583,9 @@ def _theta_II_claim(rng: np.random.Generator) -> Entry:
     grid = np.linspace(-np.pi / 2 + 0.01, np.pi / 2 - 0.01, n_grid)
     b2, t2 = np.meshgrid(beta, grid, indexing="ij")
     p2 = np.broadcast_to(phi0[:, None], b2.shape)
-    w = _walk_mask(b2, t2, p2)
+    w = walk_mask(b2, t2, p2)
     has = w.any(axis=1)
-    zero_walks = _walk_mask(beta, 0.0, phi0)
+    zero_walks = walk_mask(beta, 0.0, phi0)
     bad = np.flatnonzero(has & ~zero_walks)
     q = np.where(w, ile.q_fixed(b2, t2, p2), -np.inf)
     best = grid[np.argmax(q, axis=1)]
@@ -614,7 +596,7 @@ def _theta_II_claim(rng: np.random.Generator) -> Entry:
             0.0,
             float(phi0[i]),
             theta_II_of_largest_walking_qf_deg=math.degrees(float(best[i])),
-            at_theta_II_0=_failing_reason(float(beta[i]), 0.0, float(phi0[i])),
+            at_theta_II_0=failing_reason(float(beta[i]), 0.0, float(phi0[i])),
         )
         for i in bad[:4]
     ]
@@ -670,7 +652,7 @@ def _stability_claims() -> tuple[Entry, Entry, dict[str, Any]]:
         b, p = rng.uniform(0.5, 0.98), rng.uniform(0.2, 1.3)
         t_I, t_IV = float(ile.theta_I(b, p)), float(ile.theta_IV(b, p))
         t2 = t_I + rng.uniform(0.1, 0.9) * (t_IV - t_I)
-        if _walk_mask(np.array(b), np.array(t2), np.array(p)):
+        if walk_mask(np.array(b), np.array(t2), np.array(p)):
             sets.append((b, t2, p))
     trajectories = []
     for b, t2, p in sets:
@@ -798,7 +780,7 @@ def _fig8_claim() -> tuple[Entry, dict[str, Any]]:
                 "q^f": qf,
                 "max rel. error of simulated instants I-IV vs closed form": err,
                 "rel. error of omega after heelstrike vs omega_I": ret,
-                "walks": _walk_mask(np.array(b), np.array(t2), np.array(p)).item(),
+                "walks": walk_mask(np.array(b), np.array(t2), np.array(p)).item(),
             }
         },
         "Reproduced (figure fig8): the simulated cycle passes through the closed-form instants "
@@ -876,7 +858,7 @@ def _basin_claims() -> tuple[Entry, Entry, dict[str, Any]]:
                 b,
                 math.radians(30.0),
                 p,
-                walks=bool(_walk_mask(np.array(b), np.array(math.radians(30.0)), np.array(p))),
+                walks=bool(walk_mask(np.array(b), np.array(math.radians(30.0)), np.array(p))),
                 simulated=(
                     "walks"
                     if converged(
@@ -949,7 +931,7 @@ def audit_claims() -> tuple[list[Entry], dict[str, int], dict[str, Any]]:
         (theta_II > ile.theta_I(beta, phi0)) & (theta_II < ile.theta_IV(beta, phi0)) & (qf > 0)
     )
     samples = {"beta": beta, "phi0": phi0, "theta_II": theta_II, "qf": qf}
-    walks = _walk_mask(beta, theta_II, phi0)
+    walks = walk_mask(beta, theta_II, phi0)
     mono_beta = _monotone_claim("beta", samples, defined, walks)
     mono_phi0 = _monotone_claim("phi0", samples, defined, walks)
     theta_claim = _theta_II_claim(rng)
@@ -980,8 +962,6 @@ def run_audit() -> Audit:
     comparisons = compare.compare_all()
     claims, walking_violations, data = audit_claims()
     equations = audit_equations(comparisons, walking_violations)
-    from paper_check.figures import gait_gaps
-
     data["gaps"] = gait_gaps()
     settings = {
         "seed": SEED,
@@ -997,3 +977,48 @@ def run_audit() -> Audit:
 def paper_latex(eq_id: str) -> str:
     """Printed LaTeX of one equation."""
     return EQUATION_BY_ID[eq_id].latex
+
+
+def gait_gaps() -> list[dict[str, Any]]:
+    """Parts of the plotted curves of Fig. 5-7 where no valid gait exists.
+
+    Each gap is a contiguous run of non-walking points, with the failing physical
+    conditions at its ends and middle, and the time-domain simulation at its middle
+    (started at q^f, three steps).
+
+    Returns
+    -------
+    list of dict
+        Keys ``figure, curve, from, to, fails, simulated``.
+    """
+    gaps = []
+    for name in ("fig5", "fig6", "fig7"):
+        for label, x, b, t, p in curves(name):
+            ok = walks(b, t, p)
+            edges = np.flatnonzero(np.diff(np.r_[0, (~ok).astype(int), 0]))
+            for start, stop in zip(edges[::2], edges[1::2]):
+                idx = (start, (start + stop - 1) // 2, stop - 1)
+                fails = sorted(
+                    {r for i in idx for r in failing_reason(b[i], t[i], p[i]).split(", ")}
+                )
+                i = idx[1]
+                qf = float(ile.q_fixed(b[i], t[i], p[i]))
+                if qf > 0:
+                    res = run(b[i], t[i], p[i], qf, 3)
+                    simulated = "walks" if converged(res, qf) else res.ended
+                else:
+                    simulated = "q^f <= 0"
+                gaps.append(
+                    {
+                        "figure": name,
+                        "curve": plain(label),
+                        "from": float(x[start]),
+                        "to": float(x[stop - 1]),
+                        "fails": ", ".join(fails),
+                        "simulated at the middle": simulated,
+                    }
+                )
+    return gaps
+
+
+Legend = tuple[list[Any], list[str]]

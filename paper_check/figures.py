@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from generated import ile
+from paper_check.walking import FIG_BETA, FIG_PHI0, FIG_THETA_II, walk_mask
 from vsw.plotstyle import COLORS, DEG, LABELS
 
 __all__ = [
@@ -25,7 +26,6 @@ __all__ = [
     "Q_TOP",
     "curves",
     "draw_figure",
-    "gait_gaps",
     "off_scale",
     "write_figures",
 ]
@@ -37,10 +37,9 @@ Q_TOP = {"fig5": 3.0, "fig7": 3.0}
 _OFF_SCALE_MARKER = r"$\uparrow$"
 
 
-def _walks(beta: Any, theta_II: Any, phi0: Any) -> np.ndarray:
-    from paper_check.audit import _walk_mask
-
-    return _walk_mask(np.asarray(beta, float), np.asarray(theta_II, float), np.asarray(phi0, float))
+def walks(beta: Any, theta_II: Any, phi0: Any) -> np.ndarray:
+    """Whether each parameter set walks (every physical condition holds)."""
+    return walk_mask(np.asarray(beta, float), np.asarray(theta_II, float), np.asarray(phi0, float))
 
 
 def curves(name: str) -> list[tuple[str, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
@@ -69,7 +68,7 @@ def curves(name: str) -> list[tuple[str, np.ndarray, np.ndarray, np.ndarray, np.
     return out
 
 
-def _plain(label: str) -> str:
+def plain(label: str) -> str:
     """A curve's mathtext label as plain text (``beta=0.8, phi0=45 deg``)."""
     text = label.replace("$", "").replace("\\", "").replace("varphi_0", "phi0")
     return text.replace(DEG, " deg")
@@ -95,58 +94,13 @@ def off_scale(name: str) -> list[dict[str, Any]]:
         if hidden.any():
             cut.append(
                 {
-                    "curve": _plain(label),
+                    "curve": plain(label),
                     "label": label,
                     "max": float(np.max(q)),
-                    "walks": bool(_walks(b, t, p)[hidden].any()),
+                    "walks": bool(walks(b, t, p)[hidden].any()),
                 }
             )
     return cut
-
-
-def gait_gaps() -> list[dict[str, Any]]:
-    """Parts of the plotted curves of Fig. 5-7 where no valid gait exists.
-
-    Each gap is a contiguous run of non-walking points, with the failing physical
-    conditions at its ends and middle, and the time-domain simulation at its middle
-    (started at q^f, three steps).
-
-    Returns
-    -------
-    list of dict
-        Keys ``figure, curve, from, to, fails, simulated``.
-    """
-    from paper_check.audit import _failing_reason
-    from paper_check.simulation import converged, run
-
-    gaps = []
-    for name in ("fig5", "fig6", "fig7"):
-        for label, x, b, t, p in curves(name):
-            ok = _walks(b, t, p)
-            edges = np.flatnonzero(np.diff(np.r_[0, (~ok).astype(int), 0]))
-            for start, stop in zip(edges[::2], edges[1::2]):
-                idx = (start, (start + stop - 1) // 2, stop - 1)
-                fails = sorted(
-                    {r for i in idx for r in _failing_reason(b[i], t[i], p[i]).split(", ")}
-                )
-                i = idx[1]
-                qf = float(ile.q_fixed(b[i], t[i], p[i]))
-                if qf > 0:
-                    res = run(b[i], t[i], p[i], qf, 3)
-                    simulated = "walks" if converged(res, qf) else res.ended
-                else:
-                    simulated = "q^f <= 0"
-                gaps.append(
-                    {
-                        "figure": name,
-                        "curve": _plain(label),
-                        "from": float(x[start]),
-                        "to": float(x[stop - 1]),
-                        "fails": ", ".join(fails),
-                        "simulated at the middle": simulated,
-                    }
-                )
-    return gaps
 
 
 Legend = tuple[list[Any], list[str]]
@@ -163,7 +117,7 @@ def _family(ax: Any, name: str) -> Legend:
     for k, (label, x, b, t, p) in enumerate(curves(name)):
         style = curve_style(k)
         q = ile.q_fixed(b, t, p)
-        ok = _walks(b, t, p)
+        ok = walks(b, t, p)
         ax.plot(x, np.where(ok, q, np.nan), color=style["color"], lw=1.5)
         ax.plot(x, np.where(ok, np.nan, q), color=style["color"], lw=1.1, ls=(0, (1, 1.5)))
         # Sparse markers, evenly spaced along the drawn curve: the curves differ in shape,
@@ -234,7 +188,6 @@ def _fig7(ax: Any) -> Legend:
 def _fig8(ax: Any, data: dict[str, Any]) -> Legend:
     from matplotlib.lines import Line2D
 
-    from paper_check.audit import FIG_BETA, FIG_PHI0, FIG_THETA_II
     from vsw import plotstyle
     from vsw.models.ile.plots import label_instants
     from vsw.models.ile.simulate import simulate
@@ -286,7 +239,6 @@ def _fig8(ax: Any, data: dict[str, Any]) -> Legend:
 
 
 def _fig9(ax: Any, data: dict[str, Any]) -> Legend:
-    from paper_check.audit import FIG_BETA, FIG_PHI0
     from vsw.models.ile.basin import Basin
     from vsw.models.ile.plots import basin_plot
 

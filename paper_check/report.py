@@ -7,8 +7,9 @@ import math
 from pathlib import Path
 from typing import Any
 
-from paper_check.audit import FIG_BETA, FIG_PHI0, SHORT_NOTES, VERDICTS, Audit, Entry, _jsonable
+from paper_check.audit import SHORT_NOTES, VERDICTS, Audit, Entry, _jsonable
 from paper_check.figures import FIGURES, FORMATS, Q_TOP, off_scale
+from paper_check.walking import FIG_BETA, FIG_PHI0
 
 __all__ = ["PAPER_FILE", "PAPER_TITLE", "audit_json", "audit_markdown", "summary_table"]
 

@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 import generated.ile as ile
+from paper_check.output import check_output_directory
 from vsw.diagrams import bifurcation_plot, diagram_quantity, diagram_units
 from vsw.errors import ConvergenceError
 from vsw.figures import save_figure
@@ -586,8 +587,6 @@ def main(argv: list[str] | None = None) -> int:
     """Write the reports of the models asked for (default: all); exit 2 on a bad ``--out``
     or model name (one line). A row that differs is a finding to read, not a failure: the
     tests (tests/test_passive_walkers.py) hold which rows must agree."""
-    from paper_check.__main__ import check_output_directory
-
     parser = argparse.ArgumentParser(
         prog="python -m paper_check.walkers",
         description="The walkers with massive legs beside their published numbers.",

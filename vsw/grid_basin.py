@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from vsw import plotstyle
 from vsw.batch import Runner, simulator
 from vsw.errors import VswInputError
 from vsw.gaits import stable_gait
@@ -209,14 +210,12 @@ _PERIOD_COLORS = ("orange", "purple", "vermillion", "sky_blue", "yellow")
 
 
 def _colors_for(labels: Sequence[str]) -> dict[str, str]:
-    from vsw.plotstyle import COLORS
-
     out, k = {}, 0
     for label in labels:
         if label in _CLASS_COLORS:
-            out[label] = COLORS[_CLASS_COLORS[label]]
+            out[label] = plotstyle.COLORS[_CLASS_COLORS[label]]
         else:
-            out[label] = COLORS[_PERIOD_COLORS[k % len(_PERIOD_COLORS)]]
+            out[label] = plotstyle.COLORS[_PERIOD_COLORS[k % len(_PERIOD_COLORS)]]
             k += 1
     return out
 
@@ -224,8 +223,6 @@ def _colors_for(labels: Sequence[str]) -> dict[str, str]:
 def basin_plot(data: Mapping[str, Any], units: Mapping[str, str] | None = None) -> Figure:
     """Two panels from a basin's JSON record: the classes (colour-blind-safe colours, the
     gait's fixed point marked) and the steps walked until each cell's class was decided."""
-    from vsw import plotstyle
-
     with plotstyle.context():
         return _basin_plot(data, units or {})
 
@@ -233,8 +230,6 @@ def basin_plot(data: Mapping[str, Any], units: Mapping[str, str] | None = None) 
 def _basin_plot(data: Mapping[str, Any], units: Mapping[str, str]) -> Figure:
     from matplotlib.colors import BoundaryNorm, ListedColormap
     from matplotlib.patches import Patch
-
-    from vsw import plotstyle
 
     x, y = np.asarray(data["x"]), np.asarray(data["y"])
     one_d = data.get("y_name") is None

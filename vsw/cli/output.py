@@ -24,6 +24,7 @@ import vsw
 from vsw.hybrid import Orbit
 from vsw.jsonable import clean
 from vsw.models.base import Model
+from vsw.progress import ProgressBar
 
 __all__ = [
     "clean",
@@ -166,8 +167,6 @@ def write_orbit(out: TextIO, model: Model, orbit: Orbit) -> None:
     out.write(f"  {'eigenvalues':<16} {values}\n")
 
 
-def progress(label: str):
+def progress(label: str) -> ProgressBar:
     """A progress bar on stderr (drawn only on a terminal)."""
-    from vsw.progress import ProgressBar
-
     return ProgressBar(label)

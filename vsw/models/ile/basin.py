@@ -23,6 +23,7 @@ from vsw import limits
 from vsw.errors import VswInputError
 from vsw.models.ile.analysis import _jsonable, analyze
 from vsw.models.ile.params import check_parameter
+from vsw.models.ile.simulate import simulate, simulate_cost
 from vsw.vectorize import CHUNK, default_threads, run_blocks
 
 __all__ = [
@@ -445,8 +446,6 @@ def edge_check_cost(
     Each row simulates both edges from inside for ``steps`` steps (default as there) and
     from outside for 2 steps (see :mod:`vsw.limits` for the cost of a step).
     """
-    from vsw.models.ile.simulate import simulate_cost
-
     steps = _edge_check_steps(beta, phi0) if steps is None else steps
     return simulate_cost(n_samples * (2 * steps + 4), record=False)
 
@@ -479,8 +478,6 @@ def check_edges_by_simulation(
     -------
     list of EdgeCheck
     """
-    from vsw.models.ile.simulate import simulate
-
     rows = np.flatnonzero(np.isfinite(result.q_min) & np.isfinite(result.q_max))
     if rows.size == 0:
         return []

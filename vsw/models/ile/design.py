@@ -67,7 +67,7 @@ import numpy as np
 from generated import ile
 from generated.ile.params import PARAMETERS
 from vsw.errors import VswInputError
-from vsw.models.ile.params import RobotScale
+from vsw.models.ile.params import RobotScale, check_parameter
 
 __all__ = [
     "CONDITION_SETS",
@@ -441,8 +441,6 @@ def _variable_bounds(
     it than :data:`TABLE_DISTANCE` is refused: the design never comes that close to an
     open limit, so such a bound could not be honoured as the closed bound it is.
     """
-    from vsw.models.ile.params import check_parameter
-
     lbx, ubx = np.empty(3), np.empty(3)
     table_open: set[tuple[int, int]] = set()
     bound_names: dict[tuple[int, int], str] = {}
