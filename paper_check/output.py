@@ -6,6 +6,9 @@ import os
 import tempfile
 from pathlib import Path
 
+from paper_check.figures import FIGURES
+from vsw.figures import SAVE_FORMATS
+
 __all__ = ["REPORT_FILES", "check_output_directory"]
 
 REPORT_FILES = ("audit.md", "audit.json")
