@@ -67,14 +67,21 @@ def rendered_tree(tmp_path_factory) -> dict[str, str]:
     return json.loads(out.read_text())
 
 
+_RENDERED: dict[str, str] = {}
+
+
+def cached_render_model(name: str) -> dict[str, str]:
+    """One model's files from the test run's derivation (a module-level function: the
+    derive command's worker processes get it by name)."""
+    return {p: t for p, t in _RENDERED.items() if p.startswith(f"{name}/")}
+
+
 @pytest.fixture
 def cached_derivation(rendered_tree, monkeypatch):
     """``derive.__main__`` with each model's rendering taken from :func:`rendered_tree`:
     the command's own machinery (comparison, writing, --model) without deriving again."""
     import derive.__main__ as derive_main
 
-    def render_model(name: str) -> dict[str, str]:
-        return {p: t for p, t in rendered_tree.items() if p.startswith(f"{name}/")}
-
-    monkeypatch.setattr(derive_main, "_render_model", render_model)
+    _RENDERED.update(rendered_tree)
+    monkeypatch.setattr(derive_main, "_render_model", cached_render_model)
     return rendered_tree

@@ -270,6 +270,7 @@ def test_every_json_output_starts_with_the_envelope(capsys, tmp_path):
         ["sweep", "--model", "rimless-wheel", "--over", "gamma=0.1:0.12:2"],
         ["animate", "--model", "rimless-wheel", "--steps", "1", "--out", str(tmp_path / "a.svg")],
         ["design", "--stepper-2d", "--target-speed", "0.8"],
+        ["explore", "--out", str(tmp_path / "page.html")],
     ]
     for argv in commands:
         code, out, err = run_main(capsys, [*argv, "--json"])

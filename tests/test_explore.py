@@ -55,7 +55,8 @@ def test_page_is_self_contained(tmp_path, capsys):
     [
         (["explore", "--out", "x.txt"], [".html"]),
         (["explore", "--out", "/nonexistent/x.html"], ["does not exist"]),
-        (["explore", "--out", "x.html", "--beta", "1.5"], ["--beta", "range"]),
+        (["explore", "--out", "x.html", "--beta", "1.5"], ["--beta", "(0, 1)"]),
+        (["explore", "--out", "x.html", "--beta", "0.1"], ["--beta", "slider range"]),
         (["explore", "--out", "x.html", "--phi0", "nan"], ["--phi0"]),
     ],
 )

@@ -14,6 +14,7 @@ import pytest
 
 from generated import ile
 from vsw import plotstyle
+from vsw.figures import SAVE_FORMATS, save_figure
 from vsw.models.ile import plots
 from vsw.models.ile.basin import basin, check_edges_by_simulation
 from vsw.models.ile.simulate import simulate
@@ -74,11 +75,11 @@ def test_cli_figures_identical_bytes_in_every_format(tmp_path, small_basin):
     # The two richest figures (the others are drawn by the same helpers; the audit's
     # figures are compared byte for byte in tests/test_paper_check.py).
     figures = _cli_figures(small_basin)
-    for name, formats in (("simulate", figures.SAVE_FORMATS), ("basin", ("pdf",))):
+    for name, formats in (("simulate", SAVE_FORMATS), ("basin", ("pdf",))):
         make = figures[name]
         for ext in formats:
-            first = plots.save_figure(make(), tmp_path / f"{name}-1.{ext}").read_bytes()
-            second = plots.save_figure(make(), tmp_path / f"{name}-2.{ext}").read_bytes()
+            first = save_figure(make(), tmp_path / f"{name}-1.{ext}").read_bytes()
+            second = save_figure(make(), tmp_path / f"{name}-2.{ext}").read_bytes()
             assert first == second, f"{name}.{ext} differs between two runs"
             if ext == "pdf":
                 # No dates or producer strings; TrueType fonts (journals reject Type 3).
@@ -93,7 +94,7 @@ def test_png_resolution_at_least_200_dpi(tmp_path, small_basin):
     # The resolution is save_figure's (the CLI's --plot); two figure sizes suffice.
     for name in ("simulate", "basin"):
         fig = figures[name]()
-        path = plots.save_figure(fig, tmp_path / f"{name}.png")
+        path = save_figure(fig, tmp_path / f"{name}.png")
         width, height, dpi = _png_dpi(path.read_bytes())
         assert dpi >= 200, name
         w_in, h_in = fig.get_size_inches()

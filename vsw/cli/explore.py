@@ -9,6 +9,7 @@ from typing import Any
 
 from vsw import models
 from vsw.cli import options
+from vsw.cli.output import dump_json, envelope
 from vsw.cli.parser import EXIT_OK
 from vsw.errors import VswInputError
 from vsw.models.ile.explore import write_page
@@ -37,5 +38,9 @@ def run(args: argparse.Namespace) -> int:
     beta, theta_II, phi0 = params
     out = write_page(args.out, beta=beta, theta_II_deg=math.degrees(theta_II),
                      phi0_deg=math.degrees(phi0), leg=args.leg_length)  # fmt: skip
+    if args.json:
+        data = envelope(model, params, args.argv, {"page": "generated/ile/js/ile.js"})
+        dump_json({**data, "out": str(out), "leg_length": args.leg_length})
+        return EXIT_OK
     sys.stdout.write(f"{out}: open it in a browser (no server needed)\n")
     return EXIT_OK
