@@ -15,7 +15,8 @@ import sympy as sm
 from derive.models import ile as model
 from generated import ile
 from paper_check import compare
-from paper_check.audit import _walk_mask, equation_verdict, expected_verdicts
+from paper_check.audit import equation_verdict, expected_verdicts
+from paper_check.walking import walk_mask
 from paper_check.equations import EQUATION_BY_ID, EQUATIONS, PAPER_SYMBOLS, parse_paper
 
 N_SAMPLES = 2000
@@ -178,7 +179,7 @@ def test_17_is_stricter_than_the_exact_theta_IV(sample: dict[str, np.ndarray]) -
     # A gait between the printed and the exact limit walks (beta = 0.8, phi0 = 45 deg).
     theta_II = np.radians(30.0)
     assert theta_II > np.radians(45.0) / 2
-    assert _walk_mask(np.array(0.8), np.array(theta_II), np.array(np.radians(45.0)))
+    assert walk_mask(np.array(0.8), np.array(theta_II), np.array(np.radians(45.0)))
 
 
 def test_14_branches_exact_but_conditions_missing(
@@ -216,7 +217,7 @@ def test_15_is_theta_I_negative_but_not_needed(sample: dict[str, np.ndarray]) ->
     # A walking gait with beta < cos(phi0), i.e. theta_I > 0 (starts past the apex).
     b, t2, p = 0.8309, np.radians(6.263), np.radians(32.72)
     assert b < np.cos(p)
-    assert _walk_mask(np.array(b), np.array(t2), np.array(p))
+    assert walk_mask(np.array(b), np.array(t2), np.array(p))
 
 
 def test_verdicts_of_equations_match_the_recorded_table(
