@@ -16,8 +16,8 @@ from derive.models import ile as model
 from generated import ile
 from paper_check import compare
 from paper_check.audit import equation_verdict, expected_verdicts
-from paper_check.walking import walk_mask
 from paper_check.equations import EQUATION_BY_ID, EQUATIONS, PAPER_SYMBOLS, parse_paper
+from paper_check.walking import walk_mask
 
 N_SAMPLES = 2000
 TOL = 1e-9
