@@ -235,7 +235,9 @@ def test_period_two_walks_are_classified(gaits):
     model = load("simplest_walker")
     params = model.parameters({"gamma": 0.016})
     orbits = model.fixed_points(params)
-    long_gait = max(orbits, key=lambda o: abs(o.state["theta"]))
+    # Garcia's long gait: the longer of the two shortest steps (the search also finds
+    # gaits whose swing leg swings back and forth, periods above 9)
+    long_gait = sorted(orbits, key=lambda o: o.period)[1]
     state = np.array([long_gait.state[k] for k in (*model.coordinates, *model.rates)])
     sim = simulator(load("simplest_walker"))
     walk = sim.walk(params, (state * (1 + 1e-4))[None], 400, target=state, keep=2)
