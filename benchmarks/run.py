@@ -44,7 +44,7 @@ import generated.ile as ile  # noqa: E402
 from vsw.models.ile.params import random_parameters  # noqa: E402
 from vsw.vectorize import chunked, default_threads  # noqa: E402
 
-CASES = (1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11)
+CASES = (1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12)
 
 DESIGN_BEFORE = "39d527c"
 """The commit whose vsw/design.py case 8 compares with (before issue 10)."""
@@ -782,7 +782,64 @@ def run_case(case: int, quick: bool) -> list[Row]:
         return case_batch_step(8 if quick else 200, reps)
     if case == 11:
         return case_basin_grid(20 if quick else 500, 1 if quick else 2)
+    if case == 12:
+        return case_gait_search(quick)
     raise ValueError(f"no benchmark case {case}; cases are {CASES}")
+
+
+GAIT_SEARCH_SETS = (
+    ("simplest_walker", {}),
+    ("compass_gait", {}),
+    ("vsw_biped", {"beta": 0.8, "theta_II": 0.1, "mu": 0.3, "b_over_l": 0.3}),
+    ("vsw_biped", {"beta": 0.8, "theta_II": 0.1, "mu": 1e-4, "b_over_l": 0.3}),
+    ("vsw_biped", {"beta": 0.8, "theta_II": 0.1, "mu": 1e-3, "b_over_l": 0.3}),
+    ("vsw_biped", {"beta": 0.85, "theta_II": 0.05, "mu": 0.3, "b_over_l": 0.3}),
+    ("vsw_biped", {"beta": 0.85, "theta_II": 0.05, "mu": 1.0, "b_over_l": 0.3}),
+    ("vsw_biped", {"beta": 0.8, "theta_II": -0.2, "mu": 0.3, "b_over_l": 0.3}),
+    ("vsw_biped", {"beta": 0.99, "theta_II": -0.2, "mu": 0.3, "b_over_l": 0.3}),
+)
+"""Where the gait search is checked against a scan twice as fine (case 12): the passive
+walkers' defaults and the biped's sets of tests/test_gaits.py (issue 20's)."""
+
+
+def case_gait_search(quick: bool) -> list[Row]:
+    """Case 12: the gait search (vsw.gaits) as analyze runs it, one run per set, against a
+    scan twice as fine along every free component (4 times the cells in two components,
+    8 in three): the same gaits (each component to 1e-8), or which ones the finer scan adds.
+    Quick: the rimless wheel only."""
+    from vsw import gaits
+    from vsw.models import load
+
+    sets = (("rimless_wheel", {}),) if quick else GAIT_SEARCH_SETS
+    rows = []
+    for key, values in sets:
+        m = load(key)
+        params = m.parameters(values)
+        dims = len(m.spec["search"])
+        points = gaits.SCAN_POINTS[dims]
+        start = time.perf_counter()
+        default = gaits.search(m, params)
+        t_default = time.perf_counter() - start
+        start = time.perf_counter()
+        finer = gaits.search(m, params, cells=(2 * points) ** dims)
+        t_finer = time.perf_counter() - start
+
+        def states(found):
+            return [np.array(list(g.state.values())) for g in found.gaits]
+
+        extra = [y for y in states(finer)
+                 if all(np.max(np.abs(y - x)) > 1e-8 for x in states(default))]  # fmt: skip
+        same = not extra and len(states(finer)) == len(states(default))
+        moduli = ", ".join(f"{g.max_abs_eigenvalue:.4g}" for g in default.gaits)
+        label = f"{key} {values}" if values else f"{key} (defaults)"
+        rows.append(Row(
+            "12", f"gait search, {label}: {points} points a side ({default.cells} cells)",
+            f"scan twice as fine ({finer.cells} cells)", Timing.of([t_default]),
+            Timing.of([t_finer]), "the finer scan finds no other gait", None if quick else same,
+            note=f"{len(default.gaits)} gaits (max |eigenvalue| {moduli}); the finer scan "
+            f"adds {len(extra)}; Newton from {default.candidates} completed cells",
+        ))  # fmt: skip
+    return rows
 
 
 # ---------------------------------------------------------------------------- output
