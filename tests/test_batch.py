@@ -153,19 +153,19 @@ def _cells(model, params, target, count, rng):
     return np.column_stack(model.module.section_completion(*params, *base.T))
 
 
-def test_classification_of_1000_cells_equals_the_scipy_route(gaits):
+def test_classification_of_500_cells_equals_the_scipy_route(gaits):
     """Every class equal, except cells whose class changes within 1e-6 of them (a class
     boundary: then the two routes may differ; none did when this was written)."""
     model, params, orbits = gaits["simplest_walker"]
     stable = next(o for o in orbits if o.stable)
     target = np.array([stable.state[k] for k in (*model.coordinates, *model.rates)])
-    cells = _cells(model, params, target, 1000, np.random.default_rng(2001))
+    cells = _cells(model, params, target, 500, np.random.default_rng(2001))
     sim = simulator(load("simplest_walker"))
     options = dict(target=target, converge_tol=1e-6, period_tol=1e-6, max_period=8)
     batch = sim.walk(params, cells, 50, **options)
     ref = reference_walks(model, params, cells, Options(50, tuple(target), 1e-6, 1e-6, 8, 0))
     counts = Counter(batch.labels())
-    assert counts["converged"] >= 100 and counts["fell"] >= 100, counts
+    assert counts["converged"] >= 50 and counts["fell"] >= 50, counts
     differ = [i for i, (a, b) in enumerate(zip(batch.labels(), ref.labels())) if a != b]
     for i in differ:
         nudged = cells[i] + 1e-6 * np.array(

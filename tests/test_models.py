@@ -35,6 +35,7 @@ import pytest
 import generated
 from derive.__main__ import main as derive_main
 from derive.__main__ import stale_report, write_atomically
+from vsw.gaits import search
 from vsw.hybrid import HybridModel
 from vsw.models import load
 
@@ -142,10 +143,17 @@ def casadi_outputs(fn, args: list[np.ndarray]) -> np.ndarray:
 
 
 @functools.cache
+@functools.cache
 def gaits(name: str) -> list[tuple[tuple[float, ...], list]]:
-    """(parameters, period-one orbits) at the defaults and two nearby sets."""
+    """(parameters, period-one orbits) at the defaults (the search every command makes)
+    and two nearby sets (a scan of 24 points a side: the tests here check the physics
+    along gaits, tests/test_gaits.py the search)."""
     m = load(name)
-    return [(p, m.fixed_points(p)) for p in parameter_sets(m, 3, seed=12)]
+    defaults, *nearby = parameter_sets(m, 3, seed=12)
+    coarse = 24 ** len(m.spec["search"])
+    return [(defaults, m.fixed_points(defaults))] + [
+        (p, search(m, p, cells=coarse).gaits) for p in nearby
+    ]
 
 
 def walking_states(m: HybridModel) -> list[tuple[tuple[float, ...], np.ndarray]]:

@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from vsw.batch import FELL, WALKED, BatchSimulator, simulator
-from vsw.errors import ConvergenceError, ModelConditionError, VswInputError
+from vsw.errors import ConvergenceError, VswInputError
 from vsw.hybrid import HybridModel, Orbit
 
 __all__ = [
@@ -49,7 +49,6 @@ __all__ = [
     "GaitSearch",
     "pick",
     "search",
-    "stable_gait",
 ]
 
 SCAN_POINTS = {1: 4001, 2: 960, 3: 61}
@@ -366,18 +365,3 @@ def pick(gaits: Sequence[Orbit]) -> Orbit | None:
     """The gait the commands follow: the first stable one (by period), else the first."""
     stable = [o for o in gaits if o.stable]
     return (stable or list(gaits) or [None])[0]
-
-
-def stable_gait(model: HybridModel, params: Sequence[float], purpose: str) -> Orbit:
-    """The first stable gait at ``params``, or ModelConditionError saying what was found."""
-    found = search(model, params)
-    stable = [o for o in found.gaits if o.stable]
-    if stable:
-        return stable[0]
-    if found.gaits:
-        least = min(o.max_abs_eigenvalue for o in found.gaits)
-        raise ModelConditionError(
-            f"{model.name}: no stable period-one gait at these parameters ({len(found.gaits)} "
-            f"unstable, the least with max |eigenvalue| {least:.4g}): {purpose}"
-        )
-    raise ModelConditionError(f"{model.name}: {found.why_none()}: {purpose}")

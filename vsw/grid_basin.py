@@ -22,8 +22,8 @@ import numpy as np
 from vsw import plotstyle
 from vsw.batch import Runner, simulator
 from vsw.errors import VswInputError
-from vsw.gaits import stable_gait
 from vsw.hybrid import HybridModel, Orbit
+from vsw.models.base import Model
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -157,7 +157,7 @@ def _label_key(label: str) -> tuple[int, int]:
 
 
 def grid_basin(
-    model: HybridModel,
+    model: Model,
     params: Sequence[float],
     x_name: str,
     x: np.ndarray,
@@ -174,7 +174,7 @@ def grid_basin(
     components, or over ``x`` alone where the section has one free component (see the
     module docstring)."""
     check_grid_names(model, x_name, y_name)
-    gait = gait or stable_gait(model, params, "no basin to draw")
+    gait = gait or model.stable_gait(params, "no basin to draw")
     target = np.array([gait.state[n] for n in (*model.coordinates, *model.rates)])
     states = grid_states(model, params, target, x_name, x, y_name, y)
     sim = simulator(model)

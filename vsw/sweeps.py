@@ -20,7 +20,7 @@ import numpy as np
 
 from vsw.batch import Runner, simulator
 from vsw.errors import ConvergenceError, ModelConditionError, VswInputError
-from vsw.gaits import pick, search
+from vsw.gaits import pick
 from vsw.hybrid import HybridModel, by_modulus, repeat_period
 from vsw.models.base import Model
 
@@ -123,7 +123,7 @@ def continuation(
 
 
 def brute_force(
-    model: HybridModel,
+    model: Model,
     values: Mapping[str, float],
     over: str,
     grid: np.ndarray,
@@ -149,7 +149,7 @@ def brute_force(
     sim = simulator(model)
     tables = [model.parameters({**values, over: float(v)}) for v in grid]
     if start is None:
-        first = search(model, tables[0]).gaits
+        first = model.search_gaits(tables[0]).gaits
         if not first:
             raise ModelConditionError(
                 f"{model.name}: no period-one gait at {over} = {grid[0]:g} to start from: "

@@ -170,6 +170,22 @@ class Model(HybridModel):
                 self._searches.pop(next(iter(self._searches)))
         return found
 
+    def stable_gait(self, params: Sequence[float], purpose: str) -> Orbit:
+        """The first stable gait (by period) at ``params``, or ModelConditionError saying
+        what was found and what it was wanted for (``purpose``)."""
+        found = self.search_gaits(params)
+        stable = [o for o in found.gaits if o.stable]
+        if stable:
+            return stable[0]
+        if found.gaits:
+            least = min(o.max_abs_eigenvalue for o in found.gaits)
+            raise ModelConditionError(
+                f"{self.name}: no stable period-one gait at these parameters "
+                f"({len(found.gaits)} unstable, the least with max |eigenvalue| {least:.4g}): "
+                f"{purpose}"
+            )
+        raise ModelConditionError(f"{self.name}: {found.why_none()}: {purpose}")
+
     def fixed_points(self, params: Sequence[float]) -> list[Orbit]:
         """The period-one gaits at ``params`` (sorted by period)."""
         return self.search_gaits(params).gaits
