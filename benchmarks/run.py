@@ -38,6 +38,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
+# The tests' oracles (tests/oracles: routes the runtime does not ship) are case 3's subject.
+if str(ROOT / "tests") not in sys.path:
+    sys.path.append(str(ROOT / "tests"))
 
 import generated  # noqa: E402
 import generated.ile as ile  # noqa: E402
@@ -322,8 +325,9 @@ def case_fixed_point_vs_simulation(samples: int, batch: int, reps: int) -> list[
 
 def case_rootfinders_and_c(reps: int) -> list[Row]:
     """Case 3: CasADi rootfinder per solve (closed form, integrated map); compiled C per call."""
+    from oracles.ile_fixed_point import solve_fixed_point  # tests/oracles
+
     from vsw.ccode import CLibrary
-    from vsw.models.ile.fixed_point import solve_fixed_point
 
     b, t, p = 0.8, 0.0, np.pi / 4
     calls = 1000
@@ -723,7 +727,7 @@ def case_startup(reps: int, include_audit: bool, every_model: bool = True) -> li
     py = sys.executable
     rows = []
     modules = ("cli, models, gaits, sweeps, grid_basin, batch, models.ile.analysis, "
-               "models.ile.basin, models.ile.design, models.ile.fixed_point, models.ile.plots, "
+               "models.ile.basin, models.ile.design, models.ile.plots, "
                "models.ile.simulate, models.ile.sweep")  # fmt: skip
     lazy_check = (
         f"import vsw.{modules.replace(', ', ', vsw.')}; import sys; "

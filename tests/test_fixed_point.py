@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
+from oracles import ile_fixed_point as fp
 
 from generated import ile
 from vsw.errors import ConvergenceError, VswInputError
-from vsw.models.ile import fixed_point as fp
 
 FIG8 = (0.8, 0.0, math.radians(45.0))
 REL = 1e-10

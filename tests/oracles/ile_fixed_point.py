@@ -1,4 +1,8 @@
-"""CasADi rootfinders for the fixed point q^f of the ILE stride map.
+"""CasADi rootfinders for the fixed point q^f of the ILE stride map: a test oracle.
+
+The runtime answers q^f from the closed form (10) (:mod:`vsw.models.ile.analysis`) and
+every model's gaits from :mod:`vsw.gaits`; these rootfinders are a third, independent
+route the tests (tests/test_fixed_point.py) and benchmark case 3 compare with.
 
 Two maps, one rootfinder (CasADi ``newton``):
 
