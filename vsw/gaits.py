@@ -22,9 +22,12 @@ to the next). The search is complete within a stated box and resolution:
    unknowns, eigenvalues by CasADi derivatives, one simulated step back onto it).
 
 What this misses, by construction: a gait whose set of states that complete one step is
-too thin to hold a grid cell near it (a gait with its apex barely passed), and gaits
-outside the box. tests/test_gaits.py checks at the parameter sets where an independent
-search found gaits an earlier search missed that a scan twice as fine finds nothing more.
+too thin to hold a grid cell near it (a gait with its apex barely passed: max |eigenvalue|
+in the hundreds), and gaits outside the box. Against a scan twice as fine, at the biped's
+sets where an independent search found gaits an earlier search missed and at the passive
+walkers' defaults, no gait with max |eigenvalue| below 100 is missed; of the very unstable
+ones the finer scan adds two (|eigenvalue| 778 and 874) to the eleven found here
+(benchmarks case 12; tests/test_gaits.py checks the independent search's gaits).
 Without a C compiler the scan takes the SciPy route (:func:`vsw.batch.reference_walks`)
 on a coarse grid (:data:`FALLBACK_CELLS`), and the result says it is not complete.
 """
@@ -53,12 +56,10 @@ __all__ = [
 
 SCAN_POINTS = {1: 4001, 2: 960, 3: 61}
 """Grid points along each free component of the default scan, by their number (more
-components: 230,000 cells in all). Chosen so that a scan twice as fine finds no more gaits
-at the sets tests/test_gaits.py checks: with 480 in two components the simplest walker's
-gaits with |eigenvalue| 930 and 948 (periods 9.4 and 10.2, the swing leg swinging back and
-forth) are missed; with 48 in three the biped's with 777 and 1322 at (0.8, 0.1, 0.3, 0.3),
-and the compass gait's with 273 (period 1.88 s) with 48 too. At those gaits the states
-that complete one step are bands about 0.01 wide in the rates."""
+components: 230,000 cells in all): with 480 in two components the simplest walker's gaits
+with |eigenvalue| 930 and 948 (periods 9.4 and 10.2, the swing leg swinging back and
+forth) are missed, with 48 in three the compass gait's with 273 (period 1.88 s). At such
+gaits the states that complete one step are bands about 0.01 wide in the rates."""
 
 FALLBACK_CELLS = 1_000
 """Cells of the scan on the SciPy route (no compiler): about 300 times slower a step."""
