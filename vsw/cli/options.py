@@ -118,7 +118,9 @@ def after_parse(
         if name in values:
             parser.error(f"{name} given twice, as {option} and as --param {name}: give it once")
         text = f"{flag!r}{unit}"
-        values[name] = parameter_value(option, table[name], text)
+        given_as = f"{option} {flag:g}" + (f" {unit} = {math.radians(flag):.6g} rad" if unit
+                                           else "")  # fmt: skip
+        values[name] = parameter_value(option, table[name], text, given_as)
     if swept is not None and swept in values:
         parser.error(f"{swept} is swept by --over: do not also give it as a parameter")
     for dest, feature in features.items():
@@ -164,15 +166,17 @@ def _interval(p: Any) -> str:
     return f"({p.lower:.6g}, {p.upper:.6g}){unit}"
 
 
-def parameter_value(option: str, p: Any, text: str) -> float:
+def parameter_value(option: str, p: Any, text: str, given: str | None = None) -> float:
     """``text`` as a value of parameter ``p``: a number in the table's open interval (an
-    angle's also with a ``deg`` suffix)."""
+    angle's also with a ``deg`` suffix). ``given``: how the command line gave it, for the
+    message (default ``OPTION NAME=TEXT``)."""
     value = number(text, degrees=p.unit == "rad")
     if not p.lower < value < p.upper:
         shown = f" = {math.degrees(value):.6g} deg" if p.unit == "rad" and "deg" in text else ""
+        where = given or f"{option} {p.name}={text.strip()}{shown}"
         raise VswInputError(
-            f"{option} {p.name}={text.strip()}{shown}: {p.name} must be a number in the open "
-            f"interval {_interval(p)}: {p.reason}"
+            f"{where}: {p.name} must be a number in the open interval {_interval(p)}: "
+            f"{p.reason}"
         )
     return value
 
