@@ -175,8 +175,7 @@ def parameter_value(option: str, p: Any, text: str, given: str | None = None) ->
         shown = f" = {math.degrees(value):.6g} deg" if p.unit == "rad" and "deg" in text else ""
         where = given or f"{option} {p.name}={text.strip()}{shown}"
         raise VswInputError(
-            f"{where}: {p.name} must be a number in the open interval {_interval(p)}: "
-            f"{p.reason}"
+            f"{where}: {p.name} must be a number in the open interval {_interval(p)}: {p.reason}"
         )
     return value
 
