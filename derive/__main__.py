@@ -19,11 +19,15 @@ import contextlib
 import ctypes
 import difflib
 import errno
+import multiprocessing
 import os
 import secrets
 import shutil
+import signal
 import stat
 import sys
+import threading
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from types import SimpleNamespace
@@ -38,6 +42,57 @@ FIX_COMMAND = "python -m derive"
 def _render_model(name: str) -> dict[str, str]:
     """One model's files (run in a worker process: models derive independently)."""
     return render.render(MODELS[name]())
+
+
+_PR_SET_PDEATHSIG = 1  # linux/prctl.h
+
+
+def _exit_with_parent(parent: int) -> None:
+    """Worker initializer: end this worker when the process that started it ends.
+
+    A killed ``python -m derive`` (SIGKILL, or SIGTERM as ``timeout`` sends) must not
+    leave workers deriving on, holding the caller's stdout and stderr. On Linux the kernel
+    sends SIGKILL when the parent dies (prctl PR_SET_PDEATHSIG); everywhere, a daemon
+    thread also checks the parent every 0.2 s (and catches a parent that died before the
+    prctl). Interrupts are the parent's to handle: it terminates the workers.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    with contextlib.suppress(OSError, AttributeError):
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(0.2)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="derive-parent-watch", daemon=True).start()
+
+
+def _map_in_workers(function, items: list[str], workers: int) -> list:
+    """``[function(item) for item in items]`` in ``workers`` forked processes.
+
+    The workers are terminated at once when the parent is interrupted or terminated (a
+    pool's ``shutdown`` would wait for their derivations), and end by themselves when the
+    parent is killed (:func:`_exit_with_parent`).
+    """
+    context = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
+    pool = context.Pool(workers, initializer=_exit_with_parent, initargs=(os.getpid(),))
+    try:
+        results = pool.map(function, items, chunksize=1)
+    except BaseException:
+        pool.terminate()
+        pool.join()
+        raise
+    pool.close()
+    pool.join()
+    return results
+
+
+def _terminated(signum: int, _frame) -> None:
+    """SIGTERM in the parent: unwind (so that the workers are stopped), exit 128 + 15."""
+    raise SystemExit(128 + signum)
 
 
 def render_all(only: str | None = None, existing: dict[str, str] | None = None) -> dict[str, str]:
@@ -55,10 +110,6 @@ def render_all(only: str | None = None, existing: dict[str, str] | None = None) 
     workers = min(len(names), len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
                   else os.cpu_count() or 1)  # fmt: skip
     if workers > 1:
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
-
-        context = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
         # Large models first, so the workers finish closer together: the size of a model's
         # generated module on disk is a rough stand-in for its derivation time (measured
         # serially: biped 27 s, compass gait 25 s, TLE 19 s, ILE 9 s, simplest walker 7 s,
@@ -71,8 +122,7 @@ def render_all(only: str | None = None, existing: dict[str, str] | None = None) 
             return module.stat().st_size if module.is_file() else 0
 
         order = sorted(names, key=cost, reverse=True)
-        with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-            by_name = dict(zip(order, pool.map(_render_model, order)))
+        by_name = dict(zip(order, _map_in_workers(_render_model, order, workers)))
         rendered = [by_name[name] for name in names]
     else:
         rendered = [_render_model(name) for name in names]
@@ -269,6 +319,8 @@ def main(argv: list[str] | None = None) -> int:
         "--model", choices=sorted(MODELS), help="derive only this model (the others as on disk)"
     )
     args = parser.parse_args(argv)
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _terminated)
     files = render_all(args.model, existing_files(args.out) if args.model else None)
     if args.check:
         report = stale_report(files, args.out)
@@ -285,4 +337,8 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    try:
+        sys.exit(main())
+    except KeyboardInterrupt:  # the workers are already stopped (_map_in_workers)
+        print("python -m derive: interrupted", file=sys.stderr)
+        sys.exit(130)
