@@ -66,7 +66,7 @@ def test_killed_derive_leaves_no_worker(tmp_path, signum):
         left = [pid for pid in workers if _alive(pid)]
         assert left == [], f"workers {left} still running a second after {signum.name}"
         # Nothing holds the pipes any more: reading them ends.
-        out, err = process.communicate(timeout=5)
+        _, err = process.communicate(timeout=5)
         if signum == signal.SIGINT:
             assert process.returncode == 130
             assert err.decode().strip().splitlines()[-1] == "python -m derive: interrupted"

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from vsw import stop
 from vsw.compiled import build_library
 from vsw.errors import ConvergenceError, VswInputError
 from vsw.hybrid import _PHASE_TIME_LIMIT, _RTOL, HybridModel
@@ -166,6 +167,7 @@ class BatchSimulator:
                     )  # fmt: skip
                     self._bind(lib)
                     self._lib = lib
+                    stop.register(lambda: lib.vsw_batch_stop(1), lambda: lib.vsw_batch_stop(0))
                 except (OSError, AttributeError) as exc:
                     self.build_error = f"batch simulator unavailable, using SciPy: {exc}"
         return self._lib
@@ -179,6 +181,8 @@ class BatchSimulator:
         dbl = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
         i32 = np.ctypeslib.ndpointer(dtype=np.int32, flags="C_CONTIGUOUS")
         i64 = np.ctypeslib.ndpointer(dtype=np.int64, flags="C_CONTIGUOUS")
+        lib.vsw_batch_stop.argtypes = [ctypes.c_int]
+        lib.vsw_batch_stop.restype = None
         fn = lib.vsw_batch_simulate
         fn.restype = None
         ll = ctypes.c_longlong
@@ -392,6 +396,7 @@ def reference_walks(model: HybridModel, params, states, options: Options) -> Bat
             try:
                 result = model.step(tuple(p), x)
             except ConvergenceError:
+                stop.check()
                 code = STALLED
                 break
             if result.ended == "stalled":

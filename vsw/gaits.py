@@ -41,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from vsw import stop
 from vsw.batch import FELL, WALKED, BatchSimulator, simulator
 from vsw.errors import ConvergenceError, VswInputError
 from vsw.hybrid import HybridModel, Orbit
@@ -328,6 +329,7 @@ def search(
                 model.periodic_orbit(params, state, _phase_durations(model, params, state))
             )
         except ConvergenceError as exc:
+            stop.check()  # Ctrl-C or the time limit inside CasADi is no failed start
             unconfirmed.append(
                 {
                     "state": dict(zip(names, (float(v) for v in state))),

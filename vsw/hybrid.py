@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from vsw import stop
 from vsw.errors import ConvergenceError, VswInputError
 from vsw.parameters import check_parameter
 
@@ -543,6 +544,7 @@ class HybridModel:
             with contextlib.redirect_stderr(io.StringIO()):
                 solution = np.array(solver(guess, p), dtype=float).reshape(-1)
         except RuntimeError as exc:  # CVODES gave up (a guess far from any orbit)
+            stop.check()  # or CasADi turned Ctrl-C or the time limit into this error
             raise ConvergenceError(
                 f"{self.name}: the periodic-orbit solver failed ({' '.join(str(exc).split())[:80]})"
             ) from None
@@ -625,6 +627,7 @@ class HybridModel:
                     np.asarray(durations, float),
                 )  # fmt: skip
         except RuntimeError as exc:  # an end time's rootfinder failed
+            stop.check()  # or CasADi turned Ctrl-C or the time limit into this error
             raise ConvergenceError(
                 f"{self.name}: the Poincaré map's derivative failed "
                 f"({' '.join(str(exc).split())[-60:]})"

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from vsw import stop
 from vsw.batch import Runner, simulator
 from vsw.errors import ConvergenceError, ModelConditionError, VswInputError
 from vsw.gaits import pick
@@ -83,6 +84,7 @@ def continuation(
                 orbit = model.periodic_orbit(params, x0, previous.durations)
                 source = "continuation"
             except ConvergenceError:
+                stop.check()  # Ctrl-C or the time limit inside CasADi ends the sweep
                 orbit = None
         reason = None
         if orbit is None:
@@ -166,6 +168,7 @@ def brute_force(
         try:
             x, jacobian = sim.fixed_point(params, previous)
         except ConvergenceError:
+            stop.check()
             x = None
         if x is None or not np.all(np.isfinite(x)):
             point["found"] = False

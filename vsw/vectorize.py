@@ -20,6 +20,7 @@ from concurrent.futures import ThreadPoolExecutor, wait
 
 import numpy as np
 
+from vsw import stop
 from vsw.errors import VswInputError
 
 CHUNK = 16384
@@ -106,9 +107,16 @@ def run_blocks(block: Callable[[int], None], starts: Sequence[int], threads: int
     (a block function that itself evaluates blockwise) runs serially, so nested use cannot
     exhaust the pool and deadlock. The first exception is raised in the caller once no
     block is running any more: none writes into the caller's arrays after this returns.
+    A stop (Ctrl-C, the run-time limit: :mod:`vsw.stop`) is raised between blocks; the
+    blocks not started then are cancelled. Under :func:`vsw.stop.supervised` the main
+    thread never runs a block itself, so that it waits where signals reach it (a block in
+    C holds it for as long as the block takes).
     """
-    if threads <= 1 or len(starts) < 2 or getattr(_worker, "active", False):
+    in_worker = getattr(_worker, "active", False)
+    offload = stop.supervising() and threading.current_thread() is threading.main_thread()
+    if in_worker or (not offload and (threads <= 1 or len(starts) < 2)):
         for start in starts:
+            stop.check()
             block(start)
         return
 
@@ -119,11 +127,12 @@ def run_blocks(block: Callable[[int], None], starts: Sequence[int], threads: int
         finally:
             _worker.active = False
 
-    pool = _executor(threads)
+    pool = _executor(max(1, threads))
     futures = [pool.submit(contextvars.copy_context().run, task, s) for s in starts]
     try:
         for future in futures:
             future.result()
+            stop.check()
     finally:
         for future in futures:
             future.cancel()

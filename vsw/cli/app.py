@@ -16,6 +16,7 @@ import sys
 from collections.abc import Sequence
 from typing import Any, NoReturn, TextIO
 
+from vsw import stop
 from vsw.cli import analyze, animate, basin, design, explore, models, simulate, sweep
 from vsw.cli.output import version
 from vsw.cli.parser import (
@@ -90,6 +91,7 @@ class _GuardedStdout:
             raise
 
     def write(self, text: str) -> int:
+        stop.check()  # nothing of a stopped run reaches standard output
         return self._call("write", text)
 
     def writelines(self, lines: Any) -> None:
@@ -153,7 +155,10 @@ def _run(argv: Sequence[str] | None) -> int:
         args = parser.parse_args(argv)
         args.argv = argv
         _check_environment()
-        return int(args.func(args))
+        with stop.supervised(max_seconds()):
+            code = int(args.func(args))
+            stop.check()  # a stop a library turned into a result is still a stop
+        return code
     except VswInputError as exc:
         prog = exc.prog if isinstance(exc, UsageError) else "vsw"
         _say(f"{prog}: error: {_one_line(exc)}")

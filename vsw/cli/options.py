@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from vsw import models
+from vsw import models, stop
 from vsw.cli.parser import given, option_name
 from vsw.errors import ConvergenceError, InfeasibleError, VswInputError
 from vsw.models.base import FEATURES, Model
@@ -309,8 +309,10 @@ def solver_errors(model: Model) -> Iterator[None]:
         try:
             yield
         except (ConvergenceError, InfeasibleError):
+            stop.check()  # a solver's failure may be a stop that a library turned into one
             raise
         except RuntimeError as exc:
+            stop.check()
             last = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
             raise ConvergenceError(
                 f"{model.cli_name}: a CasADi solver failed: {last.rsplit(': ', 1)[-1]}"

@@ -38,7 +38,8 @@ EXIT_CLOSED_PIPE = 141  # 128 + SIGPIPE (13): what a shell reports for a broken 
 EXIT_STATUS = {
     EXIT_OK: "success",
     EXIT_INPUT: "bad input (one line on stderr): arguments, VSW_* settings, work beyond "
-    "the time or memory limit, a plot file or standard output that cannot be written",
+    "the time or memory limit (estimated before it starts, or stopped when it runs past "
+    "VSW_MAX_SECONDS), a plot file or standard output that cannot be written",
     EXIT_SOLVER: "a solver did not converge, or a design request is infeasible",
     EXIT_INTERRUPTED: "interrupted (Ctrl-C)",
     EXIT_CLOSED_PIPE: "standard output closed by its reader (e.g. '| head'): quiet, "
@@ -48,7 +49,11 @@ EXIT_STATUS = {
 
 ENVIRONMENT = (
     ("VSW_THREADS", "worker threads for large evaluations, 1-256 (default: the usable cores)"),
-    ("VSW_MAX_SECONDS", "refuse work estimated to take longer, in s (default 3600; inf: none)"),
+    (
+        "VSW_MAX_SECONDS",
+        "refuse work estimated to take longer, and stop a run at it, in s (default 3600; "
+        "inf: none)",
+    ),
     (
         "VSW_MAX_MEMORY",
         "refuse work estimated to need more memory, e.g. 8G (default: 80% of the "

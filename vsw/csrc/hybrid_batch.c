@@ -37,6 +37,16 @@ typedef struct {
     double rtol, atol, phase_time_limit;
 } vsw_tolerances;
 
+/* Set from another thread when the run stops (Ctrl-C, the run-time limit: vsw/stop.py):
+   every walk in progress ends as stalled at its next integrator step and none goes on,
+   so a block ends within about one step; the caller discards its results. */
+static volatile int vsw_stop_requested = 0;
+
+void vsw_batch_stop(int on)
+{
+    vsw_stop_requested = on;
+}
+
 static void vsw_call(vsw_fn fn, const double *p, const double *x, double *out)
 {
     const double *arg[VSW_SZ_ARG > 2 ? VSW_SZ_ARG : 2];
@@ -242,7 +252,8 @@ static int vsw_run_phase(int phase, const double *p, double *y, double *t,
         while (!skipped) {
             /* SciPy's RungeKutta._step_impl: at least 10 ulps of the time, then shrink on
                every rejection until accepted or below that. */
-            if (time >= tol->phase_time_limit || ++steps > VSW_MAX_RK_STEPS) {
+            if (time >= tol->phase_time_limit || ++steps > VSW_MAX_RK_STEPS
+                || vsw_stop_requested) {
                 *t = time;
                 return -1;
             }
@@ -405,7 +416,7 @@ void vsw_batch_simulate(long long n, const double *params, long long params_stri
         }
         if (!vsw_finite(x)) result = VSW_STALLED;
         const double target_scale = target ? vsw_scale(target) : 1.0;
-        while (result == VSW_WALKED && walked < max_steps) {
+        while (result == VSW_WALKED && walked < max_steps && !vsw_stop_requested) {
             if (max_period > 0) memcpy(history[walked % max_period], x, sizeof(double) * VSW_NX);
             double duration, length;
             int failure = 0;

@@ -66,6 +66,7 @@ import numpy as np
 
 from generated import ile
 from generated.ile.params import PARAMETERS
+from vsw import stop
 from vsw.errors import VswInputError
 from vsw.models.ile.params import RobotScale, check_parameter
 
@@ -862,6 +863,7 @@ def _solve_from(
     # Python's stderr; the result object carries what matters, so they are swallowed.
     with contextlib.redirect_stderr(io.StringIO()), contextlib.redirect_stdout(io.StringIO()):
         sol = solver(p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, **start)
+    stop.check()  # IPOPT ends an interrupted solve with a status, not an exception
     stats = solver.stats()
     x = np.clip(np.array(sol["x"], dtype=float).reshape(-1), lbx, ubx)
     return _Solve(

@@ -1,0 +1,206 @@
+"""Ctrl-C and the run-time limit stop a command whatever library runs (issue 21).
+
+CasADi calls Python's signal check inside its solvers and turns the KeyboardInterrupt it
+gets into a plain RuntimeError, which the runtime maps to a failed solve: an interrupted
+gait search used to finish with exit 0 and a gait missing. These tests put the signal
+inside a CasADi call deterministically (a CasADi callback that signals its own process,
+standing in for the orbit solver), and send real signals to real commands.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from vsw import stop
+from vsw.cli import main
+from vsw.cli.parser import EXIT_INPUT, EXIT_INTERRUPTED
+from vsw.hybrid import HybridModel
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def run(argv, env=None):
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        with pytest.MonkeyPatch.context() as mp:
+            for key, value in (env or {}).items():
+                mp.setenv(key, value)
+            code = main(argv)
+    return code, out.getvalue(), err.getvalue()
+
+
+class _SignalInside(ca.Callback):
+    """A CasADi function that, while CasADi runs it, delivers ``signum`` to this process
+    and then waits (in Python, so the handler runs inside CasADi's call)."""
+
+    def __init__(self, n_in: int, n_p: int, signum: int | None) -> None:
+        ca.Callback.__init__(self)
+        self.n_in, self.n_p, self.signum = n_in, n_p, signum
+        self.construct("signal_inside", {})
+
+    def get_n_in(self):
+        return 2
+
+    def get_sparsity_in(self, i):
+        return ca.Sparsity.dense(self.n_in if i == 0 else self.n_p, 1)
+
+    def get_sparsity_out(self, i):
+        return ca.Sparsity.dense(self.n_in, 1)
+
+    def eval(self, arg):
+        if self.signum is not None:
+            os.kill(os.getpid(), self.signum)
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:  # the handler raises in here
+            time.sleep(0.01)
+        return [arg[0]]
+
+
+@pytest.fixture
+def orbit_solver_signalling(monkeypatch):
+    """The orbit solver of every model replaced by one that signals from inside CasADi."""
+
+    def install(signum):
+        original = HybridModel._orbit_solver
+
+        def solver(self):
+            _, jacobian = original(self)
+            n_in = jacobian.size1_in(0)
+            n_p = jacobian.size1_in(1)
+            callback = _SignalInside(n_in, n_p, signum)
+            u, p = ca.MX.sym("u", n_in), ca.MX.sym("p", n_p)
+            wrapped = ca.Function("orbit_solver", [u, p], [callback(u, p)])
+            solver._keep = callback  # CasADi does not own a Python callback
+            return wrapped, jacobian
+
+        monkeypatch.setattr(HybridModel, "_orbit_solver", solver)
+
+    return install
+
+
+def test_casadi_turns_an_interrupt_into_a_runtime_error():
+    """The premise: without vsw.stop, the KeyboardInterrupt arrives as a RuntimeError."""
+    callback = _SignalInside(2, 1, signal.SIGINT)
+    with pytest.raises(RuntimeError, match="KeyboardInterrupt"):
+        callback(np.zeros(2), np.zeros(1))
+
+
+def test_interrupt_inside_casadi_ends_analyze_with_130(orbit_solver_signalling):
+    orbit_solver_signalling(signal.SIGINT)
+    code, out, err = run(["analyze", "--model", "rimless-wheel", "--json"])
+    assert code == EXIT_INTERRUPTED, (code, err)
+    assert out == ""
+    assert err.strip() == "vsw: interrupted"
+
+
+def test_interrupt_inside_casadi_ends_sweep_with_130(orbit_solver_signalling):
+    orbit_solver_signalling(signal.SIGINT)
+    code, out, err = run(["sweep", "--model", "rimless-wheel", "--over", "gamma=0.08:0.2:4"])
+    assert (code, out, err.strip()) == (EXIT_INTERRUPTED, "", "vsw: interrupted")
+
+
+def test_time_limit_inside_casadi_stops_with_one_line(orbit_solver_signalling):
+    orbit_solver_signalling(None)  # the solver just runs long: the limit's timer fires
+    started = time.monotonic()
+    code, out, err = run(["analyze", "--model", "rimless-wheel"], {"VSW_MAX_SECONDS": "1"})
+    assert code == EXIT_INPUT
+    assert out == ""
+    assert len(err.strip().splitlines()) == 1
+    assert "past the run-time limit of 1 s (VSW_MAX_SECONDS)" in err
+    assert time.monotonic() - started < 10
+
+
+def test_time_limit_stops_a_slow_search_while_it_runs():
+    """The compass gait with its leg mass near the hip (b = 0.001 m) swings its leg about
+    ten times a step: the gait search takes minutes; the limit stops it at 2 s."""
+    started = time.monotonic()
+    code, out, err = run(
+        ["analyze", "--model", "compass-gait", "--param", "b=0.001"], {"VSW_MAX_SECONDS": "2"}
+    )
+    elapsed = time.monotonic() - started
+    assert code == EXIT_INPUT and out == ""
+    assert err.startswith("vsw: error: stopped after 2")
+    assert elapsed < 6, elapsed
+
+
+def test_no_stop_left_after_a_command():
+    """A stop belongs to its run: the next command in the process is not stopped by it."""
+    with stop.supervised(0.01):
+        with pytest.raises(stop.RunTimeLimitError):  # the timer's signal, in the sleep
+            time.sleep(0.05)
+        with pytest.raises(stop.RunTimeLimitError):  # and again when asked
+            stop.check()
+    stop.check()  # nothing recorded any more
+    assert stop.reason() is None
+    code, _, err = run(["analyze", "--model", "rimless-wheel"])
+    assert code == 0, err
+
+
+def test_check_outside_supervision_is_silent():
+    stop.check()
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def _interrupted_at(seconds: float, argv: list[str]) -> tuple[int, str, str]:
+    process = subprocess.Popen(
+        [sys.executable, "-m", "vsw", *argv],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    timer = threading.Timer(seconds, process.send_signal, (signal.SIGINT,))
+    timer.start()
+    try:
+        out, err = process.communicate(timeout=120)
+    finally:
+        timer.cancel()
+    return process.returncode, out, err
+
+
+@pytest.mark.parametrize("seconds", [1.0, 2.5])
+def test_ctrl_c_on_a_real_search_is_130_or_the_whole_result(seconds):
+    """A real SIGINT at any time: exit 130 with one line, or (if the run had ended) the
+    complete result, the biped's three gaits at its defaults."""
+    code, out, err = _interrupted_at(seconds, ["analyze", "--model", "vsw-biped", "--json"])
+    if code == 0:
+        assert len(json.loads(out)["fixed_points"]) == 3
+    else:
+        assert (code, out, err.strip()) == (EXIT_INTERRUPTED, "", "vsw: interrupted")
+
+
+@pytest.mark.parametrize("threads", ["1", "2"])
+def test_time_limit_ends_walks_inside_the_compiled_simulator(threads):
+    """The TLE with its extension over 1e-12 rad is so stiff that one block of walks in
+    the compiled simulator runs for minutes: its stop flag ends the walks in progress, on
+    one thread as on two."""
+    started = time.monotonic()
+    code, out, err = run(
+        ["analyze", "--model", "tle", "--param", "delta=1e-12"],
+        {"VSW_MAX_SECONDS": "2", "VSW_THREADS": threads},
+    )
+    assert code == EXIT_INPUT and out == "", err
+    assert "past the run-time limit of 2 s" in err
+    assert time.monotonic() - started < 6
+
+
+@pytest.mark.parametrize("seconds", [0.15, 0.3])
+def test_ctrl_c_while_the_command_line_starts_is_one_line(seconds):
+    """Ctrl-C while vsw imports numpy, CasADi and the models (the first half second): one
+    line and 130, not an import traceback. (Before 0.1 s it lands in Python's own
+    start-up, which is Python's to report.)"""
+    code, out, err = _interrupted_at(seconds, ["analyze", "--model", "vsw-biped", "--json"])
+    assert (code, out, err.strip()) == (EXIT_INTERRUPTED, "", "vsw: interrupted")

@@ -1,0 +1,158 @@
+"""Stopping a run: Ctrl-C and the run-time limit, whatever library is running.
+
+Python raises KeyboardInterrupt from its SIGINT handler, but CasADi calls Python's signal
+check inside its solvers and turns that exception into a plain RuntimeError ("rhs
+failed: KeyboardInterrupt"), which code that maps solver failures to results takes for a
+failed start: an interrupted gait search used to finish with exit 0 and a gait missing.
+So a command runs under :func:`supervised`, whose handlers *record* why the run stops
+before they raise, and :func:`check` raises the recorded stop again. The runtime calls
+:func:`check` in its loops (the gait search, continuation, walks, the batch simulator's
+blocks) and wherever it turns a library's error into a result; the CLI calls it once more
+before it reports success, so no library can turn a stop into a result.
+
+The run-time limit (``VSW_MAX_SECONDS``, :func:`vsw.limits.max_seconds`) is checked before
+work starts, from estimates, and enforced while it runs: :func:`supervised` arms a timer
+(SIGALRM) for the limit, and :func:`check` compares the clock with it, so the run stops
+within about one block of work (a batch of walks, one orbit solve) after the limit with
+:class:`RunTimeLimitError`.
+
+Compiled code cannot raise: the batch simulator's C library registers hooks
+(:func:`register`) that tell its walks in progress to end, called when a stop is
+recorded; and under :func:`supervised`, :func:`vsw.vectorize.run_blocks` runs even one
+block on a worker thread, so that the main thread, where Python runs signal handlers,
+waits interruptibly instead of sitting inside C.
+
+Outside :func:`supervised` (the library used from Python) nothing is installed: Python's
+own Ctrl-C applies, and :func:`check` raises only a stop recorded by a handler.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import signal
+import threading
+import time
+from collections.abc import Callable, Iterator
+
+from vsw.errors import VswInputError
+
+__all__ = ["RunTimeLimitError", "check", "reason", "register", "supervised", "supervising"]
+
+
+class RunTimeLimitError(VswInputError):
+    """The run went past the run-time limit (``VSW_MAX_SECONDS``) and was stopped."""
+
+
+_lock = threading.RLock()  # reentrant: a signal handler may run while it is held
+_state: dict[str, float | str | None] = {"stop": None, "deadline": None, "limit": None}
+_started = time.monotonic()
+_supervising = False
+_hooks: list[tuple[Callable[[], None], Callable[[], None]]] = []
+
+
+def register(on_stop: Callable[[], None], on_reset: Callable[[], None]) -> None:
+    """Call ``on_stop()`` when a stop is recorded (from a signal handler or a thread) and
+    ``on_reset()`` when the supervised run ends: compiled code's own stop flag."""
+    with _lock:
+        _hooks.append((on_stop, on_reset))
+
+
+def supervising() -> bool:
+    """Whether a command runs under :func:`supervised`."""
+    return _supervising
+
+
+def _limit_error() -> RunTimeLimitError:
+    limit = float(_state["limit"] or math.inf)
+    return RunTimeLimitError(
+        f"stopped after {time.monotonic() - _started:.3g} s, past the run-time limit of "
+        f"{limit:g} s (VSW_MAX_SECONDS); ask for less work, or raise the limit with "
+        "VSW_MAX_SECONDS (in seconds, inf for none)"
+    )
+
+
+def _raise(stop: str) -> None:
+    if stop == "interrupt":
+        raise KeyboardInterrupt
+    raise _limit_error()
+
+
+def _record(stop: str) -> None:
+    with _lock:
+        if _state["stop"] is not None:  # the first reason wins: an interrupt after the
+            return  # limit still reports the limit it stopped for
+        _state["stop"] = stop
+        hooks = list(_hooks)
+    for on_stop, _ in hooks:
+        on_stop()
+
+
+def reason() -> str | None:
+    """Why the run is stopping: ``"interrupt"``, ``"limit"`` or None (it is not)."""
+    return _state["stop"]  # type: ignore[return-value]
+
+
+def check() -> None:
+    """Raise the recorded stop (KeyboardInterrupt, or :class:`RunTimeLimitError`), if any,
+    or the limit's error when the deadline has passed; else return at once (~0.2 us)."""
+    stop = _state["stop"]
+    if stop is None:
+        deadline = _state["deadline"]
+        if deadline is None or time.monotonic() <= deadline:  # type: ignore[operator]
+            return
+        _record("limit")
+        stop = _state["stop"]
+    _raise(stop)  # type: ignore[arg-type]
+
+
+def _on_interrupt(signum, frame) -> None:
+    _record("interrupt")
+    raise KeyboardInterrupt
+
+
+def _on_alarm(signum, frame) -> None:
+    _record("limit")
+    _raise(_state["stop"])  # type: ignore[arg-type]
+
+
+@contextlib.contextmanager
+def supervised(seconds: float = math.inf) -> Iterator[None]:
+    """Run the body with Ctrl-C and a run-time limit of ``seconds`` that no library can
+    swallow (module docstring). Installed only in the main thread (where Python runs
+    signal handlers); the previous handlers and timer are restored on exit.
+    """
+    global _started, _supervising
+    with _lock:
+        _state.update(stop=None, limit=seconds)
+        _started = time.monotonic()
+        _state["deadline"] = _started + seconds if math.isfinite(seconds) else None
+    if threading.current_thread() is not threading.main_thread():
+        try:
+            yield
+        finally:
+            _reset()
+        return
+    _supervising = True
+    previous_int = signal.signal(signal.SIGINT, _on_interrupt)
+    previous_alarm = None
+    if math.isfinite(seconds):
+        previous_alarm = signal.signal(signal.SIGALRM, _on_alarm)
+        signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        if previous_alarm is not None:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, previous_alarm)
+        signal.signal(signal.SIGINT, previous_int)
+        _supervising = False
+        _reset()
+
+
+def _reset() -> None:
+    with _lock:
+        _state.update(stop=None, deadline=None, limit=None)
+        hooks = list(_hooks)
+    for _, on_reset in hooks:
+        on_reset()
