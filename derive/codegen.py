@@ -297,11 +297,19 @@ def _float_source(value: float) -> str:
 
 def params_module(derivation: Derivation) -> str:
     """The runtime copy of the model's parameter table."""
+
+    def computed(p) -> str:
+        found = p.computed_range()
+        if found is None:  # the whole interval: the row as before the field existed
+            return ""
+        (low, high), reason = found
+        return f", ({_float_source(low)}, {_float_source(high)}), {reason!r}"
+
     rows = "".join(
         f"    Parameter({p.name!r}, {p.latex!r}, {_float_source(p.lower)}, "
         f"{_float_source(p.upper)}, "
         f"{p.reason!r}, {p.description!r}, {p.cli_degrees!r}, "
-        f"{None if p.default is None else float(p.default)!r}, {p.unit!r}),\n"
+        f"{None if p.default is None else float(p.default)!r}, {p.unit!r}{computed(p)}),\n"
         for p in derivation.parameters
     )
     return (
@@ -311,10 +319,13 @@ def params_module(derivation: Derivation) -> str:
         '"""\n\n'
         "from typing import NamedTuple\n\n\n"
         "class Parameter(NamedTuple):\n"
-        '    """One parameter: valid values are the open interval (lower, upper)."""\n\n'
+        '    """One parameter: valid values are the open interval (lower, upper); vsw computes\n'
+        "    within the closed interval ``computed`` (None: the whole open one).\n"
+        '    """\n\n'
         "    name: str\n    latex: str\n    lower: float\n    upper: float\n"
         "    reason: str\n    description: str\n    cli_degrees: bool\n"
-        "    default: float | None = None\n    unit: str = ''\n\n\n"
+        "    default: float | None = None\n    unit: str = ''\n"
+        "    computed: tuple[float, float] | None = None\n    computed_reason: str = ''\n\n\n"
         f"PARAMETERS = (\n{rows})\n"
     )
 

@@ -40,6 +40,15 @@ class Parameter:
         The value used when a user gives none (``vsw models``, ``--model``).
     unit : str
         Unit of the value (``rad``, ``m``, ``1`` for a ratio).
+    computed : (float, float), optional
+        The closed interval, inside the open one, in which the runtime computes: beyond it
+        double precision underflows or overflows, or the dynamics become too stiff to
+        integrate in reasonable time, and ``vsw`` refuses the value with
+        ``computed_reason``. Default: the whole interval, except for a scale (an interval
+        (0, inf)), which is computed within a factor of 1e6 of its default
+        (:data:`SCALE_FACTOR`).
+    computed_reason : str
+        Why the values beyond ``computed`` are refused (what was found to fail there).
     """
 
     name: str
@@ -52,10 +61,32 @@ class Parameter:
     cli_degrees: bool = False
     default: float | None = None
     unit: str = ""
+    computed: tuple[float, float] | None = None
+    computed_reason: str = ""
 
     @property
     def symbol(self) -> sm.Symbol:
         return sm.Symbol(self.name, **self.assumptions)
+
+    def computed_range(self) -> tuple[tuple[float, float], str] | None:
+        """The declared ``computed`` interval and its reason, or for a scale the default
+        one; None where the whole open interval is computed."""
+        if self.computed is not None:
+            return (float(self.computed[0]), float(self.computed[1])), self.computed_reason
+        if self.lower == 0 and self.upper == float("inf") and self.default:
+            low, high = self.default / SCALE_FACTOR, self.default * SCALE_FACTOR
+            return (float(f"{low:.3g}"), float(f"{high:.3g}")), SCALE_REASON
+        return None
+
+
+SCALE_FACTOR = 1e6
+"""A scale parameter (interval (0, inf)) is computed within this factor of its default."""
+
+SCALE_REASON = (
+    "a scale is computed within a factor of 1e6 of its default: the gaits depend on "
+    "ratios of the parameters, and far beyond, double precision fails (5e-324 computes "
+    "with subnormal numbers, 1e300 overflows)"
+)
 
 
 @dataclass(frozen=True)

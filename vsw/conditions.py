@@ -71,8 +71,12 @@ def closed_form_conditions(model: HybridModel, params: Sequence[float]) -> dict[
     if not has_closed_form(model):
         return None
     module = model.module
+    # numpy scalars, not Python floats: at the edges of the parameter intervals a power
+    # underflows to 0 or overflows, which Python floats raise (ZeroDivisionError,
+    # OverflowError) and IEEE arithmetic carries on as inf and NaN, reported below.
     with np.errstate(all="ignore"):
-        q_f, eigenvalue, *margins = (float(v) for v in module.fixed_point_conditions(*params))
+        values = module.fixed_point_conditions(*(np.float64(v) for v in params))
+        q_f, eigenvalue, *margins = (float(v) for v in values)
     units = getattr(module, "CONDITION_UNITS", {})
     conditions = []
     walks = math.isfinite(q_f)

@@ -13,7 +13,7 @@ import numpy as np
 
 from vsw.errors import VswInputError
 
-__all__ = ["as_float_array", "check_parameter", "check_positive"]
+__all__ = ["as_float_array", "beyond_computed", "check_parameter", "check_positive"]
 
 
 def _format_value(value: object, cli_degrees: bool) -> str:
@@ -79,7 +79,25 @@ def check_parameter(name: str, value: object, table: tuple) -> np.ndarray:
         else:
             condition = f"violates {p.lower:.6g} < {name} < {p.upper:.6g}"
         raise VswInputError(f"{where} = {shown} {condition}: {p.reason}")
+    computed = getattr(p, "computed", None)
+    if computed is not None:
+        outside = ~((arr >= computed[0]) & (arr <= computed[1]))
+        if np.any(outside):
+            index = tuple(int(i) for i in np.argwhere(outside)[0]) if arr.ndim else ()
+            where = f"{name}[{', '.join(map(str, index))}]" if index else name
+            shown = _format_value(float(arr[index]), p.cli_degrees)
+            raise VswInputError(f"{where} = {shown} {beyond_computed(p)}")
     return arr
+
+
+def beyond_computed(p) -> str:
+    """The end of the message refusing a valid value outside what vsw computes for
+    parameter ``p`` (its table's ``computed`` interval and the reason)."""
+    low, high = p.computed
+    return (
+        f"is outside {low:.6g} <= {p.name} <= {high:.6g}, the values vsw computes for it: "
+        f"{p.computed_reason}"
+    )
 
 
 def check_positive(name: str, value: object, reason: str) -> np.ndarray:

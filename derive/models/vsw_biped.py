@@ -59,7 +59,10 @@ PARAMETERS = (
               "mass of each leg over the hip mass", {"positive": True}, default=0.1, unit="1"),
     Parameter("b_over_l", "b / l", 0.0, 1.0, "the leg's mass lies between the hip and the "
               "foot: 0 < b / l < 1", "distance from the hip to a leg's mass, over l",
-              {"positive": True}, default=0.3, unit="1"),
+              {"positive": True}, default=0.3, unit="1", computed=(1e-6, 1.0),
+              computed_reason="the swing leg's inertia about the hip, mu (b/l)^2, vanishes in "
+              "double precision below; from about 0.05 down its swing is so fast that the gait "
+              "search takes minutes (VSW_MAX_SECONDS stops it)"),
 )  # fmt: skip
 beta, theta_II, mu, b = (p.symbol for p in PARAMETERS)
 

@@ -10,7 +10,9 @@ from typing import NamedTuple
 
 
 class Parameter(NamedTuple):
-    """One parameter: valid values are the open interval (lower, upper)."""
+    """One parameter: valid values are the open interval (lower, upper); vsw computes
+    within the closed interval ``computed`` (None: the whole open one).
+    """
 
     name: str
     latex: str
@@ -21,13 +23,15 @@ class Parameter(NamedTuple):
     cli_degrees: bool
     default: float | None = None
     unit: str = ''
+    computed: tuple[float, float] | None = None
+    computed_reason: str = ''
 
 
 PARAMETERS = (
-    Parameter('m_h', 'm_H', 0.0, float('inf'), 'hip mass m_h > 0', 'hip mass', False, 10.0, 'kg'),
-    Parameter('m', 'm', 0.0, float('inf'), 'leg mass m > 0', 'mass of each leg', False, 5.0, 'kg'),
-    Parameter('a', 'a', 0.0, float('inf'), 'a > 0', "distance from a foot to its leg's mass", False, 0.5, 'm'),
-    Parameter('b', 'b', 0.0, float('inf'), 'b > 0', "distance from the hip to a leg's mass", False, 0.5, 'm'),
+    Parameter('m_h', 'm_H', 0.0, float('inf'), 'hip mass m_h > 0', 'hip mass', False, 10.0, 'kg', (1e-05, 10000000.0), 'a scale is computed within a factor of 1e6 of its default: the gaits depend on ratios of the parameters, and far beyond, double precision fails (5e-324 computes with subnormal numbers, 1e300 overflows)'),
+    Parameter('m', 'm', 0.0, float('inf'), 'leg mass m > 0', 'mass of each leg', False, 5.0, 'kg', (5e-06, 5000000.0), 'a scale is computed within a factor of 1e6 of its default: the gaits depend on ratios of the parameters, and far beyond, double precision fails (5e-324 computes with subnormal numbers, 1e300 overflows)'),
+    Parameter('a', 'a', 0.0, float('inf'), 'a > 0', "distance from a foot to its leg's mass", False, 0.5, 'm', (5e-07, 500000.0), 'a scale is computed within a factor of 1e6 of its default: the gaits depend on ratios of the parameters, and far beyond, double precision fails (5e-324 computes with subnormal numbers, 1e300 overflows)'),
+    Parameter('b', 'b', 0.0, float('inf'), 'b > 0', "distance from the hip to a leg's mass", False, 0.5, 'm', (5e-07, 500000.0), 'a scale is computed within a factor of 1e6 of its default: the gaits depend on ratios of the parameters, and far beyond, double precision fails (5e-324 computes with subnormal numbers, 1e300 overflows)'),
     Parameter('gamma', '\\gamma', 0.0, 1.5707963267948966, 'a passive walker walks down a slope: 0 < gamma < pi/2', 'slope angle', False, 0.0525, 'rad'),
-    Parameter('g', 'g', 0.0, float('inf'), 'gravity g > 0', 'gravitational acceleration', False, 9.81, 'm/s^2'),
+    Parameter('g', 'g', 0.0, float('inf'), 'gravity g > 0', 'gravitational acceleration', False, 9.81, 'm/s^2', (9.81e-06, 9810000.0), 'a scale is computed within a factor of 1e6 of its default: the gaits depend on ratios of the parameters, and far beyond, double precision fails (5e-324 computes with subnormal numbers, 1e300 overflows)'),
 )

@@ -10,7 +10,9 @@ from typing import NamedTuple
 
 
 class Parameter(NamedTuple):
-    """One parameter: valid values are the open interval (lower, upper)."""
+    """One parameter: valid values are the open interval (lower, upper); vsw computes
+    within the closed interval ``computed`` (None: the whole open one).
+    """
 
     name: str
     latex: str
@@ -21,6 +23,8 @@ class Parameter(NamedTuple):
     cli_degrees: bool
     default: float | None = None
     unit: str = ''
+    computed: tuple[float, float] | None = None
+    computed_reason: str = ''
 
 
 PARAMETERS = (

@@ -10,7 +10,9 @@ from typing import NamedTuple
 
 
 class Parameter(NamedTuple):
-    """One parameter: valid values are the open interval (lower, upper)."""
+    """One parameter: valid values are the open interval (lower, upper); vsw computes
+    within the closed interval ``computed`` (None: the whole open one).
+    """
 
     name: str
     latex: str
@@ -21,11 +23,13 @@ class Parameter(NamedTuple):
     cli_degrees: bool
     default: float | None = None
     unit: str = ''
+    computed: tuple[float, float] | None = None
+    computed_reason: str = ''
 
 
 PARAMETERS = (
     Parameter('alpha', '\\alpha', 0.0, 1.5707963267948966, 'half the angle between spokes: 0 < alpha < pi/2', 'half inter-spoke angle', False, 0.39269908169872414, 'rad'),
     Parameter('gamma', '\\gamma', -1.5707963267948966, 1.5707963267948966, 'slope angle, downhill positive: |gamma| < pi/2', 'slope angle', False, 0.08, 'rad'),
-    Parameter('l', 'l', 0.0, float('inf'), 'spoke length l > 0', 'spoke length', False, 1.0, 'm'),
-    Parameter('g', 'g', 0.0, float('inf'), 'gravity g > 0', 'gravitational acceleration', False, 9.81, 'm/s^2'),
+    Parameter('l', 'l', 0.0, float('inf'), 'spoke length l > 0', 'spoke length', False, 1.0, 'm', (1e-06, 1000000.0), 'a scale is computed within a factor of 1e6 of its default: the gaits depend on ratios of the parameters, and far beyond, double precision fails (5e-324 computes with subnormal numbers, 1e300 overflows)'),
+    Parameter('g', 'g', 0.0, float('inf'), 'gravity g > 0', 'gravitational acceleration', False, 9.81, 'm/s^2', (9.81e-06, 9810000.0), 'a scale is computed within a factor of 1e6 of its default: the gaits depend on ratios of the parameters, and far beyond, double precision fails (5e-324 computes with subnormal numbers, 1e300 overflows)'),
 )

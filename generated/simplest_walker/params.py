@@ -10,7 +10,9 @@ from typing import NamedTuple
 
 
 class Parameter(NamedTuple):
-    """One parameter: valid values are the open interval (lower, upper)."""
+    """One parameter: valid values are the open interval (lower, upper); vsw computes
+    within the closed interval ``computed`` (None: the whole open one).
+    """
 
     name: str
     latex: str
@@ -21,8 +23,10 @@ class Parameter(NamedTuple):
     cli_degrees: bool
     default: float | None = None
     unit: str = ''
+    computed: tuple[float, float] | None = None
+    computed_reason: str = ''
 
 
 PARAMETERS = (
-    Parameter('gamma', '\\gamma', 0.0, 1.5707963267948966, 'a passive walker walks down a slope: 0 < gamma < pi/2', 'slope angle', False, 0.009, 'rad'),
+    Parameter('gamma', '\\gamma', 0.0, 1.5707963267948966, 'a passive walker walks down a slope: 0 < gamma < pi/2', 'slope angle', False, 0.009, 'rad', (1e-08, 1.5707963267948966), 'on slopes below 1e-8 rad the gait search does not end in minutes (measured at 1e-12); 1e-8 takes about 10 s'),
 )

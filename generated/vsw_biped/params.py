@@ -10,7 +10,9 @@ from typing import NamedTuple
 
 
 class Parameter(NamedTuple):
-    """One parameter: valid values are the open interval (lower, upper)."""
+    """One parameter: valid values are the open interval (lower, upper); vsw computes
+    within the closed interval ``computed`` (None: the whole open one).
+    """
 
     name: str
     latex: str
@@ -21,11 +23,13 @@ class Parameter(NamedTuple):
     cli_degrees: bool
     default: float | None = None
     unit: str = ''
+    computed: tuple[float, float] | None = None
+    computed_reason: str = ''
 
 
 PARAMETERS = (
     Parameter('beta', '\\beta', 0.0, 1.0, 'beta = r_s / r_e is a length-shortening ratio: 0 < beta < 1', 'length shorten ratio r_s / r_e', False, 0.8, '1'),
     Parameter('theta_II', '\\theta_{II}', -1.5707963267948966, 1.5707963267948966, 'the stance leg must point below the horizontal: |theta_II| < pi/2', 'stance leg angle at which the leg extends (instant II)', True, 0.0, 'rad'),
-    Parameter('mu', '\\mu', 0.0, float('inf'), 'mu = m / m_H > 0: the legs have mass', 'mass of each leg over the hip mass', False, 0.1, '1'),
-    Parameter('b_over_l', 'b / l', 0.0, 1.0, "the leg's mass lies between the hip and the foot: 0 < b / l < 1", "distance from the hip to a leg's mass, over l", False, 0.3, '1'),
+    Parameter('mu', '\\mu', 0.0, float('inf'), 'mu = m / m_H > 0: the legs have mass', 'mass of each leg over the hip mass', False, 0.1, '1', (1e-07, 100000.0), 'a scale is computed within a factor of 1e6 of its default: the gaits depend on ratios of the parameters, and far beyond, double precision fails (5e-324 computes with subnormal numbers, 1e300 overflows)'),
+    Parameter('b_over_l', 'b / l', 0.0, 1.0, "the leg's mass lies between the hip and the foot: 0 < b / l < 1", "distance from the hip to a leg's mass, over l", False, 0.3, '1', (1e-06, 1.0), "the swing leg's inertia about the hip, mu (b/l)^2, vanishes in double precision below; from about 0.05 down its swing is so fast that the gait search takes minutes (VSW_MAX_SECONDS stops it)"),
 )

@@ -47,6 +47,15 @@ def run(args: argparse.Namespace) -> int:
         for p in m["parameters"]:
             out.write(f"    {p['name']:<10} {fmt(p['default']):>10} {p['unit'] or '-':<7} "
                       f"{_bounds(p):<22} {p['meaning']}\n")  # fmt: skip
+        narrower: dict[str, list[str]] = {}
+        for p in m["parameters"]:
+            low, high = p["computed"]
+            if [low, high] != [p["lower"], p["upper"]]:
+                end = ")" if p["upper"] is not None and high >= p["upper"] else "]"
+                shown = f"{low:.3g}, {p['upper'] if end == ')' else high:.3g}{end}"
+                narrower.setdefault(p["computed_reason"], []).append(f"{p['name']} in [{shown}")
+        for reason, ranges in narrower.items():
+            out.write(f"  computed only for {', '.join(ranges)}: {reason}\n")
         section = m["section"]
         out.write(f"  state (--state NAME=VALUE), {section['when']}:\n")
         for s in m["state"]:

@@ -26,6 +26,7 @@ from vsw import models, stop
 from vsw.cli.parser import given, option_name
 from vsw.errors import ConvergenceError, InfeasibleError, VswInputError
 from vsw.models.base import FEATURES, Model
+from vsw.parameters import beyond_computed
 
 __all__ = [
     "MAX_GRID",
@@ -177,6 +178,10 @@ def parameter_value(option: str, p: Any, text: str, given: str | None = None) ->
         raise VswInputError(
             f"{where}: {p.name} must be a number in the open interval {_interval(p)}: {p.reason}"
         )
+    computed = getattr(p, "computed", None)
+    if computed is not None and not computed[0] <= value <= computed[1]:
+        where = given or f"{option} {p.name}={text.strip()}"
+        raise VswInputError(f"{where}: {p.name} {beyond_computed(p)}")
     return value
 
 
@@ -251,6 +256,11 @@ def _interval_values(option: str, item: str, text: str, degrees: bool) -> tuple[
         raise VswInputError(f"{option} {item!r}: START and STOP must be finite numbers")
     if not start < stop:
         raise VswInputError(f"{option} {item!r}: START = {start:g} must be below STOP = {stop:g}")
+    if not math.isfinite(stop - start):
+        raise VswInputError(
+            f"{option} {item!r}: STOP - START = {stop:g} - ({start:g}) overflows double "
+            "precision: give a narrower interval"
+        )
     return start, stop
 
 
@@ -311,6 +321,13 @@ def solver_errors(model: Model) -> Iterator[None]:
         except (ConvergenceError, InfeasibleError):
             stop.check()  # a solver's failure may be a stop that a library turned into one
             raise
+        except (OverflowError, ZeroDivisionError) as exc:
+            # Generated code on Python floats raises where IEEE arithmetic would overflow
+            # (the parameter tables' computed ranges keep this away from their edges).
+            raise ConvergenceError(
+                f"{model.cli_name}: double precision overflows at these parameters ({exc}); "
+                "bring them closer to the defaults"
+            ) from None
         except RuntimeError as exc:
             stop.check()
             last = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__

@@ -131,6 +131,10 @@ class Model(HybridModel):
                     "upper": _bound(p.upper),
                     "meaning": p.description,
                     "reason": p.reason,
+                    "computed": [
+                        _bound(v) for v in getattr(p, "computed", None) or (p.lower, p.upper)
+                    ],
+                    "computed_reason": getattr(p, "computed_reason", ""),
                     "degrees_accepted": p.unit == "rad",
                 }
                 for p in self.parameter_table
