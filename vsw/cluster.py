@@ -16,23 +16,73 @@ Start a cluster on one machine (loopback) with::
     dask worker tcp://127.0.0.1:8786 --nworkers 2 --nthreads 1 &
 
 and run a basin on it with ``vsw basin ... --scheduler tcp://127.0.0.1:8786``.
+
+Faults are one line and exit 2, in a stated time: no scheduler at the address, or one
+that does not answer within :data:`CONNECT_TIMEOUT` s; a scheduler with no worker for
+:data:`WORKER_WAIT` s, at the start or after its last worker died with tasks left; a
+scheduler lost during the run (seen within about :data:`CONNECT_TIMEOUT` s). Dask's own
+log lines are kept off stderr. Ctrl-C and ``VSW_MAX_SECONDS`` cancel the tasks.
 """
 
 from __future__ import annotations
 
+import contextlib
+import logging
+import time
+from collections.abc import Iterator
+from typing import Any
+
 import numpy as np
 
+from vsw import stop
 from vsw.batch import BatchResult, Options, Runner, failure_names, simulator
 from vsw.errors import VswInputError
 from vsw.models import load
 
-__all__ = ["BLOCK", "check_scheduler", "runner", "walk_on_cluster"]
+__all__ = [
+    "BLOCK",
+    "CONNECT_TIMEOUT",
+    "WORKER_WAIT",
+    "check_scheduler",
+    "runner",
+    "walk_on_cluster",
+]
 
 BLOCK = 8192
 """Walks per task: a 500 x 500 basin is 31 tasks."""
 
 
-def _client(address: str):
+CONNECT_TIMEOUT = 5.0
+"""Seconds to reach the scheduler (and any later call to it) before giving up."""
+
+WORKER_WAIT = 10.0
+"""Seconds a study waits for a worker: at its start, when the scheduler has none, and
+whenever the last one has left while tasks remain (then one line, exit 2)."""
+
+_POLL = 0.5  # seconds between looks at the scheduler while tasks run
+
+
+@contextlib.contextmanager
+def _quiet_dask() -> Iterator[None]:
+    """Dask's own logging off (a lost scheduler logs tracebacks on stderr; the user gets
+    our one line), its connection timeout at :data:`CONNECT_TIMEOUT`."""
+    import dask
+
+    logger = logging.getLogger("distributed")
+    level = logger.level
+    logger.setLevel(logging.CRITICAL + 1)
+    timeout = f"{CONNECT_TIMEOUT:g}s"
+    try:
+        with dask.config.set({"distributed.comm.timeouts.connect": timeout}):
+            yield
+    finally:
+        logger.setLevel(level)
+
+
+@contextlib.contextmanager
+def _client(address: str) -> Iterator[Any]:
+    """A client of the scheduler at ``address``, closed on exit; every failure of the
+    cluster is one line (VswInputError), a stop (Ctrl-C, the limit) cancels the tasks."""
     try:
         from distributed import Client
         from distributed.comm.addressing import parse_address, parse_host_port
@@ -54,18 +104,78 @@ def _client(address: str):
             f"--scheduler {address!r} is not a Dask address with a host and port (like "
             "tcp://127.0.0.1:8786)"
         )
+    with _quiet_dask():
+        try:
+            client = Client(address, timeout=CONNECT_TIMEOUT, set_as_default=False)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise VswInputError(f"no Dask scheduler at {address!r}: {_first_line(exc)}") from None
+        try:
+            yield client
+        except (VswInputError, KeyboardInterrupt):
+            raise
+        except Exception as exc:  # whatever distributed raises when the cluster fails
+            raise VswInputError(
+                f"the Dask run on {address!r} failed: {type(exc).__name__}: {_first_line(exc)}"
+            ) from None
+        finally:
+            with contextlib.suppress(Exception):
+                client.close(timeout=CONNECT_TIMEOUT)
+
+
+def _first_line(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
+def _await_worker(client: Any, address: str, why: str) -> None:
     try:
-        return Client(address, timeout=5, set_as_default=False)
-    except (OSError, TimeoutError, ValueError) as exc:
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise VswInputError(f"no Dask scheduler at {address!r}: {first}") from None
+        client.wait_for_workers(1, timeout=WORKER_WAIT)
+    except TimeoutError:
+        raise VswInputError(
+            f"the Dask scheduler at {address!r} {why} (waited {WORKER_WAIT:g} s): start one, "
+            f"e.g. dask worker {address}"
+        ) from None
+
+
+def _workers(client: Any) -> int:
+    return len(client.scheduler_info(n_workers=-1).get("workers", {}))
 
 
 def check_scheduler(address: str) -> int:
     """The worker threads of the scheduler at ``address`` (at least 1); VswInputError (one
-    line) unless it answers. Called before the work starts."""
+    line) unless it answers and has a worker within :data:`WORKER_WAIT`. Called before the
+    work starts."""
     with _client(address) as client:
+        _await_worker(client, address, "has no workers")
         return max(1, sum(client.nthreads().values()))
+
+
+def _results(client: Any, futures: list, address: str) -> list:
+    """The futures' results, watching the cluster while they run: a lost scheduler, or no
+    worker for :data:`WORKER_WAIT` seconds, is one line; a stop cancels the tasks."""
+    without_workers_since: float | None = None
+    try:
+        while pending := [f for f in futures if not f.done()]:
+            stop.check()
+            with contextlib.suppress(TimeoutError):  # a task that failed raises here
+                pending[0].result(timeout=_POLL)
+            if client.status != "running":
+                raise VswInputError(f"lost the Dask scheduler at {address!r} during the run")
+            if _workers(client) > 0:
+                without_workers_since = None
+            elif without_workers_since is None:
+                without_workers_since = time.monotonic()
+            elif time.monotonic() - without_workers_since > WORKER_WAIT:
+                raise VswInputError(
+                    f"the Dask scheduler at {address!r} has had no workers for "
+                    f"{WORKER_WAIT:g} s with tasks left: the workers died or left; start one, "
+                    f"e.g. dask worker {address}"
+                )
+        return [f.result() for f in futures]
+    except BaseException:
+        with contextlib.suppress(Exception):
+            client.cancel(futures)
+        raise
 
 
 def run_block(model: str, params: np.ndarray, states: np.ndarray, options: Options) -> tuple:
@@ -80,12 +190,14 @@ def walk_on_cluster(
     address: str, model: str, params: np.ndarray, states: np.ndarray, options: Options
 ) -> BatchResult:
     """The walks of :meth:`vsw.batch.BatchSimulator.walk` as tasks on the scheduler at
-    ``address``; raises VswInputError (one line) when it cannot be reached."""
+    ``address``; raises VswInputError (one line) when it cannot be reached, has no worker,
+    or fails during the run (module docstring)."""
     failures = failure_names(load(model))
     n = len(states)
     if n == 0:
         raise VswInputError("no walks to run on the cluster")
     with _client(address) as client:
+        _await_worker(client, address, "has no workers")
         futures = [
             client.submit(
                 run_block,
@@ -98,8 +210,8 @@ def walk_on_cluster(
             for start in range(0, n, BLOCK)
         ]
         parts = []
-        for future in futures:
-            outcome, aux, steps, final, states_k, lengths_k, durations_k, error = future.result()
+        for result in _results(client, futures, address):
+            outcome, aux, steps, final, states_k, lengths_k, durations_k, error = result
             route = "compiled" if error is None else f"SciPy on a worker ({error})"
             parts.append(BatchResult(outcome, aux, steps, final, states_k, lengths_k,
                                      durations_k, failures, route))  # fmt: skip

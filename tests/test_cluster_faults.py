@@ -1,0 +1,160 @@
+"""A Dask cluster that fails ends a basin with one line in a stated time (issue 21).
+
+A scheduler and its worker run as separate processes on loopback, as a user starts them
+(``dask scheduler``, ``dask worker --no-nanny``, so that a killed worker stays dead), and
+are killed under a running ``vsw basin``: no worker at all, the only worker killed, the
+scheduler killed. Each must end the command with exit 2 and one line on stderr, within
+the stated waits (:data:`vsw.cluster.WORKER_WAIT`, shortened here to 2 s, and
+:data:`vsw.cluster.CONNECT_TIMEOUT`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+
+pytest.importorskip("distributed")
+
+import vsw.cluster  # noqa: E402
+from vsw.cli import main  # noqa: E402
+
+DASK = [sys.executable, "-m", "distributed.cli.dask_scheduler"]
+WORKER = [sys.executable, "-m", "distributed.cli.dask_worker"]
+# A basin that runs far longer than the faults take to happen (about 100 s on one thread:
+# no walk converges to 1e-15) after a gait search of 0.2 s.
+BASIN = ["basin", "--model", "rimless-wheel", "--grid", "theta_dot=0.01:3:4000",
+         "--steps", "5000", "--tol", "1e-15", "--json"]  # fmt: skip
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _wait_for_port(port: int, seconds: float = 30) -> None:
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        with contextlib.suppress(OSError), socket.create_connection(("127.0.0.1", port), 0.2):
+            return
+        time.sleep(0.1)
+    raise AssertionError(f"nothing listens on port {port} after {seconds} s")
+
+
+def _start(command: list[str]) -> subprocess.Popen:
+    return subprocess.Popen(
+        command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+    )
+
+
+def _kill(process: subprocess.Popen) -> None:
+    if process.poll() is None:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, signal.SIGKILL)
+        process.wait(timeout=10)
+
+
+@pytest.fixture
+def scheduler():
+    """A scheduler process on loopback without workers: (address, process)."""
+    port = _free_port()
+    process = _start([*DASK, "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"])
+    try:
+        _wait_for_port(port)
+        yield f"tcp://127.0.0.1:{port}", process
+    finally:
+        _kill(process)
+
+
+def _worker(address: str) -> subprocess.Popen:
+    """One worker process (no nanny: killed, it stays dead), ready when this returns."""
+    import distributed
+
+    process = _start([*WORKER, address, "--nthreads", "1", "--no-nanny", "--no-dashboard"])
+    with distributed.Client(address, timeout=10, set_as_default=False) as client:
+        client.wait_for_workers(1, timeout=30)
+    return process
+
+
+def _run(argv: list[str]) -> tuple[int, str, str, float]:
+    """The command in this process; interrupted (exit 130, failing the test) after 60 s in
+    case a fault goes unnoticed (the basin's estimate is above any useful limit)."""
+    out, err = io.StringIO(), io.StringIO()
+    started = time.monotonic()
+    guard = threading.Timer(60.0, os.kill, (os.getpid(), signal.SIGINT))
+    guard.start()
+    try:
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            code = main(argv)
+    finally:
+        guard.cancel()
+    return code, out.getvalue(), err.getvalue(), time.monotonic() - started
+
+
+@pytest.fixture(autouse=True)
+def short_waits(monkeypatch):
+    monkeypatch.setattr(vsw.cluster, "WORKER_WAIT", 2.0)
+    monkeypatch.setenv("VSW_MAX_SECONDS", "inf")
+
+
+def _one_line(err: str) -> str:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    return lines[0]
+
+
+def test_scheduler_without_workers(scheduler):
+    address, _ = scheduler
+    code, out, err, elapsed = _run([*BASIN, "--scheduler", address])
+    assert code == 2 and out == ""
+    assert "has no workers (waited 2 s)" in _one_line(err)
+    assert elapsed < 2 + vsw.cluster.CONNECT_TIMEOUT + 5
+
+
+def test_the_only_worker_killed_during_the_run(scheduler):
+    address, _ = scheduler
+    worker = _worker(address)
+    try:
+        timer = threading.Timer(3.0, _kill, (worker,))
+        timer.start()
+        code, out, err, elapsed = _run([*BASIN, "--scheduler", address])
+        timer.join()
+    finally:
+        _kill(worker)
+    assert code == 2 and out == ""
+    line = _one_line(err)
+    assert "no workers for 2 s with tasks left" in line or "KilledWorker" in line, line
+    assert elapsed < 3 + 2 + 10
+
+
+def test_scheduler_killed_during_the_run(scheduler):
+    address, process = scheduler
+    worker = _worker(address)
+    try:
+        timer = threading.Timer(3.0, _kill, (process,))
+        timer.start()
+        code, out, err, elapsed = _run([*BASIN, "--scheduler", address])
+        timer.join()
+    finally:
+        _kill(worker)
+    assert code == 2 and out == ""
+    line = _one_line(err)
+    assert address in line and ("lost the Dask scheduler" in line or "Dask run" in line), line
+    assert elapsed < 3 + vsw.cluster.CONNECT_TIMEOUT + 10
+
+
+@pytest.mark.skipif(shutil.which("dask") is None, reason="the dask command is not installed")
+def test_the_dask_command_is_what_the_docs_start():
+    """The module docstring starts the cluster with ``dask scheduler``/``dask worker``."""
+    done = subprocess.run(["dask", "worker", "--help"], capture_output=True, text=True)
+    assert done.returncode == 0 and "--nthreads" in done.stdout
