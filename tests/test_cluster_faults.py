@@ -25,8 +25,8 @@ import pytest
 
 pytest.importorskip("distributed")
 
-import vsw.cluster  # noqa: E402
-from vsw.cli import main  # noqa: E402
+import vsw.cluster
+from vsw.cli import main
 
 DASK = [sys.executable, "-m", "distributed.cli.dask_scheduler"]
 WORKER = [sys.executable, "-m", "distributed.cli.dask_worker"]
