@@ -20,6 +20,7 @@ from __future__ import annotations
 import ctypes
 import os
 import threading
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,7 +29,7 @@ import numpy as np
 
 from vsw import stop
 from vsw.compiled import build_library
-from vsw.errors import ConvergenceError, VswInputError
+from vsw.errors import ConvergenceError, SlowRouteWarning, VswInputError
 from vsw.hybrid import _PHASE_TIME_LIMIT, _RTOL, HybridModel
 from vsw.vectorize import default_threads, run_blocks
 
@@ -170,6 +171,13 @@ class BatchSimulator:
                     stop.register(lambda: lib.vsw_batch_stop(1), lambda: lib.vsw_batch_stop(0))
                 except (OSError, AttributeError) as exc:
                     self.build_error = f"batch simulator unavailable, using SciPy: {exc}"
+                    warnings.warn(
+                        f"the compiled batch simulator of {self.model.name} is unavailable "
+                        f"({' '.join(str(exc).split())[:200]}); walking with SciPy instead, "
+                        "about 300 times slower",
+                        SlowRouteWarning,
+                        stacklevel=2,
+                    )
         return self._lib
 
     def _bind(self, lib: ctypes.CDLL) -> None:

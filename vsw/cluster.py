@@ -29,6 +29,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import time
+import warnings
 from collections.abc import Iterator
 from typing import Any
 
@@ -36,7 +37,7 @@ import numpy as np
 
 from vsw import stop
 from vsw.batch import BatchResult, Options, Runner, failure_names, simulator
-from vsw.errors import VswInputError
+from vsw.errors import SlowRouteWarning, VswInputError
 from vsw.models import load
 
 __all__ = [
@@ -213,6 +214,9 @@ def walk_on_cluster(
         for result in _results(client, futures, address):
             outcome, aux, steps, final, states_k, lengths_k, durations_k, error = result
             route = "compiled" if error is None else f"SciPy on a worker ({error})"
+            if error is not None:
+                warnings.warn(f"a Dask worker walked with SciPy: {error}", SlowRouteWarning,
+                              stacklevel=2)  # fmt: skip
             parts.append(BatchResult(outcome, aux, steps, final, states_k, lengths_k,
                                      durations_k, failures, route))  # fmt: skip
     return BatchResult.concatenate(parts)

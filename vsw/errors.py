@@ -15,3 +15,9 @@ class ConvergenceError(RuntimeError):
 
 class InfeasibleError(RuntimeError):
     """A design request whose constraints cannot hold together."""
+
+
+class SlowRouteWarning(UserWarning):
+    """The compiled batch simulator could not be built (no compiler, a bad ``CC``, an
+    unusable cache): the walks take the SciPy route, same classes, about 300 times slower.
+    The CLI prints it once on stderr as ``vsw: warning: ...``."""

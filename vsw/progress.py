@@ -1,12 +1,41 @@
-"""A tiny progress bar on stderr, shown only when stderr is a terminal."""
+"""A tiny progress bar on stderr, shown only when stderr is a terminal, and the progress
+of blockwise work reported to whoever listens (:func:`reporting`).
+
+The runtime's long loops over blocks (:func:`vsw.vectorize.run_blocks`: the gait search's
+scan, a basin's walks) call :func:`report` with the blocks done; a command that wants a bar
+for work deep inside a library call wraps the call in ``with reporting(bar):``, and no
+progress argument has to travel through the calls in between.
+"""
 
 from __future__ import annotations
 
+import contextlib
 import sys
 import time
+from collections.abc import Callable, Iterator
+from contextvars import ContextVar
 from typing import TextIO
 
-__all__ = ["ProgressBar"]
+__all__ = ["ProgressBar", "report", "reporting"]
+
+_listener: ContextVar[Callable[[int, int], None] | None] = ContextVar("vsw_progress", default=None)
+
+
+@contextlib.contextmanager
+def reporting(callback: Callable[[int, int], None]) -> Iterator[None]:
+    """Send the blockwise work's progress inside the body to ``callback(done, total)``."""
+    token = _listener.set(callback)
+    try:
+        yield
+    finally:
+        _listener.reset(token)
+
+
+def report(done: int, total: int) -> None:
+    """``done`` of ``total`` units of the current blockwise work (to :func:`reporting`)."""
+    listener = _listener.get()
+    if listener is not None:
+        listener(done, total)
 
 
 class ProgressBar:

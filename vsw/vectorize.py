@@ -20,7 +20,7 @@ from concurrent.futures import ThreadPoolExecutor, wait
 
 import numpy as np
 
-from vsw import stop
+from vsw import progress, stop
 from vsw.errors import VswInputError
 
 CHUNK = 16384
@@ -115,9 +115,11 @@ def run_blocks(block: Callable[[int], None], starts: Sequence[int], threads: int
     in_worker = getattr(_worker, "active", False)
     offload = stop.supervising() and threading.current_thread() is threading.main_thread()
     if in_worker or (not offload and (threads <= 1 or len(starts) < 2)):
-        for start in starts:
+        for done, start in enumerate(starts, 1):
             stop.check()
             block(start)
+            if not in_worker and len(starts) > 1:
+                progress.report(done, len(starts))
         return
 
     def task(start: int) -> None:
@@ -130,9 +132,11 @@ def run_blocks(block: Callable[[int], None], starts: Sequence[int], threads: int
     pool = _executor(max(1, threads))
     futures = [pool.submit(contextvars.copy_context().run, task, s) for s in starts]
     try:
-        for future in futures:
+        for done, future in enumerate(futures, 1):
             future.result()
             stop.check()
+            if len(futures) > 1:
+                progress.report(done, len(futures))
     finally:
         for future in futures:
             future.cancel()

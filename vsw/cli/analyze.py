@@ -14,6 +14,7 @@ from vsw.cli.output import (
     dump_json,
     envelope,
     fmt,
+    progress,
     unit_text,
     write_orbit,
     write_parameters,
@@ -23,6 +24,7 @@ from vsw.errors import VswInputError
 from vsw.gaits import DISTINCT, SCAN_POINTS
 from vsw.models.base import GaitReport, Model
 from vsw.models.ile.params import STEPPER_2D, RobotScale
+from vsw.progress import reporting
 
 __all__ = ["register", "run"]
 
@@ -84,7 +86,7 @@ def tolerances(model: Model) -> dict[str, Any]:
 def run(args: argparse.Namespace) -> int:
     model, params = options.model_and_parameters(args)
     box = options.parse_search(model, args.search)
-    with options.solver_errors(model):
+    with progress("analyze") as bar, reporting(bar), options.solver_errors(model):
         if "scale" in model.features:
             report = model.analyze(params, box, scale=scale_from(args))
         else:

@@ -13,7 +13,8 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-from collections.abc import Sequence
+import warnings
+from collections.abc import Callable, Sequence
 from typing import Any, NoReturn, TextIO
 
 from vsw import stop
@@ -30,7 +31,7 @@ from vsw.cli.parser import (
     UsageError,
     epilog,
 )
-from vsw.errors import ConvergenceError, InfeasibleError, VswInputError
+from vsw.errors import ConvergenceError, InfeasibleError, SlowRouteWarning, VswInputError
 from vsw.limits import max_memory, max_seconds
 from vsw.vectorize import default_threads
 
@@ -147,6 +148,25 @@ def _silence(stream: TextIO) -> None:
         os.close(devnull)
 
 
+def _warning_printer(stream: TextIO) -> Callable[..., None]:
+    """``warnings.showwarning`` for a command: a SlowRouteWarning as one line on
+    ``stream`` (the command's stderr, which solver work may have redirected since), any
+    other warning as Python shows it."""
+    shown = warnings.showwarning
+
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        if not issubclass(category, SlowRouteWarning):
+            shown(message, category, filename, lineno, file, line)
+            return
+        try:
+            stream.write(f"vsw: warning: {message}\n")
+            stream.flush()
+        except (AttributeError, OSError):
+            pass
+
+    return show
+
+
 def _run(argv: Sequence[str] | None) -> int:
     """Parse and run one command; every error but a failing standard output is mapped here."""
     argv = sys.argv[1:] if argv is None else list(argv)
@@ -155,7 +175,9 @@ def _run(argv: Sequence[str] | None) -> int:
         args = parser.parse_args(argv)
         args.argv = argv
         _check_environment()
-        with stop.supervised(max_seconds()):
+        with stop.supervised(max_seconds()), warnings.catch_warnings():
+            warnings.simplefilter("once", SlowRouteWarning)
+            warnings.showwarning = _warning_printer(sys.stderr)
             code = int(args.func(args))
             stop.check()  # a stop a library turned into a result is still a stop
         return code

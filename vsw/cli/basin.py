@@ -31,6 +31,7 @@ from vsw.models.base import Model
 from vsw.models.ile.basin import basin, basin_cost, check_edges_by_simulation, edge_check_cost
 from vsw.models.ile.params import PARAMETER_BY_NAME
 from vsw.models.ile.plots import basin_plot as ile_basin_plot
+from vsw.progress import reporting
 from vsw.vectorize import default_threads
 
 __all__ = ["register", "run"]
@@ -138,7 +139,7 @@ def _grid_basin(args: argparse.Namespace, model: Model) -> int:
                  limits.Cost(seconds, nbytes), "use a coarser --grid or fewer --steps")  # fmt: skip
     flat = [item for axis in axes for item in axis]
     remote = runner(scheduler, model.name) if scheduler else None
-    with options.solver_errors(model):
+    with progress("basin") as bar, reporting(bar), options.solver_errors(model):
         simulator(model).library()
         result = grid_basin(model, params, *flat, steps=args.steps, tol=args.tol, runner=remote)
     data = {**envelope(model, params, args.argv, {**INTEGRATOR, "converged": args.tol}),
