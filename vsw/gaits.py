@@ -41,10 +41,11 @@ from typing import Any
 
 import numpy as np
 
-from vsw import stop
+from vsw import limits, stop
 from vsw.batch import FELL, WALKED, BatchSimulator, simulator
 from vsw.errors import ConvergenceError, VswInputError
 from vsw.hybrid import HybridModel, Orbit
+from vsw.vectorize import default_threads
 
 __all__ = [
     "DISTINCT",
@@ -190,6 +191,22 @@ def _axis(low: float, high: float, count: int, is_rate: bool) -> np.ndarray:
     if is_rate and low == 0.0:
         return np.linspace(low, high, count + 1)[1:]
     return np.linspace(low, high, count)
+
+
+def search_seconds(model: HybridModel, threads: int | None = None) -> float:
+    """Estimated run time of :func:`search` at the default scan (for :mod:`vsw.limits`):
+    one batch step per cell at the per-phase cost of :data:`vsw.limits
+    .BATCH_SECONDS_PER_PHASE`, on ``threads`` (default: the usable cores), plus the Newton
+    and confirmation part. Measured against it (benchmarks/run.py case 12, 2 threads): the
+    compass gait 12.8 s for 9.1 s estimated, the simplest walker 11.5 s for 41 s, the biped
+    2.2-6.0 s for 22 s. Far from the defaults it can be off by more (a stiff swing leg
+    costs many integrator steps a cell): the limit is also enforced while the search runs.
+    """
+    dims = len(model.spec["search"])
+    cells = _scan_points(dims, None) ** dims
+    threads = default_threads() if threads is None else threads
+    per_step = limits.BATCH_SECONDS_PER_PHASE * len(model.phases) * model.n
+    return cells * per_step / threads + limits.SEARCH_SECONDS_FIXED
 
 
 def _scan_points(dims: int, cells: int | None) -> int:

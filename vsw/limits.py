@@ -1,10 +1,12 @@
-"""Limits on the run time and memory of one call, checked before any work starts.
+"""Limits on the run time and memory of one call: estimated before any work starts, and
+the run time enforced while it runs.
 
-Long computations (``simulate``, ``basin``, the edge checks of a basin, ``sweep``; for the
-engine's models too, see :mod:`vsw.models_cli`) estimate their run time and peak memory
-from the work they will do and the arrays they will allocate, and refuse with
+Long computations (``simulate``, ``basin``, the edge checks of a basin, ``sweep``, the gait
+search before them: :func:`vsw.gaits.search_seconds`) estimate their run time and peak
+memory from the work they will do and the arrays they will allocate, and refuse with
 :class:`vsw.errors.VswInputError` (the CLI: exit 2 and one line) what exceeds either
-limit. The limits, and how to raise them:
+limit. Estimates are coarse; a command that runs past ``VSW_MAX_SECONDS`` anyway is
+stopped there (:mod:`vsw.stop`: exit 2, one line). The limits, and how to raise them:
 
 ``VSW_MAX_SECONDS``
     Estimated run time in seconds; default 3600. The estimates come from the per-unit
@@ -67,15 +69,15 @@ SIMULATE_BYTES_PER_RECORDED_STEP = 12_000
 #: a run of any length (the integrator's working arrays): 0.1-0.15 MB measured
 SIMULATE_BYTES_BASE = 256 * 1024
 
-# The engine's models through vsw.hybrid (vsw.models_cli), measured by hand on the rimless
+# The engine's models through vsw.hybrid, measured by hand on the rimless
 # wheel (one coordinate, one phase a step; 2026-11, same machine, load 2-4) and scaled by
 # phases x coordinates for other models:
 #: one phase of a step of the Poincare map (DOP853 at rtol 1e-12, event location): 4-10 ms
 HYBRID_SECONDS_PER_PHASE = 8e-3
-#: the scan for period-one gaits (12 starts, a few steps each, orbit solves), the CasADi
-#: set-up of a model's first solve included: 1.0-3.4 s; 13.6 s where there is no gait
-#: (each start that does not fall is handed to the orbit solver, which fails slowly)
-HYBRID_SECONDS_SCAN = 4.0
+#: the gait search beyond its scan (vsw.gaits.search_seconds adds the scan's steps): the
+#: batch Newton from the completed cells and the orbit solves that confirm the gaits,
+#: CasADi's set-up included: 1-8 s (benchmarks/run.py case 12)
+SEARCH_SECONDS_FIXED = 4.0
 #: one periodic-orbit solve from a nearby orbit, its eigenvalues included: 0.05-0.1 s
 HYBRID_SECONDS_PER_ORBIT = 0.1
 #: one step (a basin rate, a sweep point) in the command's lists and JSON, tracemalloc

@@ -26,6 +26,7 @@ from vsw.cli.parser import EXIT_OK, StoreGiven, given, option_name
 from vsw.cluster import check_scheduler, runner
 from vsw.errors import VswInputError
 from vsw.figures import check_save_path, save_figure
+from vsw.gaits import search_seconds
 from vsw.grid_basin import basin_plot, check_grid_names, grid_basin
 from vsw.models.base import Model
 from vsw.models.ile.basin import basin, basin_cost, check_edges_by_simulation, edge_check_cost
@@ -131,7 +132,7 @@ def _grid_basin(args: argparse.Namespace, model: Model) -> int:
     threads = check_scheduler(scheduler) if scheduler else default_threads()
     cells = math.prod(len(v) for _, v in axes)
     # Upper bound: every cell walks every step (most fall or converge much earlier).
-    seconds = limits.HYBRID_SECONDS_SCAN + (cells * args.steps * limits.BATCH_SECONDS_PER_PHASE
+    seconds = search_seconds(model, threads) + (cells * args.steps * limits.BATCH_SECONDS_PER_PHASE
                                             * len(model.phases) * model.n / threads)  # fmt: skip
     nbytes = limits.SIMULATE_BYTES_BASE + cells * limits.BATCH_BYTES_PER_CELL
     shape = " x ".join(str(len(v)) for _, v in axes)

@@ -20,6 +20,7 @@ from vsw.cli.output import (
 from vsw.cli.parser import EXIT_OK
 from vsw.errors import VswInputError
 from vsw.figures import check_save_path
+from vsw.gaits import search_seconds
 from vsw.walks import walk
 
 __all__ = ["register", "run"]
@@ -57,8 +58,8 @@ def check_cost(model, steps: int, search: bool, records: int, what: str, remedy:
     """Refuse a walk beyond the limits (vsw.limits) before it starts: per-step costs
     measured on the rimless wheel, scaled by the model's phases x coordinates."""
     size = len(model.phases) * model.n
-    seconds = size * (limits.HYBRID_SECONDS_PER_PHASE * steps + (limits.HYBRID_SECONDS_SCAN
-                                                                 if search else 0.0))  # fmt: skip
+    seconds = size * limits.HYBRID_SECONDS_PER_PHASE * steps
+    seconds += search_seconds(model) if search else 0.0
     nbytes = limits.SIMULATE_BYTES_BASE + records * limits.HYBRID_BYTES_PER_STEP
     limits.check(what, limits.Cost(seconds, nbytes), remedy)
 

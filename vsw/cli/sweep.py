@@ -29,6 +29,7 @@ from vsw.cli.parser import EXIT_OK, StoreGiven, given
 from vsw.diagrams import bifurcation_plot, diagram_quantity, diagram_units
 from vsw.errors import VswInputError
 from vsw.figures import check_save_path, save_figure
+from vsw.gaits import search_seconds
 from vsw.models.base import Model
 from vsw.models.ile.analysis import FIELDS
 from vsw.models.ile.plots import ile_sweep_plot
@@ -138,8 +139,10 @@ def _continuation(model, fixed, name, values, keep: int, transient: int) -> list
     count = len(values)
     size = len(model.phases) * model.n
     steps = count * (transient + keep if keep else 0)
-    seconds = size * (limits.HYBRID_SECONDS_SCAN + limits.HYBRID_SECONDS_PER_ORBIT * count
-                      + limits.HYBRID_SECONDS_PER_PHASE * steps)  # fmt: skip
+    # One search to start; where continuation loses the gait, another per point (not
+    # counted: the limit is enforced while the sweep runs).
+    per_point = limits.HYBRID_SECONDS_PER_ORBIT * count + limits.HYBRID_SECONDS_PER_PHASE * steps
+    seconds = search_seconds(model) + size * per_point
     nbytes = limits.SIMULATE_BYTES_BASE + count * max(keep, 1) * limits.HYBRID_BYTES_PER_STEP
     limits.check(
         f"a sweep of {count} points" + (f" iterating {transient + keep} steps each" if keep
@@ -154,7 +157,7 @@ def _continuation(model, fixed, name, values, keep: int, transient: int) -> list
 def _brute_force(args, model, fixed, name, values, keep: int) -> list[dict]:
     count = len(values)
     steps = count * (args.transient + keep)
-    seconds = limits.HYBRID_SECONDS_SCAN + (
+    seconds = search_seconds(model) + (
         (steps + 40 * count) * limits.BATCH_SECONDS_PER_PHASE * len(model.phases) * model.n
         / default_threads()
     )  # fmt: skip
