@@ -24,6 +24,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import math
 import os
 import warnings
 from unittest import mock
@@ -31,10 +32,13 @@ from unittest import mock
 import pytest
 
 hypothesis = pytest.importorskip("hypothesis")
+import numpy as np  # noqa: E402
 from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 from vsw.cli import main  # noqa: E402
+from vsw.models import keys as model_keys  # noqa: E402
+from vsw.models import load  # noqa: E402
 
 # Default warning filters hide these from users; every other category would print.
 _HIDDEN_BY_DEFAULT = (DeprecationWarning, PendingDeprecationWarning, ImportWarning, ResourceWarning)
@@ -365,5 +369,56 @@ def test_model_commands_any_arguments(command):
     @given(command_line(command, options, flags, required=("--model", *required)))
     def run(argv):
         _check(argv, {**FAST, "VSW_MAX_SECONDS": "20"})
+
+    run()
+
+
+# --- the parameter edges of every model ----------------------------------------------------
+
+
+def _edge_values(p) -> list[float]:
+    """A parameter's edges: its open bounds, just inside and outside them, the ends of what
+    vsw computes and just beyond, and the extremes of double precision."""
+    low, high = getattr(p, "computed", None) or (p.lower, p.upper)
+    values = {5e-324, -5e-324, 1e300, -1e300, 1e-300, 0.0, -0.0}
+    for v in (p.lower, p.upper, low, high):
+        if math.isfinite(v):
+            values |= {v, float(np.nextafter(v, math.inf)), float(np.nextafter(v, -math.inf)),
+                       v * (1 + 1e-12), v * (1 - 1e-12)}  # fmt: skip
+    return sorted(values)
+
+
+EDGES = [
+    (load(key).cli_name, p.name, value)
+    for key in model_keys()
+    for p in load(key).parameter_table
+    for value in _edge_values(p)
+]
+
+
+@st.composite
+def edge_command(draw) -> list[str]:
+    """analyze, simulate or sweep of any model with one parameter at one of its edges."""
+    model, name, value = draw(st.sampled_from(EDGES))
+    command = draw(st.sampled_from(["analyze", "simulate", "sweep"]))
+    argv = [command, "--model", model]
+    if command == "sweep":
+        other = draw(st.sampled_from([e for e in EDGES if e[:2] == (model, name)]))[2]
+        argv += ["--over", f"{name}={value!r}:{other!r}:2"]
+    else:
+        argv += ["--param", f"{name}={value!r}"]
+    if command == "simulate":
+        argv += ["--steps", "1"]
+    return argv + ["--json"] * draw(st.booleans())
+
+
+def test_parameter_edges_of_every_model():
+    """Every model's parameters at their edges (issue 21): a result, exit 3 or one line,
+    never a traceback or a warning. The slow ones stop at a 2 s limit (one line)."""
+
+    @budget(120)
+    @given(edge_command())
+    def run(argv):
+        _check(argv, {**FAST, "VSW_MAX_SECONDS": "2"})
 
     run()

@@ -529,3 +529,20 @@ def test_basin_json_explains_n_steps(capsys):
     # The smallest n with lam^n * (1.5 / beta) < 1e-12, and one step more for safety.
     n = next(n for n in range(1, 200) if lam**n * 1.5 / 0.8 < 1e-12)
     assert data["n_steps"] == n + 1
+
+
+def test_fallback_to_scipy_is_one_warning_line(tmp_path):
+    """No compiler (a bad CC, an empty kernel cache): the walks take the SciPy route, about
+    300 times slower, and the command says so once on stderr, not only inside its JSON."""
+    env = {**os.environ, "CC": str(tmp_path / "no-such-cc"), "VSW_CACHE_DIR": str(tmp_path)}
+    done = subprocess.run(
+        [sys.executable, "-m", "vsw", "basin", "--model", "rimless-wheel", "--grid",
+         "theta_dot=0.5:1.5:3", "--steps", "3", "--json"],
+        capture_output=True, text=True, env=env, timeout=300,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    lines = done.stderr.splitlines()
+    assert len(lines) == 1, done.stderr
+    assert lines[0].startswith("vsw: warning: the compiled batch simulator of rimless-wheel")
+    assert "SciPy" in lines[0] and "no-such-cc" in lines[0]
+    assert json.loads(done.stdout)["simulator"].startswith("SciPy")

@@ -138,6 +138,7 @@ class BatchSimulator:
 
     def __init__(self, model: HybridModel) -> None:
         self.model = model
+        self._label = getattr(model, "cli_name", model.name)
         self.failures = failure_names(model)
         self.nx = 2 * model.n
         self.np = len(model.spec["parameters"])
@@ -172,7 +173,7 @@ class BatchSimulator:
                 except (OSError, AttributeError) as exc:
                     self.build_error = f"batch simulator unavailable, using SciPy: {exc}"
                     warnings.warn(
-                        f"the compiled batch simulator of {self.model.name} is unavailable "
+                        f"the compiled batch simulator of {self._label} is unavailable "
                         f"({' '.join(str(exc).split())[:200]}); walking with SciPy instead, "
                         "about 300 times slower",
                         SlowRouteWarning,
