@@ -85,3 +85,21 @@ def cached_derivation(rendered_tree, monkeypatch):
     _RENDERED.update(rendered_tree)
     monkeypatch.setattr(derive_main, "_render_model", cached_render_model)
     return rendered_tree
+
+
+@pytest.fixture(autouse=True)
+def signal_handlers_restored():
+    """No test leaves a signal handler or the interval timer behind (vsw.stop installs
+    both while a command runs and must restore them)."""
+    import signal
+
+    before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGALRM, signal.SIGTERM)}
+    yield
+    after = {s: signal.getsignal(s) for s in before}
+    changed = {s.name: (before[s], after[s]) for s in before if after[s] is not before[s]}
+    for s, handler in before.items():
+        signal.signal(s, handler)
+    timer = signal.getitimer(signal.ITIMER_REAL)
+    signal.setitimer(signal.ITIMER_REAL, 0)
+    assert not changed, f"signal handlers left changed: {changed}"
+    assert timer == (0.0, 0.0), f"interval timer left running: {timer}"

@@ -113,11 +113,20 @@ def test_batch_step_equals_scipy_step(gaits, name):
                           ref.final[same & (ref.outcome != WALKED)])  # fmt: skip
     done = (batch.outcome == WALKED) & (ref.outcome == WALKED)
     assert done.sum() >= 10
-    scale = np.maximum(1.0, np.abs(ref.final[done]))
-    assert np.max(np.abs(batch.final[done] - ref.final[done]) / scale) <= STATE_TOL
+    scale = np.maximum(1.0, np.abs(ref.final))
+    relative = np.max(np.abs(batch.final - ref.final) / scale, axis=1)
+    is_near = np.zeros(len(starts), bool)
+    is_near[near] = True
+    assert np.max(relative[done & ~is_near]) <= STATE_TOL
+    # Within 1e-7 of an outcome boundary the step is ill-conditioned too: the simplest
+    # walker's start 1e-9 from a grazing swing walks a 17.6-long step whose end the two
+    # routes put 2.7e-9 apart on an Intel Xeon (within 1e-9 on an AMD EPYC): last-bit
+    # differences of the CPU's libm, amplified by the near-grazing.
+    assert np.max(relative[done & is_near], initial=0.0) <= 100 * STATE_TOL
     if model.spec["step_length"]:
-        gap = np.abs(batch.kept_lengths[done, 0] - ref.kept_lengths[done, 0])
-        assert np.max(gap) <= STATE_TOL
+        gap = np.abs(batch.kept_lengths[:, 0] - ref.kept_lengths[:, 0])
+        assert np.max(gap[done & ~is_near]) <= STATE_TOL
+        assert np.max(gap[done & is_near], initial=0.0) <= 100 * STATE_TOL
     # The step's duration too, away from the boundaries: near the apex bound the time a
     # slow walker takes to pass it is ill-conditioned (1.8e-8 apart on the rimless wheel).
     far = done.copy()

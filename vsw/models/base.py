@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from vsw import conditions, gaits
+from vsw import conditions, gaits, stop
 from vsw.errors import ModelConditionError, VswInputError
 from vsw.hybrid import HybridModel, Orbit
 
@@ -168,6 +168,7 @@ class Model(HybridModel):
                 self._searches[key] = self._searches.pop(key)  # most recent last
                 return self._searches[key]
         found = gaits.search(self, params, box=box)
+        stop.check()  # a stopped search is not kept, whatever a library made of the stop
         with self._searches_lock:
             self._searches[key] = found
             while len(self._searches) > SEARCHES_KEPT:
