@@ -48,6 +48,7 @@ _lock = threading.RLock()  # reentrant: a signal handler may run while it is hel
 _state: dict[str, float | str | None] = {"stop": None, "deadline": None, "limit": None}
 _started = time.monotonic()
 _supervising = False
+_closing = threading.Event()
 _hooks: list[tuple[Callable[[], None], Callable[[], None]]] = []
 
 
@@ -112,6 +113,8 @@ def _on_interrupt(signum, frame) -> None:
 
 
 def _on_alarm(signum, frame) -> None:
+    if _closing.is_set():  # the run is over: its limit no longer applies
+        return
     _record("limit")
     _raise(_state["stop"])  # type: ignore[arg-type]
 
@@ -134,20 +137,24 @@ def supervised(seconds: float = math.inf) -> Iterator[None]:
             _reset()
         return
     _supervising = True
+    _closing.clear()
     previous_int = signal.signal(signal.SIGINT, _on_interrupt)
-    previous_alarm = None
-    if math.isfinite(seconds):
-        previous_alarm = signal.signal(signal.SIGALRM, _on_alarm)
-        signal.setitimer(signal.ITIMER_REAL, seconds)
+    previous_alarm = signal.signal(signal.SIGALRM, _on_alarm)
     try:
+        # Armed inside the try: a tiny limit fires at once, and the handlers are still
+        # restored below.
+        if math.isfinite(seconds):
+            signal.setitimer(signal.ITIMER_REAL, seconds)
         yield
     finally:
-        if previous_alarm is not None:
+        _closing.set()  # a timer's signal still pending now is ignored (_on_alarm)
+        try:
             signal.setitimer(signal.ITIMER_REAL, 0)
+        finally:
             signal.signal(signal.SIGALRM, previous_alarm)
-        signal.signal(signal.SIGINT, previous_int)
-        _supervising = False
-        _reset()
+            signal.signal(signal.SIGINT, previous_int)
+            _supervising = False
+            _reset()
 
 
 def _reset() -> None:
