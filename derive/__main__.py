@@ -319,8 +319,16 @@ def main(argv: list[str] | None = None) -> int:
         "--model", choices=sorted(MODELS), help="derive only this model (the others as on disk)"
     )
     args = parser.parse_args(argv)
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, _terminated)
+    if threading.current_thread() is not threading.main_thread():
+        return _run(args)
+    previous = signal.signal(signal.SIGTERM, _terminated)
+    try:
+        return _run(args)
+    finally:  # called in process (the tests): the caller's handler back
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _run(args: argparse.Namespace) -> int:
     files = render_all(args.model, existing_files(args.out) if args.model else None)
     if args.check:
         report = stale_report(files, args.out)
