@@ -8,6 +8,7 @@ version strings and with a fixed SVG hash salt, so the same figure gives the sam
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -23,7 +24,13 @@ SAVE_FORMATS = ("png", "svg", "pdf")
 
 
 def check_save_path(path: str | Path) -> Path:
-    """Validate an output path before any work: it can be written as a figure file.
+    """Validate a figure's path before any work (:func:`check_output_path` for
+    :data:`SAVE_FORMATS`)."""
+    return check_output_path(path, tuple("." + s for s in SAVE_FORMATS), "plot file")
+
+
+def check_output_path(path: str | Path, suffixes: tuple[str, ...], kind: str) -> Path:
+    """Validate an output path before any work: it can be written as a ``kind`` file.
 
     Checks a known suffix, an existing parent directory, that the path is not a
     directory, and that the file can be opened for writing (it is opened without
@@ -36,31 +43,23 @@ def check_save_path(path: str | Path) -> Path:
     VswInputError
         One line naming the path and what is wrong.
     """
-    import os  # here, not at the top: this function is the only user
-
     text = str(path)
     if not text.strip():
-        raise VswInputError(
-            f"plot file name is empty: give a path ending in "
-            f"{', '.join('.' + s for s in SAVE_FORMATS)}"
-        )
+        raise VswInputError(f"{kind} name is empty: give a path ending in {', '.join(suffixes)}")
     path = Path(path)
-    suffix = path.suffix.lower().lstrip(".")
-    if suffix not in SAVE_FORMATS:
-        raise VswInputError(
-            f"plot file {text!r} must end in one of {', '.join('.' + s for s in SAVE_FORMATS)}"
-        )
+    if path.suffix.lower() not in suffixes:
+        raise VswInputError(f"{kind} {text!r} must end in one of {', '.join(suffixes)}")
     parent = path.parent
     if not parent.is_dir():
-        raise VswInputError(f"plot file {text!r}: directory {str(parent)!r} does not exist")
+        raise VswInputError(f"{kind} {text!r}: directory {str(parent)!r} does not exist")
     if path.is_dir():
-        raise VswInputError(f"plot file {text!r} is a directory")
+        raise VswInputError(f"{kind} {text!r} is a directory")
     existed = os.path.lexists(path)
     try:
         # O_NONBLOCK: a FIFO without a reader fails at once instead of blocking.
         fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_APPEND | os.O_NONBLOCK, 0o666)
     except OSError as exc:
-        raise VswInputError(f"plot file {text!r} cannot be written: {exc.strerror}") from None
+        raise VswInputError(f"{kind} {text!r} cannot be written: {exc.strerror}") from None
     os.close(fd)
     if not existed:
         path.unlink(missing_ok=True)

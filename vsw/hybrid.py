@@ -41,6 +41,7 @@ __all__ = [
     "Attractor",
     "HybridModel",
     "Orbit",
+    "PhasePiece",
     "StepResult",
     "Trajectory",
 ]
@@ -76,6 +77,35 @@ class EventRecord:
     @property
     def energy_change(self) -> float:
         return self.energy_after - self.energy_before
+
+
+@dataclass(frozen=True)
+class PhasePiece:
+    """One phase of a walk in continuous time: its dense output over [start, end] (the
+    solutions of SciPy's DOP853, several where the phase restarted past an event that did
+    not count), in the step ``step`` (0 = the first)."""
+
+    phase: str
+    step: int
+    start: float
+    end: float
+    segments: tuple  # (OdeSolution, start, end)
+
+    def states(self, times: np.ndarray) -> np.ndarray:
+        """The state at each of ``times`` (in [start, end]), shape (len(times), 2n)."""
+        times = np.asarray(times, dtype=float)
+        starts = np.array([s for _, s, _ in self.segments])
+        which = np.clip(np.searchsorted(starts, times, side="right") - 1, 0, len(starts) - 1)
+        out = np.empty((len(times), 0)) if not len(times) else None
+        for k, (solution, _, _) in enumerate(self.segments):
+            chosen = which == k
+            if not np.any(chosen):
+                continue
+            values = np.asarray(solution(times[chosen]), dtype=float).T
+            if out is None:
+                out = np.empty((len(times), values.shape[1]))
+            out[chosen] = values
+        return out
 
 
 @dataclass(frozen=True)
@@ -250,9 +280,11 @@ class HybridModel:
 
     def _phase_run(
         self, phase: str, params, state: np.ndarray, t0: float, dense: bool,
-        max_step: float = np.inf,
+        max_step: float = np.inf, segments: list | None = None,
     ):  # fmt: skip
-        """Integrate one phase to its first event or failure."""
+        """Integrate one phase to its first event or failure. ``segments``: a list to
+        which each integration's continuous solution is appended as (solution, start, end)
+        (SciPy's dense output: DOP853's own 7th-order interpolant)."""
         from scipy.integrate import solve_ivp
 
         failed = self.failure_at(phase, params, state)
@@ -283,13 +315,17 @@ class HybridModel:
             sol = solve_ivp(
                 rhs, (t_start, t0 + _PHASE_TIME_LIMIT), x, method="DOP853",
                 rtol=_RTOL, atol=_ATOL, events=functions, max_step=max_step,
+                dense_output=segments is not None,
             )  # fmt: skip
+            k = next((i for i, te in enumerate(sol.t_events) if len(te)), None)
+            if segments is not None and sol.sol is not None:
+                end = float(sol.t_events[k][0]) if sol.status == 1 else float(sol.t[-1])
+                segments.append((sol.sol, float(t_start), end))
             if dense:
                 samples_t.extend(sol.t[1:])
                 samples_x.extend(sol.y.T[1:])
-            if sol.status != 1:
+            if sol.status != 1 or k is None:
                 return "stalled", None, t_start, x, samples_t, samples_x
-            k = next(i for i, te in enumerate(sol.t_events) if len(te))
             kind, what, _, _ = watchers[k]
             t_hit, x_hit = float(sol.t_events[k][0]), np.array(sol.y_events[k][0])
             samples_t.append(t_hit)
@@ -347,6 +383,34 @@ class HybridModel:
                 break
             phase = what["target"]
         return records
+
+    def continuous_walk(
+        self, params: Sequence[float], state: np.ndarray, steps: int
+    ) -> tuple[list[PhasePiece], list[tuple[int, EventRecord]], str]:
+        """``steps`` steps from a section state as continuous solutions: each phase's
+        pieces of SciPy's dense output, each event (with the step it ends or falls in) and
+        how the walk ended ('completed', a failure's name or 'stalled')."""
+        phase = self.step_event["target"]
+        t, x, done = 0.0, np.array(state, dtype=float), 0
+        pieces: list[PhasePiece] = []
+        events: list[tuple[int, EventRecord]] = []
+        while done < steps:
+            segments: list = []
+            kind, what, t_end, x_end, *_ = self._phase_run(
+                phase, params, x, t, dense=False, segments=segments
+            )
+            pieces.append(PhasePiece(phase, done, t, t_end, tuple(segments)))
+            if kind != "event":
+                return pieces, events, what if kind == "failure" else "stalled"
+            after = self.reset(what["name"], params, x_end)
+            events.append((done, EventRecord(
+                what["name"], t_end, x_end, after.copy(),
+                float(self._fn(f"{phase}_energy")(*params, *x_end)),
+                float(self._fn(f"{what['target']}_energy")(*params, *after)),
+            )))  # fmt: skip
+            x, t, phase = after, t_end, what["target"]
+            done += bool(what["ends_step"])
+        return pieces, events, "completed"
 
     def attractor(
         self,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from typing import Any
 
@@ -19,8 +20,9 @@ from vsw.cli.output import (
 )
 from vsw.cli.parser import EXIT_OK
 from vsw.errors import VswInputError
-from vsw.figures import check_save_path
+from vsw.figures import check_output_path, check_save_path
 from vsw.gaits import search_seconds
+from vsw.trajectories import FORMATS, MAX_RATE, column_units, sample_walk, write_trajectory
 from vsw.walks import walk
 
 __all__ = ["register", "run"]
@@ -51,6 +53,15 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--plot", metavar="FILE", help="save theta, omega and q plots (.png/.svg/.pdf; the ile)"
     )
+    p.add_argument(
+        "--trajectory", metavar="FILE",
+        help="write the time series (state, energy, contact force, events) as .csv, .npz or "
+        ".mat, by the extension",
+    )  # fmt: skip
+    p.add_argument(
+        "--rate", type=float, default=100.0,
+        help="samples per model time unit in --trajectory, plus each event's instant",
+    )  # fmt: skip
     p.set_defaults(func=run)
 
 
@@ -73,6 +84,10 @@ def run(args: argparse.Namespace) -> int:
     state = options.parse_state(model, args.state) if args.state else None
     if args.plot is not None:
         check_save_path(args.plot)
+    if args.trajectory is not None:
+        check_output_path(args.trajectory, FORMATS, "trajectory file")
+        if not (math.isfinite(args.rate) and 0 < args.rate <= MAX_RATE):
+            raise VswInputError(f"--rate = {args.rate:g} must be a number in (0, {MAX_RATE:g}]")
     search = state is None and args.q0 is None
     check_cost(model, args.steps, search, args.steps, f"simulating {args.steps} steps",
                "use fewer --steps")  # fmt: skip
@@ -93,6 +108,14 @@ def run(args: argparse.Namespace) -> int:
     if args.plot is not None:
         model.save_simulation_plot(params, start.state, args.steps, args.plot)
         data["plot"] = args.plot
+    if args.trajectory is not None:
+        with options.solver_errors(model):
+            sampled = sample_walk(model, params, start.state, args.steps, args.rate)
+        write_trajectory(args.trajectory, model, params, sampled)
+        data["trajectory"] = {
+            "path": args.trajectory, "rows": len(sampled.t), "rate": sampled.rate,
+            "units": column_units(model, sampled),
+        }  # fmt: skip
     if args.json:
         dump_json(data)
         if start.note():
@@ -118,4 +141,8 @@ def run(args: argparse.Namespace) -> int:
                   + f" {fmt(length):>14}\n")  # fmt: skip
     if args.plot is not None:
         out.write(f"plot: {args.plot}{unit_text(None)}\n")
+    if args.trajectory is not None:
+        per = model.units.get("time", "time unit")
+        out.write(f"trajectory: {args.trajectory} ({len(sampled.t)} rows, {sampled.rate:g} "
+                  f"samples per {per} and each event)\n")  # fmt: skip
     return EXIT_OK
