@@ -22,7 +22,10 @@ import numpy as np
 
 from vsw import conditions, gaits, stop
 from vsw.errors import ModelConditionError, VswInputError
+from vsw.figures import save_figure
 from vsw.hybrid import HybridModel, Orbit
+from vsw.trajectories import sample_walk
+from vsw.walk_plot import walk_figure
 
 __all__ = ["FEATURES", "SEARCHES_KEPT", "GaitReport", "Model", "Start"]
 
@@ -40,6 +43,9 @@ FEATURES = {
     "explorer": "vsw explore",
 }
 """Optional features of a model (:attr:`Model.features`) and what each is."""
+
+PLOT_RATE = 400.0
+"""Samples per model time unit of ``vsw simulate --plot`` (with each event's instant)."""
 
 
 @dataclass
@@ -96,7 +102,7 @@ class Start:
 class Model(HybridModel):
     """A generated model through the one interface of the commands."""
 
-    features: frozenset[str] = frozenset()
+    features: frozenset[str] = frozenset({"simulation-plot"})
 
     def __init__(self, module: Any) -> None:
         super().__init__(module)
@@ -282,8 +288,10 @@ class Model(HybridModel):
     def save_simulation_plot(
         self, params: Sequence[float], start: np.ndarray, steps: int, path: str
     ) -> None:
-        """The simulation's figure (a model with the feature ``simulation-plot``)."""
-        raise VswInputError(f"vsw simulate --plot: not available for {self.cli_name} yet")
+        """The walk over time (:func:`vsw.walk_plot.walk_figure`): its coordinates, rates
+        and energy sampled at :data:`PLOT_RATE` per time unit, every event marked."""
+        walk = sample_walk(self, params, start, steps, PLOT_RATE)
+        save_figure(walk_figure(self, params, walk), path)
 
 
 def _bound(value: float) -> float | None:

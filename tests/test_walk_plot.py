@@ -1,0 +1,62 @@
+"""``vsw simulate --plot`` for every model: the walk over time in the audit's style."""
+
+from __future__ import annotations
+
+import pytest
+
+from vsw.figures import save_figure
+from vsw.models import keys, load
+from vsw.trajectories import sample_walk
+from vsw.walk_plot import state_label, unit_tex, walk_figure
+
+GENERIC = [k for k in keys() if k != "ile"]  # the ILE keeps its closed-form figure
+
+
+@pytest.fixture(scope="module")
+def figures():
+    out = {}
+    for key in GENERIC:
+        model = load(key)
+        params = model.parameters()
+        start = model.start(params, None, None).state
+        out[key] = (model, params, sample_walk(model, params, start, 2, 200.0))
+    return out
+
+
+@pytest.mark.parametrize("key", GENERIC)
+@pytest.mark.parametrize("suffix", ["png", "svg", "pdf"])
+def test_every_model_draws_its_walk_byte_identically(figures, tmp_path, key, suffix):
+    model, params, walk = figures[key]
+    first, second = tmp_path / f"a.{suffix}", tmp_path / f"b.{suffix}"
+    save_figure(walk_figure(model, params, walk), first)
+    save_figure(walk_figure(model, params, walk), second)
+    assert first.read_bytes() == second.read_bytes()
+
+
+@pytest.mark.parametrize("key", GENERIC)
+def test_legend_and_title_lie_outside_the_data_and_inside_the_figure(figures, key):
+    model, params, walk = figures[key]
+    fig = walk_figure(model, params, walk)
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    legend = fig.legends[0].get_window_extent(renderer)
+    page = fig.bbox
+    for ax in fig.axes:
+        box = ax.get_window_extent(renderer)
+        assert not legend.overlaps(box), "the legend covers data"
+        title = ax.title.get_window_extent(renderer)
+        assert title.x0 >= page.x0 - 1 and title.x1 <= page.x1 + 1, "title cut off"
+    assert legend.x0 >= page.x0 - 1 and legend.x1 <= page.x1 + 1
+    assert fig.get_size_inches()[0] == pytest.approx(3.5), "one journal column"
+    labels = [ax.get_ylabel() for ax in fig.axes] + [fig.axes[-1].get_xlabel()]
+    assert all("[" in label and "]" in label for label in labels), labels
+
+
+def test_units_and_symbols_in_mathtext():
+    assert unit_tex("sqrt(r_e/g)") == r"$\sqrt{r_{e}/g}$"
+    assert unit_tex("m_H g l") == r"$m_{H}\,g\,l$"
+    assert unit_tex("rad/s") == "rad/s"
+    assert state_label("theta_dot", "rad/s") == r"$\dot{\theta}$ [rad/s]"
+    assert state_label("theta_II", "rad") == r"$\theta_{\mathrm{II}}$ [rad]"

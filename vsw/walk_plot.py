@@ -1,0 +1,139 @@
+"""The figure of ``vsw simulate --plot`` for every model: a walk over time.
+
+Three panels over the walk's time (one journal column, :mod:`vsw.plotstyle`): the
+coordinates, their rates, and the mechanical energy of each phase in its own chart; every
+event a vertical line (the step event solid, the others dashed) and each curve continuous
+within a phase and broken at an event (an impact or an actuator's jump changes a rate or
+the energy at once). Labels are mathtext with the model's units; the legend lies below the
+axes, outside the data; the title names the model and its parameters with their units.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import re
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from vsw import plotstyle
+from vsw.trajectories import SampledWalk
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+__all__ = ["parameter_text", "state_label", "unit_tex", "walk_figure"]
+
+_GREEK = {"theta", "psi", "phi", "alpha", "beta", "gamma", "delta", "mu", "omega", "tau"}
+
+
+def unit_tex(unit: str) -> str:
+    """A unit of the model tables in mathtext: ``sqrt(r_e/g)`` as a root with ``r_e``
+    subscripted, its letters symbols (m, g, l) and rad upright; plain SI units
+    (``rad/s``, ``J``) as they are."""
+    if not unit or unit == "1":
+        return "1"
+    if "sqrt" not in unit and "_" not in unit:
+        return unit
+    body = re.sub(r"sqrt\(([^)]*)\)", r"\\sqrt{\1}", unit)
+    body = re.sub(r"\brad\b", r"\\mathrm{rad}", body)  # letters are symbols (m: mass)
+    body = re.sub(r"_([A-Za-z0-9]+)", r"_{\1}", body).replace(" ", r"\,")
+    return f"${body}$"
+
+
+def _symbol(name: str) -> str:
+    base, _, sub = name.partition("_")
+    head = f"\\{base}" if base in _GREEK else base
+    if sub:
+        sub = sub if sub.isupper() else sub.replace("_", r"\_")
+        return f"{head}_{{\\mathrm{{{sub}}}}}" if sub.isupper() else f"{head}_{{{sub}}}"
+    return head
+
+
+def state_label(name: str, unit: str) -> str:
+    """``theta`` [rad] as ``$\\theta$ [rad]``, ``theta_dot`` as ``$\\dot{\\theta}$``."""
+    if name.endswith("_dot"):
+        symbol = f"\\dot{{{_symbol(name[: -len('_dot')])}}}"
+    else:
+        symbol = _symbol(name)
+    return f"${symbol}$ [{unit_tex(unit)}]"
+
+
+def parameter_text(model: Any, params: Sequence[float], width: int = 46) -> str:
+    """The model's title and its parameters with units (angles also in degrees)."""
+    import textwrap
+
+    parts = []
+    for p, value in zip(model.parameter_table, params):
+        if p.unit == "rad":
+            parts.append(f"{p.name} = {value:.4g} rad ({math.degrees(value):.3g}°)")
+        elif p.unit in ("", "1"):
+            parts.append(f"{p.name} = {value:.4g}")
+        else:
+            parts.append(f"{p.name} = {value:.4g} {p.unit}")
+    return "\n".join(textwrap.wrap(f"{model.title}: {', '.join(parts)}", width))
+
+
+@plotstyle.styled
+def walk_figure(model: Any, params: Sequence[float], walk: SampledWalk) -> Figure:
+    """The walk over time (module docstring)."""
+    from matplotlib.lines import Line2D
+
+    units = {s["name"]: s["unit"] for s in model.spec["state"]}
+    fig, axes = plotstyle.new_figure(
+        height=plotstyle.COLUMN_WIDTH * 1.45, nrows=3, sharex=True
+    )  # fmt: skip
+    ax_q, ax_rate, ax_energy = axes
+    # Pieces: consecutive rows of one phase and step, broken at every event.
+    breaks = [0]
+    for i in range(1, len(walk.t)):
+        if walk.event[i].endswith(":after") or (walk.phase[i], walk.step[i]) != (
+            walk.phase[i - 1], walk.step[i - 1]):  # fmt: skip
+            breaks.append(i)
+    breaks.append(len(walk.t))
+    n = len(model.coordinates)
+    for k in range(len(walk.names)):
+        ax = ax_q if k < n else ax_rate
+        style = plotstyle.curve_style(k % n)
+        for a, b in itertools.pairwise(breaks):
+            ax.plot(walk.t[a:b], walk.states[a:b, k], color=style["color"], lw=1.0,
+                    ls="-" if k < n else (0, (4, 1.5)))  # fmt: skip
+    for a, b in itertools.pairwise(breaks):
+        ax_energy.plot(walk.t[a:b], walk.energy[a:b], color=plotstyle.COLORS["black"], lw=1.0)
+    step_event = model.step_event["name"]
+    for i, event in enumerate(walk.event):
+        if not event.endswith(":before"):
+            continue
+        is_step = event.split(":")[0] == step_event
+        for ax in axes:
+            ax.axvline(walk.t[i], color=plotstyle.COLORS["grey"], lw=0.5,
+                       ls="-" if is_step else "--", zorder=0)  # fmt: skip
+    coordinate_unit = units.get(model.coordinates[0], "rad")
+    ax_q.set_ylabel(f"angle [{unit_tex(coordinate_unit)}]")
+    ax_rate.set_ylabel(f"rate [{unit_tex(units.get(model.rates[0], ''))}]")
+    ax_energy.set_ylabel(f"energy [{unit_tex(model.units.get('energy', ''))}]")
+    ax_energy.set_xlabel(f"time [{unit_tex(model.units.get('time', ''))}]")
+    ax_q.set_title(parameter_text(model, params), loc="left")
+    handles = [
+        Line2D([], [], color=plotstyle.curve_style(k)["color"], lw=1.0)
+        for k in range(n)
+    ] + [
+        Line2D([], [], color=plotstyle.COLORS["grey"], lw=0.5, ls="-"),
+    ]  # fmt: skip
+    labels = [state_label(c, units.get(c, "")) + " and its rate (dashed)"
+              for c in model.coordinates] + [f"{step_event} (step event)"]  # fmt: skip
+    others = sorted({e["name"] for e in model.events} - {step_event})
+    if others:
+        handles.append(Line2D([], [], color=plotstyle.COLORS["grey"], lw=0.5, ls="--"))
+        labels.append(", ".join(others))
+    if walk.ended != "completed":
+        labels[-1] += f"; the walk ended: {walk.ended}"
+    plotstyle.figure_legend(fig, handles, labels, ncols=2)
+    ax_energy.ticklabel_format(axis="y", useOffset=False)
+    for ax in axes:
+        ax.margins(x=0.0)
+    if len(walk.t):
+        ax_energy.set_xlim(float(walk.t[0]), float(np.max(walk.t)))
+    return fig
