@@ -379,7 +379,7 @@ BAD = [
     (["simulate", "--model", "compass-gait", "--steps", "2", "--q0", "1"], ["--q0", "rimless"]),
     (["simulate", *RIMLESS, "--q0", "-1"], ["--q0 = -1"]),
     (["simulate", *RIMLESS, "--steps", "2", "--state", "theta=0"], ["theta_dot"]),
-    (["simulate", *RIMLESS, "--plot", "x.png"], ["--plot", "ile"]),
+    (["simulate", *RIMLESS, "--plot", "x.txt"], ["plot file 'x.txt' must end in one of"]),
     (["design", "--model", "tle"], ["design is not available", "ile"]),
     (["explore", "--model", "compass-gait", "--out", "x.html"], ["explorer", "ile"]),
     (["analyze", *RIMLESS, "--search", "theta=0:1"], ["--search theta", "theta_dot"]),

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from vsw import plotstyle
 from vsw.figures import save_figure
 from vsw.models import keys, load
 from vsw.trajectories import sample_walk
@@ -39,15 +40,21 @@ def test_legend_and_title_lie_outside_the_data_and_inside_the_figure(figures, ke
     fig = walk_figure(model, params, walk)
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
+    plotstyle.settle_layout(fig)
     renderer = FigureCanvasAgg(fig).get_renderer()
     fig.draw(renderer)
     legend = fig.legends[0].get_window_extent(renderer)
     page = fig.bbox
     for ax in fig.axes:
-        box = ax.get_window_extent(renderer)
-        assert not legend.overlaps(box), "the legend covers data"
-        title = ax.title.get_window_extent(renderer)
-        assert title.x0 >= page.x0 - 1 and title.x1 <= page.x1 + 1, "title cut off"
+        assert not legend.overlaps(ax.get_window_extent(renderer)), "the legend covers data"
+    texts = [fig._suptitle, *fig.legends[0].get_texts()]
+    texts += [label for ax in fig.axes for label in (ax.xaxis.label, ax.yaxis.label)]
+    for text in texts:
+        if text is None or not text.get_text().strip():
+            continue
+        box = text.get_window_extent(renderer)
+        inside = box.x0 >= page.x0 - 1 and box.x1 <= page.x1 + 1 and box.y0 >= page.y0 - 1
+        assert inside and box.y1 <= page.y1 + 1, f"cut off: {text.get_text()!r}"
     assert legend.x0 >= page.x0 - 1 and legend.x1 <= page.x1 + 1
     assert fig.get_size_inches()[0] == pytest.approx(3.5), "one journal column"
     labels = [ax.get_ylabel() for ax in fig.axes] + [fig.axes[-1].get_xlabel()]

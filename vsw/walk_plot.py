@@ -72,7 +72,7 @@ def parameter_text(model: Any, params: Sequence[float], width: int = 46) -> str:
         elif p.unit in ("", "1"):
             parts.append(f"{p.name} = {value:.4g}")
         else:
-            parts.append(f"{p.name} = {value:.4g} {p.unit}")
+            parts.append(f"{p.name} = {value:.4g} {p.unit.replace('^2', '²')}")
     return "\n".join(textwrap.wrap(f"{model.title}: {', '.join(parts)}", width))
 
 
@@ -115,7 +115,8 @@ def walk_figure(model: Any, params: Sequence[float], walk: SampledWalk) -> Figur
     ax_rate.set_ylabel(f"rate [{unit_tex(units.get(model.rates[0], ''))}]")
     ax_energy.set_ylabel(f"energy [{unit_tex(model.units.get('energy', ''))}]")
     ax_energy.set_xlabel(f"time [{unit_tex(model.units.get('time', ''))}]")
-    ax_q.set_title(parameter_text(model, params), loc="left")
+    # A figure title: constrained layout makes room for it whatever the axes' width.
+    fig.suptitle(parameter_text(model, params), x=0.02, ha="left", fontsize="medium")
     handles = [
         Line2D([], [], color=plotstyle.curve_style(k)["color"], lw=1.0)
         for k in range(n)
@@ -131,7 +132,15 @@ def walk_figure(model: Any, params: Sequence[float], walk: SampledWalk) -> Figur
     if walk.ended != "completed":
         labels[-1] += f"; the walk ended: {walk.ended}"
     plotstyle.figure_legend(fig, handles, labels, ncols=2)
-    ax_energy.ticklabel_format(axis="y", useOffset=False)
+    # A conserved energy drifts by the integrator's 1e-12: shown at least 1e-3 of its size
+    # tall, it reads as the constant it is, and the events' jumps as what they are.
+    energy = walk.energy[np.isfinite(walk.energy)]
+    if len(energy):
+        low, high = float(np.min(energy)), float(np.max(energy))
+        least = 1e-3 * max(abs(low), abs(high), 1e-300)
+        if high - low < least:
+            middle = 0.5 * (low + high)
+            ax_energy.set_ylim(middle - least, middle + least)
     for ax in axes:
         ax.margins(x=0.0)
     if len(walk.t):

@@ -51,7 +51,11 @@ def register(subparsers: Any) -> None:
         "--q0", type=float, help="q = rate**2 just after the step event (ile, tle, rimless-wheel)"
     )
     p.add_argument(
-        "--plot", metavar="FILE", help="save theta, omega and q plots (.png/.svg/.pdf; the ile)"
+        "--plot",
+        metavar="FILE",
+        help="save the walk's figure (.png/.svg/.pdf): the ile's "
+        "theta, omega and q by step; every other model's coordinates, rates and energy over "
+        "time",
     )
     p.add_argument(
         "--trajectory", metavar="FILE",
