@@ -34,6 +34,7 @@ import numpy as np
 
 import generated.ile as ile
 from paper_check.output import check_output_directory
+from vsw import plotstyle
 from vsw.diagrams import bifurcation_plot, diagram_quantity, diagram_units
 from vsw.errors import ConvergenceError
 from vsw.figures import save_figure
@@ -180,7 +181,8 @@ def _basin_section(out: Path, quick: bool) -> tuple[list[str], list[Path]]:
     found = grid_basin(m, params, "theta", np.linspace(-0.36, -0.1, side), "theta_dot",
                        np.linspace(0.1, 0.4, side), 50)  # fmt: skip
     basin = clean({**found.to_dict(), "model": m.cli_name})
-    save_figure(basin_plot(basin, m.spec["coordinate_units"]), png)
+    units = {s["name"]: s["unit"] for s in m.spec["state"]}
+    save_figure(basin_plot(basin, units, plotstyle.parameter_text(m, params)), png)
     counts = basin["counts"]
     cells = side * side
     steps = np.array(basin["steps"])

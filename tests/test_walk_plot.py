@@ -7,8 +7,9 @@ import pytest
 from vsw import plotstyle
 from vsw.figures import save_figure
 from vsw.models import keys, load
+from vsw.plotstyle import state_label, unit_tex
 from vsw.trajectories import sample_walk
-from vsw.walk_plot import state_label, unit_tex, walk_figure
+from vsw.walk_plot import walk_figure
 
 GENERIC = [k for k in keys() if k != "ile"]  # the ILE keeps its closed-form figure
 

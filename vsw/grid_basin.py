@@ -220,14 +220,22 @@ def _colors_for(labels: Sequence[str]) -> dict[str, str]:
     return out
 
 
-def basin_plot(data: Mapping[str, Any], units: Mapping[str, str] | None = None) -> Figure:
-    """Two panels from a basin's JSON record: the classes (colour-blind-safe colours, the
-    gait's fixed point marked) and the steps walked until each cell's class was decided."""
+def basin_plot(
+    data: Mapping[str, Any],
+    units: Mapping[str, str] | None = None,
+    title: str | None = None,
+) -> Figure:
+    """Two panels from a basin's JSON record, one journal column: the classes
+    (colour-blind-safe colours, the gait's fixed point starred) and the steps walked until
+    each converged cell converged. ``units``: of the gridded state components (mathtext
+    labels with them); ``title``: the model and its parameters (default: from the record,
+    without units: pass :func:`vsw.plotstyle.parameter_text`). The legend lies below the
+    panels, outside the data."""
     with plotstyle.context():
-        return _basin_plot(data, units or {})
+        return _basin_plot(data, units or {}, title)
 
 
-def _basin_plot(data: Mapping[str, Any], units: Mapping[str, str]) -> Figure:
+def _basin_plot(data: Mapping[str, Any], units: Mapping[str, str], title: str | None) -> Figure:
     from matplotlib.colors import BoundaryNorm, ListedColormap
     from matplotlib.patches import Patch
 
@@ -240,7 +248,8 @@ def _basin_plot(data: Mapping[str, Any], units: Mapping[str, str]) -> Figure:
     index = {label: k for k, label in enumerate(labels)}
     classes = np.array([[index[c] for c in row] for row in data["outcome"]], dtype=float)
     steps = np.asarray(data["steps"], dtype=float)
-    fig, axes = plotstyle.new_figure(plotstyle.PAGE_WIDTH, 3.0, ncols=2)
+    height = plotstyle.COLUMN_WIDTH * (0.75 if one_d else 1.55)
+    fig, axes = plotstyle.new_figure(height=height, nrows=2, sharex=True)
     extent = _extent(x, y)
     cmap = ListedColormap([colors[label] for label in labels])
     norm = BoundaryNorm(np.arange(len(labels) + 1) - 0.5, len(labels))
@@ -256,18 +265,23 @@ def _basin_plot(data: Mapping[str, Any], units: Mapping[str, str]) -> Figure:
         star_y = 0.0 if one_d else fp[data["y_name"]]
         ax.plot([fp[data["x_name"]]], [star_y], marker="*", markersize=9,
                 markerfacecolor="white", markeredgecolor="black", linestyle="none")  # fmt: skip
-        ax.set_xlabel(_label(data["x_name"], units))
         if one_d:
             ax.set_yticks([])
         else:
             ax.set_ylabel(_label(data["y_name"], units))
+    axes[1].set_xlabel(_label(data["x_name"], units))
     counts = data.get("counts", {})
-    handles = [Patch(facecolor=colors[label], edgecolor="black", linewidth=0.4,
-                     label=f"{label} ({counts.get(label, '')})") for label in labels]  # fmt: skip
+    handles = [
+        Patch(facecolor=colors[label], edgecolor="black", linewidth=0.4,
+              label=f"{label} ({counts.get(label, '')} cells)")
+        for label in labels
+    ]  # fmt: skip
     handles.append(_star_handle())
-    axes[0].legend(handles=handles, loc="upper left", fontsize=6, framealpha=0.9)
-    params = ", ".join(f"{k} = {v:.6g}" for k, v in data["parameters"].items())
-    axes[0].set_title(f"{data['model']}: {params}", fontsize=7)
+    plotstyle.figure_legend(fig, handles, [h.get_label() for h in handles], ncols=2)
+    if title is None:
+        params = ", ".join(f"{k} = {v:.6g}" for k, v in data["parameters"].items())
+        title = f"{data['model']}: {params}"
+    fig.suptitle(title, x=0.02, ha="left", fontsize="medium")
     axes[1].set_title(f"converged cells, at most {data['max_steps']} steps", fontsize=7)
     plotstyle.settle_layout(fig)
     return fig
@@ -287,5 +301,4 @@ def _extent(x: np.ndarray, y: np.ndarray) -> list[float]:
 
 
 def _label(name: str, units: Mapping[str, str]) -> str:
-    unit = units.get(name)
-    return f"{name} [{unit}]" if unit else name
+    return plotstyle.state_label(name, units.get(name, "1"))

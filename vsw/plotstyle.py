@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import math
+import re
 from collections.abc import Callable, Iterator, Sequence
 from typing import TYPE_CHECKING, Any, TypeVar
 
@@ -43,9 +44,12 @@ __all__ = [
     "legend_outside",
     "mark_off_scale",
     "new_figure",
+    "parameter_text",
     "params_title",
     "settle_layout",
+    "state_label",
     "styled",
+    "unit_tex",
 ]
 
 # Okabe & Ito (2008), "Color Universal Design": distinguishable under the common colour
@@ -359,3 +363,55 @@ def params_title(beta: float, theta_II: float | None, phi0: float, **extra: floa
     for name, value in extra.items():
         parts.append(f"${name}$ = {value:.4g}")
     return ", ".join(parts)
+
+
+# --- labels: the models' names and units in mathtext ------------------------------------
+
+_GREEK = {"theta", "psi", "phi", "alpha", "beta", "gamma", "delta", "mu", "omega", "tau"}
+
+
+def unit_tex(unit: str) -> str:
+    """A unit of the model tables in mathtext: ``sqrt(r_e/g)`` as a root with ``r_e``
+    subscripted, its letters symbols (m, g, l) and rad upright; plain SI units
+    (``rad/s``, ``J``) as they are."""
+    if not unit or unit == "1":
+        return "1"
+    if "sqrt" not in unit and "_" not in unit:
+        return unit
+    body = re.sub(r"sqrt\(([^)]*)\)", r"\\sqrt{\1}", unit)
+    body = re.sub(r"\brad\b", r"\\mathrm{rad}", body)  # letters are symbols (m: mass)
+    body = re.sub(r"_([A-Za-z0-9]+)", r"_{\1}", body).replace(" ", r"\,")
+    return f"${body}$"
+
+
+def _symbol(name: str) -> str:
+    base, _, sub = name.partition("_")
+    head = f"\\{base}" if base in _GREEK else base
+    if sub:
+        sub = sub if sub.isupper() else sub.replace("_", r"\_")
+        return f"{head}_{{\\mathrm{{{sub}}}}}" if sub.isupper() else f"{head}_{{{sub}}}"
+    return head
+
+
+def state_label(name: str, unit: str) -> str:
+    """``theta`` [rad] as ``$\\theta$ [rad]``, ``theta_dot`` as ``$\\dot{\\theta}$``."""
+    if name.endswith("_dot"):
+        symbol = f"\\dot{{{_symbol(name[: -len('_dot')])}}}"
+    else:
+        symbol = _symbol(name)
+    return f"${symbol}$ [{unit_tex(unit)}]"
+
+
+def parameter_text(model: Any, params: Sequence[float], width: int = 46) -> str:
+    """The model's title and its parameters with units (angles also in degrees)."""
+    import textwrap
+
+    parts = []
+    for p, value in zip(model.parameter_table, params):
+        if p.unit == "rad":
+            parts.append(f"{p.name} = {value:.4g} rad ({math.degrees(value):.3g}°)")
+        elif p.unit in ("", "1"):
+            parts.append(f"{p.name} = {value:.4g}")
+        else:
+            parts.append(f"{p.name} = {value:.4g} {p.unit.replace('^2', '²')}")
+    return "\n".join(textwrap.wrap(f"{model.title}: {', '.join(parts)}", width))

@@ -11,8 +11,6 @@ axes, outside the data; the title names the model and its parameters with their 
 from __future__ import annotations
 
 import itertools
-import math
-import re
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
@@ -24,56 +22,7 @@ from vsw.trajectories import SampledWalk
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["parameter_text", "state_label", "unit_tex", "walk_figure"]
-
-_GREEK = {"theta", "psi", "phi", "alpha", "beta", "gamma", "delta", "mu", "omega", "tau"}
-
-
-def unit_tex(unit: str) -> str:
-    """A unit of the model tables in mathtext: ``sqrt(r_e/g)`` as a root with ``r_e``
-    subscripted, its letters symbols (m, g, l) and rad upright; plain SI units
-    (``rad/s``, ``J``) as they are."""
-    if not unit or unit == "1":
-        return "1"
-    if "sqrt" not in unit and "_" not in unit:
-        return unit
-    body = re.sub(r"sqrt\(([^)]*)\)", r"\\sqrt{\1}", unit)
-    body = re.sub(r"\brad\b", r"\\mathrm{rad}", body)  # letters are symbols (m: mass)
-    body = re.sub(r"_([A-Za-z0-9]+)", r"_{\1}", body).replace(" ", r"\,")
-    return f"${body}$"
-
-
-def _symbol(name: str) -> str:
-    base, _, sub = name.partition("_")
-    head = f"\\{base}" if base in _GREEK else base
-    if sub:
-        sub = sub if sub.isupper() else sub.replace("_", r"\_")
-        return f"{head}_{{\\mathrm{{{sub}}}}}" if sub.isupper() else f"{head}_{{{sub}}}"
-    return head
-
-
-def state_label(name: str, unit: str) -> str:
-    """``theta`` [rad] as ``$\\theta$ [rad]``, ``theta_dot`` as ``$\\dot{\\theta}$``."""
-    if name.endswith("_dot"):
-        symbol = f"\\dot{{{_symbol(name[: -len('_dot')])}}}"
-    else:
-        symbol = _symbol(name)
-    return f"${symbol}$ [{unit_tex(unit)}]"
-
-
-def parameter_text(model: Any, params: Sequence[float], width: int = 46) -> str:
-    """The model's title and its parameters with units (angles also in degrees)."""
-    import textwrap
-
-    parts = []
-    for p, value in zip(model.parameter_table, params):
-        if p.unit == "rad":
-            parts.append(f"{p.name} = {value:.4g} rad ({math.degrees(value):.3g}°)")
-        elif p.unit in ("", "1"):
-            parts.append(f"{p.name} = {value:.4g}")
-        else:
-            parts.append(f"{p.name} = {value:.4g} {p.unit.replace('^2', '²')}")
-    return "\n".join(textwrap.wrap(f"{model.title}: {', '.join(parts)}", width))
+__all__ = ["walk_figure"]
 
 
 @plotstyle.styled
@@ -111,19 +60,19 @@ def walk_figure(model: Any, params: Sequence[float], walk: SampledWalk) -> Figur
             ax.axvline(walk.t[i], color=plotstyle.COLORS["grey"], lw=0.5,
                        ls="-" if is_step else "--", zorder=0)  # fmt: skip
     coordinate_unit = units.get(model.coordinates[0], "rad")
-    ax_q.set_ylabel(f"angle [{unit_tex(coordinate_unit)}]")
-    ax_rate.set_ylabel(f"rate [{unit_tex(units.get(model.rates[0], ''))}]")
-    ax_energy.set_ylabel(f"energy [{unit_tex(model.units.get('energy', ''))}]")
-    ax_energy.set_xlabel(f"time [{unit_tex(model.units.get('time', ''))}]")
+    ax_q.set_ylabel(f"angle [{plotstyle.unit_tex(coordinate_unit)}]")
+    ax_rate.set_ylabel(f"rate [{plotstyle.unit_tex(units.get(model.rates[0], ''))}]")
+    ax_energy.set_ylabel(f"energy [{plotstyle.unit_tex(model.units.get('energy', ''))}]")
+    ax_energy.set_xlabel(f"time [{plotstyle.unit_tex(model.units.get('time', ''))}]")
     # A figure title: constrained layout makes room for it whatever the axes' width.
-    fig.suptitle(parameter_text(model, params), x=0.02, ha="left", fontsize="medium")
+    fig.suptitle(plotstyle.parameter_text(model, params), x=0.02, ha="left", fontsize="medium")
     handles = [
         Line2D([], [], color=plotstyle.curve_style(k)["color"], lw=1.0)
         for k in range(n)
     ] + [
         Line2D([], [], color=plotstyle.COLORS["grey"], lw=0.5, ls="-"),
     ]  # fmt: skip
-    labels = [state_label(c, units.get(c, "")) + " and its rate (dashed)"
+    labels = [plotstyle.state_label(c, units.get(c, "")) + " and its rate (dashed)"
               for c in model.coordinates] + [f"{step_event} (step event)"]  # fmt: skip
     others = sorted({e["name"] for e in model.events} - {step_event})
     if others:

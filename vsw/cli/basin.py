@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from vsw import limits
+from vsw import limits, plotstyle
 from vsw.batch import simulator
 from vsw.cli import options
 from vsw.cli.output import INTEGRATOR, dump_json, envelope, fmt, progress, write_parameters
@@ -148,7 +148,9 @@ def _grid_basin(args: argparse.Namespace, model: Model) -> int:
     if scheduler:
         data["scheduler"] = scheduler
     if args.plot is not None:
-        save_figure(basin_plot(data, model.spec["coordinate_units"]), args.plot)
+        units = {s["name"]: s["unit"] for s in model.spec["state"]}
+        title = plotstyle.parameter_text(model, params)
+        save_figure(basin_plot(data, units, title), args.plot)
         data["plot"] = args.plot
     if args.json:
         dump_json(data)
