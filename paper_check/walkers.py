@@ -166,7 +166,9 @@ def _diagram(
     written = []
     for suffix in ("png", "svg"):
         path = out / f"{stem}.{suffix}"
-        save_figure(bifurcation_plot(data, diagram_quantity(m, y), diagram_units(m.units)), path)
+        title = plotstyle.parameter_text(m, data["parameters"])
+        figure = bifurcation_plot(data, diagram_quantity(m, y), diagram_units(m.units), title)
+        save_figure(figure, path)
         written.append(path)
     return data, written
 
@@ -191,7 +193,8 @@ def _basin_section(out: Path, quick: bool) -> tuple[list[str], list[Path]]:
     diagram_png = out / "simplest-walker_brute-force.png"
     points = brute_force(m, {}, "gamma", np.linspace(0.009, 0.0195, count), transient, keep)
     diagram = clean(record(m, {}, "gamma", points, keep, transient, "brute-force"))
-    save_figure(bifurcation_plot(diagram, "-theta", diagram_units(m.units)), diagram_png)
+    title = plotstyle.parameter_text(m, diagram["parameters"])
+    save_figure(bifurcation_plot(diagram, "-theta", diagram_units(m.units), title), diagram_png)
     periods = []
     for p in diagram["points"]:
         a = p["attractor"]

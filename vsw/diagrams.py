@@ -80,7 +80,9 @@ def _axis_label(y: str, units: Mapping[str, str]) -> str:
 
 
 @plotstyle.styled
-def bifurcation_plot(data: Mapping[str, Any], y: str, units: Mapping[str, str]) -> Figure:
+def bifurcation_plot(
+    data: Mapping[str, Any], y: str, units: Mapping[str, str], title: str | None = None
+) -> Figure:
     """The period-one gait along the swept parameter (solid where stable, dashed where
     not) and, where it is unstable or was not found, the last steps of the iterated map
     (dots: a period-k orbit shows k dots, chaos a smear); below, the largest |eigenvalue|
@@ -95,6 +97,12 @@ def bifurcation_plot(data: Mapping[str, Any], y: str, units: Mapping[str, str]) 
         What the diagram shows (:func:`diagram_value`).
     units : mapping
         The model's units (``length``, ``time``), for the axis label.
+    title : str, optional
+        The model and its fixed parameters with units (:func:`vsw.plotstyle
+        .parameter_text`); default from the record, without units.
+
+    The whole swept range is shown: values where no period-one gait was found are marked
+    on the top edge, walks that fell on the bottom edge (outside the data).
     """
     over = data["over"]
     points = data["points"]
@@ -144,12 +152,22 @@ def bifurcation_plot(data: Mapping[str, Any], y: str, units: Mapping[str, str]) 
     if dots_x:
         ax.plot(dots_x, dots_y, linestyle="none", marker=".", markersize=1.8,
                 color=COLORS["vermillion"], label="iterated map (last steps)")  # fmt: skip
+    edge = ax.get_xaxis_transform()  # x in data, y in axes fractions
+    lost = [p[over] for p in points if not p["found"]]
+    if lost:
+        ax.plot(lost, [1.0] * len(lost), linestyle="none", marker="v", markersize=3.5,
+                color=COLORS["grey"], transform=edge, clip_on=False,
+                label="no period-one gait (top edge)")  # fmt: skip
     if fell_x:
-        bottom = np.nanmin(np.r_[ys, dots_y]) if np.any(~np.isnan(np.r_[ys, dots_y])) else 0.0
-        ax.plot(fell_x, [bottom] * len(fell_x), linestyle="none", marker="x",
-                color=COLORS["black"], label="walk fell")  # fmt: skip
+        ax.plot(fell_x, [0.0] * len(fell_x), linestyle="none", marker="x", markersize=3.5,
+                color=COLORS["black"], transform=edge, clip_on=False,
+                label="the walk fell (bottom edge)")  # fmt: skip
+    if len(xs):
+        ax.set_xlim(float(np.min(xs)), float(np.max(xs)))
     ax.set_ylabel(_axis_label(y, units))
-    ax.set_title(parameter_title(data["model"], data["parameters"]))
+    if title is None:
+        title = parameter_title(data["model"], data["parameters"])
+    fig.suptitle(title, x=0.02, ha="left", fontsize="medium")
     plotstyle.figure_legend(fig, *ax.get_legend_handles_labels(), ncols=2)
 
     eig = np.array([np.nan if p["max_abs_eigenvalue"] is None else p["max_abs_eigenvalue"]
@@ -157,7 +175,7 @@ def bifurcation_plot(data: Mapping[str, Any], y: str, units: Mapping[str, str]) 
     ax_eig.axhline(1.0, color=COLORS["grey"], linewidth=0.8)
     ax_eig.plot(xs, eig, "-", color=COLORS["blue"], marker="none")
     ax_eig.set_ylabel(r"max $|\lambda|$")
-    ax_eig.set_xlabel(f"{over} [{data.get('over_unit', '')}]".replace(" []", ""))
+    ax_eig.set_xlabel(plotstyle.state_label(over, data.get("over_unit") or "1"))
     if np.any(eig > 0):
         finite = eig[np.isfinite(eig)]
         if finite.size and finite.max() / max(finite.min(), 1e-300) > 50:

@@ -16,7 +16,7 @@ import contextlib
 import functools
 import math
 import re
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
@@ -402,16 +402,34 @@ def state_label(name: str, unit: str) -> str:
     return f"${symbol}$ [{unit_tex(unit)}]"
 
 
-def parameter_text(model: Any, params: Sequence[float], width: int = 46) -> str:
-    """The model's title and its parameters with units (angles also in degrees)."""
+def parameter_text(
+    model: Any, params: Sequence[float] | Mapping[str, float], width: int = 46
+) -> str:
+    """The model's title and its parameters with units (angles also in degrees), wrapped
+    to a column's width. ``params``: the whole vector in the table's order, or a mapping of
+    some of them (a sweep's fixed ones)."""
     import textwrap
 
+    if isinstance(params, Mapping):
+        rows = [(p, params[p.name]) for p in model.parameter_table if p.name in params]
+    else:
+        rows = list(zip(model.parameter_table, params))
     parts = []
-    for p, value in zip(model.parameter_table, params):
+    for p, value in rows:
         if p.unit == "rad":
             parts.append(f"{p.name} = {value:.4g} rad ({math.degrees(value):.3g}°)")
         elif p.unit in ("", "1"):
             parts.append(f"{p.name} = {value:.4g}")
         else:
             parts.append(f"{p.name} = {value:.4g} {p.unit.replace('^2', '²')}")
-    return "\n".join(textwrap.wrap(f"{model.title}: {', '.join(parts)}", width))
+    if not parts:
+        return "\n".join(textwrap.wrap(model.title, width))
+    # Wrapped between parameters, never inside "name = value unit".
+    lines = textwrap.wrap(f"{model.title}:", width)
+    for k, part in enumerate(parts):
+        piece = part + ("," if k < len(parts) - 1 else "")
+        if len(lines[-1]) + 1 + len(piece) <= width:
+            lines[-1] += " " + piece
+        else:
+            lines.append(piece)
+    return "\n".join(lines)

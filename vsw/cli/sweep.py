@@ -13,7 +13,7 @@ import argparse
 import sys
 from typing import Any
 
-from vsw import limits, sweeps
+from vsw import limits, plotstyle, sweeps
 from vsw.cli import options
 from vsw.cli.output import (
     INTEGRATOR,
@@ -126,7 +126,9 @@ def run(args: argparse.Namespace) -> int:
     swept = sweeps.record(model, fixed, name, points, keep, args.transient, method)
     data = {**envelope(model, params, args.argv, {**INTEGRATOR, **ORBIT_SOLVER}), **swept}
     if args.plot is not None:
-        save_figure(bifurcation_plot(clean(data), y, diagram_units(model.units)), args.plot)
+        title = plotstyle.parameter_text(model, fixed)
+        figure = bifurcation_plot(clean(data), y, diagram_units(model.units), title)
+        save_figure(figure, args.plot)
         data["plot"] = args.plot
     if args.json:
         dump_json(data)
@@ -219,7 +221,9 @@ def _closed_form(args: argparse.Namespace, model: Model, name: str, values) -> i
             "parameters": fixed, "over": name, "points": points}  # fmt: skip
     if args.plot is not None:
         unit = next(p.unit for p in model.parameter_table if p.name == name)
-        save_figure(ile_sweep_plot(clean(data), f"{name} [{unit}]" if unit else name), args.plot)
+        label = plotstyle.state_label(name, unit or "1")
+        title = plotstyle.parameter_text(model, fixed)
+        save_figure(ile_sweep_plot(clean(data), label, title), args.plot)
         data["plot"] = args.plot
     if args.json:
         dump_json(data)

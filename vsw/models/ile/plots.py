@@ -564,9 +564,11 @@ _ILE_PANELS = (
 
 
 @plotstyle.styled
-def ile_sweep_plot(data: Mapping[str, Any], xlabel: str) -> Figure:
+def ile_sweep_plot(data: Mapping[str, Any], xlabel: str, title: str | None = None) -> Figure:
     """The ILE's fixed point q^f (10), eigenvalue (20) and speed along the swept
-    parameter; points where no gait exists are left empty."""
+    parameter over the whole swept range; where no gait exists (a condition fails) the
+    range is shaded and named in the legend below. ``title``: the fixed parameters with
+    units (:func:`vsw.plotstyle.parameter_text`)."""
     over = data["over"]
     points: Sequence[Mapping[str, Any]] = data["points"]
     fig, axes = plotstyle.new_figure(
@@ -584,6 +586,37 @@ def ile_sweep_plot(data: Mapping[str, Any], xlabel: str) -> Figure:
         ax.set_ylabel(label)
     axes[1].axhline(1.0, color=COLORS["grey"], linewidth=0.8)
     axes[1].axhline(-1.0, color=COLORS["grey"], linewidth=0.8)
-    axes[0].set_title(parameter_title("ile", data["parameters"]))
+    walks = np.array([bool(p.get("walks")) for p in points])
+    spans = _runs(xs, ~walks)
+    for ax in axes:
+        for low, high in spans:
+            ax.axvspan(low, high, color=COLORS["light_grey"], linewidth=0, zorder=0)
+        if len(xs):
+            ax.set_xlim(float(np.min(xs)), float(np.max(xs)))
+    if spans:
+        from matplotlib.patches import Patch
+
+        plotstyle.figure_legend(fig, [Patch(color=COLORS["light_grey"])],
+                                ["no gait (a condition of the closed form fails)"])  # fmt: skip
+    fig.suptitle(title or parameter_title("ile", data["parameters"]), x=0.02, ha="left",
+                 fontsize="medium")  # fmt: skip
     axes[-1].set_xlabel(xlabel)
     return fig
+
+
+def _runs(xs: np.ndarray, mask: np.ndarray) -> list[tuple[float, float]]:
+    """The x ranges of consecutive True points of ``mask``, each widened to halfway to its
+    neighbours (a single point is a band, not a line)."""
+    spans, k = [], 0
+    while k < len(xs):
+        if not mask[k]:
+            k += 1
+            continue
+        start = k
+        while k + 1 < len(xs) and mask[k + 1]:
+            k += 1
+        low = xs[start] if start == 0 else 0.5 * (xs[start - 1] + xs[start])
+        high = xs[k] if k == len(xs) - 1 else 0.5 * (xs[k] + xs[k + 1])
+        spans.append((float(low), float(high)))
+        k += 1
+    return spans
