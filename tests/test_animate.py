@@ -103,7 +103,8 @@ def test_every_model_animates_to_svg_and_gif(capsys, tmp_path):
             data = json.loads(text)
             assert data["steps_completed"] == 2 and out.stat().st_size > 1000
     svg = (tmp_path / "simplest-walker.svg").read_text()
-    assert svg.startswith("<svg") and svg.count("<animate ") == 10
+    # Two legs (4 coordinates each), the hip (2) and the model's two foot masses (2 each).
+    assert svg.startswith("<svg") and svg.count("<animate ") == 14
 
 
 def test_animation_is_deterministic(capsys, tmp_path):
@@ -139,3 +140,37 @@ def test_bad_animate_input_is_one_line(capsys, argv, words, tmp_path, monkeypatc
     assert code == 2 and out == "" and err.count("\n") == 1, err
     for word in words:
         assert word in err, err
+
+
+def test_each_leg_keeps_its_colour_and_the_slope_descends(capsys, tmp_path):
+    """Issue 22: one colour per leg for the whole walk (the stance and swing legs swap at
+    every heelstrike, the colours stay with the legs), leg masses drawn on their legs, the
+    passive walker's slope descending to the right, the rimless wheel's every spoke."""
+    from vsw.animate import _legs, animation_frames
+    from vsw.models import load
+
+    model = load("compass_gait")
+    params = model.parameters()
+    start = model.start(params, None, None).state
+    frames = animation_frames(model, params, start, 2, fps=10)
+    stands = frames.leg_a_stands
+    assert stands[frames.step == 0].all() and not stands[frames.step == 1].any()
+    # leg A's foot stays put while it stands and is the old stance foot after the swap
+    first_swap = int(np.argmax(~stands))
+    assert np.allclose(frames.stance_foot[:first_swap], frames.stance_foot[0])
+    # a mass on each leg, halfway along it (a = b = 0.5 m)
+    for k in (0, first_swap + 1):
+        for legs, masses in ((0, frames.masses_a), (1, frames.masses_b)):
+            foot, hip = _legs(frames, k)[legs]
+            assert np.allclose(masses[k, 0], 0.5 * (np.asarray(foot) + hip), atol=0.6)
+    # the ground descends to the right by gamma (pixels: y grows downwards)
+    (x0, y0), (x1, y1) = frames.ground
+    assert math.atan2(y1 - y0, x1 - x0) == pytest.approx(params[4], abs=1e-9)
+    wheel = load("rimless_wheel")
+    wp = wheel.parameters()
+    spun = animation_frames(wheel, wp, wheel.start(wp, None, None).state, 1, fps=10)
+    count = round(math.pi / wp[0])
+    assert spun.spokes.shape[1] == count - 1  # every spoke but the stance one
+    hub = spun.hip[0]
+    lengths = np.linalg.norm(spun.spokes[0] - hub, axis=1)
+    assert np.allclose(lengths, np.linalg.norm(spun.stance_foot[0] - hub), rtol=1e-9)

@@ -37,8 +37,9 @@ MAX_BYTES = 64 * 1024 * 1024
 WIDTH, HEIGHT = 480, 270
 COLORS = {  # Okabe-Ito, as vsw.plotstyle
     "ground": (140, 140, 140),
-    "stance": (0, 114, 178),
-    "swing": (213, 94, 0),
+    "leg_a": (0, 114, 178),  # one colour per leg for the whole walk, whichever stands
+    "leg_b": (213, 94, 0),
+    "spoke": (120, 120, 120),
     "hip": (0, 0, 0),
     "path": (86, 180, 233),
     "event": (0, 158, 115),
@@ -70,11 +71,17 @@ class Animation:
     time_unit: str
     ended: str
     title: str
+    leg_a_stands: np.ndarray | None = None  # per frame: leg A is the stance leg
+    masses_a: np.ndarray | None = None  # (frames, m, 2) pixels: leg A's point masses
+    masses_b: np.ndarray | None = None
+    spokes: np.ndarray | None = None  # (frames, s, 2) pixels: the other spokes' ends
+    ground: np.ndarray | None = None  # (2, 2) pixels: the ground line's ends
+    slope: float = 0.0  # rad, downhill to the right
 
     def to_pixels(self, xy: np.ndarray) -> np.ndarray:
         xy = np.asarray(xy, dtype=float)
-        return np.column_stack([self.origin[0] + self.scale * xy[..., 0],
-                                self.origin[1] - self.scale * xy[..., 1]])  # fmt: skip
+        return np.stack([self.origin[0] + self.scale * xy[..., 0],
+                         self.origin[1] - self.scale * xy[..., 1]], axis=-1)  # fmt: skip
 
 
 def _frame_times(t_end: float, fps: float, speed: float, events: Sequence[float]) -> np.ndarray:
@@ -155,7 +162,7 @@ def animation_frames(
     # within a phase (samples are at most half a frame apart).
     index = np.searchsorted(ts, times, side="right") - 1
     index = np.clip(index, 0, len(ts) - 1)
-    stance, hip, swing, hip_world = [], [], [], []
+    stance, hip, swing, hip_world, bodies = [], [], [], [], []
     for k, i in enumerate(index):
         x = xs[i]
         if i + 1 < len(ts) and ts[i + 1] > ts[i] and ph[i + 1] == ph[i]:
@@ -175,11 +182,24 @@ def animation_frames(
         hip.append(h)
         swing.append(sw)
         hip_world.append(h)
+        bodies.append(positions.reshape(-1, 3)[1:, :2] + foot)
     stance, hip, swing, hip_world = map(np.array, (stance, hip, swing, hip_world))
+    leg_a_stands = sample_step[index] % 2 == 0
+    masses_a, masses_b = _masses_by_leg(np.array(bodies), stance, hip, swing, leg_a_stands)
+    spokes = _spokes(model, params, hip, stance)
+    slope = _slope(model, params)
+    turn = np.array([[math.cos(slope), math.sin(slope)], [-math.sin(slope), math.cos(slope)]])
+
+    def world(points):  # the chart turned so that the slope descends to the right
+        return None if points is None else np.asarray(points) @ turn.T
+
+    stance, hip, swing = world(stance), world(hip), world(swing)
+    masses_a, masses_b, spokes = world(masses_a), world(masses_b), world(spokes)
     labels = [""] * len(times)
     for t_event, name in names:
         labels[int(np.searchsorted(times, t_event))] = name
-    everything = np.vstack([stance, hip, swing])
+    parts = [stance, hip, swing] + [p.reshape(-1, 2) for p in (spokes,) if p is not None]
+    everything = np.vstack(parts)
     lo, hi = everything.min(axis=0), everything.max(axis=0)
     span = np.maximum(hi - lo, 1e-9)
     scale = 0.8 * min(WIDTH / span[0], (HEIGHT - 40) / span[1])
@@ -188,12 +208,73 @@ def animation_frames(
         t=times, stance_foot=stance, hip=hip, swing_foot=swing,
         step=sample_step[index], event=labels, hip_world=hip_world, scale=scale,
         origin=origin, fps=fps, time_unit=model.units.get("time", ""),
-        ended=trajectory.ended, title=title,
+        ended=trajectory.ended, title=title, leg_a_stands=leg_a_stands, slope=slope,
     )  # fmt: skip
     frames.stance_foot = frames.to_pixels(stance)
     frames.hip = frames.to_pixels(hip)
     frames.swing_foot = frames.to_pixels(swing)
+    if masses_a is not None:
+        frames.masses_a, frames.masses_b = frames.to_pixels(masses_a), frames.to_pixels(masses_b)
+    if spokes is not None:
+        frames.spokes = frames.to_pixels(spokes)
+    reach = 4 * (span[0] + span[1])  # the ground well past both edges of the picture
+    frames.ground = frames.to_pixels(world(np.array([[lo[0] - reach, 0.0],
+                                                     [hi[0] + reach, 0.0]])))  # fmt: skip
     return frames
+
+
+def _slope(model, params: Sequence[float]) -> float:
+    """The slope a passive walker walks down (its chart lies along it): the parameter
+    ``gamma`` of a model whose table calls it a slope angle; 0 on level ground."""
+    for p, value in zip(model.parameter_table, params):
+        if p.name == "gamma" and "slope" in p.description:
+            return float(value)
+    return 0.0
+
+
+def _masses_by_leg(bodies, stance, hip, swing, leg_a_stands):
+    """The point masses below the hip (bodies 1..), each given to the leg it lies on
+    (nearer segment), as leg A's and leg B's per frame; None where there are none or a
+    mass changes legs."""
+    if bodies.ndim != 3 or bodies.shape[1] == 0:
+        return None, None
+
+    def distance(points, a, b):
+        ab = b - a
+        w = np.clip(np.sum((points - a[:, None]) * ab[:, None], axis=2)
+                    / np.maximum(np.sum(ab * ab, axis=1), 1e-300)[:, None], 0, 1)  # fmt: skip
+        return np.linalg.norm(points - (a[:, None] + w[..., None] * ab[:, None]), axis=2)
+
+    on_stance = distance(bodies, stance, hip) <= distance(bodies, hip, swing)
+    on_a = on_stance == leg_a_stands[:, None]
+    counts = on_a.sum(axis=1)
+    if np.any(counts != counts[0]):
+        return None, None
+    order = np.argsort(~on_a, axis=1, kind="stable")  # leg A's masses first
+    ranked = np.take_along_axis(bodies, order[..., None], axis=1)
+    return ranked[:, : counts[0]], ranked[:, counts[0] :]
+
+
+_SPOKED = {"rimless_wheel": "alpha"}
+"""Models drawn with all their spokes: the parameter that is half the angle between two."""
+
+
+def _spokes(model, params: Sequence[float], hub: np.ndarray, foot: np.ndarray):
+    """The ends of the spokes other than the stance one, per frame (the next one is drawn
+    again as the swing leg)."""
+    name = _SPOKED.get(model.name)
+    if name is None:
+        return None
+    alpha = float(dict(zip(model.spec["parameters"], params))[name])
+    count = max(3, round(math.pi / alpha))
+    base = foot - hub
+    ends = []
+    for k in range(1, count):
+        angle = 2 * alpha * k
+        c, s = math.cos(angle), math.sin(angle)
+        turned = np.column_stack([c * base[:, 0] - s * base[:, 1], s * base[:, 0] + c * base[:, 1]])
+        ends.append(hub + turned)
+    return np.stack(ends, axis=1)
 
 
 def _which_event(model, phase_before: int, phase_after: int, before, after, params) -> dict:
@@ -255,8 +336,11 @@ def _raster(frames: Animation, k: int):
 
     image = Image.new("RGB", (WIDTH, HEIGHT), (255, 255, 255))
     draw = ImageDraw.Draw(image)
-    ground_y = frames.origin[1]
-    draw.line([(0, ground_y), (WIDTH, ground_y)], fill=COLORS["ground"], width=2)
+    draw.line([tuple(p) for p in _ground(frames)], fill=COLORS["ground"], width=2)
+    _gravity(draw)
+    if frames.spokes is not None:
+        for end in frames.spokes[k]:
+            draw.line([tuple(frames.hip[k]), tuple(end)], fill=COLORS["spoke"], width=2)
     if k > 0:
         path = [tuple(p) for p in frames.hip[: k + 1]]
         draw.line(path, fill=COLORS["path"], width=1)
@@ -264,10 +348,13 @@ def _raster(frames: Animation, k: int):
         if frames.event[j]:
             x, y = frames.hip[j]
             draw.rectangle([x - 2, y - 2, x + 2, y + 2], outline=COLORS["event"])
-    foot, hip, swing = (tuple(frames.stance_foot[k]), tuple(frames.hip[k]),
-                        tuple(frames.swing_foot[k]))  # fmt: skip
-    draw.line([foot, hip], fill=COLORS["stance"], width=3)
-    draw.line([hip, swing], fill=COLORS["swing"], width=3)
+    (a0, a1), (b0, b1) = _legs(frames, k)
+    draw.line([tuple(a0), tuple(a1)], fill=COLORS["leg_a"], width=3)
+    draw.line([tuple(b0), tuple(b1)], fill=COLORS["leg_b"], width=3)
+    hip = tuple(frames.hip[k])
+    for masses, color in ((frames.masses_a, COLORS["leg_a"]), (frames.masses_b, COLORS["leg_b"])):
+        for x, y in masses[k] if masses is not None else ():
+            draw.ellipse([x - 3.5, y - 3.5, x + 3.5, y + 3.5], fill=color, outline=(0, 0, 0))
     r = 5
     draw.ellipse([hip[0] - r, hip[1] - r, hip[0] + r, hip[1] + r], fill=COLORS["hip"])
     unit = f" {frames.time_unit}" if frames.time_unit else ""
@@ -277,6 +364,31 @@ def _raster(frames: Animation, k: int):
     if frames.event[k]:
         draw.text((6, 28), frames.event[k], fill=COLORS["event"])
     return image
+
+
+def _legs(frames: Animation, k: int) -> tuple[tuple, tuple]:
+    """Leg A's and leg B's (foot, hip) ends in frame ``k``: whichever stands, a leg keeps
+    its colour for the whole walk."""
+    stance = (frames.stance_foot[k], frames.hip[k])
+    swing = (frames.swing_foot[k], frames.hip[k])
+    stands = frames.leg_a_stands is None or bool(frames.leg_a_stands[k])
+    return (stance, swing) if stands else (swing, stance)
+
+
+def _ground(frames: Animation) -> np.ndarray:
+    if frames.ground is not None:
+        return frames.ground
+    return np.array([[0.0, frames.origin[1]], [WIDTH, frames.origin[1]]])
+
+
+_ARROW = ((WIDTH - 16, 8), (WIDTH - 16, 38))  # gravity: down, top right
+
+
+def _gravity(draw) -> None:
+    (x, y0), (_, y1) = _ARROW
+    draw.line([(x, y0), (x, y1)], fill=COLORS["text"], width=2)
+    draw.polygon([(x - 4, y1 - 6), (x + 4, y1 - 6), (x, y1 + 1)], fill=COLORS["text"])
+    draw.text((x - 14, y0 + 8), "g", fill=COLORS["text"])
 
 
 def _mp4(frames: Animation, out: Path) -> None:
@@ -309,8 +421,12 @@ def _svg(frames: Animation) -> str:
         return (f'<animate attributeName="{attribute}" dur="{duration:.3f}s" fill="freeze" '
                 f'calcMode="discrete" values="{values}"/>')  # fmt: skip
 
-    foot, hip, swing = frames.stance_foot, frames.hip, frames.swing_foot
-    ground_y = frames.origin[1]
+    hip = frames.hip
+    legs = [_legs(frames, k) for k in range(n)]
+    a0, a1 = np.array([leg[0][0] for leg in legs]), np.array([leg[0][1] for leg in legs])
+    b0, b1 = np.array([leg[1][0] for leg in legs]), np.array([leg[1][1] for leg in legs])
+    (gx0, gy0), (gx1, gy1) = _ground(frames)
+    (ax, ay0), (_, ay1) = _ARROW
     path = " ".join(f"{x:.2f},{y:.2f}" for x, y in hip)
     unit = f" {frames.time_unit}" if frames.time_unit else ""
     lines = [
@@ -318,15 +434,33 @@ def _svg(frames: Animation) -> str:
         f'viewBox="0 0 {WIDTH} {HEIGHT}" font-family="sans-serif" font-size="11">',
         f"<title>{_escape(frames.title)}</title>",
         f'<rect width="{WIDTH}" height="{HEIGHT}" fill="white"/>',
-        f'<line x1="0" y1="{ground_y:.2f}" x2="{WIDTH}" y2="{ground_y:.2f}" '
+        f'<line x1="{gx0:.2f}" y1="{gy0:.2f}" x2="{gx1:.2f}" y2="{gy1:.2f}" '
         f'stroke="rgb{COLORS["ground"]}" stroke-width="2"/>',
+        f'<line x1="{ax}" y1="{ay0}" x2="{ax}" y2="{ay1 - 6}" stroke="black" stroke-width="2"/>'
+        f'<polygon points="{ax - 4},{ay1 - 6} {ax + 4},{ay1 - 6} {ax},{ay1 + 1}" fill="black"/>'
+        f'<text x="{ax - 14}" y="{ay0 + 16}">g</text>',
         f'<polyline points="{path}" fill="none" stroke="rgb{COLORS["path"]}" stroke-width="1"/>',
-        f'<line stroke="rgb{COLORS["stance"]}" stroke-width="3">'
-        + anim("x1", foot[:, 0]) + anim("y1", foot[:, 1])
-        + anim("x2", hip[:, 0]) + anim("y2", hip[:, 1]) + "</line>",
-        f'<line stroke="rgb{COLORS["swing"]}" stroke-width="3">'
-        + anim("x1", hip[:, 0]) + anim("y1", hip[:, 1])
-        + anim("x2", swing[:, 0]) + anim("y2", swing[:, 1]) + "</line>",
+        *(
+            f'<line stroke="rgb{COLORS["spoke"]}" stroke-width="2">'
+            + anim("x1", hip[:, 0]) + anim("y1", hip[:, 1])
+            + anim("x2", frames.spokes[:, j, 0]) + anim("y2", frames.spokes[:, j, 1])
+            + "</line>"
+            for j in range(0 if frames.spokes is None else frames.spokes.shape[1])
+        ),
+        f'<line stroke="rgb{COLORS["leg_a"]}" stroke-width="3">'
+        + anim("x1", a0[:, 0]) + anim("y1", a0[:, 1])
+        + anim("x2", a1[:, 0]) + anim("y2", a1[:, 1]) + "</line>",
+        f'<line stroke="rgb{COLORS["leg_b"]}" stroke-width="3">'
+        + anim("x1", b0[:, 0]) + anim("y1", b0[:, 1])
+        + anim("x2", b1[:, 0]) + anim("y2", b1[:, 1]) + "</line>",
+        *(
+            f'<circle r="3.5" fill="rgb{color}" stroke="black">'
+            + anim("cx", masses[:, j, 0]) + anim("cy", masses[:, j, 1]) + "</circle>"
+            for masses, color in ((frames.masses_a, COLORS["leg_a"]),
+                                  (frames.masses_b, COLORS["leg_b"]))
+            if masses is not None
+            for j in range(masses.shape[1])
+        ),
         f'<circle r="5" fill="rgb{COLORS["hip"]}">'
         + anim("cx", hip[:, 0]) + anim("cy", hip[:, 1]) + "</circle>",
         f'<text x="6" y="14">{_escape(frames.title)}</text>',
