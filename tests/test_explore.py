@@ -135,3 +135,44 @@ def test_page_in_headless_chromium(tmp_path, capsys):
     assert errors == [], errors
     # One update's time in this headless browser (the first includes the map at a new beta).
     print(f"explorer updates: {', '.join(f'{t:.1f} ms' for t in timings)}")
+
+
+@pytest.mark.parametrize("width", [360, 700])
+def test_page_fits_narrow_screens_and_says_its_units(tmp_path, capsys, width):
+    """Issue 22: no horizontal overflow from 360 px up; the margins carry units (angles in
+    degrees, as the sliders); the conditions read in words; the basin says when it is
+    empty (beta = 0.3, theta_II = -40 deg: the apex needs more q than contact allows)."""
+    sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
+    browser_path = _chromium()
+    if browser_path is None:
+        pytest.skip("no Chromium found (apt-get install chromium; .ci/run tries it)")
+    page_file = tmp_path / "explore.html"
+    argv = ["explore", "--beta", "0.3", "--theta-ii", "-40", "--out", str(page_file)]
+    assert main(argv) == 0
+    capsys.readouterr()
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=browser_path, headless=True,
+                                    args=["--no-sandbox", "--disable-gpu"])  # fmt: skip
+        try:
+            page = browser.new_page(viewport={"width": width, "height": 800})
+            page.goto(page_file.as_uri())
+            page.wait_for_function("window.vswLastUpdate !== undefined")
+            overflow = page.evaluate(
+                "document.documentElement.scrollWidth - document.documentElement.clientWidth"
+            )
+            assert overflow <= 0, f"{overflow} px of horizontal overflow at {width} px"
+            basin = page.text_content("#basin")
+            assert basin.startswith("empty:"), basin
+            margins = page.eval_on_selector_all(
+                "#conditions tr", "rows => rows.map(r => [r.dataset.condition, "
+                "r.children[1].textContent, r.children[3].textContent])",
+            )  # fmt: skip
+            by_name = {name: (label, value) for name, label, value in margins}
+            assert by_name["phi0_below_right_angle"][1].endswith("°")
+            assert by_name["apex"][1].endswith("g/r_e")
+            assert by_name["stance_contact"][1].endswith("m g")
+            assert "theta_I_negative" not in " ".join(label for label, _ in by_name.values())
+            assert page.text_content("#map-max") != "" or page.evaluate(
+                "!window.vswLastUpdate.walks")  # fmt: skip
+        finally:
+            browser.close()

@@ -9,10 +9,12 @@ is typed in, nothing is fetched, and it opens from disk.
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
 import generated
+import generated.ile as ile
 from vsw.errors import VswInputError
 
 TEMPLATE = Path(__file__).resolve().parent / "templates" / "explore.html"
@@ -42,6 +44,7 @@ def page(beta: float = 0.8, theta_II_deg: float = 0.0, phi0_deg: float = 45.0,
         "@@theta_II@@": f"{theta_II_deg:g}",
         "@@phi0@@": f"{phi0_deg:g}",
         "@@leg@@": f"{leg:g}",
+        "@@condition_units@@": json.dumps(dict(ile.CONDITION_UNITS), sort_keys=True),
         "@@model_js@@": js,
     }
     for key, value in replacements.items():
