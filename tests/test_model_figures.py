@@ -108,3 +108,15 @@ def test_basin_and_sweep_figures_are_byte_identical(tmp_path, suffix):
                          "--plot", str(path)]) == 0  # fmt: skip
         runs.append(path.read_bytes())
     assert runs[0] == runs[1]
+
+
+@pytest.mark.parametrize("suffix", ["png", "svg", "pdf"])
+def test_grid_basin_figure_is_byte_identical(tmp_path, suffix):
+    runs = []
+    for k in range(2):
+        path = tmp_path / f"b{k}.{suffix}"
+        with contextlib.redirect_stdout(io.StringIO()):
+            assert main(["basin", "--model", "rimless-wheel", "--grid", "theta_dot=0.5:1.5:9",
+                         "--steps", "5", "--plot", str(path)]) == 0  # fmt: skip
+        runs.append(path.read_bytes())
+    assert runs[0] == runs[1]
