@@ -31,6 +31,7 @@ from __future__ import annotations
 import contextlib
 import math
 import signal
+import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -140,11 +141,15 @@ def supervised(seconds: float = math.inf) -> Iterator[None]:
     _closing.clear()
     previous_int = signal.signal(signal.SIGINT, _on_interrupt)
     previous_alarm = signal.signal(signal.SIGALRM, _on_alarm)
+    previous_hook = sys.unraisablehook
+    sys.unraisablehook = _quiet_stops(previous_hook)
     try:
         # Armed inside the try: a tiny limit fires at once, and the handlers are still
         # restored below.
         if math.isfinite(seconds):
-            signal.setitimer(signal.ITIMER_REAL, seconds)
+            # Then again every _REPEAT s: a stop raised where Python cannot propagate it
+            # (a finalizer, a weakref callback) is raised again at the next tick.
+            signal.setitimer(signal.ITIMER_REAL, seconds, _REPEAT)
         yield
     finally:
         _closing.set()  # a timer's signal still pending now is ignored (_on_alarm)
@@ -153,8 +158,27 @@ def supervised(seconds: float = math.inf) -> Iterator[None]:
         finally:
             signal.signal(signal.SIGALRM, previous_alarm)
             signal.signal(signal.SIGINT, previous_int)
+            sys.unraisablehook = previous_hook
             _supervising = False
             _reset()
+
+
+_REPEAT = 0.25
+"""Seconds between the limit's signals once it has passed (see :func:`supervised`)."""
+
+
+def _quiet_stops(previous: Callable) -> Callable:
+    """``sys.unraisablehook`` while supervised: a recorded stop that surfaced where Python
+    can only print it (\"Exception ignored in ...\") is not printed; :func:`check` and the
+    repeating timer raise it again where it propagates."""
+
+    def hook(unraisable) -> None:
+        stopping = isinstance(unraisable.exc_value, (KeyboardInterrupt, RunTimeLimitError))
+        if stopping and _state["stop"] is not None:
+            return
+        previous(unraisable)
+
+    return hook
 
 
 def _reset() -> None:
