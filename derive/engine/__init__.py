@@ -31,6 +31,8 @@ def model_derivation(model: Model, units: str) -> Derivation:
     quantities, descriptor = hybrid_quantities(model)
     for qty in quantities:
         derivation.add(qty)
+    # The explorer page (vsw explore) integrates the walk in the browser with these.
+    derivation.js_exports = tuple(qty.name for qty in quantities)
     stride = stride_closed_form(model)
     descriptor = dict(descriptor, closed_form=stride is not None)
     if stride is not None:
