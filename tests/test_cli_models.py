@@ -381,7 +381,7 @@ BAD = [
     (["simulate", *RIMLESS, "--steps", "2", "--state", "theta=0"], ["theta_dot"]),
     (["simulate", *RIMLESS, "--plot", "x.txt"], ["plot file 'x.txt' must end in one of"]),
     (["design", "--model", "tle"], ["design is not available", "ile"]),
-    (["explore", "--model", "compass-gait", "--out", "x.html"], ["explorer", "ile"]),
+    (["explore", "--model", "compass-gait", "--out", "x.txt"], [".html"]),
     (["analyze", *RIMLESS, "--search", "theta=0:1"], ["--search theta", "theta_dot"]),
     (["analyze", *RIMLESS, "--search", "theta_dot=1:0"], ["START = 1"]),
     (["simulate", *RIMLESS, "--steps", "2", "--state", "x=0"], ["'x'"]),

@@ -176,3 +176,59 @@ def test_page_fits_narrow_screens_and_says_its_units(tmp_path, capsys, width):
                 "!window.vswLastUpdate.walks")  # fmt: skip
         finally:
             browser.close()
+
+
+ENGINE = ("rimless-wheel", "tle", "simplest-walker", "compass-gait", "vsw-biped")
+
+
+@pytest.mark.parametrize("model", ENGINE)
+def test_every_model_explorer_finds_the_gait_vsw_finds(tmp_path, capsys, model):
+    """`vsw explore --model NAME` (issue 22): the page integrates the walk with the
+    generated JavaScript and finds the period-one gait by Newton from the one vsw found;
+    its period and step length equal `vsw analyze`'s to 1e-9 relative, the largest
+    |eigenvalue| (central differences in the page) to 1e-5; a slider moved by keyboard gives
+    a new gait; no console error; no horizontal overflow at 360 px."""
+    sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
+    browser_path = _chromium()
+    if browser_path is None:
+        pytest.skip("no Chromium found (apt-get install chromium; .ci/run tries it)")
+    page_file = tmp_path / "explore.html"
+    assert main(["explore", "--model", model, "--out", str(page_file)]) == 0
+    assert main(["analyze", "--model", model, "--json"]) == 0
+    out, _ = capsys.readouterr()
+    gaits = json.loads(out[out.index("{") :])["fixed_points"]
+    errors: list[str] = []
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=browser_path, headless=True,
+                                    args=["--no-sandbox", "--disable-gpu"])  # fmt: skip
+        try:
+            page = browser.new_page(viewport={"width": 360, "height": 800})
+            page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+            page.on("pageerror", lambda e: errors.append(str(e)))
+            page.goto(page_file.as_uri())
+            page.wait_for_function("window.vswLastUpdate !== undefined", timeout=60_000)
+            shown = page.evaluate("window.vswLastUpdate")
+            assert shown["walks"], "the page lost the gait it started from"
+            ref = min(gaits, key=lambda g: abs(g["period"] - shown["period"]))
+            assert shown["period"] == pytest.approx(ref["period"], rel=1e-9)
+            assert shown["step_length"] == pytest.approx(ref["step_length"], rel=1e-9)
+            assert shown["max_abs_eigenvalue"] == pytest.approx(ref["max_abs_eigenvalue"],
+                                                                rel=1e-5)  # fmt: skip
+            overflow = page.evaluate(
+                "document.documentElement.scrollWidth - document.documentElement.clientWidth"
+            )
+            assert overflow <= 0, f"{overflow} px of horizontal overflow at 360 px"
+            page.evaluate("window.firstParams = JSON.stringify(window.vswLastUpdate.params)")
+            slider = page.eval_on_selector("input[type=range]", "el => el.id")
+            page.focus(f"#{slider}")
+            for _ in range(3):
+                page.keyboard.press("ArrowRight")
+            page.wait_for_function(
+                "JSON.stringify(window.vswLastUpdate.params) !== window.firstParams",
+                timeout=60_000,
+            )
+            moved = page.evaluate("window.vswLastUpdate")
+            assert moved["params"] != shown["params"]
+        finally:
+            browser.close()
+    assert errors == [], errors

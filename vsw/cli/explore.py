@@ -1,9 +1,9 @@
-"""``vsw explore``: one self-contained HTML page to explore a model (the ile) in a browser."""
+"""``vsw explore``: one self-contained HTML page to explore a model in a browser (the ILE's
+closed forms; any other model's walk integrated in the page: :mod:`vsw.explore_page`)."""
 
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from typing import Any
 
@@ -12,7 +12,6 @@ from vsw.cli import options
 from vsw.cli.output import dump_json, envelope
 from vsw.cli.parser import EXIT_OK
 from vsw.errors import VswInputError
-from vsw.models.ile.explore import write_page
 
 __all__ = ["register", "run"]
 
@@ -35,11 +34,11 @@ def run(args: argparse.Namespace) -> int:
         raise VswInputError(f"vsw explore --model {model.cli_name}: the explorer is not "
                             f"available for this model yet (models with it: "
                             f"{', '.join(having)})")  # fmt: skip
-    beta, theta_II, phi0 = params
-    out = write_page(args.out, beta=beta, theta_II_deg=math.degrees(theta_II),
-                     phi0_deg=math.degrees(phi0), leg=args.leg_length)  # fmt: skip
+    with options.solver_errors(model):
+        out = model.write_explorer(args.out, params, leg_length=args.leg_length)
     if args.json:
-        data = envelope(model, params, args.argv, {"page": "generated/ile/js/ile.js"})
+        page = f"generated/{model.name}/js/{model.name}.js"
+        data = envelope(model, params, args.argv, {"page": page})
         dump_json({**data, "out": str(out), "leg_length": args.leg_length})
         return EXIT_OK
     sys.stdout.write(f"{out}: open it in a browser (no server needed)\n")

@@ -16,12 +16,14 @@ import math
 import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from vsw import conditions, gaits, stop
 from vsw.errors import ModelConditionError, VswInputError
+from vsw.explore_page import write_page
 from vsw.figures import save_figure
 from vsw.hybrid import HybridModel, Orbit
 from vsw.trajectories import sample_walk
@@ -102,7 +104,7 @@ class Start:
 class Model(HybridModel):
     """A generated model through the one interface of the commands."""
 
-    features: frozenset[str] = frozenset({"simulation-plot"})
+    features: frozenset[str] = frozenset({"simulation-plot", "explorer"})
 
     def __init__(self, module: Any) -> None:
         super().__init__(module)
@@ -292,6 +294,18 @@ class Model(HybridModel):
         and energy sampled at :data:`PLOT_RATE` per time unit, every event marked."""
         walk = sample_walk(self, params, start, steps, PLOT_RATE)
         save_figure(walk_figure(self, params, walk), path)
+
+    def write_explorer(self, path: str, params: Sequence[float], **options: Any) -> Path:
+        """``vsw explore``: the self-contained page (:mod:`vsw.explore_page`); the sliders
+        start at ``params``, Newton's first guess is the model's gait there."""
+        return _explorer(self, path, params, **options)
+
+
+def _explorer(model: Model, path: str, params: Sequence[float], **_options: Any):
+    """The engine's explorer page (:mod:`vsw.explore_page`) from the model's gait at
+    ``params`` (the stable one where there is one)."""
+    start = model.start(params, None, None)
+    return write_page(path, model, params, start.state)
 
 
 def _bound(value: float) -> float | None:

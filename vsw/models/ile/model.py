@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 from generated import ile
@@ -24,6 +25,7 @@ from vsw.hybrid import Orbit
 from vsw.models.base import GaitReport, Model, Start
 from vsw.models.ile import plots
 from vsw.models.ile.analysis import Analysis, analyze
+from vsw.models.ile.explore import write_page
 from vsw.models.ile.params import RobotScale
 from vsw.models.ile.simulate import simulate
 
@@ -68,6 +70,14 @@ class IleModel(Model):
         """The generic keys and the ILE's own: its parameters, q0 and q after each step."""
         out = super().walk_keys(params, walk, start)
         return {**dict(zip(("beta", "theta_II", "phi0"), params)), "q0": out["q"][0], **out}
+
+    def write_explorer(self, path: str, params: Sequence[float], **options: Any) -> Path:
+        """The ILE's page of closed forms (:mod:`vsw.models.ile.explore`): sliders for beta,
+        theta_II, phi0 and the robot's leg length (``leg_length``, m)."""
+        beta, theta_II, phi0 = params
+        leg = options.get("leg_length", 0.25)
+        return write_page(path, beta=beta, theta_II_deg=math.degrees(theta_II),
+                          phi0_deg=math.degrees(phi0), leg=leg)  # fmt: skip
 
     def save_simulation_plot(
         self, params: Sequence[float], start: Any, steps: int, path: str

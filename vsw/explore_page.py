@@ -1,0 +1,144 @@
+"""``vsw explore --model NAME`` for the engine's models: one self-contained HTML page.
+
+The page (``vsw/templates/explore_hybrid.html``) inlines ``generated/<model>/js/<model>.js``,
+the JavaScript ``python -m derive`` prints from the model's derivation (each phase's
+accelerations, energy and body positions; each event's guard, ``when`` and reset; the
+failures' guards; the step length), and the model's hybrid descriptor as data. In the
+browser it integrates the walk (classical Runge-Kutta at a fixed step :data:`STEP`, guards
+located by bisection to 1e-13 in time) and finds the period-one gait by Newton's method on
+the step map from the gait vsw found at the start values (the runtime's search), then
+follows it as the sliders move. No number is typed in, nothing is fetched.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import generated
+from vsw.errors import VswInputError
+
+__all__ = ["STEP", "page", "write_page"]
+
+TEMPLATE = Path(__file__).resolve().parent / "templates" / "explore_hybrid.html"
+STEP = 2.5e-4
+"""The page's Runge-Kutta step, in model time units (its state error ~1e-12 a step)."""
+
+
+def _slider(p: Any, value: float) -> dict[str, Any]:
+    """A parameter's slider: half to one and a half times its value (angles in degrees),
+    inside what vsw computes, on a grid of 1000 steps through the value itself (a browser
+    snaps a slider to min + k step: the start must be on it)."""
+    low, high = getattr(p, "computed", None) or (p.lower, p.upper)
+    if p.unit == "rad":
+        value, low, high = math.degrees(value), math.degrees(low), math.degrees(high)
+    half = 0.5 * abs(value) if value else 0.1
+    step = float(f"{2 * half / 1000:.3g}")
+    below = max(0, min(500, math.floor((value - low) / step) - 1))
+    above = max(0, min(500, math.floor((high - value) / step) - 1))
+    return {
+        "name": p.name,
+        "description": p.description,
+        "unit": p.unit,
+        "min": value - below * step,
+        "max": value + above * step,
+        "step": step,
+        "value": value,
+    }
+
+
+def spec(model: Any, params: Sequence[float], start: Sequence[float]) -> dict[str, Any]:
+    """What the page needs of the model beside its generated functions."""
+    units = {s["name"]: s["unit"] for s in model.spec["state"]}
+    step_event = model.step_event
+    slope = 0.0
+    for p, value in zip(model.parameter_table, params):
+        if p.name == "gamma" and "slope" in p.description:
+            slope = float(value)
+    return {
+        "h": STEP,
+        "maxSteps": int(200 / STEP),
+        "coordinates": list(model.coordinates),
+        "rates": list(model.rates),
+        "parameters": [_slider(p, v) for p, v in zip(model.parameter_table, params)],
+        "phases": [
+            {"name": ph["name"], "failures": [list(f) for f in ph["failures"]]}
+            for ph in model.phases
+        ],
+        "events": [
+            {
+                "name": e["name"],
+                "source": e["source"],
+                "target": e["target"],
+                "direction": e["direction"],
+                "when": e["when"],
+                "ends_step": e["ends_step"],
+                "guard": f"event_{e['name']}_guard",
+                "reset_fn": f"event_{e['name']}_reset",
+            }
+            for e in model.events
+        ],
+        "start_phase": step_event["target"],
+        "step_event": step_event["name"],
+        "start_state": [float(v) for v in start],
+        "units": units,
+        "time_unit": model.units.get("time", ""),
+        "length_unit": model.units.get("length", ""),
+        "slope": slope,
+        "height": 1.3 * max(1e-9, _height(model, params, start)),
+        "playback": 1.0,
+        "contact_fn": f"event_{step_event['name']}_contact",
+        "contact_phase": step_event["source"],
+    }
+
+
+def _height(model: Any, params: Sequence[float], start: Sequence[float]) -> float:
+    phase = model.step_event["target"]
+    positions = getattr(model.module, f"{phase}_positions")(*params, *start)
+    return float(abs(positions[1]))
+
+
+def page(model: Any, params: Sequence[float], start: Sequence[float]) -> str:
+    """The page's HTML for ``model`` with the sliders at ``params`` and Newton's first
+    guess ``start`` (a section state, e.g. the runtime's stable gait)."""
+    js_path = Path(generated.__file__).resolve().parent / model.name / "js" / f"{model.name}.js"
+    if not js_path.is_file():
+        raise VswInputError(
+            f"vsw explore: generated/{model.name}/js is missing: run python -m derive"
+        )
+    js = js_path.read_text()
+    data = json.dumps(spec(model, params, start), sort_keys=True)
+    if "</script" in js or "</script" in data:
+        raise VswInputError("the explorer's script would end early ('</script' in it)")
+    replacements = {
+        "@@title@@": model.title,
+        "@@description@@": model.spec.get("description", model.title),
+        "@@generated_from@@": f"generated/{model.name}/js/{model.name}.js",
+        "@@h@@": f"{STEP:g} {model.units.get('time', '')}".strip(),
+        "@@ground@@": "grey, along the slope" if spec(model, params, start)["slope"] else "grey",
+        "@@namespace@@": f"vsw_{model.name}",
+        "@@spec@@": data,
+        "@@model_js@@": js,
+    }
+    text = TEMPLATE.read_text()
+    for key, value in replacements.items():
+        text = text.replace(key, value)
+    return text
+
+
+def write_page(path: str, model: Any, params: Sequence[float], start: Sequence[float]) -> Path:
+    out = Path(path)
+    if out.suffix.lower() not in (".html", ".htm"):
+        raise VswInputError(f"--out {path}: the page must end in .html")
+    parent = out.parent if str(out.parent) else Path(".")
+    if not parent.is_dir():
+        raise VswInputError(f"--out {path}: the directory {parent} does not exist")
+    text = page(model, params, start)
+    try:
+        out.write_text(text, encoding="utf-8")
+    except OSError as exc:
+        raise VswInputError(f"--out {path}: cannot write: {exc.strerror or exc}") from None
+    return out
