@@ -173,6 +173,20 @@ def _diagram(
     return data, written
 
 
+def _minus_x(basin: dict) -> dict:
+    """A basin record over x drawn over -x (the sources' sign of an angle): the columns
+    reversed, so that -x increases to the right."""
+    name = basin["x_name"]
+    return {
+        **basin,
+        "x_name": f"-{name}",
+        "x": [-v for v in reversed(basin["x"])],
+        "outcome": [list(reversed(row)) for row in basin["outcome"]],
+        "steps": [list(reversed(row)) for row in basin["steps"]],
+        "fixed_point": {**basin["fixed_point"], f"-{name}": -basin["fixed_point"][name]},
+    }
+
+
 def _basin_section(out: Path, quick: bool) -> tuple[list[str], list[Path]]:
     """The simplest walker's basin over theta x theta_dot just after heelstrike and the
     brute-force bifurcation diagram, both through the command line (batch simulator)."""
@@ -184,7 +198,9 @@ def _basin_section(out: Path, quick: bool) -> tuple[list[str], list[Path]]:
                        np.linspace(0.1, 0.4, side), 50)  # fmt: skip
     basin = clean({**found.to_dict(), "model": m.cli_name})
     units = {s["name"]: s["unit"] for s in m.spec["state"]}
-    save_figure(basin_plot(basin, units, plotstyle.parameter_text(m, params)), png)
+    # Drawn in the sources' sign of the stance angle, as the bifurcation diagrams here.
+    shown = _minus_x(basin)
+    save_figure(basin_plot(shown, units, plotstyle.parameter_text(m, params)), png)
     counts = basin["counts"]
     cells = side * side
     steps = np.array(basin["steps"])
@@ -209,7 +225,8 @@ def _basin_section(out: Path, quick: bool) -> tuple[list[str], list[Path]]:
         f"`vsw basin --model simplest-walker --grid theta=-0.36:-0.1:{side} --grid ",
         f"theta_dot=0.1:0.4:{side}` at gamma = 0.009: the cells are section states just after ",
         "heelstrike (phi = 2 theta and the swing rate the impact gives, from the model's ",
-        "section), walked up to 50 steps. ",
+        "section), walked up to 50 steps; drawn over minus theta, the sources' sign of the ",
+        "stance angle, as the bifurcation diagrams of this report. ",
         ", ".join(f"{label}: {n} cells ({100 * n / cells:.2f} %)" for label, n in counts.items()),
         f"; converged cells took {int(steps[converged].min())} to "
         f"{int(steps[converged].max())} steps to come within 1e-6 of the gait. The basin is a ",
