@@ -5,7 +5,7 @@ the JavaScript ``python -m derive`` prints from the model's derivation (each pha
 accelerations, energy and body positions; each event's guard, ``when`` and reset; the
 failures' guards; the step length), and the model's hybrid descriptor as data. In the
 browser it integrates the walk (classical Runge-Kutta at a fixed step :data:`STEP`, guards
-located by bisection to 1e-13 in time) and finds the period-one gait by Newton's method on
+located by bisection to the last bit of time) and finds the period-one gait by Newton's method on
 the step map from the gait vsw found at the start values (the runtime's search), then
 follows it as the sliders move. No number is typed in, nothing is fetched.
 """
