@@ -379,7 +379,7 @@ def test_model_commands_any_arguments(command):
 def _edge_values(p) -> list[float]:
     """A parameter's edges: its open bounds, just inside and outside them, the ends of what
     vsw computes and just beyond, and the extremes of double precision."""
-    low, high = getattr(p, "computed", None) or (p.lower, p.upper)
+    low, high = p.computed or (p.lower, p.upper)
     values = {5e-324, -5e-324, 1e300, -1e300, 1e-300, 0.0, -0.0}
     for v in (p.lower, p.upper, low, high):
         if math.isfinite(v):

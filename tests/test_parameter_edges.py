@@ -61,7 +61,7 @@ def test_the_open_bounds_are_refused(model, p):
 
 @pytest.mark.parametrize(("model", "p"), list(edges()))
 def test_beyond_what_is_computed_is_refused_with_the_reason(model, p):
-    computed = getattr(p, "computed", None)
+    computed = p.computed
     if computed is None:
         pytest.skip(f"{model} computes all of {p.name}'s interval")
     low, high = computed
@@ -80,7 +80,7 @@ def test_closed_form_models_answer_at_every_computed_edge(model):
     """The models with a closed-form stride map answer at once at both ends of every
     parameter's computed interval (just inside the open bounds where it is all of it)."""
     for p in load(model).parameter_table:
-        low, high = getattr(p, "computed", None) or (p.lower, p.upper)
+        low, high = p.computed or (p.lower, p.upper)
         for value in (low, high):
             if value == p.lower:
                 value = float(np.nextafter(value, math.inf))

@@ -187,7 +187,7 @@ def animation_frames(
     leg_a_stands = sample_step[index] % 2 == 0
     masses_a, masses_b = _masses_by_leg(np.array(bodies), stance, hip, swing, leg_a_stands)
     spokes = _spokes(model, params, hip, stance)
-    slope = _slope(model, params)
+    slope = model.slope(params)
     turn = np.array([[math.cos(slope), math.sin(slope)], [-math.sin(slope), math.cos(slope)]])
 
     def world(points):  # the chart turned so that the slope descends to the right
@@ -221,15 +221,6 @@ def animation_frames(
     frames.ground = frames.to_pixels(world(np.array([[lo[0] - reach, 0.0],
                                                      [hi[0] + reach, 0.0]])))  # fmt: skip
     return frames
-
-
-def _slope(model, params: Sequence[float]) -> float:
-    """The slope a passive walker walks down (its chart lies along it): the parameter
-    ``gamma`` of a model whose table calls it a slope angle; 0 on level ground."""
-    for p, value in zip(model.parameter_table, params):
-        if p.name == "gamma" and "slope" in p.description:
-            return float(value)
-    return 0.0
 
 
 def _masses_by_leg(bodies, stance, hip, swing, leg_a_stands):

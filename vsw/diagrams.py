@@ -24,7 +24,6 @@ __all__ = [
     "diagram_quantity",
     "diagram_units",
     "diagram_value",
-    "parameter_title",
 ]
 
 
@@ -61,14 +60,6 @@ def diagram_value(y: str, state: Mapping[str, float] | None, step_length, step_p
     return None if state is None else state.get(y)
 
 
-def parameter_title(model: str, parameters: Mapping[str, float], width: int = 48) -> str:
-    """The model and its fixed parameters, wrapped to the column's width."""
-    import textwrap
-
-    fixed = ", ".join(f"{k} = {v:.6g}" for k, v in parameters.items())
-    return "\n".join(textwrap.wrap(f"{model}: {fixed}" if fixed else model, width))
-
-
 def _axis_label(y: str, units: Mapping[str, str]) -> str:
     if y.startswith("-"):
         return "\N{MINUS SIGN}" + _axis_label(y[1:], units)
@@ -81,7 +72,7 @@ def _axis_label(y: str, units: Mapping[str, str]) -> str:
 
 @plotstyle.styled
 def bifurcation_plot(
-    data: Mapping[str, Any], y: str, units: Mapping[str, str], title: str | None = None
+    data: Mapping[str, Any], y: str, units: Mapping[str, str], title: str
 ) -> Figure:
     """The period-one gait along the swept parameter (solid where stable, dashed where
     not) and, where it is unstable or was not found, the last steps of the iterated map
@@ -97,9 +88,9 @@ def bifurcation_plot(
         What the diagram shows (:func:`diagram_value`).
     units : mapping
         The model's units (``length``, ``time``), for the axis label.
-    title : str, optional
+    title : str
         The model and its fixed parameters with units (:func:`vsw.plotstyle
-        .parameter_text`); default from the record, without units.
+        .parameter_text`).
 
     The whole swept range is shown: values where no period-one gait was found are marked
     on the top edge, walks that fell on the bottom edge (outside the data).
@@ -165,8 +156,6 @@ def bifurcation_plot(
     if len(xs):
         ax.set_xlim(float(np.min(xs)), float(np.max(xs)))
     ax.set_ylabel(_axis_label(y, units))
-    if title is None:
-        title = parameter_title(data["model"], data["parameters"])
     fig.suptitle(title, x=0.02, ha="left", fontsize="medium")
     plotstyle.figure_legend(fig, *ax.get_legend_handles_labels(), ncols=2)
 

@@ -21,7 +21,7 @@ from typing import Any
 import generated
 from vsw.errors import VswInputError
 
-__all__ = ["STEP", "page", "write_page"]
+__all__ = ["STEP", "check_html_path", "page", "write_html", "write_page"]
 
 TEMPLATE = Path(__file__).resolve().parent / "templates" / "explore_hybrid.html"
 STEP = 2.5e-4
@@ -32,7 +32,7 @@ def _slider(p: Any, value: float) -> dict[str, Any]:
     """A parameter's slider: half to one and a half times its value (angles in degrees),
     inside what vsw computes, on a grid of 1000 steps through the value itself (a browser
     snaps a slider to min + k step: the start must be on it)."""
-    low, high = getattr(p, "computed", None) or (p.lower, p.upper)
+    low, high = p.computed or (p.lower, p.upper)
     if p.unit == "rad":
         value, low, high = math.degrees(value), math.degrees(low), math.degrees(high)
     half = 0.5 * abs(value) if value else 0.1
@@ -54,10 +54,6 @@ def spec(model: Any, params: Sequence[float], start: Sequence[float]) -> dict[st
     """What the page needs of the model beside its generated functions."""
     units = {s["name"]: s["unit"] for s in model.spec["state"]}
     step_event = model.step_event
-    slope = 0.0
-    for p, value in zip(model.parameter_table, params):
-        if p.name == "gamma" and "slope" in p.description:
-            slope = float(value)
     return {
         "h": STEP,
         "maxSteps": int(200 / STEP),
@@ -87,7 +83,7 @@ def spec(model: Any, params: Sequence[float], start: Sequence[float]) -> dict[st
         "units": units,
         "time_unit": model.units.get("time", ""),
         "length_unit": model.units.get("length", ""),
-        "slope": slope,
+        "slope": model.slope(params),
         "height": 1.3 * max(1e-9, _height(model, params, start)),
         "playback": 1.0,
         "contact_fn": f"event_{step_event['name']}_contact",
@@ -118,7 +114,7 @@ def page(model: Any, params: Sequence[float], start: Sequence[float]) -> str:
         "@@description@@": model.spec.get("description", model.title),
         "@@generated_from@@": f"generated/{model.name}/js/{model.name}.js",
         "@@h@@": f"{STEP:g} {model.units.get('time', '')}".strip(),
-        "@@ground@@": "grey, along the slope" if spec(model, params, start)["slope"] else "grey",
+        "@@ground@@": "grey, along the slope" if model.slope(params) else "grey",
         "@@namespace@@": f"vsw_{model.name}",
         "@@spec@@": data,
         "@@model_js@@": js,
@@ -130,13 +126,25 @@ def page(model: Any, params: Sequence[float], start: Sequence[float]) -> str:
 
 
 def write_page(path: str, model: Any, params: Sequence[float], start: Sequence[float]) -> Path:
+    """Write the page of :func:`page` to ``path``."""
+    check_html_path(path)
+    return write_html(path, page(model, params, start))
+
+
+def check_html_path(path: str) -> Path:
+    """``--out``, checked before any work: an .html file in an existing directory."""
     out = Path(path)
     if out.suffix.lower() not in (".html", ".htm"):
         raise VswInputError(f"--out {path}: the page must end in .html")
     parent = out.parent if str(out.parent) else Path(".")
     if not parent.is_dir():
         raise VswInputError(f"--out {path}: the directory {parent} does not exist")
-    text = page(model, params, start)
+    return out
+
+
+def write_html(path: str, text: str) -> Path:
+    """Write an explorer page (one line naming ``path`` when it cannot be written)."""
+    out = check_html_path(path)
     try:
         out.write_text(text, encoding="utf-8")
     except OSError as exc:

@@ -96,15 +96,12 @@ class PhasePiece:
         times = np.asarray(times, dtype=float)
         starts = np.array([s for _, s, _ in self.segments])
         which = np.clip(np.searchsorted(starts, times, side="right") - 1, 0, len(starts) - 1)
-        out = np.empty((len(times), 0)) if not len(times) else None
+        size = np.asarray(self.segments[0][0](self.start)).size
+        out = np.empty((len(times), size))
         for k, (solution, _, _) in enumerate(self.segments):
             chosen = which == k
-            if not np.any(chosen):
-                continue
-            values = np.asarray(solution(times[chosen]), dtype=float).T
-            if out is None:
-                out = np.empty((len(times), values.shape[1]))
-            out[chosen] = values
+            if np.any(chosen):
+                out[chosen] = np.asarray(solution(times[chosen]), dtype=float).T
         return out
 
 
@@ -261,6 +258,14 @@ class HybridModel:
 
     def reset(self, event: str, params: Sequence[float], state: np.ndarray) -> np.ndarray:
         return np.array(self._fn(f"event_{event}_reset")(*params, *state), dtype=float)
+
+    def slope(self, params: Sequence[float]) -> float:
+        """The slope the walker walks down, rad (its chart lies along it): the parameter
+        ``gamma`` of a model whose table calls it a slope angle; 0 on level ground."""
+        for p, value in zip(self.parameter_table, params):
+            if p.name == "gamma" and "slope" in p.description:
+                return float(value)
+        return 0.0
 
     def step_length(self, params: Sequence[float], state: np.ndarray) -> float | None:
         if not self.spec["step_length"]:

@@ -79,7 +79,7 @@ def check_parameter(name: str, value: object, table: tuple) -> np.ndarray:
         else:
             condition = f"violates {p.lower:.6g} < {name} < {p.upper:.6g}"
         raise VswInputError(f"{where} = {shown} {condition}: {p.reason}")
-    computed = getattr(p, "computed", None)
+    computed = p.computed
     if computed is not None:
         outside = ~((arr >= computed[0]) & (arr <= computed[1]))
         if np.any(outside):

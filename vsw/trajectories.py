@@ -30,7 +30,7 @@ from vsw import limits, stop
 from vsw.errors import VswInputError
 from vsw.hybrid import HybridModel
 
-__all__ = ["FORMATS", "SampledWalk", "sample_walk", "write_trajectory"]
+__all__ = ["FORMATS", "SampledWalk", "check_rate", "sample_walk", "write_trajectory"]
 
 FORMATS = (".csv", ".npz", ".mat")
 """File types :func:`write_trajectory` writes, chosen by the path's extension."""
@@ -67,13 +67,18 @@ def _phase_values(model: HybridModel, kind: str, phase: str, params, states: np.
     return np.broadcast_to(np.asarray(value, dtype=float), (len(states),)).copy()
 
 
+def check_rate(rate: float) -> None:
+    """The sampling rate, checked (also by the CLI before any work)."""
+    if not (math.isfinite(rate) and 0 < rate <= MAX_RATE):
+        raise VswInputError(f"--rate = {rate:g} must be a number in (0, {MAX_RATE:g}]")
+
+
 def sample_walk(
     model: HybridModel, params: Sequence[float], start: Sequence[float], steps: int, rate: float
 ) -> SampledWalk:
     """``steps`` steps from the section state ``start``, sampled ``rate`` times per model
     time unit, with the events' rows (module docstring)."""
-    if not (math.isfinite(rate) and 0 < rate <= MAX_RATE):
-        raise VswInputError(f"--rate = {rate:g} must be a number in (0, {MAX_RATE:g}]")
+    check_rate(rate)
     params = tuple(float(v) for v in params)
     pieces, events, ended = model.continuous_walk(params, np.asarray(start, float), steps)
     rows_expected = (pieces[-1].end * rate if pieces else 0) + 2 * len(events) + len(pieces)
@@ -107,8 +112,7 @@ def sample_walk(
             rows.append((float(time), 1, piece.step, piece.phase, states[i], float(energy[i]),
                          float(force[i]) if force is not None else math.nan, ""))  # fmt: skip
     for step, record in events:
-        before_phase = next(p.phase for p in pieces if abs(p.end - record.time) <= 1e-12 * max(
-            1.0, abs(record.time)) and p.step == step)  # fmt: skip
+        before_phase = by_name[record.name]["source"]
         after_phase = by_name[record.name]["target"]
         force_before = _phase_values(model, "normal_force", before_phase, params,
                                      record.state_before[None, :])  # fmt: skip

@@ -178,7 +178,7 @@ def parameter_value(option: str, p: Any, text: str, given: str | None = None) ->
         raise VswInputError(
             f"{where}: {p.name} must be a number in the open interval {_interval(p)}: {p.reason}"
         )
-    computed = getattr(p, "computed", None)
+    computed = p.computed
     if computed is not None and not computed[0] <= value <= computed[1]:
         where = given or f"{option} {p.name}={text.strip()}"
         raise VswInputError(f"{where}: {p.name} {beyond_computed(p)}")

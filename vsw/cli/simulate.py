@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from typing import Any
 
@@ -22,7 +21,7 @@ from vsw.cli.parser import EXIT_OK
 from vsw.errors import VswInputError
 from vsw.figures import check_output_path, check_save_path
 from vsw.gaits import search_seconds
-from vsw.trajectories import FORMATS, MAX_RATE, column_units, sample_walk, write_trajectory
+from vsw.trajectories import FORMATS, check_rate, column_units, sample_walk, write_trajectory
 from vsw.walks import walk
 
 __all__ = ["register", "run"]
@@ -90,8 +89,7 @@ def run(args: argparse.Namespace) -> int:
         check_save_path(args.plot)
     if args.trajectory is not None:
         check_output_path(args.trajectory, FORMATS, "trajectory file")
-        if not (math.isfinite(args.rate) and 0 < args.rate <= MAX_RATE):
-            raise VswInputError(f"--rate = {args.rate:g} must be a number in (0, {MAX_RATE:g}]")
+        check_rate(args.rate)
     search = state is None and args.q0 is None
     check_cost(model, args.steps, search, args.steps, f"simulating {args.steps} steps",
                "use fewer --steps")  # fmt: skip

@@ -23,7 +23,7 @@ import numpy as np
 
 from vsw import conditions, gaits, stop
 from vsw.errors import ModelConditionError, VswInputError
-from vsw.explore_page import write_page
+from vsw.explore_page import check_html_path, write_page
 from vsw.figures import save_figure
 from vsw.hybrid import HybridModel, Orbit
 from vsw.trajectories import sample_walk
@@ -139,10 +139,8 @@ class Model(HybridModel):
                     "upper": _bound(p.upper),
                     "meaning": p.description,
                     "reason": p.reason,
-                    "computed": [
-                        _bound(v) for v in getattr(p, "computed", None) or (p.lower, p.upper)
-                    ],
-                    "computed_reason": getattr(p, "computed_reason", ""),
+                    "computed": [_bound(v) for v in p.computed or (p.lower, p.upper)],
+                    "computed_reason": p.computed_reason,
                     "degrees_accepted": p.unit == "rad",
                 }
                 for p in self.parameter_table
@@ -297,15 +295,10 @@ class Model(HybridModel):
 
     def write_explorer(self, path: str, params: Sequence[float], **options: Any) -> Path:
         """``vsw explore``: the self-contained page (:mod:`vsw.explore_page`); the sliders
-        start at ``params``, Newton's first guess is the model's gait there."""
-        return _explorer(self, path, params, **options)
-
-
-def _explorer(model: Model, path: str, params: Sequence[float], **_options: Any):
-    """The engine's explorer page (:mod:`vsw.explore_page`) from the model's gait at
-    ``params`` (the stable one where there is one)."""
-    start = model.start(params, None, None)
-    return write_page(path, model, params, start.state)
+        start at ``params``, Newton's first guess is the model's gait there (the stable one
+        where there is one). ``options``: the ILE's (its leg length); none here."""
+        check_html_path(path)  # before the gait search
+        return write_page(path, self, params, self.start(params, None, None).state)
 
 
 def _bound(value: float) -> float | None:

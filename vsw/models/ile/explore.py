@@ -16,6 +16,7 @@ from pathlib import Path
 import generated
 import generated.ile as ile
 from vsw.errors import VswInputError
+from vsw.explore_page import check_html_path, write_html
 
 TEMPLATE = Path(__file__).resolve().parent / "templates" / "explore.html"
 MODEL_JS = Path(generated.__file__).resolve().parent / "ile" / "js" / "ile.js"
@@ -53,15 +54,6 @@ def page(beta: float = 0.8, theta_II_deg: float = 0.0, phi0_deg: float = 45.0,
 
 
 def write_page(path: str, **values: float) -> Path:
-    out = Path(path)
-    if out.suffix.lower() not in (".html", ".htm"):
-        raise VswInputError(f"--out {path}: the page must end in .html")
-    parent = out.parent if str(out.parent) else Path(".")
-    if not parent.is_dir():
-        raise VswInputError(f"--out {path}: the directory {parent} does not exist")
-    text = page(**values)
-    try:
-        out.write_text(text, encoding="utf-8")
-    except OSError as exc:
-        raise VswInputError(f"--out {path}: cannot write: {exc.strerror or exc}") from None
-    return out
+    """Write the page of :func:`page` with the sliders at ``values``."""
+    check_html_path(path)
+    return write_html(path, page(**values))

@@ -17,7 +17,6 @@ import numpy as np
 
 from generated import ile
 from vsw import plotstyle
-from vsw.diagrams import parameter_title
 from vsw.errors import VswInputError
 from vsw.models.ile.analysis import analyze
 from vsw.plotstyle import COLORS, DEG, LABELS
@@ -564,7 +563,7 @@ _ILE_PANELS = (
 
 
 @plotstyle.styled
-def ile_sweep_plot(data: Mapping[str, Any], xlabel: str, title: str | None = None) -> Figure:
+def ile_sweep_plot(data: Mapping[str, Any], xlabel: str, title: str) -> Figure:
     """The ILE's fixed point q^f (10), eigenvalue (20) and speed along the swept
     parameter over the whole swept range; where no gait exists (a condition fails) the
     range is shaded and named in the legend below. ``title``: the fixed parameters with
@@ -598,8 +597,7 @@ def ile_sweep_plot(data: Mapping[str, Any], xlabel: str, title: str | None = Non
 
         plotstyle.figure_legend(fig, [Patch(color=COLORS["light_grey"])],
                                 ["no gait (a condition of the closed form fails)"])  # fmt: skip
-    fig.suptitle(title or parameter_title("ile", data["parameters"]), x=0.02, ha="left",
-                 fontsize="medium")  # fmt: skip
+    fig.suptitle(title, x=0.02, ha="left", fontsize="medium")
     axes[-1].set_xlabel(xlabel)
     return fig
 
