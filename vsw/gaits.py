@@ -198,8 +198,8 @@ def search_seconds(model: HybridModel, threads: int | None = None) -> float:
     one batch step per cell at the per-phase cost of :data:`vsw.limits
     .BATCH_SECONDS_PER_PHASE`, on ``threads`` (default: the usable cores), plus the Newton
     and confirmation part. Measured against it (benchmarks/run.py case 12, 2 threads): the
-    compass gait 12.8 s for 9.1 s estimated, the simplest walker 11.5 s for 41 s, the biped
-    2.2-6.0 s for 22 s. Far from the defaults it can be off by more (a stiff swing leg
+    compass gait 12.8 s for 13.1 s estimated, the simplest walker 11.5 s for 40.9 s, the
+    biped 2.2-6.0 s for 22.2 s. Far from the defaults it can be off by more (a stiff swing leg
     costs many integrator steps a cell): the limit is also enforced while the search runs.
     """
     dims = len(model.spec["search"])

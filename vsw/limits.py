@@ -95,11 +95,11 @@ ILE_SWEEP_SECONDS_PER_POINT = 1e-4
 #: per point, tracemalloc peak at 1000 and 10^5 points: 4.0-4.1 kB
 ILE_SWEEP_BYTES_PER_POINT = 5_000
 
-# Trajectories (vsw.trajectories), measured by hand on the compass gait and the biped at
-# 1e4 samples per time unit (2026-12, this machine): sampling and CSV text together
-#: 4-7 us a row
+# Trajectories (vsw.trajectories), measured by hand on the compass gait and the biped, 3
+# steps at 1e4 samples per time unit (22,040 and 68,038 rows; 2026-12-02, Intel Xeon):
+#: sampling 1.6-3.4 us and CSV text 5.9-6.0 us a row, 7.5-9.4 us together
 TRAJECTORY_SECONDS_PER_ROW = 1e-5
-#: a row's arrays, Python tuple and CSV text: ~0.5 kB
+#: a row's arrays, Python tuple and CSV text: tracemalloc peak 467-468 B a row
 TRAJECTORY_BYTES_PER_ROW = 1_000
 
 _SUFFIXES = {"": 1, "K": 1024, "M": 1024**2, "G": 1024**3, "T": 1024**4}

@@ -42,7 +42,7 @@ PARAMETERS = (
     Parameter("gamma", r"\gamma", 0.0, PI / 2, "a passive walker walks down a slope: "
               "0 < gamma < pi/2", "slope angle", default=0.009, unit="rad",
               computed=(1e-8, PI / 2), computed_reason="on slopes below 1e-8 rad the gait "
-              "search does not end in minutes (measured at 1e-12); 1e-8 takes about 10 s"),
+              "search runs long (at 1e-12 it ran past a 20 s limit); 1e-8 takes about 10 s"),
 )  # fmt: skip
 (gamma,) = (p.symbol for p in PARAMETERS)
 epsilon = sm.Symbol("epsilon", positive=True)  # foot mass / hip mass, taken to 0

@@ -74,8 +74,8 @@ PARAMETERS = (
     Parameter("beta", r"\beta", 0.0, 1.0, "beta = r_s / r_e is a length-shortening ratio: "
               "0 < beta < 1", "length shorten ratio r_s / r_e", {"positive": True},
               default=0.93, unit="1", computed=(1e-12, 1.0),
-              computed_reason="q^f grows as 1/beta^2 (1e24 at 1e-12) and overflows double "
-              "precision below"),
+              computed_reason="q^f grows as 1/beta^2 (1.1e24 at 1e-12) and overflows double "
+              "precision below about 1e-154 (1e-300 failed in the generated code)"),
     Parameter("theta_II", r"\theta_{II}", -PI / 2, PI / 2, "the stance leg must point below "
               "the horizontal: |theta_II| < pi/2", "stance leg angle at which the extension "
               "starts", default=-0.1, unit="rad"),
@@ -87,7 +87,8 @@ PARAMETERS = (
               "stance-angle interval of the leg extension", {"positive": True},
               default=0.4, unit="rad", computed=(1e-9, PI / 2),
               computed_reason="the leg force grows as 1/delta^2: below 1e-9 rad the extension "
-              "is too stiff to integrate (the instantaneous extension is the ile model)"),
+              "is too stiff to integrate (at 1e-12 the search ran over 2 min); the instantaneous "
+              "extension is the ile model"),
 )  # fmt: skip
 beta, theta_II, phi0, delta = (p.symbol for p in PARAMETERS)
 

@@ -61,8 +61,8 @@ PARAMETERS = (
               "foot: 0 < b / l < 1", "distance from the hip to a leg's mass, over l",
               {"positive": True}, default=0.3, unit="1", computed=(1e-6, 1.0),
               computed_reason="the swing leg's inertia about the hip, mu (b/l)^2, vanishes in "
-              "double precision below; from about 0.05 down its swing is so fast that the gait "
-              "search takes minutes (VSW_MAX_SECONDS stops it)"),
+              "double precision below; near it the swing is so fast that the gait search runs "
+              "long (at b/l = 1e-3 it ran past a 40 s limit, which stops it)"),
 )  # fmt: skip
 beta, theta_II, mu, b = (p.symbol for p in PARAMETERS)
 

@@ -28,5 +28,5 @@ class Parameter(NamedTuple):
 
 
 PARAMETERS = (
-    Parameter('gamma', '\\gamma', 0.0, 1.5707963267948966, 'a passive walker walks down a slope: 0 < gamma < pi/2', 'slope angle', False, 0.009, 'rad', (1e-08, 1.5707963267948966), 'on slopes below 1e-8 rad the gait search does not end in minutes (measured at 1e-12); 1e-8 takes about 10 s'),
+    Parameter('gamma', '\\gamma', 0.0, 1.5707963267948966, 'a passive walker walks down a slope: 0 < gamma < pi/2', 'slope angle', False, 0.009, 'rad', (1e-08, 1.5707963267948966), 'on slopes below 1e-8 rad the gait search runs long (at 1e-12 it ran past a 20 s limit); 1e-8 takes about 10 s'),
 )

@@ -28,8 +28,8 @@ class Parameter(NamedTuple):
 
 
 PARAMETERS = (
-    Parameter('beta', '\\beta', 0.0, 1.0, 'beta = r_s / r_e is a length-shortening ratio: 0 < beta < 1', 'length shorten ratio r_s / r_e', False, 0.93, '1', (1e-12, 1.0), 'q^f grows as 1/beta^2 (1e24 at 1e-12) and overflows double precision below'),
+    Parameter('beta', '\\beta', 0.0, 1.0, 'beta = r_s / r_e is a length-shortening ratio: 0 < beta < 1', 'length shorten ratio r_s / r_e', False, 0.93, '1', (1e-12, 1.0), 'q^f grows as 1/beta^2 (1.1e24 at 1e-12) and overflows double precision below about 1e-154 (1e-300 failed in the generated code)'),
     Parameter('theta_II', '\\theta_{II}', -1.5707963267948966, 1.5707963267948966, 'the stance leg must point below the horizontal: |theta_II| < pi/2', 'stance leg angle at which the extension starts', False, -0.1, 'rad'),
     Parameter('phi0', '\\varphi_0', 0.0, 1.5707963267948966, 'inter-leg angle at heelstrike: 0 < phi0 < pi/2, ILE eq. (16)', 'inter-leg angle at heelstrike', False, 0.7, 'rad'),
-    Parameter('delta', '\\Delta', 0.0, 1.5707963267948966, 'stance-angle interval of the extension: 0 < delta < theta_IV - theta_II < phi0 < pi/2 for a gait', 'stance-angle interval of the leg extension', False, 0.4, 'rad', (1e-09, 1.5707963267948966), 'the leg force grows as 1/delta^2: below 1e-9 rad the extension is too stiff to integrate (the instantaneous extension is the ile model)'),
+    Parameter('delta', '\\Delta', 0.0, 1.5707963267948966, 'stance-angle interval of the extension: 0 < delta < theta_IV - theta_II < phi0 < pi/2 for a gait', 'stance-angle interval of the leg extension', False, 0.4, 'rad', (1e-09, 1.5707963267948966), 'the leg force grows as 1/delta^2: below 1e-9 rad the extension is too stiff to integrate (at 1e-12 the search ran over 2 min); the instantaneous extension is the ile model'),
 )
