@@ -719,6 +719,15 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
             "Distance between successive stance feet (state just before the step event).",
             None, "step length",
         ))  # fmt: skip
+    step_phase = model.phase(next(e for e in model.events if e.ends_step).target)
+    gx, gy = (sm.sympify(v) for v in step_phase.gravity)
+    # On a slope gravity is (g sin gamma, -g cos gamma) in the chart: its size is g.
+    weight = sm.sqrt(sm.trigsimp(gx**2 + gy**2)) * sm.Add(*(b.mass for b in step_phase.bodies))
+    quantities.append(Quantity(
+        "weight", tuple(model.parameter_symbols), sm.simplify(weight),
+        "The walker's weight: gravity times the mass of every body (the cost of transport's "
+        "scale).", None, "force",
+    ))  # fmt: skip
     if model.section:
         state_symbols = {c.name: c.q for c in model.coordinates}
         state_symbols.update({c.rate: c.u for c in model.coordinates})

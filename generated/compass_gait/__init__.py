@@ -654,6 +654,29 @@ def step_length_of_state(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot)
     return x0*sin_theta - x0*sin_psi
 
 
+def weight(m_h, m, a, b, gamma, g):
+    """The walker's weight: gravity times the mass of every body (the cost of transport's scale).
+
+    Parameters
+    ----------
+    m_h : array_like or casadi.SX/MX/DM
+    m : array_like or casadi.SX/MX/DM
+    a : array_like or casadi.SX/MX/DM
+    b : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        force
+    """
+    be = backend_for(m_h, m, a, b, gamma, g)
+    return g*(m_h + 2*m)
+
+
 def section_completion(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot):
     """The section state with the components the section determines recomputed from the others (the step event's geometry and reset).
 

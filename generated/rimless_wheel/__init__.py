@@ -295,6 +295,27 @@ def step_length_of_state(alpha, gamma, l, g, theta, theta_dot):
     return 2*sin_alpha*l
 
 
+def weight(alpha, gamma, l, g):
+    """The walker's weight: gravity times the mass of every body (the cost of transport's scale).
+
+    Parameters
+    ----------
+    alpha : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    l : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        force
+    """
+    be = backend_for(alpha, gamma, l, g)
+    return g
+
+
 def section_completion(alpha, gamma, l, g, theta, theta_dot):
     """The section state with the components the section determines recomputed from the others (the step event's geometry and reset).
 

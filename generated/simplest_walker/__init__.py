@@ -331,6 +331,24 @@ def step_length_of_state(gamma, theta, phi, theta_dot, phi_dot):
     return sin_t1 + sin_theta
 
 
+def weight(gamma):
+    """The walker's weight: gravity times the mass of every body (the cost of transport's scale).
+
+    Parameters
+    ----------
+    gamma : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        force
+    """
+    be = backend_for(gamma)
+    return 1
+
+
 def section_completion(gamma, theta, phi, theta_dot, phi_dot):
     """The section state with the components the section determines recomputed from the others (the step event's geometry and reset).
 

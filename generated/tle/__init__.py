@@ -758,6 +758,27 @@ def step_length_of_state(beta, theta_II, phi0, delta, theta, theta_dot):
     return sin_theta + sin_t1*beta
 
 
+def weight(beta, theta_II, phi0, delta):
+    """The walker's weight: gravity times the mass of every body (the cost of transport's scale).
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    delta : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        force
+    """
+    be = backend_for(beta, theta_II, phi0, delta)
+    return 1
+
+
 def section_completion(beta, theta_II, phi0, delta, theta, theta_dot):
     """The section state with the components the section determines recomputed from the others (the step event's geometry and reset).
 

@@ -893,6 +893,27 @@ def step_length_of_state(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, ps
     return sin_theta - sin_psi*beta
 
 
+def weight(beta, theta_II, mu, b_over_l):
+    """The walker's weight: gravity times the mass of every body (the cost of transport's scale).
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    mu : array_like or casadi.SX/MX/DM
+    b_over_l : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        force
+    """
+    be = backend_for(beta, theta_II, mu, b_over_l)
+    return 1 + 2*mu
+
+
 def section_completion(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """The section state with the components the section determines recomputed from the others (the step event's geometry and reset).
 

@@ -400,12 +400,17 @@ function step_length_of_state(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi
   return x0*sin_theta - x0*sin_psi;
 }
 
+/* The walker's weight: gravity times the mass of every body (the cost of transport's scale). Returns force. */
+function weight(m_h, m, a, b, gamma, g) {
+  return g*(m_h + 2*m);
+}
+
 /* The section state with the components the section determines recomputed from the others (the step event's geometry and reset). Returns tuple: coordinates, then rates. */
 function section_completion(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot) {
   return [theta, -theta, theta_dot, psi_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_fell_forward, stance_lift_off, stance_positions, stance_inertias, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, section_completion };
+const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_fell_forward, stance_lift_off, stance_positions, stance_inertias, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {

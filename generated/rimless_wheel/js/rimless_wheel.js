@@ -129,12 +129,17 @@ function step_length_of_state(alpha, gamma, l, g, theta, theta_dot) {
   return 2*sin_alpha*l;
 }
 
+/* The walker's weight: gravity times the mass of every body (the cost of transport's scale). Returns force. */
+function weight(alpha, gamma, l, g) {
+  return g;
+}
+
 /* The section state with the components the section determines recomputed from the others (the step event's geometry and reset). Returns tuple: coordinates, then rates. */
 function section_completion(alpha, gamma, l, g, theta, theta_dot) {
   return [-alpha, theta_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_lift_off, stance_positions, stance_inertias, event_collision_guard, event_collision_reset, event_collision_contact, step_length_of_state, section_completion };
+const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_lift_off, stance_positions, stance_inertias, event_collision_guard, event_collision_reset, event_collision_contact, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {

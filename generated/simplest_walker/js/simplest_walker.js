@@ -142,13 +142,18 @@ function step_length_of_state(gamma, theta, phi, theta_dot, phi_dot) {
   return sin_t1 + sin_theta;
 }
 
+/* The walker's weight: gravity times the mass of every body (the cost of transport's scale). Returns force. */
+function weight(gamma) {
+  return 1;
+}
+
 /* The section state with the components the section determines recomputed from the others (the step event's geometry and reset). Returns tuple: coordinates, then rates. */
 function section_completion(gamma, theta, phi, theta_dot, phi_dot) {
   const [cos_t0, sin_t0] = be.cos_sin(2*theta);
   return [theta, 2*theta, theta_dot, theta_dot*(1 - cos_t0)];
 }
 
-const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_fell_forward, stance_lift_off, stance_positions, stance_inertias, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, section_completion };
+const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_fell_forward, stance_lift_off, stance_positions, stance_inertias, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {

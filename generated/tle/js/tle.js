@@ -259,13 +259,18 @@ function step_length_of_state(beta, theta_II, phi0, delta, theta, theta_dot) {
   return sin_theta + sin_t1*beta;
 }
 
+/* The walker's weight: gravity times the mass of every body (the cost of transport's scale). Returns force. */
+function weight(beta, theta_II, phi0, delta) {
+  return 1;
+}
+
 /* The section state with the components the section determines recomputed from the others (the step event's geometry and reset). Returns tuple: coordinates, then rates. */
 function section_completion(beta, theta_II, phi0, delta, theta, theta_dot) {
   const [cos_phi0, sin_phi0] = be.cos_sin(phi0);
   return [-be.atan((beta - cos_phi0)/sin_phi0), theta_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, short_accelerations, short_energy, short_normal_force, short_fell_backward, short_lift_off, short_positions, short_inertias, extension_accelerations, extension_energy, extension_normal_force, extension_fell_backward, extension_lift_off, extension_positions, extension_inertias, long_accelerations, long_energy, long_normal_force, long_fell_backward, long_lift_off, long_positions, long_inertias, event_extension_start_guard, event_extension_start_reset, event_extension_end_guard, event_extension_end_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, step_length_of_state, section_completion };
+const exported = { PARAMETERS, CONDITIONS, short_accelerations, short_energy, short_normal_force, short_fell_backward, short_lift_off, short_positions, short_inertias, extension_accelerations, extension_energy, extension_normal_force, extension_fell_backward, extension_lift_off, extension_positions, extension_inertias, long_accelerations, long_energy, long_normal_force, long_fell_backward, long_lift_off, long_positions, long_inertias, event_extension_start_guard, event_extension_start_reset, event_extension_end_guard, event_extension_end_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {

@@ -465,13 +465,18 @@ function step_length_of_state(beta, theta_II, mu, b_over_l, theta, psi, theta_do
   return sin_theta - sin_psi*beta;
 }
 
+/* The walker's weight: gravity times the mass of every body (the cost of transport's scale). Returns force. */
+function weight(beta, theta_II, mu, b_over_l) {
+  return 1 + 2*mu;
+}
+
 /* The section state with the components the section determines recomputed from the others (the step event's geometry and reset). Returns tuple: coordinates, then rates. */
 function section_completion(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot) {
   const [cos_theta, sin_theta] = be.cos_sin(theta);
   return [theta, be.acos(cos_theta*beta), theta_dot, psi_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, short_accelerations, short_energy, short_normal_force, short_fell_backward, short_fell_forward, short_lift_off, short_positions, short_inertias, long_accelerations, long_energy, long_normal_force, long_fell_backward, long_fell_forward, long_lift_off, long_positions, long_inertias, event_extension_guard, event_extension_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, section_completion };
+const exported = { PARAMETERS, CONDITIONS, short_accelerations, short_energy, short_normal_force, short_fell_backward, short_fell_forward, short_lift_off, short_positions, short_inertias, long_accelerations, long_energy, long_normal_force, long_fell_backward, long_fell_forward, long_lift_off, long_positions, long_inertias, event_extension_guard, event_extension_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {
