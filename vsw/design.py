@@ -92,9 +92,17 @@ INTEGRATOR_TOL = 1e-10
 """CVODES' relative and absolute tolerance inside the NLP (the verification re-solves the
 orbit at 1e-13)."""
 
-STRICT_MARGIN = 1e-6
+STRICT_MARGIN = 1e-4
 """A condition that must hold strictly (a failure's margin > 0) is imposed as
 ``margin >= STRICT_MARGIN`` in the failure guard's unit."""
+
+CLOSED_FAILURES = ("lift-off",)
+"""Failures whose margin may reach zero: a normal force of exactly zero keeps the foot on
+the ground. Imposed as ``>= CLOSED_MARGIN`` (the ILE's closed forms keep 1e-9; here the
+nodes are integrated to 1e-10 and the verifying orbit is re-solved at 1e-13, so a margin
+of 1e-9 can turn negative between the two)."""
+
+CLOSED_MARGIN = 1e-7
 
 MIN_DURATION = 1e-6
 """Lower bound of a phase duration (time units): a phase of zero length is no phase."""
@@ -454,7 +462,8 @@ def _build(model: HybridModel, structure: _Structure) -> _Nlp:
     nlp = {"x": w, "p": fixed_values, "f": objective, "g": ca.vertcat(*rows)}
     options = {
         "ipopt.tol": 1e-8, "ipopt.constr_viol_tol": 1e-9, "ipopt.max_iter": MAX_ITERATIONS,
-        "ipopt.acceptable_tol": 1e-6, "ipopt.acceptable_iter": 5,
+        "ipopt.acceptable_tol": 1e-6,
+        "ipopt.acceptable_constr_viol_tol": 1e-9, "ipopt.acceptable_iter": 5,
         "ipopt.mu_strategy": "adaptive",
         "ipopt.hessian_approximation": "limited-memory", "ipopt.print_level": 0,
         "print_time": False, "ipopt.sb": "yes", "error_on_fail": False,
@@ -616,8 +625,13 @@ class _Problem:
             objective = {"eigenvalue": 1.0}
         return objective
 
-    def structure(self, rank: int, objective: Mapping[str, float] | None = None,
-                  rows: tuple[str, ...] | None = None, eigen: str | None = "same") -> _Structure:  # fmt: skip
+    def structure(
+        self,
+        rank: int,
+        objective: Mapping[str, float] | None = None,
+        rows: tuple[str, ...] | None = None,
+        eigen: str | None = "same",
+    ) -> _Structure:
         objective = self.objective if objective is None else objective
         eigen = self.eigen if eigen == "same" else eigen
         return _Structure(
@@ -634,8 +648,10 @@ def _inside_table(p: Any, value: float, given: str) -> None:
         raise VswInputError(f"{given}: {p.name} must lie in the open interval "
                             f"({p.lower:.6g}, {p.upper:.6g}): {p.reason}")  # fmt: skip
     if p.computed is not None and not p.computed[0] <= value <= p.computed[1]:
-        raise VswInputError(f"{given}: {p.name} outside the computed range "
-                            f"[{p.computed[0]:.6g}, {p.computed[1]:.6g}]: {p.computed_reason}")  # fmt: skip
+        raise VswInputError(
+            f"{given}: {p.name} outside the computed range "
+            f"[{p.computed[0]:.6g}, {p.computed[1]:.6g}]: {p.computed_reason}"
+        )
 
 
 def _range_text(low: float | None, high: float | None) -> str:
@@ -683,10 +699,9 @@ def _bounds(problem: _Problem, nlp: _Nlp, structure: _Structure,
         ubx[nlp.layout["rho"]] = request.max_eigenvalue
     lbg = np.zeros(len(nlp.row_kinds))
     ubg = np.zeros(len(nlp.row_kinds))
-    margin = max(STRICT_MARGIN, request.min_margin)
     for i, (name, kind) in enumerate(zip(nlp.row_names, nlp.row_kinds)):
         if kind == "margin":
-            lbg[i], ubg[i] = margin, np.inf
+            lbg[i], ubg[i] = _margin_floor(name, request), np.inf
         elif kind in ("when", "jury"):
             lbg[i], ubg[i] = 0.0, np.inf
         elif kind == "quantity":
@@ -713,8 +728,19 @@ def _solve(problem: _Problem, nlp: _Nlp, bounds: Mapping[str, np.ndarray], w0: n
             return _Solve(start, "error: " + " ".join(str(exc).split())[:60], w0,
                           np.zeros_like(w0), np.zeros(len(nlp.row_kinds)))  # fmt: skip
     stop.check()  # IPOPT ends an interrupted solve with a status, not an exception
-    return _Solve(start, status, np.array(out["x"]).reshape(-1),
-                  np.array(out["lam_x"]).reshape(-1), np.array(out["lam_g"]).reshape(-1))  # fmt: skip
+    return _Solve(
+        start,
+        status,
+        np.array(out["x"]).reshape(-1),
+        np.array(out["lam_x"]).reshape(-1),
+        np.array(out["lam_g"]).reshape(-1),
+    )
+
+
+def _margin_floor(failure: str, request: DesignRequest) -> float:
+    """The least margin the NLP imposes on a failure's guard."""
+    floor = CLOSED_MARGIN if failure in CLOSED_FAILURES else STRICT_MARGIN
+    return max(floor, request.min_margin)
 
 
 def _parameters_of(problem: _Problem, nlp: _Nlp, w: np.ndarray) -> tuple[float, ...]:
@@ -800,7 +826,10 @@ def _violations(problem: _Problem, quantities: Mapping[str, Any], margins: list[
     if e is not None and not quantities["eigenvalue"] <= e * (1 + TARGET_TOL):
         out.append(f"max |eigenvalue| {quantities['eigenvalue']:.6g} above {e:g}")
     for margin in margins:
-        if margin["margin"] is not None and not margin["margin"] > 0:
+        closed = margin["name"] in CLOSED_FAILURES
+        if margin["margin"] is not None and not (
+            margin["margin"] >= 0 if closed else margin["margin"] > 0
+        ):
             out.append(f"condition {margin['name']} fails (margin {margin['margin']:.3g})")
         elif margin["margin"] is not None and margin["margin"] < request.min_margin * (1 - 1e-6):
             out.append(f"condition {margin['name']} margin {margin['margin']:.3g} below "
@@ -816,10 +845,14 @@ def _objective_value(objective: Mapping[str, float], quantities: Mapping[str, An
     return total
 
 
-def _multistart(problem: _Problem, seeds: Sequence[Orbit], rank: int,
-                objective: Mapping[str, float] | None = None,
-                targets: Mapping[str, float] | None = None,
-                eigen: str | None = "same") -> tuple[_Solve | None, list[_Solve], _Nlp]:  # fmt: skip
+def _multistart(
+    problem: _Problem,
+    seeds: Sequence[Orbit],
+    rank: int,
+    objective: Mapping[str, float] | None = None,
+    targets: Mapping[str, float] | None = None,
+    eigen: str | None = "same",
+) -> tuple[_Solve | None, list[_Solve], _Nlp]:
     objective = problem.objective if objective is None else objective
     targets = problem.request.targets if targets is None else targets
     rows = tuple(sorted(set(targets) | (set(problem.request.bounds) & problem.available)))
@@ -855,10 +888,12 @@ def _open_limits(problem: _Problem, nlp: _Nlp, solve: _Solve) -> tuple[str, ...]
             out.append(f"{p.name} -> {_limit(p, -1)}")
         if pulled and abs(free_w[i] - high) <= tol and (user_high is None or user_high > high):
             out.append(f"{p.name} -> {_limit(p, +1)}")
-    margin = max(STRICT_MARGIN, problem.request.min_margin)
-    if margin == STRICT_MARGIN:
+    if problem.request.min_margin <= STRICT_MARGIN:
         g = None
         for i, (name, kind) in enumerate(zip(nlp.row_names, nlp.row_kinds)):
+            if name in CLOSED_FAILURES:
+                continue
+            margin = _margin_floor(name, problem.request)
             if kind == "margin" and abs(solve.lam_g[i]) > 1e-8:
                 g = g if g is not None else _constraint_values(nlp, solve.w, problem)
                 if abs(g[i] - margin) <= 1e-7:

@@ -1,8 +1,10 @@
-"""``vsw design``: constrained gait design with CasADi/IPOPT (:mod:`vsw.models.ile.design`).
+"""``vsw design``: constrained gait design with CasADi/IPOPT.
 
-A model with the ``design`` feature (the ile) designs its parameters for an objective and
-targets under its existence conditions and the robot's limits; for any other model the
-command says so in one line.
+The ILE designs (beta, theta_II, phi0) from its closed forms (:mod:`vsw.models.ile.design`);
+every other model designs its free parameters and its gait together, IPOPT on the periodic
+orbit (:mod:`vsw.design`). Both share the vocabulary: ``--maximize``, ``--minimize``, the
+``--target-*`` equalities, ``--fix``, ``--bound``, ``--max-eigenvalue``; the statuses
+optimal / not-attained (exit 0) and infeasible / not-converged (exit 3).
 """
 
 from __future__ import annotations
@@ -12,9 +14,11 @@ import math
 import sys
 from typing import Any
 
+from vsw import design as gait_design
 from vsw import models
 from vsw.cli import options
-from vsw.cli.output import dump_json, envelope
+from vsw.cli.output import dump_json, envelope, fmt, unit_text, write_orbit, write_parameters
+from vsw.cli.parser import given, option_name
 from vsw.errors import VswInputError
 from vsw.models.ile.design import CONDITION_SETS, DesignResult, _finite, _parse_fix, design
 from vsw.models.ile.params import STEPPER_2D, RobotScale
@@ -42,7 +46,7 @@ def _design_from_args(args: argparse.Namespace) -> tuple[DesignResult, RobotScal
     si = scale is not None
 
     objective: dict[str, float] = {}
-    if args.maximize is not None:
+    if args.maximize:
         objective["speed"] = 1.0
     for name in args.minimize or []:
         objective[name.replace("-", "_")] = 1.0
@@ -76,26 +80,78 @@ def _design_from_args(args: argparse.Namespace) -> tuple[DesignResult, RobotScal
         )
     if args.max_step_frequency is not None:
         bounds["step_frequency_hz"] = (None, args.max_step_frequency)
+    for name, (low, high) in _bounds(models.load("ile"), args.bound or []).items():
+        key = (
+            ("step_length_m" if si else "step_length") if name == "step_length"
+            else "step_frequency_hz" if name == "step_frequency" else name
+        )  # fmt: skip
+        if key in bounds and any(v is not None for v in bounds[key]):
+            raise VswInputError(f"--bound {name} and the option of the same bound: give one")
+        if key not in ("beta", "theta_II", "phi0", "step_length", "step_length_m",
+                       "step_frequency_hz"):  # fmt: skip
+            raise VswInputError(f"--bound {name}: the ILE's design bounds beta, theta_II, phi0, "
+                                "step_length and step_frequency")  # fmt: skip
+        bounds[key] = (low, high)
+    if args.target_period is not None:
+        raise VswInputError("--target-period is not an option of the ILE's design")
+    fixed = _parse_fix(args.fix or [])
     result = design(
         objective=objective or None,
         targets=targets,
         bounds=bounds,
-        fixed=_parse_fix(args.fix or []),
-        min_contact_margin=args.min_contact_margin,
+        fixed=fixed,
+        min_contact_margin=args.min_contact_margin or 0.0,
         max_eigenvalue=args.max_eigenvalue,
         scale=scale,
-        conditions=args.conditions,
-        n_starts=args.starts,
+        conditions=args.conditions or "exact",
+        n_starts=2 if args.starts is None else args.starts,
     )
     return result, scale, mass_given
 
 
+ILE_ONLY = (
+    "beta_min",
+    "beta_max",
+    "theta_ii_min",
+    "theta_ii_max",
+    "phi0_min",
+    "phi0_max",
+    "min_contact_margin",
+    "min_step_length",
+    "max_step_length",
+    "max_step_frequency",
+    "conditions",
+    "leg_length",
+    "mass",
+    "gravity",
+    "stepper_2d",
+    "target_q_fixed",
+)
+"""Options of the ILE's closed-form design (its robot scale, its named bounds)."""
+
+OBJECTIVE_MAX = ("speed", "step-length")
+OBJECTIVE_MIN = ("eigenvalue", "cost-of-transport", "energy-per-step", "step-frequency")
+"""The objectives of ``--maximize`` and ``--minimize``."""
+
+GENERIC_ONLY = ("target_period", "min_margin")
+"""Options of the design on the periodic orbit that the ILE's closed forms do not take."""
+
+
 def run(args: argparse.Namespace) -> int:
     model = models.load(args.model)
-    if "design" not in model.features:
-        having = [models.cli_name(k) for k in models.keys() if "design" in models.load(k).features]
-        raise VswInputError(f"vsw design --model {model.cli_name}: design is not available for "
-                            f"this model yet (models with it: {', '.join(having)})")  # fmt: skip
+    if model.name != "ile":
+        return _run_generic(args, model)
+    for dest in GENERIC_ONLY:
+        if given(args.parser, args, dest):
+            raise VswInputError(f"{option_name(args.parser, dest)} is not an option of the "
+                                "ILE's closed-form design")  # fmt: skip
+    for name in args.maximize or []:
+        if name != "speed":
+            raise VswInputError(f"--maximize {name}: the ILE's design maximises speed only")
+    for name in args.minimize or []:
+        if name not in ("eigenvalue", "cost-of-transport"):
+            raise VswInputError(f"--minimize {name}: the ILE's design minimises eigenvalue or "
+                                "cost-of-transport")  # fmt: skip
     result, scale, mass_given = _design_from_args(args)
     found_params = None
     if result.status in ("optimal", "not-attained"):
@@ -163,64 +219,204 @@ def run(args: argparse.Namespace) -> int:
     return exit_code
 
 
+# --- every other model: the design on the periodic orbit --------------------------------
+
+
+def _bounds(model: models.Model, items: list[str]) -> dict[str, tuple[float | None, float | None]]:
+    """``--bound NAME=A:B`` (either end may be empty): a parameter in its table's units (an
+    angle in rad, or with a deg suffix) or a quantity in the model's units."""
+    table = {p.name: p for p in model.parameter_table}
+    out: dict[str, tuple[float | None, float | None]] = {}
+    for item in items:
+        name, text = options.split_item("--bound", item)
+        low_text, sep, high_text = text.partition(":")
+        degrees = name in table and table[name].unit == "rad"
+        if not sep:
+            raise VswInputError(f"--bound {item!r}: expected NAME=A:B (either end may be empty)")
+        ends = []
+        for part in (low_text, high_text):
+            value = None if not part.strip() else options.number(part, degrees)
+            if value is not None and not math.isfinite(value):
+                raise VswInputError(f"--bound {item!r}: {part!r} is not a number")
+            ends.append(value)
+        low, high = ends
+        if low is not None and high is not None and not low <= high:
+            raise VswInputError(f"--bound {item!r}: the lower end exceeds the upper")
+        if name in out:
+            raise VswInputError(f"--bound {name} given twice: give each bound once")
+        out[name] = (low, high)
+    return out
+
+
+def _fixes(model: models.Model, items: list[str]) -> dict[str, float]:
+    table = {p.name: p for p in model.parameter_table}
+    out: dict[str, float] = {}
+    for item in items:
+        name, text = options.split_item("--fix", item)
+        if name not in table:
+            raise VswInputError(f"--fix {name}: not a parameter of {model.cli_name} (its "
+                                f"parameters: {', '.join(table)})")  # fmt: skip
+        if name in out:
+            raise VswInputError(f"--fix {name} given twice; fix each parameter once")
+        out[name] = options.parameter_value("--fix", table[name], text)
+    return out
+
+
+def _request(args: argparse.Namespace, model: models.Model) -> gait_design.DesignRequest:
+    for dest in ILE_ONLY:
+        if given(args.parser, args, dest):
+            raise VswInputError(f"{option_name(args.parser, dest)} is an option of the ILE's "
+                                f"design; {model.cli_name}: use --bound NAME=A:B, --fix and "
+                                "targets in the model's units")  # fmt: skip
+    objective: dict[str, float] = {}
+    for name in args.maximize or []:
+        objective[name.replace("-", "_")] = 1.0
+    for name in args.minimize or []:
+        objective[name.replace("-", "_")] = 1.0
+    targets = {
+        key: float(value)
+        for key, value in (("speed", args.target_speed), ("step_length", args.target_step_length),
+                           ("step_frequency", args.target_step_frequency),
+                           ("period", args.target_period))
+        if value is not None
+    }  # fmt: skip
+    for key, value in targets.items():
+        if not (math.isfinite(value) and value > 0):
+            raise VswInputError(f"--target-{key.replace('_', '-')} {value:g}: must be positive")
+    margin = 0.0 if args.min_margin is None else float(args.min_margin)
+    if not (math.isfinite(margin) and margin >= 0):
+        raise VswInputError(f"--min-margin {margin:g}: must be a number >= 0")
+    return gait_design.DesignRequest(
+        objective=objective, targets=targets, fixed=_fixes(model, args.fix or []),
+        bounds=_bounds(model, args.bound or []), max_eigenvalue=args.max_eigenvalue,
+        min_margin=margin, starts=4 if args.starts is None else args.starts,
+    )  # fmt: skip
+
+
+QUANTITY_UNITS = {"period": "time", "step_length": "length", "energy_per_step": "energy"}
+
+
+def _quantity_unit(model: models.Model, name: str) -> str:
+    units = dict(model.units)
+    if name in QUANTITY_UNITS:
+        return units.get(QUANTITY_UNITS[name], "")
+    if name == "speed":
+        return f"{units.get('length', '')}/{units.get('time', '')}"
+    if name == "step_frequency":
+        return f"1/{units.get('time', '')}"
+    return ""
+
+
+def _run_generic(args: argparse.Namespace, model: models.Model) -> int:
+    request = _request(args, model)
+    result = gait_design.design(model, request)
+    params = None if result.parameters is None else list(result.parameters.values())
+    tolerances = {"ipopt": "tol 1e-8, constraints 1e-9 (CasADi nlpsol); each design "
+                  "confirmed by the periodic-orbit solver and a simulated step"}  # fmt: skip
+    data = {**envelope(model, params, args.argv, tolerances), **result.to_dict()}
+    if result.found:
+        data["units"]["quantities"] = {k: _quantity_unit(model, k) for k in result.quantities}
+    exit_code = 0 if result.found else 3
+    if args.json:
+        dump_json(data)
+        if not result.found:
+            sys.stderr.write(f"vsw design: {result.message}\n")
+        return exit_code
+    out = sys.stdout
+    out.write(f"{'status':<18} {result.status}\n")
+    if not result.found:
+        sys.stderr.write(f"vsw design: {result.message}\n")
+        return exit_code
+    write_parameters(out, model, params)
+    out.write("gait\n")
+    write_orbit(out, model, result.orbit)
+    out.write("quantities\n")
+    for name, value in result.quantities.items():
+        out.write(f"  {name:<16} {fmt(value):>14}{unit_text(_quantity_unit(model, name))}\n")
+    out.write("conditions (least margin over the step)\n")
+    for c in result.margins:
+        out.write(f"  {c['name']:<16} {fmt(c['margin']):>14}{unit_text(c['unit'])}\n")
+    out.write(f"{'active':<18} {', '.join(result.active_constraints) or '-'}\n")
+    out.write(f"simulation check relative error {fmt(result.simulation_rel_error)}\n")
+    out.write(f"{result.message}\n")
+    return exit_code
+
+
 def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "design",
-        help="constrained gait design with CasADi/IPOPT",
-        description="Find (beta, theta_II, phi0) for an objective and targets under the "
-        "existence conditions and your robot's limits. Angles in degrees. Exit 0 for an "
-        "optimal design or a not-attained optimum (the best design near the limit, with the "
-        "limiting value), 3 when the request is infeasible or the solver does not converge.",
+        help="constrained gait design with CasADi/IPOPT, for every model",
+        description="Find a model's parameters and its gait for an objective and targets "
+        "under its conditions and your limits. The ILE designs (beta, theta_II, phi0) from "
+        "its closed forms (angles of its named options and --fix in degrees); every other "
+        "model designs each parameter that is not fixed, within its table's interval (a "
+        "scale such as a mass or g only within a --bound you give), and its gait together: "
+        "IPOPT on the periodic orbit (multiple shooting), values in the model's units (see "
+        "'vsw models'). Exit 0 for an optimal design or a not-attained optimum (the best "
+        "design at an open limit), 3 when the request is infeasible or the solver does not "
+        "converge, 2 for a malformed request.",
     )
-    goal = p.add_argument_group("objective and targets")
-    goal.add_argument("--maximize", choices=["speed"], help="maximise the walking speed")
+    goal = p.add_argument_group("objective and targets (summed when repeated)")
+    goal.add_argument("--maximize", choices=list(OBJECTIVE_MAX), action="append",
+                      help="maximise the speed or the step length")  # fmt: skip
     goal.add_argument(
         "--minimize",
-        choices=["eigenvalue", "cost-of-transport"],
+        choices=list(OBJECTIVE_MIN),
         action="append",
-        help="minimise the eigenvalue or the cost of transport (repeat for a sum)",
+        help="minimise the largest |eigenvalue|, the cost of transport (energy dissipated per "
+        "step over weight x step length), the energy per step or the step frequency",
     )
-    goal.add_argument(
-        "--target-speed", type=float, help="speed: m/s with --leg-length, else sqrt(g r_e)"
-    )
-    goal.add_argument("--target-q-fixed", type=float, help="fixed point q^f [g/r_e]")
-    goal.add_argument(
-        "--target-step-length", type=float, help="step length: m with --leg-length, else r_e"
-    )
-    goal.add_argument(
-        "--target-step-frequency", type=float, help="step frequency [Hz] (needs --leg-length)"
-    )
+    goal.add_argument("--target-speed", type=float,
+                      help="speed (the model's units; ile: m/s with --leg-length, else "
+                      "sqrt(g r_e))")  # fmt: skip
+    goal.add_argument("--target-q-fixed", type=float, help="ile: fixed point q^f [g/r_e]")
+    goal.add_argument("--target-step-length", type=float,
+                      help="step length (the model's units; ile: m with --leg-length, else "
+                      "r_e)")  # fmt: skip
+    goal.add_argument("--target-step-frequency", type=float,
+                      help="steps per time unit (ile: Hz, needs --leg-length)")  # fmt: skip
+    goal.add_argument("--target-period", type=float, help="step period (the model's time unit)")
     lim = p.add_argument_group("bounds and constraints")
-    lim.add_argument("--beta-min", type=float)
-    lim.add_argument("--beta-max", type=float)
-    lim.add_argument("--theta-ii-min", type=float, help="[deg]")
-    lim.add_argument("--theta-ii-max", type=float, help="[deg]")
-    lim.add_argument("--phi0-min", type=float, help="[deg]")
-    lim.add_argument("--phi0-max", type=float, help="[deg]")
-    lim.add_argument(
-        "--fix", action="append", metavar="NAME=VALUE", help="fix beta, theta_II or phi0 [deg]"
-    )
-    lim.add_argument("--min-contact-margin", type=float, default=0.0, help="min normal force [m g]")
-    lim.add_argument("--max-eigenvalue", type=float)
-    lim.add_argument("--min-step-length", type=float, help="m with --leg-length, else r_e")
-    lim.add_argument("--max-step-length", type=float, help="m with --leg-length, else r_e")
-    lim.add_argument("--max-step-frequency", type=float, help="[Hz] (needs --leg-length)")
+    lim.add_argument("--fix", action="append", metavar="NAME=VALUE",
+                     help="hold a parameter (ile: beta, theta_II or phi0, angles in deg; other "
+                     "models: the table's units, an angle also with a deg suffix)")  # fmt: skip
+    lim.add_argument("--bound", action="append", metavar="NAME=A:B",
+                     help="bound a parameter (table units, an angle also in deg: "
+                     "theta_II=-10deg:5deg) or a quantity (speed, step_length, step_frequency, "
+                     "period); either end may be empty")  # fmt: skip
+    lim.add_argument("--max-eigenvalue", type=float, help="largest |eigenvalue| allowed")
+    lim.add_argument("--min-margin", type=float,
+                     help="every condition's least margin over the step at least this (in its "
+                     "unit; default: > 0)")  # fmt: skip
+    lim.add_argument("--beta-min", type=float, help="ile")
+    lim.add_argument("--beta-max", type=float, help="ile")
+    lim.add_argument("--theta-ii-min", type=float, help="ile [deg]")
+    lim.add_argument("--theta-ii-max", type=float, help="ile [deg]")
+    lim.add_argument("--phi0-min", type=float, help="ile [deg]")
+    lim.add_argument("--phi0-max", type=float, help="ile [deg]")
+    lim.add_argument("--min-contact-margin", type=float, default=None,
+                     help="ile: min normal force [m g] (default 0)")  # fmt: skip
+    lim.add_argument("--min-step-length", type=float, help="ile: m with --leg-length, else r_e")
+    lim.add_argument("--max-step-length", type=float, help="ile: m with --leg-length, else r_e")
+    lim.add_argument("--max-step-frequency", type=float, help="ile: [Hz] (needs --leg-length)")
     lim.add_argument(
         "--conditions",
         choices=CONDITION_SETS,
-        default="exact",
-        help="existence conditions: every physical one in its exact form, or also the "
-        "paper's (15) and (17) as printed",
+        default=None,
+        help="ile: existence conditions: every physical one in its exact form (default), or "
+        "also the paper's (15) and (17) as printed",
     )
-    sc = p.add_argument_group("robot scale")
+    sc = p.add_argument_group("robot scale (ile)")
     sc.add_argument("--leg-length", type=float, help="extended leg length r_e [m]")
     sc.add_argument("--mass", type=float, help="mass [kg]")
     sc.add_argument("--gravity", type=float, help="g [m/s^2] (default 9.81)")
     sc.add_argument(
         "--stepper-2d", action="store_true", help="Stepper-2D preset: r_e 0.25 m, m 0.78 kg"
     )
-    p.add_argument("--starts", type=int, default=2, help="IPOPT starts per region (1-50)")
+    p.add_argument("--starts", type=int, default=None,
+                   help="IPOPT starts: ile per region (default 2), other models the gaits at "
+                   "the start parameters tried (default 4); 1-50")  # fmt: skip
     p.add_argument("--model", type=options.model_type, default="ile", metavar="NAME",
-                   help="the model (design: the ile)")  # fmt: skip
+                   help="the model (see 'vsw models')")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, parser=p)

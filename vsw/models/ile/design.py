@@ -1404,6 +1404,19 @@ def design(
             )
             return DesignResult("infeasible", conflicting_constraints=tuple(conflicting),
                                 message=message, ipopt_status=statuses, **common)  # fmt: skip
+        beyond = _speed_beyond_reach(
+            targets,
+            bounds,
+            fixed,
+            min_contact_margin,
+            max_eigenvalue,
+            scale,
+            conditions,
+            n_starts,
+        )
+        if beyond is not None:
+            return DesignResult("infeasible", message=f"infeasible: {beyond}",
+                                ipopt_status=statuses, **common)  # fmt: skip
         found = "the scan found feasible designs" if feasible_seen else "no feasible design found"
         message = (
             f"not converged: IPOPT reached no verified optimum from {len(solves)} starts "
@@ -1453,6 +1466,46 @@ def design(
         ipopt_status=best.ipopt_status,
         region=_REGIONS[best.region].name,
         **common,
+    )
+
+
+def _speed_beyond_reach(
+    targets: Mapping[str, float] | None,
+    bounds: Mapping[str, tuple[float | None, float | None]] | None,
+    fixed: Mapping[str, float] | None,
+    min_contact_margin: float,
+    max_eigenvalue: float | None,
+    scale: RobotScale | None,
+    conditions: str,
+    n_starts: int,
+) -> str | None:
+    """Why a speed target is out of reach, when it is: above the largest speed (the
+    supremum of ``--maximize speed``) under the request's other constraints."""
+    targets = dict(targets or {})
+    key = next((k for k in ("speed", "speed_m_s") if k in targets), None)
+    if key is None:
+        return None
+    wanted = targets.pop(key)
+    top = design("speed", targets, bounds, fixed, min_contact_margin, max_eigenvalue, scale,
+                 conditions=conditions, n_starts=n_starts, verify=False,
+                 explain_infeasible=False)  # fmt: skip
+    if top.status not in ("optimal", "not-attained") or top.analysis is None:
+        return None
+    fastest = float(top.to_dict()[key])
+    supremum = None
+    if top.limit is not None and top.limit.objective is not None:
+        supremum = -top.limit.objective  # the objective minimised is -speed
+        if key == "speed_m_s" and scale is not None:
+            supremum *= math.sqrt(scale.gravity * scale.leg_length)
+    reach = max(fastest, supremum or fastest)
+    if not wanted > reach * (1 + 1e-6):
+        return None
+    unit = " m/s" if key == "speed_m_s" else " sqrt(g r_e)"
+    limit = (f" (the supremum, {supremum:.6g}{unit}, is not attained)"
+             if top.status == "not-attained" and supremum is not None else "")  # fmt: skip
+    return (
+        f"the target speed {wanted:g}{unit} is above the fastest gait within the other "
+        f"constraints, {fastest:.6g}{unit}{limit}"
     )
 
 
