@@ -946,11 +946,10 @@ def design(model: HybridModel, request: DesignRequest) -> GaitDesign:
     if not problem.free:
         raise VswInputError(f"every parameter of {model.name} is fixed: nothing to design "
                             "(drop a --fix, or --bound a scale)")  # fmt: skip
-    search = model.search_gaits(problem.start)
-    seeds = list(search.gaits)[: request.starts]
+    seeds, tried, why_none = _seeds(problem)
     if not seeds:
-        return GaitDesign("not-converged", f"not converged: no gait at the start parameters "
-                          f"to start from ({search.why_none()})")  # fmt: skip
+        return GaitDesign("not-converged", f"not converged: no gait to start from at "
+                          f"{tried} parameter set(s) of the box ({why_none})")  # fmt: skip
     rank = _nontrivial_rank(seeds)
     best, solves, nlp = _multistart(problem, seeds, rank)
     statuses = ", ".join(sorted({s.ipopt_status for s in solves})) or "no start"
@@ -991,6 +990,49 @@ def design(model: HybridModel, request: DesignRequest) -> GaitDesign:
         len(solves),
         sim_error,
     )
+
+
+START_SETS = 6
+"""Parameter sets searched for gaits to start from, at most: the request's start (defaults
+and fixes, clipped into the bounds), then the box's centre and Halton points of the box,
+until one has gaits (a rimless wheel with wide spokes on a gentle slope has none)."""
+
+
+def _seeds(problem: _Problem) -> tuple[list[Orbit], int, str]:
+    """The gaits IPOPT starts from (at most ``starts``), the parameter sets searched and,
+    when none has a gait, the last search's reason."""
+    free = problem.free
+    points = [problem.start]
+    centre = list(problem.start)
+    for j in free:
+        centre[j] = 0.5 * sum(problem.box[j])
+    points.append(tuple(centre))
+    for k in range(1, START_SETS):
+        point = list(problem.start)
+        for d, j in enumerate(free):
+            low, high = problem.box[j]
+            point[j] = low + _halton(k, _PRIMES[d % len(_PRIMES)]) * (high - low)
+        points.append(tuple(point))
+    why = ""
+    for tried, params in enumerate(points[:START_SETS], start=1):
+        search = problem.model.search_gaits(params)
+        if search.gaits:
+            problem.start = tuple(params)
+            return list(search.gaits)[: problem.request.starts], tried, ""
+        why = search.why_none()
+    return [], min(len(points), START_SETS), why
+
+
+_PRIMES = (2, 3, 5, 7, 11, 13)
+
+
+def _halton(index: int, base: int) -> float:
+    value, fraction = 0.0, 1.0
+    while index:
+        fraction /= base
+        value += fraction * (index % base)
+        index //= base
+    return value
 
 
 def _infeasibility(problem: _Problem, seeds: Sequence[Orbit], rank: int) -> str | None:
