@@ -441,7 +441,7 @@ def test_help_lists_every_command_exit_status_and_limit(capsys):
     [
         ("basin", ["(default: 0.5)", "(default: 2001)", "(default: -30.0)"]),
         # registered by its own module: inherits it
-        ("design", ["(default: 2)", "(default: exact)"]),
+        ("design", ["(default 2)", "(default 4)", "(default 0)"]),
     ],
 )
 def test_help_shows_defaults(capsys, command, shown):

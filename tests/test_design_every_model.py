@@ -199,7 +199,7 @@ def test_cli_design_of_a_model_prints_the_envelope_and_the_gait(run_cli):
     ],
 )  # fmt: skip
 def test_cli_bad_design_requests_exit_2_with_one_line(run_cli, argv, words):
-    code, out, err = run_cli(["design", *argv])
+    code, _, err = run_cli(["design", *argv])
     assert code == 2
     assert words in err
     assert len(err.strip().splitlines()) == 1

@@ -133,7 +133,7 @@ OBJECTIVE_MAX = ("speed", "step-length")
 OBJECTIVE_MIN = ("eigenvalue", "cost-of-transport", "energy-per-step", "step-frequency")
 """The objectives of ``--maximize`` and ``--minimize``."""
 
-GENERIC_ONLY = ("target_period", "min_margin")
+GENERIC_ONLY = ("target_period", "min_margin", "weight")
 """Options of the design on the periodic orbit that the ILE's closed forms do not take."""
 
 
@@ -273,6 +273,16 @@ def _request(args: argparse.Namespace, model: models.Model) -> gait_design.Desig
         objective[name.replace("-", "_")] = 1.0
     for name in args.minimize or []:
         objective[name.replace("-", "_")] = 1.0
+    for item in args.weight or []:
+        name, text = options.split_item("--weight", item)
+        key = name.replace("-", "_")
+        if key not in objective:
+            raise VswInputError(f"--weight {name}: not a term of the objective "
+                                f"({', '.join(objective) or 'none given'})")  # fmt: skip
+        weight = options.number(text)
+        if not (math.isfinite(weight) and weight > 0):
+            raise VswInputError(f"--weight {item!r}: the weight must be a positive number")
+        objective[key] = weight
     targets = {
         key: float(value)
         for key, value in (("speed", args.target_speed), ("step_length", args.target_step_length),
@@ -366,6 +376,9 @@ def register(subparsers: Any) -> None:
         help="minimise the largest |eigenvalue|, the cost of transport (energy dissipated per "
         "step over weight x step length), the energy per step or the step frequency",
     )
+    goal.add_argument("--weight", action="append", metavar="NAME=W",
+                      help="weight of an objective term in the sum (default 1; not the "
+                      "ile)")  # fmt: skip
     goal.add_argument("--target-speed", type=float,
                       help="speed (the model's units; ile: m/s with --leg-length, else "
                       "sqrt(g r_e))")  # fmt: skip

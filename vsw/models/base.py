@@ -41,7 +41,7 @@ FEATURES = {
     "parameter-basin": "vsw basin over theta_II and q0 in closed form (Fig. 9)",
     "closed-form-sweep": "vsw sweep in closed form",
     "simulation-plot": "vsw simulate --plot",
-    "design": "vsw design",
+    "design": "vsw design (the ILE from its closed forms, every other model on its periodic orbit)",
     "explorer": "vsw explore",
 }
 """Optional features of a model (:attr:`Model.features`) and what each is."""
@@ -104,7 +104,7 @@ class Start:
 class Model(HybridModel):
     """A generated model through the one interface of the commands."""
 
-    features: frozenset[str] = frozenset({"simulation-plot", "explorer"})
+    features: frozenset[str] = frozenset({"simulation-plot", "explorer", "design"})
 
     def __init__(self, module: Any) -> None:
         super().__init__(module)
@@ -160,20 +160,23 @@ class Model(HybridModel):
     # --- gaits ----------------------------------------------------------------------------
 
     def search_gaits(
-        self, params: Sequence[float], box: Mapping[str, tuple[float, float]] | None = None
+        self,
+        params: Sequence[float],
+        box: Mapping[str, tuple[float, float]] | None = None,
+        cells: int | None = None,
     ) -> gaits.GaitSearch:
         """The period-one gaits at ``params`` and how they were searched (:mod:`vsw.gaits`).
 
         The last :data:`SEARCHES_KEPT` searches are kept per model and process: a search
         takes seconds on a model with three free section components, and commands and
         scripts ask for the same parameters again (a sweep's scans, a basin after
-        ``analyze``)."""
-        key = (tuple(float(v) for v in params), tuple(sorted((box or {}).items())))
+        ``analyze``). ``cells``: the scan's size (default :mod:`vsw.gaits`' own)."""
+        key = (tuple(float(v) for v in params), tuple(sorted((box or {}).items())), cells)
         with self._searches_lock:
             if key in self._searches:
                 self._searches[key] = self._searches.pop(key)  # most recent last
                 return self._searches[key]
-        found = gaits.search(self, params, box=box)
+        found = gaits.search(self, params, box=box, cells=cells)
         stop.check()  # a stopped search is not kept, whatever a library made of the stop
         with self._searches_lock:
             self._searches[key] = found
