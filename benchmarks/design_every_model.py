@@ -126,8 +126,12 @@ def branches(model, name: str, span: tuple[float, float], fixed: dict) -> list[l
                     branch.append(point)
                     last = point
             traced.append(sorted(branch, key=lambda p: p.value))
-            print(f"  branch {len(traced)}: {len(branch)} points from {start:.4g} "
-                  f"({time.perf_counter() - began:.1f} s)", file=sys.stderr, flush=True)  # fmt: skip
+            print(
+                f"  branch {len(traced)}: {len(branch)} points from {start:.4g} "
+                f"({time.perf_counter() - began:.1f} s)",
+                file=sys.stderr,
+                flush=True,
+            )
     return traced
 
 
@@ -286,7 +290,7 @@ def _slsqp(model, name, fixed, traced, problem: Problem) -> tuple[float, float |
         cons.append({"type": "eq", "fun": lambda v: (point(v) or start).quantities[what] - value})
     began = time.perf_counter()
     res = minimize(f, [start.value], method="SLSQP", bounds=[problem.box], constraints=cons,
-                   options={"maxiter": 100, "ftol": 1e-10})  # fmt: skip
+                   options={"maxiter": 50, "ftol": 1e-10})  # fmt: skip
     seconds = time.perf_counter() - began
     return seconds, (float(res.fun) if res.success else None)
 
@@ -319,7 +323,7 @@ def run(count: int, seed: int, model_keys: list[str], slsqp: int) -> dict:
                 "parameter": None if not result.found else result.parameters[name],
                 "seconds": seconds, "success": success, "message": result.message[:200],
             }  # fmt: skip
-            if len([r for r in records if "slsqp_seconds" in r]) < slsqp:
+            if ref is not None and len([r for r in records if "slsqp_seconds" in r]) < slsqp:
                 record["slsqp_seconds"], record["slsqp_objective"] = _slsqp(
                     model, name, fixed, traced, problem
                 )
@@ -348,7 +352,9 @@ def main() -> int:
     parser.add_argument("--problems", type=int, default=50)
     parser.add_argument("--seed", type=int, default=2026)
     parser.add_argument("--models", default=",".join(SETUPS))
-    parser.add_argument("--slsqp", type=int, default=10, help="problems per model with SLSQP")
+    parser.add_argument(
+        "--slsqp", type=int, default=5, help="feasible problems per model with SLSQP"
+    )
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
     report = run(args.problems, args.seed, args.models.split(","), args.slsqp)

@@ -992,13 +992,6 @@ def design(model: HybridModel, request: DesignRequest) -> GaitDesign:
     )
 
 
-START_CELLS = 20_000
-"""Cells of the gait search for the starts: coarser than the default scan (the simplest
-walker 0.3 s instead of 11.5 s, the compass gait 2.6 s instead of 12.8 s at their
-defaults), it finds the gaits whose basins of the map are wide; the very unstable gaits
-near falling, which the default scan resolves too, are not starts: a design whose answer
-lies only on their branches is missed (the result is a local optimum)."""
-
 START_SETS = 6
 """Parameter sets searched for gaits to start from, at most: the request's start (defaults
 and fixes, clipped into the bounds), then the box's centre and Halton points of the box,
@@ -1022,7 +1015,7 @@ def _seeds(problem: _Problem) -> tuple[list[Orbit], int, str]:
         points.append(tuple(point))
     why = ""
     for tried, params in enumerate(points[:START_SETS], start=1):
-        search = problem.model.search_gaits(params, cells=START_CELLS)
+        search = problem.model.search_gaits(params)
         if search.gaits:
             problem.start = tuple(params)
             return list(search.gaits)[: problem.request.starts], tried, ""
