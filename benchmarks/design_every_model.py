@@ -48,11 +48,15 @@ from vsw import models  # noqa: E402
 from vsw.errors import ConvergenceError  # noqa: E402
 
 SETUPS = {
-    # model: (free parameter, its range, fixed values)
+    # model: (free parameter, its range, fixed values): every other parameter is fixed
+    # here or a scale (held by the design unless bounded)
     "simplest_walker": ("gamma", (0.004, 0.018), {}),
     "compass_gait": ("gamma", (0.01, 0.09), {}),
-    "vsw_biped": ("beta", (0.85, 0.99), {"theta_II": 0.0}),
+    "vsw_biped": ("beta", (0.85, 0.99), {"theta_II": 0.0, "b_over_l": 0.3}),
+    # The tests' small run (tests/test_design_every_model.py): seconds, not minutes.
+    "rimless_wheel": ("gamma", (0.1, 0.25), {"alpha": 0.39269908169872414}),
 }
+SUITE_MODELS = ("simplest_walker", "compass_gait", "vsw_biped")
 GRID = 41
 OBJECTIVES = (("speed", +1), ("step_length", +1), ("eigenvalue", -1),
               ("cost_of_transport", -1), ("energy_per_step", -1))  # fmt: skip
@@ -235,12 +239,13 @@ def _reference(model, name, fixed, traced, problem: Problem) -> tuple[float, flo
             points = [p for p in extra if abs(p.quantities[problem.target[0]] - problem.target[1])
                       <= 1e-6 * max(1, abs(problem.target[1]))]  # fmt: skip
         else:
-            points = points + extra
+            points = sorted(points + extra, key=lambda p: p.value)
             # Interior extrema between grid neighbours.
             objective = problem.objective
             values = [sign * p.quantities[objective] for p in points]
             for i in range(1, len(points) - 1):
-                if values[i] <= values[i - 1] and values[i] <= values[i + 1]:
+                if (values[i] <= values[i - 1] and values[i] <= values[i + 1]
+                        and points[i - 1].value < points[i + 1].value):  # fmt: skip
                     a, b, mid = points[i - 1], points[i + 1], points[i]
                     res = minimize_scalar(
                         lambda v, mid=mid, o=objective: _objective_at(at(mid, v), sign, o),
@@ -351,7 +356,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--problems", type=int, default=50)
     parser.add_argument("--seed", type=int, default=2026)
-    parser.add_argument("--models", default=",".join(SETUPS))
+    parser.add_argument("--models", default=",".join(SUITE_MODELS))
     parser.add_argument(
         "--slsqp", type=int, default=5, help="feasible problems per model with SLSQP"
     )

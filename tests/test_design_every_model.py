@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import json
 import math
+import sys
+from pathlib import Path
 
 import casadi as ca
 import numpy as np
@@ -210,3 +212,17 @@ def test_cli_ile_speed_target_beyond_the_robot_is_infeasible(run_cli):
     assert code == 3
     assert out.startswith("status           infeasible")
     assert "above the fastest gait" in err and "1.68" in err
+
+
+def test_the_suite_runs_and_the_rimless_wheel_meets_its_references():
+    """The suite of benchmarks/design_every_model.py in miniature: its reference (gait
+    branches by continuation, no IPOPT) and the design agree on every problem."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
+    import design_every_model
+
+    report = design_every_model.run(6, 7, ["rimless_wheel"], slsqp=1)
+    wheel = report["models"]["rimless_wheel"]
+    assert wheel["problems"] == 6
+    assert wheel["success"] == 6, [r for r in wheel["records"] if not r["success"]]
+    assert wheel["feasible_reported_infeasible"] == 0
+    assert len(wheel["slsqp_pairs"]) == 1
