@@ -266,6 +266,35 @@ def test_design_any_arguments():
     run()
 
 
+def test_design_of_any_model_any_arguments():
+    """``vsw design --model rimless-wheel`` (the design on the periodic orbit; a solve takes
+    0.3-1 s there) with random objectives, targets, fixes and bounds, sane or not."""
+    pytest.importorskip("casadi")
+    options = {
+        "--maximize": st.sampled_from(["speed", "step-length", "eigenvalue"]),
+        "--minimize": st.sampled_from(["eigenvalue", "cost-of-transport", "energy-per-step",
+                                       "step-frequency", "speed"]),
+        "--target-speed": number(0.5, 3.0),
+        "--target-period": number(0.1, 2.0),
+        "--fix": st.sampled_from(["gamma=0.15", "alpha=22.5deg", "alpha=2", "l=0", "x=1",
+                                  "gamma"]),
+        "--bound": st.sampled_from(["gamma=0.1:0.25", "alpha=0.2:0.5", "speed=:2",
+                                    "gamma=0.3:0.1", "alpha=nan:1", "l=0.5:2", "g=:"]),
+        "--max-eigenvalue": number(0.1, 1.0),
+        "--weight": st.sampled_from(["eigenvalue=2", "speed=-1", "x=1"]),
+        "--min-margin": number(0.0, 0.5),
+        "--starts": st.just("1"),
+    }  # fmt: skip
+
+    @budget(12)
+    @given(command_line("design", {"--model": st.just("rimless-wheel"), **options}, ("--json",),
+                        required=("--model", "--starts")))  # fmt: skip
+    def run(argv):
+        _check(argv, {"VSW_MAX_SECONDS": "30", "VSW_MAX_MEMORY": "2G"})
+
+    run()
+
+
 TOKENS = st.sampled_from(
     [
         "analyze", "simulate", "basin", "design", "fly", "--help", "-h", "--version", "--json",
