@@ -686,8 +686,9 @@ def _initial_point(problem: _Problem, nlp: _Nlp, orbit: Orbit, rho: float) -> np
     return w
 
 
-def _bounds(problem: _Problem, nlp: _Nlp, structure: _Structure,
-            targets: Mapping[str, float]) -> dict[str, np.ndarray]:  # fmt: skip
+def _bounds(
+    problem: _Problem, nlp: _Nlp, targets: Mapping[str, float]
+) -> dict[str, np.ndarray]:  # fmt: skip
     request = problem.request
     lbx = np.full(nlp.size, -np.inf)
     ubx = np.full(nlp.size, np.inf)
@@ -754,7 +755,7 @@ def _verify(problem: _Problem, nlp: _Nlp, solve: _Solve, targets: Mapping[str, f
             objective: Mapping[str, float]) -> _Solve:  # fmt: skip
     """Whether IPOPT's point is a gait that meets the request, by the runtime's own
     periodic-orbit solver (1e-13) and simulation."""
-    model, request = problem.model, problem.request
+    model = problem.model
     if solve.ipopt_status not in _SUCCESS:
         solve.failure = f"IPOPT {solve.ipopt_status}"
         return solve
@@ -779,7 +780,6 @@ def _verify(problem: _Problem, nlp: _Nlp, solve: _Solve, targets: Mapping[str, f
     solve.parameters, solve.orbit = params, orbit
     solve.quantities, solve.margins = quantities, margins
     solve.objective = _objective_value(objective, quantities)
-    del request
     return solve
 
 
@@ -858,7 +858,7 @@ def _multistart(
     rows = tuple(sorted(set(targets) | (set(problem.request.bounds) & problem.available)))
     structure = problem.structure(rank, objective, rows, eigen)
     nlp = _build(problem.model, structure)
-    bounds = _bounds(problem, nlp, structure, targets)
+    bounds = _bounds(problem, nlp, targets)
     solves, best = [], None
     for k, orbit in enumerate(seeds):
         rho = 1.05 * max(orbit.max_abs_eigenvalue, 1e-3)
