@@ -47,7 +47,7 @@ import generated.ile as ile  # noqa: E402
 from vsw.models.ile.params import random_parameters  # noqa: E402
 from vsw.vectorize import chunked, default_threads  # noqa: E402
 
-CASES = (1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12)
+CASES = (1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13)
 
 DESIGN_BEFORE = "39d527c"
 """The commit whose vsw/design.py case 8 compares with (before issue 10)."""
@@ -789,7 +789,20 @@ def run_case(case: int, quick: bool) -> list[Row]:
         return case_basin_grid(20 if quick else 500, 1 if quick else 2)
     if case == 12:
         return case_gait_search(quick)
+    if case == 13:
+        return case_design_every_model(quick)
     raise ValueError(f"no benchmark case {case}; cases are {CASES}")
+
+
+def case_design_every_model(quick: bool) -> list[Row]:
+    """Case 13 (issue 23): design on the periodic orbit, a seeded suite per model against
+    references without IPOPT (benchmarks/design_every_model.py), SLSQP side by side."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import design_every_model
+
+    keys = ["rimless_wheel"] if quick else list(design_every_model.SUITE_MODELS)
+    report = design_every_model.run(2 if quick else 50, 2026, keys, 1 if quick else 5)
+    return design_every_model.rows(report, Row, Timing)
 
 
 GAIT_SEARCH_SETS = (
