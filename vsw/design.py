@@ -482,7 +482,7 @@ def _weight(model: HybridModel, p: Any) -> Any:
     import casadi as ca
 
     if hasattr(model.module, "weight"):
-        return model.module.weight(*ca.vertsplit(p))
+        return model.module.weight(*ca.vertsplit(p), *([0.0] * (2 * model.n)))
     return 1.0
 
 
@@ -803,7 +803,11 @@ def _orbit_quantities(model: HybridModel, params: Sequence[float], orbit: Orbit)
         "cost_of_transport": None,
     }
     if orbit.step_length is not None:
-        weight = float(model.module.weight(*params)) if hasattr(model.module, "weight") else 1.0
+        weight = (
+            float(model.module.weight(*params, *([0.0] * (2 * model.n))))
+            if hasattr(model.module, "weight")
+            else 1.0
+        )
         out["cost_of_transport"] = float(lost) / (weight * orbit.step_length)
     return out
 

@@ -724,9 +724,9 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
     # On a slope gravity is (g sin gamma, -g cos gamma) in the chart: its size is g.
     weight = sm.sqrt(sm.trigsimp(gx**2 + gy**2)) * sm.Add(*(b.mass for b in step_phase.bodies))
     quantities.append(Quantity(
-        "weight", tuple(model.parameter_symbols), sm.simplify(weight),
+        "weight", args, sm.simplify(weight),
         "The walker's weight: gravity times the mass of every body (the cost of transport's "
-        "scale).", None, "force",
+        "scale; it depends on the parameters only).", None, "force",
     ))  # fmt: skip
     if model.section:
         state_symbols = {c.name: c.q for c in model.coordinates}

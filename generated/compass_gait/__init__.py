@@ -654,8 +654,8 @@ def step_length_of_state(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot)
     return x0*sin_theta - x0*sin_psi
 
 
-def weight(m_h, m, a, b, gamma, g):
-    """The walker's weight: gravity times the mass of every body (the cost of transport's scale).
+def weight(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot):
+    """The walker's weight: gravity times the mass of every body (the cost of transport's scale; it depends on the parameters only).
 
     Parameters
     ----------
@@ -665,6 +665,10 @@ def weight(m_h, m, a, b, gamma, g):
     b : array_like or casadi.SX/MX/DM
     gamma : array_like or casadi.SX/MX/DM
     g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -673,7 +677,7 @@ def weight(m_h, m, a, b, gamma, g):
     array
         force
     """
-    be = backend_for(m_h, m, a, b, gamma, g)
+    be = backend_for(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot)
     return g*(m_h + 2*m)
 
 

@@ -1282,14 +1282,16 @@ def step_length_of_state(beta, theta_II, phi0, theta, theta_dot):
     return sin_theta + sin_t1*beta
 
 
-def weight(beta, theta_II, phi0):
-    """The walker's weight: gravity times the mass of every body (the cost of transport's scale). Beyond the paper.
+def weight(beta, theta_II, phi0, theta, theta_dot):
+    """The walker's weight: gravity times the mass of every body (the cost of transport's scale; it depends on the parameters only). Beyond the paper.
 
     Parameters
     ----------
     beta : array_like or casadi.SX/MX/DM
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -1298,7 +1300,7 @@ def weight(beta, theta_II, phi0):
     array
         force
     """
-    be = backend_for(beta, theta_II, phi0)
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
     return 1
 
 

@@ -295,8 +295,8 @@ def step_length_of_state(alpha, gamma, l, g, theta, theta_dot):
     return 2*sin_alpha*l
 
 
-def weight(alpha, gamma, l, g):
-    """The walker's weight: gravity times the mass of every body (the cost of transport's scale).
+def weight(alpha, gamma, l, g, theta, theta_dot):
+    """The walker's weight: gravity times the mass of every body (the cost of transport's scale; it depends on the parameters only).
 
     Parameters
     ----------
@@ -304,6 +304,8 @@ def weight(alpha, gamma, l, g):
     gamma : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -312,7 +314,7 @@ def weight(alpha, gamma, l, g):
     array
         force
     """
-    be = backend_for(alpha, gamma, l, g)
+    be = backend_for(alpha, gamma, l, g, theta, theta_dot)
     return g
 
 

@@ -331,12 +331,16 @@ def step_length_of_state(gamma, theta, phi, theta_dot, phi_dot):
     return sin_t1 + sin_theta
 
 
-def weight(gamma):
-    """The walker's weight: gravity times the mass of every body (the cost of transport's scale).
+def weight(gamma, theta, phi, theta_dot, phi_dot):
+    """The walker's weight: gravity times the mass of every body (the cost of transport's scale; it depends on the parameters only).
 
     Parameters
     ----------
     gamma : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    phi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    phi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -345,7 +349,7 @@ def weight(gamma):
     array
         force
     """
-    be = backend_for(gamma)
+    be = backend_for(gamma, theta, phi, theta_dot, phi_dot)
     return 1
 
 

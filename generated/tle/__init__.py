@@ -758,8 +758,8 @@ def step_length_of_state(beta, theta_II, phi0, delta, theta, theta_dot):
     return sin_theta + sin_t1*beta
 
 
-def weight(beta, theta_II, phi0, delta):
-    """The walker's weight: gravity times the mass of every body (the cost of transport's scale).
+def weight(beta, theta_II, phi0, delta, theta, theta_dot):
+    """The walker's weight: gravity times the mass of every body (the cost of transport's scale; it depends on the parameters only).
 
     Parameters
     ----------
@@ -767,6 +767,8 @@ def weight(beta, theta_II, phi0, delta):
     theta_II : array_like or casadi.SX/MX/DM
     phi0 : array_like or casadi.SX/MX/DM
     delta : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -775,7 +777,7 @@ def weight(beta, theta_II, phi0, delta):
     array
         force
     """
-    be = backend_for(beta, theta_II, phi0, delta)
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     return 1
 
 

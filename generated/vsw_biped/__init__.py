@@ -893,8 +893,8 @@ def step_length_of_state(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, ps
     return sin_theta - sin_psi*beta
 
 
-def weight(beta, theta_II, mu, b_over_l):
-    """The walker's weight: gravity times the mass of every body (the cost of transport's scale).
+def weight(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
+    """The walker's weight: gravity times the mass of every body (the cost of transport's scale; it depends on the parameters only).
 
     Parameters
     ----------
@@ -902,6 +902,10 @@ def weight(beta, theta_II, mu, b_over_l):
     theta_II : array_like or casadi.SX/MX/DM
     mu : array_like or casadi.SX/MX/DM
     b_over_l : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
         Arguments broadcast against each other (numpy) or are scalar CasADi
         expressions.
 
@@ -910,7 +914,7 @@ def weight(beta, theta_II, mu, b_over_l):
     array
         force
     """
-    be = backend_for(beta, theta_II, mu, b_over_l)
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     return 1 + 2*mu
 
 

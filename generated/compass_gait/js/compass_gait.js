@@ -400,8 +400,8 @@ function step_length_of_state(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi
   return x0*sin_theta - x0*sin_psi;
 }
 
-/* The walker's weight: gravity times the mass of every body (the cost of transport's scale). Returns force. */
-function weight(m_h, m, a, b, gamma, g) {
+/* The walker's weight: gravity times the mass of every body (the cost of transport's scale; it depends on the parameters only). Returns force. */
+function weight(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot) {
   return g*(m_h + 2*m);
 }
 

@@ -129,8 +129,8 @@ function step_length_of_state(alpha, gamma, l, g, theta, theta_dot) {
   return 2*sin_alpha*l;
 }
 
-/* The walker's weight: gravity times the mass of every body (the cost of transport's scale). Returns force. */
-function weight(alpha, gamma, l, g) {
+/* The walker's weight: gravity times the mass of every body (the cost of transport's scale; it depends on the parameters only). Returns force. */
+function weight(alpha, gamma, l, g, theta, theta_dot) {
   return g;
 }
 

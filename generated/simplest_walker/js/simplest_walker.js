@@ -142,8 +142,8 @@ function step_length_of_state(gamma, theta, phi, theta_dot, phi_dot) {
   return sin_t1 + sin_theta;
 }
 
-/* The walker's weight: gravity times the mass of every body (the cost of transport's scale). Returns force. */
-function weight(gamma) {
+/* The walker's weight: gravity times the mass of every body (the cost of transport's scale; it depends on the parameters only). Returns force. */
+function weight(gamma, theta, phi, theta_dot, phi_dot) {
   return 1;
 }
 

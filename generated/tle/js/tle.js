@@ -259,8 +259,8 @@ function step_length_of_state(beta, theta_II, phi0, delta, theta, theta_dot) {
   return sin_theta + sin_t1*beta;
 }
 
-/* The walker's weight: gravity times the mass of every body (the cost of transport's scale). Returns force. */
-function weight(beta, theta_II, phi0, delta) {
+/* The walker's weight: gravity times the mass of every body (the cost of transport's scale; it depends on the parameters only). Returns force. */
+function weight(beta, theta_II, phi0, delta, theta, theta_dot) {
   return 1;
 }
 

@@ -465,8 +465,8 @@ function step_length_of_state(beta, theta_II, mu, b_over_l, theta, psi, theta_do
   return sin_theta - sin_psi*beta;
 }
 
-/* The walker's weight: gravity times the mass of every body (the cost of transport's scale). Returns force. */
-function weight(beta, theta_II, mu, b_over_l) {
+/* The walker's weight: gravity times the mass of every body (the cost of transport's scale; it depends on the parameters only). Returns force. */
+function weight(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot) {
   return 1 + 2*mu;
 }
 
