@@ -7,7 +7,7 @@ not use IPOPT, and SciPy SLSQP side by side.
 Each model designs one free parameter (the others fixed), so the reference can be exact
 without IPOPT: the gait branches are traced over the parameter's whole range by the
 runtime's periodic-orbit Newton solver (natural-parameter continuation from the gaits the
-gait search finds at three points of the range), every design quantity evaluated on each
+gait search finds at two points of the range), every design quantity evaluated on each
 branch point; a problem's reference optimum is the best of, on every branch: the box's
 ends, each feasible interval's ends (where max |eigenvalue| crosses its bound, found by
 ``brentq``), the interior extrema of the objective (``minimize_scalar`` between grid

@@ -190,6 +190,8 @@ def test_cli_design_of_a_model_prints_the_envelope_and_the_gait(run_cli):
     ("argv", "words"),
     [
         (["--model", "compass-gait", "--beta-min", "0.5", "--maximize", "speed"], "ILE's"),
+        # 0 is a value, not an absent option.
+        (["--model", "compass-gait", "--gravity", "0", "--maximize", "speed"], "ILE's"),
         (["--model", "ile", "--maximize", "step-length"], "speed only"),
         (["--model", "ile", "--target-period", "2"], "not an option"),
         (["--model", "compass-gait", "--bound", "gamma=1"], "expected NAME=A:B"),
@@ -226,3 +228,11 @@ def test_the_suite_runs_and_the_rimless_wheel_meets_its_references():
     assert wheel["success"] == 6, [r for r in wheel["records"] if not r["success"]]
     assert wheel["feasible_reported_infeasible"] == 0
     assert len(wheel["slsqp_pairs"]) == 1
+
+
+def test_cli_ile_bound_on_the_step_frequency_in_its_own_units(run_cli):
+    code, out, err = run_cli(["design", "--maximize", "speed", "--bound",
+                              "step_frequency=:0.5", "--json"])  # fmt: skip
+    assert code == 0, err
+    data = json.loads(out)
+    assert 1 / data["step_period"] <= 0.5 * (1 + 1e-9)

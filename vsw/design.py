@@ -38,8 +38,8 @@ powers of ``M``) and so smooth everywhere. ``--max-eigenvalue E`` fixes ``ρ = E
 optimum the inequality of the eigenvalue(s) of largest modulus is active, whichever they
 are). The polynomial keeps the model's nontrivial eigenvalues only: a reset onto a lower
 dimensional set makes ``M`` singular (the simplest walker's 4x4 map has rank 2), its
-structural zero eigenvalues would only scale the Jury rows badly. The rank is read at the
-first start's gait.
+structural zero eigenvalues would only scale the Jury rows badly. The count is the largest
+over the starts' gaits (eigenvalues above 1e-7 of the largest).
 
 Starts, verification and statuses
 ---------------------------------
@@ -582,8 +582,10 @@ class _Problem:
                                         f"{p.name}={_range_text(low, high)}")  # fmt: skip
             _inside_table(p, value, f"--fix {p.name}={value:g}")
             return False
-        # A scale (an interval (0, inf)) changes no gait's shape, only its units: it is
-        # designed only within a bound the user gives.
+        # A parameter on (0, inf) is held unless bounded: the tables do not say which are
+        # pure scales (g, an overall mass or length: the gait's units only) and which
+        # ratios (a leg's mass against the hip's), and with no finite interval there is no
+        # box to design in. The user's --bound makes it a design variable.
         scale = p.lower == 0 and math.isinf(p.upper)
         return not scale or p.name in self.request.bounds
 
@@ -886,12 +888,14 @@ def _open_limits(problem: _Problem, nlp: _Nlp, solve: _Solve) -> tuple[str, ...]
         p = problem.table[j]
         low, high = problem.box[j]
         tol = 1e-7 * max(1.0, abs(high - low))
-        user_low, user_high = problem.request.bounds.get(p.name, (None, None))
         pulled = abs(free_lam[i]) > 1e-8
-        if pulled and abs(free_w[i] - low) <= tol and (user_low is None or user_low < low):
-            out.append(f"{p.name} -> {_limit(p, -1)}")
-        if pulled and abs(free_w[i] - high) <= tol and (user_high is None or user_high > high):
-            out.append(f"{p.name} -> {_limit(p, +1)}")
+        # Open only where the box's edge is the table's open limit kept at its distance
+        # (not a closed bound of the user's, not the computed range's end).
+        distance = open_distance(p)
+        if pulled and abs(free_w[i] - low) <= tol and low == p.lower + distance:
+            out.append(f"{p.name} -> {p.lower:.6g}")
+        if pulled and abs(free_w[i] - high) <= tol and high == p.upper - distance:
+            out.append(f"{p.name} -> {p.upper:.6g}")
     if problem.request.min_margin <= STRICT_MARGIN:
         g = None
         for i, (name, kind) in enumerate(zip(nlp.row_names, nlp.row_kinds)):
@@ -905,15 +909,6 @@ def _open_limits(problem: _Problem, nlp: _Nlp, solve: _Solve) -> tuple[str, ...]
                     if text not in out:
                         out.append(text)
     return tuple(out)
-
-
-def _limit(p: Any, side: int) -> str:
-    if p.computed is not None:
-        edge = p.computed[0] if side < 0 else p.computed[1]
-        table = p.lower if side < 0 else p.upper
-        if edge != table:
-            return f"{edge:.6g} (the computed range's end)"
-    return f"{p.lower if side < 0 else p.upper:.6g}"
 
 
 def _constraint_values(nlp: _Nlp, w: np.ndarray, problem: _Problem) -> np.ndarray:
@@ -1050,8 +1045,8 @@ def _infeasibility(problem: _Problem, seeds: Sequence[Orbit], rank: int) -> str 
             extreme = _extreme(problem, seeds, rank, name, sense, others)
             if extreme is None:
                 continue
-            beyond = value > extreme * (1 + TARGET_TOL) if sense > 0 else \
-                value < extreme * (1 - TARGET_TOL)  # fmt: skip
+            slack = TARGET_TOL * max(1.0, abs(extreme))
+            beyond = value > extreme + slack if sense > 0 else value < extreme - slack
             if beyond:
                 word = "largest" if sense > 0 else "smallest"
                 return (f"the target {name} {value:g} lies beyond the {word} {name} of the "

@@ -18,7 +18,7 @@ from vsw import design as gait_design
 from vsw import models
 from vsw.cli import options
 from vsw.cli.output import dump_json, envelope, fmt, unit_text, write_orbit, write_parameters
-from vsw.cli.parser import given, option_name
+from vsw.cli.parser import option_name
 from vsw.errors import VswInputError
 from vsw.models.ile.design import CONDITION_SETS, DesignResult, _finite, _parse_fix, design
 from vsw.models.ile.params import STEPPER_2D, RobotScale
@@ -83,12 +83,13 @@ def _design_from_args(args: argparse.Namespace) -> tuple[DesignResult, RobotScal
     for name, (low, high) in _bounds(models.load("ile"), args.bound or []).items():
         key = (
             ("step_length_m" if si else "step_length") if name == "step_length"
-            else "step_frequency_hz" if name == "step_frequency" else name
+            else ("step_frequency_hz" if si else "step_frequency") if name == "step_frequency"
+            else name
         )  # fmt: skip
         if key in bounds and any(v is not None for v in bounds[key]):
             raise VswInputError(f"--bound {name} and the option of the same bound: give one")
         if key not in ("beta", "theta_II", "phi0", "step_length", "step_length_m",
-                       "step_frequency_hz"):  # fmt: skip
+                       "step_frequency", "step_frequency_hz"):  # fmt: skip
             raise VswInputError(f"--bound {name}: the ILE's design bounds beta, theta_II, phi0, "
                                 "step_length and step_frequency")  # fmt: skip
         bounds[key] = (low, high)
@@ -107,6 +108,13 @@ def _design_from_args(args: argparse.Namespace) -> tuple[DesignResult, RobotScal
         n_starts=2 if args.starts is None else args.starts,
     )
     return result, scale, mass_given
+
+
+def _given(args: argparse.Namespace, dest: str) -> bool:
+    """Whether an option was on the command line: a value other than its default None or
+    False (``parser.given`` counts 0 as not given, and 0 is a value here)."""
+    value = getattr(args, dest, None)
+    return value is not None and value is not False
 
 
 ILE_ONLY = (
@@ -142,7 +150,7 @@ def run(args: argparse.Namespace) -> int:
     if model.name != "ile":
         return _run_generic(args, model)
     for dest in GENERIC_ONLY:
-        if given(args.parser, args, dest):
+        if _given(args, dest):
             raise VswInputError(f"{option_name(args.parser, dest)} is not an option of the "
                                 "ILE's closed-form design")  # fmt: skip
     for name in args.maximize or []:
@@ -264,7 +272,7 @@ def _fixes(model: models.Model, items: list[str]) -> dict[str, float]:
 
 def _request(args: argparse.Namespace, model: models.Model) -> gait_design.DesignRequest:
     for dest in ILE_ONLY:
-        if given(args.parser, args, dest):
+        if _given(args, dest):
             raise VswInputError(f"{option_name(args.parser, dest)} is an option of the ILE's "
                                 f"design; {model.cli_name}: use --bound NAME=A:B, --fix and "
                                 "targets in the model's units")  # fmt: skip
