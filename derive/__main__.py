@@ -32,16 +32,28 @@ from collections.abc import Iterator
 from pathlib import Path
 from types import SimpleNamespace
 
-from derive import codegen, render
-from derive.models import MODELS
+from derive import manifest
+from derive.registry import MODEL_NAMES
 
 ROOT = Path(__file__).resolve().parent.parent
 FIX_COMMAND = "python -m derive"
 
 
+# The renderers and the models are imported where a model is derived, not above: they
+# import sympy, most of a second, which a run with nothing to derive must not pay.
 def _render_model(name: str) -> dict[str, str]:
     """One model's files (run in a worker process: models derive independently)."""
+    from derive import render
+    from derive.models import MODELS
+
     return render.render(MODELS[name]())
+
+
+def _render_shared() -> dict[str, str]:
+    """The files every model shares (``generated/__init__.py``, the backend)."""
+    from derive import render
+
+    return render.render_shared([SimpleNamespace(model=name) for name in MODEL_NAMES])
 
 
 _PR_SET_PDEATHSIG = 1  # linux/prctl.h
@@ -95,18 +107,29 @@ def _terminated(signum: int, _frame) -> None:
     raise SystemExit(128 + signum)
 
 
-def render_all(only: str | None = None, existing: dict[str, str] | None = None) -> dict[str, str]:
-    """Every file of ``generated/`` as ``{relative path: text}``.
+def render_all(
+    only: str | None = None, existing: dict[str, str] | None = None, *, reuse: bool = False
+) -> dict[str, str]:
+    """Every file of ``generated/`` as ``{relative path: text}``, its manifest included.
 
     The models are derived in parallel worker processes (each is deterministic, so the
     output does not depend on the scheduling). With ``only``, that model is derived and
     every other model's files are taken from ``existing`` (what is on disk) unchanged.
+    With ``reuse``, a model whose inputs and files on disk are as its manifest entry
+    records (:mod:`derive.manifest`) is taken from ``existing`` instead of derived.
     """
-    names = [name for name in MODELS if only in (None, name)]
-    files = render.render_shared([SimpleNamespace(model=name) for name in MODELS])
-    if only:
-        others = {p: t for p, t in (existing or {}).items() if "/" in p}
-        files.update({p: t for p, t in others.items() if not p.startswith(f"{only}/")})
+    existing = existing or {}
+    digests = manifest.input_digests()
+    kept = manifest.unchanged(existing, digests) if reuse else set()
+    names = [name for name in MODEL_NAMES if only in (None, name) and name not in kept]
+    as_on_disk = kept | ({entry for entry in MODEL_NAMES if entry != only} if only else set())
+    files = {
+        path: text
+        for path, text in existing.items()
+        if path != manifest.MANIFEST and manifest.entry_of(path) in as_on_disk
+    }
+    if manifest.SHARED not in kept:
+        files.update(_render_shared())
     workers = min(len(names), len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
                   else os.cpu_count() or 1)  # fmt: skip
     if workers > 1:
@@ -115,10 +138,8 @@ def render_all(only: str | None = None, existing: dict[str, str] | None = None) 
         # serially: biped 27 s, compass gait 25 s, TLE 19 s, ILE 9 s, simplest walker 7 s,
         # rimless wheel 3 s); `--check` of every model went from 47 s to 40 s on 2 cores.
         # The order only schedules; each model's files are its own.
-        generated = Path(codegen.__file__).resolve().parent.parent / "generated"
-
         def cost(name: str) -> int:
-            module = generated / name / "__init__.py"
+            module = ROOT / "generated" / name / "__init__.py"
             return module.stat().st_size if module.is_file() else 0
 
         order = sorted(names, key=cost, reverse=True)
@@ -128,6 +149,11 @@ def render_all(only: str | None = None, existing: dict[str, str] | None = None) 
         rendered = [_render_model(name) for name in names]
     for model_files in rendered:
         files.update(model_files)
+    # A model taken from disk because of `only` keeps the inputs it was recorded with.
+    recorded = manifest.parse(existing.get(manifest.MANIFEST, ""))
+    inputs = {e: r.inputs for e, r in recorded.items() if e in as_on_disk - kept}
+    inputs.update({e: digests[e] for e in digests if e not in as_on_disk - kept})
+    files[manifest.MANIFEST] = manifest.render(files, inputs)
     return dict(sorted(files.items()))
 
 
@@ -316,7 +342,15 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--out", type=Path, default=ROOT / "generated", help=argparse.SUPPRESS)
     parser.add_argument(
-        "--model", choices=sorted(MODELS), help="derive only this model (the others as on disk)"
+        "--model",
+        choices=sorted(MODEL_NAMES),
+        help="derive only this model (the others as on disk)",
+    )
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="derive every model, also those whose inputs and files are as generated/MANIFEST "
+        "records",
     )
     args = parser.parse_args(argv)
     if threading.current_thread() is not threading.main_thread():
@@ -329,7 +363,17 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
-    files = render_all(args.model, existing_files(args.out) if args.model else None)
+    existing = existing_files(args.out)
+    reuse = not args.force
+    kept = manifest.unchanged(existing, manifest.input_digests()) if reuse else set()
+    files = render_all(args.model, existing, reuse=reuse)
+    skipped = [name for name in MODEL_NAMES if name in kept and args.model in (None, name)]
+    unchanged = (
+        f"; not derived, inputs and files as generated/{manifest.MANIFEST} records: "
+        f"{', '.join(skipped)} (--force derives them)"
+        if skipped
+        else ""
+    )
     if args.check:
         report = stale_report(files, args.out)
         if report:
@@ -337,10 +381,13 @@ def _run(args: argparse.Namespace) -> int:
             print("\n".join(report), file=sys.stderr)
             print(f"fix: run `{FIX_COMMAND}` and commit generated/", file=sys.stderr)
             return 1
-        print(f"generated/ is up to date ({len(files)} files)")
+        print(f"generated/ is up to date ({len(files)} files{unchanged})")
+        return 0
+    if files == existing:
+        print(f"generated/ is up to date, nothing written ({len(files)} files{unchanged})")
         return 0
     write_atomically(files, args.out)
-    print(f"wrote {len(files)} files to {args.out}")
+    print(f"wrote {len(files)} files to {args.out}{unchanged}")
     return 0
 
 

@@ -46,7 +46,7 @@ def _alive(pid: int) -> bool:
 @pytest.mark.parametrize("signum", [signal.SIGKILL, signal.SIGTERM, signal.SIGINT])
 def test_killed_derive_leaves_no_worker(tmp_path, signum):
     process = subprocess.Popen(
-        [sys.executable, "-m", "derive", "--check"],
+        [sys.executable, "-m", "derive", "--check", "--force"],
         cwd=ROOT,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,

@@ -1,0 +1,20 @@
+"""The models the engine derives, by name, without importing them.
+
+Each entry names the module whose ``derive()`` returns the model's
+:class:`~derive.quantities.Derivation`. Importing a model imports sympy (most of a second);
+``python -m derive`` with nothing to derive must not pay that (:mod:`derive.manifest`).
+"""
+
+from __future__ import annotations
+
+MODEL_MODULES: dict[str, str] = {
+    "ile": "derive.models.ile",
+    "rimless_wheel": "derive.models.rimless_wheel",
+    "tle": "derive.models.tle",
+    "simplest_walker": "derive.models.simplest_walker",
+    "compass_gait": "derive.models.compass_gait",
+    "vsw_biped": "derive.models.vsw_biped",
+}
+"""Model name (its ``generated/<name>/`` package) -> module with its ``derive()``."""
+
+MODEL_NAMES: tuple[str, ...] = tuple(MODEL_MODULES)
