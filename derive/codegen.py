@@ -11,6 +11,7 @@ ordering, and names chosen by position.
 
 from __future__ import annotations
 
+import heapq
 import math
 import os
 import tempfile
@@ -184,21 +185,77 @@ def _replace(expr: sm.Expr, substitution: dict, memo: dict) -> sm.Expr:
     return result
 
 
+class _HeldMin(sm.Function):
+    """``Min`` that cse can rebuild without comparing its arguments (every rebuild of an
+    evaluated Min compares each pair symbolically: 6 of the TLE's 19 s). It sorts and
+    prints as Min; :func:`staged_cse` turns it back into one, unevaluated."""
+
+    @classmethod
+    def class_key(cls):
+        return sm.Min.class_key()
+
+
+class _HeldMax(sm.Function):
+    """``Max`` held as :class:`_HeldMin` holds Min."""
+
+    @classmethod
+    def class_key(cls):
+        return sm.Max.class_key()
+
+
+_HELD = {sm.Min: _HeldMin, sm.Max: _HeldMax}
+_RELEASED = {_HeldMin: sm.Min, _HeldMax: sm.Max}
+
+
+def _swap_functions(expr: sm.Expr, classes: dict, memo: dict) -> sm.Expr:
+    """``expr`` with each function of a class in ``classes`` rebuilt as the class it maps
+    to (unevaluated: its arguments are as they were)."""
+    if not expr.args:
+        return expr
+    if expr in memo:
+        return memo[expr]
+    args = [_swap_functions(a, classes, memo) for a in expr.args]
+    target = classes.get(type(expr))
+    if target is not None:
+        result = target(*args, evaluate=False)
+    elif all(new is old for new, old in zip(args, expr.args)):
+        result = expr
+    else:
+        result = expr.func(*args)
+    memo[expr] = result
+    return result
+
+
 def _dependency_order(
     definitions: list[tuple[sm.Symbol, sm.Expr]],
 ) -> list[tuple[sm.Symbol, sm.Expr]]:
-    """Definitions reordered so each comes after the names it uses; otherwise stable."""
-    defined = {symbol for symbol, _ in definitions}
-    done: set[sm.Symbol] = set()
-    ordered, pending = [], list(definitions)
-    while pending:
-        for k, (symbol, value) in enumerate(pending):
-            if (value.free_symbols & defined) <= done:
-                ordered.append(pending.pop(k))
-                done.add(symbol)
-                break
-        else:
-            raise ValueError(f"circular intermediates: {[str(s) for s, _ in pending]}")
+    """Definitions reordered so each comes after the names it uses; otherwise stable.
+
+    Each step takes the first definition (in the given order) whose names are all defined:
+    a heap of the ready ones by position, each definition's uses counted once (scanning
+    the pending list anew for every step took seconds on the TLE's 400 intermediates).
+    """
+    position = {symbol: k for k, (symbol, _) in enumerate(definitions)}
+    waiting_on = [0] * len(definitions)
+    users: dict[int, list[int]] = {}
+    for k, (_, value) in enumerate(definitions):
+        uses = {position[s] for s in value.free_symbols if s in position}
+        waiting_on[k] = len(uses)
+        for used in uses:
+            users.setdefault(used, []).append(k)
+    ready = [k for k, count in enumerate(waiting_on) if count == 0]
+    heapq.heapify(ready)
+    ordered = []
+    while ready:
+        k = heapq.heappop(ready)
+        ordered.append(definitions[k])
+        for user in users.get(k, ()):
+            waiting_on[user] -= 1
+            if waiting_on[user] == 0:
+                heapq.heappush(ready, user)
+    if len(ordered) < len(definitions):
+        pending = [str(s) for k, (s, _) in enumerate(definitions) if waiting_on[k] > 0]
+        raise ValueError(f"circular intermediates: {pending}")
     return ordered
 
 
@@ -214,7 +271,12 @@ def staged_cse(
     outputs = list(qty.expr) if isinstance(qty.expr, tuple) else [qty.expr]
     named = [symbol for symbol, _ in qty.intermediates]
     exprs, pairs = trig_pairs([value for _, value in qty.intermediates] + outputs)
+    held: dict = {}
+    exprs = [_swap_functions(e, _HELD, held) for e in exprs]
     replacements, reduced = sm.cse(exprs, symbols=sm.numbered_symbols("x"), order="canonical")
+    released: dict = {}
+    replacements = [(s, _swap_functions(v, _RELEASED, released)) for s, v in replacements]
+    reduced = [_swap_functions(e, _RELEASED, released) for e in reduced]
     definitions = _dependency_order(list(replacements) + list(zip(named, reduced[: len(named)])))
     return pairs, definitions, reduced[len(named) :]
 
