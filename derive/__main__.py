@@ -49,6 +49,49 @@ def _render_model(name: str) -> dict[str, str]:
     return render.render(MODELS[name]())
 
 
+def render_model_file(path: Path) -> dict[str, str]:
+    """The files of a model declared in a file of the user's own (``--file``): its module
+    defines ``derive()`` returning a Derivation, as the built-in models do, or just
+    ``MODEL`` (an engine :class:`~derive.engine.model.Model`, with ``UNITS``: a sentence on
+    its units for the generated docstrings). Its directory is put on ``sys.path`` so that
+    it can import its neighbours."""
+    import importlib.util
+
+    from derive import render
+    from derive.engine import model_derivation
+
+    path = Path(path).resolve()
+    sys.path.insert(0, str(path.parent))
+    spec = importlib.util.spec_from_file_location(f"derive_user_model_{path.stem}", path)
+    if spec is None or spec.loader is None:
+        raise ModelFileError(f"{path} is not a Python file")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    if hasattr(module, "derive"):
+        derivation = module.derive()
+    elif hasattr(module, "MODEL"):
+        units = getattr(module, "UNITS", "Units as the parameter table states.")
+        derivation = model_derivation(module.MODEL, units)
+    else:
+        raise ModelFileError(f"{path} defines neither derive() nor MODEL")
+    if not derivation.model.isidentifier():
+        raise ModelFileError(f"{path}: the model's name {derivation.model!r} is no identifier")
+    files = render.render(derivation)
+    return {**files, **_render_shared_backend()}
+
+
+class ModelFileError(Exception):
+    """A model file that declares no model (reported in one line)."""
+
+
+def _render_shared_backend() -> dict[str, str]:
+    """Beside a user's model, the backend it was generated against (for reading; the model
+    imports the installed ``generated._backend``)."""
+    from derive import render
+
+    return {"_backend.py": render.render_shared([])["_backend.py"]}
+
+
 def _render_shared() -> dict[str, str]:
     """The files every model shares (``generated/__init__.py``, the backend)."""
     from derive import render
@@ -340,11 +383,22 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--check", action="store_true", help="fail if generated/ differs from the derivation"
     )
-    parser.add_argument("--out", type=Path, default=ROOT / "generated", help=argparse.SUPPRESS)
+    parser.add_argument(
+        "--out",
+        type=Path,
+        help="the directory to write (default: the package's generated/; with --file, required)",
+    )
     parser.add_argument(
         "--model",
         choices=sorted(MODEL_NAMES),
         help="derive only this model (the others as on disk)",
+    )
+    parser.add_argument(
+        "--file",
+        type=Path,
+        metavar="MODEL.py",
+        help="derive the model declared in this file (yours, outside the package) into --out "
+        "(required with --file) instead of generated/",
     )
     parser.add_argument(
         "--force",
@@ -353,6 +407,10 @@ def main(argv: list[str] | None = None) -> int:
         "records",
     )
     args = parser.parse_args(argv)
+    if args.file is not None and (args.out is None or args.model):
+        parser.error("--file needs --out DIR and takes no --model")
+    if args.out is None:
+        args.out = ROOT / "generated"
     if threading.current_thread() is not threading.main_thread():
         return _run(args)
     previous = signal.signal(signal.SIGTERM, _terminated)
@@ -363,6 +421,8 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
+    if args.file is not None:
+        return _run_file(args)
     existing = existing_files(args.out)
     reuse = not args.force
     kept = manifest.unchanged(existing, manifest.input_digests()) if reuse else set()
@@ -388,6 +448,35 @@ def _run(args: argparse.Namespace) -> int:
         return 0
     write_atomically(files, args.out)
     print(f"wrote {len(files)} files to {args.out}{unchanged}")
+    return 0
+
+
+def _run_file(args: argparse.Namespace) -> int:
+    """``--file``: derive a user's model into ``--out`` (``--check``: compare with it)."""
+    if not args.file.is_file():
+        print(f"python -m derive: model file {args.file} does not exist", file=sys.stderr)
+        return 2
+    try:
+        files = render_model_file(args.file)
+    except ModelFileError as exc:
+        print(f"python -m derive: {exc}", file=sys.stderr)
+        return 1
+    except Exception as exc:  # the user's file or its declaration: one line, not a traceback
+        where = f"{type(exc).__name__}: {exc}".splitlines()[0]
+        print(f"python -m derive: model file {args.file}: {where}", file=sys.stderr)
+        return 1
+    if args.check:
+        report = stale_report(files, args.out)
+        if report:
+            print(f"{args.out} is stale:", file=sys.stderr)
+            print("\n".join(report), file=sys.stderr)
+            print(f"fix: run `python -m derive --file {args.file} --out {args.out}`",
+                  file=sys.stderr)  # fmt: skip
+            return 1
+        print(f"{args.out} is up to date ({len(files)} files)")
+        return 0
+    write_atomically(files, args.out)
+    print(f"wrote {len(files)} files to {args.out}")
     return 0
 
 

@@ -122,6 +122,15 @@ def input_digests() -> dict[str, str]:
     return digests
 
 
+def model_file_digest(path: Path) -> str:
+    """SHA-256 of what a model file outside the package is derived from: the engine, the
+    versions and the file itself (not files it imports: a helper module it imports is
+    the user's to name in the file, or to clear the cache for)."""
+    h = hashlib.sha256(_digest(_engine_files(), _versions()).encode())
+    h.update(b"\0model file\0" + Path(path).read_bytes())
+    return h.hexdigest()
+
+
 def entry_of(path: str) -> str:
     """The manifest entry a file of ``generated/`` belongs to."""
     head = path.split("/", 1)[0]

@@ -36,7 +36,6 @@ from vsw.vectorize import default_threads, run_blocks
 __all__ = ["BatchResult", "BatchSimulator", "reference_walks", "simulator"]
 
 CSRC = Path(__file__).resolve().parent / "csrc"
-GENERATED = Path(__file__).resolve().parent.parent / "generated"
 
 WALKED, CONVERGED, FELL, STALLED, PERIODIC = range(5)
 """Outcome codes of vsw/csrc/hybrid_batch.c."""
@@ -149,7 +148,7 @@ class BatchSimulator:
 
     @property
     def source(self) -> Path:
-        return GENERATED / self.model.name / "c" / f"{self.model.name}_sim.c"
+        return Path(self.model.module.__file__).parent / "c" / f"{self.model.name}_sim.c"
 
     def library(self) -> ctypes.CDLL | None:
         """The compiled simulator, built on first call; None when unavailable (then

@@ -18,7 +18,6 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import generated
 from vsw.errors import VswInputError
 
 __all__ = ["STEP", "check_html_path", "page", "write_html", "write_page"]
@@ -100,7 +99,7 @@ def _height(model: Any, params: Sequence[float], start: Sequence[float]) -> floa
 def page(model: Any, params: Sequence[float], start: Sequence[float]) -> str:
     """The page's HTML for ``model`` with the sliders at ``params`` and Newton's first
     guess ``start`` (a section state, e.g. the runtime's stable gait)."""
-    js_path = Path(generated.__file__).resolve().parent / model.name / "js" / f"{model.name}.js"
+    js_path = Path(model.module.__file__).resolve().parent / "js" / f"{model.name}.js"
     if not js_path.is_file():
         raise VswInputError(
             f"vsw explore: generated/{model.name}/js is missing: run python -m derive"

@@ -8,6 +8,7 @@ import sys
 from typing import Any
 
 from vsw import models
+from vsw.cli.options import model_type
 from vsw.cli.output import dump_json, fmt, git_commit, version
 from vsw.cli.parser import EXIT_OK
 
@@ -18,6 +19,9 @@ def register(subparsers: Any) -> None:
     help_ = "the models: parameters, state (meaning, reference, sign), section, units"
     p = subparsers.add_parser("models", help=help_, description=help_ + ".")
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--model", type=model_type, action="append", metavar="NAME",
+                   help="only this model (repeatable): a name, or a model file of yours "
+                   "(path/to/model.py, derived on first use)")  # fmt: skip
     p.set_defaults(func=run)
 
 
@@ -28,7 +32,7 @@ def _bounds(p: dict[str, Any]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    described = [models.load(k).describe() for k in models.keys()]
+    described = [models.load(k).describe() for k in (args.model or models.keys())]
     if args.json:
         provenance = {"vsw": version(), "commit": git_commit(),
                       "command": shlex.join(["vsw", *args.argv])}  # fmt: skip

@@ -5,18 +5,22 @@ each as a :class:`vsw.models.base.Model` (the generic runtime, driven by the pac
 ``HYBRID`` descriptor, with the commands' interface) or, where a model has closed forms of
 its own, as that model's extension of it (the ILE: :class:`vsw.models.ile.model.IleModel`),
 which answers the same calls through its closed forms. Names are the packages' keys with
-``-`` or ``_`` (``rimless-wheel`` and ``rimless_wheel`` alike).
+``-`` or ``_`` (``rimless-wheel`` and ``rimless_wheel`` alike). A name ending in ``.py``
+is a model file of the user's, and a name no built-in model has may be a package's entry
+point (:mod:`vsw.models.user`): their key is the file's absolute path.
 """
 
 from __future__ import annotations
 
 import functools
 import importlib
+from pathlib import Path
 
 import generated
 from vsw.errors import VswInputError
 from vsw.models.base import Model
 from vsw.models.ile.model import IleModel
+from vsw.models.user import entry_point_file, is_model_file, package
 
 __all__ = ["cli_name", "key", "keys", "load"]
 
@@ -35,11 +39,22 @@ def cli_name(model_key: str) -> str:
 
 
 def key(name: str) -> str:
-    """The package key of a model name (``-`` and ``_`` alike), or a one-line refusal."""
+    """The package key of a model name (``-`` and ``_`` alike), or the absolute path of a
+    model file (given, or an installed package's entry point), or a one-line refusal."""
+    if is_model_file(name):
+        path = Path(name.strip()).expanduser().resolve()
+        if not path.is_file():
+            raise VswInputError(f"model file {name.strip()} does not exist")
+        return str(path)
     model_key = name.strip().replace("-", "_")
     if model_key not in keys():
+        path = entry_point_file(name.strip())
+        if path is not None:
+            return str(path)
         names = ", ".join(cli_name(k) for k in keys())
-        raise VswInputError(f"model {name!r} is not one of {names}")
+        raise VswInputError(
+            f"model {name!r} is not one of {names}, nor a model file (path/to/model.py)"
+        )
     return model_key
 
 
@@ -50,5 +65,7 @@ def load(name: str) -> Model:
 
 @functools.cache
 def _load(model_key: str) -> Model:
+    if is_model_file(model_key):
+        return Model(package(Path(model_key)))
     cls = EXTENSIONS.get(model_key, Model)
     return cls(importlib.import_module(f"generated.{model_key}"))
