@@ -169,7 +169,12 @@ def render_all(
     files = {
         path: text
         for path, text in existing.items()
-        if path != manifest.MANIFEST and manifest.entry_of(path) in as_on_disk
+        if path != manifest.MANIFEST
+        and (
+            manifest.entry_of(path) in as_on_disk
+            # With `only`, whatever else lies in a directory of generated/ stays.
+            or (only and "/" in path and not path.startswith(f"{only}/"))
+        )
     }
     if manifest.SHARED not in kept:
         files.update(_render_shared())
