@@ -3,12 +3,13 @@
 ``generated/MANIFEST`` records, for every model, the SHA-256 of its *inputs* (the engine:
 every file of ``derive/`` outside ``derive/models/``; the model's own modules and the other
 model modules they import; the versions of sympy and CasADi, which shape the output) and of
-every file the model wrote. A model whose inputs hash as recorded and whose files on disk hash as recorded is not derived again: its files are what the
-derivation would write, because the derivation is deterministic (the test suite derives
-every model once per run and compares the whole tree, manifest included, byte for byte).
-``python -m derive --force`` derives everything. The shared files (``generated/__init__.py``
-and the backend) are an entry of their own, ``(shared)``, whose inputs are the engine
-and the registry.
+every file the model wrote. A model whose inputs hash as recorded and whose files on disk
+hash as recorded is not derived again: its files are what the derivation would write,
+because the derivation is deterministic (the test suite derives every model once per run
+and compares the whole tree, manifest included, byte for byte). ``python -m derive
+--force`` derives everything. The shared files (``generated/__init__.py`` and the
+backend) are an entry of their own, ``(shared)``, whose inputs are the engine and the
+registry.
 
 This module imports neither sympy nor the models: a run with nothing to derive is as
 fast as reading the tree.
