@@ -19,6 +19,7 @@ this code working; its numbers mean nothing and it writes to a temporary file un
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import platform
@@ -50,6 +51,8 @@ from vsw.vectorize import chunked, default_threads  # noqa: E402
 CASES = (1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13)
 
 DESIGN_BEFORE = "39d527c"
+DERIVE_BEFORE = "f0a3f35"
+"""The commit before issue 24's work on the derivation (case 7 derives it side by side)."""
 """The commit whose vsw/design.py case 8 compares with (before issue 10)."""
 
 
@@ -736,13 +739,9 @@ def case_startup(reps: int, include_audit: bool, every_model: bool = True) -> li
     )
     with tempfile.TemporaryDirectory() as out:
         env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
+        if every_model:
+            rows += case_derive(reps=2)
         cases = [
-            ("python -m derive --model ile (the ILE alone, as before the engine; temp dir, "
-             "no bytecode cache)", [py, "-m", "derive", "--model", "ile", "--out", out + "/i"],
-             5.0),
-            *([(f"python -m derive (every model: {', '.join(generated.MODELS)}, in parallel "
-                "processes)", [py, "-m", "derive", "--out", out + "/g"], 5.0)]
-              if every_model else []),
             ("import vsw", [py, "-c", "import vsw"], 0.3),
             (f"import vsw.{{{modules}}} (no scipy, matplotlib, sympy)",
              [py, "-c", lazy_check], 0.3),
@@ -760,6 +759,68 @@ def case_startup(reps: int, include_audit: bool, every_model: bool = True) -> li
                 row.note = "single run"
             row.met = t.median <= target
             rows.append(row)
+    return rows
+
+
+@contextlib.contextmanager
+def _checkout(ref: str):
+    """A detached worktree of ``ref`` in a temporary directory (removed after)."""
+    with tempfile.TemporaryDirectory() as parent:
+        tree = Path(parent) / "tree"
+        subprocess.run(["git", "worktree", "add", "--detach", str(tree), ref], cwd=ROOT,
+                       check=True, capture_output=True)  # fmt: skip
+        try:
+            yield tree
+        finally:
+            subprocess.run(["git", "worktree", "remove", "--force", str(tree)], cwd=ROOT,
+                           capture_output=True)  # fmt: skip
+
+
+def _alternating(commands: list[tuple[list[str], Path]], reps: int) -> list[Timing]:
+    """Each command ``reps`` times, in turn (no warm-up: a cold derivation is the subject;
+    no bytecode is written)."""
+    env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
+    samples: list[list[float]] = [[] for _ in commands]
+    for _ in range(reps):
+        for sink, (command, cwd) in zip(samples, commands):
+            start = time.perf_counter()
+            subprocess.run(command, cwd=cwd, check=True, capture_output=True, env=env)
+            sink.append(time.perf_counter() - start)
+    return [Timing.of(s) for s in samples]
+
+
+def case_derive(reps: int, before: str = DERIVE_BEFORE) -> list[Row]:
+    """Case 7 (issue 24): `python -m derive`, every model and each model, cold (nothing on
+    disk) and warm (nothing changed), this tree against commit ``before``'s, side by side
+    (each run of one alternating with the other's)."""
+    py = sys.executable
+    rows = []
+    with _checkout(before) as old, tempfile.TemporaryDirectory() as out:
+        new_all, old_all = f"{out}/new_all", f"{out}/old_all"
+        cold = _alternating([([py, "-m", "derive", "--force", "--out", new_all], ROOT),
+                             ([py, "-m", "derive", "--out", old_all], old)], reps)  # fmt: skip
+        rows.append(Row(
+            "7", f"python -m derive --force: every model cold ({', '.join(generated.MODELS)})",
+            f"the same at {before}", cold[0], cold[1], "<= 10 s absolute",
+            cold[0].median <= 10.0, note="2 worker processes",
+        ))  # fmt: skip
+        warm = _alternating([([py, "-m", "derive", "--check", "--out", new_all], ROOT),
+                             ([py, "-m", "derive", "--check", "--out", old_all], old)],
+                            reps)  # fmt: skip
+        rows.append(Row(
+            "7", "python -m derive --check, nothing changed (warm: generated/MANIFEST)",
+            f"the same at {before} (derives every model)", warm[0], warm[1],
+            "<= 1 s absolute", warm[0].median <= 1.0,
+        ))  # fmt: skip
+        for name in generated.MODELS:
+            one = _alternating(
+                [([py, "-m", "derive", "--model", name, "--force", "--out", f"{out}/n_{name}"],
+                  ROOT),
+                 ([py, "-m", "derive", "--model", name, "--out", f"{out}/o_{name}"], old)],
+                reps,
+            )  # fmt: skip
+            rows.append(Row("7", f"python -m derive --model {name}, cold (one process)",
+                            f"the same at {before}", one[0], one[1], "-", None))  # fmt: skip
     return rows
 
 

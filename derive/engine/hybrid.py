@@ -98,10 +98,49 @@ def _simplify(expr: sm.Expr) -> sm.Expr:
     """A cheap canonical form: ``sin(a)**2 -> 1 - cos(a)**2`` (no sums of angles expanded),
     expanded and cancelled. ``trigsimp`` would do more at many times the cost."""
     expr = sm.expand(expr)
-    squares = {sm.sin(a) ** 2: 1 - sm.cos(a) ** 2 for a in {s.args[0] for s in expr.atoms(sm.sin)}}
-    if squares:
-        expr = sm.expand(expr.subs(squares))
-    return sm.cancel(expr)
+    squared = _sine_powers(expr)
+    if squared is not None:
+        if squared:
+            expr = sm.expand(expr.xreplace(squared))
+    else:
+        squares = {
+            sm.sin(a) ** 2: 1 - sm.cos(a) ** 2 for a in {s.args[0] for s in expr.atoms(sm.sin)}
+        }
+        if squares:
+            expr = sm.expand(expr.subs(squares))
+    # cancel leaves a polynomial with integer coefficients as it is (it was a second of
+    # each two-link walker's derivation to find that out).
+    return expr if _integer_polynomial(expr) else sm.cancel(expr)
+
+
+def _sine_powers(expr: sm.Expr) -> dict | None:
+    """``sin(a)**(2 j) -> (1 - cos(a)**2)**j`` for every even power of a sine in ``expr``,
+    what ``subs(sin(a)**2, 1 - cos(a)**2)`` does to positive integer powers in a fraction
+    of its time (it leaves odd powers: 3 is no multiple of 2); None when some power of a
+    sine is not a positive integer (then ``subs`` does what it does)."""
+    powers = {}
+    for power in expr.atoms(sm.Pow):
+        base, exponent = power.args
+        if not isinstance(base, sm.sin):
+            continue
+        if not (exponent.is_Integer and exponent > 0):
+            return None
+        if exponent % 2 == 0:
+            powers[power] = (1 - sm.cos(base.args[0]) ** 2) ** (exponent // 2)
+    return powers
+
+
+def _integer_polynomial(expr: sm.Expr) -> bool:
+    """Whether the expanded ``expr`` is a polynomial with integer coefficients in its
+    symbols and functions (no division, no fractional power)."""
+    for term in sm.Add.make_args(expr):
+        for factor in sm.Mul.make_args(term):
+            if factor.is_Number:
+                if not factor.is_Integer:
+                    return False
+            elif factor.is_Pow and not (factor.exp.is_Integer and factor.exp > 0):
+                return False
+    return True
 
 
 def _angle_sums(expr: sm.Expr) -> sm.Expr:
