@@ -67,6 +67,15 @@ def rendered_tree(tmp_path_factory) -> dict[str, str]:
     return json.loads(out.read_text())
 
 
+@pytest.fixture(scope="session")
+def ile_derivation():
+    """The ILE's Derivation (sympy objects), derived once per test run for the tests that
+    check the derivation itself in process (the suite derives each model once, issue 24)."""
+    from derive.models import ile
+
+    return ile.derive()
+
+
 _RENDERED: dict[str, str] = {}
 
 

@@ -131,10 +131,10 @@ def test_closest_to_apex_cosine_is_the_largest_cosine_on_the_interval():
         assert value == pytest.approx(max(sampled, 1.0 if lo <= 0 <= hi else sampled), abs=1e-8)
 
 
-def test_staged_quantity_explicit_form_equals_the_explicit_derivation():
+def test_staged_quantity_explicit_form_equals_the_explicit_derivation(ile_derivation):
     """Quantity.explicit() of the staged fixed_point_conditions against q_fixed, eigenvalue
     and the condition margins of the same derivation, at random walking sets."""
-    d = ile.derive()
+    d = ile_derivation
     staged = d.quantities["fixed_point_conditions"]
     assert staged.intermediates
     explicit = staged.explicit()

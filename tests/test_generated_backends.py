@@ -204,14 +204,14 @@ def test_fused_existence_matches_the_explicit_forms(draw):
         ), k
 
 
-def test_fused_existence_against_40_digit_evaluation_of_the_derivation():
+def test_fused_existence_against_40_digit_evaluation_of_the_derivation(ile_derivation):
     """fixed_point_conditions in doubles against the derived expressions evaluated with 40
     digits (mpmath), at random sets and at ill-conditioned corners of the domain."""
     import sympy as sm
 
     from derive.models import ile as model
 
-    d = model.derive()
+    d = ile_derivation
     exprs = [d.quantities["q_fixed"].expr, d.quantities["eigenvalue"].expr]
     exprs += [c.margin for c in d.conditions]
     p = random_valid_parameters(12, seed=5)
@@ -287,7 +287,7 @@ number, is what rounding the inputs alone costs. Before 1 - lambda was derived a
 
 
 @pytest.fixture(scope="module")
-def corner_reference():
+def corner_reference(ile_derivation):
     """{name: (args per point, exact values, condition numbers)} from 50-digit evaluation of
     the derived expressions as the derivation states them (not the forms the generator
     evaluates), with kappa = sum |x_i df/dx_i| / |f| from their symbolic derivatives."""
@@ -296,7 +296,7 @@ def corner_reference():
 
     from derive.models import ile as model
 
-    d = model.derive()
+    d = ile_derivation
     facts = d.facts
     paper = model.eliminate_contact_angles
     P = (model.beta, model.theta_II, model.phi0)
