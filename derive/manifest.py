@@ -54,12 +54,20 @@ def _versions() -> str:
     return "; ".join(found)
 
 
+_SOURCE_SUFFIXES = (".py", ".in")
+"""What the engine is made of: its modules and the code generators' templates (an editor's
+backup or a stray file beside them is not an input)."""
+
+
 def _engine_files() -> list[Path]:
     models = PACKAGE / "models"
     return sorted(
         p
         for p in PACKAGE.rglob("*")
-        if p.is_file() and "__pycache__" not in p.parts and models not in p.parents
+        if p.is_file()
+        and p.suffix in _SOURCE_SUFFIXES
+        and "__pycache__" not in p.parts
+        and models not in p.parents
     )
 
 
