@@ -68,7 +68,8 @@ def add_model_options(
     check after parsing. ``features``: option dest -> the feature it needs."""
     names = ", ".join(models.cli_name(k) for k in models.keys())
     parser.add_argument("--model", type=model_type, default="ile", metavar="NAME",
-                        help=f"the model: {names} (see 'vsw models')")  # fmt: skip
+                        help=f"the model: {names} (see 'vsw models'), or a model file of "
+                        "yours, path/to/model.py (derived on first use)")  # fmt: skip
     parser.add_argument(
         "--param",
         action="append",
