@@ -77,7 +77,12 @@ def render_model_file(path: Path) -> dict[str, str]:
     if not derivation.model.isidentifier():
         raise ModelFileError(f"{path}: the model's name {derivation.model!r} is no identifier")
     files = render.render(derivation)
-    return {**files, **_render_shared_backend()}
+    return {**files, **_render_shared_backend(), FILE_MARKER: FILE_MARKER_TEXT}
+
+
+FILE_MARKER = ".derived-by-vsw"
+FILE_MARKER_TEXT = "Written by `python -m derive --file`: this directory is replaced on each run.\n"
+"""Marks a ``--file`` output: the only non-empty directory ``--out`` may replace."""
 
 
 class ModelFileError(Exception):
@@ -176,8 +181,8 @@ def render_all(
             or (only and "/" in path and not path.startswith(f"{only}/"))
         )
     }
-    if manifest.SHARED not in kept:
-        files.update(_render_shared())
+    shared = _render_shared() if manifest.SHARED not in kept else {}
+    files.update(shared)
     workers = min(len(names), len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
                   else os.cpu_count() or 1)  # fmt: skip
     if workers > 1:
@@ -197,12 +202,28 @@ def render_all(
         rendered = [_render_model(name) for name in names]
     for model_files in rendered:
         files.update(model_files)
-    # A model taken from disk because of `only` keeps the inputs it was recorded with.
+    # The manifest vouches for what was derived now or found as recorded: a model taken
+    # from disk because of `only` keeps its recorded entry as it was (its files on disk,
+    # edited or not, are not hashed into it), and the shared entry lists only the files
+    # rendered, not whatever else lies in generated/.
     recorded = manifest.parse(existing.get(manifest.MANIFEST, ""))
-    inputs = {e: r.inputs for e, r in recorded.items() if e in as_on_disk - kept}
-    inputs.update({e: digests[e] for e in digests if e not in as_on_disk - kept})
-    files[manifest.MANIFEST] = manifest.render(files, inputs)
+    entries = {e: r for e, r in recorded.items() if e in as_on_disk - kept}
+    shared_paths = set(_shared_paths(existing)) if manifest.SHARED in kept else set(shared)
+    for entry in [manifest.SHARED, *MODEL_NAMES]:
+        if entry in as_on_disk - kept:
+            continue
+        paths = shared_paths if entry == manifest.SHARED else {
+            p for p in files if manifest.entry_of(p) == entry
+        }  # fmt: skip
+        entries[entry] = manifest.Entry(digests[entry], manifest.hashes(files, paths))
+    files[manifest.MANIFEST] = manifest.render(entries)
     return dict(sorted(files.items()))
+
+
+def _shared_paths(existing: dict[str, str]) -> list[str]:
+    """The shared files the manifest on disk lists (those it was checked against)."""
+    entry = manifest.parse(existing.get(manifest.MANIFEST, "")).get(manifest.SHARED)
+    return list(entry.files) if entry else []
 
 
 def existing_files(directory: Path) -> dict[str, str]:
@@ -461,8 +482,18 @@ def _run_file(args: argparse.Namespace) -> int:
     if not args.file.is_file():
         print(f"python -m derive: model file {args.file} does not exist", file=sys.stderr)
         return 2
+    out = args.out
+    if not args.check and out.exists() and not (out / FILE_MARKER).is_file():
+        if not out.is_dir() or any(out.iterdir()):
+            print(f"python -m derive: --out {out} exists and holds no earlier output of "
+                  "--file (writing replaces the whole directory): name a new or empty one",
+                  file=sys.stderr)  # fmt: skip
+            return 2
     try:
         files = render_model_file(args.file)
+    except SystemExit as exc:  # the model file exited: its code, one line
+        print(f"python -m derive: model file {args.file} exited ({exc.code})", file=sys.stderr)
+        return 1
     except ModelFileError as exc:
         print(f"python -m derive: {exc}", file=sys.stderr)
         return 1

@@ -188,7 +188,11 @@ def _replace(expr: sm.Expr, substitution: dict, memo: dict) -> sm.Expr:
 class _HeldMin(sm.Function):
     """``Min`` that cse can rebuild without comparing its arguments (every rebuild of an
     evaluated Min compares each pair symbolically: 6 of the TLE's 19 s). It sorts and
-    prints as Min; :func:`staged_cse` turns it back into one, unevaluated."""
+    prints as Min; :func:`staged_cse` turns it back into one, evaluated only where an
+    argument is a number or a Min/Max (what evaluation merges). Elsewhere the result can
+    differ from cse's own only where evaluation would decide a comparison of the rebuilt
+    arguments that it could not decide on the original ones: equal values either way, and
+    the generated files of every model are unchanged."""
 
     @classmethod
     def class_key(cls):
@@ -217,7 +221,10 @@ def _swap_functions(expr: sm.Expr, classes: dict, memo: dict) -> sm.Expr:
     args = [_swap_functions(a, classes, memo) for a in expr.args]
     target = classes.get(type(expr))
     if target is not None:
-        result = target(*args, evaluate=False)
+        # Numbers and nested Min/Max are what re-evaluation merges or drops after cse's
+        # substitutions; otherwise the arguments are those of an evaluated Min already.
+        merge = any(a.is_Number or isinstance(a, (sm.Min, sm.Max)) for a in args)
+        result = target(*args, evaluate=merge)
     elif all(new is old for new, old in zip(args, expr.args)):
         result = expr
     else:

@@ -76,15 +76,21 @@ def _module_files(module: str) -> list[Path]:
     path = SOURCE_ROOT.joinpath(*module.split("."))
     if path.is_dir():
         return sorted(path.rglob("*.py"))
-    return [path.with_suffix(".py")]
+    file = path.with_suffix(".py")
+    return [file] if file.is_file() else []
 
 
 def _imported_models(path: Path) -> set[str]:
-    """The ``derive.models.<name>`` modules a file imports."""
+    """The ``derive.models.<name>`` modules a file imports, absolutely or relatively
+    (imports made at run time, by name, are not seen: a model must not make them)."""
+    package = path.relative_to(SOURCE_ROOT).with_suffix("").parts[:-1]
     modules = set()
     for node in ast.walk(ast.parse(path.read_text(), str(path))):
-        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            names = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+        if isinstance(node, ast.ImportFrom):
+            base = node.module.split(".") if node.module else []
+            if node.level:
+                base = list(package[: len(package) - node.level + 1]) + base
+            names = [".".join(base)] + [".".join([*base, a.name]) for a in node.names]
         elif isinstance(node, ast.Import):
             names = [a.name for a in node.names]
         else:
@@ -92,7 +98,9 @@ def _imported_models(path: Path) -> set[str]:
         for name in names:
             parts = name.split(".")
             if parts[:2] == ["derive", "models"] and len(parts) > 2:
-                modules.add(".".join(parts[:3]))
+                module = ".".join(parts[:3])
+                if _module_files(module):  # a name imported from a package is no module
+                    modules.add(module)
     return modules
 
 
@@ -174,16 +182,20 @@ def parse(text: str) -> dict[str, Entry]:
     return entries
 
 
-def render(files: dict[str, str], inputs: dict[str, str]) -> str:
-    """The manifest of ``files`` (every file of ``generated/`` but the manifest), each
-    entry with its ``inputs`` digest."""
+def hashes(files: dict[str, str], paths) -> dict[str, str]:
+    """``{path: SHA-256 of its text}`` for ``paths`` of ``files``."""
+    return {path: _file_digest(files[path]) for path in sorted(paths)}
+
+
+def render(entries: dict[str, Entry]) -> str:
+    """The manifest's text: each entry's inputs digest and the files it vouches for."""
     lines = [_HEADER.format(sympy=importlib.metadata.version("sympy"))]
-    for entry in [SHARED, *MODEL_MODULES]:
-        if entry not in inputs:
+    for name in [SHARED, *MODEL_MODULES]:
+        if name not in entries:
             continue
-        lines.append(f"inputs {inputs[entry]} {entry}\n")
-        for path in sorted(p for p in files if entry_of(p) == entry):
-            lines.append(f"{_file_digest(files[path])}  {path}\n")
+        lines.append(f"inputs {entries[name].inputs} {name}\n")
+        for path, digest in sorted(entries[name].files.items()):
+            lines.append(f"{digest}  {path}\n")
     return "".join(lines)
 
 
@@ -198,5 +210,7 @@ def unchanged(existing: dict[str, str], digests: dict[str, str]) -> set[str]:
     return {
         entry
         for entry, record in recorded.items()
-        if digests.get(entry) == record.inputs and on_disk.get(entry, {}) == record.files
+        if record.files  # an entry without files vouches for nothing
+        and digests.get(entry) == record.inputs
+        and on_disk.get(entry, {}) == record.files
     }

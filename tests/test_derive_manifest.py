@@ -128,3 +128,23 @@ def test_check_of_the_repository_is_fast_when_nothing_changed(monkeypatch):
 
 def _never(*args):
     raise AssertionError("derived although nothing changed")
+
+
+@pytest.mark.parametrize("damage", ["edited", "removed"])
+def test_deriving_one_model_does_not_vouch_for_the_others(derived_log, capsys, damage):
+    """``--model X`` writes the other models' entries as recorded: an edit or a removal of
+    another model on disk is still found by the next check (review of issue 24)."""
+    out, derived = derived_log
+    if damage == "edited":
+        target = out / "ile" / "__init__.py"
+        target.write_text(target.read_text() + "# hand edit\n")
+    else:
+        for path in sorted((out / "tle").rglob("*"), reverse=True):
+            path.unlink() if path.is_file() else path.rmdir()
+        (out / "tle").rmdir()
+    assert main(["--model", "rimless_wheel", "--force", "--out", str(out)]) == 0
+    assert derived() == ["rimless_wheel"]
+    capsys.readouterr()
+    assert main(["--check", "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert ("generated/ile/__init__.py" if damage == "edited" else "missing: generated/tle/") in err

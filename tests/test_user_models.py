@@ -158,6 +158,7 @@ def test_an_edited_model_file_is_derived_anew(tmp_path):
         (None, "does not exist"),
         ("x = 1\n", "defines neither derive() nor MODEL"),
         ("raise ValueError('no such slope')\n", "ValueError: no such slope"),
+        ("raise SystemExit(3)\n", "exited (3)"),
     ],
 )
 def test_a_bad_model_file_is_refused_in_one_line(tmp_path, content, message):
@@ -186,3 +187,30 @@ def test_an_installed_packages_entry_point_names_a_model_file(tmp_path, monkeypa
     assert models.key("kneed") == str((package / "kneed.py").resolve())
     with pytest.raises(VswInputError, match="nor a model file"):
         models.key("knee")
+
+
+def test_derive_file_never_replaces_a_directory_it_did_not_write(tmp_path):
+    """``--out`` is replaced whole: a directory of the user's (with their model in it) is
+    refused, an earlier output is replaced."""
+    path = write_model(tmp_path, 0.08)
+    command = [sys.executable, "-m", "derive", "--file", str(path)]
+    refused = subprocess.run([*command, "--out", str(tmp_path)], cwd=ROOT, capture_output=True,
+                             text=True)  # fmt: skip
+    assert refused.returncode == 2 and "holds no earlier output" in refused.stderr
+    assert path.is_file()
+    out = tmp_path / "out"
+    for _ in range(2):  # the second run replaces the first's output
+        done = subprocess.run([*command, "--out", str(out)], cwd=ROOT, capture_output=True,
+                              text=True)  # fmt: skip
+        assert done.returncode == 0, done.stderr
+    assert (out / "spoked_wheel" / "__init__.py").is_file()
+
+
+def test_a_cached_package_anyone_may_write_is_not_loaded(tmp_path):
+    path, cache = write_model(tmp_path, 0.08), tmp_path / "models"
+    assert vsw("models", "--model", str(path), cache=cache).returncode == 0
+    (init,) = cache.glob("*/spoked_wheel/__init__.py")
+    init.chmod(init.stat().st_mode | 0o002)
+    done = vsw("models", "--model", str(path), cache=cache)
+    assert done.returncode == 2
+    assert "writable by anyone: not loaded" in done.stderr.strip().splitlines()[-1]

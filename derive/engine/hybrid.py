@@ -118,6 +118,8 @@ def _sine_powers(expr: sm.Expr) -> dict | None:
     what ``subs(sin(a)**2, 1 - cos(a)**2)`` does to positive integer powers in a fraction
     of its time (it leaves odd powers: 3 is no multiple of 2); None when some power of a
     sine is not a positive integer (then ``subs`` does what it does)."""
+    if any(sine.args[0].has(sm.sin) for sine in expr.atoms(sm.sin)):
+        return None  # subs reaches into the argument first; leave nesting to it
     powers = {}
     for power in expr.atoms(sm.Pow):
         base, exponent = power.args
@@ -138,7 +140,9 @@ def _integer_polynomial(expr: sm.Expr) -> bool:
             if factor.is_Number:
                 if not factor.is_Integer:
                     return False
-            elif factor.is_Pow and not (factor.exp.is_Integer and factor.exp > 0):
+                continue
+            exponent = factor.as_base_exp()[1]  # exp(-y) is (E, -y): a division
+            if not (exponent.is_Integer and exponent > 0):
                 return False
     return True
 

@@ -47,7 +47,10 @@ def entry_point_file(name: str) -> Path | None:
     found without importing it; None when no package declares it."""
     for entry in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
         if entry.name == name:
-            spec = importlib.util.find_spec(entry.module)
+            try:
+                spec = importlib.util.find_spec(entry.module)
+            except (ImportError, ValueError) as exc:
+                raise VswInputError(f"model {name!r}: its module {entry.module}: {exc}") from None
             if spec is None or spec.origin is None:
                 raise VswInputError(f"model {name!r}: its module {entry.module} is not found")
             return Path(spec.origin)
@@ -80,6 +83,7 @@ def _load(path: Path, key: str) -> ModuleType:
     if len(found) != 1:
         raise VswInputError(f"{root} holds no single generated model: remove it and run again")
     directory = found[0]
+    _refuse_foreign(root)
     name = f"vsw_model_{directory.name}_{key}"
     spec = importlib.util.spec_from_file_location(
         name, directory / "__init__.py", submodule_search_locations=[str(directory)]
@@ -92,6 +96,18 @@ def _load(path: Path, key: str) -> ModuleType:
     return module
 
 
+def _refuse_foreign(root: Path) -> None:
+    """A cached package is code that will run: refuse one that another user owns or that
+    anyone may write (a shared cache directory must not let others plant code)."""
+    uid = os.getuid() if hasattr(os, "getuid") else None
+    for path in [root, *root.rglob("*")]:
+        info = path.stat()
+        if (uid is not None and info.st_uid != uid) or info.st_mode & 0o002:
+            raise VswInputError(
+                f"{path} is another user's or writable by anyone: not loaded (remove {root})"
+            )
+
+
 def _package_dirs(root: Path) -> list[Path]:
     if not root.is_dir():
         return []
@@ -100,7 +116,9 @@ def _package_dirs(root: Path) -> list[Path]:
 
 def _derive(path: Path, root: Path) -> None:
     """``python -m derive --file path --out root`` (written atomically by derive itself)."""
-    command = [sys.executable, "-m", "derive", "--file", str(path), "--out", str(root)]
+    # -P: the working directory is not put on sys.path, so a `derive/` there cannot stand
+    # in for the engine the cache key was computed from.
+    command = [sys.executable, "-P", "-m", "derive", "--file", str(path), "--out", str(root)]
     print(f"vsw: deriving the model of {path} (once per change of the file) ...", file=sys.stderr)
     try:
         done = subprocess.run(command, capture_output=True, text=True, timeout=DERIVE_TIMEOUT)
