@@ -49,6 +49,15 @@ def _render_model(name: str) -> dict[str, str]:
     return render.render(MODELS[name]())
 
 
+FILE_MARKER = ".derived-by-vsw"
+FILE_MARKER_TEXT = "Written by `python -m derive --file`: this directory is replaced on each run.\n"
+"""Marks a ``--file`` output: the only non-empty directory ``--out`` may replace."""
+
+
+class ModelFileError(Exception):
+    """A model file that declares no model (reported in one line)."""
+
+
 def render_model_file(path: Path) -> dict[str, str]:
     """The files of a model declared in a file of the user's own (``--file``): its module
     defines ``derive()`` returning a Derivation, as the built-in models do, or just
@@ -78,15 +87,6 @@ def render_model_file(path: Path) -> dict[str, str]:
         raise ModelFileError(f"{path}: the model's name {derivation.model!r} is no identifier")
     files = render.render(derivation)
     return {**files, **_render_shared_backend(), FILE_MARKER: FILE_MARKER_TEXT}
-
-
-FILE_MARKER = ".derived-by-vsw"
-FILE_MARKER_TEXT = "Written by `python -m derive --file`: this directory is replaced on each run.\n"
-"""Marks a ``--file`` output: the only non-empty directory ``--out`` may replace."""
-
-
-class ModelFileError(Exception):
-    """A model file that declares no model (reported in one line)."""
 
 
 def _render_shared_backend() -> dict[str, str]:

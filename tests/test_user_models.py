@@ -180,7 +180,7 @@ def test_an_installed_packages_entry_point_names_a_model_file(tmp_path, monkeypa
     monkeypatch.syspath_prepend(str(tmp_path))
     point = importlib.metadata.EntryPoint("kneed", "my_walkers.kneed", user.ENTRY_POINT_GROUP)
     monkeypatch.setattr(
-        user.importlib.metadata,
+        importlib.metadata,
         "entry_points",
         lambda group: [point] if group == user.ENTRY_POINT_GROUP else [],
     )

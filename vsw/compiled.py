@@ -31,13 +31,14 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
-__all__ = ["build_library"]
+__all__ = ["build_library", "cache_dir"]
 
 _STALE_BUILD_SECONDS = 3600.0
 """Build files older than this (``.build-*``) were left by killed builds and are removed."""
 
 
-def _cache_dir() -> Path:
+def cache_dir() -> Path:
+    """Where vsw caches what it builds: ``$VSW_CACHE_DIR``, default ``~/.cache/vsw``."""
     return Path(os.environ.get("VSW_CACHE_DIR") or Path.home() / ".cache" / "vsw")
 
 
@@ -175,7 +176,7 @@ def build_library(
         No compiler, or every flag set failed (their first error lines).
     """
     cc = _compiler()
-    directory = _cache_dir()
+    directory = cache_dir()
     directory.mkdir(parents=True, exist_ok=True)
     _remove_stale_builds(directory)
     included = [

@@ -108,8 +108,8 @@ def _simplify(expr: sm.Expr) -> sm.Expr:
         }
         if squares:
             expr = sm.expand(expr.subs(squares))
-    # cancel leaves a polynomial with integer coefficients as it is (it was a second of
-    # each two-link walker's derivation to find that out).
+    # cancel returned every integer polynomial of the six models' derivations unchanged (it
+    # was a second of each two-link walker's derivation to find that out).
     return expr if _integer_polynomial(expr) else sm.cancel(expr)
 
 

@@ -7,8 +7,9 @@ process: the runtime never imports sympy) into a cache directory keyed by the SH
 the file, the engine and the versions that shape the output
 (:func:`derive.manifest.model_file_digest`): ``$VSW_CACHE_DIR/models/<stem>-<key>/``
 (default ``~/.cache/vsw``), or ``$VSW_MODELS_DIR/<stem>-<key>/`` where the user names
-one. A changed file or engine is a new key, so a stale package is never loaded; the first
-command on a new key derives it (seconds), the next ones load it.
+one. A changed file or engine is a new key (a file the model file imports is not part of
+it: clear the directory after editing one); the first command on a new key derives it
+(seconds), the next ones load it.
 
 A package can ship models as entry points of the group ``vsw.models``
 (``my_walkers.kneed = "my_walkers.kneed"``: the module of a model file); ``--model
@@ -18,7 +19,6 @@ kneed`` then finds its file without importing it.
 from __future__ import annotations
 
 import functools
-import importlib.metadata
 import importlib.util
 import os
 import subprocess
@@ -26,7 +26,7 @@ import sys
 from pathlib import Path
 from types import ModuleType
 
-from derive.manifest import model_file_digest
+from vsw.compiled import cache_dir
 from vsw.errors import VswInputError
 
 __all__ = ["ENTRY_POINT_GROUP", "entry_point_file", "is_model_file", "package"]
@@ -45,6 +45,11 @@ def is_model_file(name: str) -> bool:
 def entry_point_file(name: str) -> Path | None:
     """The model file an installed package declares under ``name`` (group ``vsw.models``),
     found without importing it; None when no package declares it."""
+    # Imported here, not above: importlib.metadata costs about 25 ms, which every command
+    # would pay at start-up for a lookup only an unknown model name needs (--version
+    # defers it likewise).
+    import importlib.metadata
+
     for entry in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
         if entry.name == name:
             try:
@@ -59,14 +64,15 @@ def entry_point_file(name: str) -> Path | None:
 
 def _models_dir() -> Path:
     named = os.environ.get("VSW_MODELS_DIR")
-    if named:
-        return Path(named)
-    cache = os.environ.get("VSW_CACHE_DIR") or Path.home() / ".cache" / "vsw"
-    return Path(cache) / "models"
+    return Path(named) if named else cache_dir() / "models"
 
 
 def package(path: Path) -> ModuleType:
     """The generated package of the model file ``path``, derived first if not cached."""
+    # The engine's digest (derive.manifest imports importlib.metadata) is needed only when a
+    # model file is named: imported here so that no other command pays for it at start-up.
+    from derive.manifest import model_file_digest
+
     path = Path(path).resolve()
     if not path.is_file():
         raise VswInputError(f"model file {path} does not exist")
