@@ -14,6 +14,7 @@ MODEL_MODULES: dict[str, str] = {
     "simplest_walker": "derive.models.simplest_walker",
     "compass_gait": "derive.models.compass_gait",
     "vsw_biped": "derive.models.vsw_biped",
+    "kneed_walker": "derive.models.kneed_walker",
 }
 """Model name (its ``generated/<name>/`` package) -> module with its ``derive()``."""
 

@@ -8,6 +8,9 @@
   coordinate of the phase after, the impulses do no work on its motion,
   ``J+^T M (v+ - v-) = 0`` over the bodies (``v = J u``), since the only impulse acts at the
   new contact, which the phase after pins.
+* :func:`lock_reset`: a joint locking (a knee straightening): the lock's impulse acts on
+  the coordinates the phase after holds, so the phase after's free coordinates' generalised
+  momenta are conserved (``p_q(q, u-) = p_q(q, u+)`` with the held rates stopped).
 * :func:`jump_reset`: an instantaneous actuation: the free coordinates' generalised momenta
   are continuous while the held coordinates jump (``M(q+) u+ = M(q-) u-`` in their rows).
 * :func:`stride_closed_form`: for one free coordinate and events at fixed angles, the
@@ -37,6 +40,7 @@ from derive.engine.model import (
     Failure,
     Impact,
     Jump,
+    Lock,
     Model,
     Phase,
     PointMass,
@@ -52,6 +56,7 @@ __all__ = [
     "impact_reset",
     "integrate_polynomial_trig",
     "jump_reset",
+    "lock_reset",
     "phase_dynamics",
     "stride_closed_form",
 ]
@@ -147,11 +152,31 @@ def _integer_polynomial(expr: sm.Expr) -> bool:
     return True
 
 
+def _factor_constants(expr: sm.Expr, variables: set) -> sm.Expr:
+    """``expr`` (expanded) as a sum over its monomials in ``variables`` (and functions of
+    them), each with its coefficient in the other symbols factored: a mass matrix entry
+    ``m a1**2 + 2 m a1 b1 + m b1**2`` becomes ``m (a1 + b1)**2``."""
+    groups: dict[sm.Expr, list[sm.Expr]] = {}
+    for term in sm.Add.make_args(sm.expand(expr)):
+        constant, varying = [], []
+        for factor in sm.Mul.make_args(term):
+            (varying if factor.free_symbols & variables else constant).append(factor)
+        groups.setdefault(sm.Mul(*varying), []).append(sm.Mul(*constant))
+    return sm.Add(*(sm.factor(sm.Add(*c)) * k for k, c in groups.items()))
+
+
 def _angle_sums(expr: sm.Expr) -> sm.Expr:
     """:func:`_simplify`, then products of sines and cosines of different angles as sines
     and cosines of their sums (``sin a sin b + cos a cos b -> cos(a - b)``, fu's TR10i):
     the equations of several rigid links stay small in the links' relative angles."""
     return _simplify(tr10i(_simplify(expr)))
+
+
+_ONE_FRACTION_UP_TO = 2
+_ONE_FRACTION_BODIES = 3
+"""Free coordinates and bodies up to which a phase's accelerations, ground reaction and
+actuator forces are expanded and simplified as fractions over the mass matrix's determinant
+(the two-link walkers'); larger phases keep Cramer's rule in products of the entries."""
 
 
 @functools.cache
@@ -257,8 +282,27 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
         # functions of several angles' sines and cosines takes sympy minutes.
         system = system.applyfunc(_angle_sums)
         rhs = rhs.applyfunc(_angle_sums)
-        determinant = _simplify(system.det(method="berkowitz"))
-        numerators = [_simplify(e) for e in system.adjugate(method="berkowitz") * rhs]
+        compact = len(free) > _ONE_FRACTION_UP_TO or len(phase.bodies) > _ONE_FRACTION_BODIES
+        if compact:
+            # A larger walker: the mass matrix's and forcing's entries are small, their
+            # expanded cofactor products are not (tens of thousands of operations per
+            # acceleration, and minutes of sympy): Cramer's rule is formed on placeholders
+            # for the entries, which then go in whole, so the code generator computes each
+            # once; their coefficients in the parameters factored.
+            state = {*free, *u_free}
+            system = system.applyfunc(lambda e: _factor_constants(e, state))
+            rhs = rhs.applyfunc(lambda e: _factor_constants(e, state))
+            size = len(free)
+            slots = sm.Matrix(size, size, lambda i, j: sm.Dummy(f"M{i}{j}"))
+            forcing_slots = sm.Matrix(size, 1, lambda i, _: sm.Dummy(f"f{i}"))
+            entries = dict(zip(slots, system)) | dict(zip(forcing_slots, rhs))
+            determinant = slots.det(method="berkowitz").xreplace(entries)
+            numerators = [
+                e.xreplace(entries) for e in slots.adjugate(method="berkowitz") * forcing_slots
+            ]
+        else:
+            determinant = _simplify(system.det(method="berkowitz"))
+            numerators = [_simplify(e) for e in system.adjugate(method="berkowitz") * rhs]
         in_symbols = tuple(n / determinant for n in numerators)
         solved = {a: n / determinant for a, n in zip(a_free, numerators)}
 
@@ -267,6 +311,13 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
             # polynomial, where substituting n_i / det and expanding leaves det's inverse
             # in every term for cancel to remove (17 of the compass gait's 29 s).
             rest = expr.xreplace(dict.fromkeys(a_free, sm.Integer(0)))
+            if compact:
+                # Three links and more: the expanded polynomial has thousands of terms and
+                # pairing them into angle sums takes sympy minutes; the accelerations stay
+                # factors (the code generator shares them with the equations of motion).
+                terms = [_angle_sums(expr.diff(a)) * n / determinant
+                         for a, n in zip(a_free, numerators)]  # fmt: skip
+                return sm.Add(_angle_sums(rest), *terms).xreplace(placed)
             over = rest * determinant + sum(
                 (expr.diff(a) * n for a, n in zip(a_free, numerators)), sm.Integer(0)
             )
@@ -331,8 +382,11 @@ def impact_reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tu
     before, after = model.phase(event.source), model.phase(event.target)
     q_before = [c.q for c in before.coordinates]
     u_before = [c.u for c in before.coordinates]
-    q_after = [c.q for c in after.coordinates]
-    mapping = {q: sm.sympify(event.reset.coordinates[q]) for q in q_after}
+    holding = {q: sm.sympify(v) for q, v in event.reset.holding.items()}
+    if any(v.free_symbols for v in holding.values()):
+        raise ValueError(f"{event.name}: an impact holds coordinates at constant values")
+    mapping = {c.q: sm.sympify(event.reset.coordinates[c.q]) for c in after.coordinates}
+    q_after = [c.q for c in after.coordinates if c.q not in holding]
     held = {h: sm.sympify(v) for h, v in before.held.items()}
     contact = [sm.sympify(c).xreplace(held) for c in before.points[event.reset.new_contact]]
     order = impact_body_order(model, event_name)
@@ -354,23 +408,29 @@ def impact_reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tu
         return sm.Matrix(rows)
 
     j_before = jacobian(pos_before, q_before, before, order)
-    j_after = jacobian(_positions(after), q_after, after, range(len(after.bodies)))
+    # A coordinate the lock holds through the impact is a constant of the phase after's
+    # chart there: the Jacobian is taken with it in place.
+    held_after = [tuple(c.xreplace(holding) for c in p) for p in _positions(after)]
+    j_after = jacobian(held_after, q_after, after, range(len(after.bodies)))
     j_after = j_after.xreplace(mapping)
+    coordinates = tuple(mapping[c.q] for c in after.coordinates)
     if len(q_after) == 1:
         a = (j_after.T * j_after).applyfunc(_simplify)
         b = (j_after.T * j_before).applyfunc(_simplify)
         u_after = a.LUsolve(b * sm.Matrix(u_before))
         # Small impact maps simplify to the textbook forms (cos(2 alpha) omega, cos(phi0)/beta
         # omega): the angle differences collapse only under trigsimp.
-        return tuple(mapping[q] for q in q_after), tuple(_tidy(_simplify(e)) for e in u_after)
-    # Several coordinates: Cramer's rule with the determinant kept as one factor (see
-    # phase_dynamics), in the links' relative angles.
-    a = (j_after.T * j_after).applyfunc(_angle_sums)
-    b = (j_after.T * j_before).applyfunc(_angle_sums)
-    determinant = _angle_sums(a.det(method="berkowitz"))
-    numerators = a.adjugate(method="berkowitz") * b * sm.Matrix(u_before)
-    rates = tuple(_angle_sums(n) / determinant for n in numerators)
-    return tuple(mapping[q] for q in q_after), rates
+        rates = tuple(_tidy(_simplify(e)) for e in u_after)
+    else:
+        # Several coordinates: Cramer's rule with the determinant kept as one factor (see
+        # phase_dynamics), in the links' relative angles.
+        a = (j_after.T * j_after).applyfunc(_angle_sums)
+        b = (j_after.T * j_before).applyfunc(_angle_sums)
+        determinant = _angle_sums(a.det(method="berkowitz"))
+        numerators = a.adjugate(method="berkowitz") * b * sm.Matrix(u_before)
+        rates = tuple(_angle_sums(n) / determinant for n in numerators)
+    by_coordinate = dict(zip(q_after, rates))
+    return coordinates, tuple(by_coordinate.get(c.q, sm.Integer(0)) for c in after.coordinates)
 
 
 def impact_body_order(model: Model, event_name: str) -> tuple[int, ...]:
@@ -423,6 +483,67 @@ def jump_reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tupl
     return tuple(free), tuple(_simplify(solution[0][u]) for u in u_new)
 
 
+def _held_state(phase: Phase, free_rates: dict[sm.Symbol, sm.Expr]) -> dict:
+    """The chart's held coordinates at their values and their rates by the chain rule
+    (as :func:`phase_dynamics`' momenta name them), from the free coordinates' rates."""
+    values = {}
+    for h, value in phase.held.items():
+        value = sm.sympify(value)
+        values[h] = value
+        values[_rate_symbol(h)] = sum(
+            (value.diff(c.q) * free_rates[c.u] for c in phase.coordinates), sm.Integer(0)
+        )
+    return values
+
+
+@functools.cache
+def lock_reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tuple[sm.Expr, ...]]:
+    """Coordinates and rates just after a joint locks (:class:`Lock`): the generalised
+    momenta of the phase after's free coordinates are conserved, taken in the phase
+    before's chart (where the locked coordinate is still free) on the guard's surface."""
+    event = next(e for e in model.events if e.name == event_name)
+    if not isinstance(event.reset, Lock):
+        raise TypeError(f"{event.name} is not a lock")
+    before, after = model.phase(event.source), model.phase(event.target)
+    free_before = [c.q for c in before.coordinates]
+    free_after = [c.q for c in after.coordinates]
+    locked = [q for q in free_before if q not in free_after]
+    if not locked or not set(free_after) <= set(free_before):
+        raise ValueError(f"{event.name}: a lock stops some of the phase before's free "
+                         "coordinates and frees none")  # fmt: skip
+    if any(q not in after.held for q in locked):
+        raise ValueError(f"{event.name}: the phase after must hold every locked coordinate")
+    surface = {q: sm.sympify(after.held[q]) for q in locked}
+    # The lock happens where the joint reaches its stop: the guard vanishes there, so the
+    # configuration the phase after holds is the one the walker is in.
+    guard = sm.sympify(event.guard).xreplace(dict(before.held)).xreplace(surface)
+    if guard != 0:
+        _numeric_check([guard], sorted(guard.free_symbols, key=str),
+                       f"{event.name}: the guard where the phase after holds the lock")  # fmt: skip
+    momenta = phase_dynamics(before).momenta
+    u_before = {c.u: c.u for c in before.coordinates}
+    u_new = {c.u: sm.Symbol(f"{c.rate}_after", real=True) for c in after.coordinates}
+    # After the lock the held coordinates move with their values (at rest for constants).
+    rates_after = dict(u_new)
+    for q in locked:
+        rate = sum((surface[q].diff(c.q) * u_new[c.u] for c in after.coordinates), sm.Integer(0))
+        rates_after[next(c.u for c in before.coordinates if c.q == q)] = rate
+    state_before = {**_held_state(before, u_before), **surface}
+    state_after = {**_held_state(before, rates_after), **rates_after, **surface}
+    balance = [
+        momenta[q].xreplace(state_after).xreplace(surface)
+        - momenta[q].xreplace(state_before).xreplace(surface)
+        for q in free_after
+    ]
+    system, rhs = sm.linear_eq_to_matrix(balance, list(u_new.values()))
+    system = system.applyfunc(_angle_sums)
+    rhs = rhs.applyfunc(_angle_sums)
+    determinant = _angle_sums(system.det(method="berkowitz"))
+    numerators = system.adjugate(method="berkowitz") * rhs
+    rates = tuple(_angle_sums(n) / determinant for n in numerators)
+    return tuple(free_after), rates
+
+
 @functools.cache
 def continuous_reset(
     model: Model, event_name: str
@@ -459,6 +580,8 @@ def reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tuple[sm.
         return impact_reset(model, event_name)
     if isinstance(event.reset, Continuous):
         return continuous_reset(model, event_name)
+    if isinstance(event.reset, Lock):
+        return lock_reset(model, event_name)
     return jump_reset(model, event_name)
 
 
@@ -644,6 +767,66 @@ def _state_args(model: Model) -> tuple[sm.Symbol, ...]:
     )
 
 
+def _held_in_state(model: Model, phase: Phase) -> list[sm.Symbol]:
+    """The state's coordinates a phase holds (a knee it keeps locked); every other state
+    coordinate must be free in it."""
+    free = {c.q for c in phase.coordinates}
+    held = []
+    for c in model.coordinates:
+        if c.q in free:
+            continue
+        if c.q not in phase.held:
+            raise ValueError(f"{model.name}: coordinate {c.name} is neither free nor held in "
+                             f"phase {phase.name}")  # fmt: skip
+        held.append(c.q)
+    return held
+
+
+def _state_accelerations(model: Model, phase: Phase, dyn: PhaseDynamics) -> tuple:
+    """Second derivatives of every state coordinate in a phase: the free ones' from the
+    equations of motion, a held one's from its value by the chain rule."""
+    if not _held_in_state(model, phase):
+        return tuple(dyn.accelerations)
+    free = [c.q for c in phase.coordinates]
+    rates = [c.u for c in phase.coordinates]
+    by_coordinate = dict(zip(free, dyn.accelerations))
+    out = []
+    for c in model.coordinates:
+        if c.q in by_coordinate:
+            out.append(by_coordinate[c.q])
+            continue
+        value = sm.sympify(phase.held[c.q])
+        rate = sum((value.diff(q) * u for q, u in zip(free, rates)), sm.Integer(0))
+        acc = sum((rate.diff(q) * u for q, u in zip(free, rates)), sm.Integer(0))
+        acc += sum((value.diff(q) * a for q, a in zip(free, dyn.accelerations)), sm.Integer(0))
+        out.append(acc)
+    return tuple(out)
+
+
+def _state_after(model: Model, event) -> tuple[tuple[sm.Expr, ...], tuple[sm.Expr, ...]]:
+    """An event's reset as the whole state after it: the target phase's free coordinates
+    and rates from the reset, a coordinate it holds at its value (moving with it)."""
+    coords, rates = reset(model, event.name)
+    after = model.phase(event.target)
+    held = _held_in_state(model, after)
+    if not held:
+        return coords, rates
+    free = [c.q for c in after.coordinates]
+    values = dict(zip(free, coords))
+    speeds = dict(zip(free, rates))
+    state_coords, state_rates = [], []
+    for c in model.coordinates:
+        if c.q in values:
+            state_coords.append(values[c.q])
+            state_rates.append(speeds[c.q])
+            continue
+        value = sm.sympify(after.held[c.q])
+        state_coords.append(value.xreplace(values))
+        state_rates.append(sum((value.diff(q) * speeds[q] for q in free), sm.Integer(0))
+                           .xreplace(values))  # fmt: skip
+    return tuple(state_coords), tuple(state_rates)
+
+
 def _body_table(phase: Phase) -> tuple[tuple[sm.Expr, ...], tuple[sm.Expr, ...]]:
     """(x, y, angle) and (mass, inertia) of each body, held coordinates at their values."""
     held = dict(phase.held)
@@ -657,7 +840,7 @@ def _body_table(phase: Phase) -> tuple[tuple[sm.Expr, ...], tuple[sm.Expr, ...]]
     return tuple(positions), tuple(inertias)
 
 
-_RESET_KINDS = {Impact: "impact", Jump: "jump", Continuous: "continuous"}
+_RESET_KINDS = {Impact: "impact", Jump: "jump", Lock: "lock", Continuous: "continuous"}
 
 
 def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
@@ -681,7 +864,7 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
     for phase in model.phases:
         dyn = phase_dynamics(phase)
         quantities.append(Quantity(
-            f"{phase.name}_accelerations", args, tuple(dyn.accelerations),
+            f"{phase.name}_accelerations", args, _state_accelerations(model, phase, dyn),
             f"Second derivatives of the free coordinates in phase {phase.name}.", None,
             "tuple: d2(coordinate)/dt2 for each coordinate",
         ))  # fmt: skip
@@ -726,7 +909,7 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
     for event in model.events:
         # Guards are stated in the source phase's chart: its held coordinates at their values.
         held = {h: sm.sympify(v) for h, v in model.phase(event.source).held.items()}
-        coords_after, rates_after = reset(model, event.name)
+        coords_after, rates_after = _state_after(model, event)
         quantities.append(Quantity(
             f"event_{event.name}_guard", args, sm.sympify(event.guard).xreplace(held),
             f"Guard of the event {event.name}: crosses zero when it happens.", None, "guard",

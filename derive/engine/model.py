@@ -30,6 +30,7 @@ __all__ = [
     "Failure",
     "Impact",
     "Jump",
+    "Lock",
     "Model",
     "Parameter",
     "Phase",
@@ -121,6 +122,11 @@ class Phase:
         Coordinates an actuator holds at a value (a constant, or a function of the free
         coordinates); the actuator's force acts on them alone, so the equations of motion
         are the free coordinates' rows of Lagrange's equations in the chart of all of them.
+        That is a fact about the chart, so choose it to make it true: a locked knee is held
+        by a torque between thigh and shank, which acts on the knee's relative angle alone,
+        not on the shank's absolute angle. A coordinate free in another phase and held here
+        stays in the state (the state is every phase's free coordinates): here it moves
+        with its held value.
     points : mapping of str to (x, y)
         Named points of the chart that guards and impacts refer to (a swing foot).
     """
@@ -148,6 +154,11 @@ class Impact:
     bodies: Mapping[str, str] = field(default_factory=dict)
     """Bodies whose role changes (the legs swap): the phase after's body name -> the phase
     before's body it is. A body not named here keeps its name."""
+    holding: Mapping[sm.Symbol, sm.Expr] = field(default_factory=dict)
+    """Free coordinates of the phase after that a lock still holds through the impact, at
+    these constant values (a knee that is straight at heelstrike and released just after):
+    their rates after are zero and the lock's impulse acts on them alone, so the balance
+    is taken over the phase after's other coordinates."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -157,6 +168,19 @@ class Jump:
     The actuator's impulse acts on the held coordinates alone, so the generalised momentum
     of every free coordinate is conserved across the jump (M(q+) q'+ = M(q-) q'- in those
     rows); the free coordinates themselves do not move.
+    """
+
+
+@dataclass(frozen=True, eq=False)
+class Lock:
+    """A plastic impact inside the walker: a joint reaches its stop and locks (a knee
+    straightening), so the coordinates the phase after holds stop dead.
+
+    The lock's impulse acts on the held coordinates alone (a relative joint angle; see
+    :attr:`Phase.held`) and the stance foot stays pinned, so the generalised momentum of
+    every free coordinate of the phase after is conserved; the configuration does not
+    change, which is true on the guard's surface (where the held coordinates are at the
+    phase after's values: the engine checks it there).
     """
 
 
@@ -182,7 +206,7 @@ class Event:
     guard : sympy.Expr
         In the source phase's coordinates, rates and the parameters.
     direction : int
-    reset : Impact, Jump or Continuous
+    reset : Impact, Jump, Lock or Continuous
     at : sympy.Expr, optional
         The coordinate value at which the guard vanishes, when it depends on the
         configuration only (a fact the engine checks); needed for a closed-form stride map.
@@ -200,7 +224,7 @@ class Event:
     target: str
     guard: sm.Expr
     direction: int
-    reset: Impact | Jump | Continuous
+    reset: Impact | Jump | Lock | Continuous
     at: sm.Expr | None = None
     ends_step: bool = False
     when: sm.Expr | None = None
@@ -291,8 +315,14 @@ class Model:
 
     @property
     def coordinates(self) -> tuple[Coordinate, ...]:
-        """The free coordinates (every phase has the same ones)."""
-        return self.phases[0].coordinates
+        """The state's coordinates: every phase's free coordinates, in the order the
+        phases first name them. A phase that holds one of them (a locked knee) carries it
+        at its held value, so the state has one layout over a whole walk."""
+        seen: dict[str, Coordinate] = {}
+        for phase in self.phases:
+            for c in phase.coordinates:
+                seen.setdefault(c.name, c)
+        return tuple(seen.values())
 
     @property
     def parameter_symbols(self) -> tuple[sm.Symbol, ...]:

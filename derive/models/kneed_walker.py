@@ -1,0 +1,196 @@
+"""The passive walker with knees and point feet (McGeer 1990, "Passive walking with knees",
+Proc. IEEE ICRA, pp. 1640-1645; the point-foot model and parameters of V. F. Hsu Chen 2007,
+"Passive dynamic walking with knees: a point foot model", MEng thesis, MIT, chapter 3).
+
+A point mass ``m_h`` at the hip; each leg a thigh (a point mass ``m_t`` at ``a2`` above the
+knee, ``b2`` below the hip) and a shank (a point mass ``m_s`` at ``a1`` above the foot,
+``b1`` below the knee), on a slope ``gamma`` under gravity ``g``. A step has two phases:
+
+* **knee free**: the stance leg is straight (its knee stays locked) and the swing leg's
+  knee swings freely: three degrees of freedom;
+* **knee locked**: the swing knee straightened and locked: the compass gait's two.
+
+Knee strike (the swing knee reaches its stop) is a plastic impact inside the walker: the
+lock's impulse acts on the knee angle alone and the stance foot stays pinned, so the other
+coordinates' generalised momenta are conserved (:class:`~derive.engine.model.Lock`).
+Heelstrike is the compass gait's inelastic impact at the swing foot; the new swing leg's
+knee is straight at that instant and, as in Hsu Chen's model, still locked through the
+impact (its thigh and shank leave it with one rate), then released. Scuffing is ignored,
+as in the sources.
+
+Coordinates on the slope (x downhill, y along its normal): ``theta`` is the stance leg's
+angle from the slope normal, positive with the hip downhill of the stance foot; ``psi`` is
+the swing thigh's angle, measured the same way (hip downhill of the knee); ``kappa`` is the
+knee angle, the swing shank's angle less the thigh's: zero straight, positive flexed (the
+swing foot behind the knee). The knee's lock acts between thigh and shank, so on ``kappa``
+alone: the knee-locked phase holds ``kappa = 0``. Hsu Chen measures angles from the
+vertical with the opposite sign: her ``q1 = -(theta + gamma)``, ``q2 = -(psi + gamma)``,
+``q3 = -(psi + kappa + gamma)``.
+"""
+
+from __future__ import annotations
+
+import sympy as sm
+
+from derive.engine import model_derivation
+from derive.engine.model import (
+    NORMAL_FORCE,
+    Coordinate,
+    Event,
+    Failure,
+    Impact,
+    Lock,
+    Model,
+    Parameter,
+    Phase,
+    PointMass,
+    leg,
+)
+from derive.quantities import Derivation
+
+PI = float(sm.pi.evalf(17))
+INF = float("inf")
+
+# Hsu Chen 2007, chapter 3 (her table of the point-foot walker): m_H = 0.5, m_t = 0.5,
+# m_s = 0.05 kg; a1 = 0.375, b1 = 0.125 (shank), a2 = 0.175, b2 = 0.325 m (thigh); slope
+# 0.0504 rad; g = 9.81 m/s^2.
+PARAMETERS = (
+    Parameter("m_h", "m_H", 0.0, INF, "hip mass m_h > 0", "hip mass", {"positive": True},
+              default=0.5, unit="kg"),
+    Parameter("m_t", "m_t", 0.0, INF, "thigh mass m_t > 0", "mass of each thigh",
+              {"positive": True}, default=0.5, unit="kg"),
+    Parameter("m_s", "m_s", 0.0, INF, "shank mass m_s > 0", "mass of each shank",
+              {"positive": True}, default=0.05, unit="kg"),
+    Parameter("a1", "a_1", 0.0, INF, "a1 > 0", "distance from a foot to its shank's mass",
+              {"positive": True}, default=0.375, unit="m"),
+    Parameter("b1", "b_1", 0.0, INF, "b1 > 0", "distance from a shank's mass to the knee",
+              {"positive": True}, default=0.125, unit="m"),
+    Parameter("a2", "a_2", 0.0, INF, "a2 > 0", "distance from a knee to its thigh's mass",
+              {"positive": True}, default=0.175, unit="m"),
+    Parameter("b2", "b_2", 0.0, INF, "b2 > 0", "distance from a thigh's mass to the hip",
+              {"positive": True}, default=0.325, unit="m"),
+    Parameter("gamma", r"\gamma", 0.0, PI / 2, "a passive walker walks down a slope: "
+              "0 < gamma < pi/2", "slope angle", default=0.0504, unit="rad"),
+    Parameter("g", "g", 0.0, INF, "gravity g > 0", "gravitational acceleration",
+              {"positive": True}, default=9.81, unit="m/s^2"),
+)  # fmt: skip
+m_h, m_t, m_s, a1, b1, a2, b2, gamma, g = (p.symbol for p in PARAMETERS)
+shank, thigh = a1 + b1, a2 + b2
+length = shank + thigh
+
+THETA = Coordinate(
+    "theta",
+    "stance leg angle",
+    "rad",
+    reference="the slope normal",
+    positive="the hip downhill of the stance foot",
+)
+PSI = Coordinate(
+    "psi",
+    "swing thigh angle",
+    "rad",
+    reference="the slope normal",
+    positive="the hip downhill of the swing knee",
+)
+KAPPA = Coordinate(
+    "kappa",
+    "swing knee angle (shank less thigh)",
+    "rad",
+    reference="the straight knee",
+    positive="the knee flexed, the swing foot behind the knee",
+)
+theta, psi, kappa = THETA.q, PSI.q, KAPPA.q
+
+
+def _minus(point, vector):
+    return tuple(p - v for p, v in zip(point, vector))
+
+
+hip = leg(theta, length)
+knee = _minus(hip, leg(psi, thigh))
+swing_foot = _minus(knee, leg(psi + kappa, shank))
+BODIES = (
+    PointMass("hip", m_h, hip),
+    PointMass("stance_shank", m_s, leg(theta, a1)),
+    PointMass("stance_thigh", m_t, leg(theta, shank + a2)),
+    PointMass("swing_thigh", m_t, _minus(hip, leg(psi, b2))),
+    PointMass("swing_shank", m_s, _minus(knee, leg(psi + kappa, b1))),
+)
+GRAVITY = (g * sm.sin(gamma), -g * sm.cos(gamma))
+
+KNEE_FREE = Phase(
+    "knee_free",
+    coordinates=(THETA, PSI, KAPPA),
+    bodies=BODIES,
+    gravity=GRAVITY,
+    points={"swing_foot": swing_foot},
+)
+KNEE_LOCKED = Phase(
+    "knee_locked",
+    coordinates=(THETA, PSI),
+    bodies=BODIES,
+    gravity=GRAVITY,
+    held={kappa: 0},
+    points={"swing_foot": swing_foot},
+)
+
+MODEL = Model(
+    name="kneed_walker",
+    title="Kneed walker",
+    description="McGeer 1990, Hsu Chen 2007: a passive walker with knees and point feet, "
+    "walking down a slope",
+    source="derive/models/kneed_walker.py",
+    parameters=PARAMETERS,
+    phases=(KNEE_FREE, KNEE_LOCKED),
+    events=(
+        Event(
+            "kneestrike",
+            "knee_free",
+            "knee_locked",
+            # The knee flexes from straight after heelstrike and straightens again: it
+            # locks when kappa falls back through zero.
+            guard=kappa,
+            direction=-1,
+            reset=Lock(),
+        ),
+        Event(
+            "heelstrike",
+            "knee_locked",
+            "knee_free",
+            # With the knee straight the swing foot's height is
+            # -2 l sin((theta + psi)/2) sin((theta - psi)/2), as in the compass gait.
+            guard=sm.sin((theta + psi) / 2),
+            direction=1,
+            reset=Impact(
+                "swing_foot",
+                {theta: psi, psi: theta, kappa: 0},
+                bodies={
+                    "stance_shank": "swing_shank",
+                    "stance_thigh": "swing_thigh",
+                    "swing_thigh": "stance_thigh",
+                    "swing_shank": "stance_shank",
+                },
+                holding={kappa: 0},
+            ),
+            ends_step=True,
+            when=theta,  # past mid-stance: the new foot lands ahead of the hip
+        ),
+    ),
+    failures=(
+        Failure("fell-backward", THETA.u, -1, "the stance leg stops and swings back"),
+        Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the slope"),
+        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the slope"),
+    ),
+    units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},
+    step_length=swing_foot[0],
+    # Just after heelstrike the new stance foot is downhill of the hip (theta < 0); Hsu
+    # Chen's gait: theta = -0.238 rad, theta_dot = 1.10 rad/s, psi_dot = 0.04 rad/s.
+    search={"theta": (-0.6, 0.0), "theta_dot": (0.0, 4.0), "psi_dot": (-4.0, 4.0)},
+    # Just after heelstrike the legs are at the guard's zero, swapped, and the new swing
+    # knee is straight and at rest relative to its thigh.
+    section={"psi": -theta, "kappa": sm.Integer(0), "kappa_dot": sm.Integer(0)},
+)
+
+
+def derive() -> Derivation:
+    return model_derivation(MODEL, "Angles in radians, lengths in m, time in s, energies in J.")
