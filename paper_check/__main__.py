@@ -1,8 +1,9 @@
 """``python -m paper_check [--out DIR]``: write the audit report, JSON and figures.
 
 ``python -m paper_check --model NAME [--out DIR]`` writes instead the report of one of the
-walkers with massive legs (``simplest-walker``, ``compass-gait``, ``vsw-biped``) beside its
-published numbers: :mod:`paper_check.walkers` (default directory ``reports/walkers``).
+walkers with massive legs (``simplest-walker``, ``compass-gait``, ``vsw-biped``,
+``kneed-walker``) beside its published numbers: :mod:`paper_check.walkers` (default
+directory ``reports/walkers``).
 
 Exit status: 0 when every verdict matches ``paper_check/expected_verdicts.json``, 1 when
 any verdict changed (the differences are printed on stderr), 2 on a bad output path (one
