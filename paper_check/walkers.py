@@ -38,6 +38,7 @@ import numpy as np
 import generated.ile as ile
 from paper_check.output import check_output_directory
 from vsw import plotstyle
+from vsw.conditions import gait_conditions
 from vsw.diagrams import bifurcation_plot, diagram_quantity, diagram_units
 from vsw.errors import ConvergenceError
 from vsw.figures import save_figure
@@ -643,6 +644,7 @@ def kneed_walker(out: Path, quick: bool = False) -> list[Path]:
             moduli[0], 1e-3, "0.353 +- 0.552i, 3 digits"),
         Row("real eigenvalue", "NC26", 0.144, moduli[2], 5e-4, "3 digits"),
     ]  # fmt: skip
+    knee = next(c for c in gait_conditions(m, params, orbit) if c["name"] == "stance-knee-stop")
     defaults = m.fixed_points(params)
     gaits = ["| gait | theta (rad) | theta_dot (1/s) | psi_dot (1/s) | period (s) "
              "| step length (m) | max abs eigenvalue | stable |",
@@ -668,6 +670,12 @@ def kneed_walker(out: Path, quick: bool = False) -> list[Path]:
         "knee strike conserves the generalised momenta of the stance and thigh angles (the ",
         "lock's impulse acts on the knee angle alone); at heelstrike the new swing knee is ",
         "held straight through the impact.\n\n",
+        "## The stance knee\n\n",
+        "HC07 (like McGeer) keeps the stance knee locked. The torque its lock exerts is ",
+        "derived (the condition stance-knee-stop, reported, not enforced): on this gait its ",
+        f"least value is {knee['margin']:.4g} {knee['unit']}, so for part of the knee-free ",
+        "phase the lock must pull the knee straight; a stop alone would let it buckle, and ",
+        "the walker needs a latch there.\n\n",
         "## Every gait at the defaults\n\n",
         "\n".join(gaits) + "\n",
     ]

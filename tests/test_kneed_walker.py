@@ -189,3 +189,56 @@ def test_the_knee_flexes_and_locks_within_every_step(walker, stable_gait):
     locked = walk.phase == walker.phase_index["knee_locked"]
     assert np.all(walk.states[locked, 2] == 0.0) and np.all(walk.states[locked, 5] == 0.0)
     assert stable_gait.step_length > 0.4
+
+
+def test_stance_knee_torque_is_the_upper_bodys_newton_euler_balance(walker):
+    """The stance knee's lock torque the engine derives (the held coordinate's row of
+    Lagrange's equations) equals Newton-Euler on everything above the stance knee: the
+    torque the shank exerts on it (counterclockwise, the sense in which kappa_stance grows)
+    is the rate of its angular momentum about the knee less gravity's moment. The bodies'
+    accelerations come from the generated positions and accelerations alone."""
+    m = walker
+    params = np.array(m.parameters({}))
+    names = m.spec["parameters"]
+    value = dict(zip(names, params))
+    shank = value["a1"] + value["b1"]
+    gravity = value["g"] * np.array([np.sin(value["gamma"]), -np.cos(value["gamma"])])
+    upper = [HIP, STANCE_THIGH, SWING_THIGH, SWING_SHANK]
+    rng = np.random.default_rng(21)
+    for phase in ("knee_free", "knee_locked"):
+        positions = m._fn(f"{phase}_positions")
+        p = ca.SX.sym("p", len(names))
+        q, u, acc = ca.SX.sym("q", 3), ca.SX.sym("u", 3), ca.SX.sym("a", 3)
+        pos = ca.vertcat(*positions(*ca.vertsplit(p), *ca.vertsplit(q), *ca.vertsplit(u)))
+        vel = ca.jtimes(pos, q, u)
+        f = ca.Function("a", [p, q, u, acc], [pos, ca.jtimes(vel, q, u) + ca.jtimes(vel, u, acc)])
+        torque = m._fn(f"{phase}_stance_knee_stop")
+        masses = np.array([float(w) for w in m._fn(f"{phase}_inertias")(*params, *np.zeros(6))])
+        masses = masses[0::2]
+        for _ in range(10):
+            x = np.concatenate([rng.uniform(-0.4, 0.4, 3), rng.uniform(-2.0, 2.0, 3)])
+            if phase == "knee_locked":
+                x[[2, 5]] = 0.0
+            a = m.accelerations(phase, params, x)
+            r, a_bodies = (np.array(v, dtype=float).reshape(-1, 3)[:, :2]
+                           for v in f(params, x[:3], x[3:], a))  # fmt: skip
+            knee = shank * np.array([np.sin(x[0]), np.cos(x[0])])
+            arm = r[upper] - knee
+            pull = a_bodies[upper] - gravity
+            moment = float(
+                np.sum(masses[upper] * (arm[:, 0] * pull[:, 1] - arm[:, 1] * pull[:, 0]))
+            )
+            assert float(torque(*params, *x)) == pytest.approx(moment, rel=1e-9, abs=1e-12)
+
+
+def test_the_stance_knee_must_be_latched_on_the_gait(walker, stable_gait):
+    """Reported, not enforced: on Hsu Chen's gait the stance knee's lock pulls (about
+    0.1 N m) in part of the knee-free phase, where a stop alone would let the knee buckle;
+    the sources' locked stance knee is a latch. The gait walks all the same."""
+    report = walker.analyze(walker.parameters({}))
+    index = next(k for k, g in enumerate(report.gaits) if g.stable)
+    by_name = {c["name"]: c for c in report.conditions[index]}
+    knee = by_name["stance-knee-stop"]
+    assert knee["ends_walk"] is False and knee["unit"] == "N m"
+    assert -0.11 < knee["margin"] < -0.09 and knee["holds"] is False
+    assert all(c["holds"] for c in report.conditions[index] if c["ends_walk"])

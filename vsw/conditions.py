@@ -5,7 +5,10 @@ and the closed-form ones of the models whose derivation states them.
   model's failures (``HYBRID["failures"]``: falling back, falling forward, the stance foot
   lifting off, ...) as a margin that is positive while the walk goes on: the least of
   ``-direction * guard`` over the step, in the guard's unit. A gait the simulation confirmed
-  has every margin positive; how close to zero says how near the gait is to failing.
+  has every margin positive; how close to zero says how near the gait is to failing. Then
+  the conditions a model assumes and reports without enforcing them
+  (``HYBRID["conditions"]``: the kneed walker's stance knee pressed into its stop), whose
+  margins may be negative on a gait.
 * :func:`closed_form_conditions`: for a model whose derivation gives its fixed point and
   existence conditions in closed form (``CONDITIONS`` and ``fixed_point_conditions`` in its
   generated package: the ILE's (12)-(17), the TLE's), the closed-form fixed point and each
@@ -32,7 +35,9 @@ every event instant)."""
 
 
 def gait_conditions(model: HybridModel, params: Sequence[float], orbit: Orbit) -> list[dict]:
-    """Each failure's margin along ``orbit``: name, meaning, margin, unit, holds."""
+    """Each failure's margin along ``orbit`` (name, meaning, margin, unit, holds), then each
+    condition the model reports without enforcing it (``HYBRID["conditions"]``: a gait
+    walks where it fails; ``ends_walk`` says which is which)."""
     state = np.array(list(orbit.state.values()))
     trajectory = model.simulate(params, state, 1, max_step=orbit.period / SAMPLES)
     least: dict[str, float] = {}
@@ -40,20 +45,23 @@ def gait_conditions(model: HybridModel, params: Sequence[float], orbit: Orbit) -
         samples = trajectory.states[trajectory.phase == k]
         if not len(samples):
             continue
-        for name, function, direction in phase["failures"]:
+        for name, function, direction in (*phase["failures"], *phase.get("conditions", ())):
             with np.errstate(all="ignore"):
                 guard = np.asarray(model.module.__dict__[function](*params, *samples.T), float)
             value = float(np.min(-direction * np.broadcast_to(guard, len(samples))))
             least[name] = min(least.get(name, math.inf), value)
     out = []
-    for failure in model.spec["failures"]:
-        margin = least.get(failure["name"])
+    records = [(f, True) for f in model.spec["failures"]]
+    records += [(c, False) for c in model.spec.get("conditions", ())]
+    for record, ends_walk in records:
+        margin = least.get(record["name"])
         out.append({
-            "name": failure["name"],
-            "meaning": failure["meaning"],
+            "name": record["name"],
+            "meaning": record["meaning"],
             "margin": margin,
-            "unit": failure["unit"],
+            "unit": record["unit"],
             "holds": None if margin is None else bool(margin > 0),
+            "ends_walk": ends_walk,
             "how": f"least over the step ({len(trajectory.t)} samples)",
         })  # fmt: skip
     return out

@@ -36,6 +36,7 @@ import sympy.physics.mechanics as me
 
 from derive.engine.model import (
     NORMAL_FORCE,
+    Condition,
     Continuous,
     Failure,
     Impact,
@@ -44,6 +45,7 @@ from derive.engine.model import (
     Model,
     Phase,
     PointMass,
+    held_force,
 )
 from derive.engine.trig import tr10i
 from derive.quantities import Quantity
@@ -878,16 +880,24 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
             None, "normal force (the foot lifts off below 0)",
         ))  # fmt: skip
         failures = []
-        held = {h: sm.sympify(v) for h, v in phase.held.items()}
         for failure in model.failures:
-            guard = sm.sympify(failure.guard).xreplace({NORMAL_FORCE: dyn.normal_force})
-            guard = guard.xreplace(held)
+            guard = _phase_guard(model, phase, dyn, failure)
             name = f"{phase.name}_{failure.name.replace('-', '_')}"
             quantities.append(Quantity(
                 name, args, guard, f"Guard of {failure.name} in phase {phase.name}.", None,
                 f"crosses zero (direction {failure.direction:+d}) when the walk ends",
             ))  # fmt: skip
             failures.append((failure.name, name, failure.direction))
+        conditions = []
+        for condition in model.conditions:
+            guard = _phase_guard(model, phase, dyn, condition)
+            name = f"{phase.name}_{condition.name.replace('-', '_')}"
+            quantities.append(Quantity(
+                name, args, guard, f"Condition {condition.name} in phase {phase.name} "
+                "(reported, not enforced).", None,
+                f"crosses zero (direction {condition.direction:+d}) where it fails",
+            ))  # fmt: skip
+            conditions.append((condition.name, name, condition.direction))
         positions, inertias = _body_table(phase)
         quantities.append(Quantity(
             f"{phase.name}_positions", args, positions,
@@ -902,9 +912,12 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
         free = {c.q for c in phase.coordinates}
         # A held coordinate that follows the free ones moves, and its actuator does work.
         conservative = not any(sm.sympify(v).free_symbols & free for v in phase.held.values())
-        phases.append({
+        record = {
             "name": phase.name, "failures": tuple(failures), "conservative": conservative,
-        })  # fmt: skip
+        }  # fmt: skip
+        if conditions:
+            record["conditions"] = tuple(conditions)
+        phases.append(record)
     events = []
     for event in model.events:
         # Guards are stated in the source phase's chart: its held coordinates at their values.
@@ -1005,6 +1018,11 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
         "phases": tuple(phases),
         "events": tuple(events),
         "failures": tuple(_failure_record(model, f) for f in model.failures),
+        **(
+            {"conditions": tuple(_failure_record(model, c) for c in model.conditions)}
+            if model.conditions
+            else {}
+        ),
         "units": dict(model.units),
         "step_length": model.step_length is not None,
         "section": tuple(n for n in names if n in model.section),
@@ -1013,6 +1031,22 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
     if model.limits:
         quantities = [_in_the_limit(model, qty) for qty in quantities]
     return quantities, descriptor
+
+
+def _phase_guard(model: Model, phase: Phase, dyn: PhaseDynamics,
+                 check: Failure | Condition) -> sm.Expr:  # fmt: skip
+    """A failure's or condition's guard in a phase: the ground reaction, the held
+    coordinates' generalised forces and their values in place."""
+    guard = sm.sympify(check.guard).xreplace({NORMAL_FORCE: dyn.normal_force})
+    forces = {held_force(h): h for h in phase.held}
+    wanted = {s for s in guard.free_symbols if s.name.startswith("Q_held_")}
+    for symbol in wanted:
+        if symbol not in forces:
+            raise ValueError(f"{model.name}: {check.name} uses {symbol.name}, but phase "
+                             f"{phase.name} does not hold that coordinate")  # fmt: skip
+    if wanted:
+        guard = guard.xreplace({s: dyn.actuator_forces[forces[s]] for s in wanted})
+    return guard.xreplace({h: sm.sympify(v) for h, v in phase.held.items()})
 
 
 def _failure_record(model: Model, failure: Failure) -> dict:

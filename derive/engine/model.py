@@ -24,6 +24,7 @@ import sympy as sm
 from derive.quantities import Parameter
 
 __all__ = [
+    "Condition",
     "Continuous",
     "Coordinate",
     "Event",
@@ -36,6 +37,7 @@ __all__ = [
     "Phase",
     "PointMass",
     "RigidSegment",
+    "held_force",
     "leg",
 ]
 
@@ -253,6 +255,31 @@ NORMAL_FORCE = sm.Symbol("N_ground", real=True)
 """Stands for the normal ground reaction on the stance foot in a Failure guard."""
 
 
+def held_force(coordinate: Coordinate | sm.Symbol) -> sm.Symbol:
+    """Stands, in a Failure or Condition guard, for the generalised force that holds
+    ``coordinate`` (the torque of a knee's lock, the force of a leg's actuator): in every
+    phase the guard is evaluated in, that phase must hold it."""
+    return sm.Symbol(f"Q_held_{coordinate.name}", real=True)
+
+
+@dataclass(frozen=True, eq=False)
+class Condition:
+    """A condition the model assumes and reports but does not enforce: along a gait, the
+    margin ``-direction * guard`` (its least over a step) says whether it holds. A walk
+    goes on when it fails (that is the difference from a :class:`Failure`): the stance
+    knee's lock that must pull, where the model assumes a latch that can.
+
+    ``guard`` may use the ground reaction (:data:`NORMAL_FORCE`), the generalised force of
+    a held coordinate (:func:`held_force`) and the state; ``unit`` is its unit.
+    """
+
+    name: str
+    guard: sm.Expr
+    direction: int
+    meaning: str = ""
+    unit: str | None = None
+
+
 @dataclass(frozen=True, eq=False)
 class Model:
     """A hybrid walking model.
@@ -270,6 +297,8 @@ class Model:
         In the order a step visits them; the first starts after the step's event.
     events : tuple of Event
     failures : tuple of Failure
+    conditions : tuple of Condition
+        What the model assumes and reports along a gait without ending a walk.
     units : mapping of str to str
         ``time``, ``length``, ``mass``, ``energy``, ``force``: the units the model's
         quantities are in (``force``: the ground reaction's).
@@ -301,6 +330,7 @@ class Model:
     phases: tuple[Phase, ...]
     events: tuple[Event, ...]
     failures: tuple[Failure, ...] = ()
+    conditions: tuple[Condition, ...] = ()
     units: Mapping[str, str] = field(default_factory=dict)
     step_length: sm.Expr | None = None
     search: Mapping[str, tuple[float, float]] = field(default_factory=dict)

@@ -16,7 +16,9 @@ coordinates' generalised momenta are conserved (:class:`~derive.engine.model.Loc
 Heelstrike is the compass gait's inelastic impact at the swing foot; the new swing leg's
 knee is straight at that instant and, as in Hsu Chen's model, still locked through the
 impact (its thigh and shank leave it with one rate), then released. Scuffing is ignored,
-as in the sources.
+as in the sources. The stance knee is held straight in both phases, as the sources assume;
+the torque its lock exerts is derived and reported (the condition ``stance-knee-stop``:
+where it is negative a stop alone would let the knee buckle, and a latch must pull).
 
 Coordinates on the slope (x downhill, y along its normal): ``theta`` is the stance leg's
 angle from the slope normal, positive with the hip downhill of the stance foot; ``psi`` is
@@ -35,6 +37,7 @@ import sympy as sm
 from derive.engine import model_derivation
 from derive.engine.model import (
     NORMAL_FORCE,
+    Condition,
     Coordinate,
     Event,
     Failure,
@@ -44,6 +47,7 @@ from derive.engine.model import (
     Parameter,
     Phase,
     PointMass,
+    held_force,
     leg,
 )
 from derive.quantities import Derivation
@@ -99,20 +103,35 @@ KAPPA = Coordinate(
     reference="the straight knee",
     positive="the knee flexed, the swing foot behind the knee",
 )
+STANCE_KNEE = Coordinate(
+    "kappa_stance",
+    "stance knee angle (shank less thigh)",
+    "rad",
+    reference="the straight knee",
+    positive="the knee flexed",
+)
 theta, psi, kappa = THETA.q, PSI.q, KAPPA.q
+kappa_stance = STANCE_KNEE.q
+
+
+def _plus(point, vector):
+    return tuple(p + v for p, v in zip(point, vector))
 
 
 def _minus(point, vector):
     return tuple(p - v for p, v in zip(point, vector))
 
 
-hip = leg(theta, length)
+# The stance leg with its knee as a coordinate that every phase holds straight: it is no
+# state, but its lock's torque is derived (the condition below).
+stance_knee = leg(theta, shank)
+hip = _plus(stance_knee, leg(theta - kappa_stance, thigh))
 knee = _minus(hip, leg(psi, thigh))
 swing_foot = _minus(knee, leg(psi + kappa, shank))
 BODIES = (
     PointMass("hip", m_h, hip),
     PointMass("stance_shank", m_s, leg(theta, a1)),
-    PointMass("stance_thigh", m_t, leg(theta, shank + a2)),
+    PointMass("stance_thigh", m_t, _plus(stance_knee, leg(theta - kappa_stance, a2))),
     PointMass("swing_thigh", m_t, _minus(hip, leg(psi, b2))),
     PointMass("swing_shank", m_s, _minus(knee, leg(psi + kappa, b1))),
 )
@@ -123,6 +142,7 @@ KNEE_FREE = Phase(
     coordinates=(THETA, PSI, KAPPA),
     bodies=BODIES,
     gravity=GRAVITY,
+    held={kappa_stance: 0},
     points={"swing_foot": swing_foot},
 )
 KNEE_LOCKED = Phase(
@@ -130,7 +150,7 @@ KNEE_LOCKED = Phase(
     coordinates=(THETA, PSI),
     bodies=BODIES,
     gravity=GRAVITY,
-    held={kappa: 0},
+    held={kappa: 0, kappa_stance: 0},
     points={"swing_foot": swing_foot},
 )
 
@@ -180,6 +200,18 @@ MODEL = Model(
         Failure("fell-backward", THETA.u, -1, "the stance leg stops and swings back"),
         Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the slope"),
         Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the slope"),
+    ),
+    conditions=(
+        # The sources assume the stance knee locked: a stop keeps it from hyperextending
+        # (it pushes towards flexion, a positive torque on kappa_stance); where the lock
+        # would have to pull, only a latch keeps the knee straight.
+        Condition(
+            "stance-knee-stop",
+            held_force(STANCE_KNEE),
+            -1,
+            "the stance knee presses into its stop (else its lock must pull: a latch)",
+            unit="N m",
+        ),
     ),
     units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},
     step_length=swing_foot[0],

@@ -17,7 +17,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'kneed_walker', 'title': 'Kneed walker', 'description': 'McGeer 1990, Hsu Chen 2007: a passive walker with knees and point feet, walking down a slope', 'coordinate_units': {'theta': 'rad', 'psi': 'rad', 'kappa': 'rad'}, 'parameters': ('m_h', 'm_t', 'm_s', 'a1', 'b1', 'a2', 'b2', 'gamma', 'g'), 'coordinates': ('theta', 'psi', 'kappa'), 'rates': ('theta_dot', 'psi_dot', 'kappa_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing thigh angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the swing knee', 'rate': 'psi_dot'}, {'name': 'kappa', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing knee angle (shank less thigh)', 'reference': 'the straight knee', 'positive': 'the knee flexed, the swing foot behind the knee', 'rate': 'kappa_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of psi (swing thigh angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}, {'name': 'kappa_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of kappa (swing knee angle (shank less thigh))', 'reference': '', 'positive': 'kappa increasing', 'rate': None}), 'phases': ({'name': 'knee_free', 'failures': (('fell-backward', 'knee_free_fell_backward', -1), ('fell-forward', 'knee_free_fell_forward', -1), ('lift-off', 'knee_free_lift_off', -1)), 'conservative': True}, {'name': 'knee_locked', 'failures': (('fell-backward', 'knee_locked_fell_backward', -1), ('fell-forward', 'knee_locked_fell_forward', -1), ('lift-off', 'knee_locked_lift_off', -1)), 'conservative': True}), 'events': ({'name': 'kneestrike', 'source': 'knee_free', 'target': 'knee_locked', 'direction': -1, 'ends_step': False, 'when': None, 'reset': 'lock', 'bodies': None}, {'name': 'heelstrike', 'source': 'knee_locked', 'target': 'knee_free', 'direction': 1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 4, 3, 2, 1)}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the stance leg stops and swings back', 'unit': 'rad/s'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the slope', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the slope', 'unit': 'N'}), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J', 'force': 'N'}, 'step_length': True, 'section': ('psi', 'kappa', 'kappa_dot'), 'search': {'theta': (-0.6, 0.0), 'theta_dot': (0.0, 4.0), 'psi_dot': (-4.0, 4.0)}, 'closed_form': False}
+HYBRID = {'name': 'kneed_walker', 'title': 'Kneed walker', 'description': 'McGeer 1990, Hsu Chen 2007: a passive walker with knees and point feet, walking down a slope', 'coordinate_units': {'theta': 'rad', 'psi': 'rad', 'kappa': 'rad'}, 'parameters': ('m_h', 'm_t', 'm_s', 'a1', 'b1', 'a2', 'b2', 'gamma', 'g'), 'coordinates': ('theta', 'psi', 'kappa'), 'rates': ('theta_dot', 'psi_dot', 'kappa_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing thigh angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the swing knee', 'rate': 'psi_dot'}, {'name': 'kappa', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing knee angle (shank less thigh)', 'reference': 'the straight knee', 'positive': 'the knee flexed, the swing foot behind the knee', 'rate': 'kappa_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of psi (swing thigh angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}, {'name': 'kappa_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of kappa (swing knee angle (shank less thigh))', 'reference': '', 'positive': 'kappa increasing', 'rate': None}), 'phases': ({'name': 'knee_free', 'failures': (('fell-backward', 'knee_free_fell_backward', -1), ('fell-forward', 'knee_free_fell_forward', -1), ('lift-off', 'knee_free_lift_off', -1)), 'conservative': True, 'conditions': (('stance-knee-stop', 'knee_free_stance_knee_stop', -1),)}, {'name': 'knee_locked', 'failures': (('fell-backward', 'knee_locked_fell_backward', -1), ('fell-forward', 'knee_locked_fell_forward', -1), ('lift-off', 'knee_locked_lift_off', -1)), 'conservative': True, 'conditions': (('stance-knee-stop', 'knee_locked_stance_knee_stop', -1),)}), 'events': ({'name': 'kneestrike', 'source': 'knee_free', 'target': 'knee_locked', 'direction': -1, 'ends_step': False, 'when': None, 'reset': 'lock', 'bodies': None}, {'name': 'heelstrike', 'source': 'knee_locked', 'target': 'knee_free', 'direction': 1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 4, 3, 2, 1)}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the stance leg stops and swings back', 'unit': 'rad/s'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the slope', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the slope', 'unit': 'N'}), 'conditions': ({'name': 'stance-knee-stop', 'direction': -1, 'meaning': 'the stance knee presses into its stop (else its lock must pull: a latch)', 'unit': 'N m'},), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J', 'force': 'N'}, 'step_length': True, 'section': ('psi', 'kappa', 'kappa_dot'), 'search': {'theta': (-0.6, 0.0), 'theta_dot': (0.0, 4.0), 'psi_dot': (-4.0, 4.0)}, 'closed_form': False}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -500,6 +500,117 @@ def knee_free_lift_off(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kapp
     return -x0*x2 - x11*x2 - x13*x2 - x15*x2 - x17*x2 - x2*x3 - x2*x4 - x2*x5 - x2*x6 - x2*x7 - x2*x8 - x2*x9 + x55*(x23*x39 + x40*x44 + x46*(-x45 + x25*x38))*(-x0*sin_theta - x11*sin_theta - x13*sin_theta - x15*sin_theta - x17*sin_theta - x3*sin_theta - x4*sin_theta - x5*sin_theta - x6*sin_theta - x7*sin_theta - x8*sin_theta - x9*sin_theta) + x55*(x23*x56 + x40*x46 + x44*(-x48 + x24*x54*m_s))*(x4*sin_psi + x6*sin_t6 + x8*sin_psi + x9*sin_psi) + cos_gamma*g*m_h + 2*cos_gamma*g*m_s + 2*cos_gamma*g*m_t + x14*cos_psi*a2*m_s + x14*cos_psi*b2*m_s + x14*cos_psi*b2*m_t + x14*cos_t6*b1*m_s + x16*cos_t6*b1*m_s + x55*sin_t6*b1*m_s*(x23*(-x47 + x38*x54) + x39*x46 + x44*x56) + 2*cos_t6*kappa_dot*psi_dot*b1*m_s
 
 
+def knee_free_stance_knee_stop(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot):
+    """Condition stance-knee-stop in phase knee_free (reported, not enforced).
+
+    Parameters
+    ----------
+    m_h : array_like or casadi.SX/MX/DM
+    m_t : array_like or casadi.SX/MX/DM
+    m_s : array_like or casadi.SX/MX/DM
+    a1 : array_like or casadi.SX/MX/DM
+    b1 : array_like or casadi.SX/MX/DM
+    a2 : array_like or casadi.SX/MX/DM
+    b2 : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    kappa : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+    kappa_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        crosses zero (direction -1) where it fails
+    """
+    be = backend_for(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot)
+    cos_kappa, sin_kappa = be.cos_sin(kappa)
+    cos_t1, sin_t1 = be.cos_sin(gamma + psi)
+    cos_t2, sin_t2 = be.cos_sin(gamma + theta)
+    cos_t3, sin_t3 = be.cos_sin(psi - theta)
+    cos_t4, sin_t4 = be.cos_sin(gamma + kappa + psi)
+    cos_t5, sin_t5 = be.cos_sin(kappa + psi - theta)
+    x0 = kappa_dot**2
+    x1 = a2*m_s
+    x2 = x1*b1
+    x3 = x2*sin_t5
+    x4 = psi_dot**2
+    x5 = b2*m_t
+    x6 = x5*a2
+    x7 = x4*sin_t3
+    x8 = b2*m_s
+    x9 = x8*b1
+    x10 = x9*sin_t5
+    x11 = 2*x2
+    x12 = kappa_dot*psi_dot
+    x13 = x12*sin_t5
+    x14 = 2*x9
+    x15 = a2**2
+    x16 = x15*m_s
+    x17 = b2**2
+    x18 = x17*m_s
+    x19 = x17*m_t
+    x20 = 2*b2
+    x21 = x1*x20
+    x22 = a1*m_h
+    x23 = x22*a2
+    x24 = x22*b2
+    x25 = a2*m_h
+    x26 = x25*b1
+    x27 = b1*m_h
+    x28 = x27*b2
+    x29 = x5*b1
+    x30 = 2*m_t
+    x31 = x30*a1
+    x32 = x30*a2
+    x33 = x16 + x18 + x19 + x21
+    x34 = 2*x6 + x15*x30 + x15*m_h + x17*m_h + x20*x25
+    x35 = b1*m_s
+    x36 = x35*sin_t4*g
+    x37 = a2 + b2
+    x38 = x35*x37
+    x39 = x38*sin_kappa
+    x40 = theta_dot**2
+    x41 = x37 + a1 + b1
+    x42 = -x36 - x39*x4 + x40*x41*sin_t5*b1*m_s
+    x43 = b1**2
+    x44 = x43*m_s
+    x45 = x38*cos_kappa
+    x46 = x44 + x45
+    x47 = x35*x41
+    x48 = x47*cos_t5
+    x49 = x1 + x5 + x8
+    x50 = x41*x49
+    x51 = -x48 - x50*cos_t3
+    x52 = x46*x51
+    x53 = x33 + x44
+    x54 = x53 + 2*x45
+    x55 = x52 + x48*x54
+    x56 = -x44*x51 - x46*x48
+    x57 = 2*x12
+    x58 = x47*sin_t5
+    x59 = x50*sin_t3
+    x60 = -x36 + x0*x39 + x39*x57 + x40*x58 + x40*x59 - x49*sin_t1*g
+    x61 = x46**2
+    x62 = 2*a1
+    x63 = -x0*x58 - x4*x58 - x4*x59 - x57*x58 + sin_t2*g*(x22 + x25 + x27 + x31 + x32 + x35 + x49 + x30*b1 + x62*m_s + b2*m_h)
+    x64 = x51**2
+    x65 = x43*x41**2*cos_t5**2*m_s**2
+    x66 = a1**2
+    x67 = 2*x66
+    x68 = 4*a1*m_t
+    x69 = x11 + x14 + x34 + x53 + 2*x23 + 2*x24 + 2*x26 + 2*x28 + 2*x29 + x1*x62 + x30*x43 + x35*x62 + x43*m_h + x5*x62 + x62*x8 + x66*m_h + x67*m_s + x67*m_t + x68*a2 + x68*b1 + 2*x22*b1 + 4*a2*b1*m_t
+    x70 = (1/(-x44*x64 - x54*x65 - x61*x69 - 2*x48*x52 + x43*x54*x69*m_s))
+    x71 = x2*cos_t5 + x9*cos_t5
+    x72 = -x46*x69 - x48*x51
+    return -x0*x10 - x0*x3 - x10*x4 - x11*x13 - x13*x14 - x16*x7 - x18*x7 - x19*x7 - x21*x7 - x3*x4 - x6*x7 + x70*x71*(x42*(-x64 + x54*x69) + x55*x63 + x60*x72) + x70*(x42*x55 + x56*x60 + x63*(-x61 + x44*x54))*(-x2 - x23 - x24 - x26 - x28 - x29 - x33 - x34 - x9 - x1*a1 - x31*a2 - x32*b1 - x5*a1 - x8*a1) + x70*(x42*x72 + x56*x63 + x60*(-x65 + x43*x69*m_s))*(x71 + x16*cos_t3 + x18*cos_t3 + x19*cos_t3 + x21*cos_t3 + x6*cos_t3) + sin_t2*a2*g*m_h + sin_t2*a2*g*m_s + sin_t2*b2*g*m_h + sin_t2*b2*g*m_s + sin_t2*b2*g*m_t + 2*sin_t2*a2*g*m_t
+
+
 def knee_free_positions(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot):
     """Position (x, y) and angle of each body in phase knee_free's chart.
 
@@ -532,13 +643,13 @@ def knee_free_positions(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kap
     cos_psi, sin_psi = be.cos_sin(psi)
     cos_theta, sin_theta = be.cos_sin(theta)
     cos_t2, sin_t2 = be.cos_sin(kappa + psi)
-    x0 = a2 + b2
-    x1 = a1 + b1
-    x2 = x0 + x1
-    x3 = x1 + a2
-    x4 = -x2*sin_theta
-    x5 = -x2*cos_theta
-    return (x2*sin_theta, x2*cos_theta, 0, sin_theta*a1, cos_theta*a1, 0, x3*sin_theta, x3*cos_theta, 0, -x4 - sin_psi*b2, -x5 - cos_psi*b2, 0, -x4 - x0*sin_psi - sin_t2*b1, -x5 - x0*cos_psi - cos_t2*b1, 0,)
+    x0 = a1 + b1
+    x1 = x0*sin_theta
+    x2 = a2 + b2
+    x3 = x1 + x2*sin_theta
+    x4 = x0*cos_theta
+    x5 = x4 + x2*cos_theta
+    return (x3, x5, 0, sin_theta*a1, cos_theta*a1, 0, x1 + sin_theta*a2, x4 + cos_theta*a2, 0, x3 - sin_psi*b2, x5 - cos_psi*b2, 0, x0*sin_theta + x2*sin_theta - x2*sin_psi - sin_t2*b1, x0*cos_theta + x2*cos_theta - x2*cos_psi - cos_t2*b1, 0,)
 
 
 def knee_free_inertias(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot):
@@ -953,6 +1064,85 @@ def knee_locked_lift_off(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, ka
     return -x0*x2 - x11*x2 - x13*x2 - x15*x2 - x16*x2 - x2*x3 - x2*x4 - x2*x5 - x2*x6 - x2*x7 - x2*x8 - x2*x9 + x35*(x19*x21 + x27*x28)*(-x0*sin_theta - x11*sin_theta - x13*sin_theta - x15*sin_theta - x16*sin_theta - x3*sin_theta - x4*sin_theta - x5*sin_theta - x6*sin_theta - x7*sin_theta - x8*sin_theta - x9*sin_theta) + x35*(x19*x34 + x21*x28)*(x4*sin_psi + x6*sin_psi + x8*sin_psi + x9*sin_psi) + cos_gamma*g*m_h + 2*cos_gamma*g*m_s + 2*cos_gamma*g*m_t + x14*cos_psi*a2*m_s + x14*cos_psi*b1*m_s + x14*cos_psi*b2*m_s + x14*cos_psi*b2*m_t
 
 
+def knee_locked_stance_knee_stop(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot):
+    """Condition stance-knee-stop in phase knee_locked (reported, not enforced).
+
+    Parameters
+    ----------
+    m_h : array_like or casadi.SX/MX/DM
+    m_t : array_like or casadi.SX/MX/DM
+    m_s : array_like or casadi.SX/MX/DM
+    a1 : array_like or casadi.SX/MX/DM
+    b1 : array_like or casadi.SX/MX/DM
+    a2 : array_like or casadi.SX/MX/DM
+    b2 : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    kappa : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+    kappa_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        crosses zero (direction -1) where it fails
+    """
+    be = backend_for(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot)
+    cos_t0, sin_t0 = be.cos_sin(gamma + psi)
+    cos_t1, sin_t1 = be.cos_sin(gamma + theta)
+    cos_t2, sin_t2 = be.cos_sin(psi - theta)
+    x0 = a2*m_h
+    x1 = sin_t1*g
+    x2 = a2*m_s
+    x3 = b2*m_h
+    x4 = b2*m_s
+    x5 = b2*m_t
+    x6 = 2*m_t
+    x7 = x6*a2
+    x8 = x2*b1
+    x9 = sin_t2*psi_dot**2
+    x10 = 2*b2
+    x11 = x10*x2
+    x12 = x5*a2
+    x13 = b1*m_s
+    x14 = x13*b2
+    x15 = a2**2
+    x16 = x15*m_s
+    x17 = b2**2
+    x18 = x17*m_s
+    x19 = x17*m_t
+    x20 = a1*m_h
+    x21 = x20*a2
+    x22 = x20*b2
+    x23 = x0*b1
+    x24 = b1*m_h
+    x25 = x24*b2
+    x26 = x5*b1
+    x27 = x6*a1
+    x28 = x11 + x16 + x18 + x19
+    x29 = 2*x12 + x0*x10 + x15*x6 + x15*m_h + x17*m_h
+    x30 = x13 + x2 + x4 + x5
+    x31 = a1 + a2 + b1 + b2
+    x32 = -x30*sin_t0*g + x30*x31*sin_t2*theta_dot**2
+    x33 = x30*x31
+    x34 = x33*cos_t2
+    x35 = b1**2
+    x36 = x28 + 2*x14 + 2*x8 + x35*m_s
+    x37 = 2*a1
+    x38 = x1*(x0 + x20 + x24 + x27 + x3 + x30 + x7 + x37*m_s + x6*b1) - x33*x9
+    x39 = a1**2
+    x40 = 2*x39
+    x41 = 4*a1*m_t
+    x42 = x29 + x36 + 2*x21 + 2*x22 + 2*x23 + 2*x25 + 2*x26 + x13*x37 + x2*x37 + x35*x6 + x35*m_h + x37*x4 + x37*x5 + x39*m_h + x40*m_s + x40*m_t + x41*a2 + x41*b1 + 2*x20*b1 + 4*a2*b1*m_t
+    x43 = (1/(x36*x42 - x30**2*x31**2*cos_t2**2))
+    return x0*x1 + x1*x2 + x1*x3 + x1*x4 + x1*x5 + x1*x7 - x11*x9 - x12*x9 - x14*x9 - x16*x9 - x18*x9 - x19*x9 - x8*x9 + x43*(x32*x34 + x36*x38)*(-x14 - x21 - x22 - x23 - x25 - x26 - x28 - x29 - x8 - x2*a1 - x27*a2 - x4*a1 - x5*a1 - x7*b1) + x43*(x32*x42 + x34*x38)*(x11*cos_t2 + x12*cos_t2 + x14*cos_t2 + x16*cos_t2 + x18*cos_t2 + x19*cos_t2 + x8*cos_t2)
+
+
 def knee_locked_positions(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot):
     """Position (x, y) and angle of each body in phase knee_locked's chart.
 
@@ -984,13 +1174,13 @@ def knee_locked_positions(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, k
     be = backend_for(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot)
     cos_psi, sin_psi = be.cos_sin(psi)
     cos_theta, sin_theta = be.cos_sin(theta)
-    x0 = a2 + b2
-    x1 = a1 + b1
-    x2 = x0 + x1
-    x3 = x1 + a2
-    x4 = -x2*sin_theta
-    x5 = -x2*cos_theta
-    return (x2*sin_theta, x2*cos_theta, 0, sin_theta*a1, cos_theta*a1, 0, x3*sin_theta, x3*cos_theta, 0, -x4 - sin_psi*b2, -x5 - cos_psi*b2, 0, -x4 - x0*sin_psi - sin_psi*b1, -x5 - x0*cos_psi - cos_psi*b1, 0,)
+    x0 = a1 + b1
+    x1 = x0*sin_theta
+    x2 = a2 + b2
+    x3 = x1 + x2*sin_theta
+    x4 = x0*cos_theta
+    x5 = x4 + x2*cos_theta
+    return (x3, x5, 0, sin_theta*a1, cos_theta*a1, 0, x1 + sin_theta*a2, x4 + cos_theta*a2, 0, x3 - sin_psi*b2, x5 - cos_psi*b2, 0, x0*sin_theta + x2*sin_theta - x2*sin_psi - sin_psi*b1, x0*cos_theta + x2*cos_theta - x2*cos_psi - cos_psi*b1, 0,)
 
 
 def knee_locked_inertias(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot):
@@ -1831,8 +2021,7 @@ def event_heelstrike_contact(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi
     cos_theta, sin_theta = be.cos_sin(theta)
     x0 = a1 + b1
     x1 = a2 + b2
-    x2 = x0 + x1
-    return (x2*sin_theta - x0*sin_psi - x1*sin_psi, x2*cos_theta - x0*cos_psi - x1*cos_psi,)
+    return (x0*sin_theta + x1*sin_theta - x0*sin_psi - x1*sin_psi, x0*cos_theta + x1*cos_theta - x0*cos_psi - x1*cos_psi,)
 
 
 def event_heelstrike_when(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot):
@@ -1900,7 +2089,7 @@ def step_length_of_state(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, ka
     cos_theta, sin_theta = be.cos_sin(theta)
     x0 = a1 + b1
     x1 = a2 + b2
-    return sin_theta*(x0 + x1) - x0*sin_psi - x1*sin_psi
+    return x0*sin_theta + x1*sin_theta - x0*sin_psi - x1*sin_psi
 
 
 def weight(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot):

@@ -138,8 +138,9 @@ def _write_gaits(out: TextIO, model: Model, report: GaitReport) -> None:
         out.write(f"gait {n}\n")
         write_orbit(out, model, orbit)
         for c in margins:
+            reported = "" if c.get("ends_walk", True) else " (reported, not enforced)"
             out.write(f"  {c['name'] + ' margin':<16} {fmt(c['margin']):>14} "
-                      f"{unit_text(c['unit']).strip():<10} {c['meaning']}\n")  # fmt: skip
+                      f"{unit_text(c['unit']).strip():<10} {c['meaning']}{reported}\n")  # fmt: skip
     if report.closed_form is not None:
         closed = report.closed_form
         out.write(f"\nclosed form: q^f = {fmt(closed['q_fixed'])}, eigenvalue "

@@ -77,6 +77,10 @@ def run(args: argparse.Namespace) -> int:
         out.write("  failures: " + "; ".join(
             f"{f['name']} ({f['meaning']}; margin in {f['unit']})" for f in m["failures"]
         ) + "\n")  # fmt: skip
+        if m["conditions"]:
+            out.write("  reported, not enforced: " + "; ".join(
+                f"{c['name']} ({c['meaning']}; margin in {c['unit']})" for c in m["conditions"]
+            ) + "\n")  # fmt: skip
         if m["features"]:
             out.write(f"  also: {', '.join(m['features'])}\n")
     return EXIT_OK

@@ -154,6 +154,7 @@ class Model(HybridModel):
                 "search_box": {k: list(v) for k, v in self.spec["search"].items()},
             },
             "failures": [dict(f) for f in self.spec["failures"]],
+            "conditions": [dict(c) for c in self.spec.get("conditions", ())],
             "features": sorted(self.features),
         }
 

@@ -370,18 +370,102 @@ function knee_free_lift_off(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi,
   return -x0*x2 - x11*x2 - x13*x2 - x15*x2 - x17*x2 - x2*x3 - x2*x4 - x2*x5 - x2*x6 - x2*x7 - x2*x8 - x2*x9 + x55*(x23*x39 + x40*x44 + x46*(-x45 + x25*x38))*(-x0*sin_theta - x11*sin_theta - x13*sin_theta - x15*sin_theta - x17*sin_theta - x3*sin_theta - x4*sin_theta - x5*sin_theta - x6*sin_theta - x7*sin_theta - x8*sin_theta - x9*sin_theta) + x55*(x23*x56 + x40*x46 + x44*(-x48 + x24*x54*m_s))*(x4*sin_psi + x6*sin_t6 + x8*sin_psi + x9*sin_psi) + cos_gamma*g*m_h + 2*cos_gamma*g*m_s + 2*cos_gamma*g*m_t + x14*cos_psi*a2*m_s + x14*cos_psi*b2*m_s + x14*cos_psi*b2*m_t + x14*cos_t6*b1*m_s + x16*cos_t6*b1*m_s + x55*sin_t6*b1*m_s*(x23*(-x47 + x38*x54) + x39*x46 + x44*x56) + 2*cos_t6*kappa_dot*psi_dot*b1*m_s;
 }
 
+/* Condition stance-knee-stop in phase knee_free (reported, not enforced). Returns crosses zero (direction -1) where it fails. */
+function knee_free_stance_knee_stop(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot) {
+  const [cos_kappa, sin_kappa] = be.cos_sin(kappa);
+  const [cos_t1, sin_t1] = be.cos_sin(gamma + psi);
+  const [cos_t2, sin_t2] = be.cos_sin(gamma + theta);
+  const [cos_t3, sin_t3] = be.cos_sin(psi - theta);
+  const [cos_t4, sin_t4] = be.cos_sin(gamma + kappa + psi);
+  const [cos_t5, sin_t5] = be.cos_sin(kappa + psi - theta);
+  const x0 = Math.pow(kappa_dot, 2);
+  const x1 = a2*m_s;
+  const x2 = x1*b1;
+  const x3 = x2*sin_t5;
+  const x4 = Math.pow(psi_dot, 2);
+  const x5 = b2*m_t;
+  const x6 = x5*a2;
+  const x7 = x4*sin_t3;
+  const x8 = b2*m_s;
+  const x9 = x8*b1;
+  const x10 = x9*sin_t5;
+  const x11 = 2*x2;
+  const x12 = kappa_dot*psi_dot;
+  const x13 = x12*sin_t5;
+  const x14 = 2*x9;
+  const x15 = Math.pow(a2, 2);
+  const x16 = x15*m_s;
+  const x17 = Math.pow(b2, 2);
+  const x18 = x17*m_s;
+  const x19 = x17*m_t;
+  const x20 = 2*b2;
+  const x21 = x1*x20;
+  const x22 = a1*m_h;
+  const x23 = x22*a2;
+  const x24 = x22*b2;
+  const x25 = a2*m_h;
+  const x26 = x25*b1;
+  const x27 = b1*m_h;
+  const x28 = x27*b2;
+  const x29 = x5*b1;
+  const x30 = 2*m_t;
+  const x31 = x30*a1;
+  const x32 = x30*a2;
+  const x33 = x16 + x18 + x19 + x21;
+  const x34 = 2*x6 + x15*x30 + x15*m_h + x17*m_h + x20*x25;
+  const x35 = b1*m_s;
+  const x36 = x35*sin_t4*g;
+  const x37 = a2 + b2;
+  const x38 = x35*x37;
+  const x39 = x38*sin_kappa;
+  const x40 = Math.pow(theta_dot, 2);
+  const x41 = x37 + a1 + b1;
+  const x42 = -x36 - x39*x4 + x40*x41*sin_t5*b1*m_s;
+  const x43 = Math.pow(b1, 2);
+  const x44 = x43*m_s;
+  const x45 = x38*cos_kappa;
+  const x46 = x44 + x45;
+  const x47 = x35*x41;
+  const x48 = x47*cos_t5;
+  const x49 = x1 + x5 + x8;
+  const x50 = x41*x49;
+  const x51 = -x48 - x50*cos_t3;
+  const x52 = x46*x51;
+  const x53 = x33 + x44;
+  const x54 = x53 + 2*x45;
+  const x55 = x52 + x48*x54;
+  const x56 = -x44*x51 - x46*x48;
+  const x57 = 2*x12;
+  const x58 = x47*sin_t5;
+  const x59 = x50*sin_t3;
+  const x60 = -x36 + x0*x39 + x39*x57 + x40*x58 + x40*x59 - x49*sin_t1*g;
+  const x61 = Math.pow(x46, 2);
+  const x62 = 2*a1;
+  const x63 = -x0*x58 - x4*x58 - x4*x59 - x57*x58 + sin_t2*g*(x22 + x25 + x27 + x31 + x32 + x35 + x49 + x30*b1 + x62*m_s + b2*m_h);
+  const x64 = Math.pow(x51, 2);
+  const x65 = x43*Math.pow(x41, 2)*Math.pow(cos_t5, 2)*Math.pow(m_s, 2);
+  const x66 = Math.pow(a1, 2);
+  const x67 = 2*x66;
+  const x68 = 4*a1*m_t;
+  const x69 = x11 + x14 + x34 + x53 + 2*x23 + 2*x24 + 2*x26 + 2*x28 + 2*x29 + x1*x62 + x30*x43 + x35*x62 + x43*m_h + x5*x62 + x62*x8 + x66*m_h + x67*m_s + x67*m_t + x68*a2 + x68*b1 + 2*x22*b1 + 4*a2*b1*m_t;
+  const x70 = (1/(-x44*x64 - x54*x65 - x61*x69 - 2*x48*x52 + x43*x54*x69*m_s));
+  const x71 = x2*cos_t5 + x9*cos_t5;
+  const x72 = -x46*x69 - x48*x51;
+  return -x0*x10 - x0*x3 - x10*x4 - x11*x13 - x13*x14 - x16*x7 - x18*x7 - x19*x7 - x21*x7 - x3*x4 - x6*x7 + x70*x71*(x42*(-x64 + x54*x69) + x55*x63 + x60*x72) + x70*(x42*x55 + x56*x60 + x63*(-x61 + x44*x54))*(-x2 - x23 - x24 - x26 - x28 - x29 - x33 - x34 - x9 - x1*a1 - x31*a2 - x32*b1 - x5*a1 - x8*a1) + x70*(x42*x72 + x56*x63 + x60*(-x65 + x43*x69*m_s))*(x71 + x16*cos_t3 + x18*cos_t3 + x19*cos_t3 + x21*cos_t3 + x6*cos_t3) + sin_t2*a2*g*m_h + sin_t2*a2*g*m_s + sin_t2*b2*g*m_h + sin_t2*b2*g*m_s + sin_t2*b2*g*m_t + 2*sin_t2*a2*g*m_t;
+}
+
 /* Position (x, y) and angle of each body in phase knee_free's chart. Returns tuple: x, y, angle of each body in order (angle 0 for a point mass). */
 function knee_free_positions(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot) {
   const [cos_psi, sin_psi] = be.cos_sin(psi);
   const [cos_theta, sin_theta] = be.cos_sin(theta);
   const [cos_t2, sin_t2] = be.cos_sin(kappa + psi);
-  const x0 = a2 + b2;
-  const x1 = a1 + b1;
-  const x2 = x0 + x1;
-  const x3 = x1 + a2;
-  const x4 = -x2*sin_theta;
-  const x5 = -x2*cos_theta;
-  return [x2*sin_theta, x2*cos_theta, 0, sin_theta*a1, cos_theta*a1, 0, x3*sin_theta, x3*cos_theta, 0, -x4 - sin_psi*b2, -x5 - cos_psi*b2, 0, -x4 - x0*sin_psi - sin_t2*b1, -x5 - x0*cos_psi - cos_t2*b1, 0];
+  const x0 = a1 + b1;
+  const x1 = x0*sin_theta;
+  const x2 = a2 + b2;
+  const x3 = x1 + x2*sin_theta;
+  const x4 = x0*cos_theta;
+  const x5 = x4 + x2*cos_theta;
+  return [x3, x5, 0, sin_theta*a1, cos_theta*a1, 0, x1 + sin_theta*a2, x4 + cos_theta*a2, 0, x3 - sin_psi*b2, x5 - cos_psi*b2, 0, x0*sin_theta + x2*sin_theta - x2*sin_psi - sin_t2*b1, x0*cos_theta + x2*cos_theta - x2*cos_psi - cos_t2*b1, 0];
 }
 
 /* Mass and central moment of inertia of each body in phase knee_free. Returns tuple: mass, inertia of each body in order (inertia 0 for a point mass). */
@@ -607,17 +691,69 @@ function knee_locked_lift_off(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, ps
   return -x0*x2 - x11*x2 - x13*x2 - x15*x2 - x16*x2 - x2*x3 - x2*x4 - x2*x5 - x2*x6 - x2*x7 - x2*x8 - x2*x9 + x35*(x19*x21 + x27*x28)*(-x0*sin_theta - x11*sin_theta - x13*sin_theta - x15*sin_theta - x16*sin_theta - x3*sin_theta - x4*sin_theta - x5*sin_theta - x6*sin_theta - x7*sin_theta - x8*sin_theta - x9*sin_theta) + x35*(x19*x34 + x21*x28)*(x4*sin_psi + x6*sin_psi + x8*sin_psi + x9*sin_psi) + cos_gamma*g*m_h + 2*cos_gamma*g*m_s + 2*cos_gamma*g*m_t + x14*cos_psi*a2*m_s + x14*cos_psi*b1*m_s + x14*cos_psi*b2*m_s + x14*cos_psi*b2*m_t;
 }
 
+/* Condition stance-knee-stop in phase knee_locked (reported, not enforced). Returns crosses zero (direction -1) where it fails. */
+function knee_locked_stance_knee_stop(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot) {
+  const [cos_t0, sin_t0] = be.cos_sin(gamma + psi);
+  const [cos_t1, sin_t1] = be.cos_sin(gamma + theta);
+  const [cos_t2, sin_t2] = be.cos_sin(psi - theta);
+  const x0 = a2*m_h;
+  const x1 = sin_t1*g;
+  const x2 = a2*m_s;
+  const x3 = b2*m_h;
+  const x4 = b2*m_s;
+  const x5 = b2*m_t;
+  const x6 = 2*m_t;
+  const x7 = x6*a2;
+  const x8 = x2*b1;
+  const x9 = sin_t2*Math.pow(psi_dot, 2);
+  const x10 = 2*b2;
+  const x11 = x10*x2;
+  const x12 = x5*a2;
+  const x13 = b1*m_s;
+  const x14 = x13*b2;
+  const x15 = Math.pow(a2, 2);
+  const x16 = x15*m_s;
+  const x17 = Math.pow(b2, 2);
+  const x18 = x17*m_s;
+  const x19 = x17*m_t;
+  const x20 = a1*m_h;
+  const x21 = x20*a2;
+  const x22 = x20*b2;
+  const x23 = x0*b1;
+  const x24 = b1*m_h;
+  const x25 = x24*b2;
+  const x26 = x5*b1;
+  const x27 = x6*a1;
+  const x28 = x11 + x16 + x18 + x19;
+  const x29 = 2*x12 + x0*x10 + x15*x6 + x15*m_h + x17*m_h;
+  const x30 = x13 + x2 + x4 + x5;
+  const x31 = a1 + a2 + b1 + b2;
+  const x32 = -x30*sin_t0*g + x30*x31*sin_t2*Math.pow(theta_dot, 2);
+  const x33 = x30*x31;
+  const x34 = x33*cos_t2;
+  const x35 = Math.pow(b1, 2);
+  const x36 = x28 + 2*x14 + 2*x8 + x35*m_s;
+  const x37 = 2*a1;
+  const x38 = x1*(x0 + x20 + x24 + x27 + x3 + x30 + x7 + x37*m_s + x6*b1) - x33*x9;
+  const x39 = Math.pow(a1, 2);
+  const x40 = 2*x39;
+  const x41 = 4*a1*m_t;
+  const x42 = x29 + x36 + 2*x21 + 2*x22 + 2*x23 + 2*x25 + 2*x26 + x13*x37 + x2*x37 + x35*x6 + x35*m_h + x37*x4 + x37*x5 + x39*m_h + x40*m_s + x40*m_t + x41*a2 + x41*b1 + 2*x20*b1 + 4*a2*b1*m_t;
+  const x43 = (1/(x36*x42 - Math.pow(x30, 2)*Math.pow(x31, 2)*Math.pow(cos_t2, 2)));
+  return x0*x1 + x1*x2 + x1*x3 + x1*x4 + x1*x5 + x1*x7 - x11*x9 - x12*x9 - x14*x9 - x16*x9 - x18*x9 - x19*x9 - x8*x9 + x43*(x32*x34 + x36*x38)*(-x14 - x21 - x22 - x23 - x25 - x26 - x28 - x29 - x8 - x2*a1 - x27*a2 - x4*a1 - x5*a1 - x7*b1) + x43*(x32*x42 + x34*x38)*(x11*cos_t2 + x12*cos_t2 + x14*cos_t2 + x16*cos_t2 + x18*cos_t2 + x19*cos_t2 + x8*cos_t2);
+}
+
 /* Position (x, y) and angle of each body in phase knee_locked's chart. Returns tuple: x, y, angle of each body in order (angle 0 for a point mass). */
 function knee_locked_positions(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot) {
   const [cos_psi, sin_psi] = be.cos_sin(psi);
   const [cos_theta, sin_theta] = be.cos_sin(theta);
-  const x0 = a2 + b2;
-  const x1 = a1 + b1;
-  const x2 = x0 + x1;
-  const x3 = x1 + a2;
-  const x4 = -x2*sin_theta;
-  const x5 = -x2*cos_theta;
-  return [x2*sin_theta, x2*cos_theta, 0, sin_theta*a1, cos_theta*a1, 0, x3*sin_theta, x3*cos_theta, 0, -x4 - sin_psi*b2, -x5 - cos_psi*b2, 0, -x4 - x0*sin_psi - sin_psi*b1, -x5 - x0*cos_psi - cos_psi*b1, 0];
+  const x0 = a1 + b1;
+  const x1 = x0*sin_theta;
+  const x2 = a2 + b2;
+  const x3 = x1 + x2*sin_theta;
+  const x4 = x0*cos_theta;
+  const x5 = x4 + x2*cos_theta;
+  return [x3, x5, 0, sin_theta*a1, cos_theta*a1, 0, x1 + sin_theta*a2, x4 + cos_theta*a2, 0, x3 - sin_psi*b2, x5 - cos_psi*b2, 0, x0*sin_theta + x2*sin_theta - x2*sin_psi - sin_psi*b1, x0*cos_theta + x2*cos_theta - x2*cos_psi - cos_psi*b1, 0];
 }
 
 /* Mass and central moment of inertia of each body in phase knee_locked. Returns tuple: mass, inertia of each body in order (inertia 0 for a point mass). */
@@ -1296,8 +1432,7 @@ function event_heelstrike_contact(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta
   const [cos_theta, sin_theta] = be.cos_sin(theta);
   const x0 = a1 + b1;
   const x1 = a2 + b2;
-  const x2 = x0 + x1;
-  return [x2*sin_theta - x0*sin_psi - x1*sin_psi, x2*cos_theta - x0*cos_psi - x1*cos_psi];
+  return [x0*sin_theta + x1*sin_theta - x0*sin_psi - x1*sin_psi, x0*cos_theta + x1*cos_theta - x0*cos_psi - x1*cos_psi];
 }
 
 /* The event heelstrike counts only where this is positive. Returns sign. */
@@ -1311,7 +1446,7 @@ function step_length_of_state(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, ps
   const [cos_theta, sin_theta] = be.cos_sin(theta);
   const x0 = a1 + b1;
   const x1 = a2 + b2;
-  return sin_theta*(x0 + x1) - x0*sin_psi - x1*sin_psi;
+  return x0*sin_theta + x1*sin_theta - x0*sin_psi - x1*sin_psi;
 }
 
 /* The walker's weight: gravity times the mass of every body (the cost of transport's scale; it depends on the parameters only). Returns force. */
@@ -1324,7 +1459,7 @@ function section_completion(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi,
   return [theta, -theta, 0, theta_dot, psi_dot, 0];
 }
 
-const exported = { PARAMETERS, CONDITIONS, knee_free_accelerations, knee_free_energy, knee_free_normal_force, knee_free_fell_backward, knee_free_fell_forward, knee_free_lift_off, knee_free_positions, knee_free_inertias, knee_locked_accelerations, knee_locked_energy, knee_locked_normal_force, knee_locked_fell_backward, knee_locked_fell_forward, knee_locked_lift_off, knee_locked_positions, knee_locked_inertias, event_kneestrike_guard, event_kneestrike_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
+const exported = { PARAMETERS, CONDITIONS, knee_free_accelerations, knee_free_energy, knee_free_normal_force, knee_free_fell_backward, knee_free_fell_forward, knee_free_lift_off, knee_free_stance_knee_stop, knee_free_positions, knee_free_inertias, knee_locked_accelerations, knee_locked_energy, knee_locked_normal_force, knee_locked_fell_backward, knee_locked_fell_forward, knee_locked_lift_off, knee_locked_stance_knee_stop, knee_locked_positions, knee_locked_inertias, event_kneestrike_guard, event_kneestrike_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {
