@@ -1,7 +1,8 @@
-"""The bifurcation diagram of ``vsw sweep --plot`` for every model of the engine.
+"""The bifurcation diagrams of ``vsw sweep --plot`` and ``vsw continue --plot`` for every
+model of the engine.
 
-It draws from the sweep's own JSON record (the dictionary ``vsw sweep --json`` prints),
-so a figure shows exactly the numbers the command reports. The style is
+Each draws from its command's own JSON record (the dictionary ``--json`` prints), so a
+figure shows exactly the numbers the command reports. The style is
 :mod:`vsw.plotstyle`'s; matplotlib is imported by it, inside the functions.
 """
 
@@ -21,6 +22,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "bifurcation_plot",
+    "continuation_plot",
     "diagram_quantity",
     "diagram_units",
     "diagram_value",
@@ -169,4 +171,88 @@ def bifurcation_plot(
         finite = eig[np.isfinite(eig)]
         if finite.size and finite.max() / max(finite.min(), 1e-300) > 50:
             ax_eig.set_yscale("log")
+    return fig
+
+
+SPECIAL_MARKERS = {"fold": "s", "flip": "D", "neimark-sacker": "^", "boundary": "X"}
+"""Markers of ``vsw continue``'s special points."""
+
+
+def _branch_values(y: str, record: Mapping[str, Any], step: int) -> float:
+    """The diagram's quantity of one step of a branch point's (or special point's) gait."""
+    value = diagram_value(
+        y,
+        record["section_states"][step],
+        record["step_lengths"][step] if record["step_lengths"] else None,
+        record["step_periods"][step],
+    )
+    return np.nan if value is None else float(value)
+
+
+def continuation_plot(
+    data: Mapping[str, Any], y: str, units: Mapping[str, str], title: str
+) -> Figure:
+    """Every branch of ``vsw continue`` against the parameter: a period-k gait as k curves
+    (one per step of its cycle), solid where stable and dashed where not, one colour per
+    period; special points marked and labelled (LP fold, PD flip, NS Neimark-Sacker, B
+    boundary); below, each branch's largest |eigenvalue| against 1.
+
+    Parameters
+    ----------
+    data : mapping
+        The record of ``vsw continue --json`` (``over``, ``branches``).
+    y, units, title
+        As :func:`bifurcation_plot`'s.
+    """
+    fig, (ax, ax_eig) = plotstyle.new_figure(
+        width=plotstyle.COLUMN_WIDTH, height=1.25 * plotstyle.COLUMN_WIDTH, nrows=2,
+        sharex=True, height_ratios=(2.2, 1.0),
+    )  # fmt: skip
+    labels = {"fold": "LP", "flip": "PD", "neimark-sacker": "NS", "boundary": "B"}
+    periods = sorted({b["period"] for b in data["branches"]})
+    handles: dict[str, Any] = {}
+    for branch in data["branches"]:
+        color = COLORS[plotstyle.CYCLE[periods.index(branch["period"]) % len(plotstyle.CYCLE)]]
+        points = branch["points"]
+        xs = np.array([p["parameter"] for p in points], dtype=float)
+        stable = np.array([bool(p["stable"]) for p in points])
+        unstable = ~stable
+        joined = unstable | np.r_[unstable[1:], False] | np.r_[False, unstable[:-1]]
+        for step in range(branch["period"]):
+            ys = np.array([_branch_values(y, p, step) for p in points])
+            for mask, style in ((stable, "-"), (joined, "--")):
+                line = np.where(mask, ys, np.nan)
+                if np.any(~np.isnan(line)):
+                    (drawn,) = ax.plot(xs, line, style, color=color, marker="none")
+                    handles.setdefault(f"period {branch['period']}", drawn)
+        eig = np.array([np.nan if p["max_abs_eigenvalue"] is None else p["max_abs_eigenvalue"]
+                        for p in points], dtype=float)  # fmt: skip
+        ax_eig.plot(xs, eig, "-", color=color, marker="none")
+        for special in branch["special_points"]:
+            kind = special["type"]
+            for step in range(branch["period"]):
+                value = _branch_values(y, special, step)
+                (drawn,) = ax.plot([special["parameter"]], [value], linestyle="none",
+                                   marker=SPECIAL_MARKERS[kind], markersize=4,
+                                   color=COLORS["black"], fillstyle="none")  # fmt: skip
+                handles.setdefault(f"{labels[kind]}: {kind}", drawn)
+                if step == 0:
+                    ax.annotate(labels[kind], (special["parameter"], value),
+                                textcoords="offset points", xytext=(3, 3),
+                                fontsize="x-small")  # fmt: skip
+    for style, label in (("-", "stable"), ("--", "unstable")):
+        (handles[label],) = ax.plot([], [], style, color=COLORS["grey"], marker="none")
+    low, high = sorted(data["range"])
+    ax.set_xlim(low, high)
+    ax.set_ylabel(_axis_label(y, units))
+    fig.suptitle(title, x=0.02, ha="left", fontsize="medium")
+    plotstyle.figure_legend(fig, list(handles.values()), list(handles), ncols=3)
+    ax_eig.axhline(1.0, color=COLORS["grey"], linewidth=0.8)
+    ax_eig.set_ylabel(r"max $|\lambda|$")
+    ax_eig.set_xlabel(plotstyle.state_label(data["over"], data.get("over_unit") or "1"))
+    values = np.concatenate([[p["max_abs_eigenvalue"] or np.nan for p in b["points"]]
+                             for b in data["branches"]]).astype(float)  # fmt: skip
+    finite = values[np.isfinite(values) & (values > 0)]
+    if finite.size and finite.max() / finite.min() > 50:
+        ax_eig.set_yscale("log")
     return fig

@@ -18,7 +18,17 @@ from collections.abc import Callable, Sequence
 from typing import Any, NoReturn, TextIO
 
 from vsw import stop
-from vsw.cli import analyze, animate, basin, design, explore, models, simulate, sweep
+from vsw.cli import (
+    analyze,
+    animate,
+    basin,
+    continuation,
+    design,
+    explore,
+    models,
+    simulate,
+    sweep,
+)
 from vsw.cli.output import version
 from vsw.cli.parser import (
     EXIT_CLOSED_PIPE,
@@ -37,7 +47,7 @@ from vsw.vectorize import default_threads
 
 __all__ = ["COMMANDS", "build_parser", "main"]
 
-COMMANDS = (models, analyze, simulate, animate, explore, basin, sweep, design)
+COMMANDS = (models, analyze, simulate, animate, explore, basin, sweep, continuation, design)
 """The command modules, in the order ``vsw --help`` lists them: each has ``register``
 (adds its parser) and ``run``."""
 

@@ -1,0 +1,712 @@
+"""A model's periodic gaits continued in one parameter, with their special points located.
+
+The period-``k`` gait is a boundary-value problem (:meth:`vsw.hybrid.HybridModel.
+orbit_system`): unknowns ``u = (x0, T_1..T_{kK})`` (the section state and the duration of
+every phase of ``k`` steps), residual ``R(u, lambda) = (each phase's guard at its end,
+state after k steps - x0)``, with CasADi's derivatives. Continuation follows its solution
+curve in ``w = (u, nu)``, ``lambda = start + nu (stop - start)``, by **pseudo-arclength**
+(Keller; the vocabulary of AUTO, MatCont and COCO): at a point the tangent ``t`` solves
+``[R_w; t_prev] t = (0, 1)``; the predictor is ``w + h t``; the corrector Newton's method on
+``(R(w) = 0, t . (w - w_pred) = 0)``, whose Jacobian stays regular at a fold, so folds are
+passed, not stopped at. The step ``h`` grows by 1.5 after an easy correction and halves
+when the corrector fails or the tangent turns by more than :data:`MAX_TURN`.
+
+**Special points.** Along the branch, test functions whose sign changes between two points
+bracket a special point, located by the Illinois method along the arclength (each trial
+point corrected onto the branch) until the bracket is below :data:`LOCATE_TOL`:
+
+* ``fold``: the tangent's parameter component (an eigenvalue of the map crosses +1);
+* ``flip`` (period doubling): ``det(M + I)`` (an eigenvalue crosses -1);
+* ``neimark-sacker``: the bialternate product ``prod_{i<j} (mu_i mu_j - 1)``, kept where a
+  complex pair is on the unit circle (a real pair with ``mu_i mu_j = 1``, a neutral saddle,
+  is no bifurcation and is not reported);
+* ``boundary``: the branch leaves the gaits: a phase duration reaching zero (the event that
+  ends it comes at its start: the VSW biped's heelstrike reaching the extension angle), or
+  the step simulated from the orbit no longer confirming it (a failure's guard reached on
+  the way, a guard grazed: the step ends otherwise), located by bisection; ``condition``
+  names it. The branch ends at a boundary.
+
+``M`` is the Jacobian of the period-``k`` Poincaré map at the orbit
+(:meth:`~vsw.hybrid.HybridModel.monodromy`). Every point of a branch is confirmed by the
+simulated walk (SciPy's DOP853 with events: ``k`` steps return to ``x0``).
+
+**Branch switching.** At a located flip the period-``2k`` problem's Jacobian is singular
+(``M^2`` has the eigenvalue 1); its null vector orthogonal to the doubled period-``k``
+branch is the new branch's direction, and a corrector from a small step along it lands on
+the period-``2k`` gait, continued like any branch (to its own flip: the cascade).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from vsw import stop
+from vsw.errors import VswInputError
+from vsw.hybrid import HybridModel, by_modulus
+
+__all__ = [
+    "LOCATE_TOL",
+    "Branch",
+    "Options",
+    "SpecialPoint",
+    "continue_gaits",
+]
+
+LOCATE_TOL = 1e-11
+"""A special point is located when its bracket along the arclength (in the scaled unknowns:
+the parameter as a fraction of the range) is below this."""
+
+RESIDUAL_TOL = 1e-10
+"""The corrector's tolerance on the residual, relative to max(1, |x0|)."""
+
+MAX_TURN = 0.3
+"""Largest angle (rad) between the tangents of two consecutive points."""
+
+CONFIRM_TOL = 1e-8
+"""The simulated ``k`` steps must return to ``x0`` within this (relative to max(1, |x0|),
+times the largest |eigenvalue| on an unstable gait)."""
+
+
+@dataclass(frozen=True)
+class Options:
+    """How a branch is followed: steps in the scaled unknowns (the parameter as a fraction
+    of its range), the most points per branch, and branch switching."""
+
+    initial_step: float = 0.01
+    max_step: float = 0.05
+    min_step: float = 1e-7
+    max_points: int = 400
+    switch: bool = True
+    max_period: int = 16
+
+
+@dataclass
+class _Point:
+    """A point on a branch: the unknowns ``w = (x0, T, nu)``, the tangent there, the map's
+    eigenvalues and the confirming simulation's step lengths."""
+
+    w: np.ndarray
+    tangent: np.ndarray
+    eigenvalues: list[complex]
+    iterations: int
+    step_lengths: list[float | None] = field(default_factory=list)
+    confirmed: str = "completed"  # or why the simulated walk does not confirm the orbit
+
+
+@dataclass
+class SpecialPoint:
+    """A located special point: ``type`` (fold, flip, neimark-sacker, boundary), the
+    defining equation's value there (|mu - 1|, |mu + 1|, ||mu| - 1| of the critical
+    eigenvalue, the phase duration; for a boundary found by bisection the bracket's width
+    in the parameter), for a boundary the condition, and the gait there as a branch point's
+    record (parameter, state, eigenvalues, step lengths, ...)."""
+
+    type: str
+    defining: float
+    condition: str | None
+    record: dict[str, Any]
+    eigenvalues: list[complex]
+
+    @property
+    def parameter(self) -> float:
+        return float(self.record["parameter"])
+
+    @property
+    def state(self) -> dict[str, float]:
+        return dict(self.record["state"])
+
+    @property
+    def durations(self) -> list[float]:
+        return list(self.record["phase_durations"])
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "type": self.type,
+            "parameter": self.parameter,
+            "defining_equation": self.defining,
+            "condition": self.condition,
+            **{k: v for k, v in self.record.items() if k != "parameter"},
+        }
+
+
+@dataclass
+class Branch:
+    """A branch of period-``period`` gaits: its points and located special points, and how
+    it ended (``range``: the end of the range; ``boundary``: a boundary point; ``lost``:
+    the corrector failed at the smallest step; ``max points``)."""
+
+    period: int
+    points: list[dict[str, Any]]
+    special_points: list[SpecialPoint]
+    ended: str
+    from_flip: float | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "period": self.period,
+            "from_flip": self.from_flip,
+            "ended": self.ended,
+            "points": self.points,
+            "special_points": [s.to_dict() for s in self.special_points],
+        }
+
+
+class _Equations:
+    """The period-``period`` orbit's residual in ``w = (x_1..x_m, T_1..T_m, nu)`` (multiple
+    shooting: :meth:`vsw.hybrid.HybridModel.orbit_system`) and its Jacobian."""
+
+    def __init__(
+        self, model: HybridModel, params: Sequence[float], index: int,
+        start: float, stop_value: float, period: int,
+    ) -> None:  # fmt: skip
+        self.model = model
+        self.params = np.asarray(params, dtype=float)
+        self.index = index
+        self.start = start
+        self.width = stop_value - start
+        self.period = period
+        self.n = 2 * model.n
+        self.sequence = model._phase_sequence() * period
+        self.m = len(self.sequence)
+        self.function = model.orbit_system(period, index)
+
+    def parameter(self, nu: float) -> float:
+        return self.start + nu * self.width
+
+    def params_at(self, nu: float) -> np.ndarray:
+        p = self.params.copy()
+        p[self.index] = self.parameter(nu)
+        return p
+
+    def x0(self, w: np.ndarray) -> np.ndarray:
+        """The section state (the first phase's start)."""
+        return w[: self.n]
+
+    def durations(self, w: np.ndarray) -> np.ndarray:
+        return w[self.n * self.m : -1]
+
+    def unknowns(self, x0: np.ndarray, durations: Sequence[float], nu: float) -> np.ndarray:
+        """``w`` from the section state and the phase durations: each phase's start by the
+        flows (CVODES) and resets from ``x0``."""
+        params = self.params_at(nu)
+        starts, x = [], np.asarray(x0, dtype=float)
+        for (phase, event), duration in zip(self.sequence, durations):
+            starts.append(x)
+            end = self.model.phase_flow(phase, params, x, duration)
+            x = self.model.reset(event["name"], params, end)
+        return np.concatenate([*starts, np.asarray(durations, float), [nu]])
+
+    def evaluate(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """R(w) and [R_u, R_nu]; RuntimeError where CVODES fails."""
+        with contextlib.redirect_stderr(io.StringIO()):
+            p, i = self.params_at(w[-1]), self.index
+            r, j_u, j_p = self.function(w[:-1], p[:i], p[i], p[i + 1 :])
+        jac = np.hstack([np.array(j_u, dtype=float), np.array(j_p, dtype=float) * self.width])
+        return np.array(r, dtype=float).reshape(-1), jac
+
+    def monodromy(self, jac: np.ndarray) -> np.ndarray:
+        """The Jacobian of the period-k Poincaré map at the orbit: the product over the
+        phases of each phase's map derivative, F_x - F_T G_x / G_T (its end time moved by
+        its guard: the implicit function theorem), from the residual's blocks."""
+        n, m = self.n, self.m
+        out = np.eye(n)
+        for k in range(m):
+            rows = slice(k * (n + 1), (k + 1) * (n + 1))
+            block = jac[rows]
+            g_x, g_t = block[0, k * n : (k + 1) * n], block[0, n * m + k]
+            f_x, f_t = block[1:, k * n : (k + 1) * n], block[1:, n * m + k]
+            if m == 1:  # the phase's next start is its own: its block holds F_x - I
+                f_x = f_x + np.eye(n)
+            out = (f_x - np.outer(f_t, g_x) / g_t) @ out
+        return out
+
+    def eigenvalues(self, jac: np.ndarray) -> list[complex]:
+        with np.errstate(all="ignore"):
+            monodromy = self.monodromy(jac)
+        if not np.all(np.isfinite(monodromy)):
+            return []
+        return by_modulus(np.linalg.eigvals(monodromy))
+
+    def state(self, w: np.ndarray) -> dict[str, float]:
+        names = [*self.model.coordinates, *self.model.rates]
+        return dict(zip(names, (float(v) for v in self.x0(w))))
+
+
+def _tangent(jac: np.ndarray, previous: np.ndarray) -> np.ndarray | None:
+    """The unit tangent of the branch: [R_w; previous] t = (0, 1), normalised; the sign
+    follows ``previous``."""
+    system = np.vstack([jac, previous])
+    rhs = np.zeros(len(system))
+    rhs[-1] = 1.0
+    try:
+        t = np.linalg.solve(system, rhs)
+    except np.linalg.LinAlgError:
+        return None
+    size = np.linalg.norm(t)
+    return t / size if np.isfinite(size) and size > 0 else None
+
+
+def _correct(
+    eq: _Equations, guess: np.ndarray, normal: np.ndarray, anchor: np.ndarray,
+    max_iterations: int = 12,
+) -> tuple[np.ndarray, np.ndarray, int] | None:  # fmt: skip
+    """Newton on (R(w) = 0, normal . (w - anchor) = 0) from ``guess``: (w, Jacobian of R at
+    w, iterations), or None where it does not converge."""
+    w = np.array(guess, dtype=float)
+    for iteration in range(1, max_iterations + 1):
+        stop.check()
+        try:
+            r, jac = eq.evaluate(w)
+        except RuntimeError:
+            stop.check()  # CasADi turns Ctrl-C and the time limit into this error
+            return None
+        if not (np.all(np.isfinite(r)) and np.all(np.isfinite(jac))):
+            return None
+        system = np.vstack([jac, normal])
+        rhs = -np.concatenate([r, [float(normal @ (w - anchor))]])
+        try:
+            dw = np.linalg.solve(system, rhs)
+        except np.linalg.LinAlgError:
+            return None
+        w = w + dw
+        scale = max(1.0, float(np.max(np.abs(w[:-1]))))
+        if np.max(np.abs(r)) <= RESIDUAL_TOL * scale and np.max(np.abs(dw)) <= 1e-9 * scale:
+            try:
+                r, jac = eq.evaluate(w)
+            except RuntimeError:
+                stop.check()
+                return None
+            if np.all(np.isfinite(jac)) and np.max(np.abs(r)) <= RESIDUAL_TOL * scale:
+                return w, jac, iteration
+            return None
+    return None
+
+
+def _confirm(eq: _Equations, w: np.ndarray, eigenvalues: list[complex]) -> tuple[str, list]:
+    """The orbit confirmed by the simulated walk: ``period`` steps from x0 with every phase,
+    back to x0. Returns ('completed', step lengths) or (why not, [])."""
+    model = eq.model
+    params = eq.params_at(w[-1])
+    x0 = eq.x0(w)
+    x = x0.copy()
+    lengths: list[float | None] = []
+    phases = len(model._phase_sequence())
+    for _ in range(eq.period):
+        step = model.step(params, x)
+        if step.ended != "completed":
+            return step.ended, []
+        if len(step.durations) != phases:
+            return "a phase skipped or added (a guard grazed)", []
+        lengths.append(step.step_length)
+        x = step.state
+    largest = max([abs(e) for e in eigenvalues] or [1.0])
+    scale = max(1.0, float(np.max(np.abs(x0))))
+    gap = float(np.max(np.abs(x - x0)))
+    if not gap <= CONFIRM_TOL * scale * max(1.0, largest):
+        return f"the simulated walk ends {gap:.3g} away from the orbit", []
+    return "completed", lengths
+
+
+def _point(eq: _Equations, w: np.ndarray, jac: np.ndarray, previous: np.ndarray,
+           iterations: int) -> _Point | None:  # fmt: skip
+    tangent = _tangent(jac, previous)
+    if tangent is None:
+        return None
+    eigenvalues = eq.eigenvalues(jac)
+    confirmed, lengths = _confirm(eq, w, eigenvalues)
+    return _Point(w, tangent, eigenvalues, iterations, lengths, confirmed)
+
+
+# --- test functions ----------------------------------------------------------------------
+
+
+def _fold(eq: _Equations, p: _Point) -> float:
+    return float(p.tangent[-1])
+
+
+def _flip(eq: _Equations, p: _Point) -> float:
+    return float(np.real(np.prod([1.0 + mu for mu in p.eigenvalues]))) if p.eigenvalues else 0.0
+
+
+def _neimark_sacker(eq: _Equations, p: _Point) -> float:
+    mus = p.eigenvalues
+    product = 1.0 + 0j
+    for i in range(len(mus)):
+        for j in range(i + 1, len(mus)):
+            product *= mus[i] * mus[j] - 1.0
+    return float(product.real)
+
+
+def _duration(eq: _Equations, p: _Point) -> float:
+    return float(np.min(eq.durations(p.w)))
+
+
+TESTS: dict[str, Callable[[_Equations, _Point], float]] = {
+    "fold": _fold,
+    "flip": _flip,
+    "neimark-sacker": _neimark_sacker,
+    "boundary": _duration,
+}
+"""The test functions whose sign changes bracket a special point."""
+
+
+def _defining(kind: str, eq: _Equations, p: _Point) -> float:
+    """The defining equation's value at a located point (0 at the exact point)."""
+    mus = p.eigenvalues or [complex(math.nan)]
+    if kind == "fold":
+        return min(abs(mu - 1.0) for mu in mus)
+    if kind == "flip":
+        return min(abs(mu + 1.0) for mu in mus)
+    if kind == "neimark-sacker":
+        pairs = [mu for mu in mus if mu.imag > 1e-9]
+        return min((abs(abs(mu) - 1.0) for mu in pairs), default=math.inf)
+    return abs(_duration(eq, p))
+
+
+def _along(eq: _Equations, a: _Point, s: float) -> _Point | None:
+    """The branch's point at arclength ``s`` from ``a`` along ``a``'s tangent (corrected in
+    the plane normal to it)."""
+    anchor = a.w + s * a.tangent
+    solved = _correct(eq, anchor, a.tangent, anchor)
+    if solved is None:
+        return None
+    w, jac, iterations = solved
+    return _point(eq, w, jac, a.tangent, iterations)
+
+
+def _locate_root(
+    eq: _Equations, a: _Point, b: _Point, h: float, test: Callable[[_Equations, _Point], float]
+) -> tuple[_Point, float] | None:  # fmt: skip
+    """The point between ``a`` (s = 0) and ``b`` (s = h) where ``test`` vanishes (Illinois
+    method), with its s; None where a trial point cannot be corrected."""
+    lo, hi = 0.0, h
+    f_lo, f_hi = test(eq, a), test(eq, b)
+    best = (b, h) if abs(f_hi) < abs(f_lo) else (a, 0.0)
+    side = 0
+    for _ in range(100):
+        if abs(hi - lo) <= LOCATE_TOL:
+            break
+        s = hi - f_hi * (hi - lo) / (f_hi - f_lo) if f_hi != f_lo else 0.5 * (lo + hi)
+        if not (min(lo, hi) < s < max(lo, hi)):
+            s = 0.5 * (lo + hi)
+        p = _along(eq, a, s)
+        if p is None:
+            return None
+        f = test(eq, p)
+        best = (p, s)
+        if f == 0.0:
+            break
+        if (f > 0) == (f_hi > 0):
+            hi, f_hi = s, f
+            if side == 1:
+                f_lo *= 0.5
+            side = 1
+        else:
+            lo, f_lo = s, f
+            if side == -1:
+                f_hi *= 0.5
+            side = -1
+    return best
+
+
+def _locate_boundary(eq: _Equations, a: _Point, h: float) -> tuple[_Point, _Point, float]:
+    """Bisection on the simulated walk's confirmation between ``a`` (confirmed, s = 0) and
+    s = ``h`` (not): the last confirmed point, the first unconfirmed and the bracket."""
+    lo, hi = 0.0, h
+    good, bad = a, None
+    while hi - lo > LOCATE_TOL:
+        s = 0.5 * (lo + hi)
+        p = _along(eq, a, s)
+        if p is None:
+            break
+        if p.confirmed == "completed":
+            lo, good = s, p
+        else:
+            hi, bad = s, p
+    return good, bad, hi - lo
+
+
+def _special(eq: _Equations, kind: str, p: _Point, condition: str | None = None,
+             defining: float | None = None) -> SpecialPoint:  # fmt: skip
+    return SpecialPoint(
+        type=kind,
+        defining=_defining(kind, eq, p) if defining is None else defining,
+        condition=condition,
+        record=_record(eq, p),
+        eigenvalues=p.eigenvalues,
+    )
+
+
+def _record(eq: _Equations, p: _Point) -> dict[str, Any]:
+    """A branch point as JSON: ``vsw continue --json``'s ``points``."""
+    durations = eq.durations(p.w)
+    period = float(np.sum(durations))
+    largest = max([abs(mu) for mu in p.eigenvalues] or [math.nan])
+    lengths = p.step_lengths
+    known = [v for v in lengths if v is not None]
+    length = float(np.mean(known)) if known and len(known) == len(lengths) else None
+    names = [*eq.model.coordinates, *eq.model.rates]
+    per_step = len(eq.sequence) // eq.period
+    starts = [p.w[j * per_step * eq.n : (j * per_step + 1) * eq.n] for j in range(eq.period)]
+    return {
+        "parameter": eq.parameter(float(p.w[-1])),
+        "state": eq.state(p.w),
+        "section_states": [dict(zip(names, (float(v) for v in x))) for x in starts],
+        "step_periods": [
+            float(np.sum(durations[j * per_step : (j + 1) * per_step])) for j in range(eq.period)
+        ],
+        "period_time": period,
+        "phase_durations": [float(v) for v in durations],
+        "eigenvalues": [[float(e.real), float(e.imag)] for e in p.eigenvalues],
+        "max_abs_eigenvalue": largest,
+        "stable": bool(largest < 1.0),
+        "step_length": length,
+        "step_lengths": lengths,
+        "speed": None if length is None else float(sum(known)) / period,
+    }
+
+
+def _neutral_saddle(p: _Point) -> bool:
+    """A Neimark-Sacker test zero without a complex pair on the unit circle."""
+    return not any(mu.imag > 1e-9 and abs(abs(mu) - 1.0) < 1e-6 for mu in p.eigenvalues)
+
+
+def _trace(eq: _Equations, first: _Point, options: Options) -> Branch:
+    """Follow the branch from ``first`` in its tangent's direction to the range's end, a
+    boundary, or until it is lost."""
+    points, specials = [first], []
+    h = options.initial_step
+    ended = "max points"
+    while len(points) < options.max_points:
+        stop.check()
+        a = points[-1]
+        b = _along(eq, a, h)
+        if b is not None and (b.tangent @ a.tangent < math.cos(MAX_TURN)):
+            b = None  # turned too far: another branch, or a fold taken too fast
+        if b is None:
+            h *= 0.5
+            if h < options.min_step:
+                ended = "lost"
+                break
+            continue
+        nu_b = float(b.w[-1])
+        leaving = nu_b > 1.0 or nu_b < 0.0
+        if leaving:
+            # Land on the range's end: the point where nu reaches it (a root of nu - end).
+            end = 1.0 if nu_b > 1.0 else 0.0
+            found = _locate_root(eq, a, b, h, lambda _eq, p, end=end: float(p.w[-1]) - end)
+            if found is None:
+                ended = "lost"
+                break
+            b, h = found
+        found_specials, boundary = _between(eq, a, b, h)
+        specials.extend(found_specials)
+        if boundary is not None:
+            last, special = boundary
+            specials.append(special)
+            if last is not a:
+                points.append(last)
+            ended = "boundary"
+            break
+        points.append(b)
+        if leaving:
+            ended = "range"
+            break
+        if b.iterations <= 3:
+            h = min(1.5 * h, options.max_step)
+    return Branch(eq.period, [_record(eq, p) for p in points], specials, ended)
+
+
+def _between(eq: _Equations, a: _Point, b: _Point, h: float) -> tuple[list, tuple | None]:
+    """The special points between consecutive points ``a`` and ``b`` (``h`` apart), in
+    order, and the boundary that ends the branch there, if any: (last gait, its point)."""
+    found: list[tuple[float, SpecialPoint]] = []
+    boundary: tuple[float, _Point, SpecialPoint] | None = None
+    if _duration(eq, b) <= 0.0 < _duration(eq, a):
+        located = _locate_root(eq, a, b, h, _duration)
+        if located is not None:
+            p, s = located
+            phase = eq.sequence[int(np.argmin(eq.durations(p.w)))][0]
+            special = _special(eq, "boundary", p, f"phase {phase} of no duration (the event "
+                               "that ends it comes at its start)")  # fmt: skip
+            boundary = (s, p, special)
+    if boundary is None and b.confirmed != "completed":
+        good, bad, width = _locate_boundary(eq, a, h)
+        why = bad.confirmed if bad is not None else b.confirmed
+        special = _special(eq, "boundary", good, f"the simulated walk: {why}",
+                           defining=abs(eq.width) * width)  # fmt: skip
+        boundary = (float(good.tangent @ (good.w - a.w)), good, special)
+    limit = boundary[0] if boundary is not None else h
+    for kind in ("fold", "flip", "neimark-sacker"):
+        test = TESTS[kind]
+        f_a, f_b = test(eq, a), test(eq, b)
+        if not (np.isfinite(f_a) and np.isfinite(f_b)) or (f_a > 0) == (f_b > 0) or f_a == 0:
+            continue
+        located = _locate_root(eq, a, b, h, test)
+        if located is None:
+            continue
+        p, s = located
+        if s > limit or (kind == "neimark-sacker" and _neutral_saddle(p)):
+            continue
+        found.append((s, _special(eq, kind, p)))
+    found.sort(key=lambda item: item[0])
+    out = [special for _, special in found]
+    return out, (None if boundary is None else (boundary[1], boundary[2]))
+
+
+def _start(eq: _Equations, state: np.ndarray, durations: Sequence[float]) -> _Point:
+    """The first point: the orbit at the range's start from a guess (nu fixed at 0);
+    VswInputError where the guess leads to no gait."""
+    where = f"at {eq.parameter(0.0):g}"
+    try:
+        guess = eq.unknowns(state, durations, 0.0)
+    except RuntimeError:
+        stop.check()
+        raise VswInputError(
+            f"{eq.model.name}: the start's phases could not be integrated"
+        ) from None
+    normal = np.zeros_like(guess)
+    normal[-1] = 1.0
+    solved = _correct(eq, guess, normal, np.zeros_like(guess), max_iterations=40)
+    if solved is None:
+        raise VswInputError(f"{eq.model.name}: no period-{eq.period} gait {where} near the start "
+                            "(the orbit's corrector did not converge from it)")  # fmt: skip
+    w, jac, iterations = solved
+    if np.any(eq.durations(w) <= 0):
+        raise VswInputError(f"{eq.model.name}: no gait {where} near the start (the corrector "
+                            "converged to a phase of no positive duration)")  # fmt: skip
+    p = _point(eq, w, jac, normal, iterations)
+    if p is None or abs(p.tangent[-1]) < 1e-9:
+        raise VswInputError(f"{eq.model.name}: the start is at a fold of the branch: start the "
+                            "range elsewhere")  # fmt: skip
+    if p.confirmed != "completed":
+        raise VswInputError(f"{eq.model.name}: no gait {where} near the start: {p.confirmed}")
+    if p.tangent[-1] < 0:
+        p.tangent = -p.tangent
+    return p
+
+
+def _switch(eq: _Equations, flip: SpecialPoint) -> tuple[_Equations, _Point] | None:
+    """The period-2k problem and the first point of its branch born at ``flip`` on the
+    period-k branch of ``eq`` (module docstring), or None where the corrector does not
+    reach it."""
+    double = _Equations(eq.model, eq.params, eq.index, eq.start, eq.start + eq.width,
+                        2 * eq.period)  # fmt: skip
+    nu = (flip.parameter - eq.start) / eq.width
+    try:
+        single_w = eq.unknowns(np.array(list(flip.state.values())), flip.durations, nu)
+        _, single_jac = eq.evaluate(single_w)
+        cut = eq.n * eq.m
+        w0 = np.concatenate([single_w[:cut], single_w[:cut], single_w[cut:-1],
+                             single_w[cut:-1], [nu]])  # fmt: skip
+        _, jac = double.evaluate(w0)
+    except RuntimeError:
+        stop.check()
+        return None
+    single_t = _tangent(single_jac, np.eye(single_jac.shape[1])[-1])
+    if single_t is None:
+        return None
+    # The null space of R_w is two-dimensional at a period doubling: the doubled period-k
+    # branch's own direction and the new branch's. Project the null basis off the first.
+    starts, times = single_t[:cut], single_t[cut:-1]
+    along = np.concatenate([starts, starts, times, times, single_t[-1:]])
+    along /= np.linalg.norm(along)
+    null = np.linalg.svd(jac)[2][-2:]
+    across = max((v - (v @ along) * along for v in null), key=np.linalg.norm)
+    across /= np.linalg.norm(across)
+    for h in (1e-3, 3e-3, 1e-2, 3e-2):
+        anchor = w0 + h * across
+        solved = _correct(double, anchor, across, anchor)
+        if solved is None:
+            continue
+        w, jac2, iterations = solved
+        gap = _half_step_gap(double, w)
+        if gap is None or gap < 1e-7:
+            continue  # back on the period-k gait
+        p = _point(double, w, jac2, across, iterations)
+        if p is None or p.confirmed != "completed":
+            continue
+        if p.tangent @ (w - w0) < 0:
+            p.tangent = -p.tangent
+        return double, p
+    return None
+
+
+def _half_step_gap(eq: _Equations, w: np.ndarray) -> float | None:
+    """How far the period-2k orbit's state after k steps is from x0 (0 on a period-k
+    orbit taken twice)."""
+    model = eq.model
+    x = eq.x0(w).copy()
+    params = eq.params_at(w[-1])
+    for _ in range(eq.period // 2):
+        step = model.step(params, x)
+        if step.ended != "completed":
+            return None
+        x = step.state
+    return float(np.max(np.abs(x - eq.x0(w))))
+
+
+def continue_gaits(
+    model: HybridModel,
+    params: Sequence[float],
+    over: str,
+    start: float,
+    stop_value: float,
+    state: Sequence[float],
+    durations: Sequence[float],
+    period: int = 1,
+    options: Options | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> list[Branch]:
+    """The branch of period-``period`` gaits through ``state`` (at ``over = start``; its
+    phase durations ``durations`` are the guess) continued to ``over = stop_value``, and,
+    with ``options.switch``, the period-doubled branches born at each flip it locates (up
+    to ``options.max_period``), in the order found.
+
+    Parameters
+    ----------
+    model : HybridModel
+    params : sequence of float
+        The parameter vector (``over``'s own value is replaced along the branch).
+    over : str
+        The parameter continued in.
+    start, stop_value : float
+        The range.
+    state, durations : sequence of float
+        A guess of the gait at ``start``: its section state and each phase's duration
+        over ``period`` steps.
+    """
+    options = options or Options()
+    names = [p.name for p in model.parameter_table]
+    if over not in names:
+        raise VswInputError(f"{over!r} is not a parameter of {model.name}: {', '.join(names)}")
+    if not start != stop_value:
+        raise VswInputError(f"the range of {over} is empty: give START != STOP")
+    index = names.index(over)
+    eq = _Equations(model, params, index, start, stop_value, period)
+    first = _start(eq, np.asarray(state, float), durations)
+    branches: list[Branch] = []
+    queue: list[tuple[_Equations, _Point, float | None]] = [(eq, first, None)]
+    while queue:
+        current, point, born = queue.pop(0)
+        branch = _trace(current, point, options)
+        branch.from_flip = born
+        branches.append(branch)
+        if progress is not None:
+            progress(len(branches), len(branches) + len(queue))
+        if not options.switch or 2 * current.period > options.max_period:
+            continue
+        for special in branch.special_points:
+            if special.type != "flip":
+                continue
+            child = _switch(current, special)
+            if child is not None:
+                queue.append((*child, special.parameter))
+    return branches
