@@ -77,7 +77,10 @@ def orbit_solver_signalling(monkeypatch):
     def install(signum):
         original = HybridModel._orbit_solver
         for key in keys():  # searches kept from other tests would not call the solver
-            load(key)._searches.clear()
+            model = load(key)
+            # Kept aside and given back afterwards: other tests' searches (the kneed
+            # walker's takes a minute) need not run again.
+            monkeypatch.setattr(model, "_searches", {})
 
         def solver(self):
             _, jacobian = original(self)
