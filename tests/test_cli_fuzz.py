@@ -386,6 +386,22 @@ MODEL_COMMANDS = {
         ("--json",),
         ("--over",),
     ),
+    "continue": (
+        {
+            **_COMMON,
+            "--over": st.one_of(
+                st.tuples(number(0.08, 0.12), number(0.1, 0.2)).map(
+                    lambda t: "gamma=" + ":".join(t)
+                ),
+                assignment(["alpha", "theta_II"], st.sampled_from(["0.3:0.4", "1:2:3", ""])),
+            ),
+            "--max-points": integer(-1, 12),
+            "--period": integer(-1, 2),
+            "--max-period": integer(0, 4),
+        },
+        ("--json", "--no-switch"),
+        ("--over",),
+    ),
 }
 
 

@@ -8,6 +8,7 @@ dozen pushes of one start) missed; their largest |eigenvalue| are the numbers be
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -142,3 +143,32 @@ def test_every_gait_carries_its_failures_margins(capsys):
             assert c["holds"] is True and c["margin"] > 0 and c["unit"]
         lift = gait["conditions"][2]
         assert lift["unit"] == "N"
+
+
+def test_a_kept_search_is_a_new_one_bit_for_bit(monkeypatch, tmp_path):
+    """The scan and Newton's solutions are kept on disk (vsw.gaits._cache_file) and a later
+    search of the same model, code and inputs reuses them; its gaits, confirmed again by
+    the boundary-value solver, equal a new search's bit for bit. A damaged file is made
+    again; VSW_SEARCH_CACHE=0 keeps nothing."""
+    monkeypatch.setenv("VSW_CACHE_DIR", str(tmp_path))
+    m = load("compass_gait")
+    params = m.parameters({})
+    first = gaits.search(m, params, cells=20_000)
+    (kept,) = (tmp_path / "searches").iterdir()
+    with monkeypatch.context() as patch:  # reused: no scan runs
+        patch.setattr(gaits, "_scan", lambda *a: pytest.fail("scanned again"))
+        again = gaits.search(m, params, cells=20_000)
+    assert [o.to_dict() for o in again.gaits] == [o.to_dict() for o in first.gaits]
+    assert (again.candidates, again.converged, again.outcomes, again.points) == (
+        first.candidates, first.converged, first.outcomes, first.points)  # fmt: skip
+    assert len(first.gaits) >= 2
+    kept.write_text('{"found": [[0.1')  # a file cut short
+    damaged = gaits.search(m, params, cells=20_000)
+    assert [o.to_dict() for o in damaged.gaits] == [o.to_dict() for o in first.gaits]
+    assert json.loads(kept.read_text())["converged"] == first.converged
+    # Another input, another file; none with the cache off.
+    gaits.search(m, params, cells=8_000)
+    assert len(list((tmp_path / "searches").iterdir())) == 2
+    monkeypatch.setenv("VSW_SEARCH_CACHE", "0")
+    gaits.search(m, params, cells=5_000)
+    assert len(list((tmp_path / "searches").iterdir())) == 2

@@ -145,6 +145,7 @@ class BatchSimulator:
         self.build_error: str | None = None
         self._lock = threading.Lock()
         self._tried = False
+        self.library_path: Path | None = None  # the compiled library's file, once built
 
     @property
     def source(self) -> Path:
@@ -162,7 +163,7 @@ class BatchSimulator:
                 try:
                     table = self.source.read_bytes()
                     integrator = (CSRC / "hybrid_batch.c").read_bytes()
-                    lib, _path = build_library(
+                    lib, self.library_path = build_library(
                         table + b"\n" + integrator, f"{self.model.name}_sim", _FLAG_SETS,
                         includes=(CSRC,),
                     )  # fmt: skip

@@ -34,15 +34,22 @@ on a coarse grid (:data:`FALLBACK_CELLS`), and the result says it is not complet
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
+import json
 import math
+import os
+import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from vsw import limits, stop
+from vsw import batch, limits, stop
 from vsw.batch import FELL, WALKED, BatchSimulator, simulator
+from vsw.compiled import cache_dir
 from vsw.errors import ConvergenceError, VswInputError
 from vsw.hybrid import HybridModel, Orbit
 from vsw.vectorize import default_threads
@@ -318,6 +325,11 @@ def search(
 ) -> GaitSearch:
     """The period-one gaits at ``params`` within the search box (module docstring).
 
+    The scan and Newton's solutions are kept in the cache directory (:func:`_cache_file`)
+    and reused by any later search of the same model, code and inputs; every gait is
+    confirmed by the boundary-value solver either way, so a reused search returns what a
+    new one would, bit for bit.
+
     Parameters
     ----------
     model : HybridModel
@@ -331,18 +343,42 @@ def search(
     """
     params = tuple(float(v) for v in params)
     box = check_box(model, box)
+    sim = simulator(model)
+    compiled = sim.library() is not None
+    path = _cache_file(model, sim, params, box, cells) if compiled else None
+    scanned = _read_cache(path)
+    if scanned is None:
+        scanned = _scan(model, sim, params, box, cells, compiled)
+        _write_cache(path, scanned)
+    gaits, unconfirmed = _confirm(model, sim, params, scanned["found"])
+    return GaitSearch(
+        gaits=gaits,
+        box=box,
+        points=scanned["points"],
+        outcomes=scanned["outcomes"],
+        candidates=scanned["candidates"],
+        converged=scanned["converged"],
+        unconfirmed=unconfirmed,
+        route=scanned["route"],
+        complete=compiled and cells is None,
+    )
+
+
+def _scan(
+    model: HybridModel, sim: BatchSimulator, params: tuple[float, ...],
+    box: dict[str, tuple[float, float]], cells: int | None, compiled: bool,
+) -> dict[str, Any]:  # fmt: skip
+    """The scan of the box and Newton from every cell that completes its step: the
+    distinct solutions (free components) and how they were found."""
     names = [*model.coordinates, *model.rates]
     free = list(box)
     free_index = [names.index(n) for n in free]
-    sim = simulator(model)
-    compiled = sim.library() is not None
     per_axis = _scan_points(len(free), cells if cells or compiled else FALLBACK_CELLS)
     axes = [_axis(*box[n], per_axis, n in model.rates) for n in free]
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(free))
     states = section_states(model, params, grid)
     result = sim.step(params, states)
     walked = result.outcome == WALKED
-    outcomes = _outcome_counts(result)
     with np.errstate(invalid="ignore"):
         gap = np.max(np.abs(result.final[:, free_index] - grid), axis=1)
     residual = np.where(walked & np.isfinite(gap), gap, np.inf)
@@ -350,10 +386,25 @@ def search(
     solutions, ok = _newton(
         sim, model, params, grid[starts], free_index, result.final[starts][:, free_index]
     )
-    found = _distinct(solutions[ok])
+    return {
+        "found": [[float(v) for v in y] for y in _distinct(solutions[ok])],
+        "points": {n: len(a) for n, a in zip(free, axes)},
+        "outcomes": _outcome_counts(result),
+        "candidates": int(starts.size),
+        "converged": int(np.count_nonzero(ok)),
+        "route": result.route,
+    }
+
+
+def _confirm(
+    model: HybridModel, sim: BatchSimulator, params: tuple[float, ...], found: list
+) -> tuple[list[Orbit], list[dict[str, Any]]]:
+    """Each Newton solution confirmed by the boundary-value solver: the distinct gaits by
+    period, and the solutions it did not confirm with its reason."""
+    names = [*model.coordinates, *model.rates]
     gaits, unconfirmed = [], []
     for y in found:
-        state = section_states(model, params, y[None, :])[0]
+        state = section_states(model, params, np.array([y], dtype=float))[0]
         period = float(sim.step(params, state[None, :]).kept_durations[0, 0])
         if not period > 1e-9:
             continue  # a step of no duration (legs together at the event): no gait
@@ -376,17 +427,62 @@ def search(
         if all(np.any(np.abs(x - np.array(list(o.state.values())))
                       > DISTINCT * np.maximum(1.0, np.abs(x))) for o in distinct):  # fmt: skip
             distinct.append(orbit)
-    return GaitSearch(
-        gaits=distinct,
-        box=box,
-        points={n: len(a) for n, a in zip(free, axes)},
-        outcomes=outcomes,
-        candidates=int(starts.size),
-        converged=int(np.count_nonzero(ok)),
-        unconfirmed=unconfirmed,
-        route=result.route,
-        complete=compiled and cells is None,
-    )
+    return distinct, unconfirmed
+
+
+_CACHE_KEYS = {"found", "points", "outcomes", "candidates", "converged", "route"}
+
+
+def _cache_file(
+    model: HybridModel, sim: BatchSimulator, params: tuple[float, ...],
+    box: dict[str, tuple[float, float]], cells: int | None,
+) -> Path | None:  # fmt: skip
+    """Where a scan is kept: ``<cache dir>/searches/<model>-<key>.json``, the key a SHA-256
+    of everything the scan depends on (the model's generated module, the compiled
+    simulator's file, whose name is the hash of its C source, flags, compiler and CPU, this
+    module's and the batch simulator's code, numpy's version, the parameters, the box and
+    the cells). None with ``VSW_SEARCH_CACHE=0`` or no compiled simulator."""
+    if os.environ.get("VSW_SEARCH_CACHE", "1").strip() == "0" or sim.library_path is None:
+        return None
+    parts = [
+        Path(model.module.__file__).read_bytes(),
+        sim.library_path.name.encode(),
+        Path(__file__).read_bytes(),
+        Path(batch.__file__).read_bytes(),
+        np.__version__.encode(),
+        repr((params, sorted(box.items()), cells)).encode(),
+    ]
+    key = hashlib.sha256(b"\0".join(parts)).hexdigest()[:24]
+    return cache_dir() / "searches" / f"{model.name}-{key}.json"
+
+
+def _read_cache(path: Path | None) -> dict[str, Any] | None:
+    """A kept scan, or None (none kept, or unreadable: it is made again)."""
+    if path is None:
+        return None
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    if not isinstance(data, dict) or set(data) != _CACHE_KEYS:
+        return None
+    return data
+
+
+def _write_cache(path: Path | None, scanned: dict[str, Any]) -> None:
+    """Keep a scan (written whole, then renamed: a reader never sees part of it); a cache
+    that cannot be written is no error."""
+    if path is None:
+        return
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile("w", dir=path.parent, delete=False,
+                                         prefix=".search-", suffix=".json") as handle:  # fmt: skip
+            json.dump(scanned, handle)
+        os.replace(handle.name, path)
+    except OSError:
+        with contextlib.suppress(OSError, UnboundLocalError):
+            os.unlink(handle.name)
 
 
 def _phase_durations(model: HybridModel, params: Sequence[float], state: np.ndarray) -> tuple:
