@@ -21,6 +21,9 @@ to the next). The search is complete within a stated box and resolution:
    (:meth:`vsw.hybrid.HybridModel.periodic_orbit`: the orbit with its phase durations as
    unknowns, eigenvalues by CasADi derivatives, one simulated step back onto it).
 
+Steps 1-3 are kept on disk and reused by a later search of the same model, code and
+inputs (:func:`_cache_file`; ``VSW_SEARCH_CACHE=0`` turns it off); step 4 runs every time.
+
 What this misses, by construction: a gait whose set of states that complete one step is
 too thin to hold a grid cell near it (a gait with its apex barely passed: max |eigenvalue|
 in the hundreds), and gaits outside the box. Against a scan twice as fine, at the biped's
