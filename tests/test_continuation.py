@@ -230,3 +230,34 @@ def test_bad_input_is_one_line(capsys, argv, words):
     err = capsys.readouterr().err
     assert code == 2, err
     assert words in err and len(err.strip().splitlines()) == 1
+
+
+def test_the_kneed_walkers_gait_folds_at_its_least_slope():
+    """The kneed walker's stable gait, continued down in slope from Hsu Chen's 0.0504 (the
+    start: nyasuto/crane's gait digits, NC26 in tests/test_kneed_walker.py), turns at a fold
+    near 0.0318 rad and comes back up as the other gait of the search at 0.0504 (period
+    0.484 s, unstable): the fold is passed, not stopped at. At the fold the single-shooting
+    Poincaré map has an eigenvalue within 1e-7 of +1."""
+    m = load("kneed-walker")
+    params = m.parameters({})
+    guess = np.array([-0.23859, 0.23859, 0.0, 1.10959, 0.05715, 0.0])
+    durations = m.step(params, guess).durations
+    options = continuation.Options(switch=False, max_points=80)
+    (branch,) = continuation.continue_gaits(
+        m, params, "gamma", params[-2], 0.02, guess, durations, options=options
+    )
+    (fold,) = [s for s in branch.special_points if s.type == "fold"]
+    assert 0.030 < fold.parameter < 0.034 and fold.defining <= 1e-9
+    at = m.parameters({"gamma": fold.parameter})
+    assert min(abs(mu - 1) for mu in m.eigenvalues(at, list(fold.state.values()))) <= 1e-7
+    values = [p["parameter"] for p in branch.points]
+    turn = int(np.argmin(values))
+    assert np.all(np.diff(values[: turn + 1]) < 0) and np.all(np.diff(values[turn:]) > 0)
+    assert branch.ended == "back at the start"
+    assert values[-1] == pytest.approx(params[-2], abs=1e-12)
+    assert branch.points[0]["stable"] and not branch.points[-1]["stable"]
+    back = branch.points[-1]
+    other = [o for o in m.fixed_points(params) if not o.stable and abs(o.period - 0.484) < 1e-3]
+    (other,) = other
+    gap = max(abs(back["state"][k] - v) for k, v in other.state.items())
+    assert gap <= 1e-8 and back["period_time"] == pytest.approx(other.period, abs=1e-9)

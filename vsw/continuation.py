@@ -139,8 +139,9 @@ class SpecialPoint:
 @dataclass
 class Branch:
     """A branch of period-``period`` gaits: its points and located special points, and how
-    it ended (``range``: the end of the range; ``boundary``: a boundary point; ``lost``:
-    the corrector failed at the smallest step; ``max points``)."""
+    it ended (``range``: the end of the range; ``back at the start``: past a fold, the
+    parameter's start again; ``boundary``: a boundary point; ``lost``: the corrector
+    failed at the smallest step; ``max points``)."""
 
     period: int
     points: list[dict[str, Any]]
@@ -517,7 +518,7 @@ def _trace(eq: _Equations, first: _Point, options: Options) -> Branch:
             break
         points.append(b)
         if leaving:
-            ended = "range"
+            ended = "range" if nu_b > 1.0 else "back at the start"
             break
         if b.iterations <= 3:
             h = min(1.5 * h, options.max_step)
