@@ -261,3 +261,52 @@ def test_the_kneed_walkers_gait_folds_at_its_least_slope():
     (other,) = other
     gap = max(abs(back["state"][k] - v) for k, v in other.state.items())
     assert gap <= 1e-8 and back["period_time"] == pytest.approx(other.period, abs=1e-9)
+
+
+def test_the_compass_gaits_flip_curve_against_the_hip_mass():
+    """The first flip continued in (gamma, m_h): at a point of the curve far from the start
+    the one-parameter continuation in gamma at that m_h (another system: the orbit alone,
+    the flip located by the Illinois method) finds the flip at the curve's gamma, and the
+    single-shooting Poincaré map has an eigenvalue at -1 there."""
+    m = load("compass-gait")
+    three, stop_value = math.radians(3.0), math.radians(6.0)
+    params = m.parameters({"gamma": three})
+    guess, durations = (-0.271, 0.271, 1.09, 0.38), (0.73,)
+    options = continuation.Options(switch=False)
+    (branch,) = continuation.continue_gaits(
+        m, params, "gamma", three, stop_value, guess, durations, options=options
+    )
+    (flip,) = [s for s in branch.special_points if s.type == "flip"]
+    curve = continuation.continue_special_point(
+        m, params, "gamma", three, stop_value, flip, 1, "m_h", 6.0, 16.0,
+        options=continuation.Options(max_points=40),
+    )  # fmt: skip
+    assert curve.ended == ["box", "box"]
+    assert all(p["defining_equation"] <= 1e-9 for p in curve.points)
+    heavy = max(curve.points, key=lambda p: p["second_parameter"])
+    assert heavy["second_parameter"] > 14.0 and heavy["parameter"] < flip.parameter
+    at = m.parameters({"gamma": three, "m_h": heavy["second_parameter"]})
+    (again,) = continuation.continue_gaits(
+        m, at, "gamma", three, stop_value, guess, durations, options=options
+    )
+    (located,) = [s for s in again.special_points if s.type == "flip"]
+    assert abs(located.parameter - heavy["parameter"]) <= 1e-8
+    on_curve = m.parameters({"gamma": heavy["parameter"], "m_h": heavy["second_parameter"]})
+    mus = m.eigenvalues(on_curve, list(heavy["state"].values()))
+    assert min(abs(mu + 1) for mu in mus) <= 1e-8
+
+
+def test_free_draws_the_parameter_plane(capsys, tmp_path):
+    plot = tmp_path / "plane.png"
+    argv = ["continue", "--model", "vsw-biped", "--param", "beta=0.97", "--param",
+            "theta_II=-0.2", "--over", "mu=0.3:0.5", "--free", "theta_II=-0.25:-0.15",
+            "--json", "--plot", str(plot)]  # fmt: skip
+    assert main(argv) == 0
+    data = json.loads(capsys.readouterr().out)
+    (curve,) = data["curves"]
+    assert curve["type"] == "boundary" and "phase short" in curve["condition"]
+    assert data["free"] == "theta_II" and data["free_range"] == [-0.25, -0.15]
+    # Along the boundary the short phase has no duration.
+    short = [p["name"] for p in load("vsw-biped").phases].index("short")
+    assert all(abs(p["phase_durations"][short]) <= 1e-9 for p in curve["points"])
+    assert len(curve["points"]) > 5 and plot.stat().st_size > 10_000

@@ -26,6 +26,7 @@ __all__ = [
     "diagram_quantity",
     "diagram_units",
     "diagram_value",
+    "parameter_plane_plot",
 ]
 
 
@@ -255,4 +256,42 @@ def continuation_plot(
     finite = values[np.isfinite(values) & (values > 0)]
     if finite.size and finite.max() / finite.min() > 50:
         ax_eig.set_yscale("log")
+    return fig
+
+
+def parameter_plane_plot(data: Mapping[str, Any], title: str) -> Figure:
+    """``vsw continue --free``: each special point's curve in the plane of the two
+    parameters (one colour per type: the edges of the stability and existence regions),
+    its starting point marked.
+
+    Parameters
+    ----------
+    data : mapping
+        The record of ``vsw continue --free ... --json`` (``over``, ``free``, ``curves``).
+    title : str
+        The model and its other parameters (:func:`vsw.plotstyle.parameter_text`).
+    """
+    fig, ax = plotstyle.new_figure(width=plotstyle.COLUMN_WIDTH, height=plotstyle.COLUMN_WIDTH)
+    names = {"fold": "fold (LP)", "flip": "flip (PD)", "neimark-sacker": "Neimark-Sacker (NS)",
+             "boundary": "boundary (B)"}  # fmt: skip
+    kinds = list(names)
+    handles: dict[str, Any] = {}
+    for curve in data.get("curves", ()):
+        if "skipped" in curve:
+            continue
+        color = COLORS[plotstyle.CYCLE[kinds.index(curve["type"]) % len(plotstyle.CYCLE)]]
+        xs = [p["parameter"] for p in curve["points"]]
+        ys = [p["second_parameter"] for p in curve["points"]]
+        (line,) = ax.plot(xs, ys, "-", color=color, marker="none")
+        handles.setdefault(names[curve["type"]], line)
+        start = curve["from"]
+        ax.plot([start["parameter"]], [start["second_parameter"]], linestyle="none",
+                marker="o", markersize=3, color=color)  # fmt: skip
+    ax.set_xlim(*sorted(data["range"]))
+    ax.set_ylim(*sorted(data["free_range"]))
+    ax.set_xlabel(plotstyle.state_label(data["over"], data.get("over_unit") or "1"))
+    ax.set_ylabel(plotstyle.state_label(data["free"], data.get("free_unit") or "1"))
+    fig.suptitle(title, x=0.02, ha="left", fontsize="medium")
+    if handles:
+        plotstyle.figure_legend(fig, list(handles.values()), list(handles), ncols=2)
     return fig

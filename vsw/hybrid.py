@@ -557,14 +557,14 @@ class HybridModel:
         return ca.Function("orbit", [unknowns, p], [ca.vertcat(*residuals)])
 
     @functools.cache  # noqa: B019
-    def orbit_system(self, period: int, parameter: int):
+    def orbit_system(self, period: int, parameters: tuple[int, ...]):
         """The period-``period`` orbit by multiple shooting, for continuation
         (:mod:`vsw.continuation`): unknowns (x_1..x_m, T_1..T_m), the state at the start of
         each of the m phases of ``period`` steps and its duration; per phase the residual
         (its guard at its end, its event's image - the next phase's start; the last
-        phase's next is x_1). A CasADi function of (unknowns, p) giving the residual, its
-        Jacobian in the unknowns and its derivative in ``p[parameter]``; its inputs are the
-        unknowns and p in three parts, before, at and after ``parameter``.
+        phase's next is x_1). A CasADi function of (unknowns, p_0, ..., p_last) (each
+        parameter an input of its own) giving the residual, its Jacobian in the unknowns
+        and its derivative in each parameter of ``parameters`` (indices).
 
         Shooting over one phase at a time keeps the Jacobian's entries to one phase's
         growth: over the four steps of the simplest walker's period-4 gait a single shot
@@ -574,11 +574,9 @@ class HybridModel:
         sequence = self._phase_sequence() * period
         flows = self._flows()
         n, m = 2 * self.n, len(sequence)
-        # p with its continued entry a symbol of its own (CasADi differentiates in symbols)
-        before = ca.MX.sym("p_before", parameter)
-        value = ca.MX.sym("p_continued")
-        after = ca.MX.sym("p_after", len(self.parameter_table) - parameter - 1)
-        p = ca.vertcat(before, value, after)
+        # Each parameter a symbol of its own: CasADi differentiates in symbols.
+        scalars = [ca.MX.sym(f"p{i}") for i in range(len(self.parameter_table))]
+        p = ca.vertcat(*scalars)
         starts = ca.MX.sym("x", n * m)
         durations = ca.MX.sym("T", m)
         residuals = []
@@ -590,10 +588,9 @@ class HybridModel:
             residuals += [guard(p, end), reset(p, end) - following]
         u = ca.vertcat(starts, durations)
         r = ca.vertcat(*residuals)
-        return ca.Function(
-            f"orbit_system_{period}_{parameter}", [u, before, value, after],
-            [r, ca.jacobian(r, u), ca.jacobian(r, value)],
-        )  # fmt: skip
+        name = "_".join(["orbit_system", str(period), *map(str, parameters)])
+        outputs = [r, ca.jacobian(r, u), *(ca.jacobian(r, scalars[i]) for i in parameters)]
+        return ca.Function(name, [u, *scalars], outputs)
 
     def phase_flow(self, phase: str, params: Sequence[float], state: np.ndarray,
                    duration: float) -> np.ndarray:  # fmt: skip

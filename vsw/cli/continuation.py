@@ -19,7 +19,12 @@ from vsw import continuation, limits, plotstyle
 from vsw.cli import options
 from vsw.cli.output import INTEGRATOR, dump_json, envelope, fmt, progress, unit_text
 from vsw.cli.parser import EXIT_OK
-from vsw.diagrams import continuation_plot, diagram_quantity, diagram_units
+from vsw.diagrams import (
+    continuation_plot,
+    diagram_quantity,
+    diagram_units,
+    parameter_plane_plot,
+)
 from vsw.errors import ModelConditionError, VswInputError
 from vsw.figures import check_save_path, save_figure
 from vsw.gaits import pick, search_seconds
@@ -69,6 +74,13 @@ def register(subparsers: Any) -> None:
     p.add_argument("--max-points", type=int, default=400, metavar="N",
                    help="most points of one branch")  # fmt: skip
     p.add_argument(
+        "--free",
+        metavar="NAME=A:B",
+        help="a second parameter and its range: every located fold, flip, Neimark-Sacker "
+        "point and phase-duration boundary continued in both parameters (its curve: the "
+        "edge of a stability or existence region); --plot then draws the parameter plane",
+    )
+    p.add_argument(
         "--plot",
         metavar="FILE",
         help="save the diagram (.png/.svg/.pdf): every branch, solid where stable and dashed "
@@ -80,19 +92,38 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=run, parser=p)
 
 
-def parse_range(model: Model, text: str) -> tuple[str, float, float]:
-    """``--over NAME=START:STOP``: the parameter and its range (START != STOP, both within
-    the parameter's interval)."""
-    name, spec = options.split_item("--over", text)
-    p = options._lookup(model, "--over", name)
+def parse_range(model: Model, text: str, option: str = "--over") -> tuple[str, float, float]:
+    """``--over NAME=START:STOP`` (or ``--free``): the parameter and its range (START !=
+    STOP, both within the parameter's interval)."""
+    name, spec = options.split_item(option, text)
+    p = options._lookup(model, option, name)
     parts = spec.split(":")
     if len(parts) != 2:
-        raise VswInputError(f"--over {text!r}: expected NAME=START:STOP")
-    start = options.parameter_value("--over", p, parts[0])
-    stop = options.parameter_value("--over", p, parts[1])
+        raise VswInputError(f"{option} {text!r}: expected NAME=START:STOP")
+    start = options.parameter_value(option, p, parts[0])
+    stop = options.parameter_value(option, p, parts[1])
     if start == stop:
-        raise VswInputError(f"--over {text!r}: START and STOP are equal: give a range")
+        raise VswInputError(f"{option} {text!r}: START and STOP are equal: give a range")
     return name, start, stop
+
+
+def _curves(model, params, name, start, stop_value, branches, free, config, bar) -> list:
+    """Every located special point of every branch continued in (``name``, ``free``); a
+    point that cannot be (a boundary found by simulation) is listed with the reason."""
+    out = []
+    specials = [(b, s) for b in branches for s in b.special_points]
+    for k, (branch, special) in enumerate(specials):
+        try:
+            curve = continuation.continue_special_point(
+                model, params, name, start, stop_value, special, branch.period, *free,
+                options=config,
+            )  # fmt: skip
+            out.append(curve.to_dict())
+        except VswInputError as exc:
+            out.append({"type": special.type, "condition": special.condition,
+                        "from": special.to_dict(), "skipped": str(exc)})  # fmt: skip
+        bar(k + 1, len(specials))
+    return out
 
 
 def run(args: argparse.Namespace) -> int:
@@ -112,6 +143,11 @@ def run(args: argparse.Namespace) -> int:
     y = diagram_quantity(model, args.y)
     if args.y is not None and args.plot is None:
         raise VswInputError("--y chooses what --plot draws: give --plot FILE")
+    free = None
+    if args.free is not None:
+        free = parse_range(model, args.free, "--free")
+        if free[0] == name:
+            raise VswInputError(f"--free {free[0]}: the second parameter must differ from --over's")
     fixed = {k: v for k, v in args.values.items() if k != name}
     params = model.parameters({**fixed, name: start})
     config = continuation.Options(max_points=args.max_points, switch=not args.no_switch,
@@ -136,9 +172,19 @@ def run(args: argparse.Namespace) -> int:
         "range": [start, stop_value],
         "branches": [b.to_dict() for b in branches],
     }
+    if free is not None:
+        data["free"] = free[0]
+        data["free_unit"] = next(p.unit for p in model.parameter_table if p.name == free[0])
+        data["free_range"] = [free[1], free[2]]
+        with options.solver_errors(model), progress("curves") as bar:
+            data["curves"] = _curves(model, params, name, start, stop_value, branches, free,
+                                     config, bar)  # fmt: skip
     if args.plot is not None:
-        title = plotstyle.parameter_text(model, fixed)
-        save_figure(continuation_plot(data, y, diagram_units(model.units), title), args.plot)
+        title = plotstyle.parameter_text(model, {k: v for k, v in fixed.items()
+                                                 if free is None or k != free[0]})  # fmt: skip
+        figure = (continuation_plot(data, y, diagram_units(model.units), title) if free is None
+                  else parameter_plane_plot(data, title))  # fmt: skip
+        save_figure(figure, args.plot)
         data["plot"] = args.plot
     if args.json:
         dump_json(data)
@@ -197,6 +243,18 @@ def _write(model: Model, data: dict) -> None:
             label = f"{s['type']} ({SYMBOLS[s['type']]})"
             out.write(f"  {label:<16} {s['parameter']:>14.10g} {fmt(s['defining_equation']):>12}"
                       f"  {what}\n")  # fmt: skip
+    for curve in data.get("curves", ()):
+        start = curve["from"]
+        what = f"{curve['type']} at {name} = {fmt(start['parameter'])}"
+        if "skipped" in curve:
+            out.write(f"\n{what}: not continued ({curve['skipped']})\n")
+            continue
+        pts = curve["points"]
+        first, last = pts[0], pts[-1]
+        out.write(f"\n{what} continued in {data['free']}: {len(pts)} points from "
+                  f"({fmt(first['parameter'])}, {fmt(first['second_parameter'])}) to "
+                  f"({fmt(last['parameter'])}, {fmt(last['second_parameter'])}); ends: "
+                  f"{', '.join(curve['ended'])}\n")  # fmt: skip
     if data.get("plot"):
         out.write(f"plot: {data['plot']}\n")
 
