@@ -39,6 +39,7 @@ import generated.ile as ile
 from paper_check.output import check_output_directory
 from vsw import plotstyle
 from vsw.conditions import gait_conditions
+from vsw.continuation import Options, SpecialPoint, continue_gaits
 from vsw.diagrams import bifurcation_plot, diagram_quantity, diagram_units
 from vsw.errors import ConvergenceError
 from vsw.figures import save_figure
@@ -136,19 +137,29 @@ def _reached(walked: list) -> Orbit:
     return orbit
 
 
-def _bisect(m: HybridModel, values: dict, name: str, low: float, high: float, orbit: Orbit,
-            unstable, tol: float) -> float:  # fmt: skip
-    """The parameter where ``unstable(orbit)`` turns true, the gait continued from ``low``
-    (the other parameters ``values``)."""
-    while high - low > tol:
-        mid = 0.5 * (low + high)
-        params = m.parameters({**values, name: mid})
-        candidate = m.periodic_orbit(params, _vector(orbit), orbit.durations)
-        if unstable(candidate):
-            high = mid
-        else:
-            low, orbit = mid, candidate
-    return 0.5 * (low + high)
+def _flips(m: HybridModel, values: dict, name: str, start: float, stop_value: float,
+           orbit: Orbit, max_period: int) -> list[tuple[int, float]]:  # fmt: skip
+    """The flips located by continuation (:mod:`vsw.continuation`) of ``orbit`` from
+    ``start`` to ``stop_value`` and of the period-doubled gaits born at them, up to
+    ``max_period``: (period of the gait that flips, parameter), in order."""
+    options = Options(switch=max_period > 1, max_period=max_period)
+    params = m.parameters({**values, name: start})
+    branches = continue_gaits(m, params, name, start, stop_value, _vector(orbit),
+                              orbit.durations, options=options)  # fmt: skip
+    found = [(b.period, s.parameter) for b in branches for s in b.special_points
+             if s.type == "flip"]  # fmt: skip
+    return sorted(found, key=lambda f: f[1])
+
+
+def _branch_end(m: HybridModel, values: dict, name: str, start: float, stop_value: float,
+                orbit: Orbit) -> SpecialPoint | None:  # fmt: skip
+    """Where the gait continued from ``start`` ends before ``stop_value`` (a boundary
+    located by continuation), or None."""
+    params = m.parameters({**values, name: start})
+    (branch,) = continue_gaits(m, params, name, start, stop_value, _vector(orbit),
+                               orbit.durations, options=Options(switch=False))  # fmt: skip
+    ends = [s for s in branch.special_points if s.type == "boundary"]
+    return ends[-1] if branch.ended == "boundary" and ends else None
 
 
 def _central_difference_eigenvalues(m: HybridModel, params, x: np.ndarray, h: float = 1e-6):
@@ -362,10 +373,9 @@ def simplest_walker(out: Path, quick: bool = False) -> list[Path]:
         ours, check = short.eigenvalues[k].real, fd_short[k].real
         rows.append(Row(f"short gait eigenvalue {k + 1}", "G98code", published, ours, 5e-4,
                         why.format(gap=abs(ours - check))))  # fmt: skip
-    # Loss of stability: the long gait continued up from 0.009 and bisected on |lambda| = 1.
-    walked = _continue(m, {}, "gamma", np.linspace(0.009, 0.0145, 12)[1:], long)
-    limit = _bisect(m, {}, "gamma", 0.0145, 0.016, _reached(walked),
-                    lambda o: o.max_abs_eigenvalue > 1, 1e-6)  # fmt: skip
+    # Loss of stability: the long gait's first flip, located by continuation (vsw continue).
+    cascade = _flips(m, {}, "gamma", 0.009, 0.0183, long, max_period=4)
+    limit = cascade[0][1]
     rows.append(Row("long gait stable up to gamma", "G98", 0.015, limit, 5e-4, "2 digits"))
     rows.append(Row("long gait stable up to gamma", "G98sec", 0.0151, limit, 5e-5, "3 digits"))
     for name, orbit in (("long", long), ("short", short)):
@@ -441,12 +451,16 @@ def compass_gait(out: Path, quick: bool = False) -> list[Path]:
         Row("stride-map eigenvalue modulus 3, 3 deg", "GTE96", 0.014, moduli[2], 5e-4,
             "the smallest; the source's method is not known to us"),
     ]  # fmt: skip
-    walked = _continue(m, {}, "gamma", np.radians(np.linspace(3.0, 4.35, 10)[1:]), orbit)
-    flip = _bisect(m, {}, "gamma", math.radians(4.35), math.radians(4.45), _reached(walked),
-                   lambda o: o.eigenvalues[0].real < -1, math.radians(1e-4))  # fmt: skip
-    rows.append(Row("first period doubling (deg)", "GTE96", 4.37, math.degrees(flip), 5e-3,
-                    "ours: the real eigenvalue through -1, bisected to 1e-4 deg; the "
-                    "source's slope grid is not known"))  # fmt: skip
+    flips = _flips(m, {}, "gamma", three, math.radians(5.1), orbit, max_period=4)
+    located = "ours located by continuation (vsw continue): an eigenvalue at -1 to 1e-9"
+    for (period, flip), (label, quoted, tolerance, digits) in zip(flips, (
+        ("first", 4.37, 5e-3, "the source's slope grid is not known"),
+        ("second", 4.9, 0.05, "2 digits as quoted"),
+        ("third", 5.01, 5e-3, "3 digits as quoted"),
+    )):  # fmt: skip
+        rows.append(Row(f"{label} period doubling (deg)", "GTE96", quoted,
+                        math.degrees(flip), tolerance,
+                        f"{located}, on the period-{period} gait; {digits}"))  # fmt: skip
     defaults = m.fixed_points(m.parameters({}))
     gaits = ["| gait | theta (rad) | psi (rad) | theta_dot (1/s) | psi_dot (1/s) | period (s) "
              "| max abs eigenvalue | stable |",
@@ -561,10 +575,19 @@ def vsw_biped(out: Path, quick: bool = False) -> list[Path]:
              "max abs eigenvalue | energy added per step (m_H g l) | ILE q^f (10) at phi / "
              "biped q |", "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]  # fmt: skip
     results = {}
+    ends = []
     for beta, theta_II in STUDY[:1] if quick else STUDY:
         results[(beta, theta_II)] = []
         failures: dict = {}
-        for mu, orbit, params in _mu_rows(m, beta, theta_II, failures):
+        rows_mu = _mu_rows(m, beta, theta_II, failures)
+        last_mu, last = max(((mu, o) for mu, o, _ in rows_mu if o is not None),
+                            key=lambda r: r[0])  # fmt: skip
+        if any(o is None for mu, o, _ in rows_mu if mu > last_mu):
+            end = _branch_end(m, {"beta": beta, "theta_II": theta_II}, "mu", last_mu, 1.0, last)
+            ends.append(f"- (beta, theta_II) = ({beta}, {theta_II}): " + (
+                f"the branch ends at mu = {end.parameter:.7f}: {end.condition}" if end
+                else "no end located up to mu = 1"))  # fmt: skip
+        for mu, orbit, params in rows_mu:
             if orbit is None:
                 lines.append(f"| {beta} | {theta_II} | {mu:g} | no gait by continuation "
                              f"({failures[mu]}) | | | | | |")  # fmt: skip
@@ -595,6 +618,12 @@ def vsw_biped(out: Path, quick: bool = False) -> list[Path]:
         "\n".join(lines) + "\n\n",
         f"![leg-mass study]({written[0].name})\n",
     ]
+    if ends:
+        text += [
+            "\nWhere a branch ends between the grid's values (located by continuation, ",
+            "`vsw continue`, from its last gait on the grid):\n\n",
+            "\n".join(ends) + "\n",
+        ]
     if not quick:
         text += [
             "\n## Where are the stable gaits?\n\n",
