@@ -48,7 +48,7 @@ import generated.ile as ile  # noqa: E402
 from vsw.models.ile.params import random_parameters  # noqa: E402
 from vsw.vectorize import chunked, default_threads  # noqa: E402
 
-CASES = (1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13)
+CASES = (1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14)
 
 DESIGN_BEFORE = "39d527c"
 DERIVE_BEFORE = "f0a3f35"
@@ -864,6 +864,8 @@ def run_case(case: int, quick: bool) -> list[Row]:
         return case_gait_search(quick)
     if case == 13:
         return case_design_every_model(quick)
+    if case == 14:
+        return case_locate_flip(quick)
     raise ValueError(f"no benchmark case {case}; cases are {CASES}")
 
 
@@ -939,6 +941,54 @@ def case_gait_search(quick: bool) -> list[Row]:
             f"{added}; Newton from {default.candidates} completed cells",
         ))  # fmt: skip
     return rows
+
+
+def case_locate_flip(quick: bool) -> list[Row]:
+    """Case 14 (issue 25): the simplest walker's first flip from gamma = 0.009, located by
+    ``vsw continue``'s library call (Garcia et al. 1998's long gait, continued without
+    switching to the flip's bracket below 1e-11 of the range) against ``vsw sweep``'s
+    continuation on a grid, one run each in this process. A grid locates the flip only to
+    its spacing: the grid of the same precision is far too large to run, so its time is the
+    measured grid's per point times the points it would need (stated as extrapolated).
+    Quick: a 5-point grid."""
+    from vsw import continuation, sweeps
+    from vsw.models import load
+
+    m = load("simplest_walker")
+    long_gait = (-0.200310900563820, -0.400621801127640, 0.199832473025474,
+                 0.015822999949030)  # fmt: skip  # Bhounsule 2013, as paper_check quotes
+    start, stop_value = 0.009, 0.016
+    params = m.parameters({"gamma": start})
+    guess_durations = m.step(params, np.array(long_gait)).durations
+    begin = time.perf_counter()
+    (branch,) = continuation.continue_gaits(
+        m, params, "gamma", start, stop_value, long_gait, guess_durations,
+        options=continuation.Options(switch=False),
+    )  # fmt: skip
+    t_continue = time.perf_counter() - begin
+    flip = next(s for s in branch.special_points if s.type == "flip")
+    precision = continuation.LOCATE_TOL * (stop_value - start)
+    count = 5 if quick else 71
+    grid = np.linspace(start, stop_value, count)
+    begin = time.perf_counter()
+    points = sweeps.continuation(m, {}, "gamma", grid)
+    t_grid = time.perf_counter() - begin
+    lost = next((p["gamma"] for p in points if p["max_abs_eigenvalue"] is not None
+                 and p["max_abs_eigenvalue"] > 1), None)  # fmt: skip
+    spacing = grid[1] - grid[0]
+    needed = (stop_value - start) / precision
+    extrapolated = t_grid / count * needed
+    return [Row(
+        "14", f"vsw continue locates the simplest walker's first flip at gamma = "
+        f"{flip.parameter:.12f} (|mu + 1| = {flip.defining:.1g}, bracket {precision:.1g})",
+        f"vsw sweep on {count} values (spacing {spacing:.2g}: its first unstable value "
+        f"{lost}), extrapolated to the spacing {precision:.1g} ({needed:.2g} values)",
+        Timing.of([t_continue]), Timing.of([extrapolated]),
+        "locating the flip by continuation faster than a grid of equal precision",
+        None if quick else t_continue < extrapolated,
+        note=f"the {count}-value grid itself took {t_grid:.3g} s; {len(branch.points)} "
+        "continuation points",
+    )]  # fmt: skip
 
 
 # ---------------------------------------------------------------------------- output
