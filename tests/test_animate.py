@@ -90,6 +90,7 @@ def test_gif_frames_are_the_walk(ile_gif):
         assert np.max(np.abs(found - where)) <= 1.0, (frame, found, where)
 
 
+@pytest.mark.slow
 def test_every_model_animates_to_svg_and_gif(capsys, tmp_path):
     for model in ("simplest-walker", "compass-gait", "rimless-wheel", "tle", "vsw-biped"):
         extra = ["--param", "beta=0.97", "--param", "theta_II=-0.2", "--param", "mu=0.3"] if (

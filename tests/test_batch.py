@@ -162,6 +162,7 @@ def _cells(model, params, target, count, rng):
     return np.column_stack(model.module.section_completion(*params, *base.T))
 
 
+@pytest.mark.slow
 def test_classification_of_500_cells_equals_the_scipy_route(gaits):
     """Every class equal, except cells whose class changes within 1e-6 of them (a class
     boundary: then the two routes may differ; none did when this was written)."""
@@ -237,6 +238,7 @@ def test_kept_steps_are_the_last_ones_in_order(gaits):
     assert np.all(np.isnan(few.kept_states[0, 2:]))
 
 
+@pytest.mark.slow
 def test_period_two_walks_are_classified(gaits):
     """Past the flip at gamma = 0.015089 the simplest walker settles on a period-two gait
     (Garcia et al. 1998, Fig. 4): a walk from near the unstable period-one gait is

@@ -11,9 +11,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
+@pytest.mark.slow
 def test_quick_benchmark_runs_every_case(tmp_path):
     results, rows_json = tmp_path / "results.md", tmp_path / "rows.json"
     command = [sys.executable, "benchmarks/run.py", "--quick", "--results", str(results)]

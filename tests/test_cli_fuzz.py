@@ -211,6 +211,7 @@ def test_simulate_any_arguments(plot_dir):
     run()
 
 
+@pytest.mark.slow
 def test_basin_any_arguments(plot_dir):
     options = {
         "--beta": GAIT["--beta"],
@@ -457,6 +458,7 @@ def edge_command(draw) -> list[str]:
     return argv + ["--json"] * draw(st.booleans())
 
 
+@pytest.mark.slow
 def test_parameter_edges_of_every_model():
     """Every model's parameters at their edges (issue 21): a result, exit 3 or one line,
     never a traceback or a warning. The slow ones stop at a 2 s limit (one line)."""

@@ -232,6 +232,7 @@ def test_bad_input_is_one_line(capsys, argv, words):
     assert words in err and len(err.strip().splitlines()) == 1
 
 
+@pytest.mark.slow
 def test_the_kneed_walkers_gait_folds_at_its_least_slope():
     """The kneed walker's stable gait, continued down in slope from Hsu Chen's 0.0504 (the
     start: nyasuto/crane's gait digits, NC26 in tests/test_kneed_walker.py), turns at a fold
@@ -263,6 +264,7 @@ def test_the_kneed_walkers_gait_folds_at_its_least_slope():
     assert gap <= 1e-8 and back["period_time"] == pytest.approx(other.period, abs=1e-9)
 
 
+@pytest.mark.slow
 def test_the_compass_gaits_flip_curve_against_the_hip_mass():
     """The first flip continued in (gamma, m_h): at a point of the curve far from the start
     the one-parameter continuation in gamma at that m_h (another system: the orbit alone,
@@ -296,6 +298,7 @@ def test_the_compass_gaits_flip_curve_against_the_hip_mass():
     assert min(abs(mu + 1) for mu in mus) <= 1e-8
 
 
+@pytest.mark.slow
 def test_free_draws_the_parameter_plane(capsys, tmp_path):
     plot = tmp_path / "plane.png"
     argv = ["continue", "--model", "vsw-biped", "--param", "beta=0.97", "--param",

@@ -228,6 +228,7 @@ def test_degenerate_supremum_says_which_variables_run_to_which_limit():
     assert bool(result.analysis.walks)
 
 
+@pytest.mark.slow
 def test_fixed_theta_II_on_the_region_boundary():
     # theta_II = 0 is the boundary between two regions of the apex crossing. The fastest
     # gait there presses against extension_reached (theta_I < theta_II = 0): the speed

@@ -216,6 +216,7 @@ def test_cli_ile_speed_target_beyond_the_robot_is_infeasible(run_cli):
     assert "above the fastest gait" in err and "1.68" in err
 
 
+@pytest.mark.slow
 def test_the_suite_runs_and_the_rimless_wheel_meets_its_references():
     """The suite of benchmarks/design_every_model.py in miniature: its reference (gait
     branches by continuation, no IPOPT) and the design agree on every problem."""

@@ -38,6 +38,7 @@ def test_the_subset_covers_every_kind_of_problem():
     }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("problem", PROBLEMS, ids=[p.label[:3] for p in PROBLEMS])
 def test_design_matches_or_beats_the_reference(problem):
     ref = design_suite.reference(problem, grid=24, polish=2)

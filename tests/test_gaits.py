@@ -49,6 +49,7 @@ def test_the_search_finds_every_gait_an_independent_search_found(values, expecte
         assert g.residual <= 1e-9 and all(d > 0 for d in g.durations)
 
 
+@pytest.mark.slow
 def test_a_finer_scan_finds_no_gait_the_search_misses():
     """At the set with the most delicate gaits (|eigenvalue| 658 and 1394, reached only from
     bands about 0.01 wide in the rates), a scan 1.5 times finer along every axis (3.4 times

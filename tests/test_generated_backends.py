@@ -204,6 +204,7 @@ def test_fused_existence_matches_the_explicit_forms(draw):
         ), k
 
 
+@pytest.mark.slow
 def test_fused_existence_against_40_digit_evaluation_of_the_derivation(ile_derivation):
     """fixed_point_conditions in doubles against the derived expressions evaluated with 40
     digits (mpmath), at random sets and at ill-conditioned corners of the domain."""

@@ -101,6 +101,7 @@ def test_expected_table_is_complete_and_uses_the_vocabulary() -> None:
         assert verdict in VERDICTS
 
 
+@pytest.mark.slow
 def test_exit_status_nonzero_on_verdict_change(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

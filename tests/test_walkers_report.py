@@ -33,6 +33,7 @@ def simplest_walker_report(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_simplest_walker_report_verdicts(simplest_walker_report):
     text = (simplest_walker_report / "simplest-walker.md").read_text()
     verdicts = {}
@@ -67,6 +68,7 @@ def test_simplest_walker_report_verdicts(simplest_walker_report):
     assert "brute-force" in text and "period-2 from" in text
 
 
+@pytest.mark.slow
 def test_kneed_walker_report_verdicts(tmp_path):
     """The independent re-implementation's gait agrees in every row; Hsu Chen's period
     agrees within its figure's 2 % and her angles and rate, as quoted, differ (the report
