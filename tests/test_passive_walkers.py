@@ -298,6 +298,11 @@ def test_sweep_plot_draws_the_bifurcation_diagram(tmp_path, capsys):
     assert last["attractor"]["period"] == 2
     assert len(last["attractor"]["states"]) == 8
     assert plot.stat().st_size > 10_000
+    # The flip the grid brackets (stable at 0.0145, unstable at 0.015) is located by
+    # continuation and drawn: Garcia et al.'s 0.0151.
+    (flip,) = data["special_points"]
+    assert flip["type"] == "flip" and abs(flip["parameter"] - 0.0151) <= 5e-5
+    assert flip["defining_equation"] <= 1e-9
 
 
 # --- the compass gait ------------------------------------------------------------------------

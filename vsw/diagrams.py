@@ -30,6 +30,13 @@ __all__ = [
 ]
 
 
+SPECIAL_MARKERS = {"fold": "s", "flip": "D", "neimark-sacker": "^", "boundary": "X"}
+"""Markers of ``vsw continue``'s special points."""
+
+SPECIAL_LABELS = {"fold": "LP", "flip": "PD", "neimark-sacker": "NS", "boundary": "B"}
+"""Labels of the special points (AUTO's and MatCont's)."""
+
+
 def diagram_quantity(model: Any, y: str | None) -> str:
     """``--y``: what the bifurcation diagram shows (step length where the model has one)."""
     choices = ["step_period", *model.coordinates, *model.rates]
@@ -80,7 +87,9 @@ def bifurcation_plot(
     """The period-one gait along the swept parameter (solid where stable, dashed where
     not) and, where it is unstable or was not found, the last steps of the iterated map
     (dots: a period-k orbit shows k dots, chaos a smear); below, the largest |eigenvalue|
-    of the period-one gait against 1.
+    of the period-one gait against 1. The special points located by continuation
+    (``special_points``: fold LP, flip PD, Neimark-Sacker NS, boundary B) are dotted
+    vertical lines through both panels.
 
     Parameters
     ----------
@@ -168,15 +177,19 @@ def bifurcation_plot(
     ax_eig.plot(xs, eig, "-", color=COLORS["blue"], marker="none")
     ax_eig.set_ylabel(r"max $|\lambda|$")
     ax_eig.set_xlabel(plotstyle.state_label(over, data.get("over_unit") or "1"))
+    for special in data.get("special_points") or ():
+        # Located by continuation (vsw sweep --plot): a vertical line through both panels.
+        for axis in (ax, ax_eig):
+            axis.axvline(special["parameter"], color=COLORS["grey"], linestyle=":",
+                         linewidth=0.8)  # fmt: skip
+        ax.annotate(SPECIAL_LABELS[special["type"]], (special["parameter"], 1.0),
+                    xycoords=ax.get_xaxis_transform(), textcoords="offset points",
+                    xytext=(2, -8), fontsize="x-small")  # fmt: skip
     if np.any(eig > 0):
         finite = eig[np.isfinite(eig)]
         if finite.size and finite.max() / max(finite.min(), 1e-300) > 50:
             ax_eig.set_yscale("log")
     return fig
-
-
-SPECIAL_MARKERS = {"fold": "s", "flip": "D", "neimark-sacker": "^", "boundary": "X"}
-"""Markers of ``vsw continue``'s special points."""
 
 
 def _branch_values(y: str, record: Mapping[str, Any], step: int) -> float:
@@ -209,7 +222,7 @@ def continuation_plot(
         width=plotstyle.COLUMN_WIDTH, height=1.25 * plotstyle.COLUMN_WIDTH, nrows=2,
         sharex=True, height_ratios=(2.2, 1.0),
     )  # fmt: skip
-    labels = {"fold": "LP", "flip": "PD", "neimark-sacker": "NS", "boundary": "B"}
+    labels = SPECIAL_LABELS
     periods = sorted({b["period"] for b in data["branches"]})
     handles: dict[str, Any] = {}
     for branch in data["branches"]:

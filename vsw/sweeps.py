@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from vsw import continuation as arclength
 from vsw import stop
 from vsw.batch import Runner, simulator
 from vsw.errors import ConvergenceError, ModelConditionError, VswInputError
@@ -25,7 +26,7 @@ from vsw.gaits import pick
 from vsw.hybrid import HybridModel, by_modulus, repeat_period
 from vsw.models.base import Model
 
-__all__ = ["NO_GAIT", "brute_force", "continuation", "record"]
+__all__ = ["NO_GAIT", "brute_force", "continuation", "located_points", "record"]
 
 NO_GAIT = dict.fromkeys(("state", "period", "phase_durations", "eigenvalues",
                          "max_abs_eigenvalue", "stable", "step_length", "speed"))  # fmt: skip
@@ -216,3 +217,32 @@ def brute_force(
             "step_periods": [float(v) for v in durations],
         }
     return points
+
+
+def located_points(
+    model: Model, values: Mapping[str, float], over: str, points: list[dict[str, Any]]
+) -> list[dict[str, Any]]:
+    """The special points of the period-one branch through the sweep's first gait, located
+    by pseudo-arclength continuation over the sweep's range (:mod:`vsw.continuation`, no
+    branch switching): what ``vsw sweep --plot`` marks on its grid. Each: ``type``,
+    ``parameter``, ``defining_equation``, ``condition``. Empty where no point of the sweep
+    has a gait or the continuation cannot start."""
+    first = next((p for p in points if p["found"]), None)
+    if first is None or len(points) < 2:
+        return []
+    start, stop_value = float(first[over]), float(points[-1][over])
+    if start == stop_value:
+        return []
+    params = model.parameters({**values, over: start})
+    state = list(first["state"].values())
+    try:
+        branches = arclength.continue_gaits(
+            model, params, over, start, stop_value, state, first["phase_durations"],
+            options=arclength.Options(switch=False),
+        )  # fmt: skip
+    except VswInputError:
+        return []
+    return [
+        {key: s.to_dict()[key] for key in ("type", "parameter", "defining_equation", "condition")}
+        for s in branches[0].special_points
+    ]

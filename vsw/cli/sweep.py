@@ -56,7 +56,8 @@ def register(subparsers: Any) -> None:
         "--plot",
         metavar="FILE",
         help="save the figure (.png/.svg/.pdf): the bifurcation diagram of --y with the "
-        "largest |eigenvalue|; the ile: q^f, eigenvalue and speed",
+        "largest |eigenvalue| and the special points located by continuation (the JSON's "
+        "special_points); the ile: q^f, eigenvalue and speed",
     )
     p.add_argument(
         "--y",
@@ -125,6 +126,9 @@ def run(args: argparse.Namespace) -> int:
     params = model.parameters(fixed | {name: float(values[0])})
     swept = sweeps.record(model, fixed, name, points, keep, args.transient, method)
     data = {**envelope(model, params, args.argv, {**INTEGRATOR, **ORBIT_SOLVER}), **swept}
+    if args.plot is not None and not args.brute_force:
+        with options.solver_errors(model):
+            data["special_points"] = sweeps.located_points(model, fixed, name, points)
     if args.plot is not None:
         title = plotstyle.parameter_text(model, fixed)
         figure = bifurcation_plot(clean(data), y, diagram_units(model.units), title)
