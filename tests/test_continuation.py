@@ -221,6 +221,14 @@ BAD = [
         ],
         "gait at 0.01 near the start",
     ),
+    (
+        ["--over", "gamma=0.016:0.0175", "--period", "2"]
+        + [
+            f"--from-state={item}"
+            for item in ("theta=-0.2", "phi=-0.4", "theta_dot=0.2", "phi_dot=0.016")
+        ],
+        "leads to a period-1 gait at 0.016, not period 2",
+    ),
 ]
 
 

@@ -590,6 +590,11 @@ def _start(eq: _Equations, state: np.ndarray, durations: Sequence[float]) -> _Po
                             "range elsewhere")  # fmt: skip
     if p.confirmed != "completed":
         raise VswInputError(f"{eq.model.name}: no gait {where} near the start: {p.confirmed}")
+    shorter = _least_period(eq, w)
+    if shorter < eq.period:
+        raise VswInputError(f"{eq.model.name}: the start leads to a period-{shorter} gait {where}, "
+                            f"not period {eq.period}: give a point of a period-{eq.period} "
+                            "gait")  # fmt: skip
     if p.tangent[-1] < 0:
         p.tangent = -p.tangent
     return p
@@ -639,6 +644,19 @@ def _switch(eq: _Equations, flip: SpecialPoint) -> tuple[_Equations, _Point] | N
             p.tangent = -p.tangent
         return double, p
     return None
+
+
+def _least_period(eq: _Equations, w: np.ndarray) -> int:
+    """The least number of simulated steps after which the orbit's state returns to x0
+    (within 1e-7; ``eq.period`` where none fewer does)."""
+    params = eq.params_at(w[-1])
+    x0 = eq.x0(w)
+    x = x0.copy()
+    for k in range(1, eq.period):
+        x = eq.model.step(params, x).state
+        if eq.period % k == 0 and np.max(np.abs(x - x0)) <= 1e-7 * max(1.0, np.max(np.abs(x0))):
+            return k
+    return eq.period
 
 
 def _half_step_gap(eq: _Equations, w: np.ndarray) -> float | None:
