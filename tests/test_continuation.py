@@ -321,3 +321,24 @@ def test_free_draws_the_parameter_plane(capsys, tmp_path):
     short = [p["name"] for p in load("vsw-biped").phases].index("short")
     assert all(abs(p["phase_durations"][short]) <= 1e-9 for p in curve["points"])
     assert len(curve["points"]) > 5 and plot.stat().st_size > 10_000
+
+
+def test_a_reported_condition_crossing_zero_is_a_boundary_the_branch_passes(monkeypatch):
+    """The location of a reported condition's zero (no model of ours has one on the branches
+    tried, so the margin here is made up: gamma - 0.012 on the simplest walker's branch): a
+    boundary at 0.012 naming the condition, and the branch goes on to the range's end."""
+
+    def margins(eq, w, eigenvalues):
+        return {"made-up": eq.parameter(float(w[-1])) - 0.012}
+
+    monkeypatch.setattr(continuation, "_margins", margins)
+    m = load("simplest-walker")
+    params = m.parameters({"gamma": 0.009})
+    (branch,) = continuation.continue_gaits(
+        m, params, "gamma", 0.009, 0.014, LONG_GAIT_0009, (LONG_PERIOD_0009,),
+        options=continuation.Options(switch=False),
+    )  # fmt: skip
+    assert branch.ended == "range"
+    (boundary,) = branch.special_points
+    assert boundary.type == "boundary" and "condition made-up" in boundary.condition
+    assert abs(boundary.parameter - 0.012) <= 1e-12 and boundary.defining <= 1e-12

@@ -24,7 +24,10 @@ point corrected onto the branch) until the bracket is below :data:`LOCATE_TOL`:
   ends it comes at its start: the VSW biped's heelstrike reaching the extension angle), or
   the step simulated from the orbit no longer confirming it (a failure's guard reached on
   the way, a guard grazed: the step ends otherwise), located by bisection; ``condition``
-  names it. The branch ends at a boundary.
+  names it. The branch ends at a boundary. A condition the model reports without enforcing
+  it (``HYBRID["conditions"]``) whose margin (least over the step, sampled as
+  :func:`vsw.conditions.gait_conditions` samples it) changes sign is a boundary too, located
+  by the Illinois method on that sampled margin, and the branch goes on past it.
 
 ``M`` is the Jacobian of the period-``k`` Poincaré map at the orbit
 (:meth:`~vsw.hybrid.HybridModel.monodromy`). Every point of a branch is confirmed by the
@@ -47,9 +50,9 @@ from typing import Any
 
 import numpy as np
 
-from vsw import stop
+from vsw import conditions, stop
 from vsw.errors import VswInputError
-from vsw.hybrid import HybridModel, by_modulus
+from vsw.hybrid import HybridModel, Orbit, by_modulus
 
 __all__ = [
     "LOCATE_TOL",
@@ -100,6 +103,7 @@ class _Point:
     iterations: int
     step_lengths: list[float | None] = field(default_factory=list)
     confirmed: str = "completed"  # or why the simulated walk does not confirm the orbit
+    margins: dict[str, float] = field(default_factory=dict)  # reported conditions' margins
 
 
 @dataclass
@@ -323,7 +327,21 @@ def _point(eq: _Equations, w: np.ndarray, jac: np.ndarray, previous: np.ndarray,
         return None
     eigenvalues = eq.eigenvalues(jac)
     confirmed, lengths = _confirm(eq, w, eigenvalues)
-    return _Point(w, tangent, eigenvalues, iterations, lengths, confirmed)
+    margins = _margins(eq, w, eigenvalues) if confirmed == "completed" else {}
+    return _Point(w, tangent, eigenvalues, iterations, lengths, confirmed, margins)
+
+
+def _margins(eq: _Equations, w: np.ndarray, eigenvalues: list[complex]) -> dict[str, float]:
+    """The margins of the conditions the model reports without enforcing them
+    (``HYBRID["conditions"]``: the kneed walker's stance-knee stop) along a period-one
+    orbit, least over the step sampled as :func:`vsw.conditions.gait_conditions` samples
+    it; none for other models or periods."""
+    if eq.period != 1 or not eq.model.spec.get("conditions"):
+        return {}
+    durations = tuple(float(v) for v in eq.durations(w))
+    orbit = Orbit(eq.state(w), durations, float(sum(durations)), tuple(eigenvalues), None, 0.0)
+    found = conditions.gait_conditions(eq.model, eq.params_at(w[-1]), orbit)
+    return {c["name"]: c["margin"] for c in found if not c["ends_walk"] and c["margin"] is not None}
 
 
 # --- test functions ----------------------------------------------------------------------
@@ -558,6 +576,21 @@ def _between(eq: _Equations, a: _Point, b: _Point, h: float) -> tuple[list, tupl
         if s > limit or (kind == "neimark-sacker" and _neutral_saddle(p)):
             continue
         found.append((s, _special(eq, kind, p)))
+    for name in sorted(set(a.margins) & set(b.margins)):
+        f_a, f_b = a.margins[name], b.margins[name]
+        if (f_a > 0) == (f_b > 0) or f_a == 0:
+            continue
+
+        def margin(_eq: _Equations, p: _Point, name: str = name) -> float:
+            return p.margins.get(name, math.nan)
+
+        located = _locate_root(eq, a, b, h, margin)
+        if located is None or not math.isfinite(margin(eq, located[0])):
+            continue
+        p, s = located
+        if s <= limit:
+            why = f"condition {name} (reported, not enforced): its margin reaches 0"
+            found.append((s, _special(eq, "boundary", p, why, abs(margin(eq, p)))))
     found.sort(key=lambda item: item[0])
     out = [special for _, special in found]
     return out, (None if boundary is None else (boundary[1], boundary[2]))
