@@ -490,6 +490,7 @@ def _record(eq: _Equations, p: _Point) -> dict[str, Any]:
         "step_length": length,
         "step_lengths": lengths,
         "speed": None if length is None else float(sum(known)) / period,
+        **({"condition_margins": dict(p.margins)} if p.margins else {}),
     }
 
 
