@@ -51,7 +51,7 @@ from typing import Any
 import numpy as np
 
 from vsw import conditions, stop
-from vsw.errors import VswInputError
+from vsw.errors import ConvergenceError, VswInputError
 from vsw.hybrid import HybridModel, Orbit, by_modulus
 
 __all__ = [
@@ -65,11 +65,12 @@ __all__ = [
 ]
 
 LOCATE_TOL = 1e-11
-"""A special point is located when its bracket along the arclength (in the scaled unknowns:
-the parameter as a fraction of the range) is below this."""
+"""A special point is located when its bracket along the arclength is below this (the
+arclength in the scaled unknowns: states, durations and the parameter as a fraction of its
+range), or its test function is exactly zero."""
 
 RESIDUAL_TOL = 1e-10
-"""The corrector's tolerance on the residual, relative to max(1, |x0|)."""
+"""The corrector's tolerance on the residual, relative to max(1, |unknowns|)."""
 
 MAX_TURN = 0.3
 """Largest angle (rad) between the tangents of two consecutive points."""
@@ -145,9 +146,9 @@ class SpecialPoint:
 @dataclass
 class Branch:
     """A branch of period-``period`` gaits: its points and located special points, and how
-    it ended (``range``: the end of the range; ``back at the start``: past a fold, the
-    parameter's start again; ``boundary``: a boundary point; ``lost``: the corrector
-    failed at the smallest step; ``max points``)."""
+    it ended (``range``: the range's end; ``back at the start``: the range's start, which a
+    branch reaches past a fold, or a period-doubled one running towards it; ``boundary``: a
+    boundary point; ``lost``: the corrector failed at the smallest step; ``max points``)."""
 
     period: int
     points: list[dict[str, Any]]
@@ -305,7 +306,9 @@ def _confirm(eq: _Equations, w: np.ndarray, eigenvalues: list[complex]) -> tuple
     lengths: list[float | None] = []
     phases = len(model._phase_sequence())
     for _ in range(eq.period):
-        step = model.step(params, x)
+        step = _step(model, params, x)
+        if isinstance(step, str):
+            return step, []
         if step.ended != "completed":
             return step.ended, []
         if len(step.durations) != phases:
@@ -318,6 +321,16 @@ def _confirm(eq: _Equations, w: np.ndarray, eigenvalues: list[complex]) -> tuple
     if not gap <= CONFIRM_TOL * scale * max(1.0, largest):
         return f"the simulated walk ends {gap:.3g} away from the orbit", []
     return "completed", lengths
+
+
+def _step(model: HybridModel, params: np.ndarray, x: np.ndarray) -> Any:
+    """One simulated step, or why it could not be taken (a solver's failure at extreme
+    states is a point the walk does not confirm, not the end of the run)."""
+    try:
+        return model.step(params, x)
+    except (ConvergenceError, OverflowError, ZeroDivisionError, FloatingPointError) as exc:
+        stop.check()
+        return f"the simulated step failed ({' '.join(str(exc).split())[:80]})"
 
 
 def _point(eq: _Equations, w: np.ndarray, jac: np.ndarray, previous: np.ndarray,
@@ -352,11 +365,15 @@ def _fold(eq: _Equations, p: _Point) -> float:
 
 
 def _flip(eq: _Equations, p: _Point) -> float:
-    return float(np.real(np.prod([1.0 + mu for mu in p.eigenvalues]))) if p.eigenvalues else 0.0
+    if not p.eigenvalues:  # undefined (a guard grazing at its phase's end): no sign
+        return math.nan
+    return float(np.real(np.prod([1.0 + mu for mu in p.eigenvalues])))
 
 
 def _neimark_sacker(eq: _Equations, p: _Point) -> float:
     mus = p.eigenvalues
+    if not mus:
+        return math.nan
     product = 1.0 + 0j
     for i in range(len(mus)):
         for j in range(i + 1, len(mus)):
@@ -532,7 +549,7 @@ def _trace(eq: _Equations, first: _Point, options: Options) -> Branch:
         if boundary is not None:
             last, special = boundary
             specials.append(special)
-            if last is not a:
+            if last is not a and last.confirmed == "completed":
                 points.append(last)
             ended = "boundary"
             break
@@ -559,11 +576,12 @@ def _between(eq: _Equations, a: _Point, b: _Point, h: float) -> tuple[list, tupl
                                "that ends it comes at its start)")  # fmt: skip
             boundary = (s, p, special)
     if boundary is None and b.confirmed != "completed":
-        good, bad, width = _locate_boundary(eq, a, h)
+        good, bad, _ = _locate_boundary(eq, a, h)
         why = bad.confirmed if bad is not None else b.confirmed
+        gap = abs(float((bad if bad is not None else b).w[-1] - good.w[-1]))
         special = _special(eq, "boundary", good, f"the simulated walk: {why}",
-                           defining=abs(eq.width) * width)  # fmt: skip
-        boundary = (float(good.tangent @ (good.w - a.w)), good, special)
+                           defining=abs(eq.width) * gap)  # fmt: skip
+        boundary = (float(a.tangent @ (good.w - a.w)), good, special)
     limit = boundary[0] if boundary is not None else h
     for kind in ("fold", "flip", "neimark-sacker"):
         test = TESTS[kind]
@@ -659,7 +677,12 @@ def _switch(eq: _Equations, flip: SpecialPoint) -> tuple[_Equations, _Point] | N
     starts, times = single_t[:cut], single_t[cut:-1]
     along = np.concatenate([starts, starts, times, times, single_t[-1:]])
     along /= np.linalg.norm(along)
-    null = np.linalg.svd(jac)[2][-2:]
+    if not (np.all(np.isfinite(jac)) and np.all(np.isfinite(single_t))):
+        return None
+    try:
+        null = np.linalg.svd(jac)[2][-2:]
+    except np.linalg.LinAlgError:
+        return None
     across = max((v - (v @ along) * along for v in null), key=np.linalg.norm)
     across /= np.linalg.norm(across)
     for h in (1e-3, 3e-3, 1e-2, 3e-2):
@@ -687,7 +710,10 @@ def _least_period(eq: _Equations, w: np.ndarray) -> int:
     x0 = eq.x0(w)
     x = x0.copy()
     for k in range(1, eq.period):
-        x = eq.model.step(params, x).state
+        step = _step(eq.model, params, x)
+        if isinstance(step, str) or step.ended != "completed":
+            return eq.period
+        x = step.state
         if eq.period % k == 0 and np.max(np.abs(x - x0)) <= 1e-7 * max(1.0, np.max(np.abs(x0))):
             return k
     return eq.period
@@ -700,8 +726,8 @@ def _half_step_gap(eq: _Equations, w: np.ndarray) -> float | None:
     x = eq.x0(w).copy()
     params = eq.params_at(w[-1])
     for _ in range(eq.period // 2):
-        step = model.step(params, x)
-        if step.ended != "completed":
+        step = _step(model, params, x)
+        if isinstance(step, str) or step.ended != "completed":
             return None
         x = step.state
     return float(np.max(np.abs(x - eq.x0(w))))

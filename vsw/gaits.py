@@ -50,7 +50,7 @@ from typing import Any
 
 import numpy as np
 
-from vsw import batch, limits, stop
+from vsw import batch, hybrid, limits, stop
 from vsw.batch import FELL, WALKED, BatchSimulator, simulator
 from vsw.compiled import cache_dir
 from vsw.errors import ConvergenceError, VswInputError
@@ -443,15 +443,18 @@ def _cache_file(
     """Where a scan is kept: ``<cache dir>/searches/<model>-<key>.json``, the key a SHA-256
     of everything the scan depends on (the model's generated module, the compiled
     simulator's file, whose name is the hash of its C source, flags, compiler and CPU, this
-    module's and the batch simulator's code, numpy's version, the parameters, the box and
-    the cells). None with ``VSW_SEARCH_CACHE=0`` or no compiled simulator."""
+    module's, the batch simulator's and vsw.hybrid's code, numpy's version, the parameters,
+    the box and the cells). Files are never removed: delete the directory to reclaim it.
+    None with ``VSW_SEARCH_CACHE=0`` or no compiled simulator."""
     if os.environ.get("VSW_SEARCH_CACHE", "1").strip() == "0" or sim.library_path is None:
         return None
+    package = Path(model.module.__file__).parent
     parts = [
-        Path(model.module.__file__).read_bytes(),
+        *(f.read_bytes() for f in sorted(package.rglob("*.py")) if "__pycache__" not in f.parts),
         sim.library_path.name.encode(),
         Path(__file__).read_bytes(),
         Path(batch.__file__).read_bytes(),
+        Path(hybrid.__file__).read_bytes(),  # the integrator's tolerances the batch takes
         np.__version__.encode(),
         repr((params, sorted(box.items()), cells)).encode(),
     ]

@@ -240,7 +240,8 @@ def located_points(
             model, params, over, start, stop_value, state, first["phase_durations"],
             options=arclength.Options(switch=False),
         )  # fmt: skip
-    except VswInputError:
+    except (VswInputError, ConvergenceError):
+        stop.check()
         return []
     return [
         {key: s.to_dict()[key] for key in ("type", "parameter", "defining_equation", "condition")}

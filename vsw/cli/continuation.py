@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from vsw import continuation, limits, plotstyle
+from vsw import continuation, limits, plotstyle, stop
 from vsw.cli import options
 from vsw.cli.output import INTEGRATOR, dump_json, envelope, fmt, progress, unit_text
 from vsw.cli.parser import EXIT_OK
@@ -25,7 +25,7 @@ from vsw.diagrams import (
     diagram_units,
     parameter_plane_plot,
 )
-from vsw.errors import ModelConditionError, VswInputError
+from vsw.errors import ConvergenceError, ModelConditionError, VswInputError
 from vsw.figures import check_save_path, save_figure
 from vsw.gaits import pick, search_seconds
 from vsw.models.base import Model
@@ -119,7 +119,8 @@ def _curves(model, params, name, start, stop_value, branches, free, config, bar)
                 options=config,
             )  # fmt: skip
             out.append(curve.to_dict())
-        except VswInputError as exc:
+        except (VswInputError, ConvergenceError) as exc:
+            stop.check()
             out.append({"type": special.type, "condition": special.condition,
                         "from": special.to_dict(), "skipped": str(exc)})  # fmt: skip
         bar(k + 1, len(specials))
@@ -148,6 +149,12 @@ def run(args: argparse.Namespace) -> int:
         free = parse_range(model, args.free, "--free")
         if free[0] == name:
             raise VswInputError(f"--free {free[0]}: the second parameter must differ from --over's")
+        value = model.parameters(args.values)[
+            [p.name for p in model.parameter_table].index(free[0])
+        ]
+        if not min(free[1:]) <= value <= max(free[1:]):
+            raise VswInputError(f"--free {args.free}: the range must contain {free[0]}'s value "
+                                f"{value:g} (give it with --param)")  # fmt: skip
     fixed = {k: v for k, v in args.values.items() if k != name}
     params = model.parameters({**fixed, name: start})
     config = continuation.Options(max_points=args.max_points, switch=not args.no_switch,
