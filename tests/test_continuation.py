@@ -342,3 +342,32 @@ def test_a_reported_condition_crossing_zero_is_a_boundary_the_branch_passes(monk
     (boundary,) = branch.special_points
     assert boundary.type == "boundary" and "condition made-up" in boundary.condition
     assert abs(boundary.parameter - 0.012) <= 1e-12 and boundary.defining <= 1e-12
+
+
+def test_a_complex_pair_crossing_the_unit_circle_is_a_neimark_sacker_point(monkeypatch):
+    """The Neimark-Sacker detector and its location (no model of ours shows one on the
+    branches tried, so the map's eigenvalues here are made up: a pair r exp(+-i) with
+    r = 1 + 50 (gamma - 0.012), and 0.5 and 0)."""
+
+    def eigenvalues(self, jac):
+        r = 1.0 + 50.0 * (self.parameter(float(self._w[-1])) - 0.012)
+        return [r * complex(math.cos(1.0), math.sin(1.0)),
+                r * complex(math.cos(1.0), -math.sin(1.0)), 0.5, 0.0]  # fmt: skip
+
+    original = continuation._Equations.evaluate
+
+    def evaluate(self, w):
+        self._w = w  # the point whose eigenvalues are asked next
+        return original(self, w)
+
+    monkeypatch.setattr(continuation._Equations, "evaluate", evaluate)
+    monkeypatch.setattr(continuation._Equations, "eigenvalues", eigenvalues)
+    m = load("simplest-walker")
+    params = m.parameters({"gamma": 0.009})
+    (branch,) = continuation.continue_gaits(
+        m, params, "gamma", 0.009, 0.014, LONG_GAIT_0009, (LONG_PERIOD_0009,),
+        options=continuation.Options(switch=False),
+    )  # fmt: skip
+    (ns,) = branch.special_points
+    assert ns.type == "neimark-sacker" and abs(ns.parameter - 0.012) <= 1e-12
+    assert ns.defining <= 1e-9
