@@ -97,8 +97,7 @@ def test_every_model_animates_to_svg_and_gif(capsys, tmp_path):
             model == "vsw-biped") else []  # fmt: skip
         for suffix in ("svg", "gif") if model == "simplest-walker" else ("gif",):
             out = tmp_path / f"{model}.{suffix}"
-            # One step at 10 frames a second: the pipeline is the same, the GIF encoding
-            # (most of the time) a sixth of two steps at 30.
+            # One step at 10 frames a second: the pipeline is the same, with fewer frames.
             code, text, err = run(capsys, ["animate", "--model", model, *extra, "--steps", "1",
                                            "--fps", "10", "--out", str(out), "--json"])  # fmt: skip
             assert code == 0, err

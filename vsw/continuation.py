@@ -583,33 +583,28 @@ def _between(eq: _Equations, a: _Point, b: _Point, h: float) -> tuple[list, tupl
                            defining=abs(eq.width) * gap)  # fmt: skip
         boundary = (float(a.tangent @ (good.w - a.w)), good, special)
     limit = boundary[0] if boundary is not None else h
-    for kind in ("fold", "flip", "neimark-sacker"):
-        test = TESTS[kind]
+    # (type, test function, condition): the bifurcations, then each reported condition.
+    tests: list[tuple[str, Callable[[_Equations, _Point], float], str | None]] = [
+        (kind, TESTS[kind], None) for kind in ("fold", "flip", "neimark-sacker")
+    ]
+    for name in sorted(set(a.margins) & set(b.margins)):
+        tests.append((
+            "boundary",
+            lambda _eq, p, name=name: p.margins.get(name, math.nan),
+            f"condition {name} (reported, not enforced): its margin reaches 0",
+        ))  # fmt: skip
+    for kind, test, condition in tests:
         f_a, f_b = test(eq, a), test(eq, b)
         if not (np.isfinite(f_a) and np.isfinite(f_b)) or (f_a > 0) == (f_b > 0) or f_a == 0:
             continue
         located = _locate_root(eq, a, b, h, test)
-        if located is None:
+        if located is None or not math.isfinite(test(eq, located[0])):
             continue
         p, s = located
         if s > limit or (kind == "neimark-sacker" and _neutral_saddle(p)):
             continue
-        found.append((s, _special(eq, kind, p)))
-    for name in sorted(set(a.margins) & set(b.margins)):
-        f_a, f_b = a.margins[name], b.margins[name]
-        if (f_a > 0) == (f_b > 0) or f_a == 0:
-            continue
-
-        def margin(_eq: _Equations, p: _Point, name: str = name) -> float:
-            return p.margins.get(name, math.nan)
-
-        located = _locate_root(eq, a, b, h, margin)
-        if located is None or not math.isfinite(margin(eq, located[0])):
-            continue
-        p, s = located
-        if s <= limit:
-            why = f"condition {name} (reported, not enforced): its margin reaches 0"
-            found.append((s, _special(eq, "boundary", p, why, abs(margin(eq, p)))))
+        defining = None if condition is None else abs(test(eq, p))
+        found.append((s, _special(eq, kind, p, condition, defining)))
     found.sort(key=lambda item: item[0])
     out = [special for _, special in found]
     return out, (None if boundary is None else (boundary[1], boundary[2]))
@@ -647,9 +642,7 @@ def _start(eq: _Equations, state: np.ndarray, durations: Sequence[float]) -> _Po
         raise VswInputError(f"{eq.model.name}: the start leads to a period-{shorter} gait {where}, "
                             f"not period {eq.period}: give a point of a period-{eq.period} "
                             "gait")  # fmt: skip
-    if p.tangent[-1] < 0:
-        p.tangent = -p.tangent
-    return p
+    return p  # its tangent points to larger nu: [R_w; e_nu] t = (0, 1)
 
 
 def _switch(eq: _Equations, flip: SpecialPoint) -> tuple[_Equations, _Point] | None:
@@ -670,15 +663,13 @@ def _switch(eq: _Equations, flip: SpecialPoint) -> tuple[_Equations, _Point] | N
         stop.check()
         return None
     single_t = _tangent(single_jac, np.eye(single_jac.shape[1])[-1])
-    if single_t is None:
+    if single_t is None or not np.all(np.isfinite(jac)):
         return None
     # The null space of R_w is two-dimensional at a period doubling: the doubled period-k
     # branch's own direction and the new branch's. Project the null basis off the first.
     starts, times = single_t[:cut], single_t[cut:-1]
     along = np.concatenate([starts, starts, times, times, single_t[-1:]])
     along /= np.linalg.norm(along)
-    if not (np.all(np.isfinite(jac)) and np.all(np.isfinite(single_t))):
-        return None
     try:
         null = np.linalg.svd(jac)[2][-2:]
     except np.linalg.LinAlgError:
@@ -691,8 +682,7 @@ def _switch(eq: _Equations, flip: SpecialPoint) -> tuple[_Equations, _Point] | N
         if solved is None:
             continue
         w, jac2, iterations = solved
-        gap = _half_step_gap(double, w)
-        if gap is None or gap < 1e-7:
+        if _least_period(double, w) < double.period:
             continue  # back on the period-k gait
         p = _point(double, w, jac2, across, iterations)
         if p is None or p.confirmed != "completed":
@@ -704,8 +694,9 @@ def _switch(eq: _Equations, flip: SpecialPoint) -> tuple[_Equations, _Point] | N
 
 
 def _least_period(eq: _Equations, w: np.ndarray) -> int:
-    """The least number of simulated steps after which the orbit's state returns to x0
-    (within 1e-7; ``eq.period`` where none fewer does)."""
+    """The least number of simulated steps, a divisor of ``eq.period``, after which the
+    orbit's state returns to x0 (within 1e-7 x max(1, |x0|)); ``eq.period`` where none
+    fewer does or a step fails."""
     params = eq.params_at(w[-1])
     x0 = eq.x0(w)
     x = x0.copy()
@@ -717,20 +708,6 @@ def _least_period(eq: _Equations, w: np.ndarray) -> int:
         if eq.period % k == 0 and np.max(np.abs(x - x0)) <= 1e-7 * max(1.0, np.max(np.abs(x0))):
             return k
     return eq.period
-
-
-def _half_step_gap(eq: _Equations, w: np.ndarray) -> float | None:
-    """How far the period-2k orbit's state after k steps is from x0 (0 on a period-k
-    orbit taken twice)."""
-    model = eq.model
-    x = eq.x0(w).copy()
-    params = eq.params_at(w[-1])
-    for _ in range(eq.period // 2):
-        step = _step(model, params, x)
-        if isinstance(step, str) or step.ended != "completed":
-            return None
-        x = step.state
-    return float(np.max(np.abs(x - eq.x0(w))))
 
 
 def continue_gaits(

@@ -235,9 +235,8 @@ def _newton(
     ``P(starts)`` where the caller has them, the scan's); a row whose step fails is
     dropped and a row whose residual is within ``_NEWTON_TOL * max(1, |x|)`` has
     converged, and only the others pay for the Jacobian (forward differences, ``d`` batch
-    steps a row): on the kneed walker's scan three in four rows converge or fail without
-    it. Starts whose iterates have met (to 1e-9) go on as one. Returns the iterates and a
-    mask of the rows that converged."""
+    steps a row). Starts whose iterates have met (to 1e-9) go on as one. Returns the
+    iterates and a mask of the rows that converged."""
     y = np.array(starts, dtype=float)
     count, dims = y.shape
     done = np.zeros(count, dtype=bool)
@@ -441,7 +440,7 @@ def _cache_file(
     box: dict[str, tuple[float, float]], cells: int | None,
 ) -> Path | None:  # fmt: skip
     """Where a scan is kept: ``<cache dir>/searches/<model>-<key>.json``, the key a SHA-256
-    of everything the scan depends on (the model's generated module, the compiled
+    of everything the scan depends on (the model package's Python files, the compiled
     simulator's file, whose name is the hash of its C source, flags, compiler and CPU, this
     module's, the batch simulator's and vsw.hybrid's code, numpy's version, the parameters,
     the box and the cells). Files are never removed: delete the directory to reclaim it.
