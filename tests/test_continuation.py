@@ -37,6 +37,16 @@ def _central_difference_map_jacobian(model, params, state, h=1e-6):
     return jac
 
 
+def _long_gait_branch(stop_value: float) -> continuation.Branch:
+    """The simplest walker's long gait continued from gamma = 0.009, no switching."""
+    m = load("simplest-walker")
+    (branch,) = continuation.continue_gaits(
+        m, m.parameters({"gamma": 0.009}), "gamma", 0.009, stop_value, LONG_GAIT_0009,
+        (LONG_PERIOD_0009,), options=continuation.Options(switch=False),
+    )  # fmt: skip
+    return branch
+
+
 @pytest.fixture(scope="module")
 def simplest_cascade():
     """The simplest walker's long gait from gamma = 0.009 to 0.0183, switching at every
@@ -332,12 +342,7 @@ def test_a_reported_condition_crossing_zero_is_a_boundary_the_branch_passes(monk
         return {"made-up": eq.parameter(float(w[-1])) - 0.012}
 
     monkeypatch.setattr(continuation, "_margins", margins)
-    m = load("simplest-walker")
-    params = m.parameters({"gamma": 0.009})
-    (branch,) = continuation.continue_gaits(
-        m, params, "gamma", 0.009, 0.014, LONG_GAIT_0009, (LONG_PERIOD_0009,),
-        options=continuation.Options(switch=False),
-    )  # fmt: skip
+    branch = _long_gait_branch(0.014)
     assert branch.ended == "range"
     (boundary,) = branch.special_points
     assert boundary.type == "boundary" and "condition made-up" in boundary.condition
@@ -362,12 +367,7 @@ def test_a_complex_pair_crossing_the_unit_circle_is_a_neimark_sacker_point(monke
 
     monkeypatch.setattr(continuation._Equations, "evaluate", evaluate)
     monkeypatch.setattr(continuation._Equations, "eigenvalues", eigenvalues)
-    m = load("simplest-walker")
-    params = m.parameters({"gamma": 0.009})
-    (branch,) = continuation.continue_gaits(
-        m, params, "gamma", 0.009, 0.014, LONG_GAIT_0009, (LONG_PERIOD_0009,),
-        options=continuation.Options(switch=False),
-    )  # fmt: skip
+    branch = _long_gait_branch(0.014)
     (ns,) = branch.special_points
     assert ns.type == "neimark-sacker" and abs(ns.parameter - 0.012) <= 1e-12
     assert ns.defining <= 1e-9
