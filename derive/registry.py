@@ -15,6 +15,7 @@ MODEL_MODULES: dict[str, str] = {
     "compass_gait": "derive.models.compass_gait",
     "vsw_biped": "derive.models.vsw_biped",
     "kneed_walker": "derive.models.kneed_walker",
+    "torso_walker": "derive.models.torso_walker",
 }
 """Model name (its ``generated/<name>/`` package) -> module with its ``derive()``."""
 

@@ -399,13 +399,13 @@ def impact_reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tu
     _numeric_check(gaps, sorted(set().union(*(g.free_symbols for g in gaps)), key=str),
                    f"{event.name}: bodies after the impact")  # fmt: skip
 
-    def jacobian(positions, coords, phase, order):
+    def jacobian(positions, coords, phase, order, held=True):
         rows = []
         for body, p in zip((phase.bodies[k] for k in order), positions):
             weight = sm.sqrt(body.mass)
             rows += [[weight * sm.diff(p[k], q) for q in coords] for k in range(2)]
             if not isinstance(body, PointMass):
-                angle = sm.sympify(body.angle).xreplace(dict(phase.held))
+                angle = sm.sympify(body.angle).xreplace(dict(phase.held) if held else {})
                 rows.append([sm.sqrt(body.inertia) * sm.diff(angle, q) for q in coords])
         return sm.Matrix(rows)
 
@@ -415,10 +415,20 @@ def impact_reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tu
     held_after = [tuple(c.xreplace(holding) for c in p) for p in _positions(after)]
     j_after = jacobian(held_after, q_after, after, range(len(after.bodies)))
     j_after = j_after.xreplace(mapping)
+    # The impulses do no work along the phase after's free coordinates with its held chart
+    # coordinates fixed: the holding actuators' impulses act on those alone. Where a held
+    # value varies with the free coordinates (a torso held at an angle from the vertical by
+    # a joint on the stance leg) that direction is not the held motion's (j_after).
+    projection = j_after
+    if any(sm.sympify(v).free_symbols & set(q_after) for v in after.held.values()):
+        frozen = [tuple(sm.sympify(c).xreplace(holding) for c in p)
+                  for p in _positions(after, held=False)]  # fmt: skip
+        projection = jacobian(frozen, q_after, after, range(len(after.bodies)), held=False)
+        projection = projection.xreplace(dict(after.held)).xreplace(mapping)
     coordinates = tuple(mapping[c.q] for c in after.coordinates)
     if len(q_after) == 1:
-        a = (j_after.T * j_after).applyfunc(_simplify)
-        b = (j_after.T * j_before).applyfunc(_simplify)
+        a = (projection.T * j_after).applyfunc(_simplify)
+        b = (projection.T * j_before).applyfunc(_simplify)
         u_after = a.LUsolve(b * sm.Matrix(u_before))
         # Small impact maps simplify to the textbook forms (cos(2 alpha) omega, cos(phi0)/beta
         # omega): the angle differences collapse only under trigsimp.
@@ -426,8 +436,8 @@ def impact_reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tu
     else:
         # Several coordinates: Cramer's rule with the determinant kept as one factor (see
         # phase_dynamics), in the links' relative angles.
-        a = (j_after.T * j_after).applyfunc(_angle_sums)
-        b = (j_after.T * j_before).applyfunc(_angle_sums)
+        a = (projection.T * j_after).applyfunc(_angle_sums)
+        b = (projection.T * j_before).applyfunc(_angle_sums)
         determinant = _angle_sums(a.det(method="berkowitz"))
         numerators = a.adjugate(method="berkowitz") * b * sm.Matrix(u_before)
         rates = tuple(_angle_sums(n) / determinant for n in numerators)

@@ -1,0 +1,158 @@
+"""The compass gait with a torso held by a hip actuator: the three-link biped of Grizzle,
+Abba & Plestan 2001 ("Asymptotically stable walking for biped robots: analysis via systems
+with impulse effects", IEEE Trans. Automatic Control 46(1):51-64) and of Westervelt,
+Grizzle, Chevallereau, Choi & Morris 2007 ("Feedback Control of Dynamic Bipedal Robot
+Locomotion", CRC Press; its companion code ``WGCCM_three_link_walker_example``), with the
+torso held at a fixed lean and the swing leg free.
+
+Two legs of length ``r``, each a point mass ``m`` at its middle, a point mass ``m_h`` at
+the hip and a torso, a point mass ``m_t`` at distance ``l_t`` above the hip, on a slope
+``gamma`` under gravity ``g``. The stance foot is a hinge; the
+swing leg swings freely about the hip (scuffing ignored, as in the compass gait's sources);
+heelstrike is the compass gait's inelastic impact at the swing foot, after which the legs
+swap roles.
+
+The torso is held at the lean ``rho`` from the vertical (positive forward, downhill) by an
+actuator between the torso and the stance leg, in every phase and through heelstrike (an
+impulsive torque there, between the torso and the new stance leg). Its torque's reaction
+drives the stance leg forward when the torso leans forward, and the actuator does positive
+work over a step; the torque is derived (the force of the held coordinate ``phi``), not
+assumed. The companion code holds the torso with two hip motors and also holds the
+swing leg; here the swing leg is free, so the walker is the compass gait with one actuator.
+
+Coordinates on the slope (x downhill, y along its normal): ``theta`` is the stance leg's
+angle from the slope normal, positive with the hip downhill of the stance foot; ``psi`` is
+the swing leg's angle, measured the same way; ``phi`` is the torso's angle relative to the
+stance leg (the actuator's joint). The book's angles from the vertical are
+``theta_1 = theta + gamma``, ``theta_2 = psi + gamma``, ``theta_3 = theta + phi + gamma``.
+"""
+
+from __future__ import annotations
+
+import sympy as sm
+
+from derive.engine import model_derivation
+from derive.engine.model import (
+    NORMAL_FORCE,
+    Coordinate,
+    Event,
+    Failure,
+    Impact,
+    Model,
+    Parameter,
+    Phase,
+    PointMass,
+    leg,
+)
+from derive.quantities import Derivation
+
+PI = float(sm.pi.evalf(17))
+INF = float("inf")
+
+# The companion code's model_params_three_link.m: r = 1, m = 5, Mh = 15, Mt = 10, L = 0.5,
+# g = 9.8 (SI units); its control_params_three_link.m holds the torso at th3d = pi/6. The
+# slope is Drake's compass gait's (CompassGaitParams, 0.0525 rad): with the swing leg free
+# there is no gait on level ground (docs/models/torso_walker.md).
+PARAMETERS = (
+    Parameter("m_h", "M_H", 0.0, INF, "hip mass m_h > 0", "hip mass", {"positive": True},
+              default=15.0, unit="kg"),
+    Parameter("m", "m", 0.0, INF, "leg mass m > 0", "mass of each leg (at its middle)",
+              {"positive": True}, default=5.0, unit="kg"),
+    Parameter("m_t", "M_T", 0.0, INF, "torso mass m_t > 0", "torso mass",
+              {"positive": True}, default=10.0, unit="kg"),
+    Parameter("r", "r", 0.0, INF, "leg length r > 0", "leg length", {"positive": True},
+              default=1.0, unit="m"),
+    Parameter("l_t", "L", 0.0, INF, "l_t > 0", "distance from the hip to the torso's mass",
+              {"positive": True}, default=0.5, unit="m"),
+    Parameter("rho", r"\rho", -PI / 2, PI / 2, "the torso above the hip: -pi/2 < rho < pi/2",
+              "torso lean from the vertical (forward positive)", default=PI / 6, unit="rad"),
+    Parameter("gamma", r"\gamma", -PI / 2, PI / 2, "-pi/2 < gamma < pi/2",
+              "slope angle (downhill positive; 0 is level ground)", default=0.0525,
+              unit="rad"),
+    Parameter("g", "g", 0.0, INF, "gravity g > 0", "gravitational acceleration",
+              {"positive": True}, default=9.8, unit="m/s^2"),
+)  # fmt: skip
+m_h, m, m_t, r, l_t, rho, gamma, g = (p.symbol for p in PARAMETERS)
+
+THETA = Coordinate(
+    "theta",
+    "stance leg angle",
+    "rad",
+    reference="the slope normal",
+    positive="the hip downhill of the stance foot",
+)
+PSI = Coordinate(
+    "psi",
+    "swing leg angle",
+    "rad",
+    reference="the slope normal",
+    positive="the hip downhill of the swing foot",
+)
+TORSO = Coordinate(
+    "phi",
+    "torso angle relative to the stance leg",
+    "rad",
+    reference="the stance leg",
+    positive="the torso leaning forward of the stance leg",
+)
+theta, psi, phi = THETA.q, PSI.q, TORSO.q
+
+hip = leg(theta, r)
+swing_foot = tuple(h - f for h, f in zip(hip, leg(psi, r)))
+torso = tuple(h + t for h, t in zip(hip, leg(theta + phi, l_t)))
+STANCE = Phase(
+    "stance",
+    coordinates=(THETA, PSI),
+    bodies=(
+        PointMass("hip", m_h, hip),
+        PointMass("stance_leg", m, leg(theta, r / 2)),
+        PointMass("swing_leg", m, tuple(h - f for h, f in zip(hip, leg(psi, r / 2)))),
+        PointMass("torso", m_t, torso),
+    ),
+    gravity=(g * sm.sin(gamma), -g * sm.cos(gamma)),
+    # The torso's angle from the vertical is theta + phi + gamma: held at rho.
+    held={phi: rho - gamma - theta},
+    points={"swing_foot": swing_foot},
+)
+
+MODEL = Model(
+    name="torso_walker",
+    title="Compass gait with a torso",
+    description="Grizzle et al. 2001, Westervelt et al. 2007: the three-link biped, its "
+    "torso held at a lean by a hip actuator, the swing leg free",
+    source="derive/models/torso_walker.py",
+    parameters=PARAMETERS,
+    phases=(STANCE,),
+    events=(
+        Event(
+            "heelstrike",
+            "stance",
+            "stance",
+            # The swing foot's height is -2 r sin((theta + psi)/2) sin((theta - psi)/2), as
+            # in the compass gait.
+            guard=sm.sin((theta + psi) / 2),
+            direction=1,
+            reset=Impact(
+                "swing_foot",
+                {theta: psi, psi: theta},
+                bodies={"stance_leg": "swing_leg", "swing_leg": "stance_leg"},
+            ),
+            ends_step=True,
+            when=theta,  # past mid-stance: the new foot lands ahead of the hip
+        ),
+    ),
+    failures=(
+        Failure("fell-backward", THETA.u, -1, "the stance leg stops and swings back"),
+        Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the ground"),
+        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
+    ),
+    units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},
+    step_length=swing_foot[0],
+    search={"theta": (-0.8, 0.0), "theta_dot": (0.0, 5.0), "psi_dot": (-5.0, 5.0)},
+    # Just after heelstrike the legs are at the guard's zero, swapped: psi = -theta.
+    section={"psi": -theta},
+)
+
+
+def derive() -> Derivation:
+    return model_derivation(MODEL, "Angles in radians, lengths in m, time in s, energies in J.")
