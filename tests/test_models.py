@@ -323,11 +323,14 @@ def test_angular_momentum_is_conserved_across_every_reset(name):
             np.testing.assert_allclose(after[0], shifted, rtol=0, atol=1e-12)
             l_minus, scale = _angular_momentum(*before, about=contact)
             l_plus, _ = _angular_momentum(*after, about=(0.0, 0.0))
-            # Carnot: a perfectly inelastic impact loses the kinetic energy of the jump.
-            jump = after[1] - before[1]
-            lost = _kinetic(before[1], before[2]) - _kinetic(after[1], after[2])
-            assert lost >= -1e-12 * _kinetic(before[1], before[2])
-            assert lost == pytest.approx(_kinetic(jump, before[2]), rel=1e-9, abs=1e-13)
+            # Carnot: a perfectly inelastic impact loses the kinetic energy of the jump,
+            # where every impulse is workless: not where an actuator holds a coordinate
+            # that moves after it (tests/test_torso_walker.py adds its work there).
+            if m.phases[m.phase_index[event["target"]]]["conservative"]:
+                jump = after[1] - before[1]
+                lost = _kinetic(before[1], before[2]) - _kinetic(after[1], after[2])
+                assert lost >= -1e-12 * _kinetic(before[1], before[2])
+                assert lost == pytest.approx(_kinetic(jump, before[2]), rel=1e-9, abs=1e-13)
         else:
             l_minus, scale = _angular_momentum(*before, about=(0.0, 0.0))
             l_plus, _ = _angular_momentum(*after, about=(0.0, 0.0))

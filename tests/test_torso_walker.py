@@ -160,6 +160,19 @@ def test_heelstrike_conserves_the_angular_momenta_the_impulses_allow(walker):
         assert new_swing == pytest.approx(old_stance, rel=1e-12, abs=1e-12)
         # The torso moves with the hip: no rotation before or after.
         np.testing.assert_allclose(v1[TORSO], v1[HIP], atol=1e-12)
+        # Carnot with the actuator's impulse: T+ - T- = P (torso's rate relative to the new
+        # stance leg, after) - (the kinetic energy of the velocity jump), P the torque
+        # impulse on the torso (its angular momentum's change about the hip, through which
+        # the hip's impulse passes; counterclockwise), the relative rate theta_dot (the
+        # torso does not turn; theta grows clockwise).
+        torque_impulse = (_moment(r1, v1, masses, r1[HIP], [TORSO])
+                          - _moment(r0, v0, masses, r0[HIP], [TORSO]))  # fmt: skip
+        kinetic = [0.5 * float(np.sum(masses * np.sum(v**2, axis=1))) for v in (v0, v1)]
+        same_bodies = v0[[HIP, SWING_LEG, STANCE_LEG, TORSO]]  # in the order after
+        jump = 0.5 * float(np.sum(masses * np.sum((v1 - same_bodies) ** 2, axis=1)))
+        assert kinetic[1] - kinetic[0] == pytest.approx(
+            torque_impulse * after[2] - jump, rel=1e-10, abs=1e-12
+        )
 
 
 def test_with_the_torso_at_the_hip_it_is_the_compass_gait(walker):
