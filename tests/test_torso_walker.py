@@ -221,7 +221,7 @@ def test_actuator_work_over_a_step_is_the_energy_the_walker_gains(walker, stable
     states = piece.states(times)
     power = np.array([-_book_held_torso(params, x)[1] * x[2] for x in states])
     work = float(np.sum((power[1:] + power[:-1]) * np.diff(times)) / 2)  # trapezoid
-    (_, heelstrike), = events
+    ((_, heelstrike),) = events
     gained = heelstrike.energy_before - walker.energy("stance", values, start)
     assert gained > 1.0  # the leaning torso powers the step (J)
     assert work == pytest.approx(gained, rel=1e-6)
