@@ -37,6 +37,7 @@ from derive.__main__ import main as derive_main
 from derive.__main__ import stale_report, write_atomically
 from vsw.gaits import search
 from vsw.hybrid import HybridModel
+from vsw.ledger import energy_ledger
 from vsw.models import load
 
 MODELS = generated.MODELS
@@ -543,3 +544,23 @@ def test_check_command_fails_for_damage_in_every_model(cached_derivation, tmp_pa
     err = capsys.readouterr().err
     for name in MODELS:
         assert f"generated/{name}/__init__.py" in err, name
+
+
+@pytest.mark.parametrize("name", MODELS)
+def test_every_gaits_energy_ledger_balances(name):
+    """Issue 26's ledger (vsw/ledger.py) over a step of every gait at the defaults: the
+    work of gravity and of each actuator (quadrature of its power), the impacts' losses
+    (Carnot, from the bodies' velocities) and the height jumps raise the walker by account
+    for the kinetic energy gained (none, on a gait) to 1e-9 of the largest term; and a
+    workless impact's or lock's remainder, the actuators' work there, vanishes."""
+    m = engine(name)
+    (params, orbits), *_ = gaits(name)
+    for orbit in orbits:
+        ledger = energy_ledger(m, params, orbit)
+        assert abs(ledger["balance_relative"]) < 1e-9, (name, ledger["totals"])
+        # Periodic as simulated (the step's integration against the orbit solver's).
+        assert abs(ledger["totals"]["kinetic_gained"]) < 1e-7 * ledger["scale"]
+        for event in ledger["events"]:
+            assert event["loss"] >= 0.0
+            if event["reset"] in ("impact", "lock") and not event.get("actuators"):
+                assert abs(event["actuator_work"]) <= 1e-9 * max(event["loss"], 1e-300), event

@@ -33,6 +33,7 @@ import numpy as np
 import pytest
 
 from vsw import continuation
+from vsw.ledger import energy_ledger
 from vsw.models import load
 
 HIP, STANCE_LEG, SWING_LEG, TORSO = range(4)
@@ -244,3 +245,27 @@ def test_a_forward_lean_needs_a_slope(walker, stable_gait):
     folds = [s for s in branch.special_points if s.type == "fold"]
     assert [round(s.parameter, 7) for s in folds] == [0.0507339]
     assert min(p["parameter"] for p in branch.points) > 0.0507
+
+
+def test_ledger_is_the_books_torque_and_the_torsos_impulse(walker, stable_gait):
+    """The energy ledger (vsw/ledger.py) at the stable gait: the actuator's work in the
+    stance phase is the integral of [WGCCM07]'s u1 times the relative rate (as above), and
+    its work at heelstrike is the torque impulse on the torso (its angular momentum's
+    change about the hip) times the relative rate after, from the bodies' velocities."""
+    values = walker.parameters({})
+    params = {p.name: v for p, v in zip(walker.parameter_table, values)}
+    ledger = energy_ledger(walker, values, stable_gait)
+    start = np.array([stable_gait.state[k] for k in ("theta", "psi", "theta_dot", "psi_dot")])
+    pieces, events, _ = walker.continuous_walk(values, start, 1)
+    times = np.linspace(pieces[0].start, pieces[0].end, 4001)
+    power = np.array([-_book_held_torso(params, x)[1] * x[2] for x in pieces[0].states(times)])
+    book_work = float(np.sum((power[1:] + power[:-1]) * np.diff(times)) / 2)
+    assert ledger["totals"]["actuators"]["phi"]["work"] == pytest.approx(book_work, rel=1e-6)
+    ((_, heelstrike),) = events
+    bodies = _bodies(walker)
+    r0, v0, masses = bodies(values, heelstrike.state_before)
+    r1, v1, _ = bodies(values, heelstrike.state_after)
+    impulse = _moment(r1, v1, masses, r1[HIP], [TORSO]) - _moment(r0, v0, masses, r0[HIP], [TORSO])
+    (event,) = ledger["events"]
+    assert event["actuator_work"] == pytest.approx(impulse * heelstrike.state_after[2], rel=1e-9)
+    assert abs(ledger["balance_relative"]) < 1e-9

@@ -921,10 +921,28 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
         ))  # fmt: skip
         free = {c.q for c in phase.coordinates}
         # A held coordinate that follows the free ones moves, and its actuator does work.
-        conservative = not any(sm.sympify(v).free_symbols & free for v in phase.held.values())
+        moving = [h for h, v in phase.held.items() if sm.sympify(v).free_symbols & free]
+        conservative = not moving
         record = {
             "name": phase.name, "failures": tuple(failures), "conservative": conservative,
         }  # fmt: skip
+        if moving:
+            # The power of each moving held coordinate's actuator: its generalised force
+            # times the held value's rate (chain rule), what the energy ledger integrates.
+            powers = tuple(
+                dyn.actuator_forces[h] * sum(
+                    (sm.sympify(phase.held[h]).diff(c.q) * c.u for c in phase.coordinates),
+                    sm.Integer(0),
+                )
+                for h in moving
+            )
+            quantities.append(Quantity(
+                f"{phase.name}_actuator_power", args, powers,
+                f"Power of each actuator holding a moving coordinate in phase {phase.name} "
+                f"({', '.join(h.name for h in moving)}): generalised force times rate.", None,
+                "tuple: power of each actuator, in the order of HYBRID's phase 'actuators'",
+            ))  # fmt: skip
+            record["actuators"] = tuple(h.name for h in moving)
         if conditions:
             record["conditions"] = tuple(conditions)
         phases.append(record)

@@ -26,7 +26,7 @@ conditions with physical=True together decide whether a gait walks."""
 CONDITION_UNITS = {'q_positive': 'g/r_e', 'apex': 'g r_e^3', 'extension_reached': 'rad', 'extension_completed': 'rad', 'leg_compressive': 'm g', 'stance_contact': 'm g'}
 """The unit of each condition's margin ('' where it is dimensionless)."""
 
-HYBRID = {'name': 'tle', 'title': 'Finite-time leg extension model of Virtual Slope Walking', 'description': 'ILE walker whose stance leg extends from beta r_e to r_e along a cubic smoothstep over the stance angles [theta_II, theta_II + delta]', 'coordinate_units': {'theta': 'rad'}, 'parameters': ('beta', 'theta_II', 'phi0', 'delta'), 'coordinates': ('theta',), 'rates': ('theta_dot',), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the stance foot', 'rate': 'theta_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/sqrt(r_e/g)', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}), 'phases': ({'name': 'short', 'failures': (('fell-backward', 'short_fell_backward', -1), ('lift-off', 'short_lift_off', -1)), 'conservative': True}, {'name': 'extension', 'failures': (('fell-backward', 'extension_fell_backward', -1), ('lift-off', 'extension_lift_off', -1)), 'conservative': False}, {'name': 'long', 'failures': (('fell-backward', 'long_fell_backward', -1), ('lift-off', 'long_lift_off', -1)), 'conservative': True}), 'events': ({'name': 'extension_start', 'source': 'short', 'target': 'extension', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'continuous', 'bodies': None}, {'name': 'extension_end', 'source': 'extension', 'target': 'long', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'continuous', 'bodies': None}, {'name': 'heelstrike', 'source': 'long', 'target': 'short', 'direction': -1, 'ends_step': True, 'when': None, 'reset': 'impact', 'bodies': (0,)}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the stance leg stops and falls back', 'unit': 'rad/sqrt(r_e/g)'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'm g'}), 'units': {'time': 'sqrt(r_e/g)', 'length': 'r_e', 'mass': 'm', 'energy': 'm g r_e', 'force': 'm g'}, 'step_length': True, 'section': ('theta',), 'search': {'theta_dot': (0.0, 3.0)}, 'closed_form': True}
+HYBRID = {'name': 'tle', 'title': 'Finite-time leg extension model of Virtual Slope Walking', 'description': 'ILE walker whose stance leg extends from beta r_e to r_e along a cubic smoothstep over the stance angles [theta_II, theta_II + delta]', 'coordinate_units': {'theta': 'rad'}, 'parameters': ('beta', 'theta_II', 'phi0', 'delta'), 'coordinates': ('theta',), 'rates': ('theta_dot',), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the stance foot', 'rate': 'theta_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/sqrt(r_e/g)', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}), 'phases': ({'name': 'short', 'failures': (('fell-backward', 'short_fell_backward', -1), ('lift-off', 'short_lift_off', -1)), 'conservative': True}, {'name': 'extension', 'failures': (('fell-backward', 'extension_fell_backward', -1), ('lift-off', 'extension_lift_off', -1)), 'conservative': False, 'actuators': ('r',)}, {'name': 'long', 'failures': (('fell-backward', 'long_fell_backward', -1), ('lift-off', 'long_lift_off', -1)), 'conservative': True}), 'events': ({'name': 'extension_start', 'source': 'short', 'target': 'extension', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'continuous', 'bodies': None}, {'name': 'extension_end', 'source': 'extension', 'target': 'long', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'continuous', 'bodies': None}, {'name': 'heelstrike', 'source': 'long', 'target': 'short', 'direction': -1, 'ends_step': True, 'when': None, 'reset': 'impact', 'bodies': (0,)}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the stance leg stops and falls back', 'unit': 'rad/sqrt(r_e/g)'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'm g'}), 'units': {'time': 'sqrt(r_e/g)', 'length': 'r_e', 'mass': 'm', 'energy': 'm g r_e', 'force': 'm g'}, 'step_length': True, 'section': ('theta',), 'search': {'theta_dot': (0.0, 3.0)}, 'closed_form': True}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -399,6 +399,41 @@ def extension_inertias(beta, theta_II, phi0, delta, theta, theta_dot):
     """
     be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     return (1, 0,)
+
+
+def extension_actuator_power(beta, theta_II, phi0, delta, theta, theta_dot):
+    """Power of each actuator holding a moving coordinate in phase extension (r): generalised force times rate.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    delta : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: power of each actuator, in the order of HYBRID's phase 'actuators'
+    """
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    x0 = -1 + beta
+    x1 = -x0
+    x2 = (1/(delta*delta*delta))
+    x3 = theta - theta_II
+    x4 = x3**2
+    x5 = (1/delta**2)
+    x6 = 3*x5
+    x7 = beta + x1*(x4*x6 - 2*x2*(x3*x3*x3))
+    x8 = x6*(-2*theta_II + 2*theta) - 6*x2*x4
+    x9 = x1*x8
+    x10 = theta_dot**2
+    return (x9*theta_dot*(x7*cos_theta + x9*(sin_theta*sin_theta*sin_theta) - x10*x7**2 + x9*sin_theta*cos_theta**2 - 2*x10*x1**2*x8**2 - 6*x0*x10*x5*x7*(1 - 2*x3/delta))/x7,)
 
 
 def long_accelerations(beta, theta_II, phi0, delta, theta, theta_dot):

@@ -17,7 +17,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'torso_walker', 'title': 'Compass gait with a torso', 'description': 'Grizzle et al. 2001, Westervelt et al. 2007: the three-link biped, its torso held at a lean by a hip actuator, the swing leg free', 'coordinate_units': {'theta': 'rad', 'psi': 'rad'}, 'parameters': ('m_h', 'm', 'm_t', 'r', 'l_t', 'rho', 'gamma', 'g'), 'coordinates': ('theta', 'psi'), 'rates': ('theta_dot', 'psi_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the swing foot', 'rate': 'psi_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of psi (swing leg angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('fell-forward', 'stance_fell_forward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': False},), 'events': ({'name': 'heelstrike', 'source': 'stance', 'target': 'stance', 'direction': 1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1, 3)},), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the stance leg stops and swings back', 'unit': 'rad/s'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the ground', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'N'}), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J', 'force': 'N'}, 'step_length': True, 'section': ('psi',), 'search': {'theta': (-0.8, 0.0), 'theta_dot': (0.0, 5.0), 'psi_dot': (-5.0, 5.0)}, 'closed_form': False}
+HYBRID = {'name': 'torso_walker', 'title': 'Compass gait with a torso', 'description': 'Grizzle et al. 2001, Westervelt et al. 2007: the three-link biped, its torso held at a lean by a hip actuator, the swing leg free', 'coordinate_units': {'theta': 'rad', 'psi': 'rad'}, 'parameters': ('m_h', 'm', 'm_t', 'r', 'l_t', 'rho', 'gamma', 'g'), 'coordinates': ('theta', 'psi'), 'rates': ('theta_dot', 'psi_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the swing foot', 'rate': 'psi_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of psi (swing leg angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('fell-forward', 'stance_fell_forward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': False, 'actuators': ('phi',)},), 'events': ({'name': 'heelstrike', 'source': 'stance', 'target': 'stance', 'direction': 1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1, 3)},), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the stance leg stops and swings back', 'unit': 'rad/s'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the ground', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'N'}), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J', 'force': 'N'}, 'step_length': True, 'section': ('psi',), 'search': {'theta': (-0.8, 0.0), 'theta_dot': (0.0, 5.0), 'psi_dot': (-5.0, 5.0)}, 'closed_form': False}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -356,6 +356,49 @@ def stance_inertias(m_h, m, m_t, r, l_t, rho, gamma, g, theta, psi, theta_dot, p
     """
     be = backend_for(m_h, m, m_t, r, l_t, rho, gamma, g, theta, psi, theta_dot, psi_dot)
     return (m_h, 0, m, 0, m, 0, m_t, 0,)
+
+
+def stance_actuator_power(m_h, m, m_t, r, l_t, rho, gamma, g, theta, psi, theta_dot, psi_dot):
+    """Power of each actuator holding a moving coordinate in phase stance (phi): generalised force times rate.
+
+    Parameters
+    ----------
+    m_h : array_like or casadi.SX/MX/DM
+    m : array_like or casadi.SX/MX/DM
+    m_t : array_like or casadi.SX/MX/DM
+    r : array_like or casadi.SX/MX/DM
+    l_t : array_like or casadi.SX/MX/DM
+    rho : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: power of each actuator, in the order of HYBRID's phase 'actuators'
+    """
+    be = backend_for(m_h, m, m_t, r, l_t, rho, gamma, g, theta, psi, theta_dot, psi_dot)
+    cos_rho, sin_rho = be.cos_sin(rho)
+    cos_t1, sin_t1 = be.cos_sin(gamma + psi)
+    cos_t2, sin_t2 = be.cos_sin(gamma + theta)
+    cos_t3, sin_t3 = be.cos_sin(psi - theta)
+    cos_t4, sin_t4 = be.cos_sin(gamma + theta - rho)
+    x0 = r**2
+    x1 = x0*m
+    x2 = 4*x0
+    x3 = l_t*m_t
+    x4 = x3*r
+    x5 = g*r/2
+    x6 = theta_dot**2
+    x7 = x1/2
+    x8 = x3*sin_rho*g + x4*x6*sin_t4
+    return (-theta_dot*(-x8 + cos_t4*l_t*m_t*r*(x1*(x8 + x5*sin_t2*(2*m_h + 2*m_t + 3*m) - x7*sin_t3*psi_dot**2)/4 + x7*cos_t3*(-x5*sin_t1*m + x0*x6*sin_t3*m/2))/(-cos_t3**2*m**2*(r*r*r*r)/4 + x0*m*(5*x1 + x2*m_h + x2*m_t + 4*x4*cos_t4)/16)),)
 
 
 def event_heelstrike_guard(m_h, m, m_t, r, l_t, rho, gamma, g, theta, psi, theta_dot, psi_dot):

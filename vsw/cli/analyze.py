@@ -122,6 +122,34 @@ def _write_rows(out: TextIO, report: GaitReport) -> None:
         out.write(f"\nno gait: {report.reason}\n")
 
 
+def _write_ledger(out: TextIO, model: Model, ledger: dict[str, Any]) -> None:
+    """A gait's energy ledger over a step (:mod:`vsw.ledger`) in three lines."""
+    unit = unit_text(model.units.get("energy", "")).strip()
+    totals = ledger["totals"]
+    actuators = ", ".join(
+        f"{name} {fmt(w['work'])} (+{fmt(w['positive'])}, {fmt(w['negative'])})"
+        for name, w in totals["actuators"].items()
+    )
+    events = ", ".join(
+        f"{e['event']} loss {fmt(e['loss'])}"
+        + (
+            f" actuator {fmt(e['actuator_work'])}"
+            if abs(e["actuator_work"]) > 1e-9 * max(e["loss"], abs(e["kinetic_change"]), 1e-300)
+            else ""
+        )
+        for e in ledger["events"]
+    )
+    raised = totals["potential_raised_at_events"]
+    lifted = f", raised at events {fmt(raised)}" if raised else ""
+    out.write(f"  {'energy per step':<16} gravity {fmt(totals['gravity_work'])}, actuators "
+              f"{fmt(totals['actuator_work_continuous'] + totals['actuator_work_impulsive'])}"
+              f", losses {fmt(totals['losses'])}{lifted} {unit}; balance "
+              f"{fmt(ledger['balance'])} {unit}\n")  # fmt: skip
+    if actuators:
+        out.write(f"  {'  in the phases':<16} {actuators} {unit}\n")
+    out.write(f"  {'  at events':<16} {events} {unit}\n")
+
+
 def _write_gaits(out: TextIO, model: Model, report: GaitReport) -> None:
     units = ", ".join(f"{k} {v}" for k, v in model.units.items())
     out.write(f"{'units':<18} {units}\n")
@@ -141,6 +169,8 @@ def _write_gaits(out: TextIO, model: Model, report: GaitReport) -> None:
             reported = "" if c.get("ends_walk", True) else " (reported, not enforced)"
             out.write(f"  {c['name'] + ' margin':<16} {fmt(c['margin']):>14} "
                       f"{unit_text(c['unit']).strip():<10} {c['meaning']}{reported}\n")  # fmt: skip
+        if n <= len(report.ledgers):
+            _write_ledger(out, model, report.ledgers[n - 1])
     if report.closed_form is not None:
         closed = report.closed_form
         out.write(f"\nclosed form: q^f = {fmt(closed['q_fixed'])}, eigenvalue "

@@ -26,6 +26,7 @@ from vsw.errors import ModelConditionError, VswInputError
 from vsw.explore_page import check_html_path, write_page
 from vsw.figures import save_figure
 from vsw.hybrid import HybridModel, Orbit
+from vsw.ledger import energy_ledger
 from vsw.trajectories import sample_walk
 from vsw.walk_plot import walk_figure
 
@@ -58,7 +59,8 @@ class GaitReport:
     ``closed_form``: the closed-form fixed point and conditions where the model has them;
     ``search``: how the gaits were searched (None where the closed form answers alone);
     ``reason``: one sentence when there is no gait; ``extra``: a model's own keys (the
-    ILE's closed-form analysis); ``rows``: its own text table, (name, value, unit).
+    ILE's closed-form analysis); ``rows``: its own text table, (name, value, unit);
+    ``ledgers``: each gait's energy ledger over a step (:mod:`vsw.ledger`).
     """
 
     gaits: list[Orbit]
@@ -68,6 +70,7 @@ class GaitReport:
     reason: str | None = None
     extra: dict[str, Any] = field(default_factory=dict)
     rows: list[tuple[str, Any, str]] = field(default_factory=list)
+    ledgers: list[dict[str, Any]] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = dict(self.extra)
@@ -75,6 +78,8 @@ class GaitReport:
             {**orbit.to_dict(), "conditions": margins}
             for orbit, margins in zip(self.gaits, self.conditions)
         ]
+        for point, ledger in zip(out["fixed_points"], self.ledgers):
+            point["energy_ledger"] = ledger
         if self.closed_form is not None:
             out["closed_form"] = self.closed_form
         if self.search is not None:
@@ -217,6 +222,7 @@ class Model(HybridModel):
             conditions=[conditions.gait_conditions(self, params, g) for g in found.gaits],
             search=found,
             closed_form=closed,
+            ledgers=[energy_ledger(self, params, g) for g in found.gaits],
         )
         if not found.gaits:
             report.reason = (

@@ -172,6 +172,23 @@ function extension_inertias(beta, theta_II, phi0, delta, theta, theta_dot) {
   return [1, 0];
 }
 
+/* Power of each actuator holding a moving coordinate in phase extension (r): generalised force times rate. Returns tuple: power of each actuator, in the order of HYBRID's phase 'actuators'. */
+function extension_actuator_power(beta, theta_II, phi0, delta, theta, theta_dot) {
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  const x0 = -1 + beta;
+  const x1 = -x0;
+  const x2 = (1/(delta*delta*delta));
+  const x3 = theta - theta_II;
+  const x4 = Math.pow(x3, 2);
+  const x5 = (1/Math.pow(delta, 2));
+  const x6 = 3*x5;
+  const x7 = beta + x1*(x4*x6 - 2*x2*(x3*x3*x3));
+  const x8 = x6*(-2*theta_II + 2*theta) - 6*x2*x4;
+  const x9 = x1*x8;
+  const x10 = Math.pow(theta_dot, 2);
+  return [x9*theta_dot*(x7*cos_theta + x9*(sin_theta*sin_theta*sin_theta) - x10*Math.pow(x7, 2) + x9*sin_theta*Math.pow(cos_theta, 2) - 2*x10*Math.pow(x1, 2)*Math.pow(x8, 2) - 6*x0*x10*x5*x7*(1 - 2*x3/delta))/x7];
+}
+
 /* Second derivatives of the free coordinates in phase long. Returns tuple: d2(coordinate)/dt2 for each coordinate. */
 function long_accelerations(beta, theta_II, phi0, delta, theta, theta_dot) {
   const [cos_theta, sin_theta] = be.cos_sin(theta);
@@ -270,7 +287,7 @@ function section_completion(beta, theta_II, phi0, delta, theta, theta_dot) {
   return [-be.atan((beta - cos_phi0)/sin_phi0), theta_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, short_accelerations, short_energy, short_normal_force, short_fell_backward, short_lift_off, short_positions, short_inertias, extension_accelerations, extension_energy, extension_normal_force, extension_fell_backward, extension_lift_off, extension_positions, extension_inertias, long_accelerations, long_energy, long_normal_force, long_fell_backward, long_lift_off, long_positions, long_inertias, event_extension_start_guard, event_extension_start_reset, event_extension_end_guard, event_extension_end_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, step_length_of_state, weight, section_completion };
+const exported = { PARAMETERS, CONDITIONS, short_accelerations, short_energy, short_normal_force, short_fell_backward, short_lift_off, short_positions, short_inertias, extension_accelerations, extension_energy, extension_normal_force, extension_fell_backward, extension_lift_off, extension_positions, extension_inertias, extension_actuator_power, long_accelerations, long_energy, long_normal_force, long_fell_backward, long_lift_off, long_positions, long_inertias, event_extension_start_guard, event_extension_start_reset, event_extension_end_guard, event_extension_end_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {

@@ -198,6 +198,25 @@ function stance_inertias(m_h, m, m_t, r, l_t, rho, gamma, g, theta, psi, theta_d
   return [m_h, 0, m, 0, m, 0, m_t, 0];
 }
 
+/* Power of each actuator holding a moving coordinate in phase stance (phi): generalised force times rate. Returns tuple: power of each actuator, in the order of HYBRID's phase 'actuators'. */
+function stance_actuator_power(m_h, m, m_t, r, l_t, rho, gamma, g, theta, psi, theta_dot, psi_dot) {
+  const [cos_rho, sin_rho] = be.cos_sin(rho);
+  const [cos_t1, sin_t1] = be.cos_sin(gamma + psi);
+  const [cos_t2, sin_t2] = be.cos_sin(gamma + theta);
+  const [cos_t3, sin_t3] = be.cos_sin(psi - theta);
+  const [cos_t4, sin_t4] = be.cos_sin(gamma + theta - rho);
+  const x0 = Math.pow(r, 2);
+  const x1 = x0*m;
+  const x2 = 4*x0;
+  const x3 = l_t*m_t;
+  const x4 = x3*r;
+  const x5 = g*r/2;
+  const x6 = Math.pow(theta_dot, 2);
+  const x7 = x1/2;
+  const x8 = x3*sin_rho*g + x4*x6*sin_t4;
+  return [-theta_dot*(-x8 + cos_t4*l_t*m_t*r*(x1*(x8 + x5*sin_t2*(2*m_h + 2*m_t + 3*m) - x7*sin_t3*Math.pow(psi_dot, 2))/4 + x7*cos_t3*(-x5*sin_t1*m + x0*x6*sin_t3*m/2))/(-Math.pow(cos_t3, 2)*Math.pow(m, 2)*(r*r*r*r)/4 + x0*m*(5*x1 + x2*m_h + x2*m_t + 4*x4*cos_t4)/16))];
+}
+
 /* Guard of the event heelstrike: crosses zero when it happens. Returns guard. */
 function event_heelstrike_guard(m_h, m, m_t, r, l_t, rho, gamma, g, theta, psi, theta_dot, psi_dot) {
   const [cos_t0, sin_t0] = be.cos_sin(psi/2 + theta/2);
@@ -258,7 +277,7 @@ function section_completion(m_h, m, m_t, r, l_t, rho, gamma, g, theta, psi, thet
   return [theta, -theta, theta_dot, psi_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_fell_forward, stance_lift_off, stance_positions, stance_inertias, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
+const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_fell_forward, stance_lift_off, stance_positions, stance_inertias, stance_actuator_power, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {

@@ -1,0 +1,63 @@
+"""The energy ledger (vsw/ledger.py) beside what it must equal from elsewhere: the paper's
+energy balance of the ILE as printed, the slope's work on the compass gait, Carnot's loss.
+
+* [ILE] ../shared/paper/instantaneous_leg_extension_vsw.md, section E: the energy the
+  extension adds, E_c (20), and heelstrike dissipates, E_r (21), in units of m g r_e, at
+  q = omega_I**2 (the rate just after heelstrike, in sqrt(g / r_e)) and theta_I (the
+  stance angle there).
+* [GTE96] the compass gait on a slope gamma: over a step gravity does M g sin(gamma) times
+  the step length (the walker's height falls by that along the slope; M = m_h + 2 m).
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from vsw.ledger import energy_ledger
+from vsw.models import load
+
+
+def _paper_energies(beta: float, theta_ii: float, phi0: float, q: float, theta_i: float):
+    """E_c (20) and E_r (21) of [ILE] as printed, m g r_e = 1."""
+    bracket = (1 - beta**3) * math.cos(theta_ii) - (beta - beta**3) * math.cos(theta_i)
+    added = -0.5 * (beta**2 - beta**4) * q + bracket
+    lost = 0.5 * beta**4 * (1 - math.cos(phi0) ** 2) * q + (1 - math.cos(phi0) ** 2) * bracket
+    return added, lost
+
+
+@pytest.mark.parametrize(
+    "overrides", [{}, {"beta": 0.9, "theta_II": 0.1}, {"beta": 0.85, "theta_II": -0.05}]
+)
+def test_ile_extension_and_heelstrike_are_the_papers_energies(overrides):
+    """The ledger's extension work (the jump's energy change, kinetic and potential) and
+    heelstrike loss (Carnot's, from the hip's velocity jump) at the ILE's gait are [ILE]'s
+    (20) and (21) at its fixed point, to 1e-9; they are equal on a gait."""
+    m = load("ile")
+    params = m.parameters(overrides)
+    (orbit,) = m.fixed_points(params)
+    ledger = energy_ledger(m, params, orbit)
+    extension, heelstrike = ledger["events"]
+    assert (extension["event"], heelstrike["event"]) == ("extension", "heelstrike")
+    beta, theta_ii, phi0 = params
+    added, lost = _paper_energies(
+        beta, theta_ii, phi0, orbit.state["theta_dot"] ** 2, orbit.state["theta"]
+    )
+    assert extension["actuator_work"] == pytest.approx(added, rel=1e-9)
+    assert heelstrike["loss"] == pytest.approx(lost, rel=1e-9)
+    assert added == pytest.approx(lost, rel=1e-8)  # the gait: (22) E_delta = 0
+
+
+def test_compass_gait_gravity_work_is_the_slopes():
+    """[GTE96]: gravity's work over a step is M g sin(gamma) times the step length, and
+    heelstrike dissipates it (no actuator: its remainder is zero)."""
+    m = load("compass-gait")
+    params = m.parameters({})
+    values = {p.name: v for p, v in zip(m.parameter_table, params)}
+    weight_along = (values["m_h"] + 2 * values["m"]) * values["g"] * math.sin(values["gamma"])
+    for orbit in m.fixed_points(params):
+        totals = energy_ledger(m, params, orbit)["totals"]
+        assert totals["gravity_work"] == pytest.approx(weight_along * orbit.step_length, rel=1e-9)
+        assert totals["losses"] == pytest.approx(totals["gravity_work"], rel=1e-8)
+        assert abs(totals["actuator_work_impulsive"]) < 1e-9 * totals["losses"]
