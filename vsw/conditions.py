@@ -40,16 +40,26 @@ def gait_conditions(model: HybridModel, params: Sequence[float], orbit: Orbit) -
     walks where it fails; ``ends_walk`` says which is which)."""
     state = np.array(list(orbit.state.values()))
     trajectory = model.simulate(params, state, 1, max_step=orbit.period / SAMPLES)
+    interior_only = {c["name"] for c in model.spec.get("conditions", ()) if c.get("interior")}
     least: dict[str, float] = {}
+    profiles: dict[str, np.ndarray] = {}
     for k, phase in enumerate(model.phases):
-        samples = trajectory.states[trajectory.phase == k]
+        in_phase = trajectory.phase == k
+        samples = trajectory.states[in_phase]
         if not len(samples):
             continue
         for name, function, direction in (*phase["failures"], *phase.get("conditions", ())):
             with np.errstate(all="ignore"):
                 guard = np.asarray(model.module.__dict__[function](*params, *samples.T), float)
-            value = float(np.min(-direction * np.broadcast_to(guard, len(samples))))
-            least[name] = min(least.get(name, math.inf), value)
+            margin = -direction * np.broadcast_to(guard, len(samples))
+            if name in interior_only:
+                profiles.setdefault(name, np.full(len(trajectory.t), np.nan))[in_phase] = margin
+                continue
+            least[name] = min(least.get(name, math.inf), float(np.min(margin)))
+    for name, profile in profiles.items():
+        inside = _least_inside(profile, trajectory.t)
+        if inside is not None:
+            least[name] = inside
     out = []
     records = [(f, True) for f in model.spec["failures"]]
     records += [(c, False) for c in model.spec.get("conditions", ())]
@@ -62,9 +72,28 @@ def gait_conditions(model: HybridModel, params: Sequence[float], orbit: Orbit) -
             "unit": record["unit"],
             "holds": None if margin is None else bool(margin > 0),
             "ends_walk": ends_walk,
-            "how": f"least over the step ({len(trajectory.t)} samples)",
+            "how": (f"least between its first rise and its last fall over the step "
+                    f"({len(trajectory.t)} samples)") if record["name"] in interior_only
+            else f"least over the step ({len(trajectory.t)} samples)",
         })  # fmt: skip
     return out
+
+
+def _least_inside(margin: np.ndarray, t: np.ndarray) -> float | None:
+    """The least of a margin over a step's interior, for a quantity the step's events put
+    at zero at its ends (the swing foot's height): the samples of the first and last
+    instants left out, then the run over which it first rises (the foot's lift) and the
+    run over which it last falls (its landing); what remains is where it comes closest to
+    failing in between (a unimodal profile keeps its peak alone)."""
+    values = margin[(t > t[0]) & (t < t[-1]) & np.isfinite(margin)]
+    if not len(values):
+        return None
+    first, last = 0, len(values) - 1
+    while first < last and values[first + 1] >= values[first]:
+        first += 1
+    while last > first and values[last - 1] >= values[last]:
+        last -= 1
+    return float(np.min(values[first : last + 1]))
 
 
 def has_closed_form(model: HybridModel) -> bool:

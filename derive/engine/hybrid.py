@@ -1090,8 +1090,11 @@ def _failure_record(model: Model, failure: Failure) -> dict:
             unit = f"{rates[guard].unit}/{model.units.get('time', '')}"
         else:
             unit = "1"
-    return {"name": failure.name, "direction": failure.direction, "meaning": failure.meaning,
-            "unit": unit}  # fmt: skip
+    record = {"name": failure.name, "direction": failure.direction,
+              "meaning": failure.meaning, "unit": unit}  # fmt: skip
+    if getattr(failure, "interior", False):
+        record["interior"] = True
+    return record
 
 
 def _in_the_limit(model: Model, quantity: Quantity) -> Quantity:

@@ -270,7 +270,10 @@ class Condition:
     knee's lock that must pull, where the model assumes a latch that can.
 
     ``guard`` may use the ground reaction (:data:`NORMAL_FORCE`), the generalised force of
-    a held coordinate (:func:`held_force`) and the state; ``unit`` is its unit.
+    a held coordinate (:func:`held_force`) and the state; ``unit`` is its unit. With
+    ``interior`` the least is taken over the step's interior, its first and last instants
+    left out: where the step's events put the guard at zero by their geometry (the swing
+    foot's height, on the ground when the step starts and ends).
     """
 
     name: str
@@ -278,6 +281,7 @@ class Condition:
     direction: int
     meaning: str = ""
     unit: str | None = None
+    interior: bool = False
 
 
 @dataclass(frozen=True, eq=False)

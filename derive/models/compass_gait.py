@@ -21,6 +21,7 @@ import sympy as sm
 from derive.engine import model_derivation
 from derive.engine.model import (
     NORMAL_FORCE,
+    Condition,
     Coordinate,
     Event,
     Failure,
@@ -117,6 +118,18 @@ MODEL = Model(
         Failure("fell-backward", THETA.u, -1, "the stance leg stops and swings back"),
         Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the slope"),
         Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the slope"),
+    ),
+    conditions=(
+        # Reported, not enforced (the sources ignore scuffing): the swing foot's least
+        # height over the step between its lift and its landing.
+        Condition(
+            "swing-foot-clearance",
+            swing_foot[1],
+            -1,
+            "the swing foot stays above the ground (where negative it scuffs: ignored)",
+            unit="m",
+            interior=True,
+        ),
     ),
     units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},
     step_length=swing_foot[0],

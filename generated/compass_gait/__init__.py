@@ -17,7 +17,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'compass_gait', 'title': 'Compass gait', 'description': 'Goswami et al. 1996: a hip mass and two legs with point masses, walking down a slope', 'coordinate_units': {'theta': 'rad', 'psi': 'rad'}, 'parameters': ('m_h', 'm', 'a', 'b', 'gamma', 'g'), 'coordinates': ('theta', 'psi'), 'rates': ('theta_dot', 'psi_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the swing foot', 'rate': 'psi_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of psi (swing leg angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('fell-forward', 'stance_fell_forward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': True},), 'events': ({'name': 'heelstrike', 'source': 'stance', 'target': 'stance', 'direction': 1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1)},), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the stance leg stops and swings back', 'unit': 'rad/s'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the slope', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the slope', 'unit': 'N'}), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J', 'force': 'N'}, 'step_length': True, 'section': ('psi',), 'search': {'theta': (-0.8, 0.0), 'theta_dot': (0.0, 5.0), 'psi_dot': (-5.0, 5.0)}, 'closed_form': False}
+HYBRID = {'name': 'compass_gait', 'title': 'Compass gait', 'description': 'Goswami et al. 1996: a hip mass and two legs with point masses, walking down a slope', 'coordinate_units': {'theta': 'rad', 'psi': 'rad'}, 'parameters': ('m_h', 'm', 'a', 'b', 'gamma', 'g'), 'coordinates': ('theta', 'psi'), 'rates': ('theta_dot', 'psi_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the swing foot', 'rate': 'psi_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of psi (swing leg angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('fell-forward', 'stance_fell_forward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': True, 'conditions': (('swing-foot-clearance', 'stance_swing_foot_clearance', -1),)},), 'events': ({'name': 'heelstrike', 'source': 'stance', 'target': 'stance', 'direction': 1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1)},), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the stance leg stops and swings back', 'unit': 'rad/s'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the slope', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the slope', 'unit': 'N'}), 'conditions': ({'name': 'swing-foot-clearance', 'direction': -1, 'meaning': 'the swing foot stays above the ground (where negative it scuffs: ignored)', 'unit': 'm', 'interior': True},), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J', 'force': 'N'}, 'step_length': True, 'section': ('psi',), 'search': {'theta': (-0.8, 0.0), 'theta_dot': (0.0, 5.0), 'psi_dot': (-5.0, 5.0)}, 'closed_form': False}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -427,6 +427,36 @@ def stance_lift_off(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot):
     x76 = x36*x51
     x77 = x55*x69
     return (x21 + x26 + x0*x23 + x11*x23 + x17*x53 + x17*x66 + x23*x6 + x25*x38 + x29*x31 + x30*x32 + x34*x37 + x34*x48 + x34*x60 + x36*x70 + x36*x77 + x37*x55 + x45*x46 + x45*x47 + x46*x56 + x46*x57 + x46*x65 + x46*x74 + x47*x56 + x47*x57 + x47*x65 + x47*x74 + x55*x60 + x55*x63 + x63*x64 + x67*x70 + x67*x77 - x0*x44 - x11*x44 - x12*x21 - x12*x26 - x13*x27 - x14*x27 - x16*x27 - x24*x43 - x29*sin_t3 - x30*sin_t4 - x35*x54 - x36*x68 - x37*x51 - x38*x43 - x40*x45 - x40*x57 - x42*x53 - x42*x66 - x44*x6 - x48*x61 - x49*x52 - x52*x59 - x54*x73 - x61*x75 - x62*x69 - x67*x68 - x71*x72 - x72*x76 - 3*x73*x76 - 2*x42*x45 - 2*x71*x73 + 3*x27*x3 + 4*x49*x58 + 5*x58*x75 + x24*x64*x69 - x0*x62*a - x15*x17*x67 - x18*x40*x6)/(x3 + x8 - x13 - x14 - x16 + x0*x1 + x1*x11 + x1*x6 + x11*x7)
+
+
+def stance_swing_foot_clearance(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot):
+    """Condition swing-foot-clearance in phase stance (reported, not enforced).
+
+    Parameters
+    ----------
+    m_h : array_like or casadi.SX/MX/DM
+    m : array_like or casadi.SX/MX/DM
+    a : array_like or casadi.SX/MX/DM
+    b : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        crosses zero (direction -1) where it fails
+    """
+    be = backend_for(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot)
+    cos_psi, sin_psi = be.cos_sin(psi)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    x0 = a + b
+    return x0*cos_theta - x0*cos_psi
 
 
 def stance_positions(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot):

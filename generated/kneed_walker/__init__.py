@@ -17,7 +17,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'kneed_walker', 'title': 'Kneed walker', 'description': 'McGeer 1990, Hsu Chen 2007: a passive walker with knees and point feet, walking down a slope', 'coordinate_units': {'theta': 'rad', 'psi': 'rad', 'kappa': 'rad'}, 'parameters': ('m_h', 'm_t', 'm_s', 'a1', 'b1', 'a2', 'b2', 'gamma', 'g'), 'coordinates': ('theta', 'psi', 'kappa'), 'rates': ('theta_dot', 'psi_dot', 'kappa_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing thigh angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the swing knee', 'rate': 'psi_dot'}, {'name': 'kappa', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing knee angle (shank less thigh)', 'reference': 'the straight knee', 'positive': 'the knee flexed, the swing foot behind the knee', 'rate': 'kappa_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of psi (swing thigh angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}, {'name': 'kappa_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of kappa (swing knee angle (shank less thigh))', 'reference': '', 'positive': 'kappa increasing', 'rate': None}), 'phases': ({'name': 'knee_free', 'failures': (('fell-backward', 'knee_free_fell_backward', -1), ('fell-forward', 'knee_free_fell_forward', -1), ('lift-off', 'knee_free_lift_off', -1)), 'conservative': True, 'conditions': (('stance-knee-stop', 'knee_free_stance_knee_stop', -1),)}, {'name': 'knee_locked', 'failures': (('fell-backward', 'knee_locked_fell_backward', -1), ('fell-forward', 'knee_locked_fell_forward', -1), ('lift-off', 'knee_locked_lift_off', -1)), 'conservative': True, 'conditions': (('stance-knee-stop', 'knee_locked_stance_knee_stop', -1),)}), 'events': ({'name': 'kneestrike', 'source': 'knee_free', 'target': 'knee_locked', 'direction': -1, 'ends_step': False, 'when': None, 'reset': 'lock', 'bodies': None}, {'name': 'heelstrike', 'source': 'knee_locked', 'target': 'knee_free', 'direction': 1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 4, 3, 2, 1)}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the stance leg stops and swings back', 'unit': 'rad/s'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the slope', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the slope', 'unit': 'N'}), 'conditions': ({'name': 'stance-knee-stop', 'direction': -1, 'meaning': 'the stance knee presses into its stop (else its lock must pull: a latch)', 'unit': 'N m'},), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J', 'force': 'N'}, 'step_length': True, 'section': ('psi', 'kappa', 'kappa_dot'), 'search': {'theta': (-0.6, 0.0), 'theta_dot': (0.0, 4.0), 'psi_dot': (-4.0, 4.0)}, 'closed_form': False}
+HYBRID = {'name': 'kneed_walker', 'title': 'Kneed walker', 'description': 'McGeer 1990, Hsu Chen 2007: a passive walker with knees and point feet, walking down a slope', 'coordinate_units': {'theta': 'rad', 'psi': 'rad', 'kappa': 'rad'}, 'parameters': ('m_h', 'm_t', 'm_s', 'a1', 'b1', 'a2', 'b2', 'gamma', 'g'), 'coordinates': ('theta', 'psi', 'kappa'), 'rates': ('theta_dot', 'psi_dot', 'kappa_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing thigh angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the swing knee', 'rate': 'psi_dot'}, {'name': 'kappa', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing knee angle (shank less thigh)', 'reference': 'the straight knee', 'positive': 'the knee flexed, the swing foot behind the knee', 'rate': 'kappa_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of psi (swing thigh angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}, {'name': 'kappa_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of kappa (swing knee angle (shank less thigh))', 'reference': '', 'positive': 'kappa increasing', 'rate': None}), 'phases': ({'name': 'knee_free', 'failures': (('fell-backward', 'knee_free_fell_backward', -1), ('fell-forward', 'knee_free_fell_forward', -1), ('lift-off', 'knee_free_lift_off', -1)), 'conservative': True, 'conditions': (('swing-foot-clearance', 'knee_free_swing_foot_clearance', -1), ('stance-knee-stop', 'knee_free_stance_knee_stop', -1))}, {'name': 'knee_locked', 'failures': (('fell-backward', 'knee_locked_fell_backward', -1), ('fell-forward', 'knee_locked_fell_forward', -1), ('lift-off', 'knee_locked_lift_off', -1)), 'conservative': True, 'conditions': (('swing-foot-clearance', 'knee_locked_swing_foot_clearance', -1), ('stance-knee-stop', 'knee_locked_stance_knee_stop', -1))}), 'events': ({'name': 'kneestrike', 'source': 'knee_free', 'target': 'knee_locked', 'direction': -1, 'ends_step': False, 'when': None, 'reset': 'lock', 'bodies': None}, {'name': 'heelstrike', 'source': 'knee_locked', 'target': 'knee_free', 'direction': 1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 4, 3, 2, 1)}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the stance leg stops and swings back', 'unit': 'rad/s'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the slope', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the slope', 'unit': 'N'}), 'conditions': ({'name': 'swing-foot-clearance', 'direction': -1, 'meaning': 'the swing foot stays above the ground (where negative it scuffs: ignored)', 'unit': 'm', 'interior': True}, {'name': 'stance-knee-stop', 'direction': -1, 'meaning': 'the stance knee presses into its stop (else its lock must pull: a latch)', 'unit': 'N m'}), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J', 'force': 'N'}, 'step_length': True, 'section': ('psi', 'kappa', 'kappa_dot'), 'search': {'theta': (-0.6, 0.0), 'theta_dot': (0.0, 4.0), 'psi_dot': (-4.0, 4.0)}, 'closed_form': False}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -498,6 +498,43 @@ def knee_free_lift_off(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kapp
     x55 = (1/(-x25*x47 - x38*x48 - x45*x54 - 2*x29*x33 + x24*x38*x54*m_s))
     x56 = -x27*x54 - x29*x32
     return -x0*x2 - x11*x2 - x13*x2 - x15*x2 - x17*x2 - x2*x3 - x2*x4 - x2*x5 - x2*x6 - x2*x7 - x2*x8 - x2*x9 + x55*(x23*x39 + x40*x44 + x46*(-x45 + x25*x38))*(-x0*sin_theta - x11*sin_theta - x13*sin_theta - x15*sin_theta - x17*sin_theta - x3*sin_theta - x4*sin_theta - x5*sin_theta - x6*sin_theta - x7*sin_theta - x8*sin_theta - x9*sin_theta) + x55*(x23*x56 + x40*x46 + x44*(-x48 + x24*x54*m_s))*(x4*sin_psi + x6*sin_t6 + x8*sin_psi + x9*sin_psi) + cos_gamma*g*m_h + 2*cos_gamma*g*m_s + 2*cos_gamma*g*m_t + x14*cos_psi*a2*m_s + x14*cos_psi*b2*m_s + x14*cos_psi*b2*m_t + x14*cos_t6*b1*m_s + x16*cos_t6*b1*m_s + x55*sin_t6*b1*m_s*(x23*(-x47 + x38*x54) + x39*x46 + x44*x56) + 2*cos_t6*kappa_dot*psi_dot*b1*m_s
+
+
+def knee_free_swing_foot_clearance(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot):
+    """Condition swing-foot-clearance in phase knee_free (reported, not enforced).
+
+    Parameters
+    ----------
+    m_h : array_like or casadi.SX/MX/DM
+    m_t : array_like or casadi.SX/MX/DM
+    m_s : array_like or casadi.SX/MX/DM
+    a1 : array_like or casadi.SX/MX/DM
+    b1 : array_like or casadi.SX/MX/DM
+    a2 : array_like or casadi.SX/MX/DM
+    b2 : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    kappa : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+    kappa_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        crosses zero (direction -1) where it fails
+    """
+    be = backend_for(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot)
+    cos_psi, sin_psi = be.cos_sin(psi)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    cos_t2, sin_t2 = be.cos_sin(kappa + psi)
+    x0 = a2 + b2
+    x1 = a1 + b1
+    return x0*cos_theta + x1*cos_theta - x0*cos_psi - x1*cos_t2
 
 
 def knee_free_stance_knee_stop(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot):
@@ -1062,6 +1099,42 @@ def knee_locked_lift_off(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, ka
     x34 = x27 + x0*x26 + x10*x4 + x10*x6 + x10*x8 + x10*x9 + x12*x22 + x12*x23 + x22*m_h + x23*m_h + x24*m_h + x26*x3 + x26*x5 + x29*m_h + x3*x32 + x30*m_s + x30*m_t + x31*a2 + x31*b1 + x32*x9 + x33*a2 + x33*b1 + 2*x9*a2 + 4*a2*b1*m_t
     x35 = (1/(x27*x34 - x17**2*x18**2*cos_t5**2))
     return -x0*x2 - x11*x2 - x13*x2 - x15*x2 - x16*x2 - x2*x3 - x2*x4 - x2*x5 - x2*x6 - x2*x7 - x2*x8 - x2*x9 + x35*(x19*x21 + x27*x28)*(-x0*sin_theta - x11*sin_theta - x13*sin_theta - x15*sin_theta - x16*sin_theta - x3*sin_theta - x4*sin_theta - x5*sin_theta - x6*sin_theta - x7*sin_theta - x8*sin_theta - x9*sin_theta) + x35*(x19*x34 + x21*x28)*(x4*sin_psi + x6*sin_psi + x8*sin_psi + x9*sin_psi) + cos_gamma*g*m_h + 2*cos_gamma*g*m_s + 2*cos_gamma*g*m_t + x14*cos_psi*a2*m_s + x14*cos_psi*b1*m_s + x14*cos_psi*b2*m_s + x14*cos_psi*b2*m_t
+
+
+def knee_locked_swing_foot_clearance(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot):
+    """Condition swing-foot-clearance in phase knee_locked (reported, not enforced).
+
+    Parameters
+    ----------
+    m_h : array_like or casadi.SX/MX/DM
+    m_t : array_like or casadi.SX/MX/DM
+    m_s : array_like or casadi.SX/MX/DM
+    a1 : array_like or casadi.SX/MX/DM
+    b1 : array_like or casadi.SX/MX/DM
+    a2 : array_like or casadi.SX/MX/DM
+    b2 : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    kappa : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+    kappa_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        crosses zero (direction -1) where it fails
+    """
+    be = backend_for(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot)
+    cos_psi, sin_psi = be.cos_sin(psi)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    x0 = a1 + b1
+    x1 = a2 + b2
+    return x0*cos_theta + x1*cos_theta - x0*cos_psi - x1*cos_psi
 
 
 def knee_locked_stance_knee_stop(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot):

@@ -329,6 +329,14 @@ function stance_lift_off(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot)
   return (x21 + x26 + x0*x23 + x11*x23 + x17*x53 + x17*x66 + x23*x6 + x25*x38 + x29*x31 + x30*x32 + x34*x37 + x34*x48 + x34*x60 + x36*x70 + x36*x77 + x37*x55 + x45*x46 + x45*x47 + x46*x56 + x46*x57 + x46*x65 + x46*x74 + x47*x56 + x47*x57 + x47*x65 + x47*x74 + x55*x60 + x55*x63 + x63*x64 + x67*x70 + x67*x77 - x0*x44 - x11*x44 - x12*x21 - x12*x26 - x13*x27 - x14*x27 - x16*x27 - x24*x43 - x29*sin_t3 - x30*sin_t4 - x35*x54 - x36*x68 - x37*x51 - x38*x43 - x40*x45 - x40*x57 - x42*x53 - x42*x66 - x44*x6 - x48*x61 - x49*x52 - x52*x59 - x54*x73 - x61*x75 - x62*x69 - x67*x68 - x71*x72 - x72*x76 - 3*x73*x76 - 2*x42*x45 - 2*x71*x73 + 3*x27*x3 + 4*x49*x58 + 5*x58*x75 + x24*x64*x69 - x0*x62*a - x15*x17*x67 - x18*x40*x6)/(x3 + x8 - x13 - x14 - x16 + x0*x1 + x1*x11 + x1*x6 + x11*x7);
 }
 
+/* Condition swing-foot-clearance in phase stance (reported, not enforced). Returns crosses zero (direction -1) where it fails. */
+function stance_swing_foot_clearance(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot) {
+  const [cos_psi, sin_psi] = be.cos_sin(psi);
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  const x0 = a + b;
+  return x0*cos_theta - x0*cos_psi;
+}
+
 /* Position (x, y) and angle of each body in phase stance's chart. Returns tuple: x, y, angle of each body in order (angle 0 for a point mass). */
 function stance_positions(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot) {
   const [cos_psi, sin_psi] = be.cos_sin(psi);
@@ -410,7 +418,7 @@ function section_completion(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_d
   return [theta, -theta, theta_dot, psi_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_fell_forward, stance_lift_off, stance_positions, stance_inertias, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
+const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_fell_forward, stance_lift_off, stance_swing_foot_clearance, stance_positions, stance_inertias, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {

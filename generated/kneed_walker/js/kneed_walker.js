@@ -370,6 +370,16 @@ function knee_free_lift_off(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi,
   return -x0*x2 - x11*x2 - x13*x2 - x15*x2 - x17*x2 - x2*x3 - x2*x4 - x2*x5 - x2*x6 - x2*x7 - x2*x8 - x2*x9 + x55*(x23*x39 + x40*x44 + x46*(-x45 + x25*x38))*(-x0*sin_theta - x11*sin_theta - x13*sin_theta - x15*sin_theta - x17*sin_theta - x3*sin_theta - x4*sin_theta - x5*sin_theta - x6*sin_theta - x7*sin_theta - x8*sin_theta - x9*sin_theta) + x55*(x23*x56 + x40*x46 + x44*(-x48 + x24*x54*m_s))*(x4*sin_psi + x6*sin_t6 + x8*sin_psi + x9*sin_psi) + cos_gamma*g*m_h + 2*cos_gamma*g*m_s + 2*cos_gamma*g*m_t + x14*cos_psi*a2*m_s + x14*cos_psi*b2*m_s + x14*cos_psi*b2*m_t + x14*cos_t6*b1*m_s + x16*cos_t6*b1*m_s + x55*sin_t6*b1*m_s*(x23*(-x47 + x38*x54) + x39*x46 + x44*x56) + 2*cos_t6*kappa_dot*psi_dot*b1*m_s;
 }
 
+/* Condition swing-foot-clearance in phase knee_free (reported, not enforced). Returns crosses zero (direction -1) where it fails. */
+function knee_free_swing_foot_clearance(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot) {
+  const [cos_psi, sin_psi] = be.cos_sin(psi);
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  const [cos_t2, sin_t2] = be.cos_sin(kappa + psi);
+  const x0 = a2 + b2;
+  const x1 = a1 + b1;
+  return x0*cos_theta + x1*cos_theta - x0*cos_psi - x1*cos_t2;
+}
+
 /* Condition stance-knee-stop in phase knee_free (reported, not enforced). Returns crosses zero (direction -1) where it fails. */
 function knee_free_stance_knee_stop(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot) {
   const [cos_kappa, sin_kappa] = be.cos_sin(kappa);
@@ -689,6 +699,15 @@ function knee_locked_lift_off(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, ps
   const x34 = x27 + x0*x26 + x10*x4 + x10*x6 + x10*x8 + x10*x9 + x12*x22 + x12*x23 + x22*m_h + x23*m_h + x24*m_h + x26*x3 + x26*x5 + x29*m_h + x3*x32 + x30*m_s + x30*m_t + x31*a2 + x31*b1 + x32*x9 + x33*a2 + x33*b1 + 2*x9*a2 + 4*a2*b1*m_t;
   const x35 = (1/(x27*x34 - Math.pow(x17, 2)*Math.pow(x18, 2)*Math.pow(cos_t5, 2)));
   return -x0*x2 - x11*x2 - x13*x2 - x15*x2 - x16*x2 - x2*x3 - x2*x4 - x2*x5 - x2*x6 - x2*x7 - x2*x8 - x2*x9 + x35*(x19*x21 + x27*x28)*(-x0*sin_theta - x11*sin_theta - x13*sin_theta - x15*sin_theta - x16*sin_theta - x3*sin_theta - x4*sin_theta - x5*sin_theta - x6*sin_theta - x7*sin_theta - x8*sin_theta - x9*sin_theta) + x35*(x19*x34 + x21*x28)*(x4*sin_psi + x6*sin_psi + x8*sin_psi + x9*sin_psi) + cos_gamma*g*m_h + 2*cos_gamma*g*m_s + 2*cos_gamma*g*m_t + x14*cos_psi*a2*m_s + x14*cos_psi*b1*m_s + x14*cos_psi*b2*m_s + x14*cos_psi*b2*m_t;
+}
+
+/* Condition swing-foot-clearance in phase knee_locked (reported, not enforced). Returns crosses zero (direction -1) where it fails. */
+function knee_locked_swing_foot_clearance(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot) {
+  const [cos_psi, sin_psi] = be.cos_sin(psi);
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  const x0 = a1 + b1;
+  const x1 = a2 + b2;
+  return x0*cos_theta + x1*cos_theta - x0*cos_psi - x1*cos_psi;
 }
 
 /* Condition stance-knee-stop in phase knee_locked (reported, not enforced). Returns crosses zero (direction -1) where it fails. */
@@ -1459,7 +1478,7 @@ function section_completion(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi,
   return [theta, -theta, 0, theta_dot, psi_dot, 0];
 }
 
-const exported = { PARAMETERS, CONDITIONS, knee_free_accelerations, knee_free_energy, knee_free_normal_force, knee_free_fell_backward, knee_free_fell_forward, knee_free_lift_off, knee_free_stance_knee_stop, knee_free_positions, knee_free_inertias, knee_locked_accelerations, knee_locked_energy, knee_locked_normal_force, knee_locked_fell_backward, knee_locked_fell_forward, knee_locked_lift_off, knee_locked_stance_knee_stop, knee_locked_positions, knee_locked_inertias, event_kneestrike_guard, event_kneestrike_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
+const exported = { PARAMETERS, CONDITIONS, knee_free_accelerations, knee_free_energy, knee_free_normal_force, knee_free_fell_backward, knee_free_fell_forward, knee_free_lift_off, knee_free_swing_foot_clearance, knee_free_stance_knee_stop, knee_free_positions, knee_free_inertias, knee_locked_accelerations, knee_locked_energy, knee_locked_normal_force, knee_locked_fell_backward, knee_locked_fell_forward, knee_locked_lift_off, knee_locked_swing_foot_clearance, knee_locked_stance_knee_stop, knee_locked_positions, knee_locked_inertias, event_kneestrike_guard, event_kneestrike_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {

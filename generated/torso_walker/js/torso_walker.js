@@ -181,6 +181,13 @@ function stance_lift_off(m_h, m, m_t, r, l_t, rho, gamma, g, theta, psi, theta_d
   return x0*m_h + x0*m_t - x4*x7 - x7*m_h - x7*m_t + 2*x0*m + x1*x3*cos_psi + x14*(x18/4 + x16*x17*cos_t6)*(-x4*x8 - x8*m_h - x8*m_t) + x14*x3*sin_psi*(x18*cos_t6/2 + x13*x16/4);
 }
 
+/* Condition swing-foot-clearance in phase stance (reported, not enforced). Returns crosses zero (direction -1) where it fails. */
+function stance_swing_foot_clearance(m_h, m, m_t, r, l_t, rho, gamma, g, theta, psi, theta_dot, psi_dot) {
+  const [cos_psi, sin_psi] = be.cos_sin(psi);
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  return cos_theta*r - cos_psi*r;
+}
+
 /* Position (x, y) and angle of each body in phase stance's chart. Returns tuple: x, y, angle of each body in order (angle 0 for a point mass). */
 function stance_positions(m_h, m, m_t, r, l_t, rho, gamma, g, theta, psi, theta_dot, psi_dot) {
   const [cos_psi, sin_psi] = be.cos_sin(psi);
@@ -277,7 +284,7 @@ function section_completion(m_h, m, m_t, r, l_t, rho, gamma, g, theta, psi, thet
   return [theta, -theta, theta_dot, psi_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_fell_forward, stance_lift_off, stance_positions, stance_inertias, stance_actuator_power, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
+const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_fell_forward, stance_lift_off, stance_swing_foot_clearance, stance_positions, stance_inertias, stance_actuator_power, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {

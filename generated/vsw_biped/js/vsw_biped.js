@@ -213,6 +213,13 @@ function short_lift_off(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi
   return (x14 + x21 - x20 - x9 + x10*x41 + x15*x17 + x15*x20 + x15*x9 + x17*x18 + x18*x3 + x19*x27 + x22*x24 + x22*x26 + x27*x9 + x29*x34 + x29*x4 + x32*x35 + x34*x39 + x36*x37 + x39*x4 - x12*x30 - x13*x20 - x15*x21 - x18*x8 - x21*x41 - x31*x32 - x31*x34 - x31*mu - 4*x17*x30 - 2*x24*x33 + 4*x19*x41 + 6*x16*x35 - x16*x27*x6 - x23*x36*sin_theta - x38*x40*cos_theta - x25*x28*x40*cos_psi - x28*x34*x37*sin_t2)/(x10 + x14 + x3 - x8);
 }
 
+/* Condition swing-foot-clearance in phase short (reported, not enforced). Returns crosses zero (direction -1) where it fails. */
+function short_swing_foot_clearance(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot) {
+  const [cos_psi, sin_psi] = be.cos_sin(psi);
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  return cos_theta*beta - cos_psi*beta;
+}
+
 /* Position (x, y) and angle of each body in phase short's chart. Returns tuple: x, y, angle of each body in order (angle 0 for a point mass). */
 function short_positions(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot) {
   const [cos_psi, sin_psi] = be.cos_sin(psi);
@@ -356,6 +363,13 @@ function long_lift_off(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_
   return (x11 + x15 - x14 - x6 + x1*x16 + x13*x19 + x14*x17 + x15*x22 + x15*x31 + x16*x18 + x17*x18 + x17*x6 + x19*x6 + x22*x23 + x22*x24 + x23*x27 + x23*x31 + x24*x26 + x28*x29 + x33*x7 - x1*x26 - x10*x14 - x14*x26 - x15*x17 - x15*x33 - x16*x5 - x19*x20 - x26*x9 - x27*x6 - x28*x30 - 4*x18*x26 - 2*x18*x22 + 4*x13*x33 + 6*x20*x26 - x15*x29*sin_t2 - x21*x32*cos_theta - x25*x32*cos_psi)/(x1 + x11 + x7 - x5);
 }
 
+/* Condition swing-foot-clearance in phase long (reported, not enforced). Returns crosses zero (direction -1) where it fails. */
+function long_swing_foot_clearance(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot) {
+  const [cos_psi, sin_psi] = be.cos_sin(psi);
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  return cos_theta - cos_psi*beta;
+}
+
 /* Position (x, y) and angle of each body in phase long's chart. Returns tuple: x, y, angle of each body in order (angle 0 for a point mass). */
 function long_positions(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot) {
   const [cos_psi, sin_psi] = be.cos_sin(psi);
@@ -476,7 +490,7 @@ function section_completion(beta, theta_II, mu, b_over_l, theta, psi, theta_dot,
   return [theta, be.acos(cos_theta*beta), theta_dot, psi_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, short_accelerations, short_energy, short_normal_force, short_fell_backward, short_fell_forward, short_lift_off, short_positions, short_inertias, long_accelerations, long_energy, long_normal_force, long_fell_backward, long_fell_forward, long_lift_off, long_positions, long_inertias, event_extension_guard, event_extension_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
+const exported = { PARAMETERS, CONDITIONS, short_accelerations, short_energy, short_normal_force, short_fell_backward, short_fell_forward, short_lift_off, short_swing_foot_clearance, short_positions, short_inertias, long_accelerations, long_energy, long_normal_force, long_fell_backward, long_fell_forward, long_lift_off, long_swing_foot_clearance, long_positions, long_inertias, event_extension_guard, event_extension_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {
