@@ -45,6 +45,7 @@ from vsw.errors import ConvergenceError
 from vsw.figures import save_figure
 from vsw.grid_basin import basin_plot, grid_basin
 from vsw.hybrid import HybridModel, Orbit
+from vsw.ledger import energy_ledger
 from vsw.jsonable import clean
 from vsw.models import load
 from vsw.sweeps import brute_force, continuation, record
@@ -520,15 +521,18 @@ def _mu_rows(m: HybridModel, beta: float, theta_II: float, failures: dict) -> li
 
 def _stable_search(m: HybridModel) -> str:
     """Every gait the scan finds on the :data:`SEARCH` grid: how many, the least unstable,
-    and whether a walk from it with every rate 1 % off comes back (simulated, 60 steps)."""
+    whether a walk from it with every rate 1 % off comes back (simulated, 60 steps), its
+    swing foot's clearance (negative: it scuffs, which the model ignores) and the work of
+    the extension per step (the energy ledger: what heelstrike dissipates on a gait)."""
     lines = ["| beta | theta_II | gaits found | least max abs eigenvalue | walk from 1 % off "
-             "(60 steps) |", "| --- | --- | --- | --- | --- |"]  # fmt: skip
+             "(60 steps) | swing-foot clearance (l) | extension work (m_H g l) |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]  # fmt: skip
     for beta in SEARCH["beta"]:
         for theta_II in SEARCH["theta_II"]:
             params = m.parameters({"beta": beta, "theta_II": theta_II, "mu": SEARCH["mu"]})
             orbits = m.fixed_points(params)
             if not orbits:
-                lines.append(f"| {beta} | {theta_II} | 0 | | |")
+                lines.append(f"| {beta} | {theta_II} | 0 | | | | |")
                 continue
             best = min(orbits, key=lambda o: o.max_abs_eigenvalue)
             x = _vector(best)
@@ -540,8 +544,13 @@ def _stable_search(m: HybridModel) -> str:
             else:
                 gap = float(np.max(np.abs(walk.section[-1] - x)))
                 outcome = f"{gap:.1g} from the gait"
+            (clearance,) = [c["margin"] for c in gait_conditions(m, params, best)
+                            if c["name"] == "swing-foot-clearance"]  # fmt: skip
+            (extension,) = [e for e in energy_ledger(m, params, best)["events"]
+                            if e["event"] == "extension"]  # fmt: skip
             lines.append(f"| {beta} | {theta_II} | {len(orbits)} | "
-                         f"{best.max_abs_eigenvalue:.4g} | {outcome} |")  # fmt: skip
+                         f"{best.max_abs_eigenvalue:.4g} | {outcome} | {clearance:.2g} | "
+                         f"{extension['actuator_work']:.5f} |")  # fmt: skip
     return "\n".join(lines) + "\n"
 
 
