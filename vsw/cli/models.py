@@ -81,6 +81,11 @@ def run(args: argparse.Namespace) -> int:
             out.write("  reported, not enforced: " + "; ".join(
                 f"{c['name']} ({c['meaning']}; margin in {c['unit']})" for c in m["conditions"]
             ) + "\n")  # fmt: skip
+        held = [f"{', '.join(names)} in {phase}" for phase, names in m["actuators"].items()]
+        held += [f"the jump at {name}" for name in m["jumps"]]
+        if held:
+            out.write(f"  actuators doing work: "
+                      f"{'; '.join(held)}\n")  # fmt: skip
         if m["features"]:
             out.write(f"  also: {', '.join(m['features'])}\n")
     return EXIT_OK

@@ -160,6 +160,12 @@ class Model(HybridModel):
             },
             "failures": [dict(f) for f in self.spec["failures"]],
             "conditions": [dict(c) for c in self.spec.get("conditions", ())],
+            # Actuators that hold a moving coordinate, by phase (their work is in the
+            # energy ledger of `vsw analyze`); events whose reset is an actuator's jump.
+            "actuators": {
+                p["name"]: list(p["actuators"]) for p in self.phases if p.get("actuators")
+            },
+            "jumps": [e["name"] for e in self.events if e["reset"] == "jump"],
             "features": sorted(self.features),
         }
 
