@@ -45,8 +45,8 @@ from vsw.errors import ConvergenceError
 from vsw.figures import save_figure
 from vsw.grid_basin import basin_plot, grid_basin
 from vsw.hybrid import HybridModel, Orbit
-from vsw.ledger import energy_ledger
 from vsw.jsonable import clean
+from vsw.ledger import energy_ledger
 from vsw.models import load
 from vsw.sweeps import brute_force, continuation, record
 

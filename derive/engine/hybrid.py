@@ -929,13 +929,12 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
         if moving:
             # The power of each moving held coordinate's actuator: its generalised force
             # times the held value's rate (chain rule), what the energy ledger integrates.
-            powers = tuple(
-                dyn.actuator_forces[h] * sum(
-                    (sm.sympify(phase.held[h]).diff(c.q) * c.u for c in phase.coordinates),
-                    sm.Integer(0),
-                )
+            rates = {
+                h: sum((sm.sympify(phase.held[h]).diff(c.q) * c.u for c in phase.coordinates),
+                       sm.Integer(0))
                 for h in moving
-            )
+            }  # fmt: skip
+            powers = tuple(dyn.actuator_forces[h] * rates[h] for h in moving)
             quantities.append(Quantity(
                 f"{phase.name}_actuator_power", args, powers,
                 f"Power of each actuator holding a moving coordinate in phase {phase.name} "
