@@ -251,7 +251,8 @@ def test_ledger_is_the_books_torque_and_the_torsos_impulse(walker, stable_gait):
     """The energy ledger (vsw/ledger.py) at the stable gait: the actuator's work in the
     stance phase is the integral of [WGCCM07]'s u1 times the relative rate (as above), and
     its work at heelstrike is the torque impulse on the torso (its angular momentum's
-    change about the hip) times the relative rate after, from the bodies' velocities."""
+    change about the hip) times the mean of the relative rate before and after (Kelvin),
+    from the bodies' velocities."""
     values = walker.parameters({})
     params = {p.name: v for p, v in zip(walker.parameter_table, values)}
     ledger = energy_ledger(walker, values, stable_gait)
@@ -267,5 +268,10 @@ def test_ledger_is_the_books_torque_and_the_torsos_impulse(walker, stable_gait):
     r1, v1, _ = bodies(values, heelstrike.state_after)
     impulse = _moment(r1, v1, masses, r1[HIP], [TORSO]) - _moment(r0, v0, masses, r0[HIP], [TORSO])
     (event,) = ledger["events"]
-    assert event["actuator_work"] == pytest.approx(impulse * heelstrike.state_after[2], rel=1e-9)
+    # Kelvin: the torque impulse times the mean of the torso's rate relative to the new
+    # stance leg before (the old swing leg's, psi_dot) and after (theta_dot), clockwise.
+    mean_rate = (heelstrike.state_before[3] + heelstrike.state_after[2]) / 2
+    assert event["actuator_work"] == pytest.approx(impulse * mean_rate, rel=1e-9)
+    # The kinetic energy of the velocity jumps is no loss here: the actuator's impulse works.
+    assert event["velocity_jump_energy"] != pytest.approx(event["loss"], rel=1e-3)
     assert abs(ledger["balance_relative"]) < 1e-9

@@ -65,6 +65,12 @@ def gait_conditions(model: HybridModel, params: Sequence[float], orbit: Orbit) -
     records += [(c, False) for c in model.spec.get("conditions", ())]
     for record, ends_walk in records:
         margin = least.get(record["name"])
+        samples = f"({len(trajectory.t)} samples)"
+        how = (
+            f"least between its first rise and its last fall over the step {samples}"
+            if record["name"] in interior_only
+            else f"least over the step {samples}"
+        )
         out.append({
             "name": record["name"],
             "meaning": record["meaning"],
@@ -72,9 +78,7 @@ def gait_conditions(model: HybridModel, params: Sequence[float], orbit: Orbit) -
             "unit": record["unit"],
             "holds": None if margin is None else bool(margin > 0),
             "ends_walk": ends_walk,
-            "how": (f"least between its first rise and its last fall over the step "
-                    f"({len(trajectory.t)} samples)") if record["name"] in interior_only
-            else f"least over the step ({len(trajectory.t)} samples)",
+            "how": how,
         })  # fmt: skip
     return out
 
@@ -85,9 +89,11 @@ def _least_inside(margin: np.ndarray, t: np.ndarray) -> float | None:
     instants left out, then the run over which it first rises (the foot's lift) and the
     run over which it last falls (its landing); what remains is where it comes closest to
     failing in between (a unimodal profile keeps its peak alone)."""
-    values = margin[(t > t[0]) & (t < t[-1]) & np.isfinite(margin)]
+    values = margin[(t > t[0]) & (t < t[-1])]
     if not len(values):
         return None
+    if not np.all(np.isfinite(values)):
+        return math.nan  # as the least over the step of the other conditions would be
     first, last = 0, len(values) - 1
     while first < last and values[first + 1] >= values[first]:
         first += 1

@@ -1076,7 +1076,7 @@ def _phase_guard(model: Model, phase: Phase, dyn: PhaseDynamics,
     return guard.xreplace({h: sm.sympify(v) for h, v in phase.held.items()})
 
 
-def _failure_record(model: Model, failure: Failure) -> dict:
+def _failure_record(model: Model, failure: Failure | Condition) -> dict:
     """A failure for the runtime: its name, direction, meaning and the unit of its guard
     (the ground reaction's force unit, a rate's coordinate unit per time, else stated)."""
     unit = failure.unit
@@ -1091,7 +1091,7 @@ def _failure_record(model: Model, failure: Failure) -> dict:
             unit = "1"
     record = {"name": failure.name, "direction": failure.direction,
               "meaning": failure.meaning, "unit": unit}  # fmt: skip
-    if getattr(failure, "interior", False):
+    if isinstance(failure, Condition) and failure.interior:
         record["interior"] = True
     return record
 

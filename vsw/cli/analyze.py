@@ -170,7 +170,11 @@ def _write_gaits(out: TextIO, model: Model, report: GaitReport) -> None:
             out.write(f"  {c['name'] + ' margin':<16} {fmt(c['margin']):>14} "
                       f"{unit_text(c['unit']).strip():<10} {c['meaning']}{reported}\n")  # fmt: skip
         if n <= len(report.ledgers):
-            _write_ledger(out, model, report.ledgers[n - 1])
+            if report.ledgers[n - 1] is None:
+                out.write(f"  {'energy per step':<16} not computed (the step could not be "
+                          "simulated again)\n")  # fmt: skip
+            else:
+                _write_ledger(out, model, report.ledgers[n - 1])
     if report.closed_form is not None:
         closed = report.closed_form
         out.write(f"\nclosed form: q^f = {fmt(closed['q_fixed'])}, eigenvalue "

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from vsw import conditions, gaits, stop
-from vsw.errors import ModelConditionError, VswInputError
+from vsw.errors import ConvergenceError, ModelConditionError, VswInputError
 from vsw.explore_page import check_html_path, write_page
 from vsw.figures import save_figure
 from vsw.hybrid import HybridModel, Orbit
@@ -70,7 +70,7 @@ class GaitReport:
     reason: str | None = None
     extra: dict[str, Any] = field(default_factory=dict)
     rows: list[tuple[str, Any, str]] = field(default_factory=list)
-    ledgers: list[dict[str, Any]] = field(default_factory=list)
+    ledgers: list[dict[str, Any] | None] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = dict(self.extra)
@@ -228,13 +228,21 @@ class Model(HybridModel):
             conditions=[conditions.gait_conditions(self, params, g) for g in found.gaits],
             search=found,
             closed_form=closed,
-            ledgers=[energy_ledger(self, params, g) for g in found.gaits],
+            ledgers=[self._ledger(params, g) for g in found.gaits],
         )
         if not found.gaits:
             report.reason = (
                 _closed_form_reason(closed) or self._stride_map_reason(params) or found.why_none()
             )
         return report
+
+    def _ledger(self, params: Sequence[float], orbit: Orbit) -> dict[str, Any] | None:
+        """The gait's energy ledger, or None where its step could not be re-simulated
+        (the report of the other gaits stands)."""
+        try:
+            return energy_ledger(self, params, orbit)
+        except ConvergenceError:
+            return None
 
     def _stride_map_reason(self, params: Sequence[float]) -> str | None:
         """Why the closed-form fixed point of the stride map (q = rate**2 just after the
