@@ -29,6 +29,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import random
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import sympy as sm
@@ -99,6 +100,13 @@ class PhaseDynamics:
 
 def _rate_symbol(symbol: sm.Symbol) -> sm.Symbol:
     return sm.Symbol(f"{symbol.name}_rate", real=True)
+
+
+def chain_rate(value: sm.Expr, rates: Iterable[tuple[sm.Symbol, sm.Expr]]) -> sm.Expr:
+    """The rate of ``value`` (a held coordinate's, a function of the free coordinates)
+    by the chain rule: the sum of ``d value / d q`` times each ``(q, rate of q)``, in
+    order. Every held coordinate's rate and acceleration is formed by it."""
+    return sum((value.diff(q) * u for q, u in rates), sm.Integer(0))
 
 
 def _simplify(expr: sm.Expr) -> sm.Expr:
@@ -255,9 +263,8 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
             held_values[_rate_symbol(h)] = rate
             held_values[a_symbols[chart.index(h)]] = acc
             continue
-        rate = sum((value.diff(q) * u for q, u in zip(free, u_free)), sm.Integer(0))
-        acc = sum((rate.diff(q) * u for q, u in zip(free, u_free)), sm.Integer(0))
-        acc += sum((value.diff(q) * a for q, a in zip(free, a_free)), sm.Integer(0))
+        rate = chain_rate(value, zip(free, u_free))
+        acc = chain_rate(rate, zip(free, u_free)) + chain_rate(value, zip(free, a_free))
         held_values[h] = value
         held_values[_rate_symbol(h)] = rate
         held_values[a_symbols[chart.index(h)]] = acc
@@ -502,8 +509,8 @@ def _held_state(phase: Phase, free_rates: dict[sm.Symbol, sm.Expr]) -> dict:
     for h, value in phase.held.items():
         value = sm.sympify(value)
         values[h] = value
-        values[_rate_symbol(h)] = sum(
-            (value.diff(c.q) * free_rates[c.u] for c in phase.coordinates), sm.Integer(0)
+        values[_rate_symbol(h)] = chain_rate(
+            value, ((c.q, free_rates[c.u]) for c in phase.coordinates)
         )
     return values
 
@@ -538,7 +545,7 @@ def lock_reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tupl
     # After the lock the held coordinates move with their values (at rest for constants).
     rates_after = dict(u_new)
     for q in locked:
-        rate = sum((surface[q].diff(c.q) * u_new[c.u] for c in after.coordinates), sm.Integer(0))
+        rate = chain_rate(surface[q], ((c.q, u_new[c.u]) for c in after.coordinates))
         rates_after[next(c.u for c in before.coordinates if c.q == q)] = rate
     state_before = {**_held_state(before, u_before), **surface}
     state_after = {**_held_state(before, rates_after), **rates_after, **surface}
@@ -808,10 +815,9 @@ def _state_accelerations(model: Model, phase: Phase, dyn: PhaseDynamics) -> tupl
             out.append(by_coordinate[c.q])
             continue
         value = sm.sympify(phase.held[c.q])
-        rate = sum((value.diff(q) * u for q, u in zip(free, rates)), sm.Integer(0))
-        acc = sum((rate.diff(q) * u for q, u in zip(free, rates)), sm.Integer(0))
-        acc += sum((value.diff(q) * a for q, a in zip(free, dyn.accelerations)), sm.Integer(0))
-        out.append(acc)
+        rate = chain_rate(value, zip(free, rates))
+        out.append(chain_rate(rate, zip(free, rates))
+                   + chain_rate(value, zip(free, dyn.accelerations)))  # fmt: skip
     return tuple(out)
 
 
@@ -834,8 +840,7 @@ def _state_after(model: Model, event) -> tuple[tuple[sm.Expr, ...], tuple[sm.Exp
             continue
         value = sm.sympify(after.held[c.q])
         state_coords.append(value.xreplace(values))
-        state_rates.append(sum((value.diff(q) * speeds[q] for q in free), sm.Integer(0))
-                           .xreplace(values))  # fmt: skip
+        state_rates.append(chain_rate(value, ((q, speeds[q]) for q in free)).xreplace(values))
     return tuple(state_coords), tuple(state_rates)
 
 
@@ -929,12 +934,11 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
         if moving:
             # The power of each moving held coordinate's actuator: its generalised force
             # times the held value's rate (chain rule), what the energy ledger integrates.
-            rates = {
-                h: sum((sm.sympify(phase.held[h]).diff(c.q) * c.u for c in phase.coordinates),
-                       sm.Integer(0))
+            powers = tuple(
+                dyn.actuator_forces[h]
+                * chain_rate(sm.sympify(phase.held[h]), ((c.q, c.u) for c in phase.coordinates))
                 for h in moving
-            }  # fmt: skip
-            powers = tuple(dyn.actuator_forces[h] * rates[h] for h in moving)
+            )
             quantities.append(Quantity(
                 f"{phase.name}_actuator_power", args, powers,
                 f"Power of each actuator holding a moving coordinate in phase {phase.name} "
