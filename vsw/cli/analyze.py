@@ -141,8 +141,13 @@ def _write_ledger(out: TextIO, model: Model, ledger: dict[str, Any]) -> None:
     )
     raised = totals["potential_raised_at_events"]
     lifted = f", raised at events {fmt(raised)}" if raised else ""
-    out.write(f"  {'energy per step':<16} gravity {fmt(totals['gravity_work'])}, actuators "
-              f"{fmt(totals['actuator_work_continuous'] + totals['actuator_work_impulsive'])}"
+    # A passive walker's events leave rounding as their remainder: no actuator to name.
+    acting = totals["actuators"] or any(
+        e["reset"] == "jump" or e.get("actuators") for e in ledger["events"]
+    )
+    work = totals["actuator_work_continuous"] + totals["actuator_work_impulsive"]
+    actuated = f", actuators {fmt(work)}" if acting else ""
+    out.write(f"  {'energy per step':<16} gravity {fmt(totals['gravity_work'])}{actuated}"
               f", losses {fmt(totals['losses'])}{lifted} {unit}; balance "
               f"{fmt(ledger['balance'])} {unit}\n")  # fmt: skip
     if actuators:
