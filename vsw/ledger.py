@@ -62,17 +62,24 @@ def _kinetic_potential(model: HybridModel, phase: str, params: Sequence[float],
     return float(energy(*params, *state)) - potential, potential
 
 
+def _rate_of(model: HybridModel, name: str, params: Sequence[float],
+             state: np.ndarray) -> np.ndarray:  # fmt: skip
+    """The rate of change of the generated configuration function ``name`` (a tuple of
+    positions) along the state's rates: its complex-step derivative."""
+    n = model.n
+    shifted = state[:n] + 1j * _STEP * state[n:]
+    value = model._fn(name)(*params, *shifted, *state[n:])
+    rate = np.imag(np.array(value, dtype=complex)) / _STEP
+    if not np.all(np.isfinite(rate)):
+        raise ConvergenceError(f"{model.name}: the rate of {name} is not finite")
+    return rate
+
+
 def _bodies(
     model: HybridModel, phase: str, params: Sequence[float], state: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Masses, inertias and velocities (vx, vy, angular rate) of the phase's bodies."""
-    n = model.n
-    q, u = state[:n], state[n:]
-    shifted = q + 1j * _STEP * u
-    positions = model._fn(f"{phase}_positions")(*params, *shifted, *u)
-    velocities = np.imag(np.array(positions, dtype=complex)).reshape(-1, 3) / _STEP
-    if not np.all(np.isfinite(velocities)):
-        raise ConvergenceError(f"{model.name}: body velocities in {phase} are not finite")
+    velocities = _rate_of(model, f"{phase}_positions", params, state).reshape(-1, 3)
     inertia = np.array([float(v) for v in model._fn(f"{phase}_inertias")(*params, *state)])
     return inertia[0::2], inertia[1::2], velocities
 
@@ -86,15 +93,6 @@ def _jumps(model: HybridModel, event: dict, params: Sequence[float],
     if event.get("bodies") is not None:
         v_before = v_before[list(event["bodies"])]
     return v_after - v_before, np.column_stack([masses, inertias])
-
-
-def _contact_velocity(model: HybridModel, event: dict, params: Sequence[float],
-                      before: np.ndarray) -> np.ndarray:  # fmt: skip
-    """The velocity of an impact's new contact point just before it (complex step)."""
-    n = model.n
-    shifted = before[:n] + 1j * _STEP * before[n:]
-    point = model._fn(f"event_{event['name']}_contact")(*params, *shifted, *before[n:])
-    return np.imag(np.array(point, dtype=complex)) / _STEP
 
 
 def _phase_terms(model: HybridModel, params: Sequence[float], piece: PhasePiece) -> dict[str, Any]:
@@ -153,7 +151,8 @@ def _event_terms(
             # velocities before and after; the ground's impulse at the new contact (the
             # walker's change of momentum) meets a point at rest after it.
             impulse = inertia[:, 0] @ jump[:, :2]
-            contact = _contact_velocity(model, event, params, record.state_before)
+            contact = _rate_of(model, f"event_{record.name}_contact", params,
+                               record.state_before)  # fmt: skip
             out["loss"] = float(-0.5 * impulse @ contact)
         else:
             out["loss"] = -kinetic_change  # a lock's impulse stops its joint: all lost

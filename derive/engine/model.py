@@ -286,6 +286,20 @@ class Condition:
     interior: bool = False
 
 
+def swing_foot_clearance(height: sm.Expr, unit: str) -> Condition:
+    """The swing foot's clearance, reported and not enforced (the walkers' sources ignore
+    scuffing): ``height`` is the swing foot's height above the ground, its margin the
+    lowest dip between the foot's lift and its landing (``interior``)."""
+    return Condition(
+        "swing-foot-clearance",
+        height,
+        -1,
+        "the swing foot stays above the ground (where negative it scuffs: ignored)",
+        unit=unit,
+        interior=True,
+    )
+
+
 @dataclass(frozen=True, eq=False)
 class Model:
     """A hybrid walking model.

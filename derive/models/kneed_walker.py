@@ -49,6 +49,7 @@ from derive.engine.model import (
     PointMass,
     held_force,
     leg,
+    swing_foot_clearance,
 )
 from derive.quantities import Derivation
 
@@ -202,16 +203,7 @@ MODEL = Model(
         Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the slope"),
     ),
     conditions=(
-        # Reported, not enforced (the sources ignore scuffing): the swing foot's least
-        # height over the step between its lift and its landing.
-        Condition(
-            "swing-foot-clearance",
-            swing_foot[1],
-            -1,
-            "the swing foot stays above the ground (where negative it scuffs: ignored)",
-            unit="m",
-            interior=True,
-        ),
+        swing_foot_clearance(swing_foot[1], "m"),
         # The sources assume the stance knee locked: a stop keeps it from hyperextending
         # (it pushes towards flexion, a positive torque on kappa_stance); where the lock
         # would have to pull, only a latch keeps the knee straight.

@@ -34,7 +34,6 @@ import sympy as sm
 from derive.engine import model_derivation
 from derive.engine.model import (
     NORMAL_FORCE,
-    Condition,
     Coordinate,
     Event,
     Failure,
@@ -44,6 +43,7 @@ from derive.engine.model import (
     Phase,
     PointMass,
     leg,
+    swing_foot_clearance,
 )
 from derive.quantities import Derivation
 
@@ -147,18 +147,7 @@ MODEL = Model(
         Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the ground"),
         Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
     ),
-    conditions=(
-        # Reported, not enforced (the sources ignore scuffing): the swing foot's least
-        # height over the step between its lift and its landing.
-        Condition(
-            "swing-foot-clearance",
-            swing_foot[1],
-            -1,
-            "the swing foot stays above the ground (where negative it scuffs: ignored)",
-            unit="m",
-            interior=True,
-        ),
-    ),
+    conditions=(swing_foot_clearance(swing_foot[1], "m"),),
     units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},
     step_length=swing_foot[0],
     search={"theta": (-0.8, 0.0), "theta_dot": (0.0, 5.0), "psi_dot": (-5.0, 5.0)},

@@ -37,7 +37,6 @@ import sympy as sm
 from derive.engine import model_derivation
 from derive.engine.model import (
     NORMAL_FORCE,
-    Condition,
     Coordinate,
     Event,
     Failure,
@@ -48,6 +47,7 @@ from derive.engine.model import (
     Phase,
     PointMass,
     leg,
+    swing_foot_clearance,
 )
 from derive.models.ile.model import PARAMETERS as ILE_PARAMETERS
 from derive.quantities import Derivation
@@ -147,18 +147,7 @@ MODEL = Model(
         Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the ground"),
         Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
     ),
-    conditions=(
-        # Reported, not enforced (the sources ignore scuffing): the swing foot's least
-        # height over the step between its lift and its landing.
-        Condition(
-            "swing-foot-clearance",
-            SHORT.points["swing_foot"][1],
-            -1,
-            "the swing foot stays above the ground (where negative it scuffs: ignored)",
-            unit="l",
-            interior=True,
-        ),
-    ),
+    conditions=(swing_foot_clearance(SHORT.points["swing_foot"][1], "l"),),
     units={
         "time": "sqrt(l/g)",
         "length": "l",
