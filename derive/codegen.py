@@ -11,6 +11,7 @@ ordering, and names chosen by position.
 
 from __future__ import annotations
 
+import functools
 import heapq
 import math
 import os
@@ -266,6 +267,7 @@ def _dependency_order(
     return ordered
 
 
+@functools.cache  # each backend prints the same quantity: eliminate once per run
 def staged_cse(
     qty: Quantity,
 ) -> tuple[list[tuple[str, str, sm.Expr]], list[tuple[sm.Symbol, sm.Expr]], list[sm.Expr]]:

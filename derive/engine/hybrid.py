@@ -1,7 +1,7 @@
 """Everything a :class:`~derive.engine.model.Model` implies, derived with sympy.
 
-* :func:`phase_dynamics`: the equations of motion of a phase from its Lagrangian
-  (:class:`sympy.physics.mechanics.LagrangesMethod` on the chart of all its coordinates;
+* :func:`phase_dynamics`: the equations of motion of a phase
+  (:class:`sympy.physics.mechanics.KanesMethod` on the chart of all its coordinates;
   the held coordinates' rows carry the actuator forces, the free ones' give the motion),
   its energy, generalised momenta and the ground reaction on the stance foot.
 * :func:`impact_reset`: an inelastic impact from Lagrange's impulse equations: for every
@@ -32,6 +32,7 @@ import random
 from collections.abc import Iterable
 from dataclasses import dataclass
 
+import symengine as se
 import sympy as sm
 import sympy.physics.mechanics as me
 
@@ -109,20 +110,64 @@ def chain_rate(value: sm.Expr, rates: Iterable[tuple[sm.Symbol, sm.Expr]]) -> sm
     return sum((value.diff(q) * u for q, u in rates), sm.Integer(0))
 
 
+def expand(expr: sm.Expr) -> sm.Expr:
+    """``sympy.expand`` done by SymEngine (what SymForce does its algebra with): the
+    expanded polynomial is canonical, so sympy's own expansion and this one are the same
+    expression, at a fraction of the time. Symbols come back from SymEngine without their
+    assumptions and are put back by name; an expression SymEngine cannot hold (or with
+    two symbols of one name) is expanded by sympy."""
+    expr = sm.sympify(expr)
+    symbols = {s.name: s for s in expr.free_symbols}
+    if (
+        len(symbols) != len(expr.free_symbols)
+        or expr.atoms(sm.Function) - expr.atoms(sm.sin, sm.cos)
+        or expr.atoms(sm.Float)
+    ):
+        return sm.expand(expr)
+    try:
+        return _from_symengine(se.expand(se.sympify(expr)), symbols, {})
+    except (RuntimeError, TypeError, NotImplementedError, KeyError):  # a form SymEngine lacks
+        return sm.expand(expr)
+
+
+_SYMENGINE_CLASSES = ((se.Add, sm.Add), (se.Mul, sm.Mul), (se.Pow, sm.Pow), (se.sin, sm.sin),
+                      (se.cos, sm.cos))  # fmt: skip
+
+
+def _from_symengine(expr, symbols: dict[str, sm.Symbol], seen: dict) -> sm.Expr:
+    """A SymEngine expression as sympy's, its symbols those of ``symbols`` by name (one
+    pass: converting and then replacing the symbols would build every node twice)."""
+    if expr in seen:
+        return seen[expr]
+    if isinstance(expr, se.Symbol):
+        result = symbols[expr.name]
+    elif isinstance(expr, se.Number):
+        result = expr._sympy_()
+    else:
+        for engine_class, sympy_class in _SYMENGINE_CLASSES:
+            if isinstance(expr, engine_class):
+                result = sympy_class(*(_from_symengine(a, symbols, seen) for a in expr.args))
+                break
+        else:
+            raise NotImplementedError(type(expr).__name__)
+    seen[expr] = result
+    return result
+
+
 def _simplify(expr: sm.Expr) -> sm.Expr:
     """A cheap canonical form: ``sin(a)**2 -> 1 - cos(a)**2`` (no sums of angles expanded),
     expanded and cancelled. ``trigsimp`` would do more at many times the cost."""
-    expr = sm.expand(expr)
+    expr = expand(expr)
     squared = _sine_powers(expr)
     if squared is not None:
         if squared:
-            expr = sm.expand(expr.xreplace(squared))
+            expr = expand(expr.xreplace(squared))
     else:
         squares = {
             sm.sin(a) ** 2: 1 - sm.cos(a) ** 2 for a in {s.args[0] for s in expr.atoms(sm.sin)}
         }
         if squares:
-            expr = sm.expand(expr.subs(squares))
+            expr = expand(expr.subs(squares))
     # cancel returned every integer polynomial of the six models' derivations unchanged (it
     # was a second of each two-link walker's derivation to find that out).
     return expr if _integer_polynomial(expr) else sm.cancel(expr)
@@ -167,7 +212,7 @@ def _factor_constants(expr: sm.Expr, variables: set) -> sm.Expr:
     them), each with its coefficient in the other symbols factored: a mass matrix entry
     ``m a1**2 + 2 m a1 b1 + m b1**2`` becomes ``m (a1 + b1)**2``."""
     groups: dict[sm.Expr, list[sm.Expr]] = {}
-    for term in sm.Add.make_args(sm.expand(expr)):
+    for term in sm.Add.make_args(expand(expr)):
         constant, varying = [], []
         for factor in sm.Mul.make_args(term):
             (varying if factor.free_symbols & variables else constant).append(factor)
@@ -218,11 +263,9 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
         item.potential_energy = -body.mass * (gx * x + gy * y)
         bodies.append(item)
     lagrangian = me.Lagrangian(frame, *bodies)
-    method = me.LagrangesMethod(lagrangian, functions)
-    method.form_lagranges_equations()
-    mass_matrix, forcing = method.mass_matrix, method.forcing  # M q'' = forcing
-
     rates = [f.diff(t) for f in functions]
+    mass_matrix, forcing = _equations_of_motion(frame, bodies, functions, rates, (gx, gy))
+
     accels = [f.diff(t, 2) for f in functions]
     a_symbols = [sm.Symbol(f"{s.name}_acc", real=True) for s in chart]
     plain = {}
@@ -330,7 +373,7 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
             over = rest * determinant + sum(
                 (expr.diff(a) * n for a, n in zip(a_free, numerators)), sm.Integer(0)
             )
-            return (_angle_sums(sm.expand(over)) / determinant).xreplace(placed)
+            return (_angle_sums(expand(over)) / determinant).xreplace(placed)
 
     accelerations = tuple(e.xreplace(placed) for e in in_symbols)
     actuator = {h: linear_in_accelerations(residual[chart.index(h)]) for h in held}
@@ -355,6 +398,32 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
         linear_in_accelerations(force[1]),
         linear_in_accelerations(force[0]),
     )
+
+
+def _equations_of_motion(frame, bodies, coordinates, rates, gravity):
+    """``M q'' = forcing`` of the chart by Kane's method (the generalised speeds are the
+    chart's rates): the same equations as Lagrange's, from partial velocities rather than
+    derivatives of the Lagrangian, at a fraction of sympy's time."""
+    speeds = [me.dynamicsymbols(f"{f.func.__name__}__u") for f in coordinates]
+    t = me.dynamicsymbols._t
+    to_speeds = dict(zip(rates, speeds))
+    velocities = [b.masscenter.vel(frame) for b in bodies]
+    for body, velocity in zip(bodies, velocities):
+        body.masscenter.set_vel(frame, velocity.xreplace(to_speeds))
+        if isinstance(body, me.RigidBody):
+            body.frame.set_ang_vel(frame, body.frame.ang_vel_in(frame).xreplace(to_speeds))
+    loads = [(b.masscenter, b.mass * (gravity[0] * frame.x + gravity[1] * frame.y))
+             for b in bodies]  # fmt: skip
+    back = {u: r for u, r in zip(speeds, rates)} | {
+        u.diff(t): r.diff(t) for u, r in zip(speeds, rates)
+    }
+    kane = me.KanesMethod(frame, coordinates, speeds, kd_eqs=[r - u for r, u in zip(rates, speeds)])
+    kane.kanes_equations(bodies, loads)
+    for body, velocity in zip(bodies, velocities):  # the bodies' energies are in the rates
+        body.masscenter.set_vel(frame, velocity)
+        if isinstance(body, me.RigidBody):
+            body.frame.set_ang_vel(frame, body.frame.ang_vel_in(frame).xreplace(back))
+    return kane.mass_matrix.xreplace(back), kane.forcing.xreplace(back)
 
 
 def phase_rate(phase: Phase, symbol: sm.Symbol) -> sm.Symbol:
@@ -649,7 +718,7 @@ def integrate_polynomial_trig(expr: sm.Expr, s: sm.Symbol, low: sm.Expr, high: s
     :func:`sympy.integrate` on a degree-9 polynomial with symbolic coefficients.
     """
     groups: dict[sm.Expr, sm.Expr] = {}
-    for term in sm.Add.make_args(sm.expand(expr)):
+    for term in sm.Add.make_args(expand(expr)):
         trig = [f for f in sm.Mul.make_args(term) if isinstance(f, (sm.sin, sm.cos)) and f.has(s)]
         if len(trig) > 1:
             return None
@@ -698,14 +767,14 @@ def phase_rate_map(
     w = sm.Symbol("w", positive=True)
     acc = phase_dynamics(phase).accelerations[0].xreplace({omega: sm.sqrt(w)})
     small = sm.count_ops(acc) <= _SMALL
-    slope_b = sm.expand(acc.diff(w)) if small else acc.diff(w)
+    slope_b = expand(acc.diff(w)) if small else acc.diff(w)
     if slope_b.has(w) or slope_b.has(omega):
         return None
-    a_part = sm.expand(acc - slope_b * w) if small else acc.xreplace({w: 0})
+    a_part = expand(acc - slope_b * w) if small else acc.xreplace({w: 0})
     s = sm.Dummy("s", real=True)
     if slope_b == 0:  # a leg of constant length: the energy integral
         integral = sm.integrate((2 * a_part).xreplace({theta: s}), (s, angle_from, angle_to))
-        return sm.expand(rate_squared_from + integral)
+        return expand(rate_squared_from + integral)
     # A logarithmic derivative c D'/D (a held profile D) integrates to c log D; sympy's
     # integrate finds it too, in seconds rather than milliseconds.
     numerator, denominator = sm.fraction(sm.cancel(2 * slope_b))
@@ -762,13 +831,13 @@ def stride_closed_form(model: Model) -> StrideForm | None:
         factor = sm.cancel(rates_after[0].xreplace({theta: end}) / omega)
         if factor.has(omega):
             return None
-        u = sm.expand(factor**2 * u) if sm.count_ops(u) <= _SMALL else factor**2 * u
+        u = expand(factor**2 * u) if sm.count_ops(u) <= _SMALL else factor**2 * u
         angle = coords_after[0].xreplace({theta: end})
         if event.ends_step:
             break
         phase = model.phase(event.target)
     if sm.count_ops(u) <= _SMALL:
-        u = sm.expand(u)
+        u = expand(u)
         if u.diff(q, 2) != 0:
             return None
         return StrideForm(sm.factor(u.diff(q)), u.xreplace({q: 0}), angle)
