@@ -25,7 +25,7 @@ def failure_names(descriptor: dict) -> tuple[str, ...]:
     """Every failure of the model, in the order of first appearance (their C indices)."""
     names: list[str] = []
     for phase in descriptor["phases"]:
-        for name, _function, _direction in phase["failures"]:
+        for name, _function, _direction in (*phase["failures"], *phase.get("start_failures", ())):
             if name not in names:
                 names.append(name)
     return tuple(names)
@@ -69,6 +69,10 @@ def simulator_c_source(model: str, source: str, descriptor: dict, module: types.
         for name, fn, sign in phase["failures"]:
             guards.append(getattr(module, fn)(*args))
             direction.append(sign)
+            what.append(-1 - failures.index(name))
+        for name, fn, sign in phase.get("start_failures", ()):
+            guards.append(getattr(module, fn)(*args))
+            direction.append(2 * sign)  # checked at the phase's start only (hybrid_batch.c)
             what.append(-1 - failures.index(name))
         watches.append(function(f"{phase['name']}_watch", guards))
         n_watch.append(len(guards))

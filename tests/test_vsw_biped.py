@@ -106,3 +106,55 @@ def test_a_stable_gait_near_beta_1_attracts_a_simulated_walk(biped):
         orbit = biped.periodic_orbit(params, np.array(list(orbit.state.values())),
                                      orbit.durations)  # fmt: skip
     assert orbit.max_abs_eigenvalue == pytest.approx(0.150, abs=1e-3)
+
+
+def test_a_step_that_begins_past_theta_II_ends_the_walk_by_name(biped):
+    """Heelstrike past the extension angle (issue 26): the model has no rule for that step
+    (the ILE's theta_I < theta_II), so the walk ends with ``extension-missed`` at once, in
+    the SciPy route and the C batch simulator alike; 0.01 rad before theta_II the extension
+    comes (the short phase lasts)."""
+    from vsw.batch import FELL, simulator
+
+    params = biped.parameters({"beta": 0.97, "theta_II": -0.2, "mu": 0.3})
+    states = []
+    for theta in (-0.19, -0.21):  # past theta_II = -0.2, and before it
+        psi = float(np.arccos(0.97 * np.cos(theta)))  # both feet on the ground
+        states.append([theta, psi, 1.0, -1.0])
+    past, before = biped.step(params, np.array(states[0])), biped.step(params, np.array(states[1]))
+    assert past.ended == "extension-missed" and past.durations == (0.0,)
+    assert before.ended != "extension-missed" and before.durations[0] > 0
+    sim = simulator(biped)
+    assert sim.library() is not None, sim.build_error
+    batch = sim.step(params, np.array(states))
+    assert batch.outcome[0] == FELL and batch.ended()[0] == "extension-missed"
+    assert batch.ended()[1] == before.ended  # lift-off in the long phase, the same in both
+
+
+def test_the_extension_missed_margin_vanishes_where_the_branch_ends(biped):
+    """The stable branch at (0.97, -0.2) ends where continuation finds the short phase's
+    duration reaching zero (mu = 0.36344); the failure's margin, theta_II less the stance
+    angle where the step begins (a different quantity: the section state, not a duration),
+    falls to zero there, linearly in the distance to it."""
+    from vsw.conditions import gait_conditions
+    from vsw.continuation import Options as ContinuationOptions
+    from vsw.continuation import continue_gaits
+
+    values = {"beta": 0.97, "theta_II": -0.2}
+    params = biped.parameters(values | {"mu": 0.3})
+    orbit = min(biped.fixed_points(params), key=lambda o: o.max_abs_eigenvalue)
+    start = np.array(list(orbit.state.values()))
+    (branch,) = continue_gaits(biped, params, "mu", 0.3, 0.5, start, orbit.durations,
+                               options=ContinuationOptions(switch=False))  # fmt: skip
+    assert branch.ended == "boundary"
+    end = branch.special_points[-1].parameter
+    assert 0.3634 < end < 0.3635
+    margins = []
+    for gap in (2e-3, 1e-3):
+        p = biped.parameters(values | {"mu": end - gap})
+        gait = biped.periodic_orbit(p, start, orbit.durations)
+        start = np.array(list(gait.state.values()))
+        margin = {c["name"]: c["margin"] for c in gait_conditions(biped, p, gait)}
+        assert margin["extension-missed"] == pytest.approx(-0.2 - gait.state["theta"], abs=1e-12)
+        margins.append(margin["extension-missed"])
+    assert 0 < margins[1] < margins[0] < 0.01
+    assert margins[0] / margins[1] == pytest.approx(2.0, rel=0.02)

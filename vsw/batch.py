@@ -126,7 +126,7 @@ def failure_names(model: HybridModel) -> tuple[str, ...]:
     (derive/sim_codegen.py, ``failure_names``)."""
     names: list[str] = []
     for phase in model.phases:
-        for name, _function, _direction in phase["failures"]:
+        for name, _function, _direction in (*phase["failures"], *phase.get("start_failures", ())):
             if name not in names:
                 names.append(name)
     return tuple(names)

@@ -48,10 +48,13 @@ def gait_conditions(model: HybridModel, params: Sequence[float], orbit: Orbit) -
         samples = trajectory.states[in_phase]
         if not len(samples):
             continue
-        for name, function, direction in (*phase["failures"], *phase.get("conditions", ())):
+        checks = [(*f, False) for f in (*phase["failures"], *phase.get("conditions", ()))]
+        checks += [(*f, True) for f in phase.get("start_failures", ())]
+        for name, function, direction, at_start in checks:
+            at = samples[:1] if at_start else samples  # checked where the phase begins
             with np.errstate(all="ignore"):
-                guard = np.asarray(model.module.__dict__[function](*params, *samples.T), float)
-            margin = -direction * np.broadcast_to(guard, len(samples))
+                guard = np.asarray(model.module.__dict__[function](*params, *at.T), float)
+            margin = -direction * np.broadcast_to(guard, len(at))
             if name in interior_only:
                 profiles.setdefault(name, np.full(len(trajectory.t), np.nan))[in_phase] = margin
                 continue
@@ -69,6 +72,8 @@ def gait_conditions(model: HybridModel, params: Sequence[float], orbit: Orbit) -
         how = (
             f"least between its first rise and its last fall over the step {samples}"
             if record["name"] in interior_only
+            else "where its phase begins"
+            if record.get("at_start")
             else f"least over the step {samples}"
         )
         out.append({

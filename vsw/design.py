@@ -398,9 +398,12 @@ def _build(model: HybridModel, structure: _Structure) -> _Nlp:
     energy_lost = 0
     step_length = None
     failures = {ph["name"]: ph["failures"] for ph in model.phases}
+    start_failures = {ph["name"]: ph.get("start_failures", ()) for ph in model.phases}
     for k, (phase, event) in enumerate(sequence):
         h = durations[k] / SEGMENTS
         phi_phase = ca.MX.eye(m)
+        for failure, function, direction in start_failures[phase]:
+            add(-direction * _call(model, function, p, nodes[k][0]), failure, "margin")
         for s in range(SEGMENTS):
             x_s = nodes[k][s]
             for failure, function, direction in failures[phase]:

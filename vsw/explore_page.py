@@ -60,7 +60,11 @@ def spec(model: Any, params: Sequence[float], start: Sequence[float]) -> dict[st
         "rates": list(model.rates),
         "parameters": [_slider(p, v) for p, v in zip(model.parameter_table, params)],
         "phases": [
-            {"name": ph["name"], "failures": [list(f) for f in ph["failures"]]}
+            {
+                "name": ph["name"],
+                "failures": [list(f) for f in ph["failures"]],
+                "startFailures": [list(f) for f in ph.get("start_failures", ())],
+            }
             for ph in model.phases
         ],
         "events": [

@@ -277,8 +277,10 @@ class HybridModel:
     def failure_at(self, phase: str, params: Sequence[float], state: np.ndarray) -> str | None:
         """The failure a phase starting at ``state`` is already past, if any (a failure
         with direction -1 (+1) has happened where its guard is negative (positive)): a
-        guard that starts beyond zero never crosses it."""
-        for name, function, direction in self.phases[self.phase_index[phase]]["failures"]:
+        guard that starts beyond zero never crosses it), including those the phase checks
+        only there (``start_failures``: the VSW biped's extension-missed)."""
+        record = self.phases[self.phase_index[phase]]
+        for name, function, direction in (*record["failures"], *record.get("start_failures", ())):
             if float(self._fn(function)(*params, *np.asarray(state, float))) * direction > 0:
                 return name
         return None

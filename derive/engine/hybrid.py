@@ -963,15 +963,22 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
             f"Ground reaction on the stance foot along the ground normal in phase {phase.name}.",
             None, "normal force (the foot lifts off below 0)",
         ))  # fmt: skip
-        failures = []
+        failures, start_failures = [], []
         for failure in model.failures:
+            if failure.phases and phase.name not in failure.phases:
+                continue
             guard = _phase_guard(model, phase, dyn, failure)
             name = f"{phase.name}_{failure.name.replace('-', '_')}"
             quantities.append(Quantity(
                 name, args, guard, f"Guard of {failure.name} in phase {phase.name}.", None,
-                f"crosses zero (direction {failure.direction:+d}) when the walk ends",
+                f"past zero (direction {failure.direction:+d}) where the phase begins when the "
+                "walk ends there (checked there only)"
+                if failure.at_start
+                else f"crosses zero (direction {failure.direction:+d}) when the walk ends",
             ))  # fmt: skip
-            failures.append((failure.name, name, failure.direction))
+            (start_failures if failure.at_start else failures).append(
+                (failure.name, name, failure.direction)
+            )
         conditions = []
         for condition in model.conditions:
             guard = _phase_guard(model, phase, dyn, condition)
@@ -1000,6 +1007,8 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
         record = {
             "name": phase.name, "failures": tuple(failures), "conservative": conservative,
         }  # fmt: skip
+        if start_failures:  # checked where the phase begins, not watched through it
+            record["start_failures"] = tuple(start_failures)
         if moving:
             # The power of each moving held coordinate's actuator: its generalised force
             # times the held value's rate (chain rule), what the energy ledger integrates.
@@ -1166,6 +1175,8 @@ def _failure_record(model: Model, failure: Failure | Condition) -> dict:
               "meaning": failure.meaning, "unit": unit}  # fmt: skip
     if isinstance(failure, Condition) and failure.interior:
         record["interior"] = True
+    if isinstance(failure, Failure) and failure.at_start:
+        record["at_start"] = True
     return record
 
 

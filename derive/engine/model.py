@@ -235,7 +235,8 @@ class Event:
 
 @dataclass(frozen=True, eq=False)
 class Failure:
-    """A walk ends when ``guard`` crosses zero in ``direction`` during any phase.
+    """A walk ends when ``guard`` crosses zero in ``direction`` during any phase (or
+    those of ``phases``), or when a phase begins with it already past zero.
 
     ``guard`` may use the phase's ground reaction ``N`` (:data:`NORMAL_FORCE`) and the
     state; ``name`` is what the simulation reports (``fell-backward``, ``lift-off``).
@@ -249,6 +250,12 @@ class Failure:
     """Unit of the guard, where the engine cannot tell it: a guard that is the ground
     reaction is in the model's force unit, a rate in its coordinate's unit per time, and
     anything else is taken as dimensionless unless stated here."""
+    phases: tuple[str, ...] = ()
+    """The phases it is checked in (all when empty)."""
+    at_start: bool = False
+    """Checked only where a phase begins, not watched through it: a phase that must begin
+    before its event's configuration (the VSW biped's extension at theta_II), whose guard
+    is the event's own and reaches zero at the phase's end by design."""
 
 
 NORMAL_FORCE = sm.Symbol("N_ground", real=True)

@@ -16,6 +16,10 @@ One step, as in the ILE model (Section III of the paper):
   ``l`` (an impulse along the stance leg: the generalised momenta of both leg angles are
   conserved, the ILE's eq. (3) with massive legs);
 * long stance: the same motion with the stance leg ``l`` long;
+* a step that begins with the stance leg already past ``theta_II`` (heelstrike came after
+  the extension angle: heavy legs shorten the step) has no rule in the model: the walk
+  ends there with the failure ``extension-missed``, as the ILE requires
+  ``theta_I < theta_II``;
 * heelstrike: the swing foot (``beta l`` below the hip) reaches the ground ahead of the
   stance foot; the impact is inelastic (angular momentum about the new contact and that
   of the trailing leg about the hip are conserved) and the legs swap roles.
@@ -146,6 +150,20 @@ MODEL = Model(
         Failure("fell-backward", THETA.u, -1, "the walker stops before the apex and falls back"),
         Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the ground"),
         Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
+        # Heavier legs shorten the step: past a point heelstrike leaves the new stance leg
+        # already beyond theta_II, and the extension, an event at theta_II, never comes. The
+        # model has no rule for that step (the ILE's theta_I < theta_II); it ends the walk
+        # by name rather than walking on unextended.
+        Failure(
+            "extension-missed",
+            theta - theta_II,
+            +1,
+            "the step begins past theta_II, "
+            "so the stance leg never extends (heelstrike came after the extension angle)",
+            unit="rad",
+            phases=("short",),
+            at_start=True,
+        ),
     ),
     conditions=(swing_foot_clearance(SHORT.points["swing_foot"][1], "l"),),
     units={

@@ -17,7 +17,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'vsw_biped', 'title': 'Compass-like biped of Virtual Slope Walking', 'description': "the ILE model with massive legs (the paper's future work): hip mass, leg masses on the legs' upper segments, instantaneous extension at theta_II, heelstrike where the swinging leg reaches the level ground", 'coordinate_units': {'theta': 'rad', 'psi': 'rad'}, 'parameters': ('beta', 'theta_II', 'mu', 'b_over_l'), 'coordinates': ('theta', 'psi'), 'rates': ('theta_dot', 'psi_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the swing foot', 'rate': 'psi_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of psi (swing leg angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}), 'phases': ({'name': 'short', 'failures': (('fell-backward', 'short_fell_backward', -1), ('fell-forward', 'short_fell_forward', -1), ('lift-off', 'short_lift_off', -1)), 'conservative': True, 'conditions': (('swing-foot-clearance', 'short_swing_foot_clearance', -1),)}, {'name': 'long', 'failures': (('fell-backward', 'long_fell_backward', -1), ('fell-forward', 'long_fell_forward', -1), ('lift-off', 'long_lift_off', -1)), 'conservative': True, 'conditions': (('swing-foot-clearance', 'long_swing_foot_clearance', -1),)}), 'events': ({'name': 'extension', 'source': 'short', 'target': 'long', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'jump', 'bodies': None}, {'name': 'heelstrike', 'source': 'long', 'target': 'short', 'direction': -1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1)}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the walker stops before the apex and falls back', 'unit': 'rad/sqrt(l/g)'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the ground', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'm_H g'}), 'conditions': ({'name': 'swing-foot-clearance', 'direction': -1, 'meaning': 'the swing foot stays above the ground (where negative it scuffs: ignored)', 'unit': 'l', 'interior': True},), 'units': {'time': 'sqrt(l/g)', 'length': 'l', 'mass': 'm_H', 'energy': 'm_H g l', 'force': 'm_H g'}, 'step_length': True, 'section': ('psi',), 'search': {'theta': (-0.8, 0.8), 'theta_dot': (0.0, 2.5), 'psi_dot': (-4.0, 4.0)}, 'closed_form': False}
+HYBRID = {'name': 'vsw_biped', 'title': 'Compass-like biped of Virtual Slope Walking', 'description': "the ILE model with massive legs (the paper's future work): hip mass, leg masses on the legs' upper segments, instantaneous extension at theta_II, heelstrike where the swinging leg reaches the level ground", 'coordinate_units': {'theta': 'rad', 'psi': 'rad'}, 'parameters': ('beta', 'theta_II', 'mu', 'b_over_l'), 'coordinates': ('theta', 'psi'), 'rates': ('theta_dot', 'psi_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the swing foot', 'rate': 'psi_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of psi (swing leg angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}), 'phases': ({'name': 'short', 'failures': (('fell-backward', 'short_fell_backward', -1), ('fell-forward', 'short_fell_forward', -1), ('lift-off', 'short_lift_off', -1)), 'conservative': True, 'start_failures': (('extension-missed', 'short_extension_missed', 1),), 'conditions': (('swing-foot-clearance', 'short_swing_foot_clearance', -1),)}, {'name': 'long', 'failures': (('fell-backward', 'long_fell_backward', -1), ('fell-forward', 'long_fell_forward', -1), ('lift-off', 'long_lift_off', -1)), 'conservative': True, 'conditions': (('swing-foot-clearance', 'long_swing_foot_clearance', -1),)}), 'events': ({'name': 'extension', 'source': 'short', 'target': 'long', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'jump', 'bodies': None}, {'name': 'heelstrike', 'source': 'long', 'target': 'short', 'direction': -1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1)}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the walker stops before the apex and falls back', 'unit': 'rad/sqrt(l/g)'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the ground', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'm_H g'}, {'name': 'extension-missed', 'direction': 1, 'meaning': 'the step begins past theta_II, so the stance leg never extends (heelstrike came after the extension angle)', 'unit': 'rad', 'at_start': True}), 'conditions': ({'name': 'swing-foot-clearance', 'direction': -1, 'meaning': 'the swing foot stays above the ground (where negative it scuffs: ignored)', 'unit': 'l', 'interior': True},), 'units': {'time': 'sqrt(l/g)', 'length': 'l', 'mass': 'm_H', 'energy': 'm_H g l', 'force': 'm_H g'}, 'step_length': True, 'section': ('psi',), 'search': {'theta': (-0.8, 0.8), 'theta_dot': (0.0, 2.5), 'psi_dot': (-4.0, 4.0)}, 'closed_form': False}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -299,6 +299,31 @@ def short_lift_off(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     x40 = x16*cos_t2
     x41 = cos_t2*sin_psi*sin_theta
     return (x14 + x21 - x20 - x9 + x10*x41 + x15*x17 + x15*x20 + x15*x9 + x17*x18 + x18*x3 + x19*x27 + x22*x24 + x22*x26 + x27*x9 + x29*x34 + x29*x4 + x32*x35 + x34*x39 + x36*x37 + x39*x4 - x12*x30 - x13*x20 - x15*x21 - x18*x8 - x21*x41 - x31*x32 - x31*x34 - x31*mu - 4*x17*x30 - 2*x24*x33 + 4*x19*x41 + 6*x16*x35 - x16*x27*x6 - x23*x36*sin_theta - x38*x40*cos_theta - x25*x28*x40*cos_psi - x28*x34*x37*sin_t2)/(x10 + x14 + x3 - x8)
+
+
+def short_extension_missed(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
+    """Guard of extension-missed in phase short.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    mu : array_like or casadi.SX/MX/DM
+    b_over_l : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        past zero (direction +1) where the phase begins when the walk ends there (checked there only)
+    """
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
+    return theta - theta_II
 
 
 def short_swing_foot_clearance(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):

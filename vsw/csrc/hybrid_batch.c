@@ -14,7 +14,8 @@
  * (vsw.hybrid.HybridModel.step): a crossing counts when the guard goes from <= 0 to >= 0
  * (direction +1) or from >= 0 to <= 0 (direction -1); an event whose `when` is <= 0 does
  * not count and the phase goes on 1e-9 past it (at most 20 times); a failure whose guard
- * is already past zero at the phase start ends the walk there; a phase that lasts longer
+ * is already past zero at the phase start ends the walk there (a watched guard of direction
+ * +2 or -2 is a failure checked there only, the sign its direction); a phase that lasts longer
  * than the phase time limit, or whose step shrinks below 10 ulps of the time, has stalled.
  */
 #include <float.h>
@@ -284,7 +285,9 @@ static int vsw_run_phase(int phase, const double *p, double *y, double *t,
             double first = INFINITY, y_first[VSW_NX], y_k[VSW_NX];
             int hit = -1, dense = 0;
             for (int k = 0; k < n_watch; ++k) {
-                if (!vsw_crossed(g0[k], g1[k], vsw_watch_direction[phase][k])) continue;
+                const int direction = vsw_watch_direction[phase][k];
+                if (direction == 2 || direction == -2) continue; /* checked at the start only */
+                if (!vsw_crossed(g0[k], g1[k], direction)) continue;
                 if (!dense) {
                     vsw_dense(phase, p, y, y_new, h, K, F);
                     dense = 1;

@@ -213,6 +213,11 @@ function short_lift_off(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi
   return (x14 + x21 - x20 - x9 + x10*x41 + x15*x17 + x15*x20 + x15*x9 + x17*x18 + x18*x3 + x19*x27 + x22*x24 + x22*x26 + x27*x9 + x29*x34 + x29*x4 + x32*x35 + x34*x39 + x36*x37 + x39*x4 - x12*x30 - x13*x20 - x15*x21 - x18*x8 - x21*x41 - x31*x32 - x31*x34 - x31*mu - 4*x17*x30 - 2*x24*x33 + 4*x19*x41 + 6*x16*x35 - x16*x27*x6 - x23*x36*sin_theta - x38*x40*cos_theta - x25*x28*x40*cos_psi - x28*x34*x37*sin_t2)/(x10 + x14 + x3 - x8);
 }
 
+/* Guard of extension-missed in phase short. Returns past zero (direction +1) where the phase begins when the walk ends there (checked there only). */
+function short_extension_missed(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot) {
+  return theta - theta_II;
+}
+
 /* Condition swing-foot-clearance in phase short (reported, not enforced). Returns crosses zero (direction -1) where it fails. */
 function short_swing_foot_clearance(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot) {
   const [cos_psi, sin_psi] = be.cos_sin(psi);
@@ -490,7 +495,7 @@ function section_completion(beta, theta_II, mu, b_over_l, theta, psi, theta_dot,
   return [theta, be.acos(cos_theta*beta), theta_dot, psi_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, short_accelerations, short_energy, short_normal_force, short_fell_backward, short_fell_forward, short_lift_off, short_swing_foot_clearance, short_positions, short_inertias, long_accelerations, long_energy, long_normal_force, long_fell_backward, long_fell_forward, long_lift_off, long_swing_foot_clearance, long_positions, long_inertias, event_extension_guard, event_extension_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
+const exported = { PARAMETERS, CONDITIONS, short_accelerations, short_energy, short_normal_force, short_fell_backward, short_fell_forward, short_lift_off, short_extension_missed, short_swing_foot_clearance, short_positions, short_inertias, long_accelerations, long_energy, long_normal_force, long_fell_backward, long_fell_forward, long_lift_off, long_swing_foot_clearance, long_positions, long_inertias, event_extension_guard, event_extension_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {
