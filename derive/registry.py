@@ -16,6 +16,7 @@ MODEL_MODULES: dict[str, str] = {
     "vsw_biped": "derive.models.vsw_biped",
     "kneed_walker": "derive.models.kneed_walker",
     "torso_walker": "derive.models.torso_walker",
+    "vsw_biped_fte": "derive.models.vsw_biped_fte",
 }
 """Model name (its ``generated/<name>/`` package) -> module with its ``derive()``."""
 

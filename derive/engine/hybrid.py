@@ -647,14 +647,18 @@ def continuous_reset(
         raise ValueError(f"{event.name}: a continuous transition keeps the free coordinates")
     if set(before.held) != set(after.held):
         raise ValueError(f"{event.name}: both phases must hold the same coordinates")
-    if event.at is None or len(free) != 1:
-        raise ValueError(f"{event.name}: a continuous transition needs `at` (one coordinate)")
-    at = {free[0]: sm.sympify(event.at)}
+    # `at` is the value of the one free coordinate the guard depends on (the stance angle
+    # where a leg-length profile starts or ends); the others are anywhere.
+    on = [q for q in free if q in sm.sympify(event.guard).free_symbols]
+    if event.at is None or len(on) != 1:
+        raise ValueError(f"{event.name}: a continuous transition needs `at` and a guard of "
+                         "one coordinate")  # fmt: skip
+    at = {on[0]: sm.sympify(event.at)}
     gaps = []
     for h in before.held:
         v_before, v_after = sm.sympify(before.held[h]), sm.sympify(after.held[h])
         gaps.append((v_before - v_after).xreplace(at))
-        gaps.append((v_before.diff(free[0]) - v_after.diff(free[0])).xreplace(at))
+        gaps.extend((v_before.diff(q) - v_after.diff(q)).xreplace(at) for q in free)
     gaps = [g for g in gaps if g != 0]
     if gaps:
         symbols = sorted(set().union(*(g.free_symbols for g in gaps)), key=str)

@@ -1,0 +1,127 @@
+"""The compass-like VSW biped with a finite-time extension and a free hip.
+
+The VSW biped (:mod:`derive.models.vsw_biped`) extends its stance leg instantaneously and
+keeps both leg angles and both generalised momenta through the extension: a rule that
+needs a hip actuator it does not name (the extension moves the hip across the swing leg,
+and something must keep the swing leg from turning). This model names no hip actuator at
+all: the hip is a free pin through the whole step, and the stance leg extends over a
+stance-angle interval, as in the TLE model (:mod:`derive.models.tle`), along the TLE's
+profile
+
+    r(theta) = beta + (1 - beta) S(s),  S(s) = 3 s**2 - 2 s**3,  s = (theta - theta_II) / delta,
+
+from ``beta l`` at ``theta_II`` to ``l`` at ``theta_II + delta`` (zero slope at both
+ends: the leg's length and rate are continuous, so neither end is an impact). The only
+actuator is the stance leg's, which does the extension's work; the swing leg turns as the
+hip carries it.
+
+One step: short stance (both legs ``beta l``), the extension (the stance leg along the
+profile), long stance, heelstrike (the biped's: inelastic, the legs swap). A step that
+begins past ``theta_II`` ends the walk (``extension-missed``), as in the biped.
+
+What it is for: as ``mu -> 0`` the legs stop acting on the hip and the gait is the TLE's at
+the emergent inter-leg angle; as ``delta -> 0`` it shows what a free hip does to an
+instantaneous extension (the swing leg's rate after the extension grows without bound,
+as ``1/delta``: docs/models/vsw_biped.md). Units and coordinates as the biped's.
+"""
+
+from __future__ import annotations
+
+import sympy as sm
+
+from derive.engine import model_derivation
+from derive.engine.model import (
+    NORMAL_FORCE,
+    Continuous,
+    Event,
+    Failure,
+    Impact,
+    Model,
+    Parameter,
+    swing_foot_clearance,
+)
+from derive.models.tle import smoothstep
+from derive.models.vsw_biped import PARAMETERS as BIPED_PARAMETERS
+from derive.models.vsw_biped import PSI, THETA, stance_phase
+from derive.quantities import Derivation
+
+PI = float(sm.pi.evalf(17))
+
+PARAMETERS = (
+    *BIPED_PARAMETERS,
+    Parameter("delta", r"\Delta", 0.0, PI / 2, "stance-angle interval of the extension: "
+              "0 < delta < pi/2", "stance-angle interval of the leg extension",
+              {"positive": True}, default=0.1, unit="rad", computed=(1e-3, PI / 2),
+              computed_reason="the leg force grows as 1/delta^2 and the free swing leg's "
+              "rate after the extension as 1/delta: below 1e-3 rad the extension is too "
+              "stiff to integrate in reasonable time; the instantaneous limit does not "
+              "exist with a free hip (the vsw_biped model holds the hip instead)"),
+)  # fmt: skip
+beta, theta_II, mu, b, delta = (p.symbol for p in PARAMETERS)
+theta, psi = THETA.q, PSI.q
+
+
+def profile(angle: sm.Expr) -> sm.Expr:
+    """Stance leg length (in l) during the extension: the TLE's smoothstep."""
+    return beta + (1 - beta) * smoothstep((angle - theta_II) / delta)
+
+
+SHORT = stance_phase("short", beta)
+EXTENSION = stance_phase("extension", profile(theta))
+LONG = stance_phase("long", sm.Integer(1))
+
+MODEL = Model(
+    name="vsw_biped_fte",
+    title="Compass-like VSW biped, finite-time extension, free hip",
+    description="the VSW biped whose stance leg extends along the TLE's profile over "
+    "[theta_II, theta_II + delta] with a free hip (no hip actuator)",
+    source="derive/models/vsw_biped_fte.py",
+    parameters=PARAMETERS,
+    phases=(SHORT, EXTENSION, LONG),
+    events=(
+        Event("extension_start", "short", "extension", theta - theta_II, +1, Continuous(),
+              at=theta_II),
+        Event("extension_end", "extension", "long", theta - theta_II - delta, +1,
+              Continuous(), at=theta_II + delta),
+        Event(
+            "heelstrike",
+            "long",
+            "short",
+            guard=LONG.points["swing_foot"][1],
+            direction=-1,
+            reset=Impact(
+                "swing_foot",
+                {theta: psi, psi: theta},
+                bodies={"stance_leg": "swing_leg", "swing_leg": "stance_leg"},
+            ),
+            ends_step=True,
+            when=theta - psi,
+            equation="(5), (6) with massive legs",
+        ),
+    ),
+    failures=(
+        Failure("fell-backward", THETA.u, -1, "the walker stops before the apex and falls back"),
+        Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the ground"),
+        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
+        Failure("extension-missed", theta - theta_II, +1, "the step begins past theta_II, "
+                "so the stance leg never extends (heelstrike came after the extension angle)",
+                unit="rad", phases=("short",), at_start=True),
+    ),
+    conditions=(swing_foot_clearance(SHORT.points["swing_foot"][1], "l"),),
+    units={
+        "time": "sqrt(l/g)",
+        "length": "l",
+        "mass": "m_H",
+        "energy": "m_H g l",
+        "force": "m_H g",
+    },
+    step_length=LONG.points["swing_foot"][0],
+    section={"psi": sm.acos(beta * sm.cos(theta))},
+    search={"theta": (-0.8, 0.8), "theta_dot": (0.0, 2.5), "psi_dot": (-4.0, 4.0)},
+)  # fmt: skip
+
+
+def derive() -> Derivation:
+    return model_derivation(
+        MODEL, "Angles in radians; lengths in l, time in sqrt(l/g), energies in m_H g l."
+    )
