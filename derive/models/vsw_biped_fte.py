@@ -27,6 +27,8 @@ as ``1/delta``: docs/models/vsw_biped.md). Units and coordinates as the biped's.
 
 from __future__ import annotations
 
+import dataclasses
+
 import sympy as sm
 
 from derive.engine import model_derivation
@@ -47,11 +49,15 @@ from derive.quantities import Derivation
 
 PI = float(sm.pi.evalf(17))
 
+# Defaults where this walker has a stable gait (max |eigenvalue| 0.31 at mu = 0.1; the
+# biped's defaults, beta = 0.8 and theta_II = 0, give gaits with eigenvalues in the
+# hundreds here).
+_DEFAULTS = {"beta": 0.97, "theta_II": -0.2}
 PARAMETERS = (
-    *BIPED_PARAMETERS,
+    *(dataclasses.replace(p, default=_DEFAULTS.get(p.name, p.default)) for p in BIPED_PARAMETERS),
     Parameter("delta", r"\Delta", 0.0, PI / 2, "stance-angle interval of the extension: "
               "0 < delta < pi/2", "stance-angle interval of the leg extension",
-              {"positive": True}, default=0.1, unit="rad", computed=(1e-3, PI / 2),
+              {"positive": True}, default=0.3, unit="rad", computed=(1e-3, PI / 2),
               computed_reason="the leg force grows as 1/delta^2 and the free swing leg's "
               "rate after the extension as 1/delta: below 1e-3 rad the extension is too "
               "stiff to integrate in reasonable time; the instantaneous limit does not "

@@ -28,9 +28,9 @@ class Parameter(NamedTuple):
 
 
 PARAMETERS = (
-    Parameter('beta', '\\beta', 0.0, 1.0, 'beta = r_s / r_e is a length-shortening ratio: 0 < beta < 1', 'length shorten ratio r_s / r_e', False, 0.8, '1'),
-    Parameter('theta_II', '\\theta_{II}', -1.5707963267948966, 1.5707963267948966, 'the stance leg must point below the horizontal: |theta_II| < pi/2', 'stance leg angle at which the leg extends (instant II)', True, 0.0, 'rad'),
+    Parameter('beta', '\\beta', 0.0, 1.0, 'beta = r_s / r_e is a length-shortening ratio: 0 < beta < 1', 'length shorten ratio r_s / r_e', False, 0.97, '1'),
+    Parameter('theta_II', '\\theta_{II}', -1.5707963267948966, 1.5707963267948966, 'the stance leg must point below the horizontal: |theta_II| < pi/2', 'stance leg angle at which the leg extends (instant II)', True, -0.2, 'rad'),
     Parameter('mu', '\\mu', 0.0, float('inf'), 'mu = m / m_H > 0: the legs have mass', 'mass of each leg over the hip mass', False, 0.1, '1', (1e-07, 100000.0), 'a scale is computed within a factor of 1e6 of its default: the gaits depend on ratios of the parameters, and far beyond, double precision fails (5e-324 computes with subnormal numbers, 1e300 overflows)'),
     Parameter('b_over_l', 'b / l', 0.0, 1.0, "the leg's mass lies between the hip and the foot: 0 < b / l < 1", "distance from the hip to a leg's mass, over l", False, 0.3, '1', (1e-06, 1.0), "the swing leg's inertia about the hip, mu (b/l)^2, vanishes in double precision below; near it the swing is so fast that the gait search runs long (at b/l = 1e-3 it ran past a 40 s limit, which stops it)"),
-    Parameter('delta', '\\Delta', 0.0, 1.5707963267948966, 'stance-angle interval of the extension: 0 < delta < pi/2', 'stance-angle interval of the leg extension', False, 0.1, 'rad', (0.001, 1.5707963267948966), "the leg force grows as 1/delta^2 and the free swing leg's rate after the extension as 1/delta: below 1e-3 rad the extension is too stiff to integrate in reasonable time; the instantaneous limit does not exist with a free hip (the vsw_biped model holds the hip instead)"),
+    Parameter('delta', '\\Delta', 0.0, 1.5707963267948966, 'stance-angle interval of the extension: 0 < delta < pi/2', 'stance-angle interval of the leg extension', False, 0.3, 'rad', (0.001, 1.5707963267948966), "the leg force grows as 1/delta^2 and the free swing leg's rate after the extension as 1/delta: below 1e-3 rad the extension is too stiff to integrate in reasonable time; the instantaneous limit does not exist with a free hip (the vsw_biped model holds the hip instead)"),
 )
