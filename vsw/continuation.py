@@ -572,8 +572,14 @@ def _between(eq: _Equations, a: _Point, b: _Point, h: float) -> tuple[list, tupl
         if located is not None:
             p, s = located
             phase = eq.sequence[int(np.argmin(eq.durations(p.w)))][0]
+            record = eq.model.phases[eq.model.phase_index[phase]]
+            # A failure the phase checks where it begins is the model's word for a step
+            # whose event has already passed (the VSW bipeds' extension-missed).
+            named = [f[0] for f in record.get("start_failures", ())]
             special = _special(eq, "boundary", p, f"phase {phase} of no duration (the event "
-                               "that ends it comes at its start)")  # fmt: skip
+                               "that ends it comes at its start)"
+                               + (f"; past it the walk ends: {', '.join(named)}" if named
+                                  else ""))  # fmt: skip
             boundary = (s, p, special)
     if boundary is None and b.confirmed != "completed":
         good, bad, _ = _locate_boundary(eq, a, h)

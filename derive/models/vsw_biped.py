@@ -114,8 +114,10 @@ MODEL = Model(
     name="vsw_biped",
     title="Compass-like biped of Virtual Slope Walking",
     description="the ILE model with massive legs (the paper's future work): hip mass, leg "
-    "masses on the legs' upper segments, instantaneous extension at theta_II, heelstrike "
-    "where the swinging leg reaches the level ground",
+    "masses on the legs' upper segments, instantaneous extension at theta_II keeping both "
+    "leg angles and generalised momenta (the held-hip rule: a hip impulse the model does "
+    "not name holds the swing leg), heelstrike where the swinging leg reaches the level "
+    "ground",
     source="derive/models/vsw_biped.py",
     parameters=PARAMETERS,
     phases=(SHORT, LONG),
