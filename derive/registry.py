@@ -17,6 +17,7 @@ MODEL_MODULES: dict[str, str] = {
     "kneed_walker": "derive.models.kneed_walker",
     "torso_walker": "derive.models.torso_walker",
     "vsw_biped_fte": "derive.models.vsw_biped_fte",
+    "vsw_biped_phi0": "derive.models.vsw_biped_phi0",
 }
 """Model name (its ``generated/<name>/`` package) -> module with its ``derive()``."""
 
