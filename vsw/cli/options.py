@@ -78,9 +78,10 @@ def add_model_options(
         "suffix: phi0=45deg); repeatable; parameters not given take their defaults",
     )
     if named:
-        parser.add_argument("--beta", type=float, help="beta (ile, tle, vsw-biped)")
-        parser.add_argument("--theta-ii", type=float, help="theta_II [deg] (ile, tle, vsw-biped)")
-        parser.add_argument("--phi0", type=float, help="phi0 [deg] (ile, tle)")
+        bipeds = "vsw-biped, vsw-biped-fte, vsw-biped-phi0"
+        parser.add_argument("--beta", type=float, help=f"beta (ile, tle, {bipeds})")
+        parser.add_argument("--theta-ii", type=float, help=f"theta_II [deg] (ile, tle, {bipeds})")
+        parser.add_argument("--phi0", type=float, help="phi0 [deg] (ile, tle, vsw-biped-phi0)")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     needs = dict(features or {})
     parser.after_parse = lambda p, args: after_parse(p, args, command, needs)
