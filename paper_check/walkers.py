@@ -554,6 +554,47 @@ def _stable_search(m: HybridModel) -> str:
     return "\n".join(lines) + "\n"
 
 
+REGION = {"beta": (0.9, 0.95, 0.97, 0.99), "theta_II": (-0.2, -0.1, 0.0, 0.1),
+          "mu": (0.01, 0.1, 0.3)}  # fmt: skip
+"""The grid of the stable region under each extension rule (b / l = 0.3)."""
+RULES = (("vsw_biped", "held hip", {}), ("vsw_biped_fte", "free hip, delta = 0.3", {"delta": 0.3}))
+"""The models compared on :data:`REGION`: the instantaneous extension with the held-hip
+rule, and the free hip with the extension over 0.3 rad of stance angle."""
+
+
+def stable_region(model_name: str, fixed: dict) -> dict[tuple[float, float, float], float | None]:
+    """The least max |eigenvalue| of the gaits the search finds at each cell of
+    :data:`REGION` (None where it finds none)."""
+    m = load(model_name)
+    out = {}
+    for mu in REGION["mu"]:
+        for beta in REGION["beta"]:
+            for theta_II in REGION["theta_II"]:
+                values = {"beta": beta, "theta_II": theta_II, "mu": mu, **fixed}
+                orbits = m.fixed_points(m.parameters(values))
+                out[beta, theta_II, mu] = min((o.max_abs_eigenvalue for o in orbits), default=None)
+    return out
+
+
+def _region_table(regions: dict[str, dict]) -> str:
+    """One row per (mu, beta), one column per theta_II: each rule's least max |eigenvalue|
+    (stable below 1, in bold)."""
+    head = " | ".join(f"theta_II = {t}" for t in REGION["theta_II"])
+    lines = [f"| mu | beta | {head} |", "| --- | --- |" + " --- |" * len(REGION["theta_II"])]
+
+    def cell(value: float | None) -> str:
+        if value is None:
+            return "none"
+        return f"**{value:.3g}**" if value < 1 else f"{value:.3g}"
+
+    for mu in REGION["mu"]:
+        for beta in REGION["beta"]:
+            cells = [" / ".join(cell(regions[label][beta, t, mu]) for _, label, _ in RULES)
+                     for t in REGION["theta_II"]]  # fmt: skip
+            lines.append(f"| {mu} | {beta} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def _mu_figure(results: dict, out: Path) -> list[Path]:
     from vsw import plotstyle
     from vsw.figures import save_figure
@@ -649,6 +690,12 @@ def vsw_biped(out: Path, quick: bool = False) -> list[Path]:
             "it with its rates 1 % off, which says without the eigenvalues whether it ",
             "attracts.\n\n",
             _stable_search(m),
+            "\n## The stable region under each extension rule\n\n",
+            "The least max |eigenvalue| of the gaits the search finds in each cell (b / l = ",
+            "0.3), with the held-hip rule (this model) / with a free hip and the extension ",
+            "over 0.3 rad of stance angle (`vsw-biped-fte`); bold: stable; none: no gait ",
+            "found.\n\n",
+            _region_table({label: stable_region(name, fixed) for name, label, fixed in RULES}),
         ]
     return _write_report(out / "vsw-biped.md", text, written)
 
