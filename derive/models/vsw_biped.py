@@ -110,6 +110,51 @@ def stance_phase(name: str, length: sm.Expr) -> Phase:
 SHORT = stance_phase("short", beta)
 LONG = stance_phase("long", 1)
 
+SECTION = {"psi": sm.acos(beta * sm.cos(theta))}
+"""Just after heelstrike the new swing leg (the old stance leg, l long before the swap) has
+its foot on the ground and the new stance leg (beta l) too: cos psi = beta cos theta, with
+psi > 0 (the trailing foot behind the hip)."""
+UNITS = {"time": "sqrt(l/g)", "length": "l", "mass": "m_H", "energy": "m_H g l", "force": "m_H g"}
+# theta may be positive just after heelstrike (a foot landing behind the hip): the gait
+# with max |eigenvalue| 2.31 at (0.8, 0.1, 0.3, 0.3) has theta = 0.095.
+SEARCH = {"theta": (-0.8, 0.8), "theta_dot": (0.0, 2.5), "psi_dot": (-4.0, 4.0)}
+FALLS = (
+    Failure("fell-backward", THETA.u, -1, "the walker stops before the apex and falls back"),
+    Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the ground"),
+    Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
+)
+"""How a VSW biped's walk ends, in every phase (the other biped models share them)."""
+# Heavier legs shorten the step: past a point heelstrike leaves the new stance leg already
+# beyond theta_II, and the extension, an event at theta_II, never comes. The model has no
+# rule for that step (the ILE's theta_I < theta_II); it ends the walk by name rather than
+# walking on unextended.
+EXTENSION_MISSED = Failure(
+    "extension-missed", theta - theta_II, +1, "the step begins past theta_II, so the stance "
+    "leg never extends (heelstrike came after the extension angle)", unit="rad",
+    phases=("short",), at_start=True,
+)  # fmt: skip
+
+
+def heelstrike(long: Phase) -> Event:
+    """Heelstrike from the phase ``long`` to ``short``: the swing foot reaches the ground
+    ahead of the stance foot; inelastic, the legs swap roles."""
+    return Event(
+        "heelstrike",
+        long.name,
+        "short",
+        guard=long.points["swing_foot"][1],  # the swing foot's height
+        direction=-1,
+        reset=Impact(
+            "swing_foot",
+            {theta: psi, psi: theta},
+            bodies={"stance_leg": "swing_leg", "swing_leg": "stance_leg"},
+        ),
+        ends_step=True,
+        when=theta - psi,  # the new foot lands ahead of the stance foot
+        equation="(5), (6) with massive legs",
+    )
+
+
 MODEL = Model(
     name="vsw_biped",
     title="Compass-like biped of Virtual Slope Walking",
@@ -132,61 +177,19 @@ MODEL = Model(
             at=theta_II,
             equation="(3) with massive legs",
         ),
-        Event(
-            "heelstrike",
-            "long",
-            "short",
-            guard=LONG.points["swing_foot"][1],  # the swing foot's height
-            direction=-1,
-            reset=Impact(
-                "swing_foot",
-                {theta: psi, psi: theta},
-                bodies={"stance_leg": "swing_leg", "swing_leg": "stance_leg"},
-            ),
-            ends_step=True,
-            when=theta - psi,  # the new foot lands ahead of the stance foot
-            equation="(5), (6) with massive legs",
-        ),
+        heelstrike(LONG),
     ),
-    failures=(
-        Failure("fell-backward", THETA.u, -1, "the walker stops before the apex and falls back"),
-        Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the ground"),
-        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
-        # Heavier legs shorten the step: past a point heelstrike leaves the new stance leg
-        # already beyond theta_II, and the extension, an event at theta_II, never comes. The
-        # model has no rule for that step (the ILE's theta_I < theta_II); it ends the walk
-        # by name rather than walking on unextended.
-        Failure(
-            "extension-missed",
-            theta - theta_II,
-            +1,
-            "the step begins past theta_II, "
-            "so the stance leg never extends (heelstrike came after the extension angle)",
-            unit="rad",
-            phases=("short",),
-            at_start=True,
-        ),
-    ),
+    failures=(*FALLS, EXTENSION_MISSED),
     conditions=(swing_foot_clearance(SHORT.points["swing_foot"][1], "l"),),
-    units={
-        "time": "sqrt(l/g)",
-        "length": "l",
-        "mass": "m_H",
-        "energy": "m_H g l",
-        "force": "m_H g",
-    },
+    units=UNITS,
     step_length=LONG.points["swing_foot"][0],
-    # Just after heelstrike the new swing leg (the old stance leg, l long before the swap)
-    # has its foot on the ground and the new stance leg (beta l) too: cos psi = beta cos
-    # theta, with psi > 0 (the trailing foot behind the hip).
-    section={"psi": sm.acos(beta * sm.cos(theta))},
-    # theta may be positive just after heelstrike (a foot landing behind the hip): the gait
-    # with max |eigenvalue| 2.31 at (0.8, 0.1, 0.3, 0.3) has theta = 0.095.
-    search={"theta": (-0.8, 0.8), "theta_dot": (0.0, 2.5), "psi_dot": (-4.0, 4.0)},
+    section=SECTION,
+    search=SEARCH,
 )
 
 
+UNITS_TEXT = "Angles in radians; lengths in l, time in sqrt(l/g), energies in m_H g l."
+
+
 def derive() -> Derivation:
-    return model_derivation(
-        MODEL, "Angles in radians; lengths in l, time in sqrt(l/g), energies in m_H g l."
-    )
+    return model_derivation(MODEL, UNITS_TEXT)

@@ -32,19 +32,20 @@ import dataclasses
 import sympy as sm
 
 from derive.engine import model_derivation
-from derive.engine.model import (
-    NORMAL_FORCE,
-    Continuous,
-    Event,
-    Failure,
-    Impact,
-    Model,
-    Parameter,
-    swing_foot_clearance,
+from derive.engine.model import Continuous, Event, Model, Parameter, swing_foot_clearance
+from derive.models.tle import profile
+from derive.models.vsw_biped import (
+    EXTENSION_MISSED,
+    FALLS,
+    SEARCH,
+    SECTION,
+    THETA,
+    UNITS,
+    UNITS_TEXT,
+    heelstrike,
+    stance_phase,
 )
-from derive.models.tle import smoothstep
 from derive.models.vsw_biped import PARAMETERS as BIPED_PARAMETERS
-from derive.models.vsw_biped import PSI, THETA, stance_phase
 from derive.quantities import Derivation
 
 PI = float(sm.pi.evalf(17))
@@ -64,14 +65,11 @@ PARAMETERS = (
               "exist with a free hip (the vsw_biped model holds the hip instead)"),
 )  # fmt: skip
 beta, theta_II, mu, b, delta = (p.symbol for p in PARAMETERS)
-theta, psi = THETA.q, PSI.q
-
-
-def profile(angle: sm.Expr) -> sm.Expr:
-    """Stance leg length (in l) during the extension: the TLE's smoothstep."""
-    return beta + (1 - beta) * smoothstep((angle - theta_II) / delta)
-
-
+theta = THETA.q
+# The TLE's profile, in l here: its beta, theta_II and delta are these symbols (same
+# names and assumptions), which the import would otherwise silently break.
+if profile(theta).free_symbols != {beta, theta_II, delta, theta}:
+    raise ValueError("vsw_biped_fte: the TLE's profile uses symbols other than this model's")
 SHORT = stance_phase("short", beta)
 EXTENSION = stance_phase("extension", profile(theta))
 LONG = stance_phase("long", sm.Integer(1))
@@ -89,45 +87,16 @@ MODEL = Model(
               at=theta_II),
         Event("extension_end", "extension", "long", theta - theta_II - delta, +1,
               Continuous(), at=theta_II + delta),
-        Event(
-            "heelstrike",
-            "long",
-            "short",
-            guard=LONG.points["swing_foot"][1],
-            direction=-1,
-            reset=Impact(
-                "swing_foot",
-                {theta: psi, psi: theta},
-                bodies={"stance_leg": "swing_leg", "swing_leg": "stance_leg"},
-            ),
-            ends_step=True,
-            when=theta - psi,
-            equation="(5), (6) with massive legs",
-        ),
+        heelstrike(LONG),
     ),
-    failures=(
-        Failure("fell-backward", THETA.u, -1, "the walker stops before the apex and falls back"),
-        Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the ground"),
-        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
-        Failure("extension-missed", theta - theta_II, +1, "the step begins past theta_II, "
-                "so the stance leg never extends (heelstrike came after the extension angle)",
-                unit="rad", phases=("short",), at_start=True),
-    ),
+    failures=(*FALLS, EXTENSION_MISSED),
     conditions=(swing_foot_clearance(SHORT.points["swing_foot"][1], "l"),),
-    units={
-        "time": "sqrt(l/g)",
-        "length": "l",
-        "mass": "m_H",
-        "energy": "m_H g l",
-        "force": "m_H g",
-    },
+    units=UNITS,
     step_length=LONG.points["swing_foot"][0],
-    section={"psi": sm.acos(beta * sm.cos(theta))},
-    search={"theta": (-0.8, 0.8), "theta_dot": (0.0, 2.5), "psi_dot": (-4.0, 4.0)},
+    section=SECTION,
+    search=SEARCH,
 )  # fmt: skip
 
 
 def derive() -> Derivation:
-    return model_derivation(
-        MODEL, "Angles in radians; lengths in l, time in sqrt(l/g), energies in m_H g l."
-    )
+    return model_derivation(MODEL, UNITS_TEXT)

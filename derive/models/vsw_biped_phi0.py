@@ -38,7 +38,6 @@ import sympy as sm
 
 from derive.engine import model_derivation
 from derive.engine.model import (
-    NORMAL_FORCE,
     Coordinate,
     Event,
     Failure,
@@ -52,8 +51,8 @@ from derive.engine.model import (
     swing_foot_clearance,
 )
 from derive.models.ile.model import PARAMETERS as ILE_PARAMETERS
+from derive.models.vsw_biped import FALLS, THETA, UNITS, UNITS_TEXT, r
 from derive.models.vsw_biped import PARAMETERS as BIPED_PARAMETERS
-from derive.models.vsw_biped import THETA, r
 from derive.quantities import Derivation
 
 # Defaults where it walks: a passive swing leg must travel 2 phi0 in the short time the
@@ -131,21 +130,13 @@ MODEL = Model(
         ),
     ),
     failures=(
-        Failure("fell-backward", THETA.u, -1, "the walker stops before the apex and falls back"),
-        Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the ground"),
-        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
+        *FALLS,
         Failure("swing-late", theta - theta_II, +1, "the stance leg reaches theta_II before "
                 "the swing leg is caught at phi0: the model has no rule for it",
                 unit="rad", phases=("swing",)),
     ),
     conditions=(swing_foot_clearance(swing_foot[1], "l"),),
-    units={
-        "time": "sqrt(l/g)",
-        "length": "l",
-        "mass": "m_H",
-        "energy": "m_H g l",
-        "force": "m_H g",
-    },
+    units=UNITS,
     step_length=swing_foot[0],
     # Just after heelstrike the walker is in the ILE's configuration: the new stance leg at
     # theta_I (11), the new swing leg phi0 behind it.
@@ -155,6 +146,4 @@ MODEL = Model(
 
 
 def derive() -> Derivation:
-    return model_derivation(
-        MODEL, "Angles in radians; lengths in l, time in sqrt(l/g), energies in m_H g l."
-    )
+    return model_derivation(MODEL, UNITS_TEXT)
