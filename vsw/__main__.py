@@ -3,7 +3,8 @@
 Importing the command line (numpy, CasADi, the generated models) takes about half a
 second; a Ctrl-C in that time must end the program as one during a command does (one
 line, exit 130), not with an import traceback, so the handler is installed before the
-import.
+import. A Ctrl-C after the command's result is out is ignored (the whole result, exit 0),
+where Python's own handler would kill the exiting process by the signal.
 """
 
 import signal
@@ -17,11 +18,18 @@ def _interrupted_while_starting(signum, frame) -> None:
 
 def run() -> int:
     """The console script's entry point (``vsw.cli.main`` behind a start-up Ctrl-C)."""
-    previous = signal.signal(signal.SIGINT, _interrupted_while_starting)
-    from vsw.cli import main  # after the handler on purpose (module docstring)
+    signal.signal(signal.SIGINT, _interrupted_while_starting)
+    from vsw import stop  # after the handler on purpose (module docstring)
+    from vsw.cli import main
 
-    signal.signal(signal.SIGINT, previous)
-    return main()
+    # Kept to the end: a command's run installs its own handler and gives this one back,
+    # which then ignores a Ctrl-C that comes after the outcome is settled (stop.settle).
+    signal.signal(signal.SIGINT, stop.interrupt_unless_settled)
+    code = main()
+    # Ignored by the system itself from here on: Python's finalisation gives a handled
+    # signal its default action back (death by SIGINT), but leaves an ignored one alone.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    return code
 
 
 if __name__ == "__main__":

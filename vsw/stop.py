@@ -38,7 +38,16 @@ from collections.abc import Callable, Iterator
 
 from vsw.errors import VswInputError
 
-__all__ = ["RunTimeLimitError", "check", "reason", "register", "supervised", "supervising"]
+__all__ = [
+    "RunTimeLimitError",
+    "check",
+    "interrupt_unless_settled",
+    "reason",
+    "register",
+    "settle",
+    "supervised",
+    "supervising",
+]
 
 
 class RunTimeLimitError(VswInputError):
@@ -50,6 +59,7 @@ _state: dict[str, float | str | None] = {"stop": None, "deadline": None, "limit"
 _started = time.monotonic()
 _supervising = False
 _closing = threading.Event()
+_settled = threading.Event()
 _hooks: list[tuple[Callable[[], None], Callable[[], None]]] = []
 
 
@@ -58,6 +68,24 @@ def register(on_stop: Callable[[], None], on_reset: Callable[[], None]) -> None:
     ``on_reset()`` when the supervised run ends: compiled code's own stop flag."""
     with _lock:
         _hooks.append((on_stop, on_reset))
+
+
+def settle() -> None:
+    """The command's outcome is decided: its output written, or its error said. A Ctrl-C
+    from now on is late: the run's handler ignores it, and so does the ``vsw`` program's
+    own (:func:`interrupt_unless_settled`) while the process exits, so that the user gets
+    the whole result with its exit status, never a result and then a signal's death."""
+    _settled.set()
+
+
+def interrupt_unless_settled(signum, frame) -> None:
+    """The ``vsw`` program's SIGINT handler outside a command's run (parsing before it,
+    exiting after it): one line and exit 130 before the outcome is settled, nothing
+    after. Installed for good: the process ends with the command."""
+    if _settled.is_set():
+        return
+    sys.stderr.write("vsw: interrupted\n")
+    raise SystemExit(130)
 
 
 def supervising() -> bool:
@@ -109,6 +137,8 @@ def check() -> None:
 
 
 def _on_interrupt(signum, frame) -> None:
+    if _settled.is_set():  # late: the result is out (settle)
+        return
     _record("interrupt")
     raise KeyboardInterrupt
 
@@ -127,13 +157,15 @@ def supervised(seconds: float = math.inf) -> Iterator[None]:
     signal handlers); the previous handlers and timer are restored on exit.
     """
     global _started, _supervising
+    _settled.clear()
     with _lock:
         _state.update(stop=None, limit=seconds)
         _started = time.monotonic()
         _state["deadline"] = _started + seconds if math.isfinite(seconds) else None
     if threading.current_thread() is not threading.main_thread():
         try:
-            yield
+            with _stops_kept():
+                yield
         finally:
             _reset()
         return
@@ -150,7 +182,8 @@ def supervised(seconds: float = math.inf) -> Iterator[None]:
             # Then again every _REPEAT s: a stop raised where Python cannot propagate it
             # (a finalizer, a weakref callback) is raised again at the next tick.
             signal.setitimer(signal.ITIMER_REAL, seconds, _REPEAT)
-        yield
+        with _stops_kept():
+            yield
     finally:
         _closing.set()  # a timer's signal still pending now is ignored (_on_alarm)
         try:
@@ -161,6 +194,32 @@ def supervised(seconds: float = math.inf) -> Iterator[None]:
             sys.unraisablehook = previous_hook
             _supervising = False
             _reset()
+
+
+@contextlib.contextmanager
+def _stops_kept() -> Iterator[None]:
+    """Raise the recorded stop in place of whatever error the body ends with.
+
+    A library that catches the stop on its way out and raises an error of its own ends
+    the body with that error: matplotlib's mathtext turns any ValueError raised while it
+    looks a glyph up (RunTimeLimitError is one) into "Unknown symbol", which would reach
+    the user as a traceback instead of the limit's one line."""
+    try:
+        yield
+    except BaseException as exc:
+        stopped = _state["stop"]
+        if stopped is None or isinstance(exc, _STOP_TYPES[stopped]):
+            raise
+        try:
+            _raise(stopped)  # type: ignore[arg-type]
+        except BaseException as recorded:
+            raise recorded from exc
+
+
+_STOP_TYPES: dict[str, type[BaseException]] = {
+    "interrupt": KeyboardInterrupt,
+    "limit": RunTimeLimitError,
+}
 
 
 _REPEAT = 0.25

@@ -190,12 +190,15 @@ def _run(argv: Sequence[str] | None) -> int:
             warnings.showwarning = _warning_printer(sys.stderr)
             code = int(args.func(args))
             stop.check()  # a stop a library turned into a result is still a stop
+            stop.settle()
         return code
     except VswInputError as exc:
+        stop.settle()
         prog = exc.prog if isinstance(exc, UsageError) else "vsw"
         _say(f"{prog}: error: {_one_line(exc)}")
         return EXIT_INPUT
     except (ConvergenceError, InfeasibleError) as exc:
+        stop.settle()
         _say(f"vsw: {type(exc).__name__}: {_one_line(exc)}")
         return EXIT_SOLVER
     except SystemExit as exc:  # --help and --version exit through argparse
@@ -207,6 +210,7 @@ def _run(argv: Sequence[str] | None) -> int:
         )
         return EXIT_INPUT
     except KeyboardInterrupt:
+        stop.settle()
         _say("vsw: interrupted")
         return EXIT_INTERRUPTED
 
