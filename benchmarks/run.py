@@ -48,11 +48,19 @@ import generated.ile as ile  # noqa: E402
 from vsw.models.ile.params import random_parameters  # noqa: E402
 from vsw.vectorize import chunked, default_threads  # noqa: E402
 
-CASES = (1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14)
+CASES = (1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15)
 
 DESIGN_BEFORE = "39d527c"
 DERIVE_BEFORE = "f0a3f35"
 """The commit before issue 24's work on the derivation (case 7 derives it side by side)."""
+BATCH_BEFORE = "cc98831"
+"""The commit before issue 27's work on the batch simulator's C (case 15 runs its table and
+integrator side by side with today's)."""
+BATCH_BEFORE_FLAGS = (
+    ["-O3", "-march=native", "-ffp-contract=off", "-fno-math-errno", "-lm"],
+    ["-O2", "-ffp-contract=off", "-lm"],
+)
+"""vsw/batch.py's flags at BATCH_BEFORE."""
 """The commit whose vsw/design.py case 8 compares with (before issue 10)."""
 
 
@@ -657,6 +665,68 @@ def case_batch_step(count: int, reps: int) -> list[Row]:
     return rows
 
 
+def _simulator_at(key: str, ref: str):
+    """The batch simulator of ``key`` with the C table and integrator of commit ``ref``
+    (built with that commit's flags; the calling convention has not changed)."""
+    from vsw.batch import CSRC, BatchSimulator
+    from vsw.compiled import build_library
+    from vsw.models import load
+
+    def show(path: str) -> bytes:
+        return subprocess.run(["git", "show", f"{ref}:{path}"], cwd=ROOT, check=True,
+                              capture_output=True).stdout  # fmt: skip
+
+    source = show(f"generated/{key}/c/{key}_sim.c") + b"\n" + show("vsw/csrc/hybrid_batch.c")
+    sim = BatchSimulator(load(key))
+    lib, sim.library_path = build_library(source, f"{key}_sim_{ref}", BATCH_BEFORE_FLAGS,
+                                          includes=(CSRC,))  # fmt: skip
+    sim._bind(lib)
+    sim._lib, sim._tried = lib, True
+    return sim
+
+
+def case_batch_before(count: int, reps: int, before: str = BATCH_BEFORE) -> list[Row]:
+    """Case 15 (issue 27): walks of 20 steps from ``count`` section states near each model's
+    gait, one thread, through today's batch simulator and through the C table and
+    integrator of ``before``, alternately in one run, at rtol = atol = 1e-10 and 1e-12.
+    Time per step walked (walks that fall end early, the same in both)."""
+    from vsw.batch import simulator
+    from vsw.models import load
+
+    rows = []
+    for key in ("simplest_walker", "compass_gait", "vsw_biped"):
+        _, params, starts = _near_gait_starts(key, count)
+        now, then = simulator(load(key)), _simulator_at(key, before)
+        now.library()
+        for tol in (1e-10, 1e-12):
+            found = {}
+
+            def walker(sim, name, params=params, starts=starts, tol=tol, found=found):
+                def walk():
+                    found[name] = sim.walk(params, starts, 20, converge_tol=0.0,
+                                           period_tol=0.0, threads=1, tolerance=tol)  # fmt: skip
+
+                return walk
+
+            t_now, t_then = interleaved(walker(now, "now"), walker(then, "then"), reps)
+            steps = int(found["now"].steps.sum())
+            same = found["now"].ended() == found["then"].ended()
+            done = (found["now"].steps == 20) & (found["then"].steps == 20)
+            gap = float(np.max(np.abs(found["now"].final[done] - found["then"].final[done])
+                               / np.maximum(1, np.abs(found["then"].final[done])),
+                               initial=0.0))  # fmt: skip
+            rows.append(Row(
+                "15", f"{key}: walks of 20 steps, batch simulator (1 thread), rtol = atol = "
+                f"{tol:g}", f"the same, C table and integrator of {before}",
+                t_now.per(steps), t_then.per(int(found["then"].steps.sum())),
+                "faster than before", t_now.median < t_then.median,
+                note=f"per step over {len(starts)} walks ({steps} steps); every walk ends the "
+                f"same way: {same}; after 20 steps the states differ by at most {gap:.1g} "
+                "(relative)",
+            ))  # fmt: skip
+    return rows
+
+
 def _basin_grid(side: int):
     """The simplest walker's basin at gamma = 0.009 over theta x theta_dot just after
     heelstrike (phi and phi_dot from the section), the region around its thin band."""
@@ -866,6 +936,8 @@ def run_case(case: int, quick: bool) -> list[Row]:
         return case_design_every_model(quick)
     if case == 14:
         return case_locate_flip(quick)
+    if case == 15:
+        return case_batch_before(100 if quick else 1000, reps)
     raise ValueError(f"no benchmark case {case}; cases are {CASES}")
 
 

@@ -24,6 +24,11 @@
 
 #include "dop853_tableau.h"
 
+/* The library's entry points; everything else is hidden (-fvisibility=hidden), so that the
+   compiler may inline the model's functions into the loops instead of calling them
+   through the procedure linkage table. */
+#define VSW_EXPORT __attribute__((visibility("default")))
+
 #define VSW_WALKED 0    /* every requested step, no class decided */
 #define VSW_CONVERGED 1 /* within the tolerance of the given gait */
 #define VSW_FELL 2      /* aux: the failure's index */
@@ -43,21 +48,21 @@ typedef struct {
    so a block ends within about one step; the caller discards its results. */
 static volatile int vsw_stop_requested = 0;
 
-void vsw_batch_stop(int on)
+VSW_EXPORT void vsw_batch_stop(int on)
 {
     vsw_stop_requested = on;
 }
 
-static void vsw_call(vsw_fn fn, const double *p, const double *x, double *out)
+/* C99's fmax and fmin (a NaN argument is ignored) as comparisons: GCC calls the library
+   for them unless told that no NaN occurs, and a call costs more than the comparison. */
+static inline double vsw_fmax(double a, double b)
 {
-    const double *arg[VSW_SZ_ARG > 2 ? VSW_SZ_ARG : 2];
-    double *res[VSW_SZ_RES > 1 ? VSW_SZ_RES : 1];
-    long long iw[VSW_SZ_IW > 0 ? VSW_SZ_IW : 1];
-    double w[VSW_SZ_W > 0 ? VSW_SZ_W : 1];
-    arg[0] = p;
-    arg[1] = x;
-    res[0] = out;
-    fn(arg, res, iw, w, 0);
+    return (a >= b || b != b) ? a : b;
+}
+
+static inline double vsw_fmin(double a, double b)
+{
+    return (a <= b || b != b) ? a : b;
 }
 
 static int vsw_finite(const double *x)
@@ -90,14 +95,14 @@ static void vsw_rk_step(int phase, const double *p, const double *y, const doubl
             for (int j = 0; j < s; ++j) acc += K[j][i] * vsw_rk_a[s][j];
             dy[i] = y[i] + acc * h;
         }
-        vsw_call(vsw_flow[phase], p, dy, K[s]);
+        vsw_flow(phase, p, dy, K[s]);
     }
     for (int i = 0; i < VSW_NX; ++i) {
         double acc = 0.0;
         for (int j = 0; j < VSW_RK_STAGES; ++j) acc += K[j][i] * vsw_rk_b[j];
         y_new[i] = y[i] + h * acc;
     }
-    vsw_call(vsw_flow[phase], p, y_new, K[VSW_RK_STAGES]);
+    vsw_flow(phase, p, y_new, K[VSW_RK_STAGES]);
 }
 
 /* SciPy's error norm of DOP853 (scipy.integrate._ivp.rk.DOP853._estimate_error_norm). */
@@ -130,16 +135,16 @@ static double vsw_initial_step(int phase, const double *p, const double *y, cons
     double h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
     if (h0 > tol->phase_time_limit) h0 = tol->phase_time_limit;
     for (int i = 0; i < VSW_NX; ++i) y1[i] = y[i] + h0 * f0[i];
-    vsw_call(vsw_flow[phase], p, y1, f1);
+    vsw_flow(phase, p, y1, f1);
     for (int i = 0; i < VSW_NX; ++i) df[i] = f1[i] - f0[i];
     double d2 = vsw_rms(df, scale) / h0;
     double h1;
     if (d1 <= 1e-15 && d2 <= 1e-15)
-        h1 = fmax(1e-6, h0 * 1e-3);
+        h1 = vsw_fmax(1e-6, h0 * 1e-3);
     else
-        h1 = pow(0.01 / fmax(d1, d2), 1.0 / 8.0);
-    double h = fmin(100.0 * h0, h1);
-    return fmin(h, tol->phase_time_limit);
+        h1 = pow(0.01 / vsw_fmax(d1, d2), 1.0 / 8.0);
+    double h = vsw_fmin(100.0 * h0, h1);
+    return vsw_fmin(h, tol->phase_time_limit);
 }
 
 static int vsw_crossed(double g0, double g1, int direction)
@@ -162,7 +167,7 @@ static void vsw_dense(int phase, const double *p, const double *y_old, const dou
             for (int j = 0; j < stage; ++j) acc += K[j][i] * vsw_rk_a_extra[s][j];
             dy[i] = y_old[i] + acc * h;
         }
-        vsw_call(vsw_flow[phase], p, dy, K[stage]);
+        vsw_flow(phase, p, dy, K[stage]);
     }
     for (int i = 0; i < VSW_NX; ++i) {
         const double delta = y_new[i] - y_old[i];
@@ -210,7 +215,7 @@ static double vsw_locate(int phase, const double *p, const double F[7][VSW_NX],
         double s = b - gb * (b - a) / (gb - ga);
         if (!(s > a && s < b)) s = 0.5 * (a + b);
         vsw_interpolate(F, y_old, s / h, ys);
-        vsw_call(vsw_watch[phase], p, ys, g);
+        vsw_watch(phase, p, ys, g);
         double gs = g[k];
         if (gs == 0.0 || (gs > 0.0) == (gb > 0.0)) { /* past the crossing: the new end */
             b = s;
@@ -237,7 +242,7 @@ static int vsw_run_phase(int phase, const double *p, double *y, double *t,
     double g0[VSW_MAX_WATCH], g1[VSW_MAX_WATCH], f0[VSW_NX], y_new[VSW_NX], scale[VSW_NX];
     double K[VSW_RK_ALL][VSW_NX], F[7][VSW_NX];
     const int n_watch = vsw_n_watch[phase];
-    vsw_call(vsw_watch[phase], p, y, g0);
+    vsw_watch(phase, p, y, g0);
     for (int k = 0; k < n_watch; ++k) /* a failure already past at the start */
         if (vsw_watch_what[phase][k] < 0 && g0[k] * vsw_watch_direction[phase][k] > 0.0) {
             *t = 0.0;
@@ -245,7 +250,7 @@ static int vsw_run_phase(int phase, const double *p, double *y, double *t,
         }
     double time = 0.0;
     for (int restart = 0; restart < VSW_RESTARTS; ++restart) {
-        vsw_call(vsw_flow[phase], p, y, f0);
+        vsw_flow(phase, p, y, f0);
         double h = vsw_initial_step(phase, p, y, f0, tol);
         int rejected = 0;
         long steps = 0;
@@ -269,19 +274,19 @@ static int vsw_run_phase(int phase, const double *p, double *y, double *t,
                 if (h > tol->phase_time_limit - time) h = tol->phase_time_limit - time;
                 vsw_rk_step(phase, p, y, f0, h, K, y_new);
                 for (int i = 0; i < VSW_NX; ++i)
-                    scale[i] = tol->atol + fmax(fabs(y[i]), fabs(y_new[i])) * tol->rtol;
+                    scale[i] = tol->atol + vsw_fmax(fabs(y[i]), fabs(y_new[i])) * tol->rtol;
                 const double err = vsw_error_norm(K, h, scale);
                 if (err < 1.0) {
-                    factor = err == 0.0 ? 10.0 : fmin(10.0, 0.9 * pow(err, -1.0 / 8.0));
-                    if (rejected) factor = fmin(1.0, factor);
+                    factor = err == 0.0 ? 10.0 : vsw_fmin(10.0, 0.9 * pow(err, -1.0 / 8.0));
+                    if (rejected) factor = vsw_fmin(1.0, factor);
                     rejected = 0;
                     break;
                 }
                 /* NaN or inf as SciPy's max(0.2, ...): fmax ignores a NaN, pow(inf) is 0 */
-                h *= fmax(0.2, 0.9 * pow(err, -1.0 / 8.0));
+                h *= vsw_fmax(0.2, 0.9 * pow(err, -1.0 / 8.0));
                 rejected = 1;
             }
-            vsw_call(vsw_watch[phase], p, y_new, g1);
+            vsw_watch(phase, p, y_new, g1);
             double first = INFINITY, y_first[VSW_NX], y_k[VSW_NX];
             int hit = -1, dense = 0;
             for (int k = 0; k < n_watch; ++k) {
@@ -303,15 +308,14 @@ static int vsw_run_phase(int phase, const double *p, double *y, double *t,
                 int what = vsw_watch_what[phase][hit];
                 time += first;
                 memcpy(y, y_first, sizeof(double) * VSW_NX);
-                if (what >= 0 && vsw_when[what] != 0) {
-                    double when;
-                    vsw_call(vsw_when[what], p, y, &when);
+                double when;
+                if (what >= 0 && vsw_when(what, p, y, &when)) {
                     if (when <= 0.0) { /* not this one: go on just past it (NaN counts) */
                         double f[VSW_NX];
-                        vsw_call(vsw_flow[phase], p, y, f);
+                        vsw_flow(phase, p, y, f);
                         for (int i = 0; i < VSW_NX; ++i) y[i] += 1e-9 * f[i];
                         time += 1e-9;
-                        vsw_call(vsw_watch[phase], p, y, g0);
+                        vsw_watch(phase, p, y, g0);
                         skipped = 1;
                         continue;
                     }
@@ -351,10 +355,9 @@ static int vsw_step(const double *p, double *x, double *duration, double *length
             *failure = -1 - what;
             return VSW_FELL;
         }
-        if (vsw_event_ends_step[what] && vsw_step_length != 0)
-            vsw_call(vsw_step_length, p, y, length);
+        if (vsw_event_ends_step[what]) vsw_step_length(p, y, length);
         double y_new[VSW_NX];
-        vsw_call(vsw_reset[what], p, y, y_new);
+        vsw_reset(what, p, y, y_new);
         memcpy(y, y_new, sizeof(double) * VSW_NX);
         if (!vsw_finite(y)) return VSW_STALLED;
         if (vsw_event_ends_step[what]) {
@@ -369,14 +372,14 @@ static int vsw_step(const double *p, double *x, double *duration, double *length
 static double vsw_distance(const double *a, const double *b)
 {
     double d = 0.0;
-    for (int i = 0; i < VSW_NX; ++i) d = fmax(d, fabs(a[i] - b[i]));
+    for (int i = 0; i < VSW_NX; ++i) d = vsw_fmax(d, fabs(a[i] - b[i]));
     return d;
 }
 
 static double vsw_scale(const double *a)
 {
     double s = 1.0;
-    for (int i = 0; i < VSW_NX; ++i) s = fmax(s, fabs(a[i]));
+    for (int i = 0; i < VSW_NX; ++i) s = vsw_fmax(s, fabs(a[i]));
     return s;
 }
 
@@ -395,7 +398,7 @@ static double vsw_scale(const double *a)
    Outputs per trajectory: outcome (VSW_*), aux (failure index or period), steps walked,
    the final section state, and the last `keep` section states with their step lengths and
    durations (rows of a trajectory that walked fewer steps are NaN). */
-void vsw_batch_simulate(long long n, const double *params, long long params_stride,
+VSW_EXPORT void vsw_batch_simulate(long long n, const double *params, long long params_stride,
                         const double *states, const double *options, const double *target,
                         long long max_steps, long long max_period, long long keep, int *outcome,
                         int *aux, long long *steps, double *final, double *kept_states,
@@ -492,7 +495,7 @@ void vsw_batch_simulate(long long n, const double *params, long long params_stri
 }
 
 /* The model's sizes, for the caller's check against its descriptor. */
-void vsw_batch_sizes(long long *out)
+VSW_EXPORT void vsw_batch_sizes(long long *out)
 {
     out[0] = VSW_NP;
     out[1] = VSW_NX;
