@@ -604,14 +604,15 @@ def case_gait_rootfinder(reps: int) -> list[Row]:
     return rows
 
 
-def _near_gait_starts(key: str, count: int):
-    """The model's default parameters, its most stable gait and ``count`` section states
-    around it (1 % relative noise, fixed seed) that all complete a step."""
+def _near_gait_starts(key: str, count: int, values: dict | None = None):
+    """The model's default parameters (or these ``values``), its most stable gait and
+    ``count`` section states around it (1 % relative noise, fixed seed) that all complete
+    a step."""
     from vsw.batch import WALKED, simulator
     from vsw.models import load
 
     m = load(key)
-    params = m.parameters()
+    params = m.parameters(values)
     orbit = _most_stable_gait(m, params)
     x = np.array(list(orbit.state.values()))
     starts = x * (1 + 0.01 * np.random.default_rng(14).standard_normal((4 * count, x.size)))
@@ -694,8 +695,10 @@ def case_batch_before(count: int, reps: int, before: str = BATCH_BEFORE) -> list
     from vsw.models import load
 
     rows = []
+    # The biped at a stable gait (its defaults' gaits are unstable: the walks would fall).
+    values = {"vsw_biped": {"beta": 0.97, "theta_II": -0.2}}
     for key in ("simplest_walker", "compass_gait", "vsw_biped"):
-        _, params, starts = _near_gait_starts(key, count)
+        _, params, starts = _near_gait_starts(key, count, values.get(key))
         now, then = simulator(load(key)), _simulator_at(key, before)
         now.library()
         for tol in (1e-10, 1e-12):
@@ -724,6 +727,55 @@ def case_batch_before(count: int, reps: int, before: str = BATCH_BEFORE) -> list
                 f"same way: {same}; after 20 steps the states differ by at most {gap:.1g} "
                 "(relative)",
             ))  # fmt: skip
+    return rows + _numba_rows(count, reps)
+
+
+def _numba_rows(count: int, reps: int) -> list[Row]:
+    """Case 15's peer: the simplest walker through a hand-written numba DOP853
+    (benchmarks/peers/numba_dop853.py: the same integrator rules, the model typed by hand)
+    against the batch simulator, one thread each, walks of 20 steps; skipped without numba."""
+    try:
+        from peers.numba_dop853 import simplest_walker
+    except ImportError as exc:
+        return [Row("15", "simplest_walker against a numba DOP853", "-", None, None,
+                    ">= 1.5x faster than numba", None,
+                    note=f"not run: {exc} (pip install numba)")]  # fmt: skip
+    from vsw.batch import simulator
+    from vsw.models import load
+
+    _, params, starts = _near_gait_starts("simplest_walker", count)
+    sim = simulator(load("simplest_walker"))
+    sim.library()
+    walk_numba = simplest_walker()
+    p = np.asarray(params, dtype=float)
+    rows = []
+    for tol in (1e-10, 1e-12):
+        n = len(starts)
+        found: dict = {}
+
+        def theirs(steps=20, tol=tol, found=found, n=n):
+            final, walked = np.empty((n, 4)), np.empty(n, np.int64)
+            walk_numba(p, starts, steps, tol, tol, final, walked, np.empty(n, np.int64))
+            found["numba"] = final, walked
+
+        def ours(steps=20, tol=tol, found=found):
+            found["ours"] = sim.walk(params, starts, steps, converge_tol=0.0, period_tol=0.0,
+                                     threads=1, tolerance=tol)  # fmt: skip
+
+        ours(1), theirs(1)  # one step from each start: the two step maps
+        gap = float(np.max(np.abs(found["ours"].final - found["numba"][0])
+                           / np.maximum(1, np.abs(found["numba"][0]))))  # fmt: skip
+        t_ours, t_theirs = interleaved(ours, theirs, reps)
+        steps_ours, steps_theirs = int(found["ours"].steps.sum()), int(found["numba"][1].sum())
+        ratio = (t_ours.median / steps_ours) / (t_theirs.median / steps_theirs)
+        rows.append(Row(
+            "15", f"simplest_walker: walks of 20 steps, batch simulator (1 thread), rtol = atol "
+            f"= {tol:g}", "a hand-written numba DOP853 (benchmarks/peers), the same rules",
+            t_ours.per(steps_ours), t_theirs.per(steps_theirs), ">= 1.5x faster",
+            ratio <= 1 / 1.5,
+            note=f"per step over {n} walks ({steps_ours} and {steps_theirs} steps); one step "
+            f"from each start: the two maps differ by at most {gap:.1g} (relative)",
+        ))  # fmt: skip
     return rows
 
 

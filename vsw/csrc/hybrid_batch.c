@@ -89,17 +89,24 @@ static void vsw_rk_step(int phase, const double *p, const double *y, const doubl
 {
     double dy[VSW_NX];
     memcpy(K[0], f0, sizeof(double) * VSW_NX);
+    /* Unrolled, the coefficients are constants and the zero ones (a quarter of the table)
+       drop out: the same sums in the same order for finite stages. */
+#pragma GCC unroll 16
     for (int s = 1; s < VSW_RK_STAGES; ++s) {
         for (int i = 0; i < VSW_NX; ++i) {
             double acc = 0.0;
-            for (int j = 0; j < s; ++j) acc += K[j][i] * vsw_rk_a[s][j];
+#pragma GCC unroll 16
+            for (int j = 0; j < s; ++j)
+                if (vsw_rk_a[s][j] != 0.0) acc += K[j][i] * vsw_rk_a[s][j];
             dy[i] = y[i] + acc * h;
         }
         vsw_flow(phase, p, dy, K[s]);
     }
     for (int i = 0; i < VSW_NX; ++i) {
         double acc = 0.0;
-        for (int j = 0; j < VSW_RK_STAGES; ++j) acc += K[j][i] * vsw_rk_b[j];
+#pragma GCC unroll 16
+        for (int j = 0; j < VSW_RK_STAGES; ++j)
+            if (vsw_rk_b[j] != 0.0) acc += K[j][i] * vsw_rk_b[j];
         y_new[i] = y[i] + h * acc;
     }
     vsw_flow(phase, p, y_new, K[VSW_RK_STAGES]);
@@ -111,9 +118,10 @@ static double vsw_error_norm(double K[VSW_RK_ALL][VSW_NX], double h, const doubl
     double e5 = 0.0, e3 = 0.0;
     for (int i = 0; i < VSW_NX; ++i) {
         double a5 = 0.0, a3 = 0.0;
+#pragma GCC unroll 16
         for (int j = 0; j <= VSW_RK_STAGES; ++j) {
-            a5 += K[j][i] * vsw_rk_e5[j];
-            a3 += K[j][i] * vsw_rk_e3[j];
+            if (vsw_rk_e5[j] != 0.0) a5 += K[j][i] * vsw_rk_e5[j];
+            if (vsw_rk_e3[j] != 0.0) a3 += K[j][i] * vsw_rk_e3[j];
         }
         a5 /= scale[i];
         a3 /= scale[i];
@@ -160,11 +168,14 @@ static void vsw_dense(int phase, const double *p, const double *y_old, const dou
                       double h, double K[VSW_RK_ALL][VSW_NX], double F[7][VSW_NX])
 {
     double dy[VSW_NX];
+#pragma GCC unroll 4
     for (int s = 0; s < VSW_RK_EXTRA; ++s) {
         const int stage = VSW_RK_STAGES + 1 + s;
         for (int i = 0; i < VSW_NX; ++i) {
             double acc = 0.0;
-            for (int j = 0; j < stage; ++j) acc += K[j][i] * vsw_rk_a_extra[s][j];
+#pragma GCC unroll 16
+            for (int j = 0; j < stage; ++j)
+                if (vsw_rk_a_extra[s][j] != 0.0) acc += K[j][i] * vsw_rk_a_extra[s][j];
             dy[i] = y_old[i] + acc * h;
         }
         vsw_flow(phase, p, dy, K[stage]);
@@ -174,9 +185,12 @@ static void vsw_dense(int phase, const double *p, const double *y_old, const dou
         F[0][i] = delta;
         F[1][i] = h * K[0][i] - delta;
         F[2][i] = 2.0 * delta - h * (K[VSW_RK_STAGES][i] + K[0][i]);
+#pragma GCC unroll 4
         for (int r = 0; r < 4; ++r) {
             double acc = 0.0;
-            for (int j = 0; j < VSW_RK_ALL; ++j) acc += vsw_rk_d[r][j] * K[j][i];
+#pragma GCC unroll 16
+            for (int j = 0; j < VSW_RK_ALL; ++j)
+                if (vsw_rk_d[r][j] != 0.0) acc += vsw_rk_d[r][j] * K[j][i];
             F[3 + r][i] = h * acc;
         }
     }

@@ -1,0 +1,318 @@
+"""A hand-written numba DOP853 walker: the peer issue 27 measures the batch simulator against.
+
+What a user would write in about 200 lines instead of using vsw: SciPy's DOP853 (its
+tableau, error norm, step-size control and initial step), the events located on the
+accepted step's 7th-order dense output by the Illinois method to 1e-13 in time, the same
+rules as vsw/csrc/hybrid_batch.c (an event whose ``when`` is <= 0 is skipped 1e-9 past
+it; a failure already past zero at the phase start ends the walk), and the model's
+equations typed by hand with sin and cos. One phase per step (the simplest walker and the
+compass gait). numba is an optional benchmark peer: ``pip install numba``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+from scipy.integrate._ivp import dop853_coefficients as dop
+
+N_STAGES = dop.N_STAGES  # 12
+A = np.ascontiguousarray(dop.A[:N_STAGES, :N_STAGES])
+B = np.ascontiguousarray(dop.B)
+E3 = np.ascontiguousarray(dop.E3)
+E5 = np.ascontiguousarray(dop.E5)
+D = np.ascontiguousarray(dop.D)
+A_EXTRA = np.ascontiguousarray(dop.A[N_STAGES + 1 :])
+N_ALL = N_STAGES + 1 + A_EXTRA.shape[0]  # 16
+
+WALKED, FELL, STALLED = 0, 2, 3
+PHASE_TIME_LIMIT = 30.0
+EVENT_TIME_TOL = 1e-13
+
+
+def make_walker(flow, watch, directions: np.ndarray, what: np.ndarray, when, reset, nx: int):
+    """A jitted ``walk(params, starts, steps, rtol, atol, final, walked, outcome)``.
+
+    ``flow(p, y, out)``, ``watch(p, y, out)`` (guards), ``when(p, y)``, ``reset(p, y, out)``:
+    njit functions. ``what[k]``: 0 for the step event, -1 for a failure."""
+    n_watch = directions.size
+
+    @njit(cache=False, fastmath=False)
+    def rms(x, scale):
+        s = 0.0
+        for i in range(nx):
+            v = x[i] / scale[i]
+            s += v * v
+        return math.sqrt(s / nx)
+
+    @njit
+    def initial_step(p, y, f0, rtol, atol):
+        scale = np.empty(nx)
+        y1 = np.empty(nx)
+        f1 = np.empty(nx)
+        for i in range(nx):
+            scale[i] = atol + abs(y[i]) * rtol
+        d0, d1 = rms(y, scale), rms(f0, scale)
+        h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
+        h0 = min(h0, PHASE_TIME_LIMIT)
+        for i in range(nx):
+            y1[i] = y[i] + h0 * f0[i]
+        flow(p, y1, f1)
+        for i in range(nx):
+            f1[i] -= f0[i]
+        d2 = rms(f1, scale) / h0
+        if d1 <= 1e-15 and d2 <= 1e-15:
+            h1 = max(1e-6, h0 * 1e-3)
+        else:
+            h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
+        return min(min(100.0 * h0, h1), PHASE_TIME_LIMIT)
+
+    @njit
+    def rk_step(p, y, f0, h, K, y_new, tmp):
+        K[0, :] = f0
+        for s in range(1, N_STAGES):
+            for i in range(nx):
+                acc = 0.0
+                for j in range(s):
+                    acc += K[j, i] * A[s, j]
+                tmp[i] = y[i] + acc * h
+            flow(p, tmp, K[s])
+        for i in range(nx):
+            acc = 0.0
+            for j in range(N_STAGES):
+                acc += K[j, i] * B[j]
+            y_new[i] = y[i] + h * acc
+        flow(p, y_new, K[N_STAGES])
+
+    @njit
+    def error_norm(K, h, scale):
+        e5 = 0.0
+        e3 = 0.0
+        for i in range(nx):
+            a5 = 0.0
+            a3 = 0.0
+            for j in range(N_STAGES + 1):
+                a5 += K[j, i] * E5[j]
+                a3 += K[j, i] * E3[j]
+            a5 /= scale[i]
+            a3 /= scale[i]
+            e5 += a5 * a5
+            e3 += a3 * a3
+        if e5 == 0.0 and e3 == 0.0:
+            return 0.0
+        return abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * nx)
+
+    @njit
+    def dense(p, y_old, y_new, h, K, F, tmp):
+        for s in range(A_EXTRA.shape[0]):
+            stage = N_STAGES + 1 + s
+            for i in range(nx):
+                acc = 0.0
+                for j in range(stage):
+                    acc += K[j, i] * A_EXTRA[s, j]
+                tmp[i] = y_old[i] + acc * h
+            flow(p, tmp, K[stage])
+        for i in range(nx):
+            delta = y_new[i] - y_old[i]
+            F[0, i] = delta
+            F[1, i] = h * K[0, i] - delta
+            F[2, i] = 2.0 * delta - h * (K[N_STAGES, i] + K[0, i])
+            for r in range(4):
+                acc = 0.0
+                for j in range(N_ALL):
+                    acc += D[r, j] * K[j, i]
+                F[3 + r, i] = h * acc
+
+    @njit
+    def interpolate(F, y_old, x, out):
+        for i in range(nx):
+            y = 0.0
+            for k in range(6, -1, -1):
+                y += F[k, i]
+                y *= x if (6 - k) % 2 == 0 else 1.0 - x
+            out[i] = y + y_old[i]
+
+    @njit
+    def locate(p, F, y_old, y_new, h, k, ga, gb, y_hit, g, ys):
+        a, b = 0.0, h
+        side = 0
+        if ga == 0.0:
+            y_hit[:] = y_old
+            return 0.0
+        y_hit[:] = y_new
+        if gb == 0.0:
+            return h
+        for _ in range(200):
+            if b - a <= EVENT_TIME_TOL:
+                break
+            s = b - gb * (b - a) / (gb - ga)
+            if not (a < s < b):
+                s = 0.5 * (a + b)
+            interpolate(F, y_old, s / h, ys)
+            watch(p, ys, g)
+            gs = g[k]
+            if gs == 0.0 or (gs > 0.0) == (gb > 0.0):
+                b, gb = s, gs
+                y_hit[:] = ys
+                if gs == 0.0:
+                    break
+                if side == 1:
+                    ga *= 0.5
+                side = 1
+            else:
+                a, ga = s, gs
+                if side == -1:
+                    gb *= 0.5
+                side = -1
+        return b
+
+    @njit
+    def crossed(g0, g1, direction):
+        up = g0 <= 0.0 and g1 >= 0.0
+        down = g0 >= 0.0 and g1 <= 0.0
+        return up if direction > 0 else down
+
+    @njit
+    def run_phase(p, y, rtol, atol):
+        """The phase from y to its first counting event or failure: (watched index or -1)."""
+        g0, g1, g = np.empty(n_watch), np.empty(n_watch), np.empty(n_watch)
+        f0, y_new, scale = np.empty(nx), np.empty(nx), np.empty(nx)
+        tmp, ys, y_k, y_first = np.empty(nx), np.empty(nx), np.empty(nx), np.empty(nx)
+        K = np.empty((N_ALL, nx))
+        F = np.empty((7, nx))
+        watch(p, y, g0)
+        for k in range(n_watch):
+            if what[k] < 0 and g0[k] * directions[k] > 0.0:
+                return k
+        time = 0.0
+        for _restart in range(20):
+            flow(p, y, f0)
+            h = initial_step(p, y, f0, rtol, atol)
+            rejected = False
+            skipped = False
+            while not skipped:
+                if time >= PHASE_TIME_LIMIT:
+                    return -1
+                min_step = 10.0 * (np.nextafter(time, np.inf) - time)
+                h = max(h, min_step)
+                while True:
+                    if h < min_step:
+                        return -1
+                    h = min(h, PHASE_TIME_LIMIT - time)
+                    rk_step(p, y, f0, h, K, y_new, tmp)
+                    for i in range(nx):
+                        scale[i] = atol + max(abs(y[i]), abs(y_new[i])) * rtol
+                    err = error_norm(K, h, scale)
+                    if err < 1.0:
+                        factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 8.0))
+                        if rejected:
+                            factor = min(1.0, factor)
+                        rejected = False
+                        break
+                    h *= max(0.2, 0.9 * err ** (-1.0 / 8.0))
+                    rejected = True
+                watch(p, y_new, g1)
+                first, hit, have_dense = np.inf, -1, False
+                for k in range(n_watch):
+                    if not crossed(g0[k], g1[k], directions[k]):
+                        continue
+                    if not have_dense:
+                        dense(p, y, y_new, h, K, F, tmp)
+                        have_dense = True
+                    s = locate(p, F, y, y_new, h, k, g0[k], g1[k], y_k, g, ys)
+                    if s < first:
+                        first, hit = s, k
+                        y_first[:] = y_k
+                if hit >= 0:
+                    time += first
+                    y[:] = y_first
+                    if what[hit] >= 0 and when(p, y) <= 0.0:
+                        flow(p, y, tmp)
+                        for i in range(nx):
+                            y[i] += 1e-9 * tmp[i]
+                        time += 1e-9
+                        watch(p, y, g0)
+                        skipped = True
+                        continue
+                    return hit
+                time += h
+                y[:] = y_new
+                f0[:] = K[N_STAGES]
+                g0[:] = g1
+                h *= factor
+        return -1
+
+    @njit
+    def walk(params, starts, steps, rtol, atol, final, walked, outcome):
+        y = np.empty(nx)
+        y_next = np.empty(nx)
+        for n in range(starts.shape[0]):
+            y[:] = starts[n]
+            result = WALKED
+            count = 0
+            while count < steps:
+                hit = run_phase(params, y, rtol, atol)
+                if hit < 0:
+                    result = STALLED
+                    break
+                if what[hit] < 0:
+                    result = FELL
+                    break
+                reset(params, y, y_next)
+                y[:] = y_next
+                count += 1
+            final[n] = y
+            walked[n] = count
+            outcome[n] = result
+
+    return walk
+
+
+# --- the simplest walker (Garcia et al. 1998), typed by hand ------------------------------
+
+
+@njit
+def _simplest_flow(p, y, out):
+    gamma = p[0]
+    theta, phi, theta_dot = y[0], y[1], y[2]
+    s = math.sin(gamma + theta)
+    out[0] = y[2]
+    out[1] = y[3]
+    out[2] = s
+    out[3] = s + math.sin(phi) * (theta_dot * theta_dot - math.cos(gamma + theta))
+
+
+@njit
+def _simplest_watch(p, y, out):
+    gamma = p[0]
+    theta, phi, theta_dot = y[0], y[1], y[2]
+    c = math.cos(theta)
+    out[0] = 2.0 * theta - phi  # heelstrike: the swing foot reaches the slope (rising)
+    out[1] = theta_dot  # fell-backward
+    out[2] = c  # fell-forward
+    out[3] = 0.5 * math.cos(gamma) + 0.5 * math.cos(gamma + 2.0 * theta) - c * theta_dot**2
+
+
+@njit
+def _simplest_when(p, y):
+    return y[0]  # heelstrike counts with the stance leg past the normal (theta > 0)
+
+
+@njit
+def _simplest_reset(p, y, out):
+    theta, phi, theta_dot = y[0], y[1], y[2]
+    c = math.cos(phi)
+    out[0] = theta - phi
+    out[1] = -phi
+    out[2] = c * theta_dot
+    out[3] = c * theta_dot * (1.0 - c)
+
+
+def simplest_walker():
+    """The simplest walker's walk function (watch order: heelstrike, then the failures
+    fell-backward, fell-forward and lift-off, as the generated table's)."""
+    return make_walker(
+        _simplest_flow, _simplest_watch, np.array([1, -1, -1, -1]),
+        np.array([0, -1, -1, -1]), _simplest_when, _simplest_reset, 4,
+    )  # fmt: skip
