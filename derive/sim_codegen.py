@@ -51,6 +51,61 @@ def _direct_trig(module: types.ModuleType, ca: types.ModuleType) -> types.Simple
     return types.SimpleNamespace(**namespace)
 
 
+def _hoist_parameters(p, x, outputs: list) -> tuple:
+    """The table's functions of (p, x) as functions of (c, x), with c = constants(p): every
+    parameter-only subexpression an x-dependent operation uses, and every parameter used
+    directly, becomes one entry of c, computed once a walk instead of at every call (the
+    compass gait's flow spends about half its operations on them). The operations and
+    their order are the same, so are the results, bit for bit.
+
+    Returns (constants(p) as an SX column, the symbols c, the outputs in c and x)."""
+    import casadi as ca
+
+    table = ca.Function("table", [p, x], outputs)
+    inputs = (p, x)
+    value: list = [None] * table.sz_w()  # each work slot's expression now
+    from_x = [False] * table.sz_w()  # whether it depends on the state
+    made_by = [0] * table.sz_w()  # the instruction that computed it
+    names: dict[int, ca.SX] = {}  # instruction -> its constant's symbol
+    definitions: list = []
+    results = [[ca.SX(0)] * out.numel() for out in outputs]
+
+    def operand(slot: int):
+        if from_x[slot] or value[slot].is_constant():
+            return value[slot]
+        if made_by[slot] not in names:
+            names[made_by[slot]] = ca.SX.sym(f"c{len(definitions)}")
+            definitions.append(value[slot])
+        return names[made_by[slot]]
+
+    for k in range(table.n_instructions()):
+        op, ins, outs = (table.instruction_id(k), table.instruction_input(k),
+                         table.instruction_output(k))  # fmt: skip
+        if op == ca.OP_INPUT:
+            value[outs[0]] = inputs[ins[0]][ins[1]]
+            from_x[outs[0]] = ins[0] == 1
+        elif op == ca.OP_CONST:
+            value[outs[0]] = ca.SX(table.instruction_constant(k))
+            from_x[outs[0]] = False
+        elif op == ca.OP_OUTPUT:
+            results[outs[0]][outs[1]] = operand(ins[0])
+            continue
+        else:
+            depends = any(from_x[i] for i in ins)
+            args = [operand(i) if depends else value[i] for i in ins]
+            if len(args) == 1:
+                value[outs[0]] = ca.SX.unary(op, args[0])
+            elif len(args) == 2:
+                value[outs[0]] = ca.SX.binary(op, *args)
+            else:
+                raise ValueError(f"CasADi operation {op} with {len(args)} operands")
+            from_x[outs[0]] = depends
+        made_by[outs[0]] = k
+    symbols = ca.vertcat(*names.values()) if names else ca.SX(0, 1)  # as defined
+    constants = ca.vertcat(*definitions) if definitions else ca.SX(0, 1)
+    return constants, symbols, [ca.vertcat(*r) for r in results]
+
+
 def _without_null_checks(code: str) -> str:
     """CasADi's C with its tests for absent arguments and results removed: the table's
     callers (VSW_CALL) always pass the parameters, the state and the output. The tests
@@ -76,11 +131,10 @@ def simulator_c_source(model: str, source: str, descriptor: dict, module: types.
     x = ca.SX.sym("x", len(state))
     args = [*ca.vertsplit(p), *ca.vertsplit(x)]
     prefix = f"vsw_{model}_sim_"
-    functions: list = []
+    pending: list[tuple[str, ca.SX]] = []
 
     def function(name: str, out) -> str:
-        out = ca.vertcat(*out) if isinstance(out, (tuple, list)) else out
-        functions.append(ca.Function(prefix + name, [p, x], [out], ["p", "x"], [name]))
+        pending.append((name, ca.vertcat(*out) if isinstance(out, (tuple, list)) else out))
         return prefix + name
 
     phase_index = {ph["name"]: k for k, ph in enumerate(descriptor["phases"])}
@@ -127,12 +181,18 @@ def simulator_c_source(model: str, source: str, descriptor: dict, module: types.
         step_length = function("step_length", module.step_length_of_state(*args))
     step_event = next(e for e in descriptor["events"] if e["ends_step"])
 
+    constants, c, hoisted = _hoist_parameters(p, x, [out for _, out in pending])
+    functions = [ca.Function(prefix + "constants", [p], [constants], ["p"], ["c"])]
+    functions += [
+        ca.Function(prefix + name, [c, x], [out], ["c", "x"], [name])
+        for (name, _), out in zip(pending, hoisted)
+    ]
     casadi_code, _ = casadi_c(f"{model}_sim", functions, prefix, with_header=False)
     casadi_code = _without_null_checks(casadi_code)
 
     def cases(names: list[str], returns: str = "") -> str:
         return "\n".join(
-            f"    case {k}:\n        VSW_CALL({name}, p, x, out);\n        return{returns};"
+            f"    case {k}:\n        VSW_CALL({name}, c, x, out);\n        return{returns};"
             for k, name in enumerate(names)
             if name != "0"
         )
@@ -156,6 +216,8 @@ def simulator_c_source(model: str, source: str, descriptor: dict, module: types.
         failures=", ".join(failures) or "none",
         casadi_code=casadi_code.rstrip("\n"),
         n_params=len(params),
+        n_constants=constants.numel(),
+        constants=prefix + "constants",
         n_state=len(state),
         n_phases=len(descriptor["phases"]),
         n_events=len(descriptor["events"]),
@@ -176,8 +238,8 @@ def simulator_c_source(model: str, source: str, descriptor: dict, module: types.
         targets=_c_list(targets),
         ends_step=_c_list(ends_step),
         step_length_body=(
-            f"    VSW_CALL({step_length}, p, x, out);\n    return 1;"
+            f"    VSW_CALL({step_length}, c, x, out);\n    return 1;"
             if step_length != "0"
-            else "    (void)p;\n    (void)x;\n    (void)out;\n    return 0;"
+            else "    (void)c;\n    (void)x;\n    (void)out;\n    return 0;"
         ),
     )

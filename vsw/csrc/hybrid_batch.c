@@ -422,7 +422,11 @@ VSW_EXPORT void vsw_batch_simulate(long long n, const double *params, long long 
     const double conv_tol = options[3], period_tol = options[4];
     if (max_period > VSW_MAX_PERIOD) max_period = VSW_MAX_PERIOD;
     for (long long i = 0; i < n; ++i) {
-        const double *p = params + i * params_stride;
+        /* The model's functions take its constants, computed here from the parameters
+           once a walk (the table's vsw_constants); `p` below is that vector. */
+        double constants[VSW_NC > 0 ? VSW_NC : 1];
+        vsw_constants(params + i * params_stride, constants);
+        const double *p = constants;
         double x[VSW_NX], history[VSW_MAX_PERIOD][VSW_NX];
         memcpy(x, states + i * VSW_NX, sizeof(double) * VSW_NX);
         int result = VSW_WALKED, extra = 0;

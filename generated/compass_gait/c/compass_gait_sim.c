@@ -4,8 +4,9 @@
  * sympy 1.14.0
  * casadi 3.8.2
  * The hybrid dynamics of the model for the batch simulator (vsw/csrc/hybrid_batch.c, built
- * by vsw/batch.py): every function takes (p, x), the parameters (m_h, m, a, b, gamma, g) and the
- * state (theta, psi, theta_dot, psi_dot), in CasADi's calling convention.
+ * by vsw/batch.py): every function takes (c, x), the model's constants (what the functions
+ * use of the parameters m_h, m, a, b, gamma, g: c = constants(p), once a walk) and the state
+ * (theta, psi, theta_dot, psi_dot), in CasADi's calling convention.
  * Phases: stance.
  * Events: heelstrike (stance -> stance, ends the step).
  * Failures: fell-backward, fell-forward, lift-off.
@@ -49,9 +50,11 @@ extern "C" {
 #define casadi_f2 CASADI_PREFIX(f2)
 #define casadi_f3 CASADI_PREFIX(f3)
 #define casadi_f4 CASADI_PREFIX(f4)
+#define casadi_f5 CASADI_PREFIX(f5)
 #define casadi_s0 CASADI_PREFIX(s0)
 #define casadi_s1 CASADI_PREFIX(s1)
 #define casadi_s2 CASADI_PREFIX(s2)
+#define casadi_s3 CASADI_PREFIX(s3)
 #define casadi_sq CASADI_PREFIX(sq)
 
 /* Symbol visibility in DLLs */
@@ -81,175 +84,483 @@ CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim__casadi_int_size(void) { return (i
 CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim__casadi_real_size(void) { return (int) sizeof(casadi_real); }
 
 static const casadi_int casadi_s0[3] = {6, 1, 1};
-static const casadi_int casadi_s1[3] = {4, 1, 1};
-static const casadi_int casadi_s2[3] = {1, 1, 1};
+static const casadi_int casadi_s1[3] = {91, 1, 1};
+static const casadi_int casadi_s2[3] = {4, 1, 1};
+static const casadi_int casadi_s3[3] = {1, 1, 1};
 
-/* vsw_compass_gait_sim_stance_flow:(p[6],x[4])->(stance_flow[4]) */
+/* vsw_compass_gait_sim_constants:(p[6])->(c[91]) */
 static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
-  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
-  a00=arg[1][2];
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31;
+  a00=arg[0][4];
   res[0][0]=a00;
-  a01=arg[1][3];
-  res[0][1]=a01;
-  a02=arg[0][1];
-  a03=arg[0][0];
-  a03=(a02*a03);
+  a01=arg[0][1];
+  a02=arg[0][0];
+  a03=(a01*a02);
   a04=arg[0][3];
   a05=casadi_sq(a04);
   a05=(a05*a04);
   a06=arg[0][5];
   a07=(a05*a06);
   a08=(a03*a07);
-  a09=arg[0][4];
-  a10=arg[1][0];
-  a11=(a09+a10);
-  a11=sin(a11);
-  a12=(a08*a11);
-  a02=casadi_sq(a02);
-  a07=(a07*a02);
-  a13=(a07*a11);
-  a14=(a12+a13);
-  a01=casadi_sq(a01);
+  res[0][1]=a08;
+  a08=casadi_sq(a01);
+  a07=(a07*a08);
+  res[0][2]=a07;
+  a07=casadi_sq(a04);
+  a07=(a07*a04);
+  a07=(a07*a04);
+  a09=(a07*a08);
+  res[0][3]=a09;
+  a10=casadi_sq(a04);
+  a11=arg[0][2];
+  a12=(a10*a11);
+  a13=(a12*a06);
+  res[0][4]=a13;
+  res[0][5]=a03;
+  a13=(2.*a08);
+  a14=(a13*a06);
+  res[0][6]=a14;
+  res[0][7]=a12;
+  a12=casadi_sq(a11);
+  a10=(a12*a10);
+  a14=(a10*a08);
+  res[0][8]=a14;
+  res[0][9]=a08;
+  a05=(a05*a11);
+  a08=(a08*a05);
+  res[0][10]=a08;
+  a08=(a05*a13);
+  res[0][11]=a08;
+  a14=(a03*a10);
+  a07=(a07*a03);
+  a15=(a14+a07);
+  a15=(a15+a09);
+  a15=(a15+a08);
+  a10=(a10*a13);
+  a15=(a15+a10);
+  a10=(2.*a03);
+  a08=(a05*a10);
+  a15=(a15+a08);
+  res[0][12]=a15;
+  res[0][13]=a04;
+  a15=casadi_sq(a11);
+  a15=(a15*a11);
+  res[0][14]=a15;
+  res[0][15]=a14;
+  res[0][16]=a07;
+  res[0][17]=a13;
+  res[0][18]=a10;
+  a12=(a12*a04);
+  res[0][19]=a12;
+  a03=(a03*a12);
+  a03=(a03*a06);
+  res[0][20]=a03;
+  res[0][21]=a05;
+  a05=casadi_sq(a04);
+  a05=(a05*a04);
+  a05=(a05*a04);
+  a03=casadi_sq(a01);
+  a03=(a03*a01);
+  a12=(a05*a03);
+  a10=(a12*a06);
+  res[0][22]=a10;
+  a00=cos(a00);
+  a00=(a00*a06);
+  a10=(2.*a12);
+  a13=(a00*a10);
+  a07=4.;
+  a14=(a07*a03);
   a15=casadi_sq(a04);
   a15=(a15*a04);
-  a15=(a15*a04);
-  a16=(a15*a02);
-  a17=arg[1][1];
-  a10=(a17-a10);
-  a18=sin(a10);
-  a19=(a16*a18);
-  a20=(a01*a19);
-  a14=(a14-a20);
-  a21=casadi_sq(a04);
-  a22=arg[0][2];
-  a23=(a21*a22);
-  a24=(a23*a06);
-  a25=(a24*a11);
-  a26=(a03*a25);
-  a14=(a14+a26);
-  a26=(2.*a02);
-  a27=(a26*a06);
-  a28=(a27*a11);
-  a29=(a23*a28);
-  a14=(a14+a29);
+  a08=(a15*a11);
+  a09=(a00*a08);
+  a16=(a14*a09);
+  a17=(a13+a16);
+  a18=casadi_sq(a02);
+  a18=(a01*a18);
+  a19=(a00*a18);
+  a20=(a05*a19);
+  a17=(a17+a20);
+  a20=casadi_sq(a04);
+  a21=casadi_sq(a11);
+  a22=(a20*a21);
+  a23=(a22*a19);
+  a17=(a17+a23);
+  a23=(a22*a14);
+  a24=(a00*a23);
+  a17=(a17+a24);
+  a24=casadi_sq(a01);
+  a25=(a24*a02);
+  a26=(a22*a25);
+  a27=(a07*a26);
+  a28=(a00*a27);
+  a17=(a17+a28);
+  a28=(2.*a08);
+  a19=(a19*a28);
+  a17=(a17+a19);
+  a19=6.;
+  a29=(a19*a25);
+  a09=(a09*a29);
+  a17=(a17+a09);
+  res[0][23]=a17;
+  a17=casadi_sq(a04);
+  a17=casadi_sq(a17);
+  a17=(a04*a17);
+  a09=(a17*a25);
+  res[0][24]=a09;
+  a10=(a10*a11);
+  res[0][25]=a10;
+  a10=(a05*a24);
+  a09=(a10*a02);
+  a30=(a09*a11);
+  a31=(2.*a30);
+  res[0][26]=a31;
+  a15=(a15*a21);
+  res[0][27]=a15;
+  res[0][28]=a25;
+  res[0][29]=a06;
+  res[0][30]=a09;
+  a09=3.;
+  a06=(a09*a03);
+  a06=(a06*a08);
+  res[0][31]=a06;
+  a06=(2.*a24);
+  a25=(a08*a06);
+  a21=(a25*a02);
+  res[0][32]=a21;
+  res[0][33]=a26;
+  a26=(2.*a03);
+  a21=(a22*a26);
+  res[0][34]=a21;
+  a12=(a12*a11);
+  a21=(a09*a12);
+  res[0][35]=a21;
+  res[0][36]=a26;
+  res[0][37]=a18;
+  res[0][38]=a05;
+  res[0][39]=a22;
+  res[0][40]=a13;
+  res[0][41]=a16;
+  res[0][42]=a10;
+  a16=(a00*a02);
+  res[0][43]=a16;
+  res[0][44]=a25;
+  res[0][45]=a24;
+  res[0][46]=a08;
+  res[0][47]=a14;
+  res[0][48]=a17;
+  res[0][49]=a29;
+  res[0][50]=a23;
+  res[0][51]=a27;
+  res[0][52]=a28;
+  res[0][53]=a12;
+  res[0][54]=a30;
+  a30=casadi_sq(a11);
+  a30=(a30*a11);
+  a20=(a20*a30);
+  res[0][55]=a20;
+  a30=(a03*a15);
+  res[0][56]=a30;
+  res[0][57]=a03;
+  a19=(a19*a15);
+  res[0][58]=a19;
+  a20=(a09*a20);
+  res[0][59]=a20;
+  a16=(a09*a16);
+  a16=(a16*a10);
+  res[0][60]=a16;
+  a12=(a07*a12);
+  res[0][61]=a12;
+  res[0][62]=a11;
+  res[0][63]=a00;
+  a10=(a10+a25);
+  res[0][64]=a10;
+  a10=(a01*a02);
+  a05=(a05*a10);
+  res[0][65]=a05;
+  a05=(a10*a22);
+  res[0][66]=a05;
+  a10=(a10*a28);
+  res[0][67]=a10;
+  a22=(a22*a06);
+  res[0][68]=a22;
+  a22=(a01*a02);
+  a06=casadi_sq(a04);
+  a06=(a06*a04);
+  a10=(a06*a11);
+  a28=(a22*a10);
+  a05=(2.*a28);
+  res[0][69]=a05;
+  a25=casadi_sq(a01);
+  a00=(a25*a10);
+  res[0][70]=a00;
+  a00=casadi_sq(a11);
+  a12=casadi_sq(a04);
+  a16=(a00*a12);
+  a20=(a22*a16);
+  res[0][71]=a20;
+  a19=(a16*a25);
+  res[0][72]=a19;
+  a19=casadi_sq(a04);
+  a19=(a19*a04);
+  a19=(a19*a04);
+  a15=(a19*a22);
+  res[0][73]=a15;
+  a05=(a05+a20);
+  a03=(a19*a25);
+  a05=(a05+a03);
+  a30=(2.*a25);
+  a10=(a30*a10);
+  a05=(a05+a10);
+  a05=(a05+a15);
+  a16=(a16*a30);
+  a05=(a05+a16);
+  res[0][74]=a05;
+  res[0][75]=a03;
+  res[0][76]=a10;
+  res[0][77]=a19;
+  res[0][78]=a01;
+  res[0][79]=a02;
+  a02=casadi_sq(a11);
+  a02=(a02*a11);
+  res[0][80]=a02;
+  res[0][81]=a22;
+  res[0][82]=a28;
+  res[0][83]=a30;
+  res[0][84]=a16;
+  a20=(2.*a20);
+  res[0][85]=a20;
+  res[0][86]=a25;
+  res[0][87]=a06;
+  a07=(a07*a00);
+  a07=(a07*a12);
+  res[0][88]=a07;
+  a09=(a09*a00);
+  a09=(a09*a12);
+  res[0][89]=a09;
+  a11=(a11+a04);
+  res[0][90]=a11;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_constants(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f0(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_constants_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_compass_gait_sim_constants_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_compass_gait_sim_constants_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_compass_gait_sim_constants_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_compass_gait_sim_constants_n_in(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_compass_gait_sim_constants_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_compass_gait_sim_constants_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_compass_gait_sim_constants_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_compass_gait_sim_constants_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_compass_gait_sim_constants_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_compass_gait_sim_constants_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_constants_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 1;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_constants_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 1*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_compass_gait_sim_stance_flow:(c[91],x[4])->(stance_flow[4]) */
+static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26;
+  a00=arg[1][2];
+  res[0][0]=a00;
+  a01=arg[1][3];
+  res[0][1]=a01;
+  a02=arg[0][1];
+  a03=arg[0][0];
+  a04=arg[1][0];
+  a05=(a03+a04);
+  a05=sin(a05);
+  a06=(a02*a05);
+  a07=arg[0][2];
+  a08=(a07*a05);
+  a09=(a06+a08);
+  a01=casadi_sq(a01);
+  a10=arg[0][3];
+  a11=arg[1][1];
+  a04=(a11-a04);
+  a12=sin(a04);
+  a13=(a10*a12);
+  a14=(a01*a13);
+  a09=(a09-a14);
+  a15=arg[0][5];
+  a16=arg[0][4];
+  a17=(a16*a05);
+  a18=(a15*a17);
+  a09=(a09+a18);
+  a18=arg[0][7];
+  a19=arg[0][6];
+  a20=(a19*a05);
+  a21=(a18*a20);
+  a09=(a09+a21);
   a00=casadi_sq(a00);
-  a19=(a19*a00);
-  a10=cos(a10);
-  a29=(a19*a10);
-  a14=(a14+a29);
-  a29=casadi_sq(a22);
-  a21=(a29*a21);
-  a30=(a21*a02);
-  a00=(a00*a18);
-  a31=(a30*a00);
-  a32=(a31*a10);
-  a14=(a14+a32);
-  a09=(a09+a17);
-  a09=sin(a09);
-  a07=(a07*a09);
-  a17=(a07*a10);
-  a14=(a14-a17);
-  a24=(a24*a09);
-  a17=(a02*a10);
-  a32=(a24*a17);
-  a14=(a14-a32);
-  a01=(a01*a18);
-  a05=(a05*a22);
-  a02=(a02*a05);
-  a18=(a01*a02);
-  a14=(a14-a18);
-  a18=(a05*a26);
-  a32=(a00*a18);
-  a32=(a32*a10);
-  a14=(a14+a32);
-  a32=(a03*a21);
-  a15=(a15*a03);
-  a33=(a32+a15);
-  a33=(a33+a16);
-  a33=(a33+a18);
-  a21=(a21*a26);
-  a33=(a33+a21);
-  a21=(2.*a03);
-  a34=(a05*a21);
-  a33=(a33+a34);
-  a34=casadi_sq(a10);
-  a35=(a34*a30);
-  a33=(a33-a35);
-  a16=(a34*a16);
-  a33=(a33-a16);
-  a34=(a34*a18);
-  a33=(a33-a34);
-  a14=(a14/a33);
-  res[0][2]=a14;
-  a19=(a19-a07);
+  a13=(a13*a00);
+  a04=cos(a04);
+  a21=(a13*a04);
+  a09=(a09+a21);
+  a21=arg[0][8];
+  a00=(a00*a12);
+  a22=(a21*a00);
+  a23=(a22*a04);
+  a09=(a09+a23);
+  a03=(a03+a11);
+  a03=sin(a03);
+  a07=(a07*a03);
+  a11=(a07*a04);
+  a09=(a09-a11);
+  a16=(a16*a03);
+  a11=arg[0][9];
+  a11=(a11*a04);
+  a23=(a16*a11);
+  a09=(a09-a23);
+  a01=(a01*a12);
+  a12=arg[0][10];
+  a23=(a01*a12);
+  a09=(a09-a23);
+  a23=arg[0][11];
+  a24=(a00*a23);
+  a24=(a24*a04);
+  a09=(a09+a24);
+  a24=arg[0][12];
+  a25=casadi_sq(a04);
+  a26=(a25*a21);
+  a24=(a24-a26);
+  a10=(a25*a10);
+  a24=(a24-a10);
+  a25=(a25*a23);
+  a24=(a24-a25);
+  a09=(a09/a24);
+  res[0][2]=a09;
+  a13=(a13-a07);
   a07=4.;
-  a07=(a07*a31);
-  a19=(a19+a07);
-  a07=(a00*a04);
-  a31=casadi_sq(a22);
-  a31=(a31*a22);
-  a07=(a07*a31);
-  a31=(a03*a07);
-  a19=(a19+a31);
-  a31=3.;
-  a22=(a31*a00);
-  a32=(a32*a22);
-  a19=(a19+a32);
-  a12=(a12*a10);
-  a19=(a19+a12);
-  a15=(a15*a00);
-  a19=(a19+a15);
-  a13=(a13*a10);
-  a19=(a19+a13);
-  a02=(a02*a22);
-  a19=(a19+a02);
-  a07=(a07*a26);
-  a19=(a19+a07);
-  a01=(a01*a10);
-  a30=(a30*a01);
-  a19=(a19-a30);
-  a08=(a08*a09);
-  a19=(a19-a08);
-  a27=(a27*a09);
-  a23=(a23*a27);
-  a19=(a19-a23);
-  a20=(a20*a10);
-  a19=(a19-a20);
-  a24=(a24*a21);
-  a19=(a19-a24);
-  a29=(a29*a04);
-  a27=(a29*a27);
-  a19=(a19-a27);
-  a27=(a03*a29);
-  a27=(a27*a06);
-  a09=(a27*a09);
-  a19=(a19-a09);
-  a01=(a01*a18);
-  a19=(a19-a01);
-  a31=(a31*a25);
-  a31=(a31*a17);
-  a19=(a19+a31);
-  a03=(a03*a22);
-  a03=(a03*a05);
-  a19=(a19+a03);
-  a25=(a25*a21);
-  a25=(a25*a10);
-  a19=(a19+a25);
-  a28=(a28*a29);
-  a28=(a28*a10);
-  a19=(a19+a28);
-  a27=(a27*a10);
-  a27=(a27*a11);
-  a19=(a19+a27);
-  a19=(a19/a33);
-  res[0][3]=a19;
+  a07=(a07*a22);
+  a13=(a13+a07);
+  a07=arg[0][13];
+  a07=(a00*a07);
+  a22=arg[0][14];
+  a07=(a07*a22);
+  a22=(a15*a07);
+  a13=(a13+a22);
+  a22=arg[0][15];
+  a09=3.;
+  a25=(a09*a00);
+  a22=(a22*a25);
+  a13=(a13+a22);
+  a06=(a06*a04);
+  a13=(a13+a06);
+  a06=arg[0][16];
+  a06=(a06*a00);
+  a13=(a13+a06);
+  a08=(a08*a04);
+  a13=(a13+a08);
+  a12=(a12*a25);
+  a13=(a13+a12);
+  a12=arg[0][17];
+  a07=(a07*a12);
+  a13=(a13+a07);
+  a01=(a01*a04);
+  a21=(a21*a01);
+  a13=(a13-a21);
+  a02=(a02*a03);
+  a13=(a13-a02);
+  a19=(a19*a03);
+  a18=(a18*a19);
+  a13=(a13-a18);
+  a14=(a14*a04);
+  a13=(a13-a14);
+  a14=arg[0][18];
+  a16=(a16*a14);
+  a13=(a13-a16);
+  a16=arg[0][19];
+  a19=(a16*a19);
+  a13=(a13-a19);
+  a19=arg[0][20];
+  a03=(a19*a03);
+  a13=(a13-a03);
+  a01=(a01*a23);
+  a13=(a13-a01);
+  a09=(a09*a17);
+  a09=(a09*a11);
+  a13=(a13+a09);
+  a15=(a15*a25);
+  a25=arg[0][21];
+  a15=(a15*a25);
+  a13=(a13+a15);
+  a17=(a17*a14);
+  a17=(a17*a04);
+  a13=(a13+a17);
+  a20=(a20*a16);
+  a20=(a20*a04);
+  a13=(a13+a20);
+  a19=(a19*a04);
+  a19=(a19*a05);
+  a13=(a13+a19);
+  a13=(a13/a24);
+  res[0][3]=a13;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_stance_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f0(arg, res, iw, w, mem);
+  return casadi_f1(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_stance_flow_checkout(void) {
@@ -277,7 +588,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_compass_gait_sim_stance_flow_default_in(cas
 
 CASADI_SYMBOL_EXPORT const char* vsw_compass_gait_sim_stance_flow_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -292,15 +603,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_compass_gait_sim_stance_flow_name_out(casad
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_compass_gait_sim_stance_flow_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_compass_gait_sim_stance_flow_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -321,13 +632,11 @@ CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_stance_flow_work_bytes(casadi_int 
   return 0;
 }
 
-/* vsw_compass_gait_sim_stance_watch:(p[6],x[4])->(stance_watch[4]) */
-static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_compass_gait_sim_stance_watch:(c[91],x[4])->(stance_watch[4]) */
+static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
-  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
-  casadi_real a36, a37, a38, a39, a40, a41, a42, a43, a44, a45, a46, a47;
-  casadi_real a48, a49, a50, a51, a52, a53, a54, a55, a56;
+  casadi_real a24, a25, a26, a27, a28, a29, a30;
   a00=arg[1][1];
   a01=2.;
   a02=(a00/a01);
@@ -340,285 +649,248 @@ static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   res[0][1]=a02;
   a01=cos(a03);
   res[0][2]=a01;
-  a01=arg[0][4];
-  a04=cos(a01);
-  a05=arg[0][5];
-  a04=(a04*a05);
-  a06=arg[0][3];
-  a07=casadi_sq(a06);
-  a07=(a07*a06);
-  a07=(a07*a06);
-  a08=arg[0][1];
-  a09=casadi_sq(a08);
-  a09=(a09*a08);
-  a10=(a07*a09);
-  a11=(2.*a10);
-  a12=(a04*a11);
-  a13=4.;
-  a14=(a13*a09);
-  a15=casadi_sq(a06);
-  a15=(a15*a06);
-  a16=arg[0][2];
-  a17=(a15*a16);
-  a18=(a04*a17);
-  a19=(a14*a18);
-  a20=(a12+a19);
-  a21=arg[0][0];
-  a22=casadi_sq(a21);
-  a22=(a08*a22);
-  a23=(a04*a22);
-  a24=(a07*a23);
-  a20=(a20+a24);
-  a24=casadi_sq(a06);
-  a25=casadi_sq(a16);
-  a26=(a24*a25);
-  a27=(a26*a23);
-  a20=(a20+a27);
-  a27=(a26*a14);
-  a28=(a04*a27);
-  a20=(a20+a28);
-  a28=casadi_sq(a08);
-  a29=(a28*a21);
-  a30=(a26*a29);
-  a31=(a13*a30);
-  a32=(a04*a31);
-  a20=(a20+a32);
-  a32=(2.*a17);
-  a23=(a23*a32);
-  a20=(a20+a23);
-  a23=6.;
-  a33=(a23*a29);
-  a18=(a18*a33);
-  a20=(a20+a18);
-  a18=(a10*a05);
-  a34=sin(a00);
-  a35=(a18*a34);
-  a36=(a00-a03);
-  a37=cos(a36);
-  a38=(a01+a03);
-  a38=sin(a38);
-  a39=(a37*a38);
-  a40=(a35*a39);
-  a20=(a20+a40);
-  a40=sin(a03);
-  a18=(a18*a40);
-  a01=(a01+a00);
-  a01=sin(a01);
-  a41=(a37*a01);
-  a42=(a18*a41);
-  a20=(a20+a42);
-  a42=arg[1][3];
-  a42=casadi_sq(a42);
+  a01=arg[0][23];
+  a04=arg[0][22];
+  a05=sin(a00);
+  a06=(a04*a05);
+  a07=(a00-a03);
+  a08=cos(a07);
+  a09=arg[0][0];
+  a10=(a09+a03);
+  a10=sin(a10);
+  a11=(a08*a10);
+  a12=(a06*a11);
+  a01=(a01+a12);
+  a12=sin(a03);
+  a04=(a04*a12);
+  a09=(a09+a00);
+  a09=sin(a09);
+  a13=(a08*a09);
+  a14=(a04*a13);
+  a01=(a01+a14);
+  a14=arg[1][3];
+  a14=casadi_sq(a14);
   a00=cos(a00);
-  a43=(a42*a00);
-  a44=casadi_sq(a06);
-  a44=casadi_sq(a44);
-  a06=(a06*a44);
-  a44=(a06*a29);
-  a45=(a43*a44);
-  a20=(a20+a45);
-  a11=(a11*a16);
-  a45=(a43*a11);
-  a20=(a20+a45);
-  a45=(a07*a28);
-  a46=(a45*a21);
-  a47=(a46*a16);
-  a48=(2.*a47);
-  a49=(a43*a48);
-  a20=(a20+a49);
-  a15=(a15*a25);
-  a43=(a43*a15);
-  a25=(a29*a43);
-  a20=(a20+a25);
-  a36=sin(a36);
-  a25=(a42*a36);
-  a25=(a25*a40);
-  a49=(a25*a15);
-  a50=(a29*a49);
-  a20=(a20+a50);
-  a50=(a44*a25);
-  a20=(a20+a50);
-  a50=(a34*a05);
-  a39=(a39*a50);
-  a51=(a46*a39);
-  a20=(a20+a51);
-  a40=(a40*a05);
-  a41=(a41*a40);
-  a05=(a46*a41);
-  a20=(a20+a05);
-  a05=3.;
-  a51=(a05*a09);
-  a51=(a51*a17);
-  a52=(a39*a51);
-  a20=(a20+a52);
-  a52=(2.*a28);
-  a53=(a17*a52);
-  a54=(a53*a21);
-  a55=(a39*a54);
-  a20=(a20+a55);
-  a55=(a39*a30);
-  a20=(a20+a55);
-  a55=(2.*a09);
-  a56=(a26*a55);
-  a39=(a39*a56);
-  a20=(a20+a39);
-  a51=(a41*a51);
-  a20=(a20+a51);
-  a51=(a41*a54);
-  a20=(a20+a51);
-  a30=(a41*a30);
-  a20=(a20+a30);
-  a41=(a41*a56);
-  a20=(a20+a41);
-  a48=(a25*a48);
-  a20=(a20+a48);
-  a10=(a10*a16);
-  a48=(a05*a10);
-  a25=(a25*a48);
-  a20=(a20+a25);
+  a15=(a14*a00);
+  a16=arg[0][24];
+  a17=(a15*a16);
+  a01=(a01+a17);
+  a17=arg[0][25];
+  a18=(a15*a17);
+  a01=(a01+a18);
+  a18=arg[0][26];
+  a19=(a15*a18);
+  a01=(a01+a19);
+  a19=arg[0][28];
+  a20=arg[0][27];
+  a15=(a15*a20);
+  a21=(a19*a15);
+  a01=(a01+a21);
+  a07=sin(a07);
+  a21=(a14*a07);
+  a21=(a21*a12);
+  a22=(a21*a20);
+  a23=(a19*a22);
+  a01=(a01+a23);
+  a23=(a16*a21);
+  a01=(a01+a23);
+  a23=arg[0][30];
+  a24=arg[0][29];
+  a25=(a05*a24);
+  a11=(a11*a25);
+  a26=(a23*a11);
+  a01=(a01+a26);
+  a12=(a12*a24);
+  a13=(a13*a12);
+  a24=(a23*a13);
+  a01=(a01+a24);
+  a24=arg[0][31];
+  a26=(a11*a24);
+  a01=(a01+a26);
+  a26=arg[0][32];
+  a27=(a11*a26);
+  a01=(a01+a27);
+  a27=arg[0][33];
+  a28=(a11*a27);
+  a01=(a01+a28);
+  a28=arg[0][34];
+  a11=(a11*a28);
+  a01=(a01+a11);
+  a24=(a13*a24);
+  a01=(a01+a24);
+  a24=(a13*a26);
+  a01=(a01+a24);
+  a27=(a13*a27);
+  a01=(a01+a27);
+  a13=(a13*a28);
+  a01=(a01+a13);
+  a18=(a21*a18);
+  a01=(a01+a18);
+  a18=arg[0][35];
+  a21=(a21*a18);
+  a01=(a01+a21);
   a02=casadi_sq(a02);
-  a34=(a02*a34);
-  a34=(a34*a36);
-  a48=(a48*a34);
-  a20=(a20+a48);
-  a43=(a55*a43);
-  a20=(a20+a43);
-  a49=(a55*a49);
-  a20=(a20+a49);
-  a40=(a40*a38);
-  a49=(a22*a40);
-  a43=(a07*a49);
-  a20=(a20-a43);
-  a43=(a26*a49);
-  a20=(a20-a43);
-  a43=casadi_sq(a37);
-  a12=(a43*a12);
-  a20=(a20-a12);
-  a19=(a43*a19);
-  a20=(a20-a19);
-  a19=(a43*a45);
-  a12=(a04*a21);
-  a48=(a19*a12);
-  a20=(a20-a48);
-  a48=(a43*a53);
-  a36=(a48*a12);
-  a20=(a20-a36);
-  a43=(a26*a43);
-  a28=(a43*a28);
-  a36=(a28*a12);
-  a20=(a20-a36);
-  a17=(a40*a17);
-  a36=(a14*a17);
-  a20=(a20-a36);
-  a35=(a35*a01);
-  a20=(a20-a35);
-  a18=(a18*a38);
-  a20=(a20-a18);
+  a05=(a02*a05);
+  a05=(a05*a07);
+  a18=(a18*a05);
+  a01=(a01+a18);
+  a18=arg[0][36];
+  a15=(a18*a15);
+  a01=(a01+a15);
+  a22=(a18*a22);
+  a01=(a01+a22);
+  a22=arg[0][38];
+  a15=arg[0][37];
+  a12=(a12*a10);
+  a07=(a15*a12);
+  a21=(a22*a07);
+  a01=(a01-a21);
+  a21=arg[0][39];
+  a13=(a21*a07);
+  a01=(a01-a13);
+  a13=casadi_sq(a08);
+  a28=arg[0][40];
+  a28=(a13*a28);
+  a01=(a01-a28);
+  a28=arg[0][41];
+  a28=(a13*a28);
+  a01=(a01-a28);
+  a28=arg[0][42];
+  a28=(a13*a28);
+  a27=arg[0][43];
+  a24=(a28*a27);
+  a01=(a01-a24);
+  a24=arg[0][44];
+  a24=(a13*a24);
+  a11=(a24*a27);
+  a01=(a01-a11);
+  a13=(a21*a13);
+  a11=arg[0][45];
+  a11=(a13*a11);
+  a27=(a11*a27);
+  a01=(a01-a27);
+  a27=arg[0][47];
+  a29=arg[0][46];
+  a29=(a12*a29);
+  a30=(a27*a29);
+  a01=(a01-a30);
+  a06=(a06*a09);
+  a01=(a01-a06);
+  a04=(a04*a10);
+  a01=(a01-a04);
+  a04=arg[0][48];
   a03=cos(a03);
-  a18=(a02*a03);
-  a22=(a22*a18);
-  a06=(a06*a22);
-  a20=(a20-a06);
-  a50=(a50*a01);
-  a01=(a26*a50);
-  a06=(a29*a01);
-  a20=(a20-a06);
-  a44=(a44*a18);
-  a20=(a20-a44);
-  a33=(a33*a17);
-  a20=(a20-a33);
-  a33=(a50*a46);
-  a20=(a20-a33);
-  a54=(a50*a54);
-  a20=(a20-a54);
-  a27=(a40*a27);
-  a20=(a20-a27);
-  a31=(a40*a31);
-  a20=(a20-a31);
-  a49=(a49*a32);
-  a20=(a20-a49);
-  a42=(a42*a37);
-  a42=(a42*a03);
-  a11=(a11*a42);
-  a20=(a20-a11);
-  a11=(a13*a18);
-  a03=(a10*a11);
-  a20=(a20-a03);
-  a11=(a11*a47);
-  a20=(a20-a11);
-  a11=casadi_sq(a16);
-  a11=(a11*a16);
-  a24=(a24*a11);
-  a11=(a22*a24);
-  a20=(a20-a11);
-  a11=(a09*a15);
-  a42=(a42*a11);
-  a20=(a20-a42);
-  a22=(a05*a22);
-  a42=(a22*a15);
-  a20=(a20-a42);
-  a01=(a55*a01);
-  a20=(a20-a01);
-  a01=(a09*a18);
-  a23=(a23*a15);
-  a42=(a01*a23);
-  a20=(a20-a42);
-  a29=(a29*a18);
-  a23=(a23*a29);
-  a20=(a20-a23);
-  a23=(a05*a24);
-  a23=(a23*a29);
-  a20=(a20-a23);
-  a40=(2.*a40);
-  a40=(a40*a46);
-  a20=(a20-a40);
-  a01=(2.*a01);
-  a01=(a01*a24);
-  a20=(a20-a01);
-  a05=(a05*a12);
-  a05=(a05*a45);
-  a20=(a20+a05);
-  a13=(a13*a10);
-  a02=(a02*a00);
-  a02=(a02*a37);
-  a13=(a13*a02);
-  a20=(a20+a13);
-  a13=5.;
-  a13=(a13*a02);
-  a13=(a13*a11);
-  a20=(a20+a13);
-  a14=(a14*a34);
+  a10=(a02*a03);
+  a15=(a15*a10);
+  a04=(a04*a15);
+  a01=(a01-a04);
+  a25=(a25*a09);
+  a21=(a21*a25);
+  a09=(a19*a21);
+  a01=(a01-a09);
+  a16=(a16*a10);
+  a01=(a01-a16);
+  a16=arg[0][49];
+  a16=(a16*a29);
+  a01=(a01-a16);
+  a16=(a25*a23);
+  a01=(a01-a16);
+  a26=(a25*a26);
+  a01=(a01-a26);
+  a26=arg[0][50];
+  a26=(a12*a26);
+  a01=(a01-a26);
+  a26=arg[0][51];
+  a26=(a12*a26);
+  a01=(a01-a26);
+  a26=arg[0][52];
+  a07=(a07*a26);
+  a01=(a01-a07);
+  a14=(a14*a08);
+  a14=(a14*a03);
+  a17=(a17*a14);
+  a01=(a01-a17);
+  a17=arg[0][53];
+  a03=4.;
+  a03=(a03*a10);
+  a17=(a17*a03);
+  a01=(a01-a17);
+  a17=arg[0][54];
+  a03=(a03*a17);
+  a01=(a01-a03);
+  a03=arg[0][55];
+  a17=(a15*a03);
+  a01=(a01-a17);
+  a17=arg[0][56];
+  a14=(a14*a17);
+  a01=(a01-a14);
+  a14=3.;
   a14=(a14*a15);
-  a20=(a20+a14);
-  a22=(a07*a22);
-  a22=(a22*a16);
-  a20=(a20-a22);
-  a43=(a43*a04);
-  a43=(a43*a55);
-  a20=(a20-a43);
-  a09=(a09*a50);
-  a09=(a09*a32);
-  a20=(a20-a09);
-  a45=(a45+a53);
-  a45=(a45-a19);
-  a45=(a45-a48);
-  a45=(a45-a28);
-  a08=(a08*a21);
-  a07=(a07*a08);
-  a45=(a45+a07);
-  a07=(a08*a26);
-  a45=(a45+a07);
-  a08=(a08*a32);
-  a45=(a45+a08);
-  a26=(a26*a52);
-  a45=(a45+a26);
-  a20=(a20/a45);
-  res[0][3]=a20;
+  a15=(a14*a20);
+  a01=(a01-a15);
+  a21=(a18*a21);
+  a01=(a01-a21);
+  a21=arg[0][57];
+  a15=(a21*a10);
+  a07=arg[0][58];
+  a16=(a15*a07);
+  a01=(a01-a16);
+  a19=(a19*a10);
+  a07=(a07*a19);
+  a01=(a01-a07);
+  a07=arg[0][59];
+  a07=(a07*a19);
+  a01=(a01-a07);
+  a12=(2.*a12);
+  a12=(a12*a23);
+  a01=(a01-a12);
+  a15=(2.*a15);
+  a15=(a15*a03);
+  a01=(a01-a15);
+  a15=arg[0][60];
+  a01=(a01+a15);
+  a15=arg[0][61];
+  a02=(a02*a00);
+  a02=(a02*a08);
+  a15=(a15*a02);
+  a01=(a01+a15);
+  a15=5.;
+  a15=(a15*a02);
+  a15=(a15*a17);
+  a01=(a01+a15);
+  a27=(a27*a05);
+  a27=(a27*a20);
+  a01=(a01+a27);
+  a22=(a22*a14);
+  a14=arg[0][62];
+  a22=(a22*a14);
+  a01=(a01-a22);
+  a22=arg[0][63];
+  a13=(a13*a22);
+  a13=(a13*a18);
+  a01=(a01-a13);
+  a21=(a21*a25);
+  a21=(a21*a26);
+  a01=(a01-a21);
+  a21=arg[0][64];
+  a21=(a21-a28);
+  a21=(a21-a24);
+  a21=(a21-a11);
+  a11=arg[0][65];
+  a21=(a21+a11);
+  a11=arg[0][66];
+  a21=(a21+a11);
+  a11=arg[0][67];
+  a21=(a21+a11);
+  a11=arg[0][68];
+  a21=(a21+a11);
+  a01=(a01/a21);
+  res[0][3]=a01;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_stance_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f1(arg, res, iw, w, mem);
+  return casadi_f2(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_stance_watch_checkout(void) {
@@ -646,7 +918,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_compass_gait_sim_stance_watch_default_in(ca
 
 CASADI_SYMBOL_EXPORT const char* vsw_compass_gait_sim_stance_watch_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -661,15 +933,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_compass_gait_sim_stance_watch_name_out(casa
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_compass_gait_sim_stance_watch_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_compass_gait_sim_stance_watch_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -690,143 +962,127 @@ CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_stance_watch_work_bytes(casadi_int
   return 0;
 }
 
-/* vsw_compass_gait_sim_heelstrike_reset:(p[6],x[4])->(heelstrike_reset[4]) */
-static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_compass_gait_sim_heelstrike_reset:(c[91],x[4])->(heelstrike_reset[4]) */
+static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
-  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
-  casadi_real a24, a25;
+  casadi_real a12, a13, a14;
   a00=arg[1][1];
   res[0][0]=a00;
   a01=arg[1][0];
   res[0][1]=a01;
-  a02=arg[0][1];
-  a03=arg[0][0];
-  a04=(a02*a03);
-  a05=arg[0][3];
-  a06=casadi_sq(a05);
-  a06=(a06*a05);
-  a07=arg[0][2];
-  a08=(a06*a07);
-  a09=(a04*a08);
-  a10=(2.*a09);
+  a02=arg[0][69];
   a00=(a00-a01);
   a00=cos(a00);
   a01=arg[1][2];
-  a11=(a00*a01);
-  a12=(a10*a11);
-  a13=casadi_sq(a02);
-  a14=(a13*a08);
-  a15=arg[1][3];
-  a16=(a14*a15);
-  a12=(a12-a16);
-  a17=casadi_sq(a07);
-  a18=casadi_sq(a05);
-  a19=(a17*a18);
-  a20=(a04*a19);
-  a21=(a20*a11);
-  a12=(a12+a21);
-  a21=(a19*a13);
-  a22=(a21*a11);
-  a12=(a12+a22);
-  a22=casadi_sq(a05);
-  a22=(a22*a05);
-  a22=(a22*a05);
-  a23=(a22*a04);
-  a11=(a23*a11);
-  a12=(a12+a11);
-  a14=(a14*a01);
-  a11=(a14*a00);
-  a12=(a12+a11);
-  a10=(a10+a20);
-  a11=(a22*a13);
-  a10=(a10+a11);
-  a24=(2.*a13);
-  a08=(a24*a08);
-  a10=(a10+a08);
-  a10=(a10+a23);
-  a19=(a19*a24);
-  a10=(a10+a19);
-  a23=casadi_sq(a00);
-  a25=(a21*a23);
-  a10=(a10-a25);
-  a11=(a11*a23);
-  a10=(a10-a11);
-  a08=(a08*a23);
-  a10=(a10-a08);
-  a12=(a12/a10);
-  res[0][2]=a12;
-  a22=(a22*a23);
-  a22=(a22*a01);
-  a22=(a22*a02);
-  a22=(a22*a03);
-  a12=casadi_sq(a07);
-  a12=(a12*a07);
-  a08=(a12*a01);
-  a08=(a08*a05);
-  a04=(a04*a08);
-  a14=(a14+a04);
-  a09=(a09*a01);
-  a14=(a14+a09);
-  a24=(a24*a08);
-  a14=(a14+a24);
-  a19=(a19*a01);
-  a14=(a14+a19);
-  a16=(a16*a00);
-  a14=(a14+a16);
-  a20=(2.*a20);
-  a20=(a20*a01);
-  a14=(a14+a20);
-  a21=(a21*a00);
-  a21=(a21*a15);
-  a14=(a14+a21);
-  a22=(a22-a14);
-  a14=(2.*a23);
-  a14=(a14*a12);
-  a14=(a14*a13);
-  a14=(a14*a01);
-  a14=(a14*a05);
-  a22=(a22+a14);
-  a14=(2.*a23);
-  a14=(a14*a13);
-  a14=(a14*a06);
-  a14=(a14*a01);
-  a14=(a14*a07);
-  a22=(a22+a14);
-  a14=4.;
-  a14=(a14*a17);
-  a14=(a14*a18);
-  a14=(a14*a23);
-  a14=(a14*a13);
-  a14=(a14*a01);
-  a22=(a22+a14);
-  a12=(a23*a12);
+  a03=(a00*a01);
+  a02=(a02*a03);
+  a04=arg[0][70];
+  a05=arg[1][3];
+  a06=(a04*a05);
+  a02=(a02-a06);
+  a07=arg[0][71];
+  a07=(a07*a03);
+  a02=(a02+a07);
+  a07=arg[0][72];
+  a08=(a07*a03);
+  a02=(a02+a08);
+  a08=arg[0][73];
+  a08=(a08*a03);
+  a02=(a02+a08);
+  a04=(a04*a01);
+  a08=(a04*a00);
+  a02=(a02+a08);
+  a08=arg[0][74];
+  a03=casadi_sq(a00);
+  a09=(a07*a03);
+  a08=(a08-a09);
+  a09=arg[0][75];
+  a09=(a09*a03);
+  a08=(a08-a09);
+  a09=arg[0][76];
+  a09=(a09*a03);
+  a08=(a08-a09);
+  a02=(a02/a08);
+  res[0][2]=a02;
+  a02=arg[0][77];
+  a02=(a02*a03);
+  a02=(a02*a01);
+  a09=arg[0][78];
+  a02=(a02*a09);
+  a10=arg[0][79];
+  a02=(a02*a10);
+  a11=arg[0][81];
+  a12=arg[0][80];
+  a13=(a12*a01);
+  a14=arg[0][13];
+  a13=(a13*a14);
+  a11=(a11*a13);
+  a04=(a04+a11);
+  a11=arg[0][82];
+  a11=(a11*a01);
+  a04=(a04+a11);
+  a11=arg[0][83];
+  a11=(a11*a13);
+  a04=(a04+a11);
+  a11=arg[0][84];
+  a11=(a11*a01);
+  a04=(a04+a11);
+  a06=(a06*a00);
+  a04=(a04+a06);
+  a06=arg[0][85];
+  a06=(a06*a01);
+  a04=(a04+a06);
+  a07=(a07*a00);
+  a07=(a07*a05);
+  a04=(a04+a07);
+  a02=(a02-a04);
+  a04=(2.*a03);
+  a04=(a04*a12);
+  a07=arg[0][86];
+  a04=(a04*a07);
+  a04=(a04*a01);
+  a04=(a04*a14);
+  a02=(a02+a04);
+  a04=(2.*a03);
+  a04=(a04*a07);
+  a05=arg[0][87];
+  a04=(a04*a05);
+  a04=(a04*a01);
+  a00=arg[0][62];
+  a04=(a04*a00);
+  a02=(a02+a04);
+  a04=arg[0][88];
+  a04=(a04*a03);
+  a04=(a04*a07);
+  a04=(a04*a01);
+  a02=(a02+a04);
+  a12=(a03*a12);
   a12=(a12*a01);
-  a12=(a12*a05);
-  a12=(a12*a02);
+  a12=(a12*a14);
+  a12=(a12*a09);
+  a12=(a12*a10);
+  a02=(a02+a12);
+  a12=arg[0][89];
   a12=(a12*a03);
-  a22=(a22+a12);
+  a12=(a12*a01);
+  a12=(a12*a09);
+  a12=(a12*a10);
+  a02=(a02+a12);
   a12=3.;
-  a17=(a12*a17);
-  a17=(a17*a18);
-  a17=(a17*a23);
-  a17=(a17*a01);
-  a17=(a17*a02);
-  a17=(a17*a03);
-  a22=(a22+a17);
-  a12=(a12*a23);
-  a12=(a12*a06);
-  a12=(a12*a01);
-  a12=(a12*a07);
-  a12=(a12*a02);
   a12=(a12*a03);
-  a22=(a22+a12);
-  a22=(a22/a10);
-  res[0][3]=a22;
+  a12=(a12*a05);
+  a12=(a12*a01);
+  a12=(a12*a00);
+  a12=(a12*a09);
+  a12=(a12*a10);
+  a02=(a02+a12);
+  a02=(a02/a08);
+  res[0][3]=a02;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_heelstrike_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f2(arg, res, iw, w, mem);
+  return casadi_f3(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_heelstrike_reset_checkout(void) {
@@ -854,7 +1110,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_compass_gait_sim_heelstrike_reset_default_i
 
 CASADI_SYMBOL_EXPORT const char* vsw_compass_gait_sim_heelstrike_reset_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -869,15 +1125,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_compass_gait_sim_heelstrike_reset_name_out(
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_compass_gait_sim_heelstrike_reset_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_compass_gait_sim_heelstrike_reset_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -898,8 +1154,8 @@ CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_heelstrike_reset_work_bytes(casadi
   return 0;
 }
 
-/* vsw_compass_gait_sim_heelstrike_when:(p[6],x[4])->(heelstrike_when) */
-static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_compass_gait_sim_heelstrike_when:(c[91],x[4])->(heelstrike_when) */
+static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0;
   a0=arg[1][0];
   res[0][0]=a0;
@@ -907,7 +1163,7 @@ static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_heelstrike_when(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f3(arg, res, iw, w, mem);
+  return casadi_f4(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_heelstrike_when_checkout(void) {
@@ -935,7 +1191,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_compass_gait_sim_heelstrike_when_default_in
 
 CASADI_SYMBOL_EXPORT const char* vsw_compass_gait_sim_heelstrike_when_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -950,15 +1206,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_compass_gait_sim_heelstrike_when_name_out(c
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_compass_gait_sim_heelstrike_when_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_compass_gait_sim_heelstrike_when_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s2;
+    case 0: return casadi_s3;
     default: return 0;
   }
 }
@@ -979,12 +1235,10 @@ CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_heelstrike_when_work_bytes(casadi_
   return 0;
 }
 
-/* vsw_compass_gait_sim_step_length:(p[6],x[4])->(step_length) */
-static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_compass_gait_sim_step_length:(c[91],x[4])->(step_length) */
+static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2;
-  a0=arg[0][2];
-  a1=arg[0][3];
-  a0=(a0+a1);
+  a0=arg[0][90];
   a1=arg[1][0];
   a1=sin(a1);
   a1=(a0*a1);
@@ -997,7 +1251,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_step_length(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f4(arg, res, iw, w, mem);
+  return casadi_f5(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_step_length_checkout(void) {
@@ -1025,7 +1279,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_compass_gait_sim_step_length_default_in(cas
 
 CASADI_SYMBOL_EXPORT const char* vsw_compass_gait_sim_step_length_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -1040,15 +1294,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_compass_gait_sim_step_length_name_out(casad
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_compass_gait_sim_step_length_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_compass_gait_sim_step_length_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s2;
+    case 0: return casadi_s3;
     default: return 0;
   }
 }
@@ -1086,7 +1340,7 @@ CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_step_length_work_bytes(casadi_int 
 #define VSW_SZ_ARG 2
 #define VSW_SZ_RES 1
 #define VSW_SZ_IW 0
-#define VSW_SZ_W 57
+#define VSW_SZ_W 32
 
 /* Every function of the table in CasADi's calling convention, called directly (not through
    a pointer) so that the compiler can inline it into the integrator's loops. */
@@ -1099,22 +1353,30 @@ CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_step_length_work_bytes(casadi_int 
         fn(vsw_arg_, vsw_res_, vsw_iw_, vsw_w_, 0);                                          \
     } while (0)
 
-/* Per phase: x' = f(p, x). */
-static inline void vsw_flow(int phase, const double *p, const double *x, double *out)
+/* The constants of the functions below from the parameters: the parameters they use and
+   their parameter-only subexpressions, computed once a walk instead of at every call. */
+#define VSW_NC 91
+static inline void vsw_constants(const double *p, double *c)
+{
+    VSW_CALL(vsw_compass_gait_sim_constants, p, p, c);
+}
+
+/* Per phase: x' = f(x) (with the constants c). */
+static inline void vsw_flow(int phase, const double *c, const double *x, double *out)
 {
     switch (phase) {
     case 0:
-        VSW_CALL(vsw_compass_gait_sim_stance_flow, p, x, out);
+        VSW_CALL(vsw_compass_gait_sim_stance_flow, c, x, out);
         return;
     }
 }
 
 /* Per phase: its events' guards, then the failures' guards. */
-static inline void vsw_watch(int phase, const double *p, const double *x, double *out)
+static inline void vsw_watch(int phase, const double *c, const double *x, double *out)
 {
     switch (phase) {
     case 0:
-        VSW_CALL(vsw_compass_gait_sim_stance_watch, p, x, out);
+        VSW_CALL(vsw_compass_gait_sim_stance_watch, c, x, out);
         return;
     }
 }
@@ -1125,20 +1387,20 @@ static const int vsw_watch_direction[VSW_NPHASES][VSW_MAX_WATCH] = {{1, -1, -1, 
 static const int vsw_watch_what[VSW_NPHASES][VSW_MAX_WATCH] = {{0, -1, -2, -3}};
 
 /* Per event: the reset. */
-static inline void vsw_reset(int event, const double *p, const double *x, double *out)
+static inline void vsw_reset(int event, const double *c, const double *x, double *out)
 {
     switch (event) {
     case 0:
-        VSW_CALL(vsw_compass_gait_sim_heelstrike_reset, p, x, out);
+        VSW_CALL(vsw_compass_gait_sim_heelstrike_reset, c, x, out);
         return;
     }
 }
 /* Per event: the condition for it to count into *out; 0 when it always counts. */
-static inline int vsw_when(int event, const double *p, const double *x, double *out)
+static inline int vsw_when(int event, const double *c, const double *x, double *out)
 {
     switch (event) {
     case 0:
-        VSW_CALL(vsw_compass_gait_sim_heelstrike_when, p, x, out);
+        VSW_CALL(vsw_compass_gait_sim_heelstrike_when, c, x, out);
         return 1;
     }
     return 0;
@@ -1147,8 +1409,8 @@ static inline int vsw_when(int event, const double *p, const double *x, double *
 static const int vsw_event_target[VSW_NEVENTS] = {0};
 static const int vsw_event_ends_step[VSW_NEVENTS] = {1};
 /* The step length from the state just before the step event; 0 when the model has none. */
-static inline int vsw_step_length(const double *p, const double *x, double *out)
+static inline int vsw_step_length(const double *c, const double *x, double *out)
 {
-    VSW_CALL(vsw_compass_gait_sim_step_length, p, x, out);
+    VSW_CALL(vsw_compass_gait_sim_step_length, c, x, out);
     return 1;
 }

@@ -4,8 +4,9 @@
  * sympy 1.14.0
  * casadi 3.8.2
  * The hybrid dynamics of the model for the batch simulator (vsw/csrc/hybrid_batch.c, built
- * by vsw/batch.py): every function takes (p, x), the parameters (beta, theta_II, phi0) and the
- * state (theta, theta_dot), in CasADi's calling convention.
+ * by vsw/batch.py): every function takes (c, x), the model's constants (what the functions
+ * use of the parameters beta, theta_II, phi0: c = constants(p), once a walk) and the state
+ * (theta, theta_dot), in CasADi's calling convention.
  * Phases: phase_I_II, phase_III_IV.
  * Events: extension (phase_I_II -> phase_III_IV), heelstrike (phase_III_IV -> phase_I_II, ends the step).
  * Failures: fell-backward, lift-off.
@@ -51,9 +52,11 @@ extern "C" {
 #define casadi_f4 CASADI_PREFIX(f4)
 #define casadi_f5 CASADI_PREFIX(f5)
 #define casadi_f6 CASADI_PREFIX(f6)
+#define casadi_f7 CASADI_PREFIX(f7)
 #define casadi_s0 CASADI_PREFIX(s0)
 #define casadi_s1 CASADI_PREFIX(s1)
 #define casadi_s2 CASADI_PREFIX(s2)
+#define casadi_s3 CASADI_PREFIX(s3)
 #define casadi_sq CASADI_PREFIX(sq)
 
 /* Symbol visibility in DLLs */
@@ -83,11 +86,99 @@ CASADI_SYMBOL_EXPORT int vsw_ile_sim__casadi_int_size(void) { return (int) sizeo
 CASADI_SYMBOL_EXPORT int vsw_ile_sim__casadi_real_size(void) { return (int) sizeof(casadi_real); }
 
 static const casadi_int casadi_s0[3] = {3, 1, 1};
-static const casadi_int casadi_s1[3] = {2, 1, 1};
-static const casadi_int casadi_s2[3] = {1, 1, 1};
+static const casadi_int casadi_s1[3] = {5, 1, 1};
+static const casadi_int casadi_s2[3] = {2, 1, 1};
+static const casadi_int casadi_s3[3] = {1, 1, 1};
 
-/* vsw_ile_sim_phase_I_II_flow:(p[3],x[2])->(phase_I_II_flow[2]) */
+/* vsw_ile_sim_constants:(p[3])->(c[5]) */
 static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1;
+  a0=arg[0][0];
+  res[0][0]=a0;
+  a1=arg[0][1];
+  res[0][1]=a1;
+  a1=arg[0][2];
+  res[0][2]=a1;
+  a0=casadi_sq(a0);
+  res[0][3]=a0;
+  a1=cos(a1);
+  res[0][4]=a1;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_ile_sim_constants(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f0(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_ile_sim_constants_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_ile_sim_constants_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_ile_sim_constants_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_ile_sim_constants_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_ile_sim_constants_n_in(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_ile_sim_constants_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_ile_sim_constants_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_ile_sim_constants_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_ile_sim_constants_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_sim_constants_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_sim_constants_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_ile_sim_constants_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 1;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_ile_sim_constants_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 1*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_ile_sim_phase_I_II_flow:(c[5],x[2])->(phase_I_II_flow[2]) */
+static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1;
   a0=arg[1][1];
   res[0][0]=a0;
@@ -100,7 +191,7 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_ile_sim_phase_I_II_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f0(arg, res, iw, w, mem);
+  return casadi_f1(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_ile_sim_phase_I_II_flow_checkout(void) {
@@ -128,7 +219,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_ile_sim_phase_I_II_flow_default_in(casadi_i
 
 CASADI_SYMBOL_EXPORT const char* vsw_ile_sim_phase_I_II_flow_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -143,15 +234,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_ile_sim_phase_I_II_flow_name_out(casadi_int
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_sim_phase_I_II_flow_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_sim_phase_I_II_flow_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -172,8 +263,8 @@ CASADI_SYMBOL_EXPORT int vsw_ile_sim_phase_I_II_flow_work_bytes(casadi_int *sz_a
   return 0;
 }
 
-/* vsw_ile_sim_phase_I_II_watch:(p[3],x[2])->(phase_I_II_watch[3]) */
-static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_ile_sim_phase_I_II_watch:(c[5],x[2])->(phase_I_II_watch[3]) */
+static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2, a3;
   a0=arg[1][0];
   a1=arg[0][1];
@@ -193,7 +284,7 @@ static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_ile_sim_phase_I_II_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f1(arg, res, iw, w, mem);
+  return casadi_f2(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_ile_sim_phase_I_II_watch_checkout(void) {
@@ -221,7 +312,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_ile_sim_phase_I_II_watch_default_in(casadi_
 
 CASADI_SYMBOL_EXPORT const char* vsw_ile_sim_phase_I_II_watch_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -236,8 +327,8 @@ CASADI_SYMBOL_EXPORT const char* vsw_ile_sim_phase_I_II_watch_name_out(casadi_in
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_sim_phase_I_II_watch_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
@@ -265,8 +356,8 @@ CASADI_SYMBOL_EXPORT int vsw_ile_sim_phase_I_II_watch_work_bytes(casadi_int *sz_
   return 0;
 }
 
-/* vsw_ile_sim_phase_III_IV_flow:(p[3],x[2])->(phase_III_IV_flow[2]) */
-static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_ile_sim_phase_III_IV_flow:(c[5],x[2])->(phase_III_IV_flow[2]) */
+static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0;
   a0=arg[1][1];
   res[0][0]=a0;
@@ -277,7 +368,7 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_ile_sim_phase_III_IV_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f2(arg, res, iw, w, mem);
+  return casadi_f3(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_ile_sim_phase_III_IV_flow_checkout(void) {
@@ -305,7 +396,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_ile_sim_phase_III_IV_flow_default_in(casadi
 
 CASADI_SYMBOL_EXPORT const char* vsw_ile_sim_phase_III_IV_flow_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -320,15 +411,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_ile_sim_phase_III_IV_flow_name_out(casadi_i
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_sim_phase_III_IV_flow_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_sim_phase_III_IV_flow_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -349,8 +440,8 @@ CASADI_SYMBOL_EXPORT int vsw_ile_sim_phase_III_IV_flow_work_bytes(casadi_int *sz
   return 0;
 }
 
-/* vsw_ile_sim_phase_III_IV_watch:(p[3],x[2])->(phase_III_IV_watch[3]) */
-static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_ile_sim_phase_III_IV_watch:(c[5],x[2])->(phase_III_IV_watch[3]) */
+static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2, a3;
   a0=arg[1][0];
   a1=cos(a0);
@@ -373,7 +464,7 @@ static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_ile_sim_phase_III_IV_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f3(arg, res, iw, w, mem);
+  return casadi_f4(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_ile_sim_phase_III_IV_watch_checkout(void) {
@@ -401,7 +492,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_ile_sim_phase_III_IV_watch_default_in(casad
 
 CASADI_SYMBOL_EXPORT const char* vsw_ile_sim_phase_III_IV_watch_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -416,8 +507,8 @@ CASADI_SYMBOL_EXPORT const char* vsw_ile_sim_phase_III_IV_watch_name_out(casadi_
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_sim_phase_III_IV_watch_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
@@ -445,21 +536,20 @@ CASADI_SYMBOL_EXPORT int vsw_ile_sim_phase_III_IV_watch_work_bytes(casadi_int *s
   return 0;
 }
 
-/* vsw_ile_sim_extension_reset:(p[3],x[2])->(extension_reset[2]) */
-static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_ile_sim_extension_reset:(c[5],x[2])->(extension_reset[2]) */
+static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1;
   a0=arg[1][0];
   res[0][0]=a0;
   a0=arg[1][1];
-  a1=arg[0][0];
-  a1=casadi_sq(a1);
+  a1=arg[0][3];
   a0=(a0*a1);
   res[0][1]=a0;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_ile_sim_extension_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f4(arg, res, iw, w, mem);
+  return casadi_f5(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_ile_sim_extension_reset_checkout(void) {
@@ -487,7 +577,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_ile_sim_extension_reset_default_in(casadi_i
 
 CASADI_SYMBOL_EXPORT const char* vsw_ile_sim_extension_reset_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -502,15 +592,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_ile_sim_extension_reset_name_out(casadi_int
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_sim_extension_reset_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_sim_extension_reset_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -531,24 +621,24 @@ CASADI_SYMBOL_EXPORT int vsw_ile_sim_extension_reset_work_bytes(casadi_int *sz_a
   return 0;
 }
 
-/* vsw_ile_sim_heelstrike_reset:(p[3],x[2])->(heelstrike_reset[2]) */
-static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_ile_sim_heelstrike_reset:(c[5],x[2])->(heelstrike_reset[2]) */
+static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1;
   a0=arg[1][0];
   a1=arg[0][2];
   a0=(a0-a1);
   res[0][0]=a0;
-  a1=cos(a1);
-  a0=arg[1][1];
-  a1=(a1*a0);
-  a0=arg[0][0];
-  a1=(a1/a0);
-  res[0][1]=a1;
+  a0=arg[0][4];
+  a1=arg[1][1];
+  a0=(a0*a1);
+  a1=arg[0][0];
+  a0=(a0/a1);
+  res[0][1]=a0;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_ile_sim_heelstrike_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f5(arg, res, iw, w, mem);
+  return casadi_f6(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_ile_sim_heelstrike_reset_checkout(void) {
@@ -576,7 +666,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_ile_sim_heelstrike_reset_default_in(casadi_
 
 CASADI_SYMBOL_EXPORT const char* vsw_ile_sim_heelstrike_reset_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -591,15 +681,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_ile_sim_heelstrike_reset_name_out(casadi_in
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_sim_heelstrike_reset_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_sim_heelstrike_reset_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -620,8 +710,8 @@ CASADI_SYMBOL_EXPORT int vsw_ile_sim_heelstrike_reset_work_bytes(casadi_int *sz_
   return 0;
 }
 
-/* vsw_ile_sim_step_length:(p[3],x[2])->(step_length) */
-static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_ile_sim_step_length:(c[5],x[2])->(step_length) */
+static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2;
   a0=arg[1][0];
   a1=sin(a0);
@@ -636,7 +726,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_ile_sim_step_length(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f6(arg, res, iw, w, mem);
+  return casadi_f7(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_ile_sim_step_length_checkout(void) {
@@ -664,7 +754,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_ile_sim_step_length_default_in(casadi_int i
 
 CASADI_SYMBOL_EXPORT const char* vsw_ile_sim_step_length_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -679,15 +769,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_ile_sim_step_length_name_out(casadi_int i) 
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_sim_step_length_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_ile_sim_step_length_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s2;
+    case 0: return casadi_s3;
     default: return 0;
   }
 }
@@ -738,28 +828,36 @@ CASADI_SYMBOL_EXPORT int vsw_ile_sim_step_length_work_bytes(casadi_int *sz_arg, 
         fn(vsw_arg_, vsw_res_, vsw_iw_, vsw_w_, 0);                                          \
     } while (0)
 
-/* Per phase: x' = f(p, x). */
-static inline void vsw_flow(int phase, const double *p, const double *x, double *out)
+/* The constants of the functions below from the parameters: the parameters they use and
+   their parameter-only subexpressions, computed once a walk instead of at every call. */
+#define VSW_NC 5
+static inline void vsw_constants(const double *p, double *c)
+{
+    VSW_CALL(vsw_ile_sim_constants, p, p, c);
+}
+
+/* Per phase: x' = f(x) (with the constants c). */
+static inline void vsw_flow(int phase, const double *c, const double *x, double *out)
 {
     switch (phase) {
     case 0:
-        VSW_CALL(vsw_ile_sim_phase_I_II_flow, p, x, out);
+        VSW_CALL(vsw_ile_sim_phase_I_II_flow, c, x, out);
         return;
     case 1:
-        VSW_CALL(vsw_ile_sim_phase_III_IV_flow, p, x, out);
+        VSW_CALL(vsw_ile_sim_phase_III_IV_flow, c, x, out);
         return;
     }
 }
 
 /* Per phase: its events' guards, then the failures' guards. */
-static inline void vsw_watch(int phase, const double *p, const double *x, double *out)
+static inline void vsw_watch(int phase, const double *c, const double *x, double *out)
 {
     switch (phase) {
     case 0:
-        VSW_CALL(vsw_ile_sim_phase_I_II_watch, p, x, out);
+        VSW_CALL(vsw_ile_sim_phase_I_II_watch, c, x, out);
         return;
     case 1:
-        VSW_CALL(vsw_ile_sim_phase_III_IV_watch, p, x, out);
+        VSW_CALL(vsw_ile_sim_phase_III_IV_watch, c, x, out);
         return;
     }
 }
@@ -770,19 +868,19 @@ static const int vsw_watch_direction[VSW_NPHASES][VSW_MAX_WATCH] = {{1, -1, -1},
 static const int vsw_watch_what[VSW_NPHASES][VSW_MAX_WATCH] = {{0, -1, -2}, {1, -1, -2}};
 
 /* Per event: the reset. */
-static inline void vsw_reset(int event, const double *p, const double *x, double *out)
+static inline void vsw_reset(int event, const double *c, const double *x, double *out)
 {
     switch (event) {
     case 0:
-        VSW_CALL(vsw_ile_sim_extension_reset, p, x, out);
+        VSW_CALL(vsw_ile_sim_extension_reset, c, x, out);
         return;
     case 1:
-        VSW_CALL(vsw_ile_sim_heelstrike_reset, p, x, out);
+        VSW_CALL(vsw_ile_sim_heelstrike_reset, c, x, out);
         return;
     }
 }
 /* Per event: the condition for it to count into *out; 0 when it always counts. */
-static inline int vsw_when(int event, const double *p, const double *x, double *out)
+static inline int vsw_when(int event, const double *c, const double *x, double *out)
 {
     switch (event) {
 
@@ -793,8 +891,8 @@ static inline int vsw_when(int event, const double *p, const double *x, double *
 static const int vsw_event_target[VSW_NEVENTS] = {1, 0};
 static const int vsw_event_ends_step[VSW_NEVENTS] = {0, 1};
 /* The step length from the state just before the step event; 0 when the model has none. */
-static inline int vsw_step_length(const double *p, const double *x, double *out)
+static inline int vsw_step_length(const double *c, const double *x, double *out)
 {
-    VSW_CALL(vsw_ile_sim_step_length, p, x, out);
+    VSW_CALL(vsw_ile_sim_step_length, c, x, out);
     return 1;
 }

@@ -4,8 +4,9 @@
  * sympy 1.14.0
  * casadi 3.8.2
  * The hybrid dynamics of the model for the batch simulator (vsw/csrc/hybrid_batch.c, built
- * by vsw/batch.py): every function takes (p, x), the parameters (alpha, gamma, l, g) and the
- * state (theta, theta_dot), in CasADi's calling convention.
+ * by vsw/batch.py): every function takes (c, x), the model's constants (what the functions
+ * use of the parameters alpha, gamma, l, g: c = constants(p), once a walk) and the state
+ * (theta, theta_dot), in CasADi's calling convention.
  * Phases: stance.
  * Events: collision (stance -> stance, ends the step).
  * Failures: fell-backward, lift-off.
@@ -48,10 +49,12 @@ extern "C" {
 #define casadi_f1 CASADI_PREFIX(f1)
 #define casadi_f2 CASADI_PREFIX(f2)
 #define casadi_f3 CASADI_PREFIX(f3)
+#define casadi_f4 CASADI_PREFIX(f4)
 #define casadi_s0 CASADI_PREFIX(s0)
 #define casadi_s1 CASADI_PREFIX(s1)
 #define casadi_s2 CASADI_PREFIX(s2)
 #define casadi_s3 CASADI_PREFIX(s3)
+#define casadi_s4 CASADI_PREFIX(s4)
 #define casadi_sq CASADI_PREFIX(sq)
 
 /* Symbol visibility in DLLs */
@@ -81,35 +84,138 @@ CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim__casadi_int_size(void) { return (
 CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim__casadi_real_size(void) { return (int) sizeof(casadi_real); }
 
 static const casadi_int casadi_s0[3] = {4, 1, 1};
-static const casadi_int casadi_s1[3] = {2, 1, 1};
-static const casadi_int casadi_s2[3] = {3, 1, 1};
-static const casadi_int casadi_s3[3] = {1, 1, 1};
+static const casadi_int casadi_s1[3] = {10, 1, 1};
+static const casadi_int casadi_s2[3] = {2, 1, 1};
+static const casadi_int casadi_s3[3] = {3, 1, 1};
+static const casadi_int casadi_s4[3] = {1, 1, 1};
 
-/* vsw_rimless_wheel_sim_stance_flow:(p[4],x[2])->(stance_flow[2]) */
+/* vsw_rimless_wheel_sim_constants:(p[4])->(c[10]) */
 static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1, a2, a3, a4;
+  a0=arg[0][1];
+  a1=cos(a0);
+  res[0][0]=a1;
+  a1=arg[0][3];
+  res[0][1]=a1;
+  a2=sin(a0);
+  res[0][2]=a2;
+  a2=arg[0][2];
+  res[0][3]=a2;
+  a3=arg[0][0];
+  a4=(2.*a3);
+  res[0][4]=a4;
+  a4=cos(a0);
+  a4=(a4*a1);
+  res[0][5]=a4;
+  a0=sin(a0);
+  res[0][6]=a0;
+  a0=(2.*a3);
+  res[0][7]=a0;
+  a0=(2.*a3);
+  a0=cos(a0);
+  res[0][8]=a0;
+  a3=sin(a3);
+  a3=(2.*a3);
+  a3=(a3*a2);
+  res[0][9]=a3;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_constants(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f0(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_constants_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_rimless_wheel_sim_constants_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_rimless_wheel_sim_constants_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_rimless_wheel_sim_constants_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_rimless_wheel_sim_constants_n_in(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_rimless_wheel_sim_constants_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_rimless_wheel_sim_constants_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_rimless_wheel_sim_constants_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_rimless_wheel_sim_constants_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_rimless_wheel_sim_constants_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_rimless_wheel_sim_constants_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_constants_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 1;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_constants_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 1*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_rimless_wheel_sim_stance_flow:(c[10],x[2])->(stance_flow[2]) */
+static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2, a3;
   a0=arg[1][1];
   res[0][0]=a0;
-  a0=arg[0][1];
-  a1=cos(a0);
-  a2=arg[1][0];
-  a3=sin(a2);
+  a0=arg[0][0];
+  a1=arg[1][0];
+  a2=sin(a1);
+  a0=(a0*a2);
+  a2=arg[0][1];
+  a0=(a0*a2);
+  a1=cos(a1);
+  a3=arg[0][2];
   a1=(a1*a3);
-  a3=arg[0][3];
-  a1=(a1*a3);
-  a2=cos(a2);
-  a0=sin(a0);
-  a2=(a2*a0);
-  a2=(a2*a3);
-  a1=(a1+a2);
-  a2=arg[0][2];
-  a1=(a1/a2);
-  res[0][1]=a1;
+  a1=(a1*a2);
+  a0=(a0+a1);
+  a1=arg[0][3];
+  a0=(a0/a1);
+  res[0][1]=a0;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_stance_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f0(arg, res, iw, w, mem);
+  return casadi_f1(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_stance_flow_checkout(void) {
@@ -137,7 +243,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_rimless_wheel_sim_stance_flow_default_in(ca
 
 CASADI_SYMBOL_EXPORT const char* vsw_rimless_wheel_sim_stance_flow_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -152,15 +258,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_rimless_wheel_sim_stance_flow_name_out(casa
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_rimless_wheel_sim_stance_flow_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_rimless_wheel_sim_stance_flow_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -181,15 +287,14 @@ CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_stance_flow_work_bytes(casadi_int
   return 0;
 }
 
-/* vsw_rimless_wheel_sim_stance_watch:(p[4],x[2])->(stance_watch[3]) */
-static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
-  casadi_real a0, a1, a2, a3, a4, a5, a6, a7;
+/* vsw_rimless_wheel_sim_stance_watch:(c[10],x[2])->(stance_watch[3]) */
+static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1, a2, a3, a4, a5;
   a0=arg[1][0];
   a1=cos(a0);
-  a2=arg[0][2];
+  a2=arg[0][3];
   a1=(a1*a2);
-  a3=arg[0][0];
-  a3=(2.*a3);
+  a3=arg[0][4];
   a3=(a3-a0);
   a3=cos(a3);
   a3=(a3*a2);
@@ -197,29 +302,27 @@ static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   res[0][0]=a1;
   a1=arg[1][1];
   res[0][1]=a1;
-  a3=arg[0][1];
-  a4=cos(a3);
-  a5=arg[0][3];
-  a4=(a4*a5);
-  a6=cos(a0);
-  a7=casadi_sq(a6);
-  a4=(a4*a7);
-  a2=(a6*a2);
+  a3=arg[0][5];
+  a4=cos(a0);
+  a5=casadi_sq(a4);
+  a3=(a3*a5);
+  a2=(a4*a2);
   a1=casadi_sq(a1);
   a2=(a2*a1);
-  a4=(a4-a2);
-  a3=sin(a3);
-  a6=(a6*a3);
+  a3=(a3-a2);
+  a2=arg[0][6];
+  a4=(a4*a2);
   a0=sin(a0);
-  a6=(a6*a0);
-  a6=(a6*a5);
-  a4=(a4-a6);
-  res[0][2]=a4;
+  a4=(a4*a0);
+  a0=arg[0][1];
+  a4=(a4*a0);
+  a3=(a3-a4);
+  res[0][2]=a3;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_stance_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f1(arg, res, iw, w, mem);
+  return casadi_f2(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_stance_watch_checkout(void) {
@@ -247,7 +350,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_rimless_wheel_sim_stance_watch_default_in(c
 
 CASADI_SYMBOL_EXPORT const char* vsw_rimless_wheel_sim_stance_watch_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -262,15 +365,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_rimless_wheel_sim_stance_watch_name_out(cas
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_rimless_wheel_sim_stance_watch_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_rimless_wheel_sim_stance_watch_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s2;
+    case 0: return casadi_s3;
     default: return 0;
   }
 }
@@ -291,24 +394,22 @@ CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_stance_watch_work_bytes(casadi_in
   return 0;
 }
 
-/* vsw_rimless_wheel_sim_collision_reset:(p[4],x[2])->(collision_reset[2]) */
-static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
-  casadi_real a0, a1, a2;
+/* vsw_rimless_wheel_sim_collision_reset:(c[10],x[2])->(collision_reset[2]) */
+static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1;
   a0=arg[1][0];
-  a1=arg[0][0];
-  a2=(2.*a1);
-  a0=(a0-a2);
+  a1=arg[0][7];
+  a0=(a0-a1);
   res[0][0]=a0;
-  a1=(2.*a1);
-  a1=cos(a1);
-  a0=arg[1][1];
-  a1=(a1*a0);
-  res[0][1]=a1;
+  a0=arg[0][8];
+  a1=arg[1][1];
+  a0=(a0*a1);
+  res[0][1]=a0;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_collision_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f2(arg, res, iw, w, mem);
+  return casadi_f3(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_collision_reset_checkout(void) {
@@ -336,7 +437,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_rimless_wheel_sim_collision_reset_default_i
 
 CASADI_SYMBOL_EXPORT const char* vsw_rimless_wheel_sim_collision_reset_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -351,15 +452,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_rimless_wheel_sim_collision_reset_name_out(
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_rimless_wheel_sim_collision_reset_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_rimless_wheel_sim_collision_reset_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -380,20 +481,16 @@ CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_collision_reset_work_bytes(casadi
   return 0;
 }
 
-/* vsw_rimless_wheel_sim_step_length:(p[4],x[2])->(step_length) */
-static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
-  casadi_real a0, a1;
-  a0=arg[0][0];
-  a0=sin(a0);
-  a0=(2.*a0);
-  a1=arg[0][2];
-  a0=(a0*a1);
+/* vsw_rimless_wheel_sim_step_length:(c[10],x[2])->(step_length) */
+static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[0][9];
   res[0][0]=a0;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_step_length(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f3(arg, res, iw, w, mem);
+  return casadi_f4(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_step_length_checkout(void) {
@@ -421,7 +518,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_rimless_wheel_sim_step_length_default_in(ca
 
 CASADI_SYMBOL_EXPORT const char* vsw_rimless_wheel_sim_step_length_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -436,15 +533,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_rimless_wheel_sim_step_length_name_out(casa
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_rimless_wheel_sim_step_length_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_rimless_wheel_sim_step_length_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s3;
+    case 0: return casadi_s4;
     default: return 0;
   }
 }
@@ -482,7 +579,7 @@ CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_step_length_work_bytes(casadi_int
 #define VSW_SZ_ARG 2
 #define VSW_SZ_RES 1
 #define VSW_SZ_IW 0
-#define VSW_SZ_W 8
+#define VSW_SZ_W 6
 
 /* Every function of the table in CasADi's calling convention, called directly (not through
    a pointer) so that the compiler can inline it into the integrator's loops. */
@@ -495,22 +592,30 @@ CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_step_length_work_bytes(casadi_int
         fn(vsw_arg_, vsw_res_, vsw_iw_, vsw_w_, 0);                                          \
     } while (0)
 
-/* Per phase: x' = f(p, x). */
-static inline void vsw_flow(int phase, const double *p, const double *x, double *out)
+/* The constants of the functions below from the parameters: the parameters they use and
+   their parameter-only subexpressions, computed once a walk instead of at every call. */
+#define VSW_NC 10
+static inline void vsw_constants(const double *p, double *c)
+{
+    VSW_CALL(vsw_rimless_wheel_sim_constants, p, p, c);
+}
+
+/* Per phase: x' = f(x) (with the constants c). */
+static inline void vsw_flow(int phase, const double *c, const double *x, double *out)
 {
     switch (phase) {
     case 0:
-        VSW_CALL(vsw_rimless_wheel_sim_stance_flow, p, x, out);
+        VSW_CALL(vsw_rimless_wheel_sim_stance_flow, c, x, out);
         return;
     }
 }
 
 /* Per phase: its events' guards, then the failures' guards. */
-static inline void vsw_watch(int phase, const double *p, const double *x, double *out)
+static inline void vsw_watch(int phase, const double *c, const double *x, double *out)
 {
     switch (phase) {
     case 0:
-        VSW_CALL(vsw_rimless_wheel_sim_stance_watch, p, x, out);
+        VSW_CALL(vsw_rimless_wheel_sim_stance_watch, c, x, out);
         return;
     }
 }
@@ -521,16 +626,16 @@ static const int vsw_watch_direction[VSW_NPHASES][VSW_MAX_WATCH] = {{-1, -1, -1}
 static const int vsw_watch_what[VSW_NPHASES][VSW_MAX_WATCH] = {{0, -1, -2}};
 
 /* Per event: the reset. */
-static inline void vsw_reset(int event, const double *p, const double *x, double *out)
+static inline void vsw_reset(int event, const double *c, const double *x, double *out)
 {
     switch (event) {
     case 0:
-        VSW_CALL(vsw_rimless_wheel_sim_collision_reset, p, x, out);
+        VSW_CALL(vsw_rimless_wheel_sim_collision_reset, c, x, out);
         return;
     }
 }
 /* Per event: the condition for it to count into *out; 0 when it always counts. */
-static inline int vsw_when(int event, const double *p, const double *x, double *out)
+static inline int vsw_when(int event, const double *c, const double *x, double *out)
 {
     switch (event) {
 
@@ -541,8 +646,8 @@ static inline int vsw_when(int event, const double *p, const double *x, double *
 static const int vsw_event_target[VSW_NEVENTS] = {0};
 static const int vsw_event_ends_step[VSW_NEVENTS] = {1};
 /* The step length from the state just before the step event; 0 when the model has none. */
-static inline int vsw_step_length(const double *p, const double *x, double *out)
+static inline int vsw_step_length(const double *c, const double *x, double *out)
 {
-    VSW_CALL(vsw_rimless_wheel_sim_step_length, p, x, out);
+    VSW_CALL(vsw_rimless_wheel_sim_step_length, c, x, out);
     return 1;
 }

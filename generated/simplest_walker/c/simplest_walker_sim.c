@@ -4,8 +4,9 @@
  * sympy 1.14.0
  * casadi 3.8.2
  * The hybrid dynamics of the model for the batch simulator (vsw/csrc/hybrid_batch.c, built
- * by vsw/batch.py): every function takes (p, x), the parameters (gamma) and the
- * state (theta, phi, theta_dot, phi_dot), in CasADi's calling convention.
+ * by vsw/batch.py): every function takes (c, x), the model's constants (what the functions
+ * use of the parameters gamma: c = constants(p), once a walk) and the state
+ * (theta, phi, theta_dot, phi_dot), in CasADi's calling convention.
  * Phases: stance.
  * Events: heelstrike (stance -> stance, ends the step).
  * Failures: fell-backward, fell-forward, lift-off.
@@ -49,8 +50,10 @@ extern "C" {
 #define casadi_f2 CASADI_PREFIX(f2)
 #define casadi_f3 CASADI_PREFIX(f3)
 #define casadi_f4 CASADI_PREFIX(f4)
+#define casadi_f5 CASADI_PREFIX(f5)
 #define casadi_s0 CASADI_PREFIX(s0)
 #define casadi_s1 CASADI_PREFIX(s1)
+#define casadi_s2 CASADI_PREFIX(s2)
 #define casadi_sq CASADI_PREFIX(sq)
 
 /* Symbol visibility in DLLs */
@@ -80,10 +83,94 @@ CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim__casadi_int_size(void) { return
 CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim__casadi_real_size(void) { return (int) sizeof(casadi_real); }
 
 static const casadi_int casadi_s0[3] = {1, 1, 1};
-static const casadi_int casadi_s1[3] = {4, 1, 1};
+static const casadi_int casadi_s1[3] = {2, 1, 1};
+static const casadi_int casadi_s2[3] = {4, 1, 1};
 
-/* vsw_simplest_walker_sim_stance_flow:(p,x[4])->(stance_flow[4]) */
+/* vsw_simplest_walker_sim_constants:(p)->(c[2]) */
 static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1;
+  a0=arg[0][0];
+  res[0][0]=a0;
+  a0=cos(a0);
+  a1=2.;
+  a0=(a0/a1);
+  res[0][1]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_constants(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f0(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_constants_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_simplest_walker_sim_constants_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_simplest_walker_sim_constants_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_simplest_walker_sim_constants_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_simplest_walker_sim_constants_n_in(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_simplest_walker_sim_constants_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_simplest_walker_sim_constants_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_simplest_walker_sim_constants_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_simplest_walker_sim_constants_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_simplest_walker_sim_constants_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_simplest_walker_sim_constants_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_constants_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 1;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_constants_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 1*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_simplest_walker_sim_stance_flow:(c[2],x[4])->(stance_flow[4]) */
+static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2, a3;
   a0=arg[1][2];
   res[0][0]=a0;
@@ -107,7 +194,7 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_stance_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f0(arg, res, iw, w, mem);
+  return casadi_f1(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_stance_flow_checkout(void) {
@@ -135,7 +222,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_simplest_walker_sim_stance_flow_default_in(
 
 CASADI_SYMBOL_EXPORT const char* vsw_simplest_walker_sim_stance_flow_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -150,15 +237,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_simplest_walker_sim_stance_flow_name_out(ca
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_simplest_walker_sim_stance_flow_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_simplest_walker_sim_stance_flow_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -179,8 +266,8 @@ CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_stance_flow_work_bytes(casadi_i
   return 0;
 }
 
-/* vsw_simplest_walker_sim_stance_watch:(p,x[4])->(stance_watch[4]) */
-static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_simplest_walker_sim_stance_watch:(c[2],x[4])->(stance_watch[4]) */
+static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2, a3, a4, a5;
   a0=arg[1][1];
   a1=2.;
@@ -194,24 +281,23 @@ static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   res[0][1]=a0;
   a3=cos(a2);
   res[0][2]=a3;
-  a3=arg[0][0];
-  a4=cos(a3);
-  a4=(a4/a1);
+  a3=arg[0][1];
+  a4=arg[0][0];
   a5=(2.*a2);
-  a3=(a3+a5);
-  a3=cos(a3);
-  a3=(a3/a1);
-  a4=(a4+a3);
+  a4=(a4+a5);
+  a4=cos(a4);
+  a4=(a4/a1);
+  a3=(a3+a4);
   a2=cos(a2);
   a0=casadi_sq(a0);
   a2=(a2*a0);
-  a4=(a4-a2);
-  res[0][3]=a4;
+  a3=(a3-a2);
+  res[0][3]=a3;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_stance_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f1(arg, res, iw, w, mem);
+  return casadi_f2(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_stance_watch_checkout(void) {
@@ -239,7 +325,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_simplest_walker_sim_stance_watch_default_in
 
 CASADI_SYMBOL_EXPORT const char* vsw_simplest_walker_sim_stance_watch_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -254,15 +340,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_simplest_walker_sim_stance_watch_name_out(c
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_simplest_walker_sim_stance_watch_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_simplest_walker_sim_stance_watch_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -283,8 +369,8 @@ CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_stance_watch_work_bytes(casadi_
   return 0;
 }
 
-/* vsw_simplest_walker_sim_heelstrike_reset:(p,x[4])->(heelstrike_reset[4]) */
-static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_simplest_walker_sim_heelstrike_reset:(c[2],x[4])->(heelstrike_reset[4]) */
+static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2;
   a0=arg[1][0];
   a1=arg[1][1];
@@ -304,7 +390,7 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_heelstrike_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f2(arg, res, iw, w, mem);
+  return casadi_f3(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_heelstrike_reset_checkout(void) {
@@ -332,7 +418,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_simplest_walker_sim_heelstrike_reset_defaul
 
 CASADI_SYMBOL_EXPORT const char* vsw_simplest_walker_sim_heelstrike_reset_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -347,15 +433,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_simplest_walker_sim_heelstrike_reset_name_o
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_simplest_walker_sim_heelstrike_reset_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_simplest_walker_sim_heelstrike_reset_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -376,8 +462,8 @@ CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_heelstrike_reset_work_bytes(cas
   return 0;
 }
 
-/* vsw_simplest_walker_sim_heelstrike_when:(p,x[4])->(heelstrike_when) */
-static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_simplest_walker_sim_heelstrike_when:(c[2],x[4])->(heelstrike_when) */
+static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0;
   a0=arg[1][0];
   res[0][0]=a0;
@@ -385,7 +471,7 @@ static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_heelstrike_when(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f3(arg, res, iw, w, mem);
+  return casadi_f4(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_heelstrike_when_checkout(void) {
@@ -413,7 +499,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_simplest_walker_sim_heelstrike_when_default
 
 CASADI_SYMBOL_EXPORT const char* vsw_simplest_walker_sim_heelstrike_when_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -428,8 +514,8 @@ CASADI_SYMBOL_EXPORT const char* vsw_simplest_walker_sim_heelstrike_when_name_ou
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_simplest_walker_sim_heelstrike_when_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
@@ -457,8 +543,8 @@ CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_heelstrike_when_work_bytes(casa
   return 0;
 }
 
-/* vsw_simplest_walker_sim_step_length:(p,x[4])->(step_length) */
-static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_simplest_walker_sim_step_length:(c[2],x[4])->(step_length) */
+static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1;
   a0=arg[1][1];
   a1=arg[1][0];
@@ -471,7 +557,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_step_length(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f4(arg, res, iw, w, mem);
+  return casadi_f5(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_step_length_checkout(void) {
@@ -499,7 +585,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_simplest_walker_sim_step_length_default_in(
 
 CASADI_SYMBOL_EXPORT const char* vsw_simplest_walker_sim_step_length_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -514,8 +600,8 @@ CASADI_SYMBOL_EXPORT const char* vsw_simplest_walker_sim_step_length_name_out(ca
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_simplest_walker_sim_step_length_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
@@ -573,22 +659,30 @@ CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_step_length_work_bytes(casadi_i
         fn(vsw_arg_, vsw_res_, vsw_iw_, vsw_w_, 0);                                          \
     } while (0)
 
-/* Per phase: x' = f(p, x). */
-static inline void vsw_flow(int phase, const double *p, const double *x, double *out)
+/* The constants of the functions below from the parameters: the parameters they use and
+   their parameter-only subexpressions, computed once a walk instead of at every call. */
+#define VSW_NC 2
+static inline void vsw_constants(const double *p, double *c)
+{
+    VSW_CALL(vsw_simplest_walker_sim_constants, p, p, c);
+}
+
+/* Per phase: x' = f(x) (with the constants c). */
+static inline void vsw_flow(int phase, const double *c, const double *x, double *out)
 {
     switch (phase) {
     case 0:
-        VSW_CALL(vsw_simplest_walker_sim_stance_flow, p, x, out);
+        VSW_CALL(vsw_simplest_walker_sim_stance_flow, c, x, out);
         return;
     }
 }
 
 /* Per phase: its events' guards, then the failures' guards. */
-static inline void vsw_watch(int phase, const double *p, const double *x, double *out)
+static inline void vsw_watch(int phase, const double *c, const double *x, double *out)
 {
     switch (phase) {
     case 0:
-        VSW_CALL(vsw_simplest_walker_sim_stance_watch, p, x, out);
+        VSW_CALL(vsw_simplest_walker_sim_stance_watch, c, x, out);
         return;
     }
 }
@@ -599,20 +693,20 @@ static const int vsw_watch_direction[VSW_NPHASES][VSW_MAX_WATCH] = {{1, -1, -1, 
 static const int vsw_watch_what[VSW_NPHASES][VSW_MAX_WATCH] = {{0, -1, -2, -3}};
 
 /* Per event: the reset. */
-static inline void vsw_reset(int event, const double *p, const double *x, double *out)
+static inline void vsw_reset(int event, const double *c, const double *x, double *out)
 {
     switch (event) {
     case 0:
-        VSW_CALL(vsw_simplest_walker_sim_heelstrike_reset, p, x, out);
+        VSW_CALL(vsw_simplest_walker_sim_heelstrike_reset, c, x, out);
         return;
     }
 }
 /* Per event: the condition for it to count into *out; 0 when it always counts. */
-static inline int vsw_when(int event, const double *p, const double *x, double *out)
+static inline int vsw_when(int event, const double *c, const double *x, double *out)
 {
     switch (event) {
     case 0:
-        VSW_CALL(vsw_simplest_walker_sim_heelstrike_when, p, x, out);
+        VSW_CALL(vsw_simplest_walker_sim_heelstrike_when, c, x, out);
         return 1;
     }
     return 0;
@@ -621,8 +715,8 @@ static inline int vsw_when(int event, const double *p, const double *x, double *
 static const int vsw_event_target[VSW_NEVENTS] = {0};
 static const int vsw_event_ends_step[VSW_NEVENTS] = {1};
 /* The step length from the state just before the step event; 0 when the model has none. */
-static inline int vsw_step_length(const double *p, const double *x, double *out)
+static inline int vsw_step_length(const double *c, const double *x, double *out)
 {
-    VSW_CALL(vsw_simplest_walker_sim_step_length, p, x, out);
+    VSW_CALL(vsw_simplest_walker_sim_step_length, c, x, out);
     return 1;
 }

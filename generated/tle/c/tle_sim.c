@@ -4,8 +4,9 @@
  * sympy 1.14.0
  * casadi 3.8.2
  * The hybrid dynamics of the model for the batch simulator (vsw/csrc/hybrid_batch.c, built
- * by vsw/batch.py): every function takes (p, x), the parameters (beta, theta_II, phi0, delta) and the
- * state (theta, theta_dot), in CasADi's calling convention.
+ * by vsw/batch.py): every function takes (c, x), the model's constants (what the functions
+ * use of the parameters beta, theta_II, phi0, delta: c = constants(p), once a walk) and the state
+ * (theta, theta_dot), in CasADi's calling convention.
  * Phases: short, extension, long.
  * Events: extension_start (short -> extension), extension_end (extension -> long), heelstrike (long -> short, ends the step).
  * Failures: fell-backward, lift-off.
@@ -46,6 +47,7 @@ extern "C" {
 /* Add prefix to internal symbols */
 #define casadi_f0 CASADI_PREFIX(f0)
 #define casadi_f1 CASADI_PREFIX(f1)
+#define casadi_f10 CASADI_PREFIX(f10)
 #define casadi_f2 CASADI_PREFIX(f2)
 #define casadi_f3 CASADI_PREFIX(f3)
 #define casadi_f4 CASADI_PREFIX(f4)
@@ -58,6 +60,7 @@ extern "C" {
 #define casadi_s1 CASADI_PREFIX(s1)
 #define casadi_s2 CASADI_PREFIX(s2)
 #define casadi_s3 CASADI_PREFIX(s3)
+#define casadi_s4 CASADI_PREFIX(s4)
 #define casadi_sq CASADI_PREFIX(sq)
 
 /* Symbol visibility in DLLs */
@@ -87,12 +90,139 @@ CASADI_SYMBOL_EXPORT int vsw_tle_sim__casadi_int_size(void) { return (int) sizeo
 CASADI_SYMBOL_EXPORT int vsw_tle_sim__casadi_real_size(void) { return (int) sizeof(casadi_real); }
 
 static const casadi_int casadi_s0[3] = {4, 1, 1};
-static const casadi_int casadi_s1[3] = {2, 1, 1};
-static const casadi_int casadi_s2[3] = {3, 1, 1};
-static const casadi_int casadi_s3[3] = {1, 1, 1};
+static const casadi_int casadi_s1[3] = {18, 1, 1};
+static const casadi_int casadi_s2[3] = {2, 1, 1};
+static const casadi_int casadi_s3[3] = {3, 1, 1};
+static const casadi_int casadi_s4[3] = {1, 1, 1};
 
-/* vsw_tle_sim_short_flow:(p[4],x[2])->(short_flow[2]) */
+/* vsw_tle_sim_constants:(p[4])->(c[18]) */
 static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1, a2, a3, a4, a5, a6, a7, a8;
+  a0=arg[0][0];
+  res[0][0]=a0;
+  a1=arg[0][1];
+  res[0][1]=a1;
+  a2=1.;
+  a2=(a2-a0);
+  a3=(2.*a2);
+  res[0][2]=a3;
+  a3=-2.;
+  a4=(a3*a1);
+  res[0][3]=a4;
+  a4=3.;
+  a5=arg[0][3];
+  a6=casadi_sq(a5);
+  a6=(a4/a6);
+  res[0][4]=a6;
+  a6=6.;
+  a7=casadi_sq(a5);
+  a7=(a7*a5);
+  a8=(a6/a7);
+  res[0][5]=a8;
+  a8=2.;
+  a7=(a8/a7);
+  res[0][6]=a7;
+  res[0][7]=a2;
+  res[0][8]=a5;
+  a2=casadi_sq(a5);
+  a4=(a4/a2);
+  res[0][9]=a4;
+  a4=casadi_sq(a5);
+  a4=(a4*a5);
+  a8=(a8/a4);
+  res[0][10]=a8;
+  a8=-1.;
+  a8=(a8+a0);
+  res[0][11]=a8;
+  a0=casadi_sq(a8);
+  res[0][12]=a0;
+  a3=(a3*a1);
+  res[0][13]=a3;
+  a4=(a6/a4);
+  res[0][14]=a4;
+  a6=(a6*a8);
+  a6=(a6/a2);
+  res[0][15]=a6;
+  a6=arg[0][2];
+  res[0][16]=a6;
+  a6=cos(a6);
+  res[0][17]=a6;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_constants(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f0(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_constants_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_constants_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_constants_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_constants_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_tle_sim_constants_n_in(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_tle_sim_constants_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_tle_sim_constants_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_constants_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_constants_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_constants_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_constants_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_constants_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 1;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_constants_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 1*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_tle_sim_short_flow:(c[18],x[2])->(short_flow[2]) */
+static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1;
   a0=arg[1][1];
   res[0][0]=a0;
@@ -105,7 +235,7 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_short_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f0(arg, res, iw, w, mem);
+  return casadi_f1(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_short_flow_checkout(void) {
@@ -133,7 +263,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_tle_sim_short_flow_default_in(casadi_int i)
 
 CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_short_flow_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -148,15 +278,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_short_flow_name_out(casadi_int i) {
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_short_flow_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_short_flow_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -177,8 +307,8 @@ CASADI_SYMBOL_EXPORT int vsw_tle_sim_short_flow_work_bytes(casadi_int *sz_arg, c
   return 0;
 }
 
-/* vsw_tle_sim_short_watch:(p[4],x[2])->(short_watch[3]) */
-static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_tle_sim_short_watch:(c[18],x[2])->(short_watch[3]) */
+static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2, a3;
   a0=arg[1][0];
   a1=arg[0][1];
@@ -198,7 +328,7 @@ static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_short_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f1(arg, res, iw, w, mem);
+  return casadi_f2(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_short_watch_checkout(void) {
@@ -226,7 +356,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_tle_sim_short_watch_default_in(casadi_int i
 
 CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_short_watch_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -241,15 +371,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_short_watch_name_out(casadi_int i) 
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_short_watch_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_short_watch_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s2;
+    case 0: return casadi_s3;
     default: return 0;
   }
 }
@@ -270,55 +400,46 @@ CASADI_SYMBOL_EXPORT int vsw_tle_sim_short_watch_work_bytes(casadi_int *sz_arg, 
   return 0;
 }
 
-/* vsw_tle_sim_extension_flow:(p[4],x[2])->(extension_flow[2]) */
-static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
-  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10;
-  a00=arg[1][1];
-  res[0][0]=a00;
-  a01=arg[1][0];
-  a02=sin(a01);
-  a03=1.;
-  a04=arg[0][0];
-  a03=(a03-a04);
-  a05=(2.*a03);
-  a00=casadi_sq(a00);
-  a05=(a05*a00);
-  a00=3.;
-  a06=arg[0][3];
-  a07=casadi_sq(a06);
-  a00=(a00/a07);
-  a07=-2.;
-  a08=arg[0][1];
-  a07=(a07*a08);
-  a09=(2.*a01);
-  a07=(a07+a09);
-  a07=(a00*a07);
-  a09=6.;
-  a10=casadi_sq(a06);
-  a10=(a10*a06);
-  a09=(a09/a10);
-  a01=(a01-a08);
-  a08=casadi_sq(a01);
-  a09=(a09*a08);
-  a07=(a07-a09);
-  a05=(a05*a07);
-  a02=(a02-a05);
-  a08=(a08*a00);
-  a00=2.;
-  a00=(a00/a10);
-  a10=casadi_sq(a01);
-  a10=(a10*a01);
-  a00=(a00*a10);
-  a08=(a08-a00);
-  a03=(a03*a08);
-  a04=(a04+a03);
-  a02=(a02/a04);
-  res[0][1]=a02;
+/* vsw_tle_sim_extension_flow:(c[18],x[2])->(extension_flow[2]) */
+static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1, a2, a3, a4, a5, a6;
+  a0=arg[1][1];
+  res[0][0]=a0;
+  a1=arg[1][0];
+  a2=sin(a1);
+  a3=arg[0][2];
+  a0=casadi_sq(a0);
+  a3=(a3*a0);
+  a0=arg[0][4];
+  a4=arg[0][3];
+  a5=(2.*a1);
+  a4=(a4+a5);
+  a4=(a0*a4);
+  a5=arg[0][5];
+  a6=arg[0][1];
+  a1=(a1-a6);
+  a6=casadi_sq(a1);
+  a5=(a5*a6);
+  a4=(a4-a5);
+  a3=(a3*a4);
+  a2=(a2-a3);
+  a3=arg[0][0];
+  a4=arg[0][7];
+  a6=(a6*a0);
+  a0=arg[0][6];
+  a5=casadi_sq(a1);
+  a5=(a5*a1);
+  a0=(a0*a5);
+  a6=(a6-a0);
+  a4=(a4*a6);
+  a3=(a3+a4);
+  a2=(a2/a3);
+  res[0][1]=a2;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f2(arg, res, iw, w, mem);
+  return casadi_f3(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_flow_checkout(void) {
@@ -346,7 +467,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_tle_sim_extension_flow_default_in(casadi_in
 
 CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_extension_flow_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -361,15 +482,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_extension_flow_name_out(casadi_int 
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_extension_flow_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_extension_flow_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -390,82 +511,73 @@ CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_flow_work_bytes(casadi_int *sz_ar
   return 0;
 }
 
-/* vsw_tle_sim_extension_watch:(p[4],x[2])->(extension_watch[3]) */
-static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_tle_sim_extension_watch:(c[18],x[2])->(extension_watch[3]) */
+static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
-  casadi_real a12, a13, a14;
+  casadi_real a12;
   a00=arg[1][0];
   a01=arg[0][1];
   a02=(a00-a01);
-  a03=arg[0][3];
+  a03=arg[0][8];
   a02=(a02-a03);
   res[0][0]=a02;
   a02=arg[1][1];
   res[0][1]=a02;
   a04=arg[0][0];
-  a05=-1.;
-  a05=(a05+a04);
-  a06=(a00-a01);
-  a07=casadi_sq(a06);
-  a08=3.;
-  a09=casadi_sq(a03);
-  a08=(a08/a09);
-  a10=(a07*a08);
-  a11=2.;
-  a12=casadi_sq(a03);
-  a12=(a12*a03);
-  a11=(a11/a12);
-  a13=casadi_sq(a06);
-  a13=(a13*a06);
-  a11=(a11*a13);
-  a10=(a10-a11);
-  a10=(a05*a10);
-  a04=(a04-a10);
-  a10=cos(a00);
-  a11=casadi_sq(a10);
-  a11=(a04*a11);
-  a02=casadi_sq(a02);
-  a02=(a10*a02);
-  a13=casadi_sq(a04);
-  a13=(a02*a13);
-  a11=(a11-a13);
-  a13=(2.*a02);
-  a14=casadi_sq(a05);
-  a13=(a13*a14);
-  a14=-2.;
-  a14=(a14*a01);
-  a01=(2.*a00);
-  a14=(a14+a01);
-  a08=(a08*a14);
-  a14=6.;
-  a12=(a14/a12);
-  a12=(a12*a07);
-  a08=(a08-a12);
-  a12=casadi_sq(a08);
-  a13=(a13*a12);
-  a11=(a11-a13);
+  a05=arg[0][11];
+  a01=(a00-a01);
+  a06=casadi_sq(a01);
+  a07=arg[0][9];
+  a08=(a06*a07);
+  a09=arg[0][10];
+  a10=casadi_sq(a01);
+  a10=(a10*a01);
+  a09=(a09*a10);
+  a08=(a08-a09);
   a08=(a05*a08);
-  a08=(a08*a10);
+  a04=(a04-a08);
+  a08=cos(a00);
+  a09=casadi_sq(a08);
+  a09=(a04*a09);
+  a02=casadi_sq(a02);
+  a02=(a08*a02);
+  a10=casadi_sq(a04);
+  a10=(a02*a10);
+  a09=(a09-a10);
+  a10=(2.*a02);
+  a11=arg[0][12];
+  a10=(a10*a11);
+  a11=arg[0][13];
+  a12=(2.*a00);
+  a11=(a11+a12);
+  a07=(a07*a11);
+  a11=arg[0][14];
+  a11=(a11*a06);
+  a07=(a07-a11);
+  a11=casadi_sq(a07);
+  a10=(a10*a11);
+  a09=(a09-a10);
+  a05=(a05*a07);
+  a05=(a05*a08);
   a00=sin(a00);
-  a08=(a08*a00);
-  a11=(a11-a08);
-  a14=(a14*a05);
-  a14=(a14/a09);
-  a14=(a14*a04);
-  a14=(a14*a02);
+  a05=(a05*a00);
+  a09=(a09-a05);
+  a05=arg[0][15];
+  a05=(a05*a04);
+  a05=(a05*a02);
   a02=1.;
-  a06=(2.*a06);
-  a06=(a06/a03);
-  a02=(a02-a06);
-  a14=(a14*a02);
-  a11=(a11-a14);
-  a11=(a11/a04);
-  res[0][2]=a11;
+  a01=(2.*a01);
+  a01=(a01/a03);
+  a02=(a02-a01);
+  a05=(a05*a02);
+  a09=(a09-a05);
+  a09=(a09/a04);
+  res[0][2]=a09;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f3(arg, res, iw, w, mem);
+  return casadi_f4(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_watch_checkout(void) {
@@ -493,7 +605,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_tle_sim_extension_watch_default_in(casadi_i
 
 CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_extension_watch_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -508,15 +620,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_extension_watch_name_out(casadi_int
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_extension_watch_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_extension_watch_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s2;
+    case 0: return casadi_s3;
     default: return 0;
   }
 }
@@ -537,8 +649,8 @@ CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_watch_work_bytes(casadi_int *sz_a
   return 0;
 }
 
-/* vsw_tle_sim_long_flow:(p[4],x[2])->(long_flow[2]) */
-static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_tle_sim_long_flow:(c[18],x[2])->(long_flow[2]) */
+static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0;
   a0=arg[1][1];
   res[0][0]=a0;
@@ -549,7 +661,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f4(arg, res, iw, w, mem);
+  return casadi_f5(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_flow_checkout(void) {
@@ -577,7 +689,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_tle_sim_long_flow_default_in(casadi_int i) 
 
 CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_long_flow_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -592,15 +704,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_long_flow_name_out(casadi_int i) {
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_long_flow_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_long_flow_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -621,12 +733,12 @@ CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_flow_work_bytes(casadi_int *sz_arg, ca
   return 0;
 }
 
-/* vsw_tle_sim_long_watch:(p[4],x[2])->(long_watch[3]) */
-static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_tle_sim_long_watch:(c[18],x[2])->(long_watch[3]) */
+static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2, a3;
   a0=arg[1][0];
   a1=cos(a0);
-  a2=arg[0][2];
+  a2=arg[0][16];
   a2=(a2-a0);
   a2=cos(a2);
   a3=arg[0][0];
@@ -645,7 +757,7 @@ static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f5(arg, res, iw, w, mem);
+  return casadi_f6(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_watch_checkout(void) {
@@ -673,7 +785,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_tle_sim_long_watch_default_in(casadi_int i)
 
 CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_long_watch_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -688,15 +800,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_long_watch_name_out(casadi_int i) {
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_long_watch_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_long_watch_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s2;
+    case 0: return casadi_s3;
     default: return 0;
   }
 }
@@ -717,8 +829,8 @@ CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_watch_work_bytes(casadi_int *sz_arg, c
   return 0;
 }
 
-/* vsw_tle_sim_extension_start_reset:(p[4],x[2])->(extension_start_reset[2]) */
-static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_tle_sim_extension_start_reset:(c[18],x[2])->(extension_start_reset[2]) */
+static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0;
   a0=arg[1][0];
   res[0][0]=a0;
@@ -728,7 +840,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_start_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f6(arg, res, iw, w, mem);
+  return casadi_f7(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_start_reset_checkout(void) {
@@ -756,7 +868,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_tle_sim_extension_start_reset_default_in(ca
 
 CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_extension_start_reset_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -771,15 +883,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_extension_start_reset_name_out(casa
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_extension_start_reset_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_extension_start_reset_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -800,8 +912,8 @@ CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_start_reset_work_bytes(casadi_int
   return 0;
 }
 
-/* vsw_tle_sim_extension_end_reset:(p[4],x[2])->(extension_end_reset[2]) */
-static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_tle_sim_extension_end_reset:(c[18],x[2])->(extension_end_reset[2]) */
+static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0;
   a0=arg[1][0];
   res[0][0]=a0;
@@ -811,7 +923,7 @@ static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_end_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f7(arg, res, iw, w, mem);
+  return casadi_f8(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_end_reset_checkout(void) {
@@ -839,7 +951,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_tle_sim_extension_end_reset_default_in(casa
 
 CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_extension_end_reset_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -854,15 +966,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_extension_end_reset_name_out(casadi
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_extension_end_reset_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_extension_end_reset_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -883,24 +995,24 @@ CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_end_reset_work_bytes(casadi_int *
   return 0;
 }
 
-/* vsw_tle_sim_heelstrike_reset:(p[4],x[2])->(heelstrike_reset[2]) */
-static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_tle_sim_heelstrike_reset:(c[18],x[2])->(heelstrike_reset[2]) */
+static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1;
   a0=arg[1][0];
-  a1=arg[0][2];
+  a1=arg[0][16];
   a0=(a0-a1);
   res[0][0]=a0;
-  a1=cos(a1);
-  a0=arg[1][1];
-  a1=(a1*a0);
-  a0=arg[0][0];
-  a1=(a1/a0);
-  res[0][1]=a1;
+  a0=arg[0][17];
+  a1=arg[1][1];
+  a0=(a0*a1);
+  a1=arg[0][0];
+  a0=(a0/a1);
+  res[0][1]=a0;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_heelstrike_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f8(arg, res, iw, w, mem);
+  return casadi_f9(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_heelstrike_reset_checkout(void) {
@@ -928,7 +1040,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_tle_sim_heelstrike_reset_default_in(casadi_
 
 CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_heelstrike_reset_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -943,15 +1055,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_heelstrike_reset_name_out(casadi_in
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_heelstrike_reset_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_heelstrike_reset_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -972,12 +1084,12 @@ CASADI_SYMBOL_EXPORT int vsw_tle_sim_heelstrike_reset_work_bytes(casadi_int *sz_
   return 0;
 }
 
-/* vsw_tle_sim_step_length:(p[4],x[2])->(step_length) */
-static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_tle_sim_step_length:(c[18],x[2])->(step_length) */
+static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2;
   a0=arg[1][0];
   a1=sin(a0);
-  a2=arg[0][2];
+  a2=arg[0][16];
   a2=(a2-a0);
   a2=sin(a2);
   a0=arg[0][0];
@@ -988,7 +1100,7 @@ static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_step_length(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f9(arg, res, iw, w, mem);
+  return casadi_f10(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_step_length_checkout(void) {
@@ -1016,7 +1128,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_tle_sim_step_length_default_in(casadi_int i
 
 CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_step_length_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -1031,15 +1143,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_step_length_name_out(casadi_int i) 
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_step_length_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_step_length_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s3;
+    case 0: return casadi_s4;
     default: return 0;
   }
 }
@@ -1077,7 +1189,7 @@ CASADI_SYMBOL_EXPORT int vsw_tle_sim_step_length_work_bytes(casadi_int *sz_arg, 
 #define VSW_SZ_ARG 2
 #define VSW_SZ_RES 1
 #define VSW_SZ_IW 0
-#define VSW_SZ_W 15
+#define VSW_SZ_W 13
 
 /* Every function of the table in CasADi's calling convention, called directly (not through
    a pointer) so that the compiler can inline it into the integrator's loops. */
@@ -1090,34 +1202,42 @@ CASADI_SYMBOL_EXPORT int vsw_tle_sim_step_length_work_bytes(casadi_int *sz_arg, 
         fn(vsw_arg_, vsw_res_, vsw_iw_, vsw_w_, 0);                                          \
     } while (0)
 
-/* Per phase: x' = f(p, x). */
-static inline void vsw_flow(int phase, const double *p, const double *x, double *out)
+/* The constants of the functions below from the parameters: the parameters they use and
+   their parameter-only subexpressions, computed once a walk instead of at every call. */
+#define VSW_NC 18
+static inline void vsw_constants(const double *p, double *c)
+{
+    VSW_CALL(vsw_tle_sim_constants, p, p, c);
+}
+
+/* Per phase: x' = f(x) (with the constants c). */
+static inline void vsw_flow(int phase, const double *c, const double *x, double *out)
 {
     switch (phase) {
     case 0:
-        VSW_CALL(vsw_tle_sim_short_flow, p, x, out);
+        VSW_CALL(vsw_tle_sim_short_flow, c, x, out);
         return;
     case 1:
-        VSW_CALL(vsw_tle_sim_extension_flow, p, x, out);
+        VSW_CALL(vsw_tle_sim_extension_flow, c, x, out);
         return;
     case 2:
-        VSW_CALL(vsw_tle_sim_long_flow, p, x, out);
+        VSW_CALL(vsw_tle_sim_long_flow, c, x, out);
         return;
     }
 }
 
 /* Per phase: its events' guards, then the failures' guards. */
-static inline void vsw_watch(int phase, const double *p, const double *x, double *out)
+static inline void vsw_watch(int phase, const double *c, const double *x, double *out)
 {
     switch (phase) {
     case 0:
-        VSW_CALL(vsw_tle_sim_short_watch, p, x, out);
+        VSW_CALL(vsw_tle_sim_short_watch, c, x, out);
         return;
     case 1:
-        VSW_CALL(vsw_tle_sim_extension_watch, p, x, out);
+        VSW_CALL(vsw_tle_sim_extension_watch, c, x, out);
         return;
     case 2:
-        VSW_CALL(vsw_tle_sim_long_watch, p, x, out);
+        VSW_CALL(vsw_tle_sim_long_watch, c, x, out);
         return;
     }
 }
@@ -1128,22 +1248,22 @@ static const int vsw_watch_direction[VSW_NPHASES][VSW_MAX_WATCH] = {{1, -1, -1},
 static const int vsw_watch_what[VSW_NPHASES][VSW_MAX_WATCH] = {{0, -1, -2}, {1, -1, -2}, {2, -1, -2}};
 
 /* Per event: the reset. */
-static inline void vsw_reset(int event, const double *p, const double *x, double *out)
+static inline void vsw_reset(int event, const double *c, const double *x, double *out)
 {
     switch (event) {
     case 0:
-        VSW_CALL(vsw_tle_sim_extension_start_reset, p, x, out);
+        VSW_CALL(vsw_tle_sim_extension_start_reset, c, x, out);
         return;
     case 1:
-        VSW_CALL(vsw_tle_sim_extension_end_reset, p, x, out);
+        VSW_CALL(vsw_tle_sim_extension_end_reset, c, x, out);
         return;
     case 2:
-        VSW_CALL(vsw_tle_sim_heelstrike_reset, p, x, out);
+        VSW_CALL(vsw_tle_sim_heelstrike_reset, c, x, out);
         return;
     }
 }
 /* Per event: the condition for it to count into *out; 0 when it always counts. */
-static inline int vsw_when(int event, const double *p, const double *x, double *out)
+static inline int vsw_when(int event, const double *c, const double *x, double *out)
 {
     switch (event) {
 
@@ -1154,8 +1274,8 @@ static inline int vsw_when(int event, const double *p, const double *x, double *
 static const int vsw_event_target[VSW_NEVENTS] = {1, 2, 0};
 static const int vsw_event_ends_step[VSW_NEVENTS] = {0, 0, 1};
 /* The step length from the state just before the step event; 0 when the model has none. */
-static inline int vsw_step_length(const double *p, const double *x, double *out)
+static inline int vsw_step_length(const double *c, const double *x, double *out)
 {
-    VSW_CALL(vsw_tle_sim_step_length, p, x, out);
+    VSW_CALL(vsw_tle_sim_step_length, c, x, out);
     return 1;
 }

@@ -4,8 +4,9 @@
  * sympy 1.14.0
  * casadi 3.8.2
  * The hybrid dynamics of the model for the batch simulator (vsw/csrc/hybrid_batch.c, built
- * by vsw/batch.py): every function takes (p, x), the parameters (m_h, m, m_t, r, l_t, rho, gamma, g) and the
- * state (theta, psi, theta_dot, psi_dot), in CasADi's calling convention.
+ * by vsw/batch.py): every function takes (c, x), the model's constants (what the functions
+ * use of the parameters m_h, m, m_t, r, l_t, rho, gamma, g: c = constants(p), once a walk) and the state
+ * (theta, psi, theta_dot, psi_dot), in CasADi's calling convention.
  * Phases: stance.
  * Events: heelstrike (stance -> stance, ends the step).
  * Failures: fell-backward, fell-forward, lift-off.
@@ -49,9 +50,11 @@ extern "C" {
 #define casadi_f2 CASADI_PREFIX(f2)
 #define casadi_f3 CASADI_PREFIX(f3)
 #define casadi_f4 CASADI_PREFIX(f4)
+#define casadi_f5 CASADI_PREFIX(f5)
 #define casadi_s0 CASADI_PREFIX(s0)
 #define casadi_s1 CASADI_PREFIX(s1)
 #define casadi_s2 CASADI_PREFIX(s2)
+#define casadi_s3 CASADI_PREFIX(s3)
 #define casadi_sq CASADI_PREFIX(sq)
 
 /* Symbol visibility in DLLs */
@@ -81,116 +84,304 @@ CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim__casadi_int_size(void) { return (i
 CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim__casadi_real_size(void) { return (int) sizeof(casadi_real); }
 
 static const casadi_int casadi_s0[3] = {8, 1, 1};
-static const casadi_int casadi_s1[3] = {4, 1, 1};
-static const casadi_int casadi_s2[3] = {1, 1, 1};
+static const casadi_int casadi_s1[3] = {41, 1, 1};
+static const casadi_int casadi_s2[3] = {4, 1, 1};
+static const casadi_int casadi_s3[3] = {1, 1, 1};
 
-/* vsw_torso_walker_sim_stance_flow:(p[8],x[4])->(stance_flow[4]) */
+/* vsw_torso_walker_sim_constants:(p[8])->(c[41]) */
 static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
-  casadi_real a12, a13, a14, a15, a16, a17, a18;
+  casadi_real a12, a13, a14;
+  a00=arg[0][4];
+  a01=arg[0][2];
+  a02=(a00*a01);
+  a03=arg[0][3];
+  a04=(a02*a03);
+  res[0][0]=a04;
+  a05=arg[0][6];
+  res[0][1]=a05;
+  a06=arg[0][5];
+  res[0][2]=a06;
+  a07=sin(a06);
+  a02=(a02*a07);
+  a07=arg[0][7];
+  a02=(a02*a07);
+  res[0][3]=a02;
+  a02=(a07*a03);
+  a08=2.;
+  a02=(a02/a08);
+  res[0][4]=a02;
+  a02=arg[0][0];
+  a09=(2.*a02);
+  a10=(2.*a01);
+  a09=(a09+a10);
+  a10=3.;
+  a11=arg[0][1];
+  a12=(a10*a11);
+  a09=(a09+a12);
+  res[0][5]=a09;
+  a09=casadi_sq(a03);
+  a12=(a09*a11);
+  a13=(a12/a08);
+  res[0][6]=a13;
+  res[0][7]=a12;
+  res[0][8]=a09;
+  res[0][9]=a11;
+  a13=4.;
+  a04=(a13*a04);
+  res[0][10]=a04;
+  a04=5.;
+  a12=(a04*a12);
+  a09=(a13*a09);
+  a14=(a09*a02);
+  a12=(a12+a14);
+  a09=(a09*a01);
+  a12=(a12+a09);
+  res[0][11]=a12;
+  a12=casadi_sq(a11);
+  res[0][12]=a12;
+  a12=casadi_sq(a03);
+  a12=(a12*a03);
+  a12=(a12*a03);
+  res[0][13]=a12;
+  res[0][14]=a03;
+  a12=(a10*a11);
+  a12=(a12/a08);
+  res[0][15]=a12;
+  a05=cos(a05);
+  a05=(a05*a07);
+  a12=(a05*a02);
+  a09=(a05*a01);
+  a12=(a12+a09);
+  res[0][16]=a12;
+  res[0][17]=a02;
+  res[0][18]=a01;
+  a05=(2.*a05);
+  a05=(a05*a11);
+  res[0][19]=a05;
+  a05=(a03/a08);
+  a12=(a05*a11);
+  res[0][20]=a12;
+  a12=(a00*a01);
+  res[0][21]=a12;
+  a06=sin(a06);
+  a06=(a12*a06);
+  a06=(a06*a07);
+  res[0][22]=a06;
+  a05=(a05*a07);
+  res[0][23]=a05;
+  a05=(2.*a02);
+  a07=(2.*a01);
+  a05=(a05+a07);
+  a10=(a10*a11);
+  a05=(a05+a10);
+  res[0][24]=a05;
+  a05=casadi_sq(a03);
+  a10=(a05*a11);
+  a08=(a10/a08);
+  res[0][25]=a08;
+  res[0][26]=a10;
+  res[0][27]=a05;
+  a12=(a13*a12);
+  res[0][28]=a12;
+  a10=(a04*a10);
+  a05=(a13*a05);
+  a12=(a05*a02);
+  a10=(a10+a12);
+  a05=(a05*a01);
+  a10=(a10+a05);
+  res[0][29]=a10;
+  a10=casadi_sq(a11);
+  res[0][30]=a10;
+  a10=casadi_sq(a03);
+  a10=(a10*a03);
+  a10=(a10*a03);
+  res[0][31]=a10;
+  a10=casadi_sq(a03);
+  a10=(a10*a03);
+  a10=(a10*a03);
+  a13=(a11/a13);
+  a05=(a10*a13);
+  a02=(a05*a02);
+  res[0][32]=a02;
+  a11=casadi_sq(a11);
+  a02=(a10*a11);
+  res[0][33]=a02;
+  a05=(a05*a01);
+  res[0][34]=a05;
+  a05=casadi_sq(a03);
+  a05=(a05*a03);
+  a13=(a13*a05);
+  a13=(a13*a00);
+  a13=(a13*a01);
+  res[0][35]=a13;
+  a04=(a04*a02);
+  a02=16.;
+  a04=(a04/a02);
+  res[0][36]=a04;
+  res[0][37]=a10;
+  res[0][38]=a11;
+  res[0][39]=a05;
+  res[0][40]=a00;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_constants(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f0(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_constants_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_torso_walker_sim_constants_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_torso_walker_sim_constants_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_torso_walker_sim_constants_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_torso_walker_sim_constants_n_in(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_torso_walker_sim_constants_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_torso_walker_sim_constants_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_torso_walker_sim_constants_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_torso_walker_sim_constants_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_torso_walker_sim_constants_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_torso_walker_sim_constants_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_constants_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 1;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_constants_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 1*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_torso_walker_sim_stance_flow:(c[41],x[4])->(stance_flow[4]) */
+static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12;
   a00=arg[1][2];
   res[0][0]=a00;
   a01=arg[1][3];
   res[0][1]=a01;
-  a02=arg[0][3];
-  a03=casadi_sq(a02);
-  a04=arg[0][1];
-  a05=(a03*a04);
-  a06=arg[0][4];
-  a07=arg[0][2];
-  a06=(a06*a07);
-  a08=arg[0][5];
-  a09=sin(a08);
-  a09=(a06*a09);
-  a10=arg[0][7];
-  a09=(a09*a10);
-  a06=(a06*a02);
+  a02=arg[0][7];
+  a03=arg[0][3];
+  a04=arg[0][0];
   a00=casadi_sq(a00);
-  a11=(a06*a00);
-  a12=arg[0][6];
-  a13=arg[1][0];
-  a14=(a12+a13);
-  a14=(a14-a08);
-  a08=sin(a14);
-  a11=(a11*a08);
-  a09=(a09+a11);
-  a10=(a10*a02);
-  a11=2.;
-  a10=(a10/a11);
-  a08=(a12+a13);
+  a04=(a04*a00);
+  a05=arg[0][1];
+  a06=arg[1][0];
+  a07=(a05+a06);
+  a08=arg[0][2];
+  a07=(a07-a08);
+  a08=sin(a07);
+  a04=(a04*a08);
+  a03=(a03+a04);
+  a04=arg[0][4];
+  a08=(a05+a06);
   a08=sin(a08);
-  a08=(a10*a08);
-  a15=arg[0][0];
-  a16=(2.*a15);
-  a17=(2.*a07);
-  a16=(a16+a17);
-  a17=3.;
-  a17=(a17*a04);
-  a16=(a16+a17);
-  a08=(a08*a16);
-  a09=(a09+a08);
-  a08=(a05/a11);
-  a16=arg[1][1];
-  a13=(a16-a13);
-  a17=sin(a13);
-  a18=(a08*a17);
+  a08=(a04*a08);
+  a09=arg[0][5];
+  a08=(a08*a09);
+  a03=(a03+a08);
+  a08=arg[0][6];
+  a09=arg[1][1];
+  a06=(a09-a06);
+  a10=sin(a06);
+  a11=(a08*a10);
   a01=casadi_sq(a01);
-  a18=(a18*a01);
-  a09=(a09-a18);
-  a09=(a05*a09);
-  a18=4.;
-  a01=(a09/a18);
-  a00=(a03*a00);
-  a00=(a00*a17);
-  a00=(a00*a04);
-  a00=(a00/a11);
-  a12=(a12+a16);
-  a12=sin(a12);
-  a10=(a10*a12);
+  a11=(a11*a01);
+  a03=(a03-a11);
+  a02=(a02*a03);
+  a03=4.;
+  a11=(a02/a03);
+  a01=arg[0][8];
+  a00=(a01*a00);
+  a00=(a00*a10);
+  a10=arg[0][9];
+  a00=(a00*a10);
+  a12=2.;
+  a00=(a00/a12);
+  a05=(a05+a09);
+  a05=sin(a05);
+  a04=(a04*a05);
+  a04=(a04*a10);
+  a00=(a00-a04);
+  a08=(a08*a00);
+  a06=cos(a06);
+  a08=(a08*a06);
+  a11=(a11+a08);
+  a08=arg[0][11];
+  a04=arg[0][10];
+  a07=cos(a07);
+  a04=(a04*a07);
+  a08=(a08+a04);
+  a01=(a01*a08);
+  a01=(a01*a10);
+  a10=16.;
+  a01=(a01/a10);
+  a10=casadi_sq(a06);
+  a04=arg[0][12];
   a10=(a10*a04);
-  a00=(a00-a10);
+  a04=arg[0][13];
+  a10=(a10*a04);
+  a10=(a10/a03);
+  a01=(a01-a10);
+  a11=(a11/a01);
+  res[0][2]=a11;
+  a02=(a02*a06);
+  a02=(a02/a12);
   a08=(a08*a00);
-  a13=cos(a13);
-  a08=(a08*a13);
-  a01=(a01+a08);
-  a08=5.;
-  a08=(a08*a05);
-  a05=(a18*a03);
-  a15=(a05*a15);
-  a08=(a08+a15);
-  a05=(a05*a07);
-  a08=(a08+a05);
-  a06=(a18*a06);
-  a14=cos(a14);
-  a06=(a06*a14);
-  a08=(a08+a06);
-  a03=(a03*a08);
-  a03=(a03*a04);
-  a06=16.;
-  a03=(a03/a06);
-  a06=casadi_sq(a13);
-  a04=casadi_sq(a04);
-  a06=(a06*a04);
-  a04=casadi_sq(a02);
-  a04=(a04*a02);
-  a04=(a04*a02);
-  a06=(a06*a04);
-  a06=(a06/a18);
-  a03=(a03-a06);
-  a01=(a01/a03);
-  res[0][2]=a01;
-  a09=(a09*a13);
-  a09=(a09/a11);
-  a08=(a08*a00);
-  a08=(a08/a18);
-  a09=(a09+a08);
-  a09=(a09/a03);
-  res[0][3]=a09;
+  a08=(a08/a03);
+  a02=(a02+a08);
+  a02=(a02/a01);
+  res[0][3]=a02;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_stance_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f0(arg, res, iw, w, mem);
+  return casadi_f1(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_stance_flow_checkout(void) {
@@ -218,7 +409,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_torso_walker_sim_stance_flow_default_in(cas
 
 CASADI_SYMBOL_EXPORT const char* vsw_torso_walker_sim_stance_flow_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -233,15 +424,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_torso_walker_sim_stance_flow_name_out(casad
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_torso_walker_sim_stance_flow_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_torso_walker_sim_stance_flow_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -262,10 +453,10 @@ CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_stance_flow_work_bytes(casadi_int 
   return 0;
 }
 
-/* vsw_torso_walker_sim_stance_watch:(p[8],x[4])->(stance_watch[4]) */
-static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_torso_walker_sim_stance_watch:(c[41],x[4])->(stance_watch[4]) */
+static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
-  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19;
   a00=arg[1][1];
   a01=2.;
   a02=(a00/a01);
@@ -278,139 +469,115 @@ static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   res[0][1]=a02;
   a04=cos(a03);
   res[0][2]=a04;
-  a04=arg[0][6];
-  a05=cos(a04);
-  a06=arg[0][7];
-  a05=(a05*a06);
-  a07=arg[0][0];
-  a08=(a05*a07);
-  a09=arg[0][2];
-  a10=(a05*a09);
-  a08=(a08+a10);
-  a10=3.;
-  a11=arg[0][1];
-  a12=(a10*a11);
-  a12=(a12/a01);
+  a04=arg[0][16];
+  a05=arg[0][15];
   a02=casadi_sq(a02);
-  a13=arg[0][3];
-  a14=(a02*a13);
-  a15=cos(a03);
-  a15=(a14*a15);
-  a16=(a12*a15);
-  a08=(a08-a16);
-  a16=(a15*a07);
-  a08=(a08-a16);
-  a15=(a15*a09);
-  a08=(a08-a15);
-  a05=(2.*a05);
-  a05=(a05*a11);
-  a08=(a08+a05);
-  a05=arg[1][3];
-  a05=casadi_sq(a05);
-  a15=(a13/a01);
-  a16=(a15*a11);
-  a17=(a05*a16);
-  a18=cos(a00);
-  a17=(a17*a18);
-  a08=(a08+a17);
-  a17=casadi_sq(a13);
-  a18=(a17*a11);
-  a19=arg[0][4];
-  a19=(a19*a09);
-  a14=(a19*a14);
-  a20=(a04+a03);
-  a21=arg[0][5];
-  a20=(a20-a21);
-  a22=sin(a20);
-  a14=(a14*a22);
-  a21=sin(a21);
-  a21=(a19*a21);
-  a21=(a21*a06);
-  a14=(a14+a21);
-  a15=(a15*a06);
-  a06=(a04+a03);
-  a06=sin(a06);
-  a06=(a15*a06);
-  a21=(2.*a07);
-  a22=(2.*a09);
-  a21=(a21+a22);
-  a10=(a10*a11);
-  a21=(a21+a10);
-  a06=(a06*a21);
-  a14=(a14+a06);
-  a06=(a18/a01);
-  a05=(a05*a06);
-  a21=(a00-a03);
-  a10=sin(a21);
-  a05=(a05*a10);
-  a14=(a14-a05);
-  a14=(a18*a14);
-  a05=4.;
-  a22=(a14/a05);
-  a02=(a02*a17);
-  a02=(a02*a10);
-  a02=(a02*a11);
+  a06=arg[0][14];
+  a07=(a02*a06);
+  a08=cos(a03);
+  a08=(a07*a08);
+  a09=(a05*a08);
+  a04=(a04-a09);
+  a09=arg[0][17];
+  a10=(a08*a09);
+  a04=(a04-a10);
+  a10=arg[0][18];
+  a08=(a08*a10);
+  a04=(a04-a08);
+  a08=arg[0][19];
+  a04=(a04+a08);
+  a08=arg[1][3];
+  a08=casadi_sq(a08);
+  a11=arg[0][20];
+  a12=(a08*a11);
+  a13=cos(a00);
+  a12=(a12*a13);
+  a04=(a04+a12);
+  a12=arg[0][26];
+  a13=arg[0][21];
+  a13=(a13*a07);
+  a07=arg[0][1];
+  a14=(a07+a03);
+  a15=arg[0][2];
+  a14=(a14-a15);
+  a15=sin(a14);
+  a13=(a13*a15);
+  a15=arg[0][22];
+  a13=(a13+a15);
+  a15=arg[0][23];
+  a16=(a07+a03);
+  a16=sin(a16);
+  a16=(a15*a16);
+  a17=arg[0][24];
+  a16=(a16*a17);
+  a13=(a13+a16);
+  a16=arg[0][25];
+  a08=(a08*a16);
+  a17=(a00-a03);
+  a18=sin(a17);
+  a08=(a08*a18);
+  a13=(a13-a08);
+  a12=(a12*a13);
+  a13=4.;
+  a08=(a12/a13);
+  a19=arg[0][27];
+  a02=(a02*a19);
+  a02=(a02*a18);
+  a18=arg[0][9];
+  a02=(a02*a18);
   a02=(a02/a01);
-  a04=(a04+a00);
-  a04=sin(a04);
-  a15=(a15*a04);
-  a15=(a15*a11);
+  a07=(a07+a00);
+  a07=sin(a07);
+  a15=(a15*a07);
+  a15=(a15*a18);
   a02=(a02-a15);
-  a06=(a02*a06);
-  a21=cos(a21);
-  a06=(a06*a21);
-  a22=(a22+a06);
-  a06=5.;
-  a06=(a06*a18);
-  a18=(a05*a17);
-  a15=(a18*a07);
-  a06=(a06+a15);
-  a18=(a18*a09);
-  a06=(a06+a18);
-  a19=(a05*a19);
-  a20=cos(a20);
-  a19=(a19*a20);
-  a19=(a19*a13);
-  a06=(a06+a19);
-  a17=(a06*a17);
-  a17=(a17*a11);
-  a19=16.;
-  a17=(a17/a19);
-  a19=casadi_sq(a21);
-  a11=casadi_sq(a11);
-  a19=(a19*a11);
-  a11=casadi_sq(a13);
-  a11=(a11*a13);
-  a11=(a11*a13);
-  a19=(a19*a11);
-  a19=(a19/a05);
-  a17=(a17-a19);
-  a22=(a22/a17);
-  a03=sin(a03);
-  a03=(a03*a13);
-  a12=(a12*a03);
-  a07=(a03*a07);
-  a12=(a12+a07);
-  a03=(a03*a09);
-  a12=(a12+a03);
-  a22=(a22*a12);
-  a08=(a08-a22);
-  a16=(a16/a17);
-  a00=sin(a00);
-  a16=(a16*a00);
-  a14=(a14*a21);
-  a14=(a14/a01);
-  a06=(a06*a02);
-  a06=(a06/a05);
-  a14=(a14+a06);
-  a16=(a16*a14);
+  a16=(a02*a16);
+  a17=cos(a17);
+  a16=(a16*a17);
   a08=(a08+a16);
-  res[0][3]=a08;
+  a16=arg[0][29];
+  a15=arg[0][28];
+  a14=cos(a14);
+  a15=(a15*a14);
+  a15=(a15*a06);
+  a16=(a16+a15);
+  a19=(a16*a19);
+  a19=(a19*a18);
+  a18=16.;
+  a19=(a19/a18);
+  a18=casadi_sq(a17);
+  a15=arg[0][30];
+  a18=(a18*a15);
+  a15=arg[0][31];
+  a18=(a18*a15);
+  a18=(a18/a13);
+  a19=(a19-a18);
+  a08=(a08/a19);
+  a03=sin(a03);
+  a03=(a03*a06);
+  a05=(a05*a03);
+  a09=(a03*a09);
+  a05=(a05+a09);
+  a03=(a03*a10);
+  a05=(a05+a03);
+  a08=(a08*a05);
+  a04=(a04-a08);
+  a11=(a11/a19);
+  a00=sin(a00);
+  a11=(a11*a00);
+  a12=(a12*a17);
+  a12=(a12/a01);
+  a16=(a16*a02);
+  a16=(a16/a13);
+  a12=(a12+a16);
+  a11=(a11*a12);
+  a04=(a04+a11);
+  res[0][3]=a04;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_stance_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f1(arg, res, iw, w, mem);
+  return casadi_f2(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_stance_watch_checkout(void) {
@@ -438,7 +605,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_torso_walker_sim_stance_watch_default_in(ca
 
 CASADI_SYMBOL_EXPORT const char* vsw_torso_walker_sim_stance_watch_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -453,15 +620,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_torso_walker_sim_stance_watch_name_out(casa
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_torso_walker_sim_stance_watch_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_torso_walker_sim_stance_watch_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -482,117 +649,106 @@ CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_stance_watch_work_bytes(casadi_int
   return 0;
 }
 
-/* vsw_torso_walker_sim_heelstrike_reset:(p[8],x[4])->(heelstrike_reset[4]) */
-static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_torso_walker_sim_heelstrike_reset:(c[41],x[4])->(heelstrike_reset[4]) */
+static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
-  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
-  casadi_real a24;
+  casadi_real a12, a13, a14, a15;
   a00=arg[1][1];
   res[0][0]=a00;
   a01=arg[1][0];
   res[0][1]=a01;
-  a02=arg[0][3];
-  a03=casadi_sq(a02);
-  a03=(a03*a02);
-  a03=(a03*a02);
-  a04=arg[0][1];
-  a05=4.;
-  a06=(a04/a05);
-  a07=(a03*a06);
-  a08=arg[0][0];
-  a09=(a07*a08);
-  a10=arg[1][2];
-  a11=(a09*a10);
-  a12=(a00-a01);
-  a12=cos(a12);
-  a13=(a11*a12);
-  a14=casadi_sq(a04);
-  a15=(a03*a14);
-  a16=arg[1][3];
-  a16=(a15*a16);
-  a17=16.;
-  a18=(a16/a17);
-  a13=(a13-a18);
-  a18=arg[0][2];
-  a07=(a07*a18);
-  a19=(a07*a10);
-  a20=(a19*a12);
-  a13=(a13+a20);
-  a20=8.;
-  a20=(a12/a20);
-  a21=(a20*a15);
-  a21=(a21*a10);
-  a13=(a13+a21);
-  a21=casadi_sq(a02);
-  a21=(a21*a02);
-  a06=(a06*a21);
-  a02=arg[0][4];
-  a06=(a06*a02);
-  a06=(a06*a18);
-  a22=arg[0][6];
-  a01=(a22+a01);
-  a23=arg[0][5];
-  a01=(a01-a23);
+  a02=arg[0][32];
+  a03=arg[1][2];
+  a04=(a02*a03);
+  a05=(a00-a01);
+  a05=cos(a05);
+  a06=(a04*a05);
+  a07=arg[0][33];
+  a08=arg[1][3];
+  a08=(a07*a08);
+  a09=16.;
+  a09=(a08/a09);
+  a06=(a06-a09);
+  a09=arg[0][34];
+  a10=(a09*a03);
+  a11=(a10*a05);
+  a06=(a06+a11);
+  a11=8.;
+  a11=(a05/a11);
+  a12=(a11*a07);
+  a12=(a12*a03);
+  a06=(a06+a12);
+  a12=arg[0][35];
+  a13=arg[0][1];
+  a01=(a13+a01);
+  a14=arg[0][2];
+  a01=(a01-a14);
   a01=cos(a01);
-  a24=(a06*a01);
-  a24=(a24*a10);
-  a13=(a13+a24);
-  a22=(a22+a00);
-  a22=(a22-a23);
-  a22=cos(a22);
-  a06=(a06*a22);
-  a09=(a06+a09);
-  a09=(a09+a07);
-  a07=5.;
-  a07=(a07*a15);
-  a07=(a07/a17);
-  a09=(a09+a07);
-  a17=casadi_sq(a12);
-  a15=(a17*a15);
-  a15=(a15/a05);
-  a09=(a09-a15);
-  a13=(a13/a09);
-  res[0][2]=a13;
-  a13=(a03*a17);
-  a13=(a13*a14);
-  a13=(a13*a10);
+  a15=(a12*a01);
+  a15=(a15*a03);
+  a06=(a06+a15);
+  a13=(a13+a00);
+  a13=(a13-a14);
+  a13=cos(a13);
+  a12=(a12*a13);
+  a02=(a12+a02);
+  a02=(a02+a09);
+  a09=arg[0][36];
+  a02=(a02+a09);
+  a13=casadi_sq(a05);
+  a07=(a13*a07);
+  a14=4.;
+  a07=(a07/a14);
+  a02=(a02-a07);
+  a06=(a06/a02);
+  res[0][2]=a06;
+  a06=arg[0][37];
+  a07=(a06*a13);
+  a14=arg[0][38];
+  a07=(a07*a14);
+  a07=(a07*a03);
   a14=2.;
-  a13=(a13/a14);
-  a11=(a11+a19);
-  a06=(a06*a10);
-  a11=(a11+a06);
-  a16=(a16*a20);
-  a11=(a11+a16);
-  a07=(a07*a10);
-  a11=(a11+a07);
-  a13=(a13-a11);
-  a11=(a03*a17);
-  a11=(a11*a10);
-  a11=(a11*a04);
-  a11=(a11*a08);
-  a11=(a11/a14);
-  a13=(a13+a11);
-  a03=(a03*a17);
-  a03=(a03*a10);
-  a03=(a03*a04);
-  a03=(a03*a18);
-  a03=(a03/a14);
-  a13=(a13+a03);
-  a21=(a21*a12);
-  a21=(a21*a01);
-  a21=(a21*a10);
-  a21=(a21*a02);
-  a21=(a21*a04);
-  a21=(a21*a18);
-  a21=(a21/a14);
-  a13=(a13+a21);
-  a13=(a13/a09);
-  res[0][3]=a13;
+  a07=(a07/a14);
+  a04=(a04+a10);
+  a12=(a12*a03);
+  a04=(a04+a12);
+  a08=(a08*a11);
+  a04=(a04+a08);
+  a09=(a09*a03);
+  a04=(a04+a09);
+  a07=(a07-a04);
+  a04=(a06*a13);
+  a04=(a04*a03);
+  a09=arg[0][9];
+  a04=(a04*a09);
+  a08=arg[0][17];
+  a04=(a04*a08);
+  a04=(a04/a14);
+  a07=(a07+a04);
+  a06=(a06*a13);
+  a06=(a06*a03);
+  a06=(a06*a09);
+  a13=arg[0][18];
+  a06=(a06*a13);
+  a06=(a06/a14);
+  a07=(a07+a06);
+  a06=arg[0][39];
+  a06=(a06*a05);
+  a06=(a06*a01);
+  a06=(a06*a03);
+  a03=arg[0][40];
+  a06=(a06*a03);
+  a06=(a06*a09);
+  a06=(a06*a13);
+  a06=(a06/a14);
+  a07=(a07+a06);
+  a07=(a07/a02);
+  res[0][3]=a07;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_heelstrike_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f2(arg, res, iw, w, mem);
+  return casadi_f3(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_heelstrike_reset_checkout(void) {
@@ -620,7 +776,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_torso_walker_sim_heelstrike_reset_default_i
 
 CASADI_SYMBOL_EXPORT const char* vsw_torso_walker_sim_heelstrike_reset_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -635,15 +791,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_torso_walker_sim_heelstrike_reset_name_out(
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_torso_walker_sim_heelstrike_reset_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_torso_walker_sim_heelstrike_reset_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -664,8 +820,8 @@ CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_heelstrike_reset_work_bytes(casadi
   return 0;
 }
 
-/* vsw_torso_walker_sim_heelstrike_when:(p[8],x[4])->(heelstrike_when) */
-static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_torso_walker_sim_heelstrike_when:(c[41],x[4])->(heelstrike_when) */
+static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0;
   a0=arg[1][0];
   res[0][0]=a0;
@@ -673,7 +829,7 @@ static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_heelstrike_when(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f3(arg, res, iw, w, mem);
+  return casadi_f4(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_heelstrike_when_checkout(void) {
@@ -701,7 +857,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_torso_walker_sim_heelstrike_when_default_in
 
 CASADI_SYMBOL_EXPORT const char* vsw_torso_walker_sim_heelstrike_when_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -716,15 +872,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_torso_walker_sim_heelstrike_when_name_out(c
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_torso_walker_sim_heelstrike_when_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_torso_walker_sim_heelstrike_when_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s2;
+    case 0: return casadi_s3;
     default: return 0;
   }
 }
@@ -745,12 +901,12 @@ CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_heelstrike_when_work_bytes(casadi_
   return 0;
 }
 
-/* vsw_torso_walker_sim_step_length:(p[8],x[4])->(step_length) */
-static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_torso_walker_sim_step_length:(c[41],x[4])->(step_length) */
+static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2;
   a0=arg[1][0];
   a0=sin(a0);
-  a1=arg[0][3];
+  a1=arg[0][14];
   a0=(a0*a1);
   a2=arg[1][1];
   a2=sin(a2);
@@ -761,7 +917,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_step_length(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f4(arg, res, iw, w, mem);
+  return casadi_f5(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_step_length_checkout(void) {
@@ -789,7 +945,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_torso_walker_sim_step_length_default_in(cas
 
 CASADI_SYMBOL_EXPORT const char* vsw_torso_walker_sim_step_length_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -804,15 +960,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_torso_walker_sim_step_length_name_out(casad
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_torso_walker_sim_step_length_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_torso_walker_sim_step_length_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s2;
+    case 0: return casadi_s3;
     default: return 0;
   }
 }
@@ -850,7 +1006,7 @@ CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_step_length_work_bytes(casadi_int 
 #define VSW_SZ_ARG 2
 #define VSW_SZ_RES 1
 #define VSW_SZ_IW 0
-#define VSW_SZ_W 25
+#define VSW_SZ_W 20
 
 /* Every function of the table in CasADi's calling convention, called directly (not through
    a pointer) so that the compiler can inline it into the integrator's loops. */
@@ -863,22 +1019,30 @@ CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_step_length_work_bytes(casadi_int 
         fn(vsw_arg_, vsw_res_, vsw_iw_, vsw_w_, 0);                                          \
     } while (0)
 
-/* Per phase: x' = f(p, x). */
-static inline void vsw_flow(int phase, const double *p, const double *x, double *out)
+/* The constants of the functions below from the parameters: the parameters they use and
+   their parameter-only subexpressions, computed once a walk instead of at every call. */
+#define VSW_NC 41
+static inline void vsw_constants(const double *p, double *c)
+{
+    VSW_CALL(vsw_torso_walker_sim_constants, p, p, c);
+}
+
+/* Per phase: x' = f(x) (with the constants c). */
+static inline void vsw_flow(int phase, const double *c, const double *x, double *out)
 {
     switch (phase) {
     case 0:
-        VSW_CALL(vsw_torso_walker_sim_stance_flow, p, x, out);
+        VSW_CALL(vsw_torso_walker_sim_stance_flow, c, x, out);
         return;
     }
 }
 
 /* Per phase: its events' guards, then the failures' guards. */
-static inline void vsw_watch(int phase, const double *p, const double *x, double *out)
+static inline void vsw_watch(int phase, const double *c, const double *x, double *out)
 {
     switch (phase) {
     case 0:
-        VSW_CALL(vsw_torso_walker_sim_stance_watch, p, x, out);
+        VSW_CALL(vsw_torso_walker_sim_stance_watch, c, x, out);
         return;
     }
 }
@@ -889,20 +1053,20 @@ static const int vsw_watch_direction[VSW_NPHASES][VSW_MAX_WATCH] = {{1, -1, -1, 
 static const int vsw_watch_what[VSW_NPHASES][VSW_MAX_WATCH] = {{0, -1, -2, -3}};
 
 /* Per event: the reset. */
-static inline void vsw_reset(int event, const double *p, const double *x, double *out)
+static inline void vsw_reset(int event, const double *c, const double *x, double *out)
 {
     switch (event) {
     case 0:
-        VSW_CALL(vsw_torso_walker_sim_heelstrike_reset, p, x, out);
+        VSW_CALL(vsw_torso_walker_sim_heelstrike_reset, c, x, out);
         return;
     }
 }
 /* Per event: the condition for it to count into *out; 0 when it always counts. */
-static inline int vsw_when(int event, const double *p, const double *x, double *out)
+static inline int vsw_when(int event, const double *c, const double *x, double *out)
 {
     switch (event) {
     case 0:
-        VSW_CALL(vsw_torso_walker_sim_heelstrike_when, p, x, out);
+        VSW_CALL(vsw_torso_walker_sim_heelstrike_when, c, x, out);
         return 1;
     }
     return 0;
@@ -911,8 +1075,8 @@ static inline int vsw_when(int event, const double *p, const double *x, double *
 static const int vsw_event_target[VSW_NEVENTS] = {0};
 static const int vsw_event_ends_step[VSW_NEVENTS] = {1};
 /* The step length from the state just before the step event; 0 when the model has none. */
-static inline int vsw_step_length(const double *p, const double *x, double *out)
+static inline int vsw_step_length(const double *c, const double *x, double *out)
 {
-    VSW_CALL(vsw_torso_walker_sim_step_length, p, x, out);
+    VSW_CALL(vsw_torso_walker_sim_step_length, c, x, out);
     return 1;
 }

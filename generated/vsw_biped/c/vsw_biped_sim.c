@@ -4,8 +4,9 @@
  * sympy 1.14.0
  * casadi 3.8.2
  * The hybrid dynamics of the model for the batch simulator (vsw/csrc/hybrid_batch.c, built
- * by vsw/batch.py): every function takes (p, x), the parameters (beta, theta_II, mu, b_over_l) and the
- * state (theta, psi, theta_dot, psi_dot), in CasADi's calling convention.
+ * by vsw/batch.py): every function takes (c, x), the model's constants (what the functions
+ * use of the parameters beta, theta_II, mu, b_over_l: c = constants(p), once a walk) and the state
+ * (theta, psi, theta_dot, psi_dot), in CasADi's calling convention.
  * Phases: short, long.
  * Events: extension (short -> long), heelstrike (long -> short, ends the step).
  * Failures: fell-backward, fell-forward, lift-off, extension-missed.
@@ -52,9 +53,11 @@ extern "C" {
 #define casadi_f5 CASADI_PREFIX(f5)
 #define casadi_f6 CASADI_PREFIX(f6)
 #define casadi_f7 CASADI_PREFIX(f7)
+#define casadi_f8 CASADI_PREFIX(f8)
 #define casadi_s0 CASADI_PREFIX(s0)
 #define casadi_s1 CASADI_PREFIX(s1)
 #define casadi_s2 CASADI_PREFIX(s2)
+#define casadi_s3 CASADI_PREFIX(s3)
 #define casadi_sq CASADI_PREFIX(sq)
 
 /* Symbol visibility in DLLs */
@@ -84,123 +87,436 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim__casadi_int_size(void) { return (int)
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim__casadi_real_size(void) { return (int) sizeof(casadi_real); }
 
 static const casadi_int casadi_s0[3] = {4, 1, 1};
-static const casadi_int casadi_s1[3] = {5, 1, 1};
-static const casadi_int casadi_s2[3] = {1, 1, 1};
+static const casadi_int casadi_s1[3] = {91, 1, 1};
+static const casadi_int casadi_s2[3] = {5, 1, 1};
+static const casadi_int casadi_s3[3] = {1, 1, 1};
 
-/* vsw_vsw_biped_sim_short_flow:(p[4],x[4])->(short_flow[4]) */
+/* vsw_vsw_biped_sim_constants:(p[4])->(c[91]) */
 static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
-  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21;
+  casadi_real a12, a13, a14;
+  a00=arg[0][3];
+  a01=casadi_sq(a00);
+  res[0][0]=a01;
+  a02=arg[0][0];
+  res[0][1]=a02;
+  a03=arg[0][2];
+  res[0][2]=a03;
+  a04=casadi_sq(a03);
+  a05=casadi_sq(a00);
+  a05=(a05*a00);
+  a05=(a04*a05);
+  a06=(a05*a02);
+  res[0][3]=a06;
+  res[0][4]=a05;
+  res[0][5]=a04;
+  a06=(2.*a04);
+  a06=(a06*a01);
+  res[0][6]=a06;
+  a06=(a04*a01);
+  res[0][7]=a06;
+  a06=casadi_sq(a02);
+  res[0][8]=a06;
+  a01=(a01*a06);
+  a06=(a04*a01);
+  res[0][9]=a06;
+  a06=(2.*a06);
+  a07=casadi_sq(a00);
+  a07=(a07*a00);
+  a07=(a07*a00);
+  a07=(a04*a07);
+  a07=(a06+a07);
+  a01=(a01*a03);
+  a07=(a07+a01);
+  a01=(2.*a02);
+  a05=(a05*a01);
+  a07=(a07-a05);
+  res[0][10]=a07;
+  a07=casadi_sq(a02);
+  a07=(a07*a02);
+  res[0][11]=a07;
+  a07=(a00*a03);
+  res[0][12]=a07;
+  a07=(2.*a00);
+  a05=(a04*a07);
+  res[0][13]=a05;
+  res[0][14]=a06;
+  a04=(a04*a01);
+  res[0][15]=a04;
+  res[0][16]=a07;
+  a07=arg[0][1];
+  res[0][17]=a07;
+  a07=casadi_sq(a00);
+  a04=casadi_sq(a02);
+  a01=(a07*a04);
+  a06=casadi_sq(a03);
+  a05=(a01*a06);
+  res[0][18]=a05;
+  a08=casadi_sq(a00);
+  a08=(a08*a00);
+  a08=(a08*a00);
+  a09=(a08*a06);
+  res[0][19]=a09;
+  a09=casadi_sq(a03);
+  a09=(a09*a03);
+  a10=casadi_sq(a00);
+  a10=(a10*a00);
+  a11=(a10*a02);
+  a12=(2.*a11);
+  a13=(a09*a12);
+  res[0][20]=a13;
+  a13=(a09*a01);
+  a14=(2.*a13);
+  res[0][21]=a14;
+  a05=(2.*a05);
+  res[0][22]=a05;
+  a08=(a08*a09);
+  res[0][23]=a08;
+  a01=(a01*a03);
+  res[0][24]=a01;
+  res[0][25]=a13;
+  a01=casadi_sq(a00);
+  a01=casadi_sq(a01);
+  a01=(a00*a01);
+  a01=(a09*a01);
+  res[0][26]=a01;
+  a04=(a04*a10);
+  res[0][27]=a04;
+  a10=(2.*a09);
+  res[0][28]=a10;
+  res[0][29]=a06;
+  a01=3.;
+  a01=(a01*a06);
+  res[0][30]=a01;
+  a01=(a08*a02);
+  res[0][31]=a01;
+  a06=(a06*a12);
+  res[0][32]=a06;
+  res[0][33]=a07;
+  a07=casadi_sq(a02);
+  a07=(a07*a02);
+  res[0][34]=a07;
+  a07=4.;
+  a08=(a07*a08);
+  res[0][35]=a08;
+  a13=(a07*a13);
+  res[0][36]=a13;
+  a13=6.;
+  a08=(a13*a09);
+  res[0][37]=a08;
+  res[0][38]=a09;
+  res[0][39]=a11;
+  a04=(a04*a10);
+  res[0][40]=a04;
+  a04=casadi_sq(a00);
+  res[0][41]=a04;
+  a10=casadi_sq(a03);
+  a11=casadi_sq(a00);
+  a11=(a11*a00);
+  a09=(a10*a11);
+  res[0][42]=a09;
+  a09=(a04*a10);
+  res[0][43]=a09;
+  a09=(2.*a04);
+  a09=(a09*a10);
+  res[0][44]=a09;
+  a09=(a04*a10);
+  res[0][45]=a09;
+  a09=(2.*a10);
+  a08=(a04*a09);
+  a06=(a04*a03);
+  a06=(a08+a06);
+  a12=casadi_sq(a00);
+  a12=(a12*a00);
+  a12=(a12*a00);
+  a12=(a10*a12);
+  a06=(a06+a12);
+  a12=(a09*a11);
+  a06=(a06-a12);
+  res[0][46]=a06;
+  a04=(2.*a04);
+  a04=(a04*a10);
+  res[0][47]=a04;
+  res[0][48]=a00;
+  res[0][49]=a09;
+  res[0][50]=a08;
+  res[0][51]=a10;
+  res[0][52]=a11;
+  a11=(2.*a10);
+  res[0][53]=a11;
+  a10=(2.*a10);
+  res[0][54]=a10;
+  a10=casadi_sq(a00);
+  a11=casadi_sq(a03);
+  a08=(a10*a11);
+  res[0][55]=a08;
+  a09=casadi_sq(a00);
+  a09=(a09*a00);
+  a09=(a09*a00);
+  a04=(a11*a09);
+  res[0][56]=a04;
+  a04=casadi_sq(a03);
+  a04=(a04*a03);
+  a06=casadi_sq(a00);
+  a06=(a06*a00);
+  a12=(2.*a06);
+  a01=(a04*a12);
+  res[0][57]=a01;
+  a01=(a10*a04);
+  a05=(2.*a01);
+  res[0][58]=a05;
+  a10=(a10*a03);
+  res[0][59]=a10;
+  res[0][60]=a01;
+  a09=(a04*a09);
+  res[0][61]=a09;
+  a10=(a11*a06);
+  res[0][62]=a10;
+  a10=casadi_sq(a00);
+  a10=casadi_sq(a10);
+  a10=(a00*a10);
+  a10=(a04*a10);
+  res[0][63]=a10;
+  a08=(2.*a08);
+  res[0][64]=a08;
+  a11=(a11*a12);
+  res[0][65]=a11;
+  a04=(a04*a06);
+  res[0][66]=a04;
+  a06=(a07*a09);
+  res[0][67]=a06;
+  a09=(2.*a09);
+  res[0][68]=a09;
+  a07=(a07*a01);
+  res[0][69]=a07;
+  a13=(a13*a04);
+  res[0][70]=a13;
+  a13=casadi_sq(a02);
+  res[0][71]=a13;
+  a13=casadi_sq(a00);
+  a13=(a03*a13);
+  res[0][72]=a13;
+  a04=(2.*a03);
+  res[0][73]=a04;
+  a04=(a00*a03);
+  res[0][74]=a04;
+  a07=(2.*a04);
+  res[0][75]=a07;
+  a07=1.;
+  a07=(a07+a13);
+  res[0][76]=a07;
+  a07=casadi_sq(a00);
+  a07=(a07*a00);
+  a07=(a03*a07);
+  res[0][77]=a07;
+  a13=(2.*a13);
+  res[0][78]=a13;
+  a04=(a04+a07);
+  res[0][79]=a04;
+  a04=casadi_sq(a03);
+  a07=casadi_sq(a00);
+  a07=(a07*a00);
+  a07=(a07*a00);
+  a07=(a04*a07);
+  res[0][80]=a07;
+  a13=casadi_sq(a00);
+  a13=(a13*a00);
+  a13=(a04*a13);
+  a01=(a13*a02);
+  res[0][81]=a01;
+  res[0][82]=a04;
+  a09=casadi_sq(a00);
+  a06=(a09*a02);
+  res[0][83]=a06;
+  res[0][84]=a13;
+  a02=casadi_sq(a02);
+  a09=(a02*a09);
+  a04=(a04*a09);
+  res[0][85]=a04;
+  a09=(a09*a03);
+  a07=(a07+a09);
+  a04=(2.*a04);
+  a07=(a07+a04);
+  res[0][86]=a07;
+  a01=(2.*a01);
+  res[0][87]=a01;
+  a02=(a02*a00);
+  res[0][88]=a02;
+  res[0][89]=a09;
+  res[0][90]=a04;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_constants(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f0(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_constants_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_sim_constants_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_sim_constants_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_sim_constants_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_sim_constants_n_in(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_sim_constants_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_sim_constants_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_sim_constants_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_sim_constants_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_sim_constants_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_sim_constants_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_constants_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 1;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_constants_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 1*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_sim_short_flow:(c[91],x[4])->(short_flow[4]) */
+static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17;
   a00=arg[1][2];
   res[0][0]=a00;
   a01=arg[1][3];
   res[0][1]=a01;
-  a02=arg[0][3];
-  a03=casadi_sq(a02);
-  a04=arg[1][0];
-  a05=sin(a04);
-  a06=(a03*a05);
-  a07=arg[0][0];
-  a06=(a06*a07);
-  a08=arg[0][2];
-  a06=(a06*a08);
-  a09=arg[1][1];
-  a04=(a09-a04);
-  a10=sin(a04);
+  a02=arg[0][0];
+  a03=arg[1][0];
+  a04=sin(a03);
+  a05=(a02*a04);
+  a06=arg[0][1];
+  a05=(a05*a06);
+  a07=arg[0][2];
+  a05=(a05*a07);
+  a07=arg[1][1];
+  a03=(a07-a03);
+  a08=sin(a03);
   a01=casadi_sq(a01);
-  a01=(a10*a01);
-  a11=casadi_sq(a08);
-  a12=casadi_sq(a02);
-  a12=(a12*a02);
-  a12=(a11*a12);
-  a13=(a12*a07);
-  a14=(a01*a13);
-  a15=(a12*a05);
-  a14=(a14+a15);
-  a04=cos(a04);
-  a15=(a11*a04);
-  a09=sin(a09);
-  a16=(a03*a09);
-  a17=(a15*a16);
-  a17=(a17*a07);
-  a14=(a14+a17);
-  a06=(a06-a14);
-  a14=(2.*a11);
-  a14=(a14*a03);
-  a14=(a14*a05);
-  a14=(a14*a07);
-  a06=(a06+a14);
-  a14=(a11*a03);
-  a00=casadi_sq(a00);
-  a14=(a14*a00);
-  a17=casadi_sq(a07);
-  a14=(a14*a17);
-  a14=(a14*a04);
-  a14=(a14*a10);
-  a06=(a06+a14);
-  a14=(a03*a17);
-  a18=(a11*a14);
-  a19=(2.*a18);
-  a20=casadi_sq(a02);
-  a20=(a20*a02);
-  a20=(a20*a02);
-  a20=(a11*a20);
-  a20=(a19+a20);
-  a14=(a14*a08);
-  a20=(a20+a14);
-  a14=(2.*a07);
-  a21=(a12*a14);
-  a20=(a20-a21);
-  a21=casadi_sq(a04);
-  a21=(a18*a21);
-  a20=(a20-a21);
-  a06=(a06/a20);
-  res[0][2]=a06;
-  a00=(a00*a10);
-  a13=(a13*a00);
-  a08=(a02*a08);
-  a10=casadi_sq(a07);
-  a10=(a10*a07);
-  a10=(a00*a10);
-  a06=(a08*a10);
-  a13=(a13+a06);
-  a02=(2.*a02);
-  a06=(a11*a02);
-  a10=(a06*a10);
-  a13=(a13+a10);
-  a10=(a17*a09);
-  a21=(a08*a10);
-  a13=(a13-a21);
+  a01=(a08*a01);
+  a09=arg[0][3];
+  a10=(a01*a09);
+  a11=arg[0][4];
+  a12=(a11*a04);
+  a10=(a10+a12);
+  a12=arg[0][5];
+  a03=cos(a03);
+  a12=(a12*a03);
+  a07=sin(a07);
+  a13=(a02*a07);
+  a14=(a12*a13);
+  a14=(a14*a06);
+  a10=(a10+a14);
+  a05=(a05-a10);
+  a10=arg[0][6];
+  a10=(a10*a04);
   a10=(a10*a06);
-  a13=(a13-a10);
-  a00=(a00*a19);
-  a13=(a13-a00);
-  a12=(a12*a09);
-  a13=(a13-a12);
-  a11=(a11*a14);
-  a11=(a11*a16);
-  a13=(a13+a11);
-  a17=(a17*a05);
-  a11=(a15*a17);
-  a11=(a11*a02);
-  a13=(a13+a11);
-  a08=(a08*a17);
-  a08=(a08*a04);
-  a13=(a13+a08);
-  a01=(a01*a18);
-  a01=(a01*a04);
-  a13=(a13-a01);
-  a03=(a03*a15);
-  a03=(a03*a05);
-  a03=(a03*a07);
-  a13=(a13-a03);
-  a13=(a13/a20);
-  res[0][3]=a13;
+  a05=(a05+a10);
+  a10=arg[0][7];
+  a00=casadi_sq(a00);
+  a10=(a10*a00);
+  a14=arg[0][8];
+  a10=(a10*a14);
+  a10=(a10*a03);
+  a10=(a10*a08);
+  a05=(a05+a10);
+  a10=arg[0][10];
+  a15=arg[0][9];
+  a16=casadi_sq(a03);
+  a16=(a15*a16);
+  a10=(a10-a16);
+  a05=(a05/a10);
+  res[0][2]=a05;
+  a00=(a00*a08);
+  a09=(a09*a00);
+  a08=arg[0][12];
+  a05=arg[0][11];
+  a05=(a00*a05);
+  a16=(a08*a05);
+  a09=(a09+a16);
+  a16=arg[0][13];
+  a05=(a16*a05);
+  a09=(a09+a05);
+  a05=(a14*a07);
+  a17=(a08*a05);
+  a09=(a09-a17);
+  a05=(a05*a16);
+  a09=(a09-a05);
+  a05=arg[0][14];
+  a00=(a00*a05);
+  a09=(a09-a00);
+  a11=(a11*a07);
+  a09=(a09-a11);
+  a11=arg[0][15];
+  a11=(a11*a13);
+  a09=(a09+a11);
+  a14=(a14*a04);
+  a11=(a12*a14);
+  a13=arg[0][16];
+  a11=(a11*a13);
+  a09=(a09+a11);
+  a08=(a08*a14);
+  a08=(a08*a03);
+  a09=(a09+a08);
+  a01=(a01*a15);
+  a01=(a01*a03);
+  a09=(a09-a01);
+  a02=(a02*a12);
+  a02=(a02*a04);
+  a02=(a02*a06);
+  a09=(a09-a02);
+  a09=(a09/a10);
+  res[0][3]=a09;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_short_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f0(arg, res, iw, w, mem);
+  return casadi_f1(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_short_flow_checkout(void) {
@@ -228,7 +544,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_sim_short_flow_default_in(casadi_
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_sim_short_flow_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -243,7 +559,7 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_sim_short_flow_name_out(casadi_in
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_sim_short_flow_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
+    case 0: return casadi_s1;
     case 1: return casadi_s0;
     default: return 0;
   }
@@ -272,182 +588,165 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_short_flow_work_bytes(casadi_int *sz_
   return 0;
 }
 
-/* vsw_vsw_biped_sim_short_watch:(p[4],x[4])->(short_watch[5]) */
-static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_vsw_biped_sim_short_watch:(c[91],x[4])->(short_watch[5]) */
+static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
-  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
-  casadi_real a36, a37, a38, a39, a40, a41, a42;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33;
   a00=arg[1][0];
-  a01=arg[0][1];
+  a01=arg[0][17];
   a02=(a00-a01);
   res[0][0]=a02;
   a02=arg[1][2];
   res[0][1]=a02;
   a03=cos(a00);
   res[0][2]=a03;
-  a03=arg[0][3];
-  a04=casadi_sq(a03);
-  a04=(a04*a03);
-  a04=(a04*a03);
-  a05=arg[0][2];
-  a06=casadi_sq(a05);
-  a07=(a04*a06);
-  a08=arg[1][1];
-  a09=(a08-a00);
-  a10=cos(a09);
-  a11=casadi_sq(a10);
-  a12=casadi_sq(a03);
-  a13=arg[0][0];
-  a14=casadi_sq(a13);
-  a15=(a12*a14);
-  a16=(a15*a06);
-  a17=(a11*a16);
-  a17=(a07-a17);
-  a18=casadi_sq(a05);
-  a18=(a18*a05);
-  a19=casadi_sq(a03);
-  a19=(a19*a03);
-  a20=(a19*a13);
-  a21=(2.*a20);
-  a22=(a18*a21);
-  a23=(a17+a22);
-  a24=(a18*a15);
-  a25=(2.*a24);
-  a23=(a23-a25);
-  a23=(a23-a16);
-  a26=(2.*a16);
-  a27=sin(a08);
-  a28=(a10*a27);
-  a29=sin(a00);
-  a28=(a28*a29);
-  a30=(a26*a28);
-  a23=(a23+a30);
-  a08=cos(a08);
-  a30=casadi_sq(a08);
-  a04=(a04*a18);
-  a31=(a30*a04);
-  a23=(a23+a31);
-  a31=(a30*a25);
-  a23=(a23+a31);
-  a31=(a30*a16);
-  a23=(a23+a31);
-  a31=cos(a00);
-  a32=casadi_sq(a31);
-  a33=(a04*a32);
-  a23=(a23+a33);
-  a15=(a15*a05);
-  a33=(a32*a15);
-  a23=(a23+a33);
-  a33=4.;
-  a34=(a33*a32);
-  a35=(a24*a34);
-  a23=(a23+a35);
-  a35=casadi_sq(a03);
-  a35=casadi_sq(a35);
-  a03=(a03*a35);
-  a03=(a18*a03);
-  a35=arg[1][3];
-  a35=casadi_sq(a35);
-  a36=(a35*a08);
-  a37=(a03*a36);
-  a23=(a23+a37);
+  a03=arg[0][19];
+  a04=arg[1][1];
+  a05=(a04-a00);
+  a06=cos(a05);
+  a07=casadi_sq(a06);
+  a08=arg[0][18];
+  a09=(a07*a08);
+  a09=(a03-a09);
+  a10=arg[0][20];
+  a11=(a09+a10);
+  a12=arg[0][21];
+  a11=(a11-a12);
+  a11=(a11-a08);
+  a13=arg[0][22];
+  a14=sin(a04);
+  a15=(a06*a14);
+  a16=sin(a00);
+  a15=(a15*a16);
+  a17=(a13*a15);
+  a11=(a11+a17);
+  a04=cos(a04);
+  a17=casadi_sq(a04);
+  a18=arg[0][23];
+  a19=(a17*a18);
+  a11=(a11+a19);
+  a19=(a17*a12);
+  a11=(a11+a19);
+  a19=(a17*a08);
+  a11=(a11+a19);
+  a19=cos(a00);
+  a20=casadi_sq(a19);
+  a18=(a18*a20);
+  a11=(a11+a18);
+  a18=arg[0][24];
+  a21=(a20*a18);
+  a11=(a11+a21);
+  a21=arg[0][25];
+  a22=4.;
+  a22=(a22*a20);
+  a21=(a21*a22);
+  a11=(a11+a21);
+  a21=arg[0][26];
+  a23=arg[1][3];
+  a23=casadi_sq(a23);
+  a24=(a23*a04);
+  a25=(a21*a24);
+  a11=(a11+a25);
   a02=casadi_sq(a02);
-  a37=(a02*a31);
-  a03=(a03*a37);
-  a23=(a23+a03);
-  a16=(a34*a16);
-  a23=(a23+a16);
-  a14=(a14*a19);
-  a19=(a36*a14);
-  a16=(2.*a18);
-  a03=(a19*a16);
-  a23=(a23+a03);
-  a19=(a19*a06);
-  a23=(a23+a19);
-  a19=3.;
-  a19=(a19*a06);
-  a03=(a37*a14);
-  a38=(a19*a03);
-  a23=(a23+a38);
-  a38=(a35*a14);
-  a09=sin(a09);
-  a39=(a38*a09);
-  a39=(a39*a29);
-  a40=(a16*a39);
-  a23=(a23+a40);
-  a40=(a04*a13);
-  a41=(a40*a09);
-  a27=(a02*a27);
-  a42=(a41*a27);
-  a23=(a23+a42);
-  a39=(a39*a06);
-  a23=(a23+a39);
-  a39=(a37*a13);
-  a07=(a07*a39);
-  a23=(a23-a07);
-  a11=(a11*a25);
-  a23=(a23-a11);
-  a30=(a30*a22);
-  a23=(a23-a30);
-  a06=(a06*a21);
-  a32=(a32*a06);
-  a23=(a23-a32);
+  a25=(a02*a19);
+  a21=(a21*a25);
+  a11=(a11+a21);
+  a08=(a22*a08);
+  a11=(a11+a08);
+  a08=arg[0][27];
+  a21=(a24*a08);
+  a26=arg[0][28];
+  a27=(a21*a26);
+  a11=(a11+a27);
+  a27=arg[0][29];
+  a21=(a21*a27);
+  a11=(a11+a21);
+  a21=arg[0][30];
+  a28=(a25*a08);
+  a29=(a21*a28);
+  a11=(a11+a29);
+  a29=(a23*a08);
+  a05=sin(a05);
+  a30=(a29*a05);
+  a30=(a30*a16);
+  a31=(a26*a30);
+  a11=(a11+a31);
+  a31=arg[0][31];
+  a32=(a31*a05);
+  a14=(a02*a14);
+  a33=(a32*a14);
+  a11=(a11+a33);
+  a30=(a30*a27);
+  a11=(a11+a30);
+  a30=arg[0][1];
+  a30=(a25*a30);
+  a03=(a03*a30);
+  a11=(a11-a03);
+  a07=(a07*a12);
+  a11=(a11-a07);
+  a17=(a17*a10);
+  a11=(a11-a17);
+  a17=arg[0][32];
+  a20=(a20*a17);
+  a11=(a11-a20);
+  a10=(a10*a15);
+  a11=(a11-a10);
+  a10=arg[0][33];
+  a10=(a10*a25);
+  a25=arg[0][34];
+  a10=(a10*a25);
+  a21=(a10*a21);
+  a11=(a11-a21);
+  a26=(a10*a26);
+  a11=(a11-a26);
+  a26=arg[0][2];
+  a10=(a10*a26);
+  a11=(a11-a10);
+  a10=arg[0][35];
+  a10=(a10*a30);
+  a11=(a11-a10);
+  a24=(2.*a24);
+  a24=(a24*a31);
+  a11=(a11-a24);
+  a24=arg[0][36];
+  a24=(a24*a15);
+  a11=(a11+a24);
+  a24=arg[0][37];
+  a24=(a24*a28);
+  a11=(a11+a24);
+  a24=arg[0][38];
+  a22=(a24*a22);
+  a28=arg[0][39];
   a22=(a22*a28);
-  a23=(a23-a22);
-  a12=(a12*a37);
-  a37=casadi_sq(a13);
-  a37=(a37*a13);
-  a12=(a12*a37);
-  a19=(a12*a19);
-  a23=(a23-a19);
-  a19=(a12*a16);
-  a23=(a23-a19);
-  a12=(a12*a05);
-  a23=(a23-a12);
-  a04=(a33*a04);
-  a04=(a04*a39);
-  a23=(a23-a04);
-  a36=(2.*a36);
-  a36=(a36*a40);
-  a23=(a23-a36);
-  a33=(a33*a24);
-  a33=(a33*a28);
-  a23=(a23+a33);
-  a33=6.;
-  a33=(a33*a18);
-  a33=(a33*a03);
-  a23=(a23+a33);
-  a34=(a18*a34);
-  a34=(a34*a20);
-  a23=(a23-a34);
-  a35=(a35*a41);
-  a35=(a35*a29);
-  a23=(a23-a35);
-  a18=(a18*a10);
-  a38=(a38*a18);
-  a38=(a38*a31);
-  a23=(a23-a38);
-  a02=(a02*a14);
-  a02=(a02*a18);
+  a11=(a11-a22);
+  a23=(a23*a32);
+  a23=(a23*a16);
+  a11=(a11-a23);
+  a24=(a24*a06);
+  a29=(a29*a24);
+  a29=(a29*a19);
+  a11=(a11-a29);
   a02=(a02*a08);
-  a23=(a23-a02);
-  a14=(a14*a16);
-  a14=(a14*a27);
-  a14=(a14*a09);
-  a23=(a23-a14);
-  a26=(a26+a17);
-  a26=(a26+a15);
-  a26=(a26-a06);
-  a23=(a23/a26);
-  res[0][3]=a23;
+  a02=(a02*a24);
+  a02=(a02*a04);
+  a11=(a11-a02);
+  a02=arg[0][40];
+  a02=(a02*a14);
+  a02=(a02*a05);
+  a11=(a11-a02);
+  a13=(a13+a09);
+  a13=(a13+a18);
+  a13=(a13-a17);
+  a11=(a11/a13);
+  res[0][3]=a11;
   a00=(a00-a01);
   res[0][4]=a00;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_short_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f1(arg, res, iw, w, mem);
+  return casadi_f2(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_short_watch_checkout(void) {
@@ -475,7 +774,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_sim_short_watch_default_in(casadi
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_sim_short_watch_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -490,7 +789,7 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_sim_short_watch_name_out(casadi_i
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_sim_short_watch_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
+    case 0: return casadi_s1;
     case 1: return casadi_s0;
     default: return 0;
   }
@@ -498,7 +797,7 @@ CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_sim_short_watch_sparsity_in
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_sim_short_watch_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -519,113 +818,102 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_short_watch_work_bytes(casadi_int *sz
   return 0;
 }
 
-/* vsw_vsw_biped_sim_long_flow:(p[4],x[4])->(long_flow[4]) */
-static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_vsw_biped_sim_long_flow:(c[91],x[4])->(long_flow[4]) */
+static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
-  casadi_real a12, a13, a14, a15, a16, a17, a18;
+  casadi_real a12, a13;
   a00=arg[1][2];
   res[0][0]=a00;
   a01=arg[1][3];
   res[0][1]=a01;
-  a02=arg[0][3];
-  a03=casadi_sq(a02);
-  a04=arg[1][0];
-  a05=sin(a04);
-  a06=(a03*a05);
-  a07=arg[0][2];
-  a06=(a06*a07);
-  a08=casadi_sq(a07);
-  a09=casadi_sq(a02);
-  a09=(a09*a02);
-  a10=(a08*a09);
-  a11=(a10*a05);
-  a12=(a03*a08);
-  a13=arg[1][1];
-  a04=(a13-a04);
-  a14=cos(a04);
-  a15=(a12*a14);
-  a13=sin(a13);
-  a16=(a15*a13);
-  a11=(a11+a16);
-  a06=(a06-a11);
+  a02=arg[0][41];
+  a03=arg[1][0];
+  a04=sin(a03);
+  a02=(a02*a04);
+  a05=arg[0][2];
+  a02=(a02*a05);
+  a06=arg[0][42];
+  a07=(a06*a04);
+  a08=arg[0][43];
+  a09=arg[1][1];
+  a03=(a09-a03);
+  a10=cos(a03);
+  a11=(a08*a10);
+  a09=sin(a09);
+  a12=(a11*a09);
+  a07=(a07+a12);
+  a02=(a02-a07);
   a01=casadi_sq(a01);
-  a11=(a10*a01);
-  a04=sin(a04);
-  a11=(a11*a04);
-  a06=(a06-a11);
-  a11=(2.*a03);
-  a11=(a11*a08);
-  a11=(a11*a05);
-  a06=(a06+a11);
-  a11=(a03*a08);
+  a07=(a06*a01);
+  a03=sin(a03);
+  a07=(a07*a03);
+  a02=(a02-a07);
+  a07=arg[0][44];
+  a07=(a07*a04);
+  a02=(a02+a07);
+  a07=arg[0][45];
   a00=casadi_sq(a00);
-  a11=(a11*a00);
-  a11=(a11*a14);
-  a11=(a11*a04);
-  a06=(a06+a11);
-  a11=(2.*a08);
-  a16=(a03*a11);
-  a17=(a03*a07);
-  a17=(a16+a17);
-  a18=casadi_sq(a02);
-  a18=(a18*a02);
-  a18=(a18*a02);
-  a18=(a08*a18);
-  a17=(a17+a18);
-  a18=(a11*a09);
-  a17=(a17-a18);
-  a18=casadi_sq(a14);
-  a12=(a12*a18);
-  a17=(a17-a12);
-  a06=(a06/a17);
-  res[0][2]=a06;
-  a03=(2.*a03);
-  a03=(a03*a08);
-  a03=(a03*a13);
-  a06=(a13*a02);
-  a11=(a06*a11);
-  a06=(a06*a07);
-  a11=(a11+a06);
-  a10=(a10*a13);
-  a11=(a11+a10);
-  a10=(a15*a05);
-  a11=(a11+a10);
-  a16=(a00*a16);
-  a16=(a16*a04);
-  a11=(a11+a16);
-  a15=(a15*a01);
-  a15=(a15*a04);
-  a11=(a11+a15);
-  a03=(a03-a11);
-  a11=(a08*a00);
-  a11=(a11*a09);
-  a11=(a11*a04);
-  a03=(a03+a11);
-  a11=(a00*a04);
-  a11=(a11*a02);
-  a11=(a11*a07);
-  a03=(a03+a11);
-  a11=(a14*a05);
-  a11=(a11*a02);
-  a11=(a11*a07);
-  a03=(a03+a11);
-  a11=(2.*a08);
-  a11=(a11*a00);
-  a11=(a11*a04);
-  a11=(a11*a02);
-  a03=(a03+a11);
-  a08=(2.*a08);
-  a08=(a08*a14);
-  a08=(a08*a05);
-  a08=(a08*a02);
-  a03=(a03+a08);
-  a03=(a03/a17);
-  res[0][3]=a03;
+  a07=(a07*a00);
+  a07=(a07*a10);
+  a07=(a07*a03);
+  a02=(a02+a07);
+  a07=arg[0][46];
+  a12=casadi_sq(a10);
+  a08=(a08*a12);
+  a07=(a07-a08);
+  a02=(a02/a07);
+  res[0][2]=a02;
+  a02=arg[0][47];
+  a02=(a02*a09);
+  a08=arg[0][48];
+  a12=(a09*a08);
+  a13=arg[0][49];
+  a13=(a12*a13);
+  a12=(a12*a05);
+  a13=(a13+a12);
+  a06=(a06*a09);
+  a13=(a13+a06);
+  a06=(a11*a04);
+  a13=(a13+a06);
+  a06=arg[0][50];
+  a06=(a00*a06);
+  a06=(a06*a03);
+  a13=(a13+a06);
+  a11=(a11*a01);
+  a11=(a11*a03);
+  a13=(a13+a11);
+  a02=(a02-a13);
+  a13=arg[0][51];
+  a13=(a13*a00);
+  a11=arg[0][52];
+  a13=(a13*a11);
+  a13=(a13*a03);
+  a02=(a02+a13);
+  a13=(a00*a03);
+  a13=(a13*a08);
+  a13=(a13*a05);
+  a02=(a02+a13);
+  a13=(a10*a04);
+  a13=(a13*a08);
+  a13=(a13*a05);
+  a02=(a02+a13);
+  a13=arg[0][53];
+  a13=(a13*a00);
+  a13=(a13*a03);
+  a13=(a13*a08);
+  a02=(a02+a13);
+  a13=arg[0][54];
+  a13=(a13*a10);
+  a13=(a13*a04);
+  a13=(a13*a08);
+  a02=(a02+a13);
+  a02=(a02/a07);
+  res[0][3]=a02;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_long_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f2(arg, res, iw, w, mem);
+  return casadi_f3(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_long_flow_checkout(void) {
@@ -653,7 +941,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_sim_long_flow_default_in(casadi_i
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_sim_long_flow_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -668,7 +956,7 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_sim_long_flow_name_out(casadi_int
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_sim_long_flow_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
+    case 0: return casadi_s1;
     case 1: return casadi_s0;
     default: return 0;
   }
@@ -697,16 +985,16 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_long_flow_work_bytes(casadi_int *sz_a
   return 0;
 }
 
-/* vsw_vsw_biped_sim_long_watch:(p[4],x[4])->(long_watch[4]) */
-static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_vsw_biped_sim_long_watch:(c[91],x[4])->(long_watch[4]) */
+static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
-  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33;
+  casadi_real a24, a25, a26, a27;
   a00=arg[1][0];
   a01=cos(a00);
   a02=arg[1][1];
   a03=cos(a02);
-  a04=arg[0][0];
+  a04=arg[0][1];
   a03=(a03*a04);
   a01=(a01-a03);
   res[0][0]=a01;
@@ -714,148 +1002,132 @@ static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   res[0][1]=a01;
   a03=cos(a00);
   res[0][2]=a03;
-  a03=arg[0][2];
-  a04=casadi_sq(a03);
-  a05=arg[0][3];
+  a03=arg[0][56];
+  a04=(a02-a00);
+  a05=cos(a04);
   a06=casadi_sq(a05);
-  a06=(a06*a05);
-  a06=(a06*a05);
-  a07=(a04*a06);
-  a08=(a02-a00);
-  a09=cos(a08);
-  a10=casadi_sq(a09);
-  a11=casadi_sq(a05);
-  a12=(a11*a04);
-  a13=(a10*a12);
-  a13=(a07-a13);
-  a14=casadi_sq(a03);
-  a14=(a14*a03);
-  a15=casadi_sq(a05);
-  a15=(a15*a05);
-  a16=(2.*a15);
-  a17=(a14*a16);
-  a18=(a13+a17);
-  a19=(a11*a14);
-  a20=(2.*a19);
-  a18=(a18-a20);
-  a18=(a18-a12);
-  a11=(a11*a03);
-  a03=cos(a00);
-  a21=casadi_sq(a03);
-  a22=(a11*a21);
-  a18=(a18+a22);
-  a22=4.;
-  a23=(a22*a21);
-  a24=(a19*a23);
-  a18=(a18+a24);
-  a24=cos(a02);
-  a25=casadi_sq(a24);
-  a26=(a20*a25);
-  a18=(a18+a26);
-  a26=arg[1][3];
-  a26=casadi_sq(a26);
-  a27=(a26*a24);
-  a28=(a17*a27);
-  a18=(a18+a28);
+  a07=arg[0][55];
+  a08=(a06*a07);
+  a08=(a03-a08);
+  a09=arg[0][57];
+  a10=(a08+a09);
+  a11=arg[0][58];
+  a10=(a10-a11);
+  a10=(a10-a07);
+  a12=arg[0][59];
+  a13=cos(a00);
+  a14=casadi_sq(a13);
+  a15=(a12*a14);
+  a10=(a10+a15);
+  a15=arg[0][60];
+  a16=4.;
+  a16=(a16*a14);
+  a15=(a15*a16);
+  a10=(a10+a15);
+  a15=cos(a02);
+  a17=casadi_sq(a15);
+  a18=(a11*a17);
+  a10=(a10+a18);
+  a18=arg[1][3];
+  a18=casadi_sq(a18);
+  a19=(a18*a15);
+  a20=(a09*a19);
+  a10=(a10+a20);
   a00=sin(a00);
-  a28=(a26*a00);
-  a08=sin(a08);
-  a29=(a28*a08);
-  a30=(a17*a29);
-  a18=(a18+a30);
-  a06=(a14*a06);
-  a30=(a21*a06);
-  a18=(a18+a30);
-  a30=(a25*a06);
-  a18=(a18+a30);
-  a30=(a25*a12);
-  a18=(a18+a30);
-  a30=(a23*a12);
-  a18=(a18+a30);
-  a30=(a04*a15);
-  a31=(a27*a30);
-  a18=(a18+a31);
-  a31=casadi_sq(a05);
-  a31=casadi_sq(a31);
-  a05=(a05*a31);
-  a05=(a14*a05);
-  a31=(a27*a05);
-  a18=(a18+a31);
-  a31=3.;
+  a20=(a18*a00);
+  a04=sin(a04);
+  a21=(a20*a04);
+  a22=(a09*a21);
+  a10=(a10+a22);
+  a22=arg[0][61];
+  a23=(a14*a22);
+  a10=(a10+a23);
+  a23=(a17*a22);
+  a10=(a10+a23);
+  a23=(a17*a07);
+  a10=(a10+a23);
+  a23=(a16*a07);
+  a10=(a10+a23);
+  a23=arg[0][62];
+  a24=(a19*a23);
+  a10=(a10+a24);
+  a24=arg[0][63];
+  a25=(a19*a24);
+  a10=(a10+a25);
+  a25=3.;
   a01=casadi_sq(a01);
-  a32=(a01*a03);
-  a31=(a31*a32);
-  a33=(a30*a31);
-  a18=(a18+a33);
-  a30=(a30*a29);
-  a18=(a18+a30);
-  a05=(a05*a32);
-  a18=(a18+a05);
-  a05=(a06*a08);
+  a26=(a01*a13);
+  a25=(a25*a26);
+  a27=(a23*a25);
+  a10=(a10+a27);
+  a23=(a23*a21);
+  a10=(a10+a23);
+  a24=(a24*a26);
+  a10=(a10+a24);
+  a22=(a22*a04);
   a02=sin(a02);
-  a30=(a01*a02);
-  a29=(a05*a30);
-  a18=(a18+a29);
-  a02=(a09*a02);
+  a24=(a01*a02);
+  a23=(a22*a24);
+  a10=(a10+a23);
+  a02=(a05*a02);
   a02=(a02*a00);
-  a00=(2.*a12);
-  a29=(a02*a00);
-  a18=(a18+a29);
-  a29=(a11*a32);
-  a18=(a18-a29);
-  a10=(a10*a20);
-  a18=(a18-a10);
-  a20=(a20*a32);
-  a18=(a18-a20);
-  a25=(a17*a25);
-  a18=(a18-a25);
-  a25=(a17*a02);
-  a18=(a18-a25);
-  a04=(a04*a16);
-  a21=(a21*a04);
-  a18=(a18-a21);
-  a14=(a14*a15);
-  a23=(a23*a14);
-  a18=(a18-a23);
-  a07=(a32*a07);
-  a18=(a18-a07);
-  a31=(a31*a12);
-  a18=(a18-a31);
-  a05=(a05*a28);
-  a18=(a18-a05);
-  a05=(a22*a06);
-  a05=(a05*a32);
-  a18=(a18-a05);
-  a06=(2.*a06);
-  a06=(a06*a27);
-  a18=(a18-a06);
+  a00=arg[0][64];
+  a23=(a02*a00);
+  a10=(a10+a23);
+  a23=(a12*a26);
+  a10=(a10-a23);
+  a06=(a06*a11);
+  a10=(a10-a06);
+  a11=(a11*a26);
+  a10=(a10-a11);
+  a17=(a09*a17);
+  a10=(a10-a17);
+  a17=(a09*a02);
+  a10=(a10-a17);
+  a17=arg[0][65];
+  a14=(a14*a17);
+  a10=(a10-a14);
+  a14=arg[0][66];
+  a16=(a16*a14);
+  a10=(a10-a16);
+  a03=(a26*a03);
+  a10=(a10-a03);
+  a25=(a25*a07);
+  a10=(a10-a25);
+  a22=(a22*a20);
+  a10=(a10-a22);
+  a22=arg[0][67];
+  a22=(a22*a26);
+  a10=(a10-a22);
+  a22=arg[0][68];
   a22=(a22*a19);
+  a10=(a10-a22);
+  a22=arg[0][69];
   a22=(a22*a02);
-  a18=(a18+a22);
-  a22=6.;
-  a22=(a22*a14);
-  a22=(a22*a32);
-  a18=(a18+a22);
-  a17=(a17*a30);
-  a17=(a17*a08);
-  a18=(a18-a17);
-  a14=(a14*a09);
-  a26=(a26*a14);
-  a26=(a26*a03);
-  a18=(a18-a26);
+  a10=(a10+a22);
+  a22=arg[0][70];
+  a22=(a22*a26);
+  a10=(a10+a22);
+  a09=(a09*a24);
+  a09=(a09*a04);
+  a10=(a10-a09);
+  a14=(a14*a05);
+  a18=(a18*a14);
+  a18=(a18*a13);
+  a10=(a10-a18);
   a01=(a01*a14);
-  a01=(a01*a24);
-  a18=(a18-a01);
-  a11=(a11+a13);
-  a11=(a11+a00);
-  a11=(a11-a04);
-  a18=(a18/a11);
-  res[0][3]=a18;
+  a01=(a01*a15);
+  a10=(a10-a01);
+  a12=(a12+a08);
+  a12=(a12+a00);
+  a12=(a12-a17);
+  a10=(a10/a12);
+  res[0][3]=a10;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_long_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f3(arg, res, iw, w, mem);
+  return casadi_f4(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_long_watch_checkout(void) {
@@ -883,7 +1155,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_sim_long_watch_default_in(casadi_
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_sim_long_watch_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -898,7 +1170,7 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_sim_long_watch_name_out(casadi_in
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_sim_long_watch_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
+    case 0: return casadi_s1;
     case 1: return casadi_s0;
     default: return 0;
   }
@@ -927,142 +1199,138 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_long_watch_work_bytes(casadi_int *sz_
   return 0;
 }
 
-/* vsw_vsw_biped_sim_extension_reset:(p[4],x[4])->(extension_reset[4]) */
-static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_vsw_biped_sim_extension_reset:(c[91],x[4])->(extension_reset[4]) */
+static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
-  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20;
   a00=arg[1][0];
   res[0][0]=a00;
   a01=arg[1][1];
   res[0][1]=a01;
   a02=arg[1][2];
-  a03=arg[0][0];
-  a04=casadi_sq(a03);
-  a04=(a02*a04);
-  a05=arg[0][2];
-  a06=arg[0][3];
-  a07=casadi_sq(a06);
-  a07=(a05*a07);
-  a08=(a07*a02);
-  a09=(a04+a08);
-  a10=(2.*a05);
-  a11=(a04*a10);
-  a09=(a09+a11);
-  a02=(a02*a03);
-  a12=(a02*a05);
-  a09=(a09-a12);
-  a13=cos(a01);
+  a03=arg[0][71];
+  a03=(a02*a03);
+  a04=arg[0][72];
+  a04=(a04*a02);
+  a05=(a03+a04);
+  a06=arg[0][73];
+  a07=(a03*a06);
+  a05=(a05+a07);
+  a08=arg[0][1];
+  a02=(a02*a08);
+  a09=arg[0][2];
+  a10=(a02*a09);
+  a05=(a05-a10);
+  a11=cos(a01);
+  a12=casadi_sq(a11);
+  a12=(a09*a12);
+  a13=(a02*a12);
+  a05=(a05+a13);
+  a13=cos(a00);
   a14=casadi_sq(a13);
-  a14=(a05*a14);
-  a15=(a02*a14);
-  a09=(a09+a15);
-  a15=cos(a00);
-  a16=casadi_sq(a15);
-  a17=(a16*a05);
-  a18=(a02*a17);
-  a09=(a09+a18);
-  a18=(a06*a05);
-  a19=arg[1][3];
-  a20=(a18*a19);
-  a13=(a13*a15);
-  a15=(a20*a13);
-  a09=(a09+a15);
+  a15=(a14*a09);
+  a16=(a02*a15);
+  a05=(a05+a16);
+  a16=arg[0][74];
+  a17=arg[1][3];
+  a16=(a16*a17);
+  a11=(a11*a13);
+  a13=(a16*a11);
+  a05=(a05+a13);
   a01=sin(a01);
   a00=sin(a00);
   a01=(a01*a00);
-  a00=(a20*a01);
-  a09=(a09+a00);
-  a00=(2.*a18);
-  a15=(a00*a02);
-  a09=(a09-a15);
-  a16=(2.*a16);
-  a15=(a16*a14);
-  a21=(a15*a02);
-  a09=(a09-a21);
-  a20=(a20*a03);
-  a21=(a20*a13);
-  a09=(a09-a21);
-  a21=(a20*a01);
-  a09=(a09-a21);
-  a12=(2.*a12);
-  a21=(a13*a01);
-  a22=(a12*a21);
-  a09=(a09-a22);
-  a22=1.;
-  a22=(a22+a07);
-  a22=(a22+a14);
-  a22=(a22+a17);
-  a22=(a22+a05);
-  a22=(a22-a00);
-  a22=(a22-a15);
-  a10=(a10*a21);
-  a22=(a22-a10);
-  a09=(a09/a22);
-  res[0][2]=a09;
-  a09=(a19*a06);
-  a22=(a00*a19);
-  a10=(a09+a22);
-  a23=(a08*a13);
-  a10=(a10+a23);
-  a08=(a08*a01);
-  a10=(a10+a08);
-  a10=(a10-a20);
-  a20=(a04*a13);
-  a10=(a10+a20);
+  a00=(a16*a01);
+  a05=(a05+a00);
+  a00=arg[0][75];
+  a13=(a00*a02);
+  a05=(a05-a13);
+  a14=(2.*a14);
+  a13=(a14*a12);
+  a18=(a13*a02);
+  a05=(a05-a18);
+  a16=(a16*a08);
+  a18=(a16*a11);
+  a05=(a05-a18);
+  a18=(a16*a01);
+  a05=(a05-a18);
+  a10=(2.*a10);
+  a18=(a11*a01);
+  a19=(a10*a18);
+  a05=(a05-a19);
+  a19=arg[0][76];
+  a19=(a19+a12);
+  a19=(a19+a15);
+  a19=(a19+a09);
+  a19=(a19-a00);
+  a19=(a19-a13);
+  a06=(a06*a18);
+  a19=(a19-a06);
+  a05=(a05/a19);
+  res[0][2]=a05;
+  a05=arg[0][48];
+  a19=(a17*a05);
+  a06=(a00*a17);
+  a09=(a19+a06);
+  a20=(a04*a11);
+  a09=(a09+a20);
   a04=(a04*a01);
-  a10=(a10+a04);
-  a04=(a11*a13);
-  a10=(a10+a04);
-  a11=(a11*a01);
-  a10=(a10+a11);
-  a11=casadi_sq(a06);
-  a11=(a11*a06);
-  a05=(a05*a11);
-  a11=(a05*a19);
-  a10=(a10+a11);
-  a09=(a09*a03);
-  a11=(a09*a14);
-  a10=(a10+a11);
-  a11=(a09*a17);
-  a10=(a10+a11);
-  a15=(a15*a09);
-  a10=(a10-a15);
-  a15=(a02*a13);
-  a10=(a10-a15);
+  a09=(a09+a04);
+  a09=(a09-a16);
+  a16=(a03*a11);
+  a09=(a09+a16);
+  a03=(a03*a01);
+  a09=(a09+a03);
+  a03=(a07*a11);
+  a09=(a09+a03);
+  a07=(a07*a01);
+  a09=(a09+a07);
+  a07=arg[0][77];
+  a07=(a07*a17);
+  a09=(a09+a07);
+  a19=(a19*a08);
+  a07=(a19*a12);
+  a09=(a09+a07);
+  a07=(a19*a15);
+  a09=(a09+a07);
+  a13=(a13*a19);
+  a09=(a09-a13);
+  a13=(a02*a11);
+  a09=(a09-a13);
   a02=(a02*a01);
-  a10=(a10-a02);
-  a13=(a12*a13);
-  a10=(a10-a13);
-  a12=(a12*a01);
-  a10=(a10-a12);
-  a07=(2.*a07);
-  a19=(a07*a19);
-  a10=(a10-a19);
-  a23=(a23*a03);
-  a10=(a10-a23);
-  a08=(a08*a03);
-  a10=(a10-a08);
-  a22=(a22*a21);
-  a22=(a22*a03);
-  a10=(a10-a22);
-  a18=(a18+a05);
-  a14=(a14*a06);
-  a18=(a18+a14);
-  a18=(a18+a06);
-  a18=(a18-a07);
-  a17=(a17*a06);
-  a18=(a18+a17);
-  a00=(a00*a21);
-  a18=(a18-a00);
-  a16=(a16*a14);
-  a18=(a18-a16);
-  a10=(a10/a18);
-  res[0][3]=a10;
+  a09=(a09-a02);
+  a11=(a10*a11);
+  a09=(a09-a11);
+  a10=(a10*a01);
+  a09=(a09-a10);
+  a10=arg[0][78];
+  a17=(a10*a17);
+  a09=(a09-a17);
+  a20=(a20*a08);
+  a09=(a09-a20);
+  a04=(a04*a08);
+  a09=(a09-a04);
+  a06=(a06*a18);
+  a06=(a06*a08);
+  a09=(a09-a06);
+  a06=arg[0][79];
+  a12=(a12*a05);
+  a06=(a06+a12);
+  a06=(a06+a05);
+  a06=(a06-a10);
+  a15=(a15*a05);
+  a06=(a06+a15);
+  a00=(a00*a18);
+  a06=(a06-a00);
+  a14=(a14*a12);
+  a06=(a06-a14);
+  a09=(a09/a06);
+  res[0][3]=a09;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_extension_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f4(arg, res, iw, w, mem);
+  return casadi_f5(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_extension_reset_checkout(void) {
@@ -1090,7 +1358,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_sim_extension_reset_default_in(ca
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_sim_extension_reset_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -1105,7 +1373,7 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_sim_extension_reset_name_out(casa
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_sim_extension_reset_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
+    case 0: return casadi_s1;
     case 1: return casadi_s0;
     default: return 0;
   }
@@ -1134,97 +1402,87 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_extension_reset_work_bytes(casadi_int
   return 0;
 }
 
-/* vsw_vsw_biped_sim_heelstrike_reset:(p[4],x[4])->(heelstrike_reset[4]) */
-static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_vsw_biped_sim_heelstrike_reset:(c[91],x[4])->(heelstrike_reset[4]) */
+static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
-  casadi_real a12, a13, a14, a15, a16, a17, a18, a19;
+  casadi_real a12, a13, a14, a15;
   a00=arg[1][1];
   res[0][0]=a00;
   a01=arg[1][0];
   res[0][1]=a01;
-  a02=arg[0][2];
-  a03=casadi_sq(a02);
-  a04=arg[0][3];
-  a05=casadi_sq(a04);
-  a05=(a05*a04);
-  a05=(a05*a04);
-  a05=(a03*a05);
-  a06=arg[1][3];
-  a07=(a05*a06);
-  a08=casadi_sq(a04);
-  a08=(a08*a04);
-  a08=(a03*a08);
-  a09=arg[0][0];
-  a10=(a08*a09);
-  a11=(a10*a06);
-  a07=(a07-a11);
-  a12=arg[1][2];
-  a13=(a03*a12);
-  a14=casadi_sq(a04);
-  a15=(a14*a09);
+  a02=arg[0][80];
+  a03=arg[1][3];
+  a04=(a02*a03);
+  a05=arg[0][81];
+  a05=(a05*a03);
+  a04=(a04-a05);
+  a06=arg[0][82];
+  a07=arg[1][2];
+  a06=(a06*a07);
+  a08=arg[0][83];
   a00=(a00-a01);
   a00=cos(a00);
-  a01=(a15*a00);
-  a16=(a13*a01);
-  a07=(a07+a16);
-  a16=(a12*a02);
-  a01=(a16*a01);
-  a07=(a07+a01);
-  a08=(a08*a12);
   a01=(a08*a00);
-  a07=(a07-a01);
-  a01=casadi_sq(a09);
-  a14=(a01*a14);
-  a02=(a14*a02);
-  a17=(a05+a02);
-  a03=(a03*a14);
-  a14=(2.*a03);
-  a17=(a17+a14);
-  a18=casadi_sq(a00);
-  a19=(a03*a18);
-  a17=(a17-a19);
-  a10=(2.*a10);
-  a17=(a17-a10);
-  a07=(a07/a17);
-  res[0][2]=a07;
-  a05=(a05*a12);
-  a01=(a01*a04);
-  a16=(a01*a16);
-  a04=(2.*a13);
-  a01=(a01*a04);
-  a07=(a16+a01);
-  a07=(a07+a08);
-  a05=(a05-a07);
-  a02=(a02*a12);
-  a05=(a05+a02);
-  a14=(a14*a12);
-  a05=(a05+a14);
-  a16=(a18*a16);
-  a05=(a05+a16);
-  a01=(a18*a01);
-  a05=(a05+a01);
-  a04=(a04*a15);
-  a05=(a05+a04);
+  a09=(a06*a01);
+  a04=(a04+a09);
+  a09=arg[0][2];
+  a09=(a07*a09);
+  a01=(a09*a01);
+  a04=(a04+a01);
+  a01=arg[0][84];
+  a01=(a01*a07);
+  a10=(a01*a00);
+  a04=(a04-a10);
+  a10=arg[0][86];
+  a11=arg[0][85];
+  a12=casadi_sq(a00);
+  a13=(a11*a12);
+  a10=(a10-a13);
+  a14=arg[0][87];
+  a10=(a10-a14);
+  a04=(a04/a10);
+  res[0][2]=a04;
+  a02=(a02*a07);
+  a04=arg[0][88];
+  a09=(a04*a09);
+  a14=(2.*a06);
+  a04=(a04*a14);
+  a15=(a09+a04);
+  a15=(a15+a01);
+  a02=(a02-a15);
+  a15=arg[0][89];
+  a15=(a15*a07);
+  a02=(a02+a15);
+  a15=arg[0][90];
+  a15=(a15*a07);
+  a02=(a02+a15);
+  a09=(a12*a09);
+  a02=(a02+a09);
+  a04=(a12*a04);
+  a02=(a02+a04);
+  a14=(a14*a08);
+  a02=(a02+a14);
+  a05=(a05*a00);
+  a02=(a02+a05);
+  a13=(a13*a07);
+  a02=(a02-a13);
+  a01=(2.*a01);
+  a13=arg[0][1];
+  a01=(a01*a13);
+  a02=(a02-a01);
+  a06=(a06*a12);
+  a06=(a06*a08);
+  a02=(a02-a06);
   a11=(a11*a00);
-  a05=(a05+a11);
-  a19=(a19*a12);
-  a05=(a05-a19);
-  a08=(2.*a08);
-  a08=(a08*a09);
-  a05=(a05-a08);
-  a13=(a13*a18);
-  a13=(a13*a15);
-  a05=(a05-a13);
-  a03=(a03*a00);
-  a03=(a03*a06);
-  a05=(a05-a03);
-  a05=(a05/a17);
-  res[0][3]=a05;
+  a11=(a11*a03);
+  a02=(a02-a11);
+  a02=(a02/a10);
+  res[0][3]=a02;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_heelstrike_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f5(arg, res, iw, w, mem);
+  return casadi_f6(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_heelstrike_reset_checkout(void) {
@@ -1252,7 +1510,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_sim_heelstrike_reset_default_in(c
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_sim_heelstrike_reset_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -1267,7 +1525,7 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_sim_heelstrike_reset_name_out(cas
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_sim_heelstrike_reset_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
+    case 0: return casadi_s1;
     case 1: return casadi_s0;
     default: return 0;
   }
@@ -1296,8 +1554,8 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_heelstrike_reset_work_bytes(casadi_in
   return 0;
 }
 
-/* vsw_vsw_biped_sim_heelstrike_when:(p[4],x[4])->(heelstrike_when) */
-static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_vsw_biped_sim_heelstrike_when:(c[91],x[4])->(heelstrike_when) */
+static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1;
   a0=arg[1][0];
   a1=arg[1][1];
@@ -1307,7 +1565,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_heelstrike_when(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f6(arg, res, iw, w, mem);
+  return casadi_f7(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_heelstrike_when_checkout(void) {
@@ -1335,7 +1593,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_sim_heelstrike_when_default_in(ca
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_sim_heelstrike_when_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -1350,7 +1608,7 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_sim_heelstrike_when_name_out(casa
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_sim_heelstrike_when_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
+    case 0: return casadi_s1;
     case 1: return casadi_s0;
     default: return 0;
   }
@@ -1358,7 +1616,7 @@ CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_sim_heelstrike_when_sparsit
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_sim_heelstrike_when_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s2;
+    case 0: return casadi_s3;
     default: return 0;
   }
 }
@@ -1379,14 +1637,14 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_heelstrike_when_work_bytes(casadi_int
   return 0;
 }
 
-/* vsw_vsw_biped_sim_step_length:(p[4],x[4])->(step_length) */
-static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_vsw_biped_sim_step_length:(c[91],x[4])->(step_length) */
+static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2;
   a0=arg[1][0];
   a0=sin(a0);
   a1=arg[1][1];
   a1=sin(a1);
-  a2=arg[0][0];
+  a2=arg[0][1];
   a1=(a1*a2);
   a0=(a0-a1);
   res[0][0]=a0;
@@ -1394,7 +1652,7 @@ static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_step_length(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f7(arg, res, iw, w, mem);
+  return casadi_f8(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_step_length_checkout(void) {
@@ -1422,7 +1680,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_sim_step_length_default_in(casadi
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_sim_step_length_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -1437,7 +1695,7 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_sim_step_length_name_out(casadi_i
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_sim_step_length_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
+    case 0: return casadi_s1;
     case 1: return casadi_s0;
     default: return 0;
   }
@@ -1445,7 +1703,7 @@ CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_sim_step_length_sparsity_in
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_sim_step_length_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s2;
+    case 0: return casadi_s3;
     default: return 0;
   }
 }
@@ -1483,7 +1741,7 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_step_length_work_bytes(casadi_int *sz
 #define VSW_SZ_ARG 2
 #define VSW_SZ_RES 1
 #define VSW_SZ_IW 0
-#define VSW_SZ_W 43
+#define VSW_SZ_W 34
 
 /* Every function of the table in CasADi's calling convention, called directly (not through
    a pointer) so that the compiler can inline it into the integrator's loops. */
@@ -1496,28 +1754,36 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_sim_step_length_work_bytes(casadi_int *sz
         fn(vsw_arg_, vsw_res_, vsw_iw_, vsw_w_, 0);                                          \
     } while (0)
 
-/* Per phase: x' = f(p, x). */
-static inline void vsw_flow(int phase, const double *p, const double *x, double *out)
+/* The constants of the functions below from the parameters: the parameters they use and
+   their parameter-only subexpressions, computed once a walk instead of at every call. */
+#define VSW_NC 91
+static inline void vsw_constants(const double *p, double *c)
+{
+    VSW_CALL(vsw_vsw_biped_sim_constants, p, p, c);
+}
+
+/* Per phase: x' = f(x) (with the constants c). */
+static inline void vsw_flow(int phase, const double *c, const double *x, double *out)
 {
     switch (phase) {
     case 0:
-        VSW_CALL(vsw_vsw_biped_sim_short_flow, p, x, out);
+        VSW_CALL(vsw_vsw_biped_sim_short_flow, c, x, out);
         return;
     case 1:
-        VSW_CALL(vsw_vsw_biped_sim_long_flow, p, x, out);
+        VSW_CALL(vsw_vsw_biped_sim_long_flow, c, x, out);
         return;
     }
 }
 
 /* Per phase: its events' guards, then the failures' guards. */
-static inline void vsw_watch(int phase, const double *p, const double *x, double *out)
+static inline void vsw_watch(int phase, const double *c, const double *x, double *out)
 {
     switch (phase) {
     case 0:
-        VSW_CALL(vsw_vsw_biped_sim_short_watch, p, x, out);
+        VSW_CALL(vsw_vsw_biped_sim_short_watch, c, x, out);
         return;
     case 1:
-        VSW_CALL(vsw_vsw_biped_sim_long_watch, p, x, out);
+        VSW_CALL(vsw_vsw_biped_sim_long_watch, c, x, out);
         return;
     }
 }
@@ -1528,23 +1794,23 @@ static const int vsw_watch_direction[VSW_NPHASES][VSW_MAX_WATCH] = {{1, -1, -1, 
 static const int vsw_watch_what[VSW_NPHASES][VSW_MAX_WATCH] = {{0, -1, -2, -3, -4}, {1, -1, -2, -3, 0}};
 
 /* Per event: the reset. */
-static inline void vsw_reset(int event, const double *p, const double *x, double *out)
+static inline void vsw_reset(int event, const double *c, const double *x, double *out)
 {
     switch (event) {
     case 0:
-        VSW_CALL(vsw_vsw_biped_sim_extension_reset, p, x, out);
+        VSW_CALL(vsw_vsw_biped_sim_extension_reset, c, x, out);
         return;
     case 1:
-        VSW_CALL(vsw_vsw_biped_sim_heelstrike_reset, p, x, out);
+        VSW_CALL(vsw_vsw_biped_sim_heelstrike_reset, c, x, out);
         return;
     }
 }
 /* Per event: the condition for it to count into *out; 0 when it always counts. */
-static inline int vsw_when(int event, const double *p, const double *x, double *out)
+static inline int vsw_when(int event, const double *c, const double *x, double *out)
 {
     switch (event) {
     case 1:
-        VSW_CALL(vsw_vsw_biped_sim_heelstrike_when, p, x, out);
+        VSW_CALL(vsw_vsw_biped_sim_heelstrike_when, c, x, out);
         return 1;
     }
     return 0;
@@ -1553,8 +1819,8 @@ static inline int vsw_when(int event, const double *p, const double *x, double *
 static const int vsw_event_target[VSW_NEVENTS] = {1, 0};
 static const int vsw_event_ends_step[VSW_NEVENTS] = {0, 1};
 /* The step length from the state just before the step event; 0 when the model has none. */
-static inline int vsw_step_length(const double *p, const double *x, double *out)
+static inline int vsw_step_length(const double *c, const double *x, double *out)
 {
-    VSW_CALL(vsw_vsw_biped_sim_step_length, p, x, out);
+    VSW_CALL(vsw_vsw_biped_sim_step_length, c, x, out);
     return 1;
 }

@@ -4,8 +4,9 @@
  * sympy 1.14.0
  * casadi 3.8.2
  * The hybrid dynamics of the model for the batch simulator (vsw/csrc/hybrid_batch.c, built
- * by vsw/batch.py): every function takes (p, x), the parameters (beta, theta_II, mu, b_over_l, delta) and the
- * state (theta, psi, theta_dot, psi_dot), in CasADi's calling convention.
+ * by vsw/batch.py): every function takes (c, x), the model's constants (what the functions
+ * use of the parameters beta, theta_II, mu, b_over_l, delta: c = constants(p), once a walk) and the state
+ * (theta, psi, theta_dot, psi_dot), in CasADi's calling convention.
  * Phases: short, extension, long.
  * Events: extension_start (short -> extension), extension_end (extension -> long), heelstrike (long -> short, ends the step).
  * Failures: fell-backward, fell-forward, lift-off, extension-missed.
@@ -47,6 +48,7 @@ extern "C" {
 #define casadi_f0 CASADI_PREFIX(f0)
 #define casadi_f1 CASADI_PREFIX(f1)
 #define casadi_f10 CASADI_PREFIX(f10)
+#define casadi_f11 CASADI_PREFIX(f11)
 #define casadi_f2 CASADI_PREFIX(f2)
 #define casadi_f3 CASADI_PREFIX(f3)
 #define casadi_f4 CASADI_PREFIX(f4)
@@ -58,6 +60,7 @@ extern "C" {
 #define casadi_s0 CASADI_PREFIX(s0)
 #define casadi_s1 CASADI_PREFIX(s1)
 #define casadi_s2 CASADI_PREFIX(s2)
+#define casadi_s3 CASADI_PREFIX(s3)
 #define casadi_sq CASADI_PREFIX(sq)
 
 /* Symbol visibility in DLLs */
@@ -87,123 +90,538 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim__casadi_int_size(void) { return (
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim__casadi_real_size(void) { return (int) sizeof(casadi_real); }
 
 static const casadi_int casadi_s0[3] = {5, 1, 1};
-static const casadi_int casadi_s1[3] = {4, 1, 1};
-static const casadi_int casadi_s2[3] = {1, 1, 1};
+static const casadi_int casadi_s1[3] = {132, 1, 1};
+static const casadi_int casadi_s2[3] = {4, 1, 1};
+static const casadi_int casadi_s3[3] = {1, 1, 1};
 
-/* vsw_vsw_biped_fte_sim_short_flow:(p[5],x[4])->(short_flow[4]) */
+/* vsw_vsw_biped_fte_sim_constants:(p[5])->(c[132]) */
 static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
-  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21;
+  casadi_real a12, a13, a14, a15;
+  a00=arg[0][3];
+  a01=casadi_sq(a00);
+  res[0][0]=a01;
+  a02=arg[0][0];
+  res[0][1]=a02;
+  a03=arg[0][2];
+  res[0][2]=a03;
+  a04=casadi_sq(a03);
+  a05=casadi_sq(a00);
+  a05=(a05*a00);
+  a05=(a04*a05);
+  a06=(a05*a02);
+  res[0][3]=a06;
+  res[0][4]=a05;
+  res[0][5]=a04;
+  a06=(2.*a04);
+  a06=(a06*a01);
+  res[0][6]=a06;
+  a06=(a04*a01);
+  res[0][7]=a06;
+  a06=casadi_sq(a02);
+  res[0][8]=a06;
+  a01=(a01*a06);
+  a06=(a04*a01);
+  res[0][9]=a06;
+  a06=(2.*a06);
+  a07=casadi_sq(a00);
+  a07=(a07*a00);
+  a07=(a07*a00);
+  a07=(a04*a07);
+  a07=(a06+a07);
+  a01=(a01*a03);
+  a07=(a07+a01);
+  a01=(2.*a02);
+  a05=(a05*a01);
+  a07=(a07-a05);
+  res[0][10]=a07;
+  a07=casadi_sq(a02);
+  a07=(a07*a02);
+  res[0][11]=a07;
+  a07=(a00*a03);
+  res[0][12]=a07;
+  a07=(2.*a00);
+  a05=(a04*a07);
+  res[0][13]=a05;
+  res[0][14]=a06;
+  a04=(a04*a01);
+  res[0][15]=a04;
+  res[0][16]=a07;
+  a07=arg[0][1];
+  res[0][17]=a07;
+  a04=casadi_sq(a00);
+  a01=casadi_sq(a02);
+  a06=(a04*a01);
+  a05=casadi_sq(a03);
+  a08=(a06*a05);
+  res[0][18]=a08;
+  a09=casadi_sq(a00);
+  a09=(a09*a00);
+  a09=(a09*a00);
+  a10=(a09*a05);
+  res[0][19]=a10;
+  a10=casadi_sq(a03);
+  a10=(a10*a03);
+  a11=casadi_sq(a00);
+  a11=(a11*a00);
+  a12=(a11*a02);
+  a13=(2.*a12);
+  a14=(a10*a13);
+  res[0][20]=a14;
+  a14=(a10*a06);
+  a15=(2.*a14);
+  res[0][21]=a15;
+  a08=(2.*a08);
+  res[0][22]=a08;
+  a09=(a09*a10);
+  res[0][23]=a09;
+  a06=(a06*a03);
+  res[0][24]=a06;
+  res[0][25]=a14;
+  a06=casadi_sq(a00);
+  a06=casadi_sq(a06);
+  a06=(a00*a06);
+  a06=(a10*a06);
+  res[0][26]=a06;
+  a01=(a01*a11);
+  res[0][27]=a01;
+  a11=(2.*a10);
+  res[0][28]=a11;
+  res[0][29]=a05;
+  a06=3.;
+  a08=(a06*a05);
+  res[0][30]=a08;
+  a08=(a09*a02);
+  res[0][31]=a08;
+  a05=(a05*a13);
+  res[0][32]=a05;
+  res[0][33]=a04;
+  a04=casadi_sq(a02);
+  a04=(a04*a02);
+  res[0][34]=a04;
+  a04=4.;
+  a09=(a04*a09);
+  res[0][35]=a09;
+  a14=(a04*a14);
+  res[0][36]=a14;
+  a14=6.;
+  a09=(a14*a10);
+  res[0][37]=a09;
+  res[0][38]=a10;
+  res[0][39]=a12;
+  a01=(a01*a11);
+  res[0][40]=a01;
+  a01=casadi_sq(a00);
+  res[0][41]=a01;
+  a01=arg[0][4];
+  a11=casadi_sq(a01);
+  a12=(a06/a11);
+  res[0][42]=a12;
+  a12=2.;
+  a10=casadi_sq(a01);
+  a10=(a10*a01);
+  a09=(a12/a10);
+  res[0][43]=a09;
+  a09=-1.;
+  a05=(a09+a02);
+  res[0][44]=a05;
+  a13=casadi_sq(a03);
+  res[0][45]=a13;
+  a08=-2.;
+  a15=(a08*a07);
+  res[0][46]=a15;
+  a10=(a14/a10);
+  res[0][47]=a10;
+  a10=casadi_sq(a00);
+  a10=(a10*a00);
+  a10=(a13*a10);
+  a15=(2.*a10);
+  res[0][48]=a15;
+  res[0][49]=a10;
+  res[0][50]=a01;
+  a11=(a05/a11);
+  res[0][51]=a11;
+  a11=casadi_sq(a00);
+  a11=(a11*a00);
+  a11=(a11*a00);
+  a11=(a13*a11);
+  res[0][52]=a11;
+  a11=(a00*a03);
+  res[0][53]=a11;
+  a11=(2.*a00);
+  a13=(a13*a11);
+  res[0][54]=a13;
+  a05=casadi_sq(a05);
+  res[0][55]=a05;
+  res[0][56]=a00;
+  res[0][57]=a11;
+  a11=casadi_sq(a01);
+  a05=(a06/a11);
+  res[0][58]=a05;
+  a05=casadi_sq(a01);
+  a05=(a05*a01);
+  a12=(a12/a05);
+  res[0][59]=a12;
+  a09=(a09+a02);
+  res[0][60]=a09;
+  a12=casadi_sq(a00);
+  res[0][61]=a12;
+  a01=casadi_sq(a03);
+  res[0][62]=a01;
+  a13=casadi_sq(a03);
+  a13=(a13*a03);
+  res[0][63]=a13;
+  a10=casadi_sq(a00);
+  a10=(a10*a00);
+  a10=(a10*a00);
+  a15=(a10*a01);
+  res[0][64]=a15;
+  res[0][65]=a11;
+  a11=casadi_sq(a00);
+  a11=(a11*a00);
+  res[0][66]=a11;
+  a15=(a10*a01);
+  res[0][67]=a15;
+  a08=(a08*a07);
+  res[0][68]=a08;
+  a05=(a14/a05);
+  res[0][69]=a05;
+  a05=(a01*a12);
+  res[0][70]=a05;
+  a08=(a10*a13);
+  res[0][71]=a08;
+  a08=(2.*a13);
+  res[0][72]=a08;
+  a08=(a12*a03);
+  res[0][73]=a08;
+  a07=(a06*a01);
+  res[0][74]=a07;
+  res[0][75]=a10;
+  a07=(a10*a13);
+  res[0][76]=a07;
+  a09=casadi_sq(a09);
+  res[0][77]=a09;
+  a05=(a14*a05);
+  res[0][78]=a05;
+  a08=(2.*a08);
+  res[0][79]=a08;
+  a08=casadi_sq(a00);
+  a08=casadi_sq(a08);
+  a08=(a00*a08);
+  a05=(a13*a08);
+  res[0][80]=a05;
+  a08=(a13*a08);
+  res[0][81]=a08;
+  a12=(a13*a12);
+  res[0][82]=a12;
+  a12=(a04*a01);
+  res[0][83]=a12;
+  a06=(a06*a01);
+  res[0][84]=a06;
+  a06=(2.*a01);
+  res[0][85]=a06;
+  a06=(2.*a01);
+  a06=(a06*a11);
+  res[0][86]=a06;
+  a11=(a04*a11);
+  a11=(a11*a13);
+  res[0][87]=a11;
+  a11=(2.*a10);
+  res[0][88]=a11;
+  a11=(a04*a01);
+  res[0][89]=a11;
+  a10=(a14*a10);
+  a10=(a10*a13);
+  res[0][90]=a10;
+  a10=12.;
+  a10=(a10*a01);
+  res[0][91]=a10;
+  a10=casadi_sq(a00);
+  res[0][92]=a10;
+  a01=casadi_sq(a03);
+  a13=casadi_sq(a00);
+  a13=(a13*a00);
+  a11=(a01*a13);
+  res[0][93]=a11;
+  a11=(a10*a01);
+  res[0][94]=a11;
+  a11=(2.*a10);
+  a11=(a11*a01);
+  res[0][95]=a11;
+  a11=(a10*a01);
+  res[0][96]=a11;
+  a11=(2.*a01);
+  a06=(a10*a11);
+  a12=(a10*a03);
+  a12=(a06+a12);
+  a08=casadi_sq(a00);
+  a08=(a08*a00);
+  a08=(a08*a00);
+  a08=(a01*a08);
+  a12=(a12+a08);
+  a08=(a11*a13);
+  a12=(a12-a08);
+  res[0][97]=a12;
+  a10=(2.*a10);
+  a10=(a10*a01);
+  res[0][98]=a10;
+  res[0][99]=a11;
+  res[0][100]=a06;
+  res[0][101]=a01;
+  res[0][102]=a13;
+  a13=(2.*a01);
+  res[0][103]=a13;
+  a01=(2.*a01);
+  res[0][104]=a01;
+  a01=casadi_sq(a00);
+  a13=casadi_sq(a03);
+  a06=(a01*a13);
+  res[0][105]=a06;
+  a11=casadi_sq(a00);
+  a11=(a11*a00);
+  a11=(a11*a00);
+  a10=(a13*a11);
+  res[0][106]=a10;
+  a10=casadi_sq(a03);
+  a10=(a10*a03);
+  a12=casadi_sq(a00);
+  a12=(a12*a00);
+  a08=(2.*a12);
+  a05=(a10*a08);
+  res[0][107]=a05;
+  a05=(a01*a10);
+  a09=(2.*a05);
+  res[0][108]=a09;
+  a01=(a01*a03);
+  res[0][109]=a01;
+  res[0][110]=a05;
+  a11=(a10*a11);
+  res[0][111]=a11;
+  a01=(a13*a12);
+  res[0][112]=a01;
+  a01=casadi_sq(a00);
+  a01=casadi_sq(a01);
+  a01=(a00*a01);
+  a01=(a10*a01);
+  res[0][113]=a01;
+  a06=(2.*a06);
+  res[0][114]=a06;
+  a13=(a13*a08);
+  res[0][115]=a13;
+  a10=(a10*a12);
+  res[0][116]=a10;
+  a12=(a04*a11);
+  res[0][117]=a12;
+  a11=(2.*a11);
+  res[0][118]=a11;
+  a04=(a04*a05);
+  res[0][119]=a04;
+  a14=(a14*a10);
+  res[0][120]=a14;
+  a14=casadi_sq(a03);
+  a10=casadi_sq(a00);
+  a10=(a10*a00);
+  a10=(a10*a00);
+  a10=(a14*a10);
+  res[0][121]=a10;
+  a04=casadi_sq(a00);
+  a04=(a04*a00);
+  a04=(a14*a04);
+  a05=(a04*a02);
+  res[0][122]=a05;
+  res[0][123]=a14;
+  a11=casadi_sq(a00);
+  a12=(a11*a02);
+  res[0][124]=a12;
+  res[0][125]=a04;
+  a02=casadi_sq(a02);
+  a11=(a02*a11);
+  a14=(a14*a11);
+  res[0][126]=a14;
+  a11=(a11*a03);
+  a10=(a10+a11);
+  a14=(2.*a14);
+  a10=(a10+a14);
+  res[0][127]=a10;
+  a05=(2.*a05);
+  res[0][128]=a05;
+  a02=(a02*a00);
+  res[0][129]=a02;
+  res[0][130]=a11;
+  res[0][131]=a14;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_constants(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f0(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_constants_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_constants_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_constants_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_constants_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_constants_n_in(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_constants_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_constants_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_constants_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_constants_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_constants_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_constants_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_constants_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 1;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_constants_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 1*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_fte_sim_short_flow:(c[132],x[4])->(short_flow[4]) */
+static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17;
   a00=arg[1][2];
   res[0][0]=a00;
   a01=arg[1][3];
   res[0][1]=a01;
-  a02=arg[0][3];
-  a03=casadi_sq(a02);
-  a04=arg[1][0];
-  a05=sin(a04);
-  a06=(a03*a05);
-  a07=arg[0][0];
-  a06=(a06*a07);
-  a08=arg[0][2];
-  a06=(a06*a08);
-  a09=arg[1][1];
-  a04=(a09-a04);
-  a10=sin(a04);
+  a02=arg[0][0];
+  a03=arg[1][0];
+  a04=sin(a03);
+  a05=(a02*a04);
+  a06=arg[0][1];
+  a05=(a05*a06);
+  a07=arg[0][2];
+  a05=(a05*a07);
+  a07=arg[1][1];
+  a03=(a07-a03);
+  a08=sin(a03);
   a01=casadi_sq(a01);
-  a01=(a10*a01);
-  a11=casadi_sq(a08);
-  a12=casadi_sq(a02);
-  a12=(a12*a02);
-  a12=(a11*a12);
-  a13=(a12*a07);
-  a14=(a01*a13);
-  a15=(a12*a05);
-  a14=(a14+a15);
-  a04=cos(a04);
-  a15=(a11*a04);
-  a09=sin(a09);
-  a16=(a03*a09);
-  a17=(a15*a16);
-  a17=(a17*a07);
-  a14=(a14+a17);
-  a06=(a06-a14);
-  a14=(2.*a11);
-  a14=(a14*a03);
-  a14=(a14*a05);
-  a14=(a14*a07);
-  a06=(a06+a14);
-  a14=(a11*a03);
-  a00=casadi_sq(a00);
-  a14=(a14*a00);
-  a17=casadi_sq(a07);
-  a14=(a14*a17);
-  a14=(a14*a04);
-  a14=(a14*a10);
-  a06=(a06+a14);
-  a14=(a03*a17);
-  a18=(a11*a14);
-  a19=(2.*a18);
-  a20=casadi_sq(a02);
-  a20=(a20*a02);
-  a20=(a20*a02);
-  a20=(a11*a20);
-  a20=(a19+a20);
-  a14=(a14*a08);
-  a20=(a20+a14);
-  a14=(2.*a07);
-  a21=(a12*a14);
-  a20=(a20-a21);
-  a21=casadi_sq(a04);
-  a21=(a18*a21);
-  a20=(a20-a21);
-  a06=(a06/a20);
-  res[0][2]=a06;
-  a00=(a00*a10);
-  a13=(a13*a00);
-  a08=(a02*a08);
-  a10=casadi_sq(a07);
-  a10=(a10*a07);
-  a10=(a00*a10);
-  a06=(a08*a10);
-  a13=(a13+a06);
-  a02=(2.*a02);
-  a06=(a11*a02);
-  a10=(a06*a10);
-  a13=(a13+a10);
-  a10=(a17*a09);
-  a21=(a08*a10);
-  a13=(a13-a21);
+  a01=(a08*a01);
+  a09=arg[0][3];
+  a10=(a01*a09);
+  a11=arg[0][4];
+  a12=(a11*a04);
+  a10=(a10+a12);
+  a12=arg[0][5];
+  a03=cos(a03);
+  a12=(a12*a03);
+  a07=sin(a07);
+  a13=(a02*a07);
+  a14=(a12*a13);
+  a14=(a14*a06);
+  a10=(a10+a14);
+  a05=(a05-a10);
+  a10=arg[0][6];
+  a10=(a10*a04);
   a10=(a10*a06);
-  a13=(a13-a10);
-  a00=(a00*a19);
-  a13=(a13-a00);
-  a12=(a12*a09);
-  a13=(a13-a12);
-  a11=(a11*a14);
-  a11=(a11*a16);
-  a13=(a13+a11);
-  a17=(a17*a05);
-  a11=(a15*a17);
-  a11=(a11*a02);
-  a13=(a13+a11);
-  a08=(a08*a17);
-  a08=(a08*a04);
-  a13=(a13+a08);
-  a01=(a01*a18);
-  a01=(a01*a04);
-  a13=(a13-a01);
-  a03=(a03*a15);
-  a03=(a03*a05);
-  a03=(a03*a07);
-  a13=(a13-a03);
-  a13=(a13/a20);
-  res[0][3]=a13;
+  a05=(a05+a10);
+  a10=arg[0][7];
+  a00=casadi_sq(a00);
+  a10=(a10*a00);
+  a14=arg[0][8];
+  a10=(a10*a14);
+  a10=(a10*a03);
+  a10=(a10*a08);
+  a05=(a05+a10);
+  a10=arg[0][10];
+  a15=arg[0][9];
+  a16=casadi_sq(a03);
+  a16=(a15*a16);
+  a10=(a10-a16);
+  a05=(a05/a10);
+  res[0][2]=a05;
+  a00=(a00*a08);
+  a09=(a09*a00);
+  a08=arg[0][12];
+  a05=arg[0][11];
+  a05=(a00*a05);
+  a16=(a08*a05);
+  a09=(a09+a16);
+  a16=arg[0][13];
+  a05=(a16*a05);
+  a09=(a09+a05);
+  a05=(a14*a07);
+  a17=(a08*a05);
+  a09=(a09-a17);
+  a05=(a05*a16);
+  a09=(a09-a05);
+  a05=arg[0][14];
+  a00=(a00*a05);
+  a09=(a09-a00);
+  a11=(a11*a07);
+  a09=(a09-a11);
+  a11=arg[0][15];
+  a11=(a11*a13);
+  a09=(a09+a11);
+  a14=(a14*a04);
+  a11=(a12*a14);
+  a13=arg[0][16];
+  a11=(a11*a13);
+  a09=(a09+a11);
+  a08=(a08*a14);
+  a08=(a08*a03);
+  a09=(a09+a08);
+  a01=(a01*a15);
+  a01=(a01*a03);
+  a09=(a09-a01);
+  a02=(a02*a12);
+  a02=(a02*a04);
+  a02=(a02*a06);
+  a09=(a09-a02);
+  a09=(a09/a10);
+  res[0][3]=a09;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f0(arg, res, iw, w, mem);
+  return casadi_f1(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_flow_checkout(void) {
@@ -231,7 +649,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_short_flow_default_in(cas
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_short_flow_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -246,15 +664,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_short_flow_name_out(casad
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_short_flow_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_short_flow_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -275,182 +693,165 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_flow_work_bytes(casadi_int 
   return 0;
 }
 
-/* vsw_vsw_biped_fte_sim_short_watch:(p[5],x[4])->(short_watch[5]) */
-static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_vsw_biped_fte_sim_short_watch:(c[132],x[4])->(short_watch[5]) */
+static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
-  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
-  casadi_real a36, a37, a38, a39, a40, a41, a42;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33;
   a00=arg[1][0];
-  a01=arg[0][1];
+  a01=arg[0][17];
   a02=(a00-a01);
   res[0][0]=a02;
   a02=arg[1][2];
   res[0][1]=a02;
   a03=cos(a00);
   res[0][2]=a03;
-  a03=arg[0][3];
-  a04=casadi_sq(a03);
-  a04=(a04*a03);
-  a04=(a04*a03);
-  a05=arg[0][2];
-  a06=casadi_sq(a05);
-  a07=(a04*a06);
-  a08=arg[1][1];
-  a09=(a08-a00);
-  a10=cos(a09);
-  a11=casadi_sq(a10);
-  a12=casadi_sq(a03);
-  a13=arg[0][0];
-  a14=casadi_sq(a13);
-  a15=(a12*a14);
-  a16=(a15*a06);
-  a17=(a11*a16);
-  a17=(a07-a17);
-  a18=casadi_sq(a05);
-  a18=(a18*a05);
-  a19=casadi_sq(a03);
-  a19=(a19*a03);
-  a20=(a19*a13);
-  a21=(2.*a20);
-  a22=(a18*a21);
-  a23=(a17+a22);
-  a24=(a18*a15);
-  a25=(2.*a24);
-  a23=(a23-a25);
-  a23=(a23-a16);
-  a26=(2.*a16);
-  a27=sin(a08);
-  a28=(a10*a27);
-  a29=sin(a00);
-  a28=(a28*a29);
-  a30=(a26*a28);
-  a23=(a23+a30);
-  a08=cos(a08);
-  a30=casadi_sq(a08);
-  a04=(a04*a18);
-  a31=(a30*a04);
-  a23=(a23+a31);
-  a31=(a30*a25);
-  a23=(a23+a31);
-  a31=(a30*a16);
-  a23=(a23+a31);
-  a31=cos(a00);
-  a32=casadi_sq(a31);
-  a33=(a04*a32);
-  a23=(a23+a33);
-  a15=(a15*a05);
-  a33=(a32*a15);
-  a23=(a23+a33);
-  a33=4.;
-  a34=(a33*a32);
-  a35=(a24*a34);
-  a23=(a23+a35);
-  a35=casadi_sq(a03);
-  a35=casadi_sq(a35);
-  a03=(a03*a35);
-  a03=(a18*a03);
-  a35=arg[1][3];
-  a35=casadi_sq(a35);
-  a36=(a35*a08);
-  a37=(a03*a36);
-  a23=(a23+a37);
+  a03=arg[0][19];
+  a04=arg[1][1];
+  a05=(a04-a00);
+  a06=cos(a05);
+  a07=casadi_sq(a06);
+  a08=arg[0][18];
+  a09=(a07*a08);
+  a09=(a03-a09);
+  a10=arg[0][20];
+  a11=(a09+a10);
+  a12=arg[0][21];
+  a11=(a11-a12);
+  a11=(a11-a08);
+  a13=arg[0][22];
+  a14=sin(a04);
+  a15=(a06*a14);
+  a16=sin(a00);
+  a15=(a15*a16);
+  a17=(a13*a15);
+  a11=(a11+a17);
+  a04=cos(a04);
+  a17=casadi_sq(a04);
+  a18=arg[0][23];
+  a19=(a17*a18);
+  a11=(a11+a19);
+  a19=(a17*a12);
+  a11=(a11+a19);
+  a19=(a17*a08);
+  a11=(a11+a19);
+  a19=cos(a00);
+  a20=casadi_sq(a19);
+  a18=(a18*a20);
+  a11=(a11+a18);
+  a18=arg[0][24];
+  a21=(a20*a18);
+  a11=(a11+a21);
+  a21=arg[0][25];
+  a22=4.;
+  a22=(a22*a20);
+  a21=(a21*a22);
+  a11=(a11+a21);
+  a21=arg[0][26];
+  a23=arg[1][3];
+  a23=casadi_sq(a23);
+  a24=(a23*a04);
+  a25=(a21*a24);
+  a11=(a11+a25);
   a02=casadi_sq(a02);
-  a37=(a02*a31);
-  a03=(a03*a37);
-  a23=(a23+a03);
-  a16=(a34*a16);
-  a23=(a23+a16);
-  a14=(a14*a19);
-  a19=(a36*a14);
-  a16=(2.*a18);
-  a03=(a19*a16);
-  a23=(a23+a03);
-  a19=(a19*a06);
-  a23=(a23+a19);
-  a19=3.;
-  a19=(a19*a06);
-  a03=(a37*a14);
-  a38=(a19*a03);
-  a23=(a23+a38);
-  a38=(a35*a14);
-  a09=sin(a09);
-  a39=(a38*a09);
-  a39=(a39*a29);
-  a40=(a16*a39);
-  a23=(a23+a40);
-  a40=(a04*a13);
-  a41=(a40*a09);
-  a27=(a02*a27);
-  a42=(a41*a27);
-  a23=(a23+a42);
-  a39=(a39*a06);
-  a23=(a23+a39);
-  a39=(a37*a13);
-  a07=(a07*a39);
-  a23=(a23-a07);
-  a11=(a11*a25);
-  a23=(a23-a11);
-  a30=(a30*a22);
-  a23=(a23-a30);
-  a06=(a06*a21);
-  a32=(a32*a06);
-  a23=(a23-a32);
+  a25=(a02*a19);
+  a21=(a21*a25);
+  a11=(a11+a21);
+  a08=(a22*a08);
+  a11=(a11+a08);
+  a08=arg[0][27];
+  a21=(a24*a08);
+  a26=arg[0][28];
+  a27=(a21*a26);
+  a11=(a11+a27);
+  a27=arg[0][29];
+  a21=(a21*a27);
+  a11=(a11+a21);
+  a21=arg[0][30];
+  a28=(a25*a08);
+  a29=(a21*a28);
+  a11=(a11+a29);
+  a29=(a23*a08);
+  a05=sin(a05);
+  a30=(a29*a05);
+  a30=(a30*a16);
+  a31=(a26*a30);
+  a11=(a11+a31);
+  a31=arg[0][31];
+  a32=(a31*a05);
+  a14=(a02*a14);
+  a33=(a32*a14);
+  a11=(a11+a33);
+  a30=(a30*a27);
+  a11=(a11+a30);
+  a30=arg[0][1];
+  a30=(a25*a30);
+  a03=(a03*a30);
+  a11=(a11-a03);
+  a07=(a07*a12);
+  a11=(a11-a07);
+  a17=(a17*a10);
+  a11=(a11-a17);
+  a17=arg[0][32];
+  a20=(a20*a17);
+  a11=(a11-a20);
+  a10=(a10*a15);
+  a11=(a11-a10);
+  a10=arg[0][33];
+  a10=(a10*a25);
+  a25=arg[0][34];
+  a10=(a10*a25);
+  a21=(a10*a21);
+  a11=(a11-a21);
+  a26=(a10*a26);
+  a11=(a11-a26);
+  a26=arg[0][2];
+  a10=(a10*a26);
+  a11=(a11-a10);
+  a10=arg[0][35];
+  a10=(a10*a30);
+  a11=(a11-a10);
+  a24=(2.*a24);
+  a24=(a24*a31);
+  a11=(a11-a24);
+  a24=arg[0][36];
+  a24=(a24*a15);
+  a11=(a11+a24);
+  a24=arg[0][37];
+  a24=(a24*a28);
+  a11=(a11+a24);
+  a24=arg[0][38];
+  a22=(a24*a22);
+  a28=arg[0][39];
   a22=(a22*a28);
-  a23=(a23-a22);
-  a12=(a12*a37);
-  a37=casadi_sq(a13);
-  a37=(a37*a13);
-  a12=(a12*a37);
-  a19=(a12*a19);
-  a23=(a23-a19);
-  a19=(a12*a16);
-  a23=(a23-a19);
-  a12=(a12*a05);
-  a23=(a23-a12);
-  a04=(a33*a04);
-  a04=(a04*a39);
-  a23=(a23-a04);
-  a36=(2.*a36);
-  a36=(a36*a40);
-  a23=(a23-a36);
-  a33=(a33*a24);
-  a33=(a33*a28);
-  a23=(a23+a33);
-  a33=6.;
-  a33=(a33*a18);
-  a33=(a33*a03);
-  a23=(a23+a33);
-  a34=(a18*a34);
-  a34=(a34*a20);
-  a23=(a23-a34);
-  a35=(a35*a41);
-  a35=(a35*a29);
-  a23=(a23-a35);
-  a18=(a18*a10);
-  a38=(a38*a18);
-  a38=(a38*a31);
-  a23=(a23-a38);
-  a02=(a02*a14);
-  a02=(a02*a18);
+  a11=(a11-a22);
+  a23=(a23*a32);
+  a23=(a23*a16);
+  a11=(a11-a23);
+  a24=(a24*a06);
+  a29=(a29*a24);
+  a29=(a29*a19);
+  a11=(a11-a29);
   a02=(a02*a08);
-  a23=(a23-a02);
-  a14=(a14*a16);
-  a14=(a14*a27);
-  a14=(a14*a09);
-  a23=(a23-a14);
-  a26=(a26+a17);
-  a26=(a26+a15);
-  a26=(a26-a06);
-  a23=(a23/a26);
-  res[0][3]=a23;
+  a02=(a02*a24);
+  a02=(a02*a04);
+  a11=(a11-a02);
+  a02=arg[0][40];
+  a02=(a02*a14);
+  a02=(a02*a05);
+  a11=(a11-a02);
+  a13=(a13+a09);
+  a13=(a13+a18);
+  a13=(a13-a17);
+  a11=(a11/a13);
+  res[0][3]=a11;
   a00=(a00-a01);
   res[0][4]=a00;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f1(arg, res, iw, w, mem);
+  return casadi_f2(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_watch_checkout(void) {
@@ -478,7 +879,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_short_watch_default_in(ca
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_short_watch_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -493,8 +894,8 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_short_watch_name_out(casa
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_short_watch_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
@@ -522,225 +923,213 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_watch_work_bytes(casadi_int
   return 0;
 }
 
-/* vsw_vsw_biped_fte_sim_extension_flow:(p[5],x[4])->(extension_flow[4]) */
-static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_vsw_biped_fte_sim_extension_flow:(c[132],x[4])->(extension_flow[4]) */
+static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
   casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
-  casadi_real a36, a37, a38, a39, a40, a41, a42, a43;
+  casadi_real a36, a37, a38, a39, a40, a41;
   a00=arg[1][2];
   res[0][0]=a00;
   a01=arg[1][3];
   res[0][1]=a01;
-  a02=arg[0][3];
-  a03=casadi_sq(a02);
-  a04=arg[1][0];
-  a05=sin(a04);
-  a06=(a03*a05);
-  a07=arg[0][2];
-  a08=casadi_sq(a07);
-  a09=arg[0][0];
-  a10=-1.;
-  a10=(a10+a09);
-  a11=arg[0][1];
-  a12=(a04-a11);
-  a13=casadi_sq(a12);
-  a14=3.;
-  a15=arg[0][4];
-  a16=casadi_sq(a15);
-  a14=(a14/a16);
-  a17=(a13*a14);
-  a18=2.;
-  a19=casadi_sq(a15);
-  a19=(a19*a15);
-  a18=(a18/a19);
-  a20=casadi_sq(a12);
-  a20=(a20*a12);
-  a18=(a18*a20);
-  a17=(a17-a18);
-  a17=(a10*a17);
-  a09=(a09-a17);
-  a17=(2.*a09);
-  a18=(a08*a17);
-  a20=(a06*a18);
-  a21=casadi_sq(a02);
-  a21=(a21*a02);
-  a21=(a08*a21);
-  a22=(2.*a21);
-  a23=-2.;
-  a23=(a23*a11);
-  a11=(2.*a04);
-  a23=(a23+a11);
-  a14=(a14*a23);
-  a23=6.;
-  a19=(a23/a19);
-  a19=(a19*a13);
-  a14=(a14-a19);
-  a19=(a14*a10);
-  a00=casadi_sq(a00);
-  a13=(a19*a00);
-  a22=(a22*a13);
-  a11=arg[1][1];
-  a04=(a11-a04);
-  a24=cos(a04);
-  a25=casadi_sq(a24);
-  a13=(a03*a13);
-  a26=(a18*a13);
-  a27=(a25*a26);
-  a27=(a22+a27);
-  a20=(a20-a27);
-  a27=(a06*a09);
-  a28=(a27*a07);
-  a20=(a20+a28);
-  a04=sin(a04);
-  a28=(a00*a04);
-  a29=casadi_sq(a09);
-  a30=(a03*a29);
-  a31=(a08*a30);
-  a32=(a31*a24);
-  a33=(a28*a32);
-  a20=(a20+a33);
-  a33=(a21*a05);
-  a20=(a20-a33);
-  a33=(a08*a24);
-  a34=(a33*a09);
-  a11=sin(a11);
-  a35=(a03*a11);
-  a36=(a34*a35);
-  a20=(a20-a36);
-  a01=casadi_sq(a01);
-  a36=(a01*a09);
-  a37=(a21*a04);
-  a38=(a36*a37);
-  a20=(a20-a38);
-  a38=4.;
-  a39=(a00*a09);
-  a40=(a38*a39);
-  a41=(a08*a19);
-  a42=(a03*a41);
-  a40=(a40*a42);
-  a20=(a20+a40);
-  a34=(a03*a34);
-  a40=(a34*a28);
-  a16=(a10/a16);
-  a43=1.;
-  a12=(2.*a12);
-  a12=(a12/a15);
-  a43=(a43-a12);
-  a16=(a16*a43);
-  a23=(a23*a16);
-  a40=(a40*a23);
-  a20=(a20+a40);
-  a13=(a17*a13);
-  a13=(a13*a07);
-  a20=(a20+a13);
-  a13=(2.*a31);
-  a40=casadi_sq(a02);
-  a40=(a40*a02);
-  a40=(a40*a02);
-  a40=(a08*a40);
-  a40=(a13+a40);
-  a30=(a30*a07);
-  a40=(a40+a30);
-  a19=(a19*a04);
-  a34=(a19*a34);
-  a40=(a40-a34);
-  a34=(a21*a17);
-  a40=(a40-a34);
-  a31=(a31*a25);
-  a40=(a40-a31);
-  a20=(a20/a40);
-  res[0][2]=a20;
-  a35=(a18*a35);
-  a36=(a36*a42);
-  a22=(a22*a24);
-  a22=(a36+a22);
-  a35=(a35-a22);
-  a39=(a37*a39);
-  a35=(a35+a39);
-  a07=(a02*a07);
-  a39=casadi_sq(a09);
-  a39=(a39*a09);
-  a39=(a28*a39);
-  a22=(a07*a39);
-  a35=(a35+a22);
-  a22=(2.*a02);
-  a42=(a08*a22);
-  a39=(a42*a39);
-  a35=(a35+a39);
-  a21=(a21*a11);
-  a35=(a35-a21);
-  a13=(a13*a28);
-  a35=(a35-a13);
-  a25=(a25*a36);
-  a35=(a35+a25);
-  a27=(a33*a27);
-  a35=(a35-a27);
-  a26=(a26*a24);
-  a35=(a35+a26);
-  a11=(a29*a11);
-  a26=(a07*a11);
-  a35=(a35-a26);
-  a11=(a11*a42);
-  a35=(a35-a11);
-  a14=casadi_sq(a14);
-  a10=casadi_sq(a10);
-  a14=(a14*a10);
-  a10=(2.*a14);
-  a08=(a08*a28);
-  a03=(a03*a08);
-  a10=(a10*a03);
-  a35=(a35-a10);
-  a10=(a29*a23);
-  a28=(a28*a07);
-  a10=(a10*a28);
-  a35=(a35+a10);
-  a08=(a08*a02);
-  a10=(a29*a08);
-  a11=12.;
+  a02=arg[0][41];
+  a03=arg[1][0];
+  a04=sin(a03);
+  a05=(a02*a04);
+  a06=arg[0][45];
+  a07=arg[0][1];
+  a08=arg[0][44];
+  a09=arg[0][17];
+  a09=(a03-a09);
+  a10=casadi_sq(a09);
+  a11=arg[0][42];
+  a12=(a10*a11);
+  a13=arg[0][43];
+  a14=casadi_sq(a09);
+  a14=(a14*a09);
+  a13=(a13*a14);
+  a12=(a12-a13);
+  a12=(a08*a12);
+  a07=(a07-a12);
+  a12=(2.*a07);
+  a13=(a06*a12);
+  a14=(a05*a13);
+  a15=arg[0][48];
+  a16=arg[0][46];
+  a17=(2.*a03);
+  a16=(a16+a17);
   a11=(a11*a16);
-  a10=(a10*a11);
-  a35=(a35+a10);
-  a17=(a17*a14);
-  a17=(a17*a28);
-  a35=(a35+a17);
-  a29=(a29*a05);
-  a33=(a33*a29);
-  a33=(a33*a22);
-  a35=(a35+a33);
-  a06=(a06*a41);
-  a06=(a06*a04);
-  a35=(a35-a06);
-  a00=(a00*a37);
-  a00=(a00*a23);
-  a35=(a35+a00);
-  a29=(a07*a29);
-  a29=(a29*a24);
-  a35=(a35+a29);
-  a19=(a19*a05);
-  a18=(a18*a19);
-  a18=(a18*a02);
-  a35=(a35+a18);
-  a01=(a01*a32);
-  a01=(a01*a04);
-  a35=(a35-a01);
-  a07=(a07*a19);
-  a07=(a07*a09);
-  a35=(a35+a07);
-  a03=(a03*a11);
-  a03=(a03*a09);
-  a35=(a35-a03);
-  a38=(a38*a14);
-  a38=(a38*a08);
-  a38=(a38*a09);
-  a35=(a35+a38);
-  a35=(a35/a40);
-  res[0][3]=a35;
+  a16=arg[0][47];
+  a16=(a16*a10);
+  a11=(a11-a16);
+  a08=(a11*a08);
+  a00=casadi_sq(a00);
+  a16=(a08*a00);
+  a15=(a15*a16);
+  a10=arg[1][1];
+  a03=(a10-a03);
+  a17=cos(a03);
+  a18=casadi_sq(a17);
+  a16=(a02*a16);
+  a19=(a13*a16);
+  a20=(a18*a19);
+  a20=(a15+a20);
+  a14=(a14-a20);
+  a20=(a05*a07);
+  a21=arg[0][2];
+  a22=(a20*a21);
+  a14=(a14+a22);
+  a03=sin(a03);
+  a22=(a00*a03);
+  a23=casadi_sq(a07);
+  a24=(a02*a23);
+  a25=(a06*a24);
+  a26=(a25*a17);
+  a27=(a22*a26);
+  a14=(a14+a27);
+  a27=arg[0][49];
+  a28=(a27*a04);
+  a14=(a14-a28);
+  a28=(a06*a17);
+  a29=(a28*a07);
+  a10=sin(a10);
+  a30=(a02*a10);
+  a31=(a29*a30);
+  a14=(a14-a31);
+  a01=casadi_sq(a01);
+  a31=(a01*a07);
+  a32=(a27*a03);
+  a33=(a31*a32);
+  a14=(a14-a33);
+  a33=4.;
+  a34=(a00*a07);
+  a35=(a33*a34);
+  a36=(a06*a08);
+  a37=(a02*a36);
+  a35=(a35*a37);
+  a14=(a14+a35);
+  a29=(a02*a29);
+  a35=(a29*a22);
+  a38=6.;
+  a39=arg[0][51];
+  a40=1.;
+  a09=(2.*a09);
+  a41=arg[0][50];
+  a09=(a09/a41);
+  a40=(a40-a09);
+  a39=(a39*a40);
+  a38=(a38*a39);
+  a35=(a35*a38);
+  a14=(a14+a35);
+  a16=(a12*a16);
+  a16=(a16*a21);
+  a14=(a14+a16);
+  a16=(2.*a25);
+  a35=arg[0][52];
+  a35=(a16+a35);
+  a24=(a24*a21);
+  a35=(a35+a24);
+  a08=(a08*a03);
+  a29=(a08*a29);
+  a35=(a35-a29);
+  a29=(a27*a12);
+  a35=(a35-a29);
+  a25=(a25*a18);
+  a35=(a35-a25);
+  a14=(a14/a35);
+  res[0][2]=a14;
+  a30=(a13*a30);
+  a31=(a31*a37);
+  a15=(a15*a17);
+  a15=(a31+a15);
+  a30=(a30-a15);
+  a34=(a32*a34);
+  a30=(a30+a34);
+  a34=arg[0][53];
+  a15=casadi_sq(a07);
+  a15=(a15*a07);
+  a15=(a22*a15);
+  a37=(a34*a15);
+  a30=(a30+a37);
+  a37=arg[0][54];
+  a15=(a37*a15);
+  a30=(a30+a15);
+  a27=(a27*a10);
+  a30=(a30-a27);
+  a16=(a16*a22);
+  a30=(a30-a16);
+  a18=(a18*a31);
+  a30=(a30+a18);
+  a20=(a28*a20);
+  a30=(a30-a20);
+  a19=(a19*a17);
+  a30=(a30+a19);
+  a10=(a23*a10);
+  a19=(a34*a10);
+  a30=(a30-a19);
+  a10=(a10*a37);
+  a30=(a30-a10);
+  a11=casadi_sq(a11);
+  a10=arg[0][55];
+  a11=(a11*a10);
+  a10=(2.*a11);
+  a06=(a06*a22);
+  a02=(a02*a06);
+  a10=(a10*a02);
+  a30=(a30-a10);
+  a10=(a23*a38);
+  a22=(a22*a34);
+  a10=(a10*a22);
+  a30=(a30+a10);
+  a10=arg[0][56];
+  a06=(a06*a10);
+  a37=(a23*a06);
+  a19=12.;
+  a19=(a19*a39);
+  a37=(a37*a19);
+  a30=(a30+a37);
+  a12=(a12*a11);
+  a12=(a12*a22);
+  a30=(a30+a12);
+  a23=(a23*a04);
+  a28=(a28*a23);
+  a12=arg[0][57];
+  a28=(a28*a12);
+  a30=(a30+a28);
+  a05=(a05*a36);
+  a05=(a05*a03);
+  a30=(a30-a05);
+  a00=(a00*a32);
+  a00=(a00*a38);
+  a30=(a30+a00);
+  a23=(a34*a23);
+  a23=(a23*a17);
+  a30=(a30+a23);
+  a08=(a08*a04);
+  a13=(a13*a08);
+  a13=(a13*a10);
+  a30=(a30+a13);
+  a01=(a01*a26);
+  a01=(a01*a03);
+  a30=(a30-a01);
+  a34=(a34*a08);
+  a34=(a34*a07);
+  a30=(a30+a34);
+  a02=(a02*a19);
+  a02=(a02*a07);
+  a30=(a30-a02);
+  a33=(a33*a11);
+  a33=(a33*a06);
+  a33=(a33*a07);
+  a30=(a30+a33);
+  a30=(a30/a35);
+  res[0][3]=a30;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f2(arg, res, iw, w, mem);
+  return casadi_f3(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_flow_checkout(void) {
@@ -768,7 +1157,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_extension_flow_default_in
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_extension_flow_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -783,15 +1172,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_extension_flow_name_out(c
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_extension_flow_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_extension_flow_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -812,487 +1201,470 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_flow_work_bytes(casadi_
   return 0;
 }
 
-/* vsw_vsw_biped_fte_sim_extension_watch:(p[5],x[4])->(extension_watch[4]) */
-static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_vsw_biped_fte_sim_extension_watch:(c[132],x[4])->(extension_watch[4]) */
+static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
   casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
   casadi_real a36, a37, a38, a39, a40, a41, a42, a43, a44, a45, a46, a47;
-  casadi_real a48, a49, a50, a51, a52, a53, a54;
+  casadi_real a48, a49;
   a00=arg[1][0];
-  a01=arg[0][1];
+  a01=arg[0][17];
   a02=(a00-a01);
-  a03=arg[0][4];
+  a03=arg[0][50];
   a02=(a02-a03);
   res[0][0]=a02;
   a02=arg[1][2];
   res[0][1]=a02;
   a04=cos(a00);
   res[0][2]=a04;
-  a04=arg[0][3];
-  a05=casadi_sq(a04);
-  a05=(a05*a04);
-  a05=(a05*a04);
-  a06=arg[0][2];
-  a07=casadi_sq(a06);
-  a08=(a05*a07);
-  a09=arg[0][0];
-  a10=-1.;
-  a10=(a10+a09);
-  a11=3.;
-  a12=casadi_sq(a03);
-  a13=(a11/a12);
-  a14=(a00-a01);
-  a15=casadi_sq(a14);
-  a16=(a13*a15);
-  a17=2.;
-  a18=casadi_sq(a03);
-  a18=(a18*a03);
-  a17=(a17/a18);
-  a19=casadi_sq(a14);
-  a19=(a19*a14);
-  a17=(a17*a19);
-  a16=(a16-a17);
-  a16=(a10*a16);
-  a09=(a09-a16);
-  a16=casadi_sq(a09);
-  a17=casadi_sq(a04);
-  a19=(a16*a17);
-  a20=(a07*a19);
-  a21=arg[1][1];
-  a22=(a21-a00);
-  a23=cos(a22);
-  a24=casadi_sq(a23);
-  a25=(a20*a24);
-  a26=(a20+a25);
-  a27=casadi_sq(a06);
-  a27=(a27*a06);
-  a28=(a19*a27);
-  a29=(2.*a28);
-  a26=(a26+a29);
-  a08=(a08-a26);
-  a19=(a19*a06);
-  a26=6.;
+  a04=arg[0][64];
+  a05=arg[0][62];
+  a06=arg[0][1];
+  a07=arg[0][60];
+  a08=arg[0][58];
+  a01=(a00-a01);
+  a09=casadi_sq(a01);
+  a10=(a08*a09);
+  a11=arg[0][59];
+  a12=casadi_sq(a01);
+  a12=(a12*a01);
+  a11=(a11*a12);
+  a10=(a10-a11);
+  a10=(a07*a10);
+  a06=(a06-a10);
+  a10=casadi_sq(a06);
+  a11=arg[0][61];
+  a12=(a10*a11);
+  a13=(a05*a12);
+  a14=arg[1][1];
+  a15=(a14-a00);
+  a16=cos(a15);
+  a17=casadi_sq(a16);
+  a18=(a13*a17);
+  a19=(a13+a18);
+  a20=arg[0][63];
+  a21=(a12*a20);
+  a22=(2.*a21);
+  a19=(a19+a22);
+  a04=(a04-a19);
+  a19=arg[0][2];
+  a12=(a12*a19);
+  a23=6.;
   a02=casadi_sq(a02);
-  a30=cos(a00);
-  a31=(a02*a30);
-  a32=1.;
-  a14=(2.*a14);
-  a14=(a14/a03);
-  a32=(a32-a14);
-  a14=(a32*a10);
-  a14=(a14/a12);
-  a03=(a31*a14);
-  a33=(a26*a03);
-  a34=(a19*a33);
-  a08=(a08-a34);
-  a34=casadi_sq(a04);
-  a34=(a34*a04);
-  a35=(a09*a34);
-  a36=(2.*a35);
-  a37=(a07*a36);
-  a38=casadi_sq(a30);
-  a39=(a37*a38);
-  a08=(a08-a39);
-  a39=(a05*a07);
-  a33=(a39*a33);
-  a08=(a08-a33);
-  a33=-2.;
-  a33=(a33*a01);
-  a01=(2.*a00);
-  a33=(a33+a01);
-  a13=(a13*a33);
-  a18=(a26/a18);
-  a18=(a18*a15);
-  a13=(a13-a18);
-  a18=(a13*a10);
-  a15=(-a18);
-  a15=(2.*a15);
-  a15=(a15*a02);
-  a33=sin(a00);
-  a15=(a15*a33);
-  a01=(a39*a15);
-  a08=(a08-a01);
-  a01=(a09*a31);
-  a40=(a39*a01);
-  a08=(a08-a40);
-  a29=(a24*a29);
-  a08=(a08-a29);
-  a29=(a07*a17);
-  a40=(a09*a29);
-  a00=(2.*a00);
-  a00=(a21-a00);
-  a00=cos(a00);
-  a00=(a18*a00);
-  a41=sin(a21);
-  a00=(a00*a41);
-  a42=(a40*a00);
-  a08=(a08+a42);
-  a21=cos(a21);
-  a42=casadi_sq(a21);
-  a36=(a36*a27);
-  a43=(a42*a36);
-  a08=(a08-a43);
-  a43=(a05*a27);
-  a44=12.;
-  a45=(a44*a03);
-  a46=(a43*a45);
-  a08=(a08-a46);
-  a15=(a43*a15);
-  a08=(a08-a15);
-  a15=4.;
-  a46=(a15*a01);
-  a47=(a43*a46);
-  a08=(a08-a47);
-  a45=(a45*a28);
-  a08=(a08-a45);
-  a45=(2.*a27);
-  a28=casadi_sq(a09);
+  a24=cos(a00);
+  a25=(a02*a24);
+  a26=1.;
+  a01=(2.*a01);
+  a01=(a01/a03);
+  a26=(a26-a01);
+  a01=(a26*a07);
+  a03=arg[0][65];
+  a01=(a01/a03);
+  a27=(a25*a01);
+  a28=(a23*a27);
+  a29=(a12*a28);
+  a04=(a04-a29);
+  a29=arg[0][66];
+  a30=(a06*a29);
+  a31=(2.*a30);
+  a32=(a05*a31);
+  a33=casadi_sq(a24);
+  a34=(a32*a33);
+  a04=(a04-a34);
+  a34=arg[0][67];
+  a28=(a34*a28);
+  a04=(a04-a28);
+  a28=arg[0][68];
+  a35=(2.*a00);
+  a28=(a28+a35);
+  a08=(a08*a28);
+  a28=arg[0][69];
   a28=(a28*a09);
-  a31=(a31*a28);
-  a28=(a17*a31);
-  a47=(a45*a28);
-  a08=(a08-a47);
-  a47=arg[1][3];
-  a47=casadi_sq(a47);
-  a48=(a18*a30);
-  a49=(a47*a48);
-  a22=sin(a22);
-  a49=(a49*a22);
-  a50=(a36*a49);
-  a08=(a08+a50);
-  a50=(a17*a06);
-  a31=(a50*a31);
-  a08=(a08-a31);
-  a31=(a16*a34);
-  a51=(a02*a41);
-  a52=(a51*a22);
-  a53=(a45*a52);
-  a54=(a31*a53);
-  a08=(a08-a54);
-  a54=18.;
-  a54=(a54*a20);
-  a54=(a54*a03);
-  a08=(a08-a54);
-  a54=(a15*a38);
-  a03=(a35*a27);
-  a54=(a54*a03);
-  a08=(a08-a54);
-  a54=(a11*a07);
-  a54=(a54*a28);
-  a08=(a08-a54);
-  a54=(a05*a42);
-  a54=(a54*a27);
-  a08=(a08+a54);
-  a54=(a05*a27);
-  a54=(a54*a38);
-  a08=(a08+a54);
-  a35=(a07*a35);
-  a35=(a35*a49);
-  a08=(a08+a35);
-  a48=(a34*a48);
-  a35=(a07*a48);
-  a35=(a35*a33);
-  a08=(a08+a35);
-  a53=(a34*a53);
-  a35=casadi_sq(a10);
-  a49=casadi_sq(a13);
-  a54=(a35*a49);
-  a53=(a53*a54);
-  a08=(a08-a53);
-  a36=(a36*a23);
-  a53=(a18*a36);
-  a53=(a53*a51);
-  a08=(a08+a53);
-  a48=(a48*a45);
-  a48=(a48*a33);
-  a08=(a08+a48);
-  a36=(a36*a41);
-  a36=(a36*a33);
-  a08=(a08-a36);
-  a43=(a09*a43);
-  a36=(a47*a33);
-  a48=(a43*a36);
-  a48=(a48*a22);
-  a08=(a08-a48);
-  a14=(a44*a14);
-  a14=(a14*a03);
-  a14=(a14*a52);
-  a08=(a08-a14);
-  a29=(a26*a29);
-  a29=(a29*a01);
-  a29=(a29*a54);
-  a08=(a08-a29);
-  a29=(2.*a47);
-  a29=(a29*a43);
-  a29=(a29*a21);
-  a08=(a08-a29);
-  a50=(2.*a50);
-  a50=(a50*a01);
-  a50=(a50*a54);
-  a08=(a08-a50);
-  a50=(2.*a09);
-  a50=(a50*a34);
-  a50=(a50*a27);
-  a08=(a08+a50);
-  a50=(a07*a16);
-  a50=(a50*a42);
-  a50=(a50*a17);
-  a08=(a08+a50);
-  a50=(a16*a38);
-  a50=(a50*a17);
-  a50=(a50*a06);
-  a08=(a08+a50);
-  a50=casadi_sq(a04);
-  a50=casadi_sq(a50);
-  a04=(a04*a50);
-  a50=(a27*a04);
-  a50=(a50*a47);
-  a50=(a50*a21);
-  a08=(a08+a50);
-  a04=(a27*a04);
-  a04=(a04*a02);
-  a04=(a04*a30);
-  a08=(a08+a04);
-  a04=(a09*a17);
-  a04=(a04*a45);
-  a04=(a04*a00);
-  a08=(a08+a04);
-  a03=(a18*a03);
-  a03=(a03*a36);
-  a03=(a03*a23);
-  a08=(a08+a03);
-  a03=(a27*a17);
-  a03=(a03*a46);
-  a03=(a03*a54);
-  a08=(a08-a03);
-  a03=(a47*a31);
-  a54=(a27*a23);
-  a03=(a03*a54);
-  a03=(a03*a30);
-  a08=(a08-a03);
-  a31=(a02*a31);
-  a31=(a31*a54);
-  a31=(a31*a21);
-  a08=(a08-a31);
-  a31=(2.*a16);
-  a31=(a31*a42);
-  a31=(a31*a27);
-  a31=(a31*a17);
-  a08=(a08+a31);
-  a31=(a15*a07);
+  a08=(a08-a28);
+  a28=(a08*a07);
+  a09=(-a28);
+  a09=(2.*a09);
+  a09=(a09*a02);
+  a35=sin(a00);
+  a09=(a09*a35);
+  a36=(a34*a09);
+  a04=(a04-a36);
+  a36=(a06*a25);
+  a37=(a34*a36);
+  a04=(a04-a37);
+  a22=(a17*a22);
+  a04=(a04-a22);
+  a22=arg[0][70];
+  a22=(a06*a22);
+  a00=(2.*a00);
+  a00=(a14-a00);
+  a00=cos(a00);
+  a00=(a28*a00);
+  a37=sin(a14);
+  a00=(a00*a37);
+  a38=(a22*a00);
+  a04=(a04+a38);
+  a14=cos(a14);
+  a38=casadi_sq(a14);
+  a31=(a31*a20);
+  a39=(a38*a31);
+  a04=(a04-a39);
+  a39=arg[0][71];
+  a40=12.;
+  a41=(a40*a27);
+  a42=(a39*a41);
+  a04=(a04-a42);
+  a09=(a39*a09);
+  a04=(a04-a09);
+  a09=4.;
+  a42=(a09*a36);
+  a43=(a39*a42);
+  a04=(a04-a43);
+  a41=(a41*a21);
+  a04=(a04-a41);
+  a41=arg[0][72];
+  a21=casadi_sq(a06);
+  a21=(a21*a06);
+  a25=(a25*a21);
+  a21=(a11*a25);
+  a43=(a41*a21);
+  a04=(a04-a43);
+  a43=arg[1][3];
+  a43=casadi_sq(a43);
+  a44=(a28*a24);
+  a45=(a43*a44);
+  a15=sin(a15);
+  a45=(a45*a15);
+  a46=(a31*a45);
+  a04=(a04+a46);
+  a46=arg[0][73];
+  a46=(a46*a25);
+  a04=(a04-a46);
+  a46=(a10*a29);
+  a25=(a02*a37);
+  a47=(a25*a15);
+  a48=(a41*a47);
+  a49=(a46*a48);
+  a04=(a04-a49);
+  a49=18.;
+  a49=(a49*a13);
+  a49=(a49*a27);
+  a04=(a04-a49);
+  a49=(a09*a33);
+  a27=(a30*a20);
+  a49=(a49*a27);
+  a04=(a04-a49);
+  a49=arg[0][74];
+  a49=(a49*a21);
+  a04=(a04-a49);
+  a49=arg[0][75];
+  a21=(a49*a38);
+  a21=(a21*a20);
+  a04=(a04+a21);
+  a21=arg[0][76];
+  a21=(a21*a33);
+  a04=(a04+a21);
+  a30=(a05*a30);
+  a30=(a30*a45);
+  a04=(a04+a30);
+  a44=(a29*a44);
+  a30=(a05*a44);
+  a30=(a30*a35);
+  a04=(a04+a30);
+  a48=(a29*a48);
+  a30=arg[0][77];
+  a45=casadi_sq(a08);
+  a21=(a30*a45);
+  a48=(a48*a21);
+  a04=(a04-a48);
   a31=(a31*a16);
-  a31=(a31*a38);
-  a31=(a31*a17);
-  a08=(a08+a31);
-  a31=(a15*a16);
-  a31=(a31*a27);
-  a31=(a31*a38);
-  a31=(a31*a17);
-  a08=(a08+a31);
-  a31=(a07*a16);
-  a31=(a31*a34);
-  a31=(a31*a47);
-  a31=(a31*a21);
-  a08=(a08+a31);
-  a31=(2.*a16);
-  a31=(a31*a34);
-  a31=(a31*a27);
-  a31=(a31*a47);
-  a31=(a31*a21);
-  a08=(a08+a31);
-  a11=(a11*a07);
-  a11=(a11*a16);
-  a11=(a11*a34);
-  a11=(a11*a02);
-  a11=(a11*a30);
-  a08=(a08+a11);
-  a11=(a26*a16);
-  a11=(a11*a34);
-  a11=(a11*a27);
-  a11=(a11*a02);
-  a11=(a11*a30);
-  a08=(a08+a11);
-  a11=(a05*a09);
-  a11=(a11*a27);
-  a11=(a11*a02);
-  a11=(a11*a41);
-  a11=(a11*a22);
-  a08=(a08+a11);
-  a11=(a07*a16);
-  a11=(a11*a34);
-  a11=(a11*a47);
-  a11=(a11*a22);
-  a11=(a11*a33);
-  a08=(a08+a11);
-  a11=(2.*a07);
-  a11=(a11*a16);
-  a11=(a11*a17);
-  a11=(a11*a23);
-  a11=(a11*a41);
-  a11=(a11*a33);
-  a08=(a08+a11);
-  a11=(2.*a07);
-  a11=(a11*a34);
-  a11=(a11*a02);
-  a11=(a11*a35);
-  a11=(a11*a49);
-  a11=(a11*a30);
-  a08=(a08+a11);
-  a11=(2.*a16);
-  a11=(a11*a34);
-  a11=(a11*a27);
-  a11=(a11*a47);
-  a11=(a11*a22);
-  a11=(a11*a33);
-  a08=(a08+a11);
-  a16=(a15*a16);
-  a16=(a16*a27);
-  a16=(a16*a17);
-  a16=(a16*a23);
-  a16=(a16*a41);
-  a16=(a16*a33);
-  a08=(a08+a16);
-  a16=(a15*a34);
-  a16=(a16*a27);
-  a16=(a16*a02);
-  a16=(a16*a35);
-  a16=(a16*a49);
-  a16=(a16*a30);
-  a08=(a08+a16);
-  a16=(a07*a09);
-  a16=(a16*a13);
-  a16=(a16*a17);
-  a16=(a16*a10);
-  a16=(a16*a23);
-  a16=(a16*a22);
-  a08=(a08-a16);
-  a16=(a09*a34);
-  a16=(a16*a13);
-  a16=(a16*a27);
-  a16=(a16*a47);
-  a16=(a16*a10);
-  a16=(a16*a41);
-  a08=(a08-a16);
-  a16=(a09*a13);
-  a16=(a16*a17);
-  a16=(a16*a10);
-  a16=(a16*a30);
-  a16=(a16*a33);
-  a16=(a16*a06);
-  a08=(a08-a16);
-  a16=(a34*a13);
-  a16=(a16*a27);
-  a16=(a16*a10);
-  a16=(a16*a41);
-  a16=(a16*a22);
-  a16=(a16*a33);
-  a08=(a08-a16);
-  a16=(2.*a05);
-  a16=(a16*a13);
-  a16=(a16*a27);
-  a16=(a16*a02);
-  a16=(a16*a10);
-  a16=(a16*a23);
-  a16=(a16*a41);
-  a08=(a08-a16);
-  a16=(2.*a09);
-  a16=(a16*a13);
-  a16=(a16*a27);
-  a16=(a16*a17);
-  a16=(a16*a10);
-  a16=(a16*a23);
-  a16=(a16*a22);
-  a08=(a08-a16);
-  a16=(a15*a07);
-  a16=(a16*a09);
-  a16=(a16*a13);
-  a16=(a16*a17);
-  a16=(a16*a10);
-  a16=(a16*a30);
-  a16=(a16*a33);
-  a08=(a08-a16);
-  a15=(a15*a09);
-  a15=(a15*a13);
-  a15=(a15*a27);
-  a15=(a15*a17);
-  a15=(a15*a10);
-  a15=(a15*a30);
-  a15=(a15*a33);
-  a08=(a08-a15);
-  a15=(2.*a09);
-  a15=(a15*a34);
-  a15=(a15*a24);
-  a15=(a15*a13);
-  a15=(a15*a27);
-  a15=(a15*a02);
-  a15=(a15*a10);
-  a15=(a15*a33);
-  a08=(a08-a15);
-  a05=(a26*a05);
-  a05=(a05*a27);
+  a48=(a28*a31);
+  a48=(a48*a25);
+  a04=(a04+a48);
+  a44=(a44*a41);
+  a44=(a44*a35);
+  a04=(a04+a44);
+  a31=(a31*a37);
+  a31=(a31*a35);
+  a04=(a04-a31);
+  a39=(a06*a39);
+  a31=(a43*a35);
+  a44=(a39*a31);
+  a44=(a44*a15);
+  a04=(a04-a44);
+  a40=(a40*a01);
+  a40=(a40*a27);
+  a40=(a40*a47);
+  a04=(a04-a40);
+  a40=arg[0][78];
+  a40=(a40*a36);
+  a40=(a40*a21);
+  a04=(a04-a40);
+  a40=(2.*a43);
+  a40=(a40*a39);
+  a40=(a40*a14);
+  a04=(a04-a40);
+  a40=arg[0][79];
+  a40=(a40*a36);
+  a40=(a40*a21);
+  a04=(a04-a40);
+  a40=(2.*a06);
+  a40=(a40*a29);
+  a40=(a40*a20);
+  a04=(a04+a40);
+  a40=(a05*a10);
+  a40=(a40*a38);
+  a40=(a40*a11);
+  a04=(a04+a40);
+  a40=(a10*a33);
+  a40=(a40*a11);
+  a40=(a40*a19);
+  a04=(a04+a40);
+  a40=arg[0][80];
+  a40=(a40*a43);
+  a40=(a40*a14);
+  a04=(a04+a40);
+  a40=arg[0][81];
+  a40=(a40*a02);
+  a40=(a40*a24);
+  a04=(a04+a40);
+  a40=(a06*a11);
+  a40=(a40*a41);
+  a40=(a40*a00);
+  a04=(a04+a40);
+  a27=(a28*a27);
+  a27=(a27*a31);
+  a27=(a27*a16);
+  a04=(a04+a27);
+  a27=arg[0][82];
+  a27=(a27*a42);
+  a27=(a27*a21);
+  a04=(a04-a27);
+  a27=(a43*a46);
+  a21=(a20*a16);
+  a27=(a27*a21);
+  a27=(a27*a24);
+  a04=(a04-a27);
+  a46=(a02*a46);
+  a46=(a46*a21);
+  a46=(a46*a14);
+  a04=(a04-a46);
+  a46=(2.*a10);
+  a46=(a46*a38);
+  a46=(a46*a20);
+  a46=(a46*a11);
+  a04=(a04+a46);
+  a46=arg[0][83];
+  a46=(a46*a10);
+  a46=(a46*a33);
+  a46=(a46*a11);
+  a04=(a04+a46);
+  a46=(a09*a10);
+  a46=(a46*a20);
+  a46=(a46*a33);
+  a46=(a46*a11);
+  a04=(a04+a46);
+  a46=(a05*a10);
+  a46=(a46*a29);
+  a46=(a46*a43);
+  a46=(a46*a14);
+  a04=(a04+a46);
+  a46=(2.*a10);
+  a46=(a46*a29);
+  a46=(a46*a20);
+  a46=(a46*a43);
+  a46=(a46*a14);
+  a04=(a04+a46);
+  a46=arg[0][84];
+  a46=(a46*a10);
+  a46=(a46*a29);
+  a46=(a46*a02);
+  a46=(a46*a24);
+  a04=(a04+a46);
+  a46=(a23*a10);
+  a46=(a46*a29);
+  a46=(a46*a20);
+  a46=(a46*a02);
+  a46=(a46*a24);
+  a04=(a04+a46);
+  a49=(a49*a06);
+  a49=(a49*a20);
+  a49=(a49*a02);
+  a49=(a49*a37);
+  a49=(a49*a15);
+  a04=(a04+a49);
+  a49=(a05*a10);
+  a49=(a49*a29);
+  a49=(a49*a43);
+  a49=(a49*a15);
+  a49=(a49*a35);
+  a04=(a04+a49);
+  a49=arg[0][85];
+  a49=(a49*a10);
+  a49=(a49*a11);
+  a49=(a49*a16);
+  a49=(a49*a37);
+  a49=(a49*a35);
+  a04=(a04+a49);
+  a49=arg[0][86];
+  a49=(a49*a02);
+  a49=(a49*a30);
+  a49=(a49*a45);
+  a49=(a49*a24);
+  a04=(a04+a49);
+  a49=(2.*a10);
+  a49=(a49*a29);
+  a49=(a49*a20);
+  a49=(a49*a43);
+  a49=(a49*a15);
+  a49=(a49*a35);
+  a04=(a04+a49);
+  a10=(a09*a10);
+  a10=(a10*a20);
+  a10=(a10*a11);
+  a10=(a10*a16);
+  a10=(a10*a37);
+  a10=(a10*a35);
+  a04=(a04+a10);
+  a10=arg[0][87];
+  a10=(a10*a02);
+  a10=(a10*a30);
+  a10=(a10*a45);
+  a10=(a10*a24);
+  a04=(a04+a10);
+  a05=(a05*a06);
+  a05=(a05*a08);
+  a05=(a05*a11);
+  a05=(a05*a07);
+  a05=(a05*a16);
+  a05=(a05*a15);
+  a04=(a04-a05);
+  a05=(a06*a29);
+  a05=(a05*a08);
+  a05=(a05*a20);
+  a05=(a05*a43);
+  a05=(a05*a07);
+  a05=(a05*a37);
+  a04=(a04-a05);
+  a05=(a06*a08);
+  a05=(a05*a11);
+  a05=(a05*a07);
+  a05=(a05*a24);
+  a05=(a05*a35);
+  a05=(a05*a19);
+  a04=(a04-a05);
+  a05=(a29*a08);
+  a05=(a05*a20);
+  a05=(a05*a07);
+  a05=(a05*a37);
+  a05=(a05*a15);
+  a05=(a05*a35);
+  a04=(a04-a05);
+  a05=arg[0][88];
+  a05=(a05*a08);
+  a05=(a05*a20);
   a05=(a05*a02);
-  a05=(a05*a32);
-  a05=(a05*a10);
-  a05=(a05/a12);
-  a05=(a05*a41);
-  a05=(a05*a22);
-  a08=(a08+a05);
-  a44=(a44*a07);
-  a44=(a44*a09);
-  a44=(a44*a34);
-  a44=(a44*a02);
-  a44=(a44*a32);
-  a44=(a44*a10);
-  a44=(a44/a12);
-  a44=(a44*a30);
-  a08=(a08+a44);
-  a44=24.;
-  a44=(a44*a09);
-  a44=(a44*a34);
-  a44=(a44*a27);
-  a44=(a44*a02);
-  a44=(a44*a32);
-  a44=(a44*a10);
-  a44=(a44/a12);
-  a44=(a44*a30);
-  a08=(a08+a44);
-  a44=(a09*a34);
-  a44=(a44*a13);
-  a44=(a44*a27);
-  a44=(a44*a02);
-  a44=(a44*a10);
-  a44=(a44*a23);
-  a44=(a44*a30);
-  a44=(a44*a22);
-  a08=(a08-a44);
-  a26=(a26*a09);
-  a26=(a26*a34);
-  a26=(a26*a27);
-  a26=(a26*a02);
-  a26=(a26*a32);
-  a26=(a26*a10);
-  a26=(a26/a12);
-  a26=(a26*a23);
-  a26=(a26*a22);
-  a26=(a26*a33);
-  a08=(a08+a26);
-  a19=(a19+a39);
-  a19=(a19-a37);
-  a19=(a19-a25);
-  a20=(2.*a20);
-  a19=(a19+a20);
-  a18=(a18*a40);
-  a18=(a18*a23);
-  a18=(a18*a22);
-  a19=(a19-a18);
-  a08=(a08/a19);
-  res[0][3]=a08;
+  a05=(a05*a07);
+  a05=(a05*a16);
+  a05=(a05*a37);
+  a04=(a04-a05);
+  a05=(2.*a06);
+  a05=(a05*a08);
+  a05=(a05*a20);
+  a05=(a05*a11);
+  a05=(a05*a07);
+  a05=(a05*a16);
+  a05=(a05*a15);
+  a04=(a04-a05);
+  a05=arg[0][89];
+  a05=(a05*a06);
+  a05=(a05*a08);
+  a05=(a05*a11);
+  a05=(a05*a07);
+  a05=(a05*a24);
+  a05=(a05*a35);
+  a04=(a04-a05);
+  a09=(a09*a06);
+  a09=(a09*a08);
+  a09=(a09*a20);
+  a09=(a09*a11);
+  a09=(a09*a07);
+  a09=(a09*a24);
+  a09=(a09*a35);
+  a04=(a04-a09);
+  a09=(2.*a06);
+  a09=(a09*a29);
+  a09=(a09*a17);
+  a09=(a09*a08);
+  a09=(a09*a20);
+  a09=(a09*a02);
+  a09=(a09*a07);
+  a09=(a09*a35);
+  a04=(a04-a09);
+  a09=arg[0][90];
+  a09=(a09*a02);
+  a09=(a09*a26);
+  a09=(a09*a07);
+  a09=(a09/a03);
+  a09=(a09*a37);
+  a09=(a09*a15);
+  a04=(a04+a09);
+  a09=arg[0][91];
+  a09=(a09*a06);
+  a09=(a09*a29);
+  a09=(a09*a02);
+  a09=(a09*a26);
+  a09=(a09*a07);
+  a09=(a09/a03);
+  a09=(a09*a24);
+  a04=(a04+a09);
+  a09=24.;
+  a09=(a09*a06);
+  a09=(a09*a29);
+  a09=(a09*a20);
+  a09=(a09*a02);
+  a09=(a09*a26);
+  a09=(a09*a07);
+  a09=(a09/a03);
+  a09=(a09*a24);
+  a04=(a04+a09);
+  a09=(a06*a29);
+  a09=(a09*a08);
+  a09=(a09*a20);
+  a09=(a09*a02);
+  a09=(a09*a07);
+  a09=(a09*a16);
+  a09=(a09*a24);
+  a09=(a09*a15);
+  a04=(a04-a09);
+  a23=(a23*a06);
+  a23=(a23*a29);
+  a23=(a23*a20);
+  a23=(a23*a02);
+  a23=(a23*a26);
+  a23=(a23*a07);
+  a23=(a23/a03);
+  a23=(a23*a16);
+  a23=(a23*a15);
+  a23=(a23*a35);
+  a04=(a04+a23);
+  a12=(a12+a34);
+  a12=(a12-a32);
+  a12=(a12-a18);
+  a13=(2.*a13);
+  a12=(a12+a13);
+  a28=(a28*a22);
+  a28=(a28*a16);
+  a28=(a28*a15);
+  a12=(a12-a28);
+  a04=(a04/a12);
+  res[0][3]=a04;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f3(arg, res, iw, w, mem);
+  return casadi_f4(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_watch_checkout(void) {
@@ -1320,7 +1692,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_extension_watch_default_i
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_extension_watch_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -1335,15 +1707,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_extension_watch_name_out(
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_extension_watch_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_extension_watch_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -1364,113 +1736,102 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_watch_work_bytes(casadi
   return 0;
 }
 
-/* vsw_vsw_biped_fte_sim_long_flow:(p[5],x[4])->(long_flow[4]) */
-static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_vsw_biped_fte_sim_long_flow:(c[132],x[4])->(long_flow[4]) */
+static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
-  casadi_real a12, a13, a14, a15, a16, a17, a18;
+  casadi_real a12, a13;
   a00=arg[1][2];
   res[0][0]=a00;
   a01=arg[1][3];
   res[0][1]=a01;
-  a02=arg[0][3];
-  a03=casadi_sq(a02);
-  a04=arg[1][0];
-  a05=sin(a04);
-  a06=(a03*a05);
-  a07=arg[0][2];
-  a06=(a06*a07);
-  a08=casadi_sq(a07);
-  a09=casadi_sq(a02);
-  a09=(a09*a02);
-  a10=(a08*a09);
-  a11=(a10*a05);
-  a12=(a03*a08);
-  a13=arg[1][1];
-  a04=(a13-a04);
-  a14=cos(a04);
-  a15=(a12*a14);
-  a13=sin(a13);
-  a16=(a15*a13);
-  a11=(a11+a16);
-  a06=(a06-a11);
+  a02=arg[0][92];
+  a03=arg[1][0];
+  a04=sin(a03);
+  a02=(a02*a04);
+  a05=arg[0][2];
+  a02=(a02*a05);
+  a06=arg[0][93];
+  a07=(a06*a04);
+  a08=arg[0][94];
+  a09=arg[1][1];
+  a03=(a09-a03);
+  a10=cos(a03);
+  a11=(a08*a10);
+  a09=sin(a09);
+  a12=(a11*a09);
+  a07=(a07+a12);
+  a02=(a02-a07);
   a01=casadi_sq(a01);
-  a11=(a10*a01);
-  a04=sin(a04);
-  a11=(a11*a04);
-  a06=(a06-a11);
-  a11=(2.*a03);
-  a11=(a11*a08);
-  a11=(a11*a05);
-  a06=(a06+a11);
-  a11=(a03*a08);
+  a07=(a06*a01);
+  a03=sin(a03);
+  a07=(a07*a03);
+  a02=(a02-a07);
+  a07=arg[0][95];
+  a07=(a07*a04);
+  a02=(a02+a07);
+  a07=arg[0][96];
   a00=casadi_sq(a00);
-  a11=(a11*a00);
-  a11=(a11*a14);
-  a11=(a11*a04);
-  a06=(a06+a11);
-  a11=(2.*a08);
-  a16=(a03*a11);
-  a17=(a03*a07);
-  a17=(a16+a17);
-  a18=casadi_sq(a02);
-  a18=(a18*a02);
-  a18=(a18*a02);
-  a18=(a08*a18);
-  a17=(a17+a18);
-  a18=(a11*a09);
-  a17=(a17-a18);
-  a18=casadi_sq(a14);
-  a12=(a12*a18);
-  a17=(a17-a12);
-  a06=(a06/a17);
-  res[0][2]=a06;
-  a03=(2.*a03);
-  a03=(a03*a08);
-  a03=(a03*a13);
-  a06=(a13*a02);
-  a11=(a06*a11);
-  a06=(a06*a07);
-  a11=(a11+a06);
-  a10=(a10*a13);
-  a11=(a11+a10);
-  a10=(a15*a05);
-  a11=(a11+a10);
-  a16=(a00*a16);
-  a16=(a16*a04);
-  a11=(a11+a16);
-  a15=(a15*a01);
-  a15=(a15*a04);
-  a11=(a11+a15);
-  a03=(a03-a11);
-  a11=(a08*a00);
-  a11=(a11*a09);
-  a11=(a11*a04);
-  a03=(a03+a11);
-  a11=(a00*a04);
-  a11=(a11*a02);
-  a11=(a11*a07);
-  a03=(a03+a11);
-  a11=(a14*a05);
-  a11=(a11*a02);
-  a11=(a11*a07);
-  a03=(a03+a11);
-  a11=(2.*a08);
-  a11=(a11*a00);
-  a11=(a11*a04);
-  a11=(a11*a02);
-  a03=(a03+a11);
-  a08=(2.*a08);
-  a08=(a08*a14);
-  a08=(a08*a05);
-  a08=(a08*a02);
-  a03=(a03+a08);
-  a03=(a03/a17);
-  res[0][3]=a03;
+  a07=(a07*a00);
+  a07=(a07*a10);
+  a07=(a07*a03);
+  a02=(a02+a07);
+  a07=arg[0][97];
+  a12=casadi_sq(a10);
+  a08=(a08*a12);
+  a07=(a07-a08);
+  a02=(a02/a07);
+  res[0][2]=a02;
+  a02=arg[0][98];
+  a02=(a02*a09);
+  a08=arg[0][56];
+  a12=(a09*a08);
+  a13=arg[0][99];
+  a13=(a12*a13);
+  a12=(a12*a05);
+  a13=(a13+a12);
+  a06=(a06*a09);
+  a13=(a13+a06);
+  a06=(a11*a04);
+  a13=(a13+a06);
+  a06=arg[0][100];
+  a06=(a00*a06);
+  a06=(a06*a03);
+  a13=(a13+a06);
+  a11=(a11*a01);
+  a11=(a11*a03);
+  a13=(a13+a11);
+  a02=(a02-a13);
+  a13=arg[0][101];
+  a13=(a13*a00);
+  a11=arg[0][102];
+  a13=(a13*a11);
+  a13=(a13*a03);
+  a02=(a02+a13);
+  a13=(a00*a03);
+  a13=(a13*a08);
+  a13=(a13*a05);
+  a02=(a02+a13);
+  a13=(a10*a04);
+  a13=(a13*a08);
+  a13=(a13*a05);
+  a02=(a02+a13);
+  a13=arg[0][103];
+  a13=(a13*a00);
+  a13=(a13*a03);
+  a13=(a13*a08);
+  a02=(a02+a13);
+  a13=arg[0][104];
+  a13=(a13*a10);
+  a13=(a13*a04);
+  a13=(a13*a08);
+  a02=(a02+a13);
+  a02=(a02/a07);
+  res[0][3]=a02;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f4(arg, res, iw, w, mem);
+  return casadi_f5(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_flow_checkout(void) {
@@ -1498,7 +1859,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_long_flow_default_in(casa
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_long_flow_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -1513,15 +1874,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_long_flow_name_out(casadi
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_long_flow_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_long_flow_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -1542,16 +1903,16 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_flow_work_bytes(casadi_int *
   return 0;
 }
 
-/* vsw_vsw_biped_fte_sim_long_watch:(p[5],x[4])->(long_watch[4]) */
-static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_vsw_biped_fte_sim_long_watch:(c[132],x[4])->(long_watch[4]) */
+static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
-  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33;
+  casadi_real a24, a25, a26, a27;
   a00=arg[1][0];
   a01=cos(a00);
   a02=arg[1][1];
   a03=cos(a02);
-  a04=arg[0][0];
+  a04=arg[0][1];
   a03=(a03*a04);
   a01=(a01-a03);
   res[0][0]=a01;
@@ -1559,148 +1920,132 @@ static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   res[0][1]=a01;
   a03=cos(a00);
   res[0][2]=a03;
-  a03=arg[0][2];
-  a04=casadi_sq(a03);
-  a05=arg[0][3];
+  a03=arg[0][106];
+  a04=(a02-a00);
+  a05=cos(a04);
   a06=casadi_sq(a05);
-  a06=(a06*a05);
-  a06=(a06*a05);
-  a07=(a04*a06);
-  a08=(a02-a00);
-  a09=cos(a08);
-  a10=casadi_sq(a09);
-  a11=casadi_sq(a05);
-  a12=(a11*a04);
-  a13=(a10*a12);
-  a13=(a07-a13);
-  a14=casadi_sq(a03);
-  a14=(a14*a03);
-  a15=casadi_sq(a05);
-  a15=(a15*a05);
-  a16=(2.*a15);
-  a17=(a14*a16);
-  a18=(a13+a17);
-  a19=(a11*a14);
-  a20=(2.*a19);
-  a18=(a18-a20);
-  a18=(a18-a12);
-  a11=(a11*a03);
-  a03=cos(a00);
-  a21=casadi_sq(a03);
-  a22=(a11*a21);
-  a18=(a18+a22);
-  a22=4.;
-  a23=(a22*a21);
-  a24=(a19*a23);
-  a18=(a18+a24);
-  a24=cos(a02);
-  a25=casadi_sq(a24);
-  a26=(a20*a25);
-  a18=(a18+a26);
-  a26=arg[1][3];
-  a26=casadi_sq(a26);
-  a27=(a26*a24);
-  a28=(a17*a27);
-  a18=(a18+a28);
+  a07=arg[0][105];
+  a08=(a06*a07);
+  a08=(a03-a08);
+  a09=arg[0][107];
+  a10=(a08+a09);
+  a11=arg[0][108];
+  a10=(a10-a11);
+  a10=(a10-a07);
+  a12=arg[0][109];
+  a13=cos(a00);
+  a14=casadi_sq(a13);
+  a15=(a12*a14);
+  a10=(a10+a15);
+  a15=arg[0][110];
+  a16=4.;
+  a16=(a16*a14);
+  a15=(a15*a16);
+  a10=(a10+a15);
+  a15=cos(a02);
+  a17=casadi_sq(a15);
+  a18=(a11*a17);
+  a10=(a10+a18);
+  a18=arg[1][3];
+  a18=casadi_sq(a18);
+  a19=(a18*a15);
+  a20=(a09*a19);
+  a10=(a10+a20);
   a00=sin(a00);
-  a28=(a26*a00);
-  a08=sin(a08);
-  a29=(a28*a08);
-  a30=(a17*a29);
-  a18=(a18+a30);
-  a06=(a14*a06);
-  a30=(a21*a06);
-  a18=(a18+a30);
-  a30=(a25*a06);
-  a18=(a18+a30);
-  a30=(a25*a12);
-  a18=(a18+a30);
-  a30=(a23*a12);
-  a18=(a18+a30);
-  a30=(a04*a15);
-  a31=(a27*a30);
-  a18=(a18+a31);
-  a31=casadi_sq(a05);
-  a31=casadi_sq(a31);
-  a05=(a05*a31);
-  a05=(a14*a05);
-  a31=(a27*a05);
-  a18=(a18+a31);
-  a31=3.;
+  a20=(a18*a00);
+  a04=sin(a04);
+  a21=(a20*a04);
+  a22=(a09*a21);
+  a10=(a10+a22);
+  a22=arg[0][111];
+  a23=(a14*a22);
+  a10=(a10+a23);
+  a23=(a17*a22);
+  a10=(a10+a23);
+  a23=(a17*a07);
+  a10=(a10+a23);
+  a23=(a16*a07);
+  a10=(a10+a23);
+  a23=arg[0][112];
+  a24=(a19*a23);
+  a10=(a10+a24);
+  a24=arg[0][113];
+  a25=(a19*a24);
+  a10=(a10+a25);
+  a25=3.;
   a01=casadi_sq(a01);
-  a32=(a01*a03);
-  a31=(a31*a32);
-  a33=(a30*a31);
-  a18=(a18+a33);
-  a30=(a30*a29);
-  a18=(a18+a30);
-  a05=(a05*a32);
-  a18=(a18+a05);
-  a05=(a06*a08);
+  a26=(a01*a13);
+  a25=(a25*a26);
+  a27=(a23*a25);
+  a10=(a10+a27);
+  a23=(a23*a21);
+  a10=(a10+a23);
+  a24=(a24*a26);
+  a10=(a10+a24);
+  a22=(a22*a04);
   a02=sin(a02);
-  a30=(a01*a02);
-  a29=(a05*a30);
-  a18=(a18+a29);
-  a02=(a09*a02);
+  a24=(a01*a02);
+  a23=(a22*a24);
+  a10=(a10+a23);
+  a02=(a05*a02);
   a02=(a02*a00);
-  a00=(2.*a12);
-  a29=(a02*a00);
-  a18=(a18+a29);
-  a29=(a11*a32);
-  a18=(a18-a29);
-  a10=(a10*a20);
-  a18=(a18-a10);
-  a20=(a20*a32);
-  a18=(a18-a20);
-  a25=(a17*a25);
-  a18=(a18-a25);
-  a25=(a17*a02);
-  a18=(a18-a25);
-  a04=(a04*a16);
-  a21=(a21*a04);
-  a18=(a18-a21);
-  a14=(a14*a15);
-  a23=(a23*a14);
-  a18=(a18-a23);
-  a07=(a32*a07);
-  a18=(a18-a07);
-  a31=(a31*a12);
-  a18=(a18-a31);
-  a05=(a05*a28);
-  a18=(a18-a05);
-  a05=(a22*a06);
-  a05=(a05*a32);
-  a18=(a18-a05);
-  a06=(2.*a06);
-  a06=(a06*a27);
-  a18=(a18-a06);
+  a00=arg[0][114];
+  a23=(a02*a00);
+  a10=(a10+a23);
+  a23=(a12*a26);
+  a10=(a10-a23);
+  a06=(a06*a11);
+  a10=(a10-a06);
+  a11=(a11*a26);
+  a10=(a10-a11);
+  a17=(a09*a17);
+  a10=(a10-a17);
+  a17=(a09*a02);
+  a10=(a10-a17);
+  a17=arg[0][115];
+  a14=(a14*a17);
+  a10=(a10-a14);
+  a14=arg[0][116];
+  a16=(a16*a14);
+  a10=(a10-a16);
+  a03=(a26*a03);
+  a10=(a10-a03);
+  a25=(a25*a07);
+  a10=(a10-a25);
+  a22=(a22*a20);
+  a10=(a10-a22);
+  a22=arg[0][117];
+  a22=(a22*a26);
+  a10=(a10-a22);
+  a22=arg[0][118];
   a22=(a22*a19);
+  a10=(a10-a22);
+  a22=arg[0][119];
   a22=(a22*a02);
-  a18=(a18+a22);
-  a22=6.;
-  a22=(a22*a14);
-  a22=(a22*a32);
-  a18=(a18+a22);
-  a17=(a17*a30);
-  a17=(a17*a08);
-  a18=(a18-a17);
-  a14=(a14*a09);
-  a26=(a26*a14);
-  a26=(a26*a03);
-  a18=(a18-a26);
+  a10=(a10+a22);
+  a22=arg[0][120];
+  a22=(a22*a26);
+  a10=(a10+a22);
+  a09=(a09*a24);
+  a09=(a09*a04);
+  a10=(a10-a09);
+  a14=(a14*a05);
+  a18=(a18*a14);
+  a18=(a18*a13);
+  a10=(a10-a18);
   a01=(a01*a14);
-  a01=(a01*a24);
-  a18=(a18-a01);
-  a11=(a11+a13);
-  a11=(a11+a00);
-  a11=(a11-a04);
-  a18=(a18/a11);
-  res[0][3]=a18;
+  a01=(a01*a15);
+  a10=(a10-a01);
+  a12=(a12+a08);
+  a12=(a12+a00);
+  a12=(a12-a17);
+  a10=(a10/a12);
+  res[0][3]=a10;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f5(arg, res, iw, w, mem);
+  return casadi_f6(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_watch_checkout(void) {
@@ -1728,7 +2073,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_long_watch_default_in(cas
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_long_watch_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -1743,15 +2088,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_long_watch_name_out(casad
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_long_watch_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_long_watch_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -1772,8 +2117,8 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_watch_work_bytes(casadi_int 
   return 0;
 }
 
-/* vsw_vsw_biped_fte_sim_extension_start_reset:(p[5],x[4])->(extension_start_reset[4]) */
-static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_vsw_biped_fte_sim_extension_start_reset:(c[132],x[4])->(extension_start_reset[4]) */
+static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0;
   a0=arg[1][0];
   res[0][0]=a0;
@@ -1787,7 +2132,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_start_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f6(arg, res, iw, w, mem);
+  return casadi_f7(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_start_reset_checkout(void) {
@@ -1815,7 +2160,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_extension_start_reset_def
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_extension_start_reset_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -1830,15 +2175,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_extension_start_reset_nam
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_extension_start_reset_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_extension_start_reset_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -1859,8 +2204,8 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_start_reset_work_bytes(
   return 0;
 }
 
-/* vsw_vsw_biped_fte_sim_extension_end_reset:(p[5],x[4])->(extension_end_reset[4]) */
-static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_vsw_biped_fte_sim_extension_end_reset:(c[132],x[4])->(extension_end_reset[4]) */
+static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0;
   a0=arg[1][0];
   res[0][0]=a0;
@@ -1874,7 +2219,7 @@ static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_end_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f7(arg, res, iw, w, mem);
+  return casadi_f8(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_end_reset_checkout(void) {
@@ -1902,7 +2247,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_extension_end_reset_defau
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_extension_end_reset_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -1917,15 +2262,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_extension_end_reset_name_
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_extension_end_reset_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_extension_end_reset_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -1946,97 +2291,87 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_end_reset_work_bytes(ca
   return 0;
 }
 
-/* vsw_vsw_biped_fte_sim_heelstrike_reset:(p[5],x[4])->(heelstrike_reset[4]) */
-static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_vsw_biped_fte_sim_heelstrike_reset:(c[132],x[4])->(heelstrike_reset[4]) */
+static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
-  casadi_real a12, a13, a14, a15, a16, a17, a18, a19;
+  casadi_real a12, a13, a14, a15;
   a00=arg[1][1];
   res[0][0]=a00;
   a01=arg[1][0];
   res[0][1]=a01;
-  a02=arg[0][2];
-  a03=casadi_sq(a02);
-  a04=arg[0][3];
-  a05=casadi_sq(a04);
-  a05=(a05*a04);
-  a05=(a05*a04);
-  a05=(a03*a05);
-  a06=arg[1][3];
-  a07=(a05*a06);
-  a08=casadi_sq(a04);
-  a08=(a08*a04);
-  a08=(a03*a08);
-  a09=arg[0][0];
-  a10=(a08*a09);
-  a11=(a10*a06);
-  a07=(a07-a11);
-  a12=arg[1][2];
-  a13=(a03*a12);
-  a14=casadi_sq(a04);
-  a15=(a14*a09);
+  a02=arg[0][121];
+  a03=arg[1][3];
+  a04=(a02*a03);
+  a05=arg[0][122];
+  a05=(a05*a03);
+  a04=(a04-a05);
+  a06=arg[0][123];
+  a07=arg[1][2];
+  a06=(a06*a07);
+  a08=arg[0][124];
   a00=(a00-a01);
   a00=cos(a00);
-  a01=(a15*a00);
-  a16=(a13*a01);
-  a07=(a07+a16);
-  a16=(a12*a02);
-  a01=(a16*a01);
-  a07=(a07+a01);
-  a08=(a08*a12);
   a01=(a08*a00);
-  a07=(a07-a01);
-  a01=casadi_sq(a09);
-  a14=(a01*a14);
-  a02=(a14*a02);
-  a17=(a05+a02);
-  a03=(a03*a14);
-  a14=(2.*a03);
-  a17=(a17+a14);
-  a18=casadi_sq(a00);
-  a19=(a03*a18);
-  a17=(a17-a19);
-  a10=(2.*a10);
-  a17=(a17-a10);
-  a07=(a07/a17);
-  res[0][2]=a07;
-  a05=(a05*a12);
-  a01=(a01*a04);
-  a16=(a01*a16);
-  a04=(2.*a13);
-  a01=(a01*a04);
-  a07=(a16+a01);
-  a07=(a07+a08);
-  a05=(a05-a07);
-  a02=(a02*a12);
-  a05=(a05+a02);
-  a14=(a14*a12);
-  a05=(a05+a14);
-  a16=(a18*a16);
-  a05=(a05+a16);
-  a01=(a18*a01);
-  a05=(a05+a01);
-  a04=(a04*a15);
-  a05=(a05+a04);
+  a09=(a06*a01);
+  a04=(a04+a09);
+  a09=arg[0][2];
+  a09=(a07*a09);
+  a01=(a09*a01);
+  a04=(a04+a01);
+  a01=arg[0][125];
+  a01=(a01*a07);
+  a10=(a01*a00);
+  a04=(a04-a10);
+  a10=arg[0][127];
+  a11=arg[0][126];
+  a12=casadi_sq(a00);
+  a13=(a11*a12);
+  a10=(a10-a13);
+  a14=arg[0][128];
+  a10=(a10-a14);
+  a04=(a04/a10);
+  res[0][2]=a04;
+  a02=(a02*a07);
+  a04=arg[0][129];
+  a09=(a04*a09);
+  a14=(2.*a06);
+  a04=(a04*a14);
+  a15=(a09+a04);
+  a15=(a15+a01);
+  a02=(a02-a15);
+  a15=arg[0][130];
+  a15=(a15*a07);
+  a02=(a02+a15);
+  a15=arg[0][131];
+  a15=(a15*a07);
+  a02=(a02+a15);
+  a09=(a12*a09);
+  a02=(a02+a09);
+  a04=(a12*a04);
+  a02=(a02+a04);
+  a14=(a14*a08);
+  a02=(a02+a14);
+  a05=(a05*a00);
+  a02=(a02+a05);
+  a13=(a13*a07);
+  a02=(a02-a13);
+  a01=(2.*a01);
+  a13=arg[0][1];
+  a01=(a01*a13);
+  a02=(a02-a01);
+  a06=(a06*a12);
+  a06=(a06*a08);
+  a02=(a02-a06);
   a11=(a11*a00);
-  a05=(a05+a11);
-  a19=(a19*a12);
-  a05=(a05-a19);
-  a08=(2.*a08);
-  a08=(a08*a09);
-  a05=(a05-a08);
-  a13=(a13*a18);
-  a13=(a13*a15);
-  a05=(a05-a13);
-  a03=(a03*a00);
-  a03=(a03*a06);
-  a05=(a05-a03);
-  a05=(a05/a17);
-  res[0][3]=a05;
+  a11=(a11*a03);
+  a02=(a02-a11);
+  a02=(a02/a10);
+  res[0][3]=a02;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_heelstrike_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f8(arg, res, iw, w, mem);
+  return casadi_f9(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_heelstrike_reset_checkout(void) {
@@ -2064,7 +2399,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_heelstrike_reset_default_
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_heelstrike_reset_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -2079,15 +2414,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_heelstrike_reset_name_out
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_heelstrike_reset_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_heelstrike_reset_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -2108,8 +2443,8 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_heelstrike_reset_work_bytes(casad
   return 0;
 }
 
-/* vsw_vsw_biped_fte_sim_heelstrike_when:(p[5],x[4])->(heelstrike_when) */
-static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_vsw_biped_fte_sim_heelstrike_when:(c[132],x[4])->(heelstrike_when) */
+static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1;
   a0=arg[1][0];
   a1=arg[1][1];
@@ -2119,7 +2454,7 @@ static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_heelstrike_when(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f9(arg, res, iw, w, mem);
+  return casadi_f10(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_heelstrike_when_checkout(void) {
@@ -2147,7 +2482,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_heelstrike_when_default_i
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_heelstrike_when_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -2162,15 +2497,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_heelstrike_when_name_out(
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_heelstrike_when_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_heelstrike_when_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s2;
+    case 0: return casadi_s3;
     default: return 0;
   }
 }
@@ -2191,14 +2526,14 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_heelstrike_when_work_bytes(casadi
   return 0;
 }
 
-/* vsw_vsw_biped_fte_sim_step_length:(p[5],x[4])->(step_length) */
-static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_vsw_biped_fte_sim_step_length:(c[132],x[4])->(step_length) */
+static int casadi_f11(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2;
   a0=arg[1][0];
   a0=sin(a0);
   a1=arg[1][1];
   a1=sin(a1);
-  a2=arg[0][0];
+  a2=arg[0][1];
   a1=(a1*a2);
   a0=(a0-a1);
   res[0][0]=a0;
@@ -2206,7 +2541,7 @@ static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_step_length(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f10(arg, res, iw, w, mem);
+  return casadi_f11(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_step_length_checkout(void) {
@@ -2234,7 +2569,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_step_length_default_in(ca
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_step_length_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -2249,15 +2584,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_step_length_name_out(casa
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_step_length_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_step_length_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s2;
+    case 0: return casadi_s3;
     default: return 0;
   }
 }
@@ -2295,7 +2630,7 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_step_length_work_bytes(casadi_int
 #define VSW_SZ_ARG 2
 #define VSW_SZ_RES 1
 #define VSW_SZ_IW 0
-#define VSW_SZ_W 55
+#define VSW_SZ_W 50
 
 /* Every function of the table in CasADi's calling convention, called directly (not through
    a pointer) so that the compiler can inline it into the integrator's loops. */
@@ -2308,34 +2643,42 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_step_length_work_bytes(casadi_int
         fn(vsw_arg_, vsw_res_, vsw_iw_, vsw_w_, 0);                                          \
     } while (0)
 
-/* Per phase: x' = f(p, x). */
-static inline void vsw_flow(int phase, const double *p, const double *x, double *out)
+/* The constants of the functions below from the parameters: the parameters they use and
+   their parameter-only subexpressions, computed once a walk instead of at every call. */
+#define VSW_NC 132
+static inline void vsw_constants(const double *p, double *c)
+{
+    VSW_CALL(vsw_vsw_biped_fte_sim_constants, p, p, c);
+}
+
+/* Per phase: x' = f(x) (with the constants c). */
+static inline void vsw_flow(int phase, const double *c, const double *x, double *out)
 {
     switch (phase) {
     case 0:
-        VSW_CALL(vsw_vsw_biped_fte_sim_short_flow, p, x, out);
+        VSW_CALL(vsw_vsw_biped_fte_sim_short_flow, c, x, out);
         return;
     case 1:
-        VSW_CALL(vsw_vsw_biped_fte_sim_extension_flow, p, x, out);
+        VSW_CALL(vsw_vsw_biped_fte_sim_extension_flow, c, x, out);
         return;
     case 2:
-        VSW_CALL(vsw_vsw_biped_fte_sim_long_flow, p, x, out);
+        VSW_CALL(vsw_vsw_biped_fte_sim_long_flow, c, x, out);
         return;
     }
 }
 
 /* Per phase: its events' guards, then the failures' guards. */
-static inline void vsw_watch(int phase, const double *p, const double *x, double *out)
+static inline void vsw_watch(int phase, const double *c, const double *x, double *out)
 {
     switch (phase) {
     case 0:
-        VSW_CALL(vsw_vsw_biped_fte_sim_short_watch, p, x, out);
+        VSW_CALL(vsw_vsw_biped_fte_sim_short_watch, c, x, out);
         return;
     case 1:
-        VSW_CALL(vsw_vsw_biped_fte_sim_extension_watch, p, x, out);
+        VSW_CALL(vsw_vsw_biped_fte_sim_extension_watch, c, x, out);
         return;
     case 2:
-        VSW_CALL(vsw_vsw_biped_fte_sim_long_watch, p, x, out);
+        VSW_CALL(vsw_vsw_biped_fte_sim_long_watch, c, x, out);
         return;
     }
 }
@@ -2346,26 +2689,26 @@ static const int vsw_watch_direction[VSW_NPHASES][VSW_MAX_WATCH] = {{1, -1, -1, 
 static const int vsw_watch_what[VSW_NPHASES][VSW_MAX_WATCH] = {{0, -1, -2, -3, -4}, {1, -1, -2, -3, 0}, {2, -1, -2, -3, 0}};
 
 /* Per event: the reset. */
-static inline void vsw_reset(int event, const double *p, const double *x, double *out)
+static inline void vsw_reset(int event, const double *c, const double *x, double *out)
 {
     switch (event) {
     case 0:
-        VSW_CALL(vsw_vsw_biped_fte_sim_extension_start_reset, p, x, out);
+        VSW_CALL(vsw_vsw_biped_fte_sim_extension_start_reset, c, x, out);
         return;
     case 1:
-        VSW_CALL(vsw_vsw_biped_fte_sim_extension_end_reset, p, x, out);
+        VSW_CALL(vsw_vsw_biped_fte_sim_extension_end_reset, c, x, out);
         return;
     case 2:
-        VSW_CALL(vsw_vsw_biped_fte_sim_heelstrike_reset, p, x, out);
+        VSW_CALL(vsw_vsw_biped_fte_sim_heelstrike_reset, c, x, out);
         return;
     }
 }
 /* Per event: the condition for it to count into *out; 0 when it always counts. */
-static inline int vsw_when(int event, const double *p, const double *x, double *out)
+static inline int vsw_when(int event, const double *c, const double *x, double *out)
 {
     switch (event) {
     case 2:
-        VSW_CALL(vsw_vsw_biped_fte_sim_heelstrike_when, p, x, out);
+        VSW_CALL(vsw_vsw_biped_fte_sim_heelstrike_when, c, x, out);
         return 1;
     }
     return 0;
@@ -2374,8 +2717,8 @@ static inline int vsw_when(int event, const double *p, const double *x, double *
 static const int vsw_event_target[VSW_NEVENTS] = {1, 2, 0};
 static const int vsw_event_ends_step[VSW_NEVENTS] = {0, 0, 1};
 /* The step length from the state just before the step event; 0 when the model has none. */
-static inline int vsw_step_length(const double *p, const double *x, double *out)
+static inline int vsw_step_length(const double *c, const double *x, double *out)
 {
-    VSW_CALL(vsw_vsw_biped_fte_sim_step_length, p, x, out);
+    VSW_CALL(vsw_vsw_biped_fte_sim_step_length, c, x, out);
     return 1;
 }

@@ -4,8 +4,9 @@
  * sympy 1.14.0
  * casadi 3.8.2
  * The hybrid dynamics of the model for the batch simulator (vsw/csrc/hybrid_batch.c, built
- * by vsw/batch.py): every function takes (p, x), the parameters (beta, theta_II, phi0, mu, b_over_l) and the
- * state (theta, phi, theta_dot, phi_dot), in CasADi's calling convention.
+ * by vsw/batch.py): every function takes (c, x), the model's constants (what the functions
+ * use of the parameters beta, theta_II, phi0, mu, b_over_l: c = constants(p), once a walk) and the state
+ * (theta, phi, theta_dot, phi_dot), in CasADi's calling convention.
  * Phases: swing, caught_short, caught_long.
  * Events: catch (swing -> caught_short), extension (caught_short -> caught_long), heelstrike (caught_long -> swing, ends the step).
  * Failures: fell-backward, fell-forward, lift-off, swing-late.
@@ -46,6 +47,7 @@ extern "C" {
 /* Add prefix to internal symbols */
 #define casadi_f0 CASADI_PREFIX(f0)
 #define casadi_f1 CASADI_PREFIX(f1)
+#define casadi_f10 CASADI_PREFIX(f10)
 #define casadi_f2 CASADI_PREFIX(f2)
 #define casadi_f3 CASADI_PREFIX(f3)
 #define casadi_f4 CASADI_PREFIX(f4)
@@ -57,6 +59,7 @@ extern "C" {
 #define casadi_s0 CASADI_PREFIX(s0)
 #define casadi_s1 CASADI_PREFIX(s1)
 #define casadi_s2 CASADI_PREFIX(s2)
+#define casadi_s3 CASADI_PREFIX(s3)
 #define casadi_sq CASADI_PREFIX(sq)
 
 /* Symbol visibility in DLLs */
@@ -86,127 +89,532 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim__casadi_int_size(void) { return 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim__casadi_real_size(void) { return (int) sizeof(casadi_real); }
 
 static const casadi_int casadi_s0[3] = {5, 1, 1};
-static const casadi_int casadi_s1[3] = {4, 1, 1};
-static const casadi_int casadi_s2[3] = {1, 1, 1};
+static const casadi_int casadi_s1[3] = {132, 1, 1};
+static const casadi_int casadi_s2[3] = {4, 1, 1};
+static const casadi_int casadi_s3[3] = {1, 1, 1};
 
-/* vsw_vsw_biped_phi0_sim_swing_flow:(p[5],x[4])->(swing_flow[4]) */
+/* vsw_vsw_biped_phi0_sim_constants:(p[5])->(c[132]) */
 static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
-  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
-  casadi_real a24;
+  casadi_real a12, a13, a14, a15, a16, a17, a18;
+  a00=arg[0][3];
+  a01=casadi_sq(a00);
+  a02=arg[0][4];
+  a03=casadi_sq(a02);
+  a03=(a03*a02);
+  a03=(a01*a03);
+  a04=arg[0][0];
+  a05=(a03*a04);
+  res[0][0]=a05;
+  a05=casadi_sq(a02);
+  res[0][1]=a05;
+  a06=(2.*a04);
+  a07=(a01*a06);
+  res[0][2]=a07;
+  res[0][3]=a04;
+  res[0][4]=a00;
+  a06=(a03*a06);
+  res[0][5]=a06;
+  res[0][6]=a03;
+  res[0][7]=a01;
+  a03=casadi_sq(a04);
+  a05=(a05*a03);
+  a07=(a01*a05);
+  res[0][8]=a07;
+  a07=(2.*a07);
+  a06=(a07-a06);
+  a08=casadi_sq(a02);
+  a08=(a08*a02);
+  a08=(a08*a02);
+  a08=(a01*a08);
+  a06=(a06+a08);
+  a05=(a05*a00);
+  a06=(a06+a05);
+  res[0][9]=a06;
+  res[0][10]=a07;
+  a07=casadi_sq(a04);
+  a07=(a07*a04);
+  res[0][11]=a07;
+  a07=(a02*a00);
+  res[0][12]=a07;
+  a07=(2.*a02);
+  a01=(a01*a07);
+  res[0][13]=a01;
+  res[0][14]=a03;
+  res[0][15]=a07;
+  a07=arg[0][2];
+  res[0][16]=a07;
+  a03=casadi_sq(a00);
+  a01=casadi_sq(a02);
+  a06=casadi_sq(a04);
+  a05=(a01*a06);
+  a08=(a03*a05);
+  res[0][17]=a08;
+  a09=casadi_sq(a00);
+  a09=(a09*a00);
+  a10=(a09*a05);
+  a11=(2.*a10);
+  res[0][18]=a11;
+  a11=casadi_sq(a02);
+  a11=(a11*a02);
+  a11=(a11*a02);
+  a12=(a11*a03);
+  res[0][19]=a12;
+  a12=casadi_sq(a02);
+  a12=(a12*a02);
+  a13=(a12*a04);
+  a14=(2.*a13);
+  a15=(a03*a14);
+  res[0][20]=a15;
+  a15=(a11*a03);
+  res[0][21]=a15;
+  a16=(a06*a12);
+  a17=(a03*a16);
+  res[0][22]=a17;
+  res[0][23]=a01;
+  a01=casadi_sq(a04);
+  a01=(a01*a04);
+  res[0][24]=a01;
+  a01=(2.*a09);
+  res[0][25]=a01;
+  a17=(a09*a16);
+  res[0][26]=a17;
+  a16=(a16*a01);
+  res[0][27]=a16;
+  a16=(a11*a09);
+  res[0][28]=a16;
+  a01=3.;
+  a17=(a01*a03);
+  res[0][29]=a17;
+  a16=(a16*a04);
+  a17=(2.*a16);
+  res[0][30]=a17;
+  a17=(a11*a09);
+  res[0][31]=a17;
+  a17=(a11*a09);
+  res[0][32]=a17;
+  a08=(2.*a08);
+  res[0][33]=a08;
+  res[0][34]=a09;
+  res[0][35]=a14;
+  a14=casadi_sq(a02);
+  a14=casadi_sq(a14);
+  a14=(a02*a14);
+  a17=(a09*a14);
+  res[0][36]=a17;
+  a17=4.;
+  a18=(a17*a09);
+  res[0][37]=a18;
+  res[0][38]=a13;
+  a10=(a17*a10);
+  res[0][39]=a10;
+  res[0][40]=a16;
+  a16=(2.*a09);
+  a16=(a16*a12);
+  a16=(a16*a04);
+  res[0][41]=a16;
+  res[0][42]=a03;
+  res[0][43]=a06;
+  a16=(a09*a14);
+  res[0][44]=a16;
+  a16=(a09*a14);
+  res[0][45]=a16;
+  a14=(a09*a14);
+  res[0][46]=a14;
+  a14=(2.*a09);
+  res[0][47]=a14;
+  a14=(a17*a03);
+  res[0][48]=a14;
+  a14=(a17*a09);
+  res[0][49]=a14;
+  res[0][50]=a12;
+  a14=(2.*a09);
+  res[0][51]=a14;
+  a14=(2.*a09);
+  res[0][52]=a14;
+  a01=(a01*a03);
+  res[0][53]=a01;
+  a01=6.;
+  a14=(a01*a09);
+  res[0][54]=a14;
+  a14=(a11*a09);
+  res[0][55]=a14;
+  a14=(a11*a09);
+  res[0][56]=a14;
+  a14=(a11*a09);
+  res[0][57]=a14;
+  a14=(2.*a09);
+  a14=(a14*a12);
+  res[0][58]=a14;
+  a11=(a17*a11);
+  a11=(a11*a09);
+  res[0][59]=a11;
+  a03=(2.*a03);
+  a03=(a03*a06);
+  a03=(a03*a12);
+  res[0][60]=a03;
+  a03=(2.*a09);
+  a03=(a03*a06);
+  a03=(a03*a12);
+  res[0][61]=a03;
+  a09=(a17*a09);
+  a09=(a09*a06);
+  a09=(a09*a12);
+  res[0][62]=a09;
+  a08=(a08+a15);
+  res[0][63]=a08;
+  a05=(a05*a00);
+  res[0][64]=a05;
+  a05=arg[0][1];
+  res[0][65]=a05;
+  a05=(2.*a00);
+  res[0][66]=a05;
+  a08=(a02*a00);
+  res[0][67]=a08;
+  a08=(a05*a02);
+  res[0][68]=a08;
+  a15=casadi_sq(a04);
+  a08=(a08*a04);
+  a09=(a15-a08);
+  a15=(a05*a15);
+  a09=(a09+a15);
+  a15=casadi_sq(a02);
+  a05=(a05*a15);
+  a09=(a09+a05);
+  res[0][69]=a09;
+  res[0][70]=a08;
+  a08=casadi_sq(a04);
+  res[0][71]=a08;
+  a09=casadi_sq(a00);
+  a05=casadi_sq(a02);
+  a15=(a09*a05);
+  a12=(2.*a15);
+  res[0][72]=a12;
+  res[0][73]=a09;
+  a12=(2.*a00);
+  a06=(a02*a04);
+  a03=(a12*a06);
+  res[0][74]=a03;
+  a05=(a12*a05);
+  res[0][75]=a05;
+  a05=casadi_sq(a04);
+  a05=(a05*a04);
+  res[0][76]=a05;
+  res[0][77]=a15;
+  a05=(2.*a09);
+  a03=casadi_sq(a02);
+  a03=(a03*a02);
+  a05=(a05*a03);
+  res[0][78]=a05;
+  res[0][79]=a02;
+  a05=(a08*a02);
+  res[0][80]=a05;
+  a05=(a17*a09);
+  a06=(a05*a06);
+  res[0][81]=a06;
+  a15=(a01*a15);
+  res[0][82]=a15;
+  a15=(2.*a09);
+  res[0][83]=a15;
+  a01=(a01*a09);
+  res[0][84]=a01;
+  res[0][85]=a12;
+  res[0][86]=a05;
+  a12=(a08*a12);
+  res[0][87]=a12;
+  a08=(a08+a12);
+  res[0][88]=a08;
+  a08=(2.*a00);
+  res[0][89]=a08;
+  a12=(a02*a00);
+  res[0][90]=a12;
+  a12=(a08*a02);
+  res[0][91]=a12;
+  a05=1.;
+  a01=(a05+a08);
+  a01=(a01-a12);
+  a12=casadi_sq(a02);
+  a08=(a08*a12);
+  a01=(a01+a08);
+  res[0][92]=a01;
+  a01=casadi_sq(a00);
+  res[0][93]=a01;
+  a08=casadi_sq(a02);
+  a12=(a01*a08);
+  a09=(2.*a12);
+  res[0][94]=a09;
+  a09=(2.*a00);
+  a15=(a09*a02);
+  res[0][95]=a15;
+  a08=(a09*a08);
+  res[0][96]=a08;
+  res[0][97]=a12;
+  a12=(2.*a01);
+  res[0][98]=a12;
+  a08=casadi_sq(a02);
+  a08=(a08*a02);
+  a12=(a12*a08);
+  res[0][99]=a12;
+  a17=(a17*a01);
+  res[0][100]=a17;
+  a09=(a05+a09);
+  res[0][101]=a09;
+  a09=casadi_sq(a04);
+  res[0][102]=a09;
+  a17=(2.*a00);
+  res[0][103]=a17;
+  a01=casadi_sq(a02);
+  a12=(a17*a01);
+  res[0][104]=a12;
+  a08=(a02*a04);
+  a15=(a17*a08);
+  res[0][105]=a15;
+  res[0][106]=a01;
+  a01=cos(a07);
+  a06=(a15*a01);
+  res[0][107]=a06;
+  res[0][108]=a08;
+  res[0][109]=a01;
+  a12=(a09+a12);
+  a12=(a12-a15);
+  a12=(a12-a06);
+  a09=(a09*a17);
+  a12=(a12+a09);
+  res[0][110]=a12;
+  a12=casadi_sq(a04);
+  res[0][111]=a12;
+  a12=(2.*a00);
+  res[0][112]=a12;
+  a09=casadi_sq(a02);
+  a09=(a12*a09);
+  res[0][113]=a09;
+  a17=(a12*a02);
+  res[0][114]=a17;
+  a05=(a05+a12);
+  a05=(a05+a09);
+  res[0][115]=a05;
+  a05=(-a07);
+  res[0][116]=a05;
+  a05=casadi_sq(a00);
+  res[0][117]=a05;
+  a09=casadi_sq(a02);
+  a12=(a09*a04);
+  a07=cos(a07);
+  a17=(a12*a07);
+  res[0][118]=a17;
+  a17=casadi_sq(a02);
+  a17=(a17*a02);
+  a17=(a05*a17);
+  res[0][119]=a17;
+  res[0][120]=a07;
+  a06=casadi_sq(a02);
+  a06=(a06*a02);
+  a06=(a06*a02);
+  a06=(a05*a06);
+  res[0][121]=a06;
+  a15=casadi_sq(a04);
+  a01=(a15*a09);
+  a00=(a01*a00);
+  a06=(a06+a00);
+  a05=(a05*a01);
+  a01=(2.*a05);
+  a06=(a06+a01);
+  a08=casadi_sq(a07);
+  a03=(a05*a08);
+  a06=(a06-a03);
+  a04=(2.*a04);
+  a17=(a04*a17);
+  a06=(a06-a17);
+  res[0][122]=a06;
+  a15=(a15*a02);
+  res[0][123]=a15;
+  res[0][124]=a03;
+  res[0][125]=a00;
+  res[0][126]=a01;
+  res[0][127]=a08;
+  res[0][128]=a12;
+  a05=(a05*a07);
+  res[0][129]=a05;
+  res[0][130]=a04;
+  res[0][131]=a09;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_constants(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f0(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_constants_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_constants_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_constants_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_constants_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_constants_n_in(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_constants_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_constants_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_constants_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_constants_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_constants_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_constants_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_constants_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 1;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_constants_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 1*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_phi0_sim_swing_flow:(c[132],x[4])->(swing_flow[4]) */
+static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17;
   a00=arg[1][2];
   res[0][0]=a00;
   a01=arg[1][3];
   res[0][1]=a01;
-  a02=arg[0][3];
-  a03=casadi_sq(a02);
-  a04=arg[0][4];
-  a05=casadi_sq(a04);
-  a05=(a05*a04);
-  a05=(a03*a05);
-  a06=arg[0][0];
-  a07=(a05*a06);
-  a08=arg[1][1];
+  a02=arg[0][0];
+  a03=arg[1][1];
+  a04=sin(a03);
+  a05=casadi_sq(a01);
+  a05=(a04*a05);
+  a06=(a02*a05);
+  a07=arg[0][1];
+  a08=arg[1][0];
   a09=sin(a08);
-  a10=casadi_sq(a01);
-  a10=(a09*a10);
-  a11=(a07*a10);
-  a12=casadi_sq(a04);
-  a13=arg[1][0];
-  a14=sin(a13);
-  a15=(a12*a14);
-  a16=(2.*a06);
-  a17=(a03*a16);
-  a18=(a15*a17);
-  a11=(a11+a18);
-  a15=(a15*a06);
-  a18=(a15*a02);
-  a11=(a11+a18);
-  a01=(a01*a09);
+  a10=(a07*a09);
+  a11=arg[0][2];
+  a12=(a10*a11);
+  a06=(a06+a12);
+  a12=arg[0][3];
+  a10=(a10*a12);
+  a13=arg[0][4];
+  a13=(a10*a13);
+  a06=(a06+a13);
+  a01=(a01*a04);
   a01=(a01*a00);
-  a16=(a05*a16);
-  a18=(a01*a16);
-  a11=(a11-a18);
-  a18=(a05*a14);
-  a11=(a11-a18);
-  a13=(a08-a13);
-  a13=sin(a13);
-  a18=(a12*a13);
-  a08=cos(a08);
-  a19=(a03*a08);
-  a20=(a18*a19);
-  a20=(a20*a06);
-  a11=(a11+a20);
-  a00=casadi_sq(a00);
-  a09=(a09*a00);
-  a07=(a07*a09);
-  a07=(a11+a07);
-  a00=casadi_sq(a06);
-  a12=(a12*a00);
-  a20=(a03*a12);
-  a21=(a20*a08);
-  a22=(a09*a21);
-  a07=(a07-a22);
-  a22=(2.*a20);
-  a23=(a22-a16);
-  a24=casadi_sq(a04);
-  a24=(a24*a04);
-  a24=(a24*a04);
-  a24=(a03*a24);
-  a23=(a23+a24);
-  a12=(a12*a02);
-  a23=(a23+a12);
-  a12=casadi_sq(a08);
-  a20=(a20*a12);
-  a23=(a23-a20);
-  a07=(a07/a23);
-  res[0][2]=a07;
-  a07=(a09*a22);
-  a11=(a11-a07);
-  a16=(a09*a16);
-  a11=(a11+a16);
-  a15=(a15*a19);
-  a11=(a11+a15);
-  a17=(a17*a18);
-  a11=(a11+a17);
-  a02=(a04*a02);
-  a17=casadi_sq(a06);
-  a17=(a17*a06);
-  a09=(a09*a17);
-  a17=(a02*a09);
-  a11=(a11+a17);
-  a04=(2.*a04);
-  a03=(a03*a04);
-  a09=(a03*a09);
-  a11=(a11+a09);
-  a21=(a21*a10);
-  a11=(a11-a21);
-  a21=(a00*a13);
-  a10=(a02*a21);
-  a11=(a11-a10);
-  a21=(a21*a03);
-  a11=(a11-a21);
+  a13=arg[0][5];
+  a14=(a01*a13);
+  a06=(a06-a14);
+  a14=arg[0][6];
+  a15=(a14*a09);
+  a06=(a06-a15);
+  a08=(a03-a08);
+  a08=sin(a08);
   a07=(a07*a08);
-  a11=(a11-a07);
-  a05=(a05*a13);
-  a11=(a11-a05);
-  a01=(a01*a22);
-  a01=(a01*a08);
-  a11=(a11+a01);
-  a19=(a19*a04);
-  a00=(a00*a14);
-  a19=(a19*a00);
-  a11=(a11-a19);
-  a02=(a02*a00);
-  a02=(a02*a08);
-  a11=(a11-a02);
-  a11=(a11/a23);
-  res[0][3]=a11;
+  a15=arg[0][7];
+  a03=cos(a03);
+  a15=(a15*a03);
+  a16=(a07*a15);
+  a16=(a16*a12);
+  a06=(a06+a16);
+  a00=casadi_sq(a00);
+  a04=(a04*a00);
+  a02=(a02*a04);
+  a02=(a06+a02);
+  a00=arg[0][8];
+  a16=(a00*a03);
+  a12=(a04*a16);
+  a02=(a02-a12);
+  a12=arg[0][9];
+  a17=casadi_sq(a03);
+  a00=(a00*a17);
+  a12=(a12-a00);
+  a02=(a02/a12);
+  res[0][2]=a02;
+  a02=arg[0][10];
+  a00=(a04*a02);
+  a06=(a06-a00);
+  a13=(a04*a13);
+  a06=(a06+a13);
+  a10=(a10*a15);
+  a06=(a06+a10);
+  a11=(a11*a07);
+  a06=(a06+a11);
+  a11=arg[0][12];
+  a07=arg[0][11];
+  a04=(a04*a07);
+  a07=(a11*a04);
+  a06=(a06+a07);
+  a07=arg[0][13];
+  a04=(a07*a04);
+  a06=(a06+a04);
+  a16=(a16*a05);
+  a06=(a06-a16);
+  a16=arg[0][14];
+  a05=(a16*a08);
+  a04=(a11*a05);
+  a06=(a06-a04);
+  a05=(a05*a07);
+  a06=(a06-a05);
+  a00=(a00*a03);
+  a06=(a06-a00);
+  a14=(a14*a08);
+  a06=(a06-a14);
+  a01=(a01*a02);
+  a01=(a01*a03);
+  a06=(a06+a01);
+  a01=arg[0][15];
+  a15=(a15*a01);
+  a16=(a16*a09);
+  a15=(a15*a16);
+  a06=(a06-a15);
+  a11=(a11*a16);
+  a11=(a11*a03);
+  a06=(a06-a11);
+  a06=(a06/a12);
+  res[0][3]=a06;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f0(arg, res, iw, w, mem);
+  return casadi_f1(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_flow_checkout(void) {
@@ -234,7 +642,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_swing_flow_default_in(ca
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_swing_flow_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -249,15 +657,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_swing_flow_name_out(casa
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_swing_flow_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_swing_flow_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -278,14 +686,13 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_flow_work_bytes(casadi_int
   return 0;
 }
 
-/* vsw_vsw_biped_phi0_sim_swing_watch:(p[5],x[4])->(swing_watch[5]) */
-static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_vsw_biped_phi0_sim_swing_watch:(c[132],x[4])->(swing_watch[5]) */
+static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
-  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
-  casadi_real a36, a37, a38, a39, a40, a41, a42, a43;
+  casadi_real a24, a25, a26, a27, a28, a29;
   a00=arg[1][1];
-  a01=arg[0][2];
+  a01=arg[0][16];
   a01=(a00-a01);
   res[0][0]=a01;
   a01=arg[1][2];
@@ -293,294 +700,269 @@ static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   a02=arg[1][0];
   a03=cos(a02);
   res[0][2]=a03;
-  a03=arg[0][4];
-  a04=casadi_sq(a03);
-  a04=(a04*a03);
-  a04=(a04*a03);
-  a05=arg[0][3];
+  a03=arg[0][19];
+  a04=arg[0][17];
+  a05=cos(a00);
   a06=casadi_sq(a05);
   a07=(a04*a06);
-  a08=casadi_sq(a03);
-  a09=arg[0][0];
-  a10=casadi_sq(a09);
-  a11=(a08*a10);
-  a12=(a06*a11);
-  a13=cos(a00);
-  a14=casadi_sq(a13);
-  a15=(a12*a14);
-  a16=(a12+a15);
-  a17=casadi_sq(a05);
-  a17=(a17*a05);
-  a18=(a17*a11);
-  a19=(2.*a18);
-  a16=(a16+a19);
-  a07=(a07-a16);
-  a14=(a14*a19);
-  a07=(a07-a14);
-  a14=cos(a02);
-  a19=casadi_sq(a14);
-  a16=casadi_sq(a03);
-  a16=(a16*a03);
-  a20=(a16*a09);
-  a21=(2.*a20);
-  a22=(a06*a21);
-  a23=(a19*a22);
-  a07=(a07-a23);
-  a23=(a04*a06);
-  a24=casadi_sq(a01);
-  a25=(a24*a14);
-  a26=(a25*a09);
-  a27=(a23*a26);
-  a07=(a07-a27);
-  a27=arg[1][3];
-  a28=(a27*a01);
-  a29=(a00-a02);
-  a30=cos(a29);
-  a31=(a28*a30);
-  a32=(2.*a31);
-  a33=(a10*a16);
-  a34=(a06*a33);
-  a35=(a32*a34);
-  a07=(a07-a35);
-  a35=(a25*a08);
-  a36=casadi_sq(a09);
-  a36=(a36*a09);
-  a35=(a35*a36);
-  a36=(2.*a17);
-  a37=(a35*a36);
-  a07=(a07-a37);
-  a37=(a35*a05);
-  a07=(a07-a37);
-  a37=(a24*a30);
-  a38=(a17*a33);
-  a39=(a38*a13);
-  a40=(a37*a39);
-  a07=(a07-a40);
-  a40=casadi_sq(a27);
-  a41=sin(a02);
-  a42=(a40*a41);
-  a00=sin(a00);
-  a34=(a34*a00);
-  a43=(a42*a34);
-  a07=(a07-a43);
-  a33=(a33*a36);
-  a33=(a33*a00);
-  a42=(a42*a33);
-  a07=(a07-a42);
-  a42=(a24*a41);
-  a34=(a34*a42);
-  a07=(a07-a34);
-  a42=(a42*a33);
-  a07=(a07-a42);
-  a42=4.;
-  a31=(a42*a31);
-  a31=(a31*a38);
-  a07=(a07-a31);
-  a26=(a42*a26);
-  a31=(a04*a17);
-  a26=(a26*a31);
-  a07=(a07-a26);
-  a26=3.;
-  a34=(a26*a06);
-  a34=(a34*a35);
-  a07=(a07-a34);
-  a31=(a31*a09);
-  a34=(2.*a31);
-  a34=(a34*a37);
-  a07=(a07-a34);
-  a34=(a04*a17);
-  a37=casadi_sq(a30);
-  a34=(a34*a37);
-  a07=(a07+a34);
-  a34=(a04*a17);
-  a34=(a34*a19);
-  a07=(a07+a34);
-  a12=(2.*a12);
-  a29=sin(a29);
-  a34=(a13*a29);
-  a35=(a12*a34);
-  a35=(a35*a41);
-  a07=(a07-a35);
-  a35=(a17*a37);
-  a35=(a35*a21);
-  a07=(a07-a35);
-  a35=casadi_sq(a03);
-  a35=casadi_sq(a35);
-  a03=(a03*a35);
-  a35=(a17*a03);
-  a35=(a35*a32);
-  a07=(a07-a35);
-  a39=(a40*a39);
-  a39=(a39*a14);
-  a07=(a07-a39);
-  a33=(a24*a33);
-  a33=(a33*a29);
-  a07=(a07-a33);
-  a25=(a25*a38);
-  a25=(a25*a13);
-  a07=(a07-a25);
-  a25=(a42*a17);
-  a25=(a25*a19);
-  a25=(a25*a20);
-  a07=(a07-a25);
-  a18=(a42*a18);
-  a18=(a18*a34);
-  a18=(a18*a41);
-  a07=(a07-a18);
-  a18=(2.*a40);
-  a18=(a18*a31);
-  a18=(a18*a30);
-  a07=(a07-a18);
+  a04=(a04+a07);
+  a08=arg[0][18];
+  a04=(a04+a08);
+  a03=(a03-a04);
+  a06=(a06*a08);
+  a03=(a03-a06);
+  a06=cos(a02);
+  a08=casadi_sq(a06);
+  a04=arg[0][20];
+  a09=(a08*a04);
+  a03=(a03-a09);
+  a09=arg[0][21];
+  a10=casadi_sq(a01);
+  a11=(a10*a06);
+  a12=arg[0][3];
+  a13=(a11*a12);
+  a09=(a09*a13);
+  a03=(a03-a09);
+  a09=arg[1][3];
+  a14=(a09*a01);
+  a15=(a00-a02);
+  a16=cos(a15);
+  a17=(a14*a16);
   a18=(2.*a17);
-  a18=(a18*a16);
-  a18=(a18*a09);
-  a07=(a07+a18);
-  a18=(a06*a37);
-  a18=(a18*a08);
-  a18=(a18*a10);
-  a07=(a07+a18);
-  a18=(a17*a03);
-  a18=(a18*a40);
-  a18=(a18*a30);
-  a07=(a07+a18);
-  a18=(a17*a03);
-  a18=(a18*a24);
-  a18=(a18*a30);
-  a07=(a07+a18);
-  a03=(a17*a03);
-  a03=(a03*a24);
-  a03=(a03*a14);
-  a07=(a07+a03);
-  a03=(a19*a08);
-  a03=(a03*a10);
-  a03=(a03*a05);
-  a07=(a07+a03);
-  a28=(2.*a28);
-  a28=(a28*a31);
-  a28=(a28*a00);
-  a28=(a28*a41);
-  a07=(a07-a28);
-  a28=(2.*a17);
-  a28=(a28*a37);
+  a19=arg[0][22];
+  a20=(a18*a19);
+  a03=(a03-a20);
+  a20=arg[0][23];
+  a21=(a11*a20);
+  a22=arg[0][24];
+  a21=(a21*a22);
+  a22=arg[0][25];
+  a22=(a21*a22);
+  a03=(a03-a22);
+  a22=arg[0][4];
+  a23=(a21*a22);
+  a03=(a03-a23);
+  a23=(a10*a16);
+  a24=arg[0][26];
+  a25=(a24*a05);
+  a26=(a23*a25);
+  a03=(a03-a26);
+  a26=casadi_sq(a09);
+  a27=sin(a02);
+  a28=(a26*a27);
+  a00=sin(a00);
+  a19=(a19*a00);
+  a29=(a28*a19);
+  a03=(a03-a29);
+  a29=arg[0][27];
+  a29=(a29*a00);
+  a28=(a28*a29);
+  a03=(a03-a28);
+  a28=(a10*a27);
+  a19=(a19*a28);
+  a03=(a03-a19);
+  a28=(a28*a29);
+  a03=(a03-a28);
+  a28=4.;
+  a17=(a28*a17);
+  a17=(a17*a24);
+  a03=(a03-a17);
+  a28=(a28*a13);
+  a13=arg[0][28];
+  a28=(a28*a13);
+  a03=(a03-a28);
+  a28=arg[0][29];
+  a28=(a28*a21);
+  a03=(a03-a28);
+  a28=arg[0][30];
+  a28=(a28*a23);
+  a03=(a03-a28);
+  a28=arg[0][31];
+  a23=casadi_sq(a16);
+  a28=(a28*a23);
+  a03=(a03+a28);
+  a28=arg[0][32];
   a28=(a28*a08);
-  a28=(a28*a10);
-  a07=(a07+a28);
-  a28=(a42*a06);
-  a28=(a28*a19);
-  a28=(a28*a08);
-  a28=(a28*a10);
-  a07=(a07+a28);
-  a28=(a42*a17);
-  a28=(a28*a19);
-  a28=(a28*a08);
-  a28=(a28*a10);
-  a07=(a07+a28);
-  a28=(a06*a40);
-  a28=(a28*a10);
-  a28=(a28*a16);
-  a28=(a28*a30);
-  a07=(a07+a28);
-  a28=(a06*a24);
-  a28=(a28*a10);
-  a28=(a28*a16);
-  a28=(a28*a30);
-  a07=(a07+a28);
-  a28=(2.*a17);
-  a28=(a28*a40);
-  a28=(a28*a10);
-  a28=(a28*a16);
-  a28=(a28*a30);
-  a07=(a07+a28);
-  a28=(2.*a17);
-  a28=(a28*a24);
-  a28=(a28*a10);
-  a28=(a28*a16);
-  a28=(a28*a30);
-  a07=(a07+a28);
-  a26=(a26*a06);
-  a26=(a26*a24);
-  a26=(a26*a10);
-  a26=(a26*a16);
-  a26=(a26*a14);
-  a07=(a07+a26);
-  a26=6.;
-  a26=(a26*a17);
-  a26=(a26*a24);
-  a26=(a26*a10);
-  a26=(a26*a16);
-  a26=(a26*a14);
-  a07=(a07+a26);
-  a26=(a04*a17);
-  a26=(a26*a40);
-  a26=(a26*a00);
-  a26=(a26*a41);
-  a26=(a26*a09);
-  a07=(a07+a26);
-  a26=(a04*a17);
-  a26=(a26*a24);
-  a26=(a26*a00);
-  a26=(a26*a29);
-  a26=(a26*a09);
-  a07=(a07+a26);
-  a26=(a04*a17);
-  a26=(a26*a24);
-  a26=(a26*a00);
-  a26=(a26*a41);
-  a26=(a26*a09);
-  a07=(a07+a26);
-  a26=(2.*a17);
-  a26=(a26*a16);
-  a26=(a26*a13);
-  a26=(a26*a29);
-  a26=(a26*a41);
-  a26=(a26*a09);
-  a07=(a07+a26);
-  a04=(a42*a04);
-  a04=(a04*a17);
-  a04=(a04*a30);
-  a04=(a04*a27);
-  a04=(a04*a01);
-  a04=(a04*a09);
-  a07=(a07+a04);
-  a06=(2.*a06);
-  a06=(a06*a10);
-  a06=(a06*a16);
-  a06=(a06*a27);
-  a06=(a06*a00);
-  a06=(a06*a41);
-  a06=(a06*a01);
-  a07=(a07+a06);
-  a06=(2.*a17);
-  a06=(a06*a10);
-  a06=(a06*a16);
-  a06=(a06*a13);
-  a06=(a06*a14);
-  a06=(a06*a27);
-  a06=(a06*a01);
-  a07=(a07+a06);
-  a42=(a42*a17);
-  a42=(a42*a10);
-  a42=(a42*a16);
-  a42=(a42*a27);
-  a42=(a42*a00);
-  a42=(a42*a41);
-  a42=(a42*a01);
-  a07=(a07+a42);
-  a12=(a12+a23);
-  a12=(a12-a15);
-  a12=(a12-a22);
+  a03=(a03+a28);
+  a28=arg[0][33];
+  a15=sin(a15);
+  a21=(a05*a15);
+  a28=(a28*a21);
+  a28=(a28*a27);
+  a03=(a03-a28);
+  a28=arg[0][34];
+  a28=(a28*a23);
+  a13=arg[0][35];
+  a28=(a28*a13);
+  a03=(a03-a28);
+  a28=arg[0][36];
+  a28=(a28*a18);
+  a03=(a03-a28);
+  a25=(a26*a25);
+  a25=(a25*a06);
+  a03=(a03-a25);
+  a29=(a10*a29);
+  a29=(a29*a15);
+  a03=(a03-a29);
+  a11=(a11*a24);
   a11=(a11*a05);
-  a12=(a12+a11);
-  a07=(a07/a12);
-  res[0][3]=a07;
-  a07=arg[0][1];
-  a02=(a02-a07);
+  a03=(a03-a11);
+  a11=arg[0][37];
+  a11=(a11*a08);
+  a24=arg[0][38];
+  a11=(a11*a24);
+  a03=(a03-a11);
+  a11=arg[0][39];
+  a11=(a11*a21);
+  a11=(a11*a27);
+  a03=(a03-a11);
+  a11=(2.*a26);
+  a21=arg[0][40];
+  a11=(a11*a21);
+  a11=(a11*a16);
+  a03=(a03-a11);
+  a11=arg[0][41];
+  a03=(a03+a11);
+  a11=arg[0][42];
+  a24=(a11*a23);
+  a24=(a24*a20);
+  a29=arg[0][43];
+  a24=(a24*a29);
+  a03=(a03+a24);
+  a24=arg[0][44];
+  a24=(a24*a26);
+  a24=(a24*a16);
+  a03=(a03+a24);
+  a24=arg[0][45];
+  a24=(a24*a10);
+  a24=(a24*a16);
+  a03=(a03+a24);
+  a24=arg[0][46];
+  a24=(a24*a10);
+  a24=(a24*a06);
+  a03=(a03+a24);
+  a24=(a08*a20);
+  a24=(a24*a29);
+  a24=(a24*a22);
+  a03=(a03+a24);
+  a14=(2.*a14);
+  a14=(a14*a21);
+  a14=(a14*a00);
+  a14=(a14*a27);
+  a03=(a03-a14);
+  a14=arg[0][47];
+  a14=(a14*a23);
+  a14=(a14*a20);
+  a14=(a14*a29);
+  a03=(a03+a14);
+  a14=arg[0][48];
+  a14=(a14*a08);
+  a14=(a14*a20);
+  a14=(a14*a29);
+  a03=(a03+a14);
+  a14=arg[0][49];
+  a14=(a14*a08);
+  a14=(a14*a20);
+  a14=(a14*a29);
+  a03=(a03+a14);
+  a14=(a11*a26);
+  a14=(a14*a29);
+  a20=arg[0][50];
+  a14=(a14*a20);
+  a14=(a14*a16);
+  a03=(a03+a14);
+  a11=(a11*a10);
+  a11=(a11*a29);
+  a11=(a11*a20);
+  a11=(a11*a16);
+  a03=(a03+a11);
+  a11=arg[0][51];
+  a11=(a11*a26);
+  a11=(a11*a29);
+  a11=(a11*a20);
+  a11=(a11*a16);
+  a03=(a03+a11);
+  a11=arg[0][52];
+  a11=(a11*a10);
+  a11=(a11*a29);
+  a11=(a11*a20);
+  a11=(a11*a16);
+  a03=(a03+a11);
+  a11=arg[0][53];
+  a11=(a11*a10);
+  a11=(a11*a29);
+  a11=(a11*a20);
+  a11=(a11*a06);
+  a03=(a03+a11);
+  a11=arg[0][54];
+  a11=(a11*a10);
+  a11=(a11*a29);
+  a11=(a11*a20);
+  a11=(a11*a06);
+  a03=(a03+a11);
+  a11=arg[0][55];
+  a11=(a11*a26);
+  a11=(a11*a00);
+  a11=(a11*a27);
+  a11=(a11*a12);
+  a03=(a03+a11);
+  a11=arg[0][56];
+  a11=(a11*a10);
+  a11=(a11*a00);
+  a11=(a11*a15);
+  a11=(a11*a12);
+  a03=(a03+a11);
+  a11=arg[0][57];
+  a11=(a11*a10);
+  a11=(a11*a00);
+  a11=(a11*a27);
+  a11=(a11*a12);
+  a03=(a03+a11);
+  a11=arg[0][58];
+  a11=(a11*a05);
+  a11=(a11*a15);
+  a11=(a11*a27);
+  a11=(a11*a12);
+  a03=(a03+a11);
+  a11=arg[0][59];
+  a11=(a11*a16);
+  a11=(a11*a09);
+  a11=(a11*a01);
+  a11=(a11*a12);
+  a03=(a03+a11);
+  a11=arg[0][60];
+  a11=(a11*a09);
+  a11=(a11*a00);
+  a11=(a11*a27);
+  a11=(a11*a01);
+  a03=(a03+a11);
+  a11=arg[0][61];
+  a11=(a11*a05);
+  a11=(a11*a06);
+  a11=(a11*a09);
+  a11=(a11*a01);
+  a03=(a03+a11);
+  a11=arg[0][62];
+  a11=(a11*a09);
+  a11=(a11*a00);
+  a11=(a11*a27);
+  a11=(a11*a01);
+  a03=(a03+a11);
+  a11=arg[0][63];
+  a11=(a11-a07);
+  a11=(a11-a04);
+  a04=arg[0][64];
+  a11=(a11+a04);
+  a03=(a03/a11);
+  res[0][3]=a03;
+  a03=arg[0][65];
+  a02=(a02-a03);
   res[0][4]=a02;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f1(arg, res, iw, w, mem);
+  return casadi_f2(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_watch_checkout(void) {
@@ -608,7 +990,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_swing_watch_default_in(c
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_swing_watch_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -623,8 +1005,8 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_swing_watch_name_out(cas
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_swing_watch_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
@@ -652,56 +1034,48 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_watch_work_bytes(casadi_in
   return 0;
 }
 
-/* vsw_vsw_biped_phi0_sim_caught_short_flow:(p[5],x[4])->(caught_short_flow[4]) */
-static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
-  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10;
-  a00=arg[1][2];
-  res[0][0]=a00;
-  a00=arg[1][3];
-  res[0][1]=a00;
-  a00=arg[1][0];
-  a01=sin(a00);
-  a02=arg[0][0];
-  a03=(a01*a02);
-  a04=arg[0][3];
-  a05=(2.*a04);
-  a06=(a03*a05);
-  a06=(a03+a06);
-  a07=arg[0][4];
-  a04=(a07*a04);
-  a08=arg[0][2];
-  a08=(a08-a00);
-  a09=sin(a08);
-  a10=(a04*a09);
-  a06=(a06+a10);
-  a04=(a04*a01);
-  a06=(a06-a04);
-  a04=casadi_sq(a02);
-  a01=(a05*a07);
-  a02=(a01*a02);
-  a10=(a04-a02);
-  a04=(a05*a04);
-  a10=(a10+a04);
-  a07=casadi_sq(a07);
-  a05=(a05*a07);
-  a10=(a10+a05);
-  a03=(a03*a01);
-  a03=(a03*a09);
-  a10=(a10+a03);
-  a08=cos(a08);
-  a02=(a02*a08);
-  a00=cos(a00);
-  a02=(a02*a00);
-  a10=(a10-a02);
-  a06=(a06/a10);
-  res[0][2]=a06;
-  a06=0.;
-  res[0][3]=a06;
+/* vsw_vsw_biped_phi0_sim_caught_short_flow:(c[132],x[4])->(caught_short_flow[4]) */
+static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1, a2, a3, a4, a5, a6, a7;
+  a0=arg[1][2];
+  res[0][0]=a0;
+  a0=arg[1][3];
+  res[0][1]=a0;
+  a0=arg[1][0];
+  a1=sin(a0);
+  a2=arg[0][3];
+  a2=(a1*a2);
+  a3=arg[0][66];
+  a3=(a2*a3);
+  a3=(a2+a3);
+  a4=arg[0][67];
+  a5=arg[0][16];
+  a5=(a5-a0);
+  a6=sin(a5);
+  a7=(a4*a6);
+  a3=(a3+a7);
+  a4=(a4*a1);
+  a3=(a3-a4);
+  a4=arg[0][69];
+  a1=arg[0][68];
+  a2=(a2*a1);
+  a2=(a2*a6);
+  a4=(a4+a2);
+  a2=arg[0][70];
+  a5=cos(a5);
+  a2=(a2*a5);
+  a0=cos(a0);
+  a2=(a2*a0);
+  a4=(a4-a2);
+  a3=(a3/a4);
+  res[0][2]=a3;
+  a3=0.;
+  res[0][3]=a3;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f2(arg, res, iw, w, mem);
+  return casadi_f3(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_flow_checkout(void) {
@@ -729,7 +1103,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_caught_short_flow_defaul
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_short_flow_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -744,15 +1118,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_short_flow_name_o
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_short_flow_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_short_flow_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -773,146 +1147,138 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_flow_work_bytes(cas
   return 0;
 }
 
-/* vsw_vsw_biped_phi0_sim_caught_short_watch:(p[5],x[4])->(caught_short_watch[4]) */
-static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_vsw_biped_phi0_sim_caught_short_watch:(c[132],x[4])->(caught_short_watch[4]) */
+static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
-  casadi_real a24, a25, a26, a27, a28;
   a00=arg[1][0];
-  a01=arg[0][1];
+  a01=arg[0][65];
   a01=(a00-a01);
   res[0][0]=a01;
   a01=arg[1][2];
   res[0][1]=a01;
   a02=cos(a00);
   res[0][2]=a02;
-  a02=arg[0][0];
-  a03=casadi_sq(a02);
-  a04=cos(a00);
-  a05=casadi_sq(a04);
-  a06=(a03*a05);
-  a07=arg[0][3];
-  a08=casadi_sq(a07);
-  a09=arg[0][4];
-  a10=casadi_sq(a09);
-  a11=(a08*a10);
-  a12=(2.*a11);
-  a13=(a06+a12);
-  a14=4.;
-  a15=(a14*a06);
-  a16=(a08*a15);
-  a13=(a13+a16);
-  a17=arg[0][2];
-  a17=(a17-a00);
-  a18=sin(a17);
+  a02=arg[0][71];
+  a03=cos(a00);
+  a04=casadi_sq(a03);
+  a02=(a02*a04);
+  a05=arg[0][72];
+  a06=(a02+a05);
+  a07=arg[0][73];
+  a08=4.;
+  a09=(a08*a02);
+  a10=(a07*a09);
+  a06=(a06+a10);
+  a11=arg[0][16];
+  a11=(a11-a00);
+  a12=sin(a11);
   a00=sin(a00);
-  a18=(a18*a00);
-  a00=(a12*a18);
-  a13=(a13+a00);
-  a19=(2.*a07);
-  a10=(a19*a10);
-  a20=(a09*a02);
-  a21=(a19*a20);
-  a17=cos(a17);
-  a22=(a17*a04);
-  a23=(a21*a22);
-  a23=(a10-a23);
-  a13=(a13+a23);
+  a12=(a12*a00);
+  a00=(a05*a12);
+  a06=(a06+a00);
+  a13=arg[0][75];
+  a14=arg[0][74];
+  a11=cos(a11);
+  a15=(a11*a03);
+  a16=(a14*a15);
+  a16=(a13-a16);
+  a06=(a06+a16);
   a01=casadi_sq(a01);
-  a04=(a01*a04);
-  a24=casadi_sq(a02);
-  a24=(a24*a02);
-  a24=(a04*a24);
-  a13=(a13-a24);
-  a01=(a01*a17);
-  a25=(a01*a02);
-  a26=(a12*a25);
-  a13=(a13-a26);
-  a27=(a05*a11);
-  a13=(a13+a27);
-  a17=casadi_sq(a17);
-  a27=(a11*a17);
-  a13=(a13+a27);
-  a27=(2.*a08);
-  a28=casadi_sq(a09);
-  a28=(a28*a09);
-  a27=(a27*a28);
-  a28=(a04*a27);
-  a13=(a13+a28);
-  a15=(a15*a07);
-  a13=(a13+a15);
-  a15=(a01*a09);
-  a16=(a16*a15);
-  a13=(a13+a16);
-  a27=(a01*a27);
-  a13=(a13+a27);
-  a02=(a04*a02);
-  a27=(a00*a02);
-  a13=(a13+a27);
-  a00=(a00*a25);
-  a13=(a13+a00);
-  a00=(a03*a09);
+  a03=(a01*a03);
+  a17=arg[0][76];
+  a17=(a03*a17);
+  a06=(a06-a17);
+  a01=(a01*a11);
+  a18=arg[0][3];
+  a19=(a01*a18);
+  a20=(a05*a19);
+  a06=(a06-a20);
+  a21=arg[0][77];
+  a22=(a04*a21);
+  a06=(a06+a22);
+  a11=casadi_sq(a11);
+  a21=(a21*a11);
+  a06=(a06+a21);
+  a21=arg[0][78];
+  a22=(a03*a21);
+  a06=(a06+a22);
+  a22=arg[0][4];
+  a09=(a09*a22);
+  a06=(a06+a09);
+  a09=arg[0][79];
+  a23=(a01*a09);
+  a10=(a10*a23);
+  a06=(a06+a10);
+  a21=(a01*a21);
+  a06=(a06+a21);
+  a18=(a03*a18);
+  a21=(a00*a18);
+  a06=(a06+a21);
+  a00=(a00*a19);
+  a06=(a06+a00);
+  a00=arg[0][80];
   a01=(a01*a00);
-  a25=(a01*a07);
-  a13=(a13+a25);
-  a25=(a14*a08);
-  a20=(a25*a20);
-  a27=(a05*a20);
-  a13=(a13-a27);
-  a26=(a05*a26);
-  a13=(a13-a26);
-  a05=(a05*a21);
-  a13=(a13-a05);
-  a14=(a14*a24);
-  a24=(a08*a14);
-  a13=(a13-a24);
-  a14=(a14*a07);
-  a13=(a13-a14);
-  a20=(a20*a22);
-  a13=(a13-a20);
-  a10=(a02*a10);
-  a13=(a13-a10);
-  a10=6.;
-  a11=(a10*a11);
-  a11=(a11*a02);
-  a13=(a13-a11);
-  a11=(2.*a08);
-  a11=(a11*a01);
-  a13=(a13+a11);
-  a11=3.;
-  a00=(a04*a00);
-  a11=(a11*a00);
-  a11=(a11*a07);
-  a13=(a13+a11);
-  a10=(a10*a08);
-  a10=(a10*a00);
-  a13=(a13+a10);
-  a06=(a19*a06);
-  a06=(a06*a15);
-  a13=(a13+a06);
-  a12=(a12*a17);
-  a12=(a12*a02);
-  a13=(a13-a12);
-  a25=(a25*a00);
-  a25=(a25*a18);
-  a13=(a13-a25);
-  a19=(a03*a19);
-  a04=(a04*a19);
-  a04=(a04*a18);
-  a04=(a04*a09);
-  a13=(a13-a04);
-  a03=(a03+a19);
-  a03=(a03+a23);
-  a03=(a03-a21);
-  a21=(a21*a18);
-  a03=(a03+a21);
-  a13=(a13/a03);
-  res[0][3]=a13;
+  a19=(a01*a22);
+  a06=(a06+a19);
+  a19=arg[0][81];
+  a21=(a04*a19);
+  a06=(a06-a21);
+  a20=(a04*a20);
+  a06=(a06-a20);
+  a04=(a04*a14);
+  a06=(a06-a04);
+  a08=(a08*a17);
+  a07=(a07*a08);
+  a06=(a06-a07);
+  a08=(a08*a22);
+  a06=(a06-a08);
+  a19=(a19*a15);
+  a06=(a06-a19);
+  a13=(a18*a13);
+  a06=(a06-a13);
+  a13=arg[0][82];
+  a13=(a13*a18);
+  a06=(a06-a13);
+  a13=arg[0][83];
+  a13=(a13*a01);
+  a06=(a06+a13);
+  a13=3.;
+  a00=(a03*a00);
+  a13=(a13*a00);
+  a13=(a13*a22);
+  a06=(a06+a13);
+  a13=arg[0][84];
+  a13=(a13*a00);
+  a06=(a06+a13);
+  a13=arg[0][85];
+  a13=(a13*a02);
+  a13=(a13*a23);
+  a06=(a06+a13);
+  a05=(a05*a11);
+  a05=(a05*a18);
+  a06=(a06-a05);
+  a05=arg[0][86];
+  a05=(a05*a00);
+  a05=(a05*a12);
+  a06=(a06-a05);
+  a05=arg[0][87];
+  a03=(a03*a05);
+  a03=(a03*a12);
+  a03=(a03*a09);
+  a06=(a06-a03);
+  a03=arg[0][88];
+  a03=(a03+a16);
+  a03=(a03-a14);
+  a14=(a14*a12);
+  a03=(a03+a14);
+  a06=(a06/a03);
+  res[0][3]=a06;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f3(arg, res, iw, w, mem);
+  return casadi_f4(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_watch_checkout(void) {
@@ -940,7 +1306,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_caught_short_watch_defau
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_short_watch_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -955,15 +1321,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_short_watch_name_
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_short_watch_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_short_watch_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -984,52 +1350,45 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_watch_work_bytes(ca
   return 0;
 }
 
-/* vsw_vsw_biped_phi0_sim_caught_long_flow:(p[5],x[4])->(caught_long_flow[4]) */
-static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
-  casadi_real a0, a1, a2, a3, a4, a5, a6, a7, a8;
+/* vsw_vsw_biped_phi0_sim_caught_long_flow:(c[132],x[4])->(caught_long_flow[4]) */
+static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1, a2, a3, a4, a5, a6;
   a0=arg[1][2];
   res[0][0]=a0;
   a0=arg[1][3];
   res[0][1]=a0;
   a0=arg[1][0];
   a1=sin(a0);
-  a2=arg[0][3];
-  a3=(2.*a2);
-  a4=(a3*a1);
-  a4=(a1+a4);
-  a5=arg[0][4];
-  a2=(a5*a2);
-  a6=arg[0][2];
-  a6=(a6-a0);
-  a7=sin(a6);
-  a8=(a2*a7);
-  a4=(a4+a8);
+  a2=arg[0][89];
   a2=(a2*a1);
-  a4=(a4-a2);
-  a2=1.;
-  a2=(a2+a3);
-  a8=(a3*a5);
-  a2=(a2-a8);
-  a5=casadi_sq(a5);
-  a3=(a3*a5);
-  a2=(a2+a3);
-  a7=(a8*a7);
-  a7=(a7*a1);
-  a2=(a2+a7);
-  a6=cos(a6);
-  a8=(a8*a6);
+  a2=(a1+a2);
+  a3=arg[0][90];
+  a4=arg[0][16];
+  a4=(a4-a0);
+  a5=sin(a4);
+  a6=(a3*a5);
+  a2=(a2+a6);
+  a3=(a3*a1);
+  a2=(a2-a3);
+  a3=arg[0][92];
+  a6=arg[0][91];
+  a5=(a6*a5);
+  a5=(a5*a1);
+  a3=(a3+a5);
+  a4=cos(a4);
+  a6=(a6*a4);
   a0=cos(a0);
-  a8=(a8*a0);
-  a2=(a2-a8);
-  a4=(a4/a2);
-  res[0][2]=a4;
-  a4=0.;
-  res[0][3]=a4;
+  a6=(a6*a0);
+  a3=(a3-a6);
+  a2=(a2/a3);
+  res[0][2]=a2;
+  a2=0.;
+  res[0][3]=a2;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f4(arg, res, iw, w, mem);
+  return casadi_f5(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_flow_checkout(void) {
@@ -1057,7 +1416,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_caught_long_flow_default
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_long_flow_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -1072,15 +1431,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_long_flow_name_ou
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_long_flow_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_long_flow_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -1101,17 +1460,16 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_flow_work_bytes(casa
   return 0;
 }
 
-/* vsw_vsw_biped_phi0_sim_caught_long_watch:(p[5],x[4])->(caught_long_watch[4]) */
-static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_vsw_biped_phi0_sim_caught_long_watch:(c[132],x[4])->(caught_long_watch[4]) */
+static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
-  casadi_real a24, a25, a26;
   a00=arg[1][0];
   a01=cos(a00);
-  a02=arg[0][2];
+  a02=arg[0][16];
   a03=(a02-a00);
   a03=cos(a03);
-  a04=arg[0][0];
+  a04=arg[0][3];
   a03=(a03*a04);
   a01=(a01-a03);
   res[0][0]=a01;
@@ -1119,118 +1477,113 @@ static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   res[0][1]=a01;
   a03=cos(a00);
   res[0][2]=a03;
-  a03=arg[0][3];
-  a04=casadi_sq(a03);
-  a05=arg[0][4];
-  a06=casadi_sq(a05);
-  a07=(a04*a06);
-  a08=(2.*a07);
-  a09=4.;
-  a10=cos(a00);
-  a11=casadi_sq(a10);
-  a12=(a09*a11);
-  a13=(a04*a12);
-  a14=(a08+a13);
+  a03=arg[0][94];
+  a04=arg[0][93];
+  a05=4.;
+  a06=cos(a00);
+  a07=casadi_sq(a06);
+  a08=(a05*a07);
+  a09=(a04*a08);
+  a10=(a03+a09);
   a02=(a02-a00);
-  a15=sin(a02);
+  a11=sin(a02);
   a00=sin(a00);
-  a15=(a15*a00);
-  a00=(a08*a15);
-  a14=(a14+a00);
-  a16=(2.*a03);
-  a06=(a16*a06);
-  a17=(a16*a05);
+  a11=(a11*a00);
+  a00=(a03*a11);
+  a10=(a10+a00);
+  a12=arg[0][96];
+  a13=arg[0][95];
   a02=cos(a02);
-  a18=(a17*a02);
-  a18=(a18*a10);
-  a18=(a06-a18);
-  a14=(a14+a18);
-  a14=(a14+a11);
+  a14=(a13*a02);
+  a14=(a14*a06);
+  a14=(a12-a14);
+  a10=(a10+a14);
+  a10=(a10+a07);
   a01=casadi_sq(a01);
-  a19=(a01*a10);
-  a20=(a09*a19);
-  a21=(a04*a20);
-  a14=(a14-a21);
-  a13=(a13*a05);
-  a14=(a14-a13);
-  a22=(a17*a11);
-  a14=(a14-a22);
-  a23=(a01*a02);
-  a24=(a08*a23);
-  a14=(a14-a24);
-  a14=(a14-a19);
-  a25=casadi_sq(a02);
-  a26=(a07*a25);
-  a14=(a14+a26);
-  a26=(a07*a11);
-  a14=(a14+a26);
-  a12=(a12*a03);
-  a14=(a14+a12);
-  a13=(a13*a23);
-  a14=(a14+a13);
-  a22=(a22*a23);
-  a14=(a14+a22);
-  a22=(a15*a24);
-  a14=(a14+a22);
-  a02=(a02*a05);
-  a01=(a02*a01);
-  a22=(2.*a04);
-  a13=(a01*a22);
-  a14=(a14+a13);
-  a01=(a01*a03);
-  a14=(a14+a01);
-  a01=casadi_sq(a05);
-  a01=(a01*a05);
-  a22=(a22*a01);
-  a23=(a23*a22);
-  a14=(a14+a23);
-  a22=(a22*a19);
-  a14=(a14+a22);
-  a00=(a00*a19);
-  a14=(a14+a00);
-  a00=6.;
-  a00=(a00*a19);
-  a07=(a07*a00);
-  a14=(a14-a07);
-  a20=(a20*a03);
-  a14=(a14-a20);
-  a24=(a24*a11);
-  a14=(a14-a24);
-  a24=(a17*a15);
-  a11=(a24*a19);
-  a14=(a14-a11);
-  a06=(a06*a19);
-  a14=(a14-a06);
-  a00=(a04*a00);
-  a00=(a00*a05);
-  a14=(a14+a00);
-  a08=(a08*a25);
-  a08=(a08*a19);
-  a14=(a14-a08);
-  a21=(a21*a15);
-  a21=(a21*a05);
-  a14=(a14-a21);
-  a09=(a09*a04);
-  a09=(a09*a02);
-  a09=(a09*a10);
-  a14=(a14-a09);
-  a09=3.;
+  a15=(a01*a06);
+  a05=(a05*a15);
+  a16=(a04*a05);
+  a10=(a10-a16);
+  a17=arg[0][79];
+  a09=(a09*a17);
+  a10=(a10-a09);
+  a18=(a13*a07);
+  a10=(a10-a18);
+  a19=(a01*a02);
+  a20=(a03*a19);
+  a10=(a10-a20);
+  a10=(a10-a15);
+  a21=arg[0][97];
+  a22=casadi_sq(a02);
+  a23=(a21*a22);
+  a10=(a10+a23);
+  a23=(a21*a07);
+  a10=(a10+a23);
+  a23=arg[0][4];
+  a08=(a08*a23);
+  a10=(a10+a08);
   a09=(a09*a19);
-  a09=(a09*a05);
-  a09=(a09*a03);
-  a14=(a14+a09);
-  a09=1.;
-  a09=(a09+a16);
-  a09=(a09+a24);
-  a09=(a09+a18);
-  a09=(a09-a17);
-  a14=(a14/a09);
-  res[0][3]=a14;
+  a10=(a10+a09);
+  a18=(a18*a19);
+  a10=(a10+a18);
+  a18=(a11*a20);
+  a10=(a10+a18);
+  a02=(a02*a17);
+  a01=(a02*a01);
+  a18=arg[0][98];
+  a18=(a01*a18);
+  a10=(a10+a18);
+  a01=(a01*a23);
+  a10=(a10+a01);
+  a01=arg[0][99];
+  a19=(a19*a01);
+  a10=(a10+a19);
+  a01=(a01*a15);
+  a10=(a10+a01);
+  a00=(a00*a15);
+  a10=(a10+a00);
+  a00=6.;
+  a00=(a00*a15);
+  a21=(a21*a00);
+  a10=(a10-a21);
+  a05=(a05*a23);
+  a10=(a10-a05);
+  a20=(a20*a07);
+  a10=(a10-a20);
+  a20=(a13*a11);
+  a07=(a20*a15);
+  a10=(a10-a07);
+  a12=(a12*a15);
+  a10=(a10-a12);
+  a04=(a04*a00);
+  a04=(a04*a17);
+  a10=(a10+a04);
+  a03=(a03*a22);
+  a03=(a03*a15);
+  a10=(a10-a03);
+  a16=(a16*a11);
+  a16=(a16*a17);
+  a10=(a10-a16);
+  a16=arg[0][100];
+  a16=(a16*a02);
+  a16=(a16*a06);
+  a10=(a10-a16);
+  a16=3.;
+  a16=(a16*a15);
+  a16=(a16*a17);
+  a16=(a16*a23);
+  a10=(a10+a16);
+  a16=arg[0][101];
+  a16=(a16+a20);
+  a16=(a16+a14);
+  a16=(a16-a13);
+  a10=(a10/a16);
+  res[0][3]=a10;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f5(arg, res, iw, w, mem);
+  return casadi_f6(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_watch_checkout(void) {
@@ -1258,7 +1611,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_caught_long_watch_defaul
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_long_watch_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -1273,15 +1626,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_long_watch_name_o
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_long_watch_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_long_watch_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -1302,55 +1655,49 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_watch_work_bytes(cas
   return 0;
 }
 
-/* vsw_vsw_biped_phi0_sim_catch_reset:(p[5],x[4])->(catch_reset[4]) */
-static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
-  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10;
-  a00=arg[1][0];
-  res[0][0]=a00;
-  a00=arg[0][2];
-  res[0][1]=a00;
-  a01=arg[0][0];
-  a02=casadi_sq(a01);
-  a03=arg[1][2];
-  a04=(a02*a03);
-  a05=arg[0][3];
-  a06=(2.*a05);
-  a07=(a06*a04);
-  a04=(a04+a07);
-  a07=arg[0][4];
-  a08=casadi_sq(a07);
-  a09=(a06*a08);
-  a10=(a09*a03);
-  a04=(a04+a10);
-  a07=(a07*a01);
-  a01=(a06*a07);
-  a10=(a01*a03);
-  a04=(a04-a10);
-  a10=arg[1][3];
-  a10=(a10*a05);
-  a08=(a08*a10);
-  a04=(a04-a08);
-  a00=cos(a00);
-  a08=(a01*a00);
-  a03=(a08*a03);
-  a04=(a04-a03);
-  a07=(a07*a10);
-  a07=(a07*a00);
-  a04=(a04+a07);
-  a09=(a02+a09);
-  a09=(a09-a01);
-  a09=(a09-a08);
-  a02=(a02*a06);
-  a09=(a09+a02);
-  a04=(a04/a09);
-  res[0][2]=a04;
-  a04=0.;
-  res[0][3]=a04;
+/* vsw_vsw_biped_phi0_sim_catch_reset:(c[132],x[4])->(catch_reset[4]) */
+static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1, a2, a3, a4;
+  a0=arg[1][0];
+  res[0][0]=a0;
+  a0=arg[0][16];
+  res[0][1]=a0;
+  a0=arg[0][102];
+  a1=arg[1][2];
+  a0=(a0*a1);
+  a2=arg[0][103];
+  a2=(a2*a0);
+  a0=(a0+a2);
+  a2=arg[0][104];
+  a2=(a2*a1);
+  a0=(a0+a2);
+  a2=arg[0][105];
+  a2=(a2*a1);
+  a0=(a0-a2);
+  a2=arg[0][106];
+  a3=arg[1][3];
+  a4=arg[0][4];
+  a3=(a3*a4);
+  a2=(a2*a3);
+  a0=(a0-a2);
+  a2=arg[0][107];
+  a2=(a2*a1);
+  a0=(a0-a2);
+  a2=arg[0][108];
+  a2=(a2*a3);
+  a3=arg[0][109];
+  a2=(a2*a3);
+  a0=(a0+a2);
+  a2=arg[0][110];
+  a0=(a0/a2);
+  res[0][2]=a0;
+  a0=0.;
+  res[0][3]=a0;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_catch_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f6(arg, res, iw, w, mem);
+  return casadi_f7(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_catch_reset_checkout(void) {
@@ -1378,7 +1725,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_catch_reset_default_in(c
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_catch_reset_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -1393,15 +1740,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_catch_reset_name_out(cas
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_catch_reset_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_catch_reset_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -1422,58 +1769,53 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_catch_reset_work_bytes(casadi_in
   return 0;
 }
 
-/* vsw_vsw_biped_phi0_sim_extension_reset:(p[5],x[4])->(extension_reset[4]) */
-static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
-  casadi_real a0, a1, a2, a3, a4, a5, a6, a7, a8, a9;
+/* vsw_vsw_biped_phi0_sim_extension_reset:(c[132],x[4])->(extension_reset[4]) */
+static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1, a2, a3, a4, a5, a6;
   a0=arg[1][0];
   res[0][0]=a0;
-  a1=arg[0][2];
+  a1=arg[0][16];
   res[0][1]=a1;
   a2=arg[1][2];
-  a3=arg[0][0];
-  a4=casadi_sq(a3);
-  a4=(a2*a4);
-  a5=arg[0][3];
-  a5=(2.*a5);
-  a6=(a5*a4);
-  a4=(a4+a6);
-  a6=arg[0][4];
-  a7=casadi_sq(a6);
-  a7=(a5*a7);
-  a8=(a7*a2);
-  a4=(a4+a8);
-  a6=(a5*a6);
+  a3=arg[0][111];
+  a3=(a2*a3);
+  a4=arg[0][112];
+  a4=(a4*a3);
+  a3=(a3+a4);
+  a4=arg[0][113];
+  a4=(a4*a2);
+  a3=(a3+a4);
+  a4=arg[0][114];
   a1=(a1-a0);
-  a8=sin(a1);
-  a8=(a6*a8);
-  a9=sin(a0);
-  a8=(a8*a9);
-  a2=(a2*a3);
-  a3=(a8*a2);
-  a4=(a4+a3);
-  a3=(a6*a2);
-  a4=(a4-a3);
+  a5=sin(a1);
+  a5=(a4*a5);
+  a6=sin(a0);
+  a5=(a5*a6);
+  a6=arg[0][3];
+  a2=(a2*a6);
+  a6=(a5*a2);
+  a3=(a3+a6);
+  a6=(a4*a2);
+  a3=(a3-a6);
   a1=cos(a1);
-  a1=(a6*a1);
+  a1=(a4*a1);
   a0=cos(a0);
   a1=(a1*a0);
   a2=(a1*a2);
-  a4=(a4-a2);
-  a2=1.;
+  a3=(a3-a2);
+  a2=arg[0][115];
   a2=(a2+a5);
-  a2=(a2+a7);
-  a2=(a2+a8);
-  a2=(a2-a6);
+  a2=(a2-a4);
   a2=(a2-a1);
-  a4=(a4/a2);
-  res[0][2]=a4;
-  a4=0.;
-  res[0][3]=a4;
+  a3=(a3/a2);
+  res[0][2]=a3;
+  a3=0.;
+  res[0][3]=a3;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_extension_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f7(arg, res, iw, w, mem);
+  return casadi_f8(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_extension_reset_checkout(void) {
@@ -1501,7 +1843,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_extension_reset_default_
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_extension_reset_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -1516,15 +1858,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_extension_reset_name_out
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_extension_reset_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_extension_reset_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -1545,95 +1887,81 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_extension_reset_work_bytes(casad
   return 0;
 }
 
-/* vsw_vsw_biped_phi0_sim_heelstrike_reset:(p[5],x[4])->(heelstrike_reset[4]) */
-static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
-  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
-  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21;
+/* vsw_vsw_biped_phi0_sim_heelstrike_reset:(c[132],x[4])->(heelstrike_reset[4]) */
+static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10;
   a00=arg[1][0];
-  a01=arg[0][2];
+  a01=arg[0][16];
   a00=(a00-a01);
   res[0][0]=a00;
-  a00=(-a01);
+  a00=arg[0][116];
   res[0][1]=a00;
-  a00=arg[0][3];
-  a02=casadi_sq(a00);
-  a03=arg[1][2];
-  a04=(a02*a03);
-  a05=arg[0][4];
-  a06=casadi_sq(a05);
-  a07=arg[0][0];
-  a08=(a06*a07);
-  a01=cos(a01);
-  a09=(a08*a01);
-  a10=(a04*a09);
-  a11=casadi_sq(a05);
-  a11=(a11*a05);
-  a11=(a02*a11);
-  a12=(a11*a03);
-  a13=(a12*a01);
-  a10=(a10-a13);
-  a14=(a03*a00);
-  a09=(a14*a09);
-  a10=(a10+a09);
-  a09=(a12*a07);
-  a15=(a10-a09);
-  a16=casadi_sq(a05);
-  a16=(a16*a05);
-  a16=(a16*a05);
-  a16=(a02*a16);
-  a17=(a16*a03);
-  a15=(a15+a17);
-  a17=casadi_sq(a07);
-  a18=(a17*a06);
-  a00=(a18*a00);
-  a16=(a16+a00);
-  a02=(a02*a18);
-  a18=(2.*a02);
-  a16=(a16+a18);
-  a19=casadi_sq(a01);
-  a20=(a02*a19);
-  a16=(a16-a20);
-  a21=(2.*a07);
-  a11=(a21*a11);
-  a16=(a16-a11);
-  a15=(a15/a16);
-  res[0][2]=a15;
-  a17=(a17*a05);
-  a14=(a17*a14);
-  a10=(a10+a14);
-  a05=(2.*a04);
-  a05=(a05*a17);
-  a10=(a10+a05);
-  a10=(a10+a12);
-  a10=(a10+a09);
-  a20=(a20*a03);
-  a10=(a10+a20);
-  a00=(a00*a03);
-  a10=(a10-a00);
-  a18=(a18*a03);
-  a10=(a10-a18);
-  a14=(a19*a14);
-  a10=(a10-a14);
-  a05=(a19*a05);
-  a10=(a10-a05);
-  a13=(a13*a07);
-  a10=(a10-a13);
-  a19=(a04*a19);
-  a19=(a19*a08);
-  a10=(a10+a19);
-  a02=(a02*a01);
-  a02=(a02*a03);
-  a10=(a10+a02);
-  a04=(a04*a21);
-  a04=(a04*a06);
-  a10=(a10-a04);
-  a10=(a10/a16);
-  res[0][3]=a10;
+  a00=arg[0][117];
+  a01=arg[1][2];
+  a00=(a00*a01);
+  a02=arg[0][118];
+  a03=(a00*a02);
+  a04=arg[0][119];
+  a04=(a04*a01);
+  a05=arg[0][120];
+  a05=(a04*a05);
+  a03=(a03-a05);
+  a06=arg[0][4];
+  a06=(a01*a06);
+  a02=(a06*a02);
+  a03=(a03+a02);
+  a02=arg[0][3];
+  a07=(a04*a02);
+  a08=(a03-a07);
+  a09=arg[0][121];
+  a09=(a09*a01);
+  a08=(a08+a09);
+  a09=arg[0][122];
+  a08=(a08/a09);
+  res[0][2]=a08;
+  a08=arg[0][123];
+  a06=(a08*a06);
+  a03=(a03+a06);
+  a10=(2.*a00);
+  a10=(a10*a08);
+  a03=(a03+a10);
+  a03=(a03+a04);
+  a03=(a03+a07);
+  a07=arg[0][124];
+  a07=(a07*a01);
+  a03=(a03+a07);
+  a07=arg[0][125];
+  a07=(a07*a01);
+  a03=(a03-a07);
+  a07=arg[0][126];
+  a07=(a07*a01);
+  a03=(a03-a07);
+  a07=arg[0][127];
+  a06=(a07*a06);
+  a03=(a03-a06);
+  a10=(a07*a10);
+  a03=(a03-a10);
+  a05=(a05*a02);
+  a03=(a03-a05);
+  a07=(a00*a07);
+  a05=arg[0][128];
+  a07=(a07*a05);
+  a03=(a03+a07);
+  a07=arg[0][129];
+  a07=(a07*a01);
+  a03=(a03+a07);
+  a07=arg[0][130];
+  a00=(a00*a07);
+  a07=arg[0][131];
+  a00=(a00*a07);
+  a03=(a03-a00);
+  a03=(a03/a09);
+  res[0][3]=a03;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_heelstrike_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f8(arg, res, iw, w, mem);
+  return casadi_f9(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_heelstrike_reset_checkout(void) {
@@ -1661,7 +1989,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_heelstrike_reset_default
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_heelstrike_reset_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -1676,15 +2004,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_heelstrike_reset_name_ou
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_heelstrike_reset_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_heelstrike_reset_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -1705,15 +2033,15 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_heelstrike_reset_work_bytes(casa
   return 0;
 }
 
-/* vsw_vsw_biped_phi0_sim_step_length:(p[5],x[4])->(step_length) */
-static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_vsw_biped_phi0_sim_step_length:(c[132],x[4])->(step_length) */
+static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2;
   a0=arg[1][0];
   a1=sin(a0);
-  a2=arg[0][2];
+  a2=arg[0][16];
   a2=(a2-a0);
   a2=sin(a2);
-  a0=arg[0][0];
+  a0=arg[0][3];
   a2=(a2*a0);
   a1=(a1+a2);
   res[0][0]=a1;
@@ -1721,7 +2049,7 @@ static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_step_length(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f9(arg, res, iw, w, mem);
+  return casadi_f10(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_step_length_checkout(void) {
@@ -1749,7 +2077,7 @@ CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_step_length_default_in(c
 
 CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_step_length_name_in(casadi_int i) {
   switch (i) {
-    case 0: return "p";
+    case 0: return "c";
     case 1: return "x";
     default: return 0;
   }
@@ -1764,15 +2092,15 @@ CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_step_length_name_out(cas
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_step_length_sparsity_in(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
-    case 1: return casadi_s1;
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_step_length_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s2;
+    case 0: return casadi_s3;
     default: return 0;
   }
 }
@@ -1810,7 +2138,7 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_step_length_work_bytes(casadi_in
 #define VSW_SZ_ARG 2
 #define VSW_SZ_RES 1
 #define VSW_SZ_IW 0
-#define VSW_SZ_W 44
+#define VSW_SZ_W 30
 
 /* Every function of the table in CasADi's calling convention, called directly (not through
    a pointer) so that the compiler can inline it into the integrator's loops. */
@@ -1823,34 +2151,42 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_step_length_work_bytes(casadi_in
         fn(vsw_arg_, vsw_res_, vsw_iw_, vsw_w_, 0);                                          \
     } while (0)
 
-/* Per phase: x' = f(p, x). */
-static inline void vsw_flow(int phase, const double *p, const double *x, double *out)
+/* The constants of the functions below from the parameters: the parameters they use and
+   their parameter-only subexpressions, computed once a walk instead of at every call. */
+#define VSW_NC 132
+static inline void vsw_constants(const double *p, double *c)
+{
+    VSW_CALL(vsw_vsw_biped_phi0_sim_constants, p, p, c);
+}
+
+/* Per phase: x' = f(x) (with the constants c). */
+static inline void vsw_flow(int phase, const double *c, const double *x, double *out)
 {
     switch (phase) {
     case 0:
-        VSW_CALL(vsw_vsw_biped_phi0_sim_swing_flow, p, x, out);
+        VSW_CALL(vsw_vsw_biped_phi0_sim_swing_flow, c, x, out);
         return;
     case 1:
-        VSW_CALL(vsw_vsw_biped_phi0_sim_caught_short_flow, p, x, out);
+        VSW_CALL(vsw_vsw_biped_phi0_sim_caught_short_flow, c, x, out);
         return;
     case 2:
-        VSW_CALL(vsw_vsw_biped_phi0_sim_caught_long_flow, p, x, out);
+        VSW_CALL(vsw_vsw_biped_phi0_sim_caught_long_flow, c, x, out);
         return;
     }
 }
 
 /* Per phase: its events' guards, then the failures' guards. */
-static inline void vsw_watch(int phase, const double *p, const double *x, double *out)
+static inline void vsw_watch(int phase, const double *c, const double *x, double *out)
 {
     switch (phase) {
     case 0:
-        VSW_CALL(vsw_vsw_biped_phi0_sim_swing_watch, p, x, out);
+        VSW_CALL(vsw_vsw_biped_phi0_sim_swing_watch, c, x, out);
         return;
     case 1:
-        VSW_CALL(vsw_vsw_biped_phi0_sim_caught_short_watch, p, x, out);
+        VSW_CALL(vsw_vsw_biped_phi0_sim_caught_short_watch, c, x, out);
         return;
     case 2:
-        VSW_CALL(vsw_vsw_biped_phi0_sim_caught_long_watch, p, x, out);
+        VSW_CALL(vsw_vsw_biped_phi0_sim_caught_long_watch, c, x, out);
         return;
     }
 }
@@ -1861,22 +2197,22 @@ static const int vsw_watch_direction[VSW_NPHASES][VSW_MAX_WATCH] = {{1, -1, -1, 
 static const int vsw_watch_what[VSW_NPHASES][VSW_MAX_WATCH] = {{0, -1, -2, -3, -4}, {1, -1, -2, -3, 0}, {2, -1, -2, -3, 0}};
 
 /* Per event: the reset. */
-static inline void vsw_reset(int event, const double *p, const double *x, double *out)
+static inline void vsw_reset(int event, const double *c, const double *x, double *out)
 {
     switch (event) {
     case 0:
-        VSW_CALL(vsw_vsw_biped_phi0_sim_catch_reset, p, x, out);
+        VSW_CALL(vsw_vsw_biped_phi0_sim_catch_reset, c, x, out);
         return;
     case 1:
-        VSW_CALL(vsw_vsw_biped_phi0_sim_extension_reset, p, x, out);
+        VSW_CALL(vsw_vsw_biped_phi0_sim_extension_reset, c, x, out);
         return;
     case 2:
-        VSW_CALL(vsw_vsw_biped_phi0_sim_heelstrike_reset, p, x, out);
+        VSW_CALL(vsw_vsw_biped_phi0_sim_heelstrike_reset, c, x, out);
         return;
     }
 }
 /* Per event: the condition for it to count into *out; 0 when it always counts. */
-static inline int vsw_when(int event, const double *p, const double *x, double *out)
+static inline int vsw_when(int event, const double *c, const double *x, double *out)
 {
     switch (event) {
 
@@ -1887,8 +2223,8 @@ static inline int vsw_when(int event, const double *p, const double *x, double *
 static const int vsw_event_target[VSW_NEVENTS] = {1, 2, 0};
 static const int vsw_event_ends_step[VSW_NEVENTS] = {0, 0, 1};
 /* The step length from the state just before the step event; 0 when the model has none. */
-static inline int vsw_step_length(const double *p, const double *x, double *out)
+static inline int vsw_step_length(const double *c, const double *x, double *out)
 {
-    VSW_CALL(vsw_vsw_biped_phi0_sim_step_length, p, x, out);
+    VSW_CALL(vsw_vsw_biped_phi0_sim_step_length, c, x, out);
     return 1;
 }
