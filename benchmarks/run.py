@@ -731,51 +731,55 @@ def case_batch_before(count: int, reps: int, before: str = BATCH_BEFORE) -> list
 
 
 def _numba_rows(count: int, reps: int) -> list[Row]:
-    """Case 15's peer: the simplest walker through a hand-written numba DOP853
-    (benchmarks/peers/numba_dop853.py: the same integrator rules, the model typed by hand)
-    against the batch simulator, one thread each, walks of 20 steps; skipped without numba."""
+    """Case 15's peer: the simplest walker and the compass gait through a hand-written
+    numba DOP853 (benchmarks/peers/numba_dop853.py: the same integrator rules, each model
+    typed by hand) against the batch simulator, one thread each, walks of 20 steps;
+    skipped without numba."""
     try:
-        from peers.numba_dop853 import simplest_walker
+        from peers import numba_dop853
     except ImportError as exc:
-        return [Row("15", "simplest_walker against a numba DOP853", "-", None, None,
+        return [Row("15", "the batch simulator against a numba DOP853", "-", None, None,
                     ">= 1.5x faster than numba", None,
                     note=f"not run: {exc} (pip install numba)")]  # fmt: skip
     from vsw.batch import simulator
     from vsw.models import load
 
-    _, params, starts = _near_gait_starts("simplest_walker", count)
-    sim = simulator(load("simplest_walker"))
-    sim.library()
-    walk_numba = simplest_walker()
-    p = np.asarray(params, dtype=float)
     rows = []
-    for tol in (1e-10, 1e-12):
-        n = len(starts)
-        found: dict = {}
+    for key in ("simplest_walker", "compass_gait"):
+        _, params, starts = _near_gait_starts(key, count)
+        sim = simulator(load(key))
+        sim.library()
+        walk_numba = getattr(numba_dop853, key)()
+        p = np.asarray(params, dtype=float)
+        for tol in (1e-10, 1e-12):
+            n = len(starts)
+            found: dict = {}
 
-        def theirs(steps=20, tol=tol, found=found, n=n):
-            final, walked = np.empty((n, 4)), np.empty(n, np.int64)
-            walk_numba(p, starts, steps, tol, tol, final, walked, np.empty(n, np.int64))
-            found["numba"] = final, walked
+            def theirs(steps=20, tol=tol, found=found, n=n, walk_numba=walk_numba, p=p,
+                       starts=starts):  # fmt: skip
+                final, walked = np.empty((n, 4)), np.empty(n, np.int64)
+                walk_numba(p, starts, steps, tol, tol, final, walked, np.empty(n, np.int64))
+                found["numba"] = final, walked
 
-        def ours(steps=20, tol=tol, found=found):
-            found["ours"] = sim.walk(params, starts, steps, converge_tol=0.0, period_tol=0.0,
-                                     threads=1, tolerance=tol)  # fmt: skip
+            def ours(steps=20, tol=tol, found=found, sim=sim, params=params, starts=starts):
+                found["ours"] = sim.walk(params, starts, steps, converge_tol=0.0,
+                                         period_tol=0.0, threads=1, tolerance=tol)  # fmt: skip
 
-        ours(1), theirs(1)  # one step from each start: the two step maps
-        gap = float(np.max(np.abs(found["ours"].final - found["numba"][0])
-                           / np.maximum(1, np.abs(found["numba"][0]))))  # fmt: skip
-        t_ours, t_theirs = interleaved(ours, theirs, reps)
-        steps_ours, steps_theirs = int(found["ours"].steps.sum()), int(found["numba"][1].sum())
-        ratio = (t_ours.median / steps_ours) / (t_theirs.median / steps_theirs)
-        rows.append(Row(
-            "15", f"simplest_walker: walks of 20 steps, batch simulator (1 thread), rtol = atol "
-            f"= {tol:g}", "a hand-written numba DOP853 (benchmarks/peers), the same rules",
-            t_ours.per(steps_ours), t_theirs.per(steps_theirs), ">= 1.5x faster",
-            ratio <= 1 / 1.5,
-            note=f"per step over {n} walks ({steps_ours} and {steps_theirs} steps); one step "
-            f"from each start: the two maps differ by at most {gap:.1g} (relative)",
-        ))  # fmt: skip
+            ours(1), theirs(1)  # one step from each start: the two step maps
+            gap = float(np.max(np.abs(found["ours"].final - found["numba"][0])
+                               / np.maximum(1, np.abs(found["numba"][0]))))  # fmt: skip
+            t_ours, t_theirs = interleaved(ours, theirs, reps)
+            steps_ours = int(found["ours"].steps.sum())
+            steps_theirs = int(found["numba"][1].sum())
+            ratio = (t_ours.median / steps_ours) / (t_theirs.median / steps_theirs)
+            rows.append(Row(
+                "15", f"{key}: walks of 20 steps, batch simulator (1 thread), rtol = atol = "
+                f"{tol:g}", "a hand-written numba DOP853 (benchmarks/peers), the same rules",
+                t_ours.per(steps_ours), t_theirs.per(steps_theirs), ">= 1.5x faster",
+                ratio <= 1 / 1.5,
+                note=f"per step over {n} walks ({steps_ours} and {steps_theirs} steps); one "
+                f"step from each start: the two maps differ by at most {gap:.1g} (relative)",
+            ))  # fmt: skip
     return rows
 
 

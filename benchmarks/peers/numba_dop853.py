@@ -316,3 +316,77 @@ def simplest_walker():
         _simplest_flow, _simplest_watch, np.array([1, -1, -1, -1]),
         np.array([0, -1, -1, -1]), _simplest_when, _simplest_reset, 4,
     )  # fmt: skip
+
+
+# --- the compass gait (Goswami, Thuilot and Espiau 1998), typed by hand --------------------
+# Angles from the slope normal (theta: stance leg, psi: swing leg; from the vertical they
+# are theta + gamma and psi + gamma). Goswami's M q'' + N q' + g = 0 with q = (swing,
+# stance); tests/test_passive_walkers.py and this file's checks compare it with the
+# derivation's flow, guards and reset.
+
+
+@njit
+def _compass_accelerations(p, y):
+    m_h, m, a, b, gamma, g = p[0], p[1], p[2], p[3], p[4], p[5]
+    theta, psi, theta_dot, psi_dot = y[0], y[1], y[2], y[3]
+    l = a + b
+    c, s = math.cos(theta - psi), math.sin(theta - psi)
+    m11, m12, m22 = m * b * b, -m * l * b * c, (m_h + m) * l * l + m * a * a
+    r1 = -m * l * b * s * theta_dot * theta_dot - m * b * g * math.sin(psi + gamma)
+    r2 = m * l * b * s * psi_dot * psi_dot + (m_h * l + m * a + m * l) * g * math.sin(theta + gamma)
+    det = m11 * m22 - m12 * m12
+    return (m11 * r2 - m12 * r1) / det, (m22 * r1 - m12 * r2) / det
+
+
+@njit
+def _compass_flow(p, y, out):
+    theta_ddot, psi_ddot = _compass_accelerations(p, y)
+    out[0] = y[2]
+    out[1] = y[3]
+    out[2] = theta_ddot
+    out[3] = psi_ddot
+
+
+@njit
+def _compass_watch(p, y, out):
+    m_h, m, a, b, gamma, g = p[0], p[1], p[2], p[3], p[4], p[5]
+    theta, psi, theta_dot, psi_dot = y[0], y[1], y[2], y[3]
+    l = a + b
+    theta_ddot, psi_ddot = _compass_accelerations(p, y)
+    c = math.cos(theta)
+    out[0] = psi + theta  # heelstrike: the swing foot reaches the slope (rising)
+    out[1] = theta_dot  # fell-backward
+    out[2] = c  # fell-forward
+    # lift-off: the ground's normal force on the stance foot, in M g
+    stance = theta_ddot * math.sin(theta) + theta_dot * theta_dot * c
+    swing = psi_ddot * math.sin(psi) + psi_dot * psi_dot * math.cos(psi)
+    out[3] = (-(m_h * l + m * a + m * l) * stance + m * b * swing
+              + (m_h + 2 * m) * g * math.cos(gamma))  # fmt: skip
+
+
+@njit
+def _compass_reset(p, y, out):
+    m_h, m, a, b = p[0], p[1], p[2], p[3]
+    theta, psi, theta_dot, psi_dot = y[0], y[1], y[2], y[3]
+    l = a + b
+    c = math.cos(psi - theta)
+    # Angular momenta about the new contact (whole body) and the hip (the new swing leg):
+    # Q+ qd+ = Q- qd-, q = (swing, stance), the legs swapping roles.
+    q11, q12, q22 = -m * a * b, -m * a * b + (m_h * l * l + 2 * m * a * l) * c, -m * a * b
+    h1, h2 = q11 * psi_dot + q12 * theta_dot, q22 * theta_dot
+    p11, p12 = m * b * (b - l * c), m * l * (l - b * c) + m * a * a + m_h * l * l
+    p21, p22 = m * b * b, -m * b * l * c
+    det = p11 * p22 - p12 * p21
+    swing_dot, stance_dot = (p22 * h1 - p12 * h2) / det, (p11 * h2 - p21 * h1) / det
+    out[0] = psi
+    out[1] = theta
+    out[2] = stance_dot
+    out[3] = swing_dot
+
+
+def compass_gait():
+    """The compass gait's walk function (watch order as the generated table's)."""
+    return make_walker(
+        _compass_flow, _compass_watch, np.array([1, -1, -1, -1]),
+        np.array([0, -1, -1, -1]), _simplest_when, _compass_reset, 4,
+    )  # fmt: skip
