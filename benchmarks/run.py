@@ -727,7 +727,66 @@ def case_batch_before(count: int, reps: int, before: str = BATCH_BEFORE) -> list
                 f"same way: {same}; after 20 steps the states differ by at most {gap:.1g} "
                 "(relative)",
             ))  # fmt: skip
-    return rows + _numba_rows(count, reps)
+    return rows + _numba_rows(count, reps) + _floor_rows(count, reps)
+
+
+def _floor_rows(count: int, reps: int) -> list[Row]:
+    """Case 15's floor: the flow and guard evaluations a step needs (counted by a build
+    with -DVSW_COUNT_CALLS over the same walks) times their cost alone (timed in C over
+    the walks' start states), against the time per step of the walks themselves."""
+    import ctypes
+
+    from vsw.batch import _FLAG_SETS, CSRC, BatchSimulator, simulator
+    from vsw.compiled import build_library
+    from vsw.models import load
+
+    rows = []
+    values = {"vsw_biped": {"beta": 0.97, "theta_II": -0.2}}
+    for key in ("simplest_walker", "compass_gait", "vsw_biped"):
+        _, params, starts = _near_gait_starts(key, count, values.get(key))
+        sim = BatchSimulator(load(key))  # not the cached one: it gets the counting build
+        source = (b"#define _POSIX_C_SOURCE 199309L\n#define VSW_COUNT_CALLS 1\n"
+                  + sim.source.read_bytes() + b"\n"
+                  + (CSRC / "hybrid_batch.c").read_bytes())  # fmt: skip
+        counting, _ = build_library(source, f"{key}_sim_counting", _FLAG_SETS, includes=(CSRC,))
+        n_phases = len(sim.model.phases)
+        counts = (ctypes.c_longlong * (2 * n_phases))()
+        counting.vsw_batch_counts(counts)  # from zero
+        sim._bind(counting)
+        sim._lib, sim._tried = counting, True
+        walked = sim.walk(params, starts, 20, converge_tol=0.0, period_tol=0.0, threads=1,
+                          tolerance=1e-10)  # fmt: skip
+        counting.vsw_batch_counts(counts)
+        steps = int(walked.steps.sum())
+        costs = (ctypes.c_double * 3)()
+        dbl = ctypes.POINTER(ctypes.c_double)
+        p = np.ascontiguousarray(params, dtype=float)
+        x = np.ascontiguousarray(starts, dtype=float)
+        floor = 0.0
+        per_step = []
+        for phase in range(n_phases):
+            counting.vsw_batch_call_costs(ctypes.c_int(phase), p.ctypes.data_as(dbl),
+                                          x.ctypes.data_as(dbl), ctypes.c_longlong(len(x)),
+                                          ctypes.c_longlong(200), costs)  # fmt: skip
+            flows, watches = counts[phase] / steps, counts[n_phases + phase] / steps
+            floor += flows * costs[0] + watches * costs[1]
+            per_step.append(f"{flows:.0f} flows at {costs[0] * 1e9:.0f} ns and {watches:.0f} "
+                            f"guard sets at {costs[1] * 1e9:.0f} ns")  # fmt: skip
+        fast = simulator(load(key))
+        fast.library()
+
+        def walk(fast=fast, params=params, starts=starts):
+            fast.walk(params, starts, 20, converge_tol=0.0, period_tol=0.0, threads=1,
+                      tolerance=1e-10)  # fmt: skip
+
+        t = timed(walk, reps).per(steps)
+        rows.append(Row(
+            "15", f"{key}: a step of the batch simulator at rtol = atol = 1e-10, against its "
+            "floor", "the flow and guard evaluations it needs, timed alone", t,
+            Timing(floor, floor, floor), "<= 1.5x the floor", t.median <= 1.5 * floor,
+            note="per step: " + "; ".join(per_step),
+        ))  # fmt: skip
+    return rows
 
 
 def _numba_rows(count: int, reps: int) -> list[Row]:

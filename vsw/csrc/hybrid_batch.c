@@ -53,6 +53,61 @@ VSW_EXPORT void vsw_batch_stop(int on)
     vsw_stop_requested = on;
 }
 
+/* Built with VSW_COUNT_CALLS (and _POSIX_C_SOURCE) defined (benchmark case 15 only), the
+   integrator counts its flow and guard evaluations, and vsw_batch_call_costs times them
+   alone: the floor of a step. */
+#ifdef VSW_COUNT_CALLS
+#include <time.h>
+static long long vsw_flow_calls[VSW_NPHASES], vsw_watch_calls[VSW_NPHASES];
+#define VSW_FLOW(phase, ...) (++vsw_flow_calls[phase], vsw_flow(phase, __VA_ARGS__))
+#define VSW_WATCH(phase, ...) (++vsw_watch_calls[phase], vsw_watch(phase, __VA_ARGS__))
+
+/* The evaluations since the last call, per phase: flows, then guards (a phase's at once). */
+VSW_EXPORT void vsw_batch_counts(long long *out)
+{
+    for (int k = 0; k < VSW_NPHASES; ++k) {
+        out[k] = vsw_flow_calls[k];
+        out[VSW_NPHASES + k] = vsw_watch_calls[k];
+        vsw_flow_calls[k] = vsw_watch_calls[k] = 0;
+    }
+}
+
+static double vsw_seconds(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+/* Seconds per evaluation of phase `phase`'s flow (out[0]) and guards (out[1]) over the
+   n states given, `repeat` times each; out[2] the sum of every result (returned, so that
+   the compiler computes each). */
+VSW_EXPORT void vsw_batch_call_costs(int phase, const double *params, const double *states,
+                                     long long n, long long repeat, double *out)
+{
+    double c[VSW_NC > 0 ? VSW_NC : 1], f[VSW_NX], g[VSW_MAX_WATCH], sum = 0.0;
+    vsw_constants(params, c);
+    double start = vsw_seconds();
+    for (long long r = 0; r < repeat; ++r)
+        for (long long i = 0; i < n; ++i) {
+            vsw_flow(phase, c, states + i * VSW_NX, f);
+            for (int k = 0; k < VSW_NX; ++k) sum += f[k]; /* every output is needed */
+        }
+    out[0] = (vsw_seconds() - start) / (double)(repeat * n);
+    start = vsw_seconds();
+    for (long long r = 0; r < repeat; ++r)
+        for (long long i = 0; i < n; ++i) {
+            vsw_watch(phase, c, states + i * VSW_NX, g);
+            for (int k = 0; k < vsw_n_watch[phase]; ++k) sum += g[k];
+        }
+    out[1] = (vsw_seconds() - start) / (double)(repeat * n);
+    out[2] = sum;
+}
+#else
+#define VSW_FLOW vsw_flow
+#define VSW_WATCH vsw_watch
+#endif
+
 /* C99's fmax and fmin (a NaN argument is ignored) as comparisons: GCC calls the library
    for them unless told that no NaN occurs, and a call costs more than the comparison. */
 static inline double vsw_fmax(double a, double b)
@@ -87,46 +142,47 @@ static double vsw_rms(const double *x, const double *scale)
 static void vsw_rk_step(int phase, const double *p, const double *y, const double *f0, double h,
                         double K[VSW_RK_ALL][VSW_NX], double *y_new)
 {
-    double dy[VSW_NX];
+    double acc[VSW_NX];
     memcpy(K[0], f0, sizeof(double) * VSW_NX);
     /* Unrolled, the coefficients are constants and the zero ones (a quarter of the table)
-       drop out: the same sums in the same order for finite stages. */
+       drop out; each sum runs over the stages with the state's components as the inner
+       loop (one vector operation for a few components): the same sums in the same order
+       for finite stages. */
 #pragma GCC unroll 16
     for (int s = 1; s < VSW_RK_STAGES; ++s) {
-        for (int i = 0; i < VSW_NX; ++i) {
-            double acc = 0.0;
+        for (int i = 0; i < VSW_NX; ++i) acc[i] = 0.0;
 #pragma GCC unroll 16
-            for (int j = 0; j < s; ++j)
-                if (vsw_rk_a[s][j] != 0.0) acc += K[j][i] * vsw_rk_a[s][j];
-            dy[i] = y[i] + acc * h;
-        }
-        vsw_flow(phase, p, dy, K[s]);
+        for (int j = 0; j < s; ++j)
+            if (vsw_rk_a[s][j] != 0.0)
+                for (int i = 0; i < VSW_NX; ++i) acc[i] += K[j][i] * vsw_rk_a[s][j];
+        for (int i = 0; i < VSW_NX; ++i) acc[i] = y[i] + acc[i] * h;
+        VSW_FLOW(phase, p, acc, K[s]);
     }
-    for (int i = 0; i < VSW_NX; ++i) {
-        double acc = 0.0;
+    for (int i = 0; i < VSW_NX; ++i) acc[i] = 0.0;
 #pragma GCC unroll 16
-        for (int j = 0; j < VSW_RK_STAGES; ++j)
-            if (vsw_rk_b[j] != 0.0) acc += K[j][i] * vsw_rk_b[j];
-        y_new[i] = y[i] + h * acc;
-    }
-    vsw_flow(phase, p, y_new, K[VSW_RK_STAGES]);
+    for (int j = 0; j < VSW_RK_STAGES; ++j)
+        if (vsw_rk_b[j] != 0.0)
+            for (int i = 0; i < VSW_NX; ++i) acc[i] += K[j][i] * vsw_rk_b[j];
+    for (int i = 0; i < VSW_NX; ++i) y_new[i] = y[i] + h * acc[i];
+    VSW_FLOW(phase, p, y_new, K[VSW_RK_STAGES]);
 }
 
 /* SciPy's error norm of DOP853 (scipy.integrate._ivp.rk.DOP853._estimate_error_norm). */
 static double vsw_error_norm(double K[VSW_RK_ALL][VSW_NX], double h, const double *scale)
 {
-    double e5 = 0.0, e3 = 0.0;
-    for (int i = 0; i < VSW_NX; ++i) {
-        double a5 = 0.0, a3 = 0.0;
+    double a5[VSW_NX], a3[VSW_NX], e5 = 0.0, e3 = 0.0;
+    for (int i = 0; i < VSW_NX; ++i) a5[i] = a3[i] = 0.0;
 #pragma GCC unroll 16
-        for (int j = 0; j <= VSW_RK_STAGES; ++j) {
-            if (vsw_rk_e5[j] != 0.0) a5 += K[j][i] * vsw_rk_e5[j];
-            if (vsw_rk_e3[j] != 0.0) a3 += K[j][i] * vsw_rk_e3[j];
-        }
-        a5 /= scale[i];
-        a3 /= scale[i];
-        e5 += a5 * a5;
-        e3 += a3 * a3;
+    for (int j = 0; j <= VSW_RK_STAGES; ++j) {
+        if (vsw_rk_e5[j] != 0.0)
+            for (int i = 0; i < VSW_NX; ++i) a5[i] += K[j][i] * vsw_rk_e5[j];
+        if (vsw_rk_e3[j] != 0.0)
+            for (int i = 0; i < VSW_NX; ++i) a3[i] += K[j][i] * vsw_rk_e3[j];
+    }
+    for (int i = 0; i < VSW_NX; ++i) {
+        const double r5 = a5[i] / scale[i], r3 = a3[i] / scale[i];
+        e5 += r5 * r5;
+        e3 += r3 * r3;
     }
     if (e5 == 0.0 && e3 == 0.0) return 0.0;
     double denom = e5 + 0.01 * e3;
@@ -143,7 +199,7 @@ static double vsw_initial_step(int phase, const double *p, const double *y, cons
     double h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
     if (h0 > tol->phase_time_limit) h0 = tol->phase_time_limit;
     for (int i = 0; i < VSW_NX; ++i) y1[i] = y[i] + h0 * f0[i];
-    vsw_flow(phase, p, y1, f1);
+    VSW_FLOW(phase, p, y1, f1);
     for (int i = 0; i < VSW_NX; ++i) df[i] = f1[i] - f0[i];
     double d2 = vsw_rms(df, scale) / h0;
     double h1;
@@ -178,7 +234,7 @@ static void vsw_dense(int phase, const double *p, const double *y_old, const dou
                 if (vsw_rk_a_extra[s][j] != 0.0) acc += K[j][i] * vsw_rk_a_extra[s][j];
             dy[i] = y_old[i] + acc * h;
         }
-        vsw_flow(phase, p, dy, K[stage]);
+        VSW_FLOW(phase, p, dy, K[stage]);
     }
     for (int i = 0; i < VSW_NX; ++i) {
         const double delta = y_new[i] - y_old[i];
@@ -229,7 +285,7 @@ static double vsw_locate(int phase, const double *p, const double F[7][VSW_NX],
         double s = b - gb * (b - a) / (gb - ga);
         if (!(s > a && s < b)) s = 0.5 * (a + b);
         vsw_interpolate(F, y_old, s / h, ys);
-        vsw_watch(phase, p, ys, g);
+        VSW_WATCH(phase, p, ys, g);
         double gs = g[k];
         if (gs == 0.0 || (gs > 0.0) == (gb > 0.0)) { /* past the crossing: the new end */
             b = s;
@@ -256,7 +312,7 @@ static int vsw_run_phase(int phase, const double *p, double *y, double *t,
     double g0[VSW_MAX_WATCH], g1[VSW_MAX_WATCH], f0[VSW_NX], y_new[VSW_NX], scale[VSW_NX];
     double K[VSW_RK_ALL][VSW_NX], F[7][VSW_NX];
     const int n_watch = vsw_n_watch[phase];
-    vsw_watch(phase, p, y, g0);
+    VSW_WATCH(phase, p, y, g0);
     for (int k = 0; k < n_watch; ++k) /* a failure already past at the start */
         if (vsw_watch_what[phase][k] < 0 && g0[k] * vsw_watch_direction[phase][k] > 0.0) {
             *t = 0.0;
@@ -264,7 +320,7 @@ static int vsw_run_phase(int phase, const double *p, double *y, double *t,
         }
     double time = 0.0;
     for (int restart = 0; restart < VSW_RESTARTS; ++restart) {
-        vsw_flow(phase, p, y, f0);
+        VSW_FLOW(phase, p, y, f0);
         double h = vsw_initial_step(phase, p, y, f0, tol);
         int rejected = 0;
         long steps = 0;
@@ -300,7 +356,7 @@ static int vsw_run_phase(int phase, const double *p, double *y, double *t,
                 h *= vsw_fmax(0.2, 0.9 * pow(err, -1.0 / 8.0));
                 rejected = 1;
             }
-            vsw_watch(phase, p, y_new, g1);
+            VSW_WATCH(phase, p, y_new, g1);
             double first = INFINITY, y_first[VSW_NX], y_k[VSW_NX];
             int hit = -1, dense = 0;
             for (int k = 0; k < n_watch; ++k) {
@@ -326,10 +382,10 @@ static int vsw_run_phase(int phase, const double *p, double *y, double *t,
                 if (what >= 0 && vsw_when(what, p, y, &when)) {
                     if (when <= 0.0) { /* not this one: go on just past it (NaN counts) */
                         double f[VSW_NX];
-                        vsw_flow(phase, p, y, f);
+                        VSW_FLOW(phase, p, y, f);
                         for (int i = 0; i < VSW_NX; ++i) y[i] += 1e-9 * f[i];
                         time += 1e-9;
-                        vsw_watch(phase, p, y, g0);
+                        VSW_WATCH(phase, p, y, g0);
                         skipped = 1;
                         continue;
                     }
