@@ -899,7 +899,34 @@ def case_basin_grid(side: int, reps: int) -> list[Row]:
         f"in-process threads ({default_threads()})", t_remote, t_local, "<= 1.3x the local time",
         ratio <= 1.3, note=f"results identical: {same}; cluster start-up not timed",
     ))  # fmt: skip
-    return rows
+    return rows + _compass_gait_basin(side, reps)
+
+
+def _compass_gait_basin(side: int, reps: int) -> list[Row]:
+    """Case 11, issue 27: a side x side basin of the compass gait (its section declares
+    psi = -theta) around its stable gait at the defaults, over theta x theta_dot just
+    after heelstrike (psi_dot the gait's), up to 50 steps a cell, in-process threads."""
+    from vsw.grid_basin import grid_basin
+    from vsw.models import load
+    from vsw.vectorize import default_threads
+
+    m = load("compass_gait")
+    params = m.parameters()
+    gait = m.stable_gait(params, "no basin")
+    x, y = np.linspace(-0.5, -0.15, side), np.linspace(0.8, 1.7, side)
+    found = {}
+
+    def basin():
+        found["basin"] = grid_basin(m, params, "theta", x, "theta_dot", y, 50, gait=gait)
+
+    t = timed(basin, reps)
+    steps = int(found["basin"].steps.sum())
+    return [Row(
+        "11", f"basin {side} x {side}, compass gait (vsw.grid_basin, {default_threads()} "
+        "threads)", "-", t, None, "measured", None,
+        note=f"{steps} steps walked ({t.median / steps * 1e6:.1f} us a step); classes "
+        f"{found['basin'].counts()}",
+    )]  # fmt: skip
 
 
 def _process_time(command: list[str], reps: int, env: dict | None = None) -> Timing:
