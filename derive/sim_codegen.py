@@ -56,11 +56,15 @@ def _hoist_parameters(p, x, outputs: list) -> tuple:
     parameter-only subexpression an x-dependent operation uses, and every parameter used
     directly, becomes one entry of c, computed once a walk instead of at every call (the
     compass gait's flow spends about half its operations on them). The operations and
-    their order are the same, so are the results, bit for bit.
+    their order are the same, so are the results, bit for bit in CasADi's virtual machine
+    (tests/test_batch.py); compiled, up to the compiler fusing sin and cos into sincos
+    in one build and not the other (1 ulp at some states of the biped's long flow).
 
     Returns (constants(p) as an SX column, the symbols c, the outputs in c and x)."""
     import casadi as ca
 
+    if not all(out.is_dense() for out in outputs):  # an output's nonzeros are its elements
+        raise ValueError("_hoist_parameters takes dense outputs (casadi.densify)")
     table = ca.Function("table", [p, x], outputs)
     inputs = (p, x)
     value: list = [None] * table.sz_w()  # each work slot's expression now
@@ -119,8 +123,11 @@ def _c_list(values) -> str:
     return ", ".join(str(v) for v in values)
 
 
-def simulator_c_source(model: str, source: str, descriptor: dict, module: types.ModuleType) -> str:
-    """The model table of the batch simulator (see the module docstring)."""
+def table(descriptor: dict, module: types.ModuleType, prefix: str) -> types.SimpleNamespace:
+    """The table's functions before the hoisting, as (name, dense SX of (p, x)) in
+    ``pending``, with the table's structure (the C names of each dispatcher's functions,
+    watch directions and meanings, event targets): what :func:`simulator_c_source` prints
+    and tests/test_batch.py checks."""
     import casadi as ca
 
     module = _direct_trig(module, ca)
@@ -130,11 +137,12 @@ def simulator_c_source(model: str, source: str, descriptor: dict, module: types.
     p = ca.SX.sym("p", len(params))
     x = ca.SX.sym("x", len(state))
     args = [*ca.vertsplit(p), *ca.vertsplit(x)]
-    prefix = f"vsw_{model}_sim_"
     pending: list[tuple[str, ca.SX]] = []
 
     def function(name: str, out) -> str:
-        pending.append((name, ca.vertcat(*out) if isinstance(out, (tuple, list)) else out))
+        out = ca.vertcat(*out) if isinstance(out, (tuple, list)) else ca.SX(out)
+        # Dense: the C reads every element, and _hoist_parameters indexes elements.
+        pending.append((name, ca.densify(out)))
         return prefix + name
 
     phase_index = {ph["name"]: k for k, ph in enumerate(descriptor["phases"])}
@@ -180,6 +188,26 @@ def simulator_c_source(model: str, source: str, descriptor: dict, module: types.
     if descriptor["step_length"]:
         step_length = function("step_length", module.step_length_of_state(*args))
     step_event = next(e for e in descriptor["events"] if e["ends_step"])
+    return types.SimpleNamespace(
+        p=p, x=x, pending=pending, params=params, state=state, failures=failures,
+        flows=flows, watches=watches, n_watch=n_watch, directions=directions, whats=whats,
+        max_watch=max_watch, resets=resets, whens=whens, targets=targets,
+        ends_step=ends_step, step_length=step_length, step_event=step_event,
+        start_phase=phase_index[step_event["target"]],
+    )  # fmt: skip
+
+
+def simulator_c_source(model: str, source: str, descriptor: dict, module: types.ModuleType) -> str:
+    """The model table of the batch simulator (see the module docstring)."""
+    import casadi as ca
+
+    prefix = f"vsw_{model}_sim_"
+    t = table(descriptor, module, prefix)
+    p, x, pending, params, state = t.p, t.x, t.pending, t.params, t.state
+    failures, flows, watches, n_watch = t.failures, t.flows, t.watches, t.n_watch
+    directions, whats, max_watch, resets = t.directions, t.whats, t.max_watch, t.resets
+    whens, targets, ends_step = t.whens, t.targets, t.ends_step
+    step_length = t.step_length
 
     constants, c, hoisted = _hoist_parameters(p, x, [out for _, out in pending])
     functions = [ca.Function(prefix + "constants", [p], [constants], ["p"], ["c"])]
@@ -223,7 +251,7 @@ def simulator_c_source(model: str, source: str, descriptor: dict, module: types.
         n_events=len(descriptor["events"]),
         n_failures=len(failures),
         max_watch=max_watch,
-        start_phase=phase_index[step_event["target"]],
+        start_phase=t.start_phase,
         sz_arg=max(f.sz_arg() for f in functions),
         sz_res=max(f.sz_res() for f in functions),
         sz_iw=max(f.sz_iw() for f in functions),

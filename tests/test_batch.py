@@ -85,7 +85,8 @@ def _boundary_starts(model, params, state, component, sim, rng):
 @pytest.mark.parametrize("name", [*MODELS, "kneed_walker", "torso_walker"])
 def test_hoisted_constants_change_no_function_of_the_table(name):
     """The table's functions of (c, x), c = constants(p) (derive/sim_codegen.py,
-    _hoist_parameters), against the same functions of (p, x) before the hoisting, both
+    _hoist_parameters), against the same functions of (p, x) before the hoisting (every
+    function the C table holds, built as simulator_c_source builds them), both
     evaluated by CasADi's virtual machine at 50 random states: equal bit for bit (the
     same operations in the same order, some done once a walk)."""
     import casadi as ca
@@ -93,18 +94,8 @@ def test_hoisted_constants_change_no_function_of_the_table(name):
     import derive.sim_codegen as sim_codegen
 
     model = load(name)
-    spec, module = model.spec, sim_codegen._direct_trig(model.module, ca)
-    n_params, n = len(spec["parameters"]), len(spec["coordinates"])
-    p, x = ca.SX.sym("p", n_params), ca.SX.sym("x", 2 * n)
-    args = [*ca.vertsplit(p), *ca.vertsplit(x)]
-    outputs = []
-    for phase in spec["phases"]:
-        accelerations = getattr(module, f"{phase['name']}_accelerations")(*args)
-        outputs.append(ca.vertcat(*args[n_params + n :], *accelerations))
-        outputs += [getattr(module, fn)(*args) for _, fn, _ in phase["failures"]]
-    for event in spec["events"]:
-        outputs.append(ca.vertcat(*getattr(module, f"event_{event['name']}_reset")(*args)))
-        outputs.append(getattr(module, f"event_{event['name']}_guard")(*args))
+    t = sim_codegen.table(model.spec, model.module, "")
+    p, x, outputs = t.p, t.x, [out for _, out in t.pending]
     constants, c, hoisted = sim_codegen._hoist_parameters(p, x, outputs)
     assert 0 < constants.numel() and not ca.depends_on(constants, x)
     before = ca.Function("before", [p, x], outputs)
@@ -112,7 +103,7 @@ def test_hoisted_constants_change_no_function_of_the_table(name):
     constants_of = ca.Function("constants", [p], [constants])
     params = np.asarray(model.parameters(), dtype=float)
     rng = np.random.default_rng(3)
-    for state in rng.uniform(-1.0, 1.0, (50, 2 * n)):
+    for state in rng.uniform(-1.0, 1.0, (50, x.numel())):
         want = [np.asarray(v) for v in before(params, state)]
         got = [np.asarray(v) for v in after(constants_of(params), state)]
         for w, g in zip(want, got):

@@ -25,7 +25,7 @@ def run() -> int:
     # Kept to the end: a command's run installs its own handler and gives this one back,
     # which then ignores a Ctrl-C that comes after the outcome is settled (stop.settle).
     signal.signal(signal.SIGINT, stop.interrupt_unless_settled)
-    code = main()
+    code = main(program=True)
     # Ignored by the system itself from here on: Python's finalisation gives a handled
     # signal its default action back (death by SIGINT), but leaves an ignored one alone.
     signal.signal(signal.SIGINT, signal.SIG_IGN)

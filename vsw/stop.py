@@ -84,6 +84,7 @@ def interrupt_unless_settled(signum, frame) -> None:
     after. Installed for good: the process ends with the command."""
     if _settled.is_set():
         return
+    _settled.set()  # said once: a second Ctrl-C while this one ends the program is late
     sys.stderr.write("vsw: interrupted\n")
     raise SystemExit(130)
 

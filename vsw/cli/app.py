@@ -177,7 +177,16 @@ def _warning_printer(stream: TextIO) -> Callable[..., None]:
     return show
 
 
-def _run(argv: Sequence[str] | None) -> int:
+def _drop_pending_output(program: bool) -> None:
+    """In the ``vsw`` program (not a caller's process, whose standard output must stay),
+    a stopped run's output still in standard output's buffer (a result finished just
+    before the stop) goes nowhere: the descriptor is pointed at os.devnull. What was
+    flushed before stays out."""
+    if program:
+        _silence(sys.stdout)
+
+
+def _run(argv: Sequence[str] | None, program: bool) -> int:
     """Parse and run one command; every error but a failing standard output is mapped here."""
     argv = sys.argv[1:] if argv is None else list(argv)
     try:
@@ -194,6 +203,8 @@ def _run(argv: Sequence[str] | None) -> int:
         return code
     except VswInputError as exc:
         stop.settle()
+        if isinstance(exc, stop.RunTimeLimitError):
+            _drop_pending_output(program)
         prog = exc.prog if isinstance(exc, UsageError) else "vsw"
         _say(f"{prog}: error: {_one_line(exc)}")
         return EXIT_INPUT
@@ -202,8 +213,10 @@ def _run(argv: Sequence[str] | None) -> int:
         _say(f"vsw: {type(exc).__name__}: {_one_line(exc)}")
         return EXIT_SOLVER
     except SystemExit as exc:  # --help and --version exit through argparse
+        stop.settle()
         return exc.code if isinstance(exc.code, int) else EXIT_OK
     except MemoryError:
+        stop.settle()
         _say(
             "vsw: error: out of memory; use a smaller problem, or lower VSW_MAX_MEMORY so "
             "that such work is refused before it starts"
@@ -211,17 +224,21 @@ def _run(argv: Sequence[str] | None) -> int:
         return EXIT_INPUT
     except KeyboardInterrupt:
         stop.settle()
+        _drop_pending_output(program)
         _say("vsw: interrupted")
         return EXIT_INTERRUPTED
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def main(argv: Sequence[str] | None = None, *, program: bool = False) -> int:
     """Run the CLI; returns the exit status (the console script exits with it).
 
     Parameters
     ----------
     argv : sequence of str, optional
         Arguments without the program name; default ``sys.argv[1:]``.
+    program : bool
+        True in the ``vsw`` program itself (vsw/__main__.py): a stopped run's output still
+        buffered is then dropped (its standard output is the process's to end).
 
     Returns
     -------
@@ -237,7 +254,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     guard = _GuardedStdout(stdout)
     sys.stdout = guard
     try:
-        code = _run(argv)
+        code = _run(argv, program)
         # Flushed here, not at exit, so that a closed pipe or a full disk is seen here.
         guard.flush()
     except OSError as exc:

@@ -54,8 +54,8 @@ VSW_EXPORT void vsw_batch_stop(int on)
 }
 
 /* Built with VSW_COUNT_CALLS (and _POSIX_C_SOURCE) defined (benchmark case 15 only), the
-   integrator counts its flow and guard evaluations, and vsw_batch_call_costs times them
-   alone: the floor of a step. */
+   integrator counts its flow and guard evaluations (plain counters: walk on one thread),
+   and vsw_batch_call_costs times them alone: the floor of a step. */
 #ifdef VSW_COUNT_CALLS
 #include <time.h>
 static long long vsw_flow_calls[VSW_NPHASES], vsw_watch_calls[VSW_NPHASES];
