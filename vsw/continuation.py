@@ -75,6 +75,9 @@ RESIDUAL_TOL = 1e-10
 MAX_TURN = 0.3
 """Largest angle (rad) between the tangents of two consecutive points."""
 
+BOUNDARY_NUDGE = 1e-9
+"""On a boundary curve, the second parameter's move (a fraction of its range) with which a
+point is also confirmed, a hair inside the boundary (:func:`_curve_confirmed`)."""
 CONFIRM_TOL = 1e-8
 """The simulated ``k`` steps must return to ``x0`` within this (relative to max(1, |x0|),
 times the largest |eigenvalue| on an unstable gait)."""
@@ -874,9 +877,30 @@ def _curve_record(ce: _CurveEquations, w: np.ndarray, jac: np.ndarray) -> dict[s
 
 
 def _curve_confirmed(ce: _CurveEquations, w: np.ndarray, jac: np.ndarray) -> str:
-    single = _Equations(ce.model, ce.params_at(w), ce.eq.index, ce.eq.start,
-                        ce.eq.start + ce.eq.width, ce.eq.period)  # fmt: skip
-    return _confirm(single, w[:-1], ce.eq.eigenvalues(jac[:-1, :-1]))[0]
+    """The simulated walk's confirmation of a curve point (:func:`_confirm`).
+
+    On a boundary curve the phase has no duration: the walk from the point starts on its
+    failure's threshold (the biped's heelstrike lands on theta_II, where a step "begins
+    past theta_II" by the rounding of the solution: +-1e-13), a tie that rounding decides.
+    There the walk is also confirmed a hair inside: the second parameter moved by
+    BOUNDARY_NUDGE of its range, either way (the orbit moves by as little, far below
+    CONFIRM_TOL); the point counts if either walk completes."""
+    eigenvalues = ce.eq.eigenvalues(jac[:-1, :-1])
+    tries = (
+        [w]
+        if ce.kind != "boundary"
+        else [w, *(w + np.eye(len(w))[-1] * d for d in (BOUNDARY_NUDGE, -BOUNDARY_NUDGE))]
+    )
+    confirmed = "completed"
+    for k, point in enumerate(tries):
+        single = _Equations(ce.model, ce.params_at(point), ce.eq.index, ce.eq.start,
+                            ce.eq.start + ce.eq.width, ce.eq.period)  # fmt: skip
+        outcome = _confirm(single, point[:-1], eigenvalues)[0]
+        if outcome == "completed":
+            return outcome
+        if k == 0:
+            confirmed = outcome
+    return confirmed
 
 
 def _trace_curve(ce: _CurveEquations, w0: np.ndarray, direction: np.ndarray,
