@@ -61,6 +61,9 @@ BATCH_BEFORE_FLAGS = (
     ["-O2", "-ffp-contract=off", "-lm"],
 )
 """vsw/batch.py's flags at BATCH_BEFORE."""
+BATCH_VALUES = {"vsw_biped": {"beta": 0.97, "theta_II": -0.2}}
+"""Case 15's parameters where not the defaults: the biped at a stable gait (its defaults'
+gaits are unstable, so the walks would fall within a few steps)."""
 """The commit whose vsw/design.py case 8 compares with (before issue 10)."""
 
 
@@ -695,10 +698,8 @@ def case_batch_before(count: int, reps: int, before: str = BATCH_BEFORE) -> list
     from vsw.models import load
 
     rows = []
-    # The biped at a stable gait (its defaults' gaits are unstable: the walks would fall).
-    values = {"vsw_biped": {"beta": 0.97, "theta_II": -0.2}}
     for key in ("simplest_walker", "compass_gait", "vsw_biped"):
-        _, params, starts = _near_gait_starts(key, count, values.get(key))
+        _, params, starts = _near_gait_starts(key, count, BATCH_VALUES.get(key))
         now, then = simulator(load(key)), _simulator_at(key, before)
         now.library()
         for tol in (1e-10, 1e-12):
@@ -741,9 +742,8 @@ def _floor_rows(count: int, reps: int) -> list[Row]:
     from vsw.models import load
 
     rows = []
-    values = {"vsw_biped": {"beta": 0.97, "theta_II": -0.2}}
     for key in ("simplest_walker", "compass_gait", "vsw_biped"):
-        _, params, starts = _near_gait_starts(key, count, values.get(key))
+        _, params, starts = _near_gait_starts(key, count, BATCH_VALUES.get(key))
         sim = BatchSimulator(load(key))  # not the cached one: it gets the counting build
         source = (b"#define _POSIX_C_SOURCE 199309L\n#define VSW_COUNT_CALLS 1\n"
                   + sim.source.read_bytes() + b"\n"

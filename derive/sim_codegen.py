@@ -36,9 +36,10 @@ def _direct_trig(module: types.ModuleType, ca: types.ModuleType) -> types.Simple
     """The generated module with cosine and sine as two CasADi calls where it takes both
     from one tangent of the half angle. The tangent is numpy's choice (one SIMD ufunc for
     both, codegen._cos_sin_numpy); in C the compiler fuses cos and sin of one angle into
-    one sincos call, and the tangent's division and squares are gone (about 10 % of the
-    simplest walker's step). Every function of the module is rebound to the new backend,
-    so that one generated function calling another gets it too."""
+    one sincos call, and the tangent's division and squares are gone (the simplest
+    walker's step: 7.1 against 5.7 us, one measurement, stop 36). Every function of the
+    module is rebound to the new backend, so that one generated function calling another
+    gets it too."""
     ops = types.SimpleNamespace(**vars(module.backend_for(ca.SX.sym("x"))))
     ops.cos_sin = lambda x: (ca.cos(x), ca.sin(x))
     namespace = dict(vars(module))
@@ -55,7 +56,8 @@ def _hoist_parameters(p, x, outputs: list) -> tuple:
     """The table's functions of (p, x) as functions of (c, x), with c = constants(p): every
     parameter-only subexpression an x-dependent operation uses, and every parameter used
     directly, becomes one entry of c, computed once a walk instead of at every call (the
-    compass gait's flow spends about half its operations on them). The operations and
+    compass gait's flow goes from 140 operations to 103, the biped's short flow from 94
+    to 65). The operations and
     their order are the same, so are the results, bit for bit in CasADi's virtual machine
     (tests/test_batch.py); compiled, up to the compiler fusing sin and cos into sincos
     in one build and not the other (1 ulp at some states of the biped's long flow).

@@ -45,7 +45,7 @@ CHUNK = 256
 that walk every step, large enough that a ctypes call costs nothing beside it."""
 
 # No FMA contraction: the same sums in the same order as the plain -O2 build. Hidden
-# symbols but the entry points: the model's functions inline into the integrator's loops.
+# symbols but the entry points: the compiler may inline the model's functions.
 _COMMON_FLAGS = ["-ffp-contract=off", "-fvisibility=hidden", "-lm"]
 _FLAG_SETS = (
     ["-O3", "-march=native", "-fno-math-errno", *_COMMON_FLAGS],

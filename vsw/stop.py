@@ -103,10 +103,12 @@ def _limit_error() -> RunTimeLimitError:
     )
 
 
+def _stop_error(stop: str) -> BaseException:
+    return KeyboardInterrupt() if stop == "interrupt" else _limit_error()
+
+
 def _raise(stop: str) -> None:
-    if stop == "interrupt":
-        raise KeyboardInterrupt
-    raise _limit_error()
+    raise _stop_error(stop)
 
 
 def _record(stop: str) -> None:
@@ -209,18 +211,12 @@ def _stops_kept() -> Iterator[None]:
         yield
     except BaseException as exc:
         stopped = _state["stop"]
-        if stopped is None or isinstance(exc, _STOP_TYPES[stopped]):
+        if stopped is None:
             raise
-        try:
-            _raise(stopped)  # type: ignore[arg-type]
-        except BaseException as recorded:
-            raise recorded from exc
-
-
-_STOP_TYPES: dict[str, type[BaseException]] = {
-    "interrupt": KeyboardInterrupt,
-    "limit": RunTimeLimitError,
-}
+        recorded = _stop_error(stopped)  # type: ignore[arg-type]
+        if isinstance(exc, type(recorded)):
+            raise
+        raise recorded from exc
 
 
 _REPEAT = 0.25

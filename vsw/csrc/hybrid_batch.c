@@ -145,9 +145,8 @@ static void vsw_rk_step(int phase, const double *p, const double *y, const doubl
     double acc[VSW_NX];
     memcpy(K[0], f0, sizeof(double) * VSW_NX);
     /* Unrolled, the coefficients are constants and the zero ones (a quarter of the table)
-       drop out; each sum runs over the stages with the state's components as the inner
-       loop (one vector operation for a few components): the same sums in the same order
-       for finite stages. */
+       drop out: the same sums in the same order for finite stages. (GCC 12 keeps these
+       sums scalar; a hand-vectorised version was slower: a store-to-load stall a stage.) */
 #pragma GCC unroll 16
     for (int s = 1; s < VSW_RK_STAGES; ++s) {
         for (int i = 0; i < VSW_NX; ++i) acc[i] = 0.0;
