@@ -7,6 +7,9 @@ quadrature instead of Carlson's form.
 
 from __future__ import annotations
 
+import dataclasses
+import itertools
+
 import numpy as np
 import pytest
 import sympy as sm
@@ -14,8 +17,11 @@ from scipy.integrate import quad
 
 import generated.ile as gen
 from derive import mechanics
-from derive.engine.hybrid import phase_dynamics
+from derive.engine.hybrid import _jump_turn, _rate_symbol, jump_reset, phase_dynamics
+from derive.engine.model import Jump
 from derive.models import ile
+from derive.models import vsw_biped as biped
+from derive.models import vsw_biped_phi0 as caught
 from tests.conftest import random_walking_parameters
 
 
@@ -146,3 +152,34 @@ def test_staged_quantity_explicit_form_equals_the_explicit_derivation(ile_deriva
     p = random_walking_parameters(20, seed=17)
     for b, t, f in zip(p["beta"], p["theta_II"], p["phi0"]):
         np.testing.assert_allclose(f_staged(b, t, f), f_ref(b, t, f), rtol=1e-9, atol=1e-12)
+
+
+def test_a_fast_jumps_turn_is_the_integral_of_its_coupling():
+    """Jump(limit=True)'s closed form (an arctangent, derive.engine.hybrid._jump_turn)
+    against SciPy's quadrature of ``-M_qr / M_qq`` over the leg's length (both from the
+    caught VSW biped's momentum), on a grid that reaches heavy legs whose mass sits near the
+    foot (the inertia's complex roots then come near the path)."""
+    dyn = phase_dynamics(caught.CAUGHT_SHORT)
+    turn = _jump_turn("extension", dyn, caught.CAUGHT_SHORT, caught.CAUGHT_LONG)[caught.theta]
+    momentum = dyn.momenta[caught.theta]
+    slope = -momentum.diff(_rate_symbol(caught.r)) / momentum.diff(caught.THETA.u)
+    symbols = (caught.beta, caught.phi0, caught.mu, caught.b)
+    closed = sm.lambdify(symbols, turn)
+    integrand = sm.lambdify((caught.r, caught.theta, *symbols), slope.subs(caught.phi, caught.phi0))
+    grid = itertools.product((0.3, 0.9, 0.99), (0.1, 1.0, 1.5), (0.01, 10.0, 100.0),
+                             (0.01, 0.3, 0.9))  # fmt: skip
+    for beta, phi0, mu, b in grid:
+        reference, _ = quad(integrand, beta, 1.0, args=(0.3, beta, phi0, mu, b),
+                                epsabs=0, epsrel=1e-13, limit=200)  # fmt: skip
+        assert closed(beta, phi0, mu, b) == pytest.approx(reference, rel=1e-12, abs=1e-300)
+
+
+def test_a_fast_jump_of_the_free_hip_biped_has_no_limit_the_engine_derives():
+    """The held-hip biped's swing leg is free through the extension: its inertia depends on
+    the legs' angles, and a fast extension has no limit (its hip would need ever more work,
+    tests/test_vsw_biped.py), so the engine refuses ``Jump(limit=True)`` there."""
+    events = tuple(dataclasses.replace(e, reset=Jump(limit=True)) if e.name == "extension"
+                   else e for e in biped.MODEL.events)  # fmt: skip
+    model = dataclasses.replace(biped.MODEL, events=events)
+    with pytest.raises(ValueError, match="kinetic energy depends on the free coordinates"):
+        jump_reset(model, "extension")

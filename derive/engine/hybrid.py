@@ -12,7 +12,8 @@
   the coordinates the phase after holds, so the phase after's free coordinates' generalised
   momenta are conserved (``p_q(q, u-) = p_q(q, u+)`` with the held rates stopped).
 * :func:`jump_reset`: an instantaneous actuation: the free coordinates' generalised momenta
-  are continuous while the held coordinates jump (``M(q+) u+ = M(q-) u-`` in their rows).
+  are continuous while the held coordinates jump (``M(q+) u+ = M(q-) u-`` in their rows);
+  in the limit of a fast jump the free coordinates turn as well (``Jump(limit=True)``).
 * :func:`stride_closed_form`: for one free coordinate and events at fixed angles, the
   stride map in ``q = (rate)**2`` in closed form: along a phase ``u = rate**2`` obeys the
   linear equation ``du/dtheta = 2 A + 2 B u`` (``theta'' = A + B theta'^2``), solved with
@@ -568,7 +569,67 @@ def jump_reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tupl
     solution = sm.solve(balance, u_new, dict=True)
     if len(solution) != 1:
         raise ValueError(f"{event.name}: the momentum balance has no unique solution")
-    return tuple(free), tuple(_simplify(solution[0][u]) for u in u_new)
+    turn = _jump_turn(event.name, dyn, before, after) if event.reset.limit else {}
+    return (
+        tuple(q + turn.get(q, 0) for q in free),
+        tuple(_simplify(solution[0][u]) for u in u_new),
+    )
+
+
+def _jump_turn(
+    name: str, dyn: PhaseDynamics, before: Phase, after: Phase
+) -> dict[sm.Symbol, sm.Expr]:
+    """How far the free coordinates turn in the limit of a fast jump (:class:`Jump`
+    ``limit``): ``dq = -M_qq^-1 M_qh dh`` integrated along the held coordinate's path.
+
+    Integrated in closed form where the engine can: one free coordinate whose inertia
+    ``M_qq`` is quadratic in the held coordinate and coupling ``M_qh`` constant along it,
+    ``integral of dh / (a h^2 + b h + c) = 2 / sqrt(D) atan((2 a h + b) / sqrt(D))`` with
+    ``D = 4 a c - b^2 > 0`` (an inertia is positive at every length; checked at random
+    points). sympy's ``integrate``
+    gave a wrong zero and then complex logarithms for it; a 16-node Gauss-Legendre rule was
+    off by 4e-5 where heavy legs bring the poles near the path."""
+    free = [c.q for c in before.coordinates]
+    moving = [
+        h
+        for h in before.held
+        if _simplify(sm.sympify(before.held[h]) - sm.sympify(after.held.get(h, 0))) != 0
+    ]
+    if len(moving) != 1 or set(before.held) != set(after.held):
+        raise ValueError(f"{name}: a jump's limit needs both phases to hold the same "
+                         "coordinates, exactly one of which changes")  # fmt: skip
+    moved = moving[0]
+    held = {h: sm.sympify(v) for h, v in before.held.items() if h != moved}
+    momenta = [tr10i(_simplify(dyn.momenta[q])) for q in free]
+    inertia = [p.diff(c.u) for p in momenta for c in before.coordinates]
+    coupling = [p.diff(_rate_symbol(moved)) for p in momenta]
+    if any(_simplify(tr10i(m.diff(q))) != 0 for m in (*inertia, *coupling) for q in free):
+        raise ValueError(f"{name}: the kinetic energy depends on the free coordinates, so a "
+                         "fast jump has no limit the engine can derive (Jump(limit=False) "
+                         "keeps them, as an idealisation the model must state)")  # fmt: skip
+    if all(_simplify(c) == 0 for c in coupling):
+        return {}
+    inertia = sm.Poly(_simplify(inertia[0].xreplace(held)), moved) if len(free) == 1 else None
+    coupling = _simplify(coupling[0].xreplace(held))
+    if inertia is None or inertia.degree() != 2 or moved in coupling.free_symbols:
+        raise ValueError(f"{name}: the engine integrates a jump's turn for one free coordinate "
+                         "whose inertia is quadratic in the held coordinate and whose "
+                         "coupling to it is constant")  # fmt: skip
+    a, b, c = inertia.all_coeffs()
+    discriminant = _simplify(4 * a * c - b**2)
+    rng = random.Random(20261203)
+    for _ in range(8):
+        point = {s: rng.uniform(0.05, 3.0) for s in discriminant.free_symbols}
+        if not float(discriminant.xreplace(point)) > 0:
+            raise ValueError(f"{name}: the inertia {inertia.as_expr()} has a real root, "
+                             "so the turn's integral is not the arctangent's")  # fmt: skip
+    root = sm.sqrt(discriminant)
+    start, end = sm.sympify(before.held[moved]), sm.sympify(after.held[moved])
+    x_start, x_end = ((2 * a * h + b) / root for h in (start, end))
+    # atan(x_end) - atan(x_start) as one angle, the argument of (1 + i x_end)(1 - i x_start):
+    # the difference of two close arctangents would lose digits for a short extension.
+    angle = sm.atan2(2 * a * (end - start) / root, 1 + x_end * x_start)
+    return {free[0]: -coupling * 2 / root * angle}
 
 
 def _held_state(phase: Phase, free_rates: dict[sm.Symbol, sm.Expr]) -> dict:

@@ -169,8 +169,22 @@ class Jump:
 
     The actuator's impulse acts on the held coordinates alone, so the generalised momentum
     of every free coordinate is conserved across the jump (M(q+) q'+ = M(q-) q'- in those
-    rows); the free coordinates themselves do not move.
+    rows).
+
+    Where the free coordinates are at the jump depends on ``limit``:
+
+    * ``False``: they do not move. Exact where no free coordinate's momentum has a held
+      rate in it (``M_qh = 0``: the ILE's point mass on its leg); otherwise an idealisation
+      the model must state, since moving a held coordinate fast drags the free ones.
+    * ``True``: the jump is the limit of the held coordinate moving ever faster along its
+      one path: with ``p_q = M_qq q' + M_qh h'`` bounded and ``h'`` growing as 1 / eps, the
+      free coordinates turn by ``-integral of M_qq^-1 M_qh dh`` (a geometric phase, as a
+      falling cat turns). The limit exists when the kinetic energy does not depend on the
+      free coordinates (then nothing else grows with 1 / eps); the engine requires that and
+      one held coordinate that changes.
     """
+
+    limit: bool = False
 
 
 @dataclass(frozen=True, eq=False)

@@ -1178,16 +1178,23 @@ def event_extension_reset(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_
         tuple: coordinates, then rates
     """
     be = backend_for(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_dot, phi_dot)
+    cos_phi0, sin_phi0 = be.cos_sin(phi0)
     cos_theta, sin_theta = be.cos_sin(theta)
-    cos_t1, sin_t1 = be.cos_sin(phi0 - theta)
-    x0 = 2*mu
-    x1 = x0*b_over_l
-    x2 = x0*b_over_l**2
-    x3 = x1*cos_t1*cos_theta
-    x4 = x1*sin_t1*sin_theta
-    x5 = theta_dot*beta**2
-    x6 = theta_dot*beta
-    return (theta, phi0, (x5 + x0*x5 + x2*theta_dot + x4*x6 - x1*x6 - x3*x6)/(1 + x0 + x2 + x4 - x1 - x3), 0,)
+    cos_t2, sin_t2 = be.cos_sin(phi0 - theta)
+    x0 = b_over_l**2
+    x1 = mu**2
+    x2 = 8*x0*mu + 12*x0*x1 - 8*x0*x1*cos_phi0 - 4*x0*x1*cos_phi0**2
+    x3 = (1/be.sqrt(x2))
+    x4 = 2 + 4*mu
+    x5 = 2*mu
+    x6 = x5*b_over_l
+    x7 = x6 + x6*cos_phi0
+    x8 = x0*x5
+    x9 = x6*cos_t2*cos_theta
+    x10 = x6*sin_t2*sin_theta
+    x11 = theta_dot*beta**2
+    x12 = theta_dot*beta
+    return (theta + x3*x6*sin_phi0*be.atan2(x3*x4*(1 - beta), 1 + (-x7 + x4*beta)*(2 - x7 + 4*mu)/x2), phi0, (x11 + x10*x12 + x11*x5 + x8*theta_dot - x12*x6 - x12*x9)/(1 + x10 + x5 + x8 - x6 - x9), 0,)
 
 
 def event_heelstrike_guard(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_dot, phi_dot):

@@ -538,16 +538,23 @@ function event_extension_guard(beta, theta_II, phi0, mu, b_over_l, theta, phi, t
 
 /* State just after the event extension (from the state just before). Eq. (3) with massive legs. Returns tuple: coordinates, then rates. */
 function event_extension_reset(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_dot, phi_dot) {
+  const [cos_phi0, sin_phi0] = be.cos_sin(phi0);
   const [cos_theta, sin_theta] = be.cos_sin(theta);
-  const [cos_t1, sin_t1] = be.cos_sin(phi0 - theta);
-  const x0 = 2*mu;
-  const x1 = x0*b_over_l;
-  const x2 = x0*Math.pow(b_over_l, 2);
-  const x3 = x1*cos_t1*cos_theta;
-  const x4 = x1*sin_t1*sin_theta;
-  const x5 = theta_dot*Math.pow(beta, 2);
-  const x6 = theta_dot*beta;
-  return [theta, phi0, (x5 + x0*x5 + x2*theta_dot + x4*x6 - x1*x6 - x3*x6)/(1 + x0 + x2 + x4 - x1 - x3), 0];
+  const [cos_t2, sin_t2] = be.cos_sin(phi0 - theta);
+  const x0 = Math.pow(b_over_l, 2);
+  const x1 = Math.pow(mu, 2);
+  const x2 = 8*x0*mu + 12*x0*x1 - 8*x0*x1*cos_phi0 - 4*x0*x1*Math.pow(cos_phi0, 2);
+  const x3 = (1/be.sqrt(x2));
+  const x4 = 2 + 4*mu;
+  const x5 = 2*mu;
+  const x6 = x5*b_over_l;
+  const x7 = x6 + x6*cos_phi0;
+  const x8 = x0*x5;
+  const x9 = x6*cos_t2*cos_theta;
+  const x10 = x6*sin_t2*sin_theta;
+  const x11 = theta_dot*Math.pow(beta, 2);
+  const x12 = theta_dot*beta;
+  return [theta + x3*x6*sin_phi0*be.atan2(x3*x4*(1 - beta), 1 + (-x7 + x4*beta)*(2 - x7 + 4*mu)/x2), phi0, (x11 + x10*x12 + x11*x5 + x8*theta_dot - x12*x6 - x12*x9)/(1 + x10 + x5 + x8 - x6 - x9), 0];
 }
 
 /* Guard of the event heelstrike: crosses zero when it happens. Returns guard. */
