@@ -11,10 +11,12 @@ energy balance of the ILE as printed, the slope's work on the compass gait, Carn
 
 from __future__ import annotations
 
+import io
 import math
 
 import pytest
 
+from vsw.cli.analyze import _write_ledger
 from vsw.ledger import energy_ledger
 from vsw.models import load
 
@@ -49,6 +51,29 @@ def test_ile_extension_and_heelstrike_are_the_papers_energies(overrides):
     assert added == pytest.approx(lost, rel=1e-8)  # the gait: (22) E_delta = 0
 
 
+@pytest.mark.parametrize("theta_ii", [0.1, -0.05])
+def test_the_ground_gives_the_extension_a_push_then_a_pull(theta_ii):
+    """The ground's impulse at the ILE's extension (the walker's change of momentum, from
+    the ledger's body velocities) against [ILE]: the hip mass keeps its angular momentum
+    about the foot, (3) omega_III = beta**2 omega_II, so its speed drops from
+    beta omega_II to beta**2 omega_II across the leg: the impulse is
+    -beta (1 - beta) omega_II (cos theta_II, -sin theta_II), with omega_II**2 = q +
+    2 (cos theta_I - cos theta_II) / beta (energy in the short stance). Across the leg, so
+    the leg's own net impulse is zero (a push, then a pull); before mid-stance
+    (theta_II < 0) it points down: the foot is pulled on balance."""
+    m = load("ile")
+    params = m.parameters({"beta": 0.9, "theta_II": theta_ii})
+    (orbit,) = m.fixed_points(params)
+    (extension, _) = energy_ledger(m, params, orbit)["events"]
+    beta = params[0]
+    q, theta_i = orbit.state["theta_dot"] ** 2, orbit.state["theta"]
+    omega = math.sqrt(q + 2 * (math.cos(theta_i) - math.cos(theta_ii)) / beta)
+    size = -beta * (1 - beta) * omega
+    expected = (size * math.cos(theta_ii), -size * math.sin(theta_ii))
+    assert extension["ground_impulse"] == pytest.approx(expected, rel=1e-9)
+    assert (extension["ground_impulse"][1] < 0) == (theta_ii < 0)
+
+
 def test_compass_gait_gravity_work_is_the_slopes():
     """[GTE96]: gravity's work over a step is M g sin(gamma) times the step length, and
     heelstrike dissipates it (no actuator: its remainder is zero)."""
@@ -61,3 +86,17 @@ def test_compass_gait_gravity_work_is_the_slopes():
         assert totals["gravity_work"] == pytest.approx(weight_along * orbit.step_length, rel=1e-9)
         assert totals["losses"] == pytest.approx(totals["gravity_work"], rel=1e-8)
         assert abs(totals["actuator_work_impulsive"]) < 1e-9 * totals["losses"]
+
+
+@pytest.mark.parametrize("theta_ii", [0.1, -0.05])
+def test_analyze_names_the_ground_impulse_of_an_extension(theta_ii):
+    """`vsw analyze`'s ledger lines name the extension's ground impulse and say when the
+    foot is pulled on balance: for the ILE extending before mid-stance only."""
+    m = load("ile")
+    params = m.parameters({"beta": 0.9, "theta_II": theta_ii})
+    (orbit,) = m.fixed_points(params)
+    out = io.StringIO()
+    _write_ledger(out, m, energy_ledger(m, params, orbit))
+    (line,) = (x for x in out.getvalue().splitlines() if "ground impulse" in x)
+    assert "extension forward -" in line, line
+    assert ("the foot is pulled on balance" in line) == (theta_ii < 0), line

@@ -12,6 +12,10 @@ Over a step the kinetic energy changes by what the forces do:
   kinetic energy change; and the kinetic energy of the bodies' velocity jumps
   (``1/2 sum m |v+ - v-|^2 + 1/2 sum I (w+ - w-)^2``, by body: Carnot's loss, equal to the
   loss where no actuator's impulse does work);
+* at each event the **ground's impulse** (forward, up): the walker's change of momentum.
+  At an instantaneous extension the ground must give it through a push and then a pull of
+  unbounded size (the leg's net impulse along itself is zero), and a net impulse that
+  points down means the foot is pulled on balance: the model assumes it held;
 * the **actuators' impulsive work** (the rest of the event's energy change: a jump's
   whole change, kinetic and potential: an instantaneous actuation lifts the walker in no
   time, with no work of gravity; an actuator holding a coordinate through an impact; zero
@@ -138,10 +142,15 @@ def _event_terms(
     kinetic_change = t_after - t_before
     out: dict[str, Any] = {"event": record.name, "reset": event["reset"],
                            "kinetic_change": kinetic_change}  # fmt: skip
+    jump, inertia = _jumps(model, event, params, record.state_before, record.state_after)
+    # Gravity gives no impulse in an instant and every other force is internal, so the
+    # ground's impulse (at the new contact or the stance foot) is the walker's change of
+    # momentum, forward and up.
+    impulse = inertia[:, 0] @ jump[:, :2]
+    out["ground_impulse"] = [float(impulse[0]), float(impulse[1])]
     if event["reset"] in ("impact", "lock"):
         # The configuration does not change (an impact's chart moves to the new contact,
         # which changes V's reference, not the walker's height): only T changes.
-        jump, inertia = _jumps(model, event, params, record.state_before, record.state_after)
         per_body = 0.5 * (inertia[:, 0] * (jump[:, 0] ** 2 + jump[:, 1] ** 2)
                           + inertia[:, 1] * jump[:, 2] ** 2)  # fmt: skip
         out["velocity_jump_energy"] = float(np.sum(per_body))
@@ -150,7 +159,6 @@ def _event_terms(
             # Kelvin: an impulse does the work of its size times the mean of its point's
             # velocities before and after; the ground's impulse at the new contact (the
             # walker's change of momentum) meets a point at rest after it.
-            impulse = inertia[:, 0] @ jump[:, :2]
             contact = _rate_of(model, f"event_{record.name}_contact", params,
                                record.state_before)  # fmt: skip
             out["loss"] = float(-0.5 * impulse @ contact)

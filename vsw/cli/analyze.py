@@ -153,6 +153,20 @@ def _write_ledger(out: TextIO, model: Model, ledger: dict[str, Any]) -> None:
     if actuators:
         out.write(f"  {'  in the phases':<16} {actuators} {unit}\n")
     out.write(f"  {'  at events':<16} {events} {unit}\n")
+    for e in ledger["events"]:
+        if e["reset"] == "jump":
+            forward, up = e["ground_impulse"]
+            pulled = "; down: the foot is pulled on balance (held, as assumed)" if up < 0 else ""
+            out.write(f"  {'  ground impulse':<16} {e['event']} forward {fmt(forward)}, up "
+                      f"{fmt(up)} {_impulse_unit(model)}{pulled}\n")  # fmt: skip
+
+
+def _impulse_unit(model: Model) -> str:
+    """Mass times speed in the model's units (m_H sqrt(g l) for the scaled bipeds)."""
+    mass, time, length = (model.units.get(k, "") for k in ("mass", "time", "length"))
+    if time == "sqrt(l/g)" and length == "l":
+        return f"{mass} sqrt(g l)".strip()
+    return f"{mass} {length}/{time}".strip() if time else ""
 
 
 def _write_gaits(out: TextIO, model: Model, report: GaitReport) -> None:
