@@ -623,7 +623,8 @@ def vsw_biped(out: Path, quick: bool = False) -> list[Path]:
     m = load("vsw_biped")
     lines = ["| beta | theta_II | mu | phi at heelstrike (deg) | period | speed | "
              "max abs eigenvalue | energy added per step (m_H g l) | ILE q^f (10) at phi / "
-             "biped q |", "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]  # fmt: skip
+             "biped q | ILE eigenvalue (19) at phi | ILE E_c (20) at phi / biped's energy "
+             "added |", "|" + " --- |" * 11]  # fmt: skip
     results = {}
     ends = []
     for beta, theta_II in STUDY[:1] if quick else STUDY:
@@ -640,17 +641,21 @@ def vsw_biped(out: Path, quick: bool = False) -> list[Path]:
         for mu, orbit, params in rows_mu:
             if orbit is None:
                 lines.append(f"| {beta} | {theta_II} | {mu:g} | no gait by continuation "
-                             f"({failures[mu]}) | | | | | |")  # fmt: skip
+                             f"({failures[mu]}) | | | | | | | |")  # fmt: skip
                 continue
             s = orbit.state
             phi = s["psi"] - s["theta"]
             events = {e.name: e for e in m.step_events(params, _vector(orbit))}
             added = events["extension"].energy_change
             q_ile = float(ile.q_fixed(beta, theta_II, phi))
+            # The ILE's energy input (20) per unit of the mass it moves: the biped's hip
+            # mass m_H; the extension's work (leg and hip together: no split exists).
+            added_ile = float(ile.energy_complement(beta, theta_II, phi, q_ile, 1.0, 1.0, 1.0))
             lines.append(
                 f"| {beta} | {theta_II} | {mu:g} | {math.degrees(phi):.3f} | {orbit.period:.4f} "
                 f"| {orbit.speed:.4f} | {orbit.max_abs_eigenvalue:.4g} | {added:.5f} | "
-                f"{q_ile / s['theta_dot'] ** 2:.6f} |"
+                f"{q_ile / s['theta_dot'] ** 2:.6f} | {float(ile.eigenvalue(beta, phi)):.4g} | "
+                f"{added_ile / added:.4f} |"
             )
             results[(beta, theta_II)].append({
                 "mu": mu, "phi_deg": math.degrees(phi), "eig": orbit.max_abs_eigenvalue,
@@ -672,7 +677,10 @@ def vsw_biped(out: Path, quick: bool = False) -> list[Path]:
         "gait is continued along mu from the least unstable one found at mu = 0.01 (a row ",
         "'no gait by continuation' ends the branch). The last column is the ",
         "ILE's closed-form fixed point (10) at the emergent inter-leg angle over the biped's ",
-        "rate squared after heelstrike: 1 + O(mu) (tests/test_vsw_biped.py).\n\n",
+        "rate squared after heelstrike: 1 + O(mu) (tests/test_vsw_biped.py); beside it the ",
+        "ILE's eigenvalue (19) and energy input (20) at that angle, the latter over the ",
+        "biped's extension work (leg and hip together: the held-hip rule's work has no ",
+        "split, docs/models/vsw_biped.md).\n\n",
         "\n".join(lines) + "\n\n",
         f"![leg-mass study]({written[0].name})\n",
     ]
