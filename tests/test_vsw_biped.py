@@ -240,3 +240,20 @@ def test_the_held_hip_extension_is_no_limit_of_a_fast_one_with_a_hip_servo(biped
     theta_limit = (10 * runs[-1, 0] - runs[-2, 0]) / 9
     turn = theta_limit - extension.state_after[0]
     assert -1.1e-3 < turn < -1.0e-3, turn
+
+
+def test_the_stable_gait_flips_as_the_legs_mass_moves_down(biped):
+    """docs/models/vsw_biped.md, b / l swept: continuation locates the first flip of the
+    stable gait at (0.97, -0.2), mu = 0.3, at b / l = 0.53364. Checked here without it: the
+    gait followed by Newton in steps of b / l from 0.3 has its eigenvalues inside the unit
+    circle 1e-3 before, and one real eigenvalue below -1 1e-3 after (the flip's)."""
+    values = {"beta": 0.97, "theta_II": -0.2, "mu": 0.3}
+    orbit = min(biped.fixed_points(biped.parameters(values)), key=lambda o: o.max_abs_eigenvalue)
+    for b in (*np.arange(0.32, 0.53, 0.02), 0.53264, 0.53464):
+        orbit = biped.periodic_orbit(biped.parameters(values | {"b_over_l": b}),
+                                     np.array(list(orbit.state.values())), orbit.durations)  # fmt: skip
+        if b == 0.53264:
+            assert orbit.max_abs_eigenvalue < 1
+    eigenvalues = np.asarray(orbit.eigenvalues)
+    (flip,) = eigenvalues[np.abs(eigenvalues) > 1]
+    assert abs(flip.imag) < 1e-12 and -1.05 < flip.real < -1
