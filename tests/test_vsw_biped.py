@@ -250,8 +250,9 @@ def test_the_stable_gait_flips_as_the_legs_mass_moves_down(biped):
     values = {"beta": 0.97, "theta_II": -0.2, "mu": 0.3}
     orbit = min(biped.fixed_points(biped.parameters(values)), key=lambda o: o.max_abs_eigenvalue)
     for b in (*np.arange(0.32, 0.53, 0.02), 0.53264, 0.53464):
-        orbit = biped.periodic_orbit(biped.parameters(values | {"b_over_l": b}),
-                                     np.array(list(orbit.state.values())), orbit.durations)  # fmt: skip
+        params = biped.parameters(values | {"b_over_l": b})
+        start = np.array(list(orbit.state.values()))
+        orbit = biped.periodic_orbit(params, start, orbit.durations)
         if b == 0.53264:
             assert orbit.max_abs_eigenvalue < 1
     eigenvalues = np.asarray(orbit.eigenvalues)
