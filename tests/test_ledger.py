@@ -11,11 +11,14 @@ energy balance of the ILE as printed, the slope's work on the compass gait, Carn
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import math
 
 import pytest
 
+from derive.engine.hybrid import hybrid_quantities
+from derive.models import vsw_biped_phi0 as caught
 from vsw.cli.analyze import _write_ledger
 from vsw.ledger import energy_ledger
 from vsw.models import load
@@ -100,3 +103,28 @@ def test_analyze_names_the_ground_impulse_of_an_extension(theta_ii):
     (line,) = (x for x in out.getvalue().splitlines() if "ground impulse" in x)
     assert "extension forward -" in line, line
     assert ("the foot is pulled on balance" in line) == (theta_ii < 0), line
+
+
+def test_actuators_are_named_where_they_work():
+    """``Model.actuators`` names who holds each coordinate: `vsw models` and the ledger
+    say the caught biped's hip catches the swing leg (its loss is the hip's work) and its
+    leg extends; the torso walker's hip works in stance and through heelstrike; a model
+    naming an actuator for a coordinate no phase holds is refused when derived."""
+    m = load("vsw-biped-phi0")
+    description = m.describe()
+    assert description["actuator_names"] == {"r": "leg", "phi": "hip"}
+    assert description["actuated"] == {"catch": ["phi"], "extension": ["r"]}
+    params = m.parameters({})
+    (orbit,) = m.fixed_points(params)
+    events = {e["event"]: e for e in energy_ledger(m, params, orbit)["events"]}
+    assert events["catch"]["caught_by"] == ("hip",) and events["catch"]["loss"] > 0
+    assert events["extension"]["actuators"] == ("leg",)
+    assert "caught_by" not in events["heelstrike"]
+    torso = load("torso-walker")
+    params = torso.parameters({})
+    ledger = energy_ledger(torso, params, torso.fixed_points(params)[0])
+    assert set(ledger["totals"]["actuators"]) == {"hip"}
+    assert ledger["events"][-1]["actuators"] == ("hip",)
+    unheld = dataclasses.replace(caught.MODEL, actuators={caught.theta: "ankle"})
+    with pytest.raises(ValueError, match="actuators name coordinates no phase holds"):
+        hybrid_quantities(unheld)

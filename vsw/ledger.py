@@ -3,7 +3,8 @@
 Over a step the kinetic energy changes by what the forces do:
 
 * in each phase, **gravity** (the potential's fall, ``V(start) - V(end)``, in the phase's
-  chart) and **each actuator** that holds a moving coordinate (the integral of its power,
+  chart) and **each actuator** (by the model's name for it: ``Model.actuators``) that
+  holds a moving coordinate (the integral of its power,
   the generated ``<phase>_actuator_power``: generalised force times the held value's
   rate; its positive and negative parts apart);
 * at each event, the **loss**: at an impact the work of the ground's impulse at the new
@@ -123,8 +124,9 @@ def _phase_terms(model: HybridModel, params: Sequence[float], piece: PhasePiece)
         power = np.asarray(
             model._fn(f"{piece.phase}_actuator_power")(*params, *states), dtype=float
         ).reshape(len(names), -1)
+        named = model.spec.get("actuators", {})
         for name, p in zip(names, power):
-            out["actuators"][name] = {
+            out["actuators"][named.get(name, name)] = {
                 "work": float(weights @ p),
                 "positive": float(weights @ np.maximum(p, 0.0)),
                 "negative": float(weights @ np.minimum(p, 0.0)),
@@ -140,8 +142,13 @@ def _event_terms(
     t_before, v_before = _kinetic_potential(model, event["source"], params, record.state_before)
     t_after, v_after = _kinetic_potential(model, event["target"], params, record.state_after)
     kinetic_change = t_after - t_before
+    names = model.spec.get("actuators", {})
     out: dict[str, Any] = {"event": record.name, "reset": event["reset"],
                            "kinetic_change": kinetic_change}  # fmt: skip
+    # The actuators acting at a jump (those of the coordinates it moves) or catching at a
+    # lock (a stopped coordinate the model names an actuator for: its loss is their work).
+    actuated = [names.get(h, h) for h in event.get("actuated", ())
+                if event["reset"] == "jump" or h in names]  # fmt: skip
     jump, inertia = _jumps(model, event, params, record.state_before, record.state_after)
     # Gravity gives no impulse in an instant and every other force is internal, so the
     # ground's impulse (at the new contact or the stance foot) is the walker's change of
@@ -166,13 +173,16 @@ def _event_terms(
             out["loss"] = -kinetic_change  # a lock's impulse stops its joint: all lost
         target = model.phases[model.phase_index[event["target"]]]
         out["actuator_work"] = kinetic_change + out["loss"]
-        out["actuators"] = tuple(target.get("actuators", ()))
+        out["actuators"] = tuple(names.get(h, h) for h in target.get("actuators", ()))
+        if actuated:
+            out["caught_by"] = tuple(actuated)
     else:
         # A jump (or a continuous transition) in the same chart: the actuator raises or
         # lowers the walker as it changes its speed, all of it the actuator's work.
         out["loss"] = 0.0
         out["potential_change"] = v_after - v_before
         out["actuator_work"] = kinetic_change + out["potential_change"]
+        out["actuators"] = tuple(actuated)
     return out
 
 

@@ -41,6 +41,7 @@ from derive.engine.model import (
     NORMAL_FORCE,
     Condition,
     Continuous,
+    Event,
     Failure,
     Impact,
     Jump,
@@ -590,11 +591,7 @@ def _jump_turn(
     gave a wrong zero and then complex logarithms for it; a 16-node Gauss-Legendre rule was
     off by 4e-5 where heavy legs bring the poles near the path."""
     free = [c.q for c in before.coordinates]
-    moving = [
-        h
-        for h in before.held
-        if _simplify(sm.sympify(before.held[h]) - sm.sympify(after.held.get(h, 0))) != 0
-    ]
+    moving = _jumping(before, after)
     if len(moving) != 1 or set(before.held) != set(after.held):
         raise ValueError(f"{name}: a jump's limit needs both phases to hold the same "
                          "coordinates, exactly one of which changes")  # fmt: skip
@@ -1129,6 +1126,8 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
             # Impacts: for each body after, the index of the same body before.
             "bodies": impact_body_order(model, event.name)
             if isinstance(event.reset, Impact) else None,
+            **({"actuated": _actuated(model, event)}
+               if isinstance(event.reset, (Jump, Lock)) else {}),
         })  # fmt: skip
     if model.step_length is not None:
         step_event = next(e for e in model.events if e.ends_step)
@@ -1201,10 +1200,32 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
         "step_length": model.step_length is not None,
         "section": tuple(n for n in names if n in model.section),
         "search": {n: tuple(float(v) for v in model.search[n]) for n in free},
-    }
+        **({"actuators": {h.name: name for h, name in model.actuators.items()}}
+           if model.actuators else {}),
+    }  # fmt: skip
     if model.limits:
         quantities = [_in_the_limit(model, qty) for qty in quantities]
     return quantities, descriptor
+
+
+def _actuated(model: Model, event: Event) -> tuple[str, ...]:
+    """The coordinates whose actuators act at a jump (those that jump) or a lock (those
+    it stops), by name; a named actuator's coordinate must be held somewhere."""
+    held = {h for phase in model.phases for h in phase.held}
+    if not set(model.actuators) <= held:
+        raise ValueError(f"{model.name}: actuators name coordinates no phase holds: "
+                         f"{sorted(h.name for h in set(model.actuators) - held)}")  # fmt: skip
+    before, after = model.phase(event.source), model.phase(event.target)
+    if isinstance(event.reset, Lock):
+        free_after = {c.q for c in after.coordinates}
+        return tuple(c.name for c in before.coordinates if c.q not in free_after)
+    return tuple(h.name for h in _jumping(before, after))
+
+
+def _jumping(before: Phase, after: Phase) -> list[sm.Symbol]:
+    """The held coordinates whose values differ between two phases (a jump moves them)."""
+    return [h for h, value in before.held.items()
+            if _simplify(sm.sympify(value) - sm.sympify(after.held.get(h, 0))) != 0]  # fmt: skip
 
 
 def _phase_guard(model: Model, phase: Phase, dyn: PhaseDynamics,

@@ -356,6 +356,13 @@ class Model:
         and its reset), e.g. ``{"phi": 2 * theta}``. The search for gaits and basins over
         a slice of the section take these from the free components
         (``section_completion``); tests check them on simulated steps.
+    actuators : mapping of sympy.Symbol to str
+        Who holds each held coordinate, by name: the stance leg's force on its length
+        ``r`` ("leg"), the hip's torque on the inter-leg angle ("hip"). The ledger and
+        ``vsw models`` name an actuator's work by it (an actuator not named here is called
+        after its coordinate); a coordinate a :class:`Lock` stops and that is named here is
+        caught by that actuator (the lock's loss is its negative work), one not named is
+        stopped by the mechanism (a knee's latch).
     limits : mapping of sympy.Symbol to sympy.Expr
         Symbols of the mechanics (not parameters) that every derived quantity is taken to
         the limit of: a walker with massless feet states each foot with a mass ``epsilon``
@@ -377,6 +384,7 @@ class Model:
     search: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     limits: Mapping[sm.Symbol, sm.Expr] = field(default_factory=dict)
     section: Mapping[str, sm.Expr] = field(default_factory=dict)
+    actuators: Mapping[sm.Symbol, str] = field(default_factory=dict)
 
     def phase(self, name: str) -> Phase:
         for p in self.phases:

@@ -133,6 +133,7 @@ THETA_I = -sm.atan((beta - sm.cos(phi0)) / sm.sin(phi0))
 """Stance angle just after heelstrike, ILE eq. (11) (the engine checks it against the guard)."""
 
 MODEL = Model(
+    actuators={r: "leg"},
     name="tle",
     title="Finite-time leg extension model of Virtual Slope Walking",
     description="ILE walker whose stance leg extends from beta r_e to r_e along a cubic "

@@ -117,6 +117,7 @@ STANCE = Phase(
 )
 
 MODEL = Model(
+    actuators={phi: "hip"},
     name="torso_walker",
     title="Compass gait with a torso",
     description="Grizzle et al. 2001, Westervelt et al. 2007: the three-link biped, its "

@@ -156,6 +156,9 @@ def heelstrike(long: Phase) -> Event:
 
 
 MODEL = Model(
+    # The held-hip rule's jump is the leg's push and a hip impulse together (its split has
+    # no limit: docs/models/vsw_biped.md), so the one actuator named at it is both.
+    actuators={r: "leg and held hip"},
     name="vsw_biped",
     title="Compass-like biped of Virtual Slope Walking",
     description="the ILE model with massive legs (the paper's future work): hip mass, leg "

@@ -43,6 +43,7 @@ from derive.models.vsw_biped import (
     UNITS,
     UNITS_TEXT,
     heelstrike,
+    r,
     stance_phase,
 )
 from derive.models.vsw_biped import PARAMETERS as BIPED_PARAMETERS
@@ -75,6 +76,7 @@ EXTENSION = stance_phase("extension", profile(theta))
 LONG = stance_phase("long", sm.Integer(1))
 
 MODEL = Model(
+    actuators={r: "leg"},
     name="vsw_biped_fte",
     title="Compass-like VSW biped, finite-time extension, free hip",
     description="the VSW biped whose stance leg extends along the TLE's profile over "

@@ -105,6 +105,7 @@ THETA_I = -sm.atan((beta - sm.cos(phi0)) / sm.sin(phi0))
 """Stance angle just after heelstrike, the ILE's eq. (11)."""
 
 MODEL = Model(
+    actuators={r: "leg", phi: "hip"},
     name="vsw_biped_phi0",
     title="Compass-like VSW biped, swing leg caught and held at phi0",
     description="the VSW biped with the ILE's assumption made physical: a hip actuator "

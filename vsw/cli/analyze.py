@@ -132,8 +132,9 @@ def _write_ledger(out: TextIO, model: Model, ledger: dict[str, Any]) -> None:
     )
     events = ", ".join(
         f"{e['event']} loss {fmt(e['loss'])}"
+        + (f" (the {' and '.join(e['caught_by'])} catching)" if e.get("caught_by") else "")
         + (
-            f" actuator {fmt(e['actuator_work'])}"
+            f" {' and '.join(e.get('actuators') or ('actuator',))} {fmt(e['actuator_work'])}"
             if abs(e["actuator_work"]) > 1e-9 * max(e["loss"], abs(e["kinetic_change"]), 1e-300)
             else ""
         )

@@ -81,11 +81,24 @@ def run(args: argparse.Namespace) -> int:
             out.write("  reported, not enforced: " + "; ".join(
                 f"{c['name']} ({c['meaning']}; margin in {c['unit']})" for c in m["conditions"]
             ) + "\n")  # fmt: skip
-        held = [f"{', '.join(names)} in {phase}" for phase, names in m["actuators"].items()]
-        held += [f"the jump at {name}" for name in m["jumps"]]
+        held = [f"{', '.join(_actuator(m, h) for h in names)} in {phase}"
+                for phase, names in m["actuators"].items()]  # fmt: skip
+        for event, coordinates in m["actuated"].items():
+            named = [h for h in coordinates if h in m["actuator_names"]]
+            if event in m["jumps"]:
+                held.append(f"{', '.join(_actuator(m, h) for h in coordinates)} at the jump "
+                            f"at {event}")  # fmt: skip
+            elif named:  # a lock whose coordinate an actuator catches (its loss is its work)
+                held.append(f"{', '.join(_actuator(m, h) for h in named)} catching at {event}")
         if held:
             out.write(f"  actuators doing work: "
                       f"{'; '.join(held)}\n")  # fmt: skip
         if m["features"]:
             out.write(f"  also: {', '.join(m['features'])}\n")
     return EXIT_OK
+
+
+def _actuator(description: dict, coordinate: str) -> str:
+    """An actuator by the model's name for it and the coordinate it holds: ``leg (r)``."""
+    name = description["actuator_names"].get(coordinate)
+    return f"{name} ({coordinate})" if name else coordinate

@@ -161,11 +161,15 @@ class Model(HybridModel):
             "failures": [dict(f) for f in self.spec["failures"]],
             "conditions": [dict(c) for c in self.spec.get("conditions", ())],
             # Actuators that hold a moving coordinate, by phase (their work is in the
-            # energy ledger of `vsw analyze`); events whose reset is an actuator's jump.
+            # energy ledger of `vsw analyze`); events whose reset is an actuator's jump;
+            # the model's names of its actuators (coordinate -> name) and the coordinates
+            # whose actuators act at each jump or lock.
             "actuators": {
                 p["name"]: list(p["actuators"]) for p in self.phases if p.get("actuators")
             },
             "jumps": [e["name"] for e in self.events if e["reset"] == "jump"],
+            "actuator_names": dict(self.spec.get("actuators", {})),
+            "actuated": {e["name"]: list(e["actuated"]) for e in self.events if "actuated" in e},
             "features": sorted(self.features),
         }
 

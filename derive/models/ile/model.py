@@ -121,6 +121,7 @@ _SWING_FOOT = PHASE_III_IV.points["swing_foot"]
 _THETA_I = -sm.atan((beta - sm.cos(phi0)) / sm.sin(phi0))  # eq. (11)
 
 MODEL = Model(
+    actuators={r: "leg"},
     name="ile",
     title="Instantaneous leg extension model of Virtual Slope Walking",
     description="point-mass hip on massless telescoping legs: the stance leg extends "
