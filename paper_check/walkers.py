@@ -595,6 +595,66 @@ def _region_table(regions: dict[str, dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+SWEEP = {"cells": ((0.97, -0.2), (0.97, 0.0), (0.99, -0.1)), "mu": 0.3,
+         "b_over_l": (0.02, 0.3, 0.9), "switch": (0.97, -0.2)}  # fmt: skip
+"""The stable gaits whose band of b / l the report locates: continued from b / l = 0.3 down
+to 0.02 and up to 0.9, following the period-doubled branches for ``switch`` (upwards)."""
+BASINS = {"cells": ((0.97, -0.2), (0.97, 0.0), (0.99, -0.1), (0.99, 0.0)), "mu": 0.3,
+          "theta_dot": (0.0, 1.5, 301), "psi_dot": (-3.0, 3.0, 301), "steps": 50}  # fmt: skip
+"""The basins of the stable gaits: (theta_dot, psi_dot) slices of the section at the gait's
+stance angle, walked by the batch simulator."""
+
+
+def _least_unstable(m: HybridModel, values: dict) -> tuple[np.ndarray, Orbit]:
+    params = m.parameters(values)
+    return params, min(m.fixed_points(params), key=lambda o: o.max_abs_eigenvalue)
+
+
+def _b_sweep(m: HybridModel) -> str:
+    """Every branch continuation finds from each :data:`SWEEP` gait along b / l, with its
+    located special points."""
+    low, start, high = SWEEP["b_over_l"]
+    lines = ["| beta | theta_II | period | b / l from | to | ended | special points (b / l) |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]  # fmt: skip
+    for beta, theta_II in SWEEP["cells"]:
+        values = {"beta": beta, "theta_II": theta_II, "mu": SWEEP["mu"], "b_over_l": start}
+        params, orbit = _least_unstable(m, values)
+        for stop in (low, high):
+            switch = stop == high and (beta, theta_II) == SWEEP["switch"]
+            branches = continue_gaits(m, params, "b_over_l", start, stop, _vector(orbit),
+                                      orbit.durations, options=Options(switch=switch))  # fmt: skip
+            for branch in branches:
+                ends = [p["parameter"] for p in branch.points]
+                points = "; ".join(
+                    f"{s.type} {s.parameter:.5f}" + (f" ({s.condition})" if s.condition else "")
+                    for s in branch.special_points
+                )
+                lines.append(f"| {beta} | {theta_II} | {branch.period} | {ends[0]:.5f} | "
+                             f"{ends[-1]:.5f} | {branch.ended} | {points} |")  # fmt: skip
+    return "\n".join(lines) + "\n"
+
+
+def _basins(m: HybridModel) -> str:
+    """Each :data:`BASINS` gait's basin: how many starts converge, the area they cover and
+    how the others end."""
+    (x0, x1, nx), (y0, y1, ny) = BASINS["theta_dot"], BASINS["psi_dot"]
+    x, y = np.linspace(x0, x1, nx), np.linspace(y0, y1, ny)
+    cell = (x[1] - x[0]) * (y[1] - y[0])
+    lines = ["| beta | theta_II | max abs eigenvalue | converged cells | area (rad^2 / (l/g)) "
+             "| ended by (cells) |", "| --- | --- | --- | --- | --- | --- |"]  # fmt: skip
+    for beta, theta_II in BASINS["cells"]:
+        params, orbit = _least_unstable(m, {"beta": beta, "theta_II": theta_II,
+                                            "mu": BASINS["mu"]})  # fmt: skip
+        basin = grid_basin(m, params, "theta_dot", x, "psi_dot", y, BASINS["steps"], gait=orbit)
+        ended = [e for row in basin.ended for e in row]
+        counts = {name: ended.count(name) for name in sorted(set(ended))}
+        converged = counts.pop("converged", 0)
+        others = ", ".join(f"{name} {n}" for name, n in sorted(counts.items(), key=lambda c: -c[1]))
+        lines.append(f"| {beta} | {theta_II} | {orbit.max_abs_eigenvalue:.4g} | {converged} | "
+                     f"{converged * cell:.3g} | {others} |")  # fmt: skip
+    return "\n".join(lines) + "\n"
+
+
 def _mu_figure(results: dict, out: Path) -> list[Path]:
     from vsw import plotstyle
     from vsw.figures import save_figure
@@ -704,6 +764,18 @@ def vsw_biped(out: Path, quick: bool = False) -> list[Path]:
             "over 0.3 rad of stance angle (`vsw-biped-fte`); bold: stable; none: no gait ",
             "found.\n\n",
             _region_table({label: stable_region(name, fixed) for name, label, fixed in RULES}),
+            "\n## The stable gaits along b / l\n\n",
+            f"Each gait of {', '.join(map(str, SWEEP['cells']))} at mu = {SWEEP['mu']} ",
+            f"continued from b / l = {SWEEP['b_over_l'][1]} down to {SWEEP['b_over_l'][0]} and ",
+            f"up to {SWEEP['b_over_l'][2]} (`vsw continue --over b_over_l`; period-doubled ",
+            f"branches followed for {SWEEP['switch']} upwards):\n\n",
+            _b_sweep(m),
+            "\n## Basins of the stable gaits\n\n",
+            f"Starts on a {BASINS['theta_dot'][2]} x {BASINS['psi_dot'][2]} grid of theta_dot ",
+            f"in {BASINS['theta_dot'][:2]} and psi_dot in {BASINS['psi_dot'][:2]} at the ",
+            f"gait's stance angle (mu = {BASINS['mu']}), walked {BASINS['steps']} steps by the ",
+            "batch simulator (`vsw basin --grid`); converged: to the gait within 1e-6.\n\n",
+            _basins(m),
         ]
     return _write_report(out / "vsw-biped.md", text, written)
 
