@@ -587,9 +587,9 @@ def _jump_turn(
     ``M_qq`` is quadratic in the held coordinate and coupling ``M_qh`` constant along it,
     ``integral of dh / (a h^2 + b h + c) = 2 / sqrt(D) atan((2 a h + b) / sqrt(D))`` with
     ``D = 4 a c - b^2 > 0`` (an inertia is positive at every length; checked at random
-    points). sympy's ``integrate``
-    gave a wrong zero and then complex logarithms for it; a 16-node Gauss-Legendre rule was
-    off by 4e-5 where heavy legs bring the poles near the path."""
+    points). sympy's ``integrate`` gave a wrong zero and then complex logarithms for it; a
+    16-node Gauss-Legendre rule was off by 4e-5 where heavy legs bring the poles near the
+    path."""
     free = [c.q for c in before.coordinates]
     moving = _jumping(before, after)
     if len(moving) != 1 or set(before.held) != set(after.held):
@@ -606,19 +606,19 @@ def _jump_turn(
                          "keeps them, as an idealisation the model must state)")  # fmt: skip
     if all(_simplify(c) == 0 for c in coupling):
         return {}
-    inertia = sm.Poly(_simplify(inertia[0].xreplace(held)), moved) if len(free) == 1 else None
+    quadratic = sm.Poly(_simplify(inertia[0].xreplace(held)), moved) if len(free) == 1 else None
     coupling = _simplify(coupling[0].xreplace(held))
-    if inertia is None or inertia.degree() != 2 or moved in coupling.free_symbols:
+    if quadratic is None or quadratic.degree() != 2 or moved in coupling.free_symbols:
         raise ValueError(f"{name}: the engine integrates a jump's turn for one free coordinate "
                          "whose inertia is quadratic in the held coordinate and whose "
                          "coupling to it is constant")  # fmt: skip
-    a, b, c = inertia.all_coeffs()
+    a, b, c = quadratic.all_coeffs()
     discriminant = _simplify(4 * a * c - b**2)
     rng = random.Random(20261203)
     for _ in range(8):
         point = {s: rng.uniform(0.05, 3.0) for s in discriminant.free_symbols}
         if not float(discriminant.xreplace(point)) > 0:
-            raise ValueError(f"{name}: the inertia {inertia.as_expr()} has a real root, "
+            raise ValueError(f"{name}: the inertia {quadratic.as_expr()} has a real root, "
                              "so the turn's integral is not the arctangent's")  # fmt: skip
     root = sm.sqrt(discriminant)
     start, end = sm.sympify(before.held[moved]), sm.sympify(after.held[moved])
@@ -1006,6 +1006,7 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
     T + V is constant) and per event whether its ``reset`` is an ``impact``, a ``jump`` or
     ``continuous``.
     """
+    _check_actuators(model)
     args = _state_args(model)
     quantities: list[Quantity] = []
     phases = []
@@ -1208,13 +1209,17 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
     return quantities, descriptor
 
 
-def _actuated(model: Model, event: Event) -> tuple[str, ...]:
-    """The coordinates whose actuators act at a jump (those that jump) or a lock (those
-    it stops), by name; a named actuator's coordinate must be held somewhere."""
+def _check_actuators(model: Model) -> None:
+    """A named actuator holds a coordinate some phase holds."""
     held = {h for phase in model.phases for h in phase.held}
     if not set(model.actuators) <= held:
         raise ValueError(f"{model.name}: actuators name coordinates no phase holds: "
                          f"{sorted(h.name for h in set(model.actuators) - held)}")  # fmt: skip
+
+
+def _actuated(model: Model, event: Event) -> tuple[str, ...]:
+    """The coordinates whose actuators act at a jump (those that jump) or a lock (those
+    it stops), by name."""
     before, after = model.phase(event.source), model.phase(event.target)
     if isinstance(event.reset, Lock):
         free_after = {c.q for c in after.coordinates}
