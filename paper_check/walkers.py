@@ -626,7 +626,7 @@ def _b_sweep(m: HybridModel) -> str:
             for branch in branches:
                 ends = [p["parameter"] for p in branch.points]
                 points = "; ".join(
-                    f"{s.type} {s.parameter:.5f}" + (f" ({s.condition})" if s.condition else "")
+                    f"{s.type} {s.parameter:.7f}" + (f" ({s.condition})" if s.condition else "")
                     for s in branch.special_points
                 )
                 lines.append(f"| {beta} | {theta_II} | {branch.period} | {ends[0]:.5f} | "
@@ -708,9 +708,11 @@ def vsw_biped(out: Path, quick: bool = False) -> list[Path]:
             events = {e.name: e for e in m.step_events(params, _vector(orbit))}
             added = events["extension"].energy_change
             q_ile = float(ile.q_fixed(beta, theta_II, phi))
-            # The ILE's energy input (20) per unit of the mass it moves: the biped's hip
-            # mass m_H; the extension's work (leg and hip together: no split exists).
-            added_ile = float(ile.energy_complement(beta, theta_II, phi, q_ile, 1.0, 1.0, 1.0))
+            # The ILE's energy input (20) for its point mass equal to the biped's whole
+            # mass, m_H (1 + 2 mu), against the biped's extension work (leg and hip
+            # together: the held-hip rule's work has no split).
+            added_ile = float(ile.energy_complement(beta, theta_II, phi, q_ile, 1.0 + 2 * mu,
+                                                    1.0, 1.0))  # fmt: skip
             lines.append(
                 f"| {beta} | {theta_II} | {mu:g} | {math.degrees(phi):.3f} | {orbit.period:.4f} "
                 f"| {orbit.speed:.4f} | {orbit.max_abs_eigenvalue:.4g} | {added:.5f} | "
@@ -738,9 +740,10 @@ def vsw_biped(out: Path, quick: bool = False) -> list[Path]:
         "'no gait by continuation' ends the branch). The last column is the ",
         "ILE's closed-form fixed point (10) at the emergent inter-leg angle over the biped's ",
         "rate squared after heelstrike: 1 + O(mu) (tests/test_vsw_biped.py); beside it the ",
-        "ILE's eigenvalue (19) and energy input (20) at that angle, the latter over the ",
-        "biped's extension work (leg and hip together: the held-hip rule's work has no ",
-        "split, docs/models/vsw_biped.md).\n\n",
+        "ILE's eigenvalue (19) and energy input (20) at that angle, the latter for a point ",
+        "mass equal to the biped's whole mass m_H (1 + 2 mu), over the biped's extension ",
+        "work (leg and hip together: the held-hip rule's work has no split, ",
+        "docs/models/vsw_biped.md).\n\n",
         "\n".join(lines) + "\n\n",
         f"![leg-mass study]({written[0].name})\n",
     ]

@@ -183,3 +183,16 @@ def test_a_fast_jump_of_the_free_hip_biped_has_no_limit_the_engine_derives():
     model = dataclasses.replace(biped.MODEL, events=events)
     with pytest.raises(ValueError, match="kinetic energy depends on the free coordinates"):
         jump_reset(model, "extension")
+
+
+def test_a_fast_jump_whose_other_held_coordinate_follows_the_walker_is_refused():
+    """A hip held on a profile of the stance angle (phi = phi0 + theta / 2) makes the
+    kinetic energy depend on theta once held: the fast extension has no limit the engine
+    derives, and it says so rather than integrating with theta inside the turn."""
+    phases = tuple(
+        dataclasses.replace(p, held={**p.held, caught.phi: caught.phi0 + caught.theta / 2})
+        if caught.phi in p.held else p for p in caught.MODEL.phases
+    )  # fmt: skip
+    model = dataclasses.replace(caught.MODEL, phases=phases)
+    with pytest.raises(ValueError, match="other held coordinates constant"):
+        jump_reset(model, "extension")

@@ -20,6 +20,7 @@ import pytest
 
 from derive.engine.hybrid import hybrid_quantities
 from derive.models import vsw_biped_phi0 as caught
+from vsw.cli import main
 from vsw.cli.analyze import _write_ledger
 from vsw.ledger import energy_ledger
 from vsw.models import load
@@ -133,3 +134,16 @@ def test_actuators_are_named_where_they_work():
     unheld = dataclasses.replace(caught.MODEL, actuators={caught.theta: "ankle"})
     with pytest.raises(ValueError, match="actuators name coordinates no phase holds"):
         hybrid_quantities(unheld)
+
+
+def test_vsw_models_names_each_actuator_where_it_works(capsys):
+    """`vsw models` names the actuators by the models' names: the caught biped's leg at its
+    extension and its hip catching, the held-hip biped's extension as leg and hip."""
+    assert main(["models"]) == 0
+    lines = [x.strip() for x in capsys.readouterr().out.splitlines() if "actuators doing" in x]
+    assert (
+        "actuators doing work: leg (r) at the jump at extension; hip (phi) catching at "
+        "catch" in lines
+    )
+    assert "actuators doing work: leg and held hip (r) at the jump at extension" in lines
+    assert "actuators doing work: hip (phi) in stance" in lines

@@ -587,9 +587,10 @@ def _jump_turn(
     ``M_qq`` is quadratic in the held coordinate and coupling ``M_qh`` constant along it,
     ``integral of dh / (a h^2 + b h + c) = 2 / sqrt(D) atan((2 a h + b) / sqrt(D))`` with
     ``D = 4 a c - b^2 > 0`` (an inertia is positive at every length; checked at random
-    points). sympy's ``integrate`` gave a wrong zero and then complex logarithms for it; a
-    16-node Gauss-Legendre rule was off by 4e-5 where heavy legs bring the poles near the
-    path."""
+    points: a sampled check, not a proof; the caught biped's is
+    ``4 mu b^2 (2 + mu (1 - cos phi0)(3 + cos phi0))``). sympy's ``integrate`` gave a
+    wrong zero and then complex logarithms for it; a 16-node Gauss-Legendre rule was off by
+    4e-5 where heavy legs bring the poles near the path."""
     free = [c.q for c in before.coordinates]
     moving = _jumping(before, after)
     if len(moving) != 1 or set(before.held) != set(after.held):
@@ -597,17 +598,22 @@ def _jump_turn(
                          "coordinates, exactly one of which changes")  # fmt: skip
     moved = moving[0]
     held = {h: sm.sympify(v) for h, v in before.held.items() if h != moved}
-    momenta = [tr10i(_simplify(dyn.momenta[q])) for q in free]
-    inertia = [p.diff(c.u) for p in momenta for c in before.coordinates]
-    coupling = [p.diff(_rate_symbol(moved)) for p in momenta]
-    if any(_simplify(tr10i(m.diff(q))) != 0 for m in (*inertia, *coupling) for q in free):
+    if any(v.free_symbols & set(free) for v in held.values()):
+        raise ValueError(f"{name}: a jump's limit needs the other held coordinates constant")
+    # The mass matrix's blocks in the free coordinates and the moving one, the others held.
+    momenta = [tr10i(_simplify(dyn.momenta[q].xreplace(held))) for q in (*free, moved)]
+    rates = [c.u for c in before.coordinates] + [_rate_symbol(moved)]
+    blocks = [p.diff(u) for p in momenta for u in rates]
+    if any(_simplify(tr10i(m.diff(q))) != 0 for m in blocks for q in free):
         raise ValueError(f"{name}: the kinetic energy depends on the free coordinates, so a "
                          "fast jump has no limit the engine can derive (Jump(limit=False) "
                          "keeps them, as an idealisation the model must state)")  # fmt: skip
+    inertia = [momenta[0].diff(rates[0])]
+    coupling = [p.diff(rates[-1]) for p in momenta[:-1]]
     if all(_simplify(c) == 0 for c in coupling):
         return {}
-    quadratic = sm.Poly(_simplify(inertia[0].xreplace(held)), moved) if len(free) == 1 else None
-    coupling = _simplify(coupling[0].xreplace(held))
+    quadratic = sm.Poly(_simplify(inertia[0]), moved) if len(free) == 1 else None
+    coupling = _simplify(coupling[0])
     if quadratic is None or quadratic.degree() != 2 or moved in coupling.free_symbols:
         raise ValueError(f"{name}: the engine integrates a jump's turn for one free coordinate "
                          "whose inertia is quadratic in the held coordinate and whose "
@@ -1215,6 +1221,8 @@ def _check_actuators(model: Model) -> None:
     if not set(model.actuators) <= held:
         raise ValueError(f"{model.name}: actuators name coordinates no phase holds: "
                          f"{sorted(h.name for h in set(model.actuators) - held)}")  # fmt: skip
+    if len(set(model.actuators.values())) != len(model.actuators):
+        raise ValueError(f"{model.name}: two held coordinates share an actuator's name")
 
 
 def _actuated(model: Model, event: Event) -> tuple[str, ...]:

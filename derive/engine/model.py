@@ -361,8 +361,9 @@ class Model:
         ``r`` ("leg"), the hip's torque on the inter-leg angle ("hip"). The ledger and
         ``vsw models`` name an actuator's work by it (an actuator not named here is called
         after its coordinate); a coordinate a :class:`Lock` stops and that is named here is
-        caught by that actuator (the lock's loss is its negative work), one not named is
-        stopped by the mechanism (a knee's latch).
+        caught by that actuator (the lock's loss is its negative work: the ledger counts it
+        as the lock's loss, naming the actuator, not in the actuator's total), one not named
+        is stopped by the mechanism (a knee's latch). Names are distinct.
     limits : mapping of sympy.Symbol to sympy.Expr
         Symbols of the mechanics (not parameters) that every derived quantity is taken to
         the limit of: a walker with massless feet states each foot with a mass ``epsilon``

@@ -83,12 +83,12 @@ def run(args: argparse.Namespace) -> int:
             ) + "\n")  # fmt: skip
         held = [f"{', '.join(_actuator(m, h) for h in names)} in {phase}"
                 for phase, names in m["actuators"].items()]  # fmt: skip
+        for event in m["jumps"]:  # a package derived before `actuated` names no coordinate
+            acting = ", ".join(_actuator(m, h) for h in m["actuated"].get(event, ()))
+            held.append(f"{acting or 'an actuator'} at the jump at {event}")
         for event, coordinates in m["actuated"].items():
             named = [h for h in coordinates if h in m["actuator_names"]]
-            if event in m["jumps"]:
-                held.append(f"{', '.join(_actuator(m, h) for h in coordinates)} at the jump "
-                            f"at {event}")  # fmt: skip
-            elif named:  # a lock whose coordinate an actuator catches (its loss is its work)
+            if event not in m["jumps"] and named:  # a lock an actuator catches (its work)
                 held.append(f"{', '.join(_actuator(m, h) for h in named)} catching at {event}")
         if held:
             out.write(f"  actuators doing work: "
