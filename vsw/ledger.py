@@ -124,7 +124,7 @@ def _phase_terms(model: HybridModel, params: Sequence[float], piece: PhasePiece)
         power = np.asarray(
             model._fn(f"{piece.phase}_actuator_power")(*params, *states), dtype=float
         ).reshape(len(names), -1)
-        named = model.spec.get("actuators", {})
+        named = model.spec.get("actuator_names", {})
         for name, p in zip(names, power):
             out["actuators"][named.get(name, name)] = {
                 "work": float(weights @ p),
@@ -142,7 +142,7 @@ def _event_terms(
     t_before, v_before = _kinetic_potential(model, event["source"], params, record.state_before)
     t_after, v_after = _kinetic_potential(model, event["target"], params, record.state_after)
     kinetic_change = t_after - t_before
-    names = model.spec.get("actuators", {})
+    names = model.spec.get("actuator_names", {})
     out: dict[str, Any] = {"event": record.name, "reset": event["reset"],
                            "kinetic_change": kinetic_change}  # fmt: skip
     # The actuators acting at a jump (those of the coordinates it moves) or catching at a

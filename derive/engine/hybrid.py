@@ -581,16 +581,23 @@ def _jump_turn(
     name: str, dyn: PhaseDynamics, before: Phase, after: Phase
 ) -> dict[sm.Symbol, sm.Expr]:
     """How far the free coordinates turn in the limit of a fast jump (:class:`Jump`
-    ``limit``): ``dq = -M_qq^-1 M_qh dh`` integrated along the held coordinate's path.
+    ``limit``): ``dq = -M_qq^-1 M_qh dh`` integrated along the held coordinate's path."""
+    moved, inertia, coupling = _fast_jump_blocks(name, dyn, before, after)
+    if coupling == 0:
+        return {}
+    start, end = sm.sympify(before.held[moved]), sm.sympify(after.held[moved])
+    return {before.coordinates[0].q: -coupling * _reciprocal_integral(name, inertia, start, end)}
 
-    Integrated in closed form where the engine can: one free coordinate whose inertia
-    ``M_qq`` is quadratic in the held coordinate and coupling ``M_qh`` constant along it,
-    ``integral of dh / (a h^2 + b h + c) = 2 / sqrt(D) atan((2 a h + b) / sqrt(D))`` with
-    ``D = 4 a c - b^2 > 0`` (an inertia is positive at every length; checked at random
-    points: a sampled check, not a proof; the caught biped's is
-    ``4 mu b^2 (2 + mu (1 - cos phi0)(3 + cos phi0))``). sympy's ``integrate`` gave a
-    wrong zero and then complex logarithms for it; a 16-node Gauss-Legendre rule was off by
-    4e-5 where heavy legs bring the poles near the path."""
+
+def _fast_jump_blocks(
+    name: str, dyn: PhaseDynamics, before: Phase, after: Phase
+) -> tuple[sm.Symbol, sm.Poly, sm.Expr]:
+    """The moving held coordinate ``h``, the free coordinate's inertia ``M_qq`` as a
+    polynomial in ``h`` and its coupling ``M_qh``, with the other held coordinates at their
+    values; refused (one line each) where the limit does not exist or is not integrated
+    here: the kinetic energy depending on the free coordinates, another held coordinate
+    following them, several free coordinates or held coordinates moving, an inertia not
+    quadratic in ``h`` or a coupling that varies along it."""
     free = [c.q for c in before.coordinates]
     moving = _jumping(before, after)
     if len(moving) != 1 or set(before.held) != set(after.held):
@@ -608,31 +615,37 @@ def _jump_turn(
         raise ValueError(f"{name}: the kinetic energy depends on the free coordinates, so a "
                          "fast jump has no limit the engine can derive (Jump(limit=False) "
                          "keeps them, as an idealisation the model must state)")  # fmt: skip
-    inertia = [momenta[0].diff(rates[0])]
-    coupling = [p.diff(rates[-1]) for p in momenta[:-1]]
-    if all(_simplify(c) == 0 for c in coupling):
-        return {}
-    quadratic = sm.Poly(_simplify(inertia[0]), moved) if len(free) == 1 else None
-    coupling = _simplify(coupling[0])
-    if quadratic is None or quadratic.degree() != 2 or moved in coupling.free_symbols:
-        raise ValueError(f"{name}: the engine integrates a jump's turn for one free coordinate "
-                         "whose inertia is quadratic in the held coordinate and whose "
-                         "coupling to it is constant")  # fmt: skip
-    a, b, c = quadratic.all_coeffs()
+    if len(free) != 1:
+        raise ValueError(f"{name}: the engine integrates a jump's turn for one free coordinate")
+    inertia = sm.Poly(_simplify(momenta[0].diff(rates[0])), moved)
+    coupling = _simplify(momenta[0].diff(rates[1]))
+    if inertia.degree() != 2 or moved in coupling.free_symbols:
+        raise ValueError(f"{name}: the engine integrates a jump's turn where the inertia is "
+                         "quadratic in the held coordinate and the coupling constant")  # fmt: skip
+    return moved, inertia, coupling
+
+
+def _reciprocal_integral(name: str, inertia: sm.Poly, start: sm.Expr, end: sm.Expr) -> sm.Expr:
+    """``integral of dh / (a h^2 + b h + c)`` from ``start`` to ``end``:
+    ``2 / sqrt(D) (atan((2 a end + b) / sqrt(D)) - atan((2 a start + b) / sqrt(D)))`` with
+    ``D = 4 a c - b^2 > 0`` (an inertia is positive at every length; checked at random
+    points: a sampled check, not a proof; the caught biped's is
+    ``4 mu b^2 (2 + mu (1 - cos phi0)(3 + cos phi0))``). sympy's ``integrate`` gave a
+    wrong zero and then complex logarithms for it; a 16-node Gauss-Legendre rule was off by
+    4e-5 where heavy legs bring the poles near the path."""
+    a, b, c = inertia.all_coeffs()
     discriminant = _simplify(4 * a * c - b**2)
     rng = random.Random(20261203)
     for _ in range(8):
         point = {s: rng.uniform(0.05, 3.0) for s in discriminant.free_symbols}
         if not float(discriminant.xreplace(point)) > 0:
-            raise ValueError(f"{name}: the inertia {quadratic.as_expr()} has a real root, "
+            raise ValueError(f"{name}: the inertia {inertia.as_expr()} has a real root, "
                              "so the turn's integral is not the arctangent's")  # fmt: skip
     root = sm.sqrt(discriminant)
-    start, end = sm.sympify(before.held[moved]), sm.sympify(after.held[moved])
     x_start, x_end = ((2 * a * h + b) / root for h in (start, end))
     # atan(x_end) - atan(x_start) as one angle, the argument of (1 + i x_end)(1 - i x_start):
     # the difference of two close arctangents would lose digits for a short extension.
-    angle = sm.atan2(2 * a * (end - start) / root, 1 + x_end * x_start)
-    return {free[0]: -coupling * 2 / root * angle}
+    return 2 / root * sm.atan2(2 * a * (end - start) / root, 1 + x_end * x_start)
 
 
 def _held_state(phase: Phase, free_rates: dict[sm.Symbol, sm.Expr]) -> dict:
@@ -1207,7 +1220,7 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
         "step_length": model.step_length is not None,
         "section": tuple(n for n in names if n in model.section),
         "search": {n: tuple(float(v) for v in model.search[n]) for n in free},
-        **({"actuators": {h.name: name for h, name in model.actuators.items()}}
+        **({"actuator_names": {h.name: name for h, name in model.actuators.items()}}
            if model.actuators else {}),
     }  # fmt: skip
     if model.limits:

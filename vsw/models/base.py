@@ -168,7 +168,7 @@ class Model(HybridModel):
                 p["name"]: list(p["actuators"]) for p in self.phases if p.get("actuators")
             },
             "jumps": [e["name"] for e in self.events if e["reset"] == "jump"],
-            "actuator_names": dict(self.spec.get("actuators", {})),
+            "actuator_names": dict(self.spec.get("actuator_names", {})),
             "actuated": {e["name"]: list(e["actuated"]) for e in self.events if "actuated" in e},
             "features": sorted(self.features),
         }
