@@ -12,10 +12,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
 
 import generated.ile as ile
 import generated.vsw_biped_phi0 as gen
+from tests.fast_extension import fast_extension
 from vsw.models import load
 
 MUS = (1e-2, 1e-3, 1e-4)
@@ -101,53 +101,16 @@ def test_catch_and_extension_keep_the_angular_momentum_about_the_foot(model, gai
     assert events["extension"].energy_change == pytest.approx(lost, rel=1e-9)
 
 
-def _fast_extension(params, theta, theta_dot, eps: float) -> tuple[float, float]:
-    """The caught walker's extension over a time ``eps``: the stance leg's length along
-    the quintic smoothstep from beta to 1, the hip held at phi0, integrated with SciPy from
-    equations written here: the walker is one body turning about the foot, so its angular
-    momentum there, ``H = I(theta, r) theta' + c(theta, r) r'`` from the three masses'
-    positions (hip at r (sin theta, cos theta); each leg's mass b below the hip along its
-    leg), changes only by gravity's moment. Returns theta and theta' when it ends."""
-    beta, _, phi0, mu, b = params
-    masses = np.array([1.0, mu, mu])
-
-    def geometry(angle, r):
-        unit = np.array([np.sin(angle), np.cos(angle)])
-        turned = np.array([np.cos(angle), -np.sin(angle)])
-        swing = np.array([np.sin(angle - phi0), np.cos(angle - phi0)])
-        swing_turned = np.array([np.cos(angle - phi0), -np.sin(angle - phi0)])
-        x = np.array([r * unit, (r - b) * unit, r * unit - b * swing])
-        x_angle = np.array([r * turned, (r - b) * turned, r * turned - b * swing_turned])
-        cross = lambda p, v: p[:, 0] * v[:, 1] - p[:, 1] * v[:, 0]  # noqa: E731
-        inertia = float(np.sum(masses * cross(x, x_angle)))
-        drag = float(np.sum(masses * cross(x, np.tile(unit, (3, 1)))))
-        return x, inertia, drag
-
-    def length(t):
-        u = min(max(t / eps, 0.0), 1.0)
-        return (beta + (1 - beta) * u**3 * (10 - 15 * u + 6 * u**2),
-                (1 - beta) * 30 * u**2 * (1 - u) ** 2 / eps)  # fmt: skip
-
-    def rates(t, y):
-        r, r_dot = length(t)
-        x, inertia, drag = geometry(y[0], r)
-        return [(y[1] - drag * r_dot) / inertia, -float(np.sum(masses * x[:, 0]))]
-
-    _, inertia, _ = geometry(theta, beta)
-    end = solve_ivp(rates, (0.0, eps), [theta, inertia * theta_dot], method="DOP853",
-                    rtol=1e-12, atol=1e-14).y[:, -1]  # fmt: skip
-    return float(end[0]), float(end[1] / geometry(end[0], 1.0)[1])
-
-
 EPS = (1e-3, 1e-4, 1e-5)
 
 
 def test_the_extension_is_the_limit_of_a_fast_one_with_the_hip_held(model, gait):
     """The model's instantaneous extension (``Jump(limit=True)``) against a fast one
-    integrated from the state before it, with equations written here (_fast_extension):
+    integrated from the state before it, with equations written in the tests
+    (tests/fast_extension.py, the hip locked):
     the error falls as eps (theta 7.6e-4, 7.6e-5, 7.6e-6 at eps = 1e-3, 1e-4, 1e-5 on the
     default gait: the walker's own motion in that time), and the Richardson extrapolation
-    of the last two is the reset's state to 2e-10 (theta) and 3.5e-10 (theta'). The walker
+    of the last two is the reset's state to 2e-10 (theta) and 3.6e-10 (theta'). The walker
     turns by 1.83e-4 rad through the extension: the leg's push drags the swing leg's mass,
     which is off the stance leg's line, about the foot. An extension that kept theta
     (``Jump()``, this model's rule before) is off the limit by that turn."""
@@ -156,7 +119,10 @@ def test_the_extension_is_the_limit_of_a_fast_one_with_the_hip_held(model, gait)
                     if e.name == "extension")  # fmt: skip
     theta, _, theta_dot, _ = extension.state_before  # the hip held: phi = phi0, phi' = 0
     after = extension.state_after[[0, 2]]
-    ends = np.array([_fast_extension(params, theta, theta_dot, eps) for eps in EPS])
+    beta, _, phi0, mu, b = params
+    # In the swing leg's own angle psi = theta - phi0, turning with the stance leg.
+    start = (theta, theta - phi0, theta_dot, theta_dot)
+    ends = np.array([fast_extension(beta, mu, b, start, eps)[:2] for eps in EPS])
     errors = np.abs(ends - after)
     limit = (10 * ends[-1] - ends[-2]) / 9  # Richardson: the O(eps) terms cancel
     turn = after[0] - theta

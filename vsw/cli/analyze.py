@@ -163,11 +163,8 @@ def _write_ledger(out: TextIO, model: Model, ledger: dict[str, Any]) -> None:
 
 
 def _impulse_unit(model: Model) -> str:
-    """Mass times speed in the model's units (m_H sqrt(g l) for the scaled bipeds)."""
-    mass, time, length = (model.units.get(k, "") for k in ("mass", "time", "length"))
-    if time == "sqrt(l/g)" and length == "l":
-        return f"{mass} sqrt(g l)".strip()
-    return f"{mass} {length}/{time}".strip() if time else ""
+    """Force times time in the model's units (m_H g sqrt(l/g) for the scaled bipeds)."""
+    return " ".join(model.units[k] for k in ("force", "time") if model.units.get(k))
 
 
 def _write_gaits(out: TextIO, model: Model, report: GaitReport) -> None:
