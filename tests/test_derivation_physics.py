@@ -17,7 +17,7 @@ from scipy.integrate import quad
 
 import generated.ile as gen
 from derive import mechanics
-from derive.engine.hybrid import _jump_turn, _rate_symbol, jump_reset, phase_dynamics
+from derive.engine.hybrid import _jump_turn, _rate_symbol, expand, jump_reset, phase_dynamics
 from derive.engine.model import Jump
 from derive.models import ile
 from derive.models import vsw_biped as biped
@@ -196,3 +196,24 @@ def test_a_fast_jump_whose_other_held_coordinate_follows_the_walker_is_refused()
     model = dataclasses.replace(caught.MODEL, phases=phases)
     with pytest.raises(ValueError, match="other held coordinates constant"):
         jump_reset(model, "extension")
+
+
+def test_the_engines_expansion_by_symengine_is_sympys():
+    """The engine expands with SymEngine and converts back (``expand``); its output is
+    printed into generated code, so it must be sympy's own canonical expansion, node for
+    node, for the forms the models produce: sines and cosines of sums, the TLE's atan,
+    rational powers, symbols with assumptions."""
+    a, b = sm.symbols("a b", real=True)
+    c = sm.Symbol("c", positive=True)
+    forms = [
+        (sm.sin(a - b) + 2 * sm.cos(a) * c) ** 3 * (a - sm.Rational(1, 3) * b),
+        sm.atan(c * a + 1) ** 2 * (sm.cos(2 * a) - c) ** 2 / (c + 1),
+        sm.sqrt(c) * (c ** sm.Rational(3, 2) - a * sm.sin(b)) ** 2 - a / c ** 2,
+    ]
+    for form in forms:
+        ours = expand(form)
+        assert ours == sm.expand(form)
+        assert sm.srepr(ours) == sm.srepr(sm.expand(form))
+        assert {s.name: s.assumptions0 for s in ours.free_symbols} == {
+            s.name: s.assumptions0 for s in form.free_symbols
+        }

@@ -122,7 +122,7 @@ def expand(expr: sm.Expr) -> sm.Expr:
     symbols = {s.name: s for s in expr.free_symbols}
     if (
         len(symbols) != len(expr.free_symbols)
-        or expr.atoms(sm.Function) - expr.atoms(sm.sin, sm.cos)
+        or expr.atoms(sm.Function) - expr.atoms(*_SYMENGINE_FUNCTIONS)
         or expr.atoms(sm.Float)
     ):
         return sm.expand(expr)
@@ -133,7 +133,9 @@ def expand(expr: sm.Expr) -> sm.Expr:
 
 
 _SYMENGINE_CLASSES = ((se.Add, sm.Add), (se.Mul, sm.Mul), (se.Pow, sm.Pow), (se.sin, sm.sin),
-                      (se.cos, sm.cos))  # fmt: skip
+                      (se.cos, sm.cos), (se.atan, sm.atan))  # fmt: skip
+_SYMENGINE_FUNCTIONS = (sm.sin, sm.cos, sm.atan)
+"""The functions :func:`expand` hands to SymEngine (the TLE's stride integral has an atan)."""
 
 
 def _from_symengine(expr, symbols: dict[str, sm.Symbol], seen: dict) -> sm.Expr:
@@ -264,7 +266,6 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
             item = me.RigidBody(body.name, point, own, body.mass, (inertia, point))
         item.potential_energy = -body.mass * (gx * x + gy * y)
         bodies.append(item)
-    lagrangian = me.Lagrangian(frame, *bodies)
     rates = [f.diff(t) for f in functions]
     mass_matrix, forcing = _equations_of_motion(frame, bodies, functions, rates, (gx, gy))
 
@@ -380,9 +381,12 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
     accelerations = tuple(e.xreplace(placed) for e in in_symbols)
     actuator = {h: linear_in_accelerations(residual[chart.index(h)]) for h in held}
 
-    kinetic = sum((b.kinetic_energy(frame) for b in bodies), sm.Integer(0))
     potential = sum((b.potential_energy for b in bodies), sm.Integer(0))
-    momenta = {s: _simplify(lagrangian.diff(r).xreplace(plain)) for s, r in zip(chart, rates)}
+    # p = dT/dq' = M q' (T = q'^T M q' / 2: no position depends on time by itself); the
+    # Lagrangian's derivative gives the same polynomial at several times sympy's cost.
+    momenta_in_time = mass_matrix * sm.Matrix(rates)
+    momenta = {s: _simplify(p.xreplace(plain)) for s, p in zip(chart, momenta_in_time)}
+    kinetic = sum((r * p for r, p in zip(rates, momenta_in_time)), sm.Integer(0)) / 2
     # Ground reaction on the stance foot: the bodies' total rate of momentum minus gravity.
     force = [sm.Integer(0), sm.Integer(0)]
     for body in phase.bodies:
