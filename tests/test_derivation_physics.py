@@ -208,7 +208,7 @@ def test_the_engines_expansion_by_symengine_is_sympys():
     forms = [
         (sm.sin(a - b) + 2 * sm.cos(a) * c) ** 3 * (a - sm.Rational(1, 3) * b),
         sm.atan(c * a + 1) ** 2 * (sm.cos(2 * a) - c) ** 2 / (c + 1),
-        sm.sqrt(c) * (c ** sm.Rational(3, 2) - a * sm.sin(b)) ** 2 - a / c ** 2,
+        sm.sqrt(c) * (c ** sm.Rational(3, 2) - a * sm.sin(b)) ** 2 - a / c**2,
     ]
     for form in forms:
         ours = expand(form)
