@@ -480,8 +480,10 @@ def ile_limit() -> dict[str, sm.Expr]:
     s = sm.Symbol("s", real=True)
     order = 3
     sine = sm.series(sm.sin(theta_II + delta * s), delta, 0, order).removeO()
-    j_series = sm.expand(delta * sm.integrate(sm.expand(profile(theta_II + delta * s) ** 3
-                                                         * sine), (s, 0, 1)))  # fmt: skip
+    # A polynomial in s (the profile is one in (theta - theta_II) / delta): integrated term
+    # by term, a second of sympy's integrate.
+    integrand = sm.expand(profile(theta_II + delta * s) ** 3 * sine)
+    j_series = sm.expand(delta * integrate_polynomial_trig(integrand, s, 0, 1))
     j_series = sum((j_series.coeff(delta, n) * delta**n for n in range(order + 1)), sm.Integer(0))
     forms = stride_forms()
     qf = forms["offset"] / (1 - forms["slope"])
