@@ -9,6 +9,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+# The derivations the tests run in process use sympy's cache as `python -m derive` does
+# (derive/__main__.py says why); set before anything imports sympy.
+os.environ.setdefault("SYMPY_CACHE_SIZE", "20000")
+
 import numpy as np
 import pytest
 
