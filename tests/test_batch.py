@@ -164,6 +164,40 @@ def test_batch_step_equals_scipy_step(gaits, name):
     assert len(near) >= 4, "no outcome boundary found along the rate"
 
 
+@pytest.mark.parametrize("name", MODELS)
+def test_step_with_each_phase_duration_equals_scipys(gaits, name):
+    """`step_phases` (the gait search's guess of the phase durations and the confirmation
+    of every gait) against the SciPy route's step: the same phases visited, each visit's
+    duration, the state after and the step length within 1e-9, on starts around each gait;
+    a fall names the same failure."""
+    model, params, orbits = gaits[name]
+    sim = simulator(load(name))
+    assert sim.library() is not None, sim.build_error
+    rng = np.random.default_rng(27)
+    names = (*model.coordinates, *model.rates)
+    compared = {"completed": 0, "fell": 0}
+    for orbit in orbits[:2]:
+        state = np.array([orbit.state[k] for k in names])
+        for start in [state, *(state * (1 + 0.05 * rng.standard_normal((12, len(state)))))]:
+            ours, ref = sim.step_phases(params, start), model.step(params, start)
+            assert ours.ended == ref.ended
+            assert len(ours.durations) == len(ref.durations)
+            if ref.ended == "completed":
+                compared["completed"] += 1
+                assert np.allclose(ours.durations, ref.durations, rtol=0, atol=STATE_TOL)
+                scale = np.maximum(1.0, np.abs(ref.state))
+                assert np.max(np.abs(ours.state - ref.state) / scale) <= STATE_TOL
+                if ref.step_length is None:
+                    assert ours.step_length is None
+                else:
+                    assert abs(ours.step_length - ref.step_length) <= STATE_TOL
+            else:
+                compared["fell"] += 1
+                # the fall's own time: where the failure's guard crosses
+                assert np.allclose(ours.durations, ref.durations, rtol=0, atol=STATE_TOL)
+    assert compared["completed"] >= 5, compared
+
+
 @pytest.mark.parametrize("name", ["simplest_walker", "compass_gait", "vsw_biped", "rimless_wheel"])
 def test_batch_fixed_point_equals_the_rootfinders(gaits, name):
     model, params, orbits = gaits[name]

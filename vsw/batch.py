@@ -18,6 +18,7 @@ route, :meth:`vsw.hybrid.HybridModel.step`, one at a time: the same classes, muc
 from __future__ import annotations
 
 import ctypes
+import math
 import os
 import threading
 import warnings
@@ -30,7 +31,7 @@ import numpy as np
 from vsw import stop
 from vsw.compiled import build_library
 from vsw.errors import ConvergenceError, SlowRouteWarning, VswInputError
-from vsw.hybrid import _PHASE_TIME_LIMIT, _RTOL, HybridModel
+from vsw.hybrid import _PHASE_TIME_LIMIT, _RTOL, HybridModel, StepResult
 from vsw.vectorize import default_threads, run_blocks
 
 __all__ = ["BatchResult", "BatchSimulator", "reference_walks", "simulator"]
@@ -199,6 +200,11 @@ class BatchSimulator:
         ll = ctypes.c_longlong
         fn.argtypes = [ll, dbl, ll, dbl, dbl, ctypes.c_void_p, ll, ll, ll, i32, i32, i64, dbl,
                        dbl, dbl, dbl]  # fmt: skip
+        phases = lib.vsw_batch_step_phases
+        phases.restype = ctypes.c_int
+        pointer = ctypes.POINTER
+        phases.argtypes = [dbl, dbl, dbl, dbl, pointer(ctypes.c_int), pointer(ctypes.c_int),
+                           pointer(ctypes.c_double)]  # fmt: skip
 
     # --- walks -------------------------------------------------------------------------
 
@@ -299,6 +305,35 @@ class BatchSimulator:
         state after it, ``kept_lengths``/``kept_durations`` its length and duration."""
         return self.walk(params, states, 1, converge_tol=0.0, period_tol=0.0, keep=1,
                          threads=threads, tolerance=tolerance)  # fmt: skip
+
+    def step_phases(self, params: Sequence[float], state: Sequence[float]) -> StepResult:
+        """One step from ``state`` with each phase visit's duration, as
+        :meth:`vsw.hybrid.HybridModel.step` returns it (``state``: the next section state,
+        or the step's start when it fell or stalled), by the compiled
+        integrator at the SciPy route's tolerance: what the periodic-orbit solver takes as
+        its guess of the durations and its confirmation without importing SciPy. The SciPy
+        route itself when the simulator cannot be built."""
+        lib = self.library()
+        if lib is None:
+            return self.model.step(tuple(float(v) for v in params), np.asarray(state, float))
+        p = np.ascontiguousarray(params, dtype=float)
+        x = np.array(state, dtype=float)
+        if p.shape != (self.np,) or x.shape != (self.nx,):
+            raise VswInputError(f"{self.model.name}: {self.np} parameters and a state of "
+                                f"{self.nx} components, got {p.shape} and {x.shape}")  # fmt: skip
+        options = np.array([_RTOL, _RTOL, _PHASE_TIME_LIMIT])
+        durations = np.zeros(len(self.model.phases) + 1)
+        visits, failure, length = ctypes.c_int(0), ctypes.c_int(0), ctypes.c_double(0.0)
+        code = lib.vsw_batch_step_phases(p, x, options, durations, ctypes.byref(visits),
+                                         ctypes.byref(failure), ctypes.byref(length))  # fmt: skip
+        stop.check()  # a Ctrl-C or time limit ends the integration early: not a stall
+        taken = tuple(float(t) for t in durations[: visits.value])
+        if code == FELL:
+            return StepResult(x, self.failures[failure.value], taken)
+        if code == STALLED:
+            return StepResult(x, "stalled", taken)
+        walked = length.value if math.isfinite(length.value) else None
+        return StepResult(x, "completed", taken, walked)
 
     def fixed_point(
         self, params: Sequence[float], guess: Sequence[float], tol: float = 1e-12,

@@ -411,9 +411,8 @@ def _confirm(
         if not period > 1e-9:
             continue  # a step of no duration (legs together at the event): no gait
         try:
-            gaits.append(
-                model.periodic_orbit(params, state, _phase_durations(model, params, state))
-            )
+            guess = _phase_durations(model, sim, params, state)
+            gaits.append(model.periodic_orbit(params, state, guess, step=sim.step_phases))
         except ConvergenceError as exc:
             stop.check()  # Ctrl-C or the time limit inside CasADi is no failed start
             unconfirmed.append(
@@ -490,9 +489,11 @@ def _write_cache(path: Path | None, scanned: dict[str, Any]) -> None:
             os.unlink(handle.name)
 
 
-def _phase_durations(model: HybridModel, params: Sequence[float], state: np.ndarray) -> tuple:
-    """Each phase's duration of one step from ``state`` (the SciPy route's events)."""
-    step = model.step(params, state)
+def _phase_durations(
+    model: HybridModel, sim: BatchSimulator, params: Sequence[float], state: np.ndarray
+) -> tuple:
+    """Each phase's duration of one step from ``state`` (the batch simulator's events)."""
+    step = sim.step_phases(params, state)
     if step.ended != "completed":
         raise ConvergenceError(f"{model.name}: the step from the Newton solution {step.ended}")
     return step.durations

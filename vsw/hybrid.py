@@ -27,7 +27,7 @@ import functools
 import importlib
 import io
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -637,15 +637,23 @@ class HybridModel:
             ) from None
 
     def periodic_orbit(
-        self, params: Sequence[float], state: np.ndarray, durations: Sequence[float]
+        self,
+        params: Sequence[float],
+        state: np.ndarray,
+        durations: Sequence[float],
+        step: Callable[[Sequence[float], np.ndarray], StepResult] | None = None,
     ) -> Orbit:
         """Solve the period-one orbit from a guess (state on the section, phase durations).
 
         The orbit is confirmed by the time-domain simulation: one simulated step from it
-        (SciPy, events) must pass every phase and return to it within 1e-9 (relative to
-        max(1, |state|), times the largest |eigenvalue| on an unstable gait); otherwise the
-        rootfinder's solution is no gait (a guard crossed earlier, a failure on the way) and
-        :class:`ConvergenceError` says so.
+        (events located on DOP853's dense output) must pass every phase and return to it
+        within 1e-9 (relative to max(1, |state|), times the largest |eigenvalue| on an
+        unstable gait); otherwise the rootfinder's solution is no gait (a guard crossed
+        earlier, a failure on the way) and :class:`ConvergenceError` says so. ``step``: the
+        simulation that confirms, as :meth:`step` (the default, SciPy's DOP853) returns it;
+        the commands pass the compiled batch simulator's
+        (:meth:`vsw.batch.BatchSimulator.step_phases`, the same method and tolerance, and
+        no SciPy to import). Either is independent of the rootfinder's CVODES integration.
         """
         residual = self._orbit_residual()
         solver, jacobian = self._orbit_solver()
@@ -681,7 +689,7 @@ class HybridModel:
         with contextlib.redirect_stderr(io.StringIO()):
             jac = np.array(jacobian(solution, p), dtype=float)
         eigenvalues = self._orbit_eigenvalues(jac)
-        simulated = self.step(params, x_star)
+        simulated = (step or self.step)(params, x_star)
         if simulated.ended != "completed" or len(simulated.durations) != len(t_star):
             raise ConvergenceError(
                 f"{self.name}: the rootfinder's orbit is no gait: the simulated step from it "

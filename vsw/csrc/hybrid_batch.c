@@ -405,9 +405,10 @@ static int vsw_run_phase(int phase, const double *p, double *y, double *t,
 
 /* One step of the Poincare map from the section state x, replaced by the next one when the
    step completes (VSW_WALKED) and kept as it was when the walk falls (VSW_FELL, *failure
-   set) or stalls (VSW_STALLED); *duration and *length of the step. */
+   set) or stalls (VSW_STALLED); *duration and *length of the step. `visits` (NULL in the
+   batch's walks): each phase visit's duration, in order, and *visits their number. */
 static int vsw_step(const double *p, double *x, double *duration, double *length, int *failure,
-                    const vsw_tolerances *tol)
+                    const vsw_tolerances *tol, double *visit_durations, int *visits)
 {
     int phase = VSW_START_PHASE;
     double y[VSW_NX];
@@ -418,6 +419,10 @@ static int vsw_step(const double *p, double *x, double *duration, double *length
         double t = 0.0;
         int hit = vsw_run_phase(phase, p, y, &t, tol);
         *duration += t;
+        if (visits) {
+            visit_durations[visit] = t;
+            *visits = visit + 1;
+        }
         if (hit < 0) return VSW_STALLED;
         int what = vsw_watch_what[phase][hit];
         if (what < 0) {
@@ -499,7 +504,7 @@ VSW_EXPORT void vsw_batch_simulate(long long n, const double *params, long long 
             if (max_period > 0) memcpy(history[walked % max_period], x, sizeof(double) * VSW_NX);
             double duration, length;
             int failure = 0;
-            int ended = vsw_step(p, x, &duration, &length, &failure, &tol);
+            int ended = vsw_step(p, x, &duration, &length, &failure, &tol, NULL, NULL);
             if (ended == VSW_FELL) {
                 result = VSW_FELL;
                 extra = failure;
@@ -565,6 +570,28 @@ VSW_EXPORT void vsw_batch_simulate(long long n, const double *params, long long 
         steps[i] = walked;
         memcpy(final + i * VSW_NX, x, sizeof(double) * VSW_NX);
     }
+}
+
+/* One step from the section state `state` with parameters `params`, each phase visit's
+   duration recorded (the periodic-orbit solver's guess of the phase durations and its
+   confirmation, without the SciPy route): returns VSW_WALKED (`state` replaced by the next
+   section state), VSW_FELL (*failure its index) or VSW_STALLED; durations[k] the k-th phase
+   visit's duration (room for VSW_NPHASES + 1), *visits their number, *length the step's
+   length (NaN for a model without one). options: rtol, atol, phase time limit, as
+   vsw_batch_simulate's. */
+VSW_EXPORT int vsw_batch_step_phases(const double *params, double *state, const double *options,
+                                     double *durations, int *visits, int *failure,
+                                     double *length)
+{
+    vsw_tolerances tol = {options[0], options[1], options[2]};
+    double constants[VSW_NC > 0 ? VSW_NC : 1];
+    vsw_constants(params, constants);
+    double duration;
+    *visits = 0;
+    *failure = 0;
+    *length = NAN;
+    if (!vsw_finite(state)) return VSW_STALLED;
+    return vsw_step(constants, state, &duration, length, failure, &tol, durations, visits);
 }
 
 /* The model's sizes, for the caller's check against its descriptor. */
