@@ -84,7 +84,13 @@ class PhaseDynamics:
     actuator_forces : dict of sympy.Symbol to sympy.Expr
         The generalised force each held coordinate's actuator exerts.
     normal_force, tangential_force : sympy.Expr
-        Ground reaction on the stance foot along the chart's y and x axes.
+        Ground reaction on the stance foot along the chart's y and x axes (every input
+        zero).
+    input_gains : tuple of tuple of sympy.Expr
+        ``d(acceleration)/du``: a row per free coordinate, a column per :class:`Input` of
+        the phase (the accelerations are linear in the inputs).
+    input_rates : tuple of sympy.Expr
+        The rate of each input's ``along``: its power is ``u`` times this.
     """
 
     phase: Phase
@@ -95,6 +101,8 @@ class PhaseDynamics:
     actuator_forces: dict[sm.Symbol, sm.Expr]
     normal_force: sm.Expr
     tangential_force: sm.Expr
+    input_gains: tuple[tuple[sm.Expr, ...], ...] = ()
+    input_rates: tuple[sm.Expr, ...] = ()
 
     @property
     def energy(self) -> sm.Expr:
@@ -380,6 +388,7 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
 
     accelerations = tuple(e.xreplace(placed) for e in in_symbols)
     actuator = {h: linear_in_accelerations(residual[chart.index(h)]) for h in held}
+    gains, input_rates = _input_terms(phase, chart, system, held_values, placed)
 
     potential = sum((b.potential_energy for b in bodies), sm.Integer(0))
     # p = dT/dq' = M q' (T = q'^T M q' / 2: no position depends on time by itself); the
@@ -403,7 +412,63 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
         actuator,
         linear_in_accelerations(force[1]),
         linear_in_accelerations(force[0]),
+        gains,
+        input_rates,
     )
+
+
+def _input_terms(
+    phase: Phase, chart: list[sm.Symbol], system: sm.Matrix, held_values: dict, placed: dict
+) -> tuple[tuple[tuple[sm.Expr, ...], ...], tuple[sm.Expr, ...]]:
+    """Each input's gain on the free coordinates' accelerations and the rate of its
+    ``along`` (:class:`Input`). Its generalised forces on the free rows are ``u d(along)/dq``
+    (held coordinates independent in the chart; their actuators take the held rows), so the
+    gains are ``system^-1`` times that column: the phase's ``system`` of the free rows in
+    the accelerations, the same matrix the passive accelerations are solved with."""
+    if not phase.inputs:
+        return (), ()
+    free = [c.q for c in phase.coordinates]
+    _check_inputs(phase, chart)
+
+    def at_values(expr: sm.Expr) -> sm.Expr:
+        return expr.xreplace(held_values).xreplace(held_values)
+
+    alongs = [sm.sympify(i.along) for i in phase.inputs]
+    forces = sm.Matrix(len(free), len(alongs), lambda j, k: at_values(alongs[k].diff(free[j])))
+    if len(free) == 1:
+        solved = forces / system[0, 0]
+    else:
+        solved = system.adjugate(method="berkowitz") * forces / system.det(method="berkowitz")
+    gains = tuple(
+        tuple(_simplify(solved[j, k]).xreplace(placed) for k in range(len(phase.inputs)))
+        for j in range(len(free))
+    )
+    rates = tuple(
+        _simplify(at_values(sum((sm.sympify(i.along).diff(c) * phase_rate(phase, c)
+                                 for c in chart), sm.Integer(0)))).xreplace(placed)
+        for i in phase.inputs
+    )  # fmt: skip
+    return gains, rates
+
+
+def _check_inputs(phase: Phase, chart: list[sm.Symbol]) -> None:
+    """An input acts along an expression of the chart (and the parameters), is named once
+    and does work on some free coordinate."""
+    names = [i.name for i in phase.inputs]
+    if len(set(names)) != len(names):
+        raise ValueError(f"phase {phase.name}: input names repeat: {names}")
+    for i in phase.inputs:
+        if not i.name.isidentifier():
+            raise ValueError(f"phase {phase.name}: input name {i.name!r} is no identifier")
+        along = sm.sympify(i.along)
+        if not along.free_symbols & {c.q for c in phase.coordinates}:
+            raise ValueError(
+                f"phase {phase.name}: input {i.name} acts along {along}, which no free "
+                "coordinate changes: it does no work on the walker"
+            )
+        low, high = i.bounds
+        if low is not None and high is not None and not low < high:
+            raise ValueError(f"phase {phase.name}: input {i.name}'s bounds {i.bounds} are empty")
 
 
 def _equations_of_motion(frame, bodies, coordinates, rates, gravity):
@@ -975,6 +1040,40 @@ def _state_accelerations(model: Model, phase: Phase, dyn: PhaseDynamics) -> tupl
     return tuple(out)
 
 
+def _input_quantities(model: Model, phase: Phase, dyn: PhaseDynamics, args: tuple) -> list:
+    """A phase's input gains on the state's accelerations (a held state coordinate's by
+    the chain rule, as :func:`_state_accelerations`) and its inputs' rates."""
+    free = [c.q for c in phase.coordinates]
+    by_coordinate = dict(zip(free, dyn.input_gains))
+    rows = []
+    for c in model.coordinates:
+        if c.q in by_coordinate:
+            rows.append(by_coordinate[c.q])
+            continue
+        value = sm.sympify(phase.held[c.q])
+        rows.append(tuple(
+            sum((value.diff(q) * by_coordinate[q][k] for q in free), sm.Integer(0))
+            for k in range(len(phase.inputs))
+        ))  # fmt: skip
+    names = [i.name for i in phase.inputs]
+    gains = tuple(g for row in rows for g in row)
+    return [
+        Quantity(
+            f"{phase.name}_input_gains", args, gains,
+            f"d(acceleration)/d(input) in phase {phase.name}: the accelerations are "
+            f"{phase.name}_accelerations + these times the inputs ({', '.join(names)}).", None,
+            "tuple: for each state coordinate in order, its gain from each input in order",
+            output_names=tuple(f"{c.name}/{n}" for c in model.coordinates for n in names),
+        ),
+        Quantity(
+            f"{phase.name}_input_rates", args, dyn.input_rates,
+            f"Rate of what each input of phase {phase.name} acts along: its power is the "
+            "input times this.", None, "tuple: one rate per input, in order",
+            output_names=tuple(names),
+        ),
+    ]  # fmt: skip
+
+
 def _state_after(model: Model, event) -> tuple[tuple[sm.Expr, ...], tuple[sm.Expr, ...]]:
     """An event's reset as the whole state after it: the target phase's free coordinates
     and rates from the reset, a coordinate it holds at its value (moving with it)."""
@@ -1112,6 +1211,13 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
             record["actuators"] = tuple(h.name for h in moving)
         if conditions:
             record["conditions"] = tuple(conditions)
+        if phase.inputs:
+            quantities += _input_quantities(model, phase, dyn, args)
+            record["inputs"] = tuple(
+                {"name": i.name, "actuator": i.actuator, "along": str(i.along), "unit": i.unit,
+                 "bounds": tuple(i.bounds), "description": i.description}
+                for i in phase.inputs
+            )  # fmt: skip
         phases.append(record)
     events = []
     for event in model.events:

@@ -30,6 +30,7 @@ __all__ = [
     "Event",
     "Failure",
     "Impact",
+    "Input",
     "Jump",
     "Lock",
     "Model",
@@ -109,6 +110,47 @@ Body = PointMass | RigidSegment
 
 
 @dataclass(frozen=True, eq=False)
+class Input:
+    """A continuous input of a phase: an actuator's generalised force ``u(t)`` that does
+    the virtual work ``u * d(along)`` (the principle of virtual work gives its generalised
+    force on each chart coordinate ``q``: ``u * d(along)/dq``).
+
+    A hip torque between two legs acts along the angle between them (``along = theta -
+    psi``); a force along a telescoping leg acts along the leg's length. ``along`` is in the
+    phase's chart coordinates (free and held) and the parameters. The phase's accelerations
+    stay its passive ones (every input zero); the engine derives each input's gain, the
+    derivative of the accelerations by ``u`` (Lagrange's equations are linear in the
+    generalised forces, so ``q'' = a(q, q') + B(q) u`` exactly), and the rate of ``along``,
+    whose product with ``u`` is the input's power.
+
+    Attributes
+    ----------
+    name : str
+        Python identifier (``hip_torque``).
+    along : sympy.Expr
+        What the input does work along.
+    actuator : str
+        The actuator exerting it, by name (the ledger's and ``vsw models``' name).
+    unit : str
+        Unit of ``u`` (``N m``; in the model's units).
+    bounds : (low, high)
+        Bounds on ``u`` for an optimiser (``None``: unbounded that way).
+    description : str
+    """
+
+    name: str
+    along: sm.Expr
+    actuator: str
+    unit: str = ""
+    bounds: tuple[float | None, float | None] = (None, None)
+    description: str = ""
+
+    @property
+    def symbol(self) -> sm.Symbol:
+        return sm.Symbol(self.name, real=True)
+
+
+@dataclass(frozen=True, eq=False)
 class Phase:
     """One continuous phase: the stance foot pinned at the origin of its chart.
 
@@ -116,7 +158,7 @@ class Phase:
     ----------
     name : str
     coordinates : tuple of Coordinate
-        The free coordinates: no actuator acts on them.
+        The free coordinates: no actuator holds them (an :class:`Input` may act on them).
     bodies : tuple of PointMass or RigidSegment
     gravity : (gx, gy)
         Gravity in the chart's axes (``(g sin gamma, -g cos gamma)`` on a slope gamma).
@@ -131,6 +173,10 @@ class Phase:
         with its held value.
     points : mapping of str to (x, y)
         Named points of the chart that guards and impacts refer to (a swing foot).
+    inputs : tuple of Input
+        Continuous inputs an optimiser or a controller may apply (a hip torque): zero in
+        the passive dynamics, which is what every command but the powered-walking ones
+        simulates.
     """
 
     name: str
@@ -139,6 +185,7 @@ class Phase:
     gravity: tuple[sm.Expr, sm.Expr]
     held: Mapping[sm.Symbol, sm.Expr] = field(default_factory=dict)
     points: Mapping[str, tuple[sm.Expr, sm.Expr]] = field(default_factory=dict)
+    inputs: tuple[Input, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)

@@ -25,6 +25,7 @@ from derive.engine.model import (
     Event,
     Failure,
     Impact,
+    Input,
     Model,
     Parameter,
     Phase,
@@ -85,6 +86,18 @@ STANCE = Phase(
     ),
     gravity=(g * sm.sin(gamma), -g * sm.cos(gamma)),
     points={"swing_foot": swing_foot},
+    # Drake's CompassGait has the same input (its "control" port: the hip torque). Passive
+    # walking is this input at zero, which is all the commands but powered walking use.
+    inputs=(
+        Input(
+            "hip_torque",
+            theta - psi,
+            "hip",
+            unit="N m",
+            description="torque between the legs at the hip, positive spreading them (the "
+            "swing leg forward); its reaction acts on the stance leg",
+        ),
+    ),
 )
 
 MODEL = Model(

@@ -17,7 +17,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'compass_gait', 'title': 'Compass gait', 'description': 'Goswami et al. 1996: a hip mass and two legs with point masses, walking down a slope', 'coordinate_units': {'theta': 'rad', 'psi': 'rad'}, 'parameters': ('m_h', 'm', 'a', 'b', 'gamma', 'g'), 'coordinates': ('theta', 'psi'), 'rates': ('theta_dot', 'psi_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the swing foot', 'rate': 'psi_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of psi (swing leg angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('fell-forward', 'stance_fell_forward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': True, 'conditions': (('swing-foot-clearance', 'stance_swing_foot_clearance', -1),)},), 'events': ({'name': 'heelstrike', 'source': 'stance', 'target': 'stance', 'direction': 1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1)},), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the stance leg stops and swings back', 'unit': 'rad/s'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the slope', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the slope', 'unit': 'N'}), 'conditions': ({'name': 'swing-foot-clearance', 'direction': -1, 'meaning': 'the swing foot stays above the ground (where negative it scuffs: ignored)', 'unit': 'm', 'interior': True},), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J', 'force': 'N'}, 'step_length': True, 'section': ('psi',), 'search': {'theta': (-0.8, 0.0), 'theta_dot': (0.0, 5.0), 'psi_dot': (-5.0, 5.0)}, 'closed_form': False}
+HYBRID = {'name': 'compass_gait', 'title': 'Compass gait', 'description': 'Goswami et al. 1996: a hip mass and two legs with point masses, walking down a slope', 'coordinate_units': {'theta': 'rad', 'psi': 'rad'}, 'parameters': ('m_h', 'm', 'a', 'b', 'gamma', 'g'), 'coordinates': ('theta', 'psi'), 'rates': ('theta_dot', 'psi_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the swing foot', 'rate': 'psi_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of psi (swing leg angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('fell-forward', 'stance_fell_forward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': True, 'conditions': (('swing-foot-clearance', 'stance_swing_foot_clearance', -1),), 'inputs': ({'name': 'hip_torque', 'actuator': 'hip', 'along': '-psi + theta', 'unit': 'N m', 'bounds': (None, None), 'description': 'torque between the legs at the hip, positive spreading them (the swing leg forward); its reaction acts on the stance leg'},)},), 'events': ({'name': 'heelstrike', 'source': 'stance', 'target': 'stance', 'direction': 1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1)},), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the stance leg stops and swings back', 'unit': 'rad/s'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the slope', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the slope', 'unit': 'N'}), 'conditions': ({'name': 'swing-foot-clearance', 'direction': -1, 'meaning': 'the swing foot stays above the ground (where negative it scuffs: ignored)', 'unit': 'm', 'interior': True},), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J', 'force': 'N'}, 'step_length': True, 'section': ('psi',), 'search': {'theta': (-0.8, 0.0), 'theta_dot': (0.0, 5.0), 'psi_dot': (-5.0, 5.0)}, 'closed_form': False}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -514,6 +514,81 @@ def stance_inertias(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot):
     """
     be = backend_for(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot)
     return (m_h, 0, m, 0, m, 0,)
+
+
+def stance_input_gains(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot):
+    """d(acceleration)/d(input) in phase stance: the accelerations are stance_accelerations + these times the inputs (hip_torque).
+
+    Parameters
+    ----------
+    m_h : array_like or casadi.SX/MX/DM
+    m : array_like or casadi.SX/MX/DM
+    a : array_like or casadi.SX/MX/DM
+    b : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: for each state coordinate in order, its gain from each input in order
+    """
+    be = backend_for(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot)
+    cos_t0, sin_t0 = be.cos_sin(psi - theta)
+    x0 = cos_t0*a
+    x1 = (b*b*b)
+    x2 = x1*m
+    x3 = a**2
+    x4 = x3*m_h
+    x5 = b**2
+    x6 = x5*m
+    x7 = 2*a
+    x8 = x5*m_h
+    x9 = 2*x3*m
+    x10 = cos_t0**2
+    x11 = x7*b
+    x12 = (b*b*b*b)
+    x13 = m**2
+    return ((x0 - b + cos_t0*b)/(-x2 - x1*m_h - x4*b - x6*x7 - x7*x8 - x9*b + x1*x10*m + x10*x3*b*m + 2*x10*x5*a*m), (x4 + x6 + x8 + x9 + x11*m + x11*m_h - x6*cos_t0 - x0*b*m)/(-x12*x13 - x4*x6 + x10*x12*x13 - x1*x13*x7 - x12*m*m_h - x2*x7*m_h - 2*x13*x3*x5 + x10*x13*x3*x5 + 2*x1*x10*x13*a),)
+
+
+stance_input_gains.outputs = ('theta/hip_torque', 'psi/hip_torque')
+
+
+def stance_input_rates(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot):
+    """Rate of what each input of phase stance acts along: its power is the input times this.
+
+    Parameters
+    ----------
+    m_h : array_like or casadi.SX/MX/DM
+    m : array_like or casadi.SX/MX/DM
+    a : array_like or casadi.SX/MX/DM
+    b : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: one rate per input, in order
+    """
+    be = backend_for(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot)
+    return (theta_dot - psi_dot,)
+
+
+stance_input_rates.outputs = ('hip_torque',)
 
 
 def event_heelstrike_guard(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot):

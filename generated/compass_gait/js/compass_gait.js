@@ -350,6 +350,31 @@ function stance_inertias(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot)
   return [m_h, 0, m, 0, m, 0];
 }
 
+/* d(acceleration)/d(input) in phase stance: the accelerations are stance_accelerations + these times the inputs (hip_torque). Returns tuple: for each state coordinate in order, its gain from each input in order. */
+function stance_input_gains(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot) {
+  const [cos_t0, sin_t0] = be.cos_sin(psi - theta);
+  const x0 = cos_t0*a;
+  const x1 = (b*b*b);
+  const x2 = x1*m;
+  const x3 = Math.pow(a, 2);
+  const x4 = x3*m_h;
+  const x5 = Math.pow(b, 2);
+  const x6 = x5*m;
+  const x7 = 2*a;
+  const x8 = x5*m_h;
+  const x9 = 2*x3*m;
+  const x10 = Math.pow(cos_t0, 2);
+  const x11 = x7*b;
+  const x12 = (b*b*b*b);
+  const x13 = Math.pow(m, 2);
+  return [(x0 - b + cos_t0*b)/(-x2 - x1*m_h - x4*b - x6*x7 - x7*x8 - x9*b + x1*x10*m + x10*x3*b*m + 2*x10*x5*a*m), (x4 + x6 + x8 + x9 + x11*m + x11*m_h - x6*cos_t0 - x0*b*m)/(-x12*x13 - x4*x6 + x10*x12*x13 - x1*x13*x7 - x12*m*m_h - x2*x7*m_h - 2*x13*x3*x5 + x10*x13*x3*x5 + 2*x1*x10*x13*a)];
+}
+
+/* Rate of what each input of phase stance acts along: its power is the input times this. Returns tuple: one rate per input, in order. */
+function stance_input_rates(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot) {
+  return [theta_dot - psi_dot];
+}
+
 /* Guard of the event heelstrike: crosses zero when it happens. Returns guard. */
 function event_heelstrike_guard(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot) {
   const [cos_t0, sin_t0] = be.cos_sin(psi/2 + theta/2);
@@ -418,7 +443,7 @@ function section_completion(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_d
   return [theta, -theta, theta_dot, psi_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_fell_forward, stance_lift_off, stance_swing_foot_clearance, stance_positions, stance_inertias, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
+const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_fell_forward, stance_lift_off, stance_swing_foot_clearance, stance_positions, stance_inertias, stance_input_gains, stance_input_rates, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {

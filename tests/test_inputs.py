@@ -1,0 +1,124 @@
+"""Continuous inputs in the model language (derive/engine/model.py ``Input``): the compass
+gait's hip torque, as Drake's CompassGait has it.
+
+The engine derives each input's gain on the accelerations from its virtual work and the
+phase's equations of motion (Kane's method). Checked here by what the derivation did not
+use: Newton and Euler written out for the three point masses (the walker's angular momentum
+about the stance foot, on which the hip torque does nothing, and the swing leg's about the
+hip, on which it acts), and the energy balance (the input's power is the rate of the
+walker's energy).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import generated.compass_gait as gen
+from derive.engine.hybrid import phase_dynamics
+from derive.engine.model import Input
+from derive.models import compass_gait
+
+PARAMETER_NAMES = ("m_h", "m", "a", "b", "gamma", "g")
+
+
+def _random_cases(count: int, seed: int):
+    rng = np.random.default_rng(seed)
+    for _ in range(count):
+        params = (rng.uniform(0.5, 20), rng.uniform(0.1, 10), rng.uniform(0.2, 1.5),
+                  rng.uniform(0.2, 1.5), rng.uniform(0.0, 0.3), rng.uniform(1, 20))  # fmt: skip
+        state = (*rng.uniform(-0.8, 0.8, 2), *rng.uniform(-3, 3, 2))
+        yield params, state, rng.uniform(-50, 50)
+
+
+def _accelerations(params, state, torque):
+    passive = np.array(gen.stance_accelerations(*params, *state), dtype=float)
+    gains = np.array(gen.stance_input_gains(*params, *state), dtype=float)
+    return passive + gains * torque
+
+
+def _point_acceleration(length, angle, rate, acc):
+    """Second derivative of ``length * (sin angle, cos angle)``."""
+    return length * np.array([np.cos(angle) * acc - np.sin(angle) * rate**2,
+                              -np.sin(angle) * acc - np.cos(angle) * rate**2])  # fmt: skip
+
+
+def _cross(p, f):
+    return p[0] * f[1] - p[1] * f[0]
+
+
+def test_the_hip_torque_obeys_newton_and_euler():
+    """With the hip torque ``u`` (CCW on the swing leg, so that its power is
+    ``u (theta' - psi')``), at random parameters, states and torques: the walker's angular
+    momentum about the stance foot changes by gravity's moment alone (the torque is
+    internal), the swing leg's about the hip by gravity's moment and ``u``."""
+    for params, state, u in _random_cases(40, seed=28):
+        m_h, m, a, b, gamma, g = params
+        theta, psi, theta_dot, psi_dot = state
+        theta_acc, psi_acc = _accelerations(params, state, u)
+        gravity = np.array([g * np.sin(gamma), -g * np.cos(gamma)])
+        hip = (a + b) * np.array([np.sin(theta), np.cos(theta)])
+        hip_acc = _point_acceleration(a + b, theta, theta_dot, theta_acc)
+        stance = a * np.array([np.sin(theta), np.cos(theta)])
+        stance_acc = _point_acceleration(a, theta, theta_dot, theta_acc)
+        swing = hip - b * np.array([np.sin(psi), np.cos(psi)])
+        swing_acc = hip_acc - _point_acceleration(b, psi, psi_dot, psi_acc)
+        walker = sum(mass * (_cross(p, acc) - _cross(p, gravity))
+                     for mass, p, acc in ((m_h, hip, hip_acc), (m, stance, stance_acc),
+                                          (m, swing, swing_acc)))  # fmt: skip
+        scale = (m_h + 2 * m) * (a + b) * (g + (a + b) * (theta_dot**2 + psi_dot**2)) + abs(u)
+        assert abs(walker) <= 1e-12 * scale
+        lever = swing - hip
+        swing_leg = m * (_cross(lever, swing_acc) - _cross(lever, gravity)) - u
+        assert abs(swing_leg) <= 1e-12 * scale
+
+
+def test_the_inputs_power_is_the_rate_of_the_walkers_energy():
+    """dE/dt along the flow with the input on is ``u`` times the input's rate: the energy's
+    derivative by the rates (central differences of the generated energy) times the gains
+    is that rate, at random states (the passive flow keeps E)."""
+    for params, state, _ in _random_cases(40, seed=29):
+        theta, psi, theta_dot, psi_dot = state
+        gains = np.array(gen.stance_input_gains(*params, *state), dtype=float)
+        h = 1e-6
+        by_rates = []
+        for k in (2, 3):
+            up, down = list(state), list(state)
+            up[k] += h
+            down[k] -= h
+            by_rates.append((gen.stance_energy(*params, *up)
+                             - gen.stance_energy(*params, *down)) / (2 * h))  # fmt: skip
+        (rate,) = gen.stance_input_rates(*params, *state)
+        assert rate == pytest.approx(theta_dot - psi_dot, abs=1e-15)
+        scale = max(1.0, abs(rate), float(np.max(np.abs(by_rates))) * float(np.max(np.abs(gains))))
+        assert abs(float(np.dot(by_rates, gains)) - rate) <= 1e-7 * scale
+
+
+def test_the_passive_dynamics_are_the_inputs_at_zero():
+    """The input leaves the passive accelerations as they were: zero torque gives the
+    compass gait's equations, and the descriptor names the input and its actuator."""
+    (phase,) = gen.HYBRID["phases"]
+    (record,) = phase["inputs"]
+    assert (record["name"], record["actuator"], record["unit"]) == ("hip_torque", "hip", "N m")
+    params, state, _ = next(_random_cases(1, seed=30))
+    assert np.array_equal(_accelerations(params, state, 0.0),
+                          np.array(gen.stance_accelerations(*params, *state), dtype=float))  # fmt: skip
+    assert gen.stance_input_gains.outputs == ("theta/hip_torque", "psi/hip_torque")
+
+
+@pytest.mark.parametrize(
+    ("inputs", "message"),
+    [
+        ((Input("push", compass_gait.a, "hip"),), "no free coordinate changes"),
+        ((Input("u", compass_gait.theta, "hip"), Input("u", compass_gait.psi, "hip")),
+         "input names repeat"),
+        ((Input("u", compass_gait.theta, "hip", bounds=(1.0, -1.0)),), "bounds"),
+    ],
+)  # fmt: skip
+def test_inputs_that_cannot_act_are_refused(inputs, message):
+    """An input along a parameter does no work; names repeat; empty bounds: one line each."""
+    phase = dataclasses.replace(compass_gait.STANCE, inputs=inputs)
+    with pytest.raises(ValueError, match=message):
+        phase_dynamics(phase)
