@@ -12,6 +12,7 @@ walker's energy).
 from __future__ import annotations
 
 import dataclasses
+import json
 
 import numpy as np
 import pytest
@@ -20,6 +21,7 @@ import generated.compass_gait as gen
 from derive.engine.hybrid import phase_dynamics
 from derive.engine.model import Input
 from derive.models import compass_gait
+from vsw.cli import main
 
 PARAMETER_NAMES = ("m_h", "m", "a", "b", "gamma", "g")
 
@@ -80,7 +82,7 @@ def test_the_inputs_power_is_the_rate_of_the_walkers_energy():
     derivative by the rates (central differences of the generated energy) times the gains
     is that rate, at random states (the passive flow keeps E)."""
     for params, state, _ in _random_cases(40, seed=29):
-        theta, psi, theta_dot, psi_dot = state
+        theta_dot, psi_dot = state[2:]
         gains = np.array(gen.stance_input_gains(*params, *state), dtype=float)
         h = 1e-6
         by_rates = []
@@ -103,8 +105,8 @@ def test_the_passive_dynamics_are_the_inputs_at_zero():
     (record,) = phase["inputs"]
     assert (record["name"], record["actuator"], record["unit"]) == ("hip_torque", "hip", "N m")
     params, state, _ = next(_random_cases(1, seed=30))
-    assert np.array_equal(_accelerations(params, state, 0.0),
-                          np.array(gen.stance_accelerations(*params, *state), dtype=float))  # fmt: skip
+    passive = np.array(gen.stance_accelerations(*params, *state), dtype=float)
+    assert np.array_equal(_accelerations(params, state, 0.0), passive)
     assert gen.stance_input_gains.outputs == ("theta/hip_torque", "psi/hip_torque")
 
 
@@ -122,3 +124,16 @@ def test_inputs_that_cannot_act_are_refused(inputs, message):
     phase = dataclasses.replace(compass_gait.STANCE, inputs=inputs)
     with pytest.raises(ValueError, match=message):
         phase_dynamics(phase)
+
+
+def test_vsw_models_names_the_input(capsys):
+    """`vsw models` says which inputs a phase has, by whom and along what (text and JSON)."""
+    assert main(["models", "--model", "compass-gait"]) == 0
+    text = capsys.readouterr().out
+    assert "inputs in stance (zero when walking passively): hip_torque [N m] by the hip" in text
+    assert main(["models", "--model", "compass-gait", "--json"]) == 0
+    ((model,),) = [json.loads(capsys.readouterr().out)["models"]]
+    (record,) = model["inputs"]["stance"]
+    assert record["along"] == "-psi + theta" and record["bounds"] == [None, None]
+    assert main(["models", "--model", "simplest-walker", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["models"][0]["inputs"] == {}

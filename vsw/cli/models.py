@@ -93,6 +93,11 @@ def run(args: argparse.Namespace) -> int:
         if held:
             out.write(f"  actuators doing work: "
                       f"{'; '.join(held)}\n")  # fmt: skip
+        for phase, inputs in m["inputs"].items():
+            out.write(f"  inputs in {phase} (zero when walking passively): " + "; ".join(
+                f"{i['name']} [{i['unit']}] by the {i['actuator']}, along {i['along']} "
+                f"({i['description']})" for i in inputs
+            ) + "\n")  # fmt: skip
         if m["features"]:
             out.write(f"  also: {', '.join(m['features'])}\n")
     return EXIT_OK

@@ -170,6 +170,11 @@ class Model(HybridModel):
             "jumps": [e["name"] for e in self.events if e["reset"] == "jump"],
             "actuator_names": dict(self.spec.get("actuator_names", {})),
             "actuated": {e["name"]: list(e["actuated"]) for e in self.events if "actuated" in e},
+            # Continuous inputs by phase (zero in every passive command): the powered-walking
+            # issue's controls, each with its actuator, what it acts along and its bounds.
+            "inputs": {
+                p["name"]: [dict(i) for i in p["inputs"]] for p in self.phases if p.get("inputs")
+            },
             "features": sorted(self.features),
         }
 
