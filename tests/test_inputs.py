@@ -47,6 +47,18 @@ def _point_acceleration(length, angle, rate, acc):
                               -np.sin(angle) * acc - np.cos(angle) * rate**2])  # fmt: skip
 
 
+def _ground(params, state, torque):
+    """The ground's force on the stance foot from Newton: sum of m (a - g) over the bodies."""
+    m_h, m, a, b, gamma, g = params
+    theta, psi, theta_dot, psi_dot = state
+    theta_acc, psi_acc = _accelerations(params, state, torque)
+    gravity = np.array([g * np.sin(gamma), -g * np.cos(gamma)])
+    hip_acc = _point_acceleration(a + b, theta, theta_dot, theta_acc)
+    stance_acc = _point_acceleration(a, theta, theta_dot, theta_acc)
+    swing_acc = hip_acc - _point_acceleration(b, psi, psi_dot, psi_acc)
+    return m_h * (hip_acc - gravity) + m * (stance_acc - gravity) + m * (swing_acc - gravity)
+
+
 def _cross(p, f):
     return p[0] * f[1] - p[1] * f[0]
 
@@ -55,7 +67,8 @@ def test_the_hip_torque_obeys_newton_and_euler():
     """With the hip torque ``u`` (CCW on the swing leg, so that its power is
     ``u (theta' - psi')``), at random parameters, states and torques: the walker's angular
     momentum about the stance foot changes by gravity's moment alone (the torque is
-    internal), the swing leg's about the hip by gravity's moment and ``u``."""
+    internal), the swing leg's about the hip by gravity's moment and ``u``; the ground
+    reaction with the input's gains is the bodies' rate of momentum minus gravity."""
     for params, state, u in _random_cases(40, seed=28):
         m_h, m, a, b, gamma, g = params
         theta, psi, theta_dot, psi_dot = state
@@ -75,6 +88,18 @@ def test_the_hip_torque_obeys_newton_and_euler():
         lever = swing - hip
         swing_leg = m * (_cross(lever, swing_acc) - _cross(lever, gravity)) - u
         assert abs(swing_leg) <= 1e-12 * scale
+        # The ground's force on the foot: the bodies' rate of momentum minus gravity.
+        ground = sum(mass * (acc - gravity) for mass, acc in ((m_h, hip_acc), (m, stance_acc),
+                                                              (m, swing_acc)))  # fmt: skip
+        normal_gain, tangential_gain = gen.stance_reaction_input_gains(*params, *state)
+        normal = gen.stance_normal_force(*params, *state) + normal_gain * u
+        assert abs(normal - ground[1]) <= 1e-12 * scale
+        (lift_off_gain,) = gen.stance_lift_off_input_gains(*params, *state)
+        assert lift_off_gain == pytest.approx(normal_gain, rel=1e-12, abs=1e-12)
+        # No tangential force is generated: its gain is checked as the input's share.
+        assert abs(tangential_gain * u - (ground[0] - _ground(params, state, 0.0)[0])) <= (
+            1e-12 * scale
+        )
 
 
 def test_the_inputs_power_is_the_rate_of_the_walkers_energy():

@@ -91,6 +91,8 @@ class PhaseDynamics:
         the phase (the accelerations are linear in the inputs).
     input_rates : tuple of sympy.Expr
         The rate of each input's ``along``: its power is ``u`` times this.
+    input_reaction_gains : tuple of tuple of sympy.Expr
+        ``d(ground reaction)/du``: the normal force's row, then the tangential force's.
     """
 
     phase: Phase
@@ -103,6 +105,7 @@ class PhaseDynamics:
     tangential_force: sm.Expr
     input_gains: tuple[tuple[sm.Expr, ...], ...] = ()
     input_rates: tuple[sm.Expr, ...] = ()
+    input_reaction_gains: tuple[tuple[sm.Expr, ...], ...] = ()
 
     @property
     def energy(self) -> sm.Expr:
@@ -388,7 +391,6 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
 
     accelerations = tuple(e.xreplace(placed) for e in in_symbols)
     actuator = {h: linear_in_accelerations(residual[chart.index(h)]) for h in held}
-    gains, input_rates = _input_terms(phase, chart, system, held_values, placed)
 
     potential = sum((b.potential_energy for b in bodies), sm.Integer(0))
     # p = dT/dq' = M q' (T = q'^T M q' / 2: no position depends on time by itself); the
@@ -403,6 +405,8 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
             position = sm.sympify(body.position[k]).xreplace(to_time)
             accel = at_values(position.diff(t, 2))
             force[k] += body.mass * (accel - g_k)
+    gains, input_rates, reaction = _input_terms(phase, chart, system, held_values, placed,
+                                                force, a_free)  # fmt: skip
     return PhaseDynamics(
         phase,
         accelerations,
@@ -414,19 +418,27 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
         linear_in_accelerations(force[0]),
         gains,
         input_rates,
+        reaction,
     )
 
 
+_Rows = tuple[tuple[sm.Expr, ...], ...]
+
+
 def _input_terms(
-    phase: Phase, chart: list[sm.Symbol], system: sm.Matrix, held_values: dict, placed: dict
-) -> tuple[tuple[tuple[sm.Expr, ...], ...], tuple[sm.Expr, ...]]:
-    """Each input's gain on the free coordinates' accelerations and the rate of its
-    ``along`` (:class:`Input`). Its generalised forces on the free rows are ``u d(along)/dq``
-    (held coordinates independent in the chart; their actuators take the held rows), so the
-    gains are ``system^-1`` times that column: the phase's ``system`` of the free rows in
-    the accelerations, the same matrix the passive accelerations are solved with."""
+    phase: Phase, chart: list[sm.Symbol], system: sm.Matrix, held_values: dict, placed: dict,
+    force: list[sm.Expr], a_free: list[sm.Symbol],
+) -> tuple[_Rows, tuple[sm.Expr, ...], _Rows]:  # fmt: skip
+    """Each input's gain on the free coordinates' accelerations, the rate of its ``along``
+    (:class:`Input`) and its gain on the ground reaction (normal, then tangential). Its
+    generalised forces on the free rows are ``u d(along)/dq`` (held coordinates independent
+    in the chart; their actuators take the held rows), so the gains are ``system^-1`` times
+    that column: the phase's ``system`` of the free rows in the accelerations, the same
+    matrix the passive accelerations are solved with. The ground reaction (``force``, the
+    bodies' rate of momentum minus gravity, linear in the accelerations ``a_free``) moves
+    with the accelerations alone: an input is internal to the walker."""
     if not phase.inputs:
-        return (), ()
+        return (), (), ()
     free = [c.q for c in phase.coordinates]
     _check_inputs(phase, chart)
 
@@ -439,16 +451,19 @@ def _input_terms(
         solved = forces / system[0, 0]
     else:
         solved = system.adjugate(method="berkowitz") * forces / system.det(method="berkowitz")
-    gains = tuple(
-        tuple(_simplify(solved[j, k]).xreplace(placed) for k in range(len(phase.inputs)))
-        for j in range(len(free))
-    )
+    raw = [[_simplify(solved[j, k]) for k in range(len(phase.inputs))] for j in range(len(free))]
+    gains = tuple(tuple(g.xreplace(placed) for g in row) for row in raw)
+    reaction = tuple(
+        tuple(_simplify(sum((force[c].diff(a) * raw[j][k] for j, a in enumerate(a_free)),
+                            sm.Integer(0))).xreplace(placed) for k in range(len(phase.inputs)))
+        for c in (1, 0)
+    )  # fmt: skip
     rates = tuple(
         _simplify(at_values(sum((sm.sympify(i.along).diff(c) * phase_rate(phase, c)
                                  for c in chart), sm.Integer(0)))).xreplace(placed)
         for i in phase.inputs
     )  # fmt: skip
-    return gains, rates
+    return gains, rates, reaction
 
 
 def _check_inputs(phase: Phase, chart: list[sm.Symbol]) -> None:
@@ -1066,6 +1081,14 @@ def _input_quantities(model: Model, phase: Phase, dyn: PhaseDynamics, args: tupl
             output_names=tuple(f"{c.name}/{n}" for c in model.coordinates for n in names),
         ),
         Quantity(
+            f"{phase.name}_reaction_input_gains", args,
+            (*dyn.input_reaction_gains[0], *dyn.input_reaction_gains[1]),
+            f"d(ground reaction)/d(input) in phase {phase.name}: normal force's gains, then "
+            "the tangential force's, one per input.", None,
+            "tuple: normal gains per input, then tangential gains per input",
+            output_names=tuple(f"{f}/{n}" for f in ("normal", "tangential") for n in names),
+        ),
+        Quantity(
             f"{phase.name}_input_rates", args, dyn.input_rates,
             f"Rate of what each input of phase {phase.name} acts along: its power is the "
             "input times this.", None, "tuple: one rate per input, in order",
@@ -1164,6 +1187,8 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
             (start_failures if failure.at_start else failures).append(
                 (failure.name, name, failure.direction)
             )
+            if phase.inputs:
+                quantities.append(_guard_input_gains(model, phase, dyn, failure, name, args))
         conditions = []
         for condition in model.conditions:
             guard = _phase_guard(model, phase, dyn, condition)
@@ -1174,6 +1199,8 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
                 f"crosses zero (direction {condition.direction:+d}) where it fails",
             ))  # fmt: skip
             conditions.append((condition.name, name, condition.direction))
+            if phase.inputs:
+                quantities.append(_guard_input_gains(model, phase, dyn, condition, name, args))
         positions, inertias = _body_table(phase)
         quantities.append(Quantity(
             f"{phase.name}_positions", args, positions,
@@ -1378,6 +1405,29 @@ def _phase_guard(model: Model, phase: Phase, dyn: PhaseDynamics,
     if wanted:
         guard = guard.xreplace({s: dyn.actuator_forces[forces[s]] for s in wanted})
     return guard.xreplace({h: sm.sympify(v) for h, v in phase.held.items()})
+
+
+def _guard_input_gains(model: Model, phase: Phase, dyn: PhaseDynamics,
+                       check: Failure | Condition, name: str, args: tuple) -> Quantity:  # fmt: skip
+    """``<name>_input_gains``: how a failure's or condition's guard moves with each input of
+    the phase (through the ground reaction, which the inputs move; a guard of the state
+    alone does not), for a guard linear in the ground reaction."""
+    guard = sm.sympify(check.guard)
+    if any(s.name.startswith("Q_held_") for s in guard.free_symbols):
+        raise ValueError(f"{model.name}: {check.name} uses a held coordinate's force in phase "
+                         f"{phase.name}, which has inputs: its gains are not derived")  # fmt: skip
+    slope = guard.diff(NORMAL_FORCE)
+    if slope.has(NORMAL_FORCE):
+        raise ValueError(f"{model.name}: {check.name} is not linear in the ground reaction")
+    held = {h: sm.sympify(v) for h, v in phase.held.items()}
+    normal = dyn.input_reaction_gains[0]
+    gains = tuple(_simplify(slope * g).xreplace(held) for g in normal)
+    return Quantity(
+        f"{name}_input_gains", args, gains,
+        f"d(guard of {check.name})/d(input) in phase {phase.name}: the guard with the inputs "
+        f"on is {name} + these times the inputs.", None, "tuple: one gain per input, in order",
+        output_names=tuple(i.name for i in phase.inputs),
+    )  # fmt: skip
 
 
 def _failure_record(model: Model, failure: Failure | Condition) -> dict:

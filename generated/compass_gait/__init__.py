@@ -290,6 +290,36 @@ def stance_fell_backward(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot)
     return theta_dot
 
 
+def stance_fell_backward_input_gains(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot):
+    """d(guard of fell-backward)/d(input) in phase stance: the guard with the inputs on is stance_fell_backward + these times the inputs.
+
+    Parameters
+    ----------
+    m_h : array_like or casadi.SX/MX/DM
+    m : array_like or casadi.SX/MX/DM
+    a : array_like or casadi.SX/MX/DM
+    b : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: one gain per input, in order
+    """
+    be = backend_for(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot)
+    return (0,)
+
+
+stance_fell_backward_input_gains.outputs = ('hip_torque',)
+
+
 def stance_fell_forward(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot):
     """Guard of fell-forward in phase stance.
 
@@ -316,6 +346,36 @@ def stance_fell_forward(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot):
     be = backend_for(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot)
     cos_theta, sin_theta = be.cos_sin(theta)
     return cos_theta
+
+
+def stance_fell_forward_input_gains(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot):
+    """d(guard of fell-forward)/d(input) in phase stance: the guard with the inputs on is stance_fell_forward + these times the inputs.
+
+    Parameters
+    ----------
+    m_h : array_like or casadi.SX/MX/DM
+    m : array_like or casadi.SX/MX/DM
+    a : array_like or casadi.SX/MX/DM
+    b : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: one gain per input, in order
+    """
+    be = backend_for(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot)
+    return (0,)
+
+
+stance_fell_forward_input_gains.outputs = ('hip_torque',)
 
 
 def stance_lift_off(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot):
@@ -429,6 +489,58 @@ def stance_lift_off(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot):
     return (x21 + x26 + x0*x23 + x11*x23 + x17*x53 + x17*x66 + x23*x6 + x25*x38 + x29*x31 + x30*x32 + x34*x37 + x34*x48 + x34*x60 + x36*x70 + x36*x77 + x37*x55 + x45*x46 + x45*x47 + x46*x56 + x46*x57 + x46*x65 + x46*x74 + x47*x56 + x47*x57 + x47*x65 + x47*x74 + x55*x60 + x55*x63 + x63*x64 + x67*x70 + x67*x77 - x0*x44 - x11*x44 - x12*x21 - x12*x26 - x13*x27 - x14*x27 - x16*x27 - x24*x43 - x29*sin_t3 - x30*sin_t4 - x35*x54 - x36*x68 - x37*x51 - x38*x43 - x40*x45 - x40*x57 - x42*x53 - x42*x66 - x44*x6 - x48*x61 - x49*x52 - x52*x59 - x54*x73 - x61*x75 - x62*x69 - x67*x68 - x71*x72 - x72*x76 - 3*x73*x76 - 2*x42*x45 - 2*x71*x73 + 3*x27*x3 + 4*x49*x58 + 5*x58*x75 + x24*x64*x69 - x0*x62*a - x15*x17*x67 - x18*x40*x6)/(x3 + x8 - x13 - x14 - x16 + x0*x1 + x1*x11 + x1*x6 + x11*x7)
 
 
+def stance_lift_off_input_gains(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot):
+    """d(guard of lift-off)/d(input) in phase stance: the guard with the inputs on is stance_lift_off + these times the inputs.
+
+    Parameters
+    ----------
+    m_h : array_like or casadi.SX/MX/DM
+    m : array_like or casadi.SX/MX/DM
+    a : array_like or casadi.SX/MX/DM
+    b : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: one gain per input, in order
+    """
+    be = backend_for(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot)
+    cos_psi, sin_psi = be.cos_sin(psi)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    cos_t2, sin_t2 = be.cos_sin(psi - theta)
+    x0 = (b*b*b)
+    x1 = a**2
+    x2 = x1*m_h
+    x3 = 2*m
+    x4 = b**2
+    x5 = x4*a
+    x6 = 2*m_h
+    x7 = cos_t2**2
+    x8 = a*b
+    x9 = x8*sin_theta
+    x10 = x4*sin_psi
+    x11 = x10*m
+    x12 = x4*sin_theta
+    x13 = x12*m
+    x14 = x12*m_h
+    x15 = x8*sin_psi
+    x16 = x1*x3
+    x17 = cos_t2*m
+    x18 = cos_t2*sin_theta
+    return ((x11 + x13 + x14 + x10*m_h + x15*x3 + x15*x6 + x16*sin_psi + x2*sin_psi + x3*x9 + x9*m_h - x11*cos_t2 - x13*cos_t2 - x14*cos_t2 - x15*x17 - x16*x18 - x18*x2 - 3*x17*x9 - x6*x9*cos_t2)/(-x0*m - x0*m_h - x2*b - x3*x5 - x5*x6 + x0*x7*m - x1*x3*b + x1*x7*b*m + 2*x4*x7*a*m),)
+
+
+stance_lift_off_input_gains.outputs = ('hip_torque',)
+
+
 def stance_swing_foot_clearance(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot):
     """Condition swing-foot-clearance in phase stance (reported, not enforced).
 
@@ -457,6 +569,36 @@ def stance_swing_foot_clearance(m_h, m, a, b, gamma, g, theta, psi, theta_dot, p
     cos_theta, sin_theta = be.cos_sin(theta)
     x0 = a + b
     return x0*cos_theta - x0*cos_psi
+
+
+def stance_swing_foot_clearance_input_gains(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot):
+    """d(guard of swing-foot-clearance)/d(input) in phase stance: the guard with the inputs on is stance_swing_foot_clearance + these times the inputs.
+
+    Parameters
+    ----------
+    m_h : array_like or casadi.SX/MX/DM
+    m : array_like or casadi.SX/MX/DM
+    a : array_like or casadi.SX/MX/DM
+    b : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: one gain per input, in order
+    """
+    be = backend_for(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot)
+    return (0,)
+
+
+stance_swing_foot_clearance_input_gains.outputs = ('hip_torque',)
 
 
 def stance_positions(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot):
@@ -559,6 +701,62 @@ def stance_input_gains(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot):
 
 
 stance_input_gains.outputs = ('theta/hip_torque', 'psi/hip_torque')
+
+
+def stance_reaction_input_gains(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot):
+    """d(ground reaction)/d(input) in phase stance: normal force's gains, then the tangential force's, one per input.
+
+    Parameters
+    ----------
+    m_h : array_like or casadi.SX/MX/DM
+    m : array_like or casadi.SX/MX/DM
+    a : array_like or casadi.SX/MX/DM
+    b : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: normal gains per input, then tangential gains per input
+    """
+    be = backend_for(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot)
+    cos_psi, sin_psi = be.cos_sin(psi)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    cos_t2, sin_t2 = be.cos_sin(psi - theta)
+    x0 = (b*b*b)
+    x1 = a**2
+    x2 = x1*m_h
+    x3 = 2*m
+    x4 = b**2
+    x5 = x4*a
+    x6 = 2*m_h
+    x7 = cos_t2**2
+    x8 = (1/(-x0*m - x0*m_h - x2*b - x3*x5 - x5*x6 + x0*x7*m - x1*x3*b + x1*x7*b*m + 2*x4*x7*a*m))
+    x9 = a*b
+    x10 = x9*m_h
+    x11 = x4*sin_psi
+    x12 = x11*m
+    x13 = x4*sin_theta
+    x14 = x13*m
+    x15 = x13*m_h
+    x16 = x9*sin_psi
+    x17 = x3*x9
+    x18 = x1*x3
+    x19 = cos_t2*m
+    x20 = x9*sin_theta
+    x21 = x4*cos_psi
+    x22 = x4*cos_theta
+    return (x8*(x12 + x14 + x15 + x10*sin_theta + x11*m_h + x16*x3 + x16*x6 + x17*sin_theta + x18*sin_psi + x2*sin_psi - x12*cos_t2 - x14*cos_t2 - x15*cos_t2 - x16*x19 - 3*x19*x20 - x18*cos_t2*sin_theta - x2*cos_t2*sin_theta - x20*x6*cos_t2), x8*(-x10*cos_theta - x17*cos_psi - x17*cos_theta - x18*cos_psi - x2*cos_psi - x21*m - x21*m_h - x22*m - x22*m_h - x6*x9*cos_psi + x1*cos_t2*cos_theta*m_h + x4*cos_psi*cos_t2*m + x4*cos_t2*cos_theta*m + x4*cos_t2*cos_theta*m_h + 2*x1*cos_t2*cos_theta*m + cos_psi*cos_t2*a*b*m + 2*cos_t2*cos_theta*a*b*m_h + 3*cos_t2*cos_theta*a*b*m),)
+
+
+stance_reaction_input_gains.outputs = ('normal/hip_torque', 'tangential/hip_torque')
 
 
 def stance_input_rates(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot):
