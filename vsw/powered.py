@@ -1,0 +1,601 @@
+"""Powered gaits: periodic gaits with the model's inputs, optimal for a cost, by direct
+collocation (IPOPT through CasADi).
+
+A model's phases may declare continuous inputs (``Input`` in the model language: a hip
+torque, a leg force), whose gains on the accelerations the derivation generates
+(``<phase>_input_gains``): ``q'' = a(q, q') + B(q) u``. This module finds the step, with its
+inputs, that meets the targets (speed, step length) at the least cost.
+
+Transcription: Hermite–Simpson, separated form
+----------------------------------------------
+Each phase of a step is cut into :attr:`Request.nodes` intervals of equal length
+``h = T_k / N`` (``T_k`` the phase's duration, an unknown > 0). The unknowns are the state
+and the inputs at every knot and every interval's midpoint, and the durations. Per interval
+``[x_i, x_{i+1}]`` with midpoint ``x_c``: ``x_c = (x_i + x_{i+1}) / 2 + h / 8 (f_i - f_{i+1})``
+and ``x_{i+1} = x_i + h / 6 (f_i + 4 f_c + f_{i+1})`` (Simpson's rule on a cubic state: the
+scheme is fourth order); the inputs are quadratic on each interval through ``u_i``, ``u_c``,
+``u_{i+1}`` (what the re-simulation interpolates). Each phase ends on its event's guard
+(= 0, its ``when`` >= 0), the event's reset maps the last knot to the next phase's first,
+and the step is periodic. Every failure of a phase is a path constraint at the knots, with
+the inputs' share of its guard (``<guard>_input_gains``: the ground reaction moves with
+them). The model's parameters are fixed.
+
+Costs (per step): ``torque2``, the integral of the squared inputs; ``work``, the inputs'
+positive work, the integral of ``max(P, 0)`` of each input's power ``P = u d(along)/dt``,
+exactly, without smoothing: a slack ``s >= 0, s >= P`` at every knot and midpoint (the
+epigraph; minimised, ``s = max(P, 0)``); ``cot``, that work over weight times step
+length. Both add :attr:`Request.regularization` times the squared inputs' integral.
+Integrals by Simpson's rule on the knots and midpoints. ``work`` and ``cot`` start from
+the ``torque2`` optimum with the same targets.
+
+Verification: each phase is integrated again from its first knot with the inputs as the
+scheme interpolates them (SciPy DOP853, 1e-11), and its end compared with the last knot
+(``resimulation_error``, relative to max(1, |state|)); the event's guard there is reported.
+The start is the model's passive gait at the same parameters, inputs zero.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+# The generated functions are called as the design's NLP calls them (one model, two NLPs:
+# the design's multiple shooting without inputs, this collocation with them).
+from vsw.design import _call, _weight
+from vsw.errors import ConvergenceError, VswInputError
+from vsw.gaits import pick
+from vsw.hybrid import HybridModel, Orbit
+
+__all__ = ["PoweredGait", "Request", "optimize", "powered_eigenvalues", "powered_step"]
+
+COSTS = ("torque2", "work", "cot")
+RESIMULATION_TOL = 1e-11
+RESIMULATION_AGREES = 1e-6
+"""The re-simulated phases end within this of their last knots (relative to max(1, |x|))."""
+MESH_AGREES = 1e-4
+"""The cost changes by at most this (relative) from N to 2N intervals a phase."""
+COST_ZERO = 1e-9
+"""Or by at most this (absolute): a cost that is zero to IPOPT's tolerance on both meshes
+(a passive gait that meets the targets needs no input)."""
+_SUCCESS = {"Solve_Succeeded", "Solved_To_Acceptable_Level"}
+
+
+@dataclass(frozen=True)
+class Request:
+    """What to optimise: the cost, the targets (None: free) and the mesh."""
+
+    minimize: str = "torque2"
+    target_speed: float | None = None
+    target_step_length: float | None = None
+    nodes: int = 40
+    regularization: float = 1e-4
+    """Weight of the squared inputs' integral added to the ``work`` and ``cot`` costs: the
+    positive work alone is flat along inputs that do no net work, where IPOPT wanders."""
+
+    def check(self) -> None:
+        if self.minimize not in COSTS:
+            raise VswInputError(f"--minimize {self.minimize}: one of {', '.join(COSTS)}")
+        if not 2 <= self.nodes <= 1000:
+            raise VswInputError(f"--nodes {self.nodes} must be from 2 to 1000")
+        for name, value in (("target speed", self.target_speed),
+                            ("target step length", self.target_step_length)):  # fmt: skip
+            if value is not None and not (math.isfinite(value) and value > 0):
+                raise VswInputError(f"the {name} must be a positive number, got {value}")
+
+
+@dataclass
+class PoweredGait:
+    """An optimised step: ``status`` 'optimal' (IPOPT converged and the re-simulation
+    agrees), 'not-converged' (IPOPT did not, or the re-simulation does not agree:
+    ``reason``), with the step's phases on their knots."""
+
+    status: str
+    reason: str
+    cost: float
+    durations: tuple[float, ...]
+    times: list[np.ndarray]
+    states: list[np.ndarray]  # per phase: knots x state
+    inputs: list[np.ndarray]  # per phase: knots and midpoints in time order x inputs
+    input_times: list[np.ndarray]
+    work: dict[str, dict[str, float]]  # per input: positive, negative
+    step_length: float | None
+    speed: float | None
+    resimulation_error: float
+    guard_at_end: float
+    ipopt_status: str
+    iterations: int
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def period(self) -> float:
+        return float(sum(self.durations))
+
+
+def input_names(model: HybridModel) -> dict[str, list[str]]:
+    """Each phase's inputs by name (empty lists for phases without)."""
+    return {p["name"]: [i["name"] for i in p.get("inputs", ())] for p in model.phases}
+
+
+def optimize(
+    model: HybridModel, params: Sequence[float], request: Request, start: Orbit | None = None
+) -> PoweredGait:
+    """The least-cost periodic step of ``model`` at ``params`` with its inputs (see the
+    module docstring), from ``start`` (default: the model's passive gait at ``params``).
+
+    Solved on ``request.nodes`` intervals a phase and again on twice as many (each from the
+    same start): the result is the finer one, with ``mesh_change`` the relative change of
+    the cost between them. ``optimal`` needs IPOPT's success on both, the re-simulation
+    within :data:`RESIMULATION_AGREES` and ``mesh_change`` within :data:`MESH_AGREES`;
+    otherwise ``not-converged`` says which failed."""
+    request.check()
+    sequence = model._phase_sequence()
+    names = input_names(model)
+    if not any(names[phase] for phase, _ in sequence):
+        raise VswInputError(f"{model.name} declares no inputs: nothing to power it with")
+    if (request.target_speed or request.target_step_length) and not model.spec["step_length"]:
+        raise VswInputError(f"{model.name} defines no step length: no speed or step target")
+    if start is None:
+        start = _passive_start(model, params)
+    coarse = _optimize_on_mesh(model, params, request, start)
+    finer = dataclasses.replace(request, nodes=2 * request.nodes)
+    fine = _optimize_on_mesh(model, params, finer, start)
+    change = abs(fine.cost - coarse.cost) / max(abs(fine.cost), 1e-300)
+    fine.extra["mesh_change"] = change
+    fine.extra["coarse"] = {"nodes": request.nodes, "cost": coarse.cost,
+                            "status": coarse.status}  # fmt: skip
+    agree = change <= MESH_AGREES or abs(fine.cost - coarse.cost) <= COST_ZERO
+    if fine.status == "optimal" and coarse.ipopt_status not in _SUCCESS:
+        fine.status = "not-converged"
+        fine.reason = f"IPOPT {coarse.ipopt_status} on the coarse mesh"
+    elif fine.status == "optimal" and not agree:
+        fine.status = "not-converged"
+        fine.reason = (f"the cost changes by {change:.3g} (relative) from {request.nodes} to "
+                       f"{2 * request.nodes} intervals a phase: the mesh does not resolve the "
+                       "optimum (an impulsive input, where the cost is the work: bound the "
+                       "inputs or raise the regularization)")  # fmt: skip
+    if fine.status == "optimal":
+        fine.extra["eigenvalues"] = powered_eigenvalues(model, params, fine)
+    return fine
+
+
+def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Request,
+                      start: Orbit) -> PoweredGait:  # fmt: skip
+    phases = tuple(phase for phase, _ in model._phase_sequence())
+    first = request
+    if request.minimize != "torque2":
+        # Positive work is flat wherever no input does work and not smooth where one
+        # starts to: from the passive gait IPOPT wanders (to steps of no duration);
+        # from the least squared-input step that meets the targets it converges.
+        first = dataclasses.replace(request, minimize="torque2")
+    nlp = _build(model, phases, first)
+    guess = _initial_guess(model, params, start, nlp, request.nodes)
+    result = _solve(model, params, first, nlp, guess)
+    if first is request:
+        return result
+    staged = _build(model, phases, request)
+    final = _solve(model, params, request, staged,
+                   _transfer(model, params, nlp, result.extra["w"], staged))  # fmt: skip
+    final.extra["warm_start"] = {"minimize": "torque2", "status": result.status,
+                                 "cost": result.cost}  # fmt: skip
+    return final
+
+
+def _passive_start(model: HybridModel, params: Sequence[float]) -> Orbit:
+    """The passive gait the commands follow (the first stable one, else the first)."""
+    gait = pick(model.fixed_points(params))
+    if gait is None:
+        raise ConvergenceError(
+            f"{model.name}: no passive gait at these parameters to start the optimisation from"
+        )
+    return gait
+
+
+@dataclass(frozen=True)
+class _Nlp:
+    solver: Any
+    cost: Any  # ca.Function(w, p) -> cost
+    layout: list[dict[str, Any]]  # per phase: slices of w
+    work: Any  # ca.Function(w, p) -> positive and negative work per input
+    size: int
+    bounds: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]  # lbx, ubx, lbg, ubg
+
+
+@functools.cache
+def _build(model: HybridModel, phases: tuple[str, ...], request: Request) -> _Nlp:
+    """The collocation NLP of one model and request (parameters are the NLP's ``p``)."""
+    import casadi as ca
+
+    sequence = model._phase_sequence()
+    m, count = 2 * model.n, len(sequence)
+    nodes = request.nodes
+    names = input_names(model)
+    p = ca.MX.sym("p", len(model.parameter_table))
+    durations = ca.MX.sym("T", count)
+    knots, middles, u_knots, u_middles, s_knots, s_middles = [], [], [], [], [], []
+    slack = request.minimize != "torque2"
+    for k, (phase, _) in enumerate(sequence):
+        nu = len(names[phase])
+        knots.append([ca.MX.sym(f"x_{k}_{i}", m) for i in range(nodes + 1)])
+        middles.append([ca.MX.sym(f"xc_{k}_{i}", m) for i in range(nodes)])
+        u_knots.append([ca.MX.sym(f"u_{k}_{i}", nu) for i in range(nodes + 1)])
+        u_middles.append([ca.MX.sym(f"uc_{k}_{i}", nu) for i in range(nodes)])
+        # The positive work's epigraph: s >= 0, s >= P (minimised, s = max(P, 0)).
+        width = nu if slack else 0
+        s_knots.append([ca.MX.sym(f"s_{k}_{i}", width) for i in range(nodes + 1)])
+        s_middles.append([ca.MX.sym(f"sc_{k}_{i}", width) for i in range(nodes)])
+    rows, lower, upper = [], [], []
+
+    def add(expr: Any, low: float, high: float) -> None:
+        rows.append(expr)
+        lower.extend([low] * expr.shape[0])
+        upper.extend([high] * expr.shape[0])
+
+    cost = 0
+    positive = {f"{ph}.{name}": 0 for ph, _ in sequence for name in names[ph]}
+    negative = dict(positive)
+    step_length = None
+    for k, (phase, event) in enumerate(sequence):
+        flow = _flow_function(model, phase)
+        h = durations[k] / nodes
+        margins = _margin_functions(model, phase)
+        for i in range(nodes + 1):
+            for function, direction in margins:
+                add(-direction * function(p, knots[k][i], u_knots[k][i]), 0.0, math.inf)
+        if slack and names[phase]:
+            rates = _input_rate_function(model, phase)
+            for x, u, s in (*zip(knots[k], u_knots[k], s_knots[k]),
+                            *zip(middles[k], u_middles[k], s_middles[k])):  # fmt: skip
+                add(s - u * rates(p, x), 0.0, math.inf)
+        for i in range(nodes):
+            x0, x1, xc = knots[k][i], knots[k][i + 1], middles[k][i]
+            f0 = flow(p, x0, u_knots[k][i])
+            f1 = flow(p, x1, u_knots[k][i + 1])
+            fc = flow(p, xc, u_middles[k][i])
+            add(xc - (x0 + x1) / 2 - h / 8 * (f0 - f1), 0.0, 0.0)
+            add(x1 - x0 - h / 6 * (f0 + 4 * fc + f1), 0.0, 0.0)
+            samples = ((x0, u_knots[k][i], s_knots[k][i]), (xc, u_middles[k][i], s_middles[k][i]),
+                       (x1, u_knots[k][i + 1], s_knots[k][i + 1]))  # fmt: skip
+            weights = (1.0, 4.0, 1.0)
+            if names[phase]:
+                rates = _input_rate_function(model, phase)
+                for weight, (x, u, s) in zip(weights, samples):
+                    power = u * rates(p, x)
+                    positive_power = s if slack else ca.fmax(power, 0)
+                    for j, name in enumerate(names[phase]):
+                        key = f"{phase}.{name}"
+                        positive[key] = positive[key] + h / 6 * weight * positive_power[j]
+                        share = h / 6 * weight
+                        negative[key] = negative[key] + share * (power[j] - positive_power[j])
+                    squares = h / 6 * weight * ca.sumsqr(u)
+                    cost = cost + (squares if request.minimize == "torque2"
+                                   else request.regularization * squares)  # fmt: skip
+        end = knots[k][nodes]
+        add(_call(model, f"event_{event['name']}_guard", p, end), 0.0, 0.0)
+        if event["when"] is not None:
+            add(_call(model, event["when"], p, end), 0.0, math.inf)
+        after = _call(model, f"event_{event['name']}_reset", p, end)
+        following = knots[k + 1][0] if k + 1 < count else knots[0][0]
+        add(following - after, 0.0, 0.0)
+        if event["ends_step"] and model.spec["step_length"]:
+            step_length = _call(model, "step_length_of_state", p, end)
+    period = ca.sum1(durations)
+    if request.target_step_length is not None:
+        add(step_length - request.target_step_length, 0.0, 0.0)
+    if request.target_speed is not None:
+        add(step_length - request.target_speed * period, 0.0, 0.0)
+    total_positive = sum(positive.values()) if positive else 0
+    if request.minimize == "work":
+        cost = cost + total_positive
+    elif request.minimize == "cot":
+        if step_length is None:
+            raise VswInputError(f"{model.name} defines no step length: no cost of transport")
+        cost = cost + total_positive / (_weight(model, p) * step_length)
+    w_parts = [durations]
+    layout = []
+    offset = count
+    for k, (phase, _) in enumerate(sequence):
+        nu = len(names[phase])
+        entry = {}
+        slack_width = nu if slack else 0
+        for key, parts, width in (("knots", knots[k], m), ("middles", middles[k], m),
+                                  ("u_knots", u_knots[k], nu), ("u_middles", u_middles[k], nu),
+                                  ("s_knots", s_knots[k], slack_width),
+                                  ("s_middles", s_middles[k], slack_width)):  # fmt: skip
+            entry[key] = (offset, len(parts), width)
+            offset += len(parts) * width
+            w_parts += parts
+        layout.append(entry)
+    w = ca.vertcat(*w_parts)
+    g = ca.vertcat(*rows)
+    lbx = np.full(w.shape[0], -np.inf)
+    ubx = np.full(w.shape[0], np.inf)
+    lbx[:count] = 1e-3 * _time_scale(model)
+    for entry in layout:
+        for key in ("s_knots", "s_middles"):
+            first, parts, width = entry[key]
+            lbx[first : first + parts * width] = 0.0
+    for k, (phase, _) in enumerate(sequence):
+        bounds = [i["bounds"] for i in model.phases[model.phase_index[phase]].get("inputs", ())]
+        for key in ("u_knots", "u_middles"):
+            first, parts, width = layout[k][key]
+            for part in range(parts):
+                for j, (low, high) in enumerate(bounds):
+                    lbx[first + part * width + j] = -np.inf if low is None else low
+                    ubx[first + part * width + j] = np.inf if high is None else high
+    options = {
+        "ipopt.tol": 1e-10, "ipopt.constr_viol_tol": 1e-10, "ipopt.max_iter": 3000,
+        "ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "error_on_fail": False,
+        "ipopt.mu_strategy": "adaptive",
+    }  # fmt: skip
+    solver = ca.nlpsol(f"powered_{model.name}", "ipopt", {"x": w, "p": p, "f": cost, "g": g},
+                       options)  # fmt: skip
+    work = ca.Function("work", [w, p], [ca.vertcat(*positive.values(), *negative.values())
+                                        if positive else ca.DM.zeros(0)])  # fmt: skip
+    return _Nlp(solver, ca.Function("cost", [w, p], [cost]), layout, work, int(w.shape[0]),
+                (lbx, ubx, np.array(lower), np.array(upper)))  # fmt: skip
+
+
+def _time_scale(model: HybridModel) -> float:
+    """The shortest phase the NLP allows is 1e-3 of this (the model's time unit: 1)."""
+    return 1.0
+
+
+@functools.cache
+def _flow_function(model: HybridModel, phase: str) -> Any:
+    """(p, x, u) -> x' with the phase's inputs (none: the passive flow)."""
+    import casadi as ca
+
+    n = model.n
+    names = input_names(model)[phase]
+    p = ca.SX.sym("p", len(model.parameter_table))
+    x = ca.SX.sym("x", 2 * n)
+    u = ca.SX.sym("u", len(names))
+    acc = _call(model, f"{phase}_accelerations", p, x)
+    if names:
+        gains = ca.reshape(_call(model, f"{phase}_input_gains", p, x), len(names), n).T
+        acc = acc + ca.mtimes(gains, u)
+    return ca.Function(f"flow_{phase}", [p, x, u], [ca.vertcat(x[n:], acc)])
+
+
+@functools.cache
+def _input_rate_function(model: HybridModel, phase: str) -> Any:
+    import casadi as ca
+
+    p = ca.SX.sym("p", len(model.parameter_table))
+    x = ca.SX.sym("x", 2 * model.n)
+    return ca.Function(f"rates_{phase}", [p, x], [_call(model, f"{phase}_input_rates", p, x)])
+
+
+@functools.cache
+def _margin_functions(model: HybridModel, phase: str) -> list[tuple[Any, int]]:
+    """(p, x, u) -> each failure's guard with the inputs' share, and its direction."""
+    import casadi as ca
+
+    names = input_names(model)[phase]
+    p = ca.SX.sym("p", len(model.parameter_table))
+    x = ca.SX.sym("x", 2 * model.n)
+    u = ca.SX.sym("u", len(names))
+    out = []
+    for _failure, function, direction in model.phases[model.phase_index[phase]]["failures"]:
+        guard = _call(model, function, p, x)
+        if names:
+            guard = guard + ca.dot(_call(model, f"{function}_input_gains", p, x), u)
+        out.append((ca.Function(f"margin_{function}", [p, x, u], [guard]), direction))
+    return out
+
+
+def _initial_guess(model: HybridModel, params: Sequence[float], start: Orbit, nlp: _Nlp,
+                   nodes: int) -> np.ndarray:  # fmt: skip
+    """The passive gait's step sampled at the knots and midpoints, inputs zero."""
+    state = np.array([start.state[k] for k in (*model.coordinates, *model.rates)])
+    pieces, _events, ended = model.continuous_walk(params, state, 1)
+    if ended != "completed" or len(pieces) != len(nlp.layout):
+        raise ConvergenceError(f"{model.name}: the passive gait's step did not complete ({ended})")
+    w = np.zeros(nlp.size)
+    w[: len(pieces)] = [piece.end - piece.start for piece in pieces]
+    for piece, entry in zip(pieces, nlp.layout):
+        span = piece.end - piece.start
+        knots = piece.start + span * np.arange(nodes + 1) / nodes
+        middles = piece.start + span * (np.arange(nodes) + 0.5) / nodes
+        for key, times in (("knots", knots), ("middles", middles)):
+            first, parts, width = entry[key]
+            w[first : first + parts * width] = piece.states(times).reshape(-1)
+    return w
+
+
+def _transfer(model: HybridModel, params: Sequence[float], source: _Nlp, w: np.ndarray,
+              target: _Nlp) -> np.ndarray:  # fmt: skip
+    """``w`` of ``source`` as a start for ``target`` (same mesh): durations, states and
+    inputs copied, each positive-work slack at ``max(P, 0)`` of the copied point."""
+    out = np.zeros(target.size)
+    count = len(source.layout)
+    out[:count] = w[:count]
+    p = np.asarray(params, dtype=float)
+    for (phase, _), have, want in zip(model._phase_sequence(), source.layout, target.layout):
+        for key in ("knots", "middles", "u_knots", "u_middles"):
+            first, parts, width = have[key]
+            start = want[key][0]
+            out[start : start + parts * width] = w[first : first + parts * width]
+        rates = _input_rate_function(model, phase)
+        for states, inputs, slacks in (("knots", "u_knots", "s_knots"),
+                                       ("middles", "u_middles", "s_middles")):  # fmt: skip
+            first, parts, width = want[slacks]
+            if width == 0:
+                continue
+            x = _block(out, want[states])
+            u = _block(out, want[inputs])
+            power = np.array([u[i] * np.array(rates(p, x[i]), float).reshape(-1)
+                              for i in range(parts)])  # fmt: skip
+            out[first : first + parts * width] = np.maximum(power, 0.0).reshape(-1)
+    return out
+
+
+def _block(w: np.ndarray, entry: tuple[int, int, int]) -> np.ndarray:
+    first, parts, width = entry
+    return w[first : first + parts * width].reshape(parts, width)
+
+
+def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _Nlp,
+           guess: np.ndarray) -> PoweredGait:  # fmt: skip
+    lbx, ubx, lbg, ubg = nlp.bounds
+    p = np.asarray(params, dtype=float)
+    result = nlp.solver(x0=guess, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+    stats = nlp.solver.stats()
+    status = str(stats.get("return_status", "unknown"))
+    w = np.array(result["x"], dtype=float).reshape(-1)
+    sequence = model._phase_sequence()
+    durations = tuple(float(v) for v in w[: len(sequence)])
+    times, states, inputs, input_times = [], [], [], []
+    for k, entry in enumerate(nlp.layout):
+        nodes = request.nodes
+        t0 = sum(durations[:k])
+        first, parts, width = entry["knots"]
+        states.append(w[first : first + parts * width].reshape(parts, width))
+        times.append(t0 + durations[k] * np.arange(nodes + 1) / nodes)
+        first, parts, width = entry["u_knots"]
+        at_knots = w[first : first + parts * width].reshape(parts, width)
+        first, parts, width = entry["u_middles"]
+        at_middles = w[first : first + parts * width].reshape(parts, width)
+        merged = np.empty((2 * nodes + 1, at_knots.shape[1]))
+        merged[0::2], merged[1::2] = at_knots, at_middles
+        inputs.append(merged)
+        input_times.append(t0 + durations[k] * np.arange(2 * nodes + 1) / (2 * nodes))
+    work_values = np.array(nlp.work(w, p), dtype=float).reshape(-1)
+    keys = [f"{ph}.{name}" for ph, _ in sequence for name in input_names(model)[ph]]
+    work = {key: {"positive": float(work_values[j]), "negative": float(work_values[len(keys) + j])}
+            for j, key in enumerate(keys)}  # fmt: skip
+    error, guard = _resimulate(model, p, durations, states, inputs)
+    step_length = None
+    if model.spec["step_length"]:
+        step_length = float(model.step_length(p, states[-1][-1]))
+    period = sum(durations)
+    scale = max(1.0, float(max(np.max(np.abs(s)) for s in states)))
+    agrees = error <= RESIMULATION_AGREES
+    converged = status in _SUCCESS
+    reason = ""
+    if not converged:
+        reason = f"IPOPT {status}"
+    elif not agrees:
+        reason = f"the re-simulation ends {error:.3g} from the last knot (relative)"
+    return PoweredGait(
+        status="optimal" if converged and agrees else "not-converged",
+        reason=reason,
+        cost=float(nlp.cost(w, p)),
+        durations=durations,
+        times=times,
+        states=states,
+        inputs=inputs,
+        input_times=input_times,
+        work=work,
+        step_length=step_length,
+        speed=None if step_length is None else step_length / period,
+        resimulation_error=error,
+        guard_at_end=guard,
+        ipopt_status=status,
+        iterations=int(stats.get("iter_count", -1)),
+        extra={"state_scale": scale, "w": w},
+    )
+
+
+def _resimulate(
+    model: HybridModel, p: np.ndarray, durations, states, inputs
+) -> tuple[float, float]:
+    """Each phase integrated from its first knot with the inputs the scheme implies
+    (quadratic on each interval through knot, midpoint, knot): the largest gap to the last
+    knot relative to max(1, |state|), and the largest |guard| at the phases' ends."""
+    from scipy.integrate import solve_ivp
+
+    sequence = model._phase_sequence()
+    worst, guard_worst = 0.0, 0.0
+    for (phase, event), duration, knots, u in zip(sequence, durations, states, inputs):
+        flow = _flow_function(model, phase)
+        control = _control(u, duration)
+
+        def rhs(t: float, x: np.ndarray, flow=flow, control=control) -> np.ndarray:
+            return np.array(flow(p, x, control(t)), dtype=float).reshape(-1)
+
+        solution = solve_ivp(rhs, (0.0, duration), knots[0], method="DOP853",
+                             rtol=RESIMULATION_TOL, atol=RESIMULATION_TOL)  # fmt: skip
+        end = solution.y[:, -1]
+        scale = max(1.0, float(np.max(np.abs(knots[-1]))))
+        worst = max(worst, float(np.max(np.abs(end - knots[-1]))) / scale)
+        guard = float(model._fn(f"event_{event['name']}_guard")(*p, *end))
+        guard_worst = max(guard_worst, abs(guard))
+    return worst, guard_worst
+
+
+def _control(inputs: np.ndarray, duration: float):
+    """The input at time ``t`` of a phase as the scheme implies it: quadratic on each
+    interval through knot, midpoint and knot; held at its ends outside ``[0, duration]``
+    (a perturbed step may last a little longer or shorter)."""
+    nodes = (inputs.shape[0] - 1) // 2
+    h = duration / nodes
+
+    def control(t: float) -> np.ndarray:
+        t = min(max(t, 0.0), duration)
+        i = min(int(t / h), nodes - 1)
+        s = t / h - i
+        u0, uc, u1 = inputs[2 * i], inputs[2 * i + 1], inputs[2 * i + 2]
+        return u0 * (1 - s) * (1 - 2 * s) + uc * 4 * s * (1 - s) + u1 * s * (2 * s - 1)
+
+    return control
+
+
+def powered_step(model: HybridModel, params: Sequence[float], gait: PoweredGait,
+                 state: np.ndarray) -> np.ndarray:  # fmt: skip
+    """One step from ``state`` with the gait's inputs as functions of the time since each
+    phase began (open loop), each phase ended by its event's guard (SciPy DOP853 with the
+    guard as its event, 1e-11, watched from half the phase's planned duration on: the
+    guard also vanishes where the legs pass each other): the powered walker's Poincare map."""
+    from scipy.integrate import solve_ivp
+
+    p = np.asarray(params, dtype=float)
+    x = np.array(state, dtype=float)
+    for (phase, event), duration, u in zip(model._phase_sequence(), gait.durations, gait.inputs):
+        flow = _flow_function(model, phase)
+        control = _control(u, duration)
+        guard_fn = model._fn(f"event_{event['name']}_guard")
+
+        def rhs(t, y, flow=flow, control=control):
+            return np.array(flow(p, y, control(t)), dtype=float).reshape(-1)
+
+        def guard(t, y, guard_fn=guard_fn):
+            return float(guard_fn(*p, *y))
+
+        guard.terminal = True
+        guard.direction = event["direction"]
+        half = solve_ivp(rhs, (0.0, duration / 2), x, method="DOP853",
+                         rtol=RESIMULATION_TOL, atol=RESIMULATION_TOL)  # fmt: skip
+        rest = solve_ivp(rhs, (duration / 2, 2 * duration), half.y[:, -1], method="DOP853",
+                         rtol=RESIMULATION_TOL, atol=RESIMULATION_TOL, events=guard)  # fmt: skip
+        if rest.status != 1:
+            raise ConvergenceError(f"{model.name}: the powered step from the perturbed state "
+                                   f"never reached {event['name']}")  # fmt: skip
+        end = rest.y_events[0][0]
+        x = np.array(model._fn(f"event_{event['name']}_reset")(*p, *end), dtype=float)
+    return x
+
+
+def powered_eigenvalues(model: HybridModel, params: Sequence[float],
+                        gait: PoweredGait) -> list[complex]:  # fmt: skip
+    """Eigenvalues of the powered step's Poincare map at the gait (central differences,
+    1e-6 of max(1, |x|), of :func:`powered_step`), by modulus: the open-loop gait is stable
+    when all lie inside the unit circle (a reset onto the section gives structural zeros)."""
+    x0 = gait.states[0][0]
+    size = x0.size
+    jacobian = np.empty((size, size))
+    for j in range(size):
+        h = 1e-6 * max(1.0, abs(x0[j]))
+        up, down = x0.copy(), x0.copy()
+        up[j] += h
+        down[j] -= h
+        jacobian[:, j] = (powered_step(model, params, gait, up)
+                          - powered_step(model, params, gait, down)) / (2 * h)  # fmt: skip
+    values = np.linalg.eigvals(jacobian)
+    return sorted((complex(v) for v in values), key=lambda v: -abs(v))
