@@ -403,6 +403,18 @@ MODEL_COMMANDS = {
         ("--json", "--no-switch"),
         ("--over",),
     ),
+    "optimize": (
+        {
+            "--model": st.sampled_from(["compass-gait"] * 6 + ["rimless-wheel", "ile", ""]),
+            "--param": RIMLESS_PARAM,
+            "--minimize": st.sampled_from(["torque2", "work", "cot", "speed", ""]),
+            "--target-speed": number(-0.5, 3.0),
+            "--target-step-length": number(-0.5, 2.0),
+            "--nodes": integer(-1, 6),
+        },
+        ("--json",),
+        (),
+    ),
 }
 
 

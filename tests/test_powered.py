@@ -108,3 +108,34 @@ def test_between_the_passive_gaits_speeds_the_hip_only_brakes(compass):
     (work,) = gait.work.values()
     assert work["positive"] <= 1e-6
     assert work["negative"] < -0.1
+
+
+def test_vsw_optimize_json_and_exit_statuses(capsys, tmp_path):
+    """`vsw optimize`: JSON with the envelope, the trajectories per phase, the ledger and
+    the re-simulation; exit 0 when optimal, 3 when not, 2 (one line) for a model without
+    inputs; the plot is written."""
+    import json
+
+    from vsw.cli import main
+
+    plot = tmp_path / "step.png"
+    argv = ["optimize", "--model", "compass-gait", "--target-speed", "0.8", "--json",
+            "--plot", str(plot)]  # fmt: skip
+    assert main(argv) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert list(data)[:4] == ["model", "parameters", "units", "provenance"]
+    assert data["status"] == "optimal" and data["reason"] is None
+    assert data["speed"] == pytest.approx(0.8, rel=1e-9)
+    assert data["mesh_change"] <= 1e-4 and data["resimulation_error"] <= 1e-6
+    (phase,) = data["phases"]
+    assert len(phase["time"]) == 41 and len(phase["input_time"]) == 81
+    assert set(phase["state"]) == {"theta", "psi", "theta_dot", "psi_dot"}
+    assert set(phase["inputs"]) == {"hip_torque"}
+    assert set(data["work"]) == {"stance.hip_torque"}
+    assert plot.stat().st_size > 0
+    assert main(["optimize", "--model", "compass-gait", "--target-speed", "0.8", "--nodes",
+                 "5"]) == 3  # fmt: skip
+    assert "not-converged" in capsys.readouterr().out
+    assert main(["optimize", "--model", "simplest-walker"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["vsw: error: simplest-walker declares no inputs: nothing to power it with"]

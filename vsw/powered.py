@@ -45,6 +45,8 @@ from typing import Any
 
 import numpy as np
 
+from vsw import stop
+
 # The generated functions are called as the design's NLP calls them (one model, two NLPs:
 # the design's multiple shooting without inputs, this collocation with them).
 from vsw.design import _call, _weight
@@ -137,7 +139,8 @@ def optimize(
     sequence = model._phase_sequence()
     names = input_names(model)
     if not any(names[phase] for phase, _ in sequence):
-        raise VswInputError(f"{model.name} declares no inputs: nothing to power it with")
+        label = getattr(model, "cli_name", model.name)
+        raise VswInputError(f"{label} declares no inputs: nothing to power it with")
     if (request.target_speed or request.target_step_length) and not model.spec["step_length"]:
         raise VswInputError(f"{model.name} defines no step length: no speed or step target")
     if start is None:
@@ -445,7 +448,13 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
            guess: np.ndarray) -> PoweredGait:  # fmt: skip
     lbx, ubx, lbg, ubg = nlp.bounds
     p = np.asarray(params, dtype=float)
-    result = nlp.solver(x0=guess, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+    try:
+        result = nlp.solver(x0=guess, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+    except RuntimeError as exc:  # a NaN in the model's functions at IPOPT's trial point
+        stop.check()  # or CasADi turned Ctrl-C or the time limit into this error
+        raise ConvergenceError(f"{model.name}: IPOPT failed ({' '.join(str(exc).split())[:80]})"
+                               ) from None  # fmt: skip
+    stop.check()  # IPOPT stopped by Ctrl-C or the time limit is no solution
     stats = nlp.solver.stats()
     status = str(stats.get("return_status", "unknown"))
     w = np.array(result["x"], dtype=float).reshape(-1)

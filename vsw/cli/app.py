@@ -26,6 +26,7 @@ from vsw.cli import (
     design,
     explore,
     models,
+    optimize,
     simulate,
     sweep,
 )
@@ -47,7 +48,8 @@ from vsw.vectorize import default_threads
 
 __all__ = ["COMMANDS", "build_parser", "main"]
 
-COMMANDS = (models, analyze, simulate, animate, explore, basin, sweep, continuation, design)
+COMMANDS = (models, analyze, simulate, animate, explore, basin, sweep, continuation, design,
+            optimize)  # fmt: skip
 """The command modules, in the order ``vsw --help`` lists them: each has ``register``
 (adds its parser) and ``run``."""
 

@@ -1,0 +1,130 @@
+"""``vsw optimize``: the least-cost powered gait of a model with inputs (:mod:`vsw.powered`).
+
+The model's declared inputs (``vsw models`` lists them: the compass gait's hip torque) are
+free functions of time; the step is periodic and meets the targets. Statuses as ``vsw
+design``'s: optimal (exit 0), not-converged (exit 3, with the reason).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from vsw import powered
+from vsw.cli import options
+from vsw.cli.output import dump_json, envelope, fmt, write_parameters
+from vsw.cli.parser import EXIT_OK, EXIT_SOLVER
+from vsw.figures import check_save_path, save_figure
+from vsw.powered_plot import powered_figure
+
+__all__ = ["register", "run"]
+
+
+def register(subparsers: Any) -> None:
+    help_ = "the least-cost periodic gait with the model's inputs (direct collocation, IPOPT)"
+    description = help_ + ": Hermite-Simpson on N and 2N intervals a phase, re-simulated."
+    p = subparsers.add_parser("optimize", help=help_, description=description)
+    options.add_model_options(p, "optimize", named=False)
+    p.add_argument("--minimize", choices=powered.COSTS, default="torque2",
+                   help="torque2: the integral of the squared inputs; work: their positive "
+                   "work per step; cot: that work per weight and step length")  # fmt: skip
+    p.add_argument("--target-speed", type=float, metavar="V",
+                   help="the gait's speed (step length / period, the model's units)")  # fmt: skip
+    p.add_argument("--target-step-length", type=float, metavar="S", help="the step length")
+    p.add_argument("--nodes", type=int, default=20, metavar="N",
+                   help="intervals a phase on the coarse mesh (the result is on 2N)")  # fmt: skip
+    p.add_argument("--plot", metavar="FILE", help="save the states and inputs over the step")
+    p.set_defaults(func=run, parser=p)
+
+
+def run(args: argparse.Namespace) -> int:
+    model = args.model_object
+    params = model.parameters(args.values)
+    request = powered.Request(args.minimize, args.target_speed, args.target_step_length,
+                              args.nodes)  # fmt: skip
+    request.check()
+    if args.plot is not None:
+        check_save_path(args.plot)
+    gait = powered.optimize(model, params, request)
+    data = {**envelope(model, params, args.argv, {"collocation": "Hermite-Simpson",
+                                                  "resimulation": powered.RESIMULATION_TOL}),
+            **_to_dict(model, request, gait)}  # fmt: skip
+    if args.plot is not None:
+        save_figure(powered_figure(model, params, gait), args.plot)
+        data["plot"] = args.plot
+    if args.json:
+        dump_json(data)
+    else:
+        _write_text(model, params, request, gait)
+    if gait.status == "optimal":
+        return EXIT_OK
+    sys.stderr.write(f"vsw optimize: {gait.status}: {' '.join(gait.reason.split())}\n")
+    return EXIT_SOLVER
+
+
+def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict[str, Any]:
+    names = [*model.coordinates, *model.rates]
+    phases = []
+    for (phase, _), times, states, inputs, input_times in zip(
+        model._phase_sequence(), gait.times, gait.states, gait.inputs, gait.input_times
+    ):
+        inputs_named = powered.input_names(model)[phase]
+        phases.append({
+            "phase": phase,
+            "time": times.tolist(),
+            "state": {n: states[:, j].tolist() for j, n in enumerate(names)},
+            "input_time": input_times.tolist(),
+            "inputs": {n: inputs[:, j].tolist() for j, n in enumerate(inputs_named)},
+        })  # fmt: skip
+    eigenvalues = gait.extra.get("eigenvalues")
+    return {
+        "status": gait.status,
+        "reason": gait.reason or None,
+        "minimize": request.minimize,
+        "targets": {"speed": request.target_speed, "step_length": request.target_step_length},
+        "cost": gait.cost,
+        "nodes": {"coarse": request.nodes, "fine": 2 * request.nodes},
+        "mesh_change": gait.extra.get("mesh_change"),
+        "period": gait.period,
+        "durations": list(gait.durations),
+        "step_length": gait.step_length,
+        "speed": gait.speed,
+        "work": gait.work,
+        "resimulation_error": gait.resimulation_error,
+        "guard_at_end": gait.guard_at_end,
+        "eigenvalues": None if eigenvalues is None else [[e.real, e.imag] for e in eigenvalues],
+        "max_abs_eigenvalue": None if not eigenvalues else abs(eigenvalues[0]),
+        "ipopt": {"status": gait.ipopt_status, "iterations": gait.iterations},
+        "phases": phases,
+        "fields": {
+            "cost": "the NLP's objective on the fine mesh (work and cot: plus the "
+            "regularization times the squared inputs' integral)",
+            "mesh_change": "relative change of the cost from the coarse to the fine mesh",
+            "work": "per phase.input: positive and negative work over the step (Simpson)",
+            "resimulation_error": "largest gap between a re-simulated phase's end and its "
+            "last knot, relative to max(1, |state|)",
+            "eigenvalues": "of the open-loop Poincare map (inputs as functions of the time "
+            "since each phase began), by modulus; null unless optimal",
+        },
+    }
+
+
+def _write_text(model, params, request: powered.Request, gait: powered.PoweredGait) -> None:
+    out = sys.stdout
+    write_parameters(out, model, params)
+    out.write(f"status             {gait.status}" + (f": {gait.reason}" if gait.reason else "")
+              + "\n")  # fmt: skip
+    out.write(f"minimized          {request.minimize} = {fmt(gait.cost)} (Hermite-Simpson, "
+              f"{2 * request.nodes} intervals a phase; {fmt(gait.extra.get('mesh_change'))} "
+              f"relative change from {request.nodes})\n")  # fmt: skip
+    out.write(f"period             {fmt(gait.period)}; step length {fmt(gait.step_length)}; "
+              f"speed {fmt(gait.speed)}\n")  # fmt: skip
+    for key, work in gait.work.items():
+        out.write(f"work of {key:<11} +{fmt(work['positive'])} / {fmt(work['negative'])}\n")
+    out.write(f"re-simulation      {fmt(gait.resimulation_error)} (relative), guard at the end "
+              f"{fmt(gait.guard_at_end)}\n")  # fmt: skip
+    eigenvalues = gait.extra.get("eigenvalues")
+    if eigenvalues:
+        out.write(f"open-loop map      max |eigenvalue| {fmt(abs(eigenvalues[0]))} ("
+                  + ("stable" if abs(eigenvalues[0]) < 1 else "unstable") + ")\n")  # fmt: skip
