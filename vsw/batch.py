@@ -31,7 +31,7 @@ import numpy as np
 from vsw import stop
 from vsw.compiled import build_library
 from vsw.errors import ConvergenceError, SlowRouteWarning, VswInputError
-from vsw.hybrid import _PHASE_TIME_LIMIT, _RTOL, HybridModel, StepResult
+from vsw.hybrid import _ATOL, _PHASE_TIME_LIMIT, _RTOL, HybridModel, StepResult
 from vsw.vectorize import default_threads, run_blocks
 
 __all__ = ["BatchResult", "BatchSimulator", "reference_walks", "simulator"]
@@ -200,11 +200,6 @@ class BatchSimulator:
         ll = ctypes.c_longlong
         fn.argtypes = [ll, dbl, ll, dbl, dbl, ctypes.c_void_p, ll, ll, ll, i32, i32, i64, dbl,
                        dbl, dbl, dbl]  # fmt: skip
-        phases = lib.vsw_batch_step_phases
-        phases.restype = ctypes.c_int
-        pointer = ctypes.POINTER
-        phases.argtypes = [dbl, dbl, dbl, dbl, pointer(ctypes.c_int), pointer(ctypes.c_int),
-                           pointer(ctypes.c_double)]  # fmt: skip
 
     # --- walks -------------------------------------------------------------------------
 
@@ -307,25 +302,26 @@ class BatchSimulator:
                          threads=threads, tolerance=tolerance)  # fmt: skip
 
     def step_phases(self, params: Sequence[float], state: Sequence[float]) -> StepResult:
-        """One step from ``state`` with each phase visit's duration, as
-        :meth:`vsw.hybrid.HybridModel.step` returns it (``state``: the next section state,
-        or the step's start when it fell or stalled), by the compiled
+        """One step from ``state`` with each phase visit's duration, in
+        :meth:`vsw.hybrid.HybridModel.step`'s form (``state``: the next section state; where
+        the step fell or stalled, the step's start, not the state it fell in), by the compiled
         integrator at the SciPy route's tolerance: what the periodic-orbit solver takes as
         its guess of the durations and its confirmation without importing SciPy. The SciPy
         route itself when the simulator cannot be built."""
         lib = self.library()
         if lib is None:
             return self.model.step(tuple(float(v) for v in params), np.asarray(state, float))
+        step = _bound_step_phases(lib)
         p = np.ascontiguousarray(params, dtype=float)
         x = np.array(state, dtype=float)
         if p.shape != (self.np,) or x.shape != (self.nx,):
             raise VswInputError(f"{self.model.name}: {self.np} parameters and a state of "
                                 f"{self.nx} components, got {p.shape} and {x.shape}")  # fmt: skip
-        options = np.array([_RTOL, _RTOL, _PHASE_TIME_LIMIT])
+        options = np.array([_RTOL, _ATOL, _PHASE_TIME_LIMIT])
         durations = np.zeros(len(self.model.phases) + 1)
         visits, failure, length = ctypes.c_int(0), ctypes.c_int(0), ctypes.c_double(0.0)
-        code = lib.vsw_batch_step_phases(p, x, options, durations, ctypes.byref(visits),
-                                         ctypes.byref(failure), ctypes.byref(length))  # fmt: skip
+        code = step(p, x, options, durations, ctypes.byref(visits), ctypes.byref(failure),
+                    ctypes.byref(length))  # fmt: skip
         stop.check()  # a Ctrl-C or time limit ends the integration early: not a stall
         taken = tuple(float(t) for t in durations[: visits.value])
         if code == FELL:
@@ -381,6 +377,19 @@ class BatchSimulator:
             f"{self.model.name}: the batch fixed point did not converge in {max_iterations} "
             f"Newton steps (last residual {float(np.max(np.abs(residual))):.3g})"
         )
+
+
+def _bound_step_phases(lib: ctypes.CDLL):
+    """The library's ``vsw_batch_step_phases`` with its argument types (bound on first use,
+    not in ``_bind``: benchmark case 15 binds libraries built from commits before it)."""
+    fn = lib.vsw_batch_step_phases
+    if fn.argtypes is None:
+        dbl = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
+        pointer = ctypes.POINTER
+        fn.restype = ctypes.c_int
+        fn.argtypes = [dbl, dbl, dbl, dbl, pointer(ctypes.c_int), pointer(ctypes.c_int),
+                       pointer(ctypes.c_double)]  # fmt: skip
+    return fn
 
 
 @dataclass(frozen=True)

@@ -65,6 +65,8 @@ MESH_AGREES = 1e-4
 COST_ZERO = 1e-9
 """Or by at most this (absolute): a cost that is zero to IPOPT's tolerance on both meshes
 (a passive gait that meets the targets needs no input)."""
+CONSTRAINTS_HELD = 1e-8
+"""Every constraint and bound of the NLP holds to this at IPOPT's point (absolute)."""
 _SUCCESS = {"Solve_Succeeded", "Solved_To_Acceptable_Level"}
 
 
@@ -75,7 +77,7 @@ class Request:
     minimize: str = "torque2"
     target_speed: float | None = None
     target_step_length: float | None = None
-    nodes: int = 40
+    nodes: int = 20
     regularization: float = 1e-4
     """Weight of the squared inputs' integral added to the ``work`` and ``cot`` costs: the
     positive work alone is flat along inputs that do no net work, where IPOPT wanders."""
@@ -138,16 +140,20 @@ def optimize(
     request.check()
     sequence = model._phase_sequence()
     names = input_names(model)
+    label = getattr(model, "cli_name", model.name)
     if not any(names[phase] for phase, _ in sequence):
-        label = getattr(model, "cli_name", model.name)
         raise VswInputError(f"{label} declares no inputs: nothing to power it with")
     if (request.target_speed or request.target_step_length) and not model.spec["step_length"]:
-        raise VswInputError(f"{model.name} defines no step length: no speed or step target")
+        raise VswInputError(f"{label} defines no step length: no speed or step target")
     if start is None:
         start = _passive_start(model, params)
     coarse = _optimize_on_mesh(model, params, request, start)
     finer = dataclasses.replace(request, nodes=2 * request.nodes)
-    fine = _optimize_on_mesh(model, params, finer, start)
+    phases = tuple(phase for phase, _ in sequence)
+    fine_nlp = _build(model, phases, finer)
+    # From the coarse optimum, so that the change measures the mesh, not another local one.
+    guess = _refine(model, params, _build(model, phases, request), coarse.extra["w"], fine_nlp)
+    fine = _solve(model, params, finer, fine_nlp, guess)
     change = abs(fine.cost - coarse.cost) / max(abs(fine.cost), 1e-300)
     fine.extra["mesh_change"] = change
     fine.extra["coarse"] = {"nodes": request.nodes, "cost": coarse.cost,
@@ -160,26 +166,32 @@ def optimize(
         fine.status = "not-converged"
         fine.reason = (f"the cost changes by {change:.3g} (relative) from {request.nodes} to "
                        f"{2 * request.nodes} intervals a phase: the mesh does not resolve the "
-                       "optimum (an impulsive input, where the cost is the work: bound the "
-                       "inputs or raise the regularization)")  # fmt: skip
+                       "optimum (try more --nodes)")  # fmt: skip
+        if request.minimize != "torque2":
+            fine.reason += ("; the least work may need an impulsive input, which no mesh "
+                            "resolves")  # fmt: skip
     if fine.status == "optimal":
-        fine.extra["eigenvalues"] = powered_eigenvalues(model, params, fine)
+        try:
+            fine.extra["eigenvalues"] = powered_eigenvalues(model, params, fine)
+        except ConvergenceError as exc:  # a perturbed step that does not end: no map
+            stop.check()
+            fine.extra["eigenvalues_note"] = str(exc)
     return fine
 
 
 def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Request,
                       start: Orbit) -> PoweredGait:  # fmt: skip
     phases = tuple(phase for phase, _ in model._phase_sequence())
-    first = request
+    stage = request
     if request.minimize != "torque2":
         # Positive work is flat wherever no input does work and not smooth where one
         # starts to: from the passive gait IPOPT wanders (to steps of no duration);
         # from the least squared-input step that meets the targets it converges.
-        first = dataclasses.replace(request, minimize="torque2")
-    nlp = _build(model, phases, first)
+        stage = dataclasses.replace(request, minimize="torque2")
+    nlp = _build(model, phases, stage)
     guess = _initial_guess(model, params, start, nlp, request.nodes)
-    result = _solve(model, params, first, nlp, guess)
-    if first is request:
+    result = _solve(model, params, stage, nlp, guess)
+    if stage is request:
         return result
     staged = _build(model, phases, request)
     final = _solve(model, params, request, staged,
@@ -318,7 +330,7 @@ def _build(model: HybridModel, phases: tuple[str, ...], request: Request) -> _Nl
     g = ca.vertcat(*rows)
     lbx = np.full(w.shape[0], -np.inf)
     ubx = np.full(w.shape[0], np.inf)
-    lbx[:count] = 1e-3 * _time_scale(model)
+    lbx[:count] = 1e-3  # a phase of no duration is no step (in the model's time unit)
     for entry in layout:
         for key in ("s_knots", "s_middles"):
             first, parts, width = entry[key]
@@ -334,7 +346,8 @@ def _build(model: HybridModel, phases: tuple[str, ...], request: Request) -> _Nl
     options = {
         "ipopt.tol": 1e-10, "ipopt.constr_viol_tol": 1e-10, "ipopt.max_iter": 3000,
         "ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "error_on_fail": False,
-        "ipopt.mu_strategy": "adaptive",
+        "ipopt.mu_strategy": "adaptive", "ipopt.acceptable_tol": 1e-6,
+        "ipopt.acceptable_constr_viol_tol": 1e-9, "ipopt.acceptable_iter": 5,
     }  # fmt: skip
     solver = ca.nlpsol(f"powered_{model.name}", "ipopt", {"x": w, "p": p, "f": cost, "g": g},
                        options)  # fmt: skip
@@ -342,11 +355,6 @@ def _build(model: HybridModel, phases: tuple[str, ...], request: Request) -> _Nl
                                         if positive else ca.DM.zeros(0)])  # fmt: skip
     return _Nlp(solver, ca.Function("cost", [w, p], [cost]), layout, work, int(w.shape[0]),
                 (lbx, ubx, np.array(lower), np.array(upper)))  # fmt: skip
-
-
-def _time_scale(model: HybridModel) -> float:
-    """The shortest phase the NLP allows is 1e-3 of this (the model's time unit: 1)."""
-    return 1.0
 
 
 @functools.cache
@@ -419,24 +427,58 @@ def _transfer(model: HybridModel, params: Sequence[float], source: _Nlp, w: np.n
     out = np.zeros(target.size)
     count = len(source.layout)
     out[:count] = w[:count]
-    p = np.asarray(params, dtype=float)
-    for (phase, _), have, want in zip(model._phase_sequence(), source.layout, target.layout):
+    for have, want in zip(source.layout, target.layout):
         for key in ("knots", "middles", "u_knots", "u_middles"):
             first, parts, width = have[key]
             start = want[key][0]
             out[start : start + parts * width] = w[first : first + parts * width]
-        rates = _input_rate_function(model, phase)
+    _fill_slacks(model, params, target, out)
+    return out
+
+
+def _refine(model: HybridModel, params: Sequence[float], coarse: _Nlp, w: np.ndarray,
+            fine: _Nlp) -> np.ndarray:  # fmt: skip
+    """``w`` on N intervals as a start on 2N: the coarse knots and midpoints are the fine
+    knots, the fine midpoints halfway between them; the inputs from the coarse quadratics
+    (exact at the quarter points); slacks at ``max(P, 0)``."""
+    out = np.zeros(fine.size)
+    count = len(coarse.layout)
+    out[:count] = w[:count]
+    for have, want in zip(coarse.layout, fine.layout):
+        for knots, middles in (("knots", "middles"), ("u_knots", "u_middles")):
+            k, c = _block(w, have[knots]), _block(w, have[middles])
+            if k.shape[1] == 0:
+                continue
+            fine_knots = np.empty((2 * len(c) + 1, k.shape[1]))
+            fine_knots[0::2], fine_knots[1::2] = k, c
+            if knots == "knots":
+                fine_middles = (fine_knots[:-1] + fine_knots[1:]) / 2
+            else:  # the quadratic through knot, midpoint, knot at s = 1/4 and 3/4
+                quarter = 0.375 * k[:-1] + 0.75 * c - 0.125 * k[1:]
+                three = -0.125 * k[:-1] + 0.75 * c + 0.375 * k[1:]
+                fine_middles = np.empty((2 * len(c), k.shape[1]))
+                fine_middles[0::2], fine_middles[1::2] = quarter, three
+            for key, values in ((knots, fine_knots), (middles, fine_middles)):
+                first, parts, width = want[key]
+                out[first : first + parts * width] = values.reshape(-1)
+    _fill_slacks(model, params, fine, out)
+    return out
+
+
+def _fill_slacks(model: HybridModel, params: Sequence[float], nlp: _Nlp, w: np.ndarray) -> None:
+    """Each positive-work slack of ``w`` at ``max(P, 0)`` of its point (in place)."""
+    p = np.asarray(params, dtype=float)
+    for (phase, _), entry in zip(model._phase_sequence(), nlp.layout):
         for states, inputs, slacks in (("knots", "u_knots", "s_knots"),
                                        ("middles", "u_middles", "s_middles")):  # fmt: skip
-            first, parts, width = want[slacks]
+            first, parts, width = entry[slacks]
             if width == 0:
                 continue
-            x = _block(out, want[states])
-            u = _block(out, want[inputs])
+            rates = _input_rate_function(model, phase)
+            x, u = _block(w, entry[states]), _block(w, entry[inputs])
             power = np.array([u[i] * np.array(rates(p, x[i]), float).reshape(-1)
                               for i in range(parts)])  # fmt: skip
-            out[first : first + parts * width] = np.maximum(power, 0.0).reshape(-1)
-    return out
+            w[first : first + parts * width] = np.maximum(power, 0.0).reshape(-1)
 
 
 def _block(w: np.ndarray, entry: tuple[int, int, int]) -> np.ndarray:
@@ -461,16 +503,12 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
     sequence = model._phase_sequence()
     durations = tuple(float(v) for v in w[: len(sequence)])
     times, states, inputs, input_times = [], [], [], []
+    nodes = request.nodes
     for k, entry in enumerate(nlp.layout):
-        nodes = request.nodes
         t0 = sum(durations[:k])
-        first, parts, width = entry["knots"]
-        states.append(w[first : first + parts * width].reshape(parts, width))
+        states.append(_block(w, entry["knots"]))
         times.append(t0 + durations[k] * np.arange(nodes + 1) / nodes)
-        first, parts, width = entry["u_knots"]
-        at_knots = w[first : first + parts * width].reshape(parts, width)
-        first, parts, width = entry["u_middles"]
-        at_middles = w[first : first + parts * width].reshape(parts, width)
+        at_knots, at_middles = _block(w, entry["u_knots"]), _block(w, entry["u_middles"])
         merged = np.empty((2 * nodes + 1, at_knots.shape[1]))
         merged[0::2], merged[1::2] = at_knots, at_middles
         inputs.append(merged)
@@ -479,21 +517,26 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
     keys = [f"{ph}.{name}" for ph, _ in sequence for name in input_names(model)[ph]]
     work = {key: {"positive": float(work_values[j]), "negative": float(work_values[len(keys) + j])}
             for j, key in enumerate(keys)}  # fmt: skip
-    error, guard = _resimulate(model, p, durations, states, inputs)
+    error, guard, resimulated = _resimulate(model, p, durations, states, inputs)
+    g = np.array(result["g"], dtype=float).reshape(-1)
+    violation = float(max(np.max(lbg - g, initial=0.0), np.max(g - ubg, initial=0.0),
+                          np.max(lbx - w, initial=0.0), np.max(w - ubx, initial=0.0)))  # fmt: skip
     step_length = None
     if model.spec["step_length"]:
         step_length = float(model.step_length(p, states[-1][-1]))
     period = sum(durations)
     scale = max(1.0, float(max(np.max(np.abs(s)) for s in states)))
-    agrees = error <= RESIMULATION_AGREES
-    converged = status in _SUCCESS
     reason = ""
-    if not converged:
+    if status not in _SUCCESS:
         reason = f"IPOPT {status}"
-    elif not agrees:
+    elif not violation <= CONSTRAINTS_HELD:
+        reason = f"IPOPT's point violates a constraint by {violation:.3g}"
+    elif resimulated:
+        reason = f"the re-simulation {resimulated}"
+    elif not error <= RESIMULATION_AGREES:
         reason = f"the re-simulation ends {error:.3g} from the last knot (relative)"
     return PoweredGait(
-        status="optimal" if converged and agrees else "not-converged",
+        status="not-converged" if reason else "optimal",
         reason=reason,
         cost=float(nlp.cost(w, p)),
         durations=durations,
@@ -508,35 +551,83 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
         guard_at_end=guard,
         ipopt_status=status,
         iterations=int(stats.get("iter_count", -1)),
-        extra={"state_scale": scale, "w": w},
+        extra={"state_scale": scale, "w": w, "constraint_violation": violation},
     )
 
 
 def _resimulate(
     model: HybridModel, p: np.ndarray, durations, states, inputs
-) -> tuple[float, float]:
+) -> tuple[float, float, str]:
     """Each phase integrated from its first knot with the inputs the scheme implies
-    (quadratic on each interval through knot, midpoint, knot): the largest gap to the last
-    knot relative to max(1, |state|), and the largest |guard| at the phases' ends."""
+    (quadratic on each interval through knot, midpoint, knot), its event's guard and its
+    failures watched between the knots: the largest gap to the last knot relative to
+    max(1, |state|), the largest |guard| at the phases' ends, and what went wrong on the
+    way ('' when nothing: an event that counts before the phase's end, or a failure)."""
     from scipy.integrate import solve_ivp
 
-    sequence = model._phase_sequence()
     worst, guard_worst = 0.0, 0.0
-    for (phase, event), duration, knots, u in zip(sequence, durations, states, inputs):
-        flow = _flow_function(model, phase)
+    for (phase, event), duration, knots, u in zip(model._phase_sequence(), durations, states,
+                                                  inputs):  # fmt: skip
         control = _control(u, duration)
-
-        def rhs(t: float, x: np.ndarray, flow=flow, control=control) -> np.ndarray:
-            return np.array(flow(p, x, control(t)), dtype=float).reshape(-1)
-
-        solution = solve_ivp(rhs, (0.0, duration), knots[0], method="DOP853",
-                             rtol=RESIMULATION_TOL, atol=RESIMULATION_TOL)  # fmt: skip
+        watched = _watchers(model, phase, event, p, control)
+        solution = solve_ivp(_rhs(model, phase, p, control), (0.0, duration), knots[0],
+                             method="DOP853", rtol=RESIMULATION_TOL, atol=RESIMULATION_TOL,
+                             events=[fn for _, fn in watched])  # fmt: skip
+        inside = (duration * 1e-9, duration * (1 - 1e-6))
+        for (name, _), times, found in zip(watched, solution.t_events, solution.y_events):
+            for t, y in zip(times, found):
+                if not inside[0] < t < inside[1]:
+                    continue
+                if name == event["name"] and not _counts(model, event, p, y):
+                    continue  # a crossing the model ignores (legs passing at mid-stance)
+                return (
+                    worst,
+                    guard_worst,
+                    f"of phase {phase} meets {name} at t = {t:.6g}, "
+                    f"before its end at {duration:.6g}",
+                )
         end = solution.y[:, -1]
         scale = max(1.0, float(np.max(np.abs(knots[-1]))))
         worst = max(worst, float(np.max(np.abs(end - knots[-1]))) / scale)
         guard = float(model._fn(f"event_{event['name']}_guard")(*p, *end))
         guard_worst = max(guard_worst, abs(guard))
-    return worst, guard_worst
+    return worst, guard_worst, ""
+
+
+def _rhs(model: HybridModel, phase: str, p: np.ndarray, control):
+    flow = _flow_function(model, phase)
+
+    def rhs(t: float, x: np.ndarray) -> np.ndarray:
+        return np.array(flow(p, x, control(t)), dtype=float).reshape(-1)
+
+    return rhs
+
+
+def _watchers(model: HybridModel, phase: str, event: dict, p: np.ndarray, control) -> list:
+    """(name, SciPy event function) of a phase's event guard and of each failure (its guard
+    with the inputs' share), non-terminal, in their directions."""
+    guard_fn = model._fn(f"event_{event['name']}_guard")
+
+    def guard(t: float, x: np.ndarray) -> float:
+        return float(guard_fn(*p, *x))
+
+    guard.direction = event["direction"]
+    out = [(event["name"], guard)]
+    failures = model.phases[model.phase_index[phase]]["failures"]
+    for (name, _, direction), (margin, _) in zip(failures, _margin_functions(model, phase)):
+
+        def failing(t: float, x: np.ndarray, margin=margin) -> float:
+            return float(margin(p, x, control(t)))
+
+        failing.direction = direction
+        out.append((name, failing))
+    return out
+
+
+def _counts(model: HybridModel, event: dict, p: np.ndarray, x: np.ndarray) -> bool:
+    """Whether an event's crossing at ``x`` counts (its ``when`` positive, as the runtime
+    has it)."""
+    return event["when"] is None or float(model._fn(event["when"])(*p, *x)) > 0
 
 
 def _control(inputs: np.ndarray, duration: float):
@@ -559,35 +650,27 @@ def _control(inputs: np.ndarray, duration: float):
 def powered_step(model: HybridModel, params: Sequence[float], gait: PoweredGait,
                  state: np.ndarray) -> np.ndarray:  # fmt: skip
     """One step from ``state`` with the gait's inputs as functions of the time since each
-    phase began (open loop), each phase ended by its event's guard (SciPy DOP853 with the
-    guard as its event, 1e-11, watched from half the phase's planned duration on: the
-    guard also vanishes where the legs pass each other): the powered walker's Poincare map."""
+    phase began (open loop, held at their last value past the planned end), each phase
+    ended by the first crossing of its event's guard that counts (its ``when``, as the
+    runtime has it; SciPy DOP853, 1e-11): the powered walker's Poincare map."""
     from scipy.integrate import solve_ivp
 
     p = np.asarray(params, dtype=float)
     x = np.array(state, dtype=float)
     for (phase, event), duration, u in zip(model._phase_sequence(), gait.durations, gait.inputs):
-        flow = _flow_function(model, phase)
         control = _control(u, duration)
-        guard_fn = model._fn(f"event_{event['name']}_guard")
-
-        def rhs(t, y, flow=flow, control=control):
-            return np.array(flow(p, y, control(t)), dtype=float).reshape(-1)
-
-        def guard(t, y, guard_fn=guard_fn):
-            return float(guard_fn(*p, *y))
-
-        guard.terminal = True
-        guard.direction = event["direction"]
-        half = solve_ivp(rhs, (0.0, duration / 2), x, method="DOP853",
-                         rtol=RESIMULATION_TOL, atol=RESIMULATION_TOL)  # fmt: skip
-        rest = solve_ivp(rhs, (duration / 2, 2 * duration), half.y[:, -1], method="DOP853",
-                         rtol=RESIMULATION_TOL, atol=RESIMULATION_TOL, events=guard)  # fmt: skip
-        if rest.status != 1:
-            raise ConvergenceError(f"{model.name}: the powered step from the perturbed state "
-                                   f"never reached {event['name']}")  # fmt: skip
-        end = rest.y_events[0][0]
-        x = np.array(model._fn(f"event_{event['name']}_reset")(*p, *end), dtype=float)
+        (_, guard), *_ = _watchers(model, phase, event, p, control)
+        solution = solve_ivp(_rhs(model, phase, p, control), (0.0, 2 * duration), x,
+                             method="DOP853", rtol=RESIMULATION_TOL, atol=RESIMULATION_TOL,
+                             events=guard)  # fmt: skip
+        ends = [y for t, y in zip(solution.t_events[0], solution.y_events[0])
+                if t > 1e-9 * duration and _counts(model, event, p, y)]  # fmt: skip
+        if not ends:
+            raise ConvergenceError(
+                f"{model.name}: the powered step from a perturbed state meets no "
+                f"{event['name']} within twice its duration"
+            )
+        x = np.array(model._fn(f"event_{event['name']}_reset")(*p, *ends[0]), dtype=float)
     return x
 
 
