@@ -407,12 +407,13 @@ def _confirm(
     gaits, unconfirmed = [], []
     for y in found:
         state = section_states(model, params, np.array([y], dtype=float))[0]
-        period = float(sim.step(params, state[None, :]).kept_durations[0, 0])
-        if not period > 1e-9:
+        step = sim.step_phases(params, state)  # the durations are the solver's guess
+        period = float(sum(step.durations))
+        if step.ended != "completed" or not period > 1e-9:
             continue  # a step of no duration (legs together at the event): no gait
         try:
-            guess = _phase_durations(model, sim, params, state)
-            gaits.append(model.periodic_orbit(params, state, guess, step=sim.step_phases))
+            gaits.append(model.periodic_orbit(params, state, step.durations,
+                                              step=sim.step_phases))  # fmt: skip
         except ConvergenceError as exc:
             stop.check()  # Ctrl-C or the time limit inside CasADi is no failed start
             unconfirmed.append(
@@ -487,16 +488,6 @@ def _write_cache(path: Path | None, scanned: dict[str, Any]) -> None:
     except OSError:
         with contextlib.suppress(OSError, UnboundLocalError):
             os.unlink(handle.name)
-
-
-def _phase_durations(
-    model: HybridModel, sim: BatchSimulator, params: Sequence[float], state: np.ndarray
-) -> tuple:
-    """Each phase's duration of one step from ``state`` (the batch simulator's events)."""
-    step = sim.step_phases(params, state)
-    if step.ended != "completed":
-        raise ConvergenceError(f"{model.name}: the step from the Newton solution {step.ended}")
-    return step.durations
 
 
 def pick(gaits: Sequence[Orbit]) -> Orbit | None:

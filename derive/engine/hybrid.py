@@ -336,10 +336,13 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
     residual = (mass_matrix * sm.Matrix(accels) - forcing).applyfunc(at_values)
     free_rows = residual[: len(free), :]
     system, rhs = sm.linear_eq_to_matrix(list(free_rows), a_free)
+    compact = False
     if len(free) == 1:
         solution = system.LUsolve(rhs)
         in_symbols = tuple(_simplify(e) for e in solution)
         solved = dict(zip(a_free, in_symbols))
+        # Cramer's rule of one equation: what the inputs' gains are solved with.
+        adjugate, determinant = sm.Matrix([[1]]), system[0, 0]
 
         def linear_in_accelerations(expr: sm.Expr) -> sm.Expr:
             return finish(expr.xreplace(solved))
@@ -363,12 +366,13 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
             forcing_slots = sm.Matrix(size, 1, lambda i, _: sm.Dummy(f"f{i}"))
             entries = dict(zip(slots, system)) | dict(zip(forcing_slots, rhs))
             determinant = slots.det(method="berkowitz").xreplace(entries)
-            numerators = [
-                e.xreplace(entries) for e in slots.adjugate(method="berkowitz") * forcing_slots
-            ]
+            slot_adjugate = slots.adjugate(method="berkowitz")
+            numerators = [e.xreplace(entries) for e in slot_adjugate * forcing_slots]
+            adjugate = slot_adjugate.xreplace(entries)
         else:
             determinant = _simplify(system.det(method="berkowitz"))
-            numerators = [_simplify(e) for e in system.adjugate(method="berkowitz") * rhs]
+            adjugate = system.adjugate(method="berkowitz")
+            numerators = [_simplify(e) for e in adjugate * rhs]
         in_symbols = tuple(n / determinant for n in numerators)
         solved = {a: n / determinant for a, n in zip(a_free, numerators)}
 
@@ -405,8 +409,9 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
             position = sm.sympify(body.position[k]).xreplace(to_time)
             accel = at_values(position.diff(t, 2))
             force[k] += body.mass * (accel - g_k)
-    gains, input_rates, reaction = _input_terms(phase, chart, system, held_values, placed,
-                                                force, a_free)  # fmt: skip
+    gains, input_rates, reaction = _input_terms(
+        phase, chart, (adjugate, determinant, compact), held_values, placed, force, a_free
+    )
     return PhaseDynamics(
         phase,
         accelerations,
@@ -426,47 +431,53 @@ _Rows = tuple[tuple[sm.Expr, ...], ...]
 
 
 def _input_terms(
-    phase: Phase, chart: list[sm.Symbol], system: sm.Matrix, held_values: dict, placed: dict,
-    force: list[sm.Expr], a_free: list[sm.Symbol],
+    phase: Phase, chart: list[sm.Symbol], cramer: tuple[sm.Matrix, sm.Expr, bool],
+    held_values: dict, placed: dict, force: list[sm.Expr], a_free: list[sm.Symbol],
 ) -> tuple[_Rows, tuple[sm.Expr, ...], _Rows]:  # fmt: skip
     """Each input's gain on the free coordinates' accelerations, the rate of its ``along``
     (:class:`Input`) and its gain on the ground reaction (normal, then tangential). Its
     generalised forces on the free rows are ``u d(along)/dq`` (held coordinates independent
-    in the chart; their actuators take the held rows), so the gains are ``system^-1`` times
-    that column: the phase's ``system`` of the free rows in the accelerations, the same
-    matrix the passive accelerations are solved with. The ground reaction (``force``, the
-    bodies' rate of momentum minus gravity, linear in the accelerations ``a_free``) moves
-    with the accelerations alone: an input is internal to the walker."""
+    in the chart; their actuators take the held rows), so the gains are Cramer's rule on
+    that column with the adjugate and determinant the passive accelerations are solved
+    with (``cramer``: adjugate, determinant, and whether the phase keeps its entries whole
+    rather than expanded). The ground reaction (``force``, the bodies' rate of momentum
+    minus gravity, linear in the accelerations ``a_free``) moves with the accelerations
+    alone: an input is internal to the walker."""
     if not phase.inputs:
         return (), (), ()
+    _check_inputs(phase)
+    adjugate, determinant, compact = cramer
     free = [c.q for c in phase.coordinates]
-    _check_inputs(phase, chart)
 
     def at_values(expr: sm.Expr) -> sm.Expr:
         return expr.xreplace(held_values).xreplace(held_values)
 
     alongs = [sm.sympify(i.along) for i in phase.inputs]
     forces = sm.Matrix(len(free), len(alongs), lambda j, k: at_values(alongs[k].diff(free[j])))
-    if len(free) == 1:
-        solved = forces / system[0, 0]
-    else:
-        solved = system.adjugate(method="berkowitz") * forces / system.det(method="berkowitz")
-    raw = [[_simplify(solved[j, k]) for k in range(len(phase.inputs))] for j in range(len(free))]
-    gains = tuple(tuple(g.xreplace(placed) for g in row) for row in raw)
+    # Numerators over the one determinant (simplified as polynomials: cancelling whole
+    # rational functions is what the passive accelerations avoid too).
+    tidy = _simplify if len(free) == 1 else (lambda e: e) if compact else _angle_sums
+    numerators = (adjugate * forces).applyfunc(tidy)
+    gains = tuple(
+        tuple((numerators[j, k] / determinant).xreplace(placed) for k in range(len(alongs)))
+        for j in range(len(free))
+    )
+    combine = (lambda e: e) if compact else _simplify
     reaction = tuple(
-        tuple(_simplify(sum((force[c].diff(a) * raw[j][k] for j, a in enumerate(a_free)),
-                            sm.Integer(0))).xreplace(placed) for k in range(len(phase.inputs)))
+        tuple((combine(sum((force[c].diff(a) * numerators[j, k] for j, a in enumerate(a_free)),
+                           sm.Integer(0))) / determinant).xreplace(placed)
+              for k in range(len(alongs)))
         for c in (1, 0)
     )  # fmt: skip
     rates = tuple(
-        _simplify(at_values(sum((sm.sympify(i.along).diff(c) * phase_rate(phase, c)
-                                 for c in chart), sm.Integer(0)))).xreplace(placed)
-        for i in phase.inputs
+        _simplify(at_values(sum((along.diff(c) * phase_rate(phase, c) for c in chart),
+                                sm.Integer(0)))).xreplace(placed)
+        for along in alongs
     )  # fmt: skip
     return gains, rates, reaction
 
 
-def _check_inputs(phase: Phase, chart: list[sm.Symbol]) -> None:
+def _check_inputs(phase: Phase) -> None:
     """An input acts along an expression of the chart (and the parameters), is named once
     and does work on some free coordinate."""
     names = [i.name for i in phase.inputs]
@@ -1421,7 +1432,10 @@ def _guard_input_gains(model: Model, phase: Phase, dyn: PhaseDynamics,
         raise ValueError(f"{model.name}: {check.name} is not linear in the ground reaction")
     held = {h: sm.sympify(v) for h, v in phase.held.items()}
     normal = dyn.input_reaction_gains[0]
-    gains = tuple(_simplify(slope * g).xreplace(held) for g in normal)
+    # A guard that is the ground reaction (slope 1) or of the state alone (0) needs nothing
+    # more: its gains are the reaction's, simplified already, or zero.
+    gains = tuple((slope * g if slope.is_Number else _simplify(slope * g)).xreplace(held)
+                  for g in normal)  # fmt: skip
     return Quantity(
         f"{name}_input_gains", args, gains,
         f"d(guard of {check.name})/d(input) in phase {phase.name}: the guard with the inputs "

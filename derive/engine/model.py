@@ -145,10 +145,6 @@ class Input:
     bounds: tuple[float | None, float | None] = (None, None)
     description: str = ""
 
-    @property
-    def symbol(self) -> sm.Symbol:
-        return sm.Symbol(self.name, real=True)
-
 
 @dataclass(frozen=True, eq=False)
 class Phase:

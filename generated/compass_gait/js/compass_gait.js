@@ -344,26 +344,25 @@ function stance_lift_off_input_gains(m_h, m, a, b, gamma, g, theta, psi, theta_d
   const [cos_psi, sin_psi] = be.cos_sin(psi);
   const [cos_theta, sin_theta] = be.cos_sin(theta);
   const [cos_t2, sin_t2] = be.cos_sin(psi - theta);
-  const x0 = (b*b*b);
-  const x1 = Math.pow(a, 2);
-  const x2 = x1*m_h;
-  const x3 = 2*m;
-  const x4 = Math.pow(b, 2);
-  const x5 = x4*a;
-  const x6 = 2*m_h;
-  const x7 = Math.pow(cos_t2, 2);
-  const x8 = a*b;
-  const x9 = x8*sin_theta;
-  const x10 = x4*sin_psi;
-  const x11 = x10*m;
-  const x12 = x4*sin_theta;
-  const x13 = x12*m;
-  const x14 = x12*m_h;
-  const x15 = x8*sin_psi;
-  const x16 = x1*x3;
-  const x17 = cos_t2*m;
-  const x18 = cos_t2*sin_theta;
-  return [(x11 + x13 + x14 + x10*m_h + x15*x3 + x15*x6 + x16*sin_psi + x2*sin_psi + x3*x9 + x9*m_h - x11*cos_t2 - x13*cos_t2 - x14*cos_t2 - x15*x17 - x16*x18 - x18*x2 - 3*x17*x9 - x6*x9*cos_t2)/(-x0*m - x0*m_h - x2*b - x3*x5 - x5*x6 + x0*x7*m - x1*x3*b + x1*x7*b*m + 2*x4*x7*a*m)];
+  const x0 = (b*b*b*b);
+  const x1 = m*m_h;
+  const x2 = Math.pow(m, 2);
+  const x3 = x0*x2;
+  const x4 = 2*a;
+  const x5 = (b*b*b);
+  const x6 = x1*x5;
+  const x7 = x2*x5;
+  const x8 = x4*x7;
+  const x9 = Math.pow(a, 2);
+  const x10 = Math.pow(b, 2);
+  const x11 = x10*x9;
+  const x12 = x11*x2;
+  const x13 = Math.pow(cos_t2, 2);
+  const x14 = x9*b;
+  const x15 = x1*sin_psi;
+  const x16 = x10*x4;
+  const x17 = x2*sin_psi;
+  return [(-x14*x15 - x15*x16 - x16*x17 - x6*sin_psi - x6*sin_theta - x7*sin_psi - x7*sin_theta - 2*x14*x17 - x16*x2*sin_theta + x2*x5*cos_t2*sin_psi + x2*x5*cos_t2*sin_theta - x1*x10*sin_theta*a + x10*x2*cos_t2*sin_psi*a + x5*cos_t2*sin_theta*m*m_h + 2*x2*x9*cos_t2*sin_theta*b + 3*x10*x2*cos_t2*sin_theta*a + x9*cos_t2*sin_theta*b*m*m_h + 2*x10*cos_t2*sin_theta*a*m*m_h)/(x3 + x8 + 2*x12 + x0*x1 + x1*x11 + x4*x6 - x12*x13 - x13*x3 - x13*x8)];
 }
 
 /* Condition swing-foot-clearance in phase stance (reported, not enforced). Returns crosses zero (direction -1) where it fails. */
@@ -395,21 +394,25 @@ function stance_inertias(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot)
 /* d(acceleration)/d(input) in phase stance: the accelerations are stance_accelerations + these times the inputs (hip_torque). Returns tuple: for each state coordinate in order, its gain from each input in order. */
 function stance_input_gains(m_h, m, a, b, gamma, g, theta, psi, theta_dot, psi_dot) {
   const [cos_t0, sin_t0] = be.cos_sin(psi - theta);
-  const x0 = cos_t0*a;
-  const x1 = (b*b*b);
-  const x2 = x1*m;
-  const x3 = Math.pow(a, 2);
-  const x4 = x3*m_h;
-  const x5 = Math.pow(b, 2);
-  const x6 = x5*m;
-  const x7 = 2*a;
-  const x8 = x5*m_h;
-  const x9 = 2*x3*m;
-  const x10 = Math.pow(cos_t0, 2);
-  const x11 = x7*b;
-  const x12 = (b*b*b*b);
-  const x13 = Math.pow(m, 2);
-  return [(x0 - b + cos_t0*b)/(-x2 - x1*m_h - x4*b - x6*x7 - x7*x8 - x9*b + x1*x10*m + x10*x3*b*m + 2*x10*x5*a*m), (x4 + x6 + x8 + x9 + x11*m + x11*m_h - x6*cos_t0 - x0*b*m)/(-x12*x13 - x4*x6 + x10*x12*x13 - x1*x13*x7 - x12*m*m_h - x2*x7*m_h - 2*x13*x3*x5 + x10*x13*x3*x5 + 2*x1*x10*x13*a)];
+  const x0 = b*m;
+  const x1 = x0*cos_t0*a;
+  const x2 = Math.pow(b, 2);
+  const x3 = x2*m;
+  const x4 = x3*cos_t0;
+  const x5 = (b*b*b*b);
+  const x6 = m*m_h;
+  const x7 = Math.pow(m, 2);
+  const x8 = x5*x7;
+  const x9 = 2*a;
+  const x10 = x9*(b*b*b);
+  const x11 = x10*x7;
+  const x12 = Math.pow(a, 2);
+  const x13 = x12*m_h;
+  const x14 = 2*x12;
+  const x15 = x2*x7;
+  const x16 = Math.pow(cos_t0, 2);
+  const x17 = (1/(x11 + x8 + x10*x6 + x13*x3 + x14*x15 + x5*x6 - x11*x16 - x16*x8 - x12*x15*x16));
+  return [x17*(x3 - x1 - x4), x17*(x1 + x4 - x13 - x3 - x0*x9 - x14*m - x2*m_h - x9*b*m_h)];
 }
 
 /* d(ground reaction)/d(input) in phase stance: normal force's gains, then the tangential force's, one per input. Returns tuple: normal gains per input, then tangential gains per input. */
@@ -417,30 +420,37 @@ function stance_reaction_input_gains(m_h, m, a, b, gamma, g, theta, psi, theta_d
   const [cos_psi, sin_psi] = be.cos_sin(psi);
   const [cos_theta, sin_theta] = be.cos_sin(theta);
   const [cos_t2, sin_t2] = be.cos_sin(psi - theta);
-  const x0 = (b*b*b);
-  const x1 = Math.pow(a, 2);
-  const x2 = x1*m_h;
-  const x3 = 2*m;
-  const x4 = Math.pow(b, 2);
-  const x5 = x4*a;
-  const x6 = 2*m_h;
-  const x7 = Math.pow(cos_t2, 2);
-  const x8 = (1/(-x0*m - x0*m_h - x2*b - x3*x5 - x5*x6 + x0*x7*m - x1*x3*b + x1*x7*b*m + 2*x4*x7*a*m));
-  const x9 = a*b;
-  const x10 = x9*m_h;
-  const x11 = x4*sin_psi;
-  const x12 = x11*m;
-  const x13 = x4*sin_theta;
-  const x14 = x13*m;
-  const x15 = x13*m_h;
-  const x16 = x9*sin_psi;
-  const x17 = x3*x9;
-  const x18 = x1*x3;
-  const x19 = cos_t2*m;
-  const x20 = x9*sin_theta;
-  const x21 = x4*cos_psi;
-  const x22 = x4*cos_theta;
-  return [x8*(x12 + x14 + x15 + x10*sin_theta + x11*m_h + x16*x3 + x16*x6 + x17*sin_theta + x18*sin_psi + x2*sin_psi - x12*cos_t2 - x14*cos_t2 - x15*cos_t2 - x16*x19 - 3*x19*x20 - x18*cos_t2*sin_theta - x2*cos_t2*sin_theta - x20*x6*cos_t2), x8*(-x10*cos_theta - x17*cos_psi - x17*cos_theta - x18*cos_psi - x2*cos_psi - x21*m - x21*m_h - x22*m - x22*m_h - x6*x9*cos_psi + x1*cos_t2*cos_theta*m_h + x4*cos_psi*cos_t2*m + x4*cos_t2*cos_theta*m + x4*cos_t2*cos_theta*m_h + 2*x1*cos_t2*cos_theta*m + cos_psi*cos_t2*a*b*m + 2*cos_t2*cos_theta*a*b*m_h + 3*cos_t2*cos_theta*a*b*m)];
+  const x0 = (b*b*b*b);
+  const x1 = m*m_h;
+  const x2 = Math.pow(m, 2);
+  const x3 = x0*x2;
+  const x4 = 2*a;
+  const x5 = (b*b*b);
+  const x6 = x1*x5;
+  const x7 = x2*x5;
+  const x8 = x4*x7;
+  const x9 = Math.pow(a, 2);
+  const x10 = Math.pow(b, 2);
+  const x11 = x10*x9;
+  const x12 = x11*x2;
+  const x13 = Math.pow(cos_t2, 2);
+  const x14 = (1/(x3 + x8 + 2*x12 + x0*x1 + x1*x11 + x4*x6 - x12*x13 - x13*x3 - x13*x8));
+  const x15 = x10*a;
+  const x16 = x1*x15;
+  const x17 = x9*b;
+  const x18 = x1*x17;
+  const x19 = x10*x4;
+  const x20 = x1*x19;
+  const x21 = x2*sin_psi;
+  const x22 = x19*x2;
+  const x23 = 2*x17;
+  const x24 = x6*cos_theta;
+  const x25 = x7*cos_psi;
+  const x26 = x7*cos_theta;
+  const x27 = x2*cos_psi;
+  const x28 = x15*cos_t2;
+  const x29 = x2*cos_theta;
+  return [x14*(-x16*sin_theta - x18*sin_psi - x19*x21 - x20*sin_psi - x21*x23 - x22*sin_theta - x6*sin_psi - x6*sin_theta - x7*sin_psi - x7*sin_theta + x2*x5*cos_t2*sin_psi + x2*x5*cos_t2*sin_theta + x10*x2*cos_t2*sin_psi*a + x5*cos_t2*sin_theta*m*m_h + 2*x2*x9*cos_t2*sin_theta*b + 3*x10*x2*cos_t2*sin_theta*a + x9*cos_t2*sin_theta*b*m*m_h + 2*x10*cos_t2*sin_theta*a*m*m_h), x14*(x24 + x25 + x26 + x16*cos_theta + x18*cos_psi + x20*cos_psi + x22*cos_psi + x22*cos_theta + x23*x27 + x6*cos_psi - x24*cos_t2 - x25*cos_t2 - x26*cos_t2 - x27*x28 - 3*x28*x29 - x18*cos_t2*cos_theta - x20*cos_t2*cos_theta - x23*x29*cos_t2)];
 }
 
 /* Rate of what each input of phase stance acts along: its power is the input times this. Returns tuple: one rate per input, in order. */
