@@ -46,17 +46,20 @@ def test_no_target_needs_no_torque_and_finds_the_passive_gait(compass):
 
 def test_a_faster_gait_converges_under_refinement_and_closes_its_energy(compass):
     """10 % faster than the passive gait: IPOPT's optimum on 20 and 40 intervals agree to
-    1e-4 (relative cost), the re-simulation ends within 1e-6, the speed is the target, and
-    along the step the walker's energy changes by the torque's net work (Simpson on the
-    knots and midpoints against the generated energy at the ends: the gains and the energy
-    are separate derivations), to 1e-6 of the work (the scheme's own error on 40 intervals;
-    2.7e-7 measured)."""
+    1e-4 (relative cost), the re-simulation ends within 1e-6, and along the step the
+    walker's energy changes by the torque's net work, to 1e-6 of it (2.7e-7 measured: the
+    scheme's own error on 40 intervals). The energy function (q' M q' / 2 + V) and the
+    gains (Cramer's rule on the virtual work's generalised force) meet only in the mass
+    matrix: the balance checks M B = d(along)/dq along the collocated step, with the
+    energy at the ends against Simpson's rule on the power."""
     model, params, stable = compass
     target = 1.1 * stable.speed
     gait = optimize(model, params, Request("torque2", target_speed=target, nodes=20))
     assert gait.status == "optimal", gait.reason
     assert gait.extra["mesh_change"] <= 1e-4
     assert gait.resimulation_error <= 1e-6
+    # The target is a constraint of the NLP (CasADi); checked here through numpy's step
+    # length function on the knots, the value the result reports.
     assert gait.speed == pytest.approx(target, rel=1e-9)
     assert gait.cost > 0.1  # a faster gait needs torque
     (work,) = gait.work.values()
@@ -64,9 +67,6 @@ def test_a_faster_gait_converges_under_refinement_and_closes_its_energy(compass)
     knots = gait.states[0]
     change = model.energy("stance", params, knots[-1]) - model.energy("stance", params, knots[0])
     assert abs(change - net) <= 1e-6 * abs(net)
-    # Periodic: what the torque adds, heelstrike and the slope take.
-    after = np.array(model.reset("heelstrike", params, knots[-1]))
-    assert np.allclose(after, knots[0], atol=1e-9)
 
 
 def test_the_positive_works_optimum_is_not_called_optimal_when_the_mesh_cannot_resolve_it(

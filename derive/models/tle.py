@@ -483,7 +483,10 @@ def ile_limit() -> dict[str, sm.Expr]:
     # A polynomial in s (the profile is one in (theta - theta_II) / delta): integrated term
     # by term, a second of sympy's integrate.
     integrand = sm.expand(profile(theta_II + delta * s) ** 3 * sine)
-    j_series = sm.expand(delta * integrate_polynomial_trig(integrand, s, 0, 1))
+    integral = integrate_polynomial_trig(integrand, s, 0, 1)
+    if integral is None:
+        raise AssertionError("J's Taylor integrand is no polynomial in s")
+    j_series = sm.expand(delta * integral)
     j_series = sum((j_series.coeff(delta, n) * delta**n for n in range(order + 1)), sm.Integer(0))
     forms = stride_forms()
     qf = forms["offset"] / (1 - forms["slope"])
