@@ -281,9 +281,7 @@ class _Nlp:
 def _vector_field(model: HybridModel, phase: str, p: Any, x: Any) -> Any:
     import casadi as ca
 
-    acc = model._fn(f"{phase}_accelerations")(*ca.vertsplit(p), *ca.vertsplit(x))
-    acc = ca.vertcat(*acc) if isinstance(acc, tuple) else acc
-    return ca.vertcat(x[model.n :], acc)
+    return ca.vertcat(x[model.n :], model.symbolic(f"{phase}_accelerations", p, x))
 
 
 @functools.cache
@@ -321,18 +319,11 @@ def _event_jacobians(model: HybridModel, phase: str, event: str) -> Any:
 
     p = ca.SX.sym("p", len(model.parameter_table))
     x = ca.SX.sym("x", 2 * model.n)
-    guard = _call(model, f"event_{event}_guard", p, x)
-    reset = _call(model, f"event_{event}_reset", p, x)
+    guard = model.symbolic(f"event_{event}_guard", p, x)
+    reset = model.symbolic(f"event_{event}_reset", p, x)
     return ca.Function(f"saltation_{phase}", [p, x], [
         _vector_field(model, phase, p, x), ca.jacobian(guard, x), ca.jacobian(reset, x),
     ])  # fmt: skip
-
-
-def _call(model: HybridModel, name: str, p: Any, x: Any) -> Any:
-    import casadi as ca
-
-    out = model._fn(name)(*ca.vertsplit(p), *ca.vertsplit(x))
-    return ca.vertcat(*out) if isinstance(out, tuple) else out
 
 
 def _kinetic_loss(model: HybridModel, before: str, after: str, p: Any, x_before: Any,
@@ -403,11 +394,11 @@ def _build(model: HybridModel, structure: _Structure) -> _Nlp:
         h = durations[k] / SEGMENTS
         phi_phase = ca.MX.eye(m)
         for failure, function, direction in start_failures[phase]:
-            add(-direction * _call(model, function, p, nodes[k][0]), failure, "margin")
+            add(-direction * model.symbolic(function, p, nodes[k][0]), failure, "margin")
         for s in range(SEGMENTS):
             x_s = nodes[k][s]
             for failure, function, direction in failures[phase]:
-                add(-direction * _call(model, function, p, x_s), failure, "margin")
+                add(-direction * model.symbolic(function, p, x_s), failure, "margin")
             start = ca.vertcat(x_s, ca.vec(ca.MX.eye(m))) if eigen else x_s
             out = flows[phase](x0=start, p=ca.vertcat(p, h))["xf"]
             end = out[:m]
@@ -416,19 +407,19 @@ def _build(model: HybridModel, structure: _Structure) -> _Nlp:
             if s + 1 < SEGMENTS:
                 add(nodes[k][s + 1] - end, "continuity", "equality")
         for failure, function, direction in failures[phase]:
-            add(-direction * _call(model, function, p, end), failure, "margin")
-        guard = _call(model, f"event_{event['name']}_guard", p, end)
+            add(-direction * model.symbolic(function, p, end), failure, "margin")
+        guard = model.symbolic(f"event_{event['name']}_guard", p, end)
         add(guard, f"{event['name']} guard", "equality")
         if event["when"] is not None:
-            add(_call(model, event["when"], p, end), f"{event['name']} when", "when")
-        after = _call(model, f"event_{event['name']}_reset", p, end)
+            add(model.symbolic(event["when"], p, end), f"{event['name']} when", "when")
+        after = model.symbolic(f"event_{event['name']}_reset", p, end)
         nxt = nodes[k + 1][0] if k + 1 < count else nodes[0][0]
         add(nxt - after, "periodicity" if k + 1 == count else "reset", "equality")
         if event["name"] in _impact_events(model):
             energy_lost = energy_lost + _kinetic_loss(model, phase, event["target"], p, end,
                                                       after)  # fmt: skip
         if event["ends_step"] and model.spec["step_length"]:
-            step_length = _call(model, "step_length_of_state", p, end)
+            step_length = model.symbolic("step_length_of_state", p, end)
         if eigen:
             f_end, grad, jac_reset = _event_jacobians(model, phase, event["name"])(p, end)
             saltation = ca.MX.eye(m) - ca.mtimes(f_end, grad) / ca.mtimes(grad, f_end)
@@ -440,7 +431,7 @@ def _build(model: HybridModel, structure: _Structure) -> _Nlp:
     if step_length is not None:
         quantities["step_length"] = step_length
         quantities["speed"] = step_length / period
-        quantities["cost_of_transport"] = energy_lost / (_weight(model, p) * step_length)
+        quantities["cost_of_transport"] = energy_lost / (model.symbolic_weight(p) * step_length)
     radius = rho if structure.eigen == "objective" else fixed_values[n_par]
     if eigen:
         coefficients = characteristic_coefficients(monodromy, structure.rank)
@@ -476,17 +467,6 @@ def _build(model: HybridModel, structure: _Structure) -> _Nlp:
     quantity_function = ca.Function("quantities", [w, fixed_values], [table])
     quantity_function.names = list(quantities)  # type: ignore[attr-defined]
     return _Nlp(solver, quantity_function, names, kinds, layout, int(w.shape[0]))
-
-
-def _weight(model: HybridModel, p: Any) -> Any:
-    """The walker's weight in the model's force unit (the cost of transport's scale): the
-    generated ``weight`` of the model's parameters where the derivation gives one, else 1
-    (a model whose units are already scaled by its weight)."""
-    import casadi as ca
-
-    if hasattr(model.module, "weight"):
-        return model.module.weight(*ca.vertsplit(p), *([0.0] * (2 * model.n)))
-    return 1.0
 
 
 # --- one request ----------------------------------------------------------------------------

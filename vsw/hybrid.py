@@ -247,6 +247,24 @@ class HybridModel:
     def _fn(self, name: str):
         return getattr(self.module, name)
 
+    def symbolic(self, name: str, p: Any, x: Any) -> Any:
+        """A generated function of the parameters and the state on CasADi vectors ``p``
+        and ``x`` (the NLPs' form: ``vsw.design``, ``vsw.powered``), its outputs stacked."""
+        import casadi as ca
+
+        out = self._fn(name)(*ca.vertsplit(p), *ca.vertsplit(x))
+        return ca.vertcat(*out) if isinstance(out, tuple) else out
+
+    def symbolic_weight(self, p: Any) -> Any:
+        """The walker's weight in the model's force unit on CasADi parameters ``p`` (the
+        cost of transport's scale): the generated ``weight`` where the derivation gives
+        one, else 1 (a model whose units are already scaled by its weight)."""
+        import casadi as ca
+
+        if hasattr(self.module, "weight"):
+            return self.module.weight(*ca.vertsplit(p), *([0.0] * (2 * self.n)))
+        return 1.0
+
     def accelerations(self, phase: str, params: Sequence[float], state: np.ndarray) -> np.ndarray:
         return np.array(self._fn(f"{phase}_accelerations")(*params, *state), dtype=float)
 

@@ -46,10 +46,6 @@ from typing import Any
 import numpy as np
 
 from vsw import stop
-
-# The generated functions are called as the design's NLP calls them (one model, two NLPs:
-# the design's multiple shooting without inputs, this collocation with them).
-from vsw.design import _call, _weight
 from vsw.errors import ConvergenceError, VswInputError
 from vsw.gaits import pick
 from vsw.hybrid import HybridModel, Orbit
@@ -149,10 +145,9 @@ def optimize(
         start = _passive_start(model, params)
     coarse = _optimize_on_mesh(model, params, request, start)
     finer = dataclasses.replace(request, nodes=2 * request.nodes)
-    phases = tuple(phase for phase, _ in sequence)
-    fine_nlp = _build(model, phases, finer)
+    fine_nlp = _build(model, finer)
     # From the coarse optimum, so that the change measures the mesh, not another local one.
-    guess = _refine(model, params, _build(model, phases, request), coarse.extra["w"], fine_nlp)
+    guess = _refine(model, params, _build(model, request), coarse.extra["w"], fine_nlp)
     fine = _solve(model, params, finer, fine_nlp, guess)
     change = abs(fine.cost - coarse.cost) / max(abs(fine.cost), 1e-300)
     fine.extra["mesh_change"] = change
@@ -181,19 +176,18 @@ def optimize(
 
 def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Request,
                       start: Orbit) -> PoweredGait:  # fmt: skip
-    phases = tuple(phase for phase, _ in model._phase_sequence())
     stage = request
     if request.minimize != "torque2":
         # Positive work is flat wherever no input does work and not smooth where one
         # starts to: from the passive gait IPOPT wanders (to steps of no duration);
         # from the least squared-input step that meets the targets it converges.
         stage = dataclasses.replace(request, minimize="torque2")
-    nlp = _build(model, phases, stage)
+    nlp = _build(model, stage)
     guess = _initial_guess(model, params, start, nlp, request.nodes)
     result = _solve(model, params, stage, nlp, guess)
     if stage is request:
         return result
-    staged = _build(model, phases, request)
+    staged = _build(model, request)
     final = _solve(model, params, request, staged,
                    _transfer(model, params, nlp, result.extra["w"], staged))  # fmt: skip
     final.extra["warm_start"] = {"minimize": "torque2", "status": result.status,
@@ -221,140 +215,185 @@ class _Nlp:
     bounds: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]  # lbx, ubx, lbg, ubg
 
 
+@dataclass
+class _Unknowns:
+    """The NLP's unknowns of one phase: states and inputs at the knots and midpoints, and
+    the positive-work slacks there (width 0 unless the cost is the work)."""
+
+    knots: list
+    middles: list
+    u_knots: list
+    u_middles: list
+    s_knots: list
+    s_middles: list
+
+    KEYS = ("knots", "middles", "u_knots", "u_middles", "s_knots", "s_middles")
+
+
+@dataclass
+class _Constraints:
+    rows: list = field(default_factory=list)
+    lower: list = field(default_factory=list)
+    upper: list = field(default_factory=list)
+
+    def add(self, expr: Any, low: float, high: float) -> None:
+        self.rows.append(expr)
+        self.lower.extend([low] * expr.shape[0])
+        self.upper.extend([high] * expr.shape[0])
+
+
+def _phase_unknowns(k: int, m: int, nu: int, nodes: int, slack: bool) -> _Unknowns:
+    import casadi as ca
+
+    def symbols(stem: str, count: int, width: int) -> list:
+        return [ca.MX.sym(f"{stem}_{k}_{i}", width) for i in range(count)]
+
+    # The positive work's epigraph: s >= 0, s >= P (minimised, s = max(P, 0)).
+    width = nu if slack else 0
+    return _Unknowns(symbols("x", nodes + 1, m), symbols("xc", nodes, m),
+                     symbols("u", nodes + 1, nu), symbols("uc", nodes, nu),
+                     symbols("s", nodes + 1, width), symbols("sc", nodes, width))  # fmt: skip
+
+
+def _collocate(model: HybridModel, phase: str, v: _Unknowns, p: Any, duration: Any,
+               request: Request, g: _Constraints) -> tuple[Any, dict, dict]:  # fmt: skip
+    """A phase's Hermite-Simpson defects, path constraints and slacks into ``g``; its
+    squared-input integral (the cost's share) and each input's positive and negative work
+    (Simpson's rule on knots and midpoints)."""
+    import casadi as ca
+
+    names = input_names(model)[phase]
+    flow = _flow_function(model, phase)
+    nodes = len(v.middles)
+    h = duration / nodes
+    slack = request.minimize != "torque2"
+    for function, direction in _margin_functions(model, phase):
+        for x, u in zip(v.knots, v.u_knots):
+            g.add(-direction * function(p, x, u), 0.0, math.inf)
+    rates = _input_rate_function(model, phase) if names else None
+    if slack and names:
+        for x, u, s in (*zip(v.knots, v.u_knots, v.s_knots),
+                        *zip(v.middles, v.u_middles, v.s_middles)):  # fmt: skip
+            g.add(s - u * rates(p, x), 0.0, math.inf)
+    squares = 0
+    positive = dict.fromkeys(names, 0)
+    negative = dict.fromkeys(names, 0)
+    for i in range(nodes):
+        x0, x1, xc = v.knots[i], v.knots[i + 1], v.middles[i]
+        f0 = flow(p, x0, v.u_knots[i])
+        f1 = flow(p, x1, v.u_knots[i + 1])
+        fc = flow(p, xc, v.u_middles[i])
+        g.add(xc - (x0 + x1) / 2 - h / 8 * (f0 - f1), 0.0, 0.0)
+        g.add(x1 - x0 - h / 6 * (f0 + 4 * fc + f1), 0.0, 0.0)
+        if not names:
+            continue
+        samples = ((1.0, x0, v.u_knots[i], v.s_knots[i]), (4.0, xc, v.u_middles[i], v.s_middles[i]),
+                   (1.0, x1, v.u_knots[i + 1], v.s_knots[i + 1]))  # fmt: skip
+        for weight, x, u, s in samples:
+            share = h / 6 * weight
+            power = u * rates(p, x)
+            positive_power = s if slack else ca.fmax(power, 0)
+            for j, name in enumerate(names):
+                positive[name] = positive[name] + share * positive_power[j]
+                negative[name] = negative[name] + share * (power[j] - positive_power[j])
+            squares = squares + share * ca.sumsqr(u)
+    return squares, positive, negative
+
+
 @functools.cache
-def _build(model: HybridModel, phases: tuple[str, ...], request: Request) -> _Nlp:
+def _build(model: HybridModel, request: Request) -> _Nlp:
     """The collocation NLP of one model and request (parameters are the NLP's ``p``)."""
     import casadi as ca
 
     sequence = model._phase_sequence()
-    m, count = 2 * model.n, len(sequence)
-    nodes = request.nodes
+    m, count, nodes = 2 * model.n, len(sequence), request.nodes
     names = input_names(model)
+    slack = request.minimize != "torque2"
     p = ca.MX.sym("p", len(model.parameter_table))
     durations = ca.MX.sym("T", count)
-    knots, middles, u_knots, u_middles, s_knots, s_middles = [], [], [], [], [], []
-    slack = request.minimize != "torque2"
-    for k, (phase, _) in enumerate(sequence):
-        nu = len(names[phase])
-        knots.append([ca.MX.sym(f"x_{k}_{i}", m) for i in range(nodes + 1)])
-        middles.append([ca.MX.sym(f"xc_{k}_{i}", m) for i in range(nodes)])
-        u_knots.append([ca.MX.sym(f"u_{k}_{i}", nu) for i in range(nodes + 1)])
-        u_middles.append([ca.MX.sym(f"uc_{k}_{i}", nu) for i in range(nodes)])
-        # The positive work's epigraph: s >= 0, s >= P (minimised, s = max(P, 0)).
-        width = nu if slack else 0
-        s_knots.append([ca.MX.sym(f"s_{k}_{i}", width) for i in range(nodes + 1)])
-        s_middles.append([ca.MX.sym(f"sc_{k}_{i}", width) for i in range(nodes)])
-    rows, lower, upper = [], [], []
-
-    def add(expr: Any, low: float, high: float) -> None:
-        rows.append(expr)
-        lower.extend([low] * expr.shape[0])
-        upper.extend([high] * expr.shape[0])
-
-    cost = 0
-    positive = {f"{ph}.{name}": 0 for ph, _ in sequence for name in names[ph]}
-    negative = dict(positive)
-    step_length = None
+    unknowns = [_phase_unknowns(k, m, len(names[phase]), nodes, slack)
+                for k, (phase, _) in enumerate(sequence)]  # fmt: skip
+    g = _Constraints()
+    squares, positive, negative, step_length = 0, {}, {}, None
     for k, (phase, event) in enumerate(sequence):
-        flow = _flow_function(model, phase)
-        h = durations[k] / nodes
-        margins = _margin_functions(model, phase)
-        for i in range(nodes + 1):
-            for function, direction in margins:
-                add(-direction * function(p, knots[k][i], u_knots[k][i]), 0.0, math.inf)
-        if slack and names[phase]:
-            rates = _input_rate_function(model, phase)
-            for x, u, s in (*zip(knots[k], u_knots[k], s_knots[k]),
-                            *zip(middles[k], u_middles[k], s_middles[k])):  # fmt: skip
-                add(s - u * rates(p, x), 0.0, math.inf)
-        for i in range(nodes):
-            x0, x1, xc = knots[k][i], knots[k][i + 1], middles[k][i]
-            f0 = flow(p, x0, u_knots[k][i])
-            f1 = flow(p, x1, u_knots[k][i + 1])
-            fc = flow(p, xc, u_middles[k][i])
-            add(xc - (x0 + x1) / 2 - h / 8 * (f0 - f1), 0.0, 0.0)
-            add(x1 - x0 - h / 6 * (f0 + 4 * fc + f1), 0.0, 0.0)
-            samples = ((x0, u_knots[k][i], s_knots[k][i]), (xc, u_middles[k][i], s_middles[k][i]),
-                       (x1, u_knots[k][i + 1], s_knots[k][i + 1]))  # fmt: skip
-            weights = (1.0, 4.0, 1.0)
-            if names[phase]:
-                rates = _input_rate_function(model, phase)
-                for weight, (x, u, s) in zip(weights, samples):
-                    power = u * rates(p, x)
-                    positive_power = s if slack else ca.fmax(power, 0)
-                    for j, name in enumerate(names[phase]):
-                        key = f"{phase}.{name}"
-                        positive[key] = positive[key] + h / 6 * weight * positive_power[j]
-                        share = h / 6 * weight
-                        negative[key] = negative[key] + share * (power[j] - positive_power[j])
-                    squares = h / 6 * weight * ca.sumsqr(u)
-                    cost = cost + (squares if request.minimize == "torque2"
-                                   else request.regularization * squares)  # fmt: skip
-        end = knots[k][nodes]
-        add(_call(model, f"event_{event['name']}_guard", p, end), 0.0, 0.0)
+        v = unknowns[k]
+        phase_squares, plus, minus = _collocate(model, phase, v, p, durations[k], request, g)
+        squares = squares + phase_squares
+        positive |= {f"{phase}.{name}": value for name, value in plus.items()}
+        negative |= {f"{phase}.{name}": value for name, value in minus.items()}
+        end = v.knots[-1]
+        g.add(model.symbolic(f"event_{event['name']}_guard", p, end), 0.0, 0.0)
         if event["when"] is not None:
-            add(_call(model, event["when"], p, end), 0.0, math.inf)
-        after = _call(model, f"event_{event['name']}_reset", p, end)
-        following = knots[k + 1][0] if k + 1 < count else knots[0][0]
-        add(following - after, 0.0, 0.0)
+            g.add(model.symbolic(event["when"], p, end), 0.0, math.inf)
+        after = model.symbolic(f"event_{event['name']}_reset", p, end)
+        following = unknowns[(k + 1) % count].knots[0]  # the last phase: periodicity
+        g.add(following - after, 0.0, 0.0)
         if event["ends_step"] and model.spec["step_length"]:
-            step_length = _call(model, "step_length_of_state", p, end)
-    period = ca.sum1(durations)
+            step_length = model.symbolic("step_length_of_state", p, end)
     if request.target_step_length is not None:
-        add(step_length - request.target_step_length, 0.0, 0.0)
+        g.add(step_length - request.target_step_length, 0.0, 0.0)
     if request.target_speed is not None:
-        add(step_length - request.target_speed * period, 0.0, 0.0)
-    total_positive = sum(positive.values()) if positive else 0
-    if request.minimize == "work":
-        cost = cost + total_positive
-    elif request.minimize == "cot":
+        g.add(step_length - request.target_speed * ca.sum1(durations), 0.0, 0.0)
+    work = sum(positive.values()) if positive else 0
+    if request.minimize == "torque2":
+        cost = squares
+    elif request.minimize == "work":
+        cost = work + request.regularization * squares
+    else:
         if step_length is None:
             raise VswInputError(f"{model.name} defines no step length: no cost of transport")
-        cost = cost + total_positive / (_weight(model, p) * step_length)
-    w_parts = [durations]
-    layout = []
-    offset = count
-    for k, (phase, _) in enumerate(sequence):
-        nu = len(names[phase])
-        entry = {}
-        slack_width = nu if slack else 0
-        for key, parts, width in (("knots", knots[k], m), ("middles", middles[k], m),
-                                  ("u_knots", u_knots[k], nu), ("u_middles", u_middles[k], nu),
-                                  ("s_knots", s_knots[k], slack_width),
-                                  ("s_middles", s_middles[k], slack_width)):  # fmt: skip
-            entry[key] = (offset, len(parts), width)
-            offset += len(parts) * width
-            w_parts += parts
-        layout.append(entry)
-    w = ca.vertcat(*w_parts)
-    g = ca.vertcat(*rows)
-    lbx = np.full(w.shape[0], -np.inf)
-    ubx = np.full(w.shape[0], np.inf)
-    lbx[:count] = 1e-3  # a phase of no duration is no step (in the model's time unit)
-    for entry in layout:
-        for key in ("s_knots", "s_middles"):
-            first, parts, width = entry[key]
-            lbx[first : first + parts * width] = 0.0
-    for k, (phase, _) in enumerate(sequence):
-        bounds = [i["bounds"] for i in model.phases[model.phase_index[phase]].get("inputs", ())]
-        for key in ("u_knots", "u_middles"):
-            first, parts, width = layout[k][key]
-            for part in range(parts):
-                for j, (low, high) in enumerate(bounds):
-                    lbx[first + part * width + j] = -np.inf if low is None else low
-                    ubx[first + part * width + j] = np.inf if high is None else high
+        cost = work / (model.symbolic_weight(p) * step_length) + request.regularization * squares
+    w, layout = _vector(durations, unknowns)
+    lbx, ubx = _variable_bounds(model, sequence, layout, int(w.shape[0]))
     options = {
         "ipopt.tol": 1e-10, "ipopt.constr_viol_tol": 1e-10, "ipopt.max_iter": 3000,
         "ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "error_on_fail": False,
         "ipopt.mu_strategy": "adaptive", "ipopt.acceptable_tol": 1e-6,
         "ipopt.acceptable_constr_viol_tol": 1e-9, "ipopt.acceptable_iter": 5,
     }  # fmt: skip
-    solver = ca.nlpsol(f"powered_{model.name}", "ipopt", {"x": w, "p": p, "f": cost, "g": g},
-                       options)  # fmt: skip
-    work = ca.Function("work", [w, p], [ca.vertcat(*positive.values(), *negative.values())
-                                        if positive else ca.DM.zeros(0)])  # fmt: skip
-    return _Nlp(solver, ca.Function("cost", [w, p], [cost]), layout, work, int(w.shape[0]),
-                (lbx, ubx, np.array(lower), np.array(upper)))  # fmt: skip
+    problem = {"x": w, "p": p, "f": cost, "g": ca.vertcat(*g.rows)}
+    solver = ca.nlpsol(f"powered_{model.name}", "ipopt", problem, options)
+    works = ca.Function("work", [w, p], [ca.vertcat(*positive.values(), *negative.values())
+                                         if positive else ca.DM.zeros(0)])  # fmt: skip
+    return _Nlp(solver, ca.Function("cost", [w, p], [cost]), layout, works, int(w.shape[0]),
+                (lbx, ubx, np.array(g.lower), np.array(g.upper)))  # fmt: skip
+
+
+def _vector(durations: Any, unknowns: list[_Unknowns]) -> tuple[Any, list[dict]]:
+    """The unknowns as one vector (durations first, then each phase's blocks) and, per
+    phase, each block's (offset, count, width)."""
+    import casadi as ca
+
+    parts, layout, offset = [durations], [], durations.shape[0]
+    for v in unknowns:
+        entry = {}
+        for key in _Unknowns.KEYS:
+            block = getattr(v, key)
+            width = block[0].shape[0] if block else 0
+            entry[key] = (offset, len(block), width)
+            offset += len(block) * width
+            parts += block
+        layout.append(entry)
+    return ca.vertcat(*parts), layout
+
+
+def _variable_bounds(model: HybridModel, sequence: list, layout: list[dict],
+                     size: int) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """Durations >= 1e-3 (a phase of no duration is no step), slacks >= 0, each input
+    within its declared bounds."""
+    lbx, ubx = np.full(size, -np.inf), np.full(size, np.inf)
+    lbx[: len(sequence)] = 1e-3
+    for (phase, _), entry in zip(sequence, layout):
+        for key in ("s_knots", "s_middles"):
+            first, parts, width = entry[key]
+            lbx[first : first + parts * width] = 0.0
+        bounds = [i["bounds"] for i in model.phases[model.phase_index[phase]].get("inputs", ())]
+        for key in ("u_knots", "u_middles"):
+            first, parts, width = entry[key]
+            for j, (low, high) in enumerate(bounds):
+                lbx[first + j : first + parts * width : width] = -np.inf if low is None else low
+                ubx[first + j : first + parts * width : width] = np.inf if high is None else high
+    return lbx, ubx
 
 
 @functools.cache
@@ -367,9 +406,9 @@ def _flow_function(model: HybridModel, phase: str) -> Any:
     p = ca.SX.sym("p", len(model.parameter_table))
     x = ca.SX.sym("x", 2 * n)
     u = ca.SX.sym("u", len(names))
-    acc = _call(model, f"{phase}_accelerations", p, x)
+    acc = model.symbolic(f"{phase}_accelerations", p, x)
     if names:
-        gains = ca.reshape(_call(model, f"{phase}_input_gains", p, x), len(names), n).T
+        gains = ca.reshape(model.symbolic(f"{phase}_input_gains", p, x), len(names), n).T
         acc = acc + ca.mtimes(gains, u)
     return ca.Function(f"flow_{phase}", [p, x, u], [ca.vertcat(x[n:], acc)])
 
@@ -380,7 +419,7 @@ def _input_rate_function(model: HybridModel, phase: str) -> Any:
 
     p = ca.SX.sym("p", len(model.parameter_table))
     x = ca.SX.sym("x", 2 * model.n)
-    return ca.Function(f"rates_{phase}", [p, x], [_call(model, f"{phase}_input_rates", p, x)])
+    return ca.Function(f"rates_{phase}", [p, x], [model.symbolic(f"{phase}_input_rates", p, x)])
 
 
 @functools.cache
@@ -394,9 +433,9 @@ def _margin_functions(model: HybridModel, phase: str) -> list[tuple[Any, int]]:
     u = ca.SX.sym("u", len(names))
     out = []
     for _failure, function, direction in model.phases[model.phase_index[phase]]["failures"]:
-        guard = _call(model, function, p, x)
+        guard = model.symbolic(function, p, x)
         if names:
-            guard = guard + ca.dot(_call(model, f"{function}_input_gains", p, x), u)
+            guard = guard + ca.dot(model.symbolic(f"{function}_input_gains", p, x), u)
         out.append((ca.Function(f"margin_{function}", [p, x, u], [guard]), direction))
     return out
 
