@@ -300,7 +300,7 @@ def _collocate(model: HybridModel, phase: str, v: _Unknowns, p: Any, duration: A
     return squares, positive, negative
 
 
-@functools.cache
+@functools.lru_cache(maxsize=8)  # a few NLPs a command; a script's loop over targets
 def _build(model: HybridModel, request: Request) -> _Nlp:
     """The collocation NLP of one model and request (parameters are the NLP's ``p``)."""
     import casadi as ca
