@@ -161,3 +161,45 @@ def test_vsw_models_names_the_input(capsys):
     assert record["along"] == "-psi + theta" and record["bounds"] == [None, None]
     assert main(["models", "--model", "simplest-walker", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["models"][0]["inputs"] == {}
+
+
+def test_an_input_in_a_phase_that_holds_a_coordinate_obeys_newton_and_euler():
+    """The VSW biped's short phase holds its stance leg at beta (derive/models/vsw_biped.py);
+    a hip torque declared on it here (the model has none) must give the accelerations
+    Newton and Euler give: the walker's angular momentum about the foot changes by
+    gravity's moment alone (the leg's force passes through the foot, the torque is
+    internal), the swing leg's about the hip by gravity's moment and the torque."""
+    import sympy as sm
+
+    from derive.models import vsw_biped as biped
+
+    phase = dataclasses.replace(
+        biped.SHORT, inputs=(Input("hip_torque", biped.theta - biped.psi, "hip"),)
+    )
+    dyn = phase_dynamics(phase)
+    symbols = (biped.beta, biped.mu, biped.b, biped.theta, biped.psi,
+               biped.THETA.u, biped.PSI.u)  # fmt: skip
+    passive = sm.lambdify(symbols, list(dyn.accelerations), "numpy")
+    gains = sm.lambdify(symbols, [row[0] for row in dyn.input_gains], "numpy")
+    rng = np.random.default_rng(31)
+    gravity = np.array([0.0, -1.0])
+    for _ in range(30):
+        beta, mu, b = rng.uniform(0.5, 1.0), rng.uniform(0.01, 2.0), rng.uniform(0.1, 0.9)
+        theta, psi, theta_dot, psi_dot = (*rng.uniform(-0.6, 0.6, 2), *rng.uniform(-2, 2, 2))
+        u = rng.uniform(-2, 2)
+        args = (beta, mu, b, theta, psi, theta_dot, psi_dot)
+        theta_acc, psi_acc = np.array(passive(*args)) + u * np.array(gains(*args))
+        hip = beta * np.array([np.sin(theta), np.cos(theta)])
+        hip_acc = _point_acceleration(beta, theta, theta_dot, theta_acc)
+        stance = hip - b * np.array([np.sin(theta), np.cos(theta)])
+        stance_acc = hip_acc - _point_acceleration(b, theta, theta_dot, theta_acc)
+        swing = hip - b * np.array([np.sin(psi), np.cos(psi)])
+        swing_acc = hip_acc - _point_acceleration(b, psi, psi_dot, psi_acc)
+        walker = sum(mass * (_cross(p, acc) - _cross(p, gravity))
+                     for mass, p, acc in ((1.0, hip, hip_acc), (mu, stance, stance_acc),
+                                          (mu, swing, swing_acc)))  # fmt: skip
+        lever = swing - hip
+        swing_leg = mu * (_cross(lever, swing_acc) - _cross(lever, gravity)) - u
+        scale = (1 + 2 * mu) * (1 + theta_dot**2 + psi_dot**2) + abs(u)
+        assert abs(walker) <= 1e-12 * scale
+        assert abs(swing_leg) <= 1e-12 * scale
