@@ -132,7 +132,8 @@ def optimize(
     same start): the result is the finer one, with ``mesh_change`` the relative change of
     the cost between them. ``optimal`` needs IPOPT's success on both, the re-simulation
     within :data:`RESIMULATION_AGREES` and ``mesh_change`` within :data:`MESH_AGREES`;
-    otherwise ``not-converged`` says which failed."""
+    otherwise ``not-converged`` says which failed. ``cost`` is the named cost (the positive
+    work without the regularization the NLP adds; ``extra['objective']`` the NLP's)."""
     request.check()
     sequence = model._phase_sequence()
     names = input_names(model)
@@ -577,7 +578,7 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
     return PoweredGait(
         status="not-converged" if reason else "optimal",
         reason=reason,
-        cost=float(nlp.cost(w, p)),
+        cost=_named_cost(model, p, request, work, step_length, float(nlp.cost(w, p))),
         durations=durations,
         times=times,
         states=states,
@@ -590,8 +591,29 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
         guard_at_end=guard,
         ipopt_status=status,
         iterations=int(stats.get("iter_count", -1)),
-        extra={"state_scale": scale, "w": w, "constraint_violation": violation},
+        extra={
+            "state_scale": scale,
+            "w": w,
+            "constraint_violation": violation,
+            "objective": float(nlp.cost(w, p)),
+        },
     )
+
+
+def _named_cost(model: HybridModel, p: np.ndarray, request: Request, work: dict,
+                step_length: float | None, objective: float) -> float:  # fmt: skip
+    """The cost the request names, without the regularization the NLP adds to it: the
+    squared inputs' integral (the objective itself), the positive work, or that work per
+    weight and step length."""
+    if request.minimize == "torque2":
+        return objective
+    positive = sum(w["positive"] for w in work.values())
+    if request.minimize == "work":
+        return positive
+    weight = 1.0
+    if hasattr(model.module, "weight"):
+        weight = float(model.module.weight(*p, *([0.0] * (2 * model.n))))
+    return positive / (weight * step_length)
 
 
 def _resimulate(
@@ -671,14 +693,14 @@ def _counts(model: HybridModel, event: dict, p: np.ndarray, x: np.ndarray) -> bo
 
 def _control(inputs: np.ndarray, duration: float):
     """The input at time ``t`` of a phase as the scheme implies it: quadratic on each
-    interval through knot, midpoint and knot; held at its ends outside ``[0, duration]``
-    (a perturbed step may last a little longer or shorter)."""
+    interval through knot, midpoint and knot; past the phase's end (a perturbed step lasts
+    a little longer) the last interval's quadratic continued, so that the open-loop map is
+    smooth at the gait (an input held constant there would kink it where the step ends)."""
     nodes = (inputs.shape[0] - 1) // 2
     h = duration / nodes
 
     def control(t: float) -> np.ndarray:
-        t = min(max(t, 0.0), duration)
-        i = min(int(t / h), nodes - 1)
+        i = min(max(int(t / h), 0), nodes - 1)
         s = t / h - i
         u0, uc, u1 = inputs[2 * i], inputs[2 * i + 1], inputs[2 * i + 2]
         return u0 * (1 - s) * (1 - 2 * s) + uc * 4 * s * (1 - s) + u1 * s * (2 * s - 1)

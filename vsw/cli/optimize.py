@@ -84,6 +84,7 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
         "minimize": request.minimize,
         "targets": {"speed": request.target_speed, "step_length": request.target_step_length},
         "cost": gait.cost,
+        "objective": gait.extra.get("objective"),
         "nodes": {"coarse": request.nodes, "fine": 2 * request.nodes},
         "mesh_change": gait.extra.get("mesh_change"),
         "period": gait.period,
@@ -98,7 +99,8 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
         "ipopt": {"status": gait.ipopt_status, "iterations": gait.iterations},
         "phases": phases,
         "fields": {
-            "cost": "the NLP's objective on the fine mesh (work and cot: plus the "
+            "cost": "the named cost on the fine mesh (work and cot without the "
+            "regularization); objective: the NLP's (work and cot: plus the "
             "regularization times the squared inputs' integral)",
             "mesh_change": "relative change of the cost from the coarse to the fine mesh",
             "work": "per phase.input: positive and negative work over the step (Simpson)",
