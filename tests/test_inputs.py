@@ -16,6 +16,7 @@ import json
 
 import numpy as np
 import pytest
+import sympy as sm
 
 import generated.compass_gait as gen
 from derive.engine.hybrid import phase_dynamics
@@ -169,8 +170,6 @@ def test_an_input_in_a_phase_that_holds_a_coordinate_obeys_newton_and_euler():
     Newton and Euler give: the walker's angular momentum about the foot changes by
     gravity's moment alone (the leg's force passes through the foot, the torque is
     internal), the swing leg's about the hip by gravity's moment and the torque."""
-    import sympy as sm
-
     from derive.models import vsw_biped as biped
 
     phase = dataclasses.replace(
@@ -203,3 +202,16 @@ def test_an_input_in_a_phase_that_holds_a_coordinate_obeys_newton_and_euler():
         scale = (1 + 2 * mu) * (1 + theta_dot**2 + psi_dot**2) + abs(u)
         assert abs(walker) <= 1e-12 * scale
         assert abs(swing_leg) <= 1e-12 * scale
+
+
+def test_an_input_along_a_stray_symbol_is_refused():
+    """``along`` may use the phase's coordinates and the model's parameters only."""
+    from derive.engine.hybrid import hybrid_quantities
+
+    stray = sm.Symbol("kappa", real=True)
+    phase = dataclasses.replace(
+        compass_gait.STANCE, inputs=(Input("u", compass_gait.theta - stray, "hip"),)
+    )
+    model = dataclasses.replace(compass_gait.MODEL, phases=(phase,))
+    with pytest.raises(ValueError, match="kappa is no coordinate of the phase and no parameter"):
+        hybrid_quantities(model)

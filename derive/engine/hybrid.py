@@ -1070,6 +1070,13 @@ def _input_quantities(model: Model, phase: Phase, dyn: PhaseDynamics, args: tupl
     """A phase's input gains on the state's accelerations (a held state coordinate's by
     the chain rule, as :func:`_state_accelerations`) and its inputs' rates."""
     free = [c.q for c in phase.coordinates]
+    known = {*free, *phase.held, *model.parameter_symbols}
+    for i in phase.inputs:
+        stray = sm.sympify(i.along).free_symbols - known
+        if stray:
+            raise ValueError(f"{model.name}: input {i.name} of phase {phase.name} acts along "
+                             f"{i.along}, whose {', '.join(sorted(map(str, stray)))} is no "
+                             "coordinate of the phase and no parameter")  # fmt: skip
     by_coordinate = dict(zip(free, dyn.input_gains))
     rows = []
     for c in model.coordinates:
