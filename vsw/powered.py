@@ -28,10 +28,14 @@ length. Both add :attr:`Request.regularization` times the squared inputs' integr
 Integrals by Simpson's rule on the knots and midpoints. ``work`` and ``cot`` start from
 the ``torque2`` optimum with the same targets.
 
-Verification: each phase is integrated again from its first knot with the inputs as the
-scheme interpolates them (SciPy DOP853, 1e-11), and its end compared with the last knot
-(``resimulation_error``, relative to max(1, |state|)); the event's guard there is reported.
-The start is the model's passive gait at the same parameters, inputs zero.
+Verification: the problem is solved on N and on 2N intervals a phase (the finer from the
+coarser optimum) and the cost's change between them reported; each phase is integrated
+again from its first knot with the inputs as the scheme interpolates them (SciPy DOP853,
+1e-11; its event's guard and its failures watched between the knots), and its end
+compared with the last knot (``resimulation_error``, relative to max(1, |state|)).
+``optimal`` needs all of it (:func:`optimize`). The start is the model's passive gait at
+the same parameters, inputs zero. The open-loop map's eigenvalues are reported
+(:func:`powered_eigenvalues`).
 """
 
 from __future__ import annotations
