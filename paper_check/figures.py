@@ -233,7 +233,7 @@ def _fig8(ax: Any, data: dict[str, Any]) -> Legend:
         "simulated cycle from $q^f$",
         "simulated transient, 6 steps",
         "jumps: extension, heelstrike",
-        "closed-form instants I\N{EN DASH}IV",
+        "closed-form instants I\u2013IV",
     ]
     return handles, labels
 

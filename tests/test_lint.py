@@ -18,3 +18,18 @@ def test_ruff(command):
     base = [ruff] if ruff else [sys.executable, "-m", "ruff"]
     done = subprocess.run([*base, *command, "."], cwd=ROOT, capture_output=True, text=True)
     assert done.returncode == 0, done.stdout + done.stderr
+
+
+def test_no_named_unicode_escapes_in_the_runtime():
+    """No ``\\N{...}`` escape in vsw/ or paper_check/: compiling one imports unicodedata, and
+    a Ctrl-C landing in that import while `vsw` starts (bytecode not cached) turns into a
+    SyntaxError with a traceback instead of "vsw: interrupted" (seen in CI: "\\N escapes not
+    supported (can't load unicodedata module)"). ``\\uXXXX`` escapes need no module."""
+    offenders = [
+        f"{path.relative_to(ROOT)}:{number}"
+        for folder in ("vsw", "paper_check")
+        for path in sorted((ROOT / folder).rglob("*.py"))
+        for number, line in enumerate(path.read_text().splitlines(), 1)
+        if "\\N{" in line
+    ]
+    assert offenders == []

@@ -72,7 +72,7 @@ def diagram_value(y: str, state: Mapping[str, float] | None, step_length, step_p
 
 def _axis_label(y: str, units: Mapping[str, str]) -> str:
     if y.startswith("-"):
-        return "\N{MINUS SIGN}" + _axis_label(y[1:], units)
+        return "\u2212" + _axis_label(y[1:], units)
     if y == "step_length":
         return f"step length [{units.get('length', '')}]"
     if y == "step_period":

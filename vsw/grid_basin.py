@@ -303,5 +303,5 @@ def _extent(x: np.ndarray, y: np.ndarray) -> list[float]:
 def _label(name: str, units: Mapping[str, str]) -> str:
     """A state component's label; ``-name``: minus it (an angle in another sign)."""
     if name.startswith("-"):
-        return "\N{MINUS SIGN}" + plotstyle.state_label(name[1:], units.get(name[1:], "1"))
+        return "\u2212" + plotstyle.state_label(name[1:], units.get(name[1:], "1"))
     return plotstyle.state_label(name, units.get(name, "1"))

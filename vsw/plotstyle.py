@@ -79,7 +79,7 @@ PAGE_WIDTH = 7.16
 PNG_DPI = 300
 """Raster resolution for PNG (journals ask for >= 300 dpi for line art with text)."""
 
-DEG = "\N{DEGREE SIGN}"
+DEG = "\u00b0"
 """The degree sign U+00B0 (mathtext's ``^\\circ`` renders as a raised ring/dot)."""
 
 LABELS = {

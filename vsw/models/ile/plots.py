@@ -380,7 +380,7 @@ def simulation_plot(
     outcome = ENDED.get(result.ended, result.ended)
     fig.suptitle(
         plotstyle.params_title(beta, theta_II, phi0, q_0=q0)
-        + f" \N{EM DASH} {done} of {steps} steps, {outcome}"
+        + f" \u2014 {done} of {steps} steps, {outcome}"
     )
     return fig
 
