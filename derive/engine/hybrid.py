@@ -1084,10 +1084,8 @@ def _input_quantities(model: Model, phase: Phase, dyn: PhaseDynamics, args: tupl
             rows.append(by_coordinate[c.q])
             continue
         value = sm.sympify(phase.held[c.q])
-        rows.append(tuple(
-            sum((value.diff(q) * by_coordinate[q][k] for q in free), sm.Integer(0))
-            for k in range(len(phase.inputs))
-        ))  # fmt: skip
+        rows.append(tuple(chain_rate(value, ((q, by_coordinate[q][k]) for q in free))
+                          for k in range(len(phase.inputs))))  # fmt: skip
     names = [i.name for i in phase.inputs]
     gains = tuple(g for row in rows for g in row)
     return [

@@ -96,13 +96,15 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
         "guard_at_end": gait.guard_at_end,
         "eigenvalues": None if eigenvalues is None else [[e.real, e.imag] for e in eigenvalues],
         "max_abs_eigenvalue": None if not eigenvalues else abs(eigenvalues[0]),
+        "eigenvalues_note": gait.extra.get("eigenvalues_note"),
         "ipopt": {"status": gait.ipopt_status, "iterations": gait.iterations},
         "phases": phases,
         "fields": {
             "cost": "the named cost on the fine mesh (work and cot without the "
             "regularization); objective: the NLP's (work and cot: plus the "
             "regularization times the squared inputs' integral)",
-            "mesh_change": "relative change of the cost from the coarse to the fine mesh",
+            "mesh_change": "relative change of the cost from the coarse to the fine mesh (a "
+            "cost zero within 1e-9 on both agrees whatever this is)",
             "work": "per phase.input: positive and negative work over the step (Simpson)",
             "resimulation_error": "largest gap between a re-simulated phase's end and its "
             "last knot, relative to max(1, |state|)",
