@@ -18,6 +18,7 @@ MODEL_MODULES: dict[str, str] = {
     "torso_walker": "derive.models.torso_walker",
     "vsw_biped_fte": "derive.models.vsw_biped_fte",
     "vsw_biped_phi0": "derive.models.vsw_biped_phi0",
+    "point_mass_biped": "derive.models.point_mass_biped",
 }
 """Model name (its ``generated/<name>/`` package) -> module with its ``derive()``."""
 

@@ -22,6 +22,14 @@ from vsw.models.ile.params import random_parameters
 PARAMS = {p.name: p for p in PARAMETERS}
 
 
+def passive_keys() -> list[str]:
+    """The models with passive gaits: every one but those that walk only powered (the
+    point-mass biped, whose leg force holds it up; tests/test_point_mass_biped.py)."""
+    from vsw.models import keys, load
+
+    return [k for k in keys() if not load(k).spec.get("powered_only")]
+
+
 def random_valid_parameters(n: int, seed: int = 0, margin: float = 1e-3) -> dict[str, np.ndarray]:
     """``n`` parameter sets drawn uniformly inside the open domain of the parameter table."""
     return random_parameters(n, seed, margin=margin)

@@ -150,6 +150,9 @@ def gaits(name: str) -> list[tuple[tuple[float, ...], list]]:
     and two nearby sets (a scan of 24 points a side: the tests here check the physics
     along gaits, tests/test_gaits.py the search)."""
     m = load(name)
+    if m.spec.get("powered_only"):
+        pytest.skip(f"{name} walks only powered (no passive gait): tests/test_point_mass_biped.py "
+                    "checks it along its powered gaits")  # fmt: skip
     defaults, *nearby = parameter_sets(m, 3, seed=12)
     coarse = 24 ** len(m.spec["search"])
     return [(defaults, m.fixed_points(defaults))] + [
@@ -171,7 +174,12 @@ def walking_states(m: HybridModel) -> list[tuple[tuple[float, ...], np.ndarray]]
 def test_every_model_walks_at_its_defaults():
     """The defaults of every engine model give at least one period-one gait (the other
     tests simulate from them)."""
-    engines = [n for n in MODELS if hasattr(importlib.import_module(f"generated.{n}"), "HYBRID")]
+    engines = [
+        n
+        for n in MODELS
+        if hasattr(importlib.import_module(f"generated.{n}"), "HYBRID")
+        and not importlib.import_module(f"generated.{n}").HYBRID.get("powered_only")
+    ]
     assert engines, "no engine model is generated"
     for name in engines:
         m = load(name)

@@ -12,8 +12,9 @@ import math
 import numpy as np
 import pytest
 
+from tests.conftest import passive_keys
 from vsw.cli import main
-from vsw.models import keys, load
+from vsw.models import load
 from vsw.trajectories import sample_walk, write_trajectory
 from vsw.walks import walk
 
@@ -27,7 +28,7 @@ def sampled():
     """Every model's walk of three steps from its start (its stable gait, or the closed
     form's), sampled at 200 per time unit."""
     out = {}
-    for key in keys():
+    for key in passive_keys():
         model = load(key)
         params = model.parameters()
         start = model.start(params, None, None).state
@@ -35,7 +36,7 @@ def sampled():
     return out
 
 
-@pytest.mark.parametrize("key", list(keys()))
+@pytest.mark.parametrize("key", passive_keys())
 def test_regular_samples_are_at_the_rate_and_events_come_in_pairs(sampled, key):
     w = sampled[key][3]
     assert w.ended == "completed" and w.steps_completed == STEPS
@@ -51,7 +52,7 @@ def test_regular_samples_are_at_the_rate_and_events_come_in_pairs(sampled, key):
         assert j == i + 1 and w.t[i] == w.t[j]  # before and after at one instant
 
 
-@pytest.mark.parametrize("key", list(keys()))
+@pytest.mark.parametrize("key", passive_keys())
 def test_the_step_events_land_on_the_walks_section_states(sampled, key):
     """The state just after each step event equals the Poincaré map's (vsw.walks)."""
     model, params, start, w = sampled[key]

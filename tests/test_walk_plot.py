@@ -4,14 +4,15 @@ from __future__ import annotations
 
 import pytest
 
+from tests.conftest import passive_keys
 from vsw import plotstyle
 from vsw.figures import save_figure
-from vsw.models import keys, load
+from vsw.models import load
 from vsw.plotstyle import state_label, unit_tex
 from vsw.trajectories import sample_walk
 from vsw.walk_plot import walk_figure
 
-GENERIC = [k for k in keys() if k != "ile"]  # the ILE keeps its closed-form figure
+GENERIC = [k for k in passive_keys() if k != "ile"]  # the ILE keeps its closed-form figure
 
 
 @pytest.fixture(scope="module")

@@ -51,7 +51,7 @@ import numpy as np
 
 from vsw import stop
 from vsw.errors import ConvergenceError, VswInputError
-from vsw.gaits import pick
+from vsw.gaits import free_components, pick, section_states
 from vsw.hybrid import HybridModel, Orbit
 
 __all__ = ["PoweredGait", "Request", "optimize", "powered_eigenvalues", "powered_step"]
@@ -78,9 +78,14 @@ class Request:
     target_speed: float | None = None
     target_step_length: float | None = None
     nodes: int = 20
-    regularization: float = 1e-4
+    regularization: float = 1e-7
     """Weight of the squared inputs' integral added to the ``work`` and ``cot`` costs: the
-    positive work alone is flat along inputs that do no net work, where IPOPT wanders."""
+    positive work alone is flat along inputs that do no net work, where IPOPT wanders. It
+    is made dimensionless: the integral over its value at the least squared-input gait
+    with the same targets (where the work stage starts), times the cost's scale (weight
+    times step length for ``work``, 1 for ``cot``), so that it weighs the same on a model
+    in scaled units and one in SI units (a 70 kg point-mass biped's leg force squared is
+    5e5 times the scaled one's)."""
 
     def check(self) -> None:
         if self.minimize not in COSTS:
@@ -107,7 +112,7 @@ class PoweredGait:
     states: list[np.ndarray]  # per phase: knots x state
     inputs: list[np.ndarray]  # per phase: knots and midpoints in time order x inputs
     input_times: list[np.ndarray]
-    work: dict[str, dict[str, float]]  # per input: positive, negative
+    work: dict[str, dict[str, float]]  # per input and impulse: positive, negative
     step_length: float | None
     speed: float | None
     resimulation_error: float
@@ -115,6 +120,8 @@ class PoweredGait:
     ipopt_status: str
     iterations: int
     extra: dict[str, Any] = field(default_factory=dict)
+    impulses: dict[str, float] = field(default_factory=dict)
+    """Each event's impulses (``<event>.<impulse>``), in the order the step applies them."""
 
     @property
     def period(self) -> float:
@@ -124,6 +131,13 @@ class PoweredGait:
 def input_names(model: HybridModel) -> dict[str, list[str]]:
     """Each phase's inputs by name (empty lists for phases without)."""
     return {p["name"]: [i["name"] for i in p.get("inputs", ())] for p in model.phases}
+
+
+def impulse_names(model: HybridModel, event: dict) -> tuple[list[str], list[str]]:
+    """An event's impulses by name: those applied before its reset, those after."""
+    impulses = event.get("impulses", ())
+    return ([i["name"] for i in impulses if i["applied"] == "before"],
+            [i["name"] for i in impulses if i["applied"] == "after"])  # fmt: skip
 
 
 def optimize(
@@ -142,18 +156,18 @@ def optimize(
     sequence = model._phase_sequence()
     names = input_names(model)
     label = getattr(model, "cli_name", model.name)
-    if not any(names[phase] for phase, _ in sequence):
+    if not any(names[phase] or event.get("impulses") for phase, event in sequence):
         raise VswInputError(f"{label} declares no inputs: nothing to power it with")
     if (request.target_speed or request.target_step_length) and not model.spec["step_length"]:
         raise VswInputError(f"{label} defines no step length: no speed or step target")
     if start is None:
-        start = _passive_start(model, params)
+        start = _passive_start(model, params)  # None: the model has no passive gait
     coarse = _optimize_on_mesh(model, params, request, start)
     finer = dataclasses.replace(request, nodes=2 * request.nodes)
     fine_nlp = _build(model, finer)
     # From the coarse optimum, so that the change measures the mesh, not another local one.
     guess = _refine(model, params, _build(model, request), coarse.extra["w"], fine_nlp)
-    fine = _solve(model, params, finer, fine_nlp, guess)
+    fine = _solve(model, params, finer, fine_nlp, guess, coarse.extra["regularization_scale"])
     change = abs(fine.cost - coarse.cost) / max(abs(fine.cost), 1e-300)
     fine.extra["mesh_change"] = change
     fine.extra["coarse"] = {"nodes": request.nodes, "cost": coarse.cost,
@@ -180,7 +194,7 @@ def optimize(
 
 
 def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Request,
-                      start: Orbit) -> PoweredGait:  # fmt: skip
+                      start: Orbit | None) -> PoweredGait:  # fmt: skip
     stage = request
     if request.minimize != "torque2":
         # Positive work is flat wherever no input does work and not smooth where one
@@ -188,26 +202,31 @@ def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Requ
         # from the least squared-input step that meets the targets it converges.
         stage = dataclasses.replace(request, minimize="torque2")
     nlp = _build(model, stage)
-    guess = _initial_guess(model, params, start, nlp, request.nodes)
+    if start is None:
+        guess = _kinematic_guess(model, params, nlp, request)
+    else:
+        guess = _initial_guess(model, params, start, nlp, request.nodes)
     result = _solve(model, params, stage, nlp, guess)
     if stage is request:
         return result
     staged = _build(model, request)
+    scale = 1.0
+    if request.minimize == "work" and result.step_length is not None:
+        weight = float(model.module.weight(*params, *([0.0] * (2 * model.n))))
+        scale = weight * result.step_length
+    if result.cost > COST_ZERO:  # the squared inputs' integral of the first stage
+        scale /= result.cost
     final = _solve(model, params, request, staged,
-                   _transfer(model, params, nlp, result.extra["w"], staged))  # fmt: skip
+                   _transfer(model, params, nlp, result.extra["w"], staged), scale)  # fmt: skip
     final.extra["warm_start"] = {"minimize": "torque2", "status": result.status,
                                  "cost": result.cost}  # fmt: skip
     return final
 
 
-def _passive_start(model: HybridModel, params: Sequence[float]) -> Orbit:
-    """The passive gait the commands follow (the first stable one, else the first)."""
-    gait = pick(model.fixed_points(params))
-    if gait is None:
-        raise ConvergenceError(
-            f"{model.name}: no passive gait at these parameters to start the optimisation from"
-        )
-    return gait
+def _passive_start(model: HybridModel, params: Sequence[float]) -> Orbit | None:
+    """The passive gait the commands follow (the first stable one, else the first), or
+    None where there is none (a walker its inputs hold up, or parameters without one)."""
+    return pick(model.fixed_points(params))
 
 
 @dataclass(frozen=True)
@@ -222,8 +241,9 @@ class _Nlp:
 
 @dataclass
 class _Unknowns:
-    """The NLP's unknowns of one phase: states and inputs at the knots and midpoints, and
-    the positive-work slacks there (width 0 unless the cost is the work)."""
+    """The NLP's unknowns of one phase: states and inputs at the knots and midpoints, the
+    impulses of the event that ends it (those before its reset, then those after), and
+    the positive-work slacks of inputs and impulses (width 0 unless the cost is the work)."""
 
     knots: list
     middles: list
@@ -231,8 +251,19 @@ class _Unknowns:
     u_middles: list
     s_knots: list
     s_middles: list
+    impulses: list
+    s_impulses: list
 
-    KEYS = ("knots", "middles", "u_knots", "u_middles", "s_knots", "s_middles")
+    KEYS = (
+        "knots",
+        "middles",
+        "u_knots",
+        "u_middles",
+        "s_knots",
+        "s_middles",
+        "impulses",
+        "s_impulses",
+    )
 
 
 @dataclass
@@ -247,24 +278,26 @@ class _Constraints:
         self.upper.extend([high] * expr.shape[0])
 
 
-def _phase_unknowns(k: int, m: int, nu: int, nodes: int, slack: bool) -> _Unknowns:
+def _phase_unknowns(k: int, m: int, nu: int, nj: int, nodes: int, slack: bool) -> _Unknowns:
     import casadi as ca
 
     def symbols(stem: str, count: int, width: int) -> list:
         return [ca.MX.sym(f"{stem}_{k}_{i}", width) for i in range(count)]
 
     # The positive work's epigraph: s >= 0, s >= P (minimised, s = max(P, 0)).
-    width = nu if slack else 0
+    width, impulse_width = (nu, nj) if slack else (0, 0)
     return _Unknowns(symbols("x", nodes + 1, m), symbols("xc", nodes, m),
                      symbols("u", nodes + 1, nu), symbols("uc", nodes, nu),
-                     symbols("s", nodes + 1, width), symbols("sc", nodes, width))  # fmt: skip
+                     symbols("s", nodes + 1, width), symbols("sc", nodes, width),
+                     symbols("j", 1, nj), symbols("sj", 1, impulse_width))  # fmt: skip
 
 
 def _collocate(model: HybridModel, phase: str, v: _Unknowns, p: Any, duration: Any,
-               request: Request, g: _Constraints) -> tuple[Any, dict, dict]:  # fmt: skip
+               request: Request, g: _Constraints) -> tuple[Any, Any, dict, dict]:  # fmt: skip
     """A phase's Hermite-Simpson defects, path constraints and slacks into ``g``; its
-    squared-input integral (the cost's share) and each input's positive and negative work
-    (Simpson's rule on knots and midpoints)."""
+    squared-input integral, its positive work as the cost prices it (the slacks, where the
+    cost is the work) and each input's positive and negative work (Simpson's rule on knots
+    and midpoints, of ``max(P, 0)`` and ``min(P, 0)``)."""
     import casadi as ca
 
     names = input_names(model)[phase]
@@ -280,7 +313,7 @@ def _collocate(model: HybridModel, phase: str, v: _Unknowns, p: Any, duration: A
         for x, u, s in (*zip(v.knots, v.u_knots, v.s_knots),
                         *zip(v.middles, v.u_middles, v.s_middles)):  # fmt: skip
             g.add(s - u * rates(p, x), 0.0, math.inf)
-    squares = 0
+    squares, priced = 0, 0
     positive = dict.fromkeys(names, 0)
     negative = dict.fromkeys(names, 0)
     for i in range(nodes):
@@ -292,17 +325,24 @@ def _collocate(model: HybridModel, phase: str, v: _Unknowns, p: Any, duration: A
         g.add(x1 - x0 - h / 6 * (f0 + 4 * fc + f1), 0.0, 0.0)
         if not names:
             continue
+        if slack:
+            # Where the cost is the work, the inputs are linear on each interval: a free
+            # midpoint input can peak where its power's samples vanish (a leg force at a
+            # midpoint where the leg's rate changes sign) and add energy the quadrature
+            # does not count; tied to its knots it cannot act unseen.
+            g.add(v.u_middles[i] - (v.u_knots[i] + v.u_knots[i + 1]) / 2, 0.0, 0.0)
         samples = ((1.0, x0, v.u_knots[i], v.s_knots[i]), (4.0, xc, v.u_middles[i], v.s_middles[i]),
                    (1.0, x1, v.u_knots[i + 1], v.s_knots[i + 1]))  # fmt: skip
         for weight, x, u, s in samples:
             share = h / 6 * weight
             power = u * rates(p, x)
-            positive_power = s if slack else ca.fmax(power, 0)
+            positive_power = ca.fmax(power, 0)  # the ledger; the cost prices the slacks
+            priced = priced + share * ca.sum1(s if slack else positive_power)
             for j, name in enumerate(names):
                 positive[name] = positive[name] + share * positive_power[j]
                 negative[name] = negative[name] + share * (power[j] - positive_power[j])
             squares = squares + share * ca.sumsqr(u)
-    return squares, positive, negative
+    return squares, priced, positive, negative
 
 
 @functools.lru_cache(maxsize=8)  # a few NLPs a command; a script's loop over targets
@@ -315,22 +355,29 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
     names = input_names(model)
     slack = request.minimize != "torque2"
     p = ca.MX.sym("p", len(model.parameter_table))
+    scale = ca.MX.sym("regularization_scale")
     durations = ca.MX.sym("T", count)
-    unknowns = [_phase_unknowns(k, m, len(names[phase]), nodes, slack)
-                for k, (phase, _) in enumerate(sequence)]  # fmt: skip
+    unknowns = [_phase_unknowns(k, m, len(names[phase]), len(event.get("impulses", ())),
+                                nodes, slack)
+                for k, (phase, event) in enumerate(sequence)]  # fmt: skip
     g = _Constraints()
-    squares, positive, negative, step_length = 0, {}, {}, None
+    squares, priced, positive, negative, step_length = 0, 0, {}, {}, None
     for k, (phase, event) in enumerate(sequence):
         v = unknowns[k]
-        phase_squares, plus, minus = _collocate(model, phase, v, p, durations[k], request, g)
+        phase_squares, phase_priced, plus, minus = _collocate(model, phase, v, p, durations[k],
+                                                              request, g)  # fmt: skip
         squares = squares + phase_squares
+        priced = priced + phase_priced
         positive |= {f"{phase}.{name}": value for name, value in plus.items()}
         negative |= {f"{phase}.{name}": value for name, value in minus.items()}
         end = v.knots[-1]
         g.add(model.symbolic(f"event_{event['name']}_guard", p, end), 0.0, 0.0)
         if event["when"] is not None:
             g.add(model.symbolic(event["when"], p, end), 0.0, math.inf)
-        after = model.symbolic(f"event_{event['name']}_reset", p, end)
+        after, event_priced, plus, minus = _event_map(model, event, p, end, v, g)
+        priced = priced + event_priced
+        positive |= plus
+        negative |= minus
         following = unknowns[(k + 1) % count].knots[0]  # the last phase: periodicity
         g.add(following - after, 0.0, 0.0)
         if event["ends_step"] and model.spec["step_length"]:
@@ -339,29 +386,74 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
         g.add(step_length - request.target_step_length, 0.0, 0.0)
     if request.target_speed is not None:
         g.add(step_length - request.target_speed * ca.sum1(durations), 0.0, 0.0)
-    work = sum(positive.values()) if positive else 0
+    work = priced
     if request.minimize == "torque2":
         cost = squares
     elif request.minimize == "work":
-        cost = work + request.regularization * squares
+        cost = work + request.regularization * scale * squares
     else:
         if step_length is None:
             raise VswInputError(f"{model.name} defines no step length: no cost of transport")
-        cost = work / (model.symbolic_weight(p) * step_length) + request.regularization * squares
+        cost = (work / (model.symbolic_weight(p) * step_length)
+                + request.regularization * scale * squares)  # fmt: skip
     w, layout = _vector(durations, unknowns)
-    lbx, ubx = _variable_bounds(model, sequence, layout, int(w.shape[0]))
+    lbx, ubx = _variable_bounds(model, sequence, layout, int(w.shape[0]), request)
     options = {
         "ipopt.tol": 1e-10, "ipopt.constr_viol_tol": 1e-10, "ipopt.max_iter": 3000,
         "ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "error_on_fail": False,
         "ipopt.mu_strategy": "adaptive", "ipopt.acceptable_tol": 1e-6,
         "ipopt.acceptable_constr_viol_tol": 1e-9, "ipopt.acceptable_iter": 5,
     }  # fmt: skip
-    problem = {"x": w, "p": p, "f": cost, "g": ca.vertcat(*g.rows)}
+    arguments = ca.vertcat(p, scale)  # the regularization's scale: known after the first stage
+    problem = {"x": w, "p": arguments, "f": cost, "g": ca.vertcat(*g.rows)}
     solver = ca.nlpsol(f"powered_{model.name}", "ipopt", problem, options)
-    works = ca.Function("work", [w, p], [ca.vertcat(*positive.values(), *negative.values())
-                                         if positive else ca.DM.zeros(0)])  # fmt: skip
-    return _Nlp(solver, ca.Function("cost", [w, p], [cost]), layout, works, int(w.shape[0]),
-                (lbx, ubx, np.array(g.lower), np.array(g.upper)))  # fmt: skip
+    works = ca.Function("work", [w, arguments], [ca.vertcat(*positive.values(),
+                                                            *negative.values())
+                                                 if positive else ca.DM.zeros(0)])  # fmt: skip
+    return _Nlp(solver, ca.Function("cost", [w, arguments], [cost]), layout, works,
+                int(w.shape[0]), (lbx, ubx, np.array(g.lower), np.array(g.upper)))  # fmt: skip
+
+
+def _event_map(model: HybridModel, event: dict, p: Any, end: Any, v: _Unknowns,
+               g: _Constraints) -> tuple[Any, Any, dict, dict]:  # fmt: skip
+    """The state after an event from the phase's last knot: the impulses applied before
+    the reset (the rates jump by their gains), the reset, those applied after; the
+    impulses' positive work as the cost prices it (their slacks, where the cost is the
+    work) and each impulse's positive and negative work (``iota`` times the mean of its
+    ``along`` rate before and after it)."""
+    import casadi as ca
+
+    before, after_names = impulse_names(model, event)
+    n = model.n
+    plus: dict = {}
+    minus: dict = {}
+    priced = 0
+    x = end
+    iota = v.impulses[0] if v.impulses else None
+    for side, names, offset in (("before", before, 0), ("after", after_names, len(before))):
+        if side == "after":
+            x = model.symbolic(f"event_{event['name']}_reset", p, x)
+        if not names:
+            continue
+        stem = f"event_{event['name']}_impulse"
+        j = iota[offset : offset + len(names)]
+        gains = ca.reshape(model.symbolic(f"{stem}_gains_{side}", p, x), len(names), n).T
+        jumped = ca.vertcat(x[:n], x[n:] + ca.mtimes(gains, j))
+        rate_before = model.symbolic(f"{stem}_rates_{side}", p, x)
+        rate_after = model.symbolic(f"{stem}_rates_{side}", p, jumped)
+        work = j * (rate_before + rate_after) / 2
+        positive_work = ca.fmax(work, 0)
+        if v.s_impulses and v.s_impulses[0].shape[0]:
+            s = v.s_impulses[0][offset : offset + len(names)]
+            g.add(s - work, 0.0, math.inf)
+            priced = priced + ca.sum1(s)
+        else:
+            priced = priced + ca.sum1(positive_work)
+        for i, name in enumerate(names):
+            plus[f"{event['name']}.{name}"] = positive_work[i]
+            minus[f"{event['name']}.{name}"] = work[i] - positive_work[i]
+        x = jumped
+    return x, priced, plus, minus
 
 
 def _vector(durations: Any, unknowns: list[_Unknowns]) -> tuple[Any, list[dict]]:
@@ -382,16 +474,26 @@ def _vector(durations: Any, unknowns: list[_Unknowns]) -> tuple[Any, list[dict]]
     return ca.vertcat(*parts), layout
 
 
-def _variable_bounds(model: HybridModel, sequence: list, layout: list[dict],
-                     size: int) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
-    """Durations >= 1e-3 (a phase of no duration is no step), slacks >= 0, each input
-    within its declared bounds."""
+def _variable_bounds(model: HybridModel, sequence: list, layout: list[dict], size: int,
+                     request: Request) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """Durations >= 1e-3 (a phase of no duration is no step), slacks >= 0, each input and
+    impulse within its declared bounds; impulses zero when the cost is the squared inputs'
+    integral (which does not price them: they would be free)."""
     lbx, ubx = np.full(size, -np.inf), np.full(size, np.inf)
     lbx[: len(sequence)] = 1e-3
-    for (phase, _), entry in zip(sequence, layout):
-        for key in ("s_knots", "s_middles"):
+    for (phase, event), entry in zip(sequence, layout):
+        for key in ("s_knots", "s_middles", "s_impulses"):
             first, parts, width = entry[key]
             lbx[first : first + parts * width] = 0.0
+        first, _, width = entry["impulses"]
+        before, after = impulse_names(model, event)
+        records = {i["name"]: i for i in event.get("impulses", ())}
+        for j, name in enumerate((*before, *after)):
+            low, high = records[name]["bounds"]
+            if request.minimize == "torque2":
+                low, high = 0.0, 0.0
+            lbx[first + j] = -np.inf if low is None else low
+            ubx[first + j] = np.inf if high is None else high
         bounds = [i["bounds"] for i in model.phases[model.phase_index[phase]].get("inputs", ())]
         for key in ("u_knots", "u_middles"):
             first, parts, width = entry[key]
@@ -464,6 +566,57 @@ def _initial_guess(model: HybridModel, params: Sequence[float], start: Orbit, nl
     return w
 
 
+def _kinematic_guess(model: HybridModel, params: Sequence[float], nlp: _Nlp,
+                     request: Request) -> np.ndarray:  # fmt: skip
+    """A start where no passive gait is: the centre of the search box on the section (the
+    state just after the step event, completed by the section), the coordinates moving at
+    its constant rates until the step event's guard crosses, inputs and impulses zero; the
+    rates scaled to the target speed's duration when there is one. Not a motion of the
+    walker (it ignores gravity and the inputs): IPOPT makes it one. One phase a step."""
+    sequence = model._phase_sequence()
+    label = getattr(model, "cli_name", model.name)
+    if len(sequence) != 1:
+        raise ConvergenceError(f"{label}: no passive gait at these parameters to start the "
+                               "optimisation from")  # fmt: skip
+    ((_phase, event),) = sequence
+    p = np.asarray(params, dtype=float)
+    centre = np.array([[sum(model.spec["search"][k]) / 2 for k in free_components(model)]])
+    x0 = section_states(model, p, centre)[0]
+    n = model.n
+    guard = model._fn(f"event_{event['name']}_guard")
+
+    def moved(t: float) -> np.ndarray:
+        return np.concatenate([x0[:n] + t * x0[n:], x0[n:]])
+
+    times = np.linspace(0.0, 10.0, 2001)[1:]
+    values = np.array([float(guard(*p, *moved(t))) for t in times])
+    crossing = np.flatnonzero(np.sign(values[1:]) != np.sign(values[:-1]))
+    if crossing.size == 0:
+        raise ConvergenceError(f"{label}: no passive gait and no start: the search box's "
+                               "centre moving at its rates meets no step event in 10 time "
+                               "units")  # fmt: skip
+    low, high = times[crossing[0]], times[crossing[0] + 1]
+    for _ in range(60):
+        middle = (low + high) / 2
+        same = np.sign(float(guard(*p, *moved(middle)))) == np.sign(values[crossing[0]])
+        low, high = (middle, high) if same else (low, middle)
+    duration = (low + high) / 2
+    if request.target_speed is not None and model.spec["step_length"]:
+        wanted = float(model.step_length(p, moved(duration))) / request.target_speed
+        x0[n:] *= duration / wanted
+        duration = wanted
+    w = np.zeros(nlp.size)
+    w[0] = duration
+    entry = nlp.layout[0]
+    nodes = request.nodes
+    for key, fractions in (("knots", np.arange(nodes + 1) / nodes),
+                           ("middles", (np.arange(nodes) + 0.5) / nodes)):  # fmt: skip
+        first, parts, width = entry[key]
+        block = np.array([moved(f * duration) for f in fractions])
+        w[first : first + parts * width] = block.reshape(-1)
+    return w
+
+
 def _transfer(model: HybridModel, params: Sequence[float], source: _Nlp, w: np.ndarray,
               target: _Nlp) -> np.ndarray:  # fmt: skip
     """``w`` of ``source`` as a start for ``target`` (same mesh): durations, states and
@@ -472,7 +625,7 @@ def _transfer(model: HybridModel, params: Sequence[float], source: _Nlp, w: np.n
     count = len(source.layout)
     out[:count] = w[:count]
     for have, want in zip(source.layout, target.layout):
-        for key in ("knots", "middles", "u_knots", "u_middles"):
+        for key in ("knots", "middles", "u_knots", "u_middles", "impulses"):
             first, parts, width = have[key]
             start = want[key][0]
             out[start : start + parts * width] = w[first : first + parts * width]
@@ -489,6 +642,10 @@ def _refine(model: HybridModel, params: Sequence[float], coarse: _Nlp, w: np.nda
     count = len(coarse.layout)
     out[:count] = w[:count]
     for have, want in zip(coarse.layout, fine.layout):
+        first, parts, width = have["impulses"]
+        out[want["impulses"][0] : want["impulses"][0] + parts * width] = w[
+            first : first + parts * width
+        ]
         for knots, middles in (("knots", "middles"), ("u_knots", "u_middles")):
             k, c = _block(w, have[knots]), _block(w, have[middles])
             if k.shape[1] == 0:
@@ -510,9 +667,15 @@ def _refine(model: HybridModel, params: Sequence[float], coarse: _Nlp, w: np.nda
 
 
 def _fill_slacks(model: HybridModel, params: Sequence[float], nlp: _Nlp, w: np.ndarray) -> None:
-    """Each positive-work slack of ``w`` at ``max(P, 0)`` of its point (in place)."""
+    """Each positive-work slack of ``w`` at ``max(P, 0)`` of its point, each impulse's at
+    ``max(W, 0)`` of its work (in place)."""
     p = np.asarray(params, dtype=float)
-    for (phase, _), entry in zip(model._phase_sequence(), nlp.layout):
+    for (phase, event), entry in zip(model._phase_sequence(), nlp.layout):
+        first, parts, width = entry["s_impulses"]
+        if width:
+            iota = _block(w, entry["impulses"])[0]
+            _state, works = _apply_impulses(model, event, p, _block(w, entry["knots"])[-1], iota)
+            w[first : first + width] = np.maximum(works, 0.0)
         for states, inputs, slacks in (("knots", "u_knots", "s_knots"),
                                        ("middles", "u_middles", "s_middles")):  # fmt: skip
             first, parts, width = entry[slacks]
@@ -531,11 +694,12 @@ def _block(w: np.ndarray, entry: tuple[int, int, int]) -> np.ndarray:
 
 
 def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _Nlp,
-           guess: np.ndarray) -> PoweredGait:  # fmt: skip
+           guess: np.ndarray, regularization_scale: float = 1.0) -> PoweredGait:  # fmt: skip
     lbx, ubx, lbg, ubg = nlp.bounds
     p = np.asarray(params, dtype=float)
+    arguments = np.append(p, regularization_scale)
     try:
-        result = nlp.solver(x0=guess, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+        result = nlp.solver(x0=guess, p=arguments, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
     except RuntimeError as exc:  # a NaN in the model's functions at IPOPT's trial point
         stop.check()  # or CasADi turned Ctrl-C or the time limit into this error
         raise ConvergenceError(f"{model.name}: IPOPT failed ({' '.join(str(exc).split())[:80]})"
@@ -557,8 +721,14 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
         merged[0::2], merged[1::2] = at_knots, at_middles
         inputs.append(merged)
         input_times.append(t0 + durations[k] * np.arange(2 * nodes + 1) / (2 * nodes))
-    work_values = np.array(nlp.work(w, p), dtype=float).reshape(-1)
-    keys = [f"{ph}.{name}" for ph, _ in sequence for name in input_names(model)[ph]]
+    work_values = np.array(nlp.work(w, arguments), dtype=float).reshape(-1)
+    keys, impulses = [], {}
+    for (phase, event), entry in zip(sequence, nlp.layout):  # the order of _build's ledger
+        keys += [f"{phase}.{name}" for name in input_names(model)[phase]]
+        before, after = impulse_names(model, event)
+        names = [f"{event['name']}.{name}" for name in (*before, *after)]
+        keys += names
+        impulses |= dict(zip(names, (float(v) for v in _block(w, entry["impulses"])[0])))
     work = {key: {"positive": float(work_values[j]), "negative": float(work_values[len(keys) + j])}
             for j, key in enumerate(keys)}  # fmt: skip
     error, guard, resimulated = _resimulate(model, p, durations, states, inputs)
@@ -582,7 +752,7 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
     return PoweredGait(
         status="not-converged" if reason else "optimal",
         reason=reason,
-        cost=_named_cost(model, p, request, work, step_length, float(nlp.cost(w, p))),
+        cost=_named_cost(model, p, request, work, step_length, float(nlp.cost(w, arguments))),
         durations=durations,
         times=times,
         states=states,
@@ -595,11 +765,13 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
         guard_at_end=guard,
         ipopt_status=status,
         iterations=int(stats.get("iter_count", -1)),
+        impulses=impulses,
         extra={
             "state_scale": scale,
             "w": w,
             "constraint_violation": violation,
-            "objective": float(nlp.cost(w, p)),
+            "objective": float(nlp.cost(w, arguments)),
+            "regularization_scale": regularization_scale,
         },
     )
 
@@ -680,9 +852,12 @@ def _watchers(model: HybridModel, phase: str, event: dict, p: np.ndarray, contro
     out = [(event["name"], guard)]
     failures = model.phases[model.phase_index[phase]]["failures"]
     for (name, _, direction), (margin, _) in zip(failures, _margin_functions(model, phase)):
+        # A failure's guard at zero along an arc (a leg at its full length: the optimum
+        # rides the constraint) crosses it by rounding: past zero by this much it counts.
+        shift = direction * RESIMULATION_AGREES
 
-        def failing(t: float, x: np.ndarray, margin=margin) -> float:
-            return float(margin(p, x, control(t)))
+        def failing(t: float, x: np.ndarray, margin=margin, shift=shift) -> float:
+            return float(margin(p, x, control(t))) - shift
 
         failing.direction = direction
         out.append((name, failing))
@@ -712,6 +887,33 @@ def _control(inputs: np.ndarray, duration: float):
     return control
 
 
+def _apply_impulses(model: HybridModel, event: dict, p: np.ndarray, state: np.ndarray,
+                    iota: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """The state after an event (its impulses before the reset, the reset, those after)
+    from the state before it, and each impulse's work: numpy's side of :func:`_event_map`."""
+    before, after = impulse_names(model, event)
+    n = model.n
+    x = np.asarray(state, dtype=float)
+    works = []
+    offset = 0
+    for side, names in (("before", before), ("after", after)):
+        if side == "after":
+            x = np.array(model._fn(f"event_{event['name']}_reset")(*p, *x), dtype=float)
+        if not names:
+            continue
+        stem = f"event_{event['name']}_impulse"
+        j = np.asarray(iota[offset : offset + len(names)], dtype=float)
+        offset += len(names)
+        gains = np.array(model._fn(f"{stem}_gains_{side}")(*p, *x), dtype=float)
+        jumped = x.copy()
+        jumped[n:] += gains.reshape(n, len(names)) @ j
+        rates = model._fn(f"{stem}_rates_{side}")
+        mean = (np.array(rates(*p, *x), float) + np.array(rates(*p, *jumped), float)) / 2
+        works += list(j * mean)
+        x = jumped
+    return x, np.array(works)
+
+
 def powered_step(model: HybridModel, params: Sequence[float], gait: PoweredGait,
                  state: np.ndarray) -> np.ndarray:  # fmt: skip
     """One step from ``state`` with the gait's inputs as functions of the time since each
@@ -735,7 +937,9 @@ def powered_step(model: HybridModel, params: Sequence[float], gait: PoweredGait,
                 f"{model.name}: the powered step from a perturbed state meets no "
                 f"{event['name']} within twice its duration"
             )
-        x = np.array(model._fn(f"event_{event['name']}_reset")(*p, *ends[0]), dtype=float)
+        before, after = impulse_names(model, event)
+        iota = [gait.impulses[f"{event['name']}.{name}"] for name in (*before, *after)]
+        x, _ = _apply_impulses(model, event, p, ends[0], np.array(iota))
     return x
 
 

@@ -44,6 +44,7 @@ from derive.engine.model import (
     Event,
     Failure,
     Impact,
+    Input,
     Jump,
     Lock,
     Model,
@@ -1113,6 +1114,56 @@ def _input_quantities(model: Model, phase: Phase, dyn: PhaseDynamics, args: tupl
     ]  # fmt: skip
 
 
+def _impulse_quantities(model: Model, event: Event, args: tuple) -> tuple[list, tuple]:
+    """An event's impulsive inputs (:class:`Impulse`): for those applied before the reset
+    (in the source phase's chart) and after it (the target's), the rates' change per unit
+    impulse and each impulse's ``along`` rate, and their records for ``HYBRID``.
+
+    The rates' change is the gain a continuous input along the same ``along`` has on the
+    accelerations (``M dq' = iota d(along)/dq``, Lagrange's equations over the instant), so
+    it is derived by :func:`phase_dynamics` of the phase with the impulses as its inputs."""
+    quantities: list[Quantity] = []
+    records = []
+    names = [i.name for i in event.impulses]
+    if len(set(names)) != len(names):
+        raise ValueError(f"event {event.name}: impulse names repeat: {names}")
+    for after, side in ((False, "before"), (True, "after")):
+        impulses = [i for i in event.impulses if i.after == after]
+        if not impulses:
+            continue
+        phase = model.phase(event.target if after else event.source)
+        if _held_in_state(model, phase):
+            raise ValueError(f"event {event.name}: impulses in phase {phase.name}, which holds "
+                             "a state coordinate, are not derived")  # fmt: skip
+        stand_in = dataclasses.replace(
+            phase,
+            inputs=tuple(Input(i.name, i.along, i.actuator, i.unit, i.bounds) for i in impulses),
+        )
+        try:
+            dyn = phase_dynamics(stand_in)
+        except ValueError as exc:
+            raise ValueError(f"event {event.name}: {exc}") from None
+        for quantity in _input_quantities(model, stand_in, dyn, args):
+            if quantity.name.endswith("_input_gains") and "reaction" not in quantity.name:
+                quantities.append(dataclasses.replace(
+                    quantity, name=f"event_{event.name}_impulse_gains_{side}",
+                    summary=f"d(rate)/d(impulse) of the impulses applied {side} the reset "
+                    f"of {event.name} (in phase {phase.name}'s chart): the rates jump by these "
+                    "times the impulses, the coordinates do not move."))  # fmt: skip
+            elif quantity.name.endswith("_input_rates"):
+                quantities.append(dataclasses.replace(
+                    quantity, name=f"event_{event.name}_impulse_rates_{side}",
+                    summary=f"Rate of what each impulse applied {side} the reset of "
+                    f"{event.name} acts along: its work is the impulse times the mean of this "
+                    "just before and just after it."))  # fmt: skip
+        records += [
+            {"name": i.name, "actuator": i.actuator, "along": str(i.along), "unit": i.unit,
+             "bounds": tuple(i.bounds), "description": i.description, "applied": side}
+            for i in impulses
+        ]  # fmt: skip
+    return quantities, tuple(records)
+
+
 def _state_after(model: Model, event) -> tuple[tuple[sm.Expr, ...], tuple[sm.Expr, ...]]:
     """An event's reset as the whole state after it: the target phase's free coordinates
     and rates from the reset, a coordinate it holds at its value (moving with it)."""
@@ -1276,6 +1327,10 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
             f"State just after the event {event.name} (from the state just before).",
             event.equation, "tuple: coordinates, then rates",
         ))  # fmt: skip
+        impulse_records = ()
+        if event.impulses:
+            impulse_quantities, impulse_records = _impulse_quantities(model, event, args)
+            quantities += impulse_quantities
         if isinstance(event.reset, Impact):
             source = model.phase(event.source)
             contact = source.points[event.reset.new_contact]
@@ -1301,6 +1356,7 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
             if isinstance(event.reset, Impact) else None,
             **({"actuated": _actuated(model, event)}
                if isinstance(event.reset, (Jump, Lock)) else {}),
+            **({"impulses": impulse_records} if impulse_records else {}),
         })  # fmt: skip
     if model.step_length is not None:
         step_event = next(e for e in model.events if e.ends_step)
@@ -1375,6 +1431,7 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
         "search": {n: tuple(float(v) for v in model.search[n]) for n in free},
         **({"actuator_names": {h.name: name for h, name in model.actuators.items()}}
            if model.actuators else {}),
+        **({"powered_only": True} if model.powered_only else {}),
     }  # fmt: skip
     if model.limits:
         quantities = [_in_the_limit(model, qty) for qty in quantities]

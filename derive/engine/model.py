@@ -30,6 +30,7 @@ __all__ = [
     "Event",
     "Failure",
     "Impact",
+    "Impulse",
     "Input",
     "Jump",
     "Lock",
@@ -141,6 +142,46 @@ class Input:
     name: str
     along: sm.Expr
     actuator: str
+    unit: str = ""
+    bounds: tuple[float | None, float | None] = (None, None)
+    description: str = ""
+
+
+@dataclass(frozen=True, eq=False)
+class Impulse:
+    """An impulsive input at an event: an actuator's impulse ``iota`` that acts, in an
+    instant, along ``along`` (a push-off along the trailing leg just before heelstrike, a
+    leg's impulse along the new stance leg just after it).
+
+    Integrated over the instant, Lagrange's equations give the rates' change
+    ``M dq' = iota d(along)/dq``: the same gain on the rates as a continuous :class:`Input`
+    along ``along`` has on the accelerations, and the configuration does not move. Its work
+    is ``iota`` times the mean of ``along``'s rate just before and just after it (the
+    kinetic energy's change, exactly: ``M`` does not change in the instant).
+
+    Attributes
+    ----------
+    name : str
+        Python identifier (``push_off``).
+    along : sympy.Expr
+        What the impulse acts along, in the chart of the event's source phase (``after``
+        false: applied just before the reset) or of its target phase (``after`` true: just
+        after it), and the parameters.
+    actuator : str
+        The actuator delivering it, by name.
+    after : bool
+        Applied after the event's reset, in the target phase's chart.
+    unit : str
+        Unit of ``iota`` (``N s``; in the model's units).
+    bounds : (low, high)
+        Bounds on ``iota`` for an optimiser (a leg that can push only: ``(0, None)``).
+    description : str
+    """
+
+    name: str
+    along: sm.Expr
+    actuator: str
+    after: bool = False
     unit: str = ""
     bounds: tuple[float | None, float | None] = (None, None)
     description: str = ""
@@ -276,6 +317,9 @@ class Event:
         a swing foot scuffs the ground and the model ignores it).
     equation : str, optional
         The paper's equation number of the reset.
+    impulses : tuple of Impulse
+        Impulsive inputs an optimiser may apply at the event (zero in the passive walk):
+        those with ``after`` false just before the reset, the others just after it.
     """
 
     name: str
@@ -288,6 +332,7 @@ class Event:
     ends_step: bool = False
     when: sm.Expr | None = None
     equation: str | None = None
+    impulses: tuple[Impulse, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -429,6 +474,10 @@ class Model:
     limits: Mapping[sm.Symbol, sm.Expr] = field(default_factory=dict)
     section: Mapping[str, sm.Expr] = field(default_factory=dict)
     actuators: Mapping[sm.Symbol, str] = field(default_factory=dict)
+    powered_only: bool = False
+    """The walker has no passive gait: its inputs hold it up (a point mass on telescoping
+    legs falls without its leg force). The commands that follow a passive gait say so and
+    name ``vsw optimize``."""
 
     def phase(self, name: str) -> Phase:
         for p in self.phases:

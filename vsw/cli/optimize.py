@@ -1,7 +1,9 @@
 """``vsw optimize``: the least-cost powered gait of a model with inputs (:mod:`vsw.powered`).
 
-The model's declared inputs (``vsw models`` lists them: the compass gait's hip torque) are
-free functions of time; the step is periodic and meets the targets. Statuses as ``vsw
+The model's declared inputs (``vsw models`` lists them: the compass gait's hip torque, the
+point-mass biped's leg force) are free functions of time, its impulses at events (the
+point-mass biped's push-off and heel-strike) free numbers; the step is periodic and meets
+the targets. Statuses as ``vsw
 design``'s: optimal (exit 0), not-converged (exit 3, with the reason).
 """
 
@@ -92,6 +94,7 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
         "step_length": gait.step_length,
         "speed": gait.speed,
         "work": gait.work,
+        "impulses": gait.impulses,
         "resimulation_error": gait.resimulation_error,
         "guard_at_end": gait.guard_at_end,
         "eigenvalues": None if eigenvalues is None else [[e.real, e.imag] for e in eigenvalues],
@@ -105,7 +108,11 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
             "regularization times the squared inputs' integral)",
             "mesh_change": "relative change of the cost from the coarse to the fine mesh (a "
             "cost zero within 1e-9 on both agrees whatever this is)",
-            "work": "per phase.input: positive and negative work over the step (Simpson)",
+            "work": "per phase.input: positive and negative work over the step (Simpson); "
+            "per event.impulse: its work (impulse times the mean of its along's rate "
+            "before and after it)",
+            "impulses": "per event.impulse: the impulse, applied at the event (before or "
+            "after its reset, as the model declares)",
             "resimulation_error": "largest gap between a re-simulated phase's end and its "
             "last knot, relative to max(1, |state|)",
             "eigenvalues": "of the open-loop Poincare map (inputs as functions of the time "
@@ -126,6 +133,8 @@ def _write_text(model, params, request: powered.Request, gait: powered.PoweredGa
               f"speed {fmt(gait.speed)}\n")  # fmt: skip
     for key, work in gait.work.items():
         out.write(f"work of {key:<11} +{fmt(work['positive'])} / {fmt(work['negative'])}\n")
+    for key, impulse in gait.impulses.items():
+        out.write(f"impulse {key:<11} {fmt(impulse)}\n")
     out.write(f"re-simulation      {fmt(gait.resimulation_error)} (relative), guard at the end "
               f"{fmt(gait.guard_at_end)}\n")  # fmt: skip
     eigenvalues = gait.extra.get("eigenvalues")

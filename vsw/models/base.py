@@ -243,6 +243,9 @@ class Model(HybridModel):
             report.reason = (
                 _closed_form_reason(closed) or self._stride_map_reason(params) or found.why_none()
             )
+            if self.spec.get("powered_only"):
+                report.reason = (f"{self.cli_name} walks only powered: its inputs hold it up "
+                                 f"('vsw optimize' finds its gaits); {report.reason}")  # fmt: skip
         return report
 
     def _ledger(self, params: Sequence[float], orbit: Orbit) -> dict[str, Any] | None:

@@ -1,0 +1,153 @@
+"""The point-mass biped: the ILE's body with free actuation (Srinivasan & Ruina 2006,
+"Computer optimization of a minimal biped model discovers walking and running", Nature
+439, 72-75).
+
+A point mass ``m`` at the hip on two massless telescoping legs at most ``l`` long, on level
+ground under gravity ``g``. The stance leg's actuator pushes along the leg with a force
+``F(t) >= 0`` (a leg pushes, never pulls: the foot would leave the ground), which is the
+model's only continuous input: with ``F = 0`` the hip falls freely, so the model has no
+passive gait and walks only powered (``vsw optimize``). At the step the legs exchange roles
+in an instant, as in the ILE: the trailing leg may push off with an impulse along itself
+just before, the new stance leg may take an impulse along itself just after (its
+heel-strike collision, or none: its length is free); the massless legs transmit no
+impulse of their own, so without those two the hip's velocity is continuous.
+
+The step length ``d`` is a parameter: the new foot lands ``d`` ahead of the stance foot,
+and the legs exchange roles when the hip passes midway between the feet (``x = d / 2``).
+That restricts the gaits to those symmetric in the switch, which the cheapest gaits
+Srinivasan & Ruina found are (inverted-pendulum walking with an impulsive push-off and
+heel-strike at low speed); an asymmetric switch would need the switch point as a
+parameter. Where the massless swing leg is between steps does not matter.
+
+Coordinates: ``x, y``, the hip's position from the stance foot (x forward, y up), so the
+stance leg's length is ``sqrt(x**2 + y**2)``. Units: those of the parameters, whose
+defaults ``m = g = l = 1`` make every number scaled (lengths in ``l``, time in
+``sqrt(l / g)``, energies in ``m g l``).
+"""
+
+from __future__ import annotations
+
+import sympy as sm
+
+from derive.engine import model_derivation
+from derive.engine.model import (
+    Coordinate,
+    Event,
+    Failure,
+    Impact,
+    Impulse,
+    Input,
+    Model,
+    Parameter,
+    Phase,
+    PointMass,
+)
+from derive.quantities import Derivation
+
+INF = float("inf")
+
+PARAMETERS = (
+    Parameter("m", "m", 0.0, INF, "mass m > 0", "mass at the hip", {"positive": True},
+              default=1.0, unit="kg"),
+    Parameter("g", "g", 0.0, INF, "gravity g > 0", "gravitational acceleration",
+              {"positive": True}, default=1.0, unit="m/s^2"),
+    Parameter("l", "l", 0.0, INF, "leg length l > 0", "longest length of a leg",
+              {"positive": True}, default=1.0, unit="m"),
+    Parameter("d", "d", 0.0, INF, "step length d > 0 (and below 2 l: the legs must reach)",
+              "step length: from the stance foot to the next", {"positive": True},
+              default=0.6, unit="m"),
+)  # fmt: skip
+m, g, l, d = (p.symbol for p in PARAMETERS)
+
+X = Coordinate("x", "hip's horizontal position from the stance foot", "m",
+               reference="above the stance foot", positive="the hip ahead of the foot")  # fmt: skip
+Y = Coordinate("y", "hip's height above the ground", "m", reference="the ground",
+               positive="the hip above the ground")  # fmt: skip
+x, y = X.q, Y.q
+leg_length = sm.sqrt(x**2 + y**2)
+
+STANCE = Phase(
+    "stance",
+    coordinates=(X, Y),
+    bodies=(PointMass("hip", m, (x, y)),),
+    gravity=(0, -g),
+    points={"next_foot": (d, 0)},
+    inputs=(
+        Input(
+            "leg_force",
+            leg_length,
+            "leg",
+            unit="N",
+            bounds=(0.0, None),
+            description="the stance leg's force along itself, pushing the hip away from "
+            "the foot (>= 0: a leg cannot pull on the ground)",
+        ),
+    ),
+)
+
+MODEL = Model(
+    name="point_mass_biped",
+    title="Point-mass biped",
+    description="Srinivasan & Ruina 2006: a point mass on two massless telescoping legs "
+    "with a leg force and impulses at the step (the ILE's body with free actuation); no "
+    "passive gait: it walks only powered",
+    source="derive/models/point_mass_biped.py",
+    parameters=PARAMETERS,
+    phases=(STANCE,),
+    events=(
+        Event(
+            "heelstrike",
+            "stance",
+            "stance",
+            guard=x - d / 2,  # the hip passes midway between the feet
+            direction=+1,
+            # The massless legs carry no impulse: the hip's velocity is continuous unless
+            # the actuators' impulses act.
+            reset=Impact("next_foot", {x: x - d, y: y}),
+            ends_step=True,
+            impulses=(
+                Impulse(
+                    "push_off",
+                    leg_length,
+                    "leg",
+                    unit="N s",
+                    bounds=(0.0, None),
+                    description="the trailing leg's impulse along itself just before the step",
+                ),
+                Impulse(
+                    "heel_strike",
+                    leg_length,
+                    "leg",
+                    after=True,
+                    unit="N s",
+                    bounds=(0.0, None),
+                    description="the new stance leg's impulse along "
+                    "itself just after the step (a collision where it stops the leg "
+                    "shortening)",
+                ),
+            ),
+        ),
+    ),
+    failures=(
+        Failure("fell", y, -1, "the hip reaches the ground", unit="m"),
+        Failure("fell-backward", X.u, -1, "the hip stops and moves back"),
+        Failure(
+            "overextended",
+            leg_length - l,
+            +1,
+            "the stance leg would be longer than l: its foot leaves the ground",
+            unit="m",
+        ),
+    ),
+    units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},
+    step_length=d,
+    # Just after the step the hip is d / 2 behind the new stance foot.
+    section={"x": -d / 2},
+    search={"y": (0.5, 1.0), "x_dot": (0.0, 2.0), "y_dot": (-1.0, 1.0)},
+    powered_only=True,
+)
+
+
+def derive() -> Derivation:
+    return model_derivation(MODEL, "Lengths in m, time in s, energies in J (scaled: m = g = "
+                            "l = 1 by default).")  # fmt: skip

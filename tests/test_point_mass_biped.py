@@ -1,0 +1,109 @@
+"""The point-mass biped (derive/models/point_mass_biped.py; Srinivasan & Ruina 2006) and
+its impulses at the step: the engine's impulse gains against Newton's law for a particle,
+and the least-work gait against the inverted-pendulum walking Srinivasan & Ruina found
+optimal at low speed, with its cost derived here by quadrature, not by the collocation.
+
+The inverted-pendulum gait with legs ``l`` long at ``+-alpha`` (``sin alpha = d / 2l``):
+the hip moves on a circular arc, the leg does no work, and at the step the velocity
+``v_e`` (perpendicular to the trailing leg) is redirected to the mirror direction by a
+push-off ``P`` along the trailing leg and a heel-strike ``H`` along the leading leg. With
+the horizontal component kept, ``P = H = m v_e tan alpha``; the push-off comes first and
+turns the velocity horizontal, ``v_e / cos alpha``, so its work is
+``m v_e**2 (1 / cos(alpha)**2 - 1) / 2 = m v_e**2 tan(alpha)**2 / 2`` per step, which
+the heel-strike dissipates. ``v_e`` follows from the step time ``d / V``: the pendulum's
+time from ``-alpha`` to ``alpha``, ``2 integral_0^alpha dtheta / sqrt(v_e**2 / l**2 + 2 g
+(cos alpha - cos theta) / l)``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+from scipy.optimize import brentq
+
+from vsw.models import load
+from vsw.powered import Request, optimize
+
+pytest.importorskip("casadi")
+
+
+def inverted_pendulum_gait(speed: float, step: float, m: float, g: float, l: float):
+    """(cost per step, push-off impulse, speed at the step) of inverted-pendulum walking."""
+    alpha = math.asin(step / (2 * l))
+
+    def duration(omega_e: float) -> float:
+        def integrand(theta: float) -> float:
+            return 1 / math.sqrt(omega_e**2 + 2 * g / l * (math.cos(alpha) - math.cos(theta)))
+
+        return 2 * quad(integrand, 0, alpha, epsabs=0.0, epsrel=1e-10, limit=200)[0]
+
+    slowest = math.sqrt(2 * g / l * (1 - math.cos(alpha)))  # just passes the apex
+    omega_e = brentq(lambda w: duration(w) - step / speed, slowest * 1.001, 100.0,
+                     xtol=1e-15, rtol=1e-15)  # fmt: skip
+    v_e = l * omega_e
+    return 0.5 * m * v_e**2 * math.tan(alpha) ** 2, m * v_e * math.tan(alpha), v_e
+
+
+@pytest.fixture(scope="module")
+def biped():
+    return load("point_mass_biped")
+
+
+def test_impulse_gains_are_newtons_law_for_the_hip(biped):
+    """An impulse along a leg changes the hip's velocity by the impulse over the mass,
+    along the leg (from the foot to the hip): the generated gains, derived through
+    Lagrange's equations in the chart, against that at random states and parameters; the
+    impulse's work from the generated rates against the kinetic energy's change."""
+    rng = np.random.default_rng(7)
+    fn = biped.module
+    for _ in range(20):
+        m, g, l, d = rng.uniform(0.5, 3.0, 4)
+        x, y, xd, yd = rng.uniform(-1.0, 1.0, 4)
+        y = abs(y) + 0.1
+        r = math.hypot(x, y)
+        for side in ("before", "after"):
+            gains = fn.__dict__[f"event_heelstrike_impulse_gains_{side}"](m, g, l, d, x, y, xd, yd)
+            assert np.allclose(gains, (x / r / m, y / r / m), rtol=1e-13, atol=0)
+        iota = rng.uniform(0.1, 2.0)
+        xd2, yd2 = xd + iota * x / r / m, yd + iota * y / r / m
+        rate = fn.event_heelstrike_impulse_rates_before
+        work = iota * (rate(m, g, l, d, x, y, xd, yd)[0] + rate(m, g, l, d, x, y, xd2, yd2)[0]) / 2
+        assert work == pytest.approx(m * (xd2**2 + yd2**2 - xd**2 - yd**2) / 2, rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("values", "speed"),
+    [({}, 0.3), ({"m": 70.0, "g": 9.81, "l": 0.9, "d": 0.6}, 0.8)],
+)
+def test_least_work_gait_is_inverted_pendulum_walking_at_its_analytic_cost(biped, values, speed):
+    """Srinivasan & Ruina's finding at low speed, from a start that is no gait (the search
+    box's centre moving at constant rates): the least positive work per step is the
+    inverted-pendulum gait with equal push-off and heel-strike impulses; its cost and
+    impulses equal the quadrature's to 1e-5 (the collocation converges under refinement:
+    IPOPT's 20 and 40 intervals agree to 1e-4), the leg stays at its full length and does
+    no work, and the step's energy ledger closes: the push-off's work is what the
+    heel-strike takes, and along the stance the energy changes by the leg's net work."""
+    params = biped.parameters(values)
+    m, g, l, d = params
+    cost, push, v_e = inverted_pendulum_gait(speed, d, m, g, l)
+    gait = optimize(biped, params, Request("work", target_speed=speed, nodes=20))
+    assert gait.status == "optimal", gait.reason
+    assert gait.speed == pytest.approx(speed, rel=1e-9)
+    assert gait.cost == pytest.approx(cost, rel=1e-5)
+    assert gait.impulses["heelstrike.push_off"] == pytest.approx(push, rel=1e-5)
+    assert gait.impulses["heelstrike.heel_strike"] == pytest.approx(push, rel=1e-5)
+    knots = gait.states[0]
+    legs = np.hypot(knots[:, 0], knots[:, 1])
+    assert np.all(np.abs(legs - l) <= 1e-6 * l)
+    assert np.hypot(*knots[-1, 2:]) == pytest.approx(v_e, rel=1e-5)
+    leg = gait.work["stance.leg_force"]
+    assert leg["positive"] <= 1e-5 * cost
+    push_off, heel_strike = gait.work["heelstrike.push_off"], gait.work["heelstrike.heel_strike"]
+    assert push_off["positive"] == pytest.approx(cost, rel=1e-5)
+    assert abs(push_off["negative"]) <= 1e-9  # IPOPT holds the slack to its tolerance
+    assert heel_strike["negative"] == pytest.approx(-cost, rel=1e-5)
+    change = biped.energy("stance", params, knots[-1]) - biped.energy("stance", params, knots[0])
+    assert abs(change - (leg["positive"] + leg["negative"])) <= 1e-6 * cost
