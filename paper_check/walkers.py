@@ -15,7 +15,10 @@ For each model a short Markdown report ``DIR/<model>.md`` and its figures:
   (beta, theta_II)) with its figure;
 * ``kneed-walker``: Hsu Chen (2007)'s point-foot kneed walker (McGeer 1990's model): her
   gait's state and period, an independent re-implementation's gait and eigenvalues, and
-  where the map from her published state goes.
+  where the map from her published state goes;
+* ``point-mass-biped``: its least-work gaits (``vsw optimize``) beside Srinivasan & Ruina
+  (2006)'s inverted-pendulum walking with its cost derived in :mod:`paper_check.powered`,
+  and the ILE's price against the least work of its own body.
 
 Each row of a comparison says the published value, its source, ours, the difference, the
 tolerance the source's precision allows and a verdict: ``agrees`` within it, ``differs``
@@ -30,13 +33,15 @@ import math
 import sys
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 import generated.ile as ile
 from paper_check.output import check_output_directory
+from paper_check.powered import point_mass_biped
+from paper_check.rows import Row
+from paper_check.rows import table as _table
 from vsw import plotstyle
 from vsw.conditions import gait_conditions
 from vsw.continuation import Options, SpecialPoint, continue_gaits
@@ -50,7 +55,7 @@ from vsw.ledger import energy_ledger
 from vsw.models import load
 from vsw.sweeps import brute_force, continuation, record
 
-MODELS = ("simplest-walker", "compass-gait", "vsw-biped", "kneed-walker")
+MODELS = ("simplest-walker", "compass-gait", "vsw-biped", "kneed-walker", "point-mass-biped")
 
 SOURCES = {
     "G98": "Garcia, Chatterjee, Ruina, Coleman, The simplest walking model: stability, "
@@ -72,39 +77,6 @@ SOURCES = {
     "1996, as quoted by nyasuto/crane (src/crane/references_goswami.py): values read off "
     "its figures C.4/C.5 (+-2 %) and its eq. (3.44)",
 }
-
-
-@dataclass(frozen=True)
-class Row:
-    """One published number beside ours."""
-
-    quantity: str
-    source: str
-    published: float
-    ours: float
-    tolerance: float
-    note: str = ""
-
-    @property
-    def difference(self) -> float:
-        return self.ours - self.published
-
-    @property
-    def verdict(self) -> str:
-        return "agrees" if abs(self.difference) <= self.tolerance else "differs"
-
-
-def _table(rows: Sequence[Row]) -> str:
-    lines = [
-        "| quantity | source | published | ours | difference | tolerance | verdict | note |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- |",
-    ]
-    for r in rows:
-        lines.append(
-            f"| {r.quantity} | {r.source} | {r.published:.10g} | {r.ours:.10g} | "
-            f"{r.difference:.2g} | {r.tolerance:.2g} | {r.verdict} | {r.note} |"
-        )
-    return "\n".join(lines) + "\n"
 
 
 def _vector(orbit: Orbit) -> np.ndarray:
@@ -863,6 +835,7 @@ REPORTS: dict[str, Callable[[Path, bool], list[Path]]] = {
     "compass-gait": compass_gait,
     "vsw-biped": vsw_biped,
     "kneed-walker": kneed_walker,
+    "point-mass-biped": point_mass_biped,
 }
 
 

@@ -1,18 +1,10 @@
 """The point-mass biped (derive/models/point_mass_biped.py; Srinivasan & Ruina 2006) and
 its impulses at the step: the engine's impulse gains against Newton's law for a particle,
 and the least-work gait against the inverted-pendulum walking Srinivasan & Ruina found
-optimal at low speed, with its cost derived here by quadrature, not by the collocation.
+optimal at low speed.
 
-The inverted-pendulum gait with legs ``l`` long at ``+-alpha`` (``sin alpha = d / 2l``):
-the hip moves on a circular arc, the leg does no work, and at the step the velocity
-``v_e`` (perpendicular to the trailing leg) is redirected to the mirror direction by a
-push-off ``P`` along the trailing leg and a heel-strike ``H`` along the leading leg. With
-the horizontal component kept, ``P = H = m v_e tan alpha``; the push-off comes first and
-turns the velocity horizontal, ``v_e / cos alpha``, so its work is
-``m v_e**2 (1 / cos(alpha)**2 - 1) / 2 = m v_e**2 tan(alpha)**2 / 2`` per step, which
-the heel-strike dissipates. ``v_e`` follows from the step time ``d / V``: the pendulum's
-time from ``-alpha`` to ``alpha``, ``2 integral_0^alpha dtheta / sqrt(v_e**2 / l**2 + 2 g
-(cos alpha - cos theta) / l)``.
+The inverted-pendulum gait's cost is derived in paper_check/powered.py (its module
+docstring), by quadrature: nothing of it comes from the collocation.
 """
 
 from __future__ import annotations
@@ -21,30 +13,12 @@ import math
 
 import numpy as np
 import pytest
-from scipy.integrate import quad
-from scipy.optimize import brentq
 
+from paper_check.powered import inverted_pendulum_gait
 from vsw.models import load
 from vsw.powered import Request, optimize
 
 pytest.importorskip("casadi")
-
-
-def inverted_pendulum_gait(speed: float, step: float, m: float, g: float, l: float):
-    """(cost per step, push-off impulse, speed at the step) of inverted-pendulum walking."""
-    alpha = math.asin(step / (2 * l))
-
-    def duration(omega_e: float) -> float:
-        def integrand(theta: float) -> float:
-            return 1 / math.sqrt(omega_e**2 + 2 * g / l * (math.cos(alpha) - math.cos(theta)))
-
-        return 2 * quad(integrand, 0, alpha, epsabs=0.0, epsrel=1e-10, limit=200)[0]
-
-    slowest = math.sqrt(2 * g / l * (1 - math.cos(alpha)))  # just passes the apex
-    omega_e = brentq(lambda w: duration(w) - step / speed, slowest * 1.001, 100.0,
-                     xtol=1e-15, rtol=1e-15)  # fmt: skip
-    v_e = l * omega_e
-    return 0.5 * m * v_e**2 * math.tan(alpha) ** 2, m * v_e * math.tan(alpha), v_e
 
 
 @pytest.fixture(scope="module")

@@ -115,3 +115,25 @@ def test_bad_output_directory_is_one_line(capsys):
     assert paper_check_main(["--model", "vsw-biped", "--out", "/proc/no"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("paper_check.walkers: error:") and err.count("\n") == 1
+
+
+@pytest.mark.slow
+def test_point_mass_biped_report_agrees_with_its_derivation_and_is_deterministic(tmp_path):
+    """Srinivasan & Ruina's inverted-pendulum walking: every compared row agrees (the
+    optimiser's least work and push-off against the cost derived in paper_check/powered.py),
+    the faster gait is not called optimal, the ILE's price is a ratio above 1, and two runs
+    write the same bytes."""
+    runs = []
+    for k in range(2):
+        out = tmp_path / str(k)
+        assert main(["--model", "point-mass-biped", "--quick", "--out", str(out)]) == 0
+        runs.append((out / "point-mass-biped.md").read_bytes())
+    assert runs[0] == runs[1]
+    text = runs[0].decode()
+    rows = _rows(text)
+    compared = [r for r in rows if len(r) == 8]
+    assert len(compared) == 4 and all(r[6] == "agrees" for r in compared), compared
+    (faster,) = [r for r in rows if r[0] == "0.9"]
+    assert faster[1] == "not-converged"
+    (ile,) = [r for r in rows if r[0] == "0.8" and len(r) == 11]
+    assert ile[-1] == "optimal" and float(ile[-2]) > 1

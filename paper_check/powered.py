@@ -1,0 +1,174 @@
+"""``python -m paper_check --model point-mass-biped``: the point-mass biped's least-work
+gaits (``vsw optimize``) beside the inverted-pendulum walking Srinivasan & Ruina (2006)
+found optimal at low speed, with its cost derived here, and the ILE's price: the ILE's gait
+against the least-work gait of its own body at the same speed and step length (the
+questions 1 and 3 of issue 28; docs/models/powered_walking.md).
+
+The inverted-pendulum gait with legs ``l`` long at ``+-alpha`` (``sin alpha = d / 2l``):
+the hip moves on a circular arc, the leg does no work, and at the step the velocity
+``v_e`` (perpendicular to the trailing leg) is turned to the mirror direction by a push-off
+``P`` along the trailing leg and a heel-strike ``H`` along the leading leg. Keeping the
+horizontal component, ``P = H = m v_e tan alpha``; the push-off comes first and makes the
+velocity horizontal, ``v_e / cos alpha``, so its work is ``m v_e**2 (1 / cos(alpha)**2 - 1)
+/ 2 = m v_e**2 tan(alpha)**2 / 2`` a step, which the heel-strike takes. ``v_e`` follows
+from the step time ``d / V``: the pendulum's time from ``-alpha`` to ``alpha`` is ``2
+integral_0^alpha dtheta / sqrt(v_e**2 / l**2 + 2 g (cos alpha - cos theta) / l)``, solved
+for ``v_e`` (SciPy's quad and brentq). Nothing of it comes from the collocation.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from scipy.integrate import quad
+from scipy.optimize import brentq
+
+from paper_check.rows import Row, table
+from vsw.ledger import energy_ledger
+from vsw.models import load
+from vsw.powered import PoweredGait, Request, optimize
+
+__all__ = ["inverted_pendulum_gait", "point_mass_biped"]
+
+SOURCES = {
+    "SR06": "Srinivasan & Ruina, Computer optimization of a minimal biped model discovers "
+    "walking and running, Nature 439:72-75, 2006: the finding that inverted-pendulum walking "
+    "with impulsive push-off and heel-strike is the least-work gait at low speed, and "
+    "impulsive running at higher speeds (its numbers were not at hand)",
+    "IP": "the inverted-pendulum gait's cost and push-off derived in this report (module "
+    "docstring of paper_check/powered.py): m v_e^2 tan^2(alpha) / 2 a step, v_e by quadrature",
+    "ILE": "the ILE model (the paper; vsw's closed forms): its gait and its energy ledger's "
+    "actuator work a step (the leg's extension)",
+}
+
+LOW_SPEED = ((0.6, 0.2), (0.6, 0.4), (0.6, 0.6), (0.6, 0.8), (0.4, 0.4), (0.8, 0.5))
+"""(step length d, speed V), scaled (m = g = l = 1): where inverted-pendulum walking is."""
+FASTER = (0.9, 1.0, 1.2)
+"""Speeds above that range at d = 0.6."""
+ILE_GAITS = ((0.8, 0.0, 45.0), (0.9, 0.0, 45.0), (0.9, 0.0, 30.0), (0.8, 10.0, 45.0),
+             (0.95, 0.0, 40.0))  # fmt: skip
+"""(beta, theta_II in degrees, phi0 in degrees) of the ILE gaits priced."""
+NODES = 20
+
+
+def inverted_pendulum_gait(speed: float, step: float, m: float = 1.0, g: float = 1.0,
+                           l: float = 1.0) -> tuple[float, float, float]:  # fmt: skip
+    """(positive work a step, push-off impulse, speed at the step) of inverted-pendulum
+    walking at ``speed`` with steps ``step`` long (module docstring)."""
+    alpha = math.asin(step / (2 * l))
+
+    def duration(omega_e: float) -> float:
+        def integrand(theta: float) -> float:
+            return 1 / math.sqrt(omega_e**2 + 2 * g / l * (math.cos(alpha) - math.cos(theta)))
+
+        return 2 * quad(integrand, 0, alpha, epsabs=0.0, epsrel=1e-10, limit=200)[0]
+
+    slowest = math.sqrt(2 * g / l * (1 - math.cos(alpha)))  # just passes the apex
+    omega_e = brentq(lambda w: duration(w) - step / speed, slowest * 1.001, 100.0,
+                     xtol=1e-15, rtol=1e-15)  # fmt: skip
+    v_e = l * omega_e
+    return 0.5 * m * v_e**2 * math.tan(alpha) ** 2, m * v_e * math.tan(alpha), v_e
+
+
+def _optimum(step: float, speed: float) -> PoweredGait:
+    biped = load("point_mass_biped")
+    return optimize(biped, biped.parameters({"d": step}), Request("work", target_speed=speed,
+                                                                  nodes=NODES))  # fmt: skip
+
+
+def _walking_rows(cases: Sequence[tuple[float, float]]) -> list[Row]:
+    rows = []
+    for step, speed in cases:
+        cost, push, _ = inverted_pendulum_gait(speed, step)
+        gait = _optimum(step, speed)
+        legs = np.hypot(gait.states[0][:, 0], gait.states[0][:, 1])
+        note = (f"{gait.status}{': ' + gait.reason if gait.reason else ''}; leg length "
+                f"{legs.min():.7f} to {legs.max():.7f}; the leg force's positive work "
+                f"{gait.work['stance.leg_force']['positive']:.2g}")  # fmt: skip
+        where = f"d = {step:g}, V = {speed:g}"
+        rows.append(Row(f"least positive work a step, {where}", "IP", cost, gait.cost,
+                        1e-5 * cost, note))  # fmt: skip
+        rows.append(Row(f"push-off impulse, {where}", "IP", push,
+                        gait.impulses["heelstrike.push_off"], 1e-5 * push,
+                        f"heel-strike {gait.impulses['heelstrike.heel_strike']:.8g}"))  # fmt: skip
+    return rows
+
+
+def _faster_table(speeds: Sequence[float]) -> str:
+    lines = ["| V | status | least positive work found | inverted-pendulum walking's | "
+             "shortest leg | largest leg force on the mesh | push-off |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]  # fmt: skip
+    for speed in speeds:
+        gait = _optimum(0.6, speed)
+        legs = np.hypot(gait.states[0][:, 0], gait.states[0][:, 1])
+        lines.append(f"| {speed:g} | {gait.status} | {gait.cost:.6g} | "
+                     f"{inverted_pendulum_gait(speed, 0.6)[0]:.6g} | {legs.min():.4f} | "
+                     f"{np.max(gait.inputs[0]):.3g} | "
+                     f"{gait.impulses['heelstrike.push_off']:.3g} |")  # fmt: skip
+    return "\n".join(lines) + "\n"
+
+
+def _ile_table(cases: Sequence[tuple[float, float, float]]) -> str:
+    ile = load("ile")
+    lines = ["| beta | theta_II (deg) | phi0 (deg) | V | d | ILE's work a step | its cost of "
+             "transport | least work of its body | its cost of transport | ratio | status |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]  # fmt: skip
+    for beta, theta_II, phi0 in cases:
+        params = ile.parameters({"beta": beta, "theta_II": math.radians(theta_II),
+                                 "phi0": math.radians(phi0)})  # fmt: skip
+        (gait,) = ile.fixed_points(params)
+        work = energy_ledger(ile, params, gait)["totals"]["actuator_work_impulsive"]
+        speed, step = gait.speed, gait.step_length
+        best = _optimum(step, speed)
+        ratio = work / best.cost
+        lines.append(f"| {beta:g} | {theta_II:g} | {phi0:g} | {speed:.6f} | {step:.6f} | "
+                     f"{work:.6f} | {work / step:.6f} | {best.cost:.6f} | "
+                     f"{best.cost / step:.6f} | {ratio:.3f} | {best.status} |")  # fmt: skip
+    return "\n".join(lines) + "\n"
+
+
+def point_mass_biped(out: Path, quick: bool = False) -> list[Path]:
+    """Write ``out/point-mass-biped.md`` (``quick``: two walking cases, one faster speed
+    and one ILE gait)."""
+    walking = _walking_rows(LOW_SPEED[:2] if quick else LOW_SPEED)
+    text = [
+        "# The point-mass biped's least-work gaits\n\n",
+        "Generated by `python -m paper_check.walkers --model point-mass-biped`. The model: ",
+        "derive/models/point_mass_biped.py (a point mass on two massless telescoping legs at ",
+        "most l long, a leg force F >= 0, a push-off impulse along the trailing leg just ",
+        "before the step and a heel-strike impulse along the new leg just after it; the legs ",
+        "exchange roles where the hip passes midway between the feet). Scaled units: ",
+        "m = g = l = 1. Each gait: `vsw optimize --model point-mass-biped --param d=D ",
+        f"--minimize work --target-speed V` ({NODES} and {2 * NODES} intervals; Hermite-",
+        "Simpson, the leg force linear on each interval), from a start that is no gait.\n\n",
+        "".join(f"* [{k}] {v}\n" for k, v in SOURCES.items()),
+        "\n## Inverted-pendulum walking at low speed (SR06), against its cost derived here\n\n",
+        table(walking),
+        "\nThe optimiser finds SR06's gait: the leg stays at its full length and does no ",
+        "work, the push-off and heel-strike impulses are equal, and the least positive work ",
+        "a step is the inverted-pendulum gait's.\n",
+        "\n## Faster, d = 0.6\n\n",
+        _faster_table(FASTER[:1] if quick else FASTER),
+        "\nAbove about V = 0.85 the optimiser finds gaits cheaper than inverted-pendulum ",
+        "walking: the push-off goes, the leg shortens and the force concentrates on one knot ",
+        "in mid-stance and its two intervals (its peak doubles when the mesh is halved: an ",
+        "impulse), with the leg unloaded (F near 0: a flight in all but name) around it. ",
+        "That is SR06's impulsive running appearing in a model whose only impulses are at ",
+        "the step: the mesh cannot resolve a mid-stance impulse and the result says ",
+        "`not-converged`, so the numbers are upper bounds on the least work there, not ",
+        "optima.\n",
+        "\n## The ILE's price (issue 28, question 3)\n\n",
+        "Each ILE gait (its closed forms; its energy ledger's actuator work a step, the ",
+        "leg's extension) against the least positive work of its own body (the point-mass ",
+        "biped with the ILE's r_e as l) at the same speed and step length. Costs of ",
+        "transport per weight and step length. The point-mass biped's legs exchange roles ",
+        "midway between the feet, the ILE's do not: the optimum over every switch point can ",
+        "only be lower, so each ratio is a lower bound on the ILE's price.\n\n",
+        _ile_table(ILE_GAITS[:1] if quick else ILE_GAITS),
+    ]
+    path = out / "point-mass-biped.md"
+    path.write_text("".join(text))
+    return [path]
