@@ -81,3 +81,39 @@ def test_least_work_gait_is_inverted_pendulum_walking_at_its_analytic_cost(biped
     assert heel_strike["negative"] == pytest.approx(-cost, rel=1e-5)
     change = biped.energy("stance", params, knots[-1]) - biped.energy("stance", params, knots[0])
     assert abs(change - (leg["positive"] + leg["negative"])) <= 1e-6 * cost
+
+
+def test_commands_say_it_walks_only_powered(capsys):
+    """`vsw models` lists its impulses and the optimize feature; the commands that work on
+    passive gaits refuse it in one line naming `vsw optimize`; analyze says why it found no
+    gait; a step-length target against its parameter d is refused; `vsw optimize --json`
+    reports the impulses and their work."""
+    import json
+
+    from vsw.cli import main
+
+    assert main(["models", "--json"]) == 0
+    (model,) = [m for m in json.loads(capsys.readouterr().out)["models"]
+                if m["name"] == "point-mass-biped"]  # fmt: skip
+    assert [i["name"] for i in model["impulses"]["heelstrike"]] == ["push_off", "heel_strike"]
+    assert [i["applied"] for i in model["impulses"]["heelstrike"]] == ["before", "after"]
+    assert "optimize" in model["features"] and "design" not in model["features"]
+    assert model["units"]["rate"] == "m/s"
+    refused = (["design", "--target-speed", "0.3"], ["explore", "--out", "page.html"],
+               ["optimize", "--target-step-length", "0.7"])  # fmt: skip
+    for command, *rest in refused:
+        assert main([command, "--model", "point-mass-biped", *rest]) == 2
+        (line,) = capsys.readouterr().err.strip().splitlines()
+        assert "walks only powered" in line or "contradicts it" in line, line
+    assert main(["analyze", "--model", "point-mass-biped"]) == 0
+    assert "walks only powered" in capsys.readouterr().out
+    argv = ["optimize", "--model", "point-mass-biped", "--minimize", "work", "--target-speed",
+            "0.4", "--json"]  # fmt: skip
+    assert main(argv) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["status"] == "optimal"
+    assert set(data["impulses"]) == {"heelstrike.push_off", "heelstrike.heel_strike"}
+    assert set(data["work"]) == {"stance.leg_force", "heelstrike.push_off",
+                                 "heelstrike.heel_strike"}  # fmt: skip
+    cost = inverted_pendulum_gait(0.4, 0.6)[0]
+    assert data["work"]["heelstrike.push_off"]["positive"] == pytest.approx(cost, rel=1e-5)

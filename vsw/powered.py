@@ -160,6 +160,7 @@ def optimize(
         raise VswInputError(f"{label} declares no inputs: nothing to power it with")
     if (request.target_speed or request.target_step_length) and not model.spec["step_length"]:
         raise VswInputError(f"{label} defines no step length: no speed or step target")
+    _check_step_target(model, params, request)
     if start is None:
         start = _passive_start(model, params)  # None: the model has no passive gait
     coarse = _optimize_on_mesh(model, params, request, start)
@@ -191,6 +192,22 @@ def optimize(
             stop.check()
             fine.extra["eigenvalues_note"] = str(exc)
     return fine
+
+
+def _check_step_target(model: HybridModel, params: Sequence[float], request: Request) -> None:
+    """A step length fixed by the parameters (the point-mass biped's ``d``) and a target
+    that differs from it contradict each other: a one-line refusal, not an infeasible NLP."""
+    if request.target_step_length is None:
+        return
+    size = 2 * model.n
+    lengths = {float(model.step_length(params, np.full(size, value))) for value in (0.1, 0.7)}
+    if len(lengths) == 1:
+        (length,) = lengths
+        if not math.isclose(length, request.target_step_length, rel_tol=1e-12):
+            label = getattr(model, "cli_name", model.name)
+            raise VswInputError(f"{label}'s step length is set by its parameters ({length:g}): "
+                                f"--target-step-length {request.target_step_length:g} "
+                                "contradicts it (set the parameter instead)")  # fmt: skip
 
 
 def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Request,

@@ -147,6 +147,7 @@ GENERIC_ONLY = ("target_period", "min_margin", "weight")
 
 def run(args: argparse.Namespace) -> int:
     model = models.load(args.model)
+    options.refuse_powered_only(model, "design")
     if model.name != "ile":
         return _run_generic(args, model)
     for dest in GENERIC_ONLY:

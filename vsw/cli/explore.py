@@ -28,6 +28,7 @@ def register(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     model, params = options.model_and_parameters(args)
+    options.refuse_powered_only(model, "explore")
     if "explorer" not in model.features:
         having = [models.cli_name(k) for k in models.keys()
                   if "explorer" in models.load(k).features]  # fmt: skip

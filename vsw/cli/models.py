@@ -98,6 +98,11 @@ def run(args: argparse.Namespace) -> int:
                 f"{i['name']} [{i['unit']}] by the {i['actuator']}, along {i['along']} "
                 f"({i['description']})" for i in inputs
             ) + "\n")  # fmt: skip
+        for event, impulses in m.get("impulses", {}).items():
+            out.write(f"  impulses at {event} (zero when walking passively): " + "; ".join(
+                f"{i['name']} [{i['unit']}] by the {i['actuator']}, along {i['along']}, "
+                f"{i['applied']} the reset ({i['description']})" for i in impulses
+            ) + "\n")  # fmt: skip
         if m["features"]:
             out.write(f"  also: {', '.join(m['features'])}\n")
     return EXIT_OK

@@ -136,6 +136,14 @@ def after_parse(
     args.values = values
 
 
+def refuse_powered_only(model: Model, command: str) -> None:
+    """A command that works on passive gaits refuses a model that has none (one line)."""
+    if model.spec.get("powered_only"):
+        raise VswInputError(f"vsw {command} --model {model.cli_name}: it walks only powered "
+                            "(no passive gait to work on): 'vsw optimize' finds its "
+                            "gaits")  # fmt: skip
+
+
 def model_and_parameters(args: argparse.Namespace) -> tuple[Model, tuple[float, ...]]:
     """The model and its full parameter vector (defaults for what was not given)."""
     return args.model_object, args.model_object.parameters(args.values)

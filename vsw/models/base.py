@@ -44,6 +44,7 @@ FEATURES = {
     "simulation-plot": "vsw simulate --plot",
     "design": "vsw design (the ILE from its closed forms, every other model on its periodic orbit)",
     "explorer": "vsw explore",
+    "optimize": "vsw optimize (a model with inputs: its powered gaits)",
 }
 """Optional features of a model (:attr:`Model.features`) and what each is."""
 
@@ -118,6 +119,10 @@ class Model(HybridModel):
         free = list(self.spec["search"])
         if len(free) == 1 and free[0] in self.rates:
             self.features = self.features | {"q0"}
+        if any(p.get("inputs") for p in self.phases) or any(e.get("impulses") for e in self.events):
+            self.features = self.features | {"optimize"}
+        if self.spec.get("powered_only"):  # no passive gait to design or explore
+            self.features = self.features - {"design", "explorer"}
 
     # --- description --------------------------------------------------------------------
 
@@ -129,7 +134,11 @@ class Model(HybridModel):
         """The model as ``vsw models --json`` lists it: parameters, state, section, units."""
         units = dict(self.units)
         time = units.get("time", "")
-        units["rate"] = f"rad/{time}" if time else "rad"
+        # Rates are in their coordinate's unit per time: one unit when the coordinates
+        # share it (angles: rad), else each rate's own (the state lists them).
+        kinds = {s["unit"] for s in self.spec["state"] if s["kind"] == "coordinate"}
+        unit = kinds.pop() if len(kinds) == 1 else "the coordinate's unit"
+        units["rate"] = f"{unit}/{time}" if time else unit
         return {
             "name": self.cli_name,
             "title": self.title,
@@ -174,6 +183,12 @@ class Model(HybridModel):
             # issue's controls, each with its actuator, what it acts along and its bounds.
             "inputs": {
                 p["name"]: [dict(i) for i in p["inputs"]] for p in self.phases if p.get("inputs")
+            },
+            # Impulsive inputs by event, each applied before or after the event's reset.
+            "impulses": {
+                e["name"]: [dict(i) for i in e["impulses"]]
+                for e in self.events
+                if e.get("impulses")
             },
             "features": sorted(self.features),
         }
