@@ -14,7 +14,7 @@ import math
 import numpy as np
 import pytest
 
-from paper_check.powered import inverted_pendulum_gait
+from paper_check.powered import SR06_ACTUATORS, inverted_pendulum_gait
 from vsw.models import load
 from vsw.powered import Request, optimize
 
@@ -28,23 +28,32 @@ def biped():
 
 def test_impulse_gains_are_newtons_law_for_the_hip(biped):
     """An impulse along a leg changes the hip's velocity by the impulse over the mass,
-    along the leg (from the foot to the hip): the generated gains, derived through
+    along the leg (from the foot to the hip), a torque's impulse about the foot by the
+    impulse over mass and leg length, across it: the generated gains, derived through
     Lagrange's equations in the chart, against that at random states and parameters; the
     impulse's work from the generated rates against the kinetic energy's change."""
     rng = np.random.default_rng(7)
     fn = biped.module
     for _ in range(20):
-        m, g, l, d = rng.uniform(0.5, 3.0, 4)
+        m, g, l, d, l_min = rng.uniform(0.5, 3.0, 5)
         x, y, xd, yd = rng.uniform(-1.0, 1.0, 4)
         y = abs(y) + 0.1
         r = math.hypot(x, y)
-        for side in ("before", "after"):
-            gains = fn.__dict__[f"event_heelstrike_impulse_gains_{side}"](m, g, l, d, x, y, xd, yd)
-            assert np.allclose(gains, (x / r / m, y / r / m), rtol=1e-13, atol=0)
+        state = (m, g, l, d, l_min, x, y, xd, yd)
+        # Along the leg: dv = iota / m along it. The stance torque's impulse about the foot:
+        # a force iota / r across the leg, turning the hip forward: dv = iota / (m r) (y, -x) / r.
+        along, across = (x / r / m, y / r / m), (y / r**2 / m, -x / r**2 / m)
+        before = fn.event_heelstrike_impulse_gains_before(*state)
+        assert np.allclose(before, along, rtol=1e-13, atol=0)
+        after = fn.event_heelstrike_impulse_gains_after(*state)  # heel strike, torque impulse
+        expected = (along[0], across[0], along[1], across[1])
+        assert np.allclose(after, expected, rtol=1e-13, atol=1e-15)
         iota = rng.uniform(0.1, 2.0)
         xd2, yd2 = xd + iota * x / r / m, yd + iota * y / r / m
         rate = fn.event_heelstrike_impulse_rates_before
-        work = iota * (rate(m, g, l, d, x, y, xd, yd)[0] + rate(m, g, l, d, x, y, xd2, yd2)[0]) / 2
+        params = (m, g, l, d, l_min)
+        mean = (rate(*params, x, y, xd, yd)[0] + rate(*params, x, y, xd2, yd2)[0]) / 2
+        work = iota * mean
         assert work == pytest.approx(m * (xd2**2 + yd2**2 - xd**2 - yd**2) / 2, rel=1e-12)
 
 
@@ -61,10 +70,13 @@ def test_least_work_gait_is_inverted_pendulum_walking_at_its_analytic_cost(biped
     no work, and the step's energy ledger closes: the push-off's work is what the
     heel-strike takes, and along the stance the energy changes by the leg's net work."""
     params = biped.parameters(values)
-    m, g, l, d = params
+    m, g, l, d, _shortest = params
     cost, push, v_e = inverted_pendulum_gait(speed, d, m, g, l)
-    gait = optimize(biped, params, Request("work", target_speed=speed, nodes=20))
+    gait = optimize(biped, params, Request("work", target_speed=speed, nodes=20,
+                                           use=SR06_ACTUATORS))  # fmt: skip
     assert gait.status == "optimal", gait.reason
+    assert gait.impulses["heelstrike.torque_impulse"] == 0.0  # not used: held at zero
+    assert not np.any(gait.inputs[0][:, 1])
     assert gait.speed == pytest.approx(speed, rel=1e-9)
     assert gait.cost == pytest.approx(cost, rel=1e-5)
     assert gait.impulses["heelstrike.push_off"] == pytest.approx(push, rel=1e-5)
@@ -95,8 +107,9 @@ def test_commands_say_it_walks_only_powered(capsys):
     assert main(["models", "--json"]) == 0
     (model,) = [m for m in json.loads(capsys.readouterr().out)["models"]
                 if m["name"] == "point-mass-biped"]  # fmt: skip
-    assert [i["name"] for i in model["impulses"]["heelstrike"]] == ["push_off", "heel_strike"]
-    assert [i["applied"] for i in model["impulses"]["heelstrike"]] == ["before", "after"]
+    impulses = model["impulses"]["heelstrike"]
+    assert [i["name"] for i in impulses] == ["push_off", "heel_strike", "torque_impulse"]
+    assert [i["applied"] for i in impulses] == ["before", "after", "after"]
     assert "optimize" in model["features"] and "design" not in model["features"]
     assert model["units"]["rate"] == "m/s"
     refused = (["design", "--target-speed", "0.3"], ["explore", "--out", "page.html"],
@@ -112,8 +125,17 @@ def test_commands_say_it_walks_only_powered(capsys):
     assert main(argv) == 0
     data = json.loads(capsys.readouterr().out)
     assert data["status"] == "optimal"
-    assert set(data["impulses"]) == {"heelstrike.push_off", "heelstrike.heel_strike"}
-    assert set(data["work"]) == {"stance.leg_force", "heelstrike.push_off",
-                                 "heelstrike.heel_strike"}  # fmt: skip
+    assert set(data["impulses"]) == {"heelstrike.push_off", "heelstrike.heel_strike",
+                                     "heelstrike.torque_impulse"}  # fmt: skip
+    assert set(data["work"]) == {"stance.leg_force", "stance.stance_torque",
+                                 "heelstrike.push_off", "heelstrike.heel_strike",
+                                 "heelstrike.torque_impulse"}  # fmt: skip
+    # Every actuator free, the stance torque included: the least work is still the
+    # inverted-pendulum gait's (the torque does no work), as with SR06's actuators only.
     cost = inverted_pendulum_gait(0.4, 0.6)[0]
+    assert data["cost"] == pytest.approx(cost, rel=1e-5)
     assert data["work"]["heelstrike.push_off"]["positive"] == pytest.approx(cost, rel=1e-5)
+    assert data["work"]["stance.stance_torque"]["positive"] <= 1e-8
+    assert main(["optimize", "--model", "point-mass-biped", "--use", "kick"]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert "--use kick: point-mass-biped has no input or impulse kick" in line

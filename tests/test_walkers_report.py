@@ -135,5 +135,6 @@ def test_point_mass_biped_report_agrees_with_its_derivation_and_is_deterministic
     assert len(compared) == 4 and all(r[6] == "agrees" for r in compared), compared
     (faster,) = [r for r in rows if r[0] == "0.9"]
     assert faster[1] == "not-converged"
-    (ile,) = [r for r in rows if r[0] == "0.8" and len(r) == 11]
+    (ile,) = [r for r in rows if r[0] == "0.8" and len(r) == 12]
     assert ile[-1] == "optimal" and float(ile[-2]) > 1
+    assert ile[8] == ile[10]  # optimal: the least work found is inverted-pendulum walking's

@@ -78,6 +78,9 @@ class Request:
     target_speed: float | None = None
     target_step_length: float | None = None
     nodes: int = 20
+    use: tuple[str, ...] = ()
+    """The inputs and impulses the gait may use, by name (the others held at zero); empty:
+    every one. Kuo's comparison: a push-off, or a torque on the stance leg."""
     regularization: float = 1e-7
     """Weight of the squared inputs' integral added to the ``work`` and ``cot`` costs: the
     positive work alone is flat along inputs that do no net work, where IPOPT wanders. It
@@ -160,6 +163,7 @@ def optimize(
         raise VswInputError(f"{label} declares no inputs: nothing to power it with")
     if (request.target_speed or request.target_step_length) and not model.spec["step_length"]:
         raise VswInputError(f"{label} defines no step length: no speed or step target")
+    _check_actuator_names(model, request)
     _check_step_target(model, params, request)
     if start is None:
         start = _passive_start(model, params)  # None: the model has no passive gait
@@ -192,6 +196,18 @@ def optimize(
             stop.check()
             fine.extra["eigenvalues_note"] = str(exc)
     return fine
+
+
+def _check_actuator_names(model: HybridModel, request: Request) -> None:
+    """``use`` names inputs or impulses of the model (one-line refusals)."""
+    label = getattr(model, "cli_name", model.name)
+    known = [name for names in input_names(model).values() for name in names]
+    for event in model.events:
+        known += [i["name"] for i in event.get("impulses", ())]
+    for name in request.use:
+        if name not in known:
+            raise VswInputError(f"--use {name}: {label} has no input or impulse {name} (its: "
+                                f"{', '.join(dict.fromkeys(known))})")  # fmt: skip
 
 
 def _check_step_target(model: HybridModel, params: Sequence[float], request: Request) -> None:
@@ -507,11 +523,12 @@ def _variable_bounds(model: HybridModel, sequence: list, layout: list[dict], siz
         records = {i["name"]: i for i in event.get("impulses", ())}
         for j, name in enumerate((*before, *after)):
             low, high = records[name]["bounds"]
-            if request.minimize == "torque2":
+            if request.minimize == "torque2" or (request.use and name not in request.use):
                 low, high = 0.0, 0.0
             lbx[first + j] = -np.inf if low is None else low
             ubx[first + j] = np.inf if high is None else high
-        bounds = [i["bounds"] for i in model.phases[model.phase_index[phase]].get("inputs", ())]
+        bounds = [(0.0, 0.0) if request.use and i["name"] not in request.use else i["bounds"]
+                  for i in model.phases[model.phase_index[phase]].get("inputs", ())]  # fmt: skip
         for key in ("u_knots", "u_middles"):
             first, parts, width = entry[key]
             for j, (low, high) in enumerate(bounds):

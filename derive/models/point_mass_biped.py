@@ -4,13 +4,20 @@
 
 A point mass ``m`` at the hip on two massless telescoping legs at most ``l`` long, on level
 ground under gravity ``g``. The stance leg's actuator pushes along the leg with a force
-``F(t) >= 0`` (a leg pushes, never pulls: the foot would leave the ground), which is the
-model's only continuous input: with ``F = 0`` the hip falls freely, so the model has no
-passive gait and walks only powered (``vsw optimize``). At the step the legs exchange roles
-in an instant, as in the ILE: the trailing leg may push off with an impulse along itself
-just before, the new stance leg may take an impulse along itself just after (its
-heel-strike collision, or none: its length is free); the massless legs transmit no
-impulse of their own, so without those two the hip's velocity is continuous.
+``F(t) >= 0`` (a leg pushes, never pulls: the foot would leave the ground): with ``F = 0``
+the hip falls freely, so the model has no passive gait and walks only powered (``vsw
+optimize``). A second input, a torque on the stance leg about its foot, is Kuo (2002)'s
+alternative to a push-off ("Energetics of actively powered locomotion using the simplest
+walking model", J. Biomech. Eng. 124:113-120): ``vsw optimize --use`` chooses which
+actuators a gait may use (Srinivasan & Ruina's model has the leg force and the impulses
+only). At the step the legs exchange roles in an instant, as in the ILE: the trailing leg
+may push off with an impulse along itself just before, the new stance leg may take an
+impulse along itself just after (its heel-strike collision, or none: its length is free),
+and the stance torque an impulse just after too; the massless legs transmit no impulse of
+their own, so without those the hip's velocity is continuous.
+
+A leg's length is between ``l_min`` and ``l`` (``l_min = l``: rigid legs, Kuo's simplest
+walking model, for which the leg force holds the leg and does no work).
 
 The step length ``d`` is a parameter: the new foot lands ``d`` ahead of the stance foot,
 and the legs exchange roles when the hip passes midway between the feet (``x = d / 2``).
@@ -56,8 +63,11 @@ PARAMETERS = (
     Parameter("d", "d", 0.0, INF, "step length d > 0 (and below 2 l: the legs must reach)",
               "step length: from the stance foot to the next", {"positive": True},
               default=0.6, unit="m"),
+    Parameter("l_min", r"l_{min}", 0.0, INF, "shortest leg l_min > 0 (and at most l; l_min "
+              "= l: rigid legs, Kuo's simplest walking model)", "shortest length of a leg "
+              "(the end of its stroke)", {"positive": True}, default=0.5, unit="m"),
 )  # fmt: skip
-m, g, l, d = (p.symbol for p in PARAMETERS)
+m, g, l, d, l_min = (p.symbol for p in PARAMETERS)
 
 X = Coordinate("x", "hip's horizontal position from the stance foot", "m",
                reference="above the stance foot", positive="the hip ahead of the foot")  # fmt: skip
@@ -65,6 +75,7 @@ Y = Coordinate("y", "hip's height above the ground", "m", reference="the ground"
                positive="the hip above the ground")  # fmt: skip
 x, y = X.q, Y.q
 leg_length = sm.sqrt(x**2 + y**2)
+leg_angle = sm.atan2(x, y)  # the stance leg's angle from the vertical, the hip ahead > 0
 
 STANCE = Phase(
     "stance",
@@ -81,6 +92,17 @@ STANCE = Phase(
             bounds=(0.0, None),
             description="the stance leg's force along itself, pushing the hip away from "
             "the foot (>= 0: a leg cannot pull on the ground)",
+        ),
+        # Kuo (2002) powers the simplest walking model by a push-off or by "a torque
+        # applied on the stance leg": that torque, about the stance foot.
+        Input(
+            "stance_torque",
+            leg_angle,
+            "stance torque",
+            unit="N m",
+            description="a torque on the stance leg about its foot, positive turning the "
+            "hip forward (Kuo 2002's torque on the stance leg; an idealisation: a point "
+            "mass has no trunk for a hip to act against)",
         ),
     ),
 )
@@ -125,12 +147,28 @@ MODEL = Model(
                     "itself just after the step (a collision where it stops the leg "
                     "shortening)",
                 ),
+                Impulse(
+                    "torque_impulse",
+                    leg_angle,
+                    "stance torque",
+                    after=True,
+                    unit="N m s",
+                    description="the stance torque's impulse on the new stance leg just "
+                    "after the step (the least-work torque concentrates there)",
+                ),
             ),
         ),
     ),
     failures=(
         Failure("fell", y, -1, "the hip reaches the ground", unit="m"),
         Failure("fell-backward", X.u, -1, "the hip stops and moves back"),
+        Failure(
+            "crouched",
+            leg_length - l_min,
+            -1,
+            "the stance leg would be shorter than l_min: the end of its stroke",
+            unit="m",
+        ),
         Failure(
             "overextended",
             leg_length - l,

@@ -17,7 +17,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'point_mass_biped', 'title': 'Point-mass biped', 'description': "Srinivasan & Ruina 2006: a point mass on two massless telescoping legs with a leg force and impulses at the step (the ILE's body with free actuation); no passive gait: it walks only powered", 'coordinate_units': {'x': 'm', 'y': 'm'}, 'parameters': ('m', 'g', 'l', 'd'), 'coordinates': ('x', 'y'), 'rates': ('x_dot', 'y_dot'), 'state': ({'name': 'x', 'kind': 'coordinate', 'unit': 'm', 'meaning': "hip's horizontal position from the stance foot", 'reference': 'above the stance foot', 'positive': 'the hip ahead of the foot', 'rate': 'x_dot'}, {'name': 'y', 'kind': 'coordinate', 'unit': 'm', 'meaning': "hip's height above the ground", 'reference': 'the ground', 'positive': 'the hip above the ground', 'rate': 'y_dot'}, {'name': 'x_dot', 'kind': 'rate', 'unit': 'm/s', 'meaning': "rate of x (hip's horizontal position from the stance foot)", 'reference': '', 'positive': 'x increasing', 'rate': None}, {'name': 'y_dot', 'kind': 'rate', 'unit': 'm/s', 'meaning': "rate of y (hip's height above the ground)", 'reference': '', 'positive': 'y increasing', 'rate': None}), 'phases': ({'name': 'stance', 'failures': (('fell', 'stance_fell', -1), ('fell-backward', 'stance_fell_backward', -1), ('overextended', 'stance_overextended', 1)), 'conservative': True, 'inputs': ({'name': 'leg_force', 'actuator': 'leg', 'along': 'sqrt(x**2 + y**2)', 'unit': 'N', 'bounds': (0.0, None), 'description': "the stance leg's force along itself, pushing the hip away from the foot (>= 0: a leg cannot pull on the ground)"},)},), 'events': ({'name': 'heelstrike', 'source': 'stance', 'target': 'stance', 'direction': 1, 'ends_step': True, 'when': None, 'reset': 'impact', 'bodies': (0,), 'impulses': ({'name': 'push_off', 'actuator': 'leg', 'along': 'sqrt(x**2 + y**2)', 'unit': 'N s', 'bounds': (0.0, None), 'description': "the trailing leg's impulse along itself just before the step", 'applied': 'before'}, {'name': 'heel_strike', 'actuator': 'leg', 'along': 'sqrt(x**2 + y**2)', 'unit': 'N s', 'bounds': (0.0, None), 'description': "the new stance leg's impulse along itself just after the step (a collision where it stops the leg shortening)", 'applied': 'after'})},), 'failures': ({'name': 'fell', 'direction': -1, 'meaning': 'the hip reaches the ground', 'unit': 'm'}, {'name': 'fell-backward', 'direction': -1, 'meaning': 'the hip stops and moves back', 'unit': 'm/s'}, {'name': 'overextended', 'direction': 1, 'meaning': 'the stance leg would be longer than l: its foot leaves the ground', 'unit': 'm'}), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J', 'force': 'N'}, 'step_length': True, 'section': ('x',), 'search': {'y': (0.5, 1.0), 'x_dot': (0.0, 2.0), 'y_dot': (-1.0, 1.0)}, 'powered_only': True, 'closed_form': False}
+HYBRID = {'name': 'point_mass_biped', 'title': 'Point-mass biped', 'description': "Srinivasan & Ruina 2006: a point mass on two massless telescoping legs with a leg force and impulses at the step (the ILE's body with free actuation); no passive gait: it walks only powered", 'coordinate_units': {'x': 'm', 'y': 'm'}, 'parameters': ('m', 'g', 'l', 'd', 'l_min'), 'coordinates': ('x', 'y'), 'rates': ('x_dot', 'y_dot'), 'state': ({'name': 'x', 'kind': 'coordinate', 'unit': 'm', 'meaning': "hip's horizontal position from the stance foot", 'reference': 'above the stance foot', 'positive': 'the hip ahead of the foot', 'rate': 'x_dot'}, {'name': 'y', 'kind': 'coordinate', 'unit': 'm', 'meaning': "hip's height above the ground", 'reference': 'the ground', 'positive': 'the hip above the ground', 'rate': 'y_dot'}, {'name': 'x_dot', 'kind': 'rate', 'unit': 'm/s', 'meaning': "rate of x (hip's horizontal position from the stance foot)", 'reference': '', 'positive': 'x increasing', 'rate': None}, {'name': 'y_dot', 'kind': 'rate', 'unit': 'm/s', 'meaning': "rate of y (hip's height above the ground)", 'reference': '', 'positive': 'y increasing', 'rate': None}), 'phases': ({'name': 'stance', 'failures': (('fell', 'stance_fell', -1), ('fell-backward', 'stance_fell_backward', -1), ('crouched', 'stance_crouched', -1), ('overextended', 'stance_overextended', 1)), 'conservative': True, 'inputs': ({'name': 'leg_force', 'actuator': 'leg', 'along': 'sqrt(x**2 + y**2)', 'unit': 'N', 'bounds': (0.0, None), 'description': "the stance leg's force along itself, pushing the hip away from the foot (>= 0: a leg cannot pull on the ground)"}, {'name': 'stance_torque', 'actuator': 'stance torque', 'along': 'atan2(x, y)', 'unit': 'N m', 'bounds': (None, None), 'description': "a torque on the stance leg about its foot, positive turning the hip forward (Kuo 2002's torque on the stance leg; an idealisation: a point mass has no trunk for a hip to act against)"})},), 'events': ({'name': 'heelstrike', 'source': 'stance', 'target': 'stance', 'direction': 1, 'ends_step': True, 'when': None, 'reset': 'impact', 'bodies': (0,), 'impulses': ({'name': 'push_off', 'actuator': 'leg', 'along': 'sqrt(x**2 + y**2)', 'unit': 'N s', 'bounds': (0.0, None), 'description': "the trailing leg's impulse along itself just before the step", 'applied': 'before'}, {'name': 'heel_strike', 'actuator': 'leg', 'along': 'sqrt(x**2 + y**2)', 'unit': 'N s', 'bounds': (0.0, None), 'description': "the new stance leg's impulse along itself just after the step (a collision where it stops the leg shortening)", 'applied': 'after'}, {'name': 'torque_impulse', 'actuator': 'stance torque', 'along': 'atan2(x, y)', 'unit': 'N m s', 'bounds': (None, None), 'description': "the stance torque's impulse on the new stance leg just after the step (the least-work torque concentrates there)", 'applied': 'after'})},), 'failures': ({'name': 'fell', 'direction': -1, 'meaning': 'the hip reaches the ground', 'unit': 'm'}, {'name': 'fell-backward', 'direction': -1, 'meaning': 'the hip stops and moves back', 'unit': 'm/s'}, {'name': 'crouched', 'direction': -1, 'meaning': 'the stance leg would be shorter than l_min: the end of its stroke', 'unit': 'm'}, {'name': 'overextended', 'direction': 1, 'meaning': 'the stance leg would be longer than l: its foot leaves the ground', 'unit': 'm'}), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J', 'force': 'N'}, 'step_length': True, 'section': ('x',), 'search': {'y': (0.5, 1.0), 'x_dot': (0.0, 2.0), 'y_dot': (-1.0, 1.0)}, 'powered_only': True, 'closed_form': False}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -26,7 +26,7 @@ def _carlson_rf(x, y, z, be):
     return be.carlson_rf(x, y, z)
 
 
-def stance_accelerations(m, g, l, d, x, y, x_dot, y_dot):
+def stance_accelerations(m, g, l, d, l_min, x, y, x_dot, y_dot):
     """Second derivatives of the free coordinates in phase stance.
 
     Parameters
@@ -35,6 +35,7 @@ def stance_accelerations(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -47,11 +48,11 @@ def stance_accelerations(m, g, l, d, x, y, x_dot, y_dot):
     tuple of arrays
         tuple: d2(coordinate)/dt2 for each coordinate
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
     return (0, -g,)
 
 
-def stance_energy(m, g, l, d, x, y, x_dot, y_dot):
+def stance_energy(m, g, l, d, l_min, x, y, x_dot, y_dot):
     """Mechanical energy T + V in phase stance.
 
     Parameters
@@ -60,6 +61,7 @@ def stance_energy(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -72,12 +74,12 @@ def stance_energy(m, g, l, d, x, y, x_dot, y_dot):
     array
         energy
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
     x0 = m/2
     return x0*x_dot**2 + x0*y_dot**2 + y*g*m
 
 
-def stance_normal_force(m, g, l, d, x, y, x_dot, y_dot):
+def stance_normal_force(m, g, l, d, l_min, x, y, x_dot, y_dot):
     """Ground reaction on the stance foot along the ground normal in phase stance.
 
     Parameters
@@ -86,6 +88,7 @@ def stance_normal_force(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -98,11 +101,11 @@ def stance_normal_force(m, g, l, d, x, y, x_dot, y_dot):
     array
         normal force (the foot lifts off below 0)
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
     return 0
 
 
-def stance_fell(m, g, l, d, x, y, x_dot, y_dot):
+def stance_fell(m, g, l, d, l_min, x, y, x_dot, y_dot):
     """Guard of fell in phase stance.
 
     Parameters
@@ -111,6 +114,7 @@ def stance_fell(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -123,11 +127,11 @@ def stance_fell(m, g, l, d, x, y, x_dot, y_dot):
     array
         crosses zero (direction -1) when the walk ends
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
     return y
 
 
-def stance_fell_input_gains(m, g, l, d, x, y, x_dot, y_dot):
+def stance_fell_input_gains(m, g, l, d, l_min, x, y, x_dot, y_dot):
     """d(guard of fell)/d(input) in phase stance: the guard with the inputs on is stance_fell + these times the inputs.
 
     Parameters
@@ -136,6 +140,7 @@ def stance_fell_input_gains(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -148,14 +153,14 @@ def stance_fell_input_gains(m, g, l, d, x, y, x_dot, y_dot):
     tuple of arrays
         tuple: one gain per input, in order
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
-    return (0,)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
+    return (0, 0,)
 
 
-stance_fell_input_gains.outputs = ('leg_force',)
+stance_fell_input_gains.outputs = ('leg_force', 'stance_torque')
 
 
-def stance_fell_backward(m, g, l, d, x, y, x_dot, y_dot):
+def stance_fell_backward(m, g, l, d, l_min, x, y, x_dot, y_dot):
     """Guard of fell-backward in phase stance.
 
     Parameters
@@ -164,6 +169,7 @@ def stance_fell_backward(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -176,11 +182,11 @@ def stance_fell_backward(m, g, l, d, x, y, x_dot, y_dot):
     array
         crosses zero (direction -1) when the walk ends
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
     return x_dot
 
 
-def stance_fell_backward_input_gains(m, g, l, d, x, y, x_dot, y_dot):
+def stance_fell_backward_input_gains(m, g, l, d, l_min, x, y, x_dot, y_dot):
     """d(guard of fell-backward)/d(input) in phase stance: the guard with the inputs on is stance_fell_backward + these times the inputs.
 
     Parameters
@@ -189,6 +195,7 @@ def stance_fell_backward_input_gains(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -201,14 +208,69 @@ def stance_fell_backward_input_gains(m, g, l, d, x, y, x_dot, y_dot):
     tuple of arrays
         tuple: one gain per input, in order
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
-    return (0,)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
+    return (0, 0,)
 
 
-stance_fell_backward_input_gains.outputs = ('leg_force',)
+stance_fell_backward_input_gains.outputs = ('leg_force', 'stance_torque')
 
 
-def stance_overextended(m, g, l, d, x, y, x_dot, y_dot):
+def stance_crouched(m, g, l, d, l_min, x, y, x_dot, y_dot):
+    """Guard of crouched in phase stance.
+
+    Parameters
+    ----------
+    m : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    l : array_like or casadi.SX/MX/DM
+    d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
+    x : array_like or casadi.SX/MX/DM
+    y : array_like or casadi.SX/MX/DM
+    x_dot : array_like or casadi.SX/MX/DM
+    y_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        crosses zero (direction -1) when the walk ends
+    """
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
+    return be.sqrt(x**2 + y**2) - l_min
+
+
+def stance_crouched_input_gains(m, g, l, d, l_min, x, y, x_dot, y_dot):
+    """d(guard of crouched)/d(input) in phase stance: the guard with the inputs on is stance_crouched + these times the inputs.
+
+    Parameters
+    ----------
+    m : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    l : array_like or casadi.SX/MX/DM
+    d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
+    x : array_like or casadi.SX/MX/DM
+    y : array_like or casadi.SX/MX/DM
+    x_dot : array_like or casadi.SX/MX/DM
+    y_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: one gain per input, in order
+    """
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
+    return (0, 0,)
+
+
+stance_crouched_input_gains.outputs = ('leg_force', 'stance_torque')
+
+
+def stance_overextended(m, g, l, d, l_min, x, y, x_dot, y_dot):
     """Guard of overextended in phase stance.
 
     Parameters
@@ -217,6 +279,7 @@ def stance_overextended(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -229,11 +292,11 @@ def stance_overextended(m, g, l, d, x, y, x_dot, y_dot):
     array
         crosses zero (direction +1) when the walk ends
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
     return be.sqrt(x**2 + y**2) - l
 
 
-def stance_overextended_input_gains(m, g, l, d, x, y, x_dot, y_dot):
+def stance_overextended_input_gains(m, g, l, d, l_min, x, y, x_dot, y_dot):
     """d(guard of overextended)/d(input) in phase stance: the guard with the inputs on is stance_overextended + these times the inputs.
 
     Parameters
@@ -242,6 +305,7 @@ def stance_overextended_input_gains(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -254,14 +318,14 @@ def stance_overextended_input_gains(m, g, l, d, x, y, x_dot, y_dot):
     tuple of arrays
         tuple: one gain per input, in order
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
-    return (0,)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
+    return (0, 0,)
 
 
-stance_overextended_input_gains.outputs = ('leg_force',)
+stance_overextended_input_gains.outputs = ('leg_force', 'stance_torque')
 
 
-def stance_positions(m, g, l, d, x, y, x_dot, y_dot):
+def stance_positions(m, g, l, d, l_min, x, y, x_dot, y_dot):
     """Position (x, y) and angle of each body in phase stance's chart.
 
     Parameters
@@ -270,6 +334,7 @@ def stance_positions(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -282,11 +347,11 @@ def stance_positions(m, g, l, d, x, y, x_dot, y_dot):
     tuple of arrays
         tuple: x, y, angle of each body in order (angle 0 for a point mass)
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
     return (x, y, 0,)
 
 
-def stance_inertias(m, g, l, d, x, y, x_dot, y_dot):
+def stance_inertias(m, g, l, d, l_min, x, y, x_dot, y_dot):
     """Mass and central moment of inertia of each body in phase stance.
 
     Parameters
@@ -295,6 +360,7 @@ def stance_inertias(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -307,12 +373,12 @@ def stance_inertias(m, g, l, d, x, y, x_dot, y_dot):
     tuple of arrays
         tuple: mass, inertia of each body in order (inertia 0 for a point mass)
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
     return (m, 0,)
 
 
-def stance_input_gains(m, g, l, d, x, y, x_dot, y_dot):
-    """d(acceleration)/d(input) in phase stance: the accelerations are stance_accelerations + these times the inputs (leg_force).
+def stance_input_gains(m, g, l, d, l_min, x, y, x_dot, y_dot):
+    """d(acceleration)/d(input) in phase stance: the accelerations are stance_accelerations + these times the inputs (leg_force, stance_torque).
 
     Parameters
     ----------
@@ -320,6 +386,7 @@ def stance_input_gains(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -332,15 +399,18 @@ def stance_input_gains(m, g, l, d, x, y, x_dot, y_dot):
     tuple of arrays
         tuple: for each state coordinate in order, its gain from each input in order
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
-    x0 = 1/(m*be.sqrt(x**2 + y**2))
-    return (x0*x, x0*y,)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
+    x0 = (1/m)
+    x1 = x**2 + y**2
+    x2 = x0/be.sqrt(x1)
+    x3 = x0/x1
+    return (x2*x, x3*y, x2*y, -x3*x,)
 
 
-stance_input_gains.outputs = ('x/leg_force', 'y/leg_force')
+stance_input_gains.outputs = ('x/leg_force', 'x/stance_torque', 'y/leg_force', 'y/stance_torque')
 
 
-def stance_reaction_input_gains(m, g, l, d, x, y, x_dot, y_dot):
+def stance_reaction_input_gains(m, g, l, d, l_min, x, y, x_dot, y_dot):
     """d(ground reaction)/d(input) in phase stance: normal force's gains, then the tangential force's, one per input.
 
     Parameters
@@ -349,6 +419,7 @@ def stance_reaction_input_gains(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -361,15 +432,17 @@ def stance_reaction_input_gains(m, g, l, d, x, y, x_dot, y_dot):
     tuple of arrays
         tuple: normal gains per input, then tangential gains per input
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
-    x0 = (1/be.sqrt(x**2 + y**2))
-    return (x0*y, x0*x,)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
+    x0 = x**2 + y**2
+    x1 = (1/be.sqrt(x0))
+    x2 = (1/x0)
+    return (x1*y, -x2*x, x1*x, x2*y,)
 
 
-stance_reaction_input_gains.outputs = ('normal/leg_force', 'tangential/leg_force')
+stance_reaction_input_gains.outputs = ('normal/leg_force', 'normal/stance_torque', 'tangential/leg_force', 'tangential/stance_torque')
 
 
-def stance_input_rates(m, g, l, d, x, y, x_dot, y_dot):
+def stance_input_rates(m, g, l, d, l_min, x, y, x_dot, y_dot):
     """Rate of what each input of phase stance acts along: its power is the input times this.
 
     Parameters
@@ -378,6 +451,7 @@ def stance_input_rates(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -390,14 +464,15 @@ def stance_input_rates(m, g, l, d, x, y, x_dot, y_dot):
     tuple of arrays
         tuple: one rate per input, in order
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
-    return ((x*x_dot + y*y_dot)/be.sqrt(x**2 + y**2),)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
+    x0 = x**2 + y**2
+    return ((x*x_dot + y*y_dot)/be.sqrt(x0), (x_dot*y - x*y_dot)/x0,)
 
 
-stance_input_rates.outputs = ('leg_force',)
+stance_input_rates.outputs = ('leg_force', 'stance_torque')
 
 
-def event_heelstrike_guard(m, g, l, d, x, y, x_dot, y_dot):
+def event_heelstrike_guard(m, g, l, d, l_min, x, y, x_dot, y_dot):
     """Guard of the event heelstrike: crosses zero when it happens.
 
     Parameters
@@ -406,6 +481,7 @@ def event_heelstrike_guard(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -418,11 +494,11 @@ def event_heelstrike_guard(m, g, l, d, x, y, x_dot, y_dot):
     array
         guard
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
     return x - d/2
 
 
-def event_heelstrike_reset(m, g, l, d, x, y, x_dot, y_dot):
+def event_heelstrike_reset(m, g, l, d, l_min, x, y, x_dot, y_dot):
     """State just after the event heelstrike (from the state just before).
 
     Parameters
@@ -431,6 +507,7 @@ def event_heelstrike_reset(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -443,11 +520,11 @@ def event_heelstrike_reset(m, g, l, d, x, y, x_dot, y_dot):
     tuple of arrays
         tuple: coordinates, then rates
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
     return (x - d, y, x_dot, y_dot,)
 
 
-def event_heelstrike_impulse_gains_before(m, g, l, d, x, y, x_dot, y_dot):
+def event_heelstrike_impulse_gains_before(m, g, l, d, l_min, x, y, x_dot, y_dot):
     """d(rate)/d(impulse) of the impulses applied before the reset of heelstrike (in phase stance's chart): the rates jump by these times the impulses, the coordinates do not move.
 
     Parameters
@@ -456,6 +533,7 @@ def event_heelstrike_impulse_gains_before(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -468,7 +546,7 @@ def event_heelstrike_impulse_gains_before(m, g, l, d, x, y, x_dot, y_dot):
     tuple of arrays
         tuple: for each state coordinate in order, its gain from each input in order
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
     x0 = 1/(m*be.sqrt(x**2 + y**2))
     return (x0*x, x0*y,)
 
@@ -476,7 +554,7 @@ def event_heelstrike_impulse_gains_before(m, g, l, d, x, y, x_dot, y_dot):
 event_heelstrike_impulse_gains_before.outputs = ('x/push_off', 'y/push_off')
 
 
-def event_heelstrike_impulse_rates_before(m, g, l, d, x, y, x_dot, y_dot):
+def event_heelstrike_impulse_rates_before(m, g, l, d, l_min, x, y, x_dot, y_dot):
     """Rate of what each impulse applied before the reset of heelstrike acts along: its work is the impulse times the mean of this just before and just after it.
 
     Parameters
@@ -485,6 +563,7 @@ def event_heelstrike_impulse_rates_before(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -497,14 +576,14 @@ def event_heelstrike_impulse_rates_before(m, g, l, d, x, y, x_dot, y_dot):
     tuple of arrays
         tuple: one rate per input, in order
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
     return ((x*x_dot + y*y_dot)/be.sqrt(x**2 + y**2),)
 
 
 event_heelstrike_impulse_rates_before.outputs = ('push_off',)
 
 
-def event_heelstrike_impulse_gains_after(m, g, l, d, x, y, x_dot, y_dot):
+def event_heelstrike_impulse_gains_after(m, g, l, d, l_min, x, y, x_dot, y_dot):
     """d(rate)/d(impulse) of the impulses applied after the reset of heelstrike (in phase stance's chart): the rates jump by these times the impulses, the coordinates do not move.
 
     Parameters
@@ -513,6 +592,7 @@ def event_heelstrike_impulse_gains_after(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -525,15 +605,18 @@ def event_heelstrike_impulse_gains_after(m, g, l, d, x, y, x_dot, y_dot):
     tuple of arrays
         tuple: for each state coordinate in order, its gain from each input in order
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
-    x0 = 1/(m*be.sqrt(x**2 + y**2))
-    return (x0*x, x0*y,)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
+    x0 = (1/m)
+    x1 = x**2 + y**2
+    x2 = x0/be.sqrt(x1)
+    x3 = x0/x1
+    return (x2*x, x3*y, x2*y, -x3*x,)
 
 
-event_heelstrike_impulse_gains_after.outputs = ('x/heel_strike', 'y/heel_strike')
+event_heelstrike_impulse_gains_after.outputs = ('x/heel_strike', 'x/torque_impulse', 'y/heel_strike', 'y/torque_impulse')
 
 
-def event_heelstrike_impulse_rates_after(m, g, l, d, x, y, x_dot, y_dot):
+def event_heelstrike_impulse_rates_after(m, g, l, d, l_min, x, y, x_dot, y_dot):
     """Rate of what each impulse applied after the reset of heelstrike acts along: its work is the impulse times the mean of this just before and just after it.
 
     Parameters
@@ -542,6 +625,7 @@ def event_heelstrike_impulse_rates_after(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -554,14 +638,15 @@ def event_heelstrike_impulse_rates_after(m, g, l, d, x, y, x_dot, y_dot):
     tuple of arrays
         tuple: one rate per input, in order
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
-    return ((x*x_dot + y*y_dot)/be.sqrt(x**2 + y**2),)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
+    x0 = x**2 + y**2
+    return ((x*x_dot + y*y_dot)/be.sqrt(x0), (x_dot*y - x*y_dot)/x0,)
 
 
-event_heelstrike_impulse_rates_after.outputs = ('heel_strike',)
+event_heelstrike_impulse_rates_after.outputs = ('heel_strike', 'torque_impulse')
 
 
-def event_heelstrike_contact(m, g, l, d, x, y, x_dot, y_dot):
+def event_heelstrike_contact(m, g, l, d, l_min, x, y, x_dot, y_dot):
     """The new contact point of the impact heelstrike (x, y in phase stance's chart).
 
     Parameters
@@ -570,6 +655,7 @@ def event_heelstrike_contact(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -582,11 +668,11 @@ def event_heelstrike_contact(m, g, l, d, x, y, x_dot, y_dot):
     tuple of arrays
         tuple: x, y
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
     return (d, 0,)
 
 
-def step_length_of_state(m, g, l, d, x, y, x_dot, y_dot):
+def step_length_of_state(m, g, l, d, l_min, x, y, x_dot, y_dot):
     """Distance between successive stance feet (state just before the step event).
 
     Parameters
@@ -595,6 +681,7 @@ def step_length_of_state(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -607,11 +694,11 @@ def step_length_of_state(m, g, l, d, x, y, x_dot, y_dot):
     array
         step length
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
     return d
 
 
-def weight(m, g, l, d, x, y, x_dot, y_dot):
+def weight(m, g, l, d, l_min, x, y, x_dot, y_dot):
     """The walker's weight: gravity times the mass of every body (the cost of transport's scale; it depends on the parameters only).
 
     Parameters
@@ -620,6 +707,7 @@ def weight(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -632,11 +720,11 @@ def weight(m, g, l, d, x, y, x_dot, y_dot):
     array
         force
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
     return g*m
 
 
-def section_completion(m, g, l, d, x, y, x_dot, y_dot):
+def section_completion(m, g, l, d, l_min, x, y, x_dot, y_dot):
     """The section state with the components the section determines recomputed from the others (the step event's geometry and reset).
 
     Parameters
@@ -645,6 +733,7 @@ def section_completion(m, g, l, d, x, y, x_dot, y_dot):
     g : array_like or casadi.SX/MX/DM
     l : array_like or casadi.SX/MX/DM
     d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
     x : array_like or casadi.SX/MX/DM
     y : array_like or casadi.SX/MX/DM
     x_dot : array_like or casadi.SX/MX/DM
@@ -657,5 +746,5 @@ def section_completion(m, g, l, d, x, y, x_dot, y_dot):
     tuple of arrays
         tuple: coordinates, then rates
     """
-    be = backend_for(m, g, l, d, x, y, x_dot, y_dot)
+    be = backend_for(m, g, l, d, l_min, x, y, x_dot, y_dot)
     return (-d/2, y, x_dot, y_dot,)

@@ -36,6 +36,9 @@ def register(subparsers: Any) -> None:
     p.add_argument("--target-step-length", type=float, metavar="S", help="the step length")
     p.add_argument("--nodes", type=int, default=20, metavar="N",
                    help="intervals a phase on the coarse mesh (the result is on 2N)")  # fmt: skip
+    p.add_argument("--use", action="append", metavar="NAME",
+                   help="an input or impulse the gait may use (repeatable; the others are held "
+                   "at zero; default: every one; 'vsw models' lists them)")  # fmt: skip
     p.add_argument("--plot", metavar="FILE", help="save the states and inputs over the step")
     p.set_defaults(func=run, parser=p)
 
@@ -44,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
     model = args.model_object
     params = model.parameters(args.values)
     request = powered.Request(args.minimize, args.target_speed, args.target_step_length,
-                              args.nodes)  # fmt: skip
+                              args.nodes, use=tuple(args.use or ()))  # fmt: skip
     request.check()
     if args.plot is not None:
         check_save_path(args.plot)
@@ -85,6 +88,7 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
         "reason": gait.reason or None,
         "minimize": request.minimize,
         "targets": {"speed": request.target_speed, "step_length": request.target_step_length},
+        "use": list(request.use) or None,
         "cost": gait.cost,
         "objective": gait.extra.get("objective"),
         "nodes": {"coarse": request.nodes, "fine": 2 * request.nodes},

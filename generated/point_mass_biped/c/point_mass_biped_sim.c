@@ -5,11 +5,11 @@
  * casadi 3.8.2
  * The hybrid dynamics of the model for the batch simulator (vsw/csrc/hybrid_batch.c, built
  * by vsw/batch.py): every function takes (c, x), the model's constants (what the functions
- * use of the parameters m, g, l, d: c = constants(p), once a walk) and the state
+ * use of the parameters m, g, l, d, l_min: c = constants(p), once a walk) and the state
  * (x, y, x_dot, y_dot), in CasADi's calling convention.
  * Phases: stance.
  * Events: heelstrike (stance -> stance, ends the step).
- * Failures: fell, fell-backward, overextended.
+ * Failures: fell, fell-backward, crouched, overextended.
  */
 /* Hidden with the rest of the library (vsw/batch.py builds it with -fvisibility=hidden):
    CasADi's functions are called directly (the compiler may inline them), not exported. */
@@ -52,6 +52,7 @@ extern "C" {
 #define casadi_f4 CASADI_PREFIX(f4)
 #define casadi_s0 CASADI_PREFIX(s0)
 #define casadi_s1 CASADI_PREFIX(s1)
+#define casadi_s2 CASADI_PREFIX(s2)
 #define casadi_sq CASADI_PREFIX(sq)
 
 /* Symbol visibility in DLLs */
@@ -80,10 +81,11 @@ CASADI_SYMBOL_EXPORT void vsw_point_mass_biped_sim__casadi_version(int* major, i
 CASADI_SYMBOL_EXPORT int vsw_point_mass_biped_sim__casadi_int_size(void) { return (int) sizeof(casadi_int); }
 CASADI_SYMBOL_EXPORT int vsw_point_mass_biped_sim__casadi_real_size(void) { return (int) sizeof(casadi_real); }
 
-static const casadi_int casadi_s0[3] = {4, 1, 1};
-static const casadi_int casadi_s1[3] = {1, 1, 1};
+static const casadi_int casadi_s0[3] = {5, 1, 1};
+static const casadi_int casadi_s1[3] = {4, 1, 1};
+static const casadi_int casadi_s2[3] = {1, 1, 1};
 
-/* vsw_point_mass_biped_sim_constants:(p[4])->(c[4]) */
+/* vsw_point_mass_biped_sim_constants:(p[5])->(c[5]) */
 static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1;
   a0=arg[0][1];
@@ -93,9 +95,11 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   a1=2.;
   a1=(a0/a1);
   res[0][1]=a1;
-  a1=arg[0][2];
+  a1=arg[0][4];
   res[0][2]=a1;
-  res[0][3]=a0;
+  a1=arg[0][2];
+  res[0][3]=a1;
+  res[0][4]=a0;
   return 0;
 }
 
@@ -170,7 +174,7 @@ CASADI_SYMBOL_EXPORT int vsw_point_mass_biped_sim_constants_work_bytes(casadi_in
   return 0;
 }
 
-/* vsw_point_mass_biped_sim_stance_flow:(c[4],x[4])->(stance_flow[4]) */
+/* vsw_point_mass_biped_sim_stance_flow:(c[5],x[4])->(stance_flow[4]) */
 static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0;
   a0=arg[1][2];
@@ -229,14 +233,14 @@ CASADI_SYMBOL_EXPORT const char* vsw_point_mass_biped_sim_stance_flow_name_out(c
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_point_mass_biped_sim_stance_flow_sparsity_in(casadi_int i) {
   switch (i) {
     case 0: return casadi_s0;
-    case 1: return casadi_s0;
+    case 1: return casadi_s1;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_point_mass_biped_sim_stance_flow_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
+    case 0: return casadi_s1;
     default: return 0;
   }
 }
@@ -257,9 +261,9 @@ CASADI_SYMBOL_EXPORT int vsw_point_mass_biped_sim_stance_flow_work_bytes(casadi_
   return 0;
 }
 
-/* vsw_point_mass_biped_sim_stance_watch:(c[4],x[4])->(stance_watch[4]) */
+/* vsw_point_mass_biped_sim_stance_watch:(c[5],x[4])->(stance_watch[5]) */
 static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
-  casadi_real a0, a1, a2;
+  casadi_real a0, a1, a2, a3;
   a0=arg[1][0];
   a1=arg[0][1];
   a1=(a0-a1);
@@ -268,13 +272,20 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   res[0][1]=a1;
   a2=arg[1][2];
   res[0][2]=a2;
+  a2=casadi_sq(a0);
+  a3=casadi_sq(a1);
+  a2=(a2+a3);
+  a2=sqrt(a2);
+  a3=arg[0][2];
+  a2=(a2-a3);
+  res[0][3]=a2;
   a0=casadi_sq(a0);
   a1=casadi_sq(a1);
   a0=(a0+a1);
   a0=sqrt(a0);
-  a1=arg[0][2];
+  a1=arg[0][3];
   a0=(a0-a1);
-  res[0][3]=a0;
+  res[0][4]=a0;
   return 0;
 }
 
@@ -323,7 +334,7 @@ CASADI_SYMBOL_EXPORT const char* vsw_point_mass_biped_sim_stance_watch_name_out(
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_point_mass_biped_sim_stance_watch_sparsity_in(casadi_int i) {
   switch (i) {
     case 0: return casadi_s0;
-    case 1: return casadi_s0;
+    case 1: return casadi_s1;
     default: return 0;
   }
 }
@@ -351,11 +362,11 @@ CASADI_SYMBOL_EXPORT int vsw_point_mass_biped_sim_stance_watch_work_bytes(casadi
   return 0;
 }
 
-/* vsw_point_mass_biped_sim_heelstrike_reset:(c[4],x[4])->(heelstrike_reset[4]) */
+/* vsw_point_mass_biped_sim_heelstrike_reset:(c[5],x[4])->(heelstrike_reset[4]) */
 static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1;
   a0=arg[1][0];
-  a1=arg[0][3];
+  a1=arg[0][4];
   a0=(a0-a1);
   res[0][0]=a0;
   a0=arg[1][1];
@@ -412,14 +423,14 @@ CASADI_SYMBOL_EXPORT const char* vsw_point_mass_biped_sim_heelstrike_reset_name_
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_point_mass_biped_sim_heelstrike_reset_sparsity_in(casadi_int i) {
   switch (i) {
     case 0: return casadi_s0;
-    case 1: return casadi_s0;
+    case 1: return casadi_s1;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_point_mass_biped_sim_heelstrike_reset_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
+    case 0: return casadi_s1;
     default: return 0;
   }
 }
@@ -440,10 +451,10 @@ CASADI_SYMBOL_EXPORT int vsw_point_mass_biped_sim_heelstrike_reset_work_bytes(ca
   return 0;
 }
 
-/* vsw_point_mass_biped_sim_step_length:(c[4],x[4])->(step_length) */
+/* vsw_point_mass_biped_sim_step_length:(c[5],x[4])->(step_length) */
 static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0;
-  a0=arg[0][3];
+  a0=arg[0][4];
   res[0][0]=a0;
   return 0;
 }
@@ -493,14 +504,14 @@ CASADI_SYMBOL_EXPORT const char* vsw_point_mass_biped_sim_step_length_name_out(c
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_point_mass_biped_sim_step_length_sparsity_in(casadi_int i) {
   switch (i) {
     case 0: return casadi_s0;
-    case 1: return casadi_s0;
+    case 1: return casadi_s1;
     default: return 0;
   }
 }
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_point_mass_biped_sim_step_length_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s1;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -528,17 +539,17 @@ CASADI_SYMBOL_EXPORT int vsw_point_mass_biped_sim_step_length_work_bytes(casadi_
 
 /* --- the model's table for the batch simulator ------------------------------------------ */
 
-#define VSW_NP 4
+#define VSW_NP 5
 #define VSW_NX 4
 #define VSW_NPHASES 1
 #define VSW_NEVENTS 1
-#define VSW_NFAILURES 3
-#define VSW_MAX_WATCH 4
+#define VSW_NFAILURES 4
+#define VSW_MAX_WATCH 5
 #define VSW_START_PHASE 0
 #define VSW_SZ_ARG 2
 #define VSW_SZ_RES 1
 #define VSW_SZ_IW 0
-#define VSW_SZ_W 3
+#define VSW_SZ_W 4
 
 /* Every function of the table in CasADi's calling convention, called directly (not through
    a pointer) so that the compiler can inline it into the integrator's loops. */
@@ -553,7 +564,7 @@ CASADI_SYMBOL_EXPORT int vsw_point_mass_biped_sim_step_length_work_bytes(casadi_
 
 /* The constants of the functions below from the parameters: the parameters they use and
    their parameter-only subexpressions, computed once a walk instead of at every call. */
-#define VSW_NC 4
+#define VSW_NC 5
 static inline void vsw_constants(const double *p, double *c)
 {
     VSW_CALL(vsw_point_mass_biped_sim_constants, p, p, c);
@@ -578,11 +589,11 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
         return;
     }
 }
-static const int vsw_n_watch[VSW_NPHASES] = {4};
+static const int vsw_n_watch[VSW_NPHASES] = {5};
 /* +1: counts rising through zero, -1: falling. */
-static const int vsw_watch_direction[VSW_NPHASES][VSW_MAX_WATCH] = {{1, -1, -1, 1}};
+static const int vsw_watch_direction[VSW_NPHASES][VSW_MAX_WATCH] = {{1, -1, -1, -1, 1}};
 /* >= 0: the event's index; < 0: -1 - the failure's index. */
-static const int vsw_watch_what[VSW_NPHASES][VSW_MAX_WATCH] = {{0, -1, -2, -3}};
+static const int vsw_watch_what[VSW_NPHASES][VSW_MAX_WATCH] = {{0, -1, -2, -3, -4}};
 
 /* Per event: the reset. */
 static inline void vsw_reset(int event, const double *c, const double *x, double *out)

@@ -52,138 +52,158 @@ function _carlson_rf(x, y, z, be) {
 }
 
 /* The parameter table: name, lower, upper (open interval), unit, description. */
-const PARAMETERS = [["m", 0.0, Infinity, "kg", "mass at the hip"], ["g", 0.0, Infinity, "m/s^2", "gravitational acceleration"], ["l", 0.0, Infinity, "m", "longest length of a leg"], ["d", 0.0, Infinity, "m", "step length: from the stance foot to the next"]];
+const PARAMETERS = [["m", 0.0, Infinity, "kg", "mass at the hip"], ["g", 0.0, Infinity, "m/s^2", "gravitational acceleration"], ["l", 0.0, Infinity, "m", "longest length of a leg"], ["d", 0.0, Infinity, "m", "step length: from the stance foot to the next"], ["l_min", 0.0, Infinity, "m", "shortest length of a leg (the end of its stroke)"]];
 
 /* Existence conditions: name, paper equation, strict, status, physical, meaning (as
    CONDITIONS of the Python module). */
 const CONDITIONS = [];
 
 /* Second derivatives of the free coordinates in phase stance. Returns tuple: d2(coordinate)/dt2 for each coordinate. */
-function stance_accelerations(m, g, l, d, x, y, x_dot, y_dot) {
+function stance_accelerations(m, g, l, d, l_min, x, y, x_dot, y_dot) {
   return [0, -g];
 }
 
 /* Mechanical energy T + V in phase stance. Returns energy. */
-function stance_energy(m, g, l, d, x, y, x_dot, y_dot) {
+function stance_energy(m, g, l, d, l_min, x, y, x_dot, y_dot) {
   const x0 = m/2;
   return x0*Math.pow(x_dot, 2) + x0*Math.pow(y_dot, 2) + y*g*m;
 }
 
 /* Ground reaction on the stance foot along the ground normal in phase stance. Returns normal force (the foot lifts off below 0). */
-function stance_normal_force(m, g, l, d, x, y, x_dot, y_dot) {
+function stance_normal_force(m, g, l, d, l_min, x, y, x_dot, y_dot) {
   return 0;
 }
 
 /* Guard of fell in phase stance. Returns crosses zero (direction -1) when the walk ends. */
-function stance_fell(m, g, l, d, x, y, x_dot, y_dot) {
+function stance_fell(m, g, l, d, l_min, x, y, x_dot, y_dot) {
   return y;
 }
 
 /* d(guard of fell)/d(input) in phase stance: the guard with the inputs on is stance_fell + these times the inputs. Returns tuple: one gain per input, in order. */
-function stance_fell_input_gains(m, g, l, d, x, y, x_dot, y_dot) {
-  return [0];
+function stance_fell_input_gains(m, g, l, d, l_min, x, y, x_dot, y_dot) {
+  return [0, 0];
 }
 
 /* Guard of fell-backward in phase stance. Returns crosses zero (direction -1) when the walk ends. */
-function stance_fell_backward(m, g, l, d, x, y, x_dot, y_dot) {
+function stance_fell_backward(m, g, l, d, l_min, x, y, x_dot, y_dot) {
   return x_dot;
 }
 
 /* d(guard of fell-backward)/d(input) in phase stance: the guard with the inputs on is stance_fell_backward + these times the inputs. Returns tuple: one gain per input, in order. */
-function stance_fell_backward_input_gains(m, g, l, d, x, y, x_dot, y_dot) {
-  return [0];
+function stance_fell_backward_input_gains(m, g, l, d, l_min, x, y, x_dot, y_dot) {
+  return [0, 0];
+}
+
+/* Guard of crouched in phase stance. Returns crosses zero (direction -1) when the walk ends. */
+function stance_crouched(m, g, l, d, l_min, x, y, x_dot, y_dot) {
+  return be.sqrt(Math.pow(x, 2) + Math.pow(y, 2)) - l_min;
+}
+
+/* d(guard of crouched)/d(input) in phase stance: the guard with the inputs on is stance_crouched + these times the inputs. Returns tuple: one gain per input, in order. */
+function stance_crouched_input_gains(m, g, l, d, l_min, x, y, x_dot, y_dot) {
+  return [0, 0];
 }
 
 /* Guard of overextended in phase stance. Returns crosses zero (direction +1) when the walk ends. */
-function stance_overextended(m, g, l, d, x, y, x_dot, y_dot) {
+function stance_overextended(m, g, l, d, l_min, x, y, x_dot, y_dot) {
   return be.sqrt(Math.pow(x, 2) + Math.pow(y, 2)) - l;
 }
 
 /* d(guard of overextended)/d(input) in phase stance: the guard with the inputs on is stance_overextended + these times the inputs. Returns tuple: one gain per input, in order. */
-function stance_overextended_input_gains(m, g, l, d, x, y, x_dot, y_dot) {
-  return [0];
+function stance_overextended_input_gains(m, g, l, d, l_min, x, y, x_dot, y_dot) {
+  return [0, 0];
 }
 
 /* Position (x, y) and angle of each body in phase stance's chart. Returns tuple: x, y, angle of each body in order (angle 0 for a point mass). */
-function stance_positions(m, g, l, d, x, y, x_dot, y_dot) {
+function stance_positions(m, g, l, d, l_min, x, y, x_dot, y_dot) {
   return [x, y, 0];
 }
 
 /* Mass and central moment of inertia of each body in phase stance. Returns tuple: mass, inertia of each body in order (inertia 0 for a point mass). */
-function stance_inertias(m, g, l, d, x, y, x_dot, y_dot) {
+function stance_inertias(m, g, l, d, l_min, x, y, x_dot, y_dot) {
   return [m, 0];
 }
 
-/* d(acceleration)/d(input) in phase stance: the accelerations are stance_accelerations + these times the inputs (leg_force). Returns tuple: for each state coordinate in order, its gain from each input in order. */
-function stance_input_gains(m, g, l, d, x, y, x_dot, y_dot) {
-  const x0 = 1/(m*be.sqrt(Math.pow(x, 2) + Math.pow(y, 2)));
-  return [x0*x, x0*y];
+/* d(acceleration)/d(input) in phase stance: the accelerations are stance_accelerations + these times the inputs (leg_force, stance_torque). Returns tuple: for each state coordinate in order, its gain from each input in order. */
+function stance_input_gains(m, g, l, d, l_min, x, y, x_dot, y_dot) {
+  const x0 = (1/m);
+  const x1 = Math.pow(x, 2) + Math.pow(y, 2);
+  const x2 = x0/be.sqrt(x1);
+  const x3 = x0/x1;
+  return [x2*x, x3*y, x2*y, -x3*x];
 }
 
 /* d(ground reaction)/d(input) in phase stance: normal force's gains, then the tangential force's, one per input. Returns tuple: normal gains per input, then tangential gains per input. */
-function stance_reaction_input_gains(m, g, l, d, x, y, x_dot, y_dot) {
-  const x0 = (1/be.sqrt(Math.pow(x, 2) + Math.pow(y, 2)));
-  return [x0*y, x0*x];
+function stance_reaction_input_gains(m, g, l, d, l_min, x, y, x_dot, y_dot) {
+  const x0 = Math.pow(x, 2) + Math.pow(y, 2);
+  const x1 = (1/be.sqrt(x0));
+  const x2 = (1/x0);
+  return [x1*y, -x2*x, x1*x, x2*y];
 }
 
 /* Rate of what each input of phase stance acts along: its power is the input times this. Returns tuple: one rate per input, in order. */
-function stance_input_rates(m, g, l, d, x, y, x_dot, y_dot) {
-  return [(x*x_dot + y*y_dot)/be.sqrt(Math.pow(x, 2) + Math.pow(y, 2))];
+function stance_input_rates(m, g, l, d, l_min, x, y, x_dot, y_dot) {
+  const x0 = Math.pow(x, 2) + Math.pow(y, 2);
+  return [(x*x_dot + y*y_dot)/be.sqrt(x0), (x_dot*y - x*y_dot)/x0];
 }
 
 /* Guard of the event heelstrike: crosses zero when it happens. Returns guard. */
-function event_heelstrike_guard(m, g, l, d, x, y, x_dot, y_dot) {
+function event_heelstrike_guard(m, g, l, d, l_min, x, y, x_dot, y_dot) {
   return x - d/2;
 }
 
 /* State just after the event heelstrike (from the state just before). Returns tuple: coordinates, then rates. */
-function event_heelstrike_reset(m, g, l, d, x, y, x_dot, y_dot) {
+function event_heelstrike_reset(m, g, l, d, l_min, x, y, x_dot, y_dot) {
   return [x - d, y, x_dot, y_dot];
 }
 
 /* d(rate)/d(impulse) of the impulses applied before the reset of heelstrike (in phase stance's chart): the rates jump by these times the impulses, the coordinates do not move. Returns tuple: for each state coordinate in order, its gain from each input in order. */
-function event_heelstrike_impulse_gains_before(m, g, l, d, x, y, x_dot, y_dot) {
+function event_heelstrike_impulse_gains_before(m, g, l, d, l_min, x, y, x_dot, y_dot) {
   const x0 = 1/(m*be.sqrt(Math.pow(x, 2) + Math.pow(y, 2)));
   return [x0*x, x0*y];
 }
 
 /* Rate of what each impulse applied before the reset of heelstrike acts along: its work is the impulse times the mean of this just before and just after it. Returns tuple: one rate per input, in order. */
-function event_heelstrike_impulse_rates_before(m, g, l, d, x, y, x_dot, y_dot) {
+function event_heelstrike_impulse_rates_before(m, g, l, d, l_min, x, y, x_dot, y_dot) {
   return [(x*x_dot + y*y_dot)/be.sqrt(Math.pow(x, 2) + Math.pow(y, 2))];
 }
 
 /* d(rate)/d(impulse) of the impulses applied after the reset of heelstrike (in phase stance's chart): the rates jump by these times the impulses, the coordinates do not move. Returns tuple: for each state coordinate in order, its gain from each input in order. */
-function event_heelstrike_impulse_gains_after(m, g, l, d, x, y, x_dot, y_dot) {
-  const x0 = 1/(m*be.sqrt(Math.pow(x, 2) + Math.pow(y, 2)));
-  return [x0*x, x0*y];
+function event_heelstrike_impulse_gains_after(m, g, l, d, l_min, x, y, x_dot, y_dot) {
+  const x0 = (1/m);
+  const x1 = Math.pow(x, 2) + Math.pow(y, 2);
+  const x2 = x0/be.sqrt(x1);
+  const x3 = x0/x1;
+  return [x2*x, x3*y, x2*y, -x3*x];
 }
 
 /* Rate of what each impulse applied after the reset of heelstrike acts along: its work is the impulse times the mean of this just before and just after it. Returns tuple: one rate per input, in order. */
-function event_heelstrike_impulse_rates_after(m, g, l, d, x, y, x_dot, y_dot) {
-  return [(x*x_dot + y*y_dot)/be.sqrt(Math.pow(x, 2) + Math.pow(y, 2))];
+function event_heelstrike_impulse_rates_after(m, g, l, d, l_min, x, y, x_dot, y_dot) {
+  const x0 = Math.pow(x, 2) + Math.pow(y, 2);
+  return [(x*x_dot + y*y_dot)/be.sqrt(x0), (x_dot*y - x*y_dot)/x0];
 }
 
 /* The new contact point of the impact heelstrike (x, y in phase stance's chart). Returns tuple: x, y. */
-function event_heelstrike_contact(m, g, l, d, x, y, x_dot, y_dot) {
+function event_heelstrike_contact(m, g, l, d, l_min, x, y, x_dot, y_dot) {
   return [d, 0];
 }
 
 /* Distance between successive stance feet (state just before the step event). Returns step length. */
-function step_length_of_state(m, g, l, d, x, y, x_dot, y_dot) {
+function step_length_of_state(m, g, l, d, l_min, x, y, x_dot, y_dot) {
   return d;
 }
 
 /* The walker's weight: gravity times the mass of every body (the cost of transport's scale; it depends on the parameters only). Returns force. */
-function weight(m, g, l, d, x, y, x_dot, y_dot) {
+function weight(m, g, l, d, l_min, x, y, x_dot, y_dot) {
   return g*m;
 }
 
 /* The section state with the components the section determines recomputed from the others (the step event's geometry and reset). Returns tuple: coordinates, then rates. */
-function section_completion(m, g, l, d, x, y, x_dot, y_dot) {
+function section_completion(m, g, l, d, l_min, x, y, x_dot, y_dot) {
   return [-d/2, y, x_dot, y_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell, stance_fell_input_gains, stance_fell_backward, stance_fell_backward_input_gains, stance_overextended, stance_overextended_input_gains, stance_positions, stance_inertias, stance_input_gains, stance_reaction_input_gains, stance_input_rates, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_impulse_gains_before, event_heelstrike_impulse_rates_before, event_heelstrike_impulse_gains_after, event_heelstrike_impulse_rates_after, event_heelstrike_contact, step_length_of_state, weight, section_completion };
+const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell, stance_fell_input_gains, stance_fell_backward, stance_fell_backward_input_gains, stance_crouched, stance_crouched_input_gains, stance_overextended, stance_overextended_input_gains, stance_positions, stance_inertias, stance_input_gains, stance_reaction_input_gains, stance_input_rates, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_impulse_gains_before, event_heelstrike_impulse_rates_before, event_heelstrike_impulse_gains_after, event_heelstrike_impulse_rates_after, event_heelstrike_contact, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {
