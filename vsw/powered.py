@@ -3,20 +3,25 @@ collocation (IPOPT through CasADi).
 
 A model's phases may declare continuous inputs (``Input`` in the model language: a hip
 torque, a leg force), whose gains on the accelerations the derivation generates
-(``<phase>_input_gains``): ``q'' = a(q, q') + B(q) u``. This module finds the step, with its
-inputs, that meets the targets (speed, step length) at the least cost.
+(``<phase>_input_gains``): ``q'' = a(q, q') + B(q) u``; its events may declare impulses
+(``Impulse``: a push-off), whose gains on the rates it generates too
+(``event_<e>_impulse_gains_before/after``). This module finds the step, with its inputs and
+impulses, that meets the targets (speed, step length) at the least cost.
 
 Transcription: Hermite–Simpson, separated form
 ----------------------------------------------
 Each phase of a step is cut into :attr:`Request.nodes` intervals of equal length
 ``h = T_k / N`` (``T_k`` the phase's duration, an unknown > 0). The unknowns are the state
-and the inputs at every knot and every interval's midpoint, and the durations. Per interval
-``[x_i, x_{i+1}]`` with midpoint ``x_c``: ``x_c = (x_i + x_{i+1}) / 2 + h / 8 (f_i - f_{i+1})``
-and ``x_{i+1} = x_i + h / 6 (f_i + 4 f_c + f_{i+1})`` (Simpson's rule on a cubic state: the
+and the inputs at every knot and every interval's midpoint, the durations and each event's
+impulses. Per interval ``[x_i, x_{i+1}]`` with midpoint ``x_c``:
+``x_c = (x_i + x_{i+1}) / 2 + h / 8 (f_i - f_{i+1})`` and
+``x_{i+1} = x_i + h / 6 (f_i + 4 f_c + f_{i+1})`` (Simpson's rule on a cubic state: the
 scheme is fourth order); the inputs are quadratic on each interval through ``u_i``, ``u_c``,
-``u_{i+1}`` (what the re-simulation interpolates). Each phase ends on its event's guard
-(= 0, its ``when`` >= 0), the event's reset maps the last knot to the next phase's first,
-and the step is periodic. Every failure of a phase is a path constraint at the knots, with
+``u_{i+1}`` (what the re-simulation interpolates; under the work costs the midpoint is tied
+to its knots' mean, so the inputs are linear: see ``_collocate``). Each phase ends on its
+event's guard (= 0, its ``when`` >= 0), the event's impulses before its reset, the reset
+and its impulses after map the last knot to the next phase's first, and the step is
+periodic. Every failure of a phase is a path constraint at the knots, with
 the inputs' share of its guard (``<guard>_input_gains``: the ground reaction moves with
 them). The model's parameters are fixed.
 
@@ -24,7 +29,9 @@ Costs (per step): ``torque2``, the integral of the squared inputs; ``work``, the
 positive work, the integral of ``max(P, 0)`` of each input's power ``P = u d(along)/dt``,
 exactly, without smoothing: a slack ``s >= 0, s >= P`` at every knot and midpoint (the
 epigraph; minimised, ``s = max(P, 0)``); ``cot``, that work over weight times step
-length. Both add :attr:`Request.regularization` times the squared inputs' integral.
+length; impulses count by their work, ``iota`` times the mean of their ``along`` rate before
+and after them (``torque2`` holds them at zero: it does not price them). Both add
+:attr:`Request.regularization` times the squared inputs' integral, made dimensionless.
 Integrals by Simpson's rule on the knots and midpoints. ``work`` and ``cot`` start from
 the ``torque2`` optimum with the same targets.
 
@@ -34,8 +41,9 @@ again from its first knot with the inputs as the scheme interpolates them (SciPy
 1e-11; its event's guard and its failures watched between the knots), and its end
 compared with the last knot (``resimulation_error``, relative to max(1, |state|)).
 ``optimal`` needs all of it (:func:`optimize`). The start is the model's passive gait at
-the same parameters, inputs zero. The open-loop map's eigenvalues are reported
-(:func:`powered_eigenvalues`).
+the same parameters, inputs zero; a model without one starts from its search box's centre
+moving at constant rates (:func:`_kinematic_guess`). The open-loop map's eigenvalues are
+reported (:func:`powered_eigenvalues`).
 """
 
 from __future__ import annotations
