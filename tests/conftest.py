@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from generated.ile.params import PARAMETERS
+from vsw.models import keys, load
 from vsw.models.ile.params import random_parameters
 
 PARAMS = {p.name: p for p in PARAMETERS}
@@ -25,8 +26,6 @@ PARAMS = {p.name: p for p in PARAMETERS}
 def passive_keys() -> list[str]:
     """The models with passive gaits: every one but those that walk only powered (the
     point-mass biped, whose leg force holds it up; tests/test_point_mass_biped.py)."""
-    from vsw.models import keys, load
-
     return [k for k in keys() if not load(k).spec.get("powered_only")]
 
 

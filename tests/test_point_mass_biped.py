@@ -112,12 +112,13 @@ def test_commands_say_it_walks_only_powered(capsys):
     assert [i["applied"] for i in impulses] == ["before", "after", "after"]
     assert "optimize" in model["features"] and "design" not in model["features"]
     assert model["units"]["rate"] == "m/s"
-    refused = (["design", "--target-speed", "0.3"], ["explore", "--out", "page.html"],
-               ["optimize", "--target-step-length", "0.7"])  # fmt: skip
-    for command, *rest in refused:
+    refused = ((["design", "--target-speed", "0.3"], "walks only powered"),
+               (["explore", "--out", "page.html"], "walks only powered"),
+               (["optimize", "--target-step-length", "0.7"], "contradicts it"))  # fmt: skip
+    for (command, *rest), message in refused:
         assert main([command, "--model", "point-mass-biped", *rest]) == 2
         (line,) = capsys.readouterr().err.strip().splitlines()
-        assert "walks only powered" in line or "contradicts it" in line, line
+        assert message in line, line
     assert main(["analyze", "--model", "point-mass-biped"]) == 0
     assert "walks only powered" in capsys.readouterr().out
     argv = ["optimize", "--model", "point-mass-biped", "--minimize", "work", "--target-speed",
@@ -139,3 +140,33 @@ def test_commands_say_it_walks_only_powered(capsys):
     assert main(["optimize", "--model", "point-mass-biped", "--use", "kick"]) == 2
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert "--use kick: point-mass-biped has no input or impulse kick" in line
+
+
+def test_the_nlps_event_map_is_the_simulations_and_its_work_the_energys(biped):
+    """With all three impulses nonzero (push-off before the reset; heel-strike and the
+    torque's impulse together after it): the NLP's event map (CasADi, vsw.powered's
+    _event_map) and the open-loop step's (numpy, _apply_impulses) give the same state and
+    works, and the works sum to the walker's energy change over the event (the reset moves
+    the chart, not the hip)."""
+    import casadi as ca
+
+    from vsw.powered import _apply_impulses, _Constraints, _event_map, _Unknowns
+
+    (event,) = biped.events
+    p, x, iota = ca.MX.sym("p", 5), ca.MX.sym("x", 4), ca.MX.sym("iota", 3)
+    unknowns = _Unknowns([], [], [], [], [], [], [iota], [ca.MX.sym("s", 0)])
+    after, _priced, plus, minus = _event_map(biped, event, p, x, unknowns, _Constraints())
+    works = [plus[k] + minus[k] for k in plus]
+    mapped = ca.Function("event", [p, x, iota], [after, ca.vertcat(*works)])
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        params = (*rng.uniform(0.5, 2.0, 3), rng.uniform(0.3, 1.0), 0.2)
+        state = np.array([params[3] / 2, rng.uniform(0.5, 1.0), *rng.uniform(-1, 1, 2)])
+        impulses = rng.uniform(0.05, 1.0, 3)
+        ours, our_works = _apply_impulses(biped, event, np.array(params), state, impulses)
+        theirs, their_works = (np.array(v, float).reshape(-1)
+                               for v in mapped(params, state, impulses))  # fmt: skip
+        assert np.allclose(ours, theirs, rtol=1e-13, atol=1e-14)
+        assert np.allclose(our_works, their_works, rtol=1e-12, atol=1e-14)
+        change = biped.energy("stance", params, ours) - biped.energy("stance", params, state)
+        assert np.sum(our_works) == pytest.approx(change, rel=1e-11, abs=1e-13)

@@ -70,6 +70,10 @@ RESIMULATION_AGREES = 1e-6
 """The re-simulated phases end within this of their last knots (relative to max(1, |x|))."""
 MESH_AGREES = 1e-4
 """The cost changes by at most this (relative) from N to 2N intervals a phase."""
+FAILURE_MARGIN = 1e-6
+"""A failure's guard counts in the re-simulation once this far past zero (in the guard's
+unit): an optimum that rides a constraint (a leg at its full length) crosses it by
+rounding."""
 COST_ZERO = 1e-9
 """Or by at most this (absolute): a cost that is zero to IPOPT's tolerance on both meshes
 (a passive gait that meets the targets needs no input)."""
@@ -88,7 +92,8 @@ class Request:
     nodes: int = 20
     use: tuple[str, ...] = ()
     """The inputs and impulses the gait may use, by name (the others held at zero); empty:
-    every one. Kuo's comparison: a push-off, or a torque on the stance leg."""
+    every one. Kuo's comparison: a push-off, or a torque on the stance leg. (``torque2``
+    holds every impulse at zero whatever this says: it does not price them.)"""
     regularization: float = 1e-7
     """Weight of the squared inputs' integral added to the ``work`` and ``cot`` costs: the
     positive work alone is flat along inputs that do no net work, where IPOPT wanders. It
@@ -97,6 +102,9 @@ class Request:
     times step length for ``work``, 1 for ``cot``), so that it weighs the same on a model
     in scaled units and one in SI units (a 70 kg point-mass biped's leg force squared is
     5e5 times the scaled one's)."""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "use", tuple(self.use))  # hashable: the NLPs are cached
 
     def check(self) -> None:
         if self.minimize not in COSTS:
@@ -253,8 +261,7 @@ def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Requ
     staged = _build(model, request)
     scale = 1.0
     if request.minimize == "work" and result.step_length is not None:
-        weight = float(model.module.weight(*params, *([0.0] * (2 * model.n))))
-        scale = weight * result.step_length
+        scale = _weight(model, params) * result.step_length
     if result.cost > COST_ZERO:  # the squared inputs' integral of the first stage
         scale /= result.cost
     final = _solve(model, params, request, staged,
@@ -828,10 +835,14 @@ def _named_cost(model: HybridModel, p: np.ndarray, request: Request, work: dict,
     positive = sum(w["positive"] for w in work.values())
     if request.minimize == "work":
         return positive
-    weight = 1.0
-    if hasattr(model.module, "weight"):
-        weight = float(model.module.weight(*p, *([0.0] * (2 * model.n))))
-    return positive / (weight * step_length)
+    return positive / (_weight(model, p) * step_length)
+
+
+def _weight(model: HybridModel, params: Sequence[float]) -> float:
+    """The walker's weight (1 for a model whose package has no ``weight``)."""
+    if not hasattr(model.module, "weight"):
+        return 1.0
+    return float(model.module.weight(*params, *([0.0] * (2 * model.n))))
 
 
 def _resimulate(
@@ -896,7 +907,7 @@ def _watchers(model: HybridModel, phase: str, event: dict, p: np.ndarray, contro
     for (name, _, direction), (margin, _) in zip(failures, _margin_functions(model, phase)):
         # A failure's guard at zero along an arc (a leg at its full length: the optimum
         # rides the constraint) crosses it by rounding: past zero by this much it counts.
-        shift = direction * RESIMULATION_AGREES
+        shift = direction * FAILURE_MARGIN
 
         def failing(t: float, x: np.ndarray, margin=margin, shift=shift) -> float:
             return float(margin(p, x, control(t))) - shift

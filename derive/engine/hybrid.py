@@ -1144,13 +1144,15 @@ def _impulse_quantities(model: Model, event: Event, args: tuple) -> tuple[list, 
         except ValueError as exc:
             raise ValueError(f"event {event.name}: {exc}") from None
         for quantity in _input_quantities(model, stand_in, dyn, args):
-            if quantity.name.endswith("_input_gains") and "reaction" not in quantity.name:
+            # The ground reaction's impulsive share is not derived: an impulse's foot
+            # contact is not checked (docs/models/powered_walking.md).
+            if quantity.name == f"{phase.name}_input_gains":
                 quantities.append(dataclasses.replace(
                     quantity, name=f"event_{event.name}_impulse_gains_{side}",
                     summary=f"d(rate)/d(impulse) of the impulses applied {side} the reset "
                     f"of {event.name} (in phase {phase.name}'s chart): the rates jump by these "
                     "times the impulses, the coordinates do not move."))  # fmt: skip
-            elif quantity.name.endswith("_input_rates"):
+            elif quantity.name == f"{phase.name}_input_rates":
                 quantities.append(dataclasses.replace(
                     quantity, name=f"event_{event.name}_impulse_rates_{side}",
                     summary=f"Rate of what each impulse applied {side} the reset of "

@@ -44,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
             out.write("\n")
         units = m["units"]
         out.write(f"{m['name']}: {m['title']}\n  {m['description']}\n")
-        out.write("  units: " + ", ".join(f"{k} {v}" for k, v in units.items()) + "\n")
+        out.write("  units: " + ", ".join(f"{k} {v}" for k, v in units.items() if v) + "\n")
         out.write("  parameters (--param NAME=VALUE, angles in rad or NAME=45deg; defaults "
                   "apply to any not given):\n")  # fmt: skip
         out.write(f"    {'name':<10} {'default':>10} {'unit':<7} {'open interval':<22} meaning\n")

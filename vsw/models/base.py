@@ -137,8 +137,11 @@ class Model(HybridModel):
         # Rates are in their coordinate's unit per time: one unit when the coordinates
         # share it (angles: rad), else each rate's own (the state lists them).
         kinds = {s["unit"] for s in self.spec["state"] if s["kind"] == "coordinate"}
-        unit = kinds.pop() if len(kinds) == 1 else "the coordinate's unit"
-        units["rate"] = f"{unit}/{time}" if time else unit
+        if len(kinds) == 1:
+            unit = kinds.pop()
+            units["rate"] = f"{unit}/{time}" if time else unit
+        else:
+            units["rate"] = None
         return {
             "name": self.cli_name,
             "title": self.title,

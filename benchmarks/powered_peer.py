@@ -1,0 +1,160 @@
+"""The route a user would write without ``vsw optimize``: single shooting with SciPy's SLSQP
+on the simulated step (benchmark case 16, issue 28).
+
+The problem is the point-mass biped's least-work gait on level ground with Srinivasan &
+Ruina's actuators (``vsw optimize --model point-mass-biped --minimize work --target-speed V
+--use leg_force --use push_off --use heel_strike``): the unknowns are the state just after
+the step (its height and rates: the section fixes ``x = -d / 2``), the leg force at
+``KNOTS`` equally spaced times of the step (linear between them, the step's duration
+``d / V`` set by the target), and the push-off and heel-strike impulses. The step is
+simulated (SciPy's DOP853, 1e-10) with the generated accelerations and input gains; the
+constraints are the step event at the end (``x = d / 2``), periodicity through the
+generated impulse gains and reset, the leg at most ``l`` and ``F, impulses >= 0``; the cost
+is the positive work (the leg force's power's positive part on a fine grid of the dense
+output, the impulses' work). SLSQP's gradients are finite differences, as a user's would
+be. Its start is better than the collocation's (the leg at full length, the inverted
+pendulum's speed, the weight as the force): a kindness to the peer.
+
+``python benchmarks/powered_peer.py [V]`` runs both once, side by side, and prints their
+costs and times (not yet a case of benchmarks/run.py: docs/models/powered_walking.md).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.optimize import minimize
+
+import generated.point_mass_biped as pmb
+from vsw.models import load
+from vsw.powered import Request, optimize
+
+KNOTS = 12
+SAMPLES = 400
+"""Points of the dense output the leg force's positive work and the leg length are taken on."""
+
+
+@dataclass
+class ShootingResult:
+    cost: float
+    success: bool
+    message: str
+    iterations: int
+    evaluations: int
+    seconds: float
+
+
+def _step(params: tuple[float, ...], z: np.ndarray, duration: float):
+    """The simulated step from the unknowns: the dense solution and the force schedule."""
+    d = params[3]
+    y0, xd0, yd0 = z[:3]
+    forces = z[3 : 3 + KNOTS]
+    times = np.linspace(0.0, duration, KNOTS)
+
+    def rhs(t: float, s: np.ndarray) -> np.ndarray:
+        force = np.interp(t, times, forces)
+        acc = np.array(pmb.stance_accelerations(*params, *s), dtype=float)
+        gains = np.array(pmb.stance_input_gains(*params, *s), dtype=float).reshape(2, 2)
+        return np.array([s[2], s[3], *(acc + gains[:, 0] * force)])
+
+    start = np.array([-d / 2, y0, xd0, yd0])
+    solution = solve_ivp(rhs, (0.0, duration), start, method="DOP853", rtol=1e-10,
+                         atol=1e-10, dense_output=True)  # fmt: skip
+    return solution, times, forces, start
+
+
+def _after_step(params: tuple[float, ...], end: np.ndarray, push: float,
+                heel: float) -> tuple[np.ndarray, float]:  # fmt: skip
+    """The state after the push-off, the reset and the heel-strike, and the push-off's work."""
+
+    def leg_rate(s: np.ndarray) -> float:
+        return float(pmb.event_heelstrike_impulse_rates_before(*params, *s)[0])
+
+    gains = np.array(pmb.event_heelstrike_impulse_gains_before(*params, *end), dtype=float)
+    pushed = end.copy()
+    pushed[2:] += gains * push
+    work = push * (leg_rate(end) + leg_rate(pushed)) / 2
+    after = np.array(pmb.event_heelstrike_reset(*params, *pushed), dtype=float)
+    gains = np.array(pmb.event_heelstrike_impulse_gains_after(*params, *after), dtype=float)
+    after[2:] += gains.reshape(2, -1)[:, 0] * heel
+    return after, work
+
+
+def least_work_by_shooting(speed: float, params: tuple[float, ...],
+                           maxiter: int = 300) -> ShootingResult:  # fmt: skip
+    """SLSQP on the simulated step (module docstring)."""
+    m, g, l, d, _shortest = params
+    duration = d / speed
+    grid = np.linspace(0.0, duration, SAMPLES)
+    cache: dict[bytes, tuple] = {}
+
+    def evaluate(z: np.ndarray) -> tuple:
+        key = z.tobytes()
+        if key not in cache:
+            solution, times, forces, start = _step(params, z, duration)
+            states = solution.sol(grid)
+            legs = np.hypot(states[0], states[1])
+            rates = (states[0] * states[2] + states[1] * states[3]) / legs
+            power = np.interp(grid, times, forces) * rates
+            work = np.trapezoid(np.maximum(power, 0.0), grid)
+            end = solution.y[:, -1]
+            after, push_work = _after_step(params, end, z[-2], z[-1])
+            cache.clear()
+            cache[key] = (work + max(push_work, 0.0), end, after, start, legs)
+        return cache[key]
+
+    def cost(z: np.ndarray) -> float:
+        return evaluate(z)[0]
+
+    def equalities(z: np.ndarray) -> np.ndarray:
+        _, end, after, start, _ = evaluate(z)
+        return np.array([end[0] - d / 2, *(after[1:] - start[1:])])
+
+    def inequalities(z: np.ndarray) -> np.ndarray:
+        return l - evaluate(z)[4][::8]
+
+    alpha = math.asin(d / (2 * l))
+    guess = np.concatenate([[l * math.cos(alpha), speed, 0.0], np.full(KNOTS, m * g),
+                            [0.1, 0.1]])  # fmt: skip
+    bounds = [(0.3 * l, l), (0.0, None), (None, None), *([(0.0, None)] * KNOTS),
+              (0.0, None), (0.0, None)]  # fmt: skip
+    began = time.perf_counter()
+    result = minimize(cost, guess, method="SLSQP", bounds=bounds,
+                      constraints=[{"type": "eq", "fun": equalities},
+                                   {"type": "ineq", "fun": inequalities}],
+                      options={"maxiter": maxiter, "ftol": 1e-10})  # fmt: skip
+    seconds = time.perf_counter() - began
+    violation = float(np.max(np.abs(equalities(result.x))))
+    held = violation <= 1e-6 and float(np.min(inequalities(result.x))) >= -1e-6
+    return ShootingResult(
+        float(result.fun),
+        bool(result.success and held),
+        f"{result.message} (equalities held to {violation:.1g})",
+        int(result.nit),
+        int(result.nfev),
+        seconds,
+    )
+
+
+def main(speed: float = 0.4) -> None:
+    model = load("point_mass_biped")
+    params = model.parameters()
+    began = time.perf_counter()
+    request = Request("work", target_speed=speed, use=("leg_force", "push_off", "heel_strike"))
+    gait = optimize(model, params, request)
+    print(f"collocation: {gait.status}, work {gait.cost:.6g} a step, "
+          f"{time.perf_counter() - began:.1f} s")  # fmt: skip
+    peer = least_work_by_shooting(speed, params)
+    print(f"SLSQP single shooting: {'converged' if peer.success else 'not converged'} "
+          f"({peer.message}), work {peer.cost:.6g}, {peer.iterations} iterations, "
+          f"{peer.evaluations} evaluations, {peer.seconds:.1f} s")  # fmt: skip
+
+
+if __name__ == "__main__":
+    import sys
+
+    main(*(float(a) for a in sys.argv[1:2]))
