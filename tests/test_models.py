@@ -35,6 +35,7 @@ import pytest
 import generated
 from derive.__main__ import main as derive_main
 from derive.__main__ import stale_report, write_atomically
+from tests.conftest import passive_keys
 from vsw.gaits import search
 from vsw.hybrid import HybridModel
 from vsw.ledger import energy_ledger
@@ -174,12 +175,8 @@ def walking_states(m: HybridModel) -> list[tuple[tuple[float, ...], np.ndarray]]
 def test_every_model_walks_at_its_defaults():
     """The defaults of every engine model give at least one period-one gait (the other
     tests simulate from them)."""
-    engines = [
-        n
-        for n in MODELS
-        if hasattr(importlib.import_module(f"generated.{n}"), "HYBRID")
-        and not importlib.import_module(f"generated.{n}").HYBRID.get("powered_only")
-    ]
+    engines = [n for n in passive_keys() if hasattr(importlib.import_module(f"generated.{n}"),
+                                                     "HYBRID")]  # fmt: skip
     assert engines, "no engine model is generated"
     for name in engines:
         m = load(name)
