@@ -121,6 +121,56 @@ def _without_null_checks(code: str) -> str:
     return re.sub(r"if \(res\[(\d+)\]!=0\) (res\[\1\]\[\d+\]=)", r"\2", code)
 
 
+_LANE_CALLS = {"sin": "vsw_lanes_sin", "cos": "vsw_lanes_cos", "sqrt": "vsw_lanes_sqrt",
+               "casadi_sq": "vsw_lanes_sq"}  # fmt: skip
+"""CasADi's calls in the table's functions and their lane-wise twins (vsw/csrc/lanes.h)."""
+
+
+def _casadi_bodies(code: str) -> dict[str, tuple[str, list[str]]]:
+    """Each CasADi function of ``code`` by its name: its internal C name and its body's
+    lines (declarations, assignments, results)."""
+    found = {}
+    pattern = re.compile(r"/\* (\w+):\(.*?\*/\nstatic int (casadi_f\d+)\(.*?\) \{\n(.*?)\n\}",
+                         re.S)  # fmt: skip
+    for name, internal, body in pattern.findall(code):
+        found[name] = internal, body.splitlines()
+    return found
+
+
+def lane_function(name: str, lines: list[str]) -> str:
+    """One of CasADi's functions of (c, x) rewritten over lanes of walks (vsw/csrc/lanes.h):
+    the same operations in the same order on each lane, so each lane's result is the
+    scalar function's bit for bit (IEEE addition, multiplication, division and square root
+    are exact in vector registers too, contraction is off, and sin and cos are libm's on
+    each lane). CasADi's body has three kinds of line only (asserted): declarations,
+    assignments of one operation, and results."""
+    out = []
+    for line in lines:
+        line = line.strip()
+        if line == "return 0;":
+            continue
+        if line.startswith("casadi_real "):
+            out.append("    vsw_lanes " + line[len("casadi_real "):])
+            continue
+        if not re.fullmatch(r"(a\d+|res\[0\]\[\d+\])=[^;]+;", line):
+            raise ValueError(f"{name}: a line the lanes cannot take: {line}")
+        target, value = line[:-1].split("=", 1)
+        value = value.replace("arg[0][", "c[").replace("arg[1][", "x[")
+        target = target.replace("res[0][", "out[")
+        value = re.sub(r"\b(\w+)\(",
+                       lambda m: (_LANE_CALLS[m.group(1)] if m.group(1) in _LANE_CALLS
+                                  else _unknown_call(name, m.group(1))) + "(", value)  # fmt: skip
+        if re.fullmatch(r"-?[0-9.]+(e[-+]?\d+)?", value):
+            value = f"vsw_lanes_splat({value})"
+        out.append(f"    {target}={value};")
+    return (f"static inline void {name}_lanes(const vsw_lanes *c, const vsw_lanes *x, "
+            f"vsw_lanes *out)\n{{\n" + "\n".join(out) + "\n}")  # fmt: skip
+
+
+def _unknown_call(name: str, call: str) -> str:
+    raise ValueError(f"{name}: CasADi's {call}() has no lane-wise twin (derive/sim_codegen.py)")
+
+
 def _c_list(values) -> str:
     return ", ".join(str(v) for v in values)
 
@@ -227,6 +277,13 @@ def simulator_c_source(model: str, source: str, descriptor: dict, module: types.
             if name != "0"
         )
 
+    bodies = _casadi_bodies(casadi_code)
+    lane_functions = "\n\n".join(lane_function(name, bodies[name][1]) for name in (*flows, *watches))
+
+    def lane_cases(names: list[str]) -> str:
+        return "\n".join(f"    case {k}:\n        {name}_lanes(c, x, out);\n        return;"
+                         for k, name in enumerate(names))  # fmt: skip
+
     def padded(rows: list[list[int]]) -> str:
         return ", ".join("{" + _c_list(r + [0] * (max_watch - len(r))) + "}" for r in rows)
 
@@ -259,6 +316,9 @@ def simulator_c_source(model: str, source: str, descriptor: dict, module: types.
         sz_iw=max(f.sz_iw() for f in functions),
         sz_w=max(f.sz_w() for f in functions),
         flow_cases=cases(flows),
+        lane_functions=lane_functions,
+        lane_flow_cases=lane_cases(flows),
+        lane_watch_cases=lane_cases(watches),
         watch_cases=cases(watches),
         n_watch=_c_list(n_watch),
         directions=padded(directions),

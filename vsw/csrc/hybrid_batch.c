@@ -138,39 +138,88 @@ static double vsw_rms(const double *x, const double *scale)
     return sqrt(s / VSW_NX);
 }
 
-/* One DOP853 step of size h from y (f0 = f(y)); K[0..12] the stages and f(y_new). */
-static void vsw_rk_step(int phase, const double *p, const double *y, const double *f0, double h,
-                        double K[VSW_RK_ALL][VSW_NX], double *y_new)
+/* Lane l's phase is phase[l]; the lanes in `live` (a bit each) count. The table's flow (or
+   guards) of each phase a live lane is in, on every lane, kept where it belongs. */
+static inline void vsw_lanes_dispatch(const int *phase, int live, const vsw_lanes *c,
+                                      const vsw_lanes *x, vsw_lanes *out, int n_out,
+                                      int guards)
 {
-    double acc[VSW_NX];
-    memcpy(K[0], f0, sizeof(double) * VSW_NX);
+#ifdef VSW_COUNT_CALLS
+    for (int l = 0; l < VSW_LANES; ++l)
+        if ((live >> l) & 1) ++(guards ? vsw_watch_calls : vsw_flow_calls)[phase[l]];
+#else
+    (void)live;
+#endif
+    int same = 1;
+    for (int l = 1; l < VSW_LANES; ++l) same &= phase[l] == phase[0];
+    if (same || VSW_NPHASES == 1) {
+        if (guards)
+            vsw_lanes_watch(phase[0], c, x, out);
+        else
+            vsw_lanes_flow(phase[0], c, x, out);
+        return;
+    }
+    vsw_lanes part[VSW_NX > VSW_MAX_WATCH ? VSW_NX : VSW_MAX_WATCH];
+    for (int ph = 0; ph < VSW_NPHASES; ++ph) {
+        vsw_lane_mask mask;
+        int any = 0;
+        for (int l = 0; l < VSW_LANES; ++l) {
+            mask[l] = phase[l] == ph ? -1 : 0;
+            any |= phase[l] == ph;
+        }
+        if (!any) continue;
+        if (guards)
+            vsw_lanes_watch(ph, c, x, part);
+        else
+            vsw_lanes_flow(ph, c, x, part);
+        for (int i = 0; i < n_out; ++i) out[i] = vsw_lanes_select(mask, part[i], out[i]);
+    }
+}
+
+static inline void vsw_lanes_flow_in(const int *phase, int live, const vsw_lanes *c,
+                                     const vsw_lanes *x, vsw_lanes *out)
+{
+    vsw_lanes_dispatch(phase, live, c, x, out, VSW_NX, 0);
+}
+
+static inline void vsw_lanes_watch_in(const int *phase, int live, const vsw_lanes *c,
+                                      const vsw_lanes *x, vsw_lanes *out)
+{
+    vsw_lanes_dispatch(phase, live, c, x, out, VSW_MAX_WATCH, 1);
+}
+
+/* One DOP853 step of size h[l] from y (f0 = f(y)) on every lane: the stages and f(y_new) in
+   K[0..12], y_new, and SciPy's error norm of the step
+   (scipy.integrate._ivp.rk.DOP853._estimate_error_norm) in *err. Lane l is in phase
+   phase[l]; `live` lanes count (the others hold copies of a live lane's values). */
+static void vsw_lanes_rk_step(const int *phase, int live, const vsw_lanes *c, const vsw_lanes *y,
+                              const vsw_lanes *f0, vsw_lanes h, const vsw_tolerances *tol,
+                              vsw_lanes K[VSW_RK_ALL][VSW_NX], vsw_lanes *y_new, vsw_lanes *err)
+{
+    vsw_lanes acc[VSW_NX];
+    for (int i = 0; i < VSW_NX; ++i) K[0][i] = f0[i];
     /* Unrolled, the coefficients are constants and the zero ones (a quarter of the table)
-       drop out: the same sums in the same order for finite stages. (GCC 12 keeps these
-       sums scalar; a hand-vectorised version was slower: a store-to-load stall a stage.) */
+       drop out: the same sums in the same order as the scalar code, on every lane. */
 #pragma GCC unroll 16
     for (int s = 1; s < VSW_RK_STAGES; ++s) {
-        for (int i = 0; i < VSW_NX; ++i) acc[i] = 0.0;
+        for (int i = 0; i < VSW_NX; ++i) acc[i] = vsw_lanes_splat(0.0);
 #pragma GCC unroll 16
         for (int j = 0; j < s; ++j)
             if (vsw_rk_a[s][j] != 0.0)
                 for (int i = 0; i < VSW_NX; ++i) acc[i] += K[j][i] * vsw_rk_a[s][j];
         for (int i = 0; i < VSW_NX; ++i) acc[i] = y[i] + acc[i] * h;
-        VSW_FLOW(phase, p, acc, K[s]);
+        vsw_lanes_flow_in(phase, live, c, acc, K[s]);
     }
-    for (int i = 0; i < VSW_NX; ++i) acc[i] = 0.0;
+    for (int i = 0; i < VSW_NX; ++i) acc[i] = vsw_lanes_splat(0.0);
 #pragma GCC unroll 16
     for (int j = 0; j < VSW_RK_STAGES; ++j)
         if (vsw_rk_b[j] != 0.0)
             for (int i = 0; i < VSW_NX; ++i) acc[i] += K[j][i] * vsw_rk_b[j];
     for (int i = 0; i < VSW_NX; ++i) y_new[i] = y[i] + h * acc[i];
-    VSW_FLOW(phase, p, y_new, K[VSW_RK_STAGES]);
-}
+    vsw_lanes_flow_in(phase, live, c, y_new, K[VSW_RK_STAGES]);
 
-/* SciPy's error norm of DOP853 (scipy.integrate._ivp.rk.DOP853._estimate_error_norm). */
-static double vsw_error_norm(double K[VSW_RK_ALL][VSW_NX], double h, const double *scale)
-{
-    double a5[VSW_NX], a3[VSW_NX], e5 = 0.0, e3 = 0.0;
-    for (int i = 0; i < VSW_NX; ++i) a5[i] = a3[i] = 0.0;
+    vsw_lanes a5[VSW_NX], a3[VSW_NX], e5 = vsw_lanes_splat(0.0), e3 = vsw_lanes_splat(0.0);
+    for (int i = 0; i < VSW_NX; ++i) a5[i] = a3[i] = vsw_lanes_splat(0.0);
 #pragma GCC unroll 16
     for (int j = 0; j <= VSW_RK_STAGES; ++j) {
         if (vsw_rk_e5[j] != 0.0)
@@ -179,13 +228,15 @@ static double vsw_error_norm(double K[VSW_RK_ALL][VSW_NX], double h, const doubl
             for (int i = 0; i < VSW_NX; ++i) a3[i] += K[j][i] * vsw_rk_e3[j];
     }
     for (int i = 0; i < VSW_NX; ++i) {
-        const double r5 = a5[i] / scale[i], r3 = a3[i] / scale[i];
+        const vsw_lanes scale =
+            tol->atol + vsw_lanes_fmax(vsw_lanes_fabs(y[i]), vsw_lanes_fabs(y_new[i])) * tol->rtol;
+        const vsw_lanes r5 = a5[i] / scale, r3 = a3[i] / scale;
         e5 += r5 * r5;
         e3 += r3 * r3;
     }
-    if (e5 == 0.0 && e3 == 0.0) return 0.0;
-    double denom = e5 + 0.01 * e3;
-    return fabs(h) * e5 / sqrt(denom * VSW_NX);
+    const vsw_lanes denom = e5 + 0.01 * e3;
+    const vsw_lanes norm = vsw_lanes_fabs(h) * e5 / vsw_lanes_sqrt(denom * (double)VSW_NX);
+    *err = vsw_lanes_select((e5 == 0.0) & (e3 == 0.0), vsw_lanes_splat(0.0), norm);
 }
 
 /* SciPy's select_initial_step for an 8th-order method (error estimator order 7). */
@@ -303,146 +354,6 @@ static double vsw_locate(int phase, const double *p, const double F[7][VSW_NX],
     return b;
 }
 
-/* Integrate phase `phase` from y (time 0) to its first counting event or failure.
-   Returns the watched index hit (>= 0) or -1 when the phase stalled; *t the phase time. */
-static int vsw_run_phase(int phase, const double *p, double *y, double *t,
-                         const vsw_tolerances *tol)
-{
-    double g0[VSW_MAX_WATCH], g1[VSW_MAX_WATCH], f0[VSW_NX], y_new[VSW_NX], scale[VSW_NX];
-    double K[VSW_RK_ALL][VSW_NX], F[7][VSW_NX];
-    const int n_watch = vsw_n_watch[phase];
-    VSW_WATCH(phase, p, y, g0);
-    for (int k = 0; k < n_watch; ++k) /* a failure already past at the start */
-        if (vsw_watch_what[phase][k] < 0 && g0[k] * vsw_watch_direction[phase][k] > 0.0) {
-            *t = 0.0;
-            return k;
-        }
-    double time = 0.0;
-    for (int restart = 0; restart < VSW_RESTARTS; ++restart) {
-        VSW_FLOW(phase, p, y, f0);
-        double h = vsw_initial_step(phase, p, y, f0, tol);
-        int rejected = 0;
-        long steps = 0;
-        int skipped = 0;
-        while (!skipped) {
-            /* SciPy's RungeKutta._step_impl: at least 10 ulps of the time, then shrink on
-               every rejection until accepted or below that. */
-            if (time >= tol->phase_time_limit || ++steps > VSW_MAX_RK_STEPS
-                || vsw_stop_requested) {
-                *t = time;
-                return -1;
-            }
-            const double min_step = 10.0 * (nextafter(time, INFINITY) - time);
-            if (h < min_step) h = min_step;
-            double factor;
-            for (;;) {
-                if (h < min_step) {
-                    *t = time;
-                    return -1;
-                }
-                if (h > tol->phase_time_limit - time) h = tol->phase_time_limit - time;
-                vsw_rk_step(phase, p, y, f0, h, K, y_new);
-                for (int i = 0; i < VSW_NX; ++i)
-                    scale[i] = tol->atol + vsw_fmax(fabs(y[i]), fabs(y_new[i])) * tol->rtol;
-                const double err = vsw_error_norm(K, h, scale);
-                if (err < 1.0) {
-                    factor = err == 0.0 ? 10.0 : vsw_fmin(10.0, 0.9 * pow(err, -1.0 / 8.0));
-                    if (rejected) factor = vsw_fmin(1.0, factor);
-                    rejected = 0;
-                    break;
-                }
-                /* NaN or inf as SciPy's max(0.2, ...): fmax ignores a NaN, pow(inf) is 0 */
-                h *= vsw_fmax(0.2, 0.9 * pow(err, -1.0 / 8.0));
-                rejected = 1;
-            }
-            VSW_WATCH(phase, p, y_new, g1);
-            double first = INFINITY, y_first[VSW_NX], y_k[VSW_NX];
-            int hit = -1, dense = 0;
-            for (int k = 0; k < n_watch; ++k) {
-                const int direction = vsw_watch_direction[phase][k];
-                if (direction == 2 || direction == -2) continue; /* checked at the start only */
-                if (!vsw_crossed(g0[k], g1[k], direction)) continue;
-                if (!dense) {
-                    vsw_dense(phase, p, y, y_new, h, K, F);
-                    dense = 1;
-                }
-                double s = vsw_locate(phase, p, F, y, y_new, h, k, g0[k], g1[k], y_k);
-                if (s < first) {
-                    first = s;
-                    hit = k;
-                    memcpy(y_first, y_k, sizeof(double) * VSW_NX);
-                }
-            }
-            if (hit >= 0) {
-                int what = vsw_watch_what[phase][hit];
-                time += first;
-                memcpy(y, y_first, sizeof(double) * VSW_NX);
-                double when;
-                if (what >= 0 && vsw_when(what, p, y, &when)) {
-                    if (when <= 0.0) { /* not this one: go on just past it (NaN counts) */
-                        double f[VSW_NX];
-                        VSW_FLOW(phase, p, y, f);
-                        for (int i = 0; i < VSW_NX; ++i) y[i] += 1e-9 * f[i];
-                        time += 1e-9;
-                        VSW_WATCH(phase, p, y, g0);
-                        skipped = 1;
-                        continue;
-                    }
-                }
-                *t = time;
-                return hit;
-            }
-            time += h;
-            memcpy(y, y_new, sizeof(double) * VSW_NX);
-            memcpy(f0, K[VSW_RK_STAGES], sizeof(double) * VSW_NX);
-            memcpy(g0, g1, sizeof(double) * VSW_MAX_WATCH);
-            h *= factor;
-        }
-    }
-    *t = time;
-    return -1;
-}
-
-/* One step of the Poincare map from the section state x, replaced by the next one when the
-   step completes (VSW_WALKED) and kept as it was when the walk falls (VSW_FELL, *failure
-   set) or stalls (VSW_STALLED); *duration and *length of the step. `visits` (NULL in the
-   batch's walks): each phase visit's duration, in order, and *visits their number. */
-static int vsw_step(const double *p, double *x, double *duration, double *length, int *failure,
-                    const vsw_tolerances *tol, double *visit_durations, int *visits)
-{
-    int phase = VSW_START_PHASE;
-    double y[VSW_NX];
-    memcpy(y, x, sizeof(double) * VSW_NX);
-    *duration = 0.0;
-    *length = NAN;
-    for (int visit = 0; visit <= VSW_NPHASES; ++visit) {
-        double t = 0.0;
-        int hit = vsw_run_phase(phase, p, y, &t, tol);
-        *duration += t;
-        if (visits) {
-            visit_durations[visit] = t;
-            *visits = visit + 1;
-        }
-        if (hit < 0) return VSW_STALLED;
-        int what = vsw_watch_what[phase][hit];
-        if (what < 0) {
-            *failure = -1 - what;
-            return VSW_FELL;
-        }
-        if (vsw_event_ends_step[what]) vsw_step_length(p, y, length);
-        double y_new[VSW_NX];
-        vsw_reset(what, p, y, y_new);
-        memcpy(y, y_new, sizeof(double) * VSW_NX);
-        if (!vsw_finite(y)) return VSW_STALLED;
-        if (vsw_event_ends_step[what]) {
-            memcpy(x, y, sizeof(double) * VSW_NX);
-            return VSW_WALKED;
-        }
-        phase = vsw_event_target[what];
-    }
-    return VSW_STALLED;
-}
-
 static double vsw_distance(const double *a, const double *b)
 {
     double d = 0.0;
@@ -460,6 +371,354 @@ static double vsw_scale(const double *a)
 #define VSW_MAX_PERIOD 64
 #define VSW_APART 100.0 /* a period-k cycle's points: more than this x the tolerance apart */
 
+/* What a lane's phase code says after each of its moves: an RK step to take (VSW_READY),
+   the phase stalled (VSW_PHASE_STALLED) or its watched guard k ended it (k >= 0). */
+#define VSW_READY (-2)
+#define VSW_PHASE_STALLED (-1)
+
+/* One walk in a lane: what SciPy's route keeps between two RK steps (its integrator's
+   step size, the phase's time and the guards at the current state), and the walk's
+   bookkeeping. The integrator's rules are those of vsw.hybrid.HybridModel.step, in the
+   order the scalar integrator applied them (SciPy's RungeKutta._step_impl: the step at
+   least 10 ulps of the time, shrunk on every rejection until accepted or below that). */
+typedef struct {
+    long long walk; /* its index in the batch; -1: the lane is empty */
+    int phase, visit, restart, rejected;
+    long steps; /* RK steps in this restart */
+    double time, h, min_step, duration, length;
+    double y[VSW_NX], f0[VSW_NX], g0[VSW_MAX_WATCH];
+    double x[VSW_NX]; /* the section state the step started from */
+    double constants[VSW_NC > 0 ? VSW_NC : 1];
+    long long walked;
+    double history[VSW_MAX_PERIOD][VSW_NX];
+    double target_scale;
+} vsw_lane;
+
+/* The batch: its inputs, outputs and the next walk to start (see vsw_batch_simulate). */
+typedef struct {
+    long long n, params_stride, max_steps, max_period, keep, next;
+    const double *params, *states, *target;
+    vsw_tolerances tol;
+    double conv_tol, period_tol;
+    int *outcome, *aux;
+    long long *steps;
+    double *final, *kept_states, *kept_lengths, *kept_durations;
+    double *visit_durations; /* each phase visit's duration of walk 0's first step, or NULL */
+    int *visits;
+} vsw_batch;
+
+/* Before SciPy's `while` loop's next pass: stalled past the phase time limit, the RK
+   steps' limit or a stop; else the step size at least 10 ulps of the time. */
+static int vsw_lane_top(const vsw_tolerances *tol, vsw_lane *ln)
+{
+    if (ln->time >= tol->phase_time_limit || ++ln->steps > VSW_MAX_RK_STEPS
+        || vsw_stop_requested)
+        return VSW_PHASE_STALLED;
+    ln->min_step = 10.0 * (nextafter(ln->time, INFINITY) - ln->time);
+    if (ln->h < ln->min_step) ln->h = ln->min_step;
+    return VSW_READY;
+}
+
+/* Before each RK step of the pass (the first, and again after each rejection). */
+static int vsw_lane_try(const vsw_tolerances *tol, vsw_lane *ln)
+{
+    if (ln->h < ln->min_step) return VSW_PHASE_STALLED;
+    if (ln->h > tol->phase_time_limit - ln->time) ln->h = tol->phase_time_limit - ln->time;
+    return VSW_READY;
+}
+
+/* A fresh start of the integrator at the lane's state: f, SciPy's initial step. */
+static int vsw_lane_restart(const vsw_tolerances *tol, vsw_lane *ln)
+{
+    VSW_FLOW(ln->phase, ln->constants, ln->y, ln->f0);
+    ln->h = vsw_initial_step(ln->phase, ln->constants, ln->y, ln->f0, tol);
+    ln->rejected = 0;
+    ln->steps = 0;
+    int code = vsw_lane_top(tol, ln);
+    return code == VSW_READY ? vsw_lane_try(tol, ln) : code;
+}
+
+/* The start of the lane's phase at its state: a failure already past there ends it. */
+static int vsw_lane_phase_start(const vsw_tolerances *tol, vsw_lane *ln)
+{
+    VSW_WATCH(ln->phase, ln->constants, ln->y, ln->g0);
+    ln->time = 0.0;
+    ln->restart = 0;
+    for (int k = 0; k < vsw_n_watch[ln->phase]; ++k)
+        if (vsw_watch_what[ln->phase][k] < 0
+            && ln->g0[k] * vsw_watch_direction[ln->phase][k] > 0.0)
+            return k;
+    return vsw_lane_restart(tol, ln);
+}
+
+/* Lane l's RK step is done: err its error norm, K (every lane's stages; lane l's taken
+   when an event needs the dense output), y_new and the guards g1 there. Accepted, the step
+   either meets a counting event or failure (its watched index; the state there) or moves
+   the lane on. */
+static int vsw_lane_stepped(const vsw_tolerances *tol, vsw_lane *ln, int l, double err,
+                            vsw_lanes K[VSW_RK_ALL][VSW_NX], const double *y_new, const double *g1)
+{
+    if (!(err < 1.0)) {
+        /* NaN or inf as SciPy's max(0.2, ...): fmax ignores a NaN, pow(inf) is 0 */
+        ln->h *= vsw_fmax(0.2, 0.9 * pow(err, -1.0 / 8.0));
+        ln->rejected = 1;
+        return vsw_lane_try(tol, ln);
+    }
+    double factor = err == 0.0 ? 10.0 : vsw_fmin(10.0, 0.9 * pow(err, -1.0 / 8.0));
+    if (ln->rejected) factor = vsw_fmin(1.0, factor);
+    ln->rejected = 0;
+    const int phase = ln->phase, n_watch = vsw_n_watch[phase];
+    const double *p = ln->constants;
+    double first = INFINITY, y_first[VSW_NX], y_k[VSW_NX];
+    double Kl[VSW_RK_ALL][VSW_NX], F[7][VSW_NX];
+    int hit = -1, dense = 0;
+    for (int k = 0; k < n_watch; ++k) {
+        const int direction = vsw_watch_direction[phase][k];
+        if (direction == 2 || direction == -2) continue; /* checked at the start only */
+        if (!vsw_crossed(ln->g0[k], g1[k], direction)) continue;
+        if (!dense) {
+            for (int j = 0; j <= VSW_RK_STAGES; ++j)
+                for (int i = 0; i < VSW_NX; ++i) Kl[j][i] = K[j][i][l];
+            vsw_dense(phase, p, ln->y, y_new, ln->h, Kl, F);
+            dense = 1;
+        }
+        double s = vsw_locate(phase, p, F, ln->y, y_new, ln->h, k, ln->g0[k], g1[k], y_k);
+        if (s < first) {
+            first = s;
+            hit = k;
+            memcpy(y_first, y_k, sizeof(double) * VSW_NX);
+        }
+    }
+    if (hit >= 0) {
+        const int what = vsw_watch_what[phase][hit];
+        ln->time += first;
+        memcpy(ln->y, y_first, sizeof(double) * VSW_NX);
+        double when;
+        if (what >= 0 && vsw_when(what, p, ln->y, &when) && when <= 0.0) {
+            /* not this one: go on just past it (NaN counts), with a fresh start */
+            double f[VSW_NX];
+            VSW_FLOW(phase, p, ln->y, f);
+            for (int i = 0; i < VSW_NX; ++i) ln->y[i] += 1e-9 * f[i];
+            ln->time += 1e-9;
+            VSW_WATCH(phase, p, ln->y, ln->g0);
+            if (++ln->restart >= VSW_RESTARTS) return VSW_PHASE_STALLED;
+            return vsw_lane_restart(tol, ln);
+        }
+        return hit;
+    }
+    ln->time += ln->h;
+    memcpy(ln->y, y_new, sizeof(double) * VSW_NX);
+    for (int i = 0; i < VSW_NX; ++i) ln->f0[i] = K[VSW_RK_STAGES][i][l];
+    memcpy(ln->g0, g1, sizeof(double) * n_watch);
+    ln->h *= factor;
+    int code = vsw_lane_top(tol, ln);
+    return code == VSW_READY ? vsw_lane_try(tol, ln) : code;
+}
+
+/* The lane's walk ends: its outputs (the kept ring unrolled: oldest first, NaN rows last). */
+static void vsw_lane_walk_end(vsw_batch *b, vsw_lane *ln, int result, int extra)
+{
+    const long long i = ln->walk, keep = b->keep, walked = ln->walked;
+    if (keep > 0 && walked > 0) {
+        long long filled = walked < keep ? walked : keep, start = walked % keep;
+        if (walked < keep) start = 0;
+        double tmp_states[VSW_NX];
+        /* rotate left by `start` with the three-reversal method */
+        long long lo[3] = {0, start, 0}, hi[3] = {start, filled, filled};
+        for (int pass = 0; pass < 3; ++pass) {
+            for (long long a = lo[pass], z = hi[pass] - 1; a < z; ++a, --z) {
+                double *sa = b->kept_states + (i * keep + a) * VSW_NX;
+                double *sz = b->kept_states + (i * keep + z) * VSW_NX;
+                memcpy(tmp_states, sa, sizeof(double) * VSW_NX);
+                memcpy(sa, sz, sizeof(double) * VSW_NX);
+                memcpy(sz, tmp_states, sizeof(double) * VSW_NX);
+                double t1 = b->kept_lengths[i * keep + a];
+                b->kept_lengths[i * keep + a] = b->kept_lengths[i * keep + z];
+                b->kept_lengths[i * keep + z] = t1;
+                t1 = b->kept_durations[i * keep + a];
+                b->kept_durations[i * keep + a] = b->kept_durations[i * keep + z];
+                b->kept_durations[i * keep + z] = t1;
+            }
+        }
+    }
+    b->outcome[i] = result;
+    b->aux[i] = extra;
+    b->steps[i] = walked;
+    memcpy(b->final + i * VSW_NX, ln->x, sizeof(double) * VSW_NX);
+    ln->walk = -1;
+}
+
+/* A step of the lane's walk begins at its section state (unless the walk is over). */
+static int vsw_lane_step_start(vsw_batch *b, vsw_lane *ln)
+{
+    if (ln->walked >= b->max_steps || vsw_stop_requested) {
+        vsw_lane_walk_end(b, ln, VSW_WALKED, 0);
+        return VSW_PHASE_STALLED;
+    }
+    if (b->max_period > 0)
+        memcpy(ln->history[ln->walked % b->max_period], ln->x, sizeof(double) * VSW_NX);
+    ln->phase = VSW_START_PHASE;
+    ln->visit = 0;
+    ln->duration = 0.0;
+    ln->length = NAN;
+    memcpy(ln->y, ln->x, sizeof(double) * VSW_NX);
+    return vsw_lane_phase_start(&b->tol, ln);
+}
+
+/* The lane's step completed at ln->y: the walk's checks (converged, periodic). */
+static int vsw_lane_step_walked(vsw_batch *b, vsw_lane *ln)
+{
+    const long long i = ln->walk, keep = b->keep;
+    memcpy(ln->x, ln->y, sizeof(double) * VSW_NX);
+    const long long walked = ++ln->walked;
+    if (keep > 0) { /* a ring of the last `keep` steps, unrolled at the walk's end */
+        long long r = (walked - 1) % keep;
+        memcpy(b->kept_states + (i * keep + r) * VSW_NX, ln->x, sizeof(double) * VSW_NX);
+        b->kept_lengths[i * keep + r] = ln->length;
+        b->kept_durations[i * keep + r] = ln->duration;
+    }
+    if (b->target && b->conv_tol > 0.0
+        && vsw_distance(ln->x, b->target) <= b->conv_tol * ln->target_scale) {
+        vsw_lane_walk_end(b, ln, VSW_CONVERGED, 0);
+        return VSW_PHASE_STALLED;
+    }
+    if (b->period_tol > 0.0 && b->max_period > 0) {
+        const double bound = b->period_tol * vsw_scale(ln->x);
+        for (long long k = b->target ? 2 : 1; k <= b->max_period && k <= walked; ++k) {
+            if (vsw_distance(ln->x, ln->history[(walked - k) % b->max_period]) > bound) continue;
+            /* a cycle's points are apart: near a fixed point every lag is small */
+            int apart = 1;
+            for (long long j = 1; j < k; ++j)
+                if (vsw_distance(ln->x, ln->history[(walked - j) % b->max_period])
+                    <= VSW_APART * bound)
+                    apart = 0;
+            if (apart) {
+                vsw_lane_walk_end(b, ln, VSW_PERIODIC, (int)k);
+                return VSW_PHASE_STALLED;
+            }
+            break;
+        }
+    }
+    return vsw_lane_step_start(b, ln);
+}
+
+/* The lane's phase ended with `code` (a watched index, or stalled): the event's reset and
+   the next phase, or the step's end. Returns the next phase's code (the walk may have
+   ended: ln->walk < 0). */
+static int vsw_lane_phase_end(vsw_batch *b, vsw_lane *ln, int code)
+{
+    ln->duration += ln->time;
+    if (b->visit_durations && ln->walk == 0 && ln->walked == 0) {
+        b->visit_durations[ln->visit] = ln->time;
+        *b->visits = ln->visit + 1;
+    }
+    if (code < 0) { /* the section state is kept as it was */
+        vsw_lane_walk_end(b, ln, VSW_STALLED, 0);
+        return VSW_PHASE_STALLED;
+    }
+    const int what = vsw_watch_what[ln->phase][code];
+    if (what < 0) {
+        vsw_lane_walk_end(b, ln, VSW_FELL, -1 - what);
+        return VSW_PHASE_STALLED;
+    }
+    if (vsw_event_ends_step[what]) vsw_step_length(ln->constants, ln->y, &ln->length);
+    double y_new[VSW_NX];
+    vsw_reset(what, ln->constants, ln->y, y_new);
+    memcpy(ln->y, y_new, sizeof(double) * VSW_NX);
+    if (!vsw_finite(ln->y)) {
+        vsw_lane_walk_end(b, ln, VSW_STALLED, 0);
+        return VSW_PHASE_STALLED;
+    }
+    if (vsw_event_ends_step[what]) return vsw_lane_step_walked(b, ln);
+    ln->phase = vsw_event_target[what];
+    if (++ln->visit > VSW_NPHASES) {
+        vsw_lane_walk_end(b, ln, VSW_STALLED, 0);
+        return VSW_PHASE_STALLED;
+    }
+    return vsw_lane_phase_start(&b->tol, ln);
+}
+
+/* The lane's next walk, until one needs an RK step (walks that end at once are written
+   on the way); the lane is empty when the batch has none left. */
+static int vsw_lane_load(vsw_batch *b, vsw_lane *ln)
+{
+    while (b->next < b->n) {
+        const long long i = b->next++;
+        ln->walk = i;
+        ln->walked = 0;
+        /* The model's functions take its constants, computed here from the parameters
+           once a walk (the table's vsw_constants). */
+        vsw_constants(b->params + i * b->params_stride, ln->constants);
+        memcpy(ln->x, b->states + i * VSW_NX, sizeof(double) * VSW_NX);
+        for (long long r = 0; r < b->keep; ++r) {
+            for (int j = 0; j < VSW_NX; ++j) b->kept_states[(i * b->keep + r) * VSW_NX + j] = NAN;
+            b->kept_lengths[i * b->keep + r] = NAN;
+            b->kept_durations[i * b->keep + r] = NAN;
+        }
+        ln->target_scale = b->target ? vsw_scale(b->target) : 1.0;
+        if (!vsw_finite(ln->x)) {
+            vsw_lane_walk_end(b, ln, VSW_STALLED, 0);
+            continue;
+        }
+        int code = vsw_lane_step_start(b, ln);
+        while (ln->walk >= 0 && code != VSW_READY) code = vsw_lane_phase_end(b, ln, code);
+        if (ln->walk >= 0) return VSW_READY;
+    }
+    ln->walk = -1;
+    return VSW_PHASE_STALLED;
+}
+
+/* The walks of the batch, VSW_LANES at a time in lockstep: every lane holding a walk takes
+   one RK step of its own size in its own phase with the others (one vector operation per
+   scalar one), then each lane alone checks the step, locates events on its dense output
+   and goes on to its next phase, step or walk. A lane's walk is the scalar integrator's,
+   whichever lane it runs in and whatever the others do. */
+static void vsw_batch_run(vsw_batch *b)
+{
+    vsw_lane lanes[VSW_LANES];
+    int live = 0;
+    for (int l = 0; l < VSW_LANES; ++l) {
+        lanes[l].walk = -1;
+        vsw_lane_load(b, &lanes[l]);
+    }
+    vsw_lanes c[VSW_NC > 0 ? VSW_NC : 1], y[VSW_NX], f0[VSW_NX], y_new[VSW_NX], h, err;
+    vsw_lanes K[VSW_RK_ALL][VSW_NX], g1[VSW_MAX_WATCH];
+    int phase[VSW_LANES];
+    for (;;) {
+        int source = -1;
+        live = 0;
+        for (int l = 0; l < VSW_LANES; ++l)
+            if (lanes[l].walk >= 0) {
+                live |= 1 << l;
+                if (source < 0) source = l;
+            }
+        if (source < 0) return;
+        /* empty lanes compute a copy of a live lane, so that every value stays tame */
+        for (int l = 0; l < VSW_LANES; ++l) {
+            const vsw_lane *ln = &lanes[(live >> l) & 1 ? l : source];
+            phase[l] = ln->phase;
+            h[l] = ln->h;
+            for (int i = 0; i < VSW_NX; ++i) {
+                y[i][l] = ln->y[i];
+                f0[i][l] = ln->f0[i];
+            }
+            for (int k = 0; k < VSW_NC; ++k) c[k][l] = ln->constants[k];
+        }
+        vsw_lanes_rk_step(phase, live, c, y, f0, h, &b->tol, K, y_new, &err);
+        vsw_lanes_watch_in(phase, live, c, y_new, g1);
+        for (int l = 0; l < VSW_LANES; ++l) {
+            vsw_lane *ln = &lanes[l];
+            if (!((live >> l) & 1)) continue;
+            double yl[VSW_NX], gl[VSW_MAX_WATCH];
+            for (int i = 0; i < VSW_NX; ++i) yl[i] = y_new[i][l];
+            for (int k = 0; k < VSW_MAX_WATCH; ++k) gl[k] = g1[k][l];
+            int code = vsw_lane_stepped(&b->tol, ln, l, err[l], K, yl, gl);
+            while (ln->walk >= 0 && code != VSW_READY) code = vsw_lane_phase_end(b, ln, code);
+            if (ln->walk < 0) vsw_lane_load(b, ln);
+        }
+    }
+}
+
 /* The batch: trajectory i starts at states[i * VSW_NX ...] with parameters
    params[i * params_stride ...] and walks up to max_steps steps.
    options: rtol, atol, phase time limit, convergence tolerance (<= 0: none), period
@@ -471,105 +730,24 @@ static double vsw_scale(const double *a)
    comes back near itself after a few steps too).
    Outputs per trajectory: outcome (VSW_*), aux (failure index or period), steps walked,
    the final section state, and the last `keep` section states with their step lengths and
-   durations (rows of a trajectory that walked fewer steps are NaN). */
+   durations (rows of a trajectory that walked fewer steps are NaN). A walk that falls or
+   stalls keeps the section state its last step started from. */
 VSW_EXPORT void vsw_batch_simulate(long long n, const double *params, long long params_stride,
                         const double *states, const double *options, const double *target,
                         long long max_steps, long long max_period, long long keep, int *outcome,
                         int *aux, long long *steps, double *final, double *kept_states,
                         double *kept_lengths, double *kept_durations)
 {
-    vsw_tolerances tol = {options[0], options[1], options[2]};
-    const double conv_tol = options[3], period_tol = options[4];
-    if (max_period > VSW_MAX_PERIOD) max_period = VSW_MAX_PERIOD;
-    for (long long i = 0; i < n; ++i) {
-        /* The model's functions take its constants, computed here from the parameters
-           once a walk (the table's vsw_constants); `p` below is that vector. */
-        double constants[VSW_NC > 0 ? VSW_NC : 1];
-        vsw_constants(params + i * params_stride, constants);
-        const double *p = constants;
-        double x[VSW_NX], history[VSW_MAX_PERIOD][VSW_NX];
-        memcpy(x, states + i * VSW_NX, sizeof(double) * VSW_NX);
-        int result = VSW_WALKED, extra = 0;
-        long long walked = 0;
-        if (keep > 0) {
-            for (long long r = 0; r < keep; ++r) {
-                for (int j = 0; j < VSW_NX; ++j) kept_states[(i * keep + r) * VSW_NX + j] = NAN;
-                kept_lengths[i * keep + r] = NAN;
-                kept_durations[i * keep + r] = NAN;
-            }
-        }
-        if (!vsw_finite(x)) result = VSW_STALLED;
-        const double target_scale = target ? vsw_scale(target) : 1.0;
-        while (result == VSW_WALKED && walked < max_steps && !vsw_stop_requested) {
-            if (max_period > 0) memcpy(history[walked % max_period], x, sizeof(double) * VSW_NX);
-            double duration, length;
-            int failure = 0;
-            int ended = vsw_step(p, x, &duration, &length, &failure, &tol, NULL, NULL);
-            if (ended == VSW_FELL) {
-                result = VSW_FELL;
-                extra = failure;
-                break;
-            }
-            if (ended == VSW_STALLED) {
-                result = VSW_STALLED;
-                break;
-            }
-            ++walked;
-            if (keep > 0) {
-                /* a ring of the last `keep` steps, unrolled below */
-                long long r = (walked - 1) % keep;
-                memcpy(kept_states + (i * keep + r) * VSW_NX, x, sizeof(double) * VSW_NX);
-                kept_lengths[i * keep + r] = length;
-                kept_durations[i * keep + r] = duration;
-            }
-            if (target && conv_tol > 0.0 && vsw_distance(x, target) <= conv_tol * target_scale) {
-                result = VSW_CONVERGED;
-                break;
-            }
-            if (period_tol > 0.0 && max_period > 0) {
-                double bound = period_tol * vsw_scale(x);
-                for (long long k = target ? 2 : 1; k <= max_period && k <= walked; ++k) {
-                    if (vsw_distance(x, history[(walked - k) % max_period]) > bound) continue;
-                    /* a cycle's points are apart: near a fixed point every lag is small */
-                    int apart = 1;
-                    for (long long j = 1; j < k; ++j)
-                        if (vsw_distance(x, history[(walked - j) % max_period]) <= VSW_APART * bound)
-                            apart = 0;
-                    if (apart) {
-                        result = VSW_PERIODIC;
-                        extra = (int)k;
-                    }
-                    break;
-                }
-            }
-        }
-        if (keep > 0 && walked > 0) { /* unroll the ring: oldest first, NaN rows last */
-            long long filled = walked < keep ? walked : keep, start = walked % keep;
-            if (walked < keep) start = 0;
-            double tmp_states[VSW_NX];
-            /* rotate left by `start` with the three-reversal method */
-            long long lo[3] = {0, start, 0}, hi[3] = {start, filled, filled};
-            for (int pass = 0; pass < 3; ++pass) {
-                for (long long a = lo[pass], b = hi[pass] - 1; a < b; ++a, --b) {
-                    double *sa = kept_states + (i * keep + a) * VSW_NX;
-                    double *sb = kept_states + (i * keep + b) * VSW_NX;
-                    memcpy(tmp_states, sa, sizeof(double) * VSW_NX);
-                    memcpy(sa, sb, sizeof(double) * VSW_NX);
-                    memcpy(sb, tmp_states, sizeof(double) * VSW_NX);
-                    double t1 = kept_lengths[i * keep + a];
-                    kept_lengths[i * keep + a] = kept_lengths[i * keep + b];
-                    kept_lengths[i * keep + b] = t1;
-                    t1 = kept_durations[i * keep + a];
-                    kept_durations[i * keep + a] = kept_durations[i * keep + b];
-                    kept_durations[i * keep + b] = t1;
-                }
-            }
-        }
-        outcome[i] = result;
-        aux[i] = extra;
-        steps[i] = walked;
-        memcpy(final + i * VSW_NX, x, sizeof(double) * VSW_NX);
-    }
+    vsw_batch b = {
+        .n = n, .params_stride = params_stride, .max_steps = max_steps,
+        .max_period = max_period > VSW_MAX_PERIOD ? VSW_MAX_PERIOD : max_period, .keep = keep,
+        .next = 0, .params = params, .states = states, .target = target,
+        .tol = {options[0], options[1], options[2]}, .conv_tol = options[3],
+        .period_tol = options[4], .outcome = outcome, .aux = aux, .steps = steps,
+        .final = final, .kept_states = kept_states, .kept_lengths = kept_lengths,
+        .kept_durations = kept_durations, .visit_durations = NULL, .visits = NULL,
+    };
+    vsw_batch_run(&b);
 }
 
 /* One step from the section state `state` with parameters `params`, each phase visit's
@@ -578,20 +756,28 @@ VSW_EXPORT void vsw_batch_simulate(long long n, const double *params, long long 
    section state), VSW_FELL (*failure its index) or VSW_STALLED; durations[k] the k-th phase
    visit's duration (room for VSW_NPHASES + 1), *visits their number, *length the step's
    length (NaN for a model without one). options: rtol, atol, phase time limit, as
-   vsw_batch_simulate's. */
+   vsw_batch_simulate's. The batch's walk of one step, so the same numbers. */
 VSW_EXPORT int vsw_batch_step_phases(const double *params, double *state, const double *options,
                                      double *durations, int *visits, int *failure,
                                      double *length)
 {
-    vsw_tolerances tol = {options[0], options[1], options[2]};
-    double constants[VSW_NC > 0 ? VSW_NC : 1];
-    vsw_constants(params, constants);
-    double duration;
+    const double walk_options[5] = {options[0], options[1], options[2], 0.0, 0.0};
+    int outcome = VSW_STALLED, aux = 0;
+    long long steps = 0;
+    double final[VSW_NX], kept_state[VSW_NX], kept_duration;
     *visits = 0;
-    *failure = 0;
-    *length = NAN;
-    if (!vsw_finite(state)) return VSW_STALLED;
-    return vsw_step(constants, state, &duration, length, failure, &tol, durations, visits);
+    vsw_batch b = {
+        .n = 1, .params_stride = 0, .max_steps = 1, .max_period = 0, .keep = 1, .next = 0,
+        .params = params, .states = state, .target = NULL,
+        .tol = {walk_options[0], walk_options[1], walk_options[2]}, .conv_tol = 0.0,
+        .period_tol = 0.0, .outcome = &outcome, .aux = &aux, .steps = &steps, .final = final,
+        .kept_states = kept_state, .kept_lengths = length, .kept_durations = &kept_duration,
+        .visit_durations = durations, .visits = visits,
+    };
+    vsw_batch_run(&b);
+    *failure = outcome == VSW_FELL ? aux : 0;
+    if (outcome == VSW_WALKED && steps == 1) memcpy(state, final, sizeof(double) * VSW_NX);
+    return outcome == VSW_WALKED && steps == 1 ? VSW_WALKED : outcome;
 }
 
 /* The model's sizes, for the caller's check against its descriptor. */

@@ -861,6 +861,99 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
         return;
     }
 }
+
+/* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the
+   scalar function's, bit for bit. */
+#include "lanes.h"
+
+static inline void vsw_ile_sim_phase_I_II_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+{
+    vsw_lanes a0, a1;
+    a0=x[1];
+    out[0]=a0;
+    a0=x[0];
+    a0=vsw_lanes_sin(a0);
+    a1=c[0];
+    a0=(a0/a1);
+    out[1]=a0;
+}
+
+static inline void vsw_ile_sim_phase_III_IV_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+{
+    vsw_lanes a0;
+    a0=x[1];
+    out[0]=a0;
+    a0=x[0];
+    a0=vsw_lanes_sin(a0);
+    out[1]=a0;
+}
+
+static inline void vsw_ile_sim_phase_I_II_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+{
+    vsw_lanes a0, a1, a2, a3;
+    a0=x[0];
+    a1=c[1];
+    a1=(a0-a1);
+    out[0]=a1;
+    a1=x[1];
+    out[1]=a1;
+    a0=vsw_lanes_cos(a0);
+    a2=vsw_lanes_sq(a0);
+    a3=c[0];
+    a0=(a0*a3);
+    a1=vsw_lanes_sq(a1);
+    a0=(a0*a1);
+    a2=(a2-a0);
+    out[2]=a2;
+}
+
+static inline void vsw_ile_sim_phase_III_IV_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+{
+    vsw_lanes a0, a1, a2, a3;
+    a0=x[0];
+    a1=vsw_lanes_cos(a0);
+    a2=c[2];
+    a2=(a2-a0);
+    a2=vsw_lanes_cos(a2);
+    a3=c[0];
+    a2=(a2*a3);
+    a1=(a1-a2);
+    out[0]=a1;
+    a1=x[1];
+    out[1]=a1;
+    a0=vsw_lanes_cos(a0);
+    a2=vsw_lanes_sq(a0);
+    a1=vsw_lanes_sq(a1);
+    a0=(a0*a1);
+    a2=(a2-a0);
+    out[2]=a2;
+}
+
+static inline void vsw_lanes_flow(int phase, const vsw_lanes *c, const vsw_lanes *x,
+                                  vsw_lanes *out)
+{
+    switch (phase) {
+    case 0:
+        vsw_ile_sim_phase_I_II_flow_lanes(c, x, out);
+        return;
+    case 1:
+        vsw_ile_sim_phase_III_IV_flow_lanes(c, x, out);
+        return;
+    }
+}
+
+static inline void vsw_lanes_watch(int phase, const vsw_lanes *c, const vsw_lanes *x,
+                                   vsw_lanes *out)
+{
+    switch (phase) {
+    case 0:
+        vsw_ile_sim_phase_I_II_watch_lanes(c, x, out);
+        return;
+    case 1:
+        vsw_ile_sim_phase_III_IV_watch_lanes(c, x, out);
+        return;
+    }
+}
 static const int vsw_n_watch[VSW_NPHASES] = {3, 3};
 /* +1: counts rising through zero, -1: falling. */
 static const int vsw_watch_direction[VSW_NPHASES][VSW_MAX_WATCH] = {{1, -1, -1}, {-1, -1, -1}};

@@ -686,6 +686,82 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
         return;
     }
 }
+
+/* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the
+   scalar function's, bit for bit. */
+#include "lanes.h"
+
+static inline void vsw_simplest_walker_sim_stance_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+{
+    vsw_lanes a0, a1, a2, a3;
+    a0=x[2];
+    out[0]=a0;
+    a1=x[3];
+    out[1]=a1;
+    a1=c[0];
+    a2=x[0];
+    a1=(a1+a2);
+    a2=vsw_lanes_sin(a1);
+    out[2]=a2;
+    a3=x[1];
+    a3=vsw_lanes_sin(a3);
+    a0=vsw_lanes_sq(a0);
+    a0=(a3*a0);
+    a2=(a2+a0);
+    a1=vsw_lanes_cos(a1);
+    a1=(a1*a3);
+    a2=(a2-a1);
+    out[3]=a2;
+}
+
+static inline void vsw_simplest_walker_sim_stance_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+{
+    vsw_lanes a0, a1, a2, a3, a4, a5;
+    a0=x[1];
+    a1=vsw_lanes_splat(2.);
+    a0=(a0/a1);
+    a2=x[0];
+    a0=(a0-a2);
+    a0=vsw_lanes_sin(a0);
+    a0=(-a0);
+    out[0]=a0;
+    a0=x[2];
+    out[1]=a0;
+    a3=vsw_lanes_cos(a2);
+    out[2]=a3;
+    a3=c[1];
+    a4=c[0];
+    a5=(2.*a2);
+    a4=(a4+a5);
+    a4=vsw_lanes_cos(a4);
+    a4=(a4/a1);
+    a3=(a3+a4);
+    a2=vsw_lanes_cos(a2);
+    a0=vsw_lanes_sq(a0);
+    a2=(a2*a0);
+    a3=(a3-a2);
+    out[3]=a3;
+}
+
+static inline void vsw_lanes_flow(int phase, const vsw_lanes *c, const vsw_lanes *x,
+                                  vsw_lanes *out)
+{
+    switch (phase) {
+    case 0:
+        vsw_simplest_walker_sim_stance_flow_lanes(c, x, out);
+        return;
+    }
+}
+
+static inline void vsw_lanes_watch(int phase, const vsw_lanes *c, const vsw_lanes *x,
+                                   vsw_lanes *out)
+{
+    switch (phase) {
+    case 0:
+        vsw_simplest_walker_sim_stance_watch_lanes(c, x, out);
+        return;
+    }
+}
 static const int vsw_n_watch[VSW_NPHASES] = {4};
 /* +1: counts rising through zero, -1: falling. */
 static const int vsw_watch_direction[VSW_NPHASES][VSW_MAX_WATCH] = {{1, -1, -1, -1}};

@@ -1241,6 +1241,206 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
         return;
     }
 }
+
+/* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the
+   scalar function's, bit for bit. */
+#include "lanes.h"
+
+static inline void vsw_tle_sim_short_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+{
+    vsw_lanes a0, a1;
+    a0=x[1];
+    out[0]=a0;
+    a0=x[0];
+    a0=vsw_lanes_sin(a0);
+    a1=c[0];
+    a0=(a0/a1);
+    out[1]=a0;
+}
+
+static inline void vsw_tle_sim_extension_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+{
+    vsw_lanes a0, a1, a2, a3, a4, a5, a6;
+    a0=x[1];
+    out[0]=a0;
+    a1=x[0];
+    a2=vsw_lanes_sin(a1);
+    a3=c[2];
+    a0=vsw_lanes_sq(a0);
+    a3=(a3*a0);
+    a0=c[4];
+    a4=c[3];
+    a5=(2.*a1);
+    a4=(a4+a5);
+    a4=(a0*a4);
+    a5=c[5];
+    a6=c[1];
+    a1=(a1-a6);
+    a6=vsw_lanes_sq(a1);
+    a5=(a5*a6);
+    a4=(a4-a5);
+    a3=(a3*a4);
+    a2=(a2-a3);
+    a3=c[0];
+    a4=c[7];
+    a6=(a6*a0);
+    a0=c[6];
+    a5=vsw_lanes_sq(a1);
+    a5=(a5*a1);
+    a0=(a0*a5);
+    a6=(a6-a0);
+    a4=(a4*a6);
+    a3=(a3+a4);
+    a2=(a2/a3);
+    out[1]=a2;
+}
+
+static inline void vsw_tle_sim_long_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+{
+    vsw_lanes a0;
+    a0=x[1];
+    out[0]=a0;
+    a0=x[0];
+    a0=vsw_lanes_sin(a0);
+    out[1]=a0;
+}
+
+static inline void vsw_tle_sim_short_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+{
+    vsw_lanes a0, a1, a2, a3;
+    a0=x[0];
+    a1=c[1];
+    a1=(a0-a1);
+    out[0]=a1;
+    a1=x[1];
+    out[1]=a1;
+    a0=vsw_lanes_cos(a0);
+    a2=vsw_lanes_sq(a0);
+    a3=c[0];
+    a0=(a0*a3);
+    a1=vsw_lanes_sq(a1);
+    a0=(a0*a1);
+    a2=(a2-a0);
+    out[2]=a2;
+}
+
+static inline void vsw_tle_sim_extension_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+{
+    vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+    vsw_lanes a12;
+    a00=x[0];
+    a01=c[1];
+    a02=(a00-a01);
+    a03=c[8];
+    a02=(a02-a03);
+    out[0]=a02;
+    a02=x[1];
+    out[1]=a02;
+    a04=c[0];
+    a05=c[11];
+    a01=(a00-a01);
+    a06=vsw_lanes_sq(a01);
+    a07=c[9];
+    a08=(a06*a07);
+    a09=c[10];
+    a10=vsw_lanes_sq(a01);
+    a10=(a10*a01);
+    a09=(a09*a10);
+    a08=(a08-a09);
+    a08=(a05*a08);
+    a04=(a04-a08);
+    a08=vsw_lanes_cos(a00);
+    a09=vsw_lanes_sq(a08);
+    a09=(a04*a09);
+    a02=vsw_lanes_sq(a02);
+    a02=(a08*a02);
+    a10=vsw_lanes_sq(a04);
+    a10=(a02*a10);
+    a09=(a09-a10);
+    a10=(2.*a02);
+    a11=c[12];
+    a10=(a10*a11);
+    a11=c[13];
+    a12=(2.*a00);
+    a11=(a11+a12);
+    a07=(a07*a11);
+    a11=c[14];
+    a11=(a11*a06);
+    a07=(a07-a11);
+    a11=vsw_lanes_sq(a07);
+    a10=(a10*a11);
+    a09=(a09-a10);
+    a05=(a05*a07);
+    a05=(a05*a08);
+    a00=vsw_lanes_sin(a00);
+    a05=(a05*a00);
+    a09=(a09-a05);
+    a05=c[15];
+    a05=(a05*a04);
+    a05=(a05*a02);
+    a02=vsw_lanes_splat(1.);
+    a01=(2.*a01);
+    a01=(a01/a03);
+    a02=(a02-a01);
+    a05=(a05*a02);
+    a09=(a09-a05);
+    a09=(a09/a04);
+    out[2]=a09;
+}
+
+static inline void vsw_tle_sim_long_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+{
+    vsw_lanes a0, a1, a2, a3;
+    a0=x[0];
+    a1=vsw_lanes_cos(a0);
+    a2=c[16];
+    a2=(a2-a0);
+    a2=vsw_lanes_cos(a2);
+    a3=c[0];
+    a2=(a2*a3);
+    a1=(a1-a2);
+    out[0]=a1;
+    a1=x[1];
+    out[1]=a1;
+    a0=vsw_lanes_cos(a0);
+    a2=vsw_lanes_sq(a0);
+    a1=vsw_lanes_sq(a1);
+    a0=(a0*a1);
+    a2=(a2-a0);
+    out[2]=a2;
+}
+
+static inline void vsw_lanes_flow(int phase, const vsw_lanes *c, const vsw_lanes *x,
+                                  vsw_lanes *out)
+{
+    switch (phase) {
+    case 0:
+        vsw_tle_sim_short_flow_lanes(c, x, out);
+        return;
+    case 1:
+        vsw_tle_sim_extension_flow_lanes(c, x, out);
+        return;
+    case 2:
+        vsw_tle_sim_long_flow_lanes(c, x, out);
+        return;
+    }
+}
+
+static inline void vsw_lanes_watch(int phase, const vsw_lanes *c, const vsw_lanes *x,
+                                   vsw_lanes *out)
+{
+    switch (phase) {
+    case 0:
+        vsw_tle_sim_short_watch_lanes(c, x, out);
+        return;
+    case 1:
+        vsw_tle_sim_extension_watch_lanes(c, x, out);
+        return;
+    case 2:
+        vsw_tle_sim_long_watch_lanes(c, x, out);
+        return;
+    }
+}
 static const int vsw_n_watch[VSW_NPHASES] = {3, 3, 3};
 /* +1: counts rising through zero, -1: falling. */
 static const int vsw_watch_direction[VSW_NPHASES][VSW_MAX_WATCH] = {{1, -1, -1}, {1, -1, -1}, {-1, -1, -1}};

@@ -1046,6 +1046,234 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
         return;
     }
 }
+
+/* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the
+   scalar function's, bit for bit. */
+#include "lanes.h"
+
+static inline void vsw_torso_walker_sim_stance_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+{
+    vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+    vsw_lanes a12;
+    a00=x[2];
+    out[0]=a00;
+    a01=x[3];
+    out[1]=a01;
+    a02=c[7];
+    a03=c[3];
+    a04=c[0];
+    a00=vsw_lanes_sq(a00);
+    a04=(a04*a00);
+    a05=c[1];
+    a06=x[0];
+    a07=(a05+a06);
+    a08=c[2];
+    a07=(a07-a08);
+    a08=vsw_lanes_sin(a07);
+    a04=(a04*a08);
+    a03=(a03+a04);
+    a04=c[4];
+    a08=(a05+a06);
+    a08=vsw_lanes_sin(a08);
+    a08=(a04*a08);
+    a09=c[5];
+    a08=(a08*a09);
+    a03=(a03+a08);
+    a08=c[6];
+    a09=x[1];
+    a06=(a09-a06);
+    a10=vsw_lanes_sin(a06);
+    a11=(a08*a10);
+    a01=vsw_lanes_sq(a01);
+    a11=(a11*a01);
+    a03=(a03-a11);
+    a02=(a02*a03);
+    a03=vsw_lanes_splat(4.);
+    a11=(a02/a03);
+    a01=c[8];
+    a00=(a01*a00);
+    a00=(a00*a10);
+    a10=c[9];
+    a00=(a00*a10);
+    a12=vsw_lanes_splat(2.);
+    a00=(a00/a12);
+    a05=(a05+a09);
+    a05=vsw_lanes_sin(a05);
+    a04=(a04*a05);
+    a04=(a04*a10);
+    a00=(a00-a04);
+    a08=(a08*a00);
+    a06=vsw_lanes_cos(a06);
+    a08=(a08*a06);
+    a11=(a11+a08);
+    a08=c[11];
+    a04=c[10];
+    a07=vsw_lanes_cos(a07);
+    a04=(a04*a07);
+    a08=(a08+a04);
+    a01=(a01*a08);
+    a01=(a01*a10);
+    a10=vsw_lanes_splat(16.);
+    a01=(a01/a10);
+    a10=vsw_lanes_sq(a06);
+    a04=c[12];
+    a10=(a10*a04);
+    a04=c[13];
+    a10=(a10*a04);
+    a10=(a10/a03);
+    a01=(a01-a10);
+    a11=(a11/a01);
+    out[2]=a11;
+    a02=(a02*a06);
+    a02=(a02/a12);
+    a08=(a08*a00);
+    a08=(a08/a03);
+    a02=(a02+a08);
+    a02=(a02/a01);
+    out[3]=a02;
+}
+
+static inline void vsw_torso_walker_sim_stance_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+{
+    vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+    vsw_lanes a12, a13, a14, a15, a16, a17, a18, a19;
+    a00=x[1];
+    a01=vsw_lanes_splat(2.);
+    a02=(a00/a01);
+    a03=x[0];
+    a04=(a03/a01);
+    a02=(a02+a04);
+    a02=vsw_lanes_sin(a02);
+    out[0]=a02;
+    a02=x[2];
+    out[1]=a02;
+    a04=vsw_lanes_cos(a03);
+    out[2]=a04;
+    a04=c[16];
+    a05=c[15];
+    a02=vsw_lanes_sq(a02);
+    a06=c[14];
+    a07=(a02*a06);
+    a08=vsw_lanes_cos(a03);
+    a08=(a07*a08);
+    a09=(a05*a08);
+    a04=(a04-a09);
+    a09=c[17];
+    a10=(a08*a09);
+    a04=(a04-a10);
+    a10=c[18];
+    a08=(a08*a10);
+    a04=(a04-a08);
+    a08=c[19];
+    a04=(a04+a08);
+    a08=x[3];
+    a08=vsw_lanes_sq(a08);
+    a11=c[20];
+    a12=(a08*a11);
+    a13=vsw_lanes_cos(a00);
+    a12=(a12*a13);
+    a04=(a04+a12);
+    a12=c[26];
+    a13=c[21];
+    a13=(a13*a07);
+    a07=c[1];
+    a14=(a07+a03);
+    a15=c[2];
+    a14=(a14-a15);
+    a15=vsw_lanes_sin(a14);
+    a13=(a13*a15);
+    a15=c[22];
+    a13=(a13+a15);
+    a15=c[23];
+    a16=(a07+a03);
+    a16=vsw_lanes_sin(a16);
+    a16=(a15*a16);
+    a17=c[24];
+    a16=(a16*a17);
+    a13=(a13+a16);
+    a16=c[25];
+    a08=(a08*a16);
+    a17=(a00-a03);
+    a18=vsw_lanes_sin(a17);
+    a08=(a08*a18);
+    a13=(a13-a08);
+    a12=(a12*a13);
+    a13=vsw_lanes_splat(4.);
+    a08=(a12/a13);
+    a19=c[27];
+    a02=(a02*a19);
+    a02=(a02*a18);
+    a18=c[9];
+    a02=(a02*a18);
+    a02=(a02/a01);
+    a07=(a07+a00);
+    a07=vsw_lanes_sin(a07);
+    a15=(a15*a07);
+    a15=(a15*a18);
+    a02=(a02-a15);
+    a16=(a02*a16);
+    a17=vsw_lanes_cos(a17);
+    a16=(a16*a17);
+    a08=(a08+a16);
+    a16=c[29];
+    a15=c[28];
+    a14=vsw_lanes_cos(a14);
+    a15=(a15*a14);
+    a15=(a15*a06);
+    a16=(a16+a15);
+    a19=(a16*a19);
+    a19=(a19*a18);
+    a18=vsw_lanes_splat(16.);
+    a19=(a19/a18);
+    a18=vsw_lanes_sq(a17);
+    a15=c[30];
+    a18=(a18*a15);
+    a15=c[31];
+    a18=(a18*a15);
+    a18=(a18/a13);
+    a19=(a19-a18);
+    a08=(a08/a19);
+    a03=vsw_lanes_sin(a03);
+    a03=(a03*a06);
+    a05=(a05*a03);
+    a09=(a03*a09);
+    a05=(a05+a09);
+    a03=(a03*a10);
+    a05=(a05+a03);
+    a08=(a08*a05);
+    a04=(a04-a08);
+    a11=(a11/a19);
+    a00=vsw_lanes_sin(a00);
+    a11=(a11*a00);
+    a12=(a12*a17);
+    a12=(a12/a01);
+    a16=(a16*a02);
+    a16=(a16/a13);
+    a12=(a12+a16);
+    a11=(a11*a12);
+    a04=(a04+a11);
+    out[3]=a04;
+}
+
+static inline void vsw_lanes_flow(int phase, const vsw_lanes *c, const vsw_lanes *x,
+                                  vsw_lanes *out)
+{
+    switch (phase) {
+    case 0:
+        vsw_torso_walker_sim_stance_flow_lanes(c, x, out);
+        return;
+    }
+}
+
+static inline void vsw_lanes_watch(int phase, const vsw_lanes *c, const vsw_lanes *x,
+                                   vsw_lanes *out)
+{
+    switch (phase) {
+    case 0:
+        vsw_torso_walker_sim_stance_watch_lanes(c, x, out);
+        return;
+    }
+}
 static const int vsw_n_watch[VSW_NPHASES] = {4};
 /* +1: counts rising through zero, -1: falling. */
 static const int vsw_watch_direction[VSW_NPHASES][VSW_MAX_WATCH] = {{1, -1, -1, -1}};
