@@ -288,6 +288,67 @@ def test_results_do_not_depend_on_blocks_or_threads(gaits, monkeypatch):
         assert a.tobytes() == b.tobytes(), field
 
 
+FIELDS = ("outcome", "aux", "steps", "final", "kept_states", "kept_lengths", "kept_durations")
+
+
+@pytest.mark.parametrize("name", ["simplest_walker", "vsw_biped"])
+def test_a_walk_does_not_depend_on_its_lane(gaits, name):
+    """The walks run four at a time in lockstep (vsw/csrc/lanes.h), each lane its own step
+    size, phase and events: the same starts in another order (other lanes, other
+    neighbours, lanes in different phases of the biped) walk to the same bytes."""
+    model, params, orbits = gaits[name]
+    state = np.array([orbits[0].state[k] for k in (*model.coordinates, *model.rates)])
+    rng = np.random.default_rng(8)
+    starts = state * (1 + np.geomspace(1e-3, 0.1, 201)[:, None]
+                      * rng.standard_normal((201, len(state))))  # fmt: skip
+    order = rng.permutation(len(starts))
+    sim = simulator(load(name))
+    one = sim.walk(params, starts, 15, keep=3, threads=1)
+    other = sim.walk(params, starts[order], 15, keep=3, threads=1)
+    assert len(set(one.steps)) >= 3  # walks end at different steps: lanes refill
+    for field in FIELDS:
+        assert getattr(one, field)[order].tobytes() == getattr(other, field).tobytes(), field
+
+
+def test_step_phases_is_the_batch_walk_of_one_step(gaits):
+    """`step_phases` runs the batch's integrator on one walk (the other three lanes empty):
+    the same state, to the bit, as the walk of one step from each start among others."""
+    from vsw.hybrid import _ATOL, _RTOL
+
+    assert _RTOL == _ATOL
+    model, params, orbits = gaits["vsw_biped"]
+    state = np.array([orbits[0].state[k] for k in (*model.coordinates, *model.rates)])
+    starts = state * (1 + 0.05 * np.random.default_rng(9).standard_normal((9, len(state))))
+    sim = simulator(load("vsw_biped"))
+    walked = sim.walk(params, starts, 1, keep=1, threads=1, tolerance=_RTOL)
+    for k, start in enumerate(starts):
+        one = sim.step_phases(params, start)
+        assert (one.ended == "completed") == (walked.outcome[k] == WALKED)
+        assert one.state.tobytes() == walked.final[k].tobytes()
+        assert sum(one.durations) == walked.kept_durations[k, 0] or one.ended != "completed"
+
+
+def test_the_portable_build_walks_the_same(gaits):
+    """The library's second flag set (-O2 without -march=native: the lanes' vector type
+    lowered to SSE2 pairs) walks to the same bytes as the first."""
+    from vsw.batch import _FLAG_SETS, CSRC, BatchSimulator
+    from vsw.compiled import build_library
+
+    model, params, orbits = gaits["vsw_biped"]
+    state = np.array([orbits[0].state[k] for k in (*model.coordinates, *model.rates)])
+    starts = state * (1 + 0.1 * np.random.default_rng(10).standard_normal((60, len(state))))
+    fast = simulator(load("vsw_biped"))
+    portable = BatchSimulator(load("vsw_biped"))
+    source = portable.source.read_bytes() + b"\n" + (CSRC / "hybrid_batch.c").read_bytes()
+    lib, _ = build_library(source, "vsw_biped_sim_portable", (_FLAG_SETS[-1],), includes=(CSRC,))
+    portable._bind(lib)
+    portable._lib, portable._tried = lib, True
+    one = fast.walk(params, starts, 10, keep=2, threads=1)
+    two = portable.walk(params, starts, 10, keep=2, threads=1)
+    for field in FIELDS:
+        assert getattr(one, field).tobytes() == getattr(two, field).tobytes(), field
+
+
 def test_kept_steps_are_the_last_ones_in_order(gaits):
     model, params, orbits = gaits["simplest_walker"]
     stable = next(o for o in orbits if o.stable)

@@ -80,8 +80,9 @@ static double vsw_seconds(void)
 }
 
 /* Seconds per evaluation of phase `phase`'s flow (out[0]) and guards (out[1]) over the
-   n states given, `repeat` times each; out[2] the sum of every result (returned, so that
-   the compiler computes each). */
+   n states given, `repeat` times each; the same per walk in lanes of VSW_LANES walks
+   (out[3], out[4]); out[2] the sum of every result (returned, so that the compiler
+   computes each). */
 VSW_EXPORT void vsw_batch_call_costs(int phase, const double *params, const double *states,
                                      long long n, long long repeat, double *out)
 {
@@ -101,6 +102,28 @@ VSW_EXPORT void vsw_batch_call_costs(int phase, const double *params, const doub
             for (int k = 0; k < vsw_n_watch[phase]; ++k) sum += g[k];
         }
     out[1] = (vsw_seconds() - start) / (double)(repeat * n);
+    const long long groups = n / VSW_LANES, all = (1 << VSW_LANES) - 1;
+    vsw_lanes cl[VSW_NC > 0 ? VSW_NC : 1], x[VSW_NX], fl[VSW_NX], gl[VSW_MAX_WATCH];
+    vsw_lanes total = vsw_lanes_splat(0.0);
+    for (int k = 0; k < VSW_NC; ++k) cl[k] = vsw_lanes_splat(c[k]);
+    for (int pass = 0; pass < 2; ++pass) {
+        start = vsw_seconds();
+        for (long long r = 0; r < repeat; ++r)
+            for (long long i = 0; i < groups; ++i) {
+                for (int k = 0; k < VSW_NX; ++k)
+                    for (int l = 0; l < VSW_LANES; ++l)
+                        x[k][l] = states[(i * VSW_LANES + l) * VSW_NX + k];
+                if (pass == 0) {
+                    vsw_lanes_flow(phase, all, cl, x, fl);
+                    for (int k = 0; k < VSW_NX; ++k) total += fl[k];
+                } else {
+                    vsw_lanes_watch(phase, all, cl, x, gl);
+                    for (int k = 0; k < vsw_n_watch[phase]; ++k) total += gl[k];
+                }
+            }
+        out[3 + pass] = (vsw_seconds() - start) / (double)(repeat * groups * VSW_LANES);
+    }
+    for (int l = 0; l < VSW_LANES; ++l) sum += total[l];
     out[2] = sum;
 }
 #else
@@ -147,31 +170,30 @@ static inline void vsw_lanes_dispatch(const int *phase, int live, const vsw_lane
 #ifdef VSW_COUNT_CALLS
     for (int l = 0; l < VSW_LANES; ++l)
         if ((live >> l) & 1) ++(guards ? vsw_watch_calls : vsw_flow_calls)[phase[l]];
-#else
-    (void)live;
 #endif
     int same = 1;
-    for (int l = 1; l < VSW_LANES; ++l) same &= phase[l] == phase[0];
+    for (int l = 0; l < VSW_LANES; ++l) same &= !((live >> l) & 1) || phase[l] == phase[0];
     if (same || VSW_NPHASES == 1) {
         if (guards)
-            vsw_lanes_watch(phase[0], c, x, out);
+            vsw_lanes_watch(phase[0], live, c, x, out);
         else
-            vsw_lanes_flow(phase[0], c, x, out);
+            vsw_lanes_flow(phase[0], live, c, x, out);
         return;
     }
     vsw_lanes part[VSW_NX > VSW_MAX_WATCH ? VSW_NX : VSW_MAX_WATCH];
     for (int ph = 0; ph < VSW_NPHASES; ++ph) {
         vsw_lane_mask mask;
-        int any = 0;
+        int in = 0;
         for (int l = 0; l < VSW_LANES; ++l) {
-            mask[l] = phase[l] == ph ? -1 : 0;
-            any |= phase[l] == ph;
+            const int here = ((live >> l) & 1) && phase[l] == ph;
+            mask[l] = here ? -1 : 0;
+            in |= here << l;
         }
-        if (!any) continue;
+        if (!in) continue;
         if (guards)
-            vsw_lanes_watch(ph, c, x, part);
+            vsw_lanes_watch(ph, in, c, x, part);
         else
-            vsw_lanes_flow(ph, c, x, part);
+            vsw_lanes_flow(ph, in, c, x, part);
         for (int i = 0; i < n_out; ++i) out[i] = vsw_lanes_select(mask, part[i], out[i]);
     }
 }

@@ -11,14 +11,18 @@
 
 #include <math.h>
 
+#ifndef VSW_LANES
 #define VSW_LANES 4
+#endif
 
 typedef double vsw_lanes __attribute__((vector_size(VSW_LANES * sizeof(double))));
 typedef long long vsw_lane_mask __attribute__((vector_size(VSW_LANES * sizeof(long long))));
 
 static inline vsw_lanes vsw_lanes_splat(double v)
 {
-    return (vsw_lanes){v, v, v, v};
+    vsw_lanes r;
+    for (int l = 0; l < VSW_LANES; ++l) r[l] = v;
+    return r;
 }
 
 static inline vsw_lanes vsw_lanes_sq(vsw_lanes x)
@@ -26,18 +30,35 @@ static inline vsw_lanes vsw_lanes_sq(vsw_lanes x)
     return x * x;
 }
 
-static inline vsw_lanes vsw_lanes_sin(vsw_lanes x)
+/* Sines and cosines on the lanes in `live` only (a bit each; 0 on the others): libm's
+   calls are most of a flow's cost, and a lane without a walk, or in another phase, needs
+   none. */
+static inline vsw_lanes vsw_lanes_sin(vsw_lanes x, int live)
 {
-    vsw_lanes r;
-    for (int l = 0; l < VSW_LANES; ++l) r[l] = sin(x[l]);
+    vsw_lanes r = {0.0};
+    for (int l = 0; l < VSW_LANES; ++l)
+        if ((live >> l) & 1) r[l] = sin(x[l]);
     return r;
 }
 
-static inline vsw_lanes vsw_lanes_cos(vsw_lanes x)
+static inline vsw_lanes vsw_lanes_cos(vsw_lanes x, int live)
 {
-    vsw_lanes r;
-    for (int l = 0; l < VSW_LANES; ++l) r[l] = cos(x[l]);
+    vsw_lanes r = {0.0};
+    for (int l = 0; l < VSW_LANES; ++l)
+        if ((live >> l) & 1) r[l] = cos(x[l]);
     return r;
+}
+
+/* sin and cos of each lane from one call: GCC fuses them into glibc's sincos, whose
+   values are sin's and cos's bit for bit */
+static inline void vsw_lanes_sincos(vsw_lanes x, int live, vsw_lanes *s, vsw_lanes *c)
+{
+    *s = *c = (vsw_lanes){0.0};
+    for (int l = 0; l < VSW_LANES; ++l)
+        if ((live >> l) & 1) {
+            (*s)[l] = sin(x[l]);
+            (*c)[l] = cos(x[l]);
+        }
 }
 
 static inline vsw_lanes vsw_lanes_sqrt(vsw_lanes x)

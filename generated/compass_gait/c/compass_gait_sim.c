@@ -1382,11 +1382,13 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
 }
 
 /* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the
-   scalar function's, bit for bit. */
+   scalar function's, bit for bit, on the lanes in `live` (a bit each; the others' sines and
+   cosines are not taken, their results mean nothing). */
 #include "lanes.h"
 
-static inline void vsw_compass_gait_sim_stance_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_compass_gait_sim_stance_flow_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
     vsw_lanes a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
     vsw_lanes a24, a25, a26;
@@ -1398,7 +1400,7 @@ static inline void vsw_compass_gait_sim_stance_flow_lanes(const vsw_lanes *c, co
     a03=c[0];
     a04=x[0];
     a05=(a03+a04);
-    a05=vsw_lanes_sin(a05);
+    a05=vsw_lanes_sin(a05, live);
     a06=(a02*a05);
     a07=c[2];
     a08=(a07*a05);
@@ -1407,7 +1409,8 @@ static inline void vsw_compass_gait_sim_stance_flow_lanes(const vsw_lanes *c, co
     a10=c[3];
     a11=x[1];
     a04=(a11-a04);
-    a12=vsw_lanes_sin(a04);
+    vsw_lanes_sincos(a04, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a12=vsw_sc0_sin;
     a13=(a10*a12);
     a14=(a01*a13);
     a09=(a09-a14);
@@ -1423,7 +1426,7 @@ static inline void vsw_compass_gait_sim_stance_flow_lanes(const vsw_lanes *c, co
     a09=(a09+a21);
     a00=vsw_lanes_sq(a00);
     a13=(a13*a00);
-    a04=vsw_lanes_cos(a04);
+    a04=vsw_sc0_cos;
     a21=(a13*a04);
     a09=(a09+a21);
     a21=c[8];
@@ -1432,7 +1435,7 @@ static inline void vsw_compass_gait_sim_stance_flow_lanes(const vsw_lanes *c, co
     a23=(a22*a04);
     a09=(a09+a23);
     a03=(a03+a11);
-    a03=vsw_lanes_sin(a03);
+    a03=vsw_lanes_sin(a03, live);
     a07=(a07*a03);
     a11=(a07*a04);
     a09=(a09-a11);
@@ -1527,8 +1530,9 @@ static inline void vsw_compass_gait_sim_stance_flow_lanes(const vsw_lanes *c, co
     out[3]=a13;
 }
 
-static inline void vsw_compass_gait_sim_stance_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_compass_gait_sim_stance_watch_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos, vsw_sc1_sin, vsw_sc1_cos, vsw_sc2_sin, vsw_sc2_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
     vsw_lanes a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
     vsw_lanes a24, a25, a26, a27, a28, a29, a30;
@@ -1538,34 +1542,37 @@ static inline void vsw_compass_gait_sim_stance_watch_lanes(const vsw_lanes *c, c
     a03=x[0];
     a01=(a03/a01);
     a02=(a02+a01);
-    a02=vsw_lanes_sin(a02);
+    a02=vsw_lanes_sin(a02, live);
     out[0]=a02;
     a02=x[2];
     out[1]=a02;
-    a01=vsw_lanes_cos(a03);
+    vsw_lanes_sincos(a03, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a01=vsw_sc0_cos;
     out[2]=a01;
     a01=c[23];
     a04=c[22];
-    a05=vsw_lanes_sin(a00);
+    vsw_lanes_sincos(a00, live, &vsw_sc1_sin, &vsw_sc1_cos);
+    a05=vsw_sc1_sin;
     a06=(a04*a05);
     a07=(a00-a03);
-    a08=vsw_lanes_cos(a07);
+    vsw_lanes_sincos(a07, live, &vsw_sc2_sin, &vsw_sc2_cos);
+    a08=vsw_sc2_cos;
     a09=c[0];
     a10=(a09+a03);
-    a10=vsw_lanes_sin(a10);
+    a10=vsw_lanes_sin(a10, live);
     a11=(a08*a10);
     a12=(a06*a11);
     a01=(a01+a12);
-    a12=vsw_lanes_sin(a03);
+    a12=vsw_sc0_sin;
     a04=(a04*a12);
     a09=(a09+a00);
-    a09=vsw_lanes_sin(a09);
+    a09=vsw_lanes_sin(a09, live);
     a13=(a08*a09);
     a14=(a04*a13);
     a01=(a01+a14);
     a14=x[3];
     a14=vsw_lanes_sq(a14);
-    a00=vsw_lanes_cos(a00);
+    a00=vsw_sc1_cos;
     a15=(a14*a00);
     a16=c[24];
     a17=(a15*a16);
@@ -1581,7 +1588,7 @@ static inline void vsw_compass_gait_sim_stance_watch_lanes(const vsw_lanes *c, c
     a15=(a15*a20);
     a21=(a19*a15);
     a01=(a01+a21);
-    a07=vsw_lanes_sin(a07);
+    a07=vsw_sc2_sin;
     a21=(a14*a07);
     a21=(a21*a12);
     a22=(a21*a20);
@@ -1674,7 +1681,7 @@ static inline void vsw_compass_gait_sim_stance_watch_lanes(const vsw_lanes *c, c
     a04=(a04*a10);
     a01=(a01-a04);
     a04=c[48];
-    a03=vsw_lanes_cos(a03);
+    a03=vsw_lanes_cos(a03, live);
     a10=(a02*a03);
     a15=(a15*a10);
     a04=(a04*a15);
@@ -1783,22 +1790,22 @@ static inline void vsw_compass_gait_sim_stance_watch_lanes(const vsw_lanes *c, c
     out[3]=a01;
 }
 
-static inline void vsw_lanes_flow(int phase, const vsw_lanes *c, const vsw_lanes *x,
+static inline void vsw_lanes_flow(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
                                   vsw_lanes *out)
 {
     switch (phase) {
     case 0:
-        vsw_compass_gait_sim_stance_flow_lanes(c, x, out);
+        vsw_compass_gait_sim_stance_flow_lanes(live, c, x, out);
         return;
     }
 }
 
-static inline void vsw_lanes_watch(int phase, const vsw_lanes *c, const vsw_lanes *x,
+static inline void vsw_lanes_watch(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
                                    vsw_lanes *out)
 {
     switch (phase) {
     case 0:
-        vsw_compass_gait_sim_stance_watch_lanes(c, x, out);
+        vsw_compass_gait_sim_stance_watch_lanes(live, c, x, out);
         return;
     }
 }

@@ -863,32 +863,33 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
 }
 
 /* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the
-   scalar function's, bit for bit. */
+   scalar function's, bit for bit, on the lanes in `live` (a bit each; the others' sines and
+   cosines are not taken, their results mean nothing). */
 #include "lanes.h"
 
-static inline void vsw_ile_sim_phase_I_II_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_ile_sim_phase_I_II_flow_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
     vsw_lanes a0, a1;
     a0=x[1];
     out[0]=a0;
     a0=x[0];
-    a0=vsw_lanes_sin(a0);
+    a0=vsw_lanes_sin(a0, live);
     a1=c[0];
     a0=(a0/a1);
     out[1]=a0;
 }
 
-static inline void vsw_ile_sim_phase_III_IV_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_ile_sim_phase_III_IV_flow_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
     vsw_lanes a0;
     a0=x[1];
     out[0]=a0;
     a0=x[0];
-    a0=vsw_lanes_sin(a0);
+    a0=vsw_lanes_sin(a0, live);
     out[1]=a0;
 }
 
-static inline void vsw_ile_sim_phase_I_II_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_ile_sim_phase_I_II_watch_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
     vsw_lanes a0, a1, a2, a3;
     a0=x[0];
@@ -897,7 +898,7 @@ static inline void vsw_ile_sim_phase_I_II_watch_lanes(const vsw_lanes *c, const 
     out[0]=a1;
     a1=x[1];
     out[1]=a1;
-    a0=vsw_lanes_cos(a0);
+    a0=vsw_lanes_cos(a0, live);
     a2=vsw_lanes_sq(a0);
     a3=c[0];
     a0=(a0*a3);
@@ -907,21 +908,21 @@ static inline void vsw_ile_sim_phase_I_II_watch_lanes(const vsw_lanes *c, const 
     out[2]=a2;
 }
 
-static inline void vsw_ile_sim_phase_III_IV_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_ile_sim_phase_III_IV_watch_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
     vsw_lanes a0, a1, a2, a3;
     a0=x[0];
-    a1=vsw_lanes_cos(a0);
+    a1=vsw_lanes_cos(a0, live);
     a2=c[2];
     a2=(a2-a0);
-    a2=vsw_lanes_cos(a2);
+    a2=vsw_lanes_cos(a2, live);
     a3=c[0];
     a2=(a2*a3);
     a1=(a1-a2);
     out[0]=a1;
     a1=x[1];
     out[1]=a1;
-    a0=vsw_lanes_cos(a0);
+    a0=vsw_lanes_cos(a0, live);
     a2=vsw_lanes_sq(a0);
     a1=vsw_lanes_sq(a1);
     a0=(a0*a1);
@@ -929,28 +930,28 @@ static inline void vsw_ile_sim_phase_III_IV_watch_lanes(const vsw_lanes *c, cons
     out[2]=a2;
 }
 
-static inline void vsw_lanes_flow(int phase, const vsw_lanes *c, const vsw_lanes *x,
+static inline void vsw_lanes_flow(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
                                   vsw_lanes *out)
 {
     switch (phase) {
     case 0:
-        vsw_ile_sim_phase_I_II_flow_lanes(c, x, out);
+        vsw_ile_sim_phase_I_II_flow_lanes(live, c, x, out);
         return;
     case 1:
-        vsw_ile_sim_phase_III_IV_flow_lanes(c, x, out);
+        vsw_ile_sim_phase_III_IV_flow_lanes(live, c, x, out);
         return;
     }
 }
 
-static inline void vsw_lanes_watch(int phase, const vsw_lanes *c, const vsw_lanes *x,
+static inline void vsw_lanes_watch(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
                                    vsw_lanes *out)
 {
     switch (phase) {
     case 0:
-        vsw_ile_sim_phase_I_II_watch_lanes(c, x, out);
+        vsw_ile_sim_phase_I_II_watch_lanes(live, c, x, out);
         return;
     case 1:
-        vsw_ile_sim_phase_III_IV_watch_lanes(c, x, out);
+        vsw_ile_sim_phase_III_IV_watch_lanes(live, c, x, out);
         return;
     }
 }

@@ -6391,11 +6391,13 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
 }
 
 /* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the
-   scalar function's, bit for bit. */
+   scalar function's, bit for bit, on the lanes in `live` (a bit each; the others' sines and
+   cosines are not taken, their results mean nothing). */
 #include "lanes.h"
 
-static inline void vsw_kneed_walker_sim_knee_free_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_kneed_walker_sim_knee_free_flow_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos, vsw_sc1_sin, vsw_sc1_cos, vsw_sc2_sin, vsw_sc2_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
     vsw_lanes a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
     vsw_lanes a24, a25, a26, a27;
@@ -6411,11 +6413,13 @@ static inline void vsw_kneed_walker_sim_knee_free_flow_lanes(const vsw_lanes *c,
     a06=(a04+a05);
     a07=x[0];
     a06=(a06-a07);
-    a08=vsw_lanes_cos(a06);
+    vsw_lanes_sincos(a06, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a08=vsw_sc0_cos;
     a09=(a03*a08);
     a10=c[2];
     a11=c[1];
-    a12=vsw_lanes_cos(a04);
+    vsw_lanes_sincos(a04, live, &vsw_sc1_sin, &vsw_sc1_cos);
+    a12=vsw_sc1_cos;
     a12=(a11*a12);
     a13=(2.*a12);
     a10=(a10+a13);
@@ -6424,7 +6428,8 @@ static inline void vsw_kneed_walker_sim_knee_free_flow_lanes(const vsw_lanes *c,
     a12=(a14+a12);
     a15=c[4];
     a16=(a05-a07);
-    a17=vsw_lanes_cos(a16);
+    vsw_lanes_sincos(a16, live, &vsw_sc2_sin, &vsw_sc2_cos);
+    a17=vsw_sc2_cos;
     a17=(a15*a17);
     a17=(a09+a17);
     a18=(a12*a17);
@@ -6432,7 +6437,7 @@ static inline void vsw_kneed_walker_sim_knee_free_flow_lanes(const vsw_lanes *c,
     a00=vsw_lanes_sq(a00);
     a19=c[5];
     a19=(a00*a19);
-    a06=vsw_lanes_sin(a06);
+    a06=vsw_sc0_sin;
     a19=(a19*a06);
     a20=c[6];
     a19=(a19*a20);
@@ -6442,12 +6447,12 @@ static inline void vsw_kneed_walker_sim_knee_free_flow_lanes(const vsw_lanes *c,
     a22=c[8];
     a23=(a22+a04);
     a23=(a23+a05);
-    a23=vsw_lanes_sin(a23);
+    a23=vsw_lanes_sin(a23, live);
     a21=(a21*a23);
     a23=c[10];
     a21=(a21*a23);
     a24=vsw_lanes_sq(a01);
-    a04=vsw_lanes_sin(a04);
+    a04=vsw_sc1_sin;
     a11=(a11*a04);
     a04=(a24*a11);
     a04=(a21+a04);
@@ -6466,20 +6471,20 @@ static inline void vsw_kneed_walker_sim_knee_free_flow_lanes(const vsw_lanes *c,
     a03=(a03*a06);
     a06=(a03*a00);
     a27=(a27+a06);
-    a16=vsw_lanes_sin(a16);
+    a16=vsw_sc2_sin;
     a15=(a15*a16);
     a00=(a15*a00);
     a27=(a27+a00);
     a00=c[11];
     a05=(a22+a05);
-    a05=vsw_lanes_sin(a05);
+    a05=vsw_lanes_sin(a05, live);
     a00=(a00*a05);
     a00=(a00*a23);
     a27=(a27-a00);
     a00=(a25*a27);
     a04=(a04+a00);
     a22=(a22+a07);
-    a22=vsw_lanes_sin(a22);
+    a22=vsw_lanes_sin(a22, live);
     a22=(a22*a23);
     a23=c[12];
     a22=(a22*a23);
@@ -6541,8 +6546,9 @@ static inline void vsw_kneed_walker_sim_knee_free_flow_lanes(const vsw_lanes *c,
     out[5]=a13;
 }
 
-static inline void vsw_kneed_walker_sim_knee_locked_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_kneed_walker_sim_knee_locked_flow_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10;
     a00=x[3];
     out[0]=a00;
@@ -6554,7 +6560,7 @@ static inline void vsw_kneed_walker_sim_knee_locked_flow_lanes(const vsw_lanes *
     a03=c[8];
     a04=x[0];
     a05=(a03+a04);
-    a05=vsw_lanes_sin(a05);
+    a05=vsw_lanes_sin(a05, live);
     a06=c[10];
     a05=(a05*a06);
     a07=c[49];
@@ -6562,7 +6568,8 @@ static inline void vsw_kneed_walker_sim_knee_locked_flow_lanes(const vsw_lanes *
     a07=c[50];
     a08=x[1];
     a04=(a08-a04);
-    a09=vsw_lanes_sin(a04);
+    vsw_lanes_sincos(a04, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a09=vsw_sc0_sin;
     a10=(a07*a09);
     a01=vsw_lanes_sq(a01);
     a10=(a10*a01);
@@ -6574,11 +6581,11 @@ static inline void vsw_kneed_walker_sim_knee_locked_flow_lanes(const vsw_lanes *
     a10=(a10*a00);
     a00=c[53];
     a03=(a03+a08);
-    a03=vsw_lanes_sin(a03);
+    a03=vsw_lanes_sin(a03, live);
     a00=(a00*a03);
     a00=(a00*a06);
     a10=(a10-a00);
-    a04=vsw_lanes_cos(a04);
+    a04=vsw_sc0_cos;
     a07=(a07*a04);
     a00=(a10*a07);
     a02=(a02+a00);
@@ -6599,8 +6606,9 @@ static inline void vsw_kneed_walker_sim_knee_locked_flow_lanes(const vsw_lanes *
     out[5]=a05;
 }
 
-static inline void vsw_kneed_walker_sim_knee_free_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_kneed_walker_sim_knee_free_watch_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos, vsw_sc1_sin, vsw_sc1_cos, vsw_sc2_sin, vsw_sc2_cos, vsw_sc3_sin, vsw_sc3_cos, vsw_sc4_sin, vsw_sc4_cos, vsw_sc5_sin, vsw_sc5_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
     vsw_lanes a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
     vsw_lanes a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
@@ -6610,7 +6618,8 @@ static inline void vsw_kneed_walker_sim_knee_free_watch_lanes(const vsw_lanes *c
     a01=x[3];
     out[1]=a01;
     a02=x[0];
-    a03=vsw_lanes_cos(a02);
+    vsw_lanes_sincos(a02, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a03=vsw_sc0_cos;
     out[2]=a03;
     a01=vsw_lanes_sq(a01);
     a03=c[18];
@@ -6618,7 +6627,8 @@ static inline void vsw_kneed_walker_sim_knee_free_watch_lanes(const vsw_lanes *c
     a04=x[1];
     a05=(a00+a04);
     a05=(a05-a02);
-    a06=vsw_lanes_sin(a05);
+    vsw_lanes_sincos(a05, live, &vsw_sc1_sin, &vsw_sc1_cos);
+    a06=vsw_sc1_sin;
     a03=(a03*a06);
     a07=c[6];
     a03=(a03*a07);
@@ -6628,29 +6638,31 @@ static inline void vsw_kneed_walker_sim_knee_free_watch_lanes(const vsw_lanes *c
     a10=c[8];
     a11=(a10+a00);
     a11=(a11+a04);
-    a11=vsw_lanes_sin(a11);
+    a11=vsw_lanes_sin(a11, live);
     a11=(a09*a11);
     a12=c[10];
     a11=(a11*a12);
     a13=x[4];
     a14=vsw_lanes_sq(a13);
     a15=c[20];
-    a16=vsw_lanes_sin(a00);
+    vsw_lanes_sincos(a00, live, &vsw_sc2_sin, &vsw_sc2_cos);
+    a16=vsw_sc2_sin;
     a16=(a15*a16);
     a17=(a14*a16);
     a17=(a11+a17);
     a03=(a03-a17);
     a17=c[21];
-    a05=vsw_lanes_cos(a05);
+    a05=vsw_sc1_cos;
     a18=(a17*a05);
     a19=c[22];
     a20=(a04-a02);
-    a21=vsw_lanes_cos(a20);
+    vsw_lanes_sincos(a20, live, &vsw_sc3_sin, &vsw_sc3_cos);
+    a21=vsw_sc3_cos;
     a21=(a19*a21);
     a21=(a18+a21);
     a22=(a18*a21);
     a23=c[23];
-    a24=vsw_lanes_cos(a00);
+    a24=vsw_sc2_cos;
     a15=(a15*a24);
     a24=(a23+a15);
     a25=c[24];
@@ -6661,13 +6673,13 @@ static inline void vsw_kneed_walker_sim_knee_free_watch_lanes(const vsw_lanes *c
     a28=(a24*a18);
     a27=(a27-a28);
     a28=(a10+a02);
-    a28=vsw_lanes_sin(a28);
+    a28=vsw_lanes_sin(a28, live);
     a28=(a28*a12);
     a29=c[25];
     a28=(a28*a29);
     a17=(a17*a06);
     a06=(a14*a17);
-    a20=vsw_lanes_sin(a20);
+    a20=vsw_sc3_sin;
     a19=(a19*a20);
     a20=(a14*a19);
     a06=(a06+a20);
@@ -6692,7 +6704,7 @@ static inline void vsw_kneed_walker_sim_knee_free_watch_lanes(const vsw_lanes *c
     a17=(a17+a16);
     a16=c[26];
     a10=(a10+a04);
-    a10=vsw_lanes_sin(a10);
+    a10=vsw_lanes_sin(a10, live);
     a16=(a16*a10);
     a16=(a16*a12);
     a17=(a17-a16);
@@ -6726,10 +6738,12 @@ static inline void vsw_kneed_walker_sim_knee_free_watch_lanes(const vsw_lanes *c
     a16=(a16+a10);
     a26=(a26/a16);
     a10=c[32];
-    a12=vsw_lanes_sin(a04);
+    vsw_lanes_sincos(a04, live, &vsw_sc4_sin, &vsw_sc4_cos);
+    a12=vsw_sc4_sin;
     a15=(a10*a12);
     a00=(a00+a04);
-    a19=vsw_lanes_sin(a00);
+    vsw_lanes_sincos(a00, live, &vsw_sc5_sin, &vsw_sc5_cos);
+    a19=vsw_sc5_sin;
     a11=(a09*a19);
     a15=(a15+a11);
     a11=c[33];
@@ -6740,7 +6754,7 @@ static inline void vsw_kneed_walker_sim_knee_free_watch_lanes(const vsw_lanes *c
     a15=(a15+a12);
     a26=(a26*a15);
     a15=c[35];
-    a12=vsw_lanes_cos(a02);
+    a12=vsw_lanes_cos(a02, live);
     a01=(a01*a12);
     a12=(a15*a01);
     a31=c[36];
@@ -6782,7 +6796,7 @@ static inline void vsw_kneed_walker_sim_knee_free_watch_lanes(const vsw_lanes *c
     a23=(a28*a23);
     a05=(a05+a23);
     a05=(a05/a16);
-    a02=vsw_lanes_sin(a02);
+    a02=vsw_sc0_sin;
     a15=(a15*a02);
     a31=(a31*a02);
     a15=(a15+a31);
@@ -6815,7 +6829,7 @@ static inline void vsw_kneed_walker_sim_knee_free_watch_lanes(const vsw_lanes *c
     a26=(a26+a12);
     a12=c[45];
     a26=(a26+a12);
-    a04=vsw_lanes_cos(a04);
+    a04=vsw_sc4_cos;
     a12=(a14*a04);
     a05=c[46];
     a12=(a12*a05);
@@ -6831,7 +6845,7 @@ static inline void vsw_kneed_walker_sim_knee_free_watch_lanes(const vsw_lanes *c
     a05=c[48];
     a04=(a04*a05);
     a26=(a26+a04);
-    a00=vsw_lanes_cos(a00);
+    a00=vsw_sc5_cos;
     a14=(a14*a00);
     a14=(a14*a07);
     a14=(a14*a08);
@@ -6861,8 +6875,9 @@ static inline void vsw_kneed_walker_sim_knee_free_watch_lanes(const vsw_lanes *c
     out[3]=a26;
 }
 
-static inline void vsw_kneed_walker_sim_knee_locked_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_kneed_walker_sim_knee_locked_watch_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos, vsw_sc1_sin, vsw_sc1_cos, vsw_sc2_sin, vsw_sc2_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
     vsw_lanes a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22;
     a00=x[1];
@@ -6871,11 +6886,12 @@ static inline void vsw_kneed_walker_sim_knee_locked_watch_lanes(const vsw_lanes 
     a03=x[0];
     a01=(a03/a01);
     a02=(a02+a01);
-    a02=vsw_lanes_sin(a02);
+    a02=vsw_lanes_sin(a02, live);
     out[0]=a02;
     a02=x[3];
     out[1]=a02;
-    a01=vsw_lanes_cos(a03);
+    vsw_lanes_sincos(a03, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a01=vsw_sc0_cos;
     out[2]=a01;
     a02=vsw_lanes_sq(a02);
     a01=c[57];
@@ -6883,11 +6899,12 @@ static inline void vsw_kneed_walker_sim_knee_locked_watch_lanes(const vsw_lanes 
     a05=c[58];
     a04=(a04*a05);
     a05=(a00-a03);
-    a06=vsw_lanes_sin(a05);
+    vsw_lanes_sincos(a05, live, &vsw_sc1_sin, &vsw_sc1_cos);
+    a06=vsw_sc1_sin;
     a04=(a04*a06);
     a07=c[8];
     a08=(a07+a00);
-    a08=vsw_lanes_sin(a08);
+    a08=vsw_lanes_sin(a08, live);
     a01=(a01*a08);
     a08=c[10];
     a01=(a01*a08);
@@ -6895,10 +6912,10 @@ static inline void vsw_kneed_walker_sim_knee_locked_watch_lanes(const vsw_lanes 
     a01=c[59];
     a01=(a04*a01);
     a09=c[60];
-    a05=vsw_lanes_cos(a05);
+    a05=vsw_sc1_cos;
     a10=(a09*a05);
     a07=(a07+a03);
-    a07=vsw_lanes_sin(a07);
+    a07=vsw_lanes_sin(a07, live);
     a07=(a07*a08);
     a08=c[61];
     a07=(a07*a08);
@@ -6916,7 +6933,8 @@ static inline void vsw_kneed_walker_sim_knee_locked_watch_lanes(const vsw_lanes 
     a09=(a09-a06);
     a01=(a01/a09);
     a06=c[64];
-    a05=vsw_lanes_sin(a00);
+    vsw_lanes_sincos(a00, live, &vsw_sc2_sin, &vsw_sc2_cos);
+    a05=vsw_sc2_sin;
     a11=(a06*a05);
     a12=c[65];
     a13=(a12*a05);
@@ -6929,7 +6947,7 @@ static inline void vsw_kneed_walker_sim_knee_locked_watch_lanes(const vsw_lanes 
     a11=(a11+a05);
     a01=(a01*a11);
     a11=c[68];
-    a05=vsw_lanes_cos(a03);
+    a05=vsw_lanes_cos(a03, live);
     a02=(a02*a05);
     a05=(a11*a02);
     a15=c[69];
@@ -6966,7 +6984,7 @@ static inline void vsw_kneed_walker_sim_knee_locked_watch_lanes(const vsw_lanes 
     a10=(a10*a07);
     a04=(a04+a10);
     a04=(a04/a09);
-    a03=vsw_lanes_sin(a03);
+    a03=vsw_sc0_sin;
     a11=(a11*a03);
     a15=(a15*a03);
     a11=(a11+a15);
@@ -6999,7 +7017,7 @@ static inline void vsw_kneed_walker_sim_knee_locked_watch_lanes(const vsw_lanes 
     a01=(a01+a05);
     a05=c[79];
     a01=(a01+a05);
-    a00=vsw_lanes_cos(a00);
+    a00=vsw_sc2_cos;
     a05=(a08*a00);
     a04=c[46];
     a05=(a05*a04);
@@ -7024,28 +7042,28 @@ static inline void vsw_kneed_walker_sim_knee_locked_watch_lanes(const vsw_lanes 
     out[3]=a01;
 }
 
-static inline void vsw_lanes_flow(int phase, const vsw_lanes *c, const vsw_lanes *x,
+static inline void vsw_lanes_flow(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
                                   vsw_lanes *out)
 {
     switch (phase) {
     case 0:
-        vsw_kneed_walker_sim_knee_free_flow_lanes(c, x, out);
+        vsw_kneed_walker_sim_knee_free_flow_lanes(live, c, x, out);
         return;
     case 1:
-        vsw_kneed_walker_sim_knee_locked_flow_lanes(c, x, out);
+        vsw_kneed_walker_sim_knee_locked_flow_lanes(live, c, x, out);
         return;
     }
 }
 
-static inline void vsw_lanes_watch(int phase, const vsw_lanes *c, const vsw_lanes *x,
+static inline void vsw_lanes_watch(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
                                    vsw_lanes *out)
 {
     switch (phase) {
     case 0:
-        vsw_kneed_walker_sim_knee_free_watch_lanes(c, x, out);
+        vsw_kneed_walker_sim_knee_free_watch_lanes(live, c, x, out);
         return;
     case 1:
-        vsw_kneed_walker_sim_knee_locked_watch_lanes(c, x, out);
+        vsw_kneed_walker_sim_knee_locked_watch_lanes(live, c, x, out);
         return;
     }
 }

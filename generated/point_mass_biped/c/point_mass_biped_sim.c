@@ -591,10 +591,11 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
 }
 
 /* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the
-   scalar function's, bit for bit. */
+   scalar function's, bit for bit, on the lanes in `live` (a bit each; the others' sines and
+   cosines are not taken, their results mean nothing). */
 #include "lanes.h"
 
-static inline void vsw_point_mass_biped_sim_stance_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_point_mass_biped_sim_stance_flow_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
     vsw_lanes a0;
     a0=x[2];
@@ -607,7 +608,7 @@ static inline void vsw_point_mass_biped_sim_stance_flow_lanes(const vsw_lanes *c
     out[3]=a0;
 }
 
-static inline void vsw_point_mass_biped_sim_stance_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_point_mass_biped_sim_stance_watch_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
     vsw_lanes a0, a1, a2, a3;
     a0=x[0];
@@ -634,22 +635,22 @@ static inline void vsw_point_mass_biped_sim_stance_watch_lanes(const vsw_lanes *
     out[4]=a0;
 }
 
-static inline void vsw_lanes_flow(int phase, const vsw_lanes *c, const vsw_lanes *x,
+static inline void vsw_lanes_flow(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
                                   vsw_lanes *out)
 {
     switch (phase) {
     case 0:
-        vsw_point_mass_biped_sim_stance_flow_lanes(c, x, out);
+        vsw_point_mass_biped_sim_stance_flow_lanes(live, c, x, out);
         return;
     }
 }
 
-static inline void vsw_lanes_watch(int phase, const vsw_lanes *c, const vsw_lanes *x,
+static inline void vsw_lanes_watch(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
                                    vsw_lanes *out)
 {
     switch (phase) {
     case 0:
-        vsw_point_mass_biped_sim_stance_watch_lanes(c, x, out);
+        vsw_point_mass_biped_sim_stance_watch_lanes(live, c, x, out);
         return;
     }
 }

@@ -621,21 +621,24 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
 }
 
 /* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the
-   scalar function's, bit for bit. */
+   scalar function's, bit for bit, on the lanes in `live` (a bit each; the others' sines and
+   cosines are not taken, their results mean nothing). */
 #include "lanes.h"
 
-static inline void vsw_rimless_wheel_sim_stance_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_rimless_wheel_sim_stance_flow_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos;
     vsw_lanes a0, a1, a2, a3;
     a0=x[1];
     out[0]=a0;
     a0=c[0];
     a1=x[0];
-    a2=vsw_lanes_sin(a1);
+    vsw_lanes_sincos(a1, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a2=vsw_sc0_sin;
     a0=(a0*a2);
     a2=c[1];
     a0=(a0*a2);
-    a1=vsw_lanes_cos(a1);
+    a1=vsw_sc0_cos;
     a3=c[2];
     a1=(a1*a3);
     a1=(a1*a2);
@@ -645,23 +648,25 @@ static inline void vsw_rimless_wheel_sim_stance_flow_lanes(const vsw_lanes *c, c
     out[1]=a0;
 }
 
-static inline void vsw_rimless_wheel_sim_stance_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_rimless_wheel_sim_stance_watch_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos;
     vsw_lanes a0, a1, a2, a3, a4, a5;
     a0=x[0];
-    a1=vsw_lanes_cos(a0);
+    vsw_lanes_sincos(a0, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a1=vsw_sc0_cos;
     a2=c[3];
     a1=(a1*a2);
     a3=c[4];
     a3=(a3-a0);
-    a3=vsw_lanes_cos(a3);
+    a3=vsw_lanes_cos(a3, live);
     a3=(a3*a2);
     a1=(a1-a3);
     out[0]=a1;
     a1=x[1];
     out[1]=a1;
     a3=c[5];
-    a4=vsw_lanes_cos(a0);
+    a4=vsw_lanes_cos(a0, live);
     a5=vsw_lanes_sq(a4);
     a3=(a3*a5);
     a2=(a4*a2);
@@ -670,7 +675,7 @@ static inline void vsw_rimless_wheel_sim_stance_watch_lanes(const vsw_lanes *c, 
     a3=(a3-a2);
     a2=c[6];
     a4=(a4*a2);
-    a0=vsw_lanes_sin(a0);
+    a0=vsw_sc0_sin;
     a4=(a4*a0);
     a0=c[1];
     a4=(a4*a0);
@@ -678,22 +683,22 @@ static inline void vsw_rimless_wheel_sim_stance_watch_lanes(const vsw_lanes *c, 
     out[2]=a3;
 }
 
-static inline void vsw_lanes_flow(int phase, const vsw_lanes *c, const vsw_lanes *x,
+static inline void vsw_lanes_flow(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
                                   vsw_lanes *out)
 {
     switch (phase) {
     case 0:
-        vsw_rimless_wheel_sim_stance_flow_lanes(c, x, out);
+        vsw_rimless_wheel_sim_stance_flow_lanes(live, c, x, out);
         return;
     }
 }
 
-static inline void vsw_lanes_watch(int phase, const vsw_lanes *c, const vsw_lanes *x,
+static inline void vsw_lanes_watch(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
                                    vsw_lanes *out)
 {
     switch (phase) {
     case 0:
-        vsw_rimless_wheel_sim_stance_watch_lanes(c, x, out);
+        vsw_rimless_wheel_sim_stance_watch_lanes(live, c, x, out);
         return;
     }
 }

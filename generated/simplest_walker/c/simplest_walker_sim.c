@@ -688,11 +688,13 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
 }
 
 /* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the
-   scalar function's, bit for bit. */
+   scalar function's, bit for bit, on the lanes in `live` (a bit each; the others' sines and
+   cosines are not taken, their results mean nothing). */
 #include "lanes.h"
 
-static inline void vsw_simplest_walker_sim_stance_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_simplest_walker_sim_stance_flow_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos;
     vsw_lanes a0, a1, a2, a3;
     a0=x[2];
     out[0]=a0;
@@ -701,20 +703,21 @@ static inline void vsw_simplest_walker_sim_stance_flow_lanes(const vsw_lanes *c,
     a1=c[0];
     a2=x[0];
     a1=(a1+a2);
-    a2=vsw_lanes_sin(a1);
+    vsw_lanes_sincos(a1, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a2=vsw_sc0_sin;
     out[2]=a2;
     a3=x[1];
-    a3=vsw_lanes_sin(a3);
+    a3=vsw_lanes_sin(a3, live);
     a0=vsw_lanes_sq(a0);
     a0=(a3*a0);
     a2=(a2+a0);
-    a1=vsw_lanes_cos(a1);
+    a1=vsw_sc0_cos;
     a1=(a1*a3);
     a2=(a2-a1);
     out[3]=a2;
 }
 
-static inline void vsw_simplest_walker_sim_stance_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_simplest_walker_sim_stance_watch_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
     vsw_lanes a0, a1, a2, a3, a4, a5;
     a0=x[1];
@@ -722,43 +725,43 @@ static inline void vsw_simplest_walker_sim_stance_watch_lanes(const vsw_lanes *c
     a0=(a0/a1);
     a2=x[0];
     a0=(a0-a2);
-    a0=vsw_lanes_sin(a0);
+    a0=vsw_lanes_sin(a0, live);
     a0=(-a0);
     out[0]=a0;
     a0=x[2];
     out[1]=a0;
-    a3=vsw_lanes_cos(a2);
+    a3=vsw_lanes_cos(a2, live);
     out[2]=a3;
     a3=c[1];
     a4=c[0];
     a5=(2.*a2);
     a4=(a4+a5);
-    a4=vsw_lanes_cos(a4);
+    a4=vsw_lanes_cos(a4, live);
     a4=(a4/a1);
     a3=(a3+a4);
-    a2=vsw_lanes_cos(a2);
+    a2=vsw_lanes_cos(a2, live);
     a0=vsw_lanes_sq(a0);
     a2=(a2*a0);
     a3=(a3-a2);
     out[3]=a3;
 }
 
-static inline void vsw_lanes_flow(int phase, const vsw_lanes *c, const vsw_lanes *x,
+static inline void vsw_lanes_flow(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
                                   vsw_lanes *out)
 {
     switch (phase) {
     case 0:
-        vsw_simplest_walker_sim_stance_flow_lanes(c, x, out);
+        vsw_simplest_walker_sim_stance_flow_lanes(live, c, x, out);
         return;
     }
 }
 
-static inline void vsw_lanes_watch(int phase, const vsw_lanes *c, const vsw_lanes *x,
+static inline void vsw_lanes_watch(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
                                    vsw_lanes *out)
 {
     switch (phase) {
     case 0:
-        vsw_simplest_walker_sim_stance_watch_lanes(c, x, out);
+        vsw_simplest_walker_sim_stance_watch_lanes(live, c, x, out);
         return;
     }
 }

@@ -1243,28 +1243,29 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
 }
 
 /* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the
-   scalar function's, bit for bit. */
+   scalar function's, bit for bit, on the lanes in `live` (a bit each; the others' sines and
+   cosines are not taken, their results mean nothing). */
 #include "lanes.h"
 
-static inline void vsw_tle_sim_short_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_tle_sim_short_flow_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
     vsw_lanes a0, a1;
     a0=x[1];
     out[0]=a0;
     a0=x[0];
-    a0=vsw_lanes_sin(a0);
+    a0=vsw_lanes_sin(a0, live);
     a1=c[0];
     a0=(a0/a1);
     out[1]=a0;
 }
 
-static inline void vsw_tle_sim_extension_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_tle_sim_extension_flow_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
     vsw_lanes a0, a1, a2, a3, a4, a5, a6;
     a0=x[1];
     out[0]=a0;
     a1=x[0];
-    a2=vsw_lanes_sin(a1);
+    a2=vsw_lanes_sin(a1, live);
     a3=c[2];
     a0=vsw_lanes_sq(a0);
     a3=(a3*a0);
@@ -1295,17 +1296,17 @@ static inline void vsw_tle_sim_extension_flow_lanes(const vsw_lanes *c, const vs
     out[1]=a2;
 }
 
-static inline void vsw_tle_sim_long_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_tle_sim_long_flow_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
     vsw_lanes a0;
     a0=x[1];
     out[0]=a0;
     a0=x[0];
-    a0=vsw_lanes_sin(a0);
+    a0=vsw_lanes_sin(a0, live);
     out[1]=a0;
 }
 
-static inline void vsw_tle_sim_short_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_tle_sim_short_watch_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
     vsw_lanes a0, a1, a2, a3;
     a0=x[0];
@@ -1314,7 +1315,7 @@ static inline void vsw_tle_sim_short_watch_lanes(const vsw_lanes *c, const vsw_l
     out[0]=a1;
     a1=x[1];
     out[1]=a1;
-    a0=vsw_lanes_cos(a0);
+    a0=vsw_lanes_cos(a0, live);
     a2=vsw_lanes_sq(a0);
     a3=c[0];
     a0=(a0*a3);
@@ -1324,8 +1325,9 @@ static inline void vsw_tle_sim_short_watch_lanes(const vsw_lanes *c, const vsw_l
     out[2]=a2;
 }
 
-static inline void vsw_tle_sim_extension_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_tle_sim_extension_watch_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
     vsw_lanes a12;
     a00=x[0];
@@ -1349,7 +1351,8 @@ static inline void vsw_tle_sim_extension_watch_lanes(const vsw_lanes *c, const v
     a08=(a08-a09);
     a08=(a05*a08);
     a04=(a04-a08);
-    a08=vsw_lanes_cos(a00);
+    vsw_lanes_sincos(a00, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a08=vsw_sc0_cos;
     a09=vsw_lanes_sq(a08);
     a09=(a04*a09);
     a02=vsw_lanes_sq(a02);
@@ -1372,7 +1375,7 @@ static inline void vsw_tle_sim_extension_watch_lanes(const vsw_lanes *c, const v
     a09=(a09-a10);
     a05=(a05*a07);
     a05=(a05*a08);
-    a00=vsw_lanes_sin(a00);
+    a00=vsw_sc0_sin;
     a05=(a05*a00);
     a09=(a09-a05);
     a05=c[15];
@@ -1388,21 +1391,21 @@ static inline void vsw_tle_sim_extension_watch_lanes(const vsw_lanes *c, const v
     out[2]=a09;
 }
 
-static inline void vsw_tle_sim_long_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_tle_sim_long_watch_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
     vsw_lanes a0, a1, a2, a3;
     a0=x[0];
-    a1=vsw_lanes_cos(a0);
+    a1=vsw_lanes_cos(a0, live);
     a2=c[16];
     a2=(a2-a0);
-    a2=vsw_lanes_cos(a2);
+    a2=vsw_lanes_cos(a2, live);
     a3=c[0];
     a2=(a2*a3);
     a1=(a1-a2);
     out[0]=a1;
     a1=x[1];
     out[1]=a1;
-    a0=vsw_lanes_cos(a0);
+    a0=vsw_lanes_cos(a0, live);
     a2=vsw_lanes_sq(a0);
     a1=vsw_lanes_sq(a1);
     a0=(a0*a1);
@@ -1410,34 +1413,34 @@ static inline void vsw_tle_sim_long_watch_lanes(const vsw_lanes *c, const vsw_la
     out[2]=a2;
 }
 
-static inline void vsw_lanes_flow(int phase, const vsw_lanes *c, const vsw_lanes *x,
+static inline void vsw_lanes_flow(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
                                   vsw_lanes *out)
 {
     switch (phase) {
     case 0:
-        vsw_tle_sim_short_flow_lanes(c, x, out);
+        vsw_tle_sim_short_flow_lanes(live, c, x, out);
         return;
     case 1:
-        vsw_tle_sim_extension_flow_lanes(c, x, out);
+        vsw_tle_sim_extension_flow_lanes(live, c, x, out);
         return;
     case 2:
-        vsw_tle_sim_long_flow_lanes(c, x, out);
+        vsw_tle_sim_long_flow_lanes(live, c, x, out);
         return;
     }
 }
 
-static inline void vsw_lanes_watch(int phase, const vsw_lanes *c, const vsw_lanes *x,
+static inline void vsw_lanes_watch(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
                                    vsw_lanes *out)
 {
     switch (phase) {
     case 0:
-        vsw_tle_sim_short_watch_lanes(c, x, out);
+        vsw_tle_sim_short_watch_lanes(live, c, x, out);
         return;
     case 1:
-        vsw_tle_sim_extension_watch_lanes(c, x, out);
+        vsw_tle_sim_extension_watch_lanes(live, c, x, out);
         return;
     case 2:
-        vsw_tle_sim_long_watch_lanes(c, x, out);
+        vsw_tle_sim_long_watch_lanes(live, c, x, out);
         return;
     }
 }

@@ -1048,11 +1048,13 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
 }
 
 /* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the
-   scalar function's, bit for bit. */
+   scalar function's, bit for bit, on the lanes in `live` (a bit each; the others' sines and
+   cosines are not taken, their results mean nothing). */
 #include "lanes.h"
 
-static inline void vsw_torso_walker_sim_stance_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_torso_walker_sim_stance_flow_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos, vsw_sc1_sin, vsw_sc1_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
     vsw_lanes a12;
     a00=x[2];
@@ -1069,12 +1071,13 @@ static inline void vsw_torso_walker_sim_stance_flow_lanes(const vsw_lanes *c, co
     a07=(a05+a06);
     a08=c[2];
     a07=(a07-a08);
-    a08=vsw_lanes_sin(a07);
+    vsw_lanes_sincos(a07, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a08=vsw_sc0_sin;
     a04=(a04*a08);
     a03=(a03+a04);
     a04=c[4];
     a08=(a05+a06);
-    a08=vsw_lanes_sin(a08);
+    a08=vsw_lanes_sin(a08, live);
     a08=(a04*a08);
     a09=c[5];
     a08=(a08*a09);
@@ -1082,7 +1085,8 @@ static inline void vsw_torso_walker_sim_stance_flow_lanes(const vsw_lanes *c, co
     a08=c[6];
     a09=x[1];
     a06=(a09-a06);
-    a10=vsw_lanes_sin(a06);
+    vsw_lanes_sincos(a06, live, &vsw_sc1_sin, &vsw_sc1_cos);
+    a10=vsw_sc1_sin;
     a11=(a08*a10);
     a01=vsw_lanes_sq(a01);
     a11=(a11*a01);
@@ -1098,17 +1102,17 @@ static inline void vsw_torso_walker_sim_stance_flow_lanes(const vsw_lanes *c, co
     a12=vsw_lanes_splat(2.);
     a00=(a00/a12);
     a05=(a05+a09);
-    a05=vsw_lanes_sin(a05);
+    a05=vsw_lanes_sin(a05, live);
     a04=(a04*a05);
     a04=(a04*a10);
     a00=(a00-a04);
     a08=(a08*a00);
-    a06=vsw_lanes_cos(a06);
+    a06=vsw_sc1_cos;
     a08=(a08*a06);
     a11=(a11+a08);
     a08=c[11];
     a04=c[10];
-    a07=vsw_lanes_cos(a07);
+    a07=vsw_sc0_cos;
     a04=(a04*a07);
     a08=(a08+a04);
     a01=(a01*a08);
@@ -1133,8 +1137,9 @@ static inline void vsw_torso_walker_sim_stance_flow_lanes(const vsw_lanes *c, co
     out[3]=a02;
 }
 
-static inline void vsw_torso_walker_sim_stance_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_torso_walker_sim_stance_watch_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos, vsw_sc1_sin, vsw_sc1_cos, vsw_sc2_sin, vsw_sc2_cos, vsw_sc3_sin, vsw_sc3_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
     vsw_lanes a12, a13, a14, a15, a16, a17, a18, a19;
     a00=x[1];
@@ -1143,18 +1148,19 @@ static inline void vsw_torso_walker_sim_stance_watch_lanes(const vsw_lanes *c, c
     a03=x[0];
     a04=(a03/a01);
     a02=(a02+a04);
-    a02=vsw_lanes_sin(a02);
+    a02=vsw_lanes_sin(a02, live);
     out[0]=a02;
     a02=x[2];
     out[1]=a02;
-    a04=vsw_lanes_cos(a03);
+    vsw_lanes_sincos(a03, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a04=vsw_sc0_cos;
     out[2]=a04;
     a04=c[16];
     a05=c[15];
     a02=vsw_lanes_sq(a02);
     a06=c[14];
     a07=(a02*a06);
-    a08=vsw_lanes_cos(a03);
+    a08=vsw_lanes_cos(a03, live);
     a08=(a07*a08);
     a09=(a05*a08);
     a04=(a04-a09);
@@ -1170,7 +1176,8 @@ static inline void vsw_torso_walker_sim_stance_watch_lanes(const vsw_lanes *c, c
     a08=vsw_lanes_sq(a08);
     a11=c[20];
     a12=(a08*a11);
-    a13=vsw_lanes_cos(a00);
+    vsw_lanes_sincos(a00, live, &vsw_sc1_sin, &vsw_sc1_cos);
+    a13=vsw_sc1_cos;
     a12=(a12*a13);
     a04=(a04+a12);
     a12=c[26];
@@ -1180,13 +1187,14 @@ static inline void vsw_torso_walker_sim_stance_watch_lanes(const vsw_lanes *c, c
     a14=(a07+a03);
     a15=c[2];
     a14=(a14-a15);
-    a15=vsw_lanes_sin(a14);
+    vsw_lanes_sincos(a14, live, &vsw_sc2_sin, &vsw_sc2_cos);
+    a15=vsw_sc2_sin;
     a13=(a13*a15);
     a15=c[22];
     a13=(a13+a15);
     a15=c[23];
     a16=(a07+a03);
-    a16=vsw_lanes_sin(a16);
+    a16=vsw_lanes_sin(a16, live);
     a16=(a15*a16);
     a17=c[24];
     a16=(a16*a17);
@@ -1194,7 +1202,8 @@ static inline void vsw_torso_walker_sim_stance_watch_lanes(const vsw_lanes *c, c
     a16=c[25];
     a08=(a08*a16);
     a17=(a00-a03);
-    a18=vsw_lanes_sin(a17);
+    vsw_lanes_sincos(a17, live, &vsw_sc3_sin, &vsw_sc3_cos);
+    a18=vsw_sc3_sin;
     a08=(a08*a18);
     a13=(a13-a08);
     a12=(a12*a13);
@@ -1207,17 +1216,17 @@ static inline void vsw_torso_walker_sim_stance_watch_lanes(const vsw_lanes *c, c
     a02=(a02*a18);
     a02=(a02/a01);
     a07=(a07+a00);
-    a07=vsw_lanes_sin(a07);
+    a07=vsw_lanes_sin(a07, live);
     a15=(a15*a07);
     a15=(a15*a18);
     a02=(a02-a15);
     a16=(a02*a16);
-    a17=vsw_lanes_cos(a17);
+    a17=vsw_sc3_cos;
     a16=(a16*a17);
     a08=(a08+a16);
     a16=c[29];
     a15=c[28];
-    a14=vsw_lanes_cos(a14);
+    a14=vsw_sc2_cos;
     a15=(a15*a14);
     a15=(a15*a06);
     a16=(a16+a15);
@@ -1233,7 +1242,7 @@ static inline void vsw_torso_walker_sim_stance_watch_lanes(const vsw_lanes *c, c
     a18=(a18/a13);
     a19=(a19-a18);
     a08=(a08/a19);
-    a03=vsw_lanes_sin(a03);
+    a03=vsw_sc0_sin;
     a03=(a03*a06);
     a05=(a05*a03);
     a09=(a03*a09);
@@ -1243,7 +1252,7 @@ static inline void vsw_torso_walker_sim_stance_watch_lanes(const vsw_lanes *c, c
     a08=(a08*a05);
     a04=(a04-a08);
     a11=(a11/a19);
-    a00=vsw_lanes_sin(a00);
+    a00=vsw_sc1_sin;
     a11=(a11*a00);
     a12=(a12*a17);
     a12=(a12/a01);
@@ -1255,22 +1264,22 @@ static inline void vsw_torso_walker_sim_stance_watch_lanes(const vsw_lanes *c, c
     out[3]=a04;
 }
 
-static inline void vsw_lanes_flow(int phase, const vsw_lanes *c, const vsw_lanes *x,
+static inline void vsw_lanes_flow(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
                                   vsw_lanes *out)
 {
     switch (phase) {
     case 0:
-        vsw_torso_walker_sim_stance_flow_lanes(c, x, out);
+        vsw_torso_walker_sim_stance_flow_lanes(live, c, x, out);
         return;
     }
 }
 
-static inline void vsw_lanes_watch(int phase, const vsw_lanes *c, const vsw_lanes *x,
+static inline void vsw_lanes_watch(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
                                    vsw_lanes *out)
 {
     switch (phase) {
     case 0:
-        vsw_torso_walker_sim_stance_watch_lanes(c, x, out);
+        vsw_torso_walker_sim_stance_watch_lanes(live, c, x, out);
         return;
     }
 }

@@ -1789,11 +1789,13 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
 }
 
 /* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the
-   scalar function's, bit for bit. */
+   scalar function's, bit for bit, on the lanes in `live` (a bit each; the others' sines and
+   cosines are not taken, their results mean nothing). */
 #include "lanes.h"
 
-static inline void vsw_vsw_biped_sim_short_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_vsw_biped_sim_short_flow_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
     vsw_lanes a12, a13, a14, a15, a16, a17;
     a00=x[2];
@@ -1802,7 +1804,7 @@ static inline void vsw_vsw_biped_sim_short_flow_lanes(const vsw_lanes *c, const 
     out[1]=a01;
     a02=c[0];
     a03=x[0];
-    a04=vsw_lanes_sin(a03);
+    a04=vsw_lanes_sin(a03, live);
     a05=(a02*a04);
     a06=c[1];
     a05=(a05*a06);
@@ -1810,7 +1812,8 @@ static inline void vsw_vsw_biped_sim_short_flow_lanes(const vsw_lanes *c, const 
     a05=(a05*a07);
     a07=x[1];
     a03=(a07-a03);
-    a08=vsw_lanes_sin(a03);
+    vsw_lanes_sincos(a03, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a08=vsw_sc0_sin;
     a01=vsw_lanes_sq(a01);
     a01=(a08*a01);
     a09=c[3];
@@ -1819,9 +1822,9 @@ static inline void vsw_vsw_biped_sim_short_flow_lanes(const vsw_lanes *c, const 
     a12=(a11*a04);
     a10=(a10+a12);
     a12=c[5];
-    a03=vsw_lanes_cos(a03);
+    a03=vsw_sc0_cos;
     a12=(a12*a03);
-    a07=vsw_lanes_sin(a07);
+    a07=vsw_lanes_sin(a07, live);
     a13=(a02*a07);
     a14=(a12*a13);
     a14=(a14*a06);
@@ -1888,8 +1891,9 @@ static inline void vsw_vsw_biped_sim_short_flow_lanes(const vsw_lanes *c, const 
     out[3]=a09;
 }
 
-static inline void vsw_vsw_biped_sim_long_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_vsw_biped_sim_long_flow_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
     vsw_lanes a12, a13;
     a00=x[2];
@@ -1898,7 +1902,7 @@ static inline void vsw_vsw_biped_sim_long_flow_lanes(const vsw_lanes *c, const v
     out[1]=a01;
     a02=c[41];
     a03=x[0];
-    a04=vsw_lanes_sin(a03);
+    a04=vsw_lanes_sin(a03, live);
     a02=(a02*a04);
     a05=c[2];
     a02=(a02*a05);
@@ -1907,15 +1911,16 @@ static inline void vsw_vsw_biped_sim_long_flow_lanes(const vsw_lanes *c, const v
     a08=c[43];
     a09=x[1];
     a03=(a09-a03);
-    a10=vsw_lanes_cos(a03);
+    vsw_lanes_sincos(a03, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a10=vsw_sc0_cos;
     a11=(a08*a10);
-    a09=vsw_lanes_sin(a09);
+    a09=vsw_lanes_sin(a09, live);
     a12=(a11*a09);
     a07=(a07+a12);
     a02=(a02-a07);
     a01=vsw_lanes_sq(a01);
     a07=(a06*a01);
-    a03=vsw_lanes_sin(a03);
+    a03=vsw_sc0_sin;
     a07=(a07*a03);
     a02=(a02-a07);
     a07=c[44];
@@ -1981,8 +1986,9 @@ static inline void vsw_vsw_biped_sim_long_flow_lanes(const vsw_lanes *c, const v
     out[3]=a02;
 }
 
-static inline void vsw_vsw_biped_sim_short_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_vsw_biped_sim_short_watch_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos, vsw_sc1_sin, vsw_sc1_cos, vsw_sc2_sin, vsw_sc2_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
     vsw_lanes a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
     vsw_lanes a24, a25, a26, a27, a28, a29, a30, a31, a32, a33;
@@ -1992,12 +1998,14 @@ static inline void vsw_vsw_biped_sim_short_watch_lanes(const vsw_lanes *c, const
     out[0]=a02;
     a02=x[2];
     out[1]=a02;
-    a03=vsw_lanes_cos(a00);
+    vsw_lanes_sincos(a00, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a03=vsw_sc0_cos;
     out[2]=a03;
     a03=c[19];
     a04=x[1];
     a05=(a04-a00);
-    a06=vsw_lanes_cos(a05);
+    vsw_lanes_sincos(a05, live, &vsw_sc1_sin, &vsw_sc1_cos);
+    a06=vsw_sc1_cos;
     a07=vsw_lanes_sq(a06);
     a08=c[18];
     a09=(a07*a08);
@@ -2008,13 +2016,14 @@ static inline void vsw_vsw_biped_sim_short_watch_lanes(const vsw_lanes *c, const
     a11=(a11-a12);
     a11=(a11-a08);
     a13=c[22];
-    a14=vsw_lanes_sin(a04);
+    vsw_lanes_sincos(a04, live, &vsw_sc2_sin, &vsw_sc2_cos);
+    a14=vsw_sc2_sin;
     a15=(a06*a14);
-    a16=vsw_lanes_sin(a00);
+    a16=vsw_sc0_sin;
     a15=(a15*a16);
     a17=(a13*a15);
     a11=(a11+a17);
-    a04=vsw_lanes_cos(a04);
+    a04=vsw_sc2_cos;
     a17=vsw_lanes_sq(a04);
     a18=c[23];
     a19=(a17*a18);
@@ -2023,7 +2032,7 @@ static inline void vsw_vsw_biped_sim_short_watch_lanes(const vsw_lanes *c, const
     a11=(a11+a19);
     a19=(a17*a08);
     a11=(a11+a19);
-    a19=vsw_lanes_cos(a00);
+    a19=vsw_lanes_cos(a00, live);
     a20=vsw_lanes_sq(a19);
     a18=(a18*a20);
     a11=(a11+a18);
@@ -2060,7 +2069,7 @@ static inline void vsw_vsw_biped_sim_short_watch_lanes(const vsw_lanes *c, const
     a29=(a21*a28);
     a11=(a11+a29);
     a29=(a23*a08);
-    a05=vsw_lanes_sin(a05);
+    a05=vsw_sc1_sin;
     a30=(a29*a05);
     a30=(a30*a16);
     a31=(a26*a30);
@@ -2137,26 +2146,30 @@ static inline void vsw_vsw_biped_sim_short_watch_lanes(const vsw_lanes *c, const
     out[4]=a00;
 }
 
-static inline void vsw_vsw_biped_sim_long_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_vsw_biped_sim_long_watch_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos, vsw_sc1_sin, vsw_sc1_cos, vsw_sc2_sin, vsw_sc2_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
     vsw_lanes a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
     vsw_lanes a24, a25, a26, a27;
     a00=x[0];
-    a01=vsw_lanes_cos(a00);
+    vsw_lanes_sincos(a00, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a01=vsw_sc0_cos;
     a02=x[1];
-    a03=vsw_lanes_cos(a02);
+    vsw_lanes_sincos(a02, live, &vsw_sc1_sin, &vsw_sc1_cos);
+    a03=vsw_sc1_cos;
     a04=c[1];
     a03=(a03*a04);
     a01=(a01-a03);
     out[0]=a01;
     a01=x[2];
     out[1]=a01;
-    a03=vsw_lanes_cos(a00);
+    a03=vsw_lanes_cos(a00, live);
     out[2]=a03;
     a03=c[56];
     a04=(a02-a00);
-    a05=vsw_lanes_cos(a04);
+    vsw_lanes_sincos(a04, live, &vsw_sc2_sin, &vsw_sc2_cos);
+    a05=vsw_sc2_cos;
     a06=vsw_lanes_sq(a05);
     a07=c[55];
     a08=(a06*a07);
@@ -2167,7 +2180,7 @@ static inline void vsw_vsw_biped_sim_long_watch_lanes(const vsw_lanes *c, const 
     a10=(a10-a11);
     a10=(a10-a07);
     a12=c[59];
-    a13=vsw_lanes_cos(a00);
+    a13=vsw_lanes_cos(a00, live);
     a14=vsw_lanes_sq(a13);
     a15=(a12*a14);
     a10=(a10+a15);
@@ -2176,7 +2189,7 @@ static inline void vsw_vsw_biped_sim_long_watch_lanes(const vsw_lanes *c, const 
     a16=(a16*a14);
     a15=(a15*a16);
     a10=(a10+a15);
-    a15=vsw_lanes_cos(a02);
+    a15=vsw_lanes_cos(a02, live);
     a17=vsw_lanes_sq(a15);
     a18=(a11*a17);
     a10=(a10+a18);
@@ -2185,9 +2198,9 @@ static inline void vsw_vsw_biped_sim_long_watch_lanes(const vsw_lanes *c, const 
     a19=(a18*a15);
     a20=(a09*a19);
     a10=(a10+a20);
-    a00=vsw_lanes_sin(a00);
+    a00=vsw_sc0_sin;
     a20=(a18*a00);
-    a04=vsw_lanes_sin(a04);
+    a04=vsw_sc2_sin;
     a21=(a20*a04);
     a22=(a09*a21);
     a10=(a10+a22);
@@ -2217,7 +2230,7 @@ static inline void vsw_vsw_biped_sim_long_watch_lanes(const vsw_lanes *c, const 
     a24=(a24*a26);
     a10=(a10+a24);
     a22=(a22*a04);
-    a02=vsw_lanes_sin(a02);
+    a02=vsw_sc1_sin;
     a24=(a01*a02);
     a23=(a22*a24);
     a10=(a10+a23);
@@ -2277,28 +2290,28 @@ static inline void vsw_vsw_biped_sim_long_watch_lanes(const vsw_lanes *c, const 
     out[3]=a10;
 }
 
-static inline void vsw_lanes_flow(int phase, const vsw_lanes *c, const vsw_lanes *x,
+static inline void vsw_lanes_flow(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
                                   vsw_lanes *out)
 {
     switch (phase) {
     case 0:
-        vsw_vsw_biped_sim_short_flow_lanes(c, x, out);
+        vsw_vsw_biped_sim_short_flow_lanes(live, c, x, out);
         return;
     case 1:
-        vsw_vsw_biped_sim_long_flow_lanes(c, x, out);
+        vsw_vsw_biped_sim_long_flow_lanes(live, c, x, out);
         return;
     }
 }
 
-static inline void vsw_lanes_watch(int phase, const vsw_lanes *c, const vsw_lanes *x,
+static inline void vsw_lanes_watch(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
                                    vsw_lanes *out)
 {
     switch (phase) {
     case 0:
-        vsw_vsw_biped_sim_short_watch_lanes(c, x, out);
+        vsw_vsw_biped_sim_short_watch_lanes(live, c, x, out);
         return;
     case 1:
-        vsw_vsw_biped_sim_long_watch_lanes(c, x, out);
+        vsw_vsw_biped_sim_long_watch_lanes(live, c, x, out);
         return;
     }
 }

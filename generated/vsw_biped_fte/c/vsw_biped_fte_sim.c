@@ -2684,11 +2684,13 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
 }
 
 /* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the
-   scalar function's, bit for bit. */
+   scalar function's, bit for bit, on the lanes in `live` (a bit each; the others' sines and
+   cosines are not taken, their results mean nothing). */
 #include "lanes.h"
 
-static inline void vsw_vsw_biped_fte_sim_short_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_vsw_biped_fte_sim_short_flow_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
     vsw_lanes a12, a13, a14, a15, a16, a17;
     a00=x[2];
@@ -2697,7 +2699,7 @@ static inline void vsw_vsw_biped_fte_sim_short_flow_lanes(const vsw_lanes *c, co
     out[1]=a01;
     a02=c[0];
     a03=x[0];
-    a04=vsw_lanes_sin(a03);
+    a04=vsw_lanes_sin(a03, live);
     a05=(a02*a04);
     a06=c[1];
     a05=(a05*a06);
@@ -2705,7 +2707,8 @@ static inline void vsw_vsw_biped_fte_sim_short_flow_lanes(const vsw_lanes *c, co
     a05=(a05*a07);
     a07=x[1];
     a03=(a07-a03);
-    a08=vsw_lanes_sin(a03);
+    vsw_lanes_sincos(a03, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a08=vsw_sc0_sin;
     a01=vsw_lanes_sq(a01);
     a01=(a08*a01);
     a09=c[3];
@@ -2714,9 +2717,9 @@ static inline void vsw_vsw_biped_fte_sim_short_flow_lanes(const vsw_lanes *c, co
     a12=(a11*a04);
     a10=(a10+a12);
     a12=c[5];
-    a03=vsw_lanes_cos(a03);
+    a03=vsw_sc0_cos;
     a12=(a12*a03);
-    a07=vsw_lanes_sin(a07);
+    a07=vsw_lanes_sin(a07, live);
     a13=(a02*a07);
     a14=(a12*a13);
     a14=(a14*a06);
@@ -2783,8 +2786,9 @@ static inline void vsw_vsw_biped_fte_sim_short_flow_lanes(const vsw_lanes *c, co
     out[3]=a09;
 }
 
-static inline void vsw_vsw_biped_fte_sim_extension_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_vsw_biped_fte_sim_extension_flow_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
     vsw_lanes a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
     vsw_lanes a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
@@ -2795,7 +2799,7 @@ static inline void vsw_vsw_biped_fte_sim_extension_flow_lanes(const vsw_lanes *c
     out[1]=a01;
     a02=c[41];
     a03=x[0];
-    a04=vsw_lanes_sin(a03);
+    a04=vsw_lanes_sin(a03, live);
     a05=(a02*a04);
     a06=c[45];
     a07=c[1];
@@ -2829,7 +2833,8 @@ static inline void vsw_vsw_biped_fte_sim_extension_flow_lanes(const vsw_lanes *c
     a15=(a15*a16);
     a10=x[1];
     a03=(a10-a03);
-    a17=vsw_lanes_cos(a03);
+    vsw_lanes_sincos(a03, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a17=vsw_sc0_cos;
     a18=vsw_lanes_sq(a17);
     a16=(a02*a16);
     a19=(a13*a16);
@@ -2840,7 +2845,7 @@ static inline void vsw_vsw_biped_fte_sim_extension_flow_lanes(const vsw_lanes *c
     a21=c[2];
     a22=(a20*a21);
     a14=(a14+a22);
-    a03=vsw_lanes_sin(a03);
+    a03=vsw_sc0_sin;
     a22=(a00*a03);
     a23=vsw_lanes_sq(a07);
     a24=(a02*a23);
@@ -2853,7 +2858,7 @@ static inline void vsw_vsw_biped_fte_sim_extension_flow_lanes(const vsw_lanes *c
     a14=(a14-a28);
     a28=(a06*a17);
     a29=(a28*a07);
-    a10=vsw_lanes_sin(a10);
+    a10=vsw_lanes_sin(a10, live);
     a30=(a02*a10);
     a31=(a29*a30);
     a14=(a14-a31);
@@ -2987,8 +2992,9 @@ static inline void vsw_vsw_biped_fte_sim_extension_flow_lanes(const vsw_lanes *c
     out[3]=a30;
 }
 
-static inline void vsw_vsw_biped_fte_sim_long_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_vsw_biped_fte_sim_long_flow_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
     vsw_lanes a12, a13;
     a00=x[2];
@@ -2997,7 +3003,7 @@ static inline void vsw_vsw_biped_fte_sim_long_flow_lanes(const vsw_lanes *c, con
     out[1]=a01;
     a02=c[92];
     a03=x[0];
-    a04=vsw_lanes_sin(a03);
+    a04=vsw_lanes_sin(a03, live);
     a02=(a02*a04);
     a05=c[2];
     a02=(a02*a05);
@@ -3006,15 +3012,16 @@ static inline void vsw_vsw_biped_fte_sim_long_flow_lanes(const vsw_lanes *c, con
     a08=c[94];
     a09=x[1];
     a03=(a09-a03);
-    a10=vsw_lanes_cos(a03);
+    vsw_lanes_sincos(a03, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a10=vsw_sc0_cos;
     a11=(a08*a10);
-    a09=vsw_lanes_sin(a09);
+    a09=vsw_lanes_sin(a09, live);
     a12=(a11*a09);
     a07=(a07+a12);
     a02=(a02-a07);
     a01=vsw_lanes_sq(a01);
     a07=(a06*a01);
-    a03=vsw_lanes_sin(a03);
+    a03=vsw_sc0_sin;
     a07=(a07*a03);
     a02=(a02-a07);
     a07=c[95];
@@ -3080,8 +3087,9 @@ static inline void vsw_vsw_biped_fte_sim_long_flow_lanes(const vsw_lanes *c, con
     out[3]=a02;
 }
 
-static inline void vsw_vsw_biped_fte_sim_short_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_vsw_biped_fte_sim_short_watch_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos, vsw_sc1_sin, vsw_sc1_cos, vsw_sc2_sin, vsw_sc2_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
     vsw_lanes a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
     vsw_lanes a24, a25, a26, a27, a28, a29, a30, a31, a32, a33;
@@ -3091,12 +3099,14 @@ static inline void vsw_vsw_biped_fte_sim_short_watch_lanes(const vsw_lanes *c, c
     out[0]=a02;
     a02=x[2];
     out[1]=a02;
-    a03=vsw_lanes_cos(a00);
+    vsw_lanes_sincos(a00, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a03=vsw_sc0_cos;
     out[2]=a03;
     a03=c[19];
     a04=x[1];
     a05=(a04-a00);
-    a06=vsw_lanes_cos(a05);
+    vsw_lanes_sincos(a05, live, &vsw_sc1_sin, &vsw_sc1_cos);
+    a06=vsw_sc1_cos;
     a07=vsw_lanes_sq(a06);
     a08=c[18];
     a09=(a07*a08);
@@ -3107,13 +3117,14 @@ static inline void vsw_vsw_biped_fte_sim_short_watch_lanes(const vsw_lanes *c, c
     a11=(a11-a12);
     a11=(a11-a08);
     a13=c[22];
-    a14=vsw_lanes_sin(a04);
+    vsw_lanes_sincos(a04, live, &vsw_sc2_sin, &vsw_sc2_cos);
+    a14=vsw_sc2_sin;
     a15=(a06*a14);
-    a16=vsw_lanes_sin(a00);
+    a16=vsw_sc0_sin;
     a15=(a15*a16);
     a17=(a13*a15);
     a11=(a11+a17);
-    a04=vsw_lanes_cos(a04);
+    a04=vsw_sc2_cos;
     a17=vsw_lanes_sq(a04);
     a18=c[23];
     a19=(a17*a18);
@@ -3122,7 +3133,7 @@ static inline void vsw_vsw_biped_fte_sim_short_watch_lanes(const vsw_lanes *c, c
     a11=(a11+a19);
     a19=(a17*a08);
     a11=(a11+a19);
-    a19=vsw_lanes_cos(a00);
+    a19=vsw_lanes_cos(a00, live);
     a20=vsw_lanes_sq(a19);
     a18=(a18*a20);
     a11=(a11+a18);
@@ -3159,7 +3170,7 @@ static inline void vsw_vsw_biped_fte_sim_short_watch_lanes(const vsw_lanes *c, c
     a29=(a21*a28);
     a11=(a11+a29);
     a29=(a23*a08);
-    a05=vsw_lanes_sin(a05);
+    a05=vsw_sc1_sin;
     a30=(a29*a05);
     a30=(a30*a16);
     a31=(a26*a30);
@@ -3236,8 +3247,9 @@ static inline void vsw_vsw_biped_fte_sim_short_watch_lanes(const vsw_lanes *c, c
     out[4]=a00;
 }
 
-static inline void vsw_vsw_biped_fte_sim_extension_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_vsw_biped_fte_sim_extension_watch_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos, vsw_sc1_sin, vsw_sc1_cos, vsw_sc2_sin, vsw_sc2_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
     vsw_lanes a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
     vsw_lanes a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
@@ -3251,7 +3263,8 @@ static inline void vsw_vsw_biped_fte_sim_extension_watch_lanes(const vsw_lanes *
     out[0]=a02;
     a02=x[2];
     out[1]=a02;
-    a04=vsw_lanes_cos(a00);
+    vsw_lanes_sincos(a00, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a04=vsw_sc0_cos;
     out[2]=a04;
     a04=c[64];
     a05=c[62];
@@ -3274,7 +3287,8 @@ static inline void vsw_vsw_biped_fte_sim_extension_watch_lanes(const vsw_lanes *
     a13=(a05*a12);
     a14=x[1];
     a15=(a14-a00);
-    a16=vsw_lanes_cos(a15);
+    vsw_lanes_sincos(a15, live, &vsw_sc1_sin, &vsw_sc1_cos);
+    a16=vsw_sc1_cos;
     a17=vsw_lanes_sq(a16);
     a18=(a13*a17);
     a19=(a13+a18);
@@ -3287,7 +3301,7 @@ static inline void vsw_vsw_biped_fte_sim_extension_watch_lanes(const vsw_lanes *
     a12=(a12*a19);
     a23=vsw_lanes_splat(6.);
     a02=vsw_lanes_sq(a02);
-    a24=vsw_lanes_cos(a00);
+    a24=vsw_lanes_cos(a00, live);
     a25=(a02*a24);
     a26=vsw_lanes_splat(1.);
     a01=(2.*a01);
@@ -3321,7 +3335,7 @@ static inline void vsw_vsw_biped_fte_sim_extension_watch_lanes(const vsw_lanes *
     a09=(-a28);
     a09=(2.*a09);
     a09=(a09*a02);
-    a35=vsw_lanes_sin(a00);
+    a35=vsw_sc0_sin;
     a09=(a09*a35);
     a36=(a34*a09);
     a04=(a04-a36);
@@ -3334,13 +3348,14 @@ static inline void vsw_vsw_biped_fte_sim_extension_watch_lanes(const vsw_lanes *
     a22=(a06*a22);
     a00=(2.*a00);
     a00=(a14-a00);
-    a00=vsw_lanes_cos(a00);
+    a00=vsw_lanes_cos(a00, live);
     a00=(a28*a00);
-    a37=vsw_lanes_sin(a14);
+    vsw_lanes_sincos(a14, live, &vsw_sc2_sin, &vsw_sc2_cos);
+    a37=vsw_sc2_sin;
     a00=(a00*a37);
     a38=(a22*a00);
     a04=(a04+a38);
-    a14=vsw_lanes_cos(a14);
+    a14=vsw_sc2_cos;
     a38=vsw_lanes_sq(a14);
     a31=(a31*a20);
     a39=(a38*a31);
@@ -3369,7 +3384,7 @@ static inline void vsw_vsw_biped_fte_sim_extension_watch_lanes(const vsw_lanes *
     a43=vsw_lanes_sq(a43);
     a44=(a28*a24);
     a45=(a43*a44);
-    a15=vsw_lanes_sin(a15);
+    a15=vsw_sc1_sin;
     a45=(a45*a15);
     a46=(a31*a45);
     a04=(a04+a46);
@@ -3697,26 +3712,30 @@ static inline void vsw_vsw_biped_fte_sim_extension_watch_lanes(const vsw_lanes *
     out[3]=a04;
 }
 
-static inline void vsw_vsw_biped_fte_sim_long_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_vsw_biped_fte_sim_long_watch_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos, vsw_sc1_sin, vsw_sc1_cos, vsw_sc2_sin, vsw_sc2_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
     vsw_lanes a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
     vsw_lanes a24, a25, a26, a27;
     a00=x[0];
-    a01=vsw_lanes_cos(a00);
+    vsw_lanes_sincos(a00, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a01=vsw_sc0_cos;
     a02=x[1];
-    a03=vsw_lanes_cos(a02);
+    vsw_lanes_sincos(a02, live, &vsw_sc1_sin, &vsw_sc1_cos);
+    a03=vsw_sc1_cos;
     a04=c[1];
     a03=(a03*a04);
     a01=(a01-a03);
     out[0]=a01;
     a01=x[2];
     out[1]=a01;
-    a03=vsw_lanes_cos(a00);
+    a03=vsw_lanes_cos(a00, live);
     out[2]=a03;
     a03=c[106];
     a04=(a02-a00);
-    a05=vsw_lanes_cos(a04);
+    vsw_lanes_sincos(a04, live, &vsw_sc2_sin, &vsw_sc2_cos);
+    a05=vsw_sc2_cos;
     a06=vsw_lanes_sq(a05);
     a07=c[105];
     a08=(a06*a07);
@@ -3727,7 +3746,7 @@ static inline void vsw_vsw_biped_fte_sim_long_watch_lanes(const vsw_lanes *c, co
     a10=(a10-a11);
     a10=(a10-a07);
     a12=c[109];
-    a13=vsw_lanes_cos(a00);
+    a13=vsw_lanes_cos(a00, live);
     a14=vsw_lanes_sq(a13);
     a15=(a12*a14);
     a10=(a10+a15);
@@ -3736,7 +3755,7 @@ static inline void vsw_vsw_biped_fte_sim_long_watch_lanes(const vsw_lanes *c, co
     a16=(a16*a14);
     a15=(a15*a16);
     a10=(a10+a15);
-    a15=vsw_lanes_cos(a02);
+    a15=vsw_lanes_cos(a02, live);
     a17=vsw_lanes_sq(a15);
     a18=(a11*a17);
     a10=(a10+a18);
@@ -3745,9 +3764,9 @@ static inline void vsw_vsw_biped_fte_sim_long_watch_lanes(const vsw_lanes *c, co
     a19=(a18*a15);
     a20=(a09*a19);
     a10=(a10+a20);
-    a00=vsw_lanes_sin(a00);
+    a00=vsw_sc0_sin;
     a20=(a18*a00);
-    a04=vsw_lanes_sin(a04);
+    a04=vsw_sc2_sin;
     a21=(a20*a04);
     a22=(a09*a21);
     a10=(a10+a22);
@@ -3777,7 +3796,7 @@ static inline void vsw_vsw_biped_fte_sim_long_watch_lanes(const vsw_lanes *c, co
     a24=(a24*a26);
     a10=(a10+a24);
     a22=(a22*a04);
-    a02=vsw_lanes_sin(a02);
+    a02=vsw_sc1_sin;
     a24=(a01*a02);
     a23=(a22*a24);
     a10=(a10+a23);
@@ -3837,34 +3856,34 @@ static inline void vsw_vsw_biped_fte_sim_long_watch_lanes(const vsw_lanes *c, co
     out[3]=a10;
 }
 
-static inline void vsw_lanes_flow(int phase, const vsw_lanes *c, const vsw_lanes *x,
+static inline void vsw_lanes_flow(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
                                   vsw_lanes *out)
 {
     switch (phase) {
     case 0:
-        vsw_vsw_biped_fte_sim_short_flow_lanes(c, x, out);
+        vsw_vsw_biped_fte_sim_short_flow_lanes(live, c, x, out);
         return;
     case 1:
-        vsw_vsw_biped_fte_sim_extension_flow_lanes(c, x, out);
+        vsw_vsw_biped_fte_sim_extension_flow_lanes(live, c, x, out);
         return;
     case 2:
-        vsw_vsw_biped_fte_sim_long_flow_lanes(c, x, out);
+        vsw_vsw_biped_fte_sim_long_flow_lanes(live, c, x, out);
         return;
     }
 }
 
-static inline void vsw_lanes_watch(int phase, const vsw_lanes *c, const vsw_lanes *x,
+static inline void vsw_lanes_watch(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
                                    vsw_lanes *out)
 {
     switch (phase) {
     case 0:
-        vsw_vsw_biped_fte_sim_short_watch_lanes(c, x, out);
+        vsw_vsw_biped_fte_sim_short_watch_lanes(live, c, x, out);
         return;
     case 1:
-        vsw_vsw_biped_fte_sim_extension_watch_lanes(c, x, out);
+        vsw_vsw_biped_fte_sim_extension_watch_lanes(live, c, x, out);
         return;
     case 2:
-        vsw_vsw_biped_fte_sim_long_watch_lanes(c, x, out);
+        vsw_vsw_biped_fte_sim_long_watch_lanes(live, c, x, out);
         return;
     }
 }

@@ -2234,11 +2234,13 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
 }
 
 /* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the
-   scalar function's, bit for bit. */
+   scalar function's, bit for bit, on the lanes in `live` (a bit each; the others' sines and
+   cosines are not taken, their results mean nothing). */
 #include "lanes.h"
 
-static inline void vsw_vsw_biped_phi0_sim_swing_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_vsw_biped_phi0_sim_swing_flow_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
     vsw_lanes a12, a13, a14, a15, a16, a17;
     a00=x[2];
@@ -2247,13 +2249,14 @@ static inline void vsw_vsw_biped_phi0_sim_swing_flow_lanes(const vsw_lanes *c, c
     out[1]=a01;
     a02=c[0];
     a03=x[1];
-    a04=vsw_lanes_sin(a03);
+    vsw_lanes_sincos(a03, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a04=vsw_sc0_sin;
     a05=vsw_lanes_sq(a01);
     a05=(a04*a05);
     a06=(a02*a05);
     a07=c[1];
     a08=x[0];
-    a09=vsw_lanes_sin(a08);
+    a09=vsw_lanes_sin(a08, live);
     a10=(a07*a09);
     a11=c[2];
     a12=(a10*a11);
@@ -2272,10 +2275,10 @@ static inline void vsw_vsw_biped_phi0_sim_swing_flow_lanes(const vsw_lanes *c, c
     a15=(a14*a09);
     a06=(a06-a15);
     a08=(a03-a08);
-    a08=vsw_lanes_sin(a08);
+    a08=vsw_lanes_sin(a08, live);
     a07=(a07*a08);
     a15=c[7];
-    a03=vsw_lanes_cos(a03);
+    a03=vsw_sc0_cos;
     a15=(a15*a03);
     a16=(a07*a15);
     a16=(a16*a12);
@@ -2338,15 +2341,17 @@ static inline void vsw_vsw_biped_phi0_sim_swing_flow_lanes(const vsw_lanes *c, c
     out[3]=a06;
 }
 
-static inline void vsw_vsw_biped_phi0_sim_caught_short_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_vsw_biped_phi0_sim_caught_short_flow_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos, vsw_sc1_sin, vsw_sc1_cos;
     vsw_lanes a0, a1, a2, a3, a4, a5, a6, a7;
     a0=x[2];
     out[0]=a0;
     a0=x[3];
     out[1]=a0;
     a0=x[0];
-    a1=vsw_lanes_sin(a0);
+    vsw_lanes_sincos(a0, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a1=vsw_sc0_sin;
     a2=c[3];
     a2=(a1*a2);
     a3=c[66];
@@ -2355,7 +2360,8 @@ static inline void vsw_vsw_biped_phi0_sim_caught_short_flow_lanes(const vsw_lane
     a4=c[67];
     a5=c[16];
     a5=(a5-a0);
-    a6=vsw_lanes_sin(a5);
+    vsw_lanes_sincos(a5, live, &vsw_sc1_sin, &vsw_sc1_cos);
+    a6=vsw_sc1_sin;
     a7=(a4*a6);
     a3=(a3+a7);
     a4=(a4*a1);
@@ -2366,9 +2372,9 @@ static inline void vsw_vsw_biped_phi0_sim_caught_short_flow_lanes(const vsw_lane
     a2=(a2*a6);
     a4=(a4+a2);
     a2=c[70];
-    a5=vsw_lanes_cos(a5);
+    a5=vsw_sc1_cos;
     a2=(a2*a5);
-    a0=vsw_lanes_cos(a0);
+    a0=vsw_sc0_cos;
     a2=(a2*a0);
     a4=(a4-a2);
     a3=(a3/a4);
@@ -2377,22 +2383,25 @@ static inline void vsw_vsw_biped_phi0_sim_caught_short_flow_lanes(const vsw_lane
     out[3]=a3;
 }
 
-static inline void vsw_vsw_biped_phi0_sim_caught_long_flow_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_vsw_biped_phi0_sim_caught_long_flow_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos, vsw_sc1_sin, vsw_sc1_cos;
     vsw_lanes a0, a1, a2, a3, a4, a5, a6;
     a0=x[2];
     out[0]=a0;
     a0=x[3];
     out[1]=a0;
     a0=x[0];
-    a1=vsw_lanes_sin(a0);
+    vsw_lanes_sincos(a0, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a1=vsw_sc0_sin;
     a2=c[89];
     a2=(a2*a1);
     a2=(a1+a2);
     a3=c[90];
     a4=c[16];
     a4=(a4-a0);
-    a5=vsw_lanes_sin(a4);
+    vsw_lanes_sincos(a4, live, &vsw_sc1_sin, &vsw_sc1_cos);
+    a5=vsw_sc1_sin;
     a6=(a3*a5);
     a2=(a2+a6);
     a3=(a3*a1);
@@ -2402,9 +2411,9 @@ static inline void vsw_vsw_biped_phi0_sim_caught_long_flow_lanes(const vsw_lanes
     a5=(a6*a5);
     a5=(a5*a1);
     a3=(a3+a5);
-    a4=vsw_lanes_cos(a4);
+    a4=vsw_sc1_cos;
     a6=(a6*a4);
-    a0=vsw_lanes_cos(a0);
+    a0=vsw_sc0_cos;
     a6=(a6*a0);
     a3=(a3-a6);
     a2=(a2/a3);
@@ -2413,8 +2422,9 @@ static inline void vsw_vsw_biped_phi0_sim_caught_long_flow_lanes(const vsw_lanes
     out[3]=a2;
 }
 
-static inline void vsw_vsw_biped_phi0_sim_swing_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_vsw_biped_phi0_sim_swing_watch_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos, vsw_sc1_sin, vsw_sc1_cos, vsw_sc2_sin, vsw_sc2_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
     vsw_lanes a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
     vsw_lanes a24, a25, a26, a27, a28, a29;
@@ -2425,11 +2435,13 @@ static inline void vsw_vsw_biped_phi0_sim_swing_watch_lanes(const vsw_lanes *c, 
     a01=x[2];
     out[1]=a01;
     a02=x[0];
-    a03=vsw_lanes_cos(a02);
+    vsw_lanes_sincos(a02, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a03=vsw_sc0_cos;
     out[2]=a03;
     a03=c[19];
     a04=c[17];
-    a05=vsw_lanes_cos(a00);
+    vsw_lanes_sincos(a00, live, &vsw_sc1_sin, &vsw_sc1_cos);
+    a05=vsw_sc1_cos;
     a06=vsw_lanes_sq(a05);
     a07=(a04*a06);
     a04=(a04+a07);
@@ -2438,7 +2450,7 @@ static inline void vsw_vsw_biped_phi0_sim_swing_watch_lanes(const vsw_lanes *c, 
     a03=(a03-a04);
     a06=(a06*a08);
     a03=(a03-a06);
-    a06=vsw_lanes_cos(a02);
+    a06=vsw_lanes_cos(a02, live);
     a08=vsw_lanes_sq(a06);
     a04=c[20];
     a09=(a08*a04);
@@ -2453,7 +2465,8 @@ static inline void vsw_vsw_biped_phi0_sim_swing_watch_lanes(const vsw_lanes *c, 
     a09=x[3];
     a14=(a09*a01);
     a15=(a00-a02);
-    a16=vsw_lanes_cos(a15);
+    vsw_lanes_sincos(a15, live, &vsw_sc2_sin, &vsw_sc2_cos);
+    a16=vsw_sc2_cos;
     a17=(a14*a16);
     a18=(2.*a17);
     a19=c[22];
@@ -2475,9 +2488,9 @@ static inline void vsw_vsw_biped_phi0_sim_swing_watch_lanes(const vsw_lanes *c, 
     a26=(a23*a25);
     a03=(a03-a26);
     a26=vsw_lanes_sq(a09);
-    a27=vsw_lanes_sin(a02);
+    a27=vsw_sc0_sin;
     a28=(a26*a27);
-    a00=vsw_lanes_sin(a00);
+    a00=vsw_sc1_sin;
     a19=(a19*a00);
     a29=(a28*a19);
     a03=(a03-a29);
@@ -2512,7 +2525,7 @@ static inline void vsw_vsw_biped_phi0_sim_swing_watch_lanes(const vsw_lanes *c, 
     a28=(a28*a08);
     a03=(a03+a28);
     a28=c[33];
-    a15=vsw_lanes_sin(a15);
+    a15=vsw_sc2_sin;
     a21=(a05*a15);
     a28=(a28*a21);
     a28=(a28*a27);
@@ -2687,8 +2700,9 @@ static inline void vsw_vsw_biped_phi0_sim_swing_watch_lanes(const vsw_lanes *c, 
     out[4]=a02;
 }
 
-static inline void vsw_vsw_biped_phi0_sim_caught_short_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_vsw_biped_phi0_sim_caught_short_watch_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos, vsw_sc1_sin, vsw_sc1_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
     vsw_lanes a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
     a00=x[0];
@@ -2697,10 +2711,11 @@ static inline void vsw_vsw_biped_phi0_sim_caught_short_watch_lanes(const vsw_lan
     out[0]=a01;
     a01=x[2];
     out[1]=a01;
-    a02=vsw_lanes_cos(a00);
+    vsw_lanes_sincos(a00, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a02=vsw_sc0_cos;
     out[2]=a02;
     a02=c[71];
-    a03=vsw_lanes_cos(a00);
+    a03=vsw_lanes_cos(a00, live);
     a04=vsw_lanes_sq(a03);
     a02=(a02*a04);
     a05=c[72];
@@ -2712,14 +2727,15 @@ static inline void vsw_vsw_biped_phi0_sim_caught_short_watch_lanes(const vsw_lan
     a06=(a06+a10);
     a11=c[16];
     a11=(a11-a00);
-    a12=vsw_lanes_sin(a11);
-    a00=vsw_lanes_sin(a00);
+    vsw_lanes_sincos(a11, live, &vsw_sc1_sin, &vsw_sc1_cos);
+    a12=vsw_sc1_sin;
+    a00=vsw_sc0_sin;
     a12=(a12*a00);
     a00=(a05*a12);
     a06=(a06+a00);
     a13=c[75];
     a14=c[74];
-    a11=vsw_lanes_cos(a11);
+    a11=vsw_sc1_cos;
     a15=(a11*a03);
     a16=(a14*a15);
     a16=(a13-a16);
@@ -2816,40 +2832,43 @@ static inline void vsw_vsw_biped_phi0_sim_caught_short_watch_lanes(const vsw_lan
     out[3]=a06;
 }
 
-static inline void vsw_vsw_biped_phi0_sim_caught_long_watch_lanes(const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_vsw_biped_phi0_sim_caught_long_watch_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
+    vsw_lanes vsw_sc0_sin, vsw_sc0_cos, vsw_sc1_sin, vsw_sc1_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
     vsw_lanes a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
     a00=x[0];
-    a01=vsw_lanes_cos(a00);
+    vsw_lanes_sincos(a00, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a01=vsw_sc0_cos;
     a02=c[16];
     a03=(a02-a00);
-    a03=vsw_lanes_cos(a03);
+    a03=vsw_lanes_cos(a03, live);
     a04=c[3];
     a03=(a03*a04);
     a01=(a01-a03);
     out[0]=a01;
     a01=x[2];
     out[1]=a01;
-    a03=vsw_lanes_cos(a00);
+    a03=vsw_lanes_cos(a00, live);
     out[2]=a03;
     a03=c[94];
     a04=c[93];
     a05=vsw_lanes_splat(4.);
-    a06=vsw_lanes_cos(a00);
+    a06=vsw_lanes_cos(a00, live);
     a07=vsw_lanes_sq(a06);
     a08=(a05*a07);
     a09=(a04*a08);
     a10=(a03+a09);
     a02=(a02-a00);
-    a11=vsw_lanes_sin(a02);
-    a00=vsw_lanes_sin(a00);
+    vsw_lanes_sincos(a02, live, &vsw_sc1_sin, &vsw_sc1_cos);
+    a11=vsw_sc1_sin;
+    a00=vsw_sc0_sin;
     a11=(a11*a00);
     a00=(a03*a11);
     a10=(a10+a00);
     a12=c[96];
     a13=c[95];
-    a02=vsw_lanes_cos(a02);
+    a02=vsw_sc1_cos;
     a14=(a13*a02);
     a14=(a14*a06);
     a14=(a12-a14);
@@ -2937,34 +2956,34 @@ static inline void vsw_vsw_biped_phi0_sim_caught_long_watch_lanes(const vsw_lane
     out[3]=a10;
 }
 
-static inline void vsw_lanes_flow(int phase, const vsw_lanes *c, const vsw_lanes *x,
+static inline void vsw_lanes_flow(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
                                   vsw_lanes *out)
 {
     switch (phase) {
     case 0:
-        vsw_vsw_biped_phi0_sim_swing_flow_lanes(c, x, out);
+        vsw_vsw_biped_phi0_sim_swing_flow_lanes(live, c, x, out);
         return;
     case 1:
-        vsw_vsw_biped_phi0_sim_caught_short_flow_lanes(c, x, out);
+        vsw_vsw_biped_phi0_sim_caught_short_flow_lanes(live, c, x, out);
         return;
     case 2:
-        vsw_vsw_biped_phi0_sim_caught_long_flow_lanes(c, x, out);
+        vsw_vsw_biped_phi0_sim_caught_long_flow_lanes(live, c, x, out);
         return;
     }
 }
 
-static inline void vsw_lanes_watch(int phase, const vsw_lanes *c, const vsw_lanes *x,
+static inline void vsw_lanes_watch(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
                                    vsw_lanes *out)
 {
     switch (phase) {
     case 0:
-        vsw_vsw_biped_phi0_sim_swing_watch_lanes(c, x, out);
+        vsw_vsw_biped_phi0_sim_swing_watch_lanes(live, c, x, out);
         return;
     case 1:
-        vsw_vsw_biped_phi0_sim_caught_short_watch_lanes(c, x, out);
+        vsw_vsw_biped_phi0_sim_caught_short_watch_lanes(live, c, x, out);
         return;
     case 2:
-        vsw_vsw_biped_phi0_sim_caught_long_watch_lanes(c, x, out);
+        vsw_vsw_biped_phi0_sim_caught_long_watch_lanes(live, c, x, out);
         return;
     }
 }
