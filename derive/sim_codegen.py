@@ -150,7 +150,7 @@ def lane_function(name: str, lines: list[str]) -> str:
         if line == "return 0;":
             continue
         if line.startswith("casadi_real "):
-            out.append("    vsw_lanes " + line[len("casadi_real "):])
+            out.append("    vsw_lanes " + line[len("casadi_real ") :])
             continue
         if not re.fullmatch(r"(a\d+|res\[0\]\[\d+\])=[^;]+;", line):
             raise ValueError(f"{name}: a line the lanes cannot take: {line}")
@@ -311,7 +311,9 @@ def simulator_c_source(model: str, source: str, descriptor: dict, module: types.
         )
 
     bodies = _casadi_bodies(casadi_code)
-    lane_functions = "\n\n".join(lane_function(name, bodies[name][1]) for name in (*flows, *watches))
+    lane_functions = "\n\n".join(
+        lane_function(name, bodies[name][1]) for name in (*flows, *watches)
+    )
 
     def lane_cases(names: list[str]) -> str:
         return "\n".join(f"    case {k}:\n        {name}_lanes(live, c, x, out);\n        return;"
