@@ -799,9 +799,9 @@ def _floor_rows(count: int, reps: int) -> list[Row]:
 
 
 def _numba_rows(count: int, reps: int) -> list[Row]:
-    """Case 15's peer: the simplest walker and the compass gait through a hand-written
-    numba DOP853 (benchmarks/peers/numba_dop853.py: the same integrator rules, each model
-    typed by hand) against the batch simulator, one thread each, walks of 20 steps;
+    """Case 15's peer: the simplest walker, the compass gait and the VSW biped through a
+    hand-written numba DOP853 (benchmarks/peers/numba_dop853.py: the same integrator rules,
+    each model typed by hand) against the batch simulator, one thread each, walks of 20 steps;
     skipped without numba."""
     try:
         from peers import numba_dop853
@@ -813,8 +813,8 @@ def _numba_rows(count: int, reps: int) -> list[Row]:
     from vsw.models import load
 
     rows = []
-    for key in ("simplest_walker", "compass_gait"):
-        _, params, starts = _near_gait_starts(key, count)
+    for key in ("simplest_walker", "compass_gait", "vsw_biped"):
+        _, params, starts = _near_gait_starts(key, count, BATCH_VALUES.get(key))
         sim = simulator(load(key))
         sim.library()
         walk_numba = getattr(numba_dop853, key)()

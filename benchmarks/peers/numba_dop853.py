@@ -5,8 +5,9 @@ tableau, error norm, step-size control and initial step), the events located on 
 accepted step's 7th-order dense output by the Illinois method to 1e-13 in time, the same
 rules as vsw/csrc/hybrid_batch.c (an event whose ``when`` is <= 0 is skipped 1e-9 past
 it; a failure already past zero at the phase start ends the walk), and the model's
-equations typed by hand with sin and cos. One phase per step (the simplest walker and the
-compass gait). numba is an optional benchmark peer: ``pip install numba``.
+equations typed by hand with sin and cos: the simplest walker, the compass gait and the
+VSW biped (two phases a step, the extension between them). numba is an optional
+benchmark peer: ``pip install numba``.
 """
 
 from __future__ import annotations
@@ -31,12 +32,28 @@ PHASE_TIME_LIMIT = 30.0
 EVENT_TIME_TOL = 1e-13
 
 
-def make_walker(flow, watch, directions: np.ndarray, what: np.ndarray, when, reset, nx: int):
+def make_walker(
+    flow,
+    watch,
+    n_watch: np.ndarray,
+    directions: np.ndarray,
+    what: np.ndarray,
+    when,
+    reset,
+    targets: np.ndarray,
+    ends_step: np.ndarray,
+    nx: int,
+):
     """A jitted ``walk(params, starts, steps, rtol, atol, final, walked, outcome)``.
 
-    ``flow(p, y, out)``, ``watch(p, y, out)`` (guards), ``when(p, y)``, ``reset(p, y, out)``:
-    njit functions. ``what[k]``: 0 for the step event, -1 for a failure."""
-    n_watch = directions.size
+    ``flow(phase, p, y, out)``, ``watch(phase, p, y, out)`` (a phase's guards),
+    ``when(event, p, y)``, ``reset(event, p, y, out)``: njit functions. Per phase:
+    ``n_watch`` guards, their ``directions`` (+-2: a failure checked at the phase's start
+    only) and ``what`` (the event's index, or -1 for a failure); per event: the phase
+    after (``targets``) and whether it ends the step (``ends_step``). Each step starts in
+    phase 0."""
+    n_phases = n_watch.size
+    max_watch = directions.shape[1]
 
     @njit(cache=False, fastmath=False)
     def rms(x, scale):
@@ -47,7 +64,7 @@ def make_walker(flow, watch, directions: np.ndarray, what: np.ndarray, when, res
         return math.sqrt(s / nx)
 
     @njit
-    def initial_step(p, y, f0, rtol, atol):
+    def initial_step(phase, p, y, f0, rtol, atol):
         scale = np.empty(nx)
         y1 = np.empty(nx)
         f1 = np.empty(nx)
@@ -58,7 +75,7 @@ def make_walker(flow, watch, directions: np.ndarray, what: np.ndarray, when, res
         h0 = min(h0, PHASE_TIME_LIMIT)
         for i in range(nx):
             y1[i] = y[i] + h0 * f0[i]
-        flow(p, y1, f1)
+        flow(phase, p, y1, f1)
         for i in range(nx):
             f1[i] -= f0[i]
         d2 = rms(f1, scale) / h0
@@ -69,7 +86,7 @@ def make_walker(flow, watch, directions: np.ndarray, what: np.ndarray, when, res
         return min(min(100.0 * h0, h1), PHASE_TIME_LIMIT)
 
     @njit
-    def rk_step(p, y, f0, h, K, y_new, tmp):
+    def rk_step(phase, p, y, f0, h, K, y_new, tmp):
         K[0, :] = f0
         for s in range(1, N_STAGES):
             for i in range(nx):
@@ -77,13 +94,13 @@ def make_walker(flow, watch, directions: np.ndarray, what: np.ndarray, when, res
                 for j in range(s):
                     acc += K[j, i] * A[s, j]
                 tmp[i] = y[i] + acc * h
-            flow(p, tmp, K[s])
+            flow(phase, p, tmp, K[s])
         for i in range(nx):
             acc = 0.0
             for j in range(N_STAGES):
                 acc += K[j, i] * B[j]
             y_new[i] = y[i] + h * acc
-        flow(p, y_new, K[N_STAGES])
+        flow(phase, p, y_new, K[N_STAGES])
 
     @njit
     def error_norm(K, h, scale):
@@ -104,7 +121,7 @@ def make_walker(flow, watch, directions: np.ndarray, what: np.ndarray, when, res
         return abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * nx)
 
     @njit
-    def dense(p, y_old, y_new, h, K, F, tmp):
+    def dense(phase, p, y_old, y_new, h, K, F, tmp):
         for s in range(A_EXTRA.shape[0]):
             stage = N_STAGES + 1 + s
             for i in range(nx):
@@ -112,7 +129,7 @@ def make_walker(flow, watch, directions: np.ndarray, what: np.ndarray, when, res
                 for j in range(stage):
                     acc += K[j, i] * A_EXTRA[s, j]
                 tmp[i] = y_old[i] + acc * h
-            flow(p, tmp, K[stage])
+            flow(phase, p, tmp, K[stage])
         for i in range(nx):
             delta = y_new[i] - y_old[i]
             F[0, i] = delta
@@ -134,7 +151,7 @@ def make_walker(flow, watch, directions: np.ndarray, what: np.ndarray, when, res
             out[i] = y + y_old[i]
 
     @njit
-    def locate(p, F, y_old, y_new, h, k, ga, gb, y_hit, g, ys):
+    def locate(phase, p, F, y_old, y_new, h, k, ga, gb, y_hit, g, ys):
         a, b = 0.0, h
         side = 0
         if ga == 0.0:
@@ -150,7 +167,7 @@ def make_walker(flow, watch, directions: np.ndarray, what: np.ndarray, when, res
             if not (a < s < b):
                 s = 0.5 * (a + b)
             interpolate(F, y_old, s / h, ys)
-            watch(p, ys, g)
+            watch(phase, p, ys, g)
             gs = g[k]
             if gs == 0.0 or (gs > 0.0) == (gb > 0.0):
                 b, gb = s, gs
@@ -174,21 +191,21 @@ def make_walker(flow, watch, directions: np.ndarray, what: np.ndarray, when, res
         return up if direction > 0 else down
 
     @njit
-    def run_phase(p, y, rtol, atol):
+    def run_phase(phase, p, y, rtol, atol):
         """The phase from y to its first counting event or failure: (watched index or -1)."""
-        g0, g1, g = np.empty(n_watch), np.empty(n_watch), np.empty(n_watch)
+        g0, g1, g = np.empty(max_watch), np.empty(max_watch), np.empty(max_watch)
         f0, y_new, scale = np.empty(nx), np.empty(nx), np.empty(nx)
         tmp, ys, y_k, y_first = np.empty(nx), np.empty(nx), np.empty(nx), np.empty(nx)
         K = np.empty((N_ALL, nx))
         F = np.empty((7, nx))
-        watch(p, y, g0)
-        for k in range(n_watch):
-            if what[k] < 0 and g0[k] * directions[k] > 0.0:
+        watch(phase, p, y, g0)
+        for k in range(n_watch[phase]):
+            if what[phase, k] < 0 and g0[k] * directions[phase, k] > 0.0:
                 return k
         time = 0.0
         for _restart in range(20):
-            flow(p, y, f0)
-            h = initial_step(p, y, f0, rtol, atol)
+            flow(phase, p, y, f0)
+            h = initial_step(phase, p, y, f0, rtol, atol)
             rejected = False
             skipped = False
             while not skipped:
@@ -200,7 +217,7 @@ def make_walker(flow, watch, directions: np.ndarray, what: np.ndarray, when, res
                     if h < min_step:
                         return -1
                     h = min(h, PHASE_TIME_LIMIT - time)
-                    rk_step(p, y, f0, h, K, y_new, tmp)
+                    rk_step(phase, p, y, f0, h, K, y_new, tmp)
                     for i in range(nx):
                         scale[i] = atol + max(abs(y[i]), abs(y_new[i])) * rtol
                     err = error_norm(K, h, scale)
@@ -212,27 +229,29 @@ def make_walker(flow, watch, directions: np.ndarray, what: np.ndarray, when, res
                         break
                     h *= max(0.2, 0.9 * err ** (-1.0 / 8.0))
                     rejected = True
-                watch(p, y_new, g1)
+                watch(phase, p, y_new, g1)
                 first, hit, have_dense = np.inf, -1, False
-                for k in range(n_watch):
-                    if not crossed(g0[k], g1[k], directions[k]):
+                for k in range(n_watch[phase]):
+                    if abs(directions[phase, k]) == 2:  # checked at the start only
+                        continue
+                    if not crossed(g0[k], g1[k], directions[phase, k]):
                         continue
                     if not have_dense:
-                        dense(p, y, y_new, h, K, F, tmp)
+                        dense(phase, p, y, y_new, h, K, F, tmp)
                         have_dense = True
-                    s = locate(p, F, y, y_new, h, k, g0[k], g1[k], y_k, g, ys)
+                    s = locate(phase, p, F, y, y_new, h, k, g0[k], g1[k], y_k, g, ys)
                     if s < first:
                         first, hit = s, k
                         y_first[:] = y_k
                 if hit >= 0:
                     time += first
                     y[:] = y_first
-                    if what[hit] >= 0 and when(p, y) <= 0.0:
-                        flow(p, y, tmp)
+                    if what[phase, hit] >= 0 and when(what[phase, hit], p, y) <= 0.0:
+                        flow(phase, p, y, tmp)
                         for i in range(nx):
                             y[i] += 1e-9 * tmp[i]
                         time += 1e-9
-                        watch(p, y, g0)
+                        watch(phase, p, y, g0)
                         skipped = True
                         continue
                     return hit
@@ -251,17 +270,28 @@ def make_walker(flow, watch, directions: np.ndarray, what: np.ndarray, when, res
             y[:] = starts[n]
             result = WALKED
             count = 0
-            while count < steps:
-                hit = run_phase(params, y, rtol, atol)
-                if hit < 0:
+            while count < steps and result == WALKED:
+                phase = 0
+                done = False
+                for _visit in range(n_phases + 1):
+                    hit = run_phase(phase, params, y, rtol, atol)
+                    if hit < 0:
+                        result = STALLED
+                        break
+                    event = what[phase, hit]
+                    if event < 0:
+                        result = FELL
+                        break
+                    reset(event, params, y, y_next)
+                    y[:] = y_next
+                    if ends_step[event]:
+                        done = True
+                        break
+                    phase = targets[event]
+                if result == WALKED and not done:
                     result = STALLED
-                    break
-                if what[hit] < 0:
-                    result = FELL
-                    break
-                reset(params, y, y_next)
-                y[:] = y_next
-                count += 1
+                if done:
+                    count += 1
             final[n] = y
             walked[n] = count
             outcome[n] = result
@@ -309,13 +339,39 @@ def _simplest_reset(p, y, out):
     out[3] = c * theta_dot * (1.0 - c)
 
 
+def _one_phase(flow, watch, when, reset):
+    """A one-phase model's functions with the phase and event arguments the walker passes."""
+
+    @njit
+    def phase_flow(phase, p, y, out):
+        flow(p, y, out)
+
+    @njit
+    def phase_watch(phase, p, y, out):
+        watch(p, y, out)
+
+    @njit
+    def event_when(event, p, y):
+        return when(p, y)
+
+    @njit
+    def event_reset(event, p, y, out):
+        reset(p, y, out)
+
+    return phase_flow, phase_watch, event_when, event_reset
+
+
+ONE_PHASE_TABLE = (np.array([4]), np.array([[1, -1, -1, -1]]), np.array([[0, -1, -1, -1]]))
+"""Watch order: the step's event, then the failures fell-backward, fell-forward and
+lift-off (as the generated tables')."""
+
+
 def simplest_walker():
-    """The simplest walker's walk function (watch order: heelstrike, then the failures
-    fell-backward, fell-forward and lift-off, as the generated table's)."""
-    return make_walker(
-        _simplest_flow, _simplest_watch, np.array([1, -1, -1, -1]),
-        np.array([0, -1, -1, -1]), _simplest_when, _simplest_reset, 4,
-    )  # fmt: skip
+    """The simplest walker's walk function."""
+    flow, watch, when, reset = _one_phase(_simplest_flow, _simplest_watch, _simplest_when,
+                                          _simplest_reset)  # fmt: skip
+    return make_walker(flow, watch, *ONE_PHASE_TABLE, when, reset, np.array([0]),
+                       np.array([True]), 4)  # fmt: skip
 
 
 # --- the compass gait (Goswami, Thuilot and Espiau 1998), typed by hand --------------------
@@ -385,8 +441,143 @@ def _compass_reset(p, y, out):
 
 
 def compass_gait():
-    """The compass gait's walk function (watch order as the generated table's)."""
+    """The compass gait's walk function."""
+    flow, watch, when, reset = _one_phase(_compass_flow, _compass_watch, _simplest_when,
+                                          _compass_reset)  # fmt: skip
+    return make_walker(flow, watch, *ONE_PHASE_TABLE, when, reset, np.array([0]),
+                       np.array([True]), 4)  # fmt: skip
+
+
+# --- the VSW biped (derive/models/vsw_biped.py), typed by hand ------------------------------
+# Level ground, scaled units (lengths in l, masses in m_H, g = 1). theta, psi: the stance
+# and swing legs' angles from the vertical, positive with the hip ahead of the foot; the
+# stance leg r long (beta in phase short, 1 in phase long), each leg's mass mu at b from
+# the hip, the swing foot beta below the hip. Lagrange's equations of
+#   T = ((r^2 + mu (r - b)^2 + mu r^2) theta'^2 - 2 mu r b cos(theta - psi) theta' psi'
+#        + mu b^2 psi'^2) / 2,   V = (r + mu (2 r - b)) cos(theta) - mu b cos(psi).
+
+
+@njit
+def _biped_mass_matrix(r, mu, b, theta, psi):
+    return (r * r + mu * (r - b) * (r - b) + mu * r * r, -mu * r * b * math.cos(theta - psi),
+            mu * b * b)  # fmt: skip
+
+
+@njit
+def _biped_accelerations(r, mu, b, y):
+    theta, psi, theta_dot, psi_dot = y[0], y[1], y[2], y[3]
+    m11, m12, m22 = _biped_mass_matrix(r, mu, b, theta, psi)
+    s = math.sin(theta - psi)
+    r1 = mu * r * b * s * psi_dot * psi_dot + (r + mu * (2.0 * r - b)) * math.sin(theta)
+    r2 = -mu * r * b * s * theta_dot * theta_dot - mu * b * math.sin(psi)
+    det = m11 * m22 - m12 * m12
+    return (m22 * r1 - m12 * r2) / det, (m11 * r2 - m12 * r1) / det
+
+
+@njit
+def _biped_flow(phase, p, y, out):
+    r = p[0] if phase == 0 else 1.0
+    theta_ddot, psi_ddot = _biped_accelerations(r, p[2], p[3], y)
+    out[0] = y[2]
+    out[1] = y[3]
+    out[2] = theta_ddot
+    out[3] = psi_ddot
+
+
+@njit
+def _biped_watch(phase, p, y, out):
+    beta, theta_II, mu, b = p[0], p[1], p[2], p[3]
+    r = beta if phase == 0 else 1.0
+    theta, psi, theta_dot, psi_dot = y[0], y[1], y[2], y[3]
+    theta_ddot, psi_ddot = _biped_accelerations(r, mu, b, y)
+    # the ground's normal force on the stance foot: the weight plus the masses' vertical
+    # accelerations (hip and stance mass on the stance leg, swing mass b below the hip)
+    stance = -(theta_ddot * math.sin(theta) + theta_dot * theta_dot * math.cos(theta))
+    swing = psi_ddot * math.sin(psi) + psi_dot * psi_dot * math.cos(psi)
+    normal = 1.0 + 2.0 * mu + (r + mu * (r - b) + mu * r) * stance + mu * b * swing
+    if phase == 0:
+        out[0] = theta - theta_II  # extension (rising)
+    else:
+        out[0] = math.cos(theta) - beta * math.cos(psi)  # heelstrike: the swing foot's height
+    out[1] = theta_dot  # fell-backward
+    out[2] = math.cos(theta)  # fell-forward
+    out[3] = normal  # lift-off
+    if phase == 0:
+        out[4] = theta - theta_II  # extension-missed: past theta_II at the start
+
+
+@njit
+def _biped_when(event, p, y):
+    if event == 1:
+        return y[0] - y[1]  # heelstrike counts with the swing foot ahead of the stance foot
+    return 1.0  # the extension always counts
+
+
+@njit
+def _biped_reset(event, p, y, out):
+    beta, mu, b = p[0], p[2], p[3]
+    theta, psi, theta_dot, psi_dot = y[0], y[1], y[2], y[3]
+    if event == 0:  # extension: both generalised momenta kept, the stance leg beta -> 1
+        m11, m12, m22 = _biped_mass_matrix(beta, mu, b, theta, psi)
+        p1, p2 = m11 * theta_dot + m12 * psi_dot, m12 * theta_dot + m22 * psi_dot
+        m11, m12, m22 = _biped_mass_matrix(1.0, mu, b, theta, psi)
+        det = m11 * m22 - m12 * m12
+        out[0], out[1] = theta, psi
+        out[2] = (m22 * p1 - m12 * p2) / det
+        out[3] = (m11 * p2 - m12 * p1) / det
+        return
+    # heelstrike: the angular momentum about the new contact (every mass) and that of the
+    # trailing leg's mass about the hip kept; the legs swap roles, the new stance leg beta
+    # long. Each momentum is linear in the rates: its coefficients from unit rates.
+    before = _biped_momenta(1.0, beta, mu, b, theta, psi, theta_dot, psi_dot, 1)
+    a = _biped_momenta(beta, beta, mu, b, psi, theta, 1.0, 0.0, 2)
+    c = _biped_momenta(beta, beta, mu, b, psi, theta, 0.0, 1.0, 2)
+    det = a[0] * c[1] - c[0] * a[1]
+    out[0], out[1] = psi, theta
+    out[2] = (before[0] * c[1] - c[0] * before[1]) / det
+    out[3] = (a[0] * before[1] - before[0] * a[1]) / det
+
+
+@njit
+def _cross(ax, ay, bx, by):
+    return ax * by - ay * bx
+
+
+@njit
+def _biped_momenta(r, beta, mu, b, theta, psi, theta_dot, psi_dot, trailing):
+    """Angular momentum about the contact that is (or becomes) the stance foot, and the
+    trailing leg's mass's about the hip; ``trailing`` 1: the stance leg's mass (before
+    heelstrike, the contact the swing foot beta below the hip), 2: the swing leg's (after,
+    the contact the stance foot)."""
+    hip_x, hip_y = r * math.sin(theta), r * math.cos(theta)
+    v_hip_x, v_hip_y = r * theta_dot * math.cos(theta), -r * theta_dot * math.sin(theta)
+    stance_x, stance_y = (r - b) * math.sin(theta), (r - b) * math.cos(theta)
+    v_stance_x = (r - b) * theta_dot * math.cos(theta)
+    v_stance_y = -(r - b) * theta_dot * math.sin(theta)
+    swing_x, swing_y = hip_x - b * math.sin(psi), hip_y - b * math.cos(psi)
+    v_swing_x = v_hip_x - b * psi_dot * math.cos(psi)
+    v_swing_y = v_hip_y + b * psi_dot * math.sin(psi)
+    if trailing == 1:
+        cx, cy = hip_x - beta * math.sin(psi), hip_y - beta * math.cos(psi)
+    else:
+        cx, cy = 0.0, 0.0
+    total = (_cross(hip_x - cx, hip_y - cy, v_hip_x, v_hip_y)
+             + mu * _cross(stance_x - cx, stance_y - cy, v_stance_x, v_stance_y)
+             + mu * _cross(swing_x - cx, swing_y - cy, v_swing_x, v_swing_y))  # fmt: skip
+    if trailing == 1:
+        leg = mu * _cross(stance_x - hip_x, stance_y - hip_y, v_stance_x, v_stance_y)
+    else:
+        leg = mu * _cross(swing_x - hip_x, swing_y - hip_y, v_swing_x, v_swing_y)
+    return total, leg
+
+
+def vsw_biped():
+    """The VSW biped's walk function: phase short (0) then long (1); watch order as the
+    generated table's (the phase's event, fell-backward, fell-forward, lift-off, and in
+    short extension-missed, checked at the start only)."""
     return make_walker(
-        _compass_flow, _compass_watch, np.array([1, -1, -1, -1]),
-        np.array([0, -1, -1, -1]), _simplest_when, _compass_reset, 4,
+        _biped_flow, _biped_watch, np.array([5, 4]),
+        np.array([[1, -1, -1, -1, 2], [-1, -1, -1, -1, 0]]),
+        np.array([[0, -1, -1, -1, -1], [1, -1, -1, -1, 0]]), _biped_when, _biped_reset,
+        np.array([1, 0]), np.array([False, True]), 4,
     )  # fmt: skip

@@ -690,6 +690,19 @@ static int vsw_lane_load(vsw_batch *b, vsw_lane *ln)
     return VSW_PHASE_STALLED;
 }
 
+/* One field of the lanes' walks as one vector */
+#if VSW_LANES == 4
+#define vsw_lanes_gather(from, field) \
+    ((vsw_lanes){from[0]->field, from[1]->field, from[2]->field, from[3]->field})
+#else
+#define vsw_lanes_gather(from, field)                                                      \
+    __extension__({                                                                        \
+        vsw_lanes gathered_;                                                               \
+        for (int l_ = 0; l_ < VSW_LANES; ++l_) gathered_[l_] = from[l_]->field;            \
+        gathered_;                                                                         \
+    })
+#endif
+
 /* The walks of the batch, VSW_LANES at a time in lockstep: every lane holding a walk takes
    one RK step of its own size in its own phase with the others (one vector operation per
    scalar one), then each lane alone checks the step, locates events on its dense output
@@ -715,17 +728,20 @@ static void vsw_batch_run(vsw_batch *b)
                 if (source < 0) source = l;
             }
         if (source < 0) return;
-        /* empty lanes compute a copy of a live lane, so that every value stays tame */
+        /* empty lanes compute a copy of a live lane, so that every value stays tame; the
+           vectors built in registers (a lane stored into a vector in memory and the
+           vector loaded back stalls the load) */
+        const vsw_lane *from[VSW_LANES];
         for (int l = 0; l < VSW_LANES; ++l) {
-            const vsw_lane *ln = &lanes[(live >> l) & 1 ? l : source];
-            phase[l] = ln->phase;
-            h[l] = ln->h;
-            for (int i = 0; i < VSW_NX; ++i) {
-                y[i][l] = ln->y[i];
-                f0[i][l] = ln->f0[i];
-            }
-            for (int k = 0; k < VSW_NC; ++k) c[k][l] = ln->constants[k];
+            from[l] = &lanes[(live >> l) & 1 ? l : source];
+            phase[l] = from[l]->phase;
         }
+        h = vsw_lanes_gather(from, h);
+        for (int i = 0; i < VSW_NX; ++i) {
+            y[i] = vsw_lanes_gather(from, y[i]);
+            f0[i] = vsw_lanes_gather(from, f0[i]);
+        }
+        for (int k = 0; k < VSW_NC; ++k) c[k] = vsw_lanes_gather(from, constants[k]);
         vsw_lanes_rk_step(phase, live, c, y, f0, h, &b->tol, K, y_new, &err);
         vsw_lanes_watch_in(phase, live, c, y_new, g1);
         for (int l = 0; l < VSW_LANES; ++l) {
