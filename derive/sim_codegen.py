@@ -182,6 +182,8 @@ def _fused_sin_cos(lines: list[str]) -> list[str]:
         if not first:
             continue
         target, kind, operand = first.groups()
+        if target == operand:  # the call overwrites its operand: a later call takes another
+            continue
         other = "cos" if kind == "sin" else "sin"
         for j in range(i + 1, len(lines)):
             second = call.fullmatch(lines[j])

@@ -20,6 +20,7 @@
  */
 #include <float.h>
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "dop853_tableau.h"
@@ -102,28 +103,35 @@ VSW_EXPORT void vsw_batch_call_costs(int phase, const double *params, const doub
             for (int k = 0; k < vsw_n_watch[phase]; ++k) sum += g[k];
         }
     out[1] = (vsw_seconds() - start) / (double)(repeat * n);
+    /* the states in lanes before the clock starts (n >= VSW_LANES; else NaN) */
     const long long groups = n / VSW_LANES, all = (1 << VSW_LANES) - 1;
-    vsw_lanes cl[VSW_NC > 0 ? VSW_NC : 1], x[VSW_NX], fl[VSW_NX], gl[VSW_MAX_WATCH];
-    vsw_lanes total = vsw_lanes_splat(0.0);
-    for (int k = 0; k < VSW_NC; ++k) cl[k] = vsw_lanes_splat(c[k]);
-    for (int pass = 0; pass < 2; ++pass) {
-        start = vsw_seconds();
-        for (long long r = 0; r < repeat; ++r)
-            for (long long i = 0; i < groups; ++i) {
-                for (int k = 0; k < VSW_NX; ++k)
-                    for (int l = 0; l < VSW_LANES; ++l)
-                        x[k][l] = states[(i * VSW_LANES + l) * VSW_NX + k];
-                if (pass == 0) {
-                    vsw_lanes_flow(phase, all, cl, x, fl);
-                    for (int k = 0; k < VSW_NX; ++k) total += fl[k];
-                } else {
-                    vsw_lanes_watch(phase, all, cl, x, gl);
-                    for (int k = 0; k < vsw_n_watch[phase]; ++k) total += gl[k];
+    vsw_lanes *packed = malloc(sizeof(vsw_lanes) * (size_t)(groups > 0 ? groups : 1) * VSW_NX);
+    out[3] = out[4] = NAN;
+    if (groups > 0 && packed) {
+        for (long long i = 0; i < groups; ++i)
+            for (int k = 0; k < VSW_NX; ++k)
+                for (int l = 0; l < VSW_LANES; ++l)
+                    packed[i * VSW_NX + k][l] = states[(i * VSW_LANES + l) * VSW_NX + k];
+        vsw_lanes cl[VSW_NC > 0 ? VSW_NC : 1], fl[VSW_NX], gl[VSW_MAX_WATCH];
+        vsw_lanes total = vsw_lanes_splat(0.0);
+        for (int k = 0; k < VSW_NC; ++k) cl[k] = vsw_lanes_splat(c[k]);
+        for (int pass = 0; pass < 2; ++pass) {
+            start = vsw_seconds();
+            for (long long r = 0; r < repeat; ++r)
+                for (long long i = 0; i < groups; ++i) {
+                    if (pass == 0) {
+                        vsw_lanes_flow(phase, all, cl, packed + i * VSW_NX, fl);
+                        for (int k = 0; k < VSW_NX; ++k) total += fl[k];
+                    } else {
+                        vsw_lanes_watch(phase, all, cl, packed + i * VSW_NX, gl);
+                        for (int k = 0; k < vsw_n_watch[phase]; ++k) total += gl[k];
+                    }
                 }
-            }
-        out[3 + pass] = (vsw_seconds() - start) / (double)(repeat * groups * VSW_LANES);
+            out[3 + pass] = (vsw_seconds() - start) / (double)(repeat * groups * VSW_LANES);
+        }
+        for (int l = 0; l < VSW_LANES; ++l) sum += total[l];
     }
-    for (int l = 0; l < VSW_LANES; ++l) sum += total[l];
+    free(packed);
     out[2] = sum;
 }
 #else
@@ -161,8 +169,9 @@ static double vsw_rms(const double *x, const double *scale)
     return sqrt(s / VSW_NX);
 }
 
-/* Lane l's phase is phase[l]; the lanes in `live` (a bit each) count. The table's flow (or
-   guards) of each phase a live lane is in, on every lane, kept where it belongs. */
+/* Lane l's phase is phase[l]; the lanes in `live` (a bit each, at least one) count. The
+   table's flow (or guards) of each phase a live lane is in, kept on its lanes; the other
+   lanes' results mean nothing. */
 static inline void vsw_lanes_dispatch(const int *phase, int live, const vsw_lanes *c,
                                       const vsw_lanes *x, vsw_lanes *out, int n_out,
                                       int guards)
@@ -171,13 +180,16 @@ static inline void vsw_lanes_dispatch(const int *phase, int live, const vsw_lane
     for (int l = 0; l < VSW_LANES; ++l)
         if ((live >> l) & 1) ++(guards ? vsw_watch_calls : vsw_flow_calls)[phase[l]];
 #endif
+    int first = 0;
+    while (!((live >> first) & 1)) ++first;
     int same = 1;
-    for (int l = 0; l < VSW_LANES; ++l) same &= !((live >> l) & 1) || phase[l] == phase[0];
-    if (same || VSW_NPHASES == 1) {
+    for (int l = first + 1; l < VSW_LANES; ++l)
+        same &= !((live >> l) & 1) || phase[l] == phase[first];
+    if (same) {
         if (guards)
-            vsw_lanes_watch(phase[0], live, c, x, out);
+            vsw_lanes_watch(phase[first], live, c, x, out);
         else
-            vsw_lanes_flow(phase[0], live, c, x, out);
+            vsw_lanes_flow(phase[first], live, c, x, out);
         return;
     }
     vsw_lanes part[VSW_NX > VSW_MAX_WATCH ? VSW_NX : VSW_MAX_WATCH];
@@ -743,7 +755,9 @@ static void vsw_batch_run(vsw_batch *b)
         }
         for (int k = 0; k < VSW_NC; ++k) c[k] = vsw_lanes_gather(from, constants[k]);
         vsw_lanes_rk_step(phase, live, c, y, f0, h, &b->tol, K, y_new, &err);
-        vsw_lanes_watch_in(phase, live, c, y_new, g1);
+        int accepted = 0; /* a rejected step's guards are not needed */
+        for (int l = 0; l < VSW_LANES; ++l) accepted |= (((live >> l) & 1) && err[l] < 1.0) << l;
+        if (accepted) vsw_lanes_watch_in(phase, accepted, c, y_new, g1);
         for (int l = 0; l < VSW_LANES; ++l) {
             vsw_lane *ln = &lanes[l];
             if (!((live >> l) & 1)) continue;
@@ -793,8 +807,9 @@ VSW_EXPORT void vsw_batch_simulate(long long n, const double *params, long long 
    confirmation, without the SciPy route): returns VSW_WALKED (`state` replaced by the next
    section state), VSW_FELL (*failure its index) or VSW_STALLED; durations[k] the k-th phase
    visit's duration (room for VSW_NPHASES + 1), *visits their number, *length the step's
-   length (NaN for a model without one). options: rtol, atol, phase time limit, as
-   vsw_batch_simulate's. The batch's walk of one step, so the same numbers. */
+   length (NaN unless the step completed, and for a model without one). options: rtol,
+   atol, phase time limit, as vsw_batch_simulate's. The batch's walk of one step, so the
+   same numbers. */
 VSW_EXPORT int vsw_batch_step_phases(const double *params, double *state, const double *options,
                                      double *durations, int *visits, int *failure,
                                      double *length)
@@ -814,8 +829,41 @@ VSW_EXPORT int vsw_batch_step_phases(const double *params, double *state, const 
     };
     vsw_batch_run(&b);
     *failure = outcome == VSW_FELL ? aux : 0;
-    if (outcome == VSW_WALKED && steps == 1) memcpy(state, final, sizeof(double) * VSW_NX);
-    return outcome == VSW_WALKED && steps == 1 ? VSW_WALKED : outcome;
+    if (outcome != VSW_WALKED) return outcome;
+    if (steps != 1) return VSW_STALLED; /* a stop before the step */
+    memcpy(state, final, sizeof(double) * VSW_NX);
+    return VSW_WALKED;
+}
+
+/* Phase `phase`'s flow and guards at n states (parameters `params`) by the scalar functions
+   into scalar_out and by the lanes' twins into lanes_out (per state VSW_NX flow components,
+   then VSW_MAX_WATCH guards; n a multiple of VSW_LANES), the lanes in `live` only (the
+   others' rows left as they were): tests/test_batch.py compares them bit for bit. */
+VSW_EXPORT void vsw_batch_lanes_check(int phase, const double *params, const double *states,
+                                      long long n, int live, double *scalar_out,
+                                      double *lanes_out)
+{
+    const int row = VSW_NX + VSW_MAX_WATCH;
+    double c[VSW_NC > 0 ? VSW_NC : 1];
+    vsw_lanes cl[VSW_NC > 0 ? VSW_NC : 1], x[VSW_NX], f[VSW_NX], g[VSW_MAX_WATCH];
+    vsw_constants(params, c);
+    for (int k = 0; k < VSW_NC; ++k) cl[k] = vsw_lanes_splat(c[k]);
+    for (long long i = 0; i < n; ++i) {
+        vsw_flow(phase, c, states + i * VSW_NX, scalar_out + i * row);
+        vsw_watch(phase, c, states + i * VSW_NX, scalar_out + i * row + VSW_NX);
+    }
+    for (long long i = 0; i + VSW_LANES <= n; i += VSW_LANES) {
+        for (int k = 0; k < VSW_NX; ++k)
+            for (int l = 0; l < VSW_LANES; ++l) x[k][l] = states[(i + l) * VSW_NX + k];
+        vsw_lanes_flow(phase, live, cl, x, f);
+        vsw_lanes_watch(phase, live, cl, x, g);
+        for (int l = 0; l < VSW_LANES; ++l) {
+            if (!((live >> l) & 1)) continue;
+            for (int k = 0; k < VSW_NX; ++k) lanes_out[(i + l) * row + k] = f[k][l];
+            for (int k = 0; k < vsw_n_watch[phase]; ++k)
+                lanes_out[(i + l) * row + VSW_NX + k] = g[k][l];
+        }
+    }
 }
 
 /* The model's sizes, for the caller's check against its descriptor. */
