@@ -20,6 +20,7 @@
  */
 #include <float.h>
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -105,7 +106,13 @@ VSW_EXPORT void vsw_batch_call_costs(int phase, const double *params, const doub
     out[1] = (vsw_seconds() - start) / (double)(repeat * n);
     /* the states in lanes before the clock starts (n >= VSW_LANES; else NaN) */
     const long long groups = n / VSW_LANES, all = (1 << VSW_LANES) - 1;
-    vsw_lanes *packed = malloc(sizeof(vsw_lanes) * (size_t)(groups > 0 ? groups : 1) * VSW_NX);
+    /* aligned as a vector by hand (malloc's 16 bytes are not, and the vector loads would
+       fault; aligned_alloc is not declared under this build's _POSIX_C_SOURCE) */
+    char *raw = malloc(sizeof(vsw_lanes) * ((size_t)(groups > 0 ? groups : 1) * VSW_NX + 1));
+    vsw_lanes *packed =
+        raw ? (vsw_lanes *)(((uintptr_t)raw + sizeof(vsw_lanes) - 1)
+                            & ~(uintptr_t)(sizeof(vsw_lanes) - 1))
+            : NULL;
     out[3] = out[4] = NAN;
     if (groups > 0 && packed) {
         for (long long i = 0; i < groups; ++i)
@@ -131,7 +138,7 @@ VSW_EXPORT void vsw_batch_call_costs(int phase, const double *params, const doub
         }
         for (int l = 0; l < VSW_LANES; ++l) sum += total[l];
     }
-    free(packed);
+    free(raw);
     out[2] = sum;
 }
 #else
