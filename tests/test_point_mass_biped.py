@@ -142,6 +142,30 @@ def test_commands_say_it_walks_only_powered(capsys):
     assert "--use kick: point-mass-biped has no input or impulse kick" in line
 
 
+def test_parameters_that_cannot_walk_are_refused_and_a_gait_that_cannot_be_is_infeasible(capsys):
+    """The conditions between parameters (a step the legs can reach, l_min <= l) are one
+    line each, exit 2; rigid legs (l_min = l) powered by the push-off alone cannot walk:
+    between steps only gravity acts, and a ballistic hip does not stay on the leg's
+    circle. IPOPT says so (locally), and the status is `infeasible`, exit 3."""
+    import json
+
+    from vsw.cli import main
+
+    for param, message in (("l_min=1.2", "l_min must be at most l (got l = 1, l_min = 1.2)"),
+                           ("d=2", "d must be shorter than 2 l")):  # fmt: skip
+        assert main(["optimize", "--model", "point-mass-biped", "--param", param]) == 2
+        (line,) = capsys.readouterr().err.strip().splitlines()
+        assert message in line, line
+    argv = ["optimize", "--model", "point-mass-biped", "--param", "l_min=1", "--use",
+            "push_off", "--minimize", "work", "--target-speed", "0.4", "--json"]  # fmt: skip
+    assert main(argv) == 3
+    captured = capsys.readouterr()
+    assert json.loads(captured.out)["status"] == "infeasible"
+    assert (
+        "vsw optimize: infeasible: IPOPT found the constraints locally infeasible" in captured.err
+    )
+
+
 def test_the_nlps_event_map_is_the_simulations_and_its_work_the_energys(biped):
     """With all three impulses nonzero (push-off before the reset; heel-strike and the
     torque's impulse together after it): the NLP's event map (CasADi, vsw.powered's

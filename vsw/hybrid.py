@@ -240,7 +240,20 @@ class HybridModel:
             if value is None:
                 raise VswInputError(f"parameter {p.name} of {self.name} has no default: give it")
             out.append(float(check_parameter(p.name, value, self.parameter_table)))
+        self._check_parameter_conditions(out)
         return tuple(out)
+
+    def _check_parameter_conditions(self, params: Sequence[float]) -> None:
+        """The model's conditions between parameters (``parameter_conditions``): a set that
+        breaks one is refused in one line with its reason and the values it involves."""
+        names = [p.name for p in self.parameter_table]
+        zeros = [0.0] * (2 * self.n)  # the generated functions take a state; unused here
+        for condition in self.spec.get("parameter_conditions", ()):
+            value = float(self._fn(condition["function"])(*params, *zeros))
+            if value > 0 or (value == 0 and not condition["strict"]):
+                continue
+            values = ", ".join(f"{k} = {params[names.index(k)]:g}" for k in condition["parameters"])
+            raise VswInputError(f"{self.name}: {condition['reason']} (got {values})")
 
     # --- generated functions -----------------------------------------------------------
 

@@ -80,6 +80,9 @@ COST_ZERO = 1e-9
 CONSTRAINTS_HELD = 1e-8
 """Every constraint and bound of the NLP holds to this at IPOPT's point (absolute)."""
 _SUCCESS = {"Solve_Succeeded", "Solved_To_Acceptable_Level"}
+_INFEASIBLE = "Infeasible_Problem_Detected"
+"""IPOPT's word for a restoration phase that converged to a point of locally least
+constraint violation, still violating them: reported as ``infeasible``."""
 
 
 @dataclass(frozen=True)
@@ -120,8 +123,10 @@ class Request:
 @dataclass
 class PoweredGait:
     """An optimised step: ``status`` 'optimal' (IPOPT converged and the re-simulation
-    agrees), 'not-converged' (IPOPT did not, or the re-simulation does not agree:
-    ``reason``), with the step's phases on their knots."""
+    agrees), 'infeasible' (IPOPT found the constraints locally infeasible: no gait meets
+    them near where it searched, a local result and not a proof) or 'not-converged'
+    (IPOPT did not converge, or the re-simulation does not agree: ``reason``), with the
+    step's phases on their knots."""
 
     status: str
     reason: str
@@ -194,7 +199,9 @@ def optimize(
     fine.extra["coarse"] = {"nodes": request.nodes, "cost": coarse.cost,
                             "status": coarse.status}  # fmt: skip
     agree = change <= MESH_AGREES or abs(fine.cost - coarse.cost) <= COST_ZERO
-    if fine.status == "optimal" and coarse.ipopt_status not in _SUCCESS:
+    if coarse.status == "infeasible" and fine.status != "optimal":
+        fine.status, fine.reason = coarse.status, coarse.reason + " (on the coarse mesh)"
+    elif fine.status == "optimal" and coarse.ipopt_status not in _SUCCESS:
         fine.status = "not-converged"
         fine.reason = f"IPOPT {coarse.ipopt_status} on the coarse mesh"
     elif fine.status == "optimal" and not agree:
@@ -790,7 +797,11 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
     period = sum(durations)
     scale = max(1.0, float(max(np.max(np.abs(s)) for s in states)))
     reason = ""
-    if status not in _SUCCESS:
+    if status == _INFEASIBLE:
+        reason = (f"IPOPT found the constraints locally infeasible (violated by {violation:.3g} "
+                  "where it stopped): no gait meets the targets, bounds and parameters near "
+                  "this start; a local result, not a proof")  # fmt: skip
+    elif status not in _SUCCESS:
         reason = f"IPOPT {status}"
     elif not violation <= CONSTRAINTS_HELD:
         reason = f"IPOPT's point violates a constraint by {violation:.3g}"
@@ -799,7 +810,7 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
     elif not error <= RESIMULATION_AGREES:
         reason = f"the re-simulation ends {error:.3g} from the last knot (relative)"
     return PoweredGait(
-        status="not-converged" if reason else "optimal",
+        status="infeasible" if status == _INFEASIBLE else "not-converged" if reason else "optimal",
         reason=reason,
         cost=_named_cost(model, p, request, work, step_length, float(nlp.cost(w, arguments))),
         durations=durations,

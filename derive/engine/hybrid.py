@@ -1377,6 +1377,22 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
         "The walker's weight: gravity times the mass of every body (the cost of transport's "
         "scale; it depends on the parameters only).", None, "force",
     ))  # fmt: skip
+    condition_records = []
+    for k, condition in enumerate(model.parameter_conditions):
+        expression = sm.sympify(condition.expression)
+        if not expression.free_symbols <= set(model.parameter_symbols):
+            raise ValueError(f"{model.name}: a parameter condition depends on more than the "
+                             f"parameters: {expression}")  # fmt: skip
+        name = f"parameter_condition_{k}"
+        sign = ">" if condition.strict else ">="
+        quantities.append(Quantity(
+            name, args, expression,
+            f"Valid parameters have this {sign} 0: {condition.reason} (the state is not used).",
+            None, "parameter condition",
+        ))  # fmt: skip
+        involved = tuple(q.name for q in model.parameters if q.symbol in expression.free_symbols)
+        condition_records.append({"function": name, "reason": condition.reason,
+                                  "strict": condition.strict, "parameters": involved})  # fmt: skip
     if model.section:
         state_symbols = {c.name: c.q for c in model.coordinates}
         state_symbols.update({c.rate: c.u for c in model.coordinates})
@@ -1434,6 +1450,7 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
         **({"actuator_names": {h.name: name for h, name in model.actuators.items()}}
            if model.actuators else {}),
         **({"powered_only": True} if model.powered_only else {}),
+        **({"parameter_conditions": tuple(condition_records)} if condition_records else {}),
     }  # fmt: skip
     if model.limits:
         quantities = [_in_the_limit(model, qty) for qty in quantities]

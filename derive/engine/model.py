@@ -248,6 +248,17 @@ class Impact:
 
 
 @dataclass(frozen=True, eq=False)
+class ParameterCondition:
+    """The parameters are valid only where ``expression`` > 0 (``strict``) or >= 0: a
+    condition between parameters (a step shorter than the legs can reach), which no one
+    parameter's range states."""
+
+    expression: sm.Expr
+    reason: str
+    strict: bool = True
+
+
+@dataclass(frozen=True, eq=False)
 class Jump:
     """An instantaneous actuation: the held coordinates jump to the phase after's values.
 
@@ -478,6 +489,9 @@ class Model:
     """The walker has no passive gait: its inputs hold it up (a point mass on telescoping
     legs falls without its leg force). The commands that follow a passive gait say so and
     name ``vsw optimize``."""
+    parameter_conditions: tuple[ParameterCondition, ...] = ()
+    """Conditions on several parameters at once (each parameter's own range is its row's):
+    a parameter set that breaks one is refused in one line with its reason."""
 
     def phase(self, name: str) -> Phase:
         for p in self.phases:

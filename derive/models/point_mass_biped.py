@@ -46,6 +46,7 @@ from derive.engine.model import (
     Input,
     Model,
     Parameter,
+    ParameterCondition,
     Phase,
     PointMass,
 )
@@ -60,14 +61,18 @@ PARAMETERS = (
               {"positive": True}, default=1.0, unit="m/s^2"),
     Parameter("l", "l", 0.0, INF, "leg length l > 0", "longest length of a leg",
               {"positive": True}, default=1.0, unit="m"),
-    Parameter("d", "d", 0.0, INF, "step length d > 0 (and below 2 l: the legs must reach)",
+    Parameter("d", "d", 0.0, INF, "step length d > 0",
               "step length: from the stance foot to the next", {"positive": True},
               default=0.6, unit="m"),
-    Parameter("l_min", r"l_{min}", 0.0, INF, "shortest leg l_min > 0 (and at most l; l_min "
-              "= l: rigid legs, Kuo's simplest walking model)", "shortest length of a leg "
+    Parameter("l_min", r"l_{min}", 0.0, INF, "shortest leg l_min > 0 (l_min = l: rigid "
+              "legs, Kuo's simplest walking model)", "shortest length of a leg "
               "(the end of its stroke)", {"positive": True}, default=0.5, unit="m"),
 )  # fmt: skip
 m, g, l, d, l_min = (p.symbol for p in PARAMETERS)
+PARAMETER_CONDITIONS = (
+    ParameterCondition(2 * l - d, "the step d must be shorter than 2 l: the legs must reach"),
+    ParameterCondition(l - l_min, "the shortest leg l_min must be at most l", strict=False),
+)
 
 X = Coordinate("x", "hip's horizontal position from the stance foot", "m",
                reference="above the stance foot", positive="the hip ahead of the foot")  # fmt: skip
@@ -183,6 +188,7 @@ MODEL = Model(
     section={"x": -d / 2},
     search={"y": (0.5, 1.0), "x_dot": (0.0, 2.0), "y_dot": (-1.0, 1.0)},
     powered_only=True,
+    parameter_conditions=PARAMETER_CONDITIONS,
 )
 
 

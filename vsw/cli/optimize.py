@@ -3,8 +3,8 @@
 The model's declared inputs (``vsw models`` lists them: the compass gait's hip torque, the
 point-mass biped's leg force) are free functions of time, its impulses at events (the
 point-mass biped's push-off and heel-strike) free numbers; the step is periodic and meets
-the targets. Statuses as ``vsw design``'s: optimal (exit 0), not-converged (exit 3, with
-the reason).
+the targets. Statuses as ``vsw design``'s: optimal (exit 0), infeasible (IPOPT found the
+constraints locally infeasible) and not-converged (exit 3, with the reason).
 """
 
 from __future__ import annotations

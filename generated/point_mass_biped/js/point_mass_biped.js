@@ -198,12 +198,22 @@ function weight(m, g, l, d, l_min, x, y, x_dot, y_dot) {
   return g*m;
 }
 
+/* Valid parameters have this > 0: the step d must be shorter than 2 l: the legs must reach (the state is not used). Returns parameter condition. */
+function parameter_condition_0(m, g, l, d, l_min, x, y, x_dot, y_dot) {
+  return -d + 2*l;
+}
+
+/* Valid parameters have this >= 0: the shortest leg l_min must be at most l (the state is not used). Returns parameter condition. */
+function parameter_condition_1(m, g, l, d, l_min, x, y, x_dot, y_dot) {
+  return l - l_min;
+}
+
 /* The section state with the components the section determines recomputed from the others (the step event's geometry and reset). Returns tuple: coordinates, then rates. */
 function section_completion(m, g, l, d, l_min, x, y, x_dot, y_dot) {
   return [-d/2, y, x_dot, y_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell, stance_fell_input_gains, stance_fell_backward, stance_fell_backward_input_gains, stance_crouched, stance_crouched_input_gains, stance_overextended, stance_overextended_input_gains, stance_positions, stance_inertias, stance_input_gains, stance_reaction_input_gains, stance_input_rates, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_impulse_gains_before, event_heelstrike_impulse_rates_before, event_heelstrike_impulse_gains_after, event_heelstrike_impulse_rates_after, event_heelstrike_contact, step_length_of_state, weight, section_completion };
+const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell, stance_fell_input_gains, stance_fell_backward, stance_fell_backward_input_gains, stance_crouched, stance_crouched_input_gains, stance_overextended, stance_overextended_input_gains, stance_positions, stance_inertias, stance_input_gains, stance_reaction_input_gains, stance_input_rates, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_impulse_gains_before, event_heelstrike_impulse_rates_before, event_heelstrike_impulse_gains_after, event_heelstrike_impulse_rates_after, event_heelstrike_contact, step_length_of_state, weight, parameter_condition_0, parameter_condition_1, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {
