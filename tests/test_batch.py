@@ -294,8 +294,9 @@ FIELDS = ("outcome", "aux", "steps", "final", "kept_states", "kept_lengths", "ke
 @pytest.mark.parametrize("name", ["simplest_walker", "vsw_biped"])
 def test_a_walk_does_not_depend_on_its_lane(gaits, name):
     """The walks run four at a time in lockstep (vsw/csrc/lanes.h), each lane its own step
-    size, phase and events: the same starts in another order (other lanes, other
-    neighbours, lanes in different phases of the biped) walk to the same bytes."""
+    size and events (the biped's eight walks held, four of one phase a step): the same
+    starts in another order (other lanes, other neighbours, other groupings) walk to the
+    same bytes."""
     model, params, orbits = gaits[name]
     state = np.array([orbits[0].state[k] for k in (*model.coordinates, *model.rates)])
     rng = np.random.default_rng(8)

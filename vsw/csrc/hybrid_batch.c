@@ -176,64 +176,31 @@ static double vsw_rms(const double *x, const double *scale)
     return sqrt(s / VSW_NX);
 }
 
-/* Lane l's phase is phase[l]; the lanes in `live` (a bit each, at least one) count. The
-   table's flow (or guards) of each phase a live lane is in, kept on its lanes; the other
-   lanes' results mean nothing. */
-static inline void vsw_lanes_dispatch(const int *phase, int live, const vsw_lanes *c,
-                                      const vsw_lanes *x, vsw_lanes *out, int n_out,
-                                      int guards)
+/* The table's flow (or guards) of phase `phase` on the lanes in `live` (a bit each), counted
+   per walk in the counting build; the other lanes' results mean nothing. */
+static inline void vsw_lanes_flow_in(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
+                                     vsw_lanes *out)
 {
 #ifdef VSW_COUNT_CALLS
-    for (int l = 0; l < VSW_LANES; ++l)
-        if ((live >> l) & 1) ++(guards ? vsw_watch_calls : vsw_flow_calls)[phase[l]];
+    vsw_flow_calls[phase] += __builtin_popcount((unsigned)live);
 #endif
-    int first = 0;
-    while (!((live >> first) & 1)) ++first;
-    int same = 1;
-    for (int l = first + 1; l < VSW_LANES; ++l)
-        same &= !((live >> l) & 1) || phase[l] == phase[first];
-    if (same) {
-        if (guards)
-            vsw_lanes_watch(phase[first], live, c, x, out);
-        else
-            vsw_lanes_flow(phase[first], live, c, x, out);
-        return;
-    }
-    vsw_lanes part[VSW_NX > VSW_MAX_WATCH ? VSW_NX : VSW_MAX_WATCH];
-    for (int ph = 0; ph < VSW_NPHASES; ++ph) {
-        vsw_lane_mask mask;
-        int in = 0;
-        for (int l = 0; l < VSW_LANES; ++l) {
-            const int here = ((live >> l) & 1) && phase[l] == ph;
-            mask[l] = here ? -1 : 0;
-            in |= here << l;
-        }
-        if (!in) continue;
-        if (guards)
-            vsw_lanes_watch(ph, in, c, x, part);
-        else
-            vsw_lanes_flow(ph, in, c, x, part);
-        for (int i = 0; i < n_out; ++i) out[i] = vsw_lanes_select(mask, part[i], out[i]);
-    }
+    vsw_lanes_flow(phase, live, c, x, out);
 }
 
-static inline void vsw_lanes_flow_in(const int *phase, int live, const vsw_lanes *c,
-                                     const vsw_lanes *x, vsw_lanes *out)
-{
-    vsw_lanes_dispatch(phase, live, c, x, out, VSW_NX, 0);
-}
-
-static inline void vsw_lanes_watch_in(const int *phase, int live, const vsw_lanes *c,
+static inline void vsw_lanes_watch_in(int phase, int live, const vsw_lanes *c,
                                       const vsw_lanes *x, vsw_lanes *out)
 {
-    vsw_lanes_dispatch(phase, live, c, x, out, VSW_MAX_WATCH, 1);
+#ifdef VSW_COUNT_CALLS
+    vsw_watch_calls[phase] += __builtin_popcount((unsigned)live);
+#endif
+    vsw_lanes_watch(phase, live, c, x, out);
 }
 
 /* One DOP853 step of size h[l] from y (f0 = f(y)) on every lane: the stages and f(y_new) in
    K[0..12], y_new, and SciPy's error norm of the step
-   (scipy.integrate._ivp.rk.DOP853._estimate_error_norm) in *err. Lane l is in phase
-   phase[l]; `live` lanes count (the others hold copies of a live lane's values). */
-static void vsw_lanes_rk_step(const int *phase, int live, const vsw_lanes *c, const vsw_lanes *y,
+   (scipy.integrate._ivp.rk.DOP853._estimate_error_norm) in *err. Every lane is in phase
+   `phase`; `live` lanes count (the others hold copies of a live lane's values). */
+static void vsw_lanes_rk_step(int phase, int live, const vsw_lanes *c, const vsw_lanes *y,
                               const vsw_lanes *f0, vsw_lanes h, const vsw_tolerances *tol,
                               vsw_lanes K[VSW_RK_ALL][VSW_NX], vsw_lanes *y_new, vsw_lanes *err)
 {
@@ -709,6 +676,12 @@ static int vsw_lane_load(vsw_batch *b, vsw_lane *ln)
     return VSW_PHASE_STALLED;
 }
 
+/* Walks held at once: with several phases, twice the lanes, so that each RK step can take
+   its lanes from walks in one phase (the phase most of them are in): a lane in another
+   phase than its neighbours would cost that phase's flow on every lane. One phase: the
+   lanes themselves. */
+#define VSW_SLOTS (VSW_NPHASES > 1 ? 2 * VSW_LANES : VSW_LANES)
+
 /* One field of the lanes' walks as one vector */
 #if VSW_LANES == 4
 #define vsw_lanes_gather(from, field) \
@@ -729,45 +702,43 @@ static int vsw_lane_load(vsw_batch *b, vsw_lane *ln)
    whichever lane it runs in and whatever the others do. */
 static void vsw_batch_run(vsw_batch *b)
 {
-    vsw_lane lanes[VSW_LANES];
-    int live = 0;
-    for (int l = 0; l < VSW_LANES; ++l) {
-        lanes[l].walk = -1;
-        vsw_lane_load(b, &lanes[l]);
+    vsw_lane slots[VSW_SLOTS];
+    for (int k = 0; k < VSW_SLOTS; ++k) {
+        slots[k].walk = -1;
+        vsw_lane_load(b, &slots[k]);
     }
     vsw_lanes c[VSW_NC > 0 ? VSW_NC : 1], y[VSW_NX], f0[VSW_NX], y_new[VSW_NX], h, err;
     vsw_lanes K[VSW_RK_ALL][VSW_NX], g1[VSW_MAX_WATCH];
-    int phase[VSW_LANES];
     for (;;) {
-        int source = -1;
-        live = 0;
-        for (int l = 0; l < VSW_LANES; ++l)
-            if (lanes[l].walk >= 0) {
-                live |= 1 << l;
-                if (source < 0) source = l;
-            }
-        if (source < 0) return;
-        /* empty lanes compute a copy of a live lane, so that every value stays tame; the
-           vectors built in registers (a lane stored into a vector in memory and the
+        /* the phase most walks are in, and up to VSW_LANES of them, in slot order */
+        int in_phase[VSW_NPHASES] = {0}, busiest = -1;
+        for (int k = 0; k < VSW_SLOTS; ++k)
+            if (slots[k].walk >= 0) ++in_phase[slots[k].phase];
+        for (int ph = 0; ph < VSW_NPHASES; ++ph)
+            if (in_phase[ph] > 0 && (busiest < 0 || in_phase[ph] > in_phase[busiest]))
+                busiest = ph;
+        if (busiest < 0) return;
+        int slot_of[VSW_LANES], live = 0, taken = 0;
+        for (int k = 0; k < VSW_SLOTS && taken < VSW_LANES; ++k)
+            if (slots[k].walk >= 0 && slots[k].phase == busiest) slot_of[taken++] = k;
+        live = (1 << taken) - 1;
+        /* lanes without a walk compute a copy of the first, so that every value stays tame;
+           the vectors built in registers (a lane stored into a vector in memory and the
            vector loaded back stalls the load) */
         const vsw_lane *from[VSW_LANES];
-        for (int l = 0; l < VSW_LANES; ++l) {
-            from[l] = &lanes[(live >> l) & 1 ? l : source];
-            phase[l] = from[l]->phase;
-        }
+        for (int l = 0; l < VSW_LANES; ++l) from[l] = &slots[slot_of[l < taken ? l : 0]];
         h = vsw_lanes_gather(from, h);
         for (int i = 0; i < VSW_NX; ++i) {
             y[i] = vsw_lanes_gather(from, y[i]);
             f0[i] = vsw_lanes_gather(from, f0[i]);
         }
         for (int k = 0; k < VSW_NC; ++k) c[k] = vsw_lanes_gather(from, constants[k]);
-        vsw_lanes_rk_step(phase, live, c, y, f0, h, &b->tol, K, y_new, &err);
+        vsw_lanes_rk_step(busiest, live, c, y, f0, h, &b->tol, K, y_new, &err);
         int accepted = 0; /* a rejected step's guards are not needed */
-        for (int l = 0; l < VSW_LANES; ++l) accepted |= (((live >> l) & 1) && err[l] < 1.0) << l;
-        if (accepted) vsw_lanes_watch_in(phase, accepted, c, y_new, g1);
-        for (int l = 0; l < VSW_LANES; ++l) {
-            vsw_lane *ln = &lanes[l];
-            if (!((live >> l) & 1)) continue;
+        for (int l = 0; l < taken; ++l) accepted |= (err[l] < 1.0) << l;
+        if (accepted) vsw_lanes_watch_in(busiest, accepted, c, y_new, g1);
+        for (int l = 0; l < taken; ++l) {
+            vsw_lane *ln = &slots[slot_of[l]];
             double yl[VSW_NX], gl[VSW_MAX_WATCH];
             for (int i = 0; i < VSW_NX; ++i) yl[i] = y_new[i][l];
             for (int k = 0; k < VSW_MAX_WATCH; ++k) gl[k] = g1[k][l];
