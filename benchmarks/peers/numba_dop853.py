@@ -28,7 +28,7 @@ A_EXTRA = np.ascontiguousarray(dop.A[N_STAGES + 1 :])
 N_ALL = N_STAGES + 1 + A_EXTRA.shape[0]  # 16
 
 WALKED, FELL, STALLED = 0, 2, 3
-PHASE_TIME_LIMIT = 30.0
+PHASE_TIME_LIMIT = 100.0  # vsw.hybrid's, as the batch simulator's
 EVENT_TIME_TOL = 1e-13
 
 
@@ -266,11 +266,13 @@ def make_walker(
     def walk(params, starts, steps, rtol, atol, final, walked, outcome):
         y = np.empty(nx)
         y_next = np.empty(nx)
+        x = np.empty(nx)  # the section state the step starts from: kept if it falls
         for n in range(starts.shape[0]):
             y[:] = starts[n]
             result = WALKED
             count = 0
             while count < steps and result == WALKED:
+                x[:] = y
                 phase = 0
                 done = False
                 for _visit in range(n_phases + 1):
@@ -284,6 +286,9 @@ def make_walker(
                         break
                     reset(event, params, y, y_next)
                     y[:] = y_next
+                    if not np.all(np.isfinite(y)):
+                        result = STALLED
+                        break
                     if ends_step[event]:
                         done = True
                         break
@@ -292,7 +297,7 @@ def make_walker(
                     result = STALLED
                 if done:
                     count += 1
-            final[n] = y
+            final[n] = y if result == WALKED else x
             walked[n] = count
             outcome[n] = result
 
