@@ -19,6 +19,7 @@ MODEL_MODULES: dict[str, str] = {
     "vsw_biped_fte": "derive.models.vsw_biped_fte",
     "vsw_biped_phi0": "derive.models.vsw_biped_phi0",
     "point_mass_biped": "derive.models.point_mass_biped",
+    "kuo_walker": "derive.models.kuo_walker",
 }
 """Model name (its ``generated/<name>/`` package) -> module with its ``derive()``."""
 

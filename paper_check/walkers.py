@@ -16,6 +16,8 @@ For each model a short Markdown report ``DIR/<model>.md`` and its figures:
 * ``kneed-walker``: Hsu Chen (2007)'s point-foot kneed walker (McGeer 1990's model): her
   gait's state and period, an independent re-implementation's gait and eigenvalues, and
   where the map from her published state goes;
+* ``kuo-walker``: Kuo's ratio (issue 28, question 2), the push-off against the stance
+  torque at one speed and step length, beside its derivation (:mod:`paper_check.kuo`);
 * ``point-mass-biped``: its least-work gaits (``vsw optimize``) beside Srinivasan & Ruina
   (2006)'s inverted-pendulum walking with its cost derived in :mod:`paper_check.powered`,
   and the ILE's price against the least work of its own body.
@@ -38,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 import generated.ile as ile
+from paper_check.kuo import kuo_walker
 from paper_check.output import check_output_directory
 from paper_check.powered import point_mass_biped
 from paper_check.rows import Row
@@ -55,7 +58,8 @@ from vsw.ledger import energy_ledger
 from vsw.models import load
 from vsw.sweeps import brute_force, continuation, record
 
-MODELS = ("simplest-walker", "compass-gait", "vsw-biped", "kneed-walker", "point-mass-biped")
+MODELS = ("simplest-walker", "compass-gait", "vsw-biped", "kneed-walker", "point-mass-biped",
+          "kuo-walker")  # fmt: skip
 
 SOURCES = {
     "G98": "Garcia, Chatterjee, Ruina, Coleman, The simplest walking model: stability, "
@@ -836,6 +840,7 @@ REPORTS: dict[str, Callable[[Path, bool], list[Path]]] = {
     "vsw-biped": vsw_biped,
     "kneed-walker": kneed_walker,
     "point-mass-biped": point_mass_biped,
+    "kuo-walker": kuo_walker,
 }
 
 

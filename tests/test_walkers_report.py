@@ -138,3 +138,20 @@ def test_point_mass_biped_report_agrees_with_its_derivation_and_is_deterministic
     (ile,) = [r for r in rows if r[0] == "0.8" and len(r) == 12]
     assert ile[-1] == "optimal" and float(ile[-2]) > 1
     assert ile[8] == ile[10]  # optimal: the least work found is inverted-pendulum walking's
+
+
+def test_kuo_walker_report_agrees_with_its_derivation_and_is_deterministic(tmp_path):
+    """Kuo's ratio (one case, quick): the push-off's and the stance torque's least work
+    against their derivation in paper_check/kuo.py, their ratio 4 cos^4(alpha), the
+    continuous torque not called optimal, and two runs write the same bytes."""
+    runs = []
+    for k in range(2):
+        out = tmp_path / str(k)
+        assert main(["--model", "kuo-walker", "--quick", "--out", str(out)]) == 0
+        runs.append((out / "kuo-walker.md").read_bytes())
+    assert runs[0] == runs[1]
+    rows = _rows(runs[0].decode())
+    compared = [r for r in rows if len(r) == 8]
+    assert len(compared) == 3 and all(r[6] == "agrees" for r in compared), compared
+    (smooth,) = [r for r in rows if len(r) == 6 and r[0] == "0.6"]
+    assert smooth[3] == "not-converged" and float(smooth[2]) > float(smooth[5])

@@ -157,11 +157,17 @@ def input_names(model: HybridModel) -> dict[str, list[str]]:
     return {p["name"]: [i["name"] for i in p.get("inputs", ())] for p in model.phases}
 
 
-def impulse_names(model: HybridModel, event: dict) -> tuple[list[str], list[str]]:
-    """An event's impulses by name: those applied before its reset, those after."""
+def impulse_names(model: HybridModel, event: dict) -> tuple[list[str], list[str], list[str]]:
+    """An event's impulses by name, in the order the step applies them (the NLP's too):
+    those before its reset, the one with its impact (along a held coordinate), those after."""
     impulses = event.get("impulses", ())
-    return ([i["name"] for i in impulses if i["applied"] == "before"],
-            [i["name"] for i in impulses if i["applied"] == "after"])  # fmt: skip
+    return tuple([i["name"] for i in impulses if i["applied"] == side]
+                 for side in ("before", "with", "after"))  # fmt: skip
+
+
+def ordered_impulses(model: HybridModel, event: dict) -> list[str]:
+    """An event's impulses in the order the step applies them (:func:`impulse_names`)."""
+    return [name for group in impulse_names(model, event) for name in group]
 
 
 def optimize(
@@ -472,31 +478,40 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
 def _event_map(model: HybridModel, event: dict, p: Any, end: Any, v: _Unknowns,
                g: _Constraints) -> tuple[Any, Any, dict, dict]:  # fmt: skip
     """The state after an event from the phase's last knot: the impulses applied before
-    the reset (the rates jump by their gains), the reset, those applied after; the
-    impulses' positive work as the cost prices it (their slacks, where the cost is the
-    work) and each impulse's positive and negative work (``iota`` times the mean of its
-    ``along`` rate before and after it)."""
+    the reset (the rates jump by their gains), the reset with the impulse at its impact
+    (the rates after gain its gains), those applied after; the impulses' positive work as
+    the cost prices it (their slacks, where the cost is the work) and each impulse's
+    positive and negative work (``iota`` times the mean of its ``along`` rate before and
+    after it; ``c iota^2 / 2`` for the one at the impact)."""
     import casadi as ca
 
-    before, after_names = impulse_names(model, event)
+    groups = impulse_names(model, event)
     n = model.n
     plus: dict = {}
     minus: dict = {}
     priced = 0
     x = end
     iota = v.impulses[0] if v.impulses else None
-    for side, names, offset in (("before", before, 0), ("after", after_names, len(before))):
-        if side == "after":
-            x = model.symbolic(f"event_{event['name']}_reset", p, x)
+    offset = 0
+    for side, names in zip(("before", "with", "after"), groups):
+        stem = f"event_{event['name']}_impulse"
+        j = iota[offset : offset + len(names)] if names else None
+        if side == "with":  # the reset, and the impulse applied with its impact
+            reset = model.symbolic(f"event_{event['name']}_reset", p, x)
+            if names:
+                gains = model.symbolic(f"{stem}_gains_with", p, x)
+                work = model.symbolic(f"{stem}_work_with", p, x) * j * j / 2
+                reset = ca.vertcat(reset[:n], reset[n:] + gains * j)
+            x = reset
+        elif names:
+            gains = ca.reshape(model.symbolic(f"{stem}_gains_{side}", p, x), len(names), n).T
+            jumped = ca.vertcat(x[:n], x[n:] + ca.mtimes(gains, j))
+            rate_before = model.symbolic(f"{stem}_rates_{side}", p, x)
+            rate_after = model.symbolic(f"{stem}_rates_{side}", p, jumped)
+            work = j * (rate_before + rate_after) / 2
+            x = jumped
         if not names:
             continue
-        stem = f"event_{event['name']}_impulse"
-        j = iota[offset : offset + len(names)]
-        gains = ca.reshape(model.symbolic(f"{stem}_gains_{side}", p, x), len(names), n).T
-        jumped = ca.vertcat(x[:n], x[n:] + ca.mtimes(gains, j))
-        rate_before = model.symbolic(f"{stem}_rates_{side}", p, x)
-        rate_after = model.symbolic(f"{stem}_rates_{side}", p, jumped)
-        work = j * (rate_before + rate_after) / 2
         positive_work = ca.fmax(work, 0)
         if v.s_impulses and v.s_impulses[0].shape[0]:
             s = v.s_impulses[0][offset : offset + len(names)]
@@ -507,7 +522,7 @@ def _event_map(model: HybridModel, event: dict, p: Any, end: Any, v: _Unknowns,
         for i, name in enumerate(names):
             plus[f"{event['name']}.{name}"] = positive_work[i]
             minus[f"{event['name']}.{name}"] = work[i] - positive_work[i]
-        x = jumped
+        offset += len(names)
     return x, priced, plus, minus
 
 
@@ -541,9 +556,8 @@ def _variable_bounds(model: HybridModel, sequence: list, layout: list[dict], siz
             first, parts, width = entry[key]
             lbx[first : first + parts * width] = 0.0
         first, _, width = entry["impulses"]
-        before, after = impulse_names(model, event)
         records = {i["name"]: i for i in event.get("impulses", ())}
-        for j, name in enumerate((*before, *after)):
+        for j, name in enumerate(ordered_impulses(model, event)):
             low, high = records[name]["bounds"]
             if request.minimize == "torque2" or (request.use and name not in request.use):
                 low, high = 0.0, 0.0
@@ -781,8 +795,7 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
     keys, impulses = [], {}
     for (phase, event), entry in zip(sequence, nlp.layout):  # the order of _build's ledger
         keys += [f"{phase}.{name}" for name in input_names(model)[phase]]
-        before, after = impulse_names(model, event)
-        names = [f"{event['name']}.{name}" for name in (*before, *after)]
+        names = [f"{event['name']}.{name}" for name in ordered_impulses(model, event)]
         keys += names
         impulses |= dict(zip(names, (float(v) for v in _block(w, entry["impulses"])[0])))
     work = {key: {"positive": float(work_values[j]), "negative": float(work_values[len(keys) + j])}
@@ -953,21 +966,28 @@ def _control(inputs: np.ndarray, duration: float):
 
 def _apply_impulses(model: HybridModel, event: dict, p: np.ndarray, state: np.ndarray,
                     iota: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
-    """The state after an event (its impulses before the reset, the reset, those after)
-    from the state before it, and each impulse's work: numpy's side of :func:`_event_map`."""
-    before, after = impulse_names(model, event)
+    """The state after an event (its impulses before the reset, the reset with the impulse
+    at its impact, those after) from the state before it, and each impulse's work: numpy's
+    side of :func:`_event_map`."""
+    groups = impulse_names(model, event)
     n = model.n
     x = np.asarray(state, dtype=float)
     works = []
     offset = 0
-    for side, names in (("before", before), ("after", after)):
-        if side == "after":
-            x = np.array(model._fn(f"event_{event['name']}_reset")(*p, *x), dtype=float)
-        if not names:
-            continue
+    for side, names in zip(("before", "with", "after"), groups):
         stem = f"event_{event['name']}_impulse"
         j = np.asarray(iota[offset : offset + len(names)], dtype=float)
         offset += len(names)
+        if side == "with":
+            reset = np.array(model._fn(f"event_{event['name']}_reset")(*p, *x), dtype=float)
+            if names:
+                gains = np.array(model._fn(f"{stem}_gains_with")(*p, *x), dtype=float)
+                works += list(float(model._fn(f"{stem}_work_with")(*p, *x)) * j * j / 2)
+                reset[n:] += gains.reshape(n) * j[0]
+            x = reset
+            continue
+        if not names:
+            continue
         gains = np.array(model._fn(f"{stem}_gains_{side}")(*p, *x), dtype=float)
         jumped = x.copy()
         jumped[n:] += gains.reshape(n, len(names)) @ j
@@ -1001,8 +1021,8 @@ def powered_step(model: HybridModel, params: Sequence[float], gait: PoweredGait,
                 f"{model.name}: the powered step from a perturbed state meets no "
                 f"{event['name']} within twice its duration"
             )
-        before, after = impulse_names(model, event)
-        iota = [gait.impulses[f"{event['name']}.{name}"] for name in (*before, *after)]
+        iota = [gait.impulses[f"{event['name']}.{name}"]
+                for name in ordered_impulses(model, event)]  # fmt: skip
         x, _ = _apply_impulses(model, event, p, ends[0], np.array(iota))
     return x
 

@@ -30,6 +30,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import random
+import types
 from collections.abc import Iterable
 from dataclasses import dataclass
 
@@ -549,15 +550,29 @@ def _numeric_check(exprs: list[sm.Expr], symbols: list[sm.Symbol], what: str) ->
                 raise AssertionError(f"{what}: {e} = {value:.3g} at {point}")
 
 
+def _impact_jacobian(positions, coords, phase: Phase, order, held: bool = True) -> sm.Matrix:
+    """The bodies' mass-weighted Jacobian: rows sqrt(m) d(x, y)/dq and sqrt(I) d(angle)/dq,
+    so that its Gram matrix is the mass matrix and J^T J q' the generalised momentum."""
+    rows = []
+    for body, position in zip((phase.bodies[k] for k in order), positions):
+        weight = sm.sqrt(body.mass)
+        rows += [[weight * sm.diff(position[k], q) for q in coords] for k in range(2)]
+        if not isinstance(body, PointMass):
+            angle = sm.sympify(body.angle).xreplace(dict(phase.held) if held else {})
+            rows.append([sm.sqrt(body.inertia) * sm.diff(angle, q) for q in coords])
+    return sm.Matrix(rows)
+
+
 @functools.cache
-def impact_reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tuple[sm.Expr, ...]]:
-    """Coordinates and rates just after an inelastic impact, from the momentum balance."""
+def _impact_balance(model: Model, event_name: str) -> types.SimpleNamespace:
+    """An impact's momentum balance ``a u+ = b u-`` over the phase after's free coordinates
+    (``projection``: the motions the impulse at the new contact does no work on), with the
+    pieces :func:`impact_reset` and :func:`_held_impulse_quantities` build from."""
     event = next(e for e in model.events if e.name == event_name)
     if not isinstance(event.reset, Impact):
         raise TypeError(f"{event.name} is not an impact")
     before, after = model.phase(event.source), model.phase(event.target)
     q_before = [c.q for c in before.coordinates]
-    u_before = [c.u for c in before.coordinates]
     holding = {q: sm.sympify(v) for q, v in event.reset.holding.items()}
     if any(v.free_symbols for v in holding.values()):
         raise ValueError(f"{event.name}: an impact holds coordinates at constant values")
@@ -572,22 +587,11 @@ def impact_reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tu
     gaps = [pb[k] - contact[k] - pa[k] for pb, pa in zip(pos_before, pos_after) for k in range(2)]
     _numeric_check(gaps, sorted(set().union(*(g.free_symbols for g in gaps)), key=str),
                    f"{event.name}: bodies after the impact")  # fmt: skip
-
-    def jacobian(positions, coords, phase, order, held=True):
-        rows = []
-        for body, p in zip((phase.bodies[k] for k in order), positions):
-            weight = sm.sqrt(body.mass)
-            rows += [[weight * sm.diff(p[k], q) for q in coords] for k in range(2)]
-            if not isinstance(body, PointMass):
-                angle = sm.sympify(body.angle).xreplace(dict(phase.held) if held else {})
-                rows.append([sm.sqrt(body.inertia) * sm.diff(angle, q) for q in coords])
-        return sm.Matrix(rows)
-
-    j_before = jacobian(pos_before, q_before, before, order)
+    j_before = _impact_jacobian(pos_before, q_before, before, order)
     # A coordinate the lock holds through the impact is a constant of the phase after's
     # chart there: the Jacobian is taken with it in place.
     held_after = [tuple(c.xreplace(holding) for c in p) for p in _positions(after)]
-    j_after = jacobian(held_after, q_after, after, range(len(after.bodies)))
+    j_after = _impact_jacobian(held_after, q_after, after, range(len(after.bodies)))
     j_after = j_after.xreplace(mapping)
     # The impulses do no work along the phase after's free coordinates with its held chart
     # coordinates fixed: the holding actuators' impulses act on those alone. Where a held
@@ -597,12 +601,25 @@ def impact_reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tu
     if any(sm.sympify(v).free_symbols & set(q_after) for v in after.held.values()):
         frozen = [tuple(sm.sympify(c).xreplace(holding) for c in p)
                   for p in _positions(after, held=False)]  # fmt: skip
-        projection = jacobian(frozen, q_after, after, range(len(after.bodies)), held=False)
+        projection = _impact_jacobian(frozen, q_after, after, range(len(after.bodies)),
+                                      held=False)  # fmt: skip
         projection = projection.xreplace(dict(after.held)).xreplace(mapping)
-    coordinates = tuple(mapping[c.q] for c in after.coordinates)
-    if len(q_after) == 1:
-        a = (projection.T * j_after).applyfunc(_simplify)
-        b = (projection.T * j_before).applyfunc(_simplify)
+    return types.SimpleNamespace(
+        event=event, before=before, after=after, q_before=q_before, q_after=q_after,
+        mapping=mapping, order=order, j_before=j_before, j_after=j_after,
+        projection=projection,
+    )  # fmt: skip
+
+
+@functools.cache
+def impact_reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tuple[sm.Expr, ...]]:
+    """Coordinates and rates just after an inelastic impact, from the momentum balance."""
+    bal = _impact_balance(model, event_name)
+    u_before = [c.u for c in bal.before.coordinates]
+    coordinates = tuple(bal.mapping[c.q] for c in bal.after.coordinates)
+    if len(bal.q_after) == 1:
+        a = (bal.projection.T * bal.j_after).applyfunc(_simplify)
+        b = (bal.projection.T * bal.j_before).applyfunc(_simplify)
         u_after = a.LUsolve(b * sm.Matrix(u_before))
         # Small impact maps simplify to the textbook forms (cos(2 alpha) omega, cos(phi0)/beta
         # omega): the angle differences collapse only under trigsimp.
@@ -610,13 +627,46 @@ def impact_reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tu
     else:
         # Several coordinates: Cramer's rule with the determinant kept as one factor (see
         # phase_dynamics), in the links' relative angles.
-        a = (projection.T * j_after).applyfunc(_angle_sums)
-        b = (projection.T * j_before).applyfunc(_angle_sums)
+        a = (bal.projection.T * bal.j_after).applyfunc(_angle_sums)
+        b = (bal.projection.T * bal.j_before).applyfunc(_angle_sums)
         determinant = _angle_sums(a.det(method="berkowitz"))
         numerators = a.adjugate(method="berkowitz") * b * sm.Matrix(u_before)
         rates = tuple(_angle_sums(n) / determinant for n in numerators)
-    by_coordinate = dict(zip(q_after, rates))
-    return coordinates, tuple(by_coordinate.get(c.q, sm.Integer(0)) for c in after.coordinates)
+    by_coordinate = dict(zip(bal.q_after, rates))
+    return coordinates, tuple(by_coordinate.get(c.q, sm.Integer(0)) for c in bal.after.coordinates)
+
+
+def held_impulse_at_impact(model: Model, event_name: str, held: sm.Symbol
+                           ) -> tuple[tuple[sm.Expr, ...], sm.Expr]:  # fmt: skip
+    """An impulse along a coordinate the source phase holds (a rigid leg's length), applied
+    with the impact: the push-off of a trailing leg whose foot the impact releases
+    (:attr:`Impulse.at_impact`). Over the instant the held coordinate is free: the impulse
+    ``iota`` changes the rates of (q, h) by ``M_ext^-1 e_h iota`` (``M_ext`` the mass
+    matrix with ``h`` free), and the impact's balance takes the bodies' velocities then.
+    Returns the rates after the impact per unit impulse (the phase after's coordinates in
+    the model's state order) and ``c``, the impulse's work being ``c iota^2 / 2`` (its
+    mean ``h`` rate, 0 before it, times ``iota``)."""
+    bal = _impact_balance(model, event_name)
+    before = bal.before
+    if held not in before.held:
+        raise ValueError(f"event {event_name}: an impulse at the impact acts along a coordinate "
+                         f"{before.name} holds, not {held}")  # fmt: skip
+    values = {h: sm.sympify(v) for h, v in before.held.items()}
+    free = [tuple(sm.sympify(c) for c in p) for p in _positions(before, held=False)]
+    coords = [*bal.q_before, held]
+    j_ext = _impact_jacobian([free[k] for k in bal.order], coords, before, bal.order,
+                             held=False).xreplace(values)  # fmt: skip
+    m_ext = (j_ext.T * j_ext).applyfunc(_simplify)
+    unit = sm.zeros(len(coords), 1)
+    unit[-1] = 1
+    jump = m_ext.LUsolve(unit).applyfunc(_simplify)  # the rates of (q, h) per unit impulse
+    work = _simplify(jump[-1])
+    a = (bal.projection.T * bal.j_after).applyfunc(_simplify)
+    b_ext = (bal.projection.T * j_ext).applyfunc(_simplify)
+    gains = a.LUsolve(b_ext * jump).applyfunc(lambda e: _tidy(_simplify(e)))
+    by_coordinate = dict(zip(bal.q_after, gains))
+    per_state = tuple(by_coordinate.get(c.q, sm.Integer(0)) for c in model.coordinates)
+    return per_state, work
 
 
 def impact_body_order(model: Model, event_name: str) -> tuple[int, ...]:
@@ -1127,8 +1177,13 @@ def _impulse_quantities(model: Model, event: Event, args: tuple) -> tuple[list, 
     names = [i.name for i in event.impulses]
     if len(set(names)) != len(names):
         raise ValueError(f"event {event.name}: impulse names repeat: {names}")
+    at_impact = [i for i in event.impulses if i.at_impact]
+    if at_impact:
+        quantities_with, records_with = _impulses_at_impact(model, event, at_impact, args)
+        quantities += quantities_with
+        records += records_with
     for after, side in ((False, "before"), (True, "after")):
-        impulses = [i for i in event.impulses if i.after == after]
+        impulses = [i for i in event.impulses if i.after == after and not i.at_impact]
         if not impulses:
             continue
         phase = model.phase(event.target if after else event.source)
@@ -1164,6 +1219,32 @@ def _impulse_quantities(model: Model, event: Event, args: tuple) -> tuple[list, 
             for i in impulses
         ]  # fmt: skip
     return quantities, tuple(records)
+
+
+def _impulses_at_impact(model: Model, event: Event, impulses: list, args: tuple
+                        ) -> tuple[list, list]:  # fmt: skip
+    """The impulse applied with an event's impact along a held coordinate
+    (:attr:`Impulse.at_impact`): its gains on the rates after the impact and its work's
+    coefficient, and its record for ``HYBRID``."""
+    if not isinstance(event.reset, Impact):
+        raise ValueError(f"event {event.name}: an impulse at the impact needs an Impact reset")
+    if len(impulses) != 1 or impulses[0].after:
+        raise ValueError(f"event {event.name}: one impulse at the impact, not also after it")
+    impulse = impulses[0]
+    gains, work = held_impulse_at_impact(model, event.name, sm.sympify(impulse.along))
+    quantities = [
+        Quantity(f"event_{event.name}_impulse_gains_with", args, gains,
+                 f"d(rate after)/d(impulse) of {impulse.name}, applied with the impact of "
+                 f"{event.name} along the held {impulse.along}: the rates after the impact are "
+                 "the reset's plus these times the impulse.", None, "tuple: rates"),
+        Quantity(f"event_{event.name}_impulse_work_with", args, work,
+                 f"c of {impulse.name}'s work c iota^2 / 2 (the held {impulse.along}'s rate per "
+                 "unit impulse, from zero).", None, "work per impulse squared"),
+    ]  # fmt: skip
+    record = {"name": impulse.name, "actuator": impulse.actuator, "along": str(impulse.along),
+              "unit": impulse.unit, "bounds": tuple(impulse.bounds),
+              "description": impulse.description, "applied": "with"}  # fmt: skip
+    return quantities, [record]
 
 
 def _state_after(model: Model, event) -> tuple[tuple[sm.Expr, ...], tuple[sm.Expr, ...]]:

@@ -171,6 +171,14 @@ class Impulse:
         The actuator delivering it, by name.
     after : bool
         Applied after the event's reset, in the target phase's chart.
+    at_impact : bool
+        Applied with the event's impact, along a coordinate the source phase holds
+        (``along`` that symbol: a rigid leg's length): the push-off of a trailing leg whose
+        foot the impact releases, which a chart that holds the leg cannot take before the
+        reset (Kuo's simplest walking model). Over the instant the coordinate is free; the
+        engine takes the impact's balance with the velocities the impulse gives
+        (:func:`derive.engine.hybrid.held_impulse_at_impact`); its work is
+        ``c iota^2 / 2``. One such impulse an event.
     unit : str
         Unit of ``iota`` (``N s``; in the model's units).
     bounds : (low, high)
@@ -185,6 +193,7 @@ class Impulse:
     unit: str = ""
     bounds: tuple[float | None, float | None] = (None, None)
     description: str = ""
+    at_impact: bool = False
 
 
 @dataclass(frozen=True, eq=False)

@@ -14,6 +14,9 @@ from vsw.cli.parser import EXIT_OK
 
 __all__ = ["register", "run"]
 
+_APPLIED = {"before": "before the reset", "with": "with the impact (the held coordinate "
+            "free for the instant)", "after": "after the reset"}  # fmt: skip
+
 
 def register(subparsers: Any) -> None:
     help_ = "the models: parameters, state (meaning, reference, sign), section, units"
@@ -101,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
         for event, impulses in m.get("impulses", {}).items():
             out.write(f"  impulses at {event} (zero when walking passively): " + "; ".join(
                 f"{i['name']} [{i['unit']}] by the {i['actuator']}, along {i['along']}, "
-                f"{i['applied']} the reset ({i['description']})" for i in impulses
+                f"{_APPLIED[i['applied']]} ({i['description']})" for i in impulses
             ) + "\n")  # fmt: skip
         if m["features"]:
             out.write(f"  also: {', '.join(m['features'])}\n")
