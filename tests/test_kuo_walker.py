@@ -80,11 +80,82 @@ def test_kuos_ratio_is_four_cos_to_the_fourth(walker, step, speed):
 
 def test_the_torque_alone_approaches_its_impulse_from_above(walker):
     """Without its impulse the stance torque cannot do the work at an instant: the least
-    work on a mesh lies above the impulse's, and the result says not-converged (the mesh
-    does not resolve an impulse) rather than optimal."""
+    work on a mesh lies above the impulse's, and the result is not called optimal (the
+    mesh does not resolve an impulse)."""
     params = walker.parameters()
     impulse_cost = optimize(walker, params, Request("work", target_speed=0.4,
                                                     use=("torque_impulse",))).cost  # fmt: skip
     smooth = optimize(walker, params, Request("work", target_speed=0.4, use=("stance_torque",)))
-    assert smooth.status == "not-converged"
+    assert smooth.status != "optimal"
     assert impulse_cost < smooth.cost < 1.01 * impulse_cost
+
+
+def test_the_nlps_event_map_is_the_steps_and_the_energy_closes(walker):
+    """Push-off with the impact and the torque's impulse after it, both nonzero: the NLP's
+    event map (CasADi, _event_map) and the open-loop step's (numpy, _apply_impulses) give
+    the same state and works, and the energy after is the energy before plus both works
+    minus what the collision takes, m (v' . n)^2 / 2 with v' the hip's velocity after the
+    push and n along the new leg (Newton, not the engine)."""
+    import casadi as ca
+
+    from vsw.powered import _apply_impulses, _Constraints, _event_map, _Unknowns
+
+    (event,) = walker.events
+    p, x, iota = ca.MX.sym("p", 4), ca.MX.sym("x", 2), ca.MX.sym("iota", 2)
+    unknowns = _Unknowns([], [], [], [], [], [], [iota], [ca.MX.sym("s", 0)])
+    after, _priced, plus, minus = _event_map(walker, event, p, x, unknowns, _Constraints())
+    assert list(plus) == ["heelstrike.push_off", "heelstrike.torque_impulse"]
+    works = [plus[k] + minus[k] for k in plus]
+    mapped = ca.Function("event", [p, x, iota], [after, ca.vertcat(*works)])
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        m, g, l = rng.uniform(0.5, 2.0, 3)
+        theta, theta_dot = rng.uniform(0.05, 0.6), rng.uniform(0.1, 2.0)
+        params = np.array([m, g, l, 2 * l * math.sin(theta)])
+        state = np.array([theta, theta_dot])
+        impulses = np.array([rng.uniform(0.0, 1.0), rng.uniform(-0.5, 0.5)])
+        ours, our_works = _apply_impulses(walker, event, params, state, impulses)
+        theirs, their_works = (np.array(v, float).reshape(-1)
+                               for v in mapped(params, state, impulses))  # fmt: skip
+        assert np.allclose(ours, theirs, rtol=1e-13, atol=1e-14)
+        assert np.allclose(our_works, their_works, rtol=1e-12, atol=1e-14)
+        assert our_works[0] == pytest.approx(impulses[0] ** 2 / (2 * m), rel=1e-12)
+        pushed = (l * theta_dot * np.array([math.cos(theta), -math.sin(theta)])
+                  + impulses[0] / m * np.array([math.sin(theta), math.cos(theta)]))  # fmt: skip
+        lost = m * (pushed @ np.array([-math.sin(theta), math.cos(theta)])) ** 2 / 2
+        change = walker.energy("stance", params, ours) - walker.energy("stance", params, state)
+        assert change == pytest.approx(np.sum(our_works) - lost, rel=1e-10, abs=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ("not_held", "acts along a coordinate stance holds"),
+        ("moving_hold", "held at a value that moves"),
+        ("two", "one impulse at the impact"),
+    ],
+)
+def test_impulses_at_the_impact_it_cannot_derive_are_refused(change, message):
+    """Along a coordinate the phase does not hold, along one held at a value that moves
+    with the chart (its rate before the push is not zero), or two at one impact: the
+    engine refuses them in words, not with a wrong map."""
+    import dataclasses
+
+    from derive.engine import model_derivation
+    from derive.models import kuo_walker as source
+
+    (event,) = source.MODEL.events
+    push = event.impulses[0]
+    impulses, phases = event.impulses, source.MODEL.phases
+    if change == "not_held":
+        impulses = (dataclasses.replace(push, along=source.theta),)
+    elif change == "moving_hold":
+        (stance,) = phases
+        phases = (dataclasses.replace(stance, held={source.r: source.l + source.theta**2}),)
+    else:
+        impulses = (push, dataclasses.replace(push, name="again"))
+    variant = dataclasses.replace(
+        source.MODEL, phases=phases, events=(dataclasses.replace(event, impulses=impulses),)
+    )
+    with pytest.raises(ValueError, match=message):
+        model_derivation(variant, "")

@@ -5,7 +5,8 @@ A model's phases may declare continuous inputs (``Input`` in the model language:
 torque, a leg force), whose gains on the accelerations the derivation generates
 (``<phase>_input_gains``): ``q'' = a(q, q') + B(q) u``; its events may declare impulses
 (``Impulse``: a push-off), whose gains on the rates it generates too
-(``event_<e>_impulse_gains_before/after``). This module finds the step, with its inputs and
+(``event_<e>_impulse_gains_before/after``, and ``_with`` for one applied with an impact
+along a held coordinate: a rigid leg's push-off). This module finds the step, with its inputs and
 impulses, that meets the targets (speed, step length) at the least cost.
 
 Transcription: Hermite–Simpson, separated form
@@ -20,7 +21,8 @@ scheme is fourth order); the inputs are quadratic on each interval through ``u_i
 ``u_{i+1}`` (what the re-simulation interpolates; under the work costs the midpoint is tied
 to its knots' mean, so the inputs are linear: see ``_collocate``). Each phase ends on its
 event's guard (= 0, its ``when`` >= 0), the event's impulses before its reset, the reset
-and its impulses after map the last knot to the next phase's first, and the step is
+with the impulse at its impact and its impulses after map the last knot to the next
+phase's first, and the step is
 periodic. Every failure of a phase is a path constraint at the knots, with
 the inputs' share of its guard (``<guard>_input_gains``: the ground reaction moves with
 them). The model's parameters are fixed.
@@ -30,7 +32,8 @@ positive work, the integral of ``max(P, 0)`` of each input's power ``P = u d(alo
 exactly, without smoothing: a slack ``s >= 0, s >= P`` at every knot and midpoint (the
 epigraph; minimised, ``s = max(P, 0)``); ``cot``, that work over weight times step
 length; impulses count by their work, ``iota`` times the mean of their ``along`` rate before
-and after them (``torque2`` holds them at zero: it does not price them). Both add
+and after them (``c iota^2 / 2`` for one at an impact; ``torque2`` holds them at zero: it
+does not price them). Both add
 :attr:`Request.regularization` times the squared inputs' integral, made dimensionless.
 Integrals by Simpson's rule on the knots and midpoints. ``work`` and ``cot`` start from
 the ``torque2`` optimum with the same targets.
@@ -303,7 +306,8 @@ class _Nlp:
 @dataclass
 class _Unknowns:
     """The NLP's unknowns of one phase: states and inputs at the knots and midpoints, the
-    impulses of the event that ends it (those before its reset, then those after), and
+    impulses of the event that ends it (in :func:`ordered_impulses`' order: before its
+    reset, with its impact, after it), and
     the positive-work slacks of inputs and impulses (width 0 unless the cost is the work)."""
 
     knots: list

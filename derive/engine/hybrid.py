@@ -31,7 +31,7 @@ import dataclasses
 import functools
 import random
 import types
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 import symengine as se
@@ -550,15 +550,19 @@ def _numeric_check(exprs: list[sm.Expr], symbols: list[sm.Symbol], what: str) ->
                 raise AssertionError(f"{what}: {e} = {value:.3g} at {point}")
 
 
-def _impact_jacobian(positions, coords, phase: Phase, order, held: bool = True) -> sm.Matrix:
+def _impact_jacobian(positions, coords, phase: Phase, order, held: bool = True,
+                     angle_values: Mapping | None = None) -> sm.Matrix:  # fmt: skip
     """The bodies' mass-weighted Jacobian: rows sqrt(m) d(x, y)/dq and sqrt(I) d(angle)/dq,
-    so that its Gram matrix is the mass matrix and J^T J q' the generalised momentum."""
+    so that its Gram matrix is the mass matrix and J^T J q' the generalised momentum. The
+    angles take the held values (``held``), or ``angle_values`` where given."""
+    if angle_values is None:
+        angle_values = dict(phase.held) if held else {}
     rows = []
     for body, position in zip((phase.bodies[k] for k in order), positions):
         weight = sm.sqrt(body.mass)
         rows += [[weight * sm.diff(position[k], q) for q in coords] for k in range(2)]
         if not isinstance(body, PointMass):
-            angle = sm.sympify(body.angle).xreplace(dict(phase.held) if held else {})
+            angle = sm.sympify(body.angle).xreplace(angle_values)
             rows.append([sm.sqrt(body.inertia) * sm.diff(angle, q) for q in coords])
     return sm.Matrix(rows)
 
@@ -567,7 +571,7 @@ def _impact_jacobian(positions, coords, phase: Phase, order, held: bool = True) 
 def _impact_balance(model: Model, event_name: str) -> types.SimpleNamespace:
     """An impact's momentum balance ``a u+ = b u-`` over the phase after's free coordinates
     (``projection``: the motions the impulse at the new contact does no work on), with the
-    pieces :func:`impact_reset` and :func:`_held_impulse_quantities` build from."""
+    pieces :func:`impact_reset` and :func:`held_impulse_at_impact` build from."""
     event = next(e for e in model.events if e.name == event_name)
     if not isinstance(event.reset, Impact):
         raise TypeError(f"{event.name} is not an impact")
@@ -652,10 +656,26 @@ def held_impulse_at_impact(model: Model, event_name: str, held: sm.Symbol
         raise ValueError(f"event {event_name}: an impulse at the impact acts along a coordinate "
                          f"{before.name} holds, not {held}")  # fmt: skip
     values = {h: sm.sympify(v) for h, v in before.held.items()}
-    free = [tuple(sm.sympify(c) for c in p) for p in _positions(before, held=False)]
+    # Its rate just before is zero only where its held value is a constant of the chart.
+    if values[held].free_symbols & set(bal.q_before):
+        raise ValueError(f"event {event_name}: {held} is held at a value that moves with "
+                         f"{before.name}'s coordinates: an impulse at the impact along it is "
+                         "not derived")  # fmt: skip
+    if _held_in_state(model, bal.after):
+        raise ValueError(f"event {event_name}: {bal.after.name} holds a state coordinate: an "
+                         "impulse at the impact is not derived there")  # fmt: skip
+    # Only the pushed coordinate is freed: the others keep following their held values
+    # (a torso held at an angle moves with the legs) before the derivatives are taken.
+    others = {h: v for h, v in values.items() if h != held}
+    free = [tuple(sm.sympify(c).xreplace(others) for c in p)
+            for p in _positions(before, held=False)]  # fmt: skip
     coords = [*bal.q_before, held]
     j_ext = _impact_jacobian([free[k] for k in bal.order], coords, before, bal.order,
-                             held=False).xreplace(values)  # fmt: skip
+                             angle_values=others).xreplace(values)  # fmt: skip
+    # With the pushed coordinate held again, the chart is the phase's own.
+    gaps = list(j_ext[:, :-1] - bal.j_before)
+    symbols = sorted(set().union(*(sm.sympify(g).free_symbols for g in gaps)), key=str)
+    _numeric_check(gaps, symbols, f"{event_name}: the chart freed for the impulse")
     m_ext = (j_ext.T * j_ext).applyfunc(_simplify)
     unit = sm.zeros(len(coords), 1)
     unit[-1] = 1

@@ -134,7 +134,7 @@ MODEL = Model(
         ),
     ),
     units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},
-    step_length=2 * l * sm.sin(theta),
+    step_length=d,  # the guard fixes it: --target-step-length other than d is refused
     # Just after the step the new stance leg is at -alpha.
     section={"theta": -sm.atan2(d, sm.sqrt(4 * l**2 - d**2))},
     search={"theta_dot": (0.0, 2.0)},

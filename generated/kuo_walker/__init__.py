@@ -522,8 +522,7 @@ def step_length_of_state(m, g, l, d, theta, theta_dot):
         step length
     """
     be = backend_for(m, g, l, d, theta, theta_dot)
-    cos_theta, sin_theta = be.cos_sin(theta)
-    return 2*sin_theta*l
+    return d
 
 
 def weight(m, g, l, d, theta, theta_dot):

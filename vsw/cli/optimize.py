@@ -114,9 +114,9 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
             "cost zero within 1e-9 on both agrees whatever this is)",
             "work": "per phase.input: positive and negative work over the step (Simpson); "
             "per event.impulse: its work (impulse times the mean of its along's rate "
-            "before and after it)",
-            "impulses": "per event.impulse: the impulse, applied at the event (before or "
-            "after its reset, as the model declares)",
+            "before and after it; c impulse^2 / 2 for one applied with an impact)",
+            "impulses": "per event.impulse: the impulse, applied at the event (before its "
+            "reset, with its impact or after it, as the model declares)",
             "resimulation_error": "largest gap between a re-simulated phase's end and its "
             "last knot, relative to max(1, |state|)",
             "eigenvalues": "of the open-loop Poincare map (inputs as functions of the time "

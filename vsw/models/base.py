@@ -187,7 +187,8 @@ class Model(HybridModel):
             "inputs": {
                 p["name"]: [dict(i) for i in p["inputs"]] for p in self.phases if p.get("inputs")
             },
-            # Impulsive inputs by event, each applied before or after the event's reset.
+            # Impulsive inputs by event, each applied before the event's reset, with its
+            # impact (along a held coordinate) or after it.
             "impulses": {
                 e["name"]: [dict(i) for i in e["impulses"]]
                 for e in self.events

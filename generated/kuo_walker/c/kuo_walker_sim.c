@@ -453,12 +453,8 @@ CASADI_SYMBOL_EXPORT int vsw_kuo_walker_sim_heelstrike_reset_work_bytes(casadi_i
 
 /* vsw_kuo_walker_sim_step_length:(c[5],x[2])->(step_length) */
 static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
-  casadi_real a0, a1;
-  a0=arg[1][0];
-  a0=sin(a0);
-  a0=(2.*a0);
-  a1=arg[0][1];
-  a0=(a0*a1);
+  casadi_real a0;
+  a0=arg[0][2];
   res[0][0]=a0;
   return 0;
 }

@@ -173,8 +173,7 @@ function event_heelstrike_contact(m, g, l, d, theta, theta_dot) {
 
 /* Distance between successive stance feet (state just before the step event). Returns step length. */
 function step_length_of_state(m, g, l, d, theta, theta_dot) {
-  const [cos_theta, sin_theta] = be.cos_sin(theta);
-  return 2*sin_theta*l;
+  return d;
 }
 
 /* The walker's weight: gravity times the mass of every body (the cost of transport's scale; it depends on the parameters only). Returns force. */
