@@ -17,6 +17,7 @@ pendulum's speed, the weight as the force): a kindness to the peer.
 
 ``python benchmarks/powered_peer.py [V]`` runs both once, side by side, and prints their
 costs and times (not yet a case of benchmarks/run.py: docs/models/powered_walking.md).
+:func:`kuo_least_work_by_shooting` is the same route on the Kuo walker.
 """
 
 from __future__ import annotations
@@ -138,6 +139,70 @@ def least_work_by_shooting(speed: float, params: tuple[float, ...],
         int(result.nfev),
         seconds,
     )
+
+
+def kuo_least_work_by_shooting(speed: float, params: tuple[float, ...], knots: int = KNOTS,
+                               maxiter: int = 300) -> ShootingResult:  # fmt: skip
+    """SLSQP single shooting on the Kuo walker (benchmark case 16): the unknowns are the
+    stance rate just after heelstrike (the section fixes the angle at -alpha), the stance
+    torque at ``knots`` equally spaced times of the step (linear between them; the step's
+    duration ``d / V`` set by the target) and the push-off. The step is simulated (SciPy's
+    DOP853, 1e-10) with the generated accelerations and input gain; the constraints are
+    the step event at the end (the legs at +alpha) and periodicity through the generated
+    reset and push-off gain; the push-off ``>= 0``. The cost is the positive work: the
+    torque's power's positive part on a fine grid of the dense output, and the push-off's
+    ``c P^2 / 2``. Finite-difference gradients, as a user's would be."""
+    import generated.kuo_walker as kuo
+
+    _m, _g, l, d = params
+    alpha = math.asin(d / (2 * l))
+    duration = d / speed
+    grid = np.linspace(0.0, duration, SAMPLES)
+    times = np.linspace(0.0, duration, knots)
+    cache: dict[bytes, tuple] = {}
+
+    def evaluate(z: np.ndarray) -> tuple:
+        key = z.tobytes()
+        if key not in cache:
+            torques = z[1 : 1 + knots]
+
+            def rhs(t: float, s: np.ndarray) -> np.ndarray:
+                (acc,) = kuo.stance_accelerations(*params, *s)
+                (gain,) = kuo.stance_input_gains(*params, *s)
+                return np.array([s[1], acc + gain * np.interp(t, times, torques)])
+
+            solution = solve_ivp(rhs, (0.0, duration), np.array([-alpha, z[0]]),
+                                 method="DOP853", rtol=1e-10, atol=1e-10,
+                                 dense_output=True)  # fmt: skip
+            states = solution.sol(grid)
+            work = np.trapezoid(np.maximum(np.interp(grid, times, torques) * states[1], 0.0),
+                                grid)  # fmt: skip
+            end = solution.y[:, -1]
+            after = np.array(kuo.event_heelstrike_reset(*params, *end), dtype=float)
+            (gain,) = kuo.event_heelstrike_impulse_gains_with(*params, *end)
+            after[1] += gain * z[-1]
+            push_work = (
+                float(kuo.event_heelstrike_impulse_work_with(*params, *end)) * z[-1] ** 2 / 2
+            )
+            cache.clear()
+            cache[key] = (work + push_work, end, after)
+        return cache[key]
+
+    def equalities(z: np.ndarray) -> np.ndarray:
+        _, end, after = evaluate(z)
+        return np.array([end[0] - alpha, after[1] - z[0]])
+
+    guess = np.concatenate([[speed / l], np.zeros(knots), [0.05]])
+    bounds = [(1e-3, None), *([(None, None)] * knots), (0.0, None)]
+    began = time.perf_counter()
+    result = minimize(lambda z: evaluate(z)[0], guess, method="SLSQP", bounds=bounds,
+                      constraints=[{"type": "eq", "fun": equalities}],
+                      options={"maxiter": maxiter, "ftol": 1e-12})  # fmt: skip
+    seconds = time.perf_counter() - began
+    violation = float(np.max(np.abs(equalities(result.x))))
+    return ShootingResult(float(result.fun), bool(result.success and violation <= 1e-8),
+                          f"{result.message} (equalities held to {violation:.1g})",
+                          int(result.nit), int(result.nfev), seconds)  # fmt: skip
 
 
 def main(speed: float = 0.4) -> None:
