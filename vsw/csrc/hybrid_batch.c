@@ -415,8 +415,17 @@ typedef struct {
     int *visits;
 } vsw_batch;
 
+/* Before each RK step of the pass (the first, and again after each rejection). */
+static int vsw_lane_try(const vsw_tolerances *tol, vsw_lane *ln)
+{
+    if (ln->h < ln->min_step) return VSW_PHASE_STALLED;
+    if (ln->h > tol->phase_time_limit - ln->time) ln->h = tol->phase_time_limit - ln->time;
+    return VSW_READY;
+}
+
 /* Before SciPy's `while` loop's next pass: stalled past the phase time limit, the RK
-   steps' limit or a stop; else the step size at least 10 ulps of the time. */
+   steps' limit or a stop; else the step size at least 10 ulps of the time, and the pass's
+   first RK step (vsw_lane_try). */
 static int vsw_lane_top(const vsw_tolerances *tol, vsw_lane *ln)
 {
     if (ln->time >= tol->phase_time_limit || ++ln->steps > VSW_MAX_RK_STEPS
@@ -424,15 +433,7 @@ static int vsw_lane_top(const vsw_tolerances *tol, vsw_lane *ln)
         return VSW_PHASE_STALLED;
     ln->min_step = 10.0 * (nextafter(ln->time, INFINITY) - ln->time);
     if (ln->h < ln->min_step) ln->h = ln->min_step;
-    return VSW_READY;
-}
-
-/* Before each RK step of the pass (the first, and again after each rejection). */
-static int vsw_lane_try(const vsw_tolerances *tol, vsw_lane *ln)
-{
-    if (ln->h < ln->min_step) return VSW_PHASE_STALLED;
-    if (ln->h > tol->phase_time_limit - ln->time) ln->h = tol->phase_time_limit - ln->time;
-    return VSW_READY;
+    return vsw_lane_try(tol, ln);
 }
 
 /* A fresh start of the integrator at the lane's state: f, SciPy's initial step. */
@@ -442,8 +443,7 @@ static int vsw_lane_restart(const vsw_tolerances *tol, vsw_lane *ln)
     ln->h = vsw_initial_step(ln->phase, ln->constants, ln->y, ln->f0, tol);
     ln->rejected = 0;
     ln->steps = 0;
-    int code = vsw_lane_top(tol, ln);
-    return code == VSW_READY ? vsw_lane_try(tol, ln) : code;
+    return vsw_lane_top(tol, ln);
 }
 
 /* The start of the lane's phase at its state: a failure already past there ends it. */
@@ -519,8 +519,7 @@ static int vsw_lane_stepped(const vsw_tolerances *tol, vsw_lane *ln, int l, doub
     for (int i = 0; i < VSW_NX; ++i) ln->f0[i] = K[VSW_RK_STAGES][i][l];
     memcpy(ln->g0, g1, sizeof(double) * n_watch);
     ln->h *= factor;
-    int code = vsw_lane_top(tol, ln);
-    return code == VSW_READY ? vsw_lane_try(tol, ln) : code;
+    return vsw_lane_top(tol, ln);
 }
 
 /* The lane's walk ends: its outputs (the kept ring unrolled: oldest first, NaN rows last). */
