@@ -728,7 +728,7 @@ def case_batch_before(count: int, reps: int, before: str = BATCH_BEFORE) -> list
                 f"same way: {same}; after 20 steps the states differ by at most {gap:.1g} "
                 "(relative)",
             ))  # fmt: skip
-    return rows + _numba_rows(count, reps) + _floor_rows(count, reps)
+    return rows + _numba_rows(count, reps) + _cyrk_rows(count, reps) + _floor_rows(count, reps)
 
 
 def _floor_rows(count: int, reps: int) -> list[Row]:
@@ -847,6 +847,67 @@ def _numba_rows(count: int, reps: int) -> list[Row]:
                 ratio <= 1 / 1.5,
                 note=f"per step over {n} walks ({steps_ours} and {steps_theirs} steps); one "
                 f"step from each start: the two maps differ by at most {gap:.1g} (relative)",
+            ))  # fmt: skip
+    return rows
+
+
+def _cyrk_rows(count: int, reps: int) -> list[Row]:
+    """Case 15's second peer: the same three models through CyRK's C++ DOP853 and its events
+    (benchmarks/peers/cyrk_peer: its Cython API, ``cysolve_ivp_noreturn``, one integration a
+    phase from the phase's start, the numba peer's equations and rules, built with Cython
+    into a cache directory on first use) against the batch simulator, one thread each,
+    walks of 20 steps; skipped without CyRK or Cython."""
+    try:
+        from peers import cyrk_peer
+
+        cyrk = cyrk_peer.load()
+    except Exception as exc:  # not installed, or no C++ compiler: the row says why
+        return [Row("15", "the batch simulator against CyRK's DOP853", "-", None, None,
+                    "ahead of CyRK", None,
+                    note=f"not run: {exc} (pip install cyrk cython)")]  # fmt: skip
+    from vsw.batch import simulator
+    from vsw.models import load
+
+    rows = []
+    for key in ("simplest_walker", "compass_gait", "vsw_biped"):
+        _, params, starts = _near_gait_starts(key, count, BATCH_VALUES.get(key))
+        sim = simulator(load(key))
+        sim.library()
+        p = np.ascontiguousarray(params, dtype=float)
+        x0 = np.ascontiguousarray(starts, dtype=float)
+        for tol in (1e-10, 1e-12):
+            n = len(starts)
+            found: dict = {}
+
+            def theirs(steps=20, tol=tol, found=found, n=n, p=p, x0=x0, key=key):
+                final, walked = np.empty((n, 4)), np.empty(n, np.int64)
+                outcome = np.empty(n, np.int64)
+                calls = cyrk.walk(key, p, x0, steps, tol, tol, final, walked, outcome)
+                found["cyrk"] = final, walked, outcome, calls
+
+            def ours(steps=20, tol=tol, found=found, sim=sim, params=params, starts=starts):
+                found["ours"] = sim.walk(params, starts, steps, converge_tol=0.0,
+                                         period_tol=0.0, threads=1, tolerance=tol)  # fmt: skip
+
+            ours(1), theirs(1)  # one step from each start: the two step maps
+            gap = float(np.max(np.abs(found["ours"].final - found["cyrk"][0])
+                               / np.maximum(1, np.abs(found["cyrk"][0]))))  # fmt: skip
+            t_ours, t_theirs = interleaved(ours, theirs, reps)
+            steps_ours = int(found["ours"].steps.sum())
+            _, walked, _, calls = found["cyrk"]
+            steps_theirs = int(walked.sum())
+            same = bool(np.array_equal(found["ours"].steps, walked))
+            ratio = (t_ours.median / steps_ours) / (t_theirs.median / steps_theirs)
+            rows.append(Row(
+                "15", f"{key}: walks of 20 steps, batch simulator (1 thread), rtol = atol = "
+                f"{tol:g}", "CyRK's C++ DOP853 with events, the same rules (benchmarks/peers)",
+                t_ours.per(steps_ours), t_theirs.per(steps_theirs), "ahead of CyRK",
+                ratio < 1,
+                note=f"per step over {n} walks ({steps_ours} and {steps_theirs} steps, the "
+                f"same in every walk: {same}; {calls / max(steps_theirs, 1):.2f} CyRK "
+                "integrations a step: one a phase, one more after each event skipped 1e-9 "
+                f"past itself); one step from each start: the two maps differ by at most {gap:.1g} "
+                "(relative); CyRK locates events by Brent's method on its dense output",
             ))  # fmt: skip
     return rows
 
