@@ -205,6 +205,63 @@ def kuo_least_work_by_shooting(speed: float, params: tuple[float, ...], knots: i
                           int(result.nit), int(result.nfev), seconds)  # fmt: skip
 
 
+def compass_push_off_by_shooting(step_length: float, params: tuple[float, ...],
+                                 maxiter: int = 200) -> ShootingResult:  # fmt: skip
+    """SLSQP single shooting on the compass gait on level ground powered by its push-off
+    alone (benchmark case 16; ``vsw optimize --model level-compass-gait --minimize work
+    --target-step-length S --use push_off``): the unknowns are the legs' rates just after
+    heelstrike (the step length fixes the angles, ``theta = -psi = -asin(S / 2 (a + b))``)
+    and the push-off. The step is simulated (SciPy's DOP853, 1e-10) with the generated
+    accelerations to the heelstrike guard's crossing; the constraints are periodicity
+    through the generated reset and push-off gain (the rates after the step, and the stance
+    leg's angle: the step ends where the legs are at +-theta); the push-off ``>= 0``. The
+    cost is the push-off's work ``c P^2 / 2``. Finite-difference gradients, as a user's
+    would be; the start is the legs' rates of a pendulum step of the target's length."""
+    import generated.level_compass_gait as lcg
+
+    _m_h, _m, a, b, _g = params
+    theta0 = -math.asin(step_length / (2 * (a + b)))
+    cache: dict[bytes, tuple] = {}
+
+    def rhs(_t: float, s: np.ndarray) -> np.ndarray:
+        return np.array([s[2], s[3], *lcg.stance_accelerations(*params, *s)], dtype=float)
+
+    def heelstrike(_t: float, s: np.ndarray) -> float:
+        return float(lcg.event_heelstrike_guard(*params, *s))
+
+    # Heelstrike counts past mid-stance (theta > 0, the model's `when`): the guard also
+    # crosses as the swing foot leaves the ground and where it passes through it.
+    heelstrike.direction = 1.0
+
+    def evaluate(z: np.ndarray) -> tuple:
+        key = z.tobytes()
+        if key not in cache:
+            start = np.array([theta0, -theta0, z[0], z[1]])
+            solution = solve_ivp(rhs, (0.0, 3.0), start, method="DOP853", rtol=1e-10,
+                                 atol=1e-10, events=heelstrike)  # fmt: skip
+            counted = [y for y in solution.y_events[0] if y[0] > 0]
+            end = counted[0] if counted else solution.y[:, -1]  # none: far from periodic
+            after = np.array(lcg.event_heelstrike_reset(*params, *end), dtype=float)
+            gains = np.array(lcg.event_heelstrike_impulse_gains_with(*params, *end), dtype=float)
+            after[2:] += gains.reshape(2) * z[2]
+            work = float(lcg.event_heelstrike_impulse_work_with(*params, *end)) * z[2] ** 2 / 2
+            cache.clear()
+            cache[key] = (work, np.array([after[0] - theta0, after[2] - z[0], after[3] - z[1]]))
+        return cache[key]
+
+    guess = np.array([1.0, 1.0, 1.0])
+    bounds = [(None, None), (None, None), (0.0, None)]
+    began = time.perf_counter()
+    result = minimize(lambda z: evaluate(z)[0], guess, method="SLSQP", bounds=bounds,
+                      constraints=[{"type": "eq", "fun": lambda z: evaluate(z)[1]}],
+                      options={"maxiter": maxiter, "ftol": 1e-12})  # fmt: skip
+    seconds = time.perf_counter() - began
+    violation = float(np.max(np.abs(evaluate(result.x)[1])))
+    return ShootingResult(float(result.fun), bool(result.success and violation <= 1e-8),
+                          f"{result.message} (equalities held to {violation:.1g})",
+                          int(result.nit), int(result.nfev), seconds)  # fmt: skip
+
+
 def main(speed: float = 0.4) -> None:
     model = load("point_mass_biped")
     params = model.parameters()

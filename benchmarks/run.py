@@ -48,7 +48,7 @@ import generated.ile as ile  # noqa: E402
 from vsw.models.ile.params import random_parameters  # noqa: E402
 from vsw.vectorize import chunked, default_threads  # noqa: E402
 
-CASES = (1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15)
+CASES = (1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16)
 
 DESIGN_BEFORE = "39d527c"
 DERIVE_BEFORE = "f0a3f35"
@@ -1196,6 +1196,8 @@ def run_case(case: int, quick: bool) -> list[Row]:
         return case_locate_flip(quick)
     if case == 15:
         return case_batch_before(100 if quick else 1000, reps)
+    if case == 16:
+        return case_powered_shooting(quick)
     raise ValueError(f"no benchmark case {case}; cases are {CASES}")
 
 
@@ -1319,6 +1321,44 @@ def case_locate_flip(quick: bool) -> list[Row]:
         note=f"the {count}-value grid itself took {t_grid:.3g} s; {len(branch.points)} "
         "continuation points",
     )]  # fmt: skip
+
+
+def case_powered_shooting(quick: bool) -> list[Row]:
+    """Case 16 (issue 28): the compass gait on level ground powered by its push-off alone,
+    the least work a step at one step length: ``vsw optimize``'s library call (collocation
+    on 20 and 40 intervals, IPOPT, the re-simulation and the eigenvalues) against single
+    shooting with SciPy's SLSQP on the simulated step from a plain start
+    (benchmarks/powered_peer.py ``compass_push_off_by_shooting``), one run each, side by
+    side. The target: equal cost at convergence (not judged where SLSQP does not converge:
+    its row says so). Quick: one step length, 50 iterations."""
+    from powered_peer import compass_push_off_by_shooting
+
+    from vsw.models import load
+    from vsw.powered import Request, optimize
+
+    model = load("level_compass_gait")
+    params = model.parameters()
+    rows = []
+    for length in (0.4,) if quick else (0.4, 0.5):
+        begin = time.perf_counter()
+        gait = optimize(model, params, Request("work", target_step_length=length,
+                                               use=("push_off",)))  # fmt: skip
+        t_ours = time.perf_counter() - begin
+        peer = compass_push_off_by_shooting(length, params, maxiter=50 if quick else 100)
+        gap = abs(peer.cost - gait.cost) / abs(gait.cost)
+        equal = peer.success and gait.status == "optimal" and gap <= 1e-6
+        rows.append(Row(
+            "16", f"vsw optimize --model level-compass-gait --minimize work "
+            f"--target-step-length {length:g} --use push_off: {gait.status}, work "
+            f"{gait.cost:.9g} J a step",
+            f"SLSQP single shooting on the simulated step (benchmarks/powered_peer.py): "
+            f"{'converged' if peer.success else 'NOT converged'}, work {peer.cost:.9g} J",
+            Timing.of([t_ours]), Timing.of([peer.seconds]),
+            "equal cost at convergence (1e-6 relative)", equal if peer.success else None,
+            note=f"single run each; costs differ by {gap:.2g} (relative); SLSQP: "
+            f"{peer.iterations} iterations, {peer.evaluations} evaluations, {peer.message}",
+        ))  # fmt: skip
+    return rows
 
 
 # ---------------------------------------------------------------------------- output

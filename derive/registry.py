@@ -20,6 +20,7 @@ MODEL_MODULES: dict[str, str] = {
     "vsw_biped_phi0": "derive.models.vsw_biped_phi0",
     "point_mass_biped": "derive.models.point_mass_biped",
     "kuo_walker": "derive.models.kuo_walker",
+    "level_compass_gait": "derive.models.level_compass_gait",
 }
 """Model name (its ``generated/<name>/`` package) -> module with its ``derive()``."""
 

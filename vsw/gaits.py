@@ -80,6 +80,13 @@ DISTINCT = 1e-7
 """Two Newton solutions are one gait when every component agrees to this times
 max(1, |component|)."""
 
+STANDS = 1e-3
+"""A Newton solution whose step is shorter than this times the model's length scale (its
+largest length parameter, else 1) is no gait: on level ground a heelstrike's loss falls
+with the step's size faster than Newton's tolerance, so the scan finds many near-standing
+"orbits" (the compass gait's body on level ground: 72 of them, steps of 1e-7 to 5e-5 m).
+The simplest walker's gait at its smallest computed slope (1e-8 rad) steps 4e-3."""
+
 _NEWTON_TOL = 1e-10
 _NEWTON_ITERATIONS = 40
 
@@ -94,7 +101,8 @@ class GaitSearch:
     many of those converged; ``unconfirmed`` the Newton solutions the boundary-value
     solver did not confirm, with its reason; ``route`` the batch simulator's
     ('compiled', else the SciPy fallback and why); ``complete`` whether the default
-    resolution was used on the compiled route.
+    resolution was used on the compiled route; ``standing`` the Newton solutions that
+    stand (:data:`STANDS`), left out.
     """
 
     gaits: list[Orbit]
@@ -106,6 +114,7 @@ class GaitSearch:
     unconfirmed: list[dict[str, Any]] = field(default_factory=list)
     route: str = "compiled"
     complete: bool = True
+    standing: int = 0
 
     @property
     def cells(self) -> int:
@@ -123,6 +132,7 @@ class GaitSearch:
             "candidates": self.candidates,
             "newton_converged": self.converged,
             "unconfirmed": list(self.unconfirmed),
+            "standing": self.standing,
             "simulator": self.route,
             "complete": self.complete,
         }
@@ -138,6 +148,9 @@ class GaitSearch:
             text += f"; Newton from those {self.candidates} found no gait"
         if self.unconfirmed:
             text += f"; {len(self.unconfirmed)} Newton solution(s) were no gait when simulated"
+        if self.standing:
+            text += (f"; {self.standing} Newton solution(s) stand (steps shorter than "
+                     f"{STANDS:g} of the length scale)")  # fmt: skip
         return text
 
 
@@ -352,7 +365,7 @@ def search(
     if scanned is None:
         scanned = _scan(model, sim, params, box, cells, compiled)
         _write_cache(path, scanned)
-    gaits, unconfirmed = _confirm(model, sim, params, scanned["found"])
+    gaits, unconfirmed, standing = _confirm(model, sim, params, scanned["found"])
     return GaitSearch(
         gaits=gaits,
         box=box,
@@ -363,6 +376,7 @@ def search(
         unconfirmed=unconfirmed,
         route=scanned["route"],
         complete=compiled and cells is None,
+        standing=standing,
     )
 
 
@@ -400,13 +414,19 @@ def _scan(
 
 def _confirm(
     model: HybridModel, sim: BatchSimulator, params: tuple[float, ...], found: list
-) -> tuple[list[Orbit], list[dict[str, Any]]]:
+) -> tuple[list[Orbit], list[dict[str, Any]], int]:
     """Each Newton solution confirmed by the boundary-value solver: the distinct gaits by
-    period, and the solutions it did not confirm with its reason."""
+    period, the solutions it did not confirm with its reason, and how many solutions stood
+    (a step shorter than :data:`STANDS` of the length scale: not passed to the solver)."""
     names = [*model.coordinates, *model.rates]
-    gaits, unconfirmed = [], []
+    gaits, unconfirmed, standing = [], [], 0
+    shortest = STANDS * _length_scale(model, params)
     for y in found:
         state = section_states(model, params, np.array([y], dtype=float))[0]
+        length = model.step_length(params, state)
+        if length is not None and abs(length) < shortest:
+            standing += 1
+            continue
         step = sim.step_phases(params, state)  # the durations are the solver's guess
         period = float(sum(step.durations))
         if step.ended != "completed" or not period > 1e-9:
@@ -429,7 +449,14 @@ def _confirm(
         if all(np.any(np.abs(x - np.array(list(o.state.values())))
                       > DISTINCT * np.maximum(1.0, np.abs(x))) for o in distinct):  # fmt: skip
             distinct.append(orbit)
-    return distinct, unconfirmed
+    return distinct, unconfirmed, standing
+
+
+def _length_scale(model: HybridModel, params: Sequence[float]) -> float:
+    """The model's largest parameter in its unit of length, else 1 (scaled units)."""
+    unit = model.spec["units"].get("length")
+    lengths = [abs(float(v)) for p, v in zip(model.parameter_table, params) if p.unit == unit]
+    return max(lengths, default=1.0) or 1.0
 
 
 _CACHE_KEYS = {"found", "points", "outcomes", "candidates", "converged", "route"}

@@ -248,7 +248,10 @@ def _check_step_target(model: HybridModel, params: Sequence[float], request: Req
     if request.target_step_length is None:
         return
     size = 2 * model.n
-    lengths = {float(model.step_length(params, np.full(size, value))) for value in (0.1, 0.7)}
+    # Two states with every coordinate different (a state with all coordinates equal puts
+    # the compass gait's legs together, where its step is zero whatever the state).
+    states = (np.linspace(0.1, 0.7, size), np.linspace(-0.3, 0.2, size)[::-1])
+    lengths = {float(model.step_length(params, state)) for state in states}
     if len(lengths) == 1:
         (length,) = lengths
         if not math.isclose(length, request.target_step_length, rel_tol=1e-12):
@@ -289,7 +292,12 @@ def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Requ
 
 def _passive_start(model: HybridModel, params: Sequence[float]) -> Orbit | None:
     """The passive gait the commands follow (the first stable one, else the first), or
-    None where there is none (a walker its inputs hold up, or parameters without one)."""
+    None where there is none (a walker its inputs hold up, or parameters without one).
+    A model that walks only powered has none to search for: on level ground every step
+    loses energy, and the search's hundreds of shootings (30 s on the compass gait's body)
+    would end empty."""
+    if model.spec.get("powered_only"):
+        return None
     return pick(model.fixed_points(params))
 
 
@@ -662,13 +670,14 @@ def _kinematic_guess(model: HybridModel, params: Sequence[float], nlp: _Nlp,
     def moved(t: float) -> np.ndarray:
         return np.concatenate([x0[:n] + t * x0[n:], x0[n:]])
 
-    times = np.linspace(0.0, 10.0, 2001)[1:]
+    # Within half a turn of every coordinate: a crossing further on (a compass gait's legs
+    # moving as one cross their guard after a full turn) is no step.
+    reach = np.pi / max(float(np.max(np.abs(x0[n:]))), 1e-300)
+    times = np.linspace(0.0, min(10.0, reach), 2001)[1:]
     values = np.array([float(guard(*p, *moved(t))) for t in times])
     crossing = np.flatnonzero(np.sign(values[1:]) != np.sign(values[:-1]))
     if crossing.size == 0:
-        raise ConvergenceError(f"{label}: no passive gait and no start: the search box's "
-                               "centre moving at its rates meets no step event in 10 time "
-                               "units")  # fmt: skip
+        return _swapped_guess(model, p, nlp, request, x0, event)
     low, high = times[crossing[0]], times[crossing[0] + 1]
     for _ in range(60):
         middle = (low + high) / 2
@@ -687,6 +696,37 @@ def _kinematic_guess(model: HybridModel, params: Sequence[float], nlp: _Nlp,
                            ("middles", (np.arange(nodes) + 0.5) / nodes)):  # fmt: skip
         first, parts, width = entry[key]
         block = np.array([moved(f * duration) for f in fractions])
+        w[first : first + parts * width] = block.reshape(-1)
+    return w
+
+
+def _swapped_guess(model: HybridModel, p: np.ndarray, nlp: _Nlp, request: Request,
+                   x0: np.ndarray, event: dict) -> np.ndarray:  # fmt: skip
+    """The start where the search box's centre at its rates meets no step event (a compass
+    gait's legs moving as one keep its guard at zero): the coordinates move at constant
+    rates from the centre to where the step event's reset takes them (the legs swapped),
+    over the target's duration (step length / speed; else one time unit). Not a motion of
+    the walker either; IPOPT makes it one."""
+    label = getattr(model, "cli_name", model.name)
+    n = model.n
+    end = model.reset(event["name"], p, x0)[:n]
+    if not np.all(np.isfinite(end)) or np.allclose(end, x0[:n]):
+        raise ConvergenceError(f"{label}: no passive gait and no start: the search box's "
+                               "centre meets no step event at its rates, and its reset does "
+                               "not move it")  # fmt: skip
+    duration = 1.0
+    if request.target_speed is not None and model.spec["step_length"]:
+        duration = abs(float(model.step_length(p, x0))) / request.target_speed
+    rates = (end - x0[:n]) / duration
+    w = np.zeros(nlp.size)
+    w[0] = duration
+    entry = nlp.layout[0]
+    nodes = request.nodes
+    for key, fractions in (("knots", np.arange(nodes + 1) / nodes),
+                           ("middles", (np.arange(nodes) + 0.5) / nodes)):  # fmt: skip
+        first, parts, width = entry[key]
+        block = np.array([np.concatenate([x0[:n] + f * (end - x0[:n]), rates])
+                          for f in fractions])  # fmt: skip
         w[first : first + parts * width] = block.reshape(-1)
     return w
 
