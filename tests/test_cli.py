@@ -234,6 +234,35 @@ def test_progress_bar_only_on_a_terminal():
     assert "[" in loud.getvalue() and loud.getvalue().endswith("2/2\n")
 
 
+def test_commands_are_registered_by_name_and_a_run_imports_only_its_own():
+    """COMMANDS names each command as its module registers it; a command line naming a
+    command builds that command's parser alone (``vsw --help`` all of them), and a grid
+    basin imports no other command's module, none of the ILE's closed forms, no SciPy."""
+    import argparse
+
+    import vsw.cli.app as app
+
+    def choices(parser):
+        return list(next(a for a in parser._actions
+                         if isinstance(a, argparse._SubParsersAction)).choices)  # fmt: skip
+
+    for name in app.COMMANDS:
+        assert choices(app.build_parser(name)) == [name]
+    assert choices(app.build_parser()) == choices(app.build_parser("no-such")) == [*app.COMMANDS]
+    code = (
+        "import sys\nfrom vsw.cli import main\n"
+        "main(['basin', '--model', 'rimless-wheel', '--grid', 'theta_dot=0.5:3:5',"
+        " '--steps', '5'])\n"
+        "print(' '.join(sorted(sys.modules)))"
+    )
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    imported = set(run.stdout.splitlines()[-1].split())
+    others = {m for n, m in app.COMMANDS.items() if n != "basin"}
+    assert "vsw.cli.basin" in imported and not imported & others
+    assert not {m for m in imported if m.startswith(("vsw.models.ile", "vsw.cli.ile_basin",
+                                                     "scipy", "matplotlib"))}  # fmt: skip
+
+
 def test_a_command_module_registers_and_gets_the_parser_rules(monkeypatch, capsys):
     """A command is a module with ``register`` and ``run``: its parser is the CLI's
     (one-line usage errors)."""
@@ -250,7 +279,8 @@ def test_a_command_module_registers_and_gets_the_parser_rules(monkeypatch, capsy
 
     fake.register = register
     fake.run = lambda args: print("hi", args.n) or 0
-    monkeypatch.setattr(app, "COMMANDS", (*app.COMMANDS, fake))
+    monkeypatch.setitem(sys.modules, fake.__name__, fake)
+    monkeypatch.setattr(app, "COMMANDS", {**app.COMMANDS, "hello": fake.__name__})
     assert main(["hello", "--n", "3"]) == 0
     assert capsys.readouterr().out == "hi 3\n"
     assert main(["hello", "--n", "x"]) == 2

@@ -149,7 +149,8 @@ def test_stdout_handling_covers_every_command_module(monkeypatch, capsys):
         p.set_defaults(func=lambda args: print("x" * 100) or 0)
 
     fake.register = register
-    monkeypatch.setattr(app, "COMMANDS", (*app.COMMANDS, fake))
+    monkeypatch.setitem(sys.modules, fake.__name__, fake)
+    monkeypatch.setattr(app, "COMMANDS", {**app.COMMANDS, "shout": fake.__name__})
     stream = _FailingStdout(BrokenPipeError(32, "Broken pipe"))
     monkeypatch.setattr(sys, "stdout", stream)
     assert main(["shout"]) == EXIT_CLOSED_PIPE
@@ -200,12 +201,12 @@ def test_plot_check_leaves_no_file_behind_and_keeps_existing_ones(tmp_path):
 
 
 def test_plot_write_failure_after_the_check_is_one_line(monkeypatch, capsys, tmp_path):
-    import vsw.cli.basin
+    import vsw.cli.ile_basin  # the ile's closed-form basin (SMALL_BASIN) saves there
 
     def full(*args, **kwargs):
         raise OSError(28, "No space left on device", str(tmp_path / "b.png"))
 
-    monkeypatch.setattr(vsw.cli.basin, "save_figure", full)
+    monkeypatch.setattr(vsw.cli.ile_basin, "save_figure", full)
     code, _, err = run_main(capsys, [*SMALL_BASIN, "--plot", str(tmp_path / "b.png")])
     assert code == 2 and err.count("\n") == 1 and "No space left on device" in err
 

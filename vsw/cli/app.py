@@ -11,6 +11,7 @@ documentation, "Note on SIGPIPE").
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import sys
 import warnings
@@ -18,18 +19,6 @@ from collections.abc import Callable, Sequence
 from typing import Any, NoReturn, TextIO
 
 from vsw import stop
-from vsw.cli import (
-    analyze,
-    animate,
-    basin,
-    continuation,
-    design,
-    explore,
-    models,
-    optimize,
-    simulate,
-    sweep,
-)
 from vsw.cli.output import version
 from vsw.cli.parser import (
     EXIT_CLOSED_PIPE,
@@ -48,10 +37,22 @@ from vsw.vectorize import default_threads
 
 __all__ = ["COMMANDS", "build_parser", "main"]
 
-COMMANDS = (models, analyze, simulate, animate, explore, basin, sweep, continuation, design,
-            optimize)  # fmt: skip
-"""The command modules, in the order ``vsw --help`` lists them: each has ``register``
-(adds its parser) and ``run``."""
+COMMANDS = {
+    "models": "vsw.cli.models",
+    "analyze": "vsw.cli.analyze",
+    "simulate": "vsw.cli.simulate",
+    "animate": "vsw.cli.animate",
+    "explore": "vsw.cli.explore",
+    "basin": "vsw.cli.basin",
+    "sweep": "vsw.cli.sweep",
+    "continue": "vsw.cli.continuation",
+    "design": "vsw.cli.design",
+    "optimize": "vsw.cli.optimize",
+}
+"""The commands, in the order ``vsw --help`` lists them, and the module of each: it has
+``register`` (adds the command's parser) and ``run``. A command's module is imported when
+its parser is built (:func:`build_parser`): one run imports only its own command's
+module and what that needs (``vsw basin`` no optimizer, design or continuation code)."""
 
 
 class _VersionAction(argparse.Action):
@@ -66,8 +67,15 @@ class _VersionAction(argparse.Action):
         parser.exit()
 
 
-def build_parser() -> ArgumentParser:
-    """The ``vsw`` parser with every command."""
+def build_parser(command: str | None = None) -> ArgumentParser:
+    """The ``vsw`` parser: with every command, or with ``command`` alone (a name of
+    :data:`COMMANDS`; anything else builds every command's).
+
+    A command line whose first argument is a command parses the same either way: the
+    top-level parser has only options that take no value, so it hands that argument and
+    everything after it to the command's parser, and never looks at the others. Every
+    other command line (``vsw --help``, no command, an unknown one, ``vsw --version``)
+    gets the whole parser, so its help and its errors list every command."""
     parser = ArgumentParser(
         prog="vsw",
         description="Walking models derived and verified: the instantaneous leg extension "
@@ -78,8 +86,8 @@ def build_parser() -> ArgumentParser:
     )
     parser.add_argument("--version", action=_VersionAction)
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for command in COMMANDS:
-        command.register(subparsers)
+    for name in [command] if command in COMMANDS else COMMANDS:
+        importlib.import_module(COMMANDS[name]).register(subparsers)
     return parser
 
 
@@ -192,7 +200,7 @@ def _run(argv: Sequence[str] | None, program: bool) -> int:
     """Parse and run one command; every error but a failing standard output is mapped here."""
     argv = sys.argv[1:] if argv is None else list(argv)
     try:
-        parser = build_parser()
+        parser = build_parser(argv[0] if argv else None)
         args = parser.parse_args(argv)
         args.argv = argv
         _check_environment()

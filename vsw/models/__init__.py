@@ -19,13 +19,14 @@ from pathlib import Path
 import generated
 from vsw.errors import VswInputError
 from vsw.models.base import Model
-from vsw.models.ile.model import IleModel
 from vsw.models.user import entry_point_file, is_model_file, package
 
 __all__ = ["cli_name", "key", "keys", "load"]
 
-EXTENSIONS: dict[str, type[Model]] = {"ile": IleModel}
-"""Models whose closed forms extend the generic runtime, by package key."""
+EXTENSIONS = {"ile": "vsw.models.ile.model:IleModel"}
+"""Models whose closed forms extend the generic runtime, by package key: the class as
+``module:name``, imported when its model is loaded (a command on another model imports none
+of the ILE's closed forms)."""
 
 
 def keys() -> tuple[str, ...]:
@@ -67,5 +68,6 @@ def load(name: str) -> Model:
 def _load(model_key: str) -> Model:
     if is_model_file(model_key):
         return Model(package(Path(model_key)))
-    cls = EXTENSIONS.get(model_key, Model)
+    module, _, name = EXTENSIONS.get(model_key, "vsw.models.base:Model").partition(":")
+    cls = getattr(importlib.import_module(module), name)
     return cls(importlib.import_module(f"generated.{model_key}"))
