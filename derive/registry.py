@@ -21,6 +21,7 @@ MODEL_MODULES: dict[str, str] = {
     "point_mass_biped": "derive.models.point_mass_biped",
     "kuo_walker": "derive.models.kuo_walker",
     "level_compass_gait": "derive.models.level_compass_gait",
+    "free_vsw_biped": "derive.models.free_vsw_biped",
 }
 """Model name (its ``generated/<name>/`` package) -> module with its ``derive()``."""
 

@@ -444,10 +444,11 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
         positive |= {f"{phase}.{name}": value for name, value in plus.items()}
         negative |= {f"{phase}.{name}": value for name, value in minus.items()}
         end = v.knots[-1]
+        _no_early_event(model, event, p, v.knots[1:-1], g)
         g.add(model.symbolic(f"event_{event['name']}_guard", p, end), 0.0, 0.0)
         if event["when"] is not None:
             g.add(model.symbolic(event["when"], p, end), 0.0, math.inf)
-        after, event_priced, plus, minus = _event_map(model, event, p, end, v, g)
+        after, event_priced, plus, minus = _event_map(model, event, p, end, v, g, request.use)
         priced = priced + event_priced
         positive |= plus
         negative |= minus
@@ -487,17 +488,37 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
                 int(w.shape[0]), (lbx, ubx, np.array(g.lower), np.array(g.upper)))  # fmt: skip
 
 
+def _no_early_event(model: HybridModel, event: dict, p: Any, knots: list,
+                    g: _Constraints) -> None:  # fmt: skip
+    """The phase's event has not come before its end: at the interior knots, its guard is
+    not past zero in its direction wherever the event counts (``when`` > 0; always where it
+    has none). Without it an optimum can have a swing foot touch the ground ahead
+    mid-step, which the re-simulation then meets as the step's end. Zero where either
+    factor is at most zero: a compass gait's swing foot passing through the ground behind
+    (``when`` < 0, scuffing the models ignore) is allowed."""
+    import casadi as ca
+
+    guard = f"event_{event['name']}_guard"
+    for x in knots:
+        crossed = event["direction"] * model.symbolic(guard, p, x)
+        counts = model.symbolic(event["when"], p, x) if event["when"] is not None else 1.0
+        g.add(ca.fmax(counts, 0) * ca.fmax(crossed, 0), -math.inf, 0.0)
+
+
 def _event_map(model: HybridModel, event: dict, p: Any, end: Any, v: _Unknowns,
-               g: _Constraints) -> tuple[Any, Any, dict, dict]:  # fmt: skip
+               g: _Constraints,
+               used: Sequence[str] = ()) -> tuple[Any, Any, dict, dict]:  # fmt: skip
     """The state after an event from the phase's last knot: the impulses applied before
     the reset (the rates jump by their gains), the reset with the impulse at its impact
     (the rates after gain its gains), those applied after; the impulses' positive work as
     the cost prices it (their slacks, where the cost is the work) and each impulse's
     positive and negative work (``iota`` times the mean of its ``along`` rate before and
-    after it; ``c iota^2 / 2`` for the one at the impact)."""
+    after it, which the NLP keeps from changing sign, so that this work is all positive or
+    all negative; ``c iota^2 / 2`` for the one at the impact)."""
     import casadi as ca
 
     groups = impulse_names(model, event)
+    used = used or ordered_impulses(model, event)  # (): every impulse, as --use without names
     n = model.n
     plus: dict = {}
     minus: dict = {}
@@ -521,6 +542,13 @@ def _event_map(model: HybridModel, event: dict, p: Any, end: Any, v: _Unknowns,
             rate_before = model.symbolic(f"{stem}_rates_{side}", p, x)
             rate_after = model.symbolic(f"{stem}_rates_{side}", p, jumped)
             work = j * (rate_before + rate_after) / 2
+            # Where the cost is the work, an impulse may stop its coordinate's rate, not
+            # reverse it: one that reversed it would do negative work, then as much
+            # positive, and its net work (0) would hide the positive part the cost counts.
+            # (An impulse held at zero leaves the rate as it is: no row for it.)
+            for i, name in enumerate(names):
+                if v.s_impulses and v.s_impulses[0].shape[0] and name in used:
+                    g.add(rate_before[i] * rate_after[i], 0.0, math.inf)
             x = jumped
         if not names:
             continue

@@ -1,0 +1,206 @@
+"""The VSW biped's body with free actuation: the gait of least work that body can walk
+(issue 28, question 3: VSW's price on its own biped).
+
+The body of the VSW biped (vsw_biped.py): a point mass ``m_H`` at the hip and two legs
+whose mass ``m = mu m_H`` sits ``b`` below the hip on the upper, rigid segment; the lower
+segment telescopes and is massless, so a leg's length changes no inertia about the hip.
+Level ground; scaled units as the VSW biped's (lengths in ``l``, time in ``sqrt(l/g)``,
+masses in ``m_H``, energies in ``m_H g l``).
+
+The VSW biped holds its stance leg at ``beta l``, then ``l``, extending it in an instant at
+``theta_II`` (the held-hip rule holding the swing leg). Here the stance leg's length ``r``
+is a coordinate of its own, moved by the leg's force ``F >= 0`` between ``l_min`` and
+``l``, and a hip torque acts between the legs: the VSW biped's actuators, free in time.
+Heelstrike is the VSW biped's: the swing foot, the swing leg ``beta l`` long, reaches the
+ground; the impact sticks the new foot and the legs swap, so the new stance leg starts
+``beta l`` long. Its lower segment slides freely as it lands (the impact does no work
+along it: no collision along the new leg), unless the leg's actuator takes an impulse
+along it just after (``heel_strike``, a collision where it stops the leg); the trailing
+leg may push off along itself just before (``push_off``); the hip torque may act in an
+instant just before or after (its impulses). The VSW biped's gait at ``beta``, ``mu``,
+``b / l`` is a gait of this model in the limit of impulsive forces, so its least work at
+that gait's speed and step length is at most the VSW biped's.
+
+Coordinates: ``theta`` and ``psi`` as the VSW biped's (the legs' angles from the vertical,
+positive with the hip ahead of the foot), ``r`` the stance leg's length.
+"""
+
+from __future__ import annotations
+
+import sympy as sm
+
+from derive.engine import model_derivation
+from derive.engine.model import (
+    NORMAL_FORCE,
+    Coordinate,
+    Event,
+    Failure,
+    Impact,
+    Impulse,
+    Input,
+    Model,
+    Parameter,
+    ParameterCondition,
+    Phase,
+    PointMass,
+    leg,
+    swing_foot_clearance,
+)
+from derive.models.vsw_biped import PARAMETERS as VSW_PARAMETERS
+from derive.models.vsw_biped import UNITS, UNITS_TEXT
+from derive.quantities import Derivation
+
+BETA, MU, B_OVER_L = (p for p in VSW_PARAMETERS if p.name in ("beta", "mu", "b_over_l"))
+PARAMETERS = (
+    BETA,
+    MU,
+    B_OVER_L,
+    Parameter("l_min", r"l_{min}", 0.0, 1.0, "0 < l_min < 1 (a leg's shortest length, in l)",
+              "shortest length of the stance leg, over l (the end of its stroke)",
+              {"positive": True}, default=0.5, unit="1"),
+)  # fmt: skip
+beta, mu, b, l_min = (p.symbol for p in PARAMETERS)
+
+THETA = Coordinate("theta", "stance leg angle", "rad", reference="the vertical",
+                   positive="the hip ahead of the stance foot")  # fmt: skip
+PSI = Coordinate("psi", "swing leg angle", "rad", reference="the vertical",
+                 positive="the hip ahead of the swing foot")  # fmt: skip
+R = Coordinate("r", "stance leg length", "l", reference="the stance foot",
+               positive="the hip away from the foot")  # fmt: skip
+theta, psi, r = THETA.q, PSI.q, R.q
+
+hip = leg(theta, r)
+swing_foot = tuple(h - f for h, f in zip(hip, leg(psi, beta)))
+
+STANCE = Phase(
+    "stance",
+    coordinates=(THETA, PSI, R),
+    bodies=(
+        PointMass("hip", 1, hip),
+        PointMass("stance_leg", mu, tuple(h - f for h, f in zip(hip, leg(theta, b)))),
+        PointMass("swing_leg", mu, tuple(h - f for h, f in zip(hip, leg(psi, b)))),
+    ),
+    gravity=(0, -1),
+    points={"swing_foot": swing_foot},
+    inputs=(
+        Input(
+            "leg_force",
+            r,
+            "leg",
+            unit="m_H g",
+            bounds=(0.0, None),
+            description="the stance leg's force along itself, pushing the hip away from the "
+            "foot (>= 0: a leg cannot pull on the ground)",
+        ),
+        Input(
+            "hip_torque",
+            theta - psi,
+            "hip",
+            unit="m_H g l",
+            description="torque between the legs at the hip, positive spreading them (the "
+            "swing leg forward)",
+        ),
+    ),
+)
+
+MODEL = Model(
+    name="free_vsw_biped",
+    title="VSW biped's body, free actuation",
+    description="the VSW biped's body (hip mass, leg masses on the legs' upper segments, "
+    "telescoping massless feet, level ground) with its leg force and hip torque free in "
+    "time: the least-work gaits VSW's price is measured against; no passive gait: it walks "
+    "only powered",
+    source="derive/models/free_vsw_biped.py",
+    parameters=PARAMETERS,
+    phases=(STANCE,),
+    events=(
+        Event(
+            "heelstrike",
+            "stance",
+            "stance",
+            guard=swing_foot[1],  # the swing foot's height
+            direction=-1,
+            reset=Impact(
+                "swing_foot",
+                {theta: psi, psi: theta, r: beta},
+                bodies={"stance_leg": "swing_leg", "swing_leg": "stance_leg"},
+            ),
+            ends_step=True,
+            when=theta - psi,  # the new foot lands ahead of the stance foot
+            impulses=(
+                Impulse(
+                    "push_off",
+                    r,
+                    "leg",
+                    unit="m_H sqrt(g l)",
+                    bounds=(0.0, None),
+                    description="the trailing leg's impulse along itself just before heelstrike",
+                ),
+                Impulse(
+                    "hip_impulse_before",
+                    theta - psi,
+                    "hip",
+                    unit="m_H l sqrt(g l)",
+                    description="the hip torque's impulse just before heelstrike",
+                ),
+                Impulse(
+                    "heel_strike",
+                    r,
+                    "leg",
+                    after=True,
+                    unit="m_H sqrt(g l)",
+                    bounds=(0.0, None),
+                    description="the new stance leg's impulse along "
+                    "itself just after heelstrike (a collision where it stops the leg "
+                    "shortening)",
+                ),
+                Impulse(
+                    "hip_impulse_after",
+                    theta - psi,
+                    "hip",
+                    after=True,
+                    unit="m_H l sqrt(g l)",
+                    description="the hip torque's impulse just after heelstrike",
+                ),
+            ),
+            equation="(5), (6) with massive legs, the new stance leg free to slide",
+        ),
+    ),
+    failures=(
+        Failure("fell-backward", THETA.u, -1, "the walker stops before the apex and falls back"),
+        Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the ground"),
+        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
+        Failure(
+            "crouched",
+            r - l_min,
+            -1,
+            "the stance leg would be shorter than l_min: the end of its stroke",
+            unit="l",
+        ),
+        Failure("overextended", r - 1, +1, "the stance leg would be longer than l", unit="l"),
+    ),
+    conditions=(swing_foot_clearance(swing_foot[1], "l"),),
+    units=UNITS,
+    step_length=swing_foot[0],
+    # Just after heelstrike the new stance leg is beta l long.
+    section={"r": beta},
+    search={
+        "theta": (-0.6, 0.0),
+        "psi": (0.0, 0.6),
+        "theta_dot": (0.0, 2.0),
+        "psi_dot": (-3.0, 1.0),
+        "r_dot": (-1.0, 1.0),
+    },
+    powered_only=True,
+    parameter_conditions=(
+        ParameterCondition(
+            beta - l_min,
+            "the swing leg's length at heelstrike, beta, must be at least l_min",
+            strict=False,
+        ),
+    ),
+)
+
+
+def derive() -> Derivation:
+    return model_derivation(MODEL, UNITS_TEXT)
