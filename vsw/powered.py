@@ -716,14 +716,19 @@ def _kinematic_guess(model: HybridModel, params: Sequence[float], nlp: _Nlp,
         wanted = float(model.step_length(p, moved(duration))) / request.target_speed
         x0[n:] *= duration / wanted
         duration = wanted
+    return _sampled_guess(nlp, request.nodes, duration, lambda f: moved(f * duration))
+
+
+def _sampled_guess(nlp: _Nlp, nodes: int, duration: float, state_at) -> np.ndarray:
+    """One phase's unknowns from ``state_at(fraction of the phase)`` at its knots and
+    midpoints, its duration, inputs and impulses zero."""
     w = np.zeros(nlp.size)
     w[0] = duration
     entry = nlp.layout[0]
-    nodes = request.nodes
     for key, fractions in (("knots", np.arange(nodes + 1) / nodes),
                            ("middles", (np.arange(nodes) + 0.5) / nodes)):  # fmt: skip
         first, parts, width = entry[key]
-        block = np.array([moved(f * duration) for f in fractions])
+        block = np.array([state_at(f) for f in fractions])
         w[first : first + parts * width] = block.reshape(-1)
     return w
 
@@ -745,18 +750,12 @@ def _swapped_guess(model: HybridModel, p: np.ndarray, nlp: _Nlp, request: Reques
     duration = 1.0
     if request.target_speed is not None and model.spec["step_length"]:
         duration = abs(float(model.step_length(p, x0))) / request.target_speed
+        if not 0.0 < duration < math.inf:  # the centre takes no step: one time unit
+            duration = 1.0
     rates = (end - x0[:n]) / duration
-    w = np.zeros(nlp.size)
-    w[0] = duration
-    entry = nlp.layout[0]
-    nodes = request.nodes
-    for key, fractions in (("knots", np.arange(nodes + 1) / nodes),
-                           ("middles", (np.arange(nodes) + 0.5) / nodes)):  # fmt: skip
-        first, parts, width = entry[key]
-        block = np.array([np.concatenate([x0[:n] + f * (end - x0[:n]), rates])
-                          for f in fractions])  # fmt: skip
-        w[first : first + parts * width] = block.reshape(-1)
-    return w
+    return _sampled_guess(
+        nlp, request.nodes, duration, lambda f: np.concatenate([x0[:n] + f * (end - x0[:n]), rates])
+    )
 
 
 def _transfer(model: HybridModel, params: Sequence[float], source: _Nlp, w: np.ndarray,
