@@ -1,22 +1,25 @@
 """The route a user would write without ``vsw optimize``: single shooting with SciPy's SLSQP
-on the simulated step (benchmark case 16, issue 28).
+on the simulated step (issue 28). Benchmark case 16 (benchmarks/run.py) runs
+:func:`compass_push_off_by_shooting`, the compass gait on level ground powered by its
+push-off; the others are not cases (their SLSQP runs do not converge).
 
-The problem is the point-mass biped's least-work gait on level ground with Srinivasan &
-Ruina's actuators (``vsw optimize --model point-mass-biped --minimize work --target-speed V
---use leg_force --use push_off --use heel_strike``): the unknowns are the state just after
-the step (its height and rates: the section fixes ``x = -d / 2``), the leg force at
-``KNOTS`` equally spaced times of the step (linear between them, the step's duration
-``d / V`` set by the target), and the push-off and heel-strike impulses. The step is
-simulated (SciPy's DOP853, 1e-10) with the generated accelerations and input gains; the
-constraints are the step event at the end (``x = d / 2``), periodicity through the
-generated impulse gains and reset, the leg at most ``l`` and ``F, impulses >= 0``; the cost
-is the positive work (the leg force's power's positive part on a fine grid of the dense
-output, the impulses' work). SLSQP's gradients are finite differences, as a user's would
-be. Its start is better than the collocation's (the leg at full length, the inverted
-pendulum's speed, the weight as the force): a kindness to the peer.
+:func:`least_work_by_shooting`'s problem is the point-mass biped's least-work gait on
+level ground with Srinivasan & Ruina's actuators (``vsw optimize --model point-mass-biped
+--minimize work --target-speed V --use leg_force --use push_off --use heel_strike``): the
+unknowns are the state just after the step (its height and rates: the section fixes ``x =
+-d / 2``), the leg force at ``KNOTS`` equally spaced times of the step (linear between
+them, the step's duration ``d / V`` set by the target), and the push-off and heel-strike
+impulses. The step is simulated (SciPy's DOP853, 1e-10) with the generated accelerations
+and input gains; the constraints are the step event at the end (``x = d / 2``),
+periodicity through the generated impulse gains and reset, the leg at most ``l`` and ``F,
+impulses >= 0``; the cost is the positive work (the leg force's power's positive part on a
+fine grid of the dense output, the impulses' work). SLSQP's gradients are finite
+differences, as a user's would be. Its start is better than the collocation's (the leg at
+full length, the inverted pendulum's speed, the weight as the force): a kindness to the
+peer.
 
 ``python benchmarks/powered_peer.py [V]`` runs both once, side by side, and prints their
-costs and times (not yet a case of benchmarks/run.py: docs/models/powered_walking.md).
+costs and times (docs/models/powered_walking.md).
 :func:`kuo_least_work_by_shooting` is the same route on the Kuo walker.
 """
 
@@ -216,7 +219,7 @@ def compass_push_off_by_shooting(step_length: float, params: tuple[float, ...],
     through the generated reset and push-off gain (the rates after the step, and the stance
     leg's angle: the step ends where the legs are at +-theta); the push-off ``>= 0``. The
     cost is the push-off's work ``c P^2 / 2``. Finite-difference gradients, as a user's
-    would be; the start is the legs' rates of a pendulum step of the target's length."""
+    would be; the start: both legs turning at 1 rad/s and a push-off of 1 N s."""
     import generated.level_compass_gait as lcg
 
     _m_h, _m, a, b, _g = params
@@ -230,17 +233,22 @@ def compass_push_off_by_shooting(step_length: float, params: tuple[float, ...],
         return float(lcg.event_heelstrike_guard(*params, *s))
 
     # Heelstrike counts past mid-stance (theta > 0, the model's `when`): the guard also
-    # crosses as the swing foot leaves the ground and where it passes through it.
-    heelstrike.direction = 1.0
+    # crosses as the swing foot leaves the ground and where it passes through it. So the
+    # step is integrated to mid-stance, then to heelstrike, each stage ending at its event.
+    def mid_stance(_t: float, s: np.ndarray) -> float:
+        return float(s[0])
+
+    mid_stance.terminal, mid_stance.direction = True, 1.0
+    heelstrike.terminal, heelstrike.direction = True, 1.0
 
     def evaluate(z: np.ndarray) -> tuple:
         key = z.tobytes()
         if key not in cache:
-            start = np.array([theta0, -theta0, z[0], z[1]])
-            solution = solve_ivp(rhs, (0.0, 3.0), start, method="DOP853", rtol=1e-10,
-                                 atol=1e-10, events=heelstrike)  # fmt: skip
-            counted = [y for y in solution.y_events[0] if y[0] > 0]
-            end = counted[0] if counted else solution.y[:, -1]  # none: far from periodic
+            end = np.array([theta0, -theta0, z[0], z[1]])
+            for event in (mid_stance, heelstrike):  # a stage without its event: no step
+                stage = solve_ivp(rhs, (0.0, 3.0), end, method="DOP853", rtol=1e-10,
+                                  atol=1e-10, events=event)  # fmt: skip
+                end = stage.y[:, -1]
             after = np.array(lcg.event_heelstrike_reset(*params, *end), dtype=float)
             gains = np.array(lcg.event_heelstrike_impulse_gains_with(*params, *end), dtype=float)
             after[2:] += gains.reshape(2) * z[2]

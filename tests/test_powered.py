@@ -44,6 +44,21 @@ def test_no_target_needs_no_torque_and_finds_the_passive_gait(compass):
     assert np.allclose(ours, theirs, atol=1e-5)
 
 
+def test_every_passive_gait_is_a_gait_of_the_nlp_at_its_own_targets(compass):
+    """Each passive gait (the fastest one's legs pass each other past mid-stance, the
+    swing foot through the ground ahead, a crossing of the guard the model ignores) needs
+    no torque at its own speed and step length: no constraint of the NLP may exclude a
+    motion the simulation accepts. (A path constraint on the guard's sign at the knots
+    once did, and cost this gait 0.059.)"""
+    model, params, _ = compass
+    first = model.fixed_points(params)[0]
+    request = Request("torque2", target_speed=first.step_length / first.period,
+                      target_step_length=first.step_length)  # fmt: skip
+    gait = optimize(model, params, request, start=first)
+    assert gait.status == "optimal", gait.reason
+    assert gait.cost <= 1e-10
+
+
 def test_a_faster_gait_converges_under_refinement_and_closes_its_energy(compass):
     """10 % faster than the passive gait: IPOPT's optimum on 20 and 40 intervals agree to
     1e-4 (relative cost), the re-simulation ends within 1e-6, and along the step the

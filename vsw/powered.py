@@ -444,7 +444,6 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
         positive |= {f"{phase}.{name}": value for name, value in plus.items()}
         negative |= {f"{phase}.{name}": value for name, value in minus.items()}
         end = v.knots[-1]
-        _no_early_event(model, event, p, v.knots[1:-1], g)
         g.add(model.symbolic(f"event_{event['name']}_guard", p, end), 0.0, 0.0)
         if event["when"] is not None:
             g.add(model.symbolic(event["when"], p, end), 0.0, math.inf)
@@ -486,23 +485,6 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
                                                  if positive else ca.DM.zeros(0)])  # fmt: skip
     return _Nlp(solver, ca.Function("cost", [w, arguments], [cost]), layout, works,
                 int(w.shape[0]), (lbx, ubx, np.array(g.lower), np.array(g.upper)))  # fmt: skip
-
-
-def _no_early_event(model: HybridModel, event: dict, p: Any, knots: list,
-                    g: _Constraints) -> None:  # fmt: skip
-    """The phase's event has not come before its end: at the interior knots, its guard is
-    not past zero in its direction wherever the event counts (``when`` > 0; always where it
-    has none). Without it an optimum can have a swing foot touch the ground ahead
-    mid-step, which the re-simulation then meets as the step's end. Zero where either
-    factor is at most zero: a compass gait's swing foot passing through the ground behind
-    (``when`` < 0, scuffing the models ignore) is allowed."""
-    import casadi as ca
-
-    guard = f"event_{event['name']}_guard"
-    for x in knots:
-        crossed = event["direction"] * model.symbolic(guard, p, x)
-        counts = model.symbolic(event["when"], p, x) if event["when"] is not None else 1.0
-        g.add(ca.fmax(counts, 0) * ca.fmax(crossed, 0), -math.inf, 0.0)
 
 
 def _event_map(model: HybridModel, event: dict, p: Any, end: Any, v: _Unknowns,
@@ -698,8 +680,8 @@ def _kinematic_guess(model: HybridModel, params: Sequence[float], nlp: _Nlp,
     def moved(t: float) -> np.ndarray:
         return np.concatenate([x0[:n] + t * x0[n:], x0[n:]])
 
-    # Within half a turn of every coordinate: a crossing further on (a compass gait's legs
-    # moving as one cross their guard after a full turn) is no step.
+    # Within half a turn of the fastest coordinate: a crossing further on (a compass gait's
+    # stance leg turning on past the horizontal) is no step.
     reach = np.pi / max(float(np.max(np.abs(x0[n:]))), 1e-300)
     times = np.linspace(0.0, min(10.0, reach), 2001)[1:]
     values = np.array([float(guard(*p, *moved(t))) for t in times])
@@ -735,8 +717,9 @@ def _sampled_guess(nlp: _Nlp, nodes: int, duration: float, state_at) -> np.ndarr
 
 def _swapped_guess(model: HybridModel, p: np.ndarray, nlp: _Nlp, request: Request,
                    x0: np.ndarray, event: dict) -> np.ndarray:  # fmt: skip
-    """The start where the search box's centre at its rates meets no step event (a compass
-    gait's legs moving as one keep its guard at zero): the coordinates move at constant
+    """The start where the search box's centre at its rates meets no step event (on level
+    ground the compass gait's centre moves its stance leg only, its swing foot staying up;
+    mirrored rates keep its guard at zero): the coordinates move at constant
     rates from the centre to where the step event's reset takes them (the legs swapped),
     over the target's duration (step length / speed; else one time unit). Not a motion of
     the walker either; IPOPT makes it one."""

@@ -17,9 +17,12 @@ ground; the impact sticks the new foot and the legs swap, so the new stance leg 
 along it: no collision along the new leg), unless the leg's actuator takes an impulse
 along it just after (``heel_strike``, a collision where it stops the leg); the trailing
 leg may push off along itself just before (``push_off``); the hip torque may act in an
-instant just before or after (its impulses). The VSW biped's gait at ``beta``, ``mu``,
-``b / l`` is a gait of this model in the limit of impulsive forces, so its least work at
-that gait's speed and step length is at most the VSW biped's.
+instant just before or after (its impulses). Two limits of this model, stated: the
+landing's ground impulse (across the sliding new leg) is not checked to push (at the VSW
+biped's own pre-impact states it can need a pull); and the VSW biped's extension (a push
+from beta l, then a stop at l) is not among its motions, since the leg force cannot pull
+and l is a failure, not an end stop: its least work does not bound the VSW biped's
+from below until an end stop at l is added.
 
 Coordinates: ``theta`` and ``psi`` as the VSW biped's (the legs' angles from the vertical,
 positive with the hip ahead of the foot), ``r`` the stance leg's length.
