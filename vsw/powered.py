@@ -447,7 +447,7 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
         g.add(model.symbolic(f"event_{event['name']}_guard", p, end), 0.0, 0.0)
         if event["when"] is not None:
             g.add(model.symbolic(event["when"], p, end), 0.0, math.inf)
-        after, event_priced, plus, minus = _event_map(model, event, p, end, v, g, request.use)
+        after, event_priced, plus, minus = _event_map(model, event, p, end, v, g)
         priced = priced + event_priced
         positive |= plus
         negative |= minus
@@ -488,19 +488,17 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
 
 
 def _event_map(model: HybridModel, event: dict, p: Any, end: Any, v: _Unknowns,
-               g: _Constraints,
-               used: Sequence[str] = ()) -> tuple[Any, Any, dict, dict]:  # fmt: skip
+               g: _Constraints) -> tuple[Any, Any, dict, dict]:  # fmt: skip
     """The state after an event from the phase's last knot: the impulses applied before
     the reset (the rates jump by their gains), the reset with the impulse at its impact
     (the rates after gain its gains), those applied after; the impulses' positive work as
     the cost prices it (their slacks, where the cost is the work) and each impulse's
     positive and negative work (``iota`` times the mean of its ``along`` rate before and
-    after it, which the NLP keeps from changing sign, so that this work is all positive or
-    all negative; ``c iota^2 / 2`` for the one at the impact)."""
+    after it: its net work, which undercounts the positive part of an impulse that
+    reverses its rate; ``c iota^2 / 2`` for the one at the impact)."""
     import casadi as ca
 
     groups = impulse_names(model, event)
-    used = used or ordered_impulses(model, event)  # (): every impulse, as --use without names
     n = model.n
     plus: dict = {}
     minus: dict = {}
@@ -524,13 +522,6 @@ def _event_map(model: HybridModel, event: dict, p: Any, end: Any, v: _Unknowns,
             rate_before = model.symbolic(f"{stem}_rates_{side}", p, x)
             rate_after = model.symbolic(f"{stem}_rates_{side}", p, jumped)
             work = j * (rate_before + rate_after) / 2
-            # Where the cost is the work, an impulse may stop its coordinate's rate, not
-            # reverse it: one that reversed it would do negative work, then as much
-            # positive, and its net work (0) would hide the positive part the cost counts.
-            # (An impulse held at zero leaves the rate as it is: no row for it.)
-            for i, name in enumerate(names):
-                if v.s_impulses and v.s_impulses[0].shape[0] and name in used:
-                    g.add(rate_before[i] * rate_after[i], 0.0, math.inf)
             x = jumped
         if not names:
             continue
@@ -683,9 +674,10 @@ def _kinematic_guess(model: HybridModel, params: Sequence[float], nlp: _Nlp,
     # Within half a turn of the fastest coordinate: a crossing further on (a compass gait's
     # stance leg turning on past the horizontal) is no step.
     reach = np.pi / max(float(np.max(np.abs(x0[n:]))), 1e-300)
-    times = np.linspace(0.0, min(10.0, reach), 2001)[1:]
+    times = np.linspace(0.0, 10.0, 2001)[1:]
     values = np.array([float(guard(*p, *moved(t))) for t in times])
     crossing = np.flatnonzero(np.sign(values[1:]) != np.sign(values[:-1]))
+    crossing = crossing[times[crossing + 1] <= reach]
     if crossing.size == 0:
         return _swapped_guess(model, p, nlp, request, x0, event)
     low, high = times[crossing[0]], times[crossing[0] + 1]
