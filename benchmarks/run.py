@@ -798,6 +798,75 @@ def _floor_rows(count: int, reps: int) -> list[Row]:
     return rows
 
 
+PEER_MODELS = ("simplest_walker", "compass_gait", "vsw_biped")
+"""Case 15's peers walk these models (each typed by hand in benchmarks/peers)."""
+
+
+@dataclass
+class _PeerRun:
+    """One model and tolerance against a peer: times and steps of both sides, the largest
+    gap between their one-step maps, whether every walk took as many steps, and the
+    peer's own count (its calls, where it reports one)."""
+
+    key: str
+    tol: float
+    walks: int
+    ours: Timing
+    theirs: Timing
+    steps_ours: int
+    steps_theirs: int
+    gap: float
+    same: bool
+    calls: int | None
+
+    @property
+    def ratio(self) -> float:
+        return (self.ours.median / self.steps_ours) / (self.theirs.median / self.steps_theirs)
+
+
+def _against_peer(count: int, reps: int, walk_for: Callable) -> list[_PeerRun]:
+    """The batch simulator (one thread, walks of 20 steps from ``count`` starts near each
+    gait of :data:`PEER_MODELS`, at 1e-10 and 1e-12) side by side with a peer:
+    ``walk_for(key)`` gives ``walk(p, starts, steps, tol) -> (final, walked, calls)``."""
+    from vsw.batch import simulator
+    from vsw.models import load
+
+    runs = []
+    for key in PEER_MODELS:
+        _, params, starts = _near_gait_starts(key, count, BATCH_VALUES.get(key))
+        sim = simulator(load(key))
+        sim.library()
+        walk = walk_for(key)
+        p = np.ascontiguousarray(params, dtype=float)
+        x0 = np.ascontiguousarray(starts, dtype=float)
+        for tol in (1e-10, 1e-12):
+            found: dict = {}
+
+            def theirs(steps=20, tol=tol, found=found, walk=walk, p=p, x0=x0):
+                found["theirs"] = walk(p, x0, steps, tol)
+
+            def ours(steps=20, tol=tol, found=found, sim=sim, params=params, starts=starts):
+                found["ours"] = sim.walk(params, starts, steps, converge_tol=0.0,
+                                         period_tol=0.0, threads=1, tolerance=tol)  # fmt: skip
+
+            ours(1), theirs(1)  # one step from each start: the two step maps
+            final = found["theirs"][0]
+            gap = float(np.max(np.abs(found["ours"].final - final)
+                               / np.maximum(1, np.abs(final))))  # fmt: skip
+            t_ours, t_theirs = interleaved(ours, theirs, reps)
+            _, walked, calls = found["theirs"]
+            runs.append(_PeerRun(key, tol, len(starts), t_ours, t_theirs,
+                                 int(found["ours"].steps.sum()), int(walked.sum()), gap,
+                                 bool(np.array_equal(found["ours"].steps, walked)),
+                                 calls))  # fmt: skip
+    return runs
+
+
+def _peer_subject(run: _PeerRun) -> str:
+    return (f"{run.key}: walks of 20 steps, batch simulator (1 thread), rtol = atol = "
+            f"{run.tol:g}")  # fmt: skip
+
+
 def _numba_rows(count: int, reps: int) -> list[Row]:
     """Case 15's peer: the simplest walker, the compass gait and the VSW biped through a
     hand-written numba DOP853 (benchmarks/peers/numba_dop853.py: the same integrator rules,
@@ -809,46 +878,26 @@ def _numba_rows(count: int, reps: int) -> list[Row]:
         return [Row("15", "the batch simulator against a numba DOP853", "-", None, None,
                     ">= 1.5x faster than numba", None,
                     note=f"not run: {exc} (pip install numba)")]  # fmt: skip
-    from vsw.batch import simulator
-    from vsw.models import load
 
-    rows = []
-    for key in ("simplest_walker", "compass_gait", "vsw_biped"):
-        _, params, starts = _near_gait_starts(key, count, BATCH_VALUES.get(key))
-        sim = simulator(load(key))
-        sim.library()
+    def walk_for(key: str) -> Callable:
         walk_numba = getattr(numba_dop853, key)()
-        p = np.asarray(params, dtype=float)
-        for tol in (1e-10, 1e-12):
+
+        def walk(p, starts, steps, tol):
             n = len(starts)
-            found: dict = {}
+            final, walked = np.empty((n, 4)), np.empty(n, np.int64)
+            walk_numba(p, starts, steps, tol, tol, final, walked, np.empty(n, np.int64))
+            return final, walked, None
 
-            def theirs(steps=20, tol=tol, found=found, n=n, walk_numba=walk_numba, p=p,
-                       starts=starts):  # fmt: skip
-                final, walked = np.empty((n, 4)), np.empty(n, np.int64)
-                walk_numba(p, starts, steps, tol, tol, final, walked, np.empty(n, np.int64))
-                found["numba"] = final, walked
+        return walk
 
-            def ours(steps=20, tol=tol, found=found, sim=sim, params=params, starts=starts):
-                found["ours"] = sim.walk(params, starts, steps, converge_tol=0.0,
-                                         period_tol=0.0, threads=1, tolerance=tol)  # fmt: skip
-
-            ours(1), theirs(1)  # one step from each start: the two step maps
-            gap = float(np.max(np.abs(found["ours"].final - found["numba"][0])
-                               / np.maximum(1, np.abs(found["numba"][0]))))  # fmt: skip
-            t_ours, t_theirs = interleaved(ours, theirs, reps)
-            steps_ours = int(found["ours"].steps.sum())
-            steps_theirs = int(found["numba"][1].sum())
-            ratio = (t_ours.median / steps_ours) / (t_theirs.median / steps_theirs)
-            rows.append(Row(
-                "15", f"{key}: walks of 20 steps, batch simulator (1 thread), rtol = atol = "
-                f"{tol:g}", "a hand-written numba DOP853 (benchmarks/peers), the same rules",
-                t_ours.per(steps_ours), t_theirs.per(steps_theirs), ">= 1.5x faster",
-                ratio <= 1 / 1.5,
-                note=f"per step over {n} walks ({steps_ours} and {steps_theirs} steps); one "
-                f"step from each start: the two maps differ by at most {gap:.1g} (relative)",
-            ))  # fmt: skip
-    return rows
+    return [Row("15", _peer_subject(r),
+                "a hand-written numba DOP853 (benchmarks/peers), the same rules",
+                r.ours.per(r.steps_ours), r.theirs.per(r.steps_theirs), ">= 1.5x faster",
+                r.ratio <= 1 / 1.5,
+                note=f"per step over {r.walks} walks ({r.steps_ours} and {r.steps_theirs} "
+                f"steps); one step from each start: the two maps differ by at most "
+                f"{r.gap:.1g} (relative)")
+            for r in _against_peer(count, reps, walk_for)]  # fmt: skip
 
 
 def _cyrk_rows(count: int, reps: int) -> list[Row]:
@@ -865,51 +914,28 @@ def _cyrk_rows(count: int, reps: int) -> list[Row]:
         return [Row("15", "the batch simulator against CyRK's DOP853", "-", None, None,
                     "ahead of CyRK", None,
                     note=f"not run: {exc} (pip install cyrk cython)")]  # fmt: skip
-    from vsw.batch import simulator
-    from vsw.models import load
 
-    rows = []
-    for key in ("simplest_walker", "compass_gait", "vsw_biped"):
-        _, params, starts = _near_gait_starts(key, count, BATCH_VALUES.get(key))
-        sim = simulator(load(key))
-        sim.library()
-        p = np.ascontiguousarray(params, dtype=float)
-        x0 = np.ascontiguousarray(starts, dtype=float)
-        for tol in (1e-10, 1e-12):
+    def walk_for(key: str) -> Callable:
+        def walk(p, starts, steps, tol):
             n = len(starts)
-            found: dict = {}
+            final, walked = np.empty((n, 4)), np.empty(n, np.int64)
+            calls = cyrk.walk(key, p, starts, steps, tol, tol, final, walked,
+                              np.empty(n, np.int64))  # fmt: skip
+            return final, walked, calls
 
-            def theirs(steps=20, tol=tol, found=found, n=n, p=p, x0=x0, key=key):
-                final, walked = np.empty((n, 4)), np.empty(n, np.int64)
-                outcome = np.empty(n, np.int64)
-                calls = cyrk.walk(key, p, x0, steps, tol, tol, final, walked, outcome)
-                found["cyrk"] = final, walked, outcome, calls
+        return walk
 
-            def ours(steps=20, tol=tol, found=found, sim=sim, params=params, starts=starts):
-                found["ours"] = sim.walk(params, starts, steps, converge_tol=0.0,
-                                         period_tol=0.0, threads=1, tolerance=tol)  # fmt: skip
-
-            ours(1), theirs(1)  # one step from each start: the two step maps
-            gap = float(np.max(np.abs(found["ours"].final - found["cyrk"][0])
-                               / np.maximum(1, np.abs(found["cyrk"][0]))))  # fmt: skip
-            t_ours, t_theirs = interleaved(ours, theirs, reps)
-            steps_ours = int(found["ours"].steps.sum())
-            _, walked, _, calls = found["cyrk"]
-            steps_theirs = int(walked.sum())
-            same = bool(np.array_equal(found["ours"].steps, walked))
-            ratio = (t_ours.median / steps_ours) / (t_theirs.median / steps_theirs)
-            rows.append(Row(
-                "15", f"{key}: walks of 20 steps, batch simulator (1 thread), rtol = atol = "
-                f"{tol:g}", "CyRK's C++ DOP853 with events, the same rules (benchmarks/peers)",
-                t_ours.per(steps_ours), t_theirs.per(steps_theirs), "ahead of CyRK",
-                ratio < 1,
-                note=f"per step over {n} walks ({steps_ours} and {steps_theirs} steps, the "
-                f"same in every walk: {same}; {calls / max(steps_theirs, 1):.2f} CyRK "
-                "integrations a step: one a phase, one more after each event skipped 1e-9 "
-                f"past itself); one step from each start: the two maps differ by at most {gap:.1g} "
-                "(relative); CyRK locates events by Brent's method on its dense output",
-            ))  # fmt: skip
-    return rows
+    return [Row("15", _peer_subject(r),
+                "CyRK's C++ DOP853 with events, the same rules (benchmarks/peers)",
+                r.ours.per(r.steps_ours), r.theirs.per(r.steps_theirs), "ahead of CyRK",
+                r.ratio < 1,
+                note=f"per step over {r.walks} walks ({r.steps_ours} and {r.steps_theirs} "
+                f"steps, the same in every walk: {r.same}; "
+                f"{r.calls / max(r.steps_theirs, 1):.2f} CyRK integrations a step: one a "
+                "phase, one more after each event skipped 1e-9 past itself); one step from "
+                f"each start: the two maps differ by at most {r.gap:.1g} (relative); CyRK "
+                "locates events by Brent's method on its dense output")
+            for r in _against_peer(count, reps, walk_for)]  # fmt: skip
 
 
 def _basin_grid(side: int):

@@ -453,12 +453,19 @@ def _confirm(
     return distinct, unconfirmed, standing
 
 
-def _steps_vary(model: HybridModel, params: Sequence[float]) -> bool:
-    """Whether the step length depends on the state (not a parameter's, as the rimless
-    wheel's spokes fix it): only then can a solution stand."""
+def probed_step_lengths(model: HybridModel, params: Sequence[float]) -> set[float | None]:
+    """The step length at two states with every coordinate different: one value where the
+    parameters fix it (the rimless wheel's spokes, the Kuo walker's d), two where it depends
+    on the state ({None} without a step length). Not states with all coordinates equal: they
+    put a compass gait's legs together, where its step is zero whatever the state."""
     size = 2 * model.n
     states = (np.linspace(0.1, 0.7, size), np.linspace(-0.3, 0.2, size)[::-1])
-    lengths = {model.step_length(params, state) for state in states}
+    return {model.step_length(params, state) for state in states}
+
+
+def _steps_vary(model: HybridModel, params: Sequence[float]) -> bool:
+    """Whether the step length depends on the state: only then can a solution stand."""
+    lengths = probed_step_lengths(model, params)
     return None not in lengths and len(lengths) > 1
 
 

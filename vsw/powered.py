@@ -62,7 +62,7 @@ import numpy as np
 
 from vsw import stop
 from vsw.errors import ConvergenceError, VswInputError
-from vsw.gaits import free_components, pick, section_states
+from vsw.gaits import free_components, pick, probed_step_lengths, section_states
 from vsw.hybrid import HybridModel, Orbit
 
 __all__ = ["PoweredGait", "Request", "optimize", "powered_eigenvalues", "powered_step"]
@@ -247,11 +247,7 @@ def _check_step_target(model: HybridModel, params: Sequence[float], request: Req
     that differs from it contradict each other: a one-line refusal, not an infeasible NLP."""
     if request.target_step_length is None:
         return
-    size = 2 * model.n
-    # Two states with every coordinate different (a state with all coordinates equal puts
-    # the compass gait's legs together, where its step is zero whatever the state).
-    states = (np.linspace(0.1, 0.7, size), np.linspace(-0.3, 0.2, size)[::-1])
-    lengths = {float(model.step_length(params, state)) for state in states}
+    lengths = probed_step_lengths(model, params)
     if len(lengths) == 1:
         (length,) = lengths
         if not math.isclose(length, request.target_step_length, rel_tol=1e-12):
@@ -294,8 +290,7 @@ def _passive_start(model: HybridModel, params: Sequence[float]) -> Orbit | None:
     """The passive gait the commands follow (the first stable one, else the first), or
     None where there is none (a walker its inputs hold up, or parameters without one).
     A model that walks only powered has none to search for: on level ground every step
-    loses energy, and the search's hundreds of shootings (30 s on the compass gait's body)
-    would end empty."""
+    loses energy, and the search (seconds on the compass gait's body) would end empty."""
     if model.spec.get("powered_only"):
         return None
     return pick(model.fixed_points(params))
