@@ -102,7 +102,7 @@ def test_the_nlps_event_map_is_the_steps_and_the_energy_closes(walker):
 
     (event,) = walker.events
     p, x, iota = ca.MX.sym("p", 4), ca.MX.sym("x", 2), ca.MX.sym("iota", 2)
-    unknowns = _Unknowns([], [], [], [], [], [], [iota], [ca.MX.sym("s", 0)])
+    unknowns = _Unknowns([], [], [], [], [], [], [iota], [], [ca.MX.sym("s", 0)])
     after, _priced, plus, minus = _event_map(walker, event, p, x, unknowns, _Constraints())
     assert list(plus) == ["heelstrike.push_off", "heelstrike.torque_impulse"]
     works = [plus[k] + minus[k] for k in plus]
@@ -114,7 +114,7 @@ def test_the_nlps_event_map_is_the_steps_and_the_energy_closes(walker):
         params = np.array([m, g, l, 2 * l * math.sin(theta)])
         state = np.array([theta, theta_dot])
         impulses = np.array([rng.uniform(0.0, 1.0), rng.uniform(-0.5, 0.5)])
-        ours, our_works = _apply_impulses(walker, event, params, state, impulses)
+        ours, our_works, _ends = _apply_impulses(walker, event, params, state, impulses)
         theirs, their_works = (np.array(v, float).reshape(-1)
                                for v in mapped(params, state, impulses))  # fmt: skip
         assert np.allclose(ours, theirs, rtol=1e-13, atol=1e-14)

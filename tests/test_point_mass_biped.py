@@ -178,7 +178,7 @@ def test_the_nlps_event_map_is_the_simulations_and_its_work_the_energys(biped):
 
     (event,) = biped.events
     p, x, iota = ca.MX.sym("p", 5), ca.MX.sym("x", 4), ca.MX.sym("iota", 3)
-    unknowns = _Unknowns([], [], [], [], [], [], [iota], [ca.MX.sym("s", 0)])
+    unknowns = _Unknowns([], [], [], [], [], [], [iota], [], [ca.MX.sym("s", 0)])
     after, _priced, plus, minus = _event_map(biped, event, p, x, unknowns, _Constraints())
     works = [plus[k] + minus[k] for k in plus]
     mapped = ca.Function("event", [p, x, iota], [after, ca.vertcat(*works)])
@@ -187,10 +187,53 @@ def test_the_nlps_event_map_is_the_simulations_and_its_work_the_energys(biped):
         params = (*rng.uniform(0.5, 2.0, 3), rng.uniform(0.3, 1.0), 0.2)
         state = np.array([params[3] / 2, rng.uniform(0.5, 1.0), *rng.uniform(-1, 1, 2)])
         impulses = rng.uniform(0.05, 1.0, 3)
-        ours, our_works = _apply_impulses(biped, event, np.array(params), state, impulses)
+        ours, our_works, _ends = _apply_impulses(biped, event, np.array(params), state, impulses)
         theirs, their_works = (np.array(v, float).reshape(-1)
                                for v in mapped(params, state, impulses))  # fmt: skip
         assert np.allclose(ours, theirs, rtol=1e-13, atol=1e-14)
         assert np.allclose(our_works, their_works, rtol=1e-12, atol=1e-14)
         change = biped.energy("stance", params, ours) - biped.energy("stance", params, state)
         assert np.sum(our_works) == pytest.approx(change, rel=1e-11, abs=1e-13)
+
+
+def test_a_reversing_impulses_positive_work_is_what_it_puts_back(biped):
+    """A push-off along the leg while the hip moves toward the foot, large enough to send
+    it away: by Newton the hip's speed along the leg goes from ``a < 0`` to
+    ``b = a + iota / m > 0``; the actuator first absorbs ``m a^2 / 2``, then does
+    ``m b^2 / 2`` of positive work. The NLP's ledger (CasADi, ``_event_map``) has that
+    whatever the push's split into two parts; its price (the slacks at their least, at the
+    parts' power ends) is that where the split stops the hip (numpy's
+    ``_stopping_splits``), and more where the push is one part (``iota b / 2``)."""
+    import casadi as ca
+
+    from vsw.powered import _apply_impulses, _Constraints, _event_map, _stopping_splits, _Unknowns
+
+    (event,) = biped.events
+    p, x, iota = ca.MX.sym("p", 5), ca.MX.sym("x", 4), ca.MX.sym("iota", 3)
+    split, slacks = ca.MX.sym("f", 3), ca.MX.sym("s", 12)
+    unknowns = _Unknowns([], [], [], [], [], [], [iota], [split], [slacks])
+    _after, priced, plus, _minus = _event_map(biped, event, p, x, unknowns, _Constraints())
+    ledger = ca.Function("ledger", [p, x, iota, split, slacks],
+                         [plus["heelstrike.push_off"], priced])  # fmt: skip
+    rng = np.random.default_rng(11)
+    for _ in range(20):
+        m, g, l, d, l_min = (*rng.uniform(0.5, 2.0, 3), rng.uniform(0.3, 1.0), 0.2)
+        x0, y0 = rng.uniform(-0.5, 0.5), rng.uniform(0.5, 1.0)
+        r = math.hypot(x0, y0)
+        along = np.array([x0, y0]) / r
+        a = -rng.uniform(0.1, 1.0)  # toward the foot
+        velocity = a * along + rng.uniform(-1, 1) * np.array([along[1], -along[0]])
+        push = m * (-a + rng.uniform(0.1, 1.0))  # b = a + push / m > 0
+        b = a + push / m
+        params = np.array([m, g, l, d, l_min])
+        state = np.array([x0, y0, *velocity])
+        impulses = np.array([push, 0.0, 0.0])
+        _state, works, _ends = _apply_impulses(biped, event, params, state, impulses)
+        assert works[0] == pytest.approx(m * (b**2 - a**2) / 2, rel=1e-12)  # the net work
+        stopping = _stopping_splits(biped, event, params, state, impulses)
+        assert stopping[0] == pytest.approx(-a / (b - a), rel=1e-12)
+        for fractions, price in ((stopping, m * b**2 / 2), (np.ones(3), push * b / 2)):
+            ends = _apply_impulses(biped, event, params, state, impulses, fractions)[2]
+            exact, cost = ledger(params, state, impulses, fractions, np.maximum(ends, 0))
+            assert float(exact) == pytest.approx(m * b**2 / 2, rel=1e-12)
+            assert float(cost) == pytest.approx(price, rel=1e-12)

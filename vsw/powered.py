@@ -31,9 +31,10 @@ Costs (per step): ``torque2``, the integral of the squared inputs; ``work``, the
 positive work, the integral of ``max(P, 0)`` of each input's power ``P = u d(along)/dt``,
 exactly, without smoothing: a slack ``s >= 0, s >= P`` at every knot and midpoint (the
 epigraph; minimised, ``s = max(P, 0)``); ``cot``, that work over weight times step
-length; impulses count by their work, ``iota`` times the mean of their ``along`` rate before
-and after them (``c iota^2 / 2`` for one at an impact; ``torque2`` holds them at zero: it
-does not price them). Both add
+length; impulses count by their positive work (each applied in two parts whose split is
+free, each part priced by slacks at its power's ends: exact where the split stops a
+reversing rate, see :func:`_event_map`; ``c iota^2 / 2`` for one at an impact;
+``torque2`` holds them at zero: it does not price them). Both add
 :attr:`Request.regularization` times the squared inputs' integral, made dimensionless.
 Integrals by Simpson's rule on the knots and midpoints. ``work`` and ``cot`` start from
 the ``torque2`` optimum with the same targets.
@@ -320,6 +321,7 @@ class _Unknowns:
     s_knots: list
     s_middles: list
     impulses: list
+    splits: list
     s_impulses: list
 
     KEYS = (
@@ -330,6 +332,7 @@ class _Unknowns:
         "s_knots",
         "s_middles",
         "impulses",
+        "splits",
         "s_impulses",
     )
 
@@ -353,11 +356,14 @@ def _phase_unknowns(k: int, m: int, nu: int, nj: int, nodes: int, slack: bool) -
         return [ca.MX.sym(f"{stem}_{k}_{i}", width) for i in range(count)]
 
     # The positive work's epigraph: s >= 0, s >= P (minimised, s = max(P, 0)).
-    width, impulse_width = (nu, nj) if slack else (0, 0)
+    # An impulse in two parts (its split), each with two slacks at its power's ends
+    # (_event_map).
+    width, split_width = (nu, nj) if slack else (0, 0)
     return _Unknowns(symbols("x", nodes + 1, m), symbols("xc", nodes, m),
                      symbols("u", nodes + 1, nu), symbols("uc", nodes, nu),
                      symbols("s", nodes + 1, width), symbols("sc", nodes, width),
-                     symbols("j", 1, nj), symbols("sj", 1, impulse_width))  # fmt: skip
+                     symbols("j", 1, nj), symbols("f", 1, split_width),
+                     symbols("sj", 1, 4 * split_width))  # fmt: skip
 
 
 def _collocate(model: HybridModel, phase: str, v: _Unknowns, p: Any, duration: Any,
@@ -487,10 +493,22 @@ def _event_map(model: HybridModel, event: dict, p: Any, end: Any, v: _Unknowns,
     """The state after an event from the phase's last knot: the impulses applied before
     the reset (the rates jump by their gains), the reset with the impulse at its impact
     (the rates after gain its gains), those applied after; the impulses' positive work as
-    the cost prices it (their slacks, where the cost is the work) and each impulse's
-    positive and negative work (``iota`` times the mean of its ``along`` rate before and
-    after it: its net work, which undercounts the positive part of an impulse that
-    reverses its rate; ``c iota^2 / 2`` for the one at the impact)."""
+    the cost prices it and each impulse's positive and negative work.
+
+    Impulses applied together in proportion move each one's ``along`` rate linearly
+    from ``a`` to ``b``: its power goes linearly from ``iota a`` to ``iota b``, its work
+    is ``iota (a + b) / 2`` (the kinetic energy's change) and its positive work
+    :func:`positive_work_of_linear_power` of those ends, more than the net work where the
+    rate reverses (an impulse that stops a shortening leg, then pushes it out, puts back
+    as positive work what it first absorbed). Where the cost is the work each side's
+    impulses are applied in two parts, first ``f iota`` (the split ``f`` in [0, 1] free
+    for each impulse), then the rest, and each part's positive work is priced by two
+    slacks ``s >= 0`` at its power's ends, at their mean: exact where the part's rate
+    does not reverse, above it where it does, so the least priced split is the one that
+    stops each reversing rate at the parts' junction, and the price is then the exact
+    positive work of that schedule (the ledger's, which has the exact positive work of the
+    split found, and the reported cost). The impulse applied with an impact does the work
+    ``c iota^2 / 2``, never negative."""
     import casadi as ca
 
     groups = impulse_names(model, event)
@@ -500,6 +518,7 @@ def _event_map(model: HybridModel, event: dict, p: Any, end: Any, v: _Unknowns,
     priced = 0
     x = end
     iota = v.impulses[0] if v.impulses else None
+    splits = v.splits[0] if v.splits and v.splits[0].shape[0] else None
     offset = 0
     for side, names in zip(("before", "with", "after"), groups):
         stem = f"event_{event['name']}_impulse"
@@ -509,22 +528,29 @@ def _event_map(model: HybridModel, event: dict, p: Any, end: Any, v: _Unknowns,
             if names:
                 gains = model.symbolic(f"{stem}_gains_with", p, x)
                 work = model.symbolic(f"{stem}_work_with", p, x) * j * j / 2
+                parts = [(work, work)]
                 reset = ca.vertcat(reset[:n], reset[n:] + gains * j)
             x = reset
         elif names:
             gains = ca.reshape(model.symbolic(f"{stem}_gains_{side}", p, x), len(names), n).T
+            rates = functools.partial(model.symbolic, f"{stem}_rates_{side}", p)
+            first = j if splits is None else splits[offset : offset + len(names)] * j
+            middle = ca.vertcat(x[:n], x[n:] + ca.mtimes(gains, first))
             jumped = ca.vertcat(x[:n], x[n:] + ca.mtimes(gains, j))
-            rate_before = model.symbolic(f"{stem}_rates_{side}", p, x)
-            rate_after = model.symbolic(f"{stem}_rates_{side}", p, jumped)
-            work = j * (rate_before + rate_after) / 2
+            parts = [(first * rates(x), first * rates(middle))]
+            if splits is not None:
+                parts.append(((j - first) * rates(middle), (j - first) * rates(jumped)))
             x = jumped
         if not names:
             continue
-        positive_work = ca.fmax(work, 0)
+        work = sum((a + b) / 2 for a, b in parts)
+        positive_work = sum(positive_work_of_linear_power(a, b, ca) for a, b in parts)
         if v.s_impulses and v.s_impulses[0].shape[0]:
-            s = v.s_impulses[0][offset : offset + len(names)]
-            g.add(s - work, 0.0, math.inf)
-            priced = priced + ca.sum1(s)
+            count = len(names)
+            slacks = v.s_impulses[0][4 * offset : 4 * (offset + count)]
+            ends = ca.vertcat(*(end for part in parts for end in part))
+            g.add(slacks[: ends.shape[0]] - ends, 0.0, math.inf)
+            priced = priced + ca.sum1(slacks[: ends.shape[0]]) / 2
         else:
             priced = priced + ca.sum1(positive_work)
         for i, name in enumerate(names):
@@ -532,6 +558,20 @@ def _event_map(model: HybridModel, event: dict, p: Any, end: Any, v: _Unknowns,
             minus[f"{event['name']}.{name}"] = work[i] - positive_work[i]
         offset += len(names)
     return x, priced, plus, minus
+
+
+def positive_work_of_linear_power(before: Any, after: Any, backend: Any = np) -> Any:
+    """The positive work of a power that goes linearly from ``before`` to ``after`` over a
+    unit interval, ``integral of max(P, 0)``: their mean where neither is negative,
+    ``hi^2 / (2 (hi - lo))`` where they differ in sign (the part past the zero crossing), 0
+    where neither is positive. ``backend`` is numpy or casadi (elementwise)."""
+    if backend is np:
+        hi, lo = np.maximum(before, after), np.minimum(before, after)
+        crossing = np.maximum(hi, 0.0) ** 2 / (2 * np.where(lo < 0, hi - lo, 1.0))
+        return np.where(lo >= 0, (hi + lo) / 2, crossing)
+    hi, lo = backend.fmax(before, after), backend.fmin(before, after)
+    crossing = backend.fmax(hi, 0) ** 2 / (2 * backend.if_else(lo < 0, hi - lo, 1))
+    return backend.if_else(lo >= 0, (hi + lo) / 2, crossing)
 
 
 def _vector(durations: Any, unknowns: list[_Unknowns]) -> tuple[Any, list[dict]]:
@@ -555,7 +595,8 @@ def _vector(durations: Any, unknowns: list[_Unknowns]) -> tuple[Any, list[dict]]
 def _variable_bounds(model: HybridModel, sequence: list, layout: list[dict], size: int,
                      request: Request) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """Durations >= 1e-3 (a phase of no duration is no step), slacks >= 0, each input and
-    impulse within its declared bounds; impulses zero when the cost is the squared inputs'
+    impulse within its declared bounds, each impulse's split in [0, 1] (0 where it has
+    one part); impulses zero when the cost is the squared inputs'
     integral (which does not price them: they would be free)."""
     lbx, ubx = np.full(size, -np.inf), np.full(size, np.inf)
     lbx[: len(sequence)] = 1e-3
@@ -564,6 +605,8 @@ def _variable_bounds(model: HybridModel, sequence: list, layout: list[dict], siz
             first, parts, width = entry[key]
             lbx[first : first + parts * width] = 0.0
         first, _, width = entry["impulses"]
+        split, _, split_width = entry["splits"]
+        slacks = entry["s_impulses"][0]
         records = {i["name"]: i for i in event.get("impulses", ())}
         for j, name in enumerate(ordered_impulses(model, event)):
             low, high = records[name]["bounds"]
@@ -571,6 +614,11 @@ def _variable_bounds(model: HybridModel, sequence: list, layout: list[dict], siz
                 low, high = 0.0, 0.0
             lbx[first + j] = -np.inf if low is None else low
             ubx[first + j] = np.inf if high is None else high
+            if split_width:  # a split and slacks where there are two parts
+                whole = records[name]["applied"] == "with" or low == high == 0.0
+                lbx[split + j], ubx[split + j] = 0.0, 0.0 if whole else 1.0
+                if records[name]["applied"] == "with":
+                    ubx[slacks + 4 * j + 2 : slacks + 4 * j + 4] = 0.0
         bounds = [(0.0, 0.0) if request.use and i["name"] not in request.use else i["bounds"]
                   for i in model.phases[model.phase_index[phase]].get("inputs", ())]  # fmt: skip
         for key in ("u_knots", "u_middles"):
@@ -778,15 +826,20 @@ def _refine(model: HybridModel, params: Sequence[float], coarse: _Nlp, w: np.nda
 
 
 def _fill_slacks(model: HybridModel, params: Sequence[float], nlp: _Nlp, w: np.ndarray) -> None:
-    """Each positive-work slack of ``w`` at ``max(P, 0)`` of its point, each impulse's at
-    ``max(W, 0)`` of its work (in place)."""
+    """Each positive-work slack of ``w`` at ``max(P, 0)`` of its point; each impulse's
+    split where it stops a reversing rate (:func:`_stopping_splits`) and its slacks at
+    ``max(P, 0)`` of its parts' power ends (in place)."""
     p = np.asarray(params, dtype=float)
     for (phase, event), entry in zip(model._phase_sequence(), nlp.layout):
         first, parts, width = entry["s_impulses"]
         if width:
             iota = _block(w, entry["impulses"])[0]
-            _state, works = _apply_impulses(model, event, p, _block(w, entry["knots"])[-1], iota)
-            w[first : first + width] = np.maximum(works, 0.0)
+            end = _block(w, entry["knots"])[-1]
+            splits = _stopping_splits(model, event, p, end, iota)
+            start = entry["splits"][0]
+            w[start : start + len(splits)] = splits
+            ends = _apply_impulses(model, event, p, end, iota, splits)[2]
+            w[first : first + width] = np.maximum(ends, 0.0)
         for states, inputs, slacks in (("knots", "u_knots", "s_knots"),
                                        ("middles", "u_middles", "s_middles")):  # fmt: skip
             first, parts, width = entry[slacks]
@@ -1006,37 +1059,67 @@ def _control(inputs: np.ndarray, duration: float):
 
 
 def _apply_impulses(model: HybridModel, event: dict, p: np.ndarray, state: np.ndarray,
-                    iota: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+                    iota: np.ndarray, splits: np.ndarray | None = None
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
     """The state after an event (its impulses before the reset, the reset with the impulse
-    at its impact, those after) from the state before it, and each impulse's work: numpy's
-    side of :func:`_event_map`."""
-    groups = impulse_names(model, event)
+    at its impact, those after) from the state before it, each impulse's work and, with
+    ``splits`` (each impulse applied in two parts, :func:`_event_map`), the ends of each
+    part's power in the order of the NLP's impulse slacks (four an impulse, zero where
+    unused): numpy's side of :func:`_event_map`."""
     n = model.n
     x = np.asarray(state, dtype=float)
-    works = []
+    iota = np.asarray(iota, dtype=float)
+    fractions = np.ones(len(iota)) if splits is None else np.asarray(splits, dtype=float)
+    works, ends = [], []
     offset = 0
-    for side, names in zip(("before", "with", "after"), groups):
+    for side, names in zip(("before", "with", "after"), impulse_names(model, event)):
         stem = f"event_{event['name']}_impulse"
-        j = np.asarray(iota[offset : offset + len(names)], dtype=float)
-        offset += len(names)
+        count = len(names)
+        j = iota[offset : offset + count]
         if side == "with":
             reset = np.array(model._fn(f"event_{event['name']}_reset")(*p, *x), dtype=float)
             if names:
                 gains = np.array(model._fn(f"{stem}_gains_with")(*p, *x), dtype=float)
-                works += list(float(model._fn(f"{stem}_work_with")(*p, *x)) * j * j / 2)
+                work = float(model._fn(f"{stem}_work_with")(*p, *x)) * j * j / 2
+                works += list(work)
+                ends += [*work, *work, *np.zeros(2 * count)]
                 reset[n:] += gains.reshape(n) * j[0]
             x = reset
-            continue
-        if not names:
-            continue
-        gains = np.array(model._fn(f"{stem}_gains_{side}")(*p, *x), dtype=float)
-        jumped = x.copy()
-        jumped[n:] += gains.reshape(n, len(names)) @ j
-        rates = model._fn(f"{stem}_rates_{side}")
-        mean = (np.array(rates(*p, *x), float) + np.array(rates(*p, *jumped), float)) / 2
-        works += list(j * mean)
-        x = jumped
-    return x, np.array(works)
+        elif names:
+            gains = np.array(model._fn(f"{stem}_gains_{side}")(*p, *x), dtype=float)
+            gains = gains.reshape(n, count)
+            rates = model._fn(f"{stem}_rates_{side}")
+            first = fractions[offset : offset + count] * j
+            middle, jumped = x.copy(), x.copy()
+            middle[n:] += gains @ first
+            jumped[n:] += gains @ j
+            at = [np.array(rates(*p, *y), float).reshape(-1) for y in (x, middle, jumped)]
+            parts = [first * at[0], first * at[1], (j - first) * at[1], (j - first) * at[2]]
+            works += list((parts[0] + parts[1] + parts[2] + parts[3]) / 2)
+            ends += [value for part in parts for value in part]
+            x = jumped
+        offset += count
+    return x, np.array(works), np.array(ends, dtype=float)
+
+
+def _stopping_splits(model: HybridModel, event: dict, p: np.ndarray, state: np.ndarray,
+                     iota: np.ndarray) -> np.ndarray:  # fmt: skip
+    """A start for each impulse's split (:func:`_event_map`): where its rate reverses
+    (applied whole, with the others in proportion), the fraction that stops it; else 1/2."""
+    _x, _works, ends = _apply_impulses(model, event, p, state, iota)
+    splits = np.full(len(iota), 0.5)
+    offset = 0
+    for side, names in zip(("before", "with", "after"), impulse_names(model, event)):
+        count = len(names)
+        block = ends[4 * offset : 4 * (offset + count)].reshape(4, count)
+        if side != "with":
+            before, after = block[0], block[1]  # the whole impulse as the first part
+            reverses = before * after < 0
+            fraction = np.divide(before, before - after, out=np.full(count, 0.5),
+                                 where=reverses)  # fmt: skip
+            splits[offset : offset + count] = np.clip(fraction, 0.0, 1.0)
+        offset += count
+    return splits
 
 
 def powered_step(model: HybridModel, params: Sequence[float], gait: PoweredGait,
@@ -1064,7 +1147,7 @@ def powered_step(model: HybridModel, params: Sequence[float], gait: PoweredGait,
             )
         iota = [gait.impulses[f"{event['name']}.{name}"]
                 for name in ordered_impulses(model, event)]  # fmt: skip
-        x, _ = _apply_impulses(model, event, p, ends[0], np.array(iota))
+        x = _apply_impulses(model, event, p, ends[0], np.array(iota))[0]
     return x
 
 
