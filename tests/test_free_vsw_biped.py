@@ -1,11 +1,18 @@
 """The VSW biped's body with free actuation (derive/models/free_vsw_biped.py; issue 28,
-question 3): its heelstrike against Newton and Euler written out for its three masses.
+question 3): its heelstrike, its leg's end stop and the hip's impulse against Newton and
+Euler written out for its three masses.
 
 At heelstrike the new foot sticks, the old foot leaves, and the new stance leg's lower
 segment slides freely (a massless segment in a prismatic joint passes no force along the
 leg): the walker's angular momentum about the new foot, the old stance leg's about the hip
 (only the hip joint acts on it) and the walker's momentum along the new stance leg (the
 ground's impulse is across it) do not change. Three balances for the three rates after.
+
+At the end stop the stance leg's hip stops dead along the leg (its length's rate becomes
+zero) by an impulse along the stance leg, through the foot and through the hip: the
+walker's angular momentum about the stance foot and the swing leg's about the hip do not
+change. The hip's impulse (a torque between the legs) changes the swing leg's angular
+momentum about the hip by itself, counterclockwise, and not the walker's about the foot.
 """
 
 from __future__ import annotations
@@ -50,12 +57,12 @@ def test_heelstrike_keeps_the_three_balances():
     checked = 0
     while checked < 20:
         p = (rng.uniform(0.6, 0.95), rng.uniform(0.01, 1.0), rng.uniform(0.1, 0.5), 0.5)
-        theta, r = rng.uniform(0.05, 0.5), rng.uniform(0.6, 1.0)
+        theta, r = rng.uniform(0.05, 0.5), 1.0  # the stance leg at its stop
         height = r * math.cos(theta) / p[0]
         if height >= 1.0:
             continue
         psi = -math.acos(height)  # the swing foot on the ground, ahead of the hip
-        before = np.array([theta, psi, r, *rng.uniform(-1.5, 1.5, 3)])
+        before = np.array([theta, psi, r, *rng.uniform(-1.5, 1.5, 2), 0.0])
         assert float(module.event_heelstrike_guard(*p, *before)) == pytest.approx(0, abs=1e-14)
         after = np.array(module.event_heelstrike_reset(*p, *before), dtype=float)
         assert after[:3] == pytest.approx([psi, theta, p[0]], abs=1e-14)
@@ -77,3 +84,57 @@ def test_heelstrike_keeps_the_three_balances():
         p_after = sum(m * v @ axis for m, _, v in masses_after)
         assert p_after == pytest.approx(p_before, abs=1e-12 * max(1.0, abs(p_before)))
         checked += 1
+
+
+def _momenta(p, state) -> tuple[float, float]:
+    """The walker's angular momentum about the stance foot and the swing leg's about the
+    hip, counterclockwise."""
+    masses, _foot = _masses(p, state)
+    hip = masses[0][1]
+    walker = sum(_cross(x, m * v) for m, x, v in masses)
+    swing = _cross(masses[2][1] - hip, masses[2][0] * masses[2][2])
+    return walker, swing
+
+
+def test_the_end_stop_stops_the_leg_and_keeps_both_momenta():
+    """20 random parameter sets and states at the stop (r = 1, lengthening): the generated
+    reset of end_stop against Newton (r' = 0 after; the two angular momenta kept), 1e-12."""
+    walker = load("free_vsw_biped")
+    module = walker.module
+    rng = np.random.default_rng(31)
+    for _ in range(20):
+        p = (rng.uniform(0.6, 0.95), rng.uniform(0.01, 1.0), rng.uniform(0.1, 0.5), 0.5)
+        before = np.array([*rng.uniform(-0.5, 0.5, 2), 1.0, *rng.uniform(-1.5, 1.5, 2),
+                           rng.uniform(0.1, 2.0)])  # fmt: skip
+        assert float(module.event_end_stop_guard(*p, *before)) == pytest.approx(0, abs=1e-15)
+        after = np.array(module.event_end_stop_reset(*p, *before), dtype=float)
+        assert after[:3] == pytest.approx(before[:3], abs=1e-15)
+        assert after[5] == pytest.approx(0.0, abs=1e-14)
+        for kept_before, kept_after in zip(_momenta(p, before), _momenta(p, after)):
+            scale = max(1.0, abs(kept_before))
+            assert kept_after == pytest.approx(kept_before, abs=1e-12 * scale)
+
+
+def test_the_hip_impulse_at_the_stop_turns_the_swing_leg_by_itself():
+    """20 random cases in the extended phase (r = 1 held): the hip's impulse just before
+    heelstrike, from the generated gains, changes the swing leg's angular momentum about
+    the hip by the impulse (counterclockwise: it spreads the legs, the swing leg forward),
+    the walker's about the foot not at all, and the leg's length's rate not (held)."""
+    walker = load("free_vsw_biped")
+    module = walker.module
+    (event,) = [e for e in walker.events if e["name"] == "heelstrike"]
+    before_names = [i["name"] for i in event["impulses"] if i["applied"] == "before"]
+    assert before_names == ["hip_impulse_before"]
+    rng = np.random.default_rng(37)
+    for _ in range(20):
+        p = (rng.uniform(0.6, 0.95), rng.uniform(0.01, 1.0), rng.uniform(0.1, 0.5), 0.5)
+        state = np.array([*rng.uniform(-0.5, 0.5, 2), 1.0, *rng.uniform(-1.5, 1.5, 2), 0.0])
+        iota = rng.uniform(-1.0, 1.0)
+        gains = np.array(module.event_heelstrike_impulse_gains_before(*p, *state), float)
+        after = state.copy()
+        after[3:] += gains.reshape(3) * iota
+        assert after[5] == 0.0
+        (walker_before, swing_before), (walker_after, swing_after) = (
+            _momenta(p, state), _momenta(p, after))  # fmt: skip
+        assert walker_after == pytest.approx(walker_before, abs=1e-12)
+        assert swing_after - swing_before == pytest.approx(iota, abs=1e-12)

@@ -698,16 +698,15 @@ def _kinematic_guess(model: HybridModel, params: Sequence[float], nlp: _Nlp,
     state just after the step event, completed by the section), the coordinates moving at
     its constant rates until the step event's guard crosses, inputs and impulses zero; the
     rates scaled to the target speed's duration when there is one. Not a motion of the
-    walker (it ignores gravity and the inputs): IPOPT makes it one. One phase a step."""
+    walker (it ignores gravity and the inputs): IPOPT makes it one. More than one phase a
+    step: :func:`_phased_guess`."""
     sequence = model._phase_sequence()
-    label = getattr(model, "cli_name", model.name)
-    if len(sequence) != 1:
-        raise ConvergenceError(f"{label}: no passive gait at these parameters to start the "
-                               "optimisation from")  # fmt: skip
-    ((_phase, event),) = sequence
     p = np.asarray(params, dtype=float)
     centre = np.array([[sum(model.spec["search"][k]) / 2 for k in free_components(model)]])
     x0 = section_states(model, p, centre)[0]
+    if len(sequence) != 1:
+        return _phased_guess(model, p, nlp, request, x0)
+    ((_phase, event),) = sequence
     n = model.n
     guard = model._fn(f"event_{event['name']}_guard")
 
@@ -739,15 +738,87 @@ def _kinematic_guess(model: HybridModel, params: Sequence[float], nlp: _Nlp,
 def _sampled_guess(nlp: _Nlp, nodes: int, duration: float, state_at) -> np.ndarray:
     """One phase's unknowns from ``state_at(fraction of the phase)`` at its knots and
     midpoints, its duration, inputs and impulses zero."""
+    return _sampled_phases(nlp, nodes, [duration], [state_at])
+
+
+def _sampled_phases(nlp: _Nlp, nodes: int, durations: Sequence[float],
+                    states_at: Sequence) -> np.ndarray:  # fmt: skip
+    """Each phase's unknowns from its ``state_at(fraction of the phase)`` at its knots and
+    midpoints, the durations, inputs and impulses zero."""
     w = np.zeros(nlp.size)
-    w[0] = duration
-    entry = nlp.layout[0]
-    for key, fractions in (("knots", np.arange(nodes + 1) / nodes),
-                           ("middles", (np.arange(nodes) + 0.5) / nodes)):  # fmt: skip
-        first, parts, width = entry[key]
-        block = np.array([state_at(f) for f in fractions])
-        w[first : first + parts * width] = block.reshape(-1)
+    w[: len(durations)] = durations
+    for entry, state_at in zip(nlp.layout, states_at):
+        for key, fractions in (("knots", np.arange(nodes + 1) / nodes),
+                               ("middles", (np.arange(nodes) + 0.5) / nodes)):  # fmt: skip
+            first, parts, width = entry[key]
+            block = np.array([state_at(f) for f in fractions])
+            w[first : first + parts * width] = block.reshape(-1)
     return w
+
+
+def _phased_guess(model: HybridModel, p: np.ndarray, nlp: _Nlp, request: Request,
+                  x0: np.ndarray) -> np.ndarray:  # fmt: skip
+    """The kinematic start of a step of several phases: from the search box's centre
+    ``x0`` the coordinates move at constant rates toward where the step event's reset
+    takes them (the legs swapped), the step's duration (as :func:`_swapped_guess`'s)
+    shared equally by the phases; where an event locks coordinates (a leg reaching its end
+    stop) they move over the phase before it to where its guard vanishes (found by the
+    secant method in each), and the phases after hold them there. Not a motion of the
+    walker; IPOPT makes it one."""
+    label = getattr(model, "cli_name", model.name)
+    n = model.n
+    sequence = model._phase_sequence()
+    last = sequence[-1][1]
+    end = model.reset(last["name"], p, x0)[:n]
+    duration = 1.0
+    if request.target_speed is not None and model.spec["step_length"]:
+        duration = abs(float(model.step_length(p, x0))) / request.target_speed
+        if not 0.0 < duration < math.inf:
+            duration = 1.0
+    share = duration / len(sequence)
+    index = {name: k for k, name in enumerate(model.coordinates)}
+    start, held = x0[:n].copy(), set()
+    paths = []
+    for k, (_phase, event) in enumerate(sequence):
+        target = x0[:n] + (k + 1) / len(sequence) * (end - x0[:n])
+        stop = start.copy()
+        free = [i for i in range(n) if i not in held]
+        stop[free] = target[free]
+        locked = [index[c] for c in event.get("actuated", ())] if event["reset"] == "lock" else []
+        guard = model._fn(f"event_{event['name']}_guard")
+        for i in locked:
+
+            def guard_at(v: float, i: int = i, stop: np.ndarray = stop, guard=guard) -> float:
+                return float(guard(*p, *_with(stop, i, v), *np.zeros(n)))
+
+            stop[i] = _root_in(guard_at, start[i], label, event["name"])
+        rates = (stop - start) / share
+        paths.append(lambda f, a=start, r=rates: np.concatenate([a + f * share * r, r]))
+        held |= set(locked)
+        start = stop
+    return _sampled_phases(nlp, request.nodes, [share] * len(sequence), paths)
+
+
+def _with(values: np.ndarray, i: int, value: float) -> np.ndarray:
+    out = values.copy()
+    out[i] = value
+    return out
+
+
+def _root_in(function, start: float, label: str, event: str) -> float:
+    """A root of a scalar function by the secant method from ``start`` (and 1.01 times
+    it): where a locking event's guard vanishes in the coordinate it locks."""
+    a, b = start, start * 1.01 + 1e-3
+    fa, fb = function(a), function(b)
+    for _ in range(50):
+        if fb == fa:
+            break
+        a, b, fa = b, b - fb * (b - a) / (fb - fa), fb
+        fb = function(b)
+        if abs(fb) < 1e-12:
+            return b
+    raise ConvergenceError(f"{label}: no start: the guard of {event} does not vanish in the "
+                           "coordinate it locks near the search box's centre")  # fmt: skip
 
 
 def _swapped_guess(model: HybridModel, p: np.ndarray, nlp: _Nlp, request: Request,

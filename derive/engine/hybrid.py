@@ -1207,9 +1207,9 @@ def _impulse_quantities(model: Model, event: Event, args: tuple) -> tuple[list, 
         if not impulses:
             continue
         phase = model.phase(event.target if after else event.source)
-        if _held_in_state(model, phase):
-            raise ValueError(f"event {event.name}: impulses in phase {phase.name}, which holds "
-                             "a state coordinate, are not derived")  # fmt: skip
+        # A state coordinate the phase holds jumps with its held value's chain rule, as
+        # a continuous input's gain on its acceleration (_input_quantities): zero where
+        # the value is a constant (a leg at its end stop).
         stand_in = dataclasses.replace(
             phase,
             inputs=tuple(Input(i.name, i.along, i.actuator, i.unit, i.bounds) for i in impulses),

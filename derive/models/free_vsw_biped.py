@@ -11,18 +11,31 @@ The VSW biped holds its stance leg at ``beta l``, then ``l``, extending it in an
 ``theta_II`` (the held-hip rule holding the swing leg). Here the stance leg's length ``r``
 is a coordinate of its own, moved by the leg's force ``F >= 0`` between ``l_min`` and
 ``l``, and a hip torque acts between the legs: the VSW biped's actuators, free in time.
+A step has two phases, as the VSW biped's:
+
+* stroke: the stance leg, ``beta l`` long at the step's start, free to lengthen and
+  shorten under its force and the motion (its actuator can only push);
+* end stop: where the leg reaches ``l`` it stops there dead, a plastic impact at its end
+  stop (:class:`Lock`: the generalised momenta of both leg angles kept, as the VSW
+  biped's extension keeps them), and stays at ``l`` (the stop holds any pull, the
+  actuator any push, at no work: the length does not change);
+* extended: the stance leg ``l`` long until heelstrike.
+
+So the VSW biped's extension, a push from ``beta l`` then a stop at ``l``, is the limit
+of this model's motions as the leg force grows short and large. Every step reaches the
+stop (the phases' order is fixed): the least work found is over gaits that extend the
+leg fully once a step, as VSW does.
+
 Heelstrike is the VSW biped's: the swing foot, the swing leg ``beta l`` long, reaches the
 ground; the impact sticks the new foot and the legs swap, so the new stance leg starts
 ``beta l`` long. Its lower segment slides freely as it lands (the impact does no work
 along it: no collision along the new leg), unless the leg's actuator takes an impulse
-along it just after (``heel_strike``, a collision where it stops the leg); the trailing
-leg may push off along itself just before (``push_off``); the hip torque may act in an
-instant just before or after (its impulses). Two limits of this model, stated: the
-landing's ground impulse (across the sliding new leg) is not checked to push (at the VSW
-biped's own pre-impact states it can need a pull); and the VSW biped's extension (a push
-from beta l, then a stop at l) is not among its motions, since the leg force cannot pull
-and l is a failure, not an end stop: its least work does not bound the VSW biped's
-from below until an end stop at l is added.
+along it just after (``heel_strike``, a collision where it stops the leg: with it the
+landing is the VSW biped's rigid one). The trailing leg, at its stop, cannot push off
+(it would lengthen past ``l``; it pushes, if at all, before the stop, with its force);
+the hip torque may act in an instant just before or after (its impulses). The landing's
+ground impulse, across the sliding new leg, is not checked to push here; the optimiser
+checks every ground impulse (``vsw.powered``).
 
 Coordinates: ``theta`` and ``psi`` as the VSW biped's (the legs' angles from the vertical,
 positive with the hip ahead of the foot), ``r`` the stance leg's length.
@@ -40,6 +53,7 @@ from derive.engine.model import (
     Failure,
     Impact,
     Impulse,
+    Lock,
     Input,
     Model,
     Parameter,
@@ -72,19 +86,37 @@ R = Coordinate("r", "stance leg length", "l", reference="the stance foot",
                positive="the hip away from the foot")  # fmt: skip
 theta, psi, r = THETA.q, PSI.q, R.q
 
-hip = leg(theta, r)
-swing_foot = tuple(h - f for h, f in zip(hip, leg(psi, beta)))
+HIP_TORQUE = Input(
+    "hip_torque",
+    theta - psi,
+    "hip",
+    unit="m_H g l",
+    description="torque between the legs at the hip, positive spreading them (the swing leg "
+    "forward)",
+)
 
-STANCE = Phase(
-    "stance",
-    coordinates=(THETA, PSI, R),
-    bodies=(
+
+def bodies(stance_length: sm.Expr) -> tuple[PointMass, ...]:
+    """The hip and the two legs' masses, the stance leg ``stance_length`` long."""
+    hip = leg(theta, stance_length)
+    return (
         PointMass("hip", 1, hip),
         PointMass("stance_leg", mu, tuple(h - f for h, f in zip(hip, leg(theta, b)))),
         PointMass("swing_leg", mu, tuple(h - f for h, f in zip(hip, leg(psi, b)))),
-    ),
+    )
+
+
+def swing_foot(stance_length: sm.Expr) -> tuple[sm.Expr, sm.Expr]:
+    """The swing foot, ``beta`` below the hip along the swing leg."""
+    return tuple(h - f for h, f in zip(leg(theta, stance_length), leg(psi, beta)))
+
+
+STROKE = Phase(
+    "stroke",
+    coordinates=(THETA, PSI, R),
+    bodies=bodies(r),
     gravity=(0, -1),
-    points={"swing_foot": swing_foot},
+    points={"swing_foot": swing_foot(r)},
     inputs=(
         Input(
             "leg_force",
@@ -95,15 +127,17 @@ STANCE = Phase(
             description="the stance leg's force along itself, pushing the hip away from the "
             "foot (>= 0: a leg cannot pull on the ground)",
         ),
-        Input(
-            "hip_torque",
-            theta - psi,
-            "hip",
-            unit="m_H g l",
-            description="torque between the legs at the hip, positive spreading them (the "
-            "swing leg forward)",
-        ),
+        HIP_TORQUE,
     ),
+)
+EXTENDED = Phase(
+    "extended",
+    coordinates=(THETA, PSI),
+    bodies=bodies(r),
+    gravity=(0, -1),
+    held={r: 1},
+    points={"swing_foot": swing_foot(r)},
+    inputs=(HIP_TORQUE,),
 )
 
 MODEL = Model(
@@ -111,17 +145,19 @@ MODEL = Model(
     title="VSW biped's body, free actuation",
     description="the VSW biped's body (hip mass, leg masses on the legs' upper segments, "
     "telescoping massless feet, level ground) with its leg force and hip torque free in "
-    "time: the least-work gaits VSW's price is measured against; no passive gait: it walks "
-    "only powered",
+    "time, the stance leg stopped at l by an end stop: the least-work gaits VSW's price "
+    "is measured against; no passive gait: it walks only powered",
     source="derive/models/free_vsw_biped.py",
     parameters=PARAMETERS,
-    phases=(STANCE,),
+    phases=(STROKE, EXTENDED),
     events=(
+        Event("end_stop", "stroke", "extended", guard=r - 1, direction=+1, reset=Lock(),
+              equation="(3) with massive legs, the extension's end"),  # fmt: skip
         Event(
             "heelstrike",
-            "stance",
-            "stance",
-            guard=swing_foot[1],  # the swing foot's height
+            "extended",
+            "stroke",
+            guard=EXTENDED.points["swing_foot"][1],  # the swing foot's height
             direction=-1,
             reset=Impact(
                 "swing_foot",
@@ -131,14 +167,6 @@ MODEL = Model(
             ends_step=True,
             when=theta - psi,  # the new foot lands ahead of the stance foot
             impulses=(
-                Impulse(
-                    "push_off",
-                    r,
-                    "leg",
-                    unit="m_H sqrt(g l)",
-                    bounds=(0.0, None),
-                    description="the trailing leg's impulse along itself just before heelstrike",
-                ),
                 Impulse(
                     "hip_impulse_before",
                     theta - psi,
@@ -179,12 +207,12 @@ MODEL = Model(
             -1,
             "the stance leg would be shorter than l_min: the end of its stroke",
             unit="l",
+            phases=("stroke",),
         ),
-        Failure("overextended", r - 1, +1, "the stance leg would be longer than l", unit="l"),
     ),
-    conditions=(swing_foot_clearance(swing_foot[1], "l"),),
+    conditions=(swing_foot_clearance(EXTENDED.points["swing_foot"][1], "l"),),
     units=UNITS,
-    step_length=swing_foot[0],
+    step_length=EXTENDED.points["swing_foot"][0],
     # Just after heelstrike the new stance leg is beta l long.
     section={"r": beta},
     search={
