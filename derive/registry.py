@@ -22,6 +22,7 @@ MODEL_MODULES: dict[str, str] = {
     "kuo_walker": "derive.models.kuo_walker",
     "level_compass_gait": "derive.models.level_compass_gait",
     "free_vsw_biped": "derive.models.free_vsw_biped",
+    "free_vsw_biped_stop": "derive.models.free_vsw_biped_stop",
 }
 """Model name (its ``generated/<name>/`` package) -> module with its ``derive()``."""
 

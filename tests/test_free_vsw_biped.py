@@ -1,6 +1,6 @@
-"""The VSW biped's body with free actuation (derive/models/free_vsw_biped.py; issue 28,
-question 3): its heelstrike, its leg's end stop and the hip's impulse against Newton and
-Euler written out for its three masses.
+"""The VSW biped's body with free actuation (derive/models/free_vsw_biped.py, and with an
+end stop at l, free_vsw_biped_stop.py; issue 28, question 3): heelstrike, the leg's end
+stop and the hip's impulse against Newton and Euler written out for the three masses.
 
 At heelstrike the new foot sticks, the old foot leaves, and the new stance leg's lower
 segment slides freely (a massless segment in a prismatic joint passes no force along the
@@ -47,22 +47,26 @@ def _masses(p, state):
     ], hip - beta * swing_along
 
 
-def test_heelstrike_keeps_the_three_balances():
+@pytest.mark.parametrize("name", ["free_vsw_biped", "free_vsw_biped_stop"])
+def test_heelstrike_keeps_the_three_balances(name):
     """20 random parameter sets and states on the guard (the swing foot, beta below the
-    hip along the swing leg, on the ground ahead): the generated reset against the three
-    balances, to 1e-12."""
-    walker = load("free_vsw_biped")
+    hip along the swing leg, on the ground ahead; with the end stop the stance leg at l,
+    held): the generated reset against the three balances, to 1e-12."""
+    walker = load(name)
     module = walker.module
+    stopped = name.endswith("_stop")
     rng = np.random.default_rng(28)
     checked = 0
     while checked < 20:
         p = (rng.uniform(0.6, 0.95), rng.uniform(0.01, 1.0), rng.uniform(0.1, 0.5), 0.5)
-        theta, r = rng.uniform(0.05, 0.5), 1.0  # the stance leg at its stop
+        theta = rng.uniform(0.05, 0.5)
+        r = 1.0 if stopped else rng.uniform(0.6, 1.0)
         height = r * math.cos(theta) / p[0]
         if height >= 1.0:
             continue
         psi = -math.acos(height)  # the swing foot on the ground, ahead of the hip
-        before = np.array([theta, psi, r, *rng.uniform(-1.5, 1.5, 2), 0.0])
+        before = np.array([theta, psi, r, *rng.uniform(-1.5, 1.5, 2),
+                           0.0 if stopped else rng.uniform(-1.5, 1.5)])  # fmt: skip
         assert float(module.event_heelstrike_guard(*p, *before)) == pytest.approx(0, abs=1e-14)
         after = np.array(module.event_heelstrike_reset(*p, *before), dtype=float)
         assert after[:3] == pytest.approx([psi, theta, p[0]], abs=1e-14)
@@ -99,7 +103,7 @@ def _momenta(p, state) -> tuple[float, float]:
 def test_the_end_stop_stops_the_leg_and_keeps_both_momenta():
     """20 random parameter sets and states at the stop (r = 1, lengthening): the generated
     reset of end_stop against Newton (r' = 0 after; the two angular momenta kept), 1e-12."""
-    walker = load("free_vsw_biped")
+    walker = load("free_vsw_biped_stop")
     module = walker.module
     rng = np.random.default_rng(31)
     for _ in range(20):
@@ -120,7 +124,7 @@ def test_the_hip_impulse_at_the_stop_turns_the_swing_leg_by_itself():
     heelstrike, from the generated gains, changes the swing leg's angular momentum about
     the hip by the impulse (counterclockwise: it spreads the legs, the swing leg forward),
     the walker's about the foot not at all, and the leg's length's rate not (held)."""
-    walker = load("free_vsw_biped")
+    walker = load("free_vsw_biped_stop")
     module = walker.module
     (event,) = [e for e in walker.events if e["name"] == "heelstrike"]
     before_names = [i["name"] for i in event["impulses"] if i["applied"] == "before"]
@@ -138,3 +142,42 @@ def test_the_hip_impulse_at_the_stop_turns_the_swing_leg_by_itself():
             _momenta(p, state), _momenta(p, after))  # fmt: skip
         assert walker_after == pytest.approx(walker_before, abs=1e-12)
         assert swing_after - swing_before == pytest.approx(iota, abs=1e-12)
+
+
+def test_the_ground_impulses_carry_the_legs_pushes():
+    """The NLP's ground impulses at heelstrike (vsw.powered's _event_map: the momentum's
+    change): a leg's telescoping foot is massless, so the ground's impulse on it along the
+    leg is the leg actuator's: the stance foot's is the push-off along the trailing leg,
+    the new foot's the heel-strike along the new leg (zero where it lands free), whatever
+    the collision adds across the leg. 20 random cases, 1e-12."""
+    import casadi as ca
+
+    from vsw.powered import _apply_impulses, _Constraints, _event_map, _Unknowns
+
+    walker = load("free_vsw_biped")
+    (event,) = walker.events
+    p, x, iota = ca.MX.sym("p", 4), ca.MX.sym("x", 6), ca.MX.sym("iota", 4)
+    unknowns = _Unknowns([], [], [], [], [], [], [iota], [], [ca.MX.sym("s", 0)])
+    *_, ground = _event_map(walker, event, p, x, unknowns, _Constraints())
+    assert list(ground) == ["heelstrike.stance_foot", "heelstrike.new_foot"]
+    impulses = ca.Function("ground", [p, x, iota], list(ground.values()))
+    rng = np.random.default_rng(41)
+    checked = 0
+    while checked < 20:
+        params = np.array([rng.uniform(0.6, 0.95), rng.uniform(0.01, 1.0),
+                           rng.uniform(0.1, 0.5), 0.5])  # fmt: skip
+        theta, r = rng.uniform(0.05, 0.5), rng.uniform(0.6, 1.0)
+        if r * math.cos(theta) / params[0] >= 1.0:
+            continue
+        psi = -math.acos(r * math.cos(theta) / params[0])
+        state = np.array([theta, psi, r, *rng.uniform(-1.5, 1.5, 3)])
+        push, strike = rng.uniform(0.0, 1.0, 2) * (checked % 2)  # half of them zero
+        pushes = np.array([push, 0.0, strike, 0.0])  # push-off, hip, heel-strike, hip
+        stance_foot, new_foot = (np.array(v, float).reshape(-1)
+                                 for v in impulses(params, state, pushes))  # fmt: skip
+        trailing = np.array([math.sin(theta), math.cos(theta)])  # from its foot to the hip
+        assert stance_foot @ trailing == pytest.approx(push, abs=1e-12)
+        after = _apply_impulses(walker, event, params, state, pushes)[0]
+        landing = np.array([math.sin(after[0]), math.cos(after[0])])
+        assert new_foot @ landing == pytest.approx(strike, abs=1e-12)
+        checked += 1

@@ -103,7 +103,7 @@ def test_the_nlps_event_map_is_the_steps_and_the_energy_closes(walker):
     (event,) = walker.events
     p, x, iota = ca.MX.sym("p", 4), ca.MX.sym("x", 2), ca.MX.sym("iota", 2)
     unknowns = _Unknowns([], [], [], [], [], [], [iota], [], [ca.MX.sym("s", 0)])
-    after, _priced, plus, minus = _event_map(walker, event, p, x, unknowns, _Constraints())
+    after, _priced, plus, minus, _ground = _event_map(walker, event, p, x, unknowns, _Constraints())
     assert list(plus) == ["heelstrike.push_off", "heelstrike.torque_impulse"]
     works = [plus[k] + minus[k] for k in plus]
     mapped = ca.Function("event", [p, x, iota], [after, ca.vertcat(*works)])

@@ -179,7 +179,7 @@ def test_the_nlps_event_map_is_the_simulations_and_its_work_the_energys(biped):
     (event,) = biped.events
     p, x, iota = ca.MX.sym("p", 5), ca.MX.sym("x", 4), ca.MX.sym("iota", 3)
     unknowns = _Unknowns([], [], [], [], [], [], [iota], [], [ca.MX.sym("s", 0)])
-    after, _priced, plus, minus = _event_map(biped, event, p, x, unknowns, _Constraints())
+    after, _priced, plus, minus, _ground = _event_map(biped, event, p, x, unknowns, _Constraints())
     works = [plus[k] + minus[k] for k in plus]
     mapped = ca.Function("event", [p, x, iota], [after, ca.vertcat(*works)])
     rng = np.random.default_rng(3)
@@ -212,7 +212,7 @@ def test_a_reversing_impulses_positive_work_is_what_it_puts_back(biped):
     p, x, iota = ca.MX.sym("p", 5), ca.MX.sym("x", 4), ca.MX.sym("iota", 3)
     split, slacks = ca.MX.sym("f", 3), ca.MX.sym("s", 12)
     unknowns = _Unknowns([], [], [], [], [], [], [iota], [split], [slacks])
-    _after, priced, plus, _minus = _event_map(biped, event, p, x, unknowns, _Constraints())
+    _after, priced, plus, _minus, _ground = _event_map(biped, event, p, x, unknowns, _Constraints())
     ledger = ca.Function("ledger", [p, x, iota, split, slacks],
                          [plus["heelstrike.push_off"], priced])  # fmt: skip
     rng = np.random.default_rng(11)

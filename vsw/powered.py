@@ -110,6 +110,20 @@ class Request:
     in scaled units and one in SI units (a 70 kg point-mass biped's leg force squared is
     5e5 times the scaled one's)."""
 
+    friction: float | None = None
+    """The ground's friction coefficient at impacts: each foot's impulse there within its
+    cone, ``|tangential| <= friction * normal`` (None: no bound; the normal part must push
+    whatever this is)."""
+    pushing_locks: bool = False
+    """The ground must push at locks too (a leg that slams into its end stop pulls its foot:
+    with this, it reaches the stop without speed); default: reported, not constrained."""
+    clearance: float | None = None
+    """The swing foot's least height at mid-step: at least ``clearance sin(pi s)`` above
+    the ground at each knot (``s`` the fraction of the step; :func:`_clearance`), the
+    model's ``swing-foot-clearance`` condition enforced (no scuffing, no foot through the
+    ground before its step). None: reported, not enforced (the walkers' sources ignore
+    scuffing); 0: above the ground."""
+
     def __post_init__(self) -> None:
         object.__setattr__(self, "use", tuple(self.use))  # hashable: the NLPs are cached
 
@@ -122,6 +136,9 @@ class Request:
                             ("target step length", self.target_step_length)):  # fmt: skip
             if value is not None and not (math.isfinite(value) and value > 0):
                 raise VswInputError(f"the {name} must be a positive number, got {value}")
+        for flag, value in (("--friction", self.friction), ("--clearance", self.clearance)):
+            if value is not None and not (math.isfinite(value) and value >= 0):
+                raise VswInputError(f"{flag} {value} must be a number >= 0")
 
 
 @dataclass
@@ -150,6 +167,9 @@ class PoweredGait:
     extra: dict[str, Any] = field(default_factory=dict)
     impulses: dict[str, float] = field(default_factory=dict)
     """Each event's impulses (``<event>.<impulse>``), in the order the step applies them."""
+    ground_impulses: dict[str, tuple[float, float]] = field(default_factory=dict)
+    """The ground's impulses on the walker at each event (``<event>.stance_foot``,
+    ``<event>.new_foot``): tangential and normal (:func:`_event_map`)."""
 
     @property
     def period(self) -> float:
@@ -305,6 +325,8 @@ class _Nlp:
     work: Any  # ca.Function(w, p) -> positive and negative work per input
     size: int
     bounds: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]  # lbx, ubx, lbg, ubg
+    ground: Any = None  # ca.Function(w, p) -> each event's ground impulses, stacked
+    ground_keys: tuple[str, ...] = ()
 
 
 @dataclass
@@ -419,6 +441,25 @@ def _collocate(model: HybridModel, phase: str, v: _Unknowns, p: Any, duration: A
     return squares, priced, positive, negative
 
 
+def _clearance(model: HybridModel, phase: str, v: _Unknowns, p: Any, durations: Any, k: int,
+               height: float, g: _Constraints) -> None:  # fmt: skip
+    """The swing foot at least ``height sin(pi s)`` above the ground at each knot inside
+    phase ``k`` (``s`` the fraction of the step gone: it lifts at 0 and lands at 1), where
+    the model declares its clearance (the ``swing-foot-clearance`` condition)."""
+    import casadi as ca
+
+    period = ca.sum1(durations)
+    start = ca.sum1(durations[:k]) if k else 0
+    nodes = len(v.middles)
+    for name, function, direction in model.phases[model.phase_index[phase]]["conditions"]:
+        if name != "swing-foot-clearance":
+            continue
+        for i in range(1, nodes):
+            fraction = (start + durations[k] * i / nodes) / period
+            margin = -direction * model.symbolic(function, p, v.knots[i])
+            g.add(margin - height * ca.sin(math.pi * fraction), 0.0, math.inf)
+
+
 @functools.lru_cache(maxsize=8)  # a few NLPs a command; a script's loop over targets
 def _build(model: HybridModel, request: Request) -> _Nlp:
     """The collocation NLP of one model and request (parameters are the NLP's ``p``)."""
@@ -436,10 +477,13 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
                 for k, (phase, event) in enumerate(sequence)]  # fmt: skip
     g = _Constraints()
     squares, priced, positive, negative, step_length = 0, 0, {}, {}, None
+    ground: dict = {}
     for k, (phase, event) in enumerate(sequence):
         v = unknowns[k]
         phase_squares, phase_priced, plus, minus = _collocate(model, phase, v, p, durations[k],
                                                               request, g)  # fmt: skip
+        if request.clearance is not None:
+            _clearance(model, phase, v, p, durations, k, request.clearance, g)
         squares = squares + phase_squares
         priced = priced + phase_priced
         positive |= {f"{phase}.{name}": value for name, value in plus.items()}
@@ -448,7 +492,9 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
         g.add(model.symbolic(f"event_{event['name']}_guard", p, end), 0.0, 0.0)
         if event["when"] is not None:
             g.add(model.symbolic(event["when"], p, end), 0.0, math.inf)
-        after, event_priced, plus, minus = _event_map(model, event, p, end, v, g)
+        after, event_priced, plus, minus, pushes = _event_map(model, event, p, end, v, g,
+                                                              request)  # fmt: skip
+        ground |= pushes
         priced = priced + event_priced
         positive |= plus
         negative |= minus
@@ -484,12 +530,15 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
     works = ca.Function("work", [w, arguments], [ca.vertcat(*positive.values(),
                                                             *negative.values())
                                                  if positive else ca.DM.zeros(0)])  # fmt: skip
+    pushes = ca.Function("ground", [w, arguments], [ca.vertcat(*ground.values())])
     return _Nlp(solver, ca.Function("cost", [w, arguments], [cost]), layout, works,
-                int(w.shape[0]), (lbx, ubx, np.array(g.lower), np.array(g.upper)))  # fmt: skip
+                int(w.shape[0]), (lbx, ubx, np.array(g.lower), np.array(g.upper)), pushes,
+                tuple(ground))  # fmt: skip
 
 
 def _event_map(model: HybridModel, event: dict, p: Any, end: Any, v: _Unknowns,
-               g: _Constraints) -> tuple[Any, Any, dict, dict]:  # fmt: skip
+               g: _Constraints, request: Request | None = None
+               ) -> tuple[Any, Any, dict, dict, dict]:  # fmt: skip
     """The state after an event from the phase's last knot: the impulses applied before
     the reset (the rates jump by their gains), the reset with the impulse at its impact
     (the rates after gain its gains), those applied after; the impulses' positive work as
@@ -508,7 +557,16 @@ def _event_map(model: HybridModel, event: dict, p: Any, end: Any, v: _Unknowns,
     stops each reversing rate at the parts' junction, and the price is then the exact
     positive work of that schedule (the ledger's, which has the exact positive work of the
     split found, and the reported cost). The impulse applied with an impact does the work
-    ``c iota^2 / 2``, never negative."""
+    ``c iota^2 / 2``, never negative.
+
+    Last, the ground's impulses on the walker over the event (its momentum's change):
+    through the stance foot (the impulses before an impact's reset; a lock's impulse,
+    which the foot takes too) and through the new foot (an impact, with what acts after
+    it, and the stance foot's share of an impulse applied with the impact). At an impact
+    each must push (its normal part ``>= 0``: a constraint), within the friction cone of
+    ``request.friction`` where it has one; a lock's is only reported (stopping a leg that
+    lengthens pulls the foot: the instantaneous extension's idealisation, which the VSW
+    biped shares) unless ``request.pushing_locks``."""
     import casadi as ca
 
     groups = impulse_names(model, event)
@@ -520,10 +578,15 @@ def _event_map(model: HybridModel, event: dict, p: Any, end: Any, v: _Unknowns,
     iota = v.impulses[0] if v.impulses else None
     splits = v.splits[0] if v.splits and v.splits[0].shape[0] else None
     offset = 0
+    momentum_before = _momentum_function(model, event["source"])
+    ground = {}
     for side, names in zip(("before", "with", "after"), groups):
         stem = f"event_{event['name']}_impulse"
         j = iota[offset : offset + len(names)] if names else None
         if side == "with":  # the reset, and the impulse applied with its impact
+            if groups[0]:  # the impulses before, through the stance foot
+                ground["stance_foot"] = momentum_before(p, x) - momentum_before(p, end)
+            reset_from = x
             reset = model.symbolic(f"event_{event['name']}_reset", p, x)
             if names:
                 gains = model.symbolic(f"{stem}_gains_with", p, x)
@@ -557,7 +620,50 @@ def _event_map(model: HybridModel, event: dict, p: Any, end: Any, v: _Unknowns,
             plus[f"{event['name']}.{name}"] = positive_work[i]
             minus[f"{event['name']}.{name}"] = work[i] - positive_work[i]
         offset += len(names)
-    return x, priced, plus, minus
+    # The reset and what follows it: through the new foot at an impact (with the stance
+    # foot's share of an impulse at the impact), through the stance foot at a lock.
+    key = "new_foot" if event["reset"] == "impact" else "stance_foot"
+    change = _momentum_function(model, event["target"])(p, x) - momentum_before(p, reset_from)
+    ground[key] = change + ground.get(key, 0)
+    pushing = event["reset"] == "impact" or (request is not None and request.pushing_locks)
+    friction = None if request is None else request.friction
+    if pushing:  # a foot is pushed, never pulled, by the ground
+        for foot, impulse in ground.items():
+            if foot == "stance_foot" and key != foot and not _usable(request, groups[0]):
+                continue  # the impulses before are held at zero: no impulse, no row
+            g.add(impulse[1], 0.0, math.inf)
+            if friction is not None and event["reset"] == "impact":
+                g.add(friction * impulse[1] - impulse[0], 0.0, math.inf)
+                g.add(friction * impulse[1] + impulse[0], 0.0, math.inf)
+    return x, priced, plus, minus, {f"{event['name']}.{k}": i for k, i in ground.items()}
+
+
+def _usable(request: Request | None, names: Sequence[str]) -> bool:
+    """Whether the optimiser may use any of these impulses (``torque2`` holds them all at
+    zero, ``use`` those it does not name)."""
+    if request is None:
+        return bool(names)
+    if request.minimize == "torque2":
+        return False
+    return any(not request.use or name in request.use for name in names)
+
+
+@functools.cache
+def _momentum_function(model: HybridModel, phase: str) -> Any:
+    """(p, x) -> the walker's linear momentum in the phase's chart (tangential along the
+    ground, normal to it): each body's mass times its position's rate."""
+    import casadi as ca
+
+    n = model.n
+    p = ca.SX.sym("p", len(model.parameter_table))
+    x = ca.SX.sym("x", 2 * n)
+    positions = model.symbolic(f"{phase}_positions", p, x)
+    inertias = model.symbolic(f"{phase}_inertias", p, x)
+    momentum = ca.SX.zeros(2)
+    for body in range(positions.shape[0] // 3):
+        where = positions[3 * body : 3 * body + 2]
+        momentum += inertias[2 * body] * ca.mtimes(ca.jacobian(where, x[:n]), x[n:])
+    return ca.Function(f"momentum_{phase}", [p, x], [momentum])
 
 
 def positive_work_of_linear_power(before: Any, after: Any, backend: Any = np) -> Any:
@@ -572,6 +678,12 @@ def positive_work_of_linear_power(before: Any, after: Any, backend: Any = np) ->
     hi, lo = backend.fmax(before, after), backend.fmin(before, after)
     crossing = backend.fmax(hi, 0) ** 2 / (2 * backend.if_else(lo < 0, hi - lo, 1))
     return backend.if_else(lo >= 0, (hi + lo) / 2, crossing)
+
+
+def _ground_impulses(nlp: _Nlp, w: np.ndarray, arguments: np.ndarray
+                     ) -> dict[str, tuple[float, float]]:  # fmt: skip
+    values = np.array(nlp.ground(w, arguments), dtype=float).reshape(-1, 2)
+    return {key: (float(t), float(n)) for key, (t, n) in zip(nlp.ground_keys, values)}
 
 
 def _vector(durations: Any, unknowns: list[_Unknowns]) -> tuple[Any, list[dict]]:
@@ -1004,6 +1116,7 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
         ipopt_status=status,
         iterations=int(stats.get("iter_count", -1)),
         impulses=impulses,
+        ground_impulses=_ground_impulses(nlp, w, arguments),
         extra={
             "state_scale": scale,
             "w": w,

@@ -10,32 +10,21 @@ masses in ``m_H``, energies in ``m_H g l``).
 The VSW biped holds its stance leg at ``beta l``, then ``l``, extending it in an instant at
 ``theta_II`` (the held-hip rule holding the swing leg). Here the stance leg's length ``r``
 is a coordinate of its own, moved by the leg's force ``F >= 0`` between ``l_min`` and
-``l``, and a hip torque acts between the legs: the VSW biped's actuators, free in time.
-A step has two phases, as the VSW biped's:
+``l`` (both ends failures: the path stays within them), and a hip torque acts between the
+legs: the VSW biped's actuators, free in time. Heelstrike is the VSW biped's: the swing
+foot, the swing leg ``beta l`` long, reaches the ground; the impact sticks the new foot
+and the legs swap, so the new stance leg starts ``beta l`` long. Its lower segment slides
+freely as it lands (the impact does no work along it: no collision along the new leg),
+unless the leg's actuator takes an impulse along it just after (``heel_strike``, a
+collision where it stops the leg: with it the landing is the VSW biped's rigid one); the
+trailing leg may push off along itself just before (``push_off``); the hip torque may act
+in an instant just before or after (its impulses). The optimiser keeps every ground
+impulse pushing, within a friction cone where asked (``vsw optimize --friction``).
 
-* stroke: the stance leg, ``beta l`` long at the step's start, free to lengthen and
-  shorten under its force and the motion (its actuator can only push);
-* end stop: where the leg reaches ``l`` it stops there dead, a plastic impact at its end
-  stop (:class:`Lock`: the generalised momenta of both leg angles kept, as the VSW
-  biped's extension keeps them), and stays at ``l`` (the stop holds any pull, the
-  actuator any push, at no work: the length does not change);
-* extended: the stance leg ``l`` long until heelstrike.
-
-So the VSW biped's extension, a push from ``beta l`` then a stop at ``l``, is the limit
-of this model's motions as the leg force grows short and large. Every step reaches the
-stop (the phases' order is fixed): the least work found is over gaits that extend the
-leg fully once a step, as VSW does.
-
-Heelstrike is the VSW biped's: the swing foot, the swing leg ``beta l`` long, reaches the
-ground; the impact sticks the new foot and the legs swap, so the new stance leg starts
-``beta l`` long. Its lower segment slides freely as it lands (the impact does no work
-along it: no collision along the new leg), unless the leg's actuator takes an impulse
-along it just after (``heel_strike``, a collision where it stops the leg: with it the
-landing is the VSW biped's rigid one). The trailing leg, at its stop, cannot push off
-(it would lengthen past ``l``; it pushes, if at all, before the stop, with its force);
-the hip torque may act in an instant just before or after (its impulses). The landing's
-ground impulse, across the sliding new leg, is not checked to push here; the optimiser
-checks every ground impulse (``vsw.powered``).
+The VSW biped's own extension (a push from ``beta l``, then a stop at ``l``) is not among
+this model's motions (the leg reaches ``l`` only as a failure); ``free_vsw_biped_stop.py``
+adds the end stop. Neither is needed to bound VSW's price from below: any gait of this
+body, verified, bounds its least work from above.
 
 Coordinates: ``theta`` and ``psi`` as the VSW biped's (the legs' angles from the vertical,
 positive with the hip ahead of the foot), ``r`` the stance leg's length.
@@ -53,7 +42,6 @@ from derive.engine.model import (
     Failure,
     Impact,
     Impulse,
-    Lock,
     Input,
     Model,
     Parameter,
@@ -86,15 +74,6 @@ R = Coordinate("r", "stance leg length", "l", reference="the stance foot",
                positive="the hip away from the foot")  # fmt: skip
 theta, psi, r = THETA.q, PSI.q, R.q
 
-HIP_TORQUE = Input(
-    "hip_torque",
-    theta - psi,
-    "hip",
-    unit="m_H g l",
-    description="torque between the legs at the hip, positive spreading them (the swing leg "
-    "forward)",
-)
-
 
 def bodies(stance_length: sm.Expr) -> tuple[PointMass, ...]:
     """The hip and the two legs' masses, the stance leg ``stance_length`` long."""
@@ -111,33 +90,113 @@ def swing_foot(stance_length: sm.Expr) -> tuple[sm.Expr, sm.Expr]:
     return tuple(h - f for h, f in zip(leg(theta, stance_length), leg(psi, beta)))
 
 
-STROKE = Phase(
-    "stroke",
+LEG_FORCE = Input(
+    "leg_force",
+    r,
+    "leg",
+    unit="m_H g",
+    bounds=(0.0, None),
+    description="the stance leg's force along itself, pushing the hip away from the foot "
+    "(>= 0: a leg cannot pull on the ground)",
+)
+HIP_TORQUE = Input(
+    "hip_torque",
+    theta - psi,
+    "hip",
+    unit="m_H g l",
+    description="torque between the legs at the hip, positive spreading them (the swing leg "
+    "forward)",
+)
+PUSH_OFF = Impulse(
+    "push_off",
+    r,
+    "leg",
+    unit="m_H sqrt(g l)",
+    bounds=(0.0, None),
+    description="the trailing leg's impulse along itself just before heelstrike",
+)
+HIP_IMPULSE_BEFORE = Impulse(
+    "hip_impulse_before",
+    theta - psi,
+    "hip",
+    unit="m_H l sqrt(g l)",
+    description="the hip torque's impulse just before heelstrike",
+)
+HEEL_STRIKE = Impulse(
+    "heel_strike",
+    r,
+    "leg",
+    after=True,
+    unit="m_H sqrt(g l)",
+    bounds=(0.0, None),
+    description="the new stance leg's impulse along itself just after heelstrike (a "
+    "collision where it stops the leg shortening)",
+)
+HIP_IMPULSE_AFTER = Impulse(
+    "hip_impulse_after",
+    theta - psi,
+    "hip",
+    after=True,
+    unit="m_H l sqrt(g l)",
+    description="the hip torque's impulse just after heelstrike",
+)
+FALLS = (
+    Failure("fell-backward", THETA.u, -1, "the walker stops before the apex and falls back"),
+    Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the ground"),
+    Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
+)
+CROUCHED = Failure(
+    "crouched",
+    r - l_min,
+    -1,
+    "the stance leg would be shorter than l_min: the end of its stroke",
+    unit="l",
+)
+SEARCH = {
+    "theta": (-0.6, 0.0),
+    "psi": (0.0, 0.6),
+    "theta_dot": (0.0, 2.0),
+    "psi_dot": (-3.0, 1.0),
+    "r_dot": (-1.0, 1.0),
+}
+PARAMETER_CONDITIONS = (
+    ParameterCondition(
+        beta - l_min,
+        "the swing leg's length at heelstrike, beta, must be at least l_min",
+        strict=False,
+    ),
+)
+
+
+def heelstrike(source: Phase, impulses: tuple[Impulse, ...]) -> Event:
+    """Heelstrike from ``source`` to ``stroke``: the swing foot reaches the ground ahead of
+    the stance foot; the new foot sticks, the legs swap, the new stance leg ``beta`` long
+    and free to slide."""
+    return Event(
+        "heelstrike",
+        source.name,
+        "stance" if source.name == "stance" else "stroke",
+        guard=source.points["swing_foot"][1],  # the swing foot's height
+        direction=-1,
+        reset=Impact(
+            "swing_foot",
+            {theta: psi, psi: theta, r: beta},
+            bodies={"stance_leg": "swing_leg", "swing_leg": "stance_leg"},
+        ),
+        ends_step=True,
+        when=theta - psi,  # the new foot lands ahead of the stance foot
+        impulses=impulses,
+        equation="(5), (6) with massive legs, the new stance leg free to slide",
+    )
+
+
+STANCE = Phase(
+    "stance",
     coordinates=(THETA, PSI, R),
     bodies=bodies(r),
     gravity=(0, -1),
     points={"swing_foot": swing_foot(r)},
-    inputs=(
-        Input(
-            "leg_force",
-            r,
-            "leg",
-            unit="m_H g",
-            bounds=(0.0, None),
-            description="the stance leg's force along itself, pushing the hip away from the "
-            "foot (>= 0: a leg cannot pull on the ground)",
-        ),
-        HIP_TORQUE,
-    ),
-)
-EXTENDED = Phase(
-    "extended",
-    coordinates=(THETA, PSI),
-    bodies=bodies(r),
-    gravity=(0, -1),
-    held={r: 1},
-    points={"swing_foot": swing_foot(r)},
-    inputs=(HIP_TORQUE,),
+    inputs=(LEG_FORCE, HIP_TORQUE),
 )
 
 MODEL = Model(
@@ -145,91 +204,25 @@ MODEL = Model(
     title="VSW biped's body, free actuation",
     description="the VSW biped's body (hip mass, leg masses on the legs' upper segments, "
     "telescoping massless feet, level ground) with its leg force and hip torque free in "
-    "time, the stance leg stopped at l by an end stop: the least-work gaits VSW's price "
-    "is measured against; no passive gait: it walks only powered",
+    "time: the least-work gaits VSW's price is measured against; no passive gait: it walks "
+    "only powered",
     source="derive/models/free_vsw_biped.py",
     parameters=PARAMETERS,
-    phases=(STROKE, EXTENDED),
-    events=(
-        Event("end_stop", "stroke", "extended", guard=r - 1, direction=+1, reset=Lock(),
-              equation="(3) with massive legs, the extension's end"),  # fmt: skip
-        Event(
-            "heelstrike",
-            "extended",
-            "stroke",
-            guard=EXTENDED.points["swing_foot"][1],  # the swing foot's height
-            direction=-1,
-            reset=Impact(
-                "swing_foot",
-                {theta: psi, psi: theta, r: beta},
-                bodies={"stance_leg": "swing_leg", "swing_leg": "stance_leg"},
-            ),
-            ends_step=True,
-            when=theta - psi,  # the new foot lands ahead of the stance foot
-            impulses=(
-                Impulse(
-                    "hip_impulse_before",
-                    theta - psi,
-                    "hip",
-                    unit="m_H l sqrt(g l)",
-                    description="the hip torque's impulse just before heelstrike",
-                ),
-                Impulse(
-                    "heel_strike",
-                    r,
-                    "leg",
-                    after=True,
-                    unit="m_H sqrt(g l)",
-                    bounds=(0.0, None),
-                    description="the new stance leg's impulse along "
-                    "itself just after heelstrike (a collision where it stops the leg "
-                    "shortening)",
-                ),
-                Impulse(
-                    "hip_impulse_after",
-                    theta - psi,
-                    "hip",
-                    after=True,
-                    unit="m_H l sqrt(g l)",
-                    description="the hip torque's impulse just after heelstrike",
-                ),
-            ),
-            equation="(5), (6) with massive legs, the new stance leg free to slide",
-        ),
-    ),
+    phases=(STANCE,),
+    events=(heelstrike(STANCE, (PUSH_OFF, HIP_IMPULSE_BEFORE, HEEL_STRIKE, HIP_IMPULSE_AFTER)),),
     failures=(
-        Failure("fell-backward", THETA.u, -1, "the walker stops before the apex and falls back"),
-        Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the ground"),
-        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
-        Failure(
-            "crouched",
-            r - l_min,
-            -1,
-            "the stance leg would be shorter than l_min: the end of its stroke",
-            unit="l",
-            phases=("stroke",),
-        ),
+        *FALLS,
+        CROUCHED,
+        Failure("overextended", r - 1, +1, "the stance leg would be longer than l", unit="l"),
     ),
-    conditions=(swing_foot_clearance(EXTENDED.points["swing_foot"][1], "l"),),
+    conditions=(swing_foot_clearance(STANCE.points["swing_foot"][1], "l"),),
     units=UNITS,
-    step_length=EXTENDED.points["swing_foot"][0],
+    step_length=STANCE.points["swing_foot"][0],
     # Just after heelstrike the new stance leg is beta l long.
     section={"r": beta},
-    search={
-        "theta": (-0.6, 0.0),
-        "psi": (0.0, 0.6),
-        "theta_dot": (0.0, 2.0),
-        "psi_dot": (-3.0, 1.0),
-        "r_dot": (-1.0, 1.0),
-    },
+    search=SEARCH,
     powered_only=True,
-    parameter_conditions=(
-        ParameterCondition(
-            beta - l_min,
-            "the swing leg's length at heelstrike, beta, must be at least l_min",
-            strict=False,
-        ),
-    ),
+    parameter_conditions=PARAMETER_CONDITIONS,
 )
 
 

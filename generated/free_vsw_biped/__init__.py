@@ -17,7 +17,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'free_vsw_biped', 'title': "VSW biped's body, free actuation", 'description': "the VSW biped's body (hip mass, leg masses on the legs' upper segments, telescoping massless feet, level ground) with its leg force and hip torque free in time, the stance leg stopped at l by an end stop: the least-work gaits VSW's price is measured against; no passive gait: it walks only powered", 'coordinate_units': {'theta': 'rad', 'psi': 'rad', 'r': 'l'}, 'parameters': ('beta', 'mu', 'b_over_l', 'l_min'), 'coordinates': ('theta', 'psi', 'r'), 'rates': ('theta_dot', 'psi_dot', 'r_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the swing foot', 'rate': 'psi_dot'}, {'name': 'r', 'kind': 'coordinate', 'unit': 'l', 'meaning': 'stance leg length', 'reference': 'the stance foot', 'positive': 'the hip away from the foot', 'rate': 'r_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of psi (swing leg angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}, {'name': 'r_dot', 'kind': 'rate', 'unit': 'l/sqrt(l/g)', 'meaning': 'rate of r (stance leg length)', 'reference': '', 'positive': 'r increasing', 'rate': None}), 'phases': ({'name': 'stroke', 'failures': (('fell-backward', 'stroke_fell_backward', -1), ('fell-forward', 'stroke_fell_forward', -1), ('lift-off', 'stroke_lift_off', -1), ('crouched', 'stroke_crouched', -1)), 'conservative': True, 'conditions': (('swing-foot-clearance', 'stroke_swing_foot_clearance', -1),), 'inputs': ({'name': 'leg_force', 'actuator': 'leg', 'along': 'r', 'unit': 'm_H g', 'bounds': (0.0, None), 'description': "the stance leg's force along itself, pushing the hip away from the foot (>= 0: a leg cannot pull on the ground)"}, {'name': 'hip_torque', 'actuator': 'hip', 'along': '-psi + theta', 'unit': 'm_H g l', 'bounds': (None, None), 'description': 'torque between the legs at the hip, positive spreading them (the swing leg forward)'})}, {'name': 'extended', 'failures': (('fell-backward', 'extended_fell_backward', -1), ('fell-forward', 'extended_fell_forward', -1), ('lift-off', 'extended_lift_off', -1)), 'conservative': True, 'conditions': (('swing-foot-clearance', 'extended_swing_foot_clearance', -1),), 'inputs': ({'name': 'hip_torque', 'actuator': 'hip', 'along': '-psi + theta', 'unit': 'm_H g l', 'bounds': (None, None), 'description': 'torque between the legs at the hip, positive spreading them (the swing leg forward)'},)}), 'events': ({'name': 'end_stop', 'source': 'stroke', 'target': 'extended', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'lock', 'bodies': None, 'actuated': ('r',)}, {'name': 'heelstrike', 'source': 'extended', 'target': 'stroke', 'direction': -1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1), 'impulses': ({'name': 'hip_impulse_before', 'actuator': 'hip', 'along': '-psi + theta', 'unit': 'm_H l sqrt(g l)', 'bounds': (None, None), 'description': "the hip torque's impulse just before heelstrike", 'applied': 'before'}, {'name': 'heel_strike', 'actuator': 'leg', 'along': 'r', 'unit': 'm_H sqrt(g l)', 'bounds': (0.0, None), 'description': "the new stance leg's impulse along itself just after heelstrike (a collision where it stops the leg shortening)", 'applied': 'after'}, {'name': 'hip_impulse_after', 'actuator': 'hip', 'along': '-psi + theta', 'unit': 'm_H l sqrt(g l)', 'bounds': (None, None), 'description': "the hip torque's impulse just after heelstrike", 'applied': 'after'})}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the walker stops before the apex and falls back', 'unit': 'rad/sqrt(l/g)'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the ground', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'm_H g'}, {'name': 'crouched', 'direction': -1, 'meaning': 'the stance leg would be shorter than l_min: the end of its stroke', 'unit': 'l'}), 'conditions': ({'name': 'swing-foot-clearance', 'direction': -1, 'meaning': 'the swing foot stays above the ground (where negative it scuffs: ignored)', 'unit': 'l', 'interior': True},), 'units': {'time': 'sqrt(l/g)', 'length': 'l', 'mass': 'm_H', 'energy': 'm_H g l', 'force': 'm_H g'}, 'step_length': True, 'section': ('r',), 'search': {'theta': (-0.6, 0.0), 'psi': (0.0, 0.6), 'theta_dot': (0.0, 2.0), 'psi_dot': (-3.0, 1.0), 'r_dot': (-1.0, 1.0)}, 'powered_only': True, 'parameter_conditions': ({'function': 'parameter_condition_0', 'reason': "the swing leg's length at heelstrike, beta, must be at least l_min", 'strict': False, 'parameters': ('beta', 'l_min')},), 'closed_form': False}
+HYBRID = {'name': 'free_vsw_biped', 'title': "VSW biped's body, free actuation", 'description': "the VSW biped's body (hip mass, leg masses on the legs' upper segments, telescoping massless feet, level ground) with its leg force and hip torque free in time: the least-work gaits VSW's price is measured against; no passive gait: it walks only powered", 'coordinate_units': {'theta': 'rad', 'psi': 'rad', 'r': 'l'}, 'parameters': ('beta', 'mu', 'b_over_l', 'l_min'), 'coordinates': ('theta', 'psi', 'r'), 'rates': ('theta_dot', 'psi_dot', 'r_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the swing foot', 'rate': 'psi_dot'}, {'name': 'r', 'kind': 'coordinate', 'unit': 'l', 'meaning': 'stance leg length', 'reference': 'the stance foot', 'positive': 'the hip away from the foot', 'rate': 'r_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of psi (swing leg angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}, {'name': 'r_dot', 'kind': 'rate', 'unit': 'l/sqrt(l/g)', 'meaning': 'rate of r (stance leg length)', 'reference': '', 'positive': 'r increasing', 'rate': None}), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('fell-forward', 'stance_fell_forward', -1), ('lift-off', 'stance_lift_off', -1), ('crouched', 'stance_crouched', -1), ('overextended', 'stance_overextended', 1)), 'conservative': True, 'conditions': (('swing-foot-clearance', 'stance_swing_foot_clearance', -1),), 'inputs': ({'name': 'leg_force', 'actuator': 'leg', 'along': 'r', 'unit': 'm_H g', 'bounds': (0.0, None), 'description': "the stance leg's force along itself, pushing the hip away from the foot (>= 0: a leg cannot pull on the ground)"}, {'name': 'hip_torque', 'actuator': 'hip', 'along': '-psi + theta', 'unit': 'm_H g l', 'bounds': (None, None), 'description': 'torque between the legs at the hip, positive spreading them (the swing leg forward)'})},), 'events': ({'name': 'heelstrike', 'source': 'stance', 'target': 'stance', 'direction': -1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1), 'impulses': ({'name': 'push_off', 'actuator': 'leg', 'along': 'r', 'unit': 'm_H sqrt(g l)', 'bounds': (0.0, None), 'description': "the trailing leg's impulse along itself just before heelstrike", 'applied': 'before'}, {'name': 'hip_impulse_before', 'actuator': 'hip', 'along': '-psi + theta', 'unit': 'm_H l sqrt(g l)', 'bounds': (None, None), 'description': "the hip torque's impulse just before heelstrike", 'applied': 'before'}, {'name': 'heel_strike', 'actuator': 'leg', 'along': 'r', 'unit': 'm_H sqrt(g l)', 'bounds': (0.0, None), 'description': "the new stance leg's impulse along itself just after heelstrike (a collision where it stops the leg shortening)", 'applied': 'after'}, {'name': 'hip_impulse_after', 'actuator': 'hip', 'along': '-psi + theta', 'unit': 'm_H l sqrt(g l)', 'bounds': (None, None), 'description': "the hip torque's impulse just after heelstrike", 'applied': 'after'})},), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the walker stops before the apex and falls back', 'unit': 'rad/sqrt(l/g)'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the ground', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'm_H g'}, {'name': 'crouched', 'direction': -1, 'meaning': 'the stance leg would be shorter than l_min: the end of its stroke', 'unit': 'l'}, {'name': 'overextended', 'direction': 1, 'meaning': 'the stance leg would be longer than l', 'unit': 'l'}), 'conditions': ({'name': 'swing-foot-clearance', 'direction': -1, 'meaning': 'the swing foot stays above the ground (where negative it scuffs: ignored)', 'unit': 'l', 'interior': True},), 'units': {'time': 'sqrt(l/g)', 'length': 'l', 'mass': 'm_H', 'energy': 'm_H g l', 'force': 'm_H g'}, 'step_length': True, 'section': ('r',), 'search': {'theta': (-0.6, 0.0), 'psi': (0.0, 0.6), 'theta_dot': (0.0, 2.0), 'psi_dot': (-3.0, 1.0), 'r_dot': (-1.0, 1.0)}, 'powered_only': True, 'parameter_conditions': ({'function': 'parameter_condition_0', 'reason': "the swing leg's length at heelstrike, beta, must be at least l_min", 'strict': False, 'parameters': ('beta', 'l_min')},), 'closed_form': False}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -26,8 +26,8 @@ def _carlson_rf(x, y, z, be):
     return be.carlson_rf(x, y, z)
 
 
-def stroke_accelerations(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """Second derivatives of the free coordinates in phase stroke.
+def stance_accelerations(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
+    """Second derivatives of the free coordinates in phase stance.
 
     Parameters
     ----------
@@ -81,8 +81,8 @@ def stroke_accelerations(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, ps
     return (x10*(x16*x18 + x22*(-x9 + x2*x4*mu) - x20*x21), x10*(x18*x22 + x2*x23 - x20*x24*x8), x10*(x20*(-x0*x6 + x4*x8*mu) - x21*x22 - x23*x24),)
 
 
-def stroke_energy(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """Mechanical energy T + V in phase stroke.
+def stance_energy(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
+    """Mechanical energy T + V in phase stance.
 
     Parameters
     ----------
@@ -121,8 +121,8 @@ def stroke_energy(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, 
     return x0 + x1/2 + x7/2 - x3 - x4 + x1*mu + x6*x9 + x7*mu + x9*psi_dot**2 - x6*x8 + 2*x0*mu + x4*x5*sin_psi - x0*x10*x3 - x3*x5*sin_theta - x10*x8*sin_psi*sin_theta
 
 
-def stroke_normal_force(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """Ground reaction on the stance foot along the ground normal in phase stroke.
+def stance_normal_force(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
+    """Ground reaction on the stance foot along the ground normal in phase stance.
 
     Parameters
     ----------
@@ -183,8 +183,8 @@ def stroke_normal_force(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi
     return x3 + x21*cos_psi + x28*cos_theta - x1*x16 - x16*cos_theta - x23*sin_theta + x11*x13*(x19*x3 + x26*x31 - x17*x29*x9) + x11*(x1 + cos_theta)*(x29*(-x2*x7 + x5*x9*mu) - x17*x19 - x26*x27) + x11*(x20 - x30 - x0*x30)*(x25*(-x10 + x3*x5*mu) + x18*x31*cos_t2 - x27*x29*cos_t2) - 4*x14*sin_theta*mu
 
 
-def stroke_fell_backward(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """Guard of fell-backward in phase stroke.
+def stance_fell_backward(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
+    """Guard of fell-backward in phase stance.
 
     Parameters
     ----------
@@ -210,8 +210,8 @@ def stroke_fell_backward(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, ps
     return theta_dot
 
 
-def stroke_fell_backward_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """d(guard of fell-backward)/d(input) in phase stroke: the guard with the inputs on is stroke_fell_backward + these times the inputs.
+def stance_fell_backward_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
+    """d(guard of fell-backward)/d(input) in phase stance: the guard with the inputs on is stance_fell_backward + these times the inputs.
 
     Parameters
     ----------
@@ -237,11 +237,11 @@ def stroke_fell_backward_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, t
     return (0, 0,)
 
 
-stroke_fell_backward_input_gains.outputs = ('leg_force', 'hip_torque')
+stance_fell_backward_input_gains.outputs = ('leg_force', 'hip_torque')
 
 
-def stroke_fell_forward(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """Guard of fell-forward in phase stroke.
+def stance_fell_forward(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
+    """Guard of fell-forward in phase stance.
 
     Parameters
     ----------
@@ -268,8 +268,8 @@ def stroke_fell_forward(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi
     return cos_theta
 
 
-def stroke_fell_forward_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """d(guard of fell-forward)/d(input) in phase stroke: the guard with the inputs on is stroke_fell_forward + these times the inputs.
+def stance_fell_forward_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
+    """d(guard of fell-forward)/d(input) in phase stance: the guard with the inputs on is stance_fell_forward + these times the inputs.
 
     Parameters
     ----------
@@ -295,11 +295,11 @@ def stroke_fell_forward_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, th
     return (0, 0,)
 
 
-stroke_fell_forward_input_gains.outputs = ('leg_force', 'hip_torque')
+stance_fell_forward_input_gains.outputs = ('leg_force', 'hip_torque')
 
 
-def stroke_lift_off(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """Guard of lift-off in phase stroke.
+def stance_lift_off(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
+    """Guard of lift-off in phase stance.
 
     Parameters
     ----------
@@ -360,8 +360,8 @@ def stroke_lift_off(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot
     return x3 + x21*cos_psi + x28*cos_theta - x1*x16 - x16*cos_theta - x23*sin_theta + x11*x13*(x19*x3 + x26*x31 - x17*x29*x9) + x11*(x1 + cos_theta)*(x29*(-x2*x7 + x5*x9*mu) - x17*x19 - x26*x27) + x11*(x20 - x30 - x0*x30)*(x25*(-x10 + x3*x5*mu) + x18*x31*cos_t2 - x27*x29*cos_t2) - 4*x14*sin_theta*mu
 
 
-def stroke_lift_off_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """d(guard of lift-off)/d(input) in phase stroke: the guard with the inputs on is stroke_lift_off + these times the inputs.
+def stance_lift_off_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
+    """d(guard of lift-off)/d(input) in phase stance: the guard with the inputs on is stance_lift_off + these times the inputs.
 
     Parameters
     ----------
@@ -406,11 +406,11 @@ def stroke_lift_off_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_
     return (x10*(x14*(-x0*x6 + x4*x8*mu) - x12*x13 - x5*x8*sin_psi*sin_t2), x10*(x12*(-x15 - x9 + x2*x4*mu) + x14*(-x13 + x8*sin_t2*b_over_l*mu) + sin_psi*b_over_l*mu*(x15 - x2*x8)),)
 
 
-stroke_lift_off_input_gains.outputs = ('leg_force', 'hip_torque')
+stance_lift_off_input_gains.outputs = ('leg_force', 'hip_torque')
 
 
-def stroke_crouched(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """Guard of crouched in phase stroke.
+def stance_crouched(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
+    """Guard of crouched in phase stance.
 
     Parameters
     ----------
@@ -436,8 +436,8 @@ def stroke_crouched(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot
     return r - l_min
 
 
-def stroke_crouched_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """d(guard of crouched)/d(input) in phase stroke: the guard with the inputs on is stroke_crouched + these times the inputs.
+def stance_crouched_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
+    """d(guard of crouched)/d(input) in phase stance: the guard with the inputs on is stance_crouched + these times the inputs.
 
     Parameters
     ----------
@@ -463,11 +463,68 @@ def stroke_crouched_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_
     return (0, 0,)
 
 
-stroke_crouched_input_gains.outputs = ('leg_force', 'hip_torque')
+stance_crouched_input_gains.outputs = ('leg_force', 'hip_torque')
 
 
-def stroke_swing_foot_clearance(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """Condition swing-foot-clearance in phase stroke (reported, not enforced).
+def stance_overextended(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
+    """Guard of overextended in phase stance.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    mu : array_like or casadi.SX/MX/DM
+    b_over_l : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    r : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+    r_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        crosses zero (direction +1) when the walk ends
+    """
+    be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
+    return -1 + r
+
+
+def stance_overextended_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
+    """d(guard of overextended)/d(input) in phase stance: the guard with the inputs on is stance_overextended + these times the inputs.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    mu : array_like or casadi.SX/MX/DM
+    b_over_l : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    r : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+    r_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: one gain per input, in order
+    """
+    be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
+    return (0, 0,)
+
+
+stance_overextended_input_gains.outputs = ('leg_force', 'hip_torque')
+
+
+def stance_swing_foot_clearance(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
+    """Condition swing-foot-clearance in phase stance (reported, not enforced).
 
     Parameters
     ----------
@@ -495,8 +552,8 @@ def stroke_swing_foot_clearance(beta, mu, b_over_l, l_min, theta, psi, r, theta_
     return cos_theta*r - cos_psi*beta
 
 
-def stroke_swing_foot_clearance_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """d(guard of swing-foot-clearance)/d(input) in phase stroke: the guard with the inputs on is stroke_swing_foot_clearance + these times the inputs.
+def stance_swing_foot_clearance_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
+    """d(guard of swing-foot-clearance)/d(input) in phase stance: the guard with the inputs on is stance_swing_foot_clearance + these times the inputs.
 
     Parameters
     ----------
@@ -522,11 +579,11 @@ def stroke_swing_foot_clearance_input_gains(beta, mu, b_over_l, l_min, theta, ps
     return (0, 0,)
 
 
-stroke_swing_foot_clearance_input_gains.outputs = ('leg_force', 'hip_torque')
+stance_swing_foot_clearance_input_gains.outputs = ('leg_force', 'hip_torque')
 
 
-def stroke_positions(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """Position (x, y) and angle of each body in phase stroke's chart.
+def stance_positions(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
+    """Position (x, y) and angle of each body in phase stance's chart.
 
     Parameters
     ----------
@@ -556,8 +613,8 @@ def stroke_positions(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_do
     return (r*sin_theta, cos_theta*r, 0, -x0 - sin_theta*b_over_l, -x1 - cos_theta*b_over_l, 0, -x0 - sin_psi*b_over_l, -x1 - cos_psi*b_over_l, 0,)
 
 
-def stroke_inertias(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """Mass and central moment of inertia of each body in phase stroke.
+def stance_inertias(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
+    """Mass and central moment of inertia of each body in phase stance.
 
     Parameters
     ----------
@@ -583,8 +640,8 @@ def stroke_inertias(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot
     return (1, 0, mu, 0, mu, 0,)
 
 
-def stroke_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """d(acceleration)/d(input) in phase stroke: the accelerations are stroke_accelerations + these times the inputs (leg_force, hip_torque).
+def stance_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
+    """d(acceleration)/d(input) in phase stance: the accelerations are stance_accelerations + these times the inputs (leg_force, hip_torque).
 
     Parameters
     ----------
@@ -624,11 +681,11 @@ def stroke_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_
     return (-x10*x11, x10*(-x12 - x9 + x2*x4*mu), -x10*x8*sin_t0*b_over_l*mu, x10*(x12 - x2*x8), x10*(-x0*x6 + x4*x8*mu), x10*(-x11 + x8*sin_t0*b_over_l*mu),)
 
 
-stroke_input_gains.outputs = ('theta/leg_force', 'theta/hip_torque', 'psi/leg_force', 'psi/hip_torque', 'r/leg_force', 'r/hip_torque')
+stance_input_gains.outputs = ('theta/leg_force', 'theta/hip_torque', 'psi/leg_force', 'psi/hip_torque', 'r/leg_force', 'r/hip_torque')
 
 
-def stroke_reaction_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """d(ground reaction)/d(input) in phase stroke: normal force's gains, then the tangential force's, one per input.
+def stance_reaction_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
+    """d(ground reaction)/d(input) in phase stance: normal force's gains, then the tangential force's, one per input.
 
     Parameters
     ----------
@@ -681,11 +738,11 @@ def stroke_reaction_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_
     return (x10*(x15*x16 - x11*sin_psi - x13*x14), x10*(x13*x20 + x15*x19 + x18*sin_psi), x10*(x11*cos_psi + x16*x23 - x14*x22), x10*(x19*x23 + x20*x22 - x18*cos_psi),)
 
 
-stroke_reaction_input_gains.outputs = ('normal/leg_force', 'normal/hip_torque', 'tangential/leg_force', 'tangential/hip_torque')
+stance_reaction_input_gains.outputs = ('normal/leg_force', 'normal/hip_torque', 'tangential/leg_force', 'tangential/hip_torque')
 
 
-def stroke_input_rates(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """Rate of what each input of phase stroke acts along: its power is the input times this.
+def stance_input_rates(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
+    """Rate of what each input of phase stance acts along: its power is the input times this.
 
     Parameters
     ----------
@@ -711,666 +768,7 @@ def stroke_input_rates(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_
     return (r_dot, theta_dot - psi_dot,)
 
 
-stroke_input_rates.outputs = ('leg_force', 'hip_torque')
-
-
-def extended_accelerations(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """Second derivatives of the free coordinates in phase extended.
-
-    Parameters
-    ----------
-    beta : array_like or casadi.SX/MX/DM
-    mu : array_like or casadi.SX/MX/DM
-    b_over_l : array_like or casadi.SX/MX/DM
-    l_min : array_like or casadi.SX/MX/DM
-    theta : array_like or casadi.SX/MX/DM
-    psi : array_like or casadi.SX/MX/DM
-    r : array_like or casadi.SX/MX/DM
-    theta_dot : array_like or casadi.SX/MX/DM
-    psi_dot : array_like or casadi.SX/MX/DM
-    r_dot : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar CasADi
-        expressions.
-
-    Returns
-    -------
-    tuple of arrays
-        tuple: d2(coordinate)/dt2 for each coordinate
-    """
-    be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
-    cos_psi, sin_psi = be.cos_sin(psi)
-    cos_theta, sin_theta = be.cos_sin(theta)
-    cos_t2, sin_t2 = be.cos_sin(psi - theta)
-    x0 = b_over_l**2
-    x1 = mu**2
-    x2 = 2*x1
-    x3 = x0*x2
-    x4 = (b_over_l*b_over_l*b_over_l)
-    x5 = x0*x1
-    x6 = (1/(x3 + x0*mu + x1*(b_over_l*b_over_l*b_over_l*b_over_l) - x2*x4 - x5*cos_t2**2))
-    x7 = x1*x4
-    x8 = x5*cos_t2
-    x9 = psi_dot**2
-    x10 = theta_dot**2
-    x11 = sin_psi*b_over_l
-    return (x6*(-x7*sin_theta - x8*sin_psi + x0*sin_theta*mu - x7*x9*sin_t2 + 2*x0*x1*sin_theta + x0*x1*x10*cos_t2*sin_t2), x6*(-x11*x2 - x11*mu - x7*sin_psi - x8*sin_theta - x10*x3*sin_t2 - x8*x9*sin_t2 + 2*x0*x1*sin_psi + x1*x10*x4*sin_t2 + x10*sin_t2*b_over_l*mu + cos_t2*sin_theta*b_over_l*mu + 2*x1*x10*sin_t2*b_over_l + 2*x1*cos_t2*sin_theta*b_over_l), 0,)
-
-
-def extended_energy(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """Mechanical energy T + V in phase extended.
-
-    Parameters
-    ----------
-    beta : array_like or casadi.SX/MX/DM
-    mu : array_like or casadi.SX/MX/DM
-    b_over_l : array_like or casadi.SX/MX/DM
-    l_min : array_like or casadi.SX/MX/DM
-    theta : array_like or casadi.SX/MX/DM
-    psi : array_like or casadi.SX/MX/DM
-    r : array_like or casadi.SX/MX/DM
-    theta_dot : array_like or casadi.SX/MX/DM
-    psi_dot : array_like or casadi.SX/MX/DM
-    r_dot : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar CasADi
-        expressions.
-
-    Returns
-    -------
-    array
-        energy
-    """
-    be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
-    cos_psi, sin_psi = be.cos_sin(psi)
-    cos_theta, sin_theta = be.cos_sin(theta)
-    x0 = cos_theta*mu
-    x1 = theta_dot**2
-    x2 = x1/2
-    x3 = x1*mu
-    x4 = cos_psi*b_over_l
-    x5 = psi_dot*theta_dot
-    x6 = mu*b_over_l**2
-    return x2 + x3 + cos_theta + 2*x0 + x2*x6 + x6*psi_dot**2/2 - x0*b_over_l - x3*b_over_l - x4*mu - x0*x4*x5 - x5*sin_psi*sin_theta*b_over_l*mu
-
-
-def extended_normal_force(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """Ground reaction on the stance foot along the ground normal in phase extended.
-
-    Parameters
-    ----------
-    beta : array_like or casadi.SX/MX/DM
-    mu : array_like or casadi.SX/MX/DM
-    b_over_l : array_like or casadi.SX/MX/DM
-    l_min : array_like or casadi.SX/MX/DM
-    theta : array_like or casadi.SX/MX/DM
-    psi : array_like or casadi.SX/MX/DM
-    r : array_like or casadi.SX/MX/DM
-    theta_dot : array_like or casadi.SX/MX/DM
-    psi_dot : array_like or casadi.SX/MX/DM
-    r_dot : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar CasADi
-        expressions.
-
-    Returns
-    -------
-    array
-        normal force (the foot lifts off below 0)
-    """
-    be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
-    cos_psi, sin_psi = be.cos_sin(psi)
-    cos_theta, sin_theta = be.cos_sin(theta)
-    cos_t2, sin_t2 = be.cos_sin(psi - theta)
-    x0 = b_over_l**2
-    x1 = x0*mu
-    x2 = mu**2
-    x3 = (b_over_l*b_over_l*b_over_l)
-    x4 = 2*x3
-    x5 = x2*x4
-    x6 = x0*x2
-    x7 = 2*x6
-    x8 = (b_over_l*b_over_l*b_over_l*b_over_l)
-    x9 = x2*x8
-    x10 = cos_t2**2
-    x11 = x9 - x10*x6
-    x12 = (mu*mu*mu)
-    x13 = x0*x12
-    x14 = 2*x13
-    x15 = x12*x4
-    x16 = cos_theta**2
-    x17 = cos_psi**2
-    x18 = x12*x8
-    x19 = 4*x16
-    x20 = x12*x3
-    x21 = psi_dot**2
-    x22 = x21*cos_psi
-    x23 = x2*x3
-    x24 = x12*b_over_l**5
-    x25 = theta_dot**2
-    x26 = x25*cos_theta
-    x27 = 3*x26
-    x28 = x18*sin_t2
-    x29 = x25*sin_psi
-    x30 = x21*sin_theta
-    x31 = x30*sin_t2
-    x32 = x20*cos_t2
-    x33 = cos_t2*sin_psi*sin_theta
-    return (x11 + x15 - x14 - x6 + x1*x16 + x13*x19 + x14*x17 + x15*x22 + x15*x31 + x16*x18 + x17*x18 + x17*x6 + x19*x6 + x22*x23 + x22*x24 + x23*x27 + x23*x31 + x24*x26 + x28*x29 + x33*x7 - x1*x26 - x10*x14 - x14*x26 - x15*x17 - x15*x33 - x16*x5 - x19*x20 - x26*x9 - x27*x6 - x28*x30 - 4*x18*x26 - 2*x18*x22 + 4*x13*x33 + 6*x20*x26 - x15*x29*sin_t2 - x21*x32*cos_theta - x25*x32*cos_psi)/(x1 + x11 + x7 - x5)
-
-
-def extended_fell_backward(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """Guard of fell-backward in phase extended.
-
-    Parameters
-    ----------
-    beta : array_like or casadi.SX/MX/DM
-    mu : array_like or casadi.SX/MX/DM
-    b_over_l : array_like or casadi.SX/MX/DM
-    l_min : array_like or casadi.SX/MX/DM
-    theta : array_like or casadi.SX/MX/DM
-    psi : array_like or casadi.SX/MX/DM
-    r : array_like or casadi.SX/MX/DM
-    theta_dot : array_like or casadi.SX/MX/DM
-    psi_dot : array_like or casadi.SX/MX/DM
-    r_dot : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar CasADi
-        expressions.
-
-    Returns
-    -------
-    array
-        crosses zero (direction -1) when the walk ends
-    """
-    be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
-    return theta_dot
-
-
-def extended_fell_backward_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """d(guard of fell-backward)/d(input) in phase extended: the guard with the inputs on is extended_fell_backward + these times the inputs.
-
-    Parameters
-    ----------
-    beta : array_like or casadi.SX/MX/DM
-    mu : array_like or casadi.SX/MX/DM
-    b_over_l : array_like or casadi.SX/MX/DM
-    l_min : array_like or casadi.SX/MX/DM
-    theta : array_like or casadi.SX/MX/DM
-    psi : array_like or casadi.SX/MX/DM
-    r : array_like or casadi.SX/MX/DM
-    theta_dot : array_like or casadi.SX/MX/DM
-    psi_dot : array_like or casadi.SX/MX/DM
-    r_dot : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar CasADi
-        expressions.
-
-    Returns
-    -------
-    tuple of arrays
-        tuple: one gain per input, in order
-    """
-    be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
-    return (0,)
-
-
-extended_fell_backward_input_gains.outputs = ('hip_torque',)
-
-
-def extended_fell_forward(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """Guard of fell-forward in phase extended.
-
-    Parameters
-    ----------
-    beta : array_like or casadi.SX/MX/DM
-    mu : array_like or casadi.SX/MX/DM
-    b_over_l : array_like or casadi.SX/MX/DM
-    l_min : array_like or casadi.SX/MX/DM
-    theta : array_like or casadi.SX/MX/DM
-    psi : array_like or casadi.SX/MX/DM
-    r : array_like or casadi.SX/MX/DM
-    theta_dot : array_like or casadi.SX/MX/DM
-    psi_dot : array_like or casadi.SX/MX/DM
-    r_dot : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar CasADi
-        expressions.
-
-    Returns
-    -------
-    array
-        crosses zero (direction -1) when the walk ends
-    """
-    be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
-    cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_theta
-
-
-def extended_fell_forward_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """d(guard of fell-forward)/d(input) in phase extended: the guard with the inputs on is extended_fell_forward + these times the inputs.
-
-    Parameters
-    ----------
-    beta : array_like or casadi.SX/MX/DM
-    mu : array_like or casadi.SX/MX/DM
-    b_over_l : array_like or casadi.SX/MX/DM
-    l_min : array_like or casadi.SX/MX/DM
-    theta : array_like or casadi.SX/MX/DM
-    psi : array_like or casadi.SX/MX/DM
-    r : array_like or casadi.SX/MX/DM
-    theta_dot : array_like or casadi.SX/MX/DM
-    psi_dot : array_like or casadi.SX/MX/DM
-    r_dot : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar CasADi
-        expressions.
-
-    Returns
-    -------
-    tuple of arrays
-        tuple: one gain per input, in order
-    """
-    be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
-    return (0,)
-
-
-extended_fell_forward_input_gains.outputs = ('hip_torque',)
-
-
-def extended_lift_off(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """Guard of lift-off in phase extended.
-
-    Parameters
-    ----------
-    beta : array_like or casadi.SX/MX/DM
-    mu : array_like or casadi.SX/MX/DM
-    b_over_l : array_like or casadi.SX/MX/DM
-    l_min : array_like or casadi.SX/MX/DM
-    theta : array_like or casadi.SX/MX/DM
-    psi : array_like or casadi.SX/MX/DM
-    r : array_like or casadi.SX/MX/DM
-    theta_dot : array_like or casadi.SX/MX/DM
-    psi_dot : array_like or casadi.SX/MX/DM
-    r_dot : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar CasADi
-        expressions.
-
-    Returns
-    -------
-    array
-        crosses zero (direction -1) when the walk ends
-    """
-    be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
-    cos_psi, sin_psi = be.cos_sin(psi)
-    cos_theta, sin_theta = be.cos_sin(theta)
-    cos_t2, sin_t2 = be.cos_sin(psi - theta)
-    x0 = b_over_l**2
-    x1 = x0*mu
-    x2 = mu**2
-    x3 = (b_over_l*b_over_l*b_over_l)
-    x4 = 2*x3
-    x5 = x2*x4
-    x6 = x0*x2
-    x7 = 2*x6
-    x8 = (b_over_l*b_over_l*b_over_l*b_over_l)
-    x9 = x2*x8
-    x10 = cos_t2**2
-    x11 = x9 - x10*x6
-    x12 = (mu*mu*mu)
-    x13 = x0*x12
-    x14 = 2*x13
-    x15 = x12*x4
-    x16 = cos_theta**2
-    x17 = cos_psi**2
-    x18 = x12*x8
-    x19 = 4*x16
-    x20 = x12*x3
-    x21 = psi_dot**2
-    x22 = x21*cos_psi
-    x23 = x2*x3
-    x24 = x12*b_over_l**5
-    x25 = theta_dot**2
-    x26 = x25*cos_theta
-    x27 = 3*x26
-    x28 = x18*sin_t2
-    x29 = x25*sin_psi
-    x30 = x21*sin_theta
-    x31 = x30*sin_t2
-    x32 = x20*cos_t2
-    x33 = cos_t2*sin_psi*sin_theta
-    return (x11 + x15 - x14 - x6 + x1*x16 + x13*x19 + x14*x17 + x15*x22 + x15*x31 + x16*x18 + x17*x18 + x17*x6 + x19*x6 + x22*x23 + x22*x24 + x23*x27 + x23*x31 + x24*x26 + x28*x29 + x33*x7 - x1*x26 - x10*x14 - x14*x26 - x15*x17 - x15*x33 - x16*x5 - x19*x20 - x26*x9 - x27*x6 - x28*x30 - 4*x18*x26 - 2*x18*x22 + 4*x13*x33 + 6*x20*x26 - x15*x29*sin_t2 - x21*x32*cos_theta - x25*x32*cos_psi)/(x1 + x11 + x7 - x5)
-
-
-def extended_lift_off_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """d(guard of lift-off)/d(input) in phase extended: the guard with the inputs on is extended_lift_off + these times the inputs.
-
-    Parameters
-    ----------
-    beta : array_like or casadi.SX/MX/DM
-    mu : array_like or casadi.SX/MX/DM
-    b_over_l : array_like or casadi.SX/MX/DM
-    l_min : array_like or casadi.SX/MX/DM
-    theta : array_like or casadi.SX/MX/DM
-    psi : array_like or casadi.SX/MX/DM
-    r : array_like or casadi.SX/MX/DM
-    theta_dot : array_like or casadi.SX/MX/DM
-    psi_dot : array_like or casadi.SX/MX/DM
-    r_dot : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar CasADi
-        expressions.
-
-    Returns
-    -------
-    tuple of arrays
-        tuple: one gain per input, in order
-    """
-    be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
-    cos_psi, sin_psi = be.cos_sin(psi)
-    cos_theta, sin_theta = be.cos_sin(theta)
-    cos_t2, sin_t2 = be.cos_sin(psi - theta)
-    x0 = b_over_l**2
-    x1 = x0*mu
-    x2 = mu**2
-    x3 = 2*x2
-    x4 = x0*x3
-    x5 = (b_over_l*b_over_l*b_over_l)
-    x6 = x0*x2
-    x7 = sin_psi*b_over_l
-    return ((-x1*sin_theta - x3*x7 - x4*sin_theta - x7*mu + x2*x5*sin_theta - x2*x5*sin_psi - x6*cos_t2*sin_theta + 2*x0*x2*sin_psi + x0*x2*cos_t2*sin_psi + cos_t2*sin_theta*b_over_l*mu + 2*x2*cos_t2*sin_theta*b_over_l)/(x1 + x4 + x2*(b_over_l*b_over_l*b_over_l*b_over_l) - x3*x5 - x6*cos_t2**2),)
-
-
-extended_lift_off_input_gains.outputs = ('hip_torque',)
-
-
-def extended_swing_foot_clearance(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """Condition swing-foot-clearance in phase extended (reported, not enforced).
-
-    Parameters
-    ----------
-    beta : array_like or casadi.SX/MX/DM
-    mu : array_like or casadi.SX/MX/DM
-    b_over_l : array_like or casadi.SX/MX/DM
-    l_min : array_like or casadi.SX/MX/DM
-    theta : array_like or casadi.SX/MX/DM
-    psi : array_like or casadi.SX/MX/DM
-    r : array_like or casadi.SX/MX/DM
-    theta_dot : array_like or casadi.SX/MX/DM
-    psi_dot : array_like or casadi.SX/MX/DM
-    r_dot : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar CasADi
-        expressions.
-
-    Returns
-    -------
-    array
-        crosses zero (direction -1) where it fails
-    """
-    be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
-    cos_psi, sin_psi = be.cos_sin(psi)
-    cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_theta - cos_psi*beta
-
-
-def extended_swing_foot_clearance_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """d(guard of swing-foot-clearance)/d(input) in phase extended: the guard with the inputs on is extended_swing_foot_clearance + these times the inputs.
-
-    Parameters
-    ----------
-    beta : array_like or casadi.SX/MX/DM
-    mu : array_like or casadi.SX/MX/DM
-    b_over_l : array_like or casadi.SX/MX/DM
-    l_min : array_like or casadi.SX/MX/DM
-    theta : array_like or casadi.SX/MX/DM
-    psi : array_like or casadi.SX/MX/DM
-    r : array_like or casadi.SX/MX/DM
-    theta_dot : array_like or casadi.SX/MX/DM
-    psi_dot : array_like or casadi.SX/MX/DM
-    r_dot : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar CasADi
-        expressions.
-
-    Returns
-    -------
-    tuple of arrays
-        tuple: one gain per input, in order
-    """
-    be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
-    return (0,)
-
-
-extended_swing_foot_clearance_input_gains.outputs = ('hip_torque',)
-
-
-def extended_positions(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """Position (x, y) and angle of each body in phase extended's chart.
-
-    Parameters
-    ----------
-    beta : array_like or casadi.SX/MX/DM
-    mu : array_like or casadi.SX/MX/DM
-    b_over_l : array_like or casadi.SX/MX/DM
-    l_min : array_like or casadi.SX/MX/DM
-    theta : array_like or casadi.SX/MX/DM
-    psi : array_like or casadi.SX/MX/DM
-    r : array_like or casadi.SX/MX/DM
-    theta_dot : array_like or casadi.SX/MX/DM
-    psi_dot : array_like or casadi.SX/MX/DM
-    r_dot : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar CasADi
-        expressions.
-
-    Returns
-    -------
-    tuple of arrays
-        tuple: x, y, angle of each body in order (angle 0 for a point mass)
-    """
-    be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
-    cos_psi, sin_psi = be.cos_sin(psi)
-    cos_theta, sin_theta = be.cos_sin(theta)
-    x0 = -sin_theta
-    x1 = -cos_theta
-    return (sin_theta, cos_theta, 0, -x0 - sin_theta*b_over_l, -x1 - cos_theta*b_over_l, 0, -x0 - sin_psi*b_over_l, -x1 - cos_psi*b_over_l, 0,)
-
-
-def extended_inertias(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """Mass and central moment of inertia of each body in phase extended.
-
-    Parameters
-    ----------
-    beta : array_like or casadi.SX/MX/DM
-    mu : array_like or casadi.SX/MX/DM
-    b_over_l : array_like or casadi.SX/MX/DM
-    l_min : array_like or casadi.SX/MX/DM
-    theta : array_like or casadi.SX/MX/DM
-    psi : array_like or casadi.SX/MX/DM
-    r : array_like or casadi.SX/MX/DM
-    theta_dot : array_like or casadi.SX/MX/DM
-    psi_dot : array_like or casadi.SX/MX/DM
-    r_dot : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar CasADi
-        expressions.
-
-    Returns
-    -------
-    tuple of arrays
-        tuple: mass, inertia of each body in order (inertia 0 for a point mass)
-    """
-    be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
-    return (1, 0, mu, 0, mu, 0,)
-
-
-def extended_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """d(acceleration)/d(input) in phase extended: the accelerations are extended_accelerations + these times the inputs (hip_torque).
-
-    Parameters
-    ----------
-    beta : array_like or casadi.SX/MX/DM
-    mu : array_like or casadi.SX/MX/DM
-    b_over_l : array_like or casadi.SX/MX/DM
-    l_min : array_like or casadi.SX/MX/DM
-    theta : array_like or casadi.SX/MX/DM
-    psi : array_like or casadi.SX/MX/DM
-    r : array_like or casadi.SX/MX/DM
-    theta_dot : array_like or casadi.SX/MX/DM
-    psi_dot : array_like or casadi.SX/MX/DM
-    r_dot : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar CasADi
-        expressions.
-
-    Returns
-    -------
-    tuple of arrays
-        tuple: for each state coordinate in order, its gain from each input in order
-    """
-    be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
-    cos_t0, sin_t0 = be.cos_sin(psi - theta)
-    x0 = b_over_l**2
-    x1 = x0*mu
-    x2 = x1 - cos_t0*b_over_l*mu
-    x3 = mu**2
-    x4 = 2*x3
-    x5 = (1/(x1 + x0*x4 + x3*(b_over_l*b_over_l*b_over_l*b_over_l) - x4*(b_over_l*b_over_l*b_over_l) - x0*x3*cos_t0**2))
-    return (x2*x5, x5*(-1 - x2 - 2*mu + 2*b_over_l*mu), 0,)
-
-
-extended_input_gains.outputs = ('theta/hip_torque', 'psi/hip_torque', 'r/hip_torque')
-
-
-def extended_reaction_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """d(ground reaction)/d(input) in phase extended: normal force's gains, then the tangential force's, one per input.
-
-    Parameters
-    ----------
-    beta : array_like or casadi.SX/MX/DM
-    mu : array_like or casadi.SX/MX/DM
-    b_over_l : array_like or casadi.SX/MX/DM
-    l_min : array_like or casadi.SX/MX/DM
-    theta : array_like or casadi.SX/MX/DM
-    psi : array_like or casadi.SX/MX/DM
-    r : array_like or casadi.SX/MX/DM
-    theta_dot : array_like or casadi.SX/MX/DM
-    psi_dot : array_like or casadi.SX/MX/DM
-    r_dot : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar CasADi
-        expressions.
-
-    Returns
-    -------
-    tuple of arrays
-        tuple: normal gains per input, then tangential gains per input
-    """
-    be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
-    cos_psi, sin_psi = be.cos_sin(psi)
-    cos_theta, sin_theta = be.cos_sin(theta)
-    cos_t2, sin_t2 = be.cos_sin(psi - theta)
-    x0 = b_over_l**2
-    x1 = x0*mu
-    x2 = mu**2
-    x3 = 2*x2
-    x4 = x0*x3
-    x5 = (b_over_l*b_over_l*b_over_l)
-    x6 = x0*x2
-    x7 = (1/(x1 + x4 + x2*(b_over_l*b_over_l*b_over_l*b_over_l) - x3*x5 - x6*cos_t2**2))
-    x8 = b_over_l*mu
-    x9 = x3*b_over_l
-    x10 = x2*x5
-    x11 = x6*cos_t2
-    return (x7*(-x1*sin_theta - x10*sin_psi - x11*sin_theta - x4*sin_theta - x8*sin_psi - x9*sin_psi + x2*x5*sin_theta + 2*x0*x2*sin_psi + x0*x2*cos_t2*sin_psi + cos_t2*sin_theta*b_over_l*mu + 2*x2*cos_t2*sin_theta*b_over_l), x7*(x1*cos_theta + x10*cos_psi + x11*cos_theta + x4*cos_theta + x8*cos_psi + x9*cos_psi - x10*cos_theta - x11*cos_psi - x4*cos_psi - x8*cos_t2*cos_theta - x9*cos_t2*cos_theta),)
-
-
-extended_reaction_input_gains.outputs = ('normal/hip_torque', 'tangential/hip_torque')
-
-
-def extended_input_rates(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """Rate of what each input of phase extended acts along: its power is the input times this.
-
-    Parameters
-    ----------
-    beta : array_like or casadi.SX/MX/DM
-    mu : array_like or casadi.SX/MX/DM
-    b_over_l : array_like or casadi.SX/MX/DM
-    l_min : array_like or casadi.SX/MX/DM
-    theta : array_like or casadi.SX/MX/DM
-    psi : array_like or casadi.SX/MX/DM
-    r : array_like or casadi.SX/MX/DM
-    theta_dot : array_like or casadi.SX/MX/DM
-    psi_dot : array_like or casadi.SX/MX/DM
-    r_dot : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar CasADi
-        expressions.
-
-    Returns
-    -------
-    tuple of arrays
-        tuple: one rate per input, in order
-    """
-    be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
-    return (theta_dot - psi_dot,)
-
-
-extended_input_rates.outputs = ('hip_torque',)
-
-
-def event_end_stop_guard(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """Guard of the event end_stop: crosses zero when it happens.
-
-    Parameters
-    ----------
-    beta : array_like or casadi.SX/MX/DM
-    mu : array_like or casadi.SX/MX/DM
-    b_over_l : array_like or casadi.SX/MX/DM
-    l_min : array_like or casadi.SX/MX/DM
-    theta : array_like or casadi.SX/MX/DM
-    psi : array_like or casadi.SX/MX/DM
-    r : array_like or casadi.SX/MX/DM
-    theta_dot : array_like or casadi.SX/MX/DM
-    psi_dot : array_like or casadi.SX/MX/DM
-    r_dot : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar CasADi
-        expressions.
-
-    Returns
-    -------
-    array
-        guard
-    """
-    be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
-    return -1 + r
-
-
-def event_end_stop_reset(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """State just after the event end_stop (from the state just before). Eq. (3) with massive legs, the extension's end of the paper.
-
-    Parameters
-    ----------
-    beta : array_like or casadi.SX/MX/DM
-    mu : array_like or casadi.SX/MX/DM
-    b_over_l : array_like or casadi.SX/MX/DM
-    l_min : array_like or casadi.SX/MX/DM
-    theta : array_like or casadi.SX/MX/DM
-    psi : array_like or casadi.SX/MX/DM
-    r : array_like or casadi.SX/MX/DM
-    theta_dot : array_like or casadi.SX/MX/DM
-    psi_dot : array_like or casadi.SX/MX/DM
-    r_dot : array_like or casadi.SX/MX/DM
-        Arguments broadcast against each other (numpy) or are scalar CasADi
-        expressions.
-
-    Returns
-    -------
-    tuple of arrays
-        tuple: coordinates, then rates
-    """
-    be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
-    cos_t0, sin_t0 = be.cos_sin(psi - theta)
-    x0 = b_over_l**2
-    x1 = x0*mu
-    x2 = mu**2
-    x3 = x2*(b_over_l*b_over_l*b_over_l*b_over_l)
-    x4 = 2*x2
-    x5 = x0*x4
-    x6 = (b_over_l*b_over_l*b_over_l)
-    x7 = x4*x6
-    x8 = x0*x2
-    x9 = x8*cos_t0**2
-    x10 = (1/(x1 + x3 + x5 - x7 - x9))
-    x11 = r_dot*sin_t0
-    x12 = x11*b_over_l
-    return (theta, psi, 1, x10*(x1*theta_dot + x3*theta_dot + x5*theta_dot - x7*theta_dot - x9*theta_dot + x11*x8*cos_t0), x10*(x1*psi_dot + x12*x4 + x12*mu + x3*psi_dot + x5*psi_dot - x11*x5 - x7*psi_dot - x9*psi_dot + x11*x2*x6), 0,)
+stance_input_rates.outputs = ('leg_force', 'hip_torque')
 
 
 def event_heelstrike_guard(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
@@ -1399,7 +797,7 @@ def event_heelstrike_guard(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, 
     be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
     cos_psi, sin_psi = be.cos_sin(psi)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return cos_theta - cos_psi*beta
+    return cos_theta*r - cos_psi*beta
 
 
 def event_heelstrike_reset(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
@@ -1447,32 +845,40 @@ def event_heelstrike_reset(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, 
     x17 = x1*x7
     x18 = 3*x17
     x19 = 2*x3*x7
-    x20 = (1/(x16 + x18 + x19 + x2 + x4 + x8 - x12 - x14 - x14*x15))
-    x21 = x4*psi_dot
-    x22 = cos_t0*theta_dot
-    x23 = x5*beta
-    x24 = x22*x23
-    x25 = psi_dot*beta
-    x26 = x10*x25
-    x27 = x13*x25
-    x28 = x11*x3*x5
-    x29 = x13*theta_dot
-    x30 = x2*theta_dot
-    x31 = x4*theta_dot
-    x32 = x8*theta_dot
-    x33 = x12*theta_dot
-    x34 = x14*theta_dot
-    x35 = cos_t0*psi_dot
-    x36 = x18*theta_dot
-    x37 = x19*theta_dot
-    x38 = x15*theta_dot
-    x39 = x15*x29
-    x40 = sin_t0*beta
-    return (psi, theta, beta, x20*(x21 - x26 - x27 + x16*psi_dot + x2*psi_dot + x22*x28 + x24*mu - x10*x22 - x13*x22 - x15*x27 - x29*(cos_t0*cos_t0*cos_t0) + 3*x1*x24), x20*(x30 + x31 + x32 + x36 + x37 - x33 - x34 - 2*x39 + x14*x35 + x16*theta_dot + x26*cos_t0 + x28*x38 - x10*x38 - x14*x38 - x17*x35 - x19*x35 + x1*x23*x38), x20*(x30*sin_t0 + x31*sin_t0 + x32*sin_t0 + x36*sin_t0 + x37*sin_t0 - x33*sin_t0 - x34*sin_t0 - x39*x40 + x21*x40*cos_t0 - x13*x35*x6*sin_t0),)
+    x20 = x14*x15
+    x21 = (1/(x16 + x18 + x19 + x2 + x4 + x8 - x12 - x14 - x20))
+    x22 = x4*psi_dot
+    x23 = r_dot*sin_t0
+    x24 = x10*x23
+    x25 = x5*beta
+    x26 = x23*x25
+    x27 = r*theta_dot
+    x28 = x27*cos_t0
+    x29 = psi_dot*beta
+    x30 = x10*x29
+    x31 = x13*x29
+    x32 = 2*x13
+    x33 = x23*x32
+    x34 = x1*x25
+    x35 = x23*x34
+    x36 = r_dot*(sin_t0*sin_t0*sin_t0)
+    x37 = x11*x3*x5
+    x38 = x13*(cos_t0*cos_t0*cos_t0)
+    x39 = x23*x37
+    x40 = x2*theta_dot
+    x41 = x4*theta_dot
+    x42 = x8*theta_dot
+    x43 = cos_t0*psi_dot
+    x44 = x15*x27
+    x45 = cos_t0*r_dot
+    x46 = r*sin_t0
+    x47 = x13*beta
+    x48 = x27*sin_t0
+    return (psi, theta, beta, x21*(x22 + x24 + x33 - x30 - x31 - 4*x35 + x15*x35 + x15*x39 + x16*psi_dot + x2*psi_dot + x28*x37 + x34*x36 + x36*x37 - x10*x28 - x13*x28 - x13*x36 - x15*x31 - x26*mu - x27*x38 - 4*x26*x3 + 3*x28*x34 + x25*x28*mu), x21*(x40 + x41 + x42 + x14*x43 + x16*theta_dot + x18*theta_dot + x19*theta_dot + x24*cos_t0 + x30*cos_t0 + x33*cos_t0 + x34*x44 + x37*x44 - x10*x44 - x12*theta_dot - x14*theta_dot - x17*x43 - x19*x43 - x20*theta_dot - x32*x44 - x35*cos_t0 - x39*cos_t0), x21*(x18*x45 + x18*x48 + x19*x45 + x19*x48 + x2*x45 + x40*x46 + x41*x46 + x42*x46 + x45*x8 - x12*x45 - x12*x48 - x14*x48 - 3*x45*x47 + 2*x4*x45 - x38*r_dot*beta - x44*x47*sin_t0 + x22*cos_t0*sin_t0*beta - x13*x43*x6*sin_t0),)
 
 
 def event_heelstrike_impulse_gains_before(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """d(rate)/d(impulse) of the impulses applied before the reset of heelstrike (in phase extended's chart): the rates jump by these times the impulses, the coordinates do not move.
+    """d(rate)/d(impulse) of the impulses applied before the reset of heelstrike (in phase stance's chart): the rates jump by these times the impulses, the coordinates do not move.
 
     Parameters
     ----------
@@ -1496,16 +902,23 @@ def event_heelstrike_impulse_gains_before(beta, mu, b_over_l, l_min, theta, psi,
     """
     be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
     cos_t0, sin_t0 = be.cos_sin(psi - theta)
-    x0 = b_over_l**2
-    x1 = x0*mu
-    x2 = x1 - cos_t0*b_over_l*mu
-    x3 = mu**2
-    x4 = 2*x3
-    x5 = (1/(x1 + x0*x4 + x3*(b_over_l*b_over_l*b_over_l*b_over_l) - x4*(b_over_l*b_over_l*b_over_l) - x0*x3*cos_t0**2))
-    return (x2*x5, x5*(-1 - x2 - 2*mu + 2*b_over_l*mu), 0,)
+    x0 = r**2
+    x1 = 2*mu
+    x2 = 1 + x1
+    x3 = x0*x2
+    x4 = b_over_l**2
+    x5 = x4*mu**2
+    x6 = x5*cos_t0**2
+    x7 = r*b_over_l
+    x8 = x3 + x4*mu - x1*x7
+    x9 = x5*sin_t0**2
+    x10 = (1/(-x3*x6 - x8*x9 + x2*x4*x8*mu))
+    x11 = x5*cos_t0*r*sin_t0
+    x12 = x2*x7*cos_t0*mu
+    return (-x10*x11, x10*(-x12 - x9 + x2*x4*mu), -x10*x8*sin_t0*b_over_l*mu, x10*(x12 - x2*x8), x10*(-x0*x6 + x4*x8*mu), x10*(-x11 + x8*sin_t0*b_over_l*mu),)
 
 
-event_heelstrike_impulse_gains_before.outputs = ('theta/hip_impulse_before', 'psi/hip_impulse_before', 'r/hip_impulse_before')
+event_heelstrike_impulse_gains_before.outputs = ('theta/push_off', 'theta/hip_impulse_before', 'psi/push_off', 'psi/hip_impulse_before', 'r/push_off', 'r/hip_impulse_before')
 
 
 def event_heelstrike_impulse_rates_before(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
@@ -1532,14 +945,14 @@ def event_heelstrike_impulse_rates_before(beta, mu, b_over_l, l_min, theta, psi,
         tuple: one rate per input, in order
     """
     be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
-    return (theta_dot - psi_dot,)
+    return (r_dot, theta_dot - psi_dot,)
 
 
-event_heelstrike_impulse_rates_before.outputs = ('hip_impulse_before',)
+event_heelstrike_impulse_rates_before.outputs = ('push_off', 'hip_impulse_before')
 
 
 def event_heelstrike_impulse_gains_after(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """d(rate)/d(impulse) of the impulses applied after the reset of heelstrike (in phase stroke's chart): the rates jump by these times the impulses, the coordinates do not move.
+    """d(rate)/d(impulse) of the impulses applied after the reset of heelstrike (in phase stance's chart): the rates jump by these times the impulses, the coordinates do not move.
 
     Parameters
     ----------
@@ -1613,7 +1026,7 @@ event_heelstrike_impulse_rates_after.outputs = ('heel_strike', 'hip_impulse_afte
 
 
 def event_heelstrike_contact(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
-    """The new contact point of the impact heelstrike (x, y in phase extended's chart).
+    """The new contact point of the impact heelstrike (x, y in phase stance's chart).
 
     Parameters
     ----------
@@ -1638,7 +1051,7 @@ def event_heelstrike_contact(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot
     be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
     cos_psi, sin_psi = be.cos_sin(psi)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return (sin_theta - sin_psi*beta, cos_theta - cos_psi*beta,)
+    return (r*sin_theta - sin_psi*beta, cos_theta*r - cos_psi*beta,)
 
 
 def event_heelstrike_when(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
@@ -1694,7 +1107,7 @@ def step_length_of_state(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, ps
     be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
     cos_psi, sin_psi = be.cos_sin(psi)
     cos_theta, sin_theta = be.cos_sin(theta)
-    return sin_theta - sin_psi*beta
+    return r*sin_theta - sin_psi*beta
 
 
 def weight(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):

@@ -39,6 +39,26 @@ def register(subparsers: Any) -> None:
     p.add_argument("--use", action="append", metavar="NAME",
                    help="an input or impulse the gait may use (repeatable; the others are held "
                    "at zero; default: every one; 'vsw models' lists them)")  # fmt: skip
+    p.add_argument(
+        "--friction",
+        type=float,
+        metavar="MU",
+        help="the ground's friction coefficient at impacts (each foot's impulse "
+        "within its cone; default: unbounded; the ground pushes whatever this is)",
+    )
+    p.add_argument(
+        "--pushing-locks",
+        action="store_true",
+        help="the ground must push at locks too (a leg reaches its end stop without "
+        "speed; default: reported, not constrained)",
+    )
+    p.add_argument(
+        "--clearance",
+        type=float,
+        metavar="H",
+        help="the swing foot at least H sin(pi s) above the ground, s the fraction of the "
+        "step (no scuffing; default: reported, not enforced)",
+    )
     p.add_argument("--plot", metavar="FILE", help="save the states and inputs over the step")
     p.set_defaults(func=run, parser=p)
 
@@ -47,7 +67,9 @@ def run(args: argparse.Namespace) -> int:
     model = args.model_object
     params = model.parameters(args.values)
     request = powered.Request(args.minimize, args.target_speed, args.target_step_length,
-                              args.nodes, use=tuple(args.use or ()))  # fmt: skip
+                              args.nodes, use=tuple(args.use or ()), friction=args.friction,
+                              pushing_locks=args.pushing_locks,
+                              clearance=args.clearance)  # fmt: skip
     request.check()
     if args.plot is not None:
         check_save_path(args.plot)
@@ -99,6 +121,9 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
         "speed": gait.speed,
         "work": gait.work,
         "impulses": gait.impulses,
+        "ground_impulses": {
+            k: {"tangential": t, "normal": n} for k, (t, n) in gait.ground_impulses.items()
+        },
         "resimulation_error": gait.resimulation_error,
         "guard_at_end": gait.guard_at_end,
         "eigenvalues": None if eigenvalues is None else [[e.real, e.imag] for e in eigenvalues],
@@ -113,10 +138,16 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
             "mesh_change": "relative change of the cost from the coarse to the fine mesh (a "
             "cost zero within 1e-9 on both agrees whatever this is)",
             "work": "per phase.input: positive and negative work over the step (Simpson); "
-            "per event.impulse: its work (impulse times the mean of its along's rate "
-            "before and after it; c impulse^2 / 2 for one applied with an impact)",
+            "per event.impulse: its positive and negative work (its net work the impulse "
+            "times the mean of its along's rate before and after it; its positive work "
+            "exact, in the two parts the optimiser split it into; c impulse^2 / 2 for one "
+            "applied with an impact)",
             "impulses": "per event.impulse: the impulse, applied at the event (before its "
             "reset, with its impact or after it, as the model declares)",
+            "ground_impulses": "per event.foot: the ground's impulse on the walker through "
+            "that foot over the event (the momentum's change), along the ground and normal "
+            "to it; at an impact constrained to push (normal >= 0), at a lock reported "
+            "(tangential / normal is the friction the foot needs)",
             "resimulation_error": "largest gap between a re-simulated phase's end and its "
             "last knot, relative to max(1, |state|)",
             "eigenvalues": "of the open-loop Poincare map (inputs as functions of the time "
@@ -139,6 +170,8 @@ def _write_text(model, params, request: powered.Request, gait: powered.PoweredGa
         out.write(f"work of {key:<11} +{fmt(work['positive'])} / {fmt(work['negative'])}\n")
     for key, impulse in gait.impulses.items():
         out.write(f"impulse {key:<11} {fmt(impulse)}\n")
+    for key, (tangential, normal) in gait.ground_impulses.items():
+        out.write(f"ground at {key:<9} normal {fmt(normal)}, tangential {fmt(tangential)}\n")
     out.write(f"re-simulation      {fmt(gait.resimulation_error)} (relative), guard at the end "
               f"{fmt(gait.guard_at_end)}\n")  # fmt: skip
     eigenvalues = gait.extra.get("eigenvalues")

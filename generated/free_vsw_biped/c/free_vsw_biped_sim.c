@@ -7,9 +7,9 @@
  * by vsw/batch.py): every function takes (c, x), the model's constants (what the functions
  * use of the parameters beta, mu, b_over_l, l_min: c = constants(p), once a walk) and the state
  * (theta, psi, r, theta_dot, psi_dot, r_dot), in CasADi's calling convention.
- * Phases: stroke, extended.
- * Events: end_stop (stroke -> extended), heelstrike (extended -> stroke, ends the step).
- * Failures: fell-backward, fell-forward, lift-off, crouched.
+ * Phases: stance.
+ * Events: heelstrike (stance -> stance, ends the step).
+ * Failures: fell-backward, fell-forward, lift-off, crouched, overextended.
  */
 /* Hidden with the rest of the library (vsw/batch.py builds it with -fvisibility=hidden):
    CasADi's functions are called directly (the compiler may inline them), not exported. */
@@ -51,14 +51,10 @@ extern "C" {
 #define casadi_f3 CASADI_PREFIX(f3)
 #define casadi_f4 CASADI_PREFIX(f4)
 #define casadi_f5 CASADI_PREFIX(f5)
-#define casadi_f6 CASADI_PREFIX(f6)
-#define casadi_f7 CASADI_PREFIX(f7)
-#define casadi_f8 CASADI_PREFIX(f8)
 #define casadi_s0 CASADI_PREFIX(s0)
 #define casadi_s1 CASADI_PREFIX(s1)
 #define casadi_s2 CASADI_PREFIX(s2)
 #define casadi_s3 CASADI_PREFIX(s3)
-#define casadi_s4 CASADI_PREFIX(s4)
 #define casadi_sq CASADI_PREFIX(sq)
 
 /* Symbol visibility in DLLs */
@@ -88,12 +84,11 @@ CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim__casadi_int_size(void) { return 
 CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim__casadi_real_size(void) { return (int) sizeof(casadi_real); }
 
 static const casadi_int casadi_s0[3] = {4, 1, 1};
-static const casadi_int casadi_s1[3] = {74, 1, 1};
+static const casadi_int casadi_s1[3] = {39, 1, 1};
 static const casadi_int casadi_s2[3] = {6, 1, 1};
-static const casadi_int casadi_s3[3] = {5, 1, 1};
-static const casadi_int casadi_s4[3] = {1, 1, 1};
+static const casadi_int casadi_s3[3] = {1, 1, 1};
 
-/* vsw_free_vsw_biped_sim_constants:(p[4])->(c[74]) */
+/* vsw_free_vsw_biped_sim_constants:(p[4])->(c[39]) */
 static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   a00=arg[0][2];
@@ -120,183 +115,79 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   a02=(a02*a04);
   res[0][8]=a02;
   res[0][9]=a04;
-  a04=(a00*a01);
+  a04=arg[0][0];
   res[0][10]=a04;
-  a04=(2.*a01);
-  a03=(a03+a04);
-  res[0][11]=a03;
-  res[0][12]=a04;
-  a02=casadi_sq(a00);
-  a05=(a02*a01);
-  res[0][13]=a05;
-  a04=(a04*a00);
-  res[0][14]=a04;
-  a04=(a03*a02);
-  res[0][15]=a04;
-  a04=casadi_sq(a01);
-  a04=(a02*a04);
-  res[0][16]=a04;
-  res[0][17]=a02;
-  a03=(a03*a02);
-  a03=(a03*a01);
-  res[0][18]=a03;
-  a03=arg[0][3];
-  res[0][19]=a03;
-  a03=casadi_sq(a00);
-  res[0][20]=a03;
+  a02=(a00*a01);
+  res[0][11]=a02;
+  a02=(2.*a01);
+  a03=(a03+a02);
+  res[0][12]=a03;
+  res[0][13]=a02;
+  a05=casadi_sq(a00);
+  a06=(a05*a01);
+  res[0][14]=a06;
+  a02=(a02*a00);
+  res[0][15]=a02;
+  a02=(a03*a05);
+  res[0][16]=a02;
   a02=casadi_sq(a01);
-  a04=casadi_sq(a00);
-  a04=(a04*a00);
-  a05=(a02*a04);
-  res[0][21]=a05;
-  a05=(a03*a02);
-  res[0][22]=a05;
-  a05=(2.*a03);
-  a05=(a05*a02);
-  res[0][23]=a05;
-  a05=(a03*a02);
-  res[0][24]=a05;
-  a05=(2.*a02);
-  a06=(a03*a05);
-  a07=(a03*a01);
-  a07=(a06+a07);
-  a08=casadi_sq(a00);
-  a08=(a08*a00);
-  a08=(a08*a00);
-  a08=(a02*a08);
-  a07=(a07+a08);
-  a08=(a05*a04);
-  a07=(a07-a08);
-  res[0][25]=a07;
-  a03=(2.*a03);
-  a03=(a03*a02);
-  res[0][26]=a03;
-  res[0][27]=a05;
-  res[0][28]=a06;
-  res[0][29]=a02;
-  res[0][30]=a04;
-  a04=(2.*a02);
-  res[0][31]=a04;
-  a02=(2.*a02);
-  res[0][32]=a02;
-  a02=arg[0][0];
-  res[0][33]=a02;
-  a04=casadi_sq(a00);
-  a06=casadi_sq(a01);
-  a05=(a04*a06);
-  res[0][34]=a05;
+  a02=(a05*a02);
+  res[0][17]=a02;
+  res[0][18]=a05;
+  a03=(a03*a05);
+  a03=(a03*a01);
+  res[0][19]=a03;
+  a03=arg[0][3];
+  res[0][20]=a03;
   a03=casadi_sq(a00);
   a03=(a03*a00);
   a03=(a03*a00);
-  a07=(a06*a03);
-  res[0][35]=a07;
-  a07=casadi_sq(a01);
-  a07=(a07*a01);
-  a08=casadi_sq(a00);
-  a08=(a08*a00);
-  a09=(2.*a08);
-  a10=(a07*a09);
-  res[0][36]=a10;
-  a10=(a04*a07);
-  a11=(2.*a10);
-  res[0][37]=a11;
-  a04=(a04*a01);
-  res[0][38]=a04;
-  res[0][39]=a10;
-  a03=(a07*a03);
-  res[0][40]=a03;
-  a04=(a06*a08);
-  res[0][41]=a04;
-  a04=casadi_sq(a00);
-  a04=casadi_sq(a04);
-  a04=(a00*a04);
-  a04=(a07*a04);
-  res[0][42]=a04;
-  a05=(2.*a05);
-  res[0][43]=a05;
-  a06=(a06*a09);
-  res[0][44]=a06;
-  a07=(a07*a08);
-  res[0][45]=a07;
-  a08=4.;
-  a06=(a08*a03);
-  res[0][46]=a06;
-  a03=(2.*a03);
-  res[0][47]=a03;
-  a08=(a08*a10);
-  res[0][48]=a08;
-  a08=6.;
-  a08=(a08*a07);
-  res[0][49]=a08;
-  a08=casadi_sq(a00);
-  a07=(a08*a01);
-  res[0][50]=a07;
-  a10=casadi_sq(a01);
-  a03=casadi_sq(a00);
-  a03=(a03*a00);
-  a03=(a03*a00);
-  a03=(a10*a03);
-  res[0][51]=a03;
-  a06=(2.*a10);
-  a09=(a08*a06);
-  res[0][52]=a09;
-  a05=casadi_sq(a00);
-  a05=(a05*a00);
-  a04=(a06*a05);
-  res[0][53]=a04;
-  a08=(a08*a10);
-  res[0][54]=a08;
-  a07=(a07+a03);
-  a07=(a07+a09);
-  a07=(a07-a04);
-  res[0][55]=a07;
-  res[0][56]=a06;
-  res[0][57]=a10;
-  res[0][58]=a05;
-  a05=casadi_sq(a00);
-  a05=(a05*a00);
-  a05=(a05*a00);
-  a10=casadi_sq(a01);
-  a10=(a10*a01);
-  a06=(a05*a10);
-  res[0][59]=a06;
+  a05=casadi_sq(a01);
+  a05=(a05*a01);
+  a02=(a03*a05);
+  res[0][21]=a02;
   a06=casadi_sq(a01);
   a07=casadi_sq(a00);
   a07=(a07*a00);
-  a04=(a06*a07);
-  res[0][60]=a04;
-  a07=(a10*a07);
-  res[0][61]=a07;
-  a05=(a05*a06);
-  res[0][62]=a05;
-  a05=(2.*a02);
-  a09=(a05*a10);
+  a08=(a06*a07);
+  res[0][22]=a08;
+  a07=(a05*a07);
+  a09=(2.*a07);
+  res[0][23]=a09;
+  res[0][24]=a07;
   a00=casadi_sq(a00);
-  a09=(a09*a00);
-  res[0][63]=a09;
-  a09=(a00*a02);
-  res[0][64]=a09;
-  a03=3.;
-  a08=(a03*a06);
-  res[0][65]=a08;
-  a02=casadi_sq(a02);
-  a00=(a00*a02);
-  a08=(a06*a00);
-  a03=(a03*a08);
-  res[0][66]=a03;
-  a10=(2.*a10);
-  a10=(a10*a00);
-  res[0][67]=a10;
+  a09=(a00*a04);
+  a10=(a06*a09);
+  res[0][25]=a10;
+  a10=(2.*a04);
+  a11=(a10*a05);
+  a11=(a11*a00);
+  res[0][26]=a11;
+  a03=(a03*a06);
+  res[0][27]=a03;
+  res[0][28]=a09;
+  res[0][29]=a05;
+  a09=3.;
+  a03=casadi_sq(a04);
+  a00=(a00*a03);
+  a06=(a06*a00);
+  a09=(a09*a06);
+  res[0][30]=a09;
+  a05=(2.*a05);
+  a05=(a05*a00);
+  res[0][31]=a05;
   a00=(a00*a01);
-  res[0][68]=a00;
-  a04=(a04*a05);
-  res[0][69]=a04;
-  a05=(a05*a07);
-  res[0][70]=a05;
-  res[0][71]=a08;
-  a06=(a06*a09);
-  res[0][72]=a06;
-  res[0][73]=a02;
+  res[0][32]=a00;
+  a08=(a08*a10);
+  res[0][33]=a08;
+  a10=(a10*a07);
+  res[0][34]=a10;
+  res[0][35]=a06;
+  a07=(a07*a04);
+  res[0][36]=a07;
+  a02=(2.*a02);
+  res[0][37]=a02;
+  res[0][38]=a03;
   return 0;
 }
 
@@ -371,7 +262,7 @@ CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_constants_work_bytes(casadi_int 
   return 0;
 }
 
-/* vsw_free_vsw_biped_sim_stroke_flow:(c[74],x[6])->(stroke_flow[6]) */
+/* vsw_free_vsw_biped_sim_stance_flow:(c[39],x[6])->(stance_flow[6]) */
 static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20;
@@ -485,34 +376,34 @@ static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   return 0;
 }
 
-CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_stroke_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_stance_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
   return casadi_f1(arg, res, iw, w, mem);
 }
 
-CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_stroke_flow_checkout(void) {
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_stance_flow_checkout(void) {
   return 0;
 }
 
-CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_sim_stroke_flow_release(int mem) {
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_sim_stance_flow_release(int mem) {
 }
 
-CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_sim_stroke_flow_incref(void) {
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_sim_stance_flow_incref(void) {
 }
 
-CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_sim_stroke_flow_decref(void) {
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_sim_stance_flow_decref(void) {
 }
 
-CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_sim_stroke_flow_n_in(void) { return 2;}
+CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_sim_stance_flow_n_in(void) { return 2;}
 
-CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_sim_stroke_flow_n_out(void) { return 1;}
+CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_sim_stance_flow_n_out(void) { return 1;}
 
-CASADI_SYMBOL_EXPORT casadi_real vsw_free_vsw_biped_sim_stroke_flow_default_in(casadi_int i) {
+CASADI_SYMBOL_EXPORT casadi_real vsw_free_vsw_biped_sim_stance_flow_default_in(casadi_int i) {
   switch (i) {
     default: return 0;
   }
 }
 
-CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_sim_stroke_flow_name_in(casadi_int i) {
+CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_sim_stance_flow_name_in(casadi_int i) {
   switch (i) {
     case 0: return "c";
     case 1: return "x";
@@ -520,14 +411,14 @@ CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_sim_stroke_flow_name_in(casa
   }
 }
 
-CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_sim_stroke_flow_name_out(casadi_int i) {
+CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_sim_stance_flow_name_out(casadi_int i) {
   switch (i) {
-    case 0: return "stroke_flow";
+    case 0: return "stance_flow";
     default: return 0;
   }
 }
 
-CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_sim_stroke_flow_sparsity_in(casadi_int i) {
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_sim_stance_flow_sparsity_in(casadi_int i) {
   switch (i) {
     case 0: return casadi_s1;
     case 1: return casadi_s2;
@@ -535,14 +426,14 @@ CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_sim_stroke_flow_sparsi
   }
 }
 
-CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_sim_stroke_flow_sparsity_out(casadi_int i) {
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_sim_stance_flow_sparsity_out(casadi_int i) {
   switch (i) {
     case 0: return casadi_s2;
     default: return 0;
   }
 }
 
-CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_stroke_flow_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_stance_flow_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
   if (sz_arg) *sz_arg = 2;
   if (sz_res) *sz_res = 1;
   if (sz_iw) *sz_iw = 0;
@@ -550,7 +441,7 @@ CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_stroke_flow_work(casadi_int *sz_
   return 0;
 }
 
-CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_stroke_flow_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_stance_flow_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
   if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
   if (sz_res) *sz_res = 1*sizeof(casadi_real*);
   if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
@@ -558,107 +449,111 @@ CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_stroke_flow_work_bytes(casadi_in
   return 0;
 }
 
-/* vsw_free_vsw_biped_sim_stroke_watch:(c[74],x[6])->(stroke_watch[5]) */
+/* vsw_free_vsw_biped_sim_stance_watch:(c[39],x[6])->(stance_watch[6]) */
 static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
   casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32;
-  a00=-1.;
-  a01=arg[1][2];
-  a00=(a00+a01);
-  res[0][0]=a00;
-  a00=arg[1][3];
-  res[0][1]=a00;
-  a02=arg[1][0];
-  a03=cos(a02);
-  res[0][2]=a03;
-  a03=arg[0][11];
-  a04=arg[0][10];
-  a05=arg[1][4];
-  a05=casadi_sq(a05);
-  a05=(a04*a05);
-  a06=arg[1][1];
-  a07=cos(a06);
-  a07=(a05*a07);
-  a07=(a03+a07);
-  a08=casadi_sq(a00);
-  a09=(a04*a08);
-  a10=cos(a02);
+  a00=arg[1][0];
+  a01=cos(a00);
+  a02=arg[1][2];
+  a01=(a01*a02);
+  a03=arg[1][1];
+  a04=cos(a03);
+  a05=arg[0][10];
+  a04=(a04*a05);
+  a01=(a01-a04);
+  res[0][0]=a01;
+  a01=arg[1][3];
+  res[0][1]=a01;
+  a04=cos(a00);
+  res[0][2]=a04;
+  a04=arg[0][12];
+  a05=arg[0][11];
+  a06=arg[1][4];
+  a06=casadi_sq(a06);
+  a06=(a05*a06);
+  a07=cos(a03);
+  a07=(a06*a07);
+  a07=(a04+a07);
+  a08=casadi_sq(a01);
+  a09=(a05*a08);
+  a10=cos(a00);
   a11=(a09*a10);
   a07=(a07+a11);
-  a11=arg[0][12];
+  a11=arg[0][13];
   a12=(a11*a10);
-  a13=(a08*a01);
+  a13=(a08*a02);
   a14=(a12*a13);
   a07=(a07-a14);
   a14=(a13*a10);
   a07=(a07-a14);
   a14=arg[1][5];
-  a15=(a14*a00);
+  a15=(a14*a01);
   a16=(2.*a15);
-  a17=sin(a02);
+  a17=sin(a00);
   a18=(a16*a17);
   a07=(a07-a18);
-  a18=sin(a06);
-  a18=(a04*a18);
-  a19=arg[0][15];
-  a20=casadi_sq(a01);
-  a21=(a20*a03);
-  a22=arg[0][13];
+  a18=sin(a03);
+  a18=(a05*a18);
+  a19=arg[0][16];
+  a20=casadi_sq(a02);
+  a21=(a20*a04);
+  a22=arg[0][14];
   a22=(a21+a22);
-  a23=arg[0][14];
-  a24=(a23*a01);
+  a23=arg[0][15];
+  a24=(a23*a02);
   a22=(a22-a24);
   a19=(a19*a22);
   a24=arg[0][4];
   a19=(a19*a24);
-  a25=arg[0][16];
-  a06=(a06-a02);
-  a02=sin(a06);
-  a26=casadi_sq(a02);
+  a25=arg[0][17];
+  a03=(a03-a00);
+  a00=sin(a03);
+  a26=casadi_sq(a00);
   a26=(a25*a26);
   a27=(a26*a22);
-  a06=cos(a06);
-  a28=casadi_sq(a06);
+  a03=cos(a03);
+  a28=casadi_sq(a03);
   a28=(a25*a28);
   a21=(a21*a28);
   a27=(a27+a21);
   a19=(a19-a27);
   a27=(a18/a19);
-  a21=(a04*a02);
+  a21=(a05*a00);
   a13=(a13*a21);
   a13=(a13-a18);
   a23=(a15*a23);
-  a23=(a23*a06);
+  a23=(a23*a03);
   a13=(a13+a23);
   a23=(a13*a22);
-  a18=(a23*a03);
-  a29=(a03*a01);
+  a18=(a23*a04);
+  a29=(a04*a02);
   a29=(a29*a17);
-  a30=(a04*a17);
-  a02=(a01*a02);
-  a31=(a05*a02);
+  a30=(a05*a17);
+  a00=(a02*a00);
+  a31=(a06*a00);
   a31=(a30+a31);
-  a32=(a03*a01);
+  a32=(a04*a02);
   a16=(a16*a32);
   a31=(a31+a16);
   a29=(a29-a31);
   a14=(2.*a14);
-  a14=(a14*a00);
-  a00=arg[0][3];
-  a14=(a14*a00);
+  a14=(a14*a01);
+  a01=arg[0][3];
+  a14=(a14*a01);
   a14=(a14*a24);
   a29=(a29+a14);
-  a14=(a29*a06);
-  a04=(a04*a32);
-  a32=(a14*a04);
+  a14=(a29*a03);
+  a05=(a05*a32);
+  a32=(a14*a05);
   a18=(a18+a32);
-  a08=(a08*a03);
-  a08=(a08*a01);
-  a05=(a05*a06);
-  a09=(a09+a05);
-  a03=(a03*a10);
-  a09=(a09+a03);
+  a08=(a08*a04);
+  a08=(a08*a02);
+  a06=(a06*a03);
+  a09=(a09+a06);
+  a04=(a04*a10);
+  a09=(a09+a04);
   a08=(a08-a09);
   a09=(a21*a08);
   a09=(a09*a22);
@@ -667,7 +562,7 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   a07=(a07+a27);
   a12=(a12+a10);
   a12=(a12/a19);
-  a10=arg[0][17];
+  a10=arg[0][18];
   a10=(a10*a22);
   a10=(a10*a24);
   a20=(a20*a28);
@@ -675,25 +570,25 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   a10=(a08*a10);
   a21=(a21*a23);
   a10=(a10-a21);
-  a02=(a02*a25);
-  a14=(a14*a02);
+  a00=(a00*a25);
+  a14=(a14*a00);
   a10=(a10-a14);
   a12=(a12*a10);
   a07=(a07+a12);
-  a12=(a01*a17);
+  a12=(a02*a17);
   a30=(a30-a12);
   a11=(a11*a12);
   a30=(a30-a11);
   a30=(a30/a19);
-  a19=arg[0][18];
+  a19=arg[0][19];
   a19=(a19-a26);
   a29=(a29*a19);
-  a13=(a13*a04);
-  a13=(a13*a06);
+  a13=(a13*a05);
+  a13=(a13*a03);
   a29=(a29+a13);
-  a02=(a02*a08);
-  a02=(a02*a06);
-  a29=(a29-a02);
+  a00=(a00*a08);
+  a00=(a00*a03);
+  a29=(a29-a00);
   a30=(a30*a29);
   a07=(a07+a30);
   a30=4.;
@@ -702,40 +597,43 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   a30=(a30*a24);
   a07=(a07-a30);
   res[0][3]=a07;
-  a07=arg[0][19];
-  a01=(a01-a07);
-  res[0][4]=a01;
+  a07=arg[0][20];
+  a07=(a02-a07);
+  res[0][4]=a07;
+  a07=-1.;
+  a07=(a07+a02);
+  res[0][5]=a07;
   return 0;
 }
 
-CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_stroke_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_stance_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
   return casadi_f2(arg, res, iw, w, mem);
 }
 
-CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_stroke_watch_checkout(void) {
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_stance_watch_checkout(void) {
   return 0;
 }
 
-CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_sim_stroke_watch_release(int mem) {
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_sim_stance_watch_release(int mem) {
 }
 
-CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_sim_stroke_watch_incref(void) {
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_sim_stance_watch_incref(void) {
 }
 
-CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_sim_stroke_watch_decref(void) {
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_sim_stance_watch_decref(void) {
 }
 
-CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_sim_stroke_watch_n_in(void) { return 2;}
+CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_sim_stance_watch_n_in(void) { return 2;}
 
-CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_sim_stroke_watch_n_out(void) { return 1;}
+CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_sim_stance_watch_n_out(void) { return 1;}
 
-CASADI_SYMBOL_EXPORT casadi_real vsw_free_vsw_biped_sim_stroke_watch_default_in(casadi_int i) {
+CASADI_SYMBOL_EXPORT casadi_real vsw_free_vsw_biped_sim_stance_watch_default_in(casadi_int i) {
   switch (i) {
     default: return 0;
   }
 }
 
-CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_sim_stroke_watch_name_in(casadi_int i) {
+CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_sim_stance_watch_name_in(casadi_int i) {
   switch (i) {
     case 0: return "c";
     case 1: return "x";
@@ -743,14 +641,14 @@ CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_sim_stroke_watch_name_in(cas
   }
 }
 
-CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_sim_stroke_watch_name_out(casadi_int i) {
+CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_sim_stance_watch_name_out(casadi_int i) {
   switch (i) {
-    case 0: return "stroke_watch";
+    case 0: return "stance_watch";
     default: return 0;
   }
 }
 
-CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_sim_stroke_watch_sparsity_in(casadi_int i) {
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_sim_stance_watch_sparsity_in(casadi_int i) {
   switch (i) {
     case 0: return casadi_s1;
     case 1: return casadi_s2;
@@ -758,14 +656,14 @@ CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_sim_stroke_watch_spars
   }
 }
 
-CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_sim_stroke_watch_sparsity_out(casadi_int i) {
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_sim_stance_watch_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s3;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
 
-CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_stroke_watch_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_stance_watch_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
   if (sz_arg) *sz_arg = 2;
   if (sz_res) *sz_res = 1;
   if (sz_iw) *sz_iw = 0;
@@ -773,7 +671,7 @@ CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_stroke_watch_work(casadi_int *sz
   return 0;
 }
 
-CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_stroke_watch_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_stance_watch_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
   if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
   if (sz_res) *sz_res = 1*sizeof(casadi_real*);
   if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
@@ -781,676 +679,214 @@ CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_stroke_watch_work_bytes(casadi_i
   return 0;
 }
 
-/* vsw_free_vsw_biped_sim_extended_flow:(c[74],x[6])->(extended_flow[6]) */
+/* vsw_free_vsw_biped_sim_heelstrike_reset:(c[39],x[6])->(heelstrike_reset[6]) */
 static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
-  casadi_real a12, a13;
-  a00=arg[1][3];
-  res[0][0]=a00;
-  a01=arg[1][4];
-  res[0][1]=a01;
-  a02=arg[1][5];
-  res[0][2]=a02;
-  a02=arg[0][20];
-  a03=arg[1][0];
-  a04=sin(a03);
-  a02=(a02*a04);
-  a05=arg[0][4];
-  a02=(a02*a05);
-  a06=arg[0][21];
-  a07=(a06*a04);
-  a08=arg[0][22];
-  a09=arg[1][1];
-  a03=(a09-a03);
-  a10=cos(a03);
-  a11=(a08*a10);
-  a09=sin(a09);
-  a12=(a11*a09);
-  a07=(a07+a12);
-  a02=(a02-a07);
-  a01=casadi_sq(a01);
-  a07=(a06*a01);
-  a03=sin(a03);
-  a07=(a07*a03);
-  a02=(a02-a07);
-  a07=arg[0][23];
-  a07=(a07*a04);
-  a02=(a02+a07);
-  a07=arg[0][24];
-  a00=casadi_sq(a00);
-  a07=(a07*a00);
-  a07=(a07*a10);
-  a07=(a07*a03);
-  a02=(a02+a07);
-  a07=arg[0][25];
-  a12=casadi_sq(a10);
-  a08=(a08*a12);
-  a07=(a07-a08);
-  a02=(a02/a07);
-  res[0][3]=a02;
-  a02=arg[0][26];
-  a02=(a02*a09);
-  a08=arg[0][3];
-  a12=(a09*a08);
-  a13=arg[0][27];
-  a13=(a12*a13);
-  a12=(a12*a05);
-  a13=(a13+a12);
-  a06=(a06*a09);
-  a13=(a13+a06);
-  a06=(a11*a04);
-  a13=(a13+a06);
-  a06=arg[0][28];
-  a06=(a00*a06);
-  a06=(a06*a03);
-  a13=(a13+a06);
-  a11=(a11*a01);
-  a11=(a11*a03);
-  a13=(a13+a11);
-  a02=(a02-a13);
-  a13=arg[0][29];
-  a13=(a13*a00);
-  a11=arg[0][30];
-  a13=(a13*a11);
-  a13=(a13*a03);
-  a02=(a02+a13);
-  a13=(a00*a03);
-  a13=(a13*a08);
-  a13=(a13*a05);
-  a02=(a02+a13);
-  a13=(a10*a04);
-  a13=(a13*a08);
-  a13=(a13*a05);
-  a02=(a02+a13);
-  a13=arg[0][31];
-  a13=(a13*a00);
-  a13=(a13*a03);
-  a13=(a13*a08);
-  a02=(a02+a13);
-  a13=arg[0][32];
-  a13=(a13*a10);
-  a13=(a13*a04);
-  a13=(a13*a08);
-  a02=(a02+a13);
-  a02=(a02/a07);
-  res[0][4]=a02;
-  a02=0.;
-  res[0][5]=a02;
-  return 0;
-}
-
-CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_extended_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f3(arg, res, iw, w, mem);
-}
-
-CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_extended_flow_checkout(void) {
-  return 0;
-}
-
-CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_sim_extended_flow_release(int mem) {
-}
-
-CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_sim_extended_flow_incref(void) {
-}
-
-CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_sim_extended_flow_decref(void) {
-}
-
-CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_sim_extended_flow_n_in(void) { return 2;}
-
-CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_sim_extended_flow_n_out(void) { return 1;}
-
-CASADI_SYMBOL_EXPORT casadi_real vsw_free_vsw_biped_sim_extended_flow_default_in(casadi_int i) {
-  switch (i) {
-    default: return 0;
-  }
-}
-
-CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_sim_extended_flow_name_in(casadi_int i) {
-  switch (i) {
-    case 0: return "c";
-    case 1: return "x";
-    default: return 0;
-  }
-}
-
-CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_sim_extended_flow_name_out(casadi_int i) {
-  switch (i) {
-    case 0: return "extended_flow";
-    default: return 0;
-  }
-}
-
-CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_sim_extended_flow_sparsity_in(casadi_int i) {
-  switch (i) {
-    case 0: return casadi_s1;
-    case 1: return casadi_s2;
-    default: return 0;
-  }
-}
-
-CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_sim_extended_flow_sparsity_out(casadi_int i) {
-  switch (i) {
-    case 0: return casadi_s2;
-    default: return 0;
-  }
-}
-
-CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_extended_flow_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
-  if (sz_arg) *sz_arg = 2;
-  if (sz_res) *sz_res = 1;
-  if (sz_iw) *sz_iw = 0;
-  if (sz_w) *sz_w = 0;
-  return 0;
-}
-
-CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_extended_flow_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
-  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
-  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
-  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
-  if (sz_w) *sz_w = 0*sizeof(casadi_real);
-  return 0;
-}
-
-/* vsw_free_vsw_biped_sim_extended_watch:(c[74],x[6])->(extended_watch[4]) */
-static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
-  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
-  casadi_real a24, a25, a26, a27;
-  a00=arg[1][0];
-  a01=cos(a00);
-  a02=arg[1][1];
-  a03=cos(a02);
-  a04=arg[0][33];
-  a03=(a03*a04);
-  a01=(a01-a03);
-  res[0][0]=a01;
-  a01=arg[1][3];
-  res[0][1]=a01;
-  a03=cos(a00);
-  res[0][2]=a03;
-  a03=arg[0][35];
-  a04=(a02-a00);
-  a05=cos(a04);
-  a06=casadi_sq(a05);
-  a07=arg[0][34];
-  a08=(a06*a07);
-  a08=(a03-a08);
-  a09=arg[0][36];
-  a10=(a08+a09);
-  a11=arg[0][37];
-  a10=(a10-a11);
-  a10=(a10-a07);
-  a12=arg[0][38];
-  a13=cos(a00);
-  a14=casadi_sq(a13);
-  a15=(a12*a14);
-  a10=(a10+a15);
-  a15=arg[0][39];
-  a16=4.;
-  a16=(a16*a14);
-  a15=(a15*a16);
-  a10=(a10+a15);
-  a15=cos(a02);
-  a17=casadi_sq(a15);
-  a18=(a11*a17);
-  a10=(a10+a18);
-  a18=arg[1][4];
-  a18=casadi_sq(a18);
-  a19=(a18*a15);
-  a20=(a09*a19);
-  a10=(a10+a20);
-  a00=sin(a00);
-  a20=(a18*a00);
-  a04=sin(a04);
-  a21=(a20*a04);
-  a22=(a09*a21);
-  a10=(a10+a22);
-  a22=arg[0][40];
-  a23=(a14*a22);
-  a10=(a10+a23);
-  a23=(a17*a22);
-  a10=(a10+a23);
-  a23=(a17*a07);
-  a10=(a10+a23);
-  a23=(a16*a07);
-  a10=(a10+a23);
-  a23=arg[0][41];
-  a24=(a19*a23);
-  a10=(a10+a24);
-  a24=arg[0][42];
-  a25=(a19*a24);
-  a10=(a10+a25);
-  a25=3.;
-  a01=casadi_sq(a01);
-  a26=(a01*a13);
-  a25=(a25*a26);
-  a27=(a23*a25);
-  a10=(a10+a27);
-  a23=(a23*a21);
-  a10=(a10+a23);
-  a24=(a24*a26);
-  a10=(a10+a24);
-  a22=(a22*a04);
-  a02=sin(a02);
-  a24=(a01*a02);
-  a23=(a22*a24);
-  a10=(a10+a23);
-  a02=(a05*a02);
-  a02=(a02*a00);
-  a00=arg[0][43];
-  a23=(a02*a00);
-  a10=(a10+a23);
-  a23=(a12*a26);
-  a10=(a10-a23);
-  a06=(a06*a11);
-  a10=(a10-a06);
-  a11=(a11*a26);
-  a10=(a10-a11);
-  a17=(a09*a17);
-  a10=(a10-a17);
-  a17=(a09*a02);
-  a10=(a10-a17);
-  a17=arg[0][44];
-  a14=(a14*a17);
-  a10=(a10-a14);
-  a14=arg[0][45];
-  a16=(a16*a14);
-  a10=(a10-a16);
-  a03=(a26*a03);
-  a10=(a10-a03);
-  a25=(a25*a07);
-  a10=(a10-a25);
-  a22=(a22*a20);
-  a10=(a10-a22);
-  a22=arg[0][46];
-  a22=(a22*a26);
-  a10=(a10-a22);
-  a22=arg[0][47];
-  a22=(a22*a19);
-  a10=(a10-a22);
-  a22=arg[0][48];
-  a22=(a22*a02);
-  a10=(a10+a22);
-  a22=arg[0][49];
-  a22=(a22*a26);
-  a10=(a10+a22);
-  a09=(a09*a24);
-  a09=(a09*a04);
-  a10=(a10-a09);
-  a14=(a14*a05);
-  a18=(a18*a14);
-  a18=(a18*a13);
-  a10=(a10-a18);
-  a01=(a01*a14);
-  a01=(a01*a15);
-  a10=(a10-a01);
-  a12=(a12+a08);
-  a12=(a12+a00);
-  a12=(a12-a17);
-  a10=(a10/a12);
-  res[0][3]=a10;
-  return 0;
-}
-
-CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_extended_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f4(arg, res, iw, w, mem);
-}
-
-CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_extended_watch_checkout(void) {
-  return 0;
-}
-
-CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_sim_extended_watch_release(int mem) {
-}
-
-CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_sim_extended_watch_incref(void) {
-}
-
-CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_sim_extended_watch_decref(void) {
-}
-
-CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_sim_extended_watch_n_in(void) { return 2;}
-
-CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_sim_extended_watch_n_out(void) { return 1;}
-
-CASADI_SYMBOL_EXPORT casadi_real vsw_free_vsw_biped_sim_extended_watch_default_in(casadi_int i) {
-  switch (i) {
-    default: return 0;
-  }
-}
-
-CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_sim_extended_watch_name_in(casadi_int i) {
-  switch (i) {
-    case 0: return "c";
-    case 1: return "x";
-    default: return 0;
-  }
-}
-
-CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_sim_extended_watch_name_out(casadi_int i) {
-  switch (i) {
-    case 0: return "extended_watch";
-    default: return 0;
-  }
-}
-
-CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_sim_extended_watch_sparsity_in(casadi_int i) {
-  switch (i) {
-    case 0: return casadi_s1;
-    case 1: return casadi_s2;
-    default: return 0;
-  }
-}
-
-CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_sim_extended_watch_sparsity_out(casadi_int i) {
-  switch (i) {
-    case 0: return casadi_s0;
-    default: return 0;
-  }
-}
-
-CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_extended_watch_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
-  if (sz_arg) *sz_arg = 2;
-  if (sz_res) *sz_res = 1;
-  if (sz_iw) *sz_iw = 0;
-  if (sz_w) *sz_w = 0;
-  return 0;
-}
-
-CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_extended_watch_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
-  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
-  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
-  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
-  if (sz_w) *sz_w = 0*sizeof(casadi_real);
-  return 0;
-}
-
-/* vsw_free_vsw_biped_sim_end_stop_reset:(c[74],x[6])->(end_stop_reset[6]) */
-static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
-  casadi_real a0, a1, a2, a3, a4, a5, a6, a7, a8, a9;
-  a0=arg[1][0];
-  res[0][0]=a0;
-  a1=arg[1][1];
-  res[0][1]=a1;
-  a2=1.;
-  res[0][2]=a2;
-  a2=arg[0][50];
-  a3=arg[1][3];
-  a4=(a2*a3);
-  a5=arg[0][51];
-  a6=(a5*a3);
-  a4=(a4+a6);
-  a6=arg[0][52];
-  a7=(a6*a3);
-  a4=(a4+a7);
-  a7=arg[0][53];
-  a8=(a7*a3);
-  a4=(a4-a8);
-  a8=arg[0][54];
-  a1=(a1-a0);
-  a0=cos(a1);
-  a9=casadi_sq(a0);
-  a9=(a8*a9);
-  a3=(a9*a3);
-  a4=(a4-a3);
-  a3=arg[1][5];
-  a1=sin(a1);
-  a3=(a3*a1);
-  a8=(a3*a8);
-  a8=(a8*a0);
-  a4=(a4+a8);
-  a8=arg[0][55];
-  a8=(a8-a9);
-  a4=(a4/a8);
-  res[0][3]=a4;
-  a4=arg[1][4];
-  a2=(a2*a4);
-  a0=arg[0][3];
-  a0=(a3*a0);
-  a1=arg[0][56];
-  a1=(a0*a1);
-  a2=(a2+a1);
-  a1=arg[0][4];
-  a0=(a0*a1);
-  a2=(a2+a0);
-  a5=(a5*a4);
-  a2=(a2+a5);
-  a5=(a6*a4);
-  a2=(a2+a5);
-  a6=(a3*a6);
-  a2=(a2-a6);
-  a7=(a7*a4);
-  a2=(a2-a7);
-  a9=(a9*a4);
-  a2=(a2-a9);
-  a9=arg[0][57];
-  a3=(a3*a9);
-  a9=arg[0][58];
-  a3=(a3*a9);
-  a2=(a2+a3);
-  a2=(a2/a8);
-  res[0][4]=a2;
-  a2=0.;
-  res[0][5]=a2;
-  return 0;
-}
-
-CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_end_stop_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f5(arg, res, iw, w, mem);
-}
-
-CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_end_stop_reset_checkout(void) {
-  return 0;
-}
-
-CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_sim_end_stop_reset_release(int mem) {
-}
-
-CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_sim_end_stop_reset_incref(void) {
-}
-
-CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_sim_end_stop_reset_decref(void) {
-}
-
-CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_sim_end_stop_reset_n_in(void) { return 2;}
-
-CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_sim_end_stop_reset_n_out(void) { return 1;}
-
-CASADI_SYMBOL_EXPORT casadi_real vsw_free_vsw_biped_sim_end_stop_reset_default_in(casadi_int i) {
-  switch (i) {
-    default: return 0;
-  }
-}
-
-CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_sim_end_stop_reset_name_in(casadi_int i) {
-  switch (i) {
-    case 0: return "c";
-    case 1: return "x";
-    default: return 0;
-  }
-}
-
-CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_sim_end_stop_reset_name_out(casadi_int i) {
-  switch (i) {
-    case 0: return "end_stop_reset";
-    default: return 0;
-  }
-}
-
-CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_sim_end_stop_reset_sparsity_in(casadi_int i) {
-  switch (i) {
-    case 0: return casadi_s1;
-    case 1: return casadi_s2;
-    default: return 0;
-  }
-}
-
-CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_sim_end_stop_reset_sparsity_out(casadi_int i) {
-  switch (i) {
-    case 0: return casadi_s2;
-    default: return 0;
-  }
-}
-
-CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_end_stop_reset_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
-  if (sz_arg) *sz_arg = 2;
-  if (sz_res) *sz_res = 1;
-  if (sz_iw) *sz_iw = 0;
-  if (sz_w) *sz_w = 0;
-  return 0;
-}
-
-CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_end_stop_reset_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
-  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
-  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
-  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
-  if (sz_w) *sz_w = 0*sizeof(casadi_real);
-  return 0;
-}
-
-/* vsw_free_vsw_biped_sim_heelstrike_reset:(c[74],x[6])->(heelstrike_reset[6]) */
-static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
-  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
-  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
-  casadi_real a24;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
   a00=arg[1][1];
   res[0][0]=a00;
   a01=arg[1][0];
   res[0][1]=a01;
-  a02=arg[0][33];
+  a02=arg[0][10];
   res[0][2]=a02;
-  a03=arg[0][59];
+  a03=arg[0][21];
   a04=arg[1][4];
   a05=(a03*a04);
-  a06=arg[0][60];
-  a07=(a04*a02);
-  a08=(a06*a07);
-  a09=(a05-a08);
-  a10=arg[0][61];
-  a07=(a10*a07);
-  a09=(a09-a07);
+  a06=arg[0][22];
+  a07=arg[1][5];
   a00=(a00-a01);
-  a01=cos(a00);
-  a11=casadi_sq(a01);
-  a12=(a11*a03);
-  a13=(a12*a04);
-  a09=(a09+a13);
-  a13=arg[0][62];
-  a14=(a13*a04);
-  a09=(a09+a14);
-  a14=arg[1][3];
-  a15=(a01*a14);
-  a16=arg[0][63];
-  a17=(a15*a16);
-  a09=(a09+a17);
-  a17=arg[0][64];
-  a17=(a15*a17);
-  a18=arg[0][4];
-  a18=(a17*a18);
-  a09=(a09+a18);
-  a18=(a06*a15);
-  a09=(a09-a18);
-  a15=(a10*a15);
-  a09=(a09-a15);
-  a07=(a11*a07);
-  a09=(a09-a07);
-  a07=(a10*a14);
-  a15=casadi_sq(a01);
-  a15=(a15*a01);
-  a15=(a07*a15);
-  a09=(a09-a15);
-  a15=arg[0][65];
-  a15=(a15*a17);
-  a09=(a09+a15);
-  a15=arg[0][66];
-  a17=(a12+a15);
-  a18=arg[0][67];
-  a17=(a17+a18);
-  a17=(a17+a13);
-  a17=(a17+a03);
-  a19=arg[0][68];
-  a17=(a17+a19);
-  a20=arg[0][69];
-  a17=(a17-a20);
-  a21=arg[0][70];
-  a17=(a17-a21);
-  a22=(a21*a11);
-  a17=(a17-a22);
-  a09=(a09/a17);
-  res[0][3]=a09;
-  a13=(a13*a14);
-  a03=(a03*a14);
-  a09=(a13+a03);
-  a19=(a19*a14);
-  a09=(a09+a19);
-  a15=(a15*a14);
-  a09=(a09+a15);
-  a22=(a18*a14);
-  a09=(a09+a22);
-  a20=(a20*a14);
-  a09=(a09-a20);
-  a23=(a21*a14);
-  a09=(a09-a23);
-  a07=(a11*a07);
-  a24=(2.*a07);
-  a09=(a09-a24);
-  a04=(a01*a04);
-  a24=(a21*a04);
-  a09=(a09+a24);
-  a12=(a12*a14);
-  a09=(a09+a12);
-  a08=(a08*a01);
-  a09=(a09+a08);
-  a11=(a11*a14);
-  a16=(a16*a11);
-  a09=(a09+a16);
-  a06=(a06*a11);
-  a09=(a09-a06);
-  a21=(a21*a11);
-  a09=(a09-a21);
-  a21=arg[0][71];
-  a21=(a21*a04);
-  a09=(a09-a21);
-  a18=(a18*a04);
-  a09=(a09-a18);
-  a18=arg[0][72];
-  a18=(a18*a11);
-  a09=(a09+a18);
-  a09=(a09/a17);
-  res[0][4]=a09;
-  a00=sin(a00);
-  a13=(a13*a00);
-  a03=(a03*a00);
-  a13=(a13+a03);
-  a19=(a19*a00);
-  a13=(a13+a19);
-  a15=(a15*a00);
-  a13=(a13+a15);
-  a22=(a22*a00);
-  a13=(a13+a22);
-  a20=(a20*a00);
-  a13=(a13-a20);
-  a23=(a23*a00);
-  a13=(a13-a23);
-  a02=(a00*a02);
-  a07=(a07*a02);
-  a13=(a13-a07);
-  a05=(a05*a02);
+  a01=sin(a00);
+  a08=(a07*a01);
+  a09=(a06*a08);
+  a10=(a05+a09);
+  a11=arg[0][23];
+  a12=(a08*a11);
+  a10=(a10+a12);
+  a13=(a04*a02);
+  a14=(a06*a13);
+  a10=(a10-a14);
+  a15=arg[0][24];
+  a13=(a15*a13);
+  a10=(a10-a13);
+  a16=4.;
+  a17=arg[0][25];
+  a18=(a08*a17);
+  a19=(a16*a18);
+  a10=(a10-a19);
+  a00=cos(a00);
+  a19=casadi_sq(a00);
+  a20=(a19*a18);
+  a10=(a10+a20);
+  a20=arg[0][26];
+  a21=(a08*a20);
+  a22=(a19*a21);
+  a10=(a10+a22);
+  a22=(a19*a03);
+  a23=(a22*a04);
+  a10=(a10+a23);
+  a23=arg[0][27];
+  a24=(a23*a04);
+  a10=(a10+a24);
+  a24=arg[1][2];
+  a25=arg[1][3];
+  a26=(a24*a25);
+  a27=(a26*a00);
+  a28=(a27*a20);
+  a10=(a10+a28);
+  a28=casadi_sq(a01);
+  a28=(a28*a01);
+  a28=(a07*a28);
+  a29=(a17*a28);
+  a10=(a10+a29);
+  a29=(a28*a20);
+  a10=(a10+a29);
+  a29=(a06*a27);
+  a10=(a10-a29);
+  a29=(a15*a27);
+  a10=(a10-a29);
+  a28=(a15*a28);
+  a10=(a10-a28);
+  a13=(a19*a13);
+  a10=(a10-a13);
+  a13=arg[0][28];
+  a08=(a08*a13);
+  a28=arg[0][4];
+  a29=(a08*a28);
+  a10=(a10-a29);
+  a29=casadi_sq(a00);
+  a29=(a29*a00);
+  a29=(a15*a29);
+  a30=(a26*a29);
+  a10=(a10-a30);
+  a16=(a16*a08);
+  a08=arg[0][29];
+  a16=(a16*a08);
+  a10=(a10-a16);
+  a16=3.;
+  a08=(a16*a27);
+  a08=(a08*a17);
+  a10=(a10+a08);
+  a13=(a13*a27);
+  a13=(a13*a28);
+  a10=(a10+a13);
+  a13=arg[0][30];
+  a28=(a22+a13);
+  a27=arg[0][31];
+  a28=(a28+a27);
+  a28=(a28+a23);
+  a28=(a28+a03);
+  a08=arg[0][32];
+  a28=(a28+a08);
+  a30=arg[0][33];
+  a28=(a28-a30);
+  a31=arg[0][34];
+  a28=(a28-a31);
+  a32=(a31*a19);
+  a28=(a28-a32);
+  a10=(a10/a28);
+  res[0][3]=a10;
+  a10=(a23*a25);
+  a03=(a03*a25);
+  a33=(a10+a03);
+  a34=(a08*a25);
+  a33=(a33+a34);
+  a04=(a00*a04);
+  a35=(a31*a04);
+  a33=(a33+a35);
+  a22=(a22*a25);
+  a33=(a33+a22);
+  a22=(a13*a25);
+  a33=(a33+a22);
+  a22=(a27*a25);
+  a33=(a33+a22);
+  a09=(a09*a00);
+  a33=(a33+a09);
+  a14=(a14*a00);
+  a33=(a33+a14);
+  a12=(a12*a00);
+  a33=(a33+a12);
+  a19=(a19*a26);
+  a17=(a17*a19);
+  a33=(a33+a17);
+  a20=(a20*a19);
+  a33=(a33+a20);
+  a06=(a06*a19);
+  a33=(a33-a06);
+  a06=(a30*a25);
+  a33=(a33-a06);
+  a06=(a31*a25);
+  a33=(a33-a06);
+  a06=arg[0][35];
+  a06=(a06*a04);
+  a33=(a33-a06);
+  a06=(a27*a04);
+  a33=(a33-a06);
+  a32=(a32*a25);
+  a33=(a33-a32);
+  a11=(a11*a19);
+  a33=(a33-a11);
+  a18=(a18*a00);
+  a33=(a33-a18);
+  a21=(a21*a00);
+  a33=(a33-a21);
+  a33=(a33/a28);
+  res[0][4]=a33;
+  a33=(a00*a07);
+  a21=(a13*a33);
+  a26=(a26*a01);
+  a13=(a13*a26);
+  a21=(a21+a13);
+  a13=(a27*a33);
+  a21=(a21+a13);
+  a27=(a27*a26);
+  a21=(a21+a27);
+  a23=(a23*a33);
+  a21=(a21+a23);
+  a24=(a24*a01);
+  a10=(a10*a24);
+  a21=(a21+a10);
+  a03=(a03*a24);
+  a21=(a21+a03);
+  a34=(a34*a24);
+  a21=(a21+a34);
+  a08=(a33*a08);
+  a21=(a21+a08);
+  a08=(a30*a33);
+  a21=(a21-a08);
+  a30=(a30*a26);
+  a21=(a21-a30);
+  a31=(a31*a26);
+  a21=(a21-a31);
+  a16=(a16*a33);
+  a31=arg[0][36];
+  a16=(a16*a31);
+  a21=(a21-a16);
+  a16=arg[0][37];
+  a16=(a16*a33);
+  a21=(a21+a16);
+  a29=(a29*a07);
+  a29=(a29*a02);
+  a21=(a21-a29);
+  a19=(a19*a31);
+  a19=(a19*a01);
+  a21=(a21-a19);
+  a05=(a05*a00);
   a05=(a05*a01);
-  a13=(a13+a05);
-  a10=(a10*a04);
-  a04=arg[0][73];
-  a10=(a10*a04);
-  a10=(a10*a00);
-  a13=(a13-a10);
-  a13=(a13/a17);
-  res[0][5]=a13;
+  a05=(a05*a02);
+  a21=(a21+a05);
+  a15=(a15*a04);
+  a04=arg[0][38];
+  a15=(a15*a04);
+  a15=(a15*a01);
+  a21=(a21-a15);
+  a21=(a21/a28);
+  res[0][5]=a21;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_heelstrike_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f6(arg, res, iw, w, mem);
+  return casadi_f3(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_heelstrike_reset_checkout(void) {
@@ -1522,8 +958,8 @@ CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_heelstrike_reset_work_bytes(casa
   return 0;
 }
 
-/* vsw_free_vsw_biped_sim_heelstrike_when:(c[74],x[6])->(heelstrike_when) */
-static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_free_vsw_biped_sim_heelstrike_when:(c[39],x[6])->(heelstrike_when) */
+static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1;
   a0=arg[1][0];
   a1=arg[1][1];
@@ -1533,7 +969,7 @@ static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_heelstrike_when(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f7(arg, res, iw, w, mem);
+  return casadi_f4(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_heelstrike_when_checkout(void) {
@@ -1584,7 +1020,7 @@ CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_sim_heelstrike_when_sp
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_sim_heelstrike_when_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s4;
+    case 0: return casadi_s3;
     default: return 0;
   }
 }
@@ -1605,14 +1041,16 @@ CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_heelstrike_when_work_bytes(casad
   return 0;
 }
 
-/* vsw_free_vsw_biped_sim_step_length:(c[74],x[6])->(step_length) */
-static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* vsw_free_vsw_biped_sim_step_length:(c[39],x[6])->(step_length) */
+static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2;
-  a0=arg[1][0];
-  a0=sin(a0);
+  a0=arg[1][2];
+  a1=arg[1][0];
+  a1=sin(a1);
+  a0=(a0*a1);
   a1=arg[1][1];
   a1=sin(a1);
-  a2=arg[0][33];
+  a2=arg[0][10];
   a1=(a1*a2);
   a0=(a0-a1);
   res[0][0]=a0;
@@ -1620,7 +1058,7 @@ static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_step_length(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f8(arg, res, iw, w, mem);
+  return casadi_f5(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_step_length_checkout(void) {
@@ -1671,7 +1109,7 @@ CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_sim_step_length_sparsi
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_sim_step_length_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s4;
+    case 0: return casadi_s3;
     default: return 0;
   }
 }
@@ -1701,15 +1139,15 @@ CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_step_length_work_bytes(casadi_in
 
 #define VSW_NP 4
 #define VSW_NX 6
-#define VSW_NPHASES 2
-#define VSW_NEVENTS 2
-#define VSW_NFAILURES 4
-#define VSW_MAX_WATCH 5
+#define VSW_NPHASES 1
+#define VSW_NEVENTS 1
+#define VSW_NFAILURES 5
+#define VSW_MAX_WATCH 6
 #define VSW_START_PHASE 0
 #define VSW_SZ_ARG 2
 #define VSW_SZ_RES 1
 #define VSW_SZ_IW 0
-#define VSW_SZ_W 33
+#define VSW_SZ_W 36
 
 /* Every function of the table in CasADi's calling convention, called directly (not through
    a pointer) so that the compiler can inline it into the integrator's loops. */
@@ -1724,7 +1162,7 @@ CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_sim_step_length_work_bytes(casadi_in
 
 /* The constants of the functions below from the parameters: the parameters they use and
    their parameter-only subexpressions, computed once a walk instead of at every call. */
-#define VSW_NC 74
+#define VSW_NC 39
 static inline void vsw_constants(const double *p, double *c)
 {
     VSW_CALL(vsw_free_vsw_biped_sim_constants, p, p, c);
@@ -1735,10 +1173,7 @@ static inline void vsw_flow(int phase, const double *c, const double *x, double 
 {
     switch (phase) {
     case 0:
-        VSW_CALL(vsw_free_vsw_biped_sim_stroke_flow, c, x, out);
-        return;
-    case 1:
-        VSW_CALL(vsw_free_vsw_biped_sim_extended_flow, c, x, out);
+        VSW_CALL(vsw_free_vsw_biped_sim_stance_flow, c, x, out);
         return;
     }
 }
@@ -1748,10 +1183,7 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
 {
     switch (phase) {
     case 0:
-        VSW_CALL(vsw_free_vsw_biped_sim_stroke_watch, c, x, out);
-        return;
-    case 1:
-        VSW_CALL(vsw_free_vsw_biped_sim_extended_watch, c, x, out);
+        VSW_CALL(vsw_free_vsw_biped_sim_stance_watch, c, x, out);
         return;
     }
 }
@@ -1761,7 +1193,7 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
    cosines are not taken, their results mean nothing). */
 #include "lanes.h"
 
-static inline void vsw_free_vsw_biped_sim_stroke_flow_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_free_vsw_biped_sim_stance_flow_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
     vsw_lanes vsw_sc0_sin, vsw_sc0_cos, vsw_sc1_sin, vsw_sc1_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
@@ -1877,210 +1309,115 @@ static inline void vsw_free_vsw_biped_sim_stroke_flow_lanes(int live, const vsw_
     out[5]=a04;
 }
 
-static inline void vsw_free_vsw_biped_sim_extended_flow_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
-{
-    vsw_lanes vsw_sc0_sin, vsw_sc0_cos;
-    vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
-    vsw_lanes a12, a13;
-    a00=x[3];
-    out[0]=a00;
-    a01=x[4];
-    out[1]=a01;
-    a02=x[5];
-    out[2]=a02;
-    a02=c[20];
-    a03=x[0];
-    a04=vsw_lanes_sin(a03, live);
-    a02=(a02*a04);
-    a05=c[4];
-    a02=(a02*a05);
-    a06=c[21];
-    a07=(a06*a04);
-    a08=c[22];
-    a09=x[1];
-    a03=(a09-a03);
-    vsw_lanes_sincos(a03, live, &vsw_sc0_sin, &vsw_sc0_cos);
-    a10=vsw_sc0_cos;
-    a11=(a08*a10);
-    a09=vsw_lanes_sin(a09, live);
-    a12=(a11*a09);
-    a07=(a07+a12);
-    a02=(a02-a07);
-    a01=vsw_lanes_sq(a01);
-    a07=(a06*a01);
-    a03=vsw_sc0_sin;
-    a07=(a07*a03);
-    a02=(a02-a07);
-    a07=c[23];
-    a07=(a07*a04);
-    a02=(a02+a07);
-    a07=c[24];
-    a00=vsw_lanes_sq(a00);
-    a07=(a07*a00);
-    a07=(a07*a10);
-    a07=(a07*a03);
-    a02=(a02+a07);
-    a07=c[25];
-    a12=vsw_lanes_sq(a10);
-    a08=(a08*a12);
-    a07=(a07-a08);
-    a02=(a02/a07);
-    out[3]=a02;
-    a02=c[26];
-    a02=(a02*a09);
-    a08=c[3];
-    a12=(a09*a08);
-    a13=c[27];
-    a13=(a12*a13);
-    a12=(a12*a05);
-    a13=(a13+a12);
-    a06=(a06*a09);
-    a13=(a13+a06);
-    a06=(a11*a04);
-    a13=(a13+a06);
-    a06=c[28];
-    a06=(a00*a06);
-    a06=(a06*a03);
-    a13=(a13+a06);
-    a11=(a11*a01);
-    a11=(a11*a03);
-    a13=(a13+a11);
-    a02=(a02-a13);
-    a13=c[29];
-    a13=(a13*a00);
-    a11=c[30];
-    a13=(a13*a11);
-    a13=(a13*a03);
-    a02=(a02+a13);
-    a13=(a00*a03);
-    a13=(a13*a08);
-    a13=(a13*a05);
-    a02=(a02+a13);
-    a13=(a10*a04);
-    a13=(a13*a08);
-    a13=(a13*a05);
-    a02=(a02+a13);
-    a13=c[31];
-    a13=(a13*a00);
-    a13=(a13*a03);
-    a13=(a13*a08);
-    a02=(a02+a13);
-    a13=c[32];
-    a13=(a13*a10);
-    a13=(a13*a04);
-    a13=(a13*a08);
-    a02=(a02+a13);
-    a02=(a02/a07);
-    out[4]=a02;
-    a02=vsw_lanes_splat(0.);
-    out[5]=a02;
-}
-
-static inline void vsw_free_vsw_biped_sim_stroke_watch_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
+static inline void vsw_free_vsw_biped_sim_stance_watch_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
 {
     vsw_lanes vsw_sc0_sin, vsw_sc0_cos, vsw_sc1_sin, vsw_sc1_cos, vsw_sc2_sin, vsw_sc2_cos;
     vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
     vsw_lanes a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
     vsw_lanes a24, a25, a26, a27, a28, a29, a30, a31, a32;
-    a00=vsw_lanes_splat(-1.);
-    a01=x[2];
-    a00=(a00+a01);
-    out[0]=a00;
-    a00=x[3];
-    out[1]=a00;
-    a02=x[0];
-    vsw_lanes_sincos(a02, live, &vsw_sc0_sin, &vsw_sc0_cos);
-    a03=vsw_sc0_cos;
-    out[2]=a03;
-    a03=c[11];
-    a04=c[10];
-    a05=x[4];
-    a05=vsw_lanes_sq(a05);
-    a05=(a04*a05);
-    a06=x[1];
-    vsw_lanes_sincos(a06, live, &vsw_sc1_sin, &vsw_sc1_cos);
-    a07=vsw_sc1_cos;
-    a07=(a05*a07);
-    a07=(a03+a07);
-    a08=vsw_lanes_sq(a00);
-    a09=(a04*a08);
-    a10=vsw_lanes_cos(a02, live);
+    a00=x[0];
+    vsw_lanes_sincos(a00, live, &vsw_sc0_sin, &vsw_sc0_cos);
+    a01=vsw_sc0_cos;
+    a02=x[2];
+    a01=(a01*a02);
+    a03=x[1];
+    vsw_lanes_sincos(a03, live, &vsw_sc1_sin, &vsw_sc1_cos);
+    a04=vsw_sc1_cos;
+    a05=c[10];
+    a04=(a04*a05);
+    a01=(a01-a04);
+    out[0]=a01;
+    a01=x[3];
+    out[1]=a01;
+    a04=vsw_lanes_cos(a00, live);
+    out[2]=a04;
+    a04=c[12];
+    a05=c[11];
+    a06=x[4];
+    a06=vsw_lanes_sq(a06);
+    a06=(a05*a06);
+    a07=vsw_lanes_cos(a03, live);
+    a07=(a06*a07);
+    a07=(a04+a07);
+    a08=vsw_lanes_sq(a01);
+    a09=(a05*a08);
+    a10=vsw_lanes_cos(a00, live);
     a11=(a09*a10);
     a07=(a07+a11);
-    a11=c[12];
+    a11=c[13];
     a12=(a11*a10);
-    a13=(a08*a01);
+    a13=(a08*a02);
     a14=(a12*a13);
     a07=(a07-a14);
     a14=(a13*a10);
     a07=(a07-a14);
     a14=x[5];
-    a15=(a14*a00);
+    a15=(a14*a01);
     a16=(2.*a15);
     a17=vsw_sc0_sin;
     a18=(a16*a17);
     a07=(a07-a18);
     a18=vsw_sc1_sin;
-    a18=(a04*a18);
-    a19=c[15];
-    a20=vsw_lanes_sq(a01);
-    a21=(a20*a03);
-    a22=c[13];
+    a18=(a05*a18);
+    a19=c[16];
+    a20=vsw_lanes_sq(a02);
+    a21=(a20*a04);
+    a22=c[14];
     a22=(a21+a22);
-    a23=c[14];
-    a24=(a23*a01);
+    a23=c[15];
+    a24=(a23*a02);
     a22=(a22-a24);
     a19=(a19*a22);
     a24=c[4];
     a19=(a19*a24);
-    a25=c[16];
-    a06=(a06-a02);
-    vsw_lanes_sincos(a06, live, &vsw_sc2_sin, &vsw_sc2_cos);
-    a02=vsw_sc2_sin;
-    a26=vsw_lanes_sq(a02);
+    a25=c[17];
+    a03=(a03-a00);
+    vsw_lanes_sincos(a03, live, &vsw_sc2_sin, &vsw_sc2_cos);
+    a00=vsw_sc2_sin;
+    a26=vsw_lanes_sq(a00);
     a26=(a25*a26);
     a27=(a26*a22);
-    a06=vsw_sc2_cos;
-    a28=vsw_lanes_sq(a06);
+    a03=vsw_sc2_cos;
+    a28=vsw_lanes_sq(a03);
     a28=(a25*a28);
     a21=(a21*a28);
     a27=(a27+a21);
     a19=(a19-a27);
     a27=(a18/a19);
-    a21=(a04*a02);
+    a21=(a05*a00);
     a13=(a13*a21);
     a13=(a13-a18);
     a23=(a15*a23);
-    a23=(a23*a06);
+    a23=(a23*a03);
     a13=(a13+a23);
     a23=(a13*a22);
-    a18=(a23*a03);
-    a29=(a03*a01);
+    a18=(a23*a04);
+    a29=(a04*a02);
     a29=(a29*a17);
-    a30=(a04*a17);
-    a02=(a01*a02);
-    a31=(a05*a02);
+    a30=(a05*a17);
+    a00=(a02*a00);
+    a31=(a06*a00);
     a31=(a30+a31);
-    a32=(a03*a01);
+    a32=(a04*a02);
     a16=(a16*a32);
     a31=(a31+a16);
     a29=(a29-a31);
     a14=(2.*a14);
-    a14=(a14*a00);
-    a00=c[3];
-    a14=(a14*a00);
+    a14=(a14*a01);
+    a01=c[3];
+    a14=(a14*a01);
     a14=(a14*a24);
     a29=(a29+a14);
-    a14=(a29*a06);
-    a04=(a04*a32);
-    a32=(a14*a04);
+    a14=(a29*a03);
+    a05=(a05*a32);
+    a32=(a14*a05);
     a18=(a18+a32);
-    a08=(a08*a03);
-    a08=(a08*a01);
-    a05=(a05*a06);
-    a09=(a09+a05);
-    a03=(a03*a10);
-    a09=(a09+a03);
+    a08=(a08*a04);
+    a08=(a08*a02);
+    a06=(a06*a03);
+    a09=(a09+a06);
+    a04=(a04*a10);
+    a09=(a09+a04);
     a08=(a08-a09);
     a09=(a21*a08);
     a09=(a09*a22);
@@ -2089,7 +1426,7 @@ static inline void vsw_free_vsw_biped_sim_stroke_watch_lanes(int live, const vsw
     a07=(a07+a27);
     a12=(a12+a10);
     a12=(a12/a19);
-    a10=c[17];
+    a10=c[18];
     a10=(a10*a22);
     a10=(a10*a24);
     a20=(a20*a28);
@@ -2097,25 +1434,25 @@ static inline void vsw_free_vsw_biped_sim_stroke_watch_lanes(int live, const vsw
     a10=(a08*a10);
     a21=(a21*a23);
     a10=(a10-a21);
-    a02=(a02*a25);
-    a14=(a14*a02);
+    a00=(a00*a25);
+    a14=(a14*a00);
     a10=(a10-a14);
     a12=(a12*a10);
     a07=(a07+a12);
-    a12=(a01*a17);
+    a12=(a02*a17);
     a30=(a30-a12);
     a11=(a11*a12);
     a30=(a30-a11);
     a30=(a30/a19);
-    a19=c[18];
+    a19=c[19];
     a19=(a19-a26);
     a29=(a29*a19);
-    a13=(a13*a04);
-    a13=(a13*a06);
+    a13=(a13*a05);
+    a13=(a13*a03);
     a29=(a29+a13);
-    a02=(a02*a08);
-    a02=(a02*a06);
-    a29=(a29-a02);
+    a00=(a00*a08);
+    a00=(a00*a03);
+    a29=(a29-a00);
     a30=(a30*a29);
     a07=(a07+a30);
     a30=vsw_lanes_splat(4.);
@@ -2124,153 +1461,12 @@ static inline void vsw_free_vsw_biped_sim_stroke_watch_lanes(int live, const vsw
     a30=(a30*a24);
     a07=(a07-a30);
     out[3]=a07;
-    a07=c[19];
-    a01=(a01-a07);
-    out[4]=a01;
-}
-
-static inline void vsw_free_vsw_biped_sim_extended_watch_lanes(int live, const vsw_lanes *c, const vsw_lanes *x, vsw_lanes *out)
-{
-    vsw_lanes vsw_sc0_sin, vsw_sc0_cos, vsw_sc1_sin, vsw_sc1_cos, vsw_sc2_sin, vsw_sc2_cos;
-    vsw_lanes a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
-    vsw_lanes a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
-    vsw_lanes a24, a25, a26, a27;
-    a00=x[0];
-    vsw_lanes_sincos(a00, live, &vsw_sc0_sin, &vsw_sc0_cos);
-    a01=vsw_sc0_cos;
-    a02=x[1];
-    vsw_lanes_sincos(a02, live, &vsw_sc1_sin, &vsw_sc1_cos);
-    a03=vsw_sc1_cos;
-    a04=c[33];
-    a03=(a03*a04);
-    a01=(a01-a03);
-    out[0]=a01;
-    a01=x[3];
-    out[1]=a01;
-    a03=vsw_lanes_cos(a00, live);
-    out[2]=a03;
-    a03=c[35];
-    a04=(a02-a00);
-    vsw_lanes_sincos(a04, live, &vsw_sc2_sin, &vsw_sc2_cos);
-    a05=vsw_sc2_cos;
-    a06=vsw_lanes_sq(a05);
-    a07=c[34];
-    a08=(a06*a07);
-    a08=(a03-a08);
-    a09=c[36];
-    a10=(a08+a09);
-    a11=c[37];
-    a10=(a10-a11);
-    a10=(a10-a07);
-    a12=c[38];
-    a13=vsw_lanes_cos(a00, live);
-    a14=vsw_lanes_sq(a13);
-    a15=(a12*a14);
-    a10=(a10+a15);
-    a15=c[39];
-    a16=vsw_lanes_splat(4.);
-    a16=(a16*a14);
-    a15=(a15*a16);
-    a10=(a10+a15);
-    a15=vsw_lanes_cos(a02, live);
-    a17=vsw_lanes_sq(a15);
-    a18=(a11*a17);
-    a10=(a10+a18);
-    a18=x[4];
-    a18=vsw_lanes_sq(a18);
-    a19=(a18*a15);
-    a20=(a09*a19);
-    a10=(a10+a20);
-    a00=vsw_sc0_sin;
-    a20=(a18*a00);
-    a04=vsw_sc2_sin;
-    a21=(a20*a04);
-    a22=(a09*a21);
-    a10=(a10+a22);
-    a22=c[40];
-    a23=(a14*a22);
-    a10=(a10+a23);
-    a23=(a17*a22);
-    a10=(a10+a23);
-    a23=(a17*a07);
-    a10=(a10+a23);
-    a23=(a16*a07);
-    a10=(a10+a23);
-    a23=c[41];
-    a24=(a19*a23);
-    a10=(a10+a24);
-    a24=c[42];
-    a25=(a19*a24);
-    a10=(a10+a25);
-    a25=vsw_lanes_splat(3.);
-    a01=vsw_lanes_sq(a01);
-    a26=(a01*a13);
-    a25=(a25*a26);
-    a27=(a23*a25);
-    a10=(a10+a27);
-    a23=(a23*a21);
-    a10=(a10+a23);
-    a24=(a24*a26);
-    a10=(a10+a24);
-    a22=(a22*a04);
-    a02=vsw_sc1_sin;
-    a24=(a01*a02);
-    a23=(a22*a24);
-    a10=(a10+a23);
-    a02=(a05*a02);
-    a02=(a02*a00);
-    a00=c[43];
-    a23=(a02*a00);
-    a10=(a10+a23);
-    a23=(a12*a26);
-    a10=(a10-a23);
-    a06=(a06*a11);
-    a10=(a10-a06);
-    a11=(a11*a26);
-    a10=(a10-a11);
-    a17=(a09*a17);
-    a10=(a10-a17);
-    a17=(a09*a02);
-    a10=(a10-a17);
-    a17=c[44];
-    a14=(a14*a17);
-    a10=(a10-a14);
-    a14=c[45];
-    a16=(a16*a14);
-    a10=(a10-a16);
-    a03=(a26*a03);
-    a10=(a10-a03);
-    a25=(a25*a07);
-    a10=(a10-a25);
-    a22=(a22*a20);
-    a10=(a10-a22);
-    a22=c[46];
-    a22=(a22*a26);
-    a10=(a10-a22);
-    a22=c[47];
-    a22=(a22*a19);
-    a10=(a10-a22);
-    a22=c[48];
-    a22=(a22*a02);
-    a10=(a10+a22);
-    a22=c[49];
-    a22=(a22*a26);
-    a10=(a10+a22);
-    a09=(a09*a24);
-    a09=(a09*a04);
-    a10=(a10-a09);
-    a14=(a14*a05);
-    a18=(a18*a14);
-    a18=(a18*a13);
-    a10=(a10-a18);
-    a01=(a01*a14);
-    a01=(a01*a15);
-    a10=(a10-a01);
-    a12=(a12+a08);
-    a12=(a12+a00);
-    a12=(a12-a17);
-    a10=(a10/a12);
-    out[3]=a10;
+    a07=c[20];
+    a07=(a02-a07);
+    out[4]=a07;
+    a07=vsw_lanes_splat(-1.);
+    a07=(a07+a02);
+    out[5]=a07;
 }
 
 static inline void vsw_lanes_flow(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
@@ -2278,10 +1474,7 @@ static inline void vsw_lanes_flow(int phase, int live, const vsw_lanes *c, const
 {
     switch (phase) {
     case 0:
-        vsw_free_vsw_biped_sim_stroke_flow_lanes(live, c, x, out);
-        return;
-    case 1:
-        vsw_free_vsw_biped_sim_extended_flow_lanes(live, c, x, out);
+        vsw_free_vsw_biped_sim_stance_flow_lanes(live, c, x, out);
         return;
     }
 }
@@ -2291,27 +1484,21 @@ static inline void vsw_lanes_watch(int phase, int live, const vsw_lanes *c, cons
 {
     switch (phase) {
     case 0:
-        vsw_free_vsw_biped_sim_stroke_watch_lanes(live, c, x, out);
-        return;
-    case 1:
-        vsw_free_vsw_biped_sim_extended_watch_lanes(live, c, x, out);
+        vsw_free_vsw_biped_sim_stance_watch_lanes(live, c, x, out);
         return;
     }
 }
-static const int vsw_n_watch[VSW_NPHASES] = {5, 4};
+static const int vsw_n_watch[VSW_NPHASES] = {6};
 /* +1: counts rising through zero, -1: falling. */
-static const int vsw_watch_direction[VSW_NPHASES][VSW_MAX_WATCH] = {{1, -1, -1, -1, -1}, {-1, -1, -1, -1, 0}};
+static const int vsw_watch_direction[VSW_NPHASES][VSW_MAX_WATCH] = {{-1, -1, -1, -1, -1, 1}};
 /* >= 0: the event's index; < 0: -1 - the failure's index. */
-static const int vsw_watch_what[VSW_NPHASES][VSW_MAX_WATCH] = {{0, -1, -2, -3, -4}, {1, -1, -2, -3, 0}};
+static const int vsw_watch_what[VSW_NPHASES][VSW_MAX_WATCH] = {{0, -1, -2, -3, -4, -5}};
 
 /* Per event: the reset. */
 static inline void vsw_reset(int event, const double *c, const double *x, double *out)
 {
     switch (event) {
     case 0:
-        VSW_CALL(vsw_free_vsw_biped_sim_end_stop_reset, c, x, out);
-        return;
-    case 1:
         VSW_CALL(vsw_free_vsw_biped_sim_heelstrike_reset, c, x, out);
         return;
     }
@@ -2320,15 +1507,15 @@ static inline void vsw_reset(int event, const double *c, const double *x, double
 static inline int vsw_when(int event, const double *c, const double *x, double *out)
 {
     switch (event) {
-    case 1:
+    case 0:
         VSW_CALL(vsw_free_vsw_biped_sim_heelstrike_when, c, x, out);
         return 1;
     }
     return 0;
 }
 /* Per event: the phase after, whether it ends the step. */
-static const int vsw_event_target[VSW_NEVENTS] = {1, 0};
-static const int vsw_event_ends_step[VSW_NEVENTS] = {0, 1};
+static const int vsw_event_target[VSW_NEVENTS] = {0};
+static const int vsw_event_ends_step[VSW_NEVENTS] = {1};
 /* The step length from the state just before the step event; 0 when the model has none. */
 static inline int vsw_step_length(const double *c, const double *x, double *out)
 {

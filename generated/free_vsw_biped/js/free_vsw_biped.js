@@ -58,8 +58,8 @@ const PARAMETERS = [["beta", 0.0, 1.0, "1", "length shorten ratio r_s / r_e"], [
    CONDITIONS of the Python module). */
 const CONDITIONS = [];
 
-/* Second derivatives of the free coordinates in phase stroke. Returns tuple: d2(coordinate)/dt2 for each coordinate. */
-function stroke_accelerations(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
+/* Second derivatives of the free coordinates in phase stance. Returns tuple: d2(coordinate)/dt2 for each coordinate. */
+function stance_accelerations(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   const [cos_psi, sin_psi] = be.cos_sin(psi);
   const [cos_theta, sin_theta] = be.cos_sin(theta);
   const [cos_t2, sin_t2] = be.cos_sin(psi - theta);
@@ -91,8 +91,8 @@ function stroke_accelerations(beta, mu, b_over_l, l_min, theta, psi, r, theta_do
   return [x10*(x16*x18 + x22*(-x9 + x2*x4*mu) - x20*x21), x10*(x18*x22 + x2*x23 - x20*x24*x8), x10*(x20*(-x0*x6 + x4*x8*mu) - x21*x22 - x23*x24)];
 }
 
-/* Mechanical energy T + V in phase stroke. Returns energy. */
-function stroke_energy(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
+/* Mechanical energy T + V in phase stance. Returns energy. */
+function stance_energy(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   const [cos_psi, sin_psi] = be.cos_sin(psi);
   const [cos_theta, sin_theta] = be.cos_sin(theta);
   const x0 = cos_theta*r;
@@ -109,8 +109,8 @@ function stroke_energy(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_
   return x0 + x1/2 + x7/2 - x3 - x4 + x1*mu + x6*x9 + x7*mu + x9*Math.pow(psi_dot, 2) - x6*x8 + 2*x0*mu + x4*x5*sin_psi - x0*x10*x3 - x3*x5*sin_theta - x10*x8*sin_psi*sin_theta;
 }
 
-/* Ground reaction on the stance foot along the ground normal in phase stroke. Returns normal force (the foot lifts off below 0). */
-function stroke_normal_force(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
+/* Ground reaction on the stance foot along the ground normal in phase stance. Returns normal force (the foot lifts off below 0). */
+function stance_normal_force(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   const [cos_psi, sin_psi] = be.cos_sin(psi);
   const [cos_theta, sin_theta] = be.cos_sin(theta);
   const [cos_t2, sin_t2] = be.cos_sin(psi - theta);
@@ -149,29 +149,29 @@ function stroke_normal_force(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot
   return x3 + x21*cos_psi + x28*cos_theta - x1*x16 - x16*cos_theta - x23*sin_theta + x11*x13*(x19*x3 + x26*x31 - x17*x29*x9) + x11*(x1 + cos_theta)*(x29*(-x2*x7 + x5*x9*mu) - x17*x19 - x26*x27) + x11*(x20 - x30 - x0*x30)*(x25*(-x10 + x3*x5*mu) + x18*x31*cos_t2 - x27*x29*cos_t2) - 4*x14*sin_theta*mu;
 }
 
-/* Guard of fell-backward in phase stroke. Returns crosses zero (direction -1) when the walk ends. */
-function stroke_fell_backward(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
+/* Guard of fell-backward in phase stance. Returns crosses zero (direction -1) when the walk ends. */
+function stance_fell_backward(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   return theta_dot;
 }
 
-/* d(guard of fell-backward)/d(input) in phase stroke: the guard with the inputs on is stroke_fell_backward + these times the inputs. Returns tuple: one gain per input, in order. */
-function stroke_fell_backward_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
+/* d(guard of fell-backward)/d(input) in phase stance: the guard with the inputs on is stance_fell_backward + these times the inputs. Returns tuple: one gain per input, in order. */
+function stance_fell_backward_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   return [0, 0];
 }
 
-/* Guard of fell-forward in phase stroke. Returns crosses zero (direction -1) when the walk ends. */
-function stroke_fell_forward(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
+/* Guard of fell-forward in phase stance. Returns crosses zero (direction -1) when the walk ends. */
+function stance_fell_forward(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   const [cos_theta, sin_theta] = be.cos_sin(theta);
   return cos_theta;
 }
 
-/* d(guard of fell-forward)/d(input) in phase stroke: the guard with the inputs on is stroke_fell_forward + these times the inputs. Returns tuple: one gain per input, in order. */
-function stroke_fell_forward_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
+/* d(guard of fell-forward)/d(input) in phase stance: the guard with the inputs on is stance_fell_forward + these times the inputs. Returns tuple: one gain per input, in order. */
+function stance_fell_forward_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   return [0, 0];
 }
 
-/* Guard of lift-off in phase stroke. Returns crosses zero (direction -1) when the walk ends. */
-function stroke_lift_off(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
+/* Guard of lift-off in phase stance. Returns crosses zero (direction -1) when the walk ends. */
+function stance_lift_off(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   const [cos_psi, sin_psi] = be.cos_sin(psi);
   const [cos_theta, sin_theta] = be.cos_sin(theta);
   const [cos_t2, sin_t2] = be.cos_sin(psi - theta);
@@ -210,8 +210,8 @@ function stroke_lift_off(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, ps
   return x3 + x21*cos_psi + x28*cos_theta - x1*x16 - x16*cos_theta - x23*sin_theta + x11*x13*(x19*x3 + x26*x31 - x17*x29*x9) + x11*(x1 + cos_theta)*(x29*(-x2*x7 + x5*x9*mu) - x17*x19 - x26*x27) + x11*(x20 - x30 - x0*x30)*(x25*(-x10 + x3*x5*mu) + x18*x31*cos_t2 - x27*x29*cos_t2) - 4*x14*sin_theta*mu;
 }
 
-/* d(guard of lift-off)/d(input) in phase stroke: the guard with the inputs on is stroke_lift_off + these times the inputs. Returns tuple: one gain per input, in order. */
-function stroke_lift_off_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
+/* d(guard of lift-off)/d(input) in phase stance: the guard with the inputs on is stance_lift_off + these times the inputs. Returns tuple: one gain per input, in order. */
+function stance_lift_off_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   const [cos_psi, sin_psi] = be.cos_sin(psi);
   const [cos_theta, sin_theta] = be.cos_sin(theta);
   const [cos_t2, sin_t2] = be.cos_sin(psi - theta);
@@ -234,30 +234,40 @@ function stroke_lift_off_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, t
   return [x10*(x14*(-x0*x6 + x4*x8*mu) - x12*x13 - x5*x8*sin_psi*sin_t2), x10*(x12*(-x15 - x9 + x2*x4*mu) + x14*(-x13 + x8*sin_t2*b_over_l*mu) + sin_psi*b_over_l*mu*(x15 - x2*x8))];
 }
 
-/* Guard of crouched in phase stroke. Returns crosses zero (direction -1) when the walk ends. */
-function stroke_crouched(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
+/* Guard of crouched in phase stance. Returns crosses zero (direction -1) when the walk ends. */
+function stance_crouched(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   return r - l_min;
 }
 
-/* d(guard of crouched)/d(input) in phase stroke: the guard with the inputs on is stroke_crouched + these times the inputs. Returns tuple: one gain per input, in order. */
-function stroke_crouched_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
+/* d(guard of crouched)/d(input) in phase stance: the guard with the inputs on is stance_crouched + these times the inputs. Returns tuple: one gain per input, in order. */
+function stance_crouched_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   return [0, 0];
 }
 
-/* Condition swing-foot-clearance in phase stroke (reported, not enforced). Returns crosses zero (direction -1) where it fails. */
-function stroke_swing_foot_clearance(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
+/* Guard of overextended in phase stance. Returns crosses zero (direction +1) when the walk ends. */
+function stance_overextended(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
+  return -1 + r;
+}
+
+/* d(guard of overextended)/d(input) in phase stance: the guard with the inputs on is stance_overextended + these times the inputs. Returns tuple: one gain per input, in order. */
+function stance_overextended_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
+  return [0, 0];
+}
+
+/* Condition swing-foot-clearance in phase stance (reported, not enforced). Returns crosses zero (direction -1) where it fails. */
+function stance_swing_foot_clearance(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   const [cos_psi, sin_psi] = be.cos_sin(psi);
   const [cos_theta, sin_theta] = be.cos_sin(theta);
   return cos_theta*r - cos_psi*beta;
 }
 
-/* d(guard of swing-foot-clearance)/d(input) in phase stroke: the guard with the inputs on is stroke_swing_foot_clearance + these times the inputs. Returns tuple: one gain per input, in order. */
-function stroke_swing_foot_clearance_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
+/* d(guard of swing-foot-clearance)/d(input) in phase stance: the guard with the inputs on is stance_swing_foot_clearance + these times the inputs. Returns tuple: one gain per input, in order. */
+function stance_swing_foot_clearance_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   return [0, 0];
 }
 
-/* Position (x, y) and angle of each body in phase stroke's chart. Returns tuple: x, y, angle of each body in order (angle 0 for a point mass). */
-function stroke_positions(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
+/* Position (x, y) and angle of each body in phase stance's chart. Returns tuple: x, y, angle of each body in order (angle 0 for a point mass). */
+function stance_positions(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   const [cos_psi, sin_psi] = be.cos_sin(psi);
   const [cos_theta, sin_theta] = be.cos_sin(theta);
   const x0 = -r*sin_theta;
@@ -265,13 +275,13 @@ function stroke_positions(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, p
   return [r*sin_theta, cos_theta*r, 0, -x0 - sin_theta*b_over_l, -x1 - cos_theta*b_over_l, 0, -x0 - sin_psi*b_over_l, -x1 - cos_psi*b_over_l, 0];
 }
 
-/* Mass and central moment of inertia of each body in phase stroke. Returns tuple: mass, inertia of each body in order (inertia 0 for a point mass). */
-function stroke_inertias(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
+/* Mass and central moment of inertia of each body in phase stance. Returns tuple: mass, inertia of each body in order (inertia 0 for a point mass). */
+function stance_inertias(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   return [1, 0, mu, 0, mu, 0];
 }
 
-/* d(acceleration)/d(input) in phase stroke: the accelerations are stroke_accelerations + these times the inputs (leg_force, hip_torque). Returns tuple: for each state coordinate in order, its gain from each input in order. */
-function stroke_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
+/* d(acceleration)/d(input) in phase stance: the accelerations are stance_accelerations + these times the inputs (leg_force, hip_torque). Returns tuple: for each state coordinate in order, its gain from each input in order. */
+function stance_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   const [cos_t0, sin_t0] = be.cos_sin(psi - theta);
   const x0 = Math.pow(r, 2);
   const x1 = 2*mu;
@@ -289,8 +299,8 @@ function stroke_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot,
   return [-x10*x11, x10*(-x12 - x9 + x2*x4*mu), -x10*x8*sin_t0*b_over_l*mu, x10*(x12 - x2*x8), x10*(-x0*x6 + x4*x8*mu), x10*(-x11 + x8*sin_t0*b_over_l*mu)];
 }
 
-/* d(ground reaction)/d(input) in phase stroke: normal force's gains, then the tangential force's, one per input. Returns tuple: normal gains per input, then tangential gains per input. */
-function stroke_reaction_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
+/* d(ground reaction)/d(input) in phase stance: normal force's gains, then the tangential force's, one per input. Returns tuple: normal gains per input, then tangential gains per input. */
+function stance_reaction_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   const [cos_psi, sin_psi] = be.cos_sin(psi);
   const [cos_theta, sin_theta] = be.cos_sin(theta);
   const [cos_t2, sin_t2] = be.cos_sin(psi - theta);
@@ -321,258 +331,16 @@ function stroke_reaction_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, t
   return [x10*(x15*x16 - x11*sin_psi - x13*x14), x10*(x13*x20 + x15*x19 + x18*sin_psi), x10*(x11*cos_psi + x16*x23 - x14*x22), x10*(x19*x23 + x20*x22 - x18*cos_psi)];
 }
 
-/* Rate of what each input of phase stroke acts along: its power is the input times this. Returns tuple: one rate per input, in order. */
-function stroke_input_rates(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
+/* Rate of what each input of phase stance acts along: its power is the input times this. Returns tuple: one rate per input, in order. */
+function stance_input_rates(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   return [r_dot, theta_dot - psi_dot];
-}
-
-/* Second derivatives of the free coordinates in phase extended. Returns tuple: d2(coordinate)/dt2 for each coordinate. */
-function extended_accelerations(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
-  const [cos_psi, sin_psi] = be.cos_sin(psi);
-  const [cos_theta, sin_theta] = be.cos_sin(theta);
-  const [cos_t2, sin_t2] = be.cos_sin(psi - theta);
-  const x0 = Math.pow(b_over_l, 2);
-  const x1 = Math.pow(mu, 2);
-  const x2 = 2*x1;
-  const x3 = x0*x2;
-  const x4 = (b_over_l*b_over_l*b_over_l);
-  const x5 = x0*x1;
-  const x6 = (1/(x3 + x0*mu + x1*(b_over_l*b_over_l*b_over_l*b_over_l) - x2*x4 - x5*Math.pow(cos_t2, 2)));
-  const x7 = x1*x4;
-  const x8 = x5*cos_t2;
-  const x9 = Math.pow(psi_dot, 2);
-  const x10 = Math.pow(theta_dot, 2);
-  const x11 = sin_psi*b_over_l;
-  return [x6*(-x7*sin_theta - x8*sin_psi + x0*sin_theta*mu - x7*x9*sin_t2 + 2*x0*x1*sin_theta + x0*x1*x10*cos_t2*sin_t2), x6*(-x11*x2 - x11*mu - x7*sin_psi - x8*sin_theta - x10*x3*sin_t2 - x8*x9*sin_t2 + 2*x0*x1*sin_psi + x1*x10*x4*sin_t2 + x10*sin_t2*b_over_l*mu + cos_t2*sin_theta*b_over_l*mu + 2*x1*x10*sin_t2*b_over_l + 2*x1*cos_t2*sin_theta*b_over_l), 0];
-}
-
-/* Mechanical energy T + V in phase extended. Returns energy. */
-function extended_energy(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
-  const [cos_psi, sin_psi] = be.cos_sin(psi);
-  const [cos_theta, sin_theta] = be.cos_sin(theta);
-  const x0 = cos_theta*mu;
-  const x1 = Math.pow(theta_dot, 2);
-  const x2 = x1/2;
-  const x3 = x1*mu;
-  const x4 = cos_psi*b_over_l;
-  const x5 = psi_dot*theta_dot;
-  const x6 = mu*Math.pow(b_over_l, 2);
-  return x2 + x3 + cos_theta + 2*x0 + x2*x6 + x6*Math.pow(psi_dot, 2)/2 - x0*b_over_l - x3*b_over_l - x4*mu - x0*x4*x5 - x5*sin_psi*sin_theta*b_over_l*mu;
-}
-
-/* Ground reaction on the stance foot along the ground normal in phase extended. Returns normal force (the foot lifts off below 0). */
-function extended_normal_force(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
-  const [cos_psi, sin_psi] = be.cos_sin(psi);
-  const [cos_theta, sin_theta] = be.cos_sin(theta);
-  const [cos_t2, sin_t2] = be.cos_sin(psi - theta);
-  const x0 = Math.pow(b_over_l, 2);
-  const x1 = x0*mu;
-  const x2 = Math.pow(mu, 2);
-  const x3 = (b_over_l*b_over_l*b_over_l);
-  const x4 = 2*x3;
-  const x5 = x2*x4;
-  const x6 = x0*x2;
-  const x7 = 2*x6;
-  const x8 = (b_over_l*b_over_l*b_over_l*b_over_l);
-  const x9 = x2*x8;
-  const x10 = Math.pow(cos_t2, 2);
-  const x11 = x9 - x10*x6;
-  const x12 = (mu*mu*mu);
-  const x13 = x0*x12;
-  const x14 = 2*x13;
-  const x15 = x12*x4;
-  const x16 = Math.pow(cos_theta, 2);
-  const x17 = Math.pow(cos_psi, 2);
-  const x18 = x12*x8;
-  const x19 = 4*x16;
-  const x20 = x12*x3;
-  const x21 = Math.pow(psi_dot, 2);
-  const x22 = x21*cos_psi;
-  const x23 = x2*x3;
-  const x24 = x12*Math.pow(b_over_l, 5);
-  const x25 = Math.pow(theta_dot, 2);
-  const x26 = x25*cos_theta;
-  const x27 = 3*x26;
-  const x28 = x18*sin_t2;
-  const x29 = x25*sin_psi;
-  const x30 = x21*sin_theta;
-  const x31 = x30*sin_t2;
-  const x32 = x20*cos_t2;
-  const x33 = cos_t2*sin_psi*sin_theta;
-  return (x11 + x15 - x14 - x6 + x1*x16 + x13*x19 + x14*x17 + x15*x22 + x15*x31 + x16*x18 + x17*x18 + x17*x6 + x19*x6 + x22*x23 + x22*x24 + x23*x27 + x23*x31 + x24*x26 + x28*x29 + x33*x7 - x1*x26 - x10*x14 - x14*x26 - x15*x17 - x15*x33 - x16*x5 - x19*x20 - x26*x9 - x27*x6 - x28*x30 - 4*x18*x26 - 2*x18*x22 + 4*x13*x33 + 6*x20*x26 - x15*x29*sin_t2 - x21*x32*cos_theta - x25*x32*cos_psi)/(x1 + x11 + x7 - x5);
-}
-
-/* Guard of fell-backward in phase extended. Returns crosses zero (direction -1) when the walk ends. */
-function extended_fell_backward(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
-  return theta_dot;
-}
-
-/* d(guard of fell-backward)/d(input) in phase extended: the guard with the inputs on is extended_fell_backward + these times the inputs. Returns tuple: one gain per input, in order. */
-function extended_fell_backward_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
-  return [0];
-}
-
-/* Guard of fell-forward in phase extended. Returns crosses zero (direction -1) when the walk ends. */
-function extended_fell_forward(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
-  const [cos_theta, sin_theta] = be.cos_sin(theta);
-  return cos_theta;
-}
-
-/* d(guard of fell-forward)/d(input) in phase extended: the guard with the inputs on is extended_fell_forward + these times the inputs. Returns tuple: one gain per input, in order. */
-function extended_fell_forward_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
-  return [0];
-}
-
-/* Guard of lift-off in phase extended. Returns crosses zero (direction -1) when the walk ends. */
-function extended_lift_off(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
-  const [cos_psi, sin_psi] = be.cos_sin(psi);
-  const [cos_theta, sin_theta] = be.cos_sin(theta);
-  const [cos_t2, sin_t2] = be.cos_sin(psi - theta);
-  const x0 = Math.pow(b_over_l, 2);
-  const x1 = x0*mu;
-  const x2 = Math.pow(mu, 2);
-  const x3 = (b_over_l*b_over_l*b_over_l);
-  const x4 = 2*x3;
-  const x5 = x2*x4;
-  const x6 = x0*x2;
-  const x7 = 2*x6;
-  const x8 = (b_over_l*b_over_l*b_over_l*b_over_l);
-  const x9 = x2*x8;
-  const x10 = Math.pow(cos_t2, 2);
-  const x11 = x9 - x10*x6;
-  const x12 = (mu*mu*mu);
-  const x13 = x0*x12;
-  const x14 = 2*x13;
-  const x15 = x12*x4;
-  const x16 = Math.pow(cos_theta, 2);
-  const x17 = Math.pow(cos_psi, 2);
-  const x18 = x12*x8;
-  const x19 = 4*x16;
-  const x20 = x12*x3;
-  const x21 = Math.pow(psi_dot, 2);
-  const x22 = x21*cos_psi;
-  const x23 = x2*x3;
-  const x24 = x12*Math.pow(b_over_l, 5);
-  const x25 = Math.pow(theta_dot, 2);
-  const x26 = x25*cos_theta;
-  const x27 = 3*x26;
-  const x28 = x18*sin_t2;
-  const x29 = x25*sin_psi;
-  const x30 = x21*sin_theta;
-  const x31 = x30*sin_t2;
-  const x32 = x20*cos_t2;
-  const x33 = cos_t2*sin_psi*sin_theta;
-  return (x11 + x15 - x14 - x6 + x1*x16 + x13*x19 + x14*x17 + x15*x22 + x15*x31 + x16*x18 + x17*x18 + x17*x6 + x19*x6 + x22*x23 + x22*x24 + x23*x27 + x23*x31 + x24*x26 + x28*x29 + x33*x7 - x1*x26 - x10*x14 - x14*x26 - x15*x17 - x15*x33 - x16*x5 - x19*x20 - x26*x9 - x27*x6 - x28*x30 - 4*x18*x26 - 2*x18*x22 + 4*x13*x33 + 6*x20*x26 - x15*x29*sin_t2 - x21*x32*cos_theta - x25*x32*cos_psi)/(x1 + x11 + x7 - x5);
-}
-
-/* d(guard of lift-off)/d(input) in phase extended: the guard with the inputs on is extended_lift_off + these times the inputs. Returns tuple: one gain per input, in order. */
-function extended_lift_off_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
-  const [cos_psi, sin_psi] = be.cos_sin(psi);
-  const [cos_theta, sin_theta] = be.cos_sin(theta);
-  const [cos_t2, sin_t2] = be.cos_sin(psi - theta);
-  const x0 = Math.pow(b_over_l, 2);
-  const x1 = x0*mu;
-  const x2 = Math.pow(mu, 2);
-  const x3 = 2*x2;
-  const x4 = x0*x3;
-  const x5 = (b_over_l*b_over_l*b_over_l);
-  const x6 = x0*x2;
-  const x7 = sin_psi*b_over_l;
-  return [(-x1*sin_theta - x3*x7 - x4*sin_theta - x7*mu + x2*x5*sin_theta - x2*x5*sin_psi - x6*cos_t2*sin_theta + 2*x0*x2*sin_psi + x0*x2*cos_t2*sin_psi + cos_t2*sin_theta*b_over_l*mu + 2*x2*cos_t2*sin_theta*b_over_l)/(x1 + x4 + x2*(b_over_l*b_over_l*b_over_l*b_over_l) - x3*x5 - x6*Math.pow(cos_t2, 2))];
-}
-
-/* Condition swing-foot-clearance in phase extended (reported, not enforced). Returns crosses zero (direction -1) where it fails. */
-function extended_swing_foot_clearance(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
-  const [cos_psi, sin_psi] = be.cos_sin(psi);
-  const [cos_theta, sin_theta] = be.cos_sin(theta);
-  return cos_theta - cos_psi*beta;
-}
-
-/* d(guard of swing-foot-clearance)/d(input) in phase extended: the guard with the inputs on is extended_swing_foot_clearance + these times the inputs. Returns tuple: one gain per input, in order. */
-function extended_swing_foot_clearance_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
-  return [0];
-}
-
-/* Position (x, y) and angle of each body in phase extended's chart. Returns tuple: x, y, angle of each body in order (angle 0 for a point mass). */
-function extended_positions(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
-  const [cos_psi, sin_psi] = be.cos_sin(psi);
-  const [cos_theta, sin_theta] = be.cos_sin(theta);
-  const x0 = -sin_theta;
-  const x1 = -cos_theta;
-  return [sin_theta, cos_theta, 0, -x0 - sin_theta*b_over_l, -x1 - cos_theta*b_over_l, 0, -x0 - sin_psi*b_over_l, -x1 - cos_psi*b_over_l, 0];
-}
-
-/* Mass and central moment of inertia of each body in phase extended. Returns tuple: mass, inertia of each body in order (inertia 0 for a point mass). */
-function extended_inertias(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
-  return [1, 0, mu, 0, mu, 0];
-}
-
-/* d(acceleration)/d(input) in phase extended: the accelerations are extended_accelerations + these times the inputs (hip_torque). Returns tuple: for each state coordinate in order, its gain from each input in order. */
-function extended_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
-  const [cos_t0, sin_t0] = be.cos_sin(psi - theta);
-  const x0 = Math.pow(b_over_l, 2);
-  const x1 = x0*mu;
-  const x2 = x1 - cos_t0*b_over_l*mu;
-  const x3 = Math.pow(mu, 2);
-  const x4 = 2*x3;
-  const x5 = (1/(x1 + x0*x4 + x3*(b_over_l*b_over_l*b_over_l*b_over_l) - x4*(b_over_l*b_over_l*b_over_l) - x0*x3*Math.pow(cos_t0, 2)));
-  return [x2*x5, x5*(-1 - x2 - 2*mu + 2*b_over_l*mu), 0];
-}
-
-/* d(ground reaction)/d(input) in phase extended: normal force's gains, then the tangential force's, one per input. Returns tuple: normal gains per input, then tangential gains per input. */
-function extended_reaction_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
-  const [cos_psi, sin_psi] = be.cos_sin(psi);
-  const [cos_theta, sin_theta] = be.cos_sin(theta);
-  const [cos_t2, sin_t2] = be.cos_sin(psi - theta);
-  const x0 = Math.pow(b_over_l, 2);
-  const x1 = x0*mu;
-  const x2 = Math.pow(mu, 2);
-  const x3 = 2*x2;
-  const x4 = x0*x3;
-  const x5 = (b_over_l*b_over_l*b_over_l);
-  const x6 = x0*x2;
-  const x7 = (1/(x1 + x4 + x2*(b_over_l*b_over_l*b_over_l*b_over_l) - x3*x5 - x6*Math.pow(cos_t2, 2)));
-  const x8 = b_over_l*mu;
-  const x9 = x3*b_over_l;
-  const x10 = x2*x5;
-  const x11 = x6*cos_t2;
-  return [x7*(-x1*sin_theta - x10*sin_psi - x11*sin_theta - x4*sin_theta - x8*sin_psi - x9*sin_psi + x2*x5*sin_theta + 2*x0*x2*sin_psi + x0*x2*cos_t2*sin_psi + cos_t2*sin_theta*b_over_l*mu + 2*x2*cos_t2*sin_theta*b_over_l), x7*(x1*cos_theta + x10*cos_psi + x11*cos_theta + x4*cos_theta + x8*cos_psi + x9*cos_psi - x10*cos_theta - x11*cos_psi - x4*cos_psi - x8*cos_t2*cos_theta - x9*cos_t2*cos_theta)];
-}
-
-/* Rate of what each input of phase extended acts along: its power is the input times this. Returns tuple: one rate per input, in order. */
-function extended_input_rates(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
-  return [theta_dot - psi_dot];
-}
-
-/* Guard of the event end_stop: crosses zero when it happens. Returns guard. */
-function event_end_stop_guard(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
-  return -1 + r;
-}
-
-/* State just after the event end_stop (from the state just before). Eq. (3) with massive legs, the extension's end. Returns tuple: coordinates, then rates. */
-function event_end_stop_reset(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
-  const [cos_t0, sin_t0] = be.cos_sin(psi - theta);
-  const x0 = Math.pow(b_over_l, 2);
-  const x1 = x0*mu;
-  const x2 = Math.pow(mu, 2);
-  const x3 = x2*(b_over_l*b_over_l*b_over_l*b_over_l);
-  const x4 = 2*x2;
-  const x5 = x0*x4;
-  const x6 = (b_over_l*b_over_l*b_over_l);
-  const x7 = x4*x6;
-  const x8 = x0*x2;
-  const x9 = x8*Math.pow(cos_t0, 2);
-  const x10 = (1/(x1 + x3 + x5 - x7 - x9));
-  const x11 = r_dot*sin_t0;
-  const x12 = x11*b_over_l;
-  return [theta, psi, 1, x10*(x1*theta_dot + x3*theta_dot + x5*theta_dot - x7*theta_dot - x9*theta_dot + x11*x8*cos_t0), x10*(x1*psi_dot + x12*x4 + x12*mu + x3*psi_dot + x5*psi_dot - x11*x5 - x7*psi_dot - x9*psi_dot + x11*x2*x6), 0];
 }
 
 /* Guard of the event heelstrike: crosses zero when it happens. Returns guard. */
 function event_heelstrike_guard(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   const [cos_psi, sin_psi] = be.cos_sin(psi);
   const [cos_theta, sin_theta] = be.cos_sin(theta);
-  return cos_theta - cos_psi*beta;
+  return cos_theta*r - cos_psi*beta;
 }
 
 /* State just after the event heelstrike (from the state just before). Eq. (5), (6) with massive legs, the new stance leg free to slide. Returns tuple: coordinates, then rates. */
@@ -598,48 +366,63 @@ function event_heelstrike_reset(beta, mu, b_over_l, l_min, theta, psi, r, theta_
   const x17 = x1*x7;
   const x18 = 3*x17;
   const x19 = 2*x3*x7;
-  const x20 = (1/(x16 + x18 + x19 + x2 + x4 + x8 - x12 - x14 - x14*x15));
-  const x21 = x4*psi_dot;
-  const x22 = cos_t0*theta_dot;
-  const x23 = x5*beta;
-  const x24 = x22*x23;
-  const x25 = psi_dot*beta;
-  const x26 = x10*x25;
-  const x27 = x13*x25;
-  const x28 = x11*x3*x5;
-  const x29 = x13*theta_dot;
-  const x30 = x2*theta_dot;
-  const x31 = x4*theta_dot;
-  const x32 = x8*theta_dot;
-  const x33 = x12*theta_dot;
-  const x34 = x14*theta_dot;
-  const x35 = cos_t0*psi_dot;
-  const x36 = x18*theta_dot;
-  const x37 = x19*theta_dot;
-  const x38 = x15*theta_dot;
-  const x39 = x15*x29;
-  const x40 = sin_t0*beta;
-  return [psi, theta, beta, x20*(x21 - x26 - x27 + x16*psi_dot + x2*psi_dot + x22*x28 + x24*mu - x10*x22 - x13*x22 - x15*x27 - x29*(cos_t0*cos_t0*cos_t0) + 3*x1*x24), x20*(x30 + x31 + x32 + x36 + x37 - x33 - x34 - 2*x39 + x14*x35 + x16*theta_dot + x26*cos_t0 + x28*x38 - x10*x38 - x14*x38 - x17*x35 - x19*x35 + x1*x23*x38), x20*(x30*sin_t0 + x31*sin_t0 + x32*sin_t0 + x36*sin_t0 + x37*sin_t0 - x33*sin_t0 - x34*sin_t0 - x39*x40 + x21*x40*cos_t0 - x13*x35*x6*sin_t0)];
+  const x20 = x14*x15;
+  const x21 = (1/(x16 + x18 + x19 + x2 + x4 + x8 - x12 - x14 - x20));
+  const x22 = x4*psi_dot;
+  const x23 = r_dot*sin_t0;
+  const x24 = x10*x23;
+  const x25 = x5*beta;
+  const x26 = x23*x25;
+  const x27 = r*theta_dot;
+  const x28 = x27*cos_t0;
+  const x29 = psi_dot*beta;
+  const x30 = x10*x29;
+  const x31 = x13*x29;
+  const x32 = 2*x13;
+  const x33 = x23*x32;
+  const x34 = x1*x25;
+  const x35 = x23*x34;
+  const x36 = r_dot*(sin_t0*sin_t0*sin_t0);
+  const x37 = x11*x3*x5;
+  const x38 = x13*(cos_t0*cos_t0*cos_t0);
+  const x39 = x23*x37;
+  const x40 = x2*theta_dot;
+  const x41 = x4*theta_dot;
+  const x42 = x8*theta_dot;
+  const x43 = cos_t0*psi_dot;
+  const x44 = x15*x27;
+  const x45 = cos_t0*r_dot;
+  const x46 = r*sin_t0;
+  const x47 = x13*beta;
+  const x48 = x27*sin_t0;
+  return [psi, theta, beta, x21*(x22 + x24 + x33 - x30 - x31 - 4*x35 + x15*x35 + x15*x39 + x16*psi_dot + x2*psi_dot + x28*x37 + x34*x36 + x36*x37 - x10*x28 - x13*x28 - x13*x36 - x15*x31 - x26*mu - x27*x38 - 4*x26*x3 + 3*x28*x34 + x25*x28*mu), x21*(x40 + x41 + x42 + x14*x43 + x16*theta_dot + x18*theta_dot + x19*theta_dot + x24*cos_t0 + x30*cos_t0 + x33*cos_t0 + x34*x44 + x37*x44 - x10*x44 - x12*theta_dot - x14*theta_dot - x17*x43 - x19*x43 - x20*theta_dot - x32*x44 - x35*cos_t0 - x39*cos_t0), x21*(x18*x45 + x18*x48 + x19*x45 + x19*x48 + x2*x45 + x40*x46 + x41*x46 + x42*x46 + x45*x8 - x12*x45 - x12*x48 - x14*x48 - 3*x45*x47 + 2*x4*x45 - x38*r_dot*beta - x44*x47*sin_t0 + x22*cos_t0*sin_t0*beta - x13*x43*x6*sin_t0)];
 }
 
-/* d(rate)/d(impulse) of the impulses applied before the reset of heelstrike (in phase extended's chart): the rates jump by these times the impulses, the coordinates do not move. Returns tuple: for each state coordinate in order, its gain from each input in order. */
+/* d(rate)/d(impulse) of the impulses applied before the reset of heelstrike (in phase stance's chart): the rates jump by these times the impulses, the coordinates do not move. Returns tuple: for each state coordinate in order, its gain from each input in order. */
 function event_heelstrike_impulse_gains_before(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   const [cos_t0, sin_t0] = be.cos_sin(psi - theta);
-  const x0 = Math.pow(b_over_l, 2);
-  const x1 = x0*mu;
-  const x2 = x1 - cos_t0*b_over_l*mu;
-  const x3 = Math.pow(mu, 2);
-  const x4 = 2*x3;
-  const x5 = (1/(x1 + x0*x4 + x3*(b_over_l*b_over_l*b_over_l*b_over_l) - x4*(b_over_l*b_over_l*b_over_l) - x0*x3*Math.pow(cos_t0, 2)));
-  return [x2*x5, x5*(-1 - x2 - 2*mu + 2*b_over_l*mu), 0];
+  const x0 = Math.pow(r, 2);
+  const x1 = 2*mu;
+  const x2 = 1 + x1;
+  const x3 = x0*x2;
+  const x4 = Math.pow(b_over_l, 2);
+  const x5 = x4*Math.pow(mu, 2);
+  const x6 = x5*Math.pow(cos_t0, 2);
+  const x7 = r*b_over_l;
+  const x8 = x3 + x4*mu - x1*x7;
+  const x9 = x5*Math.pow(sin_t0, 2);
+  const x10 = (1/(-x3*x6 - x8*x9 + x2*x4*x8*mu));
+  const x11 = x5*cos_t0*r*sin_t0;
+  const x12 = x2*x7*cos_t0*mu;
+  return [-x10*x11, x10*(-x12 - x9 + x2*x4*mu), -x10*x8*sin_t0*b_over_l*mu, x10*(x12 - x2*x8), x10*(-x0*x6 + x4*x8*mu), x10*(-x11 + x8*sin_t0*b_over_l*mu)];
 }
 
 /* Rate of what each impulse applied before the reset of heelstrike acts along: its work is the impulse times the mean of this just before and just after it. Returns tuple: one rate per input, in order. */
 function event_heelstrike_impulse_rates_before(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
-  return [theta_dot - psi_dot];
+  return [r_dot, theta_dot - psi_dot];
 }
 
-/* d(rate)/d(impulse) of the impulses applied after the reset of heelstrike (in phase stroke's chart): the rates jump by these times the impulses, the coordinates do not move. Returns tuple: for each state coordinate in order, its gain from each input in order. */
+/* d(rate)/d(impulse) of the impulses applied after the reset of heelstrike (in phase stance's chart): the rates jump by these times the impulses, the coordinates do not move. Returns tuple: for each state coordinate in order, its gain from each input in order. */
 function event_heelstrike_impulse_gains_after(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   const [cos_t0, sin_t0] = be.cos_sin(psi - theta);
   const x0 = Math.pow(r, 2);
@@ -663,11 +446,11 @@ function event_heelstrike_impulse_rates_after(beta, mu, b_over_l, l_min, theta, 
   return [r_dot, theta_dot - psi_dot];
 }
 
-/* The new contact point of the impact heelstrike (x, y in phase extended's chart). Returns tuple: x, y. */
+/* The new contact point of the impact heelstrike (x, y in phase stance's chart). Returns tuple: x, y. */
 function event_heelstrike_contact(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   const [cos_psi, sin_psi] = be.cos_sin(psi);
   const [cos_theta, sin_theta] = be.cos_sin(theta);
-  return [sin_theta - sin_psi*beta, cos_theta - cos_psi*beta];
+  return [r*sin_theta - sin_psi*beta, cos_theta*r - cos_psi*beta];
 }
 
 /* The event heelstrike counts only where this is positive. Returns sign. */
@@ -679,7 +462,7 @@ function event_heelstrike_when(beta, mu, b_over_l, l_min, theta, psi, r, theta_d
 function step_length_of_state(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   const [cos_psi, sin_psi] = be.cos_sin(psi);
   const [cos_theta, sin_theta] = be.cos_sin(theta);
-  return sin_theta - sin_psi*beta;
+  return r*sin_theta - sin_psi*beta;
 }
 
 /* The walker's weight: gravity times the mass of every body (the cost of transport's scale; it depends on the parameters only). Returns force. */
@@ -697,7 +480,7 @@ function section_completion(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot,
   return [theta, psi, beta, theta_dot, psi_dot, r_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, stroke_accelerations, stroke_energy, stroke_normal_force, stroke_fell_backward, stroke_fell_backward_input_gains, stroke_fell_forward, stroke_fell_forward_input_gains, stroke_lift_off, stroke_lift_off_input_gains, stroke_crouched, stroke_crouched_input_gains, stroke_swing_foot_clearance, stroke_swing_foot_clearance_input_gains, stroke_positions, stroke_inertias, stroke_input_gains, stroke_reaction_input_gains, stroke_input_rates, extended_accelerations, extended_energy, extended_normal_force, extended_fell_backward, extended_fell_backward_input_gains, extended_fell_forward, extended_fell_forward_input_gains, extended_lift_off, extended_lift_off_input_gains, extended_swing_foot_clearance, extended_swing_foot_clearance_input_gains, extended_positions, extended_inertias, extended_input_gains, extended_reaction_input_gains, extended_input_rates, event_end_stop_guard, event_end_stop_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_impulse_gains_before, event_heelstrike_impulse_rates_before, event_heelstrike_impulse_gains_after, event_heelstrike_impulse_rates_after, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, parameter_condition_0, section_completion };
+const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_fell_backward_input_gains, stance_fell_forward, stance_fell_forward_input_gains, stance_lift_off, stance_lift_off_input_gains, stance_crouched, stance_crouched_input_gains, stance_overextended, stance_overextended_input_gains, stance_swing_foot_clearance, stance_swing_foot_clearance_input_gains, stance_positions, stance_inertias, stance_input_gains, stance_reaction_input_gains, stance_input_rates, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_impulse_gains_before, event_heelstrike_impulse_rates_before, event_heelstrike_impulse_gains_after, event_heelstrike_impulse_rates_after, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, parameter_condition_0, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {
