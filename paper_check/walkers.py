@@ -20,7 +20,9 @@ For each model a short Markdown report ``DIR/<model>.md`` and its figures:
   torque at one speed and step length, beside its derivation (:mod:`paper_check.kuo`);
 * ``point-mass-biped``: its least-work gaits (``vsw optimize``) beside Srinivasan & Ruina
   (2006)'s inverted-pendulum walking with its cost derived in :mod:`paper_check.powered`,
-  and the ILE's price against the least work of its own body.
+  and the ILE's price against the least work of its own body;
+* ``free-vsw-biped``: the VSW biped's gaits against the least work found for the same
+  body at their speeds and step lengths, verified (:mod:`paper_check.vsw_price`).
 
 Each row of a comparison says the published value, its source, ours, the difference, the
 tolerance the source's precision allows and a verdict: ``agrees`` within it, ``differs``
@@ -45,6 +47,7 @@ from paper_check.output import check_output_directory
 from paper_check.powered import point_mass_biped
 from paper_check.rows import Row
 from paper_check.rows import table as _table
+from paper_check.vsw_price import free_vsw_biped
 from vsw import plotstyle
 from vsw.conditions import gait_conditions
 from vsw.continuation import Options, SpecialPoint, continue_gaits
@@ -59,7 +62,7 @@ from vsw.models import load
 from vsw.sweeps import brute_force, continuation, record
 
 MODELS = ("simplest-walker", "compass-gait", "vsw-biped", "kneed-walker", "point-mass-biped",
-          "kuo-walker")  # fmt: skip
+          "kuo-walker", "free-vsw-biped")  # fmt: skip
 
 SOURCES = {
     "G98": "Garcia, Chatterjee, Ruina, Coleman, The simplest walking model: stability, "
@@ -841,6 +844,7 @@ REPORTS: dict[str, Callable[[Path, bool], list[Path]]] = {
     "kneed-walker": kneed_walker,
     "point-mass-biped": point_mass_biped,
     "kuo-walker": kuo_walker,
+    "free-vsw-biped": free_vsw_biped,
 }
 
 

@@ -21,7 +21,8 @@ import pytest
 
 from vsw.errors import VswInputError
 from vsw.models import load
-from vsw.powered import Request, _check_step_target, optimize
+from vsw.powered import Request, _check_step_target, optimize, powered_step
+from vsw.powered_verify import verify
 
 pytest.importorskip("casadi")
 
@@ -132,6 +133,15 @@ def test_push_off_alone_equals_single_shooting(walker):
     assert peer.success, peer.message
     assert gait.cost == pytest.approx(peer.cost, rel=1e-6)
     assert gait.step_length == pytest.approx(0.4, rel=1e-9)
+    # The open-loop step's fixed point (vsw.powered_verify): a motion of the walker whose
+    # work, integrated along it, is SLSQP's too; it maps to itself.
+    verified = verify(walker, params, gait)
+    assert verified.failure == ""
+    assert verified.residual <= 1e-9
+    assert verified.positive_work == pytest.approx(peer.cost, rel=1e-6)
+    again = powered_step(walker, params, gait, verified.state)
+    assert np.max(np.abs(again - verified.state)) <= 1e-8
+    assert verified.ground_impulses["heelstrike.new_foot"][1] > 0
 
 
 def test_push_off_alone_cannot_meet_both_a_speed_and_a_step(walker):

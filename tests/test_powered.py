@@ -154,3 +154,30 @@ def test_vsw_optimize_json_and_exit_statuses(capsys, tmp_path):
     assert main(["optimize", "--model", "simplest-walker"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ["vsw: error: simplest-walker declares no inputs: nothing to power it with"]
+
+
+def test_vsw_optimize_verify_and_the_ground(capsys):
+    """`vsw optimize --verify --json`: the periodic motion driven by the optimum's inputs
+    (its step's gap within 1e-7), at the target speed within 1e-4, its work integrated
+    along it within 1e-3 of the mesh's ledger; the ground's impulses at heelstrike, the new
+    foot's pushing (on the slope's normal) within the friction cone asked for; a negative
+    friction coefficient is one line, exit 2."""
+    import json
+
+    from vsw.cli import main
+
+    argv = ["optimize", "--model", "compass-gait", "--target-speed", "0.8", "--minimize",
+            "work", "--friction", "1", "--verify", "--json"]  # fmt: skip
+    assert main(argv) == 0
+    data = json.loads(capsys.readouterr().out)
+    verified = data["verified"]
+    assert verified["status"] == "verified" and verified["residual"] <= 1e-7
+    assert verified["speed"] == pytest.approx(0.8, rel=1e-4)
+    mesh = sum(w["positive"] for w in data["work"].values())
+    assert verified["positive_work"] == pytest.approx(mesh, rel=1e-3)
+    for ground in (data["ground_impulses"], verified["ground_impulses"]):
+        landing = ground["heelstrike.new_foot"]
+        assert landing["normal"] > 0 and abs(landing["tangential"]) <= landing["normal"] + 1e-9
+    assert main(["optimize", "--model", "compass-gait", "--friction", "-1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["vsw: error: --friction -1.0 must be a number >= 0"]

@@ -155,3 +155,28 @@ def test_kuo_walker_report_agrees_with_its_derivation_and_is_deterministic(tmp_p
     assert len(compared) == 3 and all(r[6] == "agrees" for r in compared), compared
     (smooth,) = [r for r in rows if len(r) == 6 and r[0] == "0.6"]
     assert smooth[3] != "optimal" and float(smooth[2]) > float(smooth[5])
+
+
+@pytest.mark.slow
+def test_vsw_price_report_bounds_vsw_by_a_verified_gait_and_is_deterministic(tmp_path):
+    """VSW's price on its own biped (quick: the defaults' gait): the body's least-work gait
+    found is verified (a periodic motion of the walker, its step's gap within 1e-7), at
+    the VSW gait's speed and step within 1e-3, its landing pushed within the friction cone
+    of 1, and it costs less than the VSW gait (a ratio above 1); two runs write the same
+    bytes."""
+    runs = []
+    for k in range(2):
+        out = tmp_path / str(k)
+        assert main(["--model", "free-vsw-biped", "--quick", "--out", str(out)]) == 0
+        runs.append((out / "free-vsw-biped.md").read_bytes())
+    assert runs[0] == runs[1]
+    (row,) = [r for r in _rows(runs[0].decode()) if r[0] == "defaults"]
+    speed, step, vsw_work = (float(v) for v in row[1:4])
+    verified = row[6]
+    work, rest = verified.split(" (")
+    v, s, gap = (float(x) for x in rest.rstrip(")").replace(";", ",").split(","))
+    assert abs(v - speed) < 1e-3 * speed and abs(s - step) < 1e-3 * step and gap <= 1e-7
+    normal, tangential = (float(x) for x in row[7].split(","))
+    assert normal >= 0 and abs(tangential) <= normal * (1 + 1e-6)
+    assert float(row[8]) == pytest.approx(vsw_work / float(work), rel=1e-2)
+    assert float(row[8]) > 1

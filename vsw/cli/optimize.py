@@ -17,8 +17,10 @@ from vsw import powered
 from vsw.cli import options
 from vsw.cli.output import dump_json, envelope, fmt, write_parameters
 from vsw.cli.parser import EXIT_OK, EXIT_SOLVER
+from vsw.errors import ConvergenceError
 from vsw.figures import check_save_path, save_figure
 from vsw.powered_plot import powered_figure
+from vsw.powered_verify import VerifiedGait, verify
 
 __all__ = ["register", "run"]
 
@@ -59,6 +61,13 @@ def register(subparsers: Any) -> None:
         help="the swing foot at least H sin(pi s) above the ground, s the fraction of the "
         "step (no scuffing; default: reported, not enforced)",
     )
+    p.add_argument(
+        "--verify",
+        action="store_true",
+        help="the periodic step of the walker driven by the optimum's inputs "
+        "(open-loop fixed point, SciPy DOP853) and its work along it: the exact "
+        "work of a gait at about the targets",
+    )
     p.add_argument("--plot", metavar="FILE", help="save the states and inputs over the step")
     p.set_defaults(func=run, parser=p)
 
@@ -74,9 +83,12 @@ def run(args: argparse.Namespace) -> int:
     if args.plot is not None:
         check_save_path(args.plot)
     gait = powered.optimize(model, params, request)
+    verified = _verified(model, params, gait) if args.verify else None
     data = {**envelope(model, params, args.argv, {"collocation": "Hermite-Simpson",
                                                   "resimulation": powered.RESIMULATION_TOL}),
             **_to_dict(model, request, gait)}  # fmt: skip
+    if args.verify:
+        data["verified"] = _verified_dict(verified)
     if args.plot is not None:
         save_figure(powered_figure(model, params, gait), args.plot)
         data["plot"] = args.plot
@@ -84,10 +96,57 @@ def run(args: argparse.Namespace) -> int:
         dump_json(data)
     else:
         _write_text(model, params, request, gait)
+        if args.verify:
+            _write_verified(verified)
     if gait.status == "optimal":
         return EXIT_OK
     sys.stderr.write(f"vsw optimize: {gait.status}: {' '.join(gait.reason.split())}\n")
     return EXIT_SOLVER
+
+
+def _verified(model, params, gait: powered.PoweredGait) -> VerifiedGait | str:
+    """The verified gait, or why there is none (one line)."""
+    if gait.status == "infeasible":
+        return "no gait: the optimisation found the constraints infeasible"
+    try:
+        return verify(model, params, gait)
+    except ConvergenceError as exc:
+        return str(exc)
+
+
+def _verified_dict(verified: VerifiedGait | str) -> dict[str, Any]:
+    if isinstance(verified, str):
+        return {"status": "failed", "reason": verified}
+    return {
+        "status": "failed" if verified.failure else "verified",
+        "reason": verified.failure or None,
+        "residual": verified.residual,
+        "positive_work": verified.positive_work,
+        "period": verified.period,
+        "step_length": verified.step_length,
+        "speed": verified.speed,
+        "work": verified.work,
+        "ground_impulses": {
+            k: {"tangential": t, "normal": n} for k, (t, n) in verified.ground_impulses.items()
+        },
+        "state": verified.state.tolist(),
+    }
+
+
+def _write_verified(verified: VerifiedGait | str) -> None:
+    out = sys.stdout
+    if isinstance(verified, str):
+        out.write(f"verified           failed: {verified}\n")
+        return
+    status = f"failed: {verified.failure}" if verified.failure else "verified"
+    out.write(f"verified           {status}; positive work {fmt(verified.positive_work)} "
+              f"(step maps to itself within {fmt(verified.residual)})\n")  # fmt: skip
+    out.write(f"  period {fmt(verified.period)}; step length {fmt(verified.step_length)}; "
+              f"speed {fmt(verified.speed)}\n")  # fmt: skip
+    for key, work in verified.work.items():
+        out.write(f"  work of {key:<11} +{fmt(work['positive'])} / {fmt(work['negative'])}\n")
+    for key, (tangential, normal) in verified.ground_impulses.items():
+        out.write(f"  ground at {key:<9} normal {fmt(normal)}, tangential {fmt(tangential)}\n")
 
 
 def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict[str, Any]:

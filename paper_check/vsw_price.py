@@ -1,0 +1,150 @@
+"""``python -m paper_check.walkers --model free-vsw-biped``: VSW's price on its own biped
+(issue 28, question 3, second half): each VSW biped gait's actuator work a step against
+the least work found for the same body, free in how it uses its leg and hip, at the same
+speed and step length (docs/models/powered_walking.md).
+
+The VSW biped's gaits: Newton (``periodic_orbit``) from the states ``vsw analyze`` lists
+for them, their work from the energy ledger (the extension's, ``leg and held hip``: its
+net work, which is at most its positive work, so the ratio below is at most VSW's true
+one). The body's gaits: ``vsw optimize --model free-vsw-biped --minimize work`` at the
+VSW gait's speed and step, the ground pushing within a friction cone of 1 and the swing
+foot at least 0.02 l sin(pi s) above the ground (no scuffing), then verified
+(``vsw.powered_verify``): the periodic motion of the walker driven by the optimum's inputs
+and its work integrated along it. That verified gait is a gait of the body, so its work
+bounds the body's least work from above at its speed and step (within 1e-4 of the
+targets), and the VSW gait's work over it bounds VSW's price from below. The mesh's own
+number is shown beside it: it can undercount a power that changes sign inside an
+interval (a landing absorbed by a large leg force and then pushed back), which the
+verified work does not.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from vsw.errors import ConvergenceError
+from vsw.ledger import energy_ledger
+from vsw.models import load
+from vsw.powered import Request, optimize
+from vsw.powered_verify import VerifiedGait, verify
+
+__all__ = ["free_vsw_biped"]
+
+VSW_GAITS = (
+    ({}, (-0.252572, 0.684685, 0.506767, -0.97655)),
+    ({"beta": 0.9}, (-0.136929, 0.469983, 0.610843, -0.0500801)),
+    ({"beta": 0.9}, (-0.261105, 0.516618, 0.449664, -0.475193)),
+    ({"theta_II": 0.1}, (0.0526276, 0.645345, 0.872497, -0.0161405)),
+    ({"mu": 0.2}, (-0.235263, 0.67938, 0.494822, -1.03816)),
+)
+"""VSW biped parameters (beside its defaults) and a gait's state just after heelstrike
+(theta, psi, theta_dot, psi_dot) as `vsw analyze` lists it: Newton's start."""
+FRICTION = 1.0
+CLEARANCE = 0.02
+NODES = 20
+
+
+def _vsw_gait(values: dict, guess: Sequence[float]):
+    """The VSW biped's gait near ``guess`` and its ledger."""
+    biped = load("vsw_biped")
+    params = biped.parameters(values)
+    pieces, _events, ended = biped.continuous_walk(params, np.array(guess), 1)
+    if ended != "completed":
+        raise ConvergenceError(f"vsw-biped: the listed gait's step ended with {ended}")
+    orbit = biped.periodic_orbit(params, np.array(guess), [p.end - p.start for p in pieces])
+    return orbit, energy_ledger(biped, params, orbit)
+
+
+def _body_gait(values: dict, speed: float, step: float, model: str = "free_vsw_biped"):
+    """The body's least-work gait found at (speed, step) and its verification (or why
+    there is none)."""
+    body = load(model)
+    params = body.parameters({k: v for k, v in values.items() if k != "theta_II"})
+    request = Request("work", speed, step, NODES, friction=FRICTION, clearance=CLEARANCE)
+    gait = optimize(body, params, request)
+    try:
+        return gait, verify(body, params, gait)
+    except ConvergenceError as exc:
+        return gait, str(exc).split(": ", 1)[-1]
+
+
+def _row(values: dict, guess: Sequence[float]) -> str:
+    orbit, ledger = _vsw_gait(values, guess)
+    totals = ledger["totals"]
+    work = totals["actuator_work_impulsive"] + totals["actuator_work_continuous"]
+    forward, up = next(e["ground_impulse"] for e in ledger["events"] if "ground_impulse" in e)
+    gait, verified = _body_gait(values, orbit.speed, orbit.step_length)
+    label = ", ".join(f"{k} {v:g}" for k, v in values.items()) or "defaults"
+    head = (f"| {label} | {orbit.speed:.6f} | {orbit.step_length:.6f} | {work:.6f} | "
+            f"{forward:.4f}, {up:.4f} | {gait.cost:.6f} ({gait.status}) | ")  # fmt: skip
+    return head + _verified_cells(verified, work) + " |"
+
+
+def _verified_cells(verified: VerifiedGait | str, vsw_work: float) -> str:
+    if isinstance(verified, str):
+        return f"none: {verified} | | | "
+    if verified.failure:
+        return f"none: {verified.failure} | | | "
+    tangential, normal = verified.ground_impulses["heelstrike.new_foot"]
+    return (f"{verified.positive_work:.6f} ({verified.speed:.6f}, {verified.step_length:.6f}; "
+            f"{verified.residual:.1e}) | {normal:.4f}, {tangential:.4f} | "
+            f"{vsw_work / verified.positive_work:.2f}")  # fmt: skip
+
+
+def _stop_row(values: dict, guess: Sequence[float]) -> str:
+    """The same with the end stop at l (free-vsw-biped-stop): gaits that extend the leg
+    to its stop once a step, as VSW's."""
+    orbit, ledger = _vsw_gait(values, guess)
+    totals = ledger["totals"]
+    work = totals["actuator_work_impulsive"] + totals["actuator_work_continuous"]
+    gait, verified = _body_gait(values, orbit.speed, orbit.step_length, "free_vsw_biped_stop")
+    label = ", ".join(f"{k} {v:g}" for k, v in values.items()) or "defaults"
+    cells = _verified_cells(verified, work)
+    stop = ""
+    if not isinstance(verified, str):
+        tangential, normal = verified.ground_impulses.get("end_stop.stance_foot", (np.nan,) * 2)
+        stop = f"{normal:.4f}, {tangential:.4f}"
+    return f"| {label} | {gait.cost:.6f} ({gait.status}) | {cells} | {stop} |"
+
+
+def free_vsw_biped(out: Path, quick: bool = False) -> list[Path]:
+    """Write ``out/free-vsw-biped.md`` (``quick``: the defaults' gait only, no end stop)."""
+    cases = VSW_GAITS[:1] if quick else VSW_GAITS
+    text = [
+        "# VSW's price on its own biped\n\n",
+        "Generated by `python -m paper_check.walkers --model free-vsw-biped` ",
+        "(paper_check/vsw_price.py, whose docstring says how). Scaled units: lengths in l, ",
+        "time in sqrt(l/g), energies in m_H g l; the body's l_min 0.5. Each row: a VSW ",
+        "biped gait (its parameters beside the defaults beta 0.8, theta_II 0, mu 0.1, ",
+        "b/l 0.3), its actuators' work a step (the extension's) and the ground's impulse at ",
+        "its extension (forward, up: friction ratios far above 1, or a pull), then the least ",
+        "work found for the same body at the same speed and step (`vsw optimize --model ",
+        f"free-vsw-biped --minimize work --friction {FRICTION:g} --clearance {CLEARANCE:g}`, ",
+        f"{2 * NODES} intervals) on the mesh, and verified (`--verify`: the work integrated ",
+        "along the motion, its speed, step and the step's gap to periodic), the landing's ",
+        "ground impulse (normal, tangential), and VSW's work over the verified work: a ",
+        "lower bound on VSW's price, the verified gait being one gait of the body.\n\n",
+        "| VSW gait | V | S | VSW work a step | VSW extension's ground impulse | body: least ",
+        "work on the mesh | verified work (V, S; gap) | landing's ground impulse | VSW / ",
+        "verified |\n",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
+        *(_row(values, guess) + "\n" for values, guess in cases),
+    ]
+    if not quick:
+        text += [
+            "\n## With an end stop at l (`free-vsw-biped-stop`)\n\n",
+            "The same body whose stance leg reaches an end stop at l once a step (the VSW ",
+            "biped's extension, a push and a stop, is the limit of its motions): the least ",
+            "work found among the gaits that extend the leg fully, as VSW's do. Stopping a ",
+            "lengthening leg pulls its foot; that ground impulse is shown.\n\n",
+            "| VSW gait | body with stop: least work on the mesh | verified work (V, S; gap) | ",
+            "landing's ground impulse | VSW / verified | stop's ground impulse |\n",
+            "| --- | --- | --- | --- | --- | --- |\n",
+            _stop_row(*VSW_GAITS[0]) + "\n",
+        ]
+    path = out / "free-vsw-biped.md"
+    path.write_text("".join(text))
+    return [path]

@@ -1,0 +1,229 @@
+"""An optimised gait made exact: the periodic step of the walker driven by the optimum's
+inputs, and its work from that motion (``vsw optimize --verify``).
+
+The collocation's gait satisfies the walker's equations only to its mesh's accuracy (its
+re-simulation ends a little away from its last knot), so its work bounds the least work
+only up to that error. Here the inputs the scheme implies (quadratic on each interval,
+as functions of the time since each phase began, :func:`vsw.powered.powered_step`) and
+the impulses are kept, and the state just after the step event is moved to the fixed
+point of that open-loop step (Newton, central differences): a motion of the walker to
+the integrator's tolerance (SciPy DOP853, 1e-11). Its work is integrated along it (each
+input's ``max(P, 0)`` as a state of the integration), each impulse's exact positive work
+where its split stops a reversing rate (:func:`vsw.powered._stopping_splits`); every
+failure and every crossing of the step event's guard that counts is watched on the way,
+and the ground's impulses at each event are evaluated. Its speed and step length differ
+from the targets by about the collocation's error (reported): it is a gait of the body
+at those, whatever the mesh.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from vsw.errors import ConvergenceError
+from vsw.hybrid import HybridModel
+from vsw.powered import (
+    RESIMULATION_TOL,
+    PoweredGait,
+    _apply_impulses,
+    _control,
+    _counts,
+    _flow_function,
+    _input_rate_function,
+    _momentum_function,
+    _stopping_splits,
+    _watchers,
+    impulse_names,
+    input_names,
+    ordered_impulses,
+    positive_work_of_linear_power,
+    powered_step,
+)
+
+__all__ = ["VerifiedGait", "verify"]
+
+FIXED_POINT_TOL = 1e-7
+"""The fixed point is accepted where the step maps the state to itself within this,
+relative to max(1, |state|): the open-loop step of an unstable gait (|eigenvalue| 12 at
+the VSW biped's body's least-work gait) amplifies the integrator's 1e-11 to about 1e-8,
+where Newton stalls (it goes on to 1e-9 for the best of its iterates)."""
+
+
+@dataclass
+class VerifiedGait:
+    """The periodic step of the walker under the optimum's inputs: ``state`` just after
+    the step event, ``residual`` its step's gap to it (relative), the step's ``period``,
+    ``step_length`` and ``speed``, each input's and impulse's ``work`` (positive,
+    negative) and ``positive_work`` their positive total, the ground's impulses at each
+    event (tangential, normal), and ``failure``: what ended or spoiled the step ('' when
+    nothing)."""
+
+    state: np.ndarray
+    residual: float
+    period: float
+    step_length: float | None
+    speed: float | None
+    work: dict[str, dict[str, float]] = field(default_factory=dict)
+    ground_impulses: dict[str, tuple[float, float]] = field(default_factory=dict)
+    failure: str = ""
+
+    @property
+    def positive_work(self) -> float:
+        return float(sum(w["positive"] for w in self.work.values()))
+
+
+def verify(model: HybridModel, params: Sequence[float], gait: PoweredGait,
+           iterations: int = 20) -> VerifiedGait:  # fmt: skip
+    """The fixed point of ``gait``'s open-loop step and the step from it (module
+    docstring); :class:`ConvergenceError` where Newton does not find it."""
+    p = np.asarray(params, dtype=float)
+    x = np.array(gait.states[0][0], dtype=float)
+    best, residual = x, np.inf
+    jacobian = None
+    for _ in range(iterations):
+        gap = powered_step(model, p, gait, x) - x
+        size = float(np.max(np.abs(gap))) / max(1.0, float(np.max(np.abs(x))))
+        if size >= residual / 2 and residual <= FIXED_POINT_TOL:
+            break  # at the step's noise: no better iterate will come
+        if size < residual:
+            best, residual = x, size
+        if jacobian is None:  # the chord method: the start is near the fixed point
+            jacobian = _step_jacobian(model, p, gait, x) - np.eye(x.size)
+        x = x - np.linalg.lstsq(jacobian, gap, rcond=None)[0]
+    if not residual <= FIXED_POINT_TOL:
+        raise ConvergenceError(f"{model.name}: the open-loop step has no fixed point near the "
+                               f"optimum (Newton's least gap {residual:.3g} in {iterations} "
+                               "iterations)")  # fmt: skip
+    x = best
+    return _replay(model, p, gait, x, residual)
+
+
+def _step_jacobian(model: HybridModel, p: np.ndarray, gait: PoweredGait,
+                   x: np.ndarray) -> np.ndarray:  # fmt: skip
+    jacobian = np.empty((x.size, x.size))
+    for j in range(x.size):
+        h = 1e-6 * max(1.0, abs(x[j]))
+        up, down = x.copy(), x.copy()
+        up[j] += h
+        down[j] -= h
+        jacobian[:, j] = (powered_step(model, p, gait, up) - powered_step(model, p, gait, down)
+                          ) / (2 * h)  # fmt: skip
+    return jacobian
+
+
+def _replay(model: HybridModel, p: np.ndarray, gait: PoweredGait, x: np.ndarray,
+            residual: float) -> VerifiedGait:  # fmt: skip
+    """One step from ``x``, each phase to its event's first crossing that counts, the
+    inputs' positive and negative work integrated along it (as states: the flow's
+    quadrature then has the integrator's tolerance), the events' impulses applied."""
+    names = input_names(model)
+    state, period, failure = x.copy(), 0.0, ""
+    work: dict[str, dict[str, float]] = {}
+    ground: dict[str, tuple[float, float]] = {}
+    step_length = None
+    for (phase, event), duration, u in zip(model._phase_sequence(), gait.durations, gait.inputs):
+        control = _control(u, duration)
+        watched = _watchers(model, phase, event, p, control)
+        count = len(names[phase])
+        flow, rates = _flow_function(model, phase), _input_rate_function(model, phase)
+
+        def rhs(t: float, y: np.ndarray, control=control, flow=flow, rates=rates,
+                count=count) -> np.ndarray:  # fmt: skip
+            z, v = y[: x.size], control(t)
+            power = v * np.array(rates(p, z), dtype=float).reshape(-1) if count else v
+            return np.concatenate([np.array(flow(p, z, v), dtype=float).reshape(-1),
+                                   np.maximum(power, 0.0), np.minimum(power, 0.0)])  # fmt: skip
+
+        events = [_on_state(fn, state.size) for _, fn in watched]
+        solution = solve_ivp(rhs, (0.0, 2 * duration), np.concatenate([state, np.zeros(2 * count)]),
+                             method="DOP853", rtol=RESIMULATION_TOL, atol=RESIMULATION_TOL,
+                             events=events, dense_output=True)  # fmt: skip
+        end_time = _first_counted(model, event, p, solution, state.size, duration)
+        if end_time is None:
+            raise ConvergenceError(f"{model.name}: the verified step meets no {event['name']} "
+                                   "within twice its planned duration")  # fmt: skip
+        failure = failure or _failure_before(watched, solution, end_time, phase)
+        y = solution.sol(end_time)
+        before = y[: state.size]
+        for k, name in enumerate(names[phase]):
+            work[f"{phase}.{name}"] = {"positive": float(y[state.size + k]),
+                                       "negative": float(y[state.size + count + k])}  # fmt: skip
+        iota = np.array([gait.impulses[f"{event['name']}.{name}"]
+                         for name in ordered_impulses(model, event)])  # fmt: skip
+        state = _event(model, event, p, before, iota, work, ground)
+        period += end_time
+        if event["ends_step"] and model.spec["step_length"]:
+            step_length = float(model.step_length(p, before))
+    gap = np.max(np.abs(state - x)) / max(1.0, float(np.max(np.abs(x))))
+    return VerifiedGait(x, max(residual, float(gap)), period, step_length,
+                        None if step_length is None else step_length / period, work, ground,
+                        failure)  # fmt: skip
+
+
+def _on_state(function, size: int):
+    """A watcher of the state alone, on the integration's state with the work appended."""
+
+    def watched(t: float, y: np.ndarray) -> float:
+        return function(t, y[:size])
+
+    watched.direction = function.direction
+    return watched
+
+
+def _first_counted(model: HybridModel, event: dict, p: np.ndarray, solution, size: int,
+                   duration: float) -> float | None:  # fmt: skip
+    for t, y in zip(solution.t_events[0], solution.y_events[0]):
+        if t > 1e-9 * duration and _counts(model, event, p, y[:size]):
+            return float(t)
+    return None
+
+
+def _failure_before(watched: list, solution, end_time: float, phase: str) -> str:
+    """The first failure crossed before the phase's end ('' when none)."""
+    for (name, _), times in zip(watched[1:], solution.t_events[1:]):
+        for t in times:
+            if 1e-9 < t < end_time * (1 - 1e-9):
+                return f"{name} in phase {phase} at t = {t:.6g}"
+    return ""
+
+
+def _event(model: HybridModel, event: dict, p: np.ndarray, before: np.ndarray,
+           iota: np.ndarray, work: dict, ground: dict) -> np.ndarray:  # fmt: skip
+    """The state after the event; each impulse's positive work (its split stopping a
+    reversing rate) and negative work into ``work``; the ground's impulses into
+    ``ground``: through the stance foot (the impulses before an impact's reset; a lock's)
+    and through the new foot (an impact and what follows it)."""
+    splits = _stopping_splits(model, event, p, before, iota)
+    after, works, ends = _apply_impulses(model, event, p, before, iota, splits)
+    offset = 0
+    for group in impulse_names(model, event):
+        block = ends[4 * offset : 4 * (offset + len(group))].reshape(4, len(group))
+        positive = (positive_work_of_linear_power(block[0], block[1])
+                    + positive_work_of_linear_power(block[2], block[3]))  # fmt: skip
+        for k, name in enumerate(group):
+            work[f"{event['name']}.{name}"] = {
+                "positive": float(positive[k]),
+                "negative": float(works[offset + k] - positive[k]),
+            }
+        offset += len(group)
+    momentum_before = _momentum_function(model, event["source"])
+    start = np.array(momentum_before(p, before), dtype=float).reshape(-1)
+    count = len(impulse_names(model, event)[0])
+    if count and event["reset"] == "impact":
+        n = model.n
+        gains = np.array(model._fn(f"event_{event['name']}_impulse_gains_before")(*p, *before),
+                         dtype=float).reshape(n, count)  # fmt: skip
+        pushed = before.copy()
+        pushed[n:] += gains @ iota[:count]
+        middle = np.array(momentum_before(p, pushed), dtype=float).reshape(-1)
+        ground[f"{event['name']}.stance_foot"] = (float(middle[0] - start[0]),
+                                                  float(middle[1] - start[1]))  # fmt: skip
+        start = middle
+    end = np.array(_momentum_function(model, event["target"])(p, after), dtype=float).reshape(-1)
+    key = "new_foot" if event["reset"] == "impact" else "stance_foot"
+    ground[f"{event['name']}.{key}"] = (float(end[0] - start[0]), float(end[1] - start[1]))
+    return after
