@@ -89,9 +89,10 @@ def _verified_cells(verified: VerifiedGait | str, vsw_work: float) -> str:
     if verified.failure:
         return f"none: {verified.failure} | | | "
     tangential, normal = verified.ground_impulses["heelstrike.new_foot"]
+    ratio = vsw_work / verified.positive_work
     return (f"{verified.positive_work:.6f} ({verified.speed:.6f}, {verified.step_length:.6f}; "
             f"{verified.residual:.1e}) | {normal:.4f}, {tangential:.4f} | "
-            f"{vsw_work / verified.positive_work:.2f}")  # fmt: skip
+            f"{verified.stance_friction:.3f} | {ratio:.2f}")  # fmt: skip
 
 
 def _stop_row(values: dict, guess: Sequence[float]) -> str:
@@ -125,12 +126,14 @@ def free_vsw_biped(out: Path, quick: bool = False) -> list[Path]:
         f"free-vsw-biped --minimize work --friction {FRICTION:g} --clearance {CLEARANCE:g}`, ",
         f"{2 * NODES} intervals) on the mesh, and verified (`--verify`: the work integrated ",
         "along the motion, its speed, step and the step's gap to periodic), the landing's ",
-        "ground impulse (normal, tangential), and VSW's work over the verified work: a ",
-        "lower bound on VSW's price, the verified gait being one gait of the body.\n\n",
+        "ground impulse (normal, tangential), the friction its stance needs (the largest ",
+        "|tangential| / normal of the stance foot's reaction along it), and VSW's work over ",
+        "the verified work: a lower bound on VSW's price, the verified gait being one gait ",
+        "of the body.\n\n",
         "| VSW gait | V | S | VSW work a step | VSW extension's ground impulse | body: least ",
-        "work on the mesh | verified work (V, S; gap) | landing's ground impulse | VSW / ",
-        "verified |\n",
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
+        "work on the mesh | verified work (V, S; gap) | landing's ground impulse | stance ",
+        "friction needed | VSW / verified |\n",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
         *(_row(values, guess) + "\n" for values, guess in cases),
     ]
     if not quick:
@@ -141,8 +144,9 @@ def free_vsw_biped(out: Path, quick: bool = False) -> list[Path]:
             "work found among the gaits that extend the leg fully, as VSW's do. Stopping a ",
             "lengthening leg pulls its foot; that ground impulse is shown.\n\n",
             "| VSW gait | body with stop: least work on the mesh | verified work (V, S; gap) | ",
-            "landing's ground impulse | VSW / verified | stop's ground impulse |\n",
-            "| --- | --- | --- | --- | --- | --- |\n",
+            "landing's ground impulse | stance friction needed | VSW / verified | stop's ground ",
+            "impulse |\n",
+            "| --- | --- | --- | --- | --- | --- | --- |\n",
             _stop_row(*VSW_GAITS[0]) + "\n",
         ]
     path = out / "free-vsw-biped.md"

@@ -175,9 +175,51 @@ def test_vsw_optimize_verify_and_the_ground(capsys):
     assert verified["speed"] == pytest.approx(0.8, rel=1e-4)
     mesh = sum(w["positive"] for w in data["work"].values())
     assert verified["positive_work"] == pytest.approx(mesh, rel=1e-3)
+    assert verified["stance_friction"] <= 1 + 1e-6  # the knots' cone, between them too
     for ground in (data["ground_impulses"], verified["ground_impulses"]):
         landing = ground["heelstrike.new_foot"]
         assert landing["normal"] > 0 and abs(landing["tangential"]) <= landing["normal"] + 1e-9
     assert main(["optimize", "--model", "compass-gait", "--friction", "-1"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ["vsw: error: --friction -1.0 must be a number >= 0"]
+
+
+@pytest.mark.parametrize(
+    "name",
+    ["compass_gait", "point_mass_biped", "kuo_walker", "level_compass_gait", "free_vsw_biped",
+     "free_vsw_biped_stop"],
+)  # fmt: skip
+def test_the_reaction_from_the_momentum_is_the_engines(name):
+    """The stance foot's reaction the friction cone uses (vsw.powered: the walker's rate of
+    momentum less its weight, gravity along the slope's chart) against the engine's
+    normal force with the inputs' share (derived from the phase's own equations of
+    motion), every phase, 10 random states, parameters near the defaults and inputs each,
+    to 1e-9 of the weight."""
+    import casadi as ca
+
+    from vsw.powered import _reaction_function, input_names
+
+    walker = load(name)
+    rng = np.random.default_rng(43)
+    for spec in walker.phases:
+        phase = spec["name"]
+        count = len(input_names(walker)[phase])
+        reaction = _reaction_function(walker, phase)
+        for _ in range(10):
+            params = np.array(walker.parameters()) * rng.uniform(0.9, 1.1)
+            state = np.concatenate([rng.uniform(-0.4, 0.4, walker.n),
+                                    rng.uniform(-1.0, 1.0, walker.n)])  # fmt: skip
+            if name == "point_mass_biped":
+                state[1] = abs(state[1]) + 0.5  # the hip above the foot
+            for k, coordinate in enumerate(walker.coordinates):
+                if coordinate == "r":
+                    state[k] = rng.uniform(0.6, 1.0)
+            u = rng.uniform(-1.0, 1.0, count)
+            ours = np.array(reaction(params, state, u), dtype=float).reshape(-1)
+            normal = walker.normal_force(phase, params, state)
+            if count:
+                gains = np.array(walker._fn(f"{phase}_reaction_input_gains")(*params, *state),
+                                 dtype=float)  # fmt: skip
+                normal += gains[:count] @ u
+            weight = float(walker.symbolic_weight(ca.DM(params)))
+            assert ours[1] == pytest.approx(normal, abs=1e-9 * weight)

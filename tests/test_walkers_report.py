@@ -162,8 +162,8 @@ def test_vsw_price_report_bounds_vsw_by_a_verified_gait_and_is_deterministic(tmp
     """VSW's price on its own biped (quick: the defaults' gait): the body's least-work gait
     found is verified (a periodic motion of the walker, its step's gap within 1e-7), at
     the VSW gait's speed and step within 1e-3, its landing pushed within the friction cone
-    of 1, and it costs less than the VSW gait (a ratio above 1); two runs write the same
-    bytes."""
+    of 1 and its stance within it (at the knots; within 1 % between them), and it costs
+    less than the VSW gait (a ratio above 1); two runs write the same bytes."""
     runs = []
     for k in range(2):
         out = tmp_path / str(k)
@@ -178,5 +178,6 @@ def test_vsw_price_report_bounds_vsw_by_a_verified_gait_and_is_deterministic(tmp
     assert abs(v - speed) < 1e-3 * speed and abs(s - step) < 1e-3 * step and gap <= 1e-7
     normal, tangential = (float(x) for x in row[7].split(","))
     assert normal >= 0 and abs(tangential) <= normal * (1 + 1e-6)
-    assert float(row[8]) == pytest.approx(vsw_work / float(work), rel=1e-2)
-    assert float(row[8]) > 1
+    assert float(row[8]) <= 1.01  # the cone holds at the knots, between them to the mesh's error
+    assert float(row[9]) == pytest.approx(vsw_work / float(work), rel=1e-2)
+    assert float(row[9]) > 1

@@ -111,9 +111,10 @@ class Request:
     5e5 times the scaled one's)."""
 
     friction: float | None = None
-    """The ground's friction coefficient at impacts: each foot's impulse there within its
-    cone, ``|tangential| <= friction * normal`` (None: no bound; the normal part must push
-    whatever this is)."""
+    """The ground's friction coefficient: the stance foot's reaction at every knot and
+    each foot's impulse at impacts within its cone, ``|tangential| <= friction * normal``
+    (None: no bound; the impulses' normal part must push whatever this is, the stance
+    foot's reaction as the model's lift-off failure has it)."""
     pushing_locks: bool = False
     """The ground must push at locks too (a leg that slams into its end stop pulls its foot:
     with this, it reaches the stop without speed); default: reported, not constrained."""
@@ -404,6 +405,12 @@ def _collocate(model: HybridModel, phase: str, v: _Unknowns, p: Any, duration: A
     for function, direction in _margin_functions(model, phase):
         for x, u in zip(v.knots, v.u_knots):
             g.add(-direction * function(p, x, u), 0.0, math.inf)
+    if request.friction is not None:  # the stance foot's reaction within its cone
+        reaction = _reaction_function(model, phase)
+        for x, u in zip(v.knots, v.u_knots):
+            tangential, normal = ca.vertsplit(reaction(p, x, u))
+            g.add(ca.vertcat(request.friction * normal - tangential,
+                             request.friction * normal + tangential), 0.0, math.inf)  # fmt: skip
     rates = _input_rate_function(model, phase) if names else None
     if slack and names:
         for x, u, s in (*zip(v.knots, v.u_knots, v.s_knots),
@@ -657,13 +664,44 @@ def _momentum_function(model: HybridModel, phase: str) -> Any:
     n = model.n
     p = ca.SX.sym("p", len(model.parameter_table))
     x = ca.SX.sym("x", 2 * n)
+    return ca.Function(f"momentum_{phase}", [p, x], [_momentum(model, phase, p, x)])
+
+
+def _momentum(model: HybridModel, phase: str, p: Any, x: Any) -> Any:
+    import casadi as ca
+
+    n = model.n
     positions = model.symbolic(f"{phase}_positions", p, x)
     inertias = model.symbolic(f"{phase}_inertias", p, x)
     momentum = ca.SX.zeros(2)
     for body in range(positions.shape[0] // 3):
         where = positions[3 * body : 3 * body + 2]
         momentum += inertias[2 * body] * ca.mtimes(ca.jacobian(where, x[:n]), x[n:])
-    return ca.Function(f"momentum_{phase}", [p, x], [momentum])
+    return momentum
+
+
+@functools.cache
+def _reaction_function(model: HybridModel, phase: str) -> Any:
+    """(p, x, u) -> the ground's reaction on the stance foot in the phase's chart
+    (tangential, normal): the walker's rate of momentum less its weight, which acts along
+    the chart's ``(sin gamma, -cos gamma)`` on a slope ``gamma`` (:meth:`HybridModel.slope`;
+    0 on level ground)."""
+    import casadi as ca
+
+    n = model.n
+    names = input_names(model)[phase]
+    p = ca.SX.sym("p", len(model.parameter_table))
+    x = ca.SX.sym("x", 2 * n)
+    u = ca.SX.sym("u", len(names))
+    momentum = _momentum(model, phase, p, x)
+    rate = ca.mtimes(ca.jacobian(momentum, x), _flow_function(model, phase)(p, x, u))
+    slope = 0
+    for k, parameter in enumerate(model.parameter_table):
+        if parameter.name == "gamma" and "slope" in parameter.description:
+            slope = p[k]
+    weight = model.symbolic_weight(p)
+    gravity = weight * ca.vertcat(ca.sin(slope), -ca.cos(slope))
+    return ca.Function(f"reaction_{phase}", [p, x, u], [rate - gravity])
 
 
 def positive_work_of_linear_power(before: Any, after: Any, backend: Any = np) -> Any:

@@ -8,8 +8,8 @@ as functions of the time since each phase began, :func:`vsw.powered.powered_step
 the impulses are kept, and the state just after the step event is moved to the fixed
 point of that open-loop step (Newton, central differences): a motion of the walker to
 the integrator's tolerance (SciPy DOP853, 1e-11). Its work is integrated along it (each
-input's ``max(P, 0)`` as a state of the integration), each impulse's exact positive work
-where its split stops a reversing rate (:func:`vsw.powered._stopping_splits`); every
+input's ``max(P, 0)`` by adaptive quadrature on the dense output), each impulse's exact
+positive work where its split stops a reversing rate (:func:`vsw.powered._stopping_splits`); every
 failure and every crossing of the step event's guard that counts is watched on the way,
 and the ground's impulses at each event are evaluated. Its speed and step length differ
 from the targets by about the collocation's error (reported): it is a gait of the body
@@ -18,11 +18,12 @@ at those, whatever the mesh.
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.integrate import solve_ivp
+from scipy.integrate import quad, solve_ivp
 
 from vsw.errors import ConvergenceError
 from vsw.hybrid import HybridModel
@@ -32,9 +33,10 @@ from vsw.powered import (
     _apply_impulses,
     _control,
     _counts,
-    _flow_function,
     _input_rate_function,
     _momentum_function,
+    _reaction_function,
+    _rhs,
     _stopping_splits,
     _watchers,
     impulse_names,
@@ -70,6 +72,9 @@ class VerifiedGait:
     work: dict[str, dict[str, float]] = field(default_factory=dict)
     ground_impulses: dict[str, tuple[float, float]] = field(default_factory=dict)
     failure: str = ""
+    stance_friction: float = 0.0
+    """The largest |tangential| / normal of the stance foot's reaction along the step
+    (sampled at 200 instants a phase): the friction coefficient the stance needs."""
 
     @property
     def positive_work(self) -> float:
@@ -117,41 +122,32 @@ def _step_jacobian(model: HybridModel, p: np.ndarray, gait: PoweredGait,
 
 def _replay(model: HybridModel, p: np.ndarray, gait: PoweredGait, x: np.ndarray,
             residual: float) -> VerifiedGait:  # fmt: skip
-    """One step from ``x``, each phase to its event's first crossing that counts, the
-    inputs' positive and negative work integrated along it (as states: the flow's
-    quadrature then has the integrator's tolerance), the events' impulses applied."""
+    """One step from ``x`` integrated as :func:`vsw.powered.powered_step` integrates it
+    (so that it ends where Newton's last step did), each phase to its event's first
+    crossing that counts, every failure watched; the inputs' positive and negative work
+    along it (:func:`_phase_work`), the events' impulses applied."""
     names = input_names(model)
-    state, period, failure = x.copy(), 0.0, ""
+    state, period, failure, friction = x.copy(), 0.0, "", 0.0
     work: dict[str, dict[str, float]] = {}
     ground: dict[str, tuple[float, float]] = {}
     step_length = None
     for (phase, event), duration, u in zip(model._phase_sequence(), gait.durations, gait.inputs):
         control = _control(u, duration)
         watched = _watchers(model, phase, event, p, control)
-        count = len(names[phase])
-        flow, rates = _flow_function(model, phase), _input_rate_function(model, phase)
-
-        def rhs(t: float, y: np.ndarray, control=control, flow=flow, rates=rates,
-                count=count) -> np.ndarray:  # fmt: skip
-            z, v = y[: x.size], control(t)
-            power = v * np.array(rates(p, z), dtype=float).reshape(-1) if count else v
-            return np.concatenate([np.array(flow(p, z, v), dtype=float).reshape(-1),
-                                   np.maximum(power, 0.0), np.minimum(power, 0.0)])  # fmt: skip
-
-        events = [_on_state(fn, state.size) for _, fn in watched]
-        solution = solve_ivp(rhs, (0.0, 2 * duration), np.concatenate([state, np.zeros(2 * count)]),
+        solution = solve_ivp(_rhs(model, phase, p, control), (0.0, 2 * duration), state,
                              method="DOP853", rtol=RESIMULATION_TOL, atol=RESIMULATION_TOL,
-                             events=events, dense_output=True)  # fmt: skip
-        end_time = _first_counted(model, event, p, solution, state.size, duration)
+                             events=[fn for _, fn in watched], dense_output=True)  # fmt: skip
+        end_time = _first_counted(model, event, p, solution, duration)
         if end_time is None:
             raise ConvergenceError(f"{model.name}: the verified step meets no {event['name']} "
                                    "within twice its planned duration")  # fmt: skip
         failure = failure or _failure_before(watched, solution, end_time, phase)
-        y = solution.sol(end_time)
-        before = y[: state.size]
-        for k, name in enumerate(names[phase]):
-            work[f"{phase}.{name}"] = {"positive": float(y[state.size + k]),
-                                       "negative": float(y[state.size + count + k])}  # fmt: skip
+        friction = max(friction, _stance_friction(model, phase, p, solution, control, end_time))
+        nodes = (u.shape[0] - 1) // 2
+        for k, (plus, minus) in enumerate(_phase_work(model, phase, p, solution.sol, control,
+                                                      end_time, duration / nodes)):  # fmt: skip
+            work[f"{phase}.{names[phase][k]}"] = {"positive": plus, "negative": minus}
+        before = solution.sol(end_time)
         iota = np.array([gait.impulses[f"{event['name']}.{name}"]
                          for name in ordered_impulses(model, event)])  # fmt: skip
         state = _event(model, event, p, before, iota, work, ground)
@@ -159,25 +155,55 @@ def _replay(model: HybridModel, p: np.ndarray, gait: PoweredGait, x: np.ndarray,
         if event["ends_step"] and model.spec["step_length"]:
             step_length = float(model.step_length(p, before))
     gap = np.max(np.abs(state - x)) / max(1.0, float(np.max(np.abs(x))))
+    if not gap <= FIXED_POINT_TOL:
+        failure = failure or f"the step ends {gap:.3g} from where it began (relative)"
     return VerifiedGait(x, max(residual, float(gap)), period, step_length,
                         None if step_length is None else step_length / period, work, ground,
-                        failure)  # fmt: skip
+                        failure, friction)  # fmt: skip
 
 
-def _on_state(function, size: int):
-    """A watcher of the state alone, on the integration's state with the work appended."""
+def _phase_work(model: HybridModel, phase: str, p: np.ndarray, states, control,
+                end_time: float, interval: float) -> list[tuple[float, float]]:  # fmt: skip
+    """Each input's positive and negative work over ``[0, end_time]`` along the dense
+    output ``states``: adaptive quadrature (SciPy's quad, 1e-11) of ``max(P, 0)`` and
+    ``min(P, 0)`` on each of the mesh's intervals (the inputs are smooth inside them)."""
+    names = input_names(model)[phase]
+    if not names:
+        return []
+    rates = _input_rate_function(model, phase)
 
-    def watched(t: float, y: np.ndarray) -> float:
-        return function(t, y[:size])
+    def power(t: float) -> np.ndarray:
+        return control(t) * np.array(rates(p, states(t)), dtype=float).reshape(-1)
 
-    watched.direction = function.direction
-    return watched
+    edges = np.append(np.arange(0.0, end_time, interval), end_time)
+    edges = edges[np.concatenate([[True], np.diff(edges) > 1e-12 * interval])]
+    out = []
+    for k in range(len(names)):
+        plus = minus = 0.0
+        for a, b in itertools.pairwise(edges):
+            plus += quad(lambda t, k=k: max(power(t)[k], 0.0), a, b, epsabs=1e-13,
+                         epsrel=1e-11, limit=200)[0]  # fmt: skip
+            minus += quad(lambda t, k=k: min(power(t)[k], 0.0), a, b, epsabs=1e-13,
+                          epsrel=1e-11, limit=200)[0]  # fmt: skip
+        out.append((float(plus), float(minus)))
+    return out
 
 
-def _first_counted(model: HybridModel, event: dict, p: np.ndarray, solution, size: int,
+def _stance_friction(model: HybridModel, phase: str, p: np.ndarray, solution, control,
+                     end_time: float) -> float:  # fmt: skip
+    reaction = _reaction_function(model, phase)
+    worst = 0.0
+    for t in np.linspace(0.0, end_time, 200):
+        tangential, normal = np.array(reaction(p, solution.sol(t), control(t)),
+                                      dtype=float).reshape(-1)  # fmt: skip
+        worst = max(worst, abs(tangential) / normal if normal > 0 else np.inf)
+    return float(worst)
+
+
+def _first_counted(model: HybridModel, event: dict, p: np.ndarray, solution,
                    duration: float) -> float | None:  # fmt: skip
     for t, y in zip(solution.t_events[0], solution.y_events[0]):
-        if t > 1e-9 * duration and _counts(model, event, p, y[:size]):
+        if t > 1e-9 * duration and _counts(model, event, p, y):
             return float(t)
     return None
 

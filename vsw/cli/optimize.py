@@ -129,6 +129,7 @@ def _verified_dict(verified: VerifiedGait | str) -> dict[str, Any]:
         "ground_impulses": {
             k: {"tangential": t, "normal": n} for k, (t, n) in verified.ground_impulses.items()
         },
+        "stance_friction": verified.stance_friction,
         "state": verified.state.tolist(),
     }
 
@@ -142,7 +143,8 @@ def _write_verified(verified: VerifiedGait | str) -> None:
     out.write(f"verified           {status}; positive work {fmt(verified.positive_work)} "
               f"(step maps to itself within {fmt(verified.residual)})\n")  # fmt: skip
     out.write(f"  period {fmt(verified.period)}; step length {fmt(verified.step_length)}; "
-              f"speed {fmt(verified.speed)}\n")  # fmt: skip
+              f"speed {fmt(verified.speed)}; stance friction needed "
+              f"{fmt(verified.stance_friction)}\n")  # fmt: skip
     for key, work in verified.work.items():
         out.write(f"  work of {key:<11} +{fmt(work['positive'])} / {fmt(work['negative'])}\n")
     for key, (tangential, normal) in verified.ground_impulses.items():
