@@ -181,3 +181,24 @@ def test_the_ground_impulses_carry_the_legs_pushes():
         landing = np.array([math.sin(after[0]), math.cos(after[0])])
         assert new_foot @ landing == pytest.approx(strike, abs=1e-12)
         checked += 1
+
+
+def test_the_optimiser_walks_the_stop_model_through_its_stop():
+    """`vsw optimize` on the end-stop model from its kinematic start for two phases
+    (vsw.powered._phased_guess): the stroke ends with the leg at l, the extended phase
+    begins with it stopped there (the lock's reset), holds it, and ends at heelstrike
+    with the swing foot on the ground ahead; the step is periodic (the stroke starts
+    beta long)."""
+    from vsw.powered import Request, optimize
+
+    walker = load("free_vsw_biped_stop")
+    params = walker.parameters()
+    gait = optimize(walker, params, Request("work", 0.367072, 0.832346, 10))
+    assert gait.status in ("optimal", "not-converged")
+    stroke, extended = gait.states
+    assert stroke[-1][2] == pytest.approx(1.0, abs=1e-8)
+    assert extended[0][5] == pytest.approx(0.0, abs=1e-8) and np.allclose(extended[:, 2], 1.0)
+    assert stroke[0][2] == pytest.approx(params[0], abs=1e-8)  # beta
+    height = float(walker.module.event_heelstrike_guard(*params, *extended[-1]))
+    assert height == pytest.approx(0.0, abs=1e-8)
+    assert gait.step_length == pytest.approx(0.832346, rel=1e-8)
