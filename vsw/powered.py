@@ -1115,7 +1115,13 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
         impulses |= dict(zip(names, (float(v) for v in _block(w, entry["impulses"])[0])))
     work = {key: {"positive": float(work_values[j]), "negative": float(work_values[len(keys) + j])}
             for j, key in enumerate(keys)}  # fmt: skip
-    error, guard, resimulated = _resimulate(model, p, durations, states, inputs)
+    along = {} if request.minimize != "torque2" else None
+    error, guard, resimulated = _resimulate(model, p, durations, states, inputs, along)
+    moved = None  # the positive work along the re-simulated motion, the impulses' as the mesh's
+    if along is not None:
+        moved = sum(w["positive"] for w in along.values()) + sum(
+            w["positive"] for key, w in work.items() if key not in along
+        )
     g = np.array(result["g"], dtype=float).reshape(-1)
     violation = float(max(np.max(lbg - g, initial=0.0), np.max(g - ubg, initial=0.0),
                           np.max(lbx - w, initial=0.0), np.max(w - ubx, initial=0.0)))  # fmt: skip
@@ -1137,6 +1143,12 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
         reason = f"the re-simulation {resimulated}"
     elif not error <= RESIMULATION_AGREES:
         reason = f"the re-simulation ends {error:.3g} from the last knot (relative)"
+    elif moved is not None and not _works_agree(
+        moved, sum(w["positive"] for w in work.values()), _weight(model, p) * (step_length or 1.0)
+    ):
+        mesh = sum(w["positive"] for w in work.values())
+        reason = (f"the positive work along the re-simulated step, {moved:.6g}, is not the "
+                  f"mesh's, {mesh:.6g}: the power changes sign inside an interval")  # fmt: skip
     return PoweredGait(
         status="infeasible" if status == _INFEASIBLE else "not-converged" if reason else "optimal",
         reason=reason,
@@ -1156,6 +1168,7 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
         impulses=impulses,
         ground_impulses=_ground_impulses(nlp, w, arguments),
         extra={
+            "resimulated_work": moved,
             "state_scale": scale,
             "w": w,
             "constraint_violation": violation,
@@ -1163,6 +1176,12 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
             "regularization_scale": regularization_scale,
         },
     )
+
+
+def _works_agree(moved: float, mesh: float, scale: float) -> bool:
+    """The work along the re-simulated step and the mesh's agree within the mesh's
+    tolerance (:data:`MESH_AGREES` of the larger, or 1e-9 of the weight times the step)."""
+    return abs(moved - mesh) <= max(MESH_AGREES * max(abs(moved), abs(mesh)), 1e-9 * scale)
 
 
 def _named_cost(model: HybridModel, p: np.ndarray, request: Request, work: dict,
@@ -1186,13 +1205,15 @@ def _weight(model: HybridModel, params: Sequence[float]) -> float:
 
 
 def _resimulate(
-    model: HybridModel, p: np.ndarray, durations, states, inputs
+    model: HybridModel, p: np.ndarray, durations, states, inputs, work: dict | None = None
 ) -> tuple[float, float, str]:
     """Each phase integrated from its first knot with the inputs the scheme implies
     (quadratic on each interval through knot, midpoint, knot), its event's guard and its
     failures watched between the knots: the largest gap to the last knot relative to
     max(1, |state|), the largest |guard| at the phases' ends, and what went wrong on the
-    way ('' when nothing: an event that counts before the phase's end, or a failure)."""
+    way ('' when nothing: an event that counts before the phase's end, or a failure).
+    With ``work``, each input's positive and negative work along it
+    (:func:`motion_work`) into it."""
     from scipy.integrate import solve_ivp
 
     worst, guard_worst = 0.0, 0.0
@@ -1202,7 +1223,13 @@ def _resimulate(
         watched = _watchers(model, phase, event, p, control)
         solution = solve_ivp(_rhs(model, phase, p, control), (0.0, duration), knots[0],
                              method="DOP853", rtol=RESIMULATION_TOL, atol=RESIMULATION_TOL,
-                             events=[fn for _, fn in watched])  # fmt: skip
+                             events=[fn for _, fn in watched], dense_output=True)  # fmt: skip
+        if work is not None:
+            nodes = (u.shape[0] - 1) // 2
+            for name, (plus, minus) in zip(input_names(model)[phase],
+                                           motion_work(model, phase, p, solution.sol, control,
+                                                       duration, duration / nodes)):  # fmt: skip
+                work[f"{phase}.{name}"] = {"positive": plus, "negative": minus}
         inside = (duration * 1e-9, duration * (1 - 1e-6))
         for (name, _), times, found in zip(watched, solution.t_events, solution.y_events):
             for t, y in zip(times, found):
@@ -1222,6 +1249,32 @@ def _resimulate(
         guard = float(model._fn(f"event_{event['name']}_guard")(*p, *end))
         guard_worst = max(guard_worst, abs(guard))
     return worst, guard_worst, ""
+
+
+def motion_work(model: HybridModel, phase: str, p: np.ndarray, states, control,
+                end_time: float, interval: float, points: int = 16
+                ) -> list[tuple[float, float]]:  # fmt: skip
+    """Each input's positive and negative work over ``[0, end_time]`` along the dense
+    output ``states``: Simpson's rule on ``points`` panels in each of the mesh's
+    intervals (the inputs are smooth inside them; ``max(P, 0)`` has a kink where the
+    power changes sign, which the panels resolve to their width squared)."""
+    names = input_names(model)[phase]
+    if not names:
+        return []
+    rates = _input_rate_function(model, phase)
+    edges = np.append(np.arange(0.0, end_time, interval), end_time)
+    edges = edges[np.concatenate([[True], np.diff(edges) > 1e-12 * interval])]
+    plus, minus = np.zeros(len(names)), np.zeros(len(names))
+    weights = np.ones(2 * points + 1)
+    weights[1:-1:2], weights[2:-1:2] = 4.0, 2.0
+    for a, b in zip(edges[:-1], edges[1:]):  # noqa: RUF007 (numpy arrays)
+        times = np.linspace(a, b, 2 * points + 1)
+        power = np.array([control(t) * np.array(rates(p, states(t)), dtype=float).reshape(-1)
+                          for t in times])  # fmt: skip
+        share = (b - a) / (6 * points) * weights
+        plus += share @ np.maximum(power, 0.0)
+        minus += share @ np.minimum(power, 0.0)
+    return [(float(a), float(b)) for a, b in zip(plus, minus)]
 
 
 def _rhs(model: HybridModel, phase: str, p: np.ndarray, control):
@@ -1349,28 +1402,44 @@ def powered_step(model: HybridModel, params: Sequence[float], gait: PoweredGait,
     """One step from ``state`` with the gait's inputs as functions of the time since each
     phase began (open loop, held at their last value past the planned end), each phase
     ended by the first crossing of its event's guard that counts (its ``when``, as the
-    runtime has it; SciPy DOP853, 1e-11): the powered walker's Poincare map."""
-    from scipy.integrate import solve_ivp
-
+    runtime has it; SciPy DOP853, 1e-11; :func:`integrate_phase`): the powered walker's
+    Poincare map."""
     p = np.asarray(params, dtype=float)
     x = np.array(state, dtype=float)
     for (phase, event), duration, u in zip(model._phase_sequence(), gait.durations, gait.inputs):
         control = _control(u, duration)
         (_, guard), *_ = _watchers(model, phase, event, p, control)
-        solution = solve_ivp(_rhs(model, phase, p, control), (0.0, 2 * duration), x,
-                             method="DOP853", rtol=RESIMULATION_TOL, atol=RESIMULATION_TOL,
-                             events=guard)  # fmt: skip
-        ends = [y for t, y in zip(solution.t_events[0], solution.y_events[0])
-                if t > 1e-9 * duration and _counts(model, event, p, y)]  # fmt: skip
-        if not ends:
+        _solution, end = integrate_phase(model, phase, event, p, control, x, duration,
+                                         gait.period, [guard])  # fmt: skip
+        if end is None:
             raise ConvergenceError(
                 f"{model.name}: the powered step from a perturbed state meets no "
-                f"{event['name']} within twice its duration"
+                f"{event['name']} within twice its duration and a step more"
             )
         iota = [gait.impulses[f"{event['name']}.{name}"]
                 for name in ordered_impulses(model, event)]  # fmt: skip
-        x = _apply_impulses(model, event, p, ends[0], np.array(iota))[0]
+        x = _apply_impulses(model, event, p, end[1], np.array(iota))[0]
     return x
+
+
+def integrate_phase(model: HybridModel, phase: str, event: dict, p: np.ndarray, control,
+                    x: np.ndarray, duration: float, period: float, events: list,
+                    dense: bool = False) -> tuple[Any, tuple | None]:  # fmt: skip
+    """A phase of the open-loop step from ``x`` (SciPy DOP853, 1e-11; ``events[0]`` its
+    event's guard) and the first crossing of that guard that counts, (t, state), or None:
+    over twice the planned duration, and where none comes there (a phase of almost no
+    duration, perturbed: a leg that reaches its stop just before heelstrike) over a step
+    more."""
+    from scipy.integrate import solve_ivp
+
+    for window in (2 * duration, 2 * duration + period):
+        solution = solve_ivp(_rhs(model, phase, p, control), (0.0, window), x, method="DOP853",
+                             rtol=RESIMULATION_TOL, atol=RESIMULATION_TOL, events=events,
+                             dense_output=dense)  # fmt: skip
+        for t, y in zip(solution.t_events[0], solution.y_events[0]):
+            if t > 1e-9 * duration and _counts(model, event, p, y):
+                return solution, (float(t), y)
+    return solution, None
 
 
 def powered_eigenvalues(model: HybridModel, params: Sequence[float],

@@ -23,24 +23,22 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.integrate import quad, solve_ivp
+from scipy.integrate import quad
 
 from vsw.errors import ConvergenceError
 from vsw.hybrid import HybridModel
 from vsw.powered import (
-    RESIMULATION_TOL,
     PoweredGait,
     _apply_impulses,
     _control,
-    _counts,
     _input_rate_function,
     _momentum_function,
     _reaction_function,
-    _rhs,
     _stopping_splits,
     _watchers,
     impulse_names,
     input_names,
+    integrate_phase,
     ordered_impulses,
     positive_work_of_linear_power,
     powered_step,
@@ -134,13 +132,24 @@ def _replay(model: HybridModel, p: np.ndarray, gait: PoweredGait, x: np.ndarray,
     for (phase, event), duration, u in zip(model._phase_sequence(), gait.durations, gait.inputs):
         control = _control(u, duration)
         watched = _watchers(model, phase, event, p, control)
-        solution = solve_ivp(_rhs(model, phase, p, control), (0.0, 2 * duration), state,
-                             method="DOP853", rtol=RESIMULATION_TOL, atol=RESIMULATION_TOL,
-                             events=[fn for _, fn in watched], dense_output=True)  # fmt: skip
-        end_time = _first_counted(model, event, p, solution, duration)
-        if end_time is None:
-            raise ConvergenceError(f"{model.name}: the verified step meets no {event['name']} "
-                                   "within twice its planned duration")  # fmt: skip
+        solution, end = integrate_phase(
+            model,
+            phase,
+            event,
+            p,
+            control,
+            state,
+            duration,
+            gait.period,
+            [fn for _, fn in watched],
+            dense=True,
+        )
+        if end is None:
+            raise ConvergenceError(
+                f"{model.name}: the verified step meets no {event['name']} "
+                "within twice its planned duration and a step more"
+            )
+        end_time = end[0]
         failure = failure or _failure_before(watched, solution, end_time, phase)
         friction = max(friction, _stance_friction(model, phase, p, solution, control, end_time))
         nodes = (u.shape[0] - 1) // 2
@@ -198,14 +207,6 @@ def _stance_friction(model: HybridModel, phase: str, p: np.ndarray, solution, co
                                       dtype=float).reshape(-1)  # fmt: skip
         worst = max(worst, abs(tangential) / normal if normal > 0 else np.inf)
     return float(worst)
-
-
-def _first_counted(model: HybridModel, event: dict, p: np.ndarray, solution,
-                   duration: float) -> float | None:  # fmt: skip
-    for t, y in zip(solution.t_events[0], solution.y_events[0]):
-        if t > 1e-9 * duration and _counts(model, event, p, y):
-            return float(t)
-    return None
 
 
 def _failure_before(watched: list, solution, end_time: float, phase: str) -> str:
