@@ -182,6 +182,9 @@ def test_vsw_optimize_verify_and_the_ground(capsys):
     assert main(["optimize", "--model", "compass-gait", "--friction", "-1"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ["vsw: error: --friction -1.0 must be a number >= 0"]
+    assert main(["optimize", "--model", "point-mass-biped", "--clearance", "0.1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["vsw: error: --clearance: point-mass-biped declares no swing foot's clearance"]
 
 
 @pytest.mark.parametrize(
@@ -193,8 +196,9 @@ def test_the_reaction_from_the_momentum_is_the_engines(name):
     """The stance foot's reaction the friction cone uses (vsw.powered: the walker's rate of
     momentum less its weight, gravity along the slope's chart) against the engine's
     normal force with the inputs' share (derived from the phase's own equations of
-    motion), every phase, 10 random states, parameters near the defaults and inputs each,
-    to 1e-9 of the weight."""
+    motion), and the inputs' share of the tangential reaction against the engine's gains,
+    every phase, 10 random states, parameters near the defaults and inputs each, to 1e-9
+    of the weight."""
     import casadi as ca
 
     from vsw.powered import _reaction_function, input_names
@@ -221,5 +225,8 @@ def test_the_reaction_from_the_momentum_is_the_engines(name):
                 gains = np.array(walker._fn(f"{phase}_reaction_input_gains")(*params, *state),
                                  dtype=float)  # fmt: skip
                 normal += gains[:count] @ u
+                # The inputs' share of the tangential reaction: the engine's gains too.
+                passive = np.array(reaction(params, state, 0 * u), dtype=float).reshape(-1)
+                assert ours[0] - passive[0] == pytest.approx(gains[count:] @ u, abs=1e-9)
             weight = float(walker.symbolic_weight(ca.DM(params)))
             assert ours[1] == pytest.approx(normal, abs=1e-9 * weight)

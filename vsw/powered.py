@@ -114,7 +114,10 @@ class Request:
     """The ground's friction coefficient: the stance foot's reaction at every knot and
     each foot's impulse at impacts within its cone, ``|tangential| <= friction * normal``
     (None: no bound; the impulses' normal part must push whatever this is, the stance
-    foot's reaction as the model's lift-off failure has it)."""
+    foot's reaction as the model's lift-off failure has it). Limits: an impulse applied
+    with an impact (Kuo's push-off) acts through the stance foot while the collision acts
+    through the new one, and the cone holds their sum; an impulse's two parts (its split)
+    are held to it together, not each."""
     pushing_locks: bool = False
     """The ground must push at locks too (a leg that slams into its end stop pulls its foot:
     with this, it reaches the stop without speed); default: reported, not constrained."""
@@ -216,6 +219,7 @@ def optimize(
     if (request.target_speed or request.target_step_length) and not model.spec["step_length"]:
         raise VswInputError(f"{label} defines no step length: no speed or step target")
     _check_actuator_names(model, request)
+    _check_ground_options(model, request)
     _check_step_target(model, params, request)
     if start is None:
         start = _passive_start(model, params)  # None: the model has no passive gait
@@ -458,7 +462,7 @@ def _clearance(model: HybridModel, phase: str, v: _Unknowns, p: Any, durations: 
     period = ca.sum1(durations)
     start = ca.sum1(durations[:k]) if k else 0
     nodes = len(v.middles)
-    for name, function, direction in model.phases[model.phase_index[phase]]["conditions"]:
+    for name, function, direction in model.phases[model.phase_index[phase]].get("conditions", ()):
         if name != "swing-foot-clearance":
             continue
         for i in range(1, nodes):
@@ -643,6 +647,19 @@ def _event_map(model: HybridModel, event: dict, p: Any, end: Any, v: _Unknowns,
                 g.add(friction * impulse[1] - impulse[0], 0.0, math.inf)
                 g.add(friction * impulse[1] + impulse[0], 0.0, math.inf)
     return x, priced, plus, minus, {f"{event['name']}.{k}": i for k, i in ground.items()}
+
+
+def _check_ground_options(model: HybridModel, request: Request) -> None:
+    """``--clearance`` needs a swing foot's clearance and ``--pushing-locks`` a lock among
+    the model's declarations (one-line refusals, not options silently ignored)."""
+    label = getattr(model, "cli_name", model.name)
+    if request.clearance is not None and not any(
+        name == "swing-foot-clearance"
+        for phase in model.phases for name, _, _ in phase.get("conditions", ())
+    ):  # fmt: skip
+        raise VswInputError(f"--clearance: {label} declares no swing foot's clearance")
+    if request.pushing_locks and not any(e["reset"] == "lock" for e in model.events):
+        raise VswInputError(f"--pushing-locks: {label} has no lock")
 
 
 def _usable(request: Request | None, names: Sequence[str]) -> bool:
@@ -1400,7 +1417,8 @@ def _stopping_splits(model: HybridModel, event: dict, p: np.ndarray, state: np.n
 def powered_step(model: HybridModel, params: Sequence[float], gait: PoweredGait,
                  state: np.ndarray) -> np.ndarray:  # fmt: skip
     """One step from ``state`` with the gait's inputs as functions of the time since each
-    phase began (open loop, held at their last value past the planned end), each phase
+    phase began (open loop; past the planned end the last interval's quadratic continued:
+    :func:`_control`), each phase
     ended by the first crossing of its event's guard that counts (its ``when``, as the
     runtime has it; SciPy DOP853, 1e-11; :func:`integrate_phase`): the powered walker's
     Poincare map."""

@@ -10,7 +10,9 @@ point of that open-loop step (Newton, central differences): a motion of the walk
 the integrator's tolerance (SciPy DOP853, 1e-11). Its work is integrated along it (each
 input's ``max(P, 0)`` by adaptive quadrature on the dense output), each impulse's exact
 positive work where its split stops a reversing rate (:func:`vsw.powered._stopping_splits`); every
-failure and every crossing of the step event's guard that counts is watched on the way,
+failure, every input's bounds and every crossing of the step event's guard that counts
+(its ``when``: a swing foot passing the ground behind the stance foot is ignored, as
+every walker here ignores scuffing) is watched on the way,
 and the ground's impulses at each event are evaluated. Its speed and step length differ
 from the targets by about the collocation's error (reported): it is a gait of the body
 at those, whatever the mesh.
@@ -151,6 +153,7 @@ def _replay(model: HybridModel, p: np.ndarray, gait: PoweredGait, x: np.ndarray,
             )
         end_time = end[0]
         failure = failure or _failure_before(watched, solution, end_time, phase)
+        failure = failure or _outside_bounds(model, phase, control, end_time)
         friction = max(friction, _stance_friction(model, phase, p, solution, control, end_time))
         nodes = (u.shape[0] - 1) // 2
         for k, (plus, minus) in enumerate(_phase_work(model, phase, p, solution.sol, control,
@@ -209,6 +212,27 @@ def _stance_friction(model: HybridModel, phase: str, p: np.ndarray, solution, co
     return float(worst)
 
 
+def _outside_bounds(model: HybridModel, phase: str, control, end_time: float) -> str:
+    """The first input outside its declared bounds between the knots (400 instants a
+    phase; '' when none): the mesh holds them at its knots and midpoints only."""
+    inputs = model.phases[model.phase_index[phase]].get("inputs", ())
+    if not inputs:
+        return ""
+    times = np.linspace(0.0, end_time, 400)
+    values = np.array([control(t) for t in times])
+    scale = max(1.0, float(np.max(np.abs(values))))
+    for k, record in enumerate(inputs):
+        low, high = record["bounds"]
+        for bound, side in ((low, -1.0), (high, 1.0)):
+            if bound is None:
+                continue
+            past = side * (values[:, k] - bound) > 1e-9 * scale
+            if np.any(past):
+                t = times[np.argmax(past)]
+                return f"{record['name']} outside its bounds in phase {phase} at t = {t:.6g}"
+    return ""
+
+
 def _failure_before(watched: list, solution, end_time: float, phase: str) -> str:
     """The first failure crossed before the phase's end ('' when none)."""
     for (name, _), times in zip(watched[1:], solution.t_events[1:]):
@@ -220,8 +244,11 @@ def _failure_before(watched: list, solution, end_time: float, phase: str) -> str
 
 def _event(model: HybridModel, event: dict, p: np.ndarray, before: np.ndarray,
            iota: np.ndarray, work: dict, ground: dict) -> np.ndarray:  # fmt: skip
-    """The state after the event; each impulse's positive work (its split stopping a
-    reversing rate) and negative work into ``work``; the ground's impulses into
+    """The state after the event; each impulse's positive work and negative work into
+    ``work`` (each impulse in two parts split where its own rate stops, the group applied
+    in proportion: :func:`vsw.powered._stopping_splits`; exact for that schedule, the
+    least positive work for an impulse alone on its side of the reset, and for a group
+    possibly not the optimiser's split); the ground's impulses into
     ``ground``: through the stance foot (the impulses before an impact's reset; a lock's)
     and through the new foot (an impact and what follows it)."""
     splits = _stopping_splits(model, event, p, before, iota)

@@ -45,8 +45,9 @@ def register(subparsers: Any) -> None:
         "--friction",
         type=float,
         metavar="MU",
-        help="the ground's friction coefficient at impacts (each foot's impulse "
-        "within its cone; default: unbounded; the ground pushes whatever this is)",
+        help="the ground's friction coefficient: the stance foot's reaction at every knot "
+        "and the impulses at impacts within its cone (default: unbounded; the ground "
+        "pushes at impacts whatever this is)",
     )
     p.add_argument(
         "--pushing-locks",
@@ -98,8 +99,13 @@ def run(args: argparse.Namespace) -> int:
         _write_text(model, params, request, gait)
         if args.verify:
             _write_verified(verified)
-    if gait.status == "optimal":
+    failed = args.verify and _verified_dict(verified)["status"] != "verified"
+    if gait.status == "optimal" and not failed:
         return EXIT_OK
+    if gait.status == "optimal":
+        reason = verified if isinstance(verified, str) else verified.failure
+        sys.stderr.write(f"vsw optimize: verification failed: {' '.join(reason.split())}\n")
+        return EXIT_SOLVER
     sys.stderr.write(f"vsw optimize: {gait.status}: {' '.join(gait.reason.split())}\n")
     return EXIT_SOLVER
 
