@@ -8,7 +8,7 @@ as functions of the time since each phase began, :func:`vsw.powered.powered_step
 the impulses are kept, and the state just after the step event is moved to the fixed
 point of that open-loop step (Newton, central differences): a motion of the walker to
 the integrator's tolerance (SciPy DOP853, 1e-11). Its work is integrated along it (each
-input's ``max(P, 0)`` by adaptive quadrature on the dense output), each impulse's exact
+input's ``max(P, 0)`` by Simpson's rule on the dense output), each impulse's exact
 positive work where its split stops a reversing rate (:func:`vsw.powered._stopping_splits`); every
 failure, every input's bounds and every crossing of the step event's guard that counts
 (its ``when``: a swing foot passing the ground behind the stance foot is ignored, as
@@ -20,12 +20,10 @@ at those, whatever the mesh.
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.integrate import quad
 
 from vsw.errors import ConvergenceError
 from vsw.hybrid import HybridModel
@@ -33,7 +31,6 @@ from vsw.powered import (
     PoweredGait,
     _apply_impulses,
     _control,
-    _input_rate_function,
     _momentum_function,
     _reaction_function,
     _stopping_splits,
@@ -41,6 +38,7 @@ from vsw.powered import (
     impulse_names,
     input_names,
     integrate_phase,
+    motion_work,
     ordered_impulses,
     positive_work_of_linear_power,
     powered_step,
@@ -48,6 +46,9 @@ from vsw.powered import (
 
 __all__ = ["VerifiedGait", "verify"]
 
+WORK_PANELS = 64
+"""Simpson panels in each of the mesh's intervals for the work along the motion (the
+power is smooth inside them but for the kink of max(P, 0) where it changes sign)."""
 FIXED_POINT_TOL = 1e-7
 """The fixed point is accepted where the step maps the state to itself within this,
 relative to max(1, |state|): the open-loop step of an unstable gait (|eigenvalue| 12 at
@@ -156,9 +157,10 @@ def _replay(model: HybridModel, p: np.ndarray, gait: PoweredGait, x: np.ndarray,
         failure = failure or _outside_bounds(model, phase, control, end_time)
         friction = max(friction, _stance_friction(model, phase, p, solution, control, end_time))
         nodes = (u.shape[0] - 1) // 2
-        for k, (plus, minus) in enumerate(_phase_work(model, phase, p, solution.sol, control,
-                                                      end_time, duration / nodes)):  # fmt: skip
-            work[f"{phase}.{names[phase][k]}"] = {"positive": plus, "negative": minus}
+        along = motion_work(model, phase, p, solution.sol, control, end_time, duration / nodes,
+                            WORK_PANELS)  # fmt: skip
+        for name, (plus, minus) in zip(names[phase], along):
+            work[f"{phase}.{name}"] = {"positive": plus, "negative": minus}
         before = solution.sol(end_time)
         iota = np.array([gait.impulses[f"{event['name']}.{name}"]
                          for name in ordered_impulses(model, event)])  # fmt: skip
@@ -172,33 +174,6 @@ def _replay(model: HybridModel, p: np.ndarray, gait: PoweredGait, x: np.ndarray,
     return VerifiedGait(x, max(residual, float(gap)), period, step_length,
                         None if step_length is None else step_length / period, work, ground,
                         failure, friction)  # fmt: skip
-
-
-def _phase_work(model: HybridModel, phase: str, p: np.ndarray, states, control,
-                end_time: float, interval: float) -> list[tuple[float, float]]:  # fmt: skip
-    """Each input's positive and negative work over ``[0, end_time]`` along the dense
-    output ``states``: adaptive quadrature (SciPy's quad, 1e-11) of ``max(P, 0)`` and
-    ``min(P, 0)`` on each of the mesh's intervals (the inputs are smooth inside them)."""
-    names = input_names(model)[phase]
-    if not names:
-        return []
-    rates = _input_rate_function(model, phase)
-
-    def power(t: float) -> np.ndarray:
-        return control(t) * np.array(rates(p, states(t)), dtype=float).reshape(-1)
-
-    edges = np.append(np.arange(0.0, end_time, interval), end_time)
-    edges = edges[np.concatenate([[True], np.diff(edges) > 1e-12 * interval])]
-    out = []
-    for k in range(len(names)):
-        plus = minus = 0.0
-        for a, b in itertools.pairwise(edges):
-            plus += quad(lambda t, k=k: max(power(t)[k], 0.0), a, b, epsabs=1e-13,
-                         epsrel=1e-11, limit=200)[0]  # fmt: skip
-            minus += quad(lambda t, k=k: min(power(t)[k], 0.0), a, b, epsabs=1e-13,
-                          epsrel=1e-11, limit=200)[0]  # fmt: skip
-        out.append((float(plus), float(minus)))
-    return out
 
 
 def _stance_friction(model: HybridModel, phase: str, p: np.ndarray, solution, control,
