@@ -286,16 +286,20 @@ def _check_step_target(model: HybridModel, params: Sequence[float], request: Req
 def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Request,
                       start: Orbit | None) -> PoweredGait:  # fmt: skip
     stage = request
-    if request.minimize != "torque2":
+    if request.minimize != "torque2" and _continuous_inputs_used(model, request):
         # Positive work is flat wherever no input does work and not smooth where one
         # starts to: from the passive gait IPOPT wanders (to steps of no duration);
-        # from the least squared-input step that meets the targets it converges.
+        # from the least squared-input step that meets the targets it converges. (With
+        # every continuous input held at zero that stage has nothing to move the walker
+        # with, and more equations than unknowns: the work stage starts directly.)
         stage = dataclasses.replace(request, minimize="torque2")
     nlp = _build(model, stage)
     if start is None:
         guess = _kinematic_guess(model, params, nlp, request)
     else:
         guess = _initial_guess(model, params, start, nlp, request.nodes)
+    if stage is request and request.minimize != "torque2":
+        _fill_slacks(model, params, nlp, guess)
     result = _solve(model, params, stage, nlp, guess)
     if stage is request:
         return result
@@ -310,6 +314,12 @@ def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Requ
     final.extra["warm_start"] = {"minimize": "torque2", "status": result.status,
                                  "cost": result.cost}  # fmt: skip
     return final
+
+
+def _continuous_inputs_used(model: HybridModel, request: Request) -> bool:
+    """Whether any phase's continuous input may act (``use`` names it, or names none)."""
+    return any(not request.use or name in request.use
+               for names in input_names(model).values() for name in names)  # fmt: skip
 
 
 def _passive_start(model: HybridModel, params: Sequence[float]) -> Orbit | None:
