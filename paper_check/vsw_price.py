@@ -20,7 +20,9 @@ verified work does not.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -49,15 +51,36 @@ STROKE_MARGIN = 0.02
 """The body's shortest leg is beta - this (in l): the VSW biped's stroke and a little more."""
 
 
-def _vsw_gait(values: dict, guess: Sequence[float]):
-    """The VSW biped's gait near ``guess`` and its ledger."""
+@dataclass(frozen=True)
+class _VswGait:
+    """A VSW biped gait: its label, speed, step length, actuators' work a step and its
+    extension's ground impulse (forward, up)."""
+
+    label: str
+    speed: float
+    step_length: float
+    work: float
+    extension_impulse: tuple[float, float]
+
+
+@functools.cache
+def _vsw_gait(values: tuple, guess: tuple) -> _VswGait:
+    """The VSW biped's gait near ``guess`` (``values``: its parameters' (name, value)
+    pairs) and its ledger's numbers; cached: the end-stop table prices the defaults'
+    again."""
     biped = load("vsw_biped")
-    params = biped.parameters(values)
+    params = biped.parameters(dict(values))
     pieces, _events, ended = biped.continuous_walk(params, np.array(guess), 1)
     if ended != "completed":
         raise ConvergenceError(f"vsw-biped: the listed gait's step ended with {ended}")
     orbit = biped.periodic_orbit(params, np.array(guess), [p.end - p.start for p in pieces])
-    return orbit, energy_ledger(biped, params, orbit)
+    ledger = energy_ledger(biped, params, orbit)
+    totals = ledger["totals"]
+    forward, up = next(e["ground_impulse"] for e in ledger["events"] if "ground_impulse" in e)
+    return _VswGait(", ".join(f"{k} {v:g}" for k, v in values) or "defaults", orbit.speed,
+                    orbit.step_length,
+                    totals["actuator_work_impulsive"] + totals["actuator_work_continuous"],
+                    (forward, up))  # fmt: skip
 
 
 def _body_gait(values: dict, speed: float, step: float, model: str = "free_vsw_biped"):
@@ -78,15 +101,12 @@ def _body_gait(values: dict, speed: float, step: float, model: str = "free_vsw_b
 
 
 def _row(values: dict, guess: Sequence[float]) -> str:
-    orbit, ledger = _vsw_gait(values, guess)
-    totals = ledger["totals"]
-    work = totals["actuator_work_impulsive"] + totals["actuator_work_continuous"]
-    forward, up = next(e["ground_impulse"] for e in ledger["events"] if "ground_impulse" in e)
-    gait, verified = _body_gait(values, orbit.speed, orbit.step_length)
-    label = ", ".join(f"{k} {v:g}" for k, v in values.items()) or "defaults"
-    head = (f"| {label} | {orbit.speed:.6f} | {orbit.step_length:.6f} | {work:.6f} | "
+    vsw = _vsw_gait(tuple(values.items()), tuple(guess))
+    gait, verified = _body_gait(values, vsw.speed, vsw.step_length)
+    forward, up = vsw.extension_impulse
+    head = (f"| {vsw.label} | {vsw.speed:.6f} | {vsw.step_length:.6f} | {vsw.work:.6f} | "
             f"{forward:.4f}, {up:.4f} | {gait.cost:.6f} ({gait.status}) | ")  # fmt: skip
-    return head + _verified_cells(verified, work) + " |"
+    return head + _verified_cells(verified, vsw.work) + " |"
 
 
 def _verified_cells(verified: VerifiedGait | str, vsw_work: float) -> str:
@@ -104,17 +124,14 @@ def _verified_cells(verified: VerifiedGait | str, vsw_work: float) -> str:
 def _stop_row(values: dict, guess: Sequence[float]) -> str:
     """The same with the end stop at l (free-vsw-biped-stop): gaits that extend the leg
     to its stop once a step, as VSW's."""
-    orbit, ledger = _vsw_gait(values, guess)
-    totals = ledger["totals"]
-    work = totals["actuator_work_impulsive"] + totals["actuator_work_continuous"]
-    gait, verified = _body_gait(values, orbit.speed, orbit.step_length, "free_vsw_biped_stop")
-    label = ", ".join(f"{k} {v:g}" for k, v in values.items()) or "defaults"
-    cells = _verified_cells(verified, work)
+    vsw = _vsw_gait(tuple(values.items()), tuple(guess))
+    gait, verified = _body_gait(values, vsw.speed, vsw.step_length, "free_vsw_biped_stop")
+    cells = _verified_cells(verified, vsw.work)
     stop = ""
     if not isinstance(verified, str):
         tangential, normal = verified.ground_impulses.get("end_stop.stance_foot", (np.nan,) * 2)
         stop = f"{normal:.4f}, {tangential:.4f}"
-    return f"| {label} | {gait.cost:.6f} ({gait.status}) | {cells} | {stop} |"
+    return f"| {vsw.label} | {gait.cost:.6f} ({gait.status}) | {cells} | {stop} |"
 
 
 def free_vsw_biped(out: Path, quick: bool = False) -> list[Path]:

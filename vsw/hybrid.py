@@ -293,10 +293,15 @@ class HybridModel:
     def slope(self, params: Sequence[float]) -> float:
         """The slope the walker walks down, rad (its chart lies along it): the parameter
         ``gamma`` of a model whose table calls it a slope angle; 0 on level ground."""
-        for p, value in zip(self.parameter_table, params):
+        index = self.slope_index()
+        return 0.0 if index is None else float(params[index])
+
+    def slope_index(self) -> int | None:
+        """The index of the slope's parameter in the table (:meth:`slope`), or None."""
+        for k, p in enumerate(self.parameter_table):
             if p.name == "gamma" and "slope" in p.description:
-                return float(value)
-        return 0.0
+                return k
+        return None
 
     def step_length(self, params: Sequence[float], state: np.ndarray) -> float | None:
         if not self.spec["step_length"]:

@@ -722,10 +722,8 @@ def _reaction_function(model: HybridModel, phase: str) -> Any:
     u = ca.SX.sym("u", len(names))
     momentum = _momentum(model, phase, p, x)
     rate = ca.mtimes(ca.jacobian(momentum, x), _flow_function(model, phase)(p, x, u))
-    slope = 0
-    for k, parameter in enumerate(model.parameter_table):
-        if parameter.name == "gamma" and "slope" in parameter.description:
-            slope = p[k]
+    index = model.slope_index()
+    slope = 0 if index is None else p[index]
     weight = model.symbolic_weight(p)
     gravity = weight * ca.vertcat(ca.sin(slope), -ca.cos(slope))
     return ca.Function(f"reaction_{phase}", [p, x, u], [rate - gravity])
@@ -947,12 +945,7 @@ def _phased_guess(model: HybridModel, p: np.ndarray, nlp: _Nlp, request: Request
     sequence = model._phase_sequence()
     last = sequence[-1][1]
     end = model.reset(last["name"], p, x0)[:n]
-    duration = 1.0
-    if request.target_speed is not None and model.spec["step_length"]:
-        duration = abs(float(model.step_length(p, x0))) / request.target_speed
-        if not 0.0 < duration < math.inf:
-            duration = 1.0
-    share = duration / len(sequence)
+    share = _guess_duration(model, p, request, x0) / len(sequence)
     index = {name: k for k, name in enumerate(model.coordinates)}
     start, held = x0[:n].copy(), set()
     paths = []
@@ -974,6 +967,16 @@ def _phased_guess(model: HybridModel, p: np.ndarray, nlp: _Nlp, request: Request
         held |= set(locked)
         start = stop
     return _sampled_phases(nlp, request.nodes, [share] * len(sequence), paths)
+
+
+def _guess_duration(model: HybridModel, p: np.ndarray, request: Request,
+                    x0: np.ndarray) -> float:  # fmt: skip
+    """A kinematic start's step duration: the centre's step length over the target speed,
+    else (no target, or the centre takes no step) one time unit."""
+    if request.target_speed is None or not model.spec["step_length"]:
+        return 1.0
+    duration = abs(float(model.step_length(p, x0))) / request.target_speed
+    return duration if 0.0 < duration < math.inf else 1.0
 
 
 def _with(values: np.ndarray, i: int, value: float) -> np.ndarray:
@@ -1013,11 +1016,7 @@ def _swapped_guess(model: HybridModel, p: np.ndarray, nlp: _Nlp, request: Reques
         raise ConvergenceError(f"{label}: no passive gait and no start: the search box's "
                                "centre meets no step event at its rates, and its reset does "
                                "not move it")  # fmt: skip
-    duration = 1.0
-    if request.target_speed is not None and model.spec["step_length"]:
-        duration = abs(float(model.step_length(p, x0))) / request.target_speed
-        if not 0.0 < duration < math.inf:  # the centre takes no step: one time unit
-            duration = 1.0
+    duration = _guess_duration(model, p, request, x0)
     rates = (end - x0[:n]) / duration
     return _sampled_guess(
         nlp, request.nodes, duration, lambda f: np.concatenate([x0[:n] + f * (end - x0[:n]), rates])
@@ -1146,8 +1145,8 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
     error, guard, resimulated = _resimulate(model, p, durations, states, inputs, along)
     moved = None  # the positive work along the re-simulated motion, the impulses' as the mesh's
     if along is not None:
-        moved = sum(w["positive"] for w in along.values()) + sum(
-            w["positive"] for key, w in work.items() if key not in along
+        moved = sum(v["positive"] for v in along.values()) + sum(
+            v["positive"] for key, v in work.items() if key not in along
         )
     g = np.array(result["g"], dtype=float).reshape(-1)
     violation = float(max(np.max(lbg - g, initial=0.0), np.max(g - ubg, initial=0.0),
@@ -1171,9 +1170,10 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
     elif not error <= RESIMULATION_AGREES:
         reason = f"the re-simulation ends {error:.3g} from the last knot (relative)"
     elif moved is not None and not _works_agree(
-        moved, sum(w["positive"] for w in work.values()), _weight(model, p) * (step_length or 1.0)
+        moved,
+        mesh := sum(v["positive"] for v in work.values()),
+        _weight(model, p) * (step_length or 1.0),
     ):
-        mesh = sum(w["positive"] for w in work.values())
         reason = (f"the positive work along the re-simulated step, {moved:.6g}, is not the "
                   f"mesh's, {mesh:.6g}: the power changes sign inside an interval")  # fmt: skip
     return PoweredGait(
@@ -1470,20 +1470,25 @@ def integrate_phase(model: HybridModel, phase: str, event: dict, p: np.ndarray, 
     return solution, None
 
 
+def powered_step_jacobian(model: HybridModel, params: Sequence[float], gait: PoweredGait,
+                          x: np.ndarray) -> np.ndarray:  # fmt: skip
+    """The Jacobian of :func:`powered_step` at ``x``: central differences, 1e-6 of
+    max(1, |x_j|)."""
+    jacobian = np.empty((x.size, x.size))
+    for j in range(x.size):
+        h = 1e-6 * max(1.0, abs(x[j]))
+        up, down = x.copy(), x.copy()
+        up[j] += h
+        down[j] -= h
+        jacobian[:, j] = (powered_step(model, params, gait, up)
+                          - powered_step(model, params, gait, down)) / (2 * h)  # fmt: skip
+    return jacobian
+
+
 def powered_eigenvalues(model: HybridModel, params: Sequence[float],
                         gait: PoweredGait) -> list[complex]:  # fmt: skip
     """Eigenvalues of the powered step's Poincare map at the gait (central differences,
     1e-6 of max(1, |x|), of :func:`powered_step`), by modulus: the open-loop gait is stable
     when all lie inside the unit circle (a reset onto the section gives structural zeros)."""
-    x0 = gait.states[0][0]
-    size = x0.size
-    jacobian = np.empty((size, size))
-    for j in range(size):
-        h = 1e-6 * max(1.0, abs(x0[j]))
-        up, down = x0.copy(), x0.copy()
-        up[j] += h
-        down[j] -= h
-        jacobian[:, j] = (powered_step(model, params, gait, up)
-                          - powered_step(model, params, gait, down)) / (2 * h)  # fmt: skip
-    values = np.linalg.eigvals(jacobian)
+    values = np.linalg.eigvals(powered_step_jacobian(model, params, gait, gait.states[0][0]))
     return sorted((complex(v) for v in values), key=lambda v: -abs(v))

@@ -42,6 +42,7 @@ from vsw.powered import (
     ordered_impulses,
     positive_work_of_linear_power,
     powered_step,
+    powered_step_jacobian,
 )
 
 __all__ = ["VerifiedGait", "verify"]
@@ -98,7 +99,7 @@ def verify(model: HybridModel, params: Sequence[float], gait: PoweredGait,
         if size < residual:
             best, residual = x, size
         if jacobian is None:  # the chord method: the start is near the fixed point
-            jacobian = _step_jacobian(model, p, gait, x) - np.eye(x.size)
+            jacobian = powered_step_jacobian(model, p, gait, x) - np.eye(x.size)
         x = x - np.linalg.lstsq(jacobian, gap, rcond=None)[0]
     if not residual <= FIXED_POINT_TOL:
         raise ConvergenceError(f"{model.name}: the open-loop step has no fixed point near the "
@@ -108,25 +109,12 @@ def verify(model: HybridModel, params: Sequence[float], gait: PoweredGait,
     return _replay(model, p, gait, x, residual)
 
 
-def _step_jacobian(model: HybridModel, p: np.ndarray, gait: PoweredGait,
-                   x: np.ndarray) -> np.ndarray:  # fmt: skip
-    jacobian = np.empty((x.size, x.size))
-    for j in range(x.size):
-        h = 1e-6 * max(1.0, abs(x[j]))
-        up, down = x.copy(), x.copy()
-        up[j] += h
-        down[j] -= h
-        jacobian[:, j] = (powered_step(model, p, gait, up) - powered_step(model, p, gait, down)
-                          ) / (2 * h)  # fmt: skip
-    return jacobian
-
-
 def _replay(model: HybridModel, p: np.ndarray, gait: PoweredGait, x: np.ndarray,
             residual: float) -> VerifiedGait:  # fmt: skip
     """One step from ``x`` integrated as :func:`vsw.powered.powered_step` integrates it
     (so that it ends where Newton's last step did), each phase to its event's first
     crossing that counts, every failure watched; the inputs' positive and negative work
-    along it (:func:`_phase_work`), the events' impulses applied."""
+    along it (:func:`vsw.powered.motion_work`), the events' impulses applied."""
     names = input_names(model)
     state, period, failure, friction = x.copy(), 0.0, "", 0.0
     work: dict[str, dict[str, float]] = {}

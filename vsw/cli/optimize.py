@@ -99,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
         _write_text(model, params, request, gait)
         if args.verify:
             _write_verified(verified)
-    failed = args.verify and _verified_dict(verified)["status"] != "verified"
+    failed = args.verify and (isinstance(verified, str) or bool(verified.failure))
     if gait.status == "optimal" and not failed:
         return EXIT_OK
     if gait.status == "optimal":
@@ -132,9 +132,7 @@ def _verified_dict(verified: VerifiedGait | str) -> dict[str, Any]:
         "step_length": verified.step_length,
         "speed": verified.speed,
         "work": verified.work,
-        "ground_impulses": {
-            k: {"tangential": t, "normal": n} for k, (t, n) in verified.ground_impulses.items()
-        },
+        "ground_impulses": _ground_dict(verified.ground_impulses),
         "stance_friction": verified.stance_friction,
         "state": verified.state.tolist(),
     }
@@ -151,10 +149,21 @@ def _write_verified(verified: VerifiedGait | str) -> None:
     out.write(f"  period {fmt(verified.period)}; step length {fmt(verified.step_length)}; "
               f"speed {fmt(verified.speed)}; stance friction needed "
               f"{fmt(verified.stance_friction)}\n")  # fmt: skip
-    for key, work in verified.work.items():
-        out.write(f"  work of {key:<11} +{fmt(work['positive'])} / {fmt(work['negative'])}\n")
-    for key, (tangential, normal) in verified.ground_impulses.items():
-        out.write(f"  ground at {key:<9} normal {fmt(normal)}, tangential {fmt(tangential)}\n")
+    _write_ledger(out, verified.work, verified.ground_impulses, "  ")
+
+
+def _ground_dict(impulses: dict[str, tuple[float, float]]) -> dict[str, dict[str, float]]:
+    return {k: {"tangential": t, "normal": n} for k, (t, n) in impulses.items()}
+
+
+def _write_ledger(out, work: dict, ground: dict, indent: str) -> None:
+    """Each input's and impulse's work, then each ground impulse, a line each."""
+    for key, value in work.items():
+        out.write(f"{indent}work of {key:<11} +{fmt(value['positive'])} / "
+                  f"{fmt(value['negative'])}\n")  # fmt: skip
+    for key, (tangential, normal) in ground.items():
+        out.write(f"{indent}ground at {key:<9} normal {fmt(normal)}, tangential "
+                  f"{fmt(tangential)}\n")  # fmt: skip
 
 
 def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict[str, Any]:
@@ -188,9 +197,7 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
         "speed": gait.speed,
         "work": gait.work,
         "impulses": gait.impulses,
-        "ground_impulses": {
-            k: {"tangential": t, "normal": n} for k, (t, n) in gait.ground_impulses.items()
-        },
+        "ground_impulses": _ground_dict(gait.ground_impulses),
         "resimulation_error": gait.resimulation_error,
         "resimulated_work": gait.extra.get("resimulated_work"),
         "guard_at_end": gait.guard_at_end,
@@ -237,12 +244,10 @@ def _write_text(model, params, request: powered.Request, gait: powered.PoweredGa
               f"relative change from {request.nodes})\n")  # fmt: skip
     out.write(f"period             {fmt(gait.period)}; step length {fmt(gait.step_length)}; "
               f"speed {fmt(gait.speed)}\n")  # fmt: skip
-    for key, work in gait.work.items():
-        out.write(f"work of {key:<11} +{fmt(work['positive'])} / {fmt(work['negative'])}\n")
+    _write_ledger(out, gait.work, {}, "")
     for key, impulse in gait.impulses.items():
         out.write(f"impulse {key:<11} {fmt(impulse)}\n")
-    for key, (tangential, normal) in gait.ground_impulses.items():
-        out.write(f"ground at {key:<9} normal {fmt(normal)}, tangential {fmt(tangential)}\n")
+    _write_ledger(out, {}, gait.ground_impulses, "")
     moved = gait.extra.get("resimulated_work")
     along = "" if moved is None else f"; positive work along it {fmt(moved)}"
     out.write(f"re-simulation      {fmt(gait.resimulation_error)} (relative), guard at the end "
