@@ -157,7 +157,7 @@ def test_the_ground_impulses_carry_the_legs_pushes():
     walker = load("free_vsw_biped")
     (event,) = walker.events
     p, x, iota = ca.MX.sym("p", 4), ca.MX.sym("x", 6), ca.MX.sym("iota", 4)
-    unknowns = _Unknowns([], [], [], [], [], [], [iota], [], [ca.MX.sym("s", 0)])
+    unknowns = _Unknowns([], [], [], [], [], [iota], [], [ca.MX.sym("s", 0)])
     *_, ground = _event_map(walker, event, p, x, unknowns, _Constraints())
     assert list(ground) == ["heelstrike.stance_foot", "heelstrike.new_foot"]
     impulses = ca.Function("ground", [p, x, iota], list(ground.values()))

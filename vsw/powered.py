@@ -29,15 +29,26 @@ them). The model's parameters are fixed.
 
 Costs (per step): ``torque2``, the integral of the squared inputs; ``work``, the inputs'
 positive work, the integral of ``max(P, 0)`` of each input's power ``P = u d(along)/dt``,
-exactly, without smoothing: a slack ``s >= 0, s >= P`` at every knot and midpoint (the
-epigraph; minimised, ``s = max(P, 0)``); ``cot``, that work over weight times step
-length; impulses count by their positive work (each applied in two parts whose split is
-free, each part priced by slacks at its power's ends: exact where the split stops a
-reversing rate, see :func:`_event_map`; ``c iota^2 / 2`` for one at an impact;
-``torque2`` holds them at zero: it does not price them). Both add
-:attr:`Request.regularization` times the squared inputs' integral, made dimensionless.
-Integrals by Simpson's rule on the knots and midpoints. ``work`` and ``cot`` start from
-the ``torque2`` optimum with the same targets.
+without smoothing, priced from above on each interval: ``P`` there is a quartic (a linear
+input times the rate of the scheme's cubic state), fixed by five samples (knots, quarter
+points, midpoint: :data:`SAMPLES`), and the cost prices a quartic slack ``s >= 0, s >=
+P`` by its Bernstein coefficients ``c_j >= 0, c_j >= b_j(P)`` (which make it so on the
+whole interval), at their mean (its integral). Samples alone (the epigraph at knots and
+midpoints, used before) let the optimum hide a power that changes sign between them: a
+landing absorbed by a leg force and pushed back within one interval, positive work the
+mesh did not count and no refinement removed. The bound is tight where the power keeps
+its sign and its Bernstein coefficients theirs; elsewhere it exceeds ``max(P, 0)``'s
+integral by a small multiple of ``h max |P|`` on the interval, which vanishes as the mesh
+refines (a power that wiggles about zero on a held coordinate, by O(h^3)). The ledger
+(the work reported) is composite Simpson of ``max(P, 0)`` and ``min(P, 0)`` on the five
+samples. ``cot``, that work over weight times step length; impulses count by their
+positive work (each applied in two parts whose split is free, each part priced by slacks
+at its power's ends: exact where the split stops a reversing rate, see
+:func:`_event_map`; ``c iota^2 / 2`` for one at an impact; ``torque2`` holds them at
+zero: it does not price them). Both add :attr:`Request.regularization` times the squared
+inputs' integral, made dimensionless. The squared inputs' integral by Simpson's rule on
+the knots and midpoints. ``work`` and ``cot`` start from the ``torque2`` optimum with the
+same targets.
 
 Verification: the problem is solved on N and on 2N intervals a phase (the finer from the
 coarser optimum) and the cost's change between them reported; each phase is integrated
@@ -83,6 +94,20 @@ COST_ZERO = 1e-9
 (a passive gait that meets the targets needs no input)."""
 CONSTRAINTS_HELD = 1e-8
 """Every constraint and bound of the NLP holds to this at IPOPT's point (absolute)."""
+SAMPLES = (0.0, 0.25, 0.5, 0.75, 1.0)
+"""Where each interval's power is sampled (fractions of the interval): five points fix the
+quartic that the power ``u P(q) q'`` of a linear input along a linear coordinate is on the
+scheme's cubic state."""
+SIMPSON_WEIGHTS = np.array([1.0, 4.0, 2.0, 4.0, 1.0]) / 12
+"""Composite Simpson's rule on :data:`SAMPLES` (per unit of the interval): the ledger."""
+BERNSTEIN_OF_SAMPLES = np.linalg.inv(
+    [[math.comb(4, j) * s**j * (1 - s) ** (4 - j) for j in range(5)] for s in SAMPLES]
+)
+"""The quartic through five samples at :data:`SAMPLES`, as its Bernstein coefficients."""
+_HERMITE = {
+    s: (2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s, -2 * s**3 + 3 * s**2, s**3 - s**2)
+    for s in (0.25, 0.75)
+}
 _SUCCESS = {"Solve_Succeeded", "Solved_To_Acceptable_Level"}
 _INFEASIBLE = "Infeasible_Problem_Detected"
 """IPOPT's word for a restoration phase that converged to a point of locally least
@@ -355,8 +380,7 @@ class _Unknowns:
     middles: list
     u_knots: list
     u_middles: list
-    s_knots: list
-    s_middles: list
+    s_intervals: list
     impulses: list
     splits: list
     s_impulses: list
@@ -366,8 +390,7 @@ class _Unknowns:
         "middles",
         "u_knots",
         "u_middles",
-        "s_knots",
-        "s_middles",
+        "s_intervals",
         "impulses",
         "splits",
         "s_impulses",
@@ -392,13 +415,13 @@ def _phase_unknowns(k: int, m: int, nu: int, nj: int, nodes: int, slack: bool) -
     def symbols(stem: str, count: int, width: int) -> list:
         return [ca.MX.sym(f"{stem}_{k}_{i}", width) for i in range(count)]
 
-    # The positive work's epigraph: s >= 0, s >= P (minimised, s = max(P, 0)).
-    # An impulse in two parts (its split), each with two slacks at its power's ends
-    # (_event_map).
+    # The positive work's epigraph: on each interval, a quartic slack above 0 and above the
+    # power, by its Bernstein coefficients (_priced_interval). An impulse in two parts (its
+    # split), each with two slacks at its power's ends (_event_map).
     width, split_width = (nu, nj) if slack else (0, 0)
     return _Unknowns(symbols("x", nodes + 1, m), symbols("xc", nodes, m),
                      symbols("u", nodes + 1, nu), symbols("uc", nodes, nu),
-                     symbols("s", nodes + 1, width), symbols("sc", nodes, width),
+                     symbols("s", nodes, len(SAMPLES) * width),
                      symbols("j", 1, nj), symbols("f", 1, split_width),
                      symbols("sj", 1, 4 * split_width))  # fmt: skip
 
@@ -406,9 +429,10 @@ def _phase_unknowns(k: int, m: int, nu: int, nj: int, nodes: int, slack: bool) -
 def _collocate(model: HybridModel, phase: str, v: _Unknowns, p: Any, duration: Any,
                request: Request, g: _Constraints) -> tuple[Any, Any, dict, dict]:  # fmt: skip
     """A phase's Hermite-Simpson defects, path constraints and slacks into ``g``; its
-    squared-input integral, its positive work as the cost prices it (the slacks, where the
-    cost is the work) and each input's positive and negative work (Simpson's rule on knots
-    and midpoints, of ``max(P, 0)`` and ``min(P, 0)``)."""
+    squared-input integral, its positive work as the cost prices it (each interval's
+    Bernstein slack where the cost is the work: see the module's docstring) and each
+    input's positive and negative work (composite Simpson on :data:`SAMPLES` of
+    ``max(P, 0)`` and ``min(P, 0)``)."""
     import casadi as ca
 
     names = input_names(model)[phase]
@@ -426,40 +450,59 @@ def _collocate(model: HybridModel, phase: str, v: _Unknowns, p: Any, duration: A
             g.add(ca.vertcat(request.friction * normal - tangential,
                              request.friction * normal + tangential), 0.0, math.inf)  # fmt: skip
     rates = _input_rate_function(model, phase) if names else None
-    if slack and names:
-        for x, u, s in (*zip(v.knots, v.u_knots, v.s_knots),
-                        *zip(v.middles, v.u_middles, v.s_middles)):  # fmt: skip
-            g.add(s - u * rates(p, x), 0.0, math.inf)
     squares, priced = 0, 0
     positive = dict.fromkeys(names, 0)
     negative = dict.fromkeys(names, 0)
     for i in range(nodes):
         x0, x1, xc = v.knots[i], v.knots[i + 1], v.middles[i]
-        f0 = flow(p, x0, v.u_knots[i])
-        f1 = flow(p, x1, v.u_knots[i + 1])
-        fc = flow(p, xc, v.u_middles[i])
+        u0, u1, uc = v.u_knots[i], v.u_knots[i + 1], v.u_middles[i]
+        f0 = flow(p, x0, u0)
+        f1 = flow(p, x1, u1)
+        fc = flow(p, xc, uc)
         g.add(xc - (x0 + x1) / 2 - h / 8 * (f0 - f1), 0.0, 0.0)
         g.add(x1 - x0 - h / 6 * (f0 + 4 * fc + f1), 0.0, 0.0)
         if not names:
             continue
+        squares = squares + h / 6 * (ca.sumsqr(u0) + 4 * ca.sumsqr(uc) + ca.sumsqr(u1))
         if slack:
             # Where the cost is the work, the inputs are linear on each interval: a free
             # midpoint input can peak where its power's samples vanish (a leg force at a
             # midpoint where the leg's rate changes sign) and add energy the quadrature
             # does not count; tied to its knots it cannot act unseen.
-            g.add(v.u_middles[i] - (v.u_knots[i] + v.u_knots[i + 1]) / 2, 0.0, 0.0)
-        samples = ((1.0, x0, v.u_knots[i], v.s_knots[i]), (4.0, xc, v.u_middles[i], v.s_middles[i]),
-                   (1.0, x1, v.u_knots[i + 1], v.s_knots[i + 1]))  # fmt: skip
-        for weight, x, u, s in samples:
-            share = h / 6 * weight
-            power = u * rates(p, x)
-            positive_power = ca.fmax(power, 0)  # the ledger; the cost prices the slacks
-            priced = priced + share * ca.sum1(s if slack else positive_power)
-            for j, name in enumerate(names):
-                positive[name] = positive[name] + share * positive_power[j]
-                negative[name] = negative[name] + share * (power[j] - positive_power[j])
-            squares = squares + share * ca.sumsqr(u)
+            g.add(uc - (u0 + u1) / 2, 0.0, 0.0)
+        power = ca.horzcat(*(u * rates(p, x) for x, u in
+                             zip(interval_states(x0, xc, x1, h * f0, h * f1),
+                                 interval_inputs(u0, uc, u1))))  # fmt: skip
+        if slack:
+            bernstein = ca.mtimes(power, ca.DM(BERNSTEIN_OF_SAMPLES.T))
+            s = ca.reshape(v.s_intervals[i], len(names), len(SAMPLES))
+            g.add(ca.vec(s - bernstein), 0.0, math.inf)
+            priced = priced + h * ca.sum1(ca.sum2(s)) / len(SAMPLES)
+        positive_power = ca.fmax(power, 0)  # the ledger: composite Simpson on the samples
+        plus = h * ca.mtimes(positive_power, ca.DM(SIMPSON_WEIGHTS))
+        minus = h * ca.mtimes(power - positive_power, ca.DM(SIMPSON_WEIGHTS))
+        for j, name in enumerate(names):
+            positive[name] = positive[name] + plus[j]
+            negative[name] = negative[name] + minus[j]
+        if not slack:
+            priced = priced + ca.sum1(plus)
     return squares, priced, positive, negative
+
+
+def interval_states(x0: Any, xc: Any, x1: Any, step0: Any, step1: Any) -> tuple:
+    """The state at :data:`SAMPLES` of an interval: its knots and midpoint, and the
+    scheme's cubic (Hermite, through the knots with slopes ``step = h f``) at the quarter
+    points."""
+    quarter, three = (a * x0 + b * step0 + c * x1 + d * step1
+                      for a, b, c, d in (_HERMITE[0.25], _HERMITE[0.75]))  # fmt: skip
+    return x0, quarter, xc, three, x1
+
+
+def interval_inputs(u0: Any, uc: Any, u1: Any) -> tuple:
+    """The inputs at :data:`SAMPLES` of an interval, on the quadratic through knot,
+    midpoint and knot (the line through the knots where the midpoint is tied to them)."""
+    return (u0, 0.375 * u0 + 0.75 * uc - 0.125 * u1, uc,
+            -0.125 * u0 + 0.75 * uc + 0.375 * u1, u1)  # fmt: skip
 
 
 def _clearance(model: HybridModel, phase: str, v: _Unknowns, p: Any, durations: Any, k: int,
@@ -776,7 +819,7 @@ def _variable_bounds(model: HybridModel, sequence: list, layout: list[dict], siz
     lbx, ubx = np.full(size, -np.inf), np.full(size, np.inf)
     lbx[: len(sequence)] = 1e-3
     for (phase, event), entry in zip(sequence, layout):
-        for key in ("s_knots", "s_middles", "s_impulses"):
+        for key in ("s_intervals", "s_impulses"):
             first, parts, width = entry[key]
             lbx[first : first + parts * width] = 0.0
         first, _, width = entry["impulses"]
@@ -1061,8 +1104,7 @@ def _refine(model: HybridModel, params: Sequence[float], coarse: _Nlp, w: np.nda
             if knots == "knots":
                 fine_middles = (fine_knots[:-1] + fine_knots[1:]) / 2
             else:  # the quadratic through knot, midpoint, knot at s = 1/4 and 3/4
-                quarter = 0.375 * k[:-1] + 0.75 * c - 0.125 * k[1:]
-                three = -0.125 * k[:-1] + 0.75 * c + 0.375 * k[1:]
+                quarter, three = interval_inputs(k[:-1], c, k[1:])[1::2]
                 fine_middles = np.empty((2 * len(c), k.shape[1]))
                 fine_middles[0::2], fine_middles[1::2] = quarter, three
             for key, values in ((knots, fine_knots), (middles, fine_middles)):
@@ -1073,11 +1115,12 @@ def _refine(model: HybridModel, params: Sequence[float], coarse: _Nlp, w: np.nda
 
 
 def _fill_slacks(model: HybridModel, params: Sequence[float], nlp: _Nlp, w: np.ndarray) -> None:
-    """Each positive-work slack of ``w`` at ``max(P, 0)`` of its point; each impulse's
-    split where it stops a reversing rate (:func:`_stopping_splits`) and its slacks at
-    ``max(P, 0)`` of its parts' power ends (in place)."""
+    """Each interval's positive-work slack of ``w`` at the least its constraints allow (its
+    Bernstein coefficients at ``max(b, 0)`` of the power's); each impulse's split where it
+    stops a reversing rate (:func:`_stopping_splits`) and its slacks at ``max(P, 0)`` of
+    its parts' power ends (in place)."""
     p = np.asarray(params, dtype=float)
-    for (phase, event), entry in zip(model._phase_sequence(), nlp.layout):
+    for k, ((phase, event), entry) in enumerate(zip(model._phase_sequence(), nlp.layout)):
         first, parts, width = entry["s_impulses"]
         if width:
             iota = _block(w, entry["impulses"])[0]
@@ -1087,16 +1130,31 @@ def _fill_slacks(model: HybridModel, params: Sequence[float], nlp: _Nlp, w: np.n
             w[start : start + len(splits)] = splits
             ends = _apply_impulses(model, event, p, end, iota, splits)[2]
             w[first : first + width] = np.maximum(ends, 0.0)
-        for states, inputs, slacks in (("knots", "u_knots", "s_knots"),
-                                       ("middles", "u_middles", "s_middles")):  # fmt: skip
-            first, parts, width = entry[slacks]
-            if width == 0:
-                continue
-            rates = _input_rate_function(model, phase)
-            x, u = _block(w, entry[states]), _block(w, entry[inputs])
-            power = np.array([u[i] * np.array(rates(p, x[i]), float).reshape(-1)
-                              for i in range(parts)])  # fmt: skip
-            w[first : first + parts * width] = np.maximum(power, 0.0).reshape(-1)
+        first, parts, width = entry["s_intervals"]
+        if width:
+            power = _interval_powers(model, phase, p, w[k], w, entry)
+            bernstein = power @ BERNSTEIN_OF_SAMPLES.T  # (interval, input, coefficient)
+            # each interval's block coefficient by coefficient, as _collocate's reshape
+            slacks = np.maximum(bernstein, 0.0).transpose(0, 2, 1)
+            w[first : first + parts * width] = slacks.ravel()
+
+
+def _interval_powers(model: HybridModel, phase: str, p: np.ndarray, duration: float,
+                     w: np.ndarray, entry: dict) -> np.ndarray:  # fmt: skip
+    """Each input's power at :data:`SAMPLES` of each interval of a phase of ``w`` (as
+    :func:`_collocate` has it): (interval, input, sample)."""
+    flow, rates = _flow_function(model, phase), _input_rate_function(model, phase)
+    x, xc = _block(w, entry["knots"]), _block(w, entry["middles"])
+    u, uc = _block(w, entry["u_knots"]), _block(w, entry["u_middles"])
+    h = duration / len(xc)
+    powers = []
+    for i in range(len(xc)):
+        steps = (h * np.array(flow(p, x[j], u[j]), float).reshape(-1) for j in (i, i + 1))
+        states = interval_states(x[i], xc[i], x[i + 1], *steps)
+        inputs = interval_inputs(u[i], uc[i], u[i + 1])
+        powers.append([ui * np.array(rates(p, xi), float).reshape(-1)
+                       for xi, ui in zip(states, inputs)])  # fmt: skip
+    return np.array(powers).transpose(0, 2, 1)
 
 
 def _block(w: np.ndarray, entry: tuple[int, int, int]) -> np.ndarray:
