@@ -35,7 +35,7 @@ import numpy as np
 from vsw.errors import ConvergenceError
 from vsw.ledger import energy_ledger
 from vsw.models import load
-from vsw.powered import Request, optimize
+from vsw.powered import Request, optimize, walker_weight
 from vsw.powered_verify import VerifiedGait, verify
 
 __all__ = ["free_vsw_biped"]
@@ -46,6 +46,12 @@ VSW_GAITS = (
     ({"beta": 0.9}, (-0.261105, 0.516618, 0.449664, -0.475193)),
     ({"theta_II": 0.1}, (0.0526276, 0.645345, 0.872497, -0.0161405)),
     ({"mu": 0.2}, (-0.235263, 0.67938, 0.494822, -1.03816)),
+    ({"beta": 0.85}, (-0.044882, 0.556434, 0.745363, -0.03972)),
+    ({"beta": 0.85, "theta_II": -0.1}, (-0.243631, 0.600774, 0.49658, -0.689207)),
+    ({"beta": 0.95}, (-0.191141, 0.368972, 0.482995, 0.034656)),
+    ({"beta": 0.95, "theta_II": -0.1}, (-0.244054, 0.397974, 0.403154, -0.159436)),
+    ({"beta": 0.95}, (-0.319635, 0.446688, 0.344081, -0.27649)),
+    ({"beta": 0.8}, (-0.359553, 0.724481, 0.425742, -1.140032)),
 )
 """VSW biped parameters (beside its defaults) and a gait's state just after heelstrike
 (theta, psi, theta_dot, psi_dot) as `vsw analyze` lists it: Newton's start."""
@@ -68,6 +74,7 @@ class _VswGait:
     step_length: float
     work: float
     extension_impulse: tuple[float, float]
+    weight: float
 
 
 @functools.cache
@@ -87,7 +94,7 @@ def _vsw_gait(values: tuple, guess: tuple) -> _VswGait:
     return _VswGait(", ".join(f"{k} {v:g}" for k, v in values) or "defaults", orbit.speed,
                     orbit.step_length,
                     totals["actuator_work_impulsive"] + totals["actuator_work_continuous"],
-                    (forward, up))  # fmt: skip
+                    (forward, up), walker_weight(biped, params))  # fmt: skip
 
 
 def _body_gait(values: dict, speed: float, step: float, model: str = "free_vsw_biped",
@@ -114,7 +121,11 @@ def _row(values: dict, guess: Sequence[float]) -> str:
     forward, up = vsw.extension_impulse
     head = (f"| {vsw.label} | {vsw.speed:.6f} | {vsw.step_length:.6f} | {vsw.work:.6f} | "
             f"{forward:.4f}, {up:.4f} | {gait.cost:.6f} ({gait.status}) | ")  # fmt: skip
-    return head + _verified_cells(verified, vsw.work) + " |"
+    body_cot = ""
+    if isinstance(verified, VerifiedGait) and not verified.failure:
+        body_cot = f"{verified.positive_work / (vsw.weight * verified.step_length):.6f}"
+    return (head + _verified_cells(verified, vsw.work)
+            + f" | {vsw.work / (vsw.weight * vsw.step_length):.6f} | {body_cot} |")  # fmt: skip
 
 
 def _verified_cells(verified: VerifiedGait | str, vsw_work: float) -> str:
@@ -193,11 +204,12 @@ def free_vsw_biped(out: Path, quick: bool = False) -> list[Path]:
         "ground impulse (normal, tangential), the friction its stance needs (the largest ",
         "|tangential| / normal of the stance foot's reaction along it), and VSW's work over ",
         "the verified work: a lower bound on VSW's price, the verified gait being one gait ",
-        "of the body.\n\n",
+        "of the body; then each one's cost of transport (work over weight, (1 + 2 mu) m_H ",
+        "g, times step length).\n\n",
         "| VSW gait | V | S | VSW work a step | VSW extension's ground impulse | body: least ",
         "work on the mesh | verified work (V, S; gap) | landing's ground impulse | stance ",
-        "friction needed | VSW / verified |\n",
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
+        "friction needed | VSW / verified | VSW's cost of transport | the verified gait's |\n",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
         *(_row(values, guess) + "\n" for values, guess in cases),
     ]
     if not quick:

@@ -84,6 +84,24 @@ def test_a_faster_gait_converges_under_refinement_and_closes_its_energy(compass)
     assert abs(change - net) <= 1e-6 * abs(net)
 
 
+def test_a_period_target_is_the_speed_target_it_implies(compass):
+    """Shorter steps in time: the period 0.9 times the stable passive gait's, with its
+    step length. The optimum's durations sum to the target (1e-9), and it is the optimum
+    of the same step length at the speed the two imply (cost within 1e-8 relative): two
+    different constraint rows of the NLP, one gait."""
+    model, params, stable = compass
+    period, step = 0.9 * stable.period, stable.step_length
+    by_period = optimize(model, params, Request("torque2", target_step_length=step,
+                                                target_period=period, nodes=20))  # fmt: skip
+    by_speed = optimize(model, params, Request("torque2", target_step_length=step,
+                                               target_speed=step / period, nodes=20))  # fmt: skip
+    assert by_period.status == by_speed.status == "optimal", (by_period.reason, by_speed.reason)
+    assert sum(by_period.durations) == pytest.approx(period, rel=1e-9)
+    assert by_period.speed == pytest.approx(step / period, rel=1e-9)
+    assert by_period.cost == pytest.approx(by_speed.cost, rel=1e-8)
+    assert by_period.cost > 0.01  # quicker steps than the passive gait's need torque
+
+
 def test_the_positive_works_optimum_is_not_called_optimal_when_the_mesh_cannot_resolve_it(
     compass,
 ):
@@ -106,6 +124,17 @@ def test_the_positive_works_optimum_is_not_called_optimal_when_the_mesh_cannot_r
         ("compass_gait", Request("speed"), "--minimize speed"),
         ("compass_gait", Request(nodes=1), "--nodes 1"),
         ("compass_gait", Request(target_speed=-1.0), "target speed must be a positive"),
+        ("compass_gait", Request(target_period=0.0), "target period must be a positive"),
+        (
+            "compass_gait",
+            Request(target_speed=1.0, target_step_length=0.5, target_period=0.5),
+            "give at most two",
+        ),
+        (
+            "point_mass_biped",
+            Request("work", target_speed=0.5, target_period=2.0),
+            "--target-speed times --target-period, 1, contradicts it",
+        ),
     ],
 )
 def test_bad_requests_are_one_line_errors(name, request_, message):

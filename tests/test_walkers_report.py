@@ -181,3 +181,6 @@ def test_vsw_price_report_bounds_vsw_by_a_verified_gait_and_is_deterministic(tmp
     assert float(row[8]) <= 1.01  # the cone holds at the knots, between them to the mesh's error
     assert float(row[9]) == pytest.approx(vsw_work / float(work), rel=1e-2)
     assert float(row[9]) > 1
+    weight = 1 + 2 * 0.1  # the hip and two legs of mu = 0.1, in m_H g
+    assert float(row[10]) == pytest.approx(vsw_work / (weight * step), rel=1e-5)
+    assert float(row[11]) == pytest.approx(float(work) / (weight * s), rel=1e-5)

@@ -77,7 +77,14 @@ from vsw.errors import ConvergenceError, VswInputError
 from vsw.gaits import free_components, pick, probed_step_lengths, section_states
 from vsw.hybrid import HybridModel, Orbit
 
-__all__ = ["PoweredGait", "Request", "optimize", "powered_eigenvalues", "powered_step"]
+__all__ = [
+    "PoweredGait",
+    "Request",
+    "optimize",
+    "powered_eigenvalues",
+    "powered_step",
+    "walker_weight",
+]
 
 COSTS = ("torque2", "work", "cot")
 RESIMULATION_TOL = 1e-11
@@ -152,6 +159,9 @@ class Request:
     model's ``swing-foot-clearance`` condition enforced (no scuffing, no foot through the
     ground before its step). None: reported, not enforced (the walkers' sources ignore
     scuffing); 0: above the ground."""
+    target_period: float | None = None
+    """The step's period (the sum of its phases' durations); at most two of the speed,
+    the step length and the period (the third follows from them)."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "use", tuple(self.use))  # hashable: the NLPs are cached
@@ -162,9 +172,14 @@ class Request:
         if not 2 <= self.nodes <= 1000:
             raise VswInputError(f"--nodes {self.nodes} must be from 2 to 1000")
         for name, value in (("target speed", self.target_speed),
-                            ("target step length", self.target_step_length)):  # fmt: skip
+                            ("target step length", self.target_step_length),
+                            ("target period", self.target_period)):  # fmt: skip
             if value is not None and not (math.isfinite(value) and value > 0):
                 raise VswInputError(f"the {name} must be a positive number, got {value}")
+        if None not in (self.target_speed, self.target_step_length, self.target_period):
+            raise VswInputError("--target-speed, --target-step-length and --target-period: "
+                                "give at most two (the step length is the speed times the "
+                                "period)")  # fmt: skip
         for flag, value in (("--friction", self.friction), ("--clearance", self.clearance)):
             if value is not None and not (math.isfinite(value) and value >= 0):
                 raise VswInputError(f"{flag} {value} must be a number >= 0")
@@ -296,16 +311,20 @@ def _check_actuator_names(model: HybridModel, request: Request) -> None:
 def _check_step_target(model: HybridModel, params: Sequence[float], request: Request) -> None:
     """A step length fixed by the parameters (the point-mass biped's ``d``) and a target
     that differs from it contradict each other: a one-line refusal, not an infeasible NLP."""
-    if request.target_step_length is None:
+    target = request.target_step_length
+    if target is None and None not in (request.target_speed, request.target_period):
+        target = request.target_speed * request.target_period  # what the two imply
+    if target is None:
         return
     lengths = probed_step_lengths(model, params)
     if len(lengths) == 1:
         (length,) = lengths
-        if not math.isclose(length, request.target_step_length, rel_tol=1e-12):
+        if not math.isclose(length, target, rel_tol=1e-12):
             label = getattr(model, "cli_name", model.name)
+            given = (f"--target-step-length {target:g}" if request.target_step_length
+                     else f"--target-speed times --target-period, {target:g},")  # fmt: skip
             raise VswInputError(f"{label}'s step length is set by its parameters ({length:g}): "
-                                f"--target-step-length {request.target_step_length:g} "
-                                "contradicts it (set the parameter instead)")  # fmt: skip
+                                f"{given} contradicts it (set the parameter instead)")  # fmt: skip
 
 
 def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Request,
@@ -331,7 +350,7 @@ def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Requ
     staged = _build(model, request)
     scale = 1.0
     if request.minimize == "work" and result.step_length is not None:
-        scale = _weight(model, params) * result.step_length
+        scale = walker_weight(model, params) * result.step_length
     if result.cost > COST_ZERO:  # the squared inputs' integral of the first stage
         scale /= result.cost
     final = _solve(model, params, request, staged,
@@ -570,6 +589,8 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
         g.add(step_length - request.target_step_length, 0.0, 0.0)
     if request.target_speed is not None:
         g.add(step_length - request.target_speed * ca.sum1(durations), 0.0, 0.0)
+    if request.target_period is not None:
+        g.add(ca.sum1(durations) - request.target_period, 0.0, 0.0)
     work = priced
     if request.minimize == "torque2":
         cost = squares
@@ -915,9 +936,9 @@ def _kinematic_guess(model: HybridModel, params: Sequence[float], nlp: _Nlp,
     """A start where no passive gait is: the centre of the search box on the section (the
     state just after the step event, completed by the section), the coordinates moving at
     its constant rates until the step event's guard crosses, inputs and impulses zero; the
-    rates scaled to the target speed's duration when there is one. Not a motion of the
-    walker (it ignores gravity and the inputs): IPOPT makes it one. More than one phase a
-    step: :func:`_phased_guess`."""
+    rates scaled to the target period, or the target speed's duration, when there is one.
+    Not a motion of the walker (it ignores gravity and the inputs): IPOPT makes it one.
+    More than one phase a step: :func:`_phased_guess`."""
     sequence = model._phase_sequence()
     p = np.asarray(params, dtype=float)
     centre = np.array([[sum(model.spec["search"][k]) / 2 for k in free_components(model)]])
@@ -946,8 +967,10 @@ def _kinematic_guess(model: HybridModel, params: Sequence[float], nlp: _Nlp,
         same = np.sign(float(guard(*p, *moved(middle)))) == np.sign(values[crossing[0]])
         low, high = (middle, high) if same else (low, middle)
     duration = (low + high) / 2
-    if request.target_speed is not None and model.spec["step_length"]:
+    wanted = request.target_period
+    if wanted is None and request.target_speed is not None and model.spec["step_length"]:
         wanted = float(model.step_length(p, moved(duration))) / request.target_speed
+    if wanted is not None:
         x0[n:] *= duration / wanted
         duration = wanted
     return _sampled_guess(nlp, request.nodes, duration, lambda f: moved(f * duration))
@@ -1014,8 +1037,10 @@ def _phased_guess(model: HybridModel, p: np.ndarray, nlp: _Nlp, request: Request
 
 def _guess_duration(model: HybridModel, p: np.ndarray, request: Request,
                     x0: np.ndarray) -> float:  # fmt: skip
-    """A kinematic start's step duration: the centre's step length over the target speed,
-    else (no target, or the centre takes no step) one time unit."""
+    """A kinematic start's step duration: the target period, or the centre's step length
+    over the target speed, else (no target, or the centre takes no step) one time unit."""
+    if request.target_period is not None:
+        return request.target_period
     if request.target_speed is None or not model.spec["step_length"]:
         return 1.0
     duration = abs(float(model.step_length(p, x0))) / request.target_speed
@@ -1230,7 +1255,7 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
     elif moved is not None and not _works_agree(
         moved,
         mesh := sum(v["positive"] for v in work.values()),
-        _weight(model, p) * (step_length or 1.0),
+        walker_weight(model, p) * (step_length or 1.0),
     ):
         reason = (f"the positive work along the re-simulated step, {moved:.6g}, is not the "
                   f"mesh's, {mesh:.6g}: the power changes sign inside an interval")  # fmt: skip
@@ -1279,10 +1304,10 @@ def _named_cost(model: HybridModel, p: np.ndarray, request: Request, work: dict,
     positive = sum(w["positive"] for w in work.values())
     if request.minimize == "work":
         return positive
-    return positive / (_weight(model, p) * step_length)
+    return positive / (walker_weight(model, p) * step_length)
 
 
-def _weight(model: HybridModel, params: Sequence[float]) -> float:
+def walker_weight(model: HybridModel, params: Sequence[float]) -> float:
     """The walker's weight (1 for a model whose package has no ``weight``)."""
     if not hasattr(model.module, "weight"):
         return 1.0

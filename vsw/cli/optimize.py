@@ -36,6 +36,9 @@ def register(subparsers: Any) -> None:
     p.add_argument("--target-speed", type=float, metavar="V",
                    help="the gait's speed (step length / period, the model's units)")  # fmt: skip
     p.add_argument("--target-step-length", type=float, metavar="S", help="the step length")
+    p.add_argument("--target-period", type=float, metavar="T",
+                   help="the step's period (at most two of the three targets: the step "
+                   "length is the speed times the period)")  # fmt: skip
     p.add_argument("--nodes", type=int, default=20, metavar="N",
                    help="intervals a phase on the coarse mesh (the result is on 2N)")  # fmt: skip
     p.add_argument("--use", action="append", metavar="NAME",
@@ -79,7 +82,8 @@ def run(args: argparse.Namespace) -> int:
     request = powered.Request(args.minimize, args.target_speed, args.target_step_length,
                               args.nodes, use=tuple(args.use or ()), friction=args.friction,
                               pushing_locks=args.pushing_locks,
-                              clearance=args.clearance)  # fmt: skip
+                              clearance=args.clearance,
+                              target_period=args.target_period)  # fmt: skip
     request.check()
     if args.plot is not None:
         check_save_path(args.plot)
@@ -185,7 +189,11 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
         "status": gait.status,
         "reason": gait.reason or None,
         "minimize": request.minimize,
-        "targets": {"speed": request.target_speed, "step_length": request.target_step_length},
+        "targets": {
+            "speed": request.target_speed,
+            "step_length": request.target_step_length,
+            "period": request.target_period,
+        },
         "use": list(request.use) or None,
         "cost": gait.cost,
         "objective": gait.extra.get("objective"),
