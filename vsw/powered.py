@@ -435,7 +435,7 @@ def _phase_unknowns(k: int, m: int, nu: int, nj: int, nodes: int, slack: bool) -
         return [ca.MX.sym(f"{stem}_{k}_{i}", width) for i in range(count)]
 
     # The positive work's epigraph: on each interval, a quartic slack above 0 and above the
-    # power, by its Bernstein coefficients (_priced_interval). An impulse in two parts (its
+    # power, by its Bernstein coefficients (_collocate). An impulse in two parts (its
     # split), each with two slacks at its power's ends (_event_map).
     width, split_width = (nu, nj) if slack else (0, 0)
     return _Unknowns(symbols("x", nodes + 1, m), symbols("xc", nodes, m),
