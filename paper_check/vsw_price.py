@@ -170,12 +170,12 @@ def _refinement_rows() -> list[str]:
                     f"{peak / (len(force) - 1):.4f} | " + _verified_cells(verified, vsw.work)
                     + " |\n")  # fmt: skip
     first, second = costs[-2] - costs[-3], costs[-1] - costs[-2]
-    if not 0 < second / first < 1:  # no geometric convergence: no limit to point to
+    if first == 0 or not 0 < second / first < 1:  # no geometric convergence: no limit
         rows.append(f"\nThe least work changes by {first:.6f}, then {second:.6f}: no "
                     "convergence to extrapolate.\n")  # fmt: skip
         return rows
     order = np.log2(first / second)
-    limit = costs[-1] - second / (2**order - 1)
+    limit = costs[-1] + second / (2**order - 1)  # c_n = L + A q^n, q = 2^-order
     rows.append(f"\nThe least work changes by {first:.6f}, then {second:.6f}: order "
                 f"{order:.2f}; Richardson's limit {limit:.6f} (VSW / limit "
                 f"{vsw.work / limit:.2f}), an estimate from three meshes, not a "

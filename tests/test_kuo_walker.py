@@ -75,10 +75,11 @@ def test_kuos_ratio_is_four_cos_to_the_fourth(walker, step, speed):
     assert pushed.impulses["heelstrike.push_off"] == pytest.approx(push_off, rel=1e-6)
     assert turned.cost == pytest.approx(torque_cost, rel=1e-6)
     assert turned.cost / pushed.cost == pytest.approx(4 * math.cos(alpha) ** 4, rel=1e-6)
-    # Just after heelstrike the torque and its impulse are worth the same (a flat
-    # direction of the cost, the regularization alone splits it): the torque there does
-    # 1e-5 of the work, the impulse the rest.
-    assert turned.work["stance.stance_torque"]["positive"] <= 1e-4 * turned.cost
+    # Just after heelstrike the torque and its impulse are worth the same, a flat
+    # direction of the cost that IPOPT's tolerance leaves undecided (the regularization
+    # would put it all on the impulse, but its gradient at torques of 1e-5 is below that
+    # tolerance): the torque there does 1.0e-5 of the work (measured), the impulse the rest.
+    assert turned.work["stance.stance_torque"]["positive"] <= 2e-5 * turned.cost
 
 
 def test_the_torque_alone_approaches_its_impulse_from_above(walker):

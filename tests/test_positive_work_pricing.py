@@ -10,7 +10,22 @@ import math
 import numpy as np
 import pytest
 
-from vsw.powered import BERNSTEIN_OF_SAMPLES, SAMPLES, interval_inputs, interval_states
+from vsw.models import load
+from vsw.powered import (
+    BERNSTEIN_OF_SAMPLES,
+    SAMPLES,
+    Request,
+    _build,
+    _fill_slacks,
+    _flow_function,
+    _input_rate_function,
+    interval_inputs,
+    interval_states,
+)
+
+
+def _trapezoid(values: np.ndarray, s: np.ndarray) -> float:
+    return float(np.sum((values[1:] + values[:-1]) * np.diff(s)) / 2)
 
 
 def _bernstein(coefficients: np.ndarray, s: np.ndarray) -> np.ndarray:
@@ -49,7 +64,7 @@ def test_the_bernstein_slack_bounds_the_positive_power_on_the_whole_interval():
         samples = quartic(np.array(SAMPLES))
         coefficients = BERNSTEIN_OF_SAMPLES @ samples
         np.testing.assert_allclose(_bernstein(coefficients, fine), quartic(fine), atol=1e-12)
-        exact = np.trapezoid(np.maximum(quartic(fine), 0.0), fine)
+        exact = _trapezoid(np.maximum(quartic(fine), 0.0), fine)
         priced = np.mean(np.maximum(coefficients, 0.0))
         assert priced >= exact - 1e-9
         if np.all(coefficients >= 0) or np.all(coefficients <= 0):
@@ -58,6 +73,65 @@ def test_the_bernstein_slack_bounds_the_positive_power_on_the_whole_interval():
     hidden = np.polynomial.Polynomial.fromroots([0.3, 0.4]) * -1
     values = hidden(np.array(SAMPLES))
     assert np.all(values < 0)
-    exact = np.trapezoid(np.maximum(hidden(fine), 0.0), fine)
+    exact = _trapezoid(np.maximum(hidden(fine), 0.0), fine)
     assert exact > 1e-4
     assert np.mean(np.maximum(BERNSTEIN_OF_SAMPLES @ values, 0.0)) >= exact
+
+
+def test_the_nlps_slacks_fill_its_layout_and_are_priced_at_their_mean():
+    """On the point-mass biped's NLP (two inputs, three intervals) at a random point: the
+    slacks :func:`_fill_slacks` writes satisfy the NLP's own slack rows (CasADi's
+    column-major reshape against numpy's layout; the same values in another order violate
+    them), tightly where a coefficient is positive, and the cost prices them at ``h / 5``
+    times their sum, which equals the positive parts of the Bernstein coefficients of the
+    power at the five samples computed here from the Hermite cubic written out."""
+    model = load("point_mass_biped")
+    params = np.asarray(model.parameters(), dtype=float)
+    nlp = _build(model, Request("work", target_speed=0.3, nodes=3))
+    (entry,) = nlp.layout
+    rng = np.random.default_rng(11)
+    w = rng.uniform(-0.3, 0.3, nlp.size)
+    w[0] = 1.2  # the phase's duration
+    for key in ("knots", "middles"):  # the hip above its foot: rates well defined
+        first, parts, width = entry[key]
+        w[first + 1 : first + parts * width : width] += 0.9
+    first, parts, width = entry["impulses"]
+    w[first : first + parts * width] = 0.0  # only the continuous inputs priced
+    _fill_slacks(model, params, nlp, w)
+
+    g = nlp.solver.get_function("nlp_g")
+    arguments = np.append(params, 0.0)  # the regularization's scale 0: the cost is the work
+    first, parts, width = entry["s_intervals"]
+    shifted = w.copy()
+    shifted[first : first + parts * width] += 1.0
+    g0 = np.array(g(w, arguments)).ravel()
+    rows = np.flatnonzero(np.abs(np.array(g(shifted, arguments)).ravel() - g0 - 1.0) < 1e-12)
+    assert rows.size == parts * width == 3 * 5 * 2
+    assert g0[rows].min() >= -1e-12
+    assert np.sum(np.abs(g0[rows]) <= 1e-12) >= 5  # tight where the coefficient is positive
+    reordered = w.copy()
+    reordered[first : first + parts * width] = w[first : first + parts * width][::-1]
+    assert np.array(g(reordered, arguments)).ravel()[rows].min() < -1e-6
+
+    h = w[0] / 3
+    flow, rates = _flow_function(model, "stance"), _input_rate_function(model, "stance")
+    x = w[entry["knots"][0] :][: 4 * 4].reshape(4, 4)
+    xc = w[entry["middles"][0] :][: 3 * 4].reshape(3, 4)
+    u = w[entry["u_knots"][0] :][: 4 * 2].reshape(4, 2)
+    uc = w[entry["u_middles"][0] :][: 3 * 2].reshape(3, 2)
+    basis = np.array([[math.comb(4, j) * s**j * (1 - s) ** (4 - j) for j in range(5)]
+                      for s in SAMPLES])  # fmt: skip
+    expected = 0.0
+    for i in range(3):
+        f0, f1 = (np.array(flow(params, x[k], u[k]), float).ravel() for k in (i, i + 1))
+        powers = []
+        for s in SAMPLES:
+            cubic = ((2 * s**3 - 3 * s**2 + 1) * x[i] + (s**3 - 2 * s**2 + s) * h * f0
+                     + (-2 * s**3 + 3 * s**2) * x[i + 1] + (s**3 - s**2) * h * f1)  # fmt: skip
+            state = xc[i] if s == 0.5 else cubic
+            lagrange = (2 * (s - 0.5) * (s - 1), -4 * s * (s - 1), 2 * s * (s - 0.5))
+            inputs = lagrange[0] * u[i] + lagrange[1] * uc[i] + lagrange[2] * u[i + 1]
+            powers.append(inputs * np.array(rates(params, state), float).ravel())
+        coefficients = np.linalg.solve(basis, np.array(powers))  # (coefficient, input)
+        expected += h / 5 * np.maximum(coefficients, 0.0).sum()
+    assert float(nlp.cost(w, arguments)) == pytest.approx(expected, rel=1e-12)

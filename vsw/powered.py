@@ -29,11 +29,14 @@ them). The model's parameters are fixed.
 
 Costs (per step): ``torque2``, the integral of the squared inputs; ``work``, the inputs'
 positive work, the integral of ``max(P, 0)`` of each input's power ``P = u d(along)/dt``,
-without smoothing, priced from above on each interval: ``P`` there is a quartic (a linear
-input times the rate of the scheme's cubic state), fixed by five samples (knots, quarter
+without smoothing, priced from above on each interval: where the input's rate is linear
+in the state (a leg's length rate, a hip's angle rate) ``P`` there is a quartic (a linear
+input times that rate of the scheme's cubic state), fixed by five samples (knots, quarter
 points, midpoint: :data:`SAMPLES`), and the cost prices a quartic slack ``s >= 0, s >=
 P`` by its Bernstein coefficients ``c_j >= 0, c_j >= b_j(P)`` (which make it so on the
-whole interval), at their mean (its integral). Samples alone (the epigraph at knots and
+whole interval), at their mean (its integral); where the rate is not linear (the
+point-mass biped's leg in Cartesian coordinates) the bound is on the quartic through the
+samples, to that interpolation's error. Samples alone (the epigraph at knots and
 midpoints, used before) let the optimum hide a power that changes sign between them: a
 landing absorbed by a leg force and pushed back within one interval, positive work the
 mesh did not count and no refinement removed. The bound is tight where the power keeps
@@ -321,7 +324,7 @@ def _check_step_target(model: HybridModel, params: Sequence[float], request: Req
         (length,) = lengths
         if not math.isclose(length, target, rel_tol=1e-12):
             label = getattr(model, "cli_name", model.name)
-            given = (f"--target-step-length {target:g}" if request.target_step_length
+            given = (f"--target-step-length {target:g}" if request.target_step_length is not None
                      else f"--target-speed times --target-period, {target:g},")  # fmt: skip
             raise VswInputError(f"{label}'s step length is set by its parameters ({length:g}): "
                                 f"{given} contradicts it (set the parameter instead)")  # fmt: skip
@@ -1094,7 +1097,7 @@ def _swapped_guess(model: HybridModel, p: np.ndarray, nlp: _Nlp, request: Reques
 def _transfer(model: HybridModel, params: Sequence[float], source: _Nlp, w: np.ndarray,
               target: _Nlp) -> np.ndarray:  # fmt: skip
     """``w`` of ``source`` as a start for ``target`` (same mesh): durations, states and
-    inputs copied, each positive-work slack at ``max(P, 0)`` of the copied point."""
+    inputs copied, the positive-work slacks filled (:func:`_fill_slacks`)."""
     out = np.zeros(target.size)
     count = len(source.layout)
     out[:count] = w[:count]
@@ -1111,7 +1114,7 @@ def _refine(model: HybridModel, params: Sequence[float], coarse: _Nlp, w: np.nda
             fine: _Nlp) -> np.ndarray:  # fmt: skip
     """``w`` on N intervals as a start on 2N: the coarse knots and midpoints are the fine
     knots, the fine midpoints halfway between them; the inputs from the coarse quadratics
-    (exact at the quarter points); slacks at ``max(P, 0)``."""
+    (exact at the quarter points); the slacks filled (:func:`_fill_slacks`)."""
     out = np.zeros(fine.size)
     count = len(coarse.layout)
     out[:count] = w[:count]
@@ -1258,7 +1261,7 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
         walker_weight(model, p) * (step_length or 1.0),
     ):
         reason = (f"the positive work along the re-simulated step, {moved:.6g}, is not the "
-                  f"mesh's, {mesh:.6g}: the power changes sign inside an interval")  # fmt: skip
+                  f"mesh's, {mesh:.6g}: the mesh does not resolve the power")  # fmt: skip
     return PoweredGait(
         status="infeasible" if status == _INFEASIBLE else "not-converged" if reason else "optimal",
         reason=reason,
