@@ -165,9 +165,14 @@ class Request:
     target_period: float | None = None
     """The step's period (the sum of its phases' durations); at most two of the speed,
     the step length and the period (the third follows from them)."""
+    limits: tuple[tuple[str, float | None, float | None], ...] = ()
+    """Bounds of the user's on inputs and impulses, by name: (name, low, high), None for
+    no bound on that side; each is intersected with the bounds the model declares (an
+    actuator's strength: a leg force of at most 3 m_H g)."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "use", tuple(self.use))  # hashable: the NLPs are cached
+        object.__setattr__(self, "limits", tuple(tuple(limit) for limit in self.limits))
 
     def check(self) -> None:
         if self.minimize not in COSTS:
@@ -183,6 +188,13 @@ class Request:
             raise VswInputError("--target-speed, --target-step-length and --target-period: "
                                 "give at most two (the step length is the speed times the "
                                 "period)")  # fmt: skip
+        for name, low, high in self.limits:
+            for value in (low, high):
+                if value is not None and not math.isfinite(value):
+                    raise VswInputError(f"--limit {name}: {value} is not a finite number")
+            if low is not None and high is not None and low > high:
+                raise VswInputError(f"--limit {name}: its low bound {low:g} is above its high "
+                                    f"bound {high:g}")  # fmt: skip
         for flag, value in (("--friction", self.friction), ("--clearance", self.clearance)):
             if value is not None and not (math.isfinite(value) and value >= 0):
                 raise VswInputError(f"{flag} {value} must be a number >= 0")
@@ -305,10 +317,34 @@ def _check_actuator_names(model: HybridModel, request: Request) -> None:
     known = [name for names in input_names(model).values() for name in names]
     for event in model.events:
         known += [i["name"] for i in event.get("impulses", ())]
-    for name in request.use:
+    for flag, name in (*(("--use", n) for n in request.use),
+                       *(("--limit", n) for n, _, _ in request.limits)):  # fmt: skip
         if name not in known:
-            raise VswInputError(f"--use {name}: {label} has no input or impulse {name} (its: "
+            raise VswInputError(f"{flag} {name}: {label} has no input or impulse {name} (its: "
                                 f"{', '.join(dict.fromkeys(known))})")  # fmt: skip
+    declared = {i["name"]: i["bounds"] for phase in model.phases for i in phase.get("inputs", ())}
+    for event in model.events:
+        declared |= {i["name"]: i["bounds"] for i in event.get("impulses", ())}
+    for name, _, _ in request.limits:
+        low, high = _limited(declared[name], request, name)
+        if low is not None and high is not None and low > high:
+            raise VswInputError(f"--limit {name}: no value within both it and the bounds "
+                                f"{label} declares ({_interval(declared[name])})")  # fmt: skip
+
+
+def _limited(bounds: tuple, request: Request, name: str) -> tuple[float | None, float | None]:
+    """An input's or impulse's declared bounds within the request's limits on it."""
+    low, high = bounds
+    for limit, lower, upper in request.limits:
+        if limit == name:
+            low = lower if low is None else low if lower is None else max(low, lower)
+            high = upper if high is None else high if upper is None else min(high, upper)
+    return low, high
+
+
+def _interval(bounds: tuple) -> str:
+    low, high = bounds
+    return f"{'-inf' if low is None else f'{low:g}'} to {'inf' if high is None else f'{high:g}'}"
 
 
 def _check_step_target(model: HybridModel, params: Sequence[float], request: Request) -> None:
@@ -837,8 +873,8 @@ def _vector(durations: Any, unknowns: list[_Unknowns]) -> tuple[Any, list[dict]]
 def _variable_bounds(model: HybridModel, sequence: list, layout: list[dict], size: int,
                      request: Request) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """Durations >= 1e-3 (a phase of no duration is no step), slacks >= 0, each input and
-    impulse within its declared bounds, each impulse's split in [0, 1] (0 where it has
-    one part); impulses zero when the cost is the squared inputs'
+    impulse within its declared bounds and the request's limits, each impulse's split in
+    [0, 1] (0 where it has one part); impulses zero when the cost is the squared inputs'
     integral (which does not price them: they would be free)."""
     lbx, ubx = np.full(size, -np.inf), np.full(size, np.inf)
     lbx[: len(sequence)] = 1e-3
@@ -851,7 +887,7 @@ def _variable_bounds(model: HybridModel, sequence: list, layout: list[dict], siz
         slacks = entry["s_impulses"][0]
         records = {i["name"]: i for i in event.get("impulses", ())}
         for j, name in enumerate(ordered_impulses(model, event)):
-            low, high = records[name]["bounds"]
+            low, high = _limited(records[name]["bounds"], request, name)
             if request.minimize == "torque2" or (request.use and name not in request.use):
                 low, high = 0.0, 0.0
             lbx[first + j] = -np.inf if low is None else low
@@ -861,7 +897,8 @@ def _variable_bounds(model: HybridModel, sequence: list, layout: list[dict], siz
                 lbx[split + j], ubx[split + j] = 0.0, 0.0 if whole else 1.0
                 if records[name]["applied"] == "with":
                     ubx[slacks + 4 * j + 2 : slacks + 4 * j + 4] = 0.0
-        bounds = [(0.0, 0.0) if request.use and i["name"] not in request.use else i["bounds"]
+        bounds = [(0.0, 0.0) if request.use and i["name"] not in request.use
+                  else _limited(i["bounds"], request, i["name"])
                   for i in model.phases[model.phase_index[phase]].get("inputs", ())]  # fmt: skip
         for key in ("u_knots", "u_middles"):
             first, parts, width = entry[key]

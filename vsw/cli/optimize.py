@@ -41,6 +41,9 @@ def register(subparsers: Any) -> None:
                    "length is the speed times the period)")  # fmt: skip
     p.add_argument("--nodes", type=int, default=20, metavar="N",
                    help="intervals a phase on the coarse mesh (the result is on 2N)")  # fmt: skip
+    p.add_argument("--limit", action="append", metavar="NAME=LOW:HIGH", type=_limit,
+                   help="bounds on an input or impulse beside the model's (repeatable; either "
+                   "side may be empty: leg_force=:3)")  # fmt: skip
     p.add_argument("--use", action="append", metavar="NAME",
                    help="an input or impulse the gait may use (repeatable; the others are held "
                    "at zero; default: every one; 'vsw models' lists them)")  # fmt: skip
@@ -76,6 +79,18 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=run, parser=p)
 
 
+def _limit(text: str) -> tuple[str, float | None, float | None]:
+    """``NAME=LOW:HIGH`` (either side may be empty) as (name, low, high)."""
+    name, equals, interval = text.partition("=")
+    low, colon, high = interval.partition(":")
+    if not (name and equals and colon):
+        raise argparse.ArgumentTypeError(f"{text!r} is not NAME=LOW:HIGH (e.g. leg_force=:3)")
+    try:
+        return name, float(low) if low else None, float(high) if high else None
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: LOW and HIGH must be numbers") from None
+
+
 def run(args: argparse.Namespace) -> int:
     model = args.model_object
     params = model.parameters(args.values)
@@ -83,7 +98,8 @@ def run(args: argparse.Namespace) -> int:
                               args.nodes, use=tuple(args.use or ()), friction=args.friction,
                               pushing_locks=args.pushing_locks,
                               clearance=args.clearance,
-                              target_period=args.target_period)  # fmt: skip
+                              target_period=args.target_period,
+                              limits=tuple(args.limit or ()))  # fmt: skip
     request.check()
     if args.plot is not None:
         check_save_path(args.plot)
@@ -195,6 +211,7 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
             "period": request.target_period,
         },
         "use": list(request.use) or None,
+        "limits": {name: [low, high] for name, low, high in request.limits} or None,
         "cost": gait.cost,
         "objective": gait.extra.get("objective"),
         "nodes": {"coarse": request.nodes, "fine": 2 * request.nodes},
