@@ -18,9 +18,7 @@ so it cannot hide a power that changes sign inside an interval).
 
 The defaults' gait is optimised again on finer meshes (:data:`REFINEMENT`), each gait
 verified, with the leg force's largest value and when: where that value grows as the
-mesh refines, the least work wants a leg action faster than any mesh resolves. Where the
-least work's changes shrink geometrically, the limit they point to (Richardson's, from
-the last three) is shown, an estimate, not a bound.
+mesh refines, the least work wants a leg action faster than any mesh resolves.
 """
 
 from __future__ import annotations
@@ -35,7 +33,7 @@ import numpy as np
 from vsw.errors import ConvergenceError
 from vsw.ledger import energy_ledger
 from vsw.models import load
-from vsw.powered import Request, optimize, walker_weight
+from vsw.powered import Request, input_names, optimize, walker_weight
 from vsw.powered_verify import VerifiedGait, verify
 
 __all__ = ["free_vsw_biped"]
@@ -155,31 +153,19 @@ def _stop_row(values: dict, guess: Sequence[float]) -> str:
 
 def _refinement_rows() -> list[str]:
     """The defaults' gait on each mesh of :data:`REFINEMENT`: least work, its re-simulated
-    and verified work, the leg force's largest value and when, and the limit the least
-    work points to."""
+    and verified work, the leg force's largest value and when."""
     vsw = _vsw_gait((), tuple(VSW_GAITS[0][1]))
-    rows, costs = [], []
+    leg = input_names(load("free_vsw_biped"))["stance"].index("leg_force")
+    rows = []
     for nodes in REFINEMENT:
         gait, verified = _body_gait({}, vsw.speed, vsw.step_length, nodes=nodes)
-        force = gait.inputs[0][:, 0]
+        force = gait.inputs[0][:, leg]
         peak = int(np.argmax(force))
-        costs.append(gait.cost)
         why = f": {gait.reason}" if gait.reason else ""
         rows.append(f"| {2 * nodes} | {gait.cost:.6f} ({gait.status}{why}) | "
                     f"{gait.extra['resimulated_work']:.6f} | {force[peak]:.3f} at "
                     f"{peak / (len(force) - 1):.4f} | " + _verified_cells(verified, vsw.work)
                     + " |\n")  # fmt: skip
-    first, second = costs[-2] - costs[-3], costs[-1] - costs[-2]
-    if first == 0 or not 0 < second / first < 1:  # no geometric convergence: no limit
-        rows.append(f"\nThe least work changes by {first:.6f}, then {second:.6f}: no "
-                    "convergence to extrapolate.\n")  # fmt: skip
-        return rows
-    order = np.log2(first / second)
-    limit = costs[-1] + second / (2**order - 1)  # c_n = L + A q^n, q = 2^-order
-    rows.append(f"\nThe least work changes by {first:.6f}, then {second:.6f}: order "
-                f"{order:.2f}; Richardson's limit {limit:.6f} (VSW / limit "
-                f"{vsw.work / limit:.2f}), an estimate from three meshes, not a "
-                "bound.\n")  # fmt: skip
     return rows
 
 

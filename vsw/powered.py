@@ -312,7 +312,8 @@ def optimize(
 
 
 def _check_actuator_names(model: HybridModel, request: Request) -> None:
-    """``use`` names inputs or impulses of the model (one-line refusals)."""
+    """``use`` and ``limits`` name inputs or impulses of the model, and each limit leaves
+    a value within the bounds the model declares (one-line refusals)."""
     label = getattr(model, "cli_name", model.name)
     known = [name for names in input_names(model).values() for name in names]
     for event in model.events:
@@ -1007,9 +1008,7 @@ def _kinematic_guess(model: HybridModel, params: Sequence[float], nlp: _Nlp,
         same = np.sign(float(guard(*p, *moved(middle)))) == np.sign(values[crossing[0]])
         low, high = (middle, high) if same else (low, middle)
     duration = (low + high) / 2
-    wanted = request.target_period
-    if wanted is None and request.target_speed is not None and model.spec["step_length"]:
-        wanted = float(model.step_length(p, moved(duration))) / request.target_speed
+    wanted = _target_duration(model, p, request, moved(duration))
     if wanted is not None:
         x0[n:] *= duration / wanted
         duration = wanted
@@ -1077,14 +1076,21 @@ def _phased_guess(model: HybridModel, p: np.ndarray, nlp: _Nlp, request: Request
 
 def _guess_duration(model: HybridModel, p: np.ndarray, request: Request,
                     x0: np.ndarray) -> float:  # fmt: skip
-    """A kinematic start's step duration: the target period, or the centre's step length
-    over the target speed, else (no target, or the centre takes no step) one time unit."""
+    """A kinematic start's step duration: the target's (:func:`_target_duration`), else
+    (no target, or the centre takes no step) one time unit."""
+    duration = _target_duration(model, p, request, x0)
+    return duration if duration is not None and 0.0 < duration < math.inf else 1.0
+
+
+def _target_duration(model: HybridModel, p: np.ndarray, request: Request,
+                     end: np.ndarray) -> float | None:  # fmt: skip
+    """The step's duration the targets ask for: the period, or the step length at ``end``
+    over the speed; None without either."""
     if request.target_period is not None:
         return request.target_period
     if request.target_speed is None or not model.spec["step_length"]:
-        return 1.0
-    duration = abs(float(model.step_length(p, x0))) / request.target_speed
-    return duration if 0.0 < duration < math.inf else 1.0
+        return None
+    return abs(float(model.step_length(p, end))) / request.target_speed
 
 
 def _with(values: np.ndarray, i: int, value: float) -> np.ndarray:
