@@ -23,6 +23,7 @@ MODEL_MODULES: dict[str, str] = {
     "level_compass_gait": "derive.models.level_compass_gait",
     "free_vsw_biped": "derive.models.free_vsw_biped",
     "free_vsw_biped_stop": "derive.models.free_vsw_biped_stop",
+    "free_vsw_biped_push": "derive.models.free_vsw_biped_push",
 }
 """Model name (its ``generated/<name>/`` package) -> module with its ``derive()``."""
 

@@ -17,6 +17,7 @@ momentum about the hip by itself, counterclockwise, and not the walker's about t
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -202,3 +203,88 @@ def test_the_optimiser_walks_the_stop_model_through_its_stop():
     height = float(walker.module.event_heelstrike_guard(*params, *extended[-1]))
     assert height == pytest.approx(0.0, abs=1e-8)
     assert gait.step_length == pytest.approx(0.832346, rel=1e-8)
+
+
+def test_the_push_at_a_chosen_angle_keeps_both_momenta_and_pushes_along_the_leg():
+    """free_vsw_biped_push's push where the stance leg passes theta_push: 20 random cases,
+    the generated gains of its two impulses against Newton and Euler: the leg's impulse
+    (its foot massless, the ground's impulse along the leg is the leg's) changes the
+    walker's momentum along the stance leg by itself and neither the walker's angular
+    momentum about the stance foot (it passes through the foot) nor the swing leg's about
+    the hip (it acts on the swing leg through the hip only); the hip's impulse changes the
+    swing leg's angular momentum about the hip by itself, counterclockwise, and not the
+    walker's about the foot. Nothing else jumps (a continuous change of phase), 1e-12."""
+    walker = load("free_vsw_biped_push")
+    module = walker.module
+    (event,) = [e for e in walker.events if e["name"] == "push"]
+    assert [i["name"] for i in event["impulses"]] == ["push", "hip_impulse_push"]
+    assert walker.spec["chosen_parameters"] == ("theta_push",)
+    rng = np.random.default_rng(43)
+    for _ in range(20):
+        p = (rng.uniform(0.6, 0.95), rng.uniform(0.01, 1.0), rng.uniform(0.1, 0.5), 0.5,
+             rng.uniform(-0.5, 0.5))  # fmt: skip
+        state = np.array([p[4], rng.uniform(-0.5, 0.5), rng.uniform(0.6, 1.0),
+                          *rng.uniform(-1.5, 1.5, 3)])  # fmt: skip
+        assert float(module.event_push_guard(*p, *state)) == pytest.approx(0, abs=1e-15)
+        reset = np.array(module.event_push_reset(*p, *state), dtype=float).reshape(-1)
+        assert reset == pytest.approx(state, abs=1e-15)
+        push, hip = rng.uniform(0.0, 1.0), rng.uniform(-1.0, 1.0)
+        gains = np.array(module.event_push_impulse_gains_before(*p, *state), float)
+        after = state.copy()
+        after[3:] += gains.reshape(3, 2) @ np.array([push, hip])
+        assert after[:3] == pytest.approx(state[:3], abs=0)
+        body = p[:4]
+        (walker_before, swing_before), (walker_after, swing_after) = (
+            _momenta(body, state), _momenta(body, after))  # fmt: skip
+        assert walker_after == pytest.approx(walker_before, abs=1e-12)
+        assert swing_after - swing_before == pytest.approx(hip, abs=1e-12)
+        axis = np.array([math.sin(state[0]), math.cos(state[0])])  # foot to hip
+        momentum = [sum(m * v for m, _, v in _masses(body, x)[0]) for x in (state, after)]
+        assert (momentum[1] - momentum[0]) @ axis == pytest.approx(push, abs=1e-12)
+
+
+def test_the_optimiser_chooses_the_push_angle_with_the_gait():
+    """`vsw optimize` on free_vsw_biped_push (a chosen parameter, theta_push): the first
+    stage (the squared inputs' integral, which prices no impulse) keeps it at its start,
+    the work stage moves it; the stance ends where the stance leg passes the chosen value
+    (the guard theta - theta_push at the split), the gait records it, and the step
+    re-simulated at the gait's parameters (vsw.powered.powered_step) ends near the start
+    of the periodic step, while at the start's value the push comes elsewhere."""
+    from vsw.powered import Request, chosen_indices, optimize, powered_step
+
+    walker = load("free_vsw_biped_push")
+    (index,) = chosen_indices(walker)
+    params = walker.parameters({"beta": 0.8, "l_min": 0.78, "theta_push": 0.3})
+    gait = optimize(walker, params, Request("work", 0.367072, 0.832346, 5, friction=1.0))
+    assert gait.status in ("optimal", "not-converged")
+    chosen = gait.parameters[index]
+    assert chosen != pytest.approx(0.3, abs=1e-3)  # the work stage moved it
+    assert gait.parameters[:index] == pytest.approx(params[:index], abs=0)
+    stance, pushed = gait.states
+    assert stance[-1][0] == pytest.approx(chosen, abs=1e-9)
+    assert pushed[0][:3] == pytest.approx(stance[-1][:3], abs=1e-12)
+    start = gait.states[0][0]
+    scale = float(np.max(np.abs(start)))
+    ended = powered_step(walker, params, gait, start)
+    assert np.max(np.abs(ended - start)) < 1e-3 * scale
+    unchosen = dataclasses.replace(gait, parameters=())  # the push at the given 0.3
+    assert np.max(np.abs(powered_step(walker, params, unchosen, start) - start)) > 1e-2 * scale
+
+
+def test_the_kinematic_start_splits_the_stance_where_the_push_comes():
+    """The kinematic start of several phases (vsw.powered._phased_guess) ends the stance
+    where the push's guard vanishes along its straight path: the stance leg at theta_push
+    at the split, the phases' durations in proportion, the path continuous there."""
+    from vsw.powered import Request, _build, _kinematic_guess
+
+    walker = load("free_vsw_biped_push")
+    params = walker.parameters({"theta_push": 0.1})
+    request = Request("torque2", 0.367072, 0.832346, 6)
+    nlp = _build(walker, request)
+    w = _kinematic_guess(walker, params, nlp, request)
+    stance, pushed = (w[e["knots"][0] : e["knots"][0] + 7 * 6].reshape(7, 6) for e in nlp.layout)
+    assert stance[-1][0] == pytest.approx(0.1, abs=1e-12)
+    assert pushed[0][:3] == pytest.approx(stance[-1][:3], abs=1e-12)
+    theta_rate = stance[0][3]
+    assert pushed[0][3] == pytest.approx(theta_rate, rel=1e-12)  # one straight path
+    assert w[0] * theta_rate == pytest.approx(0.1 - stance[0][0], rel=1e-12)

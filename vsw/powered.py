@@ -229,10 +229,27 @@ class PoweredGait:
     ground_impulses: dict[str, tuple[float, float]] = field(default_factory=dict)
     """The ground's impulses on the walker at each event (``<event>.stance_foot``,
     ``<event>.new_foot``): tangential and normal (:func:`_event_map`)."""
+    parameters: tuple[float, ...] = ()
+    """The parameters the step was found at, the chosen ones (:func:`chosen_indices`) at
+    the optimiser's values: the ones every later use of the gait needs (its re-simulation,
+    verification, eigenvalues)."""
 
     @property
     def period(self) -> float:
         return float(sum(self.durations))
+
+
+def chosen_indices(model: HybridModel) -> tuple[int, ...]:
+    """The positions in the parameter table of the parameters the optimiser chooses with
+    the gait (``Model.chosen_parameters``: an angle at which an impulse acts)."""
+    names = [q.name for q in model.parameter_table]
+    return tuple(names.index(name) for name in model.spec.get("chosen_parameters", ()))
+
+
+def gait_parameters(gait: PoweredGait, params: Sequence[float]) -> np.ndarray:
+    """The parameters a gait's step is taken at: its own where it records them (the
+    chosen ones at the optimiser's values), else ``params``."""
+    return np.asarray(gait.parameters or params, dtype=float)
 
 
 def input_names(model: HybridModel) -> dict[str, list[str]]:
@@ -304,7 +321,7 @@ def optimize(
                             "resolves")  # fmt: skip
     if fine.status == "optimal":
         try:
-            fine.extra["eigenvalues"] = powered_eigenvalues(model, params, fine)
+            fine.extra["eigenvalues"] = powered_eigenvalues(model, fine.parameters, fine)
         except ConvergenceError as exc:  # a perturbed step that does not end: no map
             stop.check()
             fine.extra["eigenvalues_note"] = str(exc)
@@ -382,6 +399,7 @@ def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Requ
         guess = _kinematic_guess(model, params, nlp, request)
     else:
         guess = _initial_guess(model, params, start, nlp, request.nodes)
+    nlp.choose(params, guess)
     if stage is request and request.minimize != "torque2":
         _fill_slacks(model, params, nlp, guess)
     result = _solve(model, params, stage, nlp, guess)
@@ -426,6 +444,19 @@ class _Nlp:
     bounds: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]  # lbx, ubx, lbg, ubg
     ground: Any = None  # ca.Function(w, p) -> each event's ground impulses, stacked
     ground_keys: tuple[str, ...] = ()
+    chosen: tuple[int, ...] = ()  # parameters the optimiser chooses (their table positions)
+    chosen_start: int = 0  # where their values are in w (its last entries)
+
+    def parameters(self, params: Sequence[float], w: np.ndarray) -> np.ndarray:
+        """``params`` with the chosen parameters at their values in ``w``."""
+        p = np.array(params, dtype=float)
+        p[list(self.chosen)] = w[self.chosen_start : self.chosen_start + len(self.chosen)]
+        return p
+
+    def choose(self, params: Sequence[float], w: np.ndarray) -> None:
+        """Start the chosen parameters of ``w`` at their values in ``params`` (in place)."""
+        values = np.asarray(params, dtype=float)[list(self.chosen)]
+        w[self.chosen_start : self.chosen_start + len(self.chosen)] = values
 
 
 @dataclass
@@ -592,7 +623,12 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
     m, count, nodes = 2 * model.n, len(sequence), request.nodes
     names = input_names(model)
     slack = request.minimize != "torque2"
-    p = ca.MX.sym("p", len(model.parameter_table))
+    given = ca.MX.sym("p", len(model.parameter_table))
+    chosen = chosen_indices(model)
+    # The chosen parameters are unknowns of the NLP (its last ones), the others its p.
+    choice = ca.MX.sym("chosen", len(chosen))
+    p = ca.vertcat(*(choice[chosen.index(i)] if i in chosen else given[i]
+                     for i in range(given.shape[0])))  # fmt: skip
     scale = ca.MX.sym("regularization_scale")
     durations = ca.MX.sym("T", count)
     unknowns = [_phase_unknowns(k, m, len(names[phase]), len(event.get("impulses", ())),
@@ -642,14 +678,19 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
         cost = (work / (model.symbolic_weight(p) * step_length)
                 + request.regularization * scale * squares)  # fmt: skip
     w, layout = _vector(durations, unknowns)
+    chosen_start = int(w.shape[0])
+    w = ca.vertcat(w, choice)
     lbx, ubx = _variable_bounds(model, sequence, layout, int(w.shape[0]), request)
+    for j, i in enumerate(chosen):  # within the parameter's open interval
+        row = model.parameter_table[i]
+        lbx[chosen_start + j], ubx[chosen_start + j] = row.lower, row.upper
     options = {
         "ipopt.tol": 1e-10, "ipopt.constr_viol_tol": 1e-10, "ipopt.max_iter": 3000,
         "ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "error_on_fail": False,
         "ipopt.mu_strategy": "adaptive", "ipopt.acceptable_tol": 1e-6,
         "ipopt.acceptable_constr_viol_tol": 1e-9, "ipopt.acceptable_iter": 5,
     }  # fmt: skip
-    arguments = ca.vertcat(p, scale)  # the regularization's scale: known after the first stage
+    arguments = ca.vertcat(given, scale)  # the regularization's scale: known after stage one
     problem = {"x": w, "p": arguments, "f": cost, "g": ca.vertcat(*g.rows)}
     solver = ca.nlpsol(f"powered_{model.name}", "ipopt", problem, options)
     works = ca.Function("work", [w, arguments], [ca.vertcat(*positive.values(),
@@ -658,7 +699,7 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
     pushes = ca.Function("ground", [w, arguments], [ca.vertcat(*ground.values())])
     return _Nlp(solver, ca.Function("cost", [w, arguments], [cost]), layout, works,
                 int(w.shape[0]), (lbx, ubx, np.array(g.lower), np.array(g.upper)), pushes,
-                tuple(ground))  # fmt: skip
+                tuple(ground), chosen, chosen_start)  # fmt: skip
 
 
 def _event_map(model: HybridModel, event: dict, p: Any, end: Any, v: _Unknowns,
@@ -687,11 +728,12 @@ def _event_map(model: HybridModel, event: dict, p: Any, end: Any, v: _Unknowns,
     Last, the ground's impulses on the walker over the event (its momentum's change):
     through the stance foot (the impulses before an impact's reset; a lock's impulse,
     which the foot takes too) and through the new foot (an impact, with what acts after
-    it, and the stance foot's share of an impulse applied with the impact). At an impact
-    each must push (its normal part ``>= 0``: a constraint), within the friction cone of
-    ``request.friction`` where it has one; a lock's is only reported (stopping a leg that
-    lengthens pulls the foot: the instantaneous extension's idealisation, which the VSW
-    biped shares) unless ``request.pushing_locks``."""
+    it, and the stance foot's share of an impulse applied with the impact). At an impact,
+    and at a change of phase where impulses act (a push at a chosen angle, through the
+    stance foot), each must push (its normal part ``>= 0``: a constraint), within the
+    friction cone of ``request.friction`` where it has one; a lock's is only reported
+    (stopping a leg that lengthens pulls the foot: the instantaneous extension's
+    idealisation, which the VSW biped shares) unless ``request.pushing_locks``."""
     import casadi as ca
 
     groups = impulse_names(model, event)
@@ -750,14 +792,19 @@ def _event_map(model: HybridModel, event: dict, p: Any, end: Any, v: _Unknowns,
     key = "new_foot" if event["reset"] == "impact" else "stance_foot"
     change = _momentum_function(model, event["target"])(p, x) - momentum_before(p, reset_from)
     ground[key] = change + ground.get(key, 0)
-    pushing = event["reset"] == "impact" or (request is not None and request.pushing_locks)
+    # A foot is pushed, never pulled, by the ground: at an impact, at a change of phase
+    # where the actuators act in an instant (a push at a chosen angle), and at a lock where
+    # asked.
+    acting = event["reset"] == "continuous" and bool(groups[0] or groups[2])
+    pushing = (event["reset"] == "impact" or acting
+               or (request is not None and request.pushing_locks))  # fmt: skip
     friction = None if request is None else request.friction
-    if pushing:  # a foot is pushed, never pulled, by the ground
+    if pushing:
         for foot, impulse in ground.items():
             if foot == "stance_foot" and key != foot and not _usable(request, groups[0]):
                 continue  # the impulses before are held at zero: no impulse, no row
             g.add(impulse[1], 0.0, math.inf)
-            if friction is not None and event["reset"] == "impact":
+            if friction is not None and (event["reset"] == "impact" or acting):
                 g.add(friction * impulse[1] - impulse[0], 0.0, math.inf)
                 g.add(friction * impulse[1] + impulse[0], 0.0, math.inf)
     return x, priced, plus, minus, {f"{event['name']}.{k}": i for k, i in ground.items()}
@@ -1040,26 +1087,32 @@ def _phased_guess(model: HybridModel, p: np.ndarray, nlp: _Nlp, request: Request
                   x0: np.ndarray) -> np.ndarray:  # fmt: skip
     """The kinematic start of a step of several phases: from the search box's centre
     ``x0`` the coordinates move at constant rates toward where the step event's reset
-    takes them (the legs swapped), the step's duration (as :func:`_swapped_guess`'s)
-    shared equally by the phases; where an event locks coordinates (a leg reaching its end
-    stop) they move over the phase before it to where its guard vanishes (found by the
-    secant method in each), and the phases after hold them there. Not a motion of the
-    walker; IPOPT makes it one."""
+    takes them (the legs swapped), over the step's duration (as :func:`_swapped_guess`'s).
+    A phase ends where its event's guard vanishes along that straight path (a push where
+    the stance leg passes an angle: :func:`_guard_fraction`), else at an equal share of
+    the step; where an event locks coordinates (a leg reaching its end stop) they move
+    over the phase before it to where its guard vanishes (found by the secant method in
+    each), and the phases after hold them there. Not a motion of the walker; IPOPT makes
+    it one."""
     label = getattr(model, "cli_name", model.name)
     n = model.n
     sequence = model._phase_sequence()
     last = sequence[-1][1]
     end = model.reset(last["name"], p, x0)[:n]
-    share = _guess_duration(model, p, request, x0) / len(sequence)
+    duration = _guess_duration(model, p, request, x0)
     index = {name: k for k, name in enumerate(model.coordinates)}
-    start, held = x0[:n].copy(), set()
-    paths = []
+    start, held, reached = x0[:n].copy(), set(), 0.0
+    paths, shares = [], []
     for k, (_phase, event) in enumerate(sequence):
-        target = x0[:n] + (k + 1) / len(sequence) * (end - x0[:n])
+        locked = [index[c] for c in event.get("actuated", ())] if event["reset"] == "lock" else []
+        fraction = (k + 1) / len(sequence)
+        if k + 1 < len(sequence) and not locked:
+            fraction = _guard_fraction(model, p, event, x0[:n], end, reached) or fraction
+        share = (fraction - reached) * duration
+        target = x0[:n] + fraction * (end - x0[:n])
         stop = start.copy()
         free = [i for i in range(n) if i not in held]
         stop[free] = target[free]
-        locked = [index[c] for c in event.get("actuated", ())] if event["reset"] == "lock" else []
         guard = model._fn(f"event_{event['name']}_guard")
         for i in locked:
 
@@ -1068,10 +1121,39 @@ def _phased_guess(model: HybridModel, p: np.ndarray, nlp: _Nlp, request: Request
 
             stop[i] = _root_in(guard_at, start[i], label, event["name"])
         rates = (stop - start) / share
-        paths.append(lambda f, a=start, r=rates: np.concatenate([a + f * share * r, r]))
+        paths.append(lambda f, a=start, r=rates, t=share: np.concatenate([a + f * t * r, r]))
+        shares.append(share)
         held |= set(locked)
-        start = stop
-    return _sampled_phases(nlp, request.nodes, [share] * len(sequence), paths)
+        start, reached = stop, fraction
+    return _sampled_phases(nlp, request.nodes, shares, paths)
+
+
+def _guard_fraction(
+    model: HybridModel, p: np.ndarray, event: dict, begin: np.ndarray, end: np.ndarray, after: float
+) -> float | None:
+    """The fraction of the straight path from ``begin`` to ``end`` (coordinates; rates
+    along it) past ``after`` where the event's guard first crosses in its direction, or
+    None: sampled on 200 points, then bisected."""
+    guard = model._fn(f"event_{event['name']}_guard")
+    rates = end - begin
+
+    def value(f: float) -> float:
+        return float(guard(*p, *(begin + f * rates), *rates))
+
+    fractions = np.linspace(after, 1.0, 201)[1:-1]
+    values = np.array([value(f) for f in fractions])
+    rising = values[1:] * event["direction"] > 0
+    crossed = np.flatnonzero((np.sign(values[1:]) != np.sign(values[:-1])) & rising)
+    if crossed.size == 0:
+        return None
+    low, high = fractions[crossed[0]], fractions[crossed[0] + 1]
+    for _ in range(60):
+        middle = (low + high) / 2
+        if np.sign(value(middle)) == np.sign(values[crossed[0]]):
+            low = middle
+        else:
+            high = middle
+    return (low + high) / 2
 
 
 def _guess_duration(model: HybridModel, p: np.ndarray, request: Request,
@@ -1144,6 +1226,7 @@ def _transfer(model: HybridModel, params: Sequence[float], source: _Nlp, w: np.n
     out = np.zeros(target.size)
     count = len(source.layout)
     out[:count] = w[:count]
+    target.choose(source.parameters(params, w), out)
     for have, want in zip(source.layout, target.layout):
         for key in ("knots", "middles", "u_knots", "u_middles", "impulses"):
             first, parts, width = have[key]
@@ -1161,6 +1244,7 @@ def _refine(model: HybridModel, params: Sequence[float], coarse: _Nlp, w: np.nda
     out = np.zeros(fine.size)
     count = len(coarse.layout)
     out[:count] = w[:count]
+    fine.choose(coarse.parameters(params, w), out)
     for have, want in zip(coarse.layout, fine.layout):
         first, parts, width = have["impulses"]
         out[want["impulses"][0] : want["impulses"][0] + parts * width] = w[
@@ -1190,7 +1274,7 @@ def _fill_slacks(model: HybridModel, params: Sequence[float], nlp: _Nlp, w: np.n
     Bernstein coefficients at ``max(b, 0)`` of the power's); each impulse's split where it
     stops a reversing rate (:func:`_stopping_splits`) and its slacks at ``max(P, 0)`` of
     its parts' power ends (in place)."""
-    p = np.asarray(params, dtype=float)
+    p = nlp.parameters(params, w)
     for k, ((phase, event), entry) in enumerate(zip(model._phase_sequence(), nlp.layout)):
         first, parts, width = entry["s_impulses"]
         if width:
@@ -1236,8 +1320,13 @@ def _block(w: np.ndarray, entry: tuple[int, int, int]) -> np.ndarray:
 def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _Nlp,
            guess: np.ndarray, regularization_scale: float = 1.0) -> PoweredGait:  # fmt: skip
     lbx, ubx, lbg, ubg = nlp.bounds
-    p = np.asarray(params, dtype=float)
-    arguments = np.append(p, regularization_scale)
+    if nlp.chosen and request.minimize == "torque2":
+        # The squared inputs' integral prices no impulse (they are held at zero), so not
+        # where one acts either: the chosen parameters stay at their given values.
+        lbx, ubx = lbx.copy(), ubx.copy()
+        nlp.choose(params, lbx)
+        nlp.choose(params, ubx)
+    arguments = np.append(np.asarray(params, dtype=float), regularization_scale)
     try:
         result = nlp.solver(x0=guess, p=arguments, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
     except RuntimeError as exc:  # a NaN in the model's functions at IPOPT's trial point
@@ -1248,6 +1337,7 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
     stats = nlp.solver.stats()
     status = str(stats.get("return_status", "unknown"))
     w = np.array(result["x"], dtype=float).reshape(-1)
+    p = nlp.parameters(params, w)
     sequence = model._phase_sequence()
     durations = tuple(float(v) for v in w[: len(sequence)])
     times, states, inputs, input_times = [], [], [], []
@@ -1323,6 +1413,7 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
         iterations=int(stats.get("iter_count", -1)),
         impulses=impulses,
         ground_impulses=_ground_impulses(nlp, w, arguments),
+        parameters=tuple(float(v) for v in p),
         extra={
             "resimulated_work": moved,
             "state_scale": scale,
@@ -1560,8 +1651,8 @@ def powered_step(model: HybridModel, params: Sequence[float], gait: PoweredGait,
     :func:`_control`), each phase
     ended by the first crossing of its event's guard that counts (its ``when``, as the
     runtime has it; SciPy DOP853, 1e-11; :func:`integrate_phase`): the powered walker's
-    Poincare map."""
-    p = np.asarray(params, dtype=float)
+    Poincare map. The gait's own parameters (:func:`gait_parameters`) are used."""
+    p = gait_parameters(gait, params)
     x = np.array(state, dtype=float)
     for (phase, event), duration, u in zip(model._phase_sequence(), gait.durations, gait.inputs):
         control = _control(u, duration)

@@ -35,6 +35,7 @@ from vsw.powered import (
     _reaction_function,
     _stopping_splits,
     _watchers,
+    gait_parameters,
     impulse_names,
     input_names,
     integrate_phase,
@@ -86,8 +87,9 @@ class VerifiedGait:
 def verify(model: HybridModel, params: Sequence[float], gait: PoweredGait,
            iterations: int = 20) -> VerifiedGait:  # fmt: skip
     """The fixed point of ``gait``'s open-loop step and the step from it (module
-    docstring); :class:`ConvergenceError` where Newton does not find it."""
-    p = np.asarray(params, dtype=float)
+    docstring); :class:`ConvergenceError` where Newton does not find it. The gait's own
+    parameters (:func:`gait_parameters`: the chosen ones at the optimiser's values) are used."""
+    p = gait_parameters(gait, params)
     x = np.array(gait.states[0][0], dtype=float)
     best, residual = x, np.inf
     jacobian = None

@@ -1478,6 +1478,10 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
         "The walker's weight: gravity times the mass of every body (the cost of transport's "
         "scale; it depends on the parameters only).", None, "force",
     ))  # fmt: skip
+    unknown = set(model.chosen_parameters) - {q.name for q in model.parameters}
+    if unknown:
+        raise ValueError(f"{model.name}: chosen parameters that are not parameters: "
+                         f"{sorted(unknown)}")  # fmt: skip
     condition_records = []
     for k, condition in enumerate(model.parameter_conditions):
         expression = sm.sympify(condition.expression)
@@ -1552,6 +1556,8 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
            if model.actuators else {}),
         **({"powered_only": True} if model.powered_only else {}),
         **({"parameter_conditions": tuple(condition_records)} if condition_records else {}),
+        **({"chosen_parameters": tuple(model.chosen_parameters)}
+           if model.chosen_parameters else {}),
     }  # fmt: skip
     if model.limits:
         quantities = [_in_the_limit(model, qty) for qty in quantities]

@@ -501,6 +501,11 @@ class Model:
     parameter_conditions: tuple[ParameterCondition, ...] = ()
     """Conditions on several parameters at once (each parameter's own range is its row's):
     a parameter set that breaks one is refused in one line with its reason."""
+    chosen_parameters: tuple[str, ...] = ()
+    """Parameters of the gait rather than of the body, by name: ``vsw optimize`` chooses
+    them with the gait (the given value is its start), as it chooses the inputs. An angle
+    at which an impulse acts (an event's guard ``theta - theta_push``) makes that
+    impulse's time free: the optimum's value is reported with it."""
 
     def phase(self, name: str) -> Phase:
         for p in self.phases:

@@ -168,14 +168,14 @@ PARAMETER_CONDITIONS = (
 )
 
 
-def heelstrike(source: Phase, impulses: tuple[Impulse, ...]) -> Event:
-    """Heelstrike from ``source`` to ``stroke``: the swing foot reaches the ground ahead of
+def heelstrike(source: Phase, impulses: tuple[Impulse, ...], target: str = "stance") -> Event:
+    """Heelstrike from ``source`` to ``target``: the swing foot reaches the ground ahead of
     the stance foot; the new foot sticks, the legs swap, the new stance leg ``beta`` long
     and free to slide."""
     return Event(
         "heelstrike",
         source.name,
-        "stance" if source.name == "stance" else "stroke",
+        target,
         guard=source.points["swing_foot"][1],  # the swing foot's height
         direction=-1,
         reset=Impact(

@@ -88,7 +88,7 @@ MODEL = Model(
             reset=Lock(),
             equation="(3) with massive legs, the extension's end",
         ),
-        heelstrike(EXTENDED, (HIP_IMPULSE_BEFORE, HEEL_STRIKE, HIP_IMPULSE_AFTER)),
+        heelstrike(EXTENDED, (HIP_IMPULSE_BEFORE, HEEL_STRIKE, HIP_IMPULSE_AFTER), "stroke"),
     ),
     failures=(*FALLS, dataclasses.replace(CROUCHED, phases=("stroke",))),
     conditions=(swing_foot_clearance(EXTENDED.points["swing_foot"][1], "l"),),

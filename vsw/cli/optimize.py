@@ -104,6 +104,9 @@ def run(args: argparse.Namespace) -> int:
     if args.plot is not None:
         check_save_path(args.plot)
     gait = powered.optimize(model, params, request)
+    # The parameters the optimiser chose with the gait (a push's angle) at its values: the
+    # envelope, the text, the plot and the verification are the gait's.
+    params = powered.gait_parameters(gait, params)
     verified = _verified(model, params, gait) if args.verify else None
     data = {**envelope(model, params, args.argv, {"collocation": "Hermite-Simpson",
                                                   "resimulation": powered.RESIMULATION_TOL}),
@@ -211,6 +214,7 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
             "period": request.target_period,
         },
         "use": list(request.use) or None,
+        "chosen_parameters": _chosen(model, gait),
         "limits": {name: [low, high] for name, low, high in request.limits} or None,
         "cost": gait.cost,
         "objective": gait.extra.get("objective"),
@@ -259,9 +263,18 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
     }
 
 
+def _chosen(model, gait: powered.PoweredGait) -> dict[str, float] | None:
+    """The parameters the optimiser chose with the gait, by name (None: the model has none)."""
+    table = model.parameter_table
+    return {table[i].name: gait.parameters[i] for i in powered.chosen_indices(model)} or None
+
+
 def _write_text(model, params, request: powered.Request, gait: powered.PoweredGait) -> None:
     out = sys.stdout
     write_parameters(out, model, params)
+    chosen = [model.parameter_table[i].name for i in powered.chosen_indices(model)]
+    if chosen:
+        out.write(f"chosen             {', '.join(chosen)} (by the optimiser, with the gait)\n")
     out.write(f"status             {gait.status}" + (f": {gait.reason}" if gait.reason else "")
               + "\n")  # fmt: skip
     out.write(f"minimized          {request.minimize} = {fmt(gait.cost)} (Hermite-Simpson, "
