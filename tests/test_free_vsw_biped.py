@@ -288,3 +288,34 @@ def test_the_kinematic_start_splits_the_stance_where_the_push_comes():
     theta_rate = stance[0][3]
     assert pushed[0][3] == pytest.approx(theta_rate, rel=1e-12)  # one straight path
     assert w[0] * theta_rate == pytest.approx(0.1 - stance[0][0], rel=1e-12)
+
+
+def test_vsw_optimize_reports_the_chosen_angle_within_its_limit(capsys):
+    """`vsw optimize --model free-vsw-biped-push --limit theta_push=0.4:0.45 --json`: the
+    start (0.5, outside the limit) is taken into it, the chosen angle is reported within
+    it (``chosen_parameters``, and the envelope's parameters are the gait's), and the
+    stance ends there; the text says which parameters were chosen; a limit on a parameter
+    the optimiser does not choose is one line, exit 2."""
+    import json
+
+    from vsw.cli import main
+
+    argv = ["optimize", "--model", "free-vsw-biped-push", "--minimize", "work",
+            "--target-speed", "0.367072", "--target-step-length", "0.832346", "--param",
+            "l_min=0.78", "--nodes", "4", "--limit", "theta_push=0.4:0.45"]  # fmt: skip
+    assert main([*argv, "--json"]) in (0, 3)
+    data = json.loads(capsys.readouterr().out)
+    chosen = data["chosen_parameters"]["theta_push"]
+    assert 0.4 <= chosen <= 0.45
+    assert data["parameters"]["theta_push"] == chosen
+    assert data["limits"] == {"theta_push": [0.4, 0.45]}
+    assert data["phases"][0]["state"]["theta"][-1] == pytest.approx(chosen, abs=1e-9)
+    assert main(argv) in (0, 3)
+    out = capsys.readouterr().out
+    assert "chosen             theta_push (by the optimiser, with the gait)" in out
+    assert main([*argv[:-2], "--limit", "beta=0.7:0.9"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["vsw: error: --limit beta: free-vsw-biped-push has no input or impulse or "
+                   "chosen parameter beta (its: leg_force, hip_torque, push, "
+                   "hip_impulse_push, push_off, hip_impulse_before, heel_strike, "
+                   "hip_impulse_after, theta_push)"]  # fmt: skip

@@ -16,7 +16,7 @@ import pytest
 
 from paper_check.powered import SR06_ACTUATORS, inverted_pendulum_gait
 from vsw.models import load
-from vsw.powered import Request, optimize
+from vsw.powered import Request, _flow_function, optimize
 
 pytest.importorskip("casadi")
 
@@ -55,6 +55,29 @@ def test_impulse_gains_are_newtons_law_for_the_hip(biped):
         mean = (rate(*params, x, y, xd, yd)[0] + rate(*params, x, y, xd2, yd2)[0]) / 2
         work = iota * mean
         assert work == pytest.approx(m * (xd2**2 + yd2**2 - xd**2 - yd**2) / 2, rel=1e-12)
+
+
+def test_the_ground_reaction_is_the_legs_push_and_the_torques_pull(biped):
+    """The lift-off guard (the ground's normal reaction, with the inputs on) against statics
+    of the massless stance leg, 50 random states and inputs, 1e-12: the leg force F along
+    the leg pushes the hip, and so the ground, by F y / r; the stance torque tau about the
+    foot pushes the hip by tau / r across the leg, forward, so the ground's normal
+    reaction by -tau x / r^2; and Newton for the hip, m (y'' + g), from the flow."""
+    module = biped.module
+    rng = np.random.default_rng(53)
+    for _ in range(50):
+        m, g = rng.uniform(0.5, 80.0), rng.uniform(1.0, 10.0)
+        p = (m, g, 1.0, 0.6, 0.5)
+        x, y = rng.uniform(-0.4, 0.4), rng.uniform(0.6, 1.0)
+        state = (x, y, *rng.uniform(-1.0, 1.0, 2))
+        force, torque = rng.uniform(0.0, 3.0) * m * g, rng.uniform(-1.0, 1.0) * m * g
+        gains = np.array(module.stance_lift_off_input_gains(*p, *state), float).reshape(-1)
+        normal = float(module.stance_lift_off(*p, *state)) + gains @ (force, torque)
+        r = math.hypot(x, y)
+        scale = m * g
+        assert normal == pytest.approx(force * y / r - torque * x / r**2, abs=1e-12 * scale)
+        rates = np.array(_flow_function(biped, "stance")(p, state, (force, torque)), float)
+        assert normal == pytest.approx(m * (rates[3, 0] + g), abs=1e-12 * scale)
 
 
 @pytest.mark.parametrize(

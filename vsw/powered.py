@@ -25,7 +25,8 @@ with the impulse at its impact and its impulses after map the last knot to the n
 phase's first, and the step is
 periodic. Every failure of a phase is a path constraint at the knots, with
 the inputs' share of its guard (``<guard>_input_gains``: the ground reaction moves with
-them). The model's parameters are fixed.
+them). The model's parameters are fixed, but for those it names as the gait's own
+(``chosen_parameters``: an angle at which an impulse acts), which are unknowns too.
 
 Costs (per step): ``torque2``, the integral of the squared inputs; ``work``, the inputs'
 positive work, the integral of ``max(P, 0)`` of each input's power ``P = u d(along)/dt``,
@@ -166,9 +167,10 @@ class Request:
     """The step's period (the sum of its phases' durations); at most two of the speed,
     the step length and the period (the third follows from them)."""
     limits: tuple[tuple[str, float | None, float | None], ...] = ()
-    """Bounds of the user's on inputs and impulses, by name: (name, low, high), None for
-    no bound on that side; each is intersected with the bounds the model declares (an
-    actuator's strength: a leg force of at most 3 m_H g)."""
+    """Bounds of the user's on inputs, impulses and chosen parameters, by name: (name, low,
+    high), None for no bound on that side; each is intersected with the bounds the model
+    declares (an actuator's strength: a leg force of at most 3 m_H g; a chosen parameter's
+    interval). A chosen parameter's start is taken into its limits."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "use", tuple(self.use))  # hashable: the NLPs are cached
@@ -293,6 +295,7 @@ def optimize(
     _check_actuator_names(model, request)
     _check_ground_options(model, request)
     _check_step_target(model, params, request)
+    params = _started_within_limits(model, params, request)
     if start is None:
         start = _passive_start(model, params)  # None: the model has no passive gait
     coarse = _optimize_on_mesh(model, params, request, start)
@@ -329,20 +332,25 @@ def optimize(
 
 
 def _check_actuator_names(model: HybridModel, request: Request) -> None:
-    """``use`` and ``limits`` name inputs or impulses of the model, and each limit leaves
-    a value within the bounds the model declares (one-line refusals)."""
+    """``use`` names inputs or impulses of the model, ``limits`` those or its chosen
+    parameters, and each limit leaves a value within the bounds the model declares
+    (one-line refusals)."""
     label = getattr(model, "cli_name", model.name)
     known = [name for names in input_names(model).values() for name in names]
     for event in model.events:
         known += [i["name"] for i in event.get("impulses", ())]
+    chosen = {model.parameter_table[i].name: i for i in chosen_indices(model)}
     for flag, name in (*(("--use", n) for n in request.use),
                        *(("--limit", n) for n, _, _ in request.limits)):  # fmt: skip
-        if name not in known:
-            raise VswInputError(f"{flag} {name}: {label} has no input or impulse {name} (its: "
-                                f"{', '.join(dict.fromkeys(known))})")  # fmt: skip
+        if name not in known and not (flag == "--limit" and name in chosen):
+            what = "input or impulse" + (" or chosen parameter" if flag == "--limit" else "")
+            names = [*known, *chosen] if flag == "--limit" else known
+            raise VswInputError(f"{flag} {name}: {label} has no {what} {name} (its: "
+                                f"{', '.join(dict.fromkeys(names))})")  # fmt: skip
     declared = {i["name"]: i["bounds"] for phase in model.phases for i in phase.get("inputs", ())}
     for event in model.events:
         declared |= {i["name"]: i["bounds"] for i in event.get("impulses", ())}
+    declared |= {name: _parameter_interval(model, i) for name, i in chosen.items()}
     for name, _, _ in request.limits:
         low, high = _limited(declared[name], request, name)
         if low is not None and high is not None and low > high:
@@ -358,6 +366,22 @@ def _limited(bounds: tuple, request: Request, name: str) -> tuple[float | None, 
             low = lower if low is None else low if lower is None else max(low, lower)
             high = upper if high is None else high if upper is None else min(high, upper)
     return low, high
+
+
+def _parameter_interval(model: HybridModel, index: int) -> tuple[float, float]:
+    row = model.parameter_table[index]
+    return float(row.lower), float(row.upper)
+
+
+def _started_within_limits(model: HybridModel, params: Sequence[float],
+                           request: Request) -> np.ndarray:  # fmt: skip
+    """``params`` with each chosen parameter taken into the request's limits on it (its
+    start: the nearest value within them)."""
+    p = np.array(params, dtype=float)
+    for i in chosen_indices(model):
+        low, high = _limited(_parameter_interval(model, i), request, model.parameter_table[i].name)
+        p[i] = min(max(p[i], low), high)
+    return p
 
 
 def _interval(bounds: tuple) -> str:
@@ -681,9 +705,10 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
     chosen_start = int(w.shape[0])
     w = ca.vertcat(w, choice)
     lbx, ubx = _variable_bounds(model, sequence, layout, int(w.shape[0]), request)
-    for j, i in enumerate(chosen):  # within the parameter's open interval
-        row = model.parameter_table[i]
-        lbx[chosen_start + j], ubx[chosen_start + j] = row.lower, row.upper
+    for j, i in enumerate(chosen):  # within the parameter's interval and the limits on it
+        name = model.parameter_table[i].name
+        low, high = _limited(_parameter_interval(model, i), request, name)
+        lbx[chosen_start + j], ubx[chosen_start + j] = low, high
     options = {
         "ipopt.tol": 1e-10, "ipopt.constr_viol_tol": 1e-10, "ipopt.max_iter": 3000,
         "ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "error_on_fail": False,

@@ -38,6 +38,7 @@ import sympy as sm
 
 from derive.engine import model_derivation
 from derive.engine.model import (
+    NORMAL_FORCE,
     Coordinate,
     Event,
     Failure,
@@ -167,6 +168,11 @@ MODEL = Model(
     failures=(
         Failure("fell", y, -1, "the hip reaches the ground", unit="m"),
         Failure("fell-backward", X.u, -1, "the hip stops and moves back"),
+        # With the leg force alone the ground's normal reaction is F y / r >= 0; the
+        # stance torque's share, -tau x / r^2, pulls the foot up where the hip is ahead of it
+        # and the torque drives it forward.
+        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground (the "
+                "stance torque would pull it up)"),
         Failure(
             "crouched",
             leg_length - l_min,

@@ -42,8 +42,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--nodes", type=int, default=20, metavar="N",
                    help="intervals a phase on the coarse mesh (the result is on 2N)")  # fmt: skip
     p.add_argument("--limit", action="append", metavar="NAME=LOW:HIGH", type=_limit,
-                   help="bounds on an input or impulse beside the model's (repeatable; either "
-                   "side may be empty: leg_force=:3)")  # fmt: skip
+                   help="bounds on an input, impulse or chosen parameter beside the model's "
+                   "(repeatable; either side may be empty: leg_force=:3)")  # fmt: skip
     p.add_argument("--use", action="append", metavar="NAME",
                    help="an input or impulse the gait may use (repeatable; the others are held "
                    "at zero; default: every one; 'vsw models' lists them)")  # fmt: skip

@@ -9,7 +9,7 @@
  * (x, y, x_dot, y_dot), in CasADi's calling convention.
  * Phases: stance.
  * Events: heelstrike (stance -> stance, ends the step).
- * Failures: fell, fell-backward, crouched, overextended.
+ * Failures: fell, fell-backward, lift-off, crouched, overextended.
  */
 /* Hidden with the rest of the library (vsw/batch.py builds it with -fvisibility=hidden):
    CasADi's functions are called directly (the compiler may inline them), not exported. */
@@ -53,6 +53,7 @@ extern "C" {
 #define casadi_s0 CASADI_PREFIX(s0)
 #define casadi_s1 CASADI_PREFIX(s1)
 #define casadi_s2 CASADI_PREFIX(s2)
+#define casadi_s3 CASADI_PREFIX(s3)
 #define casadi_sq CASADI_PREFIX(sq)
 
 /* Symbol visibility in DLLs */
@@ -83,7 +84,8 @@ CASADI_SYMBOL_EXPORT int vsw_point_mass_biped_sim__casadi_real_size(void) { retu
 
 static const casadi_int casadi_s0[3] = {5, 1, 1};
 static const casadi_int casadi_s1[3] = {4, 1, 1};
-static const casadi_int casadi_s2[3] = {1, 1, 1};
+static const casadi_int casadi_s2[3] = {6, 1, 1};
+static const casadi_int casadi_s3[3] = {1, 1, 1};
 
 /* vsw_point_mass_biped_sim_constants:(p[5])->(c[5]) */
 static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
@@ -261,7 +263,7 @@ CASADI_SYMBOL_EXPORT int vsw_point_mass_biped_sim_stance_flow_work_bytes(casadi_
   return 0;
 }
 
-/* vsw_point_mass_biped_sim_stance_watch:(c[5],x[4])->(stance_watch[5]) */
+/* vsw_point_mass_biped_sim_stance_watch:(c[5],x[4])->(stance_watch[6]) */
 static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2, a3;
   a0=arg[1][0];
@@ -272,20 +274,22 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   res[0][1]=a1;
   a2=arg[1][2];
   res[0][2]=a2;
+  a2=0.;
+  res[0][3]=a2;
   a2=casadi_sq(a0);
   a3=casadi_sq(a1);
   a2=(a2+a3);
   a2=sqrt(a2);
   a3=arg[0][2];
   a2=(a2-a3);
-  res[0][3]=a2;
+  res[0][4]=a2;
   a0=casadi_sq(a0);
   a1=casadi_sq(a1);
   a0=(a0+a1);
   a0=sqrt(a0);
   a1=arg[0][3];
   a0=(a0-a1);
-  res[0][4]=a0;
+  res[0][5]=a0;
   return 0;
 }
 
@@ -341,7 +345,7 @@ CASADI_SYMBOL_EXPORT const casadi_int* vsw_point_mass_biped_sim_stance_watch_spa
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_point_mass_biped_sim_stance_watch_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s0;
+    case 0: return casadi_s2;
     default: return 0;
   }
 }
@@ -511,7 +515,7 @@ CASADI_SYMBOL_EXPORT const casadi_int* vsw_point_mass_biped_sim_step_length_spar
 
 CASADI_SYMBOL_EXPORT const casadi_int* vsw_point_mass_biped_sim_step_length_sparsity_out(casadi_int i) {
   switch (i) {
-    case 0: return casadi_s2;
+    case 0: return casadi_s3;
     default: return 0;
   }
 }
@@ -543,8 +547,8 @@ CASADI_SYMBOL_EXPORT int vsw_point_mass_biped_sim_step_length_work_bytes(casadi_
 #define VSW_NX 4
 #define VSW_NPHASES 1
 #define VSW_NEVENTS 1
-#define VSW_NFAILURES 4
-#define VSW_MAX_WATCH 5
+#define VSW_NFAILURES 5
+#define VSW_MAX_WATCH 6
 #define VSW_START_PHASE 0
 #define VSW_SZ_ARG 2
 #define VSW_SZ_RES 1
@@ -619,20 +623,22 @@ static inline void vsw_point_mass_biped_sim_stance_watch_lanes(int live, const v
     out[1]=a1;
     a2=x[2];
     out[2]=a2;
+    a2=vsw_lanes_splat(0.);
+    out[3]=a2;
     a2=vsw_lanes_sq(a0);
     a3=vsw_lanes_sq(a1);
     a2=(a2+a3);
     a2=vsw_lanes_sqrt(a2);
     a3=c[2];
     a2=(a2-a3);
-    out[3]=a2;
+    out[4]=a2;
     a0=vsw_lanes_sq(a0);
     a1=vsw_lanes_sq(a1);
     a0=(a0+a1);
     a0=vsw_lanes_sqrt(a0);
     a1=c[3];
     a0=(a0-a1);
-    out[4]=a0;
+    out[5]=a0;
 }
 
 static inline void vsw_lanes_flow(int phase, int live, const vsw_lanes *c, const vsw_lanes *x,
@@ -654,11 +660,11 @@ static inline void vsw_lanes_watch(int phase, int live, const vsw_lanes *c, cons
         return;
     }
 }
-static const int vsw_n_watch[VSW_NPHASES] = {5};
+static const int vsw_n_watch[VSW_NPHASES] = {6};
 /* +1: counts rising through zero, -1: falling. */
-static const int vsw_watch_direction[VSW_NPHASES][VSW_MAX_WATCH] = {{1, -1, -1, -1, 1}};
+static const int vsw_watch_direction[VSW_NPHASES][VSW_MAX_WATCH] = {{1, -1, -1, -1, -1, 1}};
 /* >= 0: the event's index; < 0: -1 - the failure's index. */
-static const int vsw_watch_what[VSW_NPHASES][VSW_MAX_WATCH] = {{0, -1, -2, -3, -4}};
+static const int vsw_watch_what[VSW_NPHASES][VSW_MAX_WATCH] = {{0, -1, -2, -3, -4, -5}};
 
 /* Per event: the reset. */
 static inline void vsw_reset(int event, const double *c, const double *x, double *out)

@@ -94,6 +94,17 @@ function stance_fell_backward_input_gains(m, g, l, d, l_min, x, y, x_dot, y_dot)
   return [0, 0];
 }
 
+/* Guard of lift-off in phase stance. Returns crosses zero (direction -1) when the walk ends. */
+function stance_lift_off(m, g, l, d, l_min, x, y, x_dot, y_dot) {
+  return 0;
+}
+
+/* d(guard of lift-off)/d(input) in phase stance: the guard with the inputs on is stance_lift_off + these times the inputs. Returns tuple: one gain per input, in order. */
+function stance_lift_off_input_gains(m, g, l, d, l_min, x, y, x_dot, y_dot) {
+  const x0 = Math.pow(x, 2) + Math.pow(y, 2);
+  return [y/be.sqrt(x0), -x/x0];
+}
+
 /* Guard of crouched in phase stance. Returns crosses zero (direction -1) when the walk ends. */
 function stance_crouched(m, g, l, d, l_min, x, y, x_dot, y_dot) {
   return be.sqrt(Math.pow(x, 2) + Math.pow(y, 2)) - l_min;
@@ -213,7 +224,7 @@ function section_completion(m, g, l, d, l_min, x, y, x_dot, y_dot) {
   return [-d/2, y, x_dot, y_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell, stance_fell_input_gains, stance_fell_backward, stance_fell_backward_input_gains, stance_crouched, stance_crouched_input_gains, stance_overextended, stance_overextended_input_gains, stance_positions, stance_inertias, stance_input_gains, stance_reaction_input_gains, stance_input_rates, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_impulse_gains_before, event_heelstrike_impulse_rates_before, event_heelstrike_impulse_gains_after, event_heelstrike_impulse_rates_after, event_heelstrike_contact, step_length_of_state, weight, parameter_condition_0, parameter_condition_1, section_completion };
+const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell, stance_fell_input_gains, stance_fell_backward, stance_fell_backward_input_gains, stance_lift_off, stance_lift_off_input_gains, stance_crouched, stance_crouched_input_gains, stance_overextended, stance_overextended_input_gains, stance_positions, stance_inertias, stance_input_gains, stance_reaction_input_gains, stance_input_rates, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_impulse_gains_before, event_heelstrike_impulse_rates_before, event_heelstrike_impulse_gains_after, event_heelstrike_impulse_rates_after, event_heelstrike_contact, step_length_of_state, weight, parameter_condition_0, parameter_condition_1, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {
