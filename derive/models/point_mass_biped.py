@@ -171,8 +171,12 @@ MODEL = Model(
         # With the leg force alone the ground's normal reaction is F y / r >= 0; the
         # stance torque's share, -tau x / r^2, pulls the foot up where the hip is ahead of it
         # and the torque drives it forward.
-        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground (the "
-                "stance torque would pull it up)"),
+        Failure(
+            "lift-off",
+            NORMAL_FORCE,
+            -1,
+            "the stance foot leaves the ground (the stance torque would pull it up)",
+        ),
         Failure(
             "crouched",
             leg_length - l_min,
