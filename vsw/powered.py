@@ -248,10 +248,14 @@ def chosen_indices(model: HybridModel) -> tuple[int, ...]:
     return tuple(names.index(name) for name in model.spec.get("chosen_parameters", ()))
 
 
-def gait_parameters(gait: PoweredGait, params: Sequence[float]) -> np.ndarray:
-    """The parameters a gait's step is taken at: its own where it records them (the
-    chosen ones at the optimiser's values), else ``params``."""
-    return np.asarray(gait.parameters or params, dtype=float)
+def gait_parameters(model: HybridModel, gait: PoweredGait, params: Sequence[float]) -> np.ndarray:
+    """The parameters a gait's step is taken at: ``params`` with the chosen ones
+    (:func:`chosen_indices`) at the gait's values where it records them."""
+    p = np.array(params, dtype=float)
+    if gait.parameters:
+        chosen = list(chosen_indices(model))
+        p[chosen] = np.asarray(gait.parameters, dtype=float)[chosen]
+    return p
 
 
 def input_names(model: HybridModel) -> dict[str, list[str]]:
@@ -308,6 +312,8 @@ def optimize(
     fine.extra["mesh_change"] = change
     fine.extra["coarse"] = {"nodes": request.nodes, "cost": coarse.cost,
                             "status": coarse.status}  # fmt: skip
+    if "warm_start" in coarse.extra:  # the coarse mesh's first stage
+        fine.extra["warm_start"] = coarse.extra["warm_start"]
     agree = change <= MESH_AGREES or abs(fine.cost - coarse.cost) <= COST_ZERO
     if coarse.status == "infeasible" and fine.status != "optimal":
         fine.status, fine.reason = coarse.status, coarse.reason + " (on the coarse mesh)"
@@ -432,13 +438,13 @@ def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Requ
     staged = _build(model, request)
     scale = 1.0
     if request.minimize == "work" and result.step_length is not None:
-        scale = walker_weight(model, params) * result.step_length
+        scale = walker_weight(model, result.parameters) * result.step_length
     if result.cost > COST_ZERO:  # the squared inputs' integral of the first stage
         scale /= result.cost
     final = _solve(model, params, request, staged,
                    _transfer(model, params, nlp, result.extra["w"], staged), scale)  # fmt: skip
     final.extra["warm_start"] = {"minimize": "torque2", "status": result.status,
-                                 "cost": result.cost}  # fmt: skip
+                                 "cost": result.cost, "parameters": result.parameters}  # fmt: skip
     return final
 
 
@@ -472,9 +478,12 @@ class _Nlp:
     chosen_start: int = 0  # where their values are in w (its last entries)
 
     def parameters(self, params: Sequence[float], w: np.ndarray) -> np.ndarray:
-        """``params`` with the chosen parameters at their values in ``w``."""
+        """``params`` with the chosen parameters at their values in ``w``, within their
+        bounds (IPOPT may end a few ulps of its tolerance past a bound it relaxed)."""
         p = np.array(params, dtype=float)
-        p[list(self.chosen)] = w[self.chosen_start : self.chosen_start + len(self.chosen)]
+        block = slice(self.chosen_start, self.chosen_start + len(self.chosen))
+        lbx, ubx = self.bounds[0][block], self.bounds[1][block]
+        p[list(self.chosen)] = np.minimum(np.maximum(w[block], lbx), ubx)
         return p
 
     def choose(self, params: Sequence[float], w: np.ndarray) -> None:
@@ -820,7 +829,7 @@ def _event_map(model: HybridModel, event: dict, p: Any, end: Any, v: _Unknowns,
     # A foot is pushed, never pulled, by the ground: at an impact, at a change of phase
     # where the actuators act in an instant (a push at a chosen angle), and at a lock where
     # asked.
-    acting = event["reset"] == "continuous" and bool(groups[0] or groups[2])
+    acting = event["reset"] == "continuous" and _usable(request, [*groups[0], *groups[2]])
     pushing = (event["reset"] == "impact" or acting
                or (request is not None and request.pushing_locks))  # fmt: skip
     friction = None if request is None else request.friction
@@ -1130,9 +1139,10 @@ def _phased_guess(model: HybridModel, p: np.ndarray, nlp: _Nlp, request: Request
     paths, shares = [], []
     for k, (_phase, event) in enumerate(sequence):
         locked = [index[c] for c in event.get("actuated", ())] if event["reset"] == "lock" else []
-        fraction = (k + 1) / len(sequence)
+        # An equal share of what is left, unless the event's guard vanishes on the way.
+        fraction = reached + (1.0 - reached) / (len(sequence) - k)
         if k + 1 < len(sequence) and not locked:
-            fraction = _guard_fraction(model, p, event, x0[:n], end, reached) or fraction
+            fraction = _guard_fraction(model, p, event, x0[:n], end, duration, reached) or fraction
         share = (fraction - reached) * duration
         target = x0[:n] + fraction * (end - x0[:n])
         stop = start.copy()
@@ -1153,17 +1163,17 @@ def _phased_guess(model: HybridModel, p: np.ndarray, nlp: _Nlp, request: Request
     return _sampled_phases(nlp, request.nodes, shares, paths)
 
 
-def _guard_fraction(
-    model: HybridModel, p: np.ndarray, event: dict, begin: np.ndarray, end: np.ndarray, after: float
-) -> float | None:
-    """The fraction of the straight path from ``begin`` to ``end`` (coordinates; rates
-    along it) past ``after`` where the event's guard first crosses in its direction, or
-    None: sampled on 200 points, then bisected."""
+def _guard_fraction(model: HybridModel, p: np.ndarray, event: dict, begin: np.ndarray,
+                    end: np.ndarray, duration: float, after: float) -> float | None:  # fmt: skip
+    """The fraction of the straight path from ``begin`` to ``end`` (coordinates, covered in
+    ``duration`` at constant rates) past ``after`` where the event's guard first crosses in
+    its direction, or None: sampled at 199 points, then bisected. (The event's ``when`` is
+    not checked: a start, not a motion.)"""
     guard = model._fn(f"event_{event['name']}_guard")
-    rates = end - begin
+    rates = (end - begin) / duration
 
     def value(f: float) -> float:
-        return float(guard(*p, *(begin + f * rates), *rates))
+        return float(guard(*p, *(begin + f * (end - begin)), *rates))
 
     fractions = np.linspace(after, 1.0, 201)[1:-1]
     values = np.array([value(f) for f in fractions])
@@ -1677,7 +1687,7 @@ def powered_step(model: HybridModel, params: Sequence[float], gait: PoweredGait,
     ended by the first crossing of its event's guard that counts (its ``when``, as the
     runtime has it; SciPy DOP853, 1e-11; :func:`integrate_phase`): the powered walker's
     Poincare map. The gait's own parameters (:func:`gait_parameters`) are used."""
-    p = gait_parameters(gait, params)
+    p = gait_parameters(model, gait, params)
     x = np.array(state, dtype=float)
     for (phase, event), duration, u in zip(model._phase_sequence(), gait.durations, gait.inputs):
         control = _control(u, duration)

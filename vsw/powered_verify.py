@@ -89,7 +89,7 @@ def verify(model: HybridModel, params: Sequence[float], gait: PoweredGait,
     """The fixed point of ``gait``'s open-loop step and the step from it (module
     docstring); :class:`ConvergenceError` where Newton does not find it. The gait's own
     parameters (:func:`gait_parameters`: the chosen ones at the optimiser's values) are used."""
-    p = gait_parameters(gait, params)
+    p = gait_parameters(model, gait, params)
     x = np.array(gait.states[0][0], dtype=float)
     best, residual = x, np.inf
     jacobian = None
@@ -214,8 +214,9 @@ def _event(model: HybridModel, event: dict, p: np.ndarray, before: np.ndarray,
     in proportion: :func:`vsw.powered._stopping_splits`; exact for that schedule, the
     least positive work for an impulse alone on its side of the reset, and for a group
     possibly not the optimiser's split); the ground's impulses into
-    ``ground``: through the stance foot (the impulses before an impact's reset; a lock's)
-    and through the new foot (an impact and what follows it)."""
+    ``ground``: through the stance foot (the impulses before an impact's reset; a lock's;
+    those at a change of phase, a push at a chosen angle) and through the new foot (an
+    impact and what follows it)."""
     splits = _stopping_splits(model, event, p, before, iota)
     after, works, ends = _apply_impulses(model, event, p, before, iota, splits)
     offset = 0

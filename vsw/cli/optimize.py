@@ -106,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
     gait = powered.optimize(model, params, request)
     # The parameters the optimiser chose with the gait (a push's angle) at its values: the
     # envelope, the text, the plot and the verification are the gait's.
-    params = powered.gait_parameters(gait, params)
+    params = powered.gait_parameters(model, gait, params)
     verified = _verified(model, params, gait) if args.verify else None
     data = {**envelope(model, params, args.argv, {"collocation": "Hermite-Simpson",
                                                   "resimulation": powered.RESIMULATION_TOL}),
@@ -214,7 +214,7 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
             "period": request.target_period,
         },
         "use": list(request.use) or None,
-        "chosen_parameters": _chosen(model, gait),
+        "chosen_parameters": _chosen(model, request, gait),
         "limits": {name: [low, high] for name, low, high in request.limits} or None,
         "cost": gait.cost,
         "objective": gait.extra.get("objective"),
@@ -250,8 +250,12 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
             "reset, with its impact or after it, as the model declares)",
             "ground_impulses": "per event.foot: the ground's impulse on the walker through "
             "that foot over the event (the momentum's change), along the ground and normal "
-            "to it; at an impact constrained to push (normal >= 0), at a lock reported "
-            "(tangential / normal is the friction the foot needs)",
+            "to it; at an impact, and where impulses act at a change of phase, constrained to "
+            "push (normal >= 0), at a lock reported (tangential / normal is the friction the "
+            "foot needs)",
+            "chosen_parameters": "the parameters the model names as the gait's own (an angle "
+            "at which an impulse acts), at the optimiser's values (also in parameters); null "
+            "for a model without or under torque2, which holds them at the given values",
             "resimulation_error": "largest gap between a re-simulated phase's end and its "
             "last knot, relative to max(1, |state|)",
             "resimulated_work": "work and cot: the positive work along the re-simulated step "
@@ -263,8 +267,11 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
     }
 
 
-def _chosen(model, gait: powered.PoweredGait) -> dict[str, float] | None:
-    """The parameters the optimiser chose with the gait, by name (None: the model has none)."""
+def _chosen(model, request: powered.Request, gait: powered.PoweredGait) -> dict[str, float] | None:
+    """The parameters the optimiser chose with the gait, by name (None: the model has none,
+    or ``torque2`` held them at their given values: it prices no impulse)."""
+    if request.minimize == "torque2":
+        return None
     table = model.parameter_table
     return {table[i].name: gait.parameters[i] for i in powered.chosen_indices(model)} or None
 
@@ -273,7 +280,10 @@ def _write_text(model, params, request: powered.Request, gait: powered.PoweredGa
     out = sys.stdout
     write_parameters(out, model, params)
     chosen = [model.parameter_table[i].name for i in powered.chosen_indices(model)]
-    if chosen:
+    if chosen and request.minimize == "torque2":
+        out.write(f"held               {', '.join(chosen)} at the given value (torque2 prices no "
+                  "impulse, so not where one acts)\n")  # fmt: skip
+    elif chosen:
         out.write(f"chosen             {', '.join(chosen)} (by the optimiser, with the gait)\n")
     out.write(f"status             {gait.status}" + (f": {gait.reason}" if gait.reason else "")
               + "\n")  # fmt: skip
