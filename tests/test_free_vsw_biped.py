@@ -388,3 +388,35 @@ def test_the_push_is_taken_by_the_ground_pushing_within_the_cone():
         if hip == 0.0:  # the leg's push along the leg, the foot's pivot across it
             axis = np.array([math.sin(state[0]), math.cos(state[0])])
             assert through_foot @ axis == pytest.approx(push, abs=1e-12)
+
+
+def test_the_hip_torque_in_the_phase_that_holds_the_leg_is_newtons():
+    """An input in a phase that holds a coordinate in the state (free_vsw_biped_stop's
+    extended phase, the stance leg held at l; the engine's chain rule for held coordinates,
+    issue 28's untested case): the hip torque's gains on the accelerations are M^-1 (1, -1)
+    with M the three masses' mass matrix in (theta, psi) from their positions' Jacobians
+    (the torque's virtual work tau d(theta - psi)), none on the held length; its gains on
+    the ground reaction are the walker's momentum's rate those accelerations give, and the
+    lift-off guard's are the normal part. 20 random cases, 1e-12."""
+    walker = load("free_vsw_biped_stop")
+    module = walker.module
+    rng = np.random.default_rng(59)
+    for _ in range(20):
+        beta, mu, b = rng.uniform(0.6, 0.95), rng.uniform(0.01, 1.0), rng.uniform(0.1, 0.9)
+        p = (beta, mu, b, 0.5)
+        theta, psi = rng.uniform(-0.6, 0.6, 2)
+        state = (theta, psi, 1.0, *rng.uniform(-1.5, 1.5, 2), 0.0)
+        across, across_psi = (np.array([math.cos(a), -math.sin(a)]) for a in (theta, psi))
+        # d(position)/d(theta, psi) of the hip, the stance leg's mass and the swing leg's
+        jacobians = [(1.0, np.column_stack([across, 0 * across])),
+                     (mu, np.column_stack([(1 - b) * across, 0 * across])),
+                     (mu, np.column_stack([across, -b * across_psi]))]  # fmt: skip
+        mass = sum(m * j.T @ j for m, j in jacobians)
+        expected = np.linalg.solve(mass, [1.0, -1.0])
+        gains = np.array(module.extended_input_gains(*p, *state), float).reshape(-1)
+        assert gains == pytest.approx([*expected, 0.0], abs=1e-12)
+        momentum_rate = sum(m * j @ expected for m, j in jacobians)  # tangential, normal
+        reaction = np.array(module.extended_reaction_input_gains(*p, *state), float).reshape(-1)
+        assert reaction == pytest.approx([momentum_rate[1], momentum_rate[0]], abs=1e-12)
+        lift_off = np.array(module.extended_lift_off_input_gains(*p, *state), float).reshape(-1)
+        assert lift_off == pytest.approx([momentum_rate[1]], abs=1e-12)
