@@ -18,7 +18,9 @@ so it cannot hide a power that changes sign inside an interval).
 
 The defaults' gait is optimised again on finer meshes (:data:`REFINEMENT`), each gait
 verified, with the leg force's largest value and when: where that value grows as the
-mesh refines, the least work wants a leg action faster than any mesh resolves.
+mesh refines, the least work wants a leg action faster than any mesh resolves. Last, the
+same gait of the body with a push at a chosen angle (``free-vsw-biped-push``) from the
+starts of :data:`PUSH_STARTS`: whether the optimiser uses the impulse that limit points to.
 """
 
 from __future__ import annotations
@@ -59,6 +61,8 @@ NODES = 20
 REFINEMENT = (20, 40, 80)
 """The defaults' gait optimised with these ``--nodes`` (on 40, 80 and 160 intervals)."""
 STROKE_MARGIN = 0.02
+PUSH_STARTS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6)
+"""Starts of ``theta_push`` (free-vsw-biped-push) for the defaults' gait, 10 ``--nodes``."""
 """The body's shortest leg is beta - this (in l): the VSW biped's stroke and a little more."""
 
 
@@ -169,6 +173,22 @@ def _refinement_rows() -> list[str]:
     return rows
 
 
+def _push_rows() -> list[str]:
+    """The defaults' gait of the body with a push at a chosen angle (free-vsw-biped-push)
+    from each of :data:`PUSH_STARTS`: the angle chosen, the push, the least work and its
+    verification."""
+    vsw = _vsw_gait((), tuple(VSW_GAITS[0][1]))
+    rows = []
+    for start in PUSH_STARTS:
+        gait, verified = _body_gait({"theta_push": start}, vsw.speed, vsw.step_length,
+                                    model="free_vsw_biped_push", nodes=10)  # fmt: skip
+        why = f": {gait.reason}" if gait.reason else ""
+        rows.append(f"| {start:g} | {gait.parameters[-1]:.4f} | {gait.impulses['push.push']:.2g} | "
+                    f"{gait.cost:.6f} ({gait.status}{why}) | "
+                    + _verified_cells(verified, vsw.work) + " |\n")  # fmt: skip
+    return rows
+
+
 def free_vsw_biped(out: Path, quick: bool = False) -> list[Path]:
     """Write ``out/free-vsw-biped.md`` (``quick``: the defaults' gait only, no end stop)."""
     cases = VSW_GAITS[:1] if quick else VSW_GAITS
@@ -220,6 +240,15 @@ def free_vsw_biped(out: Path, quick: bool = False) -> list[Path]:
             "needed | VSW / verified |\n",
             "| --- | --- | --- | --- | --- | --- | --- | --- |\n",
             *_refinement_rows(),
+            "\n## With a push at a chosen angle (`free-vsw-biped-push`)\n\n",
+            "The same body whose stance is split where the stance leg passes `theta_push`, an ",
+            "angle the optimiser chooses with the gait, where the leg may push along itself ",
+            "and the hip act in an instant (with both zero, the free body's stance): the ",
+            "defaults' gait from several starts of the angle, 20 intervals a phase.\n\n",
+            "| start | theta_push chosen | push | least work on the mesh | verified work (V, S; ",
+            "gap) | landing's ground impulse | stance friction needed | VSW / verified |\n",
+            "| --- | --- | --- | --- | --- | --- | --- | --- |\n",
+            *_push_rows(),
         ]
     path = out / "free-vsw-biped.md"
     path.write_text("".join(text))

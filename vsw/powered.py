@@ -77,6 +77,7 @@ from typing import Any
 import numpy as np
 
 from vsw import stop
+from vsw.design import characteristic_coefficients, jury_rows
 from vsw.errors import ConvergenceError, VswInputError
 from vsw.gaits import free_components, pick, probed_step_lengths, section_states
 from vsw.hybrid import HybridModel, Orbit
@@ -90,7 +91,14 @@ __all__ = [
     "walker_weight",
 ]
 
-COSTS = ("torque2", "work", "cot")
+COSTS = ("torque2", "work", "cot", "stability")
+WORK_COSTS = ("work", "cot")
+"""The costs that price the inputs' positive work (the others hold the impulses at zero:
+they would be free)."""
+STABILITY_MARGIN = 1e-3
+"""Under ``stability`` the step map's spectral radius is an unknown at least this."""
+STABILITY_ITERATIONS = 500
+"""IPOPT's iterations under ``stability``."""
 RESIMULATION_TOL = 1e-11
 RESIMULATION_AGREES = 1e-6
 """The re-simulated phases end within this of their last knots (relative to max(1, |x|))."""
@@ -258,6 +266,11 @@ def gait_parameters(model: HybridModel, gait: PoweredGait, params: Sequence[floa
     return p
 
 
+def prices_work(request: Request) -> bool:
+    """Whether the request's cost prices the positive work (and so its impulses)."""
+    return request.minimize in WORK_COSTS
+
+
 def input_names(model: HybridModel) -> dict[str, list[str]]:
     """Each phase's inputs by name (empty lists for phases without)."""
     return {p["name"]: [i["name"] for i in p.get("inputs", ())] for p in model.phases}
@@ -325,7 +338,7 @@ def optimize(
         fine.reason = (f"the cost changes by {change:.3g} (relative) from {request.nodes} to "
                        f"{2 * request.nodes} intervals a phase: the mesh does not resolve the "
                        "optimum (try more --nodes)")  # fmt: skip
-        if request.minimize != "torque2":
+        if prices_work(request):
             fine.reason += ("; the least work may need an impulsive input, which no mesh "
                             "resolves")  # fmt: skip
     if fine.status == "optimal":
@@ -430,7 +443,8 @@ def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Requ
     else:
         guess = _initial_guess(model, params, start, nlp, request.nodes)
     nlp.choose(params, guess)
-    if stage is request and request.minimize != "torque2":
+    nlp.start_radius(params, guess)
+    if stage is request and prices_work(request):
         _fill_slacks(model, params, nlp, guess)
     result = _solve(model, params, stage, nlp, guess)
     if stage is request:
@@ -475,7 +489,19 @@ class _Nlp:
     ground: Any = None  # ca.Function(w, p) -> each event's ground impulses, stacked
     ground_keys: tuple[str, ...] = ()
     chosen: tuple[int, ...] = ()  # parameters the optimiser chooses (their table positions)
-    chosen_start: int = 0  # where their values are in w (its last entries)
+    chosen_start: int = 0  # where their values are in w (after the phases' blocks)
+    radius: int | None = None  # under stability: where the spectral radius is in w (last)
+    monodromy: Any = None  # under stability: ca.Function(w, p) -> the step map's Jacobian
+
+    def start_radius(self, params: Sequence[float], w: np.ndarray) -> None:
+        """Under stability, start the radius of ``w`` just outside the spectral radius of
+        its collocated step map (in place), where the Jury rows hold."""
+        if self.radius is None:
+            return
+        arguments = np.append(np.asarray(params, dtype=float), 1.0)
+        jacobian = np.array(self.monodromy(w, arguments), dtype=float)
+        largest = float(np.max(np.abs(np.linalg.eigvals(jacobian))))
+        w[self.radius] = max(1.05 * largest, 2 * STABILITY_MARGIN)
 
     def parameters(self, params: Sequence[float], w: np.ndarray) -> np.ndarray:
         """``params`` with the chosen parameters at their values in ``w``, within their
@@ -562,7 +588,7 @@ def _collocate(model: HybridModel, phase: str, v: _Unknowns, p: Any, duration: A
     flow = _flow_function(model, phase)
     nodes = len(v.middles)
     h = duration / nodes
-    slack = request.minimize != "torque2"
+    slack = prices_work(request)
     for function, direction in _margin_functions(model, phase):
         for x, u in zip(v.knots, v.u_knots):
             g.add(-direction * function(p, x, u), 0.0, math.inf)
@@ -655,7 +681,7 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
     sequence = model._phase_sequence()
     m, count, nodes = 2 * model.n, len(sequence), request.nodes
     names = input_names(model)
-    slack = request.minimize != "torque2"
+    slack = prices_work(request)
     given = ca.MX.sym("p", len(model.parameter_table))
     chosen = chosen_indices(model)
     # The chosen parameters are unknowns of the NLP (its last ones), the others its p.
@@ -670,6 +696,8 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
     g = _Constraints()
     squares, priced, positive, negative, step_length = 0, 0, {}, {}, None
     ground: dict = {}
+    stability = request.minimize == "stability"
+    monodromy = ca.DM.eye(m)
     for k, (phase, event) in enumerate(sequence):
         v = unknowns[k]
         phase_squares, phase_priced, plus, minus = _collocate(model, phase, v, p, durations[k],
@@ -690,6 +718,10 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
         priced = priced + event_priced
         positive |= plus
         negative |= minus
+        if stability:
+            monodromy = ca.mtimes(ca.mtimes(
+                _event_jacobian(model, phase, event, p, v, after),
+                _collocated_jacobian(model, phase, v, p, durations[k])), monodromy)  # fmt: skip
         following = unknowns[(k + 1) % count].knots[0]  # the last phase: periodicity
         g.add(following - after, 0.0, 0.0)
         if event["ends_step"] and model.spec["step_length"]:
@@ -701,8 +733,12 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
     if request.target_period is not None:
         g.add(ca.sum1(durations) - request.target_period, 0.0, 0.0)
     work = priced
+    radius = ca.MX.sym("radius", 1 if stability else 0)
     if request.minimize == "torque2":
         cost = squares
+    elif stability:  # the step map's spectral radius, at least STABILITY_MARGIN
+        _stability_rows(monodromy, radius, g)
+        cost = radius + request.regularization * scale * squares
     elif request.minimize == "work":
         cost = work + request.regularization * scale * squares
     else:
@@ -712,8 +748,10 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
                 + request.regularization * scale * squares)  # fmt: skip
     w, layout = _vector(durations, unknowns)
     chosen_start = int(w.shape[0])
-    w = ca.vertcat(w, choice)
+    w = ca.vertcat(w, choice, radius)
     lbx, ubx = _variable_bounds(model, sequence, layout, int(w.shape[0]), request)
+    if stability:
+        lbx[-1] = STABILITY_MARGIN
     for j, i in enumerate(chosen):  # within the parameter's interval and the limits on it
         name = model.parameter_table[i].name
         low, high = _limited(_parameter_interval(model, i), request, name)
@@ -724,6 +762,11 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
         "ipopt.mu_strategy": "adaptive", "ipopt.acceptable_tol": 1e-6,
         "ipopt.acceptable_constr_viol_tol": 1e-9, "ipopt.acceptable_iter": 5,
     }  # fmt: skip
+    if stability:
+        # Where the least radius is not attained (it falls toward zero, a step that forgets
+        # any perturbation) IPOPT iterates on: 500 iterations bound the wait (a minute or
+        # two on 20 intervals), and the result says it did not converge.
+        options["ipopt.max_iter"] = STABILITY_ITERATIONS
     arguments = ca.vertcat(given, scale)  # the regularization's scale: known after stage one
     problem = {"x": w, "p": arguments, "f": cost, "g": ca.vertcat(*g.rows)}
     solver = ca.nlpsol(f"powered_{model.name}", "ipopt", problem, options)
@@ -731,9 +774,63 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
                                                             *negative.values())
                                                  if positive else ca.DM.zeros(0)])  # fmt: skip
     pushes = ca.Function("ground", [w, arguments], [ca.vertcat(*ground.values())])
+    step_map = ca.Function("monodromy", [w, arguments], [monodromy]) if stability else None
     return _Nlp(solver, ca.Function("cost", [w, arguments], [cost]), layout, works,
                 int(w.shape[0]), (lbx, ubx, np.array(g.lower), np.array(g.upper)), pushes,
-                tuple(ground), chosen, chosen_start)  # fmt: skip
+                tuple(ground), chosen, chosen_start, int(w.shape[0]) - 1 if stability else None,
+                step_map)  # fmt: skip
+
+
+def _collocated_jacobian(model: HybridModel, phase: str, v: _Unknowns, p: Any,
+                         duration: Any) -> Any:  # fmt: skip
+    """d(last knot)/d(first knot) of a phase's Hermite-Simpson equations with the inputs
+    held as functions of the time (open loop): each interval's two equations
+    differentiated, the midpoint eliminated, ``L S_{i+1} = R S_i`` with
+    ``L = I - h/6 A_1 - h/3 A_c + h^2/12 A_c A_1``, ``R = I + h/6 A_0 + h/3 A_c +
+    h^2/12 A_c A_0`` (``A = df/dx`` at the knots and the midpoint): the exact derivative of
+    the discrete step, which tends to the flow's as the mesh refines."""
+    import casadi as ca
+
+    jacobian = _flow_jacobian_function(model, phase)
+    nodes = len(v.middles)
+    h = duration / nodes
+    eye = ca.DM.eye(2 * model.n)
+    sensitivity = eye
+    for i in range(nodes):
+        a0 = jacobian(p, v.knots[i], v.u_knots[i])
+        a1 = jacobian(p, v.knots[i + 1], v.u_knots[i + 1])
+        ac = jacobian(p, v.middles[i], v.u_middles[i])
+        left = eye - h / 6 * a1 - h / 3 * ac + h * h / 12 * ca.mtimes(ac, a1)
+        right = eye + h / 6 * a0 + h / 3 * ac + h * h / 12 * ca.mtimes(ac, a0)
+        sensitivity = ca.solve(left, ca.mtimes(right, sensitivity))
+    return sensitivity
+
+
+def _event_jacobian(model: HybridModel, phase: str, event: dict, p: Any, v: _Unknowns,
+                    after: Any) -> Any:  # fmt: skip
+    """d(state after the event)/d(state at the phase's end) along the perturbed motion: a
+    perturbation ``dx`` meets the guard ``g`` ``dt = -g_x dx / (g_x f)`` later, so the
+    state there moves by ``(I - f g_x / (g_x f)) dx`` (the saltation's projection; the
+    inputs are functions of the phase's time, the next phase's start at the event), then
+    the event's map (reset and impulses, the impulses fixed) by its Jacobian."""
+    import casadi as ca
+
+    end = v.knots[-1]
+    rate = _flow_function(model, phase)(p, end, v.u_knots[-1])
+    slope = ca.jacobian(model.symbolic(f"event_{event['name']}_guard", p, end), end)
+    projection = ca.DM.eye(2 * model.n) - ca.mtimes(rate, slope) / ca.mtimes(slope, rate)
+    return ca.mtimes(ca.jacobian(after, end), projection)
+
+
+def _stability_rows(monodromy: Any, radius: Any, g: _Constraints) -> None:
+    """Every eigenvalue of the step map's Jacobian within ``radius``: Jury's conditions
+    (vsw.design.jury_rows) on the characteristic polynomial of ``monodromy / radius``."""
+    import casadi as ca
+
+    count = monodromy.shape[0]
+    coefficients = characteristic_coefficients(monodromy, count)
+    scaled = [a / radius ** (k + 1) for k, a in enumerate(coefficients)]
+    g.add(ca.vertcat(*jury_rows(scaled)), 0.0, math.inf)
 
 
 def _event_map(model: HybridModel, event: dict, p: Any, end: Any, v: _Unknowns,
@@ -862,7 +959,7 @@ def _usable(request: Request | None, names: Sequence[str]) -> bool:
     zero, ``use`` those it does not name)."""
     if request is None:
         return bool(names)
-    if request.minimize == "torque2":
+    if not prices_work(request):
         return False
     return any(not request.use or name in request.use for name in names)
 
@@ -970,7 +1067,7 @@ def _variable_bounds(model: HybridModel, sequence: list, layout: list[dict], siz
         records = {i["name"]: i for i in event.get("impulses", ())}
         for j, name in enumerate(ordered_impulses(model, event)):
             low, high = _limited(records[name]["bounds"], request, name)
-            if request.minimize == "torque2" or (request.use and name not in request.use):
+            if not prices_work(request) or (request.use and name not in request.use):
                 low, high = 0.0, 0.0
             lbx[first + j] = -np.inf if low is None else low
             ubx[first + j] = np.inf if high is None else high
@@ -988,6 +1085,16 @@ def _variable_bounds(model: HybridModel, sequence: list, layout: list[dict], siz
                 lbx[first + j : first + parts * width : width] = -np.inf if low is None else low
                 ubx[first + j : first + parts * width : width] = np.inf if high is None else high
     return lbx, ubx
+
+
+@functools.cache
+def _flow_jacobian_function(model: HybridModel, phase: str) -> Any:
+    """(p, x, u) -> d(x')/dx with the phase's inputs held."""
+    import casadi as ca
+
+    flow = _flow_function(model, phase)
+    p, x, u = (ca.SX.sym(name, *flow.size_in(i)) for i, name in enumerate("pxu"))
+    return ca.Function(f"flow_jacobian_{phase}", [p, x, u], [ca.jacobian(flow(p, x, u), x)])
 
 
 @functools.cache
@@ -1268,6 +1375,7 @@ def _transfer(model: HybridModel, params: Sequence[float], source: _Nlp, w: np.n
             start = want[key][0]
             out[start : start + parts * width] = w[first : first + parts * width]
     _fill_slacks(model, params, target, out)
+    target.start_radius(params, out)
     return out
 
 
@@ -1301,6 +1409,7 @@ def _refine(model: HybridModel, params: Sequence[float], coarse: _Nlp, w: np.nda
                 first, parts, width = want[key]
                 out[first : first + parts * width] = values.reshape(-1)
     _fill_slacks(model, params, fine, out)
+    fine.start_radius(params, out)
     return out
 
 
@@ -1355,9 +1464,9 @@ def _block(w: np.ndarray, entry: tuple[int, int, int]) -> np.ndarray:
 def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _Nlp,
            guess: np.ndarray, regularization_scale: float = 1.0) -> PoweredGait:  # fmt: skip
     lbx, ubx, lbg, ubg = nlp.bounds
-    if nlp.chosen and request.minimize == "torque2":
-        # The squared inputs' integral prices no impulse (they are held at zero), so not
-        # where one acts either: the chosen parameters stay at their given values.
+    if nlp.chosen and not prices_work(request):
+        # The squared inputs' integral and the stability price no impulse (they are held at
+        # zero), so not where one acts either: the chosen parameters stay at their values.
         lbx, ubx = lbx.copy(), ubx.copy()
         nlp.choose(params, lbx)
         nlp.choose(params, ubx)
@@ -1395,7 +1504,7 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
         impulses |= dict(zip(names, (float(v) for v in _block(w, entry["impulses"])[0])))
     work = {key: {"positive": float(work_values[j]), "negative": float(work_values[len(keys) + j])}
             for j, key in enumerate(keys)}  # fmt: skip
-    along = {} if request.minimize != "torque2" else None
+    along = {} if prices_work(request) else None
     error, guard, resimulated = _resimulate(model, p, durations, states, inputs, along)
     moved = None  # the positive work along the re-simulated motion, the impulses' as the mesh's
     if along is not None:
@@ -1430,10 +1539,12 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
     ):
         reason = (f"the positive work along the re-simulated step, {moved:.6g}, is not the "
                   f"mesh's, {mesh:.6g}: the mesh does not resolve the power")  # fmt: skip
+    objective = (float(w[nlp.radius]) if nlp.radius is not None
+                 else float(nlp.cost(w, arguments)))  # fmt: skip
     return PoweredGait(
         status="infeasible" if status == _INFEASIBLE else "not-converged" if reason else "optimal",
         reason=reason,
-        cost=_named_cost(model, p, request, work, step_length, float(nlp.cost(w, arguments))),
+        cost=_named_cost(model, p, request, work, step_length, objective),
         durations=durations,
         times=times,
         states=states,
@@ -1469,9 +1580,10 @@ def _works_agree(moved: float, mesh: float, scale: float) -> bool:
 def _named_cost(model: HybridModel, p: np.ndarray, request: Request, work: dict,
                 step_length: float | None, objective: float) -> float:  # fmt: skip
     """The cost the request names, without the regularization the NLP adds to it: the
-    squared inputs' integral (the objective itself), the positive work, or that work per
-    weight and step length."""
-    if request.minimize == "torque2":
+    squared inputs' integral (``objective``, the NLP's), the spectral radius of the
+    collocated step map (``objective``, the NLP's radius), the positive work, or that work
+    per weight and step length."""
+    if not prices_work(request):
         return objective
     positive = sum(w["positive"] for w in work.values())
     if request.minimize == "work":

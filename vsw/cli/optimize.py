@@ -32,7 +32,8 @@ def register(subparsers: Any) -> None:
     options.add_model_options(p, "optimize", named=False)
     p.add_argument("--minimize", choices=powered.COSTS, default="torque2",
                    help="torque2: the integral of the squared inputs; work: their positive "
-                   "work per step; cot: that work per weight and step length")  # fmt: skip
+                   "work per step; cot: that work per weight and step length; stability: the "
+                   "spectral radius of the open-loop step map (impulses at zero)")  # fmt: skip
     p.add_argument("--target-speed", type=float, metavar="V",
                    help="the gait's speed (step length / period, the model's units)")  # fmt: skip
     p.add_argument("--target-step-length", type=float, metavar="S", help="the step length")
@@ -237,8 +238,9 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
         "phases": phases,
         "fields": {
             "cost": "the named cost on the fine mesh (work and cot without the "
-            "regularization); objective: the NLP's (work and cot: plus the "
-            "regularization times the squared inputs' integral)",
+            "regularization; stability: the spectral radius of the collocated step map, its "
+            "Hermite-Simpson equations differentiated); objective: the NLP's (work, cot and "
+            "stability: plus the regularization times the squared inputs' integral)",
             "mesh_change": "relative change of the cost from the coarse to the fine mesh (a "
             "cost zero within 1e-9 on both agrees whatever this is)",
             "work": "per phase.input: positive and negative work over the step (Simpson); "
@@ -270,7 +272,7 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
 def _chosen(model, request: powered.Request, gait: powered.PoweredGait) -> dict[str, float] | None:
     """The parameters the optimiser chose with the gait, by name (None: the model has none,
     or ``torque2`` held them at their given values: it prices no impulse)."""
-    if request.minimize == "torque2":
+    if not powered.prices_work(request):
         return None
     table = model.parameter_table
     return {table[i].name: gait.parameters[i] for i in powered.chosen_indices(model)} or None
@@ -280,9 +282,9 @@ def _write_text(model, params, request: powered.Request, gait: powered.PoweredGa
     out = sys.stdout
     write_parameters(out, model, params)
     chosen = [model.parameter_table[i].name for i in powered.chosen_indices(model)]
-    if chosen and request.minimize == "torque2":
-        out.write(f"held               {', '.join(chosen)} at the given value (torque2 prices no "
-                  "impulse, so not where one acts)\n")  # fmt: skip
+    if chosen and not powered.prices_work(request):
+        out.write(f"held               {', '.join(chosen)} at the given value ({request.minimize} "
+                  "prices no impulse, so not where one acts)\n")  # fmt: skip
     elif chosen:
         out.write(f"chosen             {', '.join(chosen)} (by the optimiser, with the gait)\n")
     out.write(f"status             {gait.status}" + (f": {gait.reason}" if gait.reason else "")
