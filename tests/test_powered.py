@@ -142,7 +142,10 @@ def test_the_most_stable_gait_at_the_passive_speed_is_more_stable_than_the_passi
     free, is below the passive gait's own (0.580: the passive gait is one of the gaits
     allowed, at zero torque), and it is the spectral radius of the open-loop step map
     found independently, by central differences of the re-simulated step
-    (vsw.powered.powered_eigenvalues), to the mesh's error (3e-3 on 20 intervals)."""
+    (vsw.powered.powered_eigenvalues): asserted within 1e-2, the mesh's error (2.5e-3
+    measured on 20 intervals). The regularisation's share of the objective is reported:
+    at most 5 % (4 % measured: the first stage's squared torque, by which it is scaled,
+    is almost zero at a passive gait's speed)."""
     from vsw.powered import powered_eigenvalues
 
     model, params, stable = compass
@@ -152,6 +155,9 @@ def test_the_most_stable_gait_at_the_passive_speed_is_more_stable_than_the_passi
     assert gait.cost < 0.95 * passive
     differences = max(abs(e) for e in powered_eigenvalues(model, params, gait))
     assert gait.cost == pytest.approx(differences, rel=1e-2)
+    assert max(abs(e) for e in gait.extra["eigenvalues"]) == pytest.approx(differences)
+    assert gait.extra["radius_unknown"] == pytest.approx(gait.cost, rel=1e-6)
+    assert 0 < gait.extra["objective"] - gait.extra["radius_unknown"] <= 0.05 * gait.cost
     assert gait.speed == pytest.approx(stable.speed, rel=1e-9)
 
 
@@ -160,6 +166,11 @@ def test_the_most_stable_gait_at_the_passive_speed_is_more_stable_than_the_passi
     [
         ("simplest_walker", Request(), "declares no inputs"),
         ("compass_gait", Request("speed"), "--minimize speed"),
+        (
+            "kuo_walker",
+            Request("stability", use=("push_off",)),
+            r"--minimize stability holds every impulse at zero .* \(--use names only impulses\)",
+        ),
         ("compass_gait", Request(nodes=1), "--nodes 1"),
         ("compass_gait", Request(target_speed=-1.0), "target speed must be a positive"),
         ("compass_gait", Request(target_period=0.0), "target period must be a positive"),

@@ -49,10 +49,12 @@ samples. ``cot``, that work over weight times step length; impulses count by the
 positive work (each applied in two parts whose split is free, each part priced by slacks
 at its power's ends: exact where the split stops a reversing rate, see
 :func:`_event_map`; ``c iota^2 / 2`` for one at an impact; ``torque2`` holds them at
-zero: it does not price them). Both add :attr:`Request.regularization` times the squared
-inputs' integral, made dimensionless. The squared inputs' integral by Simpson's rule on
-the knots and midpoints. ``work`` and ``cot`` start from the ``torque2`` optimum with the
-same targets.
+zero: it does not price them). ``stability``: the spectral radius of the open-loop step
+map (:func:`_collocated_jacobian`, :func:`_event_jacobian`, :func:`_stability_rows`;
+impulses held at zero, as ``torque2`` holds them). The last three add
+:attr:`Request.regularization` times the squared inputs' integral, made dimensionless.
+The squared inputs' integral by Simpson's rule on the knots and midpoints. ``work``,
+``cot`` and ``stability`` start from the ``torque2`` optimum with the same targets.
 
 Verification: the problem is solved on N and on 2N intervals a phase (the finer from the
 coarser optimum) and the cost's change between them reported; each phase is integrated
@@ -143,16 +145,19 @@ class Request:
     nodes: int = 20
     use: tuple[str, ...] = ()
     """The inputs and impulses the gait may use, by name (the others held at zero); empty:
-    every one. Kuo's comparison: a push-off, or a torque on the stance leg. (``torque2``
-    holds every impulse at zero whatever this says: it does not price them.)"""
+    every one. Kuo's comparison: a push-off, or a torque on the stance leg. (``torque2`` and
+    ``stability`` hold every impulse at zero whatever this says: they do not price them.)"""
     regularization: float = 1e-7
-    """Weight of the squared inputs' integral added to the ``work`` and ``cot`` costs: the
-    positive work alone is flat along inputs that do no net work, where IPOPT wanders. It
-    is made dimensionless: the integral over its value at the least squared-input gait
-    with the same targets (where the work stage starts), times the cost's scale (weight
-    times step length for ``work``, 1 for ``cot``), so that it weighs the same on a model
-    in scaled units and one in SI units (a 70 kg point-mass biped's leg force squared is
-    5e5 times the scaled one's)."""
+    """Weight of the squared inputs' integral added to the ``work``, ``cot`` and
+    ``stability`` costs: the positive work alone is flat along inputs that do no net work,
+    where IPOPT wanders. It is made dimensionless: the integral over its value at the least
+    squared-input gait with the same targets (where the work stage starts), times the
+    cost's scale (weight times step length for ``work``, 1 for ``cot``), so that it weighs
+    the same on a model in scaled units and one in SI units (a 70 kg point-mass biped's leg
+    force squared is 5e5 times the scaled one's); under ``stability`` over the
+    squared-input integral's value at the first stage too, which near a passive gait is
+    almost zero: the regularisation's share of the objective is then large (4 % at the
+    compass gait's passive speed; ``extra['objective']`` against the radius)."""
 
     friction: float | None = None
     """The ground's friction coefficient: the stance foot's reaction at every knot and
@@ -310,6 +315,11 @@ def optimize(
     if (request.target_speed or request.target_step_length) and not model.spec["step_length"]:
         raise VswInputError(f"{label} defines no step length: no speed or step target")
     _check_actuator_names(model, request)
+    if not prices_work(request) and not _continuous_inputs_used(model, request):
+        only = " (--use names only impulses)" if request.use else ""
+        raise VswInputError(f"--minimize {request.minimize} holds every impulse at zero (it "
+                            f"does not price them) and no continuous input of {label} may "
+                            f"act{only}: nothing would power the step")  # fmt: skip
     _check_ground_options(model, request)
     _check_step_target(model, params, request)
     params = _started_within_limits(model, params, request)
@@ -341,8 +351,9 @@ def optimize(
         if prices_work(request):
             fine.reason += ("; the least work may need an impulsive input, which no mesh "
                             "resolves")  # fmt: skip
-    if fine.status == "optimal":
-        try:
+    if fine.status == "optimal" or (request.minimize == "stability"
+                                    and fine.status == "not-converged"):  # fmt: skip
+        try:  # under stability the independent check of the radius, converged or not
             fine.extra["eigenvalues"] = powered_eigenvalues(model, fine.parameters, fine)
         except ConvergenceError as exc:  # a perturbed step that does not end: no map
             stop.check()
@@ -454,6 +465,10 @@ def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Requ
     if request.minimize == "work" and result.step_length is not None:
         scale = walker_weight(model, result.parameters) * result.step_length
     if result.cost > COST_ZERO:  # the squared inputs' integral of the first stage
+        # Under stability near a passive gait that integral is almost zero and the weight
+        # large (4 % of the objective at the compass gait's passive speed): a weight fixed
+        # by the weight squared times the period left IPOPT without curvature along the
+        # inputs (500 iterations a mesh, not converged). The share is reported.
         scale /= result.cost
     final = _solve(model, params, request, staged,
                    _transfer(model, params, nlp, result.extra["w"], staged), scale)  # fmt: skip
@@ -498,10 +513,20 @@ class _Nlp:
         its collocated step map (in place), where the Jury rows hold."""
         if self.radius is None:
             return
+        largest = self.spectral_radius(params, w)
+        if not math.isfinite(largest):
+            raise ConvergenceError("the start's step map has no finite Jacobian (an event met "
+                                   "with the flow along its guard): no stability to minimise"
+                                   )  # fmt: skip
+        w[self.radius] = max(1.05 * largest, 2 * STABILITY_MARGIN)
+
+    def spectral_radius(self, params: Sequence[float], w: np.ndarray) -> float:
+        """The spectral radius of ``w``'s collocated step map (inf where not finite)."""
         arguments = np.append(np.asarray(params, dtype=float), 1.0)
         jacobian = np.array(self.monodromy(w, arguments), dtype=float)
-        largest = float(np.max(np.abs(np.linalg.eigvals(jacobian))))
-        w[self.radius] = max(1.05 * largest, 2 * STABILITY_MARGIN)
+        if not np.all(np.isfinite(jacobian)):
+            return math.inf
+        return float(np.max(np.abs(np.linalg.eigvals(jacobian))))
 
     def parameters(self, params: Sequence[float], w: np.ndarray) -> np.ndarray:
         """``params`` with the chosen parameters at their values in ``w``, within their
@@ -955,8 +980,8 @@ def _check_ground_options(model: HybridModel, request: Request) -> None:
 
 
 def _usable(request: Request | None, names: Sequence[str]) -> bool:
-    """Whether the optimiser may use any of these impulses (``torque2`` holds them all at
-    zero, ``use`` those it does not name)."""
+    """Whether the optimiser may use any of these impulses (``torque2`` and ``stability``
+    hold them all at zero, ``use`` those it does not name)."""
     if request is None:
         return bool(names)
     if not prices_work(request):
@@ -1054,7 +1079,7 @@ def _variable_bounds(model: HybridModel, sequence: list, layout: list[dict], siz
     """Durations >= 1e-3 (a phase of no duration is no step), slacks >= 0, each input and
     impulse within its declared bounds and the request's limits, each impulse's split in
     [0, 1] (0 where it has one part); impulses zero when the cost is the squared inputs'
-    integral (which does not price them: they would be free)."""
+    integral or the stability (which do not price them: they would be free)."""
     lbx, ubx = np.full(size, -np.inf), np.full(size, np.inf)
     lbx[: len(sequence)] = 1e-3
     for (phase, event), entry in zip(sequence, layout):
@@ -1539,8 +1564,14 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
     ):
         reason = (f"the positive work along the re-simulated step, {moved:.6g}, is not the "
                   f"mesh's, {mesh:.6g}: the mesh does not resolve the power")  # fmt: skip
-    objective = (float(w[nlp.radius]) if nlp.radius is not None
-                 else float(nlp.cost(w, arguments)))  # fmt: skip
+    objective = float(nlp.cost(w, arguments))
+    radius = {}
+    if nlp.radius is not None:  # the cost is the radius measured, the unknown beside it
+        objective = nlp.spectral_radius(params, w)
+        radius = {"radius_unknown": float(w[nlp.radius])}
+        if not reason and w[nlp.radius] <= STABILITY_MARGIN * (1 + 1e-6):
+            reason = (f"the radius reached its floor, {STABILITY_MARGIN:g}: the least is below "
+                      "it (not attained at the floor)")  # fmt: skip
     return PoweredGait(
         status="infeasible" if status == _INFEASIBLE else "not-converged" if reason else "optimal",
         reason=reason,
@@ -1566,6 +1597,7 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
             "w": w,
             "constraint_violation": violation,
             "objective": float(nlp.cost(w, arguments)),
+            **radius,
             "regularization_scale": regularization_scale,
         },
     )

@@ -257,7 +257,8 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
             "foot needs)",
             "chosen_parameters": "the parameters the model names as the gait's own (an angle "
             "at which an impulse acts), at the optimiser's values (also in parameters); null "
-            "for a model without or under torque2, which holds them at the given values",
+            "for a model without, or under torque2 and stability, which hold them at the "
+            "given values",
             "resimulation_error": "largest gap between a re-simulated phase's end and its "
             "last knot, relative to max(1, |state|)",
             "resimulated_work": "work and cot: the positive work along the re-simulated step "
@@ -271,7 +272,8 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
 
 def _chosen(model, request: powered.Request, gait: powered.PoweredGait) -> dict[str, float] | None:
     """The parameters the optimiser chose with the gait, by name (None: the model has none,
-    or ``torque2`` held them at their given values: it prices no impulse)."""
+    or ``torque2`` or ``stability`` held them at their given values: they price no
+    impulse)."""
     if not powered.prices_work(request):
         return None
     table = model.parameter_table
