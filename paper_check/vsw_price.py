@@ -61,9 +61,9 @@ NODES = 20
 REFINEMENT = (20, 40, 80)
 """The defaults' gait optimised with these ``--nodes`` (on 40, 80 and 160 intervals)."""
 STROKE_MARGIN = 0.02
+"""The body's shortest leg is beta - this (in l): the VSW biped's stroke and a little more."""
 PUSH_STARTS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6)
 """Starts of ``theta_push`` (free-vsw-biped-push) for the defaults' gait, 10 ``--nodes``."""
-"""The body's shortest leg is beta - this (in l): the VSW biped's stroke and a little more."""
 
 
 @dataclass(frozen=True)
@@ -178,12 +178,15 @@ def _push_rows() -> list[str]:
     from each of :data:`PUSH_STARTS`: the angle chosen, the push, the least work and its
     verification."""
     vsw = _vsw_gait((), tuple(VSW_GAITS[0][1]))
+    names = [q.name for q in load("free_vsw_biped_push").parameter_table]
+    angle = names.index("theta_push")
     rows = []
     for start in PUSH_STARTS:
         gait, verified = _body_gait({"theta_push": start}, vsw.speed, vsw.step_length,
                                     model="free_vsw_biped_push", nodes=10)  # fmt: skip
         why = f": {gait.reason}" if gait.reason else ""
-        rows.append(f"| {start:g} | {gait.parameters[-1]:.4f} | {gait.impulses['push.push']:.2g} | "
+        rows.append(f"| {start:g} | {gait.parameters[angle]:.4f} | "
+                    f"{gait.impulses['push.push']:.2g} | "
                     f"{gait.cost:.6f} ({gait.status}{why}) | "
                     + _verified_cells(verified, vsw.work) + " |\n")  # fmt: skip
     return rows

@@ -466,9 +466,10 @@ def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Requ
         scale = walker_weight(model, result.parameters) * result.step_length
     if result.cost > COST_ZERO:  # the squared inputs' integral of the first stage
         # Under stability near a passive gait that integral is almost zero and the weight
-        # large (4 % of the objective at the compass gait's passive speed): a weight fixed
-        # by the weight squared times the period left IPOPT without curvature along the
-        # inputs (500 iterations a mesh, not converged). The share is reported.
+        # large (4 % of the objective at the compass gait's passive speed; the share is
+        # reported). A weight fixed by the walker's weight squared times the period was
+        # tried: the stability test's solve then ran over 12 CPU minutes (24 s with this
+        # one) and was stopped; why was not found.
         scale /= result.cost
     final = _solve(model, params, request, staged,
                    _transfer(model, params, nlp, result.extra["w"], staged), scale)  # fmt: skip
@@ -1215,12 +1216,8 @@ def _kinematic_guess(model: HybridModel, params: Sequence[float], nlp: _Nlp,
     crossing = crossing[times[crossing + 1] <= reach]
     if crossing.size == 0:
         return _swapped_guess(model, p, nlp, request, x0, event)
-    low, high = times[crossing[0]], times[crossing[0] + 1]
-    for _ in range(60):
-        middle = (low + high) / 2
-        same = np.sign(float(guard(*p, *moved(middle)))) == np.sign(values[crossing[0]])
-        low, high = (middle, high) if same else (low, middle)
-    duration = (low + high) / 2
+    duration = _bisected(lambda t: float(guard(*p, *moved(t))), times[crossing[0]],
+                         times[crossing[0] + 1], values[crossing[0]])  # fmt: skip
     wanted = _target_duration(model, p, request, moved(duration))
     if wanted is not None:
         x0[n:] *= duration / wanted
@@ -1313,10 +1310,15 @@ def _guard_fraction(model: HybridModel, p: np.ndarray, event: dict, begin: np.nd
     crossed = np.flatnonzero((np.sign(values[1:]) != np.sign(values[:-1])) & rising)
     if crossed.size == 0:
         return None
-    low, high = fractions[crossed[0]], fractions[crossed[0] + 1]
+    return _bisected(value, fractions[crossed[0]], fractions[crossed[0] + 1], values[crossed[0]])
+
+
+def _bisected(function, low: float, high: float, at_low: float) -> float:
+    """Where ``function`` changes sign between ``low`` (where it is ``at_low``) and
+    ``high``: 60 bisections (to the double's resolution of any bracket used here)."""
     for _ in range(60):
         middle = (low + high) / 2
-        if np.sign(value(middle)) == np.sign(values[crossed[0]]):
+        if np.sign(function(middle)) == np.sign(at_low):
             low = middle
         else:
             high = middle
