@@ -126,6 +126,12 @@ _LANE_CALLS = {"sin": "vsw_lanes_sin", "cos": "vsw_lanes_cos", "sqrt": "vsw_lane
 """CasADi's calls in the table's functions and their lane-wise twins (vsw/csrc/lanes.h)."""
 
 
+def _lane_trig(code: str) -> str:
+    """CasADi's scalar C with its sines and cosines taken from vsw_sin and vsw_cos
+    (vsw/csrc/lanes.h), the functions the lanes take theirs from."""
+    return re.sub(r"\b(sin|cos)\(", r"vsw_\1(", code)
+
+
 def _casadi_bodies(code: str) -> dict[str, tuple[str, list[str]]]:
     """Each CasADi function of ``code`` by its name: its internal C name and its body's
     lines (declarations, assignments, results)."""
@@ -141,8 +147,8 @@ def lane_function(name: str, lines: list[str]) -> str:
     """One of CasADi's functions of (c, x) rewritten over lanes of walks (vsw/csrc/lanes.h):
     the same operations in the same order on each lane, so each lane's result is the
     scalar function's bit for bit (IEEE addition, multiplication, division and square root
-    are exact in vector registers too, contraction is off, and sin and cos are libm's on
-    each lane). CasADi's body has three kinds of line only (asserted): declarations,
+    are exact in vector registers too, contraction is off, and sines and cosines are
+    vsw/csrc/lanes.h's, which the scalar functions call too: _lane_trig). CasADi's body has three kinds of line only (asserted): declarations,
     assignments of one operation, and results."""
     out = []
     for line in lines:
@@ -171,9 +177,9 @@ def lane_function(name: str, lines: list[str]) -> str:
 
 def _fused_sin_cos(lines: list[str]) -> list[str]:
     """The lane-wise lines with each sine and cosine of one unchanged operand taken from one
-    ``vsw_lanes_sincos``: GCC fuses the two calls into glibc's sincos in scalar code, not
-    across lanes, and two calls cost about 1.6 of one (glibc's sincos returns sin's and
-    cos's values, bit for bit)."""
+    ``vsw_lanes_sincos``: lane by lane (without libmvec) GCC fuses the two calls into
+    glibc's sincos, which costs about 1.6 of one call and returns sin's and cos's values,
+    bit for bit."""
     call = re.compile(r"    (\w+)=vsw_lanes_(sin|cos)\((a\d+), live\);")
     lines = list(lines)
     declared = []
@@ -297,6 +303,10 @@ def simulator_c_source(model: str, source: str, descriptor: dict, module: types.
     step_length = t.step_length
 
     constants, c, hoisted = _hoist_parameters(p, x, [out for _, out in pending])
+    # A subexpression a function computes twice (the simplest walker's guards take cos theta
+    # twice, the VSW biped's four cosines more) is computed once: the same operations on the
+    # same operands, so the same results, bit for bit.
+    hoisted = [ca.cse(out) for out in hoisted]
     functions = [ca.Function(prefix + "constants", [p], [constants], ["p"], ["c"])]
     functions += [
         ca.Function(prefix + name, [c, x], [out], ["c", "x"], [name])
@@ -338,7 +348,7 @@ def simulator_c_source(model: str, source: str, descriptor: dict, module: types.
             for ev in descriptor["events"]
         ),
         failures=", ".join(failures) or "none",
-        casadi_code=casadi_code.rstrip("\n"),
+        casadi_code=_lane_trig(casadi_code).rstrip("\n"),
         n_params=len(params),
         n_constants=constants.numel(),
         constants=prefix + "constants",

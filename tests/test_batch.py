@@ -373,27 +373,75 @@ def test_step_phases_is_the_batch_walk_of_one_step(gaits):
     assert completed >= 5
 
 
-def test_the_portable_build_walks_the_same(gaits):
-    """The library's second flag set (-O2 without -march=native: the lanes' vector type
-    lowered to SSE2), built with two lanes instead of four, walks to the same bytes as the
-    first: neither the flags nor the lane count change a walk."""
-    from vsw.batch import _FLAG_SETS, CSRC, BatchSimulator
+def _built(key: str, name: str, flags: list[str], lanes: int = 4):
+    """The batch simulator of ``key`` built with these flags and lane count alone."""
+    from vsw.batch import CSRC, BatchSimulator
     from vsw.compiled import build_library
+
+    sim = BatchSimulator(load(key))
+    source = (f"#define VSW_LANES {lanes}\n".encode() + sim.source.read_bytes() + b"\n"
+              + (CSRC / "hybrid_batch.c").read_bytes())  # fmt: skip
+    lib, _ = build_library(source, f"{key}_sim_{name}", (flags,), includes=(CSRC,))
+    sim._bind(lib)
+    sim._lib, sim._tried = lib, True
+    return sim
+
+
+def test_the_portable_build_walks_the_same(gaits):
+    """The library's last flag set (-O2 without -march=native: the lanes' vector type
+    lowered to SSE2, libm's sines), built with two lanes instead of four, walks to the same
+    bytes as the native build with libm's sines (the second flag set) in four lanes:
+    neither the flags nor the lane count change a walk."""
+    from vsw.batch import _FLAG_SETS
 
     model, params, orbits = gaits["vsw_biped"]
     state = np.array([orbits[0].state[k] for k in (*model.coordinates, *model.rates)])
     starts = state * (1 + 0.1 * np.random.default_rng(10).standard_normal((60, len(state))))
-    fast = simulator(load("vsw_biped"))
-    portable = BatchSimulator(load("vsw_biped"))
-    source = (b"#define VSW_LANES 2\n" + portable.source.read_bytes() + b"\n"
-              + (CSRC / "hybrid_batch.c").read_bytes())  # fmt: skip
-    lib, _ = build_library(source, "vsw_biped_sim_portable", (_FLAG_SETS[-1],), includes=(CSRC,))
-    portable._bind(lib)
-    portable._lib, portable._tried = lib, True
-    one = fast.walk(params, starts, 10, keep=2, threads=1)
+    native = _built("vsw_biped", "libm", _FLAG_SETS[1])
+    portable = _built("vsw_biped", "portable", _FLAG_SETS[-1], lanes=2)
+    one = native.walk(params, starts, 10, keep=2, threads=1)
     two = portable.walk(params, starts, 10, keep=2, threads=1)
     for field in FIELDS:
         assert getattr(one, field).tobytes() == getattr(two, field).tobytes(), field
+
+
+@pytest.mark.parametrize("lanes", [2, 8])
+def test_the_lane_count_changes_no_walk(gaits, lanes):
+    """The first flag set (libmvec's sines where the CPU has AVX2) built with two and eight
+    lanes walks to the same bytes as the four lanes of the library in use: the vector sines
+    are taken four at a time whatever the lane count."""
+    from vsw.batch import _FLAG_SETS
+
+    model, params, orbits = gaits["vsw_biped"]
+    state = np.array([orbits[0].state[k] for k in (*model.coordinates, *model.rates)])
+    starts = state * (1 + 0.1 * np.random.default_rng(12).standard_normal((60, len(state))))
+    one = simulator(load("vsw_biped")).walk(params, starts, 10, keep=2, threads=1)
+    other = _built("vsw_biped", f"lanes{lanes}", _FLAG_SETS[0], lanes=lanes)
+    two = other.walk(params, starts, 10, keep=2, threads=1)
+    for field in FIELDS:
+        assert getattr(one, field).tobytes() == getattr(two, field).tobytes(), field
+
+
+@pytest.mark.parametrize("key", ["simplest_walker", "compass_gait", "vsw_biped"])
+def test_vector_sines_walk_as_libm_does(gaits, key):
+    """The first flag set's sines and cosines (glibc's libmvec where the CPU has AVX2,
+    vsw/csrc/lanes.h) against libm's (the second flag set): the same outcomes and steps on
+    200 starts around the gait, section states within 1e-9 (relative) after 10 steps
+    (the tolerance the SciPy route is held to): a few ulp in each sine move a walk by
+    about the integrator's own rounding."""
+    from vsw.batch import _FLAG_SETS
+
+    model, params, orbits = gaits[key]
+    state = np.array([orbits[0].state[k] for k in (*model.coordinates, *model.rates)])
+    starts = state * (1 + 0.02 * np.random.default_rng(11).standard_normal((200, len(state))))
+    if model.spec.get("section"):
+        starts = np.column_stack(model.module.section_completion(*params, *starts.T))
+    vector = simulator(load(key)).walk(params, starts, 10, threads=1)
+    libm = _built(key, "libm", _FLAG_SETS[1]).walk(params, starts, 10, threads=1)
+    assert np.array_equal(vector.outcome, libm.outcome)
+    assert np.array_equal(vector.steps, libm.steps)
+    scale = np.maximum(1.0, np.abs(libm.final))
+    assert np.nanmax(np.abs(vector.final - libm.final) / scale) <= 1e-9
 
 
 def test_kept_steps_are_the_last_ones_in_order(gaits):

@@ -45,11 +45,16 @@ CHUNK = 256
 """Walks per block: small enough to balance threads over cells that fall at once and cells
 that walk every step, large enough that a ctypes call costs nothing beside it."""
 
-# No FMA contraction: the same sums in the same order as the plain -O2 build. Hidden
-# symbols but the entry points: the compiler may inline the model's functions.
+# No FMA contraction: the same sums in the same order in every build (the lanes and the
+# scalar code round alike). Hidden symbols but the entry points: the compiler may inline
+# the model's functions. The first build takes its sines and cosines from glibc's vector
+# math library where the CPU has AVX2 (vsw/csrc/lanes.h); without libmvec the next takes
+# libm's, and so does the plain -O2 build: values a few ulp apart from the first's.
 _COMMON_FLAGS = ["-ffp-contract=off", "-fvisibility=hidden", "-lm"]
+_NATIVE_FLAGS = ["-O3", "-march=native", "-fno-math-errno"]
 _FLAG_SETS = (
-    ["-O3", "-march=native", "-fno-math-errno", *_COMMON_FLAGS],
+    [*_NATIVE_FLAGS, *_COMMON_FLAGS, "-lmvec"],
+    [*_NATIVE_FLAGS, "-DVSW_NO_MVEC", *_COMMON_FLAGS],
     ["-O2", *_COMMON_FLAGS],
 )
 
