@@ -148,8 +148,9 @@ def lane_function(name: str, lines: list[str]) -> str:
     the same operations in the same order on each lane, so each lane's result is the
     scalar function's bit for bit (IEEE addition, multiplication, division and square root
     are exact in vector registers too, contraction is off, and sines and cosines are
-    vsw/csrc/lanes.h's, which the scalar functions call too: _lane_trig). CasADi's body has three kinds of line only (asserted): declarations,
-    assignments of one operation, and results."""
+    vsw/csrc/lanes.h's, which the scalar functions call too: _lane_trig). CasADi's body
+    has three kinds of line only (asserted): declarations, assignments of one operation,
+    and results."""
     out = []
     for line in lines:
         line = line.strip()
