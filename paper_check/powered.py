@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 from scipy.integrate import IntegrationWarning, quad
-from scipy.optimize import brentq
+from scipy.optimize import brentq, least_squares, minimize_scalar
 
 from paper_check.rows import Row, table
 from vsw.ledger import energy_ledger
@@ -52,6 +52,12 @@ FASTER = (0.9, 1.0, 1.2)
 ILE_GAITS = ((0.8, 0.0, 45.0), (0.9, 0.0, 45.0), (0.9, 0.0, 30.0), (0.8, 10.0, 45.0),
              (0.95, 0.0, 40.0))  # fmt: skip
 """(beta, theta_II in degrees, phi0 in degrees) of the ILE gaits priced."""
+GRID_SPEEDS = (0.3, 0.4, 0.5, 0.6)
+GRID_STEPS = (0.5, 0.6, 0.7)
+"""The ILE's price over speeds and step lengths (scaled: r_e = g = 1)."""
+THETA_II_STEP = math.radians(5.0)
+"""The ILE's cheapest gait at a speed and step length: its extension angle scanned by this
+from 0 both ways (to the angle's interval, or the first angle past a gait with none)."""
 NODES = 40
 LONGEST_INTERVAL = 0.05
 """Intervals a phase of the coarse mesh: at least ``NODES``, and no longer than this (in
@@ -162,6 +168,120 @@ def _ile_table(cases: Sequence[tuple[float, float, float]]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _ile_gait_at(speed: float, step: float, theta_II: float, start: Sequence[float]):
+    """The ILE gait with extension angle ``theta_II`` at this speed and step length: its
+    (beta, phi0) by least squares on the closed forms from ``start``, and its gait; None
+    where there is none (no fixed point, the existence conditions fail, or no (beta, phi0)
+    matches to 1e-10)."""
+    ile = load("ile")
+
+    def gait_of(z):
+        try:
+            params = ile.parameters({"beta": z[0], "theta_II": theta_II, "phi0": z[1]})
+            gaits = ile.fixed_points(params)
+        except ValueError:  # outside the parameters' intervals
+            return None, None
+        return (params, gaits[0]) if len(gaits) == 1 else (None, None)
+
+    def mismatch(z):
+        _, gait = gait_of(z)
+        return [10.0, 10.0] if gait is None else [gait.speed - speed, gait.step_length - step]
+
+    fit = least_squares(mismatch, start, bounds=([0.3, 0.05], [0.999, 1.5]), xtol=1e-15,
+                        ftol=1e-15, gtol=1e-15)  # fmt: skip
+    if max(abs(r) for r in fit.fun) > 1e-10:
+        return None
+    params, gait = gait_of(fit.x)
+    return params, gait
+
+
+def _ile_work(params, gait) -> float:
+    """The ILE's actuator work a step (its ledger: the leg's extension)."""
+    return energy_ledger(load("ile"), params, gait)["totals"]["actuator_work_impulsive"]
+
+
+def cheapest_ile_gait(speed: float, step: float):
+    """VSW's most favourable gait at this speed and step length: the ILE gait of least
+    actuator work a step over the extension angle (scanned by :data:`THETA_II_STEP` from 0
+    both ways, each gait's (beta, phi0) continued from its neighbour's, until the angle's
+    interval ends or a gait is followed by none; then Brent's method between the best scan
+    point's neighbours), as (params, gait, work, edge): ``edge`` True where the least is
+    at the last angle with a gait (no interior minimum: the angle where the gaits end is
+    then found by bisection to 5 degrees / 2**30 and its gait taken). None where no angle
+    scanned has a gait."""
+    found = []
+    for direction in (1, -1):
+        start = [0.9, 2 * math.asin(min(step / 2, 0.99))]
+        for k in range(0 if direction == 1 else 1, 18):
+            theta_II = direction * k * THETA_II_STEP
+            at = _ile_gait_at(speed, step, theta_II, start)
+            if at is None:
+                if found and any(f[0] * direction >= 0 for f in found):
+                    break
+                continue
+            start = [at[0][0], at[0][2]]
+            found.append((theta_II, _ile_work(*at), start))
+    if not found:
+        return None
+    found.sort()
+    k = min(range(len(found)), key=lambda i: found[i][1])
+    edge = k in (0, len(found) - 1)
+    lo, hi = found[max(k - 1, 0)][0], found[min(k + 1, len(found) - 1)][0]
+    start = found[k][2]
+
+    def work(theta_II: float) -> float:
+        at = _ile_gait_at(speed, step, theta_II, start)
+        return math.inf if at is None else _ile_work(*at)
+
+    theta_II = found[k][0]
+    if edge and len(found) > 1:  # the gaits end beyond it: their last angle, by bisection
+        outward = 1 if k == len(found) - 1 else -1
+        inside, outside = theta_II, theta_II + outward * THETA_II_STEP
+        for _ in range(30):
+            middle = 0.5 * (inside + outside)
+            at = _ile_gait_at(speed, step, middle, start)
+            if at is None:
+                outside = middle
+            else:
+                inside, start = middle, [at[0][0], at[0][2]]
+        theta_II = inside
+    if not edge:
+        best = minimize_scalar(work, bounds=(lo, hi), method="bounded",
+                               options={"xatol": 1e-6})  # fmt: skip
+        if best.fun < found[k][1]:
+            theta_II = best.x
+    params, gait = _ile_gait_at(speed, step, theta_II, start)
+    return params, gait, _ile_work(params, gait), edge
+
+
+def _ile_grid_table(speeds: Sequence[float], steps: Sequence[float]) -> str:
+    lines = ["| V | d | VSW's cheapest gait: beta, theta_II (deg), phi0 (deg) | its work a step "
+             "| its cost of transport | inverted-pendulum walking's work | its cost of "
+             "transport | VSW / it | least work found (legs down to beta) | VSW / it | "
+             "status |",
+             "|" + " --- |" * 11]  # fmt: skip
+    for speed in speeds:
+        for step in steps:
+            ile = cheapest_ile_gait(speed, step)
+            walking = inverted_pendulum_gait(speed, step)
+            walking_text = ("none: the leg would pull | - | -" if walking is None else
+                            f"{walking[0]:.6f} | {walking[0] / step:.6f}")  # fmt: skip
+            if ile is None:
+                lines.append(f"| {speed:g} | {step:g} | none (no ILE gait at theta_II "
+                             f"scanned) | - | - | {walking_text} | - | - | - | - |")  # fmt: skip
+                continue
+            params, _, work, edge = ile
+            beta, theta_II, phi0 = params
+            ratio = "-" if walking is None else f"{work / walking[0]:.3f}"
+            best = _optimum(step, speed, shortest=beta)
+            at_edge = " (where its gaits end)" if edge else ""
+            lines.append(f"| {speed:g} | {step:g} | {beta:.4f}, {math.degrees(theta_II):.2f}"
+                         f"{at_edge}, {math.degrees(phi0):.2f} | {work:.6f} | {work / step:.6f} | "
+                         f"{walking_text} | {ratio} | {best.cost:.6f} | "
+                         f"{work / best.cost:.3f} | {best.status} |")  # fmt: skip
+    return "\n".join(lines) + "\n"
+
+
 def point_mass_biped(out: Path, quick: bool = False) -> list[Path]:
     """Write ``out/point-mass-biped.md`` (``quick``: two walking cases, one faster speed
     and one ILE gait)."""
@@ -211,6 +331,18 @@ def point_mass_biped(out: Path, quick: bool = False) -> list[Path]:
         "the feet, the ILE's do not: the optimum over every switch point can only be ",
         "lower.\n\n",
         _ile_table(ILE_GAITS[:1] if quick else ILE_GAITS),
+        "\n## The ILE's price over speeds and step lengths\n\n",
+        "At each speed V and step length d (scaled: r_e = g = 1), VSW's most favourable ",
+        "gait: the ILE gait of least actuator work a step over its extension angle ",
+        "theta_II (scanned from 0 both ways by 5 degrees until the gaits end, each gait's ",
+        "beta and phi0 solved from V and d on the closed forms, then Brent's method about ",
+        "the best), against ",
+        "inverted-pendulum walking (derived above: a gait of the same body, so VSW / it is ",
+        "a lower bound on the price) and the optimiser's least work with legs from beta to ",
+        "1 (the ILE's). Costs of transport per weight and step length.\n\n",
+        _ile_grid_table(
+            GRID_SPEEDS[:1] if quick else GRID_SPEEDS, GRID_STEPS[:1] if quick else GRID_STEPS
+        ),
     ]
     path = out / "point-mass-biped.md"
     path.write_text("".join(text))

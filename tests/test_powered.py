@@ -140,21 +140,28 @@ def test_the_most_stable_gait_at_the_passive_speed_is_more_stable_than_the_passi
     collocated step map (its Hermite-Simpson equations differentiated, the saltation's
     projection and the reset's Jacobian at heelstrike), minimised with the hip torque
     free, is below the passive gait's own (0.580: the passive gait is one of the gaits
-    allowed, at zero torque), and it is the spectral radius of the open-loop step map
-    found independently, by central differences of the re-simulated step
-    (vsw.powered.powered_eigenvalues): asserted within 1e-2, the mesh's error (2.5e-3
-    measured on 20 intervals). The regularisation's share of the objective is reported:
-    at most 5 % (4 % measured: the first stage's squared torque, by which it is scaled,
-    is almost zero at a passive gait's speed)."""
-    from vsw.powered import powered_eigenvalues
+    allowed, at zero torque). The collocated step map's Jacobian is the open-loop step
+    map's found independently, by central differences of the re-simulated step
+    (vsw.powered.powered_step_jacobian), to the mesh's error: 0.42 % of its largest entry
+    measured (asserted 1 %). The radius is the dominant pair's, a double root where it is
+    least (the two eigenvalues meet), so it moves as the square root of an error in the
+    matrix: 1.1 % from the differences' radius measured, asserted 2 % (0.25 % in an
+    earlier run whose gait, equally least, differed in its torque). The regularisation's
+    share of the objective is reported: at most 5 % (4 % measured: the first stage's
+    squared torque, by which it is scaled, is almost zero at a passive gait's speed)."""
+    from vsw.powered import powered_eigenvalues, powered_step_jacobian
 
     model, params, stable = compass
     passive = max(abs(e) for e in stable.eigenvalues)
     gait = optimize(model, params, Request("stability", target_speed=stable.speed, nodes=10))
     assert gait.status in ("optimal", "not-converged"), gait.reason
     assert gait.cost < 0.95 * passive
+    collocated = np.asarray(gait.extra["step_jacobian"])
+    found = powered_step_jacobian(model, gait.parameters, gait, gait.states[0][0])
+    assert np.max(np.abs(collocated - found)) <= 1e-2 * np.max(np.abs(found))
+    assert gait.cost == pytest.approx(max(abs(np.linalg.eigvals(collocated))), rel=1e-12)
     differences = max(abs(e) for e in powered_eigenvalues(model, params, gait))
-    assert gait.cost == pytest.approx(differences, rel=1e-2)
+    assert gait.cost == pytest.approx(differences, rel=2e-2)
     assert max(abs(e) for e in gait.extra["eigenvalues"]) == pytest.approx(differences)
     assert gait.extra["radius_unknown"] == pytest.approx(gait.cost, rel=1e-6)
     assert 0 < gait.extra["objective"] - gait.extra["radius_unknown"] <= 0.05 * gait.cost

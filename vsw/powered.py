@@ -521,10 +521,14 @@ class _Nlp:
                                    )  # fmt: skip
         w[self.radius] = max(1.05 * largest, 2 * STABILITY_MARGIN)
 
+    def step_jacobian(self, params: Sequence[float], w: np.ndarray) -> np.ndarray:
+        """The Jacobian of ``w``'s collocated step map (the section state's)."""
+        arguments = np.append(np.asarray(params, dtype=float), 1.0)
+        return np.array(self.monodromy(w, arguments), dtype=float)
+
     def spectral_radius(self, params: Sequence[float], w: np.ndarray) -> float:
         """The spectral radius of ``w``'s collocated step map (inf where not finite)."""
-        arguments = np.append(np.asarray(params, dtype=float), 1.0)
-        jacobian = np.array(self.monodromy(w, arguments), dtype=float)
+        jacobian = self.step_jacobian(params, w)
         if not np.all(np.isfinite(jacobian)):
             return math.inf
         return float(np.max(np.abs(np.linalg.eigvals(jacobian))))
@@ -1570,7 +1574,8 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
     radius = {}
     if nlp.radius is not None:  # the cost is the radius measured, the unknown beside it
         objective = nlp.spectral_radius(params, w)
-        radius = {"radius_unknown": float(w[nlp.radius])}
+        radius = {"radius_unknown": float(w[nlp.radius]),
+                  "step_jacobian": nlp.step_jacobian(params, w)}  # fmt: skip
         if not reason and w[nlp.radius] <= STABILITY_MARGIN * (1 + 1e-6):
             reason = (f"the radius reached its floor, {STABILITY_MARGIN:g}: the least is below "
                       "it (not attained at the floor)")  # fmt: skip
