@@ -207,8 +207,8 @@ def cheapest_ile_gait(speed: float, step: float):
     interval ends or a gait is followed by none; then Brent's method between the best scan
     point's neighbours), as (params, gait, work, edge): ``edge`` True where the least is
     at the last angle with a gait (no interior minimum: the angle where the gaits end is
-    then found by bisection to 5 degrees / 2**30 and its gait taken). None where no angle
-    scanned has a gait."""
+    then found to 1e-8 by a march from gait to gait, and its gait taken). None where no
+    angle scanned has a gait."""
     found = []
     for direction in (1, -1):
         start = [0.9, 2 * math.asin(min(step / 2, 0.99))]
@@ -234,17 +234,18 @@ def cheapest_ile_gait(speed: float, step: float):
         return math.inf if at is None else _ile_work(*at)
 
     theta_II = found[k][0]
-    if edge and len(found) > 1:  # the gaits end beyond it: their last angle, by bisection
+    if edge and len(found) > 1:
+        # The gaits end beyond it: march outward from gait to gait, halving the step after
+        # each failure (a solve from a neighbour closer than the step succeeds where one
+        # from afar does not), to the last angle with a gait.
         outward = 1 if k == len(found) - 1 else -1
-        inside, outside = theta_II, theta_II + outward * THETA_II_STEP
-        for _ in range(30):
-            middle = 0.5 * (inside + outside)
-            at = _ile_gait_at(speed, step, middle, start)
+        stride = THETA_II_STEP / 10
+        while stride > 1e-8:
+            at = _ile_gait_at(speed, step, theta_II + outward * stride, start)
             if at is None:
-                outside = middle
+                stride /= 2
             else:
-                inside, start = middle, [at[0][0], at[0][2]]
-        theta_II = inside
+                theta_II, start = theta_II + outward * stride, [at[0][0], at[0][2]]
     if not edge:
         best = minimize_scalar(work, bounds=(lo, hi), method="bounded",
                                options={"xatol": 1e-6})  # fmt: skip
@@ -270,11 +271,12 @@ def _ile_grid_table(speeds: Sequence[float], steps: Sequence[float]) -> str:
                 lines.append(f"| {speed:g} | {step:g} | none (no ILE gait at theta_II "
                              f"scanned) | - | - | {walking_text} | - | - | - | - |")  # fmt: skip
                 continue
-            params, _, work, edge = ile
+            params, gait, work, edge = ile
             beta, theta_II, phi0 = params
             ratio = "-" if walking is None else f"{work / walking[0]:.3f}"
             best = _optimum(step, speed, shortest=beta)
-            at_edge = " (where its gaits end)" if edge else ""
+            at_edge = (f" (where its gaits end: the extension {gait.durations[1]:.1g} before "
+                       "heel-strike)" if edge else "")  # fmt: skip
             lines.append(f"| {speed:g} | {step:g} | {beta:.4f}, {math.degrees(theta_II):.2f}"
                          f"{at_edge}, {math.degrees(phi0):.2f} | {work:.6f} | {work / step:.6f} | "
                          f"{walking_text} | {ratio} | {best.cost:.6f} | "
@@ -339,7 +341,11 @@ def point_mass_biped(out: Path, quick: bool = False) -> list[Path]:
         "the best), against ",
         "inverted-pendulum walking (derived above: a gait of the same body, so VSW / it is ",
         "a lower bound on the price) and the optimiser's least work with legs from beta to ",
-        "1 (the ILE's). Costs of transport per weight and step length.\n\n",
+        "1 (the ILE's). Costs of transport per weight and step length. Where VSW's least ",
+        "work is at the last angle with a gait, it is where the extension meets heel-strike ",
+        "(the phase after it shrinks to nothing): the cheapest VSW gait extends the stance ",
+        "leg at the end of the stance, where the optimum pushes off, and still costs more ",
+        "than the optimum.\n\n",
         _ile_grid_table(
             GRID_SPEEDS[:1] if quick else GRID_SPEEDS, GRID_STEPS[:1] if quick else GRID_STEPS
         ),

@@ -138,6 +138,11 @@ def test_point_mass_biped_report_agrees_with_its_derivation_and_is_deterministic
     (ile,) = [r for r in rows if r[0] == "0.8" and len(r) == 12]
     assert ile[-1] == "optimal" and float(ile[-2]) > 1
     assert ile[8] == ile[10]  # optimal: the least work found is inverted-pendulum walking's
+    # The price over speeds and step lengths (quick: V 0.3, d 0.5): VSW's cheapest gait is
+    # where its gaits end (the extension at heel-strike), still dearer than the optimum.
+    (grid,) = [r for r in rows if r[:2] == ["0.3", "0.5"] and len(r) == 11]
+    assert "where its gaits end" in grid[2] and grid[-1] == "optimal"
+    assert float(grid[7]) > 1 and grid[5] == grid[8]
 
 
 def test_kuo_walker_report_agrees_with_its_derivation_and_is_deterministic(tmp_path):
