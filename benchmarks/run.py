@@ -782,11 +782,13 @@ def _floor_rows(count: int, reps: int) -> list[Row]:
                       tolerance=1e-10)  # fmt: skip
 
         t = timed(walk, reps).per(steps)
+        # One walk at a time, each of libmvec's sines is a four-wide call for one value:
+        # that floor no longer bounds a step taken in lanes, so it is shown, not a target.
         rows.append(Row(
             "15", f"{key}: a step of the batch simulator at rtol = atol = 1e-10, against its "
             "floor", "the flow and guard evaluations it needs, timed alone, one walk at a time",
-            t, Timing(floor, floor, floor), "<= 1.5x the floor", t.median <= 1.5 * floor,
-            note="per step: " + "; ".join(per_step),
+            t, Timing(floor, floor, floor), "(informative: the lanes' floor is the target)",
+            None, note="per step: " + "; ".join(per_step),
         ))  # fmt: skip
         rows.append(Row(
             "15", f"{key}: the same step against the floor of its lanes", "the same evaluations "

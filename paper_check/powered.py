@@ -170,9 +170,9 @@ def _ile_table(cases: Sequence[tuple[float, float, float]]) -> str:
 
 def _ile_gait_at(speed: float, step: float, theta_II: float, start: Sequence[float]):
     """The ILE gait with extension angle ``theta_II`` at this speed and step length: its
-    (beta, phi0) by least squares on the closed forms from ``start``, and its gait; None
-    where there is none (no fixed point, the existence conditions fail, or no (beta, phi0)
-    matches to 1e-10)."""
+    parameters, with (beta, phi0) by least squares on the closed forms from ``start``, and
+    its gait; None where there is none (no fixed point, two or more, the existence
+    conditions fail, or no (beta, phi0) matches to 1e-10 from that start)."""
     ile = load("ile")
 
     def gait_of(z):
@@ -251,7 +251,10 @@ def cheapest_ile_gait(speed: float, step: float):
                                options={"xatol": 1e-6})  # fmt: skip
         if best.fun < found[k][1]:
             theta_II = best.x
-    params, gait = _ile_gait_at(speed, step, theta_II, start)
+    at = _ile_gait_at(speed, step, theta_II, start)
+    if at is None:  # Brent's angle, solved from another start than its own: the scan's
+        theta_II, at = found[k][0], _ile_gait_at(speed, step, found[k][0], found[k][2])
+    params, gait = at
     return params, gait, _ile_work(params, gait), edge
 
 
@@ -265,7 +268,7 @@ def _ile_grid_table(speeds: Sequence[float], steps: Sequence[float]) -> str:
         for step in steps:
             ile = cheapest_ile_gait(speed, step)
             walking = inverted_pendulum_gait(speed, step)
-            walking_text = ("none: the leg would pull | - | -" if walking is None else
+            walking_text = ("none: the leg would pull | -" if walking is None else
                             f"{walking[0]:.6f} | {walking[0] / step:.6f}")  # fmt: skip
             if ile is None:
                 lines.append(f"| {speed:g} | {step:g} | none (no ILE gait at theta_II "
@@ -285,8 +288,8 @@ def _ile_grid_table(speeds: Sequence[float], steps: Sequence[float]) -> str:
 
 
 def point_mass_biped(out: Path, quick: bool = False) -> list[Path]:
-    """Write ``out/point-mass-biped.md`` (``quick``: two walking cases, one faster speed
-    and one ILE gait)."""
+    """Write ``out/point-mass-biped.md`` (``quick``: two walking cases, one faster speed,
+    one ILE gait and one cell of the price's grid)."""
     walking = _walking_rows(LOW_SPEED[:2] if quick else LOW_SPEED)
     text = [
         "# The point-mass biped's least-work gaits\n\n",

@@ -390,33 +390,55 @@ def _built(key: str, name: str, flags: list[str], lanes: int = 4):
 def test_the_portable_build_walks_the_same(gaits):
     """The library's last flag set (-O2 without -march=native: the lanes' vector type
     lowered to SSE2, libm's sines), built with two lanes instead of four, walks to the same
-    bytes as the native build with libm's sines (the second flag set) in four lanes:
+    bytes as the native build with libm's sines in four lanes:
     neither the flags nor the lane count change a walk."""
-    from vsw.batch import _FLAG_SETS
+    from vsw.batch import _LIBM_FLAGS, _PORTABLE_FLAGS
 
     model, params, orbits = gaits["vsw_biped"]
     state = np.array([orbits[0].state[k] for k in (*model.coordinates, *model.rates)])
     starts = state * (1 + 0.1 * np.random.default_rng(10).standard_normal((60, len(state))))
-    native = _built("vsw_biped", "libm", _FLAG_SETS[1])
-    portable = _built("vsw_biped", "portable", _FLAG_SETS[-1], lanes=2)
+    native = _built("vsw_biped", "libm", _LIBM_FLAGS)
+    portable = _built("vsw_biped", "portable", _PORTABLE_FLAGS, lanes=2)
     one = native.walk(params, starts, 10, keep=2, threads=1)
     two = portable.walk(params, starts, 10, keep=2, threads=1)
     for field in FIELDS:
         assert getattr(one, field).tobytes() == getattr(two, field).tobytes(), field
 
 
+def _has_avx2() -> bool:
+    try:
+        return " avx2 " in Path("/proc/cpuinfo").read_text().replace("\n", " ")
+    except OSError:
+        return False
+
+
+def _vector_sines():
+    """The library in use, skipping where it does not take libmvec's sines; on a glibc
+    x86-64 machine with AVX2 it must."""
+    from vsw.batch import _HAS_LIBMVEC
+
+    fast = simulator(load("vsw_biped"))
+    assert fast.library() is not None, fast.build_error
+    if _HAS_LIBMVEC and _has_avx2():
+        assert fast._lib.vsw_batch_vector_sines() == 1
+    if not fast._lib.vsw_batch_vector_sines():
+        pytest.skip("the batch simulator takes libm's sines here (no AVX2 or no libmvec)")
+    return fast
+
+
 @pytest.mark.parametrize("lanes", [2, 8])
 def test_the_lane_count_changes_no_walk(gaits, lanes):
-    """The first flag set (libmvec's sines where the CPU has AVX2) built with two and eight
-    lanes walks to the same bytes as the four lanes of the library in use: the vector sines
-    are taken four at a time whatever the lane count."""
-    from vsw.batch import _FLAG_SETS
+    """The vector build (libmvec's sines, AVX2) built with two and eight lanes walks to the
+    same bytes as the four lanes of the library in use: the vector sines are taken four at
+    a time whatever the lane count."""
+    from vsw.batch import _VECTOR_FLAGS
 
+    fast = _vector_sines()
     model, params, orbits = gaits["vsw_biped"]
     state = np.array([orbits[0].state[k] for k in (*model.coordinates, *model.rates)])
     starts = state * (1 + 0.1 * np.random.default_rng(12).standard_normal((60, len(state))))
-    one = simulator(load("vsw_biped")).walk(params, starts, 10, keep=2, threads=1)
-    other = _built("vsw_biped", f"lanes{lanes}", _FLAG_SETS[0], lanes=lanes)
+    one = fast.walk(params, starts, 10, keep=2, threads=1)
+    other = _built("vsw_biped", f"lanes{lanes}", _VECTOR_FLAGS, lanes=lanes)
     two = other.walk(params, starts, 10, keep=2, threads=1)
     for field in FIELDS:
         assert getattr(one, field).tobytes() == getattr(two, field).tobytes(), field
@@ -424,20 +446,21 @@ def test_the_lane_count_changes_no_walk(gaits, lanes):
 
 @pytest.mark.parametrize("key", ["simplest_walker", "compass_gait", "vsw_biped"])
 def test_vector_sines_walk_as_libm_does(gaits, key):
-    """The first flag set's sines and cosines (glibc's libmvec where the CPU has AVX2,
-    vsw/csrc/lanes.h) against libm's (the second flag set): the same outcomes and steps on
+    """The vector build's sines and cosines (glibc's libmvec where the CPU has AVX2,
+    vsw/csrc/lanes.h) against libm's (the native build without it): the same outcomes and steps on
     200 starts around the gait, section states within 1e-9 (relative) after 10 steps
     (the tolerance the SciPy route is held to): a few ulp in each sine move a walk by
     about the integrator's own rounding."""
-    from vsw.batch import _FLAG_SETS
+    from vsw.batch import _LIBM_FLAGS
 
+    _vector_sines()
     model, params, orbits = gaits[key]
     state = np.array([orbits[0].state[k] for k in (*model.coordinates, *model.rates)])
     starts = state * (1 + 0.02 * np.random.default_rng(11).standard_normal((200, len(state))))
     if model.spec.get("section"):
         starts = np.column_stack(model.module.section_completion(*params, *starts.T))
     vector = simulator(load(key)).walk(params, starts, 10, threads=1)
-    libm = _built(key, "libm", _FLAG_SETS[1]).walk(params, starts, 10, threads=1)
+    libm = _built(key, "libm", _LIBM_FLAGS).walk(params, starts, 10, threads=1)
     assert np.array_equal(vector.outcome, libm.outcome)
     assert np.array_equal(vector.steps, libm.steps)
     scale = np.maximum(1.0, np.abs(libm.final))

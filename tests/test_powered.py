@@ -149,7 +149,7 @@ def test_the_most_stable_gait_at_the_passive_speed_is_more_stable_than_the_passi
     earlier run whose gait, equally least, differed in its torque). The regularisation's
     share of the objective is reported: at most 5 % (4 % measured: the first stage's
     squared torque, by which it is scaled, is almost zero at a passive gait's speed)."""
-    from vsw.powered import powered_eigenvalues, powered_step_jacobian
+    from vsw.powered import powered_step_jacobian
 
     model, params, stable = compass
     passive = max(abs(e) for e in stable.eigenvalues)
@@ -159,8 +159,7 @@ def test_the_most_stable_gait_at_the_passive_speed_is_more_stable_than_the_passi
     collocated = np.asarray(gait.extra["step_jacobian"])
     found = powered_step_jacobian(model, gait.parameters, gait, gait.states[0][0])
     assert np.max(np.abs(collocated - found)) <= 1e-2 * np.max(np.abs(found))
-    assert gait.cost == pytest.approx(max(abs(np.linalg.eigvals(collocated))), rel=1e-12)
-    differences = max(abs(e) for e in powered_eigenvalues(model, params, gait))
+    differences = max(abs(np.linalg.eigvals(found)))
     assert gait.cost == pytest.approx(differences, rel=2e-2)
     assert max(abs(e) for e in gait.extra["eigenvalues"]) == pytest.approx(differences)
     assert gait.extra["radius_unknown"] == pytest.approx(gait.cost, rel=1e-6)

@@ -20,6 +20,8 @@ from __future__ import annotations
 import ctypes
 import math
 import os
+import platform
+import sys
 import threading
 import warnings
 from collections.abc import Callable, Sequence
@@ -50,13 +52,20 @@ that walk every step, large enough that a ctypes call costs nothing beside it.""
 # the model's functions. The first build takes its sines and cosines from glibc's vector
 # math library where the CPU has AVX2 (vsw/csrc/lanes.h); without libmvec the next takes
 # libm's, and so does the plain -O2 build: values a few ulp apart from the first's.
+# libmvec is offered only where it can exist (x86-64 Linux with glibc): elsewhere a failed
+# link would cost every new process a full compile before the next flag set.
 _COMMON_FLAGS = ["-ffp-contract=off", "-fvisibility=hidden", "-lm"]
 _NATIVE_FLAGS = ["-O3", "-march=native", "-fno-math-errno"]
-_FLAG_SETS = (
-    [*_NATIVE_FLAGS, *_COMMON_FLAGS, "-lmvec"],
-    [*_NATIVE_FLAGS, "-DVSW_NO_MVEC", *_COMMON_FLAGS],
-    ["-O2", *_COMMON_FLAGS],
-)
+_HAS_LIBMVEC = (
+    sys.platform.startswith("linux")
+    and platform.machine() in ("x86_64", "AMD64")
+    and "glibc" in (os.confstr("CS_GNU_LIBC_VERSION") if "CS_GNU_LIBC_VERSION" in os.confstr_names
+                    else "")
+)  # fmt: skip
+_VECTOR_FLAGS = [*_NATIVE_FLAGS, *_COMMON_FLAGS, "-lmvec"]
+_LIBM_FLAGS = [*_NATIVE_FLAGS, "-DVSW_NO_MVEC", *_COMMON_FLAGS]
+_PORTABLE_FLAGS = ["-O2", *_COMMON_FLAGS]
+_FLAG_SETS = (*([_VECTOR_FLAGS] if _HAS_LIBMVEC else []), _LIBM_FLAGS, _PORTABLE_FLAGS)
 
 DEFAULT_CONVERGE_TOL = 1e-6
 DEFAULT_PERIOD_TOL = 1e-6

@@ -6,8 +6,10 @@ block is one task that runs the same compiled simulator in the worker's process 
 into the worker's kernel cache on its first task) and returns its arrays. Each walk is
 independent of the others and of its block, so the result is the local one, byte for
 byte, and does not depend on the block size or on which worker ran what, as long as every
-worker has a C compiler: a worker without one takes the SciPy route (same classes, last
-bits and speed differ), and the result's ``route`` says so. Inside a worker the block runs
+worker builds the library the client does (a C compiler, the same CPU features and glibc:
+libmvec's sines or libm's, vsw/csrc/lanes.h, differ in the last bits). A worker without a
+compiler takes the SciPy route (same classes, last bits and speed differ), and the
+result's ``route`` says so. Inside a worker the block runs
 on one thread: the cluster's workers and threads are the parallelism.
 
 Start a cluster on one machine (loopback) with::

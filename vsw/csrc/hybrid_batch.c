@@ -7,8 +7,8 @@
  * step length. Nothing here knows a model.
  *
  * Each phase is integrated with the explicit DOP853 pair (adaptive step, SciPy's error
- * norm and step-size control, its eighth roots by square roots) until one of its watched guards crosses zero in its
- * direction; the crossing is located by the Illinois method on the guard along the
+ * norm and step-size control, its eighth roots by square roots) until one of its watched
+ * guards crosses zero in its direction; the crossing is located by the Illinois method on the guard along the
  * accepted step's dense output (DOP853's 7th-order interpolant, as SciPy's), to a bracket
  * of VSW_EVENT_TIME_TOL in time. The rules are those of the project's SciPy route
  * (vsw.hybrid.HybridModel.step): a crossing counts when the guard goes from <= 0 to >= 0
@@ -175,7 +175,7 @@ static inline double vsw_ulp_above(double t)
         double d;
         uint64_t u;
     } next = {t};
-    if (!(t >= 0.0) || isinf(t)) return nextafter(t, INFINITY) - t;
+    if (signbit(t) || !isfinite(t)) return nextafter(t, INFINITY) - t;
     next.u += 1;
     return next.d - t;
 }
@@ -863,6 +863,12 @@ VSW_EXPORT void vsw_batch_lanes_check(int phase, const double *params, const dou
                 lanes_out[(i + l) * row + VSW_NX + k] = g[k][l];
         }
     }
+}
+
+/* 1 where the build takes its sines and cosines from libmvec (vsw/csrc/lanes.h), else 0. */
+VSW_EXPORT int vsw_batch_vector_sines(void)
+{
+    return VSW_MVEC;
 }
 
 /* The model's sizes, for the caller's check against its descriptor. */
