@@ -728,7 +728,58 @@ def case_batch_before(count: int, reps: int, before: str = BATCH_BEFORE) -> list
                 f"same way: {same}; after 20 steps the states differ by at most {gap:.1g} "
                 "(relative)",
             ))  # fmt: skip
-    return rows + _numba_rows(count, reps) + _cyrk_rows(count, reps) + _floor_rows(count, reps)
+    return (rows + _sines_rows(count, reps) + _numba_rows(count, reps) + _cyrk_rows(count, reps)
+            + _floor_rows(count, reps))  # fmt: skip
+
+
+def _sines_rows(count: int, reps: int) -> list[Row]:
+    """Case 15: the library in use (libmvec's sines and cosines where the CPU has AVX2 on
+    glibc, vsw/csrc/lanes.h) against the same code built with libm's (-DVSW_NO_MVEC), walks
+    of 20 steps, one thread, alternately; the walks' largest gap after 20 steps."""
+    from vsw.batch import _LIBM_FLAGS, CSRC, BatchSimulator, simulator
+    from vsw.compiled import build_library
+    from vsw.models import load
+
+    rows = []
+    for key in ("simplest_walker", "compass_gait", "vsw_biped"):
+        _, params, starts = _near_gait_starts(key, count, BATCH_VALUES.get(key))
+        vector = simulator(load(key))
+        vector.library()
+        if not vector._lib.vsw_batch_vector_sines():
+            return [Row("15", "libmvec's sines against libm's", "-", None, None,
+                        "(informative)", None, note="not run: this build takes libm's (no AVX2 "
+                        "or no libmvec)")]  # fmt: skip
+        libm = BatchSimulator(load(key))
+        source = libm.source.read_bytes() + b"\n" + (CSRC / "hybrid_batch.c").read_bytes()
+        lib, libm.library_path = build_library(source, f"{key}_sim_libm", (_LIBM_FLAGS,),
+                                               includes=(CSRC,))  # fmt: skip
+        libm._bind(lib)
+        libm._lib, libm._tried = lib, True
+        found = {}
+
+        def walker(sim, name, params=params, starts=starts, found=found):
+            def walk():
+                found[name] = sim.walk(params, starts, 20, converge_tol=0.0, period_tol=0.0,
+                                       threads=1, tolerance=1e-10)  # fmt: skip
+
+            return walk
+
+        t_vector, t_libm = interleaved(walker(vector, "vector"), walker(libm, "libm"), reps)
+        steps = int(found["vector"].steps.sum())
+        same = bool(np.array_equal(found["vector"].steps, found["libm"].steps))
+        done = found["vector"].steps == 20
+        gap = float(np.max(np.abs(found["vector"].final[done] - found["libm"].final[done])
+                           / np.maximum(1, np.abs(found["libm"].final[done])),
+                           initial=0.0))  # fmt: skip
+        rows.append(Row(
+            "15", f"{key}: walks of 20 steps, batch simulator (1 thread), rtol = atol = 1e-10, "
+            "libmvec's sines", "the same code with libm's (-DVSW_NO_MVEC)",
+            t_vector.per(steps), t_libm.per(int(found["libm"].steps.sum())), "(informative)",
+            None, note=f"per step over {len(starts)} walks ({steps} steps); the same steps in "
+            f"every walk: {same}; after 20 steps the states differ by at most {gap:.1g} "
+            "(relative)",
+        ))  # fmt: skip
+    return rows
 
 
 def _floor_rows(count: int, reps: int) -> list[Row]:
