@@ -9,8 +9,8 @@
  *
  * Sines and cosines: with AVX2 on glibc, glibc's vector math library (libmvec's
  * _ZGVdN4v_sin and _ZGVdN4v_cos, a few ulp from the exact values), four values for about
- * the price of one libm call (every model's step in about half the time, in an A/B
- * against libm with the code otherwise the same, 2026-12-04), whatever the lane count
+ * the price of one libm call (every model's step in about half the time: benchmark case
+ * 15, against the same code with libm's), whatever the lane count
  * (four at a time); a scalar value is taken as lane 0 of four copies, so that it gets the
  * very value a lane would (a scalar sine and cosine pair: two four-wide calls). Elsewhere, or built with
  * -DVSW_NO_MVEC, libm's sin and cos, lane by lane: values a few ulp from libmvec's, so
