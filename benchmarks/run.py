@@ -672,8 +672,7 @@ def case_batch_step(count: int, reps: int) -> list[Row]:
 def _simulator_at(key: str, ref: str):
     """The batch simulator of ``key`` with the C table and integrator of commit ``ref``
     (built with that commit's flags; the calling convention has not changed)."""
-    from vsw.batch import CSRC, BatchSimulator
-    from vsw.compiled import build_library
+    from vsw.batch import BatchSimulator
     from vsw.models import load
 
     def show(path: str) -> bytes:
@@ -682,11 +681,40 @@ def _simulator_at(key: str, ref: str):
 
     source = show(f"generated/{key}/c/{key}_sim.c") + b"\n" + show("vsw/csrc/hybrid_batch.c")
     sim = BatchSimulator(load(key))
-    lib, sim.library_path = build_library(source, f"{key}_sim_{ref}", BATCH_BEFORE_FLAGS,
-                                          includes=(CSRC,))  # fmt: skip
-    sim._bind(lib)
-    sim._lib, sim._tried = lib, True
+    sim.use_build(source, f"{key}_sim_{ref}", BATCH_BEFORE_FLAGS)
     return sim
+
+
+@dataclass
+class _SideBySide:
+    """Walks of 20 steps from the same starts by two simulators, alternately: their times
+    per step, steps, whether every walk ended the same way, and the largest relative gap
+    between the section states of walks both completed."""
+
+    ours: Timing
+    theirs: Timing
+    steps: int
+    same: bool
+    gap: float
+
+
+def _walks_side_by_side(ours, theirs, params, starts, tol: float, reps: int) -> _SideBySide:
+    found = {}
+
+    def walker(sim, name):
+        def walk():
+            found[name] = sim.walk(params, starts, 20, converge_tol=0.0, period_tol=0.0,
+                                   threads=1, tolerance=tol)  # fmt: skip
+
+        return walk
+
+    t_ours, t_theirs = interleaved(walker(ours, "ours"), walker(theirs, "theirs"), reps)
+    a, b = found["ours"], found["theirs"]
+    done = (a.steps == 20) & (b.steps == 20)
+    gap = float(np.max(np.abs(a.final[done] - b.final[done])
+                       / np.maximum(1, np.abs(b.final[done])), initial=0.0))  # fmt: skip
+    return _SideBySide(t_ours.per(int(a.steps.sum())), t_theirs.per(int(b.steps.sum())),
+                       int(a.steps.sum()), a.ended() == b.ended(), gap)  # fmt: skip
 
 
 def case_batch_before(count: int, reps: int, before: str = BATCH_BEFORE) -> list[Row]:
@@ -703,30 +731,14 @@ def case_batch_before(count: int, reps: int, before: str = BATCH_BEFORE) -> list
         now, then = simulator(load(key)), _simulator_at(key, before)
         now.library()
         for tol in (1e-10, 1e-12):
-            found = {}
-
-            def walker(sim, name, params=params, starts=starts, tol=tol, found=found):
-                def walk():
-                    found[name] = sim.walk(params, starts, 20, converge_tol=0.0,
-                                           period_tol=0.0, threads=1, tolerance=tol)  # fmt: skip
-
-                return walk
-
-            t_now, t_then = interleaved(walker(now, "now"), walker(then, "then"), reps)
-            steps = int(found["now"].steps.sum())
-            same = found["now"].ended() == found["then"].ended()
-            done = (found["now"].steps == 20) & (found["then"].steps == 20)
-            gap = float(np.max(np.abs(found["now"].final[done] - found["then"].final[done])
-                               / np.maximum(1, np.abs(found["then"].final[done])),
-                               initial=0.0))  # fmt: skip
+            run = _walks_side_by_side(now, then, params, starts, tol, reps)
             rows.append(Row(
                 "15", f"{key}: walks of 20 steps, batch simulator (1 thread), rtol = atol = "
-                f"{tol:g}", f"the same, C table and integrator of {before}",
-                t_now.per(steps), t_then.per(int(found["then"].steps.sum())),
-                "faster than before", t_now.median < t_then.median,
-                note=f"per step over {len(starts)} walks ({steps} steps); every walk ends the "
-                f"same way: {same}; after 20 steps the states differ by at most {gap:.1g} "
-                "(relative)",
+                f"{tol:g}", f"the same, C table and integrator of {before}", run.ours,
+                run.theirs, "faster than before", run.ours.median < run.theirs.median,
+                note=f"per step over {len(starts)} walks ({run.steps} steps); every walk ends "
+                f"the same way: {run.same}; after 20 steps the states differ by at most "
+                f"{run.gap:.1g} (relative)",
             ))  # fmt: skip
     return (rows + _sines_rows(count, reps) + _numba_rows(count, reps) + _cyrk_rows(count, reps)
             + _floor_rows(count, reps))  # fmt: skip
@@ -736,8 +748,7 @@ def _sines_rows(count: int, reps: int) -> list[Row]:
     """Case 15: the library in use (libmvec's sines and cosines where the CPU has AVX2 on
     glibc, vsw/csrc/lanes.h) against the same code built with libm's (-DVSW_NO_MVEC), walks
     of 20 steps, one thread, alternately; the walks' largest gap after 20 steps."""
-    from vsw.batch import _LIBM_FLAGS, CSRC, BatchSimulator, simulator
-    from vsw.compiled import build_library
+    from vsw.batch import _LIBM_FLAGS, BatchSimulator, simulator
     from vsw.models import load
 
     rows = []
@@ -750,33 +761,14 @@ def _sines_rows(count: int, reps: int) -> list[Row]:
                         "(informative)", None, note="not run: this build takes libm's (no AVX2 "
                         "or no libmvec)")]  # fmt: skip
         libm = BatchSimulator(load(key))
-        source = libm.source.read_bytes() + b"\n" + (CSRC / "hybrid_batch.c").read_bytes()
-        lib, libm.library_path = build_library(source, f"{key}_sim_libm", (_LIBM_FLAGS,),
-                                               includes=(CSRC,))  # fmt: skip
-        libm._bind(lib)
-        libm._lib, libm._tried = lib, True
-        found = {}
-
-        def walker(sim, name, params=params, starts=starts, found=found):
-            def walk():
-                found[name] = sim.walk(params, starts, 20, converge_tol=0.0, period_tol=0.0,
-                                       threads=1, tolerance=1e-10)  # fmt: skip
-
-            return walk
-
-        t_vector, t_libm = interleaved(walker(vector, "vector"), walker(libm, "libm"), reps)
-        steps = int(found["vector"].steps.sum())
-        same = bool(np.array_equal(found["vector"].steps, found["libm"].steps))
-        done = found["vector"].steps == 20
-        gap = float(np.max(np.abs(found["vector"].final[done] - found["libm"].final[done])
-                           / np.maximum(1, np.abs(found["libm"].final[done])),
-                           initial=0.0))  # fmt: skip
+        libm.use_build(libm.c_source(), f"{key}_sim_libm", (_LIBM_FLAGS,))
+        run = _walks_side_by_side(vector, libm, params, starts, 1e-10, reps)
         rows.append(Row(
             "15", f"{key}: walks of 20 steps, batch simulator (1 thread), rtol = atol = 1e-10, "
-            "libmvec's sines", "the same code with libm's (-DVSW_NO_MVEC)",
-            t_vector.per(steps), t_libm.per(int(found["libm"].steps.sum())), "(informative)",
-            None, note=f"per step over {len(starts)} walks ({steps} steps); the same steps in "
-            f"every walk: {same}; after 20 steps the states differ by at most {gap:.1g} "
+            "libmvec's sines", "the same code with libm's (-DVSW_NO_MVEC)", run.ours,
+            run.theirs, "(informative)", None,
+            note=f"per step over {len(starts)} walks ({run.steps} steps); every walk ends the "
+            f"same way: {run.same}; after 20 steps the states differ by at most {run.gap:.1g} "
             "(relative)",
         ))  # fmt: skip
     return rows
@@ -788,23 +780,18 @@ def _floor_rows(count: int, reps: int) -> list[Row]:
     the walks' start states), against the time per step of the walks themselves."""
     import ctypes
 
-    from vsw.batch import _FLAG_SETS, CSRC, BatchSimulator, simulator
-    from vsw.compiled import build_library
+    from vsw.batch import _FLAG_SETS, BatchSimulator, simulator
     from vsw.models import load
 
     rows = []
     for key in ("simplest_walker", "compass_gait", "vsw_biped"):
         _, params, starts = _near_gait_starts(key, count, BATCH_VALUES.get(key))
         sim = BatchSimulator(load(key))  # not the cached one: it gets the counting build
-        source = (b"#define _POSIX_C_SOURCE 199309L\n#define VSW_COUNT_CALLS 1\n"
-                  + sim.source.read_bytes() + b"\n"
-                  + (CSRC / "hybrid_batch.c").read_bytes())  # fmt: skip
-        counting, _ = build_library(source, f"{key}_sim_counting", _FLAG_SETS, includes=(CSRC,))
+        source = b"#define _POSIX_C_SOURCE 199309L\n#define VSW_COUNT_CALLS 1\n" + sim.c_source()
+        counting = sim.use_build(source, f"{key}_sim_counting", _FLAG_SETS)
         n_phases = len(sim.model.phases)
         counts = (ctypes.c_longlong * (2 * n_phases))()
         counting.vsw_batch_counts(counts)  # from zero
-        sim._bind(counting)
-        sim._lib, sim._tried = counting, True
         walked = sim.walk(params, starts, 20, converge_tol=0.0, period_tol=0.0, threads=1,
                           tolerance=1e-10)  # fmt: skip
         counting.vsw_batch_counts(counts)

@@ -57,7 +57,7 @@ GRID_STEPS = (0.5, 0.6, 0.7)
 """The ILE's price over speeds and step lengths (scaled: r_e = g = 1)."""
 THETA_II_STEP = math.radians(5.0)
 """The ILE's cheapest gait at a speed and step length: its extension angle scanned by this
-from 0 both ways (to the angle's interval, or the first angle past a gait with none)."""
+from 0 both ways (to 85 degrees, or the first angle past a gait with none)."""
 NODES = 40
 LONGEST_INTERVAL = 0.05
 """Intervals a phase of the coarse mesh: at least ``NODES``, and no longer than this (in
@@ -203,8 +203,8 @@ def _ile_work(params, gait) -> float:
 def cheapest_ile_gait(speed: float, step: float):
     """VSW's most favourable gait at this speed and step length: the ILE gait of least
     actuator work a step over the extension angle (scanned by :data:`THETA_II_STEP` from 0
-    both ways, each gait's (beta, phi0) continued from its neighbour's, until the angle's
-    interval ends or a gait is followed by none; then Brent's method between the best scan
+    both ways, each gait's (beta, phi0) continued from its neighbour's, to 85 degrees or
+    until a gait is followed by none; then Brent's method between the best scan
     point's neighbours), as (params, gait, work, edge): ``edge`` True where the least is
     at the last angle with a gait (no interior minimum: the angle where the gaits end is
     then found to 1e-8 by a march from gait to gait, and its gait taken). None where no
@@ -226,14 +226,7 @@ def cheapest_ile_gait(speed: float, step: float):
     found.sort()
     k = min(range(len(found)), key=lambda i: found[i][1])
     edge = k in (0, len(found) - 1)
-    lo, hi = found[max(k - 1, 0)][0], found[min(k + 1, len(found) - 1)][0]
-    start = found[k][2]
-
-    def work(theta_II: float) -> float:
-        at = _ile_gait_at(speed, step, theta_II, start)
-        return math.inf if at is None else _ile_work(*at)
-
-    theta_II = found[k][0]
+    theta_II, start = found[k][0], found[k][2]
     if edge and len(found) > 1:
         # The gaits end beyond it: march outward from gait to gait, halving the step after
         # each failure (a solve from a neighbour closer than the step succeeds where one
@@ -247,8 +240,13 @@ def cheapest_ile_gait(speed: float, step: float):
             else:
                 theta_II, start = theta_II + outward * stride, [at[0][0], at[0][2]]
     if not edge:
-        best = minimize_scalar(work, bounds=(lo, hi), method="bounded",
-                               options={"xatol": 1e-6})  # fmt: skip
+
+        def work(angle: float) -> float:
+            at = _ile_gait_at(speed, step, angle, start)
+            return math.inf if at is None else _ile_work(*at)
+
+        best = minimize_scalar(work, bounds=(found[k - 1][0], found[k + 1][0]),
+                               method="bounded", options={"xatol": 1e-6})  # fmt: skip
         if best.fun < found[k][1]:
             theta_II = best.x
     at = _ile_gait_at(speed, step, theta_II, start)

@@ -375,15 +375,11 @@ def test_step_phases_is_the_batch_walk_of_one_step(gaits):
 
 def _built(key: str, name: str, flags: list[str], lanes: int = 4):
     """The batch simulator of ``key`` built with these flags and lane count alone."""
-    from vsw.batch import CSRC, BatchSimulator
-    from vsw.compiled import build_library
+    from vsw.batch import BatchSimulator
 
     sim = BatchSimulator(load(key))
-    source = (f"#define VSW_LANES {lanes}\n".encode() + sim.source.read_bytes() + b"\n"
-              + (CSRC / "hybrid_batch.c").read_bytes())  # fmt: skip
-    lib, _ = build_library(source, f"{key}_sim_{name}", (flags,), includes=(CSRC,))
-    sim._bind(lib)
-    sim._lib, sim._tried = lib, True
+    sim.use_build(f"#define VSW_LANES {lanes}\n".encode() + sim.c_source(), f"{key}_sim_{name}",
+                  (flags,))  # fmt: skip
     return sim
 
 

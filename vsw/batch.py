@@ -168,6 +168,18 @@ class BatchSimulator:
     def source(self) -> Path:
         return Path(self.model.module.__file__).parent / "c" / f"{self.model.name}_sim.c"
 
+    def c_source(self) -> bytes:
+        """The library's C text: the model's table, then the integrator."""
+        return self.source.read_bytes() + b"\n" + (CSRC / "hybrid_batch.c").read_bytes()
+
+    def use_build(self, source: bytes, stem: str, flag_sets: Sequence[list[str]]) -> ctypes.CDLL:
+        """Walk with a library built from ``source`` (a variant of :meth:`c_source`: other
+        flags, lanes or counters; benchmarks and tests) instead of the default one."""
+        lib, self.library_path = build_library(source, stem, tuple(flag_sets), includes=(CSRC,))
+        self._bind(lib)
+        self._lib, self._tried = lib, True
+        return lib
+
     def library(self) -> ctypes.CDLL | None:
         """The compiled simulator, built on first call; None when unavailable (then
         :attr:`build_error` says why and the walks take the SciPy route)."""
@@ -178,12 +190,9 @@ class BatchSimulator:
             if not self._tried:
                 self._tried = True
                 try:
-                    table = self.source.read_bytes()
-                    integrator = (CSRC / "hybrid_batch.c").read_bytes()
                     lib, self.library_path = build_library(
-                        table + b"\n" + integrator, f"{self.model.name}_sim", _FLAG_SETS,
-                        includes=(CSRC,),
-                    )  # fmt: skip
+                        self.c_source(), f"{self.model.name}_sim", _FLAG_SETS, includes=(CSRC,)
+                    )
                     self._bind(lib)
                     self._lib = lib
                     stop.register(lambda: lib.vsw_batch_stop(1), lambda: lib.vsw_batch_stop(0))

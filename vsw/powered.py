@@ -528,10 +528,7 @@ class _Nlp:
 
     def spectral_radius(self, params: Sequence[float], w: np.ndarray) -> float:
         """The spectral radius of ``w``'s collocated step map (inf where not finite)."""
-        jacobian = self.step_jacobian(params, w)
-        if not np.all(np.isfinite(jacobian)):
-            return math.inf
-        return float(np.max(np.abs(np.linalg.eigvals(jacobian))))
+        return _spectral_radius(self.step_jacobian(params, w))
 
     def parameters(self, params: Sequence[float], w: np.ndarray) -> np.ndarray:
         """``params`` with the chosen parameters at their values in ``w``, within their
@@ -1117,6 +1114,13 @@ def _variable_bounds(model: HybridModel, sequence: list, layout: list[dict], siz
     return lbx, ubx
 
 
+def _spectral_radius(jacobian: np.ndarray) -> float:
+    """The largest eigenvalue's modulus (inf where the matrix is not finite)."""
+    if not np.all(np.isfinite(jacobian)):
+        return math.inf
+    return float(np.max(np.abs(np.linalg.eigvals(jacobian))))
+
+
 @functools.cache
 def _flow_jacobian_function(model: HybridModel, phase: str) -> Any:
     """(p, x, u) -> d(x')/dx with the phase's inputs held."""
@@ -1571,18 +1575,18 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
         reason = (f"the positive work along the re-simulated step, {moved:.6g}, is not the "
                   f"mesh's, {mesh:.6g}: the mesh does not resolve the power")  # fmt: skip
     objective = float(nlp.cost(w, arguments))
-    radius = {}
+    named, radius = objective, {}
     if nlp.radius is not None:  # the cost is the radius measured, the unknown beside it
-        objective = nlp.spectral_radius(params, w)
-        radius = {"radius_unknown": float(w[nlp.radius]),
-                  "step_jacobian": nlp.step_jacobian(params, w)}  # fmt: skip
+        jacobian = nlp.step_jacobian(params, w)
+        named = _spectral_radius(jacobian)
+        radius = {"radius_unknown": float(w[nlp.radius]), "step_jacobian": jacobian}
         if not reason and w[nlp.radius] <= STABILITY_MARGIN * (1 + 1e-6):
             reason = (f"the radius reached its floor, {STABILITY_MARGIN:g}: the least is below "
                       "it (not attained at the floor)")  # fmt: skip
     return PoweredGait(
         status="infeasible" if status == _INFEASIBLE else "not-converged" if reason else "optimal",
         reason=reason,
-        cost=_named_cost(model, p, request, work, step_length, objective),
+        cost=_named_cost(model, p, request, work, step_length, named),
         durations=durations,
         times=times,
         states=states,
@@ -1603,7 +1607,7 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
             "state_scale": scale,
             "w": w,
             "constraint_violation": violation,
-            "objective": float(nlp.cost(w, arguments)),
+            "objective": objective,
             **radius,
             "regularization_scale": regularization_scale,
         },
@@ -1617,13 +1621,13 @@ def _works_agree(moved: float, mesh: float, scale: float) -> bool:
 
 
 def _named_cost(model: HybridModel, p: np.ndarray, request: Request, work: dict,
-                step_length: float | None, objective: float) -> float:  # fmt: skip
-    """The cost the request names, without the regularization the NLP adds to it: the
-    squared inputs' integral (``objective``, the NLP's), the spectral radius of the
-    collocated step map (``objective``, the NLP's radius), the positive work, or that work
-    per weight and step length."""
+                step_length: float | None, unpriced: float) -> float:  # fmt: skip
+    """The cost the request names, without the regularization the NLP adds to it: for the
+    costs that price no work, ``unpriced`` (the squared inputs' integral, the NLP's
+    objective; the spectral radius of the collocated step map, measured); else the positive
+    work, or that work per weight and step length."""
     if not prices_work(request):
-        return objective
+        return unpriced
     positive = sum(w["positive"] for w in work.values())
     if request.minimize == "work":
         return positive

@@ -8,12 +8,12 @@
  *
  * Each phase is integrated with the explicit DOP853 pair (adaptive step, SciPy's error
  * norm and step-size control, its eighth roots by square roots) until one of its watched
- * guards crosses zero in its direction; the crossing is located by the Illinois method on the guard along the
- * accepted step's dense output (DOP853's 7th-order interpolant, as SciPy's), to a bracket
- * of VSW_EVENT_TIME_TOL in time. The rules are those of the project's SciPy route
- * (vsw.hybrid.HybridModel.step): a crossing counts when the guard goes from <= 0 to >= 0
- * (direction +1) or from >= 0 to <= 0 (direction -1); an event whose `when` is <= 0 does
- * not count and the phase goes on 1e-9 past it (at most 20 times); a failure whose guard
+ * guards crosses zero in its direction; the crossing is located by the Illinois method on
+ * the guard along the accepted step's dense output (DOP853's 7th-order interpolant, as
+ * SciPy's), to a bracket of VSW_EVENT_TIME_TOL in time. The rules are those of the
+ * project's SciPy route (vsw.hybrid.HybridModel.step): a crossing counts when the guard
+ * goes from <= 0 to >= 0 (direction +1) or from >= 0 to <= 0 (direction -1); an event
+ * whose `when` is <= 0 does not count and the phase goes on 1e-9 past it (at most 20 times); a failure whose guard
  * is already past zero at the phase start ends the walk there (a watched guard of direction
  * +2 or -2 is a failure checked there only, the sign its direction); a phase that lasts longer
  * than the phase time limit, or whose step shrinks below 10 ulps of the time, has stalled.
@@ -160,8 +160,8 @@ static inline double vsw_fmin(double a, double b)
 
 /* x^(1/8) by three square roots (SciPy's step-size rule takes err ** (-1/8) and its initial
    step (0.01 / d) ** (1/8)): a few times cheaper than pow, which was a tenth of the
-   simplest walker's step, and within an ulp or two of it, so the step sizes are SciPy's
-   to about 1e-16 relative (pow(x, 1/8) and this agree on 0, inf and NaN). */
+   simplest walker's step, and within an ulp or two of it (pow(x, 1/8) and this agree on
+   0, inf and NaN). */
 static inline double vsw_eighth_root(double x)
 {
     return sqrt(sqrt(sqrt(x)));

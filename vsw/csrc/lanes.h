@@ -10,9 +10,9 @@
  * Sines and cosines: with AVX2 on glibc, glibc's vector math library (libmvec's
  * _ZGVdN4v_sin and _ZGVdN4v_cos, a few ulp from the exact values), four values for about
  * the price of one libm call (every model's step in about half the time: benchmark case
- * 15, against the same code with libm's), whatever the lane count
- * (four at a time); a scalar value is taken as lane 0 of four copies, so that it gets the
- * very value a lane would (a scalar sine and cosine pair: two four-wide calls). Elsewhere, or built with
+ * 15, against the same code with libm's), whatever the lane count (four at a time); a
+ * scalar value is taken as lane 0 of four copies, so that it gets the very value a lane
+ * would (a scalar sine and cosine pair: two four-wide calls). Elsewhere, or built with
  * -DVSW_NO_MVEC, libm's sin and cos, lane by lane: values a few ulp from libmvec's, so
  * walks that differ from the AVX2 build's by about the integrator's rounding.
  */
@@ -43,7 +43,8 @@ vsw_quad _ZGVdN4v_cos(vsw_quad);
         vsw_lanes r_;                                                                      \
         for (int l0_ = 0; l0_ < VSW_LANES; l0_ += 4) {                                     \
             vsw_quad q_;                                                                   \
-            for (int k_ = 0; k_ < 4; ++k_) q_[k_] = (x)[l0_ + k_ < VSW_LANES ? l0_ + k_ : l0_]; \
+            for (int k_ = 0; k_ < 4; ++k_)                                                 \
+                q_[k_] = (x)[l0_ + k_ < VSW_LANES ? l0_ + k_ : l0_];                       \
             q_ = fn(q_);                                                                   \
             for (int k_ = 0; k_ < 4 && l0_ + k_ < VSW_LANES; ++k_) r_[l0_ + k_] = q_[k_];  \
         }                                                                                  \
