@@ -8,6 +8,7 @@ dozen pushes of one start) missed; their largest |eigenvalue| are the numbers be
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -153,22 +154,43 @@ def test_every_gait_carries_its_failures_margins(capsys):
 
 
 def test_a_kept_search_is_a_new_one_bit_for_bit(monkeypatch, tmp_path):
-    """The scan and Newton's solutions are kept on disk (vsw.gaits._cache_file) and a later
-    search of the same model, code and inputs reuses them; its gaits, confirmed again by
-    the boundary-value solver, equal a new search's bit for bit. A damaged file is made
+    """The scan, Newton's solutions and the confirmed gaits are kept on disk
+    (vsw.gaits._cache_file) and a later search of the same model, code and inputs reuses
+    them: neither the scan nor the boundary-value solver runs again, and its gaits (their
+    orbits' states too) equal a new search's bit for bit. A scan kept without its gaits (a
+    search interrupted while confirming) is confirmed and kept whole; a damaged file is made
     again; VSW_SEARCH_CACHE=0 keeps nothing."""
     monkeypatch.setenv("VSW_CACHE_DIR", str(tmp_path))
     m = load("compass_gait")
     params = m.parameters({})
     first = gaits.search(m, params, cells=20_000)
     (kept,) = (tmp_path / "searches").iterdir()
-    with monkeypatch.context() as patch:  # reused: no scan runs
+    with monkeypatch.context() as patch:  # reused: no scan and no confirmation run
         patch.setattr(gaits, "_scan", lambda *a: pytest.fail("scanned again"))
+        patch.setattr(gaits, "_confirm", lambda *a: pytest.fail("confirmed again"))
         again = gaits.search(m, params, cells=20_000)
     assert [o.to_dict() for o in again.gaits] == [o.to_dict() for o in first.gaits]
+    for a, b in zip(again.gaits, first.gaits, strict=True):
+        assert (a.durations, a.eigenvalues, a.phase_states) == (b.durations, b.eigenvalues, ())
+    # An orbit's phase states (none from the solver today) read back bit for bit too.
+    states = (np.array([[0.1, np.nan], [1 / 3, -0.0]]), np.zeros((0, 4)))
+    with_states = dataclasses.replace(first.gaits[0], phase_states=states)
+    (read,), _, _ = gaits._confirmed_from_record(
+        json.loads(json.dumps(gaits._confirmed_record([with_states], [], 0)))
+    )
+    for x, y in zip(read.phase_states, states, strict=True):
+        assert x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes()
     assert (again.candidates, again.converged, again.outcomes, again.points) == (
         first.candidates, first.converged, first.outcomes, first.points)  # fmt: skip
+    assert (again.unconfirmed, again.standing) == (first.unconfirmed, first.standing)
     assert len(first.gaits) >= 2
+    record = json.loads(kept.read_text())
+    kept.write_text(json.dumps({k: v for k, v in record.items() if k != "confirmed"}))
+    with monkeypatch.context() as patch:
+        patch.setattr(gaits, "_scan", lambda *a: pytest.fail("scanned again"))
+        confirmed = gaits.search(m, params, cells=20_000)
+    assert [o.to_dict() for o in confirmed.gaits] == [o.to_dict() for o in first.gaits]
+    assert json.loads(kept.read_text()) == record
     kept.write_text('{"found": [[0.1')  # a file cut short
     damaged = gaits.search(m, params, cells=20_000)
     assert [o.to_dict() for o in damaged.gaits] == [o.to_dict() for o in first.gaits]

@@ -101,32 +101,37 @@ class BatchResult:
     def labels(self) -> list[str]:
         """``converged``, ``period-K``, ``fell`` or ``other`` (walked every step without
         settling, or stalled), per walk."""
-        out = []
-        for code, aux in zip(self.outcome.tolist(), self.aux.tolist()):
-            if code == CONVERGED:
-                out.append("converged")
-            elif code == PERIODIC:
-                out.append(f"period-{aux}")
-            elif code == FELL:
-                out.append("fell")
-            else:
-                out.append("other")
-        return out
+        return self._named(self._label)
 
     def ended(self) -> list[str]:
         """What ended each walk: ``converged``, ``period-K``, the failure's name,
         ``stalled`` or ``walked``."""
-        out = []
-        for label, code, aux in zip(self.labels(), self.outcome.tolist(), self.aux.tolist()):
-            if code == FELL:
-                out.append(self.failures[aux])
-            elif code == STALLED:
-                out.append("stalled")
-            elif code == WALKED:
-                out.append("walked")
-            else:
-                out.append(label)
-        return out
+        return self._named(self._ending)
+
+    def _named(self, name: Callable[[int, int], str]) -> list[str]:
+        """``name(outcome, aux)`` per walk, computed once per distinct pair (a 200 x 200
+        basin has a handful): a Python loop over the walks took 40 ms of `vsw basin`."""
+        # One integer per pair (aux is a failure's index or a period, far below 2^32): a
+        # one-dimensional unique sorts ten times faster than unique over pairs.
+        keys = np.asarray(self.outcome, np.int64) << 32 | np.asarray(self.aux, np.int64)
+        distinct, index = np.unique(keys, return_inverse=True)
+        names = [name(int(k >> 32), int(k & 0xFFFFFFFF)) for k in distinct]
+        return np.array(names, dtype=object)[index.ravel()].tolist()
+
+    @staticmethod
+    def _label(code: int, aux: int) -> str:
+        if code == CONVERGED:
+            return "converged"
+        if code == PERIODIC:
+            return f"period-{aux}"
+        return "fell" if code == FELL else "other"
+
+    def _ending(self, code: int, aux: int) -> str:
+        if code == FELL:
+            return self.failures[aux]
+        if code == STALLED:
+            return "stalled"
+        return "walked" if code == WALKED else self._label(code, aux)
 
     @staticmethod
     def concatenate(parts: Sequence[BatchResult]) -> BatchResult:

@@ -21,8 +21,10 @@ to the next). The search is complete within a stated box and resolution:
    (:meth:`vsw.hybrid.HybridModel.periodic_orbit`: the orbit with its phase durations as
    unknowns, eigenvalues by CasADi derivatives, one simulated step back onto it).
 
-Steps 1-3 are kept on disk and reused by a later search of the same model, code and
-inputs (:func:`_cache_file`; ``VSW_SEARCH_CACHE=0`` turns it off); step 4 runs every time.
+Steps 1-3, and then step 4's gaits, are kept on disk and reused by a later search of the
+same model, code, CasADi and inputs (:func:`_cache_file`; ``VSW_SEARCH_CACHE=0`` turns it
+off): a command that follows a gait (``vsw basin``) spent a fifth of its time confirming
+the same three gaits again. A kept search returns what a new one would, bit for bit.
 
 What this misses, by construction: a gait whose set of states that complete one step is
 too thin to hold a grid cell near it (a gait with its apex barely passed: max |eigenvalue|
@@ -39,6 +41,7 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import importlib.util
 import json
 import math
 import os
@@ -341,10 +344,10 @@ def search(
 ) -> GaitSearch:
     """The period-one gaits at ``params`` within the search box (module docstring).
 
-    The scan and Newton's solutions are kept in the cache directory (:func:`_cache_file`)
-    and reused by any later search of the same model, code and inputs; every gait is
-    confirmed by the boundary-value solver either way, so a reused search returns what a
-    new one would, bit for bit.
+    The scan and Newton's solutions, then the confirmed gaits, are kept in the cache
+    directory (:func:`_cache_file`) and reused by any later search of the same model, code,
+    CasADi and inputs; a reused search returns what a new one would, bit for bit (the
+    floats written by ``repr``, which reads back exactly).
 
     Parameters
     ----------
@@ -365,8 +368,13 @@ def search(
     scanned = _read_cache(path)
     if scanned is None:
         scanned = _scan(model, sim, params, box, cells, compiled)
-        _write_cache(path, scanned)
-    gaits, unconfirmed, standing = _confirm(model, sim, params, scanned["found"])
+        _write_cache(path, scanned)  # kept before confirming: an interrupt loses no scan
+    if scanned.get("confirmed") is not None:
+        gaits, unconfirmed, standing = _confirmed_from_record(scanned["confirmed"])
+    else:
+        gaits, unconfirmed, standing = _confirm(model, sim, params, scanned["found"])
+        _write_cache(path, {**scanned, "confirmed": _confirmed_record(gaits, unconfirmed,
+                                                                      standing)})  # fmt: skip
     return GaitSearch(
         gaits=gaits,
         box=box,
@@ -477,18 +485,71 @@ def _length_scale(model: HybridModel, params: Sequence[float]) -> float:
 
 
 _CACHE_KEYS = {"found", "points", "outcomes", "candidates", "converged", "route"}
+"""A kept scan's keys; ``confirmed`` beside them once its gaits are confirmed."""
+
+
+def _confirmed_record(
+    gaits: list[Orbit], unconfirmed: list[dict[str, Any]], standing: int
+) -> dict[str, Any]:
+    """Step 4's result as JSON (complex numbers as pairs, arrays as shape and values)."""
+
+    def orbit(o: Orbit) -> dict[str, Any]:
+        return {
+            "state": o.state,
+            "durations": list(o.durations),
+            "period": o.period,
+            "eigenvalues": [[e.real, e.imag] for e in map(complex, o.eigenvalues)],
+            "step_length": o.step_length,
+            "residual": o.residual,
+            "phase_states": [
+                {"shape": list(a.shape), "values": a.ravel().tolist()} for a in o.phase_states
+            ],
+        }
+
+    return {"gaits": [orbit(o) for o in gaits], "unconfirmed": unconfirmed, "standing": standing}
+
+
+def _confirmed_from_record(record: dict[str, Any]) -> tuple[list[Orbit], list[dict], int]:
+    """:func:`_confirmed_record` read back."""
+    gaits = [
+        Orbit(
+            state={k: float(v) for k, v in o["state"].items()},
+            durations=tuple(float(v) for v in o["durations"]),
+            period=float(o["period"]),
+            eigenvalues=tuple(complex(re, im) for re, im in o["eigenvalues"]),
+            step_length=None if o["step_length"] is None else float(o["step_length"]),
+            residual=float(o["residual"]),
+            phase_states=tuple(
+                np.array(a["values"], dtype=float).reshape(a["shape"]) for a in o["phase_states"]
+            ),
+        )
+        for o in record["gaits"]
+    ]
+    return gaits, list(record["unconfirmed"]), int(record["standing"])
+
+
+def _casadi_fingerprint() -> bytes:
+    """CasADi's installation (its extension's path, size and time), which the
+    boundary-value solver's gaits depend on, without importing it (15 ms)."""
+    spec = importlib.util.find_spec("casadi")
+    if spec is None or spec.origin is None:
+        return b"no casadi"
+    folder = Path(spec.origin).parent
+    files = sorted(folder.glob("_casadi*"))
+    stats = [(f.name, f.stat().st_size, f.stat().st_mtime_ns) for f in files]
+    return repr((str(folder), stats)).encode()
 
 
 def _cache_file(
     model: HybridModel, sim: BatchSimulator, params: tuple[float, ...],
     box: dict[str, tuple[float, float]], cells: int | None,
 ) -> Path | None:  # fmt: skip
-    """Where a scan is kept: ``<cache dir>/searches/<model>-<key>.json``, the key a SHA-256
-    of everything the scan depends on (the model package's Python files, the compiled
+    """Where a search is kept: ``<cache dir>/searches/<model>-<key>.json``, the key a SHA-256
+    of everything the search depends on (the model package's Python files, the compiled
     simulator's file, whose name is the hash of its C source, flags, compiler and CPU, this
-    module's, the batch simulator's and vsw.hybrid's code, numpy's version, the parameters,
-    the box and the cells). Files are never removed: delete the directory to reclaim it.
-    None with ``VSW_SEARCH_CACHE=0`` or no compiled simulator."""
+    module's, the batch simulator's and vsw.hybrid's code, numpy's version, CasADi's
+    installation, the parameters, the box and the cells). Files are never removed: delete
+    the directory to reclaim it. None with ``VSW_SEARCH_CACHE=0`` or no compiled simulator."""
     if os.environ.get("VSW_SEARCH_CACHE", "1").strip() == "0" or sim.library_path is None:
         return None
     package = Path(model.module.__file__).parent
@@ -499,6 +560,7 @@ def _cache_file(
         Path(batch.__file__).read_bytes(),
         Path(hybrid.__file__).read_bytes(),  # the integrator's tolerances the batch takes
         np.__version__.encode(),
+        _casadi_fingerprint(),
         repr((params, sorted(box.items()), cells)).encode(),
     ]
     key = hashlib.sha256(b"\0".join(parts)).hexdigest()[:24]
@@ -513,8 +575,13 @@ def _read_cache(path: Path | None) -> dict[str, Any] | None:
         data = json.loads(path.read_text())
     except (OSError, ValueError):
         return None
-    if not isinstance(data, dict) or set(data) != _CACHE_KEYS:
+    if not isinstance(data, dict) or set(data) - {"confirmed"} != _CACHE_KEYS:
         return None
+    if data.get("confirmed") is not None:
+        try:
+            _confirmed_from_record(data["confirmed"])
+        except (KeyError, TypeError, ValueError):
+            data["confirmed"] = None  # confirmed again
     return data
 
 
