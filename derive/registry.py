@@ -19,6 +19,7 @@ MODEL_MODULES: dict[str, str] = {
     "vsw_biped_fte": "derive.models.vsw_biped_fte",
     "vsw_biped_phi0": "derive.models.vsw_biped_phi0",
     "point_mass_biped": "derive.models.point_mass_biped",
+    "point_mass_biped_switch": "derive.models.point_mass_biped_switch",
     "kuo_walker": "derive.models.kuo_walker",
     "level_compass_gait": "derive.models.level_compass_gait",
     "free_vsw_biped": "derive.models.free_vsw_biped",
