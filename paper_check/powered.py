@@ -65,6 +65,9 @@ sqrt(l/g)). Inverted-pendulum walking holds the leg at its length; between the k
 leg force's power wiggles about zero on the scheme's cubic, by O(h^3), and the cost
 prices it: at 20 intervals the slowest gait's cost changed by 8e-4 to 40, and at 40 it
 was still 1.4e-5 above the derived cost."""
+SWITCH_STARTS = (0.35, 0.65)
+"""Where the optimiser starts the legs' switch point (over d) when it chooses it: either
+side of the midpoint, which the model without the choice holds."""
 SR06_ACTUATORS = ("leg_force", "push_off", "heel_strike")
 """Srinivasan & Ruina's model: the leg force and the step's impulses (no stance torque)."""
 
@@ -103,6 +106,18 @@ def _optimum(step: float, speed: float, shortest: float | None = None) -> Powere
     request = Request("work", target_speed=speed, nodes=nodes, use=SR06_ACTUATORS)
     values = {"d": step} | ({} if shortest is None else {"l_min": shortest})
     return optimize(biped, biped.parameters(values), request)
+
+
+def _switch_optimum(step: float, speed: float, shortest: float) -> PoweredGait:
+    """The least-work gait of the same body with the legs' switch point chosen by the
+    optimiser too (``point_mass_biped_switch``), the best of the starts
+    :data:`SWITCH_STARTS` (an optimal one first)."""
+    biped = load("point_mass_biped_switch")
+    nodes = max(NODES, math.ceil(step / speed / LONGEST_INTERVAL))
+    request = Request("work", target_speed=speed, nodes=nodes, use=SR06_ACTUATORS)
+    found = [optimize(biped, biped.parameters({"d": step, "l_min": shortest, "sigma": sigma}),
+                      request) for sigma in SWITCH_STARTS]  # fmt: skip
+    return min(found, key=lambda gait: (gait.status != "optimal", gait.cost))
 
 
 def fastest_inverted_pendulum_walk(step: float) -> float:
@@ -260,8 +275,8 @@ def _ile_grid_table(speeds: Sequence[float], steps: Sequence[float]) -> str:
     lines = ["| V | d | VSW's cheapest gait: beta, theta_II (deg), phi0 (deg) | its work a step "
              "| its cost of transport | inverted-pendulum walking's work | its cost of "
              "transport | VSW / it | least work found (legs down to beta) | VSW / it | "
-             "status |",
-             "|" + " --- |" * 11]  # fmt: skip
+             "status | the switch point chosen: sigma found, least work | status |",
+             "|" + " --- |" * 13]  # fmt: skip
     for speed in speeds:
         for step in steps:
             ile = cheapest_ile_gait(speed, step)
@@ -270,18 +285,21 @@ def _ile_grid_table(speeds: Sequence[float], steps: Sequence[float]) -> str:
                             f"{walking[0]:.6f} | {walking[0] / step:.6f}")  # fmt: skip
             if ile is None:
                 lines.append(f"| {speed:g} | {step:g} | none (no ILE gait at theta_II "
-                             f"scanned) | - | - | {walking_text} | - | - | - | - |")  # fmt: skip
+                             f"scanned) | - | - | {walking_text} |" + " - |" * 6)  # fmt: skip
                 continue
             params, gait, work, edge = ile
             beta, theta_II, phi0 = params
             ratio = "-" if walking is None else f"{work / walking[0]:.3f}"
             best = _optimum(step, speed, shortest=beta)
+            switched = _switch_optimum(step, speed, shortest=beta)
+            sigma = switched.parameters[-1]
             at_edge = (f" (where its gaits end: the extension {gait.durations[1]:.1g} before "
                        "heel-strike)" if edge else "")  # fmt: skip
             lines.append(f"| {speed:g} | {step:g} | {beta:.4f}, {math.degrees(theta_II):.2f}"
                          f"{at_edge}, {math.degrees(phi0):.2f} | {work:.6f} | {work / step:.6f} | "
                          f"{walking_text} | {ratio} | {best.cost:.6f} | "
-                         f"{work / best.cost:.3f} | {best.status} |")  # fmt: skip
+                         f"{work / best.cost:.3f} | {best.status} | {sigma:.6f}, "
+                         f"{switched.cost:.6f} | {switched.status} |")  # fmt: skip
     return "\n".join(lines) + "\n"
 
 

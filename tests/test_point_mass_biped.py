@@ -262,3 +262,31 @@ def test_a_reversing_impulses_positive_work_is_what_it_puts_back(biped):
             exact, cost = ledger(params, state, impulses, fractions, np.maximum(ends, 0))
             assert float(exact) == pytest.approx(m * b**2 / 2, rel=1e-12)
             assert float(cost) == pytest.approx(price, rel=1e-12)
+
+
+def test_the_switch_point_model_is_the_midpoint_model_with_its_switch_moved(biped):
+    """point_mass_biped_switch: at sigma = 1/2 every generated function is the midpoint
+    model's, bit for bit (the same body, event and section); at any sigma its step event
+    is where the hip passes sigma d and the step starts (1 - sigma) d behind the new foot,
+    which the reset (the new foot d ahead) makes of the state at the event."""
+    switch = load("point_mass_biped_switch")
+    rng = np.random.default_rng(11)
+    names = [n for n in dir(biped.module) if n.startswith(("stance_", "event_", "section_"))]
+    assert len(names) > 20 and all(hasattr(switch.module, n) for n in names)
+    for _ in range(10):
+        params = tuple(rng.uniform(0.5, 2.0, 5))
+        state = tuple(rng.uniform(-1.0, 1.0, 4))
+        for name in names:
+            mid = np.asarray(getattr(switch.module, name)(*params, 0.5, *state))
+            assert (
+                mid.tobytes() == np.asarray(getattr(biped.module, name)(*params, *state)).tobytes()
+            ), name
+        sigma = rng.uniform(0.05, 0.95)
+        d = params[3]
+        at_switch = (sigma * d, state[1], *state[2:])
+        assert abs(switch.module.event_heelstrike_guard(*params, sigma, *at_switch)) < 1e-15
+        after = switch.module.event_heelstrike_reset(*params, sigma, *at_switch)
+        assert after[0] == pytest.approx(-(1 - sigma) * d, abs=1e-15)
+        assert tuple(after[1:]) == pytest.approx(at_switch[1:], abs=1e-15)
+        completed = switch.module.section_completion(*params, sigma, 0.3, *after[1:])
+        assert completed[0] == pytest.approx(-(1 - sigma) * d, abs=1e-15)

@@ -121,8 +121,9 @@ def test_bad_output_directory_is_one_line(capsys):
 def test_point_mass_biped_report_agrees_with_its_derivation_and_is_deterministic(tmp_path):
     """Srinivasan & Ruina's inverted-pendulum walking: every compared row agrees (the
     optimiser's least work and push-off against the cost derived in paper_check/powered.py),
-    the faster gait is not called optimal, the ILE's price is a ratio above 1, and two runs
-    write the same bytes."""
+    the faster gait is not called optimal, the ILE's price is a ratio above 1 (its least
+    work unchanged where the legs' switch point is chosen too), and two runs write the same
+    bytes."""
     runs = []
     for k in range(2):
         out = tmp_path / str(k)
@@ -140,9 +141,13 @@ def test_point_mass_biped_report_agrees_with_its_derivation_and_is_deterministic
     assert ile[8] == ile[10]  # optimal: the least work found is inverted-pendulum walking's
     # The price over speeds and step lengths (quick: V 0.3, d 0.5): VSW's cheapest gait is
     # where its gaits end (the extension at heel-strike), still dearer than the optimum.
-    (grid,) = [r for r in rows if r[:2] == ["0.3", "0.5"] and len(r) == 11]
-    assert "where its gaits end" in grid[2] and grid[-1] == "optimal"
+    (grid,) = [r for r in rows if r[:2] == ["0.3", "0.5"] and len(r) == 13]
+    assert "where its gaits end" in grid[2] and grid[10] == "optimal"
     assert float(grid[7]) > 1 and grid[5] == grid[8]
+    # With the legs' switch point chosen too, from either side of the midpoint, the optimum
+    # switches midway: the least work is the midpoint model's.
+    sigma, least = (float(v) for v in grid[11].split(", "))
+    assert abs(sigma - 0.5) < 1e-6 and f"{least:.6f}" == grid[8] and grid[12] == "optimal"
 
 
 def test_kuo_walker_report_agrees_with_its_derivation_and_is_deterministic(tmp_path):
