@@ -61,16 +61,19 @@ VSW_EXPORT void vsw_batch_stop(int on)
 #ifdef VSW_COUNT_CALLS
 #include <time.h>
 static long long vsw_flow_calls[VSW_NPHASES], vsw_watch_calls[VSW_NPHASES];
+static long long vsw_rk_calls[VSW_NPHASES]; /* RK steps, per walk */
 #define VSW_FLOW(phase, ...) (++vsw_flow_calls[phase], vsw_flow(phase, __VA_ARGS__))
 #define VSW_WATCH(phase, ...) (++vsw_watch_calls[phase], vsw_watch(phase, __VA_ARGS__))
 
-/* The evaluations since the last call, per phase: flows, then guards (a phase's at once). */
+/* The evaluations since the last call, per phase: flows, then guards (a phase's at once),
+   then RK steps. */
 VSW_EXPORT void vsw_batch_counts(long long *out)
 {
     for (int k = 0; k < VSW_NPHASES; ++k) {
         out[k] = vsw_flow_calls[k];
         out[VSW_NPHASES + k] = vsw_watch_calls[k];
-        vsw_flow_calls[k] = vsw_watch_calls[k] = 0;
+        out[2 * VSW_NPHASES + k] = vsw_rk_calls[k];
+        vsw_flow_calls[k] = vsw_watch_calls[k] = vsw_rk_calls[k] = 0;
     }
 }
 
@@ -268,6 +271,45 @@ static void vsw_lanes_rk_step(int phase, int live, const vsw_lanes *c, const vsw
     const vsw_lanes norm = vsw_lanes_fabs(h) * e5 / vsw_lanes_sqrt(denom * (double)VSW_NX);
     *err = vsw_lanes_select((e5 == 0.0) & (e3 == 0.0), vsw_lanes_splat(0.0), norm);
 }
+
+#ifdef VSW_COUNT_CALLS
+/* Seconds per walk of one RK step of phase `phase` in lanes of VSW_LANES walks (its twelve
+   flows, sums and error estimate: vsw_lanes_rk_step), each lane's steps chained as a walk
+   chains them (y_new and its flow the next step's start) from the n states given (n >=
+   VSW_LANES; else NaN), `repeat` steps of size h: out[0]; out[1] the sum of every result. */
+VSW_EXPORT void vsw_batch_rk_cost(int phase, const double *params, const double *states,
+                                  long long n, long long repeat, double h, double *out)
+{
+    const long long groups = n / VSW_LANES;
+    const int all = (1 << VSW_LANES) - 1;
+    const vsw_tolerances tol = {1e-10, 1e-10, INFINITY};
+    double c[VSW_NC > 0 ? VSW_NC : 1];
+    vsw_constants(params, c);
+    vsw_lanes cl[VSW_NC > 0 ? VSW_NC : 1], y[VSW_NX], f0[VSW_NX], y_new[VSW_NX], err;
+    vsw_lanes K[VSW_RK_ALL][VSW_NX], total = vsw_lanes_splat(0.0);
+    for (int k = 0; k < VSW_NC; ++k) cl[k] = vsw_lanes_splat(c[k]);
+    double seconds = 0.0;
+    for (long long i = 0; i < groups; ++i) {
+        for (int k = 0; k < VSW_NX; ++k)
+            for (int l = 0; l < VSW_LANES; ++l) y[k][l] = states[(i * VSW_LANES + l) * VSW_NX + k];
+        vsw_lanes_flow(phase, all, cl, y, f0);
+        const double start = vsw_seconds();
+        for (long long r = 0; r < repeat; ++r) {
+            vsw_lanes_rk_step(phase, all, cl, y, f0, vsw_lanes_splat(h), &tol, K, y_new, &err);
+            for (int k = 0; k < VSW_NX; ++k) {
+                y[k] = y_new[k];
+                f0[k] = K[VSW_RK_STAGES][k];
+            }
+            total += err;
+        }
+        seconds += vsw_seconds() - start;
+    }
+    for (int k = 0; k < VSW_NX; ++k) total += y[k];
+    out[0] = groups > 0 ? seconds / (double)(repeat * groups * VSW_LANES) : NAN;
+    out[1] = 0.0;
+    for (int l = 0; l < VSW_LANES; ++l) out[1] += total[l];
+}
+#endif
 
 /* SciPy's select_initial_step for an 8th-order method (error estimator order 7). */
 static double vsw_initial_step(int phase, const double *p, const double *y, const double *f0,
@@ -755,6 +797,9 @@ static void vsw_batch_run(vsw_batch *b)
         }
         for (int k = 0; k < VSW_NC; ++k) c[k] = vsw_lanes_gather(from, constants[k]);
         vsw_lanes_rk_step(busiest, live, c, y, f0, h, &b->tol, K, y_new, &err);
+#ifdef VSW_COUNT_CALLS
+        vsw_rk_calls[busiest] += taken;
+#endif
         int accepted = 0; /* a rejected step's guards are not needed */
         for (int l = 0; l < taken; ++l) accepted |= (err[l] < 1.0) << l;
         if (accepted) vsw_lanes_watch_in(busiest, accepted, c, y_new, g1);
