@@ -350,7 +350,8 @@ def point_mass_biped(out: Path, quick: bool = False) -> list[Path]:
         "price. The optimiser's `optimal` is a local optimum: its least work is a candidate ",
         "for the price, no more. The point-mass biped's legs exchange roles midway between ",
         "the feet, the ILE's do not: the optimum over every switch point can only be ",
-        "lower.\n\n",
+        "lower (the last two columns of the next table: with the switch point chosen too, ",
+        "the optimiser switches midway).\n\n",
         _ile_table(ILE_GAITS[:1] if quick else ILE_GAITS),
         "\n## The ILE's price over speeds and step lengths\n\n",
         "At each speed V and step length d (scaled: r_e = g = 1), VSW's most favourable ",
@@ -364,7 +365,11 @@ def point_mass_biped(out: Path, quick: bool = False) -> list[Path]:
         "work is at the last angle with a gait, it is where the extension meets heel-strike ",
         "(the phase after it shrinks to nothing): the cheapest VSW gait extends the stance ",
         "leg at the end of the stance, where the optimum pushes off, and still costs more ",
-        "than the optimum.\n\n",
+        "than the optimum. The last two columns: the same body with the legs' switch point ",
+        "chosen by the optimiser as well (`point-mass-biped-switch`, the hip at sigma d from ",
+        "the stance foot when they exchange; the better of the starts sigma = ",
+        f"{', '.join(f'{v:g}' for v in SWITCH_STARTS)}): where it switches and its least ",
+        "work.\n\n",
         _ile_grid_table(
             GRID_SPEEDS[:1] if quick else GRID_SPEEDS, GRID_STEPS[:1] if quick else GRID_STEPS
         ),
