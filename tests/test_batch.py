@@ -551,13 +551,13 @@ def test_sin_cos_fusion_keeps_each_call_on_its_operand():
 
 def test_the_walks_are_named_by_their_outcome():
     """labels() and ended() name every walk by its outcome code and aux (as the batch
-    simulator's C writes them: vsw_batch_simulate), in the walks' order, empty for no
-    walks."""
+    simulator's C writes them: vsw_batch_simulate; a negative aux as Python indexes), in
+    the walks' order, empty for no walks."""
     from vsw.batch import PERIODIC, STALLED, BatchResult
 
     rng = np.random.default_rng(3)
     outcome = rng.integers(0, 5, 500)
-    aux = np.where(outcome == FELL, rng.integers(0, 2, 500),
+    aux = np.where(outcome == FELL, rng.integers(-2, 2, 500),
                    np.where(outcome == PERIODIC, rng.integers(2, 9, 500), 0))  # fmt: skip
     empty = np.zeros((0, 2))
     result = BatchResult(outcome, aux, np.zeros(500, int), np.zeros((500, 2)), empty, empty,
@@ -571,6 +571,7 @@ def test_the_walks_are_named_by_their_outcome():
     assert result.labels() == expected_labels and result.ended() == expected_ended
     assert {"converged", "fell", "other", "period-2"} <= set(expected_labels)
     assert {"lift-off", "stalled", "walked"} <= set(expected_ended)
+    assert {-2, -1} <= set(aux[outcome == FELL].tolist())  # an index from the end, as Python's
     none = BatchResult(outcome[:0], aux[:0], np.zeros(0, int), empty, empty, empty, empty,
                        failures=())  # fmt: skip
     assert none.labels() == [] and none.ended() == []

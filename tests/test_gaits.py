@@ -157,9 +157,10 @@ def test_a_kept_search_is_a_new_one_bit_for_bit(monkeypatch, tmp_path):
     """The scan, Newton's solutions and the confirmed gaits are kept on disk
     (vsw.gaits._cache_file) and a later search of the same model, code and inputs reuses
     them: neither the scan nor the boundary-value solver runs again, and its gaits (their
-    orbits' states too) equal a new search's bit for bit. A scan kept without its gaits (a
-    search interrupted while confirming) is confirmed and kept whole; a damaged file is made
-    again; VSW_SEARCH_CACHE=0 keeps nothing."""
+    orbits' states too) equal a new search's bit for bit. Gaits missing (a search
+    interrupted while confirming), damaged or kept by another CasADi are confirmed again and
+    kept whole; a solve that failed outside stop.supervised keeps none; a damaged file is
+    made again; VSW_SEARCH_CACHE=0 keeps nothing."""
     monkeypatch.setenv("VSW_CACHE_DIR", str(tmp_path))
     m = load("compass_gait")
     params = m.parameters({})
@@ -169,7 +170,10 @@ def test_a_kept_search_is_a_new_one_bit_for_bit(monkeypatch, tmp_path):
         patch.setattr(gaits, "_scan", lambda *a: pytest.fail("scanned again"))
         patch.setattr(gaits, "_confirm", lambda *a: pytest.fail("confirmed again"))
         again = gaits.search(m, params, cells=20_000)
-    assert [o.to_dict() for o in again.gaits] == [o.to_dict() for o in first.gaits]
+    # as JSON: the state's order and a zero's sign count too
+    assert json.dumps([o.to_dict() for o in again.gaits]) == json.dumps(
+        [o.to_dict() for o in first.gaits]
+    )
     for a, b in zip(again.gaits, first.gaits, strict=True):
         assert (a.durations, a.eigenvalues, a.phase_states) == (b.durations, b.eigenvalues, ())
     # An orbit's phase states (none from the solver today) read back bit for bit too.
@@ -185,12 +189,27 @@ def test_a_kept_search_is_a_new_one_bit_for_bit(monkeypatch, tmp_path):
     assert (again.unconfirmed, again.standing) == (first.unconfirmed, first.standing)
     assert len(first.gaits) >= 2
     record = json.loads(kept.read_text())
-    kept.write_text(json.dumps({k: v for k, v in record.items() if k != "confirmed"}))
-    with monkeypatch.context() as patch:
-        patch.setattr(gaits, "_scan", lambda *a: pytest.fail("scanned again"))
-        confirmed = gaits.search(m, params, cells=20_000)
-    assert [o.to_dict() for o in confirmed.gaits] == [o.to_dict() for o in first.gaits]
-    assert json.loads(kept.read_text()) == record
+    # Kept without its gaits (interrupted while confirming), with a damaged gait, or by
+    # another CasADi installation: confirmed again, the scan reused, the record kept whole.
+    damaged_gait = {**record["confirmed"], "gaits": [{"state": []}]}
+    other_casadi = {**record["confirmed"], "casadi": "another"}
+    for confirmed_record in (None, damaged_gait, other_casadi):
+        kept.write_text(json.dumps({**record, "confirmed": confirmed_record}))
+        with monkeypatch.context() as patch:
+            patch.setattr(gaits, "_scan", lambda *a: pytest.fail("scanned again"))
+            confirmed = gaits.search(m, params, cells=20_000)
+        assert [o.to_dict() for o in confirmed.gaits] == [o.to_dict() for o in first.gaits]
+        assert json.loads(kept.read_text()) == record
+    # Outside stop.supervised a solve CasADi failed may be a Ctrl-C: such a result is not
+    # kept (the next search confirms again); under it, it is.
+    failed = [{"state": {}, "period": 1.0, "reason": "rhs failed"}]
+    for supervising, keeps in ((False, False), (True, True)):
+        kept.write_text(json.dumps({**record, "confirmed": None}))
+        with monkeypatch.context() as patch:
+            patch.setattr(gaits, "_confirm", lambda *a: (first.gaits[:1], failed, 0))
+            patch.setattr(gaits.stop, "supervising", lambda s=supervising: s)
+            gaits.search(m, params, cells=20_000)
+        assert (json.loads(kept.read_text())["confirmed"] is not None) == keeps
     kept.write_text('{"found": [[0.1')  # a file cut short
     damaged = gaits.search(m, params, cells=20_000)
     assert [o.to_dict() for o in damaged.gaits] == [o.to_dict() for o in first.gaits]

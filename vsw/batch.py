@@ -111,11 +111,12 @@ class BatchResult:
     def _named(self, name: Callable[[int, int], str]) -> list[str]:
         """``name(outcome, aux)`` per walk, computed once per distinct pair (a 200 x 200
         basin has a handful): a Python loop over the walks took 40 ms of `vsw basin`."""
-        # One integer per pair (aux is a failure's index or a period, far below 2^32): a
+        # One integer per pair (aux, a failure's index or a period, in its low 32 bits): a
         # one-dimensional unique sorts ten times faster than unique over pairs.
-        keys = np.asarray(self.outcome, np.int64) << 32 | np.asarray(self.aux, np.int64)
+        aux = np.asarray(self.aux, np.int64)
+        keys = np.asarray(self.outcome, np.int64) << 32 | (aux & 0xFFFFFFFF)
         distinct, index = np.unique(keys, return_inverse=True)
-        names = [name(int(k >> 32), int(k & 0xFFFFFFFF)) for k in distinct]
+        names = [name(int(k >> 32), int(np.int32(np.uint32(k & 0xFFFFFFFF)))) for k in distinct]
         return np.array(names, dtype=object)[index.ravel()].tolist()
 
     @staticmethod

@@ -2,9 +2,10 @@
 ``VSW_DASK_SCHEDULER``; the optional extra ``vsw[dask]``).
 
 A study is cut into blocks of walks (:func:`block_size`: about :data:`TASKS_PER_THREAD`
-tasks for each of the cluster's worker threads, and at least :data:`BLOCK` walks); each
-block is one task that runs the same compiled simulator in the worker's process (built
-into the worker's kernel cache on its first task) and returns its arrays. Each walk is
+tasks for each of the cluster's worker threads when the tasks are submitted, each of at
+least :data:`BLOCK` walks but the last); each block is one task that runs the same
+compiled simulator in the worker's process (built into the worker's kernel cache on its
+first task) and returns its arrays. Each walk is
 independent of the others and of its block, so the result is the local one, byte for
 byte, and does not depend on the block size or on which worker ran what, as long as every
 worker builds the library the client does (a C compiler, the same CPU features and glibc:

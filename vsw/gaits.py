@@ -22,9 +22,10 @@ to the next). The search is complete within a stated box and resolution:
    unknowns, eigenvalues by CasADi derivatives, one simulated step back onto it).
 
 Steps 1-3, and then step 4's gaits, are kept on disk and reused by a later search of the
-same model, code, CasADi and inputs (:func:`_cache_file`; ``VSW_SEARCH_CACHE=0`` turns it
-off): a command that follows a gait (``vsw basin``) spent a fifth of its time confirming
-the same three gaits again. A kept search returns what a new one would, bit for bit.
+same model, code and inputs, the gaits only with the same CasADi installation
+(:func:`_cache_file`; ``VSW_SEARCH_CACHE=0`` turns it off): a command that follows a gait
+(``vsw basin``) spent a fifth of its time confirming the same three gaits again. A kept
+search returns what a new one would, bit for bit.
 
 What this misses, by construction: a gait whose set of states that complete one step is
 too thin to hold a grid cell near it (a gait with its apex barely passed: max |eigenvalue|
@@ -345,9 +346,11 @@ def search(
     """The period-one gaits at ``params`` within the search box (module docstring).
 
     The scan and Newton's solutions, then the confirmed gaits, are kept in the cache
-    directory (:func:`_cache_file`) and reused by any later search of the same model, code,
-    CasADi and inputs; a reused search returns what a new one would, bit for bit (the
-    floats written by ``repr``, which reads back exactly).
+    directory (:func:`_cache_file`) and reused by any later search of the same model, code
+    and inputs (the gaits only with the same CasADi installation); a reused search returns
+    what a new one would, bit for bit (the floats written by ``repr``, which reads back
+    exactly). Outside :func:`vsw.stop.supervised` a search with a solution the solver did
+    not confirm keeps no gaits: there a Ctrl-C inside CasADi looks like a failed solve.
 
     Parameters
     ----------
@@ -369,12 +372,17 @@ def search(
     if scanned is None:
         scanned = _scan(model, sim, params, box, cells, compiled)
         _write_cache(path, scanned)  # kept before confirming: an interrupt loses no scan
-    if scanned.get("confirmed") is not None:
-        gaits, unconfirmed, standing = _confirmed_from_record(scanned["confirmed"])
+    names = [*model.coordinates, *model.rates]
+    kept = _kept_gaits(scanned.get("confirmed"), names)
+    if kept is not None:
+        gaits, unconfirmed, standing = kept
     else:
         gaits, unconfirmed, standing = _confirm(model, sim, params, scanned["found"])
-        _write_cache(path, {**scanned, "confirmed": _confirmed_record(gaits, unconfirmed,
-                                                                      standing)})  # fmt: skip
+        # Outside stop.supervised (vsw as a library) a Ctrl-C inside CasADi comes back as a
+        # failed solve, indistinguishable from a real one: such a result is not kept.
+        if stop.supervising() or not unconfirmed:
+            record = _confirmed_record(gaits, unconfirmed, standing)
+            _write_cache(path, {**scanned, "confirmed": record})
     return GaitSearch(
         gaits=gaits,
         box=box,
@@ -506,14 +514,33 @@ def _confirmed_record(
             ],
         }
 
-    return {"gaits": [orbit(o) for o in gaits], "unconfirmed": unconfirmed, "standing": standing}
+    return {"casadi": _casadi_fingerprint(), "gaits": [orbit(o) for o in gaits],
+            "unconfirmed": unconfirmed, "standing": standing}  # fmt: skip
+
+
+def _kept_gaits(record: Any, names: list[str]) -> tuple[list[Orbit], list[dict], int] | None:
+    """The confirmed gaits a kept search holds, or None (none kept, kept with another CasADi
+    installation, or damaged: they are confirmed again)."""
+    if not isinstance(record, dict) or record.get("casadi") != _casadi_fingerprint():
+        return None
+    try:
+        gaits, unconfirmed, standing = _confirmed_from_record(record)
+    except (AttributeError, KeyError, TypeError, ValueError):
+        return None
+    if any(list(o.state) != names or not o.eigenvalues for o in gaits) or not all(
+        isinstance(u, dict) for u in unconfirmed
+    ):
+        return None
+    return gaits, unconfirmed, standing
 
 
 def _confirmed_from_record(record: dict[str, Any]) -> tuple[list[Orbit], list[dict], int]:
     """:func:`_confirmed_record` read back."""
+    if not isinstance(record["unconfirmed"], list) or not isinstance(record["standing"], int):
+        raise TypeError("a damaged record")
     gaits = [
         Orbit(
-            state={k: float(v) for k, v in o["state"].items()},
+            state={str(k): float(v) for k, v in o["state"].items()},
             durations=tuple(float(v) for v in o["durations"]),
             period=float(o["period"]),
             eigenvalues=tuple(complex(re, im) for re, im in o["eigenvalues"]),
@@ -528,16 +555,18 @@ def _confirmed_from_record(record: dict[str, Any]) -> tuple[list[Orbit], list[di
     return gaits, list(record["unconfirmed"]), int(record["standing"])
 
 
-def _casadi_fingerprint() -> bytes:
-    """CasADi's installation (its extension's path, size and time), which the
-    boundary-value solver's gaits depend on, without importing it (15 ms)."""
+def _casadi_fingerprint() -> str:
+    """CasADi's installation (its folder, and the name, size and time of each of its
+    libraries: the extension, the core and the plugins the boundary-value solver loads),
+    which the confirmed gaits depend on and the scan does not; without importing it (15
+    ms)."""
     spec = importlib.util.find_spec("casadi")
     if spec is None or spec.origin is None:
-        return b"no casadi"
+        return "no casadi"
     folder = Path(spec.origin).parent
-    files = sorted(folder.glob("_casadi*"))
+    files = sorted(f for f in folder.iterdir() if "casadi" in f.name and ".so" in f.name)
     stats = [(f.name, f.stat().st_size, f.stat().st_mtime_ns) for f in files]
-    return repr((str(folder), stats)).encode()
+    return hashlib.sha256(repr((str(folder), stats)).encode()).hexdigest()[:24]
 
 
 def _cache_file(
@@ -547,9 +576,10 @@ def _cache_file(
     """Where a search is kept: ``<cache dir>/searches/<model>-<key>.json``, the key a SHA-256
     of everything the search depends on (the model package's Python files, the compiled
     simulator's file, whose name is the hash of its C source, flags, compiler and CPU, this
-    module's, the batch simulator's and vsw.hybrid's code, numpy's version, CasADi's
-    installation, the parameters, the box and the cells). Files are never removed: delete
-    the directory to reclaim it. None with ``VSW_SEARCH_CACHE=0`` or no compiled simulator."""
+    module's, the batch simulator's and vsw.hybrid's code, numpy's version, the parameters,
+    the box and the cells; the confirmed gaits kept in it carry CasADi's installation,
+    :func:`_kept_gaits`). Files are never removed: delete the directory to reclaim it. None
+    with ``VSW_SEARCH_CACHE=0`` or no compiled simulator."""
     if os.environ.get("VSW_SEARCH_CACHE", "1").strip() == "0" or sim.library_path is None:
         return None
     package = Path(model.module.__file__).parent
@@ -560,7 +590,6 @@ def _cache_file(
         Path(batch.__file__).read_bytes(),
         Path(hybrid.__file__).read_bytes(),  # the integrator's tolerances the batch takes
         np.__version__.encode(),
-        _casadi_fingerprint(),
         repr((params, sorted(box.items()), cells)).encode(),
     ]
     key = hashlib.sha256(b"\0".join(parts)).hexdigest()[:24]
@@ -577,11 +606,6 @@ def _read_cache(path: Path | None) -> dict[str, Any] | None:
         return None
     if not isinstance(data, dict) or set(data) - {"confirmed"} != _CACHE_KEYS:
         return None
-    if data.get("confirmed") is not None:
-        try:
-            _confirmed_from_record(data["confirmed"])
-        except (KeyError, TypeError, ValueError):
-            data["confirmed"] = None  # confirmed again
     return data
 
 

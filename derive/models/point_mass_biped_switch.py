@@ -23,7 +23,7 @@ from __future__ import annotations
 import dataclasses
 
 from derive.engine import model_derivation
-from derive.engine.model import Model, Parameter
+from derive.engine.model import Model, Parameter, ParameterCondition
 from derive.models import point_mass_biped as body
 from derive.quantities import Derivation
 
@@ -35,7 +35,16 @@ PARAMETERS = (
               "start)", {"positive": True}, default=0.5, unit="1"),
 )  # fmt: skip
 sigma = PARAMETERS[-1].symbol
-x, d = body.x, body.d
+x, d, l = body.x, body.d, body.l
+# At the switch both legs reach the ground from the hip: the stance leg over sigma d, the
+# new one over (1 - sigma) d (the midpoint model's d < 2 l is both at sigma = 1/2).
+PARAMETER_CONDITIONS = (
+    *body.PARAMETER_CONDITIONS,
+    ParameterCondition(l - sigma * d, "the stance leg must reach the hip at the switch: "
+                       "sigma d < l"),
+    ParameterCondition(l - (1 - sigma) * d, "the new leg must reach the hip at the switch: "
+                       "(1 - sigma) d < l"),
+)  # fmt: skip
 
 (HEELSTRIKE,) = body.MODEL.events
 MODEL: Model = dataclasses.replace(
@@ -50,6 +59,7 @@ MODEL: Model = dataclasses.replace(
     events=(dataclasses.replace(HEELSTRIKE, guard=x - sigma * d),),
     # Just after the step the hip is (1 - sigma) d behind the new stance foot.
     section={"x": -(1 - sigma) * d},
+    parameter_conditions=PARAMETER_CONDITIONS,
     chosen_parameters=("sigma",),
 )
 

@@ -17,7 +17,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'point_mass_biped_switch', 'title': 'Point-mass biped, switch point chosen', 'description': 'the point-mass biped (Srinivasan & Ruina 2006) whose legs exchange roles where the hip passes a point of the step the optimiser chooses, not only midway; no passive gait: it walks only powered', 'coordinate_units': {'x': 'm', 'y': 'm'}, 'parameters': ('m', 'g', 'l', 'd', 'l_min', 'sigma'), 'coordinates': ('x', 'y'), 'rates': ('x_dot', 'y_dot'), 'state': ({'name': 'x', 'kind': 'coordinate', 'unit': 'm', 'meaning': "hip's horizontal position from the stance foot", 'reference': 'above the stance foot', 'positive': 'the hip ahead of the foot', 'rate': 'x_dot'}, {'name': 'y', 'kind': 'coordinate', 'unit': 'm', 'meaning': "hip's height above the ground", 'reference': 'the ground', 'positive': 'the hip above the ground', 'rate': 'y_dot'}, {'name': 'x_dot', 'kind': 'rate', 'unit': 'm/s', 'meaning': "rate of x (hip's horizontal position from the stance foot)", 'reference': '', 'positive': 'x increasing', 'rate': None}, {'name': 'y_dot', 'kind': 'rate', 'unit': 'm/s', 'meaning': "rate of y (hip's height above the ground)", 'reference': '', 'positive': 'y increasing', 'rate': None}), 'phases': ({'name': 'stance', 'failures': (('fell', 'stance_fell', -1), ('fell-backward', 'stance_fell_backward', -1), ('lift-off', 'stance_lift_off', -1), ('crouched', 'stance_crouched', -1), ('overextended', 'stance_overextended', 1)), 'conservative': True, 'inputs': ({'name': 'leg_force', 'actuator': 'leg', 'along': 'sqrt(x**2 + y**2)', 'unit': 'N', 'bounds': (0.0, None), 'description': "the stance leg's force along itself, pushing the hip away from the foot (>= 0: a leg cannot pull on the ground)"}, {'name': 'stance_torque', 'actuator': 'stance torque', 'along': 'atan2(x, y)', 'unit': 'N m', 'bounds': (None, None), 'description': "a torque on the stance leg about its foot, positive turning the hip forward (Kuo 2002's torque on the stance leg; an idealisation: a point mass has no trunk for a hip to act against)"})},), 'events': ({'name': 'heelstrike', 'source': 'stance', 'target': 'stance', 'direction': 1, 'ends_step': True, 'when': None, 'reset': 'impact', 'bodies': (0,), 'impulses': ({'name': 'push_off', 'actuator': 'leg', 'along': 'sqrt(x**2 + y**2)', 'unit': 'N s', 'bounds': (0.0, None), 'description': "the trailing leg's impulse along itself just before the step", 'applied': 'before'}, {'name': 'heel_strike', 'actuator': 'leg', 'along': 'sqrt(x**2 + y**2)', 'unit': 'N s', 'bounds': (0.0, None), 'description': "the new stance leg's impulse along itself just after the step (a collision where it stops the leg shortening)", 'applied': 'after'}, {'name': 'torque_impulse', 'actuator': 'stance torque', 'along': 'atan2(x, y)', 'unit': 'N m s', 'bounds': (None, None), 'description': "the stance torque's impulse on the new stance leg just after the step (the least-work torque concentrates there)", 'applied': 'after'})},), 'failures': ({'name': 'fell', 'direction': -1, 'meaning': 'the hip reaches the ground', 'unit': 'm'}, {'name': 'fell-backward', 'direction': -1, 'meaning': 'the hip stops and moves back', 'unit': 'm/s'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground (the stance torque would pull it up)', 'unit': 'N'}, {'name': 'crouched', 'direction': -1, 'meaning': 'the stance leg would be shorter than l_min: the end of its stroke', 'unit': 'm'}, {'name': 'overextended', 'direction': 1, 'meaning': 'the stance leg would be longer than l: its foot leaves the ground', 'unit': 'm'}), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J', 'force': 'N'}, 'step_length': True, 'section': ('x',), 'search': {'y': (0.5, 1.0), 'x_dot': (0.0, 2.0), 'y_dot': (-1.0, 1.0)}, 'powered_only': True, 'parameter_conditions': ({'function': 'parameter_condition_0', 'reason': 'the step d must be shorter than 2 l: the legs must reach', 'strict': True, 'parameters': ('l', 'd')}, {'function': 'parameter_condition_1', 'reason': 'the shortest leg l_min must be at most l', 'strict': False, 'parameters': ('l', 'l_min')}), 'chosen_parameters': ('sigma',), 'closed_form': False}
+HYBRID = {'name': 'point_mass_biped_switch', 'title': 'Point-mass biped, switch point chosen', 'description': 'the point-mass biped (Srinivasan & Ruina 2006) whose legs exchange roles where the hip passes a point of the step the optimiser chooses, not only midway; no passive gait: it walks only powered', 'coordinate_units': {'x': 'm', 'y': 'm'}, 'parameters': ('m', 'g', 'l', 'd', 'l_min', 'sigma'), 'coordinates': ('x', 'y'), 'rates': ('x_dot', 'y_dot'), 'state': ({'name': 'x', 'kind': 'coordinate', 'unit': 'm', 'meaning': "hip's horizontal position from the stance foot", 'reference': 'above the stance foot', 'positive': 'the hip ahead of the foot', 'rate': 'x_dot'}, {'name': 'y', 'kind': 'coordinate', 'unit': 'm', 'meaning': "hip's height above the ground", 'reference': 'the ground', 'positive': 'the hip above the ground', 'rate': 'y_dot'}, {'name': 'x_dot', 'kind': 'rate', 'unit': 'm/s', 'meaning': "rate of x (hip's horizontal position from the stance foot)", 'reference': '', 'positive': 'x increasing', 'rate': None}, {'name': 'y_dot', 'kind': 'rate', 'unit': 'm/s', 'meaning': "rate of y (hip's height above the ground)", 'reference': '', 'positive': 'y increasing', 'rate': None}), 'phases': ({'name': 'stance', 'failures': (('fell', 'stance_fell', -1), ('fell-backward', 'stance_fell_backward', -1), ('lift-off', 'stance_lift_off', -1), ('crouched', 'stance_crouched', -1), ('overextended', 'stance_overextended', 1)), 'conservative': True, 'inputs': ({'name': 'leg_force', 'actuator': 'leg', 'along': 'sqrt(x**2 + y**2)', 'unit': 'N', 'bounds': (0.0, None), 'description': "the stance leg's force along itself, pushing the hip away from the foot (>= 0: a leg cannot pull on the ground)"}, {'name': 'stance_torque', 'actuator': 'stance torque', 'along': 'atan2(x, y)', 'unit': 'N m', 'bounds': (None, None), 'description': "a torque on the stance leg about its foot, positive turning the hip forward (Kuo 2002's torque on the stance leg; an idealisation: a point mass has no trunk for a hip to act against)"})},), 'events': ({'name': 'heelstrike', 'source': 'stance', 'target': 'stance', 'direction': 1, 'ends_step': True, 'when': None, 'reset': 'impact', 'bodies': (0,), 'impulses': ({'name': 'push_off', 'actuator': 'leg', 'along': 'sqrt(x**2 + y**2)', 'unit': 'N s', 'bounds': (0.0, None), 'description': "the trailing leg's impulse along itself just before the step", 'applied': 'before'}, {'name': 'heel_strike', 'actuator': 'leg', 'along': 'sqrt(x**2 + y**2)', 'unit': 'N s', 'bounds': (0.0, None), 'description': "the new stance leg's impulse along itself just after the step (a collision where it stops the leg shortening)", 'applied': 'after'}, {'name': 'torque_impulse', 'actuator': 'stance torque', 'along': 'atan2(x, y)', 'unit': 'N m s', 'bounds': (None, None), 'description': "the stance torque's impulse on the new stance leg just after the step (the least-work torque concentrates there)", 'applied': 'after'})},), 'failures': ({'name': 'fell', 'direction': -1, 'meaning': 'the hip reaches the ground', 'unit': 'm'}, {'name': 'fell-backward', 'direction': -1, 'meaning': 'the hip stops and moves back', 'unit': 'm/s'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground (the stance torque would pull it up)', 'unit': 'N'}, {'name': 'crouched', 'direction': -1, 'meaning': 'the stance leg would be shorter than l_min: the end of its stroke', 'unit': 'm'}, {'name': 'overextended', 'direction': 1, 'meaning': 'the stance leg would be longer than l: its foot leaves the ground', 'unit': 'm'}), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J', 'force': 'N'}, 'step_length': True, 'section': ('x',), 'search': {'y': (0.5, 1.0), 'x_dot': (0.0, 2.0), 'y_dot': (-1.0, 1.0)}, 'powered_only': True, 'parameter_conditions': ({'function': 'parameter_condition_0', 'reason': 'the step d must be shorter than 2 l: the legs must reach', 'strict': True, 'parameters': ('l', 'd')}, {'function': 'parameter_condition_1', 'reason': 'the shortest leg l_min must be at most l', 'strict': False, 'parameters': ('l', 'l_min')}, {'function': 'parameter_condition_2', 'reason': 'the stance leg must reach the hip at the switch: sigma d < l', 'strict': True, 'parameters': ('l', 'd', 'sigma')}, {'function': 'parameter_condition_3', 'reason': 'the new leg must reach the hip at the switch: (1 - sigma) d < l', 'strict': True, 'parameters': ('l', 'd', 'sigma')}), 'chosen_parameters': ('sigma',), 'closed_form': False}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -859,6 +859,60 @@ def parameter_condition_1(m, g, l, d, l_min, sigma, x, y, x_dot, y_dot):
     """
     be = backend_for(m, g, l, d, l_min, sigma, x, y, x_dot, y_dot)
     return l - l_min
+
+
+def parameter_condition_2(m, g, l, d, l_min, sigma, x, y, x_dot, y_dot):
+    """Valid parameters have this > 0: the stance leg must reach the hip at the switch: sigma d < l (the state is not used).
+
+    Parameters
+    ----------
+    m : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    l : array_like or casadi.SX/MX/DM
+    d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
+    sigma : array_like or casadi.SX/MX/DM
+    x : array_like or casadi.SX/MX/DM
+    y : array_like or casadi.SX/MX/DM
+    x_dot : array_like or casadi.SX/MX/DM
+    y_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        parameter condition
+    """
+    be = backend_for(m, g, l, d, l_min, sigma, x, y, x_dot, y_dot)
+    return l - d*sigma
+
+
+def parameter_condition_3(m, g, l, d, l_min, sigma, x, y, x_dot, y_dot):
+    """Valid parameters have this > 0: the new leg must reach the hip at the switch: (1 - sigma) d < l (the state is not used).
+
+    Parameters
+    ----------
+    m : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    l : array_like or casadi.SX/MX/DM
+    d : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
+    sigma : array_like or casadi.SX/MX/DM
+    x : array_like or casadi.SX/MX/DM
+    y : array_like or casadi.SX/MX/DM
+    x_dot : array_like or casadi.SX/MX/DM
+    y_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        parameter condition
+    """
+    be = backend_for(m, g, l, d, l_min, sigma, x, y, x_dot, y_dot)
+    return l - d*(1 - sigma)
 
 
 def section_completion(m, g, l, d, l_min, sigma, x, y, x_dot, y_dot):

@@ -276,7 +276,8 @@ static void vsw_lanes_rk_step(int phase, int live, const vsw_lanes *c, const vsw
 /* Seconds per walk of one RK step of phase `phase` in lanes of VSW_LANES walks (its twelve
    flows, sums and error estimate: vsw_lanes_rk_step), each lane's steps chained as a walk
    chains them (y_new and its flow the next step's start) from the n states given (n >=
-   VSW_LANES; else NaN), `repeat` steps of size h: out[0]; out[1] the sum of every result. */
+   VSW_LANES; else NaN), `repeat` steps of size h: out[0]; out[1] the sum of every result.
+   The flows' counters tick inside the timed loop, as they do in the counted walks. */
 VSW_EXPORT void vsw_batch_rk_cost(int phase, const double *params, const double *states,
                                   long long n, long long repeat, double h, double *out)
 {
@@ -288,6 +289,7 @@ VSW_EXPORT void vsw_batch_rk_cost(int phase, const double *params, const double 
     vsw_lanes cl[VSW_NC > 0 ? VSW_NC : 1], y[VSW_NX], f0[VSW_NX], y_new[VSW_NX], err;
     vsw_lanes K[VSW_RK_ALL][VSW_NX], total = vsw_lanes_splat(0.0);
     for (int k = 0; k < VSW_NC; ++k) cl[k] = vsw_lanes_splat(c[k]);
+    for (int k = 0; k < VSW_NX; ++k) y[k] = vsw_lanes_splat(0.0); /* read below if n < lanes */
     double seconds = 0.0;
     for (long long i = 0; i < groups; ++i) {
         for (int k = 0; k < VSW_NX; ++k)

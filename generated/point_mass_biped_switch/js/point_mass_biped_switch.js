@@ -219,12 +219,22 @@ function parameter_condition_1(m, g, l, d, l_min, sigma, x, y, x_dot, y_dot) {
   return l - l_min;
 }
 
+/* Valid parameters have this > 0: the stance leg must reach the hip at the switch: sigma d < l (the state is not used). Returns parameter condition. */
+function parameter_condition_2(m, g, l, d, l_min, sigma, x, y, x_dot, y_dot) {
+  return l - d*sigma;
+}
+
+/* Valid parameters have this > 0: the new leg must reach the hip at the switch: (1 - sigma) d < l (the state is not used). Returns parameter condition. */
+function parameter_condition_3(m, g, l, d, l_min, sigma, x, y, x_dot, y_dot) {
+  return l - d*(1 - sigma);
+}
+
 /* The section state with the components the section determines recomputed from the others (the step event's geometry and reset). Returns tuple: coordinates, then rates. */
 function section_completion(m, g, l, d, l_min, sigma, x, y, x_dot, y_dot) {
   return [d*(-1 + sigma), y, x_dot, y_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell, stance_fell_input_gains, stance_fell_backward, stance_fell_backward_input_gains, stance_lift_off, stance_lift_off_input_gains, stance_crouched, stance_crouched_input_gains, stance_overextended, stance_overextended_input_gains, stance_positions, stance_inertias, stance_input_gains, stance_reaction_input_gains, stance_input_rates, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_impulse_gains_before, event_heelstrike_impulse_rates_before, event_heelstrike_impulse_gains_after, event_heelstrike_impulse_rates_after, event_heelstrike_contact, step_length_of_state, weight, parameter_condition_0, parameter_condition_1, section_completion };
+const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell, stance_fell_input_gains, stance_fell_backward, stance_fell_backward_input_gains, stance_lift_off, stance_lift_off_input_gains, stance_crouched, stance_crouched_input_gains, stance_overextended, stance_overextended_input_gains, stance_positions, stance_inertias, stance_input_gains, stance_reaction_input_gains, stance_input_rates, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_impulse_gains_before, event_heelstrike_impulse_rates_before, event_heelstrike_impulse_gains_after, event_heelstrike_impulse_rates_after, event_heelstrike_contact, step_length_of_state, weight, parameter_condition_0, parameter_condition_1, parameter_condition_2, parameter_condition_3, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {
