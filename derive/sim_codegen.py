@@ -243,6 +243,7 @@ def table(descriptor: dict, module: types.ModuleType, prefix: str) -> types.Simp
     event_index = {ev["name"]: k for k, ev in enumerate(descriptor["events"])}
     failures = failure_names(descriptor)
     flows, watches, n_watch, directions, whats = [], [], [], [], []
+    guard_functions: list[list[str]] = []
     for phase in descriptor["phases"]:
         accelerations = getattr(module, f"{phase['name']}_accelerations")(*args)
         flows.append(function(f"{phase['name']}_flow", [*args[len(params) + n :], *accelerations]))
@@ -261,6 +262,10 @@ def table(descriptor: dict, module: types.ModuleType, prefix: str) -> types.Simp
             direction.append(2 * sign)  # checked at the phase's start only (hybrid_batch.c)
             what.append(-1 - failures.index(name))
         watches.append(function(f"{phase['name']}_watch", guards))
+        # Each guard alone too: event location needs one guard at each iterate, and a
+        # phase's whole set costs several times one (the compass gait's four guards 92 ns).
+        guard_functions.append([function(f"{phase['name']}_guard_{k}", g)
+                                for k, g in enumerate(guards)])  # fmt: skip
         n_watch.append(len(guards))
         directions.append(direction)
         whats.append(what)
@@ -284,9 +289,9 @@ def table(descriptor: dict, module: types.ModuleType, prefix: str) -> types.Simp
     step_event = next(e for e in descriptor["events"] if e["ends_step"])
     return types.SimpleNamespace(
         p=p, x=x, pending=pending, params=params, state=state, failures=failures,
-        flows=flows, watches=watches, n_watch=n_watch, directions=directions, whats=whats,
-        max_watch=max_watch, resets=resets, whens=whens, targets=targets,
-        ends_step=ends_step, step_length=step_length, step_event=step_event,
+        flows=flows, watches=watches, guard_functions=guard_functions, n_watch=n_watch,
+        directions=directions, whats=whats, max_watch=max_watch, resets=resets, whens=whens,
+        targets=targets, ends_step=ends_step, step_length=step_length, step_event=step_event,
         start_phase=phase_index[step_event["target"]],
     )  # fmt: skip
 
@@ -332,6 +337,14 @@ def simulator_c_source(model: str, source: str, descriptor: dict, module: types.
         return "\n".join(f"    case {k}:\n        {name}_lanes(live, c, x, out);\n        return;"
                          for k, name in enumerate(names))  # fmt: skip
 
+    def guard_cases() -> str:
+        return "\n".join(
+            f"    case {phase * max_watch + k}:\n        VSW_CALL({name}, c, x, out);\n"
+            "        return out[0];"
+            for phase, names in enumerate(t.guard_functions)
+            for k, name in enumerate(names)
+        )
+
     def padded(rows: list[list[int]]) -> str:
         return ", ".join("{" + _c_list(r + [0] * (max_watch - len(r))) + "}" for r in rows)
 
@@ -368,6 +381,7 @@ def simulator_c_source(model: str, source: str, descriptor: dict, module: types.
         lane_flow_cases=lane_cases(flows),
         lane_watch_cases=lane_cases(watches),
         watch_cases=cases(watches),
+        guard_cases=guard_cases(),
         n_watch=_c_list(n_watch),
         directions=padded(directions),
         whats=padded(whats),

@@ -64,6 +64,9 @@ static long long vsw_flow_calls[VSW_NPHASES], vsw_watch_calls[VSW_NPHASES];
 static long long vsw_rk_calls[VSW_NPHASES]; /* RK steps, per walk */
 #define VSW_FLOW(phase, ...) (++vsw_flow_calls[phase], vsw_flow(phase, __VA_ARGS__))
 #define VSW_WATCH(phase, ...) (++vsw_watch_calls[phase], vsw_watch(phase, __VA_ARGS__))
+/* One guard alone (event location) is not counted: the floor leaves it out, so it is at
+   most the floor of what a step evaluates. */
+#define VSW_WATCH_ONE vsw_watch_one
 
 /* The evaluations since the last call, per phase: flows, then guards (a phase's at once),
    then RK steps. */
@@ -147,6 +150,7 @@ VSW_EXPORT void vsw_batch_call_costs(int phase, const double *params, const doub
 #else
 #define VSW_FLOW vsw_flow
 #define VSW_WATCH vsw_watch
+#define VSW_WATCH_ONE vsw_watch_one
 #endif
 
 /* C99's fmax and fmin (a NaN argument is ignored) as comparisons: GCC calls the library
@@ -396,7 +400,7 @@ static double vsw_locate(int phase, const double *p, const double F[7][VSW_NX],
                          const double *y_old, const double *y_new, double h, int k, double ga,
                          double gb, double *y_hit)
 {
-    double g[VSW_MAX_WATCH], ys[VSW_NX];
+    double ys[VSW_NX];
     double a = 0.0, b = h;
     int side = 0;
     if (ga == 0.0) { /* SciPy's brentq returns the bracket's start when it is a zero */
@@ -409,8 +413,7 @@ static double vsw_locate(int phase, const double *p, const double F[7][VSW_NX],
         double s = b - gb * (b - a) / (gb - ga);
         if (!(s > a && s < b)) s = 0.5 * (a + b);
         vsw_interpolate(F, y_old, s / h, ys);
-        VSW_WATCH(phase, p, ys, g);
-        double gs = g[k];
+        const double gs = VSW_WATCH_ONE(phase, k, p, ys);
         if (gs == 0.0 || (gs > 0.0) == (gb > 0.0)) { /* past the crossing: the new end */
             b = s;
             gb = gs;

@@ -54,6 +54,10 @@ extern "C" {
 #define casadi_f3 CASADI_PREFIX(f3)
 #define casadi_f4 CASADI_PREFIX(f4)
 #define casadi_f5 CASADI_PREFIX(f5)
+#define casadi_f6 CASADI_PREFIX(f6)
+#define casadi_f7 CASADI_PREFIX(f7)
+#define casadi_f8 CASADI_PREFIX(f8)
+#define casadi_f9 CASADI_PREFIX(f9)
 #define casadi_s0 CASADI_PREFIX(s0)
 #define casadi_s1 CASADI_PREFIX(s1)
 #define casadi_s2 CASADI_PREFIX(s2)
@@ -964,8 +968,579 @@ CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_stance_watch_work_bytes(casadi_int
   return 0;
 }
 
-/* vsw_compass_gait_sim_heelstrike_reset:(c[91],x[4])->(heelstrike_reset[4]) */
+/* vsw_compass_gait_sim_stance_guard_0:(c[91],x[4])->(stance_guard_0) */
 static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1, a2;
+  a0=arg[1][1];
+  a1=2.;
+  a0=(a0/a1);
+  a2=arg[1][0];
+  a2=(a2/a1);
+  a0=(a0+a2);
+  a0=vsw_sin(a0);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_stance_guard_0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f3(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_stance_guard_0_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_compass_gait_sim_stance_guard_0_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_compass_gait_sim_stance_guard_0_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_compass_gait_sim_stance_guard_0_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_compass_gait_sim_stance_guard_0_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_compass_gait_sim_stance_guard_0_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_compass_gait_sim_stance_guard_0_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_compass_gait_sim_stance_guard_0_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_compass_gait_sim_stance_guard_0_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stance_guard_0";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_compass_gait_sim_stance_guard_0_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_compass_gait_sim_stance_guard_0_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_stance_guard_0_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_stance_guard_0_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_compass_gait_sim_stance_guard_1:(c[91],x[4])->(stance_guard_1) */
+static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][2];
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_stance_guard_1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f4(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_stance_guard_1_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_compass_gait_sim_stance_guard_1_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_compass_gait_sim_stance_guard_1_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_compass_gait_sim_stance_guard_1_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_compass_gait_sim_stance_guard_1_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_compass_gait_sim_stance_guard_1_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_compass_gait_sim_stance_guard_1_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_compass_gait_sim_stance_guard_1_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_compass_gait_sim_stance_guard_1_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stance_guard_1";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_compass_gait_sim_stance_guard_1_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_compass_gait_sim_stance_guard_1_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_stance_guard_1_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_stance_guard_1_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_compass_gait_sim_stance_guard_2:(c[91],x[4])->(stance_guard_2) */
+static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][0];
+  a0=vsw_cos(a0);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_stance_guard_2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f5(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_stance_guard_2_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_compass_gait_sim_stance_guard_2_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_compass_gait_sim_stance_guard_2_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_compass_gait_sim_stance_guard_2_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_compass_gait_sim_stance_guard_2_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_compass_gait_sim_stance_guard_2_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_compass_gait_sim_stance_guard_2_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_compass_gait_sim_stance_guard_2_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_compass_gait_sim_stance_guard_2_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stance_guard_2";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_compass_gait_sim_stance_guard_2_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_compass_gait_sim_stance_guard_2_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_stance_guard_2_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_stance_guard_2_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_compass_gait_sim_stance_guard_3:(c[91],x[4])->(stance_guard_3) */
+static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29, a30;
+  a00=arg[0][23];
+  a01=arg[0][22];
+  a02=arg[1][1];
+  a03=vsw_sin(a02);
+  a04=(a01*a03);
+  a05=arg[1][0];
+  a06=(a02-a05);
+  a07=vsw_cos(a06);
+  a08=arg[0][0];
+  a09=(a08+a05);
+  a09=vsw_sin(a09);
+  a10=(a07*a09);
+  a11=(a04*a10);
+  a00=(a00+a11);
+  a11=vsw_sin(a05);
+  a01=(a01*a11);
+  a08=(a08+a02);
+  a08=vsw_sin(a08);
+  a12=(a07*a08);
+  a13=(a01*a12);
+  a00=(a00+a13);
+  a13=arg[1][3];
+  a13=casadi_sq(a13);
+  a02=vsw_cos(a02);
+  a14=(a13*a02);
+  a15=arg[0][24];
+  a16=(a14*a15);
+  a00=(a00+a16);
+  a16=arg[0][25];
+  a17=(a14*a16);
+  a00=(a00+a17);
+  a17=arg[0][26];
+  a18=(a14*a17);
+  a00=(a00+a18);
+  a18=arg[0][28];
+  a19=arg[0][27];
+  a14=(a14*a19);
+  a20=(a18*a14);
+  a00=(a00+a20);
+  a06=vsw_sin(a06);
+  a20=(a13*a06);
+  a20=(a20*a11);
+  a21=(a20*a19);
+  a22=(a18*a21);
+  a00=(a00+a22);
+  a22=(a15*a20);
+  a00=(a00+a22);
+  a22=arg[0][30];
+  a23=arg[0][29];
+  a24=(a03*a23);
+  a10=(a10*a24);
+  a25=(a22*a10);
+  a00=(a00+a25);
+  a11=(a11*a23);
+  a12=(a12*a11);
+  a23=(a22*a12);
+  a00=(a00+a23);
+  a23=arg[0][31];
+  a25=(a10*a23);
+  a00=(a00+a25);
+  a25=arg[0][32];
+  a26=(a10*a25);
+  a00=(a00+a26);
+  a26=arg[0][33];
+  a27=(a10*a26);
+  a00=(a00+a27);
+  a27=arg[0][34];
+  a10=(a10*a27);
+  a00=(a00+a10);
+  a23=(a12*a23);
+  a00=(a00+a23);
+  a23=(a12*a25);
+  a00=(a00+a23);
+  a26=(a12*a26);
+  a00=(a00+a26);
+  a12=(a12*a27);
+  a00=(a00+a12);
+  a17=(a20*a17);
+  a00=(a00+a17);
+  a17=arg[0][35];
+  a20=(a20*a17);
+  a00=(a00+a20);
+  a20=arg[1][2];
+  a20=casadi_sq(a20);
+  a03=(a20*a03);
+  a03=(a03*a06);
+  a17=(a17*a03);
+  a00=(a00+a17);
+  a17=arg[0][36];
+  a14=(a17*a14);
+  a00=(a00+a14);
+  a21=(a17*a21);
+  a00=(a00+a21);
+  a21=arg[0][38];
+  a14=arg[0][37];
+  a11=(a11*a09);
+  a06=(a14*a11);
+  a12=(a21*a06);
+  a00=(a00-a12);
+  a12=arg[0][39];
+  a27=(a12*a06);
+  a00=(a00-a27);
+  a27=casadi_sq(a07);
+  a26=arg[0][40];
+  a26=(a27*a26);
+  a00=(a00-a26);
+  a26=arg[0][41];
+  a26=(a27*a26);
+  a00=(a00-a26);
+  a26=arg[0][42];
+  a26=(a27*a26);
+  a23=arg[0][43];
+  a10=(a26*a23);
+  a00=(a00-a10);
+  a10=arg[0][44];
+  a10=(a27*a10);
+  a28=(a10*a23);
+  a00=(a00-a28);
+  a27=(a12*a27);
+  a28=arg[0][45];
+  a28=(a27*a28);
+  a23=(a28*a23);
+  a00=(a00-a23);
+  a23=arg[0][47];
+  a29=arg[0][46];
+  a29=(a11*a29);
+  a30=(a23*a29);
+  a00=(a00-a30);
+  a04=(a04*a08);
+  a00=(a00-a04);
+  a01=(a01*a09);
+  a00=(a00-a01);
+  a01=arg[0][48];
+  a05=vsw_cos(a05);
+  a09=(a20*a05);
+  a14=(a14*a09);
+  a01=(a01*a14);
+  a00=(a00-a01);
+  a24=(a24*a08);
+  a12=(a12*a24);
+  a08=(a18*a12);
+  a00=(a00-a08);
+  a15=(a15*a09);
+  a00=(a00-a15);
+  a15=arg[0][49];
+  a15=(a15*a29);
+  a00=(a00-a15);
+  a15=(a24*a22);
+  a00=(a00-a15);
+  a25=(a24*a25);
+  a00=(a00-a25);
+  a25=arg[0][50];
+  a25=(a11*a25);
+  a00=(a00-a25);
+  a25=arg[0][51];
+  a25=(a11*a25);
+  a00=(a00-a25);
+  a25=arg[0][52];
+  a06=(a06*a25);
+  a00=(a00-a06);
+  a13=(a13*a07);
+  a13=(a13*a05);
+  a16=(a16*a13);
+  a00=(a00-a16);
+  a16=arg[0][53];
+  a05=4.;
+  a05=(a05*a09);
+  a16=(a16*a05);
+  a00=(a00-a16);
+  a16=arg[0][54];
+  a05=(a05*a16);
+  a00=(a00-a05);
+  a05=arg[0][55];
+  a16=(a14*a05);
+  a00=(a00-a16);
+  a16=arg[0][56];
+  a13=(a13*a16);
+  a00=(a00-a13);
+  a13=3.;
+  a13=(a13*a14);
+  a14=(a13*a19);
+  a00=(a00-a14);
+  a12=(a17*a12);
+  a00=(a00-a12);
+  a12=arg[0][57];
+  a14=(a12*a09);
+  a06=arg[0][58];
+  a15=(a14*a06);
+  a00=(a00-a15);
+  a18=(a18*a09);
+  a06=(a06*a18);
+  a00=(a00-a06);
+  a06=arg[0][59];
+  a06=(a06*a18);
+  a00=(a00-a06);
+  a11=(2.*a11);
+  a11=(a11*a22);
+  a00=(a00-a11);
+  a14=(2.*a14);
+  a14=(a14*a05);
+  a00=(a00-a14);
+  a14=arg[0][60];
+  a00=(a00+a14);
+  a14=arg[0][61];
+  a20=(a20*a02);
+  a20=(a20*a07);
+  a14=(a14*a20);
+  a00=(a00+a14);
+  a14=5.;
+  a14=(a14*a20);
+  a14=(a14*a16);
+  a00=(a00+a14);
+  a23=(a23*a03);
+  a23=(a23*a19);
+  a00=(a00+a23);
+  a21=(a21*a13);
+  a13=arg[0][62];
+  a21=(a21*a13);
+  a00=(a00-a21);
+  a21=arg[0][63];
+  a27=(a27*a21);
+  a27=(a27*a17);
+  a00=(a00-a27);
+  a12=(a12*a24);
+  a12=(a12*a25);
+  a00=(a00-a12);
+  a12=arg[0][64];
+  a12=(a12-a26);
+  a12=(a12-a10);
+  a12=(a12-a28);
+  a28=arg[0][65];
+  a12=(a12+a28);
+  a28=arg[0][66];
+  a12=(a12+a28);
+  a28=arg[0][67];
+  a12=(a12+a28);
+  a28=arg[0][68];
+  a12=(a12+a28);
+  a00=(a00/a12);
+  res[0][0]=a00;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_stance_guard_3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f6(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_stance_guard_3_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_compass_gait_sim_stance_guard_3_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_compass_gait_sim_stance_guard_3_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_compass_gait_sim_stance_guard_3_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_compass_gait_sim_stance_guard_3_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_compass_gait_sim_stance_guard_3_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_compass_gait_sim_stance_guard_3_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_compass_gait_sim_stance_guard_3_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_compass_gait_sim_stance_guard_3_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stance_guard_3";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_compass_gait_sim_stance_guard_3_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_compass_gait_sim_stance_guard_3_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_stance_guard_3_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_stance_guard_3_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_compass_gait_sim_heelstrike_reset:(c[91],x[4])->(heelstrike_reset[4]) */
+static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14;
   a00=arg[1][1];
@@ -1083,7 +1658,7 @@ static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_heelstrike_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f3(arg, res, iw, w, mem);
+  return casadi_f7(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_heelstrike_reset_checkout(void) {
@@ -1156,7 +1731,7 @@ CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_heelstrike_reset_work_bytes(casadi
 }
 
 /* vsw_compass_gait_sim_heelstrike_when:(c[91],x[4])->(heelstrike_when) */
-static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0;
   a0=arg[1][0];
   res[0][0]=a0;
@@ -1164,7 +1739,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_heelstrike_when(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f4(arg, res, iw, w, mem);
+  return casadi_f8(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_heelstrike_when_checkout(void) {
@@ -1237,7 +1812,7 @@ CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_heelstrike_when_work_bytes(casadi_
 }
 
 /* vsw_compass_gait_sim_step_length:(c[91],x[4])->(step_length) */
-static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2;
   a0=arg[0][90];
   a1=arg[1][0];
@@ -1252,7 +1827,7 @@ static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_step_length(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f5(arg, res, iw, w, mem);
+  return casadi_f9(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_compass_gait_sim_step_length_checkout(void) {
@@ -1380,6 +1955,28 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
         VSW_CALL(vsw_compass_gait_sim_stance_watch, c, x, out);
         return;
     }
+}
+
+/* Per phase: its guard k alone (vsw_watch's out[k], the same operations: event location
+   needs one guard at each iterate). */
+static inline double vsw_watch_one(int phase, int k, const double *c, const double *x)
+{
+    double out[1];
+    switch (phase * VSW_MAX_WATCH + k) {
+    case 0:
+        VSW_CALL(vsw_compass_gait_sim_stance_guard_0, c, x, out);
+        return out[0];
+    case 1:
+        VSW_CALL(vsw_compass_gait_sim_stance_guard_1, c, x, out);
+        return out[0];
+    case 2:
+        VSW_CALL(vsw_compass_gait_sim_stance_guard_2, c, x, out);
+        return out[0];
+    case 3:
+        VSW_CALL(vsw_compass_gait_sim_stance_guard_3, c, x, out);
+        return out[0];
+    }
+    return NAN;
 }
 
 /* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the

@@ -50,6 +50,14 @@ extern "C" {
 /* Add prefix to internal symbols */
 #define casadi_f0 CASADI_PREFIX(f0)
 #define casadi_f1 CASADI_PREFIX(f1)
+#define casadi_f10 CASADI_PREFIX(f10)
+#define casadi_f11 CASADI_PREFIX(f11)
+#define casadi_f12 CASADI_PREFIX(f12)
+#define casadi_f13 CASADI_PREFIX(f13)
+#define casadi_f14 CASADI_PREFIX(f14)
+#define casadi_f15 CASADI_PREFIX(f15)
+#define casadi_f16 CASADI_PREFIX(f16)
+#define casadi_f17 CASADI_PREFIX(f17)
 #define casadi_f2 CASADI_PREFIX(f2)
 #define casadi_f3 CASADI_PREFIX(f3)
 #define casadi_f4 CASADI_PREFIX(f4)
@@ -57,6 +65,7 @@ extern "C" {
 #define casadi_f6 CASADI_PREFIX(f6)
 #define casadi_f7 CASADI_PREFIX(f7)
 #define casadi_f8 CASADI_PREFIX(f8)
+#define casadi_f9 CASADI_PREFIX(f9)
 #define casadi_s0 CASADI_PREFIX(s0)
 #define casadi_s1 CASADI_PREFIX(s1)
 #define casadi_s2 CASADI_PREFIX(s2)
@@ -781,8 +790,550 @@ CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_stroke_watch_work_bytes(cas
   return 0;
 }
 
-/* vsw_free_vsw_biped_stop_sim_extended_flow:(c[74],x[6])->(extended_flow[6]) */
+/* vsw_free_vsw_biped_stop_sim_stroke_guard_0:(c[74],x[6])->(stroke_guard_0) */
 static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1;
+  a0=-1.;
+  a1=arg[1][2];
+  a0=(a0+a1);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_stroke_guard_0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f3(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_stroke_guard_0_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_stroke_guard_0_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_stroke_guard_0_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_stroke_guard_0_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_stop_sim_stroke_guard_0_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_stop_sim_stroke_guard_0_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_free_vsw_biped_stop_sim_stroke_guard_0_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_stop_sim_stroke_guard_0_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_stop_sim_stroke_guard_0_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stroke_guard_0";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_stop_sim_stroke_guard_0_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_stop_sim_stroke_guard_0_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_stroke_guard_0_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_stroke_guard_0_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_free_vsw_biped_stop_sim_stroke_guard_1:(c[74],x[6])->(stroke_guard_1) */
+static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][3];
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_stroke_guard_1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f4(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_stroke_guard_1_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_stroke_guard_1_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_stroke_guard_1_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_stroke_guard_1_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_stop_sim_stroke_guard_1_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_stop_sim_stroke_guard_1_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_free_vsw_biped_stop_sim_stroke_guard_1_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_stop_sim_stroke_guard_1_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_stop_sim_stroke_guard_1_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stroke_guard_1";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_stop_sim_stroke_guard_1_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_stop_sim_stroke_guard_1_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_stroke_guard_1_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_stroke_guard_1_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_free_vsw_biped_stop_sim_stroke_guard_2:(c[74],x[6])->(stroke_guard_2) */
+static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][0];
+  a0=vsw_cos(a0);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_stroke_guard_2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f5(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_stroke_guard_2_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_stroke_guard_2_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_stroke_guard_2_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_stroke_guard_2_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_stop_sim_stroke_guard_2_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_stop_sim_stroke_guard_2_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_free_vsw_biped_stop_sim_stroke_guard_2_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_stop_sim_stroke_guard_2_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_stop_sim_stroke_guard_2_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stroke_guard_2";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_stop_sim_stroke_guard_2_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_stop_sim_stroke_guard_2_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_stroke_guard_2_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_stroke_guard_2_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_free_vsw_biped_stop_sim_stroke_guard_3:(c[74],x[6])->(stroke_guard_3) */
+static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32;
+  a00=arg[0][11];
+  a01=arg[0][10];
+  a02=arg[1][4];
+  a02=casadi_sq(a02);
+  a02=(a01*a02);
+  a03=arg[1][1];
+  a04=vsw_cos(a03);
+  a04=(a02*a04);
+  a04=(a00+a04);
+  a05=arg[1][3];
+  a06=casadi_sq(a05);
+  a07=(a01*a06);
+  a08=arg[1][0];
+  a09=vsw_cos(a08);
+  a10=(a07*a09);
+  a04=(a04+a10);
+  a10=arg[0][12];
+  a11=(a10*a09);
+  a12=arg[1][2];
+  a13=(a06*a12);
+  a14=(a11*a13);
+  a04=(a04-a14);
+  a14=(a13*a09);
+  a04=(a04-a14);
+  a14=arg[1][5];
+  a15=(a14*a05);
+  a16=(2.*a15);
+  a17=vsw_sin(a08);
+  a18=(a16*a17);
+  a04=(a04-a18);
+  a18=vsw_sin(a03);
+  a18=(a01*a18);
+  a19=arg[0][15];
+  a20=casadi_sq(a12);
+  a21=(a20*a00);
+  a22=arg[0][13];
+  a22=(a21+a22);
+  a23=arg[0][14];
+  a24=(a23*a12);
+  a22=(a22-a24);
+  a19=(a19*a22);
+  a24=arg[0][4];
+  a19=(a19*a24);
+  a25=arg[0][16];
+  a03=(a03-a08);
+  a08=vsw_sin(a03);
+  a26=casadi_sq(a08);
+  a26=(a25*a26);
+  a27=(a26*a22);
+  a03=vsw_cos(a03);
+  a28=casadi_sq(a03);
+  a28=(a25*a28);
+  a21=(a21*a28);
+  a27=(a27+a21);
+  a19=(a19-a27);
+  a27=(a18/a19);
+  a21=(a01*a08);
+  a13=(a13*a21);
+  a13=(a13-a18);
+  a23=(a15*a23);
+  a23=(a23*a03);
+  a13=(a13+a23);
+  a23=(a13*a22);
+  a18=(a23*a00);
+  a29=(a00*a12);
+  a30=(a29*a17);
+  a31=(a01*a17);
+  a08=(a12*a08);
+  a32=(a02*a08);
+  a32=(a31+a32);
+  a16=(a16*a29);
+  a32=(a32+a16);
+  a30=(a30-a32);
+  a14=(2.*a14);
+  a14=(a14*a05);
+  a05=arg[0][3];
+  a14=(a14*a05);
+  a14=(a14*a24);
+  a30=(a30+a14);
+  a14=(a30*a03);
+  a01=(a01*a29);
+  a29=(a14*a01);
+  a18=(a18+a29);
+  a06=(a06*a00);
+  a06=(a06*a12);
+  a02=(a02*a03);
+  a07=(a07+a02);
+  a00=(a00*a09);
+  a07=(a07+a00);
+  a06=(a06-a07);
+  a07=(a21*a06);
+  a07=(a07*a22);
+  a18=(a18-a07);
+  a27=(a27*a18);
+  a04=(a04+a27);
+  a11=(a11+a09);
+  a11=(a11/a19);
+  a09=arg[0][17];
+  a09=(a09*a22);
+  a09=(a09*a24);
+  a20=(a20*a28);
+  a09=(a09-a20);
+  a09=(a06*a09);
+  a21=(a21*a23);
+  a09=(a09-a21);
+  a08=(a08*a25);
+  a14=(a14*a08);
+  a09=(a09-a14);
+  a11=(a11*a09);
+  a04=(a04+a11);
+  a12=(a12*a17);
+  a31=(a31-a12);
+  a10=(a10*a12);
+  a31=(a31-a10);
+  a31=(a31/a19);
+  a19=arg[0][18];
+  a19=(a19-a26);
+  a30=(a30*a19);
+  a13=(a13*a01);
+  a13=(a13*a03);
+  a30=(a30+a13);
+  a08=(a08*a06);
+  a08=(a08*a03);
+  a30=(a30-a08);
+  a31=(a31*a30);
+  a04=(a04+a31);
+  a31=4.;
+  a31=(a31*a15);
+  a31=(a31*a17);
+  a31=(a31*a24);
+  a04=(a04-a31);
+  res[0][0]=a04;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_stroke_guard_3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f6(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_stroke_guard_3_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_stroke_guard_3_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_stroke_guard_3_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_stroke_guard_3_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_stop_sim_stroke_guard_3_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_stop_sim_stroke_guard_3_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_free_vsw_biped_stop_sim_stroke_guard_3_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_stop_sim_stroke_guard_3_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_stop_sim_stroke_guard_3_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stroke_guard_3";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_stop_sim_stroke_guard_3_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_stop_sim_stroke_guard_3_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_stroke_guard_3_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_stroke_guard_3_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_free_vsw_biped_stop_sim_stroke_guard_4:(c[74],x[6])->(stroke_guard_4) */
+static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1;
+  a0=arg[1][2];
+  a1=arg[0][19];
+  a0=(a0-a1);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_stroke_guard_4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f7(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_stroke_guard_4_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_stroke_guard_4_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_stroke_guard_4_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_stroke_guard_4_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_stop_sim_stroke_guard_4_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_stop_sim_stroke_guard_4_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_free_vsw_biped_stop_sim_stroke_guard_4_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_stop_sim_stroke_guard_4_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_stop_sim_stroke_guard_4_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stroke_guard_4";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_stop_sim_stroke_guard_4_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_stop_sim_stroke_guard_4_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_stroke_guard_4_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_stroke_guard_4_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_free_vsw_biped_stop_sim_extended_flow:(c[74],x[6])->(extended_flow[6]) */
+static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13;
   a00=arg[1][3];
@@ -880,7 +1431,7 @@ static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_extended_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f3(arg, res, iw, w, mem);
+  return casadi_f8(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_extended_flow_checkout(void) {
@@ -953,7 +1504,7 @@ CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_extended_flow_work_bytes(ca
 }
 
 /* vsw_free_vsw_biped_stop_sim_extended_watch:(c[74],x[6])->(extended_watch[4]) */
-static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
   casadi_real a24, a25, a26, a27;
@@ -1091,7 +1642,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_extended_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f4(arg, res, iw, w, mem);
+  return casadi_f9(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_extended_watch_checkout(void) {
@@ -1163,8 +1714,463 @@ CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_extended_watch_work_bytes(c
   return 0;
 }
 
+/* vsw_free_vsw_biped_stop_sim_extended_guard_0:(c[74],x[6])->(extended_guard_0) */
+static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1, a2;
+  a0=arg[1][0];
+  a0=vsw_cos(a0);
+  a1=arg[1][1];
+  a1=vsw_cos(a1);
+  a2=arg[0][33];
+  a1=(a1*a2);
+  a0=(a0-a1);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_extended_guard_0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f10(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_extended_guard_0_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_extended_guard_0_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_extended_guard_0_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_extended_guard_0_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_stop_sim_extended_guard_0_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_stop_sim_extended_guard_0_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_free_vsw_biped_stop_sim_extended_guard_0_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_stop_sim_extended_guard_0_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_stop_sim_extended_guard_0_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "extended_guard_0";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_stop_sim_extended_guard_0_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_stop_sim_extended_guard_0_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_extended_guard_0_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_extended_guard_0_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_free_vsw_biped_stop_sim_extended_guard_1:(c[74],x[6])->(extended_guard_1) */
+static int casadi_f11(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][3];
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_extended_guard_1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f11(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_extended_guard_1_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_extended_guard_1_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_extended_guard_1_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_extended_guard_1_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_stop_sim_extended_guard_1_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_stop_sim_extended_guard_1_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_free_vsw_biped_stop_sim_extended_guard_1_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_stop_sim_extended_guard_1_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_stop_sim_extended_guard_1_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "extended_guard_1";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_stop_sim_extended_guard_1_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_stop_sim_extended_guard_1_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_extended_guard_1_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_extended_guard_1_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_free_vsw_biped_stop_sim_extended_guard_2:(c[74],x[6])->(extended_guard_2) */
+static int casadi_f12(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][0];
+  a0=vsw_cos(a0);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_extended_guard_2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f12(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_extended_guard_2_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_extended_guard_2_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_extended_guard_2_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_extended_guard_2_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_stop_sim_extended_guard_2_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_stop_sim_extended_guard_2_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_free_vsw_biped_stop_sim_extended_guard_2_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_stop_sim_extended_guard_2_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_stop_sim_extended_guard_2_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "extended_guard_2";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_stop_sim_extended_guard_2_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_stop_sim_extended_guard_2_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_extended_guard_2_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_extended_guard_2_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_free_vsw_biped_stop_sim_extended_guard_3:(c[74],x[6])->(extended_guard_3) */
+static int casadi_f13(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27;
+  a00=arg[0][35];
+  a01=arg[1][1];
+  a02=arg[1][0];
+  a03=(a01-a02);
+  a04=vsw_cos(a03);
+  a05=casadi_sq(a04);
+  a06=arg[0][34];
+  a07=(a05*a06);
+  a07=(a00-a07);
+  a08=arg[0][36];
+  a09=(a07+a08);
+  a10=arg[0][37];
+  a09=(a09-a10);
+  a09=(a09-a06);
+  a11=arg[0][38];
+  a12=vsw_cos(a02);
+  a13=casadi_sq(a12);
+  a14=(a11*a13);
+  a09=(a09+a14);
+  a14=arg[0][39];
+  a15=4.;
+  a15=(a15*a13);
+  a14=(a14*a15);
+  a09=(a09+a14);
+  a14=vsw_cos(a01);
+  a16=casadi_sq(a14);
+  a17=(a10*a16);
+  a09=(a09+a17);
+  a17=arg[1][4];
+  a17=casadi_sq(a17);
+  a18=(a17*a14);
+  a19=(a08*a18);
+  a09=(a09+a19);
+  a02=vsw_sin(a02);
+  a19=(a17*a02);
+  a03=vsw_sin(a03);
+  a20=(a19*a03);
+  a21=(a08*a20);
+  a09=(a09+a21);
+  a21=arg[0][40];
+  a22=(a13*a21);
+  a09=(a09+a22);
+  a22=(a16*a21);
+  a09=(a09+a22);
+  a22=(a16*a06);
+  a09=(a09+a22);
+  a22=(a15*a06);
+  a09=(a09+a22);
+  a22=arg[0][41];
+  a23=(a18*a22);
+  a09=(a09+a23);
+  a23=arg[0][42];
+  a24=(a18*a23);
+  a09=(a09+a24);
+  a24=3.;
+  a25=arg[1][3];
+  a25=casadi_sq(a25);
+  a26=(a25*a12);
+  a24=(a24*a26);
+  a27=(a22*a24);
+  a09=(a09+a27);
+  a22=(a22*a20);
+  a09=(a09+a22);
+  a23=(a23*a26);
+  a09=(a09+a23);
+  a21=(a21*a03);
+  a01=vsw_sin(a01);
+  a23=(a25*a01);
+  a22=(a21*a23);
+  a09=(a09+a22);
+  a01=(a04*a01);
+  a01=(a01*a02);
+  a02=arg[0][43];
+  a22=(a01*a02);
+  a09=(a09+a22);
+  a22=(a11*a26);
+  a09=(a09-a22);
+  a05=(a05*a10);
+  a09=(a09-a05);
+  a10=(a10*a26);
+  a09=(a09-a10);
+  a16=(a08*a16);
+  a09=(a09-a16);
+  a16=(a08*a01);
+  a09=(a09-a16);
+  a16=arg[0][44];
+  a13=(a13*a16);
+  a09=(a09-a13);
+  a13=arg[0][45];
+  a15=(a15*a13);
+  a09=(a09-a15);
+  a00=(a26*a00);
+  a09=(a09-a00);
+  a24=(a24*a06);
+  a09=(a09-a24);
+  a21=(a21*a19);
+  a09=(a09-a21);
+  a21=arg[0][46];
+  a21=(a21*a26);
+  a09=(a09-a21);
+  a21=arg[0][47];
+  a21=(a21*a18);
+  a09=(a09-a21);
+  a21=arg[0][48];
+  a21=(a21*a01);
+  a09=(a09+a21);
+  a21=arg[0][49];
+  a21=(a21*a26);
+  a09=(a09+a21);
+  a08=(a08*a23);
+  a08=(a08*a03);
+  a09=(a09-a08);
+  a13=(a13*a04);
+  a17=(a17*a13);
+  a17=(a17*a12);
+  a09=(a09-a17);
+  a25=(a25*a13);
+  a25=(a25*a14);
+  a09=(a09-a25);
+  a11=(a11+a07);
+  a11=(a11+a02);
+  a11=(a11-a16);
+  a09=(a09/a11);
+  res[0][0]=a09;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_extended_guard_3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f13(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_extended_guard_3_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_extended_guard_3_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_extended_guard_3_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_free_vsw_biped_stop_sim_extended_guard_3_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_stop_sim_extended_guard_3_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_free_vsw_biped_stop_sim_extended_guard_3_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_free_vsw_biped_stop_sim_extended_guard_3_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_stop_sim_extended_guard_3_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_free_vsw_biped_stop_sim_extended_guard_3_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "extended_guard_3";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_stop_sim_extended_guard_3_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_free_vsw_biped_stop_sim_extended_guard_3_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_extended_guard_3_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_extended_guard_3_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
 /* vsw_free_vsw_biped_stop_sim_end_stop_reset:(c[74],x[6])->(end_stop_reset[6]) */
-static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f14(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2, a3, a4, a5, a6, a7, a8, a9;
   a0=arg[1][0];
   res[0][0]=a0;
@@ -1234,7 +2240,7 @@ static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_end_stop_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f5(arg, res, iw, w, mem);
+  return casadi_f14(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_end_stop_reset_checkout(void) {
@@ -1307,7 +2313,7 @@ CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_end_stop_reset_work_bytes(c
 }
 
 /* vsw_free_vsw_biped_stop_sim_heelstrike_reset:(c[74],x[6])->(heelstrike_reset[6]) */
-static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f15(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
   casadi_real a24;
@@ -1446,7 +2452,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_heelstrike_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f6(arg, res, iw, w, mem);
+  return casadi_f15(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_heelstrike_reset_checkout(void) {
@@ -1519,7 +2525,7 @@ CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_heelstrike_reset_work_bytes
 }
 
 /* vsw_free_vsw_biped_stop_sim_heelstrike_when:(c[74],x[6])->(heelstrike_when) */
-static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1;
   a0=arg[1][0];
   a1=arg[1][1];
@@ -1529,7 +2535,7 @@ static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_heelstrike_when(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f7(arg, res, iw, w, mem);
+  return casadi_f16(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_heelstrike_when_checkout(void) {
@@ -1602,7 +2608,7 @@ CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_heelstrike_when_work_bytes(
 }
 
 /* vsw_free_vsw_biped_stop_sim_step_length:(c[74],x[6])->(step_length) */
-static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2;
   a0=arg[1][0];
   a0=vsw_sin(a0);
@@ -1616,7 +2622,7 @@ static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_step_length(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f8(arg, res, iw, w, mem);
+  return casadi_f17(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_free_vsw_biped_stop_sim_step_length_checkout(void) {
@@ -1750,6 +2756,43 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
         VSW_CALL(vsw_free_vsw_biped_stop_sim_extended_watch, c, x, out);
         return;
     }
+}
+
+/* Per phase: its guard k alone (vsw_watch's out[k], the same operations: event location
+   needs one guard at each iterate). */
+static inline double vsw_watch_one(int phase, int k, const double *c, const double *x)
+{
+    double out[1];
+    switch (phase * VSW_MAX_WATCH + k) {
+    case 0:
+        VSW_CALL(vsw_free_vsw_biped_stop_sim_stroke_guard_0, c, x, out);
+        return out[0];
+    case 1:
+        VSW_CALL(vsw_free_vsw_biped_stop_sim_stroke_guard_1, c, x, out);
+        return out[0];
+    case 2:
+        VSW_CALL(vsw_free_vsw_biped_stop_sim_stroke_guard_2, c, x, out);
+        return out[0];
+    case 3:
+        VSW_CALL(vsw_free_vsw_biped_stop_sim_stroke_guard_3, c, x, out);
+        return out[0];
+    case 4:
+        VSW_CALL(vsw_free_vsw_biped_stop_sim_stroke_guard_4, c, x, out);
+        return out[0];
+    case 5:
+        VSW_CALL(vsw_free_vsw_biped_stop_sim_extended_guard_0, c, x, out);
+        return out[0];
+    case 6:
+        VSW_CALL(vsw_free_vsw_biped_stop_sim_extended_guard_1, c, x, out);
+        return out[0];
+    case 7:
+        VSW_CALL(vsw_free_vsw_biped_stop_sim_extended_guard_2, c, x, out);
+        return out[0];
+    case 8:
+        VSW_CALL(vsw_free_vsw_biped_stop_sim_extended_guard_3, c, x, out);
+        return out[0];
+    }
+    return NAN;
 }
 
 /* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the

@@ -50,6 +50,13 @@ extern "C" {
 /* Add prefix to internal symbols */
 #define casadi_f0 CASADI_PREFIX(f0)
 #define casadi_f1 CASADI_PREFIX(f1)
+#define casadi_f10 CASADI_PREFIX(f10)
+#define casadi_f11 CASADI_PREFIX(f11)
+#define casadi_f12 CASADI_PREFIX(f12)
+#define casadi_f13 CASADI_PREFIX(f13)
+#define casadi_f14 CASADI_PREFIX(f14)
+#define casadi_f15 CASADI_PREFIX(f15)
+#define casadi_f16 CASADI_PREFIX(f16)
 #define casadi_f2 CASADI_PREFIX(f2)
 #define casadi_f3 CASADI_PREFIX(f3)
 #define casadi_f4 CASADI_PREFIX(f4)
@@ -57,6 +64,7 @@ extern "C" {
 #define casadi_f6 CASADI_PREFIX(f6)
 #define casadi_f7 CASADI_PREFIX(f7)
 #define casadi_f8 CASADI_PREFIX(f8)
+#define casadi_f9 CASADI_PREFIX(f9)
 #define casadi_s0 CASADI_PREFIX(s0)
 #define casadi_s1 CASADI_PREFIX(s1)
 #define casadi_s2 CASADI_PREFIX(s2)
@@ -2476,8 +2484,580 @@ CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_free_watch_work_bytes(casadi_
   return 0;
 }
 
-/* vsw_kneed_walker_sim_knee_locked_flow:(c[499],x[6])->(knee_locked_flow[6]) */
+/* vsw_kneed_walker_sim_knee_free_guard_0:(c[499],x[6])->(knee_free_guard_0) */
 static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][2];
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_free_guard_0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f3(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_free_guard_0_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_free_guard_0_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_free_guard_0_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_free_guard_0_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_kneed_walker_sim_knee_free_guard_0_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_kneed_walker_sim_knee_free_guard_0_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_kneed_walker_sim_knee_free_guard_0_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_kneed_walker_sim_knee_free_guard_0_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_kneed_walker_sim_knee_free_guard_0_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "knee_free_guard_0";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_kneed_walker_sim_knee_free_guard_0_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_kneed_walker_sim_knee_free_guard_0_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_free_guard_0_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_free_guard_0_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_kneed_walker_sim_knee_free_guard_1:(c[499],x[6])->(knee_free_guard_1) */
+static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][3];
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_free_guard_1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f4(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_free_guard_1_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_free_guard_1_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_free_guard_1_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_free_guard_1_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_kneed_walker_sim_knee_free_guard_1_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_kneed_walker_sim_knee_free_guard_1_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_kneed_walker_sim_knee_free_guard_1_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_kneed_walker_sim_knee_free_guard_1_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_kneed_walker_sim_knee_free_guard_1_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "knee_free_guard_1";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_kneed_walker_sim_knee_free_guard_1_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_kneed_walker_sim_knee_free_guard_1_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_free_guard_1_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_free_guard_1_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_kneed_walker_sim_knee_free_guard_2:(c[499],x[6])->(knee_free_guard_2) */
+static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][0];
+  a0=vsw_cos(a0);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_free_guard_2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f5(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_free_guard_2_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_free_guard_2_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_free_guard_2_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_free_guard_2_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_kneed_walker_sim_knee_free_guard_2_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_kneed_walker_sim_knee_free_guard_2_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_kneed_walker_sim_knee_free_guard_2_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_kneed_walker_sim_knee_free_guard_2_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_kneed_walker_sim_knee_free_guard_2_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "knee_free_guard_2";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_kneed_walker_sim_knee_free_guard_2_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_kneed_walker_sim_knee_free_guard_2_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_free_guard_2_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_free_guard_2_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_kneed_walker_sim_knee_free_guard_3:(c[499],x[6])->(knee_free_guard_3) */
+static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
+  casadi_real a36, a37, a38;
+  a00=arg[1][3];
+  a00=casadi_sq(a00);
+  a01=arg[0][18];
+  a01=(a00*a01);
+  a02=arg[1][2];
+  a03=arg[1][1];
+  a04=(a02+a03);
+  a05=arg[1][0];
+  a06=(a04-a05);
+  a07=vsw_sin(a06);
+  a01=(a01*a07);
+  a08=arg[0][6];
+  a01=(a01*a08);
+  a09=arg[0][7];
+  a01=(a01*a09);
+  a10=arg[0][19];
+  a11=arg[0][8];
+  a12=(a11+a02);
+  a12=(a12+a03);
+  a12=vsw_sin(a12);
+  a12=(a10*a12);
+  a13=arg[0][10];
+  a12=(a12*a13);
+  a14=arg[1][4];
+  a15=casadi_sq(a14);
+  a16=arg[0][20];
+  a17=vsw_sin(a02);
+  a17=(a16*a17);
+  a18=(a15*a17);
+  a18=(a12+a18);
+  a01=(a01-a18);
+  a18=arg[0][21];
+  a06=vsw_cos(a06);
+  a19=(a18*a06);
+  a20=arg[0][22];
+  a21=(a03-a05);
+  a22=vsw_cos(a21);
+  a22=(a20*a22);
+  a22=(a19+a22);
+  a23=(a19*a22);
+  a24=arg[0][23];
+  a02=vsw_cos(a02);
+  a16=(a16*a02);
+  a02=(a24+a16);
+  a25=arg[0][24];
+  a26=(a02*a25);
+  a23=(a23-a26);
+  a26=(a01*a23);
+  a27=(a24*a22);
+  a28=(a02*a19);
+  a27=(a27-a28);
+  a28=(a11+a05);
+  a28=vsw_sin(a28);
+  a28=(a28*a13);
+  a29=arg[0][25];
+  a28=(a28*a29);
+  a18=(a18*a07);
+  a07=(a15*a18);
+  a21=vsw_sin(a21);
+  a20=(a20*a21);
+  a21=(a15*a20);
+  a07=(a07+a21);
+  a21=arg[1][5];
+  a29=casadi_sq(a21);
+  a30=(a29*a18);
+  a07=(a07+a30);
+  a30=(2.*a21);
+  a30=(a30*a14);
+  a31=(a30*a18);
+  a07=(a07+a31);
+  a28=(a28-a07);
+  a07=(a27*a28);
+  a26=(a26+a07);
+  a18=(a00*a18);
+  a18=(a18-a12);
+  a20=(a00*a20);
+  a18=(a18+a20);
+  a20=(a29*a17);
+  a18=(a18+a20);
+  a17=(a17*a30);
+  a18=(a18+a17);
+  a17=arg[0][26];
+  a11=(a11+a03);
+  a11=vsw_sin(a11);
+  a17=(a17*a11);
+  a17=(a17*a13);
+  a18=(a18-a17);
+  a17=arg[0][29];
+  a13=arg[0][27];
+  a06=casadi_sq(a06);
+  a13=(a13*a06);
+  a06=arg[0][28];
+  a13=(a13*a06);
+  a17=(a17-a13);
+  a17=(a18*a17);
+  a26=(a26+a17);
+  a17=(2.*a19);
+  a06=(a02*a22);
+  a17=(a17*a06);
+  a22=casadi_sq(a22);
+  a11=(a24*a22);
+  a30=arg[0][30];
+  a16=(2.*a16);
+  a30=(a30+a16);
+  a13=(a30*a13);
+  a11=(a11+a13);
+  a02=casadi_sq(a02);
+  a13=(a02*a25);
+  a11=(a11+a13);
+  a17=(a17-a11);
+  a11=arg[0][31];
+  a11=(a11*a30);
+  a11=(a11*a25);
+  a11=(a11*a09);
+  a17=(a17+a11);
+  a26=(a26/a17);
+  a11=arg[0][32];
+  a13=vsw_sin(a03);
+  a16=(a11*a13);
+  a20=vsw_sin(a04);
+  a12=(a10*a20);
+  a16=(a16+a12);
+  a12=arg[0][33];
+  a07=(a12*a13);
+  a16=(a16+a07);
+  a07=arg[0][34];
+  a13=(a07*a13);
+  a16=(a16+a13);
+  a26=(a26*a16);
+  a16=arg[0][35];
+  a13=vsw_cos(a05);
+  a00=(a00*a13);
+  a13=(a16*a00);
+  a31=arg[0][36];
+  a32=(a31*a00);
+  a13=(a13+a32);
+  a32=arg[0][37];
+  a33=(a32*a00);
+  a13=(a13+a33);
+  a33=arg[0][38];
+  a34=(a33*a00);
+  a13=(a13+a34);
+  a34=arg[0][39];
+  a35=(a34*a00);
+  a13=(a13+a35);
+  a35=arg[0][40];
+  a36=(a00*a35);
+  a13=(a13+a36);
+  a36=(a00*a11);
+  a13=(a13+a36);
+  a36=arg[0][41];
+  a37=(a00*a36);
+  a13=(a13+a37);
+  a37=(a00*a10);
+  a13=(a13+a37);
+  a37=arg[0][42];
+  a38=(a00*a37);
+  a13=(a13+a38);
+  a38=(a00*a12);
+  a13=(a13+a38);
+  a00=(a00*a07);
+  a13=(a13+a00);
+  a19=(a19*a30);
+  a19=(a19-a06);
+  a06=(a01*a19);
+  a27=(a27*a18);
+  a06=(a06+a27);
+  a24=(a24*a30);
+  a24=(a24-a02);
+  a24=(a28*a24);
+  a06=(a06+a24);
+  a06=(a06/a17);
+  a05=vsw_sin(a05);
+  a16=(a16*a05);
+  a31=(a31*a05);
+  a16=(a16+a31);
+  a32=(a32*a05);
+  a16=(a16+a32);
+  a33=(a33*a05);
+  a16=(a16+a33);
+  a34=(a34*a05);
+  a16=(a16+a34);
+  a35=(a35*a05);
+  a16=(a16+a35);
+  a11=(a11*a05);
+  a16=(a16+a11);
+  a36=(a36*a05);
+  a16=(a16+a36);
+  a10=(a10*a05);
+  a16=(a16+a10);
+  a37=(a37*a05);
+  a16=(a16+a37);
+  a12=(a12*a05);
+  a16=(a16+a12);
+  a07=(a07*a05);
+  a16=(a16+a07);
+  a06=(a06*a16);
+  a13=(a13+a06);
+  a26=(a26-a13);
+  a13=arg[0][43];
+  a26=(a26+a13);
+  a13=arg[0][44];
+  a26=(a26+a13);
+  a13=arg[0][45];
+  a26=(a26+a13);
+  a03=vsw_cos(a03);
+  a03=(a15*a03);
+  a13=arg[0][46];
+  a13=(a03*a13);
+  a13=(a13*a09);
+  a26=(a26+a13);
+  a13=arg[0][47];
+  a03=(a03*a13);
+  a13=(a03*a09);
+  a26=(a26+a13);
+  a13=arg[0][48];
+  a03=(a03*a13);
+  a26=(a26+a03);
+  a04=vsw_cos(a04);
+  a15=(a15*a04);
+  a15=(a15*a08);
+  a15=(a15*a09);
+  a26=(a26+a15);
+  a29=(a29*a04);
+  a29=(a29*a08);
+  a29=(a29*a09);
+  a26=(a26+a29);
+  a20=(a20/a17);
+  a20=(a20*a08);
+  a20=(a20*a09);
+  a30=(a30*a25);
+  a30=(a30-a22);
+  a01=(a01*a30);
+  a19=(a19*a28);
+  a01=(a01+a19);
+  a18=(a18*a23);
+  a01=(a01+a18);
+  a20=(a20*a01);
+  a26=(a26+a20);
+  a04=(2.*a04);
+  a04=(a04*a21);
+  a04=(a04*a14);
+  a04=(a04*a08);
+  a04=(a04*a09);
+  a26=(a26+a04);
+  res[0][0]=a26;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_free_guard_3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f6(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_free_guard_3_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_free_guard_3_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_free_guard_3_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_free_guard_3_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_kneed_walker_sim_knee_free_guard_3_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_kneed_walker_sim_knee_free_guard_3_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_kneed_walker_sim_knee_free_guard_3_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_kneed_walker_sim_knee_free_guard_3_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_kneed_walker_sim_knee_free_guard_3_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "knee_free_guard_3";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_kneed_walker_sim_knee_free_guard_3_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_kneed_walker_sim_knee_free_guard_3_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_free_guard_3_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_free_guard_3_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_kneed_walker_sim_knee_locked_flow:(c[499],x[6])->(knee_locked_flow[6]) */
+static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10;
   a00=arg[1][3];
   res[0][0]=a00;
@@ -2536,7 +3116,7 @@ static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_locked_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f3(arg, res, iw, w, mem);
+  return casadi_f7(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_locked_flow_checkout(void) {
@@ -2609,7 +3189,7 @@ CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_locked_flow_work_bytes(casadi
 }
 
 /* vsw_kneed_walker_sim_knee_locked_watch:(c[499],x[6])->(knee_locked_watch[4]) */
-static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22;
   a00=arg[1][1];
@@ -2768,7 +3348,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_locked_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f4(arg, res, iw, w, mem);
+  return casadi_f8(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_locked_watch_checkout(void) {
@@ -2840,8 +3420,482 @@ CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_locked_watch_work_bytes(casad
   return 0;
 }
 
+/* vsw_kneed_walker_sim_knee_locked_guard_0:(c[499],x[6])->(knee_locked_guard_0) */
+static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1, a2;
+  a0=arg[1][1];
+  a1=2.;
+  a0=(a0/a1);
+  a2=arg[1][0];
+  a2=(a2/a1);
+  a0=(a0+a2);
+  a0=vsw_sin(a0);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_locked_guard_0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f9(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_locked_guard_0_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_locked_guard_0_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_locked_guard_0_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_locked_guard_0_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_kneed_walker_sim_knee_locked_guard_0_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_kneed_walker_sim_knee_locked_guard_0_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_kneed_walker_sim_knee_locked_guard_0_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_kneed_walker_sim_knee_locked_guard_0_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_kneed_walker_sim_knee_locked_guard_0_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "knee_locked_guard_0";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_kneed_walker_sim_knee_locked_guard_0_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_kneed_walker_sim_knee_locked_guard_0_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_locked_guard_0_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_locked_guard_0_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_kneed_walker_sim_knee_locked_guard_1:(c[499],x[6])->(knee_locked_guard_1) */
+static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][3];
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_locked_guard_1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f10(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_locked_guard_1_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_locked_guard_1_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_locked_guard_1_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_locked_guard_1_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_kneed_walker_sim_knee_locked_guard_1_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_kneed_walker_sim_knee_locked_guard_1_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_kneed_walker_sim_knee_locked_guard_1_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_kneed_walker_sim_knee_locked_guard_1_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_kneed_walker_sim_knee_locked_guard_1_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "knee_locked_guard_1";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_kneed_walker_sim_knee_locked_guard_1_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_kneed_walker_sim_knee_locked_guard_1_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_locked_guard_1_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_locked_guard_1_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_kneed_walker_sim_knee_locked_guard_2:(c[499],x[6])->(knee_locked_guard_2) */
+static int casadi_f11(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][0];
+  a0=vsw_cos(a0);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_locked_guard_2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f11(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_locked_guard_2_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_locked_guard_2_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_locked_guard_2_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_locked_guard_2_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_kneed_walker_sim_knee_locked_guard_2_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_kneed_walker_sim_knee_locked_guard_2_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_kneed_walker_sim_knee_locked_guard_2_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_kneed_walker_sim_knee_locked_guard_2_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_kneed_walker_sim_knee_locked_guard_2_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "knee_locked_guard_2";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_kneed_walker_sim_knee_locked_guard_2_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_kneed_walker_sim_knee_locked_guard_2_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_locked_guard_2_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_locked_guard_2_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_kneed_walker_sim_knee_locked_guard_3:(c[499],x[6])->(knee_locked_guard_3) */
+static int casadi_f12(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22;
+  a00=arg[1][3];
+  a00=casadi_sq(a00);
+  a01=arg[0][57];
+  a02=(a00*a01);
+  a03=arg[0][58];
+  a02=(a02*a03);
+  a03=arg[1][1];
+  a04=arg[1][0];
+  a05=(a03-a04);
+  a06=vsw_sin(a05);
+  a02=(a02*a06);
+  a07=arg[0][8];
+  a08=(a07+a03);
+  a08=vsw_sin(a08);
+  a01=(a01*a08);
+  a08=arg[0][10];
+  a01=(a01*a08);
+  a02=(a02-a01);
+  a01=arg[0][59];
+  a01=(a02*a01);
+  a09=arg[0][60];
+  a05=vsw_cos(a05);
+  a10=(a09*a05);
+  a07=(a07+a04);
+  a07=vsw_sin(a07);
+  a07=(a07*a08);
+  a08=arg[0][61];
+  a07=(a07*a08);
+  a08=arg[1][4];
+  a08=casadi_sq(a08);
+  a09=(a08*a09);
+  a09=(a09*a06);
+  a07=(a07-a09);
+  a09=(a10*a07);
+  a01=(a01+a09);
+  a09=arg[0][63];
+  a06=arg[0][62];
+  a05=casadi_sq(a05);
+  a06=(a06*a05);
+  a09=(a09-a06);
+  a01=(a01/a09);
+  a06=arg[0][64];
+  a05=vsw_sin(a03);
+  a11=(a06*a05);
+  a12=arg[0][65];
+  a13=(a12*a05);
+  a11=(a11+a13);
+  a13=arg[0][66];
+  a14=(a13*a05);
+  a11=(a11+a14);
+  a14=arg[0][67];
+  a05=(a14*a05);
+  a11=(a11+a05);
+  a01=(a01*a11);
+  a11=arg[0][68];
+  a05=vsw_cos(a04);
+  a00=(a00*a05);
+  a05=(a11*a00);
+  a15=arg[0][69];
+  a16=(a15*a00);
+  a05=(a05+a16);
+  a16=arg[0][70];
+  a17=(a16*a00);
+  a05=(a05+a17);
+  a17=arg[0][71];
+  a18=(a17*a00);
+  a05=(a05+a18);
+  a18=arg[0][72];
+  a19=(a18*a00);
+  a05=(a05+a19);
+  a19=arg[0][73];
+  a20=(a00*a19);
+  a05=(a05+a20);
+  a20=(a00*a06);
+  a05=(a05+a20);
+  a20=arg[0][74];
+  a21=(a00*a20);
+  a05=(a05+a21);
+  a21=(a00*a12);
+  a05=(a05+a21);
+  a21=arg[0][75];
+  a22=(a00*a21);
+  a05=(a05+a22);
+  a22=(a00*a13);
+  a05=(a05+a22);
+  a00=(a00*a14);
+  a05=(a05+a00);
+  a02=(a02*a10);
+  a10=arg[0][76];
+  a10=(a10*a07);
+  a02=(a02+a10);
+  a02=(a02/a09);
+  a04=vsw_sin(a04);
+  a11=(a11*a04);
+  a15=(a15*a04);
+  a11=(a11+a15);
+  a16=(a16*a04);
+  a11=(a11+a16);
+  a17=(a17*a04);
+  a11=(a11+a17);
+  a18=(a18*a04);
+  a11=(a11+a18);
+  a19=(a19*a04);
+  a11=(a11+a19);
+  a06=(a06*a04);
+  a11=(a11+a06);
+  a20=(a20*a04);
+  a11=(a11+a20);
+  a12=(a12*a04);
+  a11=(a11+a12);
+  a21=(a21*a04);
+  a11=(a11+a21);
+  a13=(a13*a04);
+  a11=(a11+a13);
+  a14=(a14*a04);
+  a11=(a11+a14);
+  a02=(a02*a11);
+  a05=(a05+a02);
+  a01=(a01-a05);
+  a05=arg[0][77];
+  a01=(a01+a05);
+  a05=arg[0][78];
+  a01=(a01+a05);
+  a05=arg[0][79];
+  a01=(a01+a05);
+  a03=vsw_cos(a03);
+  a08=(a08*a03);
+  a03=arg[0][46];
+  a03=(a08*a03);
+  a05=arg[0][7];
+  a03=(a03*a05);
+  a01=(a01+a03);
+  a03=arg[0][6];
+  a03=(a08*a03);
+  a03=(a03*a05);
+  a01=(a01+a03);
+  a03=arg[0][47];
+  a08=(a08*a03);
+  a05=(a08*a05);
+  a01=(a01+a05);
+  a05=arg[0][48];
+  a08=(a08*a05);
+  a01=(a01+a08);
+  res[0][0]=a01;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_locked_guard_3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f12(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_locked_guard_3_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_locked_guard_3_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_locked_guard_3_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_kneed_walker_sim_knee_locked_guard_3_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_kneed_walker_sim_knee_locked_guard_3_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_kneed_walker_sim_knee_locked_guard_3_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_kneed_walker_sim_knee_locked_guard_3_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_kneed_walker_sim_knee_locked_guard_3_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_kneed_walker_sim_knee_locked_guard_3_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "knee_locked_guard_3";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_kneed_walker_sim_knee_locked_guard_3_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_kneed_walker_sim_knee_locked_guard_3_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_locked_guard_3_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_knee_locked_guard_3_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
 /* vsw_kneed_walker_sim_kneestrike_reset:(c[499],x[6])->(kneestrike_reset[6]) */
-static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f13(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a000, a001, a002, a003, a004, a005, a006, a007, a008, a009, a010, a011;
   casadi_real a012, a013, a014, a015, a016, a017, a018, a019, a020, a021, a022, a023;
   casadi_real a024, a025, a026, a027, a028, a029, a030, a031, a032, a033, a034, a035;
@@ -4112,7 +5166,7 @@ static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_kneestrike_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f5(arg, res, iw, w, mem);
+  return casadi_f13(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_kneestrike_reset_checkout(void) {
@@ -4185,7 +5239,7 @@ CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_kneestrike_reset_work_bytes(casadi
 }
 
 /* vsw_kneed_walker_sim_heelstrike_reset:(c[499],x[6])->(heelstrike_reset[6]) */
-static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f14(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a000, a001, a002, a003, a004, a005, a006, a007, a008, a009, a010, a011;
   casadi_real a012, a013, a014, a015, a016, a017, a018, a019, a020, a021, a022, a023;
   casadi_real a024, a025, a026, a027, a028, a029, a030, a031, a032, a033, a034, a035;
@@ -5932,7 +6986,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_heelstrike_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f6(arg, res, iw, w, mem);
+  return casadi_f14(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_heelstrike_reset_checkout(void) {
@@ -6005,7 +7059,7 @@ CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_heelstrike_reset_work_bytes(casadi
 }
 
 /* vsw_kneed_walker_sim_heelstrike_when:(c[499],x[6])->(heelstrike_when) */
-static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f15(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0;
   a0=arg[1][0];
   res[0][0]=a0;
@@ -6013,7 +7067,7 @@ static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_heelstrike_when(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f7(arg, res, iw, w, mem);
+  return casadi_f15(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_heelstrike_when_checkout(void) {
@@ -6086,7 +7140,7 @@ CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_heelstrike_when_work_bytes(casadi_
 }
 
 /* vsw_kneed_walker_sim_step_length:(c[499],x[6])->(step_length) */
-static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2, a3;
   a0=arg[0][497];
   a1=arg[1][0];
@@ -6106,7 +7160,7 @@ static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_step_length(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f8(arg, res, iw, w, mem);
+  return casadi_f16(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_kneed_walker_sim_step_length_checkout(void) {
@@ -6240,6 +7294,40 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
         VSW_CALL(vsw_kneed_walker_sim_knee_locked_watch, c, x, out);
         return;
     }
+}
+
+/* Per phase: its guard k alone (vsw_watch's out[k], the same operations: event location
+   needs one guard at each iterate). */
+static inline double vsw_watch_one(int phase, int k, const double *c, const double *x)
+{
+    double out[1];
+    switch (phase * VSW_MAX_WATCH + k) {
+    case 0:
+        VSW_CALL(vsw_kneed_walker_sim_knee_free_guard_0, c, x, out);
+        return out[0];
+    case 1:
+        VSW_CALL(vsw_kneed_walker_sim_knee_free_guard_1, c, x, out);
+        return out[0];
+    case 2:
+        VSW_CALL(vsw_kneed_walker_sim_knee_free_guard_2, c, x, out);
+        return out[0];
+    case 3:
+        VSW_CALL(vsw_kneed_walker_sim_knee_free_guard_3, c, x, out);
+        return out[0];
+    case 4:
+        VSW_CALL(vsw_kneed_walker_sim_knee_locked_guard_0, c, x, out);
+        return out[0];
+    case 5:
+        VSW_CALL(vsw_kneed_walker_sim_knee_locked_guard_1, c, x, out);
+        return out[0];
+    case 6:
+        VSW_CALL(vsw_kneed_walker_sim_knee_locked_guard_2, c, x, out);
+        return out[0];
+    case 7:
+        VSW_CALL(vsw_kneed_walker_sim_knee_locked_guard_3, c, x, out);
+        return out[0];
+    }
+    return NAN;
 }
 
 /* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the

@@ -54,6 +54,10 @@ extern "C" {
 #define casadi_f3 CASADI_PREFIX(f3)
 #define casadi_f4 CASADI_PREFIX(f4)
 #define casadi_f5 CASADI_PREFIX(f5)
+#define casadi_f6 CASADI_PREFIX(f6)
+#define casadi_f7 CASADI_PREFIX(f7)
+#define casadi_f8 CASADI_PREFIX(f8)
+#define casadi_f9 CASADI_PREFIX(f9)
 #define casadi_s0 CASADI_PREFIX(s0)
 #define casadi_s1 CASADI_PREFIX(s1)
 #define casadi_s2 CASADI_PREFIX(s2)
@@ -929,8 +933,562 @@ CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_stance_watch_work_bytes(casa
   return 0;
 }
 
-/* vsw_level_compass_gait_sim_heelstrike_reset:(c[89],x[4])->(heelstrike_reset[4]) */
+/* vsw_level_compass_gait_sim_stance_guard_0:(c[89],x[4])->(stance_guard_0) */
 static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1, a2;
+  a0=arg[1][1];
+  a1=2.;
+  a0=(a0/a1);
+  a2=arg[1][0];
+  a2=(a2/a1);
+  a0=(a0+a2);
+  a0=vsw_sin(a0);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_stance_guard_0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f3(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_stance_guard_0_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_level_compass_gait_sim_stance_guard_0_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_level_compass_gait_sim_stance_guard_0_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_level_compass_gait_sim_stance_guard_0_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_level_compass_gait_sim_stance_guard_0_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_level_compass_gait_sim_stance_guard_0_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_level_compass_gait_sim_stance_guard_0_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_level_compass_gait_sim_stance_guard_0_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_level_compass_gait_sim_stance_guard_0_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stance_guard_0";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_level_compass_gait_sim_stance_guard_0_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_level_compass_gait_sim_stance_guard_0_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_stance_guard_0_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_stance_guard_0_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_level_compass_gait_sim_stance_guard_1:(c[89],x[4])->(stance_guard_1) */
+static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][2];
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_stance_guard_1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f4(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_stance_guard_1_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_level_compass_gait_sim_stance_guard_1_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_level_compass_gait_sim_stance_guard_1_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_level_compass_gait_sim_stance_guard_1_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_level_compass_gait_sim_stance_guard_1_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_level_compass_gait_sim_stance_guard_1_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_level_compass_gait_sim_stance_guard_1_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_level_compass_gait_sim_stance_guard_1_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_level_compass_gait_sim_stance_guard_1_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stance_guard_1";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_level_compass_gait_sim_stance_guard_1_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_level_compass_gait_sim_stance_guard_1_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_stance_guard_1_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_stance_guard_1_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_level_compass_gait_sim_stance_guard_2:(c[89],x[4])->(stance_guard_2) */
+static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][0];
+  a0=vsw_cos(a0);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_stance_guard_2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f5(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_stance_guard_2_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_level_compass_gait_sim_stance_guard_2_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_level_compass_gait_sim_stance_guard_2_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_level_compass_gait_sim_stance_guard_2_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_level_compass_gait_sim_stance_guard_2_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_level_compass_gait_sim_stance_guard_2_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_level_compass_gait_sim_stance_guard_2_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_level_compass_gait_sim_stance_guard_2_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_level_compass_gait_sim_stance_guard_2_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stance_guard_2";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_level_compass_gait_sim_stance_guard_2_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_level_compass_gait_sim_stance_guard_2_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_stance_guard_2_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_stance_guard_2_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_level_compass_gait_sim_stance_guard_3:(c[89],x[4])->(stance_guard_3) */
+static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29;
+  a00=arg[0][23];
+  a01=arg[1][0];
+  a02=vsw_cos(a01);
+  a03=casadi_sq(a02);
+  a04=arg[0][21];
+  a05=(a03*a04);
+  a06=arg[0][22];
+  a07=(a05*a06);
+  a00=(a00*a07);
+  a08=arg[0][24];
+  a00=(a00-a08);
+  a08=arg[0][26];
+  a09=arg[1][1];
+  a10=vsw_cos(a09);
+  a11=casadi_sq(a10);
+  a12=arg[0][25];
+  a13=(a11*a12);
+  a14=(a08*a13);
+  a00=(a00+a14);
+  a14=arg[0][27];
+  a14=(a14*a11);
+  a00=(a00+a14);
+  a14=arg[0][28];
+  a15=(a11*a14);
+  a00=(a00+a15);
+  a15=arg[0][29];
+  a11=(a11*a15);
+  a00=(a00+a11);
+  a11=(a14*a03);
+  a00=(a00+a11);
+  a11=(a09-a01);
+  a15=vsw_cos(a11);
+  a16=(2.*a15);
+  a09=vsw_sin(a09);
+  a01=vsw_sin(a01);
+  a17=(a09*a01);
+  a18=(a16*a17);
+  a19=(a14*a18);
+  a00=(a00+a19);
+  a19=arg[0][30];
+  a20=(a03*a19);
+  a00=(a00+a20);
+  a20=arg[0][31];
+  a03=(a03*a20);
+  a00=(a00+a03);
+  a03=arg[0][32];
+  a21=(a13*a03);
+  a00=(a00+a21);
+  a21=arg[0][33];
+  a13=(a13*a21);
+  a00=(a00+a13);
+  a13=arg[0][34];
+  a13=(a05*a13);
+  a00=(a00+a13);
+  a13=arg[0][35];
+  a22=(a05*a13);
+  a00=(a00+a22);
+  a22=arg[1][3];
+  a22=casadi_sq(a22);
+  a23=(a22*a10);
+  a24=arg[0][36];
+  a25=(a23*a24);
+  a00=(a00+a25);
+  a25=arg[0][37];
+  a26=(a23*a25);
+  a00=(a00+a26);
+  a11=vsw_sin(a11);
+  a26=(a22*a11);
+  a26=(a26*a01);
+  a01=(a24*a26);
+  a00=(a00+a01);
+  a23=(2.*a23);
+  a01=arg[0][38];
+  a27=(a23*a01);
+  a00=(a00+a27);
+  a27=arg[0][39];
+  a28=(a23*a27);
+  a00=(a00+a28);
+  a28=arg[0][40];
+  a29=(a26*a28);
+  a00=(a00+a29);
+  a25=(a26*a25);
+  a00=(a00+a25);
+  a17=(a17*a15);
+  a20=(a17*a20);
+  a00=(a00+a20);
+  a20=arg[0][41];
+  a07=(a07*a20);
+  a00=(a00+a07);
+  a07=arg[1][2];
+  a07=casadi_sq(a07);
+  a09=(a07*a09);
+  a09=(a09*a11);
+  a28=(a28*a09);
+  a00=(a00+a28);
+  a28=casadi_sq(a15);
+  a19=(a28*a19);
+  a00=(a00-a19);
+  a03=(a28*a03);
+  a19=(a03*a12);
+  a00=(a00-a19);
+  a21=(a28*a21);
+  a19=(a21*a12);
+  a00=(a00-a19);
+  a19=arg[0][42];
+  a00=(a00-a19);
+  a08=(a28*a08);
+  a12=(a08*a12);
+  a00=(a00-a12);
+  a28=(2.*a28);
+  a14=(a14*a28);
+  a00=(a00-a14);
+  a14=arg[0][43];
+  a00=(a00-a14);
+  a14=arg[0][44];
+  a14=(a14*a28);
+  a00=(a00-a14);
+  a14=arg[0][45];
+  a28=(a07*a02);
+  a06=(a06*a28);
+  a14=(a14*a06);
+  a00=(a00-a14);
+  a24=(a24*a28);
+  a00=(a00-a24);
+  a24=arg[0][46];
+  a24=(a24*a28);
+  a14=arg[0][47];
+  a14=(a24*a14);
+  a00=(a00-a14);
+  a14=arg[0][48];
+  a12=(a24*a14);
+  a00=(a00-a12);
+  a12=arg[0][49];
+  a19=(a06*a12);
+  a00=(a00-a19);
+  a22=(a22*a02);
+  a02=(a27*a15);
+  a19=(a22*a02);
+  a00=(a00-a19);
+  a19=arg[0][50];
+  a19=(a19*a28);
+  a14=(a14*a19);
+  a00=(a00-a14);
+  a14=arg[0][52];
+  a11=arg[0][51];
+  a28=(a28*a11);
+  a14=(a14*a28);
+  a00=(a00-a14);
+  a14=arg[0][53];
+  a14=(a14*a28);
+  a00=(a00-a14);
+  a14=3.;
+  a14=(a14*a06);
+  a06=arg[0][54];
+  a14=(a14*a06);
+  a00=(a00-a14);
+  a14=arg[0][55];
+  a14=(a14*a19);
+  a00=(a00-a14);
+  a24=(2.*a24);
+  a24=(a24*a12);
+  a00=(a00-a24);
+  a24=(2.*a26);
+  a24=(a24*a27);
+  a00=(a00+a24);
+  a24=4.;
+  a09=(a24*a09);
+  a09=(a09*a27);
+  a00=(a00+a09);
+  a09=5.;
+  a07=(a07*a10);
+  a09=(a09*a07);
+  a09=(a09*a02);
+  a00=(a00+a09);
+  a09=6.;
+  a09=(a09*a05);
+  a02=arg[0][56];
+  a09=(a09*a02);
+  a00=(a00+a09);
+  a09=arg[0][57];
+  a09=(a09*a17);
+  a00=(a00+a09);
+  a09=arg[0][58];
+  a09=(a09*a17);
+  a00=(a00+a09);
+  a09=arg[0][59];
+  a09=(a09*a18);
+  a00=(a00+a09);
+  a09=arg[0][60];
+  a23=(a23*a09);
+  a23=(a23*a11);
+  a00=(a00+a23);
+  a13=(a13*a26);
+  a13=(a13*a11);
+  a00=(a00+a13);
+  a16=(a16*a01);
+  a16=(a16*a22);
+  a00=(a00-a16);
+  a16=arg[0][61];
+  a16=(a16*a05);
+  a05=arg[0][62];
+  a16=(a16*a05);
+  a00=(a00+a16);
+  a24=(a24*a17);
+  a24=(a24*a02);
+  a24=(a24*a04);
+  a00=(a00+a24);
+  a24=arg[0][63];
+  a24=(a24*a07);
+  a24=(a24*a15);
+  a00=(a00+a24);
+  a24=arg[0][64];
+  a24=(a24-a03);
+  a24=(a24-a21);
+  a24=(a24-a08);
+  a08=arg[0][65];
+  a24=(a24+a08);
+  a08=arg[0][66];
+  a24=(a24+a08);
+  a08=arg[0][67];
+  a24=(a24+a08);
+  a00=(a00/a24);
+  res[0][0]=a00;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_stance_guard_3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f6(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_stance_guard_3_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_level_compass_gait_sim_stance_guard_3_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_level_compass_gait_sim_stance_guard_3_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_level_compass_gait_sim_stance_guard_3_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_level_compass_gait_sim_stance_guard_3_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_level_compass_gait_sim_stance_guard_3_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_level_compass_gait_sim_stance_guard_3_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_level_compass_gait_sim_stance_guard_3_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_level_compass_gait_sim_stance_guard_3_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stance_guard_3";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_level_compass_gait_sim_stance_guard_3_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_level_compass_gait_sim_stance_guard_3_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_stance_guard_3_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_stance_guard_3_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_level_compass_gait_sim_heelstrike_reset:(c[89],x[4])->(heelstrike_reset[4]) */
+static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14;
   a00=arg[1][1];
@@ -1048,7 +1606,7 @@ static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_heelstrike_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f3(arg, res, iw, w, mem);
+  return casadi_f7(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_heelstrike_reset_checkout(void) {
@@ -1121,7 +1679,7 @@ CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_heelstrike_reset_work_bytes(
 }
 
 /* vsw_level_compass_gait_sim_heelstrike_when:(c[89],x[4])->(heelstrike_when) */
-static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0;
   a0=arg[1][0];
   res[0][0]=a0;
@@ -1129,7 +1687,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_heelstrike_when(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f4(arg, res, iw, w, mem);
+  return casadi_f8(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_heelstrike_when_checkout(void) {
@@ -1202,7 +1760,7 @@ CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_heelstrike_when_work_bytes(c
 }
 
 /* vsw_level_compass_gait_sim_step_length:(c[89],x[4])->(step_length) */
-static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2;
   a0=arg[0][88];
   a1=arg[1][0];
@@ -1217,7 +1775,7 @@ static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_step_length(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f5(arg, res, iw, w, mem);
+  return casadi_f9(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_level_compass_gait_sim_step_length_checkout(void) {
@@ -1345,6 +1903,28 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
         VSW_CALL(vsw_level_compass_gait_sim_stance_watch, c, x, out);
         return;
     }
+}
+
+/* Per phase: its guard k alone (vsw_watch's out[k], the same operations: event location
+   needs one guard at each iterate). */
+static inline double vsw_watch_one(int phase, int k, const double *c, const double *x)
+{
+    double out[1];
+    switch (phase * VSW_MAX_WATCH + k) {
+    case 0:
+        VSW_CALL(vsw_level_compass_gait_sim_stance_guard_0, c, x, out);
+        return out[0];
+    case 1:
+        VSW_CALL(vsw_level_compass_gait_sim_stance_guard_1, c, x, out);
+        return out[0];
+    case 2:
+        VSW_CALL(vsw_level_compass_gait_sim_stance_guard_2, c, x, out);
+        return out[0];
+    case 3:
+        VSW_CALL(vsw_level_compass_gait_sim_stance_guard_3, c, x, out);
+        return out[0];
+    }
+    return NAN;
 }
 
 /* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the

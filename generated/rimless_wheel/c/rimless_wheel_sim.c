@@ -53,6 +53,9 @@ extern "C" {
 #define casadi_f2 CASADI_PREFIX(f2)
 #define casadi_f3 CASADI_PREFIX(f3)
 #define casadi_f4 CASADI_PREFIX(f4)
+#define casadi_f5 CASADI_PREFIX(f5)
+#define casadi_f6 CASADI_PREFIX(f6)
+#define casadi_f7 CASADI_PREFIX(f7)
 #define casadi_s0 CASADI_PREFIX(s0)
 #define casadi_s1 CASADI_PREFIX(s1)
 #define casadi_s2 CASADI_PREFIX(s2)
@@ -395,8 +398,276 @@ CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_stance_watch_work_bytes(casadi_in
   return 0;
 }
 
-/* vsw_rimless_wheel_sim_collision_reset:(c[10],x[2])->(collision_reset[2]) */
+/* vsw_rimless_wheel_sim_stance_guard_0:(c[10],x[2])->(stance_guard_0) */
 static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1, a2, a3;
+  a0=arg[1][0];
+  a1=vsw_cos(a0);
+  a2=arg[0][3];
+  a1=(a1*a2);
+  a3=arg[0][4];
+  a3=(a3-a0);
+  a3=vsw_cos(a3);
+  a3=(a3*a2);
+  a1=(a1-a3);
+  res[0][0]=a1;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_stance_guard_0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f3(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_stance_guard_0_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_rimless_wheel_sim_stance_guard_0_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_rimless_wheel_sim_stance_guard_0_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_rimless_wheel_sim_stance_guard_0_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_rimless_wheel_sim_stance_guard_0_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_rimless_wheel_sim_stance_guard_0_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_rimless_wheel_sim_stance_guard_0_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_rimless_wheel_sim_stance_guard_0_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_rimless_wheel_sim_stance_guard_0_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stance_guard_0";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_rimless_wheel_sim_stance_guard_0_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_rimless_wheel_sim_stance_guard_0_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_stance_guard_0_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_stance_guard_0_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_rimless_wheel_sim_stance_guard_1:(c[10],x[2])->(stance_guard_1) */
+static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][1];
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_stance_guard_1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f4(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_stance_guard_1_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_rimless_wheel_sim_stance_guard_1_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_rimless_wheel_sim_stance_guard_1_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_rimless_wheel_sim_stance_guard_1_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_rimless_wheel_sim_stance_guard_1_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_rimless_wheel_sim_stance_guard_1_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_rimless_wheel_sim_stance_guard_1_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_rimless_wheel_sim_stance_guard_1_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_rimless_wheel_sim_stance_guard_1_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stance_guard_1";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_rimless_wheel_sim_stance_guard_1_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_rimless_wheel_sim_stance_guard_1_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_stance_guard_1_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_stance_guard_1_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_rimless_wheel_sim_stance_guard_2:(c[10],x[2])->(stance_guard_2) */
+static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1, a2, a3, a4;
+  a0=arg[0][5];
+  a1=arg[1][0];
+  a2=vsw_cos(a1);
+  a3=casadi_sq(a2);
+  a0=(a0*a3);
+  a3=arg[0][3];
+  a3=(a2*a3);
+  a4=arg[1][1];
+  a4=casadi_sq(a4);
+  a3=(a3*a4);
+  a0=(a0-a3);
+  a3=arg[0][6];
+  a2=(a2*a3);
+  a1=vsw_sin(a1);
+  a2=(a2*a1);
+  a1=arg[0][1];
+  a2=(a2*a1);
+  a0=(a0-a2);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_stance_guard_2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f5(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_stance_guard_2_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_rimless_wheel_sim_stance_guard_2_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_rimless_wheel_sim_stance_guard_2_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_rimless_wheel_sim_stance_guard_2_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_rimless_wheel_sim_stance_guard_2_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_rimless_wheel_sim_stance_guard_2_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_rimless_wheel_sim_stance_guard_2_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_rimless_wheel_sim_stance_guard_2_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_rimless_wheel_sim_stance_guard_2_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stance_guard_2";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_rimless_wheel_sim_stance_guard_2_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_rimless_wheel_sim_stance_guard_2_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_stance_guard_2_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_stance_guard_2_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_rimless_wheel_sim_collision_reset:(c[10],x[2])->(collision_reset[2]) */
+static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1;
   a0=arg[1][0];
   a1=arg[0][7];
@@ -410,7 +681,7 @@ static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_collision_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f3(arg, res, iw, w, mem);
+  return casadi_f6(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_collision_reset_checkout(void) {
@@ -483,7 +754,7 @@ CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_collision_reset_work_bytes(casadi
 }
 
 /* vsw_rimless_wheel_sim_step_length:(c[10],x[2])->(step_length) */
-static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0;
   a0=arg[0][9];
   res[0][0]=a0;
@@ -491,7 +762,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_step_length(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f4(arg, res, iw, w, mem);
+  return casadi_f7(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_rimless_wheel_sim_step_length_checkout(void) {
@@ -619,6 +890,25 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
         VSW_CALL(vsw_rimless_wheel_sim_stance_watch, c, x, out);
         return;
     }
+}
+
+/* Per phase: its guard k alone (vsw_watch's out[k], the same operations: event location
+   needs one guard at each iterate). */
+static inline double vsw_watch_one(int phase, int k, const double *c, const double *x)
+{
+    double out[1];
+    switch (phase * VSW_MAX_WATCH + k) {
+    case 0:
+        VSW_CALL(vsw_rimless_wheel_sim_stance_guard_0, c, x, out);
+        return out[0];
+    case 1:
+        VSW_CALL(vsw_rimless_wheel_sim_stance_guard_1, c, x, out);
+        return out[0];
+    case 2:
+        VSW_CALL(vsw_rimless_wheel_sim_stance_guard_2, c, x, out);
+        return out[0];
+    }
+    return NAN;
 }
 
 /* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the

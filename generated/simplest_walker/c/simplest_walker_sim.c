@@ -54,6 +54,10 @@ extern "C" {
 #define casadi_f3 CASADI_PREFIX(f3)
 #define casadi_f4 CASADI_PREFIX(f4)
 #define casadi_f5 CASADI_PREFIX(f5)
+#define casadi_f6 CASADI_PREFIX(f6)
+#define casadi_f7 CASADI_PREFIX(f7)
+#define casadi_f8 CASADI_PREFIX(f8)
+#define casadi_f9 CASADI_PREFIX(f9)
 #define casadi_s0 CASADI_PREFIX(s0)
 #define casadi_s1 CASADI_PREFIX(s1)
 #define casadi_s2 CASADI_PREFIX(s2)
@@ -371,8 +375,352 @@ CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_stance_watch_work_bytes(casadi_
   return 0;
 }
 
-/* vsw_simplest_walker_sim_heelstrike_reset:(c[2],x[4])->(heelstrike_reset[4]) */
+/* vsw_simplest_walker_sim_stance_guard_0:(c[2],x[4])->(stance_guard_0) */
 static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1;
+  a0=arg[1][1];
+  a1=2.;
+  a0=(a0/a1);
+  a1=arg[1][0];
+  a0=(a0-a1);
+  a0=vsw_sin(a0);
+  a0=(-a0);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_stance_guard_0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f3(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_stance_guard_0_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_simplest_walker_sim_stance_guard_0_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_simplest_walker_sim_stance_guard_0_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_simplest_walker_sim_stance_guard_0_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_simplest_walker_sim_stance_guard_0_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_simplest_walker_sim_stance_guard_0_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_simplest_walker_sim_stance_guard_0_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_simplest_walker_sim_stance_guard_0_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_simplest_walker_sim_stance_guard_0_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stance_guard_0";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_simplest_walker_sim_stance_guard_0_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_simplest_walker_sim_stance_guard_0_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_stance_guard_0_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_stance_guard_0_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_simplest_walker_sim_stance_guard_1:(c[2],x[4])->(stance_guard_1) */
+static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][2];
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_stance_guard_1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f4(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_stance_guard_1_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_simplest_walker_sim_stance_guard_1_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_simplest_walker_sim_stance_guard_1_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_simplest_walker_sim_stance_guard_1_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_simplest_walker_sim_stance_guard_1_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_simplest_walker_sim_stance_guard_1_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_simplest_walker_sim_stance_guard_1_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_simplest_walker_sim_stance_guard_1_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_simplest_walker_sim_stance_guard_1_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stance_guard_1";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_simplest_walker_sim_stance_guard_1_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_simplest_walker_sim_stance_guard_1_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_stance_guard_1_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_stance_guard_1_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_simplest_walker_sim_stance_guard_2:(c[2],x[4])->(stance_guard_2) */
+static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][0];
+  a0=vsw_cos(a0);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_stance_guard_2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f5(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_stance_guard_2_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_simplest_walker_sim_stance_guard_2_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_simplest_walker_sim_stance_guard_2_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_simplest_walker_sim_stance_guard_2_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_simplest_walker_sim_stance_guard_2_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_simplest_walker_sim_stance_guard_2_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_simplest_walker_sim_stance_guard_2_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_simplest_walker_sim_stance_guard_2_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_simplest_walker_sim_stance_guard_2_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stance_guard_2";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_simplest_walker_sim_stance_guard_2_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_simplest_walker_sim_stance_guard_2_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_stance_guard_2_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_stance_guard_2_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_simplest_walker_sim_stance_guard_3:(c[2],x[4])->(stance_guard_3) */
+static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1, a2, a3;
+  a0=arg[0][1];
+  a1=arg[0][0];
+  a2=arg[1][0];
+  a3=(2.*a2);
+  a1=(a1+a3);
+  a1=vsw_cos(a1);
+  a3=2.;
+  a1=(a1/a3);
+  a0=(a0+a1);
+  a2=vsw_cos(a2);
+  a1=arg[1][2];
+  a1=casadi_sq(a1);
+  a2=(a2*a1);
+  a0=(a0-a2);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_stance_guard_3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f6(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_stance_guard_3_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_simplest_walker_sim_stance_guard_3_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_simplest_walker_sim_stance_guard_3_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_simplest_walker_sim_stance_guard_3_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_simplest_walker_sim_stance_guard_3_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_simplest_walker_sim_stance_guard_3_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_simplest_walker_sim_stance_guard_3_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_simplest_walker_sim_stance_guard_3_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_simplest_walker_sim_stance_guard_3_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stance_guard_3";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_simplest_walker_sim_stance_guard_3_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_simplest_walker_sim_stance_guard_3_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_stance_guard_3_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_stance_guard_3_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_simplest_walker_sim_heelstrike_reset:(c[2],x[4])->(heelstrike_reset[4]) */
+static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2;
   a0=arg[1][0];
   a1=arg[1][1];
@@ -392,7 +740,7 @@ static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_heelstrike_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f3(arg, res, iw, w, mem);
+  return casadi_f7(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_heelstrike_reset_checkout(void) {
@@ -465,7 +813,7 @@ CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_heelstrike_reset_work_bytes(cas
 }
 
 /* vsw_simplest_walker_sim_heelstrike_when:(c[2],x[4])->(heelstrike_when) */
-static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0;
   a0=arg[1][0];
   res[0][0]=a0;
@@ -473,7 +821,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_heelstrike_when(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f4(arg, res, iw, w, mem);
+  return casadi_f8(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_heelstrike_when_checkout(void) {
@@ -546,7 +894,7 @@ CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_heelstrike_when_work_bytes(casa
 }
 
 /* vsw_simplest_walker_sim_step_length:(c[2],x[4])->(step_length) */
-static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1;
   a0=arg[1][1];
   a1=arg[1][0];
@@ -559,7 +907,7 @@ static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_step_length(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f5(arg, res, iw, w, mem);
+  return casadi_f9(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_simplest_walker_sim_step_length_checkout(void) {
@@ -687,6 +1035,28 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
         VSW_CALL(vsw_simplest_walker_sim_stance_watch, c, x, out);
         return;
     }
+}
+
+/* Per phase: its guard k alone (vsw_watch's out[k], the same operations: event location
+   needs one guard at each iterate). */
+static inline double vsw_watch_one(int phase, int k, const double *c, const double *x)
+{
+    double out[1];
+    switch (phase * VSW_MAX_WATCH + k) {
+    case 0:
+        VSW_CALL(vsw_simplest_walker_sim_stance_guard_0, c, x, out);
+        return out[0];
+    case 1:
+        VSW_CALL(vsw_simplest_walker_sim_stance_guard_1, c, x, out);
+        return out[0];
+    case 2:
+        VSW_CALL(vsw_simplest_walker_sim_stance_guard_2, c, x, out);
+        return out[0];
+    case 3:
+        VSW_CALL(vsw_simplest_walker_sim_stance_guard_3, c, x, out);
+        return out[0];
+    }
+    return NAN;
 }
 
 /* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the

@@ -51,6 +51,15 @@ extern "C" {
 #define casadi_f0 CASADI_PREFIX(f0)
 #define casadi_f1 CASADI_PREFIX(f1)
 #define casadi_f10 CASADI_PREFIX(f10)
+#define casadi_f11 CASADI_PREFIX(f11)
+#define casadi_f12 CASADI_PREFIX(f12)
+#define casadi_f13 CASADI_PREFIX(f13)
+#define casadi_f14 CASADI_PREFIX(f14)
+#define casadi_f15 CASADI_PREFIX(f15)
+#define casadi_f16 CASADI_PREFIX(f16)
+#define casadi_f17 CASADI_PREFIX(f17)
+#define casadi_f18 CASADI_PREFIX(f18)
+#define casadi_f19 CASADI_PREFIX(f19)
 #define casadi_f2 CASADI_PREFIX(f2)
 #define casadi_f3 CASADI_PREFIX(f3)
 #define casadi_f4 CASADI_PREFIX(f4)
@@ -403,8 +412,261 @@ CASADI_SYMBOL_EXPORT int vsw_tle_sim_short_watch_work_bytes(casadi_int *sz_arg, 
   return 0;
 }
 
-/* vsw_tle_sim_extension_flow:(c[18],x[2])->(extension_flow[2]) */
+/* vsw_tle_sim_short_guard_0:(c[18],x[2])->(short_guard_0) */
 static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1;
+  a0=arg[1][0];
+  a1=arg[0][1];
+  a0=(a0-a1);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_short_guard_0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f3(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_short_guard_0_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_short_guard_0_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_short_guard_0_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_short_guard_0_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_tle_sim_short_guard_0_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_tle_sim_short_guard_0_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_tle_sim_short_guard_0_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_short_guard_0_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_short_guard_0_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "short_guard_0";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_short_guard_0_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_short_guard_0_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_short_guard_0_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_short_guard_0_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_tle_sim_short_guard_1:(c[18],x[2])->(short_guard_1) */
+static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][1];
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_short_guard_1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f4(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_short_guard_1_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_short_guard_1_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_short_guard_1_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_short_guard_1_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_tle_sim_short_guard_1_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_tle_sim_short_guard_1_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_tle_sim_short_guard_1_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_short_guard_1_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_short_guard_1_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "short_guard_1";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_short_guard_1_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_short_guard_1_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_short_guard_1_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_short_guard_1_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_tle_sim_short_guard_2:(c[18],x[2])->(short_guard_2) */
+static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1, a2;
+  a0=arg[1][0];
+  a0=vsw_cos(a0);
+  a1=casadi_sq(a0);
+  a2=arg[0][0];
+  a0=(a0*a2);
+  a2=arg[1][1];
+  a2=casadi_sq(a2);
+  a0=(a0*a2);
+  a1=(a1-a0);
+  res[0][0]=a1;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_short_guard_2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f5(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_short_guard_2_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_short_guard_2_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_short_guard_2_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_short_guard_2_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_tle_sim_short_guard_2_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_tle_sim_short_guard_2_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_tle_sim_short_guard_2_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_short_guard_2_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_short_guard_2_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "short_guard_2";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_short_guard_2_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_short_guard_2_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_short_guard_2_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_short_guard_2_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_tle_sim_extension_flow:(c[18],x[2])->(extension_flow[2]) */
+static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2, a3, a4, a5, a6;
   a0=arg[1][1];
   res[0][0]=a0;
@@ -441,7 +703,7 @@ static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f3(arg, res, iw, w, mem);
+  return casadi_f6(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_flow_checkout(void) {
@@ -514,7 +776,7 @@ CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_flow_work_bytes(casadi_int *sz_ar
 }
 
 /* vsw_tle_sim_extension_watch:(c[18],x[2])->(extension_watch[3]) */
-static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12;
   a00=arg[1][0];
@@ -577,7 +839,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f4(arg, res, iw, w, mem);
+  return casadi_f7(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_watch_checkout(void) {
@@ -649,8 +911,306 @@ CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_watch_work_bytes(casadi_int *sz_a
   return 0;
 }
 
+/* vsw_tle_sim_extension_guard_0:(c[18],x[2])->(extension_guard_0) */
+static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1;
+  a0=arg[1][0];
+  a1=arg[0][1];
+  a0=(a0-a1);
+  a1=arg[0][8];
+  a0=(a0-a1);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_guard_0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f8(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_guard_0_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_extension_guard_0_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_extension_guard_0_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_extension_guard_0_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_tle_sim_extension_guard_0_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_tle_sim_extension_guard_0_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_tle_sim_extension_guard_0_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_extension_guard_0_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_extension_guard_0_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "extension_guard_0";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_extension_guard_0_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_extension_guard_0_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_guard_0_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_guard_0_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_tle_sim_extension_guard_1:(c[18],x[2])->(extension_guard_1) */
+static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][1];
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_guard_1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f9(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_guard_1_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_extension_guard_1_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_extension_guard_1_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_extension_guard_1_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_tle_sim_extension_guard_1_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_tle_sim_extension_guard_1_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_tle_sim_extension_guard_1_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_extension_guard_1_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_extension_guard_1_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "extension_guard_1";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_extension_guard_1_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_extension_guard_1_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_guard_1_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_guard_1_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_tle_sim_extension_guard_2:(c[18],x[2])->(extension_guard_2) */
+static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  a00=arg[0][0];
+  a01=arg[0][11];
+  a02=arg[1][0];
+  a03=arg[0][1];
+  a03=(a02-a03);
+  a04=casadi_sq(a03);
+  a05=arg[0][9];
+  a06=(a04*a05);
+  a07=arg[0][10];
+  a08=(a04*a03);
+  a07=(a07*a08);
+  a06=(a06-a07);
+  a06=(a01*a06);
+  a00=(a00-a06);
+  a06=vsw_cos(a02);
+  a07=casadi_sq(a06);
+  a07=(a00*a07);
+  a08=arg[1][1];
+  a08=casadi_sq(a08);
+  a08=(a06*a08);
+  a09=casadi_sq(a00);
+  a09=(a08*a09);
+  a07=(a07-a09);
+  a09=(2.*a08);
+  a10=arg[0][12];
+  a09=(a09*a10);
+  a10=arg[0][13];
+  a11=(2.*a02);
+  a10=(a10+a11);
+  a05=(a05*a10);
+  a10=arg[0][14];
+  a10=(a10*a04);
+  a05=(a05-a10);
+  a10=casadi_sq(a05);
+  a09=(a09*a10);
+  a07=(a07-a09);
+  a01=(a01*a05);
+  a01=(a01*a06);
+  a02=vsw_sin(a02);
+  a01=(a01*a02);
+  a07=(a07-a01);
+  a01=arg[0][15];
+  a01=(a01*a00);
+  a01=(a01*a08);
+  a08=1.;
+  a03=(2.*a03);
+  a02=arg[0][8];
+  a03=(a03/a02);
+  a08=(a08-a03);
+  a01=(a01*a08);
+  a07=(a07-a01);
+  a07=(a07/a00);
+  res[0][0]=a07;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_guard_2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f10(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_guard_2_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_extension_guard_2_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_extension_guard_2_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_extension_guard_2_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_tle_sim_extension_guard_2_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_tle_sim_extension_guard_2_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_tle_sim_extension_guard_2_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_extension_guard_2_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_extension_guard_2_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "extension_guard_2";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_extension_guard_2_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_extension_guard_2_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_guard_2_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_guard_2_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
 /* vsw_tle_sim_long_flow:(c[18],x[2])->(long_flow[2]) */
-static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f11(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0;
   a0=arg[1][1];
   res[0][0]=a0;
@@ -661,7 +1221,7 @@ static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f5(arg, res, iw, w, mem);
+  return casadi_f11(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_flow_checkout(void) {
@@ -734,7 +1294,7 @@ CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_flow_work_bytes(casadi_int *sz_arg, ca
 }
 
 /* vsw_tle_sim_long_watch:(c[18],x[2])->(long_watch[3]) */
-static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f12(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2;
   a0=arg[1][0];
   a1=vsw_cos(a0);
@@ -756,7 +1316,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f6(arg, res, iw, w, mem);
+  return casadi_f12(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_watch_checkout(void) {
@@ -828,8 +1388,264 @@ CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_watch_work_bytes(casadi_int *sz_arg, c
   return 0;
 }
 
+/* vsw_tle_sim_long_guard_0:(c[18],x[2])->(long_guard_0) */
+static int casadi_f13(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1, a2;
+  a0=arg[1][0];
+  a1=vsw_cos(a0);
+  a2=arg[0][16];
+  a2=(a2-a0);
+  a2=vsw_cos(a2);
+  a0=arg[0][0];
+  a2=(a2*a0);
+  a1=(a1-a2);
+  res[0][0]=a1;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_guard_0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f13(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_guard_0_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_long_guard_0_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_long_guard_0_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_long_guard_0_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_tle_sim_long_guard_0_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_tle_sim_long_guard_0_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_tle_sim_long_guard_0_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_long_guard_0_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_long_guard_0_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "long_guard_0";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_long_guard_0_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_long_guard_0_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_guard_0_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_guard_0_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_tle_sim_long_guard_1:(c[18],x[2])->(long_guard_1) */
+static int casadi_f14(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][1];
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_guard_1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f14(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_guard_1_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_long_guard_1_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_long_guard_1_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_long_guard_1_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_tle_sim_long_guard_1_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_tle_sim_long_guard_1_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_tle_sim_long_guard_1_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_long_guard_1_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_long_guard_1_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "long_guard_1";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_long_guard_1_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_long_guard_1_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_guard_1_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_guard_1_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_tle_sim_long_guard_2:(c[18],x[2])->(long_guard_2) */
+static int casadi_f15(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1, a2;
+  a0=arg[1][0];
+  a0=vsw_cos(a0);
+  a1=casadi_sq(a0);
+  a2=arg[1][1];
+  a2=casadi_sq(a2);
+  a0=(a0*a2);
+  a1=(a1-a0);
+  res[0][0]=a1;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_guard_2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f15(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_guard_2_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_long_guard_2_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_long_guard_2_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_tle_sim_long_guard_2_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_tle_sim_long_guard_2_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_tle_sim_long_guard_2_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_tle_sim_long_guard_2_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_long_guard_2_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_tle_sim_long_guard_2_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "long_guard_2";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_long_guard_2_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_tle_sim_long_guard_2_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_guard_2_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_tle_sim_long_guard_2_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
 /* vsw_tle_sim_extension_start_reset:(c[18],x[2])->(extension_start_reset[2]) */
-static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0;
   a0=arg[1][0];
   res[0][0]=a0;
@@ -839,7 +1655,7 @@ static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_start_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f7(arg, res, iw, w, mem);
+  return casadi_f16(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_start_reset_checkout(void) {
@@ -912,7 +1728,7 @@ CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_start_reset_work_bytes(casadi_int
 }
 
 /* vsw_tle_sim_extension_end_reset:(c[18],x[2])->(extension_end_reset[2]) */
-static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0;
   a0=arg[1][0];
   res[0][0]=a0;
@@ -922,7 +1738,7 @@ static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_end_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f8(arg, res, iw, w, mem);
+  return casadi_f17(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_end_reset_checkout(void) {
@@ -995,7 +1811,7 @@ CASADI_SYMBOL_EXPORT int vsw_tle_sim_extension_end_reset_work_bytes(casadi_int *
 }
 
 /* vsw_tle_sim_heelstrike_reset:(c[18],x[2])->(heelstrike_reset[2]) */
-static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1;
   a0=arg[1][0];
   a1=arg[0][16];
@@ -1011,7 +1827,7 @@ static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_heelstrike_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f9(arg, res, iw, w, mem);
+  return casadi_f18(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_heelstrike_reset_checkout(void) {
@@ -1084,7 +1900,7 @@ CASADI_SYMBOL_EXPORT int vsw_tle_sim_heelstrike_reset_work_bytes(casadi_int *sz_
 }
 
 /* vsw_tle_sim_step_length:(c[18],x[2])->(step_length) */
-static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2;
   a0=arg[1][0];
   a1=vsw_sin(a0);
@@ -1099,7 +1915,7 @@ static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_step_length(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f10(arg, res, iw, w, mem);
+  return casadi_f19(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_tle_sim_step_length_checkout(void) {
@@ -1239,6 +2055,43 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
         VSW_CALL(vsw_tle_sim_long_watch, c, x, out);
         return;
     }
+}
+
+/* Per phase: its guard k alone (vsw_watch's out[k], the same operations: event location
+   needs one guard at each iterate). */
+static inline double vsw_watch_one(int phase, int k, const double *c, const double *x)
+{
+    double out[1];
+    switch (phase * VSW_MAX_WATCH + k) {
+    case 0:
+        VSW_CALL(vsw_tle_sim_short_guard_0, c, x, out);
+        return out[0];
+    case 1:
+        VSW_CALL(vsw_tle_sim_short_guard_1, c, x, out);
+        return out[0];
+    case 2:
+        VSW_CALL(vsw_tle_sim_short_guard_2, c, x, out);
+        return out[0];
+    case 3:
+        VSW_CALL(vsw_tle_sim_extension_guard_0, c, x, out);
+        return out[0];
+    case 4:
+        VSW_CALL(vsw_tle_sim_extension_guard_1, c, x, out);
+        return out[0];
+    case 5:
+        VSW_CALL(vsw_tle_sim_extension_guard_2, c, x, out);
+        return out[0];
+    case 6:
+        VSW_CALL(vsw_tle_sim_long_guard_0, c, x, out);
+        return out[0];
+    case 7:
+        VSW_CALL(vsw_tle_sim_long_guard_1, c, x, out);
+        return out[0];
+    case 8:
+        VSW_CALL(vsw_tle_sim_long_guard_2, c, x, out);
+        return out[0];
+    }
+    return NAN;
 }
 
 /* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the

@@ -54,6 +54,10 @@ extern "C" {
 #define casadi_f3 CASADI_PREFIX(f3)
 #define casadi_f4 CASADI_PREFIX(f4)
 #define casadi_f5 CASADI_PREFIX(f5)
+#define casadi_f6 CASADI_PREFIX(f6)
+#define casadi_f7 CASADI_PREFIX(f7)
+#define casadi_f8 CASADI_PREFIX(f8)
+#define casadi_f9 CASADI_PREFIX(f9)
 #define casadi_s0 CASADI_PREFIX(s0)
 #define casadi_s1 CASADI_PREFIX(s1)
 #define casadi_s2 CASADI_PREFIX(s2)
@@ -649,8 +653,445 @@ CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_stance_watch_work_bytes(casadi_int
   return 0;
 }
 
-/* vsw_torso_walker_sim_heelstrike_reset:(c[41],x[4])->(heelstrike_reset[4]) */
+/* vsw_torso_walker_sim_stance_guard_0:(c[41],x[4])->(stance_guard_0) */
 static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1, a2;
+  a0=arg[1][1];
+  a1=2.;
+  a0=(a0/a1);
+  a2=arg[1][0];
+  a2=(a2/a1);
+  a0=(a0+a2);
+  a0=vsw_sin(a0);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_stance_guard_0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f3(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_stance_guard_0_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_torso_walker_sim_stance_guard_0_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_torso_walker_sim_stance_guard_0_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_torso_walker_sim_stance_guard_0_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_torso_walker_sim_stance_guard_0_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_torso_walker_sim_stance_guard_0_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_torso_walker_sim_stance_guard_0_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_torso_walker_sim_stance_guard_0_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_torso_walker_sim_stance_guard_0_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stance_guard_0";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_torso_walker_sim_stance_guard_0_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_torso_walker_sim_stance_guard_0_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_stance_guard_0_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_stance_guard_0_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_torso_walker_sim_stance_guard_1:(c[41],x[4])->(stance_guard_1) */
+static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][2];
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_stance_guard_1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f4(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_stance_guard_1_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_torso_walker_sim_stance_guard_1_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_torso_walker_sim_stance_guard_1_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_torso_walker_sim_stance_guard_1_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_torso_walker_sim_stance_guard_1_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_torso_walker_sim_stance_guard_1_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_torso_walker_sim_stance_guard_1_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_torso_walker_sim_stance_guard_1_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_torso_walker_sim_stance_guard_1_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stance_guard_1";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_torso_walker_sim_stance_guard_1_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_torso_walker_sim_stance_guard_1_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_stance_guard_1_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_stance_guard_1_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_torso_walker_sim_stance_guard_2:(c[41],x[4])->(stance_guard_2) */
+static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][0];
+  a0=vsw_cos(a0);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_stance_guard_2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f5(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_stance_guard_2_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_torso_walker_sim_stance_guard_2_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_torso_walker_sim_stance_guard_2_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_torso_walker_sim_stance_guard_2_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_torso_walker_sim_stance_guard_2_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_torso_walker_sim_stance_guard_2_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_torso_walker_sim_stance_guard_2_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_torso_walker_sim_stance_guard_2_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_torso_walker_sim_stance_guard_2_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stance_guard_2";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_torso_walker_sim_stance_guard_2_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_torso_walker_sim_stance_guard_2_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_stance_guard_2_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_stance_guard_2_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_torso_walker_sim_stance_guard_3:(c[41],x[4])->(stance_guard_3) */
+static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19;
+  a00=arg[0][16];
+  a01=arg[0][15];
+  a02=arg[1][2];
+  a02=casadi_sq(a02);
+  a03=arg[0][14];
+  a04=(a02*a03);
+  a05=arg[1][0];
+  a06=vsw_cos(a05);
+  a06=(a04*a06);
+  a07=(a01*a06);
+  a00=(a00-a07);
+  a07=arg[0][17];
+  a08=(a06*a07);
+  a00=(a00-a08);
+  a08=arg[0][18];
+  a06=(a06*a08);
+  a00=(a00-a06);
+  a06=arg[0][19];
+  a00=(a00+a06);
+  a06=arg[1][3];
+  a06=casadi_sq(a06);
+  a09=arg[0][20];
+  a10=(a06*a09);
+  a11=arg[1][1];
+  a12=vsw_cos(a11);
+  a10=(a10*a12);
+  a00=(a00+a10);
+  a10=arg[0][26];
+  a12=arg[0][21];
+  a12=(a12*a04);
+  a04=arg[0][1];
+  a13=(a04+a05);
+  a14=arg[0][2];
+  a14=(a13-a14);
+  a15=vsw_sin(a14);
+  a12=(a12*a15);
+  a15=arg[0][22];
+  a12=(a12+a15);
+  a15=arg[0][23];
+  a13=vsw_sin(a13);
+  a13=(a15*a13);
+  a16=arg[0][24];
+  a13=(a13*a16);
+  a12=(a12+a13);
+  a13=arg[0][25];
+  a06=(a06*a13);
+  a16=(a11-a05);
+  a17=vsw_sin(a16);
+  a06=(a06*a17);
+  a12=(a12-a06);
+  a10=(a10*a12);
+  a12=4.;
+  a06=(a10/a12);
+  a18=arg[0][27];
+  a02=(a02*a18);
+  a02=(a02*a17);
+  a17=arg[0][9];
+  a02=(a02*a17);
+  a19=2.;
+  a02=(a02/a19);
+  a04=(a04+a11);
+  a04=vsw_sin(a04);
+  a15=(a15*a04);
+  a15=(a15*a17);
+  a02=(a02-a15);
+  a13=(a02*a13);
+  a16=vsw_cos(a16);
+  a13=(a13*a16);
+  a06=(a06+a13);
+  a13=arg[0][29];
+  a15=arg[0][28];
+  a14=vsw_cos(a14);
+  a15=(a15*a14);
+  a15=(a15*a03);
+  a13=(a13+a15);
+  a18=(a13*a18);
+  a18=(a18*a17);
+  a17=16.;
+  a18=(a18/a17);
+  a17=casadi_sq(a16);
+  a15=arg[0][30];
+  a17=(a17*a15);
+  a15=arg[0][31];
+  a17=(a17*a15);
+  a17=(a17/a12);
+  a18=(a18-a17);
+  a06=(a06/a18);
+  a05=vsw_sin(a05);
+  a05=(a05*a03);
+  a01=(a01*a05);
+  a07=(a05*a07);
+  a01=(a01+a07);
+  a05=(a05*a08);
+  a01=(a01+a05);
+  a06=(a06*a01);
+  a00=(a00-a06);
+  a09=(a09/a18);
+  a11=vsw_sin(a11);
+  a09=(a09*a11);
+  a10=(a10*a16);
+  a10=(a10/a19);
+  a13=(a13*a02);
+  a13=(a13/a12);
+  a10=(a10+a13);
+  a09=(a09*a10);
+  a00=(a00+a09);
+  res[0][0]=a00;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_stance_guard_3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f6(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_stance_guard_3_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_torso_walker_sim_stance_guard_3_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_torso_walker_sim_stance_guard_3_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_torso_walker_sim_stance_guard_3_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_torso_walker_sim_stance_guard_3_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_torso_walker_sim_stance_guard_3_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_torso_walker_sim_stance_guard_3_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_torso_walker_sim_stance_guard_3_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_torso_walker_sim_stance_guard_3_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "stance_guard_3";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_torso_walker_sim_stance_guard_3_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_torso_walker_sim_stance_guard_3_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_stance_guard_3_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_stance_guard_3_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_torso_walker_sim_heelstrike_reset:(c[41],x[4])->(heelstrike_reset[4]) */
+static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15;
   a00=arg[1][1];
@@ -744,7 +1185,7 @@ static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_heelstrike_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f3(arg, res, iw, w, mem);
+  return casadi_f7(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_heelstrike_reset_checkout(void) {
@@ -817,7 +1258,7 @@ CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_heelstrike_reset_work_bytes(casadi
 }
 
 /* vsw_torso_walker_sim_heelstrike_when:(c[41],x[4])->(heelstrike_when) */
-static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0;
   a0=arg[1][0];
   res[0][0]=a0;
@@ -825,7 +1266,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_heelstrike_when(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f4(arg, res, iw, w, mem);
+  return casadi_f8(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_heelstrike_when_checkout(void) {
@@ -898,7 +1339,7 @@ CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_heelstrike_when_work_bytes(casadi_
 }
 
 /* vsw_torso_walker_sim_step_length:(c[41],x[4])->(step_length) */
-static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2;
   a0=arg[1][0];
   a0=vsw_sin(a0);
@@ -913,7 +1354,7 @@ static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_step_length(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f5(arg, res, iw, w, mem);
+  return casadi_f9(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_torso_walker_sim_step_length_checkout(void) {
@@ -1041,6 +1482,28 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
         VSW_CALL(vsw_torso_walker_sim_stance_watch, c, x, out);
         return;
     }
+}
+
+/* Per phase: its guard k alone (vsw_watch's out[k], the same operations: event location
+   needs one guard at each iterate). */
+static inline double vsw_watch_one(int phase, int k, const double *c, const double *x)
+{
+    double out[1];
+    switch (phase * VSW_MAX_WATCH + k) {
+    case 0:
+        VSW_CALL(vsw_torso_walker_sim_stance_guard_0, c, x, out);
+        return out[0];
+    case 1:
+        VSW_CALL(vsw_torso_walker_sim_stance_guard_1, c, x, out);
+        return out[0];
+    case 2:
+        VSW_CALL(vsw_torso_walker_sim_stance_guard_2, c, x, out);
+        return out[0];
+    case 3:
+        VSW_CALL(vsw_torso_walker_sim_stance_guard_3, c, x, out);
+        return out[0];
+    }
+    return NAN;
 }
 
 /* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the

@@ -52,7 +52,20 @@ extern "C" {
 #define casadi_f1 CASADI_PREFIX(f1)
 #define casadi_f10 CASADI_PREFIX(f10)
 #define casadi_f11 CASADI_PREFIX(f11)
+#define casadi_f12 CASADI_PREFIX(f12)
+#define casadi_f13 CASADI_PREFIX(f13)
+#define casadi_f14 CASADI_PREFIX(f14)
+#define casadi_f15 CASADI_PREFIX(f15)
+#define casadi_f16 CASADI_PREFIX(f16)
+#define casadi_f17 CASADI_PREFIX(f17)
+#define casadi_f18 CASADI_PREFIX(f18)
+#define casadi_f19 CASADI_PREFIX(f19)
 #define casadi_f2 CASADI_PREFIX(f2)
+#define casadi_f20 CASADI_PREFIX(f20)
+#define casadi_f21 CASADI_PREFIX(f21)
+#define casadi_f22 CASADI_PREFIX(f22)
+#define casadi_f23 CASADI_PREFIX(f23)
+#define casadi_f24 CASADI_PREFIX(f24)
 #define casadi_f3 CASADI_PREFIX(f3)
 #define casadi_f4 CASADI_PREFIX(f4)
 #define casadi_f5 CASADI_PREFIX(f5)
@@ -924,8 +937,559 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_watch_work_bytes(casadi_int
   return 0;
 }
 
-/* vsw_vsw_biped_fte_sim_extension_flow:(c[132],x[4])->(extension_flow[4]) */
+/* vsw_vsw_biped_fte_sim_short_guard_0:(c[132],x[4])->(short_guard_0) */
 static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1;
+  a0=arg[1][0];
+  a1=arg[0][17];
+  a0=(a0-a1);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_guard_0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f3(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_guard_0_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_short_guard_0_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_short_guard_0_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_short_guard_0_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_short_guard_0_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_short_guard_0_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_short_guard_0_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_short_guard_0_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_short_guard_0_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "short_guard_0";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_short_guard_0_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_short_guard_0_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_guard_0_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_guard_0_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_fte_sim_short_guard_1:(c[132],x[4])->(short_guard_1) */
+static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][2];
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_guard_1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f4(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_guard_1_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_short_guard_1_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_short_guard_1_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_short_guard_1_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_short_guard_1_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_short_guard_1_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_short_guard_1_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_short_guard_1_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_short_guard_1_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "short_guard_1";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_short_guard_1_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_short_guard_1_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_guard_1_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_guard_1_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_fte_sim_short_guard_2:(c[132],x[4])->(short_guard_2) */
+static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][0];
+  a0=vsw_cos(a0);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_guard_2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f5(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_guard_2_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_short_guard_2_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_short_guard_2_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_short_guard_2_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_short_guard_2_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_short_guard_2_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_short_guard_2_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_short_guard_2_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_short_guard_2_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "short_guard_2";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_short_guard_2_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_short_guard_2_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_guard_2_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_guard_2_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_fte_sim_short_guard_3:(c[132],x[4])->(short_guard_3) */
+static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31;
+  a00=arg[0][19];
+  a01=arg[1][1];
+  a02=arg[1][0];
+  a03=(a01-a02);
+  a04=vsw_cos(a03);
+  a05=casadi_sq(a04);
+  a06=arg[0][18];
+  a07=(a05*a06);
+  a07=(a00-a07);
+  a08=arg[0][20];
+  a09=(a07+a08);
+  a10=arg[0][21];
+  a09=(a09-a10);
+  a09=(a09-a06);
+  a11=arg[0][22];
+  a12=vsw_sin(a01);
+  a13=(a04*a12);
+  a14=vsw_sin(a02);
+  a13=(a13*a14);
+  a15=(a11*a13);
+  a09=(a09+a15);
+  a01=vsw_cos(a01);
+  a15=casadi_sq(a01);
+  a16=arg[0][23];
+  a17=(a15*a16);
+  a09=(a09+a17);
+  a17=(a15*a10);
+  a09=(a09+a17);
+  a17=(a15*a06);
+  a09=(a09+a17);
+  a02=vsw_cos(a02);
+  a17=casadi_sq(a02);
+  a16=(a16*a17);
+  a09=(a09+a16);
+  a16=arg[0][24];
+  a18=(a17*a16);
+  a09=(a09+a18);
+  a18=arg[0][25];
+  a19=4.;
+  a19=(a19*a17);
+  a18=(a18*a19);
+  a09=(a09+a18);
+  a18=arg[0][26];
+  a20=arg[1][3];
+  a20=casadi_sq(a20);
+  a21=(a20*a01);
+  a22=(a18*a21);
+  a09=(a09+a22);
+  a22=arg[1][2];
+  a22=casadi_sq(a22);
+  a23=(a22*a02);
+  a18=(a18*a23);
+  a09=(a09+a18);
+  a06=(a19*a06);
+  a09=(a09+a06);
+  a06=arg[0][27];
+  a18=(a21*a06);
+  a24=arg[0][28];
+  a25=(a18*a24);
+  a09=(a09+a25);
+  a25=arg[0][29];
+  a18=(a18*a25);
+  a09=(a09+a18);
+  a18=arg[0][30];
+  a26=(a23*a06);
+  a27=(a18*a26);
+  a09=(a09+a27);
+  a27=(a20*a06);
+  a03=vsw_sin(a03);
+  a28=(a27*a03);
+  a28=(a28*a14);
+  a29=(a24*a28);
+  a09=(a09+a29);
+  a29=arg[0][31];
+  a30=(a29*a03);
+  a12=(a22*a12);
+  a31=(a30*a12);
+  a09=(a09+a31);
+  a28=(a28*a25);
+  a09=(a09+a28);
+  a28=arg[0][1];
+  a28=(a23*a28);
+  a00=(a00*a28);
+  a09=(a09-a00);
+  a05=(a05*a10);
+  a09=(a09-a05);
+  a15=(a15*a08);
+  a09=(a09-a15);
+  a15=arg[0][32];
+  a17=(a17*a15);
+  a09=(a09-a17);
+  a08=(a08*a13);
+  a09=(a09-a08);
+  a08=arg[0][33];
+  a08=(a08*a23);
+  a23=arg[0][34];
+  a08=(a08*a23);
+  a18=(a08*a18);
+  a09=(a09-a18);
+  a24=(a08*a24);
+  a09=(a09-a24);
+  a24=arg[0][2];
+  a08=(a08*a24);
+  a09=(a09-a08);
+  a08=arg[0][35];
+  a08=(a08*a28);
+  a09=(a09-a08);
+  a21=(2.*a21);
+  a21=(a21*a29);
+  a09=(a09-a21);
+  a21=arg[0][36];
+  a21=(a21*a13);
+  a09=(a09+a21);
+  a21=arg[0][37];
+  a21=(a21*a26);
+  a09=(a09+a21);
+  a21=arg[0][38];
+  a19=(a21*a19);
+  a26=arg[0][39];
+  a19=(a19*a26);
+  a09=(a09-a19);
+  a20=(a20*a30);
+  a20=(a20*a14);
+  a09=(a09-a20);
+  a21=(a21*a04);
+  a27=(a27*a21);
+  a27=(a27*a02);
+  a09=(a09-a27);
+  a22=(a22*a06);
+  a22=(a22*a21);
+  a22=(a22*a01);
+  a09=(a09-a22);
+  a22=arg[0][40];
+  a22=(a22*a12);
+  a22=(a22*a03);
+  a09=(a09-a22);
+  a11=(a11+a07);
+  a11=(a11+a16);
+  a11=(a11-a15);
+  a09=(a09/a11);
+  res[0][0]=a09;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_guard_3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f6(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_guard_3_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_short_guard_3_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_short_guard_3_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_short_guard_3_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_short_guard_3_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_short_guard_3_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_short_guard_3_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_short_guard_3_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_short_guard_3_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "short_guard_3";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_short_guard_3_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_short_guard_3_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_guard_3_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_guard_3_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_fte_sim_short_guard_4:(c[132],x[4])->(short_guard_4) */
+static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1;
+  a0=arg[1][0];
+  a1=arg[0][17];
+  a0=(a0-a1);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_guard_4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f7(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_guard_4_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_short_guard_4_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_short_guard_4_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_short_guard_4_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_short_guard_4_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_short_guard_4_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_short_guard_4_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_short_guard_4_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_short_guard_4_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "short_guard_4";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_short_guard_4_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_short_guard_4_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_guard_4_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_short_guard_4_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_fte_sim_extension_flow:(c[132],x[4])->(extension_flow[4]) */
+static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
   casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
@@ -1128,7 +1692,7 @@ static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f3(arg, res, iw, w, mem);
+  return casadi_f8(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_flow_checkout(void) {
@@ -1201,7 +1765,7 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_flow_work_bytes(casadi_
 }
 
 /* vsw_vsw_biped_fte_sim_extension_watch:(c[132],x[4])->(extension_watch[4]) */
-static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
   casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
@@ -1640,7 +2204,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f4(arg, res, iw, w, mem);
+  return casadi_f9(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_watch_checkout(void) {
@@ -1712,8 +2276,764 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_watch_work_bytes(casadi
   return 0;
 }
 
+/* vsw_vsw_biped_fte_sim_extension_guard_0:(c[132],x[4])->(extension_guard_0) */
+static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1;
+  a0=arg[1][0];
+  a1=arg[0][17];
+  a0=(a0-a1);
+  a1=arg[0][50];
+  a0=(a0-a1);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_guard_0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f10(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_guard_0_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_extension_guard_0_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_extension_guard_0_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_extension_guard_0_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_extension_guard_0_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_extension_guard_0_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_extension_guard_0_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_extension_guard_0_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_extension_guard_0_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "extension_guard_0";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_extension_guard_0_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_extension_guard_0_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_guard_0_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_guard_0_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_fte_sim_extension_guard_1:(c[132],x[4])->(extension_guard_1) */
+static int casadi_f11(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][2];
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_guard_1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f11(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_guard_1_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_extension_guard_1_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_extension_guard_1_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_extension_guard_1_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_extension_guard_1_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_extension_guard_1_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_extension_guard_1_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_extension_guard_1_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_extension_guard_1_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "extension_guard_1";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_extension_guard_1_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_extension_guard_1_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_guard_1_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_guard_1_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_fte_sim_extension_guard_2:(c[132],x[4])->(extension_guard_2) */
+static int casadi_f12(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][0];
+  a0=vsw_cos(a0);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_guard_2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f12(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_guard_2_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_extension_guard_2_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_extension_guard_2_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_extension_guard_2_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_extension_guard_2_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_extension_guard_2_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_extension_guard_2_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_extension_guard_2_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_extension_guard_2_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "extension_guard_2";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_extension_guard_2_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_extension_guard_2_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_guard_2_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_guard_2_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_fte_sim_extension_guard_3:(c[132],x[4])->(extension_guard_3) */
+static int casadi_f13(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
+  casadi_real a36, a37, a38, a39, a40, a41, a42, a43, a44, a45, a46, a47;
+  casadi_real a48, a49, a50;
+  a00=arg[0][64];
+  a01=arg[0][62];
+  a02=arg[0][1];
+  a03=arg[0][60];
+  a04=arg[0][58];
+  a05=arg[1][0];
+  a06=arg[0][17];
+  a06=(a05-a06);
+  a07=casadi_sq(a06);
+  a08=(a04*a07);
+  a09=arg[0][59];
+  a10=(a07*a06);
+  a09=(a09*a10);
+  a08=(a08-a09);
+  a08=(a03*a08);
+  a02=(a02-a08);
+  a08=casadi_sq(a02);
+  a09=arg[0][61];
+  a10=(a08*a09);
+  a11=(a01*a10);
+  a12=arg[1][1];
+  a13=(a12-a05);
+  a14=vsw_cos(a13);
+  a15=casadi_sq(a14);
+  a16=(a11*a15);
+  a17=(a11+a16);
+  a18=arg[0][63];
+  a19=(a10*a18);
+  a20=(2.*a19);
+  a17=(a17+a20);
+  a00=(a00-a17);
+  a17=arg[0][2];
+  a10=(a10*a17);
+  a21=6.;
+  a22=arg[1][2];
+  a22=casadi_sq(a22);
+  a23=vsw_cos(a05);
+  a24=(a22*a23);
+  a25=1.;
+  a06=(2.*a06);
+  a26=arg[0][50];
+  a06=(a06/a26);
+  a25=(a25-a06);
+  a06=(a25*a03);
+  a26=arg[0][65];
+  a06=(a06/a26);
+  a27=(a24*a06);
+  a28=(a21*a27);
+  a29=(a10*a28);
+  a00=(a00-a29);
+  a29=arg[0][66];
+  a30=(a02*a29);
+  a31=(2.*a30);
+  a32=(a01*a31);
+  a33=casadi_sq(a23);
+  a34=(a32*a33);
+  a00=(a00-a34);
+  a34=arg[0][67];
+  a28=(a34*a28);
+  a00=(a00-a28);
+  a28=arg[0][68];
+  a35=(2.*a05);
+  a28=(a28+a35);
+  a04=(a04*a28);
+  a28=arg[0][69];
+  a28=(a28*a07);
+  a04=(a04-a28);
+  a28=(a04*a03);
+  a07=(-a28);
+  a07=(2.*a07);
+  a07=(a07*a22);
+  a05=vsw_sin(a05);
+  a07=(a07*a05);
+  a36=(a34*a07);
+  a00=(a00-a36);
+  a36=(a02*a24);
+  a37=(a34*a36);
+  a00=(a00-a37);
+  a20=(a15*a20);
+  a00=(a00-a20);
+  a20=arg[0][70];
+  a20=(a02*a20);
+  a35=(a12-a35);
+  a35=vsw_cos(a35);
+  a35=(a28*a35);
+  a37=vsw_sin(a12);
+  a35=(a35*a37);
+  a38=(a20*a35);
+  a00=(a00+a38);
+  a12=vsw_cos(a12);
+  a38=casadi_sq(a12);
+  a31=(a31*a18);
+  a39=(a38*a31);
+  a00=(a00-a39);
+  a39=arg[0][71];
+  a40=12.;
+  a41=(a40*a27);
+  a42=(a39*a41);
+  a00=(a00-a42);
+  a07=(a39*a07);
+  a00=(a00-a07);
+  a07=4.;
+  a42=(a07*a36);
+  a43=(a39*a42);
+  a00=(a00-a43);
+  a41=(a41*a19);
+  a00=(a00-a41);
+  a41=arg[0][72];
+  a19=(a08*a02);
+  a24=(a24*a19);
+  a19=(a09*a24);
+  a43=(a41*a19);
+  a00=(a00-a43);
+  a43=arg[1][3];
+  a43=casadi_sq(a43);
+  a44=(a28*a23);
+  a45=(a43*a44);
+  a13=vsw_sin(a13);
+  a45=(a45*a13);
+  a46=(a31*a45);
+  a00=(a00+a46);
+  a46=arg[0][73];
+  a46=(a46*a24);
+  a00=(a00-a46);
+  a46=(a08*a29);
+  a24=(a22*a37);
+  a47=(a24*a13);
+  a48=(a41*a47);
+  a49=(a46*a48);
+  a00=(a00-a49);
+  a49=18.;
+  a49=(a49*a11);
+  a49=(a49*a27);
+  a00=(a00-a49);
+  a49=(a07*a33);
+  a27=(a30*a18);
+  a49=(a49*a27);
+  a00=(a00-a49);
+  a49=arg[0][74];
+  a49=(a49*a19);
+  a00=(a00-a49);
+  a49=arg[0][75];
+  a19=(a49*a38);
+  a19=(a19*a18);
+  a00=(a00+a19);
+  a19=arg[0][76];
+  a19=(a19*a33);
+  a00=(a00+a19);
+  a19=(a01*a30);
+  a19=(a19*a45);
+  a00=(a00+a19);
+  a44=(a29*a44);
+  a19=(a01*a44);
+  a19=(a19*a05);
+  a00=(a00+a19);
+  a48=(a29*a48);
+  a19=arg[0][77];
+  a45=casadi_sq(a04);
+  a50=(a19*a45);
+  a48=(a48*a50);
+  a00=(a00-a48);
+  a31=(a31*a14);
+  a48=(a28*a31);
+  a48=(a48*a24);
+  a00=(a00+a48);
+  a44=(a44*a41);
+  a44=(a44*a05);
+  a00=(a00+a44);
+  a31=(a31*a37);
+  a31=(a31*a05);
+  a00=(a00-a31);
+  a39=(a02*a39);
+  a31=(a43*a05);
+  a44=(a39*a31);
+  a44=(a44*a13);
+  a00=(a00-a44);
+  a40=(a40*a06);
+  a40=(a40*a27);
+  a40=(a40*a47);
+  a00=(a00-a40);
+  a40=arg[0][78];
+  a40=(a40*a36);
+  a40=(a40*a50);
+  a00=(a00-a40);
+  a40=(2.*a43);
+  a40=(a40*a39);
+  a40=(a40*a12);
+  a00=(a00-a40);
+  a40=arg[0][79];
+  a40=(a40*a36);
+  a40=(a40*a50);
+  a00=(a00-a40);
+  a40=(2.*a02);
+  a36=(a40*a29);
+  a39=(a36*a18);
+  a00=(a00+a39);
+  a39=(a01*a08);
+  a47=(a39*a38);
+  a47=(a47*a09);
+  a00=(a00+a47);
+  a47=(a08*a33);
+  a47=(a47*a09);
+  a47=(a47*a17);
+  a00=(a00+a47);
+  a47=arg[0][80];
+  a47=(a47*a43);
+  a47=(a47*a12);
+  a00=(a00+a47);
+  a47=arg[0][81];
+  a47=(a47*a22);
+  a47=(a47*a23);
+  a00=(a00+a47);
+  a47=(a02*a09);
+  a47=(a47*a41);
+  a47=(a47*a35);
+  a00=(a00+a47);
+  a27=(a28*a27);
+  a27=(a27*a31);
+  a27=(a27*a14);
+  a00=(a00+a27);
+  a27=arg[0][82];
+  a27=(a27*a42);
+  a27=(a27*a50);
+  a00=(a00-a27);
+  a27=(a43*a46);
+  a50=(a18*a14);
+  a27=(a27*a50);
+  a27=(a27*a23);
+  a00=(a00-a27);
+  a46=(a22*a46);
+  a46=(a46*a50);
+  a46=(a46*a12);
+  a00=(a00-a46);
+  a46=(2.*a08);
+  a38=(a46*a38);
+  a38=(a38*a18);
+  a38=(a38*a09);
+  a00=(a00+a38);
+  a38=arg[0][83];
+  a38=(a38*a08);
+  a38=(a38*a33);
+  a38=(a38*a09);
+  a00=(a00+a38);
+  a38=(a07*a08);
+  a38=(a38*a18);
+  a33=(a38*a33);
+  a33=(a33*a09);
+  a00=(a00+a33);
+  a39=(a39*a29);
+  a39=(a39*a43);
+  a33=(a39*a12);
+  a00=(a00+a33);
+  a46=(a46*a29);
+  a46=(a46*a18);
+  a46=(a46*a43);
+  a12=(a46*a12);
+  a00=(a00+a12);
+  a12=arg[0][84];
+  a12=(a12*a08);
+  a12=(a12*a29);
+  a12=(a12*a22);
+  a12=(a12*a23);
+  a00=(a00+a12);
+  a12=(a21*a08);
+  a12=(a12*a29);
+  a12=(a12*a18);
+  a12=(a12*a22);
+  a12=(a12*a23);
+  a00=(a00+a12);
+  a49=(a49*a02);
+  a49=(a49*a18);
+  a49=(a49*a22);
+  a49=(a49*a37);
+  a49=(a49*a13);
+  a00=(a00+a49);
+  a39=(a39*a13);
+  a39=(a39*a05);
+  a00=(a00+a39);
+  a39=arg[0][85];
+  a39=(a39*a08);
+  a39=(a39*a09);
+  a39=(a39*a14);
+  a39=(a39*a37);
+  a39=(a39*a05);
+  a00=(a00+a39);
+  a39=arg[0][86];
+  a39=(a39*a22);
+  a39=(a39*a19);
+  a39=(a39*a45);
+  a39=(a39*a23);
+  a00=(a00+a39);
+  a46=(a46*a13);
+  a46=(a46*a05);
+  a00=(a00+a46);
+  a38=(a38*a09);
+  a38=(a38*a14);
+  a38=(a38*a37);
+  a38=(a38*a05);
+  a00=(a00+a38);
+  a38=arg[0][87];
+  a38=(a38*a22);
+  a38=(a38*a19);
+  a38=(a38*a45);
+  a38=(a38*a23);
+  a00=(a00+a38);
+  a01=(a01*a02);
+  a01=(a01*a04);
+  a01=(a01*a09);
+  a01=(a01*a03);
+  a01=(a01*a14);
+  a01=(a01*a13);
+  a00=(a00-a01);
+  a30=(a30*a04);
+  a30=(a30*a18);
+  a43=(a30*a43);
+  a43=(a43*a03);
+  a43=(a43*a37);
+  a00=(a00-a43);
+  a43=(a02*a04);
+  a43=(a43*a09);
+  a43=(a43*a03);
+  a43=(a43*a23);
+  a43=(a43*a05);
+  a43=(a43*a17);
+  a00=(a00-a43);
+  a43=(a29*a04);
+  a43=(a43*a18);
+  a43=(a43*a03);
+  a43=(a43*a37);
+  a43=(a43*a13);
+  a43=(a43*a05);
+  a00=(a00-a43);
+  a43=arg[0][88];
+  a43=(a43*a04);
+  a43=(a43*a18);
+  a43=(a43*a22);
+  a43=(a43*a03);
+  a43=(a43*a14);
+  a43=(a43*a37);
+  a00=(a00-a43);
+  a40=(a40*a04);
+  a40=(a40*a18);
+  a40=(a40*a09);
+  a40=(a40*a03);
+  a40=(a40*a14);
+  a40=(a40*a13);
+  a00=(a00-a40);
+  a40=arg[0][89];
+  a40=(a40*a02);
+  a40=(a40*a04);
+  a40=(a40*a09);
+  a40=(a40*a03);
+  a40=(a40*a23);
+  a40=(a40*a05);
+  a00=(a00-a40);
+  a07=(a07*a02);
+  a07=(a07*a04);
+  a07=(a07*a18);
+  a07=(a07*a09);
+  a07=(a07*a03);
+  a07=(a07*a23);
+  a07=(a07*a05);
+  a00=(a00-a07);
+  a36=(a36*a15);
+  a36=(a36*a04);
+  a36=(a36*a18);
+  a36=(a36*a22);
+  a36=(a36*a03);
+  a36=(a36*a05);
+  a00=(a00-a36);
+  a36=arg[0][90];
+  a36=(a36*a22);
+  a36=(a36*a25);
+  a36=(a36*a03);
+  a36=(a36/a26);
+  a36=(a36*a37);
+  a36=(a36*a13);
+  a00=(a00+a36);
+  a36=arg[0][91];
+  a36=(a36*a02);
+  a36=(a36*a29);
+  a36=(a36*a22);
+  a36=(a36*a25);
+  a36=(a36*a03);
+  a36=(a36/a26);
+  a36=(a36*a23);
+  a00=(a00+a36);
+  a36=24.;
+  a36=(a36*a02);
+  a36=(a36*a29);
+  a36=(a36*a18);
+  a36=(a36*a22);
+  a36=(a36*a25);
+  a36=(a36*a03);
+  a36=(a36/a26);
+  a36=(a36*a23);
+  a00=(a00+a36);
+  a30=(a30*a22);
+  a30=(a30*a03);
+  a30=(a30*a14);
+  a30=(a30*a23);
+  a30=(a30*a13);
+  a00=(a00-a30);
+  a21=(a21*a02);
+  a21=(a21*a29);
+  a21=(a21*a18);
+  a21=(a21*a22);
+  a21=(a21*a25);
+  a21=(a21*a03);
+  a21=(a21/a26);
+  a21=(a21*a14);
+  a21=(a21*a13);
+  a21=(a21*a05);
+  a00=(a00+a21);
+  a10=(a10+a34);
+  a10=(a10-a32);
+  a10=(a10-a16);
+  a11=(2.*a11);
+  a10=(a10+a11);
+  a28=(a28*a20);
+  a28=(a28*a14);
+  a28=(a28*a13);
+  a10=(a10-a28);
+  a00=(a00/a10);
+  res[0][0]=a00;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_guard_3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f13(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_guard_3_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_extension_guard_3_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_extension_guard_3_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_extension_guard_3_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_extension_guard_3_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_extension_guard_3_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_extension_guard_3_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_extension_guard_3_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_extension_guard_3_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "extension_guard_3";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_extension_guard_3_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_extension_guard_3_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_guard_3_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_guard_3_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
 /* vsw_vsw_biped_fte_sim_long_flow:(c[132],x[4])->(long_flow[4]) */
-static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f14(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13;
   a00=arg[1][2];
@@ -1807,7 +3127,7 @@ static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f5(arg, res, iw, w, mem);
+  return casadi_f14(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_flow_checkout(void) {
@@ -1880,7 +3200,7 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_flow_work_bytes(casadi_int *
 }
 
 /* vsw_vsw_biped_fte_sim_long_watch:(c[132],x[4])->(long_watch[4]) */
-static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f15(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
   casadi_real a24, a25, a26, a27;
@@ -2018,7 +3338,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f6(arg, res, iw, w, mem);
+  return casadi_f15(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_watch_checkout(void) {
@@ -2090,8 +3410,463 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_watch_work_bytes(casadi_int 
   return 0;
 }
 
+/* vsw_vsw_biped_fte_sim_long_guard_0:(c[132],x[4])->(long_guard_0) */
+static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1, a2;
+  a0=arg[1][0];
+  a0=vsw_cos(a0);
+  a1=arg[1][1];
+  a1=vsw_cos(a1);
+  a2=arg[0][1];
+  a1=(a1*a2);
+  a0=(a0-a1);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_guard_0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f16(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_guard_0_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_long_guard_0_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_long_guard_0_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_long_guard_0_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_long_guard_0_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_long_guard_0_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_long_guard_0_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_long_guard_0_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_long_guard_0_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "long_guard_0";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_long_guard_0_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_long_guard_0_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_guard_0_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_guard_0_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_fte_sim_long_guard_1:(c[132],x[4])->(long_guard_1) */
+static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][2];
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_guard_1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f17(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_guard_1_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_long_guard_1_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_long_guard_1_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_long_guard_1_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_long_guard_1_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_long_guard_1_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_long_guard_1_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_long_guard_1_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_long_guard_1_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "long_guard_1";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_long_guard_1_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_long_guard_1_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_guard_1_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_guard_1_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_fte_sim_long_guard_2:(c[132],x[4])->(long_guard_2) */
+static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][0];
+  a0=vsw_cos(a0);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_guard_2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f18(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_guard_2_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_long_guard_2_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_long_guard_2_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_long_guard_2_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_long_guard_2_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_long_guard_2_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_long_guard_2_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_long_guard_2_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_long_guard_2_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "long_guard_2";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_long_guard_2_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_long_guard_2_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_guard_2_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_guard_2_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_fte_sim_long_guard_3:(c[132],x[4])->(long_guard_3) */
+static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27;
+  a00=arg[0][106];
+  a01=arg[1][1];
+  a02=arg[1][0];
+  a03=(a01-a02);
+  a04=vsw_cos(a03);
+  a05=casadi_sq(a04);
+  a06=arg[0][105];
+  a07=(a05*a06);
+  a07=(a00-a07);
+  a08=arg[0][107];
+  a09=(a07+a08);
+  a10=arg[0][108];
+  a09=(a09-a10);
+  a09=(a09-a06);
+  a11=arg[0][109];
+  a12=vsw_cos(a02);
+  a13=casadi_sq(a12);
+  a14=(a11*a13);
+  a09=(a09+a14);
+  a14=arg[0][110];
+  a15=4.;
+  a15=(a15*a13);
+  a14=(a14*a15);
+  a09=(a09+a14);
+  a14=vsw_cos(a01);
+  a16=casadi_sq(a14);
+  a17=(a10*a16);
+  a09=(a09+a17);
+  a17=arg[1][3];
+  a17=casadi_sq(a17);
+  a18=(a17*a14);
+  a19=(a08*a18);
+  a09=(a09+a19);
+  a02=vsw_sin(a02);
+  a19=(a17*a02);
+  a03=vsw_sin(a03);
+  a20=(a19*a03);
+  a21=(a08*a20);
+  a09=(a09+a21);
+  a21=arg[0][111];
+  a22=(a13*a21);
+  a09=(a09+a22);
+  a22=(a16*a21);
+  a09=(a09+a22);
+  a22=(a16*a06);
+  a09=(a09+a22);
+  a22=(a15*a06);
+  a09=(a09+a22);
+  a22=arg[0][112];
+  a23=(a18*a22);
+  a09=(a09+a23);
+  a23=arg[0][113];
+  a24=(a18*a23);
+  a09=(a09+a24);
+  a24=3.;
+  a25=arg[1][2];
+  a25=casadi_sq(a25);
+  a26=(a25*a12);
+  a24=(a24*a26);
+  a27=(a22*a24);
+  a09=(a09+a27);
+  a22=(a22*a20);
+  a09=(a09+a22);
+  a23=(a23*a26);
+  a09=(a09+a23);
+  a21=(a21*a03);
+  a01=vsw_sin(a01);
+  a23=(a25*a01);
+  a22=(a21*a23);
+  a09=(a09+a22);
+  a01=(a04*a01);
+  a01=(a01*a02);
+  a02=arg[0][114];
+  a22=(a01*a02);
+  a09=(a09+a22);
+  a22=(a11*a26);
+  a09=(a09-a22);
+  a05=(a05*a10);
+  a09=(a09-a05);
+  a10=(a10*a26);
+  a09=(a09-a10);
+  a16=(a08*a16);
+  a09=(a09-a16);
+  a16=(a08*a01);
+  a09=(a09-a16);
+  a16=arg[0][115];
+  a13=(a13*a16);
+  a09=(a09-a13);
+  a13=arg[0][116];
+  a15=(a15*a13);
+  a09=(a09-a15);
+  a00=(a26*a00);
+  a09=(a09-a00);
+  a24=(a24*a06);
+  a09=(a09-a24);
+  a21=(a21*a19);
+  a09=(a09-a21);
+  a21=arg[0][117];
+  a21=(a21*a26);
+  a09=(a09-a21);
+  a21=arg[0][118];
+  a21=(a21*a18);
+  a09=(a09-a21);
+  a21=arg[0][119];
+  a21=(a21*a01);
+  a09=(a09+a21);
+  a21=arg[0][120];
+  a21=(a21*a26);
+  a09=(a09+a21);
+  a08=(a08*a23);
+  a08=(a08*a03);
+  a09=(a09-a08);
+  a13=(a13*a04);
+  a17=(a17*a13);
+  a17=(a17*a12);
+  a09=(a09-a17);
+  a25=(a25*a13);
+  a25=(a25*a14);
+  a09=(a09-a25);
+  a11=(a11+a07);
+  a11=(a11+a02);
+  a11=(a11-a16);
+  a09=(a09/a11);
+  res[0][0]=a09;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_guard_3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f19(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_guard_3_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_long_guard_3_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_long_guard_3_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_fte_sim_long_guard_3_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_long_guard_3_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_fte_sim_long_guard_3_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_fte_sim_long_guard_3_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_long_guard_3_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_fte_sim_long_guard_3_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "long_guard_3";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_long_guard_3_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_fte_sim_long_guard_3_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_guard_3_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_long_guard_3_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
 /* vsw_vsw_biped_fte_sim_extension_start_reset:(c[132],x[4])->(extension_start_reset[4]) */
-static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f20(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0;
   a0=arg[1][0];
   res[0][0]=a0;
@@ -2105,7 +3880,7 @@ static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_start_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f7(arg, res, iw, w, mem);
+  return casadi_f20(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_start_reset_checkout(void) {
@@ -2178,7 +3953,7 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_start_reset_work_bytes(
 }
 
 /* vsw_vsw_biped_fte_sim_extension_end_reset:(c[132],x[4])->(extension_end_reset[4]) */
-static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f21(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0;
   a0=arg[1][0];
   res[0][0]=a0;
@@ -2192,7 +3967,7 @@ static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_end_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f8(arg, res, iw, w, mem);
+  return casadi_f21(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_end_reset_checkout(void) {
@@ -2265,7 +4040,7 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_extension_end_reset_work_bytes(ca
 }
 
 /* vsw_vsw_biped_fte_sim_heelstrike_reset:(c[132],x[4])->(heelstrike_reset[4]) */
-static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f22(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15;
   a00=arg[1][1];
@@ -2344,7 +4119,7 @@ static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_heelstrike_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f9(arg, res, iw, w, mem);
+  return casadi_f22(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_heelstrike_reset_checkout(void) {
@@ -2417,7 +4192,7 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_heelstrike_reset_work_bytes(casad
 }
 
 /* vsw_vsw_biped_fte_sim_heelstrike_when:(c[132],x[4])->(heelstrike_when) */
-static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f23(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1;
   a0=arg[1][0];
   a1=arg[1][1];
@@ -2427,7 +4202,7 @@ static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_heelstrike_when(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f10(arg, res, iw, w, mem);
+  return casadi_f23(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_heelstrike_when_checkout(void) {
@@ -2500,7 +4275,7 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_heelstrike_when_work_bytes(casadi
 }
 
 /* vsw_vsw_biped_fte_sim_step_length:(c[132],x[4])->(step_length) */
-static int casadi_f11(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f24(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2;
   a0=arg[1][0];
   a0=vsw_sin(a0);
@@ -2514,7 +4289,7 @@ static int casadi_f11(const casadi_real** arg, casadi_real** res, casadi_int* iw
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_step_length(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f11(arg, res, iw, w, mem);
+  return casadi_f24(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_fte_sim_step_length_checkout(void) {
@@ -2654,6 +4429,55 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
         VSW_CALL(vsw_vsw_biped_fte_sim_long_watch, c, x, out);
         return;
     }
+}
+
+/* Per phase: its guard k alone (vsw_watch's out[k], the same operations: event location
+   needs one guard at each iterate). */
+static inline double vsw_watch_one(int phase, int k, const double *c, const double *x)
+{
+    double out[1];
+    switch (phase * VSW_MAX_WATCH + k) {
+    case 0:
+        VSW_CALL(vsw_vsw_biped_fte_sim_short_guard_0, c, x, out);
+        return out[0];
+    case 1:
+        VSW_CALL(vsw_vsw_biped_fte_sim_short_guard_1, c, x, out);
+        return out[0];
+    case 2:
+        VSW_CALL(vsw_vsw_biped_fte_sim_short_guard_2, c, x, out);
+        return out[0];
+    case 3:
+        VSW_CALL(vsw_vsw_biped_fte_sim_short_guard_3, c, x, out);
+        return out[0];
+    case 4:
+        VSW_CALL(vsw_vsw_biped_fte_sim_short_guard_4, c, x, out);
+        return out[0];
+    case 5:
+        VSW_CALL(vsw_vsw_biped_fte_sim_extension_guard_0, c, x, out);
+        return out[0];
+    case 6:
+        VSW_CALL(vsw_vsw_biped_fte_sim_extension_guard_1, c, x, out);
+        return out[0];
+    case 7:
+        VSW_CALL(vsw_vsw_biped_fte_sim_extension_guard_2, c, x, out);
+        return out[0];
+    case 8:
+        VSW_CALL(vsw_vsw_biped_fte_sim_extension_guard_3, c, x, out);
+        return out[0];
+    case 10:
+        VSW_CALL(vsw_vsw_biped_fte_sim_long_guard_0, c, x, out);
+        return out[0];
+    case 11:
+        VSW_CALL(vsw_vsw_biped_fte_sim_long_guard_1, c, x, out);
+        return out[0];
+    case 12:
+        VSW_CALL(vsw_vsw_biped_fte_sim_long_guard_2, c, x, out);
+        return out[0];
+    case 13:
+        VSW_CALL(vsw_vsw_biped_fte_sim_long_guard_3, c, x, out);
+        return out[0];
+    }
+    return NAN;
 }
 
 /* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the

@@ -51,7 +51,20 @@ extern "C" {
 #define casadi_f0 CASADI_PREFIX(f0)
 #define casadi_f1 CASADI_PREFIX(f1)
 #define casadi_f10 CASADI_PREFIX(f10)
+#define casadi_f11 CASADI_PREFIX(f11)
+#define casadi_f12 CASADI_PREFIX(f12)
+#define casadi_f13 CASADI_PREFIX(f13)
+#define casadi_f14 CASADI_PREFIX(f14)
+#define casadi_f15 CASADI_PREFIX(f15)
+#define casadi_f16 CASADI_PREFIX(f16)
+#define casadi_f17 CASADI_PREFIX(f17)
+#define casadi_f18 CASADI_PREFIX(f18)
+#define casadi_f19 CASADI_PREFIX(f19)
 #define casadi_f2 CASADI_PREFIX(f2)
+#define casadi_f20 CASADI_PREFIX(f20)
+#define casadi_f21 CASADI_PREFIX(f21)
+#define casadi_f22 CASADI_PREFIX(f22)
+#define casadi_f23 CASADI_PREFIX(f23)
 #define casadi_f3 CASADI_PREFIX(f3)
 #define casadi_f4 CASADI_PREFIX(f4)
 #define casadi_f5 CASADI_PREFIX(f5)
@@ -1074,8 +1087,676 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_watch_work_bytes(casadi_in
   return 0;
 }
 
-/* vsw_vsw_biped_phi0_sim_caught_short_flow:(c[132],x[4])->(caught_short_flow[4]) */
+/* vsw_vsw_biped_phi0_sim_swing_guard_0:(c[132],x[4])->(swing_guard_0) */
 static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1;
+  a0=arg[1][1];
+  a1=arg[0][16];
+  a0=(a0-a1);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_guard_0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f3(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_guard_0_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_swing_guard_0_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_swing_guard_0_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_swing_guard_0_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_swing_guard_0_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_swing_guard_0_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_swing_guard_0_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_swing_guard_0_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_swing_guard_0_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "swing_guard_0";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_swing_guard_0_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_swing_guard_0_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_guard_0_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_guard_0_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_phi0_sim_swing_guard_1:(c[132],x[4])->(swing_guard_1) */
+static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][2];
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_guard_1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f4(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_guard_1_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_swing_guard_1_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_swing_guard_1_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_swing_guard_1_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_swing_guard_1_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_swing_guard_1_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_swing_guard_1_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_swing_guard_1_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_swing_guard_1_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "swing_guard_1";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_swing_guard_1_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_swing_guard_1_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_guard_1_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_guard_1_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_phi0_sim_swing_guard_2:(c[132],x[4])->(swing_guard_2) */
+static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][0];
+  a0=vsw_cos(a0);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_guard_2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f5(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_guard_2_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_swing_guard_2_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_swing_guard_2_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_swing_guard_2_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_swing_guard_2_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_swing_guard_2_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_swing_guard_2_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_swing_guard_2_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_swing_guard_2_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "swing_guard_2";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_swing_guard_2_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_swing_guard_2_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_guard_2_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_guard_2_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_phi0_sim_swing_guard_3:(c[132],x[4])->(swing_guard_3) */
+static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28;
+  a00=arg[0][19];
+  a01=arg[0][17];
+  a02=arg[1][1];
+  a03=vsw_cos(a02);
+  a04=casadi_sq(a03);
+  a05=(a01*a04);
+  a01=(a01+a05);
+  a06=arg[0][18];
+  a01=(a01+a06);
+  a00=(a00-a01);
+  a04=(a04*a06);
+  a00=(a00-a04);
+  a04=arg[1][0];
+  a06=vsw_cos(a04);
+  a01=casadi_sq(a06);
+  a07=arg[0][20];
+  a08=(a01*a07);
+  a00=(a00-a08);
+  a08=arg[0][21];
+  a09=arg[1][2];
+  a10=casadi_sq(a09);
+  a11=(a10*a06);
+  a12=arg[0][3];
+  a13=(a11*a12);
+  a08=(a08*a13);
+  a00=(a00-a08);
+  a08=arg[1][3];
+  a14=(a08*a09);
+  a15=(a02-a04);
+  a16=vsw_cos(a15);
+  a17=(a14*a16);
+  a18=(2.*a17);
+  a19=arg[0][22];
+  a20=(a18*a19);
+  a00=(a00-a20);
+  a20=arg[0][23];
+  a21=(a11*a20);
+  a22=arg[0][24];
+  a21=(a21*a22);
+  a22=arg[0][25];
+  a22=(a21*a22);
+  a00=(a00-a22);
+  a22=arg[0][4];
+  a23=(a21*a22);
+  a00=(a00-a23);
+  a23=(a10*a16);
+  a24=arg[0][26];
+  a25=(a24*a03);
+  a26=(a23*a25);
+  a00=(a00-a26);
+  a26=casadi_sq(a08);
+  a04=vsw_sin(a04);
+  a27=(a26*a04);
+  a02=vsw_sin(a02);
+  a19=(a19*a02);
+  a28=(a27*a19);
+  a00=(a00-a28);
+  a28=arg[0][27];
+  a28=(a28*a02);
+  a27=(a27*a28);
+  a00=(a00-a27);
+  a27=(a10*a04);
+  a19=(a19*a27);
+  a00=(a00-a19);
+  a27=(a27*a28);
+  a00=(a00-a27);
+  a27=4.;
+  a17=(a27*a17);
+  a17=(a17*a24);
+  a00=(a00-a17);
+  a27=(a27*a13);
+  a13=arg[0][28];
+  a27=(a27*a13);
+  a00=(a00-a27);
+  a27=arg[0][29];
+  a27=(a27*a21);
+  a00=(a00-a27);
+  a27=arg[0][30];
+  a27=(a27*a23);
+  a00=(a00-a27);
+  a27=arg[0][31];
+  a23=casadi_sq(a16);
+  a27=(a27*a23);
+  a00=(a00+a27);
+  a27=arg[0][32];
+  a27=(a27*a01);
+  a00=(a00+a27);
+  a27=arg[0][33];
+  a15=vsw_sin(a15);
+  a21=(a03*a15);
+  a27=(a27*a21);
+  a27=(a27*a04);
+  a00=(a00-a27);
+  a27=arg[0][34];
+  a27=(a27*a23);
+  a13=arg[0][35];
+  a27=(a27*a13);
+  a00=(a00-a27);
+  a27=arg[0][36];
+  a27=(a27*a18);
+  a00=(a00-a27);
+  a25=(a26*a25);
+  a25=(a25*a06);
+  a00=(a00-a25);
+  a28=(a10*a28);
+  a28=(a28*a15);
+  a00=(a00-a28);
+  a11=(a11*a24);
+  a11=(a11*a03);
+  a00=(a00-a11);
+  a11=arg[0][37];
+  a11=(a11*a01);
+  a24=arg[0][38];
+  a11=(a11*a24);
+  a00=(a00-a11);
+  a11=arg[0][39];
+  a11=(a11*a21);
+  a11=(a11*a04);
+  a00=(a00-a11);
+  a11=(2.*a26);
+  a21=arg[0][40];
+  a11=(a11*a21);
+  a11=(a11*a16);
+  a00=(a00-a11);
+  a11=arg[0][41];
+  a00=(a00+a11);
+  a11=arg[0][42];
+  a24=(a11*a23);
+  a24=(a24*a20);
+  a28=arg[0][43];
+  a24=(a24*a28);
+  a00=(a00+a24);
+  a24=arg[0][44];
+  a24=(a24*a26);
+  a24=(a24*a16);
+  a00=(a00+a24);
+  a24=arg[0][45];
+  a24=(a24*a10);
+  a24=(a24*a16);
+  a00=(a00+a24);
+  a24=arg[0][46];
+  a24=(a24*a10);
+  a24=(a24*a06);
+  a00=(a00+a24);
+  a24=(a01*a20);
+  a24=(a24*a28);
+  a24=(a24*a22);
+  a00=(a00+a24);
+  a14=(2.*a14);
+  a14=(a14*a21);
+  a14=(a14*a02);
+  a14=(a14*a04);
+  a00=(a00-a14);
+  a14=arg[0][47];
+  a14=(a14*a23);
+  a14=(a14*a20);
+  a14=(a14*a28);
+  a00=(a00+a14);
+  a14=arg[0][48];
+  a14=(a14*a01);
+  a14=(a14*a20);
+  a14=(a14*a28);
+  a00=(a00+a14);
+  a14=arg[0][49];
+  a14=(a14*a01);
+  a14=(a14*a20);
+  a14=(a14*a28);
+  a00=(a00+a14);
+  a14=(a11*a26);
+  a14=(a14*a28);
+  a20=arg[0][50];
+  a14=(a14*a20);
+  a14=(a14*a16);
+  a00=(a00+a14);
+  a11=(a11*a10);
+  a11=(a11*a28);
+  a11=(a11*a20);
+  a11=(a11*a16);
+  a00=(a00+a11);
+  a11=arg[0][51];
+  a11=(a11*a26);
+  a11=(a11*a28);
+  a11=(a11*a20);
+  a11=(a11*a16);
+  a00=(a00+a11);
+  a11=arg[0][52];
+  a11=(a11*a10);
+  a11=(a11*a28);
+  a11=(a11*a20);
+  a11=(a11*a16);
+  a00=(a00+a11);
+  a11=arg[0][53];
+  a11=(a11*a10);
+  a11=(a11*a28);
+  a11=(a11*a20);
+  a11=(a11*a06);
+  a00=(a00+a11);
+  a11=arg[0][54];
+  a11=(a11*a10);
+  a11=(a11*a28);
+  a11=(a11*a20);
+  a11=(a11*a06);
+  a00=(a00+a11);
+  a11=arg[0][55];
+  a11=(a11*a26);
+  a11=(a11*a02);
+  a11=(a11*a04);
+  a11=(a11*a12);
+  a00=(a00+a11);
+  a11=arg[0][56];
+  a11=(a11*a10);
+  a11=(a11*a02);
+  a11=(a11*a15);
+  a11=(a11*a12);
+  a00=(a00+a11);
+  a11=arg[0][57];
+  a11=(a11*a10);
+  a11=(a11*a02);
+  a11=(a11*a04);
+  a11=(a11*a12);
+  a00=(a00+a11);
+  a11=arg[0][58];
+  a11=(a11*a03);
+  a11=(a11*a15);
+  a11=(a11*a04);
+  a11=(a11*a12);
+  a00=(a00+a11);
+  a11=arg[0][59];
+  a11=(a11*a16);
+  a11=(a11*a08);
+  a11=(a11*a09);
+  a11=(a11*a12);
+  a00=(a00+a11);
+  a11=arg[0][60];
+  a11=(a11*a08);
+  a11=(a11*a02);
+  a11=(a11*a04);
+  a11=(a11*a09);
+  a00=(a00+a11);
+  a11=arg[0][61];
+  a11=(a11*a03);
+  a11=(a11*a06);
+  a11=(a11*a08);
+  a11=(a11*a09);
+  a00=(a00+a11);
+  a11=arg[0][62];
+  a11=(a11*a08);
+  a11=(a11*a02);
+  a11=(a11*a04);
+  a11=(a11*a09);
+  a00=(a00+a11);
+  a11=arg[0][63];
+  a11=(a11-a05);
+  a11=(a11-a07);
+  a07=arg[0][64];
+  a11=(a11+a07);
+  a00=(a00/a11);
+  res[0][0]=a00;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_guard_3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f6(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_guard_3_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_swing_guard_3_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_swing_guard_3_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_swing_guard_3_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_swing_guard_3_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_swing_guard_3_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_swing_guard_3_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_swing_guard_3_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_swing_guard_3_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "swing_guard_3";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_swing_guard_3_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_swing_guard_3_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_guard_3_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_guard_3_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_phi0_sim_swing_guard_4:(c[132],x[4])->(swing_guard_4) */
+static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1;
+  a0=arg[1][0];
+  a1=arg[0][65];
+  a0=(a0-a1);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_guard_4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f7(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_guard_4_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_swing_guard_4_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_swing_guard_4_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_swing_guard_4_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_swing_guard_4_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_swing_guard_4_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_swing_guard_4_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_swing_guard_4_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_swing_guard_4_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "swing_guard_4";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_swing_guard_4_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_swing_guard_4_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_guard_4_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_swing_guard_4_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_phi0_sim_caught_short_flow:(c[132],x[4])->(caught_short_flow[4]) */
+static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2, a3, a4, a5, a6, a7;
   a0=arg[1][2];
   res[0][0]=a0;
@@ -1115,7 +1796,7 @@ static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f3(arg, res, iw, w, mem);
+  return casadi_f8(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_flow_checkout(void) {
@@ -1188,7 +1869,7 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_flow_work_bytes(cas
 }
 
 /* vsw_vsw_biped_phi0_sim_caught_short_watch:(c[132],x[4])->(caught_short_watch[4]) */
-static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
   a00=arg[1][0];
@@ -1317,7 +1998,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f4(arg, res, iw, w, mem);
+  return casadi_f9(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_watch_checkout(void) {
@@ -1389,8 +2070,451 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_watch_work_bytes(ca
   return 0;
 }
 
+/* vsw_vsw_biped_phi0_sim_caught_short_guard_0:(c[132],x[4])->(caught_short_guard_0) */
+static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1;
+  a0=arg[1][0];
+  a1=arg[0][65];
+  a0=(a0-a1);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_guard_0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f10(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_guard_0_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_short_guard_0_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_short_guard_0_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_short_guard_0_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_caught_short_guard_0_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_caught_short_guard_0_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_caught_short_guard_0_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_short_guard_0_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_short_guard_0_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "caught_short_guard_0";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_short_guard_0_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_short_guard_0_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_guard_0_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_guard_0_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_phi0_sim_caught_short_guard_1:(c[132],x[4])->(caught_short_guard_1) */
+static int casadi_f11(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][2];
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_guard_1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f11(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_guard_1_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_short_guard_1_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_short_guard_1_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_short_guard_1_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_caught_short_guard_1_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_caught_short_guard_1_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_caught_short_guard_1_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_short_guard_1_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_short_guard_1_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "caught_short_guard_1";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_short_guard_1_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_short_guard_1_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_guard_1_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_guard_1_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_phi0_sim_caught_short_guard_2:(c[132],x[4])->(caught_short_guard_2) */
+static int casadi_f12(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][0];
+  a0=vsw_cos(a0);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_guard_2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f12(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_guard_2_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_short_guard_2_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_short_guard_2_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_short_guard_2_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_caught_short_guard_2_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_caught_short_guard_2_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_caught_short_guard_2_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_short_guard_2_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_short_guard_2_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "caught_short_guard_2";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_short_guard_2_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_short_guard_2_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_guard_2_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_guard_2_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_phi0_sim_caught_short_guard_3:(c[132],x[4])->(caught_short_guard_3) */
+static int casadi_f13(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  a00=arg[0][71];
+  a01=arg[1][0];
+  a02=vsw_cos(a01);
+  a03=casadi_sq(a02);
+  a00=(a00*a03);
+  a04=arg[0][72];
+  a05=(a00+a04);
+  a06=arg[0][73];
+  a07=4.;
+  a08=(a07*a00);
+  a09=(a06*a08);
+  a05=(a05+a09);
+  a10=arg[0][16];
+  a10=(a10-a01);
+  a11=vsw_sin(a10);
+  a01=vsw_sin(a01);
+  a11=(a11*a01);
+  a01=(a04*a11);
+  a05=(a05+a01);
+  a12=arg[0][75];
+  a13=arg[0][74];
+  a10=vsw_cos(a10);
+  a14=(a10*a02);
+  a15=(a13*a14);
+  a15=(a12-a15);
+  a05=(a05+a15);
+  a16=arg[1][2];
+  a16=casadi_sq(a16);
+  a02=(a16*a02);
+  a17=arg[0][76];
+  a17=(a02*a17);
+  a05=(a05-a17);
+  a16=(a16*a10);
+  a18=arg[0][3];
+  a19=(a16*a18);
+  a20=(a04*a19);
+  a05=(a05-a20);
+  a21=arg[0][77];
+  a22=(a03*a21);
+  a05=(a05+a22);
+  a10=casadi_sq(a10);
+  a21=(a21*a10);
+  a05=(a05+a21);
+  a21=arg[0][78];
+  a22=(a02*a21);
+  a05=(a05+a22);
+  a22=arg[0][4];
+  a08=(a08*a22);
+  a05=(a05+a08);
+  a08=arg[0][79];
+  a23=(a16*a08);
+  a09=(a09*a23);
+  a05=(a05+a09);
+  a21=(a16*a21);
+  a05=(a05+a21);
+  a18=(a02*a18);
+  a21=(a01*a18);
+  a05=(a05+a21);
+  a01=(a01*a19);
+  a05=(a05+a01);
+  a01=arg[0][80];
+  a16=(a16*a01);
+  a19=(a16*a22);
+  a05=(a05+a19);
+  a19=arg[0][81];
+  a21=(a03*a19);
+  a05=(a05-a21);
+  a20=(a03*a20);
+  a05=(a05-a20);
+  a03=(a03*a13);
+  a05=(a05-a03);
+  a07=(a07*a17);
+  a06=(a06*a07);
+  a05=(a05-a06);
+  a07=(a07*a22);
+  a05=(a05-a07);
+  a19=(a19*a14);
+  a05=(a05-a19);
+  a12=(a18*a12);
+  a05=(a05-a12);
+  a12=arg[0][82];
+  a12=(a12*a18);
+  a05=(a05-a12);
+  a12=arg[0][83];
+  a12=(a12*a16);
+  a05=(a05+a12);
+  a12=3.;
+  a01=(a02*a01);
+  a12=(a12*a01);
+  a12=(a12*a22);
+  a05=(a05+a12);
+  a12=arg[0][84];
+  a12=(a12*a01);
+  a05=(a05+a12);
+  a12=arg[0][85];
+  a12=(a12*a00);
+  a12=(a12*a23);
+  a05=(a05+a12);
+  a04=(a04*a10);
+  a04=(a04*a18);
+  a05=(a05-a04);
+  a04=arg[0][86];
+  a04=(a04*a01);
+  a04=(a04*a11);
+  a05=(a05-a04);
+  a04=arg[0][87];
+  a02=(a02*a04);
+  a02=(a02*a11);
+  a02=(a02*a08);
+  a05=(a05-a02);
+  a02=arg[0][88];
+  a02=(a02+a15);
+  a02=(a02-a13);
+  a13=(a13*a11);
+  a02=(a02+a13);
+  a05=(a05/a02);
+  res[0][0]=a05;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_guard_3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f13(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_guard_3_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_short_guard_3_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_short_guard_3_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_short_guard_3_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_caught_short_guard_3_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_caught_short_guard_3_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_caught_short_guard_3_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_short_guard_3_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_short_guard_3_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "caught_short_guard_3";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_short_guard_3_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_short_guard_3_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_guard_3_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_short_guard_3_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
 /* vsw_vsw_biped_phi0_sim_caught_long_flow:(c[132],x[4])->(caught_long_flow[4]) */
-static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f14(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2, a3, a4, a5, a6;
   a0=arg[1][2];
   res[0][0]=a0;
@@ -1427,7 +2551,7 @@ static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_flow(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f5(arg, res, iw, w, mem);
+  return casadi_f14(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_flow_checkout(void) {
@@ -1500,7 +2624,7 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_flow_work_bytes(casa
 }
 
 /* vsw_vsw_biped_phi0_sim_caught_long_watch:(c[132],x[4])->(caught_long_watch[4]) */
-static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f15(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
   a00=arg[1][0];
@@ -1618,7 +2742,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_watch(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f6(arg, res, iw, w, mem);
+  return casadi_f15(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_watch_checkout(void) {
@@ -1690,8 +2814,444 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_watch_work_bytes(cas
   return 0;
 }
 
+/* vsw_vsw_biped_phi0_sim_caught_long_guard_0:(c[132],x[4])->(caught_long_guard_0) */
+static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1, a2;
+  a0=arg[1][0];
+  a1=vsw_cos(a0);
+  a2=arg[0][16];
+  a2=(a2-a0);
+  a2=vsw_cos(a2);
+  a0=arg[0][3];
+  a2=(a2*a0);
+  a1=(a1-a2);
+  res[0][0]=a1;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_guard_0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f16(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_guard_0_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_long_guard_0_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_long_guard_0_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_long_guard_0_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_caught_long_guard_0_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_caught_long_guard_0_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_caught_long_guard_0_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_long_guard_0_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_long_guard_0_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "caught_long_guard_0";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_long_guard_0_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_long_guard_0_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_guard_0_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_guard_0_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_phi0_sim_caught_long_guard_1:(c[132],x[4])->(caught_long_guard_1) */
+static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][2];
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_guard_1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f17(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_guard_1_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_long_guard_1_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_long_guard_1_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_long_guard_1_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_caught_long_guard_1_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_caught_long_guard_1_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_caught_long_guard_1_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_long_guard_1_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_long_guard_1_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "caught_long_guard_1";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_long_guard_1_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_long_guard_1_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_guard_1_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_guard_1_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_phi0_sim_caught_long_guard_2:(c[132],x[4])->(caught_long_guard_2) */
+static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0;
+  a0=arg[1][0];
+  a0=vsw_cos(a0);
+  res[0][0]=a0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_guard_2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f18(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_guard_2_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_long_guard_2_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_long_guard_2_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_long_guard_2_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_caught_long_guard_2_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_caught_long_guard_2_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_caught_long_guard_2_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_long_guard_2_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_long_guard_2_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "caught_long_guard_2";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_long_guard_2_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_long_guard_2_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_guard_2_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_guard_2_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* vsw_vsw_biped_phi0_sim_caught_long_guard_3:(c[132],x[4])->(caught_long_guard_3) */
+static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  a00=arg[0][94];
+  a01=arg[0][93];
+  a02=4.;
+  a03=arg[1][0];
+  a04=vsw_cos(a03);
+  a05=casadi_sq(a04);
+  a06=(a02*a05);
+  a07=(a01*a06);
+  a08=(a00+a07);
+  a09=arg[0][16];
+  a09=(a09-a03);
+  a10=vsw_sin(a09);
+  a03=vsw_sin(a03);
+  a10=(a10*a03);
+  a03=(a00*a10);
+  a08=(a08+a03);
+  a11=arg[0][96];
+  a12=arg[0][95];
+  a09=vsw_cos(a09);
+  a13=(a12*a09);
+  a13=(a13*a04);
+  a13=(a11-a13);
+  a08=(a08+a13);
+  a08=(a08+a05);
+  a14=arg[1][2];
+  a14=casadi_sq(a14);
+  a15=(a14*a04);
+  a02=(a02*a15);
+  a16=(a01*a02);
+  a08=(a08-a16);
+  a17=arg[0][79];
+  a07=(a07*a17);
+  a08=(a08-a07);
+  a18=(a12*a05);
+  a08=(a08-a18);
+  a19=(a14*a09);
+  a20=(a00*a19);
+  a08=(a08-a20);
+  a08=(a08-a15);
+  a21=arg[0][97];
+  a22=casadi_sq(a09);
+  a23=(a21*a22);
+  a08=(a08+a23);
+  a23=(a21*a05);
+  a08=(a08+a23);
+  a23=arg[0][4];
+  a06=(a06*a23);
+  a08=(a08+a06);
+  a07=(a07*a19);
+  a08=(a08+a07);
+  a18=(a18*a19);
+  a08=(a08+a18);
+  a18=(a10*a20);
+  a08=(a08+a18);
+  a09=(a09*a17);
+  a14=(a09*a14);
+  a18=arg[0][98];
+  a18=(a14*a18);
+  a08=(a08+a18);
+  a14=(a14*a23);
+  a08=(a08+a14);
+  a14=arg[0][99];
+  a19=(a19*a14);
+  a08=(a08+a19);
+  a14=(a14*a15);
+  a08=(a08+a14);
+  a03=(a03*a15);
+  a08=(a08+a03);
+  a03=6.;
+  a03=(a03*a15);
+  a21=(a21*a03);
+  a08=(a08-a21);
+  a02=(a02*a23);
+  a08=(a08-a02);
+  a20=(a20*a05);
+  a08=(a08-a20);
+  a20=(a12*a10);
+  a05=(a20*a15);
+  a08=(a08-a05);
+  a11=(a11*a15);
+  a08=(a08-a11);
+  a01=(a01*a03);
+  a01=(a01*a17);
+  a08=(a08+a01);
+  a00=(a00*a22);
+  a00=(a00*a15);
+  a08=(a08-a00);
+  a16=(a16*a10);
+  a16=(a16*a17);
+  a08=(a08-a16);
+  a16=arg[0][100];
+  a16=(a16*a09);
+  a16=(a16*a04);
+  a08=(a08-a16);
+  a16=3.;
+  a16=(a16*a15);
+  a16=(a16*a17);
+  a16=(a16*a23);
+  a08=(a08+a16);
+  a16=arg[0][101];
+  a16=(a16+a20);
+  a16=(a16+a13);
+  a16=(a16-a12);
+  a08=(a08/a16);
+  res[0][0]=a08;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_guard_3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f19(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_guard_3_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_long_guard_3_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_long_guard_3_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void vsw_vsw_biped_phi0_sim_caught_long_guard_3_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_caught_long_guard_3_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int vsw_vsw_biped_phi0_sim_caught_long_guard_3_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real vsw_vsw_biped_phi0_sim_caught_long_guard_3_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_long_guard_3_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "c";
+    case 1: return "x";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* vsw_vsw_biped_phi0_sim_caught_long_guard_3_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "caught_long_guard_3";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_long_guard_3_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s1;
+    case 1: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* vsw_vsw_biped_phi0_sim_caught_long_guard_3_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_guard_3_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_caught_long_guard_3_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
 /* vsw_vsw_biped_phi0_sim_catch_reset:(c[132],x[4])->(catch_reset[4]) */
-static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f20(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2, a3, a4;
   a0=arg[1][0];
   res[0][0]=a0;
@@ -1732,7 +3292,7 @@ static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_catch_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f7(arg, res, iw, w, mem);
+  return casadi_f20(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_catch_reset_checkout(void) {
@@ -1805,7 +3365,7 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_catch_reset_work_bytes(casadi_in
 }
 
 /* vsw_vsw_biped_phi0_sim_extension_reset:(c[132],x[4])->(extension_reset[4]) */
-static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f21(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2, a3, a4, a5, a6, a7, a8;
   a0=arg[1][0];
   a1=arg[0][111];
@@ -1854,7 +3414,7 @@ static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_extension_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f8(arg, res, iw, w, mem);
+  return casadi_f21(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_extension_reset_checkout(void) {
@@ -1927,7 +3487,7 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_extension_reset_work_bytes(casad
 }
 
 /* vsw_vsw_biped_phi0_sim_heelstrike_reset:(c[132],x[4])->(heelstrike_reset[4]) */
-static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f22(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10;
   a00=arg[1][0];
   a01=arg[0][16];
@@ -2000,7 +3560,7 @@ static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw,
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_heelstrike_reset(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f9(arg, res, iw, w, mem);
+  return casadi_f22(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_heelstrike_reset_checkout(void) {
@@ -2073,7 +3633,7 @@ CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_heelstrike_reset_work_bytes(casa
 }
 
 /* vsw_vsw_biped_phi0_sim_step_length:(c[132],x[4])->(step_length) */
-static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+static int casadi_f23(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a0, a1, a2;
   a0=arg[1][0];
   a1=vsw_sin(a0);
@@ -2088,7 +3648,7 @@ static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_step_length(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
-  return casadi_f10(arg, res, iw, w, mem);
+  return casadi_f23(arg, res, iw, w, mem);
 }
 
 CASADI_SYMBOL_EXPORT int vsw_vsw_biped_phi0_sim_step_length_checkout(void) {
@@ -2228,6 +3788,55 @@ static inline void vsw_watch(int phase, const double *c, const double *x, double
         VSW_CALL(vsw_vsw_biped_phi0_sim_caught_long_watch, c, x, out);
         return;
     }
+}
+
+/* Per phase: its guard k alone (vsw_watch's out[k], the same operations: event location
+   needs one guard at each iterate). */
+static inline double vsw_watch_one(int phase, int k, const double *c, const double *x)
+{
+    double out[1];
+    switch (phase * VSW_MAX_WATCH + k) {
+    case 0:
+        VSW_CALL(vsw_vsw_biped_phi0_sim_swing_guard_0, c, x, out);
+        return out[0];
+    case 1:
+        VSW_CALL(vsw_vsw_biped_phi0_sim_swing_guard_1, c, x, out);
+        return out[0];
+    case 2:
+        VSW_CALL(vsw_vsw_biped_phi0_sim_swing_guard_2, c, x, out);
+        return out[0];
+    case 3:
+        VSW_CALL(vsw_vsw_biped_phi0_sim_swing_guard_3, c, x, out);
+        return out[0];
+    case 4:
+        VSW_CALL(vsw_vsw_biped_phi0_sim_swing_guard_4, c, x, out);
+        return out[0];
+    case 5:
+        VSW_CALL(vsw_vsw_biped_phi0_sim_caught_short_guard_0, c, x, out);
+        return out[0];
+    case 6:
+        VSW_CALL(vsw_vsw_biped_phi0_sim_caught_short_guard_1, c, x, out);
+        return out[0];
+    case 7:
+        VSW_CALL(vsw_vsw_biped_phi0_sim_caught_short_guard_2, c, x, out);
+        return out[0];
+    case 8:
+        VSW_CALL(vsw_vsw_biped_phi0_sim_caught_short_guard_3, c, x, out);
+        return out[0];
+    case 10:
+        VSW_CALL(vsw_vsw_biped_phi0_sim_caught_long_guard_0, c, x, out);
+        return out[0];
+    case 11:
+        VSW_CALL(vsw_vsw_biped_phi0_sim_caught_long_guard_1, c, x, out);
+        return out[0];
+    case 12:
+        VSW_CALL(vsw_vsw_biped_phi0_sim_caught_long_guard_2, c, x, out);
+        return out[0];
+    case 13:
+        VSW_CALL(vsw_vsw_biped_phi0_sim_caught_long_guard_3, c, x, out);
+        return out[0];
+    }
+    return NAN;
 }
 
 /* The flows and guards over lanes of walks (vsw/csrc/lanes.h): each lane's result is the
