@@ -99,24 +99,22 @@ def inverted_pendulum_gait(speed: float, step: float, m: float = 1.0, g: float =
     return 0.5 * m * v_e**2 * math.tan(alpha) ** 2, m * v_e * math.tan(alpha), v_e
 
 
-def _optimum(step: float, speed: float, shortest: float | None = None) -> PoweredGait:
-    """The least-work gait with SR06's actuators (legs down to ``shortest``: l_min)."""
-    biped = load("point_mass_biped")
+def _optimum(step: float, speed: float, shortest: float | None = None,
+             switch: float | None = None) -> PoweredGait:  # fmt: skip
+    """The least-work gait with SR06's actuators (legs down to ``shortest``: l_min); with
+    ``switch``, of ``point_mass_biped_switch`` from that switch point (sigma)."""
+    biped = load("point_mass_biped" if switch is None else "point_mass_biped_switch")
     nodes = max(NODES, math.ceil(step / speed / LONGEST_INTERVAL))
     request = Request("work", target_speed=speed, nodes=nodes, use=SR06_ACTUATORS)
-    values = {"d": step} | ({} if shortest is None else {"l_min": shortest})
+    values = ({"d": step} | ({} if shortest is None else {"l_min": shortest})
+              | ({} if switch is None else {"sigma": switch}))  # fmt: skip
     return optimize(biped, biped.parameters(values), request)
 
 
 def _switch_optimum(step: float, speed: float, shortest: float) -> PoweredGait:
     """The least-work gait of the same body with the legs' switch point chosen by the
-    optimiser too (``point_mass_biped_switch``), the best of the starts
-    :data:`SWITCH_STARTS` (an optimal one first)."""
-    biped = load("point_mass_biped_switch")
-    nodes = max(NODES, math.ceil(step / speed / LONGEST_INTERVAL))
-    request = Request("work", target_speed=speed, nodes=nodes, use=SR06_ACTUATORS)
-    found = [optimize(biped, biped.parameters({"d": step, "l_min": shortest, "sigma": sigma}),
-                      request) for sigma in SWITCH_STARTS]  # fmt: skip
+    optimiser too, the best of the starts :data:`SWITCH_STARTS` (an optimal one first)."""
+    found = [_optimum(step, speed, shortest, switch) for switch in SWITCH_STARTS]
     return min(found, key=lambda gait: (gait.status != "optimal", gait.cost))
 
 

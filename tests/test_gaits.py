@@ -176,14 +176,10 @@ def test_a_kept_search_is_a_new_one_bit_for_bit(monkeypatch, tmp_path):
     )
     for a, b in zip(again.gaits, first.gaits, strict=True):
         assert (a.durations, a.eigenvalues, a.phase_states) == (b.durations, b.eigenvalues, ())
-    # An orbit's phase states (none from the solver today) read back bit for bit too.
-    states = (np.array([[0.1, np.nan], [1 / 3, -0.0]]), np.zeros((0, 4)))
+    # An orbit's phase states (none from the solver today) are not kept: no record.
+    states = (np.array([[0.1, 0.2]]),)
     with_states = dataclasses.replace(first.gaits[0], phase_states=states)
-    (read,), _, _ = gaits._confirmed_from_record(
-        json.loads(json.dumps(gaits._confirmed_record([with_states], [], 0)))
-    )
-    for x, y in zip(read.phase_states, states, strict=True):
-        assert x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes()
+    assert gaits._confirmed_record([with_states], [], 0) is None
     assert (again.candidates, again.converged, again.outcomes, again.points) == (
         first.candidates, first.converged, first.outcomes, first.points)  # fmt: skip
     assert (again.unconfirmed, again.standing) == (first.unconfirmed, first.standing)

@@ -113,10 +113,10 @@ class BatchResult:
         basin has a handful): a Python loop over the walks took 40 ms of `vsw basin`."""
         # One integer per pair (aux, a failure's index or a period, in its low 32 bits): a
         # one-dimensional unique sorts ten times faster than unique over pairs.
-        aux = np.asarray(self.aux, np.int64)
-        keys = np.asarray(self.outcome, np.int64) << 32 | (aux & 0xFFFFFFFF)
-        distinct, index = np.unique(keys, return_inverse=True)
-        names = [name(int(k >> 32), int(np.int32(np.uint32(k & 0xFFFFFFFF)))) for k in distinct]
+        outcome, aux = np.asarray(self.outcome, np.int64), np.asarray(self.aux, np.int64)
+        _, first, index = np.unique(outcome << 32 | (aux & 0xFFFFFFFF), return_index=True,
+                                    return_inverse=True)  # fmt: skip
+        names = [name(int(outcome[i]), int(aux[i])) for i in first]
         return np.array(names, dtype=object)[index.ravel()].tolist()
 
     @staticmethod

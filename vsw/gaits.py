@@ -349,8 +349,9 @@ def search(
     directory (:func:`_cache_file`) and reused by any later search of the same model, code
     and inputs (the gaits only with the same CasADi installation); a reused search returns
     what a new one would, bit for bit (the floats written by ``repr``, which reads back
-    exactly). Outside :func:`vsw.stop.supervised` a search with a solution the solver did
-    not confirm keeps no gaits: there a Ctrl-C inside CasADi looks like a failed solve.
+    exactly; an orbit's phase states are not kept, and a search with any keeps no gaits).
+    Outside :func:`vsw.stop.supervised` a search with a solution the solver did not confirm
+    keeps no gaits: there a Ctrl-C inside CasADi looks like a failed solve.
 
     Parameters
     ----------
@@ -380,8 +381,8 @@ def search(
         gaits, unconfirmed, standing = _confirm(model, sim, params, scanned["found"])
         # Outside stop.supervised (vsw as a library) a Ctrl-C inside CasADi comes back as a
         # failed solve, indistinguishable from a real one: such a result is not kept.
-        if stop.supervising() or not unconfirmed:
-            record = _confirmed_record(gaits, unconfirmed, standing)
+        record = _confirmed_record(gaits, unconfirmed, standing)
+        if record is not None and (stop.supervising() or not unconfirmed):
             _write_cache(path, {**scanned, "confirmed": record})
     return GaitSearch(
         gaits=gaits,
@@ -498,61 +499,40 @@ _CACHE_KEYS = {"found", "points", "outcomes", "candidates", "converged", "route"
 
 def _confirmed_record(
     gaits: list[Orbit], unconfirmed: list[dict[str, Any]], standing: int
-) -> dict[str, Any]:
-    """Step 4's result as JSON (complex numbers as pairs, arrays as shape and values)."""
-
-    def orbit(o: Orbit) -> dict[str, Any]:
-        return {
-            "state": o.state,
-            "durations": list(o.durations),
-            "period": o.period,
-            "eigenvalues": [[e.real, e.imag] for e in map(complex, o.eigenvalues)],
-            "step_length": o.step_length,
-            "residual": o.residual,
-            "phase_states": [
-                {"shape": list(a.shape), "values": a.ravel().tolist()} for a in o.phase_states
-            ],
-        }
-
-    return {"casadi": _casadi_fingerprint(), "gaits": [orbit(o) for o in gaits],
+) -> dict[str, Any] | None:
+    """Step 4's result as JSON (each gait's :meth:`Orbit.to_dict`), or None where a gait
+    carries its phases' states, which the record does not keep."""
+    if any(o.phase_states for o in gaits):
+        return None
+    return {"casadi": _casadi_fingerprint(), "gaits": [o.to_dict() for o in gaits],
             "unconfirmed": unconfirmed, "standing": standing}  # fmt: skip
 
 
 def _kept_gaits(record: Any, names: list[str]) -> tuple[list[Orbit], list[dict], int] | None:
-    """The confirmed gaits a kept search holds, or None (none kept, kept with another CasADi
-    installation, or damaged: they are confirmed again)."""
+    """:func:`_confirmed_record` read back, or None (none kept, kept with another CasADi
+    installation, or damaged: the gaits are confirmed again)."""
     if not isinstance(record, dict) or record.get("casadi") != _casadi_fingerprint():
         return None
     try:
-        gaits, unconfirmed, standing = _confirmed_from_record(record)
+        gaits = [
+            Orbit(
+                state={str(k): float(v) for k, v in o["state"].items()},
+                durations=tuple(float(v) for v in o["phase_durations"]),
+                period=float(o["period"]),
+                eigenvalues=tuple(complex(re, im) for re, im in o["eigenvalues"]),
+                step_length=None if o["step_length"] is None else float(o["step_length"]),
+                residual=float(o["residual"]),
+            )
+            for o in record["gaits"]
+        ]
+        unconfirmed, standing = record["unconfirmed"], record["standing"]
     except (AttributeError, KeyError, TypeError, ValueError):
         return None
-    if any(list(o.state) != names or not o.eigenvalues for o in gaits) or not all(
-        isinstance(u, dict) for u in unconfirmed
-    ):
+    if (any(list(o.state) != names or not o.eigenvalues for o in gaits)
+            or not isinstance(unconfirmed, list) or not isinstance(standing, int)
+            or not all(isinstance(u, dict) for u in unconfirmed)):  # fmt: skip
         return None
     return gaits, unconfirmed, standing
-
-
-def _confirmed_from_record(record: dict[str, Any]) -> tuple[list[Orbit], list[dict], int]:
-    """:func:`_confirmed_record` read back."""
-    if not isinstance(record["unconfirmed"], list) or not isinstance(record["standing"], int):
-        raise TypeError("a damaged record")
-    gaits = [
-        Orbit(
-            state={str(k): float(v) for k, v in o["state"].items()},
-            durations=tuple(float(v) for v in o["durations"]),
-            period=float(o["period"]),
-            eigenvalues=tuple(complex(re, im) for re, im in o["eigenvalues"]),
-            step_length=None if o["step_length"] is None else float(o["step_length"]),
-            residual=float(o["residual"]),
-            phase_states=tuple(
-                np.array(a["values"], dtype=float).reshape(a["shape"]) for a in o["phase_states"]
-            ),
-        )
-        for o in record["gaits"]
-    ]
-    return gaits, list(record["unconfirmed"]), int(record["standing"])
 
 
 def _casadi_fingerprint() -> str:

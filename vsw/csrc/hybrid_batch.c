@@ -13,10 +13,11 @@
  * SciPy's), to a bracket of VSW_EVENT_TIME_TOL in time. The rules are those of the
  * project's SciPy route (vsw.hybrid.HybridModel.step): a crossing counts when the guard
  * goes from <= 0 to >= 0 (direction +1) or from >= 0 to <= 0 (direction -1); an event
- * whose `when` is <= 0 does not count and the phase goes on 1e-9 past it (at most 20 times); a failure whose guard
- * is already past zero at the phase start ends the walk there (a watched guard of direction
- * +2 or -2 is a failure checked there only, the sign its direction); a phase that lasts longer
- * than the phase time limit, or whose step shrinks below 10 ulps of the time, has stalled.
+ * whose `when` is <= 0 does not count and the phase goes on 1e-9 past it (at most 20
+ * times); a failure whose guard is already past zero at the phase start ends the walk there
+ * (a watched guard of direction +2 or -2 is a failure checked there only, the sign its
+ * direction); a phase that lasts longer than the phase time limit, or whose step shrinks
+ * below 10 ulps of the time, has stalled.
  */
 #include <float.h>
 #include <math.h>
@@ -64,8 +65,8 @@ static long long vsw_flow_calls[VSW_NPHASES], vsw_watch_calls[VSW_NPHASES];
 static long long vsw_rk_calls[VSW_NPHASES]; /* RK steps, per walk */
 #define VSW_FLOW(phase, ...) (++vsw_flow_calls[phase], vsw_flow(phase, __VA_ARGS__))
 #define VSW_WATCH(phase, ...) (++vsw_watch_calls[phase], vsw_watch(phase, __VA_ARGS__))
-/* One guard alone (event location) is not counted: the floor leaves it out, so it is at
-   most the floor of what a step evaluates. */
+/* One guard alone (event location) is not counted: the floor leaves those evaluations
+   out, so it is below the cost of what a step evaluates. */
 #define VSW_WATCH_ONE vsw_watch_one
 
 /* The evaluations since the last call, per phase: flows, then guards (a phase's at once),
