@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from vsw.design import DesignRequest, GaitDesign, design
 from vsw.errors import ConvergenceError
 from vsw.ledger import energy_ledger
 from vsw.models import load
@@ -64,6 +65,11 @@ STROKE_MARGIN = 0.02
 """The body's shortest leg is beta - this (in l): the VSW biped's stroke and a little more."""
 PUSH_STARTS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6)
 """Starts of ``theta_push`` (free-vsw-biped-push) for the defaults' gait, 10 ``--nodes``."""
+GRID_SPEEDS = (0.25, 0.3, 0.35, 0.4)
+GRID_STEPS = (0.65, 0.75, 0.85)
+"""The grid of speeds and step lengths: at each cell a VSW biped designed to walk there."""
+GRID_FIXED = {"theta_II": 0.0, "mu": 0.1}
+"""What the grid's robots share: each cell designs beta and b/l (``vsw design``)."""
 
 
 @dataclass(frozen=True)
@@ -128,6 +134,54 @@ def _row(values: dict, guess: Sequence[float]) -> str:
         body_cot = f"{verified.positive_work / (vsw.weight * verified.step_length):.6f}"
     return (head + _verified_cells(verified, vsw.work)
             + f" | {vsw.work / (vsw.weight * vsw.step_length):.6f} | {body_cot} |")  # fmt: skip
+
+
+def _grid_designs() -> list[tuple[float, float, GaitDesign]]:
+    """Each cell's VSW biped: ``vsw design --model vsw-biped --target-speed V
+    --target-step-length S --fix theta_II=0 --fix mu=0.1``, beta and b/l free, started at
+    the nearest cell designed before it (cells in order of their distance from the
+    defaults' gait; the first from the defaults), because the gaits at the defaults reach
+    only the nearer cells."""
+    biped = load("vsw_biped")
+    home = _vsw_gait((), tuple(VSW_GAITS[0][1]))
+    cells = sorted(
+        ((v, s) for v in GRID_SPEEDS for s in GRID_STEPS),
+        key=lambda c: (np.hypot(c[0] - home.speed, c[1] - home.step_length), c),
+    )
+    designed: list[tuple[float, float, GaitDesign]] = []
+    for speed, step in cells:
+        found = [(np.hypot(v - speed, s - step), d.parameters) for v, s, d in designed
+                 if d.parameters is not None]  # fmt: skip
+        start = (
+            {}
+            if not found
+            else {k: v for k, v in min(found, key=lambda f: f[0])[1].items() if k not in GRID_FIXED}
+        )
+        request = DesignRequest(targets={"speed": speed, "step_length": step},
+                                fixed=GRID_FIXED, start=start)  # fmt: skip
+        designed.append((speed, step, design(biped, request)))
+    return sorted(designed, key=lambda c: (c[0], c[1]))
+
+
+def _grid_row(speed: float, step: float, designed: GaitDesign) -> str:
+    head = f"| {speed:g} | {step:g} | "
+    if designed.status != "optimal" or designed.parameters is None:
+        return head + f"none: {designed.message} |" + " |" * 10
+    biped = load("vsw_biped")
+    values = designed.parameters
+    params = biped.parameters(values)
+    totals = energy_ledger(biped, params, designed.orbit)["totals"]
+    work = totals["actuator_work_impulsive"] + totals["actuator_work_continuous"]
+    weight = walker_weight(biped, params)
+    clearance = next(m["margin"] for m in designed.margins if m["name"] == "swing-foot-clearance")
+    gait, verified = _body_gait(values, speed, step)
+    body_cot = ""
+    if isinstance(verified, VerifiedGait) and not verified.failure:
+        body_cot = f"{verified.positive_work / (weight * verified.step_length):.6f}"
+    return (head + f"{values['beta']:.4f}, {values['b_over_l']:.4f} | "
+            f"{designed.orbit.max_abs_eigenvalue:.3g} | {clearance:.1e} | {work:.6f} | "
+            f"{gait.cost:.6f} ({gait.status}) | " + _verified_cells(verified, work)
+            + f" | {work / (weight * step):.6f} | {body_cot} |")  # fmt: skip
 
 
 def _verified_cells(verified: VerifiedGait | str, vsw_work: float) -> str:
@@ -252,6 +306,21 @@ def free_vsw_biped(out: Path, quick: bool = False) -> list[Path]:
             "gap) | landing's ground impulse | stance friction needed | VSW / verified |\n",
             "| --- | --- | --- | --- | --- | --- | --- | --- |\n",
             *_push_rows(),
+            "\n## A grid of speeds and step lengths\n\n",
+            "At a fixed body the VSW biped's two gait parameters move its speed and step ",
+            "length almost along one line, so a grid of both needs the body's own proportions ",
+            "free: at each cell a VSW biped designed to walk there (`vsw design --model ",
+            "vsw-biped --target-speed V --target-step-length S --fix theta_II=0 --fix mu=0.1`: ",
+            "its beta and b/l; each cell started at the nearest cell designed before it), its ",
+            "gait's largest |eigenvalue| and swing-foot clearance (negative: it scuffs, which ",
+            "the VSW biped ignores and the body's gaits may not), its work a step, and the ",
+            "least work found for the same body at the same speed and step, as above.\n\n",
+            "| V | S | robot: beta, b/l | VSW max abs eigenvalue | VSW swing-foot clearance | ",
+            "VSW work a step | body: least work on the mesh | verified work (V, S; gap) | ",
+            "landing's ground impulse | stance friction needed | VSW / verified | VSW's cost ",
+            "of transport | the verified gait's |\n",
+            "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
+            *(_grid_row(*cell) + "\n" for cell in _grid_designs()),
         ]
     path = out / "free-vsw-biped.md"
     path.write_text("".join(text))

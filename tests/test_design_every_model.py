@@ -164,6 +164,12 @@ def test_the_eigenvalue_bound_holds_on_the_verified_gait():
         ({"targets": {"speed": 1.0}, "bounds": {"speed": (2.0, 3.0)}}, "contradicts"),
         ({"objective": {"speed": 1.0}, "fixed": {"alpha": 0.3, "gamma": 0.05}}, "nothing to"),
         ({}, "give an objective"),
+        ({"objective": {"speed": 1.0}, "start": {"nope": 0.3}}, "not a parameter"),
+        ({"objective": {"speed": 1.0}, "fixed": {"gamma": 0.05}, "start": {"gamma": 0.06}},
+         "a fixed parameter has no start"),
+        ({"objective": {"speed": 1.0}, "bounds": {"alpha": (0.2, 0.5)},
+          "start": {"alpha": 0.6}}, "outside its design interval"),
+        ({"objective": {"speed": 1.0}, "start": {"g": 9.0}}, "not designed"),
     ],
 )  # fmt: skip
 def test_malformed_requests_are_refused_before_any_search(request_, words):
@@ -171,6 +177,23 @@ def test_malformed_requests_are_refused_before_any_search(request_, words):
         design(models.load("rimless_wheel"), DesignRequest(**request_))
     assert words in str(info.value)
     assert "\n" not in str(info.value)
+
+
+def test_a_design_searches_for_its_first_gaits_at_the_start_given(monkeypatch):
+    model = models.load("rimless_wheel")
+    searched = []
+    search = model.search_gaits
+    monkeypatch.setattr(model, "search_gaits", lambda params: searched.append(params) or
+                        search(params))  # fmt: skip
+    result = design(model, DesignRequest(objective={"eigenvalue": 1.0},
+                                         bounds={"alpha": (0.2, 0.5)}, fixed={"gamma": 0.2},
+                                         start={"alpha": 0.45}))  # fmt: skip
+    names = [p.name for p in model.parameter_table]
+    assert searched[0][names.index("alpha")] == 0.45
+    assert searched[0][names.index("gamma")] == 0.2
+    # The same design as from the default start: cos^2(2 alpha) least at the bound.
+    assert result.status == "optimal"
+    assert result.parameters["alpha"] == pytest.approx(0.5, abs=1e-9)
 
 
 def test_cli_design_of_a_model_prints_the_envelope_and_the_gait(run_cli):
@@ -200,6 +223,11 @@ def test_cli_design_of_a_model_prints_the_envelope_and_the_gait(run_cli):
         (["--model", "compass-gait", "--fix", "gamma=x", "--maximize", "speed"], "gamma"),
         (["--model", "compass-gait", "--max-eigenvalue", "-1", "--maximize", "speed"],
          "positive"),
+        (["--model", "ile", "--target-speed", "0.5", "--start", "beta=0.5"], "not an option"),
+        (["--model", "compass-gait", "--start", "nope=1", "--maximize", "speed"],
+         "not a parameter"),
+        (["--model", "compass-gait", "--start", "gamma=0.1", "--start", "gamma=0.2",
+          "--maximize", "speed"], "given twice"),
     ],
 )  # fmt: skip
 def test_cli_bad_design_requests_exit_2_with_one_line(run_cli, argv, words):

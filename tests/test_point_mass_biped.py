@@ -9,6 +9,7 @@ docstring), by quadrature: nothing of it comes from the collocation.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -16,7 +17,7 @@ import pytest
 
 from paper_check.powered import SR06_ACTUATORS, inverted_pendulum_gait
 from vsw.models import load
-from vsw.powered import Request, _flow_function, optimize
+from vsw.powered import Request, _build, _flow_function, _perturbed_inputs, optimize
 
 pytest.importorskip("casadi")
 
@@ -118,6 +119,47 @@ def test_least_work_gait_is_inverted_pendulum_walking_at_its_analytic_cost(biped
     assert heel_strike["negative"] == pytest.approx(-cost, rel=1e-5)
     change = biped.energy("stance", params, knots[-1]) - biped.energy("stance", params, knots[0])
     assert abs(change - (leg["positive"] + leg["negative"])) <= 1e-6 * cost
+
+
+def test_every_start_returns_to_the_analytic_least_work(biped):
+    """``starts``: the least work from three starts (the least squared-input step, then its
+    leg force perturbed by up to its own size) is the inverted-pendulum gait's analytic
+    cost from each of them; the first start is the single-start solve, number for number;
+    the one reported is the least. The perturbation itself moves only the inputs, within
+    their bounds, and the same way on every run."""
+    params = biped.parameters()
+    m, g, l, d, _shortest = params
+    cost = inverted_pendulum_gait(0.3, d, m, g, l)[0]
+    request = Request("work", target_speed=0.3, nodes=40, use=SR06_ACTUATORS)
+    one = optimize(biped, params, request)
+    three = optimize(biped, params, dataclasses.replace(request, starts=3))
+    starts = three.extra["starts"]
+    assert len(starts) == 3 and "starts" not in one.extra
+    assert starts[0]["fine"] == one.cost and starts[0]["coarse"] == one.extra["coarse"]["cost"]
+    for start in starts:
+        assert start["fine"] == pytest.approx(cost, rel=1e-5), start
+    assert three.cost == min(start["fine"] for start in starts)
+    assert starts[three.extra["best_start"]]["fine"] == three.cost
+
+    nlp = _build(biped, dataclasses.replace(request, nodes=2 * request.nodes))
+    w = one.extra["w"]  # the optimum on that (the fine) mesh
+    moved = _perturbed_inputs(biped, params, nlp, w, 1)
+    assert np.array_equal(moved, _perturbed_inputs(biped, params, nlp, w, 1))
+    assert not np.array_equal(moved, _perturbed_inputs(biped, params, nlp, w, 2))
+    inputs = np.zeros(nlp.size, bool)
+    for entry in nlp.layout:
+        for key in ("u_knots", "u_middles"):
+            first, parts, width = entry[key]
+            inputs[first : first + parts * width] = True
+    lbx, ubx = nlp.bounds[0][inputs], nlp.bounds[1][inputs]
+    assert np.all(moved[inputs] >= lbx) and np.all(moved[inputs] <= ubx)
+    assert np.any((moved != w) & inputs)
+    assert np.array_equal(moved[: len(nlp.layout)], w[: len(nlp.layout)])  # the durations
+    for entry in nlp.layout:
+        for key in ("knots", "middles"):
+            first, parts, width = entry[key]
+            assert np.array_equal(moved[first : first + parts * width],
+                                  w[first : first + parts * width])  # fmt: skip
 
 
 def test_commands_say_it_walks_only_powered(capsys):

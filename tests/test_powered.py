@@ -178,6 +178,13 @@ def test_the_most_stable_gait_at_the_passive_speed_is_more_stable_than_the_passi
             r"--minimize stability holds every impulse at zero .* \(--use names only impulses\)",
         ),
         ("compass_gait", Request(nodes=1), "--nodes 1"),
+        ("compass_gait", Request("work", starts=0), "--starts 0 must be from 1 to 50"),
+        ("compass_gait", Request(starts=2), "--starts 2: only the second stage"),
+        (
+            "kuo_walker",
+            Request("work", use=("push_off",), starts=2),
+            "this request solves one stage from one start",
+        ),
         ("compass_gait", Request(target_speed=-1.0), "target speed must be a positive"),
         ("compass_gait", Request(target_period=0.0), "target period must be a positive"),
         (
@@ -231,6 +238,7 @@ def test_vsw_optimize_json_and_exit_statuses(capsys, tmp_path):
     data = json.loads(capsys.readouterr().out)
     assert list(data)[:4] == ["model", "parameters", "units", "provenance"]
     assert data["status"] == "optimal" and data["reason"] is None
+    assert data["starts"] is None and data["best_start"] is None  # one start
     assert data["speed"] == pytest.approx(0.8, rel=1e-9)
     assert data["mesh_change"] <= 1e-4 and data["resimulation_error"] <= 1e-6
     (phase,) = data["phases"]
@@ -245,6 +253,10 @@ def test_vsw_optimize_json_and_exit_statuses(capsys, tmp_path):
     assert main(["optimize", "--model", "simplest-walker"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ["vsw: error: simplest-walker declares no inputs: nothing to power it with"]
+    assert main(["optimize", "--model", "compass-gait", "--minimize", "work", "--starts",
+                 "51"]) == 2  # fmt: skip
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["vsw: error: --starts 51 must be from 1 to 50"]
 
 
 def test_vsw_optimize_verify_and_the_ground(capsys):

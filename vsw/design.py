@@ -59,6 +59,7 @@ no verified design and no such proof.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import functools
 import io
 import math
@@ -142,7 +143,10 @@ class DesignRequest:
     value (equalities). ``fixed``: parameter -> value. ``bounds``: parameter or quantity
     -> (lower, upper), either None. ``max_eigenvalue``: the bound on max |λ|.
     ``min_margin``: every condition's margin at least this (in its unit; >= the strict
-    margin). ``starts``: how many of the gaits found at the start are tried.
+    margin). ``starts``: how many of the gaits found at the start are tried. ``start``:
+    free parameter -> the value its search for starting gaits begins at (else its default,
+    or its box's middle where the default lies outside the box): a design whose targets are
+    far from the defaults' gaits is started near them.
     """
 
     objective: Mapping[str, float] = field(default_factory=dict)
@@ -152,6 +156,7 @@ class DesignRequest:
     max_eigenvalue: float | None = None
     min_margin: float = 0.0
     starts: int = 4
+    start: Mapping[str, float] = field(default_factory=dict)
 
 
 @dataclass
@@ -551,6 +556,13 @@ class _Problem:
                 and "speed" not in self.available
             ):
                 raise VswInputError(f"objective {term}: {self.model.name} defines no step length")
+        for name in request.start:
+            if name not in names:
+                raise VswInputError(f"--start {name}: not a parameter of {self.model.name} "
+                                    f"(its parameters: {', '.join(names)})")  # fmt: skip
+            if name in request.fixed:
+                raise VswInputError(f"--start {name} and --fix {name}: a fixed parameter has "
+                                    "no start; give one")  # fmt: skip
         e = request.max_eigenvalue
         if e is not None and not (math.isfinite(e) and e > 0):
             raise VswInputError(f"--max-eigenvalue {e}: must be a positive number")
@@ -592,12 +604,22 @@ class _Problem:
         return low, high
 
     def _start_parameters(self) -> tuple[float, ...]:
+        free_names = {self.table[j].name for j in self.free}
+        for name in self.request.start:
+            if name not in free_names:
+                raise VswInputError(f"--start {name}: not designed (a scale on (0, inf) is "
+                                    "held unless --bound gives it an interval)")  # fmt: skip
         out = []
         for j, p in enumerate(self.table):
             value = self.request.fixed.get(p.name, p.default)
             if j in self.box:
                 low, high = self.box[j]
-                if not low <= value <= high:
+                if p.name in self.request.start:
+                    value = self.request.start[p.name]
+                    if not low <= value <= high:
+                        raise VswInputError(f"--start {p.name}={value:g}: outside its design "
+                                            f"interval [{low:g}, {high:g}]")  # fmt: skip
+                elif not low <= value <= high:
                     value = 0.5 * (low + high)
             out.append(float(value))
         return tuple(out)
@@ -1054,15 +1076,7 @@ def _extreme(problem: _Problem, seeds: Sequence[Orbit], rank: int, name: str, se
         objective = {"eigenvalue": 1.0}
         eigen = "objective"
         saved = problem.request
-        problem.request = DesignRequest(
-            saved.objective,
-            saved.targets,
-            saved.fixed,
-            saved.bounds,
-            None,
-            saved.min_margin,
-            saved.starts,
-        )
+        problem.request = dataclasses.replace(saved, max_eigenvalue=None)
         try:
             best, _, _ = _multistart(problem, seeds, rank, objective, targets, eigen)
         finally:

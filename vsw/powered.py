@@ -130,6 +130,11 @@ _HERMITE = {
     for s in (0.25, 0.75)
 }
 _SUCCESS = {"Solve_Succeeded", "Solved_To_Acceptable_Level"}
+MAX_STARTS = 50
+START_SPREAD = 1.0
+"""Each start after the first moves every input at every knot and midpoint by up to this
+times that input's largest magnitude over its phase at the first stage's optimum
+(uniform, seeded by the start's index), within the input's bounds."""
 _INFEASIBLE = "Infeasible_Problem_Detected"
 """IPOPT's word for a restoration phase that converged to a point of locally least
 constraint violation, still violating them: reported as ``infeasible``."""
@@ -184,6 +189,12 @@ class Request:
     high), None for no bound on that side; each is intersected with the bounds the model
     declares (an actuator's strength: a leg force of at most 3 m_H g; a chosen parameter's
     interval). A chosen parameter's start is taken into its limits."""
+    starts: int = field(default=1, compare=False)
+    """How many starts the second stage (``work``, ``cot``, ``stability``) is solved from:
+    the first stage's optimum, and after it that optimum with its inputs perturbed
+    (:func:`_perturbed_inputs`), each on the coarse mesh and then the fine; the best fine
+    solve by IPOPT's success, then cost, is the result (:func:`_refined_best`). Not
+    compared: the NLPs, cached by request, do not depend on it."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "use", tuple(self.use))  # hashable: the NLPs are cached
@@ -213,6 +224,8 @@ class Request:
         for flag, value in (("--friction", self.friction), ("--clearance", self.clearance)):
             if value is not None and not (math.isfinite(value) and value >= 0):
                 raise VswInputError(f"{flag} {value} must be a number >= 0")
+        if not 1 <= self.starts <= MAX_STARTS:
+            raise VswInputError(f"--starts {self.starts} must be from 1 to {MAX_STARTS}")
 
 
 @dataclass
@@ -322,15 +335,17 @@ def optimize(
                             f"act{only}: nothing would power the step")  # fmt: skip
     _check_ground_options(model, request)
     _check_step_target(model, params, request)
+    if request.starts > 1 and (request.minimize == "torque2"
+                               or not _continuous_inputs_used(model, request)):  # fmt: skip
+        raise VswInputError(f"--starts {request.starts}: only the second stage of work, cot "
+                            "and stability starts from several points (the first stage's "
+                            "inputs perturbed); this request solves one stage from one "
+                            "start")  # fmt: skip
     params = _started_within_limits(model, params, request)
     if start is None:
         start = _passive_start(model, params)  # None: the model has no passive gait
-    coarse = _optimize_on_mesh(model, params, request, start)
-    finer = dataclasses.replace(request, nodes=2 * request.nodes)
-    fine_nlp = _build(model, finer)
-    # From the coarse optimum, so that the change measures the mesh, not another local one.
-    guess = _refine(model, params, _build(model, request), coarse.extra["w"], fine_nlp)
-    fine = _solve(model, params, finer, fine_nlp, guess, coarse.extra["regularization_scale"])
+    coarse, fine = _refined_best(model, params, request,
+                                 _optimize_on_mesh(model, params, request, start))  # fmt: skip
     change = abs(fine.cost - coarse.cost) / max(abs(fine.cost), 1e-300)
     fine.extra["mesh_change"] = change
     fine.extra["coarse"] = {"nodes": request.nodes, "cost": coarse.cost,
@@ -438,8 +453,51 @@ def _check_step_target(model: HybridModel, params: Sequence[float], request: Req
                                 f"{given} contradicts it (set the parameter instead)")  # fmt: skip
 
 
+def _refined_best(model: HybridModel, params: Sequence[float], request: Request,
+                  solved: list[PoweredGait | None]) -> tuple[PoweredGait, PoweredGait]:  # fmt: skip
+    """Each coarse optimum (one a start; None where IPOPT failed) solved again on twice the
+    intervals, from itself, so that the change measures the mesh, not another local
+    optimum; the pair whose fine solve is best (IPOPT's success, then cost, then the
+    earlier start). With several starts, each one's costs and statuses in
+    ``extra['starts']`` of the fine result and the chosen one's index in ``best_start``."""
+    finer = dataclasses.replace(request, nodes=2 * request.nodes)
+    coarse_nlp, fine_nlp = _build(model, request), _build(model, finer)
+    pairs: list[tuple[PoweredGait, PoweredGait] | None] = []
+    tried: list[dict[str, Any]] = []
+    for coarse in solved:
+        fine = None
+        if coarse is not None:
+            guess = _refine(model, params, coarse_nlp, coarse.extra["w"], fine_nlp)
+            scale = coarse.extra["regularization_scale"]
+            try:
+                fine = _solve(model, params, finer, fine_nlp, guess, scale)
+            except ConvergenceError as exc:
+                if len(solved) == 1:
+                    raise
+                coarse.reason = str(exc)
+        pairs.append(None if fine is None else (coarse, fine))
+        tried.append({"coarse": None if coarse is None else coarse.cost,
+                      "fine": None if fine is None else fine.cost,
+                      "ipopt_status": "failed" if fine is None else fine.ipopt_status,
+                      "status": "failed" if fine is None else fine.status})  # fmt: skip
+    ranked = [(pair[1].ipopt_status not in _SUCCESS, pair[1].cost, k)
+              for k, pair in enumerate(pairs) if pair is not None]  # fmt: skip
+    if not ranked:
+        raise ConvergenceError(f"{model.name}: IPOPT failed from every one of "
+                               f"{len(solved)} starts")  # fmt: skip
+    best = min(ranked)[2]
+    coarse, fine = pairs[best]  # type: ignore[misc]
+    if len(solved) > 1:
+        fine.extra["starts"] = tried
+        fine.extra["best_start"] = best
+    return coarse, fine
+
+
 def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Request,
-                      start: Orbit | None) -> PoweredGait:  # fmt: skip
+                      start: Orbit | None) -> list[PoweredGait | None]:  # fmt: skip
+    """The optimum on the coarse mesh from each start (None where IPOPT failed from one
+    after the first): the first stage from the passive gait or the kinematic guess, then
+    the second from its optimum (:func:`_second_stage`)."""
     stage = request
     if request.minimize != "torque2" and _continuous_inputs_used(model, request):
         # Positive work is flat wherever no input does work and not smooth where one
@@ -459,7 +517,7 @@ def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Requ
         _fill_slacks(model, params, nlp, guess)
     result = _solve(model, params, stage, nlp, guess)
     if stage is request:
-        return result
+        return [result]
     staged = _build(model, request)
     scale = 1.0
     if request.minimize == "work" and result.step_length is not None:
@@ -471,11 +529,53 @@ def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Requ
         # tried: the stability test's solve then ran over 12 CPU minutes (24 s with this
         # one) and was stopped; why was not found.
         scale /= result.cost
-    final = _solve(model, params, request, staged,
-                   _transfer(model, params, nlp, result.extra["w"], staged), scale)  # fmt: skip
-    final.extra["warm_start"] = {"minimize": "torque2", "status": result.status,
-                                 "cost": result.cost, "parameters": result.parameters}  # fmt: skip
-    return final
+    first = _transfer(model, params, nlp, result.extra["w"], staged)
+    solved = _second_stage(model, params, request, staged, first, scale)
+    for final in solved:
+        if final is not None:
+            final.extra["warm_start"] = {"minimize": "torque2", "status": result.status,
+                                         "cost": result.cost,
+                                         "parameters": result.parameters}  # fmt: skip
+    return solved
+
+
+def _second_stage(model: HybridModel, params: Sequence[float], request: Request, nlp: _Nlp,
+                  first: np.ndarray, scale: float) -> list[PoweredGait | None]:  # fmt: skip
+    """The second stage solved from ``first`` and from ``request.starts - 1`` perturbations
+    of its inputs (None where IPOPT failed from one of those)."""
+    solved: list[PoweredGait | None] = []
+    for k in range(request.starts):
+        guess = first if k == 0 else _perturbed_inputs(model, params, nlp, first, k)
+        try:
+            solved.append(_solve(model, params, request, nlp, guess, scale))
+        except ConvergenceError:
+            if k == 0:
+                raise
+            solved.append(None)
+    return solved
+
+
+def _perturbed_inputs(model: HybridModel, params: Sequence[float], nlp: _Nlp, w: np.ndarray,
+                      index: int) -> np.ndarray:  # fmt: skip
+    """``w`` with each phase's continuous inputs moved by up to :data:`START_SPREAD` times
+    their largest magnitude over the phase (uniform, seeded by ``index``: the same starts
+    on every run), kept within their bounds; the slacks filled again."""
+    rng = np.random.default_rng(index)
+    lbx, ubx = nlp.bounds[0], nlp.bounds[1]
+    out = w.copy()
+    for entry in nlp.layout:
+        size = np.zeros(entry["u_knots"][2])
+        for key in ("u_knots", "u_middles"):
+            size = np.maximum(size, np.max(np.abs(_block(w, entry[key])), axis=0, initial=0.0))
+        for key in ("u_knots", "u_middles"):
+            first, parts, width = entry[key]
+            block = slice(first, first + parts * width)
+            shift = START_SPREAD * size * rng.uniform(-1.0, 1.0, (parts, width))
+            moved = _block(w, entry[key]) + shift
+            out[block] = np.clip(moved.reshape(-1), lbx[block], ubx[block])
+    _fill_slacks(model, params, nlp, out)
+    nlp.start_radius(params, out)
+    return out
 
 
 def _continuous_inputs_used(model: HybridModel, request: Request) -> bool:

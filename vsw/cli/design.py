@@ -141,7 +141,7 @@ OBJECTIVE_MAX = ("speed", "step-length")
 OBJECTIVE_MIN = ("eigenvalue", "cost-of-transport", "energy-per-step", "step-frequency")
 """The objectives of ``--maximize`` and ``--minimize``."""
 
-GENERIC_ONLY = ("target_period", "min_margin", "weight")
+GENERIC_ONLY = ("target_period", "min_margin", "weight", "start")
 """Options of the design on the periodic orbit that the ILE's closed forms do not take."""
 
 
@@ -257,17 +257,18 @@ def _bounds(model: models.Model, items: list[str]) -> dict[str, tuple[float | No
     return out
 
 
-def _fixes(model: models.Model, items: list[str]) -> dict[str, float]:
+def _values(model: models.Model, option: str, items: list[str]) -> dict[str, float]:
+    """``NAME=VALUE`` items of ``--fix`` or ``--start``, in the table's units."""
     table = {p.name: p for p in model.parameter_table}
     out: dict[str, float] = {}
     for item in items:
-        name, text = options.split_item("--fix", item)
+        name, text = options.split_item(option, item)
         if name not in table:
-            raise VswInputError(f"--fix {name}: not a parameter of {model.cli_name} (its "
+            raise VswInputError(f"{option} {name}: not a parameter of {model.cli_name} (its "
                                 f"parameters: {', '.join(table)})")  # fmt: skip
         if name in out:
-            raise VswInputError(f"--fix {name} given twice; fix each parameter once")
-        out[name] = options.parameter_value("--fix", table[name], text)
+            raise VswInputError(f"{option} {name} given twice; give each parameter once")
+        out[name] = options.parameter_value(option, table[name], text)
     return out
 
 
@@ -306,9 +307,10 @@ def _request(args: argparse.Namespace, model: models.Model) -> gait_design.Desig
     if not (math.isfinite(margin) and margin >= 0):
         raise VswInputError(f"--min-margin {margin:g}: must be a number >= 0")
     return gait_design.DesignRequest(
-        objective=objective, targets=targets, fixed=_fixes(model, args.fix or []),
+        objective=objective, targets=targets, fixed=_values(model, "--fix", args.fix or []),
         bounds=_bounds(model, args.bound or []), max_eigenvalue=args.max_eigenvalue,
         min_margin=margin, starts=4 if args.starts is None else args.starts,
+        start=_values(model, "--start", args.start or []),
     )  # fmt: skip
 
 
@@ -435,6 +437,9 @@ def register(subparsers: Any) -> None:
     sc.add_argument(
         "--stepper-2d", action="store_true", help="Stepper-2D preset: r_e 0.25 m, m 0.78 kg"
     )
+    p.add_argument("--start", action="append", metavar="NAME=VALUE",
+                   help="not the ile: where a free parameter's search for starting gaits "
+                   "begins (default: its default, or its interval's middle)")  # fmt: skip
     p.add_argument("--starts", type=int, default=None,
                    help="IPOPT starts: ile per region (default 2), other models the gaits at "
                    "the start parameters tried (default 4); 1-50")  # fmt: skip
