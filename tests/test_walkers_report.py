@@ -194,3 +194,40 @@ def test_vsw_price_report_bounds_vsw_by_a_verified_gait_and_is_deterministic(tmp
     weight = 1 + 2 * 0.1  # the hip and two legs of mu = 0.1, in m_H g
     assert float(row[10]) == pytest.approx(vsw_work / (weight * step), rel=1e-5)
     assert float(row[11]) == pytest.approx(float(work) / (weight * s), rel=1e-5)
+
+
+@pytest.mark.slow
+def test_a_grid_cell_of_the_vsw_price_is_a_designed_vsw_gait_against_a_verified_body_gait():
+    """One cell of the VSW-price grid (V 0.25, S 0.65): the VSW biped designed there (beta
+    and b/l, from a start near it) walks at that speed and step (one simulated step from
+    its state returns to it, its length the target's), and the row beside it prices it
+    against a verified gait of the same body at the same speed and step (within 1e-3), a
+    ratio above 1 that is VSW's work over the verified work."""
+    import numpy as np
+
+    from paper_check.vsw_price import GRID_FIXED, _grid_row
+    from vsw.design import DesignRequest, design
+    from vsw.models import load
+
+    biped = load("vsw_biped")
+    designed = design(biped, DesignRequest(targets={"speed": 0.25, "step_length": 0.65},
+                                           fixed=GRID_FIXED,
+                                           start={"beta": 0.95, "b_over_l": 0.5}))  # fmt: skip
+    assert designed.status == "optimal", designed.message
+    params = biped.parameters(designed.parameters)
+    state = np.array(list(designed.orbit.state.values()))
+    step = biped.step(params, state)  # SciPy's DOP853, not the design's CVODES
+    assert step.ended == "completed"
+    assert np.max(np.abs(step.state - state)) <= 1e-8
+    assert step.step_length == pytest.approx(0.65, abs=1e-8)
+    assert step.step_length / sum(step.durations) == pytest.approx(0.25, abs=1e-8)
+    (row,) = _rows(_grid_row(0.25, 0.65, designed))
+    assert [float(x) for x in row[2].split(",")] == pytest.approx(
+        [designed.parameters["beta"], designed.parameters["b_over_l"]], abs=1e-4
+    )
+    vsw_work, verified = float(row[5]), row[7]
+    work, rest = verified.split(" (")
+    v, s, gap = (float(x) for x in rest.rstrip(")").replace(";", ",").split(","))
+    assert abs(v - 0.25) < 1e-3 * 0.25 and abs(s - 0.65) < 1e-3 * 0.65 and gap <= 1e-7
+    assert float(row[10]) == pytest.approx(vsw_work / float(work), rel=1e-2)
+    assert float(row[10]) > 1
