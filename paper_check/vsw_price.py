@@ -61,8 +61,9 @@ CLEARANCE = 0.02
 NODES = 20
 STARTS = 4
 """``--starts`` of each body gait of the first table and the grid: the least squared-input
-step and three perturbations of its inputs, each refined; the least work on the fine mesh
-is kept (the landscape has local optima close together: docs/models/powered_walking.md)."""
+step and three perturbations of its inputs, each refined; the best is kept (optimal
+first, then IPOPT's success, then the least work on the fine mesh: the landscape has
+local optima close together, docs/models/powered_walking.md)."""
 REFINEMENT = (20, 40, 80)
 """The defaults' gait optimised with these ``--nodes`` (on 40, 80 and 160 intervals)."""
 STROKE_MARGIN = 0.02

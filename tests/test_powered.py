@@ -10,13 +10,14 @@ the gains); a re-simulation with the inputs as the scheme interpolates them.
 from __future__ import annotations
 
 import dataclasses
+import types
 
 import numpy as np
 import pytest
 
 from vsw.errors import VswInputError
 from vsw.models import load
-from vsw.powered import Request, optimize
+from vsw.powered import Request, best_start, optimize
 
 pytest.importorskip("casadi")
 
@@ -333,3 +334,19 @@ def test_the_reaction_from_the_momentum_is_the_engines(name):
                 assert ours[0] - passive[0] == pytest.approx(gains[count:] @ u, abs=1e-9)
             weight = float(walker.symbolic_weight(ca.DM(params)))
             assert ours[1] == pytest.approx(normal, abs=1e-9 * weight)
+
+
+def test_the_best_start_is_optimal_before_it_is_cheap():
+    """Of several starts' judged results, an optimal one beats a cheaper one the mesh or
+    the re-simulation does not confirm; then IPOPT's success, then cost, then the earlier
+    start; a failed start (None) is never chosen."""
+
+    def judged(status, cost, ipopt="Solve_Succeeded"):
+        return types.SimpleNamespace(status=status, cost=cost, ipopt_status=ipopt)
+
+    assert best_start([judged("optimal", 1.0), judged("not-converged", 0.9)]) == 0
+    assert best_start([None, judged("not-converged", 0.9), judged("optimal", 1.2)]) == 2
+    assert best_start([judged("not-converged", 0.8, "Maximum_Iterations_Exceeded"),
+                       judged("not-converged", 0.9)]) == 1  # fmt: skip
+    assert best_start([judged("optimal", 1.0), None, judged("optimal", 1.0)]) == 0
+    assert best_start([judged("optimal", 1.0), judged("optimal", 0.5)]) == 1

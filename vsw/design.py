@@ -999,8 +999,9 @@ def design(model: HybridModel, request: DesignRequest) -> GaitDesign:
 
 
 START_SETS = 6
-"""Parameter sets searched for gaits to start from, at most: the request's start (defaults
-and fixes, clipped into the bounds), then the box's centre and Halton points of the box,
+"""Parameter sets searched for gaits to start from, at most: the request's start (its
+``start`` values, else defaults and fixes; a default outside the box replaced by the box's
+middle), then the box's centre and Halton points of the box,
 until one has gaits (a rimless wheel with wide spokes on a gentle slope has none)."""
 
 

@@ -224,7 +224,8 @@ class Request:
         for flag, value in (("--friction", self.friction), ("--clearance", self.clearance)):
             if value is not None and not (math.isfinite(value) and value >= 0):
                 raise VswInputError(f"{flag} {value} must be a number >= 0")
-        if not 1 <= self.starts <= MAX_STARTS:
+        if (not isinstance(self.starts, int) or isinstance(self.starts, bool)
+                or not 1 <= self.starts <= MAX_STARTS):  # fmt: skip
             raise VswInputError(f"--starts {self.starts} must be from 1 to {MAX_STARTS}")
 
 
@@ -317,8 +318,15 @@ def optimize(
     same start): the result is the finer one, with ``mesh_change`` the relative change of
     the cost between them. ``optimal`` needs IPOPT's success on both, the re-simulation
     within :data:`RESIMULATION_AGREES` and ``mesh_change`` within :data:`MESH_AGREES`;
-    otherwise ``not-converged`` says which failed. ``cost`` is the named cost (the positive
-    work without the regularization the NLP adds; ``extra['objective']`` the NLP's)."""
+    otherwise ``not-converged`` says which failed (:func:`_judged`). ``cost`` is the named
+    cost (the positive work without the regularization the NLP adds;
+    ``extra['objective']`` the NLP's). With ``request.starts`` above 1 the second stage
+    starts from several points, each solved on both meshes and judged, and the best is
+    the result (:func:`_refined_best`).
+
+    Used from Python outside :func:`vsw.stop.supervised`, a Ctrl-C inside CasADi surfaces
+    as a failed solve; with several starts that start is then counted as failed and the
+    others go on (under ``supervised``, as the CLI runs, it stops the command)."""
     request.check()
     sequence = model._phase_sequence()
     names = input_names(model)
@@ -344,28 +352,7 @@ def optimize(
     params = _started_within_limits(model, params, request)
     if start is None:
         start = _passive_start(model, params)  # None: the model has no passive gait
-    coarse, fine = _refined_best(model, params, request,
-                                 _optimize_on_mesh(model, params, request, start))  # fmt: skip
-    change = abs(fine.cost - coarse.cost) / max(abs(fine.cost), 1e-300)
-    fine.extra["mesh_change"] = change
-    fine.extra["coarse"] = {"nodes": request.nodes, "cost": coarse.cost,
-                            "status": coarse.status}  # fmt: skip
-    if "warm_start" in coarse.extra:  # the coarse mesh's first stage
-        fine.extra["warm_start"] = coarse.extra["warm_start"]
-    agree = change <= MESH_AGREES or abs(fine.cost - coarse.cost) <= COST_ZERO
-    if coarse.status == "infeasible" and fine.status != "optimal":
-        fine.status, fine.reason = coarse.status, coarse.reason + " (on the coarse mesh)"
-    elif fine.status == "optimal" and coarse.ipopt_status not in _SUCCESS:
-        fine.status = "not-converged"
-        fine.reason = f"IPOPT {coarse.ipopt_status} on the coarse mesh"
-    elif fine.status == "optimal" and not agree:
-        fine.status = "not-converged"
-        fine.reason = (f"the cost changes by {change:.3g} (relative) from {request.nodes} to "
-                       f"{2 * request.nodes} intervals a phase: the mesh does not resolve the "
-                       "optimum (try more --nodes)")  # fmt: skip
-        if prices_work(request):
-            fine.reason += ("; the least work may need an impulsive input, which no mesh "
-                            "resolves")  # fmt: skip
+    fine = _refined_best(model, params, request, _optimize_on_mesh(model, params, request, start))
     if fine.status == "optimal" or (request.minimize == "stability"
                                     and fine.status == "not-converged"):  # fmt: skip
         try:  # under stability the independent check of the radius, converged or not
@@ -453,51 +440,91 @@ def _check_step_target(model: HybridModel, params: Sequence[float], request: Req
                                 f"{given} contradicts it (set the parameter instead)")  # fmt: skip
 
 
+def _judged(request: Request, coarse: PoweredGait, fine: PoweredGait) -> PoweredGait:
+    """``fine`` (the coarse optimum solved again on twice the intervals, from itself) with
+    its ``mesh_change`` and the coarse mesh's cost, and its status as the pair makes it:
+    ``optimal`` only where the coarse solve succeeded too and the cost agrees between the
+    meshes; an infeasible coarse mesh stays infeasible unless the fine one is optimal."""
+    change = abs(fine.cost - coarse.cost) / max(abs(fine.cost), 1e-300)
+    fine.extra["mesh_change"] = change
+    fine.extra["coarse"] = {"nodes": request.nodes, "cost": coarse.cost,
+                            "status": coarse.status}  # fmt: skip
+    if "warm_start" in coarse.extra:  # the coarse mesh's first stage
+        fine.extra["warm_start"] = coarse.extra["warm_start"]
+    agree = change <= MESH_AGREES or abs(fine.cost - coarse.cost) <= COST_ZERO
+    if coarse.status == "infeasible" and fine.status != "optimal":
+        fine.status, fine.reason = coarse.status, coarse.reason + " (on the coarse mesh)"
+    elif fine.status == "optimal" and coarse.ipopt_status not in _SUCCESS:
+        fine.status = "not-converged"
+        fine.reason = f"IPOPT {coarse.ipopt_status} on the coarse mesh"
+    elif fine.status == "optimal" and not agree:
+        fine.status = "not-converged"
+        fine.reason = (f"the cost changes by {change:.3g} (relative) from {request.nodes} to "
+                       f"{2 * request.nodes} intervals a phase: the mesh does not resolve the "
+                       "optimum (try more --nodes)")  # fmt: skip
+        if prices_work(request):
+            fine.reason += ("; the least work may need an impulsive input, which no mesh "
+                            "resolves")  # fmt: skip
+    return fine
+
+
+def best_start(results: Sequence[Any]) -> int:
+    """The index of the best of several starts' judged results (None: that start failed):
+    ``optimal`` first, then IPOPT's success, then the least cost, then the earlier start.
+    A lower cost that is not ``optimal`` (a mesh that does not resolve it, a
+    re-simulation that disagrees) does not beat an optimal one."""
+    ranked = [(r.status != "optimal", r.ipopt_status not in _SUCCESS, r.cost, k)
+              for k, r in enumerate(results) if r is not None]  # fmt: skip
+    return min(ranked)[3]
+
+
 def _refined_best(model: HybridModel, params: Sequence[float], request: Request,
-                  solved: list[PoweredGait | None]) -> tuple[PoweredGait, PoweredGait]:  # fmt: skip
-    """Each coarse optimum (one a start; None where IPOPT failed) solved again on twice the
-    intervals, from itself, so that the change measures the mesh, not another local
-    optimum; the pair whose fine solve is best (IPOPT's success, then cost, then the
-    earlier start). With several starts, each one's costs and statuses in
-    ``extra['starts']`` of the fine result and the chosen one's index in ``best_start``."""
+                  solved: list[PoweredGait | str]) -> PoweredGait:  # fmt: skip
+    """Each coarse optimum (one a start; a string where it failed: why) solved again on
+    twice the intervals from itself, so that the change measures the mesh and not another
+    local optimum, and judged (:func:`_judged`); the fine result :func:`best_start` picks. With
+    several starts, each one's costs, statuses (or why it failed) in ``extra['starts']``
+    of the fine result and the chosen one's index in ``best_start``."""
     finer = dataclasses.replace(request, nodes=2 * request.nodes)
     coarse_nlp, fine_nlp = _build(model, request), _build(model, finer)
     pairs: list[tuple[PoweredGait, PoweredGait] | None] = []
     tried: list[dict[str, Any]] = []
     for coarse in solved:
-        fine = None
-        if coarse is not None:
-            guess = _refine(model, params, coarse_nlp, coarse.extra["w"], fine_nlp)
-            scale = coarse.extra["regularization_scale"]
+        fine, why = None, coarse if isinstance(coarse, str) else ""
+        if not isinstance(coarse, str):
             try:
-                fine = _solve(model, params, finer, fine_nlp, guess, scale)
+                guess = _refine(model, params, coarse_nlp, coarse.extra["w"], fine_nlp)
+                fine = _solve(model, params, finer, fine_nlp, guess,
+                              coarse.extra["regularization_scale"])  # fmt: skip
             except ConvergenceError as exc:
                 if len(solved) == 1:
                     raise
-                coarse.reason = str(exc)
-        pairs.append(None if fine is None else (coarse, fine))
-        tried.append({"coarse": None if coarse is None else coarse.cost,
-                      "fine": None if fine is None else fine.cost,
-                      "ipopt_status": "failed" if fine is None else fine.ipopt_status,
-                      "status": "failed" if fine is None else fine.status})  # fmt: skip
-    ranked = [(pair[1].ipopt_status not in _SUCCESS, pair[1].cost, k)
-              for k, pair in enumerate(pairs) if pair is not None]  # fmt: skip
-    if not ranked:
-        raise ConvergenceError(f"{model.name}: IPOPT failed from every one of "
-                               f"{len(solved)} starts")  # fmt: skip
-    best = min(ranked)[2]
-    coarse, fine = pairs[best]  # type: ignore[misc]
+                why = f"on the fine mesh: {exc}"
+        pairs.append(None if fine is None else (coarse, _judged(request, coarse, fine)))
+        if fine is None:
+            tried.append({"coarse": None if isinstance(coarse, str) else coarse.cost,
+                          "fine": None, "ipopt_status": None, "status": "failed",
+                          "reason": why})  # fmt: skip
+        else:
+            tried.append({"coarse": coarse.cost, "fine": fine.cost,
+                          "ipopt_status": fine.ipopt_status, "status": fine.status,
+                          "reason": fine.reason or None})  # fmt: skip
+    if all(pair is None for pair in pairs):
+        raise ConvergenceError(f"{model.name}: every one of {len(solved)} starts failed (the "
+                               f"first: {tried[0]['reason']})")  # fmt: skip
+    best = best_start([None if pair is None else pair[1] for pair in pairs])
+    fine = pairs[best][1]  # type: ignore[index]
     if len(solved) > 1:
         fine.extra["starts"] = tried
         fine.extra["best_start"] = best
-    return coarse, fine
+    return fine
 
 
 def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Request,
-                      start: Orbit | None) -> list[PoweredGait | None]:  # fmt: skip
-    """The optimum on the coarse mesh from each start (None where IPOPT failed from one
-    after the first): the first stage from the passive gait or the kinematic guess, then
-    the second from its optimum (:func:`_second_stage`)."""
+                      start: Orbit | None) -> list[PoweredGait | str]:  # fmt: skip
+    """The optimum on the coarse mesh from each start (for a start after the first that
+    failed, why): the first stage from the passive gait or the kinematic guess, then the
+    second from its optimum (:func:`_second_stage`)."""
     stage = request
     if request.minimize != "torque2" and _continuous_inputs_used(model, request):
         # Positive work is flat wherever no input does work and not smooth where one
@@ -532,7 +559,7 @@ def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Requ
     first = _transfer(model, params, nlp, result.extra["w"], staged)
     solved = _second_stage(model, params, request, staged, first, scale)
     for final in solved:
-        if final is not None:
+        if not isinstance(final, str):
             final.extra["warm_start"] = {"minimize": "torque2", "status": result.status,
                                          "cost": result.cost,
                                          "parameters": result.parameters}  # fmt: skip
@@ -540,18 +567,19 @@ def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Requ
 
 
 def _second_stage(model: HybridModel, params: Sequence[float], request: Request, nlp: _Nlp,
-                  first: np.ndarray, scale: float) -> list[PoweredGait | None]:  # fmt: skip
+                  first: np.ndarray, scale: float) -> list[PoweredGait | str]:  # fmt: skip
     """The second stage solved from ``first`` and from ``request.starts - 1`` perturbations
-    of its inputs (None where IPOPT failed from one of those)."""
-    solved: list[PoweredGait | None] = []
-    for k in range(request.starts):
-        guess = first if k == 0 else _perturbed_inputs(model, params, nlp, first, k)
+    of its inputs (for one of those that failed, why). The perturbations are relative to
+    ``first``'s inputs: where those are nearly zero (a passive gait meets the targets, the
+    inputs only the mesh's error) every start is nearly ``first``, and the starts' equal
+    costs in ``extra['starts']`` show it."""
+    solved: list[PoweredGait | str] = [_solve(model, params, request, nlp, first, scale)]
+    for k in range(1, request.starts):
         try:
+            guess = _perturbed_inputs(model, params, nlp, first, k)
             solved.append(_solve(model, params, request, nlp, guess, scale))
-        except ConvergenceError:
-            if k == 0:
-                raise
-            solved.append(None)
+        except ConvergenceError as exc:
+            solved.append(str(exc))
     return solved
 
 
@@ -559,7 +587,8 @@ def _perturbed_inputs(model: HybridModel, params: Sequence[float], nlp: _Nlp, w:
                       index: int) -> np.ndarray:  # fmt: skip
     """``w`` with each phase's continuous inputs moved by up to :data:`START_SPREAD` times
     their largest magnitude over the phase (uniform, seeded by ``index``: the same starts
-    on every run), kept within their bounds; the slacks filled again."""
+    on every run), kept within their bounds; the slacks filled again. An input that is
+    zero throughout its phase stays zero (it has no scale of its own to move by)."""
     rng = np.random.default_rng(index)
     lbx, ubx = nlp.bounds[0], nlp.bounds[1]
     out = w.copy()

@@ -43,9 +43,10 @@ def register(subparsers: Any) -> None:
     p.add_argument("--nodes", type=int, default=20, metavar="N",
                    help="intervals a phase on the coarse mesh (the result is on 2N)")  # fmt: skip
     p.add_argument("--starts", type=int, default=1, metavar="K",
-                   help="work, cot and stability: solve the second stage from K starts on the "
-                   "coarse mesh (the least squared-input step, then K - 1 perturbations of "
-                   "its inputs) and refine the best (default 1; 1-50)")  # fmt: skip
+                   help="work, cot and stability: solve the second stage from K starts (the "
+                   "least squared-input step, then K - 1 perturbations of its inputs), each "
+                   "on N and 2N intervals, and keep the best (optimal first, then the least "
+                   "cost; default 1; 1-50)")  # fmt: skip
     p.add_argument("--limit", action="append", metavar="NAME=LOW:HIGH", type=_limit,
                    help="bounds on an input, impulse or chosen parameter beside the model's "
                    "(repeatable; either side may be empty: leg_force=:3)")  # fmt: skip
@@ -250,10 +251,12 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
             "stability: plus the regularization times the squared inputs' integral)",
             "mesh_change": "relative change of the cost from the coarse to the fine mesh (a "
             "cost zero within 1e-9 on both agrees whatever this is)",
-            "starts": "with --starts above 1: each start's cost on the coarse and the fine mesh "
-            "and its fine solve's IPOPT status and status (the first from the least "
-            "squared-input step, the others from its inputs perturbed; failed: IPOPT stopped "
-            "on a NaN); best_start: the one reported (0-based)",
+            "starts": "with --starts above 1: each start's cost on the coarse and the fine mesh, "
+            "its fine solve's IPOPT status, its status as judged on both meshes and why it is "
+            "not optimal (the first from the least squared-input step, the others from its "
+            "inputs perturbed; status failed: IPOPT stopped, reason why); best_start: the one "
+            "reported, an index into starts (0-based): optimal first, then IPOPT's success, "
+            "then the least cost",
             "work": "per phase.input: positive and negative work over the step (Simpson); "
             "per event.impulse: its positive and negative work (its net work the impulse "
             "times the mean of its along's rate before and after it; its positive work "
@@ -306,11 +309,11 @@ def _write_text(model, params, request: powered.Request, gait: powered.PoweredGa
               f"{2 * request.nodes} intervals a phase; {fmt(gait.extra.get('mesh_change'))} "
               f"relative change from {request.nodes})\n")  # fmt: skip
     if gait.extra.get("starts"):
-        costs = ", ".join("failed" if t["fine"] is None else fmt(t["fine"])
+        costs = ", ".join("failed" if t["fine"] is None else f"{fmt(t['fine'])} ({t['status']})"
                           for t in gait.extra["starts"])  # fmt: skip
         out.write(f"starts             {len(gait.extra['starts'])}, each on {request.nodes} and "
-                  f"{2 * request.nodes} intervals a phase: {costs}; the best start "
-                  f"{gait.extra['best_start'] + 1}\n")  # fmt: skip
+                  f"{2 * request.nodes} intervals a phase: {costs}; the best is start "
+                  f"{gait.extra['best_start'] + 1} (counted from 1)\n")  # fmt: skip
     out.write(f"period             {fmt(gait.period)}; step length {fmt(gait.step_length)}; "
               f"speed {fmt(gait.speed)}\n")  # fmt: skip
     _write_ledger(out, gait.work, {}, "")
