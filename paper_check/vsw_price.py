@@ -158,11 +158,8 @@ def _grid_designs() -> list[tuple[float, float, GaitDesign]]:
     for speed, step in cells:
         found = [(np.hypot(v - speed, s - step), d.parameters) for v, s, d in designed
                  if d.parameters is not None]  # fmt: skip
-        start = (
-            {}
-            if not found
-            else {k: v for k, v in min(found, key=lambda f: f[0])[1].items() if k not in GRID_FIXED}
-        )
+        nearest = min(found, key=lambda f: f[0])[1] if found else {}
+        start = {k: v for k, v in nearest.items() if k not in GRID_FIXED}
         request = DesignRequest(targets={"speed": speed, "step_length": step},
                                 fixed=GRID_FIXED, start=start)  # fmt: skip
         designed.append((speed, step, design(biped, request)))

@@ -192,9 +192,10 @@ class Request:
     starts: int = field(default=1, compare=False)
     """How many starts the second stage (``work``, ``cot``, ``stability``) is solved from:
     the first stage's optimum, and after it that optimum with its inputs perturbed
-    (:func:`_perturbed_inputs`), each on the coarse mesh and then the fine; the best fine
-    solve by IPOPT's success, then cost, is the result (:func:`_refined_best`). Not
-    compared: the NLPs, cached by request, do not depend on it."""
+    (:func:`_perturbed_inputs`), each on the coarse mesh and then the fine and judged; the
+    best (:func:`best_start`: optimal first, then IPOPT's success, then cost) is the
+    result (:func:`_refined_best`). Not compared: the NLPs, cached by request, do not
+    depend on it."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "use", tuple(self.use))  # hashable: the NLPs are cached
@@ -487,7 +488,7 @@ def _refined_best(model: HybridModel, params: Sequence[float], request: Request,
     of the fine result and the chosen one's index in ``best_start``."""
     finer = dataclasses.replace(request, nodes=2 * request.nodes)
     coarse_nlp, fine_nlp = _build(model, request), _build(model, finer)
-    pairs: list[tuple[PoweredGait, PoweredGait] | None] = []
+    judged: list[PoweredGait | None] = []
     tried: list[dict[str, Any]] = []
     for coarse in solved:
         fine, why = None, coarse if isinstance(coarse, str) else ""
@@ -500,7 +501,7 @@ def _refined_best(model: HybridModel, params: Sequence[float], request: Request,
                 if len(solved) == 1:
                     raise
                 why = f"on the fine mesh: {exc}"
-        pairs.append(None if fine is None else (coarse, _judged(request, coarse, fine)))
+        judged.append(None if fine is None else _judged(request, coarse, fine))
         if fine is None:
             tried.append({"coarse": None if isinstance(coarse, str) else coarse.cost,
                           "fine": None, "ipopt_status": None, "status": "failed",
@@ -509,11 +510,12 @@ def _refined_best(model: HybridModel, params: Sequence[float], request: Request,
             tried.append({"coarse": coarse.cost, "fine": fine.cost,
                           "ipopt_status": fine.ipopt_status, "status": fine.status,
                           "reason": fine.reason or None})  # fmt: skip
-    if all(pair is None for pair in pairs):
+    if all(fine is None for fine in judged):
         raise ConvergenceError(f"{model.name}: every one of {len(solved)} starts failed (the "
                                f"first: {tried[0]['reason']})")  # fmt: skip
-    best = best_start([None if pair is None else pair[1] for pair in pairs])
-    fine = pairs[best][1]  # type: ignore[index]
+    best = best_start(judged)
+    fine = judged[best]
+    assert fine is not None
     if len(solved) > 1:
         fine.extra["starts"] = tried
         fine.extra["best_start"] = best
