@@ -265,3 +265,29 @@ def test_a_stop_a_library_turns_into_its_own_error_is_still_the_stop():
                     parser.parse(rf"$\sqrt{{g/r_{{e}}}}\,x_{{{i}}}$", dpi=72)
         ended.append(type(caught.value).__name__)
     assert set(ended) == {"RunTimeLimitError"}, ended
+
+
+@pytest.mark.parametrize("seconds", ["9.3e9", "1e10", "1e308", "1.7976931348623157e308"])
+def test_a_limit_beyond_the_timer_runs_as_no_limit(seconds):
+    """The system's timer holds at most about 9.2e9 s; a longer limit is accepted and
+    arms no timer, as good as none for any real run."""
+    code, out, err = run(["models"], env={"VSW_MAX_SECONDS": seconds})
+    assert (code, err) == (0, ""), err
+    assert "compass-gait" in out
+    with stop.supervised(float(seconds)):
+        assert signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)
+        stop.check()
+
+
+def test_a_limit_the_timer_holds_is_armed():
+    with stop.supervised(stop.TIMER_MAX_SECONDS):
+        remaining, _ = signal.getitimer(signal.ITIMER_REAL)
+        assert remaining > stop.TIMER_MAX_SECONDS - 10
+    assert signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)
+
+
+@pytest.mark.parametrize("seconds", ["nan", "-1", "0", "-inf", "ten", "1e5s"])
+def test_an_invalid_limit_is_one_line(seconds):
+    code, out, err = run(["models"], env={"VSW_MAX_SECONDS": seconds})
+    assert (code, out) == (EXIT_INPUT, "")
+    assert err == f"vsw: error: VSW_MAX_SECONDS must be a positive number or inf, got {seconds!r}\n"

@@ -14,7 +14,10 @@ The run-time limit (``VSW_MAX_SECONDS``, :func:`vsw.limits.max_seconds`) is chec
 work starts, from estimates, and enforced while it runs: :func:`supervised` arms a timer
 (SIGALRM) for the limit, and :func:`check` compares the clock with it, so the run stops
 within about one block of work (a batch of walks, one orbit solve) after the limit with
-:class:`RunTimeLimitError`.
+:class:`RunTimeLimitError`. Any positive limit is accepted, up to ``1e308`` and ``inf``: the
+system's timer holds at most about 9.2e9 s (2**63 ns), so a limit beyond
+:data:`TIMER_MAX_SECONDS` (about 31 years) arms no timer, which for any real run is the
+same as no limit (:func:`check` still compares the clock with it).
 
 Compiled code cannot raise: the batch simulator's C library registers hooks
 (:func:`register`) that tell its walks in progress to end, called when a stop is
@@ -181,7 +184,7 @@ def supervised(seconds: float = math.inf) -> Iterator[None]:
     try:
         # Armed inside the try: a tiny limit fires at once, and the handlers are still
         # restored below.
-        if math.isfinite(seconds):
+        if seconds <= TIMER_MAX_SECONDS:
             # Then again every _REPEAT s: a stop raised where Python cannot propagate it
             # (a finalizer, a weakref callback) is raised again at the next tick.
             signal.setitimer(signal.ITIMER_REAL, seconds, _REPEAT)
@@ -218,6 +221,10 @@ def _stops_kept() -> Iterator[None]:
             raise
         raise recorded from exc
 
+
+TIMER_MAX_SECONDS = 1e9
+"""The longest limit the timer is armed for: beyond it (the timer itself overflows past
+about 9.2e9 s) no run lasts that long, and no timer is armed (module docstring)."""
 
 _REPEAT = 0.25
 """Seconds between the limit's signals once it has passed (see :func:`supervised`)."""
