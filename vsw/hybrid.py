@@ -105,6 +105,19 @@ class PhasePiece:
         return out
 
 
+class _Held:
+    """A phase's dense output that is one state at every time (a phase not integrated)."""
+
+    def __init__(self, state: np.ndarray) -> None:
+        self.state = np.array(state, dtype=float)
+
+    def __call__(self, t: float | np.ndarray) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        if t.ndim == 0:
+            return self.state.copy()
+        return np.repeat(self.state[:, None], t.size, axis=1)
+
+
 @dataclass(frozen=True)
 class Trajectory:
     """A simulated walk: samples, the phase of each, and the section states."""
@@ -442,7 +455,10 @@ class HybridModel:
             kind, what, t_end, x_end, *_ = self._phase_run(
                 phase, params, x, t, dense=False, segments=segments
             )
-            pieces.append(PhasePiece(phase, done, t, t_end, tuple(segments)))
+            # A phase already past a failure at its start was not integrated: its piece is
+            # the start state held for no time, so a walk that ends at once still samples.
+            held = ((_Held(x_end), t, t_end),)
+            pieces.append(PhasePiece(phase, done, t, t_end, tuple(segments) or held))
             if kind != "event":
                 return pieces, events, what if kind == "failure" else "stalled"
             after = self.reset(what["name"], params, x_end)

@@ -92,6 +92,6 @@ def walk_figure(model: Any, params: Sequence[float], walk: SampledWalk) -> Figur
             ax_energy.set_ylim(middle - least, middle + least)
     for ax in axes:
         ax.margins(x=0.0)
-    if len(walk.t):
+    if len(walk.t) and np.max(walk.t) > walk.t[0]:  # a walk that ended at once: one instant
         ax_energy.set_xlim(float(walk.t[0]), float(np.max(walk.t)))
     return fig

@@ -145,6 +145,7 @@ def run(args: argparse.Namespace) -> int:
         out.write(f"plot: {args.plot}{unit_text(None)}\n")
     if args.trajectory is not None:
         per = model.units.get("time", "time unit")
-        out.write(f"trajectory: {args.trajectory} ({len(sampled.t)} rows, {sampled.rate:g} "
+        rows = f"{len(sampled.t)} row{'s' if len(sampled.t) != 1 else ''}"
+        out.write(f"trajectory: {args.trajectory} ({rows}, {sampled.rate:g} "
                   f"samples per {per} and each event)\n")  # fmt: skip
     return EXIT_OK
