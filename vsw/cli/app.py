@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import math
 import os
 import sys
 import warnings
@@ -141,6 +142,16 @@ def _check_environment() -> None:
     max_memory()
 
 
+def _limit_or_none() -> float:
+    """The run-time limit to run under, or none while an invalid ``VSW_MAX_SECONDS`` waits
+    for :func:`_check_environment` to refuse it after the command line is parsed (a usage
+    error is said first, as for every other setting)."""
+    try:
+        return max_seconds()
+    except VswInputError:
+        return math.inf
+
+
 def _say(line: str) -> None:
     """One line on stderr; silent when stderr itself is closed or broken."""
     try:
@@ -201,10 +212,13 @@ def _run(argv: Sequence[str] | None, program: bool) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     try:
         parser = build_parser(argv[0] if argv else None)
-        args = parser.parse_args(argv)
-        args.argv = argv
-        _check_environment()
-        with stop.supervised(max_seconds()), warnings.catch_warnings():
+        with stop.supervised(_limit_or_none()), warnings.catch_warnings():
+            # Parsing is supervised too: it loads the model, which for a model file of the
+            # user's derives it first in a subprocess (vsw.models.user), killed with the
+            # stop when the limit passes or Ctrl-C comes.
+            args = parser.parse_args(argv)
+            args.argv = argv
+            _check_environment()
             warnings.simplefilter("once", SlowRouteWarning)
             warnings.showwarning = _warning_printer(sys.stderr)
             code = int(args.func(args))

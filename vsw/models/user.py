@@ -126,8 +126,28 @@ def _derive(path: Path, root: Path) -> None:
     # in for the engine the cache key was computed from.
     command = [sys.executable, "-P", "-m", "derive", "--file", str(path), "--out", str(root)]
     print(f"vsw: deriving the model of {path} (once per change of the file) ...", file=sys.stderr)
+    # The derivation lives no longer than this process: a stop (Ctrl-C, the run-time
+    # limit: vsw.stop) raised while it waits kills it (subprocess.run), and a vsw ended
+    # by a signal it cannot handle (SIGTERM, SIGKILL) has the kernel kill it (Linux's
+    # PR_SET_PDEATHSIG, set in the child before it runs; a parent already gone by then is
+    # caught by the parent id check).
+    parent = os.getpid()
     try:
-        done = subprocess.run(command, capture_output=True, text=True, timeout=DERIVE_TIMEOUT)
+        import ctypes
+
+        prctl = ctypes.CDLL(None, use_errno=True).prctl
+    except (OSError, AttributeError):
+        prctl = None
+
+    def tie_to_parent() -> None:
+        if prctl is not None:
+            prctl(1, 9, 0, 0, 0)  # PR_SET_PDEATHSIG, SIGKILL
+        if os.getppid() != parent:
+            os._exit(1)
+
+    try:
+        done = subprocess.run(command, capture_output=True, text=True, timeout=DERIVE_TIMEOUT,
+                              preexec_fn=tie_to_parent)  # fmt: skip
     except subprocess.TimeoutExpired:
         raise VswInputError(
             f"deriving {path} took more than {DERIVE_TIMEOUT:g} s and was stopped"
