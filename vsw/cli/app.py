@@ -11,12 +11,16 @@ documentation, "Note on SIGPIPE").
 from __future__ import annotations
 
 import argparse
+import atexit
 import importlib
 import math
 import os
+import shutil
+import stat
 import sys
 import warnings
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any, NoReturn, TextIO
 
 from vsw import stop
@@ -152,6 +156,47 @@ def _limit_or_none() -> float:
         return math.inf
 
 
+def _writable(directory: Path) -> bool:
+    """Whether ``directory`` is, or could be made (``mkdir -p``), a writable directory;
+    nothing is created."""
+    for path in (directory, *directory.parents):
+        if path.exists():
+            return path.is_dir() and os.access(path, os.W_OK | os.X_OK)
+    return False
+
+
+def _matplotlib_config() -> None:
+    """Point ``MPLCONFIGDIR`` at a writable directory when Matplotlib's own would not be.
+
+    Matplotlib otherwise warns in two lines on every plotting run with a read-only (or
+    missing) home directory, and rebuilds its font cache each time. Decided before any
+    command imports Matplotlib, without importing it and without creating anything in the
+    home directory: its XDG config and cache directories are checked; where either is not
+    writable, ``<tmp>/vsw-matplotlib-<uid>`` (kept, so its font cache is reused) serves,
+    or a fresh temporary directory when that one is not safely ours."""
+    if os.environ.get("MPLCONFIGDIR") or not sys.platform.startswith(("linux", "freebsd")):
+        return
+    home = Path(os.environ.get("HOME") or "/")
+    config = Path(os.environ.get("XDG_CONFIG_HOME") or home / ".config") / "matplotlib"
+    cache = Path(os.environ.get("XDG_CACHE_HOME") or home / ".cache") / "matplotlib"
+    if _writable(config) and _writable(cache):
+        return
+    import tempfile
+
+    kept = Path(tempfile.gettempdir()) / f"vsw-matplotlib-{os.getuid()}"
+    try:
+        kept.mkdir(mode=0o700, exist_ok=True)
+        info = kept.lstat()
+        # A directory someone else made or may write in is not used (a shared /tmp).
+        ours = stat.S_ISDIR(info.st_mode) and info.st_uid == os.getuid()
+        if not (ours and info.st_mode & 0o077 == 0):
+            kept = Path(tempfile.mkdtemp(prefix="vsw-matplotlib-"))
+            atexit.register(shutil.rmtree, kept, ignore_errors=True)
+    except OSError:
+        return  # no writable temporary directory either: Matplotlib's own warning applies
+    os.environ["MPLCONFIGDIR"] = str(kept)
+
+
 def _say(line: str) -> None:
     """One line on stderr; silent when stderr itself is closed or broken."""
     try:
@@ -219,6 +264,7 @@ def _run(argv: Sequence[str] | None, program: bool) -> int:
             args = parser.parse_args(argv)
             args.argv = argv
             _check_environment()
+            _matplotlib_config()
             warnings.simplefilter("once", SlowRouteWarning)
             warnings.showwarning = _warning_printer(sys.stderr)
             code = int(args.func(args))
