@@ -19,7 +19,7 @@ from pathlib import Path
 import generated
 from vsw.errors import VswInputError
 from vsw.models.base import Model
-from vsw.models.user import entry_point_file, is_model_file, package
+from vsw.models.user import entry_point_file, is_model_file, model_file, package
 
 __all__ = ["cli_name", "key", "keys", "load"]
 
@@ -43,10 +43,7 @@ def key(name: str) -> str:
     """The package key of a model name (``-`` and ``_`` alike), or the absolute path of a
     model file (given, or an installed package's entry point), or a one-line refusal."""
     if is_model_file(name):
-        path = Path(name.strip()).expanduser().resolve()
-        if not path.is_file():
-            raise VswInputError(f"model file {name.strip()} does not exist")
-        return str(path)
+        return str(model_file(name))
     model_key = name.strip().replace("-", "_")
     if model_key not in keys():
         path = entry_point_file(name.strip())
