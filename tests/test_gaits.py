@@ -9,6 +9,7 @@ dozen pushes of one start) missed; their largest |eigenvalue| are the numbers be
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import math
 
@@ -17,6 +18,7 @@ import pytest
 
 from vsw import gaits
 from vsw.cli import main
+from vsw.errors import CacheWarning
 from vsw.models import load
 
 pytest.importorskip("casadi")
@@ -153,14 +155,21 @@ def test_every_gait_carries_its_failures_margins(capsys):
         assert clearance["holds"] is False and clearance["unit"] == "m"
 
 
+def sealed(data: dict) -> dict:
+    """A kept search's content with its seal (file name kept, digest made to match)."""
+    content = {k: v for k, v in data.items() if k != "sha256"}
+    text = json.dumps(content, sort_keys=True, separators=(",", ":"))
+    return {**content, "sha256": hashlib.sha256(text.encode()).hexdigest()}
+
+
 def test_a_kept_search_is_a_new_one_bit_for_bit(monkeypatch, tmp_path):
     """The scan, Newton's solutions and the confirmed gaits are kept on disk
     (vsw.gaits._cache_file) and a later search of the same model, code and inputs reuses
     them: neither the scan nor the boundary-value solver runs again, and its gaits (their
     orbits' states too) equal a new search's bit for bit. Gaits missing (a search
-    interrupted while confirming), damaged or kept by another CasADi are confirmed again and
-    kept whole; a solve that failed outside stop.supervised keeps none; a damaged file is
-    made again; VSW_SEARCH_CACHE=0 keeps nothing."""
+    interrupted while confirming) or kept by another CasADi are confirmed again and kept
+    whole; a solve that failed outside stop.supervised keeps none; a damaged file is made
+    again whole; VSW_SEARCH_CACHE=0 keeps nothing."""
     monkeypatch.setenv("VSW_CACHE_DIR", str(tmp_path))
     m = load("compass_gait")
     params = m.parameters({})
@@ -185,29 +194,37 @@ def test_a_kept_search_is_a_new_one_bit_for_bit(monkeypatch, tmp_path):
     assert (again.unconfirmed, again.standing) == (first.unconfirmed, first.standing)
     assert len(first.gaits) >= 2
     record = json.loads(kept.read_text())
-    # Kept without its gaits (interrupted while confirming), with a damaged gait, or by
-    # another CasADi installation: confirmed again, the scan reused, the record kept whole.
-    damaged_gait = {**record["confirmed"], "gaits": [{"state": []}]}
+    # Kept without its gaits (interrupted while confirming) or by another CasADi
+    # installation: confirmed again, the scan reused, the record kept whole.
     other_casadi = {**record["confirmed"], "casadi": "another"}
-    for confirmed_record in (None, damaged_gait, other_casadi):
-        kept.write_text(json.dumps({**record, "confirmed": confirmed_record}))
+    for confirmed_record in (None, other_casadi):
+        kept.write_text(json.dumps(sealed({**record, "confirmed": confirmed_record})))
         with monkeypatch.context() as patch:
             patch.setattr(gaits, "_scan", lambda *a: pytest.fail("scanned again"))
             confirmed = gaits.search(m, params, cells=20_000)
         assert [o.to_dict() for o in confirmed.gaits] == [o.to_dict() for o in first.gaits]
         assert json.loads(kept.read_text()) == record
+    # A damaged gait (its digest made to match): nothing of the file is trusted, the whole
+    # search is made again (tests/test_cache_integrity.py: every other alteration).
+    damaged_gait = {**record["confirmed"], "gaits": [{"state": []}]}
+    kept.write_text(json.dumps(sealed({**record, "confirmed": damaged_gait})))
+    with pytest.warns(CacheWarning, match="a kept gait: not a gait's record"):
+        redone = gaits.search(m, params, cells=20_000)
+    assert [o.to_dict() for o in redone.gaits] == [o.to_dict() for o in first.gaits]
+    assert json.loads(kept.read_text()) == record
     # Outside stop.supervised a solve CasADi failed may be a Ctrl-C: such a result is not
     # kept (the next search confirms again); under it, it is.
     failed = [{"state": {}, "period": 1.0, "reason": "rhs failed"}]
     for supervising, keeps in ((False, False), (True, True)):
-        kept.write_text(json.dumps({**record, "confirmed": None}))
+        kept.write_text(json.dumps(sealed({**record, "confirmed": None})))
         with monkeypatch.context() as patch:
             patch.setattr(gaits, "_confirm", lambda *a: (first.gaits[:1], failed, 0))
             patch.setattr(gaits.stop, "supervising", lambda s=supervising: s)
             gaits.search(m, params, cells=20_000)
         assert (json.loads(kept.read_text())["confirmed"] is not None) == keeps
     kept.write_text('{"found": [[0.1')  # a file cut short
-    damaged = gaits.search(m, params, cells=20_000)
+    with pytest.warns(CacheWarning, match="not JSON"):
+        damaged = gaits.search(m, params, cells=20_000)
     assert [o.to_dict() for o in damaged.gaits] == [o.to_dict() for o in first.gaits]
     assert json.loads(kept.read_text())["converged"] == first.converged
     # Another input, another file; none with the cache off.

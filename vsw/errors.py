@@ -21,3 +21,10 @@ class SlowRouteWarning(UserWarning):
     """The compiled batch simulator could not be built (no compiler, a bad ``CC``, an
     unusable cache): the walks take the SciPy route, same classes, about 300 times slower.
     The CLI prints it once on stderr as ``vsw: warning: ...``."""
+
+
+class CacheWarning(SlowRouteWarning):
+    """A cache entry not used because it is not what it claims (damaged, altered, fields
+    out of range, a kept gait that is no gait): the work is done again, the result as a new
+    run's, only slower. A SlowRouteWarning so that the CLI prints it the same way, once, as
+    one line ``vsw: warning: ...``."""

@@ -25,7 +25,15 @@ Steps 1-3, and then step 4's gaits, are kept on disk and reused by a later searc
 same model, code and inputs, the gaits only with the same CasADi installation
 (:func:`_cache_file`; ``VSW_SEARCH_CACHE=0`` turns it off): a command that follows a gait
 (``vsw basin``) spent a fifth of its time confirming the same three gaits again. A kept
-search returns what a new one would, bit for bit.
+search returns what a new one would, bit for bit. It is trusted only as far as it is
+verified: the file is sealed with its own name and the SHA-256 of its canonical content,
+its fields are checked against what a search writes (types, ranges, the grid, the routes
+and outcomes), and before its gaits are reported each is stepped once more and must return
+to itself as the boundary-value solver's confirmation demands, with every Newton solution
+accounted for (:func:`_recheck`: about 10 ms for the passive walkers' searches). A file that
+fails any of these is ignored with a one-line :class:`~vsw.errors.CacheWarning` and the
+search is done again. The eigenvalues and the reasons of unconfirmed solutions are not
+computed again (that would be the solver's work): the seal vouches for them.
 
 What this misses, by construction: a gait whose set of states that complete one step is
 too thin to hold a grid cell near it (a gait with its apex barely passed: max |eigenvalue|
@@ -47,6 +55,7 @@ import json
 import math
 import os
 import tempfile
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -57,7 +66,7 @@ import numpy as np
 from vsw import batch, hybrid, limits, stop
 from vsw.batch import FELL, WALKED, BatchSimulator, simulator
 from vsw.compiled import cache_dir
-from vsw.errors import ConvergenceError, VswInputError
+from vsw.errors import CacheWarning, ConvergenceError, VswInputError
 from vsw.hybrid import HybridModel, Orbit
 from vsw.vectorize import default_threads
 
@@ -369,12 +378,17 @@ def search(
     sim = simulator(model)
     compiled = sim.library() is not None
     path = _cache_file(model, sim, params, box, cells) if compiled else None
-    scanned = _read_cache(path)
+    scanned = _read_cache(path, model, sim, box, cells)
+    names = [*model.coordinates, *model.rates]
+    kept = None if scanned is None else _kept_gaits(scanned.get("confirmed"), names)
+    if kept is not None:
+        problem = _recheck(model, sim, params, scanned["found"], *kept)
+        if problem is not None:
+            _note(f"the kept search {path} is no longer trusted ({problem}): searching again")
+            scanned, kept = None, None
     if scanned is None:
         scanned = _scan(model, sim, params, box, cells, compiled)
         _write_cache(path, scanned)  # kept before confirming: an interrupt loses no scan
-    names = [*model.coordinates, *model.rates]
-    kept = _kept_gaits(scanned.get("confirmed"), names)
     if kept is not None:
         gaits, unconfirmed, standing = kept
     else:
@@ -438,17 +452,15 @@ def _confirm(
     (a step shorter than :data:`STANDS` of the length scale: not passed to the solver)."""
     names = [*model.coordinates, *model.rates]
     gaits, unconfirmed, standing = [], [], 0
-    shortest = STANDS * _length_scale(model, params) if _steps_vary(model, params) else 0.0
+    shortest = _shortest_step(model, params)
     for y in found:
-        state = section_states(model, params, np.array([y], dtype=float))[0]
-        length = model.step_length(params, state)
-        if length is not None and abs(length) < shortest:
+        kind, state, step = _classify(model, sim, params, y, shortest)
+        if kind == "stands":
             standing += 1
             continue
-        step = sim.step_phases(params, state)  # the durations are the solver's guess
-        period = float(sum(step.durations))
-        if step.ended != "completed" or not period > 1e-9:
+        if kind == "no step":
             continue  # a step of no duration (legs together at the event): no gait
+        period = float(sum(step.durations))  # the durations are the solver's guess
         try:
             gaits.append(model.periodic_orbit(params, state, step.durations,
                                               step=sim.step_phases))  # fmt: skip
@@ -468,6 +480,30 @@ def _confirm(
                       > DISTINCT * np.maximum(1.0, np.abs(x))) for o in distinct):  # fmt: skip
             distinct.append(orbit)
     return distinct, unconfirmed, standing
+
+
+def _shortest_step(model: HybridModel, params: Sequence[float]) -> float:
+    """The step below which a Newton solution stands (:data:`STANDS`; 0 where the step
+    length does not depend on the state)."""
+    return STANDS * _length_scale(model, params) if _steps_vary(model, params) else 0.0
+
+
+def _classify(
+    model: HybridModel, sim: BatchSimulator, params: Sequence[float], y: Sequence[float],
+    shortest: float,
+) -> tuple[str, np.ndarray, Any]:  # fmt: skip
+    """What a Newton solution ``y`` (free components) is before the boundary-value solver
+    sees it: ``stands`` (a step shorter than ``shortest``), ``no step`` (its step does not
+    complete, or takes no time: legs together at the event) or ``candidate``; with its
+    section state and (but where it stands) its step by ``sim.step_phases``."""
+    state = section_states(model, params, np.array([y], dtype=float))[0]
+    length = model.step_length(params, state)
+    if length is not None and abs(length) < shortest:
+        return "stands", state, None
+    step = sim.step_phases(params, state)
+    if step.ended != "completed" or not float(sum(step.durations)) > 1e-9:
+        return "no step", state, step
+    return "candidate", state, step
 
 
 def probed_step_lengths(model: HybridModel, params: Sequence[float]) -> set[float | None]:
@@ -496,6 +532,21 @@ def _length_scale(model: HybridModel, params: Sequence[float]) -> float:
 _CACHE_KEYS = {"found", "points", "outcomes", "candidates", "converged", "route"}
 """A kept scan's keys; ``confirmed`` beside them once its gaits are confirmed."""
 
+_SEAL_KEYS = {"file", "sha256"}
+"""And the seal of every kept file: its own name and the SHA-256 of the rest
+(:func:`_content_digest`), so that a file altered, or copied under another search's name,
+is not read as a search."""
+
+_GAIT_KEYS = {"state", "period", "phase_durations", "eigenvalues", "max_abs_eigenvalue",
+              "stable", "step_length", "speed", "residual"}  # fmt: skip
+"""A kept gait's keys (:meth:`Orbit.to_dict`)."""
+
+_MATCH = 1e-5
+"""A Newton solution is the kept gait it led to when every component agrees to this times
+max(1, |component|): the boundary-value solver moves a solution of Newton's tolerance by
+far less (at most 2e-8 at the passive walkers' defaults), and distinct gaits of a search
+lie further apart."""
+
 
 def _confirmed_record(
     gaits: list[Orbit], unconfirmed: list[dict[str, Any]], standing: int
@@ -509,30 +560,90 @@ def _confirmed_record(
 
 
 def _kept_gaits(record: Any, names: list[str]) -> tuple[list[Orbit], list[dict], int] | None:
-    """:func:`_confirmed_record` read back, or None (none kept, kept with another CasADi
-    installation, or damaged: the gaits are confirmed again)."""
+    """:func:`_confirmed_record` read back (validated by :func:`_read_cache`), or None
+    (none kept, or kept with another CasADi installation: the gaits are confirmed again)."""
     if not isinstance(record, dict) or record.get("casadi") != _casadi_fingerprint():
         return None
-    try:
-        gaits = [
-            Orbit(
-                state={str(k): float(v) for k, v in o["state"].items()},
-                durations=tuple(float(v) for v in o["phase_durations"]),
-                period=float(o["period"]),
-                eigenvalues=tuple(complex(re, im) for re, im in o["eigenvalues"]),
-                step_length=None if o["step_length"] is None else float(o["step_length"]),
-                residual=float(o["residual"]),
-            )
-            for o in record["gaits"]
-        ]
-        unconfirmed, standing = record["unconfirmed"], record["standing"]
-    except (AttributeError, KeyError, TypeError, ValueError):
-        return None
-    if (any(list(o.state) != names or not o.eigenvalues for o in gaits)
-            or not isinstance(unconfirmed, list) or not isinstance(standing, int)
-            or not all(isinstance(u, dict) for u in unconfirmed)):  # fmt: skip
-        return None
-    return gaits, unconfirmed, standing
+    gaits = [
+        Orbit(
+            state={name: float(o["state"][name]) for name in names},
+            durations=tuple(float(v) for v in o["phase_durations"]),
+            period=float(o["period"]),
+            eigenvalues=tuple(complex(re, im) for re, im in o["eigenvalues"]),
+            step_length=None if o["step_length"] is None else float(o["step_length"]),
+            residual=float(o["residual"]),
+        )
+        for o in record["gaits"]
+    ]
+    return gaits, record["unconfirmed"], record["standing"]
+
+
+def _recheck(
+    model: HybridModel, sim: BatchSimulator, params: tuple[float, ...], found: list,
+    gaits: list[Orbit], unconfirmed: list[dict[str, Any]], standing: int,
+) -> str | None:  # fmt: skip
+    """Why kept confirmed gaits are not what confirming ``found`` would give, or None.
+
+    Cheap (one compiled step per gait and per Newton solution, no solver): each gait's
+    step must return to it as :meth:`vsw.hybrid.HybridModel.periodic_orbit` demands of a
+    new one, with the phases, durations and step length kept; and every Newton solution
+    must be accounted for as a new confirmation would (one that stands, whose step does
+    not complete, that is an unconfirmed solution kept, or that is near a kept gait), the
+    counts agreeing. The digest already guards the file against damage: this catches a
+    kept gait that is no gait, or a gait left out, whoever wrote the file."""
+    names = [*model.coordinates, *model.rates]
+    for number, orbit in enumerate(gaits, 1):
+        x = np.array([orbit.state[n] for n in names])
+        problem = _returns(orbit, x, sim.step_phases(params, x))
+        if problem is not None:
+            return f"kept gait {number}: {problem}"
+    shortest = _shortest_step(model, params)
+    kept_states = [np.array([o.state[n] for n in names]) for o in gaits]
+    left = [np.array([u["state"][n] for n in names]) for u in unconfirmed]
+    stood = 0
+    for y in found:
+        kind, state, _ = _classify(model, sim, params, y, shortest)
+        if kind == "stands":
+            stood += 1
+            continue
+        if kind == "no step":
+            continue
+        scale = np.maximum(1.0, np.abs(state))
+        same = [k for k, u in enumerate(left) if np.all(np.abs(u - state) <= 1e-12 * scale)]
+        if same:
+            left.pop(same[0])
+            continue
+        if not any(np.all(np.abs(g - state) <= _MATCH * scale) for g in kept_states):
+            return "a Newton solution that steps is neither a kept gait nor an unconfirmed one"
+    if stood != standing:
+        return f"{stood} Newton solution(s) stand, not {standing}"
+    if left:
+        return "an unconfirmed solution kept is none of the search's"
+    return None
+
+
+def _returns(orbit: Orbit, x: np.ndarray, simulated: Any) -> str | None:
+    """Why the step ``simulated`` from the gait ``orbit`` (state ``x``) shows it is no
+    gait, or None: the test :meth:`vsw.hybrid.HybridModel.periodic_orbit` confirms an
+    orbit with (back within 1e-9 of max(1, |state|) times max(1, |eigenvalue|)), and the
+    step's phases, durations and length those kept."""
+    if simulated.ended != "completed":
+        return f"the step from it ends {simulated.ended}"
+    if len(simulated.durations) != len(orbit.durations):
+        return "the step from it passes other phases"
+    scale = max(1.0, float(np.max(np.abs(x))))
+    gap = float(np.max(np.abs(simulated.state - x)))
+    if not gap <= 1e-9 * scale * max(1.0, orbit.max_abs_eigenvalue):
+        return f"the step from it ends {gap:.3g} away"
+    # The solver's durations against the simulated step's: both to about 1e-9.
+    if not np.allclose(simulated.durations, orbit.durations, rtol=0, atol=1e-7 * orbit.period):
+        return "its phase durations are not its step's"
+    length, kept = simulated.step_length, orbit.step_length
+    if (length is None) != (kept is None) or (
+        kept is not None and not abs(length - kept) <= 1e-9 * max(1.0, abs(kept))
+    ):
+        return "its step length is not its step's"
+    return None
 
 
 def _casadi_fingerprint() -> str:
@@ -576,31 +687,163 @@ def _cache_file(
     return cache_dir() / "searches" / f"{model.name}-{key}.json"
 
 
-def _read_cache(path: Path | None) -> dict[str, Any] | None:
-    """A kept scan, or None (none kept, or unreadable: it is made again)."""
+def _note(text: str) -> None:
+    """Say that a kept search is not used, and why (a :class:`~vsw.errors.CacheWarning`:
+    one line on the CLI's stderr, whose own stream solver work redirects)."""
+    warnings.warn(text, CacheWarning, stacklevel=3)
+
+
+def _content_digest(content: Mapping[str, Any]) -> str:
+    """SHA-256 of ``content`` as canonical JSON (keys sorted, no spaces; the floats as
+    ``repr`` writes them, which reads back exactly). ValueError for a number that is not
+    finite (none is kept)."""
+    text = json.dumps(content, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _read_cache(
+    path: Path | None, model: HybridModel, sim: BatchSimulator,
+    box: dict[str, tuple[float, float]], cells: int | None,
+) -> dict[str, Any] | None:  # fmt: skip
+    """A kept scan (with its confirmed gaits, if kept), or None: none kept, or one that is
+    not trusted (unreadable, its digest or name not its own, a field of the wrong type or
+    range: a note says which) is made again."""
     if path is None:
         return None
     try:
         data = json.loads(path.read_text())
-    except (OSError, ValueError):
+    except FileNotFoundError:
         return None
-    if not isinstance(data, dict) or set(data) - {"confirmed"} != _CACHE_KEYS:
+    except (OSError, ValueError) as exc:
+        problem = "not JSON" if isinstance(exc, ValueError) else "unreadable"
+    else:
+        problem = _sealed(data, path) or _invalid(data, model, sim, box, cells)
+    if problem is not None:
+        _note(f"the kept search {path} is ignored ({problem}): searching again")
         return None
-    return data
+    return {k: v for k, v in data.items() if k not in _SEAL_KEYS}
 
 
-def _write_cache(path: Path | None, scanned: dict[str, Any]) -> None:
-    """Keep a scan (written whole, then renamed: a reader never sees part of it); a cache
-    that cannot be written is no error."""
+def _sealed(data: Any, path: Path) -> str | None:
+    """Why ``data`` is not a kept file's own content (:data:`_SEAL_KEYS`), or None."""
+    if not isinstance(data, dict) or set(data) - {"confirmed"} != _CACHE_KEYS | _SEAL_KEYS:
+        return "not a kept search's fields"
+    try:
+        digest = _content_digest({k: v for k, v in data.items() if k != "sha256"})
+    except ValueError:
+        return "a number that is not finite"
+    if data["sha256"] != digest:
+        return "its SHA-256 does not match its content"
+    if data["file"] != path.name:
+        return "written as another search's file"
+    return None
+
+
+def _count(value: Any, low: int = 0, high: float = math.inf) -> bool:
+    """Whether ``value`` is an integer (not a bool) in [low, high]."""
+    return type(value) is int and low <= value <= high
+
+
+def _number(value: Any) -> bool:
+    """Whether ``value`` is a finite JSON number (not a bool)."""
+    return type(value) in (int, float) and math.isfinite(value)
+
+
+def _states(value: Any, names: list[str]) -> bool:
+    """Whether ``value`` is a state: these names in this order, finite numbers."""
+    return isinstance(value, dict) and list(value) == names and all(map(_number, value.values()))
+
+
+def _invalid(
+    data: dict[str, Any], model: HybridModel, sim: BatchSimulator,
+    box: dict[str, tuple[float, float]], cells: int | None,
+) -> str | None:  # fmt: skip
+    """Why a kept search's fields are not what :func:`_scan` and :func:`_confirm` write for
+    this search (types, ranges, the grid, the routes), or None."""
+    free, per_axis = list(box), _scan_points(len(box), cells)
+    points = data["points"]
+    if not (isinstance(points, dict) and list(points) == free
+            and all(type(v) is int and v == per_axis for v in points.values())):  # fmt: skip
+        return "its grid is not this search's"
+    outcomes = data["outcomes"]
+    known = {"walked", "stalled", *sim.failures}
+    if not (isinstance(outcomes, dict) and set(outcomes) <= known
+            and all(map(_count, outcomes.values()))
+            and sum(outcomes.values()) == per_axis ** len(free)):  # fmt: skip
+        return "its scan's outcomes are not counts of its cells"
+    candidates, converged, found = data["candidates"], data["converged"], data["found"]
+    if not (_count(candidates, 0, outcomes.get("walked", 0)) and _count(converged, 0, candidates)):
+        return "its counts of Newton's starts are out of range"
+    if not (isinstance(found, list) and len(found) <= converged
+            and all(isinstance(y, list) and len(y) == len(free) and all(map(_number, y))
+                    for y in found)):  # fmt: skip
+        return "its Newton solutions are not states of the search box's components"
+    route = data["route"]
+    scipy = isinstance(route, str) and route.startswith("SciPy (") and route.endswith(")")
+    if not (route == "compiled" or (scipy and "\n" not in route)):
+        return "its route is not one of the batch simulator's"
+    record = data.get("confirmed")
+    if record is None:
+        return None
+    names = [*model.coordinates, *model.rates]
+    if not (isinstance(record, dict) and set(record) == {"casadi", "gaits", "unconfirmed",
+                                                         "standing"}
+            and isinstance(record["casadi"], str) and isinstance(record["gaits"], list)
+            and isinstance(record["unconfirmed"], list)):  # fmt: skip
+        return "its confirmed gaits are not a record of them"
+    for o in record["gaits"]:
+        problem = _invalid_gait(o, names, 2 * model.n)
+        if problem is not None:
+            return f"a kept gait: {problem}"
+    for u in record["unconfirmed"]:
+        if not (isinstance(u, dict) and set(u) == {"state", "period", "reason"}
+                and _states(u["state"], names) and _number(u["period"]) and u["period"] > 1e-9
+                and isinstance(u["reason"], str)):  # fmt: skip
+            return "an unconfirmed solution is not a record of one"
+    taken = len(record["gaits"]) + len(record["unconfirmed"])
+    if not _count(record["standing"], 0, len(found) - taken):
+        return "more gaits, unconfirmed and standing solutions than Newton solutions"
+    return None
+
+
+def _invalid_gait(o: Any, names: list[str], size: int) -> str | None:
+    """Why ``o`` is not a gait's record (:meth:`Orbit.to_dict`) of a state of ``names``
+    and ``size`` eigenvalues, or None."""
+    if not (isinstance(o, dict) and set(o) == _GAIT_KEYS and _states(o["state"], names)):
+        return "not a gait's record"
+    durations, period = o["phase_durations"], o["period"]
+    if not (isinstance(durations, list) and durations and all(map(_number, durations))
+            and min(durations) > 0 and _number(period)
+            and abs(period - math.fsum(durations)) <= 1e-12 * period):  # fmt: skip
+        return "its period is not the sum of positive phase durations"
+    eigenvalues = o["eigenvalues"]
+    if not (isinstance(eigenvalues, list) and len(eigenvalues) == size
+            and all(isinstance(e, list) and len(e) == 2 and all(map(_number, e))
+                    for e in eigenvalues)):  # fmt: skip
+        return f"not {size} eigenvalues"
+    length = o["step_length"]
+    if not (length is None or _number(length)):
+        return "its step length is not a number"
+    scale = max(1.0, *(abs(v) for v in o["state"].values()))
+    if not (_number(o["residual"]) and 0 <= o["residual"] <= 1e-9 * scale):
+        return "its residual is above the orbit solver's tolerance"
+    return None
+
+
+def _write_cache(path: Path | None, content: dict[str, Any]) -> None:
+    """Keep a search, sealed (:data:`_SEAL_KEYS`; written whole, then renamed: a reader
+    never sees part of it); a cache that cannot be written is no error."""
     if path is None:
         return
     try:
+        sealed = {**content, "file": path.name}
+        sealed["sha256"] = _content_digest(sealed)
         path.parent.mkdir(parents=True, exist_ok=True)
         with tempfile.NamedTemporaryFile("w", dir=path.parent, delete=False,
                                          prefix=".search-", suffix=".json") as handle:  # fmt: skip
-            json.dump(scanned, handle)
+            json.dump(sealed, handle)
         os.replace(handle.name, path)
-    except OSError:
+    except (OSError, ValueError):
         with contextlib.suppress(OSError, UnboundLocalError):
             os.unlink(handle.name)
 
