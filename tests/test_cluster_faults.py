@@ -86,12 +86,13 @@ def _worker(address: str) -> subprocess.Popen:
     return process
 
 
-def _run(argv: list[str]) -> tuple[int, str, str, float]:
-    """The command in this process; interrupted (exit 130, failing the test) after 60 s in
-    case a fault goes unnoticed (the basin's estimate is above any useful limit)."""
+def _run(argv: list[str], guard_seconds: float = 60.0) -> tuple[int, str, str, float]:
+    """The command in this process; interrupted (exit 130, failing the test) after
+    ``guard_seconds`` s in case a fault goes unnoticed (the basin's estimate is above any useful
+    limit)."""
     out, err = io.StringIO(), io.StringIO()
     started = time.monotonic()
-    guard = threading.Timer(60.0, os.kill, (os.getpid(), signal.SIGINT))
+    guard = threading.Timer(guard_seconds, os.kill, (os.getpid(), signal.SIGINT))
     guard.start()
     try:
         with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
@@ -158,3 +159,98 @@ def test_the_dask_command_is_what_the_docs_start():
     """The module docstring starts the cluster with ``dask scheduler``/``dask worker``."""
     done = subprocess.run(["dask", "worker", "--help"], capture_output=True, text=True)
     assert done.returncode == 0 and "--nthreads" in done.stdout
+
+
+@contextlib.contextmanager
+def _server(reply: bytes | None):
+    """A TCP server on loopback that is no Dask scheduler: it accepts every connection and
+    sends ``reply`` (None: nothing, ever). Yields its tcp:// address."""
+    listener = socket.socket()
+    listener.bind(("127.0.0.1", 0))
+    listener.listen()
+    listener.settimeout(0.1)
+    done = threading.Event()
+    accepted: list[socket.socket] = []
+
+    def serve() -> None:
+        while not done.is_set():
+            try:
+                connection, _ = listener.accept()
+            except TimeoutError:
+                continue
+            except OSError:
+                return
+            accepted.append(connection)
+            if reply is not None:
+                with contextlib.suppress(OSError):
+                    connection.sendall(reply)
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    try:
+        yield f"tcp://127.0.0.1:{listener.getsockname()[1]}"
+    finally:
+        done.set()
+        thread.join(timeout=2)
+        for connection in [*accepted, listener]:
+            connection.close()
+
+
+SMALL_BASIN = ["basin", "--model", "rimless-wheel", "--grid", "theta_dot=0.01:3:10"]
+
+
+def _run_vsw(argv: list[str]) -> tuple[int, str, str, float]:
+    """The command as its own process: everything it writes to stderr, Dask's loggers and
+    the interpreter's last words at exit included."""
+    started = time.monotonic()
+    done = subprocess.run([sys.executable, "-m", "vsw", *argv], capture_output=True, text=True,
+                          timeout=60, env={**os.environ, "VSW_MAX_SECONDS": "inf"})  # fmt: skip
+    return done.returncode, done.stdout, done.stderr, time.monotonic() - started
+
+
+@pytest.mark.parametrize("scheme", ["tls", "wss"])
+def test_a_tls_scheduler_without_certificates_is_one_line(scheme):
+    started = time.monotonic()
+    code, out, err, _ = _run([*SMALL_BASIN, "--scheduler", f"{scheme}://127.0.0.1:1"])
+    assert code == 2 and out == ""
+    assert "needs TLS certificates" in _one_line(err)
+    assert time.monotonic() - started < 5
+
+
+def test_a_server_that_answers_with_other_bytes_is_no_scheduler():
+    """Dask reads the first bytes of a reply as a frame length: an HTTP reply asks for
+    exabytes. One line, no out-of-memory claim, nothing at exit."""
+    with _server(b"HTTP/1.1 400 Bad Request\r\n\r\n" * 4) as address:
+        code, out, err, elapsed = _run_vsw([*SMALL_BASIN, "--scheduler", address])
+    assert code == 2 and out == ""
+    line = _one_line(err)
+    assert "is no Dask scheduler" in line and address in line, line
+    assert elapsed < 10
+
+
+def test_a_server_that_accepts_and_stays_silent_is_refused_in_time(monkeypatch):
+    monkeypatch.setattr(vsw.cluster, "HANDSHAKE_TIMEOUT", 1.5)
+    with _server(None) as address:
+        code, out, err, elapsed = _run([*SMALL_BASIN, "--scheduler", address], guard_seconds=15.0)
+    assert code == 2 and out == ""
+    line = _one_line(err)
+    assert "handshake did not complete within 1.5 s" in line and address in line, line
+    assert elapsed < 1.5 + 3
+
+
+def test_a_scheduler_killed_during_the_run_is_one_line_of_stderr(scheduler):
+    """As its own process, so that Dask's loggers (which write to the process's stderr,
+    not to a capture) would be seen."""
+    address, process = scheduler
+    worker = _worker(address)
+    try:
+        timer = threading.Timer(4.0, _kill, (process,))
+        timer.start()
+        code, out, err, elapsed = _run_vsw([*BASIN, "--scheduler", address])
+        timer.join()
+    finally:
+        _kill(worker)
+    assert code == 2 and out == ""
+    line = _one_line(err)
+    assert address in line and ("lost the Dask scheduler" in line or "Dask run" in line), line
+    assert elapsed < 4 + vsw.cluster.CONNECT_TIMEOUT + 10

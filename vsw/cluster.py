@@ -21,15 +21,23 @@ Start a cluster on one machine (loopback) with::
 
 and run a basin on it with ``vsw basin ... --scheduler tcp://127.0.0.1:8786``.
 
-Faults are one line and exit 2, in a stated time: no scheduler at the address, or one
-that does not answer within :data:`CONNECT_TIMEOUT` s; a scheduler with no worker for
-:data:`WORKER_WAIT` s, at the start or after its last worker died with tasks left; a
-scheduler lost during the run (seen within about :data:`CONNECT_TIMEOUT` s). Dask's own
-log lines are kept off stderr. Ctrl-C and ``VSW_MAX_SECONDS`` cancel the tasks.
+Faults are one line and exit 2, in a stated time: an address that is not a Dask address
+(a scheme other than tcp, tls, ws, wss; no host or port); ``tls://`` or ``wss://`` without
+TLS certificates in Dask's configuration; no scheduler at the address, or one that does
+not answer within :data:`CONNECT_TIMEOUT` s; a server that answers but is no Dask
+scheduler (its reply is not Dask's handshake, or it sends nothing): the connection and the
+handshake are tried first on their own, bounded by :data:`HANDSHAKE_TIMEOUT` s in all,
+because Dask's client bounds the connection but waits for the handshake forever, and reads
+a stranger's bytes as a frame length (an allocation of exabytes); a scheduler with no
+worker for :data:`WORKER_WAIT` s, at the start or after its last worker died with tasks
+left; a scheduler lost during the run (seen within about :data:`CONNECT_TIMEOUT` s).
+Dask's own log lines (its loggers and those of tornado and asyncio beneath it) are off
+while the cluster is used. Ctrl-C and ``VSW_MAX_SECONDS`` cancel the tasks.
 """
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import logging
 import time
@@ -47,6 +55,7 @@ from vsw.models import load
 __all__ = [
     "BLOCK",
     "CONNECT_TIMEOUT",
+    "HANDSHAKE_TIMEOUT",
     "TASKS_PER_THREAD",
     "WORKER_WAIT",
     "block_size",
@@ -74,11 +83,31 @@ def block_size(walks: int, threads: int) -> int:
 CONNECT_TIMEOUT = 5.0
 """Seconds to reach the scheduler (and any later call to it) before giving up."""
 
+HANDSHAKE_TIMEOUT = 10.0
+"""Seconds to connect to the scheduler and complete Dask's handshake, together."""
+
 WORKER_WAIT = 10.0
 """Seconds a study waits for a worker: at its start, when the scheduler has none, and
 whenever the last one has left while tasks remain (then one line, exit 2)."""
 
 _POLL = 0.5  # seconds between looks at the scheduler while tasks run
+
+
+_QUIET_LOGGERS = ("distributed", "tornado", "asyncio")
+"""Loggers silenced while the cluster is used, with every logger beneath them."""
+
+
+def _silenced_loggers() -> list[logging.Logger]:
+    """Every logger of :data:`_QUIET_LOGGERS` and beneath, those that exist now included:
+    Dask gives some of its loggers their own level and handler, so a record of
+    ``distributed.client`` is printed whatever the level of ``distributed``; disabling each
+    logger stops its records where they are made."""
+    names = {
+        name
+        for name in logging.root.manager.loggerDict
+        if any(name == quiet or name.startswith(quiet + ".") for quiet in _QUIET_LOGGERS)
+    }
+    return [logging.getLogger(name) for name in sorted(names | set(_QUIET_LOGGERS))]
 
 
 @contextlib.contextmanager
@@ -87,15 +116,62 @@ def _quiet_dask() -> Iterator[None]:
     our one line), its connection timeout at :data:`CONNECT_TIMEOUT`."""
     import dask
 
-    logger = logging.getLogger("distributed")
-    level = logger.level
-    logger.setLevel(logging.CRITICAL + 1)
+    loggers = _silenced_loggers()
+    disabled = [logger.disabled for logger in loggers]
+    for logger in loggers:
+        logger.disabled = True
     timeout = f"{CONNECT_TIMEOUT:g}s"
     try:
         with dask.config.set({"distributed.comm.timeouts.connect": timeout}):
             yield
     finally:
-        logger.setLevel(level)
+        for logger, was in zip(loggers, disabled):
+            logger.disabled = was
+
+
+def _connection_args(address: str, scheme: str) -> dict[str, Any]:
+    """The client's security arguments from Dask's configuration; a TLS scheme without a
+    certificate there is refused (Dask's client would fail with a TypeError)."""
+    from distributed.security import Security
+
+    args = Security().get_connection_args("client")
+    if scheme in ("tls", "wss") and args.get("ssl_context") is None:
+        raise VswInputError(
+            f"--scheduler {address!r}: {scheme}:// needs TLS certificates in Dask's "
+            "configuration (distributed.comm.tls.ca-file, distributed.comm.tls.client.cert "
+            "and .key), and none are set; configure them, or use tcp://"
+        )
+    return args
+
+
+def _handshake(address: str, connection_args: dict[str, Any]) -> None:
+    """Connect to ``address`` and complete Dask's handshake within
+    :data:`HANDSHAKE_TIMEOUT` s, or refuse in one line (module docstring)."""
+    from distributed.comm import connect
+
+    async def handshake() -> None:
+        comm = await connect(address, timeout=CONNECT_TIMEOUT, **connection_args)
+        await comm.close()
+
+    async def bounded() -> None:
+        await asyncio.wait_for(handshake(), HANDSHAKE_TIMEOUT)
+
+    try:
+        asyncio.run(bounded())
+    except VswInputError:  # the run-time limit, from its signal
+        raise
+    except TimeoutError:
+        raise VswInputError(
+            f"no Dask scheduler answers at {address!r}: the connection was accepted but Dask's "
+            f"handshake did not complete within {HANDSHAKE_TIMEOUT:g} s (another kind of server?)"
+        ) from None
+    except OSError as exc:
+        raise VswInputError(f"no Dask scheduler at {address!r}: {_first_line(exc)}") from None
+    except Exception as exc:  # a reply that is no Dask message: MemoryError, ValueError, ...
+        raise VswInputError(
+            f"what answers at {address!r} is no Dask scheduler: its reply is not Dask's "
+            f"handshake ({type(exc).__name__})"
+        ) from None
 
 
 @contextlib.contextmanager
@@ -123,10 +199,14 @@ def _client(address: str) -> Iterator[Any]:
             f"--scheduler {address!r} is not a Dask address with a host and port (like "
             "tcp://127.0.0.1:8786)"
         )
+    connection_args = _connection_args(address, scheme)
     with _quiet_dask():
+        _handshake(address, connection_args)
         try:
             client = Client(address, timeout=CONNECT_TIMEOUT, set_as_default=False)
-        except (OSError, TimeoutError, ValueError) as exc:
+        except VswInputError:
+            raise
+        except Exception as exc:  # the scheduler went away, or refused this client
             raise VswInputError(f"no Dask scheduler at {address!r}: {_first_line(exc)}") from None
         try:
             yield client
