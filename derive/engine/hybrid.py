@@ -57,6 +57,7 @@ from derive.engine.trig import tr10i
 from derive.quantities import Quantity
 
 __all__ = [
+    "NestedFractionError",
     "PhaseDynamics",
     "check_event_angle",
     "continuous_reset",
@@ -66,6 +67,7 @@ __all__ = [
     "jump_reset",
     "lock_reset",
     "phase_dynamics",
+    "refuse_nested_fraction",
     "stride_closed_form",
 ]
 
@@ -125,13 +127,49 @@ def chain_rate(value: sm.Expr, rates: Iterable[tuple[sm.Symbol, sm.Expr]]) -> sm
     return sum((value.diff(q) * u for q, u in rates), sm.Integer(0))
 
 
+class NestedFractionError(ValueError):
+    """The engine was about to expand a large fraction nested in another fraction."""
+
+
+_NESTED_FRACTION_OPS = 200
+"""Operations above which :func:`expand` refuses a nested fraction (a model's own small
+expressions, a ratio of lengths over a sum, may nest; a solve inside a solve is larger)."""
+
+
+def refuse_nested_fraction(expr: sm.Expr) -> None:
+    """Raise :class:`NestedFractionError` where ``expr`` divides by a sum that itself
+    divides by a sum and has more than ``_NESTED_FRACTION_OPS`` operations.
+
+    Such a nest is what one symbolic solve inside another builds (``LUsolve`` whose
+    right-hand side holds another ``LUsolve``'s fractions). Expanding it multiplies every
+    term of one denominator's numerator by every term of the other, and cancelling the
+    result took minutes for a two-link walker's impact with an impulse; the engine solves
+    by Cramer's rule in polynomials instead (:func:`_cramer_fraction`). Every expansion
+    checks this, so the derivation of every model (and of every user's model file) keeps
+    to it: a refusal names an engine defect, not a fault of the model."""
+    for power in expr.atoms(sm.Pow):
+        base, exponent = power.args
+        if not (exponent.is_negative and base.is_Add):
+            continue
+        inner = [p for p in base.atoms(sm.Pow) if p.args[1].is_negative and p.args[0].is_Add]
+        if inner and sm.count_ops(expr) > _NESTED_FRACTION_OPS:
+            raise NestedFractionError(
+                "the engine was about to expand a fraction nested in another's "
+                f"denominator ({sm.count_ops(expr)} operations): a solve inside a solve, "
+                "to be written by Cramer's rule; an engine defect to report with the "
+                "model file"
+            )
+
+
 def expand(expr: sm.Expr) -> sm.Expr:
     """``sympy.expand`` done by SymEngine (what SymForce does its algebra with): the
     expanded polynomial is canonical, so sympy's own expansion and this one are the same
     expression, at a fraction of the time. Symbols come back from SymEngine without their
     assumptions and are put back by name; an expression SymEngine cannot hold (or with
-    two symbols of one name) is expanded by sympy."""
+    two symbols of one name) is expanded by sympy. A large nested fraction is refused
+    (:func:`refuse_nested_fraction`)."""
     expr = sm.sympify(expr)
+    refuse_nested_fraction(expr)
     symbols = {s.name: s for s in expr.free_symbols}
     if (
         len(symbols) != len(expr.free_symbols)
@@ -253,7 +291,29 @@ actuator forces are expanded and simplified as fractions over the mass matrix's 
 
 @functools.cache
 def phase_dynamics(phase: Phase) -> PhaseDynamics:
-    """The equations of motion, energy, momenta and ground reaction of a phase."""
+    """The equations of motion, energy, momenta and ground reaction of a phase.
+
+    The passive dynamics do not depend on the phase's inputs, its name or its points, so
+    they are derived once for the phases that share coordinates, bodies, gravity and held
+    values (a phase with its inputs, and the stand-ins with an event's impulses as inputs,
+    :func:`_impulse_quantities`); the inputs' terms are added from the same Cramer pieces.
+    """
+    key = (phase.coordinates, phase.bodies, tuple(phase.gravity), tuple(phase.held.items()))
+    if key not in _PASSIVE:
+        _PASSIVE[key] = _passive_dynamics(dataclasses.replace(phase, inputs=()))
+    passive, pieces = _PASSIVE[key]
+    gains, input_rates, reaction = _input_terms(phase, *pieces)
+    return dataclasses.replace(passive, phase=phase, input_gains=gains, input_rates=input_rates,
+                               input_reaction_gains=reaction)  # fmt: skip
+
+
+_PASSIVE: dict[tuple, tuple[PhaseDynamics, tuple]] = {}
+""":func:`_passive_dynamics` of each phase's dynamics key (see :func:`phase_dynamics`)."""
+
+
+def _passive_dynamics(phase: Phase) -> tuple[PhaseDynamics, tuple]:
+    """A phase's dynamics with every input zero, and the pieces :func:`_input_terms` forms
+    the inputs' terms with."""
     free = [c.q for c in phase.coordinates]
     held = list(phase.held)
     chart = free + held
@@ -411,10 +471,7 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
             position = sm.sympify(body.position[k]).xreplace(to_time)
             accel = at_values(position.diff(t, 2))
             force[k] += body.mass * (accel - g_k)
-    gains, input_rates, reaction = _input_terms(
-        phase, chart, (adjugate, determinant, compact), held_values, placed, force, a_free
-    )
-    return PhaseDynamics(
+    dynamics = PhaseDynamics(
         phase,
         accelerations,
         finish(at_values(kinetic)),
@@ -423,10 +480,9 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
         actuator,
         linear_in_accelerations(force[1]),
         linear_in_accelerations(force[0]),
-        gains,
-        input_rates,
-        reaction,
     )
+    pieces = (chart, (adjugate, determinant, compact), held_values, placed, force, a_free)
+    return dynamics, pieces
 
 
 _Rows = tuple[tuple[sm.Expr, ...], ...]
@@ -677,16 +733,36 @@ def held_impulse_at_impact(model: Model, event_name: str, held: sm.Symbol
     symbols = sorted(set().union(*(sm.sympify(g).free_symbols for g in gaps)), key=str)
     _numeric_check(gaps, symbols, f"{event_name}: the chart freed for the impulse")
     m_ext = (j_ext.T * j_ext).applyfunc(_simplify)
-    unit = sm.zeros(len(coords), 1)
-    unit[-1] = 1
-    jump = m_ext.LUsolve(unit).applyfunc(_simplify)  # the rates of (q, h) per unit impulse
-    work = _simplify(jump[-1])
+    # The rates of (q, h) per unit impulse, M_ext^-1 e_h, are the adjugate's last column
+    # over the determinant, and the balance's a^-1 likewise: each polynomial is simplified
+    # on its own and the two determinants divide once at the end (_cramer_fraction).
+    m_det = _simplify(m_ext.det(method="berkowitz"))
+    m_column = m_ext.adjugate(method="berkowitz")[:, -1].applyfunc(_simplify)
+    work = _simplify(m_column[-1] / m_det)
     a = (bal.projection.T * bal.j_after).applyfunc(_simplify)
     b_ext = (bal.projection.T * j_ext).applyfunc(_simplify)
-    gains = a.LUsolve(b_ext * jump).applyfunc(lambda e: _tidy(_simplify(e)))
+    a_det = _simplify(a.det(method="berkowitz"))
+    numerators = (a.adjugate(method="berkowitz") * b_ext * m_column).applyfunc(_simplify)
+    gains = [_tidy(_cramer_fraction(n, (a_det, m_det))) for n in numerators]
     by_coordinate = dict(zip(bal.q_after, gains))
     per_state = tuple(by_coordinate.get(c.q, sm.Integer(0)) for c in model.coordinates)
     return per_state, work
+
+
+def _cramer_fraction(numerator: sm.Expr, determinants: Iterable[sm.Expr]) -> sm.Expr:
+    """``numerator`` over the product of ``determinants`` (polynomials, each simplified by
+    :func:`_simplify`), their common monomial factors cancelled and the rest left as
+    factors.
+
+    A solve whose right-hand side holds another solve's fractions (``LUsolve`` after
+    ``LUsolve``) nests one denominator in the other's numerator; expanding that nest before
+    cancelling it multiplies out every term of one by every term of the other, which took
+    minutes for a two-link impact with an impulse. Cramer's rule in polynomials keeps the
+    numerator and each determinant a polynomial. Cancelling the whole quotient (``cancel``)
+    would expand the product of the determinants into a larger expression than these
+    factors, at a second's cost; the code generator computes each factor once."""
+    denominator = sm.Mul(*(sm.factor_terms(d) for d in determinants))
+    return sm.factor_terms(numerator) / denominator
 
 
 def impact_body_order(model: Model, event_name: str) -> tuple[int, ...]:
