@@ -202,6 +202,10 @@ def render_all(
             return module.stat().st_size if module.is_file() else 0
 
         order = sorted(names, key=cost, reverse=True)
+        # The models and the engine are imported once, here, rather than by each worker:
+        # the forked workers share what the parent imported.
+        import derive.models  # noqa: F401
+
         by_name = dict(zip(order, _map_in_workers(_render_model, order, workers)))
         rendered = [by_name[name] for name in names]
     else:

@@ -51,6 +51,7 @@ from derive.engine.model import (
     Model,
     Phase,
     PointMass,
+    RigidSegment,
     held_force,
 )
 from derive.engine.trig import tr10i
@@ -293,12 +294,13 @@ actuator forces are expanded and simplified as fractions over the mass matrix's 
 def phase_dynamics(phase: Phase) -> PhaseDynamics:
     """The equations of motion, energy, momenta and ground reaction of a phase.
 
-    The passive dynamics do not depend on the phase's inputs, its name or its points, so
-    they are derived once for the phases that share coordinates, bodies, gravity and held
-    values (a phase with its inputs, and the stand-ins with an event's impulses as inputs,
-    :func:`_impulse_quantities`); the inputs' terms are added from the same Cramer pieces.
+    The passive dynamics do not depend on the phase's inputs, its name, its points or its
+    bodies' names, so they are derived once for the phases that share coordinates, bodies,
+    gravity and held values (a phase with its inputs and the stand-ins with an event's
+    impulses as inputs, :func:`_impulse_quantities`; two phases of one model or of two
+    models derived in one process); the inputs' terms are added from the same pieces.
     """
-    key = (phase.coordinates, phase.bodies, tuple(phase.gravity), tuple(phase.held.items()))
+    key = _dynamics_key(phase)
     if key not in _PASSIVE:
         _PASSIVE[key] = _passive_dynamics(dataclasses.replace(phase, inputs=()))
     passive, pieces = _PASSIVE[key]
@@ -308,7 +310,20 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
 
 
 _PASSIVE: dict[tuple, tuple[PhaseDynamics, tuple]] = {}
-""":func:`_passive_dynamics` of each phase's dynamics key (see :func:`phase_dynamics`)."""
+""":func:`_passive_dynamics` of each phase's :func:`_dynamics_key`."""
+
+
+def _dynamics_key(phase: Phase) -> tuple:
+    """What a phase's passive dynamics are derived from, by value: the free coordinates'
+    names, each body's kind, mass, position, angle and inertia, gravity, the held values."""
+    bodies = tuple(
+        (type(b).__name__, *(sm.sympify(v) for v in (b.mass, *b.position)),
+         *((sm.sympify(b.angle), sm.sympify(b.inertia)) if isinstance(b, RigidSegment) else ()))
+        for b in phase.bodies
+    )  # fmt: skip
+    held = tuple((h, sm.sympify(v)) for h, v in phase.held.items())
+    return (tuple(c.name for c in phase.coordinates), bodies,
+            tuple(sm.sympify(g) for g in phase.gravity), held)  # fmt: skip
 
 
 def _passive_dynamics(phase: Phase) -> tuple[PhaseDynamics, tuple]:
