@@ -219,8 +219,9 @@ def test_a_kept_search_copied_under_another_searchs_name_is_not_used(monkeypatch
 
 
 def test_a_kept_gait_is_stepped_again_before_it_is_reported(monkeypatch, tmp_path):
-    """The check that catches a sealed file with wrong states: one compiled step per kept
-    gait and per Newton solution, and nothing reported from the file when one fails."""
+    """The check that catches a sealed file with wrong states: compiled steps from each kept
+    gait (its return, its largest |eigenvalue| by finite differences) and from each Newton
+    solution, and nothing reported from the file when one fails."""
     monkeypatch.setenv("VSW_CACHE_DIR", str(tmp_path))
     m = load("compass_gait")
     params = m.parameters({})
@@ -232,10 +233,14 @@ def test_a_kept_gait_is_stepped_again_before_it_is_reported(monkeypatch, tmp_pat
     found, record = data["found"], data["confirmed"]
     assert gaits._recheck(m, sim, params, found, *gaits._kept_gaits(record, names)) is None
     gait = record["gaits"][0]
+    shifted = {"state": {k: v * (1 + 1e-6) for k, v in gait["state"].items()}}
     for changed, why in [
-        ({"state": {k: v * (1 + 1e-6) for k, v in gait["state"].items()}}, "away"),
+        (shifted, "away"),
         ({"phase_durations": [gait["period"] * 1.001]}, "durations"),
         ({"step_length": gait["step_length"] * 1.001}, "step length"),
+        ({"eigenvalues": [[re / 2, im / 2] for re, im in gait["eigenvalues"]]}, "eigenvalue"),
+        # An eigenvalue so large that the return's tolerance would take any state.
+        ({**shifted, "eigenvalues": [[1e12, 0.0], *gait["eigenvalues"][1:]]}, "eigenvalue"),
     ]:
         wrong = {**record, "gaits": [{**gait, **changed}, *record["gaits"][1:]]}
         problem = gaits._recheck(m, sim, params, found, *gaits._kept_gaits(wrong, names))

@@ -584,9 +584,11 @@ def _recheck(
 ) -> str | None:  # fmt: skip
     """Why kept confirmed gaits are not what confirming ``found`` would give, or None.
 
-    Cheap (one compiled step per gait and per Newton solution, no solver): each gait's
-    step must return to it as :meth:`vsw.hybrid.HybridModel.periodic_orbit` demands of a
-    new one, with the phases, durations and step length kept; and every Newton solution
+    Cheap (compiled steps: 2 d + 1 per gait and one per Newton solution, no solver): each
+    gait's largest |eigenvalue| must agree with a finite-difference estimate
+    (:data:`_EIGENVALUE_CHECK`), its step must return to it as
+    :meth:`vsw.hybrid.HybridModel.periodic_orbit` demands of a new one, with the phases,
+    durations and step length kept; and every Newton solution
     must be accounted for as a new confirmation would (one that stands, whose step does
     not complete, that is an unconfirmed solution kept, or that is near a kept gait), the
     counts agreeing. The digest already guards the file against damage: this catches a
@@ -594,6 +596,12 @@ def _recheck(
     names = [*model.coordinates, *model.rates]
     for number, orbit in enumerate(gaits, 1):
         x = np.array([orbit.state[n] for n in names])
+        # The eigenvalue first: it widens the tolerance of the return below.
+        estimate = _largest_eigenvalue(model, sim, params, orbit)
+        if estimate is not None and not (
+            abs(estimate - orbit.max_abs_eigenvalue) <= _EIGENVALUE_CHECK * max(1.0, estimate)
+        ):
+            return f"kept gait {number}: its largest |eigenvalue| is about {estimate:.4g}"
         problem = _returns(orbit, x, sim.step_phases(params, x))
         if problem is not None:
             return f"kept gait {number}: {problem}"
@@ -620,6 +628,38 @@ def _recheck(
     if left:
         return "an unconfirmed solution kept is none of the search's"
     return None
+
+
+_EIGENVALUE_CHECK = 2e-2
+"""A kept gait's largest |eigenvalue| must agree with a finite-difference estimate to this
+times max(1, |eigenvalue|). Measured at the passive walkers' default gaits: agreement to
+1e-8 on the stable ones and 2e-3 at worst (the simplest walker's |eigenvalue| 948, whose
+band of states that complete a step is about 0.01 wide)."""
+
+
+def _largest_eigenvalue(
+    model: HybridModel, sim: BatchSimulator, params: tuple[float, ...], orbit: Orbit
+) -> float | None:
+    """The largest |eigenvalue| of the step map at a gait, by central differences of batch
+    steps in the free components (2 d steps, one call), or None where a shifted state does
+    not complete its step. The map on the section's free components has the nonzero
+    eigenvalues of the full state's monodromy (the reset puts every state on the
+    section)."""
+    free = free_components(model)
+    names = [*model.coordinates, *model.rates]
+    index = [names.index(n) for n in free]
+    y = np.array([orbit.state[n] for n in free])
+    h = 1e-6 * np.maximum(1.0, np.abs(y))
+    shifts = np.eye(len(y)) * h
+    rows = np.concatenate([y + shifts, y - shifts])
+    result = sim.step(params, section_states(model, params, rows))
+    if not np.all(result.outcome == WALKED):
+        return None
+    final = result.final[:, index]
+    jacobian = ((final[: len(y)] - final[len(y) :]) / (2 * h[:, None])).T
+    with np.errstate(all="ignore"):
+        values = np.linalg.eigvals(jacobian) if np.all(np.isfinite(jacobian)) else None
+    return None if values is None else float(np.max(np.abs(values)))
 
 
 def _returns(orbit: Orbit, x: np.ndarray, simulated: Any) -> str | None:
