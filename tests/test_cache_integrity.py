@@ -147,7 +147,15 @@ FIELDS = [
     (lambda d: {**d, "outcomes": {**d["outcomes"], "walked": 1}}, "outcomes"),
     (lambda d: {**d, "outcomes": {**d["outcomes"], "exploded": 0}}, "outcomes"),
     (lambda d: {**d, "found": [[0.1, "x", 0.3]]}, "Newton solutions"),
-    (lambda d: {**d, "found": []}, "more gaits"),
+    (lambda d: {**d, "found": []}, "count of converged starts"),
+    (
+        lambda d: {
+            **no_gaits(d),
+            "found": [],
+            "confirmed": {**no_gaits(d)["confirmed"], "standing": 0},
+        },
+        "converged starts",
+    ),
     (lambda d: {**d, "confirmed": {**d["confirmed"], "standing": -1}}, "standing"),
     (lambda d: {**d, "confirmed": {**d["confirmed"], "standing": True}}, "standing"),
     (lambda d: {**d, "confirmed": {**d["confirmed"], "gaits": [{"state": []}]}}, "gait"),
@@ -157,7 +165,8 @@ FIELDS = [
 ]
 FIELD_IDS = [
     *"converged candidates-float route-type route-lines grid outcomes outcome-name found".split(),
-    *"found-empty standing standing-bool gait unconfirmed renamed extra".split(),
+    *"found-empty found-and-gaits-empty standing standing-bool gait unconfirmed".split(),
+    *"renamed extra".split(),
 ]
 
 

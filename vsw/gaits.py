@@ -818,6 +818,8 @@ def _invalid(
             and all(isinstance(y, list) and len(y) == len(free) and all(map(_number, y))
                     for y in found)):  # fmt: skip
         return "its Newton solutions are not states of the search box's components"
+    if (len(found) == 0) != (converged == 0):  # converged starts leave one solution at least
+        return "its Newton solutions do not match its count of converged starts"
     route = data["route"]
     scipy = isinstance(route, str) and route.startswith("SciPy (") and route.endswith(")")
     if not (route == "compiled" or (scipy and "\n" not in route)):
