@@ -233,3 +233,22 @@ def test_a_kept_search_is_a_new_one_bit_for_bit(monkeypatch, tmp_path):
     monkeypatch.setenv("VSW_SEARCH_CACHE", "0")
     gaits.search(m, params, cells=5_000)
     assert len(list((tmp_path / "searches").iterdir())) == 2
+
+
+def test_distinct_solutions_keep_the_first_of_each_cluster_in_order():
+    """The scan's deduplication against its definition written pair by pair: a solution is
+    kept unless it lies within DISTINCT * max(1, |x|) of one kept before it in every
+    component."""
+    rng = np.random.default_rng(3)
+    centres = rng.uniform(-2.0, 2.0, (60, 3))
+    solutions = np.repeat(centres, 7, axis=0) + 1e-11 * rng.standard_normal((420, 3))
+    rng.shuffle(solutions)
+    wanted: list[np.ndarray] = []
+    for x in solutions:
+        scale = gaits.DISTINCT * np.maximum(1.0, np.abs(x))
+        if all(np.any(np.abs(x - other) > scale) for other in wanted):
+            wanted.append(x)
+    got = gaits._distinct(solutions)
+    assert len(got) == len(wanted) == 60
+    assert all(np.array_equal(a, b) for a, b in zip(got, wanted))
+    assert gaits._distinct(np.empty((0, 3))) == []
