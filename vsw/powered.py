@@ -69,16 +69,19 @@ reported (:func:`powered_eigenvalues`).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
+import io
 import math
+import threading
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from vsw import stop
+from vsw import limits, stop
 from vsw.design import characteristic_coefficients, jury_rows
 from vsw.errors import ConvergenceError, VswInputError
 from vsw.gaits import free_components, pick, probed_step_lengths, section_states
@@ -135,6 +138,10 @@ START_SPREAD = 1.0
 """Each start after the first moves every input at every knot and midpoint by up to this
 times that input's largest magnitude over its phase at the first stage's optimum
 (uniform, seeded by the start's index), within the input's bounds."""
+MAX_TARGET = 1e3
+"""The largest target speed, step length or period, in the model's units: no walker's step
+is a kilometre or a thousand seconds long (and far beyond, the NLP's start evaluates to
+NaN)."""
 _INFEASIBLE = "Infeasible_Problem_Detected"
 """IPOPT's word for a restoration phase that converged to a point of locally least
 constraint violation, still violating them: reported as ``infeasible``."""
@@ -209,8 +216,11 @@ class Request:
         for name, value in (("target speed", self.target_speed),
                             ("target step length", self.target_step_length),
                             ("target period", self.target_period)):  # fmt: skip
-            if value is not None and not (math.isfinite(value) and value > 0):
-                raise VswInputError(f"the {name} must be a positive number, got {value}")
+            if value is not None and not (math.isfinite(value) and 0 < value <= MAX_TARGET):
+                raise VswInputError(
+                    f"the {name} must be a positive number at most {MAX_TARGET:g} (in the "
+                    f"model's units), got {value:g}"
+                )
         if None not in (self.target_speed, self.target_step_length, self.target_period):
             raise VswInputError("--target-speed, --target-step-length and --target-period: "
                                 "give at most two (the step length is the speed times the "
@@ -351,6 +361,7 @@ def optimize(
                             "inputs perturbed); this request solves one stage from one "
                             "start")  # fmt: skip
     params = _started_within_limits(model, params, request)
+    _check_cost(model, request)
     if start is None:
         start = _passive_start(model, params)  # None: the model has no passive gait
     fine = _refined_best(model, params, request, _optimize_on_mesh(model, params, request, start))
@@ -422,6 +433,71 @@ def _interval(bounds: tuple) -> str:
     return f"{'-inf' if low is None else f'{low:g}'} to {'inf' if high is None else f'{high:g}'}"
 
 
+# The estimate of a run (:func:`estimate_seconds`), measured by hand on the reference machine
+# (2 cores shared with other work) on the compass gait (torque2 and work, N = 20 and 40:
+# 206-606 unknowns) and free-vsw-biped-stop (stability, N = 4, 8 and 16: 141-501 unknowns),
+# with time.perf_counter around CasADi's nlpsol and each solve; rounded up:
+#: IPOPT's iterations of a solve under torque2, work and cot (measured 5-73; its limit is
+#: 3000, reached by no measured run)
+OPTIMIZE_ITERATIONS = 100
+#: one IPOPT iteration per unknown, torque2, work and cot: 0.05-0.08 ms
+OPTIMIZE_SECONDS_PER_ITERATION_UNKNOWN = 1e-4
+#: one IPOPT iteration per unknown, stability (the step map's second derivatives):
+#: 0.44-0.51 ms (0.76 under a load of 4)
+STABILITY_SECONDS_PER_ITERATION_UNKNOWN = 6e-4
+#: building the NLP (CasADi's derivatives), per unknown, torque2, work and cot: 0.4-0.7 ms
+OPTIMIZE_BUILD_SECONDS_PER_UNKNOWN = 1e-3
+#: building the NLP, per unknown squared, stability: 1.9 s at 141 unknowns, 3.8-6.8 s at
+#: 261, 29 s at 501 (9.6e-5 to 1.16e-4)
+STABILITY_BUILD_SECONDS_PER_UNKNOWN2 = 1.2e-4
+
+
+def _unknowns(model: HybridModel, nodes: int) -> int:
+    """About how many unknowns the NLP on ``nodes`` intervals a phase has: the state (at
+    knots and midpoints) and the inputs of every interval (measured within a few per cent
+    on the compass gait and free-vsw-biped-stop)."""
+    names = input_names(model)
+    per_interval = sum(4 * model.n + 2 * len(names[phase]) for phase, _ in model._phase_sequence())
+    return per_interval * nodes + 4 * model.n + 2
+
+
+def estimate_seconds(model: HybridModel, request: Request) -> float:
+    """A conservative estimate of :func:`optimize`'s run time: each NLP built (coarse and
+    fine mesh, the least squared-input stage first where there is one) and each solve at
+    a full count of iterations (:data:`STABILITY_ITERATIONS` under stability,
+    :data:`OPTIMIZE_ITERATIONS` otherwise), from the per-unknown costs above."""
+
+    def build(unknowns: int, minimize: str) -> float:
+        if minimize == "stability":
+            return STABILITY_BUILD_SECONDS_PER_UNKNOWN2 * unknowns**2
+        return OPTIMIZE_BUILD_SECONDS_PER_UNKNOWN * unknowns
+
+    def solve(unknowns: int, minimize: str) -> float:
+        if minimize == "stability":
+            return STABILITY_ITERATIONS * STABILITY_SECONDS_PER_ITERATION_UNKNOWN * unknowns
+        return OPTIMIZE_ITERATIONS * OPTIMIZE_SECONDS_PER_ITERATION_UNKNOWN * unknowns
+
+    coarse, fine = _unknowns(model, request.nodes), _unknowns(model, 2 * request.nodes)
+    seconds = 0.0
+    if request.minimize != "torque2" and _continuous_inputs_used(model, request):
+        seconds += build(coarse, "torque2") + solve(coarse, "torque2")
+    for unknowns in (coarse, fine):
+        seconds += build(unknowns, request.minimize)
+        seconds += request.starts * solve(unknowns, request.minimize)
+    return seconds
+
+
+def _check_cost(model: HybridModel, request: Request) -> None:
+    """Refuse, before any work, a run the estimate puts beyond ``VSW_MAX_SECONDS``."""
+    starts = f" from {request.starts} starts" if request.starts > 1 else ""
+    limits.check(
+        f"optimizing {request.minimize} on {request.nodes} and {2 * request.nodes} intervals "
+        f"a phase{starts}",
+        limits.Cost(estimate_seconds(model, request), 0.0),
+        "use fewer --nodes" + (" or --starts" if request.starts > 1 else ""),
+    )
+
+
 def _check_step_target(model: HybridModel, params: Sequence[float], request: Request) -> None:
     """A step length fixed by the parameters (the point-mass biped's ``d``) and a target
     that differs from it contradict each other: a one-line refusal, not an infeasible NLP."""
@@ -487,7 +563,7 @@ def _refined_best(model: HybridModel, params: Sequence[float], request: Request,
     several starts, each one's costs, statuses (or why it failed) in ``extra['starts']``
     of the fine result and the chosen one's index in ``best_start``."""
     finer = dataclasses.replace(request, nodes=2 * request.nodes)
-    coarse_nlp, fine_nlp = _build(model, request), _build(model, finer)
+    coarse_nlp, fine_nlp = _built(model, request), _built(model, finer)
     judged: list[PoweredGait | None] = []
     tried: list[dict[str, Any]] = []
     for coarse in solved:
@@ -535,7 +611,7 @@ def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Requ
         # every continuous input held at zero that stage has nothing to move the walker
         # with, and more equations than unknowns: the work stage starts directly.)
         stage = dataclasses.replace(request, minimize="torque2")
-    nlp = _build(model, stage)
+    nlp = _built(model, stage)
     if start is None:
         guess = _kinematic_guess(model, params, nlp, request)
     else:
@@ -547,7 +623,7 @@ def _optimize_on_mesh(model: HybridModel, params: Sequence[float], request: Requ
     result = _solve(model, params, stage, nlp, guess)
     if stage is request:
         return [result]
-    staged = _build(model, request)
+    staged = _built(model, request)
     scale = 1.0
     if request.minimize == "work" and result.step_length is not None:
         scale = walker_weight(model, result.parameters) * result.step_length
@@ -831,6 +907,35 @@ def _clearance(model: HybridModel, phase: str, v: _Unknowns, p: Any, durations: 
             g.add(margin - height * ca.sin(math.pi * fraction), 0.0, math.inf)
 
 
+def _built(model: HybridModel, request: Request) -> _Nlp:
+    """:func:`_build`, where a stop reaches the caller while it runs.
+
+    CasADi builds the NLP (its derivatives: under stability the step map's second ones)
+    in C++ for up to tens of seconds without looking at signals, though it lets go of the
+    GIL; under :func:`vsw.stop.supervised` in the main thread the build runs on a daemon
+    thread and the main thread waits where the signals of Ctrl-C and the run-time limit
+    reach it. A stopped run leaves the build to finish unwatched (in the ``vsw`` program
+    the process ends with the command)."""
+    if not (stop.supervising() and threading.current_thread() is threading.main_thread()):
+        return _build(model, request)
+    outcome: dict[str, Any] = {}
+
+    def build() -> None:
+        try:
+            outcome["nlp"] = _build(model, request)
+        except BaseException as exc:  # raised again in the caller's thread
+            outcome["error"] = exc
+
+    worker = threading.Thread(target=build, name="vsw-nlp-build", daemon=True)
+    worker.start()
+    while worker.is_alive():
+        worker.join(0.05)
+        stop.check()
+    if "error" in outcome:
+        raise outcome["error"]
+    return outcome["nlp"]
+
+
 @functools.lru_cache(maxsize=8)  # a few NLPs a command; a script's loop over targets
 def _build(model: HybridModel, request: Request) -> _Nlp:
     """The collocation NLP of one model and request (parameters are the NLP's ``p``)."""
@@ -917,6 +1022,7 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
     options = {
         "ipopt.tol": 1e-10, "ipopt.constr_viol_tol": 1e-10, "ipopt.max_iter": 3000,
         "ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "error_on_fail": False,
+        "show_eval_warnings": False,  # a NaN at a trial point is IPOPT's to step back from
         "ipopt.mu_strategy": "adaptive", "ipopt.acceptable_tol": 1e-6,
         "ipopt.acceptable_constr_viol_tol": 1e-9, "ipopt.acceptable_iter": 5,
     }  # fmt: skip
@@ -1622,6 +1728,33 @@ def _interval_powers(model: HybridModel, phase: str, p: np.ndarray, duration: fl
     return np.array(powers).transpose(0, 2, 1)
 
 
+def _check_finite_start(model: HybridModel, nlp: _Nlp, guess: np.ndarray,
+                        arguments: np.ndarray) -> None:  # fmt: skip
+    """IPOPT is not started from a point where the NLP's cost or constraints are not
+    finite: it would report a NaN at every trial point and wander to its iteration limit
+    (or fail in restoration); the run ends at once with the reason."""
+    with np.errstate(all="ignore"), _solver_output_dropped():
+        values = nlp.solver.oracle().call({"x": guess, "p": arguments})
+    for name, what in (("f", "cost"), ("g", "constraints")):
+        value = np.array(values[name], dtype=float).reshape(-1)
+        bad = np.flatnonzero(~np.isfinite(value))
+        if len(bad):
+            where = f" (row {bad[0]} of {len(value)})" if len(value) > 1 else ""
+            raise ConvergenceError(f"{model.name}: the NLP's {what} are not finite at its "
+                                   f"start{where}: the targets or parameters are beyond what "
+                                   "this model's step can be; IPOPT was not started")  # fmt: skip
+
+
+@contextlib.contextmanager
+def _solver_output_dropped():
+    """CasADi's and IPOPT's own messages through Python's streams (warnings of an
+    evaluation, ``KeyboardInterruptException`` when a stop lands in IPOPT) go nowhere:
+    what the user reads is the run's one line (the status and its reason, or the stop)."""
+    sink = io.StringIO()
+    with contextlib.redirect_stdout(sink), contextlib.redirect_stderr(sink):
+        yield
+
+
 def _block(w: np.ndarray, entry: tuple[int, int, int]) -> np.ndarray:
     first, parts, width = entry
     return w[first : first + parts * width].reshape(parts, width)
@@ -1637,8 +1770,10 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
         nlp.choose(params, lbx)
         nlp.choose(params, ubx)
     arguments = np.append(np.asarray(params, dtype=float), regularization_scale)
+    _check_finite_start(model, nlp, guess, arguments)
     try:
-        result = nlp.solver(x0=guess, p=arguments, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+        with _solver_output_dropped():
+            result = nlp.solver(x0=guess, p=arguments, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
     except RuntimeError as exc:  # a NaN in the model's functions at IPOPT's trial point
         stop.check()  # or CasADi turned Ctrl-C or the time limit into this error
         raise ConvergenceError(f"{model.name}: IPOPT failed ({' '.join(str(exc).split())[:80]})"
@@ -1690,6 +1825,9 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: _
         reason = (f"IPOPT found the constraints locally infeasible (violated by {violation:.3g} "
                   "where it stopped): no gait meets the targets, bounds and parameters near "
                   "this start; a local result, not a proof")  # fmt: skip
+    elif status == "Invalid_Number_Detected":
+        reason = ("IPOPT stopped: the NLP evaluated to NaN or inf at its iterate (the targets "
+                  "or parameters beyond what this model's step can be?)")  # fmt: skip
     elif status not in _SUCCESS:
         reason = f"IPOPT {status}"
     elif not violation <= CONSTRAINTS_HELD:

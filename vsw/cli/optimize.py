@@ -5,6 +5,11 @@ point-mass biped's leg force) are free functions of time, its impulses at events
 point-mass biped's push-off and heel-strike) free numbers; the step is periodic and meets
 the targets. Statuses as ``vsw design``'s: optimal (exit 0), infeasible (IPOPT found the
 constraints locally infeasible) and not-converged (exit 3, with the reason).
+
+Targets are positive and at most :data:`vsw.powered.MAX_TARGET` in the model's units; a
+run whose estimate (:func:`vsw.powered.estimate_seconds`) exceeds ``VSW_MAX_SECONDS`` is
+refused before it starts, and one that runs past it anyway is stopped within about a
+second, in CasADi's build of the NLP as in IPOPT's iterations (exit 2, one line).
 """
 
 from __future__ import annotations
