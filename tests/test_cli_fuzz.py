@@ -481,3 +481,117 @@ def test_parameter_edges_of_every_model():
         _check(argv, {**FAST, "VSW_MAX_SECONDS": "2"})
 
     run()
+
+
+# --- the environment: the run-time limit, the threads, Dask endpoints ----------------------
+
+MAX_SECONDS = st.one_of(
+    st.sampled_from(["9.3e9", "1e10", "1e308", "1.7976931348623157e308", "inf", "1e400",
+                     "nan", "-1", "0", "-inf", "abc", "", "1e5s", "30"]),
+    st.floats(30.0, 1.7976931348623157e308).map(repr),
+)  # fmt: skip
+THREADS = st.sampled_from(["1", "2", "0", "-1", "abc", "1e3", "nan", "", "64", "100000"])
+
+
+@contextlib.contextmanager
+def _tcp_server(reply: bytes | None):
+    """A loopback server that is no Dask scheduler: it accepts and sends ``reply`` (None:
+    nothing). Yields its port."""
+    import socket
+    import threading
+
+    listener = socket.socket()
+    listener.bind(("127.0.0.1", 0))
+    listener.listen()
+    listener.settimeout(0.1)
+    done = threading.Event()
+    accepted: list = []
+
+    def serve() -> None:
+        while not done.is_set():
+            try:
+                connection, _ = listener.accept()
+            except TimeoutError:
+                continue
+            except OSError:
+                return
+            accepted.append(connection)
+            if reply is not None:
+                with contextlib.suppress(OSError):
+                    connection.sendall(reply)
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    try:
+        yield listener.getsockname()[1]
+    finally:
+        done.set()
+        thread.join(timeout=2)
+        for connection in [*accepted, listener]:
+            connection.close()
+
+
+def test_environment_values_and_scheduler_addresses(monkeypatch):
+    """Any ``VSW_MAX_SECONDS`` (up to 1e308 and beyond), ``VSW_THREADS``, and ``--scheduler``
+    addresses of every scheme (a refused port, a server that answers with other bytes, one
+    that stays silent, TLS without certificates, in-process, garbage): a result or one
+    line, never a traceback. Dask's waits shortened so that an example takes a second."""
+    pytest.importorskip("distributed")
+    import vsw.cluster
+
+    monkeypatch.setattr(vsw.cluster, "CONNECT_TIMEOUT", 0.5)
+    monkeypatch.setattr(vsw.cluster, "HANDSHAKE_TIMEOUT", 1.0, raising=False)
+    with _tcp_server(b"HTTP/1.1 400 Bad Request\r\n\r\n" * 4) as other, _tcp_server(None) as silent:
+        addresses = st.sampled_from([
+            f"tcp://127.0.0.1:{other}", f"tcp://127.0.0.1:{silent}", f"ws://127.0.0.1:{other}",
+            "tcp://127.0.0.1:1", "tls://127.0.0.1:1", "wss://127.0.0.1:1", "inproc://x",
+            "ucx://127.0.0.1:2", "tcp://", "tcp://127.0.0.1:0", "tcp://[::1", "garbage", "",
+            "tcp://127.0.0.1:99999", "tcp://:8786",
+        ])  # fmt: skip
+        commands = st.one_of(
+            st.just(["models"]),
+            st.just(["analyze", "--model", "rimless-wheel", "--json"]),
+            st.just(["simulate", "--model", "rimless-wheel", "--steps", "2"]),
+            addresses.map(lambda address: ["basin", "--model", "rimless-wheel", "--grid",
+                                           "theta_dot=0.5:2:3", "--steps", "3",
+                                           "--scheduler", address]),
+        )  # fmt: skip
+
+        @budget(24)
+        @given(commands, MAX_SECONDS, THREADS)
+        def run(argv, seconds, threads):
+            _check(argv, {"VSW_MAX_SECONDS": seconds, "VSW_THREADS": threads,
+                          "VSW_MAX_MEMORY": "256M"})  # fmt: skip
+
+        run()
+
+
+@st.composite
+def falling_start(draw, tmp: str) -> list[str]:
+    """simulate from a start that falls at once, or nearly, with a trajectory file and a
+    plot, either of them in any of their forms."""
+    if draw(st.booleans()):
+        model = "compass-gait"
+        state = {"theta": number(0.4, 0.6), "psi": number(0.2, 0.4),
+                 "theta_dot": number(-1.5, -0.8), "psi_dot": number(-3.5, -2.5)}  # fmt: skip
+    else:
+        model = "rimless-wheel"
+        state = {"theta": number(0.3, 0.6), "theta_dot": number(-6.0, -2.0)}
+    argv = ["simulate", "--model", model, "--steps", draw(integer(1, 3))]
+    for name, value in state.items():
+        argv += ["--state", f"{name}={draw(value)}"]
+    trajectory = draw(st.sampled_from(["walk.csv", "walk.npz", "walk.mat", "walk.txt", None]))
+    if trajectory is not None:
+        argv += ["--trajectory", os.path.join(tmp, trajectory)]
+    if draw(st.booleans()):
+        argv += ["--plot", draw(plot_path(tmp))]
+    return argv + ["--json"] * draw(st.booleans())
+
+
+def test_falling_starts_with_a_trajectory_and_a_plot(plot_dir):
+    @budget(10)
+    @given(falling_start(plot_dir))
+    def run(argv):
+        _check(argv, {**FAST, "VSW_MAX_SECONDS": "20"})
+
+    run()

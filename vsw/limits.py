@@ -20,7 +20,10 @@ stopped there (:mod:`vsw.stop`: exit 2, one line). The limits, and how to raise 
     when that is less; work below :data:`ALWAYS_FITS_BYTES` is not compared with it).
     Setting it may go beyond the available memory (swap).
 
-Both accept ``inf`` for no limit. Invalid settings are bad input (VswInputError).
+Both accept ``inf`` for no limit, and any positive number up to the largest double
+(``1.7976931348623157e308``): a run-time limit beyond what the system timer holds is as
+good as none (:mod:`vsw.stop`). Invalid settings (NaN, zero, negative, not a number) are
+bad input (VswInputError).
 """
 
 from __future__ import annotations
