@@ -11,12 +11,12 @@ polynomials, and its one expansion refuses a large nested fraction
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 import sympy as sm
 
 from derive.engine import hybrid
 from derive.engine.hybrid import NestedFractionError
+from derive.engine.model import Coordinate, Input, Phase, PointMass, RigidSegment
 
 
 def _symbolic_pair():
@@ -50,19 +50,58 @@ def test_a_models_own_small_nested_ratio_is_expanded():
     assert hybrid.expand(ratio) == sm.expand(ratio)
 
 
-def test_cramers_rule_in_polynomials_gives_the_nested_solve_at_random_points():
-    """The form the engine uses (adjugates over determinants, each a polynomial) against
-    the nested solve evaluated numerically, where no expansion happens."""
-    balance, coupling, extended, rhs, symbols = _symbolic_pair()
-    numerators = balance.adjugate() * coupling * extended.adjugate() * rhs
-    cramer = [n / (balance.det() * extended.det()) for n in numerators]
-    nested = balance.LUsolve(coupling * extended.LUsolve(rhs))
-    rng = np.random.default_rng(5)
-    for _ in range(20):
-        point = dict(zip(symbols, rng.uniform(0.2, 1.5, len(symbols))))
-        for ours, theirs in zip(cramer, nested):
-            value, wanted = float(ours.xreplace(point)), float(theirs.xreplace(point))
-            assert value == pytest.approx(wanted, rel=1e-12)
+def test_a_model_whose_leg_length_is_a_nested_ratio_derives():
+    """A small nested ratio inside a large expression is the model's own, not a solve
+    inside a solve: a compound pendulum of three point masses along a leg whose length is
+    ``c / (1 + 1/(a + b))`` derives (its equations hold that ratio in every term)."""
+    a, b, c, m, g = sm.symbols("a b c m g", positive=True)
+    theta = Coordinate("theta")
+    q = theta.q
+    length = c / (1 + 1 / (a + b))
+    shares = {"hip": (1, 1), "leg": (2, sm.Rational(1, 2)), "foot": (3, 0)}
+    bodies = tuple(
+        PointMass(name, mass * m, (-share * length * sm.sin(q), share * length * sm.cos(q)))
+        for name, (mass, share) in shares.items()
+    )
+    dynamics = hybrid.phase_dynamics(Phase("stance", (theta,), bodies, (0, -g)))
+    # theta'' = g sin(theta) sum(m_k s_k) / (l sum(m_k s_k^2)): a compound pendulum.
+    moment = sum(mass * share for mass, share in shares.values())
+    inertia = sum(mass * share**2 for mass, share in shares.values()) * length
+    wanted = g * moment / inertia * sm.sin(q)
+    point = {a: 0.4, b: 0.7, c: 1.3, m: 2.0, g: 9.81, q: 0.3}
+    assert float(dynamics.accelerations[0].xreplace(point)) == pytest.approx(
+        float(wanted.xreplace(point)), rel=1e-12
+    )
+
+
+def test_phases_share_their_passive_dynamics_by_value_and_keep_their_own_inputs():
+    """Phases equal in coordinates, bodies, gravity and held values share one passive
+    derivation (whatever their names and inputs); a different inertia, gravity or held
+    value is a different derivation."""
+    m, l, g, i_a = sm.symbols("m l g I_a", positive=True)
+    theta = Coordinate("theta")
+    q = theta.q
+    r = sm.Symbol("r", positive=True)
+
+    def phase(name, inertia=i_a, gravity=(0, -g), held=l, inputs=()):
+        bodies = (RigidSegment("leg", m, (-r * sm.sin(q), r * sm.cos(q)), q, inertia),)
+        return Phase(name, (theta,), bodies, gravity, held={r: held}, inputs=inputs)
+
+    plain = hybrid.phase_dynamics(phase("a"))
+    powered = hybrid.phase_dynamics(phase("b", inputs=(Input("ankle", q, "ankle"),)))
+    assert powered.phase.name == "b" and plain.phase.name == "a"
+    assert powered.accelerations == plain.accelerations
+    assert powered.kinetic == plain.kinetic and powered.momenta == plain.momenta
+    assert plain.input_gains == () and len(powered.input_gains) == 1
+    # d(theta'')/d(torque) = 1 / (m l^2 + I_a), formed with the shared Cramer pieces.
+    point = {m: 2.0, l: 0.9, g: 9.81, i_a: 0.3, q: 0.2}
+    gain = float(powered.input_gains[0][0].xreplace(point))
+    assert gain == pytest.approx(1 / (2.0 * 0.9**2 + 0.3), rel=1e-12)
+    powered.momenta.clear()  # each phase's dicts are its own
+    assert hybrid.phase_dynamics(phase("c")).momenta == plain.momenta
+    for other in (phase("d", inertia=2 * i_a), phase("e", gravity=(g, -g)),
+                  phase("f", held=2 * l)):  # fmt: skip
+        assert hybrid.phase_dynamics(other).accelerations != plain.accelerations
 
 
 def test_the_push_off_at_heelstrike_expands_nothing_large(monkeypatch):

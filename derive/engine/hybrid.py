@@ -132,19 +132,24 @@ class NestedFractionError(ValueError):
     """The engine was about to expand a large fraction nested in another fraction."""
 
 
-_NESTED_FRACTION_OPS = 200
-"""Operations above which :func:`expand` refuses a nested fraction (a model's own small
-expressions, a ratio of lengths over a sum, may nest; a solve inside a solve is larger)."""
+_NESTED_FRACTION_OPS = 400
+"""A fraction nested in another's denominator is refused by :func:`expand` where the
+inner denominator moves with the configuration (it holds a sine or cosine) and the two
+denominators' operations multiply to more than this. A solve's pivot is a mass matrix
+entry of the walker's angles (a two-link walker's nests: 69 x 20 and 69 x 53); a model's
+own nested ratio, a length ``c / (1 + 1/(a + b))``, divides by its parameters however
+large the expression it sits in."""
 
 
 def refuse_nested_fraction(expr: sm.Expr) -> None:
     """Raise :class:`NestedFractionError` where ``expr`` divides by a sum that itself
-    divides by a sum and has more than ``_NESTED_FRACTION_OPS`` operations.
+    divides by a sum of sines or cosines, the two denominators' operations multiplying to
+    more than ``_NESTED_FRACTION_OPS``.
 
     Such a nest is what one symbolic solve inside another builds (``LUsolve`` whose
     right-hand side holds another ``LUsolve``'s fractions). Expanding it multiplies every
     term of one denominator's numerator by every term of the other, and cancelling the
-    result took minutes for a two-link walker's impact with an impulse; the engine solves
+    result takes minutes for a two-link walker's impact with an impulse; the engine solves
     by Cramer's rule in polynomials instead (:func:`_cramer_fraction`). Every expansion
     checks this, so the derivation of every model (and of every user's model file) keeps
     to it: a refusal names an engine defect, not a fault of the model."""
@@ -152,14 +157,21 @@ def refuse_nested_fraction(expr: sm.Expr) -> None:
         base, exponent = power.args
         if not (exponent.is_negative and base.is_Add):
             continue
-        inner = [p for p in base.atoms(sm.Pow) if p.args[1].is_negative and p.args[0].is_Add]
-        if inner and sm.count_ops(expr) > _NESTED_FRACTION_OPS:
-            raise NestedFractionError(
-                "the engine was about to expand a fraction nested in another's "
-                f"denominator ({sm.count_ops(expr)} operations): a solve inside a solve, "
-                "to be written by Cramer's rule; an engine defect to report with the "
-                "model file"
-            )
+        outer = None
+        for inner in base.atoms(sm.Pow):
+            if not (inner.args[1].is_negative and inner.args[0].is_Add):
+                continue
+            if not inner.args[0].has(sm.sin, sm.cos):
+                continue
+            outer = sm.count_ops(base) if outer is None else outer
+            size = outer * sm.count_ops(inner.args[0])
+            if size > _NESTED_FRACTION_OPS:
+                raise NestedFractionError(
+                    "the engine was about to expand a fraction nested in another's "
+                    f"denominator (their operations multiply to {size}): a solve inside a "
+                    "solve, to be written by Cramer's rule; an engine defect to report with "
+                    "the model file"
+                )
 
 
 def expand(expr: sm.Expr) -> sm.Expr:
@@ -305,8 +317,12 @@ def phase_dynamics(phase: Phase) -> PhaseDynamics:
         _PASSIVE[key] = _passive_dynamics(dataclasses.replace(phase, inputs=()))
     passive, pieces = _PASSIVE[key]
     gains, input_rates, reaction = _input_terms(phase, *pieces)
-    return dataclasses.replace(passive, phase=phase, input_gains=gains, input_rates=input_rates,
-                               input_reaction_gains=reaction)  # fmt: skip
+    # Each phase gets its own dicts: the cached ones are shared by every phase of the key.
+    return dataclasses.replace(
+        passive, phase=phase, momenta=dict(passive.momenta),
+        actuator_forces=dict(passive.actuator_forces), input_gains=gains,
+        input_rates=input_rates, input_reaction_gains=reaction,
+    )  # fmt: skip
 
 
 _PASSIVE: dict[tuple, tuple[PhaseDynamics, tuple]] = {}
@@ -771,7 +787,7 @@ def _cramer_fraction(numerator: sm.Expr, determinants: Iterable[sm.Expr]) -> sm.
 
     A solve whose right-hand side holds another solve's fractions (``LUsolve`` after
     ``LUsolve``) nests one denominator in the other's numerator; expanding that nest before
-    cancelling it multiplies out every term of one by every term of the other, which took
+    cancelling it multiplies out every term of one by every term of the other, which takes
     minutes for a two-link impact with an impulse. Cramer's rule in polynomials keeps the
     numerator and each determinant a polynomial. Cancelling the whole quotient (``cancel``)
     would expand the product of the determinants into a larger expression than these
@@ -1312,7 +1328,7 @@ def _impulse_quantities(model: Model, event: Event, args: tuple) -> tuple[list, 
         try:
             dyn = phase_dynamics(stand_in)
         except ValueError as exc:
-            raise ValueError(f"event {event.name}: {exc}") from None
+            raise type(exc)(f"event {event.name}: {exc}") from None
         for quantity in _input_quantities(model, stand_in, dyn, args):
             # The ground reaction's impulsive share is not derived: an impulse's foot
             # contact is not checked (docs/models/powered_walking.md).
