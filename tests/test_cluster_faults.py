@@ -254,3 +254,23 @@ def test_a_scheduler_killed_during_the_run_is_one_line_of_stderr(scheduler):
     line = _one_line(err)
     assert address in line and ("lost the Dask scheduler" in line or "Dask run" in line), line
     assert elapsed < 4 + vsw.cluster.CONNECT_TIMEOUT + 10
+
+
+def test_a_worker_address_is_no_scheduler_in_one_line(scheduler):
+    """A Dask server that is no scheduler (a worker) completes the handshake, then fails
+    the client's constructor: one line, and no half-built client left to time out at
+    exit."""
+    import distributed
+
+    address, _ = scheduler
+    worker = _worker(address)
+    try:
+        with distributed.Client(address, timeout=10, set_as_default=False) as client:
+            (worker_address,) = client.scheduler_info()["workers"]
+        code, out, err, elapsed = _run_vsw([*SMALL_BASIN, "--scheduler", worker_address])
+    finally:
+        _kill(worker)
+    assert code == 2 and out == ""
+    line = _one_line(err)
+    assert f"no Dask scheduler at {worker_address!r}" in line, line
+    assert elapsed < 8

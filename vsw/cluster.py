@@ -202,11 +202,16 @@ def _client(address: str) -> Iterator[Any]:
     connection_args = _connection_args(address, scheme)
     with _quiet_dask():
         _handshake(address, connection_args)
+        # Made in two steps so that a constructor that fails leaves no half-built client
+        # to time out noisily when it is collected (Client.__del__ closes it again).
+        client = Client.__new__(Client)
         try:
-            client = Client(address, timeout=CONNECT_TIMEOUT, set_as_default=False)
-        except VswInputError:
-            raise
-        except Exception as exc:  # the scheduler went away, or refused this client
+            client.__init__(address, timeout=CONNECT_TIMEOUT, set_as_default=False)
+        except BaseException as exc:
+            _discard(client)
+            if isinstance(exc, VswInputError) or not isinstance(exc, Exception):
+                raise  # a stop: Ctrl-C, the run-time limit
+            # The scheduler went away, or what answers is another Dask server (a worker).
             raise VswInputError(f"no Dask scheduler at {address!r}: {_first_line(exc)}") from None
         try:
             yield client
@@ -219,6 +224,15 @@ def _client(address: str) -> Iterator[Any]:
         finally:
             with contextlib.suppress(Exception):
                 client.close(timeout=CONNECT_TIMEOUT)
+
+
+def _discard(client: Any) -> None:
+    """Close a client whose constructor failed, briefly, and mark it closed whatever the
+    close did, so that its finalizer has nothing left to wait for or to print."""
+    with contextlib.suppress(Exception):
+        client.close(timeout=1)
+    with contextlib.suppress(Exception):
+        client.status = "closed"
 
 
 def _first_line(exc: BaseException) -> str:
