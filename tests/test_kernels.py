@@ -182,9 +182,25 @@ def _garble_sidecar(library: Path) -> None:
     library.with_name(library.name + ".json").write_text('{"size": 12')
 
 
+def _truncate_with_a_forged_sidecar(library: Path) -> None:
+    """Truncated, and a sidecar written to match it (tampering): the ELF check catches
+    what the sidecar no longer can."""
+    import hashlib
+    import json
+
+    sidecar = library.with_name(library.name + ".json")
+    record = json.loads(sidecar.read_text())
+    data = library.read_bytes()[: library.stat().st_size // 2]
+    library.write_bytes(data)
+    record.update(size=len(data), sha256=hashlib.sha256(data).hexdigest())
+    sidecar.write_text(json.dumps(record))
+
+
 @pytest.mark.parametrize(
-    "damage", [_truncate_half, _zero, _flip_a_byte, _drop_sidecar, _garble_sidecar]
-)
+    "damage",
+    [_truncate_half, _zero, _flip_a_byte, _drop_sidecar, _garble_sidecar,
+     _truncate_with_a_forged_sidecar],
+)  # fmt: skip
 def test_damaged_cached_library_is_rebuilt_with_the_same_flags(cached, damage):
     """A truncated library, mapped, gave SIGBUS run after run; an empty one made every
     later run fall back to the slower flags. Now either is verified and rebuilt."""

@@ -10,7 +10,11 @@ make.
 A cached library is loaded only after its size and SHA-256 match the sidecar
 ``<library>.json`` written beside it once the library was complete on disk: a truncated
 library would be mapped and kill the process with SIGBUS at first use, and an empty or
-damaged one would fail to load. Either is rebuilt, with the same flags. Builds write to a
+damaged one would fail to load. Either is rebuilt, with the same flags. The sidecar
+vouches for what the build wrote, not against tampering: whoever can write the cache can
+write a matching sidecar. Truncation, the one damage that would kill the process rather
+than fail the load, is also caught without the sidecar: an ELF library whose segments or
+section table end beyond the file is rebuilt (:func:`_elf_complete`). Builds write to a
 temporary file, fsync it and publish library then sidecar with atomic renames, under a
 lock per library, so concurrent processes neither clash nor load a half-written file.
 """
@@ -25,6 +29,7 @@ import os
 import platform
 import shlex
 import shutil
+import struct
 import subprocess
 import tempfile
 import time
@@ -83,9 +88,43 @@ def _verified(library: Path, key: str) -> bool:
         record = json.loads(_sidecar(library).read_text())
         if record.get("key") != key or library.stat().st_size != record.get("size"):
             return False
-        return _digest(library.read_bytes()) == record.get("sha256")
+        data = library.read_bytes()
+        return _digest(data) == record.get("sha256") and _elf_complete(data)
     except (OSError, ValueError, AttributeError):
         return False
+
+
+_PT_LOAD = 1  # elf.h
+
+
+def _elf_complete(data: bytes) -> bool:
+    """Whether an ELF file's loadable segments and section header table lie within it
+    (mapping a segment past the end of the file is what raises SIGBUS); True for a file
+    that is not ELF (other systems' libraries: the sidecar alone vouches for them)."""
+    if data[:4] != b"\x7fELF":
+        return True
+    if len(data) < 64 or data[4] not in (1, 2) or data[5] not in (1, 2):
+        return False
+    wide, order = data[4] == 2, "<" if data[5] == 1 else ">"
+    if wide:
+        (phoff, shoff) = struct.unpack_from(order + "QQ", data, 0x20)
+        phentsize, phnum, shentsize, shnum = struct.unpack_from(order + "HHHH", data, 0x36)
+        segment = order + "IIQQQQ"  # p_type, p_flags, p_offset, p_vaddr, p_paddr, p_filesz
+    else:
+        (phoff, shoff) = struct.unpack_from(order + "II", data, 0x1C)
+        phentsize, phnum, shentsize, shnum = struct.unpack_from(order + "HHHH", data, 0x2A)
+        segment = order + "IIIII"  # p_type, p_offset, p_vaddr, p_paddr, p_filesz
+    size = len(data)
+    if phoff + phnum * phentsize > size or shoff + shnum * shentsize > size:
+        return False
+    for k in range(phnum):
+        fields = struct.unpack_from(segment, data, phoff + k * phentsize)
+        if fields[0] != _PT_LOAD:
+            continue
+        offset, filesz = (fields[2], fields[5]) if wide else (fields[1], fields[4])
+        if offset + filesz > size:
+            return False
+    return True
 
 
 def _write_durably(path: Path, data: bytes) -> None:
