@@ -167,16 +167,16 @@ COMMON = settings(
 )
 
 
-SCALE = int(os.environ.get("VSW_FUZZ_SCALE", "1") or 1)
+FUZZ_SCALE = int(os.environ.get("VSW_FUZZ_SCALE", "1") or 1)
 """``VSW_FUZZ_SCALE=K`` runs K times the examples, drawn afresh (not derandomized): a
 longer fuzz campaign by hand, ``VSW_FUZZ_SCALE=3 python -m pytest tests/test_cli_fuzz.py``
 (about 1,500 runs); the test suite runs the fixed examples."""
 
 
 def budget(examples: int) -> settings:
-    """The common settings with a number of examples (times :data:`SCALE`)."""
-    if SCALE > 1:
-        return settings(COMMON, max_examples=examples * SCALE, derandomize=False)
+    """The common settings with a number of examples (times :data:`FUZZ_SCALE`)."""
+    if FUZZ_SCALE > 1:
+        return settings(COMMON, max_examples=examples * FUZZ_SCALE, derandomize=False)
     return settings(COMMON, max_examples=examples)
 
 
