@@ -22,6 +22,7 @@ different selection of tests can see different examples.
 from __future__ import annotations
 
 import contextlib
+import importlib
 import io
 import json
 import math
@@ -33,6 +34,15 @@ import pytest
 
 hypothesis = pytest.importorskip("hypothesis")
 import numpy as np  # noqa: E402
+
+# The commands run in this one process under a 0.5 s limit: a stop that lands inside a
+# first import of Matplotlib (or of a module it loads lazily) leaves its submodules bound
+# to a module object Python has dropped, and every later use in the process fails. A
+# command line run ends its process there; here the imports are done once up front.
+for _module in ("matplotlib", "matplotlib.pyplot", "matplotlib.collections",
+                "matplotlib.animation", "matplotlib.backends.backend_agg",
+                "matplotlib.backends.backend_svg", "matplotlib.backends.backend_pdf"):  # fmt: skip
+    importlib.import_module(_module)
 from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
