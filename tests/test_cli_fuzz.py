@@ -46,6 +46,7 @@ for _module in ("matplotlib", "matplotlib.pyplot", "matplotlib.collections",
 from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
+from tests.loopback import server  # noqa: E402
 from vsw.cli import main  # noqa: E402
 from vsw.models import keys as model_keys  # noqa: E402
 from vsw.models import load  # noqa: E402
@@ -511,44 +512,6 @@ MAX_SECONDS = st.one_of(
 THREADS = st.sampled_from(["1", "2", "0", "-1", "abc", "1e3", "nan", "", "64", "100000"])
 
 
-@contextlib.contextmanager
-def _tcp_server(reply: bytes | None):
-    """A loopback server that is no Dask scheduler: it accepts and sends ``reply`` (None:
-    nothing). Yields its port."""
-    import socket
-    import threading
-
-    listener = socket.socket()
-    listener.bind(("127.0.0.1", 0))
-    listener.listen()
-    listener.settimeout(0.1)
-    done = threading.Event()
-    accepted: list = []
-
-    def serve() -> None:
-        while not done.is_set():
-            try:
-                connection, _ = listener.accept()
-            except TimeoutError:
-                continue
-            except OSError:
-                return
-            accepted.append(connection)
-            if reply is not None:
-                with contextlib.suppress(OSError):
-                    connection.sendall(reply)
-
-    thread = threading.Thread(target=serve, daemon=True)
-    thread.start()
-    try:
-        yield listener.getsockname()[1]
-    finally:
-        done.set()
-        thread.join(timeout=2)
-        for connection in [*accepted, listener]:
-            connection.close()
-
-
 def test_environment_values_and_scheduler_addresses(monkeypatch):
     """Any ``VSW_MAX_SECONDS`` (up to 1e308 and beyond), ``VSW_THREADS``, and ``--scheduler``
     addresses of every scheme (a refused port, a server that answers with other bytes, one
@@ -559,7 +522,7 @@ def test_environment_values_and_scheduler_addresses(monkeypatch):
 
     monkeypatch.setattr(vsw.cluster, "CONNECT_TIMEOUT", 0.5)
     monkeypatch.setattr(vsw.cluster, "HANDSHAKE_TIMEOUT", 1.0, raising=False)
-    with _tcp_server(b"HTTP/1.1 400 Bad Request\r\n\r\n" * 4) as other, _tcp_server(None) as silent:
+    with server(b"HTTP/1.1 400 Bad Request\r\n\r\n" * 4) as other, server(None) as silent:
         addresses = st.sampled_from([
             f"tcp://127.0.0.1:{other}", f"tcp://127.0.0.1:{silent}", f"ws://127.0.0.1:{other}",
             "tcp://127.0.0.1:1", "tls://127.0.0.1:1", "wss://127.0.0.1:1", "inproc://x",

@@ -26,6 +26,7 @@ import pytest
 pytest.importorskip("distributed")
 
 import vsw.cluster
+from tests.loopback import server
 from vsw.cli import main
 
 DASK = [sys.executable, "-m", "distributed.cli.dask_scheduler"]
@@ -163,37 +164,10 @@ def test_the_dask_command_is_what_the_docs_start():
 
 @contextlib.contextmanager
 def _server(reply: bytes | None):
-    """A TCP server on loopback that is no Dask scheduler: it accepts every connection and
-    sends ``reply`` (None: nothing, ever). Yields its tcp:// address."""
-    listener = socket.socket()
-    listener.bind(("127.0.0.1", 0))
-    listener.listen()
-    listener.settimeout(0.1)
-    done = threading.Event()
-    accepted: list[socket.socket] = []
-
-    def serve() -> None:
-        while not done.is_set():
-            try:
-                connection, _ = listener.accept()
-            except TimeoutError:
-                continue
-            except OSError:
-                return
-            accepted.append(connection)
-            if reply is not None:
-                with contextlib.suppress(OSError):
-                    connection.sendall(reply)
-
-    thread = threading.Thread(target=serve, daemon=True)
-    thread.start()
-    try:
-        yield f"tcp://127.0.0.1:{listener.getsockname()[1]}"
-    finally:
-        done.set()
-        thread.join(timeout=2)
-        for connection in [*accepted, listener]:
-            connection.close()
+    """A loopback server that is no Dask scheduler (:func:`tests.loopback.server`): yields
+    its tcp:// address."""
+    with server(reply) as port:
+        yield f"tcp://127.0.0.1:{port}"
 
 
 SMALL_BASIN = ["basin", "--model", "rimless-wheel", "--grid", "theta_dot=0.01:3:10"]
