@@ -139,22 +139,6 @@ def test_the_only_worker_killed_during_the_run(scheduler):
     assert elapsed < 3 + 2 + 10
 
 
-def test_scheduler_killed_during_the_run(scheduler):
-    address, process = scheduler
-    worker = _worker(address)
-    try:
-        timer = threading.Timer(3.0, _kill, (process,))
-        timer.start()
-        code, out, err, elapsed = _run([*BASIN, "--scheduler", address])
-        timer.join()
-    finally:
-        _kill(worker)
-    assert code == 2 and out == ""
-    line = _one_line(err)
-    assert address in line and ("lost the Dask scheduler" in line or "Dask run" in line), line
-    assert elapsed < 3 + vsw.cluster.CONNECT_TIMEOUT + 10
-
-
 @pytest.mark.skipif(shutil.which("dask") is None, reason="the dask command is not installed")
 def test_the_dask_command_is_what_the_docs_start():
     """The module docstring starts the cluster with ``dask scheduler``/``dask worker``."""
@@ -212,22 +196,24 @@ def test_a_server_that_accepts_and_stays_silent_is_refused_in_time(monkeypatch):
     assert elapsed < 1.5 + 3
 
 
-def test_a_scheduler_killed_during_the_run_is_one_line_of_stderr(scheduler):
-    """As its own process, so that Dask's loggers (which write to the process's stderr,
-    not to a capture) would be seen."""
+@pytest.mark.parametrize(("run", "kill_after"), [(_run, 3.0), (_run_vsw, 4.0)],
+                         ids=["in-process", "own-process"])  # fmt: skip
+def test_a_scheduler_killed_during_the_run_is_one_line_of_stderr(scheduler, run, kill_after):
+    """In this process, and as its own process so that Dask's loggers (which write to the
+    process's stderr, not to a capture) would be seen."""
     address, process = scheduler
     worker = _worker(address)
     try:
-        timer = threading.Timer(4.0, _kill, (process,))
+        timer = threading.Timer(kill_after, _kill, (process,))
         timer.start()
-        code, out, err, elapsed = _run_vsw([*BASIN, "--scheduler", address])
+        code, out, err, elapsed = run([*BASIN, "--scheduler", address])
         timer.join()
     finally:
         _kill(worker)
     assert code == 2 and out == ""
     line = _one_line(err)
     assert address in line and ("lost the Dask scheduler" in line or "Dask run" in line), line
-    assert elapsed < 4 + vsw.cluster.CONNECT_TIMEOUT + 10
+    assert elapsed < kill_after + vsw.cluster.CONNECT_TIMEOUT + 10
 
 
 def test_a_worker_address_is_no_scheduler_in_one_line(scheduler):
