@@ -36,7 +36,7 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
-__all__ = ["build_library", "cache_dir"]
+__all__ = ["build_library", "cache_dir", "exclusive_lock", "write_durably"]
 
 _STALE_BUILD_SECONDS = 3600.0
 """Build files older than this (``.build-*``) were left by killed builds and are removed."""
@@ -127,7 +127,7 @@ def _elf_complete(data: bytes) -> bool:
     return True
 
 
-def _write_durably(path: Path, data: bytes) -> None:
+def write_durably(path: Path, data: bytes) -> None:
     """``path`` holds ``data`` completely, or keeps what it held (temporary file, fsync,
     atomic rename)."""
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".build-")
@@ -145,12 +145,14 @@ def _write_durably(path: Path, data: bytes) -> None:
 
 
 @contextlib.contextmanager
-def _build_lock(library: Path) -> Iterator[None]:
-    """Exclusive lock for building ``library`` (released when the process dies)."""
+def exclusive_lock(path: Path) -> Iterator[None]:
+    """Exclusive lock for making ``path`` (a library, a cached package), held on
+    ``<path>.lock`` and released when the process dies; where no lock can be taken the
+    block runs unlocked (the writers publish complete files all the same)."""
     try:
         import fcntl
 
-        fd = os.open(library.with_name(library.name + ".lock"), os.O_RDWR | os.O_CREAT, 0o644)
+        fd = os.open(path.with_name(path.name + ".lock"), os.O_RDWR | os.O_CREAT, 0o644)
     except (ImportError, OSError):
         yield  # no locking here: concurrent builds still publish complete files
         return
@@ -195,9 +197,9 @@ def _compile(
         if done.returncode != 0:
             return (done.stderr.strip().splitlines() or ["failed"])[0]
         data = built.read_bytes()
-    _write_durably(library, data)
+    write_durably(library, data)
     record = {"key": key, "size": len(data), "sha256": _digest(data)}
-    _write_durably(_sidecar(library), json.dumps(record, sort_keys=True).encode())
+    write_durably(_sidecar(library), json.dumps(record, sort_keys=True).encode())
     return None
 
 
@@ -226,7 +228,7 @@ def build_library(
         parts = [source, *included, " ".join(flags).encode(), shlex.join(cc).encode()]
         key = hashlib.sha256(b"\0".join([*parts, _cpu_signature().encode()])).hexdigest()[:20]
         library = directory / f"libvsw_{stem}_{key}.so"
-        with _build_lock(library):
+        with exclusive_lock(library):
             # Never map unverified bytes: a truncated library gives SIGBUS, not an error.
             if not _verified(library, key):
                 error = _compile(cc, flags, library, key, source, includes)

@@ -840,8 +840,9 @@ def jump_reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tupl
         - dyn.momenta[q].xreplace(state(before, u_before))
         for q in free
     ]
-    # Linear in the rates after: Cramer's rule (sympy's solve reaches the same fractions
-    # through its general machinery at several times the cost).
+    # Linear in the rates after: Cramer's rule, as the impacts are solved (the same
+    # fractions as sympy's solve gave, byte for byte in generated/). The determinant is
+    # simplified to a canonical polynomial, so zero means singular.
     system, rhs = sm.linear_eq_to_matrix(balance, u_new)
     determinant = _simplify(system.det(method="berkowitz"))
     if determinant == 0:

@@ -29,13 +29,12 @@ import shutil
 import stat
 import subprocess
 import sys
-import tempfile
 import time
 from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
 
-from vsw.compiled import cache_dir
+from vsw.compiled import cache_dir, exclusive_lock, write_durably
 from vsw.errors import VswInputError
 
 __all__ = ["ENTRY_POINT_GROUP", "entry_point_file", "is_model_file", "model_file", "package"]
@@ -147,20 +146,11 @@ def _ensure(path: Path, root: Path) -> bool:
 def _cache_lock(root: Path) -> Iterator[None]:
     """Exclusive lock on the cached package ``root`` while it is checked, removed, derived
     and sealed, so that a concurrent first run neither takes a package not yet sealed for a
-    damaged one nor loads one half removed (released when the process dies)."""
-    try:
-        import fcntl
-
+    damaged one nor loads one half removed (:func:`vsw.compiled.exclusive_lock`)."""
+    with contextlib.suppress(OSError):
         root.parent.mkdir(parents=True, exist_ok=True)
-        fd = os.open(root.with_name(root.name + ".lock"), os.O_RDWR | os.O_CREAT, 0o644)
-    except (ImportError, OSError):
-        yield  # no locking here (derive writes its output whole all the same)
-        return
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX)
+    with exclusive_lock(root):
         yield
-    finally:
-        os.close(fd)  # releases the lock
 
 
 class _UnloadableError(Exception):
@@ -273,20 +263,10 @@ def _package_files(root: Path) -> dict[str, str]:
 
 
 def _seal(root: Path) -> None:
-    """Record the digest of the package just derived under ``root`` (written whole, then
-    renamed: a reader never sees part of it)."""
+    """Record the digest of the package just derived under ``root``
+    (:func:`vsw.compiled.write_durably`: a reader never sees part of it)."""
     record = {"package": root.name, "files": _package_files(root)}
-    seal = _seal_file(root)
-    fd, tmp = tempfile.mkstemp(dir=root.parent, prefix=f".{seal.name}.")
-    try:
-        os.fchmod(fd, 0o644)
-        with os.fdopen(fd, "w") as handle:
-            json.dump(record, handle, sort_keys=True)
-        os.replace(tmp, seal)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
+    write_durably(_seal_file(root), json.dumps(record, sort_keys=True).encode())
 
 
 def _damage(root: Path) -> str | None:
