@@ -10,6 +10,10 @@ a lock on the parent directory, and each removes the staging leftovers of killed
 before it writes. The new files and directories keep the modes of the ones they replace
 (new ones get the umask's defaults). Check mode renders in memory and compares byte for
 byte.
+
+An installed copy (a wheel, no ``pyproject.toml`` beside ``derive/``) checks its
+``generated/`` (``--check``) and derives into ``--out DIR``; writing its own ``generated/``
+is refused (exit 2, one line): that needs a source checkout.
 """
 
 from __future__ import annotations
@@ -446,6 +450,12 @@ def main(argv: list[str] | None = None) -> int:
     if args.file is not None and (args.out is None or args.model):
         parser.error("--file needs --out DIR and takes no --model")
     if args.out is None:
+        if not args.check and not (ROOT / "pyproject.toml").is_file():
+            # An installed copy (a wheel): its generated/ is the installer's, not to rewrite.
+            print(f"python -m derive: {ROOT} is an installed copy, not a source checkout: "
+                  "writing generated/ needs the checkout (--check and --out DIR work here)",
+                  file=sys.stderr)  # fmt: skip
+            return 2
         args.out = ROOT / "generated"
     if threading.current_thread() is not threading.main_thread():
         return _run(args)
