@@ -100,11 +100,15 @@ class ArgumentParser(argparse.ArgumentParser):
     """argparse that reports usage errors as one-line :class:`UsageError` (exit 2).
 
     Every parser made from it, including the subcommand parsers (argparse makes them of the
-    parent's class), uses :class:`HelpFormatter` unless given another formatter.
+    parent's class), uses :class:`HelpFormatter` unless given another formatter, and takes
+    an option only by its whole name: argparse's prefix matching would take ``--bet`` as
+    ``--beta`` silently, and a prefix that is unique today becomes ambiguous, or another
+    option, when an option is added.
     """
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         kwargs.setdefault("formatter_class", HelpFormatter)
+        kwargs.setdefault("allow_abbrev", False)
         super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> NoReturn:
