@@ -5,9 +5,12 @@ unit for every number of the JSON output."""
 from __future__ import annotations
 
 import argparse
+import re
+from pathlib import Path
 
 import pytest
 
+import vsw
 from vsw.cli import main
 from vsw.cli.app import COMMANDS, build_parser
 
@@ -43,3 +46,39 @@ def test_an_abbreviated_option_is_a_one_line_usage_error(capsys, argv):
 
 def test_every_command_is_checked():
     assert set(_subparsers(build_parser())) == set(COMMANDS)
+
+
+# --- the environment: every VSW_* variable the package reads is in `vsw --help` -------------
+
+_ENVIRON_READ = re.compile(r"""(?:environ(?:\.get)?\s*[\[(]|getenv\s*\()\s*["'](VSW_[A-Z_]+)["']""")
+
+
+def _variables_read() -> set[str]:
+    root = Path(vsw.__file__).parent
+    found: set[str] = set()
+    for path in root.rglob("*.py"):
+        found |= set(_ENVIRON_READ.findall(path.read_text(encoding="utf-8")))
+    return found
+
+
+def test_the_scan_finds_the_variables_it_should():
+    # The scan itself must work: these are read with os.environ.get in vsw/.
+    assert {"VSW_THREADS", "VSW_CACHE_DIR", "VSW_MODELS_DIR", "VSW_SEARCH_CACHE"} <= (
+        _variables_read()
+    )
+
+
+def test_every_variable_read_is_in_the_help(capsys):
+    assert main(["--help"]) == 0
+    text = capsys.readouterr().out
+    environment = text.split("environment:", 1)[1]
+    listed = set(re.findall(r"^  (VSW_[A-Z_]+) ", environment, flags=re.MULTILINE))
+    assert _variables_read() <= listed, sorted(_variables_read() - listed)
+
+
+def test_the_cache_directory_is_described_by_everything_it_holds(capsys):
+    assert main(["--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    cache = text.split("VSW_CACHE_DIR ", 1)[1].split(" VSW_", 1)[0]
+    for held in ("kernels", "model files", "searches"):
+        assert held in cache, held

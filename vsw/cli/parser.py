@@ -59,8 +59,25 @@ ENVIRONMENT = (
         "refuse work estimated to need more memory, e.g. 8G (default: 80% of the "
         "available memory; inf: none)",
     ),
-    ("VSW_KERNELS", "0: use the generated numpy code instead of the compiled C kernels"),
-    ("VSW_CACHE_DIR", "where compiled kernels are cached (default ~/.cache/vsw)"),
+    (
+        "VSW_KERNELS",
+        "0: use the generated numpy code and SciPy instead of the compiled C kernels and "
+        "simulators",
+    ),
+    (
+        "VSW_CACHE_DIR",
+        "what vsw builds and keeps: compiled kernels and simulators, models derived from "
+        "your model files, kept gait searches (default ~/.cache/vsw)",
+    ),
+    (
+        "VSW_MODELS_DIR",
+        "where models derived from your model files are kept (default VSW_CACHE_DIR/models)",
+    ),
+    (
+        "VSW_SEARCH_CACHE",
+        "0: search for gaits anew each time instead of reading a kept search "
+        "(kept in VSW_CACHE_DIR/searches)",
+    ),
     ("VSW_DASK_SCHEDULER", "run basins on this Dask scheduler (as --scheduler)"),
 )
 
