@@ -188,9 +188,9 @@ def test_the_ile_branch_ends_on_its_closed_form_conditions():
 def test_continue_json_and_plot(capsys, tmp_path):
     plot = tmp_path / "cascade.png"
     argv = ["continue", "--model", "simplest-walker", "--over", "gamma=0.009:0.0155",
-            "--from-state", f"theta={LONG_GAIT_0009[0]}", "--from-state",
-            f"phi={LONG_GAIT_0009[1]}", "--from-state", f"theta_dot={LONG_GAIT_0009[2]}",
-            "--from-state", f"phi_dot={LONG_GAIT_0009[3]}", "--no-switch",
+            "--state", f"theta={LONG_GAIT_0009[0]}", "--state",
+            f"phi={LONG_GAIT_0009[1]}", "--state", f"theta_dot={LONG_GAIT_0009[2]}",
+            "--state", f"phi_dot={LONG_GAIT_0009[3]}", "--no-switch",
             "--json", "--plot", str(plot)]  # fmt: skip
     assert main(argv) == 0
     data = json.loads(capsys.readouterr().out)
@@ -214,19 +214,19 @@ BAD = [
     (["--over", "gamma=0.01:0.01"], "equal"),
     (["--over", "gamma=-0.1:0.01"], "gamma"),
     (["--over", "gamma=0.01:0.02", "--period", "0"], "--period 0"),
-    (["--over", "gamma=0.01:0.02", "--period", "2"], "--from-state"),
+    (["--over", "gamma=0.01:0.02", "--period", "2"], "--state"),
     (["--over", "gamma=0.01:0.02", "--y", "theta"], "--plot"),
     (
         [
             "--over",
             "gamma=0.01:0.02",
-            "--from-state",
+            "--state",
             "theta=0.5",
-            "--from-state",
+            "--state",
             "phi=1",
-            "--from-state",
+            "--state",
             "theta_dot=0",
-            "--from-state",
+            "--state",
             "phi_dot=0",
         ],
         "gait at 0.01 near the start",
@@ -234,7 +234,7 @@ BAD = [
     (
         ["--over", "gamma=0.016:0.0175", "--period", "2"]
         + [
-            f"--from-state={item}"
+            f"--state={item}"
             for item in ("theta=-0.2", "phi=-0.4", "theta_dot=0.2", "phi_dot=0.016")
         ],
         "leads to a period-1 gait at 0.016, not period 2",

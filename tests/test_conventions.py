@@ -82,3 +82,24 @@ def test_the_cache_directory_is_described_by_everything_it_holds(capsys):
     cache = text.split("VSW_CACHE_DIR ", 1)[1].split(" VSW_", 1)[0]
     for held in ("kernels", "model files", "searches"):
         assert held in cache, held
+
+
+# --- a start state is --state in every command ------------------------------------------------
+
+
+def test_a_start_state_is_named_state_in_every_command():
+    named = {}
+    for name, sub in _subparsers(build_parser()).items():
+        strings = {s for a in sub._actions for s in a.option_strings if "state" in s}
+        if strings:
+            named[name] = strings
+    assert set(named) >= {"simulate", "animate", "sweep", "continue"}
+    for name, strings in named.items():
+        assert strings == {"--state"}, (name, strings)
+
+
+def test_continue_refuses_from_state(capsys):
+    argv = ["continue", "--model", "compass-gait", "--over", "gamma=0.01:0.02"]
+    assert main([*argv, "--from-state", "theta=0.1"]) == 2
+    err = capsys.readouterr().err
+    assert "unrecognized arguments: --from-state" in err

@@ -1,7 +1,7 @@
 """``vsw continue``: a model's gait continued in one parameter, its special points located.
 
 The period-one gait at the range's start (the first stable one of the search, or the gait
-through ``--from-state``; with ``--period K`` the period-K gait through it) followed by
+through ``--state``; with ``--period K`` the period-K gait through it) followed by
 pseudo-arclength continuation to the range's end (:mod:`vsw.continuation`): folds passed,
 flips, Neimark-Sacker points and boundaries located, and at each flip the period-doubled
 branch followed too (``--no-switch`` stops that), so one command draws the cascade.
@@ -59,14 +59,14 @@ def register(subparsers: Any) -> None:
     )
     options.add_model_options(p, "continue")
     p.add_argument(
-        "--from-state",
+        "--state",
         action="append",
         metavar="NAME=VALUE",
         help="a point of the gait at START (every coordinate and rate, repeated); default: "
         "the first stable gait of the search there, else its first gait",
     )
     p.add_argument("--period", type=int, default=1, metavar="K",
-                   help="the gait's period in steps (K > 1 needs --from-state)")  # fmt: skip
+                   help="the gait's period in steps (K > 1 needs --state)")  # fmt: skip
     p.add_argument("--no-switch", action="store_true",
                    help="do not follow the period-doubled branch born at each flip")  # fmt: skip
     p.add_argument("--max-period", type=int, default=16, metavar="K",
@@ -132,9 +132,9 @@ def run(args: argparse.Namespace) -> int:
     name, start, stop_value = parse_range(model, args.over)
     if args.period < 1:
         raise VswInputError(f"--period {args.period}: the period is a number of steps, >= 1")
-    if args.period > 1 and not args.from_state:
+    if args.period > 1 and not args.state:
         raise VswInputError(f"--period {args.period}: give a point of the period-"
-                            f"{args.period} gait with --from-state")  # fmt: skip
+                            f"{args.period} gait with --state")  # fmt: skip
     if args.max_period < args.period:
         raise VswInputError(f"--max-period {args.max_period} is below --period {args.period}")
     if not 2 <= args.max_points <= 100_000:
@@ -203,14 +203,14 @@ def run(args: argparse.Namespace) -> int:
 def _start(model: Model, params, args: argparse.Namespace) -> tuple[np.ndarray, list[float]]:
     """The gait to start from: its state and phase durations (a guess the corrector
     refines)."""
-    if args.from_state:
-        state = np.array(options.parse_state(model, args.from_state))
+    if args.state:
+        state = np.array(options.parse_state(model, args.state))
         durations: list[float] = []
         x = state
         for _ in range(args.period):
             step = model.step(params, x)
             if step.ended != "completed":
-                raise VswInputError(f"--from-state: no gait: a step from it ends with "
+                raise VswInputError(f"--state: no gait: a step from it ends with "
                                     f"{step.ended}")  # fmt: skip
             durations += list(step.durations)
             x = step.state
