@@ -1,4 +1,4 @@
-"""Design for every model (issue 23): a seeded suite per model against references that do
+"""Design for every model: a seeded suite per model against references that do
 not use IPOPT, and SciPy SLSQP side by side.
 
 ``python benchmarks/design_every_model.py [--problems N] [--models a,b] [--slsqp K]

@@ -430,7 +430,7 @@ def load_before(commit: str) -> Any:
     """``vsw/design.py`` as it was at ``commit``, as a module (needs git)."""
     source = subprocess.run(["git", "show", f"{commit}:vsw/design.py"], cwd=ROOT, check=True,
                             capture_output=True, text=True).stdout  # fmt: skip
-    # The engine (issue 12) moved the ILE's generated modules into generated/ile/; the
+    # The model engine moved the ILE's generated modules into generated/ile/; the
     # functions themselves are byte-identical, so the old code runs on them renamed.
     for old, new in MOVED_MODULES.items():
         source = source.replace(old, new)

@@ -1,5 +1,5 @@
 """The route a user would write without ``vsw optimize``: single shooting with SciPy's SLSQP
-on the simulated step (issue 28). Benchmark case 16 (benchmarks/run.py) runs
+on the simulated step. Benchmark case 16 (benchmarks/run.py) runs
 :func:`compass_push_off_by_shooting`, the compass gait on level ground powered by its
 push-off; the others are not cases (their SLSQP runs do not converge).
 

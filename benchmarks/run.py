@@ -5,9 +5,9 @@ the cases, prints a table and writes ``benchmarks/results.md`` (the table, the m
 versions). Each comparison is a ratio measured within one run: the two sides interleaved,
 a warm-up call of each first, then at least five repetitions (two with ``--quick``);
 medians are reported with min and max. Absolute times are reported; only ratios are
-claimed, except where the issue sets an absolute target (cases 4-7).
-Case 9 times one passive-walker gait solve per model (issue 13); cases 10 and 11 the
-compiled batch simulator, per step and as a 500 x 500 basin, locally and on Dask (issue 14).
+claimed, except where a case sets an absolute target (cases 4-7).
+Case 9 times one passive-walker gait solve per model; cases 10 and 11 the
+compiled batch simulator, per step and as a 500 x 500 basin, locally and on Dask.
 
 Every case runs in a fresh Python process, so its peak resident memory (RSS) is its own;
 the peak memory of one call of each side is measured with ``tracemalloc`` (numpy reports
@@ -63,8 +63,8 @@ USER_MODEL_SOURCE = "level_compass_gait"
 """The model case 7 copies outside the package as a user's model file with an impulse at
 heelstrike, and times through ``vsw analyze --model path.py`` on first use."""
 BATCH_BEFORE = "cc98831"
-"""The commit before issue 27's work on the batch simulator's C (case 15 runs its table and
-integrator side by side with today's)."""
+"""The commit before the batch simulator's C was rewritten in lanes (case 15 runs its table
+and integrator side by side with the current ones)."""
 BATCH_BEFORE_FLAGS = (
     ["-O3", "-march=native", "-ffp-contract=off", "-fno-math-errno", "-lm"],
     ["-O2", "-ffp-contract=off", "-lm"],
@@ -73,7 +73,7 @@ BATCH_BEFORE_FLAGS = (
 BATCH_VALUES = {"vsw_biped": {"beta": 0.97, "theta_II": -0.2}}
 """Case 15's parameters where not the defaults: the biped at a stable gait (its defaults'
 gaits are unstable, so the walks would fall within a few steps)."""
-"""The commit whose vsw/design.py case 8 compares with (before issue 10)."""
+"""The commit whose vsw/design.py case 8 compares with (before the design was rewritten)."""
 
 
 @dataclass
@@ -274,7 +274,7 @@ def case_fixed_point_vectorised(n: int, reps: int) -> list[Row]:
             "the generated code's own trig: be.cos_sin of theta_II and phi0 (2 tan)", t_one2,
             t_cos_sin, "(informative: cost beyond the trig it uses)", None),
     ]  # fmt: skip
-    if threads > 1:  # the issue's floor is plain numpy, on one thread
+    if threads > 1:  # the target's floor is plain numpy, on one thread
         rows[0].note = rows[2].note = "floor on 1 thread"
     for row in rows[:4]:  # the numpy path: what runs where no C compiler is available
         row.target = "(numpy fallback; informative)"
@@ -457,7 +457,7 @@ def case_design(quick: bool) -> list[Row]:
 
 def case_design_suite(quick: bool) -> list[Row]:
     """Case 8: the design suite (benchmarks/design_suite.py) against a grid + SLSQP
-    reference, the code before issue 10 side by side."""
+    reference, the code before the design's rewrite side by side."""
     sys.path.insert(0, str(ROOT / "benchmarks"))
     import design_suite
 
@@ -490,7 +490,7 @@ def case_design_suite(quick: bool) -> list[Row]:
             "objective <= reference + 1e-6 rel., constraints re-checked by the closed forms, "
             "q^f/period/length/speed by simulation; infeasible: status infeasible naming the "
             "constraint in conflict)",
-            f"code before issue 10 ({DESIGN_BEFORE})" if old else "-", None, None, ">= 99 %",
+            f"design code before ({DESIGN_BEFORE})" if old else "-", None, None, ">= 99 %",
             after["success_rate"] >= 0.99,
             note=f"{rate(after)}" + (f"; before: {rate(old)}" if old else "") + f"; {checks}"
             + (f"; failed: {', '.join(failures)}" if failures else ""), extra=extra),
@@ -504,7 +504,7 @@ def case_design_suite(quick: bool) -> list[Row]:
             note=f"{after['infeasible_reported_feasible']}" + (
                 f"; before: {old['infeasible_reported_feasible']}" if old else "")),
         Row("8", "time of design() per problem, no simulation check: median [min, max]",
-            "the code before issue 10, same problems" if old else "-", times("after"),
+            "the code before the design's rewrite, same problems" if old else "-", times("after"),
             times("before") if old else None, "median <= 100 ms", after["median_s"] <= 0.1,
             note=f"statuses {statuses(after)}" + (f"; before: {statuses(old)}" if old else "")),
         Row("8", "time of design() per problem: 95th percentile", "-", None, None,
@@ -592,7 +592,7 @@ def case_gait_rootfinder(reps: int) -> list[Row]:
             ">= 20x faster", ratio <= 1 / 20, note=note,
         ))  # fmt: skip
         # The same gait as a fixed point of the compiled batch simulator's map (Newton with
-        # central differences; issue 14), against the same baseline, side by side.
+        # central differences), against the same baseline, side by side.
         from vsw.batch import simulator
 
         sim = simulator(load(key))
@@ -638,7 +638,7 @@ def case_batch_step(count: int, reps: int) -> list[Row]:
     """Case 10: one step of the Poincare map from each of ``count`` section states near the
     gait: the compiled batch simulator (one thread, one call) at its default rtol = atol =
     1e-12 against SciPy's solve_ivp (DOP853, events; vsw.hybrid's step) at 1e-10 (the
-    issue's baseline) and at 1e-12 (the same tolerance), and both at 1e-10."""
+    target's baseline) and at 1e-12 (the same tolerance), and both at 1e-10."""
     import vsw.hybrid as hybrid
     from vsw.batch import simulator
     from vsw.models import load
@@ -727,7 +727,7 @@ def _walks_side_by_side(ours, theirs, params, starts, tol: float, reps: int) -> 
 
 
 def case_batch_before(count: int, reps: int, before: str = BATCH_BEFORE) -> list[Row]:
-    """Case 15 (issue 27): walks of 20 steps from ``count`` section states near each model's
+    """Case 15: walks of 20 steps from ``count`` section states near each model's
     gait, one thread, through today's batch simulator and through the C table and
     integrator of ``before``, alternately in one run, at rtol = atol = 1e-10 and 1e-12.
     Time per step walked (walks that fall end early, the same in both)."""
@@ -1063,12 +1063,12 @@ def case_basin_grid(side: int, reps: int) -> list[Row]:
         f"in-process threads ({default_threads()})", t_remote, t_local, "<= 1.3x the local time",
         ratio <= 1.3, note=f"results identical: {same}; cluster start-up not timed",
     ))  # fmt: skip
-    # the CLI's target is the issue's, for 200 x 200 (the quick mode's 20 x 20 only runs it)
+    # the CLI's target is for 200 x 200 (the quick mode's 20 x 20 only runs it)
     return rows + _compass_gait_basin(side, reps) + _cli_basin_cost(min(side, 200), reps)
 
 
 def _compass_gait_basin(side: int, reps: int) -> list[Row]:
-    """Case 11, issue 27: a side x side basin of the compass gait (its section declares
+    """Case 11: a side x side basin of the compass gait (its section declares
     psi = -theta) around its stable gait at the defaults, over theta x theta_dot just
     after heelstrike (psi_dot the gait's), up to 50 steps a cell, in-process threads."""
     from vsw.grid_basin import grid_basin
@@ -1103,10 +1103,10 @@ CLI name, parameters, theta range, theta_dot range (the grids of the basins abov
 
 
 def _cli_basin_cost(side: int, reps: int) -> list[Row]:
-    """Case 11, issue 27: `vsw basin --grid` (a whole process: start, imports, kernel load,
+    """Case 11: `vsw basin --grid` (a whole process: start, imports, kernel load,
     gait search, the basin, text output) against the library call it makes
     (``grid_basin`` with the gait known and the kernel loaded, in this process), alternately.
-    The target, 1.3x, is the issue's for a 200 x 200 basin; on the simplest walker the basin
+    The target, 1.3x, is for a 200 x 200 basin; on the simplest walker the basin
     itself takes about 0.1 s, less than an interpreter's start with numpy."""
     from vsw.grid_basin import grid_basin
     from vsw.models import load
@@ -1360,7 +1360,7 @@ def run_case(case: int, quick: bool) -> list[Row]:
 
 
 def case_design_every_model(quick: bool) -> list[Row]:
-    """Case 13 (issue 23): design on the periodic orbit, a seeded suite per model against
+    """Case 13: design on the periodic orbit, a seeded suite per model against
     references without IPOPT (benchmarks/design_every_model.py), SLSQP side by side."""
     sys.path.insert(0, str(ROOT / "benchmarks"))
     import design_every_model
@@ -1382,7 +1382,7 @@ GAIT_SEARCH_SETS = (
     ("vsw_biped", {"beta": 0.99, "theta_II": -0.2, "mu": 0.3, "b_over_l": 0.3}),
 )
 """Where the gait search is checked against a scan twice as fine (case 12): the passive
-walkers' defaults and the biped's sets of tests/test_gaits.py (issue 20's)."""
+walkers' defaults and the biped's sets of tests/test_gaits.py."""
 
 
 MILD = 100.0
@@ -1434,7 +1434,7 @@ def case_gait_search(quick: bool) -> list[Row]:
 
 
 def case_locate_flip(quick: bool) -> list[Row]:
-    """Case 14 (issue 25): the simplest walker's first flip from gamma = 0.009, located by
+    """Case 14: the simplest walker's first flip from gamma = 0.009, located by
     ``vsw continue``'s library call (Garcia et al. 1998's long gait, continued without
     switching to the flip's bracket below 1e-11 of the range) against ``vsw sweep``'s
     continuation on a grid, one run each in this process. A grid locates the flip only to
@@ -1482,7 +1482,7 @@ def case_locate_flip(quick: bool) -> list[Row]:
 
 
 def case_powered_shooting(quick: bool) -> list[Row]:
-    """Case 16 (issue 28): the compass gait on level ground powered by its push-off alone,
+    """Case 16: the compass gait on level ground powered by its push-off alone,
     the least work a step at one step length: ``vsw optimize``'s library call (collocation
     on 20 and 40 intervals, IPOPT, the re-simulation and the eigenvalues) against single
     shooting with SciPy's SLSQP on the simulated step from a plain start

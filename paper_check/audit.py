@@ -46,7 +46,7 @@ VERDICTS: dict[str, str] = {
     "notation": "the same physics under an inconsistent symbol or definition (named)",
     "wrong": "does not follow (the corrected form and a counterexample are given)",
 }
-"""The fixed verdict vocabulary (issue 4) with its meaning."""
+"""The fixed verdict vocabulary with its meaning."""
 
 EXPECTED_PATH = Path(__file__).with_name("expected_verdicts.json")
 NUMERIC_TOL = 1e-9

@@ -1,4 +1,4 @@
-"""``python -m paper_check --model kuo-walker``: Kuo's ratio (issue 28, question 2).
+"""``python -m paper_check --model kuo-walker``: Kuo's ratio.
 
 Kuo (2002) powers the simplest walking model (a point mass on rigid massless legs, level
 ground) by a push-off along the trailing leg just before heelstrike, or by a torque on the

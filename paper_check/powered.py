@@ -1,8 +1,8 @@
 """``python -m paper_check --model point-mass-biped``: the point-mass biped's least-work
 gaits (``vsw optimize``) beside the inverted-pendulum walking Srinivasan & Ruina (2006)
 found optimal at low speed, with its cost derived here, and the ILE's price: the ILE's gait
-against the least-work gait of its own body at the same speed and step length (the
-questions 1 and 3 of issue 28; docs/models/powered_walking.md).
+against the least-work gait of its own body at the same speed and step length
+(docs/models/powered_walking.md).
 
 The inverted-pendulum gait with legs ``l`` long at ``+-alpha`` (``sin alpha = d / 2l``):
 the hip moves on a circular arc, the leg does no work, and at the step the velocity
@@ -338,7 +338,7 @@ def point_mass_biped(out: Path, quick: bool = False) -> list[Path]:
         "cannot resolve a mid-stance impulse and the result says `not-converged`: the ",
         "numbers are neither optima nor bounds, only a sign that inverted-pendulum walking ",
         "is not the least work at 0.9.\n",
-        "\n## The ILE's price (issue 28, question 3)\n\n",
+        "\n## The ILE's price\n\n",
         "Each ILE gait (its closed forms; its energy ledger's actuator work a step, the ",
         "leg's extension) against the least positive work of its own body (the point-mass ",
         "biped with the ILE's r_e as l and its beta r_e as l_min) at the same speed and ",

@@ -1,7 +1,7 @@
-"""``python -m paper_check.walkers --model free-vsw-biped``: VSW's price on its own biped
-(issue 28, question 3, second half): each VSW biped gait's actuator work a step against
-the least work found for the same body, free in how it uses its leg and hip, at the same
-speed and step length (docs/models/powered_walking.md).
+"""``python -m paper_check.walkers --model free-vsw-biped``: VSW's price on its own biped:
+each VSW biped gait's actuator work a step against the least work found for the same body,
+free in how it uses its leg and hip, at the same speed and step length
+(docs/models/powered_walking.md).
 
 The VSW biped's gaits: Newton (``periodic_orbit``) from the states ``vsw analyze`` lists
 for them, their work from the energy ledger (the extension's, ``leg and held hip``: its

@@ -16,7 +16,7 @@ For each model a short Markdown report ``DIR/<model>.md`` and its figures:
 * ``kneed-walker``: Hsu Chen (2007)'s point-foot kneed walker (McGeer 1990's model): her
   gait's state and period, an independent re-implementation's gait and eigenvalues, and
   where the map from her published state goes;
-* ``kuo-walker``: Kuo's ratio (issue 28, question 2), the push-off against the stance
+* ``kuo-walker``: Kuo's ratio, the push-off against the stance
   torque at one speed and step length, beside its derivation (:mod:`paper_check.kuo`);
 * ``point-mass-biped``: its least-work gaits (``vsw optimize``) beside Srinivasan & Ruina
   (2006)'s inverted-pendulum walking with its cost derived in :mod:`paper_check.powered`,
@@ -232,7 +232,7 @@ def _basin_section(out: Path, quick: bool) -> tuple[list[str], list[Path]]:
         f"{int(steps[converged].max())} steps to come within 1e-6 of the gait. The basin is a ",
         'thin band through the stable gait. Schwab and Wisse (2001, "Basin of attraction ',
         'of the simplest walking model", Proc. ASME DETC) computed it by cell mapping and ',
-        "found it small and thin (as this project's issue 14 summarises them); their figure ",
+        "found it small and thin; their figure ",
         "was not at hand, so no number of theirs is compared here.\n\n",
         "## Bifurcation diagram by brute force\n\n",
         f"![brute-force diagram]({diagram_png.name})\n\n",

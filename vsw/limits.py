@@ -88,7 +88,7 @@ HYBRID_SECONDS_PER_ORBIT = 0.1
 HYBRID_BYTES_PER_STEP = 2_500
 # The compiled batch simulator (vsw.batch), per phase x coordinate of a step, one thread:
 #: 21.6 us a step of the simplest walker (1 phase x 2 coordinates), 74 us of the compass
-#: gait: benchmarks/run.py case 10 (the full run of stop 18)
+#: gait: benchmarks/run.py case 10
 BATCH_SECONDS_PER_PHASE = 4e-5  # per phase x coordinate: covers the compass gait (37 us)
 #: a basin cell: the state, outcome, label and steps, and their JSON text (~100 bytes)
 BATCH_BYTES_PER_CELL = 400
@@ -99,7 +99,7 @@ ILE_SWEEP_SECONDS_PER_POINT = 1e-4
 ILE_SWEEP_BYTES_PER_POINT = 5_000
 
 # Trajectories (vsw.trajectories), measured by hand on the compass gait and the biped, 3
-# steps at 1e4 samples per time unit (22,040 and 68,038 rows; 2026-12-02, Intel Xeon):
+# steps at 1e4 samples per time unit (22,040 and 68,038 rows; Intel Xeon):
 #: sampling 1.6-3.4 us and CSV text 5.9-6.0 us a row, 7.5-9.4 us together
 TRAJECTORY_SECONDS_PER_ROW = 1e-5
 #: a row's arrays, Python tuple and CSV text: tracemalloc peak 467-468 B a row

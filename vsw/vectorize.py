@@ -35,7 +35,7 @@ def _raise_glibc_malloc_thresholds() -> None:
     # mmap()ed block: then it raises both thresholds to that block's size (mallopt(3),
     # "dynamic mmap threshold"). Until that happens, every temporary of a block is
     # page-faulted in anew: a cold 1000 x 1000 basin took 2.0 s against 0.63 s warm (timed
-    # by hand once, 2026-11-23; benchmarks/run.py case 5 times the first call). Allocating
+    # by hand once; benchmarks/run.py case 5 times the first call). Allocating
     # and freeing one untouched 4 MiB array performs that first free up front; elsewhere
     # it is a no-op.
     np.empty(4 * 1024 * 1024 // 8)

@@ -1,4 +1,4 @@
-"""A hand-written numba DOP853 walker: the peer issue 27 measures the batch simulator against.
+"""A hand-written numba DOP853 walker: the peer case 15 measures the batch simulator against.
 
 What a user would write in about 200 lines instead of using vsw: SciPy's DOP853 (its
 tableau, error norm, step-size control and initial step), the events located on the

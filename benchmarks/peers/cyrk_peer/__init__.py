@@ -1,4 +1,4 @@
-"""CyRK's C++ DOP853 as a walker: benchmark case 15's second peer (issue 27).
+"""CyRK's C++ DOP853 as a walker: benchmark case 15's second peer.
 
 ``walker.pyx`` beside this file walks the numba peer's models (benchmarks/peers/
 numba_dop853.py: the same equations, guards, resets and rules) through CyRK's Cython API
