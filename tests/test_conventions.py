@@ -5,6 +5,8 @@ unit for every number of the JSON output."""
 from __future__ import annotations
 
 import argparse
+import json
+import math
 import re
 from pathlib import Path
 
@@ -103,3 +105,39 @@ def test_continue_refuses_from_state(capsys):
     assert main([*argv, "--from-state", "theta=0.1"]) == 2
     err = capsys.readouterr().err
     assert "unrecognized arguments: --from-state" in err
+
+
+# --- a plain number is in the parameter table's unit, in design --fix too ---------------------
+
+
+def _design(capsys, *argv: str) -> dict:
+    assert main(["design", "--maximize", "speed", "--fix", "beta=0.8", *argv, "--json"]) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def test_ile_design_fix_takes_radians_or_degrees_with_deg(capsys):
+    in_degrees = _design(capsys, "--fix", "theta_II=5deg")
+    in_radians = _design(capsys, "--fix", "theta_II=0.0872664626")  # 5 deg
+    assert in_degrees["parameters"]["theta_II"] == pytest.approx(math.radians(5), abs=1e-10)
+    for name in ("beta", "theta_II", "phi0"):
+        assert in_radians["parameters"][name] == pytest.approx(
+            in_degrees["parameters"][name], abs=1e-9
+        )
+    assert in_radians["speed"] == pytest.approx(in_degrees["speed"], rel=1e-9)
+
+
+def test_ile_design_fix_of_5_is_5_rad_and_refused(capsys):
+    assert main(["design", "--maximize", "speed", "--fix", "theta_II=5"]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1
+    assert "--fix theta_II=5" in err and "(-1.5708, 1.5708) rad" in err
+
+
+def test_ile_named_angle_bounds_are_degrees_as_their_help_says(capsys):
+    named = _design(capsys, "--theta-ii-max", "5")
+    bound = _design(capsys, "--bound", "theta_II=:5deg")
+    assert named["parameters"] == bound["parameters"]
+    assert named["parameters"]["theta_II"] <= math.radians(5) + 1e-12
+    assert main(["design", "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "theta_II <= this [deg]" in text

@@ -20,7 +20,7 @@ from vsw.cli import options
 from vsw.cli.output import dump_json, envelope, fmt, unit_text, write_orbit, write_parameters
 from vsw.cli.parser import option_name
 from vsw.errors import VswInputError
-from vsw.models.ile.design import CONDITION_SETS, DesignResult, _finite, _parse_fix, design
+from vsw.models.ile.design import CONDITION_SETS, DesignResult, _finite, design
 from vsw.models.ile.params import STEPPER_2D, RobotScale
 
 __all__ = ["register", "run"]
@@ -95,7 +95,8 @@ def _design_from_args(args: argparse.Namespace) -> tuple[DesignResult, RobotScal
         bounds[key] = (low, high)
     if args.target_period is not None:
         raise VswInputError("--target-period is not an option of the ILE's design")
-    fixed = _parse_fix(args.fix or [])
+    # --fix in the table's units (an angle also with a deg suffix), as for every model.
+    fixed = _values(models.load("ile"), "--fix", args.fix or [])
     result = design(
         objective=objective or None,
         targets=targets,
@@ -369,7 +370,8 @@ def register(subparsers: Any) -> None:
         help="constrained gait design with CasADi/IPOPT, for every model",
         description="Find a model's parameters and its gait for an objective and targets "
         "under its conditions and your limits. The ILE designs (beta, theta_II, phi0) from "
-        "its closed forms (angles of its named options and --fix in degrees); every other "
+        "its closed forms (the angles of its named bounds --theta-ii-min ... --phi0-max in "
+        "degrees, as --theta-ii and --phi0 of the other commands); every other "
         "model designs each parameter that is not fixed, within its table's interval (a "
         "scale such as a mass or g only within a --bound you give), and its gait together: "
         "IPOPT on the periodic orbit (multiple shooting), values in the model's units (see "
@@ -402,8 +404,8 @@ def register(subparsers: Any) -> None:
     goal.add_argument("--target-period", type=float, help="step period (the model's time unit)")
     lim = p.add_argument_group("bounds and constraints")
     lim.add_argument("--fix", action="append", metavar="NAME=VALUE",
-                     help="hold a parameter (ile: beta, theta_II or phi0, angles in deg; other "
-                     "models: the table's units, an angle also with a deg suffix)")  # fmt: skip
+                     help="hold a parameter in the table's units, an angle in rad or with a "
+                     "deg suffix: theta_II=5deg (ile: beta, theta_II or phi0)")  # fmt: skip
     lim.add_argument("--bound", action="append", metavar="NAME=A:B",
                      help="bound a parameter (table units, an angle also in deg: "
                      "theta_II=-10deg:5deg) or a quantity (speed, step_length, step_frequency, "
@@ -414,10 +416,16 @@ def register(subparsers: Any) -> None:
                      "unit; default: > 0)")  # fmt: skip
     lim.add_argument("--beta-min", type=float, help="ile")
     lim.add_argument("--beta-max", type=float, help="ile")
-    lim.add_argument("--theta-ii-min", type=float, help="ile [deg]")
-    lim.add_argument("--theta-ii-max", type=float, help="ile [deg]")
-    lim.add_argument("--phi0-min", type=float, help="ile [deg]")
-    lim.add_argument("--phi0-max", type=float, help="ile [deg]")
+    # Named options of the paper's angles take degrees in every command (--theta-ii,
+    # --phi0); these are the ILE's named duplicates of --bound, in the same unit.
+    lim.add_argument("--theta-ii-min", type=float,
+                     help="ile: theta_II >= this [deg] (as --bound theta_II=Adeg:)")  # fmt: skip
+    lim.add_argument("--theta-ii-max", type=float,
+                     help="ile: theta_II <= this [deg] (as --bound theta_II=:Bdeg)")  # fmt: skip
+    lim.add_argument("--phi0-min", type=float,
+                     help="ile: phi0 >= this [deg] (as --bound phi0=Adeg:)")  # fmt: skip
+    lim.add_argument("--phi0-max", type=float,
+                     help="ile: phi0 <= this [deg] (as --bound phi0=:Bdeg)")  # fmt: skip
     lim.add_argument("--min-contact-margin", type=float, default=None,
                      help="ile: min normal force [m g] (default 0)")  # fmt: skip
     lim.add_argument("--min-step-length", type=float, help="ile: m with --leg-length, else r_e")

@@ -185,7 +185,8 @@ def epilog() -> str:
     lines += [*table(ENVIRONMENT), ""]
     lines.append(textwrap.fill(
         "Parameters in the units of 'vsw models' (angles in rad, or with a deg suffix: "
-        "--param phi0=45deg); --theta-ii and --phi0 in degrees; JSON in the model's units "
-        "(angles in rad).", 79,
+        "--param phi0=45deg), in every NAME=VALUE option (--fix, --bound, --over, --state); "
+        "the named --theta-ii and --phi0 (and design's --theta-ii-min/max, --phi0-min/max) "
+        "in degrees; JSON in the model's units (angles in rad).", 79,
     ))  # fmt: skip
     return "\n".join(lines)

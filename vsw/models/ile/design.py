@@ -1507,24 +1507,3 @@ def _speed_beyond_reach(
         f"the target speed {wanted:g}{unit} is above the fastest gait within the other "
         f"constraints, {fastest:.6g}{unit}{limit}"
     )
-
-
-# --- command line --------------------------------------------------------------------------
-
-
-def _parse_fix(texts: Sequence[str]) -> dict[str, float]:
-    """``NAME=VALUE`` pairs of ``--fix``; angles in degrees; a name given twice is an error."""
-    aliases = {"beta": "beta", "theta_ii": "theta_II", "theta-ii": "theta_II", "phi0": "phi0"}
-    fixed: dict[str, float] = {}
-    for text in texts:
-        name, sep, value = text.partition("=")
-        key = aliases.get(name.strip().lower())
-        if not sep or key is None:
-            raise VswInputError(
-                f"--fix {text!r}: expected NAME=VALUE with NAME beta, theta_II or phi0"
-            )
-        if key in fixed:
-            raise VswInputError(f"--fix {key} is given twice; fix each parameter once")
-        v = _finite(f"--fix {key}", value)
-        fixed[key] = v if key == "beta" else math.radians(v)
-    return fixed
