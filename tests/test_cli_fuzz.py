@@ -265,7 +265,9 @@ def test_design_any_arguments():
         "--theta-ii-max": number(0.0, 20.0),
         "--phi0-min": number(10.0, 40.0),
         "--phi0-max": number(30.0, 80.0),
-        "--fix": st.sampled_from(["beta=0.8", "phi0=45deg", "theta_II=0", "beta=abc", "x=1", "beta"]),
+        "--fix": st.sampled_from(
+            ["beta=0.8", "phi0=45deg", "theta_II=0", "beta=abc", "x=1", "beta"]
+        ),
         "--min-contact-margin": number(0.0, 0.2),
         "--max-eigenvalue": number(0.1, 1.0),
         "--starts": st.just("1"),
