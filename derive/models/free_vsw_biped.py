@@ -1,5 +1,5 @@
 """The VSW biped's body with free actuation: the gait of least work that body can walk
-(issue 28, question 3: VSW's price on its own biped).
+(VSW's price on its own biped).
 
 The body of the VSW biped (vsw_biped.py): a point mass ``m_H`` at the hip and two legs
 whose mass ``m = mu m_H`` sits ``b`` below the hip on the upper, rigid segment; the lower

@@ -1,6 +1,6 @@
 """The VSW biped's body with free actuation and a push at a chosen angle: the least work of
-that body where its leg may also push in an instant within the stance (issue 28, question
-3: VSW's price on its own biped).
+that body where its leg may also push in an instant within the stance (VSW's price on its own
+biped).
 
 The body, its actuators, heelstrike and units are ``free_vsw_biped.py``'s. On that model
 the least work does not converge as the mesh refines: near the end of the stance the leg

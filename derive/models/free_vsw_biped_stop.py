@@ -1,5 +1,5 @@
 """The VSW biped's body with free actuation and an end stop at ``l``: every step extends
-the stance leg to its stop, as the VSW biped does (issue 28, question 3).
+the stance leg to its stop, as the VSW biped does (VSW's price on its own biped).
 
 The body, its actuators, heelstrike and units are ``free_vsw_biped.py``'s. A step has two
 phases, as the VSW biped's:

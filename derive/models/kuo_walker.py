@@ -14,7 +14,7 @@ velocity along the new leg is lost). Kuo powers it in two ways, whose costs he c
 * a torque on the stance leg about its foot (Kuo's "torque applied on the stance leg"; an
   idealisation: a point mass has no trunk for a hip to act against).
 
-Its rigid-leg question (issue 28, question 2) is the factor between the two least costs at
+Its rigid-leg question (Kuo's ratio) is the factor between the two least costs at
 one speed and step length. The point-mass biped (point_mass_biped.py) has the same body on
 telescoping legs; there rigid legs (``l_min = l``) are held by a leg force scheduled in
 time, which a re-simulation cannot keep at ``l``: here the leg is held exactly.

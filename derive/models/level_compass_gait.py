@@ -1,4 +1,4 @@
-"""The compass gait on level ground, powered (issue 28, question 2 with massive legs).
+"""The compass gait on level ground, powered (Kuo's ratio with massive legs).
 
 The body of the compass gait (compass_gait.py: Goswami, Thuilot, Espiau 1996; Drake,
 examples/compass_gait, whose parameters are the defaults): two rigid legs ``a + b`` long

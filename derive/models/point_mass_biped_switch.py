@@ -1,5 +1,5 @@
 """The point-mass biped with its legs' switch point chosen: the least work of that body over
-every place where the legs may exchange roles (issue 28, question 3: the ILE's price).
+every place where the legs may exchange roles (the ILE's price).
 
 The body, its actuators, failures and units are ``point_mass_biped.py``'s. That model
 exchanges the legs where the hip passes midway between the feet (``x = d / 2``), so its

@@ -363,8 +363,7 @@ def _closest_to_apex_cos(theta_lo_sin, cos_lo, theta_hi_sin, cos_hi) -> sm.Expr:
     interval contains the apex and it is 1. Written as a maximum with the indicator of
     "contains the apex" (cosines lie in (0, 1] on the domain), which evaluates without a
     select. For a reversed interval (lo > hi: the stance leg never reaches theta_II, a set
-    that does not walk) the value means nothing; before 2026-11-23 a different formula
-    gave other (equally meaningless) margins there, with the same signs.
+    that does not walk) the value means nothing (only its sign is used).
     """
     contains_apex = sm.Piecewise((1, theta_lo_sin * theta_hi_sin <= 0), (0, True))
     return sm.Max(cos_lo, cos_hi, contains_apex)
