@@ -141,3 +141,31 @@ def test_ile_named_angle_bounds_are_degrees_as_their_help_says(capsys):
     assert main(["design", "--help"]) == 0
     text = " ".join(capsys.readouterr().out.split())
     assert "theta_II <= this [deg]" in text
+
+
+# --- one unit per quantity: a step frequency is Hz in SI, 1/time unit in scaled units --------
+
+
+def test_step_frequency_is_hz_in_si_for_every_model(capsys):
+    si = ["design", "--maximize", "speed", "--fix", "beta=0.8", "--leg-length", "1"]
+    assert main(si) == 0
+    ile = {line.split()[0]: line.split()[-1] for line in capsys.readouterr().out.splitlines()}
+    assert ile["step_frequency"] == "Hz" and ile["step_period_s"] == "s"
+    gait = ["design", "--model", "compass-gait", "--minimize", "eigenvalue", "--starts", "1"]
+    assert main(gait) == 0
+    text = capsys.readouterr().out
+    (line,) = [row for row in text.splitlines() if row.strip().startswith("step_frequency")]
+    assert line.split()[-1] == "Hz"
+    assert main([*gait, "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["units"]["time"] == "s"
+    assert data["units"]["quantities"]["step_frequency"] == "Hz"
+
+
+@pytest.mark.slow  # compiles the simplest walker's simulator first: about 15 s
+def test_step_frequency_in_scaled_units_is_one_over_the_time_unit(capsys):
+    argv = ["design", "--model", "simplest-walker", "--minimize", "eigenvalue", "--starts", "1"]
+    assert main([*argv, "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["units"]["time"] == "sqrt(l/g)"
+    assert data["units"]["quantities"]["step_frequency"] == "1/sqrt(l/g)"

@@ -17,7 +17,15 @@ from typing import Any
 from vsw import design as gait_design
 from vsw import models
 from vsw.cli import options
-from vsw.cli.output import dump_json, envelope, fmt, unit_text, write_orbit, write_parameters
+from vsw.cli.output import (
+    dump_json,
+    envelope,
+    fmt,
+    quantity_unit,
+    unit_text,
+    write_orbit,
+    write_parameters,
+)
 from vsw.cli.parser import option_name
 from vsw.errors import VswInputError
 from vsw.models.ile.design import CONDITION_SETS, DesignResult, _finite, design
@@ -315,20 +323,6 @@ def _request(args: argparse.Namespace, model: models.Model) -> gait_design.Desig
     )  # fmt: skip
 
 
-QUANTITY_UNITS = {"period": "time", "step_length": "length", "energy_per_step": "energy"}
-
-
-def _quantity_unit(model: models.Model, name: str) -> str:
-    units = dict(model.units)
-    if name in QUANTITY_UNITS:
-        return units.get(QUANTITY_UNITS[name], "")
-    if name == "speed":
-        return f"{units.get('length', '')}/{units.get('time', '')}"
-    if name == "step_frequency":
-        return f"1/{units.get('time', '')}"
-    return ""
-
-
 def _run_generic(args: argparse.Namespace, model: models.Model) -> int:
     request = _request(args, model)
     result = gait_design.design(model, request)
@@ -337,7 +331,7 @@ def _run_generic(args: argparse.Namespace, model: models.Model) -> int:
                   "confirmed by the periodic-orbit solver and a simulated step"}  # fmt: skip
     data = {**envelope(model, params, args.argv, tolerances), **result.to_dict()}
     if result.found:
-        data["units"]["quantities"] = {k: _quantity_unit(model, k) for k in result.quantities}
+        data["units"]["quantities"] = {k: quantity_unit(model, k) for k in result.quantities}
     exit_code = 0 if result.found else 3
     if args.json:
         dump_json(data)
@@ -354,7 +348,7 @@ def _run_generic(args: argparse.Namespace, model: models.Model) -> int:
     write_orbit(out, model, result.orbit)
     out.write("quantities\n")
     for name, value in result.quantities.items():
-        out.write(f"  {name:<16} {fmt(value):>14}{unit_text(_quantity_unit(model, name))}\n")
+        out.write(f"  {name:<16} {fmt(value):>14}{unit_text(quantity_unit(model, name))}\n")
     out.write("conditions (least margin over the step)\n")
     for c in result.margins:
         out.write(f"  {c['name']:<16} {fmt(c['margin']):>14}{unit_text(c['unit'])}\n")

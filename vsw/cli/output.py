@@ -32,6 +32,7 @@ __all__ = [
     "envelope",
     "fmt",
     "progress",
+    "quantity_unit",
     "version",
     "write_orbit",
     "write_parameters",
@@ -134,6 +135,48 @@ def envelope(
             "tolerances": dict(tolerances or {}),
         },
     }
+
+
+QUANTITIES = {
+    "period": "time",
+    "step_period": "time",
+    "step_length": "length",
+    "speed": "speed",
+    "step_frequency": "frequency",
+    "energy_per_step": "energy",
+    "work": "energy",
+    "positive_work": "energy",
+    "impulses": "impulse",
+    "ground_impulses": "impulse",
+    "eigenvalue": "1",
+    "max_abs_eigenvalue": "1",
+    "eigenvalues": "1",
+    "cost_of_transport": "1",
+}
+"""What an output's quantities are, by key: a dimension of the model's units
+(:func:`dimension_unit`), or '1' for a dimensionless number."""
+
+
+def dimension_unit(model: Model, dimension: str) -> str:
+    """A dimension in the model's units: its time, length, energy, force or mass unit, or
+    speed (length/time), frequency (Hz where time is in s, else 1/time), impulse (force
+    time); '1' stays '1'."""
+    units = dict(model.units)
+    time, length = units.get("time", ""), units.get("length", "")
+    if dimension == "speed":
+        return f"{length}/{time}"
+    if dimension == "frequency":
+        return "Hz" if time == "s" else f"1/{time}"
+    if dimension == "impulse":
+        return f"{units.get('force', '')} {time}"
+    return units.get(dimension, dimension)
+
+
+def quantity_unit(model: Model, name: str) -> str:
+    """The unit of the output quantity ``name`` (:data:`QUANTITIES`) in the model's units;
+    '' for a name it does not know."""
+    dimension = QUANTITIES.get(name)
+    return "" if dimension is None else dimension_unit(model, dimension)
 
 
 def unit_text(unit: str | None) -> str:
