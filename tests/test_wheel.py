@@ -145,7 +145,8 @@ def test_the_wheel_holds_every_package_file_and_the_sdist_what_checks_it(install
 
     with tarfile.open(installed.sdist) as tar:
         top = {name.split("/", 2)[1] for name in tar.getnames() if name.count("/") >= 1}
-    assert {"tests", "docs", "benchmarks", "MANIFEST.in", "pyproject.toml", *PACKAGES} <= top
+    expected = {"tests", "docs", "benchmarks", "mkdocs.yml", "CHANGELOG.md", "pyproject.toml"}
+    assert {*expected, "MANIFEST.in", *PACKAGES} <= top
 
 
 @pytest.mark.slow
