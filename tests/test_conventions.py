@@ -169,3 +169,55 @@ def test_step_frequency_in_scaled_units_is_one_over_the_time_unit(capsys):
     data = json.loads(capsys.readouterr().out)
     assert data["units"]["time"] == "sqrt(l/g)"
     assert data["units"]["quantities"]["step_frequency"] == "1/sqrt(l/g)"
+
+
+# --- an angle given in degrees is echoed in degrees; the JSON stays in rad ---------------------
+
+
+def _rows(text: str, name: str) -> list[list[str]]:
+    lines = text.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.split()[:1] == [name])
+    return [line.split() for line in lines[start + 1 :] if line.strip()]
+
+
+def test_ile_sweep_echoes_degrees_and_keeps_radians_in_json(capsys):
+    argv = ["sweep", "--over", "theta_II=-10deg:10deg:3", "--param", "phi0=40deg"]
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    header = text.splitlines()[0]
+    assert "over theta_II deg" in header and "phi0 = 40 deg" in header
+    assert [float(row[0]) for row in _rows(text, "theta_II")] == [-10.0, 0.0, 10.0]
+    assert main([*argv, "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["over_unit"] == "rad" and data["units"]["angle"] == "rad"
+    values = [p["theta_II"] for p in data["points"]]
+    assert values == pytest.approx([math.radians(-10), 0.0, math.radians(10)], abs=1e-15)
+
+
+def test_ile_sweep_in_radians_is_shown_in_radians(capsys):
+    assert main(["sweep", "--over", "theta_II=-0.1:0.1:3"]) == 0
+    text = capsys.readouterr().out
+    assert "over theta_II rad" in text.splitlines()[0]
+    assert [float(row[0]) for row in _rows(text, "theta_II")] == [-0.1, 0.0, 0.1]
+
+
+def test_sweep_of_a_model_echoes_degrees(capsys):
+    argv = ["sweep", "--model", "rimless-wheel", "--over", "gamma=4deg:5deg:2"]
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    assert "over gamma deg" in text.splitlines()[0]
+    assert [float(row[0]) for row in _rows(text, "gamma")] == [4.0, 5.0]
+
+
+def test_continue_echoes_degrees_and_keeps_radians_in_json(capsys):
+    argv = ["continue", "--model", "rimless-wheel", "--over", "gamma=4deg:5deg"]
+    argv += ["--max-points", "5"]
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    assert "gamma deg from 4 to 5" in text
+    branch = next(line for line in text.splitlines() if "branch" in line)
+    assert "gamma 4 to " in branch
+    assert main([*argv, "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["over_unit"] == "rad"
+    assert data["range"] == pytest.approx([math.radians(4), math.radians(5)], rel=1e-15)

@@ -196,7 +196,9 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         dump_json(data)
         return EXIT_OK
-    _write(model, data)
+    degrees = options.given_in_degrees(model, name, args.over)
+    free_degrees = free is not None and options.given_in_degrees(model, free[0], args.free)
+    _write(model, data, degrees, free_degrees)
     return EXIT_OK
 
 
@@ -223,20 +225,25 @@ def _start(model: Model, params, args: argparse.Namespace) -> tuple[np.ndarray, 
     return np.array(list(orbit.state.values())), list(orbit.durations)
 
 
-def _write(model: Model, data: dict) -> None:
+def _write(model: Model, data: dict, degrees: bool, free_degrees: bool) -> None:
+    """The text report; a parameter whose range was given in degrees is shown in degrees."""
     out = sys.stdout
     name = data["over"]
-    unit = unit_text(data["over_unit"])
+    unit = " deg" if degrees else unit_text(data["over_unit"])
+
+    def shown(value: float | None) -> str:
+        return fmt(options.echo(value, degrees))
+
     out.write(f"{'model':<12} {model.cli_name} ({model.title}); {name}{unit} from "
-              f"{fmt(data['range'][0])} to {fmt(data['range'][1])}\n")  # fmt: skip
+              f"{shown(data['range'][0])} to {shown(data['range'][1])}\n")  # fmt: skip
     for branch in data["branches"]:
         points = branch["points"]
         born = ("" if branch["from_flip"] is None
-                else f", born at the flip at {name} = {fmt(branch['from_flip'])}")  # fmt: skip
+                else f", born at the flip at {name} = {shown(branch['from_flip'])}")  # fmt: skip
         stable = sum(1 for p in points if p["stable"])
         out.write(f"\nperiod-{branch['period']} branch{born}: {len(points)} points "
-                  f"({stable} stable), {name} {fmt(points[0]['parameter'])} to "
-                  f"{fmt(points[-1]['parameter'])}, ended: {branch['ended']}\n")  # fmt: skip
+                  f"({stable} stable), {name} {shown(points[0]['parameter'])} to "
+                  f"{shown(points[-1]['parameter'])}, ended: {branch['ended']}\n")  # fmt: skip
         specials = branch["special_points"]
         if not specials:
             out.write("  no special point\n")
@@ -248,19 +255,22 @@ def _write(model: Model, data: dict) -> None:
             what = s["condition"] or (f"{near.real:.10g}{near.imag:+.3g}j" if near.imag
                                       else f"{near.real:.10g}")  # fmt: skip
             label = f"{s['type']} ({SYMBOLS[s['type']]})"
-            out.write(f"  {label:<16} {s['parameter']:>14.10g} {fmt(s['defining_equation']):>12}"
+            value = options.echo(s["parameter"], degrees)
+            out.write(f"  {label:<16} {value:>14.10g} {fmt(s['defining_equation']):>12}"
                       f"  {what}\n")  # fmt: skip
     for curve in data.get("curves", ()):
         start = curve["from"]
-        what = f"{curve['type']} at {name} = {fmt(start['parameter'])}"
+        what = f"{curve['type']} at {name} = {shown(start['parameter'])}"
         if "skipped" in curve:
             out.write(f"\n{what}: not continued ({curve['skipped']})\n")
             continue
         pts = curve["points"]
         first, last = pts[0], pts[-1]
-        out.write(f"\n{what} continued in {data['free']}: {len(pts)} points from "
-                  f"({fmt(first['parameter'])}, {fmt(first['second_parameter'])}) to "
-                  f"({fmt(last['parameter'])}, {fmt(last['second_parameter'])}); ends: "
+        free_unit = " deg" if free_degrees else unit_text(data["free_unit"])
+        second = [fmt(options.echo(p["second_parameter"], free_degrees)) for p in (first, last)]
+        out.write(f"\n{what} continued in {data['free']}{free_unit}: {len(pts)} points from "
+                  f"({shown(first['parameter'])}, {second[0]}) to "
+                  f"({shown(last['parameter'])}, {second[1]}); ends: "
                   f"{', '.join(curve['ended'])}\n")  # fmt: skip
     if data.get("plot"):
         out.write(f"plot: {data['plot']}\n")

@@ -226,6 +226,36 @@ def parse_over(model: Model, text: str) -> tuple[str, np.ndarray]:
     return name, np.linspace(start, stop, count)
 
 
+def given_in_degrees(model: Model, name: str, text: str | None) -> bool:
+    """Whether a range of parameter ``name`` (``NAME=START:STOP[:N]`` of ``--over`` or
+    ``--free``) was given in degrees: an angle's text with a ``deg`` suffix. Its text output
+    then shows it in degrees too (its JSON stays in the table's unit, rad)."""
+    if not text:
+        return False
+    unit = next((p.unit for p in model.parameter_table if p.name == name), None)
+    return unit == "rad" and "deg" in text.partition("=")[2].lower()
+
+
+def parameters_in_degrees(args: argparse.Namespace) -> set[str]:
+    """The parameters the command line gave in degrees: ``--param NAME=VALUEdeg`` of an
+    angle, and the named ``--theta-ii`` and ``--phi0``."""
+    table = {p.name: p for p in args.model_object.parameter_table}
+    names = {
+        name
+        for name, text in (split_item("--param", item) for item in args.param or ())
+        if name in table and table[name].unit == "rad" and "deg" in text.lower()
+    }
+    for name, option, unit in NAMED:
+        if unit == "deg" and getattr(args, option[2:].replace("-", "_"), None) is not None:
+            names.add(name)
+    return names
+
+
+def echo(value: float | None, degrees: bool) -> float | None:
+    """A value in rad as the text output shows it: in degrees where given in degrees."""
+    return value if value is None or not degrees else math.degrees(value)
+
+
 def _state_units(model: Model) -> dict[str, str]:
     return {s["name"]: s["unit"] for s in model.spec["state"]}
 

@@ -10,6 +10,7 @@ simulator (:func:`vsw.sweeps.brute_force`). A model with the ``closed-form-sweep
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from typing import Any
 
@@ -137,7 +138,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         dump_json(data)
         return EXIT_OK
-    _write_points(model, data, name, keep)
+    _write_points(model, data, name, keep, options.given_in_degrees(model, name, args.over))
     return EXIT_OK
 
 
@@ -177,9 +178,9 @@ def _brute_force(args, model, fixed, name, values, keep: int) -> list[dict]:
         return sweeps.brute_force(model, fixed, name, values, args.transient, keep, start=start)
 
 
-def _write_points(model: Model, data: dict, name: str, keep: int) -> None:
+def _write_points(model: Model, data: dict, name: str, keep: int, degrees: bool) -> None:
     out = sys.stdout
-    unit = unit_text(data["over_unit"])
+    unit = " deg" if degrees else unit_text(data["over_unit"])
     brute = data.get("method") == "brute-force"
     how = f"; brute force: {data['transient']} steps then {keep} kept" if brute else ""
     out.write(f"{'model':<12} {model.cli_name} ({model.title}); over {name}{unit}{how}\n")
@@ -197,7 +198,8 @@ def _write_points(model: Model, data: dict, name: str, keep: int) -> None:
                     "no repeat within --keep steps")  # fmt: skip
             note = kind if brute else f"; map: {kind}"
         where = "" if brute else (p["from"] or f"no gait: {p.get('reason')}")
-        out.write(f"{fmt(p[name]):>12} " + " ".join(f"{fmt(state.get(n)):>12}"
+        out.write(f"{fmt(options.echo(p[name], degrees)):>12} "
+                  + " ".join(f"{fmt(state.get(n)):>12}"
                                                     for n in state_names)
                   + ("" if brute else f" {fmt(p['period']):>12}")
                   + f" {fmt(p['max_abs_eigenvalue']):>12} {fmt(p['stable']):>6}  "
@@ -221,10 +223,11 @@ def _closed_form(args: argparse.Namespace, model: Model, name: str, values) -> i
     columns = {field: result[field].reshape(-1) for field in FIELDS}
     points = [{name: float(v), **{f: columns[f][i] for f in FIELDS}}
               for i, v in enumerate(values)]  # fmt: skip
+    unit = next(p.unit for p in model.parameter_table if p.name == name)
     data = {**envelope(model, None, args.argv, {"closed_form": "generated numpy code"}),
-            "parameters": fixed, "over": name, "points": points}  # fmt: skip
+            "parameters": fixed, "over": name, "over_unit": unit,
+            "points": points}  # fmt: skip
     if args.plot is not None:
-        unit = next(p.unit for p in model.parameter_table if p.name == name)
         label = plotstyle.state_label(name, unit or "1")
         title = plotstyle.parameter_text(model, fixed)
         save_figure(ile_sweep_plot(clean(data), label, title), args.plot)
@@ -234,12 +237,19 @@ def _closed_form(args: argparse.Namespace, model: Model, name: str, values) -> i
         return EXIT_OK
     out = sys.stdout
     shown = ("walks", "q_fixed", "eigenvalue", "step_length", "step_period", "speed")
-    text = ", ".join(f"{k} = {v:.6g}" for k, v in fixed.items())
-    out.write(f"{model.cli_name} over {name} (rad; the model's units, see 'vsw models'); "
-              f"{text}\n")  # fmt: skip
+    degrees = options.parameters_in_degrees(args)
+    units = {p.name: p.unit for p in model.parameter_table}
+    text = ", ".join(f"{k} = {math.degrees(v):.6g} deg" if k in degrees
+                     else f"{k} = {v:.6g}{unit_text(units[k])}"
+                     for k, v in fixed.items())  # fmt: skip
+    over_degrees = options.given_in_degrees(model, name, args.over)
+    over_unit = unit_text("deg" if over_degrees else unit)
+    out.write(f"{model.cli_name} over {name}{over_unit}; {text} (the other columns in the "
+              "model's units, see 'vsw models')\n")  # fmt: skip
     out.write(f"{name:>12} " + " ".join(f"{f:>12}" for f in shown) + "\n")
     for p in points:
-        out.write(f"{fmt(p[name]):>12} " + " ".join(f"{fmt(p[f]):>12}" for f in shown) + "\n")
+        out.write(f"{fmt(options.echo(p[name], over_degrees)):>12} "
+                  + " ".join(f"{fmt(p[f]):>12}" for f in shown) + "\n")  # fmt: skip
     if args.plot is not None:
         out.write(f"plot: {args.plot}\n")
     return EXIT_OK
