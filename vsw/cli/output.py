@@ -75,14 +75,9 @@ def fmt(value: Any) -> str:
 
 @functools.cache
 def version() -> str:
-    """The installed distribution's version, else the package's own ``__version__``."""
-    try:
-        from importlib.metadata import PackageNotFoundError
-        from importlib.metadata import version as distribution_version
-
-        return distribution_version("vsw")
-    except (ImportError, PackageNotFoundError):
-        return vsw.__version__
+    """The package's ``__version__``, the one place the version is written (the
+    distribution's metadata lags behind it in an editable install until reinstalled)."""
+    return vsw.__version__
 
 
 @functools.cache
