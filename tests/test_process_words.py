@@ -193,3 +193,15 @@ def test_the_benchmark_pins_are_allowed_where_they_are_code() -> None:
     assert find_offenders(results, pinned, pins) == []
     assert find_offenders(ROOT / "docs" / "page.md", pinned) != []
     assert find_offenders(run, [(1, "# the same commands at f0a3f35, before the change")], pins)
+
+
+def test_readme_is_a_short_guide_with_the_two_commands() -> None:
+    """The README stays a guide (at most 200 lines) and keeps the two commands verbatim:
+    the main job's, and the tests' that .ci/run runs."""
+    readme = (ROOT / "README.md").read_text()
+    main_job = "python -m pip install -e . && python -m paper_check"
+    tests = 'python -m pip install -e ".[test]" && python -m pytest -q'
+    lines = readme.splitlines()
+    assert len(lines) <= 200, len(lines)
+    assert main_job in lines and tests in lines
+    assert tests in (ROOT / ".ci" / "run").read_text().splitlines()
