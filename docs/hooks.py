@@ -5,8 +5,9 @@
   description, options with their help and defaults, exit statuses and environment. Made at
   build time rather than committed, so the page cannot fall behind an option.
 - ``<!-- vsw:include PATH -->`` becomes the file PATH (relative to the repository root),
-  so benchmarks/results.md and CHANGELOG.md are shown, not copied. Its relative links are
-  re-aimed from that file's directory to the page's.
+  so benchmarks/results.md and CHANGELOG.md are shown, not copied. A Markdown file's
+  relative links are re-aimed from its directory to the page's; any other file (the
+  tutorial's model file, inside a code fence) is included as it is.
 - On every page, a relative link to a file of the repository outside docs/ (source code, the
   README) keeps its text and loses its target: the site carries only docs/, and such a link
   would otherwise break the strict build. A link to nothing at all is left for MkDocs to
@@ -140,6 +141,8 @@ def _included(path: str, page_dir: Path) -> str:
     if not source.is_file() or not source.is_relative_to(ROOT):
         raise FileNotFoundError(f"vsw:include names {path}, which is not a file of the repository")
     text = source.read_text(encoding="utf-8")
+    if source.suffix != ".md":  # code shown in a fence: its text as it is
+        return text.rstrip("\n")
 
     def reaim(match: re.Match[str]) -> str:
         target = match["target"]
