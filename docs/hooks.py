@@ -8,6 +8,8 @@
   so benchmarks/results.md and CHANGELOG.md are shown, not copied. A Markdown file's
   relative links are re-aimed from its directory to the page's; any other file (the
   tutorial's model file, inside a code fence) is included as it is.
+- The docstrings of the API reference are written for reST (``:func:`walk```): the role
+  before each name is dropped, and the name stays as code.
 - On every page, a relative link to a file of the repository outside docs/ (source code, the
   README) keeps its text and loses its target: the site carries only docs/, and such a link
   would otherwise break the strict build. A link to nothing at all is left for MkDocs to
@@ -34,6 +36,8 @@ LINK = re.compile(
     r"(?P<bang>!?)\[(?P<text>[^\]]*)\]\((?P<target>[^)\s]+)(?P<title>\s+\"[^\"]*\")?\)"
 )
 FENCE = re.compile(r"^(```|~~~)")
+# A reST role before inline code in a docstring (":func:`walk`"), as it renders in HTML.
+ROLE = re.compile(r":(?:py:)?(?:class|func|meth|mod|data|attr|exc|obj|const):(?=<code>)")
 WIDTH = 88
 """Columns of the usage lines shown (argparse wraps at the terminal's width otherwise)."""
 
@@ -165,3 +169,8 @@ def on_page_markdown(markdown: str, page: Any, config: Any, files: Any) -> str:
         markdown = markdown.replace(CLI_MARKER, cli_reference())
     markdown = INCLUDE.sub(lambda m: _included(m["path"], page_dir), markdown)
     return _outside_links(markdown, page_dir)
+
+
+def on_page_content(html_text: str, page: Any, config: Any, files: Any) -> str:
+    """Drop the reST roles that the API reference's docstrings show before their names."""
+    return ROLE.sub("", html_text)

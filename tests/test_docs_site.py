@@ -252,6 +252,7 @@ def test_site_builds_strictly_with_generated_pages(site: Path):
     assert first_heading in benchmarks
     api = (site / "reference" / "api.html").read_text(encoding="utf-8")
     assert 'id="vsw.models.load"' in api and 'id="vsw.hybrid"' in api
+    assert ":func:<code>" not in api and ":class:<code>" not in api  # reST roles dropped
     for tutorial in TUTORIALS.glob("*.md"):
         assert (site / "tutorials" / f"{tutorial.stem}.html").is_file()
 
