@@ -59,8 +59,6 @@ def _option_row(parser: argparse.ArgumentParser, action: argparse.Action) -> str
     formatter = _formatter(parser)
     invocation = formatter._format_action_invocation(action)
     text = formatter._expand_help(action) if action.help else ""
-    if isinstance(action, argparse._SubParsersAction):
-        text = "the command (below)"
     return f"| `{invocation}` | {_escape(' '.join(text.split()))} |"
 
 
@@ -79,10 +77,16 @@ def _parser_section(parser: argparse.ArgumentParser, level: int) -> list[str]:
     out = ["```text", usage.format_help().strip(), "```", ""]
     out += _paragraphs(parser.description)
     for group in parser._action_groups:
-        actions = [a for a in group._group_actions if a.help is not argparse.SUPPRESS]
+        # The subcommands have their own table and sections (cli_reference).
+        actions = [
+            a
+            for a in group._group_actions
+            if a.help is not argparse.SUPPRESS and not isinstance(a, argparse._SubParsersAction)
+        ]
         if not actions:
             continue
-        out += [f"{'#' * level} {_escape(group.title or 'options').capitalize()}", ""]
+        title = group.title or "options"
+        out += [f"{'#' * level} {_escape(title[:1].upper() + title[1:])}", ""]
         out += ["| Option | Meaning |", "| --- | --- |"]
         out += [_option_row(parser, a) for a in actions]
         out.append("")
