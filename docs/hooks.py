@@ -143,14 +143,9 @@ def _outside_links(markdown: str, page_dir: Path) -> str:
     return "\n".join(lines)
 
 
-def _included(path: str, page_dir: Path) -> str:
-    """The file ``path`` of the repository, its relative links re-aimed at ``page_dir``."""
-    source = (ROOT / path).resolve()
-    if not source.is_file() or not source.is_relative_to(ROOT):
-        raise FileNotFoundError(f"vsw:include names {path}, which is not a file of the repository")
-    text = source.read_text(encoding="utf-8")
-    if source.suffix != ".md":  # code shown in a fence: its text as it is
-        return text.rstrip("\n")
+def reaim_links(text: str, source_dir: Path, page_dir: Path) -> str:
+    """``text``, written in ``source_dir``, with its relative links made relative to
+    ``page_dir`` (absolute links, anchors and URLs as they are)."""
 
     def reaim(match: re.Match[str]) -> str:
         target = match["target"]
@@ -158,12 +153,23 @@ def _included(path: str, page_dir: Path) -> str:
             return match[0]
         file_part, _, anchor = target.partition("#")
         moved = posixpath.normpath(
-            os.path.relpath((source.parent / file_part).resolve(), page_dir).replace(os.sep, "/")
+            os.path.relpath((source_dir / file_part).resolve(), page_dir).replace(os.sep, "/")
         )
         new = moved + (f"#{anchor}" if anchor else "")
         return f"{match['bang']}[{match['text']}]({new}{match['title'] or ''})"
 
     return LINK.sub(reaim, text)
+
+
+def _included(path: str, page_dir: Path) -> str:
+    """The file ``path`` of the repository, as the page in ``page_dir`` shows it."""
+    source = (ROOT / path).resolve()
+    if not source.is_file() or not source.is_relative_to(ROOT):
+        raise FileNotFoundError(f"vsw:include names {path}, which is not a file of the repository")
+    text = source.read_text(encoding="utf-8")
+    if source.suffix != ".md":  # code shown in a fence: its text as it is
+        return text.rstrip("\n")
+    return reaim_links(text, source.parent, page_dir)
 
 
 def on_page_markdown(markdown: str, page: Any, config: Any, files: Any) -> str:

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import functools
 import http.server
+import importlib.util
 import os
 import re
 import shlex
@@ -182,6 +183,48 @@ def test_every_tutorial_is_in_the_nav_and_runs_something():
     for page in pages:
         assert f"tutorials/{page.name}" in nav, f"{page.name} is not in mkdocs.yml's nav"
         assert commands(page), f"{page.name} shows no '$ vsw' command in a console block"
+
+
+def test_every_page_is_in_the_nav():
+    nav = (ROOT / "mkdocs.yml").read_text(encoding="utf-8")
+    for page in DOCS.rglob("*.md"):
+        name = page.relative_to(DOCS).as_posix()
+        assert re.search(rf"(^|\s){re.escape(name)}$", nav, re.MULTILINE), (
+            f"docs/{name} is not in mkdocs.yml's nav"
+        )
+
+
+def _hooks():
+    spec = importlib.util.spec_from_file_location("docs_hooks", DOCS / "hooks.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_links_that_leave_the_site_become_text():
+    hooks = _hooks()
+    page_dir = DOCS / "guide"
+    text = (
+        "[the runtime](../../vsw/hybrid.py), [a page](commands.md), "
+        "[gone](../../no/such/file.py), [web](https://example.org/x.py)\n"
+        "```text\n[code](../../vsw/hybrid.py)\n```"
+    )
+    assert hooks._outside_links(text, page_dir) == (
+        "the runtime, [a page](commands.md), "
+        "[gone](../../no/such/file.py), [web](https://example.org/x.py)\n"
+        "```text\n[code](../../vsw/hybrid.py)\n```"
+    )
+
+
+def test_an_included_files_links_are_reaimed_at_the_page():
+    hooks = _hooks()
+    # What benchmarks/results.md links to, seen from docs/benchmarks.md.
+    text = "[basins](../docs/guide/basins.md#dask), [run](run.py), [web](https://example.org)"
+    assert hooks.reaim_links(text, ROOT / "benchmarks", DOCS) == (
+        "[basins](guide/basins.md#dask), [run](../benchmarks/run.py), [web](https://example.org)"
+    )
+    with pytest.raises(FileNotFoundError):
+        hooks._included("no/such/file.md", DOCS)
 
 
 # --- the tutorials ------------------------------------------------------------------------------
