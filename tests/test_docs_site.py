@@ -5,7 +5,9 @@ Tutorials (docs/tutorials/*.md) show commands in fenced ``console`` blocks: a li
 output as shown. Each command is run (``python -m vsw ARGS``, this interpreter) in a
 temporary directory holding a copy of the tutorials' model files and an empty ``img/``, in
 the order of the page, and its output must match what is shown, line by line (trailing
-spaces aside), with two ways to leave output out:
+spaces aside; standard error, where a model file's derivation prints its "done in N s",
+is not compared, so no line needs a tolerance for timing), with two ways to leave output
+out:
 
 - a line that is ``...`` alone stands for any number of lines (none too);
 - ``...`` inside a line stands for any text there (used for round-off-sized numbers, which
@@ -364,6 +366,11 @@ def test_site_in_headless_chromium(site: Path, served: str, width: int, tmp_path
                 response = page.goto(f"{served}/{path}", wait_until="load")
                 assert response is not None and response.ok, path
                 assert page.locator("article h1").count() >= 1, path
+                assert page.evaluate(
+                    "Array.from(document.images).every(i => i.complete && i.naturalWidth > 0)"
+                ), f"{path}: an image did not load"
+                # Wide tables and code scroll in their boxes; the page itself never sideways.
+                assert page.evaluate("document.documentElement.scrollWidth") <= width, path
             page.goto(f"{served}/index.html", wait_until="load")
             assert "basin" in search(page, "basin of attraction")
             shot = tmp_path / f"site-{width}.png"
