@@ -221,3 +221,127 @@ def test_continue_echoes_degrees_and_keeps_radians_in_json(capsys):
     data = json.loads(capsys.readouterr().out)
     assert data["over_unit"] == "rad"
     assert data["range"] == pytest.approx([math.radians(4), math.radians(5)], rel=1e-15)
+
+
+# --- optimize names its units -----------------------------------------------------------------
+
+OPTIMIZE = ["optimize", "--model", "point-mass-biped", "--target-speed", "0.5", "--nodes", "5"]
+
+
+def test_optimize_text_names_every_unit(capsys):
+    main(OPTIMIZE)  # a coarse mesh may end not-converged (exit 3): the report is printed
+    text = capsys.readouterr().out
+    lines = {line.split()[0]: line for line in text.splitlines()}
+    # The point-mass biped is in SI; its inputs a force (N) and a torque (N m).
+    assert "N^2 s + (N m)^2 s (Hermite-Simpson" in lines["minimized"]
+    assert re.search(r"period +\S+ s; step length \S+ m; speed \S+ m/s$", lines["period"])
+    for pattern in (
+        r"^work of stance\.leg_force +\S+ / \S+ J$",
+        r"^impulse heelstrike\.push_off +\S+ N s$",
+        r"^impulse heelstrike\.torque_impulse +\S+ N m s$",
+        r"^ground at heelstrike\.new_foot +normal \S+, tangential \S+ N s$",
+    ):
+        assert re.search(pattern, text, flags=re.MULTILINE), pattern
+
+
+def test_optimize_json_names_the_cost_unit_by_the_cost(capsys):
+    main([*OPTIMIZE, "--minimize", "work", "--json"])
+    data = json.loads(capsys.readouterr().out)
+    quantities = data["units"]["quantities"]
+    assert quantities["cost"] == "J" and quantities["work"] == "J"
+    assert quantities["impulses.heelstrike.torque_impulse"] == "N m s"
+    assert quantities["period"] == "s" and quantities["speed"] == "m/s"
+
+
+# --- every number of every command's JSON has a unit ------------------------------------------
+
+
+def unlabelled(data: dict) -> list[str]:
+    """The paths of the numbers of a JSON output without a unit by the envelope's rule: the
+    ``unit`` of the object a number is in, else the innermost key on its path named in
+    ``units.quantities`` as PARENT.KEY or KEY, and under ``parameters`` the parameter's."""
+    units = data["units"]
+    named = units.get("quantities", {})
+    missing: set[str] = set()
+
+    def walk(value: object, path: list[str], parent: str, unit: str | None) -> None:
+        if isinstance(value, dict):
+            # An object's own unit may be '' (a dimensionless margin among conditions).
+            own = value.get("unit") if isinstance(value.get("unit"), str) else None
+            for key, item in value.items():
+                inner = (
+                    (own or "1")
+                    if own is not None
+                    else named.get(f"{parent}.{key}", named.get(key, unit))
+                )
+                walk(item, [*path, key], key, inner)
+        elif isinstance(value, list):
+            for item in value:
+                walk(item, [*path, "[]"], parent, unit)
+        elif isinstance(value, (int, float)) and not isinstance(value, bool):
+            if unit is None or not isinstance(unit, str) or not unit:
+                missing.add(".".join(path))
+
+    for key, value in data.items():
+        if key in ("units", "provenance"):
+            continue
+        if key == "parameters" and isinstance(value, dict):
+            missing |= {f"parameters.{n}" for n in value if n not in units["parameters"]}
+            continue
+        walk(value, [key], key, named.get(key))
+    return sorted(missing)
+
+
+def test_the_unit_check_finds_a_number_without_a_unit():
+    data = {"units": {"parameters": {}, "quantities": {"period": "s"}}, "period": 1.0,
+            "x": {"period": 2.0, "other": 3}, "y": [{"unit": "m", "margin": 1}]}  # fmt: skip
+    assert unlabelled(data) == ["x.other"]
+
+
+RUNS = [
+    ["analyze"],
+    ["analyze", "--model", "compass-gait"],
+    ["analyze", "--model", "point-mass-biped"],
+    ["simulate", "--steps", "2"],
+    ["simulate", "--model", "rimless-wheel", "--steps", "2"],
+    ["sweep", "--over", "theta_II=-10deg:10deg:3"],
+    ["sweep", "--model", "rimless-wheel", "--over", "gamma=4deg:5deg:2"],
+    ["sweep", "--model", "rimless-wheel", "--over", "gamma=4deg:5deg:2", "--brute-force"],
+    ["continue", "--model", "rimless-wheel", "--over", "gamma=4deg:5deg", "--max-points", "5",
+     "--free", "alpha=0.3:0.5"],
+    ["design", "--maximize", "speed", "--minimize", "cost-of-transport"],
+    ["design", "--maximize", "speed", "--leg-length", "1"],
+    ["design", "--target-speed", "0.8", "--stepper-2d"],
+    OPTIMIZE,
+    ["basin", "--n-q", "5", "--theta-step", "20"],
+    ["basin", "--model", "rimless-wheel", "--grid", "theta_dot=0.5:2:5", "--steps", "5"],
+]  # fmt: skip
+SLOW_RUNS = [
+    ["analyze", "--model", "vsw-biped"],
+    ["design", "--model", "compass-gait", "--minimize", "eigenvalue", "--starts", "1"],
+    ["optimize", "--model", "compass-gait", "--target-speed", "0.8", "--minimize", "work",
+     "--verify", "--nodes", "5", "--starts", "2", "--limit", "hip_torque=-20:20"],
+]  # fmt: skip
+"""The cheapest runs of every command with --json, on models of each unit system; the
+slow tier adds a scaled biped's search, a design on the periodic orbit (compiled first) and
+an optimisation from several starts, verified."""
+
+
+def _json(capsys, argv: list[str]) -> dict:
+    code = main([*argv, "--json"])
+    out, err = capsys.readouterr()
+    assert code in (0, 3), err  # 3: a coarse optimisation may end not-converged
+    return json.loads(out)
+
+
+@pytest.mark.parametrize("argv", RUNS, ids=[" ".join(a) for a in RUNS])
+def test_every_number_of_the_json_has_a_unit(capsys, argv):
+    data = _json(capsys, argv)
+    assert list(data)[:4] == ["model", "parameters", "units", "provenance"]
+    assert unlabelled(data) == []
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("argv", SLOW_RUNS, ids=[" ".join(a) for a in SLOW_RUNS])
+def test_every_number_of_the_slow_runs_json_has_a_unit(capsys, argv):
+    assert unlabelled(_json(capsys, argv)) == []

@@ -16,6 +16,7 @@ from vsw.cli.output import (
     fmt,
     progress,
     unit_text,
+    with_units,
     write_orbit,
     write_parameters,
 )
@@ -93,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
             report = model.analyze(params, box)
     data = {**envelope(model, params, args.argv, tolerances(model)), **report.to_dict()}
     if args.json:
-        dump_json(data)
+        dump_json(with_units(model, data))
         return EXIT_OK
     out = sys.stdout
     write_parameters(out, model, params)

@@ -22,7 +22,15 @@ import numpy as np
 from vsw import limits, plotstyle
 from vsw.batch import simulator
 from vsw.cli import options
-from vsw.cli.output import INTEGRATOR, dump_json, envelope, fmt, progress, write_parameters
+from vsw.cli.output import (
+    INTEGRATOR,
+    dump_json,
+    envelope,
+    fmt,
+    progress,
+    with_units,
+    write_parameters,
+)
 from vsw.cli.parser import EXIT_OK, StoreGiven, given, option_name
 from vsw.cluster import check_scheduler, runner
 from vsw.errors import VswInputError
@@ -157,7 +165,9 @@ def _grid_basin(args: argparse.Namespace, model: Model) -> int:
             save_figure(basin_plot(data, units, title), args.plot)
             data["plot"] = args.plot
         if args.json:
-            dump_json(data)
+            state = {s["name"]: s["unit"] for s in model.spec["state"]}
+            axes = {"x": state.get(data.get("x_name"), ""), "y": state.get(data.get("y_name"), "")}
+            dump_json(with_units(model, data, axes))
             return EXIT_OK
     out = sys.stdout
     write_parameters(out, model, params)

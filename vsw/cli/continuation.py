@@ -17,7 +17,7 @@ import numpy as np
 
 from vsw import continuation, limits, plotstyle, stop
 from vsw.cli import options
-from vsw.cli.output import INTEGRATOR, dump_json, envelope, fmt, progress, unit_text
+from vsw.cli.output import INTEGRATOR, dump_json, envelope, fmt, progress, unit_text, with_units
 from vsw.cli.parser import EXIT_OK
 from vsw.diagrams import (
     continuation_plot,
@@ -194,7 +194,11 @@ def run(args: argparse.Namespace) -> int:
         save_figure(figure, args.plot)
         data["plot"] = args.plot
     if args.json:
-        dump_json(data)
+        # A branch's period is its number of steps (a point's period in time: period_time).
+        over = {"parameter": data["over_unit"], "range": data["over_unit"], "period": "steps"}
+        if free is not None:
+            over |= {"second_parameter": data["free_unit"], "free_range": data["free_unit"]}
+        dump_json(with_units(model, data, over))
         return EXIT_OK
     degrees = options.given_in_degrees(model, name, args.over)
     free_degrees = free is not None and options.given_in_degrees(model, free[0], args.free)

@@ -23,6 +23,7 @@ from vsw.cli.output import (
     fmt,
     quantity_unit,
     unit_text,
+    with_units,
     write_orbit,
     write_parameters,
 )
@@ -186,7 +187,10 @@ def run(args: argparse.Namespace) -> int:
     exit_code = 0 if found else 3
     out = sys.stdout
     if args.json:
-        dump_json(data)
+        terms = [*(["speed"] if args.maximize else []),
+                 *(n.replace("-", "_") for n in args.minimize or [])]  # fmt: skip
+        dump_json(with_units(model, data, {**_objective_units(model, terms or ["eigenvalue"]),
+                                           **ROBOT_SCALE}))  # fmt: skip
         if not found:
             sys.stderr.write(f"vsw design: {' '.join(result.message.split())}\n")
         return exit_code
@@ -334,7 +338,7 @@ def _run_generic(args: argparse.Namespace, model: models.Model) -> int:
         data["units"]["quantities"] = {k: quantity_unit(model, k) for k in result.quantities}
     exit_code = 0 if result.found else 3
     if args.json:
-        dump_json(data)
+        dump_json(with_units(model, data, _objective_units(model, list(request.objective))))
         if not result.found:
             sys.stderr.write(f"vsw design: {result.message}\n")
         return exit_code
@@ -356,6 +360,19 @@ def _run_generic(args: argparse.Namespace, model: models.Model) -> int:
     out.write(f"simulation check relative error {fmt(result.simulation_rel_error)}\n")
     out.write(f"{result.message}\n")
     return exit_code
+
+
+ROBOT_SCALE = {"scale.leg_length": "m", "scale.mass": "kg", "scale.gravity": "m/s^2"}
+"""The units of the ILE's robot scale in its JSON."""
+
+
+def _objective_units(model: models.Model, terms: list[str]) -> dict[str, str]:
+    """The units of the design's objective (the signed, weighted sum of its terms) and of
+    what the JSON reports with it: a term's unit where all terms share it, else 'mixed'."""
+    units = {quantity_unit(model, term) or "1" for term in terms}
+    objective = units.pop() if len(units) == 1 else f"mixed: a weighted sum of {', '.join(terms)}"
+    return {"objective": objective, "limit.uncertainty": objective, "distance_scale": "1",
+            "simulation_rel_error": "1", "starts": "1"}  # fmt: skip
 
 
 def register(subparsers: Any) -> None:

@@ -15,7 +15,7 @@ import sys
 import numpy as np
 
 from vsw import limits
-from vsw.cli.output import dump_json, envelope, fmt, progress
+from vsw.cli.output import dump_json, envelope, fmt, progress, with_units
 from vsw.cli.parser import EXIT_OK, given, option_name
 from vsw.errors import VswInputError
 from vsw.figures import check_save_path, save_figure
@@ -113,7 +113,7 @@ def run(args: argparse.Namespace, model: Model) -> int:
         save_figure(basin_plot(result, checks=checks), args.plot)
         data["plot"] = args.plot
     if args.json:
-        dump_json(data)
+        dump_json(with_units(model, data))
         return EXIT_OK
     out = sys.stdout
     out.write(f"basin of attraction, beta={beta:g}, phi0={math.degrees(phi0):g} deg\n")

@@ -20,7 +20,15 @@ from typing import Any
 
 from vsw import powered
 from vsw.cli import options
-from vsw.cli.output import dump_json, envelope, fmt, write_parameters
+from vsw.cli.output import (
+    dump_json,
+    envelope,
+    fmt,
+    quantity_unit,
+    unit_text,
+    with_units,
+    write_parameters,
+)
 from vsw.cli.parser import EXIT_OK, EXIT_SOLVER
 from vsw.errors import ConvergenceError
 from vsw.figures import check_save_path, save_figure
@@ -124,16 +132,16 @@ def run(args: argparse.Namespace) -> int:
                                                   "resimulation": powered.RESIMULATION_TOL}),
             **_to_dict(model, request, gait)}  # fmt: skip
     if args.verify:
-        data["verified"] = _verified_dict(verified)
+        data["verified"] = _verified_dict(model, verified)
     if args.plot is not None:
         save_figure(powered_figure(model, params, gait), args.plot)
         data["plot"] = args.plot
     if args.json:
-        dump_json(data)
+        dump_json(with_units(model, data, _units(model, request)))
     else:
         _write_text(model, params, request, gait)
         if args.verify:
-            _write_verified(verified)
+            _write_verified(model, request, verified)
     failed = args.verify and (isinstance(verified, str) or bool(verified.failure))
     if gait.status == "optimal" and not failed:
         return EXIT_OK
@@ -155,7 +163,47 @@ def _verified(model, params, gait: powered.PoweredGait) -> VerifiedGait | str:
         return str(exc)
 
 
-def _verified_dict(verified: VerifiedGait | str) -> dict[str, Any]:
+def input_units(model) -> dict[str, str]:
+    """Each input's and impulse's unit by name, as 'vsw models' lists them."""
+    units = {i["name"]: i["unit"] for p in model.phases for i in p.get("inputs", ())}
+    for event in model.spec.get("events", ()):
+        units |= {i["name"]: i["unit"] for i in event.get("impulses", ())}
+    return units
+
+
+def cost_unit(model, request: powered.Request) -> str:
+    """The unit of the cost: torque2 the squared inputs' integral (a sum over inputs of
+    different units is a sum of their squares' units), work energy, cot and stability 1."""
+    if request.minimize == "work":
+        return quantity_unit(model, "work")
+    if request.minimize != "torque2":
+        return "1"
+    time = model.units.get("time", "")
+    inputs = {i["name"]: i["unit"] for p in model.phases for i in p.get("inputs", ())}
+    used = [u for n, u in inputs.items() if not request.use or n in request.use]
+    squares = dict.fromkeys(f"{u}^2 {time}" if " " not in u else f"({u})^2 {time}"
+                            for u in used)  # fmt: skip
+    return " + ".join(squares) or "1"
+
+
+def _units(model, request: powered.Request) -> dict[str, str]:
+    """The units of the keys of optimize's JSON that are its own (an input, an impulse, the
+    cost), beside those every command shares (:func:`vsw.cli.output.with_units`)."""
+    named = input_units(model)
+    impulses = {f"impulses.{e['name']}.{i['name']}": i["unit"]
+                for e in model.spec.get("events", ()) for i in e.get("impulses", ())}  # fmt: skip
+    table = {p.name: p.unit for p in model.parameter_table}
+    limits = {f"limits.{name}": named.get(name, table.get(name, ""))
+              for name, _, _ in request.limits}  # fmt: skip
+    cost = cost_unit(model, request)
+    return {**named, **impulses, **limits, "cost": cost, "objective": cost,
+            "starts.coarse": cost, "starts.fine": cost, "best_start": "1", "mesh_change": "1",
+            "nodes": "1", "iterations": "1", "input_time": quantity_unit(model, "time"),
+            "resimulated_work": quantity_unit(model, "work"), "stance_friction": "1",
+            "guard_at_end": "the unit of the model's guard expression"}  # fmt: skip
+
+
+def _verified_dict(model, verified: VerifiedGait | str) -> dict[str, Any]:
     if isinstance(verified, str):
         return {"status": "failed", "reason": verified}
     return {
@@ -169,36 +217,48 @@ def _verified_dict(verified: VerifiedGait | str) -> dict[str, Any]:
         "work": verified.work,
         "ground_impulses": _ground_dict(verified.ground_impulses),
         "stance_friction": verified.stance_friction,
-        "state": verified.state.tolist(),
+        "state": dict(zip([*model.coordinates, *model.rates], verified.state.tolist())),
     }
 
 
-def _write_verified(verified: VerifiedGait | str) -> None:
+def _write_verified(model, request: powered.Request, verified: VerifiedGait | str) -> None:
     out = sys.stdout
     if isinstance(verified, str):
         out.write(f"verified           failed: {verified}\n")
         return
     status = f"failed: {verified.failure}" if verified.failure else "verified"
-    out.write(f"verified           {status}; positive work {fmt(verified.positive_work)} "
+    energy = unit_text(quantity_unit(model, "work"))
+    out.write(f"verified           {status}; positive work {fmt(verified.positive_work)}{energy} "
               f"(step maps to itself within {fmt(verified.residual)})\n")  # fmt: skip
-    out.write(f"  period {fmt(verified.period)}; step length {fmt(verified.step_length)}; "
-              f"speed {fmt(verified.speed)}; stance friction needed "
-              f"{fmt(verified.stance_friction)}\n")  # fmt: skip
-    _write_ledger(out, verified.work, verified.ground_impulses, "  ")
+    out.write(f"  period {_motion(model, verified.period, verified.step_length, verified.speed)}; "
+              f"stance friction needed {fmt(verified.stance_friction)}\n")  # fmt: skip
+    _write_ledger(out, model, verified.work, verified.ground_impulses, "  ")
+
+
+def _motion(model, period: float, step_length: float | None, speed: float | None) -> str:
+    """'P s; step length L m; speed V m/s' (after a 'period' label) in the model's units."""
+
+    def unit(key: str) -> str:
+        return unit_text(quantity_unit(model, key))
+
+    return (f"{fmt(period)}{unit('period')}; step length {fmt(step_length)}"
+            f"{unit('step_length')}; speed {fmt(speed)}{unit('speed')}")  # fmt: skip
 
 
 def _ground_dict(impulses: dict[str, tuple[float, float]]) -> dict[str, dict[str, float]]:
     return {k: {"tangential": t, "normal": n} for k, (t, n) in impulses.items()}
 
 
-def _write_ledger(out, work: dict, ground: dict, indent: str) -> None:
+def _write_ledger(out, model, work: dict, ground: dict, indent: str) -> None:
     """Each input's and impulse's work, then each ground impulse, a line each."""
+    energy = unit_text(quantity_unit(model, "work"))
+    impulse = unit_text(quantity_unit(model, "impulses"))
     for key, value in work.items():
         out.write(f"{indent}work of {key:<11} +{fmt(value['positive'])} / "
-                  f"{fmt(value['negative'])}\n")  # fmt: skip
+                  f"{fmt(value['negative'])}{energy}\n")  # fmt: skip
     for key, (tangential, normal) in ground.items():
         out.write(f"{indent}ground at {key:<9} normal {fmt(normal)}, tangential "
-                  f"{fmt(tangential)}\n")  # fmt: skip
+                  f"{fmt(tangential)}{impulse}\n")  # fmt: skip
 
 
 def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict[str, Any]:
@@ -310,7 +370,8 @@ def _write_text(model, params, request: powered.Request, gait: powered.PoweredGa
         out.write(f"chosen             {', '.join(chosen)} (by the optimiser, with the gait)\n")
     out.write(f"status             {gait.status}" + (f": {gait.reason}" if gait.reason else "")
               + "\n")  # fmt: skip
-    out.write(f"minimized          {request.minimize} = {fmt(gait.cost)} (Hermite-Simpson, "
+    cost = unit_text(cost_unit(model, request))
+    out.write(f"minimized          {request.minimize} = {fmt(gait.cost)}{cost} (Hermite-Simpson, "
               f"{2 * request.nodes} intervals a phase; {fmt(gait.extra.get('mesh_change'))} "
               f"relative change from {request.nodes})\n")  # fmt: skip
     if gait.extra.get("starts"):
@@ -319,14 +380,15 @@ def _write_text(model, params, request: powered.Request, gait: powered.PoweredGa
         out.write(f"starts             {len(gait.extra['starts'])}, each on {request.nodes} and "
                   f"{2 * request.nodes} intervals a phase: {costs}; the best is start "
                   f"{gait.extra['best_start'] + 1} (counted from 1)\n")  # fmt: skip
-    out.write(f"period             {fmt(gait.period)}; step length {fmt(gait.step_length)}; "
-              f"speed {fmt(gait.speed)}\n")  # fmt: skip
-    _write_ledger(out, gait.work, {}, "")
+    out.write(f"period             {_motion(model, gait.period, gait.step_length, gait.speed)}\n")
+    _write_ledger(out, model, gait.work, {}, "")
+    units = input_units(model)
     for key, impulse in gait.impulses.items():
-        out.write(f"impulse {key:<11} {fmt(impulse)}\n")
-    _write_ledger(out, {}, gait.ground_impulses, "")
+        out.write(f"impulse {key:<11} {fmt(impulse)}{unit_text(units.get(key.split('.')[-1]))}\n")
+    _write_ledger(out, model, {}, gait.ground_impulses, "")
     moved = gait.extra.get("resimulated_work")
-    along = "" if moved is None else f"; positive work along it {fmt(moved)}"
+    energy = unit_text(quantity_unit(model, "work"))
+    along = "" if moved is None else f"; positive work along it {fmt(moved)}{energy}"
     out.write(f"re-simulation      {fmt(gait.resimulation_error)} (relative), guard at the end "
               f"{fmt(gait.guard_at_end)}{along}\n")  # fmt: skip
     eigenvalues = gait.extra.get("eigenvalues")

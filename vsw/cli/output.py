@@ -34,6 +34,7 @@ __all__ = [
     "progress",
     "quantity_unit",
     "version",
+    "with_units",
     "write_orbit",
     "write_parameters",
 ]
@@ -138,6 +139,7 @@ QUANTITIES = {
     "step_length": "length",
     "speed": "speed",
     "step_frequency": "frequency",
+    "period_steps": "steps",
     "energy_per_step": "energy",
     "work": "energy",
     "positive_work": "energy",
@@ -147,21 +149,78 @@ QUANTITIES = {
     "max_abs_eigenvalue": "1",
     "eigenvalues": "1",
     "cost_of_transport": "1",
+    "residual": "1",
+    "resimulation_error": "1",
+    "phase_durations": "time",
+    "durations": "time",
+    "time": "time",
+    "contact_margin": "force",
+    "energy_added": "energy",
+    "energy_lost": "energy",
+    "q_fixed": "q",
+    "q_apex_min": "q",
+    "q_liftoff_max": "q",
+    "omega_I": "omega",
+    "theta_I": "rad",
+    "theta_IV": "rad",
+    "energy_ledger": "energy",
+    "ground_impulse": "impulse",
+    "duration": "time",
+    "balance_relative": "1",
+    "cells": "1",
+    "candidates": "1",
+    "newton_converged": "1",
+    "unconfirmed": "1",
+    "standing": "1",
+    "scan_outcomes": "1",
+    "step_lengths": "length",
+    "step_periods": "time",
+    "period_time": "time",
+    "steps": "steps",
+    "steps_completed": "steps",
+    "n_steps": "steps",
+    "q": "q",
+    "q0": "q",
+    "q_fixed_closed_form": "q",
+    "q_min": "q",
+    "q_max": "q",
+    "omega_min": "omega",
+    "omega_max": "omega",
+    "theta_II_deg": "deg",
+    "attractor.period": "steps",
+    "steps_walked": "steps",
+    "keep": "steps",
+    "transient": "steps",
+    "max_steps": "steps",
+    "counts": "1",
+    "tol": "1",
 }
 """What an output's quantities are, by key: a dimension of the model's units
 (:func:`dimension_unit`), or '1' for a dimensionless number."""
 
 
+SI_SUFFIXES = (("_m_s", "m/s"), ("_leg_s", "leg/s"), ("_J_per_kg", "J/kg"), ("_hz", "Hz"),
+               ("_m", "m"), ("_s", "s"), ("_J", "J"))  # fmt: skip
+"""Keys of results converted to SI (the ILE's with a robot scale), by their unit's suffix."""
+
+
 def dimension_unit(model: Model, dimension: str) -> str:
     """A dimension in the model's units: its time, length, energy, force or mass unit, or
     speed (length/time), frequency (Hz where time is in s, else 1/time), impulse (force
-    time); '1' stays '1'."""
+    time), q (a squared rate: g/r_e where the time unit is sqrt(r_e/g)), omega (a rate:
+    sqrt(g/r_e) there); '1' and 'rad' stay."""
     units = dict(model.units)
     time, length = units.get("time", ""), units.get("length", "")
     if dimension == "speed":
         return f"{length}/{time}"
     if dimension == "frequency":
         return "Hz" if time == "s" else f"1/{time}"
+    if dimension in ("q", "omega"):
+        scaled = time.startswith("sqrt(") and time.endswith(")") and "/" in time
+        if scaled:  # sqrt(a/b) -> b/a
+            a, b = time[5:-1].split("/", 1)
+            return f"{b}/{a}" if dimension == "q" else f"sqrt({b}/{a})"
+        return f"1/{time}^2" if dimension == "q" else f"rad/{time}"
     if dimension == "impulse":
         return f"{units.get('force', '')} {time}"
     return units.get(dimension, dimension)
@@ -172,6 +231,77 @@ def quantity_unit(model: Model, name: str) -> str:
     '' for a name it does not know."""
     dimension = QUANTITIES.get(name)
     return "" if dimension is None else dimension_unit(model, dimension)
+
+
+def _holds_numbers(value: Any) -> bool:
+    if isinstance(value, bool) or value is None or isinstance(value, str):
+        return False
+    if isinstance(value, (int, float, np.integer, np.floating)):
+        return True
+    if isinstance(value, Mapping):
+        return any(_holds_numbers(v) for v in value.values())
+    if isinstance(value, (list, tuple)):
+        return any(_holds_numbers(v) for v in value)
+    return False
+
+
+def _key_unit(model: Model, parent: str, key: str, extra: Mapping[str, str]) -> str | None:
+    for name in (f"{parent}.{key}", key):
+        if name in extra:
+            return extra[name]
+    if f"{parent}.{key}" in QUANTITIES:
+        return quantity_unit(model, f"{parent}.{key}")
+    state = {s["name"]: s["unit"] for s in model.spec["state"]}
+    if key in state:
+        return state[key]
+    if key in QUANTITIES:
+        return quantity_unit(model, key)
+    table = {p.name: p.unit for p in model.parameter_table}
+    if key in table:
+        return table[key]
+    for suffix, unit in SI_SUFFIXES:
+        if key.endswith(suffix):
+            return unit
+    return None
+
+
+def with_units(model: Model, data: dict[str, Any], extra: Mapping[str, str] | None = None
+               ) -> dict[str, Any]:  # fmt: skip
+    """``data`` (an :func:`envelope` and a command's keys) with ``units.quantities``: the
+    unit of every key that holds numbers, '1' for a dimensionless one or a count.
+
+    The convention every ``--json`` output follows: a number's unit is the ``unit`` of the
+    object it is in, where that object has one (a condition's margin; '' there is
+    dimensionless), else that of the
+    innermost key on its path that ``units.quantities`` names, as ``PARENT.KEY`` (a key of
+    an object under the key PARENT: ``attractor.period``, a number of steps) or as ``KEY``
+    (``period``; ``work``: each of its numbers; a state component's name), and under
+    ``parameters`` the parameter's (``units.parameters``). ``extra``: a command's own keys
+    (an impulse by name)."""
+    extra = dict(extra or {})
+    quantities: dict[str, str] = {}
+
+    def visit(value: Any, parent: str) -> None:
+        if isinstance(value, Mapping):
+            if isinstance(value.get("unit"), str):
+                return  # its numbers are in its own unit
+            for key, item in value.items():
+                if not _holds_numbers(item):
+                    continue
+                unit = _key_unit(model, parent, str(key), extra)
+                if unit is not None:
+                    qualified = f"{parent}.{key}"
+                    named = qualified if qualified in extra or qualified in QUANTITIES else key
+                    quantities[str(named)] = unit or "1"
+                visit(item, str(key))
+        elif isinstance(value, (list, tuple)):
+            for item in value:
+                visit(item, parent)
+
+    visit({k: v for k, v in data.items() if k not in ("units", "parameters", "provenance")}, "")
+    data["units"] = {**data.get("units", {}), "quantities": {
+        **data.get("units", {}).get("quantities", {}), **quantities}}  # fmt: skip
+    return data
 
 
 def unit_text(unit: str | None) -> str:

@@ -15,6 +15,7 @@ from vsw.cli.output import (
     fmt,
     progress,
     unit_text,
+    with_units,
     write_parameters,
 )
 from vsw.cli.parser import EXIT_OK
@@ -119,7 +120,7 @@ def run(args: argparse.Namespace) -> int:
             "units": column_units(model, sampled),
         }  # fmt: skip
     if args.json:
-        dump_json(data)
+        dump_json(with_units(model, data))
         if start.note():
             sys.stderr.write(f"vsw simulate: note: {start.note()}\n")
         return EXIT_OK

@@ -25,6 +25,7 @@ from vsw.cli.output import (
     fmt,
     progress,
     unit_text,
+    with_units,
 )
 from vsw.cli.parser import EXIT_OK, StoreGiven, given
 from vsw.diagrams import bifurcation_plot, diagram_quantity, diagram_units
@@ -136,7 +137,7 @@ def run(args: argparse.Namespace) -> int:
         save_figure(figure, args.plot)
         data["plot"] = args.plot
     if args.json:
-        dump_json(data)
+        dump_json(with_units(model, data))
         return EXIT_OK
     _write_points(model, data, name, keep, options.given_in_degrees(model, name, args.over))
     return EXIT_OK
@@ -233,7 +234,7 @@ def _closed_form(args: argparse.Namespace, model: Model, name: str, values) -> i
         save_figure(ile_sweep_plot(clean(data), label, title), args.plot)
         data["plot"] = args.plot
     if args.json:
-        dump_json(data)
+        dump_json(with_units(model, data))
         return EXIT_OK
     out = sys.stdout
     shown = ("walks", "q_fixed", "eigenvalue", "step_length", "step_period", "speed")
