@@ -2,9 +2,10 @@
 
 Every ``--json`` output of every command and model is one object that starts with the same
 four keys (:func:`envelope`): ``model``, ``parameters`` (every parameter's value in the
-model's units), ``units`` (the model's) and ``provenance`` (the vsw version, the git commit
-where the package runs from a checkout, the command line, the tolerances used), then the
-command's own keys. NaN and infinities become null (:func:`clean`); the JSON is strict.
+model's units), ``units`` (the model's, and ``units.quantities``: the unit of each key of the
+output that holds numbers, :func:`with_units`) and ``provenance`` (the vsw version, the git
+commit where the package runs from a checkout, the command line, the tolerances used), then
+the command's own keys. NaN and infinities become null (:func:`clean`); the JSON is strict.
 """
 
 from __future__ import annotations
