@@ -476,8 +476,13 @@ def test_si_values_have_keys_of_their_own(capsys):
     si = json.loads(out)
     mgr = 0.78 * 9.81 * 0.25  # the Stepper-2D of the paper: m g r_e in J
     for key in plain:
-        if key not in ("conditions", "provenance"):  # every dimensionless key keeps its value
+        if key not in ("conditions", "provenance", "units"):  # every key keeps its value
             assert si[key] == plain[key], key
+    # and its unit; the SI keys add theirs
+    quantities = si["units"].pop("quantities")
+    assert plain["units"].pop("quantities").items() <= quantities.items()
+    assert si["units"] == plain["units"]
+    assert quantities["energy_added_J"] == "J" and quantities["step_length_m"] == "m"
     assert si["energy_unit"] == plain["energy_unit"] == "m g r_e"
     assert si["energy_added_J"] == pytest.approx(plain["energy_added"] * mgr, rel=1e-14)
     assert si["energy_lost_J"] == pytest.approx(plain["energy_lost"] * mgr, rel=1e-14)
