@@ -189,6 +189,8 @@ QUANTITIES = {
     "omega_max": "omega",
     "theta_II_deg": "deg",
     "attractor.period": "steps",
+    "trajectory.rows": "1",
+    "trajectory.rate": "frequency",
     "steps_walked": "steps",
     "keep": "steps",
     "transient": "steps",
