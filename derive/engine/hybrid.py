@@ -52,6 +52,7 @@ from derive.engine.model import (
     Phase,
     PointMass,
     RigidSegment,
+    Skeleton,
     held_force,
 )
 from derive.engine.trig import tr10i
@@ -1415,6 +1416,52 @@ def _body_table(phase: Phase) -> tuple[tuple[sm.Expr, ...], tuple[sm.Expr, ...]]
     return tuple(positions), tuple(inertias)
 
 
+def _default_skeleton(model: Model, phase: Phase) -> Skeleton:
+    """The stick figure of a model that states no drawing: the stance foot, body 0 as the
+    hip, and the step event's contact point as the swing foot, taken from this phase's
+    points where it names it and otherwise from the step event's source phase (its held
+    coordinates at that phase's values where this phase leaves them unset)."""
+    step = next(e for e in model.events if e.ends_step)
+    points = {"stance_foot": (sm.Integer(0), sm.Integer(0)), "hip": phase.bodies[0].position}
+    segments = [("stance_foot", "hip")]
+    if isinstance(step.reset, Impact):
+        name = step.reset.new_contact
+        source = model.phase(step.source)
+        state = {c.q for c in model.coordinates}
+        if name in phase.points:
+            foot = phase.points[name]
+        else:
+            outside = {h: v for h, v in source.held.items() if h not in state}
+            foot = tuple(sm.sympify(c).xreplace(dict(phase.held)).xreplace(outside)
+                         for c in source.points[name])  # fmt: skip
+        points["swing_foot"] = foot
+        segments.append(("hip", "swing_foot"))
+    return Skeleton(points, tuple(segments))
+
+
+def _skeleton(model: Model, phase: Phase, args: tuple) -> tuple[Skeleton, tuple[sm.Expr, ...]]:
+    """A phase's drawing and its points' x, y (held coordinates at their values)."""
+    skeleton = phase.skeleton or model.skeleton or _default_skeleton(model, phase)
+    names = list(skeleton.points)
+    for a, b in skeleton.segments:
+        if a not in skeleton.points or b not in skeleton.points:
+            raise ValueError(f"{model.name}: a skeleton segment ({a}, {b}) names a point "
+                             f"the skeleton does not state in phase {phase.name}")  # fmt: skip
+    if skeleton.spokes is not None and not set(skeleton.spokes[:2]) <= set(names):
+        raise ValueError(f"{model.name}: the skeleton's spokes name unknown points")
+    held = dict(phase.held)
+    known = set(args) | set(model.limits)
+    xy: list[sm.Expr] = []
+    for name in names:
+        point = tuple(sm.sympify(c).xreplace(held) for c in skeleton.points[name])
+        unknown = set().union(*(c.free_symbols for c in point)) - known
+        if unknown:
+            raise ValueError(f"{model.name}: skeleton point {name} in phase {phase.name} "
+                             f"depends on {sorted(map(str, unknown))}, not the state")  # fmt: skip
+        xy += point
+    return skeleton, tuple(xy)
+
+
 _RESET_KINDS = {Impact: "impact", Jump: "jump", Lock: "lock", Continuous: "continuous"}
 
 
@@ -1425,13 +1472,17 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
     ``<phase>_accelerations``, ``<phase>_energy``, ``<phase>_normal_force``,
     ``<phase>_<failure>`` (failure guards), ``<phase>_positions`` (x, y and angle of each
     body, held coordinates at their values; angle 0 for a point mass),
-    ``<phase>_inertias`` (mass and central inertia of each body), ``event_<event>_guard``,
+    ``<phase>_inertias`` (mass and central inertia of each body), ``<phase>_skeleton`` (x
+    and y of each point of the drawing: :class:`~derive.engine.model.Skeleton`),
+    ``event_<event>_guard``,
     ``event_<event>_when``, ``event_<event>_reset`` (coordinates then rates after),
     ``event_<event>_contact`` (an impact's new contact point in the source phase's chart),
     and ``step_length_of_state`` when the model defines it. The descriptor says per phase
     whether it is ``conservative`` (no held coordinate moves, so no actuator does work and
-    T + V is constant) and per event whether its ``reset`` is an ``impact``, a ``jump`` or
-    ``continuous``.
+    T + V is constant) and its drawing (``skeleton``: the names of the points
+    ``<phase>_skeleton`` places, the segments between them by name, the bodies' names and,
+    for a wheel, its ``spokes``), and per event whether its ``reset`` is an ``impact``, a
+    ``jump`` or ``continuous``.
     """
     _check_actuators(model)
     args = _state_args(model)
@@ -1494,6 +1545,28 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
             f"Mass and central moment of inertia of each body in phase {phase.name}.", None,
             "tuple: mass, inertia of each body in order (inertia 0 for a point mass)",
         ))  # fmt: skip
+        skeleton, skeleton_xy = _skeleton(model, phase, args)
+        quantities.append(Quantity(
+            f"{phase.name}_skeleton", args, skeleton_xy,
+            f"Position (x, y) of each point of the drawing in phase {phase.name}'s chart.",
+            None, "tuple: x, y of each point in the order of HYBRID's phase 'skeleton'",
+        ))  # fmt: skip
+        drawing = {
+            "points": tuple(skeleton.points), "segments": tuple(skeleton.segments),
+            "bodies": tuple(b.name for b in phase.bodies),
+        }  # fmt: skip
+        if skeleton.spokes is not None:
+            spoke_angle = f"{phase.name}_skeleton_spoke_angle"
+            angle = sm.sympify(skeleton.spokes[2])
+            if not angle.free_symbols <= set(model.parameter_symbols):
+                raise ValueError(f"{model.name}: the skeleton's spoke angle depends on more "
+                                 "than the parameters")  # fmt: skip
+            quantities.append(Quantity(
+                spoke_angle, args, angle,
+                f"Angle between neighbouring spokes of the drawing in phase {phase.name}.",
+                None, "angle",
+            ))  # fmt: skip
+            drawing["spokes"] = (*skeleton.spokes[:2], spoke_angle)
         free = {c.q for c in phase.coordinates}
         # A held coordinate that follows the free ones moves, and its actuator does work.
         moving = [h for h, v in phase.held.items() if sm.sympify(v).free_symbols & free]
@@ -1501,6 +1574,7 @@ def hybrid_quantities(model: Model) -> tuple[list[Quantity], dict]:
         record = {
             "name": phase.name, "failures": tuple(failures), "conservative": conservative,
         }  # fmt: skip
+        record["skeleton"] = drawing
         if start_failures:  # checked where the phase begins, not watched through it
             record["start_failures"] = tuple(start_failures)
         if moving:

@@ -39,6 +39,7 @@ __all__ = [
     "Phase",
     "PointMass",
     "RigidSegment",
+    "Skeleton",
     "held_force",
     "leg",
 ]
@@ -108,6 +109,36 @@ class RigidSegment:
 
 
 Body = PointMass | RigidSegment
+
+
+@dataclass(frozen=True, eq=False)
+class Skeleton:
+    """What a drawing of the walker shows: named points of the chart and the segments
+    between them (a thigh from ``hip`` to ``swing_knee``), stated once with the geometry
+    the bodies are placed by, so a picture cannot drift from the mechanics.
+
+    The points are expressions in the chart's coordinates (held ones included: each
+    phase's held values are put in) and the parameters; the engine derives
+    ``<phase>_skeleton``, their x and y in every phase. A model that states none is drawn
+    from what it has: its stance foot, its body 0 as the hip and its step event's contact
+    point as the swing foot. Names that begin with ``stance`` or ``swing`` say which leg a
+    point is on (a drawing colours a leg by it).
+
+    Attributes
+    ----------
+    points : mapping of str to (x, y)
+        Python identifiers to positions in the chart.
+    segments : tuple of (str, str)
+        Pairs of point names, each drawn as a straight line.
+    spokes : (str, str, sympy.Expr), optional
+        A wheel: the segment from the first point to the second, turned about the first by
+        every multiple of the angle (a function of the parameters) round the circle (the
+        rimless wheel's spokes, whose count follows from a parameter).
+    """
+
+    points: Mapping[str, tuple[sm.Expr, sm.Expr]]
+    segments: tuple[tuple[str, str], ...]
+    spokes: tuple[str, str, sm.Expr] | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -223,6 +254,8 @@ class Phase:
         Continuous inputs an optimiser or a controller may apply (a hip torque): zero in
         the passive dynamics, which is what every command but the powered-walking ones
         simulates.
+    skeleton : Skeleton, optional
+        The drawing in this phase's chart, where it differs from the model's.
     """
 
     name: str
@@ -232,6 +265,7 @@ class Phase:
     held: Mapping[sm.Symbol, sm.Expr] = field(default_factory=dict)
     points: Mapping[str, tuple[sm.Expr, sm.Expr]] = field(default_factory=dict)
     inputs: tuple[Input, ...] = ()
+    skeleton: Skeleton | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -506,6 +540,10 @@ class Model:
     them with the gait (the given value is its start), as it chooses the inputs. An angle
     at which an impulse acts (an event's guard ``theta - theta_push``) makes that
     impulse's time free: the optimum's value is reported with it."""
+    skeleton: Skeleton | None = None
+    """How the walker is drawn (:class:`Skeleton`), in the chart every phase shares; a
+    phase's own ``skeleton`` replaces it there. None: the engine's stick figure from the
+    stance foot, body 0 and the step event's contact point."""
 
     def phase(self, name: str) -> Phase:
         for p in self.phases:

@@ -30,6 +30,7 @@ from derive.engine.model import (
     Parameter,
     Phase,
     PointMass,
+    Skeleton,
     leg,
     swing_foot_clearance,
 )
@@ -75,6 +76,10 @@ theta, psi = THETA.q, PSI.q
 
 hip = leg(theta, length)
 swing_foot = tuple(h - f for h, f in zip(hip, leg(psi, length)))
+SKELETON = Skeleton(
+    points={"stance_foot": (0, 0), "hip": hip, "swing_foot": swing_foot},
+    segments=(("stance_foot", "hip"), ("hip", "swing_foot")),
+)
 
 STANCE = Phase(
     "stance",
@@ -134,6 +139,7 @@ MODEL = Model(
     ),
     conditions=(swing_foot_clearance(swing_foot[1], "m"),),
     units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},
+    skeleton=SKELETON,
     step_length=swing_foot[0],
     # Just after heelstrike the new stance foot is downhill of the hip (theta < 0); Drake's
     # gait at its defaults: theta = -0.271, theta_dot = 1.09 rad/s, psi_dot = 0.38 rad/s.

@@ -47,6 +47,7 @@ from derive.engine.model import (
     Parameter,
     Phase,
     PointMass,
+    Skeleton,
     held_force,
     leg,
     swing_foot_clearance,
@@ -137,6 +138,13 @@ BODIES = (
     PointMass("swing_shank", m_s, _minus(knee, leg(psi + kappa, b1))),
 )
 GRAVITY = (g * sm.sin(gamma), -g * sm.cos(gamma))
+# Both legs through their knees: in the knee-locked phase the swing knee is straight.
+SKELETON = Skeleton(
+    points={"stance_foot": (0, 0), "stance_knee": stance_knee, "hip": hip,
+            "swing_knee": knee, "swing_foot": swing_foot},
+    segments=(("stance_foot", "stance_knee"), ("stance_knee", "hip"),
+              ("hip", "swing_knee"), ("swing_knee", "swing_foot")),
+)  # fmt: skip
 
 KNEE_FREE = Phase(
     "knee_free",
@@ -216,6 +224,7 @@ MODEL = Model(
         ),
     ),
     units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},
+    skeleton=SKELETON,
     step_length=swing_foot[0],
     # Just after heelstrike the new stance foot is downhill of the hip (theta < 0); Hsu
     # Chen's gait: theta = -0.238 rad, theta_dot = 1.10 rad/s, psi_dot = 0.04 rad/s.

@@ -25,6 +25,7 @@ from derive.engine.model import (
     Parameter,
     Phase,
     PointMass,
+    Skeleton,
     leg,
 )
 from derive.quantities import Derivation
@@ -59,6 +60,12 @@ STANCE = Phase(
     gravity=(g * sm.sin(gamma), -g * sm.cos(gamma)),
     # The next spoke, 2 alpha behind the stance spoke, and its foot.
     points={"next_foot": tuple(h - f for h, f in zip(leg(theta, l), leg(theta - 2 * alpha, l)))},
+    # The stance spoke and the next, and every other spoke round the hub.
+    skeleton=Skeleton(
+        points={"stance_foot": (0, 0), "hub": leg(theta, l)},
+        segments=(("stance_foot", "hub"),),
+        spokes=("hub", "stance_foot", 2 * alpha),
+    ),
 )
 
 MODEL = Model(

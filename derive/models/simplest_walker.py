@@ -32,6 +32,7 @@ from derive.engine.model import (
     Parameter,
     Phase,
     PointMass,
+    Skeleton,
     leg,
 )
 from derive.quantities import Derivation
@@ -65,6 +66,10 @@ theta, phi = THETA.q, PHI.q
 
 hip = leg(theta)
 swing_foot = tuple(h - f for h, f in zip(hip, leg(theta - phi)))
+SKELETON = Skeleton(
+    points={"stance_foot": (0, 0), "hip": hip, "swing_foot": swing_foot},
+    segments=(("stance_foot", "hip"), ("hip", "swing_foot")),
+)
 
 STANCE = Phase(
     "stance",
@@ -111,6 +116,7 @@ MODEL = Model(
         Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the slope"),
     ),
     units={"time": "sqrt(l/g)", "length": "l", "mass": "M", "energy": "M g l", "force": "M g"},
+    skeleton=SKELETON,
     step_length=swing_foot[0],
     # Just after heelstrike the new stance foot is downhill of the hip (theta < 0); Garcia
     # et al.'s gaits at gamma = 0.009 have theta = -0.2003 and -0.1939, theta_dot 0.2.

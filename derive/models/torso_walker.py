@@ -42,6 +42,7 @@ from derive.engine.model import (
     Parameter,
     Phase,
     PointMass,
+    Skeleton,
     leg,
     swing_foot_clearance,
 )
@@ -101,6 +102,11 @@ theta, psi, phi = THETA.q, PSI.q, TORSO.q
 hip = leg(theta, r)
 swing_foot = tuple(h - f for h, f in zip(hip, leg(psi, r)))
 torso = tuple(h + t for h, t in zip(hip, leg(theta + phi, l_t)))
+# The legs and the torso up to its mass (the model has no other torso length).
+SKELETON = Skeleton(
+    points={"stance_foot": (0, 0), "hip": hip, "swing_foot": swing_foot, "torso": torso},
+    segments=(("stance_foot", "hip"), ("hip", "swing_foot"), ("hip", "torso")),
+)
 STANCE = Phase(
     "stance",
     coordinates=(THETA, PSI),
@@ -150,6 +156,7 @@ MODEL = Model(
     ),
     conditions=(swing_foot_clearance(swing_foot[1], "m"),),
     units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},
+    skeleton=SKELETON,
     step_length=swing_foot[0],
     search={"theta": (-0.8, 0.0), "theta_dot": (0.0, 5.0), "psi_dot": (-5.0, 5.0)},
     # Just after heelstrike the legs are at the guard's zero, swapped: psi = -theta.

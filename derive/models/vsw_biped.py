@@ -50,6 +50,7 @@ from derive.engine.model import (
     Parameter,
     Phase,
     PointMass,
+    Skeleton,
     leg,
     swing_foot_clearance,
 )
@@ -93,6 +94,7 @@ r = sm.Symbol("r", positive=True)
 def stance_phase(name: str, length: sm.Expr) -> Phase:
     """The stance leg ``length`` long, the swing leg shortened to ``beta``."""
     hip = leg(theta, r)
+    swing_foot = tuple(h - f for h, f in zip(hip, leg(psi, beta)))
     return Phase(
         name,
         coordinates=(THETA, PSI),
@@ -103,7 +105,12 @@ def stance_phase(name: str, length: sm.Expr) -> Phase:
         ),
         gravity=(0, -1),
         held={r: length},
-        points={"swing_foot": tuple(h - f for h, f in zip(hip, leg(psi, beta)))},
+        points={"swing_foot": swing_foot},
+        # The stance leg at its held length, the swing leg shortened.
+        skeleton=Skeleton(
+            points={"stance_foot": (0, 0), "hip": hip, "swing_foot": swing_foot},
+            segments=(("stance_foot", "hip"), ("hip", "swing_foot")),
+        ),
     )
 
 

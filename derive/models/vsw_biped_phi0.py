@@ -51,6 +51,7 @@ from derive.engine.model import (
     Model,
     Phase,
     PointMass,
+    Skeleton,
     leg,
     swing_foot_clearance,
 )
@@ -80,6 +81,10 @@ PHI = Coordinate(
 theta, phi = THETA.q, PHI.q
 hip = leg(theta, r)
 swing_foot = tuple(h - f for h, f in zip(hip, leg(theta - phi, beta)))
+SKELETON = Skeleton(
+    points={"stance_foot": (0, 0), "hip": hip, "swing_foot": swing_foot},
+    segments=(("stance_foot", "hip"), ("hip", "swing_foot")),
+)
 BODIES = (
     PointMass("hip", 1, hip),
     PointMass("stance_leg", mu, tuple(h - f for h, f in zip(hip, leg(theta, b)))),
@@ -142,6 +147,7 @@ MODEL = Model(
     ),
     conditions=(swing_foot_clearance(swing_foot[1], "l"),),
     units=UNITS,
+    skeleton=SKELETON,
     step_length=swing_foot[0],
     # Just after heelstrike the walker is in the ILE's configuration: the new stance leg at
     # theta_I (11), the new swing leg phi0 behind it.

@@ -17,7 +17,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'free_vsw_biped_stop', 'title': "VSW biped's body, free actuation, end stop", 'description': "the VSW biped's body with its leg force and hip torque free in time, the stance leg extended to an end stop at l once a step (the VSW biped's extension is the limit of its motions); no passive gait: it walks only powered", 'coordinate_units': {'theta': 'rad', 'psi': 'rad', 'r': 'l'}, 'parameters': ('beta', 'mu', 'b_over_l', 'l_min'), 'coordinates': ('theta', 'psi', 'r'), 'rates': ('theta_dot', 'psi_dot', 'r_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the swing foot', 'rate': 'psi_dot'}, {'name': 'r', 'kind': 'coordinate', 'unit': 'l', 'meaning': 'stance leg length', 'reference': 'the stance foot', 'positive': 'the hip away from the foot', 'rate': 'r_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of psi (swing leg angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}, {'name': 'r_dot', 'kind': 'rate', 'unit': 'l/sqrt(l/g)', 'meaning': 'rate of r (stance leg length)', 'reference': '', 'positive': 'r increasing', 'rate': None}), 'phases': ({'name': 'stroke', 'failures': (('fell-backward', 'stroke_fell_backward', -1), ('fell-forward', 'stroke_fell_forward', -1), ('lift-off', 'stroke_lift_off', -1), ('crouched', 'stroke_crouched', -1)), 'conservative': True, 'conditions': (('swing-foot-clearance', 'stroke_swing_foot_clearance', -1),), 'inputs': ({'name': 'leg_force', 'actuator': 'leg', 'along': 'r', 'unit': 'm_H g', 'bounds': (0.0, None), 'description': "the stance leg's force along itself, pushing the hip away from the foot (>= 0: a leg cannot pull on the ground)"}, {'name': 'hip_torque', 'actuator': 'hip', 'along': '-psi + theta', 'unit': 'm_H g l', 'bounds': (None, None), 'description': 'torque between the legs at the hip, positive spreading them (the swing leg forward)'})}, {'name': 'extended', 'failures': (('fell-backward', 'extended_fell_backward', -1), ('fell-forward', 'extended_fell_forward', -1), ('lift-off', 'extended_lift_off', -1)), 'conservative': True, 'conditions': (('swing-foot-clearance', 'extended_swing_foot_clearance', -1),), 'inputs': ({'name': 'hip_torque', 'actuator': 'hip', 'along': '-psi + theta', 'unit': 'm_H g l', 'bounds': (None, None), 'description': 'torque between the legs at the hip, positive spreading them (the swing leg forward)'},)}), 'events': ({'name': 'end_stop', 'source': 'stroke', 'target': 'extended', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'lock', 'bodies': None, 'actuated': ('r',)}, {'name': 'heelstrike', 'source': 'extended', 'target': 'stroke', 'direction': -1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1), 'impulses': ({'name': 'hip_impulse_before', 'actuator': 'hip', 'along': '-psi + theta', 'unit': 'm_H l sqrt(g l)', 'bounds': (None, None), 'description': "the hip torque's impulse just before heelstrike", 'applied': 'before'}, {'name': 'heel_strike', 'actuator': 'leg', 'along': 'r', 'unit': 'm_H sqrt(g l)', 'bounds': (0.0, None), 'description': "the new stance leg's impulse along itself just after heelstrike (a collision where it stops the leg shortening)", 'applied': 'after'}, {'name': 'hip_impulse_after', 'actuator': 'hip', 'along': '-psi + theta', 'unit': 'm_H l sqrt(g l)', 'bounds': (None, None), 'description': "the hip torque's impulse just after heelstrike", 'applied': 'after'})}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the walker stops before the apex and falls back', 'unit': 'rad/sqrt(l/g)'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the ground', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'm_H g'}, {'name': 'crouched', 'direction': -1, 'meaning': 'the stance leg would be shorter than l_min: the end of its stroke', 'unit': 'l'}), 'conditions': ({'name': 'swing-foot-clearance', 'direction': -1, 'meaning': 'the swing foot stays above the ground (where negative it scuffs: ignored)', 'unit': 'l', 'interior': True},), 'units': {'time': 'sqrt(l/g)', 'length': 'l', 'mass': 'm_H', 'energy': 'm_H g l', 'force': 'm_H g'}, 'step_length': True, 'section': ('r',), 'search': {'theta': (-0.6, 0.0), 'psi': (0.0, 0.6), 'theta_dot': (0.0, 2.0), 'psi_dot': (-3.0, 1.0), 'r_dot': (-1.0, 1.0)}, 'powered_only': True, 'parameter_conditions': ({'function': 'parameter_condition_0', 'reason': "the swing leg's length at heelstrike, beta, must be at least l_min", 'strict': False, 'parameters': ('beta', 'l_min')},), 'closed_form': False}
+HYBRID = {'name': 'free_vsw_biped_stop', 'title': "VSW biped's body, free actuation, end stop", 'description': "the VSW biped's body with its leg force and hip torque free in time, the stance leg extended to an end stop at l once a step (the VSW biped's extension is the limit of its motions); no passive gait: it walks only powered", 'coordinate_units': {'theta': 'rad', 'psi': 'rad', 'r': 'l'}, 'parameters': ('beta', 'mu', 'b_over_l', 'l_min'), 'coordinates': ('theta', 'psi', 'r'), 'rates': ('theta_dot', 'psi_dot', 'r_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the swing foot', 'rate': 'psi_dot'}, {'name': 'r', 'kind': 'coordinate', 'unit': 'l', 'meaning': 'stance leg length', 'reference': 'the stance foot', 'positive': 'the hip away from the foot', 'rate': 'r_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of psi (swing leg angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}, {'name': 'r_dot', 'kind': 'rate', 'unit': 'l/sqrt(l/g)', 'meaning': 'rate of r (stance leg length)', 'reference': '', 'positive': 'r increasing', 'rate': None}), 'phases': ({'name': 'stroke', 'failures': (('fell-backward', 'stroke_fell_backward', -1), ('fell-forward', 'stroke_fell_forward', -1), ('lift-off', 'stroke_lift_off', -1), ('crouched', 'stroke_crouched', -1)), 'conservative': True, 'skeleton': {'points': ('stance_foot', 'hip', 'swing_foot'), 'segments': (('stance_foot', 'hip'), ('hip', 'swing_foot')), 'bodies': ('hip', 'stance_leg', 'swing_leg')}, 'conditions': (('swing-foot-clearance', 'stroke_swing_foot_clearance', -1),), 'inputs': ({'name': 'leg_force', 'actuator': 'leg', 'along': 'r', 'unit': 'm_H g', 'bounds': (0.0, None), 'description': "the stance leg's force along itself, pushing the hip away from the foot (>= 0: a leg cannot pull on the ground)"}, {'name': 'hip_torque', 'actuator': 'hip', 'along': '-psi + theta', 'unit': 'm_H g l', 'bounds': (None, None), 'description': 'torque between the legs at the hip, positive spreading them (the swing leg forward)'})}, {'name': 'extended', 'failures': (('fell-backward', 'extended_fell_backward', -1), ('fell-forward', 'extended_fell_forward', -1), ('lift-off', 'extended_lift_off', -1)), 'conservative': True, 'skeleton': {'points': ('stance_foot', 'hip', 'swing_foot'), 'segments': (('stance_foot', 'hip'), ('hip', 'swing_foot')), 'bodies': ('hip', 'stance_leg', 'swing_leg')}, 'conditions': (('swing-foot-clearance', 'extended_swing_foot_clearance', -1),), 'inputs': ({'name': 'hip_torque', 'actuator': 'hip', 'along': '-psi + theta', 'unit': 'm_H g l', 'bounds': (None, None), 'description': 'torque between the legs at the hip, positive spreading them (the swing leg forward)'},)}), 'events': ({'name': 'end_stop', 'source': 'stroke', 'target': 'extended', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'lock', 'bodies': None, 'actuated': ('r',)}, {'name': 'heelstrike', 'source': 'extended', 'target': 'stroke', 'direction': -1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1), 'impulses': ({'name': 'hip_impulse_before', 'actuator': 'hip', 'along': '-psi + theta', 'unit': 'm_H l sqrt(g l)', 'bounds': (None, None), 'description': "the hip torque's impulse just before heelstrike", 'applied': 'before'}, {'name': 'heel_strike', 'actuator': 'leg', 'along': 'r', 'unit': 'm_H sqrt(g l)', 'bounds': (0.0, None), 'description': "the new stance leg's impulse along itself just after heelstrike (a collision where it stops the leg shortening)", 'applied': 'after'}, {'name': 'hip_impulse_after', 'actuator': 'hip', 'along': '-psi + theta', 'unit': 'm_H l sqrt(g l)', 'bounds': (None, None), 'description': "the hip torque's impulse just after heelstrike", 'applied': 'after'})}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the walker stops before the apex and falls back', 'unit': 'rad/sqrt(l/g)'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the ground', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'm_H g'}, {'name': 'crouched', 'direction': -1, 'meaning': 'the stance leg would be shorter than l_min: the end of its stroke', 'unit': 'l'}), 'conditions': ({'name': 'swing-foot-clearance', 'direction': -1, 'meaning': 'the swing foot stays above the ground (where negative it scuffs: ignored)', 'unit': 'l', 'interior': True},), 'units': {'time': 'sqrt(l/g)', 'length': 'l', 'mass': 'm_H', 'energy': 'm_H g l', 'force': 'm_H g'}, 'step_length': True, 'section': ('r',), 'search': {'theta': (-0.6, 0.0), 'psi': (0.0, 0.6), 'theta_dot': (0.0, 2.0), 'psi_dot': (-3.0, 1.0), 'r_dot': (-1.0, 1.0)}, 'powered_only': True, 'parameter_conditions': ({'function': 'parameter_condition_0', 'reason': "the swing leg's length at heelstrike, beta, must be at least l_min", 'strict': False, 'parameters': ('beta', 'l_min')},), 'closed_form': False}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -581,6 +581,35 @@ def stroke_inertias(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot
     """
     be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
     return (1, 0, mu, 0, mu, 0,)
+
+
+def stroke_skeleton(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
+    """Position (x, y) of each point of the drawing in phase stroke's chart.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    mu : array_like or casadi.SX/MX/DM
+    b_over_l : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    r : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+    r_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y of each point in the order of HYBRID's phase 'skeleton'
+    """
+    be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
+    cos_psi, sin_psi = be.cos_sin(psi)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    return (0, 0, r*sin_theta, cos_theta*r, r*sin_theta - sin_psi*beta, cos_theta*r - cos_psi*beta,)
 
 
 def stroke_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
@@ -1191,6 +1220,35 @@ def extended_inertias(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_d
     """
     be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
     return (1, 0, mu, 0, mu, 0,)
+
+
+def extended_skeleton(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):
+    """Position (x, y) of each point of the drawing in phase extended's chart.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    mu : array_like or casadi.SX/MX/DM
+    b_over_l : array_like or casadi.SX/MX/DM
+    l_min : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    r : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+    r_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y of each point in the order of HYBRID's phase 'skeleton'
+    """
+    be = backend_for(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot)
+    cos_psi, sin_psi = be.cos_sin(psi)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    return (0, 0, sin_theta, cos_theta, sin_theta - sin_psi*beta, cos_theta - cos_psi*beta,)
 
 
 def extended_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot):

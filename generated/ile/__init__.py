@@ -29,7 +29,7 @@ conditions with physical=True together decide whether a gait walks."""
 CONDITION_UNITS = {'q_positive': 'g/r_e', 'cos_ratio': '', 'apex': 'g/r_e', 'theta_I_negative': '', 'phi0_below_right_angle': 'rad', 'extension_before_symmetric_contact': 'rad', 'extension_before_heelstrike': 'rad', 'extension_reached': 'rad', 'stance_contact': 'm g'}
 """The unit of each condition's margin ('' where it is dimensionless)."""
 
-HYBRID = {'name': 'ile', 'title': 'Instantaneous leg extension model of Virtual Slope Walking', 'description': 'point-mass hip on massless telescoping legs: the stance leg extends instantaneously at theta_II, heelstrike at the inter-leg angle phi0 (level ground)', 'coordinate_units': {'theta': 'rad'}, 'parameters': ('beta', 'theta_II', 'phi0'), 'coordinates': ('theta',), 'rates': ('theta_dot',), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the stance foot', 'rate': 'theta_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/sqrt(r_e/g)', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}), 'phases': ({'name': 'phase_I_II', 'failures': (('fell-backward', 'phase_I_II_fell_backward', -1), ('lift-off', 'phase_I_II_lift_off', -1)), 'conservative': True}, {'name': 'phase_III_IV', 'failures': (('fell-backward', 'phase_III_IV_fell_backward', -1), ('lift-off', 'phase_III_IV_lift_off', -1)), 'conservative': True}), 'events': ({'name': 'extension', 'source': 'phase_I_II', 'target': 'phase_III_IV', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'jump', 'bodies': None, 'actuated': ('r',)}, {'name': 'heelstrike', 'source': 'phase_III_IV', 'target': 'phase_I_II', 'direction': -1, 'ends_step': True, 'when': None, 'reset': 'impact', 'bodies': (0,)}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the walker stops before the apex and falls back', 'unit': 'rad/sqrt(r_e/g)'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'm g'}), 'units': {'time': 'sqrt(r_e/g)', 'length': 'r_e', 'mass': 'm', 'energy': 'm g r_e', 'force': 'm g'}, 'step_length': True, 'section': ('theta',), 'search': {'theta_dot': (0.0, 3.0)}, 'actuator_names': {'r': 'leg'}, 'closed_form': True}
+HYBRID = {'name': 'ile', 'title': 'Instantaneous leg extension model of Virtual Slope Walking', 'description': 'point-mass hip on massless telescoping legs: the stance leg extends instantaneously at theta_II, heelstrike at the inter-leg angle phi0 (level ground)', 'coordinate_units': {'theta': 'rad'}, 'parameters': ('beta', 'theta_II', 'phi0'), 'coordinates': ('theta',), 'rates': ('theta_dot',), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the stance foot', 'rate': 'theta_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/sqrt(r_e/g)', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}), 'phases': ({'name': 'phase_I_II', 'failures': (('fell-backward', 'phase_I_II_fell_backward', -1), ('lift-off', 'phase_I_II_lift_off', -1)), 'conservative': True, 'skeleton': {'points': ('stance_foot', 'hip', 'swing_foot'), 'segments': (('stance_foot', 'hip'), ('hip', 'swing_foot')), 'bodies': ('hip',)}}, {'name': 'phase_III_IV', 'failures': (('fell-backward', 'phase_III_IV_fell_backward', -1), ('lift-off', 'phase_III_IV_lift_off', -1)), 'conservative': True, 'skeleton': {'points': ('stance_foot', 'hip', 'swing_foot'), 'segments': (('stance_foot', 'hip'), ('hip', 'swing_foot')), 'bodies': ('hip',)}}), 'events': ({'name': 'extension', 'source': 'phase_I_II', 'target': 'phase_III_IV', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'jump', 'bodies': None, 'actuated': ('r',)}, {'name': 'heelstrike', 'source': 'phase_III_IV', 'target': 'phase_I_II', 'direction': -1, 'ends_step': True, 'when': None, 'reset': 'impact', 'bodies': (0,)}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the walker stops before the apex and falls back', 'unit': 'rad/sqrt(r_e/g)'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'm g'}), 'units': {'time': 'sqrt(r_e/g)', 'length': 'r_e', 'mass': 'm', 'energy': 'm g r_e', 'force': 'm g'}, 'step_length': True, 'section': ('theta',), 'search': {'theta_dot': (0.0, 3.0)}, 'actuator_names': {'r': 'leg'}, 'closed_form': True}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards, events with their guards and resets, units."""
 
 
@@ -984,6 +984,31 @@ def phase_I_II_inertias(beta, theta_II, phi0, theta, theta_dot):
     return (1, 0,)
 
 
+def phase_I_II_skeleton(beta, theta_II, phi0, theta, theta_dot):
+    """Position (x, y) of each point of the drawing in phase phase_I_II's chart. Beyond the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y of each point in the order of HYBRID's phase 'skeleton'
+    """
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    cos_t1, sin_t1 = be.cos_sin(phi0 - theta)
+    x0 = sin_theta*beta
+    return (0, 0, x0, cos_theta*beta, x0 + sin_t1*beta, cos_theta*beta - cos_t1*beta,)
+
+
 def phase_III_IV_accelerations(beta, theta_II, phi0, theta, theta_dot):
     """Second derivatives of the free coordinates in phase phase_III_IV. Beyond the paper.
 
@@ -1141,6 +1166,30 @@ def phase_III_IV_inertias(beta, theta_II, phi0, theta, theta_dot):
     """
     be = backend_for(beta, theta_II, phi0, theta, theta_dot)
     return (1, 0,)
+
+
+def phase_III_IV_skeleton(beta, theta_II, phi0, theta, theta_dot):
+    """Position (x, y) of each point of the drawing in phase phase_III_IV's chart. Beyond the paper.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y of each point in the order of HYBRID's phase 'skeleton'
+    """
+    be = backend_for(beta, theta_II, phi0, theta, theta_dot)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    cos_t1, sin_t1 = be.cos_sin(phi0 - theta)
+    return (0, 0, sin_theta, cos_theta, sin_theta + sin_t1*beta, cos_theta - cos_t1*beta,)
 
 
 def event_extension_guard(beta, theta_II, phi0, theta, theta_dot):

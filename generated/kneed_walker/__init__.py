@@ -17,7 +17,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'kneed_walker', 'title': 'Kneed walker', 'description': 'McGeer 1990, Hsu Chen 2007: a passive walker with knees and point feet, walking down a slope', 'coordinate_units': {'theta': 'rad', 'psi': 'rad', 'kappa': 'rad'}, 'parameters': ('m_h', 'm_t', 'm_s', 'a1', 'b1', 'a2', 'b2', 'gamma', 'g'), 'coordinates': ('theta', 'psi', 'kappa'), 'rates': ('theta_dot', 'psi_dot', 'kappa_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing thigh angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the swing knee', 'rate': 'psi_dot'}, {'name': 'kappa', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing knee angle (shank less thigh)', 'reference': 'the straight knee', 'positive': 'the knee flexed, the swing foot behind the knee', 'rate': 'kappa_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of psi (swing thigh angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}, {'name': 'kappa_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of kappa (swing knee angle (shank less thigh))', 'reference': '', 'positive': 'kappa increasing', 'rate': None}), 'phases': ({'name': 'knee_free', 'failures': (('fell-backward', 'knee_free_fell_backward', -1), ('fell-forward', 'knee_free_fell_forward', -1), ('lift-off', 'knee_free_lift_off', -1)), 'conservative': True, 'conditions': (('swing-foot-clearance', 'knee_free_swing_foot_clearance', -1), ('stance-knee-stop', 'knee_free_stance_knee_stop', -1))}, {'name': 'knee_locked', 'failures': (('fell-backward', 'knee_locked_fell_backward', -1), ('fell-forward', 'knee_locked_fell_forward', -1), ('lift-off', 'knee_locked_lift_off', -1)), 'conservative': True, 'conditions': (('swing-foot-clearance', 'knee_locked_swing_foot_clearance', -1), ('stance-knee-stop', 'knee_locked_stance_knee_stop', -1))}), 'events': ({'name': 'kneestrike', 'source': 'knee_free', 'target': 'knee_locked', 'direction': -1, 'ends_step': False, 'when': None, 'reset': 'lock', 'bodies': None, 'actuated': ('kappa',)}, {'name': 'heelstrike', 'source': 'knee_locked', 'target': 'knee_free', 'direction': 1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 4, 3, 2, 1)}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the stance leg stops and swings back', 'unit': 'rad/s'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the slope', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the slope', 'unit': 'N'}), 'conditions': ({'name': 'swing-foot-clearance', 'direction': -1, 'meaning': 'the swing foot stays above the ground (where negative it scuffs: ignored)', 'unit': 'm', 'interior': True}, {'name': 'stance-knee-stop', 'direction': -1, 'meaning': 'the stance knee presses into its stop (else its lock must pull: a latch)', 'unit': 'N m'}), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J', 'force': 'N'}, 'step_length': True, 'section': ('psi', 'kappa', 'kappa_dot'), 'search': {'theta': (-0.6, 0.0), 'theta_dot': (0.0, 4.0), 'psi_dot': (-4.0, 4.0)}, 'closed_form': False}
+HYBRID = {'name': 'kneed_walker', 'title': 'Kneed walker', 'description': 'McGeer 1990, Hsu Chen 2007: a passive walker with knees and point feet, walking down a slope', 'coordinate_units': {'theta': 'rad', 'psi': 'rad', 'kappa': 'rad'}, 'parameters': ('m_h', 'm_t', 'm_s', 'a1', 'b1', 'a2', 'b2', 'gamma', 'g'), 'coordinates': ('theta', 'psi', 'kappa'), 'rates': ('theta_dot', 'psi_dot', 'kappa_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing thigh angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the swing knee', 'rate': 'psi_dot'}, {'name': 'kappa', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing knee angle (shank less thigh)', 'reference': 'the straight knee', 'positive': 'the knee flexed, the swing foot behind the knee', 'rate': 'kappa_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of psi (swing thigh angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}, {'name': 'kappa_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of kappa (swing knee angle (shank less thigh))', 'reference': '', 'positive': 'kappa increasing', 'rate': None}), 'phases': ({'name': 'knee_free', 'failures': (('fell-backward', 'knee_free_fell_backward', -1), ('fell-forward', 'knee_free_fell_forward', -1), ('lift-off', 'knee_free_lift_off', -1)), 'conservative': True, 'skeleton': {'points': ('stance_foot', 'stance_knee', 'hip', 'swing_knee', 'swing_foot'), 'segments': (('stance_foot', 'stance_knee'), ('stance_knee', 'hip'), ('hip', 'swing_knee'), ('swing_knee', 'swing_foot')), 'bodies': ('hip', 'stance_shank', 'stance_thigh', 'swing_thigh', 'swing_shank')}, 'conditions': (('swing-foot-clearance', 'knee_free_swing_foot_clearance', -1), ('stance-knee-stop', 'knee_free_stance_knee_stop', -1))}, {'name': 'knee_locked', 'failures': (('fell-backward', 'knee_locked_fell_backward', -1), ('fell-forward', 'knee_locked_fell_forward', -1), ('lift-off', 'knee_locked_lift_off', -1)), 'conservative': True, 'skeleton': {'points': ('stance_foot', 'stance_knee', 'hip', 'swing_knee', 'swing_foot'), 'segments': (('stance_foot', 'stance_knee'), ('stance_knee', 'hip'), ('hip', 'swing_knee'), ('swing_knee', 'swing_foot')), 'bodies': ('hip', 'stance_shank', 'stance_thigh', 'swing_thigh', 'swing_shank')}, 'conditions': (('swing-foot-clearance', 'knee_locked_swing_foot_clearance', -1), ('stance-knee-stop', 'knee_locked_stance_knee_stop', -1))}), 'events': ({'name': 'kneestrike', 'source': 'knee_free', 'target': 'knee_locked', 'direction': -1, 'ends_step': False, 'when': None, 'reset': 'lock', 'bodies': None, 'actuated': ('kappa',)}, {'name': 'heelstrike', 'source': 'knee_locked', 'target': 'knee_free', 'direction': 1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 4, 3, 2, 1)}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the stance leg stops and swings back', 'unit': 'rad/s'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the slope', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the slope', 'unit': 'N'}), 'conditions': ({'name': 'swing-foot-clearance', 'direction': -1, 'meaning': 'the swing foot stays above the ground (where negative it scuffs: ignored)', 'unit': 'm', 'interior': True}, {'name': 'stance-knee-stop', 'direction': -1, 'meaning': 'the stance knee presses into its stop (else its lock must pull: a latch)', 'unit': 'N m'}), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J', 'force': 'N'}, 'step_length': True, 'section': ('psi', 'kappa', 'kappa_dot'), 'search': {'theta': (-0.6, 0.0), 'theta_dot': (0.0, 4.0), 'psi_dot': (-4.0, 4.0)}, 'closed_form': False}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -721,6 +721,49 @@ def knee_free_inertias(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kapp
     return (m_h, 0, m_s, 0, m_t, 0, m_t, 0, m_s, 0,)
 
 
+def knee_free_skeleton(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot):
+    """Position (x, y) of each point of the drawing in phase knee_free's chart.
+
+    Parameters
+    ----------
+    m_h : array_like or casadi.SX/MX/DM
+    m_t : array_like or casadi.SX/MX/DM
+    m_s : array_like or casadi.SX/MX/DM
+    a1 : array_like or casadi.SX/MX/DM
+    b1 : array_like or casadi.SX/MX/DM
+    a2 : array_like or casadi.SX/MX/DM
+    b2 : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    kappa : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+    kappa_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y of each point in the order of HYBRID's phase 'skeleton'
+    """
+    be = backend_for(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot)
+    cos_psi, sin_psi = be.cos_sin(psi)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    cos_t2, sin_t2 = be.cos_sin(kappa + psi)
+    x0 = a1 + b1
+    x1 = x0*sin_theta
+    x2 = x0*cos_theta
+    x3 = a2 + b2
+    x4 = x1 + x3*sin_theta
+    x5 = x2 + x3*cos_theta
+    x6 = x3*sin_psi
+    x7 = x3*cos_psi
+    return (0, 0, x1, x2, x4, x5, x4 - x6, x5 - x7, -x6 + x0*sin_theta + x3*sin_theta - x0*sin_t2, -x7 + x0*cos_theta + x3*cos_theta - x0*cos_t2,)
+
+
 def knee_locked_accelerations(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot):
     """Second derivatives of the free coordinates in phase knee_locked.
 
@@ -1286,6 +1329,48 @@ def knee_locked_inertias(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, ka
     """
     be = backend_for(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot)
     return (m_h, 0, m_s, 0, m_t, 0, m_t, 0, m_s, 0,)
+
+
+def knee_locked_skeleton(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot):
+    """Position (x, y) of each point of the drawing in phase knee_locked's chart.
+
+    Parameters
+    ----------
+    m_h : array_like or casadi.SX/MX/DM
+    m_t : array_like or casadi.SX/MX/DM
+    m_s : array_like or casadi.SX/MX/DM
+    a1 : array_like or casadi.SX/MX/DM
+    b1 : array_like or casadi.SX/MX/DM
+    a2 : array_like or casadi.SX/MX/DM
+    b2 : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    kappa : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+    kappa_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y of each point in the order of HYBRID's phase 'skeleton'
+    """
+    be = backend_for(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot)
+    cos_psi, sin_psi = be.cos_sin(psi)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    x0 = a1 + b1
+    x1 = x0*sin_theta
+    x2 = x0*cos_theta
+    x3 = a2 + b2
+    x4 = x1 + x3*sin_theta
+    x5 = x2 + x3*cos_theta
+    x6 = x3*sin_psi
+    x7 = x3*cos_psi
+    return (0, 0, x1, x2, x4, x5, x4 - x6, x5 - x7, -x6 + x0*sin_theta + x3*sin_theta - x0*sin_psi, -x7 + x0*cos_theta + x3*cos_theta - x0*cos_psi,)
 
 
 def event_kneestrike_guard(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot):

@@ -17,7 +17,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'kuo_walker', 'title': "Kuo's powered simplest walker", 'description': 'Kuo 2002: a point mass on two rigid massless legs on level ground, powered by a push-off along the trailing leg with heelstrike or by a torque on the stance leg; no passive gait: it walks only powered', 'coordinate_units': {'theta': 'rad'}, 'parameters': ('m', 'g', 'l', 'd'), 'coordinates': ('theta',), 'rates': ('theta_dot',), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the stance foot', 'rate': 'theta_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': True, 'inputs': ({'name': 'stance_torque', 'actuator': 'stance torque', 'along': 'theta', 'unit': 'N m', 'bounds': (None, None), 'description': "a torque on the stance leg about its foot, positive turning the hip forward (Kuo 2002's torque on the stance leg)"},)},), 'events': ({'name': 'heelstrike', 'source': 'stance', 'target': 'stance', 'direction': 1, 'ends_step': True, 'when': None, 'reset': 'impact', 'bodies': (0,), 'impulses': ({'name': 'push_off', 'actuator': 'leg', 'along': 'r', 'unit': 'N s', 'bounds': (0.0, None), 'description': "the trailing leg's impulse along itself with heelstrike (just before it; the impact releases its foot)", 'applied': 'with'}, {'name': 'torque_impulse', 'actuator': 'stance torque', 'along': 'theta', 'unit': 'N m s', 'bounds': (None, None), 'description': "the stance torque's impulse on the new stance leg just after heelstrike", 'applied': 'after'})},), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the hip stops and swings back', 'unit': 'rad/s'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground (the leg would pull)', 'unit': 'N'}), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J', 'force': 'N'}, 'step_length': True, 'section': ('theta',), 'search': {'theta_dot': (0.0, 2.0)}, 'actuator_names': {'r': 'leg'}, 'powered_only': True, 'parameter_conditions': ({'function': 'parameter_condition_0', 'reason': 'the step d must be shorter than 2 l: the legs must reach', 'strict': True, 'parameters': ('l', 'd')},), 'closed_form': False}
+HYBRID = {'name': 'kuo_walker', 'title': "Kuo's powered simplest walker", 'description': 'Kuo 2002: a point mass on two rigid massless legs on level ground, powered by a push-off along the trailing leg with heelstrike or by a torque on the stance leg; no passive gait: it walks only powered', 'coordinate_units': {'theta': 'rad'}, 'parameters': ('m', 'g', 'l', 'd'), 'coordinates': ('theta',), 'rates': ('theta_dot',), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the stance foot', 'rate': 'theta_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': True, 'skeleton': {'points': ('stance_foot', 'hip', 'swing_foot'), 'segments': (('stance_foot', 'hip'), ('hip', 'swing_foot')), 'bodies': ('hip',)}, 'inputs': ({'name': 'stance_torque', 'actuator': 'stance torque', 'along': 'theta', 'unit': 'N m', 'bounds': (None, None), 'description': "a torque on the stance leg about its foot, positive turning the hip forward (Kuo 2002's torque on the stance leg)"},)},), 'events': ({'name': 'heelstrike', 'source': 'stance', 'target': 'stance', 'direction': 1, 'ends_step': True, 'when': None, 'reset': 'impact', 'bodies': (0,), 'impulses': ({'name': 'push_off', 'actuator': 'leg', 'along': 'r', 'unit': 'N s', 'bounds': (0.0, None), 'description': "the trailing leg's impulse along itself with heelstrike (just before it; the impact releases its foot)", 'applied': 'with'}, {'name': 'torque_impulse', 'actuator': 'stance torque', 'along': 'theta', 'unit': 'N m s', 'bounds': (None, None), 'description': "the stance torque's impulse on the new stance leg just after heelstrike", 'applied': 'after'})},), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the hip stops and swings back', 'unit': 'rad/s'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground (the leg would pull)', 'unit': 'N'}), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J', 'force': 'N'}, 'step_length': True, 'section': ('theta',), 'search': {'theta_dot': (0.0, 2.0)}, 'actuator_names': {'r': 'leg'}, 'powered_only': True, 'parameter_conditions': ({'function': 'parameter_condition_0', 'reason': 'the step d must be shorter than 2 l: the legs must reach', 'strict': True, 'parameters': ('l', 'd')},), 'closed_form': False}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -244,6 +244,31 @@ def stance_inertias(m, g, l, d, theta, theta_dot):
     """
     be = backend_for(m, g, l, d, theta, theta_dot)
     return (m, 0,)
+
+
+def stance_skeleton(m, g, l, d, theta, theta_dot):
+    """Position (x, y) of each point of the drawing in phase stance's chart.
+
+    Parameters
+    ----------
+    m : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    l : array_like or casadi.SX/MX/DM
+    d : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y of each point in the order of HYBRID's phase 'skeleton'
+    """
+    be = backend_for(m, g, l, d, theta, theta_dot)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    x0 = sin_theta*l
+    return (0, 0, x0, cos_theta*l, 2*x0, 0,)
 
 
 def stance_input_gains(m, g, l, d, theta, theta_dot):

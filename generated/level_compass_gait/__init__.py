@@ -17,7 +17,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'level_compass_gait', 'title': 'Compass gait on level ground, powered', 'description': "the compass gait's body (Goswami et al. 1996, Drake's parameters) on level ground, powered by a push-off along the trailing leg with heelstrike or by the hip torque (Kuo 2002's comparison with massive legs); no passive gait: it walks only powered", 'coordinate_units': {'theta': 'rad', 'psi': 'rad'}, 'parameters': ('m_h', 'm', 'a', 'b', 'g'), 'coordinates': ('theta', 'psi'), 'rates': ('theta_dot', 'psi_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the swing foot', 'rate': 'psi_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of psi (swing leg angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('fell-forward', 'stance_fell_forward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': True, 'conditions': (('swing-foot-clearance', 'stance_swing_foot_clearance', -1),), 'inputs': ({'name': 'hip_torque', 'actuator': 'hip', 'along': '-psi + theta', 'unit': 'N m', 'bounds': (None, None), 'description': 'torque between the legs at the hip, positive spreading them (the swing leg forward); its reaction acts on the stance leg'},)},), 'events': ({'name': 'heelstrike', 'source': 'stance', 'target': 'stance', 'direction': 1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1), 'impulses': ({'name': 'push_off', 'actuator': 'leg', 'along': 'r', 'unit': 'N s', 'bounds': (0.0, None), 'description': "the trailing leg's impulse along itself with heelstrike (just before it; the impact releases its foot)", 'applied': 'with'}, {'name': 'hip_impulse_before', 'actuator': 'hip', 'along': '-psi + theta', 'unit': 'N m s', 'bounds': (None, None), 'description': "the hip torque's impulse just before heelstrike", 'applied': 'before'}, {'name': 'hip_impulse_after', 'actuator': 'hip', 'along': '-psi + theta', 'unit': 'N m s', 'bounds': (None, None), 'description': "the hip torque's impulse just after heelstrike", 'applied': 'after'})},), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the stance leg stops and swings back', 'unit': 'rad/s'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the ground', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'N'}), 'conditions': ({'name': 'swing-foot-clearance', 'direction': -1, 'meaning': 'the swing foot stays above the ground (where negative it scuffs: ignored)', 'unit': 'm', 'interior': True},), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J', 'force': 'N'}, 'step_length': True, 'section': ('psi',), 'search': {'theta': (-0.8, 0.0), 'theta_dot': (0.0, 5.0), 'psi_dot': (-5.0, 5.0)}, 'actuator_names': {'r': 'leg'}, 'powered_only': True, 'closed_form': False}
+HYBRID = {'name': 'level_compass_gait', 'title': 'Compass gait on level ground, powered', 'description': "the compass gait's body (Goswami et al. 1996, Drake's parameters) on level ground, powered by a push-off along the trailing leg with heelstrike or by the hip torque (Kuo 2002's comparison with massive legs); no passive gait: it walks only powered", 'coordinate_units': {'theta': 'rad', 'psi': 'rad'}, 'parameters': ('m_h', 'm', 'a', 'b', 'g'), 'coordinates': ('theta', 'psi'), 'rates': ('theta_dot', 'psi_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the swing foot', 'rate': 'psi_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of psi (swing leg angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('fell-forward', 'stance_fell_forward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': True, 'skeleton': {'points': ('stance_foot', 'hip', 'swing_foot'), 'segments': (('stance_foot', 'hip'), ('hip', 'swing_foot')), 'bodies': ('hip', 'stance_leg', 'swing_leg')}, 'conditions': (('swing-foot-clearance', 'stance_swing_foot_clearance', -1),), 'inputs': ({'name': 'hip_torque', 'actuator': 'hip', 'along': '-psi + theta', 'unit': 'N m', 'bounds': (None, None), 'description': 'torque between the legs at the hip, positive spreading them (the swing leg forward); its reaction acts on the stance leg'},)},), 'events': ({'name': 'heelstrike', 'source': 'stance', 'target': 'stance', 'direction': 1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1), 'impulses': ({'name': 'push_off', 'actuator': 'leg', 'along': 'r', 'unit': 'N s', 'bounds': (0.0, None), 'description': "the trailing leg's impulse along itself with heelstrike (just before it; the impact releases its foot)", 'applied': 'with'}, {'name': 'hip_impulse_before', 'actuator': 'hip', 'along': '-psi + theta', 'unit': 'N m s', 'bounds': (None, None), 'description': "the hip torque's impulse just before heelstrike", 'applied': 'before'}, {'name': 'hip_impulse_after', 'actuator': 'hip', 'along': '-psi + theta', 'unit': 'N m s', 'bounds': (None, None), 'description': "the hip torque's impulse just after heelstrike", 'applied': 'after'})},), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the stance leg stops and swings back', 'unit': 'rad/s'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the ground', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'N'}), 'conditions': ({'name': 'swing-foot-clearance', 'direction': -1, 'meaning': 'the swing foot stays above the ground (where negative it scuffs: ignored)', 'unit': 'm', 'interior': True},), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J', 'force': 'N'}, 'step_length': True, 'section': ('psi',), 'search': {'theta': (-0.8, 0.0), 'theta_dot': (0.0, 5.0), 'psi_dot': (-5.0, 5.0)}, 'actuator_names': {'r': 'leg'}, 'powered_only': True, 'closed_form': False}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -613,6 +613,35 @@ def stance_inertias(m_h, m, a, b, g, theta, psi, theta_dot, psi_dot):
     """
     be = backend_for(m_h, m, a, b, g, theta, psi, theta_dot, psi_dot)
     return (m_h, 0, m, 0, m, 0,)
+
+
+def stance_skeleton(m_h, m, a, b, g, theta, psi, theta_dot, psi_dot):
+    """Position (x, y) of each point of the drawing in phase stance's chart.
+
+    Parameters
+    ----------
+    m_h : array_like or casadi.SX/MX/DM
+    m : array_like or casadi.SX/MX/DM
+    a : array_like or casadi.SX/MX/DM
+    b : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y of each point in the order of HYBRID's phase 'skeleton'
+    """
+    be = backend_for(m_h, m, a, b, g, theta, psi, theta_dot, psi_dot)
+    cos_psi, sin_psi = be.cos_sin(psi)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    x0 = a + b
+    return (0, 0, x0*sin_theta, x0*cos_theta, x0*sin_theta - x0*sin_psi, x0*cos_theta - x0*cos_psi,)
 
 
 def stance_input_gains(m_h, m, a, b, g, theta, psi, theta_dot, psi_dot):

@@ -17,7 +17,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'rimless_wheel', 'title': 'Rimless wheel', 'description': "McGeer's rimless wheel: a hub mass on massless spokes rolling down a slope", 'coordinate_units': {'theta': 'rad'}, 'parameters': ('alpha', 'gamma', 'l', 'g'), 'coordinates': ('theta',), 'rates': ('theta_dot',), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance spoke angle', 'reference': 'the slope normal', 'positive': 'the hub downhill of the stance foot', 'rate': 'theta_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of theta (stance spoke angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': True},), 'events': ({'name': 'collision', 'source': 'stance', 'target': 'stance', 'direction': -1, 'ends_step': True, 'when': None, 'reset': 'impact', 'bodies': (0,)},), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the wheel stops and rolls back', 'unit': 'rad/s'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the slope', 'unit': 'N/kg'}), 'units': {'time': 's', 'length': 'm', 'mass': 'kg (energies per unit mass)', 'energy': 'J/kg', 'force': 'N/kg'}, 'step_length': True, 'section': ('theta',), 'search': {'theta_dot': (0.0, 12.0)}, 'closed_form': True}
+HYBRID = {'name': 'rimless_wheel', 'title': 'Rimless wheel', 'description': "McGeer's rimless wheel: a hub mass on massless spokes rolling down a slope", 'coordinate_units': {'theta': 'rad'}, 'parameters': ('alpha', 'gamma', 'l', 'g'), 'coordinates': ('theta',), 'rates': ('theta_dot',), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance spoke angle', 'reference': 'the slope normal', 'positive': 'the hub downhill of the stance foot', 'rate': 'theta_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of theta (stance spoke angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': True, 'skeleton': {'points': ('stance_foot', 'hub'), 'segments': (('stance_foot', 'hub'),), 'bodies': ('hub',), 'spokes': ('hub', 'stance_foot', 'stance_skeleton_spoke_angle')}},), 'events': ({'name': 'collision', 'source': 'stance', 'target': 'stance', 'direction': -1, 'ends_step': True, 'when': None, 'reset': 'impact', 'bodies': (0,)},), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the wheel stops and rolls back', 'unit': 'rad/s'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the slope', 'unit': 'N/kg'}), 'units': {'time': 's', 'length': 'm', 'mass': 'kg (energies per unit mass)', 'energy': 'J/kg', 'force': 'N/kg'}, 'step_length': True, 'section': ('theta',), 'search': {'theta_dot': (0.0, 12.0)}, 'closed_form': True}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -195,6 +195,53 @@ def stance_inertias(alpha, gamma, l, g, theta, theta_dot):
     """
     be = backend_for(alpha, gamma, l, g, theta, theta_dot)
     return (1, 0,)
+
+
+def stance_skeleton(alpha, gamma, l, g, theta, theta_dot):
+    """Position (x, y) of each point of the drawing in phase stance's chart.
+
+    Parameters
+    ----------
+    alpha : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    l : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y of each point in the order of HYBRID's phase 'skeleton'
+    """
+    be = backend_for(alpha, gamma, l, g, theta, theta_dot)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    return (0, 0, sin_theta*l, cos_theta*l,)
+
+
+def stance_skeleton_spoke_angle(alpha, gamma, l, g, theta, theta_dot):
+    """Angle between neighbouring spokes of the drawing in phase stance.
+
+    Parameters
+    ----------
+    alpha : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    l : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    array
+        angle
+    """
+    be = backend_for(alpha, gamma, l, g, theta, theta_dot)
+    return 2*alpha
 
 
 def event_collision_guard(alpha, gamma, l, g, theta, theta_dot):

@@ -17,7 +17,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'simplest_walker', 'title': 'Simplest walking model', 'description': 'Garcia et al. 1998: a hip mass on two massless legs with infinitesimal feet, walking down a slope', 'coordinate_units': {'theta': 'rad', 'phi': 'rad'}, 'parameters': ('gamma',), 'coordinates': ('theta', 'phi'), 'rates': ('theta_dot', 'phi_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the stance foot', 'rate': 'theta_dot'}, {'name': 'phi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'angle between the legs (stance minus swing)', 'reference': 'the stance leg', 'positive': 'the swing leg turned downhill of it', 'rate': 'phi_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'phi_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of phi (angle between the legs (stance minus swing))', 'reference': '', 'positive': 'phi increasing', 'rate': None}), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('fell-forward', 'stance_fell_forward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': True},), 'events': ({'name': 'heelstrike', 'source': 'stance', 'target': 'stance', 'direction': 1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1)},), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the stance leg stops and swings back', 'unit': 'rad/sqrt(l/g)'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the slope', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the slope', 'unit': 'M g'}), 'units': {'time': 'sqrt(l/g)', 'length': 'l', 'mass': 'M', 'energy': 'M g l', 'force': 'M g'}, 'step_length': True, 'section': ('phi', 'phi_dot'), 'search': {'theta': (-0.8, 0.0), 'theta_dot': (0.0, 1.5)}, 'closed_form': False}
+HYBRID = {'name': 'simplest_walker', 'title': 'Simplest walking model', 'description': 'Garcia et al. 1998: a hip mass on two massless legs with infinitesimal feet, walking down a slope', 'coordinate_units': {'theta': 'rad', 'phi': 'rad'}, 'parameters': ('gamma',), 'coordinates': ('theta', 'phi'), 'rates': ('theta_dot', 'phi_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the stance foot', 'rate': 'theta_dot'}, {'name': 'phi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'angle between the legs (stance minus swing)', 'reference': 'the stance leg', 'positive': 'the swing leg turned downhill of it', 'rate': 'phi_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'phi_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of phi (angle between the legs (stance minus swing))', 'reference': '', 'positive': 'phi increasing', 'rate': None}), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('fell-forward', 'stance_fell_forward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': True, 'skeleton': {'points': ('stance_foot', 'hip', 'swing_foot'), 'segments': (('stance_foot', 'hip'), ('hip', 'swing_foot')), 'bodies': ('hip', 'stance_foot', 'swing_foot')}},), 'events': ({'name': 'heelstrike', 'source': 'stance', 'target': 'stance', 'direction': 1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1)},), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the stance leg stops and swings back', 'unit': 'rad/sqrt(l/g)'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the slope', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the slope', 'unit': 'M g'}), 'units': {'time': 'sqrt(l/g)', 'length': 'l', 'mass': 'M', 'energy': 'M g l', 'force': 'M g'}, 'step_length': True, 'section': ('phi', 'phi_dot'), 'search': {'theta': (-0.8, 0.0), 'theta_dot': (0.0, 1.5)}, 'closed_form': False}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -212,6 +212,30 @@ def stance_inertias(gamma, theta, phi, theta_dot, phi_dot):
     """
     be = backend_for(gamma, theta, phi, theta_dot, phi_dot)
     return (1, 0, 0, 0, 0, 0,)
+
+
+def stance_skeleton(gamma, theta, phi, theta_dot, phi_dot):
+    """Position (x, y) of each point of the drawing in phase stance's chart.
+
+    Parameters
+    ----------
+    gamma : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    phi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    phi_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y of each point in the order of HYBRID's phase 'skeleton'
+    """
+    be = backend_for(gamma, theta, phi, theta_dot, phi_dot)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    cos_t1, sin_t1 = be.cos_sin(phi - theta)
+    return (0, 0, sin_theta, cos_theta, sin_t1 + sin_theta, cos_theta - cos_t1,)
 
 
 def event_heelstrike_guard(gamma, theta, phi, theta_dot, phi_dot):

@@ -26,7 +26,7 @@ conditions with physical=True together decide whether a gait walks."""
 CONDITION_UNITS = {'q_positive': 'g/r_e', 'apex': 'g r_e^3', 'extension_reached': 'rad', 'extension_completed': 'rad', 'leg_compressive': 'm g', 'stance_contact': 'm g'}
 """The unit of each condition's margin ('' where it is dimensionless)."""
 
-HYBRID = {'name': 'tle', 'title': 'Finite-time leg extension model of Virtual Slope Walking', 'description': 'ILE walker whose stance leg extends from beta r_e to r_e along a cubic smoothstep over the stance angles [theta_II, theta_II + delta]', 'coordinate_units': {'theta': 'rad'}, 'parameters': ('beta', 'theta_II', 'phi0', 'delta'), 'coordinates': ('theta',), 'rates': ('theta_dot',), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the stance foot', 'rate': 'theta_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/sqrt(r_e/g)', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}), 'phases': ({'name': 'short', 'failures': (('fell-backward', 'short_fell_backward', -1), ('lift-off', 'short_lift_off', -1)), 'conservative': True}, {'name': 'extension', 'failures': (('fell-backward', 'extension_fell_backward', -1), ('lift-off', 'extension_lift_off', -1)), 'conservative': False, 'actuators': ('r',)}, {'name': 'long', 'failures': (('fell-backward', 'long_fell_backward', -1), ('lift-off', 'long_lift_off', -1)), 'conservative': True}), 'events': ({'name': 'extension_start', 'source': 'short', 'target': 'extension', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'continuous', 'bodies': None}, {'name': 'extension_end', 'source': 'extension', 'target': 'long', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'continuous', 'bodies': None}, {'name': 'heelstrike', 'source': 'long', 'target': 'short', 'direction': -1, 'ends_step': True, 'when': None, 'reset': 'impact', 'bodies': (0,)}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the stance leg stops and falls back', 'unit': 'rad/sqrt(r_e/g)'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'm g'}), 'units': {'time': 'sqrt(r_e/g)', 'length': 'r_e', 'mass': 'm', 'energy': 'm g r_e', 'force': 'm g'}, 'step_length': True, 'section': ('theta',), 'search': {'theta_dot': (0.0, 3.0)}, 'actuator_names': {'r': 'leg'}, 'closed_form': True}
+HYBRID = {'name': 'tle', 'title': 'Finite-time leg extension model of Virtual Slope Walking', 'description': 'ILE walker whose stance leg extends from beta r_e to r_e along a cubic smoothstep over the stance angles [theta_II, theta_II + delta]', 'coordinate_units': {'theta': 'rad'}, 'parameters': ('beta', 'theta_II', 'phi0', 'delta'), 'coordinates': ('theta',), 'rates': ('theta_dot',), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the stance foot', 'rate': 'theta_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/sqrt(r_e/g)', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}), 'phases': ({'name': 'short', 'failures': (('fell-backward', 'short_fell_backward', -1), ('lift-off', 'short_lift_off', -1)), 'conservative': True, 'skeleton': {'points': ('stance_foot', 'hip', 'swing_foot'), 'segments': (('stance_foot', 'hip'), ('hip', 'swing_foot')), 'bodies': ('hip',)}}, {'name': 'extension', 'failures': (('fell-backward', 'extension_fell_backward', -1), ('lift-off', 'extension_lift_off', -1)), 'conservative': False, 'skeleton': {'points': ('stance_foot', 'hip', 'swing_foot'), 'segments': (('stance_foot', 'hip'), ('hip', 'swing_foot')), 'bodies': ('hip',)}, 'actuators': ('r',)}, {'name': 'long', 'failures': (('fell-backward', 'long_fell_backward', -1), ('lift-off', 'long_lift_off', -1)), 'conservative': True, 'skeleton': {'points': ('stance_foot', 'hip', 'swing_foot'), 'segments': (('stance_foot', 'hip'), ('hip', 'swing_foot')), 'bodies': ('hip',)}}), 'events': ({'name': 'extension_start', 'source': 'short', 'target': 'extension', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'continuous', 'bodies': None}, {'name': 'extension_end', 'source': 'extension', 'target': 'long', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'continuous', 'bodies': None}, {'name': 'heelstrike', 'source': 'long', 'target': 'short', 'direction': -1, 'ends_step': True, 'when': None, 'reset': 'impact', 'bodies': (0,)}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the stance leg stops and falls back', 'unit': 'rad/sqrt(r_e/g)'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'm g'}), 'units': {'time': 'sqrt(r_e/g)', 'length': 'r_e', 'mass': 'm', 'energy': 'm g r_e', 'force': 'm g'}, 'step_length': True, 'section': ('theta',), 'search': {'theta_dot': (0.0, 3.0)}, 'actuator_names': {'r': 'leg'}, 'closed_form': True}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -199,6 +199,31 @@ def short_inertias(beta, theta_II, phi0, delta, theta, theta_dot):
     """
     be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     return (1, 0,)
+
+
+def short_skeleton(beta, theta_II, phi0, delta, theta, theta_dot):
+    """Position (x, y) of each point of the drawing in phase short's chart.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    delta : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y of each point in the order of HYBRID's phase 'skeleton'
+    """
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    cos_t1, sin_t1 = be.cos_sin(phi0 - theta)
+    return (0, 0, sin_theta*beta, cos_theta*beta, sin_theta + sin_t1*beta, cos_theta - cos_t1*beta,)
 
 
 def extension_accelerations(beta, theta_II, phi0, delta, theta, theta_dot):
@@ -401,6 +426,33 @@ def extension_inertias(beta, theta_II, phi0, delta, theta, theta_dot):
     return (1, 0,)
 
 
+def extension_skeleton(beta, theta_II, phi0, delta, theta, theta_dot):
+    """Position (x, y) of each point of the drawing in phase extension's chart.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    delta : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y of each point in the order of HYBRID's phase 'skeleton'
+    """
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    cos_t1, sin_t1 = be.cos_sin(phi0 - theta)
+    x0 = theta - theta_II
+    x1 = beta + (1 - beta)*(-2*(x0*x0*x0)/(delta*delta*delta) + 3*x0**2/delta**2)
+    return (0, 0, x1*sin_theta, x1*cos_theta, sin_theta + sin_t1*beta, cos_theta - cos_t1*beta,)
+
+
 def extension_actuator_power(beta, theta_II, phi0, delta, theta, theta_dot):
     """Power of each actuator holding a moving coordinate in phase extension (r): generalised force times rate.
 
@@ -600,6 +652,31 @@ def long_inertias(beta, theta_II, phi0, delta, theta, theta_dot):
     """
     be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
     return (1, 0,)
+
+
+def long_skeleton(beta, theta_II, phi0, delta, theta, theta_dot):
+    """Position (x, y) of each point of the drawing in phase long's chart.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    delta : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y of each point in the order of HYBRID's phase 'skeleton'
+    """
+    be = backend_for(beta, theta_II, phi0, delta, theta, theta_dot)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    cos_t1, sin_t1 = be.cos_sin(phi0 - theta)
+    return (0, 0, sin_theta, cos_theta, sin_theta + sin_t1*beta, cos_theta - cos_t1*beta,)
 
 
 def event_extension_start_guard(beta, theta_II, phi0, delta, theta, theta_dot):

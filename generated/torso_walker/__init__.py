@@ -17,7 +17,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'torso_walker', 'title': 'Compass gait with a torso', 'description': 'Grizzle et al. 2001, Westervelt et al. 2007: the three-link biped, its torso held at a lean by a hip actuator, the swing leg free', 'coordinate_units': {'theta': 'rad', 'psi': 'rad'}, 'parameters': ('m_h', 'm', 'm_t', 'r', 'l_t', 'rho', 'gamma', 'g'), 'coordinates': ('theta', 'psi'), 'rates': ('theta_dot', 'psi_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the swing foot', 'rate': 'psi_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of psi (swing leg angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('fell-forward', 'stance_fell_forward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': False, 'actuators': ('phi',), 'conditions': (('swing-foot-clearance', 'stance_swing_foot_clearance', -1),)},), 'events': ({'name': 'heelstrike', 'source': 'stance', 'target': 'stance', 'direction': 1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1, 3)},), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the stance leg stops and swings back', 'unit': 'rad/s'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the ground', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'N'}), 'conditions': ({'name': 'swing-foot-clearance', 'direction': -1, 'meaning': 'the swing foot stays above the ground (where negative it scuffs: ignored)', 'unit': 'm', 'interior': True},), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J', 'force': 'N'}, 'step_length': True, 'section': ('psi',), 'search': {'theta': (-0.8, 0.0), 'theta_dot': (0.0, 5.0), 'psi_dot': (-5.0, 5.0)}, 'actuator_names': {'phi': 'hip'}, 'closed_form': False}
+HYBRID = {'name': 'torso_walker', 'title': 'Compass gait with a torso', 'description': 'Grizzle et al. 2001, Westervelt et al. 2007: the three-link biped, its torso held at a lean by a hip actuator, the swing leg free', 'coordinate_units': {'theta': 'rad', 'psi': 'rad'}, 'parameters': ('m_h', 'm', 'm_t', 'r', 'l_t', 'rho', 'gamma', 'g'), 'coordinates': ('theta', 'psi'), 'rates': ('theta_dot', 'psi_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing leg angle', 'reference': 'the slope normal', 'positive': 'the hip downhill of the swing foot', 'rate': 'psi_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/s', 'meaning': 'rate of psi (swing leg angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}), 'phases': ({'name': 'stance', 'failures': (('fell-backward', 'stance_fell_backward', -1), ('fell-forward', 'stance_fell_forward', -1), ('lift-off', 'stance_lift_off', -1)), 'conservative': False, 'skeleton': {'points': ('stance_foot', 'hip', 'swing_foot', 'torso'), 'segments': (('stance_foot', 'hip'), ('hip', 'swing_foot'), ('hip', 'torso')), 'bodies': ('hip', 'stance_leg', 'swing_leg', 'torso')}, 'actuators': ('phi',), 'conditions': (('swing-foot-clearance', 'stance_swing_foot_clearance', -1),)},), 'events': ({'name': 'heelstrike', 'source': 'stance', 'target': 'stance', 'direction': 1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1, 3)},), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the stance leg stops and swings back', 'unit': 'rad/s'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the ground', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'N'}), 'conditions': ({'name': 'swing-foot-clearance', 'direction': -1, 'meaning': 'the swing foot stays above the ground (where negative it scuffs: ignored)', 'unit': 'm', 'interior': True},), 'units': {'time': 's', 'length': 'm', 'mass': 'kg', 'energy': 'J', 'force': 'N'}, 'step_length': True, 'section': ('psi',), 'search': {'theta': (-0.8, 0.0), 'theta_dot': (0.0, 5.0), 'psi_dot': (-5.0, 5.0)}, 'actuator_names': {'phi': 'hip'}, 'closed_form': False}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -387,6 +387,40 @@ def stance_inertias(m_h, m, m_t, r, l_t, rho, gamma, g, theta, psi, theta_dot, p
     """
     be = backend_for(m_h, m, m_t, r, l_t, rho, gamma, g, theta, psi, theta_dot, psi_dot)
     return (m_h, 0, m, 0, m, 0, m_t, 0,)
+
+
+def stance_skeleton(m_h, m, m_t, r, l_t, rho, gamma, g, theta, psi, theta_dot, psi_dot):
+    """Position (x, y) of each point of the drawing in phase stance's chart.
+
+    Parameters
+    ----------
+    m_h : array_like or casadi.SX/MX/DM
+    m : array_like or casadi.SX/MX/DM
+    m_t : array_like or casadi.SX/MX/DM
+    r : array_like or casadi.SX/MX/DM
+    l_t : array_like or casadi.SX/MX/DM
+    rho : array_like or casadi.SX/MX/DM
+    gamma : array_like or casadi.SX/MX/DM
+    g : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y of each point in the order of HYBRID's phase 'skeleton'
+    """
+    be = backend_for(m_h, m, m_t, r, l_t, rho, gamma, g, theta, psi, theta_dot, psi_dot)
+    cos_psi, sin_psi = be.cos_sin(psi)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    cos_t2, sin_t2 = be.cos_sin(gamma - rho)
+    x0 = cos_theta*r
+    x1 = -sin_theta*r
+    return (0, 0, sin_theta*r, x0, -x1 - sin_psi*r, cos_theta*r - cos_psi*r, -x1 - sin_t2*l_t, x0 + cos_t2*l_t,)
 
 
 def stance_actuator_power(m_h, m, m_t, r, l_t, rho, gamma, g, theta, psi, theta_dot, psi_dot):

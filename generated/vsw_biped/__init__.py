@@ -17,7 +17,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'vsw_biped', 'title': 'Compass-like biped of Virtual Slope Walking', 'description': "the ILE model with massive legs (the paper's future work): hip mass, leg masses on the legs' upper segments, instantaneous extension at theta_II keeping both leg angles and generalised momenta (the held-hip rule: a hip impulse the model does not name holds the swing leg), heelstrike where the swinging leg reaches the level ground", 'coordinate_units': {'theta': 'rad', 'psi': 'rad'}, 'parameters': ('beta', 'theta_II', 'mu', 'b_over_l'), 'coordinates': ('theta', 'psi'), 'rates': ('theta_dot', 'psi_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the swing foot', 'rate': 'psi_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of psi (swing leg angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}), 'phases': ({'name': 'short', 'failures': (('fell-backward', 'short_fell_backward', -1), ('fell-forward', 'short_fell_forward', -1), ('lift-off', 'short_lift_off', -1)), 'conservative': True, 'start_failures': (('extension-missed', 'short_extension_missed', 1),), 'conditions': (('swing-foot-clearance', 'short_swing_foot_clearance', -1),)}, {'name': 'long', 'failures': (('fell-backward', 'long_fell_backward', -1), ('fell-forward', 'long_fell_forward', -1), ('lift-off', 'long_lift_off', -1)), 'conservative': True, 'conditions': (('swing-foot-clearance', 'long_swing_foot_clearance', -1),)}), 'events': ({'name': 'extension', 'source': 'short', 'target': 'long', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'jump', 'bodies': None, 'actuated': ('r',)}, {'name': 'heelstrike', 'source': 'long', 'target': 'short', 'direction': -1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1)}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the walker stops before the apex and falls back', 'unit': 'rad/sqrt(l/g)'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the ground', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'm_H g'}, {'name': 'extension-missed', 'direction': 1, 'meaning': 'the step begins past theta_II, so the stance leg never extends (heelstrike came after the extension angle)', 'unit': 'rad', 'at_start': True}), 'conditions': ({'name': 'swing-foot-clearance', 'direction': -1, 'meaning': 'the swing foot stays above the ground (where negative it scuffs: ignored)', 'unit': 'l', 'interior': True},), 'units': {'time': 'sqrt(l/g)', 'length': 'l', 'mass': 'm_H', 'energy': 'm_H g l', 'force': 'm_H g'}, 'step_length': True, 'section': ('psi',), 'search': {'theta': (-0.8, 0.8), 'theta_dot': (0.0, 2.5), 'psi_dot': (-4.0, 4.0)}, 'actuator_names': {'r': 'leg and held hip'}, 'closed_form': False}
+HYBRID = {'name': 'vsw_biped', 'title': 'Compass-like biped of Virtual Slope Walking', 'description': "the ILE model with massive legs (the paper's future work): hip mass, leg masses on the legs' upper segments, instantaneous extension at theta_II keeping both leg angles and generalised momenta (the held-hip rule: a hip impulse the model does not name holds the swing leg), heelstrike where the swinging leg reaches the level ground", 'coordinate_units': {'theta': 'rad', 'psi': 'rad'}, 'parameters': ('beta', 'theta_II', 'mu', 'b_over_l'), 'coordinates': ('theta', 'psi'), 'rates': ('theta_dot', 'psi_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the stance foot', 'rate': 'theta_dot'}, {'name': 'psi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'swing leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the swing foot', 'rate': 'psi_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'psi_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of psi (swing leg angle)', 'reference': '', 'positive': 'psi increasing', 'rate': None}), 'phases': ({'name': 'short', 'failures': (('fell-backward', 'short_fell_backward', -1), ('fell-forward', 'short_fell_forward', -1), ('lift-off', 'short_lift_off', -1)), 'conservative': True, 'skeleton': {'points': ('stance_foot', 'hip', 'swing_foot'), 'segments': (('stance_foot', 'hip'), ('hip', 'swing_foot')), 'bodies': ('hip', 'stance_leg', 'swing_leg')}, 'start_failures': (('extension-missed', 'short_extension_missed', 1),), 'conditions': (('swing-foot-clearance', 'short_swing_foot_clearance', -1),)}, {'name': 'long', 'failures': (('fell-backward', 'long_fell_backward', -1), ('fell-forward', 'long_fell_forward', -1), ('lift-off', 'long_lift_off', -1)), 'conservative': True, 'skeleton': {'points': ('stance_foot', 'hip', 'swing_foot'), 'segments': (('stance_foot', 'hip'), ('hip', 'swing_foot')), 'bodies': ('hip', 'stance_leg', 'swing_leg')}, 'conditions': (('swing-foot-clearance', 'long_swing_foot_clearance', -1),)}), 'events': ({'name': 'extension', 'source': 'short', 'target': 'long', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'jump', 'bodies': None, 'actuated': ('r',)}, {'name': 'heelstrike', 'source': 'long', 'target': 'short', 'direction': -1, 'ends_step': True, 'when': 'event_heelstrike_when', 'reset': 'impact', 'bodies': (0, 2, 1)}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the walker stops before the apex and falls back', 'unit': 'rad/sqrt(l/g)'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the ground', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'm_H g'}, {'name': 'extension-missed', 'direction': 1, 'meaning': 'the step begins past theta_II, so the stance leg never extends (heelstrike came after the extension angle)', 'unit': 'rad', 'at_start': True}), 'conditions': ({'name': 'swing-foot-clearance', 'direction': -1, 'meaning': 'the swing foot stays above the ground (where negative it scuffs: ignored)', 'unit': 'l', 'interior': True},), 'units': {'time': 'sqrt(l/g)', 'length': 'l', 'mass': 'm_H', 'energy': 'm_H g l', 'force': 'm_H g'}, 'step_length': True, 'section': ('psi',), 'search': {'theta': (-0.8, 0.8), 'theta_dot': (0.0, 2.5), 'psi_dot': (-4.0, 4.0)}, 'actuator_names': {'r': 'leg and held hip'}, 'closed_form': False}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -407,6 +407,33 @@ def short_inertias(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     return (1, 0, mu, 0, mu, 0,)
 
 
+def short_skeleton(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
+    """Position (x, y) of each point of the drawing in phase short's chart.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    mu : array_like or casadi.SX/MX/DM
+    b_over_l : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y of each point in the order of HYBRID's phase 'skeleton'
+    """
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
+    cos_psi, sin_psi = be.cos_sin(psi)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    return (0, 0, sin_theta*beta, cos_theta*beta, sin_theta*beta - sin_psi*beta, cos_theta*beta - cos_psi*beta,)
+
+
 def long_accelerations(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """Second derivatives of the free coordinates in phase long.
 
@@ -735,6 +762,33 @@ def long_inertias(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
     """
     be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
     return (1, 0, mu, 0, mu, 0,)
+
+
+def long_skeleton(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):
+    """Position (x, y) of each point of the drawing in phase long's chart.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    mu : array_like or casadi.SX/MX/DM
+    b_over_l : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    psi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    psi_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y of each point in the order of HYBRID's phase 'skeleton'
+    """
+    be = backend_for(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot)
+    cos_psi, sin_psi = be.cos_sin(psi)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    return (0, 0, sin_theta, cos_theta, sin_theta - sin_psi*beta, cos_theta - cos_psi*beta,)
 
 
 def event_extension_guard(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot):

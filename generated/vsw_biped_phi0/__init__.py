@@ -17,7 +17,7 @@ status says what the derivation shows about the paper's form: exact, conservativ
 implied, framing (not needed to walk) or missing (needed, not in the paper). The
 conditions with physical=True together decide whether a gait walks."""
 
-HYBRID = {'name': 'vsw_biped_phi0', 'title': 'Compass-like VSW biped, swing leg caught and held at phi0', 'description': "the VSW biped with the ILE's assumption made physical: a hip actuator catches the swinging leg at the inter-leg angle phi0 and holds it there through the instantaneous extension at theta_II to heelstrike", 'coordinate_units': {'theta': 'rad', 'phi': 'rad'}, 'parameters': ('beta', 'theta_II', 'phi0', 'mu', 'b_over_l'), 'coordinates': ('theta', 'phi'), 'rates': ('theta_dot', 'phi_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the stance foot', 'rate': 'theta_dot'}, {'name': 'phi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'inter-leg angle (stance leg less swing leg)', 'reference': 'the stance leg', 'positive': 'the swing foot ahead of the stance foot', 'rate': 'phi_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'phi_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of phi (inter-leg angle (stance leg less swing leg))', 'reference': '', 'positive': 'phi increasing', 'rate': None}), 'phases': ({'name': 'swing', 'failures': (('fell-backward', 'swing_fell_backward', -1), ('fell-forward', 'swing_fell_forward', -1), ('lift-off', 'swing_lift_off', -1), ('swing-late', 'swing_swing_late', 1)), 'conservative': True, 'conditions': (('swing-foot-clearance', 'swing_swing_foot_clearance', -1),)}, {'name': 'caught_short', 'failures': (('fell-backward', 'caught_short_fell_backward', -1), ('fell-forward', 'caught_short_fell_forward', -1), ('lift-off', 'caught_short_lift_off', -1)), 'conservative': True, 'conditions': (('swing-foot-clearance', 'caught_short_swing_foot_clearance', -1),)}, {'name': 'caught_long', 'failures': (('fell-backward', 'caught_long_fell_backward', -1), ('fell-forward', 'caught_long_fell_forward', -1), ('lift-off', 'caught_long_lift_off', -1)), 'conservative': True, 'conditions': (('swing-foot-clearance', 'caught_long_swing_foot_clearance', -1),)}), 'events': ({'name': 'catch', 'source': 'swing', 'target': 'caught_short', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'lock', 'bodies': None, 'actuated': ('phi',)}, {'name': 'extension', 'source': 'caught_short', 'target': 'caught_long', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'jump', 'bodies': None, 'actuated': ('r',)}, {'name': 'heelstrike', 'source': 'caught_long', 'target': 'swing', 'direction': -1, 'ends_step': True, 'when': None, 'reset': 'impact', 'bodies': (0, 2, 1)}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the walker stops before the apex and falls back', 'unit': 'rad/sqrt(l/g)'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the ground', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'm_H g'}, {'name': 'swing-late', 'direction': 1, 'meaning': 'the stance leg reaches theta_II before the swing leg is caught at phi0: the model has no rule for it', 'unit': 'rad'}), 'conditions': ({'name': 'swing-foot-clearance', 'direction': -1, 'meaning': 'the swing foot stays above the ground (where negative it scuffs: ignored)', 'unit': 'l', 'interior': True},), 'units': {'time': 'sqrt(l/g)', 'length': 'l', 'mass': 'm_H', 'energy': 'm_H g l', 'force': 'm_H g'}, 'step_length': True, 'section': ('theta', 'phi'), 'search': {'theta_dot': (0.0, 2.5), 'phi_dot': (-4.0, 4.0)}, 'actuator_names': {'r': 'leg', 'phi': 'hip'}, 'closed_form': False}
+HYBRID = {'name': 'vsw_biped_phi0', 'title': 'Compass-like VSW biped, swing leg caught and held at phi0', 'description': "the VSW biped with the ILE's assumption made physical: a hip actuator catches the swinging leg at the inter-leg angle phi0 and holds it there through the instantaneous extension at theta_II to heelstrike", 'coordinate_units': {'theta': 'rad', 'phi': 'rad'}, 'parameters': ('beta', 'theta_II', 'phi0', 'mu', 'b_over_l'), 'coordinates': ('theta', 'phi'), 'rates': ('theta_dot', 'phi_dot'), 'state': ({'name': 'theta', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'stance leg angle', 'reference': 'the vertical', 'positive': 'the hip ahead of the stance foot', 'rate': 'theta_dot'}, {'name': 'phi', 'kind': 'coordinate', 'unit': 'rad', 'meaning': 'inter-leg angle (stance leg less swing leg)', 'reference': 'the stance leg', 'positive': 'the swing foot ahead of the stance foot', 'rate': 'phi_dot'}, {'name': 'theta_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of theta (stance leg angle)', 'reference': '', 'positive': 'theta increasing', 'rate': None}, {'name': 'phi_dot', 'kind': 'rate', 'unit': 'rad/sqrt(l/g)', 'meaning': 'rate of phi (inter-leg angle (stance leg less swing leg))', 'reference': '', 'positive': 'phi increasing', 'rate': None}), 'phases': ({'name': 'swing', 'failures': (('fell-backward', 'swing_fell_backward', -1), ('fell-forward', 'swing_fell_forward', -1), ('lift-off', 'swing_lift_off', -1), ('swing-late', 'swing_swing_late', 1)), 'conservative': True, 'skeleton': {'points': ('stance_foot', 'hip', 'swing_foot'), 'segments': (('stance_foot', 'hip'), ('hip', 'swing_foot')), 'bodies': ('hip', 'stance_leg', 'swing_leg')}, 'conditions': (('swing-foot-clearance', 'swing_swing_foot_clearance', -1),)}, {'name': 'caught_short', 'failures': (('fell-backward', 'caught_short_fell_backward', -1), ('fell-forward', 'caught_short_fell_forward', -1), ('lift-off', 'caught_short_lift_off', -1)), 'conservative': True, 'skeleton': {'points': ('stance_foot', 'hip', 'swing_foot'), 'segments': (('stance_foot', 'hip'), ('hip', 'swing_foot')), 'bodies': ('hip', 'stance_leg', 'swing_leg')}, 'conditions': (('swing-foot-clearance', 'caught_short_swing_foot_clearance', -1),)}, {'name': 'caught_long', 'failures': (('fell-backward', 'caught_long_fell_backward', -1), ('fell-forward', 'caught_long_fell_forward', -1), ('lift-off', 'caught_long_lift_off', -1)), 'conservative': True, 'skeleton': {'points': ('stance_foot', 'hip', 'swing_foot'), 'segments': (('stance_foot', 'hip'), ('hip', 'swing_foot')), 'bodies': ('hip', 'stance_leg', 'swing_leg')}, 'conditions': (('swing-foot-clearance', 'caught_long_swing_foot_clearance', -1),)}), 'events': ({'name': 'catch', 'source': 'swing', 'target': 'caught_short', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'lock', 'bodies': None, 'actuated': ('phi',)}, {'name': 'extension', 'source': 'caught_short', 'target': 'caught_long', 'direction': 1, 'ends_step': False, 'when': None, 'reset': 'jump', 'bodies': None, 'actuated': ('r',)}, {'name': 'heelstrike', 'source': 'caught_long', 'target': 'swing', 'direction': -1, 'ends_step': True, 'when': None, 'reset': 'impact', 'bodies': (0, 2, 1)}), 'failures': ({'name': 'fell-backward', 'direction': -1, 'meaning': 'the walker stops before the apex and falls back', 'unit': 'rad/sqrt(l/g)'}, {'name': 'fell-forward', 'direction': -1, 'meaning': 'the hip reaches the ground', 'unit': '1'}, {'name': 'lift-off', 'direction': -1, 'meaning': 'the stance foot leaves the ground', 'unit': 'm_H g'}, {'name': 'swing-late', 'direction': 1, 'meaning': 'the stance leg reaches theta_II before the swing leg is caught at phi0: the model has no rule for it', 'unit': 'rad'}), 'conditions': ({'name': 'swing-foot-clearance', 'direction': -1, 'meaning': 'the swing foot stays above the ground (where negative it scuffs: ignored)', 'unit': 'l', 'interior': True},), 'units': {'time': 'sqrt(l/g)', 'length': 'l', 'mass': 'm_H', 'energy': 'm_H g l', 'force': 'm_H g'}, 'step_length': True, 'section': ('theta', 'phi'), 'search': {'theta_dot': (0.0, 2.5), 'phi_dot': (-4.0, 4.0)}, 'actuator_names': {'r': 'leg', 'phi': 'hip'}, 'closed_form': False}
 """The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases with their failure guards (conservative: T + V constant), events with their guards and resets (impact, jump or continuous), units."""
 
 
@@ -425,6 +425,35 @@ def swing_inertias(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_dot, ph
     return (1, 0, mu, 0, mu, 0,)
 
 
+def swing_skeleton(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_dot, phi_dot):
+    """Position (x, y) of each point of the drawing in phase swing's chart.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    mu : array_like or casadi.SX/MX/DM
+    b_over_l : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    phi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    phi_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y of each point in the order of HYBRID's phase 'skeleton'
+    """
+    be = backend_for(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_dot, phi_dot)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    cos_t1, sin_t1 = be.cos_sin(phi - theta)
+    x0 = sin_theta*beta
+    return (0, 0, x0, cos_theta*beta, x0 + sin_t1*beta, cos_theta*beta - cos_t1*beta,)
+
+
 def caught_short_accelerations(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_dot, phi_dot):
     """Second derivatives of the free coordinates in phase caught_short.
 
@@ -755,6 +784,35 @@ def caught_short_inertias(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_
     return (1, 0, mu, 0, mu, 0,)
 
 
+def caught_short_skeleton(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_dot, phi_dot):
+    """Position (x, y) of each point of the drawing in phase caught_short's chart.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    mu : array_like or casadi.SX/MX/DM
+    b_over_l : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    phi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    phi_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y of each point in the order of HYBRID's phase 'skeleton'
+    """
+    be = backend_for(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_dot, phi_dot)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    cos_t1, sin_t1 = be.cos_sin(phi0 - theta)
+    x0 = sin_theta*beta
+    return (0, 0, x0, cos_theta*beta, x0 + sin_t1*beta, cos_theta*beta - cos_t1*beta,)
+
+
 def caught_long_accelerations(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_dot, phi_dot):
     """Second derivatives of the free coordinates in phase caught_long.
 
@@ -1065,6 +1123,34 @@ def caught_long_inertias(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_d
     """
     be = backend_for(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_dot, phi_dot)
     return (1, 0, mu, 0, mu, 0,)
+
+
+def caught_long_skeleton(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_dot, phi_dot):
+    """Position (x, y) of each point of the drawing in phase caught_long's chart.
+
+    Parameters
+    ----------
+    beta : array_like or casadi.SX/MX/DM
+    theta_II : array_like or casadi.SX/MX/DM
+    phi0 : array_like or casadi.SX/MX/DM
+    mu : array_like or casadi.SX/MX/DM
+    b_over_l : array_like or casadi.SX/MX/DM
+    theta : array_like or casadi.SX/MX/DM
+    phi : array_like or casadi.SX/MX/DM
+    theta_dot : array_like or casadi.SX/MX/DM
+    phi_dot : array_like or casadi.SX/MX/DM
+        Arguments broadcast against each other (numpy) or are scalar CasADi
+        expressions.
+
+    Returns
+    -------
+    tuple of arrays
+        tuple: x, y of each point in the order of HYBRID's phase 'skeleton'
+    """
+    be = backend_for(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_dot, phi_dot)
+    cos_theta, sin_theta = be.cos_sin(theta)
+    cos_t1, sin_t1 = be.cos_sin(phi0 - theta)
+    return (0, 0, sin_theta, cos_theta, sin_theta + sin_t1*beta, cos_theta - cos_t1*beta,)
 
 
 def event_catch_guard(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_dot, phi_dot):

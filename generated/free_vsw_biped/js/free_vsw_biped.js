@@ -280,6 +280,13 @@ function stance_inertias(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, ps
   return [1, 0, mu, 0, mu, 0];
 }
 
+/* Position (x, y) of each point of the drawing in phase stance's chart. Returns tuple: x, y of each point in the order of HYBRID's phase 'skeleton'. */
+function stance_skeleton(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
+  const [cos_psi, sin_psi] = be.cos_sin(psi);
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  return [0, 0, r*sin_theta, cos_theta*r, r*sin_theta - sin_psi*beta, cos_theta*r - cos_psi*beta];
+}
+
 /* d(acceleration)/d(input) in phase stance: the accelerations are stance_accelerations + these times the inputs (leg_force, hip_torque). Returns tuple: for each state coordinate in order, its gain from each input in order. */
 function stance_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   const [cos_t0, sin_t0] = be.cos_sin(psi - theta);
@@ -480,7 +487,7 @@ function section_completion(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot,
   return [theta, psi, beta, theta_dot, psi_dot, r_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_fell_backward_input_gains, stance_fell_forward, stance_fell_forward_input_gains, stance_lift_off, stance_lift_off_input_gains, stance_crouched, stance_crouched_input_gains, stance_overextended, stance_overextended_input_gains, stance_swing_foot_clearance, stance_swing_foot_clearance_input_gains, stance_positions, stance_inertias, stance_input_gains, stance_reaction_input_gains, stance_input_rates, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_impulse_gains_before, event_heelstrike_impulse_rates_before, event_heelstrike_impulse_gains_after, event_heelstrike_impulse_rates_after, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, parameter_condition_0, section_completion };
+const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_fell_backward_input_gains, stance_fell_forward, stance_fell_forward_input_gains, stance_lift_off, stance_lift_off_input_gains, stance_crouched, stance_crouched_input_gains, stance_overextended, stance_overextended_input_gains, stance_swing_foot_clearance, stance_swing_foot_clearance_input_gains, stance_positions, stance_inertias, stance_skeleton, stance_input_gains, stance_reaction_input_gains, stance_input_rates, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_impulse_gains_before, event_heelstrike_impulse_rates_before, event_heelstrike_impulse_gains_after, event_heelstrike_impulse_rates_after, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, parameter_condition_0, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {

@@ -270,6 +270,13 @@ function stroke_inertias(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, ps
   return [1, 0, mu, 0, mu, 0];
 }
 
+/* Position (x, y) of each point of the drawing in phase stroke's chart. Returns tuple: x, y of each point in the order of HYBRID's phase 'skeleton'. */
+function stroke_skeleton(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
+  const [cos_psi, sin_psi] = be.cos_sin(psi);
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  return [0, 0, r*sin_theta, cos_theta*r, r*sin_theta - sin_psi*beta, cos_theta*r - cos_psi*beta];
+}
+
 /* d(acceleration)/d(input) in phase stroke: the accelerations are stroke_accelerations + these times the inputs (leg_force, hip_torque). Returns tuple: for each state coordinate in order, its gain from each input in order. */
 function stroke_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   const [cos_t0, sin_t0] = be.cos_sin(psi - theta);
@@ -507,6 +514,13 @@ function extended_inertias(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, 
   return [1, 0, mu, 0, mu, 0];
 }
 
+/* Position (x, y) of each point of the drawing in phase extended's chart. Returns tuple: x, y of each point in the order of HYBRID's phase 'skeleton'. */
+function extended_skeleton(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
+  const [cos_psi, sin_psi] = be.cos_sin(psi);
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  return [0, 0, sin_theta, cos_theta, sin_theta - sin_psi*beta, cos_theta - cos_psi*beta];
+}
+
 /* d(acceleration)/d(input) in phase extended: the accelerations are extended_accelerations + these times the inputs (hip_torque). Returns tuple: for each state coordinate in order, its gain from each input in order. */
 function extended_input_gains(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot, psi_dot, r_dot) {
   const [cos_t0, sin_t0] = be.cos_sin(psi - theta);
@@ -697,7 +711,7 @@ function section_completion(beta, mu, b_over_l, l_min, theta, psi, r, theta_dot,
   return [theta, psi, beta, theta_dot, psi_dot, r_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, stroke_accelerations, stroke_energy, stroke_normal_force, stroke_fell_backward, stroke_fell_backward_input_gains, stroke_fell_forward, stroke_fell_forward_input_gains, stroke_lift_off, stroke_lift_off_input_gains, stroke_crouched, stroke_crouched_input_gains, stroke_swing_foot_clearance, stroke_swing_foot_clearance_input_gains, stroke_positions, stroke_inertias, stroke_input_gains, stroke_reaction_input_gains, stroke_input_rates, extended_accelerations, extended_energy, extended_normal_force, extended_fell_backward, extended_fell_backward_input_gains, extended_fell_forward, extended_fell_forward_input_gains, extended_lift_off, extended_lift_off_input_gains, extended_swing_foot_clearance, extended_swing_foot_clearance_input_gains, extended_positions, extended_inertias, extended_input_gains, extended_reaction_input_gains, extended_input_rates, event_end_stop_guard, event_end_stop_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_impulse_gains_before, event_heelstrike_impulse_rates_before, event_heelstrike_impulse_gains_after, event_heelstrike_impulse_rates_after, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, parameter_condition_0, section_completion };
+const exported = { PARAMETERS, CONDITIONS, stroke_accelerations, stroke_energy, stroke_normal_force, stroke_fell_backward, stroke_fell_backward_input_gains, stroke_fell_forward, stroke_fell_forward_input_gains, stroke_lift_off, stroke_lift_off_input_gains, stroke_crouched, stroke_crouched_input_gains, stroke_swing_foot_clearance, stroke_swing_foot_clearance_input_gains, stroke_positions, stroke_inertias, stroke_skeleton, stroke_input_gains, stroke_reaction_input_gains, stroke_input_rates, extended_accelerations, extended_energy, extended_normal_force, extended_fell_backward, extended_fell_backward_input_gains, extended_fell_forward, extended_fell_forward_input_gains, extended_lift_off, extended_lift_off_input_gains, extended_swing_foot_clearance, extended_swing_foot_clearance_input_gains, extended_positions, extended_inertias, extended_skeleton, extended_input_gains, extended_reaction_input_gains, extended_input_rates, event_end_stop_guard, event_end_stop_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_impulse_gains_before, event_heelstrike_impulse_rates_before, event_heelstrike_impulse_gains_after, event_heelstrike_impulse_rates_after, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, parameter_condition_0, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {

@@ -483,6 +483,22 @@ function knee_free_inertias(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi,
   return [m_h, 0, m_s, 0, m_t, 0, m_t, 0, m_s, 0];
 }
 
+/* Position (x, y) of each point of the drawing in phase knee_free's chart. Returns tuple: x, y of each point in the order of HYBRID's phase 'skeleton'. */
+function knee_free_skeleton(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot) {
+  const [cos_psi, sin_psi] = be.cos_sin(psi);
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  const [cos_t2, sin_t2] = be.cos_sin(kappa + psi);
+  const x0 = a1 + b1;
+  const x1 = x0*sin_theta;
+  const x2 = x0*cos_theta;
+  const x3 = a2 + b2;
+  const x4 = x1 + x3*sin_theta;
+  const x5 = x2 + x3*cos_theta;
+  const x6 = x3*sin_psi;
+  const x7 = x3*cos_psi;
+  return [0, 0, x1, x2, x4, x5, x4 - x6, x5 - x7, -x6 + x0*sin_theta + x3*sin_theta - x0*sin_t2, -x7 + x0*cos_theta + x3*cos_theta - x0*cos_t2];
+}
+
 /* Second derivatives of the free coordinates in phase knee_locked. Returns tuple: d2(coordinate)/dt2 for each coordinate. */
 function knee_locked_accelerations(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot) {
   const [cos_t0, sin_t0] = be.cos_sin(gamma + psi);
@@ -778,6 +794,21 @@ function knee_locked_positions(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, p
 /* Mass and central moment of inertia of each body in phase knee_locked. Returns tuple: mass, inertia of each body in order (inertia 0 for a point mass). */
 function knee_locked_inertias(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot) {
   return [m_h, 0, m_s, 0, m_t, 0, m_t, 0, m_s, 0];
+}
+
+/* Position (x, y) of each point of the drawing in phase knee_locked's chart. Returns tuple: x, y of each point in the order of HYBRID's phase 'skeleton'. */
+function knee_locked_skeleton(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi, kappa, theta_dot, psi_dot, kappa_dot) {
+  const [cos_psi, sin_psi] = be.cos_sin(psi);
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  const x0 = a1 + b1;
+  const x1 = x0*sin_theta;
+  const x2 = x0*cos_theta;
+  const x3 = a2 + b2;
+  const x4 = x1 + x3*sin_theta;
+  const x5 = x2 + x3*cos_theta;
+  const x6 = x3*sin_psi;
+  const x7 = x3*cos_psi;
+  return [0, 0, x1, x2, x4, x5, x4 - x6, x5 - x7, -x6 + x0*sin_theta + x3*sin_theta - x0*sin_psi, -x7 + x0*cos_theta + x3*cos_theta - x0*cos_psi];
 }
 
 /* Guard of the event kneestrike: crosses zero when it happens. Returns guard. */
@@ -1478,7 +1509,7 @@ function section_completion(m_h, m_t, m_s, a1, b1, a2, b2, gamma, g, theta, psi,
   return [theta, -theta, 0, theta_dot, psi_dot, 0];
 }
 
-const exported = { PARAMETERS, CONDITIONS, knee_free_accelerations, knee_free_energy, knee_free_normal_force, knee_free_fell_backward, knee_free_fell_forward, knee_free_lift_off, knee_free_swing_foot_clearance, knee_free_stance_knee_stop, knee_free_positions, knee_free_inertias, knee_locked_accelerations, knee_locked_energy, knee_locked_normal_force, knee_locked_fell_backward, knee_locked_fell_forward, knee_locked_lift_off, knee_locked_swing_foot_clearance, knee_locked_stance_knee_stop, knee_locked_positions, knee_locked_inertias, event_kneestrike_guard, event_kneestrike_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
+const exported = { PARAMETERS, CONDITIONS, knee_free_accelerations, knee_free_energy, knee_free_normal_force, knee_free_fell_backward, knee_free_fell_forward, knee_free_lift_off, knee_free_swing_foot_clearance, knee_free_stance_knee_stop, knee_free_positions, knee_free_inertias, knee_free_skeleton, knee_locked_accelerations, knee_locked_energy, knee_locked_normal_force, knee_locked_fell_backward, knee_locked_fell_forward, knee_locked_lift_off, knee_locked_swing_foot_clearance, knee_locked_stance_knee_stop, knee_locked_positions, knee_locked_inertias, knee_locked_skeleton, event_kneestrike_guard, event_kneestrike_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {

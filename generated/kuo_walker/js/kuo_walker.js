@@ -110,6 +110,13 @@ function stance_inertias(m, g, l, d, theta, theta_dot) {
   return [m, 0];
 }
 
+/* Position (x, y) of each point of the drawing in phase stance's chart. Returns tuple: x, y of each point in the order of HYBRID's phase 'skeleton'. */
+function stance_skeleton(m, g, l, d, theta, theta_dot) {
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  const x0 = sin_theta*l;
+  return [0, 0, x0, cos_theta*l, 2*x0, 0];
+}
+
 /* d(acceleration)/d(input) in phase stance: the accelerations are stance_accelerations + these times the inputs (stance_torque). Returns tuple: for each state coordinate in order, its gain from each input in order. */
 function stance_input_gains(m, g, l, d, theta, theta_dot) {
   const [cos_theta, sin_theta] = be.cos_sin(theta);
@@ -191,7 +198,7 @@ function section_completion(m, g, l, d, theta, theta_dot) {
   return [-be.atan2(d, be.sqrt(-Math.pow(d, 2) + 4*Math.pow(l, 2))), theta_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_fell_backward_input_gains, stance_lift_off, stance_lift_off_input_gains, stance_positions, stance_inertias, stance_input_gains, stance_reaction_input_gains, stance_input_rates, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_impulse_gains_with, event_heelstrike_impulse_work_with, event_heelstrike_impulse_gains_after, event_heelstrike_impulse_rates_after, event_heelstrike_contact, step_length_of_state, weight, parameter_condition_0, section_completion };
+const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_fell_backward_input_gains, stance_lift_off, stance_lift_off_input_gains, stance_positions, stance_inertias, stance_skeleton, stance_input_gains, stance_reaction_input_gains, stance_input_rates, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_impulse_gains_with, event_heelstrike_impulse_work_with, event_heelstrike_impulse_gains_after, event_heelstrike_impulse_rates_after, event_heelstrike_contact, step_length_of_state, weight, parameter_condition_0, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {

@@ -362,6 +362,14 @@ function stance_inertias(m_h, m, a, b, g, theta, psi, theta_dot, psi_dot) {
   return [m_h, 0, m, 0, m, 0];
 }
 
+/* Position (x, y) of each point of the drawing in phase stance's chart. Returns tuple: x, y of each point in the order of HYBRID's phase 'skeleton'. */
+function stance_skeleton(m_h, m, a, b, g, theta, psi, theta_dot, psi_dot) {
+  const [cos_psi, sin_psi] = be.cos_sin(psi);
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  const x0 = a + b;
+  return [0, 0, x0*sin_theta, x0*cos_theta, x0*sin_theta - x0*sin_psi, x0*cos_theta - x0*cos_psi];
+}
+
 /* d(acceleration)/d(input) in phase stance: the accelerations are stance_accelerations + these times the inputs (hip_torque). Returns tuple: for each state coordinate in order, its gain from each input in order. */
 function stance_input_gains(m_h, m, a, b, g, theta, psi, theta_dot, psi_dot) {
   const [cos_t0, sin_t0] = be.cos_sin(psi - theta);
@@ -701,7 +709,7 @@ function section_completion(m_h, m, a, b, g, theta, psi, theta_dot, psi_dot) {
   return [theta, -theta, theta_dot, psi_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_fell_backward_input_gains, stance_fell_forward, stance_fell_forward_input_gains, stance_lift_off, stance_lift_off_input_gains, stance_swing_foot_clearance, stance_swing_foot_clearance_input_gains, stance_positions, stance_inertias, stance_input_gains, stance_reaction_input_gains, stance_input_rates, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_impulse_gains_with, event_heelstrike_impulse_work_with, event_heelstrike_impulse_gains_before, event_heelstrike_impulse_rates_before, event_heelstrike_impulse_gains_after, event_heelstrike_impulse_rates_after, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
+const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_fell_backward_input_gains, stance_fell_forward, stance_fell_forward_input_gains, stance_lift_off, stance_lift_off_input_gains, stance_swing_foot_clearance, stance_swing_foot_clearance_input_gains, stance_positions, stance_inertias, stance_skeleton, stance_input_gains, stance_reaction_input_gains, stance_input_rates, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_impulse_gains_with, event_heelstrike_impulse_work_with, event_heelstrike_impulse_gains_before, event_heelstrike_impulse_rates_before, event_heelstrike_impulse_gains_after, event_heelstrike_impulse_rates_after, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {

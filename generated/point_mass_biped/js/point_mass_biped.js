@@ -135,6 +135,11 @@ function stance_inertias(m, g, l, d, l_min, x, y, x_dot, y_dot) {
   return [m, 0];
 }
 
+/* Position (x, y) of each point of the drawing in phase stance's chart. Returns tuple: x, y of each point in the order of HYBRID's phase 'skeleton'. */
+function stance_skeleton(m, g, l, d, l_min, x, y, x_dot, y_dot) {
+  return [0, 0, x, y, d, 0];
+}
+
 /* d(acceleration)/d(input) in phase stance: the accelerations are stance_accelerations + these times the inputs (leg_force, stance_torque). Returns tuple: for each state coordinate in order, its gain from each input in order. */
 function stance_input_gains(m, g, l, d, l_min, x, y, x_dot, y_dot) {
   const x0 = (1/m);
@@ -224,7 +229,7 @@ function section_completion(m, g, l, d, l_min, x, y, x_dot, y_dot) {
   return [-d/2, y, x_dot, y_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell, stance_fell_input_gains, stance_fell_backward, stance_fell_backward_input_gains, stance_lift_off, stance_lift_off_input_gains, stance_crouched, stance_crouched_input_gains, stance_overextended, stance_overextended_input_gains, stance_positions, stance_inertias, stance_input_gains, stance_reaction_input_gains, stance_input_rates, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_impulse_gains_before, event_heelstrike_impulse_rates_before, event_heelstrike_impulse_gains_after, event_heelstrike_impulse_rates_after, event_heelstrike_contact, step_length_of_state, weight, parameter_condition_0, parameter_condition_1, section_completion };
+const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell, stance_fell_input_gains, stance_fell_backward, stance_fell_backward_input_gains, stance_lift_off, stance_lift_off_input_gains, stance_crouched, stance_crouched_input_gains, stance_overextended, stance_overextended_input_gains, stance_positions, stance_inertias, stance_skeleton, stance_input_gains, stance_reaction_input_gains, stance_input_rates, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_impulse_gains_before, event_heelstrike_impulse_rates_before, event_heelstrike_impulse_gains_after, event_heelstrike_impulse_rates_after, event_heelstrike_contact, step_length_of_state, weight, parameter_condition_0, parameter_condition_1, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {

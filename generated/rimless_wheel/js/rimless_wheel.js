@@ -103,6 +103,17 @@ function stance_inertias(alpha, gamma, l, g, theta, theta_dot) {
   return [1, 0];
 }
 
+/* Position (x, y) of each point of the drawing in phase stance's chart. Returns tuple: x, y of each point in the order of HYBRID's phase 'skeleton'. */
+function stance_skeleton(alpha, gamma, l, g, theta, theta_dot) {
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  return [0, 0, sin_theta*l, cos_theta*l];
+}
+
+/* Angle between neighbouring spokes of the drawing in phase stance. Returns angle. */
+function stance_skeleton_spoke_angle(alpha, gamma, l, g, theta, theta_dot) {
+  return 2*alpha;
+}
+
 /* Guard of the event collision: crosses zero when it happens. Returns guard. */
 function event_collision_guard(alpha, gamma, l, g, theta, theta_dot) {
   const [cos_theta, sin_theta] = be.cos_sin(theta);
@@ -139,7 +150,7 @@ function section_completion(alpha, gamma, l, g, theta, theta_dot) {
   return [-alpha, theta_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_lift_off, stance_positions, stance_inertias, event_collision_guard, event_collision_reset, event_collision_contact, step_length_of_state, weight, section_completion };
+const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_lift_off, stance_positions, stance_inertias, stance_skeleton, stance_skeleton_spoke_angle, event_collision_guard, event_collision_reset, event_collision_contact, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {

@@ -110,6 +110,13 @@ function stance_inertias(gamma, theta, phi, theta_dot, phi_dot) {
   return [1, 0, 0, 0, 0, 0];
 }
 
+/* Position (x, y) of each point of the drawing in phase stance's chart. Returns tuple: x, y of each point in the order of HYBRID's phase 'skeleton'. */
+function stance_skeleton(gamma, theta, phi, theta_dot, phi_dot) {
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  const [cos_t1, sin_t1] = be.cos_sin(phi - theta);
+  return [0, 0, sin_theta, cos_theta, sin_t1 + sin_theta, cos_theta - cos_t1];
+}
+
 /* Guard of the event heelstrike: crosses zero when it happens. Returns guard. */
 function event_heelstrike_guard(gamma, theta, phi, theta_dot, phi_dot) {
   const [cos_t0, sin_t0] = be.cos_sin(phi/2 - theta);
@@ -153,7 +160,7 @@ function section_completion(gamma, theta, phi, theta_dot, phi_dot) {
   return [theta, 2*theta, theta_dot, theta_dot*(1 - cos_t0)];
 }
 
-const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_fell_forward, stance_lift_off, stance_positions, stance_inertias, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
+const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_fell_forward, stance_lift_off, stance_positions, stance_inertias, stance_skeleton, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {

@@ -98,6 +98,13 @@ function short_inertias(beta, theta_II, phi0, delta, theta, theta_dot) {
   return [1, 0];
 }
 
+/* Position (x, y) of each point of the drawing in phase short's chart. Returns tuple: x, y of each point in the order of HYBRID's phase 'skeleton'. */
+function short_skeleton(beta, theta_II, phi0, delta, theta, theta_dot) {
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  const [cos_t1, sin_t1] = be.cos_sin(phi0 - theta);
+  return [0, 0, sin_theta*beta, cos_theta*beta, sin_theta + sin_t1*beta, cos_theta - cos_t1*beta];
+}
+
 /* Second derivatives of the free coordinates in phase extension. Returns tuple: d2(coordinate)/dt2 for each coordinate. */
 function extension_accelerations(beta, theta_II, phi0, delta, theta, theta_dot) {
   const [cos_theta, sin_theta] = be.cos_sin(theta);
@@ -172,6 +179,15 @@ function extension_inertias(beta, theta_II, phi0, delta, theta, theta_dot) {
   return [1, 0];
 }
 
+/* Position (x, y) of each point of the drawing in phase extension's chart. Returns tuple: x, y of each point in the order of HYBRID's phase 'skeleton'. */
+function extension_skeleton(beta, theta_II, phi0, delta, theta, theta_dot) {
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  const [cos_t1, sin_t1] = be.cos_sin(phi0 - theta);
+  const x0 = theta - theta_II;
+  const x1 = beta + (1 - beta)*(-2*(x0*x0*x0)/(delta*delta*delta) + 3*Math.pow(x0, 2)/Math.pow(delta, 2));
+  return [0, 0, x1*sin_theta, x1*cos_theta, sin_theta + sin_t1*beta, cos_theta - cos_t1*beta];
+}
+
 /* Power of each actuator holding a moving coordinate in phase extension (r): generalised force times rate. Returns tuple: power of each actuator, in the order of HYBRID's phase 'actuators'. */
 function extension_actuator_power(beta, theta_II, phi0, delta, theta, theta_dot) {
   const [cos_theta, sin_theta] = be.cos_sin(theta);
@@ -227,6 +243,13 @@ function long_positions(beta, theta_II, phi0, delta, theta, theta_dot) {
 /* Mass and central moment of inertia of each body in phase long. Returns tuple: mass, inertia of each body in order (inertia 0 for a point mass). */
 function long_inertias(beta, theta_II, phi0, delta, theta, theta_dot) {
   return [1, 0];
+}
+
+/* Position (x, y) of each point of the drawing in phase long's chart. Returns tuple: x, y of each point in the order of HYBRID's phase 'skeleton'. */
+function long_skeleton(beta, theta_II, phi0, delta, theta, theta_dot) {
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  const [cos_t1, sin_t1] = be.cos_sin(phi0 - theta);
+  return [0, 0, sin_theta, cos_theta, sin_theta + sin_t1*beta, cos_theta - cos_t1*beta];
 }
 
 /* Guard of the event extension_start: crosses zero when it happens. Returns guard. */
@@ -287,7 +310,7 @@ function section_completion(beta, theta_II, phi0, delta, theta, theta_dot) {
   return [-be.atan((beta - cos_phi0)/sin_phi0), theta_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, short_accelerations, short_energy, short_normal_force, short_fell_backward, short_lift_off, short_positions, short_inertias, extension_accelerations, extension_energy, extension_normal_force, extension_fell_backward, extension_lift_off, extension_positions, extension_inertias, extension_actuator_power, long_accelerations, long_energy, long_normal_force, long_fell_backward, long_lift_off, long_positions, long_inertias, event_extension_start_guard, event_extension_start_reset, event_extension_end_guard, event_extension_end_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, step_length_of_state, weight, section_completion };
+const exported = { PARAMETERS, CONDITIONS, short_accelerations, short_energy, short_normal_force, short_fell_backward, short_lift_off, short_positions, short_inertias, short_skeleton, extension_accelerations, extension_energy, extension_normal_force, extension_fell_backward, extension_lift_off, extension_positions, extension_inertias, extension_skeleton, extension_actuator_power, long_accelerations, long_energy, long_normal_force, long_fell_backward, long_lift_off, long_positions, long_inertias, long_skeleton, event_extension_start_guard, event_extension_start_reset, event_extension_end_guard, event_extension_end_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {

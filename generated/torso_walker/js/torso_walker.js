@@ -205,6 +205,16 @@ function stance_inertias(m_h, m, m_t, r, l_t, rho, gamma, g, theta, psi, theta_d
   return [m_h, 0, m, 0, m, 0, m_t, 0];
 }
 
+/* Position (x, y) of each point of the drawing in phase stance's chart. Returns tuple: x, y of each point in the order of HYBRID's phase 'skeleton'. */
+function stance_skeleton(m_h, m, m_t, r, l_t, rho, gamma, g, theta, psi, theta_dot, psi_dot) {
+  const [cos_psi, sin_psi] = be.cos_sin(psi);
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  const [cos_t2, sin_t2] = be.cos_sin(gamma - rho);
+  const x0 = cos_theta*r;
+  const x1 = -sin_theta*r;
+  return [0, 0, sin_theta*r, x0, -x1 - sin_psi*r, cos_theta*r - cos_psi*r, -x1 - sin_t2*l_t, x0 + cos_t2*l_t];
+}
+
 /* Power of each actuator holding a moving coordinate in phase stance (phi): generalised force times rate. Returns tuple: power of each actuator, in the order of HYBRID's phase 'actuators'. */
 function stance_actuator_power(m_h, m, m_t, r, l_t, rho, gamma, g, theta, psi, theta_dot, psi_dot) {
   const [cos_rho, sin_rho] = be.cos_sin(rho);
@@ -284,7 +294,7 @@ function section_completion(m_h, m, m_t, r, l_t, rho, gamma, g, theta, psi, thet
   return [theta, -theta, theta_dot, psi_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_fell_forward, stance_lift_off, stance_swing_foot_clearance, stance_positions, stance_inertias, stance_actuator_power, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
+const exported = { PARAMETERS, CONDITIONS, stance_accelerations, stance_energy, stance_normal_force, stance_fell_backward, stance_fell_forward, stance_lift_off, stance_swing_foot_clearance, stance_positions, stance_inertias, stance_skeleton, stance_actuator_power, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {

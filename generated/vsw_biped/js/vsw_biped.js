@@ -239,6 +239,13 @@ function short_inertias(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi
   return [1, 0, mu, 0, mu, 0];
 }
 
+/* Position (x, y) of each point of the drawing in phase short's chart. Returns tuple: x, y of each point in the order of HYBRID's phase 'skeleton'. */
+function short_skeleton(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot) {
+  const [cos_psi, sin_psi] = be.cos_sin(psi);
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  return [0, 0, sin_theta*beta, cos_theta*beta, sin_theta*beta - sin_psi*beta, cos_theta*beta - cos_psi*beta];
+}
+
 /* Second derivatives of the free coordinates in phase long. Returns tuple: d2(coordinate)/dt2 for each coordinate. */
 function long_accelerations(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot) {
   const [cos_psi, sin_psi] = be.cos_sin(psi);
@@ -389,6 +396,13 @@ function long_inertias(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_
   return [1, 0, mu, 0, mu, 0];
 }
 
+/* Position (x, y) of each point of the drawing in phase long's chart. Returns tuple: x, y of each point in the order of HYBRID's phase 'skeleton'. */
+function long_skeleton(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot) {
+  const [cos_psi, sin_psi] = be.cos_sin(psi);
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  return [0, 0, sin_theta, cos_theta, sin_theta - sin_psi*beta, cos_theta - cos_psi*beta];
+}
+
 /* Guard of the event extension: crosses zero when it happens. Returns guard. */
 function event_extension_guard(beta, theta_II, mu, b_over_l, theta, psi, theta_dot, psi_dot) {
   return theta - theta_II;
@@ -495,7 +509,7 @@ function section_completion(beta, theta_II, mu, b_over_l, theta, psi, theta_dot,
   return [theta, be.acos(cos_theta*beta), theta_dot, psi_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, short_accelerations, short_energy, short_normal_force, short_fell_backward, short_fell_forward, short_lift_off, short_extension_missed, short_swing_foot_clearance, short_positions, short_inertias, long_accelerations, long_energy, long_normal_force, long_fell_backward, long_fell_forward, long_lift_off, long_swing_foot_clearance, long_positions, long_inertias, event_extension_guard, event_extension_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
+const exported = { PARAMETERS, CONDITIONS, short_accelerations, short_energy, short_normal_force, short_fell_backward, short_fell_forward, short_lift_off, short_extension_missed, short_swing_foot_clearance, short_positions, short_inertias, short_skeleton, long_accelerations, long_energy, long_normal_force, long_fell_backward, long_fell_forward, long_lift_off, long_swing_foot_clearance, long_positions, long_inertias, long_skeleton, event_extension_guard, event_extension_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {

@@ -239,6 +239,13 @@ function short_inertias(beta, theta_II, mu, b_over_l, delta, theta, psi, theta_d
   return [1, 0, mu, 0, mu, 0];
 }
 
+/* Position (x, y) of each point of the drawing in phase short's chart. Returns tuple: x, y of each point in the order of HYBRID's phase 'skeleton'. */
+function short_skeleton(beta, theta_II, mu, b_over_l, delta, theta, psi, theta_dot, psi_dot) {
+  const [cos_psi, sin_psi] = be.cos_sin(psi);
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  return [0, 0, sin_theta*beta, cos_theta*beta, sin_theta*beta - sin_psi*beta, cos_theta*beta - cos_psi*beta];
+}
+
 /* Second derivatives of the free coordinates in phase extension. Returns tuple: d2(coordinate)/dt2 for each coordinate. */
 function extension_accelerations(beta, theta_II, mu, b_over_l, delta, theta, psi, theta_dot, psi_dot) {
   const [cos_psi, sin_psi] = be.cos_sin(psi);
@@ -514,6 +521,15 @@ function extension_inertias(beta, theta_II, mu, b_over_l, delta, theta, psi, the
   return [1, 0, mu, 0, mu, 0];
 }
 
+/* Position (x, y) of each point of the drawing in phase extension's chart. Returns tuple: x, y of each point in the order of HYBRID's phase 'skeleton'. */
+function extension_skeleton(beta, theta_II, mu, b_over_l, delta, theta, psi, theta_dot, psi_dot) {
+  const [cos_psi, sin_psi] = be.cos_sin(psi);
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  const x0 = theta - theta_II;
+  const x1 = beta + (1 - beta)*(-2*(x0*x0*x0)/(delta*delta*delta) + 3*Math.pow(x0, 2)/Math.pow(delta, 2));
+  return [0, 0, x1*sin_theta, x1*cos_theta, x1*sin_theta - sin_psi*beta, x1*cos_theta - cos_psi*beta];
+}
+
 /* Power of each actuator holding a moving coordinate in phase extension (r): generalised force times rate. Returns tuple: power of each actuator, in the order of HYBRID's phase 'actuators'. */
 function extension_actuator_power(beta, theta_II, mu, b_over_l, delta, theta, psi, theta_dot, psi_dot) {
   const [cos_psi, sin_psi] = be.cos_sin(psi);
@@ -725,6 +741,13 @@ function long_inertias(beta, theta_II, mu, b_over_l, delta, theta, psi, theta_do
   return [1, 0, mu, 0, mu, 0];
 }
 
+/* Position (x, y) of each point of the drawing in phase long's chart. Returns tuple: x, y of each point in the order of HYBRID's phase 'skeleton'. */
+function long_skeleton(beta, theta_II, mu, b_over_l, delta, theta, psi, theta_dot, psi_dot) {
+  const [cos_psi, sin_psi] = be.cos_sin(psi);
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  return [0, 0, sin_theta, cos_theta, sin_theta - sin_psi*beta, cos_theta - cos_psi*beta];
+}
+
 /* Guard of the event extension_start: crosses zero when it happens. Returns guard. */
 function event_extension_start_guard(beta, theta_II, mu, b_over_l, delta, theta, psi, theta_dot, psi_dot) {
   return theta - theta_II;
@@ -811,7 +834,7 @@ function section_completion(beta, theta_II, mu, b_over_l, delta, theta, psi, the
   return [theta, be.acos(cos_theta*beta), theta_dot, psi_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, short_accelerations, short_energy, short_normal_force, short_fell_backward, short_fell_forward, short_lift_off, short_extension_missed, short_swing_foot_clearance, short_positions, short_inertias, extension_accelerations, extension_energy, extension_normal_force, extension_fell_backward, extension_fell_forward, extension_lift_off, extension_swing_foot_clearance, extension_positions, extension_inertias, extension_actuator_power, long_accelerations, long_energy, long_normal_force, long_fell_backward, long_fell_forward, long_lift_off, long_swing_foot_clearance, long_positions, long_inertias, event_extension_start_guard, event_extension_start_reset, event_extension_end_guard, event_extension_end_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
+const exported = { PARAMETERS, CONDITIONS, short_accelerations, short_energy, short_normal_force, short_fell_backward, short_fell_forward, short_lift_off, short_extension_missed, short_swing_foot_clearance, short_positions, short_inertias, short_skeleton, extension_accelerations, extension_energy, extension_normal_force, extension_fell_backward, extension_fell_forward, extension_lift_off, extension_swing_foot_clearance, extension_positions, extension_inertias, extension_skeleton, extension_actuator_power, long_accelerations, long_energy, long_normal_force, long_fell_backward, long_fell_forward, long_lift_off, long_swing_foot_clearance, long_positions, long_inertias, long_skeleton, event_extension_start_guard, event_extension_start_reset, event_extension_end_guard, event_extension_end_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, event_heelstrike_when, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {

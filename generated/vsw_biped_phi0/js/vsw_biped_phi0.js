@@ -247,6 +247,14 @@ function swing_inertias(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_do
   return [1, 0, mu, 0, mu, 0];
 }
 
+/* Position (x, y) of each point of the drawing in phase swing's chart. Returns tuple: x, y of each point in the order of HYBRID's phase 'skeleton'. */
+function swing_skeleton(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_dot, phi_dot) {
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  const [cos_t1, sin_t1] = be.cos_sin(phi - theta);
+  const x0 = sin_theta*beta;
+  return [0, 0, x0, cos_theta*beta, x0 + sin_t1*beta, cos_theta*beta - cos_t1*beta];
+}
+
 /* Second derivatives of the free coordinates in phase caught_short. Returns tuple: d2(coordinate)/dt2 for each coordinate. */
 function caught_short_accelerations(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_dot, phi_dot) {
   const [cos_theta, sin_theta] = be.cos_sin(theta);
@@ -388,6 +396,14 @@ function caught_short_inertias(beta, theta_II, phi0, mu, b_over_l, theta, phi, t
   return [1, 0, mu, 0, mu, 0];
 }
 
+/* Position (x, y) of each point of the drawing in phase caught_short's chart. Returns tuple: x, y of each point in the order of HYBRID's phase 'skeleton'. */
+function caught_short_skeleton(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_dot, phi_dot) {
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  const [cos_t1, sin_t1] = be.cos_sin(phi0 - theta);
+  const x0 = sin_theta*beta;
+  return [0, 0, x0, cos_theta*beta, x0 + sin_t1*beta, cos_theta*beta - cos_t1*beta];
+}
+
 /* Second derivatives of the free coordinates in phase caught_long. Returns tuple: d2(coordinate)/dt2 for each coordinate. */
 function caught_long_accelerations(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_dot, phi_dot) {
   const [cos_theta, sin_theta] = be.cos_sin(theta);
@@ -511,6 +527,13 @@ function caught_long_inertias(beta, theta_II, phi0, mu, b_over_l, theta, phi, th
   return [1, 0, mu, 0, mu, 0];
 }
 
+/* Position (x, y) of each point of the drawing in phase caught_long's chart. Returns tuple: x, y of each point in the order of HYBRID's phase 'skeleton'. */
+function caught_long_skeleton(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_dot, phi_dot) {
+  const [cos_theta, sin_theta] = be.cos_sin(theta);
+  const [cos_t1, sin_t1] = be.cos_sin(phi0 - theta);
+  return [0, 0, sin_theta, cos_theta, sin_theta + sin_t1*beta, cos_theta - cos_t1*beta];
+}
+
 /* Guard of the event catch: crosses zero when it happens. Returns guard. */
 function event_catch_guard(beta, theta_II, phi0, mu, b_over_l, theta, phi, theta_dot, phi_dot) {
   return phi - phi0;
@@ -619,7 +642,7 @@ function section_completion(beta, theta_II, phi0, mu, b_over_l, theta, phi, thet
   return [-be.atan((beta - cos_phi0)/sin_phi0), -phi0, theta_dot, phi_dot];
 }
 
-const exported = { PARAMETERS, CONDITIONS, swing_accelerations, swing_energy, swing_normal_force, swing_fell_backward, swing_fell_forward, swing_lift_off, swing_swing_late, swing_swing_foot_clearance, swing_positions, swing_inertias, caught_short_accelerations, caught_short_energy, caught_short_normal_force, caught_short_fell_backward, caught_short_fell_forward, caught_short_lift_off, caught_short_swing_foot_clearance, caught_short_positions, caught_short_inertias, caught_long_accelerations, caught_long_energy, caught_long_normal_force, caught_long_fell_backward, caught_long_fell_forward, caught_long_lift_off, caught_long_swing_foot_clearance, caught_long_positions, caught_long_inertias, event_catch_guard, event_catch_reset, event_extension_guard, event_extension_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, step_length_of_state, weight, section_completion };
+const exported = { PARAMETERS, CONDITIONS, swing_accelerations, swing_energy, swing_normal_force, swing_fell_backward, swing_fell_forward, swing_lift_off, swing_swing_late, swing_swing_foot_clearance, swing_positions, swing_inertias, swing_skeleton, caught_short_accelerations, caught_short_energy, caught_short_normal_force, caught_short_fell_backward, caught_short_fell_forward, caught_short_lift_off, caught_short_swing_foot_clearance, caught_short_positions, caught_short_inertias, caught_short_skeleton, caught_long_accelerations, caught_long_energy, caught_long_normal_force, caught_long_fell_backward, caught_long_fell_forward, caught_long_lift_off, caught_long_swing_foot_clearance, caught_long_positions, caught_long_inertias, caught_long_skeleton, event_catch_guard, event_catch_reset, event_extension_guard, event_extension_reset, event_heelstrike_guard, event_heelstrike_reset, event_heelstrike_contact, step_length_of_state, weight, section_completion };
 if (typeof module !== "undefined" && module.exports) {
   module.exports = exported;
 } else {
