@@ -67,9 +67,11 @@ def test_gif_frames_are_the_walk(ile_gif):
     assert heelstrikes[0] == pytest.approx(sum(tau), abs=1e-8)
     assert heelstrikes[1] == pytest.approx(2 * sum(tau), abs=1e-8)
     assert data["steps_completed"] == 2 and data["ended"] == "completed"
-    scale, (x0, y0) = data["pixels"]["scale"], data["pixels"]["origin"]
+    scale, origins = data["pixels"]["scale"], data["pixels"]["origins"]
+    assert data["pixels"]["slope"] == 0.0  # level ground: the chart is not turned
 
-    def pixel(x, y):
+    def pixel(frame, x, y):  # the view follows the hip: each frame has its origin
+        x0, y0 = origins[frame]
         return np.array([x0 + scale * x, y0 - scale * y])
 
     theta_I = float(ile.theta_I(BETA, PHI0))
@@ -79,10 +81,11 @@ def test_gif_frames_are_the_walk(ile_gif):
     sign = float(np.sign(ile.phase_I_II_positions(BETA, THETA_II, PHI0, 0.1, 0.0)[0]))
     # First frame: the short stance leg (beta) at theta_I; the frame at the first
     # heelstrike: the extended leg (r = 1) at theta_IV; the last frame: the second one.
+    heelstrike, last = data["frame_of_events"][1], data["frames"] - 1
     expected = {
-        0: pixel(sign * BETA * math.sin(theta_I), BETA * math.cos(theta_I)),
-        data["frame_of_events"][1]: pixel(sign * math.sin(theta_IV), math.cos(theta_IV)),
-        data["frames"] - 1: pixel(length + sign * math.sin(theta_IV), math.cos(theta_IV)),
+        0: pixel(0, sign * BETA * math.sin(theta_I), BETA * math.cos(theta_I)),
+        heelstrike: pixel(heelstrike, sign * math.sin(theta_IV), math.cos(theta_IV)),
+        last: pixel(last, length + sign * math.sin(theta_IV), math.cos(theta_IV)),
     }
     for frame, where in expected.items():
         image.seek(frame)
@@ -104,8 +107,13 @@ def test_every_model_animates_to_svg_and_gif(capsys, tmp_path):
             data = json.loads(text)
             assert data["steps_completed"] == 1 and out.stat().st_size > 1000
     svg = (tmp_path / "simplest-walker.svg").read_text()
-    # Two legs (4 coordinates each), the hip (2) and the model's two foot masses (2 each).
-    assert svg.startswith("<svg") and svg.count("<animate ") == 14
+    # Two legs (4 coordinates each), the hip and the model's two foot masses (2 each), and
+    # the view's motion.
+    assert svg.startswith("<svg") and svg.count('<line stroke-width="3"') == 2
+    assert svg.count("<circle") == 3 and svg.count("<animateTransform") == 1
+    # a leg's colour moves to the other at the swap: colours are animated too
+    colours = sum(svg.count(f'<animate attributeName="{a}"') for a in ("fill", "stroke"))
+    assert svg.count("<animate ") == 2 * 4 + 3 * 2 + colours
 
 
 def test_animation_is_deterministic(capsys, tmp_path):
@@ -144,10 +152,10 @@ def test_bad_animate_input_is_one_line(capsys, argv, words, tmp_path, monkeypatc
 
 
 def test_each_leg_keeps_its_colour_and_the_slope_descends(capsys, tmp_path):
-    """Issue 22: one colour per leg for the whole walk (the stance and swing legs swap at
-    every heelstrike, the colours stay with the legs), leg masses drawn on their legs, the
-    passive walker's slope descending to the right, the rimless wheel's every spoke."""
-    from vsw.animate import _legs, animation_frames
+    """One colour per leg for the whole walk (the stance and swing legs swap at every
+    heelstrike, the colours stay with the legs), the leg masses coloured as their legs,
+    the passive walker's slope descending to the right, the rimless wheel's every spoke."""
+    from vsw.animate import animation_frames
     from vsw.models import load
 
     model = load("compass_gait")
@@ -156,22 +164,35 @@ def test_each_leg_keeps_its_colour_and_the_slope_descends(capsys, tmp_path):
     frames = animation_frames(model, params, start, 2, fps=10)
     stands = frames.leg_a_stands
     assert stands[frames.step == 0].all() and not stands[frames.step == 1].any()
-    # leg A's foot stays put while it stands and is the old stance foot after the swap
     first_swap = int(np.argmax(~stands))
-    assert np.allclose(frames.stance_foot[:first_swap], frames.stance_foot[0])
-    # a mass on each leg, halfway along it (a = b = 0.5 m)
-    for k in (0, first_swap + 1):
-        for legs, masses in ((0, frames.masses_a), (1, frames.masses_b)):
-            foot, hip = _legs(frames, k)[legs]
-            assert np.allclose(masses[k, 0], 0.5 * (np.asarray(foot) + hip), atol=0.6)
+
+    def world(k, name):  # a skeleton point in the moving view's fixed coordinates
+        return frames.points[k][frames.point_names[k].index(name)] - frames.origins[k]
+
+    # leg A stands first, then swings: its foot stays put while it stands and is where
+    # the swing foot leaves from after the swap
+    for k in range(first_swap):
+        assert frames.line_colors[k] == ("leg_a", "leg_b")
+        assert np.allclose(world(k, "stance_foot"), world(0, "stance_foot"), atol=1e-9)
+    assert frames.line_colors[first_swap] == ("leg_b", "leg_a")
+    assert np.allclose(world(first_swap, "swing_foot"), world(0, "stance_foot"), atol=1e-6)
+    assert frames.body_colors[0] == ("hip", "leg_a", "leg_b")
+    assert frames.body_colors[first_swap] == ("hip", "leg_b", "leg_a")
     # the ground descends to the right by gamma (pixels: y grows downwards)
-    (x0, y0), (x1, y1) = frames.ground
+    (x0, y0), (x1, y1) = frames.ground[0]
     assert math.atan2(y1 - y0, x1 - x0) == pytest.approx(params[4], abs=1e-9)
     wheel = load("rimless_wheel")
     wp = wheel.parameters()
     spun = animation_frames(wheel, wp, wheel.start(wp, None, None).state, 1, fps=10)
     count = round(math.pi / wp[0])
-    assert spun.spokes.shape[1] == count - 1  # every spoke but the stance one
-    hub = spun.hip[0]
-    lengths = np.linalg.norm(spun.spokes[0] - hub, axis=1)
-    assert np.allclose(lengths, np.linalg.norm(spun.stance_foot[0] - hub), rtol=1e-9)
+    assert spun.line_colors[0] == ("leg_a",) + ("spoke",) * (count - 1)  # every spoke
+    hub = spun.points[0][spun.point_names[0].index("hub")]
+    # each line's end away from the hub: a spoke's foot
+    arms = spun.lines[0] - hub
+    arms = np.where((np.linalg.norm(arms[:, 0], axis=1) > np.linalg.norm(arms[:, 1], axis=1))
+                    [:, None], arms[:, 0], arms[:, 1])  # fmt: skip
+    assert np.allclose(np.linalg.norm(arms, axis=1), wp[2] * spun.scale, rtol=1e-9)
+    # neighbouring spokes 2 alpha apart: every spoke end on the circle's 2 alpha grid
+    angles = np.sort(np.mod(np.arctan2(arms[:, 1], arms[:, 0]) - math.atan2(*arms[0][::-1]),
+                            2 * math.pi))  # fmt: skip
+    assert np.allclose(angles, 2 * wp[0] * np.arange(count), atol=1e-9)

@@ -3,13 +3,17 @@
 The frames come from the model's time-domain simulation (:meth:`vsw.hybrid.HybridModel.
 simulate`, SciPy DOP853 with the model's events), sampled at the frame rate and at every
 event instant (an extra frame there, so an extension or heelstrike is shown where it
-happens). The geometry is the derivation's: each phase's body positions
-(``<phase>_positions``, stance foot at the origin, body 0 the hip) and the swing foot from
-the step event's contact point (``event_<e>_contact``), carried to the current phase as
-the vector from the hip; the stance foot moves on by the step length at every step event.
-Drawn: the ground (the model's chart: along the slope for the passive walkers), both legs
-at their current lengths, the hip's path so far, a marker and label at each event, and the
-time and step counters.
+happens). The picture is the derivation's, phase by phase: every segment of the current
+phase's drawing (``<phase>_skeleton``: the points the model file's
+:class:`~derive.engine.model.Skeleton` names, or the engine's stick figure from the stance
+foot, the hip and the step's contact point), every body as a dot whose area grows with its
+mass (``<phase>_positions``, ``<phase>_inertias``) and, for a wheel, its spokes. Each
+phase's chart has its stance foot at the origin; the stance foot moves on by the step
+length at every step event. The ground runs along the slope (turned so it descends to the
+right) with marks that scroll by as the view follows the hip across it; the whole walk
+fits the frame at one scale. Also drawn: the hip's path, a marker and label at each event,
+and the time and step counters. A leg keeps its colour for the whole walk, whichever
+stands (a point named ``stance_*`` or ``swing_*`` says which leg it is on).
 
 Formats: GIF through Pillow (default), an animated SVG (SMIL, no dependency) and MP4
 when ``ffmpeg`` is on the PATH. Frames and the output size are bounded before drawing.
@@ -17,6 +21,7 @@ when ``ffmpeg`` is on the PATH. Frames and the output size are bounded before dr
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import shutil
 import subprocess
@@ -40,6 +45,7 @@ COLORS = {  # Okabe-Ito, as vsw.plotstyle
     "leg_a": (0, 114, 178),  # one colour per leg for the whole walk, whichever stands
     "leg_b": (213, 94, 0),
     "spoke": (120, 120, 120),
+    "body": (60, 60, 60),  # a segment on neither leg: a torso
     "hip": (0, 0, 0),
     "path": (86, 180, 233),
     "event": (0, 158, 115),
@@ -52,36 +58,62 @@ FORMATS = (".gif", ".svg", ".mp4")
 class Animation:
     """The frames of a walk in the drawing's pixel frame.
 
-    ``t``: model time of each frame; ``stance_foot``, ``hip``, ``swing_foot``: (frames, 2)
-    pixel positions; ``step``: steps completed; ``event``: the event that happens at the
-    frame ('' for none); ``hip_world``: the hip in the model's chart (model lengths), for
-    checks; ``scale``: pixels per model length; ``origin``: pixel of the chart's origin.
+    Per frame ``k``: ``t`` its model time, ``phase`` and ``states`` the phase and state it
+    draws, ``step`` the steps completed, ``event`` the event that happens at it ('' for
+    none), ``foot`` the stance foot's x in the first step's chart (model lengths), and
+    ``origins[k]`` the pixel of that chart's origin (the view follows the hip: it moves). A
+    point (x, y) of the first step's chart is drawn at ``origins[k] + scale * (X, -Y)``,
+    (X, Y) the point turned by ``slope`` so that the ground descends to the right
+    (:meth:`to_pixels`; a phase's chart is the first step's moved by ``foot[k]`` along x).
+
+    Drawn per frame, in pixels: ``point_names`` and ``points`` (the phase's skeleton,
+    ``<phase>_skeleton`` in its order), ``lines`` ((L, 2, 2): the skeleton's segments in
+    its order, then a wheel's other spokes) with ``line_colors`` (keys of ``COLORS``),
+    ``bodies`` ((B, 2): each body's position, ``<phase>_positions``' order) with ``radii``
+    and ``body_colors``, ``ground`` (the ground line's ends) and ``ticks`` ((T, 2, 2): the
+    marks on the ground). ``hip``: (frames, 2) pixels of the hip (the skeleton's ``hip``,
+    else body 0), ``hip_world`` the same in the first step's chart.
     """
 
     t: np.ndarray
-    stance_foot: np.ndarray
-    hip: np.ndarray
-    swing_foot: np.ndarray
+    phase: list[str]
+    states: np.ndarray
     step: np.ndarray
     event: list[str]
-    hip_world: np.ndarray
+    foot: np.ndarray
     scale: float
-    origin: tuple[float, float]
+    origins: np.ndarray
+    slope: float
     fps: float
     time_unit: str
     ended: str
     title: str
-    leg_a_stands: np.ndarray | None = None  # per frame: leg A is the stance leg
-    masses_a: np.ndarray | None = None  # (frames, m, 2) pixels: leg A's point masses
-    masses_b: np.ndarray | None = None
-    spokes: np.ndarray | None = None  # (frames, s, 2) pixels: the other spokes' ends
-    ground: np.ndarray | None = None  # (2, 2) pixels: the ground line's ends
-    slope: float = 0.0  # rad, downhill to the right
+    point_names: list[tuple[str, ...]]
+    points: list[np.ndarray]
+    lines: list[np.ndarray]
+    line_colors: list[tuple[str, ...]]
+    bodies: list[np.ndarray]
+    radii: list[np.ndarray]
+    body_colors: list[tuple[str, ...]]
+    hip: np.ndarray
+    hip_world: np.ndarray
+    ground: list[np.ndarray]
+    ticks: list[np.ndarray]
+    leg_a_stands: np.ndarray
+    tick_spacing: float
 
-    def to_pixels(self, xy: np.ndarray) -> np.ndarray:
+    def to_world(self, xy: np.ndarray) -> np.ndarray:
+        """Points of the first step's chart turned so that the slope descends to the right
+        and scaled to pixels, before the frame's origin is added (y up)."""
+        c, s = math.cos(self.slope), math.sin(self.slope)
         xy = np.asarray(xy, dtype=float)
-        return np.stack([self.origin[0] + self.scale * xy[..., 0],
-                         self.origin[1] - self.scale * xy[..., 1]], axis=-1)  # fmt: skip
+        turned_x = c * xy[..., 0] + s * xy[..., 1]
+        turned_y = -s * xy[..., 0] + c * xy[..., 1]
+        return np.stack([self.scale * turned_x, -self.scale * turned_y], axis=-1)
+
+    def to_pixels(self, xy: np.ndarray, k: int = 0) -> np.ndarray:
+        """Points of the first step's chart as pixels of frame ``k``."""
+        return self.origins[k] + self.to_world(xy)
 
 
 def _frame_times(t_end: float, fps: float, speed: float, events: Sequence[float]) -> np.ndarray:
@@ -89,6 +121,74 @@ def _frame_times(t_end: float, fps: float, speed: float, events: Sequence[float]
     regular = np.arange(0.0, t_end + 0.5 * dt, dt)
     regular = regular[regular <= t_end]
     return np.unique(np.concatenate([regular, np.asarray(events, float), [t_end]]))
+
+
+def _leg_of(name: str) -> str:
+    """Which leg a point or body is on, by its name: ``stance``, ``swing`` or ''."""
+    for side in ("stance", "swing"):
+        if name.startswith(side):
+            return side
+    return ""
+
+
+def _color(side: str, leg_a_stands: bool, other: str) -> str:
+    if not side:
+        return other
+    return "leg_a" if (side == "stance") == leg_a_stands else "leg_b"
+
+
+def _nice(value: float) -> float:
+    """1, 2 or 5 times a power of ten, near ``value``."""
+    power = 10.0 ** math.floor(math.log10(value))
+    return min((1.0, 2.0, 5.0, 10.0), key=lambda m: abs(math.log(m * power / value))) * power
+
+
+@dataclass
+class _Drawn:
+    """One frame in the first step's chart (model lengths), before the pixel transform."""
+
+    names: tuple[str, ...]
+    points: np.ndarray
+    segments: list[tuple[int, int]]
+    segment_colors: list[str]
+    spokes: np.ndarray  # (S, 2, 2)
+    bodies: np.ndarray
+    masses: np.ndarray
+    body_colors: tuple[str, ...]
+    hip: np.ndarray
+
+
+def _draw_state(model, params, phase: dict, x: np.ndarray, foot: float, a_stands: bool) -> _Drawn:
+    """The drawing of one state of ``phase``: its skeleton, bodies and spokes, the stance
+    foot at (``foot``, 0) of the first step's chart."""
+    module, name, drawing = model.module, phase["name"], phase["skeleton"]
+    shift = np.array([foot, 0.0])
+    xy = np.asarray(getattr(module, f"{name}_skeleton")(*params, *x), float).reshape(-1, 2)
+    xy = xy + shift
+    names = tuple(drawing["points"])
+    where = {n: k for k, n in enumerate(names)}
+    segments, colors = [], []
+    for a, b in drawing["segments"]:
+        segments.append((where[a], where[b]))
+        colors.append(_color(_leg_of(a) or _leg_of(b), a_stands, "body"))
+    spokes = np.zeros((0, 2, 2))
+    if "spokes" in drawing:
+        center, end, angle_fn = drawing["spokes"]
+        angle = float(getattr(module, angle_fn)(*params, *x))
+        count = max(3, round(2 * math.pi / angle))
+        hub, arm = xy[where[center]], xy[where[end]] - xy[where[center]]
+        ends = []
+        for k in range(1, count):
+            c, s = math.cos(k * angle), math.sin(k * angle)
+            ends.append(hub + np.array([c * arm[0] - s * arm[1], s * arm[0] + c * arm[1]]))
+        spokes = np.array([[hub, e] for e in ends])
+    positions = np.asarray(getattr(module, f"{name}_positions")(*params, *x), float)
+    bodies = positions.reshape(-1, 3)[:, :2] + shift
+    inertias = np.asarray(getattr(module, f"{name}_inertias")(*params, *x), float)
+    masses = inertias.reshape(-1, 2)[:, 0]
+    body_colors = tuple(_color(_leg_of(b), a_stands, "hip") for b in drawing["bodies"])
+    hip = xy[where["hip"]] if "hip" in where else bodies[0]
+    return _Drawn(names, xy, segments, colors, spokes, bodies, masses, body_colors, hip)
 
 
 def animation_frames(
@@ -124,7 +224,6 @@ def animation_frames(
         raise VswInputError("the walk slowed down too much to animate: use fewer --steps")
     step_event = model.step_event
     contact_fn = getattr(model.module, f"event_{step_event['name']}_contact", None)
-    source = step_event["source"]
     # Event instants: two samples at one time with different states (a reset) or phases;
     # repeated samples of one state (a phase's last step and its event point, an event
     # that did not count) are not events.
@@ -162,110 +261,92 @@ def animation_frames(
     # within a phase (samples are at most half a frame apart).
     index = np.searchsorted(ts, times, side="right") - 1
     index = np.clip(index, 0, len(ts) - 1)
-    stance, hip, swing, hip_world, bodies = [], [], [], [], []
+    leg_a_stands = sample_step[index] % 2 == 0
+    states, drawn = [], []
     for k, i in enumerate(index):
         x = xs[i]
         if i + 1 < len(ts) and ts[i + 1] > ts[i] and ph[i + 1] == ph[i]:
             w = (times[k] - ts[i]) / (ts[i + 1] - ts[i])
             x = (1 - w) * xs[i] + w * xs[i + 1]
-        phase = model.phases[ph[i]]["name"]
-        positions = np.asarray(getattr(model.module, f"{phase}_positions")(*params, *x), float)
-        foot = np.array([offsets[i], 0.0])
-        h = positions[:2] + foot
-        if contact_fn is not None:
-            hip_src = np.asarray(getattr(model.module, f"{source}_positions")(*params, *x), float)
-            vec = np.asarray(contact_fn(*params, *x), float) - hip_src[:2]
-            sw = h + vec
-        else:
-            sw = h
-        stance.append(foot)
-        hip.append(h)
-        swing.append(sw)
-        hip_world.append(h)
-        bodies.append(positions.reshape(-1, 3)[1:, :2] + foot)
-    stance, hip, swing, hip_world = map(np.array, (stance, hip, swing, hip_world))
-    leg_a_stands = sample_step[index] % 2 == 0
-    masses_a, masses_b = _masses_by_leg(np.array(bodies), stance, hip, swing, leg_a_stands)
-    spokes = _spokes(model, params, hip, stance)
-    slope = model.slope(params)
-    turn = np.array([[math.cos(slope), math.sin(slope)], [-math.sin(slope), math.cos(slope)]])
-
-    def world(points):  # the chart turned so that the slope descends to the right
-        return None if points is None else np.asarray(points) @ turn.T
-
-    stance, hip, swing = world(stance), world(hip), world(swing)
-    masses_a, masses_b, spokes = world(masses_a), world(masses_b), world(spokes)
+        states.append(np.asarray(x, float))
+        phase = model.phases[ph[i]]
+        drawn.append(_draw_state(model, params, phase, x, float(offsets[i]),
+                                 bool(leg_a_stands[k])))  # fmt: skip
     labels = [""] * len(times)
     for t_event, name in names:
         labels[int(np.searchsorted(times, t_event))] = name
-    parts = [stance, hip, swing] + [p.reshape(-1, 2) for p in (spokes,) if p is not None]
-    everything = np.vstack(parts)
-    lo, hi = everything.min(axis=0), everything.max(axis=0)
-    span = np.maximum(hi - lo, 1e-9)
-    scale = 0.8 * min(WIDTH / span[0], (HEIGHT - 40) / span[1])
-    origin = (0.1 * WIDTH - scale * lo[0], HEIGHT - 20 + scale * lo[1])
     frames = Animation(
-        t=times, stance_foot=stance, hip=hip, swing_foot=swing,
-        step=sample_step[index], event=labels, hip_world=hip_world, scale=scale,
-        origin=origin, fps=fps, time_unit=model.units.get("time", ""),
-        ended=trajectory.ended, title=title, leg_a_stands=leg_a_stands, slope=slope,
+        t=times, phase=[model.phases[ph[i]]["name"] for i in index], states=np.array(states),
+        step=sample_step[index], event=labels, foot=offsets[index], scale=1.0,
+        origins=np.zeros((len(times), 2)), slope=model.slope(params), fps=fps,
+        time_unit=model.units.get("time", ""), ended=trajectory.ended, title=title,
+        point_names=[d.names for d in drawn], points=[], lines=[], line_colors=[], bodies=[],
+        radii=[], body_colors=[d.body_colors for d in drawn], hip=np.zeros((len(times), 2)),
+        hip_world=np.array([d.hip for d in drawn]), ground=[], ticks=[],
+        leg_a_stands=leg_a_stands, tick_spacing=1.0,
     )  # fmt: skip
-    frames.stance_foot = frames.to_pixels(stance)
-    frames.hip = frames.to_pixels(hip)
-    frames.swing_foot = frames.to_pixels(swing)
-    if masses_a is not None:
-        frames.masses_a, frames.masses_b = frames.to_pixels(masses_a), frames.to_pixels(masses_b)
-    if spokes is not None:
-        frames.spokes = frames.to_pixels(spokes)
-    reach = 4 * (span[0] + span[1])  # the ground well past both edges of the picture
-    frames.ground = frames.to_pixels(world(np.array([[lo[0] - reach, 0.0],
-                                                     [hi[0] + reach, 0.0]])))  # fmt: skip
+    _lay_out(frames, drawn)
     return frames
 
 
-def _masses_by_leg(bodies, stance, hip, swing, leg_a_stands):
-    """The point masses below the hip (bodies 1..), each given to the leg it lies on
-    (nearer segment), as leg A's and leg B's per frame; None where there are none or a
-    mass changes legs."""
-    if bodies.ndim != 3 or bodies.shape[1] == 0:
-        return None, None
-
-    def distance(points, a, b):
-        ab = b - a
-        w = np.clip(np.sum((points - a[:, None]) * ab[:, None], axis=2)
-                    / np.maximum(np.sum(ab * ab, axis=1), 1e-300)[:, None], 0, 1)  # fmt: skip
-        return np.linalg.norm(points - (a[:, None] + w[..., None] * ab[:, None]), axis=2)
-
-    on_stance = distance(bodies, stance, hip) <= distance(bodies, hip, swing)
-    on_a = on_stance == leg_a_stands[:, None]
-    counts = on_a.sum(axis=1)
-    if np.any(counts != counts[0]):
-        return None, None
-    order = np.argsort(~on_a, axis=1, kind="stable")  # leg A's masses first
-    ranked = np.take_along_axis(bodies, order[..., None], axis=1)
-    return ranked[:, : counts[0]], ranked[:, counts[0] :]
+TOP, BOTTOM, SIDE = 44, 14, 14
+"""Pixels kept free above the walker (the title and counters), below and at the sides."""
 
 
-_SPOKED = {"rimless_wheel": "alpha"}
-"""Models drawn with all their spokes: the parameter that is half the angle between two."""
+def _lay_out(frames: Animation, drawn: list[_Drawn]) -> None:
+    """One scale for the whole walk and a view that follows the hip along the ground: the
+    hip stays in the middle of the frame, the ground under it at one height."""
+    tan = math.tan(frames.slope)
+    # Turned (unscaled) positions relative to the view's centre: the hip's x, the ground's
+    # height there.
+    unit = dataclasses.replace(frames, scale=1.0)
+    centres = []
+    spans = []
+    for d in drawn:
+        hip_x, _ = unit.to_world(d.hip)
+        centre = np.array([hip_x, tan * hip_x])  # pixel y down: the ground below the hip
+        centres.append(centre)
+        everything = [d.points, d.bodies, d.spokes.reshape(-1, 2), d.hip[None]]
+        spans.append(unit.to_world(np.vstack(everything)) - centre)
+    spans = np.vstack([*spans, np.zeros((1, 2))])
+    half_width = max(float(np.max(np.abs(spans[:, 0]))), 1e-9)
+    low, high = float(np.min(spans[:, 1])), float(np.max(spans[:, 1]))  # pixel y: down
+    scale = min((WIDTH / 2 - SIDE) / half_width, (HEIGHT - TOP - BOTTOM) / max(high - low, 1e-9))
+    frames.scale = scale
+    centre_y = TOP - scale * low
+    frames.origins = np.array([[WIDTH / 2, centre_y]]) - scale * np.array(centres)
+    heaviest = max(max((float(np.max(d.masses)) for d in drawn if len(d.masses)), default=1.0),
+                   1e-300)  # fmt: skip
+    reach = max(float(np.max(np.linalg.norm(d.hip - d.points, axis=1))) for d in drawn)
+    frames.tick_spacing = _nice(0.25 * reach) if reach > 0 else 1.0
+    c = math.cos(frames.slope)
+    for k, d in enumerate(drawn):
+        pts = frames.to_pixels(d.points, k)
+        frames.points.append(pts)
+        lines = [np.array([pts[a], pts[b]]) for a, b in d.segments]
+        lines += [frames.to_pixels(spoke, k) for spoke in d.spokes]
+        frames.lines.append(np.array(lines).reshape(-1, 2, 2))
+        frames.line_colors.append(tuple(d.segment_colors) + ("spoke",) * len(d.spokes))
+        frames.bodies.append(frames.to_pixels(d.bodies, k))
+        # A dot's area grows with its mass; a massless body is still marked.
+        frames.radii.append(2.0 + 5.0 * np.sqrt(np.clip(d.masses, 0, None) / heaviest))
+        frames.hip[k] = frames.to_pixels(d.hip, k)
+        # The ground across the frame: chart x where it leaves each side.
+        ox = frames.origins[k, 0]
+        s0, s1 = (-10 - ox) / (scale * c), (WIDTH + 10 - ox) / (scale * c)
+        frames.ground.append(frames.to_pixels(np.array([[s0, 0.0], [s1, 0.0]]), k))
+        frames.ticks.append(_ticks(frames, k, s0, s1))
 
 
-def _spokes(model, params: Sequence[float], hub: np.ndarray, foot: np.ndarray):
-    """The ends of the spokes other than the stance one, per frame (the next one is drawn
-    again as the swing leg)."""
-    name = _SPOKED.get(model.name)
-    if name is None:
-        return None
-    alpha = float(dict(zip(model.spec["parameters"], params))[name])
-    count = max(3, round(math.pi / alpha))
-    base = foot - hub
-    ends = []
-    for k in range(1, count):
-        angle = 2 * alpha * k
-        c, s = math.cos(angle), math.sin(angle)
-        turned = np.column_stack([c * base[:, 0] - s * base[:, 1], s * base[:, 0] + c * base[:, 1]])
-        ends.append(hub + turned)
-    return np.stack(ends, axis=1)
+def _ticks(frames: Animation, k: int | None, s0: float, s1: float) -> np.ndarray:
+    """Marks below the ground every ``tick_spacing`` from chart x ``s0`` to ``s1``: in
+    frame ``k``'s pixels, or unshifted (``k`` None) for a drawing that moves them all."""
+    spacing = frames.tick_spacing
+    marks = np.arange(math.ceil(s0 / spacing), math.floor(s1 / spacing) + 1) * spacing
+    depth = 6.0 / frames.scale
+    top = np.column_stack([marks, np.zeros_like(marks)])
+    ends = np.stack([top, top - depth], axis=1)  # down and back from the ground
+    return frames.to_world(ends) if k is None else frames.to_pixels(ends, k)
 
 
 def _which_event(model, phase_before: int, phase_after: int, before, after, params) -> dict:
@@ -327,27 +408,23 @@ def _raster(frames: Animation, k: int):
 
     image = Image.new("RGB", (WIDTH, HEIGHT), (255, 255, 255))
     draw = ImageDraw.Draw(image)
-    draw.line([tuple(p) for p in _ground(frames)], fill=COLORS["ground"], width=2)
+    draw.line([tuple(p) for p in frames.ground[k]], fill=COLORS["ground"], width=2)
+    for a, b in frames.ticks[k]:
+        draw.line([tuple(a), tuple(b)], fill=COLORS["ground"], width=1)
     _gravity(draw)
-    if frames.spokes is not None:
-        for end in frames.spokes[k]:
-            draw.line([tuple(frames.hip[k]), tuple(end)], fill=COLORS["spoke"], width=2)
+    # The hip's path so far and the events' markers, where the view now puts them.
+    shift = frames.origins[k] - frames.origins[: k + 1]
+    path = frames.hip[: k + 1] + shift
     if k > 0:
-        path = [tuple(p) for p in frames.hip[: k + 1]]
-        draw.line(path, fill=COLORS["path"], width=1)
+        draw.line([tuple(p) for p in path], fill=COLORS["path"], width=1)
     for j in range(k + 1):
         if frames.event[j]:
-            x, y = frames.hip[j]
+            x, y = path[j]
             draw.rectangle([x - 2, y - 2, x + 2, y + 2], outline=COLORS["event"])
-    (a0, a1), (b0, b1) = _legs(frames, k)
-    draw.line([tuple(a0), tuple(a1)], fill=COLORS["leg_a"], width=3)
-    draw.line([tuple(b0), tuple(b1)], fill=COLORS["leg_b"], width=3)
-    hip = tuple(frames.hip[k])
-    for masses, color in ((frames.masses_a, COLORS["leg_a"]), (frames.masses_b, COLORS["leg_b"])):
-        for x, y in masses[k] if masses is not None else ():
-            draw.ellipse([x - 3.5, y - 3.5, x + 3.5, y + 3.5], fill=color, outline=(0, 0, 0))
-    r = 5
-    draw.ellipse([hip[0] - r, hip[1] - r, hip[0] + r, hip[1] + r], fill=COLORS["hip"])
+    for (a, b), color in zip(frames.lines[k], frames.line_colors[k]):
+        draw.line([tuple(a), tuple(b)], fill=COLORS[color], width=2 if color == "spoke" else 3)
+    for (x, y), r, color in zip(frames.bodies[k], frames.radii[k], frames.body_colors[k]):
+        draw.ellipse([x - r, y - r, x + r, y + r], fill=COLORS[color], outline=(0, 0, 0))
     unit = f" {frames.time_unit}" if frames.time_unit else ""
     draw.text((6, 4), f"{frames.title}", fill=COLORS["text"])
     draw.text((6, 16), f"t = {frames.t[k]:.3f}{unit}   steps: {frames.step[k]}",
@@ -355,21 +432,6 @@ def _raster(frames: Animation, k: int):
     if frames.event[k]:
         draw.text((6, 28), frames.event[k], fill=COLORS["event"])
     return image
-
-
-def _legs(frames: Animation, k: int) -> tuple[tuple, tuple]:
-    """Leg A's and leg B's (foot, hip) ends in frame ``k``: whichever stands, a leg keeps
-    its colour for the whole walk."""
-    stance = (frames.stance_foot[k], frames.hip[k])
-    swing = (frames.swing_foot[k], frames.hip[k])
-    stands = frames.leg_a_stands is None or bool(frames.leg_a_stands[k])
-    return (stance, swing) if stands else (swing, stance)
-
-
-def _ground(frames: Animation) -> np.ndarray:
-    if frames.ground is not None:
-        return frames.ground
-    return np.array([[0.0, frames.origin[1]], [WIDTH, frames.origin[1]]])
 
 
 _ARROW = ((WIDTH - 16, 8), (WIDTH - 16, 38))  # gravity: down, top right
@@ -399,63 +461,105 @@ def _mp4(frames: Animation, out: Path) -> None:
         raise VswInputError(f"ffmpeg could not write {out}: {first}")
 
 
+def _padded(rows: list[np.ndarray], fill: np.ndarray) -> np.ndarray:
+    """Per-frame arrays of varying length stacked to the longest, short ones padded with
+    ``fill`` (per frame) so that an SVG element can stand for one slot in every frame."""
+    most = max(len(r) for r in rows)
+    out = np.repeat(fill[:, None], most, axis=1).astype(float)
+    for k, r in enumerate(rows):
+        out[k, : len(r)] = r
+    return out
+
+
 def _svg(frames: Animation) -> str:
     """An animated SVG that plays once and stays on the last frame: each drawn element's
-    coordinates as SMIL ``values`` (discrete, one per frame), the counters and event
-    markers as ``set`` on their frames."""
+    coordinates as SMIL ``values`` (discrete, one per frame), the ground, its marks, the
+    hip's path and the event markers in a group the view's motion moves, the counters and
+    event markers as ``set`` on their frames."""
     n = len(frames.t)
     frame = 1.0 / frames.fps
     duration = n * frame
 
+    def values(attribute: str, items, tag: str = "animate", extra: str = "") -> str:
+        return (f'<{tag} attributeName="{attribute}" dur="{duration:.3f}s" fill="freeze" '
+                f'calcMode="discrete"{extra} values="{";".join(items)}"/>')  # fmt: skip
+
     def anim(attribute: str, column: np.ndarray) -> str:
-        values = ";".join(f"{v:.2f}" for v in column)
-        return (f'<animate attributeName="{attribute}" dur="{duration:.3f}s" fill="freeze" '
-                f'calcMode="discrete" values="{values}"/>')  # fmt: skip
+        return values(attribute, (f"{v:.2f}" for v in column))
+
+    def paint(attribute: str, keys: list[str]) -> str:
+        """A colour: fixed where it never changes, else animated."""
+        colors = [f"rgb{COLORS[key]}".replace(" ", "") for key in keys]
+        if len(set(colors)) == 1:
+            return f' {attribute}="{colors[0]}">'
+        return ">" + values(attribute, colors)
 
     hip = frames.hip
-    legs = [_legs(frames, k) for k in range(n)]
-    a0, a1 = np.array([leg[0][0] for leg in legs]), np.array([leg[0][1] for leg in legs])
-    b0, b1 = np.array([leg[1][0] for leg in legs]), np.array([leg[1][1] for leg in legs])
-    (gx0, gy0), (gx1, gy1) = _ground(frames)
+    world_hip = hip - frames.origins  # in the moving group's coordinates
+    gx = frames.origins[:, 0]
+    c = math.cos(frames.slope)
+    s0 = float(np.min((-10 - gx) / (frames.scale * c)))
+    s1 = float(np.max((WIDTH + 10 - gx) / (frames.scale * c)))
+    (gx0, gy0), (gx1, gy1) = frames.to_world(np.array([[s0, 0.0], [s1, 0.0]]))
+    ticks = _ticks(frames, None, s0, s1)
     (ax, ay0), (_, ay1) = _ARROW
-    path = " ".join(f"{x:.2f},{y:.2f}" for x, y in hip)
+    path = " ".join(f"{x:.2f},{y:.2f}" for x, y in world_hip)
     unit = f" {frames.time_unit}" if frames.time_unit else ""
+    move = values("transform", (f"{x:.2f},{y:.2f}" for x, y in frames.origins),
+                  tag="animateTransform", extra=' type="translate"')  # fmt: skip
     lines = [
         f'<svg xmlns="http://www.w3.org/2000/svg" width="{WIDTH}" height="{HEIGHT}" '
         f'viewBox="0 0 {WIDTH} {HEIGHT}" font-family="sans-serif" font-size="11">',
         f"<title>{_escape(frames.title)}</title>",
         f'<rect width="{WIDTH}" height="{HEIGHT}" fill="white"/>',
+        f'<g transform="translate({frames.origins[0, 0]:.2f},{frames.origins[0, 1]:.2f})">'
+        + move,
         f'<line x1="{gx0:.2f}" y1="{gy0:.2f}" x2="{gx1:.2f}" y2="{gy1:.2f}" '
         f'stroke="rgb{COLORS["ground"]}" stroke-width="2"/>',
+        *(
+            f'<line x1="{a[0]:.2f}" y1="{a[1]:.2f}" x2="{b[0]:.2f}" y2="{b[1]:.2f}" '
+            f'stroke="rgb{COLORS["ground"]}" stroke-width="1"/>'
+            for a, b in ticks
+        ),
+        f'<polyline points="{path}" fill="none" stroke="rgb{COLORS["path"]}" stroke-width="1"/>',
+    ]  # fmt: skip
+    for k in range(n):
+        if frames.event[k]:
+            x, y = world_hip[k]
+            lines.append(
+                f'<rect x="{x - 2:.2f}" y="{y - 2:.2f}" width="4" height="4" fill="none" '
+                f'stroke="rgb{COLORS["event"]}" visibility="hidden"><set attributeName='
+                f'"visibility" to="visible" begin="{k * frame:.4f}s" fill="freeze"/>'
+                f"<title>{_escape(frames.event[k])} at t = {frames.t[k]:.4f}</title></rect>"
+            )
+    lines.append("</g>")
+    lines.append(
         f'<line x1="{ax}" y1="{ay0}" x2="{ax}" y2="{ay1 - 6}" stroke="black" stroke-width="2"/>'
         f'<polygon points="{ax - 4},{ay1 - 6} {ax + 4},{ay1 - 6} {ax},{ay1 + 1}" fill="black"/>'
-        f'<text x="{ax - 14}" y="{ay0 + 16}">g</text>',
-        f'<polyline points="{path}" fill="none" stroke="rgb{COLORS["path"]}" stroke-width="1"/>',
-        *(
-            f'<line stroke="rgb{COLORS["spoke"]}" stroke-width="2">'
-            + anim("x1", hip[:, 0]) + anim("y1", hip[:, 1])
-            + anim("x2", frames.spokes[:, j, 0]) + anim("y2", frames.spokes[:, j, 1])
+        f'<text x="{ax - 14}" y="{ay0 + 16}">g</text>'
+    )
+    # A segment's slot where a frame has fewer is a point at the hip: nothing is drawn.
+    ends = _padded([f.reshape(-1, 4) for f in frames.lines], np.tile(hip, 2))
+    for j in range(ends.shape[1]):
+        keys = [cs[j] if j < len(cs) else "spoke" for cs in frames.line_colors]
+        width = 2 if set(keys) == {"spoke"} else 3
+        lines.append(
+            f'<line stroke-width="{width}"' + paint("stroke", keys)
+            + "".join(anim(a, ends[:, j, m]) for m, a in enumerate(("x1", "y1", "x2", "y2")))
             + "</line>"
-            for j in range(0 if frames.spokes is None else frames.spokes.shape[1])
-        ),
-        f'<line stroke="rgb{COLORS["leg_a"]}" stroke-width="3">'
-        + anim("x1", a0[:, 0]) + anim("y1", a0[:, 1])
-        + anim("x2", a1[:, 0]) + anim("y2", a1[:, 1]) + "</line>",
-        f'<line stroke="rgb{COLORS["leg_b"]}" stroke-width="3">'
-        + anim("x1", b0[:, 0]) + anim("y1", b0[:, 1])
-        + anim("x2", b1[:, 0]) + anim("y2", b1[:, 1]) + "</line>",
-        *(
-            f'<circle r="3.5" fill="rgb{color}" stroke="black">'
-            + anim("cx", masses[:, j, 0]) + anim("cy", masses[:, j, 1]) + "</circle>"
-            for masses, color in ((frames.masses_a, COLORS["leg_a"]),
-                                  (frames.masses_b, COLORS["leg_b"]))
-            if masses is not None
-            for j in range(masses.shape[1])
-        ),
-        f'<circle r="5" fill="rgb{COLORS["hip"]}">'
-        + anim("cx", hip[:, 0]) + anim("cy", hip[:, 1]) + "</circle>",
-        f'<text x="6" y="14">{_escape(frames.title)}</text>',
-    ]  # fmt: skip
+        )  # fmt: skip
+    centres = _padded(frames.bodies, hip)
+    radii = _padded([r[:, None] for r in frames.radii], np.zeros((n, 1)))[..., 0]
+    for j in range(centres.shape[1]):
+        keys = [cs[j] if j < len(cs) else "hip" for cs in frames.body_colors]
+        r = radii[:, j]
+        size = f' r="{r[0]:.2f}"' if np.all(r == r[0]) else ""
+        lines.append(
+            f'<circle{size} stroke="black"' + paint("fill", keys)
+            + ("" if size else anim("r", r))
+            + anim("cx", centres[:, j, 0]) + anim("cy", centres[:, j, 1]) + "</circle>"
+        )  # fmt: skip
+    lines.append(f'<text x="6" y="14">{_escape(frames.title)}</text>')
     for k in range(n):
         last = k == n - 1
         timing = f'begin="{k * frame:.4f}s"' + ("" if last else f' dur="{frame:.4f}s"')
@@ -465,14 +569,6 @@ def _svg(frames: Animation) -> str:
             + (' fill="freeze"' if last else "")
             + "/></text>"
         )
-        if frames.event[k]:
-            x, y = hip[k]
-            lines.append(
-                f'<rect x="{x - 2:.2f}" y="{y - 2:.2f}" width="4" height="4" fill="none" '
-                f'stroke="rgb{COLORS["event"]}" visibility="hidden"><set attributeName='
-                f'"visibility" to="visible" begin="{k * frame:.4f}s" fill="freeze"/>'
-                f"<title>{_escape(frames.event[k])} at t = {frames.t[k]:.4f}</title></rect>"
-            )
     lines.append("</svg>")
     return "\n".join(lines) + "\n"
 

@@ -78,11 +78,17 @@ def run(args: argparse.Namespace) -> int:
         "ended": frames.ended,
         "events": [{"t": t, "event": e} for t, e in events],
         "frame_of_events": [k for k, e in enumerate(frames.event) if e],
-        "pixels": {"scale": frames.scale, "origin": list(frames.origin)},
+        "pixels": {
+            "scale": frames.scale,
+            "slope": frames.slope,
+            "origins": [[float(x), float(y)] for x, y in frames.origins],
+        },
         "fields": {
             "events": "each event's model time; the animation has a frame at each",
-            "pixels": "pixel = (origin x + scale * x, origin y - scale * y) for a point (x, y) "
-            "in the model's chart, the first stance foot at (0, 0)",
+            "pixels": "pixel = (origin x + scale * X, origin y - scale * Y) in each frame, its "
+            "origin in origins (the view follows the hip), for a point (x, y) of the first "
+            "step's chart (the first stance foot at (0, 0)) turned by the slope: X = x cos "
+            "slope + y sin slope, Y = y cos slope - x sin slope",
         },
     }
     if args.json:
