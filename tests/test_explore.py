@@ -233,3 +233,99 @@ def test_every_model_explorer_finds_the_gait_vsw_finds(tmp_path, capsys, model):
         finally:
             browser.close()
     assert errors == [], errors
+
+
+PICTURES = """() => {
+  const u = window.vswLastUpdate, out = [];
+  for (let i = 0; i <= 90; ++i) out.push(window.vswPicture(3 * u.period * i / 90));
+  return out;
+}"""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model", ["kneed-walker", "torso-walker"])
+def test_the_explorer_draws_the_models_own_skeleton(tmp_path, capsys, model):
+    """Over three steps of the page's gait, the page's own drawing function
+    (``vswPicture``, what its canvas paints) draws every segment of the phase's skeleton
+    inside the canvas, at the points numpy's generated ``<phase>_skeleton`` gives at the
+    drawn state (the pixel transform undone), the kneed walker's knee bent in its
+    knee-free phase, the torso above the hip; the view follows the hip while the ground
+    scrolls by, a step length a step."""
+    import numpy as np
+
+    from vsw.models import load
+
+    sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
+    browser_path = _chromium()
+    if browser_path is None:
+        pytest.skip("no Chromium found (apt-get install chromium; .ci/run tries it)")
+    page_file = tmp_path / "explore.html"
+    assert main(["explore", "--model", model, "--out", str(page_file)]) == 0
+    capsys.readouterr()
+    errors: list[str] = []
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=browser_path, headless=True,
+                                    args=["--no-sandbox", "--disable-gpu"])  # fmt: skip
+        try:
+            page = browser.new_page(viewport={"width": 1100, "height": 800})
+            page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+            page.on("pageerror", lambda e: errors.append(str(e)))
+            page.goto(page_file.as_uri())
+            page.wait_for_function("window.vswLastUpdate !== undefined", timeout=120_000)
+            shown = page.evaluate("window.vswLastUpdate")
+            assert shown["walks"], "the page lost the gait it started from"
+            pictures = page.evaluate(PICTURES)
+            canvas = page.eval_on_selector("#walk", "c => [c.width, c.height]")
+        finally:
+            browser.close()
+    assert errors == [], errors
+    walker = load(model)
+    params = shown["params"]
+    phases = {ph["name"]: ph["skeleton"] for ph in walker.phases}
+    names = (*walker.coordinates, *walker.rates)
+    bent = 0
+    for pic in pictures:
+        assert [pic["width"], pic["height"]] == canvas
+        drawing = phases[pic["phase"]]
+        assert [tuple(s) for s in pic["segments"]] == [tuple(s) for s in drawing["segments"]]
+        assert len(pic["lines"]) >= len(drawing["segments"])
+        for a, b, _ in pic["lines"]:
+            for x, y in (a, b):
+                assert 0 <= x <= canvas[0] and 0 <= y <= canvas[1], (pic["t"], x, y)
+        # the pixels back in the chart: pixel = origin + scale (X, -Y), (X, Y) turned
+        c, s = math.cos(pic["slope"]), math.sin(pic["slope"])
+        u = (np.array(pic["points"]) - pic["origin"]) / pic["scale"]
+        chart = np.column_stack([c * u[:, 0] + s * u[:, 1], s * u[:, 0] - c * u[:, 1]])
+        skeleton = np.asarray(
+            getattr(walker.module, f"{pic['phase']}_skeleton")(*params, *pic["state"]), float
+        ).reshape(-1, 2)
+        foot = chart[0] - skeleton[0]  # the stance foot, the skeleton's first point
+        assert drawing["points"][0] == "stance_foot" and abs(foot[1]) < 1e-9
+        assert foot[0] == pytest.approx(pic["foot"], abs=1e-9)
+        assert np.allclose(chart - foot, skeleton, rtol=0, atol=1e-9), pic["t"]
+        for (a, b, _), (p0, p1) in zip(pic["lines"], drawing["segments"]):
+            assert np.allclose([a, b], np.array(pic["points"])[
+                [drawing["points"].index(p0), drawing["points"].index(p1)]])  # fmt: skip
+        state = dict(zip(names, pic["state"]))
+        bent += pic["phase"] == "knee_free" and state["kappa"] > 0.3
+        if "torso" in drawing["points"]:
+            torso = np.array(pic["points"])[drawing["points"].index("torso")]
+            assert torso[1] < pic["hip"][1]  # above the hip on the screen
+    if model == "kneed-walker":
+        assert bent >= 3
+    hips = np.array([pic["hip"] for pic in pictures])
+    assert np.ptp(hips[:, 0]) < 1e-6  # the view follows the hip...
+    first, last = pictures[0], pictures[-1]
+    steps = last["step"] - first["step"]
+    assert steps >= 2
+    assert last["foot"] - first["foot"] == pytest.approx(steps * shown["step_length"], rel=1e-9)
+
+    def hip_along(pic):  # the hip's turned x in the first step's chart, from numpy
+        xy = getattr(walker.module, f"{pic['phase']}_skeleton")(*params, *pic["state"])
+        k = phases[pic["phase"]]["points"].index("hip")
+        x, y = pic["foot"] + float(xy[2 * k]), float(xy[2 * k + 1])
+        return math.cos(pic["slope"]) * x + math.sin(pic["slope"]) * y
+
+    # ... and the ground moves back under it as far as the hip walked
+    moved = first["origin"][0] - last["origin"][0]
+    assert moved == pytest.approx(first["scale"] * (hip_along(last) - hip_along(first)), abs=1e-6)

@@ -2,8 +2,10 @@
 
 The page (``vsw/templates/explore_hybrid.html``) inlines ``generated/<model>/js/<model>.js``,
 the JavaScript ``python -m derive`` prints from the model's derivation (each phase's
-accelerations, energy and body positions; each event's guard, ``when`` and reset; the
-failures' guards; the step length), and the model's hybrid descriptor as data. In the
+accelerations, energy, body positions and skeleton; each event's guard, ``when`` and
+reset; the failures' guards; the step length), and the model's hybrid descriptor as data.
+It draws each phase's skeleton and bodies as ``vsw animate`` does, the view following the
+walker along the ground (``window.vswPicture(t)``: what the canvas shows at time ``t``). In the
 browser it integrates the walk (classical Runge-Kutta at a fixed step :data:`STEP`, guards
 located by bisection to the last bit of time) and finds the period-one gait by Newton's method on
 the step map from the gait vsw found at the start values (the runtime's search), then
@@ -64,6 +66,7 @@ def spec(model: Any, params: Sequence[float], start: Sequence[float]) -> dict[st
                 "name": ph["name"],
                 "failures": [list(f) for f in ph["failures"]],
                 "startFailures": [list(f) for f in ph.get("start_failures", ())],
+                "skeleton": ph["skeleton"],
             }
             for ph in model.phases
         ],
@@ -87,17 +90,8 @@ def spec(model: Any, params: Sequence[float], start: Sequence[float]) -> dict[st
         "time_unit": model.units.get("time", ""),
         "length_unit": model.units.get("length", ""),
         "slope": model.slope(params),
-        "height": 1.3 * max(1e-9, _height(model, params, start)),
         "playback": 1.0,
-        "contact_fn": f"event_{step_event['name']}_contact",
-        "contact_phase": step_event["source"],
     }
-
-
-def _height(model: Any, params: Sequence[float], start: Sequence[float]) -> float:
-    phase = model.step_event["target"]
-    positions = getattr(model.module, f"{phase}_positions")(*params, *start)
-    return float(abs(positions[1]))
 
 
 def page(model: Any, params: Sequence[float], start: Sequence[float]) -> str:
