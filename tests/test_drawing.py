@@ -174,3 +174,43 @@ def test_the_kneed_walkers_swing_foot_by_hand():
         assert np.linalg.norm(straight - foot) > 0.1
         bent += 1
     assert bent >= 3, "the gait has no frames with the knee bent"
+
+
+@pytest.mark.parametrize("name", keys())
+def test_the_skeletons_feet_and_hip_are_the_models(name):
+    """At random states of the step event's source phase: the skeleton's stance foot is
+    the chart's origin, its hip is body 0 and its swing foot is the point the step's
+    impact makes the new contact (``event_<step>_contact``)."""
+    model = load(name)
+    params = model.parameters()
+    step = model.step_event
+    phase = _phase(model, step["source"])
+    names = list(phase["skeleton"]["points"])
+    contact = getattr(model.module, f"event_{step['name']}_contact", None)
+    rng = np.random.default_rng(7)
+    start = _search_start(model, params)
+    for _ in range(5):
+        x = start + rng.uniform(-0.2, 0.2, size=start.shape)
+        xy = np.asarray(getattr(model.module, f"{phase['name']}_skeleton")(*params, *x), float)
+        point = dict(zip(names, xy.reshape(-1, 2)))
+        positions = getattr(model.module, f"{phase['name']}_positions")(*params, *x)
+        assert np.allclose(point["stance_foot"], 0, atol=1e-15)
+        if "hip" in point:
+            assert np.allclose(point["hip"], np.asarray(positions[:2], float), rtol=1e-12)
+        if "swing_foot" in point and contact is not None:
+            assert np.allclose(point["swing_foot"], np.asarray(contact(*params, *x), float),
+                               rtol=1e-12, atol=1e-14)  # fmt: skip
+
+
+def test_a_skeleton_naming_an_unknown_point_is_refused():
+    import dataclasses
+
+    from derive.engine.hybrid import hybrid_quantities
+    from derive.engine.model import Skeleton
+    from derive.models.rimless_wheel import MODEL
+
+    bad = dataclasses.replace(MODEL, skeleton=Skeleton({"hub": (0, 1)}, (("hub", "rim"),)))
+    bad = dataclasses.replace(bad, phases=tuple(dataclasses.replace(p, skeleton=None)
+                                                for p in bad.phases))  # fmt: skip
+    with pytest.raises(ValueError, match="rim"):
+        hybrid_quantities(bad)
