@@ -3,10 +3,13 @@ derivation of every model done once per test run."""
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
 import json
 import os
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 # The derivations the tests run in process use sympy's cache as `python -m derive` does
@@ -17,6 +20,7 @@ import numpy as np
 import pytest
 
 from generated.ile.params import PARAMETERS
+from vsw.compiled import exclusive_lock
 from vsw.models import keys, load
 from vsw.models.ile.params import random_parameters
 
@@ -44,18 +48,66 @@ def walking_parameters() -> dict[str, np.ndarray]:
     return random_walking_parameters(200, seed=1)
 
 
+def run_directory(tmp_path_factory) -> Path:
+    """A directory of this test run that every pytest-xdist worker sees: the parent of the
+    workers' own temporary directories (each worker is a session of its own)."""
+    base = tmp_path_factory.getbasetemp()
+    return base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+
+
+@contextlib.contextmanager
+def run_lock(path: Path, locks: Path) -> Iterator[None]:
+    """Held by one worker of the test run at a time: the first makes ``path``, the others
+    wait and read it. The lock file lies in ``locks``, named by a hash of the path (not
+    beside it: tests count the files of a cache)."""
+    locks.mkdir(parents=True, exist_ok=True)
+    name = hashlib.sha256(str(path).encode()).hexdigest()[:24]
+    with exclusive_lock(locks / name):
+        yield
+
+
 @pytest.fixture(scope="session", autouse=True)
 def private_kernel_cache(tmp_path_factory):
-    """Compiled kernels go to a temporary cache, not the user's ~/.cache/vsw (also for the
-    subprocesses tests start, which inherit the environment)."""
+    """Compiled kernels and kept gait searches go to a temporary cache, not the user's
+    ~/.cache/vsw (also for the subprocesses tests start, which inherit the environment);
+    one cache for every worker of the run, so a kernel is compiled and a search made once
+    (vsw locks its builds; :func:`searches_made_once` its searches)."""
     if os.environ.get("VSW_CACHE_DIR"):
         yield
         return
-    os.environ["VSW_CACHE_DIR"] = str(tmp_path_factory.mktemp("vsw_cache"))
+    cache = run_directory(tmp_path_factory) / "vsw_cache"
+    cache.mkdir(exist_ok=True)
+    os.environ["VSW_CACHE_DIR"] = str(cache)
     try:
         yield
     finally:
         os.environ.pop("VSW_CACHE_DIR", None)
+
+
+@pytest.fixture(scope="session", autouse=True)
+def searches_made_once(private_kernel_cache, tmp_path_factory):
+    """A gait search that another worker is making is waited for and then read from the
+    shared cache instead of made again: vsw's cache publishes a search whole but does not
+    stop two processes from both making it. The lock is keyed by the search's own file, so
+    a test's private cache (VSW_CACHE_DIR=tmp_path) or VSW_SEARCH_CACHE=0 is as without it."""
+    import vsw.gaits as gaits
+
+    search = gaits.search
+    locks = run_directory(tmp_path_factory) / "locks"
+
+    def search_once(model, params, *, box=None, cells=None):
+        sim = gaits.simulator(model)
+        checked = gaits.check_box(model, box)
+        values = tuple(float(v) for v in params)
+        path = gaits._cache_file(model, sim, values, checked, cells) if sim.library() else None
+        if path is None:
+            return search(model, params, box=box, cells=cells)
+        with run_lock(path, locks):
+            return search(model, params, box=box, cells=cells)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(gaits, "search", search_once)
+        yield
 
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -67,14 +119,18 @@ random one that wrote generated/: equal files are also the seed independence tes
 @pytest.fixture(scope="session")
 def rendered_tree(tmp_path_factory) -> dict[str, str]:
     """Every file ``python -m derive`` writes, derived once per test run (in a subprocess
-    with PYTHONHASHSEED=4242); the tests that need the derivation's output use this."""
-    out = tmp_path_factory.mktemp("derived") / "tree.json"
+    with PYTHONHASHSEED=4242, by the first worker that needs it); the tests that need the
+    derivation's output use this."""
+    out = run_directory(tmp_path_factory) / "derived" / "tree.json"
     code = (
-        "import json, sys; from derive.__main__ import render_all; "
-        "open(sys.argv[1], 'w').write(json.dumps(render_all()))"
+        "import json, os, sys; from derive.__main__ import render_all; "
+        "open(sys.argv[1] + '.part', 'w').write(json.dumps(render_all())); "
+        "os.replace(sys.argv[1] + '.part', sys.argv[1])"
     )
     env = {**os.environ, "PYTHONHASHSEED": DERIVATION_HASH_SEED}
-    subprocess.run([sys.executable, "-c", code, str(out)], cwd=ROOT, env=env, check=True)
+    with run_lock(out, out.parent):  # one derivation for all the run's workers
+        if not out.exists():
+            subprocess.run([sys.executable, "-c", code, str(out)], cwd=ROOT, env=env, check=True)
     return json.loads(out.read_text())
 
 
