@@ -179,3 +179,20 @@ def signal_handlers_restored():
     signal.setitimer(signal.ITIMER_REAL, 0)
     assert not changed, f"signal handlers left changed: {changed}"
     assert timer == (0.0, 0.0), f"interval timer left running: {timer}"
+
+
+def pytest_collection_modifyitems(config, items):
+    """Under pytest-xdist (``--dist loadgroup``), the tests of a module that share one of
+    its module-scoped fixtures run on one worker: each worker is a session of its own and
+    would otherwise compute the fixture (an audit, a walk, a search) again."""
+    for item in items:
+        info = getattr(item, "_fixtureinfo", None)
+        if info is None or item.get_closest_marker("xdist_group"):
+            continue
+        shared = any(
+            definition.scope == "module"
+            for name in info.names_closure
+            for definition in info.name2fixturedefs.get(name, ())
+        )
+        if shared:
+            item.add_marker(pytest.mark.xdist_group(item.module.__name__))

@@ -83,7 +83,11 @@ def test_the_ground_reaction_is_the_legs_push_and_the_torques_pull(biped):
 
 @pytest.mark.parametrize(
     ("values", "speed"),
-    [({}, 0.3), ({"m": 70.0, "g": 9.81, "l": 0.9, "d": 0.6}, 0.8)],
+    [
+        ({}, 0.3),
+        # SI units at a higher speed: IPOPT takes longer there.
+        pytest.param({"m": 70.0, "g": 9.81, "l": 0.9, "d": 0.6}, 0.8, marks=pytest.mark.slow),
+    ],
 )
 def test_least_work_gait_is_inverted_pendulum_walking_at_its_analytic_cost(biped, values, speed):
     """Srinivasan & Ruina's finding at low speed, from a start that is no gait (the search
@@ -121,6 +125,7 @@ def test_least_work_gait_is_inverted_pendulum_walking_at_its_analytic_cost(biped
     assert abs(change - (leg["positive"] + leg["negative"])) <= 1e-6 * cost
 
 
+@pytest.mark.slow  # four IPOPT solves of 40 and 80 intervals
 def test_every_start_returns_to_the_analytic_least_work(biped):
     """``starts``: the least work from three starts (the least squared-input step, then its
     leg force perturbed by up to its own size) is the inverted-pendulum gait's analytic

@@ -96,6 +96,7 @@ def test_a_faster_gait_converges_under_refinement_and_closes_its_energy(compass,
     assert abs(change - net) <= 1e-6 * abs(net)
 
 
+@pytest.mark.slow  # two optimisations
 def test_a_period_target_is_the_speed_target_it_implies(compass):
     """Shorter steps in time: the period 0.9 times the stable passive gait's, with its
     step length. The optimum's durations sum to the target (1e-9), and it is the optimum
@@ -144,6 +145,7 @@ def test_the_positive_works_optimum_is_not_called_optimal_when_the_mesh_cannot_r
     assert np.max(np.abs(np.concatenate(gait.inputs))) > 50
 
 
+@pytest.mark.slow  # two-stage stability optimisation
 def test_the_most_stable_gait_at_the_passive_speed_is_more_stable_than_the_passive_one(compass):
     """`--minimize stability` at the stable passive gait's speed: the spectral radius of the
     collocated step map (its Hermite-Simpson equations differentiated, the saltation's
@@ -268,6 +270,7 @@ def test_vsw_optimize_json_and_exit_statuses(capsys, tmp_path):
     assert err == ["vsw: error: --starts 51 must be from 1 to 50"]
 
 
+@pytest.mark.slow  # a work optimum and its verification
 def test_vsw_optimize_verify_and_the_ground(capsys):
     """`vsw optimize --verify --json`: the periodic motion driven by the optimum's inputs
     (its step's gap within 1e-7), at the target speed within 1e-4, its work integrated
