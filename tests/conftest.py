@@ -181,6 +181,7 @@ def signal_handlers_restored():
     assert timer == (0.0, 0.0), f"interval timer left running: {timer}"
 
 
+@pytest.hookimpl(tryfirst=True)  # before xdist's own, which reads the groups
 def pytest_collection_modifyitems(config, items):
     """Under pytest-xdist (``--dist loadgroup``), the tests of a module that share one of
     its module-scoped fixtures run on one worker: each worker is a session of its own and
