@@ -116,6 +116,7 @@ def test_points_of_a_branch_are_gaits_of_the_stated_period(simplest_cascade):
         assert len(point["step_lengths"]) == 2
 
 
+@pytest.mark.slow  # a continuation to the flip
 def test_the_compass_gaits_first_flip_is_goswamis():
     """Goswami, Thuilot, Espiau 1996 (as quoted by the walkers' report): the first period
     doubling at 4.37 degrees (read off a diagram: 5e-3 relative)."""

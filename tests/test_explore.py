@@ -181,6 +181,7 @@ def test_page_fits_narrow_screens_and_says_its_units(tmp_path, capsys, width):
 ENGINE = ("rimless-wheel", "tle", "simplest-walker", "compass-gait", "vsw-biped")
 
 
+@pytest.mark.slow  # a browser and a search per model
 @pytest.mark.parametrize("model", ENGINE)
 def test_every_model_explorer_finds_the_gait_vsw_finds(tmp_path, capsys, model):
     """`vsw explore --model NAME` (issue 22): the page integrates the walk with the

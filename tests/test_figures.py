@@ -71,6 +71,7 @@ def _png_dpi(data: bytes) -> tuple[int, int, float]:
     return size[0], size[1], dpi
 
 
+@pytest.mark.slow  # every figure twice in every format
 def test_cli_figures_identical_bytes_in_every_format(tmp_path, small_basin):
     # The two richest figures (the others are drawn by the same helpers; the audit's
     # figures are compared byte for byte in tests/test_paper_check.py).

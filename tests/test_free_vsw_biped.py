@@ -242,6 +242,7 @@ def test_the_push_at_a_chosen_angle_keeps_both_momenta_and_pushes_along_the_leg(
         assert (momentum[1] - momentum[0]) @ axis == pytest.approx(push, abs=1e-12)
 
 
+@pytest.mark.slow  # IPOPT with the push angle free
 def test_the_optimiser_chooses_the_push_angle_with_the_gait():
     """`vsw optimize` on free_vsw_biped_push (a chosen parameter, theta_push): the first
     stage (the squared inputs' integral, which prices no impulse) keeps it at its start,
@@ -290,6 +291,7 @@ def test_the_kinematic_start_splits_the_stance_where_the_push_comes():
     assert w[0] * theta_rate == pytest.approx(0.1 - stance[0][0], rel=1e-12)
 
 
+@pytest.mark.slow  # IPOPT with the push angle free
 def test_vsw_optimize_reports_the_chosen_angle_within_its_limit(capsys):
     """`vsw optimize --model free-vsw-biped-push --limit theta_push=0.4:0.45 --json`: the
     chosen angle is reported within the limit (``chosen_parameters``, and the envelope's

@@ -167,6 +167,7 @@ def test_every_start_returns_to_the_analytic_least_work(biped):
                                   w[first : first + parts * width])  # fmt: skip
 
 
+@pytest.mark.slow  # every command on the biped
 def test_commands_say_it_walks_only_powered(capsys):
     """`vsw models` lists its impulses and the optimize feature; the commands that work on
     passive gaits refuse it in one line naming `vsw optimize`; analyze says why it found no

@@ -223,6 +223,7 @@ def test_bad_requests_are_one_line_errors(name, request_, message):
         optimize(model, model.parameters(), request_)
 
 
+@pytest.mark.slow  # a work optimum
 def test_between_the_passive_gaits_speeds_the_hip_only_brakes(compass):
     """10 % faster than the stable passive gait (slower than another passive gait), the
     least positive work is none: the torque only brakes, and that optimum is resolved."""
@@ -234,6 +235,7 @@ def test_between_the_passive_gaits_speeds_the_hip_only_brakes(compass):
     assert work["negative"] < -0.1
 
 
+@pytest.mark.slow  # three optimisations
 def test_vsw_optimize_json_and_exit_statuses(capsys, tmp_path):
     """`vsw optimize`: JSON with the envelope, the trajectories per phase, the ledger and
     the re-simulation; exit 0 when optimal, 3 when not, 2 (one line) for a model without

@@ -231,6 +231,7 @@ def test_actuator_work_over_a_step_is_the_energy_the_walker_gains(walker, stable
                                                     rel=1e-10)  # fmt: skip
 
 
+@pytest.mark.slow  # gait searches on several slopes
 def test_a_forward_lean_needs_a_slope(walker, stable_gait):
     """The least slope of the stable gait's branch at the book's lean: continued down in
     gamma from the defaults, the branch folds at gamma = 0.0507339 (located by the
