@@ -139,7 +139,7 @@ def test_page_in_headless_chromium(tmp_path, capsys):
 
 @pytest.mark.parametrize("width", [360, 700])
 def test_page_fits_narrow_screens_and_says_its_units(tmp_path, capsys, width):
-    """Issue 22: no horizontal overflow from 360 px up; the margins carry units (angles in
+    """No horizontal overflow from 360 px up; the margins carry units (angles in
     degrees, as the sliders); the conditions read in words; the basin says when it is
     empty (beta = 0.3, theta_II = -40 deg: the apex needs more q than contact allows)."""
     sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
@@ -184,7 +184,7 @@ ENGINE = ("rimless-wheel", "tle", "simplest-walker", "compass-gait", "vsw-biped"
 @pytest.mark.slow  # a browser and a search per model
 @pytest.mark.parametrize("model", ENGINE)
 def test_every_model_explorer_finds_the_gait_vsw_finds(tmp_path, capsys, model):
-    """`vsw explore --model NAME` (issue 22): the page integrates the walk with the
+    """`vsw explore --model NAME`: the page integrates the walk with the
     generated JavaScript and finds the period-one gait by Newton from the one vsw found;
     its period and step length equal `vsw analyze`'s to 1e-9 relative, the largest
     |eigenvalue| (central differences at two steps, extrapolated, in the page) to 1e-8; a
@@ -330,3 +330,57 @@ def test_the_explorer_draws_the_models_own_skeleton(tmp_path, capsys, model):
     # ... and the ground moves back under it as far as the hip walked
     moved = first["origin"][0] - last["origin"][0]
     assert moved == pytest.approx(first["scale"] * (hip_along(last) - hip_along(first)), abs=1e-6)
+
+
+# Every word of every table cell's text on one line: a word broken inside wraps onto a
+# second line box, so the range over it has more than one client rectangle.
+BROKEN_WORDS = """() => {
+  const broken = [];
+  for (const cell of document.querySelectorAll("td, th")) {
+    const walker = document.createTreeWalker(cell, NodeFilter.SHOW_TEXT);
+    for (let node = walker.nextNode(); node; node = walker.nextNode()) {
+      for (const m of node.data.matchAll(/\\S+/g)) {
+        const range = document.createRange();
+        range.setStart(node, m.index);
+        range.setEnd(node, m.index + m[0].length);
+        const tops = new Set([...range.getClientRects()].map((r) => Math.round(r.top)));
+        if (tops.size > 1) broken.push(m[0]);
+      }
+    }
+  }
+  return broken;
+}"""
+
+
+@pytest.mark.parametrize("width", [360, 1280])
+def test_table_cells_never_break_inside_a_word(tmp_path, capsys, width):
+    """At a phone's and a desktop's width no table cell breaks a word across lines (the
+    conditions table scrolls in its own box instead), the page does not scroll sideways,
+    and the console stays free of errors."""
+    sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
+    browser_path = _chromium()
+    if browser_path is None:
+        pytest.skip("no Chromium found (apt-get install chromium; .ci/run tries it)")
+    page_file = tmp_path / "explore.html"
+    assert main(["explore", "--out", str(page_file)]) == 0
+    capsys.readouterr()
+    errors: list[str] = []
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=browser_path, headless=True,
+                                    args=["--no-sandbox", "--disable-gpu"])  # fmt: skip
+        try:
+            page = browser.new_page(viewport={"width": width, "height": 800})
+            page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+            page.on("pageerror", lambda e: errors.append(str(e)))
+            page.goto(page_file.as_uri())
+            page.wait_for_function("window.vswLastUpdate !== undefined")
+            assert page.eval_on_selector_all("#conditions tr", "rows => rows.length") > 0
+            broken = page.evaluate(BROKEN_WORDS)
+            assert broken == [], f"words broken across lines at {width} px: {broken}"
+            overflow = page.evaluate(
+                "document.documentElement.scrollWidth - document.documentElement.clientWidth"
+            )
+            assert overflow <= 0, f"{overflow} px of horizontal overflow at {width} px"
+        finally:
+            browser.close()
+    assert errors == [], errors
