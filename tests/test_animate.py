@@ -196,3 +196,47 @@ def test_each_leg_keeps_its_colour_and_the_slope_descends(capsys, tmp_path):
     angles = np.sort(np.mod(np.arctan2(arms[:, 1], arms[:, 0]) - math.atan2(*arms[0][::-1]),
                             2 * math.pi))  # fmt: skip
     assert np.allclose(angles, 2 * wp[0] * np.arange(count), atol=1e-9)
+
+
+@pytest.fixture(scope="module")
+def ile_walk():
+    import generated.ile as ile
+    from vsw.models import load
+
+    model = load("ile")
+    params = model.parameters({"beta": BETA, "theta_II": THETA_II, "phi0": PHI0})
+    start = model.start(params, None, float(ile.q_fixed(BETA, THETA_II, PHI0)))
+    return model, params, start.state
+
+
+# A title as long as a model with many parameters makes (`vsw animate`: "model: name = value, ...").
+LONG_TITLE = "torso-walker: " + ", ".join(f"parameter_{i} = {1.234567 * i:.6g}" for i in range(14))
+
+
+def test_a_long_title_fits_the_gif(ile_walk):
+    """Every line of the title lies inside the frame and left of the gravity arrow, in
+    Pillow's measure of the font it is drawn in and in the drawn pixels."""
+    from vsw import animate
+
+    model, params, state = ile_walk
+    frames = animate.animation_frames(model, params, state, 1, fps=10, speed=1.0,
+                                      title=LONG_TITLE)  # fmt: skip
+    lines = animate.title_lines(LONG_TITLE)
+    assert len(lines) > 1 and " ".join(lines) == LONG_TITLE
+    font = animate._font()
+    arrow_left = animate._ARROW[0][0] - 14
+    for i, line in enumerate(lines):
+        left, top, right, bottom = font.getbbox(line)
+        y = 4 + animate.LINE * i
+        assert 0 <= 6 + left and 6 + right < arrow_left, line
+        assert 0 <= y + top and y + bottom <= animate.top_margin(LONG_TITLE), line
+    rgb = np.asarray(animate._raster(frames, 0).convert("RGB"), dtype=int)
+    band = rgb[: 4 + animate.LINE * len(lines), :arrow_left]
+    ink = np.nonzero(np.any(band < 128, axis=2))
+    assert ink[1].size and ink[1].max() < arrow_left - 1  # the title ends before the arrow
+    # The walker stays below the title and counters.
+    assert np.min(frames.hip[:, 1]) >= animate.top_margin(LONG_TITLE)
+    svg = animate._svg(frames)
+    assert svg.count('<text x="6" y=') == len(animate.title_lines(LONG_TITLE, size=11)) + len(
+        frames.t
+    )

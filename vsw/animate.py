@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import shutil
 import subprocess
 from collections.abc import Sequence
@@ -289,8 +290,43 @@ def animation_frames(
     return frames
 
 
-TOP, BOTTOM, SIDE = 44, 14, 14
-"""Pixels kept free above the walker (the title and counters), below and at the sides."""
+BOTTOM, SIDE = 14, 14
+"""Pixels kept free below the walker and at its sides (above it: :func:`top_margin`)."""
+LINE = 12
+"""Pixels from one line of text to the next (Pillow's default font, 10 px)."""
+TITLE_WIDTH = WIDTH - 6 - 40
+"""Pixels a line of the title may take: from its left margin to left of the gravity arrow."""
+
+
+def _font(size: int = 10):
+    from PIL import ImageFont
+
+    return ImageFont.load_default(size=size)
+
+
+def title_lines(title: str, size: int = 10) -> list[str]:
+    """The title broken between its ``name = value`` items (after a comma or colon) into
+    lines that each fit :data:`TITLE_WIDTH` in Pillow's default font of ``size`` px; an
+    item longer than a line is broken between characters."""
+    font = _font(size)
+    items = [piece for piece in re.split(r"(?<=[,:]) ", title) if piece]
+    lines: list[str] = []
+    for item in items:
+        joined = f"{lines[-1]} {item}" if lines else item
+        if lines and font.getlength(joined) <= TITLE_WIDTH:
+            lines[-1] = joined
+            continue
+        while font.getlength(item) > TITLE_WIDTH and len(item) > 1:
+            cut = max(k for k in range(1, len(item)) if font.getlength(item[:k]) <= TITLE_WIDTH)
+            lines.append(item[:cut])
+            item = item[cut:]
+        lines.append(item)
+    return lines or [""]
+
+
+def top_margin(title: str) -> int:
+    """Pixels kept free above the walker: the title's lines, the counters and an event."""
+    return LINE * (len(title_lines(title)) + 2) + 8
 
 
 def _lay_out(frames: Animation, drawn: list[_Drawn]) -> None:
@@ -311,9 +347,10 @@ def _lay_out(frames: Animation, drawn: list[_Drawn]) -> None:
     spans = np.vstack([*spans, np.zeros((1, 2))])
     half_width = max(float(np.max(np.abs(spans[:, 0]))), 1e-9)
     low, high = float(np.min(spans[:, 1])), float(np.max(spans[:, 1]))  # pixel y: down
-    scale = min((WIDTH / 2 - SIDE) / half_width, (HEIGHT - TOP - BOTTOM) / max(high - low, 1e-9))
+    top = top_margin(frames.title)
+    scale = min((WIDTH / 2 - SIDE) / half_width, (HEIGHT - top - BOTTOM) / max(high - low, 1e-9))
     frames.scale = scale
-    centre_y = TOP - scale * low
+    centre_y = top - scale * low
     frames.origins = np.array([[WIDTH / 2, centre_y]]) - scale * np.array(centres)
     heaviest = max(max((float(np.max(d.masses)) for d in drawn if len(d.masses)), default=1.0),
                    1e-300)  # fmt: skip
@@ -426,11 +463,15 @@ def _raster(frames: Animation, k: int):
     for (x, y), r, color in zip(frames.bodies[k], frames.radii[k], frames.body_colors[k]):
         draw.ellipse([x - r, y - r, x + r, y + r], fill=COLORS[color], outline=(0, 0, 0))
     unit = f" {frames.time_unit}" if frames.time_unit else ""
-    draw.text((6, 4), f"{frames.title}", fill=COLORS["text"])
-    draw.text((6, 16), f"t = {frames.t[k]:.3f}{unit}   steps: {frames.step[k]}",
-              fill=COLORS["text"])  # fmt: skip
+    font = _font()
+    lines = title_lines(frames.title)
+    for i, line in enumerate(lines):
+        draw.text((6, 4 + LINE * i), line, fill=COLORS["text"], font=font)
+    below = 4 + LINE * len(lines)
+    draw.text((6, below), f"t = {frames.t[k]:.3f}{unit}   steps: {frames.step[k]}",
+              fill=COLORS["text"], font=font)  # fmt: skip
     if frames.event[k]:
-        draw.text((6, 28), frames.event[k], fill=COLORS["event"])
+        draw.text((6, below + LINE), frames.event[k], fill=COLORS["event"], font=font)
     return image
 
 
@@ -559,12 +600,15 @@ def _svg(frames: Animation) -> str:
             + ("" if size else anim("r", r))
             + anim("cx", centres[:, j, 0]) + anim("cy", centres[:, j, 1]) + "</circle>"
         )  # fmt: skip
-    lines.append(f'<text x="6" y="14">{_escape(frames.title)}</text>')
+    rows = title_lines(frames.title, size=11)
+    for i, row in enumerate(rows):
+        lines.append(f'<text x="6" y="{14 + 13 * i}">{_escape(row)}</text>')
+    at = 14 + 13 * len(rows)
     for k in range(n):
         last = k == n - 1
         timing = f'begin="{k * frame:.4f}s"' + ("" if last else f' dur="{frame:.4f}s"')
         lines.append(
-            f'<text x="6" y="28" visibility="hidden">t = {frames.t[k]:.3f}{unit}   steps: '
+            f'<text x="6" y="{at}" visibility="hidden">t = {frames.t[k]:.3f}{unit}   steps: '
             f'{frames.step[k]}<set attributeName="visibility" to="visible" {timing}'
             + (' fill="freeze"' if last else "")
             + "/></text>"
