@@ -113,7 +113,8 @@ def test_every_model_animates_to_svg_and_gif(capsys, tmp_path):
     assert svg.count("<circle") == 3 and svg.count("<animateTransform") == 1
     # a leg's colour moves to the other at the swap: colours are animated too
     colours = sum(svg.count(f'<animate attributeName="{a}"') for a in ("fill", "stroke"))
-    assert svg.count("<animate ") == 2 * 4 + 3 * 2 + colours
+    # ... and the hip's path walked so far, one dash offset
+    assert svg.count("<animate ") == 2 * 4 + 3 * 2 + colours + 1
 
 
 def test_animation_is_deterministic(capsys, tmp_path):
@@ -240,3 +241,32 @@ def test_a_long_title_fits_the_gif(ile_walk):
     assert svg.count('<text x="6" y=') == len(animate.title_lines(LONG_TITLE, size=11)) + len(
         frames.t
     )
+
+
+def test_svg_draws_the_path_walked_so_far(ile_walk):
+    """The SVG's hip path shows, at each frame, the path up to that frame's hip and no
+    further: one dash as long as the path so far (the dash's offset per frame), nothing at
+    the first frame, the whole path at the last."""
+    import xml.etree.ElementTree as ET
+
+    from vsw import animate
+
+    model, params, state = ile_walk
+    frames = animate.animation_frames(model, params, state, 1, fps=10, speed=1.0, title="ile")
+    ns = {"s": "http://www.w3.org/2000/svg"}
+    root = ET.fromstring(animate._svg(frames))
+    (path,) = root.findall(".//s:polyline", ns)
+    points = np.array([[float(v) for v in p.split(",")] for p in path.get("points").split()])
+    hip = frames.hip - frames.origins
+    np.testing.assert_allclose(points, hip, atol=0.006)
+    dash, gap = (float(v) for v in path.get("stroke-dasharray").split())
+    along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(points, axis=0).T))])
+    assert dash >= along[-1] and gap >= along[-1]
+    offsets = [a for a in path.findall("s:animate", ns) if a.get("attributeName") ==
+               "stroke-dashoffset"]  # fmt: skip
+    assert len(offsets) == 1 and offsets[0].get("calcMode") == "discrete"
+    shown = dash - np.array([float(v) for v in offsets[0].get("values").split(";")])
+    assert len(shown) == len(frames.t)
+    np.testing.assert_allclose(shown, along, atol=0.02)  # the length walked by each frame
+    assert shown[0] <= 0.01 and shown[-1] == pytest.approx(along[-1], abs=0.02)
+    assert float(path.get("stroke-dashoffset")) == dash  # before the animation: nothing

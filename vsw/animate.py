@@ -26,7 +26,7 @@ import math
 import re
 import shutil
 import subprocess
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -544,7 +544,6 @@ def _svg(frames: Animation) -> str:
     (gx0, gy0), (gx1, gy1) = frames.to_world(np.array([[s0, 0.0], [s1, 0.0]]))
     ticks = _ticks(frames, None, s0, s1)
     (ax, ay0), (_, ay1) = _ARROW
-    path = " ".join(f"{x:.2f},{y:.2f}" for x, y in world_hip)
     unit = f" {frames.time_unit}" if frames.time_unit else ""
     move = values("transform", (f"{x:.2f},{y:.2f}" for x, y in frames.origins),
                   tag="animateTransform", extra=' type="translate"')  # fmt: skip
@@ -562,7 +561,7 @@ def _svg(frames: Animation) -> str:
             f'stroke="rgb{COLORS["ground"]}" stroke-width="1"/>'
             for a, b in ticks
         ),
-        f'<polyline points="{path}" fill="none" stroke="rgb{COLORS["path"]}" stroke-width="1"/>',
+        _walked_path(world_hip, values),
     ]  # fmt: skip
     for k in range(n):
         if frames.event[k]:
@@ -615,6 +614,21 @@ def _svg(frames: Animation) -> str:
         )
     lines.append("</svg>")
     return "\n".join(lines) + "\n"
+
+
+def _walked_path(hip: np.ndarray, values: Callable[[str, Iterable[str]], str]) -> str:
+    """The hip's path as far as it has walked at each frame: the whole polyline dashed by
+    one dash as long as the path so far, then a gap longer than the path (the dash's offset
+    per frame as SMIL ``values``, lengths of the polyline as written)."""
+    written = np.round(hip, 2)
+    walked = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(written, axis=0).T))])
+    total = float(walked[-1]) + 1.0
+    points = " ".join(f"{x:.2f},{y:.2f}" for x, y in written)
+    return (f'<polyline points="{points}" fill="none" stroke="rgb{COLORS["path"]}" '
+            f'stroke-width="1" stroke-dasharray="{total:.2f} {total:.2f}" '
+            f'stroke-dashoffset="{total:.2f}">'
+            + values("stroke-dashoffset", (f"{total - s:.2f}" for s in walked))
+            + "</polyline>")  # fmt: skip
 
 
 def _escape(text: str) -> str:
