@@ -10,6 +10,13 @@ time, the step (0 = the first), the phase, the state (coordinates, then rates), 
 mechanical energy of the phase (T + V) and the stance contact's normal force where the
 model derives one. Files are byte-identical from run to run (fixed zip dates in ``.npz``,
 a fixed header in ``.mat``).
+
+A CSV file's first line names the columns; its second is ``#`` followed by each column's
+unit, comma-separated in the same order (empty where a column has none), so a reader that
+skips ``#`` lines reads the data unchanged: ``numpy.genfromtxt(path, delimiter=",",
+names=True, dtype=None, encoding=None)`` or ``pandas.read_csv(path, comment="#")``; the
+units are ``next(csv.reader([lines[1][1:]]))``, ``lines`` the file's lines
+(:func:`read_csv_units`).
 """
 
 from __future__ import annotations
@@ -30,7 +37,14 @@ from vsw import limits, stop
 from vsw.errors import VswInputError
 from vsw.hybrid import HybridModel
 
-__all__ = ["FORMATS", "SampledWalk", "check_rate", "sample_walk", "write_trajectory"]
+__all__ = [
+    "FORMATS",
+    "SampledWalk",
+    "check_rate",
+    "read_csv_units",
+    "sample_walk",
+    "write_trajectory",
+]
 
 FORMATS = (".csv", ".npz", ".mat")
 """File types :func:`write_trajectory` writes, chosen by the path's extension."""
@@ -162,16 +176,28 @@ def column_units(model: HybridModel, walk: SampledWalk) -> dict[str, str]:
     return {c: units[c] for c in _columns(walk)}
 
 
-def _csv_text(walk: SampledWalk) -> str:
+def _csv_text(model: HybridModel, walk: SampledWalk) -> str:
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
     writer.writerow(_columns(walk))
+    out.write("#")  # the units' line: a comment to readers that skip '#' lines
+    writer.writerow(column_units(model, walk).values())
     for i in range(len(walk.t)):
         force = [repr(float(walk.normal_force[i]))] if walk.normal_force is not None else []
         writer.writerow([repr(float(walk.t[i])), int(walk.step[i]), walk.phase[i],
                          *(repr(float(v)) for v in walk.states[i]),
                          repr(float(walk.energy[i])), *force, walk.event[i]])  # fmt: skip
     return out.getvalue()
+
+
+def read_csv_units(path: str | Path) -> dict[str, str]:
+    """The unit of every column of a CSV file :func:`write_trajectory` wrote."""
+    with open(path, newline="") as f:
+        names = next(csv.reader([f.readline()]))
+        units_line = f.readline()
+    if not units_line.startswith("#"):
+        raise VswInputError(f"{path}: the second line is not the units' line ('#' first)")
+    return dict(zip(names, next(csv.reader([units_line[1:]])), strict=True))
 
 
 def _arrays(model: HybridModel, params: Sequence[float], walk: SampledWalk) -> dict[str, Any]:
@@ -229,7 +255,7 @@ def write_trajectory(
     """Write ``walk`` to ``path`` as CSV, ``.npz`` or ``.mat`` by its extension."""
     suffix = Path(path).suffix.lower()
     if suffix == ".csv":
-        Path(path).write_text(_csv_text(walk))
+        Path(path).write_text(_csv_text(model, walk))
     elif suffix == ".npz":
         Path(path).write_bytes(_npz_bytes(_arrays(model, params, walk)))
     elif suffix == ".mat":
