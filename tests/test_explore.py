@@ -384,3 +384,41 @@ def test_table_cells_never_break_inside_a_word(tmp_path, capsys, width):
         finally:
             browser.close()
     assert errors == [], errors
+
+
+def _documented_flips() -> tuple[float, float]:
+    """The compass gait's first period doubling and where its walks fail (degrees), as
+    docs/models/passive_walkers.md reports them."""
+    import re
+
+    text = (ROOT / "docs" / "models" / "passive_walkers.md").read_text()
+    flip = re.search(r"first period doubling at ([\d.]+)°", text)
+    fail = re.search(r"walks fail by lift-off from ([\d.]+)°", text)
+    assert flip and fail, "the compass gait's cascade is no longer in the docs"
+    return float(flip.group(1)), float(fail.group(1))
+
+
+def test_the_slope_slider_reaches_the_compass_gaits_period_doublings():
+    """The hybrid explorer's slope slider spans the parameter table's interval, so it
+    reaches past the compass gait's first period doubling and on to where its walks fail;
+    every slider's grid passes through its start value, strictly inside the interval."""
+    from vsw.explore_page import WIDE, spec
+    from vsw.models import load
+
+    model = load("compass-gait")
+    params = model.parameters()
+    sliders = {s["name"]: s for s in spec(model, params, [0.0] * 4)["parameters"]}
+    flip, fail = _documented_flips()
+    gamma = sliders["gamma"]
+    assert gamma["min"] < 1.0 and gamma["max"] > fail > flip
+    assert gamma["max"] >= 90.0 - 2 * gamma["step"]  # the table's (0, pi/2), in degrees
+    for p, value in zip(model.parameter_table, params):
+        s = sliders[p.name]
+        shown = math.degrees(value) if p.unit == "rad" else value
+        k = (shown - s["min"]) / s["step"]
+        assert abs(k - round(k)) < 1e-6, p.name  # the start value is on the grid
+        low, high = (math.degrees(v) for v in (p.lower, p.upper)) if p.unit == "rad" else (
+            p.lower, p.upper)  # fmt: skip
+        assert low < s["min"] <= shown <= s["max"] < high, p.name
+        if not math.isfinite(p.upper):  # a scale: a tenth to ten times its value
+            assert s["min"] <= shown / WIDE + s["step"] and s["max"] >= shown * WIDE - s["step"]

@@ -29,17 +29,30 @@ STEP = 2.5e-4
 """The page's Runge-Kutta step, in model time units (its state error ~1e-12 a step)."""
 
 
+SLIDER_STEPS = 1000
+"""Grid steps across a slider."""
+WIDE = 10.0
+"""A slider without both bounds in the parameter table spans value / WIDE to value * WIDE."""
+
+
 def _slider(p: Any, value: float) -> dict[str, Any]:
-    """A parameter's slider: half to one and a half times its value (angles in degrees),
-    inside what vsw computes, on a grid of 1000 steps through the value itself (a browser
-    snaps a slider to min + k step: the start must be on it)."""
+    """A parameter's slider (angles in degrees): across the parameter table's open interval
+    where both its ends are finite (inside what vsw computes), else from a tenth to ten
+    times the value; a grid of :data:`SLIDER_STEPS` through the value itself (a browser
+    snaps a slider to min + k step: the start must be on it), strictly inside the interval."""
     low, high = p.computed or (p.lower, p.upper)
     if p.unit == "rad":
         value, low, high = math.degrees(value), math.degrees(low), math.degrees(high)
-    half = 0.5 * abs(value) if value else 0.1
-    step = float(f"{2 * half / 1000:.3g}")
-    below = max(0, min(500, math.floor((value - low) / step) - 1))
-    above = max(0, min(500, math.floor((high - value) / step) - 1))
+    if math.isfinite(p.lower) and math.isfinite(p.upper):
+        want_low, want_high = low, high
+    elif value:
+        want_low, want_high = sorted((value / WIDE, value * WIDE))
+    else:
+        want_low, want_high = -1.0, 1.0
+    step = float(f"{(want_high - want_low) / SLIDER_STEPS:.3g}")
+    inside = (math.floor((value - low) / step) - 1, math.floor((high - value) / step) - 1)
+    below = max(0, min(math.floor((value - want_low) / step), inside[0]))
+    above = max(0, min(math.floor((want_high - value) / step), inside[1]))
     return {
         "name": p.name,
         "description": p.description,
