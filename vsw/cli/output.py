@@ -339,5 +339,6 @@ def write_orbit(out: TextIO, model: Model, orbit: Orbit) -> None:
 
 
 def progress(label: str) -> ProgressBar:
-    """A progress bar on stderr (drawn only on a terminal)."""
-    return ProgressBar(label)
+    """A progress bar on stderr (drawn only on a terminal): the command's passes of
+    blockwise work numbered on one line."""
+    return ProgressBar(label, passes=True)
