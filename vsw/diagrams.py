@@ -86,7 +86,9 @@ def bifurcation_plot(
 ) -> Figure:
     """The period-one gait along the swept parameter (solid where stable, dashed where
     not) and, where it is unstable or was not found, the last steps of the iterated map
-    (dots: a period-k orbit shows k dots, chaos a smear); below, the largest |eigenvalue|
+    (dots where the walk settled on an orbit: a period-k orbit shows k dots; crosses of
+    another colour where it had not settled by the sweep's cap: chaos or a transient, no
+    orbit claimed); below, the largest |eigenvalue|
     of the period-one gait against 1. The special points located by continuation
     (``special_points``: fold LP, flip PD, Neimark-Sacker NS, boundary B) are dotted
     vertical lines through both panels.
@@ -138,23 +140,14 @@ def bifurcation_plot(
             fill = "full" if style == "-" else "none"
             ax.plot(xs, line, marker="o", fillstyle=fill, color=COLORS["blue"],
                     linestyle="none", label=label)  # fmt: skip
-    dots_x, dots_y, fell_x = [], [], []
-    for p in points:
-        attractor = p.get("attractor")
-        if not attractor:
-            continue
-        if attractor["ended"] != "completed":
-            fell_x.append(p[over])
-        for state, length, period in zip(
-            attractor["states"], attractor["step_lengths"], attractor["step_periods"]
-        ):
-            value = diagram_value(y, state, length, period)
-            if value is not None:
-                dots_x.append(p[over])
-                dots_y.append(value)
-    if dots_x:
-        ax.plot(dots_x, dots_y, linestyle="none", marker=".", markersize=1.8,
-                color=COLORS["vermillion"], label="iterated map (last steps)")  # fmt: skip
+    dots, fell_x = _attractor_dots(points, over, y)
+    for settled, marker, size, color, label in (
+        (True, ".", 1.8, "vermillion", "iterated map, settled (last steps)"),
+        (False, "+", 2.4, "purple", f"iterated map, not settled after {_cap(data)} steps"),
+    ):
+        if dots[settled][0]:
+            ax.plot(*dots[settled], linestyle="none", marker=marker, markersize=size,
+                    markeredgewidth=0.5, color=COLORS[color], label=label)  # fmt: skip
     edge = ax.get_xaxis_transform()  # x in data, y in axes fractions
     lost = [p[over] for p in points if not p["found"]]
     if lost:
@@ -190,6 +183,41 @@ def bifurcation_plot(
         if finite.size and finite.max() / max(finite.min(), 1e-300) > 50:
             ax_eig.set_yscale("log")
     return fig
+
+
+def _attractor_dots(
+    points: list[Mapping[str, Any]], over: str, y: str
+) -> tuple[dict[bool, tuple[list[float], list[float]]], list[float]]:
+    """The iterated map's kept steps as dots, apart for walks that settled on an orbit and
+    walks that did not (a smear that is a transient, not an attractor, must not read as
+    one), and the values where the walk fell."""
+    dots: dict[bool, tuple[list[float], list[float]]] = {True: ([], []), False: ([], [])}
+    fell_x = []
+    for p in points:
+        attractor = p.get("attractor")
+        if not attractor:
+            continue
+        if attractor["ended"] != "completed":
+            fell_x.append(p[over])
+        settled = bool(attractor.get("settled", attractor["period"] is not None))
+        xs, ys = dots[settled]
+        for state, length, period in zip(
+            attractor["states"], attractor["step_lengths"], attractor["step_periods"]
+        ):
+            value = diagram_value(y, state, length, period)
+            if value is not None:
+                xs.append(p[over])
+                ys.append(value)
+    return dots, fell_x
+
+
+def _cap(data: Mapping[str, Any]) -> int:
+    """The steps an unsettled walk took: the sweep's cap (the most walked where a record
+    has none)."""
+    if data.get("max_steps"):
+        return int(data["max_steps"])
+    walked = [p["attractor"]["steps_walked"] for p in data["points"] if p.get("attractor")]
+    return max(walked, default=0)
 
 
 def _branch_values(y: str, record: Mapping[str, Any], step: int) -> float:

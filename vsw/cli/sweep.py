@@ -2,9 +2,10 @@
 
 Every model: the period-one gait continued from value to value (:func:`vsw.sweeps.
 continuation`) and, with ``--keep`` or ``--plot``, the map iterated where the gait is
-unstable or lost: the bifurcation diagram; ``--brute-force`` draws it from the batch
-simulator (:func:`vsw.sweeps.brute_force`). A model with the ``closed-form-sweep`` feature
-(the ile) answers in closed form at every value.
+unstable or lost until its orbit repeats (:func:`vsw.sweeps.settle`): the bifurcation
+diagram; ``--brute-force`` draws it from the batch simulator (:func:`vsw.sweeps.
+brute_force`). ``--state`` or ``--gait`` chooses the gait the sweep starts from. A model
+with the ``closed-form-sweep`` feature (the ile) answers in closed form at every value.
 """
 
 from __future__ import annotations
@@ -14,7 +15,9 @@ import math
 import sys
 from typing import Any
 
-from vsw import limits, plotstyle, sweeps
+import numpy as np
+
+from vsw import limits, plotstyle, stop, sweeps
 from vsw.cli import options
 from vsw.cli.output import (
     INTEGRATOR,
@@ -29,18 +32,19 @@ from vsw.cli.output import (
 )
 from vsw.cli.parser import EXIT_OK, StoreGiven, given
 from vsw.diagrams import bifurcation_plot, diagram_quantity, diagram_units
-from vsw.errors import VswInputError
+from vsw.errors import ConvergenceError, VswInputError
 from vsw.figures import check_save_path, save_figure
 from vsw.gaits import search_seconds
+from vsw.hybrid import Orbit
 from vsw.models.base import Model
 from vsw.models.ile.analysis import FIELDS
 from vsw.models.ile.plots import ile_sweep_plot
 from vsw.models.ile.sweep import sweep as closed_form_sweep
 from vsw.vectorize import default_threads
 
-__all__ = ["register", "run"]
+__all__ = ["attractor_label", "register", "run"]
 
-ITERATION_OPTIONS = ("y", "keep", "transient", "brute_force", "state")
+ITERATION_OPTIONS = ("y", "keep", "transient", "max_steps", "brute_force", "state", "gait")
 
 
 def register(subparsers: Any) -> None:
@@ -77,17 +81,38 @@ def register(subparsers: Any) -> None:
     p.add_argument("--transient", type=int, default=100, action=StoreGiven, metavar="K",
                    help="steps walked before the N kept")  # fmt: skip
     p.add_argument(
+        "--max-steps",
+        type=int,
+        default=sweeps.MAX_STEPS,
+        action=StoreGiven,
+        metavar="M",
+        help="past the transient the map is iterated N steps at a time until the kept steps "
+        f"repeat with a period p (every state within {sweeps.SETTLE_TOL:g} x max(1, |x|) of "
+        "the one p steps before, over at least two cycles): at most M steps a value, after "
+        "which the value is labelled 'not settled after M steps'",
+    )
+    p.add_argument(
         "--brute-force",
         action="store_true",
         help="the classic diagram from the compiled batch simulator: at every value the gait "
         "by Newton on the simulated map and the map iterated from it",
     )
-    p.add_argument(
+    start = p.add_argument_group(
+        "the gait the sweep starts from (default: the first stable gait of the search at "
+        "START, else its first)"
+    )
+    start.add_argument(
         "--state",
         action="append",
         metavar="NAME=VALUE",
-        help="with --brute-force: where the first value's Newton starts (default: its first "
-        "stable gait); repeatable",
+        help="a point of the gait at START, every coordinate and rate (the state just after "
+        "the step event); the period-one gait is solved from it; repeatable",
+    )
+    start.add_argument(
+        "--gait",
+        type=int,
+        metavar="K",
+        help="the K-th gait of the search at START, numbered as 'vsw analyze' lists them",
     )
     p.set_defaults(func=run, parser=p)
 
@@ -106,27 +131,40 @@ def run(args: argparse.Namespace) -> int:
                                     "iterate")  # fmt: skip
         return _closed_form(args, model, name, values)
     y = diagram_quantity(model, args.y)
-    if args.state and not args.brute_force:
-        raise VswInputError("--state of vsw sweep is the start of --brute-force: give both")
+    if args.state and args.gait is not None:
+        raise VswInputError("--state and --gait both choose the starting gait: give one")
+    if args.gait is not None and args.gait < 1:
+        raise VswInputError(f"--gait {args.gait}: gaits are numbered from 1 (see vsw analyze)")
     keep = args.keep if args.keep is not None else (
         32 if (args.plot is not None or args.brute_force) else 0)  # fmt: skip
     if keep == 1 or keep < 0:
         raise VswInputError(f"--keep {keep}: give 0 (no iteration) or at least 2 steps to keep")
     if args.transient < 0:
         raise VswInputError(f"--transient {args.transient} must be >= 0")
-    if not keep and given(args.parser, args, "transient"):
-        raise VswInputError("--transient applies to the iterated map: give --keep N or --plot")
+    for dest in ("transient", "max_steps"):
+        if not keep and given(args.parser, args, dest):
+            option = "--" + dest.replace("_", "-")
+            raise VswInputError(f"{option} applies to the iterated map: give --keep N or --plot")
+    if keep and args.max_steps < args.transient + keep:
+        raise VswInputError(f"--max-steps {args.max_steps} is below --transient + --keep = "
+                            f"{args.transient + keep}")  # fmt: skip
     if args.y is not None and args.plot is None:
         raise VswInputError("--y chooses what --plot draws: give --plot FILE")
     fixed = {k: v for k, v in args.values.items() if k != name}
-    if args.brute_force:
-        if not keep:
-            raise VswInputError("--brute-force iterates the map: --keep must be at least 2")
-        points, method = _brute_force(args, model, fixed, name, values, keep), "brute-force"
-    else:
-        points, method = _continuation(model, fixed, name, values, keep, args.transient), None
+    if args.brute_force and not keep:
+        raise VswInputError("--brute-force iterates the map: --keep must be at least 2")
     params = model.parameters(fixed | {name: float(values[0])})
-    swept = sweeps.record(model, fixed, name, points, keep, args.transient, method)
+    with options.solver_errors(model):
+        first = _first_gait(model, params, args, name, float(values[0]))
+    if args.brute_force:
+        start = None if first is None else np.array(list(first[0].state.values()))
+        points = _brute_force(args, model, fixed, name, values, keep, start)
+        method = "brute-force"
+    else:
+        points = _continuation(model, fixed, name, values, keep, args, first)
+        method = None
+    swept = sweeps.record(model, fixed, name, points, keep, args.transient, method,
+                          args.max_steps)  # fmt: skip
     data = {**envelope(model, params, args.argv, {**INTEGRATOR, **ORBIT_SOLVER}), **swept}
     if args.plot is not None and not args.brute_force:
         with options.solver_errors(model):
@@ -143,40 +181,84 @@ def run(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _continuation(model, fixed, name, values, keep: int, transient: int) -> list[dict]:
+def _first_gait(
+    model: Model, params, args: argparse.Namespace, name: str, value: float
+) -> tuple[Orbit, str] | None:
+    """The gait ``--state`` or ``--gait`` chooses at the range's start (None: the search's
+    pick). At a value with two unstable gaits the pick is the first, which for the
+    simplest walker is the short gait whose walks fall: the user names the other."""
+    where = f"at {name} = {value:g}"
+    if args.state:
+        state = np.array(options.parse_state(model, args.state))
+        step = model.step(params, state)
+        if step.ended != "completed":
+            raise VswInputError(f"--state: no gait {where}: a step from it ends with "
+                                f"{step.ended}")  # fmt: skip
+        try:
+            return model.periodic_orbit(params, state, step.durations), "--state"
+        except ConvergenceError as exc:
+            stop.check()
+            raise VswInputError(f"--state: no period-one gait through it {where}: {exc}") from exc
+    if args.gait is None:
+        return None
+    gaits = model.analyze(params).gaits
+    if args.gait > len(gaits):
+        found = f"1 to {len(gaits)}" if gaits else "none"
+        raise VswInputError(f"--gait {args.gait}: the search {where} finds {len(gaits)} "
+                            f"gait(s): give {found} (see vsw analyze)")  # fmt: skip
+    return gaits[args.gait - 1], f"--gait {args.gait}"
+
+
+def _continuation(model, fixed, name, values, keep: int, args, first) -> list[dict]:
     count = len(values)
     size = len(model.phases) * model.n
-    steps = count * (transient + keep if keep else 0)
     # One search to start; where continuation loses the gait, another per point (not
-    # counted: the limit is enforced while the sweep runs).
-    per_point = limits.HYBRID_SECONDS_PER_ORBIT * count + limits.HYBRID_SECONDS_PER_PHASE * steps
+    # counted: the limit is enforced while the sweep runs). The map is iterated by the
+    # batch simulator, every value up to --max-steps at worst.
+    per_point = limits.HYBRID_SECONDS_PER_ORBIT * count + (
+        limits.BATCH_SECONDS_PER_PHASE * count * args.max_steps if keep else 0.0)  # fmt: skip
     seconds = search_seconds(model) + size * per_point
     nbytes = limits.SIMULATE_BYTES_BASE + count * max(keep, 1) * limits.HYBRID_BYTES_PER_STEP
     limits.check(
-        f"a sweep of {count} points" + (f" iterating {transient + keep} steps each" if keep
+        f"a sweep of {count} points" + (f" iterating up to {args.max_steps} steps each" if keep
                                         else ""),
         limits.Cost(seconds, nbytes),
-        "use fewer points (N of --over)" + (", --keep or --transient" if keep else ""),
+        "use fewer points (N of --over)" + (", --keep or --max-steps" if keep else ""),
     )  # fmt: skip
     with progress("sweep") as bar, options.solver_errors(model):
-        return sweeps.continuation(model, fixed, name, values, keep, transient, progress=bar)
+        return sweeps.continuation(model, fixed, name, values, keep, args.transient,
+                                   progress=bar, first=first,
+                                   max_steps=args.max_steps)  # fmt: skip
 
 
-def _brute_force(args, model, fixed, name, values, keep: int) -> list[dict]:
+def _brute_force(args, model, fixed, name, values, keep: int, start) -> list[dict]:
     count = len(values)
-    steps = count * (args.transient + keep)
+    steps = count * args.max_steps
     seconds = search_seconds(model) + (
         (steps + 40 * count) * limits.BATCH_SECONDS_PER_PHASE * len(model.phases) * model.n
         / default_threads()
     )  # fmt: skip
     limits.check(
-        f"a brute-force sweep of {count} points iterating {args.transient + keep} steps each",
+        f"a brute-force sweep of {count} points iterating up to {args.max_steps} steps each",
         limits.Cost(seconds, limits.SIMULATE_BYTES_BASE + count * keep * 200),
-        "use fewer points (N of --over), --keep or --transient",
+        "use fewer points (N of --over), --keep or --max-steps",
     )
-    start = options.parse_state(model, args.state) if args.state else None
+    if start is None and args.state:
+        start = options.parse_state(model, args.state)
     with options.solver_errors(model):
-        return sweeps.brute_force(model, fixed, name, values, args.transient, keep, start=start)
+        return sweeps.brute_force(model, fixed, name, values, args.transient, keep, start=start,
+                                  max_steps=args.max_steps)  # fmt: skip
+
+
+def attractor_label(attractor: dict[str, Any]) -> str:
+    """What the iterated map did at one value, as the text output says it: the failure
+    that ended the walk, ``period-p`` once the orbit has settled, else ``not settled after
+    N steps`` (a record without ``settled`` counts as settled where it has a period)."""
+    if attractor["ended"] != "completed":
+        return attractor["ended"]
+    if attractor.get("settled", attractor["period"] is not None):
+        return f"period-{attractor['period']}"
+    return f"not settled after {attractor['steps_walked']} steps"
 
 
 def _write_points(model: Model, data: dict, name: str, keep: int, degrees: bool) -> None:
@@ -194,9 +276,7 @@ def _write_points(model: Model, data: dict, name: str, keep: int, degrees: bool)
         attractor = p.get("attractor")
         note = ""
         if attractor:
-            kind = (attractor["ended"] if attractor["ended"] != "completed" else
-                    f"period-{attractor['period']}" if attractor["period"] else
-                    "no repeat within --keep steps")  # fmt: skip
+            kind = attractor_label(attractor)
             note = kind if brute else f"; map: {kind}"
         where = "" if brute else (p["from"] or f"no gait: {p.get('reason')}")
         out.write(f"{fmt(options.echo(p[name], degrees)):>12} "
