@@ -135,7 +135,7 @@ BAD = [
     ([*ILE, "--q0", "0.4", "--state", "theta=0", "--out", "x.gif"], ["--state and --q0"]),
     ([*ILE, "--q0", "0.4", "--steps", "0", "--out", "x.gif"], ["--steps"]),
     ([*ILE, "--q0", "0.4", "--fps", "0", "--out", "x.gif"], ["--fps"]),
-    ([*ILE, "--q0", "0.4", "--out", "/nonexistent/dir/x.gif"], ["does not exist"]),
+    ([*ILE, "--q0", "0.4", "--out", "TMP/missing/dir/x.gif"], ["does not exist"]),
     ([*ILE, "--q0", "0.4", "--steps", "1000", "--out", "x.gif"], ["frames"]),
     (["animate", "--model", "compass-gait", "--leg-length", "1", "--out", "x.gif"],
      ["seconds"]),
@@ -145,7 +145,10 @@ BAD = [
 
 @pytest.mark.parametrize("argv, words", BAD, ids=[" ".join(a[1:]) for a, _ in BAD])
 def test_bad_animate_input_is_one_line(capsys, argv, words, tmp_path, monkeypatch):
+    """TMP: the test's own temporary directory, where missing/ is sure to be missing."""
     monkeypatch.chdir(tmp_path)
+    argv = [a.replace("TMP", str(tmp_path)) for a in argv]
+    assert not (tmp_path / "missing").exists()
     code, out, err = run(capsys, argv)
     assert code == 2 and out == "" and err.count("\n") == 1, err
     for word in words:

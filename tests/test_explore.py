@@ -54,14 +54,17 @@ def test_page_is_self_contained(tmp_path, capsys):
     "argv, words",
     [
         (["explore", "--out", "x.txt"], [".html"]),
-        (["explore", "--out", "/nonexistent/x.html"], ["does not exist"]),
+        (["explore", "--out", "TMP/missing/dir/x.html"], ["does not exist"]),
         (["explore", "--out", "x.html", "--beta", "1.5"], ["--beta", "(0, 1)"]),
         (["explore", "--out", "x.html", "--beta", "0.1"], ["--beta", "slider range"]),
         (["explore", "--out", "x.html", "--phi0", "nan"], ["--phi0"]),
     ],
 )
 def test_bad_explore_input_is_one_line(capsys, tmp_path, monkeypatch, argv, words):
+    """TMP: the test's own temporary directory, where missing/ is sure to be missing."""
     monkeypatch.chdir(tmp_path)
+    argv = [a.replace("TMP", str(tmp_path)) for a in argv]
+    assert not (tmp_path / "missing").exists()
     code = main(argv)
     out, err = capsys.readouterr()
     assert code == 2 and out == "" and err.count("\n") == 1
