@@ -10,6 +10,10 @@ browser it integrates the walk (classical Runge-Kutta at a fixed step :data:`STE
 located by bisection to the last bit of time) and finds the period-one gait by Newton's method on
 the step map from the gait vsw found at the start values (the runtime's search), then
 follows it as the sliders move. No number is typed in, nothing is fetched.
+
+A powered gait (``vsw explore --gait FILE``) is not integrated in the page: vsw replays its
+inputs (:func:`vsw.gait_file.replay_frames`) and the page plays the sampled states of that
+step, one step after another, its sliders fixed at the gait's parameters.
 """
 
 from __future__ import annotations
@@ -27,6 +31,12 @@ __all__ = ["STEP", "check_html_path", "page", "write_html", "write_page"]
 TEMPLATE = Path(__file__).resolve().parent / "templates" / "explore_hybrid.html"
 STEP = 2.5e-4
 """The page's Runge-Kutta step, in model time units (its state error ~1e-12 a step)."""
+REPLAY_NOTE = (
+    '<p class="note"><strong>A powered gait, replayed.</strong> This page plays the step '
+    "vsw simulated with the gait's inputs (SciPy DOP853, 1e-11), one step after another; "
+    "it does not integrate it here, and its sliders stay at the gait's parameters.</p>"
+)
+"""The note a replayed powered gait's page shows under the description."""
 
 
 SLIDER_STEPS = 1000
@@ -64,8 +74,11 @@ def _slider(p: Any, value: float) -> dict[str, Any]:
     }
 
 
-def spec(model: Any, params: Sequence[float], start: Sequence[float]) -> dict[str, Any]:
-    """What the page needs of the model beside its generated functions."""
+def spec(model: Any, params: Sequence[float], start: Sequence[float],
+         replay: dict[str, Any] | None = None) -> dict[str, Any]:  # fmt: skip
+    """What the page needs of the model beside its generated functions; ``replay``: a
+    powered gait's sampled step (:func:`vsw.gait_file.replay_frames`), played instead of
+    integrated."""
     units = {s["name"]: s["unit"] for s in model.spec["state"]}
     step_event = model.step_event
     return {
@@ -104,19 +117,22 @@ def spec(model: Any, params: Sequence[float], start: Sequence[float]) -> dict[st
         "length_unit": model.units.get("length", ""),
         "slope": model.slope(params),
         "playback": 1.0,
+        "replay": replay,
     }
 
 
-def page(model: Any, params: Sequence[float], start: Sequence[float]) -> str:
+def page(model: Any, params: Sequence[float], start: Sequence[float],
+         replay: dict[str, Any] | None = None) -> str:  # fmt: skip
     """The page's HTML for ``model`` with the sliders at ``params`` and Newton's first
-    guess ``start`` (a section state, e.g. the runtime's stable gait)."""
+    guess ``start`` (a section state, e.g. the runtime's stable gait); with ``replay``, a
+    powered gait's step played from its samples (:func:`spec`)."""
     js_path = Path(model.module.__file__).resolve().parent / "js" / f"{model.name}.js"
     if not js_path.is_file():
         raise VswInputError(
             f"vsw explore: generated/{model.name}/js is missing: run python -m derive"
         )
     js = js_path.read_text()
-    data = json.dumps(spec(model, params, start), sort_keys=True)
+    data = json.dumps(spec(model, params, start, replay), sort_keys=True)
     if "</script" in js or "</script" in data:
         raise VswInputError("the explorer's script would end early ('</script' in it)")
     replacements = {
@@ -128,6 +144,7 @@ def page(model: Any, params: Sequence[float], start: Sequence[float]) -> str:
         "@@namespace@@": f"vsw_{model.name}",
         "@@spec@@": data,
         "@@model_js@@": js,
+        "@@replay_note@@": "" if replay is None else REPLAY_NOTE,
     }
     text = TEMPLATE.read_text()
     for key, value in replacements.items():
@@ -135,10 +152,11 @@ def page(model: Any, params: Sequence[float], start: Sequence[float]) -> str:
     return text
 
 
-def write_page(path: str, model: Any, params: Sequence[float], start: Sequence[float]) -> Path:
+def write_page(path: str, model: Any, params: Sequence[float], start: Sequence[float],
+               replay: dict[str, Any] | None = None) -> Path:  # fmt: skip
     """Write the page of :func:`page` to ``path``."""
     check_html_path(path)
-    return write_html(path, page(model, params, start))
+    return write_html(path, page(model, params, start, replay))
 
 
 def check_html_path(path: str) -> Path:

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -46,7 +47,7 @@ from vsw.powered import (
     powered_step_jacobian,
 )
 
-__all__ = ["VerifiedGait", "verify"]
+__all__ = ["PhaseRun", "VerifiedGait", "step_runs", "verify"]
 
 WORK_PANELS = 64
 """Simpson panels in each of the mesh's intervals for the work along the motion (the
@@ -78,6 +79,8 @@ class VerifiedGait:
     stance_friction: float = 0.0
     """The largest |tangential| / normal of the stance foot's reaction along the step
     (sampled at 200 instants a phase): the friction coefficient the stance needs."""
+    end: np.ndarray | None = None
+    """The state the step from ``state`` ends in, just after its step event."""
 
     @property
     def positive_work(self) -> float:
@@ -111,59 +114,93 @@ def verify(model: HybridModel, params: Sequence[float], gait: PoweredGait,
     return _replay(model, p, gait, x, residual)
 
 
+@dataclass
+class PhaseRun:
+    """One phase of a step driven by a gait's inputs (:func:`step_runs`): its ``control``
+    (the input at the time since the phase began), SciPy's ``solution`` (dense) and
+    ``watched`` guards, the time of its event ``end_time``, the state there before the
+    event's impulses and reset (``before``) and after them (``after``), and the first
+    failure it crosses before its end, (name, time) or None."""
+
+    phase: str
+    event: dict
+    control: Any
+    watched: list
+    solution: Any
+    end_time: float
+    before: np.ndarray
+    after: np.ndarray
+    failure: tuple[str, float] | None
+
+
+def step_runs(model: HybridModel, p: np.ndarray, gait: PoweredGait,
+              x: np.ndarray) -> list[PhaseRun]:  # fmt: skip
+    """One step from ``x`` with ``gait``'s inputs and impulses at the parameters ``p``,
+    integrated as :func:`vsw.powered.powered_step` integrates it (so that it ends where
+    Newton's last step did): each phase to its event's first crossing that counts, every
+    failure watched (and recorded, the phase going on to its event), each event's
+    impulses applied. The one implementation of "a step with these inputs": the
+    verification's (:func:`verify`) and a saved gait's replay (:mod:`vsw.gait_file`).
+    :class:`ConvergenceError` where a phase meets no event."""
+    runs: list[PhaseRun] = []
+    state = np.array(x, dtype=float)
+    for (phase, event), duration, u in zip(model._phase_sequence(), gait.durations, gait.inputs):
+        control = _control(u, duration)
+        watched = _watchers(model, phase, event, p, control)
+        solution, end = integrate_phase(model, phase, event, p, control, state, duration,
+                                        gait.period, [fn for _, fn in watched],
+                                        dense=True)  # fmt: skip
+        if end is None:
+            raise ConvergenceError(
+                f"{model.name}: the step with the gait's inputs meets no {event['name']} "
+                "within twice its planned duration and a step more"
+            )
+        end_time = end[0]
+        before = solution.sol(end_time)
+        iota = np.array([gait.impulses[f"{event['name']}.{name}"]
+                         for name in ordered_impulses(model, event)])  # fmt: skip
+        after = _apply_impulses(model, event, p, before, iota)[0]
+        failure = _first_failure(watched, solution, end_time)
+        runs.append(PhaseRun(phase, event, control, watched, solution, end_time, before,
+                             after, failure))  # fmt: skip
+        state = after
+    return runs
+
+
 def _replay(model: HybridModel, p: np.ndarray, gait: PoweredGait, x: np.ndarray,
             residual: float) -> VerifiedGait:  # fmt: skip
-    """One step from ``x`` integrated as :func:`vsw.powered.powered_step` integrates it
-    (so that it ends where Newton's last step did), each phase to its event's first
-    crossing that counts, every failure watched; the inputs' positive and negative work
-    along it (:func:`vsw.powered.motion_work`), the events' impulses applied."""
+    """One step from ``x`` (:func:`step_runs`), every failure and the inputs' bounds
+    checked; the inputs' positive and negative work along it
+    (:func:`vsw.powered.motion_work`), the events' impulses' and the ground's."""
     names = input_names(model)
     state, period, failure, friction = x.copy(), 0.0, "", 0.0
     work: dict[str, dict[str, float]] = {}
     ground: dict[str, tuple[float, float]] = {}
     step_length = None
-    for (phase, event), duration, u in zip(model._phase_sequence(), gait.durations, gait.inputs):
-        control = _control(u, duration)
-        watched = _watchers(model, phase, event, p, control)
-        solution, end = integrate_phase(
-            model,
-            phase,
-            event,
-            p,
-            control,
-            state,
-            duration,
-            gait.period,
-            [fn for _, fn in watched],
-            dense=True,
-        )
-        if end is None:
-            raise ConvergenceError(
-                f"{model.name}: the verified step meets no {event['name']} "
-                "within twice its planned duration and a step more"
-            )
-        end_time = end[0]
-        failure = failure or _failure_before(watched, solution, end_time, phase)
-        failure = failure or _outside_bounds(model, phase, control, end_time)
-        friction = max(friction, _stance_friction(model, phase, p, solution, control, end_time))
+    for run, duration, u in zip(step_runs(model, p, gait, x), gait.durations, gait.inputs):
+        phase, event, end_time = run.phase, run.event, run.end_time
+        if run.failure is not None and not failure:
+            failure = f"{run.failure[0]} in phase {phase} at t = {run.failure[1]:.6g}"
+        failure = failure or _outside_bounds(model, phase, run.control, end_time)
+        friction = max(friction, _stance_friction(model, phase, p, run.solution, run.control,
+                                                  end_time))  # fmt: skip
         nodes = (u.shape[0] - 1) // 2
-        along = motion_work(model, phase, p, solution.sol, control, end_time, duration / nodes,
-                            WORK_PANELS)  # fmt: skip
+        along = motion_work(model, phase, p, run.solution.sol, run.control, end_time,
+                            duration / nodes, WORK_PANELS)  # fmt: skip
         for name, (plus, minus) in zip(names[phase], along):
             work[f"{phase}.{name}"] = {"positive": plus, "negative": minus}
-        before = solution.sol(end_time)
         iota = np.array([gait.impulses[f"{event['name']}.{name}"]
                          for name in ordered_impulses(model, event)])  # fmt: skip
-        state = _event(model, event, p, before, iota, work, ground)
+        state = _event(model, event, p, run.before, iota, work, ground)
         period += end_time
         if event["ends_step"] and model.spec["step_length"]:
-            step_length = float(model.step_length(p, before))
+            step_length = float(model.step_length(p, run.before))
     gap = np.max(np.abs(state - x)) / max(1.0, float(np.max(np.abs(x))))
     if not gap <= FIXED_POINT_TOL:
         failure = failure or f"the step ends {gap:.3g} from where it began (relative)"
     return VerifiedGait(x, max(residual, float(gap)), period, step_length,
                         None if step_length is None else step_length / period, work, ground,
-                        failure, friction)  # fmt: skip
+                        failure, friction, state)  # fmt: skip
 
 
 def _stance_friction(model: HybridModel, phase: str, p: np.ndarray, solution, control,
@@ -198,13 +235,14 @@ def _outside_bounds(model: HybridModel, phase: str, control, end_time: float) ->
     return ""
 
 
-def _failure_before(watched: list, solution, end_time: float, phase: str) -> str:
-    """The first failure crossed before the phase's end ('' when none)."""
+def _first_failure(watched: list, solution, end_time: float) -> tuple[str, float] | None:
+    """The first failure crossed before the phase's end, (name, time), or None."""
+    first = None
     for (name, _), times in zip(watched[1:], solution.t_events[1:]):
         for t in times:
-            if 1e-9 < t < end_time * (1 - 1e-9):
-                return f"{name} in phase {phase} at t = {t:.6g}"
-    return ""
+            if 1e-9 < t < end_time * (1 - 1e-9) and (first is None or t < first[1]):
+                first = (name, float(t))
+    return first
 
 
 def _event(model: HybridModel, event: dict, p: np.ndarray, before: np.ndarray,

@@ -1,4 +1,5 @@
-"""``vsw animate``: the stick figure of a simulated walk as GIF, SVG or MP4."""
+"""``vsw animate``: the stick figure of a simulated walk as GIF, SVG or MP4; with ``--gait
+FILE`` the walk replays a saved powered gait (:func:`vsw.cli.simulate.saved_gait`)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,9 @@ from vsw.animate import animation_frames, check_output, write_animation
 from vsw.cli import options
 from vsw.cli.output import INTEGRATOR, dump_json, envelope
 from vsw.cli.parser import EXIT_OK
+from vsw.cli.simulate import REPLAY, add_gait_option, saved_gait
 from vsw.errors import VswInputError
+from vsw.gait_file import PoweredReplay
 
 __all__ = ["register", "run"]
 
@@ -30,6 +33,7 @@ def register(subparsers: Any) -> None:
     start.add_argument(
         "--q0", type=float, help="q = rate**2 just after the step event (ile, tle, rimless-wheel)"
     )
+    add_gait_option(start)
     p.add_argument("--fps", type=float, default=30.0, help="frames per second")
     p.add_argument("--speed", type=float, default=1.0,
                    help="model time units per second of playback")  # fmt: skip
@@ -42,6 +46,9 @@ def register(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     model, params = options.model_and_parameters(args)
     out = check_output(args.out)
+    saved = saved_gait(args) if args.gait is not None else None
+    if saved is not None:
+        model, params = saved.model, saved.params
     if args.state and args.q0 is not None:
         raise VswInputError("--state and --q0 both give the start: give one")
     state = options.parse_state(model, args.state) if args.state else None
@@ -55,20 +62,25 @@ def run(args: argparse.Namespace) -> int:
         speed = math.sqrt(9.81 / leg)  # model time units per second of the robot's time
     else:
         speed = float(args.speed)
-    with options.solver_errors(model):
-        start = model.start(params, state, args.q0)
+    if saved is None:
+        with options.solver_errors(model):
+            start = model.start(params, state, args.q0)
+        walker, begin, source, note = model, start.state, start.source, start.note()
+    else:
+        walker, begin, source = PoweredReplay(model, saved.gait), saved.start, "gait"
+        note = None if saved.status != "unverified" else "the gait is unverified"
     fixed = ", ".join(f"{k} = {v:.6g}" for k, v in zip(model.spec["parameters"], params))
     title = f"{model.cli_name}: {fixed}"
     with options.solver_errors(model):
-        frames = animation_frames(model, params, start.state, args.steps, fps=args.fps,
+        frames = animation_frames(walker, params, begin, args.steps, fps=args.fps,
                                   speed=speed, title=title)  # fmt: skip
     write_animation(frames, str(out))
     events = [(float(t), e) for t, e in zip(frames.t, frames.event) if e]
     data = {
-        **envelope(model, params, args.argv, INTEGRATOR),
-        "start": dict(zip((*model.coordinates, *model.rates), (float(v) for v in start.state))),
-        "start_from": start.source,
-        "note": start.note(),
+        **envelope(model, params, args.argv, INTEGRATOR if saved is None else REPLAY),
+        "start": dict(zip((*model.coordinates, *model.rates), (float(v) for v in begin))),
+        "start_from": source,
+        "note": note,
         "out": str(out),
         "frames": len(frames.t),
         "fps": frames.fps,
@@ -94,8 +106,8 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         dump_json(data)
         return EXIT_OK
-    if start.note():
-        sys.stdout.write(f"note: {start.note()}\n")
+    if note:
+        sys.stdout.write(f"note: {note}\n")
     sys.stdout.write(
         f"{out}: {len(frames.t)} frames at {frames.fps:g} per second, {data['duration']:.4g} "
         f"{model.units.get('time', '')} of model time, {data['steps_completed']} steps "

@@ -1,5 +1,6 @@
 """``vsw explore``: one self-contained HTML page to explore a model in a browser (the ILE's
-closed forms; any other model's walk integrated in the page: :mod:`vsw.explore_page`)."""
+closed forms; any other model's walk integrated in the page: :mod:`vsw.explore_page`); with
+``--gait FILE`` a saved powered gait's step, replayed by vsw and played in the page."""
 
 from __future__ import annotations
 
@@ -9,9 +10,12 @@ from typing import Any
 
 from vsw import models
 from vsw.cli import options
-from vsw.cli.output import dump_json, envelope
+from vsw.cli.output import dump_json, envelope, with_units
 from vsw.cli.parser import EXIT_OK
+from vsw.cli.simulate import add_gait_option, saved_gait
 from vsw.errors import VswInputError
+from vsw.explore_page import check_html_path, write_page
+from vsw.gait_file import replay_frames
 
 __all__ = ["register", "run"]
 
@@ -23,10 +27,13 @@ def register(subparsers: Any) -> None:
     p.add_argument("--out", required=True, metavar="FILE", help="the page, e.g. explore.html")
     options.add_model_options(p, "explore")
     p.add_argument("--leg-length", type=float, default=0.25, help="start r_e [m]")
+    add_gait_option(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.gait is not None:
+        return _run_gait(args)
     model, params = options.model_and_parameters(args)
     options.refuse_powered_only(model, "explore")
     if "explorer" not in model.features:
@@ -43,4 +50,26 @@ def run(args: argparse.Namespace) -> int:
         dump_json({**data, "out": str(out), "leg_length": args.leg_length})
         return EXIT_OK
     sys.stdout.write(f"{out}: open it in a browser (no server needed)\n")
+    return EXIT_OK
+
+
+def _run_gait(args: argparse.Namespace) -> int:
+    """``vsw explore --gait FILE``: the page plays the saved gait's replayed step."""
+    saved = saved_gait(args)
+    model, params = saved.model, saved.params
+    check_html_path(args.out)
+    with options.solver_errors(model):
+        replay = replay_frames(saved)
+    out = write_page(args.out, model, params, saved.start, replay)
+    if args.json:
+        data = envelope(model, params, args.argv, {"page": f"generated/{model.name}/js/"
+                                                   f"{model.name}.js", "replay": "SciPy "
+                                                   "DOP853, rtol = atol = 1e-11"})  # fmt: skip
+        dump_json(with_units(model, {
+            **data, "out": str(out), "gait": {"file": args.gait, "status": saved.status},
+            "frames": len(replay["frames"]), "period": replay["period"],
+            "step_length": replay["length"]}, {"frames": "1"}))  # fmt: skip
+        return EXIT_OK
+    sys.stdout.write(f"{out}: open it in a browser (no server needed); it plays the gait's "
+                     f"step as vsw replayed it ({saved.status})\n")  # fmt: skip
     return EXIT_OK

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 from typing import Any
 
 from vsw import powered
@@ -30,8 +31,9 @@ from vsw.cli.output import (
     write_parameters,
 )
 from vsw.cli.parser import EXIT_OK, EXIT_SOLVER
-from vsw.errors import ConvergenceError
+from vsw.errors import ConvergenceError, VswInputError
 from vsw.figures import check_save_path, save_figure
+from vsw.gait_file import gait_record, record_quantities
 from vsw.powered_plot import powered_figure
 from vsw.powered_verify import VerifiedGait, verify
 
@@ -95,6 +97,13 @@ def register(subparsers: Any) -> None:
         "work of a gait at about the targets",
     )
     p.add_argument("--plot", metavar="FILE", help="save the states and inputs over the step")
+    p.add_argument(
+        "--out",
+        metavar="FILE",
+        help="write the gait (JSON: the model, its parameters, the start state, each "
+        "phase's duration and inputs, the impulses, the cost and statuses) for 'vsw "
+        "simulate/animate/explore --gait FILE'; verifies it as --verify does",
+    )
     p.set_defaults(func=run, parser=p)
 
 
@@ -123,26 +132,37 @@ def run(args: argparse.Namespace) -> int:
     request.check()
     if args.plot is not None:
         check_save_path(args.plot)
+    if args.out is not None:
+        _check_out(args.out)
     gait = powered.optimize(model, params, request)
     # The parameters the optimiser chose with the gait (a push's angle) at its values: the
     # envelope, the text, the plot and the verification are the gait's.
     params = powered.gait_parameters(model, gait, params)
-    verified = _verified(model, params, gait) if args.verify else None
-    data = {**envelope(model, params, args.argv, {"collocation": "Hermite-Simpson",
-                                                  "resimulation": powered.RESIMULATION_TOL}),
-            **_to_dict(model, request, gait)}  # fmt: skip
-    if args.verify:
+    checked = args.verify or args.out is not None
+    verified = _verified(model, params, gait) if checked else None
+    tolerances = {"collocation": "Hermite-Simpson", "resimulation": powered.RESIMULATION_TOL}
+    data = {**envelope(model, params, args.argv, tolerances), **_to_dict(model, request, gait)}
+    if checked:
         data["verified"] = _verified_dict(model, verified)
+    record = gait_record(model, params, request, gait, verified)
+    data["gait"] = record
+    units = {**_units(model, request), **record_quantities(model)}
+    units["gait.objective"] = units["cost"]
+    if args.out is not None:
+        document = {**envelope(model, params, args.argv, tolerances), "gait": record}
+        _write_gait(args.out, with_units(model, document, units))
     if args.plot is not None:
         save_figure(powered_figure(model, params, gait), args.plot)
         data["plot"] = args.plot
     if args.json:
-        dump_json(with_units(model, data, _units(model, request)))
+        dump_json(with_units(model, data, units))
     else:
         _write_text(model, params, request, gait)
-        if args.verify:
+        if checked:
             _write_verified(model, request, verified)
-    failed = args.verify and (isinstance(verified, str) or bool(verified.failure))
+        if args.out is not None:
+            sys.stdout.write(f"gait               {args.out} ({record['status']})\n")
+    failed = checked and (isinstance(verified, str) or bool(verified.failure))
     if gait.status == "optimal" and not failed:
         return EXIT_OK
     if gait.status == "optimal":
@@ -151,6 +171,22 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_SOLVER
     sys.stderr.write(f"vsw optimize: {gait.status}: {' '.join(gait.reason.split())}\n")
     return EXIT_SOLVER
+
+
+def _check_out(path: str) -> None:
+    """``--out``, checked before the optimisation: a file in an existing directory."""
+    parent = Path(path).parent
+    if Path(path).is_dir() or not parent.is_dir():
+        raise VswInputError(f"--out {path}: not a file in an existing directory")
+
+
+def _write_gait(path: str, document: dict[str, Any]) -> None:
+    """The gait file (:mod:`vsw.gait_file`): strict JSON as ``--json`` prints it."""
+    try:
+        with open(path, "w", encoding="utf-8") as out:
+            dump_json(document, out)
+    except OSError as exc:
+        raise VswInputError(f"--out {path}: cannot write: {exc.strerror or exc}") from None
 
 
 def _verified(model, params, gait: powered.PoweredGait) -> VerifiedGait | str:

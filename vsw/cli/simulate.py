@@ -1,4 +1,11 @@
-"""``vsw simulate``: the Poincaré map walked step by step from a gait or a given state."""
+"""``vsw simulate``: the Poincaré map walked step by step from a gait or a given state.
+
+With ``--gait FILE`` (a powered gait ``vsw optimize --out FILE`` wrote) the walk replays
+its inputs open loop from its start state, at its parameters (:mod:`vsw.gait_file`):
+``--state`` and ``--q0`` are refused (the gait gives the start), ``--param`` only where it
+is the gait's value, ``--model`` only where it is the gait's model (default: the file's).
+:func:`add_gait_option` and :func:`saved_gait` are ``vsw animate``'s and ``vsw explore``'s
+too."""
 
 from __future__ import annotations
 
@@ -20,12 +27,20 @@ from vsw.cli.output import (
 )
 from vsw.cli.parser import EXIT_OK
 from vsw.errors import VswInputError
-from vsw.figures import check_output_path, check_save_path
+from vsw.figures import check_output_path, check_save_path, save_figure
+from vsw.gait_file import PoweredReplay, SavedGait, check_parameters, load_gait, with_input_forces
 from vsw.gaits import search_seconds
+from vsw.models import key as model_key
+from vsw.models.base import PLOT_RATE
 from vsw.trajectories import FORMATS, check_rate, column_units, sample_walk, write_trajectory
+from vsw.walk_plot import walk_figure
 from vsw.walks import walk
 
-__all__ = ["register", "run"]
+__all__ = ["add_gait_option", "register", "run", "saved_gait"]
+
+REPLAY = {"integrator": "SciPy DOP853, rtol = atol = 1e-11 (the powered verification's: "
+          "each phase to its event's first crossing that counts)"}  # fmt: skip
+"""The replay's tolerances (:func:`vsw.powered_verify.step_runs`)."""
 
 FEATURES = {"q0": "q0", "plot": "simulation-plot"}
 
@@ -66,7 +81,34 @@ def register(subparsers: Any) -> None:
         "--rate", type=float, default=100.0,
         help="samples per model time unit in --trajectory, plus each event's instant",
     )  # fmt: skip
-    p.set_defaults(func=run)
+    add_gait_option(start)
+    p.set_defaults(func=run, parser=p)
+
+
+def add_gait_option(group: Any) -> None:
+    """``--gait FILE``: replay a powered gait that ``vsw optimize --out`` wrote."""
+    group.add_argument(
+        "--gait", metavar="FILE",
+        help="replay the powered gait 'vsw optimize --out FILE' wrote: its inputs open loop "
+        "from its start, at its parameters (--model defaults to the file's)",
+    )  # fmt: skip
+
+
+def saved_gait(args: argparse.Namespace) -> SavedGait:
+    """The gait of ``--gait``, refused in one line where the command line contradicts it:
+    another ``--model`` than the file's, ``--state`` or ``--q0`` (the gait gives the start),
+    a ``--param`` (or named parameter) other than the gait's value."""
+    if getattr(args, "state", None) or getattr(args, "q0", None) is not None:
+        option = "--state" if args.state else "--q0"
+        raise VswInputError(f"--gait and {option} both give the start: a gait starts where it "
+                            f"was found (drop {option})")  # fmt: skip
+    named = any(a == "--model" or a.startswith("--model=") for a in args.argv)
+    saved = load_gait(args.gait, model_key(args.model) if named else None)
+    if saved.model.name != args.model_object.name and args.values:
+        raise VswInputError(f"--gait {args.gait} is a gait of {saved.model.cli_name}: give "
+                            f"--model {saved.model.cli_name} with --param")  # fmt: skip
+    check_parameters(saved, args.values)
+    return saved
 
 
 def check_cost(model, steps: int, search: bool, records: int, what: str, remedy: str) -> None:
@@ -83,6 +125,8 @@ def run(args: argparse.Namespace) -> int:
     model, params = options.model_and_parameters(args)
     if args.steps < 1:
         raise VswInputError(f"--steps = {args.steps} must be >= 1")
+    if args.gait is not None:
+        return _run_gait(args, saved_gait(args))
     if args.state and args.q0 is not None:
         raise VswInputError("--state and --q0 both give the start: give one")
     state = options.parse_state(model, args.state) if args.state else None
@@ -124,11 +168,20 @@ def run(args: argparse.Namespace) -> int:
         if start.note():
             sys.stderr.write(f"vsw simulate: note: {start.note()}\n")
         return EXIT_OK
+    _write_walk(args, model, params, result, start.source, start.note(),
+                sampled if args.trajectory is not None else None, data)  # fmt: skip
+    return EXIT_OK
+
+
+def _write_walk(args: argparse.Namespace, model, params, result, source: str, note: str | None,
+                sampled, data: dict[str, Any]) -> None:  # fmt: skip
+    """The text output: the parameters, where the walk started and how it ended, the
+    section state after each step, and the files written."""
     out = sys.stdout
     write_parameters(out, model, params)
-    if start.note():
-        out.write(f"note: {start.note()}\n")
-    out.write(f"start: {start.source}; ended: {result.ended} after {result.steps_completed} of "
+    if note:
+        out.write(f"note: {note}\n")
+    out.write(f"start: {source}; ended: {result.ended} after {result.steps_completed} of "
               f"{args.steps} steps\n")  # fmt: skip
     closed = data.get("q_fixed_closed_form")
     if closed is not None:
@@ -144,9 +197,64 @@ def run(args: argparse.Namespace) -> int:
                   + f" {fmt(length):>14}\n")  # fmt: skip
     if args.plot is not None:
         out.write(f"plot: {args.plot}{unit_text(None)}\n")
-    if args.trajectory is not None:
+    if sampled is not None:
         per = model.units.get("time", "time unit")
         rows = f"{len(sampled.t)} row{'s' if len(sampled.t) != 1 else ''}"
         out.write(f"trajectory: {args.trajectory} ({rows}, {sampled.rate:g} "
                   f"samples per {per} and each event)\n")  # fmt: skip
+
+
+def _run_gait(args: argparse.Namespace, saved: SavedGait) -> int:
+    """``vsw simulate --gait FILE``: the saved gait's inputs replayed, step after step."""
+    model, params, start = saved.model, saved.params, saved.start
+    replay = PoweredReplay(model, saved.gait)
+    if args.plot is not None:
+        check_save_path(args.plot)
+    if args.trajectory is not None:
+        check_output_path(args.trajectory, FORMATS, "trajectory file")
+        check_rate(args.rate)
+    check_cost(model, args.steps, False, args.steps, f"simulating {args.steps} steps",
+               "use fewer --steps")  # fmt: skip
+    with progress("simulate") as bar, options.solver_errors(model):
+        result = walk(replay, params, start, args.steps, progress=bar)
+    note = _gait_note(saved)
+    data = {
+        **envelope(model, params, args.argv, REPLAY),
+        "start_from": "gait",
+        "gait": {"file": args.gait, "status": saved.status,
+                 "verification": saved.record.get("verification")},
+        "steps": args.steps,
+        **result.to_dict(),
+        "note": note,
+    }  # fmt: skip
+    if args.plot is not None:
+        with options.solver_errors(model):
+            sampled = with_input_forces(replay, sample_walk(replay, params, start, args.steps,
+                                                            PLOT_RATE))  # fmt: skip
+        save_figure(walk_figure(model, params, sampled), args.plot)
+        data["plot"] = args.plot
+    if args.trajectory is not None:
+        with options.solver_errors(model):
+            sampled = with_input_forces(replay, sample_walk(replay, params, start, args.steps,
+                                                            args.rate))  # fmt: skip
+        write_trajectory(args.trajectory, model, params, sampled)
+        data["trajectory"] = {
+            "path": args.trajectory, "rows": len(sampled.t), "rate": sampled.rate,
+            "units": column_units(model, sampled),
+        }  # fmt: skip
+    if args.json:
+        dump_json(with_units(model, data))
+        if note:
+            sys.stderr.write(f"vsw simulate: note: {note}\n")
+        return EXIT_OK
+    _write_walk(args, model, params, result, f"gait {args.gait} ({saved.status})", note,
+                sampled if args.trajectory is not None else None, data)  # fmt: skip
     return EXIT_OK
+
+
+def _gait_note(saved: SavedGait) -> str | None:
+    """What to know before trusting a replay: a gait the verification did not confirm."""
+    if saved.status != "unverified":
+        return None
+    reason = (saved.record.get("verification") or {}).get("reason") or "not verified"
+    return f"the gait is unverified ({reason}): its inputs may not repeat the step"
