@@ -351,7 +351,7 @@ def audit_equations(
                 "max_rel_error": c.numeric_max_rel_error,
                 "samples": c.numeric_samples,
                 "seed": compare.DEFAULT_SEED,
-                "against": "generated/ile.py",
+                "against": "generated/ile/",
             },
         }
         if c.restricted:

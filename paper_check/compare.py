@@ -6,7 +6,7 @@ Two tiers per equation:
   mapped onto the derivation's symbols by :data:`PAPER_TO_DERIVED`) minus the derived form
   (``derive.models.ile.derive()``), simplified under the stated assumptions;
 - **numeric**: the paper's form evaluated with numpy against the *generated* code
-  (``generated/ile.py``) at ``N`` seeded random valid parameter sets; the largest relative
+  (``generated/ile/``) at ``N`` seeded random valid parameter sets; the largest relative
   error ``|paper - derived| / max(|paper|, |derived|, 1e-300)``.
 
 Where the paper and the derivation differ, the comparison records the difference instead
