@@ -231,13 +231,15 @@ def _branch_values(y: str, record: Mapping[str, Any], step: int) -> float:
     return np.nan if value is None else float(value)
 
 
+@plotstyle.styled
 def continuation_plot(
     data: Mapping[str, Any], y: str, units: Mapping[str, str], title: str
 ) -> Figure:
     """Every branch of ``vsw continue`` against the parameter: a period-k gait as k curves
     (one per step of its cycle), solid where stable and dashed where not, one colour per
     period; special points marked and labelled (LP fold, PD flip, NS Neimark-Sacker, B
-    boundary); below, each branch's largest |eigenvalue| against 1.
+    boundary; a cascade's labels stacked apart, :func:`_place_labels`); below, each
+    branch's largest |eigenvalue| against 1.
 
     Parameters
     ----------
@@ -253,6 +255,7 @@ def continuation_plot(
     labels = SPECIAL_LABELS
     periods = sorted({b["period"] for b in data["branches"]})
     handles: dict[str, Any] = {}
+    anchors: list[tuple[str, float, float]] = []
     for branch in data["branches"]:
         color = COLORS[plotstyle.CYCLE[periods.index(branch["period"]) % len(plotstyle.CYCLE)]]
         points = branch["points"]
@@ -278,10 +281,8 @@ def continuation_plot(
                                    marker=SPECIAL_MARKERS[kind], markersize=4,
                                    color=COLORS["black"], fillstyle="none")  # fmt: skip
                 handles.setdefault(f"{labels[kind]}: {kind}", drawn)
-                if step == 0:
-                    ax.annotate(labels[kind], (special["parameter"], value),
-                                textcoords="offset points", xytext=(3, 3),
-                                fontsize="x-small")  # fmt: skip
+                if step == 0 and np.isfinite(value):
+                    anchors.append((labels[kind], special["parameter"], value))
     for style, label in (("-", "stable"), ("--", "unstable")):
         (handles[label],) = ax.plot([], [], style, color=COLORS["grey"], marker="none")
     low, high = sorted(data["range"])
@@ -297,9 +298,55 @@ def continuation_plot(
     finite = values[np.isfinite(values) & (values > 0)]
     if finite.size and finite.max() / finite.min() > 50:
         ax_eig.set_yscale("log")
+    _place_labels(fig, ax, anchors)
     return fig
 
 
+def _place_labels(fig: Figure, ax: Any, anchors: list[tuple[str, float, float]]) -> None:
+    """Label each special point (text, parameter, value) beside it where the label's box
+    meets no other label's: a cascade's flips lie a few pixels apart, and labels at one
+    fixed offset print over each other. The layout is settled and frozen first
+    (:func:`vsw.plotstyle.settle_layout`), so the boxes measured with the figure's renderer
+    are those saved; each label takes the first free slot, alternately above and below
+    its point and further out, joined to it by a thin line when not beside it."""
+    plotstyle.settle_layout(fig)
+    frame = ax.get_window_extent()
+    placed: list[Any] = []
+    for text, x, value in sorted(anchors, key=lambda a: (a[1], a[2])):
+        slot, offset, box = _free_slot(ax, text, (x, value), frame, placed)
+        leader = {"arrowprops": {"arrowstyle": "-", "linewidth": 0.4, "shrinkA": 0,
+                                 "shrinkB": 0, "color": COLORS["grey"],
+                                 "relpos": (0.0, 0.5)}} if slot else {}  # fmt: skip
+        ax.annotate(text, (x, value), textcoords="offset points", xytext=offset,
+                    fontsize="x-small", annotation_clip=False, **leader)  # fmt: skip
+        placed.append(box)
+
+
+def _free_slot(ax: Any, text: str, xy: tuple[float, float], frame: Any, placed: list[Any]):
+    """The first of 16 offsets (points) at which the label's text box, padded by half a
+    point, stays inside the axes' height and meets none of ``placed``: (slot, offset,
+    box); the last slot when none is free."""
+    from matplotlib.text import Text
+
+    probe = ax.annotate(text, xy, textcoords="offset points", xytext=(3, 3),
+                        fontsize="x-small", annotation_clip=False)  # fmt: skip
+    probe.get_window_extent()  # positions the text with the figure's renderer
+    point = ax.figure.dpi / 72.0
+    height = Text.get_window_extent(probe).height / point
+    for slot in range(16):
+        level, below = divmod(slot, 2)
+        dy = -(3 + height + level * (height + 2)) if below else 3 + level * (height + 2)
+        probe.xyann = (3, dy)
+        probe.get_window_extent()
+        box = Text.get_window_extent(probe).padded(0.5 * point)
+        inside = frame.y0 <= box.y0 and box.y1 <= frame.y1
+        if inside and not any(box.overlaps(other) for other in placed):
+            break
+    probe.remove()
+    return slot, (3, dy), box
+
+
+@plotstyle.styled
 def parameter_plane_plot(data: Mapping[str, Any], title: str) -> Figure:
     """``vsw continue --free``: each special point's curve in the plane of the two
     parameters (one colour per type: the edges of the stability and existence regions),
