@@ -154,7 +154,8 @@ def test_a_short_walk_is_not_settled(capsys):
     """Eight steps from the gait at gamma = 0.0175 (its period-2 attractor is slow to
     reach) are not labelled with a period: 'not settled after 8 steps', in JSON and text."""
     argv = ["sweep", "--model", "simplest-walker", "--over", "gamma=0.0174:0.0175:2",
-            "--gait", "2", "--transient", "0", "--keep", "8", "--max-steps", "8"]  # fmt: skip
+            "--gait-number", "2", "--transient", "0", "--keep", "8",
+            "--max-steps", "8"]  # fmt: skip
     code, out, err = run(capsys, [*argv, "--json"])
     assert code == 0, err
     data = json.loads(out)
@@ -170,7 +171,7 @@ def test_a_short_walk_is_not_settled(capsys):
 
 def test_the_start_chooses_the_gait(capsys):
     """At gamma = 0.0174 both period-one gaits are unstable; the search's first (the short
-    gait) lifts off within a few steps. Started from Garcia's long gait (--state, or --gait
+    gait) lifts off within a few steps. Started from Garcia's long gait (--state, or --gait-number
     as vsw analyze numbers it) the sweep walks and settles on period 2 (below 0.0176694)."""
     over = ["--model", "simplest-walker", "--over", "gamma=0.0174:0.0176:3", "--keep", "8"]
     default = json.loads(run(capsys, ["sweep", *over, "--json"])[1])
@@ -181,10 +182,10 @@ def test_the_start_chooses_the_gait(capsys):
     long_gait = max(range(len(gaits)), key=lambda k: gaits[k]["period"])
     state = [f"--state={k}={v!r}" for k, v in gaits[long_gait]["state"].items()]
     by_state = json.loads(run(capsys, ["sweep", *over, *state, "--json"])[1])
-    by_index = json.loads(run(capsys, ["sweep", *over, "--gait", str(long_gait + 1),
+    by_index = json.loads(run(capsys, ["sweep", *over, "--gait-number", str(long_gait + 1),
                                        "--json"])[1])  # fmt: skip
     assert by_state["points"][0]["from"] == "--state"
-    assert by_index["points"][0]["from"] == f"--gait {long_gait + 1}"
+    assert by_index["points"][0]["from"] == f"--gait-number {long_gait + 1}"
     for data in (by_state, by_index):
         for point in data["points"]:
             assert point["attractor"]["ended"] == "completed"
@@ -196,9 +197,9 @@ def test_the_start_chooses_the_gait(capsys):
 @pytest.mark.parametrize(
     "extra, words",
     [
-        (["--gait", "0"], ["--gait 0", "from 1"]),
-        (["--gait", "9"], ["--gait 9", "1 to 2"]),
-        (["--gait", "1", "--state", "theta=0"], ["--state", "--gait"]),
+        (["--gait-number", "0"], ["--gait-number 0", "from 1"]),
+        (["--gait-number", "9"], ["--gait-number 9", "1 to 2"]),
+        (["--gait-number", "1", "--state", "theta=0"], ["--state", "--gait-number"]),
         (["--state", "theta=0"], ["--state", "phi"]),
         (["--state", "theta=-0.2", "--state", "phi=-0.4", "--state", "theta_dot=5",
           "--state", "phi_dot=0"], ["--state", "no"]),
@@ -217,6 +218,6 @@ def test_bad_start_and_cap_are_one_line(capsys, extra, words):
 def test_help_documents_the_start_and_the_cap(capsys):
     assert main(["sweep", "--help"]) == 0
     text = " ".join(capsys.readouterr().out.split())
-    for words in ("--state NAME=VALUE", "--gait K", "--max-steps M", "not settled after M",
+    for words in ("--state NAME=VALUE", "--gait-number K", "--max-steps M", "not settled after M",
                   "numbered as 'vsw analyze' lists them"):  # fmt: skip
         assert words in text, words

@@ -199,8 +199,8 @@ def continuation(
     it finds none, ``reason`` says why: :meth:`vsw.models.base.Model.analyze`); with
     ``keep`` the map iterated where the gait is unstable or lost (:func:`settle`, at most
     ``max_steps`` a value), its last ``keep`` steps kept (``attractor``). ``first``: the
-    first value's gait and where it came from (``--state``, ``--gait K``) instead of the
-    search's pick: at a value with two unstable gaits the search's first may be the one
+    first value's gait and where it came from (``--state``, ``--gait-number K``) instead of
+    the search's pick: at a value with two unstable gaits the search's first may be the one
     whose walks fall."""
     sim = simulator(model) if keep else None
     points, previous, walked_to = [], None, None

@@ -4,8 +4,9 @@ Every model: the period-one gait continued from value to value (:func:`vsw.sweep
 continuation`) and, with ``--keep`` or ``--plot``, the map iterated where the gait is
 unstable or lost until its orbit repeats (:func:`vsw.sweeps.settle`): the bifurcation
 diagram; ``--brute-force`` draws it from the batch simulator (:func:`vsw.sweeps.
-brute_force`). ``--state`` or ``--gait`` chooses the gait the sweep starts from. A model
-with the ``closed-form-sweep`` feature (the ile) answers in closed form at every value.
+brute_force`). ``--state`` or ``--gait-number`` chooses the gait the sweep starts from.
+A model with the ``closed-form-sweep`` feature (the ile) answers in closed form at every
+value.
 """
 
 from __future__ import annotations
@@ -44,7 +45,7 @@ from vsw.vectorize import default_threads
 
 __all__ = ["attractor_label", "register", "run"]
 
-ITERATION_OPTIONS = ("y", "keep", "transient", "max_steps", "brute_force", "state", "gait")
+ITERATION_OPTIONS = ("y", "keep", "transient", "max_steps", "brute_force", "state", "gait_number")
 
 
 def register(subparsers: Any) -> None:
@@ -109,7 +110,7 @@ def register(subparsers: Any) -> None:
         "the step event); the period-one gait is solved from it; repeatable",
     )
     start.add_argument(
-        "--gait",
+        "--gait-number",
         type=int,
         metavar="K",
         help="the K-th gait of the search at START, numbered as 'vsw analyze' lists them",
@@ -131,10 +132,11 @@ def run(args: argparse.Namespace) -> int:
                                     "iterate")  # fmt: skip
         return _closed_form(args, model, name, values)
     y = diagram_quantity(model, args.y)
-    if args.state and args.gait is not None:
-        raise VswInputError("--state and --gait both choose the starting gait: give one")
-    if args.gait is not None and args.gait < 1:
-        raise VswInputError(f"--gait {args.gait}: gaits are numbered from 1 (see vsw analyze)")
+    if args.state and args.gait_number is not None:
+        raise VswInputError("--state and --gait-number both choose the starting gait: give one")
+    if args.gait_number is not None and args.gait_number < 1:
+        raise VswInputError(f"--gait-number {args.gait_number}: gaits are numbered from 1 "
+                            "(see vsw analyze)")  # fmt: skip
     keep = args.keep if args.keep is not None else (
         32 if (args.plot is not None or args.brute_force) else 0)  # fmt: skip
     if keep == 1 or keep < 0:
@@ -184,8 +186,8 @@ def run(args: argparse.Namespace) -> int:
 def _first_gait(
     model: Model, params, args: argparse.Namespace, name: str, value: float
 ) -> tuple[Orbit, str] | None:
-    """The gait ``--state`` or ``--gait`` chooses at the range's start (None: the search's
-    pick). At a value with two unstable gaits the pick is the first, which for the
+    """The gait ``--state`` or ``--gait-number`` chooses at the range's start (None: the
+    search's pick). At a value with two unstable gaits the pick is the first, which for the
     simplest walker is the short gait whose walks fall: the user names the other."""
     where = f"at {name} = {value:g}"
     if args.state:
@@ -199,14 +201,15 @@ def _first_gait(
         except ConvergenceError as exc:
             stop.check()
             raise VswInputError(f"--state: no period-one gait through it {where}: {exc}") from exc
-    if args.gait is None:
+    number = args.gait_number
+    if number is None:
         return None
     gaits = model.analyze(params).gaits
-    if args.gait > len(gaits):
+    if number > len(gaits):
         found = f"1 to {len(gaits)}" if gaits else "none"
-        raise VswInputError(f"--gait {args.gait}: the search {where} finds {len(gaits)} "
+        raise VswInputError(f"--gait-number {number}: the search {where} finds {len(gaits)} "
                             f"gait(s): give {found} (see vsw analyze)")  # fmt: skip
-    return gaits[args.gait - 1], f"--gait {args.gait}"
+    return gaits[number - 1], f"--gait-number {number}"
 
 
 def _continuation(model, fixed, name, values, keep: int, args, first) -> list[dict]:
