@@ -1,0 +1,32 @@
+"""Periodic orbits of hybrid models: one problem, one discretisation, one monodromy, one
+Newton.
+
+* :mod:`vsw.orbits.problem`: :class:`OrbitProblem`, a hybrid period-``p`` orbit of a model
+  with some parameters free: its unknowns, residual, exact Jacobian, monodromy matrix and
+  quantities, and its solution at fixed parameters;
+* :mod:`vsw.orbits.shooting`: the multiple-shooting discretisation on CasADi CVODES flows;
+* :mod:`vsw.orbits.monodromy`: the monodromy matrix (variational equations, the events'
+  saltation matrices, reset Jacobians) and its eigenvalues;
+* :mod:`vsw.orbits.newton`: Newton's method, bordered or not, for one start or many.
+
+The gait search (:mod:`vsw.gaits`), the periodic-orbit solver
+(:meth:`vsw.hybrid.HybridModel.periodic_orbit`) and continuation (:mod:`vsw.continuation`)
+are built on it. It takes a model by its interface and imports nothing of ``vsw`` above
+``vsw.stop`` and ``vsw.errors`` (:mod:`vsw.hybrid` builds on it); CasADi is imported inside
+functions, so ``import vsw.orbits`` stays cheap.
+"""
+
+from vsw.orbits.monodromy import by_modulus
+from vsw.orbits.newton import Solution, System, solve
+from vsw.orbits.problem import OrbitProblem, Solved
+from vsw.orbits.shooting import phase_sequence
+
+__all__ = [
+    "OrbitProblem",
+    "Solution",
+    "Solved",
+    "System",
+    "by_modulus",
+    "phase_sequence",
+    "solve",
+]
