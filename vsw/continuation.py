@@ -1,15 +1,17 @@
 """A model's periodic gaits continued in one parameter, with their special points located.
 
-The period-``k`` gait is a boundary-value problem (:meth:`vsw.hybrid.HybridModel.
-orbit_system`): unknowns ``u = (x0, T_1..T_{kK})`` (the section state and the duration of
-every phase of ``k`` steps), residual ``R(u, lambda) = (each phase's guard at its end,
-state after k steps - x0)``, with CasADi's derivatives. Continuation follows its solution
+The period-``k`` gait is the periodic-orbit problem of :mod:`vsw.orbits`
+(:class:`~vsw.orbits.OrbitProblem`, the parameter free): unknowns ``u = (x_1..x_m,
+T_1..T_m)`` (the start and the duration of each of the ``m`` phases of ``k`` steps),
+residual ``R(u, lambda) = (each phase's guard at its end, its reset - the next phase's
+start)`` (multiple shooting), with CasADi's derivatives. Continuation follows its solution
 curve in ``w = (u, nu)``, ``lambda = start + nu (stop - start)``, by **pseudo-arclength**
 (Keller; the vocabulary of AUTO, MatCont and COCO): at a point the tangent ``t`` solves
-``[R_w; t_prev] t = (0, 1)``; the predictor is ``w + h t``; the corrector Newton's method on
-``(R(w) = 0, t . (w - w_pred) = 0)``, whose Jacobian stays regular at a fold, so folds are
-passed, not stopped at. The step ``h`` grows by 1.5 after an easy correction and halves
-when the corrector fails or the tangent turns by more than :data:`MAX_TURN`.
+``[R_w; t_prev] t = (0, 1)``; the predictor is ``w + h t``; the corrector Newton's method
+(:func:`vsw.orbits.newton.solve`) on ``(R(w) = 0, t . (w - w_pred) = 0)``, whose Jacobian
+stays regular at a fold, so folds are passed, not stopped at. The step ``h`` grows by 1.5
+after an easy correction and halves when the corrector fails or the tangent turns by more
+than :data:`MAX_TURN`.
 
 **Special points.** Along the branch, test functions whose sign changes between two points
 bracket a special point, located by the Illinois method along the arclength (each trial
@@ -30,7 +32,7 @@ point corrected onto the branch) until the bracket is below :data:`LOCATE_TOL`:
   by the Illinois method on that sampled margin, and the branch goes on past it.
 
 ``M`` is the Jacobian of the period-``k`` Poincaré map at the orbit
-(:meth:`~vsw.hybrid.HybridModel.monodromy`). Every point of a branch is confirmed by the
+(:func:`vsw.orbits.monodromy.monodromy`). Every point of a branch is confirmed by the
 simulated walk (SciPy's DOP853 with events: ``k`` steps return to ``x0``).
 
 **Branch switching.** At a located flip the period-``2k`` problem's Jacobian is singular
@@ -41,8 +43,6 @@ the period-``2k`` gait, continued like any branch (to its own flip: the cascade)
 
 from __future__ import annotations
 
-import contextlib
-import io
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -52,7 +52,8 @@ import numpy as np
 
 from vsw import conditions, stop
 from vsw.errors import ConvergenceError, VswInputError
-from vsw.hybrid import HybridModel, Orbit, by_modulus
+from vsw.hybrid import HybridModel, Orbit
+from vsw.orbits import OrbitProblem, newton, phase_sequence
 
 __all__ = [
     "LOCATE_TOL",
@@ -170,8 +171,9 @@ class Branch:
 
 
 class _Equations:
-    """The period-``period`` orbit's residual in ``w = (x_1..x_m, T_1..T_m, nu)`` (multiple
-    shooting: :meth:`vsw.hybrid.HybridModel.orbit_system`) and its Jacobian."""
+    """The period-``period`` orbit's residual in ``w = (u, nu)``: the periodic-orbit
+    problem (:class:`vsw.orbits.OrbitProblem`, ``over`` free) with ``over`` scaled to its
+    range, and its Jacobian."""
 
     def __init__(
         self, model: HybridModel, params: Sequence[float], index: int,
@@ -183,10 +185,10 @@ class _Equations:
         self.start = start
         self.width = stop_value - start
         self.period = period
-        self.n = 2 * model.n
-        self.sequence = model._phase_sequence() * period
-        self.m = len(self.sequence)
-        self.function = model.orbit_system(period, (index,))
+        self.problem = OrbitProblem(model, period, (index,))
+        self.n = self.problem.n
+        self.sequence = self.problem.sequence
+        self.m = self.problem.m
 
     def parameter(self, nu: float) -> float:
         return self.start + nu * self.width
@@ -198,55 +200,53 @@ class _Equations:
 
     def x0(self, w: np.ndarray) -> np.ndarray:
         """The section state (the first phase's start)."""
-        return w[: self.n]
+        return self.problem.section_state(w)
 
     def durations(self, w: np.ndarray) -> np.ndarray:
-        return w[self.n * self.m : -1]
+        return self.problem.durations(w)
 
     def unknowns(self, x0: np.ndarray, durations: Sequence[float], nu: float) -> np.ndarray:
-        """``w`` from the section state and the phase durations: each phase's start by the
-        flows (CVODES) and resets from ``x0``."""
-        params = self.params_at(nu)
-        starts, x = [], np.asarray(x0, dtype=float)
-        for (phase, event), duration in zip(self.sequence, durations):
-            starts.append(x)
-            end = self.model.phase_flow(phase, params, x, duration)
-            x = self.model.reset(event["name"], params, end)
-        return np.concatenate([*starts, np.asarray(durations, float), [nu]])
+        """``w`` from the section state and the phase durations (each phase's start by the
+        flows and resets from ``x0``)."""
+        return np.concatenate([self.problem.unknowns(self.params_at(nu), x0, durations), [nu]])
 
     def evaluate(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """R(w) and [R_u, R_nu]; RuntimeError where CVODES fails."""
-        with contextlib.redirect_stderr(io.StringIO()):
-            r, j_u, j_p = self.function(w[:-1], *self.params_at(w[-1]))
-        jac = np.hstack([np.array(j_u, dtype=float), np.array(j_p, dtype=float) * self.width])
-        return np.array(r, dtype=float).reshape(-1), jac
-
-    def monodromy(self, jac: np.ndarray) -> np.ndarray:
-        """The Jacobian of the period-k Poincaré map at the orbit: the product over the
-        phases of each phase's map derivative, F_x - F_T G_x / G_T (its end time moved by
-        its guard: the implicit function theorem), from the residual's blocks."""
-        n, m = self.n, self.m
-        out = np.eye(n)
-        for k in range(m):
-            rows = slice(k * (n + 1), (k + 1) * (n + 1))
-            block = jac[rows]
-            g_x, g_t = block[0, k * n : (k + 1) * n], block[0, n * m + k]
-            f_x, f_t = block[1:, k * n : (k + 1) * n], block[1:, n * m + k]
-            if m == 1:  # the phase's next start is its own: its block holds F_x - I
-                f_x = f_x + np.eye(n)
-            out = (f_x - np.outer(f_t, g_x) / g_t) @ out
-        return out
+        r, j_u, j_p = self.problem.evaluate(w[:-1], self.params_at(w[-1]))
+        return r, np.hstack([j_u, j_p * self.width])
 
     def eigenvalues(self, jac: np.ndarray) -> list[complex]:
-        with np.errstate(all="ignore"):
-            monodromy = self.monodromy(jac)
-        if not np.all(np.isfinite(monodromy)):
-            return []
-        return by_modulus(np.linalg.eigvals(monodromy))
+        """The eigenvalues of the period-k Poincaré map at the orbit (its monodromy
+        matrix, :mod:`vsw.orbits.monodromy`), from the residual's Jacobian."""
+        return self.problem.eigenvalues(jac)
 
     def state(self, w: np.ndarray) -> dict[str, float]:
-        names = [*self.model.coordinates, *self.model.rates]
-        return dict(zip(names, (float(v) for v in self.x0(w))))
+        return self.problem.state(w)
+
+
+class _Corrector:
+    """``eq``'s residual (``eq.evaluate``) as :class:`vsw.orbits.newton.System` for one
+    iterate; a point CVODES cannot integrate is a row of NaN."""
+
+    def __init__(self, eq: Any) -> None:
+        self.eq = eq
+        self.last = np.empty((1, 0, 0))
+
+    def residual(self, w: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        try:
+            r, jac = self.eq.evaluate(w[0])
+        except RuntimeError:
+            stop.check()  # CasADi turns Ctrl-C and the time limit into this error
+            self.last = np.full((1, 1, w.shape[1]), np.nan)
+            return np.full((1, 1), np.nan)
+        self.last = jac[None]
+        return r[None]
+
+    def jacobian(self, which: np.ndarray) -> np.ndarray:
+        return self.last[which]
+
+    def scale(self, w: np.ndarray) -> np.ndarray:
+        return np.maximum(1.0, np.max(np.abs(w[:, :-1]), axis=1))
 
 
 def _tangent(jac: np.ndarray, previous: np.ndarray) -> np.ndarray | None:
@@ -264,39 +264,18 @@ def _tangent(jac: np.ndarray, previous: np.ndarray) -> np.ndarray | None:
 
 
 def _correct(
-    eq: _Equations, guess: np.ndarray, normal: np.ndarray, anchor: np.ndarray,
-    max_iterations: int = 12,
-) -> tuple[np.ndarray, np.ndarray, int] | None:  # fmt: skip
-    """Newton on (R(w) = 0, normal . (w - anchor) = 0) from ``guess``: (w, Jacobian of R at
-    w, iterations), or None where it does not converge."""
-    w = np.array(guess, dtype=float)
-    for iteration in range(1, max_iterations + 1):
-        stop.check()
-        try:
-            r, jac = eq.evaluate(w)
-        except RuntimeError:
-            stop.check()  # CasADi turns Ctrl-C and the time limit into this error
-            return None
-        if not (np.all(np.isfinite(r)) and np.all(np.isfinite(jac))):
-            return None
-        system = np.vstack([jac, normal])
-        rhs = -np.concatenate([r, [float(normal @ (w - anchor))]])
-        try:
-            dw = np.linalg.solve(system, rhs)
-        except np.linalg.LinAlgError:
-            return None
-        w = w + dw
-        scale = max(1.0, float(np.max(np.abs(w[:-1]))))
-        if np.max(np.abs(r)) <= RESIDUAL_TOL * scale and np.max(np.abs(dw)) <= 1e-9 * scale:
-            try:
-                r, jac = eq.evaluate(w)
-            except RuntimeError:
-                stop.check()
-                return None
-            if np.all(np.isfinite(jac)) and np.max(np.abs(r)) <= RESIDUAL_TOL * scale:
-                return w, jac, iteration
-            return None
-    return None
+    eq: Any, guess: np.ndarray, normal: np.ndarray, anchor: np.ndarray, max_iterations: int = 12
+) -> tuple[np.ndarray, np.ndarray, int] | None:
+    """Newton (:func:`vsw.orbits.newton.solve`) on (R(w) = 0, normal . (w - anchor) = 0)
+    from ``guess``, to :data:`RESIDUAL_TOL` with a last step below 1e-9 (both relative to
+    max(1, |unknowns|)): (w, Jacobian of R at w, iterations), or None where it does not
+    converge."""
+    found = newton.solve(_Corrector(eq), np.asarray(guess, float)[None], tol=RESIDUAL_TOL,
+                         step_tol=1e-9, max_iterations=max_iterations,
+                         border=(normal, anchor))  # fmt: skip
+    if not found.converged[0]:
+        return None
+    return found.w[0], found.jacobian[0], int(found.iterations[0])
 
 
 def _confirm(eq: _Equations, w: np.ndarray, eigenvalues: list[complex]) -> tuple[str, list]:
@@ -307,7 +286,7 @@ def _confirm(eq: _Equations, w: np.ndarray, eigenvalues: list[complex]) -> tuple
     x0 = eq.x0(w)
     x = x0.copy()
     lengths: list[float | None] = []
-    phases = len(model._phase_sequence())
+    phases = len(phase_sequence(model))
     for _ in range(eq.period):
         step = _step(model, params, x)
         if isinstance(step, str):
@@ -493,15 +472,12 @@ def _record(eq: _Equations, p: _Point) -> dict[str, Any]:
     known = [v for v in lengths if v is not None]
     length = float(np.mean(known)) if known and len(known) == len(lengths) else None
     names = [*eq.model.coordinates, *eq.model.rates]
-    per_step = len(eq.sequence) // eq.period
-    starts = [p.w[j * per_step * eq.n : (j * per_step + 1) * eq.n] for j in range(eq.period)]
+    starts = eq.problem.section_states(p.w)
     return {
         "parameter": eq.parameter(float(p.w[-1])),
         "state": eq.state(p.w),
         "section_states": [dict(zip(names, (float(v) for v in x))) for x in starts],
-        "step_periods": [
-            float(np.sum(durations[j * per_step : (j + 1) * per_step])) for j in range(eq.period)
-        ],
+        "step_periods": eq.problem.step_periods(p.w),
         "period_time": period,
         "phase_durations": [float(v) for v in durations],
         "eigenvalues": [[float(e.real), float(e.imag)] for e in p.eigenvalues],
@@ -824,7 +800,7 @@ class _CurveEquations:
         self.kind = kind
         self.phase = phase
         self.n = eq.n
-        self.function = eq.model.orbit_system(eq.period, (eq.index, index2))
+        self.problem = OrbitProblem(eq.model, eq.period, (eq.index, index2))
 
     def params_at(self, w: np.ndarray) -> np.ndarray:
         p = self.eq.params_at(w[-2])
@@ -832,11 +808,8 @@ class _CurveEquations:
         return p
 
     def _orbit(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        with contextlib.redirect_stderr(io.StringIO()):
-            r, j_u, j_1, j_2 = self.function(w[:-2], *self.params_at(w))
-        jac = np.hstack([np.array(j_u, dtype=float), np.array(j_1, dtype=float) * self.eq.width,
-                         np.array(j_2, dtype=float) * self.width2])  # fmt: skip
-        return np.array(r, dtype=float).reshape(-1), jac
+        r, j_u, j_1, j_2 = self.problem.evaluate(w[:-2], self.params_at(w))
+        return r, np.hstack([j_u, j_1 * self.eq.width, j_2 * self.width2])
 
     def psi(self, w: np.ndarray, jac: np.ndarray) -> float:
         if self.kind == "boundary":
