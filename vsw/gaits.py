@@ -12,14 +12,16 @@ to the next). The search is complete within a stated box and resolution:
    by the compiled batch simulator (:mod:`vsw.batch`); where the step completes, the
    residual ``P(x) - x`` on the free components.
 3. **Newton from every cell that completes its step**, all at once, on ``P(x) - x`` in
-   the free components, the Jacobian by forward differences of batch steps; a start whose
-   step fails is dropped, starts whose iterates meet go on as one. Solutions closer than
+   the free components (:func:`vsw.orbits.newton.solve`), the Jacobian by forward
+   differences of batch steps; a start whose step fails is dropped, starts whose iterates
+   meet go on as one. Solutions closer than
    :data:`DISTINCT` are one gait. (Newton only from the cells where ``|P(x) - x|`` dips
    misses gaits: at the biped's (0.8, 0.1, 1e-4, 0.3) the cells that lead to its gait
    with max |eigenvalue| 1394 are none of them dips.)
 4. **Each gait confirmed** by the boundary-value solver
-   (:meth:`vsw.hybrid.HybridModel.periodic_orbit`: the orbit with its phase durations as
-   unknowns, eigenvalues by CasADi derivatives, one simulated step back onto it).
+   (:meth:`vsw.hybrid.HybridModel.periodic_orbit`: the periodic-orbit problem of
+   :mod:`vsw.orbits`, each phase's start and duration unknown, eigenvalues of its monodromy
+   matrix, one simulated step back onto it).
 
 Steps 1-3, and then step 4's gaits, are kept on disk and reused by a later search of the
 same model, code and inputs, the gaits only with the same CasADi installation
@@ -69,6 +71,7 @@ from vsw.batch import FELL, WALKED, BatchSimulator, simulator
 from vsw.compiled import cache_dir
 from vsw.errors import CacheWarning, ConvergenceError, VswInputError
 from vsw.hybrid import HybridModel, Orbit
+from vsw.orbits import newton
 from vsw.vectorize import default_threads
 
 __all__ = [
@@ -253,88 +256,52 @@ def _scan_points(dims: int, cells: int | None) -> int:
     return max(3, math.floor(cells ** (1.0 / dims) + 1e-9))
 
 
-def _newton(
-    sim: BatchSimulator, model: HybridModel, params: Sequence[float], starts: np.ndarray,
-    free_index: list[int], images: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
-    """Newton on P(x) - x in the free components from every row of ``starts`` at once.
+class _StepMap:
+    """``P(y) - y`` on the free components ``y`` of section states, for
+    :func:`vsw.orbits.newton.solve`: each residual a batch step of the iterates (a row of
+    NaN where the step fails), the Jacobian by forward differences of batch steps
+    (``d`` a row, 1e-7 relative). ``images``: the free components of ``P(starts)`` where
+    the caller has them (the scan's), used for the first residual."""
 
-    Each iteration steps the iterates first (``images``: the free components of
-    ``P(starts)`` where the caller has them, the scan's); a row whose step fails is
-    dropped and a row whose residual is within ``_NEWTON_TOL * max(1, |x|)`` has
-    converged, and only the others pay for the Jacobian (forward differences, ``d`` batch
-    steps a row). Starts whose iterates have met (to 1e-9) go on as one. Returns the
-    iterates and a mask of the rows that converged."""
-    y = np.array(starts, dtype=float)
-    count, dims = y.shape
-    done = np.zeros(count, dtype=bool)
-    alive = np.ones(count, dtype=bool)
-    eye = np.eye(dims)
-    known = None if images is None else np.array(images, dtype=float)
-    for _ in range(_NEWTON_ITERATIONS):
-        open_rows = np.flatnonzero(alive & ~done)
-        if open_rows.size == 0:
-            break
-        rows, group = _groups(y, open_rows)
-        base = y[rows]
-        if known is not None:
-            image = known[rows]
+    def __init__(
+        self, sim: BatchSimulator, model: HybridModel, params: Sequence[float],
+        free_index: list[int], images: np.ndarray | None,
+    ) -> None:  # fmt: skip
+        self.sim, self.model, self.params, self.free_index = sim, model, params, free_index
+        self.known = None if images is None else np.array(images, dtype=float)
+        self.base = self.image = np.empty((0, len(free_index)))
+
+    def residual(self, y: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        if self.known is not None:
+            image = self.known[rows]
             walked = np.all(np.isfinite(image), axis=1)
-            known = None
+            self.known = None
         else:
-            result = sim.step(params, section_states(model, params, base))
+            result = self.sim.step(self.params, section_states(self.model, self.params, y))
             walked = result.outcome == WALKED
-            image = result.final[:, free_index]
-        residual = image - base
-        with np.errstate(invalid="ignore"):
-            size = np.max(np.abs(residual), axis=1)
-        scale = np.maximum(1.0, np.max(np.abs(base), axis=1))
-        converged = walked & (size <= _NEWTON_TOL * scale)
-        pending = np.flatnonzero(walked & ~converged)
-        step = np.full_like(base, np.nan)
-        if pending.size:
-            h = 1e-7 * np.maximum(1.0, np.abs(base[pending]))
-            trial = (base[pending, None, :] + eye * h[:, None, :]).reshape(-1, dims)
-            result = sim.step(params, section_states(model, params, trial))
-            shifted_walked = (result.outcome == WALKED).reshape(pending.size, dims).all(axis=1)
-            shifted = result.final[:, free_index].reshape(pending.size, dims, dims)
-            # jacobian[k, i, j] = dP_i / dy_j
-            jacobian = np.transpose((shifted - image[pending, None, :]) / h[:, :, None], (0, 2, 1))
-            step[pending] = _solve(jacobian - eye, -residual[pending], shifted_walked)
-        moved = np.all(np.isfinite(step), axis=1)
-        # Every member of a group goes where its first member goes.
-        done[open_rows] = converged[group]
-        alive[open_rows] = (converged | moved)[group]
-        y[open_rows] = np.where(moved[group, None], base[group] + step[group], base[group])
-    return y, done & alive
+            image = result.final[:, self.free_index]
+        self.base, self.image = y, image
+        residual = image - y
+        residual[~walked] = np.nan
+        return residual
 
-
-def _solve(matrices: np.ndarray, vectors: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """``matrices[k] x = vectors[k]`` where ``rows[k]``, in one batched call; NaN where not
-    asked or singular."""
-    out = np.full_like(vectors, np.nan)
-    chosen = np.flatnonzero(rows)
-    if chosen.size == 0:
+    def jacobian(self, which: np.ndarray) -> np.ndarray:
+        base, image = self.base[which], self.image[which]
+        count, dims = base.shape
+        eye = np.eye(dims)
+        h = 1e-7 * np.maximum(1.0, np.abs(base))
+        trial = (base[:, None, :] + eye * h[:, None, :]).reshape(-1, dims)
+        result = self.sim.step(self.params, section_states(self.model, self.params, trial))
+        walked = (result.outcome == WALKED).reshape(count, dims).all(axis=1)
+        shifted = result.final[:, self.free_index].reshape(count, dims, dims)
+        # jacobian[k, i, j] = dP_i / dy_j
+        jacobian = np.transpose((shifted - image[:, None, :]) / h[:, :, None], (0, 2, 1))
+        out = jacobian - eye
+        out[~walked] = np.nan
         return out
-    try:
-        out[chosen] = np.linalg.solve(matrices[chosen], vectors[chosen][..., None])[..., 0]
-    except np.linalg.LinAlgError:  # one singular matrix fails the batch: one at a time
-        for k in chosen:
-            try:
-                out[k] = np.linalg.solve(matrices[k], vectors[k])
-            except np.linalg.LinAlgError:
-                pass
-    return out
 
-
-def _groups(y: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The first of each set of ``rows`` whose iterates agree to 1e-9 (relative to the
-    largest component), and for each row the index of its set's first: from there on
-    Newton takes them the same way."""
-    resolution = 1e-9 * np.maximum(1.0, np.max(np.abs(y[rows]), axis=0))
-    keys = np.round(y[rows] / resolution).astype(np.int64, copy=False)
-    _, first, group = np.unique(keys, axis=0, return_index=True, return_inverse=True)
-    return rows[first], group.reshape(-1)
+    def scale(self, y: np.ndarray) -> np.ndarray:
+        return np.maximum(1.0, np.max(np.abs(y), axis=1))
 
 
 def _distinct(solutions: np.ndarray) -> list[np.ndarray]:
@@ -438,9 +405,12 @@ def _scan(
         gap = np.max(np.abs(result.final[:, free_index] - grid), axis=1)
     residual = np.where(walked & np.isfinite(gap), gap, np.inf)
     starts = np.flatnonzero(np.isfinite(residual))
-    solutions, ok = _newton(
-        sim, model, params, grid[starts], free_index, result.final[starts][:, free_index]
-    )
+    # Newton on P(y) - y from every start at once; a start whose step fails is dropped,
+    # starts whose iterates meet (to 1e-9) go on as one.
+    system = _StepMap(sim, model, params, free_index, result.final[starts][:, free_index])
+    found = newton.solve(system, grid[starts], tol=_NEWTON_TOL,
+                         max_iterations=_NEWTON_ITERATIONS, merge=1e-9)  # fmt: skip
+    solutions, ok = found.w, found.converged
     return {
         "found": [[float(v) for v in y] for y in _distinct(solutions[ok])],
         "points": {n: len(a) for n, a in zip(free, axes)},
@@ -714,10 +684,10 @@ def _cache_file(
     """Where a search is kept: ``<cache dir>/searches/<model>-<key>.json``, the key a SHA-256
     of everything the search depends on (the model package's Python files, the compiled
     simulator's file, whose name is the hash of its C source, flags, compiler and CPU, this
-    module's, the batch simulator's and vsw.hybrid's code, numpy's version, the parameters,
-    the box and the cells; the confirmed gaits kept in it carry CasADi's installation,
-    :func:`_kept_gaits`). Files are never removed: delete the directory to reclaim it. None
-    with ``VSW_SEARCH_CACHE=0`` or no compiled simulator."""
+    module's, the batch simulator's, vsw.hybrid's and vsw.orbits' code, numpy's version,
+    the parameters, the box and the cells; the confirmed gaits kept in it carry CasADi's
+    installation, :func:`_kept_gaits`). Files are never removed: delete the directory to
+    reclaim it. None with ``VSW_SEARCH_CACHE=0`` or no compiled simulator."""
     if os.environ.get("VSW_SEARCH_CACHE", "1").strip() == "0" or sim.library_path is None:
         return None
     package = Path(model.module.__file__).parent
@@ -727,6 +697,8 @@ def _cache_file(
         Path(__file__).read_bytes(),
         Path(batch.__file__).read_bytes(),
         Path(hybrid.__file__).read_bytes(),  # the integrator's tolerances the batch takes
+        # Newton and the boundary-value solver the gaits are found and confirmed by.
+        *(f.read_bytes() for f in sorted(Path(newton.__file__).parent.glob("*.py"))),
         np.__version__.encode(),
         repr((params, sorted(box.items()), cells)).encode(),
     ]
