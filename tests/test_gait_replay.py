@@ -165,14 +165,14 @@ def test_the_trajectory_is_periodic_and_its_energy_is_the_torques_work(optimized
     by the hip torque's net work, the verification's (Simpson, 64 panels an interval)
     within 1e-7 relative and the optimiser's on its mesh within 1e-3; the stance's normal
     force carries the torque's share (it differs from the passive one where the torque
-    acts). Text output names the gait and its status."""
+    acts). Text output names the gait and its status; the figure is written."""
     from vsw.models import load
 
     path = optimized[0]
-    out_file = tmp_path / "t.csv"
+    out_file, plot = tmp_path / "t.csv", tmp_path / "walk.png"
     code, out, _ = _main(["simulate", "--gait", str(path), "--steps", "1", "--trajectory",
-                          str(out_file), "--rate", "200"])  # fmt: skip
-    assert code == 0
+                          str(out_file), "--rate", "200", "--plot", str(plot)])  # fmt: skip
+    assert code == 0 and plot.stat().st_size > 0
     assert f"start: gait {path} (verified); ended: completed after 1 of 1 steps" in out
     rows = _rows(out_file)
     first, last = rows[0], rows[-1]
