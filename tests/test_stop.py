@@ -27,8 +27,8 @@ import pytest
 from vsw import stop
 from vsw.cli import main
 from vsw.cli.parser import EXIT_INPUT, EXIT_INTERRUPTED
-from vsw.hybrid import HybridModel
 from vsw.models import keys, load
+from vsw.orbits import shooting
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -72,10 +72,11 @@ class _SignalInside(ca.Callback):
 
 @pytest.fixture
 def orbit_solver_signalling(monkeypatch):
-    """The orbit solver of every model replaced by one that signals from inside CasADi."""
+    """The periodic-orbit residual of every model replaced by one that signals from inside
+    CasADi before it evaluates."""
 
     def install(signum):
-        original = HybridModel._orbit_solver
+        original = shooting.multiple_shooting
         # Gaits kept on disk by an earlier search would not call the solver either.
         monkeypatch.setenv("VSW_SEARCH_CACHE", "0")
         for key in keys():  # searches kept from other tests would not call the solver
@@ -84,17 +85,19 @@ def orbit_solver_signalling(monkeypatch):
             # walker's takes a minute) need not run again.
             monkeypatch.setattr(model, "_searches", {})
 
-        def solver(self):
-            _, jacobian = original(self)
-            n_in = jacobian.size1_in(0)
-            n_p = jacobian.size1_in(1)
-            callback = _SignalInside(n_in, n_p, signum)
-            u, p = ca.MX.sym("u", n_in), ca.MX.sym("p", n_p)
-            wrapped = ca.Function("orbit_solver", [u, p], [callback(u, p)])
-            solver._keep = callback  # CasADi does not own a Python callback
-            return wrapped, jacobian
+        def signalling(model, period, parameters=()):
+            function = original(model, period, parameters)
+            n_u, n_p = function.size1_in(0), function.n_in() - 1
+            callback = _SignalInside(n_u, n_p, signum)
+            u = ca.MX.sym("u", n_u)
+            scalars = [ca.MX.sym(f"p{i}") for i in range(n_p)]
+            outputs = function(callback(u, ca.vertcat(*scalars)), *scalars)
+            outputs = list(outputs) if isinstance(outputs, (list, tuple)) else [outputs]
+            signalling.keep.append(callback)  # CasADi does not own a Python callback
+            return ca.Function(function.name(), [u, *scalars], outputs)
 
-        monkeypatch.setattr(HybridModel, "_orbit_solver", solver)
+        signalling.keep = []
+        monkeypatch.setattr(shooting, "multiple_shooting", signalling)
 
     return install
 

@@ -8,16 +8,18 @@ the sign that must be positive for the event to count. :class:`HybridModel` driv
 * :meth:`HybridModel.simulate`: time-domain simulation (SciPy DOP853) whose events are the
   model's guards and resets: one implementation for every model;
 * :meth:`HybridModel.step`: the Poincaré map (state just after one step event to the next);
-* :meth:`HybridModel.periodic_orbit`: a period-one gait as a boundary-value problem with the
-  phase durations as unknowns (residuals: each phase's guard at its end, the resets, and
-  the state after the step equal to the state before), solved by a CasADi rootfinder on
-  CasADi integrators of the generated dynamics, so it needs no event detection and gets
-  exact derivatives; residuals are checked outside CasADi;
-* :meth:`HybridModel.eigenvalues`: of the Jacobian of the Poincaré map, by CasADi
-  derivatives through the integration (each phase's end time from its guard by the implicit
-  function theorem);
+* :meth:`HybridModel.periodic_orbit`: a period-one gait as the periodic-orbit problem of
+  :mod:`vsw.orbits` (each phase's start and duration unknown; residuals: each phase's guard
+  at its end and its reset onto the next phase's start), solved by its Newton on CasADi
+  integrators of the generated dynamics, so it needs no event detection and gets exact
+  derivatives; eigenvalues of its monodromy matrix; confirmed by one simulated step;
+* :meth:`HybridModel.eigenvalues`: of the Jacobian of the Poincaré map at any section state,
+  by CasADi derivatives through the integration (each phase's end time from its guard by
+  the implicit function theorem): a route independent of the orbit problem's.
 
-``import vsw.hybrid`` is cheap: casadi and scipy are imported inside functions.
+Imports: numpy, ``vsw.stop``, ``vsw.errors``, ``vsw.parameters`` and :mod:`vsw.orbits`
+(which takes this model by its interface and never imports this module). ``import
+vsw.hybrid`` is cheap: casadi and scipy are imported inside functions.
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ import numpy as np
 
 from vsw import stop
 from vsw.errors import ConvergenceError, VswInputError
+from vsw.orbits import OrbitProblem, by_modulus, phase_sequence, shooting
 from vsw.parameters import check_parameter
 
 __all__ = [
@@ -195,11 +198,6 @@ class Attractor:
             "step_lengths": list(self.step_lengths),
             "step_periods": list(self.step_periods),
         }
-
-
-def by_modulus(values: np.ndarray) -> list[complex]:
-    """Eigenvalues largest modulus first (ties by real, then imaginary part)."""
-    return sorted((complex(v) for v in values), key=lambda v: (-abs(v), v.real, v.imag))
 
 
 def repeat_period(states: np.ndarray, tol: float) -> int | None:
@@ -541,152 +539,8 @@ class HybridModel:
     # --- periodic orbits (CasADi) ------------------------------------------------------
 
     def _phase_sequence(self) -> list[tuple[str, dict]]:
-        """(phase, event that ends it) over one step, from the section."""
-        out = []
-        phase = self.step_event["target"]
-        for _ in range(len(self.phases) + 1):
-            events = self.by_source[phase]
-            if len(events) != 1:
-                raise VswInputError(
-                    f"{self.name}: phase {phase} has {len(events)} events; the orbit solver "
-                    "needs one event per phase"
-                )
-            out.append((phase, events[0]))
-            if events[0]["ends_step"]:
-                return out
-            phase = events[0]["target"]
-        raise VswInputError(f"{self.name}: no step event reached")
-
-    @functools.cache  # noqa: B019 - one model object per generated package (load() caches)
-    def _flows(self):
-        """CasADi: per phase a flow x(T) = x0 + int_0^1 T f(x) ds (CVODES, sensitivities)."""
-        import casadi as ca
-
-        n = 2 * self.n
-        p = ca.SX.sym("p", len(self.parameter_table))
-        x = ca.SX.sym("x", n)
-        duration = ca.SX.sym("T")
-        flows = {}
-        for phase, event in self._phase_sequence():
-            acc = self._fn(f"{phase}_accelerations")(*ca.vertsplit(p), *ca.vertsplit(x))
-            acc = ca.vertcat(*acc) if isinstance(acc, tuple) else acc
-            ode = duration * ca.vertcat(x[self.n :], acc)
-            integrator = ca.integrator(
-                f"flow_{phase}", "cvodes",
-                {"x": x, "p": ca.vertcat(p, duration), "ode": ode}, 0.0, 1.0,
-                # Adams: the walkers are not stiff, and at these tolerances it was
-                # several times faster than BDF (benchmarks case 9 times the solve).
-                {"abstol": 1e-13, "reltol": 1e-13, "max_num_steps": 100000,
-                 "linear_multistep_method": "adams", "nonlinear_solver_iteration": "functional"},
-            )  # fmt: skip
-            guard = self._fn(f"event_{event['name']}_guard")(*ca.vertsplit(p), *ca.vertsplit(x))
-            reset = self._fn(f"event_{event['name']}_reset")(*ca.vertsplit(p), *ca.vertsplit(x))
-            flows[phase] = (
-                integrator,
-                ca.Function(f"guard_{phase}", [p, x], [guard]),
-                ca.Function(f"reset_{phase}", [p, x], [ca.vertcat(*reset)]),
-            )
-        return flows
-
-    @functools.cache  # noqa: B019
-    def _orbit_residual(self):
-        """Residual of a period-one orbit: unknowns (x0, T_1..T_K), parameters p."""
-        import casadi as ca
-
-        sequence = self._phase_sequence()
-        flows = self._flows()
-        n = 2 * self.n
-        p = ca.MX.sym("p", len(self.parameter_table))
-        x0 = ca.MX.sym("x0", n)
-        durations = ca.MX.sym("T", len(sequence))
-        x = x0
-        residuals = []
-        for k, (phase, _event) in enumerate(sequence):
-            integrator, guard, reset = flows[phase]
-            end = integrator(x0=x, p=ca.vertcat(p, durations[k]))["xf"]
-            residuals.append(guard(p, end))
-            x = reset(p, end)
-        residuals.append(x - x0)
-        unknowns = ca.vertcat(x0, durations)
-        return ca.Function("orbit", [unknowns, p], [ca.vertcat(*residuals)])
-
-    @functools.cache  # noqa: B019
-    def orbit_system(self, period: int, parameters: tuple[int, ...]):
-        """The period-``period`` orbit by multiple shooting, for continuation
-        (:mod:`vsw.continuation`): unknowns (x_1..x_m, T_1..T_m), the state at the start of
-        each of the m phases of ``period`` steps and its duration; per phase the residual
-        (its guard at its end, its event's image - the next phase's start; the last
-        phase's next is x_1). A CasADi function of (unknowns, p_0, ..., p_last) (each
-        parameter an input of its own) giving the residual, its Jacobian in the unknowns
-        and its derivative in each parameter of ``parameters`` (indices).
-
-        Shooting over one phase at a time keeps the Jacobian's entries to one phase's
-        growth: over the four steps of the simplest walker's period-4 gait a single shot
-        reaches entries of 1e6 and the corrector fails (measured)."""
-        import casadi as ca
-
-        sequence = self._phase_sequence() * period
-        flows = self._flows()
-        n, m = 2 * self.n, len(sequence)
-        # Each parameter a symbol of its own: CasADi differentiates in symbols.
-        scalars = [ca.MX.sym(f"p{i}") for i in range(len(self.parameter_table))]
-        p = ca.vertcat(*scalars)
-        starts = ca.MX.sym("x", n * m)
-        durations = ca.MX.sym("T", m)
-        residuals = []
-        for k, (phase, _event) in enumerate(sequence):
-            integrator, guard, reset = flows[phase]
-            x = starts[k * n : (k + 1) * n]
-            following = starts[((k + 1) % m) * n : ((k + 1) % m + 1) * n]
-            end = integrator(x0=x, p=ca.vertcat(p, durations[k]))["xf"]
-            residuals += [guard(p, end), reset(p, end) - following]
-        u = ca.vertcat(starts, durations)
-        r = ca.vertcat(*residuals)
-        name = "_".join(["orbit_system", str(period), *map(str, parameters)])
-        outputs = [r, ca.jacobian(r, u), *(ca.jacobian(r, scalars[i]) for i in parameters)]
-        return ca.Function(name, [u, *scalars], outputs)
-
-    def phase_flow(self, phase: str, params: Sequence[float], state: np.ndarray,
-                   duration: float) -> np.ndarray:  # fmt: skip
-        """The state after ``duration`` in ``phase`` from ``state`` (CVODES, as the orbit
-        solvers integrate)."""
-        integrator = self._flows()[phase][0]
-        p = np.concatenate([np.asarray(params, float), [float(duration)]])
-        with contextlib.redirect_stderr(io.StringIO()):
-            return np.array(integrator(x0=np.asarray(state, float), p=p)["xf"], float).reshape(-1)
-
-    @functools.cache  # noqa: B019
-    def _orbit_solver(self):
-        """The orbit's Newton solver and the residual's Jacobian (for the eigenvalues)."""
-        import casadi as ca
-
-        residual = self._orbit_residual()
-        options = {"abstol": 1e-13, "max_iter": 40, "error_on_fail": False}
-        solver = ca.rootfinder("orbit_solver", "newton", residual, options)
-        u = ca.MX.sym("u", residual.size1_in(0))
-        p = ca.MX.sym("p", residual.size1_in(1))
-        jacobian = ca.Function("orbit_jacobian", [u, p], [ca.jacobian(residual(u, p), u)])
-        return solver, jacobian
-
-    def _orbit_eigenvalues(self, jacobian: np.ndarray) -> list[complex]:
-        """Eigenvalues of the Poincaré map from the orbit residual's Jacobian at the orbit.
-
-        The residual is (guards G at each phase's end, F - x0) in the unknowns (x0, T); the
-        map is P(x0) = F(x0, T(x0)) with G(x0, T(x0)) = 0, so by the implicit function
-        theorem dP/dx0 = F_x - F_T G_T^-1 G_x (F_x = the block of F - x0, plus I).
-        """
-        k = len(self._phase_sequence())
-        n = 2 * self.n
-        g_x, g_t = jacobian[:k, :n], jacobian[:k, n:]
-        f_x, f_t = jacobian[k:, :n] + np.eye(n), jacobian[k:, n:]
-        try:
-            monodromy = f_x - f_t @ np.linalg.solve(g_t, g_x)
-            return by_modulus(np.linalg.eigvals(monodromy))
-        except np.linalg.LinAlgError:  # a guard grazing at its phase's end, or NaN
-            raise ConvergenceError(
-                f"{self.name}: the orbit's eigenvalues are undefined (a guard that does not "
-                "cross at its phase's end)"
-            ) from None
+        """(phase, event that ends it) over one step (:func:`vsw.orbits.phase_sequence`)."""
+        return phase_sequence(self)
 
     def periodic_orbit(
         self,
@@ -695,7 +549,10 @@ class HybridModel:
         durations: Sequence[float],
         step: Callable[[Sequence[float], np.ndarray], StepResult] | None = None,
     ) -> Orbit:
-        """Solve the period-one orbit from a guess (state on the section, phase durations).
+        """Solve the period-one orbit from a guess (state on the section, phase durations):
+        :meth:`vsw.orbits.OrbitProblem.solve` (Newton on the multiple-shooting residual),
+        the residual within 1e-9 of max(1, |state|) and every duration positive; the
+        eigenvalues of its monodromy matrix (:mod:`vsw.orbits.monodromy`).
 
         The orbit is confirmed by the time-domain simulation: one simulated step from it
         (events located on DOP853's dense output) must pass every phase and return to it
@@ -705,42 +562,41 @@ class HybridModel:
         simulation that confirms, as :meth:`step` (the default, SciPy's DOP853) returns it;
         the commands pass the compiled batch simulator's
         (:meth:`vsw.batch.BatchSimulator.step_phases`, the same method and tolerance, and
-        no SciPy to import). Either is independent of the rootfinder's CVODES integration.
+        no SciPy to import). Either is independent of the solver's CVODES integration.
         """
-        residual = self._orbit_residual()
-        solver, jacobian = self._orbit_solver()
+        problem = OrbitProblem(self)
         n = 2 * self.n
-        guess = np.concatenate([np.asarray(state, float), np.asarray(durations, float)])
         p = np.asarray(params, float)
-        if not np.all(np.isfinite(guess)):
+        state, durations = np.asarray(state, float), np.asarray(durations, float)
+        if not (np.all(np.isfinite(state)) and np.all(np.isfinite(durations))):
             raise ConvergenceError(f"{self.name}: the periodic-orbit guess is not finite")
         try:
-            # CasADi reports integrator trouble on Python's stderr; the residual check
-            # below says what matters.
-            with contextlib.redirect_stderr(io.StringIO()):
-                solution = np.array(solver(guess, p), dtype=float).reshape(-1)
+            guess = problem.unknowns(p, state, durations)
         except RuntimeError as exc:  # CVODES gave up (a guess far from any orbit)
             stop.check()  # or CasADi turned Ctrl-C or the time limit into this error
-            raise ConvergenceError(
-                f"{self.name}: the periodic-orbit solver failed ({' '.join(str(exc).split())[:80]})"
-            ) from None
-        # CasADi's newton can report success on NaN: the residual is checked here.
-        r = np.array(residual(solution, p), dtype=float).reshape(-1)
-        size = float(np.max(np.abs(r))) if np.all(np.isfinite(r)) else math.inf
+            raise _solver_failed(self.name, str(exc)) from None
+        solved = problem.solve(p, guess)
+        if solved.error is not None and not solved.converged:
+            raise _solver_failed(self.name, solved.error)
+        size, solution = solved.residual, solved.u
         scale = max(1.0, float(np.max(np.abs(solution[:n]))))
-        if not size <= 1e-9 * scale:
+        if not (solved.converged and size <= 1e-9 * scale):
             raise ConvergenceError(
                 f"{self.name}: the periodic-orbit solver did not converge (residual {size:.3g})"
             )
-        if np.any(solution[n:] <= 0):
+        t_star = problem.durations(solution)
+        if np.any(t_star <= 0):
             raise ConvergenceError(
                 f"{self.name}: the periodic-orbit solver converged to no gait: a phase "
-                f"duration is not positive ({', '.join(f'{v:.3g}' for v in solution[n:])})"
+                f"duration is not positive ({', '.join(f'{v:.3g}' for v in t_star)})"
             )
-        x_star, t_star = solution[:n], solution[n:]
-        with contextlib.redirect_stderr(io.StringIO()):
-            jac = np.array(jacobian(solution, p), dtype=float)
-        eigenvalues = self._orbit_eigenvalues(jac)
+        x_star = problem.section_state(solution)
+        eigenvalues = problem.eigenvalues(solved.jacobian)
+        if not eigenvalues:  # a guard grazing at its phase's end, or NaN
+            raise ConvergenceError(
+                f"{self.name}: the orbit's eigenvalues are undefined (a guard that does not "
+                "cross at its phase's end)"
+            )
         simulated = (step or self.step)(params, x_star)
         if simulated.ended != "completed" or len(simulated.durations) != len(t_star):
             raise ConvergenceError(
@@ -770,7 +626,7 @@ class HybridModel:
         time from its guard by a rootfinder: derivatives by the implicit function theorem)."""
         import casadi as ca
 
-        flows = self._flows()
+        flows = shooting.flows(self)
         n = 2 * self.n
         p = ca.MX.sym("p", len(self.parameter_table))
         x0 = ca.MX.sym("x0", n)
@@ -820,3 +676,10 @@ class HybridModel:
                 f"(gap {gap:.3g})"
             )
         return by_modulus(np.linalg.eigvals(np.array(jac, dtype=float)))
+
+
+def _solver_failed(name: str, error: str) -> ConvergenceError:
+    """The periodic-orbit solver's failure where CVODES gave up, in one line."""
+    return ConvergenceError(
+        f"{name}: the periodic-orbit solver failed ({' '.join(error.split())[:80]})"
+    )
