@@ -75,7 +75,7 @@ def _start(gait: dict) -> np.ndarray:
 
 def test_the_file_holds_the_gait_and_is_the_json_documents(optimized, gait):
     """The file: the envelope and the gait (model, parameters, start, phases with their
-    durations and inputs at the 2N + 1 knots and midpoints, impulses, objective, statuses,
+    durations and inputs at the 2N + 1 knots and midpoints, impulses, cost, statuses,
     units, format version); ``--json`` prints the same record under ``gait``. A collocation
     not judged optimal is not called optimal, even verified; exit 3 as without --out."""
     path, printed, code = optimized
@@ -89,7 +89,7 @@ def test_the_file_holds_the_gait_and_is_the_json_documents(optimized, gait):
     assert gait["collocation"]["status"] == "not-converged"
     assert gait["verification"]["status"] == "verified"
     assert gait["status"] == "verified"
-    assert gait["minimize"] == "torque2" and gait["objective"] == printed["cost"]
+    assert gait["minimize"] == "torque2" and gait["cost"] == printed["cost"]
     assert gait["start"]["from"] == "the open-loop step's fixed point"
     assert _start(gait).tolist() == [printed["verified"]["state"][n] for n in NAMES]
     (phase,) = gait["phases"]
@@ -102,7 +102,7 @@ def test_the_file_holds_the_gait_and_is_the_json_documents(optimized, gait):
     assert gait["units"]["inputs"] == {"hip_torque": "N m"}
     quantities = document["units"]["quantities"]
     assert quantities["hip_torque"] == "N m" and quantities["duration"] == "s"
-    assert quantities["gait.objective"] == printed["units"]["quantities"]["cost"]
+    assert quantities["gait.cost"] == printed["units"]["quantities"]["cost"] == "(N m)^2 s"
 
 
 def test_an_unverified_optimum_is_never_called_optimal(gait, tmp_path):

@@ -6,7 +6,7 @@ FILE`` writes the envelope and that key, ``vsw optimize --json --verify`` prints
 that is a gait file too. The record (:func:`gait_record`) holds the model and the gait's
 parameter values, the start state, the phases in the step's order with each one's duration
 and its inputs at the collocation's knots and midpoints, the events' impulses, the cost and
-the statuses, the units and :data:`FORMAT_VERSION`.
+its statuses, the units and :data:`FORMAT_VERSION`.
 
 A replay (:class:`PoweredReplay`) walks the model with those inputs, open loop, each step
 exactly as the verification simulates it (:func:`vsw.powered_verify.step_runs`: the inputs
@@ -108,7 +108,7 @@ def gait_record(
         "status": status,
         "status_meaning": STATUSES[status],
         "minimize": request.minimize,
-        "objective": gait.cost,
+        "cost": gait.cost,
         "collocation": {
             "status": gait.status,
             "reason": gait.reason or None,
@@ -123,7 +123,6 @@ def gait_record(
             "from": "the open-loop step's fixed point" if fixed else "the collocation's first knot",
             "state": dict(zip(names, (float(v) for v in start))),
         },
-        "period": float(sum(gait.durations)),
         "phases": phases,
         "impulses": {k: float(v) for k, v in gait.impulses.items()},
         "interpolation": INTERPOLATION,

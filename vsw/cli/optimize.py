@@ -147,7 +147,7 @@ def run(args: argparse.Namespace) -> int:
     record = gait_record(model, params, request, gait, verified)
     data["gait"] = record
     units = {**_units(model, request), **record_quantities(model)}
-    units["gait.objective"] = units["cost"]
+    units["gait.cost"] = units["cost"]
     if args.out is not None:
         document = {**envelope(model, params, args.argv, tolerances), "gait": record}
         _write_gait(args.out, with_units(model, document, units))
