@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vsw import stop
+from vsw import blas, stop
 from vsw.compiled import build_library
 from vsw.errors import ConvergenceError, SlowRouteWarning, VswInputError
 from vsw.hybrid import _ATOL, _PHASE_TIME_LIMIT, _RTOL, HybridModel, StepResult
@@ -319,7 +319,8 @@ class BatchSimulator:
                          "kept_durations"):  # fmt: skip
                 getattr(out, name)[start:stop] = getattr(part, name)
 
-        run_blocks(block, range(0, n, CHUNK), threads)
+        with blas.limited(threads):  # the walks call no BLAS: a call beside them keeps to it
+            run_blocks(block, range(0, n, CHUNK), threads)
         return out
 
     def step(
@@ -378,34 +379,35 @@ class BatchSimulator:
         ConvergenceError
             A walk falls, or the iteration does not reach ``tol * max(1, |x|)``.
         """
-        x = np.array(guess, dtype=float)
-        eye = np.eye(self.nx)
-        for _ in range(max_iterations):
-            h = 1e-6 * np.maximum(1.0, np.abs(x))
-            starts = np.vstack([x, x + eye * h, x - eye * h])
-            result = self.step(params, starts, threads=1)
-            if np.any(result.outcome != WALKED):
-                raise ConvergenceError(
-                    f"{self.model.name}: a step near {x.tolist()} did not complete "
-                    f"({sorted(set(result.ended()))})"
-                )
-            image = result.final
-            jacobian = ((image[1 : 1 + self.nx] - image[1 + self.nx :]) / (2 * h)).T
-            residual = image[0] - x
-            try:
-                delta = np.linalg.solve(jacobian - eye, -residual)
-            except np.linalg.LinAlgError:
-                raise ConvergenceError(
-                    f"{self.model.name}: the batch map's Jacobian minus I is singular near "
-                    f"{x.tolist()} (an eigenvalue 1)"
-                ) from None
-            x = x + delta
-            if np.max(np.abs(residual)) <= tol * max(1.0, float(np.max(np.abs(x)))):
-                return x - delta, jacobian
-        raise ConvergenceError(
-            f"{self.model.name}: the batch fixed point did not converge in {max_iterations} "
-            f"Newton steps (last residual {float(np.max(np.abs(residual))):.3g})"
-        )
+        with blas.limited(1):  # its walks run on one thread, its solves too
+            x = np.array(guess, dtype=float)
+            eye = np.eye(self.nx)
+            for _ in range(max_iterations):
+                h = 1e-6 * np.maximum(1.0, np.abs(x))
+                starts = np.vstack([x, x + eye * h, x - eye * h])
+                result = self.step(params, starts, threads=1)
+                if np.any(result.outcome != WALKED):
+                    raise ConvergenceError(
+                        f"{self.model.name}: a step near {x.tolist()} did not complete "
+                        f"({sorted(set(result.ended()))})"
+                    )
+                image = result.final
+                jacobian = ((image[1 : 1 + self.nx] - image[1 + self.nx :]) / (2 * h)).T
+                residual = image[0] - x
+                try:
+                    delta = np.linalg.solve(jacobian - eye, -residual)
+                except np.linalg.LinAlgError:
+                    raise ConvergenceError(
+                        f"{self.model.name}: the batch map's Jacobian minus I is singular near "
+                        f"{x.tolist()} (an eigenvalue 1)"
+                    ) from None
+                x = x + delta
+                if np.max(np.abs(residual)) <= tol * max(1.0, float(np.max(np.abs(x)))):
+                    return x - delta, jacobian
+            raise ConvergenceError(
+                f"{self.model.name}: the batch fixed point did not converge in {max_iterations} "
+                f"Newton steps (last residual {float(np.max(np.abs(residual))):.3g})"
+            )
 
 
 def _bound_step_phases(lib: ctypes.CDLL):

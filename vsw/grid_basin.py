@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vsw import plotstyle
+from vsw import blas, plotstyle
 from vsw.batch import Runner, simulator
 from vsw.errors import VswInputError
 from vsw.hybrid import HybridModel, Orbit
@@ -173,32 +173,33 @@ def grid_basin(
     """The basin of the stable period-one gait over the grid ``x`` x ``y`` of two section
     components, or over ``x`` alone where the section has one free component (see the
     module docstring)."""
-    check_grid_names(model, x_name, y_name)
-    gait = gait or model.stable_gait(params, "no basin to draw")
-    target = np.array([gait.state[n] for n in (*model.coordinates, *model.rates)])
-    states = grid_states(model, params, target, x_name, x, y_name, y)
-    sim = simulator(model)
-    result = sim.walk(params, states, steps, target=target, converge_tol=tol, period_tol=tol,
-                      threads=threads, runner=runner)  # fmt: skip
-    y = np.zeros(0) if y_name is None else np.asarray(y, float)
-    shape = (max(1, len(y)), len(x))
-    labels, ended = result.labels(), result.ended()
-    return GridBasin(
-        model=model.name,
-        parameters=dict(zip(model.spec["parameters"], (float(p) for p in params))),
-        x_name=x_name,
-        y_name=y_name,
-        x=np.asarray(x, float),
-        y=np.asarray(y, float),
-        outcome=[labels[i * shape[1] : (i + 1) * shape[1]] for i in range(shape[0])],
-        ended=[ended[i * shape[1] : (i + 1) * shape[1]] for i in range(shape[0])],
-        steps=result.steps.reshape(shape),
-        gait=gait,
-        fixed_point=dict(gait.state),
-        tol=tol,
-        max_steps=steps,
-        route=result.route,
-    )
+    with blas.limited(threads):  # the gait search's solves and eigenvalues too
+        check_grid_names(model, x_name, y_name)
+        gait = gait or model.stable_gait(params, "no basin to draw")
+        target = np.array([gait.state[n] for n in (*model.coordinates, *model.rates)])
+        states = grid_states(model, params, target, x_name, x, y_name, y)
+        sim = simulator(model)
+        result = sim.walk(params, states, steps, target=target, converge_tol=tol, period_tol=tol,
+                          threads=threads, runner=runner)  # fmt: skip
+        y = np.zeros(0) if y_name is None else np.asarray(y, float)
+        shape = (max(1, len(y)), len(x))
+        labels, ended = result.labels(), result.ended()
+        return GridBasin(
+            model=model.name,
+            parameters=dict(zip(model.spec["parameters"], (float(p) for p in params))),
+            x_name=x_name,
+            y_name=y_name,
+            x=np.asarray(x, float),
+            y=np.asarray(y, float),
+            outcome=[labels[i * shape[1] : (i + 1) * shape[1]] for i in range(shape[0])],
+            ended=[ended[i * shape[1] : (i + 1) * shape[1]] for i in range(shape[0])],
+            steps=result.steps.reshape(shape),
+            gait=gait,
+            fixed_point=dict(gait.state),
+            tol=tol,
+            max_steps=steps,
+            route=result.route,
+        )
 
 
 _CLASS_COLORS = {

@@ -20,7 +20,7 @@ from concurrent.futures import ThreadPoolExecutor, wait
 
 import numpy as np
 
-from vsw import progress, stop
+from vsw import blas, progress, stop
 from vsw.errors import VswInputError
 
 CHUNK = 16384
@@ -210,7 +210,8 @@ def chunked(
         for target, part in zip(outputs, result if is_tuple else (result,)):
             target[start:stop] = part
 
-    run_blocks(block, range(chunk, size, chunk), threads)
+    with blas.limited(threads):
+        run_blocks(block, range(chunk, size, chunk), threads)
     if out is not None:
         return out
     shaped = tuple(target.reshape(shape) for target in outputs)

@@ -23,7 +23,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, NoReturn, TextIO
 
-from vsw import stop
+from vsw import blas, stop
 from vsw.cli.output import version
 from vsw.cli.parser import (
     EXIT_CLOSED_PIPE,
@@ -267,7 +267,9 @@ def _run(argv: Sequence[str] | None, program: bool) -> int:
             _matplotlib_config()
             warnings.simplefilter("once", SlowRouteWarning)
             warnings.showwarning = _warning_printer(sys.stderr)
-            code = int(args.func(args))
+            # VSW_THREADS bounds the whole command: its walks' threads and BLAS's.
+            with blas.limited(default_threads()):
+                code = int(args.func(args))
             stop.check()  # a stop a library turned into a result is still a stop
             stop.settle()
         return code

@@ -1,0 +1,162 @@
+"""One thread means one busy core: the batch simulator's walks (``step``, ``walk``), a
+basin (``grid_basin``) and a gait search at one thread bill at most 1.2 times their wall
+time in CPU, in every one of several calls, BLAS included (vsw/blas.py).
+
+Each run is a fresh process with the environment as a user has it: no
+``OPENBLAS_NUM_THREADS`` or ``OMP_NUM_THREADS``, so numpy's OpenBLAS has a worker per core,
+which would spin beside the walks after a BLAS call it ran on them. ``VSW_THREADS=1`` sets
+the gait search's threads (it takes none of its own). The injected case makes a
+400 x 400 matrix product (a call OpenBLAS runs on every core) inside every call, where the
+walks start: the limit of :func:`vsw.blas.limited` keeps it on the calling thread.
+
+CPU time over wall time is noisy on a shared machine only downwards (a process waiting
+for a core has wall time without CPU time): more than 1.2 needs a second busy thread. On
+a machine busy with other work that second thread may wait too, so where the system keeps
+each thread's CPU time (Linux) the test also bounds the other threads' CPU time by 0.2
+times the calling thread's, which the load does not hide: together they bound the
+process's CPU time by 1.2 times the calling thread's, which is at most the wall time.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+CALLS = 5
+BOUND = 1.2
+
+CHILD = textwrap.dedent(
+    """
+    import json, os, sys, threading, time
+    import numpy as np
+
+    import vsw.batch
+    from vsw import gaits
+    from vsw.batch import simulator
+    from vsw.grid_basin import grid_basin
+    from vsw.models import load
+
+    inject, unlimited = sys.argv[1] == "1", sys.argv[2] == "1"
+    if inject:  # a BLAS call OpenBLAS runs on every core, where every walk starts
+        blocks, square = vsw.batch.run_blocks, np.random.default_rng(0).random((400, 400))
+
+        def run_blocks(*args):
+            square @ square
+            return blocks(*args)
+
+        vsw.batch.run_blocks = run_blocks
+    if unlimited:  # the limit taken away (to see this test fail)
+        import contextlib
+        import vsw.blas
+
+        vsw.blas.limited = lambda threads=None: contextlib.nullcontext(threads)
+
+    main = threading.get_native_id()
+
+    def others():
+        # CPU seconds of the process's other threads (OpenBLAS's workers among them), in
+        # ns by the scheduler's statistics; None where the system keeps none
+        if not os.path.exists(f"/proc/self/task/{main}/schedstat"):
+            return None
+        total = 0
+        for tid in os.listdir("/proc/self/task"):
+            if int(tid) != main:
+                try:
+                    with open(f"/proc/self/task/{tid}/schedstat") as f:
+                        total += int(f.read().split()[0])
+                except (OSError, ValueError):
+                    pass
+        return total / 1e9
+
+    model = load("simplest_walker")
+    params = model.parameters()
+    gait = model.stable_gait(params, "none")  # a search kept in the cache after the first
+    os.environ["VSW_SEARCH_CACHE"] = "0"  # the timed searches search
+    names = (*model.coordinates, *model.rates)
+    x = np.array([gait.state[n] for n in names])
+    rng = np.random.default_rng(14)
+    starts = x * (1 + 0.01 * rng.standard_normal((1000, x.size)))
+    starts = np.column_stack(model.module.section_completion(*params, *starts.T))
+    sim = simulator(model)
+    wheel = load("rimless_wheel")
+    wheel_params = wheel.parameters()
+    theta = np.linspace(x[0] - 0.02, x[0] + 0.02, 20)
+    rate = np.linspace(x[1] - 0.02, x[1] + 0.02, 20)
+    work = {
+        "step": lambda: sim.step(params, starts, threads=1, tolerance=1e-10),
+        "walk": lambda: sim.walk(params, starts, 20, converge_tol=0.0, period_tol=0.0,
+                                 threads=1, tolerance=1e-10),
+        "grid_basin": lambda: grid_basin(model, params, "theta", theta, "theta_dot", rate,
+                                         30, gait=gait, threads=1),
+        "gait search": lambda: gaits.search(wheel, wheel_params),
+    }
+    out = {}
+    for name, call in work.items():
+        call()  # warm-up: the library built, the search's code imported
+        rows = []
+        for _ in range(int(sys.argv[3])):
+            o0, c0, w0 = others(), time.process_time(), time.perf_counter()
+            call()
+            w1, c1, o1 = time.perf_counter(), time.process_time(), others()
+            rows.append((c1 - c0, w1 - w0, None if o0 is None else o1 - o0))
+        out[name] = rows
+    print(json.dumps(out))
+    """
+)
+
+
+@pytest.fixture(scope="module")
+def gait_kept():
+    """The simplest walker's gait search made here, through the run's shared cache (made
+    once per run, tests/conftest.py), so that each child reads it instead of searching."""
+    from vsw.models import load
+
+    model = load("simplest_walker")
+    model.stable_gait(model.parameters(), "none")
+
+
+def cpu_and_wall(inject: bool, unlimited: bool = False, calls: int = CALLS) -> dict:
+    """Per kind of work, each call's (CPU s, wall s, other threads' CPU s), from a fresh
+    process at one thread with the BLAS threading a user has by default."""
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}  # fmt: skip
+    env.update(VSW_THREADS="1", PYTHONPATH=str(ROOT))
+    env.pop("VSW_SEARCH_CACHE", None)
+    done = subprocess.run(
+        [sys.executable, "-c", CHILD, str(int(inject)), str(int(unlimited)), str(calls)],
+        cwd=ROOT, env=env, capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout.splitlines()[-1])
+
+
+def _usable_cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+@pytest.mark.skipif(
+    _usable_cores() < 2,
+    reason="one usable core: a second busy thread could not bill more CPU than wall time",
+)
+@pytest.mark.parametrize("inject", [False, True], ids=["as-is", "blas-call-inside"])
+def test_one_thread_bills_at_most_one_core(inject, gait_kept):
+    measured = cpu_and_wall(inject)
+    assert set(measured) == {"step", "walk", "grid_basin", "gait search"}
+    for name, rows in measured.items():
+        assert len(rows) == CALLS
+        for cpu, wall, others in rows:
+            said = (f"{name}: {cpu * 1e3:.2f} ms of CPU in {wall * 1e3:.2f} ms ({cpu / wall:.2f}x),"
+                    f" other threads {others}; every call (CPU, wall, others): {rows}")  # fmt: skip
+            assert cpu <= BOUND * wall, said
+            if others is not None:
+                assert others <= (BOUND - 1) * (cpu - others), said
