@@ -176,6 +176,21 @@ def test_a_short_walk_is_not_settled(capsys):
     assert code == 0 and out.count("map: not settled after 8 steps") == 2, out
 
 
+def test_a_long_transient_raises_the_default_cap(capsys):
+    """--transient 2100 beyond the default cap of 2000 steps: the cap becomes transient +
+    keep, and the walk settles on the period-2 orbit (below the flip at 0.0176694)."""
+    state = [f"--state={k}={v}" for k, v in LONG_GAIT_0175.items()]
+    argv = ["sweep", "--model", "simplest-walker", "--over", "gamma=0.0175:0.0176:2", *state,
+            "--transient", "2100", "--keep", "8", "--json"]  # fmt: skip
+    code, out, err = run(capsys, argv)
+    assert code == 0, err
+    data = json.loads(out)
+    assert data["max_steps"] == 2108
+    for point in data["points"]:
+        assert point["attractor"]["steps_walked"] == 2108
+        assert point["attractor"]["period"] == expected_period(point["gamma"]) == 2
+
+
 def test_the_start_chooses_the_gait(capsys):
     """At gamma = 0.0174 both period-one gaits are unstable; the search's first (the short
     gait) lifts off within a few steps. Started from Garcia's long gait (--state, or --gait-number

@@ -89,8 +89,9 @@ def register(subparsers: Any) -> None:
         metavar="M",
         help="past the transient the map is iterated N steps at a time until the kept steps "
         f"repeat with a period p (every state within {sweeps.SETTLE_TOL:g} x max(1, |x|) of "
-        "the one p steps before, over at least two cycles): at most M steps a value, after "
-        "which the value is labelled 'not settled after M steps'",
+        "the one p steps before, over at least two cycles): at most M steps a value (K + N "
+        "where that is more and M is not given), after which the value is labelled 'not "
+        "settled after M steps'",
     )
     p.add_argument(
         "--brute-force",
@@ -148,8 +149,10 @@ def run(args: argparse.Namespace) -> int:
             option = "--" + dest.replace("_", "-")
             raise VswInputError(f"{option} applies to the iterated map: give --keep N or --plot")
     if keep and args.max_steps < args.transient + keep:
-        raise VswInputError(f"--max-steps {args.max_steps} is below --transient + --keep = "
-                            f"{args.transient + keep}")  # fmt: skip
+        if given(args.parser, args, "max_steps"):
+            raise VswInputError(f"--max-steps {args.max_steps} is below --transient + --keep = "
+                                f"{args.transient + keep}")  # fmt: skip
+        args.max_steps = args.transient + keep  # the default cap gives way to a long transient
     if args.y is not None and args.plot is None:
         raise VswInputError("--y chooses what --plot draws: give --plot FILE")
     fixed = {k: v for k, v in args.values.items() if k != name}
