@@ -130,6 +130,21 @@ def test_cascade_labels_from_the_default_settings(cascade):
         assert long_walk_period(gamma, by_gamma[gamma]["state"]) == near[gamma]
 
 
+def test_brute_force_cascade_labels(capsys, cascade):
+    """The brute-force diagram (every value from its own gait, one batch) settles on the
+    same periods by the same rule (started from the sweep's first gait, no search)."""
+    state = [f"--state={k}={v!r}" for k, v in cascade["points"][0]["state"].items()]
+    code, out, err = run(capsys, [*CASCADE, "--brute-force", *state, "--json"])
+    assert code == 0, err
+    for point in json.loads(out)["points"]:
+        gamma, attractor = point["gamma"], point["attractor"]
+        want = expected_period(gamma)
+        if want is not None:
+            assert attractor["settled"] and attractor["period"] == want, gamma
+        else:
+            assert attractor["period"] is None or attractor["period"] >= 16, gamma
+
+
 def test_cascade_text_and_figure_say_not_settled(capsys, tmp_path, cascade):
     """The chaotic values are 'not settled after 2000 steps' in the text output and a
     legend entry of their own in the figure."""
