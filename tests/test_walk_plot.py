@@ -27,7 +27,15 @@ def figures():
 
 
 @pytest.mark.parametrize("key", GENERIC)
-@pytest.mark.parametrize("suffix", ["png", "svg", "pdf"])
+# Every model in PNG; the vector formats, which share the drawing, in the slow tier.
+@pytest.mark.parametrize(
+    "suffix",
+    [
+        "png",
+        pytest.param("svg", marks=pytest.mark.slow),
+        pytest.param("pdf", marks=pytest.mark.slow),
+    ],
+)
 def test_every_model_draws_its_walk_byte_identically(figures, tmp_path, key, suffix):
     model, params, walk = figures[key]
     first, second = tmp_path / f"a.{suffix}", tmp_path / f"b.{suffix}"
