@@ -31,12 +31,22 @@ __all__ = ["STEP", "check_html_path", "page", "write_html", "write_page"]
 TEMPLATE = Path(__file__).resolve().parent / "templates" / "explore_hybrid.html"
 STEP = 2.5e-4
 """The page's Runge-Kutta step, in model time units (its state error ~1e-12 a step)."""
-REPLAY_NOTE = (
-    '<p class="note"><strong>A powered gait, replayed.</strong> This page plays the step '
-    "vsw simulated with the gait's inputs (SciPy DOP853, 1e-11), one step after another; "
-    "it does not integrate it here, and its sliders stay at the gait's parameters.</p>"
-)
-"""The note a replayed powered gait's page shows under the description."""
+INTEGRATED = "\n".join([
+    "Every number on this page is computed in your browser by",
+    "JavaScript that <code>python -m derive</code> generated from the model's derivation",
+    "(@@generated_from@@: each phase's accelerations, the events' guards and resets); the page",
+    "integrates the walk (classical Runge&ndash;Kutta, step @@h@@, events located to",
+    "the last bit of time) and finds the period-one gait by Newton's method on the step map, "
+    "from the gait",
+    "vsw found at the start values.",
+])  # fmt: skip
+"""How the page computes what it shows (a passive walk)."""
+REPLAYED = """<strong>A powered gait, replayed.</strong> The walk on this page is the step vsw
+simulated with the gait's inputs (SciPy DOP853, 1e-11), played one step after another; the
+page draws it by JavaScript that <code>python -m derive</code> generated from the model's
+derivation (@@generated_from@@: each phase's skeleton and bodies), integrates nothing, and
+keeps its sliders at the gait's parameters."""
+"""How the page of a replayed powered gait shows it."""
 
 
 SLIDER_STEPS = 1000
@@ -117,7 +127,7 @@ def spec(model: Any, params: Sequence[float], start: Sequence[float],
         "length_unit": model.units.get("length", ""),
         "slope": model.slope(params),
         "playback": 1.0,
-        "replay": replay,
+        **({} if replay is None else {"replay": replay}),
     }
 
 
@@ -136,6 +146,7 @@ def page(model: Any, params: Sequence[float], start: Sequence[float],
     if "</script" in js or "</script" in data:
         raise VswInputError("the explorer's script would end early ('</script' in it)")
     replacements = {
+        "@@how@@": INTEGRATED if replay is None else REPLAYED,  # first: it holds others
         "@@title@@": model.title,
         "@@description@@": model.spec.get("description", model.title),
         "@@generated_from@@": f"generated/{model.name}/js/{model.name}.js",
@@ -144,7 +155,6 @@ def page(model: Any, params: Sequence[float], start: Sequence[float],
         "@@namespace@@": f"vsw_{model.name}",
         "@@spec@@": data,
         "@@model_js@@": js,
-        "@@replay_note@@": "" if replay is None else REPLAY_NOTE,
     }
     text = TEMPLATE.read_text()
     for key, value in replacements.items():
