@@ -749,8 +749,120 @@ def case_batch_before(count: int, reps: int, before: str = BATCH_BEFORE) -> list
                 f"the same way: {run.same}; after 20 steps the states differ by at most "
                 f"{run.gap:.1g} (relative)",
             ))  # fmt: skip
-    return (rows + _sines_rows(count, reps) + _numba_rows(count, reps) + _cyrk_rows(count, reps)
-            + _floor_rows(count, reps))  # fmt: skip
+    return (rows + _cpu_rows(count) + _sines_rows(count, reps) + _numba_rows(count, reps)
+            + _cyrk_rows(count, reps) + _floor_rows(count, reps))  # fmt: skip
+
+
+def blas_threading() -> str:
+    """The BLAS threading of this process, which the processes it starts inherit: each BLAS
+    that numpy and SciPy load (threadpoolctl) with its thread count outside any limit of
+    vsw's, and the environment variables that set the counts."""
+    import scipy.linalg  # noqa: F401  (SciPy's own BLAS, loaded with it)
+    from threadpoolctl import threadpool_info
+
+    libraries = [f"{i['internal_api']} {i['version']} on {i['num_threads']} threads"
+                 for i in threadpool_info() if i["user_api"] == "blas"]  # fmt: skip
+    names = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+    given = [f"{n}={os.environ[n]}" for n in names if n in os.environ]
+    settings = ", ".join(given) if given else "OPENBLAS_NUM_THREADS and OMP_NUM_THREADS unset"
+    return f"BLAS: {', '.join(libraries) or 'none found'} ({settings})"
+
+
+CPU_CALLS = 10
+"""Calls of case 15's CPU-time row, each within its bound."""
+
+
+def _cpu_rows(count: int) -> list[Row]:
+    """Case 15: one step from each of ``count`` starts near the simplest walker's gait,
+    one thread, rtol = atol = 1e-10, :data:`CPU_CALLS` calls in this process: CPU time
+    (``time.process_time``: every thread of the process) against wall time, per step. One
+    thread must bill at most 1.2 times its wall time in every call, BLAS's workers
+    included (vsw/blas.py), under the BLAS threading a user has by default (no
+    OPENBLAS_NUM_THREADS; the row says what it ran under). A shared machine lowers the
+    ratio (wall time waiting for a core), never raises it."""
+    from vsw.batch import simulator
+    from vsw.models import load
+
+    _, params, starts = _near_gait_starts("simplest_walker", count)
+    sim = simulator(load("simplest_walker"))
+    steps = int(sim.step(params, starts, threads=1, tolerance=1e-10).steps.sum())
+    cpu, wall = [], []
+    for _ in range(CPU_CALLS):
+        c0, w0 = time.process_time(), time.perf_counter()
+        sim.step(params, starts, threads=1, tolerance=1e-10)
+        wall.append((time.perf_counter() - w0) / steps)
+        cpu.append((time.process_time() - c0) / steps)
+    ratios = [c / w for c, w in zip(cpu, wall)]
+    return [Row(
+        "15", "simplest_walker: one step from each start, batch simulator (1 thread), rtol = "
+        "atol = 1e-10: CPU time (every thread of the process)", "its wall time",
+        Timing.of(cpu), Timing.of(wall), "<= 1.2x the wall time in every call",
+        max(ratios) <= 1.2, note=f"per step over {len(starts)} walks, {CPU_CALLS} calls; "
+        f"CPU / wall per call {min(ratios):.2f}-{max(ratios):.2f}; {blas_threading()}, "
+        "bounded by the call's threads inside it (vsw.blas.limited)",
+    )]  # fmt: skip
+
+
+TREE_WALKS = """
+import json, sys, time
+import numpy as np
+from vsw.batch import simulator
+from vsw.models import load
+given, reps, out = np.load(sys.argv[1]), int(sys.argv[2]), {}
+for key in sys.argv[3].split(","):
+    params, starts = given[key + " params"], given[key + " starts"]
+    sim = simulator(load(key))
+    for tol in (1e-10, 1e-12):
+        def walk():
+            return sim.walk(params, starts, 20, converge_tol=0.0, period_tol=0.0, threads=1,
+                            tolerance=tol)
+        steps, samples = int(walk().steps.sum()), []
+        for _ in range(reps):
+            start = time.perf_counter()
+            walk()
+            samples.append(time.perf_counter() - start)
+        out[f"{key} {tol:g}"] = [min(samples) / steps, steps]
+print(json.dumps(out))
+"""
+"""Case 15's walks in one tree (its vsw), from the parameters and starts of the file
+``argv[1]``: the best of ``argv[2]`` calls per model and tolerance, per step, as JSON."""
+
+
+def case_walks_against(ref: str, count: int, reps: int) -> list[Row]:
+    """Case 15 with ``--against REF``: its walks (20 steps from ``count`` starts near each
+    gait, the same starts on both sides, one thread, rtol = atol = 1e-10 and 1e-12) in this
+    tree and in a checkout of ``ref``, each in a process of its own, the two trees'
+    processes alternately ``reps`` times: the whole walk as each tree's vsw runs it."""
+    keys = ("simplest_walker", "compass_gait", "vsw_biped")
+    found: dict[str, list[dict]] = {"ours": [], "theirs": []}
+    with _checkout(ref) as old, tempfile.TemporaryDirectory() as tmp:
+        given = {}
+        for key in keys:
+            _, params, starts = _near_gait_starts(key, count, BATCH_VALUES.get(key))
+            given[f"{key} params"], given[f"{key} starts"] = np.asarray(params), starts
+        np.savez(Path(tmp) / "starts.npz", **given)
+        for _ in range(reps):
+            for side, tree in (("ours", ROOT), ("theirs", old)):
+                env = {**os.environ, "PYTHONPATH": str(tree), "PYTHONDONTWRITEBYTECODE": "1"}
+                command = [sys.executable, "-c", TREE_WALKS, str(Path(tmp) / "starts.npz"), "5",
+                           ",".join(keys)]  # fmt: skip
+                done = subprocess.run(command, cwd=tree, env=env, check=True,
+                                      capture_output=True, text=True)  # fmt: skip
+                found[side].append(json.loads(done.stdout.splitlines()[-1]))
+    rows = []
+    for label in found["ours"][0]:
+        ours = Timing.of([run[label][0] for run in found["ours"]])
+        theirs = Timing.of([run[label][0] for run in found["theirs"]])
+        steps = {run[label][1] for run in found["ours"] + found["theirs"]}
+        key, tol = label.split()
+        rows.append(Row(
+            "15", f"{key}: walks of 20 steps, batch simulator (1 thread), rtol = atol = {tol}, "
+            "this tree", f"the same in a checkout of {ref}", ours, theirs,
+            "no slower (<= 1.05x)", ours.median <= 1.05 * theirs.median,
+            note=f"per step over {count} walks ({', '.join(map(str, sorted(steps)))} steps); "
+            f"best of 5 calls in each of {reps} processes a tree, alternately",
+        ))  # fmt: skip
+    return rows
 
 
 def _sines_rows(count: int, reps: int) -> list[Row]:
@@ -1247,7 +1359,8 @@ def case_derive(reps: int, before: str = DERIVE_BEFORE) -> list[Row]:
                         note="2 worker processes" + extra))  # fmt: skip
         rows.append(Row("7", f"python -m derive --force: {every}, CPU time (user + system)",
                         f"the same at {before}", cold_cpu, old_cold_cpu, "<= 20 s absolute",
-                        cold_cpu.median <= 20.0, note="2 worker processes" + extra))  # fmt: skip
+                        cold_cpu.median <= 20.0,
+                        note=f"2 worker processes; {blas_threading()}" + extra))  # fmt: skip
         ((warm, _), (old_warm, _)) = _alternating(
             [([py, "-m", "derive", "--check", "--out", new_all], ROOT),
              ([py, "-m", "derive", "--check", "--out", old_all], old)], reps)  # fmt: skip
@@ -1283,7 +1396,7 @@ def _each_model_rows(alone: dict[str, list[tuple[Timing, Timing]]], before: str)
             "median of the others",
             wall.median <= DERIVE_MODEL_LIMIT and wall.median <= DERIVE_MEDIAN_LIMIT * median,
             note=f"{wall.median / median:.2f}x the median of the others ({median:.2f} s); "
-            f"CPU {timings[0][1].median:.2f} s",
+            f"CPU {timings[0][1].median:.2f} s; {blas_threading()}",
         ))  # fmt: skip
     return rows
 
@@ -1313,7 +1426,9 @@ def _user_model_row(reps: int, before: str, old: Path, out: Path) -> Row:
     return Row("7", f"vsw analyze --model my_walker.py (a copy of {USER_MODEL_SOURCE}: an "
                "impulse at heelstrike), first use: derived, compiled, searched",
                f"the same at {before}", ours, theirs, "<= 8 s absolute", ours.median <= 8.0,
-               note=f"CPU {ours_cpu.median:.2f} s; an empty cache each run")  # fmt: skip
+               note=f"CPU {ours_cpu.median:.2f} s; an empty cache each run; "
+               f"{blas_threading()}, bounded by VSW_THREADS ({default_threads()}) in the "
+               "command")  # fmt: skip
 
 
 def _has_model(tree: Path, name: str) -> bool:
@@ -1322,7 +1437,7 @@ def _has_model(tree: Path, name: str) -> bool:
     return (models / f"{name}.py").is_file() or (models / name / "__init__.py").is_file()
 
 
-def run_case(case: int, quick: bool) -> list[Row]:
+def run_case(case: int, quick: bool, against: str | None = None) -> list[Row]:
     reps = 2 if quick else 5
     if case == 1:
         return case_fixed_point_vectorised(2_000 if quick else 10**6, reps)
@@ -1353,7 +1468,9 @@ def run_case(case: int, quick: bool) -> list[Row]:
     if case == 14:
         return case_locate_flip(quick)
     if case == 15:
-        return case_batch_before(100 if quick else 1000, reps)
+        count = 100 if quick else 1000
+        rows = case_batch_before(count, reps)
+        return rows + (case_walks_against(against, count, reps) if against else [])
     if case == 16:
         return case_powered_shooting(quick)
     raise ValueError(f"no benchmark case {case}; cases are {CASES}")
@@ -1600,12 +1717,13 @@ def _plain(value):
     raise TypeError(f"not JSON serialisable: {type(value).__name__}")
 
 
-def _run_isolated(case: int, quick: bool) -> list[Row]:
+def _run_isolated(case: int, quick: bool, against: str | None = None) -> list[Row]:
     """One case in a fresh interpreter, so that its peak RSS is its own."""
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "rows.json"
         command = [sys.executable, str(Path(__file__).resolve()), "--case", str(case)]
         command += ["--rows-out", str(out)] + (["--quick"] if quick else [])
+        command += ["--against", against] if against else []
         done = subprocess.run(command, cwd=ROOT, text=True, capture_output=True)
         if done.returncode != 0:
             raise RuntimeError(f"benchmark case {case} failed:\n{done.stdout}\n{done.stderr}")
@@ -1623,9 +1741,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--results", type=Path, help="markdown report (default: see module doc)")
     parser.add_argument("--case", type=int, action="append", choices=CASES, help="run only these")
     parser.add_argument("--rows-out", type=Path, help=argparse.SUPPRESS)
+    parser.add_argument("--against", metavar="REF",
+                        help="case 15: also its walks in a checkout of REF (a commit), process "
+                        "by process, alternately with this tree's")  # fmt: skip
     args = parser.parse_args(argv)
     if args.rows_out is not None:  # child process of _run_isolated: exactly one case
-        rows = run_case(args.case[0], args.quick)
+        rows = run_case(args.case[0], args.quick, args.against)
         children = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
         # Case 7 measures whole processes: their peak is that of the largest child.
         peak = children if args.case[0] == 7 else peak_rss_mb()
@@ -1635,7 +1756,7 @@ def main(argv: list[str] | None = None) -> int:
     rows: list[Row] = []
     for case in args.case or CASES:
         started = time.perf_counter()
-        rows += _run_isolated(case, args.quick)
+        rows += _run_isolated(case, args.quick, args.against)
         print(f"case {case}: {time.perf_counter() - started:.1f} s", file=sys.stderr)
     if args.quick:  # sizes are reduced: the targets do not apply
         for row in rows:

@@ -48,7 +48,11 @@ EXIT_STATUS = {
 """Every exit status of ``vsw`` and its meaning."""
 
 ENVIRONMENT = (
-    ("VSW_THREADS", "worker threads for large evaluations, 1-256 (default: the usable cores)"),
+    (
+        "VSW_THREADS",
+        "worker threads for large evaluations, 1-256, and at most as many for numpy's and "
+        "SciPy's BLAS: at most this many busy cores (default: the usable cores)",
+    ),
     (
         "VSW_MAX_SECONDS",
         "refuse work estimated to take longer, and stop a run at it, in s (default 3600; "
