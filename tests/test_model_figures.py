@@ -48,7 +48,7 @@ def test_grid_basin_is_one_column_with_its_legend_below_and_units():
     assert fig.axes[1].get_xlabel() == r"$\theta$ [rad]"
     assert fig.axes[0].get_ylabel() == r"$\dot{\theta}$ [$\mathrm{rad}/\sqrt{l/g}$]"
     title = fig._suptitle.get_text().replace("\n", " ")
-    assert title == "Simplest walking model: gamma = 0.009 rad (0.516°)"
+    assert title == r"Simplest walking model: $\gamma$ = 0.009 rad (0.516°)"
 
 
 def test_sweep_shows_the_whole_range_and_marks_lost_and_fallen_points_on_the_edges():
@@ -69,7 +69,7 @@ def test_sweep_shows_the_whole_range_and_marks_lost_and_fallen_points_on_the_edg
     assert np.all(np.asarray(lost[0].get_ydata()) == 1.0)  # axes fraction: the top edge
     _legend_outside(fig, renderer)
     assert fig.axes[-1].get_xlabel() == r"$\gamma$ [rad]"
-    assert "l = 1 m" in fig._suptitle.get_text()
+    assert "$l$ = 1 m" in fig._suptitle.get_text()
 
 
 def test_ile_sweep_keeps_the_points_without_a_gait_shaded():
@@ -95,7 +95,7 @@ def test_ile_sweep_keeps_the_points_without_a_gait_shaded():
     x0 = shaded[0].get_x() if hasattr(shaded[0], "get_x") else shaded[0].get_xy()[0][0]
     assert x0 == pytest.approx(-0.2)
     _legend_outside(fig, renderer)
-    assert "phi0 = 0.7854 rad (45°)" in fig._suptitle.get_text().replace("\n", " ")
+    assert r"$\varphi_0$ = 0.7854 rad (45°)" in fig._suptitle.get_text().replace("\n", " ")
 
 
 @pytest.mark.parametrize("suffix", ["png", "svg", "pdf"])

@@ -84,6 +84,6 @@ def save_figure(fig: Figure, path: str | Path, dpi: int = plotstyle.PNG_DPI) -> 
     path = check_save_path(path)
     fmt = path.suffix.lower().lstrip(".")
     with plotstyle.context():
-        plotstyle.settle_layout(fig)
+        plotstyle.settle_layout(fig, dpi=dpi)
         fig.savefig(path, format=fmt, dpi=dpi, metadata=plotstyle.SAVE_METADATA[fmt])
     return path

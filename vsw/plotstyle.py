@@ -44,12 +44,15 @@ __all__ = [
     "legend_outside",
     "mark_off_scale",
     "new_figure",
+    "parameter_symbol",
     "parameter_text",
     "params_title",
+    "raw_names",
     "settle_layout",
     "state_label",
     "styled",
     "unit_tex",
+    "words",
 ]
 
 # Okabe & Ito (2008), "Color Universal Design": distinguishable under the common colour
@@ -205,18 +208,25 @@ def new_figure(
     return fig, axes
 
 
-def settle_layout(fig: Figure, max_rounds: int = 4, tol: float = 1e-9) -> None:
+def settle_layout(
+    fig: Figure, max_rounds: int = 4, tol: float = 1e-9, dpi: float | None = None
+) -> None:
     """Run constrained layout to its fixed point, then freeze it (before saving).
 
     Each draw lays a figure out again starting from the previous positions, so a figure
     saved twice (or after a save in another format) would not give the same bytes. Here
     the layout is repeated until no axes moves by more than ``tol`` (usually two rounds)
     and then switched off: every later save of the figure draws the same positions.
+    ``dpi``: lay out at the resolution the figure is saved at (text measured at 100 dpi
+    is narrower than at 300, and a label laid out to fit at 100 is cut at 300).
     """
     from matplotlib.layout_engine import ConstrainedLayoutEngine
 
     if not isinstance(fig.get_layout_engine(), ConstrainedLayoutEngine):
         return
+    shown = fig.dpi
+    if dpi is not None:
+        fig.set_dpi(dpi)
     previous = None
     for _ in range(max_rounds):
         fig.draw_without_rendering()
@@ -225,6 +235,7 @@ def settle_layout(fig: Figure, max_rounds: int = 4, tol: float = 1e-9) -> None:
             break
         previous = current
     fig.set_layout_engine("none")
+    fig.set_dpi(shown)
 
 
 def curve_style(k: int) -> dict[str, Any]:
@@ -367,7 +378,11 @@ def params_title(beta: float, theta_II: float | None, phi0: float, **extra: floa
 
 # --- labels: the models' names and units in mathtext ------------------------------------
 
-_GREEK = {"theta", "psi", "phi", "alpha", "beta", "gamma", "delta", "mu", "omega", "tau"}
+_GREEK = {"alpha", "beta", "gamma", "delta", "epsilon", "zeta", "eta", "theta", "iota",
+          "kappa", "lambda", "mu", "nu", "xi", "pi", "rho", "sigma", "tau", "upsilon", "phi",
+          "chi", "psi", "omega", "Gamma", "Delta", "Theta", "Lambda", "Xi", "Pi", "Sigma",
+          "Phi", "Psi", "Omega"}  # fmt: skip
+"""Names drawn as their Greek letter (``kappa`` as κ, not the italic letters k, a, p, ...)."""
 
 
 def unit_tex(unit: str) -> str:
@@ -402,12 +417,33 @@ def state_label(name: str, unit: str) -> str:
     return f"${symbol}$ [{unit_tex(unit)}]"
 
 
+def parameter_symbol(p: Any) -> str:
+    """A parameter of a model's table as its symbol in mathtext: the table's ``latex``
+    (``m_h`` as ``$m_H$``), else its name as :func:`state_label` draws a name."""
+    latex = getattr(p, "latex", "") or _symbol(p.name)
+    # Roman-numeral subscripts upright, as state_label draws them (theta_II).
+    return "$" + re.sub(r"_\{([IVX]+)\}", r"_{\\mathrm{\1}}", latex) + "$"
+
+
+def words(name: str) -> str:
+    """An identifier of the model file (an event's, an input's) as words: ``hip_torque``
+    as ``hip torque``."""
+    return name.replace("_", " ")
+
+
+def _shown_length(text: str) -> int:
+    """About the characters ``text`` shows: a mathtext command one character, braces,
+    sub- and superscript marks and dollar signs none."""
+    return len(re.sub(r"[${}_^]|\\,", "", re.sub(r"\\[A-Za-z]+", "x", text)))
+
+
 def parameter_text(
     model: Any, params: Sequence[float] | Mapping[str, float], width: int = 46
 ) -> str:
-    """The model's title and its parameters with units (angles also in degrees), wrapped
-    to a column's width. ``params``: the whole vector in the table's order, or a mapping of
-    some of them (a sweep's fixed ones)."""
+    """The model's title and its parameters, each its symbol in mathtext with its unit
+    (:func:`unit_tex`; angles also in degrees), wrapped to a column's width (in shown
+    characters). ``params``: the whole vector in the table's order, or a mapping of some
+    of them (a sweep's fixed ones)."""
     import textwrap
 
     if isinstance(params, Mapping):
@@ -416,20 +452,41 @@ def parameter_text(
         rows = list(zip(model.parameter_table, params))
     parts = []
     for p, value in rows:
+        symbol = parameter_symbol(p)
         if p.unit == "rad":
-            parts.append(f"{p.name} = {value:.4g} rad ({math.degrees(value):.3g}°)")
+            parts.append(f"{symbol} = {value:.4g} rad ({math.degrees(value):.3g}°)")
         elif p.unit in ("", "1"):
-            parts.append(f"{p.name} = {value:.4g}")
+            parts.append(f"{symbol} = {value:.4g}")
         else:
-            parts.append(f"{p.name} = {value:.4g} {p.unit.replace('^2', '²')}")
+            parts.append(f"{symbol} = {value:.4g} {unit_tex(p.unit.replace('^2', '²'))}")
     if not parts:
         return "\n".join(textwrap.wrap(model.title, width))
     # Wrapped between parameters, never inside "name = value unit".
     lines = textwrap.wrap(f"{model.title}:", width)
     for k, part in enumerate(parts):
         piece = part + ("," if k < len(parts) - 1 else "")
-        if len(lines[-1]) + 1 + len(piece) <= width:
+        if _shown_length(lines[-1]) + 1 + _shown_length(piece) <= width:
             lines[-1] += " " + piece
         else:
             lines.append(piece)
     return "\n".join(lines)
+
+
+RAW_NAME = re.compile(r"\b[A-Za-z][A-Za-z0-9]*_[A-Za-z0-9_]+\b")
+"""An identifier with an underscore: a model file's name drawn as it is typed."""
+
+
+def raw_names(fig: Figure) -> list[str]:
+    """Every text of ``fig`` (titles, axis and tick labels, legends, notes) that shows an
+    identifier with an underscore outside mathtext (``m_h``, ``theta_II``, ``b_over_l``);
+    empty for a figure labelled throughout by :func:`parameter_text`, :func:`state_label`,
+    :func:`unit_tex` and :func:`words`."""
+    from matplotlib.text import Text
+
+    found = []
+    for text in fig.findobj(Text):
+        shown = text.get_text()
+        outside = re.sub(r"(?<!\\)\$.*?(?<!\\)\$", " ", shown)  # mathtext pairs of $
+        if RAW_NAME.search(outside):
+            found.append(shown)
+    return found

@@ -73,13 +73,14 @@ def walk_figure(model: Any, params: Sequence[float], walk: SampledWalk) -> Figur
         Line2D([], [], color=plotstyle.COLORS["grey"], lw=0.5, ls="-"),
     ]  # fmt: skip
     labels = [plotstyle.state_label(c, units.get(c, "")) + " and its rate (dashed)"
-              for c in model.coordinates] + [f"{step_event} (step event)"]  # fmt: skip
+              for c in model.coordinates]  # fmt: skip
+    labels.append(f"{plotstyle.words(step_event)} (step event)")
     others = sorted({e["name"] for e in model.events} - {step_event})
     if others:
         handles.append(Line2D([], [], color=plotstyle.COLORS["grey"], lw=0.5, ls="--"))
-        labels.append(", ".join(others))
+        labels.append(", ".join(map(plotstyle.words, others)))
     if walk.ended != "completed":
-        labels[-1] += f"; the walk ended: {walk.ended}"
+        labels[-1] += f"; the walk ended: {plotstyle.words(walk.ended)}"
     plotstyle.figure_legend(fig, handles, labels, ncols=2)
     # A conserved energy drifts by the integrator's 1e-12: shown at least 1e-3 of its size
     # tall, it reads as the constant it is, and the events' jumps as what they are.
