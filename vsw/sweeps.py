@@ -68,8 +68,8 @@ def record(
 ) -> dict[str, Any]:
     """A sweep as ``vsw sweep --json`` prints it (after the envelope) and
     :func:`vsw.diagrams.bifurcation_plot` draws it: the swept parameter and its unit, the
-    other parameters' values, the points, and the iteration's transient, kept steps, cap
-    and the tolerance of its periods (:func:`settle`)."""
+    other parameters' values, the points, and the iteration's transient, kept steps and
+    cap (:func:`settle`)."""
     params = model.parameters({**fixed, over: float(points[0][over])})
     data: dict[str, Any] = {
         "model": model.name.replace("_", "-"),
@@ -81,7 +81,7 @@ def record(
         data["method"] = method
     data["points"] = points
     if keep:
-        data.update(transient=transient, keep=keep, max_steps=max_steps, period_tol=SETTLE_TOL)
+        data.update(transient=transient, keep=keep, max_steps=max_steps)
     return data
 
 

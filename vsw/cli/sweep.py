@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from vsw import limits, plotstyle, stop, sweeps
+from vsw.batch import APART
 from vsw.cli import options
 from vsw.cli.output import (
     INTEGRATOR,
@@ -43,7 +44,18 @@ from vsw.models.ile.plots import ile_sweep_plot
 from vsw.models.ile.sweep import sweep as closed_form_sweep
 from vsw.vectorize import default_threads
 
-__all__ = ["attractor_label", "register", "run"]
+__all__ = ["ATTRACTOR", "attractor_label", "register", "run"]
+
+ATTRACTOR = {
+    "attractor": (
+        "the map iterated by the compiled batch simulator (DOP853, rtol = atol = 1e-12) "
+        "until its last --keep steps repeat with a period p: every state within "
+        f"{sweeps.SETTLE_TOL:g} x max(1, |x|) of the one p steps before over at least two "
+        f"cycles, every shorter lag more than {APART:g} x that apart somewhere; "
+        "else not settled after --max-steps"
+    )
+}
+"""The iteration's settling rule, for the JSON's provenance (:func:`vsw.sweeps.settle`)."""
 
 ITERATION_OPTIONS = ("y", "keep", "transient", "max_steps", "brute_force", "state", "gait_number")
 
@@ -170,7 +182,8 @@ def run(args: argparse.Namespace) -> int:
         method = None
     swept = sweeps.record(model, fixed, name, points, keep, args.transient, method,
                           args.max_steps)  # fmt: skip
-    data = {**envelope(model, params, args.argv, {**INTEGRATOR, **ORBIT_SOLVER}), **swept}
+    tolerances = {**INTEGRATOR, **ORBIT_SOLVER, **(ATTRACTOR if keep else {})}
+    data = {**envelope(model, params, args.argv, tolerances), **swept}
     if args.plot is not None and not args.brute_force:
         with options.solver_errors(model):
             data["special_points"] = sweeps.located_points(model, fixed, name, points)
