@@ -378,3 +378,49 @@ def test_the_gait_file_is_byte_identical_from_run_to_run(optimized, tmp_path):
     code, out = _optimize_in(tmp_path)
     assert code == 3 and json.loads(out) == optimized[1]
     assert (tmp_path / "gait.json").read_bytes() == optimized[0].read_bytes()
+
+
+def test_a_failure_on_the_way_ends_the_replayed_walk(optimized, tmp_path):
+    """The hip torque 30 times the gait's lifts the stance foot off before heelstrike:
+    the walk ends there ('lift-off' after 0 steps, exit 0 as any walk that falls), no
+    event row in the trajectory, whose last row (sampled 1e4 times a second) has the
+    normal force with the torque's share near zero: the failure's guard and the reaction
+    agree."""
+
+    def stronger(document: dict) -> None:
+        inputs = document["gait"]["phases"][0]["inputs"]
+        inputs["hip_torque"] = [30 * u for u in inputs["hip_torque"]]
+
+    path = _mutated(optimized[0], tmp_path, stronger)
+    out_file = tmp_path / "fall.csv"
+    code, out, _ = _main(["simulate", "--gait", path, "--steps", "2", "--trajectory",
+                          str(out_file), "--rate", "10000", "--json"])  # fmt: skip
+    data = json.loads(out)
+    assert code == 0 and data["ended"] == "lift-off" and data["steps_completed"] == 0
+    rows = _rows(out_file)
+    assert all(r["event"] == "" for r in rows)
+    forces = [float(r["normal_force"]) for r in rows]
+    assert 0 <= forces[-1] < 1e-2 * max(forces)
+
+
+def test_an_unverified_gait_replays_with_a_note(optimized, tmp_path):
+    """A gait whose verification failed is replayed, and the text says so first."""
+
+    def unverified(document: dict) -> None:
+        document["gait"]["status"] = "unverified"
+        document["gait"]["verification"] = {"status": "failed", "reason": "no fixed point"}
+
+    path = _mutated(optimized[0], tmp_path, unverified)
+    code, out, _ = _main(["simulate", "--gait", path, "--steps", "1"])
+    assert code == 0
+    assert out.splitlines()[2] == ("note: the gait is unverified (no fixed point): its inputs "
+                                   "may not repeat the step")  # fmt: skip
+
+
+def test_optimize_out_in_a_missing_directory_is_one_line_before_the_work(tmp_path):
+    code, out, err = _main([*OPTIMIZE, "--out", str(tmp_path / "missing" / "gait.json")])
+    assert code == 2 and out == ""
+    assert err.strip().splitlines() == [
+        f"vsw: error: --out {tmp_path / 'missing' / 'gait.json'}: not a file in an existing "
+        "directory"
+    ]
