@@ -331,6 +331,7 @@ def _set(key: str, value):
         (lambda g, t: _text(t, '{"model": "compass-gait"}'), [], "not a gait file"),
         (lambda g, t: _mutated(g, t, _set("format_version", 2)), [], "format version 2"),
         (lambda g, t: _mutated(g, t, _drop("phases")), [], "phases is missing"),
+        (lambda g, t: _mutated(g, t, _set("status", "optimal?")), [], "status must be one of"),
         (lambda g, t: _mutated(g, t, _drop("impulses")), [], "impulses must name"),
         (lambda g, t: _mutated(g, t, _set("model", "level-compass-gait")), [],
          "not a gait of this model"),

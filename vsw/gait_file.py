@@ -256,7 +256,9 @@ def _saved(model: Any, record: dict, where: str) -> SavedGait:
     names = [*model.coordinates, *model.rates]
     start = _numbers(_field(record, "start", dict, where).get("state"), names, where,
                      "start.state")  # fmt: skip
-    _field(record, "status", str, where)
+    if _field(record, "status", str, where) not in STATUSES:
+        raise VswInputError(f"{where}: not a gait file: its status must be one of "
+                            f"{', '.join(STATUSES)}")  # fmt: skip
     phases = _field(record, "phases", list, where)
     sequence = model._phase_sequence()
     if [p.get("phase") if isinstance(p, dict) else None for p in phases] != [
