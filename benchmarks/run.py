@@ -832,7 +832,8 @@ def case_walks_against(ref: str, count: int, reps: int) -> list[Row]:
     """Case 15 with ``--against REF``: its walks (20 steps from ``count`` starts near each
     gait, the same starts on both sides, one thread, rtol = atol = 1e-10 and 1e-12) in this
     tree and in a checkout of ``ref``, each in a process of its own, the two trees'
-    processes alternately ``reps`` times: the whole walk as each tree's vsw runs it."""
+    processes alternately ``reps`` times (each tree first in turn): the whole walk as each
+    tree's vsw runs it."""
     keys = ("simplest_walker", "compass_gait", "vsw_biped")
     found: dict[str, list[dict]] = {"ours": [], "theirs": []}
     with _checkout(ref) as old, tempfile.TemporaryDirectory() as tmp:
@@ -841,8 +842,9 @@ def case_walks_against(ref: str, count: int, reps: int) -> list[Row]:
             _, params, starts = _near_gait_starts(key, count, BATCH_VALUES.get(key))
             given[f"{key} params"], given[f"{key} starts"] = np.asarray(params), starts
         np.savez(Path(tmp) / "starts.npz", **given)
-        for _ in range(reps):
-            for side, tree in (("ours", ROOT), ("theirs", old)):
+        for rep in range(reps):
+            sides = (("ours", ROOT), ("theirs", old))
+            for side, tree in sides if rep % 2 == 0 else sides[::-1]:  # either first in turn
                 env = {**os.environ, "PYTHONPATH": str(tree), "PYTHONDONTWRITEBYTECODE": "1"}
                 command = [sys.executable, "-c", TREE_WALKS, str(Path(tmp) / "starts.npz"), "5",
                            ",".join(keys)]  # fmt: skip

@@ -160,3 +160,28 @@ def test_one_thread_bills_at_most_one_core(inject, gait_kept):
             assert cpu <= BOUND * wall, said
             if others is not None:
                 assert others <= (BOUND - 1) * (cpu - others), said
+
+
+def test_limits_nest_and_give_back_each_setting():
+    """The smallest count in force applies, a larger one inside does not raise it, none
+    raises a library above its own setting, and leaving gives each library its setting."""
+    threadpoolctl = pytest.importorskip("threadpoolctl")
+    import numpy as np  # noqa: F401  (its BLAS loaded)
+
+    from vsw.blas import limited
+
+    def counts():
+        found = threadpoolctl.threadpool_info()
+        return [i["num_threads"] for i in found if i["user_api"] == "blas"]
+
+    before = counts()
+    assert before, "numpy's BLAS not found"
+    with limited(1):
+        assert set(counts()) == {1}
+        with limited(4):
+            assert set(counts()) == {1}
+        assert set(counts()) == {1}
+    assert counts() == before
+    with limited(10_000):
+        assert counts() == before
+    assert counts() == before
