@@ -109,10 +109,12 @@ def test_continuation_labels_do_not_overlap_in_a_cascade(tmp_path):
 
     from vsw.diagrams import continuation_plot
     from vsw.figures import save_figure
+    from vsw.plotstyle import PNG_DPI
 
     units = {"length": "l", "time": "sqrt(l/g)"}
     figure = continuation_plot(_cascade_record(), "step_length", units, "simplest walker")
     save_figure(figure, tmp_path / "cascade.png")
+    figure.set_dpi(PNG_DPI)  # measured at the resolution saved
     renderer = figure._get_renderer()
     labels = [t for t in figure.axes[0].texts if t.get_text() == "PD"]
     assert len(labels) == len(CASCADE_FLIPS)
@@ -123,6 +125,7 @@ def test_continuation_labels_do_not_overlap_in_a_cascade(tmp_path):
     anchors = [figure.axes[0].transData.transform(t.xy) for t in labels]
     closest = min(np.hypot(*(a - b)) for i, a in enumerate(anchors) for b in anchors[i + 1 :])
     assert closest < boxes[0].width  # the test's cascade does crowd the labels
+    figure = continuation_plot(_cascade_record(), "step_length", units, "simplest walker")
     again = continuation_plot(_cascade_record(), "step_length", units, "simplest walker")
     first = save_figure(figure, tmp_path / "a.svg").read_bytes()
     assert save_figure(again, tmp_path / "b.svg").read_bytes() == first

@@ -305,21 +305,28 @@ def continuation_plot(
 def _place_labels(fig: Figure, ax: Any, anchors: list[tuple[str, float, float]]) -> None:
     """Label each special point (text, parameter, value) beside it where the label's box
     meets no other label's: a cascade's flips lie a few pixels apart, and labels at one
-    fixed offset print over each other. The layout is settled and frozen first
-    (:func:`vsw.plotstyle.settle_layout`), so the boxes measured with the figure's renderer
-    are those saved; each label takes the first free slot, alternately above and below
-    its point and further out, joined to it by a thin line when not beside it."""
-    plotstyle.settle_layout(fig)
-    frame = ax.get_window_extent()
-    placed: list[Any] = []
-    for text, x, value in sorted(anchors, key=lambda a: (a[1], a[2])):
-        slot, offset, box = _free_slot(ax, text, (x, value), frame, placed)
-        leader = {"arrowprops": {"arrowstyle": "-", "linewidth": 0.4, "shrinkA": 0,
-                                 "shrinkB": 0, "color": COLORS["grey"],
-                                 "relpos": (0.0, 0.5)}} if slot else {}  # fmt: skip
-        ax.annotate(text, (x, value), textcoords="offset points", xytext=offset,
-                    fontsize="x-small", annotation_clip=False, **leader)  # fmt: skip
-        placed.append(box)
+    fixed offset print over each other. The layout is settled and frozen first, at the
+    resolution :func:`vsw.figures.save_figure` saves at (:func:`vsw.plotstyle
+    .settle_layout`), and the boxes are measured with the figure's renderer at that
+    resolution, so they are those saved; each label takes the first free slot,
+    alternately above and below its point and further out, joined to it by a thin line
+    when not beside it."""
+    plotstyle.settle_layout(fig, dpi=plotstyle.PNG_DPI)
+    shown = fig.dpi
+    fig.set_dpi(plotstyle.PNG_DPI)
+    try:
+        frame = ax.get_window_extent()
+        placed: list[Any] = []
+        for text, x, value in sorted(anchors, key=lambda a: (a[1], a[2])):
+            slot, offset, box = _free_slot(ax, text, (x, value), frame, placed)
+            leader = {"arrowprops": {"arrowstyle": "-", "linewidth": 0.4, "shrinkA": 0,
+                                     "shrinkB": 0, "color": COLORS["grey"],
+                                     "relpos": (0.0, 0.5)}} if slot else {}  # fmt: skip
+            ax.annotate(text, (x, value), textcoords="offset points", xytext=offset,
+                        fontsize="x-small", annotation_clip=False, **leader)  # fmt: skip
+            placed.append(box)
+    finally:
+        fig.set_dpi(shown)
 
 
 def _free_slot(ax: Any, text: str, xy: tuple[float, float], frame: Any, placed: list[Any]):
