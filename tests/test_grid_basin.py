@@ -267,7 +267,7 @@ def test_brute_force_attractor_is_the_scipy_routes(brute_force):
     "argv, words",
     [
         (["sweep", "--model", "simplest-walker", "--over", "gamma=0.01:0.02:3", "--state",
-          "theta=0"], ["--state", "--brute-force"]),
+          "theta=0"], ["--state", "phi"]),
         (["sweep", "--beta", "0.8", "--phi0", "45", "--over", "theta_II=0:0.1:3",
           "--brute-force"], ["--brute-force", "ile"]),
         (["sweep", "--model", "simplest-walker", "--over", "gamma=0.01:0.02:3",
