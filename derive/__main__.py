@@ -43,7 +43,7 @@ from types import SimpleNamespace
 os.environ.setdefault("SYMPY_CACHE_SIZE", "20000")
 
 from derive import manifest
-from derive.registry import MODEL_NAMES
+from derive.registry import MODEL_GROUPS, MODEL_MODULES, MODEL_NAMES
 
 ROOT = Path(__file__).resolve().parent.parent
 FIX_COMMAND = "python -m derive"
@@ -52,11 +52,20 @@ FIX_COMMAND = "python -m derive"
 # The renderers and the models are imported where a model is derived, not above: they
 # import sympy, most of a second, which a run with nothing to derive must not pay.
 def _render_model(name: str) -> dict[str, str]:
-    """One model's files (run in a worker process: models derive independently)."""
-    from derive import render
-    from derive.models import MODELS
+    """One model's files (run in a worker process: models derive independently). Only
+    the model's own module is imported (with what it imports), not every model's."""
+    import importlib
 
-    return render.render(MODELS[name]())
+    from derive import render
+
+    return render.render(importlib.import_module(MODEL_MODULES[name]).derive())
+
+
+def _render_group(names: tuple[str, ...]) -> list[dict[str, str]]:
+    """Models' files, one after the other in one process (a worker's task): a model that
+    shares a phase's dynamics with one derived before it in the process takes them from
+    the engine's cache (:data:`derive.registry.MODEL_GROUPS`)."""
+    return [_render_model(name) for name in names]
 
 
 FILE_MARKER = ".derived-by-vsw"
@@ -140,7 +149,7 @@ def _exit_with_parent(parent: int) -> None:
     threading.Thread(target=watch, name="derive-parent-watch", daemon=True).start()
 
 
-def _map_in_workers(function, items: list[str], workers: int) -> list:
+def _map_in_workers(function, items: list, workers: int) -> list:
     """``[function(item) for item in items]`` in ``workers`` forked processes.
 
     The workers are terminated at once when the parent is interrupted or terminated (a
@@ -196,21 +205,32 @@ def render_all(
     workers = min(len(names), len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
                   else os.cpu_count() or 1)  # fmt: skip
     if workers > 1:
-        # Large models first, so the workers finish closer together: the size of a model's
-        # generated module on disk is a rough stand-in for its derivation time (measured
-        # serially: biped 27 s, compass gait 25 s, TLE 19 s, ILE 9 s, simplest walker 7 s,
-        # rimless wheel 3 s); `--check` of every model went from 47 s to 40 s on 2 cores.
-        # The order only schedules; each model's files are its own.
+        # A worker's task is a group of models that share a phase's dynamics (derived once
+        # in the worker, MODEL_GROUPS), or one model; the large tasks first, so the workers
+        # finish closer together. The size of a model's generated module on disk is a rough
+        # stand-in for its derivation time. The order only schedules; each model's files are
+        # its own.
         def cost(name: str) -> int:
             module = ROOT / "generated" / name / "__init__.py"
             return module.stat().st_size if module.is_file() else 0
 
-        order = sorted(names, key=cost, reverse=True)
-        # The models and the engine are imported once, here, rather than by each worker:
-        # the forked workers share what the parent imported.
-        import derive.models  # noqa: F401
+        tasks = [tuple(n for n in group if n in names) for group in MODEL_GROUPS]
+        grouped = {n for task in tasks for n in task}
+        tasks = [task for task in tasks if task] + [(n,) for n in names if n not in grouped]
+        tasks.sort(key=lambda task: sum(cost(n) for n in task), reverse=True)
+        # What every worker imports is imported once, here: the forked workers share it
+        # (the engine and the models to derive, the renderers, CasADi for the C path).
+        import importlib
 
-        by_name = dict(zip(order, _map_in_workers(_render_model, order, workers)))
+        import derive.render  # noqa: F401
+
+        for name in names:
+            importlib.import_module(MODEL_MODULES[name])
+        with contextlib.suppress(ImportError):
+            import casadi  # noqa: F401
+
+        results = _map_in_workers(_render_group, tasks, workers)
+        by_name = {n: files for task, group in zip(tasks, results) for n, files in zip(task, group)}
         rendered = [by_name[name] for name in names]
     else:
         rendered = [_render_model(name) for name in names]

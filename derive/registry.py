@@ -29,3 +29,14 @@ MODEL_MODULES: dict[str, str] = {
 """Model name (its ``generated/<name>/`` package) -> module with its ``derive()``."""
 
 MODEL_NAMES: tuple[str, ...] = tuple(MODEL_MODULES)
+
+MODEL_GROUPS: tuple[tuple[str, ...], ...] = (
+    ("ile", "tle"),
+    ("vsw_biped", "vsw_biped_fte"),
+    ("point_mass_biped", "point_mass_biped_switch"),
+    ("free_vsw_biped", "free_vsw_biped_stop", "free_vsw_biped_push"),
+)
+"""Models with a phase of the same dynamics (coordinates, bodies, gravity, held values):
+``python -m derive`` gives each group to one worker process, which derives the shared
+dynamics once (the engine caches them per process). Scheduling only: each model's files
+are the same however the models are grouped."""

@@ -142,7 +142,7 @@ own nested ratio, a length ``c / (1 + 1/(a + b))``, divides by its parameters ho
 large the expression it sits in."""
 
 
-def refuse_nested_fraction(expr: sm.Expr) -> None:
+def refuse_nested_fraction(expr: sm.Expr, powers: Iterable[sm.Pow] | None = None) -> None:
     """Raise :class:`NestedFractionError` where ``expr`` divides by a sum that itself
     divides by a sum of sines or cosines, the two denominators' operations multiplying to
     more than ``_NESTED_FRACTION_OPS``.
@@ -153,8 +153,9 @@ def refuse_nested_fraction(expr: sm.Expr) -> None:
     result takes minutes for a two-link walker's impact with an impulse; the engine solves
     by Cramer's rule in polynomials instead (:func:`_cramer_fraction`). Every expansion
     checks this, so the derivation of every model (and of every user's model file) keeps
-    to it: a refusal names an engine defect, not a fault of the model."""
-    for power in expr.atoms(sm.Pow):
+    to it: a refusal names an engine defect, not a fault of the model. ``powers``: the
+    powers in ``expr`` where the caller has them already (``expr.atoms(sm.Pow)``)."""
+    for power in expr.atoms(sm.Pow) if powers is None else powers:
         base, exponent = power.args
         if not (exponent.is_negative and base.is_Add):
             continue
@@ -175,6 +176,37 @@ def refuse_nested_fraction(expr: sm.Expr) -> None:
                 )
 
 
+def _scan(expr: sm.Expr) -> tuple[set, set, set, bool] | None:
+    """``expr``'s symbols, powers and applied functions, and whether it holds a Float, in
+    one walk over its distinct subexpressions (``atoms`` walks every path to a shared
+    subexpression, once for each kind asked for). None where ``expr`` holds anything but
+    sums, products, powers, applied functions and atoms (then its free symbols may be
+    fewer than its symbols)."""
+    symbols, powers, functions = set(), set(), set()
+    has_float = False
+    seen = set()
+    stack = [expr]
+    while stack:
+        node = stack.pop()
+        if node in seen:
+            continue
+        seen.add(node)
+        if node.is_Atom:
+            if node.is_Symbol:
+                symbols.add(node)
+            elif node.is_Float:
+                has_float = True
+            continue
+        if node.is_Pow:
+            powers.add(node)
+        elif isinstance(node, sm.Function):
+            functions.add(node)
+        elif not (node.is_Add or node.is_Mul):
+            return None
+        stack.extend(node.args)
+    return symbols, powers, functions, has_float
+
+
 def expand(expr: sm.Expr) -> sm.Expr:
     """``sympy.expand`` done by SymEngine (what SymForce does its algebra with): the
     expanded polynomial is canonical, so sympy's own expansion and this one are the same
@@ -183,12 +215,20 @@ def expand(expr: sm.Expr) -> sm.Expr:
     two symbols of one name) is expanded by sympy. A large nested fraction is refused
     (:func:`refuse_nested_fraction`)."""
     expr = sm.sympify(expr)
-    refuse_nested_fraction(expr)
-    symbols = {s.name: s for s in expr.free_symbols}
+    scanned = _scan(expr)
+    if scanned is None:
+        refuse_nested_fraction(expr)
+        free = expr.free_symbols
+        functions = expr.atoms(sm.Function)
+        has_float = bool(expr.atoms(sm.Float))
+    else:
+        free, powers, functions, has_float = scanned
+        refuse_nested_fraction(expr, powers)
+    symbols = {s.name: s for s in free}
     if (
-        len(symbols) != len(expr.free_symbols)
-        or expr.atoms(sm.Function) - expr.atoms(*_SYMENGINE_FUNCTIONS)
-        or expr.atoms(sm.Float)
+        len(symbols) != len(free)
+        or any(not isinstance(f, _SYMENGINE_FUNCTIONS) for f in functions)
+        or has_float
     ):
         return sm.expand(expr)
     try:
@@ -237,9 +277,10 @@ def _simplify(expr: sm.Expr) -> sm.Expr:
         }
         if squares:
             expr = expand(expr.subs(squares))
-    # cancel returned every integer polynomial of the six models' derivations unchanged (it
-    # was a second of each two-link walker's derivation to find that out).
-    return expr if _integer_polynomial(expr) else sm.cancel(expr)
+    # cancel returns an expanded polynomial with rational coefficients unchanged (it puts
+    # the terms over their common denominator and multiplies the number back in): finding
+    # that out was a second of each two-link walker's derivation.
+    return expr if _rational_polynomial(expr) else sm.cancel(expr)
 
 
 def _sine_powers(expr: sm.Expr) -> dict | None:
@@ -261,13 +302,13 @@ def _sine_powers(expr: sm.Expr) -> dict | None:
     return powers
 
 
-def _integer_polynomial(expr: sm.Expr) -> bool:
-    """Whether the expanded ``expr`` is a polynomial with integer coefficients in its
-    symbols and functions (no division, no fractional power)."""
+def _rational_polynomial(expr: sm.Expr) -> bool:
+    """Whether the expanded ``expr`` is a polynomial with rational coefficients in its
+    symbols and functions (no division by them, no fractional power)."""
     for term in sm.Add.make_args(expr):
         for factor in sm.Mul.make_args(term):
             if factor.is_Number:
-                if not factor.is_Integer:
+                if not factor.is_Rational:
                     return False
                 continue
             exponent = factor.as_base_exp()[1]  # exp(-y) is (E, -y): a division

@@ -59,6 +59,7 @@ def _may_pair(a: sm.Expr, b: sm.Expr, cache: dict) -> bool:
 def tr10i(rv: sm.Expr) -> sm.Expr:
     """``sympy.simplify.fu.TR10i(rv)``, the same result in a fraction of the time."""
     cache: dict = {}
+    splits: dict = {}
 
     def f(rv):
         if not rv.is_Add:
@@ -91,7 +92,10 @@ def tr10i(rv: sm.Expr) -> sm.Expr:
                         rv = do(rv)
                 return rv
 
-            split = trig_split(*args, two=True)
+            pair = (args[0], args[1])
+            if pair not in splits:  # a pair is tried again after each hit in its sum
+                splits[pair] = trig_split(*args, two=True)
+            split = splits[pair]
             if not split:
                 return rv
             gcd, n1, n2, a, b, same = split
