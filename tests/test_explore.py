@@ -405,7 +405,7 @@ def test_the_slope_slider_reaches_the_compass_gaits_period_doublings():
     """The hybrid explorer's slope slider spans the parameter table's interval, so it
     reaches past the compass gait's first period doubling and on to where its walks fail;
     every slider's grid passes through its start value, strictly inside the interval."""
-    from vsw.explore_page import WIDE, spec
+    from vsw.explore_page import FINE, WIDE, spec
     from vsw.models import load
 
     model = load("compass-gait")
@@ -415,11 +415,13 @@ def test_the_slope_slider_reaches_the_compass_gaits_period_doublings():
     gamma = sliders["gamma"]
     assert gamma["min"] < 1.0 and gamma["max"] > fail > flip
     assert gamma["max"] >= 90.0 - 2 * gamma["step"]  # the table's (0, pi/2), in degrees
+    assert gamma["step"] <= 1e-3 * gamma["value"]  # as fine near the start as across it
     for p, value in zip(model.parameter_table, params):
         s = sliders[p.name]
         shown = math.degrees(value) if p.unit == "rad" else value
         k = (shown - s["min"]) / s["step"]
         assert abs(k - round(k)) < 1e-6, p.name  # the start value is on the grid
+        assert s["step"] <= FINE * abs(shown) * 1.005, p.name
         low, high = (math.degrees(v) for v in (p.lower, p.upper)) if p.unit == "rad" else (
             p.lower, p.upper)  # fmt: skip
         assert low < s["min"] <= shown <= s["max"] < high, p.name

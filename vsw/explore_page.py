@@ -50,7 +50,10 @@ keeps its sliders at the gait's parameters."""
 
 
 SLIDER_STEPS = 1000
-"""Grid steps across a slider."""
+"""Grid steps across a slider, at least (more where a step would exceed :data:`FINE`)."""
+FINE = 1e-3
+"""A slider's step is at most this fraction of its start value (a slope of 0.5 degrees on
+a slider to 90 degrees still moves by 0.0005 degrees a key press)."""
 WIDE = 10.0
 """A slider without both bounds in the parameter table spans value / WIDE to value * WIDE."""
 
@@ -58,8 +61,9 @@ WIDE = 10.0
 def _slider(p: Any, value: float) -> dict[str, Any]:
     """A parameter's slider (angles in degrees): across the parameter table's open interval
     where both its ends are finite (inside what vsw computes), else from a tenth to ten
-    times the value; a grid of :data:`SLIDER_STEPS` through the value itself (a browser
-    snaps a slider to min + k step: the start must be on it), strictly inside the interval."""
+    times the value; a grid of :data:`SLIDER_STEPS` steps or more (:data:`FINE`) through
+    the value itself (a browser snaps a slider to min + k step: the start must be on it),
+    strictly inside the interval."""
     low, high = p.computed or (p.lower, p.upper)
     if p.unit == "rad":
         value, low, high = math.degrees(value), math.degrees(low), math.degrees(high)
@@ -69,7 +73,10 @@ def _slider(p: Any, value: float) -> dict[str, Any]:
         want_low, want_high = sorted((value / WIDE, value * WIDE))
     else:
         want_low, want_high = -1.0, 1.0
-    step = float(f"{(want_high - want_low) / SLIDER_STEPS:.3g}")
+    step = (want_high - want_low) / SLIDER_STEPS
+    step = min(step, FINE * abs(value)) if value else step
+    digit = math.floor(math.log10(step)) - 2  # three significant digits, rounded down
+    step = float(f"{math.floor(step / 10.0**digit)}e{digit}")
     inside = (math.floor((value - low) / step) - 1, math.floor((high - value) / step) - 1)
     below = max(0, min(math.floor((value - want_low) / step), inside[0]))
     above = max(0, min(math.floor((want_high - value) / step), inside[1]))
