@@ -323,6 +323,42 @@ class BatchSimulator:
             run_blocks(block, range(0, n, CHUNK), threads)
         return out
 
+    def walk_varying(
+        self,
+        step_params: Callable[[np.ndarray, int], np.ndarray],
+        states: np.ndarray,
+        steps: int,
+        *,
+        threads: int | None = None,
+        tolerance: float = _RTOL,
+    ) -> BatchResult:
+        """Walk every row of ``states`` up to ``steps`` steps, each step with parameters of
+        its own: step ``k`` (from 0) of the walks still walking takes the parameter rows
+        ``step_params(walks, k)`` (``walks``: their row indices, ascending), e.g. a slope
+        drawn at each step event (:mod:`vsw.rough`). A walk ends WALKED (every step), FELL
+        or STALLED; no convergence or period checks, nothing kept. Each step is one
+        :meth:`walk` of one step over the walks still walking, so a walk's result depends on
+        its own rows alone (not on the thread count, the blocks or the other walks)."""
+        states = np.array(states, dtype=float)
+        out = _empty_result(len(states), self.nx, 0, self.failures)
+        out.final[:] = states
+        alive, routes = np.arange(len(states)), set()
+        for k in range(steps):
+            if not alive.size:
+                break
+            stop.check()
+            part = self.walk(step_params(alive, k), out.final[alive], 1, converge_tol=0.0,
+                             period_tol=0.0, threads=threads, tolerance=tolerance)  # fmt: skip
+            routes.add(part.route)
+            walked = part.outcome == WALKED
+            out.final[alive] = part.final
+            out.steps[alive] += part.steps
+            out.outcome[alive[~walked]] = part.outcome[~walked]
+            out.aux[alive[~walked]] = part.aux[~walked]
+            alive = alive[walked]
+        out.route = "; ".join(sorted(routes - {"compiled"})) or "compiled"
+        return out
+
     def step(
         self, params, states, threads: int | None = None, tolerance: float = _RTOL
     ) -> BatchResult:
