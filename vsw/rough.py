@@ -1,0 +1,327 @@
+"""Walking on rough ground: the mean first-passage time (MFPT) of a walker on stochastic
+terrain, by Monte Carlo over the batch simulator (:mod:`vsw.batch`).
+
+Byl & Tedrake ("Metastable walking machines", Int. J. Robotics Research 28(8), 2009) make
+a walker's robustness one number: the expected number of steps it takes on stochastic
+terrain before it falls. The terrain here is theirs in its simplest form, a slope drawn
+per step: step ``k`` (from 0) is walked on the slope
+
+    gamma_k = gamma0 + sigma * xi_k,  xi_k i.i.d. standard normal,
+
+drawn at the step event that starts step ``k`` and held for the whole step; the state
+after an impact is taken as it is into the next step's slope (the impact is the model's,
+in the slope's own frame). The slope is the model's parameter :data:`SLOPE`; a model
+without one is refused.
+
+The draws are counter-based (numpy's Philox keyed by the seed and the walk's index, its
+counter by a block of :data:`BLOCK` steps): walk ``w``'s slopes depend on ``(seed, w)``
+alone, so the results are the same for any thread count, block size, or split of the
+walks into parts.
+
+A walk ends at its first failure (the model's own: a fall, a lift-off, a stall of the
+integration) or after ``max_steps`` steps (censored). :func:`mfpt_estimate` states the
+estimator.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from vsw import blas, plotstyle
+from vsw.batch import simulator
+from vsw.errors import VswInputError
+from vsw.hybrid import Orbit
+from vsw.models.base import Model
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+__all__ = [
+    "BLOCK",
+    "SLOPE",
+    "MfptEstimate",
+    "RoughWalks",
+    "SlopeTerrain",
+    "check_inputs",
+    "mfpt_estimate",
+    "rough_walks",
+    "slope_index",
+    "survival_plot",
+    "terrain_noise",
+]
+
+SLOPE = "gamma"
+"""The slope parameter's name (radians, downhill positive) in every model that has one."""
+
+BLOCK = 64
+"""Steps drawn at once per walk: one Philox stream per (seed, walk, block)."""
+
+MAX_SEED = 2**63 - 1
+MAX_WALKS = 10_000_000
+MAX_STEPS = 1_000_000
+Z95 = 1.959963984540054
+"""The standard normal's 97.5 % quantile: a two-sided 95 % interval."""
+
+
+def slope_index(model: Model) -> int:
+    """The index of the model's slope parameter, or one line saying it has none."""
+    names = tuple(model.spec["parameters"])
+    if SLOPE not in names:
+        raise VswInputError(
+            f"{model.cli_name} has no slope parameter {SLOPE} (its parameters: "
+            f"{', '.join(names)}): rough ground needs a model on a slope"
+        )
+    return names.index(SLOPE)
+
+
+def check_inputs(sigma: float, walks: int, max_steps: int, seed: int) -> None:
+    """One line for a noise level, walk count, step count or seed out of range."""
+    if not math.isfinite(sigma) or sigma < 0:
+        raise VswInputError(f"sigma = {sigma:g} must be a finite number >= 0")
+    for name, value, most in (("walks", walks, MAX_WALKS), ("max_steps", max_steps, MAX_STEPS)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+            raise VswInputError(f"{name} = {value!r} must be an integer")
+        if not 1 <= value <= most:
+            raise VswInputError(f"{name} = {value} must be from 1 to {most}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+        raise VswInputError(f"seed = {seed!r} must be an integer")
+    if not 0 <= seed <= MAX_SEED:
+        raise VswInputError(f"seed = {seed} must be from 0 to {MAX_SEED}")
+
+
+def terrain_noise(seed: int, walks: Sequence[int] | np.ndarray, block: int) -> np.ndarray:
+    """The standard normal draws xi of steps ``block * BLOCK`` .. ``(block + 1) * BLOCK - 1``
+    of each walk in ``walks`` (global indices), shape (len(walks), BLOCK): Philox with the
+    key (seed, walk) and the counter's second word the block."""
+    out = np.empty((len(walks), BLOCK))
+    for row, walk in enumerate(walks):
+        bits = np.random.Philox(key=[int(seed), int(walk)], counter=[0, int(block), 0, 0])
+        out[row] = np.random.Generator(bits).standard_normal(BLOCK)
+    return out
+
+
+class SlopeTerrain:
+    """The per-step parameter rows of walks on a random slope, for
+    :meth:`vsw.batch.BatchSimulator.walk_varying`: ``terrain(rows, k)`` is the parameter
+    rows of step ``k`` of the walks ``first_walk + rows`` (the slope gamma0 + sigma xi)."""
+
+    def __init__(
+        self, params: Sequence[float], index: int, sigma: float, seed: int, first_walk: int = 0
+    ) -> None:
+        self.params = np.asarray(params, dtype=float)
+        self.index, self.sigma, self.seed, self.first_walk = index, sigma, seed, first_walk
+        self._block = -1
+        self._xi = np.zeros((0, BLOCK))
+        self._drawn = np.zeros(0, dtype=bool)
+
+    def noise(self, rows: np.ndarray, k: int) -> np.ndarray:
+        """xi of step ``k`` of the walks ``first_walk + rows``."""
+        rows = np.asarray(rows, dtype=np.int64)
+        block = k // BLOCK
+        size = int(rows.max()) + 1 if rows.size else 0
+        if block != self._block or size > len(self._drawn):
+            self._block = block
+            self._xi = np.zeros((max(size, len(self._drawn)), BLOCK))
+            self._drawn = np.zeros(len(self._xi), dtype=bool)
+        missing = rows[~self._drawn[rows]]
+        if missing.size:
+            self._xi[missing] = terrain_noise(self.seed, self.first_walk + missing, block)
+            self._drawn[missing] = True
+        return self._xi[rows, k % BLOCK]
+
+    def slopes(self, rows: np.ndarray, k: int) -> np.ndarray:
+        """The slope of step ``k`` of the walks ``first_walk + rows``."""
+        return self.params[self.index] + self.sigma * self.noise(rows, k)
+
+    def __call__(self, rows: np.ndarray, k: int) -> np.ndarray:
+        out = np.tile(self.params, (len(rows), 1))
+        out[:, self.index] = self.slopes(rows, k)
+        return out
+
+
+@dataclass(frozen=True)
+class MfptEstimate:
+    """The MFPT (steps completed before the first failure) with its standard error and a
+    95 % interval (``high`` None: unbounded above); ``mfpt`` None where no walk failed."""
+
+    mfpt: float | None
+    se: float | None
+    low: float
+    high: float | None
+    estimator: str
+    walks: int
+    failures: int
+    censored: int
+    total_steps: int
+
+
+def mfpt_estimate(steps: np.ndarray, failed: np.ndarray) -> MfptEstimate:
+    """The MFPT from walks that completed ``steps`` steps each, ``failed`` where a failure
+    ended them (else censored: they walked every step).
+
+    Every walk's step is a trial that fails with probability p (Byl & Tedrake 2009: far
+    from the start, a metastable walker's first passage is geometric, p = 1 - lambda_2).
+    With S steps completed over all walks and F failures the likelihood is
+    p^F (1 - p)^S, so the maximum-likelihood MFPT is (1 - p)/p = S / F, the censored walks
+    counted by their steps. Nothing censored, S / F is the sample mean, given with the
+    sample's standard error and the normal 95 % interval. With censored walks the standard
+    error is the Fisher information's, S/F sqrt((S + F)/(S F)), and the interval is
+    symmetric in log MFPT. No failure: no estimate, and the 95 % lower bound
+    (1 - p_max)/p_max with p_max = 1 - 0.05^(1/S)."""
+    steps = np.asarray(steps, dtype=np.int64)
+    failed = np.asarray(failed, dtype=bool)
+    walks, total = len(steps), int(steps.sum())
+    fails, censored = int(failed.sum()), int((~failed).sum())
+    if fails == 0:
+        p_max = -math.expm1(math.log(0.05) / total) if total else 1.0
+        return MfptEstimate(None, None, (1 - p_max) / p_max, None,
+                            "no failure: the 95 % lower bound of a geometric first passage",
+                            walks, 0, censored, total)  # fmt: skip
+    mfpt = total / fails
+    if censored == 0:
+        se = float(np.std(steps, ddof=1)) / math.sqrt(walks) if walks > 1 else math.inf
+        return MfptEstimate(mfpt, se, max(0.0, mfpt - Z95 * se), mfpt + Z95 * se,
+                            "sample mean (no walk censored)", walks, fails, 0, total)  # fmt: skip
+    spread = math.sqrt((total + fails) / (total * fails))
+    return MfptEstimate(mfpt, mfpt * spread, mfpt * math.exp(-Z95 * spread),
+                        mfpt * math.exp(Z95 * spread),
+                        "geometric maximum likelihood, censored walks counted by their steps",
+                        walks, fails, censored, total)  # fmt: skip
+
+
+@dataclass
+class RoughWalks:
+    """Walks on a random slope from one start (see :func:`rough_walks`)."""
+
+    model: str
+    parameters: dict[str, float]
+    sigma: float
+    seed: int
+    max_steps: int
+    start: dict[str, float]
+    gait: Orbit | None
+    steps: np.ndarray
+    ended: list[str]
+    route: str = "compiled"
+
+    @property
+    def failed(self) -> np.ndarray:
+        return np.array([e != "walked" for e in self.ended], dtype=bool)
+
+    def estimate(self) -> MfptEstimate:
+        return mfpt_estimate(self.steps, self.failed)
+
+    def failures_by_kind(self) -> dict[str, int]:
+        kinds = [e for e in self.ended if e != "walked"]
+        return {kind: kinds.count(kind) for kind in sorted(set(kinds))}
+
+    def survival(self) -> tuple[np.ndarray, np.ndarray]:
+        """The survival curve: the fraction of walks that completed at least ``k`` steps,
+        at ``k`` = 0, each step count where it drops, and ``max_steps``."""
+        ks = np.unique(np.concatenate([[0, self.max_steps], self.steps[self.failed] + 1]))
+        ks = ks[ks <= self.max_steps]
+        fraction = (self.steps[None, :] >= ks[:, None]).mean(axis=1)
+        return ks, fraction
+
+    def to_dict(self) -> dict[str, Any]:
+        e = self.estimate()
+        ks, fraction = self.survival()
+        mfpt = {"value": e.mfpt, "se": e.se, "low": e.low, "high": e.high}
+        return {
+            "model": self.model,
+            "parameters": self.parameters,
+            "terrain": "slope",
+            "sigma": self.sigma,
+            "seed": self.seed,
+            "walks": e.walks,
+            "max_steps": self.max_steps,
+            "start": self.start,
+            "gait": None if self.gait is None else self.gait.to_dict(),
+            "mfpt": mfpt,
+            "estimator": e.estimator,
+            "failures": e.failures,
+            "censored": e.censored,
+            "steps_walked": e.total_steps,
+            "failures_by_kind": self.failures_by_kind(),
+            "survival": {"steps": ks.tolist(), "fraction": fraction.tolist()},
+            "simulator": self.route,
+            "fields": {
+                "sigma": f"standard deviation of the slope {SLOPE} drawn per step",
+                "mfpt": "steps completed before the first failure: value, standard error, "
+                "95 % interval (low, high; high null: unbounded)",
+                "censored": "walks that completed max_steps steps without failing",
+                "survival": "fraction of walks that completed at least each number of steps",
+            },
+        }
+
+
+def rough_walks(
+    model: Model,
+    params: Sequence[float],
+    sigma: float,
+    walks: int = 1000,
+    max_steps: int = 1000,
+    seed: int = 0,
+    *,
+    start: Sequence[float] | None = None,
+    gait: Orbit | None = None,
+    threads: int | None = None,
+) -> RoughWalks:
+    """``walks`` walks of at most ``max_steps`` steps on the slope gamma0 + sigma xi_k
+    (gamma0 the parameter's value in ``params``), each from ``start`` (a section state) or
+    else from the stable period-one gait at ``params``. Byl & Tedrake (2009), Sec. 3."""
+    index = slope_index(model)
+    check_inputs(sigma, walks, max_steps, seed)
+    names = (*model.coordinates, *model.rates)
+    with blas.limited(threads):
+        if start is None:
+            gait = gait or model.stable_gait(params, "no gait to start the walks from")
+            start = [gait.state[n] for n in names]
+        x0 = np.asarray(start, dtype=float)
+        if x0.shape != (len(names),) or not np.all(np.isfinite(x0)):
+            raise VswInputError(f"start must be {len(names)} finite values ({', '.join(names)})")
+        terrain = SlopeTerrain(params, index, sigma, seed)
+        result = simulator(model).walk_varying(terrain, np.tile(x0, (walks, 1)), max_steps,
+                                               threads=threads)  # fmt: skip
+    return RoughWalks(
+        model=model.name,
+        parameters=dict(zip(model.spec["parameters"], (float(p) for p in params))),
+        sigma=float(sigma),
+        seed=int(seed),
+        max_steps=int(max_steps),
+        start=dict(zip(names, (float(v) for v in x0))),
+        gait=gait,
+        steps=result.steps.copy(),
+        ended=result.ended(),
+        route=result.route,
+    )
+
+
+def survival_plot(data: Mapping[str, Any], title: str | None = None) -> Figure:
+    """The survival curve of a :meth:`RoughWalks.to_dict` record (a step function, log
+    scale) with the geometric law of the estimate, (MFPT/(MFPT + 1))^k, dashed."""
+    with plotstyle.context():
+        fig, ax = plotstyle.new_figure()
+        ks = np.asarray(data["survival"]["steps"], dtype=float)
+        fraction = np.asarray(data["survival"]["fraction"], dtype=float)
+        shown = fraction > 0
+        ax.step(ks[shown], fraction[shown], where="post", color=plotstyle.COLORS["blue"],
+                label="walks (Monte Carlo)")  # fmt: skip
+        mfpt = data["mfpt"]["value"]
+        if mfpt is not None and mfpt > 0:
+            k = np.linspace(0.0, float(data["max_steps"]), 200)
+            ax.plot(k, (mfpt / (mfpt + 1.0)) ** k, "--", color=plotstyle.COLORS["vermillion"],
+                    label=f"geometric, MFPT {mfpt:.4g}")  # fmt: skip
+        ax.set_yscale("log")
+        ax.set_xlabel("steps $k$")
+        ax.set_ylabel("walks still walking after $k$ steps")
+        ax.set_xlim(0, float(data["max_steps"]))
+        ax.legend(loc="lower left")
+        if title:
+            ax.set_title(title)
+    return fig
