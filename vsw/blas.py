@@ -12,9 +12,9 @@ each gets back the setting it had.
 The setting is the process's (OpenBLAS has one pool), so nested and concurrent blocks
 share it: the smallest N among the blocks in force applies while any of them runs. A BLAS
 library loaded after a block began (SciPy's, on its first import) is bounded from the next
-block entered, as every entry point that runs walks enters one. Workers a BLAS call made
-before the block are not stopped by it: they sleep once their spin ends (a few
-milliseconds).
+block entered, as every entry point that runs walks enters one. Workers that a BLAS call
+made before the block woke are not stopped by it: they spin on until their timeout, then
+sleep.
 
 The walks themselves make no BLAS call (vsw/csrc, elementwise numpy): the limit bounds the
 gait search, the solves and eigenvalues around them, and whatever else the command runs.
