@@ -153,9 +153,7 @@ def trig_pairs(exprs: list[sm.Expr]) -> tuple[list[sm.Expr], list[tuple[str, str
     Returns the rewritten expressions and ``(cos name, sin name, a)`` for each distinct
     argument ``a``, in a deterministic order. Named after ``a`` when it is a symbol.
     """
-    arguments = sorted(
-        {f.args[0] for e in exprs for f in e.atoms(sm.cos, sm.sin)}, key=sm.default_sort_key
-    )
+    arguments = sorted(_trig_arguments(exprs), key=sm.default_sort_key)
     pairs, substitution = [], {}
     for k, a in enumerate(arguments):
         stem = a.name if isinstance(a, sm.Symbol) else f"t{k}"
@@ -163,7 +161,32 @@ def trig_pairs(exprs: list[sm.Expr]) -> tuple[list[sm.Expr], list[tuple[str, str
         substitution[sm.cos(a)] = sm.Symbol(cos_name, real=True)
         substitution[sm.sin(a)] = sm.Symbol(sin_name, real=True)
         pairs.append((cos_name, sin_name, a))
-    return [_replace(e, substitution, {}) for e in exprs], pairs
+    memo: dict = {}  # one for every expression: they share subexpressions
+    return [_replace(e, substitution, memo) for e in exprs], pairs
+
+
+def _trig_arguments(exprs: list[sm.Expr]) -> set[sm.Expr]:
+    """The arguments of every cos and sin in ``exprs``: ``atoms(cos, sin)``'s, in one walk
+    over their distinct subexpressions (``atoms`` walks a shared one once per path)."""
+    arguments, seen = set(), set()
+    stack = list(exprs)
+    while stack:
+        node = stack.pop()
+        if node in seen:
+            continue
+        seen.add(node)
+        if isinstance(node, (sm.cos, sm.sin)):
+            arguments.add(node.args[0])
+        stack.extend(node.args)
+    return arguments
+
+
+def replace_unevaluated(expr: sm.Expr, substitution: dict) -> sm.Expr:
+    """``expr.xreplace(substitution)`` with every Min and Max rebuilt unevaluated: where
+    evaluation would order none of their arguments (as for margins that are different
+    functions of the parameters), the same expression without comparing each pair
+    symbolically."""
+    return _replace(expr, substitution, {})
 
 
 def _replace(expr: sm.Expr, substitution: dict, memo: dict) -> sm.Expr:

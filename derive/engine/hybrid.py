@@ -1118,7 +1118,7 @@ def integrate_polynomial_trig(expr: sm.Expr, s: sm.Symbol, low: sm.Expr, high: s
     p^(2j+1) / a**(2j+2)``); None for any other integrand. Seconds faster than
     :func:`sympy.integrate` on a degree-9 polynomial with symbolic coefficients.
     """
-    groups: dict[sm.Expr, sm.Expr] = {}
+    groups: dict[sm.Expr, list[sm.Expr]] = {}
     for term in sm.Add.make_args(expand(expr)):
         trig = [f for f in sm.Mul.make_args(term) if isinstance(f, (sm.sin, sm.cos)) and f.has(s)]
         if len(trig) > 1:
@@ -1127,10 +1127,11 @@ def integrate_polynomial_trig(expr: sm.Expr, s: sm.Symbol, low: sm.Expr, high: s
         rest = term / key
         if not rest.is_polynomial(s):
             return None
-        groups[key] = groups.get(key, sm.Integer(0)) + rest
+        groups.setdefault(key, []).append(rest)
     antiderivative = sm.Integer(0)
-    for key, coefficient in sorted(groups.items(), key=lambda kv: sm.default_sort_key(kv[0])):
-        poly = sm.Poly(coefficient, s)
+    for key, terms in sorted(groups.items(), key=lambda kv: sm.default_sort_key(kv[0])):
+        # One sum of the group's terms (adding them one by one rebuilt it for each term).
+        poly = sm.Poly(sm.Add(*terms), s)
         if key == 1:
             antiderivative += poly.integrate().as_expr()
             continue

@@ -16,6 +16,7 @@ import functools
 import sympy as sm
 
 from derive import mechanics
+from derive.codegen import replace_unevaluated
 from derive.elliptic import pendulum_travel_time
 from derive.engine import c_exports
 from derive.engine.hybrid import (
@@ -998,7 +999,9 @@ def derive() -> Derivation:
         Condition(
             name="stance_contact",
             equation=None,
-            margin=ac["contact_margin"].subs(q, qf),
+            # Unevaluated Min and Max: evaluation compares the phases' margins pairwise
+            # (half a second of the model's derivation) and orders none of them.
+            margin=replace_unevaluated(ac["contact_margin"], {q: qf}),
             strict=False,
             status="missing",
             physical=True,

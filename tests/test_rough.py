@@ -1,0 +1,235 @@
+"""Walking on rough ground: the per-step slope terrain, the Monte Carlo MFPT and its
+estimator (Byl & Tedrake 2009), and ``vsw rough``."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import vsw.batch
+from vsw.batch import WALKED, simulator
+from vsw.cli import main
+from vsw.errors import VswInputError
+from vsw.models import load
+from vsw.rough import (
+    BLOCK,
+    SlopeTerrain,
+    mfpt_estimate,
+    rough_walks,
+    slope_index,
+    terrain_noise,
+)
+
+SIGMA = 0.0015
+"""A slope noise (rad) at which the simplest walker's MFPT is a few tens of steps."""
+
+
+@pytest.fixture(scope="module")
+def walker():
+    model = load("simplest-walker")
+    params = model.parameters({})
+    gait = model.stable_gait(params, "the tests' start")
+    start = np.array([gait.state[n] for n in (*model.coordinates, *model.rates)])
+    return model, params, gait, start
+
+
+# --- the terrain --------------------------------------------------------------------------------
+
+
+def test_terrain_noise_depends_on_seed_walk_and_block_alone():
+    many = terrain_noise(7, np.arange(10), 2)
+    np.testing.assert_array_equal(terrain_noise(7, [4], 2)[0], many[4])
+    np.testing.assert_array_equal(terrain_noise(7, [9, 4], 2), many[[9, 4]])
+    assert not np.array_equal(terrain_noise(8, [4], 2), many[[4]])
+    assert not np.array_equal(terrain_noise(7, [4], 3), many[[4]])
+    # Standard normal: over 4000 x 64 draws the mean within 4 standard errors of 0, the
+    # variance of 1, and no correlation between one walk's consecutive steps.
+    xi = terrain_noise(0, np.arange(4000), 0)
+    n = xi.size
+    assert abs(xi.mean()) < 4 / math.sqrt(n)
+    assert abs(xi.var() - 1) < 4 * math.sqrt(2 / n)
+    lag = np.mean(xi[:, 1:] * xi[:, :-1])
+    assert abs(lag) < 4 / math.sqrt(xi[:, 1:].size)
+
+
+def test_slope_terrain_is_the_walks_own_across_blocks_and_offsets(walker):
+    model, params, _, _ = walker
+    index = slope_index(model)
+    whole = SlopeTerrain(params, index, 0.01, 3)
+    part = SlopeTerrain(params, index, 0.01, 3, first_walk=5)
+    rows = np.arange(5, 12)
+    for k in (0, BLOCK - 1, BLOCK, 3 * BLOCK + 5):
+        np.testing.assert_array_equal(whole(rows, k), part(rows - 5, k))
+        expected = params[index] + 0.01 * terrain_noise(3, rows, k // BLOCK)[:, k % BLOCK]
+        np.testing.assert_array_equal(whole.slopes(rows, k), expected)
+
+
+def test_a_model_without_a_slope_is_refused():
+    with pytest.raises(VswInputError, match="no slope parameter gamma"):
+        slope_index(load("vsw-biped"))
+
+
+# --- the walks ----------------------------------------------------------------------------------
+
+
+def test_walks_do_not_depend_on_threads_blocks_or_partition(walker, monkeypatch):
+    model, params, gait, start = walker
+    runs = [rough_walks(model, params, SIGMA, 300, 150, 11, gait=gait, threads=t) for t in (1, 2)]
+    monkeypatch.setattr(vsw.batch, "CHUNK", 7)
+    runs.append(rough_walks(model, params, SIGMA, 300, 150, 11, gait=gait, threads=2))
+    for other in runs[1:]:
+        np.testing.assert_array_equal(other.steps, runs[0].steps)
+        assert other.ended == runs[0].ended
+    # Walks 200..299 alone, as a part of the walks elsewhere would run them.
+    terrain = SlopeTerrain(params, slope_index(model), SIGMA, 11, first_walk=200)
+    part = simulator(model).walk_varying(terrain, np.tile(start, (100, 1)), 150, threads=1)
+    np.testing.assert_array_equal(part.steps, runs[0].steps[200:])
+    assert part.ended() == runs[0].ended[200:]
+    assert 1 < len(set(runs[0].steps.tolist())) and "walked" in runs[0].ended
+
+
+def test_the_walks_are_the_scipy_routes_on_the_same_slopes(walker):
+    """Three walks by the batch simulator equal the SciPy route's steps
+    (:meth:`HybridModel.step`) on the same slopes: step counts, failures, states."""
+    model, params, _, start = walker
+    index = slope_index(model)
+    terrain = SlopeTerrain(params, index, 0.002, 5)
+    batch = simulator(model).walk_varying(terrain, np.tile(start, (3, 1)), 60, threads=1)
+    for w in range(3):
+        x, k, ended = start.copy(), 0, "walked"
+        while k < 60:
+            p = list(params)
+            p[index] = float(terrain.slopes(np.array([w]), k)[0])
+            step = model.step(tuple(p), x)
+            if step.ended != "completed":
+                ended = step.ended
+                break
+            x, k = step.state, k + 1
+        assert (int(batch.steps[w]), batch.ended()[w]) == (k, ended)
+        if ended == "walked":
+            np.testing.assert_allclose(batch.final[w], x, atol=1e-8)
+
+
+def test_mfpt_agrees_with_an_independent_simulation(walker):
+    """The batch Monte Carlo against walks of the compiled scalar step (step_phases) one at
+    a time, on slopes from another generator (numpy's default PCG64), the plain mean of
+    their first-passage steps: within three combined standard errors."""
+    model, params, gait, start = walker
+    mc = rough_walks(model, params, SIGMA, 1000, 5000, 1, gait=gait).estimate()
+    assert mc.censored == 0 and mc.estimator.startswith("sample mean")
+    rng = np.random.default_rng(20090101)
+    sim, index, counts = simulator(model), slope_index(model), []
+    for _ in range(300):
+        x, k = start.copy(), 0
+        while True:
+            p = list(params)
+            p[index] += SIGMA * rng.standard_normal()
+            step = sim.step_phases(p, x)
+            if step.ended != "completed":
+                break
+            x, k = step.state, k + 1
+        counts.append(k)
+    mean, se = np.mean(counts), np.std(counts, ddof=1) / math.sqrt(len(counts))
+    assert 10 < mc.mfpt < 100
+    assert abs(mc.mfpt - mean) <= 3 * math.hypot(mc.se, se), (mc, mean, se)
+
+
+def test_no_noise_no_failure(walker):
+    model, params, gait, _ = walker
+    r = rough_walks(model, params, 0.0, 20, 300, 0, gait=gait)
+    e = r.estimate()
+    assert (e.mfpt, e.failures, e.censored, e.total_steps) == (None, 0, 20, 6000)
+    # The 95 % bound of p is 1 - 0.05^(1/6000), about 3/6000 (the rule of three).
+    p_max = 1 - 0.05 ** (1 / 6000)
+    assert e.low == pytest.approx((1 - p_max) / p_max, rel=1e-9)
+    assert e.low == pytest.approx(6000 / 3, rel=2e-3)
+    assert set(r.ended) == {"walked"}
+    ks, fraction = r.survival()
+    assert ks.tolist() == [0, 300] and fraction.tolist() == [1.0, 1.0]
+
+
+# --- the estimator ------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("cap", [10_000, 40])
+def test_the_interval_covers_a_known_mfpt(cap):
+    """Geometric first passages of known MFPT (p = 1/31: MFPT 30), censored at ``cap``
+    steps or not: the 95 % interval covers 30 in 93-97 % of 2000 samples of 300 walks,
+    and the estimates average to 30 within 1 %."""
+    rng = np.random.default_rng(0)
+    covered, values = 0, []
+    for _ in range(2000):
+        t = rng.geometric(1 / 31, size=300) - 1  # steps completed before the failing one
+        e = mfpt_estimate(np.minimum(t, cap), t < cap)
+        covered += e.low <= 30 <= e.high
+        values.append(e.mfpt)
+    assert 0.93 <= covered / 2000 <= 0.97
+    assert np.mean(values) == pytest.approx(30, rel=0.01)
+
+
+def test_estimates_by_hand():
+    e = mfpt_estimate(np.array([3, 5, 10, 10]), np.array([True, True, False, False]))
+    assert (e.mfpt, e.failures, e.censored, e.total_steps) == (14.0, 2, 2, 28)
+    assert e.se == pytest.approx(14 * math.sqrt(30 / 56))
+    e = mfpt_estimate(np.array([1, 2, 6]), np.ones(3, bool))
+    assert e.mfpt == 3.0 and e.se == pytest.approx(math.sqrt(7 / 3))
+
+
+# --- vsw rough ----------------------------------------------------------------------------------
+
+
+def test_the_command_json_and_plot_are_the_librarys_and_repeat(walker, capsys, tmp_path):
+    argv = ["rough", "--model", "simplest-walker", "--sigma", "0.002", "--walks", "200",
+            "--max-steps", "20", "--seed", "4", "--json"]  # fmt: skip
+    outputs = []
+    for name in ("a.png", "b.png"):
+        assert main([*argv, "--plot", str(tmp_path / name)]) == 0
+        outputs.append(capsys.readouterr().out.replace(name, ""))
+    assert outputs[0] == outputs[1]
+    assert (tmp_path / "a.png").read_bytes() == (tmp_path / "b.png").read_bytes()
+    data = json.loads(outputs[0])
+    model, params, gait, _ = walker
+    e = rough_walks(model, params, 0.002, 200, 20, 4, gait=gait).estimate()
+    assert data["mfpt"] == {"value": e.mfpt, "se": e.se, "low": e.low, "high": e.high}
+    assert e.censored > 0 and data["estimator"].startswith("geometric")
+    quantities = data["units"]["quantities"]
+    assert quantities["mfpt"] == "steps" and quantities["sigma"] == "rad"
+    assert sum(data["failures_by_kind"].values()) == data["failures"] == 200 - e.censored
+    assert data["survival"]["fraction"][0] == 1.0
+
+
+@pytest.mark.parametrize(
+    "extra",
+    [
+        ["--model", "simplest-walker", "--sigma", "-0.001"],
+        ["--model", "simplest-walker", "--sigma", "nan"],
+        ["--model", "vsw-biped", "--sigma", "0.001"],
+        ["--model", "simplest-walker", "--sigma", "0.001", "--walks", "0"],
+        ["--model", "simplest-walker", "--sigma", "0.001", "--max-steps", "0"],
+        ["--model", "simplest-walker", "--sigma", "0.001", "--seed", "1.5"],
+        ["--model", "simplest-walker", "--sigma", "0.001", "--seed", "-1"],
+        ["--model", "simplest-walker", "--sigma", "0.001", "--terrain", "height"],
+        ["--model", "simplest-walker"],
+    ],
+)
+def test_bad_input_is_one_line_exit_2(extra, capsys):
+    assert main(["rough", *extra]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.count("\n") == 1, captured.err
+
+
+def test_walks_step_by_step_keep_walking_states(walker):
+    """walk_varying at fixed parameters is walk: the same states after the same steps."""
+    model, params, _, start = walker
+    sim = simulator(model)
+    starts = start + np.linspace(-0.02, 0.02, 9)[:, None] * np.array([1, 2, 0, 0])
+    fixed = sim.walk(params, starts, 12, converge_tol=0.0, period_tol=0.0, threads=1)
+    varying = sim.walk_varying(lambda rows, k: np.tile(params, (len(rows), 1)), starts, 12,
+                               threads=1)  # fmt: skip
+    np.testing.assert_array_equal(varying.steps, fixed.steps)
+    np.testing.assert_array_equal(varying.outcome, fixed.outcome)
+    walked = fixed.outcome == WALKED
+    np.testing.assert_array_equal(varying.final[walked], fixed.final[walked])
