@@ -100,7 +100,8 @@ def test_files_read_back_as_written_and_are_byte_identical(sampled, tmp_path, su
     assert first.read_bytes() == second.read_bytes()
     if suffix == ".csv":
         rows = list(csv.reader(io.StringIO(first.read_text())))
-        header, body = rows[0], rows[1:]
+        header, units, body = rows[0], rows[1], rows[2:]
+        assert units[0].startswith("#"), "the second line is the columns' units, commented"
         assert header == ["t", "step", "phase", *w.names, "energy", "normal_force", "event"]
         assert np.array_equal(np.array([float(r[0]) for r in body]), w.t)
         states = np.array([[float(v) for v in r[3 : 3 + len(w.names)]] for r in body])
@@ -140,7 +141,7 @@ def test_simulate_writes_a_trajectory_and_reports_it(tmp_path):
     assert code == 0, err
     report = json.loads(out)["trajectory"]
     assert report["path"] == str(path) and report["rate"] == 50.0
-    assert report["rows"] == len(path.read_text().splitlines()) - 1
+    assert report["rows"] == len(path.read_text().splitlines()) - 2  # names, units
     assert report["units"]["theta_dot"] == "rad/s"
 
 
