@@ -152,7 +152,8 @@ def run(args: argparse.Namespace) -> int:
         document = {**envelope(model, params, args.argv, tolerances), "gait": record}
         _write_gait(args.out, with_units(model, document, units))
     if args.plot is not None:
-        save_figure(powered_figure(model, params, gait), args.plot)
+        figure = powered_figure(model, params, gait, cost_unit=cost_unit(model, request))
+        save_figure(figure, args.plot)
         data["plot"] = args.plot
     if args.json:
         dump_json(with_units(model, data, units))
