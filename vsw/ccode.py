@@ -29,9 +29,6 @@ import numpy as np
 from vsw.errors import VswInputError
 
 GENERATED = Path(__file__).resolve().parent.parent / "generated"
-SOURCE_DIR = GENERATED / "ile" / "c"
-"""The ILE's C library (the default model)."""
-PREFIX = "vsw_ile_"
 
 _int = ctypes.c_longlong
 _real = ctypes.c_double
@@ -40,7 +37,7 @@ _real = ctypes.c_double
 class CLibrary:
     """A compiled copy of the generated C code, loaded with ctypes."""
 
-    def __init__(self, path: Path, model: str = "ile"):
+    def __init__(self, path: Path, model: str):
         self.path = Path(path)
         self.model = model
         self.prefix = f"vsw_{model}_"

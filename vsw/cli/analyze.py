@@ -21,10 +21,8 @@ from vsw.cli.output import (
     write_parameters,
 )
 from vsw.cli.parser import EXIT_OK
-from vsw.errors import VswInputError
 from vsw.gaits import DISTINCT, SCAN_POINTS
 from vsw.models.base import GaitReport, Model
-from vsw.models.ile.params import STEPPER_2D, RobotScale
 from vsw.progress import reporting
 
 __all__ = ["register", "run"]
@@ -53,22 +51,10 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=run)
 
 
-def scale_from(args: argparse.Namespace) -> RobotScale | None:
-    """The robot scale of ``--stepper-2d`` or ``--leg-length``/``--mass``/``--gravity``."""
-    if args.stepper_2d:
-        if args.leg_length is not None or args.mass is not None:
-            raise VswInputError(
-                "--stepper-2d sets the leg length and mass; drop --leg-length/--mass"
-            )
-        return STEPPER_2D if args.gravity is None else RobotScale(0.25, 0.78, args.gravity)
-    if args.leg_length is None and args.mass is None:
-        if args.gravity is not None:
-            raise VswInputError("--gravity needs --leg-length and --mass (or --stepper-2d)")
-        return None
-    if args.leg_length is None or args.mass is None:
-        raise VswInputError("--leg-length and --mass go together (SI results need both)")
-    gravity = 9.81 if args.gravity is None else args.gravity
-    return RobotScale(args.leg_length, args.mass, gravity)
+def scale_from(args: argparse.Namespace, model: Model) -> Any:
+    """The robot scale of ``--stepper-2d`` or ``--leg-length``/``--mass``/``--gravity``, as
+    the model gives it (:meth:`vsw.models.base.Model.robot_scale`)."""
+    return model.robot_scale(args.leg_length, args.mass, args.gravity, args.stepper_2d)
 
 
 def tolerances(model: Model) -> dict[str, Any]:
@@ -89,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
     box = options.parse_search(model, args.search)
     with progress("analyze") as bar, reporting(bar), options.solver_errors(model):
         if "scale" in model.features:
-            report = model.analyze(params, box, scale=scale_from(args))
+            report = model.analyze(params, box, scale=scale_from(args, model))
         else:
             report = model.analyze(params, box)
     data = {**envelope(model, params, args.argv, tolerances(model)), **report.to_dict()}

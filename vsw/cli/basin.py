@@ -4,14 +4,14 @@ Every model: a slice of the section (``--grid`` once where the section has one f
 component, twice otherwise), each cell walked by the batch simulator until it converges to
 the stable gait, repeats with a period, falls, or walks ``--steps`` steps; without
 ``--grid``, a model whose section has one free component gets 41 values over its search
-box. A model with the ``parameter-basin`` feature (the ile) answers without ``--grid`` in
-closed form over theta_II and q0 (Fig. 9: :mod:`vsw.cli.ile_basin`).
+box. A model with a basin of its own (:attr:`vsw.models.base.Model.routes`: the ile's over
+theta_II and q0 in closed form, Fig. 9, :mod:`vsw.cli.ile_basin`) answers by it without
+``--grid``.
 """
 
 from __future__ import annotations
 
 import argparse
-import importlib
 import math
 import os
 import sys
@@ -47,12 +47,6 @@ FEATURES = {dest: "parameter-basin" for dest in
             ("theta_min", "theta_max", "theta_step", "n_q", "check_edges")}  # fmt: skip
 DEFAULT_POINTS = 41
 """Grid values over the search box of a one-component section when no --grid is given."""
-
-CLOSED_FORM = "vsw.cli.ile_basin"
-"""The module of the ile's closed-form basin over theta_II and q0 (without ``--grid``), with
-``run(args, model)``: imported when that basin is asked for, as a command's module is
-(:data:`vsw.cli.app.COMMANDS`), so that a basin over a grid imports none of the ILE's
-closed forms."""
 
 
 def register(subparsers: Any) -> None:
@@ -96,8 +90,9 @@ def register(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     model = args.model_object
-    if not args.grid and "parameter-basin" in model.features:
-        return importlib.import_module(CLOSED_FORM).run(args, model)
+    route = model.route("basin")
+    if not args.grid and route is not None:
+        return route(args, model)
     for dest in FEATURES:
         if given(args.parser, args, dest):
             raise VswInputError(f"{option_name(args.parser, dest)} belongs to the closed-form "

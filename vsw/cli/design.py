@@ -1,6 +1,7 @@
 """``vsw design``: constrained gait design with CasADi/IPOPT.
 
-The ILE designs (beta, theta_II, phi0) from its closed forms (:mod:`vsw.models.ile.design`);
+A model with a design of its own (:attr:`vsw.models.base.Model.routes`: the ILE's over
+(beta, theta_II, phi0) from its closed forms, :mod:`vsw.cli.ile_design`) designs by it;
 every other model designs its free parameters and its gait together, IPOPT on the periodic
 orbit (:mod:`vsw.design`). Both share the vocabulary: ``--maximize``, ``--minimize``, the
 ``--target-*`` equalities, ``--fix``, ``--bound``, ``--max-eigenvalue``; the statuses
@@ -29,98 +30,11 @@ from vsw.cli.output import (
 )
 from vsw.cli.parser import option_name
 from vsw.errors import VswInputError
-from vsw.models.ile.design import CONDITION_SETS, DesignResult, _finite, design
-from vsw.models.ile.params import STEPPER_2D, RobotScale
 
-__all__ = ["register", "run"]
+__all__ = ["bound_items", "objective_units", "option_given", "register", "run", "value_items"]
 
 
-def _design_from_args(args: argparse.Namespace) -> tuple[DesignResult, RobotScale | None, bool]:
-    mass_given = args.mass is not None or args.stepper_2d
-    if args.stepper_2d:
-        if args.leg_length is not None or args.mass is not None:
-            raise VswInputError(
-                "--stepper-2d sets the leg length and mass; drop --leg-length/--mass"
-            )
-        gravity = STEPPER_2D.gravity if args.gravity is None else args.gravity
-        scale: RobotScale | None = RobotScale(STEPPER_2D.leg_length, STEPPER_2D.mass, gravity)
-    elif args.leg_length is not None:
-        # SI targets need only r_e and g; without --mass energies are per kg (mass 1 kg).
-        gravity = 9.81 if args.gravity is None else args.gravity
-        scale = RobotScale(args.leg_length, 1.0 if args.mass is None else args.mass, gravity)
-    else:
-        if args.mass is not None or args.gravity is not None:
-            raise VswInputError("--mass/--gravity need --leg-length (or --stepper-2d)")
-        scale = None
-    si = scale is not None
-
-    objective: dict[str, float] = {}
-    if args.maximize:
-        objective["speed"] = 1.0
-    for name in args.minimize or []:
-        objective[name.replace("-", "_")] = 1.0
-    targets: dict[str, float] = {}
-    if args.target_speed is not None:
-        targets["speed_m_s" if si else "speed"] = args.target_speed
-    if args.target_q_fixed is not None:
-        targets["q_fixed"] = args.target_q_fixed
-    if args.target_step_length is not None:
-        targets["step_length_m" if si else "step_length"] = args.target_step_length
-    if args.target_step_frequency is not None:
-        if not si:
-            raise VswInputError("--target-step-frequency is in Hz and needs --leg-length")
-        targets["step_frequency_hz"] = args.target_step_frequency
-    if args.max_step_frequency is not None and not si:
-        raise VswInputError("--max-step-frequency is in Hz and needs --leg-length")
-
-    def deg(name: str, v: float | None) -> float | None:
-        return None if v is None else math.radians(_finite(name, v))
-
-    bounds: dict[str, tuple[float | None, float | None]] = {
-        "beta": (args.beta_min, args.beta_max),
-        "theta_II": (deg("--theta-ii-min", args.theta_ii_min),
-                     deg("--theta-ii-max", args.theta_ii_max)),
-        "phi0": (deg("--phi0-min", args.phi0_min), deg("--phi0-max", args.phi0_max)),
-    }  # fmt: skip
-    if args.min_step_length is not None or args.max_step_length is not None:
-        bounds["step_length_m" if si else "step_length"] = (
-            args.min_step_length,
-            args.max_step_length,
-        )
-    if args.max_step_frequency is not None:
-        bounds["step_frequency_hz"] = (None, args.max_step_frequency)
-    for name, (low, high) in _bounds(models.load("ile"), args.bound or []).items():
-        key = (
-            ("step_length_m" if si else "step_length") if name == "step_length"
-            else ("step_frequency_hz" if si else "step_frequency") if name == "step_frequency"
-            else name
-        )  # fmt: skip
-        if key in bounds and any(v is not None for v in bounds[key]):
-            raise VswInputError(f"--bound {name} and the option of the same bound: give one")
-        if key not in ("beta", "theta_II", "phi0", "step_length", "step_length_m",
-                       "step_frequency", "step_frequency_hz"):  # fmt: skip
-            raise VswInputError(f"--bound {name}: the ILE's design bounds beta, theta_II, phi0, "
-                                "step_length and step_frequency")  # fmt: skip
-        bounds[key] = (low, high)
-    if args.target_period is not None:
-        raise VswInputError("--target-period is not an option of the ILE's design")
-    # --fix in the table's units (an angle also with a deg suffix), as for every model.
-    fixed = _values(models.load("ile"), "--fix", args.fix or [])
-    result = design(
-        objective=objective or None,
-        targets=targets,
-        bounds=bounds,
-        fixed=fixed,
-        min_contact_margin=args.min_contact_margin or 0.0,
-        max_eigenvalue=args.max_eigenvalue,
-        scale=scale,
-        conditions=args.conditions or "exact",
-        n_starts=2 if args.starts is None else args.starts,
-    )
-    return result, scale, mass_given
-
-
-def _given(args: argparse.Namespace, dest: str) -> bool:
+def option_given(args: argparse.Namespace, dest: str) -> bool:
     """Whether an option was on the command line: a value other than its default None or
     False (``parser.given`` counts 0 as not given, and 0 is a value here)."""
     value = getattr(args, dest, None)
@@ -154,97 +68,25 @@ OBJECTIVE_MIN = ("eigenvalue", "cost-of-transport", "energy-per-step", "step-fre
 GENERIC_ONLY = ("target_period", "min_margin", "weight", "start")
 """Options of the design on the periodic orbit that the ILE's closed forms do not take."""
 
+CONDITIONS = ("exact", "paper")
+"""The choices of ``--conditions`` (the ILE's closed-form design checks them)."""
+
 
 def run(args: argparse.Namespace) -> int:
     model = models.load(args.model)
     options.refuse_powered_only(model, "design")
-    if model.name != "ile":
-        return _run_generic(args, model)
-    for dest in GENERIC_ONLY:
-        if _given(args, dest):
-            raise VswInputError(f"{option_name(args.parser, dest)} is not an option of the "
-                                "ILE's closed-form design")  # fmt: skip
-    for name in args.maximize or []:
-        if name != "speed":
-            raise VswInputError(f"--maximize {name}: the ILE's design maximises speed only")
-    for name in args.minimize or []:
-        if name not in ("eigenvalue", "cost-of-transport"):
-            raise VswInputError(f"--minimize {name}: the ILE's design minimises eigenvalue or "
-                                "cost-of-transport")  # fmt: skip
-    result, scale, mass_given = _design_from_args(args)
-    found_params = None
-    if result.status in ("optimal", "not-attained"):
-        found_params = (result.beta, result.theta_II, result.phi0)
-    data = {**envelope(model, found_params, args.argv, {"ipopt": "tol 1e-8 (CasADi nlpsol); "
-                                                        "each solve confirmed by the numpy "
-                                                        "closed forms"}),
-            **result.to_dict()}  # fmt: skip
-    if scale is not None and not mass_given and result.analysis is not None:
-        # Without --mass the energies are those of a 1 kg walker: say so in the key.
-        for key in ("energy_added_J", "energy_lost_J"):
-            data[f"{key}_per_kg"] = data.pop(key)
-    found = result.status in ("optimal", "not-attained")
-    exit_code = 0 if found else 3
-    out = sys.stdout
-    if args.json:
-        terms = [*(["speed"] if args.maximize else []),
-                 *(n.replace("-", "_") for n in args.minimize or [])]  # fmt: skip
-        dump_json(with_units(model, data, {**_objective_units(model, terms or ["eigenvalue"]),
-                                           **ROBOT_SCALE}))  # fmt: skip
-        if not found:
-            sys.stderr.write(f"vsw design: {' '.join(result.message.split())}\n")
-        return exit_code
-    out.write(f"status           {result.status}\n")
-    if not found:
-        if result.conflicting_constraints:
-            out.write(f"conflicting      {', '.join(result.conflicting_constraints)}\n")
-        sys.stderr.write(f"vsw design: {' '.join(result.message.split())}\n")
-        return exit_code
-
-    def fmt(value: Any) -> str:
-        if value is None:
-            return "-"
-        if isinstance(value, bool):
-            return "yes" if value else "no"
-        return f"{value:.8g}" if isinstance(value, float) else str(value)
-
-    rows = [
-        ("beta", data["beta"], ""),
-        ("theta_II", math.degrees(data["theta_II"]), "deg"),
-        ("phi0", math.degrees(data["phi0"]), "deg"),
-        ("q_fixed", data["q_fixed"], "g/r_e"),
-        ("eigenvalue", data["eigenvalue"], ""),
-        ("step_length", data["step_length"], "r_e"),
-        ("step_period", data["step_period"], "sqrt(r_e/g)"),
-        ("speed", data["speed"], "sqrt(g r_e)"),
-        ("cost_of_transport", data["cost_of_transport"], "E_c/(m g L), L = step length"),
-        ("energy_added", data["energy_added"], "m g r_e"),
-        ("contact_margin", data["contact_margin"], "m g"),
-    ]
-    if scale is not None:
-        rows += [
-            ("step_length_m", data["step_length_m"], "m"),
-            ("step_period_s", data["step_period_s"], "s"),
-            ("step_frequency", 1.0 / data["step_period_s"], "Hz"),
-            ("speed_m_s", data["speed_m_s"], "m/s"),
-        ]
-        if mass_given:
-            rows.append(("energy_added_J", data["energy_added_J"], "J"))
-        else:
-            rows.append(("energy_added_J_per_kg", data["energy_added_J_per_kg"], "J/kg"))
-    for name, value, unit in rows:
-        out.write(f"{name:<18} {fmt(value):>16}  {unit}\n")
-    out.write(f"conditions       {result.conditions}\n")
-    out.write(f"active           {', '.join(result.active_constraints) or '-'}\n")
-    out.write(f"simulation check relative error {fmt(result.simulation_rel_error)}\n")
-    out.write(f"{result.message}\n")
-    return exit_code
+    route = model.route("design")
+    if route is not None:
+        return route(args, model)
+    return _run_generic(args, model)
 
 
 # --- every other model: the design on the periodic orbit --------------------------------
 
 
-def _bounds(model: models.Model, items: list[str]) -> dict[str, tuple[float | None, float | None]]:
+def bound_items(
+    model: models.Model, items: list[str]
+) -> dict[str, tuple[float | None, float | None]]:
     """``--bound NAME=A:B`` (either end may be empty): a parameter in its table's units (an
     angle in rad, or with a deg suffix) or a quantity in the model's units."""
     table = {p.name: p for p in model.parameter_table}
@@ -270,7 +112,7 @@ def _bounds(model: models.Model, items: list[str]) -> dict[str, tuple[float | No
     return out
 
 
-def _values(model: models.Model, option: str, items: list[str]) -> dict[str, float]:
+def value_items(model: models.Model, option: str, items: list[str]) -> dict[str, float]:
     """``NAME=VALUE`` items of ``--fix`` or ``--start``, in the table's units."""
     table = {p.name: p for p in model.parameter_table}
     out: dict[str, float] = {}
@@ -287,7 +129,7 @@ def _values(model: models.Model, option: str, items: list[str]) -> dict[str, flo
 
 def _request(args: argparse.Namespace, model: models.Model) -> gait_design.DesignRequest:
     for dest in ILE_ONLY:
-        if _given(args, dest):
+        if option_given(args, dest):
             raise VswInputError(f"{option_name(args.parser, dest)} is an option of the ILE's "
                                 f"design; {model.cli_name}: use --bound NAME=A:B, --fix and "
                                 "targets in the model's units")  # fmt: skip
@@ -320,10 +162,10 @@ def _request(args: argparse.Namespace, model: models.Model) -> gait_design.Desig
     if not (math.isfinite(margin) and margin >= 0):
         raise VswInputError(f"--min-margin {margin:g}: must be a number >= 0")
     return gait_design.DesignRequest(
-        objective=objective, targets=targets, fixed=_values(model, "--fix", args.fix or []),
-        bounds=_bounds(model, args.bound or []), max_eigenvalue=args.max_eigenvalue,
+        objective=objective, targets=targets, fixed=value_items(model, "--fix", args.fix or []),
+        bounds=bound_items(model, args.bound or []), max_eigenvalue=args.max_eigenvalue,
         min_margin=margin, starts=4 if args.starts is None else args.starts,
-        start=_values(model, "--start", args.start or []),
+        start=value_items(model, "--start", args.start or []),
     )  # fmt: skip
 
 
@@ -338,7 +180,7 @@ def _run_generic(args: argparse.Namespace, model: models.Model) -> int:
         data["units"]["quantities"] = {k: quantity_unit(model, k) for k in result.quantities}
     exit_code = 0 if result.found else 3
     if args.json:
-        dump_json(with_units(model, data, _objective_units(model, list(request.objective))))
+        dump_json(with_units(model, data, objective_units(model, list(request.objective))))
         if not result.found:
             sys.stderr.write(f"vsw design: {result.message}\n")
         return exit_code
@@ -366,7 +208,7 @@ ROBOT_SCALE = {"scale.leg_length": "m", "scale.mass": "kg", "scale.gravity": "m/
 """The units of the ILE's robot scale in its JSON."""
 
 
-def _objective_units(model: models.Model, terms: list[str]) -> dict[str, str]:
+def objective_units(model: models.Model, terms: list[str]) -> dict[str, str]:
     """The units of the design's objective (the signed, weighted sum of its terms) and of
     what the JSON reports with it: a term's unit where all terms share it, else 'mixed'."""
     units = {quantity_unit(model, term) or "1" for term in terms}
@@ -444,7 +286,7 @@ def register(subparsers: Any) -> None:
     lim.add_argument("--max-step-frequency", type=float, help="ile: [Hz] (needs --leg-length)")
     lim.add_argument(
         "--conditions",
-        choices=CONDITION_SETS,
+        choices=CONDITIONS,
         default=None,
         help="ile: existence conditions: every physical one in its exact form (default), or "
         "also the paper's (15) and (17) as printed",

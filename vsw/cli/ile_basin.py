@@ -2,8 +2,8 @@
 
 The stride map (9) iterated from every q0 of a grid per theta_II (Fig. 9), with
 ``--check-edges N`` sampled edges checked by simulation. :mod:`vsw.cli.basin` registers the
-options and imports this module only when this basin is asked for
-(:data:`vsw.cli.basin.CLOSED_FORM`).
+options; the route of :attr:`vsw.models.ile.model.IleModel.routes`, imported only when this
+basin is asked for (:meth:`vsw.models.base.Model.route`).
 """
 
 from __future__ import annotations

@@ -5,14 +5,13 @@ continuation`) and, with ``--keep`` or ``--plot``, the map iterated where the ga
 unstable or lost until its orbit repeats (:func:`vsw.sweeps.settle`): the bifurcation
 diagram; ``--brute-force`` draws it from the batch simulator (:func:`vsw.sweeps.
 brute_force`). ``--state`` or ``--gait-number`` chooses the gait the sweep starts from.
-A model with the ``closed-form-sweep`` feature (the ile) answers in closed form at every
-value.
+A model with a sweep of its own (:attr:`vsw.models.base.Model.routes`: the ile's
+closed forms at every value, :mod:`vsw.cli.ile_sweep`) answers by it.
 """
 
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from typing import Any
 
@@ -39,9 +38,6 @@ from vsw.figures import check_save_path, save_figure
 from vsw.gaits import search_seconds
 from vsw.hybrid import Orbit
 from vsw.models.base import Model
-from vsw.models.ile.analysis import FIELDS
-from vsw.models.ile.plots import ile_sweep_plot
-from vsw.models.ile.sweep import sweep as closed_form_sweep
 from vsw.vectorize import default_threads
 
 __all__ = ["ATTRACTOR", "attractor_label", "register", "run"]
@@ -136,14 +132,15 @@ def run(args: argparse.Namespace) -> int:
     name, values = options.parse_over(model, args.over)
     if args.plot is not None:
         check_save_path(args.plot)
-    if "closed-form-sweep" in model.features:
+    route = model.route("sweep")
+    if route is not None:
         for dest in ITERATION_OPTIONS:
             if given(args.parser, args, dest):
                 option = "--" + dest.replace("_", "-")
                 raise VswInputError(f"{option}: the {model.cli_name}'s sweep is in closed form "
                                     "(its map is affine and its fixed point exact): nothing to "
                                     "iterate")  # fmt: skip
-        return _closed_form(args, model, name, values)
+        return route(args, model)
     y = diagram_quantity(model, args.y)
     if args.state and args.gait_number is not None:
         raise VswInputError("--state and --gait-number both choose the starting gait: give one")
@@ -306,50 +303,3 @@ def _write_points(model: Model, data: dict, name: str, keep: int, degrees: bool)
                   f"{where}{note}\n")  # fmt: skip
     if data.get("plot"):
         out.write(f"plot: {data['plot']}\n")
-
-
-def _closed_form(args: argparse.Namespace, model: Model, name: str, values) -> int:
-    """The sweep in closed form (:func:`vsw.models.ile.sweep.sweep`)."""
-    names = [p.name for p in model.parameter_table]
-    fixed = {k: v for k, v in zip(names, model.parameters(args.values)) if k != name}
-    cost = limits.Cost(
-        len(values) * limits.ILE_SWEEP_SECONDS_PER_POINT,
-        limits.SIMULATE_BYTES_BASE + len(values) * limits.ILE_SWEEP_BYTES_PER_POINT,
-    )
-    limits.check(f"a sweep of {len(values)} points", cost, "use fewer points (N of --over)")
-    axes = {**fixed, name: values}
-    with progress("sweep") as bar:
-        result = closed_form_sweep(list(FIELDS), *(axes[n] for n in names), progress=bar)
-    columns = {field: result[field].reshape(-1) for field in FIELDS}
-    points = [{name: float(v), **{f: columns[f][i] for f in FIELDS}}
-              for i, v in enumerate(values)]  # fmt: skip
-    unit = next(p.unit for p in model.parameter_table if p.name == name)
-    data = {**envelope(model, None, args.argv, {"closed_form": "generated numpy code"}),
-            "parameters": fixed, "over": name, "over_unit": unit,
-            "points": points}  # fmt: skip
-    if args.plot is not None:
-        label = plotstyle.state_label(name, unit or "1")
-        title = plotstyle.parameter_text(model, fixed)
-        save_figure(ile_sweep_plot(clean(data), label, title), args.plot)
-        data["plot"] = args.plot
-    if args.json:
-        dump_json(with_units(model, data))
-        return EXIT_OK
-    out = sys.stdout
-    shown = ("walks", "q_fixed", "eigenvalue", "step_length", "step_period", "speed")
-    degrees = options.parameters_in_degrees(args)
-    units = {p.name: p.unit for p in model.parameter_table}
-    text = ", ".join(f"{k} = {math.degrees(v):.6g} deg" if k in degrees
-                     else f"{k} = {v:.6g}{unit_text(units[k])}"
-                     for k, v in fixed.items())  # fmt: skip
-    over_degrees = options.given_in_degrees(model, name, args.over)
-    over_unit = unit_text("deg" if over_degrees else unit)
-    out.write(f"{model.cli_name} over {name}{over_unit}; {text} (the other columns in the "
-              "model's units, see 'vsw models')\n")  # fmt: skip
-    out.write(f"{name:>12} " + " ".join(f"{f:>12}" for f in shown) + "\n")
-    for p in points:
-        out.write(f"{fmt(options.echo(p[name], over_degrees)):>12} "
-                  + " ".join(f"{fmt(p[f]):>12}" for f in shown) + "\n")  # fmt: skip
-    if args.plot is not None:
-        out.write(f"plot: {args.plot}\n")
-    return EXIT_OK

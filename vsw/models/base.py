@@ -12,12 +12,14 @@ from them; :attr:`Model.features` says which optional commands and options a mod
 
 from __future__ import annotations
 
+import importlib
 import math
 import threading
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from types import MappingProxyType
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -111,6 +113,12 @@ class Model(HybridModel):
     """A generated model through the one interface of the commands."""
 
     features: frozenset[str] = frozenset({"simulation-plot", "explorer", "design"})
+
+    routes: ClassVar[Mapping[str, str]] = MappingProxyType({})
+    """Commands a model answers by a route of its own (its closed forms), by command: the
+    module path of that route, whose ``run(args, model)`` the command calls in place of its
+    generic one (:meth:`route`). Imported when the command runs on this model, so a command
+    on another model imports none of it."""
 
     def __init__(self, module: Any) -> None:
         super().__init__(module)
@@ -347,6 +355,24 @@ class Model(HybridModel):
         and energy sampled at :data:`PLOT_RATE` per time unit, every event marked."""
         walk = sample_walk(self, params, start, steps, PLOT_RATE)
         save_figure(walk_figure(self, params, walk), path)
+
+    def route(self, command: str) -> Callable[..., int] | None:
+        """The ``run(args, model)`` of the model's own route for ``command`` (:attr:`routes`),
+        or None where the command's generic route serves it."""
+        path = self.routes.get(command)
+        return None if path is None else importlib.import_module(path).run
+
+    def robot_scale(
+        self, leg_length: float | None, mass: float | None, gravity: float | None, preset: bool
+    ) -> Any:
+        """The robot scale of SI results (the ``scale`` feature: ``--leg-length``, ``--mass``,
+        ``--gravity``, ``--stepper-2d``), None where none is given; a model without the
+        feature has none."""
+        if any(v is not None for v in (leg_length, mass, gravity)) or preset:
+            raise VswInputError(f"{self.cli_name}: no SI results (--leg-length, --mass, "
+                                "--gravity, --stepper-2d): its values are in its own "
+                                "units")  # fmt: skip
+        return None
 
     def write_explorer(self, path: str, params: Sequence[float], **options: Any) -> Path:
         """``vsw explore``: the self-contained page (:mod:`vsw.explore_page`); the sliders

@@ -79,6 +79,7 @@ __all__ = [
     "TABLE_DISTANCE",
     "DesignResult",
     "design",
+    "finite",
     "simulation_check",
 ]
 
@@ -379,7 +380,7 @@ def _normalise_objective(objective: Any, has_targets: bool) -> dict[str, float]:
                 key = "cost_of_transport"
             if key not in OBJECTIVES:
                 raise VswInputError(f"objective weight {name!r} is not one of {OBJECTIVES}")
-            w = _finite(f"objective weight {name}", weight)
+            w = finite(f"objective weight {name}", weight)
             if w < 0:
                 raise VswInputError(f"objective weight {name} = {weight!r} must be >= 0")
             weights[key] = w
@@ -389,7 +390,8 @@ def _normalise_objective(objective: Any, has_targets: bool) -> dict[str, float]:
     raise VswInputError(f"objective = {objective!r} must be a name or a mapping of weights")
 
 
-def _finite(name: str, value: Any) -> float:
+def finite(name: str, value: Any) -> float:
+    """``value`` as a finite float, or a one-line refusal naming it."""
     try:
         v = float(value)
     except (TypeError, ValueError, OverflowError):
@@ -453,7 +455,7 @@ def _variable_bounds(
         for side, value, limit in ((0, user_lo, lo_t), (1, user_hi, hi_t)):
             if value is None:
                 continue
-            value = _finite(f"{name} {('lower', 'upper')[side]} bound", value)
+            value = finite(f"{name} {('lower', 'upper')[side]} bound", value)
             beyond = value <= limit if side == 0 else value >= limit
             if beyond:
                 continue
@@ -477,7 +479,7 @@ def _variable_bounds(
         if lo > hi:
             raise VswInputError(f"{name} bounds are empty: lower {lo:.6g} > upper {hi:.6g}")
         if name in fixed:
-            value = float(check_parameter(name, _finite(name, fixed[name])))
+            value = float(check_parameter(name, finite(name, fixed[name])))
             if not lo - 1e-12 <= value <= hi + 1e-12:
                 raise VswInputError(f"fixed {name} = {value:.6g} is outside its bounds "
                                     f"[{lo:.6g}, {hi:.6g}]")  # fmt: skip
@@ -529,7 +531,7 @@ def _build_problem(
     if conditions == "paper":
         for name in ("theta_I_negative", "extension_before_symmetric_contact"):
             constraints.append(_Constraint(name, name, 0.0, math.inf, False, open=True))
-    margin = _finite("min_contact_margin", min_contact_margin)
+    margin = finite("min_contact_margin", min_contact_margin)
     if margin < 0:
         raise VswInputError(
             f"min_contact_margin = {min_contact_margin!r} must be >= 0 (m g): the stance foot "
@@ -537,7 +539,7 @@ def _build_problem(
         )
     constraints += _contact_constraints(margin)
     if max_eigenvalue is not None:
-        v = _finite("max_eigenvalue", max_eigenvalue)
+        v = finite("max_eigenvalue", max_eigenvalue)
         constraints.append(
             _Constraint("max_eigenvalue", "eigenvalue", -math.inf, v, True, "max_eigenvalue")
         )
@@ -548,7 +550,7 @@ def _build_problem(
         for side, value in enumerate(_pair(name, pair)):
             if value is None:
                 continue
-            quantity, v = _to_dimensionless(name, _finite(f"{name} bound", value), scale)
+            quantity, v = _to_dimensionless(name, finite(f"{name} bound", value), scale)
             metric.setdefault(quantity, [-math.inf, math.inf])
             if side == 0:
                 metric[quantity][0] = max(metric[quantity][0], v)
@@ -567,7 +569,7 @@ def _build_problem(
     for name, value in (targets or {}).items():
         if name not in _TARGETS and name not in _SI_NAMES:
             raise VswInputError(f"target {name!r} is not one of {_TARGETS + _SI_NAMES}")
-        quantity, v = _to_dimensionless(name, _finite(f"target {name}", value), scale)
+        quantity, v = _to_dimensionless(name, finite(f"target {name}", value), scale)
         if v <= 0:
             raise VswInputError(f"target {name} = {value!r} must be > 0")
         if quantity in seen and not math.isclose(seen[quantity], v, rel_tol=1e-12):

@@ -16,7 +16,8 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from types import MappingProxyType
+from typing import Any, ClassVar
 
 from generated import ile
 from vsw.errors import VswInputError
@@ -26,7 +27,7 @@ from vsw.models.base import GaitReport, Model, Start
 from vsw.models.ile import plots
 from vsw.models.ile.analysis import Analysis, analyze
 from vsw.models.ile.explore import write_page
-from vsw.models.ile.params import RobotScale
+from vsw.models.ile.params import STEPPER_2D, RobotScale
 from vsw.models.ile.simulate import simulate
 
 __all__ = ["IleModel"]
@@ -39,6 +40,34 @@ class IleModel(Model):
         {"scale", "parameter-basin", "closed-form-sweep", "simulation-plot", "design",
          "explorer"}
     )  # fmt: skip
+
+    routes: ClassVar[Mapping[str, str]] = MappingProxyType({
+        "design": "vsw.cli.ile_design",
+        "sweep": "vsw.cli.ile_sweep",
+        "basin": "vsw.cli.ile_basin",
+    })  # fmt: skip
+    """The ILE's own routes of ``vsw design`` (closed forms over beta, theta_II, phi0),
+    ``vsw sweep`` (closed forms at every value) and ``vsw basin`` without ``--grid`` (over
+    theta_II and q0, Fig. 9)."""
+
+    def robot_scale(
+        self, leg_length: float | None, mass: float | None, gravity: float | None, preset: bool
+    ) -> RobotScale | None:
+        """The robot scale of ``--stepper-2d`` or ``--leg-length``/``--mass``/``--gravity``
+        (SI results beside the model's units)."""
+        if preset:
+            if leg_length is not None or mass is not None:
+                raise VswInputError(
+                    "--stepper-2d sets the leg length and mass; drop --leg-length/--mass"
+                )
+            return STEPPER_2D if gravity is None else RobotScale(0.25, 0.78, gravity)
+        if leg_length is None and mass is None:
+            if gravity is not None:
+                raise VswInputError("--gravity needs --leg-length and --mass (or --stepper-2d)")
+            return None
+        if leg_length is None or mass is None:
+            raise VswInputError("--leg-length and --mass go together (SI results need both)")
+        return RobotScale(leg_length, mass, 9.81 if gravity is None else gravity)
 
     def analyze(
         self,
