@@ -15,9 +15,9 @@ from vsw.cli import main
 from vsw.errors import VswInputError
 from vsw.models import load
 from vsw.rough import (
-    BLOCK,
     SlopeTerrain,
     mfpt_estimate,
+    philox4x32,
     rough_walks,
     slope_index,
     terrain_noise,
@@ -39,32 +39,52 @@ def walker():
 # --- the terrain --------------------------------------------------------------------------------
 
 
-def test_terrain_noise_depends_on_seed_walk_and_block_alone():
-    many = terrain_noise(7, np.arange(10), 2)
-    np.testing.assert_array_equal(terrain_noise(7, [4], 2)[0], many[4])
-    np.testing.assert_array_equal(terrain_noise(7, [9, 4], 2), many[[9, 4]])
-    assert not np.array_equal(terrain_noise(8, [4], 2), many[[4]])
-    assert not np.array_equal(terrain_noise(7, [4], 3), many[[4]])
-    # Standard normal: over 4000 x 64 draws the mean within 4 standard errors of 0, the
-    # variance of 1, and no correlation between one walk's consecutive steps.
-    xi = terrain_noise(0, np.arange(4000), 0)
+@pytest.mark.parametrize(
+    ("counter", "key", "expected"),
+    [  # Random123's kat_vectors, philox4x32 10
+        ((0, 0, 0, 0), (0, 0), "6627e8d5 e169c58d bc57ac4c 9b00dbd8"),
+        ((2**32 - 1,) * 4, (2**32 - 1,) * 2, "408f276d 41c83b0e a20bc7c6 6d5451fd"),
+        ((0x243F6A88, 0x85A308D3, 0x13198A2E, 0x03707344), (0xA4093822, 0x299F31D0),
+         "d16cfe09 94fdcceb 5001e420 24126ea1"),
+    ],
+)  # fmt: skip
+def test_philox_gives_the_known_answers(counter, key, expected):
+    assert " ".join(f"{int(v):08x}" for v in philox4x32(counter, key)) == expected
+
+
+def test_terrain_noise_depends_on_seed_walk_and_step_alone():
+    steps = np.arange(50)
+    many = terrain_noise(7, np.arange(10)[:, None], steps)
+    np.testing.assert_array_equal(terrain_noise(7, [4], steps[:, None])[:, 0], many[4])
+    np.testing.assert_array_equal(terrain_noise(7, [9, 4], 31), many[[9, 4], 31])
+    np.testing.assert_array_equal(terrain_noise(7, 2**40 + 4, 3), terrain_noise(7, 2**40 + 4, 3))
+    assert terrain_noise(7, 2**40 + 4, 3) != terrain_noise(7, 4, 3)
+    assert terrain_noise(8, 4, 3) != many[4, 3] and terrain_noise(7, 4, 4) != many[4, 3]
+    # Standard normal: Kolmogorov-Smirnov against scipy's normal over 200 walks x 500
+    # steps, the moments within 4 standard errors, no correlation between consecutive steps
+    # of a walk or between neighbouring walks.
+    from scipy import stats
+
+    xi = terrain_noise(0, np.arange(200)[:, None], np.arange(500))
+    assert stats.kstest(xi.ravel(), "norm").pvalue > 0.01
     n = xi.size
     assert abs(xi.mean()) < 4 / math.sqrt(n)
     assert abs(xi.var() - 1) < 4 * math.sqrt(2 / n)
-    lag = np.mean(xi[:, 1:] * xi[:, :-1])
-    assert abs(lag) < 4 / math.sqrt(xi[:, 1:].size)
+    assert abs(np.mean(xi[:, 1:] * xi[:, :-1])) < 4 / math.sqrt(xi[:, 1:].size)
+    assert abs(np.mean(xi[1:] * xi[:-1])) < 4 / math.sqrt(xi[1:].size)
 
 
-def test_slope_terrain_is_the_walks_own_across_blocks_and_offsets(walker):
+def test_slope_terrain_is_the_walks_own_at_any_offset(walker):
     model, params, _, _ = walker
     index = slope_index(model)
     whole = SlopeTerrain(params, index, 0.01, 3)
     part = SlopeTerrain(params, index, 0.01, 3, first_walk=5)
     rows = np.arange(5, 12)
-    for k in (0, BLOCK - 1, BLOCK, 3 * BLOCK + 5):
+    for k in (0, 63, 64, 1000):
         np.testing.assert_array_equal(whole(rows, k), part(rows - 5, k))
-        expected = params[index] + 0.01 * terrain_noise(3, rows, k // BLOCK)[:, k % BLOCK]
+        expected = params[index] + 0.01 * terrain_noise(3, rows, k)
         np.testing.assert_array_equal(whole.slopes(rows, k), expected)
+        np.testing.assert_array_equal(whole(rows, k)[:, index], expected)
 
 
 def test_a_model_without_a_slope_is_refused():
@@ -77,15 +97,15 @@ def test_a_model_without_a_slope_is_refused():
 
 def test_walks_do_not_depend_on_threads_blocks_or_partition(walker, monkeypatch):
     model, params, gait, start = walker
-    runs = [rough_walks(model, params, SIGMA, 300, 150, 11, gait=gait, threads=t) for t in (1, 2)]
+    runs = [rough_walks(model, params, SIGMA, 300, 60, 11, gait=gait, threads=t) for t in (1, 2)]
     monkeypatch.setattr(vsw.batch, "CHUNK", 7)
-    runs.append(rough_walks(model, params, SIGMA, 300, 150, 11, gait=gait, threads=2))
+    runs.append(rough_walks(model, params, SIGMA, 300, 60, 11, gait=gait, threads=2))
     for other in runs[1:]:
         np.testing.assert_array_equal(other.steps, runs[0].steps)
         assert other.ended == runs[0].ended
     # Walks 200..299 alone, as a part of the walks elsewhere would run them.
     terrain = SlopeTerrain(params, slope_index(model), SIGMA, 11, first_walk=200)
-    part = simulator(model).walk_varying(terrain, np.tile(start, (100, 1)), 150, threads=1)
+    part = simulator(model).walk_varying(terrain, np.tile(start, (100, 1)), 60, threads=1)
     np.testing.assert_array_equal(part.steps, runs[0].steps[200:])
     assert part.ended() == runs[0].ended[200:]
     assert 1 < len(set(runs[0].steps.tolist())) and "walked" in runs[0].ended

@@ -13,8 +13,8 @@ after an impact is taken as it is into the next step's slope (the impact is the 
 in the slope's own frame). The slope is the model's parameter :data:`SLOPE`; a model
 without one is refused.
 
-The draws are counter-based (numpy's Philox keyed by the seed and the walk's index, its
-counter by a block of :data:`BLOCK` steps): walk ``w``'s slopes depend on ``(seed, w)``
+The draws are counter-based (Philox4x32-10 keyed by the seed, its counter the step and
+the walk's index): the slope of step ``k`` of walk ``w`` is a function of ``(seed, w, k)``
 alone, so the results are the same for any thread count, block size, or split of the
 walks into parts.
 
@@ -42,13 +42,13 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 __all__ = [
-    "BLOCK",
     "SLOPE",
     "MfptEstimate",
     "RoughWalks",
     "SlopeTerrain",
     "check_inputs",
     "mfpt_estimate",
+    "philox4x32",
     "rough_walks",
     "slope_index",
     "survival_plot",
@@ -57,9 +57,6 @@ __all__ = [
 
 SLOPE = "gamma"
 """The slope parameter's name (radians, downhill positive) in every model that has one."""
-
-BLOCK = 64
-"""Steps drawn at once per walk: one Philox stream per (seed, walk, block)."""
 
 MAX_SEED = 2**63 - 1
 MAX_WALKS = 10_000_000
@@ -94,15 +91,48 @@ def check_inputs(sigma: float, walks: int, max_steps: int, seed: int) -> None:
         raise VswInputError(f"seed = {seed} must be from 0 to {MAX_SEED}")
 
 
-def terrain_noise(seed: int, walks: Sequence[int] | np.ndarray, block: int) -> np.ndarray:
-    """The standard normal draws xi of steps ``block * BLOCK`` .. ``(block + 1) * BLOCK - 1``
-    of each walk in ``walks`` (global indices), shape (len(walks), BLOCK): Philox with the
-    key (seed, walk) and the counter's second word the block."""
-    out = np.empty((len(walks), BLOCK))
-    for row, walk in enumerate(walks):
-        bits = np.random.Philox(key=[int(seed), int(walk)], counter=[0, int(block), 0, 0])
-        out[row] = np.random.Generator(bits).standard_normal(BLOCK)
-    return out
+_MASK32 = np.uint64(0xFFFFFFFF)
+_PHILOX_M = (np.uint64(0xD2511F53), np.uint64(0xCD9E8D57))
+_PHILOX_W = (0x9E3779B9, 0xBB67AE85)
+
+
+def philox4x32(counter: Sequence[np.ndarray], key: Sequence[int]) -> tuple[np.ndarray, ...]:
+    """Philox4x32-10 (Salmon, Moraes, Dror & Shaw, "Parallel random numbers: as easy as
+    1, 2, 3", SC 2011), vectorised over the counters: four words of 32 bits (arrays that
+    broadcast) and a key of two, to four words of 32 bits (uint64 arrays). Random123's
+    known answers are in the tests."""
+    c0, c1, c2, c3 = (np.asarray(c, dtype=np.uint64) & _MASK32 for c in counter)
+    k0, k1 = int(key[0]) & 0xFFFFFFFF, int(key[1]) & 0xFFFFFFFF
+    for r in range(10):
+        if r:
+            k0, k1 = (k0 + _PHILOX_W[0]) & 0xFFFFFFFF, (k1 + _PHILOX_W[1]) & 0xFFFFFFFF
+        p0, p1 = _PHILOX_M[0] * c0, _PHILOX_M[1] * c2
+        c0, c1, c2, c3 = ((p1 >> np.uint64(32)) ^ c1 ^ np.uint64(k0), p1 & _MASK32,
+                          (p0 >> np.uint64(32)) ^ c3 ^ np.uint64(k1), p0 & _MASK32)  # fmt: skip
+    return c0, c1, c2, c3
+
+
+def _uniform(high: np.ndarray, low: np.ndarray) -> np.ndarray:
+    """A uniform double in (0, 1) from two words: 27 + 26 bits, half a unit offset."""
+    bits = (high >> np.uint64(5)) << np.uint64(26) | (low >> np.uint64(6))
+    return (bits.astype(np.float64) + 0.5) * 2.0**-53
+
+
+def terrain_noise(seed: int, walks: Sequence[int] | np.ndarray, steps: int | np.ndarray
+                  ) -> np.ndarray:  # fmt: skip
+    """The standard normal draw xi of each step ``steps`` of each walk ``walks`` (global
+    indices; arrays that broadcast): Philox4x32-10 with the key ``seed`` (its two 32-bit
+    halves) on the counter (step, walk's low and high 32 bits, 0), its four words two
+    uniforms u1, u2, and xi = sqrt(-2 ln u1) cos(2 pi u2) (Box & Muller 1958). A draw is a
+    function of (seed, walk, step) alone."""
+    walks = np.asarray(walks, dtype=np.uint64)
+    steps = np.asarray(steps, dtype=np.uint64)
+    x0, x1, x2, x3 = philox4x32(
+        (steps, walks & _MASK32, walks >> np.uint64(32), np.zeros_like(walks)),
+        (int(seed) & 0xFFFFFFFF, int(seed) >> 32),
+    )
+    u1, u2 = _uniform(x0, x1), _uniform(x2, x3)
+    return np.sqrt(-2.0 * np.log(u1)) * np.cos(2.0 * np.pi * u2)
 
 
 class SlopeTerrain:
@@ -115,28 +145,11 @@ class SlopeTerrain:
     ) -> None:
         self.params = np.asarray(params, dtype=float)
         self.index, self.sigma, self.seed, self.first_walk = index, sigma, seed, first_walk
-        self._block = -1
-        self._xi = np.zeros((0, BLOCK))
-        self._drawn = np.zeros(0, dtype=bool)
-
-    def noise(self, rows: np.ndarray, k: int) -> np.ndarray:
-        """xi of step ``k`` of the walks ``first_walk + rows``."""
-        rows = np.asarray(rows, dtype=np.int64)
-        block = k // BLOCK
-        size = int(rows.max()) + 1 if rows.size else 0
-        if block != self._block or size > len(self._drawn):
-            self._block = block
-            self._xi = np.zeros((max(size, len(self._drawn)), BLOCK))
-            self._drawn = np.zeros(len(self._xi), dtype=bool)
-        missing = rows[~self._drawn[rows]]
-        if missing.size:
-            self._xi[missing] = terrain_noise(self.seed, self.first_walk + missing, block)
-            self._drawn[missing] = True
-        return self._xi[rows, k % BLOCK]
 
     def slopes(self, rows: np.ndarray, k: int) -> np.ndarray:
         """The slope of step ``k`` of the walks ``first_walk + rows``."""
-        return self.params[self.index] + self.sigma * self.noise(rows, k)
+        walks = self.first_walk + np.asarray(rows, dtype=np.int64)
+        return self.params[self.index] + self.sigma * terrain_noise(self.seed, walks, k)
 
     def __call__(self, rows: np.ndarray, k: int) -> np.ndarray:
         out = np.tile(self.params, (len(rows), 1))

@@ -77,7 +77,8 @@ def run(args: argparse.Namespace) -> int:
     data = {**envelope(model, params, args.argv, INTEGRATOR), **result.to_dict(),
             "model": model.cli_name}  # fmt: skip
     if args.plot is not None:
-        title = plotstyle.parameter_text(model, params) + f", $\\sigma$ = {args.sigma:g} rad"
+        noise = f"slope drawn per step: $\\sigma$ = {args.sigma:g} rad"
+        title = plotstyle.parameter_text(model, params) + "\n" + noise
         save_figure(survival_plot(data, title), args.plot)
         data["plot"] = args.plot
     if args.json:
