@@ -122,3 +122,38 @@ def test_the_push_off_at_heelstrike_expands_nothing_large(monkeypatch):
     assert len(gains) == 2 and work != 0
     # The nested form expanded to tens of thousands of terms; Cramer's pieces stay near 100.
     assert sizes and max(sizes) < 1000
+
+
+def test_the_fast_angle_sums_are_sympys_tr10i_term_for_term():
+    """:func:`derive.engine.trig.tr10i` skips the pairs of terms ``trig_split`` cannot
+    combine before it tries them: on sums of products of sines, cosines, square roots and
+    symbols to powers -1, 1 and 2, its result is sympy's TR10i's."""
+    import random
+
+    from sympy.simplify.fu import TR10i
+
+    from derive.engine.trig import tr10i
+
+    x, y, z, a, b = sm.symbols("x y z a b", real=True)
+    factors = [sm.sin(x), sm.cos(x), sm.sin(y), sm.cos(y), sm.sin(x - y), sm.cos(x - y),
+               sm.sin(z), sm.cos(z), sm.sqrt(2), sm.sqrt(3), a, b]  # fmt: skip
+    rng = random.Random(7)
+    for _ in range(300):
+        terms = []
+        for _ in range(rng.randint(2, 7)):
+            term = sm.Integer(rng.choice([1, -1, 2, -2, 3]))
+            for _ in range(rng.randint(1, 4)):
+                term *= rng.choice(factors) ** rng.choice([1, 1, 1, 2, -1])
+            terms.append(term)
+        expr = sm.Add(*terms)
+        assert tr10i(expr) == TR10i(expr), expr
+
+
+def test_models_grouped_for_a_worker_are_registered_once():
+    """Each group of :data:`derive.registry.MODEL_GROUPS` (derived in turn by one worker,
+    sharing a phase's dynamics) names registered models, none in two groups."""
+    from derive.registry import MODEL_GROUPS, MODEL_NAMES
+
+    grouped = [name for group in MODEL_GROUPS for name in group]
+    assert len(grouped) == len(set(grouped))
+    assert set(grouped) <= set(MODEL_NAMES)

@@ -51,14 +51,58 @@ def _rest(term: sm.Expr, cache: dict) -> object:
     return key
 
 
-def _may_pair(a: sm.Expr, b: sm.Expr, cache: dict) -> bool:
-    key_a, key_b = _rest(a, cache), _rest(b, cache)
-    return key_a is _ANY or key_b is _ANY or key_a == key_b
+def _trig_powers(term: sm.Expr, cache: dict) -> dict | None:
+    """``term``'s sines and cosines with their exponents, ``{sin(x): 2, ...}``, as
+    ``Factors(term)`` holds them; None where an exponent is no integer."""
+    if term in cache:
+        return cache[term]
+    powers: dict | None = {}
+    for factor in sm.Mul.make_args(term):
+        base, exponent = factor.as_base_exp()
+        if isinstance(base, (sm.sin, sm.cos)):
+            if not exponent.is_Integer:
+                powers = None
+                break
+            powers[base] = powers.get(base, 0) + int(exponent)
+    cache[term] = powers
+    return powers
+
+
+def _may_pair(a: sm.Expr, b: sm.Expr, rests: dict, powers: dict) -> bool:
+    """Whether ``trig_split(a, b, two=True)`` may combine the two terms. Their rests must
+    be equal (:func:`_rest`), and with their common factors taken out (``Factors.normal``:
+    a factor of both stays, to the exponents' difference, on the term with the larger
+    exponent) each must keep one or two sines or cosines, each to the power one, the two
+    terms' sharing an argument: what ``trig_split`` accepts (a cosine and a sine of two
+    angles in each, or one of the same angle with a square root)."""
+    key_a, key_b = _rest(a, rests), _rest(b, rests)
+    if key_a is _ANY or key_b is _ANY:
+        return True
+    if key_a != key_b:
+        return False
+    powers_a, powers_b = _trig_powers(a, powers), _trig_powers(b, powers)
+    if powers_a is None or powers_b is None:
+        return True
+    left, right = {}, {}
+    for f in powers_a.keys() | powers_b.keys():
+        if f not in powers_b:
+            left[f] = powers_a[f]
+        elif f not in powers_a:
+            right[f] = powers_b[f]
+        elif powers_a[f] > powers_b[f]:
+            left[f] = powers_a[f] - powers_b[f]
+        elif powers_a[f] < powers_b[f]:
+            right[f] = powers_b[f] - powers_a[f]
+    for part in (left, right):
+        if not 1 <= len(part) <= 2 or any(e != 1 for e in part.values()):
+            return False
+    return not {f.args[0] for f in left}.isdisjoint(f.args[0] for f in right)
 
 
 def tr10i(rv: sm.Expr) -> sm.Expr:
     """``sympy.simplify.fu.TR10i(rv)``, the same result in a fraction of the time."""
     cache: dict = {}
+    powers: dict = {}
     splits: dict = {}
 
     def f(rv):
@@ -77,7 +121,7 @@ def tr10i(rv: sm.Expr) -> sm.Expr:
                         continue
                     for j in range(i + 1, len(args)):
                         aj = args[j]
-                        if aj is None or not _may_pair(ai, aj, cache):
+                        if aj is None or not _may_pair(ai, aj, cache, powers):
                             continue
                         was = ai + aj
                         new = do(was)
@@ -93,6 +137,8 @@ def tr10i(rv: sm.Expr) -> sm.Expr:
                 return rv
 
             pair = (args[0], args[1])
+            if not _may_pair(*pair, cache, powers):
+                return rv  # trig_split would find nothing to combine
             if pair not in splits:  # a pair is tried again after each hit in its sum
                 splits[pair] = trig_split(*args, two=True)
             split = splits[pair]
