@@ -1,5 +1,6 @@
 """Walking on rough ground: the per-step slope terrain, the Monte Carlo MFPT and its
-estimator (Byl & Tedrake 2009), and ``vsw rough``."""
+estimator (Byl & Tedrake 2009), ``vsw rough``, and the gait sensitivity norm (Hobbelen &
+Wisse 2007)."""
 
 from __future__ import annotations
 
@@ -15,10 +16,14 @@ from vsw.cli import main
 from vsw.errors import VswInputError
 from vsw.models import load
 from vsw.rough import (
+    INDICATORS,
     SlopeTerrain,
+    gait_sensitivity,
+    h2_norm,
     mfpt_estimate,
     philox4x32,
     rough_walks,
+    slope_impulse_response,
     slope_index,
     terrain_noise,
 )
@@ -253,3 +258,83 @@ def test_walks_step_by_step_keep_walking_states(walker):
     np.testing.assert_array_equal(varying.outcome, fixed.outcome)
     walked = fixed.outcome == WALKED
     np.testing.assert_array_equal(varying.final[walked], fixed.final[walked])
+
+
+# --- the gait sensitivity norm ------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        "rimless-wheel",
+        "simplest-walker",
+        "compass-gait",
+        pytest.param("kneed-walker", marks=pytest.mark.slow),  # its gait search: 20 s
+        pytest.param("torso-walker", marks=pytest.mark.slow),
+    ],
+)
+def test_gsn_is_the_nonlinear_maps_response(name):
+    """The H2 norm of the linearised step (Hobbelen & Wisse 2007) against the 2-norm of the
+    nonlinear map's response to the first step's slope alone, by central differences over
+    120 steps: within 1e-6 relative, each indicator too; the linearisation's eigenvalues
+    are the gait's (its monodromy matrix, the orbit solver's exact Jacobian) to 1e-6."""
+    model = load(name)
+    params = model.parameters({})
+    gait = model.stable_gait(params, "the test")
+    s = gait_sensitivity(model, params, gait)
+    start = [gait.state[n] for n in (*model.coordinates, *model.rates)]
+    response = slope_impulse_response(model, params, start, 120, 1e-6)
+    assert np.all(np.abs(response[-1]) < 1e-6 * s.gsn)  # the response has died out
+    assert s.gsn == pytest.approx(float(np.sqrt(np.sum(response**2))), rel=1e-6)
+    for i, indicator in enumerate(INDICATORS):
+        expected = float(np.sqrt(np.sum(response[:, i] ** 2)))
+        assert s.by_indicator[indicator] == pytest.approx(expected, rel=1e-6, abs=1e-9)
+    moduli = np.sort(np.abs(np.linalg.eigvals(s.A)))[::-1][: len(gait.eigenvalues)]
+    np.testing.assert_allclose(moduli, [abs(e) for e in gait.eigenvalues], atol=1e-6)
+
+
+def test_gsn_of_the_rimless_wheel_by_hand():
+    """One state, the rate w just after impact: w' = cos(2a) sqrt(w^2 + 4 (g/l) sin(a)
+    sin(gamma)), so A = cos^2(2a) at the gait and B = cos^2(2a) 2 (g/l) sin(a) cos(gamma) / w;
+    the step time T = integral of dtheta / v over (-a, a), v^2 = w^2 + 2 (g/l) (cos(gamma
+    - a) - cos(theta + gamma)) (energy), C = dT/dw, D = dT/dgamma under the integral; the
+    step length 2 l sin(a) is constant. GSN^2 = D^2 + C^2 B^2 / (1 - A^2)."""
+    from scipy.integrate import quad
+
+    model = load("rimless-wheel")
+    params = model.parameters({})
+    alpha, gamma, l, g = params
+    lam = math.cos(2 * alpha) ** 2
+    w = math.sqrt(lam * 4 * (g / l) * math.sin(alpha) * math.sin(gamma) / (1 - lam))
+
+    def v(theta: float) -> float:
+        return math.sqrt(w**2 + 2 * (g / l) * (math.cos(gamma - alpha) - math.cos(theta + gamma)))
+
+    def integral(f) -> float:
+        return quad(f, -alpha, alpha, epsabs=0, epsrel=1e-13)[0]
+
+    b = lam * 2 * (g / l) * math.sin(alpha) * math.cos(gamma) / w
+    c = integral(lambda t: -w / v(t) ** 3)
+    d = integral(lambda t: -(g / l) * (math.sin(t + gamma) - math.sin(gamma - alpha)) / v(t) ** 3)
+    gait = model.stable_gait(params, "the test")
+    assert gait.state["theta_dot"] == pytest.approx(w, rel=1e-10)
+    s = gait_sensitivity(model, params, gait)
+    assert s.A[1, 1] == pytest.approx(lam, rel=1e-6)
+    assert (s.B[1], s.C[0, 1], s.D[0]) == pytest.approx((b, c, d), rel=1e-6)
+    assert (s.B[0], s.C[1, 1], s.D[1]) == pytest.approx((0, 0, 0), abs=1e-6)
+    assert s.gsn == pytest.approx(math.sqrt(d**2 + c**2 * b**2 / (1 - lam**2)), rel=1e-8)
+
+
+def test_h2_norm_is_the_summed_impulse_response():
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        A = rng.standard_normal((4, 4))
+        A *= 0.9 / np.max(np.abs(np.linalg.eigvals(A)))
+        B, C, D = rng.standard_normal(4), rng.standard_normal((2, 4)), rng.standard_normal(2)
+        total, x = float(D @ D), B.copy()
+        for _ in range(2000):
+            total += float(np.sum((C @ x) ** 2))
+            x = A @ x
+        assert h2_norm(A, B, C, D) == pytest.approx(math.sqrt(total), rel=1e-10)
+    with pytest.raises(VswInputError, match="stable gait"):
+        h2_norm(np.eye(2) * 1.01, np.ones(2), np.ones((1, 2)), np.ones(1))

@@ -34,7 +34,7 @@ import numpy as np
 
 from vsw import blas, plotstyle
 from vsw.batch import simulator
-from vsw.errors import VswInputError
+from vsw.errors import ConvergenceError, VswInputError
 from vsw.hybrid import Orbit
 from vsw.models.base import Model
 
@@ -43,13 +43,18 @@ if TYPE_CHECKING:
 
 __all__ = [
     "SLOPE",
+    "GaitSensitivity",
     "MfptEstimate",
     "RoughWalks",
     "SlopeTerrain",
     "check_inputs",
+    "gait_sensitivity",
+    "h2_norm",
+    "linearised_step",
     "mfpt_estimate",
     "philox4x32",
     "rough_walks",
+    "slope_impulse_response",
     "slope_index",
     "survival_plot",
     "terrain_noise",
@@ -338,3 +343,122 @@ def survival_plot(data: Mapping[str, Any], title: str | None = None) -> Figure:
         if title:
             ax.set_title(title)
     return fig
+
+
+# --- the gait sensitivity norm ------------------------------------------------------------------
+
+INDICATORS = ("step_time", "step_length")
+"""The gait indicators of the gait sensitivity norm: each step's duration and length."""
+
+GSN_STEP = 1e-6
+"""Central differences of the step map: this times max(1, |value|) each way."""
+
+GSN_TOLERANCE = 1e-13
+"""The integrator's rtol = atol for the differences (the step map's error over the step is
+far below GSN_STEP^2)."""
+
+
+@dataclass(frozen=True)
+class GaitSensitivity:
+    """The linearised step-to-step response of a gait to its slope (Hobbelen & Wisse,
+    "A disturbance rejection measure for limit cycle walkers: the gait sensitivity norm",
+    IEEE T-RO 23(6), 2007): ``x_{k+1} = A x_k + B e_k``, ``y_k = C x_k + D e_k`` with ``x``
+    the section state's deviation, ``e_k`` the deviation of step ``k``'s slope and ``y_k``
+    that step's :data:`INDICATORS`; ``gsn`` the H2 norm from ``e`` to ``y`` (each
+    indicator's own in ``by_indicator``)."""
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    gsn: float
+    by_indicator: dict[str, float]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "gsn": self.gsn,
+            "gsn_by_indicator": dict(self.by_indicator),
+            "indicators": list(INDICATORS),
+            "disturbance": SLOPE,
+            "A": self.A.tolist(),
+            "B": self.B.tolist(),
+            "C": self.C.tolist(),
+            "D": self.D.tolist(),
+        }
+
+
+def linearised_step(
+    model: Model, params: Sequence[float], state: Sequence[float]
+) -> tuple[np.ndarray, ...]:
+    """``(A, B, C, D)`` of the step map at ``state`` by central differences of the batch
+    simulator's steps (:data:`GSN_STEP`, :data:`GSN_TOLERANCE`): in each state component
+    and in the slope; C, D rows of :data:`INDICATORS`. The state's full Jacobian: on a
+    section with determined components its extra eigenvalues are 0."""
+    index = slope_index(model)
+    x = np.asarray(state, dtype=float)
+    p = np.asarray(params, dtype=float)
+    n = len(x)
+    h = GSN_STEP * np.maximum(1.0, np.abs(np.append(x, p[index])))
+    offsets = np.zeros((2 * (n + 1), n + 1))
+    for i in range(n + 1):
+        offsets[2 * i, i], offsets[2 * i + 1, i] = h[i], -h[i]
+    rows = np.tile(p, (len(offsets), 1))
+    rows[:, index] += offsets[:, n]
+    result = simulator(model).step(rows, x + offsets[:, :n], threads=1, tolerance=GSN_TOLERANCE)
+    if np.any(result.outcome != 0):
+        raise ConvergenceError(f"{model.cli_name}: a step near the gait did not complete "
+                               f"({sorted(set(result.ended()))})")  # fmt: skip
+    out = np.column_stack([result.final, result.kept_durations[:, 0], result.kept_lengths[:, 0]])
+    derivative = (out[0::2] - out[1::2]) / (2 * h[:, None])  # row i: d/d(variable i)
+    A, C = derivative[:n, :n].T, derivative[:n, n:].T
+    B, D = derivative[n, :n], derivative[n, n:]
+    return A, B, C, D
+
+
+def h2_norm(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray) -> float:
+    """The H2 norm of ``x_{k+1} = A x_k + B e_k``, ``y_k = C x_k + D e_k`` (one input):
+    sqrt(|D|^2 + trace(C W C^T)) with W = A W A^T + B B^T, the response to a unit impulse
+    summed over the steps (Hobbelen & Wisse 2007, eq. 4). A must be stable."""
+    from scipy.linalg import solve_discrete_lyapunov
+
+    if not np.max(np.abs(np.linalg.eigvals(A))) < 1:
+        raise VswInputError("the gait sensitivity norm needs a stable gait (|eigenvalues| < 1)")
+    B, C, D = np.atleast_1d(B), np.atleast_2d(C), np.atleast_1d(D)
+    W = solve_discrete_lyapunov(A, np.outer(B, B))
+    return math.sqrt(float(D @ D) + float(np.trace(C @ W @ C.T)))
+
+
+def gait_sensitivity(model: Model, params: Sequence[float], gait: Orbit) -> GaitSensitivity:
+    """The gait sensitivity norm of ``gait`` to its slope, step time and step length
+    (Hobbelen & Wisse 2007); the indicators a model does not report (NaN step length) are
+    left out."""
+    names = (*model.coordinates, *model.rates)
+    A, B, C, D = linearised_step(model, params, [gait.state[n] for n in names])
+    kept = [i for i in range(len(INDICATORS)) if np.all(np.isfinite(C[i])) and np.isfinite(D[i])]
+    C, D = C[kept], D[kept]
+    by = {INDICATORS[i]: h2_norm(A, B, C[j], D[j : j + 1]) for j, i in enumerate(kept)}
+    return GaitSensitivity(A, B, C, D, h2_norm(A, B, C, D), by)
+
+
+def slope_impulse_response(
+    model: Model, params: Sequence[float], state: Sequence[float], steps: int, eps: float
+) -> np.ndarray:
+    """The indicators' response to the slope of step 0 alone, by central differences of
+    the nonlinear step map walked ``steps`` steps from ``state`` with that slope
+    ``gamma +- eps`` (shape (steps, 2), per unit slope): the impulse response whose
+    2-norm is the gait sensitivity norm, without linearising."""
+    index = slope_index(model)
+    sim = simulator(model)
+    x = np.tile(np.asarray(state, dtype=float), (2, 1))
+    out = np.zeros((steps, len(INDICATORS)))
+    for k in range(steps):
+        rows = np.tile(np.asarray(params, dtype=float), (2, 1))
+        if k == 0:
+            rows[:, index] += (eps, -eps)
+        result = sim.step(rows, x, threads=1, tolerance=GSN_TOLERANCE)
+        if np.any(result.outcome != 0):
+            raise ConvergenceError(f"{model.cli_name}: a step of the response did not complete")
+        y = np.column_stack([result.kept_durations[:, 0], result.kept_lengths[:, 0]])
+        out[k] = (y[0] - y[1]) / (2 * eps)
+        x = result.final
+    return out
