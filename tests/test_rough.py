@@ -224,6 +224,8 @@ def test_the_command_json_and_plot_are_the_librarys_and_repeat(walker, capsys, t
     assert quantities["mfpt"] == "steps" and quantities["sigma"] == "rad"
     assert sum(data["failures_by_kind"].values()) == data["failures"] == 200 - e.censored
     assert data["survival"]["fraction"][0] == 1.0
+    assert data["gait_sensitivity"]["gsn"] == gait_sensitivity(model, params, gait).gsn
+    assert quantities["gsn_by_indicator.step_time"] == "sqrt(l/g)/rad"
 
 
 @pytest.mark.parametrize(

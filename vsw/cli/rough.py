@@ -19,7 +19,14 @@ from vsw.cli.output import INTEGRATOR, dump_json, envelope, fmt, with_units, wri
 from vsw.cli.parser import EXIT_OK
 from vsw.figures import check_save_path, save_figure
 from vsw.gaits import search_seconds
-from vsw.rough import SLOPE, check_inputs, rough_walks, slope_index, survival_plot
+from vsw.rough import (
+    SLOPE,
+    check_inputs,
+    gait_sensitivity,
+    rough_walks,
+    slope_index,
+    survival_plot,
+)
 from vsw.vectorize import default_threads
 
 __all__ = ["register", "run"]
@@ -74,17 +81,23 @@ def run(args: argparse.Namespace) -> int:
         simulator(model).library()
         result = rough_walks(model, params, args.sigma, args.walks, args.max_steps, args.seed,
                              start=start)  # fmt: skip
+        gsn = None if result.gait is None else gait_sensitivity(model, params, result.gait)
     data = {**envelope(model, params, args.argv, INTEGRATOR), **result.to_dict(),
-            "model": model.cli_name}  # fmt: skip
+            "model": model.cli_name,
+            "gait_sensitivity": None if gsn is None else gsn.to_dict()}  # fmt: skip
     if args.plot is not None:
         noise = f"slope drawn per step: $\\sigma$ = {args.sigma:g} rad"
         title = plotstyle.parameter_text(model, params) + "\n" + noise
         save_figure(survival_plot(data, title), args.plot)
         data["plot"] = args.plot
     if args.json:
+        time, length = model.units.get("time", ""), model.units.get("length", "")
         extra = {"sigma": "rad", "seed": "1", "walks": "1", "failures": "1", "censored": "1",
                  "mfpt": "steps", "failures_by_kind": "1", "survival.steps": "steps",
-                 "survival.fraction": "1"}  # fmt: skip
+                 "survival.fraction": "1", "gsn": f"{time}/rad and {length}/rad together",
+                 "gsn_by_indicator.step_time": f"{time}/rad",
+                 "gsn_by_indicator.step_length": f"{length}/rad", "A": "state/state",
+                 "B": "state/rad", "C": "indicator/state", "D": "indicator/rad"}  # fmt: skip
         dump_json(with_units(model, data, extra))
         return EXIT_OK
     _write_text(model, params, args, data)
@@ -111,6 +124,13 @@ def _write_text(model: Any, params: Any, args: argparse.Namespace, data: dict) -
               f"{data['censored']} censored, {data['steps_walked']} steps walked\n")  # fmt: skip
     for kind, count in data["failures_by_kind"].items():
         out.write(f"  {kind:<16} {count}\n")
+    gsn = data["gait_sensitivity"]
+    if gsn is not None:
+        units = dict(model.units)
+        parts = ", ".join(f"{k.replace('_', ' ')} {fmt(v)} {units[k.split('_')[1]]}/rad"
+                          for k, v in gsn["gsn_by_indicator"].items())  # fmt: skip
+        out.write(f"{'gait sensitivity':<18} {fmt(gsn['gsn'])} ({parts}; the H2 norm of the "
+                  "indicators' response to one step's slope)\n")  # fmt: skip
     if data["simulator"] != "compiled":
         out.write(f"note: the walks took the {data['simulator']} route\n")
     if args.plot is not None:
