@@ -18,8 +18,10 @@ iterate has converged
   with a finite Jacobian there, which the result carries; a step that small whose end
   misses the tolerance is a failure.
 
-``merge``: iterates that agree to ``merge * max(1, |component|)`` go on as one (the gait
-search's thousands of starts falling into a few gaits).
+``merge``: iterates that round to one point of a grid of spacing ``merge * max(1, the
+component's largest |value|)`` go on as one, every member where its first goes (the gait
+search's thousands of starts falling into a few gaits). ``max_iterations`` bounds the
+steps; with ``step_tol`` the end of the last one is still checked.
 
 Imports: numpy and :mod:`vsw.stop` (a long solve stops where asked).
 """
