@@ -44,10 +44,13 @@ INTEGRATOR = {"integrator": "SciPy DOP853, rtol = atol = 1e-12 (events to the in
               "accuracy)"}  # fmt: skip
 """The time-domain simulation's tolerances (every command that simulates)."""
 
-ORBIT_SOLVER = {"orbit_solver": "CasADi Newton on the boundary-value residual, 1e-13 "
-                "(CVODES Adams, 1e-13); accepted when a simulated step returns within 1e-9 "
-                "x max(1, |state|) x max(1, |eigenvalue|)"}  # fmt: skip
-"""The periodic-orbit solver's tolerances (:meth:`vsw.hybrid.HybridModel.periodic_orbit`)."""
+ORBIT_SOLVER = {"orbit_solver": "Newton on the orbit problem's multiple-shooting residual "
+                "(exact CasADi Jacobian; CVODES Adams, 1e-13) to 1e-10 x max(1, |unknowns|), "
+                "last step 1e-9; accepted when the residual is within 1e-9 x max(1, |state|) "
+                "and a simulated step returns within 1e-9 x max(1, |state|) x "
+                "max(1, |eigenvalue|)"}  # fmt: skip
+"""The periodic-orbit solver's tolerances (:class:`vsw.orbits.OrbitProblem` and
+:meth:`vsw.hybrid.HybridModel.periodic_orbit`)."""
 
 
 _CHUNK = 1 << 16
