@@ -340,3 +340,23 @@ def test_h2_norm_is_the_summed_impulse_response():
         assert h2_norm(A, B, C, D) == pytest.approx(math.sqrt(total), rel=1e-10)
     with pytest.raises(VswInputError, match="stable gait"):
         h2_norm(np.eye(2) * 1.01, np.ones(2), np.ones((1, 2)), np.ones(1))
+
+
+def test_the_run_time_limit_stops_the_walks_while_they_run(walker, monkeypatch, capsys):
+    """Walks estimated as free (the estimate is taken as zero, so that what is tested is
+    the limit kept while running) that would take hours: stopped at the limit of 2 s, one
+    line, exit 2."""
+    import time
+
+    import vsw.cli.rough
+
+    monkeypatch.setattr(vsw.cli.rough, "_check_cost", lambda *args: None)
+    monkeypatch.setenv("VSW_MAX_SECONDS", "2")
+    started = time.monotonic()
+    argv = ["rough", "--model", "simplest-walker", "--sigma", "0", "--walks", "100000",
+            "--max-steps", "100000"]  # fmt: skip
+    assert main(argv) == 2
+    assert time.monotonic() - started < 6
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.startswith("vsw: error: stopped after 2")
+    assert captured.err.count("\n") == 1
