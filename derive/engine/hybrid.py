@@ -232,9 +232,23 @@ def expand(expr: sm.Expr) -> sm.Expr:
     ):
         return sm.expand(expr)
     try:
-        return _from_symengine(se.expand(se.sympify(expr)), symbols, {})
+        expanded = se.expand(se.sympify(expr))
     except (RuntimeError, TypeError, NotImplementedError, KeyError):  # a form SymEngine lacks
         return sm.expand(expr)
+    if len(_CONVERTED) > _CONVERTED_LIMIT:
+        _CONVERTED.clear()
+    try:
+        return _from_symengine(expanded, symbols, _CONVERTED.setdefault(frozenset(free), {}))
+    except (RuntimeError, TypeError, NotImplementedError, KeyError):
+        return sm.expand(expr)
+
+
+_CONVERTED: dict[frozenset, dict] = {}
+"""SymEngine's expressions as sympy's, kept across expansions for each set of symbols
+(a name stands for one symbol in each): successive expansions of a derivation share most
+of their terms (the mass matrix's, the forcing's), each converted once."""
+_CONVERTED_LIMIT = 64
+"""Sets of symbols :data:`_CONVERTED` holds before it starts afresh."""
 
 
 _SYMENGINE_CLASSES = ((se.Add, sm.Add), (se.Mul, sm.Mul), (se.Pow, sm.Pow), (se.sin, sm.sin),

@@ -78,7 +78,7 @@ def _may_pair(a: sm.Expr, b: sm.Expr, rests: dict, powers: dict) -> bool:
     key_a, key_b = _rest(a, rests), _rest(b, rests)
     if key_a is _ANY or key_b is _ANY:
         return True
-    if key_a != key_b:
+    if key_a is not key_b and (hash(key_a) != hash(key_b) or key_a != key_b):
         return False
     powers_a, powers_b = _trig_powers(a, powers), _trig_powers(b, powers)
     if powers_a is None or powers_b is None:
@@ -112,6 +112,8 @@ def tr10i(rv: sm.Expr) -> sm.Expr:
         def do(rv, first=True):
             if not rv.is_Add:
                 return rv
+            if len(rv.args) == 2 and not _may_pair(*rv.args, cache, powers):
+                return rv  # trig_split would find nothing to combine (in either order)
             args = list(ordered(rv.args))
             if len(args) != 2:
                 hit = False
@@ -137,8 +139,6 @@ def tr10i(rv: sm.Expr) -> sm.Expr:
                 return rv
 
             pair = (args[0], args[1])
-            if not _may_pair(*pair, cache, powers):
-                return rv  # trig_split would find nothing to combine
             if pair not in splits:  # a pair is tried again after each hit in its sum
                 splits[pair] = trig_split(*args, two=True)
             split = splits[pair]
@@ -155,7 +155,9 @@ def tr10i(rv: sm.Expr) -> sm.Expr:
                 return gcd * sm.sin(a + b)
             return gcd * sm.sin(b - a)
 
-        rv = process_common_addends(rv, do, lambda x: tuple(ordered(x.free_symbols)))
+        # TR10i groups the terms by ``tuple(ordered(free_symbols))``: equal exactly where
+        # the sets are, and the groups are taken in the order they are met.
+        rv = process_common_addends(rv, do, lambda x: frozenset(x.free_symbols))
 
         while rv.is_Add:
             byrad = defaultdict(list)
