@@ -143,11 +143,11 @@ def test_mfpt_agrees_with_an_independent_simulation(walker):
     a time, on slopes from another generator (numpy's default PCG64), the plain mean of
     their first-passage steps: within three combined standard errors."""
     model, params, gait, start = walker
-    mc = rough_walks(model, params, SIGMA, 1000, 5000, 1, gait=gait).estimate()
+    mc = rough_walks(model, params, SIGMA, 4000, 5000, 0, gait=gait).estimate()
     assert mc.censored == 0 and mc.estimator.startswith("sample mean")
-    rng = np.random.default_rng(20090101)
+    rng = np.random.default_rng(0)
     sim, index, counts = simulator(model), slope_index(model), []
-    for _ in range(300):
+    for _ in range(1000):
         x, k = start.copy(), 0
         while True:
             p = list(params)
@@ -160,6 +160,7 @@ def test_mfpt_agrees_with_an_independent_simulation(walker):
     mean, se = np.mean(counts), np.std(counts, ddof=1) / math.sqrt(len(counts))
     assert 10 < mc.mfpt < 100
     assert abs(mc.mfpt - mean) <= 3 * math.hypot(mc.se, se), (mc, mean, se)
+    assert 0.5 < mc.se / (np.std(counts, ddof=1) / math.sqrt(4000)) < 2  # the same spread
 
 
 def test_no_noise_no_failure(walker):
