@@ -361,3 +361,20 @@ def test_the_run_time_limit_stops_the_walks_while_they_run(walker, monkeypatch, 
     captured = capsys.readouterr()
     assert captured.out == "" and captured.err.startswith("vsw: error: stopped after 2")
     assert captured.err.count("\n") == 1
+
+
+def test_without_a_compiler_the_scipy_route_walks_the_same(monkeypatch):
+    """VSW_KERNELS=0: the walks and the gait sensitivity norm by the SciPy route (its own
+    tolerance, 1e-12), equal to the compiled ones: the same steps and failures, the norm
+    to 1e-6."""
+    model = load("rimless-wheel")
+    params = model.parameters({})
+    gait = model.stable_gait(params, "the test")
+    compiled = rough_walks(model, params, 0.05, 3, 20, 2, gait=gait)
+    norm = gait_sensitivity(model, params, gait).gsn
+    monkeypatch.setenv("VSW_KERNELS", "0")
+    scipy_route = rough_walks(model, params, 0.05, 3, 20, 2, gait=gait)
+    assert scipy_route.route.startswith("SciPy") and compiled.route == "compiled"
+    np.testing.assert_array_equal(scipy_route.steps, compiled.steps)
+    assert scipy_route.ended == compiled.ended
+    assert gait_sensitivity(model, params, gait).gsn == pytest.approx(norm, rel=1e-6)

@@ -35,7 +35,7 @@ import numpy as np
 from vsw import blas, plotstyle
 from vsw.batch import simulator
 from vsw.errors import ConvergenceError, VswInputError
-from vsw.hybrid import Orbit
+from vsw.hybrid import _RTOL, Orbit
 from vsw.models.base import Model
 
 if TYPE_CHECKING:
@@ -354,8 +354,8 @@ GSN_STEP = 1e-6
 """Central differences of the step map: this times max(1, |value|) each way."""
 
 GSN_TOLERANCE = 1e-13
-"""The integrator's rtol = atol for the differences (the step map's error over the step is
-far below GSN_STEP^2)."""
+"""The compiled integrator's rtol = atol for the differences (the SciPy route, without a
+compiler, integrates at its own 1e-12)."""
 
 
 @dataclass(frozen=True)
@@ -387,6 +387,11 @@ class GaitSensitivity:
         }
 
 
+def _tolerance(sim: Any) -> float:
+    """:data:`GSN_TOLERANCE` on the compiled simulator, the SciPy route's own without it."""
+    return GSN_TOLERANCE if sim.library() is not None else _RTOL
+
+
 def linearised_step(
     model: Model, params: Sequence[float], state: Sequence[float]
 ) -> tuple[np.ndarray, ...]:
@@ -404,7 +409,8 @@ def linearised_step(
         offsets[2 * i, i], offsets[2 * i + 1, i] = h[i], -h[i]
     rows = np.tile(p, (len(offsets), 1))
     rows[:, index] += offsets[:, n]
-    result = simulator(model).step(rows, x + offsets[:, :n], threads=1, tolerance=GSN_TOLERANCE)
+    sim = simulator(model)
+    result = sim.step(rows, x + offsets[:, :n], threads=1, tolerance=_tolerance(sim))
     if np.any(result.outcome != 0):
         raise ConvergenceError(f"{model.cli_name}: a step near the gait did not complete "
                                f"({sorted(set(result.ended()))})")  # fmt: skip
@@ -455,7 +461,7 @@ def slope_impulse_response(
         rows = np.tile(np.asarray(params, dtype=float), (2, 1))
         if k == 0:
             rows[:, index] += (eps, -eps)
-        result = sim.step(rows, x, threads=1, tolerance=GSN_TOLERANCE)
+        result = sim.step(rows, x, threads=1, tolerance=_tolerance(sim))
         if np.any(result.outcome != 0):
             raise ConvergenceError(f"{model.cli_name}: a step of the response did not complete")
         y = np.column_stack([result.kept_durations[:, 0], result.kept_lengths[:, 0]])
