@@ -424,6 +424,18 @@ MODEL_COMMANDS = {
         ("--json", "--no-switch"),
         ("--over",),
     ),
+    "rough": (
+        {
+            **_COMMON,
+            "--sigma": number(-0.01, 0.05),
+            "--walks": integer(-1, 40),
+            "--max-steps": integer(-1, 40),
+            "--seed": st.sampled_from(["0", "7", "-1", "1.5", "x", ""]),
+            "--terrain": st.sampled_from(["slope", "height", ""]),
+        },
+        ("--json",),
+        ("--sigma",),
+    ),
     "optimize": (
         {
             "--model": st.sampled_from(["compass-gait"] * 6 + ["rimless-wheel", "ile", ""]),
