@@ -301,7 +301,9 @@ def test_every_json_output_starts_with_the_envelope(capsys, tmp_path):
         ["animate", "--model", "rimless-wheel", "--steps", "1", "--out", str(tmp_path / "a.svg")],
         ["design", "--stepper-2d", "--target-speed", "0.8"],
         ["explore", "--out", str(tmp_path / "page.html")],
-    ]
+        ["rough", "--model", "rimless-wheel", "--sigma", "0.01", "--walks", "5", "--max-steps",
+         "10"],
+    ]  # fmt: skip
     for argv in commands:
         code, out, err = run_main(capsys, [*argv, "--json"])
         assert code == 0, (argv, err)
@@ -314,7 +316,8 @@ def test_every_json_output_starts_with_the_envelope(capsys, tmp_path):
 
 
 def test_help_shows_each_default_once_and_marks_the_required(capsys):
-    for command in ("analyze", "simulate", "basin", "sweep", "animate", "design", "explore"):
+    commands = ("analyze", "simulate", "basin", "sweep", "animate", "design", "explore", "rough")
+    for command in commands:
         assert main([command, "--help"]) == 0
         text = " ".join(capsys.readouterr().out.split())
         assert text.count("(default: 10) (default: 10)") == 0
