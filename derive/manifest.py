@@ -18,6 +18,7 @@ fast as reading the tree.
 from __future__ import annotations
 
 import ast
+import functools
 import hashlib
 import importlib.metadata
 from dataclasses import dataclass
@@ -84,8 +85,15 @@ def _imported_models(path: Path) -> set[str]:
     """The ``derive.models.<name>`` modules a file imports, absolutely or relatively
     (imports made at run time, by name, are not seen: a model must not make them)."""
     package = path.relative_to(SOURCE_ROOT).with_suffix("").parts[:-1]
+    return set(_imported_models_of(path.read_text(), str(path), package))
+
+
+@functools.lru_cache(maxsize=256)
+def _imported_models_of(text: str, filename: str, package: tuple[str, ...]) -> frozenset[str]:
+    """:func:`_imported_models` of a file's text (parsed once per text: every model's
+    digest walks the files of the models it imports, and a run takes the digests twice)."""
     modules = set()
-    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+    for node in ast.walk(ast.parse(text, filename)):
         if isinstance(node, ast.ImportFrom):
             base = node.module.split(".") if node.module else []
             if node.level:
@@ -101,7 +109,7 @@ def _imported_models(path: Path) -> set[str]:
                 module = ".".join(parts[:3])
                 if _module_files(module):  # a name imported from a package is no module
                     modules.add(module)
-    return modules
+    return frozenset(modules)
 
 
 def model_sources(module: str) -> list[Path]:
