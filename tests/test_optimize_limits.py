@@ -48,7 +48,7 @@ def test_targets_beyond_any_walker_are_one_line(option):
 def test_a_run_the_estimate_puts_past_the_limit_is_refused_before_it_starts():
     code, out, err, elapsed = _run([*BIPED_STABILITY, "--nodes", "8"], {"VSW_MAX_SECONDS": "20"})
     assert (code, out) == (EXIT_INPUT, "")
-    assert err.count("\n") == 1 and "optimizing stability on 8 and 16 intervals" in err, err
+    assert err.count("\n") == 1 and "optimizing eigenvalue on 8 and 16 intervals" in err, err
     assert "more than the limit of 20 s" in err and "--nodes" in err
     assert elapsed < 3
 

@@ -186,7 +186,7 @@ def test_the_most_stable_gait_at_the_passive_speed_is_more_stable_than_the_passi
         (
             "kuo_walker",
             Request("stability", use=("push_off",)),
-            r"--minimize stability holds every impulse at zero .* \(--use names only impulses\)",
+            r"--minimize eigenvalue holds every impulse at zero .* \(--use names only impulses\)",
         ),
         ("compass_gait", Request(nodes=1), "--nodes 1"),
         ("compass_gait", Request("work", starts=0), "--starts 0 must be from 1 to 50"),

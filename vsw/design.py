@@ -72,6 +72,8 @@ import numpy as np
 from vsw import conditions, stop
 from vsw.errors import ConvergenceError, VswInputError
 from vsw.hybrid import HybridModel, Orbit
+from vsw.quantities import QUANTITIES, kinetic_energy, maximised, objective_names, report
+from vsw.quantities import weight as walker_weight
 
 __all__ = [
     "DESIGN_QUANTITIES",
@@ -117,8 +119,11 @@ TARGET_TOL = 1e-6
 
 STATUSES = ("optimal", "not-attained", "infeasible", "not-converged")
 
-MAXIMISED = ("speed", "step_length")
-MINIMISED = ("eigenvalue", "energy_per_step", "cost_of_transport", "step_frequency")
+MAXIMISED = tuple(q.name for q in QUANTITIES.values()
+                  if "design" in q.commands and q.sense == "max")  # fmt: skip
+MINIMISED = tuple(q.name for q in QUANTITIES.values()
+                  if "design" in q.commands and q.sense == "min")  # fmt: skip
+"""The objectives of a design (:mod:`vsw.quantities`), by their sense."""
 DESIGN_QUANTITIES = ("speed", "step_length", "step_frequency", "period")
 """Quantities a target or a bound may name (each in the model's units)."""
 
@@ -338,16 +343,9 @@ def _kinetic_loss(model: HybridModel, before: str, after: str, p: Any, x_before:
     an impact moves (down the slope's step), while the bodies do not move in the impact.
     On a periodic gait it is the energy a step must get back (gravity's work down a slope,
     an actuator's on level ground). numpy or CasADi."""
-    n = model.n
-
-    def kinetic(phase: str, x: Any) -> Any:
-        energy = model._fn(f"{phase}_energy")
-        coords = [x[i] for i in range(n)]
-        return energy(*_split(p), *coords, *[x[n + i] for i in range(n)]) - energy(
-            *_split(p), *coords, *([0 * x[0]] * n)
-        )
-
-    return kinetic(before, x_before) - kinetic(after, x_after)
+    params = _split(p)
+    return (kinetic_energy(model, before, params, x_before)
+            - kinetic_energy(model, after, params, x_after))  # fmt: skip
 
 
 def _split(p: Any) -> list[Any]:
@@ -430,14 +428,17 @@ def _build(model: HybridModel, structure: _Structure) -> _Nlp:
             saltation = ca.MX.eye(m) - ca.mtimes(f_end, grad) / ca.mtimes(grad, f_end)
             monodromy = ca.mtimes(ca.mtimes(jac_reset, ca.mtimes(saltation, phi_phase)),
                                   monodromy)  # fmt: skip
-    period = ca.sum1(durations)
-    quantities = {"period": period, "step_frequency": 1 / period,
-                  "energy_per_step": energy_lost}  # fmt: skip
-    if step_length is not None:
-        quantities["step_length"] = step_length
-        quantities["speed"] = step_length / period
-        quantities["cost_of_transport"] = energy_lost / (model.symbolic_weight(p) * step_length)
     radius = rho if structure.eigen == "objective" else fixed_values[n_par]
+    facts = {
+        "period": ca.sum1(durations),
+        "energy_per_step": energy_lost,
+        "energy": energy_lost,
+        "eigenvalue": radius,
+        "weight": walker_weight(model, p),
+    }
+    if step_length is not None:  # else no quantity of the step's length
+        facts["step_length"] = step_length
+    quantities = report(facts)
     if eigen:
         coefficients = characteristic_coefficients(monodromy, structure.rank)
         scaled = [c / radius ** (k + 1) for k, c in enumerate(coefficients)]
@@ -450,7 +451,7 @@ def _build(model: HybridModel, structure: _Structure) -> _Nlp:
     objective = 0
     for term, weight in structure.objective:
         value = radius if term == "eigenvalue" else quantities[term]
-        objective = objective + (-weight if term in MAXIMISED else weight) * value
+        objective = objective + (-weight if maximised(term) else weight) * value
     w = ca.vertcat(free, *[x for phase_nodes in nodes for x in phase_nodes], durations, rho)
     layout = {
         "free": slice(0, len(structure.free)),
@@ -547,10 +548,11 @@ class _Problem:
             if (low is not None and value < low) or (high is not None and value > high):
                 raise VswInputError(f"target {name} = {value:g} contradicts --bound "
                                     f"{name}={_range_text(low, high)}")  # fmt: skip
+        objectives = [n.replace("-", "_") for n in objective_names("design")]
         for term in request.objective:
-            if term not in MAXIMISED + MINIMISED:
+            if term not in objectives:
                 raise VswInputError(f"objective {term!r}: choose from "
-                                    f"{', '.join(MAXIMISED + MINIMISED)}")  # fmt: skip
+                                    f"{', '.join(objectives)}")  # fmt: skip
             if (
                 term in ("speed", "step_length", "cost_of_transport")
                 and "speed" not in self.available
@@ -800,23 +802,15 @@ def _orbit_quantities(model: HybridModel, params: Sequence[float], orbit: Orbit)
             lost += float(_kinetic_loss(model, phase, event["target"], np.asarray(params),
                                         record.state_before, record.state_after))  # fmt: skip
         phase = event["target"]
-    out: dict[str, float | None] = {
+    facts = {
         "period": orbit.period,
-        "step_frequency": 1.0 / orbit.period,
         "eigenvalue": orbit.max_abs_eigenvalue,
         "energy_per_step": float(lost),
+        "energy": float(lost),
         "step_length": orbit.step_length,
-        "speed": orbit.speed,
-        "cost_of_transport": None,
+        "weight": walker_weight(model, params),
     }
-    if orbit.step_length is not None:
-        weight = (
-            float(model.module.weight(*params, *([0.0] * (2 * model.n))))
-            if hasattr(model.module, "weight")
-            else 1.0
-        )
-        out["cost_of_transport"] = float(lost) / (weight * orbit.step_length)
-    return out
+    return report(facts)
 
 
 def _violations(problem: _Problem, quantities: Mapping[str, Any], margins: list[dict],
@@ -854,7 +848,7 @@ def _objective_value(objective: Mapping[str, float], quantities: Mapping[str, An
     total = 0.0
     for term, weight in objective.items():
         value = quantities[term]
-        total += (-weight if term in MAXIMISED else weight) * float(value)
+        total += (-weight if maximised(term) else weight) * float(value)
     return total
 
 
@@ -1084,7 +1078,7 @@ def _extreme(problem: _Problem, seeds: Sequence[Orbit], rank: int, name: str, se
             problem.request = saved
         return None if best is None else float(best.quantities["eigenvalue"])
     # The term enters as -w * value when maximised, +w * value otherwise.
-    objective = {name: float(sense if name in MAXIMISED else -sense)}
+    objective = {name: float(sense if maximised(name) else -sense)}
     eigen_mode = "bound" if problem.request.max_eigenvalue is not None else None
     best, _, _ = _multistart(problem, seeds, rank, objective, targets, eigen_mode)
     return None if best is None else float(best.quantities[name])

@@ -45,16 +45,17 @@ its sign and its Bernstein coefficients theirs; elsewhere it exceeds ``max(P, 0)
 integral by a small multiple of ``h max |P|`` on the interval, which vanishes as the mesh
 refines (a power that wiggles about zero on a held coordinate, by O(h^3)). The ledger
 (the work reported) is composite Simpson of ``max(P, 0)`` and ``min(P, 0)`` on the five
-samples. ``cot``, that work over weight times step length; impulses count by their
-positive work (each applied in two parts whose split is free, each part priced by slacks
+samples. ``cost_of_transport``, that work over weight times step length; impulses count by
+their positive work (each applied in two parts whose split is free, each part priced by slacks
 at its power's ends: exact where the split stops a reversing rate, see
 :func:`_event_map`; ``c iota^2 / 2`` for one at an impact; ``torque2`` holds them at
-zero: it does not price them). ``stability``: the spectral radius of the open-loop step
+zero: it does not price them). ``eigenvalue``: the spectral radius of the open-loop step
 map (:func:`_collocated_jacobian`, :func:`_event_jacobian`, :func:`_stability_rows`;
 impulses held at zero, as ``torque2`` holds them). The last three add
 :attr:`Request.regularization` times the squared inputs' integral, made dimensionless.
 The squared inputs' integral by Simpson's rule on the knots and midpoints. ``work``,
-``cot`` and ``stability`` start from the ``torque2`` optimum with the same targets.
+``cost_of_transport`` and ``eigenvalue`` start from the ``torque2`` optimum with the same
+targets.
 
 Verification: the problem is solved on N and on 2N intervals a phase (the finer from the
 coarser optimum) and the cost's change between them reported; each phase is integrated
@@ -86,24 +87,29 @@ from vsw.design import characteristic_coefficients, jury_rows
 from vsw.errors import ConvergenceError, VswInputError
 from vsw.gaits import free_components, pick, probed_step_lengths, section_states
 from vsw.hybrid import HybridModel, Orbit
+from vsw.quantities import QUANTITIES, evaluate, resolve
+from vsw.quantities import weight as walker_weight
 
 __all__ = [
     "PoweredGait",
     "Request",
+    "canonical_cost",
     "optimize",
     "powered_eigenvalues",
     "powered_step",
     "walker_weight",
 ]
 
-COSTS = ("torque2", "work", "cot", "stability")
-WORK_COSTS = ("work", "cot")
+COSTS = tuple(q.name for q in QUANTITIES.values() if "optimize" in q.commands)
+"""The costs of :func:`optimize`, as :mod:`vsw.quantities` names them (its aliases, ``cot``
+and ``stability``, accepted by :class:`Request`)."""
+WORK_COSTS = ("work", "cost_of_transport")
 """The costs that price the inputs' positive work (the others hold the impulses at zero:
 they would be free)."""
 STABILITY_MARGIN = 1e-3
-"""Under ``stability`` the step map's spectral radius is an unknown at least this."""
+"""Under ``eigenvalue`` the step map's spectral radius is an unknown at least this."""
 STABILITY_ITERATIONS = 500
-"""IPOPT's iterations under ``stability``."""
+"""IPOPT's iterations under ``eigenvalue``."""
 RESIMULATION_TOL = 1e-11
 RESIMULATION_AGREES = 1e-6
 """The re-simulated phases end within this of their last knots (relative to max(1, |x|))."""
@@ -158,18 +164,19 @@ class Request:
     use: tuple[str, ...] = ()
     """The inputs and impulses the gait may use, by name (the others held at zero); empty:
     every one. Kuo's comparison: a push-off, or a torque on the stance leg. (``torque2`` and
-    ``stability`` hold every impulse at zero whatever this says: they do not price them.)"""
+    ``eigenvalue`` hold every impulse at zero whatever this says: they do not price them.)"""
     regularization: float = 1e-7
-    """Weight of the squared inputs' integral added to the ``work``, ``cot`` and
-    ``stability`` costs: the positive work alone is flat along inputs that do no net work,
+    """Weight of the squared inputs' integral added to the ``work``, ``cost_of_transport`` and
+    ``eigenvalue`` costs: the positive work alone is flat along inputs that do no net work,
     where IPOPT wanders. It is made dimensionless: the integral over its value at the least
     squared-input gait with the same targets (where the work stage starts), times the
-    cost's scale (weight times step length for ``work``, 1 for ``cot``), so that it weighs
-    the same on a model in scaled units and one in SI units (a 70 kg point-mass biped's leg
-    force squared is 5e5 times the scaled one's); under ``stability`` over the
-    squared-input integral's value at the first stage too, which near a passive gait is
-    almost zero: the regularisation's share of the objective is then large (4 % at the
-    compass gait's passive speed; ``extra['objective']`` against the radius)."""
+    cost's scale (weight times step length for ``work``, 1 for ``cost_of_transport``), so
+    that it weighs the same on a model in scaled units and one in SI units (a 70 kg
+    point-mass biped's leg force squared is 5e5 times the scaled one's); under
+    ``eigenvalue`` over the squared-input integral's value at the first stage too, which
+    near a passive gait is almost zero: the regularisation's share of the objective is then
+    large (4 % at the compass gait's passive speed; ``extra['objective']`` against the
+    radius)."""
 
     friction: float | None = None
     """The ground's friction coefficient: the stance foot's reaction at every knot and
@@ -197,14 +204,15 @@ class Request:
     declares (an actuator's strength: a leg force of at most 3 m_H g; a chosen parameter's
     interval). A chosen parameter's start is taken into its limits."""
     starts: int = field(default=1, compare=False)
-    """How many starts the second stage (``work``, ``cot``, ``stability``) is solved from:
-    the first stage's optimum, and after it that optimum with its inputs perturbed
+    """How many starts the second stage (``work``, ``cost_of_transport``, ``eigenvalue``) is
+    solved from: the first stage's optimum, and after it that optimum with its inputs perturbed
     (:func:`_perturbed_inputs`), each on the coarse mesh and then the fine and judged; the
     best (:func:`best_start`: optimal first, then IPOPT's success, then cost) is the
     result (:func:`_refined_best`). Not compared: the NLPs, cached by request, do not
     depend on it."""
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "minimize", canonical_cost(self.minimize))
         object.__setattr__(self, "use", tuple(self.use))  # hashable: the NLPs are cached
         object.__setattr__(self, "limits", tuple(tuple(limit) for limit in self.limits))
 
@@ -356,16 +364,16 @@ def optimize(
     _check_step_target(model, params, request)
     if request.starts > 1 and (request.minimize == "torque2"
                                or not _continuous_inputs_used(model, request)):  # fmt: skip
-        raise VswInputError(f"--starts {request.starts}: only the second stage of work, cot "
-                            "and stability starts from several points (the first stage's "
-                            "inputs perturbed); this request solves one stage from one "
-                            "start")  # fmt: skip
+        raise VswInputError(f"--starts {request.starts}: only the second stage of work, "
+                            "cost-of-transport and eigenvalue starts from several points "
+                            "(the first stage's inputs perturbed); this request solves one "
+                            "stage from one start")  # fmt: skip
     params = _started_within_limits(model, params, request)
     _check_cost(model, request)
     if start is None:
         start = _passive_start(model, params)  # None: the model has no passive gait
     fine = _refined_best(model, params, request, _optimize_on_mesh(model, params, request, start))
-    if fine.status == "optimal" or (request.minimize == "stability"
+    if fine.status == "optimal" or (request.minimize == "eigenvalue"
                                     and fine.status == "not-converged"):  # fmt: skip
         try:  # under stability the independent check of the radius, converged or not
             fine.extra["eigenvalues"] = powered_eigenvalues(model, fine.parameters, fine)
@@ -468,12 +476,12 @@ def estimate_seconds(model: HybridModel, request: Request) -> float:
     :data:`OPTIMIZE_ITERATIONS` otherwise), from the per-unknown costs above."""
 
     def build(unknowns: int, minimize: str) -> float:
-        if minimize == "stability":
+        if minimize == "eigenvalue":
             return STABILITY_BUILD_SECONDS_PER_UNKNOWN2 * unknowns**2
         return OPTIMIZE_BUILD_SECONDS_PER_UNKNOWN * unknowns
 
     def solve(unknowns: int, minimize: str) -> float:
-        if minimize == "stability":
+        if minimize == "eigenvalue":
             return STABILITY_ITERATIONS * STABILITY_SECONDS_PER_ITERATION_UNKNOWN * unknowns
         return OPTIMIZE_ITERATIONS * OPTIMIZE_SECONDS_PER_ITERATION_UNKNOWN * unknowns
 
@@ -959,7 +967,7 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
     g = _Constraints()
     squares, priced, positive, negative, step_length = 0, 0, {}, {}, None
     ground: dict = {}
-    stability = request.minimize == "stability"
+    stability = request.minimize == "eigenvalue"
     monodromy = ca.DM.eye(m)
     for k, (phase, event) in enumerate(sequence):
         v = unknowns[k]
@@ -1007,7 +1015,8 @@ def _build(model: HybridModel, request: Request) -> _Nlp:
     else:
         if step_length is None:
             raise VswInputError(f"{model.name} defines no step length: no cost of transport")
-        cost = (work / (model.symbolic_weight(p) * step_length)
+        facts = {"energy": work, "weight": walker_weight(model, p), "step_length": step_length}
+        cost = (evaluate(("cost_of_transport",), facts)["cost_of_transport"]
                 + request.regularization * scale * squares)  # fmt: skip
     w, layout = _vector(durations, unknowns)
     chosen_start = int(w.shape[0])
@@ -1219,7 +1228,7 @@ def _check_ground_options(model: HybridModel, request: Request) -> None:
 
 
 def _usable(request: Request | None, names: Sequence[str]) -> bool:
-    """Whether the optimiser may use any of these impulses (``torque2`` and ``stability``
+    """Whether the optimiser may use any of these impulses (``torque2`` and ``eigenvalue``
     hold them all at zero, ``use`` those it does not name)."""
     if request is None:
         return bool(names)
@@ -1270,7 +1279,7 @@ def _reaction_function(model: HybridModel, phase: str) -> Any:
     rate = ca.mtimes(ca.jacobian(momentum, x), _flow_function(model, phase)(p, x, u))
     index = model.slope_index()
     slope = 0 if index is None else p[index]
-    weight = model.symbolic_weight(p)
+    weight = walker_weight(model, p)
     gravity = weight * ca.vertcat(ca.sin(slope), -ca.cos(slope))
     return ca.Function(f"reaction_{phase}", [p, x, u], [rate - gravity])
 
@@ -1898,16 +1907,19 @@ def _named_cost(model: HybridModel, p: np.ndarray, request: Request, work: dict,
     if not prices_work(request):
         return unpriced
     positive = sum(w["positive"] for w in work.values())
-    if request.minimize == "work":
-        return positive
-    return positive / (walker_weight(model, p) * step_length)
+    facts = {"actuator_work": positive, "energy": positive, "step_length": step_length,
+             "weight": walker_weight(model, p)}  # fmt: skip
+    return evaluate((request.minimize,), facts)[request.minimize]
 
 
-def walker_weight(model: HybridModel, params: Sequence[float]) -> float:
-    """The walker's weight (1 for a model whose package has no ``weight``)."""
-    if not hasattr(model.module, "weight"):
-        return 1.0
-    return float(model.module.weight(*params, *([0.0] * (2 * model.n))))
+def canonical_cost(name: str) -> str:
+    """A cost's name as :mod:`vsw.quantities` spells it (``cot`` -> ``cost_of_transport``,
+    ``stability`` -> ``eigenvalue``); a name no cost has is kept for :meth:`Request.check`
+    to refuse."""
+    try:
+        return resolve(name, "optimize")[0].name
+    except VswInputError:
+        return name
 
 
 def _resimulate(

@@ -30,6 +30,7 @@ from vsw.cli.output import (
 )
 from vsw.cli.parser import option_name
 from vsw.errors import VswInputError
+from vsw.quantities import alias_names, objective_names, resolve
 
 __all__ = ["bound_items", "objective_units", "option_given", "register", "run", "value_items"]
 
@@ -61,9 +62,12 @@ ILE_ONLY = (
 )
 """Options of the ILE's closed-form design (its robot scale, its named bounds)."""
 
-OBJECTIVE_MAX = ("speed", "step-length")
-OBJECTIVE_MIN = ("eigenvalue", "cost-of-transport", "energy-per-step", "step-frequency")
-"""The objectives of ``--maximize`` and ``--minimize``."""
+
+def _choices(sense: str) -> list[str]:
+    """The objectives of ``--maximize`` (``max``) or ``--minimize`` (``min``), as
+    :mod:`vsw.quantities` defines them, then their aliases (accepted with a note)."""
+    return [*objective_names("design", sense), *alias_names("design", sense)]
+
 
 GENERIC_ONLY = ("target_period", "min_margin", "weight", "start")
 """Options of the design on the periodic orbit that the ILE's closed forms do not take."""
@@ -75,10 +79,31 @@ CONDITIONS = ("exact", "paper")
 def run(args: argparse.Namespace) -> int:
     model = models.load(args.model)
     options.refuse_powered_only(model, "design")
+    notes: list[str] = []
+    args.maximize = _objectives(args.maximize, "max", "--maximize", notes)
+    args.minimize = _objectives(args.minimize, "min", "--minimize", notes)
     route = model.route("design")
-    if route is not None:
-        return route(args, model)
-    return _run_generic(args, model)
+    code = _run_generic(args, model) if route is None else route(args, model)
+    if code == 0:  # a refusal or a failure stays one line
+        for note in notes:
+            sys.stderr.write(f"vsw design: note: {note}\n")
+    return code
+
+
+def _objectives(
+    names: list[str] | None, sense: str, option: str, notes: list[str]
+) -> list[str] | None:
+    """The objectives named, each in its one spelling (an alias read with a note, added to
+    ``notes``)."""
+    if names is None:
+        return None
+    out = []
+    for name in names:
+        quantity, note = resolve(name, "design", sense, option)
+        if note:
+            notes.append(note)
+        out.append(quantity.option)
+    return out
 
 
 # --- every other model: the design on the periodic orbit --------------------------------
@@ -233,14 +258,16 @@ def register(subparsers: Any) -> None:
         "converge, 2 for a malformed request.",
     )
     goal = p.add_argument_group("objective and targets (summed when repeated)")
-    goal.add_argument("--maximize", choices=list(OBJECTIVE_MAX), action="append",
+    goal.add_argument("--maximize", choices=_choices("max"),
+                      action="append",
                       help="maximise the speed or the step length")  # fmt: skip
     goal.add_argument(
         "--minimize",
-        choices=list(OBJECTIVE_MIN),
+        choices=_choices("min"),
         action="append",
-        help="minimise the largest |eigenvalue|, the cost of transport (energy dissipated per "
-        "step over weight x step length), the energy per step or the step frequency",
+        help="minimise the largest |eigenvalue| (or stability), the cost of transport (or cot: "
+        "energy dissipated per step over weight x step length), the energy per step or the "
+        "step frequency; the names of vsw optimize",
     )
     goal.add_argument("--weight", action="append", metavar="NAME=W",
                       help="weight of an objective term in the sum (default 1; not the "

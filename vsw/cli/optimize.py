@@ -36,6 +36,8 @@ from vsw.figures import check_save_path, save_figure
 from vsw.gait_file import gait_record, record_quantities
 from vsw.powered_plot import powered_figure
 from vsw.powered_verify import VerifiedGait, verify
+from vsw.quantities import alias_names, objective_names, report, resolve
+from vsw.quantities import weight as walker_weight
 
 __all__ = ["register", "run"]
 
@@ -45,10 +47,12 @@ def register(subparsers: Any) -> None:
     description = help_ + ": Hermite-Simpson on N and 2N intervals a phase, re-simulated."
     p = subparsers.add_parser("optimize", help=help_, description=description)
     options.add_model_options(p, "optimize", named=False)
-    p.add_argument("--minimize", choices=powered.COSTS, default="torque2",
+    p.add_argument("--minimize", default="torque2", metavar="NAME",
+                   choices=[*objective_names("optimize"), *alias_names("optimize")],
                    help="torque2: the integral of the squared inputs; work: their positive "
-                   "work per step; cot: that work per weight and step length; stability: the "
-                   "spectral radius of the open-loop step map (impulses at zero)")  # fmt: skip
+                   "work per step; cost-of-transport (or cot): that work per weight and step "
+                   "length; eigenvalue (or stability): the spectral radius of the open-loop "
+                   "step map (impulses at zero); the names of vsw design")  # fmt: skip
     p.add_argument("--target-speed", type=float, metavar="V",
                    help="the gait's speed (step length / period, the model's units)")  # fmt: skip
     p.add_argument("--target-step-length", type=float, metavar="S", help="the step length")
@@ -58,10 +62,10 @@ def register(subparsers: Any) -> None:
     p.add_argument("--nodes", type=int, default=20, metavar="N",
                    help="intervals a phase on the coarse mesh (the result is on 2N)")  # fmt: skip
     p.add_argument("--starts", type=int, default=1, metavar="K",
-                   help="work, cot and stability: solve the second stage from K starts (the "
-                   "least squared-input step, then K - 1 perturbations of its inputs), each "
-                   "on N and 2N intervals, and keep the best (optimal first, then the least "
-                   "cost; default 1; 1-50)")  # fmt: skip
+                   help="work, cost-of-transport and eigenvalue: solve the second stage from K "
+                   "starts (the least squared-input step, then K - 1 perturbations of its "
+                   "inputs), each on N and 2N intervals, and keep the best (optimal first, "
+                   "then the least cost; default 1; 1-50)")  # fmt: skip
     p.add_argument("--limit", action="append", metavar="NAME=LOW:HIGH", type=_limit,
                    help="bounds on an input, impulse or chosen parameter beside the model's "
                    "(repeatable; either side may be empty: leg_force=:3)")  # fmt: skip
@@ -120,9 +124,17 @@ def _limit(text: str) -> tuple[str, float | None, float | None]:
 
 
 def run(args: argparse.Namespace) -> int:
+    minimize, note = resolve(args.minimize, "optimize")
+    code = _optimize(args, minimize.name)
+    if note and code == EXIT_OK:  # a refusal or a failure stays one line
+        sys.stderr.write(f"vsw optimize: note: {note}\n")
+    return code
+
+
+def _optimize(args: argparse.Namespace, minimize: str) -> int:
     model = args.model_object
     params = model.parameters(args.values)
-    request = powered.Request(args.minimize, args.target_speed, args.target_step_length,
+    request = powered.Request(minimize, args.target_speed, args.target_step_length,
                               args.nodes, use=tuple(args.use or ()), friction=args.friction,
                               pushing_locks=args.pushing_locks,
                               clearance=args.clearance,
@@ -142,6 +154,7 @@ def run(args: argparse.Namespace) -> int:
     verified = _verified(model, params, gait) if checked else None
     tolerances = {"collocation": "Hermite-Simpson", "resimulation": powered.RESIMULATION_TOL}
     data = {**envelope(model, params, args.argv, tolerances), **_to_dict(model, request, gait)}
+    data["quantities"] = _quantities(model, params, gait)
     if checked:
         data["verified"] = _verified_dict(model, verified)
     record = gait_record(model, params, request, gait, verified)
@@ -172,6 +185,18 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_SOLVER
     sys.stderr.write(f"vsw optimize: {gait.status}: {' '.join(gait.reason.split())}\n")
     return EXIT_SOLVER
+
+
+def _quantities(model, params, gait: powered.PoweredGait) -> dict[str, Any]:
+    """The gait's quantities as ``vsw design`` reports them (:mod:`vsw.quantities`): the
+    actuators' positive work is the energy a step takes in; the eigenvalue is the open-loop
+    map's largest (null unless optimal)."""
+    eigenvalues = gait.extra.get("eigenvalues")
+    work = sum(w["positive"] for w in gait.work.values())
+    facts = {"period": gait.period, "step_length": gait.step_length, "actuator_work": work,
+             "eigenvalue": abs(eigenvalues[0]) if eigenvalues else None, "energy": work,
+             "weight": walker_weight(model, params)}  # fmt: skip
+    return report(facts)
 
 
 def _check_out(path: str) -> None:
@@ -210,7 +235,8 @@ def input_units(model) -> dict[str, str]:
 
 def cost_unit(model, request: powered.Request) -> str:
     """The unit of the cost: torque2 the squared inputs' integral (a sum over inputs of
-    different units is a sum of their squares' units), work energy, cot and stability 1."""
+    different units is a sum of their squares' units), work energy, cost_of_transport and
+    eigenvalue 1."""
     if request.minimize == "work":
         return quantity_unit(model, "work")
     if request.minimize != "torque2":
@@ -347,10 +373,11 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
         "ipopt": {"status": gait.ipopt_status, "iterations": gait.iterations},
         "phases": phases,
         "fields": {
-            "cost": "the named cost on the fine mesh (work and cot without the "
-            "regularization; stability: the spectral radius of the collocated step map, its "
-            "Hermite-Simpson equations differentiated); objective: the NLP's (work, cot and "
-            "stability: plus the regularization times the squared inputs' integral)",
+            "cost": "the named cost on the fine mesh (work and cost_of_transport without "
+            "the regularization; eigenvalue: the spectral radius of the collocated step map, "
+            "its Hermite-Simpson equations differentiated); objective: the NLP's (work, "
+            "cost_of_transport and eigenvalue: plus the regularization times the squared "
+            "inputs' integral)",
             "mesh_change": "relative change of the cost from the coarse to the fine mesh (a "
             "cost zero within 1e-9 on both agrees whatever this is)",
             "starts": "with --starts above 1: each start's cost on the coarse and the fine mesh, "
@@ -373,13 +400,13 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
             "foot needs)",
             "chosen_parameters": "the parameters the model names as the gait's own (an angle "
             "at which an impulse acts), at the optimiser's values (also in parameters); null "
-            "for a model without, or under torque2 and stability, which hold them at the "
+            "for a model without, or under torque2 and eigenvalue, which hold them at the "
             "given values",
             "resimulation_error": "largest gap between a re-simulated phase's end and its "
             "last knot, relative to max(1, |state|)",
-            "resimulated_work": "work and cot: the positive work along the re-simulated step "
-            "(the inputs' by Simpson on 16 panels an interval, the impulses' as the mesh's); "
-            "optimal needs it within 1e-4 of the mesh's",
+            "resimulated_work": "work and cost_of_transport: the positive work along the "
+            "re-simulated step (the inputs' by Simpson on 16 panels an interval, the "
+            "impulses' as the mesh's); optimal needs it within 1e-4 of the mesh's",
             "eigenvalues": "of the open-loop Poincare map (inputs as functions of the time "
             "since each phase began), by modulus; null unless optimal",
         },
@@ -388,7 +415,7 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
 
 def _chosen(model, request: powered.Request, gait: powered.PoweredGait) -> dict[str, float] | None:
     """The parameters the optimiser chose with the gait, by name (None: the model has none,
-    or ``torque2`` or ``stability`` held them at their given values: they price no
+    or ``torque2`` or ``eigenvalue`` held them at their given values: they price no
     impulse)."""
     if not powered.prices_work(request):
         return None
