@@ -69,6 +69,7 @@ from generated.ile.params import PARAMETERS
 from vsw import stop
 from vsw.errors import VswInputError
 from vsw.models.ile.params import RobotScale, check_parameter
+from vsw.quantities import maximised
 
 __all__ = [
     "CONDITION_SETS",
@@ -118,7 +119,8 @@ _OBJECTIVE_ALIASES = {
     "minimize_cost_of_transport": {"cost_of_transport": 1.0},
     "cot": {"cost_of_transport": 1.0},
 }
-_SIGN = {"speed": -1.0, "eigenvalue": 1.0, "cost_of_transport": 1.0}
+_SIGN = {name: -1.0 if maximised(name) else 1.0 for name in OBJECTIVES}
+"""An objective term's sign in the sum minimised, by its sense (:mod:`vsw.quantities`)."""
 
 VARIABLES = ("beta", "theta_II", "phi0")
 _TABLE = {p.name: (p.lower, p.upper) for p in PARAMETERS}
