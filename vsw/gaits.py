@@ -12,9 +12,9 @@ to the next). The search is complete within a stated box and resolution:
    by the compiled batch simulator (:mod:`vsw.batch`); where the step completes, the
    residual ``P(x) - x`` on the free components.
 3. **Newton from every cell that completes its step**, all at once, on ``P(x) - x`` in
-   the free components (:func:`vsw.orbits.newton.solve`), the Jacobian by forward
-   differences of batch steps; a start whose step fails is dropped, starts whose iterates
-   meet go on as one. Solutions closer than
+   the free components (:func:`vsw.orbits.newton.solve` on :class:`vsw.batch.StepMap`),
+   the Jacobian by forward differences of batch steps; a start whose step fails is
+   dropped, starts whose iterates meet go on as one. Solutions closer than
    :data:`DISTINCT` are one gait. (Newton only from the cells where ``|P(x) - x|`` dips
    misses gaits: at the biped's (0.8, 0.1, 1e-4, 0.3) the cells that lead to its gait
    with max |eigenvalue| 1394 are none of them dips.)
@@ -67,7 +67,7 @@ from typing import Any
 import numpy as np
 
 from vsw import batch, hybrid, limits, stop
-from vsw.batch import FELL, WALKED, BatchSimulator, simulator
+from vsw.batch import FELL, WALKED, BatchSimulator, StepMap, simulator
 from vsw.compiled import cache_dir
 from vsw.errors import CacheWarning, ConvergenceError, VswInputError
 from vsw.hybrid import HybridModel, Orbit
@@ -256,54 +256,6 @@ def _scan_points(dims: int, cells: int | None) -> int:
     return max(3, math.floor(cells ** (1.0 / dims) + 1e-9))
 
 
-class _StepMap:
-    """``P(y) - y`` on the free components ``y`` of section states, for
-    :func:`vsw.orbits.newton.solve`: each residual a batch step of the iterates (a row of
-    NaN where the step fails), the Jacobian by forward differences of batch steps
-    (``d`` a row, 1e-7 relative). ``images``: the free components of ``P(starts)`` where
-    the caller has them (the scan's), used for the first residual."""
-
-    def __init__(
-        self, sim: BatchSimulator, model: HybridModel, params: Sequence[float],
-        free_index: list[int], images: np.ndarray | None,
-    ) -> None:  # fmt: skip
-        self.sim, self.model, self.params, self.free_index = sim, model, params, free_index
-        self.known = None if images is None else np.array(images, dtype=float)
-        self.base = self.image = np.empty((0, len(free_index)))
-
-    def residual(self, y: np.ndarray, rows: np.ndarray) -> np.ndarray:
-        if self.known is not None:
-            image = self.known[rows]
-            walked = np.all(np.isfinite(image), axis=1)
-            self.known = None
-        else:
-            result = self.sim.step(self.params, section_states(self.model, self.params, y))
-            walked = result.outcome == WALKED
-            image = result.final[:, self.free_index]
-        self.base, self.image = y, image
-        residual = image - y
-        residual[~walked] = np.nan
-        return residual
-
-    def jacobian(self, which: np.ndarray) -> np.ndarray:
-        base, image = self.base[which], self.image[which]
-        count, dims = base.shape
-        eye = np.eye(dims)
-        h = 1e-7 * np.maximum(1.0, np.abs(base))
-        trial = (base[:, None, :] + eye * h[:, None, :]).reshape(-1, dims)
-        result = self.sim.step(self.params, section_states(self.model, self.params, trial))
-        walked = (result.outcome == WALKED).reshape(count, dims).all(axis=1)
-        shifted = result.final[:, self.free_index].reshape(count, dims, dims)
-        # jacobian[k, i, j] = dP_i / dy_j
-        jacobian = np.transpose((shifted - image[:, None, :]) / h[:, :, None], (0, 2, 1))
-        out = jacobian - eye
-        out[~walked] = np.nan
-        return out
-
-    def scale(self, y: np.ndarray) -> np.ndarray:
-        return np.maximum(1.0, np.max(np.abs(y), axis=1))
-
-
 def _distinct(solutions: np.ndarray) -> list[np.ndarray]:
     """The solutions in order, each dropped that lies within ``DISTINCT * max(1, |x|)`` of
     one kept before it in every component (compared with all kept at once: a scan that
@@ -407,7 +359,8 @@ def _scan(
     starts = np.flatnonzero(np.isfinite(residual))
     # Newton on P(y) - y from every start at once; a start whose step fails is dropped,
     # starts whose iterates meet (to 1e-9) go on as one.
-    system = _StepMap(sim, model, params, free_index, result.final[starts][:, free_index])
+    system = StepMap(sim, params, complete=lambda y: section_states(model, params, y),
+                     index=free_index, images=result.final[starts][:, free_index])  # fmt: skip
     found = newton.solve(system, grid[starts], tol=_NEWTON_TOL,
                          max_iterations=_NEWTON_ITERATIONS, merge=1e-9)  # fmt: skip
     solutions, ok = found.w, found.converged
