@@ -25,8 +25,9 @@ from vsw import stop
 from vsw.batch import APART, BatchSimulator, Runner, simulator
 from vsw.errors import ConvergenceError, ModelConditionError, VswInputError
 from vsw.gaits import pick
-from vsw.hybrid import HybridModel, Orbit, by_modulus
+from vsw.hybrid import HybridModel, Orbit
 from vsw.models.base import Model
+from vsw.orbits import by_modulus
 
 __all__ = [
     "MAX_STEPS",
