@@ -91,6 +91,7 @@ def searches_made_once(private_kernel_cache, tmp_path_factory):
     stop two processes from both making it. The lock is keyed by the search's own file, so
     a test's private cache (VSW_CACHE_DIR=tmp_path) or VSW_SEARCH_CACHE=0 is as without it."""
     import vsw.gaits as gaits
+    from vsw.search_cache import cache_file
 
     search = gaits.search
     locks = run_directory(tmp_path_factory) / "locks"
@@ -99,7 +100,7 @@ def searches_made_once(private_kernel_cache, tmp_path_factory):
         sim = gaits.simulator(model)
         checked = gaits.check_box(model, box)
         values = tuple(float(v) for v in params)
-        path = gaits._cache_file(model, sim, values, checked, cells) if sim.library() else None
+        path = cache_file(model, sim, values, checked, cells) if sim.library() else None
         if path is None:
             return search(model, params, box=box, cells=cells)
         with run_lock(path, locks):

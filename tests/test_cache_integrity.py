@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pytest
 
-from vsw import gaits
+from vsw import gaits, search_cache
 from vsw.cli import main
 from vsw.errors import CacheWarning, VswInputError
 from vsw.models import load, user
@@ -240,7 +240,7 @@ def test_a_kept_gait_is_stepped_again_before_it_is_reported(monkeypatch, tmp_pat
     names = [*m.coordinates, *m.rates]
     sim = gaits.simulator(m)
     found, record = data["found"], data["confirmed"]
-    assert gaits._recheck(m, sim, params, found, *gaits._kept_gaits(record, names)) is None
+    assert gaits.recheck(m, sim, params, found, *search_cache.kept_gaits(record, names)) is None
     gait = record["gaits"][0]
     shifted = {"state": {k: v * (1 + 1e-6) for k, v in gait["state"].items()}}
     for changed, why in [
@@ -252,11 +252,11 @@ def test_a_kept_gait_is_stepped_again_before_it_is_reported(monkeypatch, tmp_pat
         ({**shifted, "eigenvalues": [[1e12, 0.0], *gait["eigenvalues"][1:]]}, "eigenvalue"),
     ]:
         wrong = {**record, "gaits": [{**gait, **changed}, *record["gaits"][1:]]}
-        problem = gaits._recheck(m, sim, params, found, *gaits._kept_gaits(wrong, names))
+        problem = gaits.recheck(m, sim, params, found, *search_cache.kept_gaits(wrong, names))
         assert problem is not None and why in problem
     dropped = {**record, "gaits": record["gaits"][1:]}
-    assert "neither" in gaits._recheck(m, sim, params, found,
-                                       *gaits._kept_gaits(dropped, names))  # fmt: skip
+    assert "neither" in gaits.recheck(m, sim, params, found,
+                                      *search_cache.kept_gaits(dropped, names))  # fmt: skip
     calls = []
     scan = gaits._scan
     monkeypatch.setattr(gaits, "_scan", lambda *a: calls.append(1) or scan(*a))

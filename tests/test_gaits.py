@@ -16,7 +16,7 @@ import math
 import numpy as np
 import pytest
 
-from vsw import gaits
+from vsw import gaits, search_cache
 from vsw.cli import main
 from vsw.errors import CacheWarning
 from vsw.models import load
@@ -164,7 +164,7 @@ def sealed(data: dict) -> dict:
 
 def test_a_kept_search_is_a_new_one_bit_for_bit(monkeypatch, tmp_path):
     """The scan, Newton's solutions and the confirmed gaits are kept on disk
-    (vsw.gaits._cache_file) and a later search of the same model, code and inputs reuses
+    (vsw.search_cache.cache_file) and a later search of the same model, code and inputs reuses
     them: neither the scan nor the boundary-value solver runs again, and its gaits (their
     orbits' states too) equal a new search's bit for bit. Gaits missing (a search
     interrupted while confirming) or kept by another CasADi are confirmed again and kept
@@ -188,7 +188,7 @@ def test_a_kept_search_is_a_new_one_bit_for_bit(monkeypatch, tmp_path):
     # An orbit's phase states (none from the solver today) are not kept: no record.
     states = (np.array([[0.1, 0.2]]),)
     with_states = dataclasses.replace(first.gaits[0], phase_states=states)
-    assert gaits._confirmed_record([with_states], [], 0) is None
+    assert search_cache.confirmed_record([with_states], [], 0) is None
     assert (again.candidates, again.converged, again.outcomes, again.points) == (
         first.candidates, first.converged, first.outcomes, first.points)  # fmt: skip
     assert (again.unconfirmed, again.standing) == (first.unconfirmed, first.standing)
