@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from vsw import continuation
+from vsw import continuation, special_curves
 from vsw.batch import simulator
 from vsw.cli import main
 from vsw.models import load
@@ -298,7 +298,7 @@ def test_the_compass_gaits_flip_curve_against_the_hip_mass():
         m, params, "gamma", three, stop_value, guess, durations, options=options
     )
     (flip,) = [s for s in branch.special_points if s.type == "flip"]
-    curve = continuation.continue_special_point(
+    curve = special_curves.continue_special_point(
         m, params, "gamma", three, stop_value, flip, 1, "m_h", 6.0, 16.0,
         options=continuation.Options(max_points=40),
     )  # fmt: skip
@@ -360,14 +360,14 @@ def test_a_complex_pair_crossing_the_unit_circle_is_a_neimark_sacker_point(monke
         return [r * complex(math.cos(1.0), math.sin(1.0)),
                 r * complex(math.cos(1.0), -math.sin(1.0)), 0.5, 0.0]  # fmt: skip
 
-    original = continuation._Equations.evaluate
+    original = continuation.Equations.evaluate
 
     def evaluate(self, w):
         self._w = w  # the point whose eigenvalues are asked next
         return original(self, w)
 
-    monkeypatch.setattr(continuation._Equations, "evaluate", evaluate)
-    monkeypatch.setattr(continuation._Equations, "eigenvalues", eigenvalues)
+    monkeypatch.setattr(continuation.Equations, "evaluate", evaluate)
+    monkeypatch.setattr(continuation.Equations, "eigenvalues", eigenvalues)
     branch = _long_gait_branch(0.014)
     (ns,) = branch.special_points
     assert ns.type == "neimark-sacker" and abs(ns.parameter - 0.012) <= 1e-12

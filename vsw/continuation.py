@@ -39,6 +39,10 @@ simulated walk (SciPy's DOP853 with events: ``k`` steps return to ``x0``).
 (``M^2`` has the eigenvalue 1); its null vector orthogonal to the doubled period-``k``
 branch is the new branch's direction, and a corrector from a small step along it lands on
 the period-``2k`` gait, continued like any branch (to its own flip: the cascade).
+The orbit's equations, the corrector, the tangent and the walk's confirmation are
+:mod:`vsw.pseudo_arclength`, shared with the two-parameter curves of special points
+(``vsw continue --free``, :mod:`vsw.special_curves`; :func:`continue_special_point` and
+:class:`Curve` are read here too).
 """
 
 from __future__ import annotations
@@ -51,12 +55,26 @@ from typing import Any
 import numpy as np
 
 from vsw import conditions, stop
-from vsw.errors import ConvergenceError, VswInputError
+from vsw.errors import VswInputError
 from vsw.hybrid import HybridModel, Orbit
-from vsw.orbits import OrbitProblem, newton, phase_sequence
+from vsw.pseudo_arclength import (
+    CONFIRM_TOL,
+    MAX_TURN,
+    RESIDUAL_TOL,
+    Equations,
+    Options,
+    SpecialPoint,
+    branch_tangent,
+    confirm,
+    correct,
+    simulated_step,
+)
+from vsw.special_curves import Curve, continue_special_point
 
 __all__ = [
+    "CONFIRM_TOL",
     "LOCATE_TOL",
+    "RESIDUAL_TOL",
     "Branch",
     "Curve",
     "Options",
@@ -69,32 +87,6 @@ LOCATE_TOL = 1e-11
 """A special point is located when its bracket along the arclength is below this (the
 arclength in the scaled unknowns: states, durations and the parameter as a fraction of its
 range), or its test function is exactly zero."""
-
-RESIDUAL_TOL = 1e-10
-"""The corrector's tolerance on the residual, relative to max(1, |unknowns|)."""
-
-MAX_TURN = 0.3
-"""Largest angle (rad) between the tangents of two consecutive points."""
-
-BOUNDARY_NUDGE = 1e-9
-"""On a boundary curve, the second parameter's move (a fraction of its range) with which a
-point is also confirmed, a hair inside the boundary (:func:`_curve_confirmed`)."""
-CONFIRM_TOL = 1e-8
-"""The simulated ``k`` steps must return to ``x0`` within this (relative to max(1, |x0|),
-times the largest |eigenvalue| on an unstable gait)."""
-
-
-@dataclass(frozen=True)
-class Options:
-    """How a branch is followed: steps in the scaled unknowns (the parameter as a fraction
-    of its range), the most points per branch, and branch switching."""
-
-    initial_step: float = 0.01
-    max_step: float = 0.05
-    min_step: float = 1e-7
-    max_points: int = 400
-    switch: bool = True
-    max_period: int = 16
 
 
 @dataclass
@@ -109,42 +101,6 @@ class _Point:
     step_lengths: list[float | None] = field(default_factory=list)
     confirmed: str = "completed"  # or why the simulated walk does not confirm the orbit
     margins: dict[str, float] = field(default_factory=dict)  # reported conditions' margins
-
-
-@dataclass
-class SpecialPoint:
-    """A located special point: ``type`` (fold, flip, neimark-sacker, boundary), the
-    defining equation's value there (|mu - 1|, |mu + 1|, ||mu| - 1| of the critical
-    eigenvalue, the phase duration; for a boundary found by bisection the bracket's width
-    in the parameter), for a boundary the condition, and the gait there as a branch point's
-    record (parameter, state, eigenvalues, step lengths, ...)."""
-
-    type: str
-    defining: float
-    condition: str | None
-    record: dict[str, Any]
-    eigenvalues: list[complex]
-
-    @property
-    def parameter(self) -> float:
-        return float(self.record["parameter"])
-
-    @property
-    def state(self) -> dict[str, float]:
-        return dict(self.record["state"])
-
-    @property
-    def durations(self) -> list[float]:
-        return list(self.record["phase_durations"])
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "type": self.type,
-            "parameter": self.parameter,
-            "defining_equation": self.defining,
-            "condition": self.condition,
-            **{k: v for k, v in self.record.items() if k != "parameter"},
-        }
 
 
 @dataclass
@@ -170,163 +126,18 @@ class Branch:
         }
 
 
-class _Equations:
-    """The period-``period`` orbit's residual in ``w = (u, nu)``: the periodic-orbit
-    problem (:class:`vsw.orbits.OrbitProblem`, ``over`` free) with ``over`` scaled to its
-    range, and its Jacobian."""
-
-    def __init__(
-        self, model: HybridModel, params: Sequence[float], index: int,
-        start: float, stop_value: float, period: int,
-    ) -> None:  # fmt: skip
-        self.model = model
-        self.params = np.asarray(params, dtype=float)
-        self.index = index
-        self.start = start
-        self.width = stop_value - start
-        self.period = period
-        self.problem = OrbitProblem(model, period, (index,))
-        self.n = self.problem.n
-        self.sequence = self.problem.sequence
-        self.m = self.problem.m
-
-    def parameter(self, nu: float) -> float:
-        return self.start + nu * self.width
-
-    def params_at(self, nu: float) -> np.ndarray:
-        p = self.params.copy()
-        p[self.index] = self.parameter(nu)
-        return p
-
-    def x0(self, w: np.ndarray) -> np.ndarray:
-        """The section state (the first phase's start)."""
-        return self.problem.section_state(w)
-
-    def durations(self, w: np.ndarray) -> np.ndarray:
-        return self.problem.durations(w)
-
-    def unknowns(self, x0: np.ndarray, durations: Sequence[float], nu: float) -> np.ndarray:
-        """``w`` from the section state and the phase durations (each phase's start by the
-        flows and resets from ``x0``)."""
-        return np.concatenate([self.problem.unknowns(self.params_at(nu), x0, durations), [nu]])
-
-    def evaluate(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """R(w) and [R_u, R_nu]; RuntimeError where CVODES fails."""
-        r, j_u, j_p = self.problem.evaluate(w[:-1], self.params_at(w[-1]))
-        return r, np.hstack([j_u, j_p * self.width])
-
-    def eigenvalues(self, jac: np.ndarray) -> list[complex]:
-        """The eigenvalues of the period-k Poincaré map at the orbit (its monodromy
-        matrix, :mod:`vsw.orbits.monodromy`), from the residual's Jacobian."""
-        return self.problem.eigenvalues(jac)
-
-    def state(self, w: np.ndarray) -> dict[str, float]:
-        return self.problem.state(w)
-
-
-class _Corrector:
-    """``eq``'s residual (``eq.evaluate``) as :class:`vsw.orbits.newton.System` for one
-    iterate; a point CVODES cannot integrate is a row of NaN."""
-
-    def __init__(self, eq: Any) -> None:
-        self.eq = eq
-        self.last = np.empty((1, 0, 0))
-
-    def residual(self, w: np.ndarray, rows: np.ndarray) -> np.ndarray:
-        try:
-            r, jac = self.eq.evaluate(w[0])
-        except RuntimeError:
-            stop.check()  # CasADi turns Ctrl-C and the time limit into this error
-            self.last = np.full((1, 1, w.shape[1]), np.nan)
-            return np.full((1, 1), np.nan)
-        self.last = jac[None]
-        return r[None]
-
-    def jacobian(self, which: np.ndarray) -> np.ndarray:
-        return self.last[which]
-
-    def scale(self, w: np.ndarray) -> np.ndarray:
-        return np.maximum(1.0, np.max(np.abs(w[:, :-1]), axis=1))
-
-
-def _tangent(jac: np.ndarray, previous: np.ndarray) -> np.ndarray | None:
-    """The unit tangent of the branch: [R_w; previous] t = (0, 1), normalised; the sign
-    follows ``previous``."""
-    system = np.vstack([jac, previous])
-    rhs = np.zeros(len(system))
-    rhs[-1] = 1.0
-    try:
-        t = np.linalg.solve(system, rhs)
-    except np.linalg.LinAlgError:
-        return None
-    size = np.linalg.norm(t)
-    return t / size if np.isfinite(size) and size > 0 else None
-
-
-def _correct(
-    eq: Any, guess: np.ndarray, normal: np.ndarray, anchor: np.ndarray, max_iterations: int = 12
-) -> tuple[np.ndarray, np.ndarray, int] | None:
-    """Newton (:func:`vsw.orbits.newton.solve`) on (R(w) = 0, normal . (w - anchor) = 0)
-    from ``guess``, to :data:`RESIDUAL_TOL` with a last step below 1e-9 (both relative to
-    max(1, |unknowns|)): (w, Jacobian of R at w, iterations), or None where it does not
-    converge."""
-    found = newton.solve(_Corrector(eq), np.asarray(guess, float)[None], tol=RESIDUAL_TOL,
-                         step_tol=1e-9, max_iterations=max_iterations,
-                         border=(normal, anchor))  # fmt: skip
-    if not found.converged[0]:
-        return None
-    return found.w[0], found.jacobian[0], int(found.iterations[0])
-
-
-def _confirm(eq: _Equations, w: np.ndarray, eigenvalues: list[complex]) -> tuple[str, list]:
-    """The orbit confirmed by the simulated walk: ``period`` steps from x0 with every phase,
-    back to x0. Returns ('completed', step lengths) or (why not, [])."""
-    model = eq.model
-    params = eq.params_at(w[-1])
-    x0 = eq.x0(w)
-    x = x0.copy()
-    lengths: list[float | None] = []
-    phases = len(phase_sequence(model))
-    for _ in range(eq.period):
-        step = _step(model, params, x)
-        if isinstance(step, str):
-            return step, []
-        if step.ended != "completed":
-            return step.ended, []
-        if len(step.durations) != phases:
-            return "a phase skipped or added (a guard grazed)", []
-        lengths.append(step.step_length)
-        x = step.state
-    largest = max([abs(e) for e in eigenvalues] or [1.0])
-    scale = max(1.0, float(np.max(np.abs(x0))))
-    gap = float(np.max(np.abs(x - x0)))
-    if not gap <= CONFIRM_TOL * scale * max(1.0, largest):
-        return f"the simulated walk ends {gap:.3g} away from the orbit", []
-    return "completed", lengths
-
-
-def _step(model: HybridModel, params: np.ndarray, x: np.ndarray) -> Any:
-    """One simulated step, or why it could not be taken (a solver's failure at extreme
-    states is a point the walk does not confirm, not the end of the run)."""
-    try:
-        return model.step(params, x)
-    except (ConvergenceError, OverflowError, ZeroDivisionError, FloatingPointError) as exc:
-        stop.check()
-        return f"the simulated step failed ({' '.join(str(exc).split())[:80]})"
-
-
-def _point(eq: _Equations, w: np.ndarray, jac: np.ndarray, previous: np.ndarray,
+def _point(eq: Equations, w: np.ndarray, jac: np.ndarray, previous: np.ndarray,
            iterations: int) -> _Point | None:  # fmt: skip
-    tangent = _tangent(jac, previous)
+    tangent = branch_tangent(jac, previous)
     if tangent is None:
         return None
     eigenvalues = eq.eigenvalues(jac)
-    confirmed, lengths = _confirm(eq, w, eigenvalues)
+    confirmed, lengths = confirm(eq, w, eigenvalues)
     margins = _margins(eq, w, eigenvalues) if confirmed == "completed" else {}
     return _Point(w, tangent, eigenvalues, iterations, lengths, confirmed, margins)
 
 
-def _margins(eq: _Equations, w: np.ndarray, eigenvalues: list[complex]) -> dict[str, float]:
+def _margins(eq: Equations, w: np.ndarray, eigenvalues: list[complex]) -> dict[str, float]:
     """The margins of the conditions the model reports without enforcing them
     (``HYBRID["conditions"]``: the kneed walker's stance-knee stop) along a period-one
     orbit, least over the step sampled as :func:`vsw.conditions.gait_conditions` samples
@@ -342,17 +153,17 @@ def _margins(eq: _Equations, w: np.ndarray, eigenvalues: list[complex]) -> dict[
 # --- test functions ----------------------------------------------------------------------
 
 
-def _fold(eq: _Equations, p: _Point) -> float:
+def _fold(eq: Equations, p: _Point) -> float:
     return float(p.tangent[-1])
 
 
-def _flip(eq: _Equations, p: _Point) -> float:
+def _flip(eq: Equations, p: _Point) -> float:
     if not p.eigenvalues:  # undefined (a guard grazing at its phase's end): no sign
         return math.nan
     return float(np.real(np.prod([1.0 + mu for mu in p.eigenvalues])))
 
 
-def _neimark_sacker(eq: _Equations, p: _Point) -> float:
+def _neimark_sacker(eq: Equations, p: _Point) -> float:
     mus = p.eigenvalues
     if not mus:
         return math.nan
@@ -363,11 +174,11 @@ def _neimark_sacker(eq: _Equations, p: _Point) -> float:
     return float(product.real)
 
 
-def _duration(eq: _Equations, p: _Point) -> float:
+def _duration(eq: Equations, p: _Point) -> float:
     return float(np.min(eq.durations(p.w)))
 
 
-TESTS: dict[str, Callable[[_Equations, _Point], float]] = {
+TESTS: dict[str, Callable[[Equations, _Point], float]] = {
     "fold": _fold,
     "flip": _flip,
     "neimark-sacker": _neimark_sacker,
@@ -376,7 +187,7 @@ TESTS: dict[str, Callable[[_Equations, _Point], float]] = {
 """The test functions whose sign changes bracket a special point."""
 
 
-def _defining(kind: str, eq: _Equations, p: _Point) -> float:
+def _defining(kind: str, eq: Equations, p: _Point) -> float:
     """The defining equation's value at a located point (0 at the exact point)."""
     mus = p.eigenvalues or [complex(math.nan)]
     if kind == "fold":
@@ -389,11 +200,11 @@ def _defining(kind: str, eq: _Equations, p: _Point) -> float:
     return abs(_duration(eq, p))
 
 
-def _along(eq: _Equations, a: _Point, s: float) -> _Point | None:
+def _along(eq: Equations, a: _Point, s: float) -> _Point | None:
     """The branch's point at arclength ``s`` from ``a`` along ``a``'s tangent (corrected in
     the plane normal to it)."""
     anchor = a.w + s * a.tangent
-    solved = _correct(eq, anchor, a.tangent, anchor)
+    solved = correct(eq, anchor, a.tangent, anchor)
     if solved is None:
         return None
     w, jac, iterations = solved
@@ -401,7 +212,7 @@ def _along(eq: _Equations, a: _Point, s: float) -> _Point | None:
 
 
 def _locate_root(
-    eq: _Equations, a: _Point, b: _Point, h: float, test: Callable[[_Equations, _Point], float]
+    eq: Equations, a: _Point, b: _Point, h: float, test: Callable[[Equations, _Point], float]
 ) -> tuple[_Point, float] | None:  # fmt: skip
     """The point between ``a`` (s = 0) and ``b`` (s = h) where ``test`` vanishes (Illinois
     method), with its s; None where a trial point cannot be corrected."""
@@ -435,7 +246,7 @@ def _locate_root(
     return best
 
 
-def _locate_boundary(eq: _Equations, a: _Point, h: float) -> tuple[_Point, _Point, float]:
+def _locate_boundary(eq: Equations, a: _Point, h: float) -> tuple[_Point, _Point, float]:
     """Bisection on the simulated walk's confirmation between ``a`` (confirmed, s = 0) and
     s = ``h`` (not): the last confirmed point, the first unconfirmed and the bracket."""
     lo, hi = 0.0, h
@@ -452,7 +263,7 @@ def _locate_boundary(eq: _Equations, a: _Point, h: float) -> tuple[_Point, _Poin
     return good, bad, hi - lo
 
 
-def _special(eq: _Equations, kind: str, p: _Point, condition: str | None = None,
+def _special(eq: Equations, kind: str, p: _Point, condition: str | None = None,
              defining: float | None = None) -> SpecialPoint:  # fmt: skip
     return SpecialPoint(
         type=kind,
@@ -463,7 +274,7 @@ def _special(eq: _Equations, kind: str, p: _Point, condition: str | None = None,
     )
 
 
-def _record(eq: _Equations, p: _Point) -> dict[str, Any]:
+def _record(eq: Equations, p: _Point) -> dict[str, Any]:
     """A branch point as JSON: ``vsw continue --json``'s ``points``."""
     durations = eq.durations(p.w)
     period = float(np.sum(durations))
@@ -495,7 +306,7 @@ def _neutral_saddle(p: _Point) -> bool:
     return not any(mu.imag > 1e-9 and abs(abs(mu) - 1.0) < 1e-6 for mu in p.eigenvalues)
 
 
-def _trace(eq: _Equations, first: _Point, options: Options) -> Branch:
+def _trace(eq: Equations, first: _Point, options: Options) -> Branch:
     """Follow the branch from ``first`` in its tangent's direction to the range's end, a
     boundary, or until it is lost."""
     points, specials = [first], []
@@ -541,7 +352,7 @@ def _trace(eq: _Equations, first: _Point, options: Options) -> Branch:
     return Branch(eq.period, [_record(eq, p) for p in points], specials, ended)
 
 
-def _between(eq: _Equations, a: _Point, b: _Point, h: float) -> tuple[list, tuple | None]:
+def _between(eq: Equations, a: _Point, b: _Point, h: float) -> tuple[list, tuple | None]:
     """The special points between consecutive points ``a`` and ``b`` (``h`` apart), in
     order, and the boundary that ends the branch there, if any: (last gait, its point)."""
     found: list[tuple[float, SpecialPoint]] = []
@@ -569,7 +380,7 @@ def _between(eq: _Equations, a: _Point, b: _Point, h: float) -> tuple[list, tupl
         boundary = (float(a.tangent @ (good.w - a.w)), good, special)
     limit = boundary[0] if boundary is not None else h
     # (type, test function, condition): the bifurcations, then each reported condition.
-    tests: list[tuple[str, Callable[[_Equations, _Point], float], str | None]] = [
+    tests: list[tuple[str, Callable[[Equations, _Point], float], str | None]] = [
         (kind, TESTS[kind], None) for kind in ("fold", "flip", "neimark-sacker")
     ]
     for name in sorted(set(a.margins) & set(b.margins)):
@@ -595,7 +406,7 @@ def _between(eq: _Equations, a: _Point, b: _Point, h: float) -> tuple[list, tupl
     return out, (None if boundary is None else (boundary[1], boundary[2]))
 
 
-def _start(eq: _Equations, state: np.ndarray, durations: Sequence[float]) -> _Point:
+def _start(eq: Equations, state: np.ndarray, durations: Sequence[float]) -> _Point:
     """The first point: the orbit at the range's start from a guess (nu fixed at 0);
     VswInputError where the guess leads to no gait."""
     where = f"at {eq.parameter(0.0):g}"
@@ -608,7 +419,7 @@ def _start(eq: _Equations, state: np.ndarray, durations: Sequence[float]) -> _Po
         ) from None
     normal = np.zeros_like(guess)
     normal[-1] = 1.0
-    solved = _correct(eq, guess, normal, np.zeros_like(guess), max_iterations=40)
+    solved = correct(eq, guess, normal, np.zeros_like(guess), max_iterations=40)
     if solved is None:
         raise VswInputError(f"{eq.model.name}: no period-{eq.period} gait {where} near the start "
                             "(the orbit's corrector did not converge from it)")  # fmt: skip
@@ -630,11 +441,11 @@ def _start(eq: _Equations, state: np.ndarray, durations: Sequence[float]) -> _Po
     return p  # its tangent points to larger nu: [R_w; e_nu] t = (0, 1)
 
 
-def _switch(eq: _Equations, flip: SpecialPoint) -> tuple[_Equations, _Point] | None:
+def _switch(eq: Equations, flip: SpecialPoint) -> tuple[Equations, _Point] | None:
     """The period-2k problem and the first point of its branch born at ``flip`` on the
     period-k branch of ``eq`` (module docstring), or None where the corrector does not
     reach it."""
-    double = _Equations(eq.model, eq.params, eq.index, eq.start, eq.start + eq.width,
+    double = Equations(eq.model, eq.params, eq.index, eq.start, eq.start + eq.width,
                         2 * eq.period)  # fmt: skip
     nu = (flip.parameter - eq.start) / eq.width
     try:
@@ -647,7 +458,7 @@ def _switch(eq: _Equations, flip: SpecialPoint) -> tuple[_Equations, _Point] | N
     except RuntimeError:
         stop.check()
         return None
-    single_t = _tangent(single_jac, np.eye(single_jac.shape[1])[-1])
+    single_t = branch_tangent(single_jac, np.eye(single_jac.shape[1])[-1])
     if single_t is None or not np.all(np.isfinite(jac)):
         return None
     # The null space of R_w is two-dimensional at a period doubling: the doubled period-k
@@ -663,7 +474,7 @@ def _switch(eq: _Equations, flip: SpecialPoint) -> tuple[_Equations, _Point] | N
     across /= np.linalg.norm(across)
     for h in (1e-3, 3e-3, 1e-2, 3e-2):
         anchor = w0 + h * across
-        solved = _correct(double, anchor, across, anchor)
+        solved = correct(double, anchor, across, anchor)
         if solved is None:
             continue
         w, jac2, iterations = solved
@@ -678,7 +489,7 @@ def _switch(eq: _Equations, flip: SpecialPoint) -> tuple[_Equations, _Point] | N
     return None
 
 
-def _least_period(eq: _Equations, w: np.ndarray) -> int:
+def _least_period(eq: Equations, w: np.ndarray) -> int:
     """The least number of simulated steps, a divisor of ``eq.period``, after which the
     orbit's state returns to x0 (within 1e-7 x max(1, |x0|)); ``eq.period`` where none
     fewer does or a step fails."""
@@ -686,7 +497,7 @@ def _least_period(eq: _Equations, w: np.ndarray) -> int:
     x0 = eq.x0(w)
     x = x0.copy()
     for k in range(1, eq.period):
-        step = _step(eq.model, params, x)
+        step = simulated_step(eq.model, params, x)
         if isinstance(step, str) or step.ended != "completed":
             return eq.period
         x = step.state
@@ -732,10 +543,10 @@ def continue_gaits(
     if not start != stop_value:
         raise VswInputError(f"the range of {over} is empty: give START != STOP")
     index = names.index(over)
-    eq = _Equations(model, params, index, start, stop_value, period)
+    eq = Equations(model, params, index, start, stop_value, period)
     first = _start(eq, np.asarray(state, float), durations)
     branches: list[Branch] = []
-    queue: list[tuple[_Equations, _Point, float | None]] = [(eq, first, None)]
+    queue: list[tuple[Equations, _Point, float | None]] = [(eq, first, None)]
     while queue:
         current, point, born = queue.pop(0)
         branch = _trace(current, point, options)
@@ -752,224 +563,3 @@ def continue_gaits(
             if child is not None:
                 queue.append((*child, special.parameter))
     return branches
-
-
-# --- two parameters: the curve of a special point ------------------------------------------
-
-
-@dataclass
-class Curve:
-    """A special point continued in two parameters: its ``type`` (and for a boundary its
-    condition), the point it started from, and the curve's points, each the gait where the
-    defining equation holds: (parameter, second_parameter, state, eigenvalues, defining
-    equation's value). ``ended``: how each of its two directions ended (``box``: the range
-    of a parameter; ``lost``; ``max points``; or the simulated walk's reason)."""
-
-    type: str
-    condition: str | None
-    second: str
-    start: dict[str, Any]
-    points: list[dict[str, Any]]
-    ended: list[str]
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "type": self.type,
-            "condition": self.condition,
-            "second_parameter_name": self.second,
-            "from": self.start,
-            "ended": self.ended,
-            "points": self.points,
-        }
-
-
-class _CurveEquations:
-    """(R(u, lambda, mu) = 0, psi(u, lambda, mu) = 0) in ``W = (u, nu, nu2)``: the orbit and
-    the special point's defining function ``psi`` (1 + the eigenvalue nearest -1 at a flip,
-    the eigenvalue nearest +1 less 1 at a fold, |mu|^2 - 1 of the complex pair nearest the
-    unit circle at a Neimark-Sacker point, the phase's duration at a boundary). R's
-    derivatives are CasADi's; psi's by forward differences of the eigenvalues (step 1e-7)."""
-
-    def __init__(self, eq: _Equations, index2: int, start2: float, stop2: float, kind: str,
-                 phase: int | None) -> None:  # fmt: skip
-        self.eq = eq
-        self.model = eq.model
-        self.index2 = index2
-        self.start2 = start2
-        self.width2 = stop2 - start2
-        self.kind = kind
-        self.phase = phase
-        self.n = eq.n
-        self.problem = OrbitProblem(eq.model, eq.period, (eq.index, index2))
-
-    def params_at(self, w: np.ndarray) -> np.ndarray:
-        p = self.eq.params_at(w[-2])
-        p[self.index2] = self.start2 + w[-1] * self.width2
-        return p
-
-    def _orbit(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        r, j_u, j_1, j_2 = self.problem.evaluate(w[:-2], self.params_at(w))
-        return r, np.hstack([j_u, j_1 * self.eq.width, j_2 * self.width2])
-
-    def psi(self, w: np.ndarray, jac: np.ndarray) -> float:
-        if self.kind == "boundary":
-            return float(self.eq.durations(w[:-1])[self.phase])
-        mus = self.eq.eigenvalues(jac[:, :-1])
-        if not mus:
-            return math.nan
-        if self.kind == "flip":
-            return float(min(mus, key=lambda mu: abs(mu + 1)).real + 1.0)
-        if self.kind == "fold":
-            return float(min(mus, key=lambda mu: abs(mu - 1)).real - 1.0)
-        pairs = [mu for mu in mus if mu.imag > 1e-9] or mus
-        return float(abs(min(pairs, key=lambda mu: abs(abs(mu) - 1))) ** 2 - 1.0)
-
-    def evaluate(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        r, jac = self._orbit(w)
-        psi = self.psi(w, jac)
-        gradient = np.empty(len(w))
-        for j in range(len(w)):
-            h = 1e-7 * max(1.0, abs(w[j]))
-            shifted = w.copy()
-            shifted[j] += h
-            gradient[j] = (self.psi(shifted, self._orbit(shifted)[1]) - psi) / h
-        return np.concatenate([r, [psi]]), np.vstack([jac, gradient])
-
-
-def _curve_record(ce: _CurveEquations, w: np.ndarray, jac: np.ndarray) -> dict[str, Any]:
-    p = ce.params_at(w)
-    mus = ce.eq.eigenvalues(jac[:-1, :-1])
-    return {
-        "parameter": float(p[ce.eq.index]),
-        "second_parameter": float(p[ce.index2]),
-        "state": ce.eq.state(w),
-        "phase_durations": [float(v) for v in ce.eq.durations(w[:-1])],
-        "eigenvalues": [[float(e.real), float(e.imag)] for e in mus],
-        "defining_equation": abs(float(ce.psi(w, jac[:-1]))),
-    }
-
-
-def _curve_confirmed(ce: _CurveEquations, w: np.ndarray, jac: np.ndarray) -> str:
-    """The simulated walk's confirmation of a curve point (:func:`_confirm`).
-
-    On a boundary curve the phase has no duration: the walk from the point starts on its
-    failure's threshold (the biped's heelstrike lands on theta_II, where a step "begins
-    past theta_II" by the rounding of the solution: +-1e-13), a tie that rounding decides.
-    There the walk is also confirmed a hair inside: the second parameter moved by
-    BOUNDARY_NUDGE of its range, either way (the orbit moves by as little, far below
-    CONFIRM_TOL); the point counts if either walk completes."""
-    eigenvalues = ce.eq.eigenvalues(jac[:-1, :-1])
-    tries = (
-        [w]
-        if ce.kind != "boundary"
-        else [w, *(w + np.eye(len(w))[-1] * d for d in (BOUNDARY_NUDGE, -BOUNDARY_NUDGE))]
-    )
-    confirmed = "completed"
-    for k, point in enumerate(tries):
-        single = _Equations(ce.model, ce.params_at(point), ce.eq.index, ce.eq.start,
-                            ce.eq.start + ce.eq.width, ce.eq.period)  # fmt: skip
-        outcome = _confirm(single, point[:-1], eigenvalues)[0]
-        if outcome == "completed":
-            return outcome
-        if k == 0:
-            confirmed = outcome
-    return confirmed
-
-
-def _trace_curve(ce: _CurveEquations, w0: np.ndarray, direction: np.ndarray,
-                 options: Options) -> tuple[list[dict[str, Any]], str]:  # fmt: skip
-    """One direction of the curve from ``w0``: its points (without ``w0``) and its end."""
-    out: list[dict[str, Any]] = []
-    w, t = w0, direction
-    h = options.initial_step
-    while len(out) < options.max_points:
-        stop.check()
-        anchor = w + h * t
-        solved = _correct(ce, anchor, t, anchor)
-        t_new = None if solved is None else _tangent(solved[1], t)
-        if t_new is None or t_new @ t < math.cos(MAX_TURN):
-            h *= 0.5
-            if h < options.min_step:
-                return out, "lost"
-            continue
-        w_new, jac, iterations = solved
-        if not (0.0 <= w_new[-2] <= 1.0 and 0.0 <= w_new[-1] <= 1.0):
-            return out, "box"
-        confirmed = _curve_confirmed(ce, w_new, jac)
-        if confirmed != "completed":
-            return out, f"the simulated walk: {confirmed}"
-        out.append(_curve_record(ce, w_new, jac))
-        w, t = w_new, t_new
-        if iterations <= 3:
-            h = min(1.5 * h, options.max_step)
-    return out, "max points"
-
-
-def continue_special_point(
-    model: HybridModel,
-    params: Sequence[float],
-    over: str,
-    start: float,
-    stop_value: float,
-    special: SpecialPoint,
-    period: int,
-    second: str,
-    second_start: float,
-    second_stop: float,
-    options: Options | None = None,
-) -> Curve:
-    """The curve in (``over``, ``second``) along which ``special`` (located on a
-    period-``period`` branch continued in ``over`` over [start, stop_value]) persists,
-    both ways from it, within both ranges.
-
-    Raises VswInputError for a boundary that no phase duration defines (a failure reached
-    on the way: no smooth defining equation), or ``second`` equal to ``over``."""
-    options = options or Options()
-    names = [p.name for p in model.parameter_table]
-    if second not in names:
-        raise VswInputError(f"{second!r} is not a parameter of {model.name}: {', '.join(names)}")
-    if second == over:
-        raise VswInputError(f"--free {second}: the second parameter must differ from --over's")
-    eq = _Equations(model, params, names.index(over), start, stop_value, period)
-    index2 = names.index(second)
-    value2 = float(params[index2])
-    if not min(second_start, second_stop) <= value2 <= max(second_start, second_stop):
-        raise VswInputError(f"--free {second}={second_start:g}:{second_stop:g} must contain "
-                            f"{second}'s value {value2:g}")  # fmt: skip
-    phase = None
-    if special.type == "boundary":
-        if not (special.condition or "").startswith("phase "):
-            raise VswInputError(
-                f"the boundary at {over} = {special.parameter:g} ({special.condition}) has no "
-                "smooth defining equation to continue"
-            )
-        phase = int(np.argmin(special.durations))
-    ce = _CurveEquations(eq, index2, second_start, second_stop, special.type, phase)
-    nu = (special.parameter - start) / eq.width
-    nu2 = (value2 - second_start) / (second_stop - second_start)
-    try:
-        u = eq.unknowns(np.array(list(special.state.values())), special.durations, nu)
-    except RuntimeError:
-        stop.check()
-        raise VswInputError(f"the {special.type} point's phases could not be integrated") from None
-    w0 = np.concatenate([u[:-1], [nu, nu2]])
-    normal = np.zeros_like(w0)
-    normal[-1] = 1.0
-    solved = _correct(ce, w0, normal, w0, max_iterations=20)
-    if solved is None:
-        raise VswInputError(
-            f"the {special.type} point at {over} = {special.parameter:g} could not be "
-            f"continued in {second} (its corrector did not converge)"
-        )
-    w0, jac, _ = solved
-    start_point = _curve_record(ce, w0, jac)
-    points, ended = [start_point], []
-    for sign in (1.0, -1.0):
-        t0 = _tangent(jac, sign * normal)
-        if t0 is None:
-            ended.append("lost")
-            continue
-        way, end = _trace_curve(ce, w0, t0, options)
-        points = list(reversed(way)) + points if sign < 0 else points + way
-        ended.append(end)
-    return Curve(special.type, special.condition, second, start_point, points, ended)
