@@ -55,6 +55,11 @@ DESIGN_BEFORE = "39d527c"
 DERIVE_BEFORE = "5e02f11"
 """The tree case 7 derives side by side with this one: the last whose impulse at an impact
 was solved by one symbolic solve inside another (its level compass gait took minutes)."""
+DERIVE_COSTS_BEFORE = "24e9efe"
+"""The tree beside which case 7's rows noted 'against 24e9efe' were measured, apart from
+the rest of the case: the derivation of every model, the heaviest models alone,
+``derive --check`` and the user's model file, each process alternating with the same
+command in a checkout of this commit (medians)."""
 DERIVE_MODEL_LIMIT = 4.0
 """Seconds within which each model derives alone, cold (case 7)."""
 DERIVE_MEDIAN_LIMIT = 3.0
