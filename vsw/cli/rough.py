@@ -17,6 +17,7 @@ from vsw.batch import simulator
 from vsw.cli import options
 from vsw.cli.output import INTEGRATOR, dump_json, envelope, fmt, with_units, write_parameters
 from vsw.cli.parser import EXIT_OK
+from vsw.errors import VswInputError
 from vsw.figures import check_save_path, save_figure
 from vsw.gaits import search_seconds
 from vsw.rough import (
@@ -27,12 +28,16 @@ from vsw.rough import (
     slope_index,
     survival_plot,
 )
+from vsw.rough_chain import chain_steps, check_chain_inputs, rough_chain
 from vsw.vectorize import default_threads
 
 __all__ = ["register", "run"]
 
 TERRAINS = ("slope",)
 """Terrain models ``--terrain`` takes."""
+
+METHODS = ("monte-carlo", "chain", "both")
+"""What ``--method`` takes."""
 
 
 def register(subparsers: Any) -> None:
@@ -54,6 +59,14 @@ def register(subparsers: Any) -> None:
                    help="start here (the state just after the step event, every coordinate "
                    "and rate) instead of the stable gait; repeatable")  # fmt: skip
     p.add_argument("--plot", metavar="FILE", help="save the survival curve (.png/.svg/.pdf)")
+    p.add_argument("--method", choices=METHODS, default="monte-carlo",
+                   help="monte-carlo: the walks; chain: the meshed Markov chain on the "
+                   "section (Byl & Tedrake); both: each, and whether the chain's MFPT lies "
+                   "in the walks' 95 %% interval")  # fmt: skip
+    p.add_argument("--noise-nodes", type=int, default=24, metavar="N",
+                   help="the chain's Gauss-Hermite nodes in the slope's noise")  # fmt: skip
+    p.add_argument("--max-nodes", type=int, default=100_000, metavar="N",
+                   help="the chain's largest mesh (nodes)")  # fmt: skip
     p.set_defaults(func=run, parser=p)
 
 
@@ -68,23 +81,54 @@ def _check_cost(model: Any, args: argparse.Namespace, search: bool) -> None:
                  limits.Cost(seconds, nbytes), "use fewer --walks or --max-steps")  # fmt: skip
 
 
+def _check_chain_cost(model: Any, args: argparse.Namespace) -> None:
+    """Refuse a chain beyond the limits before it starts (every mesh up to --max-nodes)."""
+    steps = chain_steps(len(model.spec["search"]), args.noise_nodes, args.max_nodes)
+    seconds = (steps * limits.BATCH_SECONDS_PER_PHASE * len(model.phases) * model.n
+               / default_threads())  # fmt: skip
+    nbytes = limits.SIMULATE_BYTES_BASE + 64 * args.max_nodes * args.noise_nodes
+    what = f"a chain of up to {args.max_nodes} nodes x {args.noise_nodes} noise nodes"
+    limits.check(what, limits.Cost(seconds, nbytes), "use fewer --max-nodes or --noise-nodes")
+
+
+def _verdict(mc: dict, chain: dict) -> dict:
+    """Whether the chain's MFPT from the gait lies in the walks' 95 % interval, and why not."""
+    value, low, high = chain["mfpt_gait"], mc["low"], mc["high"]
+    inside = low <= value and (high is None or value <= high)
+    if inside:
+        text = "the chain's MFPT lies inside the Monte Carlo 95 % interval"
+    else:
+        side = "below" if value < low else "above"
+        why = ("the chain is too coarse: its mesh did not settle within --max-nodes"
+               if not chain["converged"] else
+               "the settled chain and the walks disagree: the mesh's refinement error is not "
+               "the whole of the chain's error")  # fmt: skip
+        text = f"the chain's MFPT lies {side} the Monte Carlo 95 % interval: {why}"
+    return {"inside": bool(inside), "verdict": text}
+
+
 def run(args: argparse.Namespace) -> int:
     model, params = options.model_and_parameters(args)
     options.refuse_powered_only(model, "rough")
     slope_index(model)
     check_inputs(args.sigma, args.walks, args.max_steps, args.seed)
+    check_chain_inputs(args.noise_nodes, args.max_nodes)
+    walks, chain = args.method != "chain", args.method != "monte-carlo"
+    if chain and args.state:
+        raise VswInputError("--state: the chain meshes the section around the stable gait; "
+                            "use --method monte-carlo to walk from a given state")  # fmt: skip
+    if chain and args.sigma <= 0:
+        raise VswInputError(f"--sigma {args.sigma:g}: the chain needs sigma > 0")
     start = options.parse_state(model, args.state) if args.state else None
     if args.plot is not None:
+        if not walks:
+            raise VswInputError("--plot draws the walks' survival: not with --method chain")
         check_save_path(args.plot)
-    _check_cost(model, args, start is None)
-    with options.solver_errors(model):
-        simulator(model).library()
-        result = rough_walks(model, params, args.sigma, args.walks, args.max_steps, args.seed,
-                             start=start)  # fmt: skip
-        gsn = None if result.gait is None else gait_sensitivity(model, params, result.gait)
-    data = {**envelope(model, params, args.argv, INTEGRATOR), **result.to_dict(),
-            "model": model.cli_name,
-            "gait_sensitivity": None if gsn is None else gsn.to_dict()}  # fmt: skip
+    if walks:
+        _check_cost(model, args, start is None)
+    if chain:
+        _check_chain_cost(model, args)
+    data = _compute(model, params, args, start, walks, chain)
     if args.plot is not None:
         noise = f"slope drawn per step: $\\sigma$ = {args.sigma:g} rad"
         title = plotstyle.parameter_text(model, params) + "\n" + noise
@@ -97,21 +141,96 @@ def run(args: argparse.Namespace) -> int:
                  "survival.fraction": "1", "gsn": f"{time}/rad and {length}/rad together",
                  "gsn_by_indicator.step_time": f"{time}/rad",
                  "gsn_by_indicator.step_length": f"{length}/rad", "A": "state/state",
-                 "B": "state/rad", "C": "indicator/state", "D": "indicator/rad"}  # fmt: skip
+                 "B": "state/rad", "C": "indicator/state", "D": "indicator/rad",
+                 "mfpt_qsd": "steps", "mfpt_gait": "steps", "byl_tedrake": "steps",
+                 "lambda2": "1", "nodes": "1", "nodes_per_axis": "1", "escaped": "1",
+                 "noise_nodes": "1", "refinements": "1", "quadrature_change": "1",
+                 "gait_failure": "1", "steps_simulated": "steps"}  # fmt: skip
         dump_json(with_units(model, data, extra))
         return EXIT_OK
     _write_text(model, params, args, data)
     return EXIT_OK
 
 
+def _compute(model: Any, params: Any, args: argparse.Namespace, start: Any, walks: bool,
+             chain: bool) -> dict:  # fmt: skip
+    """The walks, the chain or both, as the JSON's keys."""
+    with options.solver_errors(model):
+        simulator(model).library()
+        gait = None if start is not None else model.stable_gait(params, "no gait to start from")
+        data = {**envelope(model, params, args.argv, INTEGRATOR), "model": model.cli_name,
+                "method": args.method}  # fmt: skip
+        if walks:
+            result = rough_walks(model, params, args.sigma, args.walks, args.max_steps,
+                                 args.seed, start=start, gait=gait)  # fmt: skip
+            data.update(result.to_dict())
+            data["model"] = model.cli_name
+        else:
+            data.update({"terrain": "slope", "sigma": args.sigma, "gait": gait.to_dict()})
+        data["method"] = args.method
+        if chain:
+            found = rough_chain(model, params, args.sigma, gait=gait,
+                                noise_nodes=args.noise_nodes, max_nodes=args.max_nodes)  # fmt: skip
+            data["chain"] = found.to_dict()
+            if walks and data["mfpt"]["value"] is not None:
+                data["agreement"] = _verdict(data["mfpt"], data["chain"])
+        gsn = None if gait is None else gait_sensitivity(model, params, gait)
+        data["gait_sensitivity"] = None if gsn is None else gsn.to_dict()
+    return data
+
+
 def _write_text(model: Any, params: Any, args: argparse.Namespace, data: dict) -> None:
     out = sys.stdout
     write_parameters(out, model, params)
+    out.write(f"{'terrain':<18} {SLOPE}_k = {fmt(data['parameters'][SLOPE])} + "
+              f"{fmt(args.sigma)} xi_k rad, xi_k standard normal\n")  # fmt: skip
+    if "mfpt" in data:
+        _write_walks(out, args, data)
+    if "chain" in data:
+        _write_chain(out, data["chain"])
+    if "agreement" in data:
+        out.write(f"{'agreement':<18} {data['agreement']['verdict']}\n")
+    gsn = data["gait_sensitivity"]
+    if gsn is not None:
+        units = dict(model.units)
+        parts = ", ".join(f"{k.replace('_', ' ')} {fmt(v)} {units[k.split('_')[1]]}/rad"
+                          for k, v in gsn["gsn_by_indicator"].items())  # fmt: skip
+        out.write(f"{'gait sensitivity':<18} {fmt(gsn['gsn'])} ({parts}; the H2 norm of the "
+                  "indicators' response to one step's slope)\n")  # fmt: skip
+    if args.plot is not None:
+        out.write(f"plot: {args.plot}\n")
+
+
+def _write_chain(out: Any, c: dict) -> None:
+    """The chain's lines of the text output."""
+    shape = " x ".join(str(n) for n in c["nodes_per_axis"])
+    settled = ("settled: both MFPTs within 1 % on two refinements in a row" if c["converged"]
+               else "not settled within --max-nodes")  # fmt: skip
+    out.write(
+        f"{'chain mesh':<18} {c['nodes']} nodes ({shape} over "
+        f"{', '.join(c['components'])}), {c['refinements']} refinements, {settled}\n"
+    )
+    for level in c["levels"]:
+        out.write(f"  {level['nodes']:>8} nodes    lambda2 {fmt(level['lambda2'])}, MFPT "
+                  f"{fmt(level['mfpt_gait'])} from the gait, {fmt(level['mfpt_qsd'])} "
+                  "quasi-stationary\n")  # fmt: skip
+    out.write(
+        f"{'chain lambda2':<18} {fmt(c['lambda2'])} (Byl & Tedrake's MFPT "
+        f"1/(1 - lambda2) = {fmt(c['byl_tedrake'])} steps, the failing one counted)\n"
+    )
+    out.write(f"{'chain MFPT':<18} {fmt(c['mfpt_gait'])} steps from the gait ((I - T) n = 1), "
+              f"{fmt(c['mfpt_qsd'])} from the quasi-stationary distribution "
+              "(lambda2/(1 - lambda2))\n")  # fmt: skip
+    out.write(f"{'chain noise':<18} {c['quadrature']}, {c['noise_nodes']} nodes; twice the "
+              f"nodes change the MFPT by {fmt(100 * c['quadrature_change'])} %; "
+              f"mass leaving the mesh {fmt(c['escaped'])} per step\n")  # fmt: skip
+
+
+def _write_walks(out: Any, args: argparse.Namespace, data: dict) -> None:
+    """The walks' lines of the text output."""
     start = ", ".join(f"{k} = {fmt(v)}" for k, v in data["start"].items())
     origin = "given" if data["gait"] is None else "the stable gait"
-    out.write(f"{'start':<18} {start} ({origin})\n")
-    out.write(f"{'terrain':<18} {SLOPE}_k = {fmt(data['parameters'][SLOPE])} + "
-              f"{fmt(args.sigma)} xi_k rad, xi_k standard normal, seed {args.seed}\n")  # fmt: skip
+    out.write(f"{'start':<18} {start} ({origin}), seed {args.seed}\n")
     out.write(f"{'walks':<18} {data['walks']}, up to {data['max_steps']} steps each\n")
     m = data["mfpt"]
     if m["value"] is None:
@@ -124,14 +243,5 @@ def _write_text(model: Any, params: Any, args: argparse.Namespace, data: dict) -
               f"{data['censored']} censored, {data['steps_walked']} steps walked\n")  # fmt: skip
     for kind, count in data["failures_by_kind"].items():
         out.write(f"  {kind:<16} {count}\n")
-    gsn = data["gait_sensitivity"]
-    if gsn is not None:
-        units = dict(model.units)
-        parts = ", ".join(f"{k.replace('_', ' ')} {fmt(v)} {units[k.split('_')[1]]}/rad"
-                          for k, v in gsn["gsn_by_indicator"].items())  # fmt: skip
-        out.write(f"{'gait sensitivity':<18} {fmt(gsn['gsn'])} ({parts}; the H2 norm of the "
-                  "indicators' response to one step's slope)\n")  # fmt: skip
     if data["simulator"] != "compiled":
         out.write(f"note: the walks took the {data['simulator']} route\n")
-    if args.plot is not None:
-        out.write(f"plot: {args.plot}\n")
