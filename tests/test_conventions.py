@@ -341,6 +341,30 @@ def test_every_number_of_the_json_has_a_unit(capsys, argv):
     assert unlabelled(data) == []
 
 
+FILE_RUNS = [
+    ["animate", "--model", "rimless-wheel", "--steps", "1", "--out", "{tmp}/a.svg"],
+    ["animate", "--steps", "1", "--out", "{tmp}/b.gif"],
+    ["explore", "--model", "compass-gait", "--out", "{tmp}/e.html"],
+    ["explore", "--out", "{tmp}/ile.html"],
+    ["simulate", "--model", "compass-gait", "--steps", "1", "--trajectory", "{tmp}/t.csv"],
+    ["rough", "--model", "simplest-walker", "--sigma", "0.001", "--walks", "20", "--max-steps",
+     "30"],
+]  # fmt: skip
+"""The commands that write a file (and rough ground's few walks), each model's unit system."""
+
+
+def test_every_command_with_json_is_run_by_a_unit_check():
+    run = {argv[0] for argv in (*RUNS, *SLOW_RUNS, *FILE_RUNS)}
+    assert set(_subparsers(build_parser())) - {"models"} <= run
+
+
+@pytest.mark.parametrize("argv", FILE_RUNS, ids=[" ".join(a[:3]) for a in FILE_RUNS])
+def test_every_number_of_the_file_writers_json_has_a_unit(capsys, tmp_path, argv):
+    data = _json(capsys, [a.format(tmp=tmp_path) for a in argv])
+    assert list(data)[:4] == ["model", "parameters", "units", "provenance"]
+    assert unlabelled(data) == []
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("argv", SLOW_RUNS, ids=[" ".join(a) for a in SLOW_RUNS])
 def test_every_number_of_the_slow_runs_json_has_a_unit(capsys, argv):

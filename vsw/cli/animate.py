@@ -10,7 +10,7 @@ from typing import Any
 
 from vsw.animate import animation_frames, check_output, write_animation
 from vsw.cli import options
-from vsw.cli.output import INTEGRATOR, dump_json, envelope
+from vsw.cli.output import INTEGRATOR, dump_json, envelope, with_units
 from vsw.cli.parser import EXIT_OK
 from vsw.cli.simulate import REPLAY, add_gait_option, saved_gait
 from vsw.errors import VswInputError
@@ -104,7 +104,12 @@ def run(args: argparse.Namespace) -> int:
         },
     }
     if args.json:
-        dump_json(data)
+        time, length = model.units.get("time", ""), model.units.get("length", "")
+        units = {"frames": "1", "fps": "1/s", "model_time_per_second": f"{time}/s",
+                 "duration": time, "steps_completed": "1", "events.t": time,
+                 "frame_of_events": "1", "pixels.scale": f"px/{length}", "pixels.slope": "rad",
+                 "pixels.origins": "px"}  # fmt: skip
+        dump_json(with_units(model, data, units))
         return EXIT_OK
     if note:
         sys.stdout.write(f"note: {note}\n")

@@ -47,7 +47,8 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         page = f"generated/{model.name}/js/{model.name}.js"
         data = envelope(model, params, args.argv, {"page": page})
-        dump_json({**data, "out": str(out), "leg_length": args.leg_length})
+        data = {**data, "out": str(out), "leg_length": args.leg_length}
+        dump_json(with_units(model, data, {"leg_length": "m"}))
         return EXIT_OK
     sys.stdout.write(f"{out}: open it in a browser (no server needed)\n")
     return EXIT_OK
