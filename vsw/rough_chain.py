@@ -7,12 +7,15 @@ The chain's states are the nodes of a rectilinear mesh of the section's free com
 theta_dot, for the compass gait theta, theta_dot and psi_dot) and one absorbing state, the
 fall. From each node ``x_i`` one step of the batch simulator is taken on each slope
 gamma0 + sigma xi_j of a quadrature of the standard normal (:func:`noise_quadrature`,
-weights w_j), all (i, j) in one call. A step that fails goes to the fall with its weight; a
-step that lands at ``y`` is spread over the corners of ``y``'s mesh cell by multilinear
-(barycentric on the cell's box) interpolation, so the chain moves probability as the map
-moves states to second order in the mesh width. A landing outside the mesh goes to the
-fall: the quasi-stationary mass that does so per step is reported (``escaped``), an error
-that lowers the MFPTs by about escaped / (1 - lambda_2) of themselves.
+weights w_j), all (i, j) in one call (of :data:`CHUNK` nodes at most). The mesh is laid in
+whitened coordinates (:func:`linearised_factor`: the linearised step map's covariance made
+the identity) over a box that a pilot run sizes (:func:`pilot_box`). A step that fails
+goes to the fall with its weight; a step that lands at ``y`` is spread over the corners of
+``y``'s mesh cell by multilinear (barycentric on the cell's box) interpolation, so the
+chain moves probability as the map moves states to second order in the mesh width. A
+landing outside the mesh goes to the fall: the quasi-stationary mass that does so per
+step is reported (``escaped``), an error that lowers the MFPTs by about
+escaped / (1 - lambda_2) of themselves.
 
 The live states' substochastic matrix ``T`` has a largest eigenvalue lambda_2 (the chain's
 second after the fall's 1); its left eigenvector is the quasi-stationary distribution. Two
@@ -23,8 +26,7 @@ from the gait itself, ``n - 1`` with ``(I - T) n = 1`` and the first step taken 
 gait's exact state.
 
 The mesh is refined until both MFPTs change by less than :data:`RTOL` on two refinements
-in a row:
-each refinement multiplies the nodes per axis by :data:`GROWTH` and places them where the
+in a row: each refinement multiplies the nodes per axis by :data:`GROWTH` and places them where the
 chain's mass is, at equal steps of ``(1 - ALPHA) * uniform + ALPHA * marginal`` cumulative
 distribution on each axis (the marginal that of the last mesh's quasi-stationary
 distribution): the spacing follows the mass and is never wider than 1 / (1 - ALPHA) times
@@ -36,7 +38,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -73,7 +75,7 @@ ALPHA = 0.5
 """The share of the quasi-stationary marginal in the node placement (the rest uniform)."""
 
 BOX_SD = 6.0
-"""The mesh's half-width in each free component: this many linearised standard deviations."""
+"""The mesh's box reaches at least this many linearised standard deviations each way."""
 
 QUADRATURES = ("gauss-hermite", "quantile")
 
@@ -185,11 +187,6 @@ class Mesh:
         return Mesh(tuple(axes))
 
 
-def uniform_mesh(centre: np.ndarray, half: np.ndarray, nodes: int) -> Mesh:
-    """``nodes`` equally spaced nodes per axis over ``centre +- half``."""
-    return Mesh(tuple(np.linspace(c - h, c + h, nodes) for c, h in zip(centre, half)))
-
-
 @dataclass(frozen=True)
 class ChainLevel:
     """One mesh's chain: its size, lambda_2, the two MFPTs and the escaped mass."""
@@ -249,7 +246,6 @@ class ChainResult:
     gait_failure: float
     quadrature_change: float | None = None
     steps: int = 0
-    notes: list[str] = field(default_factory=list)
 
     @property
     def final(self) -> ChainLevel:
