@@ -54,7 +54,9 @@ def test_simulate_writes_the_start_row_of_a_walk_that_ends_at_once(tmp_path, mod
     assert report["steps_completed"] == 0
     assert report["trajectory"]["rows"] == 1 and path.stat().st_size > 0
     if suffix == ".csv":
-        rows = list(csv.DictReader(path.read_text().splitlines()))
+        names, units, *body = path.read_text().splitlines()
+        assert units.startswith("#"), "the line after the header is the columns' units"
+        rows = list(csv.DictReader([names, *body]))
         assert len(rows) == 1 and float(rows[0]["t"]) == 0.0
 
 
