@@ -21,9 +21,11 @@ from vsw.cli.output import (
     write_parameters,
 )
 from vsw.cli.parser import EXIT_OK
+from vsw.cli.rough import gait_sensitivity_units, write_gait_sensitivity
 from vsw.gaits import DISTINCT, SCAN_POINTS
 from vsw.models.base import GaitReport, Model
 from vsw.progress import reporting
+from vsw.rough import SLOPE, gait_sensitivity
 
 __all__ = ["register", "run"]
 
@@ -79,16 +81,29 @@ def run(args: argparse.Namespace) -> int:
         else:
             report = model.analyze(params, box)
     data = {**envelope(model, params, args.argv, tolerances(model)), **report.to_dict()}
+    sensitivities = _sensitivities(model, params, report)
+    for point, gsn in zip(data["fixed_points"], sensitivities):
+        point["gait_sensitivity"] = gsn
     if args.json:
-        dump_json(with_units(model, data))
+        dump_json(with_units(model, data, gait_sensitivity_units(model)))
         return EXIT_OK
     out = sys.stdout
     write_parameters(out, model, params)
     if report.rows:
         _write_rows(out, report)
     else:
-        _write_gaits(out, model, report)
+        _write_gaits(out, model, report, sensitivities)
     return EXIT_OK
+
+
+def _sensitivities(model: Model, params: Any, report: GaitReport) -> list[dict | None]:
+    """Each gait's gait sensitivity norm to its slope (:func:`vsw.rough.gait_sensitivity`),
+    None for an unstable gait (its H2 norm is infinite); none for a model on no slope."""
+    if "scale" in model.features or SLOPE not in model.spec["parameters"]:
+        return []
+    with options.solver_errors(model):
+        return [gait_sensitivity(model, params, orbit).to_dict() if orbit.stable else None
+                for orbit in report.gaits]  # fmt: skip
 
 
 def _write_rows(out: TextIO, report: GaitReport) -> None:
@@ -154,7 +169,8 @@ def _impulse_unit(model: Model) -> str:
     return " ".join(model.units[k] for k in ("force", "time") if model.units.get(k))
 
 
-def _write_gaits(out: TextIO, model: Model, report: GaitReport) -> None:
+def _write_gaits(out: TextIO, model: Model, report: GaitReport,
+                 sensitivities: list[dict | None]) -> None:  # fmt: skip
     units = ", ".join(f"{k} {v}" for k, v in model.units.items())
     out.write(f"{'units':<18} {units}\n")
     if report.search is not None:
@@ -179,6 +195,8 @@ def _write_gaits(out: TextIO, model: Model, report: GaitReport) -> None:
                           "simulated again)\n")  # fmt: skip
             else:
                 _write_ledger(out, model, report.ledgers[n - 1])
+        if n <= len(sensitivities) and sensitivities[n - 1] is not None:
+            write_gait_sensitivity(out, model, sensitivities[n - 1], width=16, indent="  ")
     if report.closed_form is not None:
         closed = report.closed_form
         out.write(f"\nclosed form: q^f = {fmt(closed['q_fixed'])}, eigenvalue "

@@ -31,7 +31,7 @@ from vsw.rough import (
 from vsw.rough_chain import chain_steps, check_chain_inputs, rough_chain
 from vsw.vectorize import default_threads
 
-__all__ = ["register", "run"]
+__all__ = ["gait_sensitivity_units", "register", "run", "write_gait_sensitivity"]
 
 TERRAINS = ("slope",)
 """Terrain models ``--terrain`` takes."""
@@ -135,13 +135,9 @@ def run(args: argparse.Namespace) -> int:
         save_figure(survival_plot(data, title), args.plot)
         data["plot"] = args.plot
     if args.json:
-        time, length = model.units.get("time", ""), model.units.get("length", "")
         extra = {"sigma": "rad", "seed": "1", "walks": "1", "failures": "1", "censored": "1",
                  "mfpt": "steps", "failures_by_kind": "1", "survival.steps": "steps",
-                 "survival.fraction": "1", "gsn": f"{time}/rad and {length}/rad together",
-                 "gsn_by_indicator.step_time": f"{time}/rad",
-                 "gsn_by_indicator.step_length": f"{length}/rad", "A": "state/state",
-                 "B": "state/rad", "C": "indicator/state", "D": "indicator/rad",
+                 "survival.fraction": "1", **gait_sensitivity_units(model),
                  "mfpt_qsd": "steps", "mfpt_gait": "steps", "byl_tedrake": "steps",
                  "lambda2": "1", "nodes": "1", "nodes_per_axis": "1", "escaped": "1",
                  "noise_nodes": "1", "refinements": "1", "quadrature_change": "1",
@@ -150,6 +146,26 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_OK
     _write_text(model, params, args, data)
     return EXIT_OK
+
+
+def gait_sensitivity_units(model: Any) -> dict[str, str]:
+    """The units of :meth:`vsw.rough.GaitSensitivity.to_dict`'s numbers, for ``with_units``
+    (``vsw rough`` and ``vsw analyze``)."""
+    time, length = model.units.get("time", ""), model.units.get("length", "")
+    return {"gsn": f"{time}/rad and {length}/rad together",
+            "gsn_by_indicator.step_time": f"{time}/rad",
+            "gsn_by_indicator.step_length": f"{length}/rad", "A": "state/state",
+            "B": "state/rad", "C": "indicator/state", "D": "indicator/rad"}  # fmt: skip
+
+
+def write_gait_sensitivity(out: Any, model: Any, gsn: dict, width: int, indent: str = "") -> None:
+    """One line: the gait sensitivity norm and each indicator's share, with units."""
+    units = dict(model.units)
+    parts = ", ".join(f"{k.replace('_', ' ')} {fmt(v)} {units[k.split('_')[1]]}/rad"
+                      for k, v in gsn["gsn_by_indicator"].items())  # fmt: skip
+    label = f"{indent}{'gait sensitivity':<{width}}"
+    out.write(f"{label} {fmt(gsn['gsn'])} ({parts}; the H2 norm of the indicators' response "
+              "to one step's slope)\n")  # fmt: skip
 
 
 def _compute(model: Any, params: Any, args: argparse.Namespace, start: Any, walks: bool,
@@ -190,13 +206,8 @@ def _write_text(model: Any, params: Any, args: argparse.Namespace, data: dict) -
         _write_chain(out, data["chain"])
     if "agreement" in data:
         out.write(f"{'agreement':<18} {data['agreement']['verdict']}\n")
-    gsn = data["gait_sensitivity"]
-    if gsn is not None:
-        units = dict(model.units)
-        parts = ", ".join(f"{k.replace('_', ' ')} {fmt(v)} {units[k.split('_')[1]]}/rad"
-                          for k, v in gsn["gsn_by_indicator"].items())  # fmt: skip
-        out.write(f"{'gait sensitivity':<18} {fmt(gsn['gsn'])} ({parts}; the H2 norm of the "
-                  "indicators' response to one step's slope)\n")  # fmt: skip
+    if data["gait_sensitivity"] is not None:
+        write_gait_sensitivity(out, model, data["gait_sensitivity"], width=18)
     if args.plot is not None:
         out.write(f"plot: {args.plot}\n")
 
