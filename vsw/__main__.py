@@ -10,8 +10,12 @@ where Python's own handler would kill the exiting process by the signal.
 import signal
 import sys
 
+_started_interrupted = False
+
 
 def _interrupted_while_starting(signum, frame) -> None:
+    global _started_interrupted
+    _started_interrupted = True
     sys.stderr.write("vsw: interrupted\n")
     raise SystemExit(130)
 
@@ -19,8 +23,15 @@ def _interrupted_while_starting(signum, frame) -> None:
 def run() -> int:
     """The console script's entry point (``vsw.cli.main`` behind a start-up Ctrl-C)."""
     signal.signal(signal.SIGINT, _interrupted_while_starting)
-    from vsw import stop  # after the handler on purpose (module docstring)
-    from vsw.cli import main
+    try:
+        from vsw import stop  # after the handler on purpose (module docstring)
+        from vsw.cli import main
+    except BaseException:
+        # A Ctrl-C inside an extension's initialisation (numpy's) reaches us as that
+        # library's ImportError wrapping the handler's exit: still the interrupt.
+        if _started_interrupted:
+            raise SystemExit(130) from None
+        raise
 
     # Kept to the end: a command's run installs its own handler and gives this one back,
     # which then ignores a Ctrl-C that comes after the outcome is settled (stop.settle).
