@@ -138,7 +138,7 @@ def rendered_tree(tmp_path_factory) -> dict[str, str]:
 @pytest.fixture(scope="session")
 def ile_derivation():
     """The ILE's Derivation (sympy objects), derived once per test run for the tests that
-    check the derivation itself in process (the suite derives each model once, issue 24)."""
+    check the derivation itself in process (the suite derives each model once)."""
     from derive.models import ile
 
     return ile.derive()
