@@ -49,6 +49,7 @@ __all__ = [
     "SlopeTerrain",
     "check_inputs",
     "gait_sensitivity",
+    "gait_sensitivity_units",
     "h2_norm",
     "linearised_step",
     "mfpt_estimate",
@@ -385,6 +386,16 @@ class GaitSensitivity:
             "C": self.C.tolist(),
             "D": self.D.tolist(),
         }
+
+
+def gait_sensitivity_units(model: Any) -> dict[str, str]:
+    """The units of :meth:`GaitSensitivity.to_dict`'s numbers, for
+    :func:`vsw.cli.output.with_units` (``vsw rough`` and ``vsw analyze``)."""
+    time, length = model.units.get("time", ""), model.units.get("length", "")
+    return {"gsn": f"{time}/rad and {length}/rad together",
+            "gsn_by_indicator.step_time": f"{time}/rad",
+            "gsn_by_indicator.step_length": f"{length}/rad", "A": "state/state",
+            "B": "state/rad", "C": "indicator/state", "D": "indicator/rad"}  # fmt: skip
 
 
 def _tolerance(sim: Any) -> float:

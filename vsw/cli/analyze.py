@@ -17,15 +17,15 @@ from vsw.cli.output import (
     progress,
     unit_text,
     with_units,
+    write_gait_sensitivity,
     write_orbit,
     write_parameters,
 )
 from vsw.cli.parser import EXIT_OK
-from vsw.cli.rough import gait_sensitivity_units, write_gait_sensitivity
 from vsw.gaits import DISTINCT, SCAN_POINTS
 from vsw.models.base import GaitReport, Model
 from vsw.progress import reporting
-from vsw.rough import SLOPE, gait_sensitivity
+from vsw.rough import SLOPE, gait_sensitivity, gait_sensitivity_units
 
 __all__ = ["register", "run"]
 

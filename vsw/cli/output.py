@@ -36,6 +36,7 @@ __all__ = [
     "quantity_unit",
     "version",
     "with_units",
+    "write_gait_sensitivity",
     "write_orbit",
     "write_parameters",
 ]
@@ -313,6 +314,16 @@ def with_units(model: Model, data: dict[str, Any], extra: Mapping[str, str] | No
 def unit_text(unit: str | None) -> str:
     """A unit after a number: nothing for dimensionless ('1' or '')."""
     return "" if unit in (None, "", "1") else f" {unit}"
+
+
+def write_gait_sensitivity(out: Any, model: Any, gsn: dict, width: int, indent: str = "") -> None:
+    """One line: the gait sensitivity norm and each indicator's share, with units."""
+    units = dict(model.units)
+    parts = ", ".join(f"{k.replace('_', ' ')} {fmt(v)} {units[k.split('_')[1]]}/rad"
+                      for k, v in gsn["gsn_by_indicator"].items())  # fmt: skip
+    label = f"{indent}{'gait sensitivity':<{width}}"
+    out.write(f"{label} {fmt(gsn['gsn'])} ({parts}; the H2 norm of the indicators' response "
+              "to one step's slope)\n")  # fmt: skip
 
 
 def write_parameters(out: TextIO, model: Model, params: Sequence[float]) -> None:

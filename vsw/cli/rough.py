@@ -15,7 +15,15 @@ from typing import Any
 from vsw import limits, plotstyle
 from vsw.batch import simulator
 from vsw.cli import options
-from vsw.cli.output import INTEGRATOR, dump_json, envelope, fmt, with_units, write_parameters
+from vsw.cli.output import (
+    INTEGRATOR,
+    dump_json,
+    envelope,
+    fmt,
+    with_units,
+    write_gait_sensitivity,
+    write_parameters,
+)
 from vsw.cli.parser import EXIT_OK
 from vsw.errors import VswInputError
 from vsw.figures import check_save_path, save_figure
@@ -24,6 +32,7 @@ from vsw.rough import (
     SLOPE,
     check_inputs,
     gait_sensitivity,
+    gait_sensitivity_units,
     rough_walks,
     slope_index,
     survival_plot,
@@ -31,7 +40,7 @@ from vsw.rough import (
 from vsw.rough_chain import chain_steps, check_chain_inputs, rough_chain
 from vsw.vectorize import default_threads
 
-__all__ = ["gait_sensitivity_units", "register", "run", "write_gait_sensitivity"]
+__all__ = ["register", "run"]
 
 TERRAINS = ("slope",)
 """Terrain models ``--terrain`` takes."""
@@ -146,26 +155,6 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_OK
     _write_text(model, params, args, data)
     return EXIT_OK
-
-
-def gait_sensitivity_units(model: Any) -> dict[str, str]:
-    """The units of :meth:`vsw.rough.GaitSensitivity.to_dict`'s numbers, for ``with_units``
-    (``vsw rough`` and ``vsw analyze``)."""
-    time, length = model.units.get("time", ""), model.units.get("length", "")
-    return {"gsn": f"{time}/rad and {length}/rad together",
-            "gsn_by_indicator.step_time": f"{time}/rad",
-            "gsn_by_indicator.step_length": f"{length}/rad", "A": "state/state",
-            "B": "state/rad", "C": "indicator/state", "D": "indicator/rad"}  # fmt: skip
-
-
-def write_gait_sensitivity(out: Any, model: Any, gsn: dict, width: int, indent: str = "") -> None:
-    """One line: the gait sensitivity norm and each indicator's share, with units."""
-    units = dict(model.units)
-    parts = ", ".join(f"{k.replace('_', ' ')} {fmt(v)} {units[k.split('_')[1]]}/rad"
-                      for k, v in gsn["gsn_by_indicator"].items())  # fmt: skip
-    label = f"{indent}{'gait sensitivity':<{width}}"
-    out.write(f"{label} {fmt(gsn['gsn'])} ({parts}; the H2 norm of the indicators' response "
-              "to one step's slope)\n")  # fmt: skip
 
 
 def _compute(model: Any, params: Any, args: argparse.Namespace, start: Any, walks: bool,
