@@ -158,11 +158,7 @@ def run(args: argparse.Namespace) -> int:
     if args.trajectory is not None:
         with options.solver_errors(model):
             sampled = sample_walk(model, params, start.state, args.steps, args.rate)
-        write_trajectory(args.trajectory, model, params, sampled)
-        data["trajectory"] = {
-            "path": args.trajectory, "rows": len(sampled.t), "rate": sampled.rate,
-            "units": column_units(model, sampled),
-        }  # fmt: skip
+        data["trajectory"] = _export(args.trajectory, model, params, sampled)
     if args.json:
         dump_json(with_units(model, data))
         if start.note():
@@ -171,6 +167,13 @@ def run(args: argparse.Namespace) -> int:
     _write_walk(args, model, params, result, start.source, start.note(),
                 sampled if args.trajectory is not None else None, data)  # fmt: skip
     return EXIT_OK
+
+
+def _export(path: str, model: Any, params: Any, sampled: Any) -> dict[str, Any]:
+    """``--trajectory``: the sampled walk written to ``path``, and what the JSON says of it."""
+    write_trajectory(path, model, params, sampled)
+    return {"path": path, "rows": len(sampled.t), "rate": sampled.rate,
+            "units": column_units(model, sampled)}  # fmt: skip
 
 
 def _write_walk(args: argparse.Namespace, model, params, result, source: str, note: str | None,
@@ -237,11 +240,7 @@ def _run_gait(args: argparse.Namespace, saved: SavedGait) -> int:
         with options.solver_errors(model):
             sampled = with_input_forces(replay, sample_walk(replay, params, start, args.steps,
                                                             args.rate))  # fmt: skip
-        write_trajectory(args.trajectory, model, params, sampled)
-        data["trajectory"] = {
-            "path": args.trajectory, "rows": len(sampled.t), "rate": sampled.rate,
-            "units": column_units(model, sampled),
-        }  # fmt: skip
+        data["trajectory"] = _export(args.trajectory, model, params, sampled)
     if args.json:
         dump_json(with_units(model, data))
         if note:
