@@ -136,17 +136,7 @@ def _verification(names: list[str], verified: VerifiedGait | str | None) -> dict
     if isinstance(verified, str):
         return {"status": "failed", "reason": verified}
     end = None if verified.end is None else dict(zip(names, verified.end.tolist()))
-    return {
-        "status": "failed" if verified.failure else "verified",
-        "reason": verified.failure or None,
-        "residual": verified.residual,
-        "period": verified.period,
-        "step_length": verified.step_length,
-        "speed": verified.speed,
-        "positive_work": verified.positive_work,
-        "work": verified.work,
-        "end_state": end,
-    }
+    return {**verified.summary(), "end_state": end}
 
 
 def _record_units(model: HybridModel) -> dict[str, Any]:

@@ -86,6 +86,20 @@ class VerifiedGait:
     def positive_work(self) -> float:
         return float(sum(w["positive"] for w in self.work.values()))
 
+    def summary(self) -> dict[str, Any]:
+        """The verification's outcome and the step's numbers, as every JSON record has them
+        (``vsw optimize``'s ``verified``, a gait file's ``verification``)."""
+        return {
+            "status": "failed" if self.failure else "verified",
+            "reason": self.failure or None,
+            "residual": self.residual,
+            "positive_work": self.positive_work,
+            "period": self.period,
+            "step_length": self.step_length,
+            "speed": self.speed,
+            "work": self.work,
+        }
+
 
 def verify(model: HybridModel, params: Sequence[float], gait: PoweredGait,
            iterations: int = 20) -> VerifiedGait:  # fmt: skip

@@ -270,14 +270,7 @@ def _verified_dict(model, verified: VerifiedGait | str) -> dict[str, Any]:
     if isinstance(verified, str):
         return {"status": "failed", "reason": verified}
     return {
-        "status": "failed" if verified.failure else "verified",
-        "reason": verified.failure or None,
-        "residual": verified.residual,
-        "positive_work": verified.positive_work,
-        "period": verified.period,
-        "step_length": verified.step_length,
-        "speed": verified.speed,
-        "work": verified.work,
+        **verified.summary(),
         "ground_impulses": _ground_dict(verified.ground_impulses),
         "stance_friction": verified.stance_friction,
         "state": dict(zip([*model.coordinates, *model.rates], verified.state.tolist())),
