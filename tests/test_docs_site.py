@@ -41,7 +41,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.test_explore import _chromium
+from tests.conftest import chromium_path
 
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = ROOT / "docs"
@@ -333,7 +333,7 @@ def _not_blank(png: Path) -> bool:
 @pytest.mark.parametrize("width", [360, 1280])
 def test_site_in_headless_chromium(site: Path, served: str, width: int, tmp_path):
     sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
-    browser_path = _chromium()
+    browser_path = chromium_path()
     if browser_path is None:
         pytest.skip("no Chromium found (apt-get install chromium; .ci/run tries it)")
     errors: list[str] = []

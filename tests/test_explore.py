@@ -11,22 +11,14 @@ from __future__ import annotations
 
 import json
 import math
-import shutil
 from pathlib import Path
 
 import pytest
 
+from tests.conftest import chromium_path, headless_page
 from vsw.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
-
-
-def _chromium() -> str | None:
-    for name in ("chromium", "chromium-browser", "google-chrome"):
-        found = shutil.which(name)
-        if found:
-            return found
-    return None
 
 
 def _analyze(capsys, beta, theta_II_deg, phi0_deg) -> dict:
@@ -81,7 +73,7 @@ SHOWS_THE_SLIDERS = """() => {
 
 def test_page_in_headless_chromium(tmp_path, capsys):
     sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
-    browser_path = _chromium()
+    browser_path = chromium_path()
     if browser_path is None:
         pytest.skip("no Chromium found (apt-get install chromium; .ci/run tries it)")
     page_file = tmp_path / "explore.html"
@@ -146,7 +138,7 @@ def test_page_fits_narrow_screens_and_says_its_units(tmp_path, capsys, width):
     degrees, as the sliders); the conditions read in words; the basin says when it is
     empty (beta = 0.3, theta_II = -40 deg: the apex needs more q than contact allows)."""
     sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
-    browser_path = _chromium()
+    browser_path = chromium_path()
     if browser_path is None:
         pytest.skip("no Chromium found (apt-get install chromium; .ci/run tries it)")
     page_file = tmp_path / "explore.html"
@@ -194,7 +186,7 @@ def test_every_model_explorer_finds_the_gait_vsw_finds(tmp_path, capsys, model):
     slider moved by keyboard gives a new gait; no console error; no horizontal overflow at
     360 px."""
     sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
-    browser_path = _chromium()
+    browser_path = chromium_path()
     if browser_path is None:
         pytest.skip("no Chromium found (apt-get install chromium; .ci/run tries it)")
     page_file = tmp_path / "explore.html"
@@ -260,7 +252,7 @@ def test_the_explorer_draws_the_models_own_skeleton(tmp_path, capsys, model):
     from vsw.models import load
 
     sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
-    browser_path = _chromium()
+    browser_path = chromium_path()
     if browser_path is None:
         pytest.skip("no Chromium found (apt-get install chromium; .ci/run tries it)")
     page_file = tmp_path / "explore.html"
@@ -360,32 +352,18 @@ def test_table_cells_never_break_inside_a_word(tmp_path, capsys, width):
     """At a phone's and a desktop's width no table cell breaks a word across lines (the
     conditions table scrolls in its own box instead), the page does not scroll sideways,
     and the console stays free of errors."""
-    sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
-    browser_path = _chromium()
-    if browser_path is None:
-        pytest.skip("no Chromium found (apt-get install chromium; .ci/run tries it)")
     page_file = tmp_path / "explore.html"
     assert main(["explore", "--out", str(page_file)]) == 0
     capsys.readouterr()
-    errors: list[str] = []
-    with sync_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=browser_path, headless=True,
-                                    args=["--no-sandbox", "--disable-gpu"])  # fmt: skip
-        try:
-            page = browser.new_page(viewport={"width": width, "height": 800})
-            page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
-            page.on("pageerror", lambda e: errors.append(str(e)))
-            page.goto(page_file.as_uri())
-            page.wait_for_function("window.vswLastUpdate !== undefined")
-            assert page.eval_on_selector_all("#conditions tr", "rows => rows.length") > 0
-            broken = page.evaluate(BROKEN_WORDS)
-            assert broken == [], f"words broken across lines at {width} px: {broken}"
-            overflow = page.evaluate(
-                "document.documentElement.scrollWidth - document.documentElement.clientWidth"
-            )
-            assert overflow <= 0, f"{overflow} px of horizontal overflow at {width} px"
-        finally:
-            browser.close()
+    with headless_page(page_file.as_uri(), width) as (page, errors):
+        page.wait_for_function("window.vswLastUpdate !== undefined")
+        assert page.eval_on_selector_all("#conditions tr", "rows => rows.length") > 0
+        broken = page.evaluate(BROKEN_WORDS)
+        assert broken == [], f"words broken across lines at {width} px: {broken}"
+        overflow = page.evaluate(
+            "document.documentElement.scrollWidth - document.documentElement.clientWidth"
+        )
+        assert overflow <= 0, f"{overflow} px of horizontal overflow at {width} px"
     assert errors == [], errors
 
 

@@ -9,11 +9,9 @@ kneed and torso walkers and in tests/test_drawing.py for the animation of every 
 
 from __future__ import annotations
 
-import shutil
-
 import pytest
 
-from tests.conftest import passive_keys
+from tests.conftest import headless_page, passive_keys
 from vsw.cli import main
 from vsw.models import load
 
@@ -31,10 +29,6 @@ ONE_STEP = """() => {
 OVERFLOW = "document.documentElement.scrollWidth - document.documentElement.clientWidth"
 
 
-def _chromium() -> str | None:
-    return next(filter(None, map(shutil.which, ("chromium", "chromium-browser"))), None)
-
-
 def _outside(pic: dict) -> list[tuple[float, float]]:
     width, height = pic["width"], pic["height"]
     points = [p for a, b, _ in pic["lines"] for p in (a, b)]
@@ -45,32 +39,17 @@ def _outside(pic: dict) -> list[tuple[float, float]]:
 # A powered-only model's page replays a gait file (tests/test_gait_replay.py).
 @pytest.mark.parametrize("key", [k for k in passive_keys() if k != "ile"])
 def test_every_model_page_draws_every_body_inside_its_canvas(tmp_path, capsys, key):
-    sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
-    browser_path = _chromium()
-    if browser_path is None:
-        pytest.skip("no Chromium found (apt-get install chromium; .ci/run tries it)")
     walker = load(key)
     bodies = {ph["name"]: len(ph["skeleton"]["bodies"]) for ph in walker.phases}
     page_file = tmp_path / "explore.html"
     assert main(["explore", "--model", walker.name, "--out", str(page_file)]) == 0
     capsys.readouterr()
-    errors: list[str] = []
-    with sync_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=browser_path, headless=True,
-                                    args=["--no-sandbox", "--disable-gpu"])  # fmt: skip
-        try:
-            for width in WIDTHS:
-                page = browser.new_page(viewport={"width": width, "height": 800})
-                page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
-                page.on("pageerror", lambda e: errors.append(str(e)))
-                page.goto(page_file.as_uri())
-                page.wait_for_function("window.vswLastUpdate !== undefined", timeout=120_000)
-                assert page.evaluate(OVERFLOW) <= 0, f"sideways scrolling at {width} px"
-                assert page.evaluate("window.vswLastUpdate.walks"), "the page lost its gait"
-                for pic in page.evaluate(ONE_STEP):
-                    assert len(pic["bodies"]) == bodies[pic["phase"]], (width, pic["t"])
-                    assert _outside(pic) == [], (width, pic["t"], pic["phase"])
-                page.close()
-        finally:
-            browser.close()
-    assert errors == [], errors
+    for width in WIDTHS:
+        with headless_page(page_file.as_uri(), width) as (page, errors):
+            page.wait_for_function("window.vswLastUpdate !== undefined", timeout=120_000)
+            assert page.evaluate(OVERFLOW) <= 0, f"sideways scrolling at {width} px"
+            assert page.evaluate("window.vswLastUpdate.walks"), "the page lost its gait"
+            for pic in page.evaluate(ONE_STEP):
+                assert len(pic["bodies"]) == bodies[pic["phase"]], (width, pic["t"])
+                assert _outside(pic) == [], (width, pic["t"], pic["phase"])
+        assert errors == [], (width, errors)

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.conftest import headless_page
 from vsw.cli import main
 
 pytest.importorskip("casadi")
@@ -262,34 +263,17 @@ def test_the_replayed_page_draws_the_walker_in_a_browser(optimized, tmp_path):
     """In headless Chromium the page plays the recorded step: no console error, the
     replayed flag, and over two steps the drawn state is a recorded sample, the stance foot
     a step length further each step."""
-    import shutil
-
-    sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
-    found = [shutil.which(n) for n in ("chromium", "chromium-browser", "google-chrome")]
-    browser_path = next((p for p in found if p), None)
-    if browser_path is None:
-        pytest.skip("no Chromium found (apt-get install chromium; .ci/run tries it)")
     page_file = tmp_path / "gait.html"
     assert _main(["explore", "--gait", str(optimized[0]), "--out", str(page_file)])[0] == 0
     replay = _spec(page_file)["replay"]
-    errors: list[str] = []
-    with sync_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=browser_path, headless=True,
-                                    args=["--no-sandbox", "--disable-gpu"])  # fmt: skip
-        try:
-            page = browser.new_page(viewport={"width": 1100, "height": 800})
-            page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
-            page.on("pageerror", lambda e: errors.append(str(e)))
-            page.goto(page_file.as_uri())
-            page.wait_for_function("window.vswLastUpdate !== undefined", timeout=60_000)
-            shown = page.evaluate("window.vswLastUpdate")
-            pictures = page.evaluate(
-                "() => { const u = window.vswLastUpdate, out = [];"
-                " for (let i = 0; i < 40; ++i) out.push(window.vswPicture(2 * u.period * i / 40));"
-                " return out; }"
-            )
-        finally:
-            browser.close()
+    with headless_page(page_file.as_uri(), 1100) as (page, errors):
+        page.wait_for_function("window.vswLastUpdate !== undefined", timeout=60_000)
+        shown = page.evaluate("window.vswLastUpdate")
+        pictures = page.evaluate(
+            "() => { const u = window.vswLastUpdate, out = [];"
+            " for (let i = 0; i < 40; ++i) out.push(window.vswPicture(2 * u.period * i / 40));"
+            " return out; }"
+        )
     assert errors == [], errors
     assert shown["replayed"] and shown["walks"]
     recorded = [f[2] for f in replay["frames"]]
