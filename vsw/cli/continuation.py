@@ -96,7 +96,7 @@ def parse_range(model: Model, text: str, option: str = "--over") -> tuple[str, f
     """``--over NAME=START:STOP`` (or ``--free``): the parameter and its range (START !=
     STOP, both within the parameter's interval)."""
     name, spec = options.split_item(option, text)
-    p = options._lookup(model, option, name)
+    p = options.parameter_named(model, option, name)
     parts = spec.split(":")
     if len(parts) != 2:
         raise VswInputError(f"{option} {text!r}: expected NAME=START:STOP")

@@ -106,7 +106,7 @@ def after_parse(
     table = {p.name: p for p in model.parameter_table}
     for item in args.param or ():
         name, text = split_item("--param", item)
-        p = _lookup(model, "--param", name)
+        p = parameter_named(model, "--param", name)
         if name in values:
             parser.error(f"--param {name} given twice: give each parameter once")
         values[name] = parameter_value("--param", p, text)
@@ -195,7 +195,9 @@ def parameter_value(option: str, p: Any, text: str, given: str | None = None) ->
     return value
 
 
-def _lookup(model: Model, option: str, name: str) -> Any:
+def parameter_named(model: Model, option: str, name: str) -> Any:
+    """The model's parameter ``name`` given to ``option``; one line naming the choices if
+    it has none."""
     table = {p.name: p for p in model.parameter_table}
     if name not in table:
         raise VswInputError(
@@ -209,7 +211,7 @@ def parse_over(model: Model, text: str) -> tuple[str, np.ndarray]:
     """``--over NAME=START:STOP:N``: the parameter and its N values (table units; angles
     also with ``deg``)."""
     name, spec = split_item("--over", text)
-    p = _lookup(model, "--over", name)
+    p = parameter_named(model, "--over", name)
     parts = spec.split(":")
     if len(parts) != 3:
         raise VswInputError(f"--over {text!r}: expected NAME=START:STOP:N")

@@ -99,9 +99,9 @@ class ConditionResult:
         return {
             "name": self.name,
             "equation": self.equation,
-            "value": _jsonable(self.value),
+            "value": jsonable(self.value),
             "unit": self.unit,
-            "holds": _jsonable(self.holds),
+            "holds": jsonable(self.holds),
             "status": self.status,
             "physical": self.physical,
             "meaning": self.meaning,
@@ -183,17 +183,17 @@ class Analysis:
             Array fields become (nested) lists.
         """
         out: dict[str, Any] = {
-            "beta": _jsonable(self.beta),
-            "theta_II": _jsonable(self.theta_II),
-            "phi0": _jsonable(self.phi0),
+            "beta": jsonable(self.beta),
+            "theta_II": jsonable(self.theta_II),
+            "phi0": jsonable(self.phi0),
         }
         for name in FIELDS:
-            out[name] = _jsonable(getattr(self, name))
+            out[name] = jsonable(getattr(self, name))
         out["conditions"] = [c.to_dict() for c in self.conditions]
         out["energy_unit"] = "m g r_e"
         if self.scale is not None:
             for name in SI_FIELDS:
-                out[name] = _jsonable(getattr(self, name))
+                out[name] = jsonable(getattr(self, name))
             out["scale"] = {
                 "leg_length": self.scale.leg_length,
                 "mass": self.scale.mass,
@@ -202,12 +202,12 @@ class Analysis:
         return out
 
 
-def _jsonable(value: Any) -> Any:
+def jsonable(value: Any) -> Any:
     """numpy scalars/arrays to Python floats/bools/lists with None for NaN and infinities."""
     if isinstance(value, np.ndarray):
         if value.ndim == 0:
-            return _jsonable(value[()])
-        return [_jsonable(v) for v in value]
+            return jsonable(value[()])
+        return [jsonable(v) for v in value]
     if isinstance(value, (bool, np.bool_)):
         return bool(value)
     if isinstance(value, (int, np.integer)):

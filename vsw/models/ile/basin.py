@@ -21,7 +21,7 @@ import numpy as np
 from generated import ile
 from vsw import limits
 from vsw.errors import VswInputError
-from vsw.models.ile.analysis import _jsonable, analyze
+from vsw.models.ile.analysis import analyze, jsonable
 from vsw.models.ile.params import check_parameter
 from vsw.models.ile.simulate import simulate, simulate_cost
 from vsw.vectorize import CHUNK, default_threads, run_blocks
@@ -105,12 +105,12 @@ class Basin:
         return {
             "beta": self.beta,
             "phi0": self.phi0,
-            "theta_II": _jsonable(self.theta_II),
-            "q_min": _jsonable(self.q_min),
-            "q_max": _jsonable(self.q_max),
-            "q_fixed": _jsonable(self.q_fixed),
-            "omega_min": _jsonable(self.omega_min),
-            "omega_max": _jsonable(self.omega_max),
+            "theta_II": jsonable(self.theta_II),
+            "q_min": jsonable(self.q_min),
+            "q_max": jsonable(self.q_max),
+            "q_fixed": jsonable(self.q_fixed),
+            "omega_min": jsonable(self.omega_min),
+            "omega_max": jsonable(self.omega_max),
             "n_steps": self.n_steps,
             "fields": dict(_FIELD_NOTES),
         }
