@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vsw import blas, stop
+from vsw import blas, progress, stop
 from vsw.compiled import build_library
 from vsw.errors import ConvergenceError, SlowRouteWarning, VswInputError
 from vsw.hybrid import _ATOL, _PHASE_TIME_LIMIT, _RTOL, HybridModel, StepResult
@@ -339,7 +339,9 @@ class BatchSimulator:
         drawn at each step event (:mod:`vsw.rough`). A walk ends WALKED (every step), FELL
         or STALLED; no convergence or period checks, nothing kept. Each step is one
         :meth:`walk` of one step over the walks still walking, so a walk's result depends on
-        its own rows alone (not on the thread count, the blocks or the other walks)."""
+        its own rows alone (not on the thread count, the blocks or the other walks).
+        Progress is reported by steps (:func:`vsw.progress.report`), not by each step's
+        blocks."""
         states = np.array(states, dtype=float)
         out = _empty_result(len(states), self.nx, 0, self.failures)
         out.final[:] = states
@@ -348,8 +350,10 @@ class BatchSimulator:
             if not alive.size:
                 break
             stop.check()
-            part = self.walk(step_params(alive, k), out.final[alive], 1, converge_tol=0.0,
-                             period_tol=0.0, threads=threads, tolerance=tolerance)  # fmt: skip
+            with progress.reporting(_silent):
+                part = self.walk(step_params(alive, k), out.final[alive], 1, converge_tol=0.0,
+                                 period_tol=0.0, threads=threads, tolerance=tolerance)  # fmt: skip
+            progress.report(k + 1, steps)
             routes.add(part.route)
             walked = part.outcome == WALKED
             out.final[alive] = part.final
@@ -523,6 +527,10 @@ class StepMap:
 
     def scale(self, y: np.ndarray) -> np.ndarray:
         return np.maximum(1.0, np.max(np.abs(y), axis=1))
+
+
+def _silent(done: int, total: int) -> None:
+    """A progress listener that draws nothing (a step's blocks inside a walk of steps)."""
 
 
 def _bound_step_phases(lib: ctypes.CDLL):

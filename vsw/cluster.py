@@ -43,14 +43,17 @@ import logging
 import time
 import warnings
 from collections.abc import Iterator
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vsw import stop
+from vsw import progress, stop
 from vsw.batch import BatchResult, Options, Runner, failure_names, simulator
 from vsw.errors import SlowRouteWarning, VswInputError
 from vsw.models import load
+
+if TYPE_CHECKING:
+    from vsw.rough import Terrain
 
 __all__ = [
     "BLOCK",
@@ -60,6 +63,8 @@ __all__ = [
     "WORKER_WAIT",
     "block_size",
     "check_scheduler",
+    "rough_block",
+    "rough_on_cluster",
     "runner",
     "walk_on_cluster",
 ]
@@ -270,6 +275,7 @@ def _results(client: Any, futures: list, address: str) -> list:
     try:
         while pending := [f for f in futures if not f.done()]:
             stop.check()
+            progress.report(len(futures) - len(pending), len(futures))
             with contextlib.suppress(TimeoutError):  # a task that failed raises here
                 pending[0].result(timeout=_POLL)
             if client.status != "running":
@@ -342,3 +348,52 @@ def runner(address: str, model: str) -> Runner:
         return walk_on_cluster(address, model, params, states, options)
 
     return run
+
+
+ROUGH_BLOCK = 64
+"""The fewest walks in a task of walks on rough ground (fewer only where there are fewer):
+each walks up to thousands of steps, so a task of 64 is many milliseconds of work."""
+
+
+def rough_block(model: str, terrain: Terrain, states: np.ndarray, max_steps: int) -> tuple:
+    """One task: walks on rough ground (their terrain's ``first_walk`` their global index)
+    in this (worker) process, on one thread."""
+    sim = simulator(load(model))
+    result = sim.walk_varying(terrain, states, max_steps, threads=1)
+    return result.outcome, result.aux, result.steps, result.final, sim.build_error
+
+
+def rough_on_cluster(
+    address: str, model: str, terrain: Terrain, states: np.ndarray, max_steps: int
+) -> BatchResult:
+    """The walks of :meth:`vsw.batch.BatchSimulator.walk_varying` on the random terrain
+    ``terrain`` (:class:`vsw.rough.Terrain`, from walk 0) as tasks on the scheduler at
+    ``address``, each task a part of the walks to their ends: a walk's terrain is a function
+    of its global index (``first_walk``), so the result is the in-process one, byte for
+    byte (module docstring)."""
+    import copy
+
+    failures = failure_names(load(model))
+    n = len(states)
+    if n == 0:
+        raise VswInputError("no walks to run on the cluster")
+    with _client(address) as client:
+        _await_worker(client, address, "has no workers")
+        threads = sum(client.nthreads().values())
+        block = max(ROUGH_BLOCK, -(-n // (TASKS_PER_THREAD * max(1, threads))))
+        futures = []
+        for start in range(0, n, block):
+            part = copy.copy(terrain)
+            part.first_walk = terrain.first_walk + start
+            futures.append(client.submit(rough_block, model, part, states[start : start + block],
+                                         max_steps, pure=False))  # fmt: skip
+        parts = []
+        for outcome, aux, steps, final, error in _results(client, futures, address):
+            if error is not None:
+                warnings.warn(f"a Dask worker walked with SciPy: {error}", SlowRouteWarning,
+                              stacklevel=2)  # fmt: skip
+            route = "compiled" if error is None else f"SciPy on a worker ({error})"
+            empty = np.zeros((len(steps), 0, final.shape[1]))
+            parts.append(BatchResult(outcome, aux, steps, final, empty, empty[:, :, 0],
+                                     empty[:, :, 0], failures, route))  # fmt: skip
+    return BatchResult.concatenate(parts)

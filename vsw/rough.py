@@ -13,6 +13,13 @@ after an impact is taken as it is into the next step's slope (the impact is the 
 in the slope's own frame). The slope is the model's parameter :data:`SLOPE`; a model
 without one is refused.
 
+The height terrain raises or lowers each step's next foothold instead: step ``k`` ends on
+ground ``h_k = h0 + sigma * xi_k`` above its stance foot (along the ground normal), the
+model's parameter :data:`HEIGHT`, which its step event's guard must contain (the swing
+foot's height minus :data:`HEIGHT`); a model without it is refused in one line. Either
+terrain draws xi_k standard normal or uniform on (-sqrt 3, sqrt 3) (:data:`DISTRIBUTIONS`,
+standard deviation 1 both).
+
 The draws are counter-based (Philox4x32-10 keyed by the seed, its counter the step and
 the walk's index): the slope of step ``k`` of walk ``w`` is a function of ``(seed, w, k)``
 alone, so the results are the same for any thread count, block size, or split of the
@@ -42,12 +49,17 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 __all__ = [
+    "DISTRIBUTIONS",
+    "HEIGHT",
     "SLOPE",
+    "TERRAINS",
     "GaitSensitivity",
     "MfptEstimate",
     "RoughWalks",
     "SlopeTerrain",
+    "Terrain",
     "check_inputs",
+    "disturbance_index",
     "gait_sensitivity",
     "gait_sensitivity_units",
     "h2_norm",
@@ -63,6 +75,19 @@ __all__ = [
 
 SLOPE = "gamma"
 """The slope parameter's name (radians, downhill positive) in every model that has one."""
+
+HEIGHT = "step_height"
+"""The ground-height parameter's name: the height of the next foothold above the stance
+foot along the ground normal (the model's length unit, up positive), which a model that
+takes the height terrain puts in its step event's guard (the swing foot's height minus
+it) with the default 0."""
+
+TERRAINS = {"slope": SLOPE, "height": HEIGHT}
+"""Each terrain and the parameter it draws per step."""
+
+DISTRIBUTIONS = ("gaussian", "uniform")
+"""The per-step draw xi_k: standard normal, or uniform on (-sqrt 3, sqrt 3); both have mean
+0 and standard deviation 1, so sigma is the terrain's standard deviation either way."""
 
 MAX_SEED = 2**63 - 1
 MAX_WALKS = 10_000_000
@@ -80,6 +105,23 @@ def slope_index(model: Model) -> int:
             f"{', '.join(names)}): rough ground needs a model on a slope"
         )
     return names.index(SLOPE)
+
+
+def disturbance_index(model: Model, terrain: str) -> int:
+    """The index of the parameter ``terrain`` draws per step (:data:`TERRAINS`), or one
+    line saying what the model would need to take it."""
+    if terrain not in TERRAINS:
+        raise VswInputError(f"terrain {terrain!r}: one of {', '.join(TERRAINS)}")
+    if terrain == "slope":
+        return slope_index(model)
+    names = tuple(model.spec["parameters"])
+    if HEIGHT not in names:
+        raise VswInputError(
+            f"{model.cli_name} cannot take a height terrain: it has no parameter {HEIGHT} "
+            "(the next foothold's height above the stance foot, in its step event's guard: "
+            f"the swing foot's height minus {HEIGHT}); its parameters: {', '.join(names)}"
+        )
+    return names.index(HEIGHT)
 
 
 def check_inputs(sigma: float, walks: int, max_steps: int, seed: int) -> None:
@@ -124,43 +166,57 @@ def _uniform(high: np.ndarray, low: np.ndarray) -> np.ndarray:
     return (bits.astype(np.float64) + 0.5) * 2.0**-53
 
 
-def terrain_noise(seed: int, walks: Sequence[int] | np.ndarray, steps: int | np.ndarray
-                  ) -> np.ndarray:  # fmt: skip
-    """The standard normal draw xi of each step ``steps`` of each walk ``walks`` (global
-    indices; arrays that broadcast): Philox4x32-10 with the key ``seed`` (its two 32-bit
-    halves) on the counter (step, walk's low and high 32 bits, 0), its four words two
-    uniforms u1, u2, and xi = sqrt(-2 ln u1) cos(2 pi u2) (Box & Muller 1958). A draw is a
-    function of (seed, walk, step) alone."""
+def terrain_noise(seed: int, walks: Sequence[int] | np.ndarray, steps: int | np.ndarray,
+                  distribution: str = "gaussian") -> np.ndarray:  # fmt: skip
+    """The draw xi of each step ``steps`` of each walk ``walks`` (global indices; arrays
+    that broadcast): Philox4x32-10 with the key ``seed`` (its two 32-bit halves) on the
+    counter (step, walk's low and high 32 bits, 0), its four words two uniforms u1, u2;
+    ``gaussian``: xi = sqrt(-2 ln u1) cos(2 pi u2) (Box & Muller 1958), ``uniform``:
+    xi = sqrt(3) (2 u1 - 1). A draw is a function of (seed, walk, step) alone."""
+    if distribution not in DISTRIBUTIONS:
+        raise VswInputError(f"distribution {distribution!r}: one of {', '.join(DISTRIBUTIONS)}")
     walks = np.asarray(walks, dtype=np.uint64)
     steps = np.asarray(steps, dtype=np.uint64)
     x0, x1, x2, x3 = philox4x32(
         (steps, walks & _MASK32, walks >> np.uint64(32), np.zeros_like(walks)),
         (int(seed) & 0xFFFFFFFF, int(seed) >> 32),
     )
-    u1, u2 = _uniform(x0, x1), _uniform(x2, x3)
+    u1 = _uniform(x0, x1)
+    if distribution == "uniform":
+        return math.sqrt(3.0) * (2.0 * u1 - 1.0)
+    u2 = _uniform(x2, x3)
     return np.sqrt(-2.0 * np.log(u1)) * np.cos(2.0 * np.pi * u2)
 
 
-class SlopeTerrain:
-    """The per-step parameter rows of walks on a random slope, for
+class Terrain:
+    """The per-step parameter rows of walks on a random terrain, for
     :meth:`vsw.batch.BatchSimulator.walk_varying`: ``terrain(rows, k)`` is the parameter
-    rows of step ``k`` of the walks ``first_walk + rows`` (the slope gamma0 + sigma xi)."""
+    rows of step ``k`` of the walks ``first_walk + rows``, the parameter ``index`` (the
+    slope, or the next foothold's height) drawn as its value + sigma xi."""
 
     def __init__(
-        self, params: Sequence[float], index: int, sigma: float, seed: int, first_walk: int = 0
-    ) -> None:
+        self, params: Sequence[float], index: int, sigma: float, seed: int, first_walk: int = 0,
+        distribution: str = "gaussian",
+    ) -> None:  # fmt: skip
         self.params = np.asarray(params, dtype=float)
         self.index, self.sigma, self.seed, self.first_walk = index, sigma, seed, first_walk
+        self.distribution = distribution
 
     def slopes(self, rows: np.ndarray, k: int) -> np.ndarray:
-        """The slope of step ``k`` of the walks ``first_walk + rows``."""
+        """The drawn parameter (a slope or a height) of step ``k`` of the walks
+        ``first_walk + rows``."""
         walks = self.first_walk + np.asarray(rows, dtype=np.int64)
-        return self.params[self.index] + self.sigma * terrain_noise(self.seed, walks, k)
+        xi = terrain_noise(self.seed, walks, k, self.distribution)
+        return self.params[self.index] + self.sigma * xi
 
     def __call__(self, rows: np.ndarray, k: int) -> np.ndarray:
         out = np.tile(self.params, (len(rows), 1))
         out[:, self.index] = self.slopes(rows, k)
         return out
+
+
+SlopeTerrain = Terrain
+"""The slope terrain: :class:`Terrain` on the slope parameter's index."""
 
 
 @dataclass(frozen=True)
@@ -227,6 +283,8 @@ class RoughWalks:
     steps: np.ndarray
     ended: list[str]
     route: str = "compiled"
+    terrain: str = "slope"
+    distribution: str = "gaussian"
 
     @property
     def failed(self) -> np.ndarray:
@@ -254,7 +312,8 @@ class RoughWalks:
         return {
             "model": self.model,
             "parameters": self.parameters,
-            "terrain": "slope",
+            "terrain": self.terrain,
+            "distribution": self.distribution,
             "sigma": self.sigma,
             "seed": self.seed,
             "walks": e.walks,
@@ -270,7 +329,7 @@ class RoughWalks:
             "survival": {"steps": ks.tolist(), "fraction": fraction.tolist()},
             "simulator": self.route,
             "fields": {
-                "sigma": f"standard deviation of the slope {SLOPE} drawn per step",
+                "sigma": f"standard deviation of the {TERRAINS[self.terrain]} drawn per step",
                 "mfpt": "steps completed before the first failure: value, standard error, "
                 "95 % interval (low, high; high null: unbounded)",
                 "censored": "walks that completed max_steps steps without failing",
@@ -290,12 +349,19 @@ def rough_walks(
     start: Sequence[float] | None = None,
     gait: Orbit | None = None,
     threads: int | None = None,
+    terrain: str = "slope",
+    distribution: str = "gaussian",
+    scheduler: str | None = None,
 ) -> RoughWalks:
     """``walks`` walks of at most ``max_steps`` steps on the slope gamma0 + sigma xi_k
-    (gamma0 the parameter's value in ``params``), each from ``start`` (a section state) or
-    else from the stable period-one gait at ``params``. Byl & Tedrake (2009), Sec. 3."""
-    index = slope_index(model)
+    (gamma0 the parameter's value in ``params``; ``terrain`` ``height``: the next
+    foothold's height instead), each from ``start`` (a section state) or else from the
+    stable period-one gait at ``params``. Byl & Tedrake (2009), Sec. 3. ``scheduler``: a
+    Dask scheduler's address to run parts of the walks on (:func:`vsw.cluster.rough_on_cluster`),
+    with this process's results: each walk's terrain is its own."""
+    index = disturbance_index(model, terrain)
     check_inputs(sigma, walks, max_steps, seed)
+    terrain_noise(seed, 0, 0, distribution)  # an unknown distribution: one line, before the walks
     names = (*model.coordinates, *model.rates)
     with blas.limited(threads):
         if start is None:
@@ -304,9 +370,14 @@ def rough_walks(
         x0 = np.asarray(start, dtype=float)
         if x0.shape != (len(names),) or not np.all(np.isfinite(x0)):
             raise VswInputError(f"start must be {len(names)} finite values ({', '.join(names)})")
-        terrain = SlopeTerrain(params, index, sigma, seed)
-        result = simulator(model).walk_varying(terrain, np.tile(x0, (walks, 1)), max_steps,
-                                               threads=threads)  # fmt: skip
+        rows = Terrain(params, index, sigma, seed, distribution=distribution)
+        states = np.tile(x0, (walks, 1))
+        if scheduler:
+            from vsw.cluster import rough_on_cluster
+
+            result = rough_on_cluster(scheduler, model.name, rows, states, max_steps)
+        else:
+            result = simulator(model).walk_varying(rows, states, max_steps, threads=threads)
     return RoughWalks(
         model=model.name,
         parameters=dict(zip(model.spec["parameters"], (float(p) for p in params))),
@@ -318,6 +389,8 @@ def rough_walks(
         steps=result.steps.copy(),
         ended=result.ended(),
         route=result.route,
+        terrain=terrain,
+        distribution=distribution,
     )
 
 
@@ -374,13 +447,14 @@ class GaitSensitivity:
     D: np.ndarray
     gsn: float
     by_indicator: dict[str, float]
+    disturbance: str = SLOPE
 
     def to_dict(self) -> dict[str, Any]:
         return {
             "gsn": self.gsn,
             "gsn_by_indicator": dict(self.by_indicator),
             "indicators": list(INDICATORS),
-            "disturbance": SLOPE,
+            "disturbance": self.disturbance,
             "A": self.A.tolist(),
             "B": self.B.tolist(),
             "C": self.C.tolist(),
@@ -388,14 +462,16 @@ class GaitSensitivity:
         }
 
 
-def gait_sensitivity_units(model: Any) -> dict[str, str]:
+def gait_sensitivity_units(model: Any, terrain: str = "slope") -> dict[str, str]:
     """The units of :meth:`GaitSensitivity.to_dict`'s numbers, for
-    :func:`vsw.cli.output.with_units` (``vsw rough`` and ``vsw analyze``)."""
+    :func:`vsw.cli.output.with_units` (``vsw rough`` and ``vsw analyze``): per radian of
+    slope, or per unit length of foothold height."""
     time, length = model.units.get("time", ""), model.units.get("length", "")
-    return {"gsn": f"{time}/rad and {length}/rad together",
-            "gsn_by_indicator.step_time": f"{time}/rad",
-            "gsn_by_indicator.step_length": f"{length}/rad", "A": "state/state",
-            "B": "state/rad", "C": "indicator/state", "D": "indicator/rad"}  # fmt: skip
+    per = "rad" if terrain == "slope" else length
+    return {"gsn": f"{time}/{per} and {length}/{per} together",
+            "gsn_by_indicator.step_time": f"{time}/{per}",
+            "gsn_by_indicator.step_length": f"{length}/{per}", "A": "state/state",
+            "B": f"state/{per}", "C": "indicator/state", "D": f"indicator/{per}"}  # fmt: skip
 
 
 def _tolerance(sim: Any) -> float:
@@ -404,13 +480,14 @@ def _tolerance(sim: Any) -> float:
 
 
 def linearised_step(
-    model: Model, params: Sequence[float], state: Sequence[float]
+    model: Model, params: Sequence[float], state: Sequence[float], terrain: str = "slope"
 ) -> tuple[np.ndarray, ...]:
     """``(A, B, C, D)`` of the step map at ``state`` by central differences of the batch
     simulator's steps (:data:`GSN_STEP`, :data:`GSN_TOLERANCE`): in each state component
-    and in the slope; C, D rows of :data:`INDICATORS`. The state's full Jacobian: on a
-    section with determined components its extra eigenvalues are 0."""
-    index = slope_index(model)
+    and in the terrain's parameter (the slope, or the next foothold's height); C, D rows of
+    :data:`INDICATORS`. The state's full Jacobian: on a section with determined components
+    its extra eigenvalues are 0."""
+    index = disturbance_index(model, terrain)
     x = np.asarray(state, dtype=float)
     p = np.asarray(params, dtype=float)
     n = len(x)
@@ -445,16 +522,18 @@ def h2_norm(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray) -> float
     return math.sqrt(float(D @ D) + float(np.trace(C @ W @ C.T)))
 
 
-def gait_sensitivity(model: Model, params: Sequence[float], gait: Orbit) -> GaitSensitivity:
-    """The gait sensitivity norm of ``gait`` to its slope, step time and step length
-    (Hobbelen & Wisse 2007); the indicators a model does not report (NaN step length) are
-    left out."""
+def gait_sensitivity(
+    model: Model, params: Sequence[float], gait: Orbit, terrain: str = "slope"
+) -> GaitSensitivity:
+    """The gait sensitivity norm of ``gait`` to its slope (``terrain`` ``height``: to the
+    next foothold's height), step time and step length (Hobbelen & Wisse 2007); the
+    indicators a model does not report (NaN step length) are left out."""
     names = (*model.coordinates, *model.rates)
-    A, B, C, D = linearised_step(model, params, [gait.state[n] for n in names])
+    A, B, C, D = linearised_step(model, params, [gait.state[n] for n in names], terrain)
     kept = [i for i in range(len(INDICATORS)) if np.all(np.isfinite(C[i])) and np.isfinite(D[i])]
     C, D = C[kept], D[kept]
     by = {INDICATORS[i]: h2_norm(A, B, C[j], D[j : j + 1]) for j, i in enumerate(kept)}
-    return GaitSensitivity(A, B, C, D, h2_norm(A, B, C, D), by)
+    return GaitSensitivity(A, B, C, D, h2_norm(A, B, C, D), by, TERRAINS[terrain])
 
 
 def slope_impulse_response(

@@ -1,14 +1,17 @@
-"""``vsw rough``: the mean first-passage time (MFPT) on a random slope, by Monte Carlo.
+"""``vsw rough``: the mean first-passage time (MFPT) on a random terrain, by Monte Carlo.
 
 Walks from the model's stable period-one gait (or ``--state``) on the slope
-gamma_k = gamma + sigma xi_k drawn per step (:mod:`vsw.rough`; Byl & Tedrake 2009), each
-until its first failure or ``--max-steps`` steps: the MFPT with its standard error and
-95 % interval, the failures by kind and the survival curve (``--plot``).
+gamma_k = gamma + sigma xi_k drawn per step (``--terrain height``: the next foothold's
+height; :mod:`vsw.rough`; Byl & Tedrake 2009), each until its first failure or
+``--max-steps`` steps: the MFPT with its standard error and 95 % interval, the failures by
+kind and the survival curve (``--plot``); with ``--over``, the MFPT over the mean slope or
+the noise (:mod:`vsw.rough_sweep`).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from typing import Any
 
@@ -20,44 +23,60 @@ from vsw.cli.output import (
     dump_json,
     envelope,
     fmt,
+    progress,
     with_units,
     write_gait_sensitivity,
     write_parameters,
 )
 from vsw.cli.parser import EXIT_OK
+from vsw.cluster import check_scheduler
 from vsw.errors import VswInputError
 from vsw.figures import check_save_path, save_figure
 from vsw.gaits import search_seconds
+from vsw.progress import reporting
 from vsw.rough import (
+    DISTRIBUTIONS,
     SLOPE,
+    TERRAINS,
     check_inputs,
+    disturbance_index,
     gait_sensitivity,
     gait_sensitivity_units,
     rough_walks,
-    slope_index,
     survival_plot,
 )
 from vsw.rough_chain import chain_steps, check_chain_inputs, rough_chain
+from vsw.rough_sweep import parse_over, rough_sweep, sweep_plot, sweep_units
 from vsw.vectorize import default_threads
 
 __all__ = ["register", "run"]
-
-TERRAINS = ("slope",)
-"""Terrain models ``--terrain`` takes."""
 
 METHODS = ("monte-carlo", "chain", "both")
 """What ``--method`` takes."""
 
 
 def register(subparsers: Any) -> None:
-    help_ = "mean first-passage time (steps before a fall) on a random slope, by Monte Carlo"
-    text = f": the slope {SLOPE} + sigma * xi drawn per step, xi standard normal."
+    help_ = "mean first-passage time (steps before a fall) on a random terrain, by Monte Carlo"
+    text = (f": the slope {SLOPE} + sigma * xi drawn per step (or the next foothold's height), "
+            "xi standard normal or uniform.")  # fmt: skip
     p = subparsers.add_parser("rough", help=help_, description=help_ + text)
     options.add_model_options(p, "rough")
     p.add_argument("--sigma", type=float, required=True, metavar="S",
-                   help="standard deviation of the per-step slope [rad] (>= 0)")  # fmt: skip
-    p.add_argument("--terrain", choices=TERRAINS, default="slope",
-                   help="the terrain model: a slope drawn per step")  # fmt: skip
+                   help="standard deviation of the per-step slope [rad] or foothold height "
+                   "[the model's length] (>= 0)")  # fmt: skip
+    p.add_argument("--terrain", choices=tuple(TERRAINS), default="slope",
+                   help="the terrain model: a slope drawn per step, or the next foothold's "
+                   "height (a model with the parameter step_height)")  # fmt: skip
+    p.add_argument("--distribution", choices=DISTRIBUTIONS, default="gaussian",
+                   help="the per-step draw: gaussian, or uniform with the same standard "
+                   "deviation sigma")  # fmt: skip
+    p.add_argument("--over", metavar="NAME=a:b:n",
+                   help="the MFPT at n values from a to b of gamma0 (the terrain parameter's "
+                   "mean) or sigma, with the gait sensitivity norm and their rank "
+                   "correlation; --plot draws MFPT against it")  # fmt: skip
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="walk on this Dask scheduler (default: VSW_DASK_SCHEDULER if set); "
+                   "the results are the in-process ones")  # fmt: skip
     p.add_argument("--walks", type=int, default=1000, help="walks (Monte Carlo samples)")
     p.add_argument("--max-steps", type=int, default=1000,
                    help="most steps a walk takes (a walk still walking is censored)")  # fmt: skip
@@ -67,7 +86,9 @@ def register(subparsers: Any) -> None:
     p.add_argument("--state", action="append", metavar="NAME=VALUE",
                    help="start here (the state just after the step event, every coordinate "
                    "and rate) instead of the stable gait; repeatable")  # fmt: skip
-    p.add_argument("--plot", metavar="FILE", help="save the survival curve (.png/.svg/.pdf)")
+    p.add_argument("--plot", metavar="FILE",
+                   help="save the survival curve, or with --over the MFPT against the swept "
+                   "value (.png/.svg/.pdf)")  # fmt: skip
     p.add_argument("--method", choices=METHODS, default="monte-carlo",
                    help="monte-carlo: the walks; chain: the meshed Markov chain on the "
                    "section (Byl & Tedrake); both: each, and whether the chain's MFPT lies "
@@ -79,20 +100,23 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=run, parser=p)
 
 
-def _check_cost(model: Any, args: argparse.Namespace, search: bool) -> None:
-    """Refuse walks beyond the limits before they start (every walk taking every step)."""
-    threads = default_threads()
-    seconds = search_seconds(model, threads) if search else 0.0
-    seconds += (args.walks * args.max_steps * limits.BATCH_SECONDS_PER_PHASE
+def _check_cost(model: Any, args: argparse.Namespace, search: bool, points: int = 1,
+                threads: int | None = None) -> None:  # fmt: skip
+    """Refuse walks beyond the limits before they start (every walk taking every step, at
+    each of ``points`` values of a sweep)."""
+    threads = threads or default_threads()
+    seconds = search_seconds(model, default_threads()) if search else 0.0
+    seconds += (points * args.walks * args.max_steps * limits.BATCH_SECONDS_PER_PHASE
                 * len(model.phases) * model.n / threads)  # fmt: skip
     nbytes = limits.SIMULATE_BYTES_BASE + args.walks * limits.BATCH_BYTES_PER_CELL
-    limits.check(f"{args.walks} walks x up to {args.max_steps} steps",
+    sweep = f" at {points} values" if points > 1 else ""
+    limits.check(f"{args.walks} walks x up to {args.max_steps} steps{sweep}",
                  limits.Cost(seconds, nbytes), "use fewer --walks or --max-steps")  # fmt: skip
 
 
-def _check_chain_cost(model: Any, args: argparse.Namespace) -> None:
+def _check_chain_cost(model: Any, args: argparse.Namespace, points: int = 1) -> None:
     """Refuse a chain beyond the limits before it starts (every mesh up to --max-nodes)."""
-    steps = chain_steps(len(model.spec["search"]), args.noise_nodes, args.max_nodes)
+    steps = points * chain_steps(len(model.spec["search"]), args.noise_nodes, args.max_nodes)
     seconds = (steps * limits.BATCH_SECONDS_PER_PHASE * len(model.phases) * model.n
                / default_threads())  # fmt: skip
     nbytes = limits.SIMULATE_BYTES_BASE + 64 * args.max_nodes * args.noise_nodes
@@ -116,37 +140,63 @@ def _verdict(mc: dict, chain: dict) -> dict:
     return {"inside": bool(inside), "verdict": text}
 
 
-def run(args: argparse.Namespace) -> int:
-    model, params = options.model_and_parameters(args)
-    options.refuse_powered_only(model, "rough")
-    slope_index(model)
+def _checked(model: Any, args: argparse.Namespace) -> tuple[Any, Any, str | None]:
+    """Every refusal before the work: the start state, the sweep (name, values) or None,
+    the Dask scheduler or None."""
+    disturbance_index(model, args.terrain)
     check_inputs(args.sigma, args.walks, args.max_steps, args.seed)
     check_chain_inputs(args.noise_nodes, args.max_nodes)
     walks, chain = args.method != "chain", args.method != "monte-carlo"
+    if chain and (args.terrain != "slope" or args.distribution != "gaussian"):
+        raise VswInputError("--method chain meshes the slope terrain with Gaussian draws (its "
+                            "Gauss-Hermite quadrature): use --method monte-carlo")  # fmt: skip
     if chain and args.state:
         raise VswInputError("--state: the chain meshes the section around the stable gait; "
                             "use --method monte-carlo to walk from a given state")  # fmt: skip
-    if chain and args.sigma <= 0:
-        raise VswInputError(f"--sigma {args.sigma:g}: the chain needs sigma > 0")
+    over = parse_over(args.over) if args.over is not None else None
+    sigmas = over[1] if over is not None and over[0] == "sigma" else [args.sigma]
+    for sigma in sigmas:
+        check_inputs(float(sigma), args.walks, args.max_steps, args.seed)
+        if chain and sigma <= 0:
+            raise VswInputError(f"sigma {sigma:g}: the chain needs sigma > 0")
+    if over is not None and args.state:
+        raise VswInputError("--over walks from each value's stable gait: not with --state")
+    scheduler = args.scheduler or os.environ.get("VSW_DASK_SCHEDULER", "").strip() or None
+    if scheduler and not walks:
+        raise VswInputError("--scheduler runs the walks: not with --method chain")
     start = options.parse_state(model, args.state) if args.state else None
     if args.plot is not None:
-        if not walks:
+        if not walks and over is None:
             raise VswInputError("--plot draws the walks' survival: not with --method chain")
         check_save_path(args.plot)
+    return start, over, scheduler
+
+
+def run(args: argparse.Namespace) -> int:
+    model, params = options.model_and_parameters(args)
+    options.refuse_powered_only(model, "rough")
+    start, over, scheduler = _checked(model, args)
+    walks, chain = args.method != "chain", args.method != "monte-carlo"
+    threads = check_scheduler(scheduler) if scheduler else None
+    points = 1 if over is None else len(over[1])
     if walks:
-        _check_cost(model, args, start is None)
+        _check_cost(model, args, start is None, points, threads)
     if chain:
-        _check_chain_cost(model, args)
-    data = _compute(model, params, args, start, walks, chain)
+        _check_chain_cost(model, args, points)
+    if over is not None:
+        return _run_sweep(model, params, args, over, scheduler)
+    data = _compute(model, params, args, start, walks, chain, scheduler)
+    unit = _terrain_unit(model, args.terrain)
     if args.plot is not None:
-        noise = f"slope drawn per step: $\\sigma$ = {args.sigma:g} rad"
+        noise = (f"{args.terrain} drawn per step ({args.distribution}): $\\sigma$ = "
+                 f"{args.sigma:g} {unit}")  # fmt: skip
         title = plotstyle.parameter_text(model, params) + "\n" + noise
         save_figure(survival_plot(data, title), args.plot)
         data["plot"] = args.plot
     if args.json:
-        extra = {"sigma": "rad", "seed": "1", "walks": "1", "failures": "1", "censored": "1",
+        extra = {"sigma": unit, "seed": "1", "walks": "1", "failures": "1", "censored": "1",
                  "mfpt": "steps", "failures_by_kind": "1", "survival.steps": "steps",
-                 "survival.fraction": "1", **gait_sensitivity_units(model),
+                 "survival.fraction": "1", **gait_sensitivity_units(model, args.terrain),
                  "mfpt_qsd": "steps", "mfpt_gait": "steps", "byl_tedrake": "steps",
                  "lambda2": "1", "nodes": "1", "nodes_per_axis": "1", "escaped": "1",
                  "noise_nodes": "1", "refinements": "1", "quadrature_change": "1",
@@ -157,8 +207,83 @@ def run(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _terrain_unit(model: Any, terrain: str) -> str:
+    """The unit of the terrain's drawn parameter and of sigma."""
+    return "rad" if terrain == "slope" else model.units.get("length", "")
+
+
+def _run_sweep(model: Any, params: Any, args: argparse.Namespace, over: tuple[str, Any],
+               scheduler: str | None) -> int:  # fmt: skip
+    """``--over``: the MFPT at each value, as text, JSON and a figure."""
+    name, values = over
+    chain = None
+    if args.method != "monte-carlo":
+        chain = {"noise_nodes": args.noise_nodes, "max_nodes": args.max_nodes}
+    with progress("rough") as bar, reporting(bar), options.solver_errors(model):
+        simulator(model).library()
+        sweep = rough_sweep(model, params, args.sigma, name, values, walks=args.walks,
+                            max_steps=args.max_steps, seed=args.seed, terrain=args.terrain,
+                            distribution=args.distribution,
+                            monte_carlo=args.method != "chain", chain=chain,
+                            scheduler=scheduler)  # fmt: skip
+    data = {**envelope(model, params, args.argv, INTEGRATOR), "model": model.cli_name,
+            "method": args.method, "seed": args.seed, "walks": args.walks,
+            "max_steps": args.max_steps, "sigma": args.sigma, **sweep.to_dict()}  # fmt: skip
+    if scheduler:
+        data["scheduler"] = scheduler
+    unit = _terrain_unit(model, args.terrain)
+    if args.plot is not None:
+        swept = sweep.parameter if name == "gamma0" else "sigma"
+        label = f"{swept} [{unit}]" if name == "gamma0" else f"$\\sigma$ [{unit}]"
+        held = (f"$\\sigma$ = {args.sigma:g} {unit}" if name == "gamma0"
+                else plotstyle.parameter_text(model, params))  # fmt: skip
+        title = f"{model.cli_name}: {args.terrain} drawn per step ({args.distribution})\n{held}"
+        save_figure(sweep_plot(data, label, title), args.plot)
+        data["plot"] = args.plot
+    if args.json:
+        extra = {**sweep_units(model, args.terrain), "seed": "1", "walks": "1",
+                 "max_steps": "steps"}  # fmt: skip
+        dump_json(with_units(model, data, extra))
+        return EXIT_OK
+    _write_sweep(model, params, args, data, unit)
+    return EXIT_OK
+
+
+def _write_sweep(model: Any, params: Any, args: argparse.Namespace, data: dict, unit: str
+                 ) -> None:  # fmt: skip
+    """The sweep's text: one row a value, then the rank correlation."""
+    out = sys.stdout
+    write_parameters(out, model, params)
+    swept = TERRAINS[args.terrain]
+    out.write(f"{'terrain':<18} {args.terrain} ({TERRAINS[args.terrain]}), {args.distribution} "
+              f"draws, seed {args.seed}, {args.walks} walks of up to {args.max_steps} "
+              "steps at each value\n")  # fmt: skip
+    out.write(f"{'over':<18} {data['over']} ({swept}), {len(data['values'])} values [{unit}]\n")
+    out.write(f"  {swept:>12} {'sigma':>10} {'MFPT':>10} {'95 % interval':>24} "
+              f"{'chain MFPT':>11} {'GSN':>10}\n")  # fmt: skip
+    for p in data["points"]:
+        m = p.get("mfpt") or {}
+        if m.get("value") is not None:
+            mfpt, interval = f"{m['value']:.4g}", f"[{m['low']:.4g}, {m['high']:.4g}]"
+        elif m:
+            mfpt, interval = f">= {m['low']:.4g}", "no walk fell"
+        else:
+            mfpt, interval = "-", "-" if "reason" not in p else "no stable gait"
+        chain = f"{p['chain']['mfpt_gait']:.4g}" if p.get("chain") else "-"
+        gsn = f"{p['gsn']:.5g}" if p.get("gsn") is not None else "-"
+        out.write(f"  {fmt(p[swept]):>12} {fmt(p['sigma']):>10} {mfpt:>10} {interval:>24} "
+                  f"{chain:>11} {gsn:>10}\n")  # fmt: skip
+    for key, c in data["spearman_gsn_mfpt"].items():
+        rho = "undefined (fewer than 3 values, or one constant)" if c["rho"] is None else (
+            f"{c['rho']:.4f}")  # fmt: skip
+        out.write(f"{'spearman':<18} GSN against the {key}' MFPT: rho = {rho} over "
+                  f"{c['points']} values\n")  # fmt: skip
+    if args.plot is not None:
+        out.write(f"plot: {args.plot}\n")
+
+
 def _compute(model: Any, params: Any, args: argparse.Namespace, start: Any, walks: bool,
-             chain: bool) -> dict:  # fmt: skip
+             chain: bool, scheduler: str | None = None) -> dict:  # fmt: skip
     """The walks, the chain or both, as the JSON's keys."""
     with options.solver_errors(model):
         simulator(model).library()
@@ -166,12 +291,18 @@ def _compute(model: Any, params: Any, args: argparse.Namespace, start: Any, walk
         data = {**envelope(model, params, args.argv, INTEGRATOR), "model": model.cli_name,
                 "method": args.method}  # fmt: skip
         if walks:
-            result = rough_walks(model, params, args.sigma, args.walks, args.max_steps,
-                                 args.seed, start=start, gait=gait)  # fmt: skip
+            with progress("rough") as bar, reporting(bar):
+                result = rough_walks(model, params, args.sigma, args.walks, args.max_steps,
+                                     args.seed, start=start, gait=gait, terrain=args.terrain,
+                                     distribution=args.distribution,
+                                     scheduler=scheduler)  # fmt: skip
             data.update(result.to_dict())
             data["model"] = model.cli_name
         else:
-            data.update({"terrain": "slope", "sigma": args.sigma, "gait": gait.to_dict()})
+            data.update({"terrain": args.terrain, "distribution": args.distribution,
+                         "sigma": args.sigma, "gait": gait.to_dict()})  # fmt: skip
+        if scheduler:
+            data["scheduler"] = scheduler
         data["method"] = args.method
         if chain:
             found = rough_chain(model, params, args.sigma, gait=gait,
@@ -179,7 +310,7 @@ def _compute(model: Any, params: Any, args: argparse.Namespace, start: Any, walk
             data["chain"] = found.to_dict()
             if walks and data["mfpt"]["value"] is not None:
                 data["agreement"] = _verdict(data["mfpt"], data["chain"])
-        gsn = None if gait is None else gait_sensitivity(model, params, gait)
+        gsn = None if gait is None else gait_sensitivity(model, params, gait, args.terrain)
         data["gait_sensitivity"] = None if gsn is None else gsn.to_dict()
     return data
 
@@ -187,8 +318,11 @@ def _compute(model: Any, params: Any, args: argparse.Namespace, start: Any, walk
 def _write_text(model: Any, params: Any, args: argparse.Namespace, data: dict) -> None:
     out = sys.stdout
     write_parameters(out, model, params)
-    out.write(f"{'terrain':<18} {SLOPE}_k = {fmt(data['parameters'][SLOPE])} + "
-              f"{fmt(args.sigma)} xi_k rad, xi_k standard normal\n")  # fmt: skip
+    name = TERRAINS[args.terrain]
+    draw = "standard normal" if args.distribution == "gaussian" else "uniform, variance 1"
+    unit = _terrain_unit(model, args.terrain)
+    out.write(f"{'terrain':<18} {name}_k = {fmt(data['parameters'][name])} + "
+              f"{fmt(args.sigma)} xi_k {unit}, xi_k {draw}\n")  # fmt: skip
     if "mfpt" in data:
         _write_walks(out, args, data)
     if "chain" in data:

@@ -1,0 +1,197 @@
+"""Rough ground beyond one slope: the uniform draw, the height terrain's refusal, the MFPT
+over a parameter (``vsw rough --over``), Spearman's rank correlation of the gait
+sensitivity norm with the MFPT, and the walks on a Dask cluster."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from vsw.cli import main
+from vsw.errors import VswInputError
+from vsw.models import load
+from vsw.rough import HEIGHT, Terrain, disturbance_index, rough_walks, terrain_noise
+from vsw.rough_sweep import parse_over, rough_sweep, spearman
+
+WALKER = ["rough", "--model", "simplest-walker"]
+
+
+def run(capsys, argv):
+    code = main(argv)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_uniform_draws_are_uniform_with_unit_variance():
+    from scipy import stats
+
+    xi = terrain_noise(3, np.arange(200)[:, None], np.arange(300), "uniform")
+    edge = math.sqrt(3.0)
+    assert np.all(np.abs(xi) < edge)
+    assert stats.kstest(xi.ravel(), stats.uniform(loc=-edge, scale=2 * edge).cdf).pvalue > 0.01
+    assert abs(xi.var() - 1) < 4 * math.sqrt(0.8 / xi.size)  # var of x^2 for U: 4/5
+    assert abs(np.mean(xi[:, 1:] * xi[:, :-1])) < 4 / math.sqrt(xi[:, 1:].size)
+    # A draw is a function of (seed, walk, step) alone, as the Gaussian one.
+    np.testing.assert_array_equal(terrain_noise(3, [7, 2], 11, "uniform"), xi[[7, 2], 11])
+
+
+def test_gaussian_terrain_is_the_default_and_unchanged():
+    params = np.array([0.009])
+    a = Terrain(params, 0, 0.002, 5)(np.arange(6), 4)
+    b = Terrain(params, 0, 0.002, 5, distribution="gaussian")(np.arange(6), 4)
+    np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(a[:, 0], 0.009 + 0.002 * terrain_noise(5, np.arange(6), 4))
+
+
+def test_a_model_without_a_ground_height_refuses_the_height_terrain():
+    model = load("simplest-walker")
+    with pytest.raises(VswInputError, match=HEIGHT):
+        disturbance_index(model, "height")
+    assert disturbance_index(model, "slope") == 0
+
+
+@pytest.mark.parametrize(
+    ("extra", "needle"),
+    [
+        (["--sigma", "-0.001"], "sigma"),
+        (["--sigma", "0.001", "--terrain", "height"], "cannot take a height terrain"),
+        (["--sigma", "0.001", "--walks", "0"], "walks = 0"),
+        (["--sigma", "0.001", "--seed", "1.5"], "seed"),
+        (["--sigma", "0.001", "--over", "sigma=0.001:0.002:0"], "empty range"),
+        (["--sigma", "0.001", "--over", "sigma=0.002:0.002:3"], "empty range"),
+        (["--sigma", "0.001", "--over", "sigma=0.001:0.002:1"], "empty range"),
+        (["--sigma", "0.001", "--over", "sigma=-0.001:0.002:3"], "sigma"),
+        (["--sigma", "0.001", "--over", "beta=0:1:3"], "sweeps one of"),
+        (["--sigma", "0.001", "--over", "gamma0=0.01"], "NAME=a:b:n"),
+        (["--sigma", "0.001", "--distribution", "uniform", "--method", "chain"], "Gaussian"),
+        (["--sigma", "0.001", "--over", "gamma0=-1:0.01:3"], "gamma"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(capsys, extra, needle):
+    code, out, err = run(capsys, [*WALKER, "--walks", "10", "--max-steps", "10", *extra])
+    assert code == 2 and out == ""
+    assert len(err.strip().splitlines()) == 1 and needle in err, err
+
+
+def test_a_vsw_biped_cannot_take_either_terrain(capsys):
+    for terrain in ("slope", "height"):
+        code, _, err = run(capsys, ["rough", "--model", "vsw-biped", "--sigma", "0.001",
+                                    "--terrain", terrain])  # fmt: skip
+        assert code == 2 and len(err.strip().splitlines()) == 1
+
+
+def test_parse_over_gives_both_ends():
+    name, values = parse_over("gamma0=0.008:0.011:4")
+    assert name == "gamma0"
+    np.testing.assert_allclose(values, [0.008, 0.009, 0.010, 0.011], rtol=0, atol=1e-15)
+
+
+# --- Spearman's rank correlation ----------------------------------------------------------------
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_spearman_is_scipys(seed):
+    from scipy.stats import spearmanr
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(3, 30))
+    x = rng.normal(size=n)
+    y = x * rng.normal() + rng.normal(size=n)
+    if seed % 2:  # ties, which take their mean rank
+        x, y = np.round(x), np.round(y * 2) / 2
+    expected = spearmanr(x, y).statistic
+    assert spearman(x, y) == pytest.approx(expected, abs=1e-12)
+
+
+def test_spearman_on_monotone_and_degenerate_data():
+    assert spearman([1, 2, 3, 4], [10, 20, 25, 400]) == pytest.approx(1.0)
+    assert spearman([1, 2, 3, 4], [4, 3, 2, 1]) == pytest.approx(-1.0)
+    assert spearman([1, 2], [1, 2]) is None
+    assert spearman([1, 1, 1], [1, 2, 3]) is None
+
+
+# --- the sweep ----------------------------------------------------------------------------------
+
+
+def test_a_sweep_point_is_the_walks_at_that_value():
+    """Each value's MFPT is rough_walks' at that value from that value's stable gait (the
+    gait searched for afresh, not continued), and the rank correlation is over the
+    points."""
+    model = load("simplest-walker")
+    params = model.parameters({})
+    sweep = rough_sweep(model, params, 0.0015, "gamma0", [0.0085, 0.0095, 0.0105], walks=64,
+                        max_steps=200, seed=2)  # fmt: skip
+    for point in sweep.points:
+        p = model.parameters({"gamma": point["gamma0"]})
+        gait = model.stable_gait(p, "the test's start")
+        for name, value in gait.state.items():
+            assert point["gait"]["state"][name] == pytest.approx(value, abs=1e-9)
+        alone = rough_walks(model, p, 0.0015, 64, 200, 2, gait=gait).to_dict()
+        assert point["mfpt"]["value"] == pytest.approx(alone["mfpt"]["value"], rel=1e-12)
+        assert point["failures"] == alone["failures"]
+    gsn = [p["gsn"] for p in sweep.points]
+    mfpt = [p["mfpt"]["value"] for p in sweep.points]
+    assert sweep.correlation()["walks"] == {"rho": spearman(gsn, mfpt), "points": 3}
+
+
+def test_the_sigma_sweep_command(capsys, tmp_path):
+    png = tmp_path / "mfpt.png"
+    argv = [*WALKER, "--sigma", "0.001", "--walks", "64", "--max-steps", "200", "--seed", "1",
+            "--over", "sigma=0.0015:0.0025:3", "--json", "--plot", str(png)]  # fmt: skip
+    code, out, err = run(capsys, argv)
+    assert code == 0, err
+    data = json.loads(out)
+    assert data["over"] == "sigma" and [p["sigma"] for p in data["points"]] == data["values"]
+    mfpt = [p["mfpt"]["value"] for p in data["points"]]
+    assert mfpt[0] > mfpt[-1]  # more noise, fewer steps
+    assert data["units"]["quantities"]["sigma"] == "rad"
+    assert data["units"]["quantities"]["mfpt"] == "steps"
+    # One gait at every sigma: its norm is one number, so no rank correlation.
+    assert len({p["gsn"] for p in data["points"]}) == 1
+    assert data["spearman_gsn_mfpt"]["walks"]["rho"] is None
+    first = png.read_bytes()
+    code, out2, _ = run(capsys, argv)
+    assert code == 0 and png.read_bytes() == first
+    assert json.loads(out2)["points"] == data["points"]
+
+
+# --- a Dask cluster -----------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    """Two worker processes on loopback, one thread each."""
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+        dashboard_address=None,
+    ) as local:  # fmt: skip
+        yield local.scheduler_address
+
+
+@pytest.mark.slow
+def test_walks_on_a_dask_cluster_are_the_local_ones(capsys, cluster):
+    argv = [*WALKER, "--sigma", "0.0015", "--walks", "300", "--max-steps", "400", "--seed",
+            "4", "--json"]  # fmt: skip
+    code, out, err = run(capsys, argv)
+    assert code == 0, err
+    local = json.loads(out)
+    code, out, err = run(capsys, [*argv, "--scheduler", cluster])
+    assert code == 0, err
+    remote = json.loads(out)
+    assert remote.pop("scheduler") == cluster
+    for data in (local, remote):
+        data.pop("provenance")
+    assert remote == local
+
+
+def test_rough_walks_split_on_a_cluster_match_in_process(cluster):
+    model = load("simplest-walker")
+    params = model.parameters({})
+    here = rough_walks(model, params, 0.002, 150, 100, seed=9)
+    there = rough_walks(model, params, 0.002, 150, 100, seed=9, scheduler=cluster)
+    np.testing.assert_array_equal(here.steps, there.steps)
+    assert here.ended == there.ended
