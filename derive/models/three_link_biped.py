@@ -1,0 +1,163 @@
+"""The three-link biped of Grizzle, Abba & Plestan 2001 ("Asymptotically stable walking for
+biped robots: analysis via systems with impulse effects", IEEE Trans. Automatic Control
+46(1):51-64, Section V) and of Westervelt, Grizzle, Chevallereau, Choi & Morris 2007
+("Feedback Control of Dynamic Bipedal Robot Locomotion", CRC Press, Section 6.6.1), with its
+two hip torques as inputs, on level ground.
+
+Two legs of length ``r``, each a point mass ``m`` at its middle, a point mass ``m_h`` at
+the hip and a torso, a point mass ``m_t`` at ``l`` above the hip, under gravity ``g``. The
+stance foot is a hinge; two actuators at the hip act between the torso and each leg. The
+model has one degree of underactuation: the actuators exert no torque about the stance
+foot, so the angular momentum about it changes by gravity alone (the structure hybrid zero
+dynamics rests on: ``vsw hzd``). Heelstrike is an inelastic impact at the swing foot, after
+which the legs swap roles; the swing foot passes through the ground near mid-stance
+(scuffing is ignored, as in the sources).
+
+Coordinates, absolute angles from the vertical, positive leaning forward (the sources'
+``q = (theta_1, theta_2, theta_3)``): ``theta1`` the stance leg, ``theta2`` the swing leg,
+both measured from foot to hip, and ``theta3`` the torso, from the hip to its mass. The
+inputs do work along ``theta3 - theta1`` (between the torso and the stance leg) and
+``theta3 - theta2`` (between the torso and the swing leg): the sources' ``B = [-1 0; 0 -1;
+1 1]`` up to the sign of the torques. It has no passive gait on level ground: it walks only
+powered (``vsw hzd``, ``vsw optimize``).
+"""
+
+from __future__ import annotations
+
+import sympy as sm
+
+from derive.engine import model_derivation
+from derive.engine.model import (
+    NORMAL_FORCE,
+    Coordinate,
+    Event,
+    Failure,
+    Impact,
+    Input,
+    Model,
+    Parameter,
+    Phase,
+    PointMass,
+    Skeleton,
+    leg,
+    swing_foot_clearance,
+)
+from derive.quantities import Derivation
+
+INF = float("inf")
+
+# Grizzle et al. 2001, Table I (and the book's model_params_three_link.m, with g = 9.81).
+PARAMETERS = (
+    Parameter("m_h", "M_H", 0.0, INF, "hip mass m_h > 0", "hip mass", {"positive": True},
+              default=15.0, unit="kg"),
+    Parameter("m", "m", 0.0, INF, "leg mass m > 0", "mass of each leg (at its middle)",
+              {"positive": True}, default=5.0, unit="kg"),
+    Parameter("m_t", "M_T", 0.0, INF, "torso mass m_t > 0", "torso mass",
+              {"positive": True}, default=10.0, unit="kg"),
+    Parameter("r", "r", 0.0, INF, "leg length r > 0", "leg length", {"positive": True},
+              default=1.0, unit="m"),
+    Parameter("l", "l", 0.0, INF, "l > 0", "distance from the hip to the torso's mass",
+              {"positive": True}, default=0.5, unit="m"),
+    Parameter("g", "g", 0.0, INF, "gravity g > 0", "gravitational acceleration",
+              {"positive": True}, default=9.81, unit="m/s^2"),
+)  # fmt: skip
+m_h, m, m_t, r, l, g = (p.symbol for p in PARAMETERS)
+
+STANCE_LEG = Coordinate("theta1", "stance leg angle", "rad", reference="the vertical",
+                        positive="the hip ahead of the stance foot")  # fmt: skip
+SWING_LEG = Coordinate("theta2", "swing leg angle", "rad", reference="the vertical",
+                       positive="the hip ahead of the swing foot")  # fmt: skip
+TORSO = Coordinate("theta3", "torso angle", "rad", reference="the vertical",
+                   positive="the torso leaning forward")  # fmt: skip
+theta1, theta2, theta3 = STANCE_LEG.q, SWING_LEG.q, TORSO.q
+
+hip = leg(theta1, r)
+swing_foot = tuple(h - f for h, f in zip(hip, leg(theta2, r)))
+torso = tuple(h + t for h, t in zip(hip, leg(theta3, l)))
+SKELETON = Skeleton(
+    points={"stance_foot": (0, 0), "hip": hip, "swing_foot": swing_foot, "torso": torso},
+    segments=(("stance_foot", "hip"), ("hip", "swing_foot"), ("hip", "torso")),
+)
+STANCE = Phase(
+    "stance",
+    coordinates=(STANCE_LEG, SWING_LEG, TORSO),
+    bodies=(
+        PointMass("hip", m_h, hip),
+        PointMass("stance_leg", m, leg(theta1, r / 2)),
+        PointMass("swing_leg", m, tuple(h - f for h, f in zip(hip, leg(theta2, r / 2)))),
+        PointMass("torso", m_t, torso),
+    ),
+    gravity=(0, -g),
+    points={"swing_foot": swing_foot},
+    inputs=(
+        Input(
+            "torso_stance_torque",
+            theta3 - theta1,
+            "hip",
+            unit="N m",
+            description="torque between the stance leg and the torso, positive turning the "
+            "torso forward (its reaction turns the stance leg back)",
+        ),
+        Input(
+            "torso_swing_torque",
+            theta3 - theta2,
+            "hip",
+            unit="N m",
+            description="torque between the swing leg and the torso, positive turning the "
+            "torso forward (its reaction turns the swing leg back)",
+        ),
+    ),
+)
+
+MODEL = Model(
+    name="three_link_biped",
+    title="Three-link biped",
+    description="Grizzle, Abba & Plestan 2001 (Westervelt et al. 2007): legs with point "
+    "masses, a hip mass and a torso, two hip torques, level ground; one degree of "
+    "underactuation, no passive gait: it walks only powered",
+    source="derive/models/three_link_biped.py",
+    parameters=PARAMETERS,
+    phases=(STANCE,),
+    events=(
+        Event(
+            "heelstrike",
+            "stance",
+            "stance",
+            # The swing foot's height is -2 r sin((theta1 + theta2)/2) sin((theta1 - theta2)/2).
+            guard=sm.sin((theta1 + theta2) / 2),
+            direction=1,
+            reset=Impact(
+                "swing_foot",
+                {theta1: theta2, theta2: theta1, theta3: theta3},
+                bodies={"stance_leg": "swing_leg", "swing_leg": "stance_leg"},
+            ),
+            ends_step=True,
+            when=theta1,  # past mid-stance: the new foot lands ahead of the hip
+            equation="Grizzle et al. 2001, eqs. (18)-(21)",
+        ),
+    ),
+    failures=(
+        Failure("fell-backward", STANCE_LEG.u, -1, "the stance leg stops and swings back"),
+        Failure("fell-forward", sm.cos(theta1), -1, "the hip reaches the ground"),
+        Failure("torso-fell", sm.cos(theta3), -1, "the torso reaches the horizontal"),
+        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
+    ),
+    conditions=(swing_foot_clearance(swing_foot[1], "m"),),
+    units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},
+    skeleton=SKELETON,
+    step_length=swing_foot[0],
+    search={
+        "theta1": (-0.6, 0.0),
+        "theta3": (-0.5, 0.8),
+        "theta1_dot": (0.0, 3.0),
+        "theta2_dot": (-3.0, 3.0),
+        "theta3_dot": (-3.0, 3.0),
+    },
+    # Just after heelstrike the legs are at the guard's zero, swapped.
+    section={"theta2": -theta1},
+    powered_only=True,
+)
+
+
+def derive() -> Derivation:
+    return model_derivation(MODEL, "Angles in radians, lengths in m, time in s, energies in J.")
