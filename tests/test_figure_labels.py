@@ -19,7 +19,7 @@ from vsw.models.ile import plots
 from vsw.models.ile.basin import basin
 from vsw.models.ile.simulate import simulate
 from vsw.powered import PoweredGait, input_names
-from vsw.powered_plot import powered_figure
+from vsw.powered.plot import powered_figure
 from vsw.trajectories import sample_walk
 from vsw.walk_plot import walk_figure
 

@@ -146,20 +146,21 @@ def test_the_hip_impulse_at_the_stop_turns_the_swing_leg_by_itself():
 
 
 def test_the_ground_impulses_carry_the_legs_pushes():
-    """The NLP's ground impulses at heelstrike (vsw.powered's _event_map: the momentum's
+    """The NLP's ground impulses at heelstrike (vsw.powered's event_map: the momentum's
     change): a leg's telescoping foot is massless, so the ground's impulse on it along the
     leg is the leg actuator's: the stance foot's is the push-off along the trailing leg,
     the new foot's the heel-strike along the new leg (zero where it lands free), whatever
     the collision adds across the leg. 20 random cases, 1e-12."""
     import casadi as ca
 
-    from vsw.powered import _apply_impulses, _Constraints, _event_map, _Unknowns
+    from vsw.powered.events import apply_impulses, event_map
+    from vsw.powered.variables import Constraints, Unknowns
 
     walker = load("free_vsw_biped")
     (event,) = walker.events
     p, x, iota = ca.MX.sym("p", 4), ca.MX.sym("x", 6), ca.MX.sym("iota", 4)
-    unknowns = _Unknowns([], [], [], [], [], [iota], [], [ca.MX.sym("s", 0)])
-    *_, ground = _event_map(walker, event, p, x, unknowns, _Constraints())
+    unknowns = Unknowns([], [], [], [], [], [iota], [], [ca.MX.sym("s", 0)])
+    *_, ground = event_map(walker, event, p, x, unknowns, Constraints())
     assert list(ground) == ["heelstrike.stance_foot", "heelstrike.new_foot"]
     impulses = ca.Function("ground", [p, x, iota], list(ground.values()))
     rng = np.random.default_rng(41)
@@ -178,7 +179,7 @@ def test_the_ground_impulses_carry_the_legs_pushes():
                                  for v in impulses(params, state, pushes))  # fmt: skip
         trailing = np.array([math.sin(theta), math.cos(theta)])  # from its foot to the hip
         assert stance_foot @ trailing == pytest.approx(push, abs=1e-12)
-        after = _apply_impulses(walker, event, params, state, pushes)[0]
+        after = apply_impulses(walker, event, params, state, pushes)[0]
         landing = np.array([math.sin(after[0]), math.cos(after[0])])
         assert new_foot @ landing == pytest.approx(strike, abs=1e-12)
         checked += 1
@@ -186,7 +187,7 @@ def test_the_ground_impulses_carry_the_legs_pushes():
 
 def test_the_optimiser_walks_the_stop_model_through_its_stop():
     """`vsw optimize` on the end-stop model from its kinematic start for two phases
-    (vsw.powered._phased_guess): the stroke ends with the leg at l, the extended phase
+    (vsw.powered.starts._phased_guess): the stroke ends with the leg at l, the extended phase
     begins with it stopped there (the lock's reset), holds it, and ends at heelstrike
     with the swing foot on the ground ahead; the step is periodic (the stroke starts
     beta long)."""
@@ -273,16 +274,18 @@ def test_the_optimiser_chooses_the_push_angle_with_the_gait():
 
 
 def test_the_kinematic_start_splits_the_stance_where_the_push_comes():
-    """The kinematic start of several phases (vsw.powered._phased_guess) ends the stance
+    """The kinematic start of several phases (vsw.powered.starts._phased_guess) ends the stance
     where the push's guard vanishes along its straight path: the stance leg at theta_push
     at the split, the phases' durations in proportion, the path continuous there."""
-    from vsw.powered import Request, _build, _kinematic_guess
+    from vsw.powered import Request
+    from vsw.powered.problem import _build
+    from vsw.powered.starts import kinematic_guess
 
     walker = load("free_vsw_biped_push")
     params = walker.parameters({"theta_push": 0.1})
     request = Request("torque2", 0.367072, 0.832346, 6)
     nlp = _build(walker, request)
-    w = _kinematic_guess(walker, params, nlp, request)
+    w = kinematic_guess(walker, params, nlp, request)
     stance, pushed = (w[e["knots"][0] : e["knots"][0] + 7 * 6].reshape(7, 6) for e in nlp.layout)
     assert stance[-1][0] == pytest.approx(0.1, abs=1e-12)
     assert pushed[0][:3] == pytest.approx(stance[-1][:3], abs=1e-12)
@@ -332,7 +335,7 @@ def test_vsw_optimize_reports_the_chosen_angle_within_its_limit(capsys):
 
 def test_a_limit_on_the_push_angle_takes_its_start_into_it():
     """The start 0.5 outside --limit theta_push=0.4:0.45: the first stage holds the angle
-    at the limit's nearest end, 0.45 (vsw.powered._started_within_limits), and the work
+    at the limit's nearest end, 0.45 (vsw.powered.request.started_within_limits), and the work
     stage keeps it within the limit."""
     from vsw.powered import Request, chosen_indices, optimize
 
@@ -346,7 +349,7 @@ def test_a_limit_on_the_push_angle_takes_its_start_into_it():
 
 
 def test_the_push_is_taken_by_the_ground_pushing_within_the_cone():
-    """The NLP's event map at the push (vsw.powered._event_map, a change of phase where
+    """The NLP's event map at the push (vsw.powered.events.event_map, a change of phase where
     impulses act): the ground's impulse through the stance foot is the walker's momentum's
     change by Newton for the three masses, and along the stance leg it is the leg's push
     (its foot massless; the foot's pivot takes the rest, across the leg) when the hip does
@@ -355,16 +358,18 @@ def test_the_push_is_taken_by_the_ground_pushing_within_the_cone():
     cone's two sides), none where the impulses are held at zero (torque2)."""
     import casadi as ca
 
-    from vsw.powered import Request, _Constraints, _event_map, _Unknowns
+    from vsw.powered import Request
+    from vsw.powered.events import event_map
+    from vsw.powered.variables import Constraints, Unknowns
 
     walker = load("free_vsw_biped_push")
     (event,) = [e for e in walker.events if e["name"] == "push"]
     p, x, iota = ca.MX.sym("p", 5), ca.MX.sym("x", 6), ca.MX.sym("iota", 2)
 
     def mapped(request):
-        unknowns = _Unknowns([], [], [], [], [], [iota], [], [ca.MX.sym("s", 0)])
-        rows = _Constraints()
-        *_, ground = _event_map(walker, event, p, x, unknowns, rows, request)
+        unknowns = Unknowns([], [], [], [], [], [iota], [], [ca.MX.sym("s", 0)])
+        rows = Constraints()
+        *_, ground = event_map(walker, event, p, x, unknowns, rows, request)
         return ground, rows
 
     ground, rows = mapped(Request("work", friction=1.0))

@@ -34,7 +34,7 @@ NAMES = ["theta", "psi", "theta_dot", "psi_dot"]
 PERIODIC = 1e-7
 """The replayed step's return to its start, relative to max(1, |state|): the verification
 accepts a fixed point whose step maps it to itself within
-:data:`vsw.powered_verify.FIXED_POINT_TOL` = 1e-7 (Newton reaches about 4e-10 here, and a
+:data:`vsw.powered.verify.FIXED_POINT_TOL` = 1e-7 (Newton reaches about 4e-10 here, and a
 second step adds the first's gap times the open-loop map's largest |eigenvalue|, 1.34)."""
 
 
@@ -113,7 +113,7 @@ def test_an_unverified_optimum_is_never_called_optimal(gait, tmp_path):
 
     from vsw.gait_file import gait_record, load_gait
     from vsw.powered import Request
-    from vsw.powered_verify import VerifiedGait
+    from vsw.powered.verify import VerifiedGait
 
     path = tmp_path / "g.json"
     path.write_text(json.dumps({"gait": gait}))

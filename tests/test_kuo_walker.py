@@ -96,18 +96,19 @@ def test_the_torque_alone_approaches_its_impulse_from_above(walker):
 
 def test_the_nlps_event_map_is_the_steps_and_the_energy_closes(walker):
     """Push-off with the impact and the torque's impulse after it, both nonzero: the NLP's
-    event map (CasADi, _event_map) and the open-loop step's (numpy, _apply_impulses) give
+    event map (CasADi, event_map) and the open-loop step's (numpy, apply_impulses) give
     the same state and works, and the energy after is the energy before plus both works
     minus what the collision takes, m (v' . n)^2 / 2 with v' the hip's velocity after the
     push and n along the new leg (Newton, not the engine)."""
     import casadi as ca
 
-    from vsw.powered import _apply_impulses, _Constraints, _event_map, _Unknowns
+    from vsw.powered.events import apply_impulses, event_map
+    from vsw.powered.variables import Constraints, Unknowns
 
     (event,) = walker.events
     p, x, iota = ca.MX.sym("p", 4), ca.MX.sym("x", 2), ca.MX.sym("iota", 2)
-    unknowns = _Unknowns([], [], [], [], [], [iota], [], [ca.MX.sym("s", 0)])
-    after, _priced, plus, minus, _ground = _event_map(walker, event, p, x, unknowns, _Constraints())
+    unknowns = Unknowns([], [], [], [], [], [iota], [], [ca.MX.sym("s", 0)])
+    after, _priced, plus, minus, _ground = event_map(walker, event, p, x, unknowns, Constraints())
     assert list(plus) == ["heelstrike.push_off", "heelstrike.torque_impulse"]
     works = [plus[k] + minus[k] for k in plus]
     mapped = ca.Function("event", [p, x, iota], [after, ca.vertcat(*works)])
@@ -118,7 +119,7 @@ def test_the_nlps_event_map_is_the_steps_and_the_energy_closes(walker):
         params = np.array([m, g, l, 2 * l * math.sin(theta)])
         state = np.array([theta, theta_dot])
         impulses = np.array([rng.uniform(0.0, 1.0), rng.uniform(-0.5, 0.5)])
-        ours, our_works, _ends = _apply_impulses(walker, event, params, state, impulses)
+        ours, our_works, _ends = apply_impulses(walker, event, params, state, impulses)
         theirs, their_works = (np.array(v, float).reshape(-1)
                                for v in mapped(params, state, impulses))  # fmt: skip
         assert np.allclose(ours, theirs, rtol=1e-13, atol=1e-14)

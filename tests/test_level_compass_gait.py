@@ -21,8 +21,9 @@ import pytest
 
 from vsw.errors import VswInputError
 from vsw.models import load
-from vsw.powered import Request, _check_step_target, optimize, powered_step
-from vsw.powered_verify import verify
+from vsw.powered import Request, optimize, powered_step
+from vsw.powered.request import _check_step_target
+from vsw.powered.verify import verify
 
 pytest.importorskip("casadi")
 
@@ -133,7 +134,7 @@ def test_push_off_alone_equals_single_shooting(walker):
     assert peer.success, peer.message
     assert gait.cost == pytest.approx(peer.cost, rel=1e-6)
     assert gait.step_length == pytest.approx(0.4, rel=1e-9)
-    # The open-loop step's fixed point (vsw.powered_verify): a motion of the walker whose
+    # The open-loop step's fixed point (vsw.powered.verify): a motion of the walker whose
     # work, integrated along it, is SLSQP's too; it maps to itself.
     verified = verify(walker, params, gait)
     assert verified.failure == ""

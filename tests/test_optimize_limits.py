@@ -18,6 +18,8 @@ from vsw.cli import main
 from vsw.cli.parser import EXIT_INPUT
 from vsw.errors import ConvergenceError, VswInputError
 from vsw.models import load
+from vsw.powered import problem, solve
+from vsw.powered import request as powered_request
 
 BIPED_STABILITY = ["optimize", "--model", "free-vsw-biped-stop", "--minimize", "stability",
                    "--target-step-length", "0.5", "--json"]  # fmt: skip
@@ -70,16 +72,16 @@ def test_a_start_where_the_nlp_is_not_finite_ends_the_solve_with_the_reason():
     model = load("compass_gait")
     params = model.parameters()
     request = powered.Request()
-    nlp = powered._build(model, request)
+    nlp = problem._build(model, request)
     guess = np.full(nlp.size, np.nan)
     with pytest.raises(ConvergenceError, match="not finite at its start"):
-        powered._solve(model, params, request, nlp, guess)
+        solve._solve(model, params, request, nlp, guess)
 
 
 @pytest.fixture
 def no_estimate(monkeypatch):
     """The estimate out of the way: these runs are meant to meet the limit while they run."""
-    monkeypatch.setattr(powered, "_check_cost", lambda model, request: None, raising=False)
+    monkeypatch.setattr(powered_request, "_check_cost", lambda model, request: None, raising=False)
 
 
 def test_the_limit_stops_the_nlp_build_within_2_s(no_estimate):

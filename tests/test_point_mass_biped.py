@@ -17,7 +17,10 @@ import pytest
 
 from paper_check.powered import SR06_ACTUATORS, inverted_pendulum_gait
 from vsw.models import load
-from vsw.powered import Request, _build, _flow_function, _perturbed_inputs, optimize
+from vsw.powered import Request, optimize
+from vsw.powered.dynamics import flow_function
+from vsw.powered.problem import _build
+from vsw.powered.starts import perturbed_inputs
 
 pytest.importorskip("casadi")
 
@@ -77,7 +80,7 @@ def test_the_ground_reaction_is_the_legs_push_and_the_torques_pull(biped):
         r = math.hypot(x, y)
         scale = m * g
         assert normal == pytest.approx(force * y / r - torque * x / r**2, abs=1e-12 * scale)
-        rates = np.array(_flow_function(biped, "stance")(p, state, (force, torque)), float)
+        rates = np.array(flow_function(biped, "stance")(p, state, (force, torque)), float)
         assert normal == pytest.approx(m * (rates[3, 0] + g), abs=1e-12 * scale)
 
 
@@ -150,9 +153,9 @@ def test_every_start_returns_to_the_analytic_least_work(biped):
 
     nlp = _build(biped, dataclasses.replace(request, nodes=2 * request.nodes))
     w = one.extra["w"]  # the optimum on that (the fine) mesh
-    moved = _perturbed_inputs(biped, params, nlp, w, 1)
-    assert np.array_equal(moved, _perturbed_inputs(biped, params, nlp, w, 1))
-    assert not np.array_equal(moved, _perturbed_inputs(biped, params, nlp, w, 2))
+    moved = perturbed_inputs(biped, params, nlp, w, 1)
+    assert np.array_equal(moved, perturbed_inputs(biped, params, nlp, w, 1))
+    assert not np.array_equal(moved, perturbed_inputs(biped, params, nlp, w, 2))
     inputs = np.zeros(nlp.size, bool)
     for entry in nlp.layout:
         for key in ("u_knots", "u_middles"):
@@ -244,17 +247,18 @@ def test_parameters_that_cannot_walk_are_refused_and_a_gait_that_cannot_be_is_in
 def test_the_nlps_event_map_is_the_simulations_and_its_work_the_energys(biped):
     """With all three impulses nonzero (push-off before the reset; heel-strike and the
     torque's impulse together after it): the NLP's event map (CasADi, vsw.powered's
-    _event_map) and the open-loop step's (numpy, _apply_impulses) give the same state and
+    event_map) and the open-loop step's (numpy, apply_impulses) give the same state and
     works, and the works sum to the walker's energy change over the event (the reset moves
     the chart, not the hip)."""
     import casadi as ca
 
-    from vsw.powered import _apply_impulses, _Constraints, _event_map, _Unknowns
+    from vsw.powered.events import apply_impulses, event_map
+    from vsw.powered.variables import Constraints, Unknowns
 
     (event,) = biped.events
     p, x, iota = ca.MX.sym("p", 5), ca.MX.sym("x", 4), ca.MX.sym("iota", 3)
-    unknowns = _Unknowns([], [], [], [], [], [iota], [], [ca.MX.sym("s", 0)])
-    after, _priced, plus, minus, _ground = _event_map(biped, event, p, x, unknowns, _Constraints())
+    unknowns = Unknowns([], [], [], [], [], [iota], [], [ca.MX.sym("s", 0)])
+    after, _priced, plus, minus, _ground = event_map(biped, event, p, x, unknowns, Constraints())
     works = [plus[k] + minus[k] for k in plus]
     mapped = ca.Function("event", [p, x, iota], [after, ca.vertcat(*works)])
     rng = np.random.default_rng(3)
@@ -262,7 +266,7 @@ def test_the_nlps_event_map_is_the_simulations_and_its_work_the_energys(biped):
         params = (*rng.uniform(0.5, 2.0, 3), rng.uniform(0.3, 1.0), 0.2)
         state = np.array([params[3] / 2, rng.uniform(0.5, 1.0), *rng.uniform(-1, 1, 2)])
         impulses = rng.uniform(0.05, 1.0, 3)
-        ours, our_works, _ends = _apply_impulses(biped, event, np.array(params), state, impulses)
+        ours, our_works, _ends = apply_impulses(biped, event, np.array(params), state, impulses)
         theirs, their_works = (np.array(v, float).reshape(-1)
                                for v in mapped(params, state, impulses))  # fmt: skip
         assert np.allclose(ours, theirs, rtol=1e-13, atol=1e-14)
@@ -275,19 +279,20 @@ def test_a_reversing_impulses_positive_work_is_what_it_puts_back(biped):
     """A push-off along the leg while the hip moves toward the foot, large enough to send
     it away: by Newton the hip's speed along the leg goes from ``a < 0`` to
     ``b = a + iota / m > 0``; the actuator first absorbs ``m a^2 / 2``, then does
-    ``m b^2 / 2`` of positive work. The NLP's ledger (CasADi, ``_event_map``) has that
+    ``m b^2 / 2`` of positive work. The NLP's ledger (CasADi, ``event_map``) has that
     whatever the push's split into two parts; its price (the slacks at their least, at the
     parts' power ends) is that where the split stops the hip (numpy's
-    ``_stopping_splits``), and more where the push is one part (``iota b / 2``)."""
+    ``stopping_splits``), and more where the push is one part (``iota b / 2``)."""
     import casadi as ca
 
-    from vsw.powered import _apply_impulses, _Constraints, _event_map, _stopping_splits, _Unknowns
+    from vsw.powered.events import apply_impulses, event_map, stopping_splits
+    from vsw.powered.variables import Constraints, Unknowns
 
     (event,) = biped.events
     p, x, iota = ca.MX.sym("p", 5), ca.MX.sym("x", 4), ca.MX.sym("iota", 3)
     split, slacks = ca.MX.sym("f", 3), ca.MX.sym("s", 12)
-    unknowns = _Unknowns([], [], [], [], [], [iota], [split], [slacks])
-    _after, priced, plus, _minus, _ground = _event_map(biped, event, p, x, unknowns, _Constraints())
+    unknowns = Unknowns([], [], [], [], [], [iota], [split], [slacks])
+    _after, priced, plus, _minus, _ground = event_map(biped, event, p, x, unknowns, Constraints())
     ledger = ca.Function("ledger", [p, x, iota, split, slacks],
                          [plus["heelstrike.push_off"], priced])  # fmt: skip
     rng = np.random.default_rng(11)
@@ -303,12 +308,12 @@ def test_a_reversing_impulses_positive_work_is_what_it_puts_back(biped):
         params = np.array([m, g, l, d, l_min])
         state = np.array([x0, y0, *velocity])
         impulses = np.array([push, 0.0, 0.0])
-        _state, works, _ends = _apply_impulses(biped, event, params, state, impulses)
+        _state, works, _ends = apply_impulses(biped, event, params, state, impulses)
         assert works[0] == pytest.approx(m * (b**2 - a**2) / 2, rel=1e-12)  # the net work
-        stopping = _stopping_splits(biped, event, params, state, impulses)
+        stopping = stopping_splits(biped, event, params, state, impulses)
         assert stopping[0] == pytest.approx(-a / (b - a), rel=1e-12)
         for fractions, price in ((stopping, m * b**2 / 2), (np.ones(3), push * b / 2)):
-            ends = _apply_impulses(biped, event, params, state, impulses, fractions)[2]
+            ends = apply_impulses(biped, event, params, state, impulses, fractions)[2]
             exact, cost = ledger(params, state, impulses, fractions, np.maximum(ends, 0))
             assert float(exact) == pytest.approx(m * b**2 / 2, rel=1e-12)
             assert float(cost) == pytest.approx(price, rel=1e-12)

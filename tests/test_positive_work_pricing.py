@@ -11,17 +11,11 @@ import numpy as np
 import pytest
 
 from vsw.models import load
-from vsw.powered import (
-    BERNSTEIN_OF_SAMPLES,
-    SAMPLES,
-    Request,
-    _build,
-    _fill_slacks,
-    _flow_function,
-    _input_rate_function,
-    interval_inputs,
-    interval_states,
-)
+from vsw.orbits.collocation import BERNSTEIN_OF_SAMPLES, SAMPLES, interval_inputs, interval_states
+from vsw.powered import Request
+from vsw.powered.dynamics import flow_function, input_rate_function
+from vsw.powered.problem import _build
+from vsw.powered.starts import fill_slacks
 
 
 def _trapezoid(values: np.ndarray, s: np.ndarray) -> float:
@@ -80,7 +74,7 @@ def test_the_bernstein_slack_bounds_the_positive_power_on_the_whole_interval():
 
 def test_the_nlps_slacks_fill_its_layout_and_are_priced_at_their_mean():
     """On the point-mass biped's NLP (two inputs, three intervals) at a random point: the
-    slacks :func:`_fill_slacks` writes satisfy the NLP's own slack rows (CasADi's
+    slacks :func:`fill_slacks` writes satisfy the NLP's own slack rows (CasADi's
     column-major reshape against numpy's layout; the same values in another order violate
     them), tightly where a coefficient is positive, and the cost prices them at ``h / 5``
     times their sum, which equals the positive parts of the Bernstein coefficients of the
@@ -97,7 +91,7 @@ def test_the_nlps_slacks_fill_its_layout_and_are_priced_at_their_mean():
         w[first + 1 : first + parts * width : width] += 0.9
     first, parts, width = entry["impulses"]
     w[first : first + parts * width] = 0.0  # only the continuous inputs priced
-    _fill_slacks(model, params, nlp, w)
+    fill_slacks(model, params, nlp, w)
 
     g = nlp.solver.get_function("nlp_g")
     arguments = np.append(params, 0.0)  # the regularization's scale 0: the cost is the work
@@ -114,7 +108,7 @@ def test_the_nlps_slacks_fill_its_layout_and_are_priced_at_their_mean():
     assert np.array(g(reordered, arguments)).ravel()[rows].min() < -1e-6
 
     h = w[0] / 3
-    flow, rates = _flow_function(model, "stance"), _input_rate_function(model, "stance")
+    flow, rates = flow_function(model, "stance"), input_rate_function(model, "stance")
     x = w[entry["knots"][0] :][: 4 * 4].reshape(4, 4)
     xc = w[entry["middles"][0] :][: 3 * 4].reshape(3, 4)
     u = w[entry["u_knots"][0] :][: 4 * 2].reshape(4, 2)

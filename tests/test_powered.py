@@ -1,4 +1,4 @@
-"""Powered gaits by Hermite-Simpson collocation (vsw/powered.py) on the compass gait with
+"""Powered gaits by Hermite-Simpson collocation (vsw/powered/) on the compass gait with
 its hip torque.
 
 Checked against what the collocation did not compute: the passive gait of the periodic-orbit
@@ -318,14 +318,15 @@ def test_the_reaction_from_the_momentum_is_the_engines(name):
     of the weight."""
     import casadi as ca
 
-    from vsw.powered import _reaction_function, input_names
+    from vsw.powered import input_names
+    from vsw.powered.dynamics import reaction_function
 
     walker = load(name)
     rng = np.random.default_rng(43)
     for spec in walker.phases:
         phase = spec["name"]
         count = len(input_names(walker)[phase])
-        reaction = _reaction_function(walker, phase)
+        reaction = reaction_function(walker, phase)
         for _ in range(10):
             params = np.array(walker.parameters()) * rng.uniform(0.9, 1.1)
             state = np.concatenate([rng.uniform(-0.4, 0.4, walker.n),

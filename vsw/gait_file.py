@@ -9,7 +9,7 @@ and its inputs at the collocation's knots and midpoints, the events' impulses, t
 its statuses, the units and :data:`FORMAT_VERSION`.
 
 A replay (:class:`PoweredReplay`) walks the model with those inputs, open loop, each step
-exactly as the verification simulates it (:func:`vsw.powered_verify.step_runs`: the inputs
+exactly as the verification simulates it (:func:`vsw.powered.verify.step_runs`: the inputs
 quadratic on each interval as functions of the time since each phase began, each phase
 ended by its event's first crossing that counts, the impulses applied there). It stands in
 for the model where the simulation, the trajectory export and the animation ask for a walk.
@@ -30,15 +30,10 @@ import numpy as np
 from vsw import models
 from vsw.errors import ConvergenceError, VswInputError
 from vsw.hybrid import EventRecord, HybridModel, PhasePiece, StepResult, Trajectory
-from vsw.powered import (
-    PoweredGait,
-    Request,
-    _control,
-    _reaction_function,
-    input_names,
-    ordered_impulses,
-)
-from vsw.powered_verify import PhaseRun, VerifiedGait, step_runs
+from vsw.powered.dynamics import reaction_function
+from vsw.powered.request import PoweredGait, Request, input_names, ordered_impulses
+from vsw.powered.step import open_loop_control
+from vsw.powered.verify import PhaseRun, VerifiedGait, step_runs
 from vsw.trajectories import SampledWalk
 
 __all__ = [
@@ -81,7 +76,7 @@ def gait_record(
     verified: VerifiedGait | str | None,
 ) -> dict[str, Any]:
     """The gait as the file keeps it (module docstring); ``verified``: the verification
-    (:func:`vsw.powered_verify.verify`), why it failed, or None when it was not run."""
+    (:func:`vsw.powered.verify.verify`), why it failed, or None when it was not run."""
     names = [*model.coordinates, *model.rates]
     check = _verification(names, verified)
     fixed = isinstance(verified, VerifiedGait)
@@ -465,12 +460,12 @@ def with_input_forces(replay: PoweredReplay, walk: SampledWalk) -> SampledWalk:
     starts = {(r.step, r.run.phase): r.start for r in replay.last_runs}
     gait = replay._gait
     sequence = zip(model._phase_sequence(), gait.durations, gait.inputs)
-    controls = {phase: _control(u, duration) for (phase, _), duration, u in sequence}
+    controls = {phase: open_loop_control(u, duration) for (phase, _), duration, u in sequence}
     force = walk.normal_force.copy()
     for i, (t, step, phase, event) in enumerate(zip(walk.t, walk.step, walk.phase, walk.event)):
         if not input_names(model)[phase]:
             continue
         since = 0.0 if event.endswith(":after") else t - starts.get((int(step), phase), t)
-        reaction = _reaction_function(model, phase)(p, walk.states[i], controls[phase](since))
+        reaction = reaction_function(model, phase)(p, walk.states[i], controls[phase](since))
         force[i] = float(np.array(reaction, dtype=float).reshape(-1)[1])
     return dataclasses.replace(walk, normal_force=force)

@@ -34,8 +34,8 @@ from vsw.cli.parser import EXIT_OK, EXIT_SOLVER
 from vsw.errors import ConvergenceError, VswInputError
 from vsw.figures import check_save_path, save_figure
 from vsw.gait_file import gait_record, record_quantities
-from vsw.powered_plot import powered_figure
-from vsw.powered_verify import VerifiedGait, verify
+from vsw.powered.plot import powered_figure
+from vsw.powered.verify import VerifiedGait, verify
 from vsw.quantities import alias_names, objective_names, report, resolve
 from vsw.quantities import weight as walker_weight
 

@@ -40,7 +40,7 @@ __all__ = ["add_gait_option", "register", "run", "saved_gait"]
 
 REPLAY = {"integrator": "SciPy DOP853, rtol = atol = 1e-11 (the powered verification's: "
           "each phase to its event's first crossing that counts)"}  # fmt: skip
-"""The replay's tolerances (:func:`vsw.powered_verify.step_runs`)."""
+"""The replay's tolerances (:func:`vsw.powered.verify.step_runs`)."""
 
 FEATURES = {"q0": "q0", "plot": "simulation-plot"}
 

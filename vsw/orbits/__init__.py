@@ -5,6 +5,8 @@ Newton.
   with some parameters free: its unknowns, residual, exact Jacobian, monodromy matrix and
   quantities, and its solution at fixed parameters;
 * :mod:`vsw.orbits.shooting`: the multiple-shooting discretisation on CasADi CVODES flows;
+* :mod:`vsw.orbits.collocation`: the Hermite-Simpson discretisation (the powered gaits'
+  NLP, :mod:`vsw.powered`) and the discrete phase map's derivative;
 * :mod:`vsw.orbits.monodromy`: the monodromy matrix (variational equations, the events'
   saltation matrices, reset Jacobians) and its eigenvalues;
 * :mod:`vsw.orbits.newton`: Newton's method, bordered or not, for one start or many.

@@ -6,7 +6,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 from vsw import plotstyle
-from vsw.powered import PoweredGait, input_names
+from vsw.powered.request import PoweredGait, input_names
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

@@ -4,15 +4,16 @@ inputs, and its work from that motion (``vsw optimize --verify``).
 The collocation's gait satisfies the walker's equations only to its mesh's accuracy (its
 re-simulation ends a little away from its last knot), so its work bounds the least work
 only up to that error. Here the inputs the scheme implies (quadratic on each interval,
-as functions of the time since each phase began, :func:`vsw.powered.powered_step`) and
+as functions of the time since each phase began, :func:`vsw.powered.step.powered_step`) and
 the impulses are kept, and the state just after the step event is moved to the fixed
 point of that open-loop step (Newton, central differences): a motion of the walker to
 the integrator's tolerance (SciPy DOP853, 1e-11). Its work is integrated along it (each
 input's ``max(P, 0)`` by Simpson's rule on the dense output), each impulse's exact
-positive work where its split stops a reversing rate (:func:`vsw.powered._stopping_splits`); every
-failure, every input's bounds and every crossing of the step event's guard that counts
-(its ``when``: a swing foot passing the ground behind the stance foot is ignored, as
-every walker here ignores scuffing) is watched on the way,
+positive work where its split stops a reversing rate
+(:func:`vsw.powered.events.stopping_splits`); every failure, every input's bounds and
+every crossing of the step event's guard that counts (its ``when``: a swing foot passing
+the ground behind the stance foot is ignored, as every walker here ignores scuffing) is
+watched on the way,
 and the ground's impulses at each event are evaluated. Its speed and step length differ
 from the targets by about the collocation's error (reported): it is a gait of the body
 at those, whatever the mesh.
@@ -28,23 +29,23 @@ import numpy as np
 
 from vsw.errors import ConvergenceError
 from vsw.hybrid import HybridModel
-from vsw.powered import (
+from vsw.powered.dynamics import momentum_function, reaction_function
+from vsw.powered.events import apply_impulses, stopping_splits
+from vsw.powered.objectives import positive_work_of_linear_power
+from vsw.powered.request import (
     PoweredGait,
-    _apply_impulses,
-    _control,
-    _momentum_function,
-    _reaction_function,
-    _stopping_splits,
-    _watchers,
     gait_parameters,
     impulse_names,
     input_names,
+    ordered_impulses,
+)
+from vsw.powered.step import (
     integrate_phase,
     motion_work,
-    ordered_impulses,
-    positive_work_of_linear_power,
+    open_loop_control,
     powered_step,
     powered_step_jacobian,
+    watchers,
 )
 
 __all__ = ["PhaseRun", "VerifiedGait", "step_runs", "verify"]
@@ -150,7 +151,7 @@ class PhaseRun:
 def step_runs(model: HybridModel, p: np.ndarray, gait: PoweredGait,
               x: np.ndarray) -> list[PhaseRun]:  # fmt: skip
     """One step from ``x`` with ``gait``'s inputs and impulses at the parameters ``p``,
-    integrated as :func:`vsw.powered.powered_step` integrates it (so that it ends where
+    integrated as :func:`vsw.powered.step.powered_step` integrates it (so that it ends where
     Newton's last step did): each phase to its event's first crossing that counts, every
     failure watched (and recorded, the phase going on to its event), each event's
     impulses applied. The one implementation of "a step with these inputs": the
@@ -159,8 +160,8 @@ def step_runs(model: HybridModel, p: np.ndarray, gait: PoweredGait,
     runs: list[PhaseRun] = []
     state = np.array(x, dtype=float)
     for (phase, event), duration, u in zip(model._phase_sequence(), gait.durations, gait.inputs):
-        control = _control(u, duration)
-        watched = _watchers(model, phase, event, p, control)
+        control = open_loop_control(u, duration)
+        watched = watchers(model, phase, event, p, control)
         solution, end = integrate_phase(model, phase, event, p, control, state, duration,
                                         gait.period, [fn for _, fn in watched],
                                         dense=True)  # fmt: skip
@@ -173,7 +174,7 @@ def step_runs(model: HybridModel, p: np.ndarray, gait: PoweredGait,
         before = solution.sol(end_time)
         iota = np.array([gait.impulses[f"{event['name']}.{name}"]
                          for name in ordered_impulses(model, event)])  # fmt: skip
-        after = _apply_impulses(model, event, p, before, iota)[0]
+        after = apply_impulses(model, event, p, before, iota)[0]
         failure = _first_failure(watched, solution, end_time)
         runs.append(PhaseRun(phase, event, control, watched, solution, end_time, before,
                              after, failure))  # fmt: skip
@@ -185,7 +186,7 @@ def _replay(model: HybridModel, p: np.ndarray, gait: PoweredGait, x: np.ndarray,
             residual: float) -> VerifiedGait:  # fmt: skip
     """One step from ``x`` (:func:`step_runs`), every failure and the inputs' bounds
     checked; the inputs' positive and negative work along it
-    (:func:`vsw.powered.motion_work`), the events' impulses' and the ground's."""
+    (:func:`vsw.powered.step.motion_work`), the events' impulses' and the ground's."""
     names = input_names(model)
     state, period, failure, friction = x.copy(), 0.0, "", 0.0
     work: dict[str, dict[str, float]] = {}
@@ -219,7 +220,7 @@ def _replay(model: HybridModel, p: np.ndarray, gait: PoweredGait, x: np.ndarray,
 
 def _stance_friction(model: HybridModel, phase: str, p: np.ndarray, solution, control,
                      end_time: float) -> float:  # fmt: skip
-    reaction = _reaction_function(model, phase)
+    reaction = reaction_function(model, phase)
     worst = 0.0
     for t in np.linspace(0.0, end_time, 200):
         tangential, normal = np.array(reaction(p, solution.sol(t), control(t)),
@@ -263,14 +264,14 @@ def _event(model: HybridModel, event: dict, p: np.ndarray, before: np.ndarray,
            iota: np.ndarray, work: dict, ground: dict) -> np.ndarray:  # fmt: skip
     """The state after the event; each impulse's positive work and negative work into
     ``work`` (each impulse in two parts split where its own rate stops, the group applied
-    in proportion: :func:`vsw.powered._stopping_splits`; exact for that schedule, the
+    in proportion: :func:`vsw.powered.events.stopping_splits`; exact for that schedule, the
     least positive work for an impulse alone on its side of the reset, and for a group
     possibly not the optimiser's split); the ground's impulses into
     ``ground``: through the stance foot (the impulses before an impact's reset; a lock's;
     those at a change of phase, a push at a chosen angle) and through the new foot (an
     impact and what follows it)."""
-    splits = _stopping_splits(model, event, p, before, iota)
-    after, works, ends = _apply_impulses(model, event, p, before, iota, splits)
+    splits = stopping_splits(model, event, p, before, iota)
+    after, works, ends = apply_impulses(model, event, p, before, iota, splits)
     offset = 0
     for group in impulse_names(model, event):
         block = ends[4 * offset : 4 * (offset + len(group))].reshape(4, len(group))
@@ -282,7 +283,7 @@ def _event(model: HybridModel, event: dict, p: np.ndarray, before: np.ndarray,
                 "negative": float(works[offset + k] - positive[k]),
             }
         offset += len(group)
-    momentum_before = _momentum_function(model, event["source"])
+    momentum_before = momentum_function(model, event["source"])
     start = np.array(momentum_before(p, before), dtype=float).reshape(-1)
     count = len(impulse_names(model, event)[0])
     if count and event["reset"] == "impact":
@@ -295,7 +296,7 @@ def _event(model: HybridModel, event: dict, p: np.ndarray, before: np.ndarray,
         ground[f"{event['name']}.stance_foot"] = (float(middle[0] - start[0]),
                                                   float(middle[1] - start[1]))  # fmt: skip
         start = middle
-    end = np.array(_momentum_function(model, event["target"])(p, after), dtype=float).reshape(-1)
+    end = np.array(momentum_function(model, event["target"])(p, after), dtype=float).reshape(-1)
     key = "new_foot" if event["reset"] == "impact" else "stance_foot"
     ground[f"{event['name']}.{key}"] = (float(end[0] - start[0]), float(end[1] - start[1]))
     return after
