@@ -18,6 +18,61 @@ from vsw.rough_sweep import parse_over, rough_sweep, spearman
 
 WALKER = ["rough", "--model", "simplest-walker"]
 
+HEIGHT_WHEEL = '''
+"""A rimless wheel whose next foot lands on ground step_height above the stance foot."""
+import sympy as sm
+
+from derive.engine.model import (
+    NORMAL_FORCE, Coordinate, Event, Failure, Impact, Model, Parameter, Phase, PointMass, leg,
+)
+
+PARAMETERS = (
+    Parameter("alpha", "alpha", 0.0, 1.5707963267948966, "0 < alpha < pi/2", "half spoke angle",
+              {"positive": True}, default=0.39269908169872414, unit="rad"),
+    Parameter("gamma", "gamma", -1.5, 1.5, "slope", "slope angle", default=0.08, unit="rad"),
+    Parameter("step_height", "h", -0.5, 0.5, "|h| < l / 2", "height of the next foothold",
+              default=0.0, unit="m"),
+    Parameter("l", "l", 0.0, float("inf"), "l > 0", "spoke length", {"positive": True},
+              default=1.0, unit="m"),
+    Parameter("g", "g", 0.0, float("inf"), "g > 0", "gravity", {"positive": True},
+              default=9.81, unit="m/s^2"),
+)
+alpha, gamma, step_height, l, g = (p.symbol for p in PARAMETERS)
+ANGLE = Coordinate("theta", "stance spoke angle", "rad", reference="the slope normal",
+                   positive="downhill")
+theta = ANGLE.q
+ROLLING = Phase(
+    "rolling",
+    coordinates=(ANGLE,),
+    bodies=(PointMass("hub", 1, leg(theta, l)),),
+    gravity=(g * sm.sin(gamma), -g * sm.cos(gamma)),
+    points={"next_foot": tuple(h - f for h, f in zip(leg(theta, l), leg(theta - 2 * alpha, l)))},
+)
+MODEL = Model(
+    name="height_wheel",
+    title="Rimless wheel on footholds of random height",
+    description="a user's rimless wheel with the next foothold's height in its guard",
+    source="a user's model file",
+    parameters=PARAMETERS,
+    phases=(ROLLING,),
+    events=(Event("touchdown", "rolling", "rolling",
+                  guard=ROLLING.points["next_foot"][1] - step_height,
+                  direction=-1, reset=Impact("next_foot", {theta: theta - 2 * alpha}),
+                  ends_step=True),),
+    failures=(Failure("rolled-back", ANGLE.u, -1, "the wheel rolls back"),
+              Failure("lift-off", NORMAL_FORCE, -1, "the foot leaves the slope")),
+    units={"time": "s", "length": "m", "mass": "kg", "energy": "J/kg", "force": "N/kg"},
+    step_length=2 * l * sm.sin(alpha),
+    section={"theta": -alpha},
+    search={"theta_dot": (0.0, 12.0)},
+)
+UNITS = "Angles in radians, lengths in m, time in s."
+'''
+"""A user's model file that takes the height terrain: the rimless wheel (as
+tests/test_user_models.py writes it) with the next foothold's height in its guard, the
+next foot's height minus step_height, falling (no ``at``: where the guard vanishes depends
+on the height)."""
+
 
 def run(capsys, argv):
     code = main(argv)
@@ -195,3 +250,77 @@ def test_rough_walks_split_on_a_cluster_match_in_process(cluster):
     there = rough_walks(model, params, 0.002, 150, 100, seed=9, scheduler=cluster)
     np.testing.assert_array_equal(here.steps, there.steps)
     assert here.ended == there.ended
+
+
+# --- the height terrain, on a user's model that takes it ----------------------------------------
+
+
+@pytest.fixture(scope="module")
+def height_wheel(tmp_path_factory):
+    """The user's model derived into a directory of its own (VSW_MODELS_DIR)."""
+    import os
+    from pathlib import Path
+
+    base = tmp_path_factory.mktemp("height_wheel")
+    path = base / "height_wheel.py"
+    path.write_text(HEIGHT_WHEEL)
+    root = str(Path(__file__).resolve().parent.parent)
+    saved = {k: os.environ.get(k) for k in ("VSW_MODELS_DIR", "PYTHONPATH")}
+    os.environ["VSW_MODELS_DIR"] = str(base / "generated_models")
+    os.environ["PYTHONPATH"] = os.pathsep.join(filter(None, [root, saved["PYTHONPATH"]]))
+    try:
+        yield str(path), load(str(path))
+    finally:
+        for key, value in saved.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
+
+
+@pytest.mark.parametrize("distribution", ["gaussian", "uniform"])
+def test_each_step_lands_on_its_drawn_foothold(height_wheel, distribution):
+    """The wheel's next foot lands where its height above the stance foot is the step's
+    draw: from the state after the impact (theta' = theta - 2 alpha) the foot's height at
+    the impact is l (cos theta - cos theta'), which must be h_k, step after step."""
+    from vsw.batch import WALKED, simulator
+
+    _, model = height_wheel
+    params = model.parameters({})
+    alpha = params[0]
+    index = disturbance_index(model, "height")
+    gait = model.stable_gait(params, "the test's start")
+    start = np.array([gait.state[n] for n in (*model.coordinates, *model.rates)])
+    terrain = Terrain(params, index, 0.01, 11, distribution=distribution)
+    sim = simulator(model)
+    walks = 40
+    x, rows = np.tile(start, (walks, 1)), np.arange(walks)
+    for k in range(4):
+        step = sim.step(terrain(rows, k), x)
+        done = step.outcome == WALKED
+        after = step.final[done, 0]
+        height = np.cos(after + 2 * alpha) - np.cos(after)
+        np.testing.assert_allclose(height, terrain.slopes(rows, k)[done], rtol=0, atol=1e-9)
+        x, rows = step.final[done], rows[done]
+    # walk_varying's walks are these steps, walk for walk.
+    walked = sim.walk_varying(terrain, np.tile(start, (walks, 1)), 4)
+    np.testing.assert_array_equal(walked.final[rows], x)
+
+
+def test_the_height_terrain_command(height_wheel, capsys):
+    path, _ = height_wheel
+    argv = ["rough", "--model", path, "--terrain", "height", "--sigma", "0.01", "--walks",
+            "100", "--max-steps", "300", "--distribution", "uniform"]  # fmt: skip
+    code, out, err = run(capsys, [*argv, "--json"])
+    assert code == 0, err
+    data = json.loads(out)
+    assert data["terrain"] == "height" and data["distribution"] == "uniform"
+    assert data["units"]["quantities"]["sigma"] == "m"
+    assert data["gait_sensitivity"]["disturbance"] == HEIGHT
+    assert data["mfpt"]["value"] is not None and data["failures"] > 0
+    code, text, err = run(capsys, argv)
+    assert code == 0, err
+    assert "step_height_k = 0 + 0.01 xi_k m, xi_k uniform" in text
+    assert "s/m" in text and "foothold height" in text
+    code, out, err = run(capsys, [*argv, "--method", "chain"])
+    assert code == 2 and len(err.strip().splitlines()) == 1

@@ -329,8 +329,15 @@ def _write_text(model: Any, params: Any, args: argparse.Namespace, data: dict) -
         _write_chain(out, data["chain"])
     if "agreement" in data:
         out.write(f"{'agreement':<18} {data['agreement']['verdict']}\n")
-    if data["gait_sensitivity"] is not None:
-        write_gait_sensitivity(out, model, data["gait_sensitivity"], width=18)
+    gsn = data["gait_sensitivity"]
+    if gsn is not None and args.terrain == "slope":
+        write_gait_sensitivity(out, model, gsn, width=18)
+    elif gsn is not None:  # per unit of foothold height
+        length = model.units.get("length", "")
+        parts = ", ".join(f"{k.replace('_', ' ')} {fmt(v)} {model.units[k.split('_')[1]]}/"
+                          f"{length}" for k, v in gsn["gsn_by_indicator"].items())  # fmt: skip
+        out.write(f"{'gait sensitivity':<18} {fmt(gsn['gsn'])} ({parts}; the H2 norm of the "
+                  "indicators' response to one step's foothold height)\n")  # fmt: skip
     if args.plot is not None:
         out.write(f"plot: {args.plot}\n")
 
