@@ -157,3 +157,58 @@ def test_models_grouped_for_a_worker_are_registered_once():
     grouped = [name for group in MODEL_GROUPS for name in group]
     assert len(grouped) == len(set(grouped))
     assert set(grouped) <= set(MODEL_NAMES)
+
+
+def test_the_equations_of_motion_are_kanes_methods():
+    """The engine forms ``M q'' = forcing`` from the bodies' Jacobians (no functions of
+    time): its accelerations are those of sympy.physics.mechanics' KanesMethod on the same
+    bodies (a point-mass hip and a rigid shank on a knee, the knee held at a value that
+    moves with the stance angle), at random states."""
+    import random
+
+    import sympy.physics.mechanics as me
+
+    m, m_h, l, r, i_s, g, k = sm.symbols("m m_h l r I_s g k", positive=True)
+    theta, knee = Coordinate("theta"), Coordinate("knee")
+    q, s = theta.q, knee.q
+    bend = sm.Symbol("bend", real=True)
+    hip = (-l * sm.sin(q), l * sm.cos(q))
+    shank = (hip[0] + r * sm.sin(s - q + bend), hip[1] - r * sm.cos(s - q + bend))
+    phase = Phase("swing", (theta, knee),
+                  (PointMass("hip", m_h, hip), RigidSegment("shank", m, shank, s - q + bend, i_s)),
+                  (0, -g), held={bend: k * q})  # fmt: skip
+    accelerations = hybrid.phase_dynamics(phase).accelerations
+
+    t = me.dynamicsymbols._t
+    q_t, s_t = me.dynamicsymbols("q s")
+    u_t, w_t = me.dynamicsymbols("u w")
+    to_time = {q: q_t, s: s_t, bend: k * q_t}
+    frame, origin = me.ReferenceFrame("N"), me.Point("O")
+    origin.set_vel(frame, 0)
+    bodies, loads = [], []
+    for body in phase.bodies:
+        x, y = (c.xreplace(to_time) for c in body.position)
+        point = origin.locatenew(body.name, x * frame.x + y * frame.y)
+        point.set_vel(frame, point.pos_from(origin).dt(frame).subs({q_t.diff(t): u_t,
+                                                                    s_t.diff(t): w_t}))
+        if isinstance(body, PointMass):
+            bodies.append(me.Particle(body.name, point, body.mass))
+        else:
+            own = frame.orientnew("own", "Axis", (body.angle.xreplace(to_time), frame.z))
+            own.set_ang_vel(frame, own.ang_vel_in(frame).subs({q_t.diff(t): u_t,
+                                                               s_t.diff(t): w_t}))
+            bodies.append(me.RigidBody(body.name, point, own, body.mass,
+                                       (me.inertia(own, 0, 0, body.inertia), point)))
+        loads.append((point, -body.mass * g * frame.y))
+    kane = me.KanesMethod(frame, [q_t, s_t], [u_t, w_t],
+                          kd_eqs=[q_t.diff(t) - u_t, s_t.diff(t) - w_t])  # fmt: skip
+    kane.kanes_equations(bodies, loads)
+    plain = {q_t: q, s_t: s, u_t: theta.u, w_t: knee.u}
+    wanted = kane.mass_matrix.xreplace(plain).LUsolve(kane.forcing.xreplace(plain))
+    rng = random.Random(3)
+    for _ in range(5):
+        point = {v: rng.uniform(0.2, 1.5) for v in (m, m_h, l, r, i_s, g, k, q, s,
+                                                    theta.u, knee.u)}  # fmt: skip
+        for ours, theirs in zip(accelerations, wanted):
+            assert float(ours.xreplace(point)) == pytest.approx(float(theirs.xreplace(point)),
+                                                                rel=1e-10)

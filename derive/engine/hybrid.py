@@ -1,7 +1,7 @@
 """Everything a :class:`~derive.engine.model.Model` implies, derived with sympy.
 
-* :func:`phase_dynamics`: the equations of motion of a phase
-  (:class:`sympy.physics.mechanics.KanesMethod` on the chart of all its coordinates;
+* :func:`phase_dynamics`: the equations of motion of a phase (Kane's method on the chart
+  of all its coordinates, from the bodies' Jacobians;
   the held coordinates' rows carry the actuator forces, the free ones' give the motion),
   its energy, generalised momenta and the ground reaction on the stance foot.
 * :func:`impact_reset`: an inelastic impact from Lagrange's impulse equations: for every
@@ -36,7 +36,6 @@ from dataclasses import dataclass
 
 import symengine as se
 import sympy as sm
-import sympy.physics.mechanics as me
 
 from derive.engine.model import (
     NORMAL_FORCE,
@@ -404,38 +403,10 @@ def _passive_dynamics(phase: Phase) -> tuple[PhaseDynamics, tuple]:
     free = [c.q for c in phase.coordinates]
     held = list(phase.held)
     chart = free + held
-    t = me.dynamicsymbols._t
-    functions = [me.dynamicsymbols(s.name) for s in chart]
-    to_time = dict(zip(chart, functions))
-    frame = me.ReferenceFrame("N")
-    origin = me.Point("O")
-    origin.set_vel(frame, 0)
     gx, gy = phase.gravity
-    bodies = []
-    for body in phase.bodies:
-        x, y = (sm.sympify(c).xreplace(to_time) for c in body.position)
-        point = origin.locatenew(body.name, x * frame.x + y * frame.y)
-        point.set_vel(frame, point.pos_from(origin).dt(frame))
-        if isinstance(body, PointMass):
-            item = me.Particle(body.name, point, body.mass)
-        else:
-            own = frame.orientnew(
-                f"{body.name}_frame", "Axis", (sm.sympify(body.angle).xreplace(to_time), frame.z)
-            )
-            inertia = me.inertia(own, 0, 0, body.inertia)
-            item = me.RigidBody(body.name, point, own, body.mass, (inertia, point))
-        item.potential_energy = -body.mass * (gx * x + gy * y)
-        bodies.append(item)
-    rates = [f.diff(t) for f in functions]
-    mass_matrix, forcing = _equations_of_motion(frame, bodies, functions, rates, (gx, gy))
-
-    accels = [f.diff(t, 2) for f in functions]
+    rates = [phase_rate(phase, s) for s in chart]
     a_symbols = [sm.Symbol(f"{s.name}_acc", real=True) for s in chart]
-    plain = {}
-    for s, f, r, a, a_sym in zip(chart, functions, rates, accels, a_symbols):
-        plain[a] = a_sym
-        plain[r] = phase_rate(phase, s)
-        plain[f] = s
+    mass_matrix, forcing, body_accelerations = _equations_of_motion(phase, chart, rates, a_symbols)
     # Held coordinates at their values; their rates and accelerations by the chain rule.
     u_free = [c.u for c in phase.coordinates]
     a_free = a_symbols[: len(free)]
@@ -480,9 +451,9 @@ def _passive_dynamics(phase: Phase) -> tuple[PhaseDynamics, tuple]:
         return _simplify(expr).xreplace(placed)
 
     def at_values(expr: sm.Expr) -> sm.Expr:
-        return sm.sympify(expr).xreplace(plain).xreplace(held_values).xreplace(held_values)
+        return sm.sympify(expr).xreplace(held_values).xreplace(held_values)
 
-    residual = (mass_matrix * sm.Matrix(accels) - forcing).applyfunc(at_values)
+    residual = (mass_matrix * sm.Matrix(a_symbols) - forcing).applyfunc(at_values)
     free_rows = residual[: len(free), :]
     system, rhs = sm.linear_eq_to_matrix(list(free_rows), a_free)
     compact = False
@@ -545,19 +516,18 @@ def _passive_dynamics(phase: Phase) -> tuple[PhaseDynamics, tuple]:
     accelerations = tuple(e.xreplace(placed) for e in in_symbols)
     actuator = {h: linear_in_accelerations(residual[chart.index(h)]) for h in held}
 
-    potential = sum((b.potential_energy for b in bodies), sm.Integer(0))
+    potential = sum((-b.mass * (gx * sm.sympify(b.position[0]) + gy * sm.sympify(b.position[1]))
+                     for b in phase.bodies), sm.Integer(0))  # fmt: skip
     # p = dT/dq' = M q' (T = q'^T M q' / 2: no position depends on time by itself); the
     # Lagrangian's derivative gives the same polynomial at several times sympy's cost.
-    momenta_in_time = mass_matrix * sm.Matrix(rates)
-    momenta = {s: _simplify(p.xreplace(plain)) for s, p in zip(chart, momenta_in_time)}
-    kinetic = sum((r * p for r, p in zip(rates, momenta_in_time)), sm.Integer(0)) / 2
+    momenta_of_rates = mass_matrix * sm.Matrix(rates)
+    momenta = {s: _simplify(p) for s, p in zip(chart, momenta_of_rates)}
+    kinetic = sum((r * p for r, p in zip(rates, momenta_of_rates)), sm.Integer(0)) / 2
     # Ground reaction on the stance foot: the bodies' total rate of momentum minus gravity.
     force = [sm.Integer(0), sm.Integer(0)]
-    for body in phase.bodies:
+    for body, acceleration in zip(phase.bodies, body_accelerations):
         for k, g_k in enumerate((gx, gy)):
-            position = sm.sympify(body.position[k]).xreplace(to_time)
-            accel = at_values(position.diff(t, 2))
-            force[k] += body.mass * (accel - g_k)
+            force[k] += body.mass * (at_values(acceleration[k]) - g_k)
     dynamics = PhaseDynamics(
         phase,
         accelerations,
@@ -642,30 +612,52 @@ def _check_inputs(phase: Phase) -> None:
             raise ValueError(f"phase {phase.name}: input {i.name}'s bounds {i.bounds} are empty")
 
 
-def _equations_of_motion(frame, bodies, coordinates, rates, gravity):
-    """``M q'' = forcing`` of the chart by Kane's method (the generalised speeds are the
-    chart's rates): the same equations as Lagrange's, from partial velocities rather than
-    derivatives of the Lagrangian, at a fraction of sympy's time."""
-    speeds = [me.dynamicsymbols(f"{f.func.__name__}__u") for f in coordinates]
-    t = me.dynamicsymbols._t
-    to_speeds = dict(zip(rates, speeds))
-    velocities = [b.masscenter.vel(frame) for b in bodies]
-    for body, velocity in zip(bodies, velocities):
-        body.masscenter.set_vel(frame, velocity.xreplace(to_speeds))
-        if isinstance(body, me.RigidBody):
-            body.frame.set_ang_vel(frame, body.frame.ang_vel_in(frame).xreplace(to_speeds))
-    loads = [(b.masscenter, b.mass * (gravity[0] * frame.x + gravity[1] * frame.y))
-             for b in bodies]  # fmt: skip
-    back = {u: r for u, r in zip(speeds, rates)} | {
-        u.diff(t): r.diff(t) for u, r in zip(speeds, rates)
-    }
-    kane = me.KanesMethod(frame, coordinates, speeds, kd_eqs=[r - u for r, u in zip(rates, speeds)])
-    kane.kanes_equations(bodies, loads)
-    for body, velocity in zip(bodies, velocities):  # the bodies' energies are in the rates
-        body.masscenter.set_vel(frame, velocity)
-        if isinstance(body, me.RigidBody):
-            body.frame.set_ang_vel(frame, body.frame.ang_vel_in(frame).xreplace(back))
-    return kane.mass_matrix.xreplace(back), kane.forcing.xreplace(back)
+def _equations_of_motion(
+    phase: Phase, chart: list[sm.Symbol], rates: list[sm.Symbol], accelerations: list[sm.Symbol]
+) -> tuple[sm.Matrix, sm.Matrix, list[tuple[sm.Expr, sm.Expr]]]:
+    """``M q'' = forcing`` of the chart, and each body's acceleration (x, y), in the
+    chart's symbols, its ``rates`` and ``accelerations``.
+
+    Kane's method with the chart's rates as the generalised speeds: a body's partial
+    velocities are its Jacobian's columns (``d(x, y)/dq``, and ``d(angle)/dq`` for a
+    rigid segment's rotation), so ``M = sum m J^T J + I J_a^T J_a``, and ``forcing`` is
+    the generalised gravity force minus the partial velocities dotted with the
+    acceleration the rates alone give (``sum d2(x)/dq dq' q' q'``). The expressions are
+    the polynomials :class:`sympy.physics.mechanics.KanesMethod` forms on the same bodies,
+    without differentiating functions of time (what took most of sympy's time there)."""
+    size = len(chart)
+    gx, gy = (sm.sympify(g) for g in phase.gravity)
+    mass_matrix = sm.zeros(size, size)
+    forcing = sm.zeros(size, 1)
+    body_accelerations = []
+
+    def parts(value: sm.Expr) -> tuple[list[sm.Expr], sm.Expr, sm.Expr]:
+        """The Jacobian row of ``value``, its rate-only acceleration and its acceleration."""
+        row = [value.diff(s) for s in chart]
+        rate = sum((d * r for d, r in zip(row, rates)), sm.Integer(0))
+        quadratic = chain_rate(rate, zip(chart, rates))
+        return row, quadratic, quadratic + sum((d * a for d, a in zip(row, accelerations)),
+                                                sm.Integer(0))  # fmt: skip
+
+    for body in phase.bodies:
+        mass = sm.sympify(body.mass)
+        (x_row, x_quadratic, x_full), (y_row, y_quadratic, y_full) = (
+            parts(sm.sympify(c)) for c in body.position
+        )
+        turning = parts(sm.sympify(body.angle)) if isinstance(body, RigidSegment) else None
+        for i in range(size):
+            # Grouped as Kane's method groups them (the mass times the partial velocities'
+            # dot product): a one-coordinate phase's determinant is this entry as it is.
+            for j in range(size):
+                mass_matrix[i, j] += mass * (x_row[i] * x_row[j] + y_row[i] * y_row[j])
+                if turning is not None:
+                    mass_matrix[i, j] += sm.sympify(body.inertia) * turning[0][i] * turning[0][j]
+            forcing[i] += mass * (gx * x_row[i] + gy * y_row[i])
+            forcing[i] -= mass * (x_row[i] * x_quadratic + y_row[i] * y_quadratic)
+            if turning is not None:
+                forcing[i] -= sm.sympify(body.inertia) * turning[0][i] * turning[1]
+        body_accelerations.append((x_full, y_full))
+    return mass_matrix, forcing, body_accelerations
 
 
 def phase_rate(phase: Phase, symbol: sm.Symbol) -> sm.Symbol:
