@@ -46,6 +46,7 @@ from scipy.optimize import brentq, minimize, minimize_scalar  # noqa: E402
 
 from vsw import design as gait_design  # noqa: E402
 from vsw import models  # noqa: E402
+from vsw.design.solve import orbit_quantities  # noqa: E402
 from vsw.errors import ConvergenceError  # noqa: E402
 
 SETUPS = {
@@ -83,7 +84,7 @@ def _evaluate(model, name, value, fixed, state, durations) -> Point | None:
         orbit = model.periodic_orbit(params, state, durations)
     except ConvergenceError:
         return None
-    quantities = gait_design._orbit_quantities(model, params, orbit)
+    quantities = orbit_quantities(model, params, orbit)
     ok = _margins_hold(model, params, orbit)
     return Point(value, np.array(list(orbit.state.values())), np.array(orbit.durations),
                  quantities, ok)  # fmt: skip

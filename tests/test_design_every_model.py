@@ -26,9 +26,10 @@ import pytest
 
 from vsw import models
 from vsw.cli import main
-from vsw.design import DesignRequest, characteristic_coefficients, design, jury_rows
+from vsw.design import DesignRequest, design
 from vsw.errors import VswInputError
 from vsw.models.ile.design import design as ile_design
+from vsw.orbits.monodromy import characteristic_coefficients, jury_rows
 
 
 @pytest.fixture

@@ -16,6 +16,8 @@ import pytest
 from vsw import design, models, powered, quantities
 from vsw.cli import main
 from vsw.cli.app import build_parser
+from vsw.design.problem import Problem
+from vsw.design.transcription import build
 from vsw.errors import VswInputError
 from vsw.ledger import _kinetic_potential
 from vsw.quantities import QUANTITIES, Quantity, evaluate, report, resolve
@@ -73,8 +75,8 @@ def test_a_new_objective_is_one_definition(monkeypatch):
     assert report({"period": 0.5})["double_period"] == 1.0
     model = models.load("compass-gait")
     request = design.DesignRequest(objective={"double_period": 1.0}, targets={"speed": 0.8})
-    problem = design._Problem(model, request)  # the design's checks take it
-    nlp = design._build(model, problem.structure(1))
+    problem = Problem(model, request)  # the design's checks take it
+    nlp = build(model, problem.structure(1))
     assert nlp is not None
 
 

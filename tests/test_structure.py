@@ -22,7 +22,6 @@ MODULE_LINES = 800
 FUNCTION_LINES = 80
 
 LONG_MODULES: dict[str, int] = {
-    "vsw/design.py": 1084,
     "vsw/models/ile/design.py": 1513,
 }
 """The modules over MODULE_LINES lines, each with its ceiling."""
@@ -32,7 +31,6 @@ LONG_FUNCTIONS: dict[str, int] = {
     "vsw/animate.py::animation_frames": 96,
     "vsw/cli/design.py::register": 93,
     "vsw/cli/optimize.py::_to_dict": 87,
-    "vsw/design.py::_build": 112,
     "vsw/diagrams.py::bifurcation_plot": 102,
     "vsw/models/ile/analysis.py::analyze": 102,
     "vsw/models/ile/basin.py::basin": 122,

@@ -12,8 +12,9 @@ Newton.
 * :mod:`vsw.orbits.newton`: Newton's method, bordered or not, for one start or many.
 
 The gait search (:mod:`vsw.gaits`), the periodic-orbit solver
-(:meth:`vsw.hybrid.HybridModel.periodic_orbit`) and continuation (:mod:`vsw.continuation`)
-are built on it. It takes a model by its interface and imports nothing of ``vsw`` above
+(:meth:`vsw.hybrid.HybridModel.periodic_orbit`), continuation (:mod:`vsw.continuation`),
+the design NLP (:mod:`vsw.design`: the shooting flows and the monodromy) and the powered
+gaits' NLP (:mod:`vsw.powered`: the collocation and the monodromy) are built on it. It takes a model by its interface and imports nothing of ``vsw`` above
 ``vsw.stop`` and ``vsw.errors`` (:mod:`vsw.hybrid` builds on it); CasADi is imported inside
 functions, so ``import vsw.orbits`` stays cheap.
 """

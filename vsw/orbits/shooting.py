@@ -41,6 +41,7 @@ __all__ = [
     "multiple_shooting",
     "phase_blocks",
     "phase_flow",
+    "phase_integrator",
     "phase_sequence",
     "starts_of",
 ]
@@ -67,31 +68,51 @@ def phase_sequence(model: Any) -> list[tuple[str, dict]]:
 
 
 @functools.cache
-def flows(model: Any) -> dict[str, tuple[Any, Any, Any]]:
-    """Per phase of the step: (its flow (1) as a CVODES integrator of x0 and p = (params,
-    T), its event's guard g(p, x), its reset R(p, x)), CasADi functions."""
+def phase_integrator(model: Any, phase: str, tolerance: float, max_steps: int,
+                     variational: bool = False, name: str | None = None) -> Any:  # fmt: skip
+    """The flow (1) of ``phase`` as a CVODES integrator (Adams, ``tolerance`` absolute and
+    relative) of ``x0`` and ``p = (params, T)`` over ``s`` in [0, 1]. With
+    ``variational`` the state is ``(x, vec Phi)`` (column-major) with
+    ``Phi' = T (df/dx) Phi``, so that ``Phi(1)`` from ``Phi(0) = I`` is ``d phi / d x0``
+    (the variational equations beside the state: their derivatives need only first
+    sensitivities)."""
     import casadi as ca
 
     n = 2 * model.n
     p = ca.SX.sym("p", len(model.parameter_table))
     x = ca.SX.sym("x", n)
     duration = ca.SX.sym("T")
+    f = ca.vertcat(x[model.n :], model.symbolic(f"{phase}_accelerations", p, x))
+    state, ode = x, duration * f
+    if variational:
+        phi = ca.SX.sym("phi", n, n)
+        state = ca.vertcat(x, ca.vec(phi))
+        ode = ca.vertcat(duration * f, ca.vec(duration * ca.mtimes(ca.jacobian(f, x), phi)))
+    return ca.integrator(
+        name or f"flow_{phase}", "cvodes",
+        {"x": state, "p": ca.vertcat(p, duration), "ode": ode}, 0.0, 1.0,
+        # Adams: the walkers are not stiff, and at these tolerances it was
+        # several times faster than BDF (benchmarks case 9 times the solve).
+        {"abstol": tolerance, "reltol": tolerance, "max_num_steps": max_steps,
+         "linear_multistep_method": "adams", "nonlinear_solver_iteration": "functional"},
+    )  # fmt: skip
+
+
+@functools.cache
+def flows(model: Any) -> dict[str, tuple[Any, Any, Any]]:
+    """Per phase of the step: (its flow (1) as a CVODES integrator of x0 and p = (params,
+    T), 1e-13 (:func:`phase_integrator`), its event's guard g(p, x), its reset R(p, x)),
+    CasADi functions."""
+    import casadi as ca
+
+    p = ca.SX.sym("p", len(model.parameter_table))
+    x = ca.SX.sym("x", 2 * model.n)
     out = {}
     for phase, event in phase_sequence(model):
-        acc = model.symbolic(f"{phase}_accelerations", p, x)
-        ode = duration * ca.vertcat(x[model.n :], acc)
-        integrator = ca.integrator(
-            f"flow_{phase}", "cvodes",
-            {"x": x, "p": ca.vertcat(p, duration), "ode": ode}, 0.0, 1.0,
-            # Adams: the walkers are not stiff, and at these tolerances it was
-            # several times faster than BDF (benchmarks case 9 times the solve).
-            {"abstol": 1e-13, "reltol": 1e-13, "max_num_steps": 100000,
-             "linear_multistep_method": "adams", "nonlinear_solver_iteration": "functional"},
-        )  # fmt: skip
         guard = model.symbolic(f"event_{event['name']}_guard", p, x)
         reset = model.symbolic(f"event_{event['name']}_reset", p, x)
         out[phase] = (
-            integrator,
+            phase_integrator(model, phase, 1e-13, 100000),
             ca.Function(f"guard_{phase}", [p, x], [guard]),
             ca.Function(f"reset_{phase}", [p, x], [reset]),
         )

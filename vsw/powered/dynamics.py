@@ -22,6 +22,7 @@ __all__ = [
     "reaction_function",
 ]
 
+
 @functools.cache
 def momentum_function(model: HybridModel, phase: str) -> Any:
     """(p, x) -> the walker's linear momentum in the phase's chart (tangential along the

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from vsw.hybrid import HybridModel
+from vsw.orbits.monodromy import saltation
 from vsw.powered.dynamics import flow_function, momentum_function
 from vsw.powered.objectives import positive_work_of_linear_power
 from vsw.powered.request import Request, impulse_names, impulses_usable
@@ -19,8 +20,9 @@ from vsw.powered.variables import Constraints, Unknowns
 
 __all__ = ["apply_impulses", "event_jacobian", "event_map", "stopping_splits"]
 
+
 def event_jacobian(model: HybridModel, phase: str, event: dict, p: Any, v: Unknowns,
-                    after: Any) -> Any:  # fmt: skip
+                   after: Any) -> Any:  # fmt: skip
     """d(state after the event)/d(state at the phase's end) along the perturbed motion: a
     perturbation ``dx`` meets the guard ``g`` ``dt = -g_x dx / (g_x f)`` later, so the
     state there moves by ``(I - f g_x / (g_x f)) dx`` (the saltation's projection; the
@@ -31,13 +33,12 @@ def event_jacobian(model: HybridModel, phase: str, event: dict, p: Any, v: Unkno
     end = v.knots[-1]
     rate = flow_function(model, phase)(p, end, v.u_knots[-1])
     slope = ca.jacobian(model.symbolic(f"event_{event['name']}_guard", p, end), end)
-    projection = ca.DM.eye(2 * model.n) - ca.mtimes(rate, slope) / ca.mtimes(slope, rate)
-    return ca.mtimes(ca.jacobian(after, end), projection)
+    return ca.mtimes(ca.jacobian(after, end), saltation(rate, slope, 2 * model.n))
 
 
 def event_map(model: HybridModel, event: dict, p: Any, end: Any, v: Unknowns,
-               g: Constraints, request: Request | None = None
-               ) -> tuple[Any, Any, dict, dict, dict]:  # fmt: skip
+              g: Constraints, request: Request | None = None
+             ) -> tuple[Any, Any, dict, dict, dict]:  # fmt: skip
     """The state after an event from the phase's last knot: the impulses applied before
     the reset (the rates jump by their gains), the reset with the impulse at its impact
     (the rates after gain its gains), those applied after; the impulses' positive work as
@@ -164,8 +165,8 @@ def _pushing_rows(event: dict, groups: tuple, ground: dict, key: str, request: R
 
 
 def apply_impulses(model: HybridModel, event: dict, p: np.ndarray, state: np.ndarray,
-                    iota: np.ndarray, splits: np.ndarray | None = None
-                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+                   iota: np.ndarray, splits: np.ndarray | None = None
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
     """The state after an event (its impulses before the reset, the reset with the impulse
     at its impact, those after) from the state before it, each impulse's work and, with
     ``splits`` (each impulse applied in two parts, :func:`event_map`), the ends of each
@@ -208,7 +209,7 @@ def apply_impulses(model: HybridModel, event: dict, p: np.ndarray, state: np.nda
 
 
 def stopping_splits(model: HybridModel, event: dict, p: np.ndarray, state: np.ndarray,
-                     iota: np.ndarray) -> np.ndarray:  # fmt: skip
+                    iota: np.ndarray) -> np.ndarray:  # fmt: skip
     """A start for each impulse's split (:func:`event_map`): where its rate reverses
     (applied whole, with the others in proportion), the fraction that stops it; else 1/2."""
     _x, _works, ends = apply_impulses(model, event, p, state, iota)

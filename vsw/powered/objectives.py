@@ -9,9 +9,9 @@ from typing import Any
 
 import numpy as np
 
-from vsw.design import characteristic_coefficients, jury_rows
 from vsw.errors import VswInputError
 from vsw.hybrid import HybridModel
+from vsw.orbits.monodromy import characteristic_coefficients, jury_rows
 from vsw.powered.request import MESH_AGREES, Request, prices_work
 from vsw.powered.variables import Constraints
 from vsw.quantities import evaluate
@@ -26,9 +26,11 @@ __all__ = [
     "works_agree",
 ]
 
+
 def stability_rows(monodromy: Any, radius: Any, g: Constraints) -> None:
     """Every eigenvalue of the step map's Jacobian within ``radius``: Jury's conditions
-    (vsw.design.jury_rows) on the characteristic polynomial of ``monodromy / radius``."""
+    (:func:`vsw.orbits.monodromy.jury_rows`) on the characteristic polynomial of
+    ``monodromy / radius``."""
     import casadi as ca
 
     count = monodromy.shape[0]
@@ -65,7 +67,7 @@ def works_agree(moved: float, mesh: float, scale: float) -> bool:
 
 
 def named_cost(model: HybridModel, p: np.ndarray, request: Request, work: dict,
-                step_length: float | None, unpriced: float) -> float:  # fmt: skip
+               step_length: float | None, unpriced: float) -> float:  # fmt: skip
     """The cost the request names, without the regularization the NLP adds to it: for the
     costs that price no work, ``unpriced`` (the squared inputs' integral, the NLP's
     objective; the spectral radius of the collocated step map, measured); else the positive

@@ -54,6 +54,7 @@ from vsw.powered.variables import (
 
 __all__ = ["IPOPT_OPTIONS", "Nlp", "built"]
 
+
 @dataclass(frozen=True)
 class Nlp:
     solver: Any

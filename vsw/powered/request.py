@@ -36,6 +36,7 @@ __all__ = [
     "prices_work",
 ]
 
+
 COSTS = tuple(q.name for q in QUANTITIES.values() if "optimize" in q.commands)
 """The costs of :func:`vsw.powered.solve.optimize`, as :mod:`vsw.quantities` names them
 (its aliases, ``cot`` and ``stability``, accepted by :class:`Request`)."""
@@ -289,7 +290,7 @@ def parameter_interval(model: HybridModel, index: int) -> tuple[float, float]:
 
 
 def started_within_limits(model: HybridModel, params: Sequence[float],
-                           request: Request) -> np.ndarray:  # fmt: skip
+                          request: Request) -> np.ndarray:  # fmt: skip
     """``params`` with each chosen parameter taken into the request's limits on it (its
     start: the nearest value within them)."""
     p = np.array(params, dtype=float)

@@ -46,6 +46,7 @@ from vsw.quantities import weight as walker_weight
 
 __all__ = ["best_start", "optimize"]
 
+
 _SUCCESS = {"Solve_Succeeded", "Solved_To_Acceptable_Level"}
 _INFEASIBLE = "Infeasible_Problem_Detected"
 """IPOPT's word for a restoration phase that converged to a point of locally least
@@ -230,7 +231,7 @@ def _second_stage(model: HybridModel, params: Sequence[float], request: Request,
 
 
 def _ground_impulses(nlp: Nlp, w: np.ndarray, arguments: np.ndarray
-                     ) -> dict[str, tuple[float, float]]:  # fmt: skip
+                    ) -> dict[str, tuple[float, float]]:  # fmt: skip
     values = np.array(nlp.ground(w, arguments), dtype=float).reshape(-1, 2)
     return {key: (float(t), float(n)) for key, (t, n) in zip(nlp.ground_keys, values)}
 

@@ -30,8 +30,9 @@ __all__ = [
     "transfer",
 ]
 
+
 def perturbed_inputs(model: HybridModel, params: Sequence[float], nlp: Nlp, w: np.ndarray,
-                      index: int) -> np.ndarray:  # fmt: skip
+                     index: int) -> np.ndarray:  # fmt: skip
     """``w`` with each phase's continuous inputs moved by up to :data:`START_SPREAD` times
     their largest magnitude over the phase (uniform, seeded by ``index``: the same starts
     on every run), kept within their bounds; the slacks filled again. An input that is
@@ -65,7 +66,7 @@ def passive_start(model: HybridModel, params: Sequence[float]) -> Orbit | None:
 
 
 def initial_guess(model: HybridModel, params: Sequence[float], start: Orbit, nlp: Nlp,
-                   nodes: int) -> np.ndarray:  # fmt: skip
+                  nodes: int) -> np.ndarray:  # fmt: skip
     """The passive gait's step sampled at the knots and midpoints, inputs zero."""
     state = np.array([start.state[k] for k in (*model.coordinates, *model.rates)])
     pieces, _events, ended = model.continuous_walk(params, state, 1)
@@ -84,7 +85,7 @@ def initial_guess(model: HybridModel, params: Sequence[float], start: Orbit, nlp
 
 
 def kinematic_guess(model: HybridModel, params: Sequence[float], nlp: Nlp,
-                     request: Request) -> np.ndarray:  # fmt: skip
+                    request: Request) -> np.ndarray:  # fmt: skip
     """A start where no passive gait is: the centre of the search box on the section (the
     state just after the step event, completed by the section), the coordinates moving at
     its constant rates until the step event's guard crosses, inputs and impulses zero; the
@@ -286,7 +287,7 @@ def _swapped_guess(model: HybridModel, p: np.ndarray, nlp: Nlp, request: Request
 
 
 def transfer(model: HybridModel, params: Sequence[float], source: Nlp, w: np.ndarray,
-              target: Nlp) -> np.ndarray:  # fmt: skip
+             target: Nlp) -> np.ndarray:  # fmt: skip
     """``w`` of ``source`` as a start for ``target`` (same mesh): durations, states and
     inputs copied, the positive-work slacks filled (:func:`fill_slacks`)."""
     out = np.zeros(target.size)
@@ -304,7 +305,7 @@ def transfer(model: HybridModel, params: Sequence[float], source: Nlp, w: np.nda
 
 
 def refine(model: HybridModel, params: Sequence[float], coarse: Nlp, w: np.ndarray,
-            fine: Nlp) -> np.ndarray:  # fmt: skip
+           fine: Nlp) -> np.ndarray:  # fmt: skip
     """``w`` on N intervals as a start on 2N: the coarse knots and midpoints are the fine
     knots, the fine midpoints halfway between them; the inputs from the coarse quadratics
     (exact at the quarter points); the slacks filled (:func:`fill_slacks`)."""

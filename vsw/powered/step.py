@@ -34,6 +34,7 @@ __all__ = [
     "watchers",
 ]
 
+
 def resimulate(
     model: HybridModel, p: np.ndarray, durations, states, inputs, work: dict | None = None
 ) -> tuple[float, float, str]:
@@ -83,7 +84,7 @@ def resimulate(
 
 def motion_work(model: HybridModel, phase: str, p: np.ndarray, states, control,
                 end_time: float, interval: float, points: int = 16
-                ) -> list[tuple[float, float]]:  # fmt: skip
+               ) -> list[tuple[float, float]]:  # fmt: skip
     """Each input's positive and negative work over ``[0, end_time]`` along the dense
     output ``states``: Simpson's rule on ``points`` panels in each of the mesh's
     intervals (the inputs are smooth inside them; ``max(P, 0)`` has a kink where the

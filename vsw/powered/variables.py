@@ -22,6 +22,7 @@ __all__ = [
     "variable_bounds",
 ]
 
+
 @dataclass
 class Unknowns:
     """The NLP's unknowns of one phase: states and inputs at the knots and midpoints, the
@@ -98,7 +99,7 @@ def stacked_unknowns(durations: Any, unknowns: list[Unknowns]) -> tuple[Any, lis
 
 
 def variable_bounds(model: HybridModel, sequence: list, layout: list[dict], size: int,
-                     request: Request) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+                    request: Request) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """Durations >= 1e-3 (a phase of no duration is no step), slacks >= 0, each input and
     impulse within its declared bounds and the request's limits, each impulse's split in
     [0, 1] (0 where it has one part); impulses zero when the cost is the squared inputs'

@@ -50,6 +50,7 @@ from vsw.powered.step import (
 
 __all__ = ["PhaseRun", "VerifiedGait", "step_runs", "verify"]
 
+
 WORK_PANELS = 64
 """Simpson panels in each of the mesh's intervals for the work along the motion (the
 power is smooth inside them but for the kink of max(P, 0) where it changes sign)."""
