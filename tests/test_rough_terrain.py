@@ -324,3 +324,20 @@ def test_the_height_terrain_command(height_wheel, capsys):
     assert "s/m" in text and "foothold height" in text
     code, out, err = run(capsys, [*argv, "--method", "chain"])
     assert code == 2 and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.slow
+def test_a_sweep_with_the_chain_is_the_chain_at_each_value():
+    from vsw.rough_chain import rough_chain
+
+    model = load("simplest-walker")
+    params = model.parameters({})
+    chain = {"noise_nodes": 24, "max_nodes": 3000}
+    sweep = rough_sweep(model, params, 0.002, "sigma", [0.0015, 0.002], walks=100,
+                        max_steps=400, chain=chain)  # fmt: skip
+    gait = model.stable_gait(params, "the test's chain")
+    for point in sweep.points:
+        alone = rough_chain(model, params, point["sigma"], gait=gait, **chain)
+        assert point["chain"]["mfpt_gait"] == pytest.approx(alone.final.mfpt_gait, rel=1e-9)
+        low, high = point["mfpt"]["low"], point["mfpt"]["high"]
+        assert low <= point["chain"]["mfpt_gait"] <= high  # the walks' interval holds it

@@ -68,7 +68,8 @@ def parse_over(text: str) -> tuple[str, np.ndarray]:
         raise VswInputError(f"--over {text!r}: at most {MAX_POINTS} values")
     if low == high and count > 1:
         raise VswInputError(f"--over {text!r}: an empty range (a = b with n = {count})")
-    return name, np.linspace(low, high, count)
+    # 12 significant digits: 0.007, not linspace's 0.006999999999999999
+    return name, np.array([float(f"{v:.12g}") for v in np.linspace(low, high, count)])
 
 
 def _ranks(x: np.ndarray) -> np.ndarray:

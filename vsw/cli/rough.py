@@ -258,7 +258,8 @@ def _write_sweep(model: Any, params: Any, args: argparse.Namespace, data: dict, 
     out.write(f"{'terrain':<18} {args.terrain} ({TERRAINS[args.terrain]}), {args.distribution} "
               f"draws, seed {args.seed}, {args.walks} walks of up to {args.max_steps} "
               "steps at each value\n")  # fmt: skip
-    out.write(f"{'over':<18} {data['over']} ({swept}), {len(data['values'])} values [{unit}]\n")
+    what = f"gamma0 (the mean of {swept})" if data["over"] == "gamma0" else "sigma"
+    out.write(f"{'over':<18} {what}, {len(data['values'])} values [{unit}]\n")
     out.write(f"  {swept:>12} {'sigma':>10} {'MFPT':>10} {'95 % interval':>24} "
               f"{'chain MFPT':>11} {'GSN':>10}\n")  # fmt: skip
     for p in data["points"]:
@@ -276,7 +277,8 @@ def _write_sweep(model: Any, params: Any, args: argparse.Namespace, data: dict, 
     for key, c in data["spearman_gsn_mfpt"].items():
         rho = "undefined (fewer than 3 values, or one constant)" if c["rho"] is None else (
             f"{c['rho']:.4f}")  # fmt: skip
-        out.write(f"{'spearman':<18} GSN against the {key}' MFPT: rho = {rho} over "
+        whose = "walks'" if key == "walks" else "chain's"
+        out.write(f"{'spearman':<18} GSN against the {whose} MFPT: rho = {rho} over "
                   f"{c['points']} values\n")  # fmt: skip
     if args.plot is not None:
         out.write(f"plot: {args.plot}\n")
