@@ -341,3 +341,31 @@ def test_a_sweep_with_the_chain_is_the_chain_at_each_value():
         assert point["chain"]["mfpt_gait"] == pytest.approx(alone.final.mfpt_gait, rel=1e-9)
         low, high = point["mfpt"]["low"], point["mfpt"]["high"]
         assert low <= point["chain"]["mfpt_gait"] <= high  # the walks' interval holds it
+
+
+@pytest.mark.slow
+def test_the_vsw_biped_with_a_foothold_height_walks_as_the_vsw_biped_at_height_0(monkeypatch,
+                                                                                  tmp_path):
+    """docs/guide/rough-models/vsw_biped_height.py at step_height 0: every walk the VSW
+    biped's, bit for bit (its guard less 0)."""
+    from pathlib import Path
+
+    from vsw.batch import simulator
+
+    root = Path(__file__).resolve().parent.parent
+    monkeypatch.setenv("VSW_MODELS_DIR", str(tmp_path))
+    monkeypatch.setenv("PYTHONPATH", str(root))
+    plain = load("vsw-biped")
+    height = load(str(root / "docs/guide/rough-models/vsw_biped_height.py"))
+    values = {"beta": 0.97, "theta_II": -0.2}
+    p, q = plain.parameters(values), height.parameters(values)
+    assert tuple(q) == (*p, 0.0)
+    gait = plain.stable_gait(p, "the test's starts")
+    x = np.array([gait.state[n] for n in (*plain.coordinates, *plain.rates)])
+    starts = x * (1 + 0.01 * np.random.default_rng(0).normal(size=(100, len(x))))
+    a = simulator(plain).walk(p, starts, 40, converge_tol=0, period_tol=0)
+    b = simulator(height).walk(q, starts, 40, converge_tol=0, period_tol=0)
+    np.testing.assert_array_equal(a.steps, b.steps)
+    np.testing.assert_array_equal(a.final, b.final)
+    assert a.ended() == b.ended()
+    assert disturbance_index(height, "height") == 4
