@@ -38,9 +38,6 @@ LONG_FUNCTIONS: dict[str, int] = {
     "vsw/models/ile/design.py::design": 161,
     "vsw/models/ile/plots.py::basin_plot": 103,
     "vsw/models/ile/plots.py::convergence_plot": 98,
-    "vsw/models/ile/simulate.py::_integrate_phase": 92,
-    "vsw/models/ile/simulate.py::fixed_point_by_simulation": 107,
-    "vsw/models/ile/simulate.py::simulate": 160,
 }
 """The functions over FUNCTION_LINES lines (``module::qualified name``), each with its
 ceiling (its ``def`` line to its last, decorators not counted)."""
