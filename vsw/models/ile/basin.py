@@ -324,6 +324,64 @@ def basin(
     """
     beta = float(check_parameter("beta", beta))
     phi0 = float(check_parameter("phi0", phi0))
+    theta_II = _checked_grid(beta, phi0, theta_II_grid, n_q, max_steps, refine)
+    gait_exists, q_fixed = _gait_exists(beta, theta_II, phi0)
+    q_top = 1.5 / beta
+    with np.errstate(all="ignore"):  # beta below 1e-308: q_top = inf, a grid of NaN
+        q_grid = np.linspace(0.0, q_top, n_q)[1:]
+    test = _BasinTest(beta, phi0, theta_II, q_fixed, gait_exists,
+                      _map_steps(beta, phi0, max_steps))  # fmt: skip
+    q_min, q_max, any_inside = _edges(test, q_grid, q_top, refine, progress)
+    return Basin(
+        beta=beta,
+        phi0=phi0,
+        theta_II=theta_II,
+        q_min=q_min,
+        q_max=q_max,
+        q_fixed=np.where(any_inside, q_fixed, np.nan),
+        n_steps=test.n_steps,
+    )
+
+
+def _edges(
+    test: _BasinTest, q_grid: np.ndarray, q_top: float, refine: bool, progress: Progress | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each row's basin edges: its first and last converging q of ``q_grid``, with
+    ``refine`` bisected to full precision (NaN where no grid q converges), and whether
+    any grid q converges."""
+    grid_blocks = _tile_count((test.theta_II.size, q_grid.size))
+    total = grid_blocks + (_BISECTIONS if refine else 0)
+
+    def grid_progress(done: int, _blocks: int) -> None:
+        if progress is not None:
+            progress(done * grid_blocks // _blocks, total)
+
+    q0 = np.broadcast_to(q_grid, (test.theta_II.size, q_grid.size))
+    inside = test(q0, report=grid_progress)
+    any_inside = inside.any(axis=1)
+    first = np.argmax(inside, axis=1)
+    last = q_grid.size - 1 - np.argmax(inside[:, ::-1], axis=1)
+    if progress is not None and not (refine and any_inside.any()):
+        progress(total, total)
+    q_min = np.where(any_inside, q_grid[first], np.nan)
+    q_max = np.where(any_inside, q_grid[last], np.nan)
+    if refine and any_inside.any():
+        rows = np.flatnonzero(any_inside)
+
+        def step_done(i: int) -> None:
+            if progress is not None:
+                progress(grid_blocks + i + 1, total)
+
+        q_min[rows], q_max[rows] = _bisect_edges(test, rows, q_grid, first[rows], last[rows],
+                                                 q_top, step_done)  # fmt: skip
+    return q_min, q_max, any_inside
+
+
+def _checked_grid(
+    beta: float, phi0: float, theta_II_grid: Any, n_q: int, max_steps: int, refine: bool
+) -> np.ndarray:
+    """The theta_II grid of :func:`basin` (rad), checked with ``n_q`` and the basin's
+    estimated cost against :mod:`vsw.limits`."""
     theta_II = np.radians(DEFAULT_THETA_II_DEG) if theta_II_grid is None else theta_II_grid
     theta_II = check_parameter("theta_II", np.atleast_1d(theta_II)).astype(float)
     if theta_II.ndim != 1:
@@ -335,74 +393,73 @@ def basin(
         basin_cost(beta, phi0, theta_II.size, n_q, max_steps=max_steps, refine=refine),
         "use fewer theta_II or q values",
     )
+    return theta_II
 
+
+def _gait_exists(beta: float, theta_II: np.ndarray, phi0: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per theta_II, whether the physical conditions that do not depend on q hold, and
+    the fixed point there (NaN where they do not)."""
     analysis = analyze(beta, theta_II, phi0, timing=False)
     gait_exists = np.ones(theta_II.shape, dtype=bool)
     for c in analysis.conditions:
         if c.physical and c.name not in _STEPWISE_CONDITIONS:
             gait_exists &= np.asarray(c.holds)
-    q_fixed = np.where(gait_exists, analysis.q_fixed, np.nan)
+    return gait_exists, np.where(gait_exists, analysis.q_fixed, np.nan)
 
-    q_top = 1.5 / beta
-    with np.errstate(all="ignore"):  # beta below 1e-308: q_top = inf, a grid of NaN
-        q_grid = np.linspace(0.0, q_top, n_q)[1:]
-    n_steps = _map_steps(beta, phi0, max_steps)
-    grid_blocks = _tile_count((theta_II.size, q_grid.size))
-    total = grid_blocks + (_BISECTIONS if refine else 0)
 
-    def grid_progress(done: int, _blocks: int) -> None:
-        if progress is not None:
-            progress(done * grid_blocks // _blocks, total)
+@dataclass(frozen=True)
+class _BasinTest:
+    """Whether initial q converge (:func:`converges`) on rows of a basin's theta_II grid."""
 
-    def test(q0: np.ndarray, rows: Any = slice(None), report: Progress | None = None):
-        th = theta_II[rows]
-        qf = q_fixed[rows]
-        ok = gait_exists[rows]
+    beta: float
+    phi0: float
+    theta_II: np.ndarray
+    q_fixed: np.ndarray
+    gait_exists: np.ndarray
+    n_steps: int
+
+    def __call__(
+        self, q0: np.ndarray, rows: Any = slice(None), report: Progress | None = None
+    ) -> np.ndarray:
+        """``q0`` tested on ``rows``: one q per row, or a (rows, q) grid."""
+        th = self.theta_II[rows]
+        qf = self.q_fixed[rows]
+        ok = self.gait_exists[rows]
         if q0.ndim == 2:
             th, qf, ok = th[:, None], qf[:, None], ok[:, None]
-        return converges(beta, th, phi0, q0, n_steps, qf, ok, progress=report)
+        return converges(self.beta, th, self.phi0, q0, self.n_steps, qf, ok, progress=report)
 
-    q0 = np.broadcast_to(q_grid, (theta_II.size, q_grid.size))
-    inside = test(q0, report=grid_progress)
-    any_inside = inside.any(axis=1)
-    first = np.argmax(inside, axis=1)
-    last = q_grid.size - 1 - np.argmax(inside[:, ::-1], axis=1)
-    if progress is not None and not (refine and any_inside.any()):
-        progress(total, total)
-    q_min = np.where(any_inside, q_grid[first], np.nan)
-    q_max = np.where(any_inside, q_grid[last], np.nan)
-    if refine and any_inside.any():
-        rows = np.flatnonzero(any_inside)
-        # Lower edge: bracket (fail, converge); q = 0 (standing still) never converges.
-        low_fail = np.where(first[rows] > 0, q_grid[np.maximum(first[rows] - 1, 0)], 0.0)
-        low_ok = q_grid[first[rows]]
-        # Upper edge: bracket (converge, fail); past the grid end counts as failing.
-        high_ok = q_grid[last[rows]]
-        high_fail = np.where(
-            last[rows] < q_grid.size - 1, q_grid[np.minimum(last[rows] + 1, q_grid.size - 1)], q_top
-        )
-        for i in range(_BISECTIONS):
-            mid = 0.5 * (low_fail + low_ok)
-            good = test(mid, rows)
-            low_ok = np.where(good, mid, low_ok)
-            low_fail = np.where(good, low_fail, mid)
-            mid = 0.5 * (high_ok + high_fail)
-            good = test(mid, rows)
-            high_ok = np.where(good, mid, high_ok)
-            high_fail = np.where(good, high_fail, mid)
-            if progress is not None:
-                progress(grid_blocks + i + 1, total)
-        q_min[rows] = low_ok
-        q_max[rows] = high_ok
-    return Basin(
-        beta=beta,
-        phi0=phi0,
-        theta_II=theta_II,
-        q_min=q_min,
-        q_max=q_max,
-        q_fixed=np.where(any_inside, q_fixed, np.nan),
-        n_steps=n_steps,
+
+def _bisect_edges(
+    test: _BasinTest,
+    rows: np.ndarray,
+    q_grid: np.ndarray,
+    first: np.ndarray,
+    last: np.ndarray,
+    q_top: float,
+    step_done: Callable[[int], None],
+) -> tuple[np.ndarray, np.ndarray]:
+    """Each row's lower and upper basin edge, bisected from its first and last converging
+    grid q and their failing neighbours."""
+    # Lower edge: bracket (fail, converge); q = 0 (standing still) never converges.
+    low_fail = np.where(first > 0, q_grid[np.maximum(first - 1, 0)], 0.0)
+    low_ok = q_grid[first]
+    # Upper edge: bracket (converge, fail); past the grid end counts as failing.
+    high_ok = q_grid[last]
+    high_fail = np.where(
+        last < q_grid.size - 1, q_grid[np.minimum(last + 1, q_grid.size - 1)], q_top
     )
+    for i in range(_BISECTIONS):
+        mid = 0.5 * (low_fail + low_ok)
+        good = test(mid, rows)
+        low_ok = np.where(good, mid, low_ok)
+        low_fail = np.where(good, low_fail, mid)
+        mid = 0.5 * (high_ok + high_fail)
+        good = test(mid, rows)
+        high_ok = np.where(good, mid, high_ok)
+        high_fail = np.where(good, high_fail, mid)
+        step_done(i)
+    return low_ok, high_ok
 
 
 @dataclass(frozen=True)
