@@ -32,7 +32,6 @@ LONG_FUNCTIONS: dict[str, int] = {
     "vsw/cli/design.py::register": 93,
     "vsw/cli/optimize.py::_to_dict": 87,
     "vsw/diagrams.py::bifurcation_plot": 102,
-    "vsw/models/ile/analysis.py::analyze": 102,
     "vsw/models/ile/design.py::_build_problem": 98,
     "vsw/models/ile/design.py::design": 161,
     "vsw/models/ile/plots.py::basin_plot": 103,

@@ -310,10 +310,26 @@ def analyze(
     """
     beta_a, theta_a, phi0_a = validate(beta, theta_II, phi0)
     threads = default_threads()  # checks VSW_THREADS for every size of input
-    shape = beta_a.shape
     flat = [np.ascontiguousarray(a).reshape(-1) for a in (beta_a, theta_a, phi0_a)]
-    n = flat[0].size
+    merged = {
+        key: values.reshape(beta_a.shape)
+        for key, values in _evaluate(flat, timing, threads).items()
+    }
+    return Analysis(
+        beta=_shaped(beta_a.astype(float)),
+        theta_II=_shaped(theta_a.astype(float)),
+        phi0=_shaped(phi0_a.astype(float)),
+        conditions=_conditions(merged),
+        scale=scale,
+        **{name: _shaped(merged[name]) for name in FIELDS},
+        **_si_fields(merged, scale),
+    )
 
+
+def _evaluate(flat: list[np.ndarray], timing: bool, threads: int) -> dict[str, np.ndarray]:
+    """Every output of :func:`_compute_chunk` for the 1-D parameter arrays ``flat``,
+    evaluated chunk by chunk on ``threads`` threads."""
+    n = flat[0].size
     # Outputs are preallocated and filled chunk by chunk: concatenating ~30 arrays of 10^6
     # elements afterwards costs as much as a third of the whole evaluation.
     # The compiled kernels only for large batches: a first build takes a compiler run, and
@@ -336,12 +352,17 @@ def analyze(
     if len(starts) > 0:
         # numpy releases the GIL inside operations: blocks run in parallel (vsw.vectorize).
         run_blocks(lambda start: store(start, block(start)), starts, threads)
-    merged = {key: values.reshape(shape) for key, values in merged.items()}
+    return merged
 
-    def shaped(a: np.ndarray) -> Any:
-        return a[()] if a.ndim == 0 else a
 
-    conditions = tuple(
+def _shaped(a: np.ndarray) -> Any:
+    """An output as :class:`Analysis` holds it: a numpy scalar for scalar parameters."""
+    return a[()] if a.ndim == 0 else a
+
+
+def _conditions(merged: dict[str, np.ndarray]) -> tuple[ConditionResult, ...]:
+    """The records of ``ile.CONDITIONS`` from their evaluated margins and tests."""
+    return tuple(
         ConditionResult(
             name=name,
             equation=equation,
@@ -349,37 +370,32 @@ def analyze(
             status=status,
             physical=physical,
             meaning=meaning,
-            value=shaped(merged["margin:" + name]),
-            holds=shaped(merged["holds:" + name]),
+            value=_shaped(merged["margin:" + name]),
+            holds=_shaped(merged["holds:" + name]),
             unit=MARGIN_UNITS[name],
         )
         for name, equation, strict, status, physical, meaning in ile.CONDITIONS
     )
-    si: dict[str, Any] = {}
-    if scale is not None:
-        time_unit = scale.time_unit_s
-        energy_unit_J = scale.mass * scale.gravity * scale.leg_length  # m g r_e in J
-        with np.errstate(all="ignore"):
-            step_period_s = merged["step_period"] * time_unit
-            step_length_m = merged["step_length"] * scale.leg_length
-            speed_m_s = step_length_m / step_period_s
-            si = {
-                "step_period_s": shaped(step_period_s),
-                "step_length_m": shaped(step_length_m),
-                "speed_m_s": shaped(speed_m_s),
-                "speed_leg_s": shaped(speed_m_s / scale.leg_length),
-                "energy_added_J": shaped(merged["energy_added"] * energy_unit_J),
-                "energy_lost_J": shaped(merged["energy_lost"] * energy_unit_J),
-            }
-    return Analysis(
-        beta=shaped(beta_a.astype(float)),
-        theta_II=shaped(theta_a.astype(float)),
-        phi0=shaped(phi0_a.astype(float)),
-        conditions=conditions,
-        scale=scale,
-        **{name: shaped(merged[name]) for name in FIELDS},
-        **si,
-    )
+
+
+def _si_fields(merged: dict[str, np.ndarray], scale: RobotScale | None) -> dict[str, Any]:
+    """The SI values of :data:`SI_FIELDS` at ``scale`` (none without one)."""
+    if scale is None:
+        return {}
+    time_unit = scale.time_unit_s
+    energy_unit_J = scale.mass * scale.gravity * scale.leg_length  # m g r_e in J
+    with np.errstate(all="ignore"):
+        step_period_s = merged["step_period"] * time_unit
+        step_length_m = merged["step_length"] * scale.leg_length
+        speed_m_s = step_length_m / step_period_s
+        return {
+            "step_period_s": _shaped(step_period_s),
+            "step_length_m": _shaped(step_length_m),
+            "speed_m_s": _shaped(speed_m_s),
+            "speed_leg_s": _shaped(speed_m_s / scale.leg_length),
+            "energy_added_J": _shaped(merged["energy_added"] * energy_unit_J),
+            "energy_lost_J": _shaped(merged["energy_lost"] * energy_unit_J),
+        }
 
 
 # --- independent closed form of the step period with SciPy ------------------------------
