@@ -34,8 +34,6 @@ LONG_FUNCTIONS: dict[str, int] = {
     "vsw/diagrams.py::bifurcation_plot": 102,
     "vsw/models/ile/design.py::_build_problem": 98,
     "vsw/models/ile/design.py::design": 161,
-    "vsw/models/ile/plots.py::basin_plot": 103,
-    "vsw/models/ile/plots.py::convergence_plot": 98,
 }
 """The functions over FUNCTION_LINES lines (``module::qualified name``), each with its
 ceiling (its ``def`` line to its last, decorators not counted)."""

@@ -285,9 +285,24 @@ def convergence_plot(
         # The simulation is the authority on when the walker failed.
         q_map = q_map[: len(result.q)]
         ended = result.ended
-    q_fixed = float(ile.q_fixed(beta, theta_II, phi0))
     own = ax is None
     fig, ax = _axes(ax)
+    _draw_convergence(ax, float(ile.q_fixed(beta, theta_II, phi0)), q_map, result)
+    if ended != "completed":
+        _draw_failure(ax, (beta, theta_II, phi0), ended, len(q_map))
+    ax.set_xlim(-0.5, steps + 0.5)
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    ax.set_xlabel(LABELS["step"])
+    ax.set_ylabel(LABELS["q"])
+    if own:
+        ax.set_title(plotstyle.params_title(beta, theta_II, phi0, q_0=q0))
+    if legend:
+        plotstyle.legend_outside(ax, where="below" if own else "right")
+    return fig
+
+
+def _draw_convergence(ax: Axes, q_fixed: float, q_map: np.ndarray, result: Any) -> None:
+    """The fixed point, the stride map's iterates and the simulated q (with ``result``)."""
     ax.axhline(q_fixed, color=COLORS["black"], ls="--", lw=0.9, label=r"fixed point $q^f$ (10)")
     ax.plot(
         np.arange(len(q_map)),
@@ -310,6 +325,10 @@ def convergence_plot(
             mew=1.0,
             label="simulation",
         )
+
+
+def _draw_failure(ax: Axes, params: tuple[float, float, float], ended: str, fail: int) -> None:
+    """Where a walk that did not complete failed: in step ``fail``, past which bound."""
     if ended in ("fell-backward", "lift-off"):
         # The bound the last state crossed, so the reader sees why the step failed.
         bound, name = (
@@ -318,31 +337,20 @@ def convergence_plot(
             else (ile.q_liftoff_max, "lift-off threshold")
         )
         ax.axhline(
-            float(bound(beta, theta_II, phi0)),
+            float(bound(*params)),
             color=COLORS["vermillion"],
             ls="-.",
             lw=0.9,
             label=name,
         )
-    if ended != "completed":
-        # q_k is the last state reached; step k + 1 ends without a heelstrike.
-        fail = len(q_map)
-        ax.axvline(
-            fail,
-            color=COLORS["vermillion"],
-            ls=":",
-            lw=1.2,
-            label=f"{ENDED.get(ended, ended)}: step {fail}",
-        )
-    ax.set_xlim(-0.5, steps + 0.5)
-    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
-    ax.set_xlabel(LABELS["step"])
-    ax.set_ylabel(LABELS["q"])
-    if own:
-        ax.set_title(plotstyle.params_title(beta, theta_II, phi0, q_0=q0))
-    if legend:
-        plotstyle.legend_outside(ax, where="below" if own else "right")
-    return fig
+    # q_k is the last state reached; step k + 1 ends without a heelstrike.
+    ax.axvline(
+        fail,
+        color=COLORS["vermillion"],
+        ls=":",
+        lw=1.2,
+        label=f"{ENDED.get(ended, ended)}: step {fail}",
+    )
 
 
 @plotstyle.styled
@@ -463,6 +471,23 @@ def basin_plot(
         fixed = transform(result.q_fixed)
     theta_deg = np.degrees(result.theta_II)
     fig, ax = _axes(ax, height=4.3)
+    x_max = _draw_basin(ax, theta_deg, low, high, fixed)
+    _draw_no_gait(ax, _no_gait_runs(result), theta_deg, low, high, x_max)
+    if checks:
+        _draw_edge_checks(ax, checks, transform)
+    ax.set_xlabel(LABELS["omega_I"] if variable == "omega" else LABELS["q"])
+    ax.set_ylabel(LABELS["theta_II_deg"])
+    ax.set_title(plotstyle.params_title(result.beta, None, result.phi0))
+    if legend:
+        plotstyle.legend_outside(ax)
+    return fig
+
+
+def _draw_basin(
+    ax: Axes, theta_deg: np.ndarray, low: np.ndarray, high: np.ndarray, fixed: np.ndarray
+) -> float:
+    """The basin between its edges and the fixed point against theta_II, the axes' limits
+    set; returns the right limit."""
     ax.fill_betweenx(
         theta_deg, low, high, color=COLORS["sky_blue"], alpha=0.35, lw=0, label="basin", zorder=1
     )
@@ -482,7 +507,19 @@ def basin_plot(
     if y_high == y_low:  # one theta_II row: a band of one degree around it
         y_low, y_high = y_low - 0.5, y_high + 0.5
     ax.set_ylim(y_low, y_high)
-    runs = _no_gait_runs(result)
+    return x_max
+
+
+def _draw_no_gait(
+    ax: Axes,
+    runs: list[tuple[float, float, tuple[str, str]]],
+    theta_deg: np.ndarray,
+    low: np.ndarray,
+    high: np.ndarray,
+    x_max: float,
+) -> None:
+    """The theta_II ranges without a gait (:func:`_no_gait_runs`) as grey bands, each
+    named where it is tall enough."""
     y_span = float(np.ptp(theta_deg)) or 1.0
     grid_step = float(np.median(np.abs(np.diff(theta_deg)))) if theta_deg.size > 1 else 1.0
     for k, (low_deg, high_deg, reason) in enumerate(runs):
@@ -520,14 +557,6 @@ def basin_plot(
                 linespacing=1.1,
                 zorder=2,
             )
-    if checks:
-        _draw_edge_checks(ax, checks, transform)
-    ax.set_xlabel(LABELS["omega_I"] if variable == "omega" else LABELS["q"])
-    ax.set_ylabel(LABELS["theta_II_deg"])
-    ax.set_title(plotstyle.params_title(result.beta, None, result.phi0))
-    if legend:
-        plotstyle.legend_outside(ax)
-    return fig
 
 
 def _draw_edge_checks(ax: Axes, checks: Sequence[EdgeCheck], transform: Any) -> None:
