@@ -31,7 +31,6 @@ LONG_FUNCTIONS: dict[str, int] = {
     "vsw/animate.py::animation_frames": 96,
     "vsw/cli/design.py::register": 93,
     "vsw/cli/optimize.py::_to_dict": 87,
-    "vsw/diagrams.py::bifurcation_plot": 102,
     "vsw/models/ile/design.py::_build_problem": 98,
     "vsw/models/ile/design.py::design": 161,
 }

@@ -18,6 +18,7 @@ from vsw.errors import VswInputError
 from vsw.plotstyle import COLORS
 
 if TYPE_CHECKING:
+    from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
 __all__ = [
@@ -116,6 +117,45 @@ def bifurcation_plot(
         sharex=True, height_ratios=(2.2, 1.0),
     )  # fmt: skip
     xs = np.array([p[over] for p in points], dtype=float)
+    _draw_period_one(ax, xs, points, y)
+    _draw_iterated_map(ax, data, y)
+    if len(xs):
+        ax.set_xlim(float(np.min(xs)), float(np.max(xs)))
+    ax.set_ylabel(_axis_label(y, units))
+    fig.suptitle(title, x=0.02, ha="left", fontsize="medium")
+    plotstyle.figure_legend(fig, *ax.get_legend_handles_labels(), ncols=2)
+    _draw_eigenvalues(ax, ax_eig, data, xs)
+    return fig
+
+
+def _draw_eigenvalues(ax: Axes, ax_eig: Axes, data: Mapping[str, Any], xs: np.ndarray) -> None:
+    """The period-one gait's largest |eigenvalue| against 1 (on a log scale where it spans
+    much), and the special points of continuation through both panels."""
+    points = data["points"]
+    over = data["over"]
+    eig = np.array([np.nan if p["max_abs_eigenvalue"] is None else p["max_abs_eigenvalue"]
+                    for p in points], dtype=float)  # fmt: skip
+    ax_eig.axhline(1.0, color=COLORS["grey"], linewidth=0.8)
+    ax_eig.plot(xs, eig, "-", color=COLORS["blue"], marker="none")
+    ax_eig.set_ylabel(r"max $|\lambda|$")
+    ax_eig.set_xlabel(plotstyle.state_label(over, data.get("over_unit") or "1"))
+    for special in data.get("special_points") or ():
+        # Located by continuation (vsw sweep --plot): a vertical line through both panels.
+        for axis in (ax, ax_eig):
+            axis.axvline(special["parameter"], color=COLORS["grey"], linestyle=":",
+                         linewidth=0.8)  # fmt: skip
+        ax.annotate(SPECIAL_LABELS[special["type"]], (special["parameter"], 1.0),
+                    xycoords=ax.get_xaxis_transform(), textcoords="offset points",
+                    xytext=(2, -8), fontsize="x-small")  # fmt: skip
+    if np.any(eig > 0):
+        finite = eig[np.isfinite(eig)]
+        if finite.size and finite.max() / max(finite.min(), 1e-300) > 50:
+            ax_eig.set_yscale("log")
+
+
+def _draw_period_one(ax: Axes, xs: np.ndarray, points: list[Mapping[str, Any]], y: str) -> None:
+    """The period-one gait's ``y`` at each swept value ``xs``: solid where stable, dashed
+    where not."""
     ys = np.array(
         [
             np.nan if (v := diagram_value(y, p["state"], p["step_length"], p["period"])) is None
@@ -140,6 +180,13 @@ def bifurcation_plot(
             fill = "full" if style == "-" else "none"
             ax.plot(xs, line, marker="o", fillstyle=fill, color=COLORS["blue"],
                     linestyle="none", label=label)  # fmt: skip
+
+
+def _draw_iterated_map(ax: Axes, data: Mapping[str, Any], y: str) -> None:
+    """The iterated map's last steps (:func:`_attractor_dots`), and on the panel's edges
+    the values without a period-one gait (top) and those where the walk fell (bottom)."""
+    over = data["over"]
+    points = data["points"]
     dots, fell_x = _attractor_dots(points, over, y)
     for settled, marker, size, color, label in (
         (True, ".", 1.8, "vermillion", "iterated map, settled (last steps)"),
@@ -158,31 +205,6 @@ def bifurcation_plot(
         ax.plot(fell_x, [0.0] * len(fell_x), linestyle="none", marker="x", markersize=3.5,
                 color=COLORS["black"], transform=edge, clip_on=False,
                 label="the walk fell (bottom edge)")  # fmt: skip
-    if len(xs):
-        ax.set_xlim(float(np.min(xs)), float(np.max(xs)))
-    ax.set_ylabel(_axis_label(y, units))
-    fig.suptitle(title, x=0.02, ha="left", fontsize="medium")
-    plotstyle.figure_legend(fig, *ax.get_legend_handles_labels(), ncols=2)
-
-    eig = np.array([np.nan if p["max_abs_eigenvalue"] is None else p["max_abs_eigenvalue"]
-                    for p in points], dtype=float)  # fmt: skip
-    ax_eig.axhline(1.0, color=COLORS["grey"], linewidth=0.8)
-    ax_eig.plot(xs, eig, "-", color=COLORS["blue"], marker="none")
-    ax_eig.set_ylabel(r"max $|\lambda|$")
-    ax_eig.set_xlabel(plotstyle.state_label(over, data.get("over_unit") or "1"))
-    for special in data.get("special_points") or ():
-        # Located by continuation (vsw sweep --plot): a vertical line through both panels.
-        for axis in (ax, ax_eig):
-            axis.axvline(special["parameter"], color=COLORS["grey"], linestyle=":",
-                         linewidth=0.8)  # fmt: skip
-        ax.annotate(SPECIAL_LABELS[special["type"]], (special["parameter"], 1.0),
-                    xycoords=ax.get_xaxis_transform(), textcoords="offset points",
-                    xytext=(2, -8), fontsize="x-small")  # fmt: skip
-    if np.any(eig > 0):
-        finite = eig[np.isfinite(eig)]
-        if finite.size and finite.max() / max(finite.min(), 1e-300) > 50:
-            ax_eig.set_yscale("log")
-    return fig
 
 
 def _attractor_dots(
