@@ -22,6 +22,7 @@ when ``ffmpeg`` is on the PATH. Frames and the output size are bounded before dr
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import re
 import shutil
@@ -29,6 +30,7 @@ import subprocess
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -204,60 +206,13 @@ def animation_frames(
     """Simulate ``steps`` steps of ``model`` from the section state ``state`` and sample
     the stick figure at ``fps`` frames per second of playback, ``speed`` model time units
     per second (and at every event)."""
-    if not 1 <= steps <= 1000:
-        raise VswInputError(f"--steps = {steps} must be from 1 to 1000")
-    if not (math.isfinite(fps) and 1 <= fps <= 120):
-        raise VswInputError(f"--fps = {fps:g} must be from 1 to 120")
-    if not (math.isfinite(speed) and 0 < speed <= 1000):
-        raise VswInputError(f"the playback speed {speed:g} must lie in (0, 1000]")
-    dt = speed / fps
-    # The frame count from the first step's duration, before simulating them all.
-    first = model.simulate(params, np.asarray(state, float), 1)
-    estimate = steps * (float(first.t[-1]) / dt + 2 * len(model.phases))
-    if estimate > MAX_FRAMES:
-        raise VswInputError(
-            f"the animation would have about {estimate:.0f} frames, more than {MAX_FRAMES}: "
-            "use fewer --steps, a higher --speed or a lower --fps"
-        )
-    trajectory = model.simulate(params, np.asarray(state, float), steps, max_step=dt / 2)
+    _check_playback(steps, fps, speed)
+    trajectory = _simulated_walk(model, params, state, steps, speed / fps)
     t_end = float(trajectory.t[-1])
-    if len(np.unique(trajectory.t)) > 50 * MAX_FRAMES:  # a walk far slower than its first step
-        raise VswInputError("the walk slowed down too much to animate: use fewer --steps")
-    step_event = model.step_event
-    contact_fn = getattr(model.module, f"event_{step_event['name']}_contact", None)
-    # Event instants: two samples at one time with different states (a reset) or phases;
-    # repeated samples of one state (a phase's last step and its event point, an event
-    # that did not count) are not events.
     ts, xs, ph = trajectory.t, trajectory.states, trajectory.phase
-    boundaries = [
-        i for i in range(1, len(ts))
-        if ts[i] == ts[i - 1] and (ph[i] != ph[i - 1] or np.any(xs[i] != xs[i - 1]))
-    ]  # fmt: skip
-    event_times = [float(ts[i]) for i in boundaries]
-    times = _frame_times(t_end, fps, speed, event_times)
-    # Each sample's step count and world offset of the stance foot.
-    sample_step = np.zeros(len(ts), dtype=int)
-    offsets = [0.0]
-    names = []
-    count, offset = 0, 0.0
-    is_boundary = set(boundaries)
-    for i in range(1, len(ts)):
-        if i in is_boundary:
-            before, after = xs[i - 1], xs[i]
-            event = _which_event(model, ph[i - 1], ph[i], before, after, params)
-            names.append((float(ts[i]), event["name"]))
-            if event["ends_step"]:
-                count += 1
-                length = model.step_length(params, before)
-                if length is None and contact_fn is not None:
-                    length = float(contact_fn(*params, *before)[0])
-                offset += length or 0.0
-        sample_step[i] = count
-        offsets.append(offset)
-    if trajectory.steps_completed > count:  # the last step event ends the samples (no reset)
-        names.append((t_end, step_event["name"]))
-        sample_step[-1] = trajectory.steps_completed
-    offsets = np.array(offsets)
+    boundaries = _event_boundaries(ts, xs, ph)
+    times = _frame_times(t_end, fps, speed, [float(ts[i]) for i in boundaries])
+    sample_step, offsets, names = _steps_walked(model, params, trajectory, boundaries)
     # Frame states: the last sample at or before each frame time, linearly interpolated
     # within a phase (samples are at most half a frame apart).
     index = np.searchsorted(ts, times, side="right") - 1
@@ -288,6 +243,78 @@ def animation_frames(
     )  # fmt: skip
     _lay_out(frames, drawn)
     return frames
+
+
+def _check_playback(steps: int, fps: float, speed: float) -> None:
+    """The steps, frame rate and playback speed of an animation, within their bounds."""
+    if not 1 <= steps <= 1000:
+        raise VswInputError(f"--steps = {steps} must be from 1 to 1000")
+    if not (math.isfinite(fps) and 1 <= fps <= 120):
+        raise VswInputError(f"--fps = {fps:g} must be from 1 to 120")
+    if not (math.isfinite(speed) and 0 < speed <= 1000):
+        raise VswInputError(f"the playback speed {speed:g} must lie in (0, 1000]")
+
+
+def _simulated_walk(
+    model: Any, params: Sequence[float], state: Sequence[float], steps: int, dt: float
+) -> Any:
+    """The walk of ``steps`` steps sampled at most ``dt / 2`` (model time) apart, refused
+    before it is simulated when it would make too many frames."""
+    # The frame count from the first step's duration, before simulating them all.
+    first = model.simulate(params, np.asarray(state, float), 1)
+    estimate = steps * (float(first.t[-1]) / dt + 2 * len(model.phases))
+    if estimate > MAX_FRAMES:
+        raise VswInputError(
+            f"the animation would have about {estimate:.0f} frames, more than {MAX_FRAMES}: "
+            "use fewer --steps, a higher --speed or a lower --fps"
+        )
+    trajectory = model.simulate(params, np.asarray(state, float), steps, max_step=dt / 2)
+    if len(np.unique(trajectory.t)) > 50 * MAX_FRAMES:  # a walk far slower than its first step
+        raise VswInputError("the walk slowed down too much to animate: use fewer --steps")
+    return trajectory
+
+
+def _event_boundaries(ts: np.ndarray, xs: np.ndarray, ph: np.ndarray) -> list[int]:
+    """The samples at which an event happens: the second of two samples at one time."""
+    # Event instants: two samples at one time with different states (a reset) or phases;
+    # repeated samples of one state (a phase's last step and its event point, an event
+    # that did not count) are not events.
+    return [
+        i for i in range(1, len(ts))
+        if ts[i] == ts[i - 1] and (ph[i] != ph[i - 1] or np.any(xs[i] != xs[i - 1]))
+    ]  # fmt: skip
+
+
+def _steps_walked(
+    model: Any, params: Sequence[float], trajectory: Any, boundaries: list[int]
+) -> tuple[np.ndarray, np.ndarray, list[tuple[float, str]]]:
+    """Each sample's count of steps completed and its stance foot's x in the first step's
+    chart, and each event's time and name."""
+    ts, xs, ph = trajectory.t, trajectory.states, trajectory.phase
+    step_event = model.step_event
+    contact_fn = getattr(model.module, f"event_{step_event['name']}_contact", None)
+    sample_step = np.zeros(len(ts), dtype=int)
+    offsets = [0.0]
+    names = []
+    count, offset = 0, 0.0
+    is_boundary = set(boundaries)
+    for i in range(1, len(ts)):
+        if i in is_boundary:
+            before, after = xs[i - 1], xs[i]
+            event = _which_event(model, ph[i - 1], ph[i], before, after, params)
+            names.append((float(ts[i]), event["name"]))
+            if event["ends_step"]:
+                count += 1
+                length = model.step_length(params, before)
+                if length is None and contact_fn is not None:
+                    length = float(contact_fn(*params, *before)[0])
+                offset += length or 0.0
+        sample_step[i] = count
+        offsets.append(offset)
+    if trajectory.steps_completed > count:  # the last step event ends the samples (no reset)
+        names.append((float(trajectory.t[-1]), step_event["name"]))
+        sample_step[-1] = trajectory.steps_completed
+    return sample_step, np.array(offsets), names
 
 
 BOTTOM, SIDE = 14, 14
@@ -517,41 +544,58 @@ def _svg(frames: Animation) -> str:
     coordinates as SMIL ``values`` (discrete, one per frame), the ground, its marks, the
     hip's path and the event markers in a group the view's motion moves, the counters and
     event markers as ``set`` on their frames."""
-    n = len(frames.t)
+    values = functools.partial(_smil, len(frames.t) * (1.0 / frames.fps))
+    lines = [
+        f'<svg xmlns="http://www.w3.org/2000/svg" width="{WIDTH}" height="{HEIGHT}" '
+        f'viewBox="0 0 {WIDTH} {HEIGHT}" font-family="sans-serif" font-size="11">',
+        f"<title>{_escape(frames.title)}</title>",
+        f'<rect width="{WIDTH}" height="{HEIGHT}" fill="white"/>',
+        *_svg_moving_group(frames, values),
+        _svg_gravity(),
+        *_svg_segments(frames, values),
+        *_svg_bodies(frames, values),
+        *_svg_text(frames),
+        "</svg>",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def _smil(
+    duration: float, attribute: str, items: Iterable[str], tag: str = "animate", extra: str = ""
+) -> str:
+    """A SMIL animation of ``attribute`` through ``items``, one per frame, over the
+    animation's ``duration`` (seconds); it stays on the last."""
+    return (f'<{tag} attributeName="{attribute}" dur="{duration:.3f}s" fill="freeze" '
+            f'calcMode="discrete"{extra} values="{";".join(items)}"/>')  # fmt: skip
+
+
+def _svg_numbers(values: Callable[..., str], attribute: str, column: np.ndarray) -> str:
+    """A numeric attribute per frame (pixels to 0.01)."""
+    return values(attribute, (f"{v:.2f}" for v in column))
+
+
+def _svg_paint(values: Callable[..., str], attribute: str, keys: list[str]) -> str:
+    """A colour: fixed where it never changes, else animated."""
+    colors = [f"rgb{COLORS[key]}".replace(" ", "") for key in keys]
+    if len(set(colors)) == 1:
+        return f' {attribute}="{colors[0]}">'
+    return ">" + values(attribute, colors)
+
+
+def _svg_moving_group(frames: Animation, values: Callable[..., str]) -> list[str]:
+    """The group the view's motion moves: the ground across every frame's view, its
+    marks, the hip's path and the event markers (each shown from its frame on)."""
     frame = 1.0 / frames.fps
-    duration = n * frame
-
-    def values(attribute: str, items, tag: str = "animate", extra: str = "") -> str:
-        return (f'<{tag} attributeName="{attribute}" dur="{duration:.3f}s" fill="freeze" '
-                f'calcMode="discrete"{extra} values="{";".join(items)}"/>')  # fmt: skip
-
-    def anim(attribute: str, column: np.ndarray) -> str:
-        return values(attribute, (f"{v:.2f}" for v in column))
-
-    def paint(attribute: str, keys: list[str]) -> str:
-        """A colour: fixed where it never changes, else animated."""
-        colors = [f"rgb{COLORS[key]}".replace(" ", "") for key in keys]
-        if len(set(colors)) == 1:
-            return f' {attribute}="{colors[0]}">'
-        return ">" + values(attribute, colors)
-
-    hip = frames.hip
-    world_hip = hip - frames.origins  # in the moving group's coordinates
+    world_hip = frames.hip - frames.origins  # in the moving group's coordinates
     gx = frames.origins[:, 0]
     c = math.cos(frames.slope)
     s0 = float(np.min((-10 - gx) / (frames.scale * c)))
     s1 = float(np.max((WIDTH + 10 - gx) / (frames.scale * c)))
     (gx0, gy0), (gx1, gy1) = frames.to_world(np.array([[s0, 0.0], [s1, 0.0]]))
     ticks = _ticks(frames, None, s0, s1)
-    (ax, ay0), (_, ay1) = _ARROW
-    unit = f" {frames.time_unit}" if frames.time_unit else ""
     move = values("transform", (f"{x:.2f},{y:.2f}" for x, y in frames.origins),
                   tag="animateTransform", extra=' type="translate"')  # fmt: skip
     lines = [
-        f'<svg xmlns="http://www.w3.org/2000/svg" width="{WIDTH}" height="{HEIGHT}" '
-        f'viewBox="0 0 {WIDTH} {HEIGHT}" font-family="sans-serif" font-size="11">',
-        f"<title>{_escape(frames.title)}</title>",
-        f'<rect width="{WIDTH}" height="{HEIGHT}" fill="white"/>',
         f'<g transform="translate({frames.origins[0, 0]:.2f},{frames.origins[0, 1]:.2f})">'
         + move,
         f'<line x1="{gx0:.2f}" y1="{gy0:.2f}" x2="{gx1:.2f}" y2="{gy1:.2f}" '
@@ -563,7 +607,7 @@ def _svg(frames: Animation) -> str:
         ),
         _walked_path(world_hip, values),
     ]  # fmt: skip
-    for k in range(n):
+    for k in range(len(frames.t)):
         if frames.event[k]:
             x, y = world_hip[k]
             lines.append(
@@ -573,32 +617,61 @@ def _svg(frames: Animation) -> str:
                 f"<title>{_escape(frames.event[k])} at t = {frames.t[k]:.4f}</title></rect>"
             )
     lines.append("</g>")
-    lines.append(
+    return lines
+
+
+def _svg_gravity() -> str:
+    """The gravity arrow, fixed at the top right."""
+    (ax, ay0), (_, ay1) = _ARROW
+    return (
         f'<line x1="{ax}" y1="{ay0}" x2="{ax}" y2="{ay1 - 6}" stroke="black" stroke-width="2"/>'
         f'<polygon points="{ax - 4},{ay1 - 6} {ax + 4},{ay1 - 6} {ax},{ay1 + 1}" fill="black"/>'
         f'<text x="{ax - 14}" y="{ay0 + 16}">g</text>'
     )
+
+
+def _svg_segments(frames: Animation, values: Callable[..., str]) -> list[str]:
+    """One line per segment slot of the frames (the skeleton's segments, then spokes)."""
     # A segment's slot where a frame has fewer is a point at the hip: nothing is drawn.
-    ends = _padded([f.reshape(-1, 4) for f in frames.lines], np.tile(hip, 2))
+    ends = _padded([f.reshape(-1, 4) for f in frames.lines], np.tile(frames.hip, 2))
+    lines = []
     for j in range(ends.shape[1]):
         keys = [cs[j] if j < len(cs) else "spoke" for cs in frames.line_colors]
         width = 2 if set(keys) == {"spoke"} else 3
         lines.append(
-            f'<line stroke-width="{width}"' + paint("stroke", keys)
-            + "".join(anim(a, ends[:, j, m]) for m, a in enumerate(("x1", "y1", "x2", "y2")))
+            f'<line stroke-width="{width}"' + _svg_paint(values, "stroke", keys)
+            + "".join(_svg_numbers(values, a, ends[:, j, m])
+                      for m, a in enumerate(("x1", "y1", "x2", "y2")))
             + "</line>"
         )  # fmt: skip
-    centres = _padded(frames.bodies, hip)
+    return lines
+
+
+def _svg_bodies(frames: Animation, values: Callable[..., str]) -> list[str]:
+    """One circle per body slot of the frames, its radius fixed where it never changes."""
+    n = len(frames.t)
+    centres = _padded(frames.bodies, frames.hip)
     radii = _padded([r[:, None] for r in frames.radii], np.zeros((n, 1)))[..., 0]
+    lines = []
     for j in range(centres.shape[1]):
         keys = [cs[j] if j < len(cs) else "hip" for cs in frames.body_colors]
         r = radii[:, j]
         size = f' r="{r[0]:.2f}"' if np.all(r == r[0]) else ""
         lines.append(
-            f'<circle{size} stroke="black"' + paint("fill", keys)
-            + ("" if size else anim("r", r))
-            + anim("cx", centres[:, j, 0]) + anim("cy", centres[:, j, 1]) + "</circle>"
+            f'<circle{size} stroke="black"' + _svg_paint(values, "fill", keys)
+            + ("" if size else _svg_numbers(values, "r", r))
+            + _svg_numbers(values, "cx", centres[:, j, 0])
+            + _svg_numbers(values, "cy", centres[:, j, 1]) + "</circle>"
         )  # fmt: skip
+    return lines
+
+
+def _svg_text(frames: Animation) -> list[str]:
+    """The title's lines, and the time and step counters shown one frame at a time."""
+    n = len(frames.t)
+    frame = 1.0 / frames.fps
+    unit = f" {frames.time_unit}" if frames.time_unit else ""
+    lines = []
     rows = title_lines(frames.title, size=11)
     for i, row in enumerate(rows):
         lines.append(f'<text x="6" y="{14 + 13 * i}">{_escape(row)}</text>')
@@ -612,8 +685,7 @@ def _svg(frames: Animation) -> str:
             + (' fill="freeze"' if last else "")
             + "/></text>"
         )
-    lines.append("</svg>")
-    return "\n".join(lines) + "\n"
+    return lines
 
 
 def _walked_path(hip: np.ndarray, values: Callable[[str, Iterable[str]], str]) -> str:
