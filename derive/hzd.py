@@ -1,0 +1,450 @@
+"""Hybrid zero dynamics (HZD) of a model with one degree of underactuation: virtual
+constraints declared in a constraints file, their surface and zero dynamics derived.
+
+A constraints file is plain Python, like a model file: it builds ``CONSTRAINTS =
+Constraints(phase=..., theta_plus=..., theta_minus=..., outputs={...})`` from the model's
+coordinates (:func:`coordinates`) and the phase symbols :data:`THETA` (the phase variable's
+value) and :data:`S` (the normalised phase ``s = (theta - theta_plus)/(theta_minus -
+theta_plus)``). Each output is ``y_i = a_i(q) - h_i(theta)``: ``a_i`` an affine function of
+the coordinates (what the actuators control), ``h_i`` an expression in ``THETA`` or ``S``,
+or a :class:`Bezier` polynomial in ``s`` (Westervelt, Grizzle & Koditschek 2003, IEEE TAC
+48(1):42-56, Section V), or an :class:`InvariantBezier` whose first two coefficients the
+impact map sets at run time (ibid., Theorem 4's construction: the outputs vanish with their
+rates just after every impact that starts on the surface).
+
+The derivation (Westervelt et al. 2003, Section IV; Grizzle, Abba & Plestan 2001):
+
+* the surface ``q = Phi(theta)``: ``[a(q); theta(q)] = [h(theta); theta]`` solved for ``q``
+  (the phase and the controlled functions are affine in ``q`` and independent: exactly one
+  degree of freedom is left);
+* ``sigma``, the angular momentum about the stance foot (clockwise positive: the sense in
+  which a walker that walks forward turns), linear in the rates; on the surface ``sigma =
+  I(theta) theta_dot`` with ``I(theta) = sigma(Phi, Phi')``;
+* the actuators exert no torque about the stance foot (checked: their generalised forces
+  do no work on a rigid rotation about it), so ``d sigma/dt`` is gravity's moment,
+  ``sum m_i (y_i g_x - x_i g_y)`` (``m g x_cm`` on level ground);
+* with ``zeta = sigma^2 / 2``: ``d zeta/d theta = sigma (d sigma/dt)/theta_dot = kappa(theta)
+  = I(theta) * moment(theta)`` (Westervelt et al. 2003, eq. (53) with their ``kappa_1
+  kappa_2``), integrated at run time;
+* through the impact the angular momentum about the new stance foot is conserved, so
+  ``delta = sigma_+/sigma_-`` is the angular momentum about the swing foot over that about
+  the stance foot, both at ``Phi(theta_minus)``, ``Phi'(theta_minus)`` (ibid., eq. (57)).
+
+``python -m derive.hzd --model KEY --constraints FILE --out DIR`` writes the generated
+package (numpy and CasADi, :mod:`derive.codegen`) into ``DIR/hzd_constraints/``;
+``vsw.hzd`` runs it in a subprocess and caches the result, as for a model file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import importlib.util
+import math
+import os
+import shutil
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import sympy as sm
+
+from derive.quantities import Derivation, Parameter, Quantity
+
+__all__ = [
+    "THETA",
+    "Bezier",
+    "Constraints",
+    "ConstraintsError",
+    "InvariantBezier",
+    "S",
+    "bezier_of",
+    "coordinates",
+    "derivation",
+]
+
+THETA = sm.Symbol("hzd_theta", real=True)
+"""The phase variable's value in an output's desired expression."""
+S = sm.Symbol("hzd_s", real=True)
+"""The normalised phase, 0 just after an impact and 1 just before the next."""
+
+
+class ConstraintsError(ValueError):
+    """Constraints that cannot be derived (reported in one line)."""
+
+
+def coordinates(*names: str) -> tuple[sm.Symbol, ...]:
+    """The model's coordinates by name, as the engine's chart has them."""
+    return tuple(sm.Symbol(n, real=True) for n in names)
+
+
+@dataclass(frozen=True)
+class Bezier:
+    """``h(s) = sum_k alpha_k C(M, k) s^k (1 - s)^(M - k)``, ``M = len(alpha) - 1``."""
+
+    alpha: tuple
+
+    def __post_init__(self) -> None:
+        if len(self.alpha) < 2:
+            raise ConstraintsError("a Bezier polynomial needs at least two coefficients")
+
+
+@dataclass(frozen=True)
+class InvariantBezier:
+    """A Bezier polynomial of degree ``len(later) + 1`` whose coefficients ``alpha_2 ..
+    alpha_M`` are ``later``; ``alpha_0`` and ``alpha_1`` follow from the impact map at run
+    time (Westervelt et al. 2003: ``alpha_0`` the controlled coordinates just after the
+    impact, ``alpha_1 = alpha_0 + (theta_minus - theta_plus)/M`` times their rate per unit
+    rate of the phase there)."""
+
+    later: tuple
+
+    def __post_init__(self) -> None:
+        if len(self.later) < 2:
+            raise ConstraintsError("an impact-invariant Bezier polynomial needs alpha_2 .. "
+                                   "alpha_M, M >= 3: at least two coefficients")  # fmt: skip
+
+
+@dataclass(frozen=True)
+class Constraints:
+    """Virtual constraints: ``phase`` (affine in the coordinates) runs from ``theta_plus``
+    just after an impact to ``theta_minus`` at the next; ``outputs`` maps each controlled
+    function of the coordinates to its desired value (an expression in :data:`THETA` or
+    :data:`S`, a :class:`Bezier` or an :class:`InvariantBezier`)."""
+
+    phase: sm.Expr
+    theta_plus: Any
+    theta_minus: Any
+    outputs: dict
+    title: str = ""
+    names: tuple[str, ...] = field(default=())
+
+
+def bezier_of(polynomial: sm.Expr, degree: int) -> tuple[sm.Expr, ...]:
+    """The Bezier coefficients of degree ``degree`` of a polynomial in :data:`S` (exact,
+    by degree elevation: ``alpha_k = sum_j c_j C(k, j)/C(M, j)``)."""
+    poly = sm.Poly(sm.expand(polynomial), S)
+    if poly.degree() > degree:
+        raise ConstraintsError(f"a polynomial of degree {poly.degree()} has no Bezier form "
+                               f"of degree {degree}")  # fmt: skip
+    coeff = [poly.coeff_monomial(S**j) for j in range(degree + 1)]
+    return tuple(
+        sm.nsimplify(sum(coeff[j] * sm.binomial(k, j) / sm.binomial(degree, j)
+                         for j in range(k + 1)))
+        for k in range(degree + 1)
+    )  # fmt: skip
+
+
+def _bernstein(alpha: list, s: sm.Expr) -> sm.Expr:
+    degree = len(alpha) - 1
+    return sum(a * sm.binomial(degree, k) * s**k * (1 - s) ** (degree - k)
+               for k, a in enumerate(alpha))  # fmt: skip
+
+
+def _number(value: Any, what: str) -> float:
+    try:
+        out = float(sm.sympify(value))
+    except (TypeError, ValueError, sm.SympifyError):
+        raise ConstraintsError(f"{what} must be a number (got {value!r})") from None
+    if not math.isfinite(out):
+        raise ConstraintsError(f"{what} must be finite (got {value!r})")
+    return out
+
+
+def _by_name(expr: Any, symbols: dict[str, sm.Symbol]) -> sm.Expr:
+    """``expr`` with each free symbol replaced by the model's of the same name (a file may
+    make its symbols with other assumptions)."""
+    expr = sm.sympify(expr)
+    return expr.xreplace({s: symbols[s.name] for s in expr.free_symbols if s.name in symbols})
+
+
+def _affine_row(expr: sm.Expr, q: list[sm.Symbol], what: str) -> tuple[list[float], float]:
+    """The coefficients and constant of an affine function of the coordinates."""
+    extra = expr.free_symbols - set(q)
+    if extra:
+        names = ", ".join(sorted(s.name for s in extra))
+        raise ConstraintsError(f"{what} may use only the model's coordinates ({names} is not one)")
+    row = [sm.diff(expr, v) for v in q]
+    if any(r.free_symbols for r in row):
+        raise ConstraintsError(f"{what} must be affine in the coordinates (got {expr})")
+    constant = expr.xreplace(dict.fromkeys(q, 0))
+    return [_number(r, what) for r in row], _number(constant, what)
+
+
+@dataclass
+class _Outputs:
+    """The desired expressions in the phase, the coefficients as symbols."""
+
+    desired: list[sm.Expr]
+    alphas: list[sm.Symbol]
+    defaults: list[float | None]
+    layout: list[dict]
+
+
+def _desired(constraints: Constraints, theta_plus: float, theta_minus: float) -> _Outputs:
+    s_of_theta = (THETA - theta_plus) / (theta_minus - theta_plus)
+    out = _Outputs([], [], [], [])
+    for k, (controlled, value) in enumerate(constraints.outputs.items()):
+        if isinstance(value, Bezier | InvariantBezier):
+            given = (
+                (None, None, *value.later) if isinstance(value, InvariantBezier) else value.alpha
+            )
+            symbols = [sm.Symbol(f"alpha_{k}_{j}", real=True) for j in range(len(given))]
+            defaults = [None if a is None else _number(a, f"output {controlled}'s alpha_{j}")
+                        for j, a in enumerate(given)]  # fmt: skip
+            out.desired.append(_bernstein(symbols, s_of_theta))
+            out.alphas.extend(symbols)
+            out.defaults.extend(defaults)
+            out.layout.append({"kind": "bezier", "count": len(symbols),
+                               "invariant": isinstance(value, InvariantBezier)})  # fmt: skip
+            continue
+        expr = sm.sympify(value)
+        extra = expr.free_symbols - {THETA, S}
+        if extra:
+            names = ", ".join(sorted(s.name for s in extra))
+            raise ConstraintsError(f"output {controlled}'s desired value may use only THETA "
+                                   f"and S, not {names}")  # fmt: skip
+        out.desired.append(expr.xreplace({S: s_of_theta}))
+        out.layout.append({"kind": "expression", "count": 0, "invariant": False})
+    return out
+
+
+def _model(model_key: str) -> Any:
+    """The engine model: a built-in's module by its registry name, or a model file."""
+    from derive.registry import MODEL_MODULES
+
+    if model_key in MODEL_MODULES:
+        return importlib.import_module(MODEL_MODULES[model_key]).MODEL
+    return _load_file(Path(model_key), "derive_hzd_model").MODEL
+
+
+def _load_file(path: Path, name: str) -> Any:
+    sys.path.insert(0, str(path.parent))
+    spec = importlib.util.spec_from_file_location(f"{name}_{path.stem}", path)
+    if spec is None or spec.loader is None:
+        raise ConstraintsError(f"{path} is not a Python file")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _step_phase(model: Any) -> tuple[Any, Any]:
+    """The phase a step starts in and the event that ends the step (a single-phase step:
+    the HZD of one continuous phase and one impact)."""
+    event = next(e for e in model.events if e.ends_step)
+    phase = next(p for p in model.phases if p.name == event.target)
+    if event.source != phase.name:
+        raise ConstraintsError(f"{model.name}: the step has more than one phase; the zero "
+                               "dynamics here take one phase and its impact")  # fmt: skip
+    if not phase.inputs:
+        raise ConstraintsError(f"{model.name} has no inputs to enforce constraints with")
+    return phase, event
+
+
+def _momentum(bodies: list, about: tuple, q: list, qd: list) -> sm.Expr:
+    """Angular momentum of the bodies about ``about`` (clockwise positive)."""
+    total = sm.Integer(0)
+    for body in bodies:
+        x, y = (body.position[0] - about[0], body.position[1] - about[1])
+        vx, vy = (sum(sm.diff(c, v) * w for v, w in zip(q, qd)) for c in body.position)
+        total += body.mass * (y * vx - x * vy)
+        if hasattr(body, "inertia"):
+            total -= body.inertia * sum(sm.diff(body.angle, v) * w for v, w in zip(q, qd))
+    return total
+
+
+def _check_no_moment(phase: Any, q: list, params: tuple[Parameter, ...]) -> None:
+    """The inputs' generalised forces do no work on a rigid rotation about the stance foot
+    (else ``d sigma/dt`` would hold the torques): checked at three random points, the
+    rotation's direction in the coordinates solved by least squares."""
+    import numpy as np
+
+    rng = np.random.default_rng(2003)
+    positions = [sm.Matrix(b.position) for b in phase.bodies]
+    jac = sm.Matrix.vstack(*[p.jacobian(q) for p in positions])
+    turn = sm.Matrix([c for p in positions for c in (p[1], -p[0])])
+    forces = sm.Matrix([[sm.diff(i.along, v) for v in q] for i in phase.inputs])
+    symbols = [p.symbol for p in params] + q
+    f = sm.lambdify(symbols, (jac, turn, forces), "numpy")
+    for _ in range(3):
+        values = [(p.default if p.default else 1.0) for p in params]
+        values += list(rng.uniform(-0.4, 0.4, len(q)))
+        j, t, b = (np.array(a, float) for a in f(*values))
+        w, *_ = np.linalg.lstsq(j, t.ravel(), rcond=None)
+        if np.max(np.abs(j @ w - t.ravel())) > 1e-9:
+            return  # the chart has no rigid rotation (a coordinate fixed to the ground)
+        if np.max(np.abs(b @ w)) > 1e-9 * max(1.0, float(np.max(np.abs(b)))):
+            raise ConstraintsError(
+                "the inputs exert a torque about the stance foot: the zero dynamics here "
+                "need one degree of underactuation there"
+            )
+
+
+def _surface(constraints: Constraints, q: list, desired: list) -> tuple[sm.Matrix, list]:
+    """``Phi(theta)``: the affine rows of the controlled functions and the phase, solved."""
+    rows, constants = [], []
+    for k, controlled in enumerate(constraints.outputs):
+        row, constant = _affine_row(controlled, q, f"controlled function {k} ({controlled})")
+        rows.append(row)
+        constants.append(constant)
+    row, constant = _affine_row(constraints.phase, q, f"the phase variable ({constraints.phase})")
+    rows.append(row)
+    constants.append(constant)
+    matrix = sm.Matrix(rows).applyfunc(sm.nsimplify)
+    if matrix.rank() < len(q):
+        raise ConstraintsError(
+            f"the constraints leave {len(q) - matrix.rank()} degrees of freedom besides the "
+            "phase, not none: the controlled functions and the phase are dependent"
+        )
+    target = sm.Matrix([*desired, THETA]) - sm.Matrix(constants).applyfunc(sm.nsimplify)
+    return matrix.inv() * target, [*rows[-1], constants[-1]]
+
+
+def derivation(model: Any, constraints: Constraints, name: str) -> Derivation:
+    """The constraints' generated quantities (see the module docstring)."""
+    phase, event = _step_phase(model)
+    q = [c.q for c in phase.coordinates]
+    qd = [c.u for c in phase.coordinates]
+    if len(constraints.outputs) != len(phase.inputs) or len(q) != len(phase.inputs) + 1:
+        raise ConstraintsError(
+            f"{model.name} has {len(q)} coordinates and {len(phase.inputs)} inputs: the "
+            f"constraints give {len(constraints.outputs)} outputs; the zero dynamics here "
+            "need one output per input and one coordinate more than inputs"
+        )
+    names = {s.name: s for s in q}
+    constraints = Constraints(
+        phase=_by_name(constraints.phase, names),
+        theta_plus=constraints.theta_plus,
+        theta_minus=constraints.theta_minus,
+        outputs={_by_name(k, names): v for k, v in constraints.outputs.items()},
+        title=constraints.title,
+    )
+    theta_plus = _number(constraints.theta_plus, "theta_plus")
+    theta_minus = _number(constraints.theta_minus, "theta_minus")
+    if theta_plus == theta_minus:
+        raise ConstraintsError("theta_plus and theta_minus must differ")
+    _check_no_moment(phase, q, model.parameters)
+    outs = _desired(constraints, theta_plus, theta_minus)
+    phi, phase_row = _surface(constraints, q, outs.desired)
+    held = {k: v for k, v in phase.held.items()}
+    bodies = [_held(b, held) for b in phase.bodies]
+    on_surface = dict(zip(q, phi))
+    dphi = phi.diff(THETA)
+    # sigma on the surface per unit theta_dot, and gravity's moment about the stance foot.
+    sigma = _momentum(bodies, (0, 0), q, qd)
+    inertia = sigma.xreplace(dict(zip(qd, dphi))).xreplace(on_surface)
+    gx, gy = phase.gravity
+    moment = sum(b.mass * (b.position[1] * gx - b.position[0] * gy) for b in bodies)
+    moment = moment.xreplace(on_surface)
+    contact = phase.points[event.reset.new_contact]
+    before = {**dict(zip(qd, dphi)), **on_surface}
+    swing = _momentum(bodies, contact, q, qd).xreplace(before).xreplace({THETA: theta_minus})
+    stance = inertia.xreplace({THETA: theta_minus})
+    params = tuple(p.symbol for p in model.parameters)
+    args = (*params, *outs.alphas, THETA)
+    out = Derivation(
+        model=name,
+        title=f"Virtual constraints {name} of {model.name}",
+        source="derive/hzd.py",
+        parameters=model.parameters,
+        units="Angles in radians; the model's units otherwise.",
+    )
+    d_desired = [sm.diff(h, THETA) for h in outs.desired]
+    out.add(Quantity("desired", args, (*outs.desired, *d_desired,
+                     *(sm.diff(h, THETA) for h in d_desired)),
+                     "the outputs' desired values, their first and second derivatives in the "
+                     "phase",
+                     returns="h, dh/dtheta, d2h/dtheta2, each one per output"))  # fmt: skip
+    out.add(Quantity("surface", args, (*phi, *dphi, *dphi.diff(THETA)),
+                     "the constraint surface q = Phi(theta), Phi' and Phi''",
+                     returns="q, dq/dtheta, d2q/dtheta2, each one per coordinate"))  # fmt: skip
+    out.add(Quantity("zero_dynamics", args, (inertia, inertia * moment, moment),
+                     "I(theta) (sigma = I theta_dot), kappa = d zeta/d theta = I times "
+                     "gravity's moment about the stance foot, and that moment",
+                     equation="Westervelt et al. 2003, (53)",
+                     returns="I, kappa, moment"))  # fmt: skip
+    out.add(
+        Quantity(
+            "impact_ratio",
+            args,
+            (swing / stance, stance),
+            "delta = sigma_+/sigma_- through the impact from Phi(theta_minus) (the "
+            "angular momentum about the new stance foot is conserved), and I there",
+            equation="Westervelt et al. 2003, (57)",
+            returns="delta, I(theta_minus)",
+        )
+    )
+    out.add(Quantity("angular_momentum", (*params, *q, *qd), sigma,
+                     "sigma, the angular momentum about the stance foot (clockwise positive)",
+                     returns="sigma"))  # fmt: skip
+    out.constants["HZD"] = ({
+        "model": model.name,
+        "phase": str(constraints.phase),
+        "phase_row": phase_row,
+        "theta_plus": theta_plus,
+        "theta_minus": theta_minus,
+        "outputs": [str(k) for k in constraints.outputs],
+        "controlled": [list(_affine_row(k, q, "")) for k in constraints.outputs],
+        "alphas": [a.name for a in outs.alphas],
+        "defaults": outs.defaults,
+        "layout": outs.layout,
+        "title": constraints.title,
+        "coordinates": [s.name for s in q],
+    }, "What the constraints declare, for the runtime (vsw.hzd).")  # fmt: skip
+    return out
+
+
+def _held(body: Any, held: dict) -> Any:
+    """A body with the phase's held coordinates put in."""
+    if not held:
+        return body
+    changes = {"position": tuple(sm.sympify(c).xreplace(held) for c in body.position)}
+    if hasattr(body, "angle"):
+        changes["angle"] = sm.sympify(body.angle).xreplace(held)
+    return type(body)(**{**body.__dict__, **changes})
+
+
+def render(model_key: str, constraints_path: Path) -> dict[str, str]:
+    """The generated package's files for a constraints file and a model."""
+    from derive import codegen
+
+    module = _load_file(constraints_path, "derive_hzd_constraints")
+    constraints = getattr(module, "CONSTRAINTS", None)
+    if not isinstance(constraints, Constraints):
+        raise ConstraintsError(f"{constraints_path} defines no CONSTRAINTS = Constraints(...)")
+    model = _model(model_key)
+    return {"__init__.py": codegen.python_module(derivation(model, constraints, "hzd"))}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m derive.hzd")
+    parser.add_argument("--model", required=True)
+    parser.add_argument("--constraints", required=True, type=Path)
+    parser.add_argument("--out", required=True, type=Path)
+    args = parser.parse_args(argv)
+    try:
+        files = render(args.model, args.constraints.resolve())
+    except ConstraintsError as exc:
+        print(f"python -m derive.hzd: {exc}", file=sys.stderr)
+        return 2
+    except Exception as exc:  # a file that does not run: its error in one line
+        where = f"{type(exc).__name__}: {exc}".splitlines()[0]
+        print(f"python -m derive.hzd: {args.constraints}: {where}", file=sys.stderr)
+        return 2
+    staging = args.out.with_name(f".{args.out.name}.{os.getpid()}")
+    shutil.rmtree(staging, ignore_errors=True)
+    (staging / "hzd_constraints").mkdir(parents=True)
+    for rel, text in files.items():
+        (staging / "hzd_constraints" / rel).write_text(text)
+    shutil.rmtree(args.out, ignore_errors=True)
+    os.replace(staging, args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    # Run as derive.hzd, the module the constraints file imports (not as __main__, whose
+    # classes would be other classes).
+    from derive.hzd import main as _main_of_module
+
+    raise SystemExit(_main_of_module())
