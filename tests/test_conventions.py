@@ -315,6 +315,8 @@ RUNS = [
     OPTIMIZE,
     ["basin", "--n-q", "5", "--theta-step", "20"],
     ["basin", "--model", "rimless-wheel", "--grid", "theta_dot=0.5:2:5", "--steps", "5"],
+    ["hzd", "--model", "three-link-biped", "--constraints",
+     str(Path(__file__).resolve().parent.parent / "examples/hzd/three_link_mirror.py")],
 ]  # fmt: skip
 SLOW_RUNS = [
     ["analyze", "--model", "vsw-biped"],

@@ -54,6 +54,7 @@ COMMANDS = {
     "design": "vsw.cli.design",
     "optimize": "vsw.cli.optimize",
     "rough": "vsw.cli.rough",
+    "hzd": "vsw.cli.hzd",
 }
 """The commands, in the order ``vsw --help`` lists them, and the module of each: it has
 ``register`` (adds the command's parser) and ``run``. A command's module is imported when

@@ -1,0 +1,130 @@
+"""``vsw hzd``: walking by hybrid zero dynamics: a model with one degree of underactuation
+under virtual constraints (a constraints file), its restricted Poincaré map and the
+full-order closed loop of the computed-torque controller."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any, TextIO
+
+from vsw.cli import options
+from vsw.cli.output import INTEGRATOR, ORBIT_SOLVER, dump_json, envelope, fmt, with_units
+from vsw.cli.parser import EXIT_OK
+from vsw.figures import check_save_path
+
+__all__ = ["register", "run"]
+
+
+def _gains(text: str) -> tuple[float, float]:
+    parts = text.split(",")
+    try:
+        kp, kd = (float(p) for p in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--gains takes KP,KD (two numbers), not {text!r}"
+                                         ) from None  # fmt: skip
+    if not (kp > 0 and kd > 0 and kp < 1e8 and kd < 1e5):
+        raise argparse.ArgumentTypeError(
+            f"--gains {text}: KP and KD must be positive (and KP < 1e8, KD < 1e5)"
+        )
+    return kp, kd
+
+
+def register(subparsers: Any) -> None:
+    help_ = ("walking by hybrid zero dynamics: virtual constraints, the restricted Poincaré "
+             "map and the full-order closed loop")  # fmt: skip
+    p = subparsers.add_parser("hzd", help=help_, description=help_ + ".")
+    options.add_model_options(p, "hzd", named=False)
+    p.add_argument("--constraints", required=True, metavar="FILE.py",
+                   help="the virtual constraints (a file in derive.hzd's language; derived "
+                   "on first use, then cached)")  # fmt: skip
+    p.add_argument(
+        "--gains",
+        type=_gains,
+        default=(400.0, 40.0),
+        metavar="KP,KD",
+        help="the computed-torque controller's gains, 1/s^2 and 1/s",
+    )
+    p.add_argument("--plot", metavar="FILE", help="the phase portrait, the outputs and the "
+                   "torques over a step (.png, .svg or .pdf)")  # fmt: skip
+    p.set_defaults(func=run)
+
+
+def tolerances() -> dict[str, Any]:
+    from vsw.hzd.zero import NODES
+
+    return {
+        "quadrature": f"Clenshaw-Curtis on {NODES} Chebyshev points (error estimated against "
+        f"{NODES // 2})",
+        **INTEGRATOR,
+        **ORBIT_SOLVER,
+    }
+
+
+def run(args: argparse.Namespace) -> int:
+    from vsw import hzd
+
+    model, params = options.model_and_parameters(args)
+    if args.plot is not None:
+        check_save_path(args.plot)
+    with options.solver_errors(model):
+        report = hzd.analyze(model, args.model, args.constraints, args.values, args.gains)
+    surface = report.samples["surface"]
+    phase = surface.package.HZD["phase"]
+    if args.plot is not None:
+        from vsw.hzd.plot import save_hzd_plot
+
+        save_hzd_plot(report, surface, phase, model.units["time"], args.plot)
+    data = {**envelope(model, params, args.argv, tolerances()), "constraints": args.constraints,
+            "phase": phase, **report.to_dict()}  # fmt: skip
+    if args.plot is not None:
+        data["plot"] = args.plot
+    if args.json:
+        dump_json(with_units(model, data, _units(report, model, surface)))
+        return EXIT_OK
+    _write(sys.stdout, data, _units(report, model, surface))
+    return EXIT_OK
+
+
+def _units(report: Any, model: Any, surface: Any) -> dict[str, str]:
+    """Every key's unit for :func:`vsw.cli.output.with_units`, flattened."""
+    out: dict[str, str] = {}
+
+    def visit(tree: dict, parent: str) -> None:
+        for key, unit in tree.items():
+            if isinstance(unit, dict):
+                visit(unit, key)
+            elif unit is not None:
+                out[f"{parent}.{key}" if parent else key] = unit
+
+    visit(report.units(model, "rad"), "")
+    for name in report.output_names:
+        out[f"mismatch_per_rate.{name}"] = "1"
+    phase = model.phases[model.phase_index[model.step_event["target"]]]
+    for record in phase["inputs"]:
+        out[f"peak_torques.{record['name']}"] = record["unit"]
+    return out
+
+
+def _write(out: TextIO, data: dict, units: dict) -> None:
+    def line(name: str, value: Any, unit: str | None) -> None:
+        shown = "" if unit in (None, "1") else f"  {unit}"
+        out.write(f"{name:<24} {fmt(value):>14}{shown}\n")
+
+    out.write(f"model              {data['model']}; constraints {data['constraints']}\n")
+    out.write(f"phase              {data['phase']}\n")
+    for key in ("delta", "delta_squared", "V", "zeta_star", "theta_dot_minus",
+                "theta_dot_plus", "period", "step_length", "speed", "work_per_step",
+                "impact_loss", "surface_jump"):  # fmt: skip
+        line(key, data[key], units[key])
+    for name, value in data["impact_invariance"]["mismatch_per_rate"].items():
+        line(f"mismatch {name}", value, "per unit theta_dot")
+    for name, value in data["peak_torques"].items():
+        line(f"peak {name}", value, units.get(f"peak_torques.{name}"))
+    full = data["full_order"]
+    if full is None:
+        out.write(f"full order: {data['full_order_error']}\n")
+        return
+    line("full theta_dot_minus", full["theta_dot_minus"], units["theta_dot_minus"])
+    line("full period", full["period"], units["period"])
+    line("full max |eigenvalue|", full["max_abs_eigenvalue"], "1")
