@@ -59,7 +59,9 @@ def _ipopt_design(n_starts: int | None = 1, verify: bool = False) -> Any:
 
 def _start_point() -> np.ndarray:
     """The SLSQP side's start: the design's first IPOPT start (its scan's best seed)."""
-    from vsw.models.ile.design import _build_problem, _scan, _seeds
+    from vsw.models.ile.design.nlp import _seeds
+    from vsw.models.ile.design.nlp import scan_box as _scan
+    from vsw.models.ile.design.problem import build_problem as _build_problem
 
     problem = _build_problem(
         {"eigenvalue": 1.0}, {"speed_m_s": TARGET_SPEED_M_S}, BOUNDS, None, 0.0, None,
@@ -173,7 +175,7 @@ def compare(quick: bool = False) -> dict[str, Any]:
         no worse than that of an SLSQP point that meets the target to 1e-6) and a
         ``note``.
     """
-    from vsw.models.ile.design import _SOLVERS
+    from vsw.models.ile.design.nlp import _SOLVERS
 
     _SOLVERS.clear()
     t0 = time.perf_counter()

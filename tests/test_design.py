@@ -13,7 +13,8 @@ import pytest
 from generated import ile
 from vsw.cli import main
 from vsw.models.ile.analysis import analyze, step_period_scipy
-from vsw.models.ile.design import _quantities, design
+from vsw.models.ile.design import design
+from vsw.models.ile.design.forms import closed_form_quantities
 from vsw.models.ile.params import STEPPER_2D, RobotScale
 from vsw.models.ile.simulate import simulate
 
@@ -27,11 +28,11 @@ BOUND_ARGS = [
 
 def _grid_quantities(bounds: dict, n: int) -> tuple[np.ndarray, dict, np.ndarray]:
     """Closed-form quantities on an n^3 grid over the bounds (ends included)."""
-    from vsw.models.ile.design import _numpy_quantities
+    from vsw.models.ile.design.forms import numpy_quantities
 
     axes = [np.linspace(*bounds[name], n) for name in ("beta", "theta_II", "phi0")]
     x = np.stack([a.ravel() for a in np.meshgrid(*axes, indexing="ij")], axis=1)
-    qs = _numpy_quantities(x)
+    qs = numpy_quantities(x)
     walks = np.isfinite(qs["speed"])
     for name, _, strict, _, physical, _ in ile.CONDITIONS:
         if physical:
@@ -45,7 +46,7 @@ def _grid_quantities(bounds: dict, n: int) -> tuple[np.ndarray, dict, np.ndarray
 def _period_function() -> ca.Function:
     """Period and the Jacobian of (period, speed) exactly as the design NLP builds them."""
     x = ca.SX.sym("x", 3)
-    qs = _quantities(x[0], x[1], x[2])
+    qs = closed_form_quantities(x[0], x[1], x[2])
     period, speed = qs["step_period"], qs["speed"]
     return ca.Function("period", [x], [period, ca.jacobian(ca.vertcat(period, speed), x)])
 
@@ -271,10 +272,11 @@ def test_paper_conditions_keep_the_design_inside_the_papers_region():
 
 
 def test_paper_conditions_never_use_the_region_where_theta_I_is_positive():
-    from vsw.models.ile.design import _REGIONS, _build_problem
+    from vsw.models.ile.design.forms import REGIONS
+    from vsw.models.ile.design.problem import build_problem
 
-    problem = _build_problem({"speed": 1.0}, None, None, None, 0.0, None, None, "paper")
-    assert all(_REGIONS[r].theta_I_sign >= 0 for r in problem.regions)
+    problem = build_problem({"speed": 1.0}, None, None, None, 0.0, None, None, "paper")
+    assert all(REGIONS[r].theta_I_sign >= 0 for r in problem.regions)
     result = design("speed", conditions="paper")
     assert result.analysis.condition("theta_I_negative").value > 0
 
@@ -300,7 +302,7 @@ def test_weighted_objective_is_no_worse_than_its_terms_at_their_own_optima():
 
 
 def test_extrapolation_of_known_sequences():
-    from vsw.models.ile.design import _STEP, _extrapolate
+    from vsw.models.ile.design.limit import _STEP, _extrapolate
 
     d = np.array([1.0, _STEP, _STEP**2, _STEP**3])
     limit, uncertainty = _extrapolate(list(2.0 + 3.0 * d))  # linear in the distance

@@ -21,16 +21,12 @@ PACKAGE = ROOT / "vsw"
 MODULE_LINES = 800
 FUNCTION_LINES = 80
 
-LONG_MODULES: dict[str, int] = {
-    "vsw/models/ile/design.py": 1513,
-}
+LONG_MODULES: dict[str, int] = {}
 """The modules over MODULE_LINES lines, each with its ceiling."""
 
 LONG_FUNCTIONS: dict[str, int] = {
     "vsw/cli/design.py::register": 93,
     "vsw/cli/optimize.py::_to_dict": 87,
-    "vsw/models/ile/design.py::_build_problem": 98,
-    "vsw/models/ile/design.py::design": 161,
 }
 """The functions over FUNCTION_LINES lines (``module::qualified name``), each with its
 ceiling (its ``def`` line to its last, decorators not counted)."""

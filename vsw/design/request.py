@@ -144,4 +144,5 @@ class GaitDesign:
 
 
 def range_text(low: float | None, high: float | None) -> str:
+    """A bound as the user writes it, ``low:high`` (a side left empty where open)."""
     return f"{'' if low is None else f'{low:g}'}:{'' if high is None else f'{high:g}'}"

@@ -179,6 +179,8 @@ def _verify(problem: Problem, nlp: Nlp, solve: _Solve, targets: Mapping[str, flo
 
 
 def orbit_quantities(model: HybridModel, params: Sequence[float], orbit: Orbit) -> dict:
+    """The design quantities of a confirmed orbit (:func:`vsw.quantities.report`): period,
+    eigenvalue, the kinetic energy the impacts dissipate, step length, weight."""
     state = np.array(list(orbit.state.values()))
     lost = 0.0
     phase = model.step_event["target"]

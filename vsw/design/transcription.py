@@ -35,6 +35,9 @@ class Structure:
 
 @dataclass
 class Nlp:
+    """The design NLP of one :class:`Structure`: IPOPT, the design quantities as a function
+    of the unknowns, each constraint row's name and kind, and the unknowns' layout."""
+
     solver: Any
     quantities: Any  # ca.Function(w, P) -> the design quantities
     row_names: list[str]

@@ -99,6 +99,8 @@ def flow_function(model: HybridModel, phase: str) -> Any:
 
 @functools.cache
 def input_rate_function(model: HybridModel, phase: str) -> Any:
+    """(p, x) -> the rate of each input's ``along`` coordinate (its power is the input
+    times it)."""
     import casadi as ca
 
     p = ca.SX.sym("p", len(model.parameter_table))

@@ -57,6 +57,10 @@ __all__ = ["IPOPT_OPTIONS", "Nlp", "built"]
 
 @dataclass(frozen=True)
 class Nlp:
+    """The collocation NLP of one model and request: IPOPT, the cost, work and ground
+    impulses as functions of ``(w, p)``, the unknowns' layout and bounds, where the
+    chosen parameters and the radius are in ``w``, and under stability the step map."""
+
     solver: Any
     cost: Any  # ca.Function(w, p) -> cost
     layout: list[dict[str, Any]]  # per phase: slices of w

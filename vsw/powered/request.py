@@ -285,6 +285,7 @@ def limited_bounds(bounds: tuple, request: Request, name: str) -> tuple[float | 
 
 
 def parameter_interval(model: HybridModel, index: int) -> tuple[float, float]:
+    """The interval the parameter table gives the parameter at ``index``."""
     row = model.parameter_table[index]
     return float(row.lower), float(row.upper)
 

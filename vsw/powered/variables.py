@@ -53,6 +53,8 @@ class Unknowns:
 
 @dataclass
 class Constraints:
+    """The NLP's constraint rows with their lower and upper bounds, in order."""
+
     rows: list = field(default_factory=list)
     lower: list = field(default_factory=list)
     upper: list = field(default_factory=list)
@@ -64,6 +66,9 @@ class Constraints:
 
 
 def phase_unknowns(k: int, m: int, nu: int, nj: int, nodes: int, slack: bool) -> Unknowns:
+    """Phase ``k``'s unknowns (:class:`Unknowns`): ``m`` states and ``nu`` inputs at
+    ``nodes + 1`` knots and ``nodes`` midpoints, ``nj`` impulses, and with ``slack`` the
+    positive work's slacks and each impulse's split."""
     import casadi as ca
 
     def symbols(stem: str, count: int, width: int) -> list:
@@ -137,5 +142,6 @@ def variable_bounds(model: HybridModel, sequence: list, layout: list[dict], size
 
 
 def block(w: np.ndarray, entry: tuple[int, int, int]) -> np.ndarray:
+    """The block ``entry`` = (offset, count, width) of ``w`` as a (count, width) array."""
     first, parts, width = entry
     return w[first : first + parts * width].reshape(parts, width)
