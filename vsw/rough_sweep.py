@@ -239,6 +239,8 @@ def sweep_plot(data: Mapping[str, Any], xlabel: str, title: str | None = None) -
     points = data["points"]
     over = data["over"]
     with_gsn = over == "gamma0" and any(p.get("gsn") is not None for p in points)
+    from matplotlib.ticker import MaxNLocator
+
     with plotstyle.context():
         fig, axes = plotstyle.new_figure(nrows=2 if with_gsn else 1,
                                          height=4.2 if with_gsn else None)  # fmt: skip
@@ -274,6 +276,8 @@ def sweep_plot(data: Mapping[str, Any], xlabel: str, title: str | None = None) -
             axes[1].set_yscale("log")
             axes[1].set_ylabel("gait sensitivity norm")
         axes[-1].set_xlabel(xlabel)
+        for a in axes:  # a noise of 0.00075 rad is six characters: five ticks fit
+            a.xaxis.set_major_locator(MaxNLocator(5))
     return fig
 
 
