@@ -204,6 +204,9 @@ def test_the_sigma_sweep_command(capsys, tmp_path):
     assert mfpt[0] > mfpt[-1]  # more noise, fewer steps
     assert data["units"]["quantities"]["sigma"] == "rad"
     assert data["units"]["quantities"]["mfpt"] == "steps"
+    from tests.test_conventions import unlabelled
+
+    assert unlabelled(data) == []
     # One gait at every sigma: its norm is one number, so no rank correlation.
     assert len({p["gsn"] for p in data["points"]}) == 1
     assert data["spearman_gsn_mfpt"]["walks"]["rho"] is None
@@ -317,6 +320,10 @@ def test_the_height_terrain_command(height_wheel, capsys):
     assert data["terrain"] == "height" and data["distribution"] == "uniform"
     assert data["units"]["quantities"]["sigma"] == "m"
     assert data["gait_sensitivity"]["disturbance"] == HEIGHT
+    from tests.test_conventions import unlabelled
+
+    assert unlabelled(data) == []
+    assert data["units"]["quantities"]["gsn_by_indicator.step_time"] == "s/m"
     assert data["mfpt"]["value"] is not None and data["failures"] > 0
     code, text, err = run(capsys, argv)
     assert code == 0, err
