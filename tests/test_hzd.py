@@ -147,3 +147,17 @@ def test_plot_is_deterministic(invariant, tmp_path):
     for path in (a, b):
         save_hzd_plot(invariant, invariant.samples["surface"], "theta1", "s", path)
     assert a.read_bytes() == b.read_bytes()
+
+
+@pytest.mark.parametrize("changes", [{"m_t": 8.0, "l": 0.6}, {"m": 4.0, "m_h": 20.0, "r": 0.9}])
+def test_other_parameters_agree_with_the_oracle(walker, changes):
+    """The impact-invariant coefficients are set at the given parameters (the impact map
+    depends on them): the restricted map still agrees with the oracle's, built afresh."""
+    params = {**oracle.DEFAULTS, **changes}
+    report = hzd.analyze(walker, key("three-link-biped"), INVARIANT, changes, full_order=False)
+    alphas = oracle.invariant_bezier(oracle.mirror_bezier(6), -END, END, params)
+    expected = oracle.restricted_map(oracle.bezier_surface(alphas, -END, END), params)
+    _agree(report.zero.delta_squared, expected.slope, 1e-9)
+    _agree(report.zero.theta_dot_minus, expected.theta_dot_minus, 1e-9)
+    assert max(abs(v) for v in report.mismatch) < 1e-12
+    _agree(report.work_per_step, report.impact_loss, 1e-9)

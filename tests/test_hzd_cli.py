@@ -111,3 +111,22 @@ def test_examples_ship_in_the_sdist():
         "three_link_mirror.py",
         "three_link_mirror_invariant.py",
     ]
+
+
+def test_constraints_are_derived_once_and_again_when_damaged(capsys, tmp_path, monkeypatch):
+    """The package is cached by the file's digest; a damaged one is derived again."""
+    monkeypatch.setenv("VSW_CACHE_DIR", str(tmp_path / "cache"))
+    path = tmp_path / "mirror.py"
+    path.write_text(MIRROR.read_text())
+    argv = ["hzd", "--model", "three-link-biped", "--constraints", str(path), "--json"]
+    assert main(argv) == 0
+    first = json.loads(capsys.readouterr().out)
+    (package,) = (tmp_path / "cache" / "hzd").glob("mirror-*/hzd_constraints/__init__.py")
+    stamp = package.stat().st_mtime_ns
+    assert main(argv) == 0
+    capsys.readouterr()
+    assert package.stat().st_mtime_ns == stamp  # loaded, not derived again
+    package.write_text(package.read_text().replace("def surface", "def damaged_surface"))
+    assert main(argv) == 0
+    again = json.loads(capsys.readouterr().out)
+    assert again["zeta_star"] == first["zeta_star"]

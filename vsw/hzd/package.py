@@ -14,6 +14,7 @@ import hashlib
 import importlib.util
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -64,7 +65,21 @@ def constraints_package(path: str | Path, model_key: str, model_module: ModuleTy
         if not (root.is_dir() and seal.is_file() and _sealed(root, seal)):
             _derive(file, model_key, root, engine.parent.parent)
             write_durably(seal, json.dumps(_files(root), sort_keys=True).encode())
-    return _import(root / "hzd_constraints", key)
+        try:
+            return _import(root / "hzd_constraints", key)
+        except Exception as exc:  # sealed yet not loading (bytecode damaged): derive again
+            reason = f"{type(exc).__name__}: {exc}".splitlines()[0]
+            print(f"vsw: the cached constraints package {root} does not load ({reason}): "
+                  "deriving it again", file=sys.stderr)  # fmt: skip
+            shutil.rmtree(root, ignore_errors=True)
+            _derive(file, model_key, root, engine.parent.parent)
+            write_durably(seal, json.dumps(_files(root), sort_keys=True).encode())
+            try:
+                return _import(root / "hzd_constraints", key)
+            except Exception as again:
+                where = f"{type(again).__name__}: {again}".splitlines()[0]
+                raise VswInputError(f"constraints {file.name}: its package does not load "
+                                    f"({where})") from None  # fmt: skip
 
 
 def _sealed(root: Path, seal: Path) -> bool:
@@ -101,5 +116,7 @@ def _import(directory: Path, key: str) -> ModuleType:
     spec = importlib.util.spec_from_file_location(name, directory / "__init__.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
+    if not isinstance(getattr(module, "HZD", None), dict):
+        raise ImportError("it declares no constraints (HZD)")
     sys.modules[name] = module
     return module
