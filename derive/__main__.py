@@ -23,7 +23,6 @@ import contextlib
 import ctypes
 import difflib
 import errno
-import multiprocessing
 import os
 import secrets
 import shutil
@@ -31,7 +30,6 @@ import signal
 import stat
 import sys
 import threading
-import time
 from collections.abc import Iterator
 from pathlib import Path
 from types import SimpleNamespace
@@ -44,6 +42,7 @@ os.environ.setdefault("SYMPY_CACHE_SIZE", "20000")
 
 from derive import manifest
 from derive.registry import MODEL_GROUPS, MODEL_MODULES, MODEL_NAMES
+from derive.workers import map_in_workers, spare_cores
 
 ROOT = Path(__file__).resolve().parent.parent
 FIX_COMMAND = "python -m derive"
@@ -53,12 +52,14 @@ FIX_COMMAND = "python -m derive"
 # import sympy, most of a second, which a run with nothing to derive must not pay.
 def _render_model(name: str) -> dict[str, str]:
     """One model's files (run in a worker process: models derive independently). Only
-    the model's own module is imported (with what it imports), not every model's."""
+    the model's own module is imported (with what it imports), not every model's. Derived
+    alone, its functions are printed over the cores (:func:`derive.render.print_ahead`)."""
     import importlib
 
     from derive import render
 
-    return render.render(importlib.import_module(MODEL_MODULES[name]).derive())
+    derivation = importlib.import_module(MODEL_MODULES[name]).derive()
+    return render.render(derivation, workers=spare_cores())
 
 
 def _render_group(names: tuple[str, ...]) -> list[dict[str, str]]:
@@ -104,7 +105,7 @@ def render_model_file(path: Path) -> dict[str, str]:
         raise ModelFileError(f"{path} defines neither derive() nor MODEL")
     if not derivation.model.isidentifier():
         raise ModelFileError(f"{path}: the model's name {derivation.model!r} is no identifier")
-    files = render.render(derivation)
+    files = render.render(derivation, workers=spare_cores())
     return {**files, **_render_shared_backend(), FILE_MARKER: FILE_MARKER_TEXT}
 
 
@@ -121,52 +122,6 @@ def _render_shared() -> dict[str, str]:
     from derive import render
 
     return render.render_shared([SimpleNamespace(model=name) for name in MODEL_NAMES])
-
-
-_PR_SET_PDEATHSIG = 1  # linux/prctl.h
-
-
-def _exit_with_parent(parent: int) -> None:
-    """Worker initializer: end this worker when the process that started it ends.
-
-    A killed ``python -m derive`` (SIGKILL, or SIGTERM as ``timeout`` sends) must not
-    leave workers deriving on, holding the caller's stdout and stderr. On Linux the kernel
-    sends SIGKILL when the parent dies (prctl PR_SET_PDEATHSIG); everywhere, a daemon
-    thread also checks the parent every 0.2 s (and catches a parent that died before the
-    prctl). Interrupts are the parent's to handle: it terminates the workers.
-    """
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    with contextlib.suppress(OSError, AttributeError):
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-
-    def watch() -> None:
-        while os.getppid() == parent:
-            time.sleep(0.2)
-        os._exit(1)
-
-    threading.Thread(target=watch, name="derive-parent-watch", daemon=True).start()
-
-
-def _map_in_workers(function, items: list, workers: int) -> list:
-    """``[function(item) for item in items]`` in ``workers`` forked processes.
-
-    The workers are terminated at once when the parent is interrupted or terminated (a
-    pool's ``shutdown`` would wait for their derivations), and end by themselves when the
-    parent is killed (:func:`_exit_with_parent`).
-    """
-    context = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
-    pool = context.Pool(workers, initializer=_exit_with_parent, initargs=(os.getpid(),))
-    try:
-        results = pool.map(function, items, chunksize=1)
-    except BaseException:
-        pool.terminate()
-        pool.join()
-        raise
-    pool.close()
-    pool.join()
-    return results
 
 
 def _terminated(signum: int, _frame) -> None:
@@ -229,7 +184,7 @@ def render_all(
         with contextlib.suppress(ImportError):
             import casadi  # noqa: F401
 
-        results = _map_in_workers(_render_group, tasks, workers)
+        results = map_in_workers(_render_group, tasks, workers)
         by_name = {n: files for task, group in zip(tasks, results) for n, files in zip(task, group)}
         rendered = [by_name[name] for name in names]
     else:

@@ -313,10 +313,20 @@ def staged_cse(
     return pairs, definitions, reduced[len(named) :]
 
 
+PRINTED: dict[tuple, str] = {}
+"""Functions printed ahead of their module, by ``(printer class, quantity, docstring
+note)``: :func:`derive.render.render` prints a model's functions in worker processes and
+keeps their text here, which :func:`function_source` and
+:func:`derive.js_codegen.function_js` then return as they would have printed it."""
+
+
 def function_source(
     qty: Quantity, printer: BackendPrinter, unreferenced: str = " Beyond the paper."
 ) -> str:
     """Source of one generated function, with common subexpressions eliminated."""
+    printed = PRINTED.get((type(printer), qty, unreferenced))
+    if printed is not None:
+        return printed
     pairs, definitions, reduced = staged_cse(qty)
     arg_names = ", ".join(a.name for a in qty.args)
     lines = [f"def {qty.name}({arg_names}):\n", _docstring(qty, unreferenced)]

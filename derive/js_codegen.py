@@ -15,7 +15,7 @@ import json
 import string
 from pathlib import Path
 
-from derive.codegen import RF_STEPS, BackendPrinter, header, staged_cse
+from derive.codegen import PRINTED, RF_STEPS, BackendPrinter, header, staged_cse
 from derive.quantities import Derivation, Quantity
 
 TEMPLATE = Path(__file__).resolve().parent / "templates" / "model.js.in"
@@ -30,6 +30,9 @@ class JsPrinter(BackendPrinter):
 
 
 def function_js(qty: Quantity, printer: JsPrinter) -> str:
+    printed = PRINTED.get((type(printer), qty, None))
+    if printed is not None:
+        return printed
     pairs, definitions, reduced = staged_cse(qty)
     args = ", ".join(a.name for a in qty.args)
     eq = f" Eq. {qty.equation}." if qty.equation else ""

@@ -284,3 +284,25 @@ def test_one_model_is_rederived_and_the_others_kept(tmp_path, capsys, cached_der
     with pytest.raises(SystemExit) as exit_:
         main(["--model", "nonexistent", "--out", str(out)])
     assert exit_.value.code == 2 and "invalid choice" in capsys.readouterr().err
+
+
+def test_functions_printed_in_workers_are_the_files_on_disk():
+    """A model derived alone prints its functions in forked workers
+    (:func:`derive.render.print_ahead`): the files are those in generated/, and the
+    workers did print them (their texts are what the module holds)."""
+    from derive import codegen, render
+    from derive.models.compass_gait import derive
+
+    derivation = derive()
+    codegen.PRINTED.clear()
+    codegen.staged_cse.cache_clear()
+    files = render.render(derivation, workers=2)
+    printed = [text for (_, qty, _), text in codegen.PRINTED.items()
+               if qty in derivation.quantities.values()]  # fmt: skip
+    assert len(printed) >= len(derivation.quantities)
+    for path, text in files.items():
+        assert text == (ROOT / "generated" / path).read_text(), path
+    module = files["compass_gait/__init__.py"]
+    assert all(text in module or text in files.get("compass_gait/js/compass_gait.js", "")
+               for text in printed)  # fmt: skip
+    codegen.PRINTED.clear()
