@@ -19,7 +19,9 @@ Start a cluster on one machine (loopback) with::
     dask scheduler --host 127.0.0.1 --port 8786 &
     dask worker tcp://127.0.0.1:8786 --nworkers 2 --nthreads 1 &
 
-and run a basin on it with ``vsw basin ... --scheduler tcp://127.0.0.1:8786``.
+and run a basin on it with ``vsw basin ... --scheduler tcp://127.0.0.1:8786``. Walks on
+rough ground (``vsw rough --scheduler``, :func:`rough_on_cluster`) go as parts of the walks,
+each walked to its end in one task: their terrain is a function of each walk's global index.
 
 Faults are one line and exit 2, in a stated time: an address that is not a Dask address
 (a scheme other than tcp, tls, ws, wss; no host or port); ``tls://`` or ``wss://`` without

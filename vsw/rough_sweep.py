@@ -239,7 +239,7 @@ def sweep_plot(data: Mapping[str, Any], xlabel: str, title: str | None = None) -
     points = data["points"]
     over = data["over"]
     with_gsn = over == "gamma0" and any(p.get("gsn") is not None for p in points)
-    from matplotlib.ticker import MaxNLocator
+    from matplotlib.ticker import FuncFormatter, MaxNLocator
 
     with plotstyle.context():
         fig, axes = plotstyle.new_figure(nrows=2 if with_gsn else 1,
@@ -276,8 +276,13 @@ def sweep_plot(data: Mapping[str, Any], xlabel: str, title: str | None = None) -
             axes[1].set_yscale("log")
             axes[1].set_ylabel("gait sensitivity norm")
         axes[-1].set_xlabel(xlabel)
+        plain = FuncFormatter(lambda v, _: f"{v:g}")
         for a in axes:  # a noise of 0.00075 rad is six characters: five ticks fit
-            a.xaxis.set_major_locator(MaxNLocator(5))
+            a.xaxis.set_major_locator(MaxNLocator(5, steps=[1, 2, 2.5, 5, 10]))
+            low, high = a.get_ylim()
+            if high < 10 * low:  # within a decade the log axis labels its minor ticks
+                a.yaxis.set_major_formatter(plain)
+                a.yaxis.set_minor_formatter(plain)
     return fig
 
 
