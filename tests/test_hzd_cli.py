@@ -130,3 +130,16 @@ def test_constraints_are_derived_once_and_again_when_damaged(capsys, tmp_path, m
     assert main(argv) == 0
     again = json.loads(capsys.readouterr().out)
     assert again["zeta_star"] == first["zeta_star"]
+
+
+def test_cli_text_names_each_unit(capsys, tmp_path):
+    plot = tmp_path / "hzd.svg"
+    argv = ["hzd", "--model", "three-link-biped", "--constraints", str(MIRROR), "--plot", str(plot)]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    lines = {line.split()[0]: line for line in out.splitlines()}
+    assert lines["zeta_star"].endswith("(kg m^2/s)^2")
+    assert lines["theta_dot_minus"].endswith("rad/s")
+    assert lines["work_per_step"].endswith("J")
+    assert "full-order gait          stable" in out
+    assert plot.read_bytes().startswith(b"<?xml")

@@ -128,3 +128,6 @@ def _write(out: TextIO, data: dict, units: dict) -> None:
     line("full theta_dot_minus", full["theta_dot_minus"], units["theta_dot_minus"])
     line("full period", full["period"], units["period"])
     line("full max |eigenvalue|", full["max_abs_eigenvalue"], "1")
+    out.write(
+        f"full-order gait          {'stable' if full['max_abs_eigenvalue'] < 1 else 'unstable'}\n"
+    )
