@@ -161,3 +161,41 @@ def test_other_parameters_agree_with_the_oracle(walker, changes):
     _agree(report.zero.theta_dot_minus, expected.theta_dot_minus, 1e-9)
     assert max(abs(v) for v in report.mismatch) < 1e-12
     _agree(report.work_per_step, report.impact_loss, 1e-9)
+
+
+def test_derivation_refuses_an_input_with_a_moment_about_the_foot():
+    """An input along the stance leg's absolute angle (an ankle) acts on the angular
+    momentum about the foot: the zero dynamics here need one degree of underactuation
+    there, and the derivation says so."""
+    import dataclasses
+
+    import sympy as sm
+
+    from derive.hzd import Constraints, ConstraintsError, coordinates, derivation
+    from derive.models import three_link_biped as model_file
+
+    theta1, theta2, theta3 = coordinates("theta1", "theta2", "theta3")
+    phase = model_file.STANCE
+    ankle = dataclasses.replace(phase.inputs[0], along=model_file.theta1)
+    model = dataclasses.replace(
+        model_file.MODEL,
+        phases=(dataclasses.replace(phase, inputs=(ankle, phase.inputs[1])),),
+    )
+    constraints = Constraints(
+        phase=theta1, theta_plus=-END, theta_minus=END, outputs={theta2: 0, theta3: sm.pi / 6}
+    )
+    with pytest.raises(ConstraintsError, match="torque about the stance foot"):
+        derivation(model, constraints, "test")
+    # The model as it is derives.
+    assert "zero_dynamics" in derivation(model_file.MODEL, constraints, "test").quantities
+
+
+def test_bezier_of_is_exact():
+    import sympy as sm
+
+    from derive.hzd import S, bezier_of
+
+    poly = 3 - 2 * S + 5 * S**2
+    alpha = bezier_of(poly, 6)
+    bernstein = sum(a * sm.binomial(6, k) * S**k * (1 - S) ** (6 - k) for k, a in enumerate(alpha))
+    assert sm.expand(bernstein - poly) == 0
