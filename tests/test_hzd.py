@@ -199,3 +199,26 @@ def test_bezier_of_is_exact():
     alpha = bezier_of(poly, 6)
     bernstein = sum(a * sm.binomial(6, k) * S**k * (1 - S) ** (6 - k) for k, a in enumerate(alpha))
     assert sm.expand(bernstein - poly) == 0
+
+
+def test_simulated_closed_loop_returns_at_the_rate_delta_squared(walker, invariant):
+    """The runtime's simulation (DOP853 with the model's events) of the closed loop from a
+    state off the gait (every rate 5 % high, off the surface): each step's deviation of
+    theta1_dot just after the impact shrinks by a factor that tends to delta^2."""
+    from vsw.hzd.loop import ClosedLoop
+
+    loop = ClosedLoop(walker, invariant.samples["surface"], 400.0, 40.0)
+    closed = loop.hybrid()
+    p = walker.parameters()
+    fixed = np.array(list(invariant.full_order.state.values()))
+    x = fixed.copy()
+    x[3:] *= 1.05
+    deviations = []
+    for _ in range(6):
+        result = closed.step(p, x)
+        assert result.ended == "completed"
+        x = result.state
+        deviations.append(x[3] - fixed[3])
+    ratios = np.array(deviations[1:]) / np.array(deviations[:-1])
+    assert np.all(np.diff(np.abs(ratios - invariant.zero.delta_squared)) < 0)
+    assert abs(ratios[-1] - invariant.zero.delta_squared) < 1e-3
