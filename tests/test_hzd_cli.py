@@ -143,3 +143,15 @@ def test_cli_text_names_each_unit(capsys, tmp_path):
     assert lines["work_per_step"].endswith("J")
     assert "full-order gait          stable" in out
     assert plot.read_bytes().startswith(b"<?xml")
+
+
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [("import sympy\nx = 1 / 0\n", "ZeroDivisionError"), ("X = 1\n", "defines no CONSTRAINTS")],
+    ids=["raises", "declares nothing"],
+)
+def test_a_file_that_fails_or_declares_nothing(capsys, tmp_path, text, words):
+    path = tmp_path / "broken.py"
+    path.write_text(text)
+    _one_line_exit_2(capsys, ["hzd", "--model", "three-link-biped", "--constraints", str(path)],
+                     words)  # fmt: skip
