@@ -22,6 +22,8 @@ import pytest
 
 from generated.ile.params import PARAMETERS
 from vsw.compiled import exclusive_lock
+from vsw.gaits import pick
+from vsw.hybrid import Orbit
 from vsw.models import keys, load
 from vsw.models.ile.params import random_parameters
 
@@ -110,6 +112,90 @@ def searches_made_once(private_kernel_cache, tmp_path_factory):
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(gaits, "search", search_once)
         yield
+
+
+GAITS_PATH = Path(__file__).resolve().parent / "data" / "gaits.json"
+"""Every passive model's gaits at its defaults, as the search finds them (written by
+tests/data/make_gaits.py; compared with a new search in tests/test_gaits.py's slow tier)."""
+
+
+def _orbit(record: dict) -> Orbit:
+    """An :meth:`Orbit.to_dict` record read back (JSON keeps every float exactly)."""
+    return Orbit(
+        state={k: float(v) for k, v in record["state"].items()},
+        durations=tuple(record["phase_durations"]),
+        period=record["period"],
+        eigenvalues=tuple(complex(re, im) for re, im in record["eigenvalues"]),
+        step_length=record["step_length"],
+        residual=record["residual"],
+    )
+
+
+def _confirm(model, params: tuple[float, ...], orbit: Orbit, newton: bool) -> None:
+    """Fails unless ``orbit`` is a gait of ``model`` at ``params`` as the code is now: a
+    compiled step from it comes back (within 1e-9 of max(1, |state|) times max(1,
+    |eigenvalue|), the search's own test of a gait) through the same phases, in the same
+    durations and step length; with ``newton``, also Newton on the step map converges
+    next to it with the spectrum kept."""
+    from vsw.batch import simulator
+
+    state = np.array(list(orbit.state.values()))
+    scale = max(1.0, float(np.max(np.abs(state))))
+    again = f"{model.name}: regenerate {GAITS_PATH.name} (python tests/data/make_gaits.py)"
+    sim = simulator(model)
+    step = sim.step_phases(params, state)
+    assert step.ended == "completed", f"{again}: a step from a kept gait ends {step.ended}"
+    gap = float(np.max(np.abs(step.state - state)))
+    assert gap <= 1e-9 * scale * max(1.0, orbit.max_abs_eigenvalue), f"{again}: {gap:.3g} off"
+    assert np.allclose(step.durations, orbit.durations, rtol=0, atol=1e-7 * orbit.period), again
+    if orbit.step_length is not None:
+        assert abs(step.step_length - orbit.step_length) <= 1e-9 * max(1.0, orbit.step_length)
+    if newton:
+        found, jacobian = sim.fixed_point(params, state)
+        assert np.max(np.abs(found - state)) <= 1e-9 * scale, again
+        largest = max(abs(np.linalg.eigvals(jacobian)))
+        assert largest == pytest.approx(orbit.max_abs_eigenvalue, rel=1e-4), again
+
+
+_COMMITTED: dict[str, tuple[object, tuple[float, ...], list[Orbit]]] = {}
+
+
+def committed_gaits(key: str) -> tuple[object, tuple[float, ...], list[Orbit]] | None:
+    """``(model, default parameters, gaits)`` of a passive model from :data:`GAITS_PATH`,
+    each gait confirmed by a step and the one the commands walk from
+    (:func:`vsw.gaits.pick`) by a Newton solve too: what ``model.fixed_points`` returns at
+    the defaults, for a fraction of a search. None for a model not in the file yet
+    (tests/test_gaits.py's slow tier asks for it)."""
+    if key in _COMMITTED:
+        return _COMMITTED[key]
+    record = json.loads(GAITS_PATH.read_text())["models"].get(key)
+    if record is None:
+        return None
+    model = load(key)
+    params = model.parameters()
+    names = [p.name for p in model.parameter_table]
+    assert record["parameters"] == dict(zip(names, params)), (
+        f"{key}: its default parameters changed: python tests/data/make_gaits.py"
+    )
+    orbits = [_orbit(r) for r in record["gaits"]]
+    picked = pick(orbits)
+    for orbit in orbits:
+        _confirm(model, params, orbit, newton=orbit is picked)
+    _COMMITTED[key] = (model, params, orbits)
+    return _COMMITTED[key]
+
+
+def gait_start(key: str) -> tuple[object, tuple[float, ...], np.ndarray]:
+    """``(model, default parameters, start)``: the state ``model.start(params)`` walks from
+    (the first stable gait, else the first), from :func:`committed_gaits`, or from the
+    search for a model not in the file."""
+    committed = committed_gaits(key)
+    if committed is None:
+        model = load(key)
+        params = model.parameters()
+        return model, params, model.start(params, None, None).state
+    model, params, orbits = committed
+    return model, params, np.array(list(pick(orbits).state.values()))
 
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.conftest import committed_gaits
 from vsw.batch import CONVERGED, FELL, WALKED, Options, reference_walks, simulator
 from vsw.models import keys, load
 
@@ -27,12 +28,16 @@ STATE_TOL = 1e-9  # the issue's bound on the post-step state, relative
 
 @pytest.fixture(scope="module")
 def gaits():
+    """Each model's gaits at its defaults: the kept ones, confirmed by compiled steps and a
+    Newton solve (tests.conftest.committed_gaits), or the search's for a model not kept."""
     out = {}
     for name in MODELS:
-        model = load(name)
-        params = model.parameters()
-        orbits = model.fixed_points(params)
-        out[name] = (model, params, orbits)
+        committed = committed_gaits(name)
+        if committed is None:
+            model = load(name)
+            params = model.parameters()
+            committed = (model, params, model.fixed_points(params))
+        out[name] = committed
     return out
 
 

@@ -85,6 +85,36 @@ def test_twice_as_fine_finds_the_same_gaits_in_one_dimension(name):
     assert states[0] == states[1] and states[0]
 
 
+@pytest.mark.slow  # a search of every passive model's section at its defaults
+def test_the_kept_gaits_are_the_searchs():
+    """tests/data/gaits.json, which the fixtures that walk from a model's gait read instead
+    of searching (tests.conftest.committed_gaits), is what the search finds now
+    (tests/data/make_gaits.py searches again): every passive model, its defaults, and its
+    gaits in the search's order, states and periods to 1e-9, the largest |eigenvalue| to
+    1e-6, each stable or not as found."""
+    from tests.conftest import GAITS_PATH
+    from tests.data.make_gaits import every_model
+
+    kept = json.loads(GAITS_PATH.read_text())["models"]
+    found = every_model()["models"]
+    again = "python tests/data/make_gaits.py"
+    assert list(kept) == list(found), again
+    for key, record in found.items():
+        assert kept[key]["parameters"] == record["parameters"], (key, again)
+        assert len(kept[key]["gaits"]) == len(record["gaits"]), (key, again)
+        for old, new in zip(kept[key]["gaits"], record["gaits"]):
+            assert list(old["state"]) == list(new["state"])
+            x, y = np.array(list(old["state"].values())), np.array(list(new["state"].values()))
+            assert np.max(np.abs(x - y)) <= 1e-9 * max(1.0, np.max(np.abs(y))), (key, again)
+            assert old["period"] == pytest.approx(new["period"], rel=1e-9), (key, again)
+            assert old["stable"] == new["stable"], (key, again)
+            assert old["max_abs_eigenvalue"] == pytest.approx(new["max_abs_eigenvalue"], rel=1e-6)
+            if new["step_length"] is None:
+                assert old["step_length"] is None
+            else:
+                assert old["step_length"] == pytest.approx(new["step_length"], rel=1e-9)
+
+
 def test_the_ile_search_finds_the_closed_form_fixed_point():
     """The generic search on the ILE's engine model (not its closed forms) finds exactly
     one gait, the paper's fixed point (10), with the eigenvalue (19)."""

@@ -4,10 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from tests.conftest import passive_keys
+from tests.conftest import gait_start, passive_keys
 from vsw import plotstyle
 from vsw.figures import save_figure
-from vsw.models import load
 from vsw.plotstyle import state_label, unit_tex
 from vsw.trajectories import sample_walk
 from vsw.walk_plot import walk_figure
@@ -19,9 +18,7 @@ GENERIC = [k for k in passive_keys() if k != "ile"]  # the ILE keeps its closed-
 def figures():
     out = {}
     for key in GENERIC:
-        model = load(key)
-        params = model.parameters()
-        start = model.start(params, None, None).state
+        model, params, start = gait_start(key)  # the kept gait, confirmed: no search
         out[key] = (model, params, sample_walk(model, params, start, 2, 200.0))
     return out
 
