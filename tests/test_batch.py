@@ -427,7 +427,9 @@ def _vector_sines():
     return fast
 
 
-@pytest.mark.parametrize("lanes", [2, 8])
+# Eight lanes (one more build of the biped's library) in the slow tier: two stand for a
+# count other than four here.
+@pytest.mark.parametrize("lanes", [2, pytest.param(8, marks=pytest.mark.slow)])
 def test_the_lane_count_changes_no_walk(gaits, lanes):
     """The vector build (libmvec's sines, AVX2) built with two and eight lanes walks to the
     same bytes as the four lanes of the library in use: the vector sines are taken four at
@@ -445,7 +447,16 @@ def test_the_lane_count_changes_no_walk(gaits, lanes):
         assert getattr(one, field).tobytes() == getattr(two, field).tobytes(), field
 
 
-@pytest.mark.parametrize("key", ["simplest_walker", "compass_gait", "vsw_biped"])
+# The biped's libm build is the portable test's too; the other two models' (a build each)
+# in the slow tier.
+@pytest.mark.parametrize(
+    "key",
+    [
+        pytest.param("simplest_walker", marks=pytest.mark.slow),
+        pytest.param("compass_gait", marks=pytest.mark.slow),
+        "vsw_biped",
+    ],
+)
 def test_vector_sines_walk_as_libm_does(gaits, key):
     """The vector build's sines and cosines (glibc's libmvec where the CPU has AVX2,
     vsw/csrc/lanes.h) against libm's (the native build without it): the same outcomes and steps on
