@@ -273,7 +273,12 @@ def signal_handlers_restored():
 def pytest_collection_modifyitems(config, items):
     """Under pytest-xdist (``--dist loadgroup``), the tests of a module that share one of
     its module-scoped fixtures run on one worker: each worker is a session of its own and
-    would otherwise compute the fixture (an audit, a walk, a search) again."""
+    would otherwise compute the fixture (an audit, a walk, a search) again. The tests of
+    the run's one derivation (:func:`rendered_tree`, with their modules' shared groups) run
+    on one worker too: it is made behind a lock, and a second worker that needed it would
+    wait the whole derivation idle."""
+    groups: dict[pytest.Item, str] = {}
+    joined = set()  # modules whose shared fixture a test of the derivation takes too
     for item in items:
         info = getattr(item, "_fixtureinfo", None)
         if info is None or item.get_closest_marker("xdist_group"):
@@ -283,8 +288,14 @@ def pytest_collection_modifyitems(config, items):
             for name in info.names_closure
             for definition in info.name2fixturedefs.get(name, ())
         )
-        if shared:
-            item.add_marker(pytest.mark.xdist_group(item.module.__name__))
+        if "rendered_tree" in info.names_closure:
+            groups[item] = "rendered_tree"
+            if shared:
+                joined.add(item.module.__name__)
+        elif shared:
+            groups[item] = item.module.__name__
+    for item, group in groups.items():
+        item.add_marker(pytest.mark.xdist_group("rendered_tree" if group in joined else group))
 
 
 def chromium_path() -> str | None:
