@@ -212,3 +212,42 @@ def test_the_equations_of_motion_are_kanes_methods():
         for ours, theirs in zip(accelerations, wanted):
             assert float(ours.xreplace(point)) == pytest.approx(float(theirs.xreplace(point)),
                                                                 rel=1e-10)
+
+
+def test_a_five_link_impact_keeps_cramers_rule_in_the_balance(monkeypatch):
+    """RABBIT's heelstrike (five coordinates after the impact) is solved on the balance's
+    entries, not expanded into cofactor products (which took sympy minutes and gave more
+    than Python compiles): every expansion stays small, and the rates after it solve the
+    momentum balance ``a u+ = b u-`` at a random state (numpy's solve of the same
+    matrices)."""
+    import random
+
+    import numpy as np
+
+    from derive.models.rabbit import MODEL
+
+    sizes = []
+    expand = hybrid.expand
+
+    def recorded(expr):
+        result = expand(expr)
+        sizes.append(len(sm.Add.make_args(result)))
+        return result
+
+    monkeypatch.setattr(hybrid, "expand", recorded)
+    _, rates = hybrid.impact_reset(MODEL, "heelstrike")
+    assert sizes and max(sizes) < 1000
+    balance = hybrid._impact_balance(MODEL, "heelstrike")
+    a = balance.projection.T * balance.j_after
+    b = balance.projection.T * balance.j_before
+    u_before = [c.u for c in balance.before.coordinates]
+    rng = random.Random(11)
+    symbols = set().union(*(sm.sympify(r).free_symbols for r in rates), a.free_symbols,
+                          b.free_symbols, u_before)  # fmt: skip
+    point = {s: rng.uniform(0.2, 1.2) for s in symbols}
+    a_num = np.array(a.xreplace(point).evalf(), dtype=float)
+    b_num = np.array(b.xreplace(point).evalf(), dtype=float)
+    wanted = np.linalg.solve(a_num, b_num @ np.array([point[u] for u in u_before]))
+    by_coordinate = dict(zip([c.q for c in balance.after.coordinates], rates))
+    ours = [float(by_coordinate[q].xreplace(point)) for q in balance.q_after]
+    np.testing.assert_allclose(ours, wanted, rtol=1e-9)

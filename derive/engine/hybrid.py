@@ -768,11 +768,34 @@ def impact_reset(model: Model, event_name: str) -> tuple[tuple[sm.Expr, ...], tu
         # phase_dynamics), in the links' relative angles.
         a = (bal.projection.T * bal.j_after).applyfunc(_angle_sums)
         b = (bal.projection.T * bal.j_before).applyfunc(_angle_sums)
-        determinant = _angle_sums(a.det(method="berkowitz"))
-        numerators = a.adjugate(method="berkowitz") * b * sm.Matrix(u_before)
-        rates = tuple(_angle_sums(n) / determinant for n in numerators)
+        if len(bal.q_after) > _IMPACT_EXPANDED_UP_TO:
+            rates = _compact_cramer(a, (b * sm.Matrix(u_before)).applyfunc(_angle_sums))
+        else:
+            determinant = _angle_sums(a.det(method="berkowitz"))
+            numerators = a.adjugate(method="berkowitz") * b * sm.Matrix(u_before)
+            rates = tuple(_angle_sums(n) / determinant for n in numerators)
     by_coordinate = dict(zip(bal.q_after, rates))
     return coordinates, tuple(by_coordinate.get(c.q, sm.Integer(0)) for c in bal.after.coordinates)
+
+
+_IMPACT_EXPANDED_UP_TO = 3
+"""Coordinates after an impact up to which its map is expanded and paired into angle sums
+(the three-link walkers'); a five-link walker's expanded cofactor products are more than
+sympy pairs in minutes and more than Python compiles, so larger impacts keep Cramer's rule
+in the balance's entries (:func:`_compact_cramer`)."""
+
+
+def _compact_cramer(system: sm.Matrix, rhs: sm.Matrix) -> tuple[sm.Expr, ...]:
+    """``system^-1 rhs`` by Cramer's rule formed on placeholders for the entries, which then
+    go in whole (unexpanded products of them, each computed once by the code generator),
+    as a larger phase's accelerations are (:func:`phase_dynamics`)."""
+    size = system.rows
+    slots = sm.Matrix(size, size, lambda i, j: sm.Dummy(f"A{i}{j}"))
+    rhs_slots = sm.Matrix(size, 1, lambda i, _: sm.Dummy(f"b{i}"))
+    entries = dict(zip(slots, system)) | dict(zip(rhs_slots, rhs))
+    determinant = slots.det(method="berkowitz").xreplace(entries)
+    numerators = slots.adjugate(method="berkowitz") * rhs_slots
+    return tuple(n.xreplace(entries) / determinant for n in numerators)
 
 
 def held_impulse_at_impact(model: Model, event_name: str, held: sm.Symbol
