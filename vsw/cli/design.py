@@ -242,21 +242,8 @@ def objective_units(model: models.Model, terms: list[str]) -> dict[str, str]:
             "simulation_rel_error": "1", "starts": "1"}  # fmt: skip
 
 
-def register(subparsers: Any) -> None:
-    p = subparsers.add_parser(
-        "design",
-        help="constrained gait design with CasADi/IPOPT, for every model",
-        description="Find a model's parameters and its gait for an objective and targets "
-        "under its conditions and your limits. The ILE designs (beta, theta_II, phi0) from "
-        "its closed forms (the angles of its named bounds --theta-ii-min ... --phi0-max in "
-        "degrees, as --theta-ii and --phi0 of the other commands); every other "
-        "model designs each parameter that is not fixed, within its table's interval (a "
-        "scale such as a mass or g only within a --bound you give), and its gait together: "
-        "IPOPT on the periodic orbit (multiple shooting), values in the model's units (see "
-        "'vsw models'). Exit 0 for an optimal design or a not-attained optimum (the best "
-        "design at an open limit), 3 when the request is infeasible or the solver does not "
-        "converge, 2 for a malformed request.",
-    )
+def _goal_options(p: Any) -> None:
+    """The objective and the targets."""
     goal = p.add_argument_group("objective and targets (summed when repeated)")
     goal.add_argument("--maximize", choices=_choices("max"),
                       action="append",
@@ -282,6 +269,10 @@ def register(subparsers: Any) -> None:
     goal.add_argument("--target-step-frequency", type=float,
                       help="steps per time unit (ile: Hz, needs --leg-length)")  # fmt: skip
     goal.add_argument("--target-period", type=float, help="step period (the model's time unit)")
+
+
+def _limit_options(p: Any) -> None:
+    """Fixed values, bounds and constraints (the ILE's named ones too)."""
     lim = p.add_argument_group("bounds and constraints")
     lim.add_argument("--fix", action="append", metavar="NAME=VALUE",
                      help="hold a parameter in the table's units, an angle in rad or with a "
@@ -318,6 +309,10 @@ def register(subparsers: Any) -> None:
         help="ile: existence conditions: every physical one in its exact form (default), or "
         "also the paper's (15) and (17) as printed",
     )
+
+
+def _scale_options(p: Any) -> None:
+    """The ILE's robot scale."""
     sc = p.add_argument_group("robot scale (ile)")
     sc.add_argument("--leg-length", type=float, help="extended leg length r_e [m]")
     sc.add_argument("--mass", type=float, help="mass [kg]")
@@ -325,6 +320,26 @@ def register(subparsers: Any) -> None:
     sc.add_argument(
         "--stepper-2d", action="store_true", help="Stepper-2D preset: r_e 0.25 m, m 0.78 kg"
     )
+
+
+def register(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "design",
+        help="constrained gait design with CasADi/IPOPT, for every model",
+        description="Find a model's parameters and its gait for an objective and targets "
+        "under its conditions and your limits. The ILE designs (beta, theta_II, phi0) from "
+        "its closed forms (the angles of its named bounds --theta-ii-min ... --phi0-max in "
+        "degrees, as --theta-ii and --phi0 of the other commands); every other "
+        "model designs each parameter that is not fixed, within its table's interval (a "
+        "scale such as a mass or g only within a --bound you give), and its gait together: "
+        "IPOPT on the periodic orbit (multiple shooting), values in the model's units (see "
+        "'vsw models'). Exit 0 for an optimal design or a not-attained optimum (the best "
+        "design at an open limit), 3 when the request is infeasible or the solver does not "
+        "converge, 2 for a malformed request.",
+    )
+    _goal_options(p)
+    _limit_options(p)
+    _scale_options(p)
     p.add_argument("--start", action="append", metavar="NAME=VALUE",
                    help="not the ile: where a free parameter's search for starting gaits "
                    "begins (default: its default, or its interval's middle)")  # fmt: skip

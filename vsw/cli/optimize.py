@@ -317,7 +317,49 @@ def _write_ledger(out, model, work: dict, ground: dict, indent: str) -> None:
                   f"{fmt(tangential)}{impulse}\n")  # fmt: skip
 
 
-def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict[str, Any]:
+FIELDS = {
+    "cost": "the named cost on the fine mesh (work and cost_of_transport without "
+    "the regularization; eigenvalue: the spectral radius of the collocated step map, "
+    "its Hermite-Simpson equations differentiated); objective: the NLP's (work, "
+    "cost_of_transport and eigenvalue: plus the regularization times the squared "
+    "inputs' integral)",
+    "mesh_change": "relative change of the cost from the coarse to the fine mesh (a "
+    "cost zero within 1e-9 on both agrees whatever this is)",
+    "starts": "with --starts above 1: each start's cost on the coarse and the fine mesh, "
+    "its fine solve's IPOPT status, its status as judged on both meshes and why it is "
+    "not optimal (the first from the least squared-input step, the others from its "
+    "inputs perturbed; status failed: IPOPT stopped, reason why); best_start: the one "
+    "reported, an index into starts (0-based): optimal first, then IPOPT's success, "
+    "then the least cost",
+    "work": "per phase.input: positive and negative work over the step (Simpson); "
+    "per event.impulse: its positive and negative work (its net work the impulse "
+    "times the mean of its along's rate before and after it; its positive work "
+    "exact, in the two parts the optimiser split it into; c impulse^2 / 2 for one "
+    "applied with an impact)",
+    "impulses": "per event.impulse: the impulse, applied at the event (before its "
+    "reset, with its impact or after it, as the model declares)",
+    "ground_impulses": "per event.foot: the ground's impulse on the walker through "
+    "that foot over the event (the momentum's change), along the ground and normal "
+    "to it; at an impact, and where impulses act at a change of phase, constrained to "
+    "push (normal >= 0), at a lock reported (tangential / normal is the friction the "
+    "foot needs)",
+    "chosen_parameters": "the parameters the model names as the gait's own (an angle "
+    "at which an impulse acts), at the optimiser's values (also in parameters); null "
+    "for a model without, or under torque2 and eigenvalue, which hold them at the "
+    "given values",
+    "resimulation_error": "largest gap between a re-simulated phase's end and its "
+    "last knot, relative to max(1, |state|)",
+    "resimulated_work": "work and cost_of_transport: the positive work along the "
+    "re-simulated step (the inputs' by Simpson on 16 panels an interval, the "
+    "impulses' as the mesh's); optimal needs it within 1e-4 of the mesh's",
+    "eigenvalues": "of the open-loop Poincare map (inputs as functions of the time "
+    "since each phase began), by modulus; null unless optimal",
+}
+"""What each field of the JSON record of a powered gait means (its ``fields``)."""
+
+
+def _phases(model, gait: powered.PoweredGait) -> list[dict[str, Any]]:
+    """Each phase of the gait on its knots: times, states and inputs by name."""
     names = [*model.coordinates, *model.rates]
     phases = []
     for (phase, _), times, states, inputs, input_times in zip(
@@ -331,6 +373,11 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
             "input_time": input_times.tolist(),
             "inputs": {n: inputs[:, j].tolist() for j, n in enumerate(inputs_named)},
         })  # fmt: skip
+    return phases
+
+
+def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict[str, Any]:
+    phases = _phases(model, gait)
     eigenvalues = gait.extra.get("eigenvalues")
     return {
         "status": gait.status,
@@ -365,44 +412,7 @@ def _to_dict(model, request: powered.Request, gait: powered.PoweredGait) -> dict
         "eigenvalues_note": gait.extra.get("eigenvalues_note"),
         "ipopt": {"status": gait.ipopt_status, "iterations": gait.iterations},
         "phases": phases,
-        "fields": {
-            "cost": "the named cost on the fine mesh (work and cost_of_transport without "
-            "the regularization; eigenvalue: the spectral radius of the collocated step map, "
-            "its Hermite-Simpson equations differentiated); objective: the NLP's (work, "
-            "cost_of_transport and eigenvalue: plus the regularization times the squared "
-            "inputs' integral)",
-            "mesh_change": "relative change of the cost from the coarse to the fine mesh (a "
-            "cost zero within 1e-9 on both agrees whatever this is)",
-            "starts": "with --starts above 1: each start's cost on the coarse and the fine mesh, "
-            "its fine solve's IPOPT status, its status as judged on both meshes and why it is "
-            "not optimal (the first from the least squared-input step, the others from its "
-            "inputs perturbed; status failed: IPOPT stopped, reason why); best_start: the one "
-            "reported, an index into starts (0-based): optimal first, then IPOPT's success, "
-            "then the least cost",
-            "work": "per phase.input: positive and negative work over the step (Simpson); "
-            "per event.impulse: its positive and negative work (its net work the impulse "
-            "times the mean of its along's rate before and after it; its positive work "
-            "exact, in the two parts the optimiser split it into; c impulse^2 / 2 for one "
-            "applied with an impact)",
-            "impulses": "per event.impulse: the impulse, applied at the event (before its "
-            "reset, with its impact or after it, as the model declares)",
-            "ground_impulses": "per event.foot: the ground's impulse on the walker through "
-            "that foot over the event (the momentum's change), along the ground and normal "
-            "to it; at an impact, and where impulses act at a change of phase, constrained to "
-            "push (normal >= 0), at a lock reported (tangential / normal is the friction the "
-            "foot needs)",
-            "chosen_parameters": "the parameters the model names as the gait's own (an angle "
-            "at which an impulse acts), at the optimiser's values (also in parameters); null "
-            "for a model without, or under torque2 and eigenvalue, which hold them at the "
-            "given values",
-            "resimulation_error": "largest gap between a re-simulated phase's end and its "
-            "last knot, relative to max(1, |state|)",
-            "resimulated_work": "work and cost_of_transport: the positive work along the "
-            "re-simulated step (the inputs' by Simpson on 16 panels an interval, the "
-            "impulses' as the mesh's); optimal needs it within 1e-4 of the mesh's",
-            "eigenvalues": "of the open-loop Poincare map (inputs as functions of the time "
-            "since each phase began), by modulus; null unless optimal",
-        },
+        "fields": dict(FIELDS),
     }
 
 

@@ -16,8 +16,6 @@ from vsw.models.ile.design.forms import CONTINUATION, TABLE_LIMITS, VARIABLES, n
 from vsw.models.ile.design.nlp import Solve, limit_text, solve_from, verified_solve
 from vsw.models.ile.design.problem import Problem
 
-# --- the limit of a not-attained optimum ---------------------------------------------------
-
 
 @dataclass(frozen=True)
 class Limit:

@@ -30,8 +30,6 @@ from vsw.models.ile.design.forms import (
 )
 from vsw.models.ile.params import RobotScale, check_parameter
 
-# --- the problem ---------------------------------------------------------------------------
-
 
 @dataclass(frozen=True)
 class Constraint:

@@ -13,8 +13,6 @@ from vsw.models.ile.design.limit import Limit
 from vsw.models.ile.design.nlp import Solve, multistart, scan_box, shifted_bounds
 from vsw.models.ile.design.problem import Problem
 
-# --- result --------------------------------------------------------------------------------
-
 
 @dataclass(frozen=True)
 class DesignResult:
