@@ -481,13 +481,12 @@ def _passive_dynamics(phase: Phase) -> tuple[PhaseDynamics, tuple]:
             state = {*free, *u_free}
             system = system.applyfunc(lambda e: _factor_constants(e, state))
             rhs = rhs.applyfunc(lambda e: _factor_constants(e, state))
-            size = len(free)
-            slots = sm.Matrix(size, size, lambda i, j: sm.Dummy(f"M{i}{j}"))
-            forcing_slots = sm.Matrix(size, 1, lambda i, _: sm.Dummy(f"f{i}"))
+            slots, forcing_slots, slot_determinant, slot_adjugate, slot_numerators = (
+                _placeholder_cramer(len(free))
+            )
             entries = dict(zip(slots, system)) | dict(zip(forcing_slots, rhs))
-            determinant = slots.det(method="berkowitz").xreplace(entries)
-            slot_adjugate = slots.adjugate(method="berkowitz")
-            numerators = [e.xreplace(entries) for e in slot_adjugate * forcing_slots]
+            determinant = slot_determinant.xreplace(entries)
+            numerators = [e.xreplace(entries) for e in slot_numerators]
             adjugate = slot_adjugate.xreplace(entries)
         else:
             determinant = _simplify(system.det(method="berkowitz"))
@@ -789,13 +788,26 @@ def _compact_cramer(system: sm.Matrix, rhs: sm.Matrix) -> tuple[sm.Expr, ...]:
     """``system^-1 rhs`` by Cramer's rule formed on placeholders for the entries, which then
     go in whole (unexpanded products of them, each computed once by the code generator),
     as a larger phase's accelerations are (:func:`phase_dynamics`)."""
-    size = system.rows
-    slots = sm.Matrix(size, size, lambda i, j: sm.Dummy(f"A{i}{j}"))
-    rhs_slots = sm.Matrix(size, 1, lambda i, _: sm.Dummy(f"b{i}"))
+    slots, rhs_slots, determinant, _, numerators = _placeholder_cramer(system.rows)
     entries = dict(zip(slots, system)) | dict(zip(rhs_slots, rhs))
-    determinant = slots.det(method="berkowitz").xreplace(entries)
-    numerators = slots.adjugate(method="berkowitz") * rhs_slots
+    determinant = determinant.xreplace(entries)
     return tuple(n.xreplace(entries) / determinant for n in numerators)
+
+
+@functools.cache
+def _placeholder_cramer(
+    size: int,
+) -> tuple[sm.Matrix, sm.Matrix, sm.Expr, sm.Matrix, tuple[sm.Expr, ...]]:
+    """Cramer's rule of a ``size`` x ``size`` system on placeholders: the matrix's and the
+    right-hand side's, the determinant, the adjugate and the adjugate times the right-hand
+    side. Formed once for every phase and impact of that size (Berkowitz's determinant of
+    five-by-five placeholders was a fifth of a five-link walker's derivation); the
+    placeholders are replaced by each system's entries."""
+    slots = sm.Matrix(size, size, lambda i, j: sm.Dummy(f"M{i}{j}"))
+    rhs_slots = sm.Matrix(size, 1, lambda i, _: sm.Dummy(f"f{i}"))
+    adjugate = slots.adjugate(method="berkowitz")
+    return (slots, rhs_slots, slots.det(method="berkowitz"), adjugate,
+            tuple(adjugate * rhs_slots))  # fmt: skip
 
 
 def held_impulse_at_impact(model: Model, event_name: str, held: sm.Symbol
