@@ -11,6 +11,7 @@ from typing import Any, TextIO
 from vsw.cli import options
 from vsw.cli.output import INTEGRATOR, ORBIT_SOLVER, dump_json, envelope, fmt, with_units
 from vsw.cli.parser import EXIT_OK
+from vsw.errors import VswInputError
 from vsw.figures import check_save_path
 
 __all__ = ["register", "run"]
@@ -47,7 +48,36 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("--plot", metavar="FILE", help="the phase portrait, the outputs and the "
                    "torques over a step (.png, .svg or .pdf)")  # fmt: skip
+    _register_optimize(p)
     p.set_defaults(func=run)
+
+
+def _register_optimize(p: argparse.ArgumentParser) -> None:
+    """The options of ``--optimize`` (:mod:`vsw.hzd.optimize`)."""
+    g = p.add_argument_group("gait optimisation (--optimize)")
+    g.add_argument("--optimize", action="store_true", help="choose the Bezier coefficients "
+                   "(alpha_2 .. alpha_M; alpha_0, alpha_1 by the impact map) that minimise "
+                   "--minimize at --speed, verified on the full-order closed loop")  # fmt: skip
+    g.add_argument("--speed", type=float, metavar="V", help="the gait's speed (required)")
+    g.add_argument("--step-length", type=float, metavar="L", help="the step length (the "
+                   "constraints' theta_plus and theta_minus may fix it already)")  # fmt: skip
+    g.add_argument("--minimize", default="torque2", metavar="NAME",
+                   help="torque2 (the integral of the squared inputs over the step) or work "
+                   "(the inputs' positive work per step)")  # fmt: skip
+    g.add_argument("--mu", type=float, metavar="MU", help="the friction coefficient: the "
+                   "stance foot's |tangential| <= MU normal (default: unbounded)")  # fmt: skip
+    g.add_argument("--max-torque", type=float, metavar="T", help="|u| <= T for every input")
+    g.add_argument("--clearance", type=float, default=0.0, metavar="H",
+                   help="the swing foot at least H sin(pi s) above the ground away from "
+                   "mid-stance (default 0: above it)")  # fmt: skip
+    g.add_argument(
+        "--nodes",
+        type=int,
+        default=32,
+        metavar="N",
+        help="Chebyshev points of the phase the NLP evaluates the zero dynamics at",
+    )
+    g.add_argument("--out", metavar="FILE.py", help="write the optimum as a constraints file")
 
 
 def tolerances() -> dict[str, Any]:
@@ -65,6 +95,17 @@ def run(args: argparse.Namespace) -> int:
     from vsw import hzd
 
     model, params = options.model_and_parameters(args)
+    if args.optimize:
+        from vsw.cli.hzd_optimize import run_optimize
+
+        return run_optimize(args, model, params)
+    given = [
+        f"--{k.replace('_', '-')}"
+        for k in ("speed", "step_length", "mu", "max_torque", "out")
+        if getattr(args, k) is not None
+    ]
+    if given:
+        raise VswInputError(f"{given[0]} is an option of vsw hzd --optimize")
     if args.plot is not None:
         check_save_path(args.plot)
     with options.solver_errors(model):

@@ -35,14 +35,18 @@ SAMPLES = 401
 """Points of the step at which torques and the decoupling matrix are evaluated."""
 
 
-def invariant_alphas(model: HybridModel, package: Any, params: Sequence[float]) -> list[float]:
-    """The Bezier coefficients with those the impact sets filled in (Westervelt et al.
+def invariant_alphas(model: HybridModel, package: Any, params: Sequence[float],
+                     given: Sequence[float] | None = None) -> list[float]:  # fmt: skip
+    """The Bezier coefficients (the file's, or ``given``: every slot, those of
+    impact-invariant outputs overwritten) with those the impact sets filled in (Westervelt et al.
     2003, Theorem 4's construction): ``alpha_0 = a(q_+)``, ``alpha_1 = alpha_0 +
     (theta_minus - theta_plus)/M * a'(q_+) q_+' / theta'(q_+)`` with ``(q_+, q_+')`` the
     impact of ``Phi(theta_minus)``, ``Phi'(theta_minus)`` (neither depends on alpha_0,
     alpha_1: a Bezier polynomial's end and slope at s = 1 are its last two)."""
     spec = package.HZD
     alphas = [0.0 if a is None else float(a) for a in spec["defaults"]]
+    if given is not None:
+        alphas = [float(a) for a in given]
     if not any(o["invariant"] for o in spec["layout"]):
         return alphas
     surface = Surface(package, params, alphas)
@@ -62,11 +66,12 @@ def invariant_alphas(model: HybridModel, package: Any, params: Sequence[float]) 
     return alphas
 
 
-def surface_of(model: HybridModel, package: Any, params: Sequence[float]) -> Surface:
+def surface_of(model: HybridModel, package: Any, params: Sequence[float],
+               given: Sequence[float] | None = None) -> Surface:  # fmt: skip
     """The constraint surface at ``params``, the impact's coefficients filled in, and its
     phase checked against the impact (the phase just after the impact from theta_minus must
     be theta_plus)."""
-    surface = Surface(package, params, invariant_alphas(model, package, params))
+    surface = Surface(package, params, invariant_alphas(model, package, params, given))
     q, dq, _ = surface.at(surface.theta_minus)
     after = model.reset(model.step_event["name"], params, np.concatenate([q, dq]))
     theta = surface.phase(after[: model.n])
@@ -214,8 +219,10 @@ def analyze(
     values: Mapping[str, float] | None = None,
     gains: tuple[float, float] = DEFAULT_GAINS,
     full_order: bool = True,
+    alphas: Sequence[float] | None = None,
 ) -> HzdReport:
-    """The HZD report of ``constraints`` on ``model`` (see the module docstring)."""
+    """The HZD report of ``constraints`` on ``model`` (see the module docstring); with
+    ``alphas``, every Bezier coefficient in place of the file's (:func:`invariant_alphas`)."""
     phase = model.step_event["target"]
     if not model.phases[model.phase_index[phase]].get("inputs"):
         raise VswInputError(f"{model.name} has no inputs: virtual constraints need actuators")
@@ -225,7 +232,7 @@ def analyze(
         raise VswInputError(f"the constraints were derived for {spec['model']}, whose "
                             f"coordinates are not {model.name}'s")  # fmt: skip
     params = model.parameters(values)
-    surface = surface_of(model, package, params)
+    surface = surface_of(model, package, params, alphas)
     z = zero_dynamics(surface)
     loop = ClosedLoop(model, surface, *gains)
     gait = _gait_on_surface(model, loop, z, params)
