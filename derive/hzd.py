@@ -58,10 +58,15 @@ __all__ = [
     "Constraints",
     "ConstraintsError",
     "InvariantBezier",
+    "Reduced",
     "S",
+    "Step",
     "bezier_of",
     "coordinates",
     "derivation",
+    "reduce",
+    "restricted_map",
+    "value",
 ]
 
 THETA = sm.Symbol("hzd_theta", real=True)
@@ -107,6 +112,25 @@ class InvariantBezier:
 
 
 @dataclass(frozen=True)
+class Step:
+    """A desired value that steps at the phase value ``at``: ``before`` from ``theta_plus``
+    to ``at``, ``after`` from there to ``theta_minus`` (each an expression in :data:`THETA`
+    or :data:`S`, the model's parameters or the constraints' own). The configuration jumps
+    there at once, moved by an impulse of the inputs: :func:`reduce` checks that the inputs
+    can make the jump and that their impulse has no moment about the stance foot, so that
+    ``sigma`` is carried across while ``I(theta)`` jumps."""
+
+    at: Any
+    before: Any
+    after: Any
+
+
+def value(k: int) -> sm.Symbol:
+    """Output ``k``'s desired value in :attr:`Constraints.inverse`."""
+    return sm.Symbol(f"hzd_value_{k}", real=True)
+
+
+@dataclass(frozen=True)
 class Constraints:
     """Virtual constraints: ``phase`` (affine in the coordinates) runs from ``theta_plus``
     just after an impact to ``theta_minus`` at the next; ``outputs`` maps each controlled
@@ -119,6 +143,15 @@ class Constraints:
     outputs: dict
     title: str = ""
     names: tuple[str, ...] = field(default=())
+    inputs: tuple[str, ...] = field(default=())
+    """The inputs that enforce the outputs (the others idle at zero); empty: all of them."""
+    inverse: dict | None = None
+    """The surface when the phase or a controlled function is not affine in the
+    coordinates: each coordinate in :data:`THETA` and the outputs' values :func:`value`
+    (checked: the phase and the controlled functions of it give back ``THETA`` and the
+    values)."""
+    parameters: dict = field(default_factory=dict)
+    """The constraints' own symbols by name (beside the model's parameters), with values."""
 
 
 def bezier_of(polynomial: sm.Expr, degree: int) -> tuple[sm.Expr, ...]:
@@ -254,7 +287,8 @@ def _momentum(bodies: list, about: tuple, q: list, qd: list) -> sm.Expr:
     return total
 
 
-def _check_no_moment(phase: Any, q: list, params: tuple[Parameter, ...]) -> None:
+def _check_no_moment(phase: Any, q: list, params: tuple[Parameter, ...],
+                     inputs: tuple | None = None) -> None:  # fmt: skip
     """The inputs' generalised forces do no work on a rigid rotation about the stance foot
     (else ``d sigma/dt`` would hold the torques): checked at three random points, the
     rotation's direction in the coordinates solved by least squares."""
@@ -264,7 +298,8 @@ def _check_no_moment(phase: Any, q: list, params: tuple[Parameter, ...]) -> None
     positions = [sm.Matrix(b.position) for b in phase.bodies]
     jac = sm.Matrix.vstack(*[p.jacobian(q) for p in positions])
     turn = sm.Matrix([c for p in positions for c in (p[1], -p[0])])
-    forces = sm.Matrix([[sm.diff(i.along, v) for v in q] for i in phase.inputs])
+    inputs = phase.inputs if inputs is None else inputs
+    forces = sm.Matrix([[sm.diff(i.along, v) for v in q] for i in inputs])
     symbols = [p.symbol for p in params] + q
     f = sm.lambdify(symbols, (jac, turn, forces), "numpy")
     for _ in range(3):
@@ -303,6 +338,11 @@ def _surface(constraints: Constraints, q: list, desired: list) -> tuple[sm.Matri
 
 def derivation(model: Any, constraints: Constraints, name: str) -> Derivation:
     """The constraints' generated quantities (see the module docstring)."""
+    if _needs_reduce(constraints):
+        raise ConstraintsError(
+            "vsw hzd's runtime takes a phase and outputs affine in the coordinates, every "
+            "input and no Step; derive.hzd.restricted_map derives the map of these"
+        )
     phase, event = _step_phase(model)
     q = [c.q for c in phase.coordinates]
     qd = [c.u for c in phase.coordinates]
@@ -393,6 +433,227 @@ def derivation(model: Any, constraints: Constraints, name: str) -> Derivation:
         "coordinates": [s.name for s in q],
     }, "What the constraints declare, for the runtime (vsw.hzd).")  # fmt: skip
     return out
+
+
+# ------------------------------------------------------------------ the symbolic reduction
+
+
+def _needs_reduce(constraints: Constraints) -> bool:
+    """Whether the constraints use what only :func:`reduce` takes (a :class:`Step`, a
+    declared inverse, a subset of the inputs or symbols of their own)."""
+    steps = any(isinstance(v, Step) for v in constraints.outputs.values())
+    return (
+        steps
+        or constraints.inverse is not None
+        or bool(constraints.inputs)
+        or bool(constraints.parameters)
+    )
+
+
+@dataclass
+class Reduced:
+    """The zero dynamics on a surface made of pieces: piece ``j`` runs from ``breaks[j]``
+    to ``breaks[j + 1]`` (``theta_plus``, the steps' phases, ``theta_minus``), on it ``q =
+    surfaces[j](theta)``, ``sigma = inertia[j] theta_dot`` and ``d sigma/dt = moment[j]``;
+    ``sigma`` is continuous at the steps; ``delta = sigma_+/sigma_-`` through the impact."""
+
+    breaks: list
+    surfaces: list
+    inertia: list
+    moment: list
+    delta: sm.Expr
+    symbols: dict
+
+    @property
+    def kappa(self) -> list:
+        """``d zeta/d theta = I(theta) * moment(theta)`` on each piece (Westervelt et al.
+        2003, (53))."""
+        return [i * m for i, m in zip(self.inertia, self.moment)]
+
+
+def _used_inputs(phase: Any, names: tuple[str, ...]) -> tuple:
+    if not names:
+        return tuple(phase.inputs)
+    known = {i.name: i for i in phase.inputs}
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        raise ConstraintsError(f"the model has no input {unknown[0]!r} (it has "
+                               f"{', '.join(known)})")  # fmt: skip
+    return tuple(known[n] for n in names)
+
+
+def _symbolic(expr: Any, symbols: dict, what: str) -> sm.Expr:
+    """``expr`` in the model's and the constraints' symbols, :data:`THETA` and :data:`S`."""
+    expr = _by_name(expr, symbols)
+    extra = expr.free_symbols - set(symbols.values()) - {THETA, S}
+    if extra:
+        names = ", ".join(sorted(str(e) for e in extra))
+        raise ConstraintsError(f"{what} may use THETA, S and the model's and the "
+                               f"constraints' parameters, not {names}")  # fmt: skip
+    return expr
+
+
+def _pieces(constraints: Constraints, symbols: dict, s_of_theta: sm.Expr) -> tuple[list, list]:
+    """The steps' phases in order and each piece's desired values (one per output)."""
+    first, later = [], []
+    for k, (controlled, v) in enumerate(constraints.outputs.items()):
+        if isinstance(v, Bezier | InvariantBezier):
+            raise ConstraintsError(
+                f"output {controlled}: the symbolic reduction takes expressions and Steps; "
+                "Bezier outputs go to vsw hzd"
+            )
+        if isinstance(v, Step):
+            at = _symbolic(v.at, symbols, f"output {controlled}'s step")
+            later.append((at, k, _symbolic(v.after, symbols, f"output {controlled}")))
+            v = v.before
+        first.append(_symbolic(v, symbols, f"output {controlled}").xreplace({S: s_of_theta}))
+    breaks: list = []
+    for at, _, _ in later:
+        if at not in breaks:
+            breaks.append(at)
+    if len(breaks) > 1:
+        try:
+            breaks.sort(key=lambda b: float(b))
+        except TypeError:
+            raise ConstraintsError("steps at more than one symbolic phase: their order is "
+                                   "not known") from None  # fmt: skip
+    pieces = [first]
+    for at in breaks:
+        piece = list(pieces[-1])
+        for where, k, after in later:
+            if where == at:
+                piece[k] = after.xreplace({S: s_of_theta})
+        pieces.append(piece)
+    return breaks, pieces
+
+
+def _sample(exprs: list, rng: Any, fixed: dict) -> list[float]:
+    """``exprs`` at random values in [0.5, 1.5] of every free symbol not in ``fixed``."""
+    free = set().union(*(sm.sympify(e).free_symbols for e in exprs)) - set(fixed)
+    values = {**fixed, **{f: rng.uniform(0.5, 1.5) for f in sorted(free, key=str)}}
+    return [complex(sm.sympify(e).xreplace(values).evalf()) for e in exprs]
+
+
+def _inverse_surface(constraints: Constraints, q: list, symbols: dict) -> sm.Matrix:
+    """The declared inverse, checked at five random points: the phase of it is THETA and
+    the controlled functions of it are the values."""
+    import numpy as np
+
+    inverse = {_by_name(k, symbols): _by_name(v, symbols) for k, v in constraints.inverse.items()}
+    if set(inverse) != set(q):
+        raise ConstraintsError("the inverse must give every coordinate of the model")
+    phi = sm.Matrix([inverse[v] for v in q])
+    on = dict(zip(q, phi))
+    values = [value(k) for k in range(len(constraints.outputs))]
+    checks = [constraints.phase.xreplace(on) - THETA]
+    checks += [c.xreplace(on) - h for c, h in zip(constraints.outputs, values)]
+    rng = np.random.default_rng(2003)
+    for _ in range(5):
+        fixed = {THETA: rng.uniform(-1.0, 1.0)}
+        worst = max(abs(v) for v in _sample(checks, rng, fixed))
+        if not worst < 1e-9:
+            raise ConstraintsError(
+                "the inverse does not invert the phase and the controlled functions (off by "
+                f"{worst:.3g} at a random point)"
+            )
+    return phi
+
+
+def _mass_matrix(bodies: list, q: list) -> sm.Matrix:
+    """``M(q)`` of the bodies (``T = q_dot' M q_dot / 2``)."""
+    out = sm.zeros(len(q), len(q))
+    for body in bodies:
+        jac = sm.Matrix(body.position).jacobian(q)
+        out += body.mass * jac.T * jac
+        if hasattr(body, "inertia"):
+            turn = sm.Matrix([body.angle]).jacobian(q)
+            out += body.inertia * turn.T * turn
+    return out
+
+
+def _check_jump(before: sm.Matrix, after: sm.Matrix, at: sm.Expr, inputs: tuple,
+                bodies: list, q: list) -> None:  # fmt: skip
+    """The jump ``Phi_after(at) - Phi_before(at)`` is a displacement the inputs' impulse
+    makes: in the span of ``M^-1 B`` (checked at three random points, numerically)."""
+    import numpy as np
+
+    on = dict(zip(q, before.xreplace({THETA: at})))
+    jump = (after - before).xreplace({THETA: at})
+    forces = sm.Matrix([[sm.diff(i.along, v) for v in q] for i in inputs]).T.xreplace(on)
+    moves = _mass_matrix(bodies, q).xreplace(on).LUsolve(forces)
+    rng = np.random.default_rng(2003)
+    for _ in range(3):
+        entries = _sample([*moves, *jump], rng, {})
+        a = np.array(entries[: len(moves)]).reshape(moves.shape)
+        b = np.array(entries[len(moves) :])
+        w, *_ = np.linalg.lstsq(a, b, rcond=None)
+        if np.max(np.abs(a @ w - b)) > 1e-9 * max(1.0, float(np.max(np.abs(b)))):
+            raise ConstraintsError(f"the step at theta = {at} moves the configuration where "
+                                   "the inputs' impulse cannot")  # fmt: skip
+
+
+def reduce(model: Any, constraints: Constraints) -> Reduced:
+    """The zero dynamics of ``constraints`` on ``model`` in closed form, the constraints'
+    values symbolic if they are (their own :attr:`Constraints.parameters` as symbols)."""
+    phase, event = _step_phase(model)
+    inputs = _used_inputs(phase, tuple(constraints.inputs))
+    q = [c.q for c in phase.coordinates]
+    qd = [c.u for c in phase.coordinates]
+    if len(constraints.outputs) != len(inputs) or len(q) != len(inputs) + 1:
+        raise ConstraintsError(f"{len(q)} coordinates, {len(inputs)} inputs and "
+                               f"{len(constraints.outputs)} outputs: the zero dynamics need "
+                               "one output per input and one coordinate more")  # fmt: skip
+    symbols = {p.symbol.name: p.symbol for p in model.parameters}
+    symbols.update({n: sm.Symbol(n, real=True) for n in constraints.parameters})
+    names = {**symbols, **{v.name: v for v in q}}
+    plus = _symbolic(constraints.theta_plus, symbols, "theta_plus")
+    minus = _symbolic(constraints.theta_minus, symbols, "theta_minus")
+    constraints = Constraints(
+        phase=_by_name(constraints.phase, names),
+        theta_plus=plus,
+        theta_minus=minus,
+        outputs={_by_name(k, names): v for k, v in constraints.outputs.items()},
+        inverse=constraints.inverse,
+    )
+    _check_no_moment(phase, q, model.parameters, inputs)
+    breaks, pieces = _pieces(constraints, symbols, (THETA - plus) / (minus - plus))
+    bodies = [_held(b, dict(phase.held)) for b in phase.bodies]
+    if constraints.inverse is not None:
+        chart = _inverse_surface(constraints, q, names)
+        surfaces = [chart.xreplace({value(k): h for k, h in enumerate(p)}) for p in pieces]
+    else:
+        surfaces = [_surface(constraints, q, p)[0] for p in pieces]
+    for at, before, after in zip(breaks, surfaces, surfaces[1:]):
+        _check_jump(before, after, at, inputs, bodies, q)
+    sigma = _momentum(bodies, (0, 0), q, qd)
+    gx, gy = phase.gravity
+    moment = sum(b.mass * (b.position[1] * gx - b.position[0] * gy) for b in bodies)
+    inertia, moments = [], []
+    for phi in surfaces:
+        on = dict(zip(q, phi))
+        inertia.append(sm.simplify(sigma.xreplace(dict(zip(qd, phi.diff(THETA)))).xreplace(on)))
+        moments.append(sm.simplify(moment.xreplace(on)))
+    last = surfaces[-1]
+    before = {**dict(zip(qd, last.diff(THETA))), **dict(zip(q, last))}
+    contact = phase.points[event.reset.new_contact]
+    swing = _momentum(bodies, contact, q, qd).xreplace(before).xreplace({THETA: minus})
+    delta = swing / inertia[-1].xreplace({THETA: minus})
+    return Reduced([plus, *breaks, minus], surfaces, inertia, moments, delta, symbols)
+
+
+def restricted_map(reduced: Reduced) -> tuple[sm.Expr, sm.Expr | None]:
+    """``delta^2`` and ``V(theta_minus)`` of the restricted map ``zeta_{k+1} = delta^2
+    zeta_k - V(theta_minus)`` on ``zeta = sigma^2/2`` just before the impact (Westervelt
+    et al. 2003, (58)-(60)): ``V = -integral kappa`` over the pieces, ``zeta`` carried
+    across the steps; ``None`` when sympy finds no closed form (the runtime's quadrature
+    then)."""
+    total = sm.Integer(0)
+    for lo, hi, kappa in zip(reduced.breaks, reduced.breaks[1:], reduced.kappa):
+        part = sm.integrate(kappa, (THETA, lo, hi))
+        if part.has(sm.Integral):
+            return reduced.delta**2, None
+        total += part
+    return reduced.delta**2, -total
 
 
 def _held(body: Any, held: dict) -> Any:

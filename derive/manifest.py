@@ -1,7 +1,8 @@
 """What each model of ``generated/`` was derived from, so that unchanged models are skipped.
 
 ``generated/MANIFEST`` records, for every model, the SHA-256 of its *inputs* (the engine:
-every file of ``derive/`` outside ``derive/models/``; the model's own modules and the other
+every file of ``derive/`` outside ``derive/models/`` but ``derive/hzd.py``, which no
+model's derivation runs; the model's own modules and the other
 model modules they import; the versions of sympy and CasADi, which shape the output) and of
 every file the model wrote. A model whose inputs hash as recorded and whose files on disk
 hash as recorded is not derived again: its files are what the derivation would write,
@@ -60,6 +61,11 @@ _SOURCE_SUFFIXES = (".py", ".in")
 backup or a stray file beside them is not an input)."""
 
 
+_NOT_ENGINE = ("hzd.py",)
+"""Modules of ``derive/`` that no model's derivation runs: ``hzd.py`` derives constraints
+files for ``vsw hzd`` (which keys its own cache on it), not the models of ``generated/``."""
+
+
 def _engine_files() -> list[Path]:
     models = PACKAGE / "models"
     return sorted(
@@ -69,6 +75,7 @@ def _engine_files() -> list[Path]:
         and p.suffix in _SOURCE_SUFFIXES
         and "__pycache__" not in p.parts
         and models not in p.parents
+        and p.relative_to(PACKAGE).as_posix() not in _NOT_ENGINE
     )
 
 
