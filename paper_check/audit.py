@@ -109,12 +109,16 @@ class Audit:
     claims: list[Entry]
     figure_data: dict[str, Any]
     settings: dict[str, Any]
+    hzd: list[Entry] = field(default_factory=list)
+    """(7), (10) and (19) as the restricted map of a hybrid zero dynamics
+    (:mod:`paper_check.hzd_ile`)."""
 
     def verdicts(self) -> dict[str, dict[str, str]]:
-        """``{'equations': {id: verdict}, 'claims': {id: verdict}}``."""
+        """``{'equations': {id: verdict}, 'claims': {id: verdict}, 'hzd': {id: verdict}}``."""
         return {
             "equations": {e.id: e.verdict for e in self.equations},
             "claims": {c.id: c.verdict for c in self.claims},
+            "hzd": {h.id: h.verdict for h in self.hzd},
         }
 
 
@@ -149,10 +153,13 @@ def verdict_changes(
 ) -> list[str]:
     """Human-readable differences between found and expected verdicts (empty if none)."""
     changes = []
-    for part in ("equations", "claims"):
-        keys = sorted(set(found[part]) | set(expected[part]))
+    for part in ("equations", "claims", "hzd"):
+        if part not in found:  # a table of the equations and claims alone
+            continue
+        got_part, want_part = found[part], expected.get(part, {})
+        keys = sorted(set(got_part) | set(want_part))
         for key in keys:
-            got, want = found[part].get(key), expected[part].get(key)
+            got, want = got_part.get(key), want_part.get(key)
             if got != want:
                 changes.append(f"{part} {key}: expected {want!r}, found {got!r}")
     return changes
@@ -971,7 +978,9 @@ def run_audit() -> Audit:
         "simulations per existence category": SIMS_PER_CATEGORY,
         "simulator": "vsw.models.ile.simulate (DOP853, rtol 1e-10, atol 1e-12, event refinement)",
     }
-    return Audit(equations, claims, data, settings)
+    from paper_check.hzd_ile import audit_hzd
+
+    return Audit(equations, claims, data, settings, audit_hzd())
 
 
 def paper_latex(eq_id: str) -> str:

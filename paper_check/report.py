@@ -98,7 +98,7 @@ def _entry_md(e: Entry, heading: str, anchor: str) -> list[str]:
     lines = [f'<a id="{anchor}"></a>', f"### {heading}", ""]
     lines.append(f"*{e.title}*")
     lines.append("")
-    if e.paper and e.id.startswith("("):
+    if e.paper and e.id.removeprefix("hzd-").startswith("("):
         lines += ["As printed:", "", "$$", " ".join(e.paper.split()), "$$", ""]
     elif e.paper:
         lines += [f"Paper: “{e.paper}”", ""]
@@ -179,10 +179,33 @@ def audit_markdown(audit: Audit) -> str:
     lines += ["## Claims", ""]
     for c in audit.claims:
         lines += _entry_md(c, f"{c.id} — {c.verdict}", c.id)
+    lines += _hzd_md(audit)
     lines += ["## Settings", ""]
     lines += [f"- {k}: {v}" for k, v in s.items()]
     lines.append("")
     return "\n".join(lines)
+
+
+def _hzd_md(audit: Audit) -> list[str]:
+    """The section on (7), (10), (19) as a hybrid zero dynamics (none if not audited)."""
+    if not audit.hzd:
+        return []
+    lines = [
+        "## The ILE as a hybrid zero dynamics",
+        "",
+        "The point-mass biped on two massless telescoping legs (`point_mass_biped_switch`) "
+        "under the ILE's virtual constraints (`paper_check/ile_hzd_constraints.py`: phase "
+        "$\\theta$ = the stance leg's angle from the vertical, output the stance leg's "
+        "length minus $r_s$ before $\\theta_{II}$ and $r_c$ after, the leg force alone "
+        "enforcing it). `derive/hzd.py` derives its restricted Poincaré map $\\zeta_{k+1} = "
+        "\\delta^2 \\zeta_k - V$ on $\\zeta = \\sigma^2/2$ (angular momentum about the "
+        "stance foot, carried across the extension); in $q = \\omega_I^2$ it is checked "
+        "against the printed (7), (10) and (19) (`paper_check/hzd_ile.py`).",
+        "",
+    ]
+    for e in audit.hzd:
+        lines += _entry_md(e, f"{e.id} — {e.verdict}", e.id)
+    return lines
 
 
 _FAMILY = {
@@ -247,6 +270,7 @@ def audit_json(audit: Audit) -> str:
         "settings": audit.settings,
         "equations": [e.as_json() for e in audit.equations],
         "claims": [c.as_json() for c in audit.claims],
+        **({"hzd": [h.as_json() for h in audit.hzd]} if audit.hzd else {}),
         "figure_gaps": _jsonable(audit.figure_data.get("gaps", [])),
     }
     return json.dumps(doc, indent=2, sort_keys=False, ensure_ascii=False) + "\n"
