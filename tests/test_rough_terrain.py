@@ -376,3 +376,21 @@ def test_the_vsw_biped_with_a_foothold_height_walks_as_the_vsw_biped_at_height_0
     np.testing.assert_array_equal(a.final, b.final)
     assert a.ended() == b.ended()
     assert disturbance_index(height, "height") == 4
+
+
+def test_progress_is_drawn_on_a_terminal(monkeypatch, capsys):
+    """A bar by steps on a terminal's stderr (made before the solvers' stderr is set
+    aside), for the walks and for a sweep."""
+    import io
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    for extra in ([], ["--over", "sigma=0.0015:0.002:2"]):
+        terminal = Terminal()
+        monkeypatch.setattr("sys.stderr", terminal)
+        argv = [*WALKER, "--sigma", "0.0015", "--walks", "50", "--max-steps", "40", *extra]
+        assert main(argv) == 0
+        assert "rough pass 1 [" in terminal.getvalue() and "/40 " in terminal.getvalue()
+    capsys.readouterr()

@@ -185,7 +185,9 @@ def run(args: argparse.Namespace) -> int:
         _check_chain_cost(model, args, points)
     if over is not None:
         return _run_sweep(model, params, args, over, scheduler)
-    data = _compute(model, params, args, start, walks, chain, scheduler)
+    # The bar before the solvers' stderr is set aside (options.solver_errors)
+    with progress("rough") as bar, reporting(bar):
+        data = _compute(model, params, args, start, walks, chain, scheduler)
     unit = _terrain_unit(model, args.terrain)
     if args.plot is not None:
         noise = (f"{args.terrain} drawn per step ({args.distribution}): $\\sigma$ = "
@@ -293,11 +295,9 @@ def _compute(model: Any, params: Any, args: argparse.Namespace, start: Any, walk
         data = {**envelope(model, params, args.argv, INTEGRATOR), "model": model.cli_name,
                 "method": args.method}  # fmt: skip
         if walks:
-            with progress("rough") as bar, reporting(bar):
-                result = rough_walks(model, params, args.sigma, args.walks, args.max_steps,
-                                     args.seed, start=start, gait=gait, terrain=args.terrain,
-                                     distribution=args.distribution,
-                                     scheduler=scheduler)  # fmt: skip
+            result = rough_walks(model, params, args.sigma, args.walks, args.max_steps,
+                                 args.seed, start=start, gait=gait, terrain=args.terrain,
+                                 distribution=args.distribution, scheduler=scheduler)  # fmt: skip
             data.update(result.to_dict())
             data["model"] = model.cli_name
         else:
