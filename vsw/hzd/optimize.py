@@ -430,6 +430,9 @@ def optimize(model: HybridModel, model_key: str, constraints: str, values: Any,
               np.array(ca.Function("a", [nlp.z], [nlp.alphas])(z), float).ravel()]  # fmt: skip
     out = HzdOptimum(alphas, objective, status, converged, iterations, solved - built,
                      built - began)  # fmt: skip
+    if not converged:
+        out.failures.append(f"IPOPT: {status}")
+        return out
     try:
         out.report = analyze(model, model_key, constraints, values, gains, True, alphas)
     except Exception as exc:  # the runtime finds no gait there: not verified, says why
