@@ -17,7 +17,11 @@ r_s sin theta_I`` ahead and the switch ``sigma d = r_c sin theta_IV``. Numerical
 random parameter sets that satisfy the paper's conditions (13), (15)-(17): the file's
 constraints as written (``theta_I`` and ``theta_IV`` by ``asin``), ``V`` both in closed form
 and by Gauss-Legendre quadrature of ``kappa``, against the printed (7), (10), (19) and the
-generated ILE's ``stride_map``, ``q_fixed`` and ``eigenvalue``.
+generated ILE's ``stride_map``, ``q_fixed`` and ``eigenvalue`` to 1e-12; and the runtime's
+numbers (:func:`runtime_check`: the point-mass biped's generated impact from the surface,
+``delta`` from the angular momenta about the two feet, ``V`` by the runtime's Clenshaw-Curtis
+quadrature) against the generated ILE to 1e-9. ``vsw hzd`` itself does not run these
+constraints: its computed-torque loop cannot make the configuration's jump.
 """
 
 from __future__ import annotations
@@ -40,6 +44,8 @@ __all__ = ["NUMERIC_TOL", "audit_hzd", "derived_map", "numeric_check", "switch_p
 
 NUMERIC_TOL = 1e-12
 """Largest relative difference allowed between the derived map and the printed forms."""
+RUNTIME_TOL = 1e-9
+"""Largest relative difference allowed between the runtime's numbers and the ILE's."""
 SAMPLES = 200
 SEED = 20240607
 _NODES = 40
@@ -209,6 +215,56 @@ def numeric_check(n: int = SAMPLES, seed: int = SEED) -> dict[str, Any]:
     return {"parameter sets": n, "seed": seed, "largest relative difference": worst}
 
 
+def _runtime_step(walker: Any, kappa: Any, sets: dict, k: int) -> dict[str, float]:
+    """One parameter set through the runtime: the model's generated impact from the
+    surface at theta_IV, the phase and leg after it, delta from the angular momenta about
+    the new and the old foot, and V by the runtime's Clenshaw-Curtis quadrature."""
+    from vsw.hzd.zero import chebyshev_integral
+
+    beta, phi0, t2, rc, m, g = (float(sets[v][k]) for v in
+                                ("beta", "phi0", "theta_II", "r_c", "m", "g"))  # fmt: skip
+    sw = switch_parameters(beta, phi0, rc)
+    params = walker.parameters({"m": m, "g": g, **{n: float(v) for n, v in sw.items()}})
+    t1, t4 = float(ile.theta_I(beta, phi0)), float(ile.theta_IV(beta, phi0))
+    before = np.array([rc * math.sin(t4), rc * math.cos(t4), rc * math.cos(t4),
+                       -rc * math.sin(t4)])  # theta_dot = 1  # fmt: skip
+    x, y, vx, vy = walker.reset(walker.step_event["name"], params, before)
+    delta = (y * vx - x * vy) / rc**2
+    values = (*params, t2)
+    v = 0.0
+    for (lo, hi), f in zip(((t1, t2), (t2, t4)), kappa):
+        v -= float(chebyshev_integral(lambda t, f=f: f(*values, t) + 0 * t, lo, hi)(hi))
+    slope = delta**2
+    offset = -slope * v * 2 * rc / (g * (m * (beta * rc) ** 2) ** 2)
+    q = 0.5 + k % 5 * 0.4
+    return {
+        "phase after heelstrike": _relative(math.atan2(x, y), t1),
+        "leg after heelstrike": _relative(math.hypot(x, y), beta * rc),
+        "stride_map": _relative(slope * q + offset, float(ile.stride_map(beta, t2, phi0, q))),
+        "q_fixed": _relative(offset / (1 - slope), float(ile.q_fixed(beta, t2, phi0))),
+        "eigenvalue": _relative(slope, float(ile.eigenvalue(beta, phi0))),
+    }
+
+
+def runtime_check(n: int = 50, seed: int = SEED + 2) -> dict[str, Any]:
+    """The runtime's numbers against the generated ILE's closed forms over ``n`` parameter
+    sets: the point-mass biped's generated impact (``vsw.models``) and the runtime's
+    quadrature of the derived ``kappa`` (``vsw.hzd.zero.chebyshev_integral``)."""
+    from vsw.models import load
+
+    walker = load("point-mass-biped-switch")
+    reduced = reduce(MODEL, CONSTRAINTS)
+    s = reduced.symbols
+    args = [s[k] for k in ("m", "g", "l", "d", "l_min", "sigma", "theta_II")] + [THETA]
+    kappa = [sm.lambdify(args, k, "numpy") for k in reduced.kappa]
+    sets = _sample(n, seed)
+    worst: dict[str, float] = {}
+    for k in range(n):
+        for key, err in _runtime_step(walker, kappa, sets, k).items():
+            worst[f"runtime {key}"] = max(worst.get(f"runtime {key}", 0.0), float(err))
+    return {"parameter sets": n, "seed": seed, "largest relative difference": worst}
+
+
 def audit_hzd() -> list:
     """The section's entries: (7), (10) and (19) as the HZD's restricted map."""
     from paper_check.audit import Entry
@@ -218,19 +274,25 @@ def audit_hzd() -> list:
     num = numeric_check()
     worst = num["largest relative difference"]
     landing = all(v == 0 for k, v in res.items() if k.startswith("landing"))
+    run = runtime_check()
+    at_runtime = run["largest relative difference"]
     plan = (
         ("hzd-(7)", "(7)", "the stride map is the HZD's restricted map",
          ["(7) slope: derived - printed", "(7) offset: derived - printed"],
-         ["(7) closed form", "(7) quadrature", "generated stride_map"]),
+         ["(7) closed form", "(7) quadrature", "generated stride_map"],
+         ["runtime stride_map", "runtime phase after heelstrike",
+          "runtime leg after heelstrike"]),
         ("hzd-(10)", "(10)", "its fixed point", ["(10): derived fixed point - printed"],
-         ["(10)", "generated q_fixed"]),
+         ["(10)", "generated q_fixed"], ["runtime q_fixed"]),
         ("hzd-(19)", "(19)", "its eigenvalue delta^2",
-         ["(19): derived slope - printed eigenvalue"], ["(19)", "generated eigenvalue"]),
+         ["(19): derived slope - printed eigenvalue"], ["(19)", "generated eigenvalue"],
+         ["runtime eigenvalue"]),
     )  # fmt: skip
     entries = []
-    for entry_id, eq, title, keys, nums in plan:
+    for entry_id, eq, title, keys, nums, runs in plan:
         zero = all(res[k] == 0 for k in keys) and landing
         close = all(worst[k] <= NUMERIC_TOL for k in nums)
+        close &= all(at_runtime[k] <= RUNTIME_TOL for k in runs)
         evidence = {
             "symbolic": {
                 **{k: str(res[k]) for k in keys},
@@ -241,6 +303,12 @@ def audit_hzd() -> list:
                 "seed": num["seed"],
                 "tolerance": NUMERIC_TOL,
                 **{k: worst[k] for k in nums},
+            },
+            "runtime": {
+                "parameter sets": run["parameter sets"],
+                "seed": run["seed"],
+                "tolerance": RUNTIME_TOL,
+                **{k: at_runtime[k] for k in runs},
             },
         }
         entries.append(Entry(

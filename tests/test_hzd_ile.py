@@ -148,3 +148,12 @@ def test_the_audit_section_s_identities_and_numbers():
     worst = numeric_check(50)["largest relative difference"]
     assert max(worst.values()) <= 1e-12, worst
     assert np.isfinite(list(worst.values())).all()
+
+
+def test_the_runtime_s_impact_and_quadrature_give_the_ile_s_map():
+    """The point-mass biped's generated impact from the surface at theta_IV and the
+    runtime's quadrature of kappa: the ILE's closed forms to 1e-9."""
+    from paper_check.hzd_ile import runtime_check
+
+    worst = runtime_check(10)["largest relative difference"]
+    assert len(worst) == 5 and max(worst.values()) <= 1e-9, worst
