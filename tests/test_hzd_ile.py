@@ -157,3 +157,21 @@ def test_the_runtime_s_impact_and_quadrature_give_the_ile_s_map():
 
     worst = runtime_check(10)["largest relative difference"]
     assert len(worst) == 5 and max(worst.values()) <= 1e-9, worst
+
+
+def test_vsw_hzd_refuses_the_file_in_one_line(tmp_path):
+    """The runtime cannot carry the configuration's jump: one line on stderr, exit 2."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    done = subprocess.run(
+        [sys.executable, "-m", "vsw", "hzd", "--model", "point-mass-biped-switch",
+         "--constraints", str(root / "paper_check" / "ile_hzd_constraints.py")],
+        capture_output=True, text=True, cwd=root, timeout=600,
+        env={**os.environ, "VSW_CACHE_DIR": str(tmp_path)},
+    )  # fmt: skip
+    assert done.returncode == 2, done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1 and "Step" in done.stderr
