@@ -49,7 +49,7 @@ import generated.ile as ile  # noqa: E402
 from vsw.models.ile.params import random_parameters  # noqa: E402
 from vsw.vectorize import chunked, default_threads  # noqa: E402
 
-CASES = (1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17)
+CASES = (1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18)
 
 DESIGN_BEFORE = "39d527c"
 DERIVE_BEFORE = "5e02f11"
@@ -1551,6 +1551,10 @@ def run_case(case: int, quick: bool, against: str | None = None) -> list[Row]:
         from rough_bench import case_rough
 
         return case_rough(20 if quick else 2000, reps, Row, interleaved, _near_gait_starts)
+    if case == 18:  # HZD gait optimisation against collocation: benchmarks/hzd_bench.py
+        from hzd_bench import case_hzd_optimize
+
+        return case_hzd_optimize(quick, Row, Timing)
     raise ValueError(f"no benchmark case {case}; cases are {CASES}")
 
 
