@@ -665,12 +665,12 @@ def case_batch_step(count: int, reps: int) -> list[Row]:
                 found["ours"] = sim.step(params, starts, threads=1, tolerance=our_tol).final
 
             def theirs(m=m, params=params, starts=starts, found=found, tol=tol):
-                saved = hybrid._RTOL, hybrid._ATOL
-                hybrid._RTOL = hybrid._ATOL = tol
+                saved = hybrid.RTOL, hybrid.ATOL
+                hybrid.RTOL = hybrid.ATOL = tol
                 try:
                     found["theirs"] = np.array([m.step(params, x).state for x in starts])
                 finally:
-                    hybrid._RTOL, hybrid._ATOL = saved
+                    hybrid.RTOL, hybrid.ATOL = saved
 
             t_ours, t_theirs = interleaved(ours, theirs, reps)
             gap = np.max(np.abs(found["ours"] - found["theirs"])

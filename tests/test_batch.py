@@ -358,14 +358,14 @@ def test_lane_functions_are_the_scalar_ones_bit_for_bit(name):
 def test_step_phases_is_the_batch_walk_of_one_step(gaits):
     """`step_phases` runs the batch's integrator on one walk (the other three lanes empty):
     the same state, to the bit, as the walk of one step from each start among others."""
-    from vsw.hybrid import _ATOL, _RTOL
+    from vsw.hybrid import ATOL, RTOL
 
-    assert _RTOL == _ATOL
+    assert RTOL == ATOL
     model, params, orbits = gaits["vsw_biped"]
     state = np.array([orbits[0].state[k] for k in (*model.coordinates, *model.rates)])
     starts = state * (1 + 0.05 * np.random.default_rng(9).standard_normal((9, len(state))))
     sim = simulator(load("vsw_biped"))
-    walked = sim.walk(params, starts, 1, keep=1, threads=1, tolerance=_RTOL)
+    walked = sim.walk(params, starts, 1, keep=1, threads=1, tolerance=RTOL)
     completed = 0
     for k, start in enumerate(starts):
         one = sim.step_phases(params, start)

@@ -28,12 +28,7 @@ LONG_FUNCTIONS: dict[str, int] = {}
 """The functions over FUNCTION_LINES lines (``module::qualified name``), each with its
 ceiling (its ``def`` line to its last, decorators not counted)."""
 
-PRIVATE_USES: dict[str, int] = {
-    "vsw/batch.py -> vsw.hybrid._ATOL": 1,
-    "vsw/batch.py -> vsw.hybrid._PHASE_TIME_LIMIT": 1,
-    "vsw/batch.py -> vsw.hybrid._RTOL": 1,
-    "vsw/rough.py -> vsw.hybrid._RTOL": 1,
-}
+PRIVATE_USES: dict[str, int] = {}
 """Private names used across modules (``module -> vsw.other._name``), each with how many
 times it is used there."""
 

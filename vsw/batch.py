@@ -33,7 +33,7 @@ import numpy as np
 from vsw import blas, progress, stop
 from vsw.compiled import build_library
 from vsw.errors import ConvergenceError, SlowRouteWarning, VswInputError
-from vsw.hybrid import _ATOL, _PHASE_TIME_LIMIT, _RTOL, HybridModel, StepResult
+from vsw.hybrid import ATOL, PHASE_TIME_LIMIT, RTOL, HybridModel, StepResult
 from vsw.orbits import newton
 from vsw.vectorize import default_threads, run_blocks
 
@@ -246,7 +246,7 @@ class BatchSimulator:
         keep: int = 0,
         threads: int | None = None,
         runner: Runner | None = None,
-        tolerance: float = _RTOL,
+        tolerance: float = RTOL,
     ) -> BatchResult:
         """Walk every row of ``states`` (section states, shape (N, 2n)) up to ``steps``
         steps, stopping early when it converges to ``target`` (every component within
@@ -302,7 +302,7 @@ class BatchSimulator:
         n = len(states)
         keep = options.keep
         out = _empty_result(n, self.nx, keep, self.failures)
-        opts = np.array([options.tolerance, options.tolerance, _PHASE_TIME_LIMIT,
+        opts = np.array([options.tolerance, options.tolerance, PHASE_TIME_LIMIT,
                          options.converge_tol, options.period_tol], dtype=float)  # fmt: skip
         target = None
         if options.target is not None:
@@ -331,7 +331,7 @@ class BatchSimulator:
         steps: int,
         *,
         threads: int | None = None,
-        tolerance: float = _RTOL,
+        tolerance: float = RTOL,
     ) -> BatchResult:
         """Walk every row of ``states`` up to ``steps`` steps, each step with parameters of
         its own: step ``k`` (from 0) of the walks still walking takes the parameter rows
@@ -365,7 +365,7 @@ class BatchSimulator:
         return out
 
     def step(
-        self, params, states, threads: int | None = None, tolerance: float = _RTOL
+        self, params, states, threads: int | None = None, tolerance: float = RTOL
     ) -> BatchResult:
         """One step of the Poincaré map from each row of ``states``: ``final`` holds the
         state after it, ``kept_lengths``/``kept_durations`` its length and duration."""
@@ -388,7 +388,7 @@ class BatchSimulator:
         if p.shape != (self.np,) or x.shape != (self.nx,):
             raise VswInputError(f"{self.model.name}: {self.np} parameters and a state of "
                                 f"{self.nx} components, got {p.shape} and {x.shape}")  # fmt: skip
-        options = np.array([_RTOL, _ATOL, _PHASE_TIME_LIMIT])
+        options = np.array([RTOL, ATOL, PHASE_TIME_LIMIT])
         durations = np.zeros(len(self.model.phases) + 1)
         visits, failure, length = ctypes.c_int(0), ctypes.c_int(0), ctypes.c_double(0.0)
         code = step(p, x, options, durations, ctypes.byref(visits), ctypes.byref(failure),
@@ -556,7 +556,7 @@ class Options:
     period_tol: float
     max_period: int
     keep: int
-    tolerance: float = _RTOL
+    tolerance: float = RTOL
 
 
 Runner = Callable[[np.ndarray, np.ndarray, Options], "BatchResult"]
@@ -581,10 +581,10 @@ def reference_walks(model: HybridModel, params, states, options: Options) -> Bat
     with the same rules: the fallback without a compiler, and the reference of the tests.
     Its tolerance is the SciPy route's (1e-12); a ConvergenceError of a step (more phases
     than the model has) counts as a stall, as in the C code."""
-    if options.tolerance != _RTOL:
+    if options.tolerance != RTOL:
         raise VswInputError(
             f"tolerance {options.tolerance:g} needs the compiled batch simulator; the SciPy "
-            f"route integrates at {_RTOL:g}"
+            f"route integrates at {RTOL:g}"
         )
     states = np.asarray(states, dtype=float).reshape(-1, 2 * model.n)
     params = np.broadcast_to(

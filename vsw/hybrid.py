@@ -49,9 +49,12 @@ __all__ = [
     "Trajectory",
 ]
 
-_RTOL = 1e-12
-_ATOL = 1e-12
-_PHASE_TIME_LIMIT = 100.0  # model time units; a phase that lasts longer has stalled
+RTOL = 1e-12
+"""Relative tolerance of every phase's integration (DOP853), the compiled simulator's too."""
+ATOL = 1e-12
+"""Absolute tolerance of every phase's integration."""
+PHASE_TIME_LIMIT = 100.0
+"""Model time after which a phase without an event has stalled (in the model's time unit)."""
 
 
 @dataclass(frozen=True)
@@ -367,8 +370,8 @@ class HybridModel:
         samples_t, samples_x = [t0], [x.copy()]
         for _ in range(20):  # restarts past events that do not count ('when' <= 0)
             sol = solve_ivp(
-                rhs, (t_start, t0 + _PHASE_TIME_LIMIT), x, method="DOP853",
-                rtol=_RTOL, atol=_ATOL, events=functions, max_step=max_step,
+                rhs, (t_start, t0 + PHASE_TIME_LIMIT), x, method="DOP853",
+                rtol=RTOL, atol=ATOL, events=functions, max_step=max_step,
                 dense_output=segments is not None,
             )  # fmt: skip
             k = next((i for i, te in enumerate(sol.t_events) if len(te)), None)

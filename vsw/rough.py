@@ -42,7 +42,7 @@ import numpy as np
 from vsw import blas, plotstyle
 from vsw.batch import simulator
 from vsw.errors import ConvergenceError, VswInputError
-from vsw.hybrid import _RTOL, Orbit
+from vsw.hybrid import RTOL, Orbit
 from vsw.models.base import Model
 
 if TYPE_CHECKING:
@@ -476,7 +476,7 @@ def gait_sensitivity_units(model: Any, terrain: str = "slope") -> dict[str, str]
 
 def _tolerance(sim: Any) -> float:
     """:data:`GSN_TOLERANCE` on the compiled simulator, the SciPy route's own without it."""
-    return GSN_TOLERANCE if sim.library() is not None else _RTOL
+    return GSN_TOLERANCE if sim.library() is not None else RTOL
 
 
 def linearised_step(

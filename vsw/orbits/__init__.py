@@ -1,4 +1,4 @@
-"""Periodic orbits of hybrid models: one problem, one discretisation, one monodromy, one
+"""Periodic orbits of hybrid models: one problem, two discretisations, one monodromy, one
 Newton.
 
 * :mod:`vsw.orbits.problem`: :class:`OrbitProblem`, a hybrid period-``p`` orbit of a model
@@ -14,9 +14,10 @@ Newton.
 The gait search (:mod:`vsw.gaits`), the periodic-orbit solver
 (:meth:`vsw.hybrid.HybridModel.periodic_orbit`), continuation (:mod:`vsw.continuation`),
 the design NLP (:mod:`vsw.design`: the shooting flows and the monodromy) and the powered
-gaits' NLP (:mod:`vsw.powered`: the collocation and the monodromy) are built on it. It takes a model by its interface and imports nothing of ``vsw`` above
-``vsw.stop`` and ``vsw.errors`` (:mod:`vsw.hybrid` builds on it); CasADi is imported inside
-functions, so ``import vsw.orbits`` stays cheap.
+gaits' NLP (:mod:`vsw.powered`: the collocation and the monodromy) are built on it. It
+takes a model by its interface and imports nothing of ``vsw`` above ``vsw.stop`` and
+``vsw.errors`` (:mod:`vsw.hybrid` builds on it); CasADi is imported inside functions, so
+``import vsw.orbits`` stays cheap.
 """
 
 from vsw.orbits.monodromy import by_modulus
