@@ -59,10 +59,11 @@ VERIFY_TOLERANCE = 1e-6
 """Relative agreement of the runtime's speed and step length with the request, and of the
 full-order loop's start and end of a step (its return)."""
 
-BOUND_POINTS = 65
-"""Phases, evenly spaced over the step with its ends, where the torque bounds, the ground's
-reaction and the existence of the gait are imposed (``zeta`` there from the quadrature's
-interpolant)."""
+BOUND_POINTS = 81
+"""Phases over the step with its ends (Chebyshev points of the second kind, dense near the
+ends where the torques and the reaction change fastest) where the torque bounds, the
+ground's reaction and the existence of the gait are imposed (``zeta`` there from the
+quadrature's interpolant)."""
 
 CLEARANCE_POINTS = 399
 """Phases, evenly spaced inside the step, where the swing foot's clearance is imposed (it
@@ -297,7 +298,7 @@ def _build(model: HybridModel, package: Any, params: Sequence[float],
     alphas, theta_after = _with_impact(model, package, params, z, free, outputs)
     surface = _SymbolicSurface(package, params, alphas)
     lo, hi = surface.theta_plus, surface.theta_minus
-    points = lo + np.linspace(0.0, 1.0, BOUND_POINTS) * (hi - lo)
+    points = lo + (1 - np.cos(np.linspace(0.0, math.pi, BOUND_POINTS))) / 2 * (hi - lo)
     nodes, weights = quadrature_matrix(lo, hi, request.nodes)
     _, at_points = quadrature_matrix(lo, hi, request.nodes, points)
     fn = _node_function(model, surface, params)
