@@ -53,7 +53,7 @@ FIX_COMMAND = "python -m derive"
 def _render_model(name: str) -> dict[str, str]:
     """One model's files (run in a worker process: models derive independently). Only
     the model's own module is imported (with what it imports), not every model's. Derived
-    alone, its functions are printed over the cores (:func:`derive.render.print_ahead`)."""
+    alone, its functions are printed over the idle cores (:func:`derive.render.print_ahead`)."""
     import importlib
 
     from derive import render

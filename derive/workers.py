@@ -64,10 +64,17 @@ def map_in_workers(function, items: list, workers: int) -> list:
 
 
 def spare_cores() -> int:
-    """The processes this one may fork to share its work: the cores it may run on, or 1
-    inside a worker (a daemonic process has no children) and where there is no ``fork``."""
+    """The processes this one may fork to share its work: the cores it may run on that the
+    machine's other work leaves idle (the one-minute load average, this process counted
+    in it), at least 1; 1 inside a worker (a daemonic process has no children) and where
+    there is no ``fork``. Work split over processes costs CPU time
+    (:func:`derive.render.print_ahead`): it pays only on an idle core."""
     if os.name != "posix" or multiprocessing.current_process().daemon:
         return 1
-    if hasattr(os, "sched_getaffinity"):
-        return len(os.sched_getaffinity(0))
-    return os.cpu_count() or 1
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    cores = cores or 1
+    try:
+        busy = os.getloadavg()[0]
+    except OSError:
+        return cores
+    return max(1, min(cores, int(cores - busy + 1)))
