@@ -26,6 +26,7 @@ MODEL_MODULES: dict[str, str] = {
     "free_vsw_biped_stop": "derive.models.free_vsw_biped_stop",
     "free_vsw_biped_push": "derive.models.free_vsw_biped_push",
     "three_link_biped": "derive.models.three_link_biped",
+    "rabbit": "derive.models.rabbit",
 }
 """Model name (its ``generated/<name>/`` package) -> module with its ``derive()``."""
 

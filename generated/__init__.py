@@ -3,5 +3,5 @@
 # sympy 1.14.0
 """Generated numeric code (numpy, CasADi, C), one package per model. Do not edit: run `python -m derive`."""
 
-MODELS = ('ile', 'rimless_wheel', 'tle', 'simplest_walker', 'compass_gait', 'vsw_biped', 'kneed_walker', 'torso_walker', 'vsw_biped_fte', 'vsw_biped_phi0', 'point_mass_biped', 'point_mass_biped_switch', 'kuo_walker', 'level_compass_gait', 'free_vsw_biped', 'free_vsw_biped_stop', 'free_vsw_biped_push', 'three_link_biped')
+MODELS = ('ile', 'rimless_wheel', 'tle', 'simplest_walker', 'compass_gait', 'vsw_biped', 'kneed_walker', 'torso_walker', 'vsw_biped_fte', 'vsw_biped_phi0', 'point_mass_biped', 'point_mass_biped_switch', 'kuo_walker', 'level_compass_gait', 'free_vsw_biped', 'free_vsw_biped_stop', 'free_vsw_biped_push', 'three_link_biped', 'rabbit')
 """The generated model packages, ``generated.<name>``."""
