@@ -54,8 +54,10 @@ BROWSER_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
                 "--disable-sync"]  # fmt: skip
 # Tutorials in the slow tier: with them the default tier's share of this file would pass a
 # minute (each takes 8 to 18 s here: a continuation to period 8, IPOPT designs and an
-# optimisation, a 100 x 100 basin with its simulator compiled on first use).
-SLOW_TUTORIALS = {"basin", "continuation", "design", "powered"}
+# optimisation, a 100 x 100 basin with its simulator compiled on first use; analyze and
+# own-model about 10 s of CPU each: a vsw process per command, a gait search, a user's
+# model derived). The simulate tutorial runs in the default tier.
+SLOW_TUTORIALS = {"analyze", "basin", "continuation", "design", "own-model", "powered"}
 
 
 @dataclass
