@@ -159,12 +159,11 @@ def test_each_leg_keeps_its_colour_and_the_slope_descends(capsys, tmp_path):
     """One colour per leg for the whole walk (the stance and swing legs swap at every
     heelstrike, the colours stay with the legs), the leg masses coloured as their legs,
     the passive walker's slope descending to the right, the rimless wheel's every spoke."""
+    from tests.conftest import gait_start
     from vsw.animate import animation_frames
     from vsw.models import load
 
-    model = load("compass_gait")
-    params = model.parameters()
-    start = model.start(params, None, None).state
+    model, params, start = gait_start("compass_gait")  # the gait model.start walks from
     frames = animation_frames(model, params, start, 2, fps=10)
     stands = frames.leg_a_stands
     assert stands[frames.step == 0].all() and not stands[frames.step == 1].any()
