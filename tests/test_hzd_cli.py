@@ -108,6 +108,7 @@ def test_examples_ship_in_the_sdist():
     manifest = (EXAMPLES.parent.parent / "MANIFEST.in").read_text().split()
     assert "examples" in manifest[manifest.index("graft") :]
     assert sorted(p.name for p in EXAMPLES.glob("*.py")) == [
+        "rabbit_walk.py",
         "three_link_mirror.py",
         "three_link_mirror_invariant.py",
     ]
