@@ -17,7 +17,9 @@ runtime's rule, :mod:`vsw.hzd.zero`, as a matrix). At each node the state on the
 the stance foot's ground reaction (:func:`vsw.powered.dynamics.reaction_function`) are
 expressions in the coefficients. The NLP (:class:`HzdRequest`):
 
-* the phase just after the impact from ``theta_-`` is ``theta_+`` (an equality);
+* the phase just after the impact from ``theta_-`` is ``theta_+`` (an equality), and the
+  step event's guard (the swing foot's height) is zero at ``theta_-`` where the
+  coefficients move it (a walker with knees);
 * existence: ``delta^2 < 1``, ``V(theta_-) < 0`` and ``zeta > 0`` at every node (``zeta*
   delta^2 > max V``), with ``I`` keeping its sign (the phase is monotonic);
 * the speed ``step length / period`` (and the step length when asked);
