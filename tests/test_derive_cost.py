@@ -189,16 +189,19 @@ def test_the_equations_of_motion_are_kanes_methods():
     for body in phase.bodies:
         x, y = (c.xreplace(to_time) for c in body.position)
         point = origin.locatenew(body.name, x * frame.x + y * frame.y)
-        point.set_vel(frame, point.pos_from(origin).dt(frame).subs({q_t.diff(t): u_t,
-                                                                    s_t.diff(t): w_t}))
+        point.set_vel(
+            frame, point.pos_from(origin).dt(frame).subs({q_t.diff(t): u_t, s_t.diff(t): w_t})
+        )
         if isinstance(body, PointMass):
             bodies.append(me.Particle(body.name, point, body.mass))
         else:
             own = frame.orientnew("own", "Axis", (body.angle.xreplace(to_time), frame.z))
-            own.set_ang_vel(frame, own.ang_vel_in(frame).subs({q_t.diff(t): u_t,
-                                                               s_t.diff(t): w_t}))
-            bodies.append(me.RigidBody(body.name, point, own, body.mass,
-                                       (me.inertia(own, 0, 0, body.inertia), point)))
+            own.set_ang_vel(frame, own.ang_vel_in(frame).subs({q_t.diff(t): u_t, s_t.diff(t): w_t}))
+            bodies.append(
+                me.RigidBody(
+                    body.name, point, own, body.mass, (me.inertia(own, 0, 0, body.inertia), point)
+                )
+            )
         loads.append((point, -body.mass * g * frame.y))
     kane = me.KanesMethod(frame, [q_t, s_t], [u_t, w_t],
                           kd_eqs=[q_t.diff(t) - u_t, s_t.diff(t) - w_t])  # fmt: skip
@@ -210,8 +213,9 @@ def test_the_equations_of_motion_are_kanes_methods():
         point = {v: rng.uniform(0.2, 1.5) for v in (m, m_h, l, r, i_s, g, k, q, s,
                                                     theta.u, knee.u)}  # fmt: skip
         for ours, theirs in zip(accelerations, wanted):
-            assert float(ours.xreplace(point)) == pytest.approx(float(theirs.xreplace(point)),
-                                                                rel=1e-10)
+            assert float(ours.xreplace(point)) == pytest.approx(
+                float(theirs.xreplace(point)), rel=1e-10
+            )
 
 
 def test_a_five_link_impact_keeps_cramers_rule_in_the_balance(monkeypatch):

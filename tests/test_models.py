@@ -159,9 +159,7 @@ def gaits(name: str) -> list[tuple[tuple[float, ...], list]]:
     # At the defaults the kept gaits, confirmed (tests.conftest), stand for the search's.
     committed = committed_gaits(name)
     at_defaults = committed[2] if committed is not None else m.fixed_points(defaults)
-    return [(defaults, at_defaults)] + [
-        (p, search(m, p, cells=coarse).gaits) for p in nearby
-    ]
+    return [(defaults, at_defaults)] + [(p, search(m, p, cells=coarse).gaits) for p in nearby]
 
 
 def walking_states(m: HybridModel) -> list[tuple[tuple[float, ...], np.ndarray]]:

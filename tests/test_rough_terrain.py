@@ -364,8 +364,9 @@ def test_a_sweep_with_the_chain_is_the_chain_at_each_value():
 
 
 @pytest.mark.slow
-def test_the_vsw_biped_with_a_foothold_height_walks_as_the_vsw_biped_at_height_0(monkeypatch,
-                                                                                  tmp_path):
+def test_the_vsw_biped_with_a_foothold_height_walks_as_the_vsw_biped_at_height_0(
+    monkeypatch, tmp_path
+):
     """docs/guide/rough-models/vsw_biped_height.py at step_height 0: every walk the VSW
     biped's, bit for bit (its guard less 0)."""
     from pathlib import Path

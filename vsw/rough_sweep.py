@@ -138,8 +138,10 @@ class RoughSweep:
         """Spearman's rank correlation of the gait sensitivity norm with the MFPT over the
         points that have both (the walks' MFPT; the chain's too where it ran)."""
         out: dict[str, Any] = {}
-        picks = (("walks", lambda p: (p.get("mfpt") or {}).get("value")),
-                 ("chain", lambda p: (p.get("chain") or {}).get("mfpt_gait")))
+        picks = (
+            ("walks", lambda p: (p.get("mfpt") or {}).get("value")),
+            ("chain", lambda p: (p.get("chain") or {}).get("mfpt_gait")),
+        )
         for key, pick in picks:
             pairs = [(p["gsn"], pick(p)) for p in self.points
                      if p.get("gsn") is not None and pick(p) is not None]  # fmt: skip
@@ -192,8 +194,13 @@ def rough_sweep(
         raise VswInputError(f"--over {over}: sweeps one of {', '.join(OVER)}")
     index = disturbance_index(model, terrain)
     name = model.spec["parameters"][index]
-    sweep = RoughSweep(over, name if over == "gamma0" else "sigma", terrain, distribution,
-                       [float(v) for v in values])
+    sweep = RoughSweep(
+        over,
+        name if over == "gamma0" else "sigma",
+        terrain,
+        distribution,
+        [float(v) for v in values],
+    )
     guess: dict[str, float] | None = None
     gait: Orbit | None = None
     for value in sweep.values:

@@ -369,10 +369,14 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: N
     period = sum(durations)
     scale = max(1.0, float(max(np.max(np.abs(s)) for s in states)))
     reason = _reason(status, violation, resimulated, error)
-    if not reason and moved is not None and not works_agree(
-        moved,
-        mesh := sum(v["positive"] for v in work.values()),
-        walker_weight(model, p) * (step_length or 1.0),
+    if (
+        not reason
+        and moved is not None
+        and not works_agree(
+            moved,
+            mesh := sum(v["positive"] for v in work.values()),
+            walker_weight(model, p) * (step_length or 1.0),
+        )
     ):
         reason = (f"the positive work along the re-simulated step, {moved:.6g}, is not the "
                   f"mesh's, {mesh:.6g}: the mesh does not resolve the power")  # fmt: skip

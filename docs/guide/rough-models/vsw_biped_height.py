@@ -9,9 +9,16 @@ import dataclasses
 from derive.models import vsw_biped as base
 from derive.quantities import Parameter
 
-HEIGHT = Parameter("step_height", "h", -0.5, 0.5, "a foothold within half a leg of the stance "
-                   "foot: |h| < l / 2", "height of the next foothold above the stance foot "
-                   "(along the ground normal, up positive)", default=0.0, unit="l")
+HEIGHT = Parameter(
+    "step_height",
+    "h",
+    -0.5,
+    0.5,
+    "a foothold within half a leg of the stance foot: |h| < l / 2",
+    "height of the next foothold above the stance foot (along the ground normal, up positive)",
+    default=0.0,
+    unit="l",
+)
 h = HEIGHT.symbol
 
 MODEL = dataclasses.replace(
@@ -20,7 +27,8 @@ MODEL = dataclasses.replace(
     title="Compass-like biped of Virtual Slope Walking, footholds of random height",
     source="docs/guide/rough-models/vsw_biped_height.py",
     parameters=(*base.MODEL.parameters, HEIGHT),
-    events=tuple(dataclasses.replace(e, guard=e.guard - h) if e.ends_step else e
-                 for e in base.MODEL.events),
+    events=tuple(
+        dataclasses.replace(e, guard=e.guard - h) if e.ends_step else e for e in base.MODEL.events
+    ),
 )
 UNITS = base.UNITS_TEXT
