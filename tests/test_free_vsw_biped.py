@@ -185,6 +185,8 @@ def test_the_ground_impulses_carry_the_legs_pushes():
         checked += 1
 
 
+# Slow tier: an IPOPT solve and its re-simulation (about 10 s of CPU alone).
+@pytest.mark.slow
 def test_the_optimiser_walks_the_stop_model_through_its_stop():
     """`vsw optimize` on the end-stop model from its kinematic start for two phases
     (vsw.powered.starts._phased_guess): the stroke ends with the leg at l, the extended phase

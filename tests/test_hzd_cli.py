@@ -114,6 +114,8 @@ def test_examples_ship_in_the_sdist():
     ]
 
 
+# Slow tier: it derives the constraints twice in subprocesses (about 10 s of CPU alone).
+@pytest.mark.slow
 def test_constraints_are_derived_once_and_again_when_damaged(capsys, tmp_path, monkeypatch):
     """The package is cached by the file's digest; a damaged one is derived again."""
     monkeypatch.setenv("VSW_CACHE_DIR", str(tmp_path / "cache"))

@@ -193,6 +193,8 @@ def test_constraints_without_bezier_outputs(capsys):
     assert len(err.strip().splitlines()) == 1 and "Bezier" in err
 
 
+# Slow tier: IPOPT has to fail to reach the speed (about 10 s of CPU alone).
+@pytest.mark.slow
 def test_speed_beyond_reach(capsys):
     """Under 40 N m the walker cannot swing its legs through a 0.77 m step in 0.15 s."""
     code = main(["hzd", "--model", "three-link-biped", "--constraints", str(INVARIANT),

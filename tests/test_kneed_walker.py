@@ -234,6 +234,8 @@ def test_stance_knee_torque_is_the_upper_bodys_newton_euler_balance(walker):
             assert float(torque(*params, *x)) == pytest.approx(moment, rel=1e-9, abs=1e-12)
 
 
+# Slow tier: a walk with the knee unlatched to its fall (about 10 s of CPU alone).
+@pytest.mark.slow
 def test_the_stance_knee_must_be_latched_on_the_gait(walker, stable_gait):
     """Reported, not enforced: on Hsu Chen's gait the stance knee's lock pulls (about
     0.1 N m) in part of the knee-free phase, where a stop alone would let the knee buckle;
