@@ -327,7 +327,9 @@ def _build(model: HybridModel, package: Any, params: Sequence[float],
     if request.step_length is not None:
         nlp.add(length - request.step_length, 0.0, 0.0)
     _constrain_points(nlp, [fn(a, t, zeta_points[j]) for j, t in enumerate(points)], request)
-    _lands(nlp, model, surface, params)
+    nlp.start = [0.0 if spec["defaults"][k] is None else float(spec["defaults"][k])
+                 for k in free]  # fmt: skip
+    _lands(nlp, model, surface, params, theta_after)
     clearance = _clearance_function(model, surface, params)
     if request.clearance is not None and clearance is not None:
         for s in _away(np.linspace(0.0, 1.0, CLEARANCE_POINTS + 2)[1:-1]):
@@ -335,22 +337,25 @@ def _build(model: HybridModel, package: Any, params: Sequence[float],
                     0.0, math.inf)  # fmt: skip
     _objective(nlp, [fn(a, t, zeta[j]) for j, t in enumerate(nodes)], weights[-1],
                np.sign(hi - lo), request)  # fmt: skip
-    nlp.start = [0.0 if spec["defaults"][k] is None else float(spec["defaults"][k])
-                 for k in free]  # fmt: skip
     return nlp
 
 
 def _lands(nlp: _Nlp, model: HybridModel, surface: _SymbolicSurface,
-           params: Sequence[float]) -> None:  # fmt: skip
-    """The step event's guard (the swing foot's height) zero at ``theta_minus`` where it
-    depends on the coefficients: a walker with knees lands its swing foot there only if
-    the outputs' last coefficients put it on the ground (a rigid leg's does by geometry)."""
+           params: Sequence[float], theta_after: Any) -> None:  # fmt: skip
+    """The step event's guard (the swing foot's height) zero at ``theta_minus`` where the
+    phase's equality does not already hold it there: a walker with knees lands its swing
+    foot there only if the outputs' last coefficients put it on the ground, a rigid leg
+    lands it by geometry once the phase after the impact is ``theta_plus`` (the guard's
+    gradient then parallel to the phase's, at the start: not imposed twice)."""
     import casadi as ca
 
     q, _ = surface.symbolic_at(surface.theta_minus)
     x = ca.vertcat(*q, *([0.0] * surface.n))
     guard = model.symbolic(f"event_{model.step_event['name']}_guard", ca.DM(list(params)), x)
-    if ca.depends_on(guard, nlp.z):
+    if not ca.depends_on(guard, nlp.z):
+        return
+    rows = ca.Function("rows", [nlp.z], [ca.jacobian(ca.vertcat(theta_after, guard), nlp.z)])
+    if np.linalg.matrix_rank(np.array(rows(nlp.start), float), tol=1e-9) == 2:
         nlp.add(guard, 0.0, 0.0)
 
 
