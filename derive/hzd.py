@@ -291,15 +291,18 @@ def _check_no_moment(phase: Any, q: list, params: tuple[Parameter, ...],
                      inputs: tuple | None = None) -> None:  # fmt: skip
     """The inputs' generalised forces do no work on a rigid rotation about the stance foot
     (else ``d sigma/dt`` would hold the torques): checked at three random points, the
-    rotation's direction in the coordinates solved by least squares."""
+    rotation's direction in the coordinates solved by least squares. The phase's held
+    coordinates (a leg's length held by its actuator) are put in first."""
     import numpy as np
 
     rng = np.random.default_rng(2003)
-    positions = [sm.Matrix(b.position) for b in phase.bodies]
+    held = dict(phase.held)
+    positions = [sm.Matrix(_held(b, held).position) for b in phase.bodies]
     jac = sm.Matrix.vstack(*[p.jacobian(q) for p in positions])
     turn = sm.Matrix([c for p in positions for c in (p[1], -p[0])])
     inputs = phase.inputs if inputs is None else inputs
-    forces = sm.Matrix([[sm.diff(i.along, v) for v in q] for i in inputs])
+    forces = sm.Matrix([[sm.diff(sm.sympify(i.along).xreplace(held), v) for v in q]
+                        for i in inputs])  # fmt: skip
     symbols = [p.symbol for p in params] + q
     f = sm.lambdify(symbols, (jac, turn, forces), "numpy")
     for _ in range(3):
@@ -377,7 +380,7 @@ def derivation(model: Any, constraints: Constraints, name: str) -> Derivation:
     gx, gy = phase.gravity
     moment = sum(b.mass * (b.position[1] * gx - b.position[0] * gy) for b in bodies)
     moment = moment.xreplace(on_surface)
-    contact = phase.points[event.reset.new_contact]
+    contact = _held_point(phase, event.reset.new_contact)
     before = {**dict(zip(qd, dphi)), **on_surface}
     swing = _momentum(bodies, contact, q, qd).xreplace(before).xreplace({THETA: theta_minus})
     stance = inertia.xreplace({THETA: theta_minus})
@@ -635,7 +638,7 @@ def reduce(model: Any, constraints: Constraints) -> Reduced:
         moments.append(sm.simplify(moment.xreplace(on)))
     last = surfaces[-1]
     before = {**dict(zip(qd, last.diff(THETA))), **dict(zip(q, last))}
-    contact = phase.points[event.reset.new_contact]
+    contact = _held_point(phase, event.reset.new_contact)
     swing = _momentum(bodies, contact, q, qd).xreplace(before).xreplace({THETA: minus})
     delta = swing / inertia[-1].xreplace({THETA: minus})
     return Reduced([plus, *breaks, minus], surfaces, inertia, moments, delta, symbols)
@@ -654,6 +657,12 @@ def restricted_map(reduced: Reduced) -> tuple[sm.Expr, sm.Expr | None]:
             return reduced.delta**2, None
         total += part
     return reduced.delta**2, -total
+
+
+def _held_point(phase: Any, name: str) -> tuple[sm.Expr, ...]:
+    """The phase's named point (the new contact) with its held coordinates put in."""
+    held = dict(phase.held)
+    return tuple(sm.sympify(c).xreplace(held) for c in phase.points[name])
 
 
 def _held(body: Any, held: dict) -> Any:

@@ -301,6 +301,10 @@ class HybridModel:
     def normal_force(self, phase: str, params: Sequence[float], state: np.ndarray) -> float:
         return float(self._fn(f"{phase}_normal_force")(*params, *state))
 
+    def guard(self, event: str, params: Sequence[float], state: np.ndarray) -> float:
+        """The event's guard at a state: zero where the event happens."""
+        return float(self._fn(f"event_{event}_guard")(*params, *state))
+
     def reset(self, event: str, params: Sequence[float], state: np.ndarray) -> np.ndarray:
         return np.array(self._fn(f"event_{event}_reset")(*params, *state), dtype=float)
 

@@ -28,6 +28,9 @@ from vsw.hzd.zero import Surface, ZeroDynamics, chebyshev_integral, zero_dynamic
 
 __all__ = ["DEFAULT_GAINS", "HzdReport", "analyze", "invariant_alphas", "surface_of"]
 
+LANDING_TOLERANCE = 1e-9
+"""How far from zero the step event's guard may be on the surface at theta_minus (the
+model's guard units: a foot height, or the sine of an angle)."""
 DEFAULT_GAINS = (400.0, 40.0)
 """K_p (1/s^2) and K_d (1/s): y'' + 40 y' + 400 y = 0, a double pole at -20/s."""
 
@@ -73,12 +76,30 @@ def surface_of(model: HybridModel, package: Any, params: Sequence[float],
     be theta_plus)."""
     surface = Surface(package, params, invariant_alphas(model, package, params, given))
     q, dq, _ = surface.at(surface.theta_minus)
-    after = model.reset(model.step_event["name"], params, np.concatenate([q, dq]))
+    event = model.step_event["name"]
+    landing = model.guard(event, params, np.concatenate([q, dq]))
+    if not abs(landing) <= LANDING_TOLERANCE:
+        raise VswInputError(
+            f"the step does not end at theta_minus = {surface.theta_minus:.9g}: the "
+            f"{event} guard there is {landing:.3g}, not 0 (the swing foot is not on the ground "
+            "on the surface)"
+        )
+    after = model.reset(event, params, np.concatenate([q, dq]))
     theta = surface.phase(after[: model.n])
     if not abs(theta - surface.theta_plus) <= 1e-9 * max(1.0, abs(theta)):
         raise VswInputError(
             f"the constraints' theta_plus ({surface.theta_plus:.9g}) is not the phase after "
             f"the impact from theta_minus ({theta:.9g})"
+        )
+    # An impact moves no coordinate: the configuration after it must be on the surface
+    # (outputs zero), or no rate can put the walker back on it.
+    off = surface.outputs(after[: model.n])
+    if not np.max(np.abs(off), initial=0.0) <= 1e-9 * max(1.0, float(np.max(np.abs(q)))):
+        k = int(np.argmax(np.abs(off)))
+        raise VswInputError(
+            f"the configuration after the impact is off the constraint surface: output "
+            f"{list(package.HZD['outputs'])[k]} is {off[k]:.6g} at theta_plus (the outputs must "
+            "vanish at both ends of the step)"
         )
     return surface
 

@@ -179,6 +179,12 @@ def zero_dynamics(surface: Surface) -> ZeroDynamics:
     values = [float(potential(c)) for c in candidates]
     top = int(np.argmax(values))
     d2 = delta * delta
+    if not delta > 0.0:
+        raise ModelConditionError(
+            f"the impact turns the walker back: delta = {delta:.6g} <= 0 (the angular "
+            "momentum about the new stance foot after the impact is not that before it in "
+            "sign), so no step follows"
+        )
     if not d2 < 1.0:
         raise ModelConditionError(
             f"the restricted map has no stable fixed point: delta^2 = {d2:.6g} >= 1 (the "
