@@ -19,7 +19,7 @@ constraints as written (``theta_I`` and ``theta_IV`` by ``asin``), ``V`` both in
 and by Gauss-Legendre quadrature of ``kappa``, against the printed (7), (10), (19) and the
 generated ILE's ``stride_map``, ``q_fixed`` and ``eigenvalue`` to 1e-12; and the runtime's
 numbers (:func:`runtime_check`: the point-mass biped's generated impact from the surface,
-``delta`` from the angular momenta about the two feet, ``V`` by the runtime's Clenshaw-Curtis
+``delta`` from the angular momenta about the two feet, ``V`` by the runtime's Fejér
 quadrature) against the generated ILE to 1e-9. ``vsw hzd`` itself does not run these
 constraints: its computed-torque loop cannot make the configuration's jump.
 """
@@ -218,7 +218,7 @@ def numeric_check(n: int = SAMPLES, seed: int = SEED) -> dict[str, Any]:
 def _runtime_step(walker: Any, kappa: Any, sets: dict, k: int) -> dict[str, float]:
     """One parameter set through the runtime: the model's generated impact from the
     surface at theta_IV, the phase and leg after it, delta from the angular momenta about
-    the new and the old foot, and V by the runtime's Clenshaw-Curtis quadrature."""
+    the new and the old foot, and V by the runtime's quadrature by Fejér's first rule."""
     from vsw.hzd.zero import chebyshev_integral
 
     beta, phi0, t2, rc, m, g = (float(sets[v][k]) for v in

@@ -84,7 +84,7 @@ def tolerances() -> dict[str, Any]:
     from vsw.hzd.zero import NODES
 
     return {
-        "quadrature": f"Clenshaw-Curtis on {NODES} Chebyshev points (error estimated against "
+        "quadrature": f"Fejér's first rule on {NODES} Chebyshev points (error estimated against "
         f"{NODES // 2})",
         **INTEGRATOR,
         **ORBIT_SOLVER,

@@ -10,7 +10,7 @@ Grizzle & Koditschek 2003, IEEE TAC 48(1), Theorem 4's construction: ``alpha_0 =
 expressions, so every optimum is impact invariant. The zero dynamics' quantities are the
 constraints package's own functions (:mod:`derive.hzd` emits one source for numpy and
 CasADi) evaluated symbolically at ``nodes`` Chebyshev points of the first kind in the
-phase; ``V`` at the nodes and the step's integrals are Clenshaw-Curtis sums over them (the
+phase; ``V`` at the nodes and the step's integrals are Fejér sums over them (the
 runtime's rule, :mod:`vsw.hzd.zero`, as a matrix). At each node the state on the gait is
 ``(Phi, Phi' theta_dot)`` with ``theta_dot = sqrt(2 zeta)/I`` and ``zeta = delta^2 zeta*
 - V``; there the feed-forward torques (the computed-torque law with ``y = y' = 0``) and
@@ -148,7 +148,7 @@ def quadrature_matrix(
     """The phase's nodes (Chebyshev points of the first kind on [lo, hi]) and the matrix
     ``W`` whose row ``j`` integrates the interpolant of the nodes' values from ``lo`` to
     node ``j`` (to ``at[j]`` where ``at`` is given), its last row to ``hi``
-    (Clenshaw-Curtis, the runtime's rule)."""
+    (Fejér's first rule, the runtime's)."""
     x = chebyshev.chebpts1(nodes)
     vander = chebyshev.chebvander(x, nodes - 1)
     integrate = chebyshev.chebint(np.eye(nodes), lbnd=-1, axis=0)

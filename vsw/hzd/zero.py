@@ -7,11 +7,12 @@ The constraints' package (:mod:`derive.hzd`, generated) gives, as functions of t
 (``zeta = sigma^2/2``) and ``delta = sigma_+/sigma_-`` through the impact. Here
 (Westervelt, Grizzle & Koditschek 2003, IEEE TAC 48(1), Section IV-B, eqs. (58)-(61)):
 
-* ``V(theta) = -integral_{theta_+}^{theta} kappa``, by Clenshaw-Curtis quadrature: ``kappa``
-  interpolated at :data:`NODES` Chebyshev points on ``[theta_+, theta_-]`` and the
-  interpolant integrated exactly; the error is estimated by the same rule on half the
-  points (``quadrature_error``: for the smooth integrands of a rigid walker the rule
-  converges geometrically, and the estimate bounds the error of the half rule);
+* ``V(theta) = -integral_{theta_+}^{theta} kappa``, by Fejér's first rule: ``kappa``
+  interpolated at :data:`NODES` Chebyshev points of the first kind on ``[theta_+,
+  theta_-]`` and the interpolant integrated exactly; the error is estimated by the same
+  rule on half the points (``quadrature_error``: for the smooth integrands of a rigid
+  walker the rule converges geometrically, and the estimate bounds the error of the half
+  rule);
 * the restricted map on ``zeta_-`` (just before the impact): ``zeta_{k+1} = delta^2 zeta_k
   - V(theta_-)``; fixed point ``zeta* = -V(theta_-)/(1 - delta^2)``, exponentially stable
   when ``delta^2 < 1``; it exists as a walk when ``zeta(theta) = delta^2 zeta* - V(theta)``
