@@ -1,7 +1,8 @@
-"""The package's shape: no module of vsw/ over MODULE_LINES lines, no function over
-FUNCTION_LINES, and no module using another's private names (``from vsw.x import _name``,
-``x._name``): a long module or function is read by scrolling, and a private name used
-elsewhere is an interface nobody declared.
+"""The packages' shape: no module of vsw/ or derive/ over MODULE_LINES lines, no function
+over FUNCTION_LINES, and no module using another's private names (``from vsw.x import
+_name``, ``x._name``): a long module or function is read by scrolling, and a private name
+used elsewhere is an interface nobody declared. The runtime keeps every rule; the
+derivation's exceptions are listed.
 
 Each rule is a ratchet: the modules, functions and private uses that break it are listed
 below with their sizes as ceilings. A listed one may shrink (and must leave the list once
@@ -16,26 +17,42 @@ from collections.abc import Iterator
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-PACKAGE = ROOT / "vsw"
+PACKAGES = (ROOT / "vsw", ROOT / "derive")
+"""The runtime and the derivation (generated/ is written by the latter and not read here)."""
 
 MODULE_LINES = 800
 FUNCTION_LINES = 80
 
-LONG_MODULES: dict[str, int] = {}
+LONG_MODULES: dict[str, int] = {
+    "derive/engine/hybrid.py": 1944,
+    "derive/models/ile/closed_form.py": 1158,
+}
 """The modules over MODULE_LINES lines, each with its ceiling."""
 
-LONG_FUNCTIONS: dict[str, int] = {}
+LONG_FUNCTIONS: dict[str, int] = {
+    "derive/engine/hybrid.py::_passive_dynamics": 142,
+    "derive/engine/hybrid.py::hybrid_quantities": 283,
+    "derive/engine/trig.py::tr10i": 97,
+    "derive/engine/trig.py::tr10i.f": 89,
+    "derive/hzd.py::derivation": 97,
+    "derive/models/ile/closed_form.py::derive": 454,
+    "derive/models/ile/closed_form.py::existence_staged": 92,
+    "derive/models/tle.py::derive": 102,
+    "derive/sim_codegen.py::simulator_c_source": 99,
+}
 """The functions over FUNCTION_LINES lines (``module::qualified name``), each with its
 ceiling (its ``def`` line to its last, decorators not counted)."""
 
-PRIVATE_USES: dict[str, int] = {}
+PRIVATE_USES: dict[str, int] = {
+    "derive/models/ile/__init__.py -> derive.models.ile.closed_form._closest_to_apex_cos": 1,
+}
 """Private names used across modules (``module -> vsw.other._name``), each with how many
 times it is used there."""
 
 
 def modules() -> Iterator[tuple[str, Path]]:
-    """Every Python module of the package, by its path from the repository's root."""
-    for path in sorted(PACKAGE.rglob("*.py")):
+    """Every Python module of the packages, by its path from the repository's root."""
+    for path in sorted(p for package in PACKAGES for p in package.rglob("*.py")):
         if "__pycache__" not in path.parts:
             yield path.relative_to(ROOT).as_posix(), path
 
@@ -79,6 +96,9 @@ def long_functions() -> dict[str, int]:
     return out
 
 
+PREFIXES = ("vsw", "derive")
+
+
 def _private(name: str) -> bool:
     return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
 
@@ -100,7 +120,7 @@ def private_uses() -> dict[str, int]:
                 for alias in node.names:
                     if alias.name in known and alias.asname:
                         bound[alias.asname] = alias.name
-            elif isinstance(node, ast.ImportFrom) and (node.module or "").startswith("vsw"):
+            elif isinstance(node, ast.ImportFrom) and (node.module or "").startswith(PREFIXES):
                 for alias in node.names:
                     full = f"{node.module}.{alias.name}"
                     if full in known:
