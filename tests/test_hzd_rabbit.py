@@ -82,7 +82,8 @@ class Zero:
         self.alphas[:, 0] = self.h @ q_plus
         span = self.hi - self.lo
         self.alphas[:, 1] = self.alphas[:, 0] + span / self.degree * (self.h @ rates) / (
-            self.c @ rates)
+            self.c @ rates
+        )
 
     def desired(self, theta):
         """h(theta) and dh/dtheta (Bezier polynomials in s)."""

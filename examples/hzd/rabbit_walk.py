@@ -54,12 +54,40 @@ import dataclasses as _dataclasses  # noqa: E402
 
 from derive.hzd import InvariantBezier as _InvariantBezier  # noqa: E402
 
-CONSTRAINTS = _dataclasses.replace(CONSTRAINTS, outputs=dict(zip(
-    CONSTRAINTS.outputs,
-    (
-        _InvariantBezier((-0.07611292498551114, -0.004372970159865641, 0.6244828003798177, 0.6240650068399423)),  # noqa: E501
-        _InvariantBezier((0.32511755154760485, 0.22695799379539702, 0.44570033509633744, 0.36849822911999885)),  # noqa: E501
-        _InvariantBezier((0.09056352000464636, -1.2802705623650341, -1.109104707415815, -0.6120325034199714)),  # noqa: E501
-        _InvariantBezier((0.8193293554875326, 1.815539610819129, 0.811146480164351, 0.012032503419971375)),  # noqa: E501
+CONSTRAINTS = _dataclasses.replace(
+    CONSTRAINTS,
+    outputs=dict(
+        zip(
+            CONSTRAINTS.outputs,
+            (
+                _InvariantBezier(
+                    (
+                        -0.07611292498551114,
+                        -0.004372970159865641,
+                        0.6244828003798177,
+                        0.6240650068399423,
+                    )
+                ),  # noqa: E501
+                _InvariantBezier(
+                    (
+                        0.32511755154760485,
+                        0.22695799379539702,
+                        0.44570033509633744,
+                        0.36849822911999885,
+                    )
+                ),  # noqa: E501
+                _InvariantBezier(
+                    (
+                        0.09056352000464636,
+                        -1.2802705623650341,
+                        -1.109104707415815,
+                        -0.6120325034199714,
+                    )
+                ),  # noqa: E501
+                _InvariantBezier(
+                    (0.8193293554875326, 1.815539610819129, 0.811146480164351, 0.012032503419971375)
+                ),  # noqa: E501
+            ),
+        )
     ),
-)))  # outputs -theta_f + theta_t, phi, psi_f, psi_t
+)  # outputs -theta_f + theta_t, phi, psi_f, psi_t
