@@ -67,7 +67,7 @@ CONSTRAINTS = _dataclasses.replace(
                         0.6244828003798177,
                         0.6240650068399423,
                     )
-                ),  # noqa: E501
+                ),
                 _InvariantBezier(
                     (
                         0.32511755154760485,
@@ -75,7 +75,7 @@ CONSTRAINTS = _dataclasses.replace(
                         0.44570033509633744,
                         0.36849822911999885,
                     )
-                ),  # noqa: E501
+                ),
                 _InvariantBezier(
                     (
                         0.09056352000464636,
@@ -83,10 +83,10 @@ CONSTRAINTS = _dataclasses.replace(
                         -1.109104707415815,
                         -0.6120325034199714,
                     )
-                ),  # noqa: E501
+                ),
                 _InvariantBezier(
                     (0.8193293554875326, 1.815539610819129, 0.811146480164351, 0.012032503419971375)
-                ),  # noqa: E501
+                ),
             ),
         )
     ),
