@@ -137,7 +137,7 @@ def test_the_compass_gaits_first_flip_is_goswamis():
 
 def test_the_biped_branch_ends_where_heelstrike_reaches_the_extension():
     """The VSW biped at (beta, theta_II) = (0.97, -0.2): the branch ends at mu = 0.3634 (an
-    independent re-implementation, issue 25), where the short phase's duration reaches 0;
+    independent re-implementation of the model), where the short phase's duration reaches 0;
     just before it the single-shooting solver finds the gait with that phase almost gone."""
     m = load("vsw-biped")
     params = m.parameters({"beta": 0.97, "theta_II": -0.2, "mu": 0.3})

@@ -1,5 +1,5 @@
 """The VSW biped's body with free actuation (derive/models/free_vsw_biped.py, and with an
-end stop at l, free_vsw_biped_stop.py; issue 28, question 3): heelstrike, the leg's end
+end stop at l, free_vsw_biped_stop.py): heelstrike, the leg's end
 stop and the hip's impulse against Newton and Euler written out for the three masses.
 
 At heelstrike the new foot sticks, the old foot leaves, and the new stance leg's lower
@@ -402,7 +402,7 @@ def test_the_push_is_taken_by_the_ground_pushing_within_the_cone():
 def test_the_hip_torque_in_the_phase_that_holds_the_leg_is_newtons():
     """An input in a phase that holds a coordinate in the state (free_vsw_biped_stop's
     extended phase, the stance leg held at l; the engine's chain rule for held coordinates,
-    issue 28's untested case): the hip torque's gains on the accelerations are M^-1 (1, -1)
+    otherwise untested): the hip torque's gains on the accelerations are M^-1 (1, -1)
     with M the three masses' mass matrix in (theta, psi) from their positions' Jacobians
     (the torque's virtual work tau d(theta - psi)), none on the held length; its gains on
     the ground reaction are the walker's momentum's rate those accelerations give, and the

@@ -1,9 +1,9 @@
 """The gait search (vsw.gaits): complete within its box, and the reason when there is none.
 
 The reference gaits of the VSW biped come from outside this code: an independent
-re-implementation of the model (its own sympy derivation and SciPy simulator, issue 20 of
-this project) found gaits at these parameter sets that the earlier search (Newton from a
-dozen pushes of one start) missed; their largest |eigenvalue| are the numbers below.
+re-implementation of the model (its own sympy derivation and SciPy simulator) found gaits
+at these parameter sets that the earlier search (Newton from a dozen pushes of one start)
+missed; their largest |eigenvalue| are the numbers below.
 """
 
 from __future__ import annotations

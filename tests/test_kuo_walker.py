@@ -1,6 +1,6 @@
-"""Kuo's powered simplest walker (derive/models/kuo_walker.py; Kuo 2002) and question 2 of
-issue 28: a push-off along the rigid trailing leg with heelstrike against a torque on the
-stance leg, at one speed and step length.
+"""Kuo's powered simplest walker (derive/models/kuo_walker.py; Kuo 2002): a push-off along
+the rigid trailing leg with heelstrike against a torque on the stance leg, at one speed and
+step length.
 
 Independent physics: the impact with the push-off against Newton's law for the hip (the
 impulse along the trailing leg, then the collision that keeps only the velocity across the

@@ -1,5 +1,5 @@
-"""The compass gait on level ground, powered (derive/models/level_compass_gait.py; issue 28,
-question 2 with massive legs, and benchmark case 16).
+"""The compass gait on level ground, powered (derive/models/level_compass_gait.py: Kuo's
+comparison of push-off and hip torque with massive legs; benchmark case 16).
 
 Independent physics: the impact with the push-off against the two momentum balances of the
 compass gait's heelstrike written out here from its three point masses (the walker's
