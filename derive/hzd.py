@@ -370,19 +370,10 @@ def derivation(model: Any, constraints: Constraints, name: str) -> Derivation:
     _check_no_moment(phase, q, model.parameters)
     outs = _desired(constraints, theta_plus, theta_minus)
     phi, phase_row = _surface(constraints, q, outs.desired)
-    held = {k: v for k, v in phase.held.items()}
-    bodies = [_held(b, held) for b in phase.bodies]
-    on_surface = dict(zip(q, phi))
     dphi = phi.diff(THETA)
-    # sigma on the surface per unit theta_dot, and gravity's moment about the stance foot.
-    sigma = _momentum(bodies, (0, 0), q, qd)
-    inertia = sigma.xreplace(dict(zip(qd, dphi))).xreplace(on_surface)
-    gx, gy = phase.gravity
-    moment = sum(b.mass * (b.position[1] * gx - b.position[0] * gy) for b in bodies)
-    moment = moment.xreplace(on_surface)
-    contact = _held_point(phase, event.reset.new_contact)
-    before = {**dict(zip(qd, dphi)), **on_surface}
-    swing = _momentum(bodies, contact, q, qd).xreplace(before).xreplace({THETA: theta_minus})
+    on = _on_surface(phase, event, q, qd, phi)
+    inertia, moment = on.inertia, on.moment
+    swing = on.swing.xreplace({THETA: theta_minus})
     stance = inertia.xreplace({THETA: theta_minus})
     params = tuple(p.symbol for p in model.parameters)
     args = (*params, *outs.alphas, THETA)
@@ -418,15 +409,23 @@ def derivation(model: Any, constraints: Constraints, name: str) -> Derivation:
             returns="delta, I(theta_minus)",
         )
     )
-    out.add(Quantity("angular_momentum", (*params, *q, *qd), sigma,
+    out.add(Quantity("angular_momentum", (*params, *q, *qd), on.sigma,
                      "sigma, the angular momentum about the stance foot (clockwise positive)",
                      returns="sigma"))  # fmt: skip
-    out.constants["HZD"] = ({
+    out.constants["HZD"] = (_spec(model, constraints, q, phase_row, outs),
+                            "What the constraints declare, for the runtime (vsw.hzd).")  # fmt: skip
+    return out
+
+
+def _spec(model: Any, constraints: Constraints, q: list, phase_row: list,
+          outs: _Outputs) -> dict[str, Any]:  # fmt: skip
+    """What the runtime reads of the constraints (the generated package's ``HZD``)."""
+    return {
         "model": model.name,
         "phase": str(constraints.phase),
         "phase_row": phase_row,
-        "theta_plus": theta_plus,
-        "theta_minus": theta_minus,
+        "theta_plus": _number(constraints.theta_plus, "theta_plus"),
+        "theta_minus": _number(constraints.theta_minus, "theta_minus"),
         "outputs": [str(k) for k in constraints.outputs],
         "controlled": [list(_affine_row(k, q, "")) for k in constraints.outputs],
         "alphas": [a.name for a in outs.alphas],
@@ -434,8 +433,7 @@ def derivation(model: Any, constraints: Constraints, name: str) -> Derivation:
         "layout": outs.layout,
         "title": constraints.title,
         "coordinates": [s.name for s in q],
-    }, "What the constraints declare, for the runtime (vsw.hzd).")  # fmt: skip
-    return out
+    }
 
 
 # ------------------------------------------------------------------ the symbolic reduction
@@ -620,27 +618,18 @@ def reduce(model: Any, constraints: Constraints) -> Reduced:
     )
     _check_no_moment(phase, q, model.parameters, inputs)
     breaks, pieces = _pieces(constraints, symbols, (THETA - plus) / (minus - plus))
-    bodies = [_held(b, dict(phase.held)) for b in phase.bodies]
     if constraints.inverse is not None:
         chart = _inverse_surface(constraints, q, names)
         surfaces = [chart.xreplace({value(k): h for k, h in enumerate(p)}) for p in pieces]
     else:
         surfaces = [_surface(constraints, q, p)[0] for p in pieces]
+    bodies = [_held(b, dict(phase.held)) for b in phase.bodies]
     for at, before, after in zip(breaks, surfaces, surfaces[1:]):
         _check_jump(before, after, at, inputs, bodies, q)
-    sigma = _momentum(bodies, (0, 0), q, qd)
-    gx, gy = phase.gravity
-    moment = sum(b.mass * (b.position[1] * gx - b.position[0] * gy) for b in bodies)
-    inertia, moments = [], []
-    for phi in surfaces:
-        on = dict(zip(q, phi))
-        inertia.append(sm.simplify(sigma.xreplace(dict(zip(qd, phi.diff(THETA)))).xreplace(on)))
-        moments.append(sm.simplify(moment.xreplace(on)))
-    last = surfaces[-1]
-    before = {**dict(zip(qd, last.diff(THETA))), **dict(zip(q, last))}
-    contact = _held_point(phase, event.reset.new_contact)
-    swing = _momentum(bodies, contact, q, qd).xreplace(before).xreplace({THETA: minus})
-    delta = swing / inertia[-1].xreplace({THETA: minus})
+    pieces_on = [_on_surface(phase, event, q, qd, phi) for phi in surfaces]
+    inertia = [sm.simplify(on.inertia) for on in pieces_on]
+    moments = [sm.simplify(on.moment) for on in pieces_on]
+    delta = pieces_on[-1].swing.xreplace({THETA: minus}) / inertia[-1].xreplace({THETA: minus})
     return Reduced([plus, *breaks, minus], surfaces, inertia, moments, delta, symbols)
 
 
@@ -657,6 +646,34 @@ def restricted_map(reduced: Reduced) -> tuple[sm.Expr, sm.Expr | None]:
             return reduced.delta**2, None
         total += part
     return reduced.delta**2, -total
+
+
+@dataclass(frozen=True)
+class _OnSurface:
+    """The step phase's momenta and gravity's moment on a surface ``q = Phi(theta)``."""
+
+    sigma: sm.Expr
+    """The angular momentum about the stance foot, in the coordinates and their rates."""
+    inertia: sm.Expr
+    """``I(theta)``: ``sigma`` on the surface per unit ``theta_dot``."""
+    moment: sm.Expr
+    """Gravity's moment about the stance foot on the surface."""
+    swing: sm.Expr
+    """The angular momentum about the new contact on the surface per unit ``theta_dot``
+    (the impact conserves it: ``delta`` is it over ``I`` at ``theta_minus``)."""
+
+
+def _on_surface(phase: Any, event: Any, q: list, qd: list, phi: sm.Matrix) -> _OnSurface:
+    """:class:`_OnSurface` of the phase's bodies (held coordinates put in) on ``phi``."""
+    bodies = [_held(b, dict(phase.held)) for b in phase.bodies]
+    rates, on = dict(zip(qd, phi.diff(THETA))), dict(zip(q, phi))
+    sigma = _momentum(bodies, (0, 0), q, qd)
+    gx, gy = phase.gravity
+    moment = sum(b.mass * (b.position[1] * gx - b.position[0] * gy) for b in bodies)
+    contact = _held_point(phase, event.reset.new_contact)
+    swing = _momentum(bodies, contact, q, qd)
+    return _OnSurface(sigma, sigma.xreplace(rates).xreplace(on), moment.xreplace(on),
+                      swing.xreplace(rates).xreplace(on))  # fmt: skip
 
 
 def _held_point(phase: Any, name: str) -> tuple[sm.Expr, ...]:

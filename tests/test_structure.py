@@ -34,7 +34,6 @@ LONG_FUNCTIONS: dict[str, int] = {
     "derive/engine/hybrid.py::hybrid_quantities": 283,
     "derive/engine/trig.py::tr10i": 97,
     "derive/engine/trig.py::tr10i.f": 89,
-    "derive/hzd.py::derivation": 97,
     "derive/models/ile/closed_form.py::derive": 454,
     "derive/models/ile/closed_form.py::existence_staged": 92,
     "derive/models/tle.py::derive": 102,
