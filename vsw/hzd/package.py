@@ -3,7 +3,8 @@
 ``vsw hzd --constraints FILE.py`` names a file of virtual constraints in the language of
 :mod:`derive.hzd`. Its package is written by ``python -m derive.hzd`` in a process of its
 own (the runtime never imports sympy) into ``$VSW_CACHE_DIR/hzd/<stem>-<key>/`` (default
-``~/.cache/vsw``), keyed by the SHA-256 of the file, of ``derive/hzd.py`` and of the model's
+``~/.cache/vsw``), keyed by the SHA-256 of the file with the engine as a model file's is
+(:func:`derive.manifest.model_file_digest`), of ``derive/hzd.py`` and of the model's
 generated package; the next run loads it. The package's files are recorded with their
 SHA-256 beside it and checked at every load: a damaged one is derived again.
 """
@@ -57,7 +58,12 @@ def constraints_package(path: str | Path, model_key: str, model_module: ModuleTy
     if found is None or found.origin is None:
         raise VswInputError("the derivation engine (derive/) is not installed")
     engine = Path(found.origin).parent / "hzd.py"
-    key = _digest([file, engine, Path(model_module.__file__)], model_key)[:16]
+    # The engine's digest as a model file's (derive.manifest: its printers, templates and
+    # pinned versions, without importing sympy), with derive/hzd.py and the model's package.
+    from derive.manifest import model_file_digest
+
+    key = _digest([engine, Path(model_module.__file__)],
+                  f"{model_key}\0{model_file_digest(file)}")[:16]  # fmt: skip
     root = cache_dir() / "hzd" / f"{file.stem}-{key}"
     seal = root.with_name(root.name + ".sha256.json")
     root.parent.mkdir(parents=True, exist_ok=True)
