@@ -2,7 +2,7 @@
 Aoustin, Plestan, Westervelt, Canudas-de-Wit & Grizzle 2003, "RABBIT: a testbed for
 advanced control theory", IEEE Control Systems Magazine 23(5):57-79, and Westervelt,
 Grizzle, Chevallereau, Choi & Morris 2007, "Feedback Control of Dynamic Bipedal Robot
-Locomotion" (CRC Press), its RABBIT model and parameter table.
+Locomotion" (CRC Press), its RABBIT model.
 
 Five rigid links: a torso, two femurs and two tibias, joined at one hip and two knees;
 four actuators, one at each hip (between the torso and a femur) and one at each knee
@@ -16,8 +16,7 @@ the swing foot is ignored (the book's gaits lift it by the controller). Without 
 actuators RABBIT has no gait: it folds at the knees, so it walks only powered
 (``vsw optimize``).
 
-Parameters (the defaults), all from RABBIT's parameter table in Chevallereau et al. 2003
-and in Westervelt et al. 2007:
+Parameters (the defaults), from RABBIT's published tables:
 
 =========  ======  =============  ======================  ==========================
 link       mass    length         mass centre             inertia about it
@@ -27,19 +26,45 @@ femur      6.8 kg  0.4 m          0.11 m below the hip    0.47 kg m^2
 tibia      3.2 kg  0.4 m          0.24 m below the knee   0.20 kg m^2
 =========  ======  =============  ======================  ==========================
 
-The mass centres are measured from the joint nearer the torso (the hip for the torso and a
-femur, the knee for a tibia), on the link's line. Where sources differ:
+* masses, lengths and inertias: Chevallereau et al. 2003, Table II, "Experimentally
+  measured parameters for RABBIT" (so numbered in the authors' revised manuscript, paper
+  CSM-02-038): femur 0.4 m, 6.8 kg, 0.47 kg m^2; tibia 0.4 m, 3.2 kg, 0.20 kg m^2; torso
+  0.625 m, 12.0 kg, 1.33 kg m^2. It gives no mass centres;
+* mass centres and where they are measured from: Westervelt, Buche & Grizzle 2004,
+  "Experimental validation of a framework for the design of controllers that induce
+  stable walking in planar bipeds", International Journal of Robotics Research
+  23(6):559-582, Table 1, "Identified link parameters for RABBIT" (the same masses and
+  inertias), with its Fig. 5, "Schematic of RABBIT's link parameter measurement
+  conventions": the torso's ``p_T^M`` = 0.24 m from the hip up the torso, a femur's
+  ``p_f^M`` from the hip down the femur, a tibia's ``p_t^M`` = 0.24 m from the knee down
+  the tibia;
+* inertias about the links' own mass centres: Chevallereau, Westervelt & Grizzle 2005,
+  "Asymptotically stable running for a five-link, four-actuator, planar bipedal robot",
+  International Journal of Robotics Research 24(6):431-464, Table I, "Experimentally
+  measured parameters for RABBIT", whose row is "Inertia about COM" (0.47, 0.20 and
+  1.33 kg m^2).
 
-* a MATLAB reproduction of the table (``RabbitParam.m``: "COM Positions (From joint
-  origin)") rounds the torso's length to 0.63 m and lists the motors' gear ratio 50 and
-  rotor inertia 3.32e-4 kg m^2: a model with the rotors adds their reflected inertia (the
-  ratio squared times the rotor's, 0.83 kg m^2) on each joint's relative rate. This model
-  leaves the rotors out: its links are the table's bare links;
-* Westervelt, Grizzle & Koditschek 2003 ("Hybrid zero dynamics of planar biped walkers",
-  IEEE Trans. Automatic Control 48(1)), as reproduced by OptimTraj's five-link biped
-  (``demo/fiveLinkBiped/costOfTransport/getPhysicalParameters.m``), give a 20 kg torso,
-  inertias 2.22, 1.08 and 0.93 kg m^2 and mass centres 0.2, 0.163 and 0.128 m from the
-  parent joint (larger inertias, as if the rotors were lumped in): not used here;
+The mass centres are thus measured from the joint nearer the torso (the hip for the torso
+and a femur, the knee for a tibia), on the link's line. Where sources differ:
+
+* the femur's mass centre is printed 1.11 m in the authors' manuscript of Westervelt,
+  Buche & Grizzle's Table 1, longer than the 0.4 m femur: this model takes 0.11 m, the
+  value of the public reproductions (FROST's ``example/rabbit/urdf/five_link_walker.xacro``,
+  which cites Westervelt et al. 2007 for its values, and ``RabbitParam.m`` below);
+* Westervelt, Buche & Grizzle's Table 1 and the reproductions give the torso's length as
+  0.63 m; it also lists the gear ratio 50 and a "motor rotor inertia" of 0.83 kg m^2,
+  which is the ratio squared times the rotor inertia 3.32e-4 kg m^2 of a MATLAB
+  reproduction of the table (``RabbitParam.m``: "COM Positions (From joint origin)"):
+  a model with the rotors adds that reflected inertia on each joint's relative rate.
+  This model leaves the rotors out: its links are the table's bare links;
+* Chevallereau, Westervelt & Grizzle's Table I gives the torso 17.0 kg, not 12 kg: not
+  used here;
+* Westervelt, Grizzle & Koditschek 2003, "Hybrid zero dynamics of planar biped walkers",
+  IEEE Trans. Automatic Control 48(1):42-56, Table I, "Model parameters for example
+  robot" (reproduced by OptimTraj's five-link biped,
+  ``demo/fiveLinkBiped/costOfTransport/getPhysicalParameters.m``), gives a 20 kg torso,
+  inertias 2.22, 1.08 and 0.93 kg m^2 and mass centres 0.2, 0.163 and 0.128 m: an
+  example robot, not RABBIT's measured links: not used here;
 * the torso's length enters only the drawing: the dynamics take its mass centre and
   inertia.
 
@@ -78,7 +103,7 @@ from derive.quantities import Derivation
 
 INF = float("inf")
 
-# RABBIT's parameter table (Chevallereau et al. 2003; Westervelt et al. 2007): see the docstring.
+# RABBIT's published tables (Chevallereau et al. 2003; Westervelt et al. 2004): see the docstring.
 PARAMETERS = (
     Parameter("m_torso", "M_T", 0.0, INF, "torso mass m_torso > 0", "torso mass",
               {"positive": True}, default=12.0, unit="kg"),
