@@ -78,8 +78,8 @@ class _SimulatedGait:
         self.evaluations = 0
 
     def __call__(self, x: np.ndarray) -> dict[str, float]:
-        from vsw.errors import ConvergenceError, VswInputError
         from vsw.models.ile.simulate import fixed_point_by_simulation, poincare_map, simulate
+        from vsw.runtime.errors import ConvergenceError, VswInputError
 
         key = tuple(float(v) for v in x)
         if key in self.cache:

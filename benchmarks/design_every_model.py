@@ -44,10 +44,10 @@ if str(ROOT) not in sys.path:
 
 from scipy.optimize import brentq, minimize, minimize_scalar  # noqa: E402
 
-from vsw import design as gait_design  # noqa: E402
 from vsw import models  # noqa: E402
-from vsw.design.solve import orbit_quantities  # noqa: E402
-from vsw.errors import ConvergenceError  # noqa: E402
+from vsw.runtime.errors import ConvergenceError  # noqa: E402
+from vsw.synthesis import design as gait_design  # noqa: E402
+from vsw.synthesis.design.solve import orbit_quantities  # noqa: E402
 
 SETUPS = {
     # model: (free parameter, its range, fixed values): every other parameter is fixed
@@ -92,7 +92,7 @@ def _evaluate(model, name, value, fixed, state, durations) -> Point | None:
 
 def _margins_hold(model, params, orbit) -> bool:
     """Every failure's guard on its safe side at the integrator's own steps of one
-    simulated step (coarser than vsw.conditions' 400 samples, ten times cheaper: a gait
+    simulated step (coarser than vsw.dynamics.conditions' 400 samples, ten times cheaper: a gait
     whose margin dips between the samples counts as feasible here, which can only make
     the reference better than the design)."""
     walk = model.simulate(params, np.array(list(orbit.state.values())), 1)
@@ -401,21 +401,22 @@ def rows(report: dict, row: Any, timing: Any) -> list[Any]:
         design_hits = sum(reached(r["objective_value"], r) for r in given)
         if pairs:
             out.append(row(
-                "13", f"{key}: vsw.design per problem, the {len(pairs)} feasible problems "
-                "given to SLSQP (gait search at the start included)",
+                "13", f"{key}: vsw.synthesis.design per problem, the {len(pairs)} feasible "
+                "problems given to SLSQP (gait search at the start included)",
                 "SciPy SLSQP over the parameter, each evaluation a warm-started "
                 "periodic-orbit solve, finite differences", timing.of([a for a, _ in pairs]),
                 timing.of([b for _, b in pairs]), "faster",
                 statistics.median(a for a, _ in pairs) < statistics.median(b for _, b in pairs),
-                note=f"reached the reference optimum: vsw.design {design_hits}/{len(given)}, "
-                f"SLSQP {slsqp_hits}/{len(given)} (SLSQP starts from the traced branch's gait "
-                f"nearest the box's centre, the design searches its gaits); whole suite: "
+                note=f"reached the reference optimum: vsw.synthesis.design "
+                f"{design_hits}/{len(given)}, SLSQP {slsqp_hits}/{len(given)} (SLSQP starts "
+                f"from the traced branch's gait nearest the box's centre, the design searches "
+                f"its gaits); whole suite: "
                 f"median {ours.median:.2f} s [{ours.low:.2f}, {ours.high:.2f}]",
             ))  # fmt: skip
         cached = m.get("slsqp_cached_pairs") or []
         if cached:
             out.append(row(
-                "13", f"{key}: the same, vsw.design again with its gait search cached",
+                "13", f"{key}: the same, vsw.synthesis.design again with its gait search cached",
                 "the same SLSQP runs", timing.of([a for a, _ in cached]),
                 timing.of([b for _, b in cached]), "faster",
                 statistics.median(a for a, _ in cached) < statistics.median(b for _, b in cached),

@@ -59,11 +59,11 @@ def case_hzd_optimize(quick: bool, Row, Timing) -> list:
 
 def _three_link(quick: bool, Row, Timing) -> list:
     """The three-link biped's row."""
-    from vsw.hzd import DEFAULT_GAINS
-    from vsw.hzd.optimize import HzdRequest, optimize
     from vsw.models import key, load
-    from vsw.powered import Request
-    from vsw.powered import optimize as collocate
+    from vsw.synthesis.hzd import DEFAULT_GAINS
+    from vsw.synthesis.hzd.optimize import HzdRequest, optimize
+    from vsw.synthesis.powered import Request
+    from vsw.synthesis.powered import optimize as collocate
 
     model = load("three-link-biped")
     params = model.parameters()
@@ -139,9 +139,9 @@ def _rabbit(Row, Timing):
     collocation at the same speed and step."""
     import tempfile
 
-    from vsw.hzd import DEFAULT_GAINS
-    from vsw.hzd.optimize import HzdRequest, optimize
     from vsw.models import key, load
+    from vsw.synthesis.hzd import DEFAULT_GAINS
+    from vsw.synthesis.hzd.optimize import HzdRequest, optimize
 
     model = load("rabbit")
     request = HzdRequest(speed=RABBIT_SPEED, step_length=RABBIT_STEP, minimize="torque2",

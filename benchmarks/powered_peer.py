@@ -35,7 +35,7 @@ from scipy.optimize import minimize
 
 import generated.point_mass_biped as pmb
 from vsw.models import load
-from vsw.powered import Request, optimize
+from vsw.synthesis.powered import Request, optimize
 
 KNOTS = 12
 SAMPLES = 400

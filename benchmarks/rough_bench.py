@@ -1,6 +1,6 @@
 """Case 17: walks on rough ground (vsw rough), per step walked.
 
-* The stochastic batch simulator (:meth:`vsw.batch.BatchSimulator.walk_varying`: one call
+* The stochastic batch simulator (:meth:`vsw.dynamics.batch.BatchSimulator.walk_varying`: one call
   of the batch simulator a step over the walks still walking, each walk's slope of that
   step from the counter-based draws) against the deterministic one (the same walks on the
   mean slope in one call of many steps), one thread each, the same starts: the target is
@@ -59,9 +59,9 @@ def _terrain_walker(walk_one: Callable, index: int) -> Callable:
 def case_rough(count: int, reps: int, Row, interleaved, near_gait_starts) -> list:
     """Case 17's rows (see the module docstring); ``Row``, ``interleaved`` and
     ``near_gait_starts`` are benchmarks/run.py's."""
-    from vsw.batch import simulator
+    from vsw.dynamics.batch import simulator
     from vsw.models import load
-    from vsw.rough import Terrain, slope_index
+    from vsw.studies.rough import Terrain, slope_index
 
     rows = []
     for key in ("simplest_walker", "compass_gait"):
@@ -99,9 +99,9 @@ def case_rough(count: int, reps: int, Row, interleaved, near_gait_starts) -> lis
 
 def _numba_row(key, params, index, starts, found, reps, Row, interleaved):
     """The numba peer walking the same terrain against walk_varying."""
-    from vsw.batch import simulator
+    from vsw.dynamics.batch import simulator
     from vsw.models import load
-    from vsw.rough import Terrain, terrain_noise
+    from vsw.studies.rough import Terrain, terrain_noise
 
     subject = f"{key}: the same terrain, walk_varying (1 thread)"
     try:

@@ -47,7 +47,7 @@ if str(ROOT / "tests") not in sys.path:
 
 import generated.ile as ile  # noqa: E402
 from vsw.models.ile.params import random_parameters  # noqa: E402
-from vsw.vectorize import chunked, default_threads  # noqa: E402
+from vsw.runtime.vectorize import chunked, default_threads  # noqa: E402
 
 CASES = (1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18)
 
@@ -75,14 +75,15 @@ BATCH_BEFORE_FLAGS = (
     ["-O3", "-march=native", "-ffp-contract=off", "-fno-math-errno", "-lm"],
     ["-O2", "-ffp-contract=off", "-lm"],
 )
-"""vsw/batch.py's flags at BATCH_BEFORE."""
+"""vsw/dynamics/batch.py's flags at BATCH_BEFORE."""
 THREADS_BEFORE = "9fcf285"
 """The commit before BLAS's threads were bounded by the walks' (case 15 with ``--against``
 and no REF times its walks in a checkout of it, beside this tree's)."""
 BATCH_VALUES = {"vsw_biped": {"beta": 0.97, "theta_II": -0.2}}
 """Case 15's parameters where not the defaults: the biped at a stable gait (its defaults'
 gaits are unstable, so the walks would fall within a few steps)."""
-"""The commit whose vsw/design.py case 8 compares with (before the design was rewritten)."""
+"""The commit whose vsw/synthesis/design.py case 8 compares with (before the design was
+rewritten)."""
 
 
 @dataclass
@@ -359,7 +360,7 @@ def case_rootfinders_and_c(reps: int) -> list[Row]:
     """Case 3: CasADi rootfinder per solve (closed form, integrated map); compiled C per call."""
     from oracles.ile_fixed_point import solve_fixed_point  # tests/oracles
 
-    from vsw.ccode import CLibrary
+    from vsw.dynamics.ccode import CLibrary
 
     b, t, p = 0.8, 0.0, np.pi / 4
     calls = 1000
@@ -544,9 +545,9 @@ def _gaits():
 
 def _most_stable_gait(m, params):
     """The model's most stable gait from a coarse search (24 points a side): the cases that
-    start from it time what follows, not the search (vsw.gaits; its own default is finer,
+    start from it time what follows, not the search (vsw.gaits.search; its own default is finer,
     to find the gaits with tiny basins too)."""
-    from vsw.gaits import search
+    from vsw.gaits.search import search
 
     found = search(m, params, cells=24 ** len(m.spec["search"]))
     return min(found.gaits, key=lambda o: o.max_abs_eigenvalue)
@@ -556,7 +557,7 @@ def case_gait_rootfinder(reps: int) -> list[Row]:
     """Case 9: one period-one gait per model by the engine's boundary-value rootfinder
     (CasADi Newton on CVODES flows, eigenvalues included, confirmed by one simulated step)
     against SciPy root (hybr, xtol 1e-12) on the simulated map (solve_ivp DOP853 with
-    events, rtol = atol = 1e-12: vsw.hybrid's own step), both from the same guess: the gait
+    events, rtol = atol = 1e-12: vsw.dynamics.hybrid's own step), both from the same guess: the gait
     with every component moved by 1e-3 (relative), as a continuation step leaves it."""
     from scipy.optimize import root
 
@@ -596,13 +597,13 @@ def case_gait_rootfinder(reps: int) -> list[Row]:
         t_step = timed(lambda m=m, params=params, x=x_ours: m.step(params, x), reps)
         note += f"; of ours, the confirming simulated step {t_step.median * 1e3:.1f} ms"
         rows.append(Row(
-            "9", f"{key}: period-one gait by vsw.hybrid periodic_orbit",
+            "9", f"{key}: period-one gait by vsw.dynamics.hybrid periodic_orbit",
             "SciPy root on solve_ivp (DOP853, events) steps", t_ours, t_theirs,
             ">= 20x faster", ratio <= 1 / 20, note=note,
         ))  # fmt: skip
         # The same gait as a fixed point of the compiled batch simulator's map (Newton with
         # central differences), against the same baseline, side by side.
-        from vsw.batch import simulator
+        from vsw.dynamics.batch import simulator
 
         sim = simulator(load(key))
         sim.library()
@@ -618,7 +619,7 @@ def case_gait_rootfinder(reps: int) -> list[Row]:
         )
         ratio = t_batch.median / t_theirs.median
         rows.append(Row(
-            "9", f"{key}: period-one gait by the batch simulator's Newton (vsw.batch)",
+            "9", f"{key}: period-one gait by the batch simulator's Newton (vsw.dynamics.batch)",
             "SciPy root on solve_ivp (DOP853, events) steps", t_batch, t_theirs,
             ">= 20x faster", ratio <= 1 / 20, note=note,
         ))  # fmt: skip
@@ -629,7 +630,7 @@ def _near_gait_starts(key: str, count: int, values: dict | None = None):
     """The model's default parameters (or these ``values``), its most stable gait and
     ``count`` section states around it (1 % relative noise, fixed seed) that all complete
     a step."""
-    from vsw.batch import WALKED, simulator
+    from vsw.dynamics.batch import WALKED, simulator
     from vsw.models import load
 
     m = load(key)
@@ -646,10 +647,10 @@ def _near_gait_starts(key: str, count: int, values: dict | None = None):
 def case_batch_step(count: int, reps: int) -> list[Row]:
     """Case 10: one step of the Poincare map from each of ``count`` section states near the
     gait: the compiled batch simulator (one thread, one call) at its default rtol = atol =
-    1e-12 against SciPy's solve_ivp (DOP853, events; vsw.hybrid's step) at 1e-10 (the
+    1e-12 against SciPy's solve_ivp (DOP853, events; vsw.dynamics.hybrid's step) at 1e-10 (the
     target's baseline) and at 1e-12 (the same tolerance), and both at 1e-10."""
-    import vsw.hybrid as hybrid
-    from vsw.batch import simulator
+    import vsw.dynamics.hybrid as hybrid
+    from vsw.dynamics.batch import simulator
     from vsw.models import load
 
     rows = []
@@ -690,14 +691,16 @@ def case_batch_step(count: int, reps: int) -> list[Row]:
 def _simulator_at(key: str, ref: str):
     """The batch simulator of ``key`` with the C table and integrator of commit ``ref``
     (built with that commit's flags; the calling convention has not changed)."""
-    from vsw.batch import BatchSimulator
+    from vsw.dynamics.batch import BatchSimulator
     from vsw.models import load
 
     def show(path: str) -> bytes:
         return subprocess.run(["git", "show", f"{ref}:{path}"], cwd=ROOT, check=True,
                               capture_output=True).stdout  # fmt: skip
 
-    source = show(f"generated/{key}/c/{key}_sim.c") + b"\n" + show("vsw/csrc/hybrid_batch.c")
+    source = (
+        show(f"generated/{key}/c/{key}_sim.c") + b"\n" + show("vsw/dynamics/csrc/hybrid_batch.c")
+    )
     sim = BatchSimulator(load(key))
     sim.use_build(source, f"{key}_sim_{ref}", BATCH_BEFORE_FLAGS)
     return sim
@@ -740,7 +743,7 @@ def case_batch_before(count: int, reps: int, before: str = BATCH_BEFORE) -> list
     gait, one thread, through today's batch simulator and through the C table and
     integrator of ``before``, alternately in one run, at rtol = atol = 1e-10 and 1e-12.
     Time per step walked (walks that fall end early, the same in both)."""
-    from vsw.batch import simulator
+    from vsw.dynamics.batch import simulator
     from vsw.models import load
 
     rows = []
@@ -765,13 +768,13 @@ def case_batch_before(count: int, reps: int, before: str = BATCH_BEFORE) -> list
 
 def _limit_rows(count: int, reps: int) -> list[Row]:
     """Case 15: walks of 20 steps (one thread, rtol = atol = 1e-10) as they run, within
-    :func:`vsw.blas.limited`, against the same walks with the limit taken out, alternately
+    :func:`vsw.runtime.blas.limited`, against the same walks with the limit taken out, alternately
     in one process: what bounding BLAS's threads costs a walk."""
-    import vsw.blas
-    from vsw.batch import simulator
+    import vsw.runtime.blas
+    from vsw.dynamics.batch import simulator
     from vsw.models import load
 
-    limited = vsw.blas.limited
+    limited = vsw.runtime.blas.limited
     rows = []
     for key in ("simplest_walker", "compass_gait", "vsw_biped"):
         _, params, starts = _near_gait_starts(key, count, BATCH_VALUES.get(key))
@@ -784,19 +787,20 @@ def _limit_rows(count: int, reps: int) -> list[Row]:
                      tolerance=1e-10)  # fmt: skip
 
         def unlimited():
-            vsw.blas.limited = lambda threads=None: contextlib.nullcontext(threads)
+            vsw.runtime.blas.limited = lambda threads=None: contextlib.nullcontext(threads)
             try:
                 walk()
             finally:
-                vsw.blas.limited = limited
+                vsw.runtime.blas.limited = limited
 
         ours, theirs = interleaved(walk, unlimited, reps)
         cost = _limit_cost()
         share = cost / ours.median
         rows.append(Row(
             "15", f"{key}: walks of 20 steps, batch simulator (1 thread), rtol = atol = 1e-10, "
-            "BLAS bounded by the walks' threads (vsw.blas.limited)", "the same walks without "
-            "the limit, alternately in one process", ours.per(steps), theirs.per(steps),
+            "BLAS bounded by the walks' threads (vsw.runtime.blas.limited)",
+            "the same walks without the limit, alternately in one process", ours.per(steps),
+            theirs.per(steps),
             "no slower: the limit's own cost <= 0.1% of a call", share <= 1e-3,
             note=f"per step over {len(starts)} walks ({steps} steps), {reps} calls each; the "
             f"limit's own cost, timed alone: {cost * 1e6:.1f} us a call, {100 * share:.3f}% of "
@@ -806,10 +810,10 @@ def _limit_rows(count: int, reps: int) -> list[Row]:
 
 
 def _limit_cost(calls: int = 2000) -> float:
-    """Seconds a walk's :func:`vsw.blas.limited` block costs at one thread outside any
+    """Seconds a walk's :func:`vsw.runtime.blas.limited` block costs at one thread outside any
     other (entered and left, numpy's and SciPy's BLAS lowered and given back), the best of
     five rounds of ``calls``."""
-    from vsw.blas import limited
+    from vsw.runtime.blas import limited
 
     best = math.inf
     for _ in range(5):
@@ -845,10 +849,10 @@ def _cpu_rows(count: int) -> list[Row]:
     one thread, rtol = atol = 1e-10, :data:`CPU_CALLS` calls in this process: CPU time
     (``time.process_time``: every thread of the process) against wall time, per step. One
     thread must bill at most 1.2 times its wall time in every call, BLAS's workers
-    included (vsw/blas.py), under the BLAS threading a user has by default (no
+    included (vsw/runtime/blas.py), under the BLAS threading a user has by default (no
     OPENBLAS_NUM_THREADS; the row says what it ran under). A shared machine lowers the
     ratio (wall time waiting for a core), never raises it."""
-    from vsw.batch import simulator
+    from vsw.dynamics.batch import simulator
     from vsw.models import load
 
     _, params, starts = _near_gait_starts("simplest_walker", count)
@@ -867,14 +871,14 @@ def _cpu_rows(count: int) -> list[Row]:
         Timing.of(cpu), Timing.of(wall), "<= 1.2x the wall time in every call",
         max(ratios) <= 1.2, note=f"per step over {len(starts)} walks, {CPU_CALLS} calls; "
         f"CPU / wall per call {min(ratios):.2f}-{max(ratios):.2f}; {blas_threading()}, "
-        "bounded by the call's threads inside it (vsw.blas.limited)",
+        "bounded by the call's threads inside it (vsw.runtime.blas.limited)",
     )]  # fmt: skip
 
 
 TREE_WALKS = """
 import json, sys, time
 import numpy as np
-from vsw.batch import simulator
+from vsw.dynamics.batch import simulator
 from vsw.models import load
 given, reps, out = np.load(sys.argv[1]), int(sys.argv[2]), {}
 for key in sys.argv[3].split(","):
@@ -941,9 +945,9 @@ def case_walks_against(ref: str, count: int, reps: int) -> list[Row]:
 
 def _sines_rows(count: int, reps: int) -> list[Row]:
     """Case 15: the library in use (libmvec's sines and cosines where the CPU has AVX2 on
-    glibc, vsw/csrc/lanes.h) against the same code built with libm's (-DVSW_NO_MVEC), walks
+    glibc, vsw/dynamics/csrc/lanes.h) against the same code built with libm's (-DVSW_NO_MVEC), walks
     of 20 steps, one thread, alternately; the walks' largest gap after 20 steps."""
-    from vsw.batch import _LIBM_FLAGS, BatchSimulator, simulator
+    from vsw.dynamics.batch import _LIBM_FLAGS, BatchSimulator, simulator
     from vsw.models import load
 
     rows = []
@@ -975,7 +979,7 @@ def _floor_rows(count: int, reps: int) -> list[Row]:
     the walks' start states), against the time per step of the walks themselves."""
     import ctypes
 
-    from vsw.batch import _FLAG_SETS, BatchSimulator, simulator
+    from vsw.dynamics.batch import _FLAG_SETS, BatchSimulator, simulator
     from vsw.models import load
 
     rows = []
@@ -1035,7 +1039,7 @@ def _floor_rows(count: int, reps: int) -> list[Row]:
         ))  # fmt: skip
         rows.append(Row(
             "15", f"{key}: the same step against the floor of its lanes", "the same evaluations "
-            "at their cost per walk in lanes of four (vsw/csrc/lanes.h)", t,
+            "at their cost per walk in lanes of four (vsw/dynamics/csrc/lanes.h)", t,
             Timing(lanes_floor, lanes_floor, lanes_floor), "<= 1.5x the floor",
             t.median <= 1.5 * lanes_floor,
             note="per walk, a flow and a guard set: " + "; ".join(per_lane),
@@ -1082,7 +1086,7 @@ def _against_peer(count: int, reps: int, walk_for: Callable) -> list[_PeerRun]:
     """The batch simulator (one thread, walks of 20 steps from ``count`` starts near each
     gait of :data:`PEER_MODELS`, at 1e-10 and 1e-12) side by side with a peer:
     ``walk_for(key)`` gives ``walk(p, starts, steps, tol) -> (final, walked, calls)``."""
-    from vsw.batch import simulator
+    from vsw.dynamics.batch import simulator
     from vsw.models import load
 
     runs = []
@@ -1206,11 +1210,11 @@ def case_basin_grid(side: int, reps: int) -> list[Row]:
     with one thread each (started before timing; each side warmed up once)."""
     from distributed import LocalCluster
 
-    from vsw.batch import simulator
-    from vsw.cluster import runner
-    from vsw.grid_basin import grid_basin
+    from vsw.dynamics.batch import simulator
     from vsw.models import load
-    from vsw.vectorize import default_threads
+    from vsw.runtime.vectorize import default_threads
+    from vsw.studies.cluster import runner
+    from vsw.studies.grid_basin import grid_basin
 
     m = load("simplest_walker")
     params = m.parameters({"gamma": 0.009})
@@ -1227,7 +1231,7 @@ def case_basin_grid(side: int, reps: int) -> list[Row]:
     counts = found["local"].counts()
     steps = int(found["local"].steps.sum())
     rows = [Row(
-        "11", f"basin {side} x {side}, simplest walker (vsw.grid_basin, "
+        "11", f"basin {side} x {side}, simplest walker (vsw.studies.grid_basin, "
         f"{default_threads()} threads)", "-", t_local, None, "<= 60 s",
         t_local.median <= 60,
         note=f"{steps} steps walked ({t_local.median / steps * 1e6:.1f} us a step); classes "
@@ -1257,9 +1261,9 @@ def _compass_gait_basin(side: int, reps: int) -> list[Row]:
     """Case 11: a side x side basin of the compass gait (its section declares
     psi = -theta) around its stable gait at the defaults, over theta x theta_dot just
     after heelstrike (psi_dot the gait's), up to 50 steps a cell, in-process threads."""
-    from vsw.grid_basin import grid_basin
     from vsw.models import load
-    from vsw.vectorize import default_threads
+    from vsw.runtime.vectorize import default_threads
+    from vsw.studies.grid_basin import grid_basin
 
     m = load("compass_gait")
     params = m.parameters()
@@ -1273,7 +1277,7 @@ def _compass_gait_basin(side: int, reps: int) -> list[Row]:
     t = timed(basin, reps)
     steps = int(found["basin"].steps.sum())
     return [Row(
-        "11", f"basin {side} x {side}, compass gait (vsw.grid_basin, {default_threads()} "
+        "11", f"basin {side} x {side}, compass gait (vsw.studies.grid_basin, {default_threads()} "
         "threads)", "-", t, None, "measured", None,
         note=f"{steps} steps walked ({t.median / steps * 1e6:.1f} us a step); classes "
         f"{found['basin'].counts()}",
@@ -1294,8 +1298,8 @@ def _cli_basin_cost(side: int, reps: int) -> list[Row]:
     (``grid_basin`` with the gait known and the kernel loaded, in this process), alternately.
     The target, 1.3x, is for a 200 x 200 basin; on the simplest walker the basin
     itself takes about 0.1 s, less than an interpreter's start with numpy."""
-    from vsw.grid_basin import grid_basin
     from vsw.models import load
+    from vsw.studies.grid_basin import grid_basin
 
     rows = []
     for name, cli, values, (x0, x1), (y0, y1) in CLI_BASINS:
@@ -1591,11 +1595,11 @@ ever thinner bands of states and are found where the grid resolves them."""
 
 
 def case_gait_search(quick: bool) -> list[Row]:
-    """Case 12: the gait search (vsw.gaits) as analyze runs it, one run per set, against a
+    """Case 12: the gait search (vsw.gaits.search) as analyze runs it, one run per set, against a
     scan twice as fine along every free component (4 times the cells in two components,
     8 in three): the gaits the finer scan adds (each component apart by more than 1e-8),
     none of them with max |eigenvalue| below :data:`MILD`. Quick: the rimless wheel only."""
-    from vsw import gaits
+    from vsw.gaits import search as gaits
     from vsw.models import load
 
     sets = (("rimless_wheel", {}),) if quick else GAIT_SEARCH_SETS
@@ -1640,8 +1644,9 @@ def case_locate_flip(quick: bool) -> list[Row]:
     its spacing: the grid of the same precision is far too large to run, so its time is the
     measured grid's per point times the points it would need (stated as extrapolated).
     Quick: a 5-point grid."""
-    from vsw import continuation, sweeps
+    from vsw.gaits import continuation
     from vsw.models import load
+    from vsw.studies import sweeps
 
     m = load("simplest_walker")
     long_gait = (-0.200310900563820, -0.400621801127640, 0.199832473025474,
@@ -1691,7 +1696,7 @@ def case_powered_shooting(quick: bool) -> list[Row]:
     from powered_peer import compass_push_off_by_shooting
 
     from vsw.models import load
-    from vsw.powered import Request, optimize
+    from vsw.synthesis.powered import Request, optimize
 
     model = load("level_compass_gait")
     params = model.parameters()
@@ -1851,7 +1856,7 @@ def main(argv: list[str] | None = None) -> int:
             "design's smooth pieces, but shares with it the generated closed forms (the exact "
             "margins) and the closed problem's distances (STRICT_MARGIN, TABLE_DISTANCE): a "
             "defect of the generated code itself would not show here (the derivation's own "
-            "tests cover it). The 'before' side runs vsw/design.py of commit "
+            "tests cover it). The 'before' side runs vsw/synthesis/design.py of commit "
             f"{DESIGN_BEFORE} on today's generated code, vsw.models.ile.analysis and "
             "vsw.models.ile.simulate."
         )

@@ -32,7 +32,7 @@ The derivation (Westervelt et al. 2003, Section IV; Grizzle, Abba & Plestan 2001
 
 ``python -m derive.hzd --model KEY --constraints FILE --out DIR`` writes the generated
 package (numpy and CasADi, :mod:`derive.codegen`) into ``DIR/hzd_constraints/``;
-``vsw.hzd`` runs it in a subprocess and caches the result, as for a model file.
+``vsw.synthesis.hzd`` runs it in a subprocess and caches the result, as for a model file.
 """
 
 from __future__ import annotations
@@ -412,8 +412,10 @@ def derivation(model: Any, constraints: Constraints, name: str) -> Derivation:
     out.add(Quantity("angular_momentum", (*params, *q, *qd), on.sigma,
                      "sigma, the angular momentum about the stance foot (clockwise positive)",
                      returns="sigma"))  # fmt: skip
-    out.constants["HZD"] = (_spec(model, constraints, q, phase_row, outs),
-                            "What the constraints declare, for the runtime (vsw.hzd).")  # fmt: skip
+    out.constants["HZD"] = (
+        _spec(model, constraints, q, phase_row, outs),
+        "What the constraints declare, for the runtime (vsw.synthesis.hzd).",
+    )
     return out
 
 

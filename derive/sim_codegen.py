@@ -4,7 +4,7 @@ For every model with a ``HYBRID`` descriptor (the engine's), the phases' flows, 
 guards (each phase's events, then the failures), the events' resets and ``when``
 conditions and the step length become CasADi functions of ``(p, x)`` (parameter vector,
 state vector) printed by CasADi's code generator, followed by a table of the model's
-structure filled into ``templates/hybrid_sim.c.in``. ``vsw/csrc/hybrid_batch.c`` (the
+structure filled into ``templates/hybrid_sim.c.in``. ``vsw/dynamics/csrc/hybrid_batch.c`` (the
 generic integrator, which knows no model) is compiled after it as one translation unit.
 The functions are built from the generated Python module, the very source that is written,
 as the model's C library is.
@@ -123,12 +123,12 @@ def _without_null_checks(code: str) -> str:
 
 _LANE_CALLS = {"sin": "vsw_lanes_sin", "cos": "vsw_lanes_cos", "sqrt": "vsw_lanes_sqrt",
                "casadi_sq": "vsw_lanes_sq"}  # fmt: skip
-"""CasADi's calls in the table's functions and their lane-wise twins (vsw/csrc/lanes.h)."""
+"""CasADi's calls in the table's functions and their lane-wise twins (vsw/dynamics/csrc/lanes.h)."""
 
 
 def _lane_trig(code: str) -> str:
     """CasADi's scalar C with its sines and cosines taken from vsw_sin and vsw_cos
-    (vsw/csrc/lanes.h), the functions the lanes take theirs from."""
+    (vsw/dynamics/csrc/lanes.h), the functions the lanes take theirs from."""
     return re.sub(r"\b(sin|cos)\(", r"vsw_\1(", code)
 
 
@@ -144,11 +144,11 @@ def _casadi_bodies(code: str) -> dict[str, tuple[str, list[str]]]:
 
 
 def lane_function(name: str, lines: list[str]) -> str:
-    """One of CasADi's functions of (c, x) rewritten over lanes of walks (vsw/csrc/lanes.h):
-    the same operations in the same order on each lane, so each lane's result is the
-    scalar function's bit for bit (IEEE addition, multiplication, division and square root
-    are exact in vector registers too, contraction is off, and sines and cosines are
-    vsw/csrc/lanes.h's, which the scalar functions call too: _lane_trig). CasADi's body
+    """One of CasADi's functions of (c, x) rewritten over lanes of walks
+    (vsw/dynamics/csrc/lanes.h): the same operations in the same order on each lane, so each lane's
+    result is the scalar function's bit for bit (IEEE addition, multiplication, division and square
+    root are exact in vector registers too, contraction is off, and sines and cosines are
+    vsw/dynamics/csrc/lanes.h's, which the scalar functions call too: _lane_trig). CasADi's body
     has three kinds of line only (asserted): declarations, assignments of one operation,
     and results."""
     out = []

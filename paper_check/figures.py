@@ -3,7 +3,7 @@
 Every curve of Fig. 5-7 is solid where the gait walks (every physical existence condition
 of the derivation holds) and dotted where the paper's plotted range reaches no valid gait;
 where a curve leaves the frame at the top an arrow marks it (:func:`off_scale`). Drawn in
-the style of :mod:`vsw.plotstyle` (the same as the CLI's plots) and written
+the style of :mod:`vsw.plots.plotstyle` (the same as the CLI's plots) and written
 deterministically as PNG, SVG and PDF.
 """
 
@@ -18,7 +18,7 @@ import numpy as np
 
 from generated import ile
 from paper_check.walking import FIG_BETA, FIG_PHI0, FIG_THETA_II, walk_mask
-from vsw.plotstyle import COLORS, DEG, LABELS
+from vsw.plots.plotstyle import COLORS, DEG, LABELS
 
 __all__ = [
     "FIGURES",
@@ -110,7 +110,7 @@ def _family(ax: Any, name: str) -> Legend:
     """Fig. 5-7: q^f curves, solid where a gait exists, dotted where none, with markers."""
     from matplotlib.lines import Line2D
 
-    from vsw.plotstyle import curve_style, mark_off_scale
+    from vsw.plots.plotstyle import curve_style, mark_off_scale
 
     handles, labels = [], []
     top = Q_TOP.get(name)
@@ -188,10 +188,10 @@ def _fig7(ax: Any) -> Legend:
 def _fig8(ax: Any, data: dict[str, Any]) -> Legend:
     from matplotlib.lines import Line2D
 
-    from vsw import plotstyle
     from vsw.models.ile.plots import label_instants
     from vsw.models.ile.simulate import simulate
-    from vsw.plotstyle import direction_arrow
+    from vsw.plots import plotstyle
+    from vsw.plots.plotstyle import direction_arrow
 
     b, t2, p = FIG_BETA, FIG_THETA_II, FIG_PHI0
     qf = float(ile.q_fixed(b, t2, p))
@@ -295,7 +295,7 @@ def draw_figure(name: str, figure_data: dict[str, Any]) -> Any:
     -------
     matplotlib.figure.Figure
     """
-    from vsw import plotstyle
+    from vsw.plots import plotstyle
 
     with plotstyle.context():
         fig, ax = plotstyle.new_figure(plotstyle.COLUMN_WIDTH, _HEIGHTS[name])
@@ -324,7 +324,7 @@ def write_figures(out: Path, figure_data: dict[str, Any]) -> list[Path]:
     list of Path
         The written files, in order.
     """
-    from vsw.figures import save_figure
+    from vsw.plots.figures import save_figure
 
     written = []
     for name in FIGURES:

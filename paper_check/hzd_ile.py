@@ -219,7 +219,7 @@ def _runtime_step(walker: Any, kappa: Any, sets: dict, k: int) -> dict[str, floa
     """One parameter set through the runtime: the model's generated impact from the
     surface at theta_IV, the phase and leg after it, delta from the angular momenta about
     the new and the old foot, and V by the runtime's quadrature by Fejér's first rule."""
-    from vsw.hzd.zero import chebyshev_integral
+    from vsw.synthesis.hzd.zero import chebyshev_integral
 
     beta, phi0, t2, rc, m, g = (float(sets[v][k]) for v in
                                 ("beta", "phi0", "theta_II", "r_c", "m", "g"))  # fmt: skip
@@ -249,7 +249,7 @@ def _runtime_step(walker: Any, kappa: Any, sets: dict, k: int) -> dict[str, floa
 def runtime_check(n: int = 50, seed: int = SEED + 2) -> dict[str, Any]:
     """The runtime's numbers against the generated ILE's closed forms over ``n`` parameter
     sets: the point-mass biped's generated impact (``vsw.models``) and the runtime's
-    quadrature of the derived ``kappa`` (``vsw.hzd.zero.chebyshev_integral``)."""
+    quadrature of the derived ``kappa`` (``vsw.synthesis.hzd.zero.chebyshev_integral``)."""
     from vsw.models import load
 
     walker = load("point-mass-biped-switch")

@@ -29,7 +29,7 @@ from pathlib import Path
 from paper_check.powered import inverted_pendulum_gait
 from paper_check.rows import Row, table
 from vsw.models import load
-from vsw.powered import PoweredGait, Request, optimize
+from vsw.synthesis.powered import PoweredGait, Request, optimize
 
 __all__ = ["kuo_walker"]
 

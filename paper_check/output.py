@@ -7,7 +7,7 @@ import tempfile
 from pathlib import Path
 
 from paper_check.figures import FIGURES
-from vsw.figures import SAVE_FORMATS
+from vsw.plots.figures import SAVE_FORMATS
 
 __all__ = ["REPORT_FILES", "check_output_directory"]
 

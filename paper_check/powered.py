@@ -28,9 +28,9 @@ from scipy.integrate import IntegrationWarning, quad
 from scipy.optimize import brentq, least_squares, minimize_scalar
 
 from paper_check.rows import Row, table
-from vsw.ledger import energy_ledger
+from vsw.dynamics.ledger import energy_ledger
 from vsw.models import load
-from vsw.powered import PoweredGait, Request, optimize
+from vsw.synthesis.powered import PoweredGait, Request, optimize
 
 __all__ = ["inverted_pendulum_gait", "point_mass_biped"]
 

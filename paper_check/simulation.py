@@ -48,8 +48,8 @@ def run(beta: float, theta_II: float, phi0: float, q0: float, steps: int) -> Run
         ``ended='undefined'`` when :func:`vsw.models.ile.simulate.simulate` refuses the parameters
         (``theta_II`` outside ``(theta_I, theta_IV)``).
     """
-    from vsw.errors import VswInputError
     from vsw.models.ile.simulate import simulate
+    from vsw.runtime.errors import VswInputError
 
     try:
         res = simulate(

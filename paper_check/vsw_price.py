@@ -9,7 +9,7 @@ net work, which is at most its positive work, so the ratio below is at most VSW'
 one). The body's gaits: ``vsw optimize --model free-vsw-biped --minimize work`` at the
 VSW gait's speed and step, the ground pushing within a friction cone of 1 and the swing
 foot at least 0.02 l sin(pi s) above the ground (no scuffing), then verified
-(``vsw.powered.verify``): the periodic motion of the walker driven by the optimum's inputs
+(``vsw.synthesis.powered.verify``): the periodic motion of the walker driven by the optimum's inputs
 and its work integrated along it. That verified gait is a gait of the body, so its work
 bounds the body's least work from above at its speed and step (within 1e-4 of the
 targets), and the VSW gait's work over it bounds VSW's price from below. The mesh's own
@@ -32,12 +32,12 @@ from pathlib import Path
 
 import numpy as np
 
-from vsw.design import DesignRequest, GaitDesign, design
-from vsw.errors import ConvergenceError
-from vsw.ledger import energy_ledger
+from vsw.dynamics.ledger import energy_ledger
 from vsw.models import load
-from vsw.powered import Request, input_names, optimize, walker_weight
-from vsw.powered.verify import VerifiedGait, verify
+from vsw.runtime.errors import ConvergenceError
+from vsw.synthesis.design import DesignRequest, GaitDesign, design
+from vsw.synthesis.powered import Request, input_names, optimize, walker_weight
+from vsw.synthesis.powered.verify import VerifiedGait, verify
 
 __all__ = ["free_vsw_biped"]
 

@@ -48,18 +48,18 @@ from paper_check.powered import point_mass_biped
 from paper_check.rows import Row
 from paper_check.rows import table as _table
 from paper_check.vsw_price import free_vsw_biped
-from vsw import plotstyle
-from vsw.conditions import gait_conditions
-from vsw.continuation import Options, SpecialPoint, continue_gaits
-from vsw.diagrams import bifurcation_plot, diagram_quantity, diagram_units
-from vsw.errors import ConvergenceError
-from vsw.figures import save_figure
-from vsw.grid_basin import basin_plot, grid_basin
-from vsw.hybrid import HybridModel, Orbit
-from vsw.jsonable import clean
-from vsw.ledger import energy_ledger
+from vsw.dynamics.conditions import gait_conditions
+from vsw.dynamics.hybrid import HybridModel, Orbit
+from vsw.dynamics.ledger import energy_ledger
+from vsw.gaits.continuation import Options, SpecialPoint, continue_gaits
 from vsw.models import load
-from vsw.sweeps import brute_force, continuation, record
+from vsw.plots import plotstyle
+from vsw.plots.diagrams import bifurcation_plot, diagram_quantity, diagram_units
+from vsw.plots.figures import save_figure
+from vsw.runtime.errors import ConvergenceError
+from vsw.runtime.jsonable import clean
+from vsw.studies.grid_basin import basin_plot, grid_basin
+from vsw.studies.sweeps import brute_force, continuation, record
 
 MODELS = ("simplest-walker", "compass-gait", "vsw-biped", "kneed-walker", "point-mass-biped",
           "kuo-walker", "free-vsw-biped")  # fmt: skip
@@ -119,7 +119,7 @@ def _reached(walked: list) -> Orbit:
 
 def _flips(m: HybridModel, values: dict, name: str, start: float, stop_value: float,
            orbit: Orbit, max_period: int) -> list[tuple[int, float]]:  # fmt: skip
-    """The flips located by continuation (:mod:`vsw.continuation`) of ``orbit`` from
+    """The flips located by continuation (:mod:`vsw.gaits.continuation`) of ``orbit`` from
     ``start`` to ``stop_value`` and of the period-doubled gaits born at them, up to
     ``max_period``: (period of the gait that flips, parameter), in order."""
     options = Options(switch=max_period > 1, max_period=max_period)
@@ -157,7 +157,7 @@ def _diagram(
     model: str, over: str, grid: tuple[float, float, int], keep: int, transient: int,
     out: Path, stem: str, y: str,
 ) -> tuple[dict, list]:  # fmt: skip
-    """The bifurcation diagram as ``vsw sweep --plot`` draws it (:func:`vsw.sweeps.
+    """The bifurcation diagram as ``vsw sweep --plot`` draws it (:func:`vsw.studies.sweeps.
     continuation`), as PNG and SVG, and its record."""
     m = load(model)
     start, stop, count = grid
@@ -317,7 +317,7 @@ def _expansion_fits(m: HybridModel, orbit: Orbit) -> tuple[np.ndarray, np.ndarra
 def simplest_walker(out: Path, quick: bool = False) -> list[Path]:
     m = load("simplest_walker")
     params = m.parameters({"gamma": 0.009})
-    # Garcia's two gaits are the shortest steps; the search of the section (vsw.gaits) also
+    # Garcia's two gaits are the shortest steps; the search of the section (vsw.gaits.search) also
     # finds gaits whose swing leg swings back and forth before heelstrike.
     found = sorted(m.fixed_points(params), key=lambda o: o.period)
     short, long = found[0], found[1]
@@ -635,8 +635,8 @@ def _basins(m: HybridModel) -> str:
 
 
 def _mu_figure(results: dict, out: Path) -> list[Path]:
-    from vsw import plotstyle
-    from vsw.figures import save_figure
+    from vsw.plots import plotstyle
+    from vsw.plots.figures import save_figure
 
     panels = (("phi_deg", "$\\varphi$ at heelstrike [" + plotstyle.DEG + "]"),
               ("eig", "max $|\\lambda|$"),

@@ -21,9 +21,9 @@ import numpy as np
 import pytest
 
 from generated.ile.params import PARAMETERS
-from vsw.compiled import exclusive_lock
-from vsw.gaits import pick
-from vsw.hybrid import Orbit
+from vsw.dynamics.compiled import exclusive_lock
+from vsw.dynamics.hybrid import Orbit
+from vsw.gaits.search import pick
 from vsw.models import keys, load
 from vsw.models.ile.params import random_parameters
 
@@ -93,8 +93,8 @@ def searches_made_once(private_kernel_cache, tmp_path_factory):
     shared cache instead of made again: vsw's cache publishes a search whole but does not
     stop two processes from both making it. The lock is keyed by the search's own file, so
     a test's private cache (VSW_CACHE_DIR=tmp_path) or VSW_SEARCH_CACHE=0 is as without it."""
-    import vsw.gaits as gaits
-    from vsw.search_cache import cache_file
+    import vsw.gaits.search as gaits
+    from vsw.gaits.search_cache import cache_file
 
     search = gaits.search
     locks = run_directory(tmp_path_factory) / "locks"
@@ -137,7 +137,7 @@ def _confirm(model, params: tuple[float, ...], orbit: Orbit, newton: bool) -> No
     |eigenvalue|), the search's own test of a gait) through the same phases, in the same
     durations and step length; with ``newton``, also Newton on the step map converges
     next to it with the spectrum kept."""
-    from vsw.batch import simulator
+    from vsw.dynamics.batch import simulator
 
     state = np.array(list(orbit.state.values()))
     scale = max(1.0, float(np.max(np.abs(state))))
@@ -163,7 +163,7 @@ _COMMITTED: dict[str, tuple[object, tuple[float, ...], list[Orbit]]] = {}
 def committed_gaits(key: str) -> tuple[object, tuple[float, ...], list[Orbit]] | None:
     """``(model, default parameters, gaits)`` of a passive model from :data:`GAITS_PATH`,
     each gait confirmed by a step and the one the commands walk from
-    (:func:`vsw.gaits.pick`) by a Newton solve too: what ``model.fixed_points`` returns at
+    (:func:`vsw.gaits.search.pick`) by a Newton solve too: what ``model.fixed_points`` returns at
     the defaults, for a fraction of a search. None for a model not in the file yet
     (tests/test_gaits.py's slow tier asks for it)."""
     if key in _COMMITTED:
@@ -253,7 +253,7 @@ def cached_derivation(rendered_tree, monkeypatch):
 
 @pytest.fixture(autouse=True)
 def signal_handlers_restored():
-    """No test leaves a signal handler or the interval timer behind (vsw.stop installs
+    """No test leaves a signal handler or the interval timer behind (vsw.runtime.stop installs
     both while a command runs and must restore them)."""
     import signal
 

@@ -16,9 +16,9 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from generated import ile
-from vsw.errors import VswInputError
 from vsw.models.ile.analysis import analyze, phase_durations_scipy, step_period_scipy
 from vsw.models.ile.params import STEPPER_2D, GaitParameters, RobotScale, validate
+from vsw.runtime.errors import VswInputError
 
 FIG8 = (0.8, 0.0, math.radians(45.0))
 

@@ -160,8 +160,8 @@ def test_each_leg_keeps_its_colour_and_the_slope_descends(capsys, tmp_path):
     heelstrike, the colours stay with the legs), the leg masses coloured as their legs,
     the passive walker's slope descending to the right, the rimless wheel's every spoke."""
     from tests.conftest import gait_start
-    from vsw.animate import animation_frames
     from vsw.models import load
+    from vsw.plots.animate import animation_frames
 
     model, params, start = gait_start("compass_gait")  # the gait model.start walks from
     frames = animation_frames(model, params, start, 2, fps=10)
@@ -219,7 +219,7 @@ LONG_TITLE = "torso-walker: " + ", ".join(f"parameter_{i} = {1.234567 * i:.6g}" 
 def test_a_long_title_fits_the_gif(ile_walk):
     """Every line of the title lies inside the frame and left of the gravity arrow, in
     Pillow's measure of the font it is drawn in and in the drawn pixels."""
-    from vsw import animate
+    from vsw.plots import animate
 
     model, params, state = ile_walk
     frames = animate.animation_frames(model, params, state, 1, fps=10, speed=1.0,
@@ -251,7 +251,7 @@ def test_svg_draws_the_path_walked_so_far(ile_walk):
     the first frame, the whole path at the last."""
     import xml.etree.ElementTree as ET
 
-    from vsw import animate
+    from vsw.plots import animate
 
     model, params, state = ile_walk
     frames = animate.animation_frames(model, params, state, 1, fps=10, speed=1.0, title="ile")

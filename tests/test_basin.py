@@ -10,9 +10,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from vsw.errors import VswInputError
 from vsw.models.ile.analysis import analyze
 from vsw.models.ile.basin import basin, check_edges_by_simulation
+from vsw.runtime.errors import VswInputError
 
 PHI0 = math.radians(45.0)
 

@@ -1,7 +1,7 @@
-"""The compiled batch simulator (vsw.batch) against the models' own SciPy simulation.
+"""The compiled batch simulator (vsw.dynamics.batch) against the models' own SciPy simulation.
 
-The reference is :meth:`vsw.hybrid.HybridModel.step`: SciPy's DOP853 with event functions
-(dense output and brentq), an implementation independent of vsw/csrc/hybrid_batch.c
+The reference is :meth:`vsw.dynamics.hybrid.HybridModel.step`: SciPy's DOP853 with event functions
+(dense output and brentq), an implementation independent of vsw/dynamics/csrc/hybrid_batch.c
 (its own DOP853 loop, events located by the Illinois method on the dense output). Also
 checked: the DOP853 table against SciPy's, the fixed point against the CasADi rootfinder,
 the section declarations against simulated steps, and determinism over blocks and threads.
@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from tests.conftest import committed_gaits
-from vsw.batch import CONVERGED, FELL, WALKED, Options, reference_walks, simulator
+from vsw.dynamics.batch import CONVERGED, FELL, WALKED, Options, reference_walks, simulator
 from vsw.models import keys, load
 
 pytest.importorskip("casadi")
@@ -44,7 +44,9 @@ def gaits():
 def test_dop853_table_is_scipys():
     from scipy.integrate._ivp import dop853_coefficients as ref
 
-    text = (Path(__file__).resolve().parent.parent / "vsw/csrc/dop853_tableau.h").read_text()
+    text = (
+        Path(__file__).resolve().parent.parent / "vsw/dynamics/csrc/dop853_tableau.h"
+    ).read_text()
 
     def array(name):
         body = re.search(rf"{name}\[[^=]*= \{{(.*?)\}};", text, flags=re.S).group(1)
@@ -277,7 +279,7 @@ def test_declared_section_holds_after_simulated_steps(gaits, name):
 
 
 def test_results_do_not_depend_on_blocks_or_threads(gaits, monkeypatch):
-    import vsw.batch as batch_module
+    import vsw.dynamics.batch as batch_module
 
     model, params, orbits = gaits["compass_gait"]
     state = np.array([orbits[0].state[k] for k in (*model.coordinates, *model.rates)])
@@ -298,7 +300,7 @@ FIELDS = ("outcome", "aux", "steps", "final", "kept_states", "kept_lengths", "ke
 
 @pytest.mark.parametrize("name", ["simplest_walker", "vsw_biped"])
 def test_a_walk_does_not_depend_on_its_lane(gaits, name):
-    """The walks run four at a time in lockstep (vsw/csrc/lanes.h), each lane its own step
+    """The walks run four at a time in lockstep (vsw/dynamics/csrc/lanes.h), each lane its own step
     size and events (the biped's eight walks held, four of one phase a step): the same
     starts in another order (other lanes, other neighbours, other groupings) walk to the
     same bytes."""
@@ -358,7 +360,7 @@ def test_lane_functions_are_the_scalar_ones_bit_for_bit(name):
 def test_step_phases_is_the_batch_walk_of_one_step(gaits):
     """`step_phases` runs the batch's integrator on one walk (the other three lanes empty):
     the same state, to the bit, as the walk of one step from each start among others."""
-    from vsw.hybrid import ATOL, RTOL
+    from vsw.dynamics.hybrid import ATOL, RTOL
 
     assert RTOL == ATOL
     model, params, orbits = gaits["vsw_biped"]
@@ -380,7 +382,7 @@ def test_step_phases_is_the_batch_walk_of_one_step(gaits):
 
 def _built(key: str, name: str, flags: list[str], lanes: int = 4):
     """The batch simulator of ``key`` built with these flags and lane count alone."""
-    from vsw.batch import BatchSimulator
+    from vsw.dynamics.batch import BatchSimulator
 
     sim = BatchSimulator(load(key))
     sim.use_build(f"#define VSW_LANES {lanes}\n".encode() + sim.c_source(), f"{key}_sim_{name}",
@@ -393,7 +395,7 @@ def test_the_portable_build_walks_the_same(gaits):
     lowered to SSE2, libm's sines), built with two lanes instead of four, walks to the same
     bytes as the native build with libm's sines in four lanes:
     neither the flags nor the lane count change a walk."""
-    from vsw.batch import _LIBM_FLAGS, _PORTABLE_FLAGS
+    from vsw.dynamics.batch import _LIBM_FLAGS, _PORTABLE_FLAGS
 
     model, params, orbits = gaits["vsw_biped"]
     state = np.array([orbits[0].state[k] for k in (*model.coordinates, *model.rates)])
@@ -416,7 +418,7 @@ def _has_avx2() -> bool:
 def _vector_sines():
     """The library in use, skipping where it does not take libmvec's sines; on a glibc
     x86-64 machine with AVX2 it must."""
-    from vsw.batch import _HAS_LIBMVEC
+    from vsw.dynamics.batch import _HAS_LIBMVEC
 
     fast = simulator(load("vsw_biped"))
     assert fast.library() is not None, fast.build_error
@@ -434,7 +436,7 @@ def test_the_lane_count_changes_no_walk(gaits, lanes):
     """The vector build (libmvec's sines, AVX2) built with two and eight lanes walks to the
     same bytes as the four lanes of the library in use: the vector sines are taken four at
     a time whatever the lane count."""
-    from vsw.batch import _VECTOR_FLAGS
+    from vsw.dynamics.batch import _VECTOR_FLAGS
 
     fast = _vector_sines()
     model, params, orbits = gaits["vsw_biped"]
@@ -459,11 +461,11 @@ def test_the_lane_count_changes_no_walk(gaits, lanes):
 )
 def test_vector_sines_walk_as_libm_does(gaits, key):
     """The vector build's sines and cosines (glibc's libmvec where the CPU has AVX2,
-    vsw/csrc/lanes.h) against libm's (the native build without it): the same outcomes and steps on
-    200 starts around the gait, section states within 1e-9 (relative) after 10 steps
+    vsw/dynamics/csrc/lanes.h) against libm's (the native build without it): the same outcomes and
+    steps on 200 starts around the gait, section states within 1e-9 (relative) after 10 steps
     (the tolerance the SciPy route is held to): a few ulp in each sine move a walk by
     about the integrator's own rounding."""
-    from vsw.batch import _LIBM_FLAGS
+    from vsw.dynamics.batch import _LIBM_FLAGS
 
     _vector_sines()
     model, params, orbits = gaits[key]
@@ -520,7 +522,7 @@ def test_scipy_fallback_without_a_compiler(gaits, monkeypatch):
     starts[:, 1] *= np.linspace(0.05, 2.0, 6)  # from rolling back to walking
     compiled = simulator(load("rimless_wheel")).walk(params, starts, 20, target=state)
     monkeypatch.setenv("VSW_KERNELS", "0")
-    from vsw.batch import BatchSimulator
+    from vsw.dynamics.batch import BatchSimulator
 
     fallback = BatchSimulator(model)
     slow = fallback.walk(params, starts, 20, target=state)
@@ -532,7 +534,7 @@ def test_scipy_fallback_without_a_compiler(gaits, monkeypatch):
 
 
 def test_bad_shapes_are_one_line_errors(gaits):
-    from vsw.errors import VswInputError
+    from vsw.runtime.errors import VswInputError
 
     _, params, _ = gaits["compass_gait"]
     sim = simulator(load("compass_gait"))
@@ -569,7 +571,7 @@ def test_the_walks_are_named_by_their_outcome():
     """labels() and ended() name every walk by its outcome code and aux (as the batch
     simulator's C writes them: vsw_batch_simulate; a negative aux as Python indexes), in
     the walks' order, empty for no walks."""
-    from vsw.batch import PERIODIC, STALLED, BatchResult
+    from vsw.dynamics.batch import PERIODIC, STALLED, BatchResult
 
     rng = np.random.default_rng(3)
     outcome = rng.integers(0, 5, 500)

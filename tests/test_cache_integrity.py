@@ -1,6 +1,6 @@
 """What the caches hand back is verified before it is used.
 
-A kept gait search (:mod:`vsw.gaits`, ``$VSW_CACHE_DIR/searches/``) is sealed with the
+A kept gait search (:mod:`vsw.gaits.search`, ``$VSW_CACHE_DIR/searches/``) is sealed with the
 SHA-256 of its canonical content and its own file name, its fields are validated when read,
 and each kept gait is stepped once more before it is reported: a file altered by hand (its
 digest recomputed or not), with fields out of range or copied under another name, is
@@ -24,10 +24,11 @@ from pathlib import Path
 
 import pytest
 
-from vsw import gaits, search_cache
 from vsw.cli import main
-from vsw.errors import CacheWarning, VswInputError
+from vsw.gaits import search as gaits
+from vsw.gaits import search_cache
 from vsw.models import load, user
+from vsw.runtime.errors import CacheWarning, VswInputError
 
 pytest.importorskip("casadi")
 

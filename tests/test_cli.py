@@ -215,7 +215,7 @@ def test_basin_edge_checks(capsys):
 def test_progress_bar_only_on_a_terminal():
     import io
 
-    from vsw.progress import ProgressBar
+    from vsw.runtime.progress import ProgressBar
 
     quiet = io.StringIO()
     bar = ProgressBar("x", stream=quiet)

@@ -536,10 +536,10 @@ def test_environment_values_and_scheduler_addresses(monkeypatch):
     that stays silent, TLS without certificates, in-process, garbage): a result or one
     line, never a traceback. Dask's waits shortened so that an example takes a second."""
     pytest.importorskip("distributed")
-    import vsw.cluster
+    import vsw.studies.cluster
 
-    monkeypatch.setattr(vsw.cluster, "CONNECT_TIMEOUT", 0.5)
-    monkeypatch.setattr(vsw.cluster, "HANDSHAKE_TIMEOUT", 1.0, raising=False)
+    monkeypatch.setattr(vsw.studies.cluster, "CONNECT_TIMEOUT", 0.5)
+    monkeypatch.setattr(vsw.studies.cluster, "HANDSHAKE_TIMEOUT", 1.0, raising=False)
     with server(b"HTTP/1.1 400 Bad Request\r\n\r\n" * 4) as other, server(None) as silent:
         addresses = st.sampled_from([
             f"tcp://127.0.0.1:{other}", f"tcp://127.0.0.1:{silent}", f"ws://127.0.0.1:{other}",

@@ -17,8 +17,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vsw import cli, limits
+from vsw import cli
 from vsw.cli import EXIT_CLOSED_PIPE, main
+from vsw.runtime import limits
 
 ROOT = Path(__file__).resolve().parents[1]
 ANALYZE = ["analyze", "--beta", "0.8", "--theta-ii", "0", "--phi0", "45"]
@@ -189,7 +190,7 @@ def test_unwritable_plot_is_one_line_exit_2_before_any_work(capsys, tmp_path, co
 
 
 def test_plot_check_leaves_no_file_behind_and_keeps_existing_ones(tmp_path):
-    from vsw.figures import check_save_path
+    from vsw.plots.figures import check_save_path
 
     fresh = tmp_path / "new.png"
     check_save_path(fresh)
@@ -258,9 +259,9 @@ def test_invalid_vsw_threads_is_rejected_by_every_command(monkeypatch, capsys, s
 @pytest.mark.parametrize("size", [1, 10, 40_000])
 def test_invalid_vsw_threads_is_rejected_by_the_library_at_any_size(monkeypatch, size):
     from generated import ile
-    from vsw.errors import VswInputError
     from vsw.models.ile.analysis import analyze
-    from vsw.vectorize import chunked
+    from vsw.runtime.errors import VswInputError
+    from vsw.runtime.vectorize import chunked
 
     monkeypatch.setenv("VSW_THREADS", "0")
     beta = np.full(size, 0.8)
@@ -398,7 +399,7 @@ def test_simulate_memory_estimate_covers_what_is_allocated():
 def test_long_q_rows_are_split_into_blocks(monkeypatch):
     # One row of 3 CHUNKs of q: evaluated blockwise equals one whole-array evaluation.
     from vsw.models.ile import basin as basin_module
-    from vsw.vectorize import CHUNK
+    from vsw.runtime.vectorize import CHUNK
 
     beta, phi0, theta = 0.8, math.pi / 4, np.array([[0.0]])
     q = np.linspace(1e-3, 1.8, 3 * CHUNK + 5)[None, :]

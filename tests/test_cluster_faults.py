@@ -4,8 +4,8 @@ A scheduler and its worker run as separate processes on loopback, as a user star
 (``dask scheduler``, ``dask worker --no-nanny``, so that a killed worker stays dead), and
 are killed under a running ``vsw basin``: no worker at all, the only worker killed, the
 scheduler killed. Each must end the command with exit 2 and one line on stderr, within
-the stated waits (:data:`vsw.cluster.WORKER_WAIT`, shortened here to 2 s, and
-:data:`vsw.cluster.CONNECT_TIMEOUT`).
+the stated waits (:data:`vsw.studies.cluster.WORKER_WAIT`, shortened here to 2 s, and
+:data:`vsw.studies.cluster.CONNECT_TIMEOUT`).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ import pytest
 
 pytest.importorskip("distributed")
 
-import vsw.cluster
+import vsw.studies.cluster
 from tests.loopback import server
 from vsw.cli import main
 
@@ -105,7 +105,7 @@ def _run(argv: list[str], guard_seconds: float = 60.0) -> tuple[int, str, str, f
 
 @pytest.fixture(autouse=True)
 def short_waits(monkeypatch):
-    monkeypatch.setattr(vsw.cluster, "WORKER_WAIT", 2.0)
+    monkeypatch.setattr(vsw.studies.cluster, "WORKER_WAIT", 2.0)
     monkeypatch.setenv("VSW_MAX_SECONDS", "inf")
 
 
@@ -120,7 +120,7 @@ def test_scheduler_without_workers(scheduler):
     code, out, err, elapsed = _run([*BASIN, "--scheduler", address])
     assert code == 2 and out == ""
     assert "has no workers (waited 2 s)" in _one_line(err)
-    assert elapsed < 2 + vsw.cluster.CONNECT_TIMEOUT + 5
+    assert elapsed < 2 + vsw.studies.cluster.CONNECT_TIMEOUT + 5
 
 
 def test_the_only_worker_killed_during_the_run(scheduler):
@@ -187,7 +187,7 @@ def test_a_server_that_answers_with_other_bytes_is_no_scheduler():
 
 
 def test_a_server_that_accepts_and_stays_silent_is_refused_in_time(monkeypatch):
-    monkeypatch.setattr(vsw.cluster, "HANDSHAKE_TIMEOUT", 1.5)
+    monkeypatch.setattr(vsw.studies.cluster, "HANDSHAKE_TIMEOUT", 1.5)
     with _server(None) as address:
         code, out, err, elapsed = _run([*SMALL_BASIN, "--scheduler", address], guard_seconds=15.0)
     assert code == 2 and out == ""
@@ -213,7 +213,7 @@ def test_a_scheduler_killed_during_the_run_is_one_line_of_stderr(scheduler, run,
     assert code == 2 and out == ""
     line = _one_line(err)
     assert address in line and ("lost the Dask scheduler" in line or "Dask run" in line), line
-    assert elapsed < kill_after + vsw.cluster.CONNECT_TIMEOUT + 10
+    assert elapsed < kill_after + vsw.studies.cluster.CONNECT_TIMEOUT + 10
 
 
 def test_a_worker_address_is_no_scheduler_in_one_line(scheduler):

@@ -1,7 +1,7 @@
-"""Continuation of gaits (vsw.continuation, ``vsw continue``): special points located to
+"""Continuation of gaits (vsw.gaits.continuation, ``vsw continue``): special points located to
 their defining equations and checked against routes the continuation does not use: the
 SciPy-simulated map's Jacobian by central differences, the single-shooting Poincaré map of
-:meth:`vsw.hybrid.HybridModel.eigenvalues`, the batch simulator's iterated map, the ILE's
+:meth:`vsw.dynamics.hybrid.HybridModel.eigenvalues`, the batch simulator's iterated map, the ILE's
 closed forms, and the published values (cited beside each)."""
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from vsw import continuation, special_curves
-from vsw.batch import simulator
 from vsw.cli import main
+from vsw.dynamics.batch import simulator
+from vsw.gaits import continuation, special_curves
 from vsw.models import load
 
 # Bhounsule et al. 2013 (paper_check.walkers.BHOUNSULE_LONG): the simplest walker's long

@@ -350,7 +350,7 @@ def test_impossible_target_speed_names_the_conflicting_constraints():
 
 
 def test_bad_requests_raise():
-    from vsw.errors import VswInputError
+    from vsw.runtime.errors import VswInputError
 
     bad = [
         {},

@@ -1,4 +1,4 @@
-"""Design for every model (vsw.design): the NLP on the periodic orbit, checked against
+"""Design for every model (vsw.synthesis.design): the NLP on the periodic orbit, checked against
 physics and closed forms it does not use.
 
 * the Jury / Schur–Cohn rows against numpy's roots;
@@ -26,10 +26,10 @@ import pytest
 
 from vsw import models
 from vsw.cli import main
-from vsw.design import DesignRequest, design
-from vsw.errors import VswInputError
 from vsw.models.ile.design import design as ile_design
 from vsw.orbits.monodromy import characteristic_coefficients, jury_rows
+from vsw.runtime.errors import VswInputError
+from vsw.synthesis.design import DesignRequest, design
 
 
 @pytest.fixture

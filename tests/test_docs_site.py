@@ -209,14 +209,14 @@ def test_links_that_leave_the_site_become_text():
     hooks = _hooks()
     page_dir = DOCS / "guide"
     text = (
-        "[the runtime](../../vsw/hybrid.py), [a page](commands.md), "
+        "[the runtime](../../vsw/dynamics/hybrid.py), [a page](commands.md), "
         "[gone](../../no/such/file.py), [web](https://example.org/x.py)\n"
-        "```text\n[code](../../vsw/hybrid.py)\n```"
+        "```text\n[code](../../vsw/dynamics/hybrid.py)\n```"
     )
     assert hooks._outside_links(text, page_dir) == (
         "the runtime, [a page](commands.md), "
         "[gone](../../no/such/file.py), [web](https://example.org/x.py)\n"
-        "```text\n[code](../../vsw/hybrid.py)\n```"
+        "```text\n[code](../../vsw/dynamics/hybrid.py)\n```"
     )
 
 
@@ -298,7 +298,7 @@ def test_site_builds_strictly_with_generated_pages(site: Path):
     first_heading = (ROOT / "benchmarks" / "results.md").read_text().split("\n")[0].lstrip("# ")
     assert first_heading in benchmarks
     api = (site / "reference" / "api.html").read_text(encoding="utf-8")
-    assert 'id="vsw.models.load"' in api and 'id="vsw.hybrid"' in api
+    assert 'id="vsw.models.load"' in api and 'id="vsw.dynamics.hybrid"' in api
     assert ":func:<code>" not in api and ":class:<code>" not in api  # reST roles dropped
     for tutorial in TUTORIALS.glob("*.md"):
         assert (site / "tutorials" / f"{tutorial.stem}.html").is_file()

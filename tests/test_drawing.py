@@ -16,8 +16,8 @@ import math
 import numpy as np
 import pytest
 
-from vsw.animate import HEIGHT, WIDTH, _raster, animation_frames
 from vsw.models import keys, load
+from vsw.plots.animate import HEIGHT, WIDTH, _raster, animation_frames
 
 pytest.importorskip("PIL")
 

@@ -1,4 +1,4 @@
-"""The ILE through the engine's generic runtime (vsw.hybrid) against its own closed forms.
+"""The ILE through the engine's generic runtime (vsw.dynamics.hybrid) against its own closed forms.
 
 The generic runtime knows nothing of the ILE: it integrates the engine's equations of
 motion, detects the engine's guards, applies the engine's resets and solves the periodic

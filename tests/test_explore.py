@@ -383,8 +383,8 @@ def test_the_slope_slider_reaches_the_compass_gaits_period_doublings():
     """The hybrid explorer's slope slider spans the parameter table's interval, so it
     reaches past the compass gait's first period doubling and on to where its walks fail;
     every slider's grid passes through its start value, strictly inside the interval."""
-    from vsw.explore_page import FINE, WIDE, spec
     from vsw.models import load
+    from vsw.plots.explore_page import FINE, WIDE, spec
 
     model = load("compass-gait")
     params = model.parameters()

@@ -13,15 +13,15 @@ import pytest
 from matplotlib.figure import Figure
 from matplotlib.transforms import Bbox
 
-from vsw import plotstyle
+from vsw.dynamics.trajectories import sample_walk
 from vsw.models import keys, load
 from vsw.models.ile import plots
 from vsw.models.ile.basin import basin
 from vsw.models.ile.simulate import simulate
-from vsw.powered import PoweredGait, input_names
-from vsw.powered.plot import powered_figure
-from vsw.trajectories import sample_walk
-from vsw.walk_plot import walk_figure
+from vsw.plots import plotstyle
+from vsw.plots.walk_plot import walk_figure
+from vsw.synthesis.powered import PoweredGait, input_names
+from vsw.synthesis.powered.plot import powered_figure
 
 GREEK = ("alpha|beta|gamma|delta|epsilon|zeta|eta|theta|iota|kappa|lambda|mu|nu|xi|pi|rho|"
          "sigma|tau|upsilon|phi|chi|psi|omega")  # fmt: skip
@@ -151,7 +151,7 @@ def test_every_figure_labels_in_one_style(figures, name, tmp_path):
     edges of the saved PNG (laid out at the resolution it is saved at)."""
     from PIL import Image
 
-    from vsw.figures import save_figure
+    from vsw.plots.figures import save_figure
 
     fig = figures[name]
     assert plotstyle.raw_names(fig) == [], name
@@ -167,7 +167,7 @@ def test_the_powered_figure_says_its_units(tmp_path):
     the saved PNG (an input at zero has the widest tick labels)."""
     from PIL import Image
 
-    from vsw.figures import save_figure
+    from vsw.plots.figures import save_figure
 
     level = load("level_compass_gait")
     gait = _synthetic_gait(level)

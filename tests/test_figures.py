@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 
 from generated import ile
-from vsw import plotstyle
-from vsw.figures import SAVE_FORMATS, save_figure
 from vsw.models.ile import plots
 from vsw.models.ile.basin import basin, check_edges_by_simulation
 from vsw.models.ile.simulate import simulate
+from vsw.plots import plotstyle
+from vsw.plots.figures import SAVE_FORMATS, save_figure
 
 ROOT = Path(__file__).resolve().parents[1]
 R45 = math.radians(45.0)
@@ -269,7 +269,7 @@ def test_edge_checks_drawn_so_none_hides_another(small_basin):
 
 def test_import_vsw_and_plots_does_not_load_matplotlib():
     code = (
-        "import sys, vsw, vsw.models.ile.plots, vsw.plotstyle\n"
+        "import sys, vsw, vsw.models.ile.plots, vsw.plots.plotstyle\n"
         "assert 'matplotlib' not in sys.modules, 'matplotlib imported'\n"
     )
     proc = subprocess.run(

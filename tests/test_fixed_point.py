@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from oracles import ile_fixed_point as fp
 
 from generated import ile
-from vsw.errors import ConvergenceError, VswInputError
+from vsw.runtime.errors import ConvergenceError, VswInputError
 
 FIG8 = (0.8, 0.0, math.radians(45.0))
 REL = 1e-10

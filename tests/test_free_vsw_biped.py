@@ -146,15 +146,15 @@ def test_the_hip_impulse_at_the_stop_turns_the_swing_leg_by_itself():
 
 
 def test_the_ground_impulses_carry_the_legs_pushes():
-    """The NLP's ground impulses at heelstrike (vsw.powered's event_map: the momentum's
+    """The NLP's ground impulses at heelstrike (vsw.synthesis.powered's event_map: the momentum's
     change): a leg's telescoping foot is massless, so the ground's impulse on it along the
     leg is the leg actuator's: the stance foot's is the push-off along the trailing leg,
     the new foot's the heel-strike along the new leg (zero where it lands free), whatever
     the collision adds across the leg. 20 random cases, 1e-12."""
     import casadi as ca
 
-    from vsw.powered.events import apply_impulses, event_map
-    from vsw.powered.variables import Constraints, Unknowns
+    from vsw.synthesis.powered.events import apply_impulses, event_map
+    from vsw.synthesis.powered.variables import Constraints, Unknowns
 
     walker = load("free_vsw_biped")
     (event,) = walker.events
@@ -189,11 +189,11 @@ def test_the_ground_impulses_carry_the_legs_pushes():
 @pytest.mark.slow
 def test_the_optimiser_walks_the_stop_model_through_its_stop():
     """`vsw optimize` on the end-stop model from its kinematic start for two phases
-    (vsw.powered.starts._phased_guess): the stroke ends with the leg at l, the extended phase
-    begins with it stopped there (the lock's reset), holds it, and ends at heelstrike
+    (vsw.synthesis.powered.starts._phased_guess): the stroke ends with the leg at l, the extended
+    phase begins with it stopped there (the lock's reset), holds it, and ends at heelstrike
     with the swing foot on the ground ahead; the step is periodic (the stroke starts
     beta long)."""
-    from vsw.powered import Request, optimize
+    from vsw.synthesis.powered import Request, optimize
 
     walker = load("free_vsw_biped_stop")
     params = walker.parameters()
@@ -251,9 +251,9 @@ def test_the_optimiser_chooses_the_push_angle_with_the_gait():
     stage (the squared inputs' integral, which prices no impulse) keeps it at its start,
     the work stage moves it; the stance ends where the stance leg passes the chosen value
     (the guard theta - theta_push at the split), the gait records it, and the step
-    re-simulated at the gait's parameters (vsw.powered.powered_step) ends near the start
+    re-simulated at the gait's parameters (vsw.synthesis.powered.powered_step) ends near the start
     of the periodic step, while at the start's value the push comes elsewhere."""
-    from vsw.powered import Request, chosen_indices, optimize, powered_step
+    from vsw.synthesis.powered import Request, chosen_indices, optimize, powered_step
 
     walker = load("free_vsw_biped_push")
     (index,) = chosen_indices(walker)
@@ -276,12 +276,12 @@ def test_the_optimiser_chooses_the_push_angle_with_the_gait():
 
 
 def test_the_kinematic_start_splits_the_stance_where_the_push_comes():
-    """The kinematic start of several phases (vsw.powered.starts._phased_guess) ends the stance
-    where the push's guard vanishes along its straight path: the stance leg at theta_push
+    """The kinematic start of several phases (vsw.synthesis.powered.starts._phased_guess) ends the
+    stance where the push's guard vanishes along its straight path: the stance leg at theta_push
     at the split, the phases' durations in proportion, the path continuous there."""
-    from vsw.powered import Request
-    from vsw.powered.problem import _build
-    from vsw.powered.starts import kinematic_guess
+    from vsw.synthesis.powered import Request
+    from vsw.synthesis.powered.problem import _build
+    from vsw.synthesis.powered.starts import kinematic_guess
 
     walker = load("free_vsw_biped_push")
     params = walker.parameters({"theta_push": 0.1})
@@ -337,9 +337,9 @@ def test_vsw_optimize_reports_the_chosen_angle_within_its_limit(capsys):
 
 def test_a_limit_on_the_push_angle_takes_its_start_into_it():
     """The start 0.5 outside --limit theta_push=0.4:0.45: the first stage holds the angle
-    at the limit's nearest end, 0.45 (vsw.powered.request.started_within_limits), and the work
-    stage keeps it within the limit."""
-    from vsw.powered import Request, chosen_indices, optimize
+    at the limit's nearest end, 0.45 (vsw.synthesis.powered.request.started_within_limits), and the
+    work stage keeps it within the limit."""
+    from vsw.synthesis.powered import Request, chosen_indices, optimize
 
     walker = load("free_vsw_biped_push")
     (index,) = chosen_indices(walker)
@@ -351,8 +351,8 @@ def test_a_limit_on_the_push_angle_takes_its_start_into_it():
 
 
 def test_the_push_is_taken_by_the_ground_pushing_within_the_cone():
-    """The NLP's event map at the push (vsw.powered.events.event_map, a change of phase where
-    impulses act): the ground's impulse through the stance foot is the walker's momentum's
+    """The NLP's event map at the push (vsw.synthesis.powered.events.event_map, a change of phase
+    where impulses act): the ground's impulse through the stance foot is the walker's momentum's
     change by Newton for the three masses, and along the stance leg it is the leg's push
     (its foot massless; the foot's pivot takes the rest, across the leg) when the hip does
     not act, 20 random cases, 1e-12;
@@ -360,9 +360,9 @@ def test_the_push_is_taken_by_the_ground_pushing_within_the_cone():
     cone's two sides), none where the impulses are held at zero (torque2)."""
     import casadi as ca
 
-    from vsw.powered import Request
-    from vsw.powered.events import event_map
-    from vsw.powered.variables import Constraints, Unknowns
+    from vsw.synthesis.powered import Request
+    from vsw.synthesis.powered.events import event_map
+    from vsw.synthesis.powered.variables import Constraints, Unknowns
 
     walker = load("free_vsw_biped_push")
     (event,) = [e for e in walker.events if e["name"] == "push"]

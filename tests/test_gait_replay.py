@@ -1,5 +1,5 @@
 """A powered gait kept and replayed: ``vsw optimize --out FILE`` and ``--gait FILE`` of
-``vsw simulate``, ``vsw animate`` and ``vsw explore`` (vsw/gait_file.py).
+``vsw simulate``, ``vsw animate`` and ``vsw explore`` (vsw/studies/gait_file.py).
 
 One optimisation for the module: the compass gait's least squared hip torque at 0.8 m/s on
 10 and 20 intervals, whose collocation is not judged optimal (its re-simulation ends 4e-6
@@ -34,7 +34,7 @@ NAMES = ["theta", "psi", "theta_dot", "psi_dot"]
 PERIODIC = 1e-7
 """The replayed step's return to its start, relative to max(1, |state|): the verification
 accepts a fixed point whose step maps it to itself within
-:data:`vsw.powered.verify.FIXED_POINT_TOL` = 1e-7 (Newton reaches about 4e-10 here, and a
+:data:`vsw.synthesis.powered.verify.FIXED_POINT_TOL` = 1e-7 (Newton reaches about 4e-10 here, and a
 second step adds the first's gap times the open-loop map's largest |eigenvalue|, 1.34)."""
 
 
@@ -111,9 +111,9 @@ def test_an_unverified_optimum_is_never_called_optimal(gait, tmp_path):
     verification, or with one that failed, unverified whatever the collocation said."""
     import dataclasses
 
-    from vsw.gait_file import gait_record, load_gait
-    from vsw.powered import Request
-    from vsw.powered.verify import VerifiedGait
+    from vsw.studies.gait_file import gait_record, load_gait
+    from vsw.synthesis.powered import Request
+    from vsw.synthesis.powered.verify import VerifiedGait
 
     path = tmp_path / "g.json"
     path.write_text(json.dumps({"gait": gait}))
@@ -201,10 +201,10 @@ def test_the_trajectory_is_periodic_and_its_energy_is_the_torques_work(optimized
 
 def test_animate_draws_the_replayed_walker(optimized, gait, tmp_path):
     """`vsw animate --gait FILE`: the walk from the gait's start, two steps completed, a
-    frame at each heelstrike; the frames (vsw.animate) draw the model's own skeleton at
+    frame at each heelstrike; the frames (vsw.plots.animate) draw the model's own skeleton at
     the replayed states, inside the picture."""
-    from vsw.animate import HEIGHT, WIDTH, animation_frames
-    from vsw.gait_file import PoweredReplay, load_gait
+    from vsw.plots.animate import HEIGHT, WIDTH, animation_frames
+    from vsw.studies.gait_file import PoweredReplay, load_gait
 
     path = optimized[0]
     out = tmp_path / "walk.svg"

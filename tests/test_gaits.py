@@ -1,4 +1,4 @@
-"""The gait search (vsw.gaits): complete within its box, and the reason when there is none.
+"""The gait search (vsw.gaits.search): complete within its box, and the reason when there is none.
 
 The reference gaits of the VSW biped come from outside this code: an independent
 re-implementation of the model (its own sympy derivation and SciPy simulator) found gaits
@@ -16,10 +16,11 @@ import math
 import numpy as np
 import pytest
 
-from vsw import gaits, search_cache
 from vsw.cli import main
-from vsw.errors import CacheWarning
+from vsw.gaits import search as gaits
+from vsw.gaits import search_cache
 from vsw.models import load
+from vsw.runtime.errors import CacheWarning
 
 pytest.importorskip("casadi")
 
@@ -194,7 +195,7 @@ def sealed(data: dict) -> dict:
 
 def test_a_kept_search_is_a_new_one_bit_for_bit(monkeypatch, tmp_path):
     """The scan, Newton's solutions and the confirmed gaits are kept on disk
-    (vsw.search_cache.cache_file) and a later search of the same model, code and inputs reuses
+    (vsw.gaits.search_cache.cache_file) and a later search of the same model, code and inputs reuses
     them: neither the scan nor the boundary-value solver runs again, and its gaits (their
     orbits' states too) equal a new search's bit for bit. Gaits missing (a search
     interrupted while confirming) or kept by another CasADi are confirmed again and kept

@@ -78,7 +78,7 @@ def test_numpy_broadcasts_over_parameter_arrays():
 def c_library(tmp_path_factory):
     if shutil.which("cc") is None and shutil.which("gcc") is None:
         pytest.skip("no C compiler")
-    from vsw.ccode import CLibrary
+    from vsw.dynamics.ccode import CLibrary
 
     return CLibrary.build(tmp_path_factory.mktemp("c"))
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from vsw.cli import main
-from vsw.gaits import search
+from vsw.gaits.search import search
 
 pytest.importorskip("casadi")
 
@@ -66,7 +66,7 @@ def test_the_cell_at_the_gait_converges_at_once(capsys):
 
 def test_outcome_rows_run_over_y_and_columns_over_x(capsys):
     """A 3 x 5 grid (x has 5 values, y 3): cell [i][j] is the walk from (x[j], y[i])."""
-    from vsw.batch import simulator
+    from vsw.dynamics.batch import simulator
     from vsw.models import load
 
     grid = ["--grid", "theta=-0.3:-0.1:5", "--grid", "theta_dot=0.15:0.25:3"]
@@ -181,8 +181,8 @@ def test_basin_on_a_dask_cluster_is_the_local_one_byte_for_byte(capsys, cluster,
 
 
 def test_dask_blocks_do_not_change_the_walks(cluster, monkeypatch):
-    import vsw.cluster
-    from vsw.batch import simulator
+    import vsw.studies.cluster
+    from vsw.dynamics.batch import simulator
     from vsw.models import load
 
     sim = simulator(load("compass_gait"))
@@ -190,9 +190,9 @@ def test_dask_blocks_do_not_change_the_walks(cluster, monkeypatch):
     state = np.array([-0.2, 0.2, 1.2, 0.5])
     starts = state * (1 + 0.05 * np.random.default_rng(9).standard_normal((50, 4)))
     local = sim.walk(params, starts, 10, keep=2)
-    monkeypatch.setattr(vsw.cluster, "BLOCK", 7)
+    monkeypatch.setattr(vsw.studies.cluster, "BLOCK", 7)
     remote = sim.walk(
-        params, starts, 10, keep=2, runner=vsw.cluster.runner(cluster, sim.model.name)
+        params, starts, 10, keep=2, runner=vsw.studies.cluster.runner(cluster, sim.model.name)
     )
     fields = ("outcome", "aux", "steps", "final", "kept_states", "kept_lengths",
               "kept_durations")  # fmt: skip

@@ -1,4 +1,4 @@
-"""Walking by hybrid zero dynamics (vsw.hzd, derive/hzd.py, vsw hzd) on the three-link
+"""Walking by hybrid zero dynamics (vsw.synthesis.hzd, derive/hzd.py, vsw hzd) on the three-link
 biped, against routes held out of the project's code:
 
 * the restricted Poincaré map of both shipped designs against tests/oracles/
@@ -23,8 +23,8 @@ import numpy as np
 import pytest
 
 from tests.oracles import three_link_biped as oracle
-from vsw import hzd
 from vsw.models import key, load
+from vsw.synthesis import hzd
 
 pytest.importorskip("casadi")
 
@@ -141,7 +141,7 @@ def test_feed_forward_torques_hold_the_model_on_the_surface(walker, invariant):
 
 
 def test_plot_is_deterministic(invariant, tmp_path):
-    from vsw.hzd.plot import save_hzd_plot
+    from vsw.synthesis.hzd.plot import save_hzd_plot
 
     a, b = tmp_path / "a.png", tmp_path / "b.png"
     for path in (a, b):
@@ -205,7 +205,7 @@ def test_simulated_closed_loop_returns_at_the_rate_delta_squared(walker, invaria
     """The runtime's simulation (DOP853 with the model's events) of the closed loop from a
     state off the gait (every rate 5 % high, off the surface): each step's deviation of
     theta1_dot just after the impact shrinks by a factor that tends to delta^2."""
-    from vsw.hzd.loop import ClosedLoop
+    from vsw.synthesis.hzd.loop import ClosedLoop
 
     loop = ClosedLoop(walker, invariant.samples["surface"], 400.0, 40.0)
     closed = loop.hybrid()

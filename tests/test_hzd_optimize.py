@@ -1,4 +1,4 @@
-"""``vsw hzd --optimize`` (vsw.hzd.optimize) on the three-link biped at 0.8 m/s with a
+"""``vsw hzd --optimize`` (vsw.synthesis.hzd.optimize) on the three-link biped at 0.8 m/s with a
 friction cone (mu = 1) and a torque bound (55 N m), checked by routes of its own:
 
 * the optimum's gait by tests/oracles/three_link_biped.py (its own mass matrix, impact and
@@ -7,7 +7,8 @@ friction cone (mu = 1) and a torque bound (55 N m), checked by routes of its own
   acceleration by central differences) within the cone, the swing foot above the ground
   away from mid-stance, and alpha_0, alpha_1 by the oracle's impact (invariance);
 * the full-order closed loop simulated again from the orbit's start by the runtime
-  (vsw.hzd.loop on vsw.hybrid): it returns to its start, its eigenvalues inside the circle;
+  (vsw.synthesis.hzd.loop on vsw.dynamics.hybrid): it returns to its start, its eigenvalues inside
+  the circle;
 * the optimum written as a constraints file (--out) analysed by plain ``vsw hzd`` (the
   runtime's non-optimising path): the same speed, invariance and peak torques;
 * bad requests: one line, exit 2 (a negative speed or mu, a constraints file without
@@ -26,10 +27,10 @@ from scipy.integrate import quad, solve_ivp
 
 from tests.oracles import three_link_biped as oracle
 from vsw.cli import main
-from vsw.hzd import DEFAULT_GAINS
-from vsw.hzd.loop import ClosedLoop
-from vsw.hzd.optimize import HzdRequest, optimize
 from vsw.models import key, load
+from vsw.synthesis.hzd import DEFAULT_GAINS
+from vsw.synthesis.hzd.loop import ClosedLoop
+from vsw.synthesis.hzd.optimize import HzdRequest, optimize
 
 pytest.importorskip("casadi")
 

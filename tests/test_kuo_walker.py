@@ -20,7 +20,7 @@ import pytest
 
 from paper_check.powered import inverted_pendulum_gait
 from vsw.models import load
-from vsw.powered import Request, optimize
+from vsw.synthesis.powered import Request, optimize
 
 pytest.importorskip("casadi")
 
@@ -102,8 +102,8 @@ def test_the_nlps_event_map_is_the_steps_and_the_energy_closes(walker):
     push and n along the new leg (Newton, not the engine)."""
     import casadi as ca
 
-    from vsw.powered.events import apply_impulses, event_map
-    from vsw.powered.variables import Constraints, Unknowns
+    from vsw.synthesis.powered.events import apply_impulses, event_map
+    from vsw.synthesis.powered.variables import Constraints, Unknowns
 
     (event,) = walker.events
     p, x, iota = ca.MX.sym("p", 4), ca.MX.sym("x", 2), ca.MX.sym("iota", 2)

@@ -1,4 +1,4 @@
-"""The energy ledger (vsw/ledger.py) beside what it must equal from elsewhere: the paper's
+"""The energy ledger (vsw/dynamics/ledger.py) beside what it must equal from elsewhere: the paper's
 energy balance of the ILE as printed, the slope's work on the compass gait, Carnot's loss.
 
 * [ILE] ../shared/paper/instantaneous_leg_extension_vsw.md, section E: the energy the
@@ -22,7 +22,7 @@ from derive.engine.hybrid import hybrid_quantities
 from derive.models import vsw_biped_phi0 as caught
 from vsw.cli import main
 from vsw.cli.analyze import _write_ledger
-from vsw.ledger import energy_ledger
+from vsw.dynamics.ledger import energy_ledger
 from vsw.models import load
 
 

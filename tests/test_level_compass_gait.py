@@ -19,11 +19,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vsw.errors import VswInputError
 from vsw.models import load
-from vsw.powered import Request, optimize, powered_step
-from vsw.powered.request import _check_step_target
-from vsw.powered.verify import verify
+from vsw.runtime.errors import VswInputError
+from vsw.synthesis.powered import Request, optimize, powered_step
+from vsw.synthesis.powered.request import _check_step_target
+from vsw.synthesis.powered.verify import verify
 
 pytest.importorskip("casadi")
 
@@ -134,7 +134,7 @@ def test_push_off_alone_equals_single_shooting(walker):
     assert peer.success, peer.message
     assert gait.cost == pytest.approx(peer.cost, rel=1e-6)
     assert gait.step_length == pytest.approx(0.4, rel=1e-9)
-    # The open-loop step's fixed point (vsw.powered.verify): a motion of the walker whose
+    # The open-loop step's fixed point (vsw.synthesis.powered.verify): a motion of the walker whose
     # work, integrated along it, is SLSQP's too; it maps to itself.
     verified = verify(walker, params, gait)
     assert verified.failure == ""

@@ -13,7 +13,7 @@ import pytest
 
 import generated
 from vsw import models
-from vsw.errors import VswInputError
+from vsw.runtime.errors import VswInputError
 
 ROOT = Path(__file__).resolve().parent.parent
 VSW = ROOT / "vsw"

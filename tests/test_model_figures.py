@@ -10,14 +10,14 @@ import numpy as np
 import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-from vsw import plotstyle
 from vsw.cli import main
-from vsw.diagrams import bifurcation_plot, diagram_units
-from vsw.grid_basin import basin_plot, grid_basin
-from vsw.jsonable import clean
 from vsw.models import load
 from vsw.models.ile.plots import ile_sweep_plot
-from vsw.sweeps import continuation, record
+from vsw.plots import plotstyle
+from vsw.plots.diagrams import bifurcation_plot, diagram_units
+from vsw.runtime.jsonable import clean
+from vsw.studies.grid_basin import basin_plot, grid_basin
+from vsw.studies.sweeps import continuation, record
 
 
 def _drawn(fig):

@@ -36,9 +36,9 @@ import generated
 from derive.__main__ import main as derive_main
 from derive.__main__ import stale_report, write_atomically
 from tests.conftest import committed_gaits, passive_keys
-from vsw.gaits import search
-from vsw.hybrid import HybridModel
-from vsw.ledger import energy_ledger
+from vsw.dynamics.hybrid import HybridModel
+from vsw.dynamics.ledger import energy_ledger
+from vsw.gaits.search import search
 from vsw.models import load
 
 MODELS = generated.MODELS
@@ -467,7 +467,7 @@ def test_numpy_and_casadi_agree_on_every_generated_function(name):
 def c_libraries(tmp_path_factory):
     if shutil.which("cc") is None and shutil.which("gcc") is None:
         pytest.skip("no C compiler")
-    from vsw.ccode import CLibrary
+    from vsw.dynamics.ccode import CLibrary
 
     return lambda name: CLibrary.build(tmp_path_factory.mktemp(f"c_{name}"), model=name)
 
@@ -554,7 +554,7 @@ def test_check_command_fails_for_damage_in_every_model(cached_derivation, tmp_pa
 
 @pytest.mark.parametrize("name", MODELS)
 def test_every_gaits_energy_ledger_balances(name):
-    """Issue 26's ledger (vsw/ledger.py) over a step of every gait at the defaults: in the
+    """Issue 26's ledger (vsw/dynamics/ledger.py) over a step of every gait at the defaults: in the
     phases, the work of gravity and of each actuator (quadrature of its power) accounts
     for the kinetic energy's change to 1e-9 of the largest term (the balance; the events'
     actuator work is a remainder, so it checks the phases only); at an impact the ground's

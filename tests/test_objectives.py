@@ -1,4 +1,4 @@
-"""One vocabulary of quantities and objectives (:mod:`vsw.quantities`): one definition
+"""One vocabulary of quantities and objectives (:mod:`vsw.dynamics.quantities`): one definition
 each, the same names in ``vsw design`` and ``vsw optimize``, the same formula in an NLP and
 on the verified orbit."""
 
@@ -13,14 +13,16 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from vsw import design, models, powered, quantities
+from vsw import models
 from vsw.cli import main
 from vsw.cli.app import build_parser
-from vsw.design.problem import Problem
-from vsw.design.transcription import build
-from vsw.errors import VswInputError
-from vsw.ledger import _kinetic_potential
-from vsw.quantities import QUANTITIES, Quantity, evaluate, report, resolve
+from vsw.dynamics import quantities
+from vsw.dynamics.ledger import _kinetic_potential
+from vsw.dynamics.quantities import QUANTITIES, Quantity, evaluate, report, resolve
+from vsw.runtime.errors import VswInputError
+from vsw.synthesis import design, powered
+from vsw.synthesis.design.problem import Problem
+from vsw.synthesis.design.transcription import build
 
 
 def _minimize_choices(command: str) -> list[str]:

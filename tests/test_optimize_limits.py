@@ -13,13 +13,14 @@ import time
 import numpy as np
 import pytest
 
-from vsw import powered, stop
 from vsw.cli import main
 from vsw.cli.parser import EXIT_INPUT
-from vsw.errors import ConvergenceError, VswInputError
 from vsw.models import load
-from vsw.powered import problem, solve
-from vsw.powered import request as powered_request
+from vsw.runtime import stop
+from vsw.runtime.errors import ConvergenceError, VswInputError
+from vsw.synthesis import powered
+from vsw.synthesis.powered import problem, solve
+from vsw.synthesis.powered import request as powered_request
 
 BIPED_STABILITY = ["optimize", "--model", "free-vsw-biped-stop", "--minimize", "stability",
                    "--target-step-length", "0.5", "--json"]  # fmt: skip

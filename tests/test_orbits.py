@@ -1,7 +1,7 @@
 """The periodic-orbit problem (vsw.orbits): its Newton on systems with known solutions, its
 monodromy matrix against routes it does not use (the saltation matrices assembled from
 CasADi's own derivatives of the flows, guards and resets; central differences of SciPy's
-simulated steps; the Poincaré map's derivative of vsw.hybrid), and its quantities."""
+simulated steps; the Poincaré map's derivative of vsw.dynamics.hybrid), and its quantities."""
 
 from __future__ import annotations
 

@@ -255,7 +255,7 @@ def test_period_doubling_past_the_loss_of_stability(walker):
     modulus is real and below -1 (the signature of a flip); at gamma = 0.017 the map from
     the previous gait settles on a period-2 orbit around the unstable period-one gait, and
     at 0.018 on a period-4 one. Each is checked on the simulated map itself: two (four)
-    steps of vsw.hybrid's step return to the start to 1e-8, one (two) do not."""
+    steps of vsw.dynamics.hybrid's step return to the start to 1e-8, one (two) do not."""
     _, orbit = garcias(walker.fixed_points(walker.parameters({"gamma": 0.009})))
     orbits = _continued(walker, orbit, np.linspace(0.009, 0.018, 19))
     at_0017, at_0018 = orbits[-3], orbits[-1]

@@ -17,10 +17,10 @@ import pytest
 
 from paper_check.powered import SR06_ACTUATORS, inverted_pendulum_gait
 from vsw.models import load
-from vsw.powered import Request, optimize
-from vsw.powered.dynamics import flow_function
-from vsw.powered.problem import _build
-from vsw.powered.starts import perturbed_inputs
+from vsw.synthesis.powered import Request, optimize
+from vsw.synthesis.powered.dynamics import flow_function
+from vsw.synthesis.powered.problem import _build
+from vsw.synthesis.powered.starts import perturbed_inputs
 
 pytest.importorskip("casadi")
 
@@ -246,14 +246,14 @@ def test_parameters_that_cannot_walk_are_refused_and_a_gait_that_cannot_be_is_in
 
 def test_the_nlps_event_map_is_the_simulations_and_its_work_the_energys(biped):
     """With all three impulses nonzero (push-off before the reset; heel-strike and the
-    torque's impulse together after it): the NLP's event map (CasADi, vsw.powered's
+    torque's impulse together after it): the NLP's event map (CasADi, vsw.synthesis.powered's
     event_map) and the open-loop step's (numpy, apply_impulses) give the same state and
     works, and the works sum to the walker's energy change over the event (the reset moves
     the chart, not the hip)."""
     import casadi as ca
 
-    from vsw.powered.events import apply_impulses, event_map
-    from vsw.powered.variables import Constraints, Unknowns
+    from vsw.synthesis.powered.events import apply_impulses, event_map
+    from vsw.synthesis.powered.variables import Constraints, Unknowns
 
     (event,) = biped.events
     p, x, iota = ca.MX.sym("p", 5), ca.MX.sym("x", 4), ca.MX.sym("iota", 3)
@@ -285,8 +285,8 @@ def test_a_reversing_impulses_positive_work_is_what_it_puts_back(biped):
     ``stopping_splits``), and more where the push is one part (``iota b / 2``)."""
     import casadi as ca
 
-    from vsw.powered.events import apply_impulses, event_map, stopping_splits
-    from vsw.powered.variables import Constraints, Unknowns
+    from vsw.synthesis.powered.events import apply_impulses, event_map, stopping_splits
+    from vsw.synthesis.powered.variables import Constraints, Unknowns
 
     (event,) = biped.events
     p, x, iota = ca.MX.sym("p", 5), ca.MX.sym("x", 4), ca.MX.sym("iota", 3)

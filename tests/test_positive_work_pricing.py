@@ -1,4 +1,4 @@
-"""The collocation's price of an input's positive work on one interval (vsw.powered): the
+"""The collocation's price of an input's positive work on one interval (vsw.synthesis.powered): the
 state at the quarter points is the scheme's cubic, the five samples fix the power's
 quartic, and the Bernstein slack bounds ``max(P, 0)`` on the whole interval, so a power
 that changes sign between the samples cannot go unpriced."""
@@ -12,10 +12,10 @@ import pytest
 
 from vsw.models import load
 from vsw.orbits.collocation import BERNSTEIN_OF_SAMPLES, SAMPLES, interval_inputs, interval_states
-from vsw.powered import Request
-from vsw.powered.dynamics import flow_function, input_rate_function
-from vsw.powered.problem import _build
-from vsw.powered.starts import fill_slacks
+from vsw.synthesis.powered import Request
+from vsw.synthesis.powered.dynamics import flow_function, input_rate_function
+from vsw.synthesis.powered.problem import _build
+from vsw.synthesis.powered.starts import fill_slacks
 
 
 def _trapezoid(values: np.ndarray, s: np.ndarray) -> float:

@@ -1,4 +1,4 @@
-"""Powered gaits by Hermite-Simpson collocation (vsw/powered/) on the compass gait with
+"""Powered gaits by Hermite-Simpson collocation (vsw/synthesis/powered/) on the compass gait with
 its hip torque.
 
 Checked against what the collocation did not compute: the passive gait of the periodic-orbit
@@ -15,9 +15,9 @@ import types
 import numpy as np
 import pytest
 
-from vsw.errors import VswInputError
 from vsw.models import load
-from vsw.powered import Request, best_start, optimize
+from vsw.runtime.errors import VswInputError
+from vsw.synthesis.powered import Request, best_start, optimize
 
 pytest.importorskip("casadi")
 
@@ -153,14 +153,14 @@ def test_the_most_stable_gait_at_the_passive_speed_is_more_stable_than_the_passi
     free, is below the passive gait's own (0.580: the passive gait is one of the gaits
     allowed, at zero torque). The collocated step map's Jacobian is the open-loop step
     map's found independently, by central differences of the re-simulated step
-    (vsw.powered.powered_step_jacobian), to the mesh's error: 0.42 % of its largest entry
+    (vsw.synthesis.powered.powered_step_jacobian), to the mesh's error: 0.42 % of its largest entry
     measured (asserted 1 %). The radius is the dominant pair's, a double root where it is
     least (the two eigenvalues meet), so it moves as the square root of an error in the
     matrix: 1.1 % from the differences' radius measured, asserted 2 % (0.25 % in an
     earlier run whose gait, equally least, differed in its torque). The regularisation's
     share of the objective is reported: at most 5 % (4 % measured: the first stage's
     squared torque, by which it is scaled, is almost zero at a passive gait's speed)."""
-    from vsw.powered import powered_step_jacobian
+    from vsw.synthesis.powered import powered_step_jacobian
 
     model, params, stable = compass
     passive = max(abs(e) for e in stable.eigenvalues)
@@ -310,16 +310,16 @@ def test_vsw_optimize_verify_and_the_ground(capsys):
      "free_vsw_biped_stop"],
 )  # fmt: skip
 def test_the_reaction_from_the_momentum_is_the_engines(name):
-    """The stance foot's reaction the friction cone uses (vsw.powered: the walker's rate of
-    momentum less its weight, gravity along the slope's chart) against the engine's
+    """The stance foot's reaction the friction cone uses (vsw.synthesis.powered: the walker's rate
+    of momentum less its weight, gravity along the slope's chart) against the engine's
     normal force with the inputs' share (derived from the phase's own equations of
     motion), and the inputs' share of the tangential reaction against the engine's gains,
     every phase, 10 random states, parameters near the defaults and inputs each, to 1e-9
     of the weight."""
     import casadi as ca
 
-    from vsw.powered import input_names
-    from vsw.powered.dynamics import reaction_function
+    from vsw.synthesis.powered import input_names
+    from vsw.synthesis.powered.dynamics import reaction_function
 
     walker = load(name)
     rng = np.random.default_rng(43)

@@ -9,7 +9,7 @@ import itertools
 import re
 
 from vsw.cli import main
-from vsw.progress import ProgressBar
+from vsw.runtime.progress import ProgressBar
 
 DRAWN = re.compile(r"^(\w+) pass (\d+) \[[#-]+\] (\d+)/(\d+) blocks *$")
 

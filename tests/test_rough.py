@@ -10,12 +10,12 @@ import math
 import numpy as np
 import pytest
 
-import vsw.batch
-from vsw.batch import WALKED, simulator
+import vsw.dynamics.batch
 from vsw.cli import main
-from vsw.errors import VswInputError
+from vsw.dynamics.batch import WALKED, simulator
 from vsw.models import load
-from vsw.rough import (
+from vsw.runtime.errors import VswInputError
+from vsw.studies.rough import (
     INDICATORS,
     SlopeTerrain,
     gait_sensitivity,
@@ -103,7 +103,7 @@ def test_a_model_without_a_slope_is_refused():
 def test_walks_do_not_depend_on_threads_blocks_or_partition(walker, monkeypatch):
     model, params, gait, start = walker
     runs = [rough_walks(model, params, SIGMA, 300, 60, 11, gait=gait, threads=t) for t in (1, 2)]
-    monkeypatch.setattr(vsw.batch, "CHUNK", 7)
+    monkeypatch.setattr(vsw.dynamics.batch, "CHUNK", 7)
     runs.append(rough_walks(model, params, SIGMA, 300, 60, 11, gait=gait, threads=2))
     for other in runs[1:]:
         np.testing.assert_array_equal(other.steps, runs[0].steps)

@@ -1,4 +1,4 @@
-"""The meshed Markov chain of walking on rough ground (vsw.rough_chain): its pieces on a
+"""The meshed Markov chain of walking on rough ground (vsw.studies.rough_chain): its pieces on a
 map with a known answer, and its MFPT against the Monte Carlo walks' 95 % interval on the
 simplest walker and the compass gait (Byl & Tedrake, "Metastable walking machines",
 IJRR 28(8), 2009, Sec. 4)."""
@@ -13,10 +13,10 @@ import pytest
 from scipy.sparse import csr_matrix
 
 from vsw.cli import main
-from vsw.errors import VswInputError
 from vsw.models import load
-from vsw.rough import rough_walks
-from vsw.rough_chain import Mesh, chain_solve, noise_quadrature, rough_chain
+from vsw.runtime.errors import VswInputError
+from vsw.studies.rough import rough_walks
+from vsw.studies.rough_chain import Mesh, chain_solve, noise_quadrature, rough_chain
 
 A, SIGMA, BOUND = 0.8, 0.3, 1.0
 """The 1-D map x' = A x + SIGMA xi, a fall when |x'| > BOUND."""

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from vsw.cli import main
-from vsw.errors import VswInputError
 from vsw.models import load
-from vsw.rough import HEIGHT, Terrain, disturbance_index, rough_walks, terrain_noise
-from vsw.rough_sweep import parse_over, rough_sweep, spearman
+from vsw.runtime.errors import VswInputError
+from vsw.studies.rough import HEIGHT, Terrain, disturbance_index, rough_walks, terrain_noise
+from vsw.studies.rough_sweep import parse_over, rough_sweep, spearman
 
 WALKER = ["rough", "--model", "simplest-walker"]
 
@@ -299,7 +299,7 @@ def test_each_step_lands_on_its_drawn_foothold(height_wheel, distribution):
     """The wheel's next foot lands where its height above the stance foot is the step's
     draw: from the state after the impact (theta' = theta - 2 alpha) the foot's height at
     the impact is l (cos theta - cos theta'), which must be h_k, step after step."""
-    from vsw.batch import WALKED, simulator
+    from vsw.dynamics.batch import WALKED, simulator
 
     _, model = height_wheel
     params = model.parameters({})
@@ -348,7 +348,7 @@ def test_the_height_terrain_command(height_wheel, capsys):
 
 @pytest.mark.slow
 def test_a_sweep_with_the_chain_is_the_chain_at_each_value():
-    from vsw.rough_chain import rough_chain
+    from vsw.studies.rough_chain import rough_chain
 
     model = load("simplest-walker")
     params = model.parameters({})
@@ -371,7 +371,7 @@ def test_the_vsw_biped_with_a_foothold_height_walks_as_the_vsw_biped_at_height_0
     biped's, bit for bit (its guard less 0)."""
     from pathlib import Path
 
-    from vsw.batch import simulator
+    from vsw.dynamics.batch import simulator
 
     root = Path(__file__).resolve().parent.parent
     monkeypatch.setenv("VSW_MODELS_DIR", str(tmp_path))

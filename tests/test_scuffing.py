@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vsw.conditions import _least_inside, gait_conditions
+from vsw.dynamics.conditions import _least_inside, gait_conditions
 from vsw.models import load
 
 

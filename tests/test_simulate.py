@@ -10,7 +10,6 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from generated import ile
-from vsw.errors import ConvergenceError, VswInputError
 from vsw.models.ile.simulate import (
     SimulationResult,
     fixed_point_by_simulation,
@@ -18,6 +17,7 @@ from vsw.models.ile.simulate import (
     poincare_step,
     simulate,
 )
+from vsw.runtime.errors import ConvergenceError, VswInputError
 
 FIG8 = (0.8, 0.0, math.radians(45.0))  # beta, theta_II, phi0 of the paper's Fig. 8
 REL = 1e-9

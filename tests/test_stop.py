@@ -24,11 +24,11 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from vsw import stop
 from vsw.cli import main
 from vsw.cli.parser import EXIT_INPUT, EXIT_INTERRUPTED
 from vsw.models import keys, load
 from vsw.orbits import shooting
+from vsw.runtime import stop
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -103,7 +103,7 @@ def orbit_solver_signalling(monkeypatch):
 
 
 def test_casadi_turns_an_interrupt_into_a_runtime_error():
-    """The premise: without vsw.stop, the KeyboardInterrupt arrives as a RuntimeError."""
+    """The premise: without vsw.runtime.stop, the KeyboardInterrupt arrives as a RuntimeError."""
     callback = _SignalInside(2, 1, signal.SIGINT)
     with pytest.raises(RuntimeError, match="KeyboardInterrupt"):
         callback(np.zeros(2), np.zeros(1))
@@ -240,7 +240,7 @@ def test_time_limit_ends_a_walk_inside_the_compiled_simulator(threads):
     """One walk of a million steps is one call of the compiled simulator (about 10 s):
     the stop flag ends it within about one integrator step of the limit, on one worker
     thread as on two (the main thread waits where the timer's signal reaches it)."""
-    from vsw.batch import simulator
+    from vsw.dynamics.batch import simulator
     from vsw.models import load
 
     sim = simulator(load("rimless_wheel"))

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from vsw.cli import main
-from vsw.sweeps import settled_period
+from vsw.studies.sweeps import settled_period
 
 pytest.importorskip("casadi")
 
@@ -62,7 +62,7 @@ def long_walk_period(gamma: float, state: dict[str, float], steps: int = 20_000)
     """The period of the map walked ``steps`` steps from the gait ``state`` (moved by
     1e-6), by the test's own check: the smallest k with the last 256 states repeating at
     lag k to 1e-11 (relative) while every shorter lag is at least 1e-6 apart."""
-    from vsw.batch import simulator
+    from vsw.dynamics.batch import simulator
     from vsw.models import load
 
     model = load("simplest_walker")
@@ -149,8 +149,8 @@ def test_cascade_text_and_figure_say_not_settled(capsys, tmp_path, cascade):
     """The chaotic values are 'not settled after 2000 steps' in the text output and a
     legend entry of their own in the figure."""
     from vsw.cli.sweep import attractor_label
-    from vsw.diagrams import bifurcation_plot
-    from vsw.figures import save_figure
+    from vsw.plots.diagrams import bifurcation_plot
+    from vsw.plots.figures import save_figure
 
     labels = {round(p["gamma"], 6): attractor_label(p["attractor"])
               for p in cascade["points"] if p["attractor"]}  # fmt: skip

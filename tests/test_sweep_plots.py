@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from vsw.errors import VswInputError
 from vsw.models.ile.analysis import analyze
 from vsw.models.ile.params import STEPPER_2D
 from vsw.models.ile.sweep import sweep
+from vsw.runtime.errors import VswInputError
 
 
 def test_sweep_equals_pointwise_analysis_on_meshgrid():
@@ -42,9 +42,9 @@ def test_sweep_progress_and_errors():
 
 
 def test_figures_are_deterministic_and_paths_checked(tmp_path):
-    from vsw.figures import save_figure
     from vsw.models.ile import plots
     from vsw.models.ile.basin import basin
+    from vsw.plots.figures import save_figure
 
     fig = plots.phase_portrait(0.8, 0.0, math.radians(45))
     first = save_figure(fig, tmp_path / "a.svg").read_bytes()
@@ -63,8 +63,8 @@ def test_figures_are_deterministic_and_paths_checked(tmp_path):
 
 def test_time_series_from_simulation(tmp_path):
     simulate = pytest.importorskip("vsw.models.ile.simulate").simulate
-    from vsw.figures import save_figure
     from vsw.models.ile import plots
+    from vsw.plots.figures import save_figure
 
     result = simulate(0.8, 0.0, math.radians(45), 0.3, 4)
     fig = plots.time_series(result)
@@ -107,9 +107,9 @@ def test_continuation_labels_do_not_overlap_in_a_cascade(tmp_path):
     at one fixed offset from each would overlap its neighbour)."""
     from matplotlib.text import Text
 
-    from vsw.diagrams import continuation_plot
-    from vsw.figures import save_figure
-    from vsw.plotstyle import PNG_DPI
+    from vsw.plots.diagrams import continuation_plot
+    from vsw.plots.figures import save_figure
+    from vsw.plots.plotstyle import PNG_DPI
 
     units = {"length": "l", "time": "sqrt(l/g)"}
     figure = continuation_plot(_cascade_record(), "step_length", units, "simplest walker")
@@ -133,7 +133,7 @@ def test_continuation_labels_do_not_overlap_in_a_cascade(tmp_path):
 
 def test_continuation_legend_has_the_shared_style():
     """vsw continue's legend is drawn as vsw sweep's: frameless, the style's font size."""
-    from vsw.diagrams import bifurcation_plot, continuation_plot
+    from vsw.plots.diagrams import bifurcation_plot, continuation_plot
 
     units = {"length": "l", "time": "sqrt(l/g)"}
     cascade = continuation_plot(_cascade_record(), "step_length", units, "simplest walker")

@@ -1,13 +1,13 @@
 """One thread means one busy core: the batch simulator's walks (``step``, ``walk``), a
 basin (``grid_basin``) and a gait search at one thread bill at most 1.2 times their wall
-time in CPU, in every one of several calls, BLAS included (vsw/blas.py).
+time in CPU, in every one of several calls, BLAS included (vsw/runtime/blas.py).
 
 Each run is a fresh process with the environment as a user has it: no
 ``OPENBLAS_NUM_THREADS`` or ``OMP_NUM_THREADS``, so numpy's OpenBLAS has a worker per core,
 which would spin beside the walks after a BLAS call it ran on them. ``VSW_THREADS=1`` sets
 the gait search's threads (it takes none of its own). The injected case makes a
 400 x 400 matrix product (a call OpenBLAS runs on every core) inside every call, where the
-walks start: the limit of :func:`vsw.blas.limited` keeps it on the calling thread.
+walks start: the limit of :func:`vsw.runtime.blas.limited` keeps it on the calling thread.
 
 CPU time over wall time is noisy on a shared machine only downwards (a process waiting
 for a core has wall time without CPU time): more than 1.2 needs a second busy thread. On
@@ -37,26 +37,26 @@ CHILD = textwrap.dedent(
     import json, os, sys, threading, time
     import numpy as np
 
-    import vsw.batch
-    from vsw import gaits
-    from vsw.batch import simulator
-    from vsw.grid_basin import grid_basin
+    import vsw.dynamics.batch
+    from vsw.gaits import search as gaits
+    from vsw.dynamics.batch import simulator
+    from vsw.studies.grid_basin import grid_basin
     from vsw.models import load
 
     inject, unlimited = sys.argv[1] == "1", sys.argv[2] == "1"
     if inject:  # a BLAS call OpenBLAS runs on every core, where every walk starts
-        blocks, square = vsw.batch.run_blocks, np.random.default_rng(0).random((400, 400))
+        blocks, square = vsw.dynamics.batch.run_blocks, np.random.default_rng(0).random((400, 400))
 
         def run_blocks(*args):
             square @ square
             return blocks(*args)
 
-        vsw.batch.run_blocks = run_blocks
+        vsw.dynamics.batch.run_blocks = run_blocks
     if unlimited:  # the limit taken away (to see this test fail)
         import contextlib
-        import vsw.blas
+        import vsw.runtime.blas
 
-        vsw.blas.limited = lambda threads=None: contextlib.nullcontext(threads)
+        vsw.runtime.blas.limited = lambda threads=None: contextlib.nullcontext(threads)
 
     main = threading.get_native_id()
 
@@ -168,7 +168,7 @@ def test_limits_nest_and_give_back_each_setting():
     threadpoolctl = pytest.importorskip("threadpoolctl")
     import numpy as np  # noqa: F401  (its BLAS loaded)
 
-    from vsw.blas import limited
+    from vsw.runtime.blas import limited
 
     def counts():
         found = threadpoolctl.threadpool_info()

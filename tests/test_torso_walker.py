@@ -33,8 +33,8 @@ import numpy as np
 import pytest
 
 from tests.conftest import committed_gaits
-from vsw import continuation
-from vsw.ledger import energy_ledger
+from vsw.dynamics.ledger import energy_ledger
+from vsw.gaits import continuation
 from vsw.models import load
 
 HIP, STANCE_LEG, SWING_LEG, TORSO = range(4)
@@ -252,7 +252,7 @@ def test_a_forward_lean_needs_a_slope(walker, stable_gait):
 
 
 def test_ledger_is_the_books_torque_and_the_torsos_impulse(walker, stable_gait):
-    """The energy ledger (vsw/ledger.py) at the stable gait: the actuator's work in the
+    """The energy ledger (vsw/dynamics/ledger.py) at the stable gait: the actuator's work in the
     stance phase is the integral of [WGCCM07]'s u1 times the relative rate (as above), and
     its work at heelstrike is the torque impulse on the torso (its angular momentum's
     change about the hip) times the mean of the relative rate before and after (Kelvin),

@@ -14,8 +14,8 @@ import pytest
 
 from tests.conftest import gait_start, passive_keys
 from vsw.cli import main
-from vsw.trajectories import sample_walk, write_trajectory
-from vsw.walks import walk
+from vsw.dynamics.trajectories import sample_walk, write_trajectory
+from vsw.dynamics.walks import walk
 
 RATE = 200.0
 STEPS = 3
@@ -53,7 +53,7 @@ def test_regular_samples_are_at_the_rate_and_events_come_in_pairs(sampled, key):
 
 @pytest.mark.parametrize("key", passive_keys())
 def test_the_step_events_land_on_the_walks_section_states(sampled, key):
-    """The state just after each step event equals the Poincaré map's (vsw.walks)."""
+    """The state just after each step event equals the Poincaré map's (vsw.dynamics.walks)."""
     model, params, start, w = sampled[key]
     step_event = model.step_event["name"]
     after = w.states[[i for i, e in enumerate(w.event) if e == f"{step_event}:after"]]

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from vsw.cli import main
-from vsw.errors import VswInputError
-from vsw.trajectories import read_csv_units
+from vsw.dynamics.trajectories import read_csv_units
+from vsw.runtime.errors import VswInputError
 
 
 @pytest.fixture(scope="module")

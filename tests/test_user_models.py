@@ -21,8 +21,8 @@ from pathlib import Path
 import pytest
 
 from vsw import models
-from vsw.errors import VswInputError
 from vsw.models import user
+from vsw.runtime.errors import VswInputError
 
 ROOT = Path(__file__).resolve().parent.parent
 

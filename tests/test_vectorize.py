@@ -7,7 +7,7 @@ import pytest
 
 import generated.ile as ile
 from tests.conftest import random_valid_parameters
-from vsw.vectorize import chunked
+from vsw.runtime.vectorize import chunked
 
 
 def test_chunked_equals_direct_for_arrays_and_tuples():
@@ -58,7 +58,7 @@ def test_thread_count_does_not_change_results():
 
 
 def test_vsw_threads_setting_is_checked(monkeypatch):
-    from vsw.vectorize import default_threads
+    from vsw.runtime.vectorize import default_threads
 
     monkeypatch.setenv("VSW_THREADS", "3")
     assert default_threads() == 3

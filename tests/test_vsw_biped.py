@@ -114,7 +114,7 @@ def test_a_step_that_begins_past_theta_II_ends_the_walk_by_name(biped):
     (the ILE's theta_I < theta_II), so the walk ends with ``extension-missed`` at once, in
     the SciPy route and the C batch simulator alike; 0.01 rad before theta_II the extension
     comes (the short phase lasts)."""
-    from vsw.batch import FELL, simulator
+    from vsw.dynamics.batch import FELL, simulator
 
     params = biped.parameters({"beta": 0.97, "theta_II": -0.2, "mu": 0.3})
     states = []
@@ -136,9 +136,9 @@ def test_the_extension_missed_margin_vanishes_where_the_branch_ends(biped):
     duration reaching zero (mu = 0.36344); the failure's margin, theta_II less the stance
     angle where the step begins (a different quantity: the section state, not a duration),
     falls to zero there, linearly in the distance to it."""
-    from vsw.conditions import gait_conditions
-    from vsw.continuation import Options as ContinuationOptions
-    from vsw.continuation import continue_gaits
+    from vsw.dynamics.conditions import gait_conditions
+    from vsw.gaits.continuation import Options as ContinuationOptions
+    from vsw.gaits.continuation import continue_gaits
 
     values = {"beta": 0.97, "theta_II": -0.2}
     params = biped.parameters(values | {"mu": 0.3})

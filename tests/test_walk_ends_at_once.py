@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from vsw.cli import main
+from vsw.dynamics.trajectories import sample_walk
 from vsw.models import load
-from vsw.trajectories import sample_walk
 
 FALLING = {
     "compass-gait": ["--state", "theta=0.5", "--state", "psi=0.3", "--state", "theta_dot=-1.1",

@@ -5,11 +5,11 @@ from __future__ import annotations
 import pytest
 
 from tests.conftest import gait_start, passive_keys
-from vsw import plotstyle
-from vsw.figures import save_figure
-from vsw.plotstyle import state_label, unit_tex
-from vsw.trajectories import sample_walk
-from vsw.walk_plot import walk_figure
+from vsw.dynamics.trajectories import sample_walk
+from vsw.plots import plotstyle
+from vsw.plots.figures import save_figure
+from vsw.plots.plotstyle import state_label, unit_tex
+from vsw.plots.walk_plot import walk_figure
 
 GENERIC = [k for k in passive_keys() if k != "ile"]  # the ILE keeps its closed-form figure
 

@@ -206,8 +206,8 @@ def test_a_grid_cell_of_the_vsw_price_is_a_designed_vsw_gait_against_a_verified_
     import numpy as np
 
     from paper_check.vsw_price import GRID_FIXED, _grid_row
-    from vsw.design import DesignRequest, design
     from vsw.models import load
+    from vsw.synthesis.design import DesignRequest, design
 
     biped = load("vsw_biped")
     designed = design(biped, DesignRequest(targets={"speed": 0.25, "step_length": 0.65},

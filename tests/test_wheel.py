@@ -139,7 +139,11 @@ def test_the_wheel_holds_every_package_file_and_the_sdist_what_checks_it(install
     wheel = set(zipfile.ZipFile(installed.wheel).namelist())
     missing = sorted(_tracked_package_files() - wheel)
     assert not missing, f"not in the wheel: {missing}"
-    for data in ("generated/MANIFEST", "vsw/csrc/hybrid_batch.c", "derive/templates/model.js.in"):
+    for data in (
+        "generated/MANIFEST",
+        "vsw/dynamics/csrc/hybrid_batch.c",
+        "derive/templates/model.js.in",
+    ):
         assert data in wheel  # the control: names as the wheel spells them
     import tarfile
 
@@ -200,7 +204,7 @@ def test_analyze_finds_goswamis_compass_gait_with_the_installed_c(installed):
 
     # Every C source the runtime compiles is the installed package's, and it compiles.
     code = (
-        "import json, vsw.batch as b\n"
+        "import json, vsw.dynamics.batch as b\n"
         "from vsw.models import load\n"
         "from vsw.models.ile import kernels\n"
         "lib = kernels.library()\n"

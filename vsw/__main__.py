@@ -24,8 +24,8 @@ def run() -> int:
     """The console script's entry point (``vsw.cli.main`` behind a start-up Ctrl-C)."""
     signal.signal(signal.SIGINT, _interrupted_while_starting)
     try:
-        from vsw import stop  # after the handler on purpose (module docstring)
         from vsw.cli import main
+        from vsw.runtime import stop  # after the handler on purpose (module docstring)
     except BaseException:
         # A Ctrl-C inside an extension's initialisation (numpy's) reaches us as that
         # library's ImportError wrapping the handler's exit: still the interrupt.

@@ -3,7 +3,7 @@
 What a user would write in about 200 lines instead of using vsw: SciPy's DOP853 (its
 tableau, error norm, step-size control and initial step), the events located on the
 accepted step's 7th-order dense output by the Illinois method to 1e-13 in time, the same
-rules as vsw/csrc/hybrid_batch.c (an event whose ``when`` is <= 0 is skipped 1e-9 past
+rules as vsw/dynamics/csrc/hybrid_batch.c (an event whose ``when`` is <= 0 is skipped 1e-9 past
 it; a failure already past zero at the phase start ends the walk), and the model's
 equations typed by hand with sin and cos: the simplest walker, the compass gait and the
 VSW biped (two phases a step, the extension between them). numba is an optional
@@ -28,7 +28,7 @@ A_EXTRA = np.ascontiguousarray(dop.A[N_STAGES + 1 :])
 N_ALL = N_STAGES + 1 + A_EXTRA.shape[0]  # 16
 
 WALKED, FELL, STALLED = 0, 2, 3
-PHASE_TIME_LIMIT = 100.0  # vsw.hybrid's, as the batch simulator's
+PHASE_TIME_LIMIT = 100.0  # vsw.dynamics.hybrid's, as the batch simulator's
 EVENT_TIME_TOL = 1e-13
 
 

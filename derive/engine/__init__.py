@@ -60,7 +60,7 @@ def model_derivation(model: Model, units: str) -> Derivation:
     derivation.c_exports = c_exports(model, quantities, closed_form=stride is not None)
     derivation.constants["HYBRID"] = (
         descriptor,
-        "The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases "
+        "The model for the generic runtime (vsw.dynamics.hybrid): parameters, coordinates, phases "
         "with their failure guards (conservative: T + V constant), events with their guards "
         "and resets (impact, jump or continuous), units.",
     )

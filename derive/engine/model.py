@@ -436,7 +436,7 @@ class Condition:
     a held coordinate (:func:`held_force`) and the state; ``unit`` is its unit. With
     ``interior`` the least is taken between the guard's first rise and its last fall over
     the step (its first and last instants left out, then the run over which it first rises
-    and the one over which it last falls: ``vsw.conditions._least_inside``): for a quantity
+    and the one over which it last falls: ``vsw.dynamics.conditions._least_inside``): for a quantity
     the step's events put at or near zero at its ends, the swing foot's height, whose
     margin is then its lowest dip between lift and landing (its peak if it has none).
     """

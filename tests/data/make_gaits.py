@@ -1,5 +1,5 @@
 """Writes tests/data/gaits.json: every passive model's period-one gaits at its default
-parameters, as the gait search (vsw.gaits) finds them, in the search's order.
+parameters, as the gait search (vsw.gaits.search) finds them, in the search's order.
 
     python tests/data/make_gaits.py
 

@@ -1,7 +1,7 @@
 """CasADi rootfinders for the fixed point q^f of the ILE stride map: a test oracle.
 
 The runtime answers q^f from the closed form (10) (:mod:`vsw.models.ile.analysis`) and
-every model's gaits from :mod:`vsw.gaits`; these rootfinders are a third, independent
+every model's gaits from :mod:`vsw.gaits.search`; these rootfinders are a third, independent
 route the tests (tests/test_fixed_point.py) and benchmark case 3 compare with.
 
 Two maps, one rootfinder (CasADi ``newton``):
@@ -41,7 +41,7 @@ import numpy as np
 
 from generated import ile
 from generated.ile.params import PARAMETERS
-from vsw.errors import ConvergenceError, VswInputError
+from vsw.runtime.errors import ConvergenceError, VswInputError
 
 __all__ = [
     "METHODS",
@@ -311,9 +311,9 @@ def solve_fixed_point(
 
     Raises
     ------
-    vsw.errors.VswInputError
+    vsw.runtime.errors.VswInputError
         Out-of-domain parameters or unknown method.
-    vsw.errors.ConvergenceError
+    vsw.runtime.errors.ConvergenceError
         The solve did not converge or returned a non-finite value (one-line message).
     """
     method = _check_method(method)

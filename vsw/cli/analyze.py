@@ -22,10 +22,10 @@ from vsw.cli.output import (
     write_parameters,
 )
 from vsw.cli.parser import EXIT_OK
-from vsw.gaits import DISTINCT, SCAN_POINTS
+from vsw.gaits.search import DISTINCT, SCAN_POINTS
 from vsw.models.base import GaitReport, Model
-from vsw.progress import reporting
-from vsw.rough import SLOPE, gait_sensitivity, gait_sensitivity_units
+from vsw.runtime.progress import reporting
+from vsw.studies.rough import SLOPE, gait_sensitivity, gait_sensitivity_units
 
 __all__ = ["register", "run"]
 
@@ -97,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _sensitivities(model: Model, params: Any, report: GaitReport) -> list[dict | None]:
-    """Each gait's gait sensitivity norm to its slope (:func:`vsw.rough.gait_sensitivity`),
+    """Each gait's gait sensitivity norm to its slope (:func:`vsw.studies.rough.gait_sensitivity`),
     None for an unstable gait (its H2 norm is infinite); none for a model on no slope."""
     if "scale" in model.features or SLOPE not in model.spec["parameters"]:
         return []
@@ -125,7 +125,7 @@ def _write_rows(out: TextIO, report: GaitReport) -> None:
 
 
 def _write_ledger(out: TextIO, model: Model, ledger: dict[str, Any]) -> None:
-    """A gait's energy ledger over a step (:mod:`vsw.ledger`) in three lines."""
+    """A gait's energy ledger over a step (:mod:`vsw.dynamics.ledger`) in three lines."""
     unit = unit_text(model.units.get("energy", "")).strip()
     totals = ledger["totals"]
     actuators = ", ".join(

@@ -8,13 +8,13 @@ import math
 import sys
 from typing import Any
 
-from vsw.animate import animation_frames, check_output, write_animation
 from vsw.cli import options
 from vsw.cli.output import INTEGRATOR, dump_json, envelope, with_units
 from vsw.cli.parser import EXIT_OK
 from vsw.cli.simulate import REPLAY, add_gait_option, saved_gait
-from vsw.errors import VswInputError
-from vsw.gait_file import PoweredReplay
+from vsw.plots.animate import animation_frames, check_output, write_animation
+from vsw.runtime.errors import VswInputError
+from vsw.studies.gait_file import PoweredReplay
 
 __all__ = ["register", "run"]
 

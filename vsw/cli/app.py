@@ -23,7 +23,6 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, NoReturn, TextIO
 
-from vsw import blas, stop
 from vsw.cli.output import version
 from vsw.cli.parser import (
     EXIT_CLOSED_PIPE,
@@ -36,9 +35,10 @@ from vsw.cli.parser import (
     UsageError,
     epilog,
 )
-from vsw.errors import ConvergenceError, InfeasibleError, SlowRouteWarning, VswInputError
-from vsw.limits import max_memory, max_seconds
-from vsw.vectorize import default_threads
+from vsw.runtime import blas, stop
+from vsw.runtime.errors import ConvergenceError, InfeasibleError, SlowRouteWarning, VswInputError
+from vsw.runtime.limits import max_memory, max_seconds
+from vsw.runtime.vectorize import default_threads
 
 __all__ = ["COMMANDS", "build_parser", "main"]
 

@@ -19,8 +19,6 @@ from typing import Any
 
 import numpy as np
 
-from vsw import limits, plotstyle
-from vsw.batch import simulator
 from vsw.cli import options
 from vsw.cli.output import (
     INTEGRATOR,
@@ -32,14 +30,17 @@ from vsw.cli.output import (
     write_parameters,
 )
 from vsw.cli.parser import EXIT_OK, StoreGiven, given, option_name
-from vsw.cluster import check_scheduler, runner
-from vsw.errors import VswInputError
-from vsw.figures import check_save_path, save_figure
-from vsw.gaits import search_seconds
-from vsw.grid_basin import basin_plot, check_grid_names, grid_basin
+from vsw.dynamics.batch import simulator
+from vsw.gaits.search import search_seconds
 from vsw.models.base import Model
-from vsw.progress import reporting
-from vsw.vectorize import default_threads
+from vsw.plots import plotstyle
+from vsw.plots.figures import check_save_path, save_figure
+from vsw.runtime import limits
+from vsw.runtime.errors import VswInputError
+from vsw.runtime.progress import reporting
+from vsw.runtime.vectorize import default_threads
+from vsw.studies.cluster import check_scheduler, runner
+from vsw.studies.grid_basin import basin_plot, check_grid_names, grid_basin
 
 __all__ = ["register", "run"]
 

@@ -2,7 +2,7 @@
 
 The period-one gait at the range's start (the first stable one of the search, or the gait
 through ``--state``; with ``--period K`` the period-K gait through it) followed by
-pseudo-arclength continuation to the range's end (:mod:`vsw.continuation`): folds passed,
+pseudo-arclength continuation to the range's end (:mod:`vsw.gaits.continuation`): folds passed,
 flips, Neimark-Sacker points and boundaries located, and at each flip the period-doubled
 branch followed too (``--no-switch`` stops that), so one command draws the cascade.
 """
@@ -15,20 +15,22 @@ from typing import Any
 
 import numpy as np
 
-from vsw import continuation, limits, plotstyle, stop
 from vsw.cli import options
 from vsw.cli.output import INTEGRATOR, dump_json, envelope, fmt, progress, unit_text, with_units
 from vsw.cli.parser import EXIT_OK
-from vsw.diagrams import (
+from vsw.gaits import continuation
+from vsw.gaits.search import pick, search_seconds
+from vsw.models.base import Model
+from vsw.plots import plotstyle
+from vsw.plots.diagrams import (
     continuation_plot,
     diagram_quantity,
     diagram_units,
     parameter_plane_plot,
 )
-from vsw.errors import ConvergenceError, ModelConditionError, VswInputError
-from vsw.figures import check_save_path, save_figure
-from vsw.gaits import pick, search_seconds
-from vsw.models.base import Model
+from vsw.plots.figures import check_save_path, save_figure
+from vsw.runtime import limits, stop
+from vsw.runtime.errors import ConvergenceError, ModelConditionError, VswInputError
 
 __all__ = ["CONTINUATION", "SYMBOLS", "parse_range", "register", "run"]
 

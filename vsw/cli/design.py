@@ -3,7 +3,7 @@
 A model with a design of its own (:attr:`vsw.models.base.Model.routes`: the ILE's over
 (beta, theta_II, phi0) from its closed forms, :mod:`vsw.cli.ile_design`) designs by it;
 every other model designs its free parameters and its gait together, IPOPT on the periodic
-orbit (:mod:`vsw.design`). Both share the vocabulary: ``--maximize``, ``--minimize``, the
+orbit (:mod:`vsw.synthesis.design`). Both share the vocabulary: ``--maximize``, ``--minimize``, the
 ``--target-*`` equalities, ``--fix``, ``--bound``, ``--max-eigenvalue``; the statuses
 optimal / not-attained (exit 0) and infeasible / not-converged (exit 3).
 """
@@ -15,7 +15,6 @@ import math
 import sys
 from typing import Any
 
-from vsw import design as gait_design
 from vsw import models
 from vsw.cli import options
 from vsw.cli.output import (
@@ -29,8 +28,9 @@ from vsw.cli.output import (
     write_parameters,
 )
 from vsw.cli.parser import option_name
-from vsw.errors import VswInputError
-from vsw.quantities import alias_names, objective_names, resolve
+from vsw.dynamics.quantities import alias_names, objective_names, resolve
+from vsw.runtime.errors import VswInputError
+from vsw.synthesis import design as gait_design
 
 __all__ = ["bound_items", "objective_units", "option_given", "register", "run", "value_items"]
 
@@ -65,7 +65,7 @@ ILE_ONLY = (
 
 def _choices(sense: str) -> list[str]:
     """The objectives of ``--maximize`` (``max``) or ``--minimize`` (``min``), as
-    :mod:`vsw.quantities` defines them, then their aliases (accepted with a note)."""
+    :mod:`vsw.dynamics.quantities` defines them, then their aliases (accepted with a note)."""
     return [*objective_names("design", sense), *alias_names("design", sense)]
 
 

@@ -1,5 +1,5 @@
 """``vsw explore``: one self-contained HTML page to explore a model in a browser (the ILE's
-closed forms; any other model's walk integrated in the page: :mod:`vsw.explore_page`); with
+closed forms; any other model's walk integrated in the page: :mod:`vsw.plots.explore_page`); with
 ``--gait FILE`` a saved powered gait's step, replayed by vsw and played in the page."""
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ from vsw.cli import options
 from vsw.cli.output import dump_json, envelope, with_units
 from vsw.cli.parser import EXIT_OK
 from vsw.cli.simulate import add_gait_option, saved_gait
-from vsw.errors import VswInputError
-from vsw.explore_page import check_html_path, write_page
-from vsw.gait_file import replay_frames
+from vsw.plots.explore_page import check_html_path, write_page
+from vsw.runtime.errors import VswInputError
+from vsw.studies.gait_file import replay_frames
 
 __all__ = ["register", "run"]
 

@@ -11,8 +11,8 @@ from typing import Any, TextIO
 from vsw.cli import options
 from vsw.cli.output import INTEGRATOR, ORBIT_SOLVER, dump_json, envelope, fmt, with_units
 from vsw.cli.parser import EXIT_OK
-from vsw.errors import VswInputError
-from vsw.figures import check_save_path
+from vsw.plots.figures import check_save_path
+from vsw.runtime.errors import VswInputError
 
 __all__ = ["register", "run"]
 
@@ -53,7 +53,7 @@ def register(subparsers: Any) -> None:
 
 
 def _register_optimize(p: argparse.ArgumentParser) -> None:
-    """The options of ``--optimize`` (:mod:`vsw.hzd.optimize`)."""
+    """The options of ``--optimize`` (:mod:`vsw.synthesis.hzd.optimize`)."""
     g = p.add_argument_group("gait optimisation (--optimize)")
     g.add_argument("--optimize", action="store_true", help="choose the Bezier coefficients "
                    "(alpha_2 .. alpha_M; alpha_0, alpha_1 by the impact map) that minimise "
@@ -81,7 +81,7 @@ def _register_optimize(p: argparse.ArgumentParser) -> None:
 
 
 def tolerances() -> dict[str, Any]:
-    from vsw.hzd.zero import NODES
+    from vsw.synthesis.hzd.zero import NODES
 
     return {
         "quadrature": f"Fejér's first rule on {NODES} Chebyshev points (error estimated against "
@@ -92,7 +92,7 @@ def tolerances() -> dict[str, Any]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from vsw import hzd
+    from vsw.synthesis import hzd
 
     model, params = options.model_and_parameters(args)
     if args.optimize:
@@ -113,7 +113,7 @@ def run(args: argparse.Namespace) -> int:
     surface = report.samples["surface"]
     phase = surface.package.HZD["phase"]
     if args.plot is not None:
-        from vsw.hzd.plot import save_hzd_plot
+        from vsw.synthesis.hzd.plot import save_hzd_plot
 
         save_hzd_plot(report, surface, phase, model.units["time"], args.plot)
     data = {**envelope(model, params, args.argv, tolerances()), "constraints": args.constraints,

@@ -1,5 +1,5 @@
 """``vsw hzd --optimize``: the Bezier coefficients of a constraints file chosen for a speed
-(and step length) by IPOPT on the hybrid zero dynamics (:mod:`vsw.hzd.optimize`), the
+(and step length) by IPOPT on the hybrid zero dynamics (:mod:`vsw.synthesis.hzd.optimize`), the
 optimum verified on the full-order closed loop."""
 
 from __future__ import annotations
@@ -12,15 +12,15 @@ from typing import Any, TextIO
 from vsw.cli import options
 from vsw.cli.output import dump_json, envelope, fmt, with_units
 from vsw.cli.parser import EXIT_OK, EXIT_SOLVER
-from vsw.errors import VswInputError
-from vsw.figures import check_save_path
+from vsw.plots.figures import check_save_path
+from vsw.runtime.errors import VswInputError
 
 __all__ = ["constraints_source", "run_optimize"]
 
 
 def _request(args: argparse.Namespace) -> Any:
-    from vsw.hzd.optimize import OBJECTIVES, HzdRequest
-    from vsw.quantities import resolve
+    from vsw.dynamics.quantities import resolve
+    from vsw.synthesis.hzd.optimize import OBJECTIVES, HzdRequest
 
     if args.speed is None:
         raise VswInputError("vsw hzd --optimize needs --speed V")
@@ -58,7 +58,7 @@ def constraints_source(original: str, names: list[str], alphas: list[float],
 def run_optimize(args: argparse.Namespace, model: Any, params: Any) -> int:
     """``vsw hzd --optimize``: exit 0 when optimal (converged and verified), else 3 with
     one line on stderr saying which."""
-    from vsw.hzd.optimize import optimize
+    from vsw.synthesis.hzd.optimize import optimize
 
     request = _request(args)
     if args.plot is not None:
@@ -81,7 +81,7 @@ def run_optimize(args: argparse.Namespace, model: Any, params: Any) -> int:
         Path(args.out).write_text(text)
         data["out"] = args.out
     if args.plot is not None and result.report is not None:
-        from vsw.hzd.plot import save_hzd_plot
+        from vsw.synthesis.hzd.plot import save_hzd_plot
 
         surface = result.report.samples["surface"]
         save_hzd_plot(result.report, surface, spec["phase"], model.units["time"], args.plot)

@@ -14,15 +14,15 @@ import sys
 
 import numpy as np
 
-from vsw import limits
 from vsw.cli.output import dump_json, envelope, fmt, progress, with_units
 from vsw.cli.parser import EXIT_OK, given, option_name
-from vsw.errors import VswInputError
-from vsw.figures import check_save_path, save_figure
 from vsw.models.base import Model
 from vsw.models.ile.basin import basin, basin_cost, check_edges_by_simulation, edge_check_cost
 from vsw.models.ile.params import PARAMETER_BY_NAME
 from vsw.models.ile.plots import basin_plot
+from vsw.plots.figures import check_save_path, save_figure
+from vsw.runtime import limits
+from vsw.runtime.errors import VswInputError
 
 __all__ = ["MAX_THETA_VALUES", "run"]
 

@@ -23,10 +23,10 @@ from vsw.cli.design import (
 )
 from vsw.cli.output import dump_json, envelope, with_units
 from vsw.cli.parser import option_name
-from vsw.errors import VswInputError
 from vsw.models.base import Model
 from vsw.models.ile.design import DesignResult, design, finite
 from vsw.models.ile.params import STEPPER_2D, RobotScale
+from vsw.runtime.errors import VswInputError
 
 __all__ = ["run"]
 

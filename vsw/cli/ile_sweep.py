@@ -11,15 +11,16 @@ import argparse
 import math
 import sys
 
-from vsw import limits, plotstyle
 from vsw.cli import options
 from vsw.cli.output import clean, dump_json, envelope, fmt, progress, unit_text, with_units
 from vsw.cli.parser import EXIT_OK
-from vsw.figures import save_figure
 from vsw.models.base import Model
 from vsw.models.ile.analysis import FIELDS
 from vsw.models.ile.plots import ile_sweep_plot
 from vsw.models.ile.sweep import sweep as closed_form_sweep
+from vsw.plots import plotstyle
+from vsw.plots.figures import save_figure
+from vsw.runtime import limits
 
 __all__ = ["run"]
 

@@ -1,4 +1,5 @@
-"""``vsw optimize``: the least-cost powered gait of a model with inputs (:mod:`vsw.powered`).
+"""``vsw optimize``: the least-cost powered gait of a model with inputs
+(:mod:`vsw.synthesis.powered`).
 
 The model's declared inputs (``vsw models`` lists them: the compass gait's hip torque, the
 point-mass biped's leg force) are free functions of time, its impulses at events (the
@@ -6,8 +7,8 @@ point-mass biped's push-off and heel-strike) free numbers; the step is periodic 
 the targets. Statuses as ``vsw design``'s: optimal (exit 0), infeasible (IPOPT found the
 constraints locally infeasible) and not-converged (exit 3, with the reason).
 
-Targets are positive and at most :data:`vsw.powered.MAX_TARGET` in the model's units; a
-run whose estimate (:func:`vsw.powered.estimate_seconds`) exceeds ``VSW_MAX_SECONDS`` is
+Targets are positive and at most :data:`vsw.synthesis.powered.MAX_TARGET` in the model's units; a
+run whose estimate (:func:`vsw.synthesis.powered.estimate_seconds`) exceeds ``VSW_MAX_SECONDS`` is
 refused before it starts, and one that runs past it anyway is stopped within about a
 second, in CasADi's build of the NLP as in IPOPT's iterations (exit 2, one line).
 """
@@ -19,7 +20,6 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from vsw import powered
 from vsw.cli import options
 from vsw.cli.output import (
     dump_json,
@@ -31,13 +31,14 @@ from vsw.cli.output import (
     write_parameters,
 )
 from vsw.cli.parser import EXIT_OK, EXIT_SOLVER
-from vsw.errors import ConvergenceError, VswInputError
-from vsw.figures import check_save_path, save_figure
-from vsw.gait_file import gait_record, record_quantities
-from vsw.powered.plot import powered_figure
-from vsw.powered.verify import VerifiedGait, verify
-from vsw.quantities import alias_names, objective_names, report, resolve
-from vsw.quantities import weight as walker_weight
+from vsw.dynamics.quantities import alias_names, objective_names, report, resolve
+from vsw.dynamics.quantities import weight as walker_weight
+from vsw.plots.figures import check_save_path, save_figure
+from vsw.runtime.errors import ConvergenceError, VswInputError
+from vsw.studies.gait_file import gait_record, record_quantities
+from vsw.synthesis import powered
+from vsw.synthesis.powered.plot import powered_figure
+from vsw.synthesis.powered.verify import VerifiedGait, verify
 
 __all__ = ["register", "run"]
 
@@ -188,7 +189,7 @@ def _optimize(args: argparse.Namespace, minimize: str) -> int:
 
 
 def _quantities(model, params, gait: powered.PoweredGait) -> dict[str, Any]:
-    """The gait's quantities as ``vsw design`` reports them (:mod:`vsw.quantities`): the
+    """The gait's quantities as ``vsw design`` reports them (:mod:`vsw.dynamics.quantities`): the
     actuators' positive work is the energy a step takes in; the eigenvalue is the open-loop
     map's largest (null unless optimal)."""
     eigenvalues = gait.extra.get("eigenvalues")
@@ -207,7 +208,7 @@ def _check_out(path: str) -> None:
 
 
 def _write_gait(path: str, document: dict[str, Any]) -> None:
-    """The gait file (:mod:`vsw.gait_file`): strict JSON as ``--json`` prints it."""
+    """The gait file (:mod:`vsw.studies.gait_file`): strict JSON as ``--json`` prints it."""
     try:
         with open(path, "w", encoding="utf-8") as out:
             dump_json(document, out)

@@ -22,11 +22,12 @@ from typing import Any
 
 import numpy as np
 
-from vsw import models, stop
+from vsw import models
 from vsw.cli.parser import given, option_name
-from vsw.errors import ConvergenceError, InfeasibleError, VswInputError
+from vsw.dynamics.parameters import beyond_computed
 from vsw.models.base import FEATURES, Model
-from vsw.parameters import beyond_computed
+from vsw.runtime import stop
+from vsw.runtime.errors import ConvergenceError, InfeasibleError, VswInputError
 
 __all__ = [
     "MAX_GRID",

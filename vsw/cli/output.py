@@ -22,10 +22,10 @@ from typing import Any, TextIO
 import numpy as np
 
 import vsw
-from vsw.hybrid import Orbit
-from vsw.jsonable import clean
+from vsw.dynamics.hybrid import Orbit
 from vsw.models.base import Model
-from vsw.progress import ProgressBar
+from vsw.runtime.jsonable import clean
+from vsw.runtime.progress import ProgressBar
 
 __all__ = [
     "clean",
@@ -51,7 +51,7 @@ ORBIT_SOLVER = {"orbit_solver": "Newton on the orbit problem's multiple-shooting
                 "and a simulated step returns within 1e-9 x max(1, |state|) x "
                 "max(1, |eigenvalue|)"}  # fmt: skip
 """The periodic-orbit solver's tolerances (:class:`vsw.orbits.OrbitProblem` and
-:meth:`vsw.hybrid.HybridModel.periodic_orbit`)."""
+:meth:`vsw.dynamics.hybrid.HybridModel.periodic_orbit`)."""
 
 
 _CHUNK = 1 << 16

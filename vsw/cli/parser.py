@@ -13,7 +13,7 @@ import textwrap
 from collections.abc import Sequence
 from typing import Any, NoReturn
 
-from vsw.errors import VswInputError
+from vsw.runtime.errors import VswInputError
 
 __all__ = [
     "EXIT_CLOSED_PIPE",

@@ -2,10 +2,10 @@
 
 Walks from the model's stable period-one gait (or ``--state``) on the slope
 gamma_k = gamma + sigma xi_k drawn per step (``--terrain height``: the next foothold's
-height; :mod:`vsw.rough`; Byl & Tedrake 2009), each until its first failure or
+height; :mod:`vsw.studies.rough`; Byl & Tedrake 2009), each until its first failure or
 ``--max-steps`` steps: the MFPT with its standard error and 95 % interval, the failures by
 kind and the survival curve (``--plot``); with ``--over``, the MFPT over the mean slope or
-the noise (:mod:`vsw.rough_sweep`).
+the noise (:mod:`vsw.studies.rough_sweep`).
 """
 
 from __future__ import annotations
@@ -15,8 +15,6 @@ import os
 import sys
 from typing import Any
 
-from vsw import limits, plotstyle
-from vsw.batch import simulator
 from vsw.cli import options
 from vsw.cli.output import (
     INTEGRATOR,
@@ -29,12 +27,16 @@ from vsw.cli.output import (
     write_parameters,
 )
 from vsw.cli.parser import EXIT_OK
-from vsw.cluster import check_scheduler
-from vsw.errors import VswInputError
-from vsw.figures import check_save_path, save_figure
-from vsw.gaits import search_seconds
-from vsw.progress import reporting
-from vsw.rough import (
+from vsw.dynamics.batch import simulator
+from vsw.gaits.search import search_seconds
+from vsw.plots import plotstyle
+from vsw.plots.figures import check_save_path, save_figure
+from vsw.runtime import limits
+from vsw.runtime.errors import VswInputError
+from vsw.runtime.progress import reporting
+from vsw.runtime.vectorize import default_threads
+from vsw.studies.cluster import check_scheduler
+from vsw.studies.rough import (
     DISTRIBUTIONS,
     SLOPE,
     TERRAINS,
@@ -45,9 +47,8 @@ from vsw.rough import (
     rough_walks,
     survival_plot,
 )
-from vsw.rough_chain import chain_steps, check_chain_inputs, rough_chain
-from vsw.rough_sweep import parse_over, rough_sweep, sweep_plot, sweep_units
-from vsw.vectorize import default_threads
+from vsw.studies.rough_chain import chain_steps, check_chain_inputs, rough_chain
+from vsw.studies.rough_sweep import parse_over, rough_sweep, sweep_plot, sweep_units
 
 __all__ = ["register", "run"]
 

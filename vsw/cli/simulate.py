@@ -1,7 +1,7 @@
 """``vsw simulate``: the Poincaré map walked step by step from a gait or a given state.
 
 With ``--gait FILE`` (a powered gait ``vsw optimize --out FILE`` wrote) the walk replays
-its inputs open loop from its start state, at its parameters (:mod:`vsw.gait_file`):
+its inputs open loop from its start state, at its parameters (:mod:`vsw.studies.gait_file`):
 ``--state`` and ``--q0`` are refused (the gait gives the start), ``--param`` only where it
 is the gait's value, ``--model`` only where it is the gait's model (default: the file's).
 :func:`add_gait_option` and :func:`saved_gait` are ``vsw animate``'s and ``vsw explore``'s
@@ -13,7 +13,6 @@ import argparse
 import sys
 from typing import Any
 
-from vsw import limits
 from vsw.cli import options
 from vsw.cli.output import (
     INTEGRATOR,
@@ -26,21 +25,34 @@ from vsw.cli.output import (
     write_parameters,
 )
 from vsw.cli.parser import EXIT_OK
-from vsw.errors import VswInputError
-from vsw.figures import check_output_path, check_save_path, save_figure
-from vsw.gait_file import PoweredReplay, SavedGait, check_parameters, load_gait, with_input_forces
-from vsw.gaits import search_seconds
+from vsw.dynamics.trajectories import (
+    FORMATS,
+    check_rate,
+    column_units,
+    sample_walk,
+    write_trajectory,
+)
+from vsw.dynamics.walks import walk
+from vsw.gaits.search import search_seconds
 from vsw.models import key as model_key
 from vsw.models.base import PLOT_RATE
-from vsw.trajectories import FORMATS, check_rate, column_units, sample_walk, write_trajectory
-from vsw.walk_plot import walk_figure
-from vsw.walks import walk
+from vsw.plots.figures import check_output_path, check_save_path, save_figure
+from vsw.plots.walk_plot import walk_figure
+from vsw.runtime import limits
+from vsw.runtime.errors import VswInputError
+from vsw.studies.gait_file import (
+    PoweredReplay,
+    SavedGait,
+    check_parameters,
+    load_gait,
+    with_input_forces,
+)
 
 __all__ = ["add_gait_option", "register", "run", "saved_gait"]
 
 REPLAY = {"integrator": "SciPy DOP853, rtol = atol = 1e-11 (the powered verification's: "
           "each phase to its event's first crossing that counts)"}  # fmt: skip
-"""The replay's tolerances (:func:`vsw.powered.verify.step_runs`)."""
+"""The replay's tolerances (:func:`vsw.synthesis.powered.verify.step_runs`)."""
 
 FEATURES = {"q0": "q0", "plot": "simulation-plot"}
 
@@ -112,7 +124,7 @@ def saved_gait(args: argparse.Namespace) -> SavedGait:
 
 
 def check_cost(model, steps: int, search: bool, records: int, what: str, remedy: str) -> None:
-    """Refuse a walk beyond the limits (vsw.limits) before it starts: per-step costs
+    """Refuse a walk beyond the limits (vsw.runtime.limits) before it starts: per-step costs
     measured on the rimless wheel, scaled by the model's phases x coordinates."""
     size = len(model.phases) * model.n
     seconds = size * limits.HYBRID_SECONDS_PER_PHASE * steps

@@ -1,9 +1,9 @@
 """``vsw sweep``: a model along one parameter.
 
-Every model: the period-one gait continued from value to value (:func:`vsw.sweeps.
+Every model: the period-one gait continued from value to value (:func:`vsw.studies.sweeps.
 continuation`) and, with ``--keep`` or ``--plot``, the map iterated where the gait is
-unstable or lost until its orbit repeats (:func:`vsw.sweeps.settle`): the bifurcation
-diagram; ``--brute-force`` draws it from the batch simulator (:func:`vsw.sweeps.
+unstable or lost until its orbit repeats (:func:`vsw.studies.sweeps.settle`): the bifurcation
+diagram; ``--brute-force`` draws it from the batch simulator (:func:`vsw.studies.sweeps.
 brute_force`). ``--state`` or ``--gait-number`` chooses the gait the sweep starts from.
 A model with a sweep of its own (:attr:`vsw.models.base.Model.routes`: the ile's
 closed forms at every value, :mod:`vsw.cli.ile_sweep`) answers by it.
@@ -17,8 +17,6 @@ from typing import Any
 
 import numpy as np
 
-from vsw import limits, plotstyle, stop, sweeps
-from vsw.batch import APART
 from vsw.cli import options
 from vsw.cli.output import (
     INTEGRATOR,
@@ -32,13 +30,17 @@ from vsw.cli.output import (
     with_units,
 )
 from vsw.cli.parser import EXIT_OK, StoreGiven, given
-from vsw.diagrams import bifurcation_plot, diagram_quantity, diagram_units
-from vsw.errors import ConvergenceError, VswInputError
-from vsw.figures import check_save_path, save_figure
-from vsw.gaits import search_seconds
-from vsw.hybrid import Orbit
+from vsw.dynamics.batch import APART
+from vsw.dynamics.hybrid import Orbit
+from vsw.gaits.search import search_seconds
 from vsw.models.base import Model
-from vsw.vectorize import default_threads
+from vsw.plots import plotstyle
+from vsw.plots.diagrams import bifurcation_plot, diagram_quantity, diagram_units
+from vsw.plots.figures import check_save_path, save_figure
+from vsw.runtime import limits, stop
+from vsw.runtime.errors import ConvergenceError, VswInputError
+from vsw.runtime.vectorize import default_threads
+from vsw.studies import sweeps
 
 __all__ = ["ATTRACTOR", "attractor_label", "register", "run"]
 
@@ -51,7 +53,7 @@ ATTRACTOR = {
         "else not settled after --max-steps"
     )
 }
-"""The iteration's settling rule, for the JSON's provenance (:func:`vsw.sweeps.settle`)."""
+"""The iteration's settling rule, for the JSON's provenance (:func:`vsw.studies.sweeps.settle`)."""
 
 ITERATION_OPTIONS = ("y", "keep", "transient", "max_steps", "brute_force", "state", "gait_number")
 

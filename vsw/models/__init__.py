@@ -17,9 +17,9 @@ import importlib
 from pathlib import Path
 
 import generated
-from vsw.errors import VswInputError
 from vsw.models.base import Model
 from vsw.models.user import entry_point_file, is_model_file, model_file, package
+from vsw.runtime.errors import VswInputError
 
 __all__ = ["cli_name", "key", "keys", "load"]
 

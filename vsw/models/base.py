@@ -1,12 +1,13 @@
 """The model interface every command uses: the generic runtime plus what a command asks.
 
-:class:`Model` is :class:`vsw.hybrid.HybridModel` (simulation, the Poincaré map, periodic
+:class:`Model` is :class:`vsw.dynamics.hybrid.HybridModel` (simulation, the Poincaré map, periodic
 orbits, eigenvalues: driven by the generated package alone) with the answers the commands
 need in one place: the model's description (:meth:`Model.describe`: parameters, state with
 each coordinate's meaning, reference and sign, section, units), its gaits at a parameter
 set with every condition's margin or the reason there is none (:meth:`Model.analyze`,
-:mod:`vsw.gaits`, :mod:`vsw.conditions`) and where a walk starts (:meth:`Model.start`).
-A model with closed forms of its own (the ILE) subclasses it and answers the same calls
+:mod:`vsw.gaits.search`, :mod:`vsw.dynamics.conditions`) and where a walk starts
+(:meth:`Model.start`). A model with closed forms of its own (the ILE) subclasses it and answers the
+same calls
 from them; :attr:`Model.features` says which optional commands and options a model has.
 """
 
@@ -23,14 +24,16 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from vsw import conditions, gaits, stop
-from vsw.errors import ConvergenceError, ModelConditionError, VswInputError
-from vsw.explore_page import check_html_path, write_page
-from vsw.figures import save_figure
-from vsw.hybrid import HybridModel, Orbit
-from vsw.ledger import energy_ledger
-from vsw.trajectories import sample_walk
-from vsw.walk_plot import walk_figure
+from vsw.dynamics import conditions
+from vsw.dynamics.hybrid import HybridModel, Orbit
+from vsw.dynamics.ledger import energy_ledger
+from vsw.dynamics.trajectories import sample_walk
+from vsw.gaits import search as gaits
+from vsw.plots.explore_page import check_html_path, write_page
+from vsw.plots.figures import save_figure
+from vsw.plots.walk_plot import walk_figure
+from vsw.runtime import stop
+from vsw.runtime.errors import ConvergenceError, ModelConditionError, VswInputError
 
 __all__ = ["FEATURES", "SEARCHES_KEPT", "GaitReport", "Model", "Start"]
 
@@ -63,7 +66,7 @@ class GaitReport:
     ``search``: how the gaits were searched (None where the closed form answers alone);
     ``reason``: one sentence when there is no gait; ``extra``: a model's own keys (the
     ILE's closed-form analysis); ``rows``: its own text table, (name, value, unit);
-    ``ledgers``: each gait's energy ledger over a step (:mod:`vsw.ledger`).
+    ``ledgers``: each gait's energy ledger over a step (:mod:`vsw.dynamics.ledger`).
     """
 
     gaits: list[Orbit]
@@ -213,12 +216,12 @@ class Model(HybridModel):
         box: Mapping[str, tuple[float, float]] | None = None,
         cells: int | None = None,
     ) -> gaits.GaitSearch:
-        """The period-one gaits at ``params`` and how they were searched (:mod:`vsw.gaits`).
+        """The period-one gaits at ``params`` and how they were searched (:mod:`vsw.gaits.search`).
 
         The last :data:`SEARCHES_KEPT` searches are kept per model and process: a search
         takes seconds on a model with three free section components, and commands and
         scripts ask for the same parameters again (a sweep's scans, a basin after
-        ``analyze``). ``cells``: the scan's size (default :mod:`vsw.gaits`' own)."""
+        ``analyze``). ``cells``: the scan's size (default :mod:`vsw.gaits.search`' own)."""
         key = (tuple(float(v) for v in params), tuple(sorted((box or {}).items())), cells)
         with self._searches_lock:
             if key in self._searches:
@@ -351,7 +354,7 @@ class Model(HybridModel):
     def save_simulation_plot(
         self, params: Sequence[float], start: np.ndarray, steps: int, path: str
     ) -> None:
-        """The walk over time (:func:`vsw.walk_plot.walk_figure`): its coordinates, rates
+        """The walk over time (:func:`vsw.plots.walk_plot.walk_figure`): its coordinates, rates
         and energy sampled at :data:`PLOT_RATE` per time unit, every event marked."""
         walk = sample_walk(self, params, start, steps, PLOT_RATE)
         save_figure(walk_figure(self, params, walk), path)
@@ -375,7 +378,7 @@ class Model(HybridModel):
         return None
 
     def write_explorer(self, path: str, params: Sequence[float], **options: Any) -> Path:
-        """``vsw explore``: the self-contained page (:mod:`vsw.explore_page`); the sliders
+        """``vsw explore``: the self-contained page (:mod:`vsw.plots.explore_page`); the sliders
         start at ``params``, Newton's first guess is the model's gait there (the stable one
         where there is one). ``options``: the ILE's (its leg length); none here."""
         check_html_path(path)  # before the gait search

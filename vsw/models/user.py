@@ -34,8 +34,8 @@ from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
 
-from vsw.compiled import cache_dir, exclusive_lock, write_durably
-from vsw.errors import VswInputError
+from vsw.dynamics.compiled import cache_dir, exclusive_lock, write_durably
+from vsw.runtime.errors import VswInputError
 
 __all__ = ["ENTRY_POINT_GROUP", "entry_point_file", "is_model_file", "model_file", "package"]
 
@@ -146,7 +146,7 @@ def _ensure(path: Path, root: Path) -> bool:
 def _cache_lock(root: Path) -> Iterator[None]:
     """Exclusive lock on the cached package ``root`` while it is checked, removed, derived
     and sealed, so that a concurrent first run neither takes a package not yet sealed for a
-    damaged one nor loads one half removed (:func:`vsw.compiled.exclusive_lock`)."""
+    damaged one nor loads one half removed (:func:`vsw.dynamics.compiled.exclusive_lock`)."""
     with contextlib.suppress(OSError):
         root.parent.mkdir(parents=True, exist_ok=True)
     with exclusive_lock(root):
@@ -264,7 +264,7 @@ def _package_files(root: Path) -> dict[str, str]:
 
 def _seal(root: Path) -> None:
     """Record the digest of the package just derived under ``root``
-    (:func:`vsw.compiled.write_durably`: a reader never sees part of it)."""
+    (:func:`vsw.dynamics.compiled.write_durably`: a reader never sees part of it)."""
     record = {"package": root.name, "files": _package_files(root)}
     write_durably(_seal_file(root), json.dumps(record, sort_keys=True).encode())
 
@@ -363,7 +363,7 @@ def _derive(path: Path, root: Path) -> None:
     # in for the engine the cache key was computed from.
     command = [sys.executable, "-P", "-m", "derive", "--file", str(path), "--out", str(root)]
     # The derivation lives no longer than this process: a stop (Ctrl-C, the run-time
-    # limit: vsw.stop) raised while it waits kills it (subprocess.run), and a vsw ended
+    # limit: vsw.runtime.stop) raised while it waits kills it (subprocess.run), and a vsw ended
     # by a signal it cannot handle (SIGTERM, SIGKILL) has the kernel kill it (Linux's
     # PR_SET_PDEATHSIG, set in the child before it runs; a parent already gone by then is
     # caught by the parent id check).

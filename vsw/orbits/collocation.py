@@ -32,7 +32,7 @@ Simpson (:data:`SIMPSON_WEIGHTS`) and the quartic's Bernstein coefficients
 (:data:`BERNSTEIN_OF_SAMPLES`).
 
 Imports: numpy and CasADi (inside functions). The expressions work on CasADi's symbols
-and numpy arrays alike; the powered gaits (:mod:`vsw.powered`) transcribe their NLP
+and numpy arrays alike; the powered gaits (:mod:`vsw.synthesis.powered`) transcribe their NLP
 with them.
 """
 

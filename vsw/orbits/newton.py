@@ -23,7 +23,7 @@ component's largest |value|)`` go on as one, every member where its first goes (
 search's thousands of starts falling into a few gaits). ``max_iterations`` bounds the
 steps; with ``step_tol`` the end of the last one is still checked.
 
-Imports: numpy and :mod:`vsw.stop` (a long solve stops where asked).
+Imports: numpy and :mod:`vsw.runtime.stop` (a long solve stops where asked).
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from typing import Protocol
 
 import numpy as np
 
-from vsw import stop
+from vsw.runtime import stop
 
 __all__ = ["Solution", "System", "solve"]
 

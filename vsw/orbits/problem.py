@@ -10,8 +10,8 @@ The residual is (2) of :mod:`vsw.orbits.shooting`; its Jacobian in ``u`` and its
 in each free parameter are CasADi's, exact to the integrator's tolerance.
 
 Imports: numpy, :mod:`vsw.orbits.shooting`, :mod:`vsw.orbits.monodromy`,
-:mod:`vsw.orbits.newton`, ``vsw.stop``. A model is taken by its interface
-(:class:`vsw.hybrid.HybridModel`'s), never by importing :mod:`vsw.hybrid`.
+:mod:`vsw.orbits.newton`, ``vsw.runtime.stop``. A model is taken by its interface
+(:class:`vsw.dynamics.hybrid.HybridModel`'s), never by importing :mod:`vsw.dynamics.hybrid`.
 """
 
 from __future__ import annotations
@@ -24,8 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from vsw import stop
 from vsw.orbits import monodromy, newton, shooting
+from vsw.runtime import stop
 
 __all__ = ["SOLVE_ITERATIONS", "SOLVE_STEP_TOL", "SOLVE_TOL", "OrbitProblem", "Solved"]
 

@@ -18,10 +18,10 @@ the integrator's tolerance. Shooting one phase at a time keeps each block of the
 one phase's growth: over the four steps of the simplest walker's period-4 gait a single
 shot reaches entries of 1e6 and the continuation's corrector fails (measured).
 
-Imports: numpy, CasADi (inside functions: ``import vsw`` stays fast), ``vsw.errors``. A model
-is taken by its interface (:class:`vsw.hybrid.HybridModel`'s ``symbolic``, ``spec``,
+Imports: numpy, CasADi (inside functions: ``import vsw`` stays fast), ``vsw.runtime.errors``. A
+model is taken by its interface (:class:`vsw.dynamics.hybrid.HybridModel`'s ``symbolic``, ``spec``,
 ``phases``, ``by_source``, ``step_event``, ``reset``); this module never imports
-:mod:`vsw.hybrid`, which builds on it.
+:mod:`vsw.dynamics.hybrid`, which builds on it.
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from vsw.errors import VswInputError
+from vsw.runtime.errors import VswInputError
 
 __all__ = [
     "flows",

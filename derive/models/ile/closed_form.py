@@ -1056,14 +1056,14 @@ def derive() -> Derivation:
             output_names=CONDITION_PIECE_NAMES,
         )
     )
-    # The engine's functions for the generic runtime (vsw.hybrid), and its stride map in
+    # The engine's functions for the generic runtime (vsw.dynamics.hybrid), and its stride map in
     # closed form, which must be the one chained above from the same phases and resets.
     engine_quantities, descriptor = hybrid_quantities(MODEL)
     for qty in engine_quantities:
         d.add(qty)
     d.constants["HYBRID"] = (
         dict(descriptor, closed_form=True),
-        "The model for the generic runtime (vsw.hybrid): parameters, coordinates, phases "
+        "The model for the generic runtime (vsw.dynamics.hybrid): parameters, coordinates, phases "
         "with their failure guards, events with their guards and resets, units.",
     )
     _check_engine_stride()

@@ -16,7 +16,7 @@ import numpy as np
 from generated import ile
 from vsw.models.ile import kernels
 from vsw.models.ile.params import RobotScale, validate
-from vsw.vectorize import CHUNK, default_threads, run_blocks
+from vsw.runtime.vectorize import CHUNK, default_threads, run_blocks
 
 __all__ = [
     "FIELDS",
@@ -350,7 +350,7 @@ def _evaluate(flat: list[np.ndarray], timing: bool, threads: int) -> dict[str, n
     store(0, first)
     starts = range(CHUNK, n, CHUNK)
     if len(starts) > 0:
-        # numpy releases the GIL inside operations: blocks run in parallel (vsw.vectorize).
+        # numpy releases the GIL inside operations: blocks run in parallel (vsw.runtime.vectorize).
         run_blocks(lambda start: store(start, block(start)), starts, threads)
     return merged
 

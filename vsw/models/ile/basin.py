@@ -19,12 +19,12 @@ from typing import Any
 import numpy as np
 
 from generated import ile
-from vsw import limits
-from vsw.errors import VswInputError
 from vsw.models.ile.analysis import analyze, jsonable
 from vsw.models.ile.params import check_parameter
 from vsw.models.ile.simulate import simulate, simulate_cost
-from vsw.vectorize import CHUNK, default_threads, run_blocks
+from vsw.runtime import limits
+from vsw.runtime.errors import VswInputError
+from vsw.runtime.vectorize import CHUNK, default_threads, run_blocks
 
 __all__ = [
     "Basin",
@@ -240,7 +240,7 @@ def basin_cost(
     refine: bool = True,
     threads: int | None = None,
 ) -> limits.Cost:
-    """Estimated run time and peak memory of :func:`basin` (see :mod:`vsw.limits`).
+    """Estimated run time and peak memory of :func:`basin` (see :mod:`vsw.runtime.limits`).
 
     From the arrays it allocates: the boolean grid result and the copy that finding each
     row's last basin point makes (2 bytes a grid point), the q grid (8 bytes a q), the
@@ -257,11 +257,11 @@ def basin_cost(
         Grid size.
     max_steps, refine : as for :func:`basin`
     threads : int, optional
-        Default :func:`vsw.vectorize.default_threads`.
+        Default :func:`vsw.runtime.vectorize.default_threads`.
 
     Returns
     -------
-    vsw.limits.Cost
+    vsw.runtime.limits.Cost
     """
     threads = default_threads() if threads is None else threads
     n_steps = _map_steps(beta, phi0, max_steps)
@@ -320,7 +320,7 @@ def basin(
     ------
     VswInputError
         Invalid parameters or grid, or a grid whose estimated time or memory exceeds the
-        limits of :mod:`vsw.limits` (see :func:`basin_cost`).
+        limits of :mod:`vsw.runtime.limits` (see :func:`basin_cost`).
     """
     beta = float(check_parameter("beta", beta))
     phi0 = float(check_parameter("phi0", phi0))
@@ -381,7 +381,7 @@ def _checked_grid(
     beta: float, phi0: float, theta_II_grid: Any, n_q: int, max_steps: int, refine: bool
 ) -> np.ndarray:
     """The theta_II grid of :func:`basin` (rad), checked with ``n_q`` and the basin's
-    estimated cost against :mod:`vsw.limits`."""
+    estimated cost against :mod:`vsw.runtime.limits`."""
     theta_II = np.radians(DEFAULT_THETA_II_DEG) if theta_II_grid is None else theta_II_grid
     theta_II = check_parameter("theta_II", np.atleast_1d(theta_II)).astype(float)
     if theta_II.ndim != 1:
@@ -501,7 +501,7 @@ def edge_check_cost(
     """Estimated time and memory of :func:`check_edges_by_simulation` on ``n_samples`` rows.
 
     Each row simulates both edges from inside for ``steps`` steps (default as there) and
-    from outside for 2 steps (see :mod:`vsw.limits` for the cost of a step).
+    from outside for 2 steps (see :mod:`vsw.runtime.limits` for the cost of a step).
     """
     steps = _edge_check_steps(beta, phi0) if steps is None else steps
     return simulate_cost(n_samples * (2 * steps + 4), record=False)

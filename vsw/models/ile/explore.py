@@ -15,8 +15,8 @@ from pathlib import Path
 
 import generated
 import generated.ile as ile
-from vsw.errors import VswInputError
-from vsw.explore_page import check_html_path, write_html
+from vsw.plots.explore_page import check_html_path, write_html
+from vsw.runtime.errors import VswInputError
 
 TEMPLATE = Path(__file__).resolve().parent / "templates" / "explore.html"
 MODEL_JS = Path(generated.__file__).resolve().parent / "ile" / "js" / "ile.js"

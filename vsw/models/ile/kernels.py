@@ -3,13 +3,13 @@
 ``python -m derive`` writes vectorisable C loops for a few quantities from the same
 derivation as the numpy and CasADi code. At first use they are compiled for this machine
 (``-O3 -march=native -fopenmp-simd``, glibc's vector libm when present) into the verified
-cache of :mod:`vsw.compiled`. Without a compiler, or with ``VSW_KERNELS=0``, every
+cache of :mod:`vsw.dynamics.compiled`. Without a compiler, or with ``VSW_KERNELS=0``, every
 function here falls back to the generated numpy code, so results never depend on a
 compiler being present, only their last bits do (tests/test_kernels.py bounds the
 difference to 1e-12 relative on walking sets, 1e-11 over the domain).
 
 Each block of the loop is one ctypes call, which releases the GIL: blocks run in parallel
-on :func:`vsw.vectorize.run_blocks`. benchmarks/run.py, case 1, measures it.
+on :func:`vsw.runtime.vectorize.run_blocks`. benchmarks/run.py, case 1, measures it.
 
 Examples
 --------
@@ -30,8 +30,8 @@ import numpy as np
 
 import generated
 from generated import ile
-from vsw.compiled import build_library
-from vsw.vectorize import CHUNK, chunked, default_threads, run_blocks
+from vsw.dynamics.compiled import build_library
+from vsw.runtime.vectorize import CHUNK, chunked, default_threads, run_blocks
 
 SOURCE = Path(generated.__file__).resolve().parent / "ile" / "c" / "ile_batch.c"
 N_OUTPUTS = 2 + len(ile.CONDITIONS)
@@ -87,7 +87,7 @@ def fixed_point_conditions(
     beta, theta_II, phi0 : float or array_like
         Broadcastable parameters (radians), shape ``S`` after broadcasting.
     threads : int, optional
-        Blocks in parallel; default :func:`vsw.vectorize.default_threads`.
+        Blocks in parallel; default :func:`vsw.runtime.vectorize.default_threads`.
 
     Returns
     -------

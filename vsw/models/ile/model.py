@@ -20,15 +20,15 @@ from types import MappingProxyType
 from typing import Any, ClassVar
 
 from generated import ile
-from vsw.errors import VswInputError
-from vsw.figures import save_figure
-from vsw.hybrid import Orbit
+from vsw.dynamics.hybrid import Orbit
 from vsw.models.base import GaitReport, Model, Start
 from vsw.models.ile import plots
 from vsw.models.ile.analysis import Analysis, analyze
 from vsw.models.ile.explore import write_page
 from vsw.models.ile.params import STEPPER_2D, RobotScale
 from vsw.models.ile.simulate import simulate
+from vsw.plots.figures import save_figure
+from vsw.runtime.errors import VswInputError
 
 __all__ = ["IleModel"]
 

@@ -13,9 +13,9 @@ from numbers import Real
 import numpy as np
 
 from generated.ile.params import PARAMETERS
-from vsw import parameters
-from vsw.errors import VswInputError
-from vsw.parameters import check_positive
+from vsw.dynamics import parameters
+from vsw.dynamics.parameters import check_positive
+from vsw.runtime.errors import VswInputError
 
 __all__ = [
     "PARAMETER_BY_NAME",
@@ -32,7 +32,7 @@ PARAMETER_BY_NAME = {p.name: p for p in PARAMETERS}
 
 
 def check_parameter(name: str, value: object, table: tuple = PARAMETERS) -> np.ndarray:
-    """:func:`vsw.parameters.check_parameter` with the ILE's table by default."""
+    """:func:`vsw.dynamics.parameters.check_parameter` with the ILE's table by default."""
     return parameters.check_parameter(name, value, table)
 
 

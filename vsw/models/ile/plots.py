@@ -2,9 +2,9 @@
 and the closed-form outputs along a parameter (``vsw sweep --plot``).
 
 matplotlib is imported lazily. Figures are built with ``matplotlib.figure.Figure`` (no
-pyplot state, no GUI backend) in the style of :mod:`vsw.plotstyle` (the same as the
+pyplot state, no GUI backend) in the style of :mod:`vsw.plots.plotstyle` (the same as the
 audit's figures): sized for a journal column, mathtext labels with units, colour-blind-safe
-colours with distinct markers, legends outside the data; :func:`vsw.figures.save_figure`
+colours with distinct markers, legends outside the data; :func:`vsw.plots.figures.save_figure`
 writes them.
 """
 
@@ -16,10 +16,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from generated import ile
-from vsw import plotstyle
-from vsw.errors import VswInputError
 from vsw.models.ile.analysis import analyze
-from vsw.plotstyle import COLORS, DEG, LABELS
+from vsw.plots import plotstyle
+from vsw.plots.plotstyle import COLORS, DEG, LABELS
+from vsw.runtime.errors import VswInputError
 
 if TYPE_CHECKING:
     from collections.abc import Mapping, Sequence
@@ -596,7 +596,7 @@ def ile_sweep_plot(data: Mapping[str, Any], xlabel: str, title: str) -> Figure:
     """The ILE's fixed point q^f (10), eigenvalue (20) and speed along the swept
     parameter over the whole swept range; where no gait exists (a condition fails) the
     range is shaded and named in the legend below. ``title``: the fixed parameters with
-    units (:func:`vsw.plotstyle.parameter_text`)."""
+    units (:func:`vsw.plots.plotstyle.parameter_text`)."""
     over = data["over"]
     points: Sequence[Mapping[str, Any]] = data["points"]
     fig, axes = plotstyle.new_figure(

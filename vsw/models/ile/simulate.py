@@ -13,10 +13,10 @@ Edge cases (documented decisions)
 ---------------------------------
 - ``theta_II <= theta_I``: a step starts at theta_I moving forward, so the extension angle
   is never reached (condition ``extension_reached``, not in the paper). The model defines
-  no motion for this case, so :func:`simulate` raises :class:`vsw.errors.VswInputError`.
+  no motion for this case, so :func:`simulate` raises :class:`vsw.runtime.errors.VswInputError`.
 - ``theta_II >= theta_IV``: the stance leg would have to extend after the heelstrike
   (condition ``extension_before_heelstrike``, exact form of eq. 17). Also undefined, also
-  a :class:`~vsw.errors.VswInputError`.
+  a :class:`~vsw.runtime.errors.VswInputError`.
 - A fall back in either phase (omega reaches 0 before theta_II or before the heelstrike)
   ends the run with ``ended='fell-backward'``; so does a phase that stalls at the apex
   (no event within ``_PHASE_TIME_LIMIT``, possible only at the exact separatrix).
@@ -36,8 +36,8 @@ import numpy as np
 
 from generated import ile
 from generated.ile.params import PARAMETERS
-from vsw import limits
-from vsw.errors import ConvergenceError, VswInputError
+from vsw.runtime import limits
+from vsw.runtime.errors import ConvergenceError, VswInputError
 
 __all__ = [
     "SimulationResult",
@@ -338,7 +338,7 @@ def _refined_end(
 
 
 def simulate_cost(steps: int, record: bool = True) -> limits.Cost:
-    """Estimated run time and peak memory of :func:`simulate` (see :mod:`vsw.limits`).
+    """Estimated run time and peak memory of :func:`simulate` (see :mod:`vsw.runtime.limits`).
 
     Both grow linearly with the steps: every step keeps its q, period, length and four
     events, and with ``record`` its trajectory samples.
@@ -392,10 +392,10 @@ def simulate(
 
     Raises
     ------
-    vsw.errors.VswInputError
+    vsw.runtime.errors.VswInputError
         Out-of-domain parameters, q0 or steps (one-line message), or more steps than
-        fit the time and memory limits of :mod:`vsw.limits` (see :func:`simulate_cost`).
-    vsw.errors.ConvergenceError
+        fit the time and memory limits of :mod:`vsw.runtime.limits` (see :func:`simulate_cost`).
+    vsw.runtime.errors.ConvergenceError
         The integrator itself failed (not expected for valid input).
     """
     beta, theta_II, phi0 = _check_parameters(beta, theta_II, phi0)
@@ -610,7 +610,7 @@ def fixed_point_by_simulation(
 
     Raises
     ------
-    vsw.errors.ConvergenceError
+    vsw.runtime.errors.ConvergenceError
         No fixed point among q values whose step completes (falls back or lifts off on
         the way, or no step completes at all).
     """

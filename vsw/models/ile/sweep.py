@@ -9,9 +9,9 @@ from typing import Any
 import numpy as np
 
 from generated import ile
-from vsw.errors import VswInputError
 from vsw.models.ile.analysis import FIELDS, SI_FIELDS, Analysis, analyze
 from vsw.models.ile.params import RobotScale, check_parameter
+from vsw.runtime.errors import VswInputError
 
 __all__ = ["OUTPUTS", "Sweep", "sweep"]
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from generated import ile
 from generated.ile.params import PARAMETERS
-from vsw.quantities import maximised
+from vsw.dynamics.quantities import maximised
 
 STRICT_MARGIN = 1e-6
 """A strict condition ``margin > 0`` is imposed as ``margin >= STRICT_MARGIN``."""
@@ -51,7 +51,7 @@ OBJECTIVE_ALIASES = {
     "cot": {"cost_of_transport": 1.0},
 }
 OBJECTIVE_SIGN = {name: -1.0 if maximised(name) else 1.0 for name in OBJECTIVES}
-"""An objective term's sign in the sum minimised, by its sense (:mod:`vsw.quantities`)."""
+"""An objective term's sign in the sum minimised, by its sense (:mod:`vsw.dynamics.quantities`)."""
 
 VARIABLES = ("beta", "theta_II", "phi0")
 TABLE_LIMITS = {p.name: (p.lower, p.upper) for p in PARAMETERS}

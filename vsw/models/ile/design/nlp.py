@@ -14,7 +14,6 @@ from typing import Any
 import numpy as np
 
 from generated import ile
-from vsw import stop
 from vsw.models.ile.design.forms import (
     ACTIVE_TOL,
     CONDITIONS_BY_NAME,
@@ -34,6 +33,7 @@ from vsw.models.ile.design.forms import (
     region_of,
 )
 from vsw.models.ile.design.problem import Constraint, Problem
+from vsw.runtime import stop
 
 # --- compiled solvers, cached per problem structure ---------------------------------------
 

@@ -11,7 +11,6 @@ from typing import Any
 
 import numpy as np
 
-from vsw.errors import VswInputError
 from vsw.models.ile.design.forms import (
     CLOSED_MARGIN,
     CONDITION_SETS,
@@ -29,6 +28,7 @@ from vsw.models.ile.design.forms import (
     VARIABLES,
 )
 from vsw.models.ile.params import RobotScale, check_parameter
+from vsw.runtime.errors import VswInputError
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,6 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
-from vsw.errors import VswInputError
 from vsw.models.ile.design.forms import IPOPT_INFEASIBLE, REGIONS, numpy_quantities
 from vsw.models.ile.design.limit import continue_to_limit
 from vsw.models.ile.design.nlp import multistart, verified_solve
@@ -20,6 +19,7 @@ from vsw.models.ile.design.result import (
     simulation_check,
 )
 from vsw.models.ile.params import RobotScale
+from vsw.runtime.errors import VswInputError
 
 
 def design(

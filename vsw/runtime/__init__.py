@@ -1,0 +1,5 @@
+"""The process around every computation: errors, limits, Ctrl-C and the run-time limit,
+progress on a terminal, threads and BLAS, JSON.
+
+Layer 0: imports nothing of ``vsw`` outside this package.
+"""

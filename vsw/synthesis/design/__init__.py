@@ -1,0 +1,89 @@
+"""Gait design for every model: IPOPT on the periodic orbit itself.
+
+The question of :mod:`vsw.models.ile.design` (which parameters give the gait a user wants)
+for any model of the generic runtime, whose gaits have no closed form. The gait is part of
+the unknowns of one nonlinear program, solved by IPOPT through CasADi:
+
+Transcription: multiple shooting
+--------------------------------
+Each phase of a step is cut into :data:`SEGMENTS` segments of equal length ``T_k / S``,
+``T_k`` the phase's duration (an unknown, > 0). The unknowns are the free parameters, the
+state at the start of every segment and the durations. Each segment is integrated by
+CVODES (the generated accelerations, tolerance :data:`INTEGRATOR_TOL`); the constraints are
+the segments' continuity, each phase's event guard at its end (= 0) and the event's
+``when`` (>= 0: the crossing counts), the resets between phases and periodicity (the state
+after the step event equals the first node). Multiple shooting rather than collocation:
+the dynamics are integrated to 1e-10 with error control, so the optimum's gait is the
+runtime's gait (confirmed below by :meth:`vsw.dynamics.hybrid.HybridModel.periodic_orbit` and a
+simulated step) without choosing or refining a mesh, and the segments' nodes carry the
+path conditions. A control input held per segment (the powered-walking issue) fits the same
+transcription. Derivatives are exact (CVODES forward sensitivities); the Hessian of the
+Lagrangian is IPOPT's limited-memory quasi-Newton, because exact second derivatives through
+CVODES cost several times the first and IPOPT converges here in tens of iterations.
+
+Conditions: each failure of a phase (falling back, falling forward, the stance foot lifting
+off, ...) as ``-direction * guard >= margin`` at every node and at each phase's end;
+between nodes the verifying simulation checks them
+(:func:`vsw.dynamics.conditions.gait_conditions`).
+
+Stability without a non-smooth spectral radius
+----------------------------------------------
+The monodromy matrix ``M`` (the Poincaré map's Jacobian) is built in the NLP from the
+variational equations (integrated beside the state, so their derivatives need only first
+sensitivities), each phase's saltation at its guard and the reset's Jacobian. ``max |λ|``
+is not differentiable where two eigenvalues meet; instead "every eigenvalue lies in the
+disc of radius ρ" is imposed as the Jury (Schur–Cohn) inequalities on the characteristic
+polynomial of ``M / ρ``, polynomials in its coefficients (Newton's identities on traces of
+powers of ``M``) and so smooth everywhere. ``--max-eigenvalue E`` fixes ``ρ = E``;
+``--minimize eigenvalue`` makes ``ρ`` an unknown and minimises it (the epigraph form: at the
+optimum the inequality of the eigenvalue(s) of largest modulus is active, whichever they
+are). The polynomial keeps the model's nontrivial eigenvalues only: a reset onto a lower
+dimensional set makes ``M`` singular (the simplest walker's 4x4 map has rank 2), its
+structural zero eigenvalues would only scale the Jury rows badly. The count is the largest
+over the starts' gaits (eigenvalues above 1e-7 of the largest).
+
+Starts, verification and statuses
+---------------------------------
+The starts are the gaits the runtime's gait search finds at the parameters the request
+starts from (defaults, fixes, clipped into the bounds). A solve counts only when IPOPT
+reports success and the periodic-orbit solver, from IPOPT's point, confirms the gait by
+simulation and every request holds on it: targets, bounds, the eigenvalue bound, every
+condition's margin along the simulated step. The best verified solve wins. ``optimal``: a
+verified local optimum away from every open limit. ``not-attained``: it presses against an
+open limit (a parameter's open interval, kept :func:`open_distance` away, or a strict
+condition margin, kept :data:`STRICT_MARGIN` above zero): the model's supremum is not a
+gait. ``infeasible``: a target outside the range the same starts reach (the extreme of that
+quantity designed under the other constraints), said with the extreme; ``not-converged``:
+no verified design and no such proof.
+
+The package, by job: :mod:`~vsw.synthesis.design.request` (the request, the result, the constants),
+:mod:`~vsw.synthesis.design.problem` (a request checked against a model),
+:mod:`~vsw.synthesis.design.transcription` (the NLP on the shooting flows of
+:mod:`vsw.orbits.shooting` and the monodromy of :mod:`vsw.orbits.monodromy`) and
+:mod:`~vsw.synthesis.design.solve` (the starts, the solves, their verification and the status:
+:func:`design`).
+"""
+
+from vsw.synthesis.design.request import (
+    DESIGN_QUANTITIES,
+    MAXIMISED,
+    MINIMISED,
+    SEGMENTS,
+    STATUSES,
+    DesignRequest,
+    GaitDesign,
+    open_distance,
+)
+from vsw.synthesis.design.solve import design
+
+__all__ = [
+    "DESIGN_QUANTITIES",
+    "MAXIMISED",
+    "MINIMISED",
+    "SEGMENTS",
+    "STATUSES",
+    "DesignRequest",
+    "GaitDesign",
+    "design",
+    "open_distance",
+]

@@ -1,0 +1,473 @@
+"""A design solved: the gaits it starts from, IPOPT from each, each solve verified by the
+runtime's periodic-orbit solver and simulation, the best kept, its status (optimal, not
+attained at an open limit, infeasible by the extremes the same starts reach, not
+converged): :func:`design`."""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import io
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from vsw.dynamics import conditions
+from vsw.dynamics.hybrid import HybridModel, Orbit
+from vsw.dynamics.quantities import maximised, report
+from vsw.dynamics.quantities import weight as walker_weight
+from vsw.runtime import stop
+from vsw.runtime.errors import ConvergenceError, VswInputError
+from vsw.synthesis.design.problem import Problem, margin_floor
+from vsw.synthesis.design.request import (
+    CLOSED_FAILURES,
+    MIN_DURATION,
+    SEGMENTS,
+    STRICT_MARGIN,
+    TARGET_TOL,
+    DesignRequest,
+    GaitDesign,
+    open_distance,
+    range_text,
+)
+from vsw.synthesis.design.transcription import Nlp, build, impact_events, kinetic_loss
+
+__all__ = ["design", "orbit_quantities"]
+
+
+_SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+
+
+@dataclass
+class _Solve:
+    start: int
+    ipopt_status: str
+    w: np.ndarray
+    lam_x: np.ndarray
+    lam_g: np.ndarray
+    parameters: tuple[float, ...] = ()
+    orbit: Orbit | None = None
+    quantities: dict[str, float | None] = field(default_factory=dict)
+    margins: list[dict[str, Any]] = field(default_factory=list)
+    objective: float = math.inf
+    failure: str = ""  # why it is not a verified design
+
+    @property
+    def verified(self) -> bool:
+        return self.orbit is not None and not self.failure
+
+
+def _nontrivial_rank(orbits: Sequence[Orbit]) -> int:
+    """How many eigenvalues of the step map are not structural zeros."""
+    rank = 1
+    for orbit in orbits:
+        largest = max(1.0, orbit.max_abs_eigenvalue)
+        rank = max(rank, sum(abs(e) > 1e-7 * largest for e in orbit.eigenvalues))
+    return rank
+
+
+def _initial_point(problem: Problem, nlp: Nlp, orbit: Orbit, rho: float) -> np.ndarray:
+    """IPOPT's start from a gait: its parameters, its state at every node, its durations."""
+    model = problem.model
+    state = np.array(list(orbit.state.values()))
+    pieces, _events, ended = model.continuous_walk(problem.start, state, 1)
+    if ended != "completed" or len(pieces) != len(orbit.durations):
+        raise ConvergenceError(f"{model.name}: the start gait does not walk a step")
+    w = np.zeros(nlp.size)
+    w[nlp.layout["free"]] = [problem.start[j] for j in problem.free]
+    nodes = []
+    for piece in pieces:
+        times = piece.start + (piece.end - piece.start) * np.arange(SEGMENTS) / SEGMENTS
+        nodes.append(piece.states(times).reshape(-1))
+    w[nlp.layout["nodes"]] = np.concatenate(nodes)
+    w[nlp.layout["durations"]] = [piece.end - piece.start for piece in pieces]
+    w[nlp.layout["rho"]] = rho
+    return w
+
+
+def _bounds(
+    problem: Problem, nlp: Nlp, targets: Mapping[str, float]
+) -> dict[str, np.ndarray]:  # fmt: skip
+    request = problem.request
+    lbx = np.full(nlp.size, -np.inf)
+    ubx = np.full(nlp.size, np.inf)
+    lbx[nlp.layout["free"]] = [problem.box[j][0] for j in problem.free]
+    ubx[nlp.layout["free"]] = [problem.box[j][1] for j in problem.free]
+    lbx[nlp.layout["durations"]] = MIN_DURATION
+    lbx[nlp.layout["rho"]] = 1e-4
+    if request.max_eigenvalue is not None:
+        ubx[nlp.layout["rho"]] = request.max_eigenvalue
+    lbg = np.zeros(len(nlp.row_kinds))
+    ubg = np.zeros(len(nlp.row_kinds))
+    for i, (name, kind) in enumerate(zip(nlp.row_names, nlp.row_kinds)):
+        if kind == "margin":
+            lbg[i], ubg[i] = margin_floor(name, request), np.inf
+        elif kind in ("when", "jury"):
+            lbg[i], ubg[i] = 0.0, np.inf
+        elif kind == "quantity":
+            if name in targets:
+                lbg[i] = ubg[i] = targets[name]
+            else:
+                low, high = request.bounds.get(name, (None, None))
+                lbg[i] = -np.inf if low is None else low
+                ubg[i] = np.inf if high is None else high
+    p = np.array([*problem.start, request.max_eigenvalue or 1.0])
+    return {"lbx": lbx, "ubx": ubx, "lbg": lbg, "ubg": ubg, "p": p}
+
+
+def _solve(problem: Problem, nlp: Nlp, bounds: Mapping[str, np.ndarray], w0: np.ndarray,
+           start: int) -> _Solve:  # fmt: skip
+    # CasADi reports integrator trouble on stderr; the status and the verification say
+    # what matters.
+    with contextlib.redirect_stderr(io.StringIO()), contextlib.redirect_stdout(io.StringIO()):
+        try:
+            out = nlp.solver(x0=w0, **bounds)
+            status = str(nlp.solver.stats().get("return_status", "unknown"))
+        except RuntimeError as exc:
+            stop.check()
+            return _Solve(start, "error: " + " ".join(str(exc).split())[:60], w0,
+                          np.zeros_like(w0), np.zeros(len(nlp.row_kinds)))  # fmt: skip
+    stop.check()  # IPOPT ends an interrupted solve with a status, not an exception
+    return _Solve(
+        start,
+        status,
+        np.array(out["x"]).reshape(-1),
+        np.array(out["lam_x"]).reshape(-1),
+        np.array(out["lam_g"]).reshape(-1),
+    )
+
+
+def _parameters_of(problem: Problem, nlp: Nlp, w: np.ndarray) -> tuple[float, ...]:
+    values = list(problem.start)
+    for i, j in enumerate(problem.free):
+        values[j] = float(w[nlp.layout["free"]][i])
+    return tuple(values)
+
+
+def _verify(problem: Problem, nlp: Nlp, solve: _Solve, targets: Mapping[str, float],
+            objective: Mapping[str, float]) -> _Solve:  # fmt: skip
+    """Whether IPOPT's point is a gait that meets the request, by the runtime's own
+    periodic-orbit solver (1e-13) and simulation."""
+    model = problem.model
+    if solve.ipopt_status not in _SUCCESS:
+        solve.failure = f"IPOPT {solve.ipopt_status}"
+        return solve
+    params = _parameters_of(problem, nlp, solve.w)
+    m = 2 * model.n
+    state = solve.w[nlp.layout["nodes"]][:m]
+    try:
+        orbit = model.periodic_orbit(params, state, solve.w[nlp.layout["durations"]])
+    except ConvergenceError as exc:
+        solve.failure = f"not confirmed: {exc}"
+        return solve
+    x_star = np.array(list(orbit.state.values()))
+    if not np.max(np.abs(x_star - state)) <= 1e-6 * max(1.0, float(np.max(np.abs(x_star)))):
+        solve.failure = "the confirmed orbit is another gait"
+        return solve
+    quantities = orbit_quantities(model, params, orbit)
+    margins = conditions.gait_conditions(model, params, orbit)
+    problems = _violations(problem, quantities, margins, targets)
+    if problems:
+        solve.failure = "; ".join(problems)
+        return solve
+    solve.parameters, solve.orbit = params, orbit
+    solve.quantities, solve.margins = quantities, margins
+    solve.objective = _objective_value(objective, quantities)
+    return solve
+
+
+def orbit_quantities(model: HybridModel, params: Sequence[float], orbit: Orbit) -> dict:
+    """The design quantities of a confirmed orbit (:func:`vsw.dynamics.quantities.report`): period,
+    eigenvalue, the kinetic energy the impacts dissipate, step length, weight."""
+    state = np.array(list(orbit.state.values()))
+    lost = 0.0
+    phase = model.step_event["target"]
+    for record in model.step_events(params, state):
+        event = next(e for e in model.by_source[phase] if e["name"] == record.name)
+        if record.name in impact_events(model):
+            lost += float(kinetic_loss(model, phase, event["target"], np.asarray(params),
+                                        record.state_before, record.state_after))  # fmt: skip
+        phase = event["target"]
+    facts = {
+        "period": orbit.period,
+        "eigenvalue": orbit.max_abs_eigenvalue,
+        "energy_per_step": float(lost),
+        "energy": float(lost),
+        "step_length": orbit.step_length,
+        "weight": walker_weight(model, params),
+    }
+    return report(facts)
+
+
+def _violations(problem: Problem, quantities: Mapping[str, Any], margins: list[dict],
+                targets: Mapping[str, float]) -> list[str]:  # fmt: skip
+    request = problem.request
+    out = []
+    for name, value in targets.items():
+        got = quantities[name]
+        if got is None or not abs(got - value) <= TARGET_TOL * max(1.0, abs(value)):
+            out.append(f"target {name} {value:g} missed ({got})")
+    for name, (low, high) in request.bounds.items():
+        if name in quantities:
+            got = quantities[name]
+            slack = TARGET_TOL * max(1.0, abs(got))
+            if (low is not None and got < low - slack) or (high is not None and got > high + slack):
+                out.append(f"{name} {got:.6g} outside {range_text(low, high)}")
+    e = request.max_eigenvalue
+    if e is not None and not quantities["eigenvalue"] <= e * (1 + TARGET_TOL):
+        out.append(f"max |eigenvalue| {quantities['eigenvalue']:.6g} above {e:g}")
+    for margin in margins:
+        if not margin.get("ends_walk", True):
+            continue  # a condition the model reports, not one its walks must meet
+        closed = margin["name"] in CLOSED_FAILURES
+        if margin["margin"] is not None and not (
+            margin["margin"] >= 0 if closed else margin["margin"] > 0
+        ):
+            out.append(f"condition {margin['name']} fails (margin {margin['margin']:.3g})")
+        elif margin["margin"] is not None and margin["margin"] < request.min_margin * (1 - 1e-6):
+            out.append(f"condition {margin['name']} margin {margin['margin']:.3g} below "
+                       f"{request.min_margin:g}")  # fmt: skip
+    return out
+
+
+def _objective_value(objective: Mapping[str, float], quantities: Mapping[str, Any]) -> float:
+    total = 0.0
+    for term, weight in objective.items():
+        value = quantities[term]
+        total += (-weight if maximised(term) else weight) * float(value)
+    return total
+
+
+def _multistart(
+    problem: Problem,
+    seeds: Sequence[Orbit],
+    rank: int,
+    objective: Mapping[str, float] | None = None,
+    targets: Mapping[str, float] | None = None,
+    eigen: str | None = "same",
+) -> tuple[_Solve | None, list[_Solve], Nlp]:
+    objective = problem.objective if objective is None else objective
+    targets = problem.request.targets if targets is None else targets
+    rows = tuple(sorted(set(targets) | (set(problem.request.bounds) & problem.available)))
+    structure = problem.structure(rank, objective, rows, eigen)
+    nlp = build(problem.model, structure)
+    bounds = _bounds(problem, nlp, targets)
+    solves, best = [], None
+    for k, orbit in enumerate(seeds):
+        rho = 1.05 * max(orbit.max_abs_eigenvalue, 1e-3)
+        try:
+            w0 = _initial_point(problem, nlp, orbit, rho)
+        except ConvergenceError:
+            continue
+        solve = _verify(problem, nlp, _solve(problem, nlp, bounds, w0, k), targets, objective)
+        solves.append(solve)
+        if solve.verified and (best is None or solve.objective < best.objective - 1e-12):
+            best = solve
+    return best, solves, nlp
+
+
+def _open_limits(problem: Problem, nlp: Nlp, solve: _Solve) -> tuple[str, ...]:
+    """The open limits the optimum presses against (its multiplier pulls it there)."""
+    out = []
+    free_w = solve.w[nlp.layout["free"]]
+    free_lam = solve.lam_x[nlp.layout["free"]]
+    for i, j in enumerate(problem.free):
+        p = problem.table[j]
+        low, high = problem.box[j]
+        tol = 1e-7 * max(1.0, abs(high - low))
+        pulled = abs(free_lam[i]) > 1e-8
+        # Open only where the box's edge is the table's open limit kept at its distance
+        # (not a closed bound of the user's, not the computed range's end).
+        distance = open_distance(p)
+        if pulled and abs(free_w[i] - low) <= tol and low == p.lower + distance:
+            out.append(f"{p.name} -> {p.lower:.6g}")
+        if pulled and abs(free_w[i] - high) <= tol and high == p.upper - distance:
+            out.append(f"{p.name} -> {p.upper:.6g}")
+    if problem.request.min_margin <= STRICT_MARGIN:
+        g = None
+        for i, (name, kind) in enumerate(zip(nlp.row_names, nlp.row_kinds)):
+            if name in CLOSED_FAILURES:
+                continue
+            margin = margin_floor(name, problem.request)
+            if kind == "margin" and abs(solve.lam_g[i]) > 1e-8:
+                g = g if g is not None else _constraint_values(nlp, solve.w, problem)
+                if abs(g[i] - margin) <= 1e-7:
+                    text = f"margin of {name} -> 0"
+                    if text not in out:
+                        out.append(text)
+    return tuple(out)
+
+
+def _constraint_values(nlp: Nlp, w: np.ndarray, problem: Problem) -> np.ndarray:
+    p = np.array([*problem.start, problem.request.max_eigenvalue or 1.0])
+    with contextlib.redirect_stderr(io.StringIO()):
+        return np.array(nlp.solver.get_function("nlp_g")(w, p)).reshape(-1)
+
+
+def _active(problem: Problem, nlp: Nlp, solve: _Solve) -> tuple[str, ...]:
+    out = []
+    for i, (name, kind) in enumerate(zip(nlp.row_names, nlp.row_kinds)):
+        if kind in ("margin", "quantity", "jury") and abs(solve.lam_g[i]) > 1e-8:
+            label = "max |eigenvalue|" if kind == "jury" else name
+            if name in problem.request.targets:
+                continue
+            if label not in out:
+                out.append(label)
+    for i, j in enumerate(problem.free):
+        if abs(solve.lam_x[nlp.layout["free"]][i]) > 1e-8:
+            out.append(f"{problem.table[j].name} bound")
+    return tuple(out)
+
+
+def design(model: HybridModel, request: DesignRequest) -> GaitDesign:
+    """Design the model's free parameters and its gait for ``request`` (the package's docstring).
+
+    Raises VswInputError for a malformed request (unknown names, bounds outside the
+    parameter table, contradictory fixes, bounds and targets, more targets than free
+    parameters); every other outcome is a status of the result.
+    """
+    if not (isinstance(request.starts, int) and 1 <= request.starts <= 50):
+        raise VswInputError(f"starts = {request.starts!r} must be an integer from 1 to 50")
+    problem = Problem(model, request)
+    if not problem.free:
+        raise VswInputError(f"every parameter of {model.name} is fixed: nothing to design "
+                            "(drop a --fix, or --bound a scale)")  # fmt: skip
+    seeds, tried, why_none = _seeds(problem)
+    if not seeds:
+        return GaitDesign("not-converged", f"not converged: no gait to start from at "
+                          f"{tried} parameter set(s) of the box ({why_none})")  # fmt: skip
+    rank = _nontrivial_rank(seeds)
+    best, solves, nlp = _multistart(problem, seeds, rank)
+    statuses = ", ".join(sorted({s.ipopt_status for s in solves})) or "no start"
+    if best is None:
+        reason = _infeasibility(problem, seeds, rank)
+        if reason is not None:
+            return GaitDesign("infeasible", f"infeasible: {reason}", ipopt_status=statuses,
+                              starts=len(solves), infeasible_reason=reason)  # fmt: skip
+        why = "; ".join(sorted({s.failure for s in solves}))[:300]
+        return GaitDesign("not-converged", f"not converged: no verified design from "
+                          f"{len(solves)} start(s) ({why})", ipopt_status=statuses,
+                          starts=len(solves))  # fmt: skip
+    limits = _open_limits(problem, nlp, best)
+    status = "not-attained" if limits else "optimal"
+    if limits:
+        message = (f"not attained: the optimum lies on the open limit(s) {', '.join(limits)}; "
+                   f"the design keeps its distance (parameters: 1e-3 of the interval or the "
+                   f"default, margins {STRICT_MARGIN:g})")  # fmt: skip
+    else:
+        message = (f"optimal (local, the best verified of {len(solves)} IPOPT solve(s) from "
+                   f"the gaits at the start; IPOPT {best.ipopt_status})")  # fmt: skip
+    state = np.array(list(best.orbit.state.values()))
+    step = model.step(best.parameters, state)
+    scale = max(1.0, float(np.max(np.abs(state))))
+    sim_error = float(np.max(np.abs(step.state - state))) / scale
+    names = [p.name for p in problem.table]
+    return GaitDesign(
+        status,
+        message,
+        dict(zip(names, best.parameters)),
+        best.orbit,
+        best.quantities,
+        best.margins,
+        best.objective,
+        _active(problem, nlp, best),
+        limits,
+        best.ipopt_status,
+        len(solves),
+        sim_error,
+    )
+
+
+START_SETS = 6
+"""Parameter sets searched for gaits to start from, at most: the request's start (its
+``start`` values, else defaults and fixes; a default outside the box replaced by the box's
+middle), then the box's centre and Halton points of the box,
+until one has gaits (a rimless wheel with wide spokes on a gentle slope has none)."""
+
+
+def _seeds(problem: Problem) -> tuple[list[Orbit], int, str]:
+    """The gaits IPOPT starts from (at most ``starts``), the parameter sets searched and,
+    when none has a gait, the last search's reason."""
+    free = problem.free
+    points = [problem.start]
+    centre = list(problem.start)
+    for j in free:
+        centre[j] = 0.5 * sum(problem.box[j])
+    points.append(tuple(centre))
+    for k in range(1, START_SETS):
+        point = list(problem.start)
+        for d, j in enumerate(free):
+            low, high = problem.box[j]
+            point[j] = low + _halton(k, _PRIMES[d % len(_PRIMES)]) * (high - low)
+        points.append(tuple(point))
+    why = ""
+    for tried, params in enumerate(points[:START_SETS], start=1):
+        search = problem.model.search_gaits(params)
+        if search.gaits:
+            problem.start = tuple(params)
+            return list(search.gaits)[: problem.request.starts], tried, ""
+        why = search.why_none()
+    return [], min(len(points), START_SETS), why
+
+
+_PRIMES = (2, 3, 5, 7, 11, 13)
+
+
+def _halton(index: int, base: int) -> float:
+    value, fraction = 0.0, 1.0
+    while index:
+        fraction /= base
+        value += fraction * (index % base)
+        index //= base
+    return value
+
+
+def _infeasibility(problem: Problem, seeds: Sequence[Orbit], rank: int) -> str | None:
+    """Why no design exists, when the extremes the same starts reach prove it: a target
+    beyond the largest or smallest value of its quantity under the other constraints, an
+    eigenvalue bound below the least max |eigenvalue|."""
+    request = problem.request
+    for name, value in request.targets.items():
+        others = {k: v for k, v in request.targets.items() if k != name}
+        for sense in (+1, -1):
+            extreme = _extreme(problem, seeds, rank, name, sense, others)
+            if extreme is None:
+                continue
+            slack = TARGET_TOL * max(1.0, abs(extreme))
+            beyond = value > extreme + slack if sense > 0 else value < extreme - slack
+            if beyond:
+                word = "largest" if sense > 0 else "smallest"
+                return (f"the target {name} {value:g} lies beyond the {word} {name} of the "
+                        f"gaits the design reaches from the same starts under the other "
+                        f"constraints, {extreme:.6g} (a local extreme)")  # fmt: skip
+    if request.max_eigenvalue is not None:
+        least = _extreme(problem, seeds, rank, "eigenvalue", -1, request.targets, eigen=None)
+        if least is not None and least > request.max_eigenvalue:
+            return (
+                f"--max-eigenvalue {request.max_eigenvalue:g} lies below the least max "
+                f"|eigenvalue| the design reaches from the same starts, {least:.6g}"
+            )
+    return None
+
+
+def _extreme(problem: Problem, seeds: Sequence[Orbit], rank: int, name: str, sense: int,
+             targets: Mapping[str, float], eigen: str | None = "same") -> float | None:  # fmt: skip
+    """The largest (sense +1) or smallest (-1) verified value of a quantity."""
+    if name == "eigenvalue":
+        objective = {"eigenvalue": 1.0}
+        eigen = "objective"
+        saved = problem.request
+        problem.request = dataclasses.replace(saved, max_eigenvalue=None)
+        try:
+            best, _, _ = _multistart(problem, seeds, rank, objective, targets, eigen)
+        finally:
+            problem.request = saved
+        return None if best is None else float(best.quantities["eigenvalue"])
+    # The term enters as -w * value when maximised, +w * value otherwise.
+    objective = {name: float(sense if maximised(name) else -sense)}
+    eigen_mode = "bound" if problem.request.max_eigenvalue is not None else None
+    best, _, _ = _multistart(problem, seeds, rank, objective, targets, eigen_mode)
+    return None if best is None else float(best.quantities[name])
