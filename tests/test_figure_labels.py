@@ -84,7 +84,7 @@ def legends_over_data(fig: Figure) -> list[str]:
 
 def _synthetic_gait(model) -> PoweredGait:
     """A gait of the model's shape (one phase's knots, its inputs) for drawing only."""
-    ((phase, _),) = model._phase_sequence()
+    ((phase, _),) = model.phase_sequence()
     t = np.linspace(0.0, 0.7, 21)
     nx = 2 * len(model.coordinates)
     states = np.column_stack([np.sin(t * (k + 1)) * 0.3 for k in range(nx)])

@@ -44,12 +44,12 @@ def stable_gait(walker):
 def _bodies(m, phase: str):
     """(positions (x, y) of the five bodies, their velocities, masses) at a state, the
     velocities by CasADi's derivative of the generated positions along the rates."""
-    positions = m._fn(f"{phase}_positions")
+    positions = m.function(f"{phase}_positions")
     p = ca.SX.sym("p", len(m.parameter_table))
     q, u = ca.SX.sym("q", m.n), ca.SX.sym("u", m.n)
     pos = ca.vertcat(*positions(*ca.vertsplit(p), *ca.vertsplit(q), *ca.vertsplit(u)))
     f = ca.Function("bodies", [p, q, u], [pos, ca.jtimes(pos, q, u)])
-    inertias = m._fn(f"{phase}_inertias")
+    inertias = m.function(f"{phase}_inertias")
 
     def at(params, x):
         r, v = (np.array(a, dtype=float).reshape(-1, 3)[:, :2] for a in f(params, x[:3], x[3:]))
@@ -209,14 +209,15 @@ def test_stance_knee_torque_is_the_upper_bodys_newton_euler_balance(walker):
     upper = [HIP, STANCE_THIGH, SWING_THIGH, SWING_SHANK]
     rng = np.random.default_rng(21)
     for phase in ("knee_free", "knee_locked"):
-        positions = m._fn(f"{phase}_positions")
+        positions = m.function(f"{phase}_positions")
         p = ca.SX.sym("p", len(names))
         q, u, acc = ca.SX.sym("q", 3), ca.SX.sym("u", 3), ca.SX.sym("a", 3)
         pos = ca.vertcat(*positions(*ca.vertsplit(p), *ca.vertsplit(q), *ca.vertsplit(u)))
         vel = ca.jtimes(pos, q, u)
         f = ca.Function("a", [p, q, u, acc], [pos, ca.jtimes(vel, q, u) + ca.jtimes(vel, u, acc)])
-        torque = m._fn(f"{phase}_stance_knee_stop")
-        masses = np.array([float(w) for w in m._fn(f"{phase}_inertias")(*params, *np.zeros(6))])
+        torque = m.function(f"{phase}_stance_knee_stop")
+        inertias = m.function(f"{phase}_inertias")(*params, *np.zeros(6))
+        masses = np.array([float(w) for w in inertias])
         masses = masses[0::2]
         for _ in range(10):
             x = np.concatenate([rng.uniform(-0.4, 0.4, 3), rng.uniform(-2.0, 2.0, 3)])

@@ -216,9 +216,9 @@ def test_energy_is_constant_in_conservative_phases(name):
             if not phase["conservative"] or len(samples) < 5:
                 continue
             x = samples.T
-            energy = np.asarray(m._fn(f"{phase['name']}_energy")(*p, *x), dtype=float)
+            energy = np.asarray(m.function(f"{phase['name']}_energy")(*p, *x), dtype=float)
             at_rest = np.concatenate([x[: m.n], np.zeros_like(x[m.n :])])
-            potential = np.asarray(m._fn(f"{phase['name']}_energy")(*p, *at_rest), dtype=float)
+            potential = np.asarray(m.function(f"{phase['name']}_energy")(*p, *at_rest), dtype=float)
             scale = np.max(np.abs(energy - potential)) + np.max(np.abs(potential))
             # The phase really moves: its kinetic energy changes by a visible fraction (a
             # phase of a few samples, 0.04 time units, may not: the check needs ten).
@@ -232,7 +232,7 @@ def test_energy_is_constant_in_conservative_phases(name):
 def _kinematics(m: HybridModel, phase: str):
     """Bodies of a phase at a state: (x, y, angle) rows, their velocities (CasADi's
     derivative of the generated positions along the rates) and (mass, inertia) rows."""
-    positions = m._fn(f"{phase}_positions")
+    positions = m.function(f"{phase}_positions")
     p = ca.SX.sym("p", len(m.parameter_table))
     q, u = ca.SX.sym("q", m.n), ca.SX.sym("u", m.n)
     pos = ca.vertcat(*positions(*ca.vertsplit(p), *ca.vertsplit(q), *ca.vertsplit(u)))
@@ -240,7 +240,7 @@ def _kinematics(m: HybridModel, phase: str):
 
     def at(params, x):
         r, v = (np.array(a, dtype=float).reshape(-1, 3) for a in f(params, x[: m.n], x[m.n :]))
-        inertia = outputs(m._fn(f"{phase}_inertias")(*params, *x), 1).reshape(-1, 2)
+        inertia = outputs(m.function(f"{phase}_inertias")(*params, *x), 1).reshape(-1, 2)
         return r, v, inertia
 
     return at
@@ -268,7 +268,7 @@ def test_generated_energy_is_the_bodies_kinetic_plus_a_potential(name):
     points = np.array(args).T
     for phase in m.phases:
         kinematics = _kinematics(m, phase["name"])
-        energy = m._fn(f"{phase['name']}_energy")
+        energy = m.function(f"{phase['name']}_energy")
         for row in points:
             p, x = tuple(row[: len(m.parameter_table)]), row[len(m.parameter_table) :]
             _, v, inertia = kinematics(p, x)
@@ -322,7 +322,7 @@ def test_angular_momentum_is_conserved_across_every_reset(name):
             # The same bodies in the same order on both sides (the legs swap roles).
             order = list(event["bodies"])
             before = (before[0][order], before[1][order], before[2][order])
-            contact = m._fn(f"event_{event['name']}_contact")(*p, *x_minus)
+            contact = m.function(f"event_{event['name']}_contact")(*p, *x_minus)
             contact = outputs(contact, 1).ravel()
             # The configuration does not change: each body is where it was, seen from the
             # new contact (the origin of the target phase's chart).

@@ -340,7 +340,7 @@ def test_the_reaction_from_the_momentum_is_the_engines(name):
             ours = np.array(reaction(params, state, u), dtype=float).reshape(-1)
             normal = walker.normal_force(phase, params, state)
             if count:
-                gains = np.array(walker._fn(f"{phase}_reaction_input_gains")(*params, *state),
+                gains = np.array(walker.function(f"{phase}_reaction_input_gains")(*params, *state),
                                  dtype=float)  # fmt: skip
                 normal += gains[:count] @ u
                 # The inputs' share of the tangential reaction: the engine's gains too.

@@ -115,12 +115,12 @@ def test_accelerations_are_the_books_three_link_equations(walker, overrides):
 def _bodies(m):
     """Positions (x, y) of the four bodies and their velocities (CasADi's derivative of the
     generated positions along the rates), and the masses."""
-    positions = m._fn("stance_positions")
+    positions = m.function("stance_positions")
     p = ca.SX.sym("p", len(m.parameter_table))
     q, u = ca.SX.sym("q", m.n), ca.SX.sym("u", m.n)
     pos = ca.vertcat(*positions(*ca.vertsplit(p), *ca.vertsplit(q), *ca.vertsplit(u)))
     f = ca.Function("bodies", [p, q, u], [pos, ca.jtimes(pos, q, u)])
-    inertias = m._fn("stance_inertias")
+    inertias = m.function("stance_inertias")
 
     def at(params, x):
         r, v = (np.array(a, dtype=float).reshape(-1, 3)[:, :2] for a in f(params, x[:2], x[2:]))

@@ -364,7 +364,7 @@ def _phases(model, gait: powered.PoweredGait) -> list[dict[str, Any]]:
     names = [*model.coordinates, *model.rates]
     phases = []
     for (phase, _), times, states, inputs, input_times in zip(
-        model._phase_sequence(), gait.times, gait.states, gait.inputs, gait.input_times
+        model.phase_sequence(), gait.times, gait.states, gait.inputs, gait.input_times
     ):
         inputs_named = powered.input_names(model)[phase]
         phases.append({

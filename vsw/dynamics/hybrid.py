@@ -263,7 +263,7 @@ class HybridModel:
         names = [p.name for p in self.parameter_table]
         zeros = [0.0] * (2 * self.n)  # the generated functions take a state; unused here
         for condition in self.spec.get("parameter_conditions", ()):
-            value = float(self._fn(condition["function"])(*params, *zeros))
+            value = float(self.function(condition["function"])(*params, *zeros))
             if value > 0 or (value == 0 and not condition["strict"]):
                 continue
             values = ", ".join(f"{k} = {params[names.index(k)]:g}" for k in condition["parameters"])
@@ -271,7 +271,9 @@ class HybridModel:
 
     # --- generated functions -----------------------------------------------------------
 
-    def _fn(self, name: str):
+    def function(self, name: str) -> Any:
+        """The generated numpy function ``name`` of the model's package (``{phase}_energy``,
+        ``event_{name}_reset``, ...), called with the parameters and the state."""
         return getattr(self.module, name)
 
     def symbolic(self, name: str, p: Any, x: Any) -> Any:
@@ -280,7 +282,7 @@ class HybridModel:
         stacked."""
         import casadi as ca
 
-        out = self._fn(name)(*ca.vertsplit(p), *ca.vertsplit(x))
+        out = self.function(name)(*ca.vertsplit(p), *ca.vertsplit(x))
         return ca.vertcat(*out) if isinstance(out, tuple) else out
 
     def symbolic_weight(self, p: Any) -> Any:
@@ -294,20 +296,20 @@ class HybridModel:
         return 1.0
 
     def accelerations(self, phase: str, params: Sequence[float], state: np.ndarray) -> np.ndarray:
-        return np.array(self._fn(f"{phase}_accelerations")(*params, *state), dtype=float)
+        return np.array(self.function(f"{phase}_accelerations")(*params, *state), dtype=float)
 
     def energy(self, phase: str, params: Sequence[float], state: np.ndarray) -> float:
-        return float(self._fn(f"{phase}_energy")(*params, *state))
+        return float(self.function(f"{phase}_energy")(*params, *state))
 
     def normal_force(self, phase: str, params: Sequence[float], state: np.ndarray) -> float:
-        return float(self._fn(f"{phase}_normal_force")(*params, *state))
+        return float(self.function(f"{phase}_normal_force")(*params, *state))
 
     def guard(self, event: str, params: Sequence[float], state: np.ndarray) -> float:
         """The event's guard at a state: zero where the event happens."""
-        return float(self._fn(f"event_{event}_guard")(*params, *state))
+        return float(self.function(f"event_{event}_guard")(*params, *state))
 
     def reset(self, event: str, params: Sequence[float], state: np.ndarray) -> np.ndarray:
-        return np.array(self._fn(f"event_{event}_reset")(*params, *state), dtype=float)
+        return np.array(self.function(f"event_{event}_reset")(*params, *state), dtype=float)
 
     def slope(self, params: Sequence[float]) -> float:
         """The slope the walker walks down, rad (its chart lies along it): the parameter
@@ -325,7 +327,7 @@ class HybridModel:
     def step_length(self, params: Sequence[float], state: np.ndarray) -> float | None:
         if not self.spec["step_length"]:
             return None
-        return float(self._fn("step_length_of_state")(*params, *state))
+        return float(self.function("step_length_of_state")(*params, *state))
 
     # --- simulation --------------------------------------------------------------------
 
@@ -336,7 +338,7 @@ class HybridModel:
         only there (``start_failures``: the VSW biped's extension-missed)."""
         record = self.phases[self.phase_index[phase]]
         for name, function, direction in (*record["failures"], *record.get("start_failures", ())):
-            if float(self._fn(function)(*params, *np.asarray(state, float))) * direction > 0:
+            if float(self.function(function)(*params, *np.asarray(state, float))) * direction > 0:
                 return name
         return None
 
@@ -354,17 +356,17 @@ class HybridModel:
             x = np.array(state, dtype=float)
             return "failure", failed, t0, x, [t0], [x.copy()]
         n = self.n
-        rhs_fn = self._fn(f"{phase}_accelerations")
+        rhs_fn = self.function(f"{phase}_accelerations")
 
         def rhs(_t, x):
             return np.concatenate([x[n:], np.asarray(rhs_fn(*params, *x), dtype=float)])
 
         watchers = []  # (kind, name, function)
         for event in self.by_source.get(phase, []):
-            guard = self._fn(f"event_{event['name']}_guard")
+            guard = self.function(f"event_{event['name']}_guard")
             watchers.append(("event", event, guard, event["direction"]))
         for failure, fname, direction in self.phases[self.phase_index[phase]]["failures"]:
-            watchers.append(("failure", failure, self._fn(fname), direction))
+            watchers.append(("failure", failure, self.function(fname), direction))
         functions = []
         for _, _, fn, direction in watchers:
             f = functools.partial(lambda _t, x, fn: float(fn(*params, *x)), fn=fn)
@@ -393,7 +395,7 @@ class HybridModel:
             samples_t.append(t_hit)
             samples_x.append(x_hit.copy())
             if kind == "event" and what["when"] is not None:
-                if float(self._fn(what["when"])(*params, *x_hit)) <= 0:
+                if float(self.function(what["when"])(*params, *x_hit)) <= 0:
                     # Not this one (a scuff the model ignores): continue just past it.
                     t_start, x = t_hit, x_hit
                     t_start += 1e-9
@@ -437,8 +439,8 @@ class HybridModel:
             x = self.reset(what["name"], params, x_end)
             records.append(EventRecord(
                 what["name"], t_end, x_end, x.copy(),
-                float(self._fn(f"{phase}_energy")(*params, *x_end)),
-                float(self._fn(f"{what['target']}_energy")(*params, *x)),
+                float(self.function(f"{phase}_energy")(*params, *x_end)),
+                float(self.function(f"{what['target']}_energy")(*params, *x)),
             ))  # fmt: skip
             t = t_end
             if what["ends_step"]:
@@ -470,8 +472,8 @@ class HybridModel:
             after = self.reset(what["name"], params, x_end)
             events.append((done, EventRecord(
                 what["name"], t_end, x_end, after.copy(),
-                float(self._fn(f"{phase}_energy")(*params, *x_end)),
-                float(self._fn(f"{what['target']}_energy")(*params, *after)),
+                float(self.function(f"{phase}_energy")(*params, *x_end)),
+                float(self.function(f"{what['target']}_energy")(*params, *after)),
             )))  # fmt: skip
             x, t, phase = after, t_end, what["target"]
             done += bool(what["ends_step"])
@@ -546,7 +548,7 @@ class HybridModel:
 
     # --- periodic orbits (CasADi) ------------------------------------------------------
 
-    def _phase_sequence(self) -> list[tuple[str, dict]]:
+    def phase_sequence(self) -> list[tuple[str, dict]]:
         """(phase, event that ends it) over one step (:func:`vsw.orbits.phase_sequence`)."""
         return phase_sequence(self)
 
@@ -638,9 +640,9 @@ class HybridModel:
         n = 2 * self.n
         p = ca.MX.sym("p", len(self.parameter_table))
         x0 = ca.MX.sym("x0", n)
-        guesses = ca.MX.sym("T0", len(self._phase_sequence()))
+        guesses = ca.MX.sym("T0", len(self.phase_sequence()))
         x = x0
-        for k, (phase, _event) in enumerate(self._phase_sequence()):
+        for k, (phase, _event) in enumerate(self.phase_sequence()):
             integrator, guard, reset = flows[phase]
             tau = ca.MX.sym("tau")
             xs = ca.MX.sym("xs", n)
@@ -658,7 +660,7 @@ class HybridModel:
         """Eigenvalues of the Poincaré map's Jacobian at a section state."""
         result = self.step(params, state)
         durations = result.durations
-        if len(durations) != len(self._phase_sequence()):
+        if len(durations) != len(self.phase_sequence()):
             raise ConvergenceError(f"{self.name}: the step from this state skips a phase")
         try:
             with contextlib.redirect_stderr(io.StringIO()):

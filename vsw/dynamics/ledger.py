@@ -61,7 +61,7 @@ _STEP = 1e-30
 def _kinetic_potential(model: HybridModel, phase: str, params: Sequence[float],
                        state: np.ndarray) -> tuple[float, float]:  # fmt: skip
     """(T, V) of a state: V is the energy with the rates at zero (T is quadratic in them)."""
-    energy = model._fn(f"{phase}_energy")
+    energy = model.function(f"{phase}_energy")
     at_rest = np.concatenate([state[: model.n], np.zeros(model.n)])
     potential = float(energy(*params, *at_rest))
     return float(energy(*params, *state)) - potential, potential
@@ -73,7 +73,7 @@ def _rate_of(model: HybridModel, name: str, params: Sequence[float],
     positions) along the state's rates: its complex-step derivative."""
     n = model.n
     shifted = state[:n] + 1j * _STEP * state[n:]
-    value = model._fn(name)(*params, *shifted, *state[n:])
+    value = model.function(name)(*params, *shifted, *state[n:])
     rate = np.imag(np.array(value, dtype=complex)) / _STEP
     if not np.all(np.isfinite(rate)):
         raise ConvergenceError(f"{model.name}: the rate of {name} is not finite")
@@ -85,7 +85,7 @@ def _bodies(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Masses, inertias and velocities (vx, vy, angular rate) of the phase's bodies."""
     velocities = _rate_of(model, f"{phase}_positions", params, state).reshape(-1, 3)
-    inertia = np.array([float(v) for v in model._fn(f"{phase}_inertias")(*params, *state)])
+    inertia = np.array([float(v) for v in model.function(f"{phase}_inertias")(*params, *state)])
     return inertia[0::2], inertia[1::2], velocities
 
 
@@ -122,7 +122,7 @@ def _phase_terms(model: HybridModel, params: Sequence[float], piece: PhasePiece)
         weights = (half[:, None] * _WEIGHTS[None, :]).ravel()
         states = piece.states(times).T
         power = np.asarray(
-            model._fn(f"{piece.phase}_actuator_power")(*params, *states), dtype=float
+            model.function(f"{piece.phase}_actuator_power")(*params, *states), dtype=float
         ).reshape(len(names), -1)
         named = model.spec.get("actuator_names", {})
         for name, p in zip(names, power):

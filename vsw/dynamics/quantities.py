@@ -182,7 +182,7 @@ def kinetic_energy(model: Any, phase: str, params: Any, state: Any) -> Any:
     quadratic in the rates, and with them at zero it is the potential). ``params`` a
     sequence of numbers or CasADi scalars; ``state`` numpy or CasADi."""
     n = model.n
-    energy = model._fn(f"{phase}_energy")
+    energy = model.function(f"{phase}_energy")
     coords = [state[i] for i in range(n)]
     moving = energy(*params, *coords, *[state[n + i] for i in range(n)])
     return moving - energy(*params, *coords, *([0 * state[0]] * n))

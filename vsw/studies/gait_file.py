@@ -85,7 +85,7 @@ def gait_record(
     status = "unverified" if not good else "optimal" if gait.status == "optimal" else "verified"
     phases = []
     for (phase, event), duration, inputs, times in zip(
-        model._phase_sequence(), gait.durations, gait.inputs, gait.input_times
+        model.phase_sequence(), gait.durations, gait.inputs, gait.input_times
     ):
         phases.append({
             "phase": phase,
@@ -245,7 +245,7 @@ def _saved(model: Any, record: dict, where: str) -> SavedGait:
         raise VswInputError(f"{where}: not a gait file: its status must be one of "
                             f"{', '.join(STATUSES)}")  # fmt: skip
     phases = _field(record, "phases", list, where)
-    sequence = model._phase_sequence()
+    sequence = model.phase_sequence()
     if [p.get("phase") if isinstance(p, dict) else None for p in phases] != [
         phase for phase, _ in sequence
     ]:
@@ -401,7 +401,7 @@ class PoweredReplay:
         """As :meth:`vsw.dynamics.hybrid.HybridModel.continuous_walk`, replayed."""
         runs, ended = self._walk(state, steps)
         pieces, events = [], []
-        fn = self._model._fn
+        fn = self._model.function
         for r in runs:
             solution = _Shifted(r.run.solution.sol, r.start)
             pieces.append(PhasePiece(r.run.phase, r.step, r.start, r.end,
@@ -459,7 +459,7 @@ def with_input_forces(replay: PoweredReplay, walk: SampledWalk) -> SampledWalk:
     model, p = replay._model, replay._p
     starts = {(r.step, r.run.phase): r.start for r in replay.last_runs}
     gait = replay._gait
-    sequence = zip(model._phase_sequence(), gait.durations, gait.inputs)
+    sequence = zip(model.phase_sequence(), gait.durations, gait.inputs)
     controls = {phase: open_loop_control(u, duration) for (phase, _), duration, u in sequence}
     force = walk.normal_force.copy()
     for i, (t, step, phase, event) in enumerate(zip(walk.t, walk.step, walk.phase, walk.event)):

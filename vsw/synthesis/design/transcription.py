@@ -146,7 +146,7 @@ def _step_rows(model: HybridModel, p: Any, nodes: list, durations: Any, eigen: b
     (:func:`vsw.orbits.monodromy.phase_derivative`)."""
     import casadi as ca
 
-    sequence = model._phase_sequence()
+    sequence = model.phase_sequence()
     count = len(sequence)
     monodromy = ca.MX.eye(2 * model.n)
     energy_lost = 0
@@ -219,7 +219,7 @@ def build(model: HybridModel, structure: Structure) -> Nlp:
     eigenvalue bound) are its parameters, bounds are the solver call's."""
     import casadi as ca
 
-    n_par, m, count = len(model.parameter_table), 2 * model.n, len(model._phase_sequence())
+    n_par, m, count = len(model.parameter_table), 2 * model.n, len(model.phase_sequence())
     fixed_values = ca.MX.sym("P", n_par + 1)  # parameter values, then the eigenvalue bound
     free = ca.MX.sym("free", len(structure.free))
     nodes = [[ca.MX.sym(f"x_{k}_{s}", m) for s in range(SEGMENTS)] for k in range(count)]

@@ -183,18 +183,18 @@ def apply_impulses(model: HybridModel, event: dict, p: np.ndarray, state: np.nda
         count = len(names)
         j = iota[offset : offset + count]
         if side == "with":
-            reset = np.array(model._fn(f"event_{event['name']}_reset")(*p, *x), dtype=float)
+            reset = np.array(model.function(f"event_{event['name']}_reset")(*p, *x), dtype=float)
             if names:
-                gains = np.array(model._fn(f"{stem}_gains_with")(*p, *x), dtype=float)
-                work = float(model._fn(f"{stem}_work_with")(*p, *x)) * j * j / 2
+                gains = np.array(model.function(f"{stem}_gains_with")(*p, *x), dtype=float)
+                work = float(model.function(f"{stem}_work_with")(*p, *x)) * j * j / 2
                 works += list(work)
                 ends += [*work, *work, *np.zeros(2 * count)]
                 reset[n:] += gains.reshape(n) * j[0]
             x = reset
         elif names:
-            gains = np.array(model._fn(f"{stem}_gains_{side}")(*p, *x), dtype=float)
+            gains = np.array(model.function(f"{stem}_gains_{side}")(*p, *x), dtype=float)
             gains = gains.reshape(n, count)
-            rates = model._fn(f"{stem}_rates_{side}")
+            rates = model.function(f"{stem}_rates_{side}")
             first = fractions[offset : offset + count] * j
             middle, jumped = x.copy(), x.copy()
             middle[n:] += gains @ first

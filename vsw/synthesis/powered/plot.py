@@ -45,7 +45,7 @@ def powered_figure(model: Any, params: Sequence[float], gait: PoweredGait,
     inputs = input_names(model)
     input_units = {i["name"]: i["unit"] for ph in model.phases for i in ph.get("inputs", ())}
     order = list(dict.fromkeys(name for names in inputs.values() for name in names))
-    for (phase, _), times, values in zip(model._phase_sequence(), gait.input_times, gait.inputs):
+    for (phase, _), times, values in zip(model.phase_sequence(), gait.input_times, gait.inputs):
         for j, name in enumerate(inputs[phase]):
             style = plotstyle.curve_style(n + order.index(name))
             ax_input.plot(times, values[:, j], color=style["color"], lw=1.0, ls=(0, (1, 1)))

@@ -245,7 +245,7 @@ def _transcribe(model: HybridModel, request: Request, p: Any, durations: Any,
     ``g``."""
     import casadi as ca
 
-    sequence = model._phase_sequence()
+    sequence = model.phase_sequence()
     count = len(sequence)
     stability = request.minimize == "eigenvalue"
     out = _Transcribed(monodromy=ca.DM.eye(2 * model.n))
@@ -308,7 +308,7 @@ def _bounds(model: HybridModel, request: Request, layout: list[dict], size: int,
     """The unknowns' bounds (:func:`vsw.synthesis.powered.variables.variable_bounds`), the radius's
     floor under stability, and each chosen parameter within its interval and the limits
     on it."""
-    lbx, ubx = variable_bounds(model, model._phase_sequence(), layout, size, request)
+    lbx, ubx = variable_bounds(model, model.phase_sequence(), layout, size, request)
     if request.minimize == "eigenvalue":
         lbx[-1] = STABILITY_MARGIN
     for j, i in enumerate(chosen_indices(model)):
@@ -323,7 +323,7 @@ def _build(model: HybridModel, request: Request) -> Nlp:
     """The collocation NLP of one model and request (parameters are the NLP's ``p``)."""
     import casadi as ca
 
-    sequence = model._phase_sequence()
+    sequence = model.phase_sequence()
     names = input_names(model)
     given = ca.MX.sym("p", len(model.parameter_table))
     chosen = chosen_indices(model)

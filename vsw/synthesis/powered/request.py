@@ -332,7 +332,7 @@ def _unknowns(model: HybridModel, nodes: int) -> int:
     knots and midpoints) and the inputs of every interval (measured within a few per cent
     on the compass gait and free-vsw-biped-stop)."""
     names = input_names(model)
-    per_interval = sum(4 * model.n + 2 * len(names[phase]) for phase, _ in model._phase_sequence())
+    per_interval = sum(4 * model.n + 2 * len(names[phase]) for phase, _ in model.phase_sequence())
     return per_interval * nodes + 4 * model.n + 2
 
 
@@ -437,7 +437,7 @@ def checked_parameters(model: HybridModel, params: Sequence[float],
     names, targets, ground options, starts, the run's estimated time) and ``params`` with
     each chosen parameter taken into its limits (:func:`started_within_limits`)."""
     request.check()
-    sequence = model._phase_sequence()
+    sequence = model.phase_sequence()
     names = input_names(model)
     label = getattr(model, "cli_name", model.name)
     if not any(names[phase] or event.get("impulses") for phase, event in sequence):

@@ -285,7 +285,7 @@ def _ledger(model: HybridModel, nlp: Nlp, w: np.ndarray,
     impulse's value, by ``<phase or event>.<name>``."""
     work_values = np.array(nlp.work(w, arguments), dtype=float).reshape(-1)
     keys, impulses = [], {}
-    for (phase, event), entry in zip(model._phase_sequence(), nlp.layout):  # the NLP's order
+    for (phase, event), entry in zip(model.phase_sequence(), nlp.layout):  # the NLP's order
         keys += [f"{phase}.{name}" for name in input_names(model)[phase]]
         names = [f"{event['name']}.{name}" for name in ordered_impulses(model, event)]
         keys += names
@@ -349,7 +349,7 @@ def _solve(model: HybridModel, params: Sequence[float], request: Request, nlp: N
     status = str(stats.get("return_status", "unknown"))
     w = np.array(result["x"], dtype=float).reshape(-1)
     p = nlp.parameters(params, w)
-    sequence = model._phase_sequence()
+    sequence = model.phase_sequence()
     durations = tuple(float(v) for v in w[: len(sequence)])
     times, states, inputs, input_times = _phases(nlp, w, durations, request.nodes)
     work, impulses = _ledger(model, nlp, w, arguments)

@@ -92,7 +92,7 @@ def kinematic_guess(model: HybridModel, params: Sequence[float], nlp: Nlp,
     rates scaled to the target period, or the target speed's duration, when there is one.
     Not a motion of the walker (it ignores gravity and the inputs): IPOPT makes it one.
     More than one phase a step: :func:`_phased_guess`."""
-    sequence = model._phase_sequence()
+    sequence = model.phase_sequence()
     p = np.asarray(params, dtype=float)
     centre = np.array([[sum(model.spec["search"][k]) / 2 for k in free_components(model)]])
     x0 = section_states(model, p, centre)[0]
@@ -100,7 +100,7 @@ def kinematic_guess(model: HybridModel, params: Sequence[float], nlp: Nlp,
         return _phased_guess(model, p, nlp, request, x0)
     ((_phase, event),) = sequence
     n = model.n
-    guard = model._fn(f"event_{event['name']}_guard")
+    guard = model.function(f"event_{event['name']}_guard")
 
     def moved(t: float) -> np.ndarray:
         return np.concatenate([x0[:n] + t * x0[n:], x0[n:]])
@@ -157,7 +157,7 @@ def _phased_guess(model: HybridModel, p: np.ndarray, nlp: Nlp, request: Request,
     it one."""
     label = getattr(model, "cli_name", model.name)
     n = model.n
-    sequence = model._phase_sequence()
+    sequence = model.phase_sequence()
     last = sequence[-1][1]
     end = model.reset(last["name"], p, x0)[:n]
     duration = _guess_duration(model, p, request, x0)
@@ -175,7 +175,7 @@ def _phased_guess(model: HybridModel, p: np.ndarray, nlp: Nlp, request: Request,
         stop = start.copy()
         free = [i for i in range(n) if i not in held]
         stop[free] = target[free]
-        guard = model._fn(f"event_{event['name']}_guard")
+        guard = model.function(f"event_{event['name']}_guard")
         for i in locked:
 
             def guard_at(v: float, i: int = i, stop: np.ndarray = stop, guard=guard) -> float:
@@ -196,7 +196,7 @@ def _guard_fraction(model: HybridModel, p: np.ndarray, event: dict, begin: np.nd
     ``duration`` at constant rates) past ``after`` where the event's guard first crosses in
     its direction, or None: sampled at 199 points, then bisected. (The event's ``when`` is
     not checked: a start, not a motion.)"""
-    guard = model._fn(f"event_{event['name']}_guard")
+    guard = model.function(f"event_{event['name']}_guard")
     rates = (end - begin) / duration
 
     def value(f: float) -> float:
@@ -344,7 +344,7 @@ def fill_slacks(model: HybridModel, params: Sequence[float], nlp: Nlp, w: np.nda
     stops a reversing rate (:func:`stopping_splits`) and its slacks at ``max(P, 0)`` of
     its parts' power ends (in place)."""
     p = nlp.parameters(params, w)
-    for k, ((phase, event), entry) in enumerate(zip(model._phase_sequence(), nlp.layout)):
+    for k, ((phase, event), entry) in enumerate(zip(model.phase_sequence(), nlp.layout)):
         first, parts, width = entry["s_impulses"]
         if width:
             iota = block(w, entry["impulses"])[0]

@@ -48,7 +48,7 @@ def resimulate(
     from scipy.integrate import solve_ivp
 
     worst, guard_worst = 0.0, 0.0
-    for (phase, event), duration, knots, u in zip(model._phase_sequence(), durations, states,
+    for (phase, event), duration, knots, u in zip(model.phase_sequence(), durations, states,
                                                   inputs):  # fmt: skip
         control = open_loop_control(u, duration)
         watched = watchers(model, phase, event, p, control)
@@ -77,7 +77,7 @@ def resimulate(
         end = solution.y[:, -1]
         scale = max(1.0, float(np.max(np.abs(knots[-1]))))
         worst = max(worst, float(np.max(np.abs(end - knots[-1]))) / scale)
-        guard = float(model._fn(f"event_{event['name']}_guard")(*p, *end))
+        guard = float(model.function(f"event_{event['name']}_guard")(*p, *end))
         guard_worst = max(guard_worst, abs(guard))
     return worst, guard_worst, ""
 
@@ -120,7 +120,7 @@ def _rhs(model: HybridModel, phase: str, p: np.ndarray, control):
 def watchers(model: HybridModel, phase: str, event: dict, p: np.ndarray, control) -> list:
     """(name, SciPy event function) of a phase's event guard and of each failure (its guard
     with the inputs' share), non-terminal, in their directions."""
-    guard_fn = model._fn(f"event_{event['name']}_guard")
+    guard_fn = model.function(f"event_{event['name']}_guard")
 
     def guard(t: float, x: np.ndarray) -> float:
         return float(guard_fn(*p, *x))
@@ -144,7 +144,7 @@ def watchers(model: HybridModel, phase: str, event: dict, p: np.ndarray, control
 def _counts(model: HybridModel, event: dict, p: np.ndarray, x: np.ndarray) -> bool:
     """Whether an event's crossing at ``x`` counts (its ``when`` positive, as the runtime
     has it)."""
-    return event["when"] is None or float(model._fn(event["when"])(*p, *x)) > 0
+    return event["when"] is None or float(model.function(event["when"])(*p, *x)) > 0
 
 
 def open_loop_control(inputs: np.ndarray, duration: float):
@@ -174,7 +174,7 @@ def powered_step(model: HybridModel, params: Sequence[float], gait: PoweredGait,
     Poincare map. The gait's own parameters (:func:`gait_parameters`) are used."""
     p = gait_parameters(model, gait, params)
     x = np.array(state, dtype=float)
-    for (phase, event), duration, u in zip(model._phase_sequence(), gait.durations, gait.inputs):
+    for (phase, event), duration, u in zip(model.phase_sequence(), gait.durations, gait.inputs):
         control = open_loop_control(u, duration)
         (_, guard), *_ = watchers(model, phase, event, p, control)
         _solution, end = integrate_phase(model, phase, event, p, control, x, duration,

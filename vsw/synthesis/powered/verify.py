@@ -160,7 +160,7 @@ def step_runs(model: HybridModel, p: np.ndarray, gait: PoweredGait,
     :class:`ConvergenceError` where a phase meets no event."""
     runs: list[PhaseRun] = []
     state = np.array(x, dtype=float)
-    for (phase, event), duration, u in zip(model._phase_sequence(), gait.durations, gait.inputs):
+    for (phase, event), duration, u in zip(model.phase_sequence(), gait.durations, gait.inputs):
         control = open_loop_control(u, duration)
         watched = watchers(model, phase, event, p, control)
         solution, end = integrate_phase(model, phase, event, p, control, state, duration,
@@ -289,7 +289,7 @@ def _event(model: HybridModel, event: dict, p: np.ndarray, before: np.ndarray,
     count = len(impulse_names(model, event)[0])
     if count and event["reset"] == "impact":
         n = model.n
-        gains = np.array(model._fn(f"event_{event['name']}_impulse_gains_before")(*p, *before),
+        gains = np.array(model.function(f"event_{event['name']}_impulse_gains_before")(*p, *before),
                          dtype=float).reshape(n, count)  # fmt: skip
         pushed = before.copy()
         pushed[n:] += gains @ iota[:count]
