@@ -296,102 +296,118 @@ def table(descriptor: dict, module: types.ModuleType, prefix: str) -> types.Simp
     )  # fmt: skip
 
 
+def _cases(names: list[str], returns: str = "") -> str:
+    """A dispatcher's ``switch`` cases: the k-th calls the k-th function (``"0"``: none)."""
+    return "\n".join(
+        f"    case {k}:\n        VSW_CALL({name}, c, x, out);\n        return{returns};"
+        for k, name in enumerate(names)
+        if name != "0"
+    )
+
+
+def _lane_cases(names: list[str]) -> str:
+    """A lane-wise dispatcher's ``switch`` cases: the k-th calls the k-th lane function."""
+    return "\n".join(f"    case {k}:\n        {name}_lanes(live, c, x, out);\n        return;"
+                     for k, name in enumerate(names))  # fmt: skip
+
+
+def _guard_cases(guard_functions: list[list[str]], max_watch: int) -> str:
+    """The one-guard dispatcher's cases, numbered ``phase * max_watch + k``."""
+    return "\n".join(
+        f"    case {phase * max_watch + k}:\n        VSW_CALL({name}, c, x, out);\n"
+        "        return out[0];"
+        for phase, names in enumerate(guard_functions)
+        for k, name in enumerate(names)
+    )
+
+
+def _padded(rows: list[list[int]], max_watch: int) -> str:
+    """Rows of a ``[phases][max_watch]`` C array, each padded with zeros."""
+    return ", ".join("{" + _c_list(r + [0] * (max_watch - len(r))) + "}" for r in rows)
+
+
+def _compiled(model: str, prefix: str, t: types.SimpleNamespace) -> tuple[list, str, int]:
+    """The table's functions of (c, x) after the hoisting, CasADi's C code of them (without
+    its null checks) and the number of constants."""
+    import casadi as ca
+
+    constants, c, hoisted = _hoist_parameters(t.p, t.x, [out for _, out in t.pending])
+    # A subexpression a function computes twice (the simplest walker's guards take cos theta
+    # twice, the VSW biped's four cosines more) is computed once: the same operations on the
+    # same operands, so the same results, bit for bit.
+    hoisted = [ca.cse(out) for out in hoisted]
+    functions = [ca.Function(prefix + "constants", [t.p], [constants], ["p"], ["c"])]
+    functions += [
+        ca.Function(prefix + name, [c, t.x], [out], ["c", "x"], [name])
+        for (name, _), out in zip(t.pending, hoisted)
+    ]
+    casadi_code, _ = casadi_c(f"{model}_sim", functions, prefix, with_header=False)
+    return functions, _without_null_checks(casadi_code), constants.numel()
+
+
+def _describe(descriptor: dict, t: types.SimpleNamespace) -> dict[str, str]:
+    """The template's comment lines: the model's parameters, state, phases, events and
+    failures."""
+    return {
+        "parameters": ", ".join(t.params),
+        "state": ", ".join(t.state),
+        "phases": ", ".join(ph["name"] for ph in descriptor["phases"]),
+        "events": ", ".join(
+            f"{ev['name']} ({ev['source']} -> {ev['target']}"
+            + (", ends the step" if ev["ends_step"] else "")
+            + ")"
+            for ev in descriptor["events"]
+        ),
+        "failures": ", ".join(t.failures) or "none",
+    }
+
+
 def simulator_c_source(model: str, source: str, descriptor: dict, module: types.ModuleType) -> str:
     """The model table of the batch simulator (see the module docstring)."""
     import casadi as ca
 
     prefix = f"vsw_{model}_sim_"
     t = table(descriptor, module, prefix)
-    p, x, pending, params, state = t.p, t.x, t.pending, t.params, t.state
-    failures, flows, watches, n_watch = t.failures, t.flows, t.watches, t.n_watch
-    directions, whats, max_watch, resets = t.directions, t.whats, t.max_watch, t.resets
-    whens, targets, ends_step = t.whens, t.targets, t.ends_step
-    step_length = t.step_length
-
-    constants, c, hoisted = _hoist_parameters(p, x, [out for _, out in pending])
-    # A subexpression a function computes twice (the simplest walker's guards take cos theta
-    # twice, the VSW biped's four cosines more) is computed once: the same operations on the
-    # same operands, so the same results, bit for bit.
-    hoisted = [ca.cse(out) for out in hoisted]
-    functions = [ca.Function(prefix + "constants", [p], [constants], ["p"], ["c"])]
-    functions += [
-        ca.Function(prefix + name, [c, x], [out], ["c", "x"], [name])
-        for (name, _), out in zip(pending, hoisted)
-    ]
-    casadi_code, _ = casadi_c(f"{model}_sim", functions, prefix, with_header=False)
-    casadi_code = _without_null_checks(casadi_code)
-
-    def cases(names: list[str], returns: str = "") -> str:
-        return "\n".join(
-            f"    case {k}:\n        VSW_CALL({name}, c, x, out);\n        return{returns};"
-            for k, name in enumerate(names)
-            if name != "0"
-        )
-
+    functions, casadi_code, n_constants = _compiled(model, prefix, t)
     bodies = _casadi_bodies(casadi_code)
     lane_functions = "\n\n".join(
-        lane_function(name, bodies[name][1]) for name in (*flows, *watches)
+        lane_function(name, bodies[name][1]) for name in (*t.flows, *t.watches)
     )
-
-    def lane_cases(names: list[str]) -> str:
-        return "\n".join(f"    case {k}:\n        {name}_lanes(live, c, x, out);\n        return;"
-                         for k, name in enumerate(names))  # fmt: skip
-
-    def guard_cases() -> str:
-        return "\n".join(
-            f"    case {phase * max_watch + k}:\n        VSW_CALL({name}, c, x, out);\n"
-            "        return out[0];"
-            for phase, names in enumerate(t.guard_functions)
-            for k, name in enumerate(names)
-        )
-
-    def padded(rows: list[list[int]]) -> str:
-        return ", ".join("{" + _c_list(r + [0] * (max_watch - len(r))) + "}" for r in rows)
-
     template = string.Template(TEMPLATE.read_text())
     return template.substitute(
         header=header(source, " *"),
         casadi_version=ca.__version__,
-        parameters=", ".join(params),
-        state=", ".join(state),
-        phases=", ".join(ph["name"] for ph in descriptor["phases"]),
-        events=", ".join(
-            f"{ev['name']} ({ev['source']} -> {ev['target']}"
-            + (", ends the step" if ev["ends_step"] else "")
-            + ")"
-            for ev in descriptor["events"]
-        ),
-        failures=", ".join(failures) or "none",
+        **_describe(descriptor, t),
         casadi_code=_lane_trig(casadi_code).rstrip("\n"),
-        n_params=len(params),
-        n_constants=constants.numel(),
+        n_params=len(t.params),
+        n_constants=n_constants,
         constants=prefix + "constants",
-        n_state=len(state),
+        n_state=len(t.state),
         n_phases=len(descriptor["phases"]),
         n_events=len(descriptor["events"]),
-        n_failures=len(failures),
-        max_watch=max_watch,
+        n_failures=len(t.failures),
+        max_watch=t.max_watch,
         start_phase=t.start_phase,
         sz_arg=max(f.sz_arg() for f in functions),
         sz_res=max(f.sz_res() for f in functions),
         sz_iw=max(f.sz_iw() for f in functions),
         sz_w=max(f.sz_w() for f in functions),
-        flow_cases=cases(flows),
+        flow_cases=_cases(t.flows),
         lane_functions=lane_functions,
-        lane_flow_cases=lane_cases(flows),
-        lane_watch_cases=lane_cases(watches),
-        watch_cases=cases(watches),
-        guard_cases=guard_cases(),
-        n_watch=_c_list(n_watch),
-        directions=padded(directions),
-        whats=padded(whats),
-        reset_cases=cases(resets),
-        when_cases=cases(whens, " 1"),
-        targets=_c_list(targets),
-        ends_step=_c_list(ends_step),
+        lane_flow_cases=_lane_cases(t.flows),
+        lane_watch_cases=_lane_cases(t.watches),
+        watch_cases=_cases(t.watches),
+        guard_cases=_guard_cases(t.guard_functions, t.max_watch),
+        n_watch=_c_list(t.n_watch),
+        directions=_padded(t.directions, t.max_watch),
+        whats=_padded(t.whats, t.max_watch),
+        reset_cases=_cases(t.resets),
+        when_cases=_cases(t.whens, " 1"),
+        targets=_c_list(t.targets),
+        ends_step=_c_list(t.ends_step),
         step_length_body=(
-            f"    VSW_CALL({step_length}, c, x, out);\n    return 1;"
-            if step_length != "0"
+            f"    VSW_CALL({t.step_length}, c, x, out);\n    return 1;"
+            if t.step_length != "0"
             else "    (void)c;\n    (void)x;\n    (void)out;\n    return 0;"
         ),
     )
