@@ -263,6 +263,60 @@ def test_walks_step_by_step_keep_walking_states(walker):
     np.testing.assert_array_equal(varying.final[walked], fixed.final[walked])
 
 
+def test_walks_of_many_steps_a_call_are_steps_one_call_each(walker, monkeypatch):
+    """walk_varying walks many steps a call, each walk with its own row of each step: the
+    walks are those of one batch step a call from the state the last ended in, bit for bit
+    (step counts, endings, the last states), for any steps a call, from the terrain's rows
+    of many steps or from its rows of one step, and where the rows' size limits the call."""
+    model, params, _, start = walker
+    sim = simulator(model)
+    terrain = SlopeTerrain(params, slope_index(model), 0.002, 4)
+    walks, steps = 150, 45
+    x, rows = np.tile(start, (walks, 1)), np.arange(walks)
+    count = np.zeros(walks, dtype=np.int64)
+    outcome, aux = np.full(walks, WALKED), np.zeros(walks, dtype=np.int64)
+    final = x.copy()
+    for k in range(steps):
+        step = sim.step(terrain(rows, k), x, threads=1, tolerance=1e-10)
+        done = step.outcome == WALKED
+        final[rows] = step.final
+        count[rows[done]] += 1
+        outcome[rows[~done]], aux[rows[~done]] = step.outcome[~done], step.aux[~done]
+        x, rows = step.final[done], rows[done]
+    assert 0 < len(rows) < walks  # some walks fall, some walk every step
+
+    def one_step_rows(walk_rows, k):
+        return terrain(walk_rows, k)
+
+    runs = []
+    for per_call, size in ((1, None), (7, None), (32, None), (32, 4000)):
+        monkeypatch.setattr(vsw.dynamics.batch, "STEPS_PER_CALL", per_call)
+        if size is not None:  # room for the rows of 3 steps of the 150 walks, fewer walks more
+            monkeypatch.setattr(vsw.dynamics.batch, "VARYING_BYTES", size)
+        for rows_of in (terrain, one_step_rows):
+            starts = np.tile(start, (walks, 1))
+            runs.append(sim.walk_varying(rows_of, starts, steps, threads=2, tolerance=1e-10))
+    for run in runs:
+        np.testing.assert_array_equal(run.steps, count)
+        np.testing.assert_array_equal(run.outcome, outcome)
+        np.testing.assert_array_equal(run.aux, aux)
+        np.testing.assert_array_equal(run.final, final)
+
+
+def test_the_terrains_rows_of_many_steps_are_its_rows_of_each():
+    model = load("compass-gait")
+    params = model.parameters({})
+    for distribution in ("gaussian", "uniform"):
+        terrain = SlopeTerrain(
+            params, slope_index(model), 0.01, 9, first_walk=3, distribution=distribution
+        )
+        walks = np.array([0, 2, 5, 11])
+        many = terrain.of_steps(walks, 6, 5)
+        assert many.shape == (4, 5, len(params))
+        for j in range(5):
+            np.testing.assert_array_equal(many[:, j], terrain(walks, 6 + j))
+
+
 # --- the gait sensitivity norm ------------------------------------------------------------------
 
 

@@ -68,6 +68,14 @@ _LIBM_FLAGS = [*_NATIVE_FLAGS, "-DVSW_NO_MVEC", *_COMMON_FLAGS]
 _PORTABLE_FLAGS = ["-O2", *_COMMON_FLAGS]
 _FLAG_SETS = (*([_VECTOR_FLAGS] if _HAS_LIBMVEC else []), _LIBM_FLAGS, _PORTABLE_FLAGS)
 
+STEPS_PER_CALL = 32
+"""Steps a call of :meth:`BatchSimulator.walk_varying` walks: enough that the calls, the
+blocks' ends and the drawing of rows between calls cost little beside the steps, few
+enough that the rows drawn past a walk's failure (half a call's, on average) do too."""
+VARYING_BYTES = 1 << 26
+"""The most parameter rows of one call of walk_varying, in bytes (fewer steps a call for
+millions of walks)."""
+
 DEFAULT_CONVERGE_TOL = 1e-6
 DEFAULT_PERIOD_TOL = 1e-6
 DEFAULT_MAX_PERIOD = 8
@@ -337,23 +345,43 @@ class BatchSimulator:
         its own: step ``k`` (from 0) of the walks still walking takes the parameter rows
         ``step_params(walks, k)`` (``walks``: their row indices, ascending), e.g. a slope
         drawn at each step event (:mod:`vsw.studies.rough`). A walk ends WALKED (every step), FELL
-        or STALLED; no convergence or period checks, nothing kept. Each step is one
-        :meth:`walk` of one step over the walks still walking, so a walk's result depends on
-        its own rows alone (not on the thread count, the blocks or the other walks).
-        Progress is reported by steps (:func:`vsw.runtime.progress.report`), not by each step's
-        blocks."""
+        or STALLED; no convergence or period checks, nothing kept.
+
+        The compiled simulator walks up to :data:`STEPS_PER_CALL` steps a call, each walk
+        with its rows of those steps, and stops each at its first failure; where
+        ``step_params`` has a method ``of_steps(walks, first, count)`` (the rows of steps
+        ``first .. first + count - 1``, shape (len(walks), count, parameters): its calls
+        stacked on axis 1) it gives them, else its calls do. Each step is the one a call of
+        :meth:`walk` of one step would take from the state the last ended in, so a walk's
+        result depends on its own rows alone (not on the thread count, the blocks, the
+        steps a call or the other walks). Without the compiled simulator each step is such
+        a call (the SciPy route). Progress is reported by steps
+        (:func:`vsw.runtime.progress.report`), not by each call's blocks."""
         states = np.array(states, dtype=float)
+        if states.ndim != 2 or states.shape[1] != self.nx:
+            raise VswInputError(
+                f"states must have shape (N, {self.nx}) for {self.model.name}, got {states.shape}"
+            )
+        if not 1e-15 <= tolerance <= 1e-3:
+            raise VswInputError(f"tolerance = {tolerance:g} must lie in [1e-15, 1e-3]")
         out = _empty_result(len(states), self.nx, 0, self.failures)
         out.final[:] = states
-        alive, routes = np.arange(len(states)), set()
-        for k in range(steps):
-            if not alive.size:
-                break
+        lib = self.library()
+        alive, routes, k = np.arange(len(states)), set(), 0
+        while k < steps and alive.size:
             stop.check()
+            count = 1 if lib is None else _steps_a_call(len(alive), self.np, steps - k)
             with progress.reporting(_silent):
-                part = self.walk(step_params(alive, k), out.final[alive], 1, converge_tol=0.0,
-                                 period_tol=0.0, threads=threads, tolerance=tolerance)  # fmt: skip
-            progress.report(k + 1, steps)
+                if lib is None:
+                    part = self.walk(step_params(alive, k), out.final[alive], 1,
+                                     converge_tol=0.0, period_tol=0.0, threads=threads,
+                                     tolerance=tolerance)  # fmt: skip
+                else:
+                    rows = self._step_rows(step_params, alive, k, count)
+                    part = self._walk_steps(lib, rows, out.final[alive], tolerance, threads)
+            stop.check()
+            k += count
+            progress.report(k, steps)
             routes.add(part.route)
             walked = part.outcome == WALKED
             out.final[alive] = part.final
@@ -362,6 +390,43 @@ class BatchSimulator:
             out.aux[alive[~walked]] = part.aux[~walked]
             alive = alive[walked]
         out.route = "; ".join(sorted(routes - {"compiled"})) or "compiled"
+        return out
+
+    def _step_rows(self, step_params, walks: np.ndarray, first: int, count: int) -> np.ndarray:
+        """The parameter rows of steps ``first .. first + count - 1`` of ``walks``: (walks,
+        steps, parameters), C-contiguous (see :meth:`walk_varying`)."""
+        of_steps = getattr(step_params, "of_steps", None)
+        if of_steps is not None:
+            rows = np.asarray(of_steps(walks, first, count), dtype=float)
+        else:
+            rows = np.stack([np.asarray(step_params(walks, k), dtype=float).reshape(-1, self.np)
+                             for k in range(first, first + count)], axis=1)  # fmt: skip
+        if rows.shape != (len(walks), count, self.np):
+            raise VswInputError(f"the parameter rows of {count} steps of {len(walks)} walks "
+                                f"must have shape {(len(walks), count, self.np)}, got "
+                                f"{rows.shape}")  # fmt: skip
+        return np.ascontiguousarray(rows)
+
+    def _walk_steps(self, lib: ctypes.CDLL, rows: np.ndarray, states: np.ndarray,
+                    tolerance: float, threads: int | None) -> BatchResult:  # fmt: skip
+        """Each walk of ``states`` up to ``rows.shape[1]`` steps, step ``k`` on its row
+        ``rows[:, k]`` (``vsw_batch_walk_steps``), in blocks of :data:`CHUNK` walks on
+        threads."""
+        threads = default_threads() if threads is None else threads
+        n, count = len(states), rows.shape[1]
+        states = np.ascontiguousarray(states)
+        out = _empty_result(n, self.nx, 0, self.failures)
+        opts = np.array([tolerance, tolerance, PHASE_TIME_LIMIT], dtype=float)
+        fn = _bound_walk_steps(lib)
+
+        def block(start: int) -> None:
+            stop = min(start + CHUNK, n)
+            fn(stop - start, rows[start:stop], states[start:stop], opts, count,
+               out.outcome[start:stop], out.aux[start:stop], out.steps[start:stop],
+               out.final[start:stop])  # fmt: skip
+
+        with blas.limited(threads):
+            run_blocks(block, range(0, n, CHUNK), threads)
         return out
 
     def step(
@@ -531,6 +596,27 @@ class StepMap:
 
 def _silent(done: int, total: int) -> None:
     """A progress listener that draws nothing (a step's blocks inside a walk of steps)."""
+
+
+def _steps_a_call(walks: int, parameters: int, steps: int) -> int:
+    """Steps of :meth:`BatchSimulator.walk_varying` in its next call: :data:`STEPS_PER_CALL`,
+    fewer where that many rows would pass :data:`VARYING_BYTES` or the walk's end."""
+    room = VARYING_BYTES // (8 * max(1, parameters) * max(1, walks))
+    return int(max(1, min(STEPS_PER_CALL, steps, room)))
+
+
+def _bound_walk_steps(lib: ctypes.CDLL):
+    """The library's ``vsw_batch_walk_steps`` with its argument types (bound on first use,
+    as :func:`_bound_step_phases`)."""
+    fn = lib.vsw_batch_walk_steps
+    if fn.argtypes is None:
+        dbl = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
+        i32 = np.ctypeslib.ndpointer(dtype=np.int32, flags="C_CONTIGUOUS")
+        i64 = np.ctypeslib.ndpointer(dtype=np.int64, flags="C_CONTIGUOUS")
+        ll = ctypes.c_longlong
+        fn.restype = None
+        fn.argtypes = [ll, dbl, dbl, dbl, ll, i32, i32, i64, dbl]
+    return fn
 
 
 def _bound_step_phases(lib: ctypes.CDLL):

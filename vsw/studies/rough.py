@@ -216,6 +216,18 @@ class Terrain:
         out[:, self.index] = self.slopes(rows, k)
         return out
 
+    def of_steps(self, rows: np.ndarray, first: int, count: int) -> np.ndarray:
+        """The parameter rows of steps ``first .. first + count - 1`` of the walks
+        ``first_walk + rows``: (len(rows), count, parameters), each row the one of
+        ``self(rows, k)`` (one draw of the counters of every step at once)."""
+        walks = self.first_walk + np.asarray(rows, dtype=np.int64)
+        xi = terrain_noise(self.seed, walks[:, None], np.arange(first, first + count)[None, :],
+                           self.distribution)  # fmt: skip
+        out = np.empty((len(walks), count, len(self.params)))
+        out[:] = self.params
+        out[:, :, self.index] = self.params[self.index] + self.sigma * xi
+        return out
+
 
 SlopeTerrain = Terrain
 """The slope terrain: :class:`Terrain` on the slope parameter's index."""

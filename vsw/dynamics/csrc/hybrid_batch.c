@@ -475,6 +475,9 @@ typedef struct {
 /* The batch: its inputs, outputs and the next walk to start (see vsw_batch_simulate). */
 typedef struct {
     long long n, params_stride, max_steps, max_period, keep, next;
+    long long step_stride; /* > 0: step k of walk i takes params[i * params_stride +
+                              k * step_stride ...] (its constants computed at the step
+                              event); 0: one row for every step of a walk */
     const double *params, *states, *target;
     vsw_tolerances tol;
     double conv_tol, period_tol;
@@ -634,6 +637,9 @@ static int vsw_lane_step_start(vsw_batch *b, vsw_lane *ln)
     }
     if (b->max_period > 0)
         memcpy(ln->history[ln->walked % b->max_period], ln->x, sizeof(double) * VSW_NX);
+    if (b->step_stride > 0)
+        vsw_constants(b->params + ln->walk * b->params_stride + ln->walked * b->step_stride,
+                      ln->constants);
     ln->phase = VSW_START_PHASE;
     ln->visit = 0;
     ln->duration = 0.0;
@@ -848,6 +854,28 @@ VSW_EXPORT void vsw_batch_simulate(long long n, const double *params, long long 
         .period_tol = options[4], .outcome = outcome, .aux = aux, .steps = steps,
         .final = final, .kept_states = kept_states, .kept_lengths = kept_lengths,
         .kept_durations = kept_durations, .visit_durations = NULL, .visits = NULL,
+        .step_stride = 0,
+    };
+    vsw_batch_run(&b);
+}
+
+/* Walks whose parameters change from step to step (a terrain drawn per step): step k of
+   walk i (k < max_steps) takes the parameter row params[(i * max_steps + k) * VSW_NP ...],
+   its constants computed at the step event that starts it. No convergence or period
+   checks, nothing kept; the outputs and the rules are vsw_batch_simulate's, so that a
+   walk of many steps here is the same as one call of one step per step, each from the
+   state the last ended in. */
+VSW_EXPORT void vsw_batch_walk_steps(long long n, const double *params, const double *states,
+                                     const double *options, long long max_steps, int *outcome,
+                                     int *aux, long long *steps, double *final)
+{
+    vsw_batch b = {
+        .n = n, .params_stride = max_steps * VSW_NP, .step_stride = VSW_NP,
+        .max_steps = max_steps, .max_period = 0, .keep = 0, .next = 0, .params = params,
+        .states = states, .target = NULL, .tol = {options[0], options[1], options[2]},
+        .conv_tol = 0.0, .period_tol = 0.0, .outcome = outcome, .aux = aux, .steps = steps,
+        .final = final, .kept_states = NULL, .kept_lengths = NULL, .kept_durations = NULL,
+        .visit_durations = NULL, .visits = NULL,
     };
     vsw_batch_run(&b);
 }
@@ -875,7 +903,7 @@ VSW_EXPORT int vsw_batch_step_phases(const double *params, double *state, const 
         .tol = {walk_options[0], walk_options[1], walk_options[2]}, .conv_tol = 0.0,
         .period_tol = 0.0, .outcome = &outcome, .aux = &aux, .steps = &steps, .final = final,
         .kept_states = kept_state, .kept_lengths = length, .kept_durations = &kept_duration,
-        .visit_durations = durations, .visits = visits,
+        .visit_durations = durations, .visits = visits, .step_stride = 0,
     };
     vsw_batch_run(&b);
     *failure = outcome == VSW_FELL ? aux : 0;
