@@ -1,11 +1,13 @@
 """Case 17: walks on rough ground (vsw rough), per step walked.
 
-* The stochastic batch simulator (:meth:`vsw.dynamics.batch.BatchSimulator.walk_varying`: one call
-  of the batch simulator a step over the walks still walking, each walk's slope of that
-  step from the counter-based draws) against the deterministic one (the same walks on the
-  mean slope in one call of many steps), one thread each, the same starts: the target is
-  within 1.2x per step. The noise is small (MFPT far above the walk's length), so both
-  sides walk (nearly) every step.
+* The stochastic batch simulator (:meth:`vsw.dynamics.batch.BatchSimulator.walk_varying`: calls
+  of the batch simulator of up to 32 steps over the walks still walking, each walk's
+  slopes of those steps from the counter-based draws, drawn between calls) against the
+  deterministic one (the same walks on the mean slope in one call of many steps), one
+  thread each, the same starts: the target is within 1.2x per step. The noise is small
+  (MFPT far above the walk's length), so both sides walk (nearly) every step. Each row
+  notes the process's CPU time per step beside the wall time (a machine shared with other
+  work stretches wall time, not CPU time).
 * The same terrain walked by the hand-written numba DOP853 peer
   (benchmarks/peers/numba_dop853.py: the same integrator rules, each model typed by hand),
   a jitted loop over the walks and their steps setting each step's slope from the same
@@ -14,6 +16,8 @@
 
 from __future__ import annotations
 
+import statistics
+import time
 from collections.abc import Callable
 
 import numpy as np
@@ -56,6 +60,23 @@ def _terrain_walker(walk_one: Callable, index: int) -> Callable:
     return run
 
 
+def _cpu_timed(fn: Callable, samples: list[float]) -> Callable:
+    """``fn`` recording each call's CPU time (``time.process_time``) into ``samples``."""
+
+    def timed() -> None:
+        start = time.process_time()
+        fn()
+        samples.append(time.process_time() - start)
+
+    return timed
+
+
+def _cpu_note(cpu: dict[str, list[float]], steps: dict[str, int]) -> str:
+    """The two sides' median CPU time per step (the warm-up call left out) and their ratio."""
+    ours, other = (statistics.median(cpu[k][1:]) / steps[k] for k in ("ours", "other"))
+    return f"CPU {ours * 1e6:.2f} us and {other * 1e6:.2f} us a step: {ours / other:.3f}x"
+
+
 def case_rough(count: int, reps: int, Row, interleaved, near_gait_starts) -> list:
     """Case 17's rows (see the module docstring); ``Row``, ``interleaved`` and
     ``near_gait_starts`` are benchmarks/run.py's."""
@@ -81,9 +102,12 @@ def case_rough(count: int, reps: int, Row, interleaved, near_gait_starts) -> lis
             found["plain"] = sim.walk(params, starts, STEPS, converge_tol=0.0, period_tol=0.0,
                                       threads=1, tolerance=TOLERANCE)  # fmt: skip
 
-        t_ours, t_plain = interleaved(stochastic, deterministic, reps)
+        cpu: dict[str, list[float]] = {"ours": [], "other": []}
+        t_ours, t_plain = interleaved(_cpu_timed(stochastic, cpu["ours"]),
+                                      _cpu_timed(deterministic, cpu["other"]), reps)  # fmt: skip
         ours_steps, plain_steps = int(found["ours"].steps.sum()), int(found["plain"].steps.sum())
         ratio = (t_ours.median / ours_steps) / (t_plain.median / plain_steps)
+        cpu_note = _cpu_note(cpu, {"ours": ours_steps, "other": plain_steps})
         rows.append(Row(
             "17", f"{key}: walks of {STEPS} steps on a slope drawn per step (sigma = "
             f"{SIGMA[key]:g} rad), walk_varying (1 thread), rtol = atol = {TOLERANCE:g}",
@@ -91,7 +115,7 @@ def case_rough(count: int, reps: int, Row, interleaved, near_gait_starts) -> lis
             t_ours.per(ours_steps), t_plain.per(plain_steps), "within 1.2x per step",
             ratio <= 1.2,
             note=f"per step over {len(starts)} walks ({ours_steps} and {plain_steps} steps); "
-            f"{ratio:.3f}x",
+            f"{ratio:.3f}x; {cpu_note}",
         ))  # fmt: skip
         rows.append(_numba_row(key, params, index, starts, found, reps, Row, interleaved))
     return rows
@@ -125,8 +149,11 @@ def _numba_row(key, params, index, starts, found, reps, Row, interleaved):
     def ours():
         found["ours"] = sim.walk_varying(terrain, starts, STEPS, threads=1, tolerance=TOLERANCE)
 
-    t_ours, t_peer = interleaved(ours, peer, reps)
+    cpu: dict[str, list[float]] = {"ours": [], "other": []}
+    t_ours, t_peer = interleaved(_cpu_timed(ours, cpu["ours"]), _cpu_timed(peer, cpu["other"]),
+                                 reps)  # fmt: skip
     ours_steps, peer_steps = int(found["ours"].steps.sum()), int(out["walked"].sum())
+    cpu_note = _cpu_note(cpu, {"ours": ours_steps, "other": peer_steps})
     same = int(np.sum(found["ours"].steps == out["walked"]))
     ratio = (t_ours.median / ours_steps) / (t_peer.median / peer_steps)
     return Row(
@@ -134,5 +161,5 @@ def _numba_row(key, params, index, starts, found, reps, Row, interleaved):
         "draws, one jitted loop over walks and steps", t_ours.per(ours_steps),
         t_peer.per(peer_steps), "(informative)", None,
         note=f"per step over {n} walks ({ours_steps} and {peer_steps} steps; {same} of {n} "
-        f"walks the same number of steps); {ratio:.3f}x",
+        f"walks the same number of steps); {ratio:.3f}x; {cpu_note}",
     )  # fmt: skip
