@@ -125,9 +125,9 @@ def test_phase_times_match_numerical_quadrature():
 
 
 def test_closest_to_apex_cosine_is_the_largest_cosine_on_the_interval():
-    """_closest_to_apex_cos (a maximum with an indicator) against sampling cos over [lo, hi]."""
+    """closest_to_apex_cos (a maximum with an indicator) against sampling cos over [lo, hi]."""
     s_lo, c_lo, s_hi, c_hi = sm.symbols("s_lo c_lo s_hi c_hi", real=True)
-    form = sm.lambdify((s_lo, c_lo, s_hi, c_hi), ile._closest_to_apex_cos(s_lo, c_lo, s_hi, c_hi))
+    form = sm.lambdify((s_lo, c_lo, s_hi, c_hi), ile.closest_to_apex_cos(s_lo, c_lo, s_hi, c_hi))
     rng = np.random.default_rng(13)
     ends = np.sort(rng.uniform(-1.5, 1.5, (500, 2)), axis=1)
     ends[:5] = [[-0.3, 0.0], [0.0, 0.4], [0.2, 0.9], [-1.2, -0.1], [-0.5, 0.5]]
