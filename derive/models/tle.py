@@ -29,8 +29,8 @@ obeys ``d(h**2)/dtheta = 2 r**3 sin(theta)`` (checked against the engine's equat
 motion), so the extension adds ``2 J`` to ``h**2`` with ``J = int r**3 sin(theta) dtheta``
 over the extension. Its closed form (sympy's, through the engine) holds powers of
 ``1/delta`` up to ``1/delta**9`` that cancel: at ``delta = 0.3`` it loses all digits in
-double precision. Here ``J`` is written through the moments
-``E_m(y) = int_0^1 t**m exp(i y t) dt`` (``m = 0..9``): ``E_9`` from its power series
+double precision. Here (:mod:`derive.models.tle_moments`) ``J`` is written through the
+moments ``E_m(y) = int_0^1 t**m exp(i y t) dt`` (``m = 0..9``): ``E_9`` from its power series
 (alternating, truncated where the next term is below 1e-18 for ``y <= pi/2``) and the
 others by the downward recurrence ``E_(m-1) = (exp(i y) - i y E_m) / m`` (integration by
 parts; each step multiplies an earlier error by at most ``y/m``), so the map is accurate
@@ -41,7 +41,6 @@ engine's closed form at 60 digits.
 from __future__ import annotations
 
 import functools
-import math
 import random
 
 import sympy as sm
@@ -66,6 +65,7 @@ from derive.engine.model import (
     PointMass,
     leg,
 )
+from derive.models.tle_moments import MOMENT_ORDER, moment_integral
 from derive.quantities import Condition, Derivation, Quantity
 
 PI = float(sm.pi.evalf(17))
@@ -170,10 +170,6 @@ cos_I, sin_I = sm.Symbol("cos_theta_I", positive=True), sm.Symbol("sin_theta_I",
 cos_IV, sin_IV = sm.Symbol("cos_theta_IV", positive=True), sm.Symbol("sin_theta_IV", real=True)
 theta_I_s, theta_IV_s = sm.symbols("theta_I theta_IV", real=True)  # in derived forms
 
-SERIES_TERMS = 12
-"""Terms of the power series of E_9 (cos and sin parts); the first omitted one is below
-1e-18 for y <= pi/2 (checked in :func:`moment_series`)."""
-MOMENT_ORDER = 9  # r**3 is a polynomial of degree 9 in s
 LEG_FORCE_SAMPLES = 16
 """The leg force is evaluated at s = k/16, k = 0..16, of the extension (see
 :func:`extension_margins`)."""
@@ -232,34 +228,6 @@ def _h2_change(length: sm.Expr, start: sm.Expr, end: sm.Expr) -> sm.Expr:
 
 
 @functools.cache
-def moment_series() -> tuple[sm.Expr, sm.Expr, sm.Symbol]:
-    """``Re E_9(y)`` and ``Im E_9(y)`` as truncated power series in ``y`` (Horner form in
-    ``y**2``), and the symbol ``y``; checks the truncation bound for ``y <= pi/2``."""
-    y = sm.Symbol("y", nonnegative=True)
-    z = sm.Symbol("z", nonnegative=True)
-    m = MOMENT_ORDER
-    # int_0^1 t**m exp(i y t) dt = sum_n (i y)**n / (n! (n + m + 1)).
-    cos_part = sum(
-        (sm.Integer(-1) ** k * z**k / (sm.factorial(2 * k) * (2 * k + m + 1))
-         for k in range(SERIES_TERMS)), sm.Integer(0))  # fmt: skip
-    sin_part = sum(
-        (sm.Integer(-1) ** k * z**k / (sm.factorial(2 * k + 1) * (2 * k + m + 2))
-         for k in range(SERIES_TERMS)), sm.Integer(0))  # fmt: skip
-    # Alternating with decreasing terms for y < 2: the error is below the first omitted term.
-    y_max = sm.pi / 2
-    k = SERIES_TERMS
-    omitted = max(
-        y_max ** (2 * k) / (sm.factorial(2 * k) * (2 * k + m + 1)),
-        y_max ** (2 * k + 1) / (sm.factorial(2 * k + 1) * (2 * k + m + 2)),
-    )
-    if float(omitted) > 1e-18:
-        raise AssertionError(f"E_9 series: first omitted term {float(omitted):.3g}")
-    cos_part = sm.horner(cos_part, z).xreplace({z: y**2})
-    sin_part = y * sm.horner(sin_part, z).xreplace({z: y**2})
-    return cos_part, sin_part, y
-
-
-@functools.cache
 def cubed_profile_terms() -> tuple[tuple[sm.Expr, tuple[sm.Rational, ...]], ...]:
     """``r(s)**3 = sum_j w_j(beta) S(s)**j`` with ``w_j >= 0``: each ``(w_j, coefficients
     of S**j in s**0..s**9)``; the grouping keeps ``beta`` and ``1 - beta`` apart."""
@@ -278,33 +246,9 @@ def cubed_profile_terms() -> tuple[tuple[sm.Expr, tuple[sm.Rational, ...]], ...]
 
 def extension_integral(x: sm.Expr, tag: str) -> tuple[list[tuple[sm.Symbol, sm.Expr]], sm.Expr]:
     """``J(x) = int_{theta_II}^{theta_II + delta x} r**3 sin(theta) dtheta`` as named
-    intermediates (their names end in ``tag``) and an expression over them.
-
-    With ``theta = theta_II + delta s`` and ``s = x t``: ``J = delta Im(exp(i theta_II)
-    sum_j w_j sum_n c_jn x**(n+1) E_n(delta x))``. ``x`` must be an expression of the
-    generated function's arguments (the code generator evaluates cos/sin pairs first).
-    """
-    cos_part, sin_part, y = moment_series()
-    y_s = sm.Symbol(f"y_{tag}", nonnegative=True)
-    y_value = delta * x  # also the trig functions' argument, so in terms of arguments only
-    inter: list[tuple[sm.Symbol, sm.Expr]] = [(y_s, y_value)]
-    c_sym = {MOMENT_ORDER: sm.Symbol(f"C{MOMENT_ORDER}_{tag}", real=True)}
-    s_sym = {MOMENT_ORDER: sm.Symbol(f"S{MOMENT_ORDER}_{tag}", real=True)}
-    inter += [(c_sym[MOMENT_ORDER], cos_part.xreplace({y: y_s})),
-              (s_sym[MOMENT_ORDER], sin_part.xreplace({y: y_s}))]  # fmt: skip
-    for n in range(MOMENT_ORDER, 0, -1):
-        # E_(n-1) = (exp(i y) - i y E_n) / n.
-        c_sym[n - 1] = sm.Symbol(f"C{n - 1}_{tag}", real=True)
-        s_sym[n - 1] = sm.Symbol(f"S{n - 1}_{tag}", real=True)
-        inter.append((c_sym[n - 1], (sm.cos(y_value) + y_s * s_sym[n]) / n))
-        inter.append((s_sym[n - 1], (sm.sin(y_value) - y_s * c_sym[n]) / n))
-    re_part, im_part = sm.Integer(0), sm.Integer(0)
-    for weight, coeffs in cubed_profile_terms():
-        re_part += weight * sum((c * x ** (n + 1) * c_sym[n] for n, c in enumerate(coeffs) if c),
-                                sm.Integer(0))  # fmt: skip
-        im_part += weight * sum((c * x ** (n + 1) * s_sym[n] for n, c in enumerate(coeffs) if c),
-                                sm.Integer(0))  # fmt: skip
-    return inter, delta * (sm.sin(theta_II) * re_part + sm.cos(theta_II) * im_part)
+    intermediates (their names end in ``tag``) and an expression over them, in moment form
+    (:func:`derive.models.tle_moments.moment_integral`)."""
+    return moment_integral(x, tag, cubed_profile_terms(), theta_II, delta)
 
 
 def _explicit(inter: list[tuple[sm.Symbol, sm.Expr]], expr: sm.Expr) -> sm.Expr:
@@ -685,27 +629,23 @@ def _condition_list(margins: dict[str, object], q_f: sm.Expr) -> tuple[Condition
 # --- the derivation --------------------------------------------------------------------------
 
 
-def derive() -> Derivation:
-    """The engine's package of the TLE model and its extension quantities."""
-    d = model_derivation(
-        MODEL,
-        "Angles in radians, lengths in r_e, time in sqrt(r_e / g), forces in m g, energies "
-        "in m g r_e (m = 1).",
-    )
-    forms = stride_forms()
-    inter = forms["intermediates"]
-    q_f = sm.Symbol("q_f", real=True)
-    # The engine's closed form of the map cancels badly; the same map, evaluable:
+def _stride_quantities(d: Derivation, forms: dict[str, object]) -> None:
+    """The stride map and its fixed point in place of the engine's closed form, which
+    cancels badly (ILE eq. (9), (10) at delta = 0)."""
+    inter = tuple(forms["intermediates"])
     d.quantities["stride_map"] = Quantity(
         "stride_map", (*P, q), forms["stride_map"],
         "Stride map in q = omega_I**2 (just after heelstrike), evaluated through the moment "
-        "series of the extension integral.", None, "q of the next step",
-        intermediates=tuple(inter),
+        "series of the extension integral.", None, "q of the next step", intermediates=inter,
     )  # fmt: skip
     d.quantities["q_fixed"] = Quantity(
         "q_fixed", P, forms["q_fixed"], "Fixed point q^f of the stride map (period-one gait).",
-        None, "q^f", intermediates=tuple(inter),
+        None, "q^f", intermediates=inter,
     )  # fmt: skip
+
+
+def _extension_quantities(d: Derivation) -> None:
+    """The extension profile and the leg actuator's force in every phase."""
     d.add(Quantity(
         "extension_profile", (beta, theta_II, delta, theta),
         (profile(theta), profile(theta).diff(theta), profile(theta).diff(theta, 2)),
@@ -720,17 +660,20 @@ def derive() -> Derivation:
             f"Force of the stance leg's actuator in phase {phase.name} (the held length's "
             "generalised force), in m g.", None, "leg force; > 0 pushes (compressive)",
         ))  # fmt: skip
-    margins = extension_margins()
+
+
+def _state_quantities(d: Derivation, margins: dict[str, object]) -> None:
+    """The stance angles at heelstrike (ILE eq. (5), (11)) and the state along the
+    extension: ``h**2`` and the leg force at a fraction of it."""
+    geo_inter = list(geometry())
     d.add(Quantity("theta_I", (beta, phi0), margins["theta_I"],
                    "Stance angle just after heelstrike (ILE eq. (11)).", None, "theta_I",
-                   intermediates=tuple(geometry())))  # fmt: skip
+                   intermediates=tuple(geo_inter)))  # fmt: skip
     d.add(Quantity("theta_IV", (beta, phi0), margins["theta_IV"],
                    "Stance angle at heelstrike.", None, "theta_IV = theta_I + phi0",
-                   intermediates=tuple(geometry())))  # fmt: skip
-    st = stride()
+                   intermediates=tuple(geo_inter)))  # fmt: skip
     x_inter, j_x = extension_integral(fraction, "x")
-    h2_x = _on_geometry(st["h2_II"]) + 2 * j_x
-    geo_inter = list(geometry())
+    h2_x = _on_geometry(stride()["h2_II"]) + 2 * j_x
     d.add(Quantity(
         "extension_h_squared", (*P, q, fraction), h2_x,
         "(r**2 omega)**2 at position s = fraction in [0, 1] of the extension, from q.",
@@ -742,28 +685,34 @@ def derive() -> Derivation:
         "Leg force at position s = fraction in [0, 1] of the extension, from q.", None,
         "leg force in m g; > 0 pushes", intermediates=(*geo_inter, *x_inter, (h2_sym, h2_x)),
     ))  # fmt: skip
+
+
+def _energy_quantities(d: Derivation, inter: tuple) -> None:
+    """The actuator's work per step and the heelstrike's loss (ILE eq. (20), (21))."""
     en = energies()
-    added = _on_geometry(en["added"])
-    lost = _on_geometry(en["dissipated"])
     d.add(Quantity(
-        "energy_input", (*P, q), added,
+        "energy_input", (*P, q), _on_geometry(en["added"]),
         "Work of the leg actuator per step: the energy added over the extension "
-        "(E_III - E_II), from q of the same step.", None, "E_c in m g r_e",
-        intermediates=tuple(inter),
+        "(E_III - E_II), from q of the same step.", None, "E_c in m g r_e", intermediates=inter,
     ))  # fmt: skip
     d.add(Quantity(
-        "energy_dissipated", (*P, q), lost,
+        "energy_dissipated", (*P, q), _on_geometry(en["dissipated"]),
         "Energy lost at heelstrike, from q of the same step.", None, "E_r in m g r_e",
-        intermediates=tuple(inter),
+        intermediates=inter,
     ))  # fmt: skip
+
+
+def _condition_quantities(d: Derivation, forms: dict[str, object], margins: dict) -> None:
+    """The least ground force over a step, the existence conditions, and q^f, lambda (ILE
+    eq. (10), (19)) and the margins in one pass."""
+    q_f = sm.Symbol("q_f", real=True)
     m_inter = margins["intermediates"]
     d.add(Quantity(
         "contact_margin", (*P, q), margins["contact_margin"],
         "Least ground normal force over the step from q (short and long phases exact, "
         "the extension at s = k/16).", None, "min N in m g", intermediates=tuple(m_inter),
     ))  # fmt: skip
-    conditions = _condition_list(margins, q_f)
-    d.conditions = conditions
+    d.conditions = conditions = _condition_list(margins, q_f)
     fixed_inter = (*((k, v.xreplace({q: q_f})) for k, v in m_inter), (q_f, forms["q_fixed"]))
     d.add(Quantity(
         "fixed_point_conditions", P,
@@ -772,29 +721,39 @@ def derive() -> Derivation:
         "(q^f, lambda, *margins in the order of CONDITIONS)", intermediates=fixed_inter,
         output_names=("q_fixed", "eigenvalue", *(c.name for c in conditions)),
     ))  # fmt: skip
-    lim = ile_limit()
+
+
+def _limit_quantity(lim: dict[str, sm.Expr]) -> Quantity:
+    """The Taylor coefficients at delta = 0, whose constant terms are the ILE's (10), (20)."""
     names = ("q0", "q1", "q2", "E0", "E1", "E2")
-    d.add(Quantity(
+    return Quantity(
         "ile_limit", (beta, theta_II, phi0), tuple(lim[n].xreplace(ANGLES) for n in names),
         "Taylor coefficients at delta = 0 of q^f and of the actuator work at q^f: "
         "q^f = q0 + q1 delta + q2 delta**2 + O(delta**3), likewise E.", None,
         "(q0, q1, q2, E0, E1, E2); q0, E0 are the ILE's (10), (20)",
         intermediates=tuple(geometry()), output_names=names,
-    ))  # fmt: skip
-    d.facts.update({f"stride.{k}": v for k, v in st.items()})
-    d.facts.update({f"energy.{k}": v for k, v in en.items()})
+    )  # fmt: skip
+
+
+def derive() -> Derivation:
+    """The engine's package of the TLE model and its extension quantities."""
+    d = model_derivation(
+        MODEL,
+        "Angles in radians, lengths in r_e, time in sqrt(r_e / g), forces in m g, energies "
+        "in m g r_e (m = 1).",
+    )
+    forms = stride_forms()
+    _stride_quantities(d, forms)
+    _extension_quantities(d)
+    margins = extension_margins()
+    _state_quantities(d, margins)
+    _energy_quantities(d, tuple(forms["intermediates"]))
+    _condition_quantities(d, forms, margins)
+    lim = ile_limit()
+    d.add(_limit_quantity(lim))
+    d.facts.update({f"stride.{k}": v for k, v in stride().items()})
+    d.facts.update({f"energy.{k}": v for k, v in energies().items()})
     d.facts.update({f"limit.{k}": v for k, v in lim.items()})
     d.facts["profile"] = profile(theta)
     d.facts["leg_force"] = leg_force_of_state()
     return d
-
-
-def series_truncation_bound() -> float:
-    """The first omitted term of the E_9 series at y = pi/2 (for the docs)."""
-    k, m = SERIES_TERMS, MOMENT_ORDER
-    return float(
-        max(
-            (math.pi / 2) ** (2 * k) / (math.factorial(2 * k) * (2 * k + m + 1)),
-            (math.pi / 2) ** (2 * k + 1) / (math.factorial(2 * k + 1) * (2 * k + m + 2)),
-        )
-    )
