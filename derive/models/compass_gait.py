@@ -20,10 +20,8 @@ import sympy as sm
 
 from derive.engine import model_derivation
 from derive.engine.model import (
-    NORMAL_FORCE,
     Coordinate,
     Event,
-    Failure,
     Impact,
     Input,
     Model,
@@ -34,27 +32,59 @@ from derive.engine.model import (
     leg,
     swing_foot_clearance,
 )
+from derive.models.common import INF, falls, gravity_parameter, slope_gravity, slope_parameter
 from derive.quantities import Derivation
-
-PI = float(sm.pi.evalf(17))
-INF = float("inf")
 
 # Drake's CompassGaitParams: mass_hip 10 kg, mass_leg 5 kg, length_leg 1 m,
 # center_of_mass_leg 0.5 m (from the hip), slope 0.0525 rad, gravity 9.81 m/s^2.
 PARAMETERS = (
-    Parameter("m_h", "m_H", 0.0, INF, "hip mass m_h > 0", "hip mass", {"positive": True},
-              default=10.0, unit="kg"),
-    Parameter("m", "m", 0.0, INF, "leg mass m > 0", "mass of each leg", {"positive": True},
-              default=5.0, unit="kg"),
-    Parameter("a", "a", 0.0, INF, "a > 0", "distance from a foot to its leg's mass",
-              {"positive": True}, default=0.5, unit="m"),
-    Parameter("b", "b", 0.0, INF, "b > 0", "distance from the hip to a leg's mass",
-              {"positive": True}, default=0.5, unit="m"),
-    Parameter("gamma", r"\gamma", 0.0, PI / 2, "a passive walker walks down a slope: "
-              "0 < gamma < pi/2", "slope angle", default=0.0525, unit="rad"),
-    Parameter("g", "g", 0.0, INF, "gravity g > 0", "gravitational acceleration",
-              {"positive": True}, default=9.81, unit="m/s^2"),
-)  # fmt: skip
+    Parameter(
+        name="m_h",
+        latex="m_H",
+        lower=0.0,
+        upper=INF,
+        reason="hip mass m_h > 0",
+        description="hip mass",
+        assumptions={"positive": True},
+        default=10.0,
+        unit="kg",
+    ),
+    Parameter(
+        name="m",
+        latex="m",
+        lower=0.0,
+        upper=INF,
+        reason="leg mass m > 0",
+        description="mass of each leg",
+        assumptions={"positive": True},
+        default=5.0,
+        unit="kg",
+    ),
+    Parameter(
+        name="a",
+        latex="a",
+        lower=0.0,
+        upper=INF,
+        reason="a > 0",
+        description="distance from a foot to its leg's mass",
+        assumptions={"positive": True},
+        default=0.5,
+        unit="m",
+    ),
+    Parameter(
+        name="b",
+        latex="b",
+        lower=0.0,
+        upper=INF,
+        reason="b > 0",
+        description="distance from the hip to a leg's mass",
+        assumptions={"positive": True},
+        default=0.5,
+        unit="m",
+    ),
+    slope_parameter(0.0525),
+    gravity_parameter(),
+)
 m_h, m, a, b, gamma, g = (p.symbol for p in PARAMETERS)
 length = a + b
 
@@ -89,7 +119,7 @@ STANCE = Phase(
         PointMass("stance_leg", m, leg(theta, a)),
         PointMass("swing_leg", m, tuple(h - f for h, f in zip(hip, leg(psi, b)))),
     ),
-    gravity=(g * sm.sin(gamma), -g * sm.cos(gamma)),
+    gravity=slope_gravity(g, gamma),
     points={"swing_foot": swing_foot},
     # Drake's CompassGait has the same input (its "control" port: the hip torque). Passive
     # walking is this input at zero, which is all the commands but powered walking use.
@@ -132,11 +162,7 @@ MODEL = Model(
             when=theta,  # past mid-stance: the new foot lands ahead of the hip
         ),
     ),
-    failures=(
-        Failure("fell-backward", THETA.u, -1, "the stance leg stops and swings back"),
-        Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the slope"),
-        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the slope"),
-    ),
+    failures=falls(THETA, ground="slope"),
     conditions=(swing_foot_clearance(swing_foot[1], "m"),),
     units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},
     skeleton=SKELETON,

@@ -36,7 +36,6 @@ import sympy as sm
 
 from derive.engine import model_derivation
 from derive.engine.model import (
-    NORMAL_FORCE,
     Coordinate,
     Event,
     Failure,
@@ -51,6 +50,7 @@ from derive.engine.model import (
     leg,
     swing_foot_clearance,
 )
+from derive.models.common import falls
 from derive.models.vsw_biped import PARAMETERS as VSW_PARAMETERS
 from derive.models.vsw_biped import UNITS, UNITS_TEXT
 from derive.quantities import Derivation
@@ -60,10 +60,18 @@ PARAMETERS = (
     BETA,
     MU,
     B_OVER_L,
-    Parameter("l_min", r"l_{min}", 0.0, 1.0, "0 < l_min < 1 (a leg's shortest length, in l)",
-              "shortest length of the stance leg, over l (the end of its stroke)",
-              {"positive": True}, default=0.5, unit="1"),
-)  # fmt: skip
+    Parameter(
+        name="l_min",
+        latex=r"l_{min}",
+        lower=0.0,
+        upper=1.0,
+        reason="0 < l_min < 1 (a leg's shortest length, in l)",
+        description="shortest length of the stance leg, over l (the end of its stroke)",
+        assumptions={"positive": True},
+        default=0.5,
+        unit="1",
+    ),
+)
 beta, mu, b, l_min = (p.symbol for p in PARAMETERS)
 
 THETA = Coordinate("theta", "stance leg angle", "rad", reference="the vertical",
@@ -140,11 +148,7 @@ HIP_IMPULSE_AFTER = Impulse(
     unit="m_H l sqrt(g l)",
     description="the hip torque's impulse just after heelstrike",
 )
-FALLS = (
-    Failure("fell-backward", THETA.u, -1, "the walker stops before the apex and falls back"),
-    Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the ground"),
-    Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
-)
+FALLS = falls(THETA, backward="the walker stops before the apex and falls back")
 CROUCHED = Failure(
     "crouched",
     r - l_min,

@@ -24,8 +24,6 @@ vertical, ``r`` the stance leg's length.
 
 from __future__ import annotations
 
-import sympy as sm
-
 from derive.engine import model_derivation
 from derive.engine.model import (
     Continuous,
@@ -37,6 +35,7 @@ from derive.engine.model import (
     Phase,
     swing_foot_clearance,
 )
+from derive.models.common import PI
 from derive.models.free_vsw_biped import (
     CROUCHED,
     FALLS,
@@ -62,14 +61,21 @@ from derive.models.free_vsw_biped import PARAMETERS as BODY_PARAMETERS
 from derive.models.vsw_biped import UNITS, UNITS_TEXT
 from derive.quantities import Derivation
 
-PI = sm.pi
 PARAMETERS = (
     *BODY_PARAMETERS,
-    Parameter("theta_push", r"\theta_{push}", -PI / 2, PI / 2, "the stance leg must point "
-              "below the horizontal: |theta_push| < pi/2", "stance leg angle at which the leg "
-              "may push in an instant (chosen by vsw optimize with the gait; the given value "
-              "is its start)", default=0.5, unit="rad"),
-)  # fmt: skip
+    Parameter(
+        name="theta_push",
+        latex=r"\theta_{push}",
+        lower=-PI / 2,
+        upper=PI / 2,
+        reason="the stance leg must point below the horizontal: |theta_push| < pi/2",
+        description="stance leg angle at which the leg "
+        "may push in an instant (chosen by vsw optimize with the gait; the given value "
+        "is its start)",
+        default=0.5,
+        unit="rad",
+    ),
+)
 theta_push = PARAMETERS[-1].symbol
 
 LEG_PUSH = Impulse(

@@ -36,11 +36,9 @@ import sympy as sm
 
 from derive.engine import model_derivation
 from derive.engine.model import (
-    NORMAL_FORCE,
     Condition,
     Coordinate,
     Event,
-    Failure,
     Impact,
     Lock,
     Model,
@@ -52,34 +50,93 @@ from derive.engine.model import (
     leg,
     swing_foot_clearance,
 )
+from derive.models.common import INF, falls, gravity_parameter, slope_gravity, slope_parameter
 from derive.quantities import Derivation
-
-PI = float(sm.pi.evalf(17))
-INF = float("inf")
 
 # Hsu Chen 2007, chapter 3 (her table of the point-foot walker): m_H = 0.5, m_t = 0.5,
 # m_s = 0.05 kg; a1 = 0.375, b1 = 0.125 (shank), a2 = 0.175, b2 = 0.325 m (thigh); slope
 # 0.0504 rad; g = 9.81 m/s^2.
 PARAMETERS = (
-    Parameter("m_h", "m_H", 0.0, INF, "hip mass m_h > 0", "hip mass", {"positive": True},
-              default=0.5, unit="kg"),
-    Parameter("m_t", "m_t", 0.0, INF, "thigh mass m_t > 0", "mass of each thigh",
-              {"positive": True}, default=0.5, unit="kg"),
-    Parameter("m_s", "m_s", 0.0, INF, "shank mass m_s > 0", "mass of each shank",
-              {"positive": True}, default=0.05, unit="kg"),
-    Parameter("a1", "a_1", 0.0, INF, "a1 > 0", "distance from a foot to its shank's mass",
-              {"positive": True}, default=0.375, unit="m"),
-    Parameter("b1", "b_1", 0.0, INF, "b1 > 0", "distance from a shank's mass to the knee",
-              {"positive": True}, default=0.125, unit="m"),
-    Parameter("a2", "a_2", 0.0, INF, "a2 > 0", "distance from a knee to its thigh's mass",
-              {"positive": True}, default=0.175, unit="m"),
-    Parameter("b2", "b_2", 0.0, INF, "b2 > 0", "distance from a thigh's mass to the hip",
-              {"positive": True}, default=0.325, unit="m"),
-    Parameter("gamma", r"\gamma", 0.0, PI / 2, "a passive walker walks down a slope: "
-              "0 < gamma < pi/2", "slope angle", default=0.0504, unit="rad"),
-    Parameter("g", "g", 0.0, INF, "gravity g > 0", "gravitational acceleration",
-              {"positive": True}, default=9.81, unit="m/s^2"),
-)  # fmt: skip
+    Parameter(
+        name="m_h",
+        latex="m_H",
+        lower=0.0,
+        upper=INF,
+        reason="hip mass m_h > 0",
+        description="hip mass",
+        assumptions={"positive": True},
+        default=0.5,
+        unit="kg",
+    ),
+    Parameter(
+        name="m_t",
+        latex="m_t",
+        lower=0.0,
+        upper=INF,
+        reason="thigh mass m_t > 0",
+        description="mass of each thigh",
+        assumptions={"positive": True},
+        default=0.5,
+        unit="kg",
+    ),
+    Parameter(
+        name="m_s",
+        latex="m_s",
+        lower=0.0,
+        upper=INF,
+        reason="shank mass m_s > 0",
+        description="mass of each shank",
+        assumptions={"positive": True},
+        default=0.05,
+        unit="kg",
+    ),
+    Parameter(
+        name="a1",
+        latex="a_1",
+        lower=0.0,
+        upper=INF,
+        reason="a1 > 0",
+        description="distance from a foot to its shank's mass",
+        assumptions={"positive": True},
+        default=0.375,
+        unit="m",
+    ),
+    Parameter(
+        name="b1",
+        latex="b_1",
+        lower=0.0,
+        upper=INF,
+        reason="b1 > 0",
+        description="distance from a shank's mass to the knee",
+        assumptions={"positive": True},
+        default=0.125,
+        unit="m",
+    ),
+    Parameter(
+        name="a2",
+        latex="a_2",
+        lower=0.0,
+        upper=INF,
+        reason="a2 > 0",
+        description="distance from a knee to its thigh's mass",
+        assumptions={"positive": True},
+        default=0.175,
+        unit="m",
+    ),
+    Parameter(
+        name="b2",
+        latex="b_2",
+        lower=0.0,
+        upper=INF,
+        reason="b2 > 0",
+        description="distance from a thigh's mass to the hip",
+        assumptions={"positive": True},
+        default=0.325,
+        unit="m",
+    ),
+    slope_parameter(0.0504),
+    gravity_parameter(),
+)
 m_h, m_t, m_s, a1, b1, a2, b2, gamma, g = (p.symbol for p in PARAMETERS)
 shank, thigh = a1 + b1, a2 + b2
 length = shank + thigh
@@ -137,7 +194,7 @@ BODIES = (
     PointMass("swing_thigh", m_t, _minus(hip, leg(psi, b2))),
     PointMass("swing_shank", m_s, _minus(knee, leg(psi + kappa, b1))),
 )
-GRAVITY = (g * sm.sin(gamma), -g * sm.cos(gamma))
+GRAVITY = slope_gravity(g, gamma)
 # Both legs through their knees: in the knee-locked phase the swing knee is straight.
 SKELETON = Skeleton(
     points={"stance_foot": (0, 0), "stance_knee": stance_knee, "hip": hip,
@@ -205,11 +262,7 @@ MODEL = Model(
             when=theta,  # past mid-stance: the new foot lands ahead of the hip
         ),
     ),
-    failures=(
-        Failure("fell-backward", THETA.u, -1, "the stance leg stops and swings back"),
-        Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the slope"),
-        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the slope"),
-    ),
+    failures=falls(THETA, ground="slope"),
     conditions=(
         swing_foot_clearance(swing_foot[1], "m"),
         # The sources assume the stance knee locked: a stop keeps it from hyperextending

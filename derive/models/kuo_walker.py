@@ -40,20 +40,45 @@ from derive.engine.model import (
     PointMass,
     leg,
 )
+from derive.models.common import INF, fell_backward, gravity_parameter
 from derive.quantities import Derivation
 
-INF = float("inf")
-
 PARAMETERS = (
-    Parameter("m", "m", 0.0, INF, "mass m > 0", "mass at the hip", {"positive": True},
-              default=1.0, unit="kg"),
-    Parameter("g", "g", 0.0, INF, "gravity g > 0", "gravitational acceleration",
-              {"positive": True}, default=1.0, unit="m/s^2"),
-    Parameter("l", "l", 0.0, INF, "leg length l > 0", "length of each leg", {"positive": True},
-              default=1.0, unit="m"),
-    Parameter("d", "d", 0.0, INF, "step length d > 0", "step length: from the stance foot "
-              "to the next", {"positive": True}, default=0.6, unit="m"),
-)  # fmt: skip
+    Parameter(
+        name="m",
+        latex="m",
+        lower=0.0,
+        upper=INF,
+        reason="mass m > 0",
+        description="mass at the hip",
+        assumptions={"positive": True},
+        default=1.0,
+        unit="kg",
+    ),
+    gravity_parameter(1.0),
+    Parameter(
+        name="l",
+        latex="l",
+        lower=0.0,
+        upper=INF,
+        reason="leg length l > 0",
+        description="length of each leg",
+        assumptions={"positive": True},
+        default=1.0,
+        unit="m",
+    ),
+    Parameter(
+        name="d",
+        latex="d",
+        lower=0.0,
+        upper=INF,
+        reason="step length d > 0",
+        description="step length: from the stance foot to the next",
+        assumptions={"positive": True},
+        default=0.6,
+        unit="m",
+    ),
+)
 m, g, l, d = (p.symbol for p in PARAMETERS)
 
 THETA = Coordinate("theta", "stance leg angle", "rad", reference="the vertical",
@@ -128,7 +153,7 @@ MODEL = Model(
         ),
     ),
     failures=(
-        Failure("fell-backward", THETA.u, -1, "the hip stops and swings back"),
+        fell_backward(THETA, "the hip stops and swings back"),
         Failure(
             "lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground (the leg would pull)"
         ),

@@ -27,10 +27,8 @@ import sympy as sm
 
 from derive.engine import model_derivation
 from derive.engine.model import (
-    NORMAL_FORCE,
     Coordinate,
     Event,
-    Failure,
     Impact,
     Impulse,
     Input,
@@ -41,23 +39,57 @@ from derive.engine.model import (
     leg,
     swing_foot_clearance,
 )
+from derive.models.common import INF, falls, gravity_parameter
 from derive.quantities import Derivation
-
-INF = float("inf")
 
 # Drake's CompassGaitParams (as compass_gait.py), without the slope.
 PARAMETERS = (
-    Parameter("m_h", "m_H", 0.0, INF, "hip mass m_h > 0", "hip mass", {"positive": True},
-              default=10.0, unit="kg"),
-    Parameter("m", "m", 0.0, INF, "leg mass m > 0", "mass of each leg", {"positive": True},
-              default=5.0, unit="kg"),
-    Parameter("a", "a", 0.0, INF, "a > 0", "distance from a foot to its leg's mass",
-              {"positive": True}, default=0.5, unit="m"),
-    Parameter("b", "b", 0.0, INF, "b > 0", "distance from the hip to a leg's mass",
-              {"positive": True}, default=0.5, unit="m"),
-    Parameter("g", "g", 0.0, INF, "gravity g > 0", "gravitational acceleration",
-              {"positive": True}, default=9.81, unit="m/s^2"),
-)  # fmt: skip
+    Parameter(
+        name="m_h",
+        latex="m_H",
+        lower=0.0,
+        upper=INF,
+        reason="hip mass m_h > 0",
+        description="hip mass",
+        assumptions={"positive": True},
+        default=10.0,
+        unit="kg",
+    ),
+    Parameter(
+        name="m",
+        latex="m",
+        lower=0.0,
+        upper=INF,
+        reason="leg mass m > 0",
+        description="mass of each leg",
+        assumptions={"positive": True},
+        default=5.0,
+        unit="kg",
+    ),
+    Parameter(
+        name="a",
+        latex="a",
+        lower=0.0,
+        upper=INF,
+        reason="a > 0",
+        description="distance from a foot to its leg's mass",
+        assumptions={"positive": True},
+        default=0.5,
+        unit="m",
+    ),
+    Parameter(
+        name="b",
+        latex="b",
+        lower=0.0,
+        upper=INF,
+        reason="b > 0",
+        description="distance from the hip to a leg's mass",
+        assumptions={"positive": True},
+        default=0.5,
+        unit="m",
+    ),
+    gravity_parameter(),
+)
 m_h, m, a, b, g = (p.symbol for p in PARAMETERS)
 length = a + b
 
@@ -152,11 +184,7 @@ MODEL = Model(
             equation="Kuo 2002, eqs. (3)-(4), with the legs' masses",
         ),
     ),
-    failures=(
-        Failure("fell-backward", THETA.u, -1, "the stance leg stops and swings back"),
-        Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the ground"),
-        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
-    ),
+    failures=falls(THETA),
     conditions=(swing_foot_clearance(swing_foot[1], "m"),),
     units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},
     step_length=swing_foot[0],

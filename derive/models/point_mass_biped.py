@@ -51,24 +51,56 @@ from derive.engine.model import (
     Phase,
     PointMass,
 )
+from derive.models.common import INF, gravity_parameter
 from derive.quantities import Derivation
 
-INF = float("inf")
-
 PARAMETERS = (
-    Parameter("m", "m", 0.0, INF, "mass m > 0", "mass at the hip", {"positive": True},
-              default=1.0, unit="kg"),
-    Parameter("g", "g", 0.0, INF, "gravity g > 0", "gravitational acceleration",
-              {"positive": True}, default=1.0, unit="m/s^2"),
-    Parameter("l", "l", 0.0, INF, "leg length l > 0", "longest length of a leg",
-              {"positive": True}, default=1.0, unit="m"),
-    Parameter("d", "d", 0.0, INF, "step length d > 0",
-              "step length: from the stance foot to the next", {"positive": True},
-              default=0.6, unit="m"),
-    Parameter("l_min", r"l_{min}", 0.0, INF, "shortest leg l_min > 0 (l_min = l: rigid "
-              "legs, Kuo's simplest walking model)", "shortest length of a leg "
-              "(the end of its stroke)", {"positive": True}, default=0.5, unit="m"),
-)  # fmt: skip
+    Parameter(
+        name="m",
+        latex="m",
+        lower=0.0,
+        upper=INF,
+        reason="mass m > 0",
+        description="mass at the hip",
+        assumptions={"positive": True},
+        default=1.0,
+        unit="kg",
+    ),
+    gravity_parameter(1.0),
+    Parameter(
+        name="l",
+        latex="l",
+        lower=0.0,
+        upper=INF,
+        reason="leg length l > 0",
+        description="longest length of a leg",
+        assumptions={"positive": True},
+        default=1.0,
+        unit="m",
+    ),
+    Parameter(
+        name="d",
+        latex="d",
+        lower=0.0,
+        upper=INF,
+        reason="step length d > 0",
+        description="step length: from the stance foot to the next",
+        assumptions={"positive": True},
+        default=0.6,
+        unit="m",
+    ),
+    Parameter(
+        name="l_min",
+        latex=r"l_{min}",
+        lower=0.0,
+        upper=INF,
+        reason="shortest leg l_min > 0 (l_min = l: rigid legs, Kuo's simplest walking model)",
+        description="shortest length of a leg (the end of its stroke)",
+        assumptions={"positive": True},
+        default=0.5,
+        unit="m",
+    ),
+)
 m, g, l, d, l_min = (p.symbol for p in PARAMETERS)
 PARAMETER_CONDITIONS = (
     ParameterCondition(2 * l - d, "the step d must be shorter than 2 l: the legs must reach"),

@@ -29,11 +29,20 @@ from derive.quantities import Derivation
 
 PARAMETERS = (
     *body.PARAMETERS,
-    Parameter("sigma", r"\sigma", 0.0, 1.0, "the legs exchange between the feet: 0 < sigma "
-              "< 1", "where the legs exchange roles: the hip's distance from the stance foot "
-              "then, over d (chosen by vsw optimize with the gait; the given value is its "
-              "start)", {"positive": True}, default=0.5, unit="1"),
-)  # fmt: skip
+    Parameter(
+        name="sigma",
+        latex=r"\sigma",
+        lower=0.0,
+        upper=1.0,
+        reason="the legs exchange between the feet: 0 < sigma < 1",
+        description="where the legs exchange roles: the hip's distance from the stance foot "
+        "then, over d (chosen by vsw optimize with the gait; the given value is its "
+        "start)",
+        assumptions={"positive": True},
+        default=0.5,
+        unit="1",
+    ),
+)
 sigma = PARAMETERS[-1].symbol
 x, d, l = body.x, body.d, body.l
 # At the switch both legs reach the ground from the hip: the stance leg over sigma d, the

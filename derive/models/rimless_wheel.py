@@ -16,10 +16,8 @@ import sympy as sm
 
 from derive.engine import model_derivation
 from derive.engine.model import (
-    NORMAL_FORCE,
     Coordinate,
     Event,
-    Failure,
     Impact,
     Model,
     Parameter,
@@ -28,20 +26,44 @@ from derive.engine.model import (
     Skeleton,
     leg,
 )
+from derive.models.common import INF, PI, fell_backward, gravity_parameter, lift_off, slope_gravity
 from derive.quantities import Derivation
 
-PI = float(sm.pi.evalf(17))
-
 PARAMETERS = (
-    Parameter("alpha", r"\alpha", 0.0, PI / 2, "half the angle between spokes: 0 < alpha < pi/2",
-              "half inter-spoke angle", {"positive": True}, default=PI / 8, unit="rad"),
-    Parameter("gamma", r"\gamma", -PI / 2, PI / 2, "slope angle, downhill positive: |gamma| < "
-              "pi/2", "slope angle", default=0.08, unit="rad"),
-    Parameter("l", "l", 0.0, float("inf"), "spoke length l > 0", "spoke length",
-              {"positive": True}, default=1.0, unit="m"),
-    Parameter("g", "g", 0.0, float("inf"), "gravity g > 0", "gravitational acceleration",
-              {"positive": True}, default=9.81, unit="m/s^2"),
-)  # fmt: skip
+    Parameter(
+        name="alpha",
+        latex=r"\alpha",
+        lower=0.0,
+        upper=PI / 2,
+        reason="half the angle between spokes: 0 < alpha < pi/2",
+        description="half inter-spoke angle",
+        assumptions={"positive": True},
+        default=PI / 8,
+        unit="rad",
+    ),
+    Parameter(
+        name="gamma",
+        latex=r"\gamma",
+        lower=-PI / 2,
+        upper=PI / 2,
+        reason="slope angle, downhill positive: |gamma| < pi/2",
+        description="slope angle",
+        default=0.08,
+        unit="rad",
+    ),
+    Parameter(
+        name="l",
+        latex="l",
+        lower=0.0,
+        upper=INF,
+        reason="spoke length l > 0",
+        description="spoke length",
+        assumptions={"positive": True},
+        default=1.0,
+        unit="m",
+    ),
+    gravity_parameter(),
+)
 alpha, gamma, l, g = (p.symbol for p in PARAMETERS)
 
 THETA = Coordinate(
@@ -57,7 +79,7 @@ STANCE = Phase(
     "stance",
     coordinates=(THETA,),
     bodies=(PointMass("hub", 1, leg(theta, l)),),
-    gravity=(g * sm.sin(gamma), -g * sm.cos(gamma)),
+    gravity=slope_gravity(g, gamma),
     # The next spoke, 2 alpha behind the stance spoke, and its foot.
     points={"next_foot": tuple(h - f for h, f in zip(leg(theta, l), leg(theta - 2 * alpha, l)))},
     # The stance spoke and the next, and every other spoke round the hub.
@@ -87,10 +109,7 @@ MODEL = Model(
             ends_step=True,
         ),
     ),
-    failures=(
-        Failure("fell-backward", THETA.u, -1, "the wheel stops and rolls back"),
-        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the slope"),
-    ),
+    failures=(fell_backward(THETA, "the wheel stops and rolls back"), lift_off("slope")),
     units={
         "time": "s",
         "length": "m",

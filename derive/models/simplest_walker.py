@@ -23,28 +23,26 @@ import sympy as sm
 
 from derive.engine import model_derivation
 from derive.engine.model import (
-    NORMAL_FORCE,
     Coordinate,
     Event,
-    Failure,
     Impact,
     Model,
-    Parameter,
     Phase,
     PointMass,
     Skeleton,
     leg,
 )
+from derive.models.common import PI, falls, slope_gravity, slope_parameter
 from derive.quantities import Derivation
 
-PI = float(sm.pi.evalf(17))
-
 PARAMETERS = (
-    Parameter("gamma", r"\gamma", 0.0, PI / 2, "a passive walker walks down a slope: "
-              "0 < gamma < pi/2", "slope angle", default=0.009, unit="rad",
-              computed=(1e-8, PI / 2), computed_reason="on slopes below 1e-8 rad the gait "
-              "search runs long (at 1e-12 it ran past a 20 s limit); 1e-8 takes about 10 s"),
-)  # fmt: skip
+    slope_parameter(
+        0.009,
+        computed=(1e-8, PI / 2),
+        computed_reason="on slopes below 1e-8 rad the gait "
+        "search runs long (at 1e-12 it ran past a 20 s limit); 1e-8 takes about 10 s",
+    ),
+)
 (gamma,) = (p.symbol for p in PARAMETERS)
 epsilon = sm.Symbol("epsilon", positive=True)  # foot mass / hip mass, taken to 0
 
@@ -79,7 +77,7 @@ STANCE = Phase(
         PointMass("stance_foot", epsilon, (0, 0)),
         PointMass("swing_foot", epsilon, swing_foot),
     ),
-    gravity=(sm.sin(gamma), -sm.cos(gamma)),
+    gravity=slope_gravity(1, gamma),
     points={"swing_foot": swing_foot},
 )
 
@@ -110,11 +108,7 @@ MODEL = Model(
             when=theta,  # past mid-stance: the new foot lands ahead of the hip
         ),
     ),
-    failures=(
-        Failure("fell-backward", THETA.u, -1, "the stance leg stops and swings back"),
-        Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the slope"),
-        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the slope"),
-    ),
+    failures=falls(THETA, ground="slope"),
     units={"time": "sqrt(l/g)", "length": "l", "mass": "M", "energy": "M g l", "force": "M g"},
     skeleton=SKELETON,
     step_length=swing_foot[0],

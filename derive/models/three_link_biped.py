@@ -28,7 +28,6 @@ import sympy as sm
 
 from derive.engine import model_derivation
 from derive.engine.model import (
-    NORMAL_FORCE,
     Coordinate,
     Event,
     Failure,
@@ -42,25 +41,68 @@ from derive.engine.model import (
     leg,
     swing_foot_clearance,
 )
+from derive.models.common import INF, fell_backward, fell_forward, gravity_parameter, lift_off
 from derive.quantities import Derivation
-
-INF = float("inf")
 
 # Grizzle et al. 2001, Table I (and the book's model_params_three_link.m, with g = 9.81).
 PARAMETERS = (
-    Parameter("m_h", "M_H", 0.0, INF, "hip mass m_h > 0", "hip mass", {"positive": True},
-              default=15.0, unit="kg"),
-    Parameter("m", "m", 0.0, INF, "leg mass m > 0", "mass of each leg (at its middle)",
-              {"positive": True}, default=5.0, unit="kg"),
-    Parameter("m_t", "M_T", 0.0, INF, "torso mass m_t > 0", "torso mass",
-              {"positive": True}, default=10.0, unit="kg"),
-    Parameter("r", "r", 0.0, INF, "leg length r > 0", "leg length", {"positive": True},
-              default=1.0, unit="m"),
-    Parameter("l", "l", 0.0, INF, "l > 0", "distance from the hip to the torso's mass",
-              {"positive": True}, default=0.5, unit="m"),
-    Parameter("g", "g", 0.0, INF, "gravity g > 0", "gravitational acceleration",
-              {"positive": True}, default=9.81, unit="m/s^2"),
-)  # fmt: skip
+    Parameter(
+        name="m_h",
+        latex="M_H",
+        lower=0.0,
+        upper=INF,
+        reason="hip mass m_h > 0",
+        description="hip mass",
+        assumptions={"positive": True},
+        default=15.0,
+        unit="kg",
+    ),
+    Parameter(
+        name="m",
+        latex="m",
+        lower=0.0,
+        upper=INF,
+        reason="leg mass m > 0",
+        description="mass of each leg (at its middle)",
+        assumptions={"positive": True},
+        default=5.0,
+        unit="kg",
+    ),
+    Parameter(
+        name="m_t",
+        latex="M_T",
+        lower=0.0,
+        upper=INF,
+        reason="torso mass m_t > 0",
+        description="torso mass",
+        assumptions={"positive": True},
+        default=10.0,
+        unit="kg",
+    ),
+    Parameter(
+        name="r",
+        latex="r",
+        lower=0.0,
+        upper=INF,
+        reason="leg length r > 0",
+        description="leg length",
+        assumptions={"positive": True},
+        default=1.0,
+        unit="m",
+    ),
+    Parameter(
+        name="l",
+        latex="l",
+        lower=0.0,
+        upper=INF,
+        reason="l > 0",
+        description="distance from the hip to the torso's mass",
+        assumptions={"positive": True},
+        default=0.5,
+        unit="m",
+    ),
+    gravity_parameter(),
+)
 m_h, m, m_t, r, l, g = (p.symbol for p in PARAMETERS)
 
 STANCE_LEG = Coordinate("theta1", "stance leg angle", "rad", reference="the vertical",
@@ -137,10 +179,10 @@ MODEL = Model(
         ),
     ),
     failures=(
-        Failure("fell-backward", STANCE_LEG.u, -1, "the stance leg stops and swings back"),
-        Failure("fell-forward", sm.cos(theta1), -1, "the hip reaches the ground"),
+        fell_backward(STANCE_LEG, "the stance leg stops and swings back"),
+        fell_forward(STANCE_LEG),
         Failure("torso-fell", sm.cos(theta3), -1, "the torso reaches the horizontal"),
-        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
+        lift_off(),
     ),
     conditions=(swing_foot_clearance(swing_foot[1], "m"),),
     units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},

@@ -53,11 +53,9 @@ from derive.engine.hybrid import (
     stride_closed_form,
 )
 from derive.engine.model import (
-    NORMAL_FORCE,
     Continuous,
     Coordinate,
     Event,
-    Failure,
     Impact,
     Model,
     Parameter,
@@ -65,31 +63,63 @@ from derive.engine.model import (
     PointMass,
     leg,
 )
+from derive.models.common import PI, closest_to_apex_cos, fell_backward, lift_off
 from derive.models.tle_moments import MOMENT_ORDER, moment_integral
 from derive.quantities import Condition, Derivation, Quantity
 
-PI = float(sm.pi.evalf(17))
-
 PARAMETERS = (
-    Parameter("beta", r"\beta", 0.0, 1.0, "beta = r_s / r_e is a length-shortening ratio: "
-              "0 < beta < 1", "length shorten ratio r_s / r_e", {"positive": True},
-              default=0.93, unit="1", computed=(1e-12, 1.0),
-              computed_reason="q^f grows as 1/beta^2 (1.1e24 at 1e-12) and overflows double "
-              "precision below about 1e-154 (1e-300 failed in the generated code)"),
-    Parameter("theta_II", r"\theta_{II}", -PI / 2, PI / 2, "the stance leg must point below "
-              "the horizontal: |theta_II| < pi/2", "stance leg angle at which the extension "
-              "starts", default=-0.1, unit="rad"),
-    Parameter("phi0", r"\varphi_0", 0.0, PI / 2, "inter-leg angle at heelstrike: 0 < phi0 < "
-              "pi/2, ILE eq. (16)", "inter-leg angle at heelstrike", {"positive": True},
-              default=0.7, unit="rad"),
-    Parameter("delta", r"\Delta", 0.0, PI / 2, "stance-angle interval of the extension: "
-              "0 < delta < theta_IV - theta_II < phi0 < pi/2 for a gait",
-              "stance-angle interval of the leg extension", {"positive": True},
-              default=0.4, unit="rad", computed=(1e-9, PI / 2),
-              computed_reason="the leg force grows as 1/delta^2: below 1e-9 rad the extension "
-              "is too stiff to integrate (at 1e-12 the search ran over 2 min); the instantaneous "
-              "extension is the ile model"),
-)  # fmt: skip
+    Parameter(
+        name="beta",
+        latex=r"\beta",
+        lower=0.0,
+        upper=1.0,
+        reason="beta = r_s / r_e is a length-shortening ratio: 0 < beta < 1",
+        description="length shorten ratio r_s / r_e",
+        assumptions={"positive": True},
+        default=0.93,
+        unit="1",
+        computed=(1e-12, 1.0),
+        computed_reason="q^f grows as 1/beta^2 (1.1e24 at 1e-12) and overflows double "
+        "precision below about 1e-154 (1e-300 failed in the generated code)",
+    ),
+    Parameter(
+        name="theta_II",
+        latex=r"\theta_{II}",
+        lower=-PI / 2,
+        upper=PI / 2,
+        reason="the stance leg must point below the horizontal: |theta_II| < pi/2",
+        description="stance leg angle at which the extension starts",
+        default=-0.1,
+        unit="rad",
+    ),
+    Parameter(
+        name="phi0",
+        latex=r"\varphi_0",
+        lower=0.0,
+        upper=PI / 2,
+        reason="inter-leg angle at heelstrike: 0 < phi0 < pi/2, ILE eq. (16)",
+        description="inter-leg angle at heelstrike",
+        assumptions={"positive": True},
+        default=0.7,
+        unit="rad",
+    ),
+    Parameter(
+        name="delta",
+        latex=r"\Delta",
+        lower=0.0,
+        upper=PI / 2,
+        reason="stance-angle interval of the extension: "
+        "0 < delta < theta_IV - theta_II < phi0 < pi/2 for a gait",
+        description="stance-angle interval of the leg extension",
+        assumptions={"positive": True},
+        default=0.4,
+        unit="rad",
+        computed=(1e-9, PI / 2),
+        computed_reason="the leg force grows as 1/delta^2: below 1e-9 rad the extension "
+        "is too stiff to integrate (at 1e-12 the search ran over 2 min); the instantaneous "
+        "extension is the ile model",
+    ),
+)
 beta, theta_II, phi0, delta = (p.symbol for p in PARAMETERS)
 
 THETA = Coordinate(
@@ -150,10 +180,7 @@ MODEL = Model(
               Impact("swing_foot", {theta: theta - phi0}), at=THETA_I + phi0, ends_step=True,
               equation="(5), (6)"),
     ),
-    failures=(
-        Failure("fell-backward", omega, -1, "the stance leg stops and falls back"),
-        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
-    ),
+    failures=(fell_backward(THETA, "the stance leg stops and falls back"), lift_off()),
     units={"time": "sqrt(r_e/g)", "length": "r_e", "mass": "m", "energy": "m g r_e",
            "force": "m g"},
     step_length=SWING_FOOT[0],
@@ -494,12 +521,6 @@ def _phase_contact_min(phase: Phase, level: sm.Expr, c_low: sm.Expr, c_high: sm.
     return inter, n_s
 
 
-def _cos_closest_to_apex(cos_a, sin_a, cos_b, sin_b) -> sm.Expr:
-    """The largest cos(theta) over [a, b]: 1 where the interval holds the apex theta = 0."""
-    contains_apex = sm.Piecewise((1, sin_a * sin_b <= 0), (0, True))
-    return _max(cos_a, cos_b, contains_apex)
-
-
 @functools.cache
 def leg_force_of_state() -> sm.Expr:
     """The leg actuator's force in the extension (in m g; > 0 pushes: compressive) from the
@@ -548,8 +569,8 @@ def extension_margins() -> dict[str, object]:
     # Apex: h**2 at the closest-to-apex angle of each phase.
     c_short, c_long = sm.symbols("c_max_short c_max_long", positive=True)
     inter += [
-        (c_short, _cos_closest_to_apex(cos_I, sin_I, sm.cos(theta_II), sm.sin(theta_II))),
-        (c_long, _cos_closest_to_apex(sm.cos(theta_III), sm.sin(theta_III), cos_IV, sin_IV)),
+        (c_short, closest_to_apex_cos(sin_I, cos_I, sm.sin(theta_II), sm.cos(theta_II), False)),
+        (c_long, closest_to_apex_cos(sm.sin(theta_III), sm.cos(theta_III), sin_IV, cos_IV, False)),
     ]
     h2_short, h2_ext, h2_long = sm.symbols("h2_min_short h2_min_extension h2_min_long", real=True)
     # h**2 at the angle where cos theta = c_short (c_long): the law integrated there.

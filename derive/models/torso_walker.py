@@ -33,10 +33,8 @@ import sympy as sm
 
 from derive.engine import model_derivation
 from derive.engine.model import (
-    NORMAL_FORCE,
     Coordinate,
     Event,
-    Failure,
     Impact,
     Model,
     Parameter,
@@ -46,34 +44,91 @@ from derive.engine.model import (
     leg,
     swing_foot_clearance,
 )
+from derive.models.common import INF, PI, falls, gravity_parameter, slope_gravity
 from derive.quantities import Derivation
-
-PI = float(sm.pi.evalf(17))
-INF = float("inf")
 
 # The companion code's model_params_three_link.m: r = 1, m = 5, Mh = 15, Mt = 10, L = 0.5,
 # g = 9.8 (SI units); its control_params_three_link.m holds the torso at th3d = pi/6. The
 # slope is Drake's compass gait's (CompassGaitParams, 0.0525 rad): with the swing leg free
 # there is no gait on level ground (docs/models/torso_walker.md).
 PARAMETERS = (
-    Parameter("m_h", "M_H", 0.0, INF, "hip mass m_h > 0", "hip mass", {"positive": True},
-              default=15.0, unit="kg"),
-    Parameter("m", "m", 0.0, INF, "leg mass m > 0", "mass of each leg (at its middle)",
-              {"positive": True}, default=5.0, unit="kg"),
-    Parameter("m_t", "M_T", 0.0, INF, "torso mass m_t > 0", "torso mass",
-              {"positive": True}, default=10.0, unit="kg"),
-    Parameter("r", "r", 0.0, INF, "leg length r > 0", "leg length", {"positive": True},
-              default=1.0, unit="m"),
-    Parameter("l_t", "L", 0.0, INF, "l_t > 0", "distance from the hip to the torso's mass",
-              {"positive": True}, default=0.5, unit="m"),
-    Parameter("rho", r"\rho", -PI / 2, PI / 2, "the torso above the hip: -pi/2 < rho < pi/2",
-              "torso lean from the vertical (forward positive)", default=PI / 6, unit="rad"),
-    Parameter("gamma", r"\gamma", -PI / 2, PI / 2, "-pi/2 < gamma < pi/2",
-              "slope angle (downhill positive; 0 is level ground)", default=0.0525,
-              unit="rad"),
-    Parameter("g", "g", 0.0, INF, "gravity g > 0", "gravitational acceleration",
-              {"positive": True}, default=9.8, unit="m/s^2"),
-)  # fmt: skip
+    Parameter(
+        name="m_h",
+        latex="M_H",
+        lower=0.0,
+        upper=INF,
+        reason="hip mass m_h > 0",
+        description="hip mass",
+        assumptions={"positive": True},
+        default=15.0,
+        unit="kg",
+    ),
+    Parameter(
+        name="m",
+        latex="m",
+        lower=0.0,
+        upper=INF,
+        reason="leg mass m > 0",
+        description="mass of each leg (at its middle)",
+        assumptions={"positive": True},
+        default=5.0,
+        unit="kg",
+    ),
+    Parameter(
+        name="m_t",
+        latex="M_T",
+        lower=0.0,
+        upper=INF,
+        reason="torso mass m_t > 0",
+        description="torso mass",
+        assumptions={"positive": True},
+        default=10.0,
+        unit="kg",
+    ),
+    Parameter(
+        name="r",
+        latex="r",
+        lower=0.0,
+        upper=INF,
+        reason="leg length r > 0",
+        description="leg length",
+        assumptions={"positive": True},
+        default=1.0,
+        unit="m",
+    ),
+    Parameter(
+        name="l_t",
+        latex="L",
+        lower=0.0,
+        upper=INF,
+        reason="l_t > 0",
+        description="distance from the hip to the torso's mass",
+        assumptions={"positive": True},
+        default=0.5,
+        unit="m",
+    ),
+    Parameter(
+        name="rho",
+        latex=r"\rho",
+        lower=-PI / 2,
+        upper=PI / 2,
+        reason="the torso above the hip: -pi/2 < rho < pi/2",
+        description="torso lean from the vertical (forward positive)",
+        default=PI / 6,
+        unit="rad",
+    ),
+    Parameter(
+        name="gamma",
+        latex=r"\gamma",
+        lower=-PI / 2,
+        upper=PI / 2,
+        reason="-pi/2 < gamma < pi/2",
+        description="slope angle (downhill positive; 0 is level ground)",
+        default=0.0525,
+        unit="rad",
+    ),
+    gravity_parameter(9.8),
+)
 m_h, m, m_t, r, l_t, rho, gamma, g = (p.symbol for p in PARAMETERS)
 
 THETA = Coordinate(
@@ -116,7 +171,7 @@ STANCE = Phase(
         PointMass("swing_leg", m, tuple(h - f for h, f in zip(hip, leg(psi, r / 2)))),
         PointMass("torso", m_t, torso),
     ),
-    gravity=(g * sm.sin(gamma), -g * sm.cos(gamma)),
+    gravity=slope_gravity(g, gamma),
     # The torso's angle from the vertical is theta + phi + gamma: held at rho.
     held={phi: rho - gamma - theta},
     points={"swing_foot": swing_foot},
@@ -149,11 +204,7 @@ MODEL = Model(
             when=theta,  # past mid-stance: the new foot lands ahead of the hip
         ),
     ),
-    failures=(
-        Failure("fell-backward", THETA.u, -1, "the stance leg stops and swings back"),
-        Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the ground"),
-        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
-    ),
+    failures=falls(THETA),
     conditions=(swing_foot_clearance(swing_foot[1], "m"),),
     units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},
     skeleton=SKELETON,

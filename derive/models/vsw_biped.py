@@ -40,7 +40,6 @@ import sympy as sm
 
 from derive.engine import model_derivation
 from derive.engine.model import (
-    NORMAL_FORCE,
     Coordinate,
     Event,
     Failure,
@@ -54,6 +53,7 @@ from derive.engine.model import (
     leg,
     swing_foot_clearance,
 )
+from derive.models.common import INF, falls
 from derive.models.ile.model import PARAMETERS as ILE_PARAMETERS
 from derive.quantities import Derivation
 
@@ -61,15 +61,33 @@ BETA, THETA_II = (p for p in ILE_PARAMETERS if p.name in ("beta", "theta_II"))
 PARAMETERS = (
     BETA,
     THETA_II,
-    Parameter("mu", r"\mu", 0.0, float("inf"), "mu = m / m_H > 0: the legs have mass",
-              "mass of each leg over the hip mass", {"positive": True}, default=0.1, unit="1"),
-    Parameter("b_over_l", "b / l", 0.0, 1.0, "the leg's mass lies between the hip and the "
-              "foot: 0 < b / l < 1", "distance from the hip to a leg's mass, over l",
-              {"positive": True}, default=0.3, unit="1", computed=(1e-6, 1.0),
-              computed_reason="the swing leg's inertia about the hip, mu (b/l)^2, vanishes in "
-              "double precision below; near it the swing is so fast that the gait search runs "
-              "long (at b/l = 1e-3 it ran past a 40 s limit, which stops it)"),
-)  # fmt: skip
+    Parameter(
+        name="mu",
+        latex=r"\mu",
+        lower=0.0,
+        upper=INF,
+        reason="mu = m / m_H > 0: the legs have mass",
+        description="mass of each leg over the hip mass",
+        assumptions={"positive": True},
+        default=0.1,
+        unit="1",
+    ),
+    Parameter(
+        name="b_over_l",
+        latex="b / l",
+        lower=0.0,
+        upper=1.0,
+        reason="the leg's mass lies between the hip and the foot: 0 < b / l < 1",
+        description="distance from the hip to a leg's mass, over l",
+        assumptions={"positive": True},
+        default=0.3,
+        unit="1",
+        computed=(1e-6, 1.0),
+        computed_reason="the swing leg's inertia about the hip, mu (b/l)^2, vanishes in "
+        "double precision below; near it the swing is so fast that the gait search runs "
+        "long (at b/l = 1e-3 it ran past a 40 s limit, which stops it)",
+    ),
+)
 beta, theta_II, mu, b = (p.symbol for p in PARAMETERS)
 
 THETA = Coordinate(
@@ -125,11 +143,7 @@ UNITS = {"time": "sqrt(l/g)", "length": "l", "mass": "m_H", "energy": "m_H g l",
 # theta may be positive just after heelstrike (a foot landing behind the hip): the gait
 # with max |eigenvalue| 2.31 at (0.8, 0.1, 0.3, 0.3) has theta = 0.095.
 SEARCH = {"theta": (-0.8, 0.8), "theta_dot": (0.0, 2.5), "psi_dot": (-4.0, 4.0)}
-FALLS = (
-    Failure("fell-backward", THETA.u, -1, "the walker stops before the apex and falls back"),
-    Failure("fell-forward", sm.cos(theta), -1, "the hip reaches the ground"),
-    Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
-)
+FALLS = falls(THETA, backward="the walker stops before the apex and falls back")
 """How a VSW biped's walk ends, in every phase (the other biped models share them)."""
 # Heavier legs shorten the step: past a point heelstrike leaves the new stance leg already
 # beyond theta_II, and the extension, an event at theta_II, never comes. The model has no

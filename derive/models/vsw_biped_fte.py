@@ -33,6 +33,7 @@ import sympy as sm
 
 from derive.engine import model_derivation
 from derive.engine.model import Continuous, Event, Model, Parameter, swing_foot_clearance
+from derive.models.common import PI
 from derive.models.tle import profile
 from derive.models.vsw_biped import (
     EXTENSION_MISSED,
@@ -49,22 +50,29 @@ from derive.models.vsw_biped import (
 from derive.models.vsw_biped import PARAMETERS as BIPED_PARAMETERS
 from derive.quantities import Derivation
 
-PI = float(sm.pi.evalf(17))
-
 # Defaults where this walker has a stable gait (max |eigenvalue| 0.31 at mu = 0.1; the
 # biped's defaults, beta = 0.8 and theta_II = 0, give gaits with eigenvalues in the
 # hundreds here).
 _DEFAULTS = {"beta": 0.97, "theta_II": -0.2}
 PARAMETERS = (
     *(dataclasses.replace(p, default=_DEFAULTS.get(p.name, p.default)) for p in BIPED_PARAMETERS),
-    Parameter("delta", r"\Delta", 0.0, PI / 2, "stance-angle interval of the extension: "
-              "0 < delta < pi/2", "stance-angle interval of the leg extension",
-              {"positive": True}, default=0.3, unit="rad", computed=(1e-3, PI / 2),
-              computed_reason="the leg force grows as 1/delta^2 and the free swing leg's "
-              "rate after the extension as 1/delta: below 1e-3 rad the extension is too "
-              "stiff to integrate in reasonable time; the instantaneous limit does not "
-              "exist with a free hip (the vsw_biped model holds the hip instead)"),
-)  # fmt: skip
+    Parameter(
+        name="delta",
+        latex=r"\Delta",
+        lower=0.0,
+        upper=PI / 2,
+        reason="stance-angle interval of the extension: 0 < delta < pi/2",
+        description="stance-angle interval of the leg extension",
+        assumptions={"positive": True},
+        default=0.3,
+        unit="rad",
+        computed=(1e-3, PI / 2),
+        computed_reason="the leg force grows as 1/delta^2 and the free swing leg's "
+        "rate after the extension as 1/delta: below 1e-3 rad the extension is too "
+        "stiff to integrate in reasonable time; the instantaneous limit does not "
+        "exist with a free hip (the vsw_biped model holds the hip instead)",
+    ),
+)
 beta, theta_II, mu, b, delta = (p.symbol for p in PARAMETERS)
 theta = THETA.q
 # The TLE's profile, in l here: its beta, theta_II and delta are these symbols (same

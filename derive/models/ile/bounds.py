@@ -9,6 +9,7 @@ import functools
 import sympy as sm
 
 from derive import mechanics
+from derive.models.common import closest_to_apex_cos
 from derive.models.ile.model import beta, leg_ratio, omega, q, theta, theta_I, theta_II
 from derive.models.ile.phases import (
     eliminate_contact_angles,
@@ -19,22 +20,6 @@ from derive.models.ile.phases import (
     swing_phase_dimensionless,
 )
 from derive.models.ile.stride_map import stride
-
-
-def closest_to_apex_cos(
-    theta_lo_sin: sm.Expr, cos_lo: sm.Expr, theta_hi_sin: sm.Expr, cos_hi: sm.Expr
-) -> sm.Expr:
-    """cos of the angle in [lo, hi] closest to the apex theta = 0 (where cos is largest), where
-    ``omega**2`` along a phase is least: the apex bound (14).
-
-    With both ends on one side of the apex it is the larger end cosine; otherwise the
-    interval contains the apex and it is 1. Written as a maximum with the indicator of
-    "contains the apex" (cosines lie in (0, 1] on the domain), which evaluates without a
-    select. For a reversed interval (lo > hi: the stance leg never reaches theta_II, a set
-    that does not walk) the value means nothing (only its sign is used).
-    """
-    contains_apex = sm.Piecewise((1, theta_lo_sin * theta_hi_sin <= 0), (0, True))
-    return sm.Max(cos_lo, cos_hi, contains_apex)
 
 
 @functools.cache

@@ -10,7 +10,8 @@ import functools
 import sympy as sm
 
 from derive import mechanics
-from derive.models.ile.bounds import apex_and_contact, closest_to_apex_cos
+from derive.models.common import closest_to_apex_cos
+from derive.models.ile.bounds import apex_and_contact
 from derive.models.ile.model import (
     beta,
     leg_ratio,

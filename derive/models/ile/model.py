@@ -24,10 +24,8 @@ from __future__ import annotations
 import sympy as sm
 
 from derive.engine.model import (
-    NORMAL_FORCE,
     Coordinate,
     Event,
-    Failure,
     Impact,
     Jump,
     Model,
@@ -35,6 +33,7 @@ from derive.engine.model import (
     PointMass,
     leg,
 )
+from derive.models.common import PI, fell_backward, lift_off
 from derive.quantities import Parameter
 
 PARAMETERS: tuple[Parameter, ...] = (
@@ -52,8 +51,8 @@ PARAMETERS: tuple[Parameter, ...] = (
     Parameter(
         name="theta_II",
         latex=r"\theta_{II}",
-        lower=-sm.pi.evalf(17) / 2,
-        upper=sm.pi.evalf(17) / 2,
+        lower=-PI / 2,
+        upper=PI / 2,
         reason="the stance leg must point below the horizontal: |theta_II| < pi/2",
         description="stance leg angle at which the leg extends (instant II)",
         cli_degrees=True,
@@ -64,12 +63,12 @@ PARAMETERS: tuple[Parameter, ...] = (
         name="phi0",
         latex=r"\varphi_0",
         lower=0.0,
-        upper=sm.pi.evalf(17) / 2,
+        upper=PI / 2,
         reason="inter-leg angle at heelstrike: 0 < phi0 < pi/2, eq. (16)",
         description="inter-leg angle at heelstrike",
         assumptions={"positive": True},
         cli_degrees=True,
-        default=float(sm.pi.evalf(17) / 4),
+        default=PI / 4,
         unit="rad",
     ),
 )
@@ -155,10 +154,7 @@ MODEL = Model(
             equation="(5), (6)",
         ),
     ),
-    failures=(
-        Failure("fell-backward", THETA.u, -1, "the walker stops before the apex and falls back"),
-        Failure("lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground"),
-    ),
+    failures=(fell_backward(THETA, "the walker stops before the apex and falls back"), lift_off()),
     units={
         "time": "sqrt(r_e/g)",
         "length": "r_e",

@@ -1,0 +1,102 @@
+"""What the model files share: the bounds their parameter tables take, the standard
+parameters (gravity, a passive walker's slope), gravity in a slope's frame, the ways a walk
+on a stance leg ends (falling backward or forward, the stance foot lifting off), and the
+point of a phase nearest the apex.
+
+Each is written once so that a model file states only what is its own; the wording of a
+parameter's reason or a failure's meaning is the generated tables' and messages', so it is
+passed where a model's differs.
+"""
+
+from __future__ import annotations
+
+import sympy as sm
+
+from derive.engine.model import NORMAL_FORCE, Coordinate, Failure, Parameter
+
+PI = float(sm.pi.evalf(17))
+"""pi as a float: the angle bounds of the parameter tables (``PI / 2``)."""
+INF = float("inf")
+"""The upper bound of a scale (a mass, a length, gravity)."""
+
+
+def gravity_parameter(default: float = 9.81, unit: str = "m/s^2") -> Parameter:
+    """The gravitational acceleration ``g > 0``."""
+    return Parameter(
+        name="g",
+        latex="g",
+        lower=0.0,
+        upper=INF,
+        reason="gravity g > 0",
+        description="gravitational acceleration",
+        assumptions={"positive": True},
+        default=default,
+        unit=unit,
+    )
+
+
+def slope_parameter(default: float, **fields) -> Parameter:
+    """The slope ``0 < gamma < pi/2`` a passive walker walks down (``fields``: the other
+    fields of :class:`~derive.quantities.Parameter`, such as ``computed``)."""
+    return Parameter(
+        name="gamma",
+        latex=r"\gamma",
+        lower=0.0,
+        upper=PI / 2,
+        reason="a passive walker walks down a slope: 0 < gamma < pi/2",
+        description="slope angle",
+        default=default,
+        unit="rad",
+        **fields,
+    )
+
+
+def slope_gravity(g: sm.Expr, gamma: sm.Expr) -> tuple[sm.Expr, sm.Expr]:
+    """Gravity in the frame of a slope of angle ``gamma`` (x down the slope, y along its
+    normal): a walker on the slope walks as on level ground under tilted gravity."""
+    return (g * sm.sin(gamma), -g * sm.cos(gamma))
+
+
+def fell_backward(stance: Coordinate, meaning: str) -> Failure:
+    """The stance coordinate's rate falls through zero: the walker stops before the apex
+    and goes back."""
+    return Failure("fell-backward", stance.u, -1, meaning)
+
+
+def fell_forward(stance: Coordinate, ground: str = "ground") -> Failure:
+    """The stance leg's angle from the ground's normal reaches a right angle: the hip
+    reaches the ground (``"slope"`` on a slope)."""
+    return Failure("fell-forward", sm.cos(stance.q), -1, f"the hip reaches the {ground}")
+
+
+def lift_off(ground: str = "ground") -> Failure:
+    """The ground's normal force on the stance foot falls through zero."""
+    return Failure("lift-off", NORMAL_FORCE, -1, f"the stance foot leaves the {ground}")
+
+
+def falls(
+    stance: Coordinate,
+    ground: str = "ground",
+    backward: str = "the stance leg stops and swings back",
+) -> tuple[Failure, ...]:
+    """The three ways a walk on a stance leg ends, in this order (their indices in the
+    generated code): :func:`fell_backward`, :func:`fell_forward`, :func:`lift_off`."""
+    return (fell_backward(stance, backward), fell_forward(stance, ground), lift_off(ground))
+
+
+def closest_to_apex_cos(
+    sin_lo: sm.Expr, cos_lo: sm.Expr, sin_hi: sm.Expr, cos_hi: sm.Expr, evaluate: bool = True
+) -> sm.Expr:
+    """cos of the angle in [lo, hi] closest to the apex theta = 0 (where cos is largest),
+    where a stance leg's rate is least: the apex condition's point of a phase (the ILE's
+    eq. (14)).
+
+    With both ends on one side of the apex it is the larger end cosine; otherwise the
+    interval contains the apex and it is 1. Written as a maximum with the indicator of
+    "contains the apex" (cosines lie in (0, 1] on the domain), which evaluates without a
+    select; ``evaluate=False`` spares sympy comparing the arguments (seconds on large
+    ones). For a reversed interval (lo > hi: the stance leg never reaches the phase's end,
+    a set that does not walk) the value means nothing (only its sign is used).
+    """
+    contains_apex = sm.Piecewise((1, sin_lo * sin_hi <= 0), (0, True))
+    return sm.Max(cos_lo, cos_hi, contains_apex, evaluate=evaluate)
