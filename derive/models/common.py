@@ -1,7 +1,7 @@
 """What the model files share: the bounds their parameter tables take, the standard
-parameters (gravity, a passive walker's slope), gravity in a slope's frame, the ways a walk
-on a stance leg ends (falling backward or forward, the stance foot lifting off), and the
-point of a phase nearest the apex.
+parameters (a positive scale, gravity, a passive walker's slope), gravity in a slope's
+frame, the ways a walk on a stance leg ends (falling backward or forward, the stance foot
+lifting off), and the point of a phase nearest the apex.
 
 Each is written once so that a model file states only what is its own; the wording of a
 parameter's reason or a failure's meaning is the generated tables' and messages', so it is
@@ -20,16 +20,31 @@ INF = float("inf")
 """The upper bound of a scale (a mass, a length, gravity)."""
 
 
-def gravity_parameter(default: float = 9.81, unit: str = "m/s^2") -> Parameter:
-    """The gravitational acceleration ``g > 0``."""
+def scale_parameter(
+    *, name: str, latex: str, reason: str, description: str, default: float, unit: str
+) -> Parameter:
+    """A positive scale (a mass, a length, an inertia): ``0 < value < inf``, its symbol
+    positive."""
     return Parameter(
-        name="g",
-        latex="g",
+        name=name,
+        latex=latex,
         lower=0.0,
         upper=INF,
+        reason=reason,
+        description=description,
+        assumptions={"positive": True},
+        default=default,
+        unit=unit,
+    )
+
+
+def gravity_parameter(default: float = 9.81, unit: str = "m/s^2") -> Parameter:
+    """The gravitational acceleration ``g > 0``."""
+    return scale_parameter(
+        name="g",
+        latex="g",
         reason="gravity g > 0",
         description="gravitational acceleration",
-        assumptions={"positive": True},
         default=default,
         unit=unit,
     )

@@ -25,60 +25,53 @@ from derive.engine.model import (
     Impact,
     Input,
     Model,
-    Parameter,
     Phase,
     PointMass,
     Skeleton,
     leg,
     swing_foot_clearance,
 )
-from derive.models.common import INF, falls, gravity_parameter, slope_gravity, slope_parameter
+from derive.models.common import (
+    falls,
+    gravity_parameter,
+    scale_parameter,
+    slope_gravity,
+    slope_parameter,
+)
 from derive.quantities import Derivation
 
 # Drake's CompassGaitParams: mass_hip 10 kg, mass_leg 5 kg, length_leg 1 m,
 # center_of_mass_leg 0.5 m (from the hip), slope 0.0525 rad, gravity 9.81 m/s^2.
 PARAMETERS = (
-    Parameter(
+    scale_parameter(
         name="m_h",
         latex="m_H",
-        lower=0.0,
-        upper=INF,
         reason="hip mass m_h > 0",
         description="hip mass",
-        assumptions={"positive": True},
         default=10.0,
         unit="kg",
     ),
-    Parameter(
+    scale_parameter(
         name="m",
         latex="m",
-        lower=0.0,
-        upper=INF,
         reason="leg mass m > 0",
         description="mass of each leg",
-        assumptions={"positive": True},
         default=5.0,
         unit="kg",
     ),
-    Parameter(
+    scale_parameter(
         name="a",
         latex="a",
-        lower=0.0,
-        upper=INF,
         reason="a > 0",
         description="distance from a foot to its leg's mass",
-        assumptions={"positive": True},
         default=0.5,
         unit="m",
     ),
-    Parameter(
+    scale_parameter(
         name="b",
         latex="b",
-        lower=0.0,
-        upper=INF,
         reason="b > 0",
         description="distance from the hip to a leg's mass",
-        assumptions={"positive": True},
         default=0.5,
         unit="m",
     ),

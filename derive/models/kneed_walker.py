@@ -42,7 +42,6 @@ from derive.engine.model import (
     Impact,
     Lock,
     Model,
-    Parameter,
     Phase,
     PointMass,
     Skeleton,
@@ -50,87 +49,72 @@ from derive.engine.model import (
     leg,
     swing_foot_clearance,
 )
-from derive.models.common import INF, falls, gravity_parameter, slope_gravity, slope_parameter
+from derive.models.common import (
+    falls,
+    gravity_parameter,
+    scale_parameter,
+    slope_gravity,
+    slope_parameter,
+)
 from derive.quantities import Derivation
 
 # Hsu Chen 2007, chapter 3 (her table of the point-foot walker): m_H = 0.5, m_t = 0.5,
 # m_s = 0.05 kg; a1 = 0.375, b1 = 0.125 (shank), a2 = 0.175, b2 = 0.325 m (thigh); slope
 # 0.0504 rad; g = 9.81 m/s^2.
 PARAMETERS = (
-    Parameter(
+    scale_parameter(
         name="m_h",
         latex="m_H",
-        lower=0.0,
-        upper=INF,
         reason="hip mass m_h > 0",
         description="hip mass",
-        assumptions={"positive": True},
         default=0.5,
         unit="kg",
     ),
-    Parameter(
+    scale_parameter(
         name="m_t",
         latex="m_t",
-        lower=0.0,
-        upper=INF,
         reason="thigh mass m_t > 0",
         description="mass of each thigh",
-        assumptions={"positive": True},
         default=0.5,
         unit="kg",
     ),
-    Parameter(
+    scale_parameter(
         name="m_s",
         latex="m_s",
-        lower=0.0,
-        upper=INF,
         reason="shank mass m_s > 0",
         description="mass of each shank",
-        assumptions={"positive": True},
         default=0.05,
         unit="kg",
     ),
-    Parameter(
+    scale_parameter(
         name="a1",
         latex="a_1",
-        lower=0.0,
-        upper=INF,
         reason="a1 > 0",
         description="distance from a foot to its shank's mass",
-        assumptions={"positive": True},
         default=0.375,
         unit="m",
     ),
-    Parameter(
+    scale_parameter(
         name="b1",
         latex="b_1",
-        lower=0.0,
-        upper=INF,
         reason="b1 > 0",
         description="distance from a shank's mass to the knee",
-        assumptions={"positive": True},
         default=0.125,
         unit="m",
     ),
-    Parameter(
+    scale_parameter(
         name="a2",
         latex="a_2",
-        lower=0.0,
-        upper=INF,
         reason="a2 > 0",
         description="distance from a knee to its thigh's mass",
-        assumptions={"positive": True},
         default=0.175,
         unit="m",
     ),
-    Parameter(
+    scale_parameter(
         name="b2",
         latex="b_2",
-        lower=0.0,
-        upper=INF,
         reason="b2 > 0",
         description="distance from a thigh's mass to the hip",
-        assumptions={"positive": True},
         default=0.325,
         unit="m",
     ),

@@ -34,47 +34,37 @@ from derive.engine.model import (
     Impulse,
     Input,
     Model,
-    Parameter,
     ParameterCondition,
     Phase,
     PointMass,
     leg,
 )
-from derive.models.common import INF, fell_backward, gravity_parameter
+from derive.models.common import fell_backward, gravity_parameter, scale_parameter
 from derive.quantities import Derivation
 
 PARAMETERS = (
-    Parameter(
+    scale_parameter(
         name="m",
         latex="m",
-        lower=0.0,
-        upper=INF,
         reason="mass m > 0",
         description="mass at the hip",
-        assumptions={"positive": True},
         default=1.0,
         unit="kg",
     ),
     gravity_parameter(1.0),
-    Parameter(
+    scale_parameter(
         name="l",
         latex="l",
-        lower=0.0,
-        upper=INF,
         reason="leg length l > 0",
         description="length of each leg",
-        assumptions={"positive": True},
         default=1.0,
         unit="m",
     ),
-    Parameter(
+    scale_parameter(
         name="d",
         latex="d",
-        lower=0.0,
-        upper=INF,
         reason="step length d > 0",
         description="step length: from the stance foot to the next",
-        assumptions={"positive": True},
         default=0.6,
         unit="m",
     ),

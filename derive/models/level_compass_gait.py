@@ -33,58 +33,45 @@ from derive.engine.model import (
     Impulse,
     Input,
     Model,
-    Parameter,
     Phase,
     PointMass,
     leg,
     swing_foot_clearance,
 )
-from derive.models.common import INF, falls, gravity_parameter
+from derive.models.common import falls, gravity_parameter, scale_parameter
 from derive.quantities import Derivation
 
 # Drake's CompassGaitParams (as compass_gait.py), without the slope.
 PARAMETERS = (
-    Parameter(
+    scale_parameter(
         name="m_h",
         latex="m_H",
-        lower=0.0,
-        upper=INF,
         reason="hip mass m_h > 0",
         description="hip mass",
-        assumptions={"positive": True},
         default=10.0,
         unit="kg",
     ),
-    Parameter(
+    scale_parameter(
         name="m",
         latex="m",
-        lower=0.0,
-        upper=INF,
         reason="leg mass m > 0",
         description="mass of each leg",
-        assumptions={"positive": True},
         default=5.0,
         unit="kg",
     ),
-    Parameter(
+    scale_parameter(
         name="a",
         latex="a",
-        lower=0.0,
-        upper=INF,
         reason="a > 0",
         description="distance from a foot to its leg's mass",
-        assumptions={"positive": True},
         default=0.5,
         unit="m",
     ),
-    Parameter(
+    scale_parameter(
         name="b",
         latex="b",
-        lower=0.0,
-        upper=INF,
         reason="b > 0",
         description="distance from the hip to a leg's mass",
-        assumptions={"positive": True},
         default=0.5,
         unit="m",
     ),

@@ -46,57 +46,44 @@ from derive.engine.model import (
     Impulse,
     Input,
     Model,
-    Parameter,
     ParameterCondition,
     Phase,
     PointMass,
 )
-from derive.models.common import INF, gravity_parameter
+from derive.models.common import gravity_parameter, scale_parameter
 from derive.quantities import Derivation
 
 PARAMETERS = (
-    Parameter(
+    scale_parameter(
         name="m",
         latex="m",
-        lower=0.0,
-        upper=INF,
         reason="mass m > 0",
         description="mass at the hip",
-        assumptions={"positive": True},
         default=1.0,
         unit="kg",
     ),
     gravity_parameter(1.0),
-    Parameter(
+    scale_parameter(
         name="l",
         latex="l",
-        lower=0.0,
-        upper=INF,
         reason="leg length l > 0",
         description="longest length of a leg",
-        assumptions={"positive": True},
         default=1.0,
         unit="m",
     ),
-    Parameter(
+    scale_parameter(
         name="d",
         latex="d",
-        lower=0.0,
-        upper=INF,
         reason="step length d > 0",
         description="step length: from the stance foot to the next",
-        assumptions={"positive": True},
         default=0.6,
         unit="m",
     ),
-    Parameter(
+    scale_parameter(
         name="l_min",
         latex=r"l_{min}",
-        lower=0.0,
-        upper=INF,
         reason="shortest leg l_min > 0 (l_min = l: rigid legs, Kuo's simplest walking model)",
         description="shortest length of a leg (the end of its stroke)",
-        assumptions={"positive": True},
         default=0.5,
         unit="m",
     ),

@@ -91,147 +91,110 @@ from derive.engine.model import (
     Impact,
     Input,
     Model,
-    Parameter,
     Phase,
     RigidSegment,
     Skeleton,
     leg,
     swing_foot_clearance,
 )
-from derive.models.common import INF, gravity_parameter, lift_off
+from derive.models.common import gravity_parameter, lift_off, scale_parameter
 from derive.quantities import Derivation
 
 # RABBIT's published tables (Chevallereau et al. 2003; Westervelt et al. 2004): see the docstring.
 PARAMETERS = (
-    Parameter(
+    scale_parameter(
         name="m_torso",
         latex="M_T",
-        lower=0.0,
-        upper=INF,
         reason="torso mass m_torso > 0",
         description="torso mass",
-        assumptions={"positive": True},
         default=12.0,
         unit="kg",
     ),
-    Parameter(
+    scale_parameter(
         name="m_femur",
         latex="M_f",
-        lower=0.0,
-        upper=INF,
         reason="femur mass m_femur > 0",
         description="mass of each femur",
-        assumptions={"positive": True},
         default=6.8,
         unit="kg",
     ),
-    Parameter(
+    scale_parameter(
         name="m_tibia",
         latex="M_t",
-        lower=0.0,
-        upper=INF,
         reason="tibia mass m_tibia > 0",
         description="mass of each tibia",
-        assumptions={"positive": True},
         default=3.2,
         unit="kg",
     ),
-    Parameter(
+    scale_parameter(
         name="i_torso",
         latex="I_T",
-        lower=0.0,
-        upper=INF,
         reason="i_torso > 0",
         description="torso's moment of inertia about its mass centre",
-        assumptions={"positive": True},
         default=1.33,
         unit="kg m^2",
     ),
-    Parameter(
+    scale_parameter(
         name="i_femur",
         latex="I_f",
-        lower=0.0,
-        upper=INF,
         reason="i_femur > 0",
         description="a femur's moment of inertia about its mass centre",
-        assumptions={"positive": True},
         default=0.47,
         unit="kg m^2",
     ),
-    Parameter(
+    scale_parameter(
         name="i_tibia",
         latex="I_t",
-        lower=0.0,
-        upper=INF,
         reason="i_tibia > 0",
         description="a tibia's moment of inertia about its mass centre",
-        assumptions={"positive": True},
         default=0.20,
         unit="kg m^2",
     ),
-    Parameter(
+    scale_parameter(
         name="l_torso",
         latex="L_T",
-        lower=0.0,
-        upper=INF,
         reason="l_torso > 0",
         description="torso length from the hip (drawn only)",
-        assumptions={"positive": True},
         default=0.625,
         unit="m",
     ),
-    Parameter(
+    scale_parameter(
         name="l_femur",
         latex="L_f",
-        lower=0.0,
-        upper=INF,
         reason="l_femur > 0",
         description="femur length (hip to knee)",
-        assumptions={"positive": True},
         default=0.4,
         unit="m",
     ),
-    Parameter(
+    scale_parameter(
         name="l_tibia",
         latex="L_t",
-        lower=0.0,
-        upper=INF,
         reason="l_tibia > 0",
         description="tibia length (knee to foot)",
-        assumptions={"positive": True},
         default=0.4,
         unit="m",
     ),
-    Parameter(
+    scale_parameter(
         name="c_torso",
         latex="p_{M_T}",
-        lower=0.0,
-        upper=INF,
         reason="c_torso > 0",
         description="distance from the hip up to the torso's mass centre",
-        assumptions={"positive": True},
         default=0.24,
         unit="m",
     ),
-    Parameter(
+    scale_parameter(
         name="c_femur",
         latex="p_{M_f}",
-        lower=0.0,
-        upper=INF,
         reason="c_femur > 0",
         description="distance from the hip down to a femur's mass centre",
-        assumptions={"positive": True},
         default=0.11,
         unit="m",
     ),
-    Parameter(
+    scale_parameter(
         name="c_tibia",
         latex="p_{M_t}",
-        lower=0.0,
-        upper=INF,
         reason="c_tibia > 0",
         description="distance from the knee down to a tibia's mass centre",
-        assumptions={"positive": True},
         default=0.24,
         unit="m",
     ),

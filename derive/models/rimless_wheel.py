@@ -26,7 +26,14 @@ from derive.engine.model import (
     Skeleton,
     leg,
 )
-from derive.models.common import INF, PI, fell_backward, gravity_parameter, lift_off, slope_gravity
+from derive.models.common import (
+    PI,
+    fell_backward,
+    gravity_parameter,
+    lift_off,
+    scale_parameter,
+    slope_gravity,
+)
 from derive.quantities import Derivation
 
 PARAMETERS = (
@@ -51,14 +58,11 @@ PARAMETERS = (
         default=0.08,
         unit="rad",
     ),
-    Parameter(
+    scale_parameter(
         name="l",
         latex="l",
-        lower=0.0,
-        upper=INF,
         reason="spoke length l > 0",
         description="spoke length",
-        assumptions={"positive": True},
         default=1.0,
         unit="m",
     ),

@@ -34,70 +34,60 @@ from derive.engine.model import (
     Impact,
     Input,
     Model,
-    Parameter,
     Phase,
     PointMass,
     Skeleton,
     leg,
     swing_foot_clearance,
 )
-from derive.models.common import INF, fell_backward, fell_forward, gravity_parameter, lift_off
+from derive.models.common import (
+    fell_backward,
+    fell_forward,
+    gravity_parameter,
+    lift_off,
+    scale_parameter,
+)
 from derive.quantities import Derivation
 
 # Grizzle et al. 2001, Table I (and the book's model_params_three_link.m, with g = 9.81).
 PARAMETERS = (
-    Parameter(
+    scale_parameter(
         name="m_h",
         latex="M_H",
-        lower=0.0,
-        upper=INF,
         reason="hip mass m_h > 0",
         description="hip mass",
-        assumptions={"positive": True},
         default=15.0,
         unit="kg",
     ),
-    Parameter(
+    scale_parameter(
         name="m",
         latex="m",
-        lower=0.0,
-        upper=INF,
         reason="leg mass m > 0",
         description="mass of each leg (at its middle)",
-        assumptions={"positive": True},
         default=5.0,
         unit="kg",
     ),
-    Parameter(
+    scale_parameter(
         name="m_t",
         latex="M_T",
-        lower=0.0,
-        upper=INF,
         reason="torso mass m_t > 0",
         description="torso mass",
-        assumptions={"positive": True},
         default=10.0,
         unit="kg",
     ),
-    Parameter(
+    scale_parameter(
         name="r",
         latex="r",
-        lower=0.0,
-        upper=INF,
         reason="leg length r > 0",
         description="leg length",
-        assumptions={"positive": True},
         default=1.0,
         unit="m",
     ),
-    Parameter(
+    scale_parameter(
         name="l",
         latex="l",
-        lower=0.0,
-        upper=INF,
         reason="l > 0",
         description="distance from the hip to the torso's mass",
-        assumptions={"positive": True},
         default=0.5,
         unit="m",
     ),

@@ -44,7 +44,7 @@ from derive.engine.model import (
     leg,
     swing_foot_clearance,
 )
-from derive.models.common import INF, PI, falls, gravity_parameter, slope_gravity
+from derive.models.common import PI, falls, gravity_parameter, scale_parameter, slope_gravity
 from derive.quantities import Derivation
 
 # The companion code's model_params_three_link.m: r = 1, m = 5, Mh = 15, Mt = 10, L = 0.5,
@@ -52,58 +52,43 @@ from derive.quantities import Derivation
 # slope is Drake's compass gait's (CompassGaitParams, 0.0525 rad): with the swing leg free
 # there is no gait on level ground (docs/models/torso_walker.md).
 PARAMETERS = (
-    Parameter(
+    scale_parameter(
         name="m_h",
         latex="M_H",
-        lower=0.0,
-        upper=INF,
         reason="hip mass m_h > 0",
         description="hip mass",
-        assumptions={"positive": True},
         default=15.0,
         unit="kg",
     ),
-    Parameter(
+    scale_parameter(
         name="m",
         latex="m",
-        lower=0.0,
-        upper=INF,
         reason="leg mass m > 0",
         description="mass of each leg (at its middle)",
-        assumptions={"positive": True},
         default=5.0,
         unit="kg",
     ),
-    Parameter(
+    scale_parameter(
         name="m_t",
         latex="M_T",
-        lower=0.0,
-        upper=INF,
         reason="torso mass m_t > 0",
         description="torso mass",
-        assumptions={"positive": True},
         default=10.0,
         unit="kg",
     ),
-    Parameter(
+    scale_parameter(
         name="r",
         latex="r",
-        lower=0.0,
-        upper=INF,
         reason="leg length r > 0",
         description="leg length",
-        assumptions={"positive": True},
         default=1.0,
         unit="m",
     ),
-    Parameter(
+    scale_parameter(
         name="l_t",
         latex="L",
-        lower=0.0,
-        upper=INF,
         reason="l_t > 0",
         description="distance from the hip to the torso's mass",
-        assumptions={"positive": True},
         default=0.5,
         unit="m",
     ),

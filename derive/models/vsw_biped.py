@@ -53,7 +53,7 @@ from derive.engine.model import (
     leg,
     swing_foot_clearance,
 )
-from derive.models.common import INF, falls
+from derive.models.common import falls, scale_parameter
 from derive.models.ile.model import PARAMETERS as ILE_PARAMETERS
 from derive.quantities import Derivation
 
@@ -61,14 +61,11 @@ BETA, THETA_II = (p for p in ILE_PARAMETERS if p.name in ("beta", "theta_II"))
 PARAMETERS = (
     BETA,
     THETA_II,
-    Parameter(
+    scale_parameter(
         name="mu",
         latex=r"\mu",
-        lower=0.0,
-        upper=INF,
         reason="mu = m / m_H > 0: the legs have mass",
         description="mass of each leg over the hip mass",
-        assumptions={"positive": True},
         default=0.1,
         unit="1",
     ),
