@@ -1,6 +1,6 @@
 """What the model files share: the bounds their parameter tables take, the standard
-parameters (a positive scale, gravity, a passive walker's slope), gravity in a slope's
-frame, the ways a walk on a stance leg ends (falling backward or forward, the stance foot
+parameters (a positive scale, gravity, a passive walker's slope), SI units, gravity in a
+slope's frame, the ways a walk on a stance leg ends (falling backward or forward, the stance foot
 lifting off), and the point of a phase nearest the apex.
 
 Each is written once so that a model file states only what is its own; the wording of a
@@ -18,6 +18,10 @@ PI = float(sm.pi.evalf(17))
 """pi as a float: the angle bounds of the parameter tables (``PI / 2``)."""
 INF = float("inf")
 """The upper bound of a scale (a mass, a length, gravity)."""
+SI_UNITS = {"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"}
+"""The units of a model in SI, for :class:`~derive.engine.model.Model`'s ``units``."""
+SI_UNITS_TEXT = "Angles in radians, lengths in m, time in s, energies in J."
+"""The generated docstrings' sentence on the units of a model in SI."""
 
 
 def scale_parameter(

@@ -32,6 +32,8 @@ from derive.engine.model import (
     swing_foot_clearance,
 )
 from derive.models.common import (
+    SI_UNITS,
+    SI_UNITS_TEXT,
     falls,
     gravity_parameter,
     scale_parameter,
@@ -157,7 +159,7 @@ MODEL = Model(
     ),
     failures=falls(THETA, ground="slope"),
     conditions=(swing_foot_clearance(swing_foot[1], "m"),),
-    units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},
+    units=SI_UNITS,
     skeleton=SKELETON,
     step_length=swing_foot[0],
     # Just after heelstrike the new stance foot is downhill of the hip (theta < 0); Drake's
@@ -169,4 +171,4 @@ MODEL = Model(
 
 
 def derive() -> Derivation:
-    return model_derivation(MODEL, "Angles in radians, lengths in m, time in s, energies in J.")
+    return model_derivation(MODEL, SI_UNITS_TEXT)

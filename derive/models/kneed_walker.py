@@ -50,6 +50,8 @@ from derive.engine.model import (
     swing_foot_clearance,
 )
 from derive.models.common import (
+    SI_UNITS,
+    SI_UNITS_TEXT,
     falls,
     gravity_parameter,
     scale_parameter,
@@ -260,7 +262,7 @@ MODEL = Model(
             unit="N m",
         ),
     ),
-    units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},
+    units=SI_UNITS,
     skeleton=SKELETON,
     step_length=swing_foot[0],
     # Just after heelstrike the new stance foot is downhill of the hip (theta < 0); Hsu
@@ -273,4 +275,4 @@ MODEL = Model(
 
 
 def derive() -> Derivation:
-    return model_derivation(MODEL, "Angles in radians, lengths in m, time in s, energies in J.")
+    return model_derivation(MODEL, SI_UNITS_TEXT)

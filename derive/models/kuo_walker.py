@@ -39,7 +39,7 @@ from derive.engine.model import (
     PointMass,
     leg,
 )
-from derive.models.common import fell_backward, gravity_parameter, scale_parameter
+from derive.models.common import SI_UNITS, fell_backward, gravity_parameter, scale_parameter
 from derive.quantities import Derivation
 
 PARAMETERS = (
@@ -148,7 +148,7 @@ MODEL = Model(
             "lift-off", NORMAL_FORCE, -1, "the stance foot leaves the ground (the leg would pull)"
         ),
     ),
-    units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},
+    units=SI_UNITS,
     step_length=d,  # the guard fixes it: --target-step-length other than d is refused
     # Just after the step the new stance leg is at -alpha.
     section={"theta": -sm.atan2(d, sm.sqrt(4 * l**2 - d**2))},

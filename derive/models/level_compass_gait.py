@@ -38,7 +38,7 @@ from derive.engine.model import (
     leg,
     swing_foot_clearance,
 )
-from derive.models.common import falls, gravity_parameter, scale_parameter
+from derive.models.common import SI_UNITS, SI_UNITS_TEXT, falls, gravity_parameter, scale_parameter
 from derive.quantities import Derivation
 
 # Drake's CompassGaitParams (as compass_gait.py), without the slope.
@@ -173,7 +173,7 @@ MODEL = Model(
     ),
     failures=falls(THETA),
     conditions=(swing_foot_clearance(swing_foot[1], "m"),),
-    units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},
+    units=SI_UNITS,
     step_length=swing_foot[0],
     search={"theta": (-0.8, 0.0), "theta_dot": (0.0, 5.0), "psi_dot": (-5.0, 5.0)},
     # Just after heelstrike the legs are at the guard's zero, swapped: psi = -theta.
@@ -184,4 +184,4 @@ MODEL = Model(
 
 
 def derive() -> Derivation:
-    return model_derivation(MODEL, "Angles in radians, lengths in m, time in s, energies in J.")
+    return model_derivation(MODEL, SI_UNITS_TEXT)

@@ -50,7 +50,7 @@ from derive.engine.model import (
     Phase,
     PointMass,
 )
-from derive.models.common import gravity_parameter, scale_parameter
+from derive.models.common import SI_UNITS, gravity_parameter, scale_parameter
 from derive.quantities import Derivation
 
 PARAMETERS = (
@@ -211,7 +211,7 @@ MODEL = Model(
             unit="m",
         ),
     ),
-    units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},
+    units=SI_UNITS,
     step_length=d,
     # Just after the step the hip is d / 2 behind the new stance foot.
     section={"x": -d / 2},

@@ -97,7 +97,13 @@ from derive.engine.model import (
     leg,
     swing_foot_clearance,
 )
-from derive.models.common import gravity_parameter, lift_off, scale_parameter
+from derive.models.common import (
+    SI_UNITS,
+    SI_UNITS_TEXT,
+    gravity_parameter,
+    lift_off,
+    scale_parameter,
+)
 from derive.quantities import Derivation
 
 # RABBIT's published tables (Chevallereau et al. 2003; Westervelt et al. 2004): see the docstring.
@@ -310,7 +316,7 @@ MODEL = Model(
         lift_off(),
     ),
     conditions=(swing_foot_clearance(swing_foot[1], "m"),),
-    units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},
+    units=SI_UNITS,
     skeleton=SKELETON,
     step_length=swing_foot[0],
     # The gait search has nine free components (three points an axis): a box about the
@@ -336,4 +342,4 @@ MODEL = Model(
 
 
 def derive() -> Derivation:
-    return model_derivation(MODEL, "Angles in radians, lengths in m, time in s, energies in J.")
+    return model_derivation(MODEL, SI_UNITS_TEXT)

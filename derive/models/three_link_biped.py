@@ -41,6 +41,8 @@ from derive.engine.model import (
     swing_foot_clearance,
 )
 from derive.models.common import (
+    SI_UNITS,
+    SI_UNITS_TEXT,
     fell_backward,
     fell_forward,
     gravity_parameter,
@@ -175,7 +177,7 @@ MODEL = Model(
         lift_off(),
     ),
     conditions=(swing_foot_clearance(swing_foot[1], "m"),),
-    units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},
+    units=SI_UNITS,
     skeleton=SKELETON,
     step_length=swing_foot[0],
     search={
@@ -192,4 +194,4 @@ MODEL = Model(
 
 
 def derive() -> Derivation:
-    return model_derivation(MODEL, "Angles in radians, lengths in m, time in s, energies in J.")
+    return model_derivation(MODEL, SI_UNITS_TEXT)

@@ -44,7 +44,15 @@ from derive.engine.model import (
     leg,
     swing_foot_clearance,
 )
-from derive.models.common import PI, falls, gravity_parameter, scale_parameter, slope_gravity
+from derive.models.common import (
+    PI,
+    SI_UNITS,
+    SI_UNITS_TEXT,
+    falls,
+    gravity_parameter,
+    scale_parameter,
+    slope_gravity,
+)
 from derive.quantities import Derivation
 
 # The companion code's model_params_three_link.m: r = 1, m = 5, Mh = 15, Mt = 10, L = 0.5,
@@ -191,7 +199,7 @@ MODEL = Model(
     ),
     failures=falls(THETA),
     conditions=(swing_foot_clearance(swing_foot[1], "m"),),
-    units={"time": "s", "length": "m", "mass": "kg", "energy": "J", "force": "N"},
+    units=SI_UNITS,
     skeleton=SKELETON,
     step_length=swing_foot[0],
     search={"theta": (-0.8, 0.0), "theta_dot": (0.0, 5.0), "psi_dot": (-5.0, 5.0)},
@@ -201,4 +209,4 @@ MODEL = Model(
 
 
 def derive() -> Derivation:
-    return model_derivation(MODEL, "Angles in radians, lengths in m, time in s, energies in J.")
+    return model_derivation(MODEL, SI_UNITS_TEXT)
