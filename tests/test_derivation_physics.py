@@ -17,8 +17,10 @@ from scipy.integrate import quad
 
 import generated.ile as gen
 from derive import mechanics
-from derive.engine.hybrid import _jump_turn, _rate_symbol, expand, jump_reset, phase_dynamics
+from derive.engine.algebra import expand
+from derive.engine.dynamics import phase_dynamics, rate_symbol
 from derive.engine.model import Jump
+from derive.engine.resets import _jump_turn, jump_reset
 from derive.models import ile
 from derive.models import vsw_biped as biped
 from derive.models import vsw_biped_phi0 as caught
@@ -155,14 +157,14 @@ def test_staged_quantity_explicit_form_equals_the_explicit_derivation(ile_deriva
 
 
 def test_a_fast_jumps_turn_is_the_integral_of_its_coupling():
-    """Jump(limit=True)'s closed form (an arctangent, derive.engine.hybrid._jump_turn)
+    """Jump(limit=True)'s closed form (an arctangent, derive.engine.resets._jump_turn)
     against SciPy's quadrature of ``-M_qr / M_qq`` over the leg's length (both from the
     caught VSW biped's momentum), on a grid that reaches heavy legs whose mass sits near the
     foot (the inertia's complex roots then come near the path)."""
     dyn = phase_dynamics(caught.CAUGHT_SHORT)
     turn = _jump_turn("extension", dyn, caught.CAUGHT_SHORT, caught.CAUGHT_LONG)[caught.theta]
     momentum = dyn.momenta[caught.theta]
-    slope = -momentum.diff(_rate_symbol(caught.r)) / momentum.diff(caught.THETA.u)
+    slope = -momentum.diff(rate_symbol(caught.r)) / momentum.diff(caught.THETA.u)
     symbols = (caught.beta, caught.phi0, caught.mu, caught.b)
     closed = sm.lambdify(symbols, turn)
     integrand = sm.lambdify((caught.r, caught.theta, *symbols), slope.subs(caught.phi, caught.phi0))

@@ -23,14 +23,10 @@ PACKAGES = (ROOT / "vsw", ROOT / "derive")
 MODULE_LINES = 800
 FUNCTION_LINES = 80
 
-LONG_MODULES: dict[str, int] = {
-    "derive/engine/hybrid.py": 1944,
-}
+LONG_MODULES: dict[str, int] = {}
 """The modules over MODULE_LINES lines, each with its ceiling."""
 
 LONG_FUNCTIONS: dict[str, int] = {
-    "derive/engine/hybrid.py::_passive_dynamics": 142,
-    "derive/engine/hybrid.py::hybrid_quantities": 283,
     "derive/engine/trig.py::tr10i": 97,
     "derive/engine/trig.py::tr10i.f": 89,
 }

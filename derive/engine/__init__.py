@@ -8,11 +8,14 @@ the code generator writes as ``generated/<model>/``.
 
 from __future__ import annotations
 
+from derive.engine import node_count
 from derive.engine.hybrid import hybrid_quantities, stride_closed_form
 from derive.engine.model import Model
 from derive.quantities import CExport, Derivation, Quantity
 
 __all__ = ["c_exports", "model_derivation"]
+
+node_count.install()  # sympy's orderings, faster (every derivation imports the engine)
 
 
 def model_derivation(model: Model, units: str) -> Derivation:
