@@ -13,7 +13,10 @@ so the result is TR10i's, term for term (the tests compare them).
 
 from __future__ import annotations
 
+import bisect
+import heapq
 from collections import defaultdict
+from collections.abc import Iterator
 
 import sympy as sm
 from sympy.core.sorting import ordered
@@ -101,64 +104,27 @@ def _may_pair(a: sm.Expr, b: sm.Expr, rests: dict, powers: dict) -> bool:
 
 def tr10i(rv: sm.Expr) -> sm.Expr:
     """``sympy.simplify.fu.TR10i(rv)``, the same result in a fraction of the time."""
-    cache: dict = {}
-    powers: dict = {}
-    splits: dict = {}
+    return sm.bottom_up(rv, _Pairing().sums)
 
-    def f(rv):
+
+class _Pairing:
+    """TR10i's passes over one expression, with what they learn of its terms kept: each
+    term's rest and sines and cosines (:func:`_may_pair`) and each pair's ``trig_split``
+    (a pair is tried again after each hit in its sum)."""
+
+    def __init__(self) -> None:
+        self.rests: dict = {}
+        self.powers: dict = {}
+        self.splits: dict = {}
+
+    def sums(self, rv: sm.Expr) -> sm.Expr:
+        """TR10i on one node: its terms paired within the groups of equal free symbols,
+        then the pairs whose coefficients are in the ratio sqrt(3) : 1."""
         if not rv.is_Add:
             return rv
-
-        def do(rv, first=True):
-            if not rv.is_Add:
-                return rv
-            if len(rv.args) == 2 and not _may_pair(*rv.args, cache, powers):
-                return rv  # trig_split would find nothing to combine (in either order)
-            args = list(ordered(rv.args))
-            if len(args) != 2:
-                hit = False
-                for i in range(len(args)):
-                    ai = args[i]
-                    if ai is None:
-                        continue
-                    for j in range(i + 1, len(args)):
-                        aj = args[j]
-                        if aj is None or not _may_pair(ai, aj, cache, powers):
-                            continue
-                        was = ai + aj
-                        new = do(was)
-                        if new != was:
-                            args[i] = new
-                            args[j] = None
-                            hit = True
-                            break
-                if hit:
-                    rv = sm.Add(*[_f for _f in args if _f])
-                    if rv.is_Add:
-                        rv = do(rv)
-                return rv
-
-            pair = (args[0], args[1])
-            if pair not in splits:  # a pair is tried again after each hit in its sum
-                splits[pair] = trig_split(*args, two=True)
-            split = splits[pair]
-            if not split:
-                return rv
-            gcd, n1, n2, a, b, same = split
-            if same:
-                gcd = n1 * gcd
-                if n1 == n2:
-                    return gcd * sm.cos(a - b)
-                return gcd * sm.cos(a + b)
-            gcd = n1 * gcd
-            if n1 == n2:
-                return gcd * sm.sin(a + b)
-            return gcd * sm.sin(b - a)
-
         # TR10i groups the terms by ``tuple(ordered(free_symbols))``: equal exactly where
         # the sets are, and the groups are taken in the order they are met.
-        rv = process_common_addends(rv, do, lambda x: frozenset(x.free_symbols))
-
+        rv = process_common_addends(rv, self.pair, lambda x: frozenset(x.free_symbols))
         while rv.is_Add:
             byrad = defaultdict(list)
             for a in rv.args:
@@ -171,28 +137,106 @@ def tr10i(rv: sm.Expr) -> sm.Expr:
                             break
                 if not hit:
                     byrad[sm.S.One].append(a)
-            args = []
-            for a in byrad:
-                for b in [_ROOT3() * a, _invROOT3()]:
-                    if b in byrad:
-                        for i in range(len(byrad[a])):
-                            if byrad[a][i] is None:
-                                continue
-                            for j in range(len(byrad[b])):
-                                if byrad[b][j] is None:
-                                    continue
-                                was = sm.Add(byrad[a][i] + byrad[b][j])
-                                new = do(was)
-                                if new != was:
-                                    args.append(new)
-                                    byrad[a][i] = None
-                                    byrad[b][j] = None
-                                    break
+            args = self._radical_pairs(byrad)
             if args:
                 rv = sm.Add(*(args + [sm.Add(*[_f for _f in v if _f]) for v in byrad.values()]))
             else:
-                rv = do(rv)
+                rv = self.pair(rv)
                 break
         return rv
 
-    return sm.bottom_up(rv, f)
+    def _radical_pairs(self, byrad: dict) -> list:
+        """The sums of the terms of ``byrad`` (terms by their square root of an integer)
+        whose radicals are in the ratio sqrt(3) : 1 and that combine, each pair's terms
+        taken out of ``byrad``."""
+        args = []
+        for a in byrad:
+            for b in [_ROOT3() * a, _invROOT3()]:
+                if b in byrad:
+                    for i in range(len(byrad[a])):
+                        if byrad[a][i] is None:
+                            continue
+                        for j in range(len(byrad[b])):
+                            if byrad[b][j] is None:
+                                continue
+                            was = sm.Add(byrad[a][i] + byrad[b][j])
+                            new = self.pair(was)
+                            if new != was:
+                                args.append(new)
+                                byrad[a][i] = None
+                                byrad[b][j] = None
+                                break
+        return args
+
+    def pair(self, rv: sm.Expr) -> sm.Expr:
+        """TR10i's ``do``: a sum of two terms combined into one sine or cosine where
+        ``trig_split`` finds them to be one; a longer sum's terms paired in order, each
+        with the first later term it combines with, until none do."""
+        if not rv.is_Add:
+            return rv
+        if len(rv.args) == 2 and not _may_pair(*rv.args, self.rests, self.powers):
+            return rv  # trig_split would find nothing to combine (in either order)
+        args = list(ordered(rv.args))
+        if len(args) == 2:
+            return self._combined(args[0], args[1], rv)
+        hit = False
+        for i, j in self._candidates(args):
+            ai, aj = args[i], args[j]
+            if ai is None or aj is None or not _may_pair(ai, aj, self.rests, self.powers):
+                continue
+            was = ai + aj
+            new = self.pair(was)
+            if new != was:
+                args[i] = new
+                args[j] = None
+                hit = True
+        if hit:
+            rv = sm.Add(*[_f for _f in args if _f])
+            if rv.is_Add:
+                rv = self.pair(rv)
+        return rv
+
+    def _candidates(self, args: list) -> Iterator[tuple[int, int]]:
+        """TR10i's pairs ``(i, j)``, ``i < j``, in its order, but only those whose terms'
+        rests (:func:`_rest`) are equal or not judged: the others :func:`_may_pair` turns
+        down, and a sum of hundreds of terms has tens of thousands. After a hit at ``(i,
+        j)`` TR10i goes on to ``i + 1``: the caller's ``args[i]`` then stops being the
+        original term, which this notices by identity."""
+        keys = [_rest(a, self.rests) for a in args]
+        by_key: dict = defaultdict(list)
+        judged_none = []
+        for k, key in enumerate(keys):
+            (judged_none if key is _ANY else by_key[key]).append(k)
+        for i, term in enumerate(args):
+            if term is None:
+                continue
+            if keys[i] is _ANY:
+                later = range(i + 1, len(args))
+            else:
+                same = by_key[keys[i]]
+                later = heapq.merge(same[bisect.bisect_right(same, i):],
+                                    judged_none[bisect.bisect_right(judged_none, i):])  # fmt: skip
+            for j in later:
+                if args[i] is not term:
+                    break  # a hit: on to the next i
+                yield i, j
+
+    def _combined(self, first: sm.Expr, second: sm.Expr, rv: sm.Expr) -> sm.Expr:
+        """Two terms as one sine or cosine of a sum or difference of their angles, where
+        ``trig_split`` finds them so (``rv``, their sum, where it does not)."""
+        pair = (first, second)
+        if pair not in self.splits:
+            self.splits[pair] = trig_split(first, second, two=True)
+        split = self.splits[pair]
+        if not split:
+            return rv
+        gcd, n1, n2, a, b, same = split
+        if same:
+            gcd = n1 * gcd
+            if n1 == n2:
+                return gcd * sm.cos(a - b)
+            return gcd * sm.cos(a + b)
+        gcd = n1 * gcd
+        if n1 == n2:
+            return gcd * sm.sin(a + b)
+        return gcd * sm.sin(b - a)
