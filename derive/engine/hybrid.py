@@ -123,10 +123,12 @@ def _walker_quantities(model: Model, args: tuple) -> list[Quantity]:
         ))  # fmt: skip
     step_phase = model.phase(next(e for e in model.events if e.ends_step).target)
     gx, gy = (sm.sympify(v) for v in step_phase.gravity)
-    # On a slope gravity is (g sin gamma, -g cos gamma) in the chart: its size is g.
+    # On a slope gravity is (g sin gamma, -g cos gamma) in the chart: its size is g. No
+    # simplify after: it leaves every model's weight as it is, and its first call imports
+    # sympy's units (0.2 s of a model derived alone).
     weight = sm.sqrt(sm.trigsimp(gx**2 + gy**2)) * sm.Add(*(b.mass for b in step_phase.bodies))
     quantities.append(Quantity(
-        "weight", args, sm.simplify(weight),
+        "weight", args, weight,
         "The walker's weight: gravity times the mass of every body (the cost of transport's "
         "scale; it depends on the parameters only).", None, "force",
     ))  # fmt: skip
