@@ -385,3 +385,22 @@ def test_site_in_headless_chromium(site: Path, served: str, width: int, tmp_path
     assert not errors, f"console errors at {width} px: {errors}"
     assert not outside, f"the site fetched beyond the local server: {outside}"
     assert _not_blank(shot), f"the screenshot at {width} px is blank"
+
+
+def test_the_model_languages_worked_examples_are_their_files_text():
+    """Each worked example of docs/model-language.md is its model file's own text (a `...`
+    line stands for what the page leaves out), so the page cannot drift from the file."""
+    page = (DOCS / "model-language.md").read_text(encoding="utf-8")
+    examples = re.findall(r"## Worked example: [^\n]*\n\n`(derive/models/\w+\.py)`.*?```python\n"
+                          r"(.*?)\n```", page, re.DOTALL)  # fmt: skip
+    assert [path for path, _ in examples] == [
+        "derive/models/rimless_wheel.py",
+        "derive/models/kneed_walker.py",
+    ]
+    for path, block in examples:
+        source = (ROOT / path).read_text(encoding="utf-8")
+        pieces = re.split(r"\n *\.\.\.,?\n", block)
+        for piece in pieces:
+            assert piece.strip() and piece in source, (
+                f"{path}: the page's excerpt is not the file's text"
+            )

@@ -25,16 +25,50 @@ from derive.engine.model import (
 )
 
 PARAMETERS = (
-    # name, LaTeX, open interval, the interval in words, meaning; then sympy assumptions.
-    Parameter("N", "N", 2.0, float("inf"), "more than two spokes: N > 2", "number of spokes",
-              {"positive": True}, default=8.0, unit="1"),
-    Parameter("gamma", r"\gamma", -1.5, 1.5, "slope angle, downhill positive", "slope angle",
-              default=0.08, unit="rad"),
-    Parameter("l", "l", 0.0, float("inf"), "spoke length l > 0", "spoke length",
-              {"positive": True}, default=1.0, unit="m"),
-    Parameter("g", "g", 0.0, float("inf"), "gravity g > 0", "gravitational acceleration",
-              {"positive": True}, default=9.81, unit="m/s^2"),
-)  # fmt: skip
+    Parameter(
+        name="N",
+        latex="N",
+        lower=2.0,
+        upper=float("inf"),
+        reason="more than two spokes: N > 2",
+        description="number of spokes",
+        assumptions={"positive": True},
+        default=8.0,
+        unit="1",
+    ),
+    Parameter(
+        name="gamma",
+        latex=r"\gamma",
+        lower=-1.5,
+        upper=1.5,
+        reason="slope angle, downhill positive",
+        description="slope angle",
+        default=0.08,
+        unit="rad",
+    ),
+    Parameter(
+        name="l",
+        latex="l",
+        lower=0.0,
+        upper=float("inf"),
+        reason="spoke length l > 0",
+        description="spoke length",
+        assumptions={"positive": True},
+        default=1.0,
+        unit="m",
+    ),
+    Parameter(
+        name="g",
+        latex="g",
+        lower=0.0,
+        upper=float("inf"),
+        reason="gravity g > 0",
+        description="gravitational acceleration",
+        assumptions={"positive": True},
+        default=9.81,
+        unit="m/s^2",
+    ),
+)
 N, gamma, l, g = (p.symbol for p in PARAMETERS)
 half_angle = sm.pi / N  # half the angle between neighbouring spokes
 
