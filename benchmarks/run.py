@@ -1482,11 +1482,14 @@ def _each_model_rows(alone: dict[str, list[tuple[Timing, Timing]]], before: str)
 def _user_model_row(reps: int, before: str, old: Path, out: Path) -> Row:
     """``vsw analyze --model my_walker.py`` on first use (a fresh cache each run: the
     model derived, its library compiled, its gaits searched), the file a copy of
-    USER_MODEL_SOURCE outside the package, in this tree and in ``before``'s."""
-    folder = out / "user"
-    folder.mkdir()
-    path = folder / "my_walker.py"
-    shutil.copy(ROOT / "derive" / "models" / f"{USER_MODEL_SOURCE}.py", path)
+    USER_MODEL_SOURCE outside the package, in this tree and in ``before``'s, each with its
+    own tree's copy (a model file imports what its tree's ``derive`` offers)."""
+    paths = []
+    for tree, name in ((ROOT, "user"), (old, "user_before")):
+        folder = out / name
+        folder.mkdir()
+        paths.append(folder / "my_walker.py")
+        shutil.copy(Path(tree) / "derive" / "models" / f"{USER_MODEL_SOURCE}.py", paths[-1])
 
     def fresh_cache() -> dict:
         # A models or searches directory of the caller's would make every run but the
@@ -1495,9 +1498,10 @@ def _user_model_row(reps: int, before: str, old: Path, out: Path) -> Row:
                 "VSW_SEARCH_CACHE": None}  # fmt: skip
 
     # Each tree's own vsw: the checkout's package first on the path.
-    command = [sys.executable, "-m", "vsw", "analyze", "--model", str(path)]
+    ours_command, old_command = ([sys.executable, "-m", "vsw", "analyze", "--model", str(p)]
+                                 for p in paths)  # fmt: skip
     (ours, ours_cpu), (theirs, _) = _alternating(
-        [(command, ROOT), (command, old)], reps,
+        [(ours_command, ROOT), (old_command, old)], reps,
         envs=[lambda: {**fresh_cache(), "PYTHONPATH": str(ROOT)},
               lambda: {**fresh_cache(), "PYTHONPATH": str(old)}],
     )  # fmt: skip
