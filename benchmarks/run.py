@@ -1341,7 +1341,8 @@ def case_startup(reps: int, include_audit: bool, every_model: bool = True) -> li
     every model, 40 s; the quick mode, which only checks the harness, leaves it out)."""
     py = sys.executable
     rows = []
-    modules = ("cli, models, gaits, sweeps, grid_basin, batch, models.ile.analysis, "
+    modules = ("cli, models, gaits, studies.sweeps, studies.grid_basin, dynamics.batch, "
+               "models.ile.analysis, "
                "models.ile.basin, models.ile.design, models.ile.plots, "
                "models.ile.simulate, models.ile.sweep")  # fmt: skip
     lazy_check = (
