@@ -698,9 +698,14 @@ def _simulator_at(key: str, ref: str):
         return subprocess.run(["git", "show", f"{ref}:{path}"], cwd=ROOT, check=True,
                               capture_output=True).stdout  # fmt: skip
 
-    source = (
-        show(f"generated/{key}/c/{key}_sim.c") + b"\n" + show("vsw/dynamics/csrc/hybrid_batch.c")
-    )
+    def integrator() -> bytes:
+        # The C sources moved with the runtime's layers; a commit before that has them in vsw/.
+        try:
+            return show("vsw/dynamics/csrc/hybrid_batch.c")
+        except subprocess.CalledProcessError:
+            return show("vsw/csrc/hybrid_batch.c")
+
+    source = show(f"generated/{key}/c/{key}_sim.c") + b"\n" + integrator()
     sim = BatchSimulator(load(key))
     sim.use_build(source, f"{key}_sim_{ref}", BATCH_BEFORE_FLAGS)
     return sim
