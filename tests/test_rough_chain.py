@@ -127,7 +127,7 @@ def test_simplest_walker_chain_agrees(sigma: float) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("sigma", [0.01, 0.015])
+@pytest.mark.parametrize("sigma", [0.01, 0.0125, 0.015])
 def test_compass_gait_chain_agrees(sigma: float) -> None:
     _agree("compass-gait", 0.0525, sigma, 1000, 100_000)
 
@@ -139,6 +139,13 @@ def test_compass_gait_chain_agrees(sigma: float) -> None:
                    "4.4 GB)")  # fmt: skip
 def test_compass_gait_chain_agrees_at_the_lowest_noise() -> None:
     _agree("compass-gait", 0.0525, 0.0075, 1000, 100_000)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="at sigma 0.02 the chain gives 6.62 steps on its budget of "
+                   "100 000 nodes, below the walks' interval [7.14, 7.83]")  # fmt: skip
+def test_compass_gait_chain_agrees_at_the_highest_noise() -> None:
+    _agree("compass-gait", 0.0525, 0.02, 1000, 100_000)
 
 
 def test_chain_refuses_zero_noise() -> None:
