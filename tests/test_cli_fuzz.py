@@ -509,7 +509,7 @@ def edge_command(draw) -> list[str]:
 
 @pytest.mark.slow
 def test_parameter_edges_of_every_model():
-    """Every model's parameters at their edges (issue 21): a result, exit 3 or one line,
+    """Every model's parameters at their edges: a result, exit 3 or one line,
     never a traceback or a warning. The slow ones stop at a 2 s limit (one line)."""
 
     @budget(120)

@@ -1,6 +1,6 @@
 """The ``vsw`` command line in a hostile world: closed pipes, unwritable outputs, infinite
-and huge arguments, bad ``VSW_*`` settings, work that would not fit, and its words and units
-(issue 11). Each defect of the issue has a test here; tests/test_cli_fuzz.py drives every
+and huge arguments, bad ``VSW_*`` settings, work that would not fit, and its words and units.
+Each defect such input once found has a test here; tests/test_cli_fuzz.py drives every
 subcommand with generated arguments."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""A Dask cluster that fails ends a basin with one line in a stated time (issue 21).
+"""A Dask cluster that fails ends a basin with one line in a stated time.
 
 A scheduler and its worker run as separate processes on loopback, as a user starts them
 (``dask scheduler``, ``dask worker --no-nanny``, so that a killed worker stays dead), and

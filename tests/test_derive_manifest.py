@@ -1,5 +1,5 @@
-"""``generated/MANIFEST``: a model whose inputs and files are unchanged is not derived again
-(issue 24); anything else about it is, and ``--force`` derives every model."""
+"""``generated/MANIFEST``: a model whose inputs and files are unchanged is not derived again;
+anything else about it is, and ``--force`` derives every model."""
 
 from __future__ import annotations
 
@@ -133,7 +133,7 @@ def _never(*args):
 @pytest.mark.parametrize("damage", ["edited", "removed"])
 def test_deriving_one_model_does_not_vouch_for_the_others(derived_log, capsys, damage):
     """``--model X`` writes the other models' entries as recorded: an edit or a removal of
-    another model on disk is still found by the next check (review of issue 24)."""
+    another model on disk is still found by the next check (found in review)."""
     out, derived = derived_log
     if damage == "edited":
         target = out / "ile" / "__init__.py"

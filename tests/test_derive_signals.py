@@ -1,4 +1,4 @@
-"""A killed ``python -m derive`` leaves no worker behind (issue 21).
+"""A killed ``python -m derive`` leaves no worker behind.
 
 The derivation runs its models in forked worker processes. Killing the parent (SIGKILL,
 or SIGTERM as ``timeout`` sends, or Ctrl-C) must not leave workers deriving on and

@@ -1,4 +1,4 @@
-"""The basin and sweep figures of every model in the audit's style (issue 22): one column,
+"""The basin and sweep figures of every model in the audit's style: one column,
 legends outside the data, labels with units, the whole swept range shown."""
 
 from __future__ import annotations
@@ -73,7 +73,7 @@ def test_sweep_shows_the_whole_range_and_marks_lost_and_fallen_points_on_the_edg
 
 
 def test_ile_sweep_keeps_the_points_without_a_gait_shaded():
-    """`vsw sweep --beta 0.8 --phi0 45 --over theta_II=-0.2:0.4:13` (issue 22): theta_II =
+    """`vsw sweep --beta 0.8 --phi0 45 --over theta_II=-0.2:0.4:13`: theta_II =
     -0.2 and -0.15 rad have no gait; the axis still starts at -0.2, the range is shaded and
     the title gives phi0 in rad and degrees."""
     out = io.StringIO()

@@ -1,10 +1,10 @@
-"""Every edge of every parameter has a tested answer (issue 21).
+"""Every edge of every parameter has a tested answer.
 
 A parameter's table gives its open interval and, where vsw cannot compute the whole of it,
 the closed interval it computes (``computed``, with the reason: a scale within 1e6 of its
 default, and the ends found to underflow, overflow or stiffen). At each edge the answer is
 a result, exit 3 with the reason, or a one-line refusal, never a traceback or a warning;
-beyond what is computed the refusal says why. The cases the fuzz of issue 21 found are
+beyond what is computed the refusal says why. The cases the command-line fuzz found are
 here by name.
 """
 

@@ -1,7 +1,7 @@
 """The swing foot's clearance (the condition ``swing-foot-clearance``, reported and not
 enforced: the sources ignore scuffing) beside the simulated foot's height, computed here
 from each model's geometry on a dense sampling of the gait's step, and the VSW biped's
-scuffing cells of issue 26 (an independent re-implementation found the swing foot below
+scuffing cells (an independent re-implementation found the swing foot below
 the ground by 7e-4 l at beta = 0.97 and 2e-4 l at 0.99, theta_II = 0 and 0.1, mu = 0.3).
 """
 

@@ -1,4 +1,4 @@
-"""Ctrl-C and the run-time limit stop a command whatever library runs (issue 21).
+"""Ctrl-C and the run-time limit stop a command whatever library runs.
 
 CasADi calls Python's signal check inside its solvers and turns the KeyboardInterrupt it
 gets into a plain RuntimeError, which the runtime maps to a failed solve: an interrupted
@@ -146,7 +146,7 @@ def test_time_limit_inside_casadi_stops_with_one_line(orbit_solver_signalling):
 def test_time_limit_stops_a_slow_search_while_it_runs(argv, monkeypatch):
     """The compass gait with its leg mass near the hip (b = 0.001 m) swings its leg about
     ten times a step: its gait search takes minutes (the sweep was estimated at 8.4 s and
-    ran past 60 s with a limit of 20 s, issue 21); the limit stops it at 2 s. The estimate
+    ran past 60 s with a limit of 20 s); the limit stops it at 2 s. The estimate
     is taken as zero here, so that what is tested is the limit kept while running."""
     import vsw.cli.simulate
     import vsw.cli.sweep
@@ -270,7 +270,7 @@ def test_ctrl_c_while_the_command_line_starts_is_one_line(seconds):
 def test_a_stop_a_library_turns_into_its_own_error_is_still_the_stop():
     """matplotlib's mathtext turns a ValueError raised while it looks a glyph up (the
     limit's error is one) into "Unknown symbol": a `vsw basin --plot` stopped there by the
-    limit once ended with that traceback (CI, stop 35). Under supervision the recorded
+    limit once ended with that traceback. Under supervision the recorded
     stop is raised in its place, wherever the timer's signal lands in the parse. Without
     that, about 3 runs in 40 here end with ValueError or AttributeError."""
     from matplotlib.mathtext import MathTextParser

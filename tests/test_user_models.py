@@ -1,4 +1,4 @@
-"""A model of the user's own, outside the package (issue 24): ``--model path/to/model.py``.
+"""A model of the user's own, outside the package: ``--model path/to/model.py``.
 
 The model file below is written here as a user would write it (the engine's language, no
 ``derive()``): a wheel with spokes, declared from scratch. Its numbers are checked against

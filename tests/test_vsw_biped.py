@@ -110,7 +110,7 @@ def test_a_stable_gait_near_beta_1_attracts_a_simulated_walk(biped):
 
 
 def test_a_step_that_begins_past_theta_II_ends_the_walk_by_name(biped):
-    """Heelstrike past the extension angle (issue 26): the model has no rule for that step
+    """Heelstrike past the extension angle: the model has no rule for that step
     (the ILE's theta_I < theta_II), so the walk ends with ``extension-missed`` at once, in
     the SciPy route and the C batch simulator alike; 0.01 rad before theta_II the extension
     comes (the short phase lasts)."""
