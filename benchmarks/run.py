@@ -1346,7 +1346,7 @@ def case_startup(reps: int, include_audit: bool, every_model: bool = True) -> li
     every model, 40 s; the quick mode, which only checks the harness, leaves it out)."""
     py = sys.executable
     rows = []
-    modules = ("cli, models, gaits, studies.sweeps, studies.grid_basin, dynamics.batch, "
+    modules = ("cli, models, gaits.search, studies.sweeps, studies.grid_basin, dynamics.batch, "
                "models.ile.analysis, "
                "models.ile.basin, models.ile.design, models.ile.plots, "
                "models.ile.simulate, models.ile.sweep")  # fmt: skip
