@@ -14,7 +14,8 @@ foot on the ground over the whole step.
   normal force from one simulated step; SLSQP differentiates all of it by finite
   differences. Same start point as the IPOPT side.
 
-``compare()`` returns numbers only; ``benchmarks/run.py`` (case 6) formats them.
+``compare()`` returns numbers only; case 6 of ``benchmarks/run.py`` formats them
+(benchmarks/cases/design.py).
 """
 
 from __future__ import annotations

@@ -78,8 +78,8 @@ def _cpu_note(cpu: dict[str, list[float]], steps: dict[str, int]) -> str:
 
 
 def case_rough(count: int, reps: int, Row, interleaved, near_gait_starts) -> list:
-    """Case 17's rows (see the module docstring); ``Row``, ``interleaved`` and
-    ``near_gait_starts`` are benchmarks/run.py's."""
+    """Case 17's rows (see the module docstring); ``Row`` and ``interleaved`` are
+    benchmarks/harness.py's, ``near_gait_starts`` is benchmarks/cases/gaits.py's."""
     from vsw.dynamics.batch import simulator
     from vsw.models import load
     from vsw.studies.rough import Terrain, slope_index

@@ -41,16 +41,16 @@ PATTERNS: dict[str, re.Pattern[str]] = {
 PATTERNS = {kind: re.compile(p.pattern, re.IGNORECASE) for kind, p in PATTERNS.items()}
 
 # Commits that are code, not prose: benchmarks/run.py runs an old commit's checkout side by
-# side with the current code (`DESIGN_BEFORE = "39d527c"`, ...), so each pin is a case's
-# input, and results.md, which run.py writes, names the baseline it measured. Only the
-# pinned values, and only in those two files, are allowed.
-PIN_FILES = ("benchmarks/run.py", "benchmarks/results.md")
+# side with the current code (benchmarks/pins.py: `DESIGN_BEFORE = "39d527c"`, ...), so each
+# pin is a case's input, and results.md, which run.py writes, names the baseline it
+# measured. Only the pinned values, and only in those two files, are allowed.
+PIN_FILES = ("benchmarks/pins.py", "benchmarks/results.md")
 PIN_ASSIGNMENT = re.compile(r'^([A-Z_]+_BEFORE) = "([0-9a-f]{7,40})"$', re.MULTILINE)
 
 
 def pinned_commits() -> set[str]:
-    """The commit pins that benchmarks/run.py assigns as code."""
-    text = (ROOT / "benchmarks" / "run.py").read_text()
+    """The commit pins that benchmarks/pins.py assigns as code."""
+    text = (ROOT / "benchmarks" / "pins.py").read_text()
     return {value for _, value in PIN_ASSIGNMENT.findall(text)}
 
 
@@ -183,16 +183,18 @@ def test_current_state_prose_passes(tmp_path: Path, prose: str) -> None:
 
 
 def test_the_benchmark_pins_are_allowed_where_they_are_code() -> None:
-    """The pins are found, allowed in run.py and results.md, and nowhere else; another hash
+    """The pins are found, allowed in pins.py and results.md, and nowhere else; another hash
     in those files is still refused."""
     pins = pinned_commits()
     assert {"39d527c", "5e02f11", "cc98831"} <= pins
-    run = ROOT / "benchmarks" / "run.py"
+    pins_file = ROOT / "benchmarks" / "pins.py"
     results = ROOT / "benchmarks" / "results.md"
     pinned = [(1, "the same at 5e02f11")]
     assert find_offenders(results, pinned, pins) == []
     assert find_offenders(ROOT / "docs" / "page.md", pinned) != []
-    assert find_offenders(run, [(1, "# the same commands at f0a3f35, before the change")], pins)
+    assert find_offenders(
+        pins_file, [(1, "# the same commands at f0a3f35, before the change")], pins
+    )
 
 
 def test_readme_is_a_short_guide_with_the_two_commands() -> None:
