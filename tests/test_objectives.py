@@ -22,7 +22,7 @@ from vsw.dynamics.quantities import QUANTITIES, Quantity, evaluate, report, reso
 from vsw.runtime.errors import VswInputError
 from vsw.synthesis import design, powered
 from vsw.synthesis.design.problem import Problem
-from vsw.synthesis.design.transcription import build
+from vsw.synthesis.design.shooting import build
 
 
 def _minimize_choices(command: str) -> list[str]:

@@ -111,3 +111,46 @@ def interval_inputs(u0: Any, uc: Any, u1: Any) -> tuple:
     midpoint and knot (the line through the knots where the midpoint is tied to them)."""
     return (u0, 0.375 * u0 + 0.75 * uc - 0.125 * u1, uc,
             -0.125 * u0 + 0.75 * uc + 0.375 * u1, u1)  # fmt: skip
+
+
+def legendre_scheme(degree: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Gauss-Legendre collocation of ``degree`` points per interval, of order ``2 degree``:
+    the points ``tau`` in (0, 1), the matrix ``C`` with ``C[r, j]`` the derivative at
+    ``tau_j`` of the Lagrange polynomial of point ``r`` (point 0 is the interval's start,
+    ``tau_0 = 0``) and the row ``D`` of their values at 1 (the interval's end).
+
+    On an interval of length ``h`` from ``x_0`` through the stage states ``x_1..x_d``
+    (:func:`legendre_defects`), ``sum_r C[r, j] x_r = h f(x_j)`` and the end is
+    ``sum_r D[r] x_r``. Collocation is an implicit Runge-Kutta method, and a Runge-Kutta
+    method's map differentiated is the same method on the variational equations: the
+    stage matrices ``Phi_j`` collocated by the same rows give the exact derivative of the
+    discrete phase map (Hairer, Norsett & Wanner, *Solving ODEs I*, II.7 and II.14)."""
+    roots = 0.5 * (np.polynomial.legendre.leggauss(degree)[0] + 1.0)
+    tau = np.concatenate([[0.0], roots])
+    c_matrix = np.zeros((degree + 1, degree + 1))
+    d_row = np.zeros(degree + 1)
+    for r in range(degree + 1):
+        basis = np.poly1d([1.0])
+        for s in range(degree + 1):
+            if s != r:
+                basis *= np.poly1d([1.0, -tau[s]]) / (tau[r] - tau[s])
+        d_row[r] = basis(1.0)
+        slope = np.polyder(basis)
+        c_matrix[r] = [slope(t) for t in tau]
+    return roots, c_matrix, d_row
+
+
+def legendre_defects(points: Sequence, rates: Sequence, h: Any, c_matrix: np.ndarray) -> list:
+    """One interval's collocation defects, zero on the discrete orbit: for each stage
+    ``j``, ``sum_r C[r, j] x_r - h f_j`` (:func:`legendre_scheme`), with ``points`` the
+    start and the stage states and ``rates`` the vector field at the stages."""
+    out = []
+    for j in range(1, len(points)):
+        slope = sum(float(c_matrix[r, j]) * points[r] for r in range(len(points)))
+        out.append(slope - h * rates[j - 1])
+    return out
+
+
+def legendre_end(points: Sequence, d_row: np.ndarray) -> Any:
+    """The interval's end on its collocation polynomial: ``sum_r D[r] x_r``."""
+    return sum(float(d_row[r]) * points[r] for r in range(len(points)))

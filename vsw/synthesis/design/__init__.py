@@ -4,22 +4,28 @@ The question of :mod:`vsw.models.ile.design` (which parameters give the gait a u
 for any model of the generic runtime, whose gaits have no closed form. The gait is part of
 the unknowns of one nonlinear program, solved by IPOPT through CasADi:
 
-Transcription: multiple shooting
---------------------------------
-Each phase of a step is cut into :data:`SEGMENTS` segments of equal length ``T_k / S``,
-``T_k`` the phase's duration (an unknown, > 0). The unknowns are the free parameters, the
-state at the start of every segment and the durations. Each segment is integrated by
-CVODES (the generated accelerations, tolerance :data:`INTEGRATOR_TOL`); the constraints are
-the segments' continuity, each phase's event guard at its end (= 0) and the event's
-``when`` (>= 0: the crossing counts), the resets between phases and periodicity (the state
-after the step event equals the first node). Multiple shooting rather than collocation:
-the dynamics are integrated to 1e-10 with error control, so the optimum's gait is the
-runtime's gait (confirmed below by :meth:`vsw.dynamics.hybrid.HybridModel.periodic_orbit` and a
-simulated step) without choosing or refining a mesh, and the segments' nodes carry the
-path conditions. A control input held per segment (the powered-walking issue) fits the same
-transcription. Derivatives are exact (CVODES forward sensitivities); the Hessian of the
-Lagrangian is IPOPT's limited-memory quasi-Newton, because exact second derivatives through
-CVODES cost several times the first and IPOPT converges here in tens of iterations.
+Transcriptions: collocation, then multiple shooting
+---------------------------------------------------
+The unknowns are the free parameters, the gait's states and each phase's duration ``T_k``
+(an unknown, > 0); the constraints are the dynamics, each phase's event guard at its end
+(= 0) and the event's ``when`` (>= 0: the crossing counts), the resets between phases and
+periodicity (the state after the step event equals the first). Two NLPs share them
+(:mod:`~vsw.synthesis.design.nlp`):
+
+* collocation (:mod:`~vsw.synthesis.design.collocation`): each phase cut into
+  :data:`INTERVALS` intervals of Gauss-Legendre collocation (:data:`DEGREE` points, order
+  6), the state at every knot and stage an unknown; the NLP is expanded to CasADi SX, so
+  IPOPT has exact second derivatives at a few milliseconds an iteration. IPOPT runs from
+  every start here.
+* multiple shooting (:mod:`~vsw.synthesis.design.shooting`): each phase cut into
+  :data:`SEGMENTS` segments integrated by CVODES (tolerance 1e-10) with exact first
+  derivatives (forward sensitivities) and IPOPT's limited-memory Hessian. Each distinct
+  collocated optimum the periodic-orbit solver confirms as a gait is polished here, from
+  that gait, so the design is the runtime's gait without a mesh's error: a gait's
+  eigenvalue can move two hundred times faster than its period as a parameter changes
+  (the compass gait's slope near a period of 0.75 s), so the collocation's error of a few
+  1e-8 in the period would show in the design. Where no collocated optimum is confirmed,
+  the starts themselves are shot.
 
 Conditions: each failure of a phase (falling back, falling forward, the stance foot lifting
 off, ...) as ``-direction * guard >= margin`` at every node and at each phase's end;
@@ -30,7 +36,8 @@ Stability without a non-smooth spectral radius
 ----------------------------------------------
 The monodromy matrix ``M`` (the Poincaré map's Jacobian) is built in the NLP from the
 variational equations (integrated beside the state, so their derivatives need only first
-sensitivities), each phase's saltation at its guard and the reset's Jacobian. ``max |λ|``
+sensitivities; in the collocated NLP collocated beside it, which is the exact derivative of
+its discrete map), each phase's saltation at its guard and the reset's Jacobian. ``max |λ|``
 is not differentiable where two eigenvalues meet; instead "every eigenvalue lies in the
 disc of radius ρ" is imposed as the Jury (Schur–Cohn) inequalities on the characteristic
 polynomial of ``M / ρ``, polynomials in its coefficients (Newton's identities on traces of
@@ -58,14 +65,18 @@ no verified design and no such proof.
 
 The package, by job: :mod:`~vsw.synthesis.design.request` (the request, the result, the constants),
 :mod:`~vsw.synthesis.design.problem` (a request checked against a model),
-:mod:`~vsw.synthesis.design.transcription` (the NLP on the shooting flows of
-:mod:`vsw.orbits.shooting` and the monodromy of :mod:`vsw.orbits.monodromy`) and
+:mod:`~vsw.synthesis.design.nlp` (what the two NLPs share),
+:mod:`~vsw.synthesis.design.collocation` (the collocated NLP, on the scheme of
+:mod:`vsw.orbits.collocation`), :mod:`~vsw.synthesis.design.shooting` (the NLP on the
+shooting flows of :mod:`vsw.orbits.shooting`) and
 :mod:`~vsw.synthesis.design.solve` (the starts, the solves, their verification and the status:
 :func:`design`).
 """
 
 from vsw.synthesis.design.request import (
+    DEGREE,
     DESIGN_QUANTITIES,
+    INTERVALS,
     MAXIMISED,
     MINIMISED,
     SEGMENTS,
@@ -77,7 +88,9 @@ from vsw.synthesis.design.request import (
 from vsw.synthesis.design.solve import design
 
 __all__ = [
+    "DEGREE",
     "DESIGN_QUANTITIES",
+    "INTERVALS",
     "MAXIMISED",
     "MINIMISED",
     "SEGMENTS",

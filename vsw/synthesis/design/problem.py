@@ -11,6 +11,7 @@ from typing import Any
 from vsw.dynamics.hybrid import HybridModel
 from vsw.dynamics.quantities import objective_names
 from vsw.runtime.errors import VswInputError
+from vsw.synthesis.design.nlp import Structure
 from vsw.synthesis.design.request import (
     CLOSED_FAILURES,
     CLOSED_MARGIN,
@@ -20,7 +21,6 @@ from vsw.synthesis.design.request import (
     open_distance,
     range_text,
 )
-from vsw.synthesis.design.transcription import Structure
 
 __all__ = ["Problem", "margin_floor"]
 

@@ -24,8 +24,14 @@ __all__ = [
 ]
 
 
+DEGREE = 3
+"""Collocation points per interval of the collocated NLP: Gauss-Legendre, of order 6."""
+
+INTERVALS = 8
+"""Collocation intervals per phase."""
+
 SEGMENTS = 4
-"""Shooting segments per phase."""
+"""Shooting segments per phase of the polishing NLP."""
 
 INTEGRATOR_TOL = 1e-10
 """CVODES' relative and absolute tolerance inside the NLP (the verification re-solves the
@@ -47,8 +53,8 @@ MIN_DURATION = 1e-6
 """Lower bound of a phase duration (time units): a phase of zero length is no phase."""
 
 MAX_ITERATIONS = 60
-"""IPOPT's iterations per start: the starts that converge here take 5-55; one that runs
-longer has wandered into a region of no gait, where every iteration integrates slowly."""
+"""IPOPT's iterations per solve, in either NLP: the starts that converge take 5-55; one
+that runs longer has wandered into a region of no gait."""
 
 TARGET_TOL = 1e-6
 """Relative tolerance of a target on the verified gait."""
@@ -136,9 +142,12 @@ class GaitDesign:
         out["ipopt_status"] = self.ipopt_status
         out["starts"] = self.starts
         out["transcription"] = (
-            f"multiple shooting, {SEGMENTS} segments per phase, CVODES {INTEGRATOR_TOL:g}; "
-            "IPOPT with exact first derivatives and a limited-memory Hessian; stability by "
-            "the Jury inequalities of the monodromy matrix's characteristic polynomial"
+            f"from each start Gauss-Legendre collocation ({DEGREE} points, {INTERVALS} "
+            "intervals per phase; IPOPT with exact second derivatives), each distinct "
+            f"optimum polished by multiple shooting ({SEGMENTS} segments per phase, CVODES "
+            f"{INTEGRATOR_TOL:g}; IPOPT with exact first derivatives and a limited-memory "
+            "Hessian); stability by the Jury inequalities of the monodromy matrix's "
+            "characteristic polynomial"
         )
         return out
 

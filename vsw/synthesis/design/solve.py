@@ -21,9 +21,12 @@ from vsw.dynamics.quantities import maximised, report
 from vsw.dynamics.quantities import weight as walker_weight
 from vsw.runtime import stop
 from vsw.runtime.errors import ConvergenceError, VswInputError
+from vsw.synthesis.design import collocation
+from vsw.synthesis.design.nlp import impact_events, kinetic_loss
 from vsw.synthesis.design.problem import Problem, margin_floor
 from vsw.synthesis.design.request import (
     CLOSED_FAILURES,
+    INTERVALS,
     MIN_DURATION,
     SEGMENTS,
     STRICT_MARGIN,
@@ -33,7 +36,7 @@ from vsw.synthesis.design.request import (
     open_distance,
     range_text,
 )
-from vsw.synthesis.design.transcription import Nlp, build, impact_events, kinetic_loss
+from vsw.synthesis.design.shooting import Nlp, build
 
 __all__ = ["design", "orbit_quantities"]
 
@@ -69,15 +72,15 @@ def _nontrivial_rank(orbits: Sequence[Orbit]) -> int:
     return rank
 
 
-def _initial_point(problem: Problem, nlp: Nlp, orbit: Orbit, rho: float) -> np.ndarray:
-    """IPOPT's start from a gait: its parameters, its state at every node, its durations."""
+def _initial_point(problem: Problem, nlp: Nlp, params: Sequence[float], orbit: Orbit,
+                   rho: float) -> np.ndarray:  # fmt: skip
+    """IPOPT's start from a gait at ``params``: its free parameters, its state at every
+    node, its durations."""
     model = problem.model
     state = np.array(list(orbit.state.values()))
-    pieces, _events, ended = model.continuous_walk(problem.start, state, 1)
-    if ended != "completed" or len(pieces) != len(orbit.durations):
-        raise ConvergenceError(f"{model.name}: the start gait does not walk a step")
+    pieces = _walk(model, params, state, len(orbit.durations))
     w = np.zeros(nlp.size)
-    w[nlp.layout["free"]] = [problem.start[j] for j in problem.free]
+    w[nlp.layout["free"]] = [params[j] for j in problem.free]
     nodes = []
     for piece in pieces:
         times = piece.start + (piece.end - piece.start) * np.arange(SEGMENTS) / SEGMENTS
@@ -86,6 +89,14 @@ def _initial_point(problem: Problem, nlp: Nlp, orbit: Orbit, rho: float) -> np.n
     w[nlp.layout["durations"]] = [piece.end - piece.start for piece in pieces]
     w[nlp.layout["rho"]] = rho
     return w
+
+
+def _walk(model: HybridModel, params: Sequence[float], state: np.ndarray, phases: int) -> list:
+    """A gait's step walked as one piece a phase (ConvergenceError where it is not)."""
+    pieces, _events, ended = model.continuous_walk(params, state, 1)
+    if ended != "completed" or len(pieces) != phases:
+        raise ConvergenceError(f"{model.name}: the start gait does not walk a step")
+    return pieces
 
 
 def _bounds(
@@ -249,17 +260,22 @@ def _multistart(
     targets: Mapping[str, float] | None = None,
     eigen: str | None = "same",
 ) -> tuple[_Solve | None, list[_Solve], Nlp]:
+    """IPOPT from each seed on the collocated NLP, then each distinct collocated optimum
+    polished on the shooting NLP and verified; the seeds themselves on the shooting NLP
+    where no collocated solve succeeded. The best verified solve, every solve, the NLP."""
     objective = problem.objective if objective is None else objective
     targets = problem.request.targets if targets is None else targets
     rows = tuple(sorted(set(targets) | (set(problem.request.bounds) & problem.available)))
     structure = problem.structure(rank, objective, rows, eigen)
     nlp = build(problem.model, structure)
     bounds = _bounds(problem, nlp, targets)
+    candidates = _collocated_candidates(problem, structure, seeds, objective, targets)
+    starts = candidates or [(tuple(problem.start), orbit) for orbit in seeds]
     solves, best = [], None
-    for k, orbit in enumerate(seeds):
+    for k, (params, orbit) in enumerate(starts):
         rho = 1.05 * max(orbit.max_abs_eigenvalue, 1e-3)
         try:
-            w0 = _initial_point(problem, nlp, orbit, rho)
+            w0 = _initial_point(problem, nlp, params, orbit, rho)
         except ConvergenceError:
             continue
         solve = _verify(problem, nlp, _solve(problem, nlp, bounds, w0, k), targets, objective)
@@ -267,6 +283,43 @@ def _multistart(
         if solve.verified and (best is None or solve.objective < best.objective - 1e-12):
             best = solve
     return best, solves, nlp
+
+
+def _collocated_candidates(problem: Problem, structure: Any, seeds: Sequence[Orbit],
+                           objective: Mapping[str, float],
+                           targets: Mapping[str, float]) -> list[tuple[tuple, Orbit]]:  # fmt: skip
+    """Each seed's collocated optimum (:mod:`vsw.synthesis.design.collocation`) that IPOPT
+    solved and the periodic-orbit solver confirms as a gait at its parameters, best
+    objective first, one of each (parameters equal to 1e-6)."""
+    model = problem.model
+    found: list[tuple[float, tuple, Orbit]] = []
+    for orbit in seeds:
+        state = np.array(list(orbit.state.values()))
+        try:
+            pieces = _walk(model, problem.start, state, len(orbit.durations))
+        except ConvergenceError:
+            continue
+        mesh = tuple(INTERVALS for _ in pieces)
+        nlp = collocation.build(model, structure, mesh)
+        bounds = _bounds(problem, nlp, targets)
+        rho = 1.05 * max(orbit.max_abs_eigenvalue, 1e-3)
+        w0 = collocation.initial_point(model, nlp, np.asarray(problem.start, float), pieces,
+                                      [problem.start[j] for j in problem.free], rho)  # fmt: skip
+        solve = _solve(problem, nlp, bounds, w0, 0)
+        if solve.ipopt_status not in _SUCCESS:
+            continue
+        params = _parameters_of(problem, nlp, solve.w)
+        x = solve.w[nlp.layout["states"]][: 2 * model.n]
+        try:
+            confirmed = model.periodic_orbit(params, x, solve.w[nlp.layout["durations"]])
+        except ConvergenceError:
+            continue
+        table = np.array(nlp.quantities(solve.w, bounds["p"])).reshape(-1)
+        value = _objective_value(objective, dict(zip(nlp.quantities.names, table)))
+        if any(np.allclose(params, other, rtol=1e-6, atol=1e-9) for _, other, _ in found):
+            continue
+        found.append((value, params, confirmed))
+    return [(params, orbit) for _, params, orbit in sorted(found, key=lambda item: item[0])]
 
 
 def _open_limits(problem: Problem, nlp: Nlp, solve: _Solve) -> tuple[str, ...]:
@@ -346,11 +399,11 @@ def design(model: HybridModel, request: DesignRequest) -> GaitDesign:
         reason = _infeasibility(problem, seeds, rank)
         if reason is not None:
             return GaitDesign("infeasible", f"infeasible: {reason}", ipopt_status=statuses,
-                              starts=len(solves), infeasible_reason=reason)  # fmt: skip
+                              starts=len(seeds), infeasible_reason=reason)  # fmt: skip
         why = "; ".join(sorted({s.failure for s in solves}))[:300]
         return GaitDesign("not-converged", f"not converged: no verified design from "
-                          f"{len(solves)} start(s) ({why})", ipopt_status=statuses,
-                          starts=len(solves))  # fmt: skip
+                          f"{len(seeds)} start(s) ({why or 'no collocated optimum'})",
+                          ipopt_status=statuses, starts=len(seeds))  # fmt: skip
     limits = _open_limits(problem, nlp, best)
     status = "not-attained" if limits else "optimal"
     if limits:
@@ -358,8 +411,9 @@ def design(model: HybridModel, request: DesignRequest) -> GaitDesign:
                    f"the design keeps its distance (parameters: 1e-3 of the interval or the "
                    f"default, margins {STRICT_MARGIN:g})")  # fmt: skip
     else:
-        message = (f"optimal (local, the best verified of {len(solves)} IPOPT solve(s) from "
-                   f"the gaits at the start; IPOPT {best.ipopt_status})")  # fmt: skip
+        message = (f"optimal (local, the best verified of {len(solves)} polished optimum(s) "
+                   f"from the {len(seeds)} gait(s) at the start; IPOPT "
+                   f"{best.ipopt_status})")  # fmt: skip
     state = np.array(list(best.orbit.state.values()))
     step = model.step(best.parameters, state)
     scale = max(1.0, float(np.max(np.abs(state))))
@@ -376,7 +430,7 @@ def design(model: HybridModel, request: DesignRequest) -> GaitDesign:
         _active(problem, nlp, best),
         limits,
         best.ipopt_status,
-        len(solves),
+        len(seeds),
         sim_error,
     )
 

@@ -1,0 +1,108 @@
+"""The design's collocated NLP: the Gauss-Legendre scheme's order against exact solutions,
+the collocated gait and its eigenvalues against the runtime's (CVODES, variational
+equations), and the design's result whether or not collocation finds its start."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.linalg import expm
+
+from vsw import models
+from vsw.orbits.collocation import legendre_defects, legendre_end, legendre_scheme
+from vsw.synthesis import design as gait_design
+from vsw.synthesis.design import collocation, solve
+from vsw.synthesis.design.problem import Problem
+
+
+def _collocated_flow(matrix: np.ndarray, x0: np.ndarray, span: float, intervals: int,
+                     degree: int) -> np.ndarray:  # fmt: skip
+    """x' = A x over ``span`` by the scheme, each interval's linear rows solved."""
+    _, c_matrix, d_row = legendre_scheme(degree)
+    m, h, x = len(x0), span / intervals, np.array(x0, float)
+    for _ in range(intervals):
+        system = np.kron(c_matrix[1:, 1:].T, np.eye(m)) - h * np.kron(np.eye(degree), matrix)
+        stages = np.linalg.solve(
+            system, -np.concatenate([c_matrix[0, j] * x for j in range(1, degree + 1)])
+        )
+        stages = stages.reshape(degree, m)
+        x = legendre_end([x, *stages], d_row)
+    return x
+
+
+@pytest.mark.parametrize("degree", [2, 3])
+def test_gauss_legendre_collocation_has_order_twice_its_points(degree):
+    # A damped oscillator: exact flow by the matrix exponential.
+    matrix = np.array([[0.0, 1.0], [-4.0, -0.3]])
+    x0 = np.array([1.0, 0.5])
+    exact = expm(matrix * 2.0) @ x0
+    errors = [np.max(np.abs(_collocated_flow(matrix, x0, 2.0, n, degree) - exact))
+              for n in (8, 16)]  # fmt: skip
+    order = np.log2(errors[0] / errors[1])
+    assert 2 * degree - 0.3 < order < 2 * degree + 0.5, (errors, order)
+
+
+def test_the_scheme_s_defects_vanish_on_a_polynomial_of_its_degree():
+    _, c_matrix, d_row = legendre_scheme(3)
+    roots = legendre_scheme(3)[0]
+    h = 0.4
+
+    def cubic(t):
+        return 1.0 - 2.0 * t + 0.5 * t**2 + 3.0 * t**3
+
+    def slope(t):
+        return -2.0 + t + 9.0 * t**2
+
+    points = [cubic(0.0)] + [cubic(h * r) for r in roots]
+    rates = [slope(h * r) for r in roots]
+    assert np.allclose(legendre_defects(points, rates, h, c_matrix), 0, atol=1e-13)
+    assert legendre_end(points, d_row) == pytest.approx(cubic(h), abs=1e-13)
+    # A wrong slope is seen.
+    assert not np.allclose(legendre_defects(points, [r + 1e-3 for r in rates], h, c_matrix), 0)
+
+
+def _compass_problem() -> Problem:
+    request = gait_design.DesignRequest(objective={}, targets={"period": 0.75})
+    return Problem(models.load("compass-gait"), request)
+
+
+def test_the_collocated_optimum_is_the_runtime_s_gait_to_the_mesh_s_error():
+    problem = _compass_problem()
+    model = problem.model
+    seeds, _, _ = solve._seeds(problem)
+    stable = min(seeds, key=lambda orbit: orbit.max_abs_eigenvalue)
+    structure = problem.structure(solve._nontrivial_rank(seeds), problem.objective,
+                                  problem.rows, "same")  # fmt: skip
+    nlp = collocation.build(model, structure, (gait_design.INTERVALS,))
+    pieces = solve._walk(model, problem.start, np.array(list(stable.state.values())), 1)
+    w0 = collocation.initial_point(model, nlp, np.asarray(problem.start), pieces,
+                                   [problem.start[j] for j in problem.free],
+                                   1.05 * stable.max_abs_eigenvalue)  # fmt: skip
+    bounds = solve._bounds(problem, nlp, problem.request.targets)
+    out = nlp.solver(x0=w0, **bounds)
+    assert nlp.solver.stats()["return_status"] == "Solve_Succeeded"
+    w = np.array(out["x"]).reshape(-1)
+    params = solve._parameters_of(problem, nlp, w)
+    state = w[nlp.layout["states"]][: 2 * model.n]
+    durations = w[nlp.layout["durations"]]
+    orbit = model.periodic_orbit(params, state, durations)
+    # The runtime's gait at the collocated parameters: CVODES at 1e-13, the eigenvalues by
+    # its variational equations; the collocation's by its own discrete map.
+    assert np.max(np.abs(np.array(list(orbit.state.values())) - state)) < 1e-6
+    assert orbit.period == pytest.approx(0.75, abs=1e-6)
+    radius = float(w[nlp.layout["rho"]][0])
+    assert radius == pytest.approx(orbit.max_abs_eigenvalue, rel=1e-5)
+    assert radius != pytest.approx(orbit.max_abs_eigenvalue, rel=1e-12)  # a mesh's error
+
+
+def test_the_design_is_the_same_whether_collocation_or_the_starts_are_polished(monkeypatch):
+    problem_request = gait_design.DesignRequest(objective={}, targets={"period": 0.75})
+    model = models.load("compass-gait")
+    polished = gait_design.design(model, problem_request)
+    monkeypatch.setattr(solve, "_collocated_candidates", lambda *args: [])
+    shot = gait_design.design(model, problem_request)
+    assert polished.status == shot.status == "optimal"
+    assert polished.parameters["gamma"] == pytest.approx(shot.parameters["gamma"], rel=1e-8)
+    assert polished.objective == pytest.approx(shot.objective, rel=1e-8)
+    # The tutorial's design (docs/tutorials/design.md), from the shooting alone.
+    assert shot.objective == pytest.approx(0.646696, abs=5e-7)
