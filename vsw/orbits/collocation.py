@@ -1,6 +1,7 @@
-"""The collocation discretisation of a hybrid periodic orbit: Hermite-Simpson segments, the
-second discretisation of the orbit problem beside multiple shooting
-(:mod:`vsw.orbits.shooting`).
+"""The collocation discretisation of a hybrid periodic orbit, the second discretisation of
+the orbit problem beside multiple shooting (:mod:`vsw.orbits.shooting`), in two schemes:
+Hermite-Simpson segments (below; the powered gaits) and Gauss-Legendre collocation of
+order six (:func:`legendre_scheme`; the design's search).
 
 A phase of the orbit lasting ``T`` is cut into ``N`` intervals of length ``h = T / N``; the
 unknowns are the state at every knot and every interval's midpoint (and the inputs there,
@@ -51,6 +52,9 @@ __all__ = [
     "defects",
     "interval_inputs",
     "interval_states",
+    "legendre_defects",
+    "legendre_end",
+    "legendre_scheme",
     "sensitivity",
 ]
 
