@@ -258,3 +258,77 @@ def test_a_five_link_impact_keeps_cramers_rule_in_the_balance(monkeypatch):
     by_coordinate = dict(zip([c.q for c in balance.after.coordinates], rates))
     ours = [float(by_coordinate[q].xreplace(point)) for q in balance.q_after]
     np.testing.assert_allclose(ours, wanted, rtol=1e-9)
+
+
+def _random_expression(rng, symbols, depth: int) -> sm.Expr:
+    """A random expression of sums (signed terms too), products, quotients, powers and
+    sines over ``symbols``."""
+    if depth == 0:
+        return rng.choice([*symbols, sm.Rational(rng.randint(-5, 5), rng.randint(1, 4))])
+    parts = [_random_expression(rng, symbols, depth - 1) for _ in range(rng.randint(2, 4))]
+    kind = rng.randrange(5)
+    if kind == 0:
+        return sm.Add(*(p * rng.choice([1, -1, 2, sm.Rational(-1, 3)]) for p in parts))
+    if kind == 1:
+        return sm.Mul(*parts)
+    if kind == 2:
+        return parts[0] / (parts[1] + 1)
+    if kind == 3:
+        return parts[0] ** rng.choice([2, 3, -1, -2, sm.Rational(1, 2)])
+    return sm.sin(parts[0]) - parts[1]
+
+
+def test_the_operation_bound_answers_as_count_ops():
+    """``within_ops`` (which stops counting a large expression's additions early) answers
+    ``count_ops(expr) <= limit`` for every expression and limit."""
+    import random
+
+    rng = random.Random(3)
+    symbols = sm.symbols("a b c", real=True)
+    exprs = [_random_expression(rng, symbols, rng.randint(0, 4)) for _ in range(300)]
+    exprs.append(sm.expand(sum(symbols, sm.Integer(1)) ** 9))
+    for expr in exprs:
+        count = sm.count_ops(expr)
+        for limit in (0, 1, 5, 20, count - 1, count, 200):
+            assert algebra.within_ops(expr, limit) == (count <= limit), expr
+
+
+def test_rationals_convert_to_complex_as_sympy_converts_them():
+    """The engine's ``complex`` of a Rational (sorting's key takes it for each coefficient)
+    is sympy's own, bit for bit."""
+    import random
+
+    from sympy.core.expr import Expr
+
+    rng = random.Random(5)
+    numbers = [sm.Integer(10**400), sm.Rational(-1, 10**330), sm.S.Zero, sm.S.Half]
+    for _ in range(2000):
+        digits = rng.randint(1, 40)
+        numbers.append(sm.Rational(rng.randint(-(10**digits), 10**digits),
+                                   rng.randint(1, 10 ** rng.randint(1, 40))))  # fmt: skip
+    for number in numbers:
+        assert repr(complex(number)) == repr(Expr.__complex__(number))
+
+
+def test_the_polynomial_trig_integral_at_zero_and_with_a_polynomial_part():
+    s, a, b = sm.symbols("s a b", real=True)
+    integrand = s**4 + a * s * sm.sin(2 * s + a) + 3 - b * s**2 * sm.cos(s)
+    ours = stride.integrate_polynomial_trig(integrand, s, 0, b)
+    assert sm.simplify(ours - sm.integrate(integrand, (s, 0, b))) == 0
+
+
+def test_numeric_evaluation_agrees_with_sympys():
+    """:func:`derive.engine.numeric.evaluate` at 60 digits: sympy's value, intermediates
+    evaluated in order; a function it does not know is refused."""
+    from derive.engine.numeric import evaluate
+
+    x, y, k = sm.symbols("x y k", real=True)
+    expr = sm.sin(x) ** 2 / (1 + y) - sm.sqrt(x * y) + sm.atan2(y, x) + sm.pi / 3 - k**-3
+    point = {x: 0.3, y: sm.Float("0.7", 60)}
+    (value,) = evaluate([expr], point, 60, [(k, sm.cos(x) + y)])
+    exact = expr.xreplace({k: sm.cos(x) + y}).xreplace({x: sm.Float(0.3, 60), y: point[y]})
+    assert abs(value - exact.evalf(60)) < 1e-55
+    with pytest.raises(ValueError, match="besselj"):
+        evaluate([sm.besselj(0, x)], point)
+    with pytest.raises(ValueError, match="Symbol"):
+        evaluate([x + y + k], point)

@@ -32,6 +32,7 @@ __all__ = [
     "placeholder_cramer",
     "refuse_nested_fraction",
     "tidy",
+    "within_ops",
 ]
 
 
@@ -343,5 +344,24 @@ TIDY_OPS = 200
 prescribed polynomial profile integrated against gravity) would take minutes in it."""
 
 
+def within_ops(expr: sm.Expr, limit: int = TIDY_OPS) -> bool:
+    """``sympy.count_ops(expr) <= limit``, answered without counting a large expression:
+    every sum of ``n`` terms that ``count_ops`` walks counts ``n - 1`` additions or
+    subtractions, so once the sums met along ``expr``'s tree (each occurrence, as
+    ``count_ops`` walks it) hold more than ``limit`` of them, so does the count (a
+    tenth of a second on the TLE's integrated extension, where the walk stops early)."""
+    if not isinstance(expr, sm.Expr):
+        return sm.count_ops(expr) <= limit
+    additions, stack = 0, [expr]
+    while stack:
+        node = stack.pop()
+        if node.is_Add:
+            additions += len(node.args) - 1
+            if additions > limit:
+                return False
+        stack.extend(node.args)
+    return sm.count_ops(expr) <= limit
+
+
 def tidy(expr: sm.Expr) -> sm.Expr:
-    return sm.simplify(expr) if sm.count_ops(expr) <= TIDY_OPS else expr
+    return sm.simplify(expr) if within_ops(expr) else expr

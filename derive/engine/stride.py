@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import sympy as sm
 
-from derive.engine.algebra import TIDY_OPS, expand, tidy
+from derive.engine.algebra import expand, tidy, within_ops
 from derive.engine.dynamics import phase_dynamics
 from derive.engine.model import Model, Phase
 from derive.engine.resets import check_event_angle, reset
@@ -41,39 +41,66 @@ def integrate_polynomial_trig(expr: sm.Expr, s: sm.Symbol, low: sm.Expr, high: s
     p^(2j+1) / a**(2j+2)``); None for any other integrand. Seconds faster than
     :func:`sympy.integrate` on a degree-9 polynomial with symbolic coefficients.
     """
-    groups: dict[sm.Expr, list[sm.Expr]] = {}
-    for term in sm.Add.make_args(expand(expr)):
-        trig = [f for f in sm.Mul.make_args(term) if isinstance(f, (sm.sin, sm.cos)) and f.has(s)]
-        if len(trig) > 1:
+    groups = _polynomial_trig_groups(expr, s)
+    if groups is None:
+        return None
+    for key in groups:
+        if key != 1 and (key.args[0].diff(s).has(s) or key.args[0].diff(s) == 0):
             return None
-        key = trig[0] if trig else sm.Integer(1)
-        rest = term / key
-        if not rest.is_polynomial(s):
-            return None
-        groups.setdefault(key, []).append(rest)
-    antiderivative = sm.Integer(0)
-    for key, terms in sorted(groups.items(), key=lambda kv: sm.default_sort_key(kv[0])):
-        # One sum of the group's terms (adding them one by one rebuilt it for each term).
-        poly = sm.Poly(sm.Add(*terms), s)
+    ordered = sorted(groups.items(), key=lambda kv: sm.default_sort_key(kv[0]))
+    # The antiderivative is built at each end (not built in s and then substituted: the
+    # coefficients recur in every derivative, and a substitution walks each occurrence).
+    return _antiderivative(ordered, s, high) - _antiderivative(ordered, s, low)
+
+
+def _antiderivative(groups: list, s: sm.Symbol, at: sm.Expr) -> sm.Expr:
+    """The antiderivative of ``sum_f f sum_n c_n s**n`` (``groups``: ``(f, {n: c_n})``, ``f``
+    a sine or cosine of ``s`` or 1) at ``s = at``."""
+    out = sm.Integer(0)
+    for key, coeffs in groups:
         if key == 1:
-            antiderivative += poly.integrate().as_expr()
+            out += sm.Add(*(c * at ** (n + 1) / (n + 1) for n, c in coeffs.items()))
             continue
         argument = key.args[0]
         slope = argument.diff(s)
-        if slope.has(s) or slope == 0:
-            return None
-        derivatives = [poly]
-        while not derivatives[-1].is_zero:
-            derivatives.append(derivatives[-1].diff(s))
-        even = sum((sm.Integer(-1) ** (k // 2) * d.as_expr() / slope ** (k + 1)
-                    for k, d in enumerate(derivatives) if k % 2 == 0), sm.Integer(0))  # fmt: skip
-        odd = sum((sm.Integer(-1) ** (k // 2) * d.as_expr() / slope ** (k + 1)
-                   for k, d in enumerate(derivatives) if k % 2 == 1), sm.Integer(0))  # fmt: skip
+        # The k-th derivative of sum_n c_n s**n, over slope**(k + 1), signed by k // 2.
+        parts = ([], [])
+        for k in range(max(coeffs) + 1):
+            derivative = sm.Add(*(c * sm.ff(n, k) * at ** (n - k)
+                                  for n, c in coeffs.items() if n >= k))  # fmt: skip
+            parts[k % 2].append(sm.Integer(-1) ** (k // 2) * derivative / slope ** (k + 1))
+        even, odd = sm.Add(*parts[0]), sm.Add(*parts[1])
+        argument = argument.xreplace({s: at})
         if isinstance(key, sm.sin):
-            antiderivative += -sm.cos(argument) * even + sm.sin(argument) * odd
+            out += -sm.cos(argument) * even + sm.sin(argument) * odd
         else:
-            antiderivative += sm.sin(argument) * even + sm.cos(argument) * odd
-    return antiderivative.xreplace({s: high}) - antiderivative.xreplace({s: low})
+            out += sm.sin(argument) * even + sm.cos(argument) * odd
+    return out
+
+
+def _polynomial_trig_groups(expr: sm.Expr, s: sm.Symbol) -> dict | None:
+    """The expanded ``expr`` as ``{f: {n: c_n}}`` for ``sum_f f sum_n c_n s**n`` with ``f``
+    a sine or cosine of ``s`` or 1 and ``c_n`` free of ``s`` (collected term by term: a
+    polynomial over the coefficients' field takes most of a second to build); None when it
+    has no such form."""
+    groups: dict[sm.Expr, dict[int, list[sm.Expr]]] = {}
+    for term in sm.Add.make_args(expand(expr)):
+        key, power, rest = sm.Integer(1), 0, []
+        for factor in sm.Mul.make_args(term):
+            base, exponent = factor.as_base_exp()
+            if not factor.has(s):
+                rest.append(factor)
+            elif isinstance(factor, (sm.sin, sm.cos)) and key == 1:
+                key = factor
+            elif base == s and exponent.is_Integer and exponent > 0:
+                power += int(exponent)
+            else:
+                return None
+        groups.setdefault(key, {}).setdefault(power, []).append(sm.Mul(*rest))
+    return {
+        key: {n: sm.Add(*terms) for n, terms in sorted(powers.items())}
+        for key, powers in groups.items()
+    }
 
 
 def phase_rate_map(
@@ -91,7 +118,7 @@ def phase_rate_map(
     theta, omega = phase.coordinates[0].q, phase.coordinates[0].u
     w = sm.Symbol("w", positive=True)
     acc = phase_dynamics(phase).accelerations[0].xreplace({omega: sm.sqrt(w)})
-    small = sm.count_ops(acc) <= TIDY_OPS
+    small = within_ops(acc)
     slope_b = expand(acc.diff(w)) if small else acc.diff(w)
     if slope_b.has(w) or slope_b.has(omega):
         return None
@@ -156,12 +183,12 @@ def stride_closed_form(model: Model) -> StrideForm | None:
         factor = sm.cancel(rates_after[0].xreplace({theta: end}) / omega)
         if factor.has(omega):
             return None
-        u = expand(factor**2 * u) if sm.count_ops(u) <= TIDY_OPS else factor**2 * u
+        u = expand(factor**2 * u) if within_ops(u) else factor**2 * u
         angle = coords_after[0].xreplace({theta: end})
         if event.ends_step:
             break
         phase = model.phase(event.target)
-    if sm.count_ops(u) <= TIDY_OPS:
+    if within_ops(u):
         u = expand(u)
         if u.diff(q, 2) != 0:
             return None

@@ -63,6 +63,7 @@ from derive.engine.model import (
     PointMass,
     leg,
 )
+from derive.engine.numeric import evaluate
 from derive.models.common import PI, closest_to_apex_cos, fell_backward, lift_off
 from derive.models.tle_moments import MOMENT_ORDER, moment_integral
 from derive.quantities import Condition, Derivation, Quantity
@@ -203,8 +204,9 @@ LEG_FORCE_SAMPLES = 16
 
 
 def _check_agree(a: sm.Expr, b: sm.Expr, what: str, tol: float = 1e-15, points: int = 3,
-                 extra: dict | None = None) -> None:  # fmt: skip
-    """``a`` and ``b`` agree at random gaits-like points, evaluated with 60 digits."""
+                 extra: dict | None = None, inter: tuple = ()) -> None:  # fmt: skip
+    """``a`` and ``b`` agree at random gaits-like points, evaluated with 60 digits; ``a``'s
+    intermediates ``inter`` (name, value) are evaluated first, in order."""
     rng = random.Random(20261212)
     for _ in range(points):
         values = {
@@ -214,10 +216,8 @@ def _check_agree(a: sm.Expr, b: sm.Expr, what: str, tol: float = 1e-15, points: 
             omega: rng.uniform(0.2, 1.0), fraction: rng.uniform(0.0, 1.0),
             theta_I_s: rng.uniform(-0.3, 0.0), theta_IV_s: rng.uniform(0.2, 0.6),
         }  # fmt: skip
-        values = {k: sm.Float(v, 60) for k, v in values.items()}
         values.update(extra or {})
-        va = sm.sympify(a).xreplace(values).evalf(60)
-        vb = sm.sympify(b).xreplace(values).evalf(60)
+        va, vb = evaluate((a, b), values, 60, inter)
         if abs(va - vb) > tol * max(1, abs(vb)):
             raise AssertionError(f"{what}: {va} != {vb} at {values}")
 
@@ -278,12 +278,6 @@ def extension_integral(x: sm.Expr, tag: str) -> tuple[list[tuple[sm.Symbol, sm.E
     return moment_integral(x, tag, cubed_profile_terms(), theta_II, delta)
 
 
-def _explicit(inter: list[tuple[sm.Symbol, sm.Expr]], expr: sm.Expr) -> sm.Expr:
-    for symbol, value in reversed(inter):
-        expr = expr.xreplace({symbol: value})
-    return expr
-
-
 # --- the heelstrike geometry -----------------------------------------------------------------
 
 
@@ -308,7 +302,7 @@ def geometry() -> list[tuple[sm.Symbol, sm.Expr]]:
         ("cos theta_IV", cos_IV, sm.cos(section + phi0)),
         ("sin theta_IV", sin_IV, sm.sin(section + phi0)),
     ):
-        _check_agree(_explicit(inter, value), reference, name)
+        _check_agree(value, reference, name, inter=tuple(inter))
     return inter
 
 
@@ -362,7 +356,7 @@ def full_integral() -> tuple[list[tuple[sm.Symbol, sm.Expr]], sm.Expr]:
     closed = integrate_polynomial_trig(
         delta * profile(theta_II + delta * s) ** 3 * sm.sin(theta_II + delta * s), s, 0, 1
     )
-    _check_agree(_explicit(inter, value), closed, "J (series form)", tol=1e-17)
+    _check_agree(value, closed, "J (series form)", tol=1e-17, inter=tuple(inter))
     return inter, value
 
 
@@ -388,8 +382,8 @@ def stride_forms() -> dict[str, object]:
     check = {}
     for k in range(3):  # the engine's closed form cancels badly: many digits
         check = {delta: sm.Float([0.05, 0.3, 0.9][k], 80)}
-        _check_agree(_explicit(inter, offset), engine.offset, "stride map offset", tol=1e-15,
-                     points=1, extra=check)  # fmt: skip
+        _check_agree(offset, engine.offset, "stride map offset", tol=1e-15, points=1,
+                     extra=check, inter=tuple(inter))  # fmt: skip
     q_fixed = offset / one_minus_eigenvalue()
     return {"intermediates": inter, "stride_map": slope * q + offset, "offset": offset,
             "slope": slope, "q_fixed": q_fixed}  # fmt: skip
