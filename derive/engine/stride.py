@@ -119,7 +119,8 @@ def phase_rate_map(
     w = sm.Symbol("w", positive=True)
     acc = phase_dynamics(phase).accelerations[0].xreplace({omega: sm.sqrt(w)})
     small = within_ops(acc)
-    slope_b = expand(acc.diff(w)) if small else acc.diff(w)
+    raw_b = acc.diff(w)
+    slope_b = expand(raw_b) if small else raw_b
     if slope_b.has(w) or slope_b.has(omega):
         return None
     a_part = expand(acc - slope_b * w) if small else acc.xreplace({w: 0})
@@ -128,8 +129,10 @@ def phase_rate_map(
         integral = sm.integrate((2 * a_part).xreplace({theta: s}), (s, angle_from, angle_to))
         return expand(rate_squared_from + integral)
     # A logarithmic derivative c D'/D (a held profile D) integrates to c log D; sympy's
-    # integrate finds it too, in seconds rather than milliseconds.
-    numerator, denominator = sm.fraction(sm.cancel(2 * slope_b))
+    # integrate finds it too, in seconds rather than milliseconds. (cancel's canonical
+    # form is the same from the expanded B, which holds the profile's expanded powers of
+    # 1/delta in every term's denominator: it takes four times as long from that.)
+    numerator, denominator = sm.fraction(sm.cancel(2 * raw_b))
     ratio = sm.cancel(numerator / denominator.diff(theta))
     if ratio.has(theta):
         antiderivative = sm.integrate(2 * slope_b, theta)
@@ -140,7 +143,7 @@ def phase_rate_map(
     # exp(k log P) evaluates to P**k: mu is a power of the profile.
     start = antiderivative.xreplace({theta: angle_from})
     mu = sm.factor(sm.exp(-antiderivative) * sm.exp(start))
-    integrand = sm.factor(2 * a_part * mu).xreplace({theta: s})
+    integrand = sm.factor(2 * acc.xreplace({w: 0}) * mu).xreplace({theta: s})
     integral = integrate_polynomial_trig(integrand, s, angle_from, angle_to)
     if integral is None:
         integral = sm.integrate(integrand, (s, angle_from, angle_to))

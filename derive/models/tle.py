@@ -481,13 +481,22 @@ def _normal_force_of_cos(phase: Phase) -> tuple[sm.Expr, sm.Symbol, sm.Symbol]:
     dyn = phase_dynamics(phase)
     c, level, w = sm.symbols("c E w", real=True)
     energy = dyn.energy.xreplace({omega: sm.sqrt(w)})
-    w_of_level = sm.solve(energy - level, w)[0]
+    w_of_level = _linear_root(energy - level, w)
     normal = dyn.normal_force.xreplace({omega: sm.sqrt(w)}).xreplace({w: w_of_level})
     normal = sm.expand(normal).subs(sm.sin(theta) ** 2, 1 - sm.cos(theta) ** 2)
     normal = sm.expand(normal.xreplace({sm.cos(theta): c}))
     if normal.has(theta) or sm.degree(normal, c) != 2 or normal.coeff(c, 2) <= 0:
         raise AssertionError(f"{phase.name}: N is not a convex quadratic in cos theta: {normal}")
     return normal, c, level
+
+
+def _linear_root(expr: sm.Expr, x: sm.Symbol) -> sm.Expr:
+    """The root of ``expr``, linear in ``x`` (as sympy's solve has it, without the solver's
+    first call: a tenth of a second)."""
+    slope = expr.diff(x)
+    if slope == 0 or slope.has(x):
+        raise AssertionError(f"{expr} is not linear in {x}")
+    return -expr.xreplace({x: 0}) / slope
 
 
 def _min(*args: sm.Expr) -> sm.Expr:
@@ -505,7 +514,7 @@ def _phase_contact_min(phase: Phase, level: sm.Expr, c_low: sm.Expr, c_high: sm.
     cos(theta) ranges over ``[c_low, c_high]``: the convex quadratic in ``cos theta`` at
     its vertex clipped to the range. Returns intermediates and the name of the result."""
     normal, c, e = _normal_force_of_cos(phase)
-    vertex = sm.solve(normal.diff(c), c)[0]
+    vertex = _linear_root(normal.diff(c), c)
     e_s, at_s, n_s = (sm.Symbol(f"{name}_{tag}", real=True) for name in ("E", "c_min_N", "N_min"))
     inter = [
         (e_s, level),
