@@ -300,6 +300,8 @@ def test_rationals_convert_to_complex_as_sympy_converts_them():
 
     from sympy.core.expr import Expr
 
+    from derive.engine.shortcuts import rational_complex
+
     rng = random.Random(5)
     numbers = [sm.Integer(10**400), sm.Rational(-1, 10**330), sm.S.Zero, sm.S.Half]
     for _ in range(2000):
@@ -308,6 +310,35 @@ def test_rationals_convert_to_complex_as_sympy_converts_them():
                                    rng.randint(1, 10 ** rng.randint(1, 40))))  # fmt: skip
     for number in numbers:
         assert repr(complex(number)) == repr(Expr.__complex__(number))
+        assert repr(rational_complex(number)) == repr(Expr.__complex__(number))
+
+
+def test_a_products_minus_sign_is_sympys():
+    """The engine's ``could_extract_minus_sign`` of a product is sympy 1.14's (which
+    compares the product with its negative first), zoo and nan included."""
+    import random
+
+    from derive.engine.shortcuts import product_minus_sign
+
+    def sympys(product):
+        if product == -product:
+            return False
+        c = product.args[0]
+        return c.is_Number and c.is_extended_negative
+
+    rng = random.Random(9)
+    symbols = sm.symbols("a b c", real=True)
+    products = [sm.Mul(sm.S.ComplexInfinity, symbols[0]), sm.Mul(-2, sm.S.NaN, symbols[1],
+                                                                  evaluate=False)]  # fmt: skip
+    for _ in range(400):
+        expr = _random_expression(rng, symbols, rng.randint(1, 3))
+        products += [p for p in sm.preorder_traversal(expr) if type(p) is sm.Mul]
+        products.append(-expr * rng.choice(symbols))
+    products = [p for p in products if type(p) is sm.Mul]
+    assert len(products) > 300
+    for product in products:
+        assert product_minus_sign(product) == sympys(product), product
+        assert product.could_extract_minus_sign() == sympys(product), product
 
 
 def test_the_polynomial_trig_integral_at_zero_and_with_a_polynomial_part():

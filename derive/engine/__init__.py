@@ -8,7 +8,7 @@ the code generator writes as ``generated/<model>/``.
 
 from __future__ import annotations
 
-from derive.engine import node_count
+from derive.engine import node_count, shortcuts
 from derive.engine.hybrid import hybrid_quantities, stride_closed_form
 from derive.engine.model import Model
 from derive.quantities import CExport, Derivation, Quantity
@@ -16,6 +16,7 @@ from derive.quantities import CExport, Derivation, Quantity
 __all__ = ["c_exports", "model_derivation"]
 
 node_count.install()  # sympy's orderings, faster (every derivation imports the engine)
+shortcuts.install()  # sympy's answers to two frequent questions, the same, faster
 
 
 def model_derivation(model: Model, units: str) -> Derivation:

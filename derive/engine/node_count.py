@@ -1,5 +1,4 @@
-"""sympy's node count, memoised: the first key by which ``sympy.ordered`` sorts; and a
-rational number's ``complex``, which sorting sums by their terms takes for each coefficient.
+"""sympy's node count, memoised: the first key by which ``sympy.ordered`` sorts.
 
 ``ordered`` (in common subexpression elimination with ``order="canonical"``, in TR10i, in
 much of sympy) sorts by ``_nodes`` first, which counts an expression's nodes by walking
@@ -8,13 +7,6 @@ way up: quadratic in the depth. A five-link walker's accelerations spent a quart
 their elimination (1.1 s) there. The count of an expression is a fact of its tree, so it
 is kept per expression; the counts, and so every order and every generated file, are
 sympy's.
-
-An expression's sort key (``Expr.sort_key``, through ``as_ordered_terms``) turns each
-term's numeric coefficient into a Python complex; for a Rational, sympy evaluates it as a
-Float and then asks that Float for its real and imaginary parts through the assumptions
-system, which was a sixth of eliminating the TLE's largest function. A Float's parts are
-itself and zero, so :func:`_rational_complex` takes the same Float's value directly: the
-same number, bit for bit.
 """
 
 from __future__ import annotations
@@ -46,16 +38,8 @@ def _node_count(expr: sm.Basic) -> float:
     return count
 
 
-def _rational_complex(self: sm.Rational) -> complex:
-    """``Expr.__complex__`` of sympy 1.14 for a Rational: its Float (``evalf``, 15 digits)
-    as the real part, 0 as the imaginary part."""
-    return complex(float(self.evalf()), 0.0)
-
-
 def install() -> None:
     """Put the memoised count in the place ``sympy.core.sorting._nodes`` looks it up (a
     module global, read at each call). For the sympy the derivation pins (1.14,
-    :mod:`derive.manifest`), whose definition :func:`_node_count` repeats; and
-    :func:`_rational_complex` as Rational's (and so Integer's) ``complex``."""
+    :mod:`derive.manifest`), whose definition :func:`_node_count` repeats."""
     _sorting._node_count = _node_count
-    sm.Rational.__complex__ = _rational_complex
