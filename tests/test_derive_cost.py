@@ -328,8 +328,9 @@ def test_a_products_minus_sign_is_sympys():
 
     rng = random.Random(9)
     symbols = sm.symbols("a b c", real=True)
-    products = [sm.Mul(sm.S.ComplexInfinity, symbols[0]), sm.Mul(-2, sm.S.NaN, symbols[1],
-                                                                  evaluate=False)]  # fmt: skip
+    a, b = symbols[:2]
+    products = [sm.Mul(sm.S.ComplexInfinity, a), sm.Mul(-2, sm.S.NaN, b, evaluate=False),
+                sm.Float(-2.5) * a, sm.Float(2) * a * b, -a, sm.pi * a, -sm.pi * a]  # fmt: skip
     for _ in range(400):
         expr = _random_expression(rng, symbols, rng.randint(1, 3))
         products += [p for p in sm.preorder_traversal(expr) if type(p) is sm.Mul]

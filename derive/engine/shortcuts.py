@@ -8,10 +8,11 @@ and the elimination of common subexpressions ask of every coefficient and produc
   :func:`rational_complex` takes the same Float's value.
 * ``could_extract_minus_sign`` of a product (asked of every product by ``cse`` and by the
   sign test of every sum): sympy builds ``-p`` to see whether ``p == -p`` (true only for a
-  product holding ``zoo``) before it looks at the coefficient, 8 % of printing the TLE.
-  :func:`product_minus_sign` looks at the coefficient of a product without ``zoo`` or
-  ``nan`` (where negating changes the coefficient, so ``p != -p``) and asks sympy for the
-  rest.
+  product holding ``zoo``) before it looks at the coefficient, and then asks the
+  coefficient's assumptions whether it is negative (a Rational's are deduced anew for each
+  new number): 15 % of printing the TLE. :func:`product_minus_sign` looks at the
+  coefficient of a product without ``zoo`` or ``nan`` (where negating changes the
+  coefficient, so ``p != -p``), at a Rational's numerator, and asks sympy for the rest.
 
 Both are sympy 1.14's definitions (the version :mod:`derive.manifest` pins) with the detour
 left out; the tests compare them with sympy's own.
@@ -40,6 +41,8 @@ def product_minus_sign(self: Mul) -> bool:
                                     for a in self.args):  # fmt: skip
         return _SYMPY_MINUS_SIGN(self)
     c = self.args[0]
+    if c.is_Rational:  # sympy asks the assumptions of each new Rational: the sign of p
+        return c.p < 0
     return c.is_Number and c.is_extended_negative
 
 
