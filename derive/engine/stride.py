@@ -45,7 +45,8 @@ def integrate_polynomial_trig(expr: sm.Expr, s: sm.Symbol, low: sm.Expr, high: s
     if groups is None:
         return None
     for key in groups:
-        if key != 1 and (key.args[0].diff(s).has(s) or key.args[0].diff(s) == 0):
+        slope = key.args[0].diff(s) if key != 1 else None
+        if slope is not None and (slope.has(s) or slope == 0):
             return None
     ordered = sorted(groups.items(), key=lambda kv: sm.default_sort_key(kv[0]))
     # The antiderivative is built at each end (not built in s and then substituted: the
