@@ -1,7 +1,8 @@
 """What the model files share: the bounds their parameter tables take, the standard
 parameters (a positive scale, gravity, a passive walker's slope), SI units, gravity in a
-slope's frame, the ways a walk on a stance leg ends (falling backward or forward, the stance foot
-lifting off), and the point of a phase nearest the apex.
+slope's frame, the legs' angles and their drawing, heelstrike swapping two legs and a push-off
+released by it, the ways a walk on a stance leg ends (falling backward or forward, the stance
+foot lifting off), and the point of a phase nearest the apex.
 
 Each is written once so that a model file states only what is its own; the wording of a
 parameter's reason or a failure's meaning is the generated tables' and messages', so it is
@@ -12,7 +13,16 @@ from __future__ import annotations
 
 import sympy as sm
 
-from derive.engine.model import NORMAL_FORCE, Coordinate, Failure, Parameter
+from derive.engine.model import (
+    NORMAL_FORCE,
+    Coordinate,
+    Event,
+    Failure,
+    Impact,
+    Impulse,
+    Parameter,
+    Skeleton,
+)
 
 PI = float(sm.pi.evalf(17))
 """pi as a float: the angle bounds of the parameter tables (``PI / 2``)."""
@@ -74,6 +84,87 @@ def slope_gravity(g: sm.Expr, gamma: sm.Expr) -> tuple[sm.Expr, sm.Expr]:
     """Gravity in the frame of a slope of angle ``gamma`` (x down the slope, y along its
     normal): a walker on the slope walks as on level ground under tilted gravity."""
     return (g * sm.sin(gamma), -g * sm.cos(gamma))
+
+
+def plus(point: tuple, vector: tuple) -> tuple:
+    """``point`` moved by ``vector``: a link's upper end from its lower end and
+    :func:`~derive.engine.model.leg` (``plus(knee, leg(theta, thigh))``)."""
+    return tuple(p + v for p, v in zip(point, vector))
+
+
+def minus(point: tuple, vector: tuple) -> tuple:
+    """``point`` moved back by ``vector``: a link's lower end from its upper end and
+    :func:`~derive.engine.model.leg` (``minus(hip, leg(psi, thigh))``)."""
+    return tuple(p - v for p, v in zip(point, vector))
+
+
+def stance_leg_angle(name: str = "theta", slope: bool = False) -> Coordinate:
+    """The stance leg's angle from the vertical (from the slope normal on a ``slope``),
+    positive with the hip ahead of (downhill of) the stance foot."""
+    if slope:
+        return Coordinate(name, "stance leg angle", "rad", reference="the slope normal",
+                          positive="the hip downhill of the stance foot")  # fmt: skip
+    return Coordinate(name, "stance leg angle", "rad", reference="the vertical",
+                      positive="the hip ahead of the stance foot")  # fmt: skip
+
+
+def swing_leg_angle(name: str = "psi", slope: bool = False) -> Coordinate:
+    """The swing leg's angle, measured as :func:`stance_leg_angle`'s (a swing foot ahead of
+    the hip has a negative angle)."""
+    if slope:
+        return Coordinate(name, "swing leg angle", "rad", reference="the slope normal",
+                          positive="the hip downhill of the swing foot")  # fmt: skip
+    return Coordinate(name, "swing leg angle", "rad", reference="the vertical",
+                      positive="the hip ahead of the swing foot")  # fmt: skip
+
+
+def legs_skeleton(hip: tuple, swing_foot: tuple, torso: tuple | None = None) -> Skeleton:
+    """The drawing of two straight legs from the hip (and a ``torso`` up to its mass)."""
+    points = {"stance_foot": (0, 0), "hip": hip, "swing_foot": swing_foot}
+    segments = (("stance_foot", "hip"), ("hip", "swing_foot"))
+    if torso is not None:
+        points["torso"] = torso
+        segments += (("hip", "torso"),)
+    return Skeleton(points=points, segments=segments)
+
+
+def swapping_heelstrike(stance: sm.Expr, swing: sm.Expr, kept: tuple = (), **fields) -> Event:
+    """Heelstrike of two straight legs of one length at the angles ``stance`` and ``swing``
+    (the ``kept`` coordinates unchanged; ``fields``: the event's others, such as
+    ``impulses``): the swing foot's height is ``-2 l sin((stance + swing)/2) sin((stance -
+    swing)/2)``, zero where the legs are together (the scuffing the models ignore) and at
+    heelstrike, where the first factor rises through zero past mid-stance (the new foot
+    ahead of the hip). The impact is inelastic at the swing foot; the legs swap roles."""
+    return Event(
+        "heelstrike",
+        "stance",
+        "stance",
+        guard=sm.sin((stance + swing) / 2),
+        direction=1,
+        reset=Impact(
+            "swing_foot",
+            {stance: swing, swing: stance, **{q: q for q in kept}},
+            bodies={"stance_leg": "swing_leg", "swing_leg": "stance_leg"},
+        ),
+        ends_step=True,
+        when=stance,
+        **fields,
+    )
+
+
+def push_off_with_heelstrike(leg_length: sm.Expr) -> Impulse:
+    """The trailing leg's push-off along itself, released by heelstrike's impact (the leg's
+    ``leg_length`` held by its actuator), in N s."""
+    return Impulse(
+        "push_off",
+        leg_length,
+        "leg",
+        at_impact=True,
+        unit="N s",
+        bounds=(0.0, None),
+        description="the trailing leg's impulse along itself with heelstrike "
+        "(just before it; the impact releases its foot)",
+    )
 
 
 def fell_backward(stance: Coordinate, meaning: str) -> Failure:

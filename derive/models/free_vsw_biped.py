@@ -50,9 +50,9 @@ from derive.engine.model import (
     leg,
     swing_foot_clearance,
 )
-from derive.models.common import falls
+from derive.models.common import falls, minus, stance_leg_angle, swing_leg_angle
 from derive.models.vsw_biped import PARAMETERS as VSW_PARAMETERS
-from derive.models.vsw_biped import UNITS, UNITS_TEXT
+from derive.models.vsw_biped import UNITS, UNITS_TEXT, biped_bodies
 from derive.quantities import Derivation
 
 BETA, MU, B_OVER_L = (p for p in VSW_PARAMETERS if p.name in ("beta", "mu", "b_over_l"))
@@ -74,10 +74,7 @@ PARAMETERS = (
 )
 beta, mu, b, l_min = (p.symbol for p in PARAMETERS)
 
-THETA = Coordinate("theta", "stance leg angle", "rad", reference="the vertical",
-                   positive="the hip ahead of the stance foot")  # fmt: skip
-PSI = Coordinate("psi", "swing leg angle", "rad", reference="the vertical",
-                 positive="the hip ahead of the swing foot")  # fmt: skip
+THETA, PSI = stance_leg_angle(), swing_leg_angle()
 R = Coordinate("r", "stance leg length", "l", reference="the stance foot",
                positive="the hip away from the foot")  # fmt: skip
 theta, psi, r = THETA.q, PSI.q, R.q
@@ -85,17 +82,12 @@ theta, psi, r = THETA.q, PSI.q, R.q
 
 def bodies(stance_length: sm.Expr) -> tuple[PointMass, ...]:
     """The hip and the two legs' masses, the stance leg ``stance_length`` long."""
-    hip = leg(theta, stance_length)
-    return (
-        PointMass("hip", 1, hip),
-        PointMass("stance_leg", mu, tuple(h - f for h, f in zip(hip, leg(theta, b)))),
-        PointMass("swing_leg", mu, tuple(h - f for h, f in zip(hip, leg(psi, b)))),
-    )
+    return biped_bodies(leg(theta, stance_length), psi)
 
 
 def swing_foot(stance_length: sm.Expr) -> tuple[sm.Expr, sm.Expr]:
     """The swing foot, ``beta`` below the hip along the swing leg."""
-    return tuple(h - f for h, f in zip(leg(theta, stance_length), leg(psi, beta)))
+    return minus(leg(theta, stance_length), leg(psi, beta))
 
 
 LEG_FORCE = Input(
@@ -156,6 +148,7 @@ CROUCHED = Failure(
     "the stance leg would be shorter than l_min: the end of its stroke",
     unit="l",
 )
+OVEREXTENDED = Failure("overextended", r - 1, +1, "the stance leg would be longer than l", unit="l")
 SEARCH = {
     "theta": (-0.6, 0.0),
     "psi": (0.0, 0.6),
@@ -194,14 +187,20 @@ def heelstrike(source: Phase, impulses: tuple[Impulse, ...], target: str = "stan
     )
 
 
-STANCE = Phase(
-    "stance",
-    coordinates=(THETA, PSI, R),
-    bodies=bodies(r),
-    gravity=(0, -1),
-    points={"swing_foot": swing_foot(r)},
-    inputs=(LEG_FORCE, HIP_TORQUE),
-)
+def stance_phase(name: str) -> Phase:
+    """The stance, ``name``: the leg free to slide under its force, the hip torque free
+    (the models that split the stance or stop the leg name it again)."""
+    return Phase(
+        name,
+        coordinates=(THETA, PSI, R),
+        bodies=bodies(r),
+        gravity=(0, -1),
+        points={"swing_foot": swing_foot(r)},
+        inputs=(LEG_FORCE, HIP_TORQUE),
+    )
+
+
+STANCE = stance_phase("stance")
 
 MODEL = Model(
     name="free_vsw_biped",
@@ -214,11 +213,7 @@ MODEL = Model(
     parameters=PARAMETERS,
     phases=(STANCE,),
     events=(heelstrike(STANCE, (PUSH_OFF, HIP_IMPULSE_BEFORE, HEEL_STRIKE, HIP_IMPULSE_AFTER)),),
-    failures=(
-        *FALLS,
-        CROUCHED,
-        Failure("overextended", r - 1, +1, "the stance leg would be longer than l", unit="l"),
-    ),
+    failures=(*FALLS, CROUCHED, OVEREXTENDED),
     conditions=(swing_foot_clearance(STANCE.points["swing_foot"][1], "l"),),
     units=UNITS,
     step_length=STANCE.points["swing_foot"][0],

@@ -28,11 +28,9 @@ from derive.engine import model_derivation
 from derive.engine.model import (
     Continuous,
     Event,
-    Failure,
     Impulse,
     Model,
     Parameter,
-    Phase,
     swing_foot_clearance,
 )
 from derive.models.common import PI
@@ -42,19 +40,15 @@ from derive.models.free_vsw_biped import (
     HEEL_STRIKE,
     HIP_IMPULSE_AFTER,
     HIP_IMPULSE_BEFORE,
-    HIP_TORQUE,
-    LEG_FORCE,
+    OVEREXTENDED,
     PARAMETER_CONDITIONS,
     PSI,
     PUSH_OFF,
     SEARCH,
-    THETA,
-    R,
     beta,
-    bodies,
     heelstrike,
     r,
-    swing_foot,
+    stance_phase,
     theta,
 )
 from derive.models.free_vsw_biped import PARAMETERS as BODY_PARAMETERS
@@ -96,19 +90,6 @@ HIP_IMPULSE_PUSH = Impulse(
 )
 
 
-def stance_phase(name: str) -> Phase:
-    """The stance of ``free_vsw_biped`` under another name: the leg free to slide under its
-    force, the hip torque free."""
-    return Phase(
-        name,
-        coordinates=(THETA, PSI, R),
-        bodies=bodies(r),
-        gravity=(0, -1),
-        points={"swing_foot": swing_foot(r)},
-        inputs=(LEG_FORCE, HIP_TORQUE),
-    )
-
-
 STANCE, PUSHED = stance_phase("stance"), stance_phase("pushed")
 
 MODEL = Model(
@@ -134,11 +115,7 @@ MODEL = Model(
         ),
         heelstrike(PUSHED, (PUSH_OFF, HIP_IMPULSE_BEFORE, HEEL_STRIKE, HIP_IMPULSE_AFTER)),
     ),
-    failures=(
-        *FALLS,
-        CROUCHED,
-        Failure("overextended", r - 1, +1, "the stance leg would be longer than l", unit="l"),
-    ),
+    failures=(*FALLS, CROUCHED, OVEREXTENDED),
     conditions=(swing_foot_clearance(PUSHED.points["swing_foot"][1], "l"),),
     units=UNITS,
     step_length=PUSHED.points["swing_foot"][0],

@@ -35,30 +35,22 @@ from derive.models.free_vsw_biped import (
     HIP_IMPULSE_AFTER,
     HIP_IMPULSE_BEFORE,
     HIP_TORQUE,
-    LEG_FORCE,
     PARAMETER_CONDITIONS,
     PARAMETERS,
     PSI,
     SEARCH,
     THETA,
-    R,
     beta,
     bodies,
     heelstrike,
     r,
+    stance_phase,
     swing_foot,
 )
 from derive.models.vsw_biped import UNITS, UNITS_TEXT
 from derive.quantities import Derivation
 
-STROKE = Phase(
-    "stroke",
-    coordinates=(THETA, PSI, R),
-    bodies=bodies(r),
-    gravity=(0, -1),
-    points={"swing_foot": swing_foot(r)},
-    inputs=(LEG_FORCE, HIP_TORQUE),
-)
+STROKE = stance_phase("stroke")
 EXTENDED = Phase(
     "extended",
     coordinates=(THETA, PSI),

@@ -54,9 +54,12 @@ from derive.models.common import (
     SI_UNITS_TEXT,
     falls,
     gravity_parameter,
+    minus,
+    plus,
     scale_parameter,
     slope_gravity,
     slope_parameter,
+    stance_leg_angle,
 )
 from derive.quantities import Derivation
 
@@ -127,13 +130,7 @@ m_h, m_t, m_s, a1, b1, a2, b2, gamma, g = (p.symbol for p in PARAMETERS)
 shank, thigh = a1 + b1, a2 + b2
 length = shank + thigh
 
-THETA = Coordinate(
-    "theta",
-    "stance leg angle",
-    "rad",
-    reference="the slope normal",
-    positive="the hip downhill of the stance foot",
-)
+THETA = stance_leg_angle(slope=True)
 PSI = Coordinate(
     "psi",
     "swing thigh angle",
@@ -159,26 +156,18 @@ theta, psi, kappa = THETA.q, PSI.q, KAPPA.q
 kappa_stance = STANCE_KNEE.q
 
 
-def _plus(point, vector):
-    return tuple(p + v for p, v in zip(point, vector))
-
-
-def _minus(point, vector):
-    return tuple(p - v for p, v in zip(point, vector))
-
-
 # The stance leg with its knee as a coordinate that every phase holds straight: it is no
 # state, but its lock's torque is derived (the condition below).
 stance_knee = leg(theta, shank)
-hip = _plus(stance_knee, leg(theta - kappa_stance, thigh))
-knee = _minus(hip, leg(psi, thigh))
-swing_foot = _minus(knee, leg(psi + kappa, shank))
+hip = plus(stance_knee, leg(theta - kappa_stance, thigh))
+knee = minus(hip, leg(psi, thigh))
+swing_foot = minus(knee, leg(psi + kappa, shank))
 BODIES = (
     PointMass("hip", m_h, hip),
     PointMass("stance_shank", m_s, leg(theta, a1)),
-    PointMass("stance_thigh", m_t, _plus(stance_knee, leg(theta - kappa_stance, a2))),
-    PointMass("swing_thigh", m_t, _minus(hip, leg(psi, b2))),
-    PointMass("swing_shank", m_s, _minus(knee, leg(psi + kappa, b1))),
+    PointMass("stance_thigh", m_t, plus(stance_knee, leg(theta - kappa_stance, a2))),
+    PointMass("swing_thigh", m_t, minus(hip, leg(psi, b2))),
+    PointMass("swing_shank", m_s, minus(knee, leg(psi + kappa, b1))),
 )
 GRAVITY = slope_gravity(g, gamma)
 # Both legs through their knees: in the knee-locked phase the swing knee is straight.

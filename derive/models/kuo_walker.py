@@ -27,52 +27,28 @@ import sympy as sm
 from derive.engine import model_derivation
 from derive.engine.model import (
     NORMAL_FORCE,
-    Coordinate,
     Event,
     Failure,
     Impact,
     Impulse,
     Input,
     Model,
-    ParameterCondition,
     Phase,
     PointMass,
     leg,
 )
-from derive.models.common import SI_UNITS, fell_backward, gravity_parameter, scale_parameter
+from derive.models.common import SI_UNITS, fell_backward, push_off_with_heelstrike, stance_leg_angle
+from derive.models.families import (
+    POINT_MASS_UNITS_TEXT,
+    legs_reach_the_step,
+    point_mass_walker_rows,
+)
 from derive.quantities import Derivation
 
-PARAMETERS = (
-    scale_parameter(
-        name="m",
-        latex="m",
-        reason="mass m > 0",
-        description="mass at the hip",
-        default=1.0,
-        unit="kg",
-    ),
-    gravity_parameter(1.0),
-    scale_parameter(
-        name="l",
-        latex="l",
-        reason="leg length l > 0",
-        description="length of each leg",
-        default=1.0,
-        unit="m",
-    ),
-    scale_parameter(
-        name="d",
-        latex="d",
-        reason="step length d > 0",
-        description="step length: from the stance foot to the next",
-        default=0.6,
-        unit="m",
-    ),
-)
+PARAMETERS = point_mass_walker_rows("length of each leg")
 m, g, l, d = (p.symbol for p in PARAMETERS)
 
-THETA = Coordinate("theta", "stance leg angle", "rad", reference="the vertical",
-                   positive="the hip ahead of the stance foot")  # fmt: skip
+THETA = stance_leg_angle()
 theta = THETA.q
 r = sm.Symbol("r", positive=True)
 """The stance leg's length, held at l by its actuator (the leg)."""
@@ -117,16 +93,7 @@ MODEL = Model(
             reset=Impact("swing_foot", {theta: -theta}),
             ends_step=True,
             impulses=(
-                Impulse(
-                    "push_off",
-                    r,
-                    "leg",
-                    at_impact=True,
-                    unit="N s",
-                    bounds=(0.0, None),
-                    description="the trailing leg's impulse along itself with heelstrike "
-                    "(just before it; the impact releases its foot)",
-                ),
+                push_off_with_heelstrike(r),
                 # The least-work torque concentrates just after heelstrike (a torque
                 # scheduled on a mesh approaches it from above): its limit, as an impulse.
                 Impulse(
@@ -155,12 +122,9 @@ MODEL = Model(
     search={"theta_dot": (0.0, 2.0)},
     actuators={r: "leg"},
     powered_only=True,
-    parameter_conditions=(
-        ParameterCondition(2 * l - d, "the step d must be shorter than 2 l: the legs must reach"),
-    ),
+    parameter_conditions=(legs_reach_the_step(l, d),),
 )
 
 
 def derive() -> Derivation:
-    return model_derivation(MODEL, "Lengths in m, time in s, energies in J (scaled: m = g = "
-                            "l = 1 by default).")  # fmt: skip
+    return model_derivation(MODEL, POINT_MASS_UNITS_TEXT)

@@ -27,91 +27,52 @@ import sympy as sm
 
 from derive.engine import model_derivation
 from derive.engine.model import (
-    Coordinate,
-    Event,
-    Impact,
     Impulse,
-    Input,
     Model,
     Phase,
     PointMass,
     leg,
     swing_foot_clearance,
 )
-from derive.models.common import SI_UNITS, SI_UNITS_TEXT, falls, gravity_parameter, scale_parameter
+from derive.models.common import (
+    SI_UNITS,
+    SI_UNITS_TEXT,
+    falls,
+    gravity_parameter,
+    minus,
+    push_off_with_heelstrike,
+    stance_leg_angle,
+    swapping_heelstrike,
+    swing_leg_angle,
+)
+from derive.models.families import compass_gait_hip_torque, compass_gait_rows
 from derive.quantities import Derivation
 
 # Drake's CompassGaitParams (as compass_gait.py), without the slope.
-PARAMETERS = (
-    scale_parameter(
-        name="m_h",
-        latex="m_H",
-        reason="hip mass m_h > 0",
-        description="hip mass",
-        default=10.0,
-        unit="kg",
-    ),
-    scale_parameter(
-        name="m",
-        latex="m",
-        reason="leg mass m > 0",
-        description="mass of each leg",
-        default=5.0,
-        unit="kg",
-    ),
-    scale_parameter(
-        name="a",
-        latex="a",
-        reason="a > 0",
-        description="distance from a foot to its leg's mass",
-        default=0.5,
-        unit="m",
-    ),
-    scale_parameter(
-        name="b",
-        latex="b",
-        reason="b > 0",
-        description="distance from the hip to a leg's mass",
-        default=0.5,
-        unit="m",
-    ),
-    gravity_parameter(),
-)
+PARAMETERS = (*compass_gait_rows(), gravity_parameter())
 m_h, m, a, b, g = (p.symbol for p in PARAMETERS)
 length = a + b
 
-THETA = Coordinate("theta", "stance leg angle", "rad", reference="the vertical",
-                   positive="the hip ahead of the stance foot")  # fmt: skip
-PSI = Coordinate("psi", "swing leg angle", "rad", reference="the vertical",
-                 positive="the hip ahead of the swing foot")  # fmt: skip
+THETA, PSI = stance_leg_angle(), swing_leg_angle()
 theta, psi = THETA.q, PSI.q
 r = sm.Symbol("r", positive=True)
 """The stance leg's length, held at a + b by its actuator (the leg, at its foot)."""
 
 hip = leg(theta, r)
-swing_foot = tuple(h - f for h, f in zip(hip, leg(psi, length)))
+swing_foot = minus(hip, leg(psi, length))
 
 STANCE = Phase(
     "stance",
     coordinates=(THETA, PSI),
     bodies=(
         PointMass("hip", m_h, hip),
-        PointMass("stance_leg", m, tuple(h - f for h, f in zip(hip, leg(theta, b)))),
-        PointMass("swing_leg", m, tuple(h - f for h, f in zip(hip, leg(psi, b)))),
+        PointMass("stance_leg", m, minus(hip, leg(theta, b))),
+        PointMass("swing_leg", m, minus(hip, leg(psi, b))),
     ),
     gravity=(0, -g),
     held={r: length},
     points={"swing_foot": swing_foot},
-    inputs=(
-        Input(
-            "hip_torque",
-            theta - psi,
-            "hip",
-            unit="N m",
-            description="torque between the legs at the hip, positive spreading them (the "
-            "swing leg forward); its reaction acts on the stance leg",
-        ),
-    ),
+    inputs=(compass_gait_hip_torque(theta, psi),),
 )
 
 MODEL = Model(
@@ -124,32 +85,13 @@ MODEL = Model(
     parameters=PARAMETERS,
     phases=(STANCE,),
     events=(
-        Event(
-            "heelstrike",
-            "stance",
-            "stance",
-            # The swing foot's height is -2 (a + b) sin((theta + psi)/2) sin((theta - psi)/2)
-            # with the leg at its held length, as on the slope at gamma = 0.
-            guard=sm.sin((theta + psi) / 2),
-            direction=1,
-            reset=Impact(
-                "swing_foot",
-                {theta: psi, psi: theta},
-                bodies={"stance_leg": "swing_leg", "swing_leg": "stance_leg"},
-            ),
-            ends_step=True,
-            when=theta,  # past mid-stance: the new foot lands ahead of the hip
+        # The legs swap at heelstrike, past mid-stance (the swing foot's height through zero,
+        # the leg at its held length, as on the slope at gamma = 0).
+        swapping_heelstrike(
+            theta,
+            psi,
             impulses=(
-                Impulse(
-                    "push_off",
-                    r,
-                    "leg",
-                    at_impact=True,
-                    unit="N s",
-                    bounds=(0.0, None),
-                    description="the trailing leg's impulse along itself with heelstrike "
-                    "(just before it; the impact releases its foot)",
-                ),
+                push_off_with_heelstrike(r),
                 # The hip torque's least-work schedule concentrates at the step's two ends
                 # (a torque on a mesh approaches them from above): its limits, as impulses.
                 Impulse(

@@ -50,35 +50,16 @@ from derive.engine.model import (
     Phase,
     PointMass,
 )
-from derive.models.common import SI_UNITS, gravity_parameter, scale_parameter
+from derive.models.common import SI_UNITS, scale_parameter
+from derive.models.families import (
+    POINT_MASS_UNITS_TEXT,
+    legs_reach_the_step,
+    point_mass_walker_rows,
+)
 from derive.quantities import Derivation
 
 PARAMETERS = (
-    scale_parameter(
-        name="m",
-        latex="m",
-        reason="mass m > 0",
-        description="mass at the hip",
-        default=1.0,
-        unit="kg",
-    ),
-    gravity_parameter(1.0),
-    scale_parameter(
-        name="l",
-        latex="l",
-        reason="leg length l > 0",
-        description="longest length of a leg",
-        default=1.0,
-        unit="m",
-    ),
-    scale_parameter(
-        name="d",
-        latex="d",
-        reason="step length d > 0",
-        description="step length: from the stance foot to the next",
-        default=0.6,
-        unit="m",
-    ),
+    *point_mass_walker_rows("longest length of a leg"),
     scale_parameter(
         name="l_min",
         latex=r"l_{min}",
@@ -90,7 +71,7 @@ PARAMETERS = (
 )
 m, g, l, d, l_min = (p.symbol for p in PARAMETERS)
 PARAMETER_CONDITIONS = (
-    ParameterCondition(2 * l - d, "the step d must be shorter than 2 l: the legs must reach"),
+    legs_reach_the_step(l, d),
     ParameterCondition(l - l_min, "the shortest leg l_min must be at most l", strict=False),
 )
 
@@ -222,5 +203,4 @@ MODEL = Model(
 
 
 def derive() -> Derivation:
-    return model_derivation(MODEL, "Lengths in m, time in s, energies in J (scaled: m = g = "
-                            "l = 1 by default).")  # fmt: skip
+    return model_derivation(MODEL, POINT_MASS_UNITS_TEXT)

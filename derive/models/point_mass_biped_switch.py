@@ -25,6 +25,7 @@ import dataclasses
 from derive.engine import model_derivation
 from derive.engine.model import Model, Parameter, ParameterCondition
 from derive.models import point_mass_biped as body
+from derive.models.families import POINT_MASS_UNITS_TEXT
 from derive.quantities import Derivation
 
 PARAMETERS = (
@@ -74,5 +75,4 @@ MODEL: Model = dataclasses.replace(
 
 
 def derive() -> Derivation:
-    return model_derivation(MODEL, "Lengths in m, time in s, energies in J (scaled: m = g = "
-                            "l = 1 by default).")  # fmt: skip
+    return model_derivation(MODEL, POINT_MASS_UNITS_TEXT)

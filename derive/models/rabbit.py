@@ -102,6 +102,8 @@ from derive.models.common import (
     SI_UNITS_TEXT,
     gravity_parameter,
     lift_off,
+    minus,
+    plus,
     scale_parameter,
 )
 from derive.quantities import Derivation
@@ -223,28 +225,20 @@ COORDINATES = (STANCE_TIBIA, STANCE_FEMUR, TORSO, SWING_FEMUR, SWING_TIBIA)
 theta_t, theta_f, phi, psi_f, psi_t = (c.q for c in COORDINATES)
 
 
-def _plus(point, vector):
-    return tuple(p + v for p, v in zip(point, vector))
-
-
-def _minus(point, vector):
-    return tuple(p - v for p, v in zip(point, vector))
-
-
 stance_knee = leg(theta_t, l_tibia)
-hip = _plus(stance_knee, leg(theta_f, l_femur))
-swing_knee = _minus(hip, leg(psi_f, l_femur))
-swing_foot = _minus(swing_knee, leg(psi_t, l_tibia))
-head = _plus(hip, leg(phi, l_torso))
+hip = plus(stance_knee, leg(theta_f, l_femur))
+swing_knee = minus(hip, leg(psi_f, l_femur))
+swing_foot = minus(swing_knee, leg(psi_t, l_tibia))
+head = plus(hip, leg(phi, l_torso))
 # A link at angle a from the vertical (upper end ahead) is turned by -a counterclockwise.
 BODIES = (
-    RigidSegment("stance_tibia", m_tibia, _minus(stance_knee, leg(theta_t, c_tibia)),
+    RigidSegment("stance_tibia", m_tibia, minus(stance_knee, leg(theta_t, c_tibia)),
                  -theta_t, i_tibia),
-    RigidSegment("stance_femur", m_femur, _minus(hip, leg(theta_f, c_femur)), -theta_f,
+    RigidSegment("stance_femur", m_femur, minus(hip, leg(theta_f, c_femur)), -theta_f,
                  i_femur),
-    RigidSegment("torso", m_torso, _plus(hip, leg(phi, c_torso)), -phi, i_torso),
-    RigidSegment("swing_femur", m_femur, _minus(hip, leg(psi_f, c_femur)), -psi_f, i_femur),
-    RigidSegment("swing_tibia", m_tibia, _minus(swing_knee, leg(psi_t, c_tibia)), -psi_t,
+    RigidSegment("torso", m_torso, plus(hip, leg(phi, c_torso)), -phi, i_torso),
+    RigidSegment("swing_femur", m_femur, minus(hip, leg(psi_f, c_femur)), -psi_f, i_femur),
+    RigidSegment("swing_tibia", m_tibia, minus(swing_knee, leg(psi_t, c_tibia)), -psi_t,
                  i_tibia),
 )  # fmt: skip
 SKELETON = Skeleton(

@@ -29,10 +29,17 @@ from derive.engine.model import (
     Model,
     Phase,
     PointMass,
-    Skeleton,
     leg,
 )
-from derive.models.common import PI, falls, slope_gravity, slope_parameter
+from derive.models.common import (
+    PI,
+    falls,
+    legs_skeleton,
+    minus,
+    slope_gravity,
+    slope_parameter,
+    stance_leg_angle,
+)
 from derive.quantities import Derivation
 
 PARAMETERS = (
@@ -46,13 +53,7 @@ PARAMETERS = (
 (gamma,) = (p.symbol for p in PARAMETERS)
 epsilon = sm.Symbol("epsilon", positive=True)  # foot mass / hip mass, taken to 0
 
-THETA = Coordinate(
-    "theta",
-    "stance leg angle",
-    "rad",
-    reference="the slope normal",
-    positive="the hip downhill of the stance foot",
-)
+THETA = stance_leg_angle(slope=True)
 PHI = Coordinate(
     "phi",
     "angle between the legs (stance minus swing)",
@@ -63,11 +64,8 @@ PHI = Coordinate(
 theta, phi = THETA.q, PHI.q
 
 hip = leg(theta)
-swing_foot = tuple(h - f for h, f in zip(hip, leg(theta - phi)))
-SKELETON = Skeleton(
-    points={"stance_foot": (0, 0), "hip": hip, "swing_foot": swing_foot},
-    segments=(("stance_foot", "hip"), ("hip", "swing_foot")),
-)
+swing_foot = minus(hip, leg(theta - phi))
+SKELETON = legs_skeleton(hip, swing_foot)
 
 STANCE = Phase(
     "stance",

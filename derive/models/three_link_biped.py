@@ -29,14 +29,11 @@ import sympy as sm
 from derive.engine import model_derivation
 from derive.engine.model import (
     Coordinate,
-    Event,
     Failure,
-    Impact,
     Input,
     Model,
     Phase,
     PointMass,
-    Skeleton,
     leg,
     swing_foot_clearance,
 )
@@ -46,45 +43,21 @@ from derive.models.common import (
     fell_backward,
     fell_forward,
     gravity_parameter,
+    legs_skeleton,
     lift_off,
+    minus,
+    plus,
     scale_parameter,
+    stance_leg_angle,
+    swapping_heelstrike,
+    swing_leg_angle,
 )
+from derive.models.families import three_link_rows
 from derive.quantities import Derivation
 
 # Grizzle et al. 2001, Table I (and the book's model_params_three_link.m, with g = 9.81).
 PARAMETERS = (
-    scale_parameter(
-        name="m_h",
-        latex="M_H",
-        reason="hip mass m_h > 0",
-        description="hip mass",
-        default=15.0,
-        unit="kg",
-    ),
-    scale_parameter(
-        name="m",
-        latex="m",
-        reason="leg mass m > 0",
-        description="mass of each leg (at its middle)",
-        default=5.0,
-        unit="kg",
-    ),
-    scale_parameter(
-        name="m_t",
-        latex="M_T",
-        reason="torso mass m_t > 0",
-        description="torso mass",
-        default=10.0,
-        unit="kg",
-    ),
-    scale_parameter(
-        name="r",
-        latex="r",
-        reason="leg length r > 0",
-        description="leg length",
-        default=1.0,
-        unit="m",
-    ),
+    *three_link_rows(),
     scale_parameter(
         name="l",
         latex="l",
@@ -97,28 +70,22 @@ PARAMETERS = (
 )
 m_h, m, m_t, r, l, g = (p.symbol for p in PARAMETERS)
 
-STANCE_LEG = Coordinate("theta1", "stance leg angle", "rad", reference="the vertical",
-                        positive="the hip ahead of the stance foot")  # fmt: skip
-SWING_LEG = Coordinate("theta2", "swing leg angle", "rad", reference="the vertical",
-                       positive="the hip ahead of the swing foot")  # fmt: skip
+STANCE_LEG, SWING_LEG = stance_leg_angle("theta1"), swing_leg_angle("theta2")
 TORSO = Coordinate("theta3", "torso angle", "rad", reference="the vertical",
                    positive="the torso leaning forward")  # fmt: skip
 theta1, theta2, theta3 = STANCE_LEG.q, SWING_LEG.q, TORSO.q
 
 hip = leg(theta1, r)
-swing_foot = tuple(h - f for h, f in zip(hip, leg(theta2, r)))
-torso = tuple(h + t for h, t in zip(hip, leg(theta3, l)))
-SKELETON = Skeleton(
-    points={"stance_foot": (0, 0), "hip": hip, "swing_foot": swing_foot, "torso": torso},
-    segments=(("stance_foot", "hip"), ("hip", "swing_foot"), ("hip", "torso")),
-)
+swing_foot = minus(hip, leg(theta2, r))
+torso = plus(hip, leg(theta3, l))
+SKELETON = legs_skeleton(hip, swing_foot, torso)
 STANCE = Phase(
     "stance",
     coordinates=(STANCE_LEG, SWING_LEG, TORSO),
     bodies=(
         PointMass("hip", m_h, hip),
         PointMass("stance_leg", m, leg(theta1, r / 2)),
-        PointMass("swing_leg", m, tuple(h - f for h, f in zip(hip, leg(theta2, r / 2)))),
+        PointMass("swing_leg", m, minus(hip, leg(theta2, r / 2))),
         PointMass("torso", m_t, torso),
     ),
     gravity=(0, -g),
@@ -153,21 +120,10 @@ MODEL = Model(
     parameters=PARAMETERS,
     phases=(STANCE,),
     events=(
-        Event(
-            "heelstrike",
-            "stance",
-            "stance",
-            # The swing foot's height is -2 r sin((theta1 + theta2)/2) sin((theta1 - theta2)/2).
-            guard=sm.sin((theta1 + theta2) / 2),
-            direction=1,
-            reset=Impact(
-                "swing_foot",
-                {theta1: theta2, theta2: theta1, theta3: theta3},
-                bodies={"stance_leg": "swing_leg", "swing_leg": "stance_leg"},
-            ),
-            ends_step=True,
-            when=theta1,  # past mid-stance: the new foot lands ahead of the hip
-            equation="Grizzle et al. 2001, eqs. (18)-(21)",
+        # The legs swap at heelstrike, past mid-stance (the swing foot's height through
+        # zero); the torso keeps its angle.
+        swapping_heelstrike(
+            theta1, theta2, kept=(theta3,), equation="Grizzle et al. 2001, eqs. (18)-(21)"
         ),
     ),
     failures=(

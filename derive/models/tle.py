@@ -58,63 +58,33 @@ from derive.engine.model import (
     Event,
     Impact,
     Model,
-    Parameter,
     Phase,
     PointMass,
     leg,
 )
 from derive.engine.numeric import evaluate
 from derive.models.common import PI, closest_to_apex_cos, fell_backward, lift_off
+from derive.models.families import (
+    extension_angle,
+    extension_interval,
+    heelstrike_inter_leg_angle,
+    shortening_ratio,
+)
 from derive.models.tle_moments import MOMENT_ORDER, moment_integral
 from derive.quantities import Condition, Derivation, Quantity
 
 PARAMETERS = (
-    Parameter(
-        name="beta",
-        latex=r"\beta",
-        lower=0.0,
-        upper=1.0,
-        reason="beta = r_s / r_e is a length-shortening ratio: 0 < beta < 1",
-        description="length shorten ratio r_s / r_e",
-        assumptions={"positive": True},
+    shortening_ratio(
         default=0.93,
-        unit="1",
         computed=(1e-12, 1.0),
         computed_reason="q^f grows as 1/beta^2 (1.1e24 at 1e-12) and overflows double "
         "precision below about 1e-154 (1e-300 failed in the generated code)",
     ),
-    Parameter(
-        name="theta_II",
-        latex=r"\theta_{II}",
-        lower=-PI / 2,
-        upper=PI / 2,
-        reason="the stance leg must point below the horizontal: |theta_II| < pi/2",
-        description="stance leg angle at which the extension starts",
-        default=-0.1,
-        unit="rad",
-    ),
-    Parameter(
-        name="phi0",
-        latex=r"\varphi_0",
-        lower=0.0,
-        upper=PI / 2,
-        reason="inter-leg angle at heelstrike: 0 < phi0 < pi/2, ILE eq. (16)",
-        description="inter-leg angle at heelstrike",
-        assumptions={"positive": True},
-        default=0.7,
-        unit="rad",
-    ),
-    Parameter(
-        name="delta",
-        latex=r"\Delta",
-        lower=0.0,
-        upper=PI / 2,
-        reason="stance-angle interval of the extension: "
-        "0 < delta < theta_IV - theta_II < phi0 < pi/2 for a gait",
-        description="stance-angle interval of the leg extension",
-        assumptions={"positive": True},
+    extension_angle(description="stance leg angle at which the extension starts", default=-0.1),
+    heelstrike_inter_leg_angle(equation="ILE eq. (16)", default=0.7),
+    extension_interval(
+        bounds="0 < delta < theta_IV - theta_II < phi0 < pi/2 for a gait",
         default=0.4,
-        unit="rad",
         computed=(1e-9, PI / 2),
         computed_reason="the leg force grows as 1/delta^2: below 1e-9 rad the extension "
         "is too stiff to integrate (at 1e-12 the search ran over 2 min); the instantaneous "

@@ -29,18 +29,13 @@ stance leg (the actuator's joint). The book's angles from the vertical are
 
 from __future__ import annotations
 
-import sympy as sm
-
 from derive.engine import model_derivation
 from derive.engine.model import (
     Coordinate,
-    Event,
-    Impact,
     Model,
     Parameter,
     Phase,
     PointMass,
-    Skeleton,
     leg,
     swing_foot_clearance,
 )
@@ -50,9 +45,16 @@ from derive.models.common import (
     SI_UNITS_TEXT,
     falls,
     gravity_parameter,
+    legs_skeleton,
+    minus,
+    plus,
     scale_parameter,
     slope_gravity,
+    stance_leg_angle,
+    swapping_heelstrike,
+    swing_leg_angle,
 )
+from derive.models.families import three_link_rows
 from derive.quantities import Derivation
 
 # The companion code's model_params_three_link.m: r = 1, m = 5, Mh = 15, Mt = 10, L = 0.5,
@@ -60,38 +62,7 @@ from derive.quantities import Derivation
 # slope is Drake's compass gait's (CompassGaitParams, 0.0525 rad): with the swing leg free
 # there is no gait on level ground (docs/models/torso_walker.md).
 PARAMETERS = (
-    scale_parameter(
-        name="m_h",
-        latex="M_H",
-        reason="hip mass m_h > 0",
-        description="hip mass",
-        default=15.0,
-        unit="kg",
-    ),
-    scale_parameter(
-        name="m",
-        latex="m",
-        reason="leg mass m > 0",
-        description="mass of each leg (at its middle)",
-        default=5.0,
-        unit="kg",
-    ),
-    scale_parameter(
-        name="m_t",
-        latex="M_T",
-        reason="torso mass m_t > 0",
-        description="torso mass",
-        default=10.0,
-        unit="kg",
-    ),
-    scale_parameter(
-        name="r",
-        latex="r",
-        reason="leg length r > 0",
-        description="leg length",
-        default=1.0,
-        unit="m",
-    ),
+    *three_link_rows(),
     scale_parameter(
         name="l_t",
         latex="L",
@@ -124,20 +95,7 @@ PARAMETERS = (
 )
 m_h, m, m_t, r, l_t, rho, gamma, g = (p.symbol for p in PARAMETERS)
 
-THETA = Coordinate(
-    "theta",
-    "stance leg angle",
-    "rad",
-    reference="the slope normal",
-    positive="the hip downhill of the stance foot",
-)
-PSI = Coordinate(
-    "psi",
-    "swing leg angle",
-    "rad",
-    reference="the slope normal",
-    positive="the hip downhill of the swing foot",
-)
+THETA, PSI = stance_leg_angle(slope=True), swing_leg_angle(slope=True)
 TORSO = Coordinate(
     "phi",
     "torso angle relative to the stance leg",
@@ -148,20 +106,17 @@ TORSO = Coordinate(
 theta, psi, phi = THETA.q, PSI.q, TORSO.q
 
 hip = leg(theta, r)
-swing_foot = tuple(h - f for h, f in zip(hip, leg(psi, r)))
-torso = tuple(h + t for h, t in zip(hip, leg(theta + phi, l_t)))
+swing_foot = minus(hip, leg(psi, r))
+torso = plus(hip, leg(theta + phi, l_t))
 # The legs and the torso up to its mass (the model has no other torso length).
-SKELETON = Skeleton(
-    points={"stance_foot": (0, 0), "hip": hip, "swing_foot": swing_foot, "torso": torso},
-    segments=(("stance_foot", "hip"), ("hip", "swing_foot"), ("hip", "torso")),
-)
+SKELETON = legs_skeleton(hip, swing_foot, torso)
 STANCE = Phase(
     "stance",
     coordinates=(THETA, PSI),
     bodies=(
         PointMass("hip", m_h, hip),
         PointMass("stance_leg", m, leg(theta, r / 2)),
-        PointMass("swing_leg", m, tuple(h - f for h, f in zip(hip, leg(psi, r / 2)))),
+        PointMass("swing_leg", m, minus(hip, leg(psi, r / 2))),
         PointMass("torso", m_t, torso),
     ),
     gravity=slope_gravity(g, gamma),
@@ -179,24 +134,9 @@ MODEL = Model(
     source="derive/models/torso_walker.py",
     parameters=PARAMETERS,
     phases=(STANCE,),
-    events=(
-        Event(
-            "heelstrike",
-            "stance",
-            "stance",
-            # The swing foot's height is -2 r sin((theta + psi)/2) sin((theta - psi)/2), as
-            # in the compass gait.
-            guard=sm.sin((theta + psi) / 2),
-            direction=1,
-            reset=Impact(
-                "swing_foot",
-                {theta: psi, psi: theta},
-                bodies={"stance_leg": "swing_leg", "swing_leg": "stance_leg"},
-            ),
-            ends_step=True,
-            when=theta,  # past mid-stance: the new foot lands ahead of the hip
-        ),
-    ),
+    # The legs swap at heelstrike, past mid-stance (the swing foot's height through zero,
+    # as in the compass gait).
+    events=(swapping_heelstrike(theta, psi),),
     failures=falls(THETA),
     conditions=(swing_foot_clearance(swing_foot[1], "m"),),
     units=SI_UNITS,

@@ -40,7 +40,6 @@ import sympy as sm
 
 from derive.engine import model_derivation
 from derive.engine.model import (
-    Coordinate,
     Event,
     Failure,
     Impact,
@@ -49,11 +48,17 @@ from derive.engine.model import (
     Parameter,
     Phase,
     PointMass,
-    Skeleton,
     leg,
     swing_foot_clearance,
 )
-from derive.models.common import falls, scale_parameter
+from derive.models.common import (
+    falls,
+    legs_skeleton,
+    minus,
+    scale_parameter,
+    stance_leg_angle,
+    swing_leg_angle,
+)
 from derive.models.ile.model import PARAMETERS as ILE_PARAMETERS
 from derive.quantities import Derivation
 
@@ -87,45 +92,35 @@ PARAMETERS = (
 )
 beta, theta_II, mu, b = (p.symbol for p in PARAMETERS)
 
-THETA = Coordinate(
-    "theta",
-    "stance leg angle",
-    "rad",
-    reference="the vertical",
-    positive="the hip ahead of the stance foot",
-)
-PSI = Coordinate(
-    "psi",
-    "swing leg angle",
-    "rad",
-    reference="the vertical",
-    positive="the hip ahead of the swing foot",
-)
+THETA, PSI = stance_leg_angle(), swing_leg_angle()
 theta, psi = THETA.q, PSI.q
 r = sm.Symbol("r", positive=True)
 """The stance leg's length, held by its actuator."""
 
 
+def biped_bodies(hip: tuple, swing: sm.Expr) -> tuple[PointMass, ...]:
+    """The biped's masses: the hip's (the unit of mass) and each leg's, ``mu``, ``b`` below
+    the ``hip`` on the stance leg and on the swing leg (at the angle ``swing``)."""
+    return (
+        PointMass("hip", 1, hip),
+        PointMass("stance_leg", mu, minus(hip, leg(theta, b))),
+        PointMass("swing_leg", mu, minus(hip, leg(swing, b))),
+    )
+
+
 def stance_phase(name: str, length: sm.Expr) -> Phase:
     """The stance leg ``length`` long, the swing leg shortened to ``beta``."""
     hip = leg(theta, r)
-    swing_foot = tuple(h - f for h, f in zip(hip, leg(psi, beta)))
+    swing_foot = minus(hip, leg(psi, beta))
     return Phase(
         name,
         coordinates=(THETA, PSI),
-        bodies=(
-            PointMass("hip", 1, hip),
-            PointMass("stance_leg", mu, tuple(h - f for h, f in zip(hip, leg(theta, b)))),
-            PointMass("swing_leg", mu, tuple(h - f for h, f in zip(hip, leg(psi, b)))),
-        ),
+        bodies=biped_bodies(hip, psi),
         gravity=(0, -1),
         held={r: length},
         points={"swing_foot": swing_foot},
         # The stance leg at its held length, the swing leg shortened.
-        skeleton=Skeleton(
-            points={"stance_foot": (0, 0), "hip": hip, "swing_foot": swing_foot},
-            segments=(("stance_foot", "hip"), ("hip", "swing_foot")),
-        ),
+        skeleton=legs_skeleton(hip, swing_foot),
     )
 
 

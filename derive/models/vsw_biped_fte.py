@@ -32,8 +32,9 @@ import dataclasses
 import sympy as sm
 
 from derive.engine import model_derivation
-from derive.engine.model import Continuous, Event, Model, Parameter, swing_foot_clearance
+from derive.engine.model import Continuous, Event, Model, swing_foot_clearance
 from derive.models.common import PI
+from derive.models.families import extension_interval
 from derive.models.tle import profile
 from derive.models.vsw_biped import (
     EXTENSION_MISSED,
@@ -56,16 +57,9 @@ from derive.quantities import Derivation
 _DEFAULTS = {"beta": 0.97, "theta_II": -0.2}
 PARAMETERS = (
     *(dataclasses.replace(p, default=_DEFAULTS.get(p.name, p.default)) for p in BIPED_PARAMETERS),
-    Parameter(
-        name="delta",
-        latex=r"\Delta",
-        lower=0.0,
-        upper=PI / 2,
-        reason="stance-angle interval of the extension: 0 < delta < pi/2",
-        description="stance-angle interval of the leg extension",
-        assumptions={"positive": True},
+    extension_interval(
+        bounds="0 < delta < pi/2",
         default=0.3,
-        unit="rad",
         computed=(1e-3, PI / 2),
         computed_reason="the leg force grows as 1/delta^2 and the free swing leg's "
         "rate after the extension as 1/delta: below 1e-3 rad the extension is too "

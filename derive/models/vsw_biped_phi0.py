@@ -50,13 +50,12 @@ from derive.engine.model import (
     Lock,
     Model,
     Phase,
-    PointMass,
-    Skeleton,
     leg,
     swing_foot_clearance,
 )
+from derive.models.common import legs_skeleton, minus
 from derive.models.ile.model import PARAMETERS as ILE_PARAMETERS
-from derive.models.vsw_biped import FALLS, THETA, UNITS, UNITS_TEXT, r
+from derive.models.vsw_biped import FALLS, THETA, UNITS, UNITS_TEXT, biped_bodies, r
 from derive.models.vsw_biped import PARAMETERS as BIPED_PARAMETERS
 from derive.quantities import Derivation
 
@@ -80,16 +79,9 @@ PHI = Coordinate(
 )
 theta, phi = THETA.q, PHI.q
 hip = leg(theta, r)
-swing_foot = tuple(h - f for h, f in zip(hip, leg(theta - phi, beta)))
-SKELETON = Skeleton(
-    points={"stance_foot": (0, 0), "hip": hip, "swing_foot": swing_foot},
-    segments=(("stance_foot", "hip"), ("hip", "swing_foot")),
-)
-BODIES = (
-    PointMass("hip", 1, hip),
-    PointMass("stance_leg", mu, tuple(h - f for h, f in zip(hip, leg(theta, b)))),
-    PointMass("swing_leg", mu, tuple(h - f for h, f in zip(hip, leg(theta - phi, b)))),
-)
+swing_foot = minus(hip, leg(theta - phi, beta))
+SKELETON = legs_skeleton(hip, swing_foot)
+BODIES = biped_bodies(hip, theta - phi)
 
 
 def _phase(name: str, length: sm.Expr, caught: bool) -> Phase:

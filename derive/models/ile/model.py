@@ -24,7 +24,6 @@ from __future__ import annotations
 import sympy as sm
 
 from derive.engine.model import (
-    Coordinate,
     Event,
     Impact,
     Jump,
@@ -33,44 +32,18 @@ from derive.engine.model import (
     PointMass,
     leg,
 )
-from derive.models.common import PI, fell_backward, lift_off
+from derive.models.common import PI, fell_backward, lift_off, minus, stance_leg_angle
+from derive.models.families import extension_angle, heelstrike_inter_leg_angle, shortening_ratio
 from derive.quantities import Parameter
 
 PARAMETERS: tuple[Parameter, ...] = (
-    Parameter(
-        name="beta",
-        latex=r"\beta",
-        lower=0.0,
-        upper=1.0,
-        reason="beta = r_s / r_e is a length-shortening ratio: 0 < beta < 1",
-        description="length shorten ratio r_s / r_e",
-        assumptions={"positive": True},
-        default=0.8,
-        unit="1",
-    ),
-    Parameter(
-        name="theta_II",
-        latex=r"\theta_{II}",
-        lower=-PI / 2,
-        upper=PI / 2,
-        reason="the stance leg must point below the horizontal: |theta_II| < pi/2",
+    shortening_ratio(default=0.8),
+    extension_angle(
         description="stance leg angle at which the leg extends (instant II)",
-        cli_degrees=True,
         default=0.0,
-        unit="rad",
-    ),
-    Parameter(
-        name="phi0",
-        latex=r"\varphi_0",
-        lower=0.0,
-        upper=PI / 2,
-        reason="inter-leg angle at heelstrike: 0 < phi0 < pi/2, eq. (16)",
-        description="inter-leg angle at heelstrike",
-        assumptions={"positive": True},
         cli_degrees=True,
-        default=PI / 4,
-        unit="rad",
     ),
+    heelstrike_inter_leg_angle(equation="eq. (16)", default=PI / 4, cli_degrees=True),
 )
 
 beta, theta_II, phi0 = (p.symbol for p in PARAMETERS)
@@ -88,13 +61,7 @@ theta_I, theta_IV = sm.symbols("theta_I theta_IV", real=True)
 # units (lengths in r_e, time in sqrt(r_e / g), mass in m). theta: the stance leg's angle
 # from the vertical, positive when the hip is ahead of the foot; the actuator holds the
 # stance leg's length r.
-THETA = Coordinate(
-    "theta",
-    "stance leg angle",
-    "rad",
-    reference="the vertical",
-    positive="the hip ahead of the stance foot",
-)
+THETA = stance_leg_angle()
 r = sm.Symbol("r", positive=True)
 """The stance leg's length, held by its actuator."""
 
@@ -103,7 +70,7 @@ def stance_phase(name: str, length: sm.Expr, mass=1, gravity=1, unit_length=1) -
     """A stance phase: the hip mass on a leg of ``length`` (times ``unit_length``), the
     shortened swing leg (beta r_e) at the inter-leg angle phi0 behind it."""
     hip = leg(theta, r)
-    swing_foot = tuple(h - f for h, f in zip(hip, leg(theta - phi0, beta * unit_length)))
+    swing_foot = minus(hip, leg(theta - phi0, beta * unit_length))
     return Phase(
         name,
         coordinates=(THETA,),
