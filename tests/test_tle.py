@@ -279,7 +279,10 @@ def test_limit_is_the_ile_symbolically():
     slope = tle_model.stride_forms()["slope"].xreplace(ours)
     assert sm.simplify(slope - EQUATION_BY_ID["(19)"].expr.rhs) == 0
     # The c above is cos theta_1 of (11).
-    cos_theta_I = tle_model._explicit(tle_model.geometry(), tle_model.cos_I).xreplace(ours)
+    cos_theta_I = tle_model.cos_I
+    for symbol, value in reversed(tle_model.geometry()):  # the intermediates substituted
+        cos_theta_I = cos_theta_I.xreplace({symbol: value})
+    cos_theta_I = cos_theta_I.xreplace(ours)
     theta_1 = EQUATION_BY_ID["(11)"].expr.rhs
     for beta, phi0 in ((0.8, 0.7), (0.95, 0.3), (0.6, 1.2)):
         at = {S["beta"]: sm.Float(beta, 40), S["varphi_0"]: sm.Float(phi0, 40)}
