@@ -106,3 +106,16 @@ def test_the_design_is_the_same_whether_collocation_or_the_starts_are_polished(m
     assert polished.objective == pytest.approx(shot.objective, rel=1e-8)
     # The tutorial's design (docs/tutorials/design.md), from the shooting alone.
     assert shot.objective == pytest.approx(0.646696, abs=5e-7)
+
+
+def test_distinct_gaits_at_the_same_parameters_are_each_polished():
+    # The longest step of the compass gait on slopes up to 0.0828 rad: every gait lies at
+    # the box's end, the short, the stable and the long one, so the collocated optima
+    # share their parameters. The long gait's step by continuation of its branch (the
+    # runtime's Newton, no IPOPT; benchmarks/design_every_model.py's reference): 0.722782.
+    request = gait_design.DesignRequest(
+        objective={"step_length": 1.0}, bounds={"gamma": (0.017642858450295097, 0.0828067842750)}
+    )
+    result = gait_design.design(models.load("compass-gait"), request)
+    assert result.status == "optimal"
+    assert result.quantities["step_length"] == pytest.approx(0.7227824373318481, rel=1e-6)

@@ -285,12 +285,22 @@ def _multistart(
     return best, solves, nlp
 
 
+def _same_gait(params: Sequence[float], orbit: Orbit, other_params: Sequence[float],
+               other: Orbit) -> bool:  # fmt: skip
+    """Whether two confirmed gaits are one: equal parameters and section states to 1e-6
+    (several gaits share their parameters: the compass gait's short and long steps)."""
+    state = np.array(list(orbit.state.values()))
+    other_state = np.array(list(other.state.values()))
+    return bool(np.allclose(params, other_params, rtol=1e-6, atol=1e-9)
+                and np.allclose(state, other_state, rtol=1e-6, atol=1e-9))  # fmt: skip
+
+
 def _collocated_candidates(problem: Problem, structure: Any, seeds: Sequence[Orbit],
                            objective: Mapping[str, float],
                            targets: Mapping[str, float]) -> list[tuple[tuple, Orbit]]:  # fmt: skip
     """Each seed's collocated optimum (:mod:`vsw.synthesis.design.collocation`) that IPOPT
     solved and the periodic-orbit solver confirms as a gait at its parameters, best
-    objective first, one of each (parameters equal to 1e-6)."""
+    objective first, one of each gait (:func:`_same_gait`)."""
     model = problem.model
     found: list[tuple[float, tuple, Orbit]] = []
     for orbit in seeds:
@@ -316,9 +326,8 @@ def _collocated_candidates(problem: Problem, structure: Any, seeds: Sequence[Orb
             continue
         table = np.array(nlp.quantities(solve.w, bounds["p"])).reshape(-1)
         value = _objective_value(objective, dict(zip(nlp.quantities.names, table)))
-        if any(np.allclose(params, other, rtol=1e-6, atol=1e-9) for _, other, _ in found):
-            continue
-        found.append((value, params, confirmed))
+        if not any(_same_gait(params, confirmed, *other[1:]) for other in found):
+            found.append((value, params, confirmed))
     return [(params, orbit) for _, params, orbit in sorted(found, key=lambda item: item[0])]
 
 
