@@ -262,18 +262,30 @@ def _multistart(
 ) -> tuple[_Solve | None, list[_Solve], Nlp]:
     """IPOPT from each seed on the collocated NLP, then each distinct collocated optimum
     polished on the shooting NLP and verified; the seeds themselves on the shooting NLP
-    where no collocated solve succeeded. The best verified solve, every solve, the NLP."""
+    where no polished optimum is verified. The best verified solve, every solve, the NLP."""
     objective = problem.objective if objective is None else objective
     targets = problem.request.targets if targets is None else targets
     rows = tuple(sorted(set(targets) | (set(problem.request.bounds) & problem.available)))
     structure = problem.structure(rank, objective, rows, eigen)
     nlp = build(problem.model, structure)
-    bounds = _bounds(problem, nlp, targets)
     candidates = _collocated_candidates(problem, structure, seeds, objective, targets)
-    starts = candidates or [(tuple(problem.start), orbit) for orbit in seeds]
+    best, solves = _shoot(problem, nlp, candidates, 1e-3, objective, targets)
+    if best is None:
+        starts = [(tuple(problem.start), orbit) for orbit in seeds]
+        best, more = _shoot(problem, nlp, starts, 0.05, objective, targets)
+        solves += more
+    return best, solves, nlp
+
+
+def _shoot(problem: Problem, nlp: Nlp, starts: Sequence[tuple[tuple, Orbit]], above: float,
+           objective: Mapping[str, float],
+           targets: Mapping[str, float]) -> tuple[_Solve | None, list[_Solve]]:  # fmt: skip
+    """IPOPT on the shooting NLP from each (parameters, gait), the eigenvalue disc's radius
+    ``above`` the gait's largest modulus, each solve verified: the best and all."""
+    bounds = _bounds(problem, nlp, targets)
     solves, best = [], None
     for k, (params, orbit) in enumerate(starts):
-        rho = 1.05 * max(orbit.max_abs_eigenvalue, 1e-3)
+        rho = (1.0 + above) * max(orbit.max_abs_eigenvalue, 1e-3)
         try:
             w0 = _initial_point(problem, nlp, params, orbit, rho)
         except ConvergenceError:
@@ -282,7 +294,7 @@ def _multistart(
         solves.append(solve)
         if solve.verified and (best is None or solve.objective < best.objective - 1e-12):
             best = solve
-    return best, solves, nlp
+    return best, solves
 
 
 def _same_gait(params: Sequence[float], orbit: Orbit, other_params: Sequence[float],
