@@ -24,7 +24,7 @@ periodicity (the state after the step event equals the first). Two NLPs share th
   that gait, so the design is the runtime's gait without a mesh's error: a gait's
   eigenvalue can move two hundred times faster than its period as a parameter changes
   (the compass gait's slope near a period of 0.75 s), so the collocation's error of a few
-  1e-8 in the period would show in the design. Where no collocated optimum is confirmed,
+  1e-8 in the period would show in the design. Where no polished optimum is verified,
   the starts themselves are shot.
 
 Conditions: each failure of a phase (falling back, falling forward, the stance foot lifting

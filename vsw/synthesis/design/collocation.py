@@ -22,6 +22,7 @@ from vsw.synthesis.design.nlp import (
     event_rows,
     objective_of,
     step_facts,
+    vector_field,
 )
 from vsw.synthesis.design.request import DEGREE, MAX_ITERATIONS
 
@@ -52,9 +53,6 @@ class Collocated:
     mesh: tuple[int, ...]
     state_times: list[tuple[int, float]]
 
-    def section_state(self, w: np.ndarray, size: int) -> np.ndarray:
-        return w[self.layout["states"]][:size]
-
 
 @functools.cache
 def phase_field(model: HybridModel, phase: str) -> Any:
@@ -63,7 +61,7 @@ def phase_field(model: HybridModel, phase: str) -> Any:
 
     p = ca.SX.sym("p", len(model.parameter_table))
     x = ca.SX.sym("x", 2 * model.n)
-    f = ca.vertcat(x[model.n :], model.symbolic(f"{phase}_accelerations", p, x))
+    f = vector_field(model, phase, p, x)
     return ca.Function(f"field_{phase}", [p, x], [f, ca.jacobian(f, x)])
 
 
@@ -167,7 +165,7 @@ def build(model: HybridModel, structure: Structure, mesh: tuple[int, ...]) -> Co
     vary between requests are its parameters, bounds are the solver call's."""
     import casadi as ca
 
-    n_par, m = len(model.parameter_table), 2 * model.n
+    n_par = len(model.parameter_table)
     sequence = model.phase_sequence()
     eigen = structure.eigen is not None
     fixed_values = ca.MX.sym("P", n_par + 1)
@@ -188,7 +186,7 @@ def build(model: HybridModel, structure: Structure, mesh: tuple[int, ...]) -> Co
         following = ends[(k + 1) % len(sequence)][0]
         events.append(event_rows(model, phase, event, p, ends[k][1], following,
                                  k + 1 == len(sequence), ends[k][2], g))  # fmt: skip
-    energy_lost, step_length, monodromy = step_facts(events, m)
+    energy_lost, step_length, monodromy = step_facts(events)
     radius = rho if structure.eigen == "objective" else fixed_values[n_par]
     quantities = design_quantities(model, structure, p, durations, energy_lost, step_length,
                                    monodromy, radius, g)  # fmt: skip
@@ -240,8 +238,7 @@ def _variational(model: HybridModel, nlp: Collocated, params: Any, pieces: list,
         return np.zeros(0)
     m, d = 2 * model.n, DEGREE
     _, c_matrix, d_row = legendre_scheme(d)
-    knot_count = sum(n + 1 for n in nlp.mesh)
-    knot_row, stage_row = 0, knot_count
+    stage_row = sum(n + 1 for n in nlp.mesh)  # the stages follow every phase's knots
     out = []
     for k, (phase, _event) in enumerate(model.phase_sequence()):
         field = phase_field(model, phase)
@@ -260,6 +257,5 @@ def _variational(model: HybridModel, nlp: Collocated, params: Any, pieces: list,
             phi = d_row[0] * phi + sum(d_row[j + 1] * stages[j] for j in range(d))
             knots.append(phi.reshape(-1, order="F"))
         out += knots + stage_list
-        knot_row += nlp.mesh[k] + 1
         stage_row += d * nlp.mesh[k]
     return np.concatenate(out)

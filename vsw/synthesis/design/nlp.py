@@ -30,6 +30,7 @@ __all__ = [
     "kinetic_loss",
     "objective_of",
     "step_facts",
+    "vector_field",
 ]
 
 
@@ -44,7 +45,8 @@ class Structure:
     rank: int
 
 
-def _vector_field(model: HybridModel, phase: str, p: Any, x: Any) -> Any:
+def vector_field(model: HybridModel, phase: str, p: Any, x: Any) -> Any:
+    """The phase's first-order vector field ``(rates, accelerations)`` (CasADi)."""
     import casadi as ca
 
     return ca.vertcat(x[model.n :], model.symbolic(f"{phase}_accelerations", p, x))
@@ -61,7 +63,7 @@ def event_jacobians(model: HybridModel, phase: str, event: str) -> Any:
     guard = model.symbolic(f"event_{event}_guard", p, x)
     reset = model.symbolic(f"event_{event}_reset", p, x)
     return ca.Function(f"saltation_{phase}", [p, x], [
-        _vector_field(model, phase, p, x), ca.jacobian(guard, x), ca.jacobian(reset, x),
+        vector_field(model, phase, p, x), ca.jacobian(guard, x), ca.jacobian(reset, x),
     ])  # fmt: skip
 
 
@@ -138,7 +140,7 @@ def event_rows(model: HybridModel, phase: str, event: dict, p: Any, end: Any, fo
     return out
 
 
-def step_facts(ends: list[EndOfPhase], size: int) -> tuple[Any, Any, Any]:
+def step_facts(ends: list[EndOfPhase]) -> tuple[Any, Any, Any]:
     """The step's dissipated energy, its length and its monodromy matrix (the phases'
     factors multiplied in order; None without them) from each phase's event."""
     import casadi as ca

@@ -85,7 +85,7 @@ def _step_rows(model: HybridModel, p: Any, nodes: list, durations: Any, eigen: b
         following = nodes[(k + 1) % count][0]
         ends.append(event_rows(model, phase, event, p, end, following, k + 1 == count,
                                phi_phase if eigen else None, g))  # fmt: skip
-    return step_facts(ends, 2 * model.n)
+    return step_facts(ends)
 
 
 IPOPT_OPTIONS = {

@@ -423,7 +423,7 @@ def design(model: HybridModel, request: DesignRequest) -> GaitDesign:
                               starts=len(seeds), infeasible_reason=reason)  # fmt: skip
         why = "; ".join(sorted({s.failure for s in solves}))[:300]
         return GaitDesign("not-converged", f"not converged: no verified design from "
-                          f"{len(seeds)} start(s) ({why or 'no collocated optimum'})",
+                          f"{len(seeds)} start(s) ({why or 'no start walks a step'})",
                           ipopt_status=statuses, starts=len(seeds))  # fmt: skip
     limits = _open_limits(problem, nlp, best)
     status = "not-attained" if limits else "optimal"
