@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.linalg import expm
+from scipy.optimize import brentq
 
 from vsw import models
 from vsw.orbits.collocation import legendre_defects, legendre_end, legendre_scheme
@@ -74,7 +75,7 @@ def test_the_collocated_optimum_is_the_runtime_s_gait_to_the_mesh_s_error():
     structure = problem.structure(solve._nontrivial_rank(seeds), problem.objective,
                                   problem.rows, "same")  # fmt: skip
     nlp = collocation.build(model, structure, (gait_design.INTERVALS,))
-    pieces = solve._walk(model, problem.start, np.array(list(stable.state.values())), 1)
+    pieces = solve._walk(model, problem.start, stable)
     w0 = collocation.initial_point(model, nlp, np.asarray(problem.start), pieces,
                                    [problem.start[j] for j in problem.free],
                                    1.05 * stable.max_abs_eigenvalue)  # fmt: skip
@@ -95,17 +96,66 @@ def test_the_collocated_optimum_is_the_runtime_s_gait_to_the_mesh_s_error():
     assert radius != pytest.approx(orbit.max_abs_eigenvalue, rel=1e-12)  # a mesh's error
 
 
-def test_the_design_is_the_same_whether_collocation_or_the_starts_are_polished(monkeypatch):
+def _runtime_vertex(model, design, period):
+    """The slope at which the runtime's gait (its periodic-orbit solver, no NLP) lasts
+    ``period``, by brentq from the design's gait, and that gait's max |eigenvalue|."""
+    params = list(design.parameters.values())
+    k = list(design.parameters).index("gamma")
+    state = np.array(list(design.orbit.state.values()))
+
+    def orbit_at(gamma):
+        params[k] = gamma
+        return model.periodic_orbit(tuple(params), state, design.orbit.durations)
+
+    gamma = brentq(lambda g: orbit_at(g).period - period, params[k] - 1e-4, params[k] + 1e-4,
+                   xtol=1e-15, rtol=1e-15)  # fmt: skip
+    return gamma, orbit_at(gamma).max_abs_eigenvalue
+
+
+def test_the_design_at_a_vertex_is_the_runtimes_gait_whichever_nlp_polishes(monkeypatch):
+    # One free parameter and one target: the optimum is the slope where the period is
+    # 0.75 s. The collocated optimum is carried there by Newton on the orbit (pin.py), with
+    # no shooting NLP built; the shooting NLP alone meets the period to IPOPT's tolerance,
+    # which moves this eigenvalue about 200 times as much.
     problem_request = gait_design.DesignRequest(objective={}, targets={"period": 0.75})
     model = models.load("compass-gait")
-    polished = gait_design.design(model, problem_request)
+    monkeypatch.setattr(solve, "build", _not_built)
+    pinned = gait_design.design(model, problem_request)
+    monkeypatch.undo()
     monkeypatch.setattr(solve, "_collocated_candidates", lambda *args: [])
     shot = gait_design.design(model, problem_request)
-    assert polished.status == shot.status == "optimal"
-    assert polished.parameters["gamma"] == pytest.approx(shot.parameters["gamma"], rel=1e-8)
-    assert polished.objective == pytest.approx(shot.objective, rel=1e-8)
-    # The tutorial's design (docs/tutorials/design.md), from the shooting alone.
-    assert shot.objective == pytest.approx(0.646696, abs=5e-7)
+    assert pinned.status == shot.status == "optimal"
+    gamma, eigenvalue = _runtime_vertex(model, pinned, 0.75)
+    assert pinned.quantities["period"] == pytest.approx(0.75, abs=1e-12)
+    assert pinned.parameters["gamma"] == pytest.approx(gamma, rel=1e-10)
+    assert pinned.objective == pytest.approx(eigenvalue, rel=1e-9)
+    assert shot.parameters["gamma"] == pytest.approx(gamma, rel=1e-8)
+    assert shot.objective == pytest.approx(eigenvalue, rel=1e-7)
+    # The tutorial's design (docs/tutorials/design.md).
+    assert pinned.objective == pytest.approx(0.646696, abs=5e-7)
+
+
+def _not_built(*args, **kwargs):
+    raise AssertionError("the shooting NLP was built")
+
+
+def test_an_active_eigenvalue_bound_is_met_on_the_runtimes_gait(monkeypatch):
+    # The simplest walker's fastest gait with max |eigenvalue| <= 0.9: the bound pins the
+    # slope; Newton on the orbit meets it to the orbit solver's accuracy.
+    model = models.load("simplest-walker")
+    request = gait_design.DesignRequest(objective={"speed": 1.0}, max_eigenvalue=0.9)
+    monkeypatch.setattr(solve, "build", _not_built)
+    result = gait_design.design(model, request)
+    assert result.status == "optimal"
+    assert result.active_constraints == ("max |eigenvalue|",)
+    assert result.quantities["eigenvalue"] == pytest.approx(0.9, abs=1e-10)
+    params = list(result.parameters.values())
+    k = list(result.parameters).index("gamma")
+    state = np.array(list(result.orbit.state.values()))
+    for shift, sense in ((-1e-7, -1), (1e-7, 1)):  # the bound is crossed at the slope
+        params[k] = result.parameters["gamma"] * (1 + shift)
+        moved = model.periodic_orbit(tuple(params), state, result.orbit.durations)
+        assert sense * (moved.max_abs_eigenvalue - 0.9) > 0
 
 
 def test_distinct_gaits_at_the_same_parameters_are_each_polished():

@@ -30,6 +30,7 @@ import contextlib
 import functools
 import io
 from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -37,11 +38,13 @@ import numpy as np
 from vsw.runtime.errors import VswInputError
 
 __all__ = [
+    "FlowPiece",
     "flows",
     "multiple_shooting",
     "phase_blocks",
     "phase_flow",
     "phase_integrator",
+    "phase_pieces",
     "phase_sequence",
     "starts_of",
 ]
@@ -142,6 +145,46 @@ def starts_of(
         end = phase_flow(model, phase, params, x, duration)
         x = model.reset(event["name"], params, end)
     return np.concatenate(starts)
+
+
+@dataclass(frozen=True)
+class FlowPiece:
+    """One phase of an orbit's step on the clock of the step: its start and end times and
+    its start state, the states in between by the phase's flow (1)."""
+
+    model: Any
+    phase: str
+    params: tuple[float, ...]
+    start: float
+    end: float
+    state: np.ndarray
+
+    def states(self, times: np.ndarray) -> np.ndarray:
+        """The state at each of ``times`` (in [start, end], any order), shape (len(times),
+        2n): the flow from each time to the next in increasing order (RuntimeError where
+        CVODES fails)."""
+        times = np.asarray(times, dtype=float)
+        order = np.argsort(times, kind="stable")
+        out = np.empty((len(times), len(self.state)))
+        x, t = self.state, self.start
+        for i in order:
+            if times[i] > t:
+                x = phase_flow(self.model, self.phase, self.params, x, times[i] - t)
+                t = times[i]
+            out[i] = x
+        return out
+
+
+def phase_pieces(model: Any, params: Sequence[float], x0: np.ndarray,
+                 durations: Sequence[float]) -> list[FlowPiece]:  # fmt: skip
+    """A step from the section state ``x0`` with the phases' ``durations`` (a periodic
+    orbit's) as one :class:`FlowPiece` a phase (RuntimeError where CVODES fails)."""
+    params = tuple(float(v) for v in params)
+    starts = starts_of(model, 1, params, x0, durations).reshape(len(durations), -1)
+    ends = np.cumsum(durations)
+    return [FlowPiece(model, phase, params, float(end - duration), float(end), start)
+            for (phase, _event), start, duration, end in zip(phase_sequence(model), starts,
+                                                               durations, ends)]  # fmt: skip
 
 
 @functools.cache

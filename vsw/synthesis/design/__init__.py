@@ -26,6 +26,10 @@ periodicity (the state after the step event equals the first). Two NLPs share th
   (the compass gait's slope near a period of 0.75 s), so the collocation's error of a few
   1e-8 in the period would show in the design. Where no polished optimum is verified,
   the starts themselves are shot.
+* a vertex (:mod:`~vsw.synthesis.design.pin`): where the collocated optimum's active
+  constraints are as many as its free parameters (the period's target of one free slope;
+  the eigenvalue bound of the fastest gait), they alone fix it: Newton solves them again
+  on the periodic-orbit solver's gait, with no shooting NLP to build or solve.
 
 Conditions: each failure of a phase (falling back, falling forward, the stance foot lifting
 off, ...) as ``-direction * guard >= margin`` at every node and at each phase's end;
@@ -68,7 +72,8 @@ The package, by job: :mod:`~vsw.synthesis.design.request` (the request, the resu
 :mod:`~vsw.synthesis.design.nlp` (what the two NLPs share),
 :mod:`~vsw.synthesis.design.collocation` (the collocated NLP, on the scheme of
 :mod:`vsw.orbits.collocation`), :mod:`~vsw.synthesis.design.shooting` (the NLP on the
-shooting flows of :mod:`vsw.orbits.shooting`) and
+shooting flows of :mod:`vsw.orbits.shooting`), :mod:`~vsw.synthesis.design.pin` (a vertex
+solved on the orbit solver's gait) and
 :mod:`~vsw.synthesis.design.solve` (the starts, the solves, their verification and the status:
 :func:`design`).
 """

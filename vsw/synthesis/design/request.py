@@ -144,9 +144,10 @@ class GaitDesign:
         out["transcription"] = (
             f"from each start Gauss-Legendre collocation ({DEGREE} points, {INTERVALS} "
             "intervals per phase; IPOPT with exact second derivatives), each distinct "
-            f"optimum polished by multiple shooting ({SEGMENTS} segments per phase, CVODES "
-            f"{INTEGRATOR_TOL:g}; IPOPT with exact first derivatives and a limited-memory "
-            "Hessian); stability by the Jury inequalities of the monodromy matrix's "
+            "optimum carried onto the orbit solver's gait: at a vertex by Newton on its "
+            "active constraints, else polished by multiple shooting "
+            f"({SEGMENTS} segments per phase, CVODES {INTEGRATOR_TOL:g}; IPOPT with exact "
+            "first derivatives and a limited-memory Hessian); stability by the Jury inequalities of the monodromy matrix's "
             "characteristic polynomial"
         )
         return out

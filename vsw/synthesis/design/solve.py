@@ -16,12 +16,14 @@ from typing import Any
 import numpy as np
 
 from vsw.dynamics import conditions
+from vsw.dynamics.batch import simulator
 from vsw.dynamics.hybrid import HybridModel, Orbit
 from vsw.dynamics.quantities import maximised, report
 from vsw.dynamics.quantities import weight as walker_weight
+from vsw.orbits.shooting import phase_pieces
 from vsw.runtime import stop
 from vsw.runtime.errors import ConvergenceError, VswInputError
-from vsw.synthesis.design import collocation
+from vsw.synthesis.design import collocation, pin
 from vsw.synthesis.design.nlp import impact_events, kinetic_loss
 from vsw.synthesis.design.problem import Problem, margin_floor
 from vsw.synthesis.design.request import (
@@ -57,6 +59,7 @@ class _Solve:
     margins: list[dict[str, Any]] = field(default_factory=list)
     objective: float = math.inf
     failure: str = ""  # why it is not a verified design
+    nlp: Any = None  # the NLP whose unknowns and multipliers these are
 
     @property
     def verified(self) -> bool:
@@ -76,9 +79,7 @@ def _initial_point(problem: Problem, nlp: Nlp, params: Sequence[float], orbit: O
                    rho: float) -> np.ndarray:  # fmt: skip
     """IPOPT's start from a gait at ``params``: its free parameters, its state at every
     node, its durations."""
-    model = problem.model
-    state = np.array(list(orbit.state.values()))
-    pieces = _walk(model, params, state, len(orbit.durations))
+    pieces = _walk(problem.model, params, orbit)
     w = np.zeros(nlp.size)
     w[nlp.layout["free"]] = [params[j] for j in problem.free]
     nodes = []
@@ -91,12 +92,15 @@ def _initial_point(problem: Problem, nlp: Nlp, params: Sequence[float], orbit: O
     return w
 
 
-def _walk(model: HybridModel, params: Sequence[float], state: np.ndarray, phases: int) -> list:
-    """A gait's step walked as one piece a phase (ConvergenceError where it is not)."""
-    pieces, _events, ended = model.continuous_walk(params, state, 1)
-    if ended != "completed" or len(pieces) != phases:
-        raise ConvergenceError(f"{model.name}: the start gait does not walk a step")
-    return pieces
+def _walk(model: HybridModel, params: Sequence[float], orbit: Orbit) -> list:
+    """A gait's step as one piece a phase by the phases' CVODES flows
+    (:func:`vsw.orbits.shooting.phase_pieces`; ConvergenceError where CVODES fails)."""
+    state = np.array(list(orbit.state.values()))
+    try:
+        return phase_pieces(model, params, state, orbit.durations)
+    except RuntimeError:
+        stop.check()
+        raise ConvergenceError(f"{model.name}: the start gait does not walk a step") from None
 
 
 def _bounds(
@@ -140,7 +144,7 @@ def _solve(problem: Problem, nlp: Nlp, bounds: Mapping[str, np.ndarray], w0: np.
         except RuntimeError as exc:
             stop.check()
             return _Solve(start, "error: " + " ".join(str(exc).split())[:60], w0,
-                          np.zeros_like(w0), np.zeros(len(nlp.row_kinds)))  # fmt: skip
+                          np.zeros_like(w0), np.zeros(len(nlp.row_kinds)), nlp=nlp)  # fmt: skip
     stop.check()  # IPOPT ends an interrupted solve with a status, not an exception
     return _Solve(
         start,
@@ -148,6 +152,7 @@ def _solve(problem: Problem, nlp: Nlp, bounds: Mapping[str, np.ndarray], w0: np.
         np.array(out["x"]).reshape(-1),
         np.array(out["lam_x"]).reshape(-1),
         np.array(out["lam_g"]).reshape(-1),
+        nlp=nlp,
     )
 
 
@@ -170,7 +175,9 @@ def _verify(problem: Problem, nlp: Nlp, solve: _Solve, targets: Mapping[str, flo
     m = 2 * model.n
     state = solve.w[nlp.layout["nodes"]][:m]
     try:
-        orbit = model.periodic_orbit(params, state, solve.w[nlp.layout["durations"]])
+        orbit = model.periodic_orbit(
+            params, state, solve.w[nlp.layout["durations"]], step=simulator(model).step_phases
+        )
     except ConvergenceError as exc:
         solve.failure = f"not confirmed: {exc}"
         return solve
@@ -178,6 +185,13 @@ def _verify(problem: Problem, nlp: Nlp, solve: _Solve, targets: Mapping[str, flo
     if not np.max(np.abs(x_star - state)) <= 1e-6 * max(1.0, float(np.max(np.abs(x_star)))):
         solve.failure = "the confirmed orbit is another gait"
         return solve
+    return _accept(problem, solve, params, orbit, targets, objective)
+
+
+def _accept(problem: Problem, solve: _Solve, params: tuple, orbit: Orbit,
+            targets: Mapping[str, float], objective: Mapping[str, float]) -> _Solve:  # fmt: skip
+    """``solve`` as the confirmed gait ``orbit`` at ``params``, if every request holds on it."""
+    model = problem.model
     quantities = orbit_quantities(model, params, orbit)
     margins = conditions.gait_conditions(model, params, orbit)
     problems = _violations(problem, quantities, margins, targets)
@@ -260,21 +274,53 @@ def _multistart(
     targets: Mapping[str, float] | None = None,
     eigen: str | None = "same",
 ) -> tuple[_Solve | None, list[_Solve], Nlp]:
-    """IPOPT from each seed on the collocated NLP, then each distinct collocated optimum
-    polished on the shooting NLP and verified; the seeds themselves on the shooting NLP
-    where no polished optimum is verified. The best verified solve, every solve, the NLP."""
+    """IPOPT from each seed on the collocated NLP; each distinct collocated optimum
+    carried onto the exact gait by the constraints that pin it (:mod:`.pin`), else polished
+    on the shooting NLP, and verified; the seeds themselves on the shooting NLP where no
+    polished optimum is verified. The best verified solve and every solve."""
     objective = problem.objective if objective is None else objective
     targets = problem.request.targets if targets is None else targets
     rows = tuple(sorted(set(targets) | (set(problem.request.bounds) & problem.available)))
     structure = problem.structure(rank, objective, rows, eigen)
-    nlp = build(problem.model, structure)
     candidates = _collocated_candidates(problem, structure, seeds, objective, targets)
-    best, solves = _shoot(problem, nlp, candidates, 1e-3, objective, targets)
+    best, solves, unpinned = None, [], []
+    for params, orbit, collocated in candidates:
+        solve = _pinned(problem, structure, params, orbit, collocated, targets, objective)
+        if solve is None:
+            unpinned.append((params, orbit))
+            continue
+        solves.append(solve)
+        if best is None or solve.objective < best.objective - 1e-12:
+            best = solve
+    if unpinned:
+        nlp = build(problem.model, structure)
+        shot, more = _shoot(problem, nlp, unpinned, 1e-3, objective, targets)
+        solves += more
+        if shot is not None and (best is None or shot.objective < best.objective - 1e-12):
+            best = shot
     if best is None:
         starts = [(tuple(problem.start), orbit) for orbit in seeds]
-        best, more = _shoot(problem, nlp, starts, 0.05, objective, targets)
+        best, more = _shoot(problem, build(problem.model, structure), starts, 0.05, objective,
+                            targets)  # fmt: skip
         solves += more
-    return best, solves, nlp
+    return best, solves
+
+
+def _pinned(problem: Problem, structure: Any, params: tuple, orbit: Orbit,
+            collocated: _Solve, targets: Mapping[str, float],
+            objective: Mapping[str, float]) -> _Solve | None:  # fmt: skip
+    """A collocated optimum at its vertex solved on the exact gait and verified
+    (:func:`vsw.synthesis.design.pin.pinned_gait`); None where its active set does not pin
+    it or the pinned gait fails a request (the shooting NLP polishes it instead)."""
+    rows = pin.pinning_rows(problem, collocated.nlp, collocated, targets, structure.eigen)
+    if rows is None:
+        return None
+    found = pin.pinned_gait(problem, params, orbit, rows)
+    if found is None:
+        return None
+    solve = dataclasses.replace(collocated)
+    solve = _accept(problem, solve, found[0], found[1], targets, objective)
+    return solve if solve.verified else None
 
 
 def _shoot(problem: Problem, nlp: Nlp, starts: Sequence[tuple[tuple, Orbit]], above: float,
@@ -307,18 +353,20 @@ def _same_gait(params: Sequence[float], orbit: Orbit, other_params: Sequence[flo
                 and np.allclose(state, other_state, rtol=1e-6, atol=1e-9))  # fmt: skip
 
 
+_Candidate = tuple[tuple, Orbit, _Solve]  # a collocated optimum's parameters, gait, solve
+
+
 def _collocated_candidates(problem: Problem, structure: Any, seeds: Sequence[Orbit],
                            objective: Mapping[str, float],
-                           targets: Mapping[str, float]) -> list[tuple[tuple, Orbit]]:  # fmt: skip
+                           targets: Mapping[str, float]) -> list[_Candidate]:  # fmt: skip
     """Each seed's collocated optimum (:mod:`vsw.synthesis.design.collocation`) that IPOPT
-    solved and the periodic-orbit solver confirms as a gait at its parameters, best
-    objective first, one of each gait (:func:`_same_gait`)."""
+    solved and the periodic-orbit solver confirms as a gait at its parameters, with its
+    solve, best objective first, one of each gait (:func:`_same_gait`)."""
     model = problem.model
-    found: list[tuple[float, tuple, Orbit]] = []
+    found: list[tuple[float, tuple, Orbit, _Solve]] = []
     for orbit in seeds:
-        state = np.array(list(orbit.state.values()))
         try:
-            pieces = _walk(model, problem.start, state, len(orbit.durations))
+            pieces = _walk(model, problem.start, orbit)
         except ConvergenceError:
             continue
         mesh = tuple(INTERVALS for _ in pieces)
@@ -333,14 +381,17 @@ def _collocated_candidates(problem: Problem, structure: Any, seeds: Sequence[Orb
         params = _parameters_of(problem, nlp, solve.w)
         x = solve.w[nlp.layout["states"]][: 2 * model.n]
         try:
-            confirmed = model.periodic_orbit(params, x, solve.w[nlp.layout["durations"]])
+            confirmed = model.periodic_orbit(
+                params, x, solve.w[nlp.layout["durations"]], step=simulator(model).step_phases
+            )
         except ConvergenceError:
             continue
         table = np.array(nlp.quantities(solve.w, bounds["p"])).reshape(-1)
         value = _objective_value(objective, dict(zip(nlp.quantities.names, table)))
-        if not any(_same_gait(params, confirmed, *other[1:]) for other in found):
-            found.append((value, params, confirmed))
-    return [(params, orbit) for _, params, orbit in sorted(found, key=lambda item: item[0])]
+        if not any(_same_gait(params, confirmed, *other[1:3]) for other in found):
+            found.append((value, params, confirmed, solve))
+    found.sort(key=lambda item: item[0])
+    return [(params, orbit, solve) for _, params, orbit, solve in found]
 
 
 def _open_limits(problem: Problem, nlp: Nlp, solve: _Solve) -> tuple[str, ...]:
@@ -414,7 +465,7 @@ def design(model: HybridModel, request: DesignRequest) -> GaitDesign:
         return GaitDesign("not-converged", f"not converged: no gait to start from at "
                           f"{tried} parameter set(s) of the box ({why_none})")  # fmt: skip
     rank = _nontrivial_rank(seeds)
-    best, solves, nlp = _multistart(problem, seeds, rank)
+    best, solves = _multistart(problem, seeds, rank)
     statuses = ", ".join(sorted({s.ipopt_status for s in solves})) or "no start"
     if best is None:
         reason = _infeasibility(problem, seeds, rank)
@@ -425,7 +476,7 @@ def design(model: HybridModel, request: DesignRequest) -> GaitDesign:
         return GaitDesign("not-converged", f"not converged: no verified design from "
                           f"{len(seeds)} start(s) ({why or 'no start walks a step'})",
                           ipopt_status=statuses, starts=len(seeds))  # fmt: skip
-    limits = _open_limits(problem, nlp, best)
+    limits = _open_limits(problem, best.nlp, best)
     status = "not-attained" if limits else "optimal"
     if limits:
         message = (f"not attained: the optimum lies on the open limit(s) {', '.join(limits)}; "
@@ -448,7 +499,7 @@ def design(model: HybridModel, request: DesignRequest) -> GaitDesign:
         best.quantities,
         best.margins,
         best.objective,
-        _active(problem, nlp, best),
+        _active(problem, best.nlp, best),
         limits,
         best.ipopt_status,
         len(seeds),
@@ -537,12 +588,12 @@ def _extreme(problem: Problem, seeds: Sequence[Orbit], rank: int, name: str, sen
         saved = problem.request
         problem.request = dataclasses.replace(saved, max_eigenvalue=None)
         try:
-            best, _, _ = _multistart(problem, seeds, rank, objective, targets, eigen)
+            best, _ = _multistart(problem, seeds, rank, objective, targets, eigen)
         finally:
             problem.request = saved
         return None if best is None else float(best.quantities["eigenvalue"])
     # The term enters as -w * value when maximised, +w * value otherwise.
     objective = {name: float(sense if maximised(name) else -sense)}
     eigen_mode = "bound" if problem.request.max_eigenvalue is not None else None
-    best, _, _ = _multistart(problem, seeds, rank, objective, targets, eigen_mode)
+    best, _ = _multistart(problem, seeds, rank, objective, targets, eigen_mode)
     return None if best is None else float(best.quantities[name])

@@ -1,0 +1,216 @@
+"""A collocated optimum carried onto the runtime's exact gait by the constraints that pin it:
+:func:`pinned_gait`.
+
+At a vertex of the design (as many active constraints as free parameters: a target, a
+quantity's bound, the eigenvalue bound, a parameter's box), the optimum is the solution of
+those constraints alone, whatever the objective. The collocated NLP finds the vertex and its
+active set to the mesh's error; here the active rows are solved again on the periodic orbit
+the runtime's solver gives (:class:`vsw.orbits.OrbitProblem`, CVODES), by Newton in the free
+parameters with a finite-difference Jacobian kept up to date by Broyden's update:
+
+    c_A(p) = b_A,                                                                      (1)
+
+``c_A`` the active quantities of the orbit at ``p``, ``b_A`` their targets or bounds. The
+collocated point is within the mesh's error of the root, so one or two steps reach the
+orbit solver's own accuracy. Where the active set does not pin the parameters (an interior
+optimum, an active condition margin or ``when`` row, the eigenvalue's radius at its bound,
+a quantity that needs the step simulated), :func:`pinned_gait` says so with None and the
+design polishes on the multiple-shooting NLP instead (:mod:`vsw.synthesis.design.shooting`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from vsw.dynamics.batch import simulator
+from vsw.dynamics.hybrid import Orbit
+from vsw.dynamics.quantities import report
+from vsw.dynamics.quantities import weight as walker_weight
+from vsw.orbits import OrbitProblem, shooting
+from vsw.runtime.errors import ConvergenceError
+from vsw.synthesis.design.problem import Problem
+
+__all__ = ["ACTIVE", "Pinning", "pinned_gait", "pinning_rows"]
+
+ACTIVE = 1e-8
+"""A constraint is active where its multiplier's magnitude exceeds this."""
+
+_ITERATIONS = 8
+_SOLVED = 1e-12  # max |c_A - b_A| / max(1, |b_A|) at which Newton stops
+_ACCEPTED = 1e-9  # and the largest it may end at
+_FD_STEP = 1e-6  # of the box's width
+_MOVE = 1e-4  # the farthest a pinned parameter may move from the collocated one, of the width
+
+
+Pinning = tuple[dict[str, float], dict[int, float]]
+"""The equations (1): each pinned quantity's value; each free parameter held at its box's
+bound (index -> the bound)."""
+
+
+def pinning_rows(problem: Problem, nlp: Any, solve: Any, targets: Mapping[str, float],
+                 structure_eigen: str | None) -> Pinning | None:  # fmt: skip
+    """The equations (1) of a collocated optimum: each pinned quantity's value, and each
+    free parameter pressed against its box (index -> the bound); None where an active row
+    is not of a kind Newton on the orbit can solve."""
+    request = problem.request
+    equations = dict(targets)
+    values = None
+    for i, (name, kind) in enumerate(zip(nlp.row_names, nlp.row_kinds)):
+        if abs(solve.lam_g[i]) <= ACTIVE or kind == "equality" or name in targets:
+            continue
+        if kind == "jury":
+            if structure_eigen != "bound":
+                continue  # the radius is the objective's unknown, not a constraint on p
+            equations["eigenvalue"] = float(request.max_eigenvalue)
+        elif kind == "quantity":
+            if values is None:
+                p = np.array([*problem.start, request.max_eigenvalue or 1.0])
+                table = np.array(nlp.quantities(solve.w, p)).reshape(-1)
+                values = dict(zip(nlp.quantities.names, table))
+            low, high = request.bounds[name]
+            ends = [v for v in (low, high) if v is not None]
+            equations[name] = float(min(ends, key=lambda v: abs(v - values[name])))
+        else:
+            return None  # a margin or a guard's when: the shooting NLP polishes those
+    rho = nlp.layout["rho"]
+    if rho.stop > rho.start and abs(solve.lam_x[rho][0]) > ACTIVE:
+        return None  # the least eigenvalue held at the eigenvalue bound
+    pressed = {}
+    free_values = solve.w[nlp.layout["free"]]
+    for i, j in enumerate(problem.free):
+        if abs(solve.lam_x[nlp.layout["free"]][i]) > ACTIVE:
+            low, high = problem.box[j]
+            near = abs(free_values[i] - low) <= abs(free_values[i] - high)
+            pressed[j] = low if near else high
+    return equations, pressed
+
+
+def pinned_gait(problem: Problem, params: Sequence[float], orbit: Orbit,
+                rows: Pinning) -> tuple[tuple, Orbit] | None:  # fmt: skip
+    """The parameters and confirmed gait that solve (1) from a collocated optimum's
+    confirmed gait ``orbit`` at ``params``, or None where Newton does not reach them (the
+    design then polishes on the shooting NLP)."""
+    equations, pressed = rows
+    unknown = [j for j in problem.free if j not in pressed]
+    if len(equations) != len(unknown) or not _computable(equations):
+        return None
+    p = np.array(params, dtype=float)
+    for j, value in pressed.items():
+        p[j] = value
+    names = sorted(equations)
+    goal = np.array([equations[n] for n in names])
+    scale = np.maximum(1.0, np.abs(goal))
+    width = np.array([problem.box[j][1] - problem.box[j][0] for j in unknown])
+    orbits = _Orbits(problem, orbit, bool({"step_length", "speed"} & set(names)))
+
+    def residual(at: np.ndarray) -> np.ndarray | None:
+        quantities = orbits.quantities(at)
+        return (
+            None
+            if quantities is None
+            else (np.array([quantities[n] for n in names]) - goal) / scale
+        )
+
+    r = residual(p)
+    if r is not None and unknown:
+        r = _newton(residual, p, r, unknown, width)
+    if r is None or not np.max(np.abs(r), initial=0.0) <= _ACCEPTED:
+        return None
+    moved = np.abs(p[unknown] - np.asarray(params)[unknown])
+    if np.any(moved > _MOVE * np.maximum(width, 1e-12)):
+        return None
+    try:
+        confirmed = problem.model.periodic_orbit(
+            tuple(p), orbits.state, orbits.durations, step=simulator(problem.model).step_phases
+        )
+    except ConvergenceError:
+        return None
+    return tuple(float(v) for v in p), confirmed
+
+
+def _newton(residual: Any, p: np.ndarray, r: np.ndarray, unknown: list[int],
+            width: np.ndarray) -> np.ndarray | None:  # fmt: skip
+    """Newton on (1) in the parameters ``unknown`` from ``p`` (updated in place), its
+    Jacobian by forward differences once, then Broyden's update: the last residual."""
+    jacobian = np.empty((len(r), len(unknown)))
+    for k, j in enumerate(unknown):
+        h = _FD_STEP * max(width[k], 1e-9)
+        shifted = p.copy()
+        shifted[j] += h
+        r_h = residual(shifted)
+        if r_h is None:
+            return None
+        jacobian[:, k] = (r_h - r) / h
+    for _ in range(_ITERATIONS):
+        if np.max(np.abs(r)) <= _SOLVED:
+            break
+        try:
+            step = np.linalg.solve(jacobian, -r)
+        except np.linalg.LinAlgError:
+            return None
+        p[unknown] += step
+        r_new = residual(p)
+        if r_new is None:
+            return None
+        jacobian += np.outer(r_new - r - jacobian @ step, step) / float(step @ step)
+        r = r_new
+    return r
+
+
+_CHEAP = {"period", "step_frequency", "eigenvalue", "step_length", "speed", "weight"}
+
+
+def _computable(equations: Mapping[str, float]) -> bool:
+    """Whether the quantities of (1) follow from the orbit solver's unknowns alone (no
+    simulated step: the energy an impact dissipates needs the state before it)."""
+    return set(equations) <= _CHEAP
+
+
+class _Orbits:
+    """The orbit solver at parameter sets near a confirmed gait, each from the last."""
+
+    def __init__(self, problem: Problem, orbit: Orbit, lengths: bool) -> None:
+        self.model = problem.model
+        self.lengths = lengths  # whether the step's length is asked
+        self.problem = OrbitProblem(self.model)
+        self.state = np.array(list(orbit.state.values()))
+        self.durations = np.array(orbit.durations)
+        self.guess: np.ndarray | None = None
+
+    def quantities(self, params: np.ndarray) -> dict[str, Any] | None:
+        try:
+            if self.guess is None:
+                self.guess = self.problem.unknowns(params, self.state, self.durations)
+            solved = self.problem.solve(params, self.guess)
+        except RuntimeError:
+            return None
+        if not solved.converged:
+            return None
+        self.guess = solved.u
+        self.state = self.problem.section_state(solved.u)
+        self.durations = self.problem.durations(solved.u)
+        eigenvalues = self.problem.eigenvalues(solved.jacobian)
+        if not eigenvalues:
+            return None
+        facts = {
+            "period": float(np.sum(self.durations)),
+            "eigenvalue": abs(eigenvalues[0]),
+            "weight": walker_weight(self.model, params),
+        }
+        if self.lengths:
+            # The step's length is the model's of the state just before the step event.
+            m, n = self.problem.m, self.problem.n
+            phase = self.problem.sequence[-1][0]
+            start = solved.u[(m - 1) * n : m * n]
+            try:
+                end = shooting.phase_flow(self.model, phase, params, start, self.durations[-1])
+            except RuntimeError:
+                return None
+            length = self.model.step_length(params, end)
+            if length is None:
+                return None
+            facts["step_length"] = length
+        return report(facts)
