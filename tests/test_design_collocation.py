@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.linalg import expm
-from scipy.optimize import brentq
+from scipy.optimize import brentq, minimize_scalar
 
 from vsw import models
 from vsw.orbits.collocation import legendre_defects, legendre_end, legendre_scheme
@@ -169,3 +169,31 @@ def test_distinct_gaits_at_the_same_parameters_are_each_polished():
     result = gait_design.design(models.load("compass-gait"), request)
     assert result.status == "optimal"
     assert result.quantities["step_length"] == pytest.approx(0.7227824373318481, rel=1e-6)
+
+
+def test_an_interior_optimum_is_not_taken_for_the_box_edge():
+    # The simplest walker's least max |eigenvalue| over a slope box whose optimum is
+    # interior (0.0138) and close to the box's upper edge (0.01418): IPOPT's multiplier of
+    # the inactive edge is its barrier term (about mu / slack, above 1e-8), so an active
+    # set read from multipliers alone would pin the slope at the edge (max |eigenvalue|
+    # 0.767). The reference minimises the runtime's own gait's eigenvalue (no NLP).
+    model = models.load("simplest-walker")
+    box = (0.006770117625990786, 0.014177632952357497)
+    request = gait_design.DesignRequest(objective={"eigenvalue": 1.0},
+                                        bounds={"gamma": box}, max_eigenvalue=1.0)  # fmt: skip
+    result = gait_design.design(model, request)
+    assert result.status == "optimal"
+    assert "gamma bound" not in result.active_constraints
+    params = list(result.parameters.values())
+    k = list(result.parameters).index("gamma")
+    state = np.array(list(result.orbit.state.values()))
+
+    def eigenvalue(gamma):
+        params[k] = gamma
+        return model.periodic_orbit(tuple(params), state, result.orbit.durations).max_abs_eigenvalue
+
+    reference = minimize_scalar(eigenvalue, bounds=(0.0130, box[1]), method="bounded",
+                                options={"xatol": 1e-10})  # fmt: skip
+    assert reference.x < box[1] - 1e-4  # interior
+    assert result.objective <= reference.fun + 1e-8
+    assert result.parameters["gamma"] == pytest.approx(reference.x, abs=1e-6)

@@ -33,7 +33,7 @@ from vsw.orbits import OrbitProblem, shooting
 from vsw.runtime.errors import ConvergenceError
 from vsw.synthesis.design.problem import Problem
 
-__all__ = ["ACTIVE", "Pinning", "pinned_gait", "pinning_rows"]
+__all__ = ["ACTIVE", "Pinning", "pinned_gait", "pinning_rows", "pressed_bound"]
 
 ACTIVE = 1e-8
 """A constraint is active where its multiplier's magnitude exceeds this."""
@@ -42,6 +42,7 @@ _ITERATIONS = 8
 _SOLVED = 1e-12  # max |c_A - b_A| / max(1, |b_A|) at which Newton stops
 _ACCEPTED = 1e-9  # and the largest it may end at
 _FD_STEP = 1e-6  # of the box's width
+_AT_BOUND = 1e-6  # an active row's distance from its bound, relative
 _MOVE = 1e-4  # the farthest a pinned parameter may move from the collocated one, of the width
 
 
@@ -50,42 +51,51 @@ Pinning = tuple[dict[str, float], dict[int, float]]
 bound (index -> the bound)."""
 
 
-def pinning_rows(problem: Problem, nlp: Any, solve: Any, targets: Mapping[str, float],
+def pinning_rows(problem: Problem, nlp: Any, solve: Any, bounds: Mapping[str, np.ndarray],
                  structure_eigen: str | None) -> Pinning | None:  # fmt: skip
-    """The equations (1) of a collocated optimum: each pinned quantity's value, and each
-    free parameter pressed against its box (index -> the bound); None where an active row
-    is not of a kind Newton on the orbit can solve."""
-    request = problem.request
-    equations = dict(targets)
-    values = None
+    """The equations (1) of a collocated optimum: each active row's quantity at its bound
+    (a target's value), and each free parameter pressed against its box (index -> the
+    bound); None where an active row is not of a kind Newton on the orbit can solve.
+    Active: its multiplier above :data:`ACTIVE` and its value at the bound (an inactive
+    bound's multiplier is IPOPT's barrier term, small but not zero)."""
+    g = np.array(nlp.solver.get_function("nlp_g")(solve.w, bounds["p"])).reshape(-1)
+    equations: dict[str, float] = {}
     for i, (name, kind) in enumerate(zip(nlp.row_names, nlp.row_kinds)):
-        if abs(solve.lam_g[i]) <= ACTIVE or kind == "equality" or name in targets:
+        bound = pressed_bound(g[i], solve.lam_g[i], bounds["lbg"][i], bounds["ubg"][i], 1.0)
+        if bound is None or kind == "equality":
             continue
-        if kind == "jury":
-            if structure_eigen != "bound":
-                continue  # the radius is the objective's unknown, not a constraint on p
-            equations["eigenvalue"] = float(request.max_eigenvalue)
-        elif kind == "quantity":
-            if values is None:
-                p = np.array([*problem.start, request.max_eigenvalue or 1.0])
-                table = np.array(nlp.quantities(solve.w, p)).reshape(-1)
-                values = dict(zip(nlp.quantities.names, table))
-            low, high = request.bounds[name]
-            ends = [v for v in (low, high) if v is not None]
-            equations[name] = float(min(ends, key=lambda v: abs(v - values[name])))
+        if kind == "quantity":
+            equations[name] = bound
+        elif kind == "jury":
+            if structure_eigen == "bound":
+                equations["eigenvalue"] = float(problem.request.max_eigenvalue)
+            # else the radius is the objective's unknown, not a constraint on p
         else:
             return None  # a margin or a guard's when: the shooting NLP polishes those
     rho = nlp.layout["rho"]
-    if rho.stop > rho.start and abs(solve.lam_x[rho][0]) > ACTIVE:
+    if rho.stop > rho.start and pressed_bound(
+        solve.w[rho][0], solve.lam_x[rho][0], bounds["lbx"][rho][0], bounds["ubx"][rho][0], 1.0
+    ):
         return None  # the least eigenvalue held at the eigenvalue bound
     pressed = {}
-    free_values = solve.w[nlp.layout["free"]]
+    free = nlp.layout["free"]
     for i, j in enumerate(problem.free):
-        if abs(solve.lam_x[nlp.layout["free"]][i]) > ACTIVE:
-            low, high = problem.box[j]
-            near = abs(free_values[i] - low) <= abs(free_values[i] - high)
-            pressed[j] = low if near else high
+        low, high = problem.box[j]
+        bound = pressed_bound(solve.w[free][i], solve.lam_x[free][i], low, high, high - low)
+        if bound is not None:
+            pressed[j] = bound
     return equations, pressed
+
+
+def pressed_bound(value: float, multiplier: float, low: float, high: float,
+             scale: float) -> float | None:  # fmt: skip
+    """The bound an active constraint presses against, or None where it is inactive."""
+    if not abs(multiplier) > ACTIVE:
+        return None
+    for bound in (low, high):
+        if np.isfinite(bound) and abs(value - bound) <= _AT_BOUND * max(scale, abs(bound)):
+            return float(bound)
+    return None
 
 
 def pinned_gait(problem: Problem, params: Sequence[float], orbit: Orbit,

@@ -147,8 +147,8 @@ class GaitDesign:
             "optimum carried onto the orbit solver's gait: at a vertex by Newton on its "
             "active constraints, else polished by multiple shooting "
             f"({SEGMENTS} segments per phase, CVODES {INTEGRATOR_TOL:g}; IPOPT with exact "
-            "first derivatives and a limited-memory Hessian); stability by the Jury inequalities of the monodromy matrix's "
-            "characteristic polynomial"
+            "first derivatives and a limited-memory Hessian); stability by the Jury "
+            "inequalities of the monodromy matrix's characteristic polynomial"
         )
         return out
 

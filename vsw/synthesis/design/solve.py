@@ -312,7 +312,8 @@ def _pinned(problem: Problem, structure: Any, params: tuple, orbit: Orbit,
     """A collocated optimum at its vertex solved on the exact gait and verified
     (:func:`vsw.synthesis.design.pin.pinned_gait`); None where its active set does not pin
     it or the pinned gait fails a request (the shooting NLP polishes it instead)."""
-    rows = pin.pinning_rows(problem, collocated.nlp, collocated, targets, structure.eigen)
+    bounds = _bounds(problem, collocated.nlp, targets)
+    rows = pin.pinning_rows(problem, collocated.nlp, collocated, bounds, structure.eigen)
     if rows is None:
         return None
     found = pin.pinned_gait(problem, params, orbit, rows)
@@ -433,16 +434,26 @@ def _constraint_values(nlp: Nlp, w: np.ndarray, problem: Problem) -> np.ndarray:
 
 
 def _active(problem: Problem, nlp: Nlp, solve: _Solve) -> tuple[str, ...]:
+    """The constraints the optimum presses against (:func:`pin.pressed_bound`: a multiplier
+    and the value at its bound), targets aside."""
+    bounds = _bounds(problem, nlp, problem.request.targets)
+    g = _constraint_values(nlp, solve.w, problem)
     out = []
     for i, (name, kind) in enumerate(zip(nlp.row_names, nlp.row_kinds)):
-        if kind in ("margin", "quantity", "jury") and abs(solve.lam_g[i]) > 1e-8:
-            label = "max |eigenvalue|" if kind == "jury" else name
-            if name in problem.request.targets:
-                continue
-            if label not in out:
-                out.append(label)
+        if kind not in ("margin", "quantity", "jury") or name in problem.request.targets:
+            continue
+        if pin.pressed_bound(g[i], solve.lam_g[i], bounds["lbg"][i], bounds["ubg"][i], 1.0) is None:
+            continue
+        label = "max |eigenvalue|" if kind == "jury" else name
+        if label not in out:
+            out.append(label)
+    free = nlp.layout["free"]
     for i, j in enumerate(problem.free):
-        if abs(solve.lam_x[nlp.layout["free"]][i]) > 1e-8:
+        low, high = problem.box[j]
+        if (
+            pin.pressed_bound(solve.w[free][i], solve.lam_x[free][i], low, high, high - low)
+            is not None
+        ):
             out.append(f"{problem.table[j].name} bound")
     return tuple(out)
 
