@@ -67,14 +67,16 @@ def _compass_problem() -> Problem:
     return Problem(models.load("compass-gait"), request)
 
 
-def test_the_collocated_optimum_is_the_runtime_s_gait_to_the_mesh_s_error():
-    problem = _compass_problem()
+def _collocated_gap(problem, seeds, intervals):
+    """The collocated optimum on ``intervals`` a phase from the stable seed, and how far its
+    state and eigenvalue lie from the runtime's gait at its parameters (CVODES at 1e-13,
+    the eigenvalues by its variational equations; the collocation's by its own discrete
+    map)."""
     model = problem.model
-    seeds, _, _ = solve._seeds(problem)
     stable = min(seeds, key=lambda orbit: orbit.max_abs_eigenvalue)
     structure = problem.structure(solve._nontrivial_rank(seeds), problem.objective,
                                   problem.rows, "same")  # fmt: skip
-    nlp = collocation.build(model, structure, (gait_design.INTERVALS,))
+    nlp = collocation.build(model, structure, (intervals,))
     pieces = solve._walk(model, problem.start, stable)
     w0 = collocation.initial_point(model, nlp, np.asarray(problem.start), pieces,
                                    [problem.start[j] for j in problem.free],
@@ -85,15 +87,23 @@ def test_the_collocated_optimum_is_the_runtime_s_gait_to_the_mesh_s_error():
     w = np.array(out["x"]).reshape(-1)
     params = solve._parameters_of(problem, nlp, w)
     state = w[nlp.layout["states"]][: 2 * model.n]
-    durations = w[nlp.layout["durations"]]
-    orbit = model.periodic_orbit(params, state, durations)
-    # The runtime's gait at the collocated parameters: CVODES at 1e-13, the eigenvalues by
-    # its variational equations; the collocation's by its own discrete map.
-    assert np.max(np.abs(np.array(list(orbit.state.values())) - state)) < 1e-6
+    orbit = model.periodic_orbit(params, state, w[nlp.layout["durations"]])
     assert orbit.period == pytest.approx(0.75, abs=1e-6)
     radius = float(w[nlp.layout["rho"]][0])
-    assert radius == pytest.approx(orbit.max_abs_eigenvalue, rel=1e-5)
-    assert radius != pytest.approx(orbit.max_abs_eigenvalue, rel=1e-12)  # a mesh's error
+    state_gap = np.max(np.abs(np.array(list(orbit.state.values())) - state))
+    return state_gap, abs(radius / orbit.max_abs_eigenvalue - 1)
+
+
+def test_the_collocated_optimum_is_the_runtime_s_gait_to_the_mesh_s_error():
+    problem = _compass_problem()
+    seeds, _, _ = solve._seeds(problem)
+    state_gap, eigen_gap = _collocated_gap(problem, seeds, gait_design.INTERVALS)
+    assert state_gap < 1e-6
+    assert 1e-12 < eigen_gap < 5e-5  # a mesh's error (six intervals: 1.8e-5)
+    # Order 6: twice the intervals, about 2^6 times closer (at least 16 asked).
+    finer_state_gap, finer_eigen_gap = _collocated_gap(problem, seeds, 2 * gait_design.INTERVALS)
+    assert finer_eigen_gap < eigen_gap / 16
+    assert finer_state_gap < state_gap / 16
 
 
 def _runtime_vertex(model, design, period):
@@ -122,7 +132,7 @@ def test_the_design_at_a_vertex_is_the_runtimes_gait_whichever_nlp_polishes(monk
     monkeypatch.setattr(solve, "build", _not_built)
     pinned = gait_design.design(model, problem_request)
     monkeypatch.undo()
-    monkeypatch.setattr(solve, "_collocated_candidates", lambda *args: [])
+    monkeypatch.setattr(solve, "_pinned", lambda *args: None)
     shot = gait_design.design(model, problem_request)
     assert pinned.status == shot.status == "optimal"
     gamma, eigenvalue = _runtime_vertex(model, pinned, 0.75)

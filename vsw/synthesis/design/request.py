@@ -27,7 +27,7 @@ __all__ = [
 DEGREE = 3
 """Collocation points per interval of the collocated NLP: Gauss-Legendre, of order 6."""
 
-INTERVALS = 8
+INTERVALS = 6
 """Collocation intervals per phase."""
 
 SEGMENTS = 4
