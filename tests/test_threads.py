@@ -185,3 +185,31 @@ def test_limits_nest_and_give_back_each_setting():
     with limited(10_000):
         assert counts() == before
     assert counts() == before
+
+
+def test_casadis_own_openblas_is_bounded_once_its_plugin_is_loaded():
+    """CasADi ships OpenBLAS under a name of its own (IPOPT's MUMPS calls it), loaded with
+    the IPOPT plugin, not by an import: a block that looks the libraries up again bounds it
+    too, and leaving gives it back its setting."""
+    threadpoolctl = pytest.importorskip("threadpoolctl")
+    ca = pytest.importorskip("casadi")
+    from vsw.runtime.blas import RENAMED_OPENBLAS, limited
+
+    x = ca.SX.sym("x", 2)
+    options = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes"}
+    ca.nlpsol("s", "ipopt", {"x": x, "f": ca.sumsqr(x - 1)}, options)(x0=[0, 0])
+
+    def casadis():
+        found = threadpoolctl.threadpool_info()
+        return [i["num_threads"] for i in found
+                if Path(i["filepath"]).name.startswith(RENAMED_OPENBLAS)]  # fmt: skip
+
+    maps = Path("/proc/self/maps")
+    if not maps.exists() or not any(p in maps.read_text() for p in RENAMED_OPENBLAS):
+        pytest.skip("no renamed OpenBLAS loaded here (or no /proc to tell)")
+    with limited(10_000, rescan=True):  # never raises a library: its own setting
+        own = casadis()
+    assert own, "CasADi's OpenBLAS is loaded but not found"
+    with limited(1, rescan=True):
+        assert casadis() == [1]
+    assert casadis() == own

@@ -37,6 +37,7 @@ _libraries: list[Any] = []  # threadpoolctl's controllers of the loaded BLAS and
 _originals: dict[str, int] = {}  # each library's setting before the first block (by path)
 _applied: dict[str, int] = {}  # what this module last set (by path)
 _modules_seen = -1  # len(sys.modules) when the libraries were last looked up
+_registered = False  # whether threadpoolctl knows RENAMED_OPENBLAS
 
 
 def _forget_in_child() -> None:
@@ -49,11 +50,18 @@ if hasattr(os, "register_at_fork"):
     os.register_at_fork(after_in_child=_forget_in_child)
 
 
-def _discover() -> None:
+RENAMED_OPENBLAS = ("libcasadi-tp-openblas",)
+"""OpenBLAS builds that wheels ship under names of their own, which threadpoolctl does not
+know: CasADi's, which IPOPT's MUMPS calls (two workers of it spinning beside a design
+doubled the command's system time)."""
+
+
+def _discover(rescan: bool = False) -> None:
     """Look the loaded BLAS and OpenMP libraries up again when modules were imported since
-    (a new extension module may have brought one: SciPy's OpenBLAS with scipy.linalg)."""
+    (a new extension module may have brought one: SciPy's OpenBLAS with scipy.linalg), or
+    when asked (``rescan``: a library loaded by a plugin, as CasADi loads IPOPT's)."""
     global _libraries, _modules_seen
-    if len(sys.modules) == _modules_seen:
+    if len(sys.modules) == _modules_seen and not rescan:
         return
     _modules_seen = len(sys.modules)
     try:
@@ -61,10 +69,26 @@ def _discover() -> None:
     except ImportError:  # not installed: nothing to bound (the runs are the same)
         _libraries = []
         return
+    _register_renamed()
     _libraries = list(ThreadpoolController().lib_controllers)
 
 
-def _settle() -> None:
+def _register_renamed() -> None:
+    """threadpoolctl's OpenBLAS controller for :data:`RENAMED_OPENBLAS`, registered once."""
+    global _registered
+    if _registered:
+        return
+    from threadpoolctl import OpenBLASController, register
+
+    class RenamedOpenBLAS(OpenBLASController):
+        internal_api = "openblas_renamed"
+        filename_prefixes = RENAMED_OPENBLAS
+
+    register(RenamedOpenBLAS)
+    _registered = True
+
+
+def _settle(rescan: bool = False) -> None:
     """Set every library to the smallest count in force (never above its own setting), or
     give each back its setting when no block is in force. Under ``_lock``."""
     if not _requests:
@@ -75,7 +99,7 @@ def _settle() -> None:
         _originals.clear()
         _applied.clear()
         return
-    _discover()
+    _discover(rescan)
     target = min(_requests)
     for library in _libraries:
         path = library.filepath
@@ -88,9 +112,10 @@ def _settle() -> None:
 
 
 @contextlib.contextmanager
-def limited(threads: int) -> Iterator[int]:
+def limited(threads: int, *, rescan: bool = False) -> Iterator[int]:
     """Every BLAS and OpenMP runtime of the process on at most ``threads`` threads while
-    the block runs; yields the count.
+    the block runs; yields the count. ``rescan``: look the libraries up again first (about
+    0.5 ms), where one may have been loaded without an import (a CasADi plugin).
 
     Examples
     --------
@@ -102,7 +127,7 @@ def limited(threads: int) -> Iterator[int]:
     try:
         with _lock:
             _requests.append(threads)
-            _settle()
+            _settle(rescan)
         yield threads
     finally:
         with _lock:

@@ -52,6 +52,7 @@ bound (index -> the bound)."""
 
 
 def pinning_rows(problem: Problem, nlp: Any, solve: Any, bounds: Mapping[str, np.ndarray],
+                 targets: Mapping[str, float],
                  structure_eigen: str | None) -> Pinning | None:  # fmt: skip
     """The equations (1) of a collocated optimum: each active row's quantity at its bound
     (a target's value), and each free parameter pressed against its box (index -> the
@@ -59,10 +60,12 @@ def pinning_rows(problem: Problem, nlp: Any, solve: Any, bounds: Mapping[str, np
     Active: its multiplier above :data:`ACTIVE` and its value at the bound (an inactive
     bound's multiplier is IPOPT's barrier term, small but not zero)."""
     g = np.array(nlp.solver.get_function("nlp_g")(solve.w, bounds["p"])).reshape(-1)
-    equations: dict[str, float] = {}
+    equations = {name: float(value) for name, value in targets.items()}
     for i, (name, kind) in enumerate(zip(nlp.row_names, nlp.row_kinds)):
+        if kind == "equality" or name in equations:
+            continue  # a target is an equation whatever its multiplier
         bound = pressed_bound(g[i], solve.lam_g[i], bounds["lbg"][i], bounds["ubg"][i], 1.0)
-        if bound is None or kind == "equality":
+        if bound is None:
             continue
         if kind == "quantity":
             equations[name] = bound

@@ -21,7 +21,7 @@ from vsw.dynamics.hybrid import HybridModel, Orbit
 from vsw.dynamics.quantities import maximised, report
 from vsw.dynamics.quantities import weight as walker_weight
 from vsw.orbits.shooting import phase_pieces
-from vsw.runtime import stop
+from vsw.runtime import blas, stop
 from vsw.runtime.errors import ConvergenceError, VswInputError
 from vsw.synthesis.design import collocation, pin
 from vsw.synthesis.design.nlp import impact_events, kinetic_loss
@@ -136,8 +136,12 @@ def _bounds(
 def _solve(problem: Problem, nlp: Nlp, bounds: Mapping[str, np.ndarray], w0: np.ndarray,
            start: int) -> _Solve:  # fmt: skip
     # CasADi reports integrator trouble on stderr; the status and the verification say
-    # what matters.
-    with contextlib.redirect_stderr(io.StringIO()), contextlib.redirect_stdout(io.StringIO()):
+    # what matters. IPOPT's linear algebra is small: BLAS workers would only spin beside it.
+    with (
+        blas.limited(1, rescan=True),
+        contextlib.redirect_stderr(io.StringIO()),
+        contextlib.redirect_stdout(io.StringIO()),
+    ):
         try:
             out = nlp.solver(x0=w0, **bounds)
             status = str(nlp.solver.stats().get("return_status", "unknown"))
@@ -313,7 +317,7 @@ def _pinned(problem: Problem, structure: Any, params: tuple, orbit: Orbit,
     (:func:`vsw.synthesis.design.pin.pinned_gait`); None where its active set does not pin
     it or the pinned gait fails a request (the shooting NLP polishes it instead)."""
     bounds = _bounds(problem, collocated.nlp, targets)
-    rows = pin.pinning_rows(problem, collocated.nlp, collocated, bounds, structure.eigen)
+    rows = pin.pinning_rows(problem, collocated.nlp, collocated, bounds, targets, structure.eigen)
     if rows is None:
         return None
     found = pin.pinned_gait(problem, params, orbit, rows)
