@@ -314,3 +314,43 @@ def test_an_invalid_limit_is_one_line(seconds):
     code, out, err = run(["models"], env={"VSW_MAX_SECONDS": seconds})
     assert (code, out) == (EXIT_INPUT, "")
     assert err == f"vsw: error: VSW_MAX_SECONDS must be a positive number or inf, got {seconds!r}\n"
+
+
+def _session_members(session: int) -> list[int]:
+    """The processes of a session (Linux /proc): a forked child left behind shows here."""
+    members = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except (OSError, IndexError):
+            continue
+        if int(fields[3]) == session:  # after the state, ppid, pgrp: the session
+            members.append(int(stat.parent.name))
+    return members
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
+@pytest.mark.parametrize("seconds", [0.5, 0.8, 1.1])
+def test_ctrl_c_on_a_design_ends_its_forked_solves_too(seconds):
+    """The design shares its starts with forked children (vsw.runtime.forked): a SIGINT to
+    the command ends it with 130 and one line, or after its whole result, and leaves no
+    child running."""
+    argv = ["design", "--model", "simplest-walker", "--maximize", "speed",
+            "--max-eigenvalue", "0.9", "--json"]  # fmt: skip
+    process = subprocess.Popen([sys.executable, "-m", "vsw", *argv], cwd=ROOT,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               start_new_session=True)  # fmt: skip
+    _wait_for_vsw_imports(process)
+    timer = threading.Timer(seconds, process.send_signal, (signal.SIGINT,))
+    timer.start()
+    try:
+        out, err = process.communicate(timeout=120)
+    finally:
+        timer.cancel()
+    if process.returncode == 0:
+        assert json.loads(out)["status"] == "optimal"
+    else:
+        assert process.returncode in INTERRUPTED, (process.returncode, err)
+        assert (out, err.strip()) == ("", "vsw: interrupted")
+    time.sleep(0.2)
+    assert _session_members(process.pid) == []

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import io
 import math
 from collections.abc import Mapping, Sequence
@@ -21,8 +22,9 @@ from vsw.dynamics.hybrid import HybridModel, Orbit
 from vsw.dynamics.quantities import maximised, report
 from vsw.dynamics.quantities import weight as walker_weight
 from vsw.orbits.shooting import phase_pieces
-from vsw.runtime import blas, stop
+from vsw.runtime import blas, forked, stop
 from vsw.runtime.errors import ConvergenceError, VswInputError
+from vsw.runtime.vectorize import default_threads
 from vsw.synthesis.design import collocation, pin
 from vsw.synthesis.design.nlp import impact_events, kinetic_loss
 from vsw.synthesis.design.problem import Problem, margin_floor
@@ -366,37 +368,54 @@ def _collocated_candidates(problem: Problem, structure: Any, seeds: Sequence[Orb
                            targets: Mapping[str, float]) -> list[_Candidate]:  # fmt: skip
     """Each seed's collocated optimum (:mod:`vsw.synthesis.design.collocation`) that IPOPT
     solved and the periodic-orbit solver confirms as a gait at its parameters, with its
-    solve, best objective first, one of each gait (:func:`_same_gait`)."""
+    solve, best objective first, one of each gait (:func:`_same_gait`). The seeds are
+    shared among the cores (:func:`vsw.runtime.forked.split_map`: the NLP is built once,
+    before)."""
     model = problem.model
+    nlp = collocation.build(model, structure, tuple(INTERVALS for _ in model.phase_sequence()))
+    bounds = _bounds(problem, nlp, targets)
+    simulator(model).library()  # compiled (or found) here, not in each child
+    collocate = functools.partial(_collocate, problem, nlp, bounds, objective)
     found: list[tuple[float, tuple, Orbit, _Solve]] = []
-    for orbit in seeds:
-        try:
-            pieces = _walk(model, problem.start, orbit)
-        except ConvergenceError:
+    for item in forked.split_map(collocate, seeds, default_threads()):
+        if item is None:
             continue
-        mesh = tuple(INTERVALS for _ in pieces)
-        nlp = collocation.build(model, structure, mesh)
-        bounds = _bounds(problem, nlp, targets)
-        rho = 1.05 * max(orbit.max_abs_eigenvalue, 1e-3)
-        w0 = collocation.initial_point(model, nlp, np.asarray(problem.start, float), pieces,
-                                      [problem.start[j] for j in problem.free], rho)  # fmt: skip
-        solve = _solve(problem, nlp, bounds, w0, 0)
-        if solve.ipopt_status not in _SUCCESS:
-            continue
-        params = _parameters_of(problem, nlp, solve.w)
-        x = solve.w[nlp.layout["states"]][: 2 * model.n]
-        try:
-            confirmed = model.periodic_orbit(
-                params, x, solve.w[nlp.layout["durations"]], step=simulator(model).step_phases
-            )
-        except ConvergenceError:
-            continue
-        table = np.array(nlp.quantities(solve.w, bounds["p"])).reshape(-1)
-        value = _objective_value(objective, dict(zip(nlp.quantities.names, table)))
+        value, params, confirmed, solve = item
+        solve.nlp = nlp
         if not any(_same_gait(params, confirmed, *other[1:3]) for other in found):
             found.append((value, params, confirmed, solve))
     found.sort(key=lambda item: item[0])
     return [(params, orbit, solve) for _, params, orbit, solve in found]
+
+
+def _collocate(problem: Problem, nlp: Any, bounds: Mapping[str, np.ndarray],
+               objective: Mapping[str, float],
+               orbit: Orbit) -> tuple[float, tuple, Orbit, _Solve] | None:  # fmt: skip
+    """IPOPT on the collocated NLP from one seed, and the gait the periodic-orbit solver
+    confirms there: (the collocated objective, parameters, gait, solve without its NLP),
+    or None."""
+    model = problem.model
+    try:
+        pieces = _walk(model, problem.start, orbit)
+    except ConvergenceError:
+        return None
+    rho = 1.05 * max(orbit.max_abs_eigenvalue, 1e-3)
+    w0 = collocation.initial_point(model, nlp, np.asarray(problem.start, float), pieces,
+                                  [problem.start[j] for j in problem.free], rho)  # fmt: skip
+    solve = _solve(problem, nlp, bounds, w0, 0)
+    if solve.ipopt_status not in _SUCCESS:
+        return None
+    params = _parameters_of(problem, nlp, solve.w)
+    x = solve.w[nlp.layout["states"]][: 2 * model.n]
+    try:
+        confirmed = model.periodic_orbit(params, x, solve.w[nlp.layout["durations"]],
+                                         step=simulator(model).step_phases)  # fmt: skip
+    except ConvergenceError:
+        return None
+    table = np.array(nlp.quantities(solve.w, bounds["p"])).reshape(-1)
+    value = _objective_value(objective, dict(zip(nlp.quantities.names, table)))
+    solve.nlp = None  # a CasADi function does not pickle: the caller sets it back
+    return value, params, confirmed, solve
 
 
 def _open_limits(problem: Problem, nlp: Nlp, solve: _Solve) -> tuple[str, ...]:

@@ -1,0 +1,71 @@
+"""vsw.runtime.forked.split_map: the loop's results, in order, on several processes; a
+failing child's items run again in the caller; a stop in the caller ends the children."""
+
+from __future__ import annotations
+
+import os
+import sys
+import threading
+import time
+
+import pytest
+
+from vsw.runtime.forked import split_map
+
+linux = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="forks on Linux only")
+
+
+def _square_and_pid(x):
+    time.sleep(0.05)
+    return x * x, os.getpid()
+
+
+@pytest.mark.parametrize("workers", [1, 2, 3, 8])
+@pytest.mark.parametrize("count", [0, 1, 2, 7])
+def test_the_results_are_the_loops_in_order(workers, count):
+    got = split_map(_square_and_pid, list(range(count)), workers)
+    assert [value for value, _ in got] == [x * x for x in range(count)]
+
+
+@linux
+def test_the_work_is_shared_among_processes():
+    parent = os.getpid()
+    pids = {pid for _, pid in split_map(_square_and_pid, list(range(8)), 2)}
+    assert parent in pids and len(pids) == 2
+
+
+@linux
+def test_a_crashing_childs_items_run_in_the_caller():
+    parent = os.getpid()
+
+    def crash_in_child(x):
+        time.sleep(0.05)
+        if os.getpid() != parent:
+            os._exit(3)  # as a segfault would end it: no result written
+        return x + 1
+
+    assert split_map(crash_in_child, list(range(6)), 2) == [x + 1 for x in range(6)]
+
+
+@linux
+def test_an_error_in_the_caller_propagates_and_no_child_is_left():
+    parent = os.getpid()
+
+    def fail_in_parent(x):
+        if os.getpid() == parent:
+            raise KeyboardInterrupt  # as a Ctrl-C recorded by vsw.runtime.stop raises
+        time.sleep(5)  # a child still working when the caller stops
+        return x
+
+    began = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        split_map(fail_in_parent, list(range(4)), 2)
+    assert time.monotonic() - began < 4  # the child was killed and reaped, not waited for
+
+
+def test_off_the_main_thread_it_is_a_loop():
+    out = []
+    thread = threading.Thread(target=lambda: out.extend(split_map(_square_and_pid, [1, 2, 3], 4)))
+    thread.start()
+    thread.join()
+    assert {pid for _, pid in out} == {os.getpid()}

@@ -1,0 +1,123 @@
+"""Independent work on several cores without threads: :func:`split_map`.
+
+A CasADi solver holds Python's lock while it runs, so threads cannot share its work; a
+forked child can, and inherits what the parent built (an NLP whose construction costs more
+than a solve) without rebuilding it. :func:`split_map` runs ``function`` over ``items`` in
+``workers`` processes (the calling one and ``workers - 1`` forked children), each taking
+the next item not yet taken when it is free (the items' indices wait in a pipe; a read of
+four bytes takes one), so a long item does not hold the others back. Each child's results
+are pickled back through a pipe of its own; the results come in the order of ``items``,
+the outcome a loop gives. Where a child fails (a crash, an error, no result), the items it
+took are run again in the calling process: a child can only ever save time.
+
+Serial (a plain loop) where there is one worker or one item, where the platform has no
+``fork`` (or is not Linux: forking a process with threads is unsafe on macOS), off the
+main thread, or for more items than the pipe holds at once. Ctrl-C and the run-time limit
+(:mod:`vsw.runtime.stop`) reach the calling process, which kills its children before the
+stop propagates (a child ignores SIGINT, and timers do not survive a fork); a child never
+runs the parent's exit handlers (it leaves by ``os._exit``).
+
+Imports: the standard library only.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import signal
+import struct
+import sys
+import threading
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any
+
+__all__ = ["split_map"]
+
+_INDEX = struct.Struct("<I")
+_MAX_ITEMS = 1024  # 4 KiB of indices: written before any reader, within a pipe's buffer
+
+
+def split_map(function: Callable[[Any], Any], items: Sequence[Any], workers: int) -> list[Any]:
+    """``[function(item) for item in items]`` on ``workers`` processes (see the module
+    docstring)."""
+    workers = max(1, min(int(workers), len(items)))
+    if workers == 1 or len(items) > _MAX_ITEMS or not _can_fork():
+        return [function(item) for item in items]
+    tasks, tasks_in = os.pipe()
+    os.write(tasks_in, b"".join(_INDEX.pack(i) for i in range(len(items))))
+    os.close(tasks_in)
+    children: list[tuple[int, int]] = []
+    try:
+        children = [_spawn(function, items, tasks) for _ in range(workers - 1)]
+        results = dict(_work(function, items, tasks))
+        for pid, results_out in children:
+            results.update(_collect(pid, results_out))
+        for i in range(len(items)):
+            if i not in results:  # taken by a child that failed: here
+                results[i] = function(items[i])
+        return [results[i] for i in range(len(items))]
+    finally:
+        os.close(tasks)
+        for pid, results_out in children:
+            _end(pid, results_out)
+
+
+def _can_fork() -> bool:
+    return (sys.platform.startswith("linux") and hasattr(os, "fork")
+            and threading.current_thread() is threading.main_thread())  # fmt: skip
+
+
+def _work(function: Callable, items: Sequence, tasks: int) -> Iterator[tuple[int, Any]]:
+    """(index, result) of each item this process takes from the pipe of indices."""
+    while len(data := os.read(tasks, _INDEX.size)) == _INDEX.size:
+        (i,) = _INDEX.unpack(data)
+        yield i, function(items[i])
+
+
+def _spawn(function: Callable, items: Sequence, tasks: int) -> tuple[int, int]:
+    results_in, results_out = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: its items, pickled to its pipe, then out without cleanup
+        code = 1
+        try:
+            os.close(results_in)
+            # A Ctrl-C is the parent's to handle: it kills this child.
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+            payload = pickle.dumps(dict(_work(function, items, tasks)))
+            with os.fdopen(results_out, "wb") as pipe:
+                pipe.write(payload)
+            code = 0
+        except BaseException:  # any failure: the parent runs the items this one took
+            pass
+        finally:
+            os._exit(code)
+    os.close(results_out)
+    return pid, results_in
+
+
+def _collect(pid: int, results_in: int) -> dict[int, Any]:
+    """A child's results by index; none where it failed or crashed."""
+    chunks = []
+    while chunk := os.read(results_in, 1 << 20):
+        chunks.append(chunk)
+    _, status = os.waitpid(pid, 0)
+    if status != 0 or not chunks:
+        return {}
+    try:
+        return pickle.loads(b"".join(chunks))
+    except Exception:  # a truncated payload: the parent runs these items
+        return {}
+
+
+def _end(pid: int, results_in: int) -> None:
+    """The child killed where it still runs (the parent is stopping), and reaped."""
+    try:
+        os.close(results_in)
+    except OSError:
+        pass
+    try:
+        if os.waitpid(pid, os.WNOHANG) == (0, 0):
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+    except ChildProcessError:
+        pass  # reaped by _collect
