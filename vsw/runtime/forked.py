@@ -34,6 +34,7 @@ from typing import Any
 __all__ = ["split_map"]
 
 _INDEX = struct.Struct("<I")
+_STOPS = {signal.SIGINT, signal.SIGALRM}  # Ctrl-C and the run-time limit (vsw.runtime.stop)
 _MAX_ITEMS = 1024  # 4 KiB of indices: written before any reader, within a pipe's buffer
 
 
@@ -48,7 +49,13 @@ def split_map(function: Callable[[Any], Any], items: Sequence[Any], workers: int
     os.close(tasks_in)
     children: list[tuple[int, int]] = []
     try:
-        children = [_spawn(function, items, tasks) for _ in range(workers - 1)]
+        # A stop between a fork and its record would leave that child to run on.
+        held = signal.pthread_sigmask(signal.SIG_BLOCK, _STOPS)
+        try:
+            for _ in range(workers - 1):
+                children.append(_spawn(function, items, tasks))
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, held)
         results = dict(_work(function, items, tasks))
         for pid, results_out in children:
             results.update(_collect(pid, results_out))
@@ -83,6 +90,7 @@ def _spawn(function: Callable, items: Sequence, tasks: int) -> tuple[int, int]:
             os.close(results_in)
             # A Ctrl-C is the parent's to handle: it kills this child.
             signal.signal(signal.SIGINT, signal.SIG_IGN)
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOPS)
             payload = pickle.dumps(dict(_work(function, items, tasks)))
             with os.fdopen(results_out, "wb") as pipe:
                 pipe.write(payload)
