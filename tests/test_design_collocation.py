@@ -207,3 +207,19 @@ def test_an_interior_optimum_is_not_taken_for_the_box_edge():
     assert reference.x < box[1] - 1e-4  # interior
     assert result.objective <= reference.fun + 1e-8
     assert result.parameters["gamma"] == pytest.approx(reference.x, abs=1e-6)
+
+
+def test_a_vertex_past_the_boxs_edge_is_not_taken():
+    # The slope of a 0.75 s period on the runtime's gait is 0.07207483; the user's box
+    # ends at 0.0720747, and the collocated vertex (0.07207456) lies inside it. Newton on
+    # the orbit would step past the edge: that vertex is left to the shooting NLP, which
+    # keeps to the box.
+    model = models.load("compass-gait")
+    request = gait_design.DesignRequest(objective={}, targets={"period": 0.75},
+                                        bounds={"gamma": (0.05, 0.0720747)})  # fmt: skip
+    result = gait_design.design(model, request)
+    if result.found:
+        assert result.parameters["gamma"] <= 0.0720747
+        assert result.quantities["period"] == pytest.approx(0.75, abs=1e-6)
+    else:
+        assert result.status in ("infeasible", "not-converged")

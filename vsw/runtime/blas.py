@@ -78,7 +78,10 @@ def _register_renamed() -> None:
     global _registered
     if _registered:
         return
-    from threadpoolctl import OpenBLASController, register
+    try:
+        from threadpoolctl import OpenBLASController, register
+    except ImportError:  # a threadpoolctl without custom controllers: numpy's and SciPy's only
+        return
 
     class RenamedOpenBLAS(OpenBLASController):
         internal_api = "openblas_renamed"

@@ -20,12 +20,12 @@ periodicity (the state after the step event equals the first). Two NLPs share th
 * multiple shooting (:mod:`~vsw.synthesis.design.shooting`): each phase cut into
   :data:`SEGMENTS` segments integrated by CVODES (tolerance 1e-10) with exact first
   derivatives (forward sensitivities) and IPOPT's limited-memory Hessian. Each distinct
-  collocated optimum the periodic-orbit solver confirms as a gait is polished here, from
-  that gait, so the design is the runtime's gait without a mesh's error: a gait's
-  eigenvalue can move two hundred times faster than its period as a parameter changes
-  (the compass gait's slope near a period of 0.75 s), so the collocation's error of a few
-  1e-8 in the period would show in the design. Where no polished optimum is verified,
-  the starts themselves are shot.
+  collocated optimum the periodic-orbit solver confirms as a gait and that is no vertex
+  (below) is polished here, from that gait, so the design is the runtime's gait without
+  a mesh's error: a gait's eigenvalue can move two hundred times faster than its period as
+  a parameter changes (the compass gait's slope near a period of 0.75 s), so the
+  collocation's error of about 2e-7 in the period would show in the design. Where no
+  polished optimum is verified, the starts themselves are shot.
 * a vertex (:mod:`~vsw.synthesis.design.pin`): where the collocated optimum's active
   constraints are as many as its free parameters (the period's target of one free slope;
   the eigenvalue bound of the fastest gait), they alone fix it: Newton solves them again

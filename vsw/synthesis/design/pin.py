@@ -12,10 +12,12 @@ parameters with a finite-difference Jacobian kept up to date by Broyden's update
 
 ``c_A`` the active quantities of the orbit at ``p``, ``b_A`` their targets or bounds. The
 collocated point is within the mesh's error of the root, so one or two steps reach the
-orbit solver's own accuracy. Where the active set does not pin the parameters (an interior
-optimum, an active condition margin or ``when`` row, the eigenvalue's radius at its bound,
-a quantity that needs the step simulated), :func:`pinned_gait` says so with None and the
-design polishes on the multiple-shooting NLP instead (:mod:`vsw.synthesis.design.shooting`).
+orbit solver's own accuracy. Where an active row is not one Newton on the orbit solves (a
+condition's margin or a guard's ``when``, the least eigenvalue's radius at its bound),
+:func:`pinning_rows` says so with None; where the active set does not pin the parameters
+(an interior optimum), a quantity needs the step simulated, Newton fails, or its root lies
+past a box's edge or on another gait, :func:`pinned_gait` does. The design then polishes
+on the multiple-shooting NLP instead (:mod:`vsw.synthesis.design.shooting`).
 """
 
 from __future__ import annotations
@@ -30,13 +32,15 @@ from vsw.dynamics.hybrid import Orbit
 from vsw.dynamics.quantities import report
 from vsw.dynamics.quantities import weight as walker_weight
 from vsw.orbits import OrbitProblem, shooting
+from vsw.runtime import stop
 from vsw.runtime.errors import ConvergenceError
 from vsw.synthesis.design.problem import Problem
 
 __all__ = ["ACTIVE", "Pinning", "pinned_gait", "pinning_rows", "pressed_bound"]
 
 ACTIVE = 1e-8
-"""A constraint is active where its multiplier's magnitude exceeds this."""
+"""A constraint is active where its multiplier's magnitude exceeds this and its value is at
+its bound (:func:`pressed_bound`)."""
 
 _ITERATIONS = 8
 _SOLVED = 1e-12  # max |c_A - b_A| / max(1, |b_A|) at which Newton stops
@@ -76,10 +80,11 @@ def pinning_rows(problem: Problem, nlp: Any, solve: Any, bounds: Mapping[str, np
         else:
             return None  # a margin or a guard's when: the shooting NLP polishes those
     rho = nlp.layout["rho"]
-    if rho.stop > rho.start and pressed_bound(
-        solve.w[rho][0], solve.lam_x[rho][0], bounds["lbx"][rho][0], bounds["ubx"][rho][0], 1.0
-    ):
-        return None  # the least eigenvalue held at the eigenvalue bound
+    if rho.stop > rho.start:
+        radius = (solve.w[rho][0], solve.lam_x[rho][0], bounds["lbx"][rho][0],
+                  bounds["ubx"][rho][0], 1.0)  # fmt: skip
+        if pressed_bound(*radius) is not None:
+            return None  # the least eigenvalue held at the eigenvalue bound
     pressed = {}
     free = nlp.layout["free"]
     for i, j in enumerate(problem.free):
@@ -95,7 +100,8 @@ def pressed_bound(value: float, multiplier: float, low: float, high: float,
     """The bound an active constraint presses against, or None where it is inactive."""
     if not abs(multiplier) > ACTIVE:
         return None
-    for bound in (low, high):
+    # CasADi's sign: negative where the lower bound holds, positive where the upper does.
+    for bound in (low, high) if multiplier < 0 else (high, low):
         if np.isfinite(bound) and abs(value - bound) <= _AT_BOUND * max(scale, abs(bound)):
             return float(bound)
     return None
@@ -135,19 +141,32 @@ def pinned_gait(problem: Problem, params: Sequence[float], orbit: Orbit,
     moved = np.abs(p[unknown] - np.asarray(params)[unknown])
     if np.any(moved > _MOVE * np.maximum(width, 1e-12)):
         return None
+    if any(not problem.box[j][0] <= p[j] <= problem.box[j][1] for j in unknown):
+        return None  # the vertex lies past a box's edge: the shooting NLP keeps to the box
     try:
         confirmed = problem.model.periodic_orbit(
             tuple(p), orbits.state, orbits.durations, step=simulator(problem.model).step_phases
         )
     except ConvergenceError:
         return None
+    if not _same_state(confirmed, orbit):
+        return None  # another gait
     return tuple(float(v) for v in p), confirmed
+
+
+def _same_state(orbit: Orbit, other: Orbit) -> bool:
+    """Whether two gaits at nearly the same parameters are one: section states within
+    :data:`_MOVE` of their scale."""
+    x, y = np.array(list(orbit.state.values())), np.array(list(other.state.values()))
+    return bool(np.max(np.abs(x - y)) <= _MOVE * max(1.0, float(np.max(np.abs(y)))))
 
 
 def _newton(residual: Any, p: np.ndarray, r: np.ndarray, unknown: list[int],
             width: np.ndarray) -> np.ndarray | None:  # fmt: skip
     """Newton on (1) in the parameters ``unknown`` from ``p`` (updated in place), its
     Jacobian by forward differences once, then Broyden's update: the last residual."""
+    if np.max(np.abs(r)) <= _SOLVED:
+        return r
     jacobian = np.empty((len(r), len(unknown)))
     for k, j in enumerate(unknown):
         h = _FD_STEP * max(width[k], 1e-9)
@@ -164,6 +183,8 @@ def _newton(residual: Any, p: np.ndarray, r: np.ndarray, unknown: list[int],
             step = np.linalg.solve(jacobian, -r)
         except np.linalg.LinAlgError:
             return None
+        if not np.any(step):
+            break
         p[unknown] += step
         r_new = residual(p)
         if r_new is None:
@@ -198,7 +219,8 @@ class _Orbits:
             if self.guess is None:
                 self.guess = self.problem.unknowns(params, self.state, self.durations)
             solved = self.problem.solve(params, self.guess)
-        except RuntimeError:
+        except RuntimeError:  # CVODES failed, or CasADi turned a stop into this error
+            stop.check()
             return None
         if not solved.converged:
             return None
@@ -221,6 +243,7 @@ class _Orbits:
             try:
                 end = shooting.phase_flow(self.model, phase, params, start, self.durations[-1])
             except RuntimeError:
+                stop.check()
                 return None
             length = self.model.step_length(params, end)
             if length is None:

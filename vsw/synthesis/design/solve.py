@@ -279,7 +279,7 @@ def _multistart(
     objective: Mapping[str, float] | None = None,
     targets: Mapping[str, float] | None = None,
     eigen: str | None = "same",
-) -> tuple[_Solve | None, list[_Solve], Nlp]:
+) -> tuple[_Solve | None, list[_Solve]]:
     """IPOPT from each seed on the collocated NLP; each distinct collocated optimum
     carried onto the exact gait by the constraints that pin it (:mod:`.pin`), else polished
     on the shooting NLP, and verified; the seeds themselves on the shooting NLP where no
@@ -341,7 +341,8 @@ def _shoot(problem: Problem, nlp: Nlp, starts: Sequence[tuple[tuple, Orbit]], ab
         rho = (1.0 + above) * max(orbit.max_abs_eigenvalue, 1e-3)
         try:
             w0 = _initial_point(problem, nlp, params, orbit, rho)
-        except ConvergenceError:
+        except (ConvergenceError, RuntimeError):  # RuntimeError: CVODES between the nodes
+            stop.check()
             continue
         solve = _verify(problem, nlp, _solve(problem, nlp, bounds, w0, k), targets, objective)
         solves.append(solve)
@@ -400,8 +401,12 @@ def _collocate(problem: Problem, nlp: Any, bounds: Mapping[str, np.ndarray],
     except ConvergenceError:
         return None
     rho = 1.05 * max(orbit.max_abs_eigenvalue, 1e-3)
-    w0 = collocation.initial_point(model, nlp, np.asarray(problem.start, float), pieces,
-                                  [problem.start[j] for j in problem.free], rho)  # fmt: skip
+    try:
+        w0 = collocation.initial_point(model, nlp, np.asarray(problem.start, float), pieces,
+                                      [problem.start[j] for j in problem.free], rho)  # fmt: skip
+    except RuntimeError:  # CVODES failed between the nodes
+        stop.check()
+        return None
     solve = _solve(problem, nlp, bounds, w0, 0)
     if solve.ipopt_status not in _SUCCESS:
         return None
@@ -421,7 +426,12 @@ def _collocate(problem: Problem, nlp: Any, bounds: Mapping[str, np.ndarray],
 def _open_limits(problem: Problem, nlp: Nlp, solve: _Solve) -> tuple[str, ...]:
     """The open limits the optimum presses against (its multiplier pulls it there)."""
     out = []
-    free_w = solve.w[nlp.layout["free"]]
+    # Where it is: the verified parameters (a vertex's are the collocated ones moved onto
+    # the runtime's gait); what pulls it there: the NLP's multipliers.
+    if solve.parameters:
+        free_w = np.array([solve.parameters[j] for j in problem.free])
+    else:
+        free_w = solve.w[nlp.layout["free"]]
     free_lam = solve.lam_x[nlp.layout["free"]]
     for i, j in enumerate(problem.free):
         p = problem.table[j]
