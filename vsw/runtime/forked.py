@@ -38,11 +38,16 @@ _STOPS = {signal.SIGINT, signal.SIGALRM}  # Ctrl-C and the run-time limit (vsw.r
 _MAX_ITEMS = 1024  # 4 KiB of indices: written before any reader, within a pipe's buffer
 
 
-def split_map(function: Callable[[Any], Any], items: Sequence[Any], workers: int) -> list[Any]:
+def split_map(function: Callable[[Any], Any], items: Sequence[Any], workers: int,
+              meanwhile: Callable[[], object] | None = None) -> list[Any]:  # fmt: skip
     """``[function(item) for item in items]`` on ``workers`` processes (see the module
-    docstring)."""
+    docstring). ``meanwhile``: work the calling process does first, while the children
+    start on the items (work it needs later anyway: an import); before the loop where
+    there are no children."""
     workers = max(1, min(int(workers), len(items)))
     if workers == 1 or len(items) > _MAX_ITEMS or not _can_fork():
+        if meanwhile is not None:
+            meanwhile()
         return [function(item) for item in items]
     tasks, tasks_in = os.pipe()
     os.write(tasks_in, b"".join(_INDEX.pack(i) for i in range(len(items))))
@@ -56,6 +61,8 @@ def split_map(function: Callable[[Any], Any], items: Sequence[Any], workers: int
                 children.append(_spawn(function, items, tasks))
         finally:
             signal.pthread_sigmask(signal.SIG_SETMASK, held)
+        if meanwhile is not None:
+            meanwhile()
         results = dict(_work(function, items, tasks))
         for pid, results_out in children:
             results.update(_collect(pid, results_out))

@@ -8,6 +8,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import functools
+import importlib
 import io
 import math
 from collections.abc import Mapping, Sequence
@@ -378,7 +379,10 @@ def _collocated_candidates(problem: Problem, structure: Any, seeds: Sequence[Orb
     simulator(model).library()  # compiled (or found) here, not in each child
     collocate = functools.partial(_collocate, problem, nlp, bounds, objective)
     found: list[tuple[float, tuple, Orbit, _Solve]] = []
-    for item in forked.split_map(collocate, seeds, default_threads()):
+    # The verification simulates with SciPy, whose import (about 0.4 s) the caller does
+    # while a child solves.
+    meanwhile = functools.partial(importlib.import_module, "scipy.integrate")
+    for item in forked.split_map(collocate, seeds, default_threads(), meanwhile):
         if item is None:
             continue
         value, params, confirmed, solve = item
