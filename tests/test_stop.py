@@ -205,12 +205,21 @@ def _wait_for_vsw_imports(process: subprocess.Popen, deadline: float = 60.0) -> 
 def _interrupted_at(
     seconds: float, argv: list[str], *, after_imports_begin: bool = False
 ) -> tuple[int, str, str]:
+    process, out, err = _run_interrupted(seconds, argv, after_imports_begin)
+    return process.returncode, out, err
+
+
+def _run_interrupted(seconds: float, argv: list[str], after_imports_begin: bool,
+                     new_session: bool = False) -> tuple[subprocess.Popen, str, str]:  # fmt: skip
+    """``vsw ARGV`` sent a SIGINT ``seconds`` after its start (or after its imports began):
+    the process, its output and its error stream."""
     process = subprocess.Popen(
         [sys.executable, "-m", "vsw", *argv],
         cwd=ROOT,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        start_new_session=new_session,
     )
     if after_imports_begin:
         _wait_for_vsw_imports(process)
@@ -220,7 +229,7 @@ def _interrupted_at(
         out, err = process.communicate(timeout=120)
     finally:
         timer.cancel()
-    return process.returncode, out, err
+    return process, out, err
 
 
 @pytest.mark.parametrize("seconds", [1.0, 2.5])
@@ -344,16 +353,7 @@ def test_ctrl_c_on_a_design_ends_its_forked_solves_too(seconds):
     # run is another question (the compiler's process finishes on its own).
     subprocess.run([sys.executable, "-m", "vsw", *argv], cwd=ROOT, capture_output=True,
                    check=True, timeout=300)  # fmt: skip
-    process = subprocess.Popen([sys.executable, "-m", "vsw", *argv], cwd=ROOT,
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               start_new_session=True)  # fmt: skip
-    _wait_for_vsw_imports(process)
-    timer = threading.Timer(seconds, process.send_signal, (signal.SIGINT,))
-    timer.start()
-    try:
-        out, err = process.communicate(timeout=120)
-    finally:
-        timer.cancel()
+    process, out, err = _run_interrupted(seconds, argv, True, new_session=True)
     if process.returncode == 0:
         assert json.loads(out)["status"] == "optimal"
     else:

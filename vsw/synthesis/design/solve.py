@@ -335,21 +335,35 @@ def _shoot(problem: Problem, nlp: Nlp, starts: Sequence[tuple[tuple, Orbit]], ab
            objective: Mapping[str, float],
            targets: Mapping[str, float]) -> tuple[_Solve | None, list[_Solve]]:  # fmt: skip
     """IPOPT on the shooting NLP from each (parameters, gait), the eigenvalue disc's radius
-    ``above`` the gait's largest modulus, each solve verified: the best and all."""
+    ``above`` the gait's largest modulus, each solve verified: the best and all. The starts
+    are shared among the cores as the collocated ones are."""
     bounds = _bounds(problem, nlp, targets)
+    shoot = functools.partial(_shoot_one, problem, nlp, bounds, above, objective, targets)
     solves, best = [], None
-    for k, (params, orbit) in enumerate(starts):
-        rho = (1.0 + above) * max(orbit.max_abs_eigenvalue, 1e-3)
-        try:
-            w0 = _initial_point(problem, nlp, params, orbit, rho)
-        except (ConvergenceError, RuntimeError):  # RuntimeError: CVODES between the nodes
-            stop.check()
+    for solve in forked.split_map(shoot, list(enumerate(starts)), default_threads()):
+        if solve is None:
             continue
-        solve = _verify(problem, nlp, _solve(problem, nlp, bounds, w0, k), targets, objective)
+        solve.nlp = nlp
         solves.append(solve)
         if solve.verified and (best is None or solve.objective < best.objective - 1e-12):
             best = solve
     return best, solves
+
+
+def _shoot_one(problem: Problem, nlp: Nlp, bounds: Mapping[str, np.ndarray], above: float,
+               objective: Mapping[str, float], targets: Mapping[str, float],
+               start: tuple[int, tuple[tuple, Orbit]]) -> _Solve | None:  # fmt: skip
+    """One start of :func:`_shoot`, verified, without its NLP (it does not pickle)."""
+    k, (params, orbit) = start
+    rho = (1.0 + above) * max(orbit.max_abs_eigenvalue, 1e-3)
+    try:
+        w0 = _initial_point(problem, nlp, params, orbit, rho)
+    except (ConvergenceError, RuntimeError):  # RuntimeError: CVODES between the nodes
+        stop.check()
+        return None
+    solve = _verify(problem, nlp, _solve(problem, nlp, bounds, w0, k), targets, objective)
+    solve.nlp = None
+    return solve
 
 
 def _same_gait(params: Sequence[float], orbit: Orbit, other_params: Sequence[float],
