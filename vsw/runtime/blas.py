@@ -52,8 +52,8 @@ if hasattr(os, "register_at_fork"):
 
 RENAMED_OPENBLAS = ("libcasadi-tp-openblas",)
 """OpenBLAS builds that wheels ship under names of their own, which threadpoolctl does not
-know: CasADi's, which IPOPT's MUMPS calls (two workers of it spinning beside a design
-doubled the command's system time)."""
+know: CasADi's, which IPOPT's MUMPS calls (its idle workers spinning beside a design of the
+compass gait cost the command 0.7 s of system time, against 0.2 s with one thread)."""
 
 
 def _discover(rescan: bool = False) -> None:

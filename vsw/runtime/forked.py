@@ -8,7 +8,8 @@ the next item not yet taken when it is free (the items' indices wait in a pipe; 
 four bytes takes one), so a long item does not hold the others back. Each child's results
 are pickled back through a pipe of its own; the results come in the order of ``items``,
 the outcome a loop gives. Where a child fails (a crash, an error, no result), the items it
-took are run again in the calling process: a child can only ever save time.
+took are run again in the calling process: a failed child costs the time it ran, never a
+result.
 
 Serial (a plain loop) where there is one worker or one item, where the platform has no
 ``fork`` (or is not Linux: forking a process with threads is unsafe on macOS), off the
