@@ -552,10 +552,14 @@ def _casadi_ops():
     return _casadi
 
 
+_NUMERIC = frozenset((float, int, np.float64, np.ndarray))
+
+
 def backend_for(*args):
     """CasADi operations if any argument is a CasADi object, numpy operations otherwise."""
+    # The set first: a simulation's right-hand side calls this at every stage.
     for a in args:
-        if type(a).__module__.startswith("casadi"):
+        if type(a) not in _NUMERIC and type(a).__module__.startswith("casadi"):
             return _casadi_ops()
     return NUMPY
 '''

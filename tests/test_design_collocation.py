@@ -223,3 +223,33 @@ def test_a_vertex_past_the_boxs_edge_is_not_taken():
         assert result.quantities["period"] == pytest.approx(0.75, abs=1e-6)
     else:
         assert result.status in ("infeasible", "not-converged")
+
+
+def test_only_the_leading_vertex_s_step_is_simulated(monkeypatch):
+    # The margins along a simulated step are the verification's dearest part: the measured
+    # vertices are simulated best first (the first of equal objectives to 1e-12, in the
+    # candidates' order) until one holds; the failed ones go to the shooting NLP, the
+    # others cannot win and are left unsimulated.
+    simulated = []
+
+    def simulate(problem, measured, targets):
+        simulated.append(measured.start)
+        measured.failure = "condition fails" if measured.start == 1 else ""
+        return measured
+
+    monkeypatch.setattr(solve, "_simulated", simulate)
+
+    def vertex(start, objective):
+        empty = np.zeros(1)
+        measured = solve._Solve(start, "Solve_Succeeded", empty, empty, empty)
+        measured.orbit, measured.objective = object(), objective
+        measured.failure = solve._UNSIMULATED
+        return measured, f"start {start}"
+
+    items = [vertex(0, 0.3), vertex(1, 0.1), vertex(2, 0.2), vertex(3, 0.2 - 1e-13)]
+    best, solves, failed = solve._best_simulated(None, items, {})
+    assert simulated == [1, 2]
+    assert best.start == 2 and best.verified
+    assert failed == ["start 1"]
+    assert [s.start for s in solves] == [0, 2, 3]
+    assert not any(s.verified for s in solves if s is not best)

@@ -198,22 +198,64 @@ def _verify(problem: Problem, nlp: Nlp, solve: _Solve, targets: Mapping[str, flo
 def _accept(problem: Problem, solve: _Solve, params: tuple, orbit: Orbit,
             targets: Mapping[str, float], objective: Mapping[str, float]) -> _Solve:  # fmt: skip
     """``solve`` as the confirmed gait ``orbit`` at ``params``, if every request holds on it."""
-    model = problem.model
-    quantities = orbit_quantities(model, params, orbit)
-    margins = conditions.gait_conditions(model, params, orbit)
-    problems = _violations(problem, quantities, margins, targets)
-    if problems:
-        solve.failure = "; ".join(problems)
-        return solve
-    solve.parameters, solve.orbit = params, orbit
-    solve.quantities, solve.margins = quantities, margins
-    solve.objective = _objective_value(objective, quantities)
+    solve = _measured(problem, solve, params, orbit, targets, objective)
+    return _simulated(problem, solve, targets) if solve.failure == _UNSIMULATED else solve
+
+
+_UNSIMULATED = "its step not simulated: a better design was verified"
+
+
+def _measured(problem: Problem, solve: _Solve, params: tuple, orbit: Orbit,
+              targets: Mapping[str, float], objective: Mapping[str, float]) -> _Solve:  # fmt: skip
+    """``solve`` as the confirmed gait ``orbit`` at ``params`` with its quantities and
+    objective; its failure the requests they miss, else :data:`_UNSIMULATED` until
+    :func:`_simulated` checks the conditions along its step."""
+    # The impacts' losses need the step simulated: only where the request names them.
+    quantities = orbit_quantities(problem.model, params, orbit, energy=False)
+    if any(name not in quantities for name in _named(problem, targets, objective)):
+        quantities = orbit_quantities(problem.model, params, orbit)
+    problems = _violations(problem, quantities, [], targets)
+    solve.parameters, solve.orbit, solve.quantities = params, orbit, quantities
+    solve.failure = "; ".join(problems) or _UNSIMULATED
+    if not problems:
+        solve.objective = _objective_value(objective, quantities)
     return solve
 
 
-def orbit_quantities(model: HybridModel, params: Sequence[float], orbit: Orbit) -> dict:
+def _simulated(problem: Problem, solve: _Solve, targets: Mapping[str, float]) -> _Solve:
+    """A measured ``solve`` with every condition's margin along its simulated step: verified
+    where each holds (the step's simulation is the verification's dearest part)."""
+    if "energy_per_step" not in solve.quantities:
+        solve.quantities = orbit_quantities(problem.model, solve.parameters, solve.orbit)
+    margins = conditions.gait_conditions(problem.model, solve.parameters, solve.orbit)
+    problems = _violations(problem, solve.quantities, margins, targets)
+    solve.failure = "; ".join(problems)
+    if problems:
+        solve.objective = math.inf
+    else:
+        solve.margins = margins
+    return solve
+
+
+def orbit_quantities(model: HybridModel, params: Sequence[float], orbit: Orbit,
+                     energy: bool = True) -> dict:  # fmt: skip
     """The design quantities of a confirmed orbit (:func:`vsw.dynamics.quantities.report`): period,
-    eigenvalue, the kinetic energy the impacts dissipate, step length, weight."""
+    eigenvalue, the kinetic energy the impacts dissipate, step length, weight. Without
+    ``energy`` the quantities made of the impacts' losses are left out (they need the step
+    simulated)."""
+    facts = {
+        "period": orbit.period,
+        "eigenvalue": orbit.max_abs_eigenvalue,
+        "step_length": orbit.step_length,
+        "weight": walker_weight(model, params),
+    }
+    if energy:
+        facts["energy_per_step"] = facts["energy"] = _impact_losses(model, params, orbit)
+    return report(facts)
+
+
+def _impact_losses(model: HybridModel, params: Sequence[float], orbit: Orbit) -> float:
+    """The kinetic energy the impacts of one simulated step of ``orbit`` dissipate."""
     state = np.array(list(orbit.state.values()))
     lost = 0.0
     phase = model.step_event["target"]
@@ -223,15 +265,7 @@ def orbit_quantities(model: HybridModel, params: Sequence[float], orbit: Orbit) 
             lost += float(kinetic_loss(model, phase, event["target"], np.asarray(params),
                                         record.state_before, record.state_after))  # fmt: skip
         phase = event["target"]
-    facts = {
-        "period": orbit.period,
-        "eigenvalue": orbit.max_abs_eigenvalue,
-        "energy_per_step": float(lost),
-        "energy": float(lost),
-        "step_length": orbit.step_length,
-        "weight": walker_weight(model, params),
-    }
-    return report(facts)
+    return float(lost)
 
 
 def _violations(problem: Problem, quantities: Mapping[str, Any], margins: list[dict],
@@ -265,6 +299,12 @@ def _violations(problem: Problem, quantities: Mapping[str, Any], margins: list[d
     return out
 
 
+def _named(problem: Problem, targets: Mapping[str, float],
+           objective: Mapping[str, float]) -> set[str]:  # fmt: skip
+    """The quantities a request names: its objective's terms, targets and bounds."""
+    return set(objective) | set(targets) | (set(problem.request.bounds) & problem.available)
+
+
 def _objective_value(objective: Mapping[str, float], quantities: Mapping[str, Any]) -> float:
     total = 0.0
     for term, weight in objective.items():
@@ -290,15 +330,14 @@ def _multistart(
     rows = tuple(sorted(set(targets) | (set(problem.request.bounds) & problem.available)))
     structure = problem.structure(rank, objective, rows, eigen)
     candidates = _collocated_candidates(problem, structure, seeds, objective, targets)
-    best, solves, unpinned = None, [], []
-    for params, orbit, collocated in candidates:
-        solve = _pinned(problem, structure, params, orbit, collocated, targets, objective)
-        if solve is None:
+    measured, unpinned = [], []
+    for params, orbit, _, vertex in candidates:
+        if vertex is None:
             unpinned.append((params, orbit))
-            continue
-        solves.append(solve)
-        if best is None or solve.objective < best.objective - 1e-12:
-            best = solve
+        else:
+            measured.append((vertex, (params, orbit)))
+    best, solves, failed = _best_simulated(problem, measured, targets)
+    unpinned += failed
     if unpinned:
         nlp = build(problem.model, structure)
         shot, more = _shoot(problem, nlp, unpinned, 1e-3, objective, targets)
@@ -316,9 +355,10 @@ def _multistart(
 def _pinned(problem: Problem, structure: Any, params: tuple, orbit: Orbit,
             collocated: _Solve, targets: Mapping[str, float],
             objective: Mapping[str, float]) -> _Solve | None:  # fmt: skip
-    """A collocated optimum at its vertex solved on the exact gait and verified
-    (:func:`vsw.synthesis.design.pin.pinned_gait`); None where its active set does not pin
-    it or the pinned gait fails a request (the shooting NLP polishes it instead)."""
+    """A collocated optimum at its vertex solved on the exact gait and measured
+    (:func:`vsw.synthesis.design.pin.pinned_gait`, :func:`_measured`); None where its active
+    set does not pin it or the pinned gait misses a request (the shooting NLP polishes it
+    instead)."""
     bounds = _bounds(problem, collocated.nlp, targets)
     rows = pin.pinning_rows(problem, collocated.nlp, collocated, bounds, targets, structure.eigen)
     if rows is None:
@@ -326,9 +366,32 @@ def _pinned(problem: Problem, structure: Any, params: tuple, orbit: Orbit,
     found = pin.pinned_gait(problem, params, orbit, rows)
     if found is None:
         return None
-    solve = dataclasses.replace(collocated)
-    solve = _accept(problem, solve, found[0], found[1], targets, objective)
-    return solve if solve.verified else None
+    solve = _measured(problem, dataclasses.replace(collocated), *found, targets, objective)
+    return solve if solve.failure == _UNSIMULATED else None
+
+
+def _best_simulated(
+    problem: Problem, measured: list[tuple[_Solve, Any]], targets: Mapping[str, float]
+) -> tuple[_Solve | None, list[_Solve], list[Any]]:
+    """The best of the measured vertices whose simulated step meets every condition: each
+    leader in turn simulated (the first of equal objectives to 1e-12, in the candidates'
+    order) until one holds. The others cannot beat it and keep :data:`_UNSIMULATED`.
+    (the best, every solve but the failed, the failed ones' starts for the shooting NLP)."""
+    pending = list(range(len(measured)))
+    best, failed = None, []
+    while pending and best is None:
+        leader = pending[0]
+        for k in pending[1:]:
+            if measured[k][0].objective < measured[leader][0].objective - 1e-12:
+                leader = k
+        pending.remove(leader)
+        solve, start = measured[leader]
+        if _simulated(problem, solve, targets).verified:
+            best = solve
+        else:
+            failed.append(start)
+    solves = [solve for solve, _ in measured if solve is best or solve.failure == _UNSIMULATED]
+    return best, solves, failed
 
 
 def _shoot(problem: Problem, nlp: Nlp, starts: Sequence[tuple[tuple, Orbit]], above: float,
@@ -376,7 +439,9 @@ def _same_gait(params: Sequence[float], orbit: Orbit, other_params: Sequence[flo
                 and np.allclose(state, other_state, rtol=1e-6, atol=1e-9))  # fmt: skip
 
 
-_Candidate = tuple[tuple, Orbit, _Solve]  # a collocated optimum's parameters, gait, solve
+_Candidate = tuple[tuple, Orbit, _Solve, _Solve | None]
+"""A collocated optimum's parameters, confirmed gait, solve, and its vertex on the exact gait
+measured (:func:`_pinned`; None where it is no vertex)."""
 
 
 def _collocated_candidates(problem: Problem, structure: Any, seeds: Sequence[Orbit],
@@ -384,35 +449,38 @@ def _collocated_candidates(problem: Problem, structure: Any, seeds: Sequence[Orb
                            targets: Mapping[str, float]) -> list[_Candidate]:  # fmt: skip
     """Each seed's collocated optimum (:mod:`vsw.synthesis.design.collocation`) that IPOPT
     solved and the periodic-orbit solver confirms as a gait at its parameters, with its
-    solve, best objective first, one of each gait (:func:`_same_gait`). The seeds are
-    shared among the cores (:func:`vsw.runtime.forked.split_map`: the NLP is built once,
-    before)."""
+    solve and its vertex, best objective first, one of each gait (:func:`_same_gait`). The
+    seeds are shared among the cores (:func:`vsw.runtime.forked.split_map`: the NLP is
+    built once, before)."""
     model = problem.model
     nlp = collocation.build(model, structure, tuple(INTERVALS for _ in model.phase_sequence()))
     bounds = _bounds(problem, nlp, targets)
     simulator(model).library()  # compiled (or found) here, not in each child
-    collocate = functools.partial(_collocate, problem, nlp, bounds, objective)
-    found: list[tuple[float, tuple, Orbit, _Solve]] = []
+    collocate = functools.partial(_collocate, problem, structure, nlp, bounds, targets,
+                                  objective)  # fmt: skip
+    found: list[tuple[float, _Candidate]] = []
     # The verification simulates with SciPy, whose import (about 0.4 s) the caller does
     # while a child solves.
     meanwhile = functools.partial(importlib.import_module, "scipy.integrate")
     for item in forked.split_map(collocate, seeds, default_threads(), meanwhile):
         if item is None:
             continue
-        value, params, confirmed, solve = item
-        solve.nlp = nlp
-        if not any(_same_gait(params, confirmed, *other[1:3]) for other in found):
-            found.append((value, params, confirmed, solve))
+        value, candidate = item
+        for solve in candidate[2:]:
+            if solve is not None:
+                solve.nlp = nlp
+        if not any(_same_gait(*candidate[:2], *other[1][:2]) for other in found):
+            found.append((value, candidate))
     found.sort(key=lambda item: item[0])
-    return [(params, orbit, solve) for _, params, orbit, solve in found]
+    return [candidate for _, candidate in found]
 
 
-def _collocate(problem: Problem, nlp: Any, bounds: Mapping[str, np.ndarray],
-               objective: Mapping[str, float],
-               orbit: Orbit) -> tuple[float, tuple, Orbit, _Solve] | None:  # fmt: skip
-    """IPOPT on the collocated NLP from one seed, and the gait the periodic-orbit solver
-    confirms there: (the collocated objective, parameters, gait, solve without its NLP),
-    or None."""
+def _collocate(problem: Problem, structure: Any, nlp: Any, bounds: Mapping[str, np.ndarray],
+               targets: Mapping[str, float], objective: Mapping[str, float],
+               orbit: Orbit) -> tuple[float, _Candidate] | None:  # fmt: skip
+    """IPOPT on the collocated NLP from one seed, the gait the periodic-orbit solver
+    confirms there and its vertex (:func:`_pinned`, here so that the cores share it too):
+    (the collocated objective, the candidate with its solves' NLP left out), or None."""
     model = problem.model
     try:
         pieces = _walk(model, problem.start, orbit)
@@ -437,8 +505,11 @@ def _collocate(problem: Problem, nlp: Any, bounds: Mapping[str, np.ndarray],
         return None
     table = np.array(nlp.quantities(solve.w, bounds["p"])).reshape(-1)
     value = _objective_value(objective, dict(zip(nlp.quantities.names, table)))
-    solve.nlp = None  # a CasADi function does not pickle: the caller sets it back
-    return value, params, confirmed, solve
+    vertex = _pinned(problem, structure, params, confirmed, solve, targets, objective)
+    for each in (solve, vertex):
+        if each is not None:
+            each.nlp = None  # a CasADi function does not pickle: the caller sets it back
+    return value, (params, confirmed, solve, vertex)
 
 
 def _open_limits(problem: Problem, nlp: Nlp, solve: _Solve) -> tuple[str, ...]:
