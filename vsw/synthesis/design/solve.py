@@ -597,6 +597,15 @@ def design(model: HybridModel, request: DesignRequest) -> GaitDesign:
     if not seeds:
         return GaitDesign("not-converged", f"not converged: no gait to start from at "
                           f"{tried} parameter set(s) of the box ({why_none})")  # fmt: skip
+    # The solves' linear algebra is small. Held for the whole design, BLAS keeps one thread:
+    # a pool woken at each solve's end would spin beside the forked children's solves.
+    with blas.limited(1):
+        return _designed(problem, seeds)
+
+
+def _designed(problem: Problem, seeds: list[Orbit]) -> GaitDesign:
+    """:func:`design` from the gaits it starts from."""
+    model = problem.model
     rank = _nontrivial_rank(seeds)
     best, solves = _multistart(problem, seeds, rank)
     statuses = ", ".join(sorted({s.ipopt_status for s in solves})) or "no start"
