@@ -59,7 +59,9 @@ The starts are the gaits the runtime's gait search finds at the parameters the r
 starts from (defaults, fixes, clipped into the bounds). A solve counts only when IPOPT
 reports success and the periodic-orbit solver, from IPOPT's point, confirms the gait by
 simulation and every request holds on it: targets, bounds, the eigenvalue bound, every
-condition's margin along the simulated step. The best verified solve wins. ``optimal``: a
+condition's margin along the simulated step. The best verified solve wins; the step is
+simulated for the best vertex first, and for the next only where a condition fails on it
+(those after it cannot win). ``optimal``: a
 verified local optimum away from every open limit. ``not-attained``: it presses against an
 open limit (a parameter's open interval, kept :func:`open_distance` away, or a strict
 condition margin, kept :data:`STRICT_MARGIN` above zero): the model's supremum is not a
