@@ -146,6 +146,20 @@ def test_a_speed_beyond_reach_is_infeasible_with_the_fastest_gait():
     assert 3.0 < fastest < math.sqrt(9.81)
 
 
+def test_an_infeasible_target_is_proven_before_the_seeds_are_shot(monkeypatch):
+    # The compass gait has no walking gait with a 3 s period: the extremes the collocated
+    # starts reach prove it, so the seeds' shooting solves (seconds each) are not run.
+    from vsw.synthesis.design import solve
+
+    def not_shot(*args, **kwargs):
+        raise AssertionError("the seeds were shot")
+
+    monkeypatch.setattr(solve, "_shot_seeds", not_shot)
+    result = design(models.load("compass-gait"), DesignRequest(targets={"period": 3.0}))
+    assert result.status == "infeasible"
+    assert "largest period" in result.message
+
+
 def test_the_eigenvalue_bound_holds_on_the_verified_gait():
     result = design(models.load("ile"), DesignRequest(objective={"speed": 1.0},
                                                       max_eigenvalue=0.3))  # fmt: skip

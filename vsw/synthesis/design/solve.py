@@ -320,15 +320,14 @@ def _multistart(
     objective: Mapping[str, float] | None = None,
     targets: Mapping[str, float] | None = None,
     eigen: str | None = "same",
+    shoot_seeds: bool = True,
 ) -> tuple[_Solve | None, list[_Solve]]:
     """IPOPT from each seed on the collocated NLP; each distinct collocated optimum
     carried onto the exact gait by the constraints that pin it (:mod:`.pin`), else polished
     on the shooting NLP, and verified; the seeds themselves on the shooting NLP where no
-    polished optimum is verified. The best verified solve and every solve."""
-    objective = problem.objective if objective is None else objective
-    targets = problem.request.targets if targets is None else targets
-    rows = tuple(sorted(set(targets) | (set(problem.request.bounds) & problem.available)))
-    structure = problem.structure(rank, objective, rows, eigen)
+    polished optimum is verified (:func:`_shot_seeds`, unless ``shoot_seeds`` is False).
+    The best verified solve and every solve."""
+    objective, targets, structure = _structure(problem, rank, objective, targets, eigen)
     candidates = _collocated_candidates(problem, structure, seeds, objective, targets)
     measured, unpinned = [], []
     for params, orbit, _, vertex in candidates:
@@ -344,12 +343,32 @@ def _multistart(
         solves += more
         if shot is not None and (best is None or shot.objective < best.objective - 1e-12):
             best = shot
-    if best is None:
-        starts = [(tuple(problem.start), orbit) for orbit in seeds]
-        best, more = _shoot(problem, build(problem.model, structure), starts, 0.05, objective,
-                            targets)  # fmt: skip
+    if best is None and shoot_seeds:
+        best, more = _shot_seeds(problem, seeds, rank, objective, targets, eigen)
         solves += more
     return best, solves
+
+
+def _structure(problem: Problem, rank: int, objective: Mapping[str, float] | None,
+               targets: Mapping[str, float] | None, eigen: str | None) -> tuple:  # fmt: skip
+    """The objective, the targets (the request's where None) and the NLPs' structure."""
+    objective = problem.objective if objective is None else objective
+    targets = problem.request.targets if targets is None else targets
+    rows = tuple(sorted(set(targets) | (set(problem.request.bounds) & problem.available)))
+    return objective, targets, problem.structure(rank, objective, rows, eigen)
+
+
+def _shot_seeds(problem: Problem, seeds: Sequence[Orbit], rank: int,
+                objective: Mapping[str, float] | None = None,
+                targets: Mapping[str, float] | None = None,
+                eigen: str | None = "same") -> tuple[_Solve | None, list[_Solve]]:  # fmt: skip
+    """The seeds themselves on the shooting NLP, each verified: the best and all (the
+    rimless wheel's least energy per step lies where the gait ceases to exist, which the
+    collocation does not reach and the shooting does)."""
+    objective, targets, structure = _structure(problem, rank, objective, targets, eigen)
+    starts = [(tuple(problem.start), orbit) for orbit in seeds]
+    nlp = build(problem.model, structure)
+    return _shoot(problem, nlp, starts, 0.05, objective, targets)
 
 
 def _pinned(problem: Problem, structure: Any, params: tuple, orbit: Orbit,
@@ -607,10 +626,16 @@ def _designed(problem: Problem, seeds: list[Orbit]) -> GaitDesign:
     """:func:`design` from the gaits it starts from."""
     model = problem.model
     rank = _nontrivial_rank(seeds)
-    best, solves = _multistart(problem, seeds, rank)
+    best, solves = _multistart(problem, seeds, rank, shoot_seeds=False)
+    reason = None
+    if best is None:
+        # Evidence of infeasibility first: the seeds' shooting solves cost seconds each.
+        reason = _infeasibility(problem, seeds, rank)
+        if reason is None:
+            best, more = _shot_seeds(problem, seeds, rank)
+            solves += more
     statuses = ", ".join(sorted({s.ipopt_status for s in solves})) or "no start"
     if best is None:
-        reason = _infeasibility(problem, seeds, rank)
         if reason is not None:
             return GaitDesign("infeasible", f"infeasible: {reason}", ipopt_status=statuses,
                               starts=len(seeds), infeasible_reason=reason)  # fmt: skip
