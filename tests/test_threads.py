@@ -82,7 +82,9 @@ CHILD = textwrap.dedent(
     names = (*model.coordinates, *model.rates)
     x = np.array([gait.state[n] for n in names])
     rng = np.random.default_rng(14)
-    starts = x * (1 + 0.01 * rng.standard_normal((1000, x.size)))
+    # 10000 starts: a step call of about 25 ms, long against the scheduler's accounting of
+    # a thread's CPU (a tick, 4 ms: a thread that ran before a call can be billed inside it).
+    starts = x * (1 + 0.01 * rng.standard_normal((10000, x.size)))
     starts = np.column_stack(model.module.section_completion(*params, *starts.T))
     sim = simulator(model)
     wheel = load("rimless_wheel")
