@@ -7,6 +7,7 @@ import. A Ctrl-C after the command's result is out is ignored (the whole result,
 where Python's own handler would kill the exiting process by the signal.
 """
 
+import os
 import signal
 import sys
 
@@ -17,7 +18,11 @@ def _interrupted_while_starting(signum, frame) -> None:
     global _started_interrupted
     _started_interrupted = True
     sys.stderr.write("vsw: interrupted\n")
-    raise SystemExit(130)
+    sys.stderr.flush()
+    # Out at once: nothing is done yet, and an exception raised into an import can be
+    # swallowed by the library being imported, or leave it half made for the interpreter's
+    # finalisation to wait on (a start-up Ctrl-C once left the process running on).
+    os._exit(130)
 
 
 def run() -> int:
