@@ -82,15 +82,16 @@ CHILD = textwrap.dedent(
     names = (*model.coordinates, *model.rates)
     x = np.array([gait.state[n] for n in names])
     rng = np.random.default_rng(14)
-    # 10000 starts: a step call of about 25 ms, long against the scheduler's accounting of
-    # a thread's CPU (a tick, 4 ms: a thread that ran before a call can be billed inside it).
+    # 10000 starts and 320 x 320 cells: step and basin calls of 25-40 ms, long against the
+    # scheduler's accounting of a thread's CPU (a tick, 4 ms: a thread that ran before a
+    # call can be billed inside it).
     starts = x * (1 + 0.01 * rng.standard_normal((10000, x.size)))
     starts = np.column_stack(model.module.section_completion(*params, *starts.T))
     sim = simulator(model)
     wheel = load("rimless_wheel")
     wheel_params = wheel.parameters()
-    theta = np.linspace(x[0] - 0.02, x[0] + 0.02, 20)
-    rate = np.linspace(x[1] - 0.02, x[1] + 0.02, 20)
+    theta = np.linspace(x[0] - 0.02, x[0] + 0.02, 320)
+    rate = np.linspace(x[1] - 0.02, x[1] + 0.02, 320)
     work = {
         "step": lambda: sim.step(params, starts, threads=1, tolerance=1e-10),
         "walk": lambda: sim.walk(params, starts, 20, converge_tol=0.0, period_tol=0.0,

@@ -701,8 +701,8 @@ def _solver_failed(name: str, error: str) -> ConvergenceError:
 def _on_floats(function: Any, params: Sequence[float]) -> Any:
     """``function(*params, *x)`` of a state array ``x``, called on Python floats: the same
     IEEE arithmetic as on numpy's scalars (+, -, *, / and pow correctly rounded or libm's
-    in both; the functions are numpy's either way), at about half the cost of a call that
-    the integrator makes at every stage. Where Python raises instead of returning inf or
+    in both; the functions are numpy's either way), and cheaper: the integrator makes the
+    call at every stage. Where Python raises instead of returning inf or
     NaN (a division by zero, an overflowing power), the call is made again on numpy's
     scalars, as it always was."""
     fixed = [float(v) for v in params]

@@ -301,8 +301,13 @@ def _violations(problem: Problem, quantities: Mapping[str, Any], margins: list[d
 
 def _named(problem: Problem, targets: Mapping[str, float],
            objective: Mapping[str, float]) -> set[str]:  # fmt: skip
-    """The quantities a request names: its objective's terms, targets and bounds."""
-    return set(objective) | set(targets) | (set(problem.request.bounds) & problem.available)
+    """The quantities a request names: its objective's terms and its NLP's quantity rows."""
+    return set(objective) | set(_quantity_rows(problem, targets))
+
+
+def _quantity_rows(problem: Problem, targets: Mapping[str, float]) -> tuple[str, ...]:
+    """The quantities the NLPs constrain: the targets, and the bounded design quantities."""
+    return tuple(sorted(set(targets) | (set(problem.request.bounds) & problem.available)))
 
 
 def _objective_value(objective: Mapping[str, float], quantities: Mapping[str, Any]) -> float:
@@ -354,7 +359,7 @@ def _structure(problem: Problem, rank: int, objective: Mapping[str, float] | Non
     """The objective, the targets (the request's where None) and the NLPs' structure."""
     objective = problem.objective if objective is None else objective
     targets = problem.request.targets if targets is None else targets
-    rows = tuple(sorted(set(targets) | (set(problem.request.bounds) & problem.available)))
+    rows = _quantity_rows(problem, targets)
     return objective, targets, problem.structure(rank, objective, rows, eigen)
 
 
