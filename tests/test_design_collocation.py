@@ -145,6 +145,39 @@ def test_the_design_at_a_vertex_is_the_runtimes_gait_whichever_nlp_polishes(monk
     assert pinned.objective == pytest.approx(0.646696, abs=5e-7)
 
 
+def test_a_pinned_vertex_is_confirmed_from_the_pins_own_solves(monkeypatch):
+    # The pin's Newton solves the orbit at the vertex's parameters; its last solve is
+    # confirmed as it stands (a simulated step), so no start asks the orbit solver again,
+    # at the collocated parameters or the vertex's.
+    monkeypatch.setenv("VSW_THREADS", "1")  # the starts in this process, where they are counted
+    model = models.load("compass-gait")
+    inside: list[str] = []
+    real_collocate, real_orbit = solve._collocate, type(model).periodic_orbit
+
+    def collocate(*args):
+        inside.append("start")
+        try:
+            return real_collocate(*args)
+        finally:
+            inside.append("end")
+
+    def periodic_orbit(self, *args, **kwargs):
+        if inside and inside[-1] == "start":
+            inside.append("orbit solve")
+        return real_orbit(self, *args, **kwargs)
+
+    monkeypatch.setattr(solve, "_collocate", collocate)
+    monkeypatch.setattr(type(model), "periodic_orbit", periodic_orbit)
+    monkeypatch.setattr(solve, "build", _not_built)
+    result = gait_design.design(
+        model, gait_design.DesignRequest(objective={}, targets={"period": 0.75})
+    )
+    assert result.status == "optimal"
+    assert result.quantities["period"] == pytest.approx(0.75, abs=1e-12)
+    assert inside.count("start") >= 2
+    assert "orbit solve" not in inside
+
+
 def _not_built(*args, **kwargs):
     raise AssertionError("the shooting NLP was built")
 

@@ -5,12 +5,15 @@ simulated steps; the Poincaré map's derivative of vsw.dynamics.hybrid), and its
 
 from __future__ import annotations
 
+import dataclasses
+
 import casadi as ca
 import numpy as np
 import pytest
 
 from vsw.models import load
 from vsw.orbits import OrbitProblem, newton, phase_sequence, shooting
+from vsw.runtime.errors import ConvergenceError
 
 # Bhounsule et al. 2013: the simplest walker's long gait at gamma = 0.009 (as in
 # tests/test_continuation.py), (q1, u1, q2, u2) with q1 = -theta, q2 = -phi.
@@ -101,6 +104,20 @@ def test_the_orbit_is_the_published_gait(long_gait):
     np.testing.assert_allclose(problem.section_state(solved.u), LONG_GAIT_0009, atol=1e-12)
     assert problem.durations(solved.u)[0] == pytest.approx(LONG_PERIOD_0009, abs=1e-3)
     assert problem.step_periods(solved.u) == [float(problem.durations(solved.u)[0])]
+
+
+def test_a_given_solve_is_confirmed_as_periodic_orbit_confirms_its_own(long_gait):
+    # HybridModel.confirmed_orbit is periodic_orbit's checks on a solve made elsewhere (the
+    # design's pin): the same orbit, bit for bit, from the same solve.
+    model, params, problem, solved = long_gait
+    own = model.periodic_orbit(params, np.array(LONG_GAIT_0009), [LONG_PERIOD_0009])
+    assert model.confirmed_orbit(params, problem, solved) == own
+    unsolved = dataclasses.replace(solved, converged=False)
+    with pytest.raises(ConvergenceError, match="did not converge"):
+        model.confirmed_orbit(params, problem, unsolved)
+    backwards = dataclasses.replace(solved, u=np.concatenate([solved.u[:-1], [-1.0]]))
+    with pytest.raises(ConvergenceError, match="duration is not positive"):
+        model.confirmed_orbit(params, problem, backwards)
 
 
 def _saltation_product(model, params, problem, u):

@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from vsw.dynamics.parameters import check_parameter
-from vsw.orbits import OrbitProblem, by_modulus, phase_sequence, shooting
+from vsw.orbits import OrbitProblem, Solved, by_modulus, phase_sequence, shooting
 from vsw.runtime import stop
 from vsw.runtime.errors import ConvergenceError, VswInputError
 
@@ -578,7 +578,6 @@ class HybridModel:
         no SciPy to import). Either is independent of the solver's CVODES integration.
         """
         problem = OrbitProblem(self)
-        n = 2 * self.n
         p = np.asarray(params, float)
         state, durations = np.asarray(state, float), np.asarray(durations, float)
         if not (np.all(np.isfinite(state)) and np.all(np.isfinite(durations))):
@@ -588,7 +587,21 @@ class HybridModel:
         except RuntimeError as exc:  # CVODES gave up (a guess far from any orbit)
             stop.check()  # or CasADi turned Ctrl-C or the time limit into this error
             raise _solver_failed(self.name, str(exc)) from None
-        solved = problem.solve(p, guess)
+        return self.confirmed_orbit(params, problem, problem.solve(p, guess), step)
+
+    def confirmed_orbit(
+        self,
+        params: Sequence[float],
+        problem: OrbitProblem,
+        solved: Solved,
+        step: Callable[[Sequence[float], np.ndarray], StepResult] | None = None,
+    ) -> Orbit:
+        """The orbit a solve of the period-one ``problem`` at ``params`` found, with the
+        checks of :meth:`periodic_orbit`: converged, every duration positive, its
+        eigenvalues defined, and the simulated step from it back on it
+        (:class:`ConvergenceError` otherwise). For a caller whose own Newton already solved
+        the orbit at these parameters (the design's pin): no second solve."""
+        n = 2 * self.n
         if solved.error is not None and not solved.converged:
             raise _solver_failed(self.name, solved.error)
         size, solution = solved.residual, solved.u

@@ -31,7 +31,7 @@ from vsw.dynamics.batch import simulator
 from vsw.dynamics.hybrid import Orbit
 from vsw.dynamics.quantities import report
 from vsw.dynamics.quantities import weight as walker_weight
-from vsw.orbits import OrbitProblem, shooting
+from vsw.orbits import OrbitProblem, Solved, shooting
 from vsw.runtime import stop
 from vsw.runtime.errors import ConvergenceError
 from vsw.synthesis.design.problem import Problem
@@ -107,11 +107,13 @@ def pressed_bound(value: float, multiplier: float, low: float, high: float,
     return None
 
 
-def pinned_gait(problem: Problem, params: Sequence[float], orbit: Orbit,
-                rows: Pinning) -> tuple[tuple, Orbit] | None:  # fmt: skip
-    """The parameters and confirmed gait that solve (1) from a collocated optimum's
-    confirmed gait ``orbit`` at ``params``, or None where Newton does not reach them (the
-    design then polishes on the shooting NLP)."""
+def pinned_gait(problem: Problem, params: Sequence[float], state: np.ndarray,
+                durations: np.ndarray, rows: Pinning) -> tuple[tuple, Orbit] | None:  # fmt: skip
+    """The parameters and confirmed gait that solve (1) from a collocated optimum (its
+    parameters, section state and phase durations), or None where Newton does not reach
+    them (the design then polishes on the shooting NLP). The first orbit solve, at the
+    collocated parameters, finds the exact gait the collocated one approximates; the last
+    is confirmed by a simulated step (:meth:`~vsw.dynamics.hybrid.HybridModel.confirmed_orbit`)."""
     equations, pressed = rows
     unknown = [j for j in problem.free if j not in pressed]
     if len(equations) != len(unknown) or not _computable(equations):
@@ -123,7 +125,7 @@ def pinned_gait(problem: Problem, params: Sequence[float], orbit: Orbit,
     goal = np.array([equations[n] for n in names])
     scale = np.maximum(1.0, np.abs(goal))
     width = np.array([problem.box[j][1] - problem.box[j][0] for j in unknown])
-    orbits = _Orbits(problem, orbit, bool({"step_length", "speed"} & set(names)))
+    orbits = _Orbits(problem, state, durations, bool({"step_length", "speed"} & set(names)))
 
     def residual(at: np.ndarray) -> np.ndarray | None:
         quantities = orbits.quantities(at)
@@ -134,7 +136,10 @@ def pinned_gait(problem: Problem, params: Sequence[float], orbit: Orbit,
         )
 
     r = residual(p)
-    if r is not None and unknown:
+    if r is None:
+        return None
+    first = orbits.state
+    if unknown:
         r = _newton(residual, p, r, unknown, width)
     if r is None or not np.max(np.abs(r), initial=0.0) <= _ACCEPTED:
         return None
@@ -143,21 +148,21 @@ def pinned_gait(problem: Problem, params: Sequence[float], orbit: Orbit,
         return None
     if any(not problem.box[j][0] <= p[j] <= problem.box[j][1] for j in unknown):
         return None  # the vertex lies past a box's edge: the shooting NLP keeps to the box
+    if not np.array_equal(orbits.at, p) and orbits.quantities(p) is None:
+        return None  # (Newton's last solve was a difference quotient's)
+    if not _same_state(orbits.state, first):
+        return None  # another gait
+    step = simulator(problem.model).step_phases
     try:
-        confirmed = problem.model.periodic_orbit(
-            tuple(p), orbits.state, orbits.durations, step=simulator(problem.model).step_phases
-        )
+        confirmed = problem.model.confirmed_orbit(tuple(p), orbits.problem, orbits.solved, step)
     except ConvergenceError:
         return None
-    if not _same_state(confirmed, orbit):
-        return None  # another gait
     return tuple(float(v) for v in p), confirmed
 
 
-def _same_state(orbit: Orbit, other: Orbit) -> bool:
-    """Whether two gaits at nearly the same parameters are one: section states within
-    :data:`_MOVE` of their scale."""
-    x, y = np.array(list(orbit.state.values())), np.array(list(other.state.values()))
+def _same_state(x: np.ndarray, y: np.ndarray) -> bool:
+    """Whether two gaits' section states at nearly the same parameters are one gait's:
+    within :data:`_MOVE` of their scale."""
     return bool(np.max(np.abs(x - y)) <= _MOVE * max(1.0, float(np.max(np.abs(y)))))
 
 
@@ -204,15 +209,19 @@ def _computable(equations: Mapping[str, float]) -> bool:
 
 
 class _Orbits:
-    """The orbit solver at parameter sets near a confirmed gait, each from the last."""
+    """The orbit solver at parameter sets near a collocated gait, each from the last; the
+    last solve kept (:attr:`solved`)."""
 
-    def __init__(self, problem: Problem, orbit: Orbit, lengths: bool) -> None:
+    def __init__(self, problem: Problem, state: np.ndarray, durations: np.ndarray,
+                 lengths: bool) -> None:  # fmt: skip
         self.model = problem.model
         self.lengths = lengths  # whether the step's length is asked
         self.problem = OrbitProblem(self.model)
-        self.state = np.array(list(orbit.state.values()))
-        self.durations = np.array(orbit.durations)
+        self.state = np.asarray(state, float)
+        self.durations = np.asarray(durations, float)
         self.guess: np.ndarray | None = None
+        self.solved: Solved | None = None
+        self.at: np.ndarray | None = None  # the parameters of the last solve
 
     def quantities(self, params: np.ndarray) -> dict[str, Any] | None:
         try:
@@ -224,7 +233,7 @@ class _Orbits:
             return None
         if not solved.converged:
             return None
-        self.guess = solved.u
+        self.solved, self.guess, self.at = solved, solved.u, params.copy()
         self.state = self.problem.section_state(solved.u)
         self.durations = self.problem.durations(solved.u)
         eigenvalues = self.problem.eigenvalues(solved.jacobian)

@@ -376,18 +376,20 @@ def _shot_seeds(problem: Problem, seeds: Sequence[Orbit], rank: int,
     return _shoot(problem, nlp, starts, 0.05, objective, targets)
 
 
-def _pinned(problem: Problem, structure: Any, params: tuple, orbit: Orbit,
-            collocated: _Solve, targets: Mapping[str, float],
+def _pinned(problem: Problem, structure: Any, collocated: _Solve, targets: Mapping[str, float],
             objective: Mapping[str, float]) -> _Solve | None:  # fmt: skip
     """A collocated optimum at its vertex solved on the exact gait and measured
     (:func:`vsw.synthesis.design.pin.pinned_gait`, :func:`_measured`); None where its active
     set does not pin it or the pinned gait misses a request (the shooting NLP polishes it
     instead)."""
-    bounds = _bounds(problem, collocated.nlp, targets)
-    rows = pin.pinning_rows(problem, collocated.nlp, collocated, bounds, targets, structure.eigen)
+    nlp = collocated.nlp
+    bounds = _bounds(problem, nlp, targets)
+    rows = pin.pinning_rows(problem, nlp, collocated, bounds, targets, structure.eigen)
     if rows is None:
         return None
-    found = pin.pinned_gait(problem, params, orbit, rows)
+    params = _parameters_of(problem, nlp, collocated.w)
+    state = collocated.w[nlp.layout["states"]][: 2 * problem.model.n]
+    found = pin.pinned_gait(problem, params, state, collocated.w[nlp.layout["durations"]], rows)
     if found is None:
         return None
     solve = _measured(problem, dataclasses.replace(collocated), *found, targets, objective)
@@ -464,18 +466,19 @@ def _same_gait(params: Sequence[float], orbit: Orbit, other_params: Sequence[flo
 
 
 _Candidate = tuple[tuple, Orbit, _Solve, _Solve | None]
-"""A collocated optimum's parameters, confirmed gait, solve, and its vertex on the exact gait
-measured (:func:`_pinned`; None where it is no vertex)."""
+"""A collocated optimum's parameters and confirmed gait (its vertex's, where pinned), its
+solve, and its vertex on the exact gait measured (:func:`_pinned`; None where it is no
+vertex)."""
 
 
 def _collocated_candidates(problem: Problem, structure: Any, seeds: Sequence[Orbit],
                            objective: Mapping[str, float],
                            targets: Mapping[str, float]) -> list[_Candidate]:  # fmt: skip
     """Each seed's collocated optimum (:mod:`vsw.synthesis.design.collocation`) that IPOPT
-    solved and the periodic-orbit solver confirms as a gait at its parameters, with its
-    solve and its vertex, best objective first, one of each gait (:func:`_same_gait`). The
-    seeds are shared among the cores (:func:`vsw.runtime.forked.split_map`: the NLP is
-    built once, before)."""
+    solved and the periodic-orbit solver confirms as a gait (at its vertex, else at its
+    parameters), with its solve and its vertex, best objective first, one of each gait
+    (:func:`_same_gait`). The seeds are shared among the cores
+    (:func:`vsw.runtime.forked.split_map`: the NLP is built once, before)."""
     model = problem.model
     nlp = collocation.build(model, structure, tuple(INTERVALS for _ in model.phase_sequence()))
     bounds = _bounds(problem, nlp, targets)
@@ -502,8 +505,8 @@ def _collocated_candidates(problem: Problem, structure: Any, seeds: Sequence[Orb
 def _collocate(problem: Problem, structure: Any, nlp: Any, bounds: Mapping[str, np.ndarray],
                targets: Mapping[str, float], objective: Mapping[str, float],
                orbit: Orbit) -> tuple[float, _Candidate] | None:  # fmt: skip
-    """IPOPT on the collocated NLP from one seed, the gait the periodic-orbit solver
-    confirms there and its vertex (:func:`_pinned`, here so that the cores share it too):
+    """IPOPT on the collocated NLP from one seed, its vertex (:func:`_pinned`, here so that
+    the cores share it too) or else the gait the periodic-orbit solver confirms there:
     (the collocated objective, the candidate with its solves' NLP left out), or None."""
     model = problem.model
     try:
@@ -520,20 +523,26 @@ def _collocate(problem: Problem, structure: Any, nlp: Any, bounds: Mapping[str, 
     solve = _solve(problem, nlp, bounds, w0, 0)
     if solve.ipopt_status not in _SUCCESS:
         return None
-    params = _parameters_of(problem, nlp, solve.w)
-    x = solve.w[nlp.layout["states"]][: 2 * model.n]
-    try:
-        confirmed = model.periodic_orbit(params, x, solve.w[nlp.layout["durations"]],
-                                         step=simulator(model).step_phases)  # fmt: skip
-    except ConvergenceError:
-        return None
+    solve.nlp = nlp
     table = np.array(nlp.quantities(solve.w, bounds["p"])).reshape(-1)
     value = _objective_value(objective, dict(zip(nlp.quantities.names, table)))
-    vertex = _pinned(problem, structure, params, confirmed, solve, targets, objective)
+    # At a vertex the pin's own orbit solves confirm the gait; elsewhere the orbit solver
+    # confirms it at the collocated parameters.
+    vertex = _pinned(problem, structure, solve, targets, objective)
+    if vertex is not None:
+        gait = (vertex.parameters, vertex.orbit)
+    else:
+        params = _parameters_of(problem, nlp, solve.w)
+        x = solve.w[nlp.layout["states"]][: 2 * model.n]
+        try:
+            gait = (params, model.periodic_orbit(params, x, solve.w[nlp.layout["durations"]],
+                                                 step=simulator(model).step_phases))  # fmt: skip
+        except ConvergenceError:
+            return None
     for each in (solve, vertex):
         if each is not None:
             each.nlp = None  # a CasADi function does not pickle: the caller sets it back
-    return value, (params, confirmed, solve, vertex)
+    return value, (*gait, solve, vertex)
 
 
 def _open_limits(problem: Problem, nlp: Nlp, solve: _Solve) -> tuple[str, ...]:
