@@ -29,7 +29,8 @@ periodicity (the state after the step event equals the first). Two NLPs share th
 * a vertex (:mod:`~vsw.synthesis.design.pin`): where the collocated optimum's active
   constraints are as many as its free parameters (the period's target of one free slope;
   the eigenvalue bound of the fastest gait), they alone fix it: Newton solves them again
-  on the periodic-orbit solver's gait, with no shooting NLP to build or solve.
+  on the periodic-orbit solver's gait, with no shooting NLP to build or solve; its last
+  solve, confirmed by a simulated step, is the gait (no second orbit solve).
 
 Conditions: each failure of a phase (falling back, falling forward, the stance foot lifting
 off, ...) as ``-direction * guard >= margin`` at every node and at each phase's end;
