@@ -113,7 +113,7 @@ def machine_fields() -> list[str]:
     import scipy
     import sympy
 
-    from vsw.runtime.vectorize import default_threads
+    from vsw.runtime.threads import default_threads
 
     cpu = platform.processor() or platform.machine()
     try:

@@ -216,3 +216,56 @@ def test_casadis_own_openblas_is_bounded_once_its_plugin_is_loaded():
     with limited(1, rescan=True):
         assert casadis() == [1]
     assert casadis() == own
+
+
+def _pool_sizes(setting: str, preset: dict[str, str]) -> dict:
+    """numpy's BLAS pool size and the BLAS variables, in a fresh process that sizes the pools
+    as the command line does (VSW_THREADS=``setting``, the variables ``preset``), then loads
+    numpy."""
+    child = textwrap.dedent(
+        """
+        import json, os
+        from vsw.runtime.threads import BLAS_VARIABLES, size_blas_pools
+
+        size_blas_pools()
+        import numpy  # noqa: F401
+        from threadpoolctl import threadpool_info
+
+        pools = [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
+        print(json.dumps({"pools": pools, **{v: os.environ.get(v) for v in BLAS_VARIABLES}}))
+        """
+    )
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}  # fmt: skip
+    env.update(VSW_THREADS=setting, PYTHONPATH=str(ROOT), **preset)
+    done = subprocess.run([sys.executable, "-c", child], cwd=ROOT, env=env,
+                          capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout)
+
+
+@pytest.mark.skipif(_usable_cores() < 2, reason="one usable core: every pool has one worker")
+def test_the_blas_pools_start_at_the_threads_the_process_is_told():
+    # Sized after numpy loads, its OpenBLAS would already have started a worker a core.
+    pytest.importorskip("threadpoolctl")
+    told = _pool_sizes("1", {})
+    assert told["pools"] and set(told["pools"]) == {1}
+    assert told["OPENBLAS_NUM_THREADS"] == told["OMP_NUM_THREADS"] == "1"
+    # A variable the user set is theirs; an invalid VSW_THREADS is left to the command,
+    # which rejects it in one line (default_threads), and sizes nothing.
+    assert _pool_sizes("1", {"OPENBLAS_NUM_THREADS": "2"})["OPENBLAS_NUM_THREADS"] == "2"
+    untold = _pool_sizes("many", {})
+    assert untold["OPENBLAS_NUM_THREADS"] is None and max(untold["pools"]) >= 2
+
+
+def test_the_command_line_sizes_the_pools_before_it_imports_numpy():
+    # vsw/__main__.py's order: the sizing must come before anything that loads numpy.
+    source = (ROOT / "vsw" / "__main__.py").read_text()
+    assert "size_blas_pools()" in source
+    assert source.index("size_blas_pools()") < source.index("from vsw.cli import main")
+    done = subprocess.run(
+        [sys.executable, "-c", "import sys, vsw.runtime.threads; print('numpy' in sys.modules)"],
+        cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)}, capture_output=True, text=True,
+        timeout=120,
+    )  # fmt: skip
+    assert done.stdout.strip() == "False", done.stderr

@@ -58,7 +58,7 @@ def test_thread_count_does_not_change_results():
 
 
 def test_vsw_threads_setting_is_checked(monkeypatch):
-    from vsw.runtime.vectorize import default_threads
+    from vsw.runtime.threads import default_threads
 
     monkeypatch.setenv("VSW_THREADS", "3")
     assert default_threads() == 3

@@ -29,6 +29,9 @@ def run() -> int:
     """The console script's entry point (``vsw.cli.main`` behind a start-up Ctrl-C)."""
     signal.signal(signal.SIGINT, _interrupted_while_starting)
     try:
+        from vsw.runtime.threads import size_blas_pools
+
+        size_blas_pools()  # before numpy loads its BLAS (vsw.runtime.threads)
         from vsw.cli import main
         from vsw.runtime import stop  # after the handler on purpose (module docstring)
     except BaseException:

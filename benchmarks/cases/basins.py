@@ -26,7 +26,7 @@ def case_basin_grid(side: int, reps: int) -> list[Row]:
 
     from vsw.dynamics.batch import simulator
     from vsw.models import load
-    from vsw.runtime.vectorize import default_threads
+    from vsw.runtime.threads import default_threads
     from vsw.studies.cluster import runner
     from vsw.studies.grid_basin import grid_basin
 
@@ -76,7 +76,7 @@ def _compass_gait_basin(side: int, reps: int) -> list[Row]:
     psi = -theta) around its stable gait at the defaults, over theta x theta_dot just
     after heelstrike (psi_dot the gait's), up to 50 steps a cell, in-process threads."""
     from vsw.models import load
-    from vsw.runtime.vectorize import default_threads
+    from vsw.runtime.threads import default_threads
     from vsw.studies.grid_basin import grid_basin
 
     m = load("compass_gait")

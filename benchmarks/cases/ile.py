@@ -14,7 +14,8 @@ from harness import Row, Timing, interleaved, peak_alloc_mb, timed
 
 import generated.ile as ile
 from vsw.models.ile.params import random_parameters
-from vsw.runtime.vectorize import chunked, default_threads
+from vsw.runtime.threads import default_threads
+from vsw.runtime.vectorize import chunked
 
 
 def parameter_arrays(n: int, seed: int, walking: bool) -> tuple[np.ndarray, ...]:

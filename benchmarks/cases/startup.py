@@ -18,7 +18,7 @@ from pathlib import Path
 from harness import ROOT, Row, Timing, _checkout, blas_threading, timed
 from pins import DERIVE_BEFORE
 
-from vsw.runtime.vectorize import default_threads
+from vsw.runtime.threads import default_threads
 
 DERIVE_MODEL_LIMIT = 4.0
 """Seconds within which each model derives alone, cold (case 7)."""

@@ -38,7 +38,7 @@ from vsw.cli.parser import (
 from vsw.runtime import blas, stop
 from vsw.runtime.errors import ConvergenceError, InfeasibleError, SlowRouteWarning, VswInputError
 from vsw.runtime.limits import max_memory, max_seconds
-from vsw.runtime.vectorize import default_threads
+from vsw.runtime.threads import default_threads
 
 __all__ = ["COMMANDS", "build_parser", "main"]
 

@@ -38,7 +38,7 @@ from vsw.plots.figures import check_save_path, save_figure
 from vsw.runtime import limits
 from vsw.runtime.errors import VswInputError
 from vsw.runtime.progress import reporting
-from vsw.runtime.vectorize import default_threads
+from vsw.runtime.threads import default_threads
 from vsw.studies.cluster import check_scheduler, runner
 from vsw.studies.grid_basin import basin_plot, check_grid_names, grid_basin
 

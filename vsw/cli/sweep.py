@@ -39,7 +39,7 @@ from vsw.plots.diagrams import bifurcation_plot, diagram_quantity, diagram_units
 from vsw.plots.figures import check_save_path, save_figure
 from vsw.runtime import limits, stop
 from vsw.runtime.errors import ConvergenceError, VswInputError
-from vsw.runtime.vectorize import default_threads
+from vsw.runtime.threads import default_threads
 from vsw.studies import sweeps
 
 __all__ = ["ATTRACTOR", "attractor_label", "register", "run"]

@@ -35,7 +35,8 @@ from vsw.dynamics.hybrid import ATOL, PHASE_TIME_LIMIT, RTOL, HybridModel, StepR
 from vsw.orbits import newton
 from vsw.runtime import blas, progress, stop
 from vsw.runtime.errors import ConvergenceError, SlowRouteWarning, VswInputError
-from vsw.runtime.vectorize import default_threads, run_blocks
+from vsw.runtime.threads import default_threads
+from vsw.runtime.vectorize import run_blocks
 
 __all__ = ["BatchResult", "BatchSimulator", "StepMap", "reference_walks", "simulator"]
 

@@ -64,7 +64,7 @@ from vsw.gaits import search_cache
 from vsw.orbits import newton
 from vsw.runtime import limits, stop
 from vsw.runtime.errors import ConvergenceError, VswInputError
-from vsw.runtime.vectorize import default_threads
+from vsw.runtime.threads import default_threads
 
 __all__ = [
     "DISTINCT",

@@ -21,12 +21,9 @@ from concurrent.futures import ThreadPoolExecutor, wait
 import numpy as np
 
 from vsw.runtime import blas, progress, stop
-from vsw.runtime.errors import VswInputError
+from vsw.runtime.threads import default_threads
 
 CHUNK = 16384
-
-MAX_THREADS = 256
-"""Largest accepted ``VSW_THREADS`` (more threads than blocks or cores only cost memory)."""
 
 
 def _raise_glibc_malloc_thresholds() -> None:
@@ -57,37 +54,6 @@ def _forget_pools_in_child() -> None:
 
 if hasattr(os, "register_at_fork"):
     os.register_at_fork(after_in_child=_forget_pools_in_child)
-
-
-def default_threads() -> int:
-    """Worker threads for block evaluation: ``VSW_THREADS`` if set, else the usable cores.
-
-    The one reading of ``VSW_THREADS``: every entry point that evaluates blockwise
-    (:func:`chunked`, ``vsw.models.ile.analysis.analyze``, ``vsw.models.ile.basin.basin``,
-    the CLI) calls it before any work, whatever the size of its input, so an invalid setting
-    is rejected the same way everywhere, not only by calls large enough to use threads.
-
-    Raises
-    ------
-    VswInputError
-        ``VSW_THREADS`` is set but not an integer from 1 to :data:`MAX_THREADS`.
-    """
-    setting = os.environ.get("VSW_THREADS", "")
-    if setting.strip():
-        try:
-            threads = int(setting)
-        except ValueError:
-            threads = 0
-        if not 1 <= threads <= MAX_THREADS:
-            raise VswInputError(
-                f"VSW_THREADS must be a positive integer (at most {MAX_THREADS}), got {setting!r}"
-            )
-        return threads
-    try:
-        cores = len(os.sched_getaffinity(0))
-    except (AttributeError, OSError):
-        cores = os.cpu_count() or 1
-    return max(1, min(cores, 16))
 
 
 def _executor(threads: int) -> ThreadPoolExecutor:

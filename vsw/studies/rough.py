@@ -45,7 +45,7 @@ from vsw.models.base import Model
 from vsw.plots import plotstyle
 from vsw.runtime import blas
 from vsw.runtime.errors import ConvergenceError, VswInputError
-from vsw.runtime.vectorize import default_threads
+from vsw.runtime.threads import default_threads
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

@@ -49,7 +49,7 @@ from vsw.gaits.search import free_components, section_states
 from vsw.models.base import Model
 from vsw.runtime import blas
 from vsw.runtime.errors import ConvergenceError, VswInputError
-from vsw.runtime.vectorize import default_threads
+from vsw.runtime.threads import default_threads
 from vsw.studies.rough import linearised_step, slope_index
 
 __all__ = [

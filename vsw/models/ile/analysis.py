@@ -16,7 +16,8 @@ import numpy as np
 from generated import ile
 from vsw.models.ile import kernels
 from vsw.models.ile.params import RobotScale, validate
-from vsw.runtime.vectorize import CHUNK, default_threads, run_blocks
+from vsw.runtime.threads import default_threads
+from vsw.runtime.vectorize import CHUNK, run_blocks
 
 __all__ = [
     "FIELDS",

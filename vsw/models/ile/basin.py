@@ -24,7 +24,8 @@ from vsw.models.ile.params import check_parameter
 from vsw.models.ile.simulate import simulate, simulate_cost
 from vsw.runtime import limits
 from vsw.runtime.errors import VswInputError
-from vsw.runtime.vectorize import CHUNK, default_threads, run_blocks
+from vsw.runtime.threads import default_threads
+from vsw.runtime.vectorize import CHUNK, run_blocks
 
 __all__ = [
     "Basin",
@@ -257,7 +258,7 @@ def basin_cost(
         Grid size.
     max_steps, refine : as for :func:`basin`
     threads : int, optional
-        Default :func:`vsw.runtime.vectorize.default_threads`.
+        Default :func:`vsw.runtime.threads.default_threads`.
 
     Returns
     -------

@@ -31,7 +31,8 @@ import numpy as np
 import generated
 from generated import ile
 from vsw.dynamics.compiled import build_library
-from vsw.runtime.vectorize import CHUNK, chunked, default_threads, run_blocks
+from vsw.runtime.threads import default_threads
+from vsw.runtime.vectorize import CHUNK, chunked, run_blocks
 
 SOURCE = Path(generated.__file__).resolve().parent / "ile" / "c" / "ile_batch.c"
 N_OUTPUTS = 2 + len(ile.CONDITIONS)
@@ -87,7 +88,7 @@ def fixed_point_conditions(
     beta, theta_II, phi0 : float or array_like
         Broadcastable parameters (radians), shape ``S`` after broadcasting.
     threads : int, optional
-        Blocks in parallel; default :func:`vsw.runtime.vectorize.default_threads`.
+        Blocks in parallel; default :func:`vsw.runtime.threads.default_threads`.
 
     Returns
     -------

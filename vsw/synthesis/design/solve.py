@@ -25,7 +25,7 @@ from vsw.dynamics.quantities import weight as walker_weight
 from vsw.orbits.shooting import phase_pieces
 from vsw.runtime import blas, forked, stop
 from vsw.runtime.errors import ConvergenceError, VswInputError
-from vsw.runtime.vectorize import default_threads
+from vsw.runtime.threads import default_threads
 from vsw.synthesis.design import collocation, pin
 from vsw.synthesis.design.nlp import impact_events, kinetic_loss
 from vsw.synthesis.design.problem import Problem, margin_floor
