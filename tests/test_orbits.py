@@ -118,6 +118,8 @@ def test_a_given_solve_is_confirmed_as_periodic_orbit_confirms_its_own(long_gait
     backwards = dataclasses.replace(solved, u=np.concatenate([solved.u[:-1], [-1.0]]))
     with pytest.raises(ConvergenceError, match="duration is not positive"):
         model.confirmed_orbit(params, problem, backwards)
+    with pytest.raises(ValueError, match="period-one orbit problem of this model"):
+        model.confirmed_orbit(params, OrbitProblem(model, period=2), solved)
 
 
 def _saltation_product(model, params, problem, u):

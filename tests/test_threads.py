@@ -251,9 +251,13 @@ def test_the_blas_pools_start_at_the_threads_the_process_is_told():
     told = _pool_sizes("1", {})
     assert told["pools"] and set(told["pools"]) == {1}
     assert told["OPENBLAS_NUM_THREADS"] == told["OMP_NUM_THREADS"] == "1"
-    # A variable the user set is theirs; an invalid VSW_THREADS is left to the command,
-    # which rejects it in one line (default_threads), and sizes nothing.
+    # A variable the user set is theirs, and so are the others: OpenBLAS reads its own
+    # before OMP_NUM_THREADS, so setting it would override the user's OMP_NUM_THREADS.
     assert _pool_sizes("1", {"OPENBLAS_NUM_THREADS": "2"})["OPENBLAS_NUM_THREADS"] == "2"
+    theirs = _pool_sizes("2", {"OMP_NUM_THREADS": "1"})
+    assert theirs["OPENBLAS_NUM_THREADS"] is None and set(theirs["pools"]) == {1}
+    # An invalid VSW_THREADS is left to the command, which rejects it in one line
+    # (default_threads), and sizes nothing.
     untold = _pool_sizes("many", {})
     assert untold["OPENBLAS_NUM_THREADS"] is None and max(untold["pools"]) >= 2
 

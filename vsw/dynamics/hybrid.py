@@ -600,7 +600,12 @@ class HybridModel:
         checks of :meth:`periodic_orbit`: converged, every duration positive, its
         eigenvalues defined, and the simulated step from it back on it
         (:class:`ConvergenceError` otherwise). For a caller whose own Newton already solved
-        the orbit at these parameters (the design's pin): no second solve."""
+        the orbit at these parameters (the design's pin): no second solve. ``solved`` must
+        be ``problem.solve(params, ...)``, which nothing here can check; ``problem`` must be
+        this model's, of period one (ValueError otherwise)."""
+        if problem.model is not self or problem.period != 1:
+            raise ValueError(f"{self.name}: confirmed_orbit takes a period-one orbit problem "
+                             "of this model")  # fmt: skip
         n = 2 * self.n
         if solved.error is not None and not solved.converged:
             raise _solver_failed(self.name, solved.error)

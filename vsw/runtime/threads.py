@@ -24,9 +24,10 @@ def default_threads() -> int:
     """Worker threads for block evaluation: ``VSW_THREADS`` if set, else the usable cores.
 
     The one reading of ``VSW_THREADS``: every entry point that evaluates blockwise
-    (:func:`chunked`, ``vsw.models.ile.analysis.analyze``, ``vsw.models.ile.basin.basin``,
-    the CLI) calls it before any work, whatever the size of its input, so an invalid setting
-    is rejected the same way everywhere, not only by calls large enough to use threads.
+    (``vsw.runtime.vectorize.chunked``, ``vsw.models.ile.analysis.analyze``,
+    ``vsw.models.ile.basin.basin``, the CLI) calls it before any work, whatever the size
+    of its input, so an invalid setting is rejected the same way everywhere, not only by
+    calls large enough to use threads.
 
     Raises
     ------
@@ -52,8 +53,8 @@ def default_threads() -> int:
 
 
 def size_blas_pools() -> None:
-    """Where ``VSW_THREADS`` is set, each of :data:`BLAS_VARIABLES` not set defaults to it,
-    so the pools start at that size. A bound set once a BLAS has loaded
+    """Where ``VSW_THREADS`` is set and none of :data:`BLAS_VARIABLES` is, each of them is
+    set to it, so the pools start at that size. A bound set once a BLAS has loaded
     (:func:`vsw.runtime.blas.limited`) keeps later calls to it, but the workers the pool
     made when it loaded have already run: numpy's OpenBLAS keeps one a core busy while it
     starts, a second core's worth of time billed by every command told ``VSW_THREADS=1``.
@@ -61,6 +62,8 @@ def size_blas_pools() -> None:
     which each command calls first and which rejects it in one line."""
     if not os.environ.get("VSW_THREADS", "").strip():
         return
+    if any(name in os.environ for name in BLAS_VARIABLES):
+        return  # the user's: OpenBLAS reads its own variable before OMP_NUM_THREADS
     try:
         threads = default_threads()
     except VswInputError:
