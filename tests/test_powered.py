@@ -53,7 +53,7 @@ def test_no_target_needs_no_torque_and_finds_the_passive_gait(compass):
     assert gait.period == pytest.approx(stable.period, rel=1e-7)
     ours = sorted(abs(e) for e in gait.extra["eigenvalues"])
     theirs = sorted(abs(e) for e in stable.eigenvalues)
-    assert np.allclose(ours, theirs, atol=1e-5)
+    assert np.allclose(ours, theirs, atol=1e-6)  # 4.5e-8 measured
 
 
 def test_every_passive_gait_is_a_gait_of_the_nlp_at_its_own_targets(compass):
@@ -156,8 +156,8 @@ def test_the_most_stable_gait_at_the_passive_speed_is_more_stable_than_the_passi
     (vsw.synthesis.powered.powered_step_jacobian), to the mesh's error: 0.42 % of its largest entry
     measured (asserted 1 %). The radius is the dominant pair's, a double root where it is
     least (the two eigenvalues meet), so it moves as the square root of an error in the
-    matrix: 1.1 % from the differences' radius measured, asserted 2 % (0.25 % in an
-    earlier run whose gait, equally least, differed in its torque). The regularisation's
+    matrix: 0.33 % from the differences' radius measured, asserted 2 % (1.1 % and 0.25 %
+    in earlier runs whose gaits, equally least, differed in their torque). The regularisation's
     share of the objective is reported: at most 5 % (4 % measured: the first stage's
     squared torque, by which it is scaled, is almost zero at a passive gait's speed)."""
     from vsw.synthesis.powered import powered_step_jacobian
@@ -172,7 +172,10 @@ def test_the_most_stable_gait_at_the_passive_speed_is_more_stable_than_the_passi
     assert np.max(np.abs(collocated - found)) <= 1e-2 * np.max(np.abs(found))
     differences = max(abs(np.linalg.eigvals(found)))
     assert gait.cost == pytest.approx(differences, rel=2e-2)
-    assert max(abs(e) for e in gait.extra["eigenvalues"]) == pytest.approx(differences)
+    # The reported radius (differences at 5e-4 and 1e-3, extrapolated) is the collocated
+    # one to the mesh's error: 1.1e-5 measured, where the plain differences at 1e-6 above
+    # are 0.33 % off (the double root magnifies the step's noise over a small step).
+    assert max(abs(e) for e in gait.extra["eigenvalues"]) == pytest.approx(gait.cost, rel=1e-3)
     assert gait.extra["radius_unknown"] == pytest.approx(gait.cost, rel=1e-6)
     assert 0 < gait.extra["objective"] - gait.extra["radius_unknown"] <= 0.05 * gait.cost
     assert gait.speed == pytest.approx(stable.speed, rel=1e-9)
