@@ -152,14 +152,15 @@ def test_the_most_stable_gait_at_the_passive_speed_is_more_stable_than_the_passi
     projection and the reset's Jacobian at heelstrike), minimised with the hip torque
     free, is below the passive gait's own (0.580: the passive gait is one of the gaits
     allowed, at zero torque). The collocated step map's Jacobian is the open-loop step
-    map's found independently, by central differences of the re-simulated step
-    (vsw.synthesis.powered.powered_step_jacobian), to the mesh's error: 0.42 % of its largest entry
-    measured (asserted 1 %). The radius is the dominant pair's, a double root where it is
-    least (the two eigenvalues meet), so it moves as the square root of an error in the
-    matrix: 0.33 % from the differences' radius measured, asserted 2 % (1.1 % and 0.25 %
-    in earlier runs whose gaits, equally least, differed in their torque). The regularisation's
-    share of the objective is reported: at most 5 % (4 % measured: the first stage's
-    squared torque, by which it is scaled, is almost zero at a passive gait's speed)."""
+    map's found independently, by central differences of the simulated step at 5e-4 and
+    1e-3 extrapolated (vsw.synthesis.powered.powered_step_jacobian), to the mesh's error:
+    2.5e-5 of its largest entry measured (asserted 1e-3; plain differences at 1e-6 are
+    0.11 % off). The radius is the dominant pair's, a double root where it is least (the
+    two eigenvalues meet), so it moves as the square root of an error in the matrix: the
+    reported radius (the same extrapolation) is the collocated one's to 1.1e-5 measured,
+    asserted 1e-3 (plain differences at 1e-6 give 0.33 %). The regularisation's share of
+    the objective is reported: at most 5 % (4 % measured: the first stage's squared torque,
+    by which it is scaled, is almost zero at a passive gait's speed)."""
     from vsw.synthesis.powered import powered_step_jacobian
 
     model, params, stable = compass
@@ -168,13 +169,11 @@ def test_the_most_stable_gait_at_the_passive_speed_is_more_stable_than_the_passi
     assert gait.status in ("optimal", "not-converged"), gait.reason
     assert gait.cost < 0.95 * passive
     collocated = np.asarray(gait.extra["step_jacobian"])
-    found = powered_step_jacobian(model, gait.parameters, gait, gait.states[0][0])
-    assert np.max(np.abs(collocated - found)) <= 1e-2 * np.max(np.abs(found))
-    differences = max(abs(np.linalg.eigvals(found)))
-    assert gait.cost == pytest.approx(differences, rel=2e-2)
-    # The reported radius (differences at 5e-4 and 1e-3, extrapolated) is the collocated
-    # one to the mesh's error: 1.1e-5 measured, where the plain differences at 1e-6 above
-    # are 0.33 % off (the double root magnifies the step's noise over a small step).
+    fine, coarse = (powered_step_jacobian(model, gait.parameters, gait, gait.states[0][0], h)
+                    for h in (5e-4, 1e-3))  # fmt: skip
+    found = (4 * fine - coarse) / 3
+    assert np.max(np.abs(collocated - found)) <= 1e-3 * np.max(np.abs(found))
+    assert gait.cost == pytest.approx(max(abs(np.linalg.eigvals(found))), rel=1e-3)
     assert max(abs(e) for e in gait.extra["eigenvalues"]) == pytest.approx(gait.cost, rel=1e-3)
     assert gait.extra["radius_unknown"] == pytest.approx(gait.cost, rel=1e-6)
     assert 0 < gait.extra["objective"] - gait.extra["radius_unknown"] <= 0.05 * gait.cost
@@ -367,3 +366,32 @@ def test_the_best_start_is_optimal_before_it_is_cheap():
                        judged("not-converged", 0.9)]) == 1  # fmt: skip
     assert best_start([judged("optimal", 1.0), None, judged("optimal", 1.0)]) == 0
     assert best_start([judged("optimal", 1.0), judged("optimal", 0.5)]) == 1
+
+
+def test_the_open_loop_eigenvalues_are_extrapolated_differences_of_the_step(monkeypatch):
+    """powered_eigenvalues on a map whose Jacobian is known: the plain differences carry
+    the cubic term's O(h^2) error, the extrapolation none (exact for a cubic); a map that
+    jumps between the two steps (another event counting) gives no eigenvalues."""
+    from vsw.runtime.errors import ConvergenceError
+    from vsw.synthesis.powered import step
+
+    matrix = np.array([[0.5, 2.0, 0.0], [-1.0, 0.3, 0.1], [0.0, 0.0, 1.2]])
+    x = np.array([0.3, -1.5, 2.0])
+    model, gait = types.SimpleNamespace(name="stub"), types.SimpleNamespace(states=[[x]])
+
+    def smooth(model, params, gait, y):
+        return matrix @ y + 0.1 * y**3
+
+    monkeypatch.setattr(step, "powered_step", smooth)
+    exact = matrix + np.diag(0.3 * x**2)
+    plain = step.powered_step_jacobian(model, (), gait, x, step.EIGENVALUE_STEP)
+    assert 1e-8 < np.max(np.abs(plain - exact)) < 1e-5
+    found = sorted(abs(v) for v in step.powered_eigenvalues(model, (), gait))
+    assert found == pytest.approx(sorted(abs(np.linalg.eigvals(exact))), rel=1e-9)
+
+    def jumping(model, params, gait, y):  # a jump past the finer step, inside the coarser
+        return smooth(model, params, gait, y) + float(y[0] > x[0] + 1.5 * step.EIGENVALUE_STEP)
+
+    monkeypatch.setattr(step, "powered_step", jumping)
+    with pytest.raises(ConvergenceError, match="not smooth at the gait"):
+        step.powered_eigenvalues(model, (), gait)

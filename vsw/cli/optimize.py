@@ -460,6 +460,8 @@ def _write_text(model, params, request: powered.Request, gait: powered.PoweredGa
     out.write(f"re-simulation      {fmt(gait.resimulation_error)} (relative), guard at the end "
               f"{fmt(gait.guard_at_end)}{along}\n")  # fmt: skip
     eigenvalues = gait.extra.get("eigenvalues")
+    if gait.extra.get("eigenvalues_note"):
+        out.write(f"open-loop map      not computed: {gait.extra['eigenvalues_note']}\n")
     if eigenvalues:
         out.write(f"open-loop map      max |eigenvalue| {fmt(abs(eigenvalues[0]))} ("
                   + ("stable" if abs(eigenvalues[0]) < 1 else "unstable") + ")\n")  # fmt: skip

@@ -249,6 +249,10 @@ def _differences(model: HybridModel, params: Sequence[float], gait: PoweredGait,
 EIGENVALUE_STEP = 5e-4
 """The step of :func:`powered_eigenvalues`' differences, of max(1, |x_j|)."""
 
+SMOOTH_MAP = 1e-2
+"""The largest difference between the radii of :func:`powered_eigenvalues`' coarser
+differences and its extrapolation, of max(1, radius), of a map smooth at that scale."""
+
 
 def powered_eigenvalues(model: HybridModel, params: Sequence[float],
                         gait: PoweredGait) -> list[complex]:  # fmt: skip
@@ -258,9 +262,21 @@ def powered_eigenvalues(model: HybridModel, params: Sequence[float],
     (:data:`EIGENVALUE_STEP`) combined by Richardson's extrapolation, ``(4 J(h) - J(2 h)) /
     3``, exact to O(h^4). A smaller step buys nothing: the simulated step's own error, a
     few 1e-9 on an unstable gait, divided by the step, is what limits it. (The compass
-    gait's least-torque gait at 0.8 m/s: 1.34415 by differences at 1e-6, 1.341484 here,
-    and 1.34148 to 1.34149 by every extrapolated step from 2.5e-4 to 1e-3.)"""
+    gait's least-torque gait at 0.8 m/s: 1.341484 here, 1.34148 to 1.34149 by every
+    extrapolated step from 2.5e-4 to 1e-3, and 1.344 by plain differences at 1e-6.)
+    ConvergenceError where the coarser differences' radius and the extrapolation's differ
+    by more than :data:`SMOOTH_MAP`."""
     x = gait.states[0][0]
     fine, coarse = _differences(model, params, gait, x, (EIGENVALUE_STEP, 2 * EIGENVALUE_STEP))
     values = np.linalg.eigvals((4 * fine - coarse) / 3)
+    # A perturbation that changes the step's events (another crossing counts, a short
+    # phase skipped) makes the map rough at this scale: the differences then disagree by
+    # far more than their O(h^2) (a few 1e-4 of the radius on the walkers measured).
+    radius, rough = float(np.max(np.abs(values))), float(np.max(np.abs(np.linalg.eigvals(coarse))))
+    if not abs(rough - radius) <= SMOOTH_MAP * max(1.0, radius):
+        raise ConvergenceError(
+            f"{model.name}: the open-loop map is not smooth at the gait (max |eigenvalue| "
+            f"{rough:.4g} by differences at {2 * EIGENVALUE_STEP:g}, {radius:.4g} "
+            "extrapolated): no eigenvalues"
+        )
     return sorted((complex(v) for v in values), key=lambda v: -abs(v))
