@@ -34,6 +34,23 @@ def test_the_work_is_shared_among_processes():
     assert parent in pids and len(pids) == 2
 
 
+def _inner_pids(x):
+    return x, os.getpid(), {pid for _, pid in split_map(_square_and_pid, [1, 2, 3], 2)}
+
+
+@linux
+def test_an_item_that_splits_again_runs_its_items_in_its_own_process():
+    # A child's own children would outlive a stop: inside a child the inner call is a loop
+    # (the caller's items may still fork, the caller being no child).
+    got = split_map(_inner_pids, list(range(4)), 2)
+    assert [x for x, _, _ in got] == list(range(4))
+    parent = os.getpid()
+    for _, pid, inner in got:
+        if pid != parent:
+            assert inner == {pid}
+    assert any(pid != parent for _, pid, _ in got)
+
+
 @linux
 def test_a_crashing_childs_items_run_in_the_caller():
     parent = os.getpid()

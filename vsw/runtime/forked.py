@@ -11,9 +11,10 @@ the outcome a loop gives. Where a child fails (a crash, an error, no result), th
 took are run again in the calling process: a failed child costs the time it ran, never a
 result.
 
-Serial (a plain loop) where there is one worker or one item, where the platform has no
-``fork`` (or is not Linux: forking a process with threads is unsafe on macOS), off the
-main thread, or for more items than the pipe holds at once. Ctrl-C and the run-time limit
+Serial (a plain loop) where there is one worker or one item, inside a child of
+``split_map`` (an item that calls it again), where the platform has no ``fork`` (or is
+not Linux: forking a process with threads is unsafe on macOS), off the main thread, or for
+more items than the pipe holds at once. Ctrl-C and the run-time limit
 (:mod:`vsw.runtime.stop`) reach the calling process, which kills its children before the
 stop propagates (a child ignores SIGINT, and timers do not survive a fork); a child never
 runs the parent's exit handlers (it leaves by ``os._exit``).
@@ -37,6 +38,7 @@ __all__ = ["split_map"]
 _INDEX = struct.Struct("<I")
 _STOPS = {signal.SIGINT, signal.SIGALRM}  # Ctrl-C and the run-time limit (vsw.runtime.stop)
 _MAX_ITEMS = 1024  # 4 KiB of indices: written before any reader, within a pipe's buffer
+_in_child = False  # whether this process is a child of split_map
 
 
 def split_map(function: Callable[[Any], Any], items: Sequence[Any], workers: int,
@@ -78,7 +80,9 @@ def split_map(function: Callable[[Any], Any], items: Sequence[Any], workers: int
 
 
 def _can_fork() -> bool:
-    return (sys.platform.startswith("linux") and hasattr(os, "fork")
+    # Not from a child: its own children would outlive a stop (it ignores SIGINT and is
+    # killed without cleanup), and the cores are busy already.
+    return (not _in_child and sys.platform.startswith("linux") and hasattr(os, "fork")
             and threading.current_thread() is threading.main_thread())  # fmt: skip
 
 
@@ -93,6 +97,8 @@ def _spawn(function: Callable, items: Sequence, tasks: int) -> tuple[int, int]:
     results_in, results_out = os.pipe()
     pid = os.fork()
     if pid == 0:  # the child: its items, pickled to its pipe, then out without cleanup
+        global _in_child
+        _in_child = True
         code = 1
         try:
             os.close(results_in)
