@@ -69,4 +69,4 @@ def size_blas_pools() -> None:
     except VswInputError:
         return
     for name in BLAS_VARIABLES:
-        os.environ.setdefault(name, str(threads))
+        os.environ[name] = str(threads)
