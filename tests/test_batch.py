@@ -208,6 +208,61 @@ def test_step_with_each_phase_duration_equals_scipys(gaits, name):
     assert compared["completed"] >= 5 and compared["fell"] >= 1, compared
 
 
+@pytest.mark.parametrize("name", [*MODELS[:4], "kneed_walker"])
+def test_a_sampled_step_is_the_scipy_routes_samples(gaits, name):
+    """`sampled_step` (the samples every gait's conditions are read on) against the SciPy
+    route's `simulate` of one step at the same largest step: the same number of samples in
+    the same phases (each phase's start, each accepted step, each event twice: the
+    simplest walker's scuff at the start and the kneed walker's knee lock among them), the
+    times and states within 1e-9, the same end; from each gait, starts around it, one that
+    falls back, and at a largest step that takes more samples than the first try has room
+    for."""
+    if name == "kneed_walker":
+        model = load(name)
+        params = model.parameters()
+        orbits = model.fixed_points(params)
+    else:
+        model, params, orbits = gaits[name]
+    sim = simulator(load(name))
+    assert sim.library() is not None, sim.build_error
+    rng = np.random.default_rng(31)
+    names = (*model.coordinates, *model.rates)
+    ended = Counter()
+    for orbit in orbits[:2]:
+        state = np.array([orbit.state[k] for k in names])
+        slow = state.copy()
+        slow[model.n :] *= 0.05  # too slow to pass mid-stance: it falls back
+        starts = [state, slow, *(state * (1 + 0.02 * rng.standard_normal((4, len(state)))))]
+        for start, fraction in [*((s, 400) for s in starts), (state, 3000)]:
+            max_step = orbit.period / fraction
+            ours = sim.sampled_step(params, start, max_step)
+            ref = model.simulate(params, start, 1, max_step=max_step)
+            assert (ours.ended, ours.steps_completed) == (ref.ended, ref.steps_completed)
+            assert np.array_equal(ours.phase, ref.phase), (len(ours.phase), len(ref.phase))
+            assert np.max(np.abs(ours.t - ref.t)) <= STATE_TOL
+            scale = np.maximum(1.0, np.abs(ref.states))
+            assert np.max(np.abs(ours.states - ref.states) / scale) <= STATE_TOL
+            assert np.max(np.abs(ours.section - ref.section)) <= STATE_TOL
+            ended[ours.ended == "completed"] += 1
+            if fraction == 3000:
+                assert len(ours.t) > 3000  # past the first try's room
+    assert ended[True] >= 5 and ended[False] >= 1, ended
+    if name in ("simplest_walker", "vsw_biped", "kneed_walker"):
+        # an event point twice inside the step: a scuff's restart, a phase's change
+        assert np.any(np.diff(ref.t[:-2]) == 0)
+
+
+def test_a_sampled_step_without_a_compiler_is_scipys(gaits, monkeypatch):
+    model, params, orbits = gaits["compass_gait"]
+    state = np.array([orbits[0].state[k] for k in (*model.coordinates, *model.rates)])
+    monkeypatch.setenv("VSW_KERNELS", "0")
+    from vsw.dynamics.batch import BatchSimulator
+
+    ours = BatchSimulator(model).sampled_step(params, state, 0.01)
+    ref = model.simulate(params, state, 1, max_step=0.01)
+    assert np.array_equal(ours.states, ref.states) and np.array_equal(ours.t, ref.t)
+
+
 @pytest.mark.parametrize("name", ["simplest_walker", "compass_gait", "vsw_biped", "rimless_wheel"])
 def test_batch_fixed_point_equals_the_rootfinders(gaits, name):
     model, params, orbits = gaits[name]

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from vsw.dynamics.compiled import build_library
-from vsw.dynamics.hybrid import ATOL, PHASE_TIME_LIMIT, RTOL, HybridModel, StepResult
+from vsw.dynamics.hybrid import ATOL, PHASE_TIME_LIMIT, RTOL, HybridModel, StepResult, Trajectory
 from vsw.orbits import newton
 from vsw.runtime import blas, progress, stop
 from vsw.runtime.errors import ConvergenceError, SlowRouteWarning, VswInputError
@@ -449,11 +449,7 @@ class BatchSimulator:
         if lib is None:
             return self.model.step(tuple(float(v) for v in params), np.asarray(state, float))
         step = _bound_step_phases(lib)
-        p = np.ascontiguousarray(params, dtype=float)
-        x = np.array(state, dtype=float)
-        if p.shape != (self.np,) or x.shape != (self.nx,):
-            raise VswInputError(f"{self.model.name}: {self.np} parameters and a state of "
-                                f"{self.nx} components, got {p.shape} and {x.shape}")  # fmt: skip
+        p, x = self._checked(params, state)
         options = np.array([RTOL, ATOL, PHASE_TIME_LIMIT])
         durations = np.zeros(len(self.model.phases) + 1)
         visits, failure, length = ctypes.c_int(0), ctypes.c_int(0), ctypes.c_double(0.0)
@@ -467,6 +463,50 @@ class BatchSimulator:
             return StepResult(x, "stalled", taken)
         walked = length.value if math.isfinite(length.value) else None
         return StepResult(x, "completed", taken, walked)
+
+    def sampled_step(self, params: Sequence[float], state: Sequence[float],
+                     max_step: float) -> Trajectory:  # fmt: skip
+        """One step from the section state ``state``, sampled as
+        :meth:`vsw.dynamics.hybrid.HybridModel.simulate` samples it (each phase's start, each
+        accepted step of the integrator, at most ``max_step`` long, and each event's point
+        twice), by the compiled integrator: the same samples to rounding, the SciPy route's
+        rules at its tolerance. The SciPy route itself when the simulator cannot be built."""
+        lib = self.library()
+        if lib is None:
+            return self.model.simulate(params, np.asarray(state, float), 1, max_step=max_step)
+        sample = _bound_sample_step(lib)
+        p, x = self._checked(params, state)
+        start = x.copy()
+        options = np.array([RTOL, ATOL, PHASE_TIME_LIMIT, max_step])
+        failure, count = ctypes.c_int(0), ctypes.c_longlong(0)
+        capacity = 1024  # a step of :data:`vsw.dynamics.conditions.SAMPLES` takes about 420
+        for _ in range(2):  # again, with room for every sample, where the first had too little
+            x = start.copy()
+            t = np.empty(capacity)
+            xs = np.empty((capacity, self.nx))
+            phases = np.empty(capacity, dtype=np.int32)
+            code = sample(p, x, options, capacity, t, xs, phases, ctypes.byref(count),
+                          ctypes.byref(failure))  # fmt: skip
+            if count.value <= capacity:
+                break
+            capacity = count.value
+        stop.check()
+        n = count.value
+        ended = ("completed" if code == WALKED
+                 else self.failures[failure.value] if code == FELL else "stalled")  # fmt: skip
+        section = np.array([start, x] if code == WALKED else [start])
+        return Trajectory(t[:n].copy(), xs[:n].copy(), phases[:n].astype(int), section, ended,
+                          int(code == WALKED))  # fmt: skip
+
+    def _checked(self, params: Sequence[float], state: Sequence[float]
+                 ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+        """``params`` and ``state`` as the contiguous arrays of one walk, their sizes checked."""
+        p = np.ascontiguousarray(params, dtype=float)
+        x = np.array(state, dtype=float)
+        if p.shape != (self.np,) or x.shape != (self.nx,):
+            raise VswInputError(f"{self.model.name}: {self.np} parameters and a state of "
+                                f"{self.nx} components, got {p.shape} and {x.shape}")  # fmt: skip
+        return p, x
 
     def fixed_point(
         self, params: Sequence[float], guess: Sequence[float], tol: float = 1e-12,
@@ -630,6 +670,20 @@ def _bound_step_phases(lib: ctypes.CDLL):
         fn.restype = ctypes.c_int
         fn.argtypes = [dbl, dbl, dbl, dbl, pointer(ctypes.c_int), pointer(ctypes.c_int),
                        pointer(ctypes.c_double)]  # fmt: skip
+    return fn
+
+
+def _bound_sample_step(lib: ctypes.CDLL):
+    """The library's ``vsw_batch_sample_step`` with its argument types (as
+    :func:`_bound_step_phases`)."""
+    fn = lib.vsw_batch_sample_step
+    if fn.argtypes is None:
+        dbl = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
+        i32 = np.ctypeslib.ndpointer(dtype=np.int32, flags="C_CONTIGUOUS")
+        pointer = ctypes.POINTER
+        fn.restype = ctypes.c_int
+        fn.argtypes = [dbl, dbl, dbl, ctypes.c_longlong, dbl, dbl, i32,
+                       pointer(ctypes.c_longlong), pointer(ctypes.c_int)]  # fmt: skip
     return fn
 
 

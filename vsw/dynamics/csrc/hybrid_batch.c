@@ -44,7 +44,18 @@
 
 typedef struct {
     double rtol, atol, phase_time_limit;
+    double max_step; /* the largest RK step (SciPy's max_step; INFINITY: unbounded) */
 } vsw_tolerances;
+
+/* The states a walk passes through, as SciPy's route samples them (HybridModel.simulate):
+   each phase's start, each accepted RK step's end and each event's point twice (the
+   solver's last point, then the event's). Samples past the capacity are counted, not
+   written: the caller tries again with room for `count`. */
+typedef struct {
+    double *t, *x;
+    int *phase;
+    long long capacity, count;
+} vsw_samples;
 
 /* Set from another thread when the run stops (Ctrl-C, the run-time limit: vsw/runtime/stop.py):
    every walk in progress ends as stalled at its next integrator step and none goes on,
@@ -288,7 +299,7 @@ VSW_EXPORT void vsw_batch_rk_cost(int phase, const double *params, const double 
 {
     const long long groups = n / VSW_LANES;
     const int all = (1 << VSW_LANES) - 1;
-    const vsw_tolerances tol = {1e-10, 1e-10, INFINITY};
+    const vsw_tolerances tol = {1e-10, 1e-10, INFINITY, INFINITY};
     double c[VSW_NC > 0 ? VSW_NC : 1];
     vsw_constants(params, c);
     vsw_lanes cl[VSW_NC > 0 ? VSW_NC : 1], y[VSW_NX], f0[VSW_NX], y_new[VSW_NX], err;
@@ -337,7 +348,7 @@ static double vsw_initial_step(int phase, const double *p, const double *y, cons
     else
         h1 = vsw_eighth_root(0.01 / vsw_fmax(d1, d2));
     double h = vsw_fmin(100.0 * h0, h1);
-    return vsw_fmin(h, tol->phase_time_limit);
+    return vsw_fmin(vsw_fmin(h, tol->phase_time_limit), tol->max_step);
 }
 
 static int vsw_crossed(double g0, double g1, int direction)
@@ -470,6 +481,7 @@ typedef struct {
     long long walked;
     double history[VSW_MAX_PERIOD][VSW_NX];
     double target_scale;
+    vsw_samples *samples; /* where the walk's states are sampled, or NULL */
 } vsw_lane;
 
 /* The batch: its inputs, outputs and the next walk to start (see vsw_batch_simulate). */
@@ -486,7 +498,21 @@ typedef struct {
     double *final, *kept_states, *kept_lengths, *kept_durations;
     double *visit_durations; /* each phase visit's duration of walk 0's first step, or NULL */
     int *visits;
+    vsw_samples *samples; /* walk 0's states sampled, or NULL */
 } vsw_batch;
+
+/* The lane's state y at its walk's time, as a sample (where the walk is sampled). */
+static void vsw_sample(vsw_lane *ln, const double *y)
+{
+    vsw_samples *s = ln->samples;
+    if (s == NULL) return;
+    if (s->count < s->capacity) {
+        s->t[s->count] = ln->duration + ln->time;
+        memcpy(s->x + s->count * VSW_NX, y, sizeof(double) * VSW_NX);
+        s->phase[s->count] = ln->phase;
+    }
+    ++s->count;
+}
 
 /* Before each RK step of the pass (the first, and again after each rejection). */
 static int vsw_lane_try(const vsw_tolerances *tol, vsw_lane *ln)
@@ -505,7 +531,10 @@ static int vsw_lane_top(const vsw_tolerances *tol, vsw_lane *ln)
         || vsw_stop_requested)
         return VSW_PHASE_STALLED;
     ln->min_step = 10.0 * vsw_ulp_above(ln->time);
-    if (ln->h < ln->min_step) ln->h = ln->min_step;
+    if (ln->h > tol->max_step)
+        ln->h = tol->max_step;
+    else if (ln->h < ln->min_step)
+        ln->h = ln->min_step;
     return vsw_lane_try(tol, ln);
 }
 
@@ -525,6 +554,7 @@ static int vsw_lane_phase_start(const vsw_tolerances *tol, vsw_lane *ln)
     VSW_WATCH(ln->phase, ln->constants, ln->y, ln->g0);
     ln->time = 0.0;
     ln->restart = 0;
+    vsw_sample(ln, ln->y);
     for (int k = 0; k < vsw_n_watch[ln->phase]; ++k)
         if (vsw_watch_what[ln->phase][k] < 0
             && ln->g0[k] * vsw_watch_direction[ln->phase][k] > 0.0)
@@ -574,6 +604,8 @@ static int vsw_lane_stepped(const vsw_tolerances *tol, vsw_lane *ln, int l, doub
         const int what = vsw_watch_what[phase][hit];
         ln->time += first;
         memcpy(ln->y, y_first, sizeof(double) * VSW_NX);
+        vsw_sample(ln, ln->y); /* the solver's last point, */
+        vsw_sample(ln, ln->y); /* then the event's */
         double when;
         if (what >= 0 && vsw_when(what, p, ln->y, &when) && when <= 0.0) {
             /* not this one: go on just past it (NaN counts), with a fresh start */
@@ -589,6 +621,7 @@ static int vsw_lane_stepped(const vsw_tolerances *tol, vsw_lane *ln, int l, doub
     }
     ln->time += ln->h;
     memcpy(ln->y, y_new, sizeof(double) * VSW_NX);
+    vsw_sample(ln, ln->y);
     for (int i = 0; i < VSW_NX; ++i) ln->f0[i] = K[VSW_RK_STAGES][i][l];
     memcpy(ln->g0, g1, sizeof(double) * n_watch);
     ln->h *= factor;
@@ -729,6 +762,7 @@ static int vsw_lane_load(vsw_batch *b, vsw_lane *ln)
         const long long i = b->next++;
         ln->walk = i;
         ln->walked = 0;
+        ln->samples = i == 0 ? b->samples : NULL;
         /* The model's functions take its constants, computed here from the parameters
            once a walk (the table's vsw_constants). */
         vsw_constants(b->params + i * b->params_stride, ln->constants);
@@ -850,7 +884,7 @@ VSW_EXPORT void vsw_batch_simulate(long long n, const double *params, long long 
         .n = n, .params_stride = params_stride, .max_steps = max_steps,
         .max_period = max_period > VSW_MAX_PERIOD ? VSW_MAX_PERIOD : max_period, .keep = keep,
         .next = 0, .params = params, .states = states, .target = target,
-        .tol = {options[0], options[1], options[2]}, .conv_tol = options[3],
+        .tol = {options[0], options[1], options[2], INFINITY}, .conv_tol = options[3],
         .period_tol = options[4], .outcome = outcome, .aux = aux, .steps = steps,
         .final = final, .kept_states = kept_states, .kept_lengths = kept_lengths,
         .kept_durations = kept_durations, .visit_durations = NULL, .visits = NULL,
@@ -872,12 +906,36 @@ VSW_EXPORT void vsw_batch_walk_steps(long long n, const double *params, const do
     vsw_batch b = {
         .n = n, .params_stride = max_steps * VSW_NP, .step_stride = VSW_NP,
         .max_steps = max_steps, .max_period = 0, .keep = 0, .next = 0, .params = params,
-        .states = states, .target = NULL, .tol = {options[0], options[1], options[2]},
+        .states = states, .target = NULL, .tol = {options[0], options[1], options[2], INFINITY},
         .conv_tol = 0.0, .period_tol = 0.0, .outcome = outcome, .aux = aux, .steps = steps,
         .final = final, .kept_states = NULL, .kept_lengths = NULL, .kept_durations = NULL,
         .visit_durations = NULL, .visits = NULL,
     };
     vsw_batch_run(&b);
+}
+
+/* One walk of one step from `state` (vsw_batch_step_phases, vsw_batch_sample_step). */
+static int vsw_one_step(const double *params, double *state, vsw_tolerances tol,
+                        double *durations, int *visits, int *failure, double *length,
+                        vsw_samples *samples)
+{
+    int outcome = VSW_STALLED, aux = 0;
+    long long steps = 0;
+    double final[VSW_NX], kept_state[VSW_NX], kept_duration;
+    *visits = 0;
+    vsw_batch b = {
+        .n = 1, .params_stride = 0, .max_steps = 1, .max_period = 0, .keep = 1, .next = 0,
+        .params = params, .states = state, .target = NULL, .tol = tol, .conv_tol = 0.0,
+        .period_tol = 0.0, .outcome = &outcome, .aux = &aux, .steps = &steps, .final = final,
+        .kept_states = kept_state, .kept_lengths = length, .kept_durations = &kept_duration,
+        .visit_durations = durations, .visits = visits, .step_stride = 0, .samples = samples,
+    };
+    vsw_batch_run(&b);
+    *failure = outcome == VSW_FELL ? aux : 0;
+    if (outcome != VSW_WALKED) return outcome;
+    if (steps != 1) return VSW_STALLED; /* a stop before the step */
+    memcpy(state, final, sizeof(double) * VSW_NX);
+    return VSW_WALKED;
 }
 
 /* One step from the section state `state` with parameters `params`, each phase visit's
@@ -892,25 +950,27 @@ VSW_EXPORT int vsw_batch_step_phases(const double *params, double *state, const 
                                      double *durations, int *visits, int *failure,
                                      double *length)
 {
-    const double walk_options[5] = {options[0], options[1], options[2], 0.0, 0.0};
-    int outcome = VSW_STALLED, aux = 0;
-    long long steps = 0;
-    double final[VSW_NX], kept_state[VSW_NX], kept_duration;
-    *visits = 0;
-    vsw_batch b = {
-        .n = 1, .params_stride = 0, .max_steps = 1, .max_period = 0, .keep = 1, .next = 0,
-        .params = params, .states = state, .target = NULL,
-        .tol = {walk_options[0], walk_options[1], walk_options[2]}, .conv_tol = 0.0,
-        .period_tol = 0.0, .outcome = &outcome, .aux = &aux, .steps = &steps, .final = final,
-        .kept_states = kept_state, .kept_lengths = length, .kept_durations = &kept_duration,
-        .visit_durations = durations, .visits = visits, .step_stride = 0,
-    };
-    vsw_batch_run(&b);
-    *failure = outcome == VSW_FELL ? aux : 0;
-    if (outcome != VSW_WALKED) return outcome;
-    if (steps != 1) return VSW_STALLED; /* a stop before the step */
-    memcpy(state, final, sizeof(double) * VSW_NX);
-    return VSW_WALKED;
+    const vsw_tolerances tol = {options[0], options[1], options[2], INFINITY};
+    return vsw_one_step(params, state, tol, durations, visits, failure, length, NULL);
+}
+
+/* vsw_batch_step_phases with the step's states sampled as SciPy's route samples them
+   (HybridModel.simulate: see vsw_samples), the RK steps at most options[3] long: sample k
+   at time t[k] from the step's start, state x[k * VSW_NX ...], in phase phase[k]; room for
+   `capacity`, *count the samples the step took (more than `capacity`: only the first
+   written). Returns what vsw_batch_step_phases returns. */
+VSW_EXPORT int vsw_batch_sample_step(const double *params, double *state, const double *options,
+                                     long long capacity, double *t, double *x, int *phase,
+                                     long long *count, int *failure)
+{
+    const vsw_tolerances tol = {options[0], options[1], options[2], options[3]};
+    vsw_samples samples = {.t = t, .x = x, .phase = phase, .capacity = capacity, .count = 0};
+    double durations[VSW_NPHASES + 1], length;
+    int visits;
+    const int code =
+        vsw_one_step(params, state, tol, durations, &visits, failure, &length, &samples);
+    *count = samples.count;
+    return code;
 }
 
 /* Phase `phase`'s flow and guards at n states (parameters `params`) by the scalar functions
