@@ -31,7 +31,15 @@ from pathlib import Path
 import numpy as np
 
 from vsw.dynamics.compiled import build_library
-from vsw.dynamics.hybrid import ATOL, PHASE_TIME_LIMIT, RTOL, HybridModel, StepResult, Trajectory
+from vsw.dynamics.hybrid import (
+    ATOL,
+    PHASE_TIME_LIMIT,
+    RTOL,
+    EventRecord,
+    HybridModel,
+    StepResult,
+    Trajectory,
+)
 from vsw.orbits import newton
 from vsw.runtime import blas, progress, stop
 from vsw.runtime.errors import ConvergenceError, SlowRouteWarning, VswInputError
@@ -474,29 +482,54 @@ class BatchSimulator:
         lib = self.library()
         if lib is None:
             return self.model.simulate(params, np.asarray(state, float), 1, max_step=max_step)
-        sample = _bound_sample_step(lib)
+        walk = self._sampled(lib, params, state, max_step, 1024)  # SAMPLES take about 420
+        if walk.count > len(walk.t):  # again, with room for every sample
+            walk = self._sampled(lib, params, state, max_step, walk.count)
+        n = walk.count
+        ended = ("completed" if walk.code == WALKED else self.failures[walk.failure]
+                 if walk.code == FELL else "stalled")  # fmt: skip
+        section = np.array([walk.start, walk.end] if walk.code == WALKED else [walk.start])
+        return Trajectory(walk.t[:n], walk.x[:n], walk.phase[:n].astype(int), section, ended,
+                          int(walk.code == WALKED))  # fmt: skip
+
+    def step_events(self, params: Sequence[float], state: Sequence[float]) -> list[EventRecord]:
+        """:meth:`vsw.dynamics.hybrid.HybridModel.step_events` by the compiled integrator (the
+        same events, their states to rounding); the SciPy route itself when the simulator
+        cannot be built."""
+        lib = self.library()
+        if lib is None:
+            return self.model.step_events(params, np.asarray(state, float))
+        walk = self._sampled(lib, params, state, math.inf, 0, events=True)
+        happened = zip(walk.event, walk.event_time, walk.before, walk.after)
+        return [self.model.event_record(params, self.model.events[k], *at)
+                for k, *at in happened]  # fmt: skip
+
+    def _sampled(self, lib: ctypes.CDLL, params: Sequence[float], state: Sequence[float],
+                 max_step: float, capacity: int, events: bool = False) -> _SampledStep:  # fmt: skip
+        """``vsw_batch_sample_step`` from ``state``, with room for ``capacity`` samples."""
         p, x = self._checked(params, state)
-        start = x.copy()
+        walk = _SampledStep(start=x.copy(), end=x, t=np.empty(capacity),
+                            x=np.empty((capacity, self.nx)),
+                            phase=np.empty(capacity, dtype=np.int32))  # fmt: skip
+        room = len(self.model.phases) + 1
+        if events:
+            walk.event, walk.event_time = np.empty(room, np.int32), np.empty(room)
+            walk.before, walk.after = np.empty((room, self.nx)), np.empty((room, self.nx))
+        count, failure, taken = ctypes.c_longlong(0), ctypes.c_int(0), ctypes.c_int(0)
         options = np.array([RTOL, ATOL, PHASE_TIME_LIMIT, max_step])
-        failure, count = ctypes.c_int(0), ctypes.c_longlong(0)
-        capacity = 1024  # a step of :data:`vsw.dynamics.conditions.SAMPLES` takes about 420
-        for _ in range(2):  # again, with room for every sample, where the first had too little
-            x = start.copy()
-            t = np.empty(capacity)
-            xs = np.empty((capacity, self.nx))
-            phases = np.empty(capacity, dtype=np.int32)
-            code = sample(p, x, options, capacity, t, xs, phases, ctypes.byref(count),
-                          ctypes.byref(failure))  # fmt: skip
-            if count.value <= capacity:
-                break
-            capacity = count.value
-        stop.check()
-        n = count.value
-        ended = ("completed" if code == WALKED
-                 else self.failures[failure.value] if code == FELL else "stalled")  # fmt: skip
-        section = np.array([start, x] if code == WALKED else [start])
-        return Trajectory(t[:n].copy(), xs[:n].copy(), phases[:n].astype(int), section, ended,
-                          int(code == WALKED))  # fmt: skip
+        walk.code = _bound_sample_step(lib)(
+            p, x, options, capacity, walk.t, walk.x, walk.phase, ctypes.byref(count),
+            ctypes.byref(failure), *(_address(a) for a in (walk.event, walk.event_time,
+                                                          walk.before, walk.after)),
+            ctypes.byref(taken),
+        )  # fmt: skip
+        stop.check()  # a Ctrl-C or time limit ends the integration early: not a stall
+        walk.count, walk.failure = count.value, failure.value
+        if events:
+            k = taken.value
+            walk.event, walk.event_time = walk.event[:k], walk.event_time[:k]
+            walk.before, walk.after = walk.before[:k], walk.after[:k]
+        return walk
 
     def _checked(self, params: Sequence[float], state: Sequence[float]
                  ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
@@ -673,6 +706,32 @@ def _bound_step_phases(lib: ctypes.CDLL):
     return fn
 
 
+def _address(array: np.ndarray | None) -> int | None:
+    """A C-contiguous array's data address for a ``void *`` argument; NULL for None."""
+    if array is None:
+        return None
+    assert array.flags.c_contiguous
+    return array.ctypes.data
+
+
+@dataclass
+class _SampledStep:
+    """What ``vsw_batch_sample_step`` wrote (see :meth:`BatchSimulator._sampled`)."""
+
+    start: np.ndarray
+    end: np.ndarray  # the next section state, where the step completed
+    t: np.ndarray
+    x: np.ndarray
+    phase: np.ndarray
+    code: int = STALLED
+    count: int = 0
+    failure: int = 0
+    event: np.ndarray | None = None
+    event_time: np.ndarray | None = None
+    before: np.ndarray | None = None
+    after: np.ndarray | None = None
+
+
 def _bound_sample_step(lib: ctypes.CDLL):
     """The library's ``vsw_batch_sample_step`` with its argument types (as
     :func:`_bound_step_phases`)."""
@@ -682,8 +741,10 @@ def _bound_sample_step(lib: ctypes.CDLL):
         i32 = np.ctypeslib.ndpointer(dtype=np.int32, flags="C_CONTIGUOUS")
         pointer = ctypes.POINTER
         fn.restype = ctypes.c_int
+        void = ctypes.c_void_p  # the events' arrays, or NULL (:func:`_address`)
         fn.argtypes = [dbl, dbl, dbl, ctypes.c_longlong, dbl, dbl, i32,
-                       pointer(ctypes.c_longlong), pointer(ctypes.c_int)]  # fmt: skip
+                       pointer(ctypes.c_longlong), pointer(ctypes.c_int), void, void, void,
+                       void, pointer(ctypes.c_int)]  # fmt: skip
     return fn
 
 

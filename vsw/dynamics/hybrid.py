@@ -440,16 +440,22 @@ class HybridModel:
             if kind != "event":
                 break
             x = self.reset(what["name"], params, x_end)
-            records.append(EventRecord(
-                what["name"], t_end, x_end, x.copy(),
-                float(self.function(f"{phase}_energy")(*params, *x_end)),
-                float(self.function(f"{what['target']}_energy")(*params, *x)),
-            ))  # fmt: skip
+            records.append(self.event_record(params, what, t_end, x_end, x.copy()))
             t = t_end
             if what["ends_step"]:
                 break
             phase = what["target"]
         return records
+
+    def event_record(self, params: Sequence[float], event: dict, time: float,
+                     before: np.ndarray, after: np.ndarray) -> EventRecord:  # fmt: skip
+        """``event`` (one of :attr:`events`) at ``time``, from ``before`` to ``after`` its
+        reset, with the energy of its source phase before and of its target phase after."""
+        return EventRecord(
+            event["name"], float(time), before, after,
+            float(self.function(f"{event['source']}_energy")(*params, *before)),
+            float(self.function(f"{event['target']}_energy")(*params, *after)),
+        )  # fmt: skip
 
     def continuous_walk(
         self, params: Sequence[float], state: np.ndarray, steps: int
@@ -473,11 +479,7 @@ class HybridModel:
             if kind != "event":
                 return pieces, events, what if kind == "failure" else "stalled"
             after = self.reset(what["name"], params, x_end)
-            events.append((done, EventRecord(
-                what["name"], t_end, x_end, after.copy(),
-                float(self.function(f"{phase}_energy")(*params, *x_end)),
-                float(self.function(f"{what['target']}_energy")(*params, *after)),
-            )))  # fmt: skip
+            events.append((done, self.event_record(params, what, t_end, x_end, after.copy())))
             x, t, phase = after, t_end, what["target"]
             done += bool(what["ends_step"])
         return pieces, events, "completed"

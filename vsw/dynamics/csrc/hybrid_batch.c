@@ -50,11 +50,16 @@ typedef struct {
 /* The states a walk passes through, as SciPy's route samples them (HybridModel.simulate):
    each phase's start, each accepted RK step's end and each event's point twice (the
    solver's last point, then the event's). Samples past the capacity are counted, not
-   written: the caller tries again with room for `count`. */
+   written: the caller tries again with room for `count`. With `event` set, each event
+   too: its index, time and the states before and after its reset (room for
+   VSW_NPHASES + 1; `events` of them). */
 typedef struct {
     double *t, *x;
     int *phase;
     long long capacity, count;
+    int *event;
+    double *event_time, *before, *after;
+    int events;
 } vsw_samples;
 
 /* Set from another thread when the run stops (Ctrl-C, the run-time limit: vsw/runtime/stop.py):
@@ -740,6 +745,14 @@ static int vsw_lane_phase_end(vsw_batch *b, vsw_lane *ln, int code)
     if (vsw_event_ends_step[what]) vsw_step_length(ln->constants, ln->y, &ln->length);
     double y_new[VSW_NX];
     vsw_reset(what, ln->constants, ln->y, y_new);
+    vsw_samples *s = ln->samples;
+    if (s != NULL && s->event != NULL) {
+        s->event[s->events] = what;
+        s->event_time[s->events] = ln->duration;
+        memcpy(s->before + s->events * VSW_NX, ln->y, sizeof(double) * VSW_NX);
+        memcpy(s->after + s->events * VSW_NX, y_new, sizeof(double) * VSW_NX);
+        ++s->events;
+    }
     memcpy(ln->y, y_new, sizeof(double) * VSW_NX);
     if (!vsw_finite(ln->y)) {
         vsw_lane_walk_end(b, ln, VSW_STALLED, 0);
@@ -958,18 +971,27 @@ VSW_EXPORT int vsw_batch_step_phases(const double *params, double *state, const 
    (HybridModel.simulate: see vsw_samples), the RK steps at most options[3] long: sample k
    at time t[k] from the step's start, state x[k * VSW_NX ...], in phase phase[k]; room for
    `capacity`, *count the samples the step took (more than `capacity`: only the first
-   written). Returns what vsw_batch_step_phases returns. */
+   written). With `event` not NULL, each event of the step (HybridModel.step_events): its
+   index event[k], time event_time[k], the states before[k * VSW_NX ...] and after its
+   reset after[k * VSW_NX ...] (room for VSW_NPHASES + 1), *events their number. Returns
+   what vsw_batch_step_phases returns. */
 VSW_EXPORT int vsw_batch_sample_step(const double *params, double *state, const double *options,
                                      long long capacity, double *t, double *x, int *phase,
-                                     long long *count, int *failure)
+                                     long long *count, int *failure, int *event,
+                                     double *event_time, double *before, double *after,
+                                     int *events)
 {
     const vsw_tolerances tol = {options[0], options[1], options[2], options[3]};
-    vsw_samples samples = {.t = t, .x = x, .phase = phase, .capacity = capacity, .count = 0};
+    vsw_samples samples = {
+        .t = t, .x = x, .phase = phase, .capacity = capacity, .count = 0, .event = event,
+        .event_time = event_time, .before = before, .after = after, .events = 0,
+    };
     double durations[VSW_NPHASES + 1], length;
     int visits;
     const int code =
         vsw_one_step(params, state, tol, durations, &visits, failure, &length, &samples);
     *count = samples.count;
+    if (events != NULL) *events = samples.events;
     return code;
 }
 

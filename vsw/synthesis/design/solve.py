@@ -259,7 +259,7 @@ def _impact_losses(model: HybridModel, params: Sequence[float], orbit: Orbit) ->
     state = np.array(list(orbit.state.values()))
     lost = 0.0
     phase = model.step_event["target"]
-    for record in model.step_events(params, state):
+    for record in simulator(model).step_events(params, state):
         event = next(e for e in model.by_source[phase] if e["name"] == record.name)
         if record.name in impact_events(model):
             lost += float(kinetic_loss(model, phase, event["target"], np.asarray(params),
