@@ -240,6 +240,49 @@ def test_casadis_own_openblas_is_bounded_once_its_plugin_is_loaded():
     assert casadis() == own
 
 
+def test_a_plugins_library_is_bounded_from_the_block_after_it_may_have_loaded():
+    """The design builds its IPOPT solvers once and solves many times: the blocks around
+    the solves do not look the libraries up each time (half a millisecond), so the build
+    says a library may have loaded (`libraries_may_have_loaded`). In a fresh process: a
+    block before the plugin, the plugin loaded, a block that has not been told does not
+    bound CasADi's OpenBLAS, one after the call does."""
+    pytest.importorskip("threadpoolctl")
+    pytest.importorskip("casadi")
+    child = textwrap.dedent(
+        """
+        import json
+        from pathlib import Path
+        import casadi as ca
+        import threadpoolctl
+        from vsw.runtime.blas import RENAMED_OPENBLAS, libraries_may_have_loaded, limited
+
+        def casadis():
+            return [i["num_threads"] for i in threadpoolctl.threadpool_info()
+                    if Path(i["filepath"]).name.startswith(RENAMED_OPENBLAS)]
+
+        with limited(1):
+            pass
+        x = ca.SX.sym("x", 2)
+        ca.nlpsol("s", "ipopt", {"x": x, "f": ca.sumsqr(x - 1)}, {"print_time": False})
+        own = casadis()
+        with limited(1):
+            untold = casadis()
+        libraries_may_have_loaded()
+        with limited(1):
+            told = casadis()
+        print(json.dumps({"own": own, "untold": untold, "told": told}))
+        """
+    )
+    env = {**_user_environment(), "PYTHONPATH": str(ROOT)}
+    done = subprocess.run([sys.executable, "-c", child], capture_output=True, text=True,
+                          env=env, timeout=120)  # fmt: skip
+    assert done.returncode == 0, done.stderr[-2000:]
+    found = json.loads(done.stdout.strip().splitlines()[-1])
+    if not found["own"] or found["own"] == [1]:
+        pytest.skip(f"CasADi's OpenBLAS not loaded or on one thread already here: {found}")
+    assert found["untold"] == found["own"] and found["told"] == [1], found
+
+
 def _pool_sizes(setting: str, preset: dict[str, str]) -> dict:
     """numpy's BLAS pool size and the BLAS variables, in a fresh process that sizes the pools
     as the command line does (VSW_THREADS=``setting``, the variables ``preset``), then loads

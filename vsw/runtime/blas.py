@@ -29,7 +29,7 @@ import threading
 from collections.abc import Iterator
 from typing import Any
 
-__all__ = ["limited"]
+__all__ = ["libraries_may_have_loaded", "limited"]
 
 _lock = threading.Lock()
 _requests: list[int] = []  # the thread counts of the blocks in force
@@ -71,6 +71,15 @@ def _discover(rescan: bool = False) -> None:
         return
     _register_renamed()
     _libraries = list(ThreadpoolController().lib_controllers)
+
+
+def libraries_may_have_loaded() -> None:
+    """The next block looks the loaded libraries up again (about 0.5 ms): call it where one
+    may have been loaded without an import (a CasADi plugin, with the solver that needs
+    it), so that the blocks after it need not look each time."""
+    global _modules_seen
+    with _lock:
+        _modules_seen = -1
 
 
 def _register_renamed() -> None:

@@ -15,6 +15,7 @@ import numpy as np
 
 from vsw.dynamics.hybrid import HybridModel
 from vsw.orbits.collocation import legendre_defects, legendre_end, legendre_scheme
+from vsw.runtime import blas
 from vsw.synthesis.design.nlp import (
     Rows,
     Structure,
@@ -201,6 +202,7 @@ def build(model: HybridModel, structure: Structure, mesh: tuple[int, ...]) -> Co
     layout["rho"] = slice(layout["durations"].stop, layout["durations"].stop + rho.shape[0])
     nlp = {"x": w, "p": fixed_values, "f": objective, "g": ca.vertcat(*g.rows)}
     solver = ca.nlpsol(f"design_{model.name}", "ipopt", nlp, IPOPT_OPTIONS)
+    blas.libraries_may_have_loaded()  # IPOPT's plugin brings CasADi's OpenBLAS
     table = ca.vertcat(*quantities.values())
     quantity_function = ca.Function("quantities", [w, fixed_values], [table])
     quantity_function.names = list(quantities)  # type: ignore[attr-defined]

@@ -141,7 +141,7 @@ def _solve(problem: Problem, nlp: Nlp, bounds: Mapping[str, np.ndarray], w0: np.
     # CasADi reports integrator trouble on stderr; the status and the verification say
     # what matters. IPOPT's linear algebra is small: BLAS workers would only spin beside it.
     with (
-        blas.limited(1, rescan=True),
+        blas.limited(1),
         contextlib.redirect_stderr(io.StringIO()),
         contextlib.redirect_stdout(io.StringIO()),
     ):
