@@ -7,6 +7,7 @@ import os
 import sys
 import threading
 import time
+from pathlib import Path
 
 import pytest
 
@@ -78,6 +79,20 @@ def test_an_error_in_the_caller_propagates_and_no_child_is_left():
     with pytest.raises(KeyboardInterrupt):
         split_map(fail_in_parent, list(range(4)), 2)
     assert time.monotonic() - began < 4  # the child was killed and reaped, not waited for
+
+
+@linux
+def test_children_that_delivered_are_reaped_by_a_later_call():
+    """split_map does not wait for a child's exit once it has its results; the next call
+    reaps it, so calls leave no trail of zombies."""
+    children = Path(f"/proc/self/task/{os.getpid()}/children")
+    if not children.exists():
+        pytest.skip("no /proc children list here")
+    for _ in range(8):
+        assert split_map(lambda x: x * 2, [1, 2, 3, 4], 2) == [2, 4, 6, 8]
+    time.sleep(0.3)  # every child has exited by now
+    assert split_map(lambda x: x * 2, [1], 2) == [2]  # one item: no child, a reap
+    assert children.read_text().split() == []
 
 
 def test_off_the_main_thread_it_is_a_loop():

@@ -9,7 +9,8 @@ four bytes takes one), so a long item does not hold the others back. Each child'
 are pickled back through a pipe of its own; the results come in the order of ``items``,
 the outcome a loop gives. Where a child fails (a crash, an error, no result), the items it
 took are run again in the calling process: a failed child costs the time it ran, never a
-result.
+result. A child that delivered its results is not waited for (its exit, unmapping a large
+process, takes milliseconds): it is reaped by a later call.
 
 Serial (a plain loop) where there is one worker or one item, inside a child of
 ``split_map`` (an item that calls it again), where the platform has no ``fork`` (or is
@@ -39,6 +40,7 @@ _INDEX = struct.Struct("<I")
 _STOPS = {signal.SIGINT, signal.SIGALRM}  # Ctrl-C and the run-time limit (vsw.runtime.stop)
 _MAX_ITEMS = 1024  # 4 KiB of indices: written before any reader, within a pipe's buffer
 _in_child = False  # whether this process is a child of split_map
+_exiting: list[int] = []  # children that delivered their results and are exiting: reaped later
 
 
 def split_map(function: Callable[[Any], Any], items: Sequence[Any], workers: int,
@@ -48,6 +50,7 @@ def split_map(function: Callable[[Any], Any], items: Sequence[Any], workers: int
     start on the items (work it needs later anyway: an import); before the loop where
     there are no children."""
     workers = max(1, min(int(workers), len(items)))
+    _reap_exited()
     if workers == 1 or len(items) > _MAX_ITEMS or not _can_fork():
         if meanwhile is not None:
             meanwhile()
@@ -68,7 +71,10 @@ def split_map(function: Callable[[Any], Any], items: Sequence[Any], workers: int
             meanwhile()
         results = dict(_work(function, items, tasks))
         for pid, results_out in children:
-            results.update(_collect(pid, results_out))
+            delivered = _collect(pid, results_out)
+            if delivered is not None:
+                results.update(delivered)
+                _exiting.append(pid)
         for i in range(len(items)):
             if i not in results:  # taken by a child that failed: here
                 results[i] = function(items[i])
@@ -117,29 +123,51 @@ def _spawn(function: Callable, items: Sequence, tasks: int) -> tuple[int, int]:
     return pid, results_in
 
 
-def _collect(pid: int, results_in: int) -> dict[int, Any]:
-    """A child's results by index; none where it failed or crashed."""
+def _collect(pid: int, results_in: int) -> dict[int, Any] | None:
+    """A child's results by index, once its pipe closes; None where it failed or crashed
+    (then it is reaped here). A child that delivered is not waited for: it exits on its
+    own, and unmapping a large process takes milliseconds (:func:`_reap_exited`)."""
     chunks = []
     while chunk := os.read(results_in, 1 << 20):
         chunks.append(chunk)
-    _, status = os.waitpid(pid, 0)
-    if status != 0 or not chunks:
-        return {}
     try:
-        return pickle.loads(b"".join(chunks))
+        # Written whole only after the child's last item: a complete payload is a success.
+        return pickle.loads(b"".join(chunks)) if chunks else _failed(pid)
     except Exception:  # a truncated payload: the parent runs these items
-        return {}
+        return _failed(pid)
+
+
+def _failed(pid: int) -> None:
+    """Reap a child that delivered nothing."""
+    try:
+        os.waitpid(pid, 0)
+    except ChildProcessError:
+        pass
+
+
+def _reap_exited() -> None:
+    """Reap the children that delivered their results and have exited since."""
+    for pid in list(_exiting):
+        try:
+            if os.waitpid(pid, os.WNOHANG)[0] == 0:
+                continue  # still exiting
+        except ChildProcessError:
+            pass
+        _exiting.remove(pid)
 
 
 def _end(pid: int, results_in: int) -> None:
-    """The child killed where it still runs (the parent is stopping), and reaped."""
+    """The child killed where it still runs (the parent is stopping), and reaped; one that
+    delivered is left to exit."""
     try:
         os.close(results_in)
     except OSError:
         pass
+    if pid in _exiting:
+        return
     try:
         if os.waitpid(pid, os.WNOHANG) == (0, 0):
             os.kill(pid, signal.SIGKILL)
             os.waitpid(pid, 0)
     except ChildProcessError:
-        pass  # reaped by _collect
+        pass  # reaped by _failed
