@@ -10,7 +10,7 @@ are pickled back through a pipe of its own; the results come in the order of ``i
 the outcome a loop gives. Where a child fails (a crash, an error, no result), the items it
 took are run again in the calling process: a failed child costs the time it ran, never a
 result. A child that delivered its results is not waited for (its exit, unmapping a large
-process, takes milliseconds): it is reaped by a later call.
+process, takes milliseconds): it is reaped by a later call, or as the process ends.
 
 Serial (a plain loop) where there is one worker or one item, inside a child of
 ``split_map`` (an item that calls it again), where the platform has no ``fork`` (or is
@@ -25,6 +25,7 @@ Imports: the standard library only.
 
 from __future__ import annotations
 
+import atexit
 import os
 import pickle
 import signal
@@ -145,15 +146,19 @@ def _failed(pid: int) -> None:
         pass
 
 
-def _reap_exited() -> None:
-    """Reap the children that delivered their results and have exited since."""
+def _reap_exited(wait: bool = False) -> None:
+    """Reap the children that delivered their results and have exited since (with
+    ``wait``: all of them, as the process ends, so that none outlives it)."""
     for pid in list(_exiting):
         try:
-            if os.waitpid(pid, os.WNOHANG)[0] == 0:
+            if os.waitpid(pid, 0 if wait else os.WNOHANG)[0] == 0:
                 continue  # still exiting
         except ChildProcessError:
             pass
         _exiting.remove(pid)
+
+
+atexit.register(_reap_exited, wait=True)  # a child leaves by os._exit: never runs this
 
 
 def _end(pid: int, results_in: int) -> None:
