@@ -119,7 +119,7 @@ class GaitDesign:
     open_limits: tuple[str, ...] = ()
     ipopt_status: str = ""
     starts: int = 0
-    simulation_rel_error: float | None = None
+    simulation_rel_error: float | None = None  # of one simulated step from the gait's state
     infeasible_reason: str | None = None
 
     @property
