@@ -14,7 +14,9 @@ share it: the smallest N among the blocks in force applies while any of them run
 library loaded after a block began (SciPy's, on its first import) is bounded from the next
 block entered, as every entry point that runs walks enters one. Workers that a BLAS call
 made before the block woke are not stopped by it: they spin on until their timeout, then
-sleep.
+sleep. A fork inside a block (:mod:`vsw.runtime.forked`) shuts OpenBLAS's pool down;
+giving it back more than one thread on leaving starts a new worker, which spins about
+0.1 s before it sleeps (measured: 0.1 s of CPU per library, none without the fork).
 
 The walks themselves make no BLAS call (vsw/dynamics/csrc, elementwise numpy): the limit bounds the
 gait search, the solves and eigenvalues around them, and whatever else the command runs.
