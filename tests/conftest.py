@@ -138,6 +138,7 @@ def _confirm(model, params: tuple[float, ...], orbit: Orbit, newton: bool) -> No
     durations and step length; with ``newton``, also Newton on the step map converges
     next to it with the spectrum kept."""
     from vsw.dynamics.batch import simulator
+    from vsw.dynamics.step_map import fixed_point
 
     state = np.array(list(orbit.state.values()))
     scale = max(1.0, float(np.max(np.abs(state))))
@@ -151,7 +152,7 @@ def _confirm(model, params: tuple[float, ...], orbit: Orbit, newton: bool) -> No
     if orbit.step_length is not None:
         assert abs(step.step_length - orbit.step_length) <= 1e-9 * max(1.0, orbit.step_length)
     if newton:
-        found, jacobian = sim.fixed_point(params, state)
+        found, jacobian = fixed_point(sim, params, state)
         assert np.max(np.abs(found - state)) <= 1e-9 * scale, again
         largest = max(abs(np.linalg.eigvals(jacobian)))
         assert largest == pytest.approx(orbit.max_abs_eigenvalue, rel=1e-4), again

@@ -89,12 +89,13 @@ def case_gait_rootfinder(reps: int) -> list[Row]:
         # The same gait as a fixed point of the compiled batch simulator's map (Newton with
         # central differences), against the same baseline, side by side.
         from vsw.dynamics.batch import simulator
+        from vsw.dynamics.step_map import fixed_point
 
         sim = simulator(load(key))
         sim.library()
 
         def batch(sim=sim, params=params, guess=guess, found=found):
-            found["batch"] = sim.fixed_point(params, guess)[0]
+            found["batch"] = fixed_point(sim, params, guess)[0]
 
         t_batch, t_theirs = interleaved(batch, theirs, reps)
         gap = np.max(np.abs(found["batch"] - x_ours))

@@ -12,7 +12,7 @@ to the next). The search is complete within a stated box and resolution:
    by the compiled batch simulator (:mod:`vsw.dynamics.batch`); where the step completes, the
    residual ``P(x) - x`` on the free components.
 3. **Newton from every cell that completes its step**, all at once, on ``P(x) - x`` in
-   the free components (:func:`vsw.orbits.newton.solve` on :class:`vsw.dynamics.batch.StepMap`),
+   the free components (:func:`vsw.orbits.newton.solve` on :class:`vsw.dynamics.step_map.StepMap`),
    the Jacobian by forward differences of batch steps; a start whose step fails is
    dropped, starts whose iterates meet go on as one. Solutions closer than
    :data:`DISTINCT` are one gait. (Newton only from the cells where ``|P(x) - x|`` dips
@@ -58,8 +58,9 @@ from typing import Any
 
 import numpy as np
 
-from vsw.dynamics.batch import FELL, WALKED, BatchSimulator, StepMap, simulator
+from vsw.dynamics.batch import FELL, WALKED, BatchSimulator, simulator
 from vsw.dynamics.hybrid import HybridModel, Orbit
+from vsw.dynamics.step_map import StepMap
 from vsw.gaits import search_cache
 from vsw.orbits import newton
 from vsw.runtime import limits, stop

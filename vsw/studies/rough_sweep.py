@@ -12,7 +12,7 @@ by the sample), the meshed Markov chain's beside it on request
 differ, and :func:`spearman` says whether the norm orders them as the MFPT does.
 
 The gait at each ``gamma0`` is continued from the last one (the batch simulator's fixed
-point, :meth:`vsw.dynamics.batch.BatchSimulator.fixed_point`), and searched for afresh only where
+point, :func:`vsw.dynamics.step_map.fixed_point`), and searched for afresh only where
 that fails, so a sweep costs one gait search, not one per value.
 """
 
@@ -28,6 +28,7 @@ import numpy as np
 
 from vsw.dynamics.batch import simulator
 from vsw.dynamics.hybrid import Orbit
+from vsw.dynamics.step_map import fixed_point
 from vsw.models.base import Model
 from vsw.plots import plotstyle
 from vsw.runtime.errors import ConvergenceError, ModelConditionError, VswInputError
@@ -108,7 +109,7 @@ def continued_gait(model: Model, params: Sequence[float], guess: dict[str, float
     if guess is not None:
         sim = simulator(model)
         try:
-            x, jacobian = sim.fixed_point(params, [guess[n] for n in names])
+            x, jacobian = fixed_point(sim, params, [guess[n] for n in names])
             step = sim.step_phases(params, x)
             if step.ended == "completed":
                 residual = float(np.max(np.abs(np.asarray(step.state) - x)))

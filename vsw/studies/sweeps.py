@@ -22,6 +22,7 @@ import numpy as np
 
 from vsw.dynamics.batch import APART, BatchSimulator, Runner, simulator
 from vsw.dynamics.hybrid import HybridModel, Orbit
+from vsw.dynamics.step_map import fixed_point
 from vsw.gaits import continuation as arclength
 from vsw.gaits.search import pick
 from vsw.models.base import Model
@@ -304,7 +305,7 @@ def brute_force(
     for i, (value, params) in enumerate(zip(grid, tables)):
         point: dict[str, Any] = {over: float(value), "from": "batch Newton"}
         try:
-            x, jacobian = sim.fixed_point(params, previous)
+            x, jacobian = fixed_point(sim, params, previous)
         except ConvergenceError:
             stop.check()
             x = None
