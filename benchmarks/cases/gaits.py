@@ -171,7 +171,39 @@ def case_batch_step(count: int, reps: int) -> list[Row]:
                 note=f"per step over {len(starts)} starts; post-step states differ by at most "
                 f"{gap:.1g} (relative)",
             ))  # fmt: skip
+        rows.append(_sampled_step_row(key, m, params, sim, reps))
     return rows
+
+
+def _sampled_step_row(key: str, m, params, sim, reps: int) -> Row:
+    """Case 10: the step a gait's conditions are read on (vsw.dynamics.conditions: the
+    integrator's steps at most period / SAMPLES), compiled (``sampled_step``) against
+    SciPy's (``HybridModel.simulate``), and how far apart their samples are."""
+    from vsw.dynamics.conditions import SAMPLES
+
+    orbit = _most_stable_gait(m, params)
+    state = np.array(list(orbit.state.values()))
+    max_step = orbit.period / SAMPLES
+    found = {}
+
+    def ours():
+        found["ours"] = sim.sampled_step(params, state, max_step)
+
+    def theirs():
+        found["theirs"] = m.simulate(params, state, 1, max_step=max_step)
+
+    t_ours, t_theirs = interleaved(ours, theirs, reps)
+    a, b = found["ours"], found["theirs"]
+    same = len(a.t) == len(b.t) and np.array_equal(a.phase, b.phase)
+    gap = float(np.max(np.abs(a.states - b.states))) if same else float("nan")
+    return Row(
+        "10", f"{key}: one step of a gait sampled for its conditions (steps <= period / "
+        f"{SAMPLES}), compiled", "HybridModel.simulate (solve_ivp DOP853 + events, the same "
+        "max_step)", t_ours, t_theirs, ">= 100x faster",
+        t_ours.median / t_theirs.median <= 1 / 100,
+        note=f"{len(a.t)} samples against {len(b.t)}, "
+        + (f"the same phases, states at most {gap:.1g} apart" if same else "NOT the same"),
+    )  # fmt: skip
 
 
 GAIT_SEARCH_SETS = (
