@@ -29,6 +29,7 @@ import argparse
 import itertools
 import json
 import math
+import os
 import statistics
 import sys
 import time
@@ -304,16 +305,27 @@ def _slsqp(model, name, fixed, traced, problem: Problem) -> tuple[float, float |
     return seconds, (float(res.fun) if res.success else None)
 
 
+def _busy_seconds() -> float:
+    """CPU seconds the whole machine has been busy (``/proc/stat``: a child still exiting
+    counts too); this process's where that cannot be read."""
+    try:
+        fields = Path("/proc/stat").read_text().split("\n", 1)[0].split()[1:]
+        user, nice, system, _idle, _iowait, irq, softirq, steal = (int(v) for v in fields[:8])
+        return (user + nice + system + irq + softirq + steal) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError):
+        return time.process_time()
+
+
 def _quiet(window: float = 0.05, most: float = 2.0) -> None:
-    """Wait until this process's other threads are idle (less than a tenth of a core over
-    ``window`` seconds; ``most`` seconds at most): a BLAS pool that the last run woke, or
-    created anew after a fork, spins for 0.1-0.2 s of CPU, which slowed the next run by
-    up to half on this 2-core machine, whichever side it was."""
+    """Wait until the machine is idle (less than a tenth of a core busy over ``window``
+    seconds; ``most`` seconds at most): a BLAS pool that the last run woke, or created
+    anew after a fork, spins for 0.1-0.2 s of CPU, which slowed the next run by up to half
+    on this 2-core machine, whichever side it was."""
     began = time.monotonic()
     while time.monotonic() - began < most:
-        cpu = time.process_time()
+        busy = _busy_seconds()
         time.sleep(window)
-        if time.process_time() - cpu < 0.1 * window:
+        if _busy_seconds() - busy < 0.1 * window:
             return
 
 

@@ -250,7 +250,9 @@ def test_a_sampled_step_is_the_scipy_routes_samples(gaits, name):
     assert ended[True] >= 5 and ended[False] >= 1, ended
     if name in ("simplest_walker", "vsw_biped", "kneed_walker"):
         # an event point twice inside the step: a scuff's restart, a phase's change
-        assert np.any(np.diff(ref.t[:-2]) == 0)
+        inside = np.flatnonzero(np.diff(ref.t[:-2]) == 0)
+        assert len(inside) and np.array_equal(inside, np.flatnonzero(np.diff(ours.t[:-2]) == 0))
+    assert ours.t[-1] == ours.t[-2] and np.array_equal(ours.states[-1], ours.states[-2])
 
 
 @pytest.mark.parametrize("name", ["simplest_walker", "vsw_biped", "rimless_wheel"])
@@ -278,6 +280,16 @@ def test_a_steps_events_are_the_scipy_routes(gaits, name):
                 assert abs(a.energy_after - b.energy_after) <= STATE_TOL
                 compared += 1
     assert compared >= 4
+
+
+def test_a_sampled_step_needs_a_positive_largest_step(gaits):
+    from vsw.runtime.errors import VswInputError
+
+    model, params, orbits = gaits["compass_gait"]
+    state = np.array([orbits[0].state[k] for k in (*model.coordinates, *model.rates)])
+    for bad in (0.0, -0.01, float("nan")):
+        with pytest.raises(VswInputError, match="max_step must be positive"):
+            simulator(load("compass_gait")).sampled_step(params, state, bad)
 
 
 def test_a_sampled_step_and_events_without_a_compiler_are_scipys(gaits, monkeypatch):

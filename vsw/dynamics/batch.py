@@ -478,6 +478,8 @@ class BatchSimulator:
         accepted step of the integrator, at most ``max_step`` long, and each event's point
         twice), by the compiled integrator: the same samples to rounding, the SciPy route's
         rules at its tolerance. The SciPy route itself when the simulator cannot be built."""
+        if not max_step > 0:
+            raise VswInputError(f"max_step must be positive, got {max_step!r}")
         lib = self.library()
         if lib is None:
             return self.model.simulate(params, np.asarray(state, float), 1, max_step=max_step)

@@ -148,7 +148,11 @@ def _failed(pid: int) -> None:
 
 def _reap_exited(wait: bool = False) -> None:
     """Reap the children that delivered their results and have exited since (with
-    ``wait``: all of them, as the process ends, so that none outlives it)."""
+    ``wait``: all of them, as the process ends, so that none outlives it). Only the main
+    thread of the process that forked them: calls from other threads run as loops and
+    leave the list to it (two reapers of one pid would both remove it)."""
+    if _in_child or threading.current_thread() is not threading.main_thread():
+        return
     for pid in list(_exiting):
         try:
             if os.waitpid(pid, 0 if wait else os.WNOHANG)[0] == 0:

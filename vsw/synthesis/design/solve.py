@@ -664,11 +664,13 @@ def _designed(problem: Problem, seeds: list[Orbit]) -> GaitDesign:
                    f"from the {len(seeds)} gait(s) at the start; IPOPT "
                    f"{best.ipopt_status})")  # fmt: skip
     state = np.array(list(best.orbit.state.values()))
-    # The compiled integrator (SciPy's route without a compiler; tests/test_batch.py holds
-    # the two to 1e-9): SciPy's import alone would add 0.2 s to the command.
+    # The gap of the simulated step that confirmed the gait (the compiled integrator, or
+    # SciPy's route without a compiler: tests/test_batch.py holds the two to 1e-9), taken
+    # again here rather than carried; SciPy's import alone would add 0.2 s to the command.
     step = simulator(model).step_phases(best.parameters, state)
     scale = max(1.0, float(np.max(np.abs(state))))
-    sim_error = float(np.max(np.abs(step.state - state))) / scale
+    sim_error = (float(np.max(np.abs(step.state - state))) / scale
+                 if step.ended == "completed" else math.inf)  # fmt: skip
     names = [p.name for p in problem.table]
     return GaitDesign(
         status,
