@@ -48,6 +48,7 @@ import numpy as np
 from numpy.polynomial import chebyshev
 
 from vsw.dynamics.hybrid import HybridModel
+from vsw.runtime import blas
 from vsw.runtime.errors import VswInputError
 from vsw.synthesis.hzd.loop import ClosedLoop, solve
 from vsw.synthesis.hzd.zero import Surface
@@ -415,6 +416,7 @@ def _solve(nlp: _Nlp, request: HzdRequest) -> tuple[np.ndarray, float, str, bool
     solver = ca.nlpsol(
         "hzd_gait", "ipopt", {"x": nlp.z, "f": nlp.objective, "g": ca.vertcat(*nlp.g)}, options
     )
+    blas.libraries_may_have_loaded()  # IPOPT's plugin brings CasADi's OpenBLAS
     bounds = {}
     if nlp.lower_z:
         bounds = {"lbx": nlp.lower_z, "ubx": nlp.upper_z}

@@ -23,7 +23,7 @@ from vsw.orbits.collocation import (
     interval_inputs,
     interval_states,
 )
-from vsw.runtime import stop
+from vsw.runtime import blas, stop
 from vsw.runtime.errors import ConvergenceError
 from vsw.synthesis.powered.dynamics import (
     flow_function,
@@ -357,6 +357,7 @@ def _build(model: HybridModel, request: Request) -> Nlp:
     arguments = ca.vertcat(given, scale)  # the regularization's scale: known after stage one
     problem = {"x": w, "p": arguments, "f": cost, "g": ca.vertcat(*g.rows)}
     solver = ca.nlpsol(f"powered_{model.name}", "ipopt", problem, options)
+    blas.libraries_may_have_loaded()  # IPOPT's plugin brings CasADi's OpenBLAS
     works = ca.Function("work", [w, arguments], [ca.vertcat(*step.positive.values(),
                                                             *step.negative.values())
                                                  if step.positive else ca.DM.zeros(0)])  # fmt: skip

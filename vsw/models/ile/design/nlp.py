@@ -33,7 +33,7 @@ from vsw.models.ile.design.forms import (
     region_of,
 )
 from vsw.models.ile.design.problem import Constraint, Problem
-from vsw.runtime import stop
+from vsw.runtime import blas, stop
 
 # --- compiled solvers, cached per problem structure ---------------------------------------
 
@@ -85,6 +85,7 @@ def _solver(problem: Problem, variant: str = "cold") -> Any:
     p = ca.vertcat(w, row_scale)
     options = {**IPOPT_OPTIONS, **_VARIANTS[variant]}
     solver = ca.nlpsol("vsw_design", "ipopt", {"x": x, "f": f, "g": g, "p": p}, options)
+    blas.libraries_may_have_loaded()  # IPOPT's plugin brings CasADi's OpenBLAS
     _SOLVERS[key] = solver
     return solver
 
