@@ -88,16 +88,27 @@ def test_children_that_delivered_are_reaped_by_a_later_call():
     children = Path(f"/proc/self/task/{os.getpid()}/children")
     if not children.exists():
         pytest.skip("no /proc children list here")
+    before = set(children.read_text().split())  # other tests' processes, if any
     for _ in range(8):
         assert split_map(lambda x: x * 2, [1, 2, 3, 4], 2) == [2, 4, 6, 8]
     left = None
     for _ in range(100):  # until every child has exited (a loaded machine takes longer)
         assert split_map(lambda x: x * 2, [1], 2) == [2]  # one item: no child, a reap
-        left = children.read_text().split()
+        left = set(children.read_text().split()) - before
         if not left:
             break
         time.sleep(0.05)
-    assert left == []
+    assert left == set(), {pid: _process(pid) for pid in left}
+
+
+def _process(pid: str) -> str:
+    """A child's state and command line, to say what was left."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().split(")")[-1].split()[0]
+        command = Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()
+    except OSError:
+        return "gone"
+    return f"{state} {command[:200]}"
 
 
 @linux
