@@ -133,13 +133,3 @@ def test_off_the_main_thread_it_is_a_loop():
     thread.start()
     thread.join()
     assert {pid for _, pid in out} == {os.getpid()}
-
-
-@pytest.mark.parametrize("workers", [1, 2])
-def test_meanwhile_runs_once_in_the_caller_before_its_items(workers):
-    calls = []
-    got = split_map(
-        _square_and_pid, [1, 2, 3], workers, meanwhile=lambda: calls.append(os.getpid())
-    )
-    assert calls == [os.getpid()]
-    assert [value for value, _ in got] == [1, 4, 9]

@@ -214,11 +214,11 @@ def test_limits_nest_and_give_back_each_setting():
 
 def test_casadis_own_openblas_is_bounded_once_its_plugin_is_loaded():
     """CasADi ships OpenBLAS under a name of its own (IPOPT's MUMPS calls it), loaded with
-    the IPOPT plugin, not by an import: a block that looks the libraries up again bounds it
+    the IPOPT plugin, not by an import: a block after `libraries_may_have_loaded` bounds it
     too, and leaving gives it back its setting."""
     threadpoolctl = pytest.importorskip("threadpoolctl")
     ca = pytest.importorskip("casadi")
-    from vsw.runtime.blas import RENAMED_OPENBLAS, limited
+    from vsw.runtime.blas import RENAMED_OPENBLAS, libraries_may_have_loaded, limited
 
     x = ca.SX.sym("x", 2)
     options = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes"}
@@ -232,10 +232,11 @@ def test_casadis_own_openblas_is_bounded_once_its_plugin_is_loaded():
     maps = Path("/proc/self/maps")
     if not maps.exists() or not any(p in maps.read_text() for p in RENAMED_OPENBLAS):
         pytest.skip("no renamed OpenBLAS loaded here (or no /proc to tell)")
-    with limited(10_000, rescan=True):  # never raises a library: its own setting
+    libraries_may_have_loaded()
+    with limited(10_000):  # never raises a library: its own setting
         own = casadis()
     assert own, "CasADi's OpenBLAS is loaded but not found"
-    with limited(1, rescan=True):
+    with limited(1):
         assert casadis() == [1]
     assert casadis() == own
 

@@ -42,7 +42,7 @@ def gait_conditions(model: HybridModel, params: Sequence[float], orbit: Orbit) -
     walks where it fails; ``ends_walk`` says which is which)."""
     state = np.array(list(orbit.state.values()))
     # The compiled integrator's samples are the SciPy route's to rounding (a few 1e-13 in
-    # the state), at a two-hundredth of its time.
+    # the state), at under a hundredth of its time (benchmark case 10).
     trajectory = simulator(model).sampled_step(params, state, orbit.period / SAMPLES)
     interior_only = {c["name"] for c in model.spec.get("conditions", ()) if c.get("interior")}
     least: dict[str, float] = {}

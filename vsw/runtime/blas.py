@@ -58,12 +58,12 @@ know: CasADi's, which IPOPT's MUMPS calls (its idle workers spinning beside a de
 compass gait cost the command 0.7 s of system time, against 0.2 s with one thread)."""
 
 
-def _discover(rescan: bool = False) -> None:
+def _discover() -> None:
     """Look the loaded BLAS and OpenMP libraries up again when modules were imported since
     (a new extension module may have brought one: SciPy's OpenBLAS with scipy.linalg), or
-    when asked (``rescan``: a library loaded by a plugin, as CasADi loads IPOPT's)."""
+    when told one may have loaded otherwise (:func:`libraries_may_have_loaded`)."""
     global _libraries, _modules_seen
-    if len(sys.modules) == _modules_seen and not rescan:
+    if len(sys.modules) == _modules_seen:
         return
     _modules_seen = len(sys.modules)
     try:
@@ -76,7 +76,7 @@ def _discover(rescan: bool = False) -> None:
 
 
 def libraries_may_have_loaded() -> None:
-    """The next block looks the loaded libraries up again (about 0.5 ms): call it where one
+    """The next block looks the loaded libraries up again (about 0.8 ms): call it where one
     may have been loaded without an import (a CasADi plugin, with the solver that needs
     it), so that the blocks after it need not look each time."""
     global _modules_seen
@@ -102,7 +102,7 @@ def _register_renamed() -> None:
     _registered = True
 
 
-def _settle(rescan: bool = False) -> None:
+def _settle() -> None:
     """Set every library to the smallest count in force (never above its own setting), or
     give each back its setting when no block is in force. Under ``_lock``."""
     if not _requests:
@@ -113,7 +113,7 @@ def _settle(rescan: bool = False) -> None:
         _originals.clear()
         _applied.clear()
         return
-    _discover(rescan)
+    _discover()
     target = min(_requests)
     for library in _libraries:
         path = library.filepath
@@ -126,10 +126,10 @@ def _settle(rescan: bool = False) -> None:
 
 
 @contextlib.contextmanager
-def limited(threads: int, *, rescan: bool = False) -> Iterator[int]:
+def limited(threads: int) -> Iterator[int]:
     """Every BLAS and OpenMP runtime of the process on at most ``threads`` threads while
-    the block runs; yields the count. ``rescan``: look the libraries up again first (about
-    0.5 ms), where one may have been loaded without an import (a CasADi plugin).
+    the block runs; yields the count. A library loaded without an import (a CasADi
+    plugin) is bounded from the block after :func:`libraries_may_have_loaded`.
 
     Examples
     --------
@@ -141,7 +141,7 @@ def limited(threads: int, *, rescan: bool = False) -> Iterator[int]:
     try:
         with _lock:
             _requests.append(threads)
-            _settle(rescan)
+            _settle()
         yield threads
     finally:
         with _lock:

@@ -44,17 +44,12 @@ _in_child = False  # whether this process is a child of split_map
 _exiting: list[int] = []  # children that delivered their results and are exiting: reaped later
 
 
-def split_map(function: Callable[[Any], Any], items: Sequence[Any], workers: int,
-              meanwhile: Callable[[], object] | None = None) -> list[Any]:  # fmt: skip
+def split_map(function: Callable[[Any], Any], items: Sequence[Any], workers: int) -> list[Any]:
     """``[function(item) for item in items]`` on ``workers`` processes (see the module
-    docstring). ``meanwhile``: work the calling process does first, while the children
-    start on the items (work it needs later anyway: an import); before the loop where
-    there are no children."""
+    docstring)."""
     workers = max(1, min(int(workers), len(items)))
     _reap_exited()
     if workers == 1 or len(items) > _MAX_ITEMS or not _can_fork():
-        if meanwhile is not None:
-            meanwhile()
         return [function(item) for item in items]
     tasks, tasks_in = os.pipe()
     os.write(tasks_in, b"".join(_INDEX.pack(i) for i in range(len(items))))
@@ -68,8 +63,6 @@ def split_map(function: Callable[[Any], Any], items: Sequence[Any], workers: int
                 children.append(_spawn(function, items, tasks))
         finally:
             signal.pthread_sigmask(signal.SIG_SETMASK, held)
-        if meanwhile is not None:
-            meanwhile()
         results = dict(_work(function, items, tasks))
         for pid, results_out in children:
             delivered = _collect(pid, results_out)
