@@ -319,8 +319,8 @@ def _busy_seconds() -> float:
 def _quiet(window: float = 0.05, most: float = 2.0) -> None:
     """Wait until the machine is idle (less than a tenth of a core busy over ``window``
     seconds; ``most`` seconds at most): a BLAS pool that the last run woke, or created
-    anew after a fork, spins for 0.1-0.2 s of CPU, which slowed the next run by up to half
-    on this 2-core machine, whichever side it was."""
+    anew after a fork, spins for 0.1-0.2 s of CPU, which made the next run take up to
+    three times its time on this 2-core machine (SLSQP after a design: 35 -> 108 ms)."""
     began = time.monotonic()
     while time.monotonic() - began < most:
         busy = _busy_seconds()
